@@ -1,0 +1,27 @@
+"""velfence: keep velocity-controlled robots in their safe sets by shaping the commanded velocity.
+
+``v_out = shape(state, v_cmd)`` every control cycle. See ``docs/`` for the derivations of every law.
+"""
+
+from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter, VelfenceError
+from velfence.geometry import ConvexPolygon, Rectangle, decompose, inscribed_rectangle
+from velfence.shaping import STAGE_NAMES, ZONE_NAMES, PolygonShaper, Shaper, ShapingResult
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "STAGE_NAMES",
+    "ZONE_NAMES",
+    "ConvexPolygon",
+    "InvalidGeometry",
+    "InvalidInput",
+    "InvalidParameter",
+    "PolygonShaper",
+    "Rectangle",
+    "Shaper",
+    "ShapingResult",
+    "VelfenceError",
+    "__version__",
+    "decompose",
+    "inscribed_rectangle",
+]

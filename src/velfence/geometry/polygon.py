@@ -1,0 +1,456 @@
+r"""Convex polygons in the plane: the workspace geometry of US 8,676,382.
+
+Conventions (see ``docs/derivations.md`` §1):
+
+* corners are stored counter-clockwise (CCW); a clockwise list is reversed on construction;
+* edge ``i`` runs from corner ``i`` to corner ``i+1`` (indices wrap);
+* ``normals[i]`` is the **inward** unit normal of edge ``i`` and ``offsets[i]`` its offset, so the
+  signed distance ``d_i(p) = normals[i] · p - offsets[i]`` is **positive inside**;
+* wedge (arc segment) ``i`` is the cone from the centroid between the rays through corners ``i`` and
+  ``i+1``; its *primary* edge is edge ``i`` (patent FIG. 5/6).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from velfence.errors import InvalidGeometry, InvalidInput
+
+__all__ = ["ConvexPolygon", "Rectangle", "decompose", "inscribed_rectangle"]
+
+FloatArray = NDArray[np.float64]
+
+_TWO_PI = 2.0 * math.pi
+
+
+def _readonly(a: NDArray[Any]) -> NDArray[Any]:
+    a.setflags(write=False)
+    return a
+
+
+def decompose(v: ArrayLike, n: ArrayLike) -> tuple[float, FloatArray]:
+    """Split a velocity into its component along a unit normal and the tangential rest.
+
+    This is the one normal/tangential decomposition of the library: ``v = vn * n + vt``.
+
+    Args:
+        v: Velocity, shape (2,) (any units, e.g. [rad/s]).
+        n: Unit normal, shape (2,).
+
+    Returns:
+        ``(vn, vt)``: the signed normal speed (positive along ``n``) and the tangential vector,
+        shape (2,).
+    """
+    va = np.asarray(v, dtype=float)
+    na = np.asarray(n, dtype=float)
+    vn = float(va @ na)
+    return vn, va - vn * na
+
+
+@dataclass(frozen=True)
+class Rectangle:
+    """An axis-aligned rectangle ``[xmin, xmax] × [ymin, ymax]`` (workspace units)."""
+
+    xmin: float
+    xmax: float
+    ymin: float
+    ymax: float
+
+    @property
+    def area(self) -> float:
+        """Area in workspace units squared."""
+        return (self.xmax - self.xmin) * (self.ymax - self.ymin)
+
+    @property
+    def corners(self) -> FloatArray:
+        """Corners, CCW from (xmin, ymin); shape (4, 2)."""
+        return np.array(
+            [
+                [self.xmin, self.ymin],
+                [self.xmax, self.ymin],
+                [self.xmax, self.ymax],
+                [self.xmin, self.ymax],
+            ]
+        )
+
+    def contains(self, p: ArrayLike) -> bool:
+        """Whether point ``p`` (shape (2,)) lies in the closed rectangle."""
+        x, y = np.asarray(p, dtype=float)
+        return bool(self.xmin <= x <= self.xmax and self.ymin <= y <= self.ymax)
+
+
+@dataclass(frozen=True, eq=False)
+class ConvexPolygon:
+    """A validated convex polygon, the permissible workspace of US 8,676,382 (FIG. 3, FIG. 5).
+
+    Args:
+        corners: Corner coordinates, shape (n, 2), n >= 3, clockwise or counter-clockwise, in
+            workspace units (e.g. [rad] of pitch and yaw for the wrist).
+
+    Raises:
+        InvalidGeometry: with the offending corner index(es) named, for a wrong array shape, fewer
+            than 3 corners, non-finite values, duplicate corners, collinear consecutive corners,
+            a non-convex list, a self-intersecting list or zero area.
+    """
+
+    corners: FloatArray = field(init=False)
+    normals: FloatArray = field(init=False)
+    offsets: FloatArray = field(init=False)
+    area: float = field(init=False)
+    centroid: FloatArray = field(init=False)
+    _fast: tuple[Any, ...] = field(init=False, repr=False)
+
+    def __init__(self, corners: ArrayLike) -> None:
+        c = _validated_corners(corners)
+        n = c.shape[0]
+        e = np.roll(c, -1, axis=0) - c
+        length = np.hypot(e[:, 0], e[:, 1])
+        normals = (
+            np.stack([-e[:, 1], e[:, 0]], axis=1) / length[:, None]
+        )  # left normal = inward (CCW)
+        offsets = np.einsum("ij,ij->i", normals, c)
+        x, y = c[:, 0], c[:, 1]
+        xn, yn = np.roll(x, -1), np.roll(y, -1)
+        cross = x * yn - xn * y
+        area = 0.5 * float(cross.sum())
+        cx = float(((x + xn) * cross).sum()) / (6.0 * area)
+        cy = float(((y + yn) * cross).sum()) / (6.0 * area)
+        ang = np.arctan2(y - cy, x - cx)
+        beta = np.mod(ang - ang[0], _TWO_PI)
+        beta[0] = 0.0
+        object.__setattr__(self, "corners", _readonly(c))
+        object.__setattr__(self, "normals", _readonly(normals))
+        object.__setattr__(self, "offsets", _readonly(offsets))
+        object.__setattr__(self, "area", area)
+        object.__setattr__(self, "centroid", _readonly(np.array([cx, cy])))
+        # Plain-float tuples for the scalar hot path (indexing tuples is ~5x faster than ndarrays).
+        fast = (
+            tuple(float(a) for a in normals[:, 0]),
+            tuple(float(a) for a in normals[:, 1]),
+            tuple(float(a) for a in offsets),
+            cx,
+            cy,
+            float(ang[0]),
+            (*(float(b) for b in beta), _TWO_PI),
+            n,
+        )
+        object.__setattr__(self, "_fast", fast)
+
+    # ------------------------------------------------------------------ basic queries
+    @property
+    def n(self) -> int:
+        """Number of corners (= number of edges)."""
+        return int(self.corners.shape[0])
+
+    def signed_distances(self, p: ArrayLike) -> FloatArray:
+        """Signed distance of ``p`` to every edge line, positive inside.
+
+        Args:
+            p: Point(s), shape (2,) or (N, 2), workspace units.
+
+        Returns:
+            Shape (n,) for one point, (N, n) for N points; workspace units.
+        """
+        pa = _points(p)
+        return pa @ self.normals.T - self.offsets
+
+    def contains(self, p: ArrayLike, *, tol: float = 0.0) -> bool | NDArray[np.bool_]:
+        """Whether ``p`` lies in the closed polygon (every signed distance ``>= -tol``).
+
+        Args:
+            p: Point(s), shape (2,) or (N, 2).
+            tol: Tolerance in workspace units (>= 0).
+
+        Returns:
+            ``bool`` for one point, boolean array shape (N,) for N points.
+        """
+        d = self.signed_distances(p)
+        inside = np.all(d >= -tol, axis=-1)
+        return bool(inside) if d.ndim == 1 else inside
+
+    def inside_by_normals(self, p: ArrayLike) -> bool:
+        """The patent's second inside test (step 106): ``r_iP · n_i > 0`` for every edge i.
+
+        Strict, as printed: a point on the boundary is *not* inside by this test.
+
+        Args:
+            p: Point, shape (2,).
+        """
+        pa = _points(p)
+        if pa.ndim != 1:
+            raise InvalidInput(f"expected one point of shape (2,), got shape {pa.shape}")
+        rip = pa[None, :] - self.corners
+        return bool(np.all(np.einsum("ij,ij->i", rip, self.normals) > 0.0))
+
+    def inside_by_angle_sum(self, p: ArrayLike, *, tol: float = 1e-9) -> bool:
+        r"""The patent's first inside test (step 106): :math:`\sum_i \phi_i = 2\pi`.
+
+        ``phi_i ∈ [0, π]`` is the angle between the vectors from ``p`` to consecutive corners.
+        Inside (and on the boundary) the sum is 2π; outside it is smaller. A point on a corner
+        counts as inside.
+
+        Args:
+            p: Point, shape (2,).
+            tol: Tolerance on the angle sum [rad].
+        """
+        pa = _points(p)
+        if pa.ndim != 1:
+            raise InvalidInput(f"expected one point of shape (2,), got shape {pa.shape}")
+        r = self.corners - pa[None, :]
+        norms = np.hypot(r[:, 0], r[:, 1])
+        if np.any(norms == 0.0):
+            return True
+        rn = np.roll(r, -1, axis=0)
+        cos = np.einsum("ij,ij->i", r, rn) / (norms * np.roll(norms, -1))
+        total = float(np.arccos(np.clip(cos, -1.0, 1.0)).sum())
+        return total >= _TWO_PI - tol
+
+    def arc_segment(self, p: ArrayLike) -> int:
+        r"""The patent's arc-segment test (step 104): the wedge that contains ``p``.
+
+        Wedge ``i`` lies between the rays from the centroid C through corners ``i`` and ``i+1``.
+        ``p`` is in wedge ``i`` iff
+
+        .. math:: (r_{CP}\times r_{Ci})\cdot\hat k\;(r_{CP}\times r_{C,i+1})\cdot\hat k < 0
+                  \quad\text{and}\quad \theta_i + \theta_{i+1} < \pi .
+
+        Deterministic on the boundaries the patent leaves open: a point exactly on the ray through
+        corner ``i`` belongs to wedge ``i`` (the wedge that starts there, counter-clockwise); the
+        centroid itself belongs to wedge 0.
+
+        Args:
+            p: Point, shape (2,), inside or outside the polygon.
+
+        Returns:
+            The wedge index, which is also the index of the primary edge.
+        """
+        pa = _points(p)
+        if pa.ndim != 1:
+            raise InvalidInput(f"expected one point of shape (2,), got shape {pa.shape}")
+        r = pa - self.centroid
+        if r[0] == 0.0 and r[1] == 0.0:
+            return 0
+        rc = self.corners - self.centroid
+        cross = r[0] * rc[:, 1] - r[1] * rc[:, 0]  # (r_CP × r_Ci)·k
+        dots = rc @ r
+        nr = math.hypot(r[0], r[1])
+        theta = np.arccos(np.clip(dots / (nr * np.hypot(rc[:, 0], rc[:, 1])), -1.0, 1.0))
+        n = self.n
+        for i in range(n):
+            j = (i + 1) % n
+            if cross[i] == 0.0 and dots[i] > 0.0:
+                return i  # on the ray through corner i
+            if cross[i] * cross[j] < 0.0 and theta[i] + theta[j] < math.pi:
+                return i
+        # Only reachable by round-off exactly on a ray through a corner: take the nearest ray.
+        return int(np.argmin(theta))
+
+    def wedge(self, p: ArrayLike) -> int:
+        """Same answer as :meth:`arc_segment` by one ``atan2`` and a binary search (the fast path).
+
+        Args:
+            p: Point, shape (2,).
+        """
+        pa = _points(p)
+        if pa.ndim != 1:
+            raise InvalidInput(f"expected one point of shape (2,), got shape {pa.shape}")
+        _, _, _, cx, cy, a0, beta, n = self._fast
+        return wedge_index(float(pa[0]), float(pa[1]), cx, cy, a0, beta, n)
+
+    # ------------------------------------------------------------------ comparisons
+    def inscribed_rectangle(self) -> Rectangle:
+        """Largest axis-aligned rectangle inside the polygon (the conventional joint limits)."""
+        return inscribed_rectangle(self)
+
+    def area_ratio(self) -> float:
+        """Polygon area divided by the area of the largest inscribed axis-aligned rectangle."""
+        return self.area / self.inscribed_rectangle().area
+
+    def scaled(self, factor: float) -> ConvexPolygon:
+        """A copy scaled about the centroid (``factor`` > 0)."""
+        if not (math.isfinite(factor) and factor > 0.0):
+            raise InvalidGeometry(f"scale factor must be finite and > 0, got {factor!r}")
+        return ConvexPolygon(self.centroid + factor * (self.corners - self.centroid))
+
+    def __repr__(self) -> str:
+        pts = ", ".join(f"({x:.4g}, {y:.4g})" for x, y in self.corners)
+        return f"ConvexPolygon([{pts}])"
+
+
+def wedge_index(px: float, py: float, cx: float, cy: float, a0: float, beta: Any, n: int) -> int:
+    """Wedge of point (px, py): angular binary search around the centroid.
+
+    ``beta`` holds the corner angles relative to corner 0, increasing in [0, 2π), followed by 2π.
+    Works on tuples (pure Python) and arrays (numba) alike.
+    """
+    rx = px - cx
+    ry = py - cy
+    if rx == 0.0 and ry == 0.0:
+        return 0
+    b = math.atan2(ry, rx) - a0
+    b = b % _TWO_PI
+    lo = 0
+    hi = n
+    while hi - lo > 1:  # invariant: beta[lo] <= b < beta[hi]
+        mid = (lo + hi) // 2
+        if beta[mid] <= b:
+            lo = mid
+        else:
+            hi = mid
+    return lo
+
+
+def _points(p: ArrayLike) -> FloatArray:
+    try:
+        pa = np.asarray(p, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise InvalidInput(f"expected point(s) of shape (2,) or (N, 2), got {p!r}") from exc
+    if pa.shape[-1:] != (2,) or pa.ndim > 2:
+        raise InvalidInput(f"expected point(s) of shape (2,) or (N, 2), got shape {pa.shape}")
+    return pa
+
+
+def _validated_corners(corners: ArrayLike) -> FloatArray:
+    try:
+        c = np.array(corners, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise InvalidGeometry(
+            f"corners must be an (n, 2) array of numbers, got {corners!r}"
+        ) from exc
+    if c.ndim != 2 or c.shape[1] != 2:
+        raise InvalidGeometry(
+            f"corners must have shape (n, 2) with n >= 3, got shape {c.shape}; "
+            "pass one [x, y] row per corner"
+        )
+    n = c.shape[0]
+    if n < 3:
+        raise InvalidGeometry(f"a polygon needs at least 3 corners, got {n}")
+    bad = np.flatnonzero(~np.all(np.isfinite(c), axis=1))
+    if bad.size:
+        raise InvalidGeometry(f"corner(s) {bad.tolist()} are not finite: {c[bad].tolist()}")
+    scale = float(np.max(np.abs(c - c.mean(axis=0)))) or 1.0
+    tol_len = 1e-12 * scale
+    for i in range(n):
+        for j in range(i + 1, n):
+            if np.all(np.abs(c[i] - c[j]) <= tol_len):
+                raise InvalidGeometry(
+                    f"corners {i} and {j} are duplicates ({c[i].tolist()}); remove one"
+                )
+    x, y = c[:, 0], c[:, 1]
+    signed_area = 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
+    if abs(signed_area) <= 1e-12 * scale * scale:
+        raise InvalidGeometry(f"the corners enclose zero area (all collinear?): {c.tolist()}")
+    orientation = 1.0 if signed_area > 0 else -1.0
+    prev = c - np.roll(c, 1, axis=0)
+    nxt = np.roll(c, -1, axis=0) - c
+    turn = orientation * (prev[:, 0] * nxt[:, 1] - prev[:, 1] * nxt[:, 0])
+    lens = np.hypot(prev[:, 0], prev[:, 1]) * np.hypot(nxt[:, 0], nxt[:, 1])
+    collinear = np.flatnonzero(np.abs(turn) <= 1e-10 * lens)
+    if collinear.size:
+        raise InvalidGeometry(
+            f"corner(s) {collinear.tolist()} are collinear with their neighbours; "
+            "remove them (a straight edge needs only its two end corners)"
+        )
+    concave = np.flatnonzero(turn < 0)
+    if concave.size:
+        raise InvalidGeometry(
+            f"the corners are not convex: corner(s) {concave.tolist()} turn the wrong way; "
+            "velfence needs a convex polygon (split a non-convex workspace into convex pieces)"
+        )
+    # All turns agree; a simple convex polygon turns exactly once (total exterior angle 2π).
+    ext = np.arctan2(np.abs(turn), np.einsum("ij,ij->i", prev, nxt))
+    winding = float(ext.sum()) / _TWO_PI
+    if winding > 1.5:
+        i, j = _first_crossing(c)
+        raise InvalidGeometry(
+            f"the corners self-intersect (they wind {round(winding)} times): "
+            f"edge {i}-{(i + 1) % n} "
+            f"crosses edge {j}-{(j + 1) % n}; list the corners in boundary order"
+        )
+    if orientation < 0:
+        c = c[::-1].copy()
+    return c
+
+
+def _first_crossing(c: FloatArray) -> tuple[int, int]:
+    n = c.shape[0]
+
+    def orient(a: FloatArray, b: FloatArray, p: FloatArray) -> float:
+        return float((b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0]))
+
+    for i in range(n):
+        a, b = c[i], c[(i + 1) % n]
+        for j in range(i + 2, n):
+            if (j + 1) % n == i:
+                continue
+            p, q = c[j], c[(j + 1) % n]
+            if orient(a, b, p) * orient(a, b, q) < 0 and orient(p, q, a) * orient(p, q, b) < 0:
+                return i, j
+    return 0, 0  # pragma: no cover - winding > 1 implies a crossing
+
+
+def _horizontal_extent(poly: ConvexPolygon, y: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Left and right x of the polygon's chord at heights ``y`` (NaN-free; empty → L > R)."""
+    c = poly.corners
+    a, b = c, np.roll(c, -1, axis=0)
+    ya, yb = a[:, 1][None, :], b[:, 1][None, :]
+    yy = y[:, None]
+    lo, hi = np.minimum(ya, yb), np.maximum(ya, yb)
+    spans = (yy >= lo) & (yy <= hi) & (hi > lo)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.where(hi > lo, (yy - ya) / np.where(yb != ya, yb - ya, 1.0), 0.0)
+    xs = a[:, 0][None, :] + t * (b[:, 0] - a[:, 0])[None, :]
+    left = np.where(spans, xs, np.inf).min(axis=1)
+    right = np.where(spans, xs, -np.inf).max(axis=1)
+    return left, right
+
+
+def inscribed_rectangle(poly: ConvexPolygon, *, iterations: int = 40) -> Rectangle:
+    """Largest-area axis-aligned rectangle inside a convex polygon.
+
+    For heights ``y0 < y1`` the widest rectangle spans ``[max L(y0), L(y1)], min R(y0), R(y1)]``
+    because the chord end ``L`` is convex and ``R`` concave in ``y``; the area is then log-concave
+    in ``(y0, y1)``, so a grid search refined around the best cell converges to the optimum.
+
+    Args:
+        poly: The polygon.
+        iterations: Grid refinements (each shrinks the search window by 4).
+
+    Returns:
+        The rectangle, in workspace units.
+    """
+    ymin, ymax = float(poly.corners[:, 1].min()), float(poly.corners[:, 1].max())
+    lo0, hi0, lo1, hi1 = ymin, ymax, ymin, ymax
+    best = (0.0, ymin, ymin, 0.0, 0.0)
+    m = 65
+    for _ in range(iterations):
+        g0 = np.linspace(lo0, hi0, m)
+        g1 = np.linspace(lo1, hi1, m)
+        L0, R0 = _horizontal_extent(poly, g0)
+        L1, R1 = _horizontal_extent(poly, g1)
+        left = np.maximum(L0[:, None], L1[None, :])
+        right = np.minimum(R0[:, None], R1[None, :])
+        h = g1[None, :] - g0[:, None]
+        area = np.where((h > 0) & (right > left), h * (right - left), 0.0)
+        k = int(np.argmax(area))
+        i, j = divmod(k, m)
+        if area[i, j] > best[0]:
+            best = (
+                float(area[i, j]),
+                float(g0[i]),
+                float(g1[j]),
+                float(left[i, j]),
+                float(right[i, j]),
+            )
+        s0 = (hi0 - lo0) / 8.0
+        s1 = (hi1 - lo1) / 8.0
+        y0, y1 = best[1], best[2]
+        lo0, hi0 = max(ymin, y0 - s0), min(ymax, y0 + s0)
+        lo1, hi1 = max(ymin, y1 - s1), min(ymax, y1 + s1)
+    _, y0, y1, x0, x1 = best
+    return Rectangle(xmin=x0, xmax=x1, ymin=y0, ymax=y1)

@@ -1,0 +1,49 @@
+"""Optional numba compilation of the batch kernels (identical laws, tested equal).
+
+The kernels in :mod:`velfence.shaping._kernels` are plain Python. Here they are cloned with a
+globals table in which every callee is replaced by its compiled twin, then compiled with
+``numba.njit``. Compilation happens on first use of a batch path, never at import.
+"""
+
+from __future__ import annotations
+
+import types
+from collections.abc import Callable
+from functools import cache
+from typing import Any
+
+from velfence.geometry import polygon as _polygon
+from velfence.shaping import _kernels
+
+__all__ = ["compiled_batch"]
+
+
+@cache
+def _compiled() -> dict[str, Callable[..., Any]] | None:
+    try:
+        import numba
+    except ImportError:
+        return None
+    table: dict[str, Any] = dict(vars(_kernels))
+
+    def jit(f: Callable[..., Any]) -> Callable[..., Any]:
+        clone = types.FunctionType(f.__code__, table, f.__name__, f.__defaults__, f.__closure__)
+        out: Callable[..., Any] = numba.njit(cache=False)(clone)
+        return out
+
+    for name, fn in (
+        ("wedge_index", _polygon.wedge_index),
+        ("_solve", _kernels._solve),
+        ("patent_kernel", _kernels.patent_kernel),
+        ("exact_kernel", _kernels.exact_kernel),
+        ("patent_batch", _kernels.patent_batch),
+        ("exact_batch", _kernels.exact_batch),
+    ):
+        table[name] = jit(fn)
+    return {"patent": table["patent_batch"], "exact": table["exact_batch"]}
+
+
+def compiled_batch(method: str) -> Callable[..., Any] | None:
+    """The numba-compiled batch loop of ``method``, or None when numba is not installed."""
+    table = _compiled()
+    return None if table is None else table[method]

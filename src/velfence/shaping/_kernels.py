@@ -1,0 +1,379 @@
+"""Scalar shaping kernels for convex polygons.
+
+Each kernel is written once, in plain arithmetic on floats, and serves two callers: the single-call
+path runs it as ordinary Python on tuples (no NumPy per-call overhead), and the batch path compiles
+the very same function with numba when it is installed (see :mod:`velfence.shaping._accel`). Only
+constructs that both interpreters support are used: indexing, ``len``, ``math`` functions, local
+lists of ints.
+
+Return value of both kernels (a flat tuple, to stay allocation-light)::
+
+    (ox, oy, zone, primary, secondary, d1, d2, sx, sy, stages)
+
+``zone`` is one of the ``ZONE_*`` codes, ``stages`` a bit mask of ``STAGE_*``. The laws are derived
+in ``docs/derivations.md`` §2 (patent) and §3 (exact).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from velfence.geometry.polygon import wedge_index
+
+ZONE_FREE = 0
+ZONE_BUFFER = 1
+ZONE_CORNER = 2
+ZONE_OUTSIDE = 3
+ZONE_OUTSIDE_CORNER = 4
+ZONE_INVALID = 5
+ZONE_NAMES = ("free", "buffer", "corner", "outside", "outside-corner", "invalid")
+
+STAGE_SECONDARY = 1  # patent: first (secondary-edge) projection applied
+STAGE_PRIMARY = 2  # patent: primary-edge projection applied
+STAGE_ZERO_OUTWARD = 4  # outward normal component removed (outside)
+STAGE_SPRING = 8  # virtual spring / recovery bound applied
+STAGE_BLEND = 16  # patent: spring blended between two normals near a corner
+STAGE_PROJECT = 32  # exact: minimum-change projection onto the active bounds
+STAGE_RELAXED = 64  # exact: bounds infeasible together, recovery bounds kept, others dropped
+STAGE_STOP = 128  # invalid input answered with zero velocity
+STAGE_NAMES = (
+    "secondary-projection",
+    "primary-projection",
+    "zero-outward",
+    "spring",
+    "spring-blend",
+    "exact-projection",
+    "relaxed",
+    "stop",
+)
+
+_TWO_PI = 2.0 * math.pi
+_FEAS_TOL = 1e-12
+
+
+def patent_kernel(
+    px: float,
+    py: float,
+    vx: float,
+    vy: float,
+    nx: Any,
+    ny: Any,
+    off: Any,
+    cx: float,
+    cy: float,
+    a0: float,
+    beta: Any,
+    n: int,
+    dmax: float,
+    k: float,
+    theta_max: float,
+) -> tuple[float, float, int, int, int, float, float, float, float, int]:
+    """US 8,676,382 algorithm 100, steps 104-115, with the repairs argued in derivations.md §2."""
+    i = wedge_index(px, py, cx, cy, a0, beta, n)
+    # Angles from the centroid ray to the wedge's two corner rays (θ_i, θ_{i+1}).
+    b = 0.0
+    rx = px - cx
+    ry = py - cy
+    if rx != 0.0 or ry != 0.0:
+        b = (math.atan2(ry, rx) - a0) % _TWO_PI
+    th_i = b - beta[i]
+    th_j = beta[i + 1] - b
+    if th_j < th_i:  # nearer to corner i+1: secondary edge is i+1 (patent example, θ_2 < θ_1)
+        j = i + 1
+        if j == n:
+            j = 0
+        th2 = th_j
+    else:
+        j = i - 1
+        if j < 0:
+            j = n - 1
+        th2 = th_i
+    n1x = nx[i]
+    n1y = ny[i]
+    n2x = nx[j]
+    n2y = ny[j]
+    d1 = n1x * px + n1y * py - off[i]
+    d2 = n2x * px + n2y * py - off[j]
+    ox = vx
+    oy = vy
+    sx = 0.0
+    sy = 0.0
+    stages = 0
+    if d1 >= 0.0:  # inside: in a wedge, the primary edge alone decides (derivations.md §2.3)
+        if d1 >= dmax:  # step 108 -> 112: pass through
+            return ox, oy, ZONE_FREE, i, j, d1, d2, sx, sy, stages
+        zone = ZONE_BUFFER
+        if d2 < dmax:  # step 110 in a corner: first stage on the secondary edge
+            zone = ZONE_CORNER
+            vn = ox * n2x + oy * n2y
+            if vn < 0.0:
+                s = (1.0 - d2 / dmax) * vn
+                ox -= s * n2x
+                oy -= s * n2y
+                stages |= STAGE_SECONDARY
+        vn = ox * n1x + oy * n1y
+        if vn < 0.0:
+            s = (1.0 - d1 / dmax) * vn
+            ox -= s * n1x
+            oy -= s * n1y
+            stages |= STAGE_PRIMARY
+        return ox, oy, zone, i, j, d1, d2, sx, sy, stages
+    # Outside (step 107): zero the outward normal component, keep the tangent, add the spring.
+    pen = -d1
+    if th2 < theta_max:
+        w = 0.5 * (1.0 - th2 / theta_max)  # θ̂_2 [RECON]: 1/2 on the corner ray, 0 at θ_max
+        sx = k * pen * ((1.0 - w) * n1x + w * n2x)
+        sy = k * pen * ((1.0 - w) * n1y + w * n2y)
+        stages |= STAGE_BLEND
+    else:
+        sx = k * pen * n1x
+        sy = k * pen * n1y
+    stages |= STAGE_SPRING
+    vn = ox * n1x + oy * n1y
+    if vn < 0.0:
+        ox -= vn * n1x
+        oy -= vn * n1y
+        stages |= STAGE_ZERO_OUTWARD
+    ox += sx
+    oy += sy
+    zone = ZONE_OUTSIDE
+    if d2 < dmax:  # steps 109/111 with the secondary edge [RECON]; d̂ capped at 1 outside it
+        zone = ZONE_OUTSIDE_CORNER
+        vn = ox * n2x + oy * n2y
+        if vn < 0.0:
+            dd = d2 if d2 > 0.0 else 0.0
+            s = (1.0 - dd / dmax) * vn
+            ox -= s * n2x
+            oy -= s * n2y
+            stages |= STAGE_SECONDARY
+    return ox, oy, zone, i, j, d1, d2, sx, sy, stages
+
+
+def _solve(
+    vx: float, vy: float, work: Any, nx: Any, ny: Any, bnd: Any
+) -> tuple[bool, float, float, int, int]:
+    """Minimise ||x - v||² s.t. n_w · x >= b_w for w in work, by enumeration (<= 2 active in 2-D).
+
+    Returns (feasible, x, y, first active, second active), -1 for unused active slots.
+    """
+    m = len(work)
+    ok = True
+    for a in range(m):
+        w = work[a]
+        if nx[w] * vx + ny[w] * vy < bnd[w] - _FEAS_TOL * (1.0 + abs(bnd[w])):
+            ok = False
+            break
+    if ok:
+        return True, vx, vy, -1, -1
+    best = math.inf
+    bx = 0.0
+    by = 0.0
+    b1 = -1
+    b2 = -1
+    for a in range(m):
+        w = work[a]
+        gap = bnd[w] - (nx[w] * vx + ny[w] * vy)
+        if gap <= 0.0 or gap * gap >= best:
+            continue
+        x = vx + gap * nx[w]
+        y = vy + gap * ny[w]
+        feas = True
+        for c in range(m):
+            u = work[c]
+            if u != w and nx[u] * x + ny[u] * y < bnd[u] - _FEAS_TOL * (1.0 + abs(bnd[u])):
+                feas = False
+                break
+        if feas:
+            best = gap * gap
+            bx = x
+            by = y
+            b1 = w
+            b2 = -1
+    for a in range(m):
+        w = work[a]
+        for c in range(a + 1, m):
+            u = work[c]
+            det = nx[w] * ny[u] - ny[w] * nx[u]
+            if abs(det) < 1e-12:
+                continue
+            x = (bnd[w] * ny[u] - ny[w] * bnd[u]) / det
+            y = (nx[w] * bnd[u] - bnd[w] * nx[u]) / det
+            dist = (x - vx) * (x - vx) + (y - vy) * (y - vy)
+            if dist >= best:
+                continue
+            feas = True
+            for e in range(m):
+                q = work[e]
+                if (
+                    q != w
+                    and q != u
+                    and nx[q] * x + ny[q] * y < bnd[q] - _FEAS_TOL * (1.0 + abs(bnd[q]))
+                ):
+                    feas = False
+                    break
+            if feas:
+                best = dist
+                bx = x
+                by = y
+                b1 = w
+                b2 = u
+    if b1 < 0:
+        return False, 0.0, 0.0, -1, -1
+    return True, bx, by, b1, b2
+
+
+def exact_kernel(
+    px: float,
+    py: float,
+    vx: float,
+    vy: float,
+    nx: Any,
+    ny: Any,
+    off: Any,
+    cx: float,
+    cy: float,
+    n: int,
+    dmax: float,
+    k: float,
+    rmax: float,
+) -> tuple[float, float, int, int, int, float, float, float, float, int]:
+    r"""Minimum-change velocity subject to one half-plane bound per nearby edge (derivations §3).
+
+    ``n_i · v_o >= -(|v| + R) d_i / d_max`` for edges with ``0 <= d_i < d_max`` and
+    ``n_i · v_o >= min(k (-d_i), r_max)`` for violated edges, where ``R`` is the largest recovery
+    bound (0 inside, so inside the bound is exactly the issue's ``-|v| d_i / d_max``).
+    """
+    speed = math.sqrt(vx * vx + vy * vy)
+    dist = [0.0] * n
+    rec = 0.0
+    p1 = -1
+    p2 = -1
+    d1 = math.inf
+    d2 = math.inf
+    n_near = 0
+    n_out = 0
+    for e in range(n):
+        d = nx[e] * px + ny[e] * py - off[e]
+        dist[e] = d
+        if d < dmax:
+            n_near += 1
+        if d < 0.0:
+            n_out += 1
+            r = -k * d
+            if r > rmax:
+                r = rmax
+            if r > rec:
+                rec = r
+        if d < d1:
+            d2 = d1
+            p2 = p1
+            d1 = d
+            p1 = e
+        elif d < d2:
+            d2 = d
+            p2 = e
+    if n_near == 0:
+        return vx, vy, ZONE_FREE, p1, p2, d1, d2, 0.0, 0.0, 0
+    if n_out > 0:
+        zone = ZONE_OUTSIDE if n_near == 1 else ZONE_OUTSIDE_CORNER
+    else:
+        zone = ZONE_BUFFER if n_near == 1 else ZONE_CORNER
+    scale = (speed + rec) / dmax
+    bnd = [0.0] * n
+    work = [0]
+    work.pop()
+    for e in range(n):
+        d = dist[e]
+        if d >= 0.0:
+            bnd[e] = -scale * d
+        else:
+            r = -k * d
+            bnd[e] = r if r < rmax else rmax
+        if d < dmax:
+            work.append(e)
+    stages = STAGE_PROJECT
+    if n_out > 0:
+        stages |= STAGE_SPRING
+    while True:
+        ok, ox, oy, _, _ = _solve(vx, vy, work, nx, ny, bnd)
+        if not ok:
+            break
+        # Edges beyond the buffer carry bound <= -(|v| + R); they bind only if the solution got
+        # faster than that, which recovery can cause. Add any violated one and solve again.
+        added = False
+        for e in range(n):
+            if dist[e] >= dmax and nx[e] * ox + ny[e] * oy < bnd[e] - _FEAS_TOL * (
+                1.0 + abs(bnd[e])
+            ):
+                work.append(e)
+                added = True
+        if not added:
+            return ox, oy, zone, p1, p2, d1, d2, 0.0, 0.0, stages
+    # Infeasible together (only when the polygon is narrower than the buffer): recovery first.
+    work2 = [0]
+    work2.pop()
+    for e in range(n):
+        if dist[e] < 0.0:
+            work2.append(e)
+    ok, ox, oy, _, _ = _solve(vx, vy, work2, nx, ny, bnd)
+    if ok:
+        return ox, oy, zone, p1, p2, d1, d2, 0.0, 0.0, stages | STAGE_RELAXED
+    # Unreachable for a valid convex polygon (violated inward normals always admit a common
+    # direction); kept so that no input can produce a non-finite or outward answer: head home.
+    hx = cx - px
+    hy = cy - py
+    hn = math.sqrt(hx * hx + hy * hy)
+    return rec * hx / hn, rec * hy / hn, zone, p1, p2, d1, d2, 0.0, 0.0, stages | STAGE_RELAXED
+
+
+def patent_batch(
+    P: Any,
+    V: Any,
+    out: Any,
+    zones: Any,
+    nx: Any,
+    ny: Any,
+    off: Any,
+    cx: float,
+    cy: float,
+    a0: float,
+    beta: Any,
+    n: int,
+    dmax: float,
+    k: float,
+    theta_max: float,
+) -> None:
+    """Loop of :func:`patent_kernel` over rows of P, V (writes ``out`` (N, 2), ``zones`` (N,))."""
+    for r in range(len(P)):
+        res = patent_kernel(
+            P[r][0], P[r][1], V[r][0], V[r][1], nx, ny, off, cx, cy, a0, beta, n, dmax, k, theta_max
+        )
+        out[r][0] = res[0]
+        out[r][1] = res[1]
+        zones[r] = res[2]
+
+
+def exact_batch(
+    P: Any,
+    V: Any,
+    out: Any,
+    zones: Any,
+    nx: Any,
+    ny: Any,
+    off: Any,
+    cx: float,
+    cy: float,
+    n: int,
+    dmax: float,
+    k: float,
+    rmax: float,
+) -> None:
+    """Loop of :func:`exact_kernel` over rows of P, V (writes ``out`` (N, 2), ``zones`` (N,))."""
+    for r in range(len(P)):
+        res = exact_kernel(
+            P[r][0], P[r][1], V[r][0], V[r][1], nx, ny, off, cx, cy, n, dmax, k, rmax
+        )
+        out[r][0] = res[0]
+        out[r][1] = res[1]
+        zones[r] = res[2]
