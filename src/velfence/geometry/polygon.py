@@ -282,27 +282,36 @@ class ConvexPolygon:
         return f"ConvexPolygon([{pts}])"
 
 
-def wedge_index(px: float, py: float, cx: float, cy: float, a0: float, beta: Any, n: int) -> int:
-    """Wedge of point (px, py): angular binary search around the centroid.
-
-    ``beta`` holds the corner angles relative to corner 0, increasing in [0, 2π), followed by 2π.
-    Works on tuples (pure Python) and arrays (numba) alike.
-    """
+def wedge_angle(px: float, py: float, cx: float, cy: float, a0: float) -> float:
+    """Angle of (px, py) around the centroid, relative to corner 0, in [0, 2π); 0 at the centroid."""
     rx = px - cx
     ry = py - cy
     if rx == 0.0 and ry == 0.0:
-        return 0
-    b = math.atan2(ry, rx) - a0
-    b = b % _TWO_PI
+        return 0.0
+    return (math.atan2(ry, rx) - a0) % _TWO_PI
+
+
+def wedge_search(b: float, beta: Any, n: int) -> int:
+    """Wedge containing relative angle ``b``: the ``i`` with ``beta[i] <= b < beta[i+1]``.
+
+    ``beta`` holds the corner angles relative to corner 0, increasing in [0, 2π), followed by 2π.
+    Works on tuples (pure Python) and arrays (numba) alike. Ties go to the wedge starting at the
+    corner, as in :meth:`ConvexPolygon.arc_segment`.
+    """
     lo = 0
     hi = n
-    while hi - lo > 1:  # invariant: beta[lo] <= b < beta[hi]
+    while hi - lo > 1:
         mid = (lo + hi) // 2
         if beta[mid] <= b:
             lo = mid
         else:
             hi = mid
     return lo
+
+
+def wedge_index(px: float, py: float, cx: float, cy: float, a0: float, beta: Any, n: int) -> int:
+    """Wedge (arc segment) of point (px, py) by one ``atan2`` and a binary search."""
+    return wedge_search(wedge_angle(px, py, cx, cy, a0), beta, n)
 
 
 def _points(p: ArrayLike) -> FloatArray:

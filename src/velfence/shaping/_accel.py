@@ -26,13 +26,18 @@ def _compiled() -> dict[str, Callable[..., Any]] | None:
         return None
     table: dict[str, Any] = dict(vars(_kernels))
 
+    table["prange"] = numba.prange
+
     def jit(f: Callable[..., Any]) -> Callable[..., Any]:
         clone = types.FunctionType(f.__code__, table, f.__name__, f.__defaults__, f.__closure__)
-        out: Callable[..., Any] = numba.njit(cache=False)(clone)
+        parallel = f.__name__.endswith("_batch")
+        out: Callable[..., Any] = numba.njit(cache=False, parallel=parallel)(clone)
         return out
 
     for name, fn in (
-        ("wedge_index", _polygon.wedge_index),
+        ("wedge_angle", _polygon.wedge_angle),
+        ("wedge_search", _polygon.wedge_search),
+        ("_violates", _kernels._violates),
         ("_solve", _kernels._solve),
         ("patent_kernel", _kernels.patent_kernel),
         ("exact_kernel", _kernels.exact_kernel),

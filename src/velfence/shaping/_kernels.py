@@ -19,7 +19,9 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from velfence.geometry.polygon import wedge_index
+import numpy as np
+
+from velfence.geometry.polygon import wedge_angle, wedge_search
 
 ZONE_FREE = 0
 ZONE_BUFFER = 1
@@ -70,13 +72,9 @@ def patent_kernel(
     theta_max: float,
 ) -> tuple[float, float, int, int, int, float, float, float, float, int]:
     """US 8,676,382 algorithm 100, steps 104-115, with the repairs argued in derivations.md §2."""
-    i = wedge_index(px, py, cx, cy, a0, beta, n)
+    b = wedge_angle(px, py, cx, cy, a0)
+    i = wedge_search(b, beta, n)
     # Angles from the centroid ray to the wedge's two corner rays (θ_i, θ_{i+1}).
-    b = 0.0
-    rx = px - cx
-    ry = py - cy
-    if rx != 0.0 or ry != 0.0:
-        b = (math.atan2(ry, rx) - a0) % _TWO_PI
     th_i = b - beta[i]
     th_j = beta[i + 1] - b
     if th_j < th_i:  # nearer to corner i+1: secondary edge is i+1 (patent example, θ_2 < θ_1)
@@ -150,27 +148,30 @@ def patent_kernel(
     return ox, oy, zone, i, j, d1, d2, sx, sy, stages
 
 
-def _solve(
-    vx: float, vy: float, work: Any, nx: Any, ny: Any, bnd: Any
-) -> tuple[bool, float, float, int, int]:
-    """Minimise ||x - v||² s.t. n_w · x >= b_w for w in work, by enumeration (<= 2 active in 2-D).
+def _violates(x: float, y: float, nxe: float, nye: float, b: float) -> bool:
+    return nxe * x + nye * y < b - _FEAS_TOL * (1.0 + abs(b))
 
-    Returns (feasible, x, y, first active, second active), -1 for unused active slots.
+
+def _solve(
+    vx: float, vy: float, work: Any, m: int, nx: Any, ny: Any, bnd: Any
+) -> tuple[bool, float, float]:
+    """Minimise ||x - v||² s.t. n_w · x >= b_w for w in work[:m], by enumeration.
+
+    In 2-D at most two bounds are active at the optimum, so the optimum is ``v`` itself, the
+    projection onto one bound line, or the intersection of two; the feasible candidate nearest to
+    ``v`` is the optimum. Returns (feasible, x, y).
     """
-    m = len(work)
     ok = True
     for a in range(m):
         w = work[a]
-        if nx[w] * vx + ny[w] * vy < bnd[w] - _FEAS_TOL * (1.0 + abs(bnd[w])):
+        if _violates(vx, vy, nx[w], ny[w], bnd[w]):
             ok = False
             break
     if ok:
-        return True, vx, vy, -1, -1
+        return True, vx, vy
     best = math.inf
     bx = 0.0
     by = 0.0
-    b1 = -1
-    b2 = -1
     for a in range(m):
         w = work[a]
         gap = bnd[w] - (nx[w] * vx + ny[w] * vy)
@@ -181,15 +182,13 @@ def _solve(
         feas = True
         for c in range(m):
             u = work[c]
-            if u != w and nx[u] * x + ny[u] * y < bnd[u] - _FEAS_TOL * (1.0 + abs(bnd[u])):
+            if u != w and _violates(x, y, nx[u], ny[u], bnd[u]):
                 feas = False
                 break
         if feas:
             best = gap * gap
             bx = x
             by = y
-            b1 = w
-            b2 = -1
     for a in range(m):
         w = work[a]
         for c in range(a + 1, m):
@@ -205,22 +204,16 @@ def _solve(
             feas = True
             for e in range(m):
                 q = work[e]
-                if (
-                    q != w
-                    and q != u
-                    and nx[q] * x + ny[q] * y < bnd[q] - _FEAS_TOL * (1.0 + abs(bnd[q]))
-                ):
+                if q != w and q != u and _violates(x, y, nx[q], ny[q], bnd[q]):
                     feas = False
                     break
             if feas:
                 best = dist
                 bx = x
                 by = y
-                b1 = w
-                b2 = u
-    if b1 < 0:
-        return False, 0.0, 0.0, -1, -1
-    return True, bx, by, b1, b2
+    if best == math.inf:
+        return False, 0.0, 0.0
+    return True, bx, by
 
 
 def exact_kernel(
@@ -237,34 +230,39 @@ def exact_kernel(
     dmax: float,
     k: float,
     rmax: float,
+    dist: Any,
+    bnd: Any,
+    work: Any,
 ) -> tuple[float, float, int, int, int, float, float, float, float, int]:
     r"""Minimum-change velocity subject to one half-plane bound per nearby edge (derivations §3).
 
     ``n_i · v_o >= -(|v| + R) d_i / d_max`` for edges with ``0 <= d_i < d_max`` and
     ``n_i · v_o >= min(k (-d_i), r_max)`` for violated edges, where ``R`` is the largest recovery
     bound (0 inside, so inside the bound is exactly the issue's ``-|v| d_i / d_max``).
+
+    ``dist``, ``bnd`` (floats) and ``work`` (ints) are caller-provided scratch of length >= n, so
+    the kernel itself allocates nothing.
     """
-    speed = math.sqrt(vx * vx + vy * vy)
-    dist = [0.0] * n
     rec = 0.0
     p1 = -1
     p2 = -1
     d1 = math.inf
     d2 = math.inf
-    n_near = 0
+    m = 0
     n_out = 0
     for e in range(n):
         d = nx[e] * px + ny[e] * py - off[e]
         dist[e] = d
         if d < dmax:
-            n_near += 1
-        if d < 0.0:
-            n_out += 1
-            r = -k * d
-            if r > rmax:
-                r = rmax
-            if r > rec:
-                rec = r
+            work[m] = e
+            m += 1
+            if d < 0.0:
+                n_out += 1
+                r = -k * d
+                if r > rmax:
+                    r = rmax
+                if r > rec:
+                    rec = r
         if d < d1:
             d2 = d1
             p2 = p1
@@ -273,50 +271,50 @@ def exact_kernel(
         elif d < d2:
             d2 = d
             p2 = e
-    if n_near == 0:
+    if m == 0:
         return vx, vy, ZONE_FREE, p1, p2, d1, d2, 0.0, 0.0, 0
     if n_out > 0:
-        zone = ZONE_OUTSIDE if n_near == 1 else ZONE_OUTSIDE_CORNER
+        zone = ZONE_OUTSIDE if m == 1 else ZONE_OUTSIDE_CORNER
+        stages = STAGE_PROJECT | STAGE_SPRING
     else:
-        zone = ZONE_BUFFER if n_near == 1 else ZONE_CORNER
-    scale = (speed + rec) / dmax
-    bnd = [0.0] * n
-    work = [0]
-    work.pop()
-    for e in range(n):
+        zone = ZONE_BUFFER if m == 1 else ZONE_CORNER
+        stages = STAGE_PROJECT
+    scale = (math.sqrt(vx * vx + vy * vy) + rec) / dmax
+    for a in range(m):
+        e = work[a]
         d = dist[e]
         if d >= 0.0:
             bnd[e] = -scale * d
         else:
             r = -k * d
             bnd[e] = r if r < rmax else rmax
-        if d < dmax:
-            work.append(e)
-    stages = STAGE_PROJECT
-    if n_out > 0:
-        stages |= STAGE_SPRING
     while True:
-        ok, ox, oy, _, _ = _solve(vx, vy, work, nx, ny, bnd)
+        ok, ox, oy = _solve(vx, vy, work, m, nx, ny, bnd)
         if not ok:
             break
-        # Edges beyond the buffer carry bound <= -(|v| + R); they bind only if the solution got
-        # faster than that, which recovery can cause. Add any violated one and solve again.
+        # A far edge (d >= d_max) has bound -scale*d <= -(|v| + R) >= -|v_o| only when the answer
+        # is faster than |v| + R (Cauchy-Schwarz). Inside that never happens (0 is feasible, so
+        # the projection is no faster than v); outside, recovery can cause it: add those edges.
+        lim = scale * dmax
+        if n_out == 0 or ox * ox + oy * oy <= lim * lim:
+            return ox, oy, zone, p1, p2, d1, d2, 0.0, 0.0, stages
         added = False
         for e in range(n):
-            if dist[e] >= dmax and nx[e] * ox + ny[e] * oy < bnd[e] - _FEAS_TOL * (
-                1.0 + abs(bnd[e])
-            ):
-                work.append(e)
+            d = dist[e]
+            if d >= dmax and _violates(ox, oy, nx[e], ny[e], -scale * d):
+                bnd[e] = -scale * d
+                work[m] = e
+                m += 1
                 added = True
         if not added:
             return ox, oy, zone, p1, p2, d1, d2, 0.0, 0.0, stages
     # Infeasible together (only when the polygon is narrower than the buffer): recovery first.
-    work2 = [0]
-    work2.pop()
+    m = 0
     for e in range(n):
         if dist[e] < 0.0:
-            work2.append(e)
-    ok, ox, oy, _, _ = _solve(vx, vy, work2, nx, ny, bnd)
+            work[m] = e
+            m += 1
+    ok, ox, oy = _solve(vx, vy, work, m, nx, ny, bnd)
     if ok:
         return ox, oy, zone, p1, p2, d1, d2, 0.0, 0.0, stages | STAGE_RELAXED
     # Unreachable for a valid convex polygon (violated inward normals always admit a common
@@ -325,6 +323,12 @@ def exact_kernel(
     hy = cy - py
     hn = math.sqrt(hx * hx + hy * hy)
     return rec * hx / hn, rec * hy / hn, zone, p1, p2, d1, d2, 0.0, 0.0, stages | STAGE_RELAXED
+
+
+# Replaced by numba.prange in the compiled twins (see _accel); plain range in pure Python.
+prange = range
+
+BATCH_CHUNK = 4096  # rows per parallel work item; each item owns its scratch buffers
 
 
 def patent_batch(
@@ -345,13 +349,16 @@ def patent_batch(
     theta_max: float,
 ) -> None:
     """Loop of :func:`patent_kernel` over rows of P, V (writes ``out`` (N, 2), ``zones`` (N,))."""
-    for r in range(len(P)):
-        res = patent_kernel(
-            P[r][0], P[r][1], V[r][0], V[r][1], nx, ny, off, cx, cy, a0, beta, n, dmax, k, theta_max
-        )
-        out[r][0] = res[0]
-        out[r][1] = res[1]
-        zones[r] = res[2]
+    N = len(P)
+    for c in prange((N + BATCH_CHUNK - 1) // BATCH_CHUNK):
+        for r in range(c * BATCH_CHUNK, min(N, (c + 1) * BATCH_CHUNK)):
+            res = patent_kernel(
+                P[r][0], P[r][1], V[r][0], V[r][1], nx, ny, off, cx, cy, a0, beta, n, dmax, k,
+                theta_max,
+            )  # fmt: skip
+            out[r][0] = res[0]
+            out[r][1] = res[1]
+            zones[r] = res[2]
 
 
 def exact_batch(
@@ -370,10 +377,16 @@ def exact_batch(
     rmax: float,
 ) -> None:
     """Loop of :func:`exact_kernel` over rows of P, V (writes ``out`` (N, 2), ``zones`` (N,))."""
-    for r in range(len(P)):
-        res = exact_kernel(
-            P[r][0], P[r][1], V[r][0], V[r][1], nx, ny, off, cx, cy, n, dmax, k, rmax
-        )
-        out[r][0] = res[0]
-        out[r][1] = res[1]
-        zones[r] = res[2]
+    N = len(P)
+    for c in prange((N + BATCH_CHUNK - 1) // BATCH_CHUNK):
+        dist = np.zeros(n)
+        bnd = np.zeros(n)
+        work = np.zeros(n, dtype=np.int64)
+        for r in range(c * BATCH_CHUNK, min(N, (c + 1) * BATCH_CHUNK)):
+            res = exact_kernel(
+                P[r][0], P[r][1], V[r][0], V[r][1], nx, ny, off, cx, cy, n, dmax, k, rmax,
+                dist, bnd, work,
+            )  # fmt: skip
+            out[r][0] = res[0]
+            out[r][1] = res[1]
+            zones[r] = res[2]

@@ -137,7 +137,8 @@ class PolygonShaper:
     ) -> tuple[float, float, int, int, int, float, float, float, float, int]:
         if self.method == "patent":
             return kern.patent_kernel(px, py, vx, vy, *self._fast)
-        return kern.exact_kernel(px, py, vx, vy, *self._fast)
+        n = self.polygon.n
+        return kern.exact_kernel(px, py, vx, vy, *self._fast, [0.0] * n, [0.0] * n, [0] * n)
 
     def _invalid(self, what: str) -> None:
         if self.on_invalid == "raise":
@@ -173,9 +174,17 @@ class PolygonShaper:
         Raises:
             InvalidInput: wrong shape, or non-finite input with ``on_invalid="raise"``.
         """
-        px, py = as_pair("position", p)
-        vx, vy = as_pair("command", v)
-        r = self._checked(px, py, vx, vy)
+        # Inlined fast path of as_pair(): the common case (two ndarrays of shape (2,)).
+        try:
+            if p.shape == (2,) and v.shape == (2,):  # type: ignore[union-attr]
+                px, py = p.tolist()  # type: ignore[union-attr]
+                vx, vy = v.tolist()  # type: ignore[union-attr]
+            else:
+                raise AttributeError
+        except AttributeError:
+            px, py = as_pair("position", p)
+            vx, vy = as_pair("command", v)
+        r = self._checked(float(px), float(py), float(vx), float(vy))
         if r is None:
             return np.zeros(2)
         return np.array((r[0], r[1]))
@@ -239,12 +248,10 @@ class PolygonShaper:
                 f"positions and commands must have the same shape (N, 2), got {Pa.shape} and "
                 f"{Va.shape}"
             )
-        good: np.ndarray[Any, np.dtype[np.bool_]] = np.asarray(
-            np.isfinite(Pa).all(axis=1) & np.isfinite(Va).all(axis=1)
-        )
-        if not good.all():
-            bad = np.flatnonzero(~good)
-            self._invalid(f"non-finite input in row(s) {bad[:10].tolist()}")
+        good: np.ndarray[Any, np.dtype[np.bool_]] | None = None
+        if not (np.isfinite(Pa).all() and np.isfinite(Va).all()):
+            good = np.isfinite(Pa).all(axis=1) & np.isfinite(Va).all(axis=1)
+            self._invalid(f"non-finite input in row(s) {np.flatnonzero(~good)[:10].tolist()}")
             Pa = np.where(good[:, None], Pa, 0.0)
             Va = np.where(good[:, None], Va, 0.0)
         out = np.empty_like(Pa)
@@ -259,14 +266,14 @@ class PolygonShaper:
             py_fn(Pa.tolist(), Va.tolist(), res, zl, *self._fast)
             out[:] = res
             zones[:] = zl
-        finite = np.isfinite(out).all(axis=1)
-        if not finite.all():
+        if not np.isfinite(out).all():
+            finite = np.isfinite(out).all(axis=1)
             self._invalid(
                 f"input too large, the shaped velocity overflowed in row(s) "
                 f"{np.flatnonzero(~finite)[:10].tolist()}"
             )
-            good &= finite
-        if not good.all():
+            good = finite if good is None else good & finite
+        if good is not None:
             out[~good] = 0.0
             zones[~good] = kern.ZONE_INVALID
         return out, zones
