@@ -3,8 +3,8 @@
 Math contract: every region is an intersection of half-planes (half-spaces) ``n_i · p >= o_i`` with
 **inward unit normals** ``n_i`` and offsets ``o_i``; the signed distance
 ``d_i(p) = n_i · p - o_i`` is **positive inside**. A point is inside iff every ``d_i >= 0``.
-Closest-point and facet-selection helpers return indices into the same facet arrays, so one normal/tangential decomposition
-(:func:`velfence.geometry.polygon.decompose`) serves all shapers.
+Closest-point and facet-selection helpers return indices into the same facet arrays, so one
+normal/tangential decomposition (:func:`velfence.geometry.polygon.decompose`) serves all shapers.
 """
 
 from velfence.geometry.polygon import ConvexPolygon, Rectangle, decompose, inscribed_rectangle

@@ -283,7 +283,7 @@ class ConvexPolygon:
 
 
 def wedge_angle(px: float, py: float, cx: float, cy: float, a0: float) -> float:
-    """Angle of (px, py) around the centroid, relative to corner 0, in [0, 2π); 0 at the centroid."""
+    """Angle of (px, py) about the centroid, relative to corner 0, in [0, 2π); 0 at the centroid."""
     rx = px - cx
     ry = py - cy
     if rx == 0.0 and ry == 0.0:

@@ -138,7 +138,8 @@ class PolygonShaper:
         if self.method == "patent":
             return kern.patent_kernel(px, py, vx, vy, *self._fast)
         n = self.polygon.n
-        return kern.exact_kernel(px, py, vx, vy, *self._fast, [0.0] * n, [0.0] * n, [0] * n)
+        args = (*self._fast, [0.0] * n, [0.0] * n, [0] * n)  # kernel scratch: dist, bnd, work
+        return kern.exact_kernel(px, py, vx, vy, *args)
 
     def _invalid(self, what: str) -> None:
         if self.on_invalid == "raise":
@@ -248,12 +249,13 @@ class PolygonShaper:
                 f"positions and commands must have the same shape (N, 2), got {Pa.shape} and "
                 f"{Va.shape}"
             )
-        good: np.ndarray[Any, np.dtype[np.bool_]] | None = None
+        good: BoolArray | None = None
         if not (np.isfinite(Pa).all() and np.isfinite(Va).all()):
-            good = np.isfinite(Pa).all(axis=1) & np.isfinite(Va).all(axis=1)
-            self._invalid(f"non-finite input in row(s) {np.flatnonzero(~good)[:10].tolist()}")
-            Pa = np.where(good[:, None], Pa, 0.0)
-            Va = np.where(good[:, None], Va, 0.0)
+            ok = _finite_rows(Pa) & _finite_rows(Va)
+            self._invalid(f"non-finite input in row(s) {np.flatnonzero(~ok)[:10].tolist()}")
+            Pa = np.where(ok[:, None], Pa, 0.0)
+            Va = np.where(ok[:, None], Va, 0.0)
+            good = ok
         out = np.empty_like(Pa)
         zones = np.empty(Pa.shape[0], dtype=np.int64)
         fn = compiled_batch(self.method) if self.accelerate else None
@@ -267,7 +269,7 @@ class PolygonShaper:
             out[:] = res
             zones[:] = zl
         if not np.isfinite(out).all():
-            finite = np.isfinite(out).all(axis=1)
+            finite = _finite_rows(out)
             self._invalid(
                 f"input too large, the shaped velocity overflowed in row(s) "
                 f"{np.flatnonzero(~finite)[:10].tolist()}"
@@ -283,6 +285,13 @@ class PolygonShaper:
             f"PolygonShaper({self.polygon.n}-gon, method={self.method!r}, buffer={self.buffer}, "
             f"spring_gain={self.spring_gain})"
         )
+
+
+BoolArray = np.ndarray[Any, np.dtype[np.bool_]]
+
+
+def _finite_rows(a: FloatArray) -> BoolArray:
+    return np.asarray(np.isfinite(a).all(axis=1), dtype=np.bool_)
 
 
 def _all_finite(*xs: float) -> bool:
