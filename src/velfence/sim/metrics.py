@@ -1,0 +1,361 @@
+r"""Metrics of closed-loop runs against a convex polygon: one definition each, used everywhere.
+
+Notation (``docs/simulation.md`` §2): rows ``k = 0 … N-1`` of a :class:`Trajectory`;
+:math:`d_i(p)` the signed distance to edge ``i`` (positive inside);
+:math:`\delta_k = \min_i d_i(p_k)` and :math:`e_k = \arg\min_i d_i(p_k)` (first index on ties),
+the *nearest edge* (inside: the nearest boundary edge; outside: the most violated one);
+:math:`\Delta t_k = t_{k+1} - t_k`. A row is *near the boundary* when :math:`|\delta_k| \le`
+``band``. Normal/tangential parts use :func:`velfence.geometry.decompose` with the inward normal
+of :math:`e_k`.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from velfence.errors import InvalidParameter
+from velfence.geometry.polygon import ConvexPolygon, decompose
+from velfence.shaping.base import Shaper, as_rows, check_positive
+from velfence.sim.runner import Trajectory
+
+__all__ = [
+    "DEADBAND",
+    "area_gain",
+    "chatter_rate",
+    "corner_escape_time",
+    "max_output_jump",
+    "max_penetration",
+    "sliding_ratio",
+    "summarize",
+    "time_outside",
+]
+
+FloatArray = NDArray[np.float64]
+
+DEADBAND = 1e-9
+"""Default deadband on normal and tangential speeds, workspace units per second."""
+
+MAX_GRID_POINTS = 4_000_000
+
+
+def _check(traj: Any, polygon: Any) -> None:
+    if not isinstance(traj, Trajectory):
+        raise InvalidParameter(f"traj must be a velfence.sim.Trajectory, got {type(traj).__name__}")
+    if not isinstance(polygon, ConvexPolygon):
+        raise InvalidParameter(
+            f"polygon must be a velfence.ConvexPolygon, got {type(polygon).__name__}"
+        )
+
+
+def _nearest(traj: Trajectory, polygon: ConvexPolygon) -> tuple[FloatArray, NDArray[np.intp]]:
+    """Smallest signed distance and its edge index (the nearest edge) for every row."""
+    d = np.atleast_2d(polygon.signed_distances(traj.p))
+    return d.min(axis=1), d.argmin(axis=1)
+
+
+def max_penetration(traj: Trajectory, polygon: ConvexPolygon) -> float:
+    r"""Largest violation over the run: :math:`\max_k \max(0, -\delta_k)`, workspace units.
+
+    Args:
+        traj: The run.
+        polygon: The permissible workspace.
+
+    Returns:
+        0.0 when the run never leaves the closed polygon.
+    """
+    _check(traj, polygon)
+    delta, _ = _nearest(traj, polygon)
+    return float(max(0.0, float(-delta.min())))
+
+
+def time_outside(traj: Trajectory, polygon: ConvexPolygon, *, tol: float = 0.0) -> float:
+    r"""Time spent outside, [s]: :math:`\sum_{k<N-1,\ \delta_k<-tol} \Delta t_k` (left rule).
+
+    A spring or recovery bound proportional to the penetration returns *exponentially*, so it
+    never makes :math:`\delta_k` exactly 0; pass a small ``tol`` to count only real excursions.
+
+    Args:
+        traj: The run.
+        polygon: The permissible workspace.
+        tol: Penetration below which a row counts as inside, workspace units (>= 0).
+    """
+    _check(traj, polygon)
+    tol = check_positive("tol", tol, allow_zero=True, unit="workspace units")
+    delta, _ = _nearest(traj, polygon)
+    dt = np.diff(traj.t)
+    return float(dt[delta[:-1] < -tol].sum())
+
+
+def _sign(x: float, deadband: float) -> int:
+    return 1 if x > deadband else (-1 if x < -deadband else 0)
+
+
+def chatter_rate(
+    traj: Trajectory, polygon: ConvexPolygon, *, band: float, deadband: float = DEADBAND
+) -> float:
+    r"""Sign changes of the output's normal velocity per second spent near the boundary, [1/s].
+
+    For every row near the boundary, :math:`s_k = \mathrm{sign}_\epsilon(n_{e_k}\cdot v^{out}_k)`
+    (+1 above ``deadband``, -1 below ``-deadband``, 0 otherwise). Within each maximal run of
+    consecutive near rows, zeros are skipped and the changes between successive non-zero signs
+    are counted (``+, 0, -`` is one change). The rate is that count divided by
+    :math:`T_{near} = \sum \Delta t_k` over consecutive row pairs both near; 0.0 when
+    :math:`T_{near} = 0`.
+
+    Args:
+        traj: The run.
+        polygon: The permissible workspace.
+        band: Half-width of the band around the boundary, workspace units (> 0).
+        deadband: Normal speeds with magnitude <= this count as zero, workspace units per second
+            (>= 0).
+    """
+    _check(traj, polygon)
+    band = check_positive("band", band, unit="workspace units")
+    deadband = check_positive("deadband", deadband, allow_zero=True, unit="workspace units / s")
+    delta, edge = _nearest(traj, polygon)
+    near = np.abs(delta) <= band
+    count = 0
+    t_near = 0.0
+    last = 0
+    for k in range(len(traj)):
+        if not near[k]:
+            last = 0
+            continue
+        if k > 0 and near[k - 1]:
+            t_near += float(traj.t[k] - traj.t[k - 1])
+        vn, _ = decompose(traj.v_out[k], polygon.normals[edge[k]])
+        s = _sign(vn, deadband)
+        if s != 0:
+            if last != 0 and s != last:
+                count += 1
+            last = s
+    return count / t_near if t_near > 0.0 else 0.0
+
+
+def sliding_ratio(
+    traj: Trajectory, polygon: ConvexPolygon, *, band: float, deadband: float = DEADBAND
+) -> float:
+    r"""Tangential progress achieved over tangential progress commanded while pressing an edge.
+
+    Row ``k < N-1`` *presses* when it is near the boundary and the command points out through
+    the nearest edge: :math:`v^{cmd}_{n} = n_{e_k}\cdot v^{cmd}_k < -`\ ``deadband``. With the
+    command's tangential part :math:`v^{cmd}_{t}` (norm > ``deadband``) and
+    :math:`u_k = v^{cmd}_t / \|v^{cmd}_t\|`:
+
+    .. math:: \rho = \frac{\sum_{k\ \mathrm{presses}} u_k\cdot(p_{k+1} - p_k)}
+                          {\sum_{k\ \mathrm{presses}} \|v^{cmd}_t\|\,\Delta t_k}
+
+    1 means the shaper kept all the commanded sliding; 0 means it stuck. It can exceed 1 or be
+    negative under disturbances (the achieved motion is the true one).
+
+    Args:
+        traj: The run.
+        polygon: The permissible workspace.
+        band: Half-width of the band around the boundary, workspace units (> 0).
+        deadband: Speeds with magnitude <= this count as zero, workspace units per second (>= 0).
+
+    Returns:
+        The ratio, or ``nan`` when no row presses with a tangential component.
+    """
+    _check(traj, polygon)
+    band = check_positive("band", band, unit="workspace units")
+    deadband = check_positive("deadband", deadband, allow_zero=True, unit="workspace units / s")
+    delta, edge = _nearest(traj, polygon)
+    near = np.abs(delta) <= band
+    achieved = 0.0
+    commanded = 0.0
+    for k in np.flatnonzero(near[:-1]):
+        vn, vt = decompose(traj.v_cmd[k], polygon.normals[edge[k]])
+        speed_t = math.hypot(float(vt[0]), float(vt[1]))
+        if vn >= -deadband or speed_t <= deadband:
+            continue
+        commanded += speed_t * float(traj.t[k + 1] - traj.t[k])
+        achieved += float(vt @ (traj.p[k + 1] - traj.p[k])) / speed_t
+    return achieved / commanded if commanded > 0.0 else math.nan
+
+
+def corner_escape_time(
+    traj: Trajectory, polygon: ConvexPolygon, corner_index: int, *, radius: float
+) -> float:
+    r"""Time from first entering a disc around a corner to first leaving it afterwards, [s].
+
+    With :math:`r_k = \|p_k - c\|` for corner ``c``: :math:`k_{in}` is the first row with
+    :math:`r_k <` ``radius``, :math:`k_{out}` the first later row with :math:`r_k \ge`
+    ``radius``; the result is :math:`t_{k_{out}} - t_{k_{in}}`. Only the first visit counts.
+
+    Args:
+        traj: The run.
+        polygon: The permissible workspace.
+        corner_index: Index into ``polygon.corners`` (CCW order), in ``[0, n)``.
+        radius: Disc radius, workspace units (> 0).
+
+    Returns:
+        The time, ``inf`` when the run never leaves the disc, ``nan`` when it never enters it.
+    """
+    _check(traj, polygon)
+    if (
+        isinstance(corner_index, bool)
+        or not isinstance(corner_index, int | np.integer)
+        or not 0 <= corner_index < polygon.n
+    ):
+        raise InvalidParameter(
+            f"corner_index must be an int in [0, {polygon.n}), got {corner_index!r}"
+        )
+    radius = check_positive("radius", radius, unit="workspace units")
+    r = np.hypot(*(traj.p - polygon.corners[int(corner_index)]).T)
+    inside = r < radius
+    if not inside.any():
+        return math.nan
+    k_in = int(np.argmax(inside))
+    after = np.flatnonzero(~inside[k_in:])
+    if after.size == 0:
+        return math.inf
+    return float(traj.t[k_in + int(after[0])] - traj.t[k_in])
+
+
+def max_output_jump(
+    shaper: Shaper,
+    polygon: ConvexPolygon,
+    *,
+    spacing: float,
+    commands: ArrayLike,
+    margin: float | None = None,
+) -> float:
+    r"""Largest change of the output between neighbouring grid positions (the continuity metric).
+
+    The grid has step ``spacing`` in x and y and covers the polygon's bounding box grown by
+    ``margin`` on every side. For every command ``c`` (held fixed), the outputs
+    :math:`V(p) = \mathrm{shaper}(p, c)` are evaluated with ``shaper.shape_batch`` and the result
+    is :math:`\max \|V(p) - V(p')\|` over all horizontally or vertically adjacent grid points and
+    all commands. A continuous law's value shrinks with ``spacing``; a discontinuous one's does
+    not (compare two spacings).
+
+    Args:
+        shaper: The law to probe.
+        polygon: Its workspace (sets the grid extent).
+        spacing: Grid step, workspace units (> 0).
+        commands: Commands to probe, shape (M, 2), workspace units per second, M >= 1.
+        margin: Extra extent outside the bounding box, workspace units (>= 0); default 10 % of
+            the larger side of the bounding box.
+
+    Returns:
+        The largest jump, workspace units per second.
+
+    Raises:
+        InvalidParameter: for a bad parameter or a grid of more than 4,000,000 points.
+    """
+    if not isinstance(shaper, Shaper):
+        raise InvalidParameter(
+            f"shaper must implement shape, explain and shape_batch, got {type(shaper).__name__}"
+        )
+    if not isinstance(polygon, ConvexPolygon):
+        raise InvalidParameter(
+            f"polygon must be a velfence.ConvexPolygon, got {type(polygon).__name__}"
+        )
+    spacing = check_positive("spacing", spacing, unit="workspace units")
+    C = as_rows("commands", commands)
+    if C.shape[0] == 0 or not np.all(np.isfinite(C)):
+        raise InvalidParameter(
+            f"commands must be a non-empty finite (M, 2) array, got shape {C.shape}"
+        )
+    lo = polygon.corners.min(axis=0)
+    hi = polygon.corners.max(axis=0)
+    if margin is None:
+        m = 0.1 * float((hi - lo).max())
+    else:
+        m = check_positive("margin", margin, allow_zero=True, unit="workspace units")
+    counts = [math.ceil(float(hi[a] - lo[a] + 2.0 * m) / spacing) + 1 for a in (0, 1)]
+    if counts[0] * counts[1] > MAX_GRID_POINTS:
+        raise InvalidParameter(
+            f"spacing {spacing} gives a {counts[0]} x {counts[1]} grid, more than "
+            f"{MAX_GRID_POINTS} points; increase spacing"
+        )
+    xs = lo[0] - m + spacing * np.arange(counts[0])
+    ys = lo[1] - m + spacing * np.arange(counts[1])
+    X, Y = np.meshgrid(xs, ys)
+    P = np.stack([X.ravel(), Y.ravel()], axis=1)
+    worst = 0.0
+    for c in C:
+        V = shaper.shape_batch(P, np.broadcast_to(c, P.shape)).reshape(counts[1], counts[0], 2)
+        jx = np.hypot(*np.moveaxis(V[:, 1:] - V[:, :-1], -1, 0))
+        jy = np.hypot(*np.moveaxis(V[1:] - V[:-1], -1, 0))
+        for j in (jx, jy):
+            if j.size:
+                worst = max(worst, float(j.max()))
+    return worst
+
+
+def area_gain(polygon: ConvexPolygon) -> float:
+    """Polygon area over its largest inscribed axis-aligned rectangle's (``area_ratio()``).
+
+    The workspace a polygon limit gains over conventional per-axis joint limits (>= 1).
+
+    Args:
+        polygon: The permissible workspace.
+    """
+    if not isinstance(polygon, ConvexPolygon):
+        raise InvalidParameter(
+            f"polygon must be a velfence.ConvexPolygon, got {type(polygon).__name__}"
+        )
+    return float(polygon.area_ratio())
+
+
+def summarize(
+    traj: Trajectory,
+    polygon: ConvexPolygon,
+    *,
+    band: float,
+    corner_index: int | None = None,
+    radius: float | None = None,
+    shaper: Shaper | None = None,
+    spacing: float | None = None,
+    commands: ArrayLike | None = None,
+    tol: float = 0.0,
+) -> dict[str, float]:
+    """Every metric of one run, as plain floats (JSON-serialisable; ``inf``/``nan`` possible).
+
+    Keys: ``duration`` [s], ``max_penetration``, ``time_outside`` [s], ``chatter_rate`` [1/s],
+    ``sliding_ratio``, ``area_gain``; plus ``corner_escape_time`` [s] when ``corner_index`` and
+    ``radius`` are given, and ``max_output_jump`` when ``shaper`` and ``spacing`` are given
+    (``commands`` defaulting to the run's distinct commands).
+
+    Args:
+        traj: The run.
+        polygon: The permissible workspace.
+        band: Band for :func:`chatter_rate` and :func:`sliding_ratio`, workspace units.
+        corner_index: Corner for :func:`corner_escape_time`.
+        radius: Radius for :func:`corner_escape_time`, workspace units.
+        shaper: Shaper for :func:`max_output_jump`.
+        spacing: Grid step for :func:`max_output_jump`, workspace units.
+        commands: Commands for :func:`max_output_jump`, shape (M, 2).
+        tol: Tolerance of :func:`time_outside`, workspace units.
+    """
+    _check(traj, polygon)
+    out = {
+        "duration": traj.duration,
+        "max_penetration": max_penetration(traj, polygon),
+        "time_outside": time_outside(traj, polygon, tol=tol),
+        "chatter_rate": chatter_rate(traj, polygon, band=band),
+        "sliding_ratio": sliding_ratio(traj, polygon, band=band),
+        "area_gain": area_gain(polygon),
+    }
+    if (corner_index is None) != (radius is None):
+        raise InvalidParameter(
+            "corner_index and radius go together: pass both for corner_escape_time or neither, "
+            f"got corner_index={corner_index!r}, radius={radius!r}"
+        )
+    if corner_index is not None and radius is not None:
+        out["corner_escape_time"] = corner_escape_time(traj, polygon, corner_index, radius=radius)
+    if (shaper is None) != (spacing is None):
+        raise InvalidParameter(
+            "shaper and spacing go together: pass both for max_output_jump or neither, "
+            f"got shaper={shaper!r}, spacing={spacing!r}"
+        )
+    if shaper is not None and spacing is not None:
+        cmds = np.unique(traj.v_cmd, axis=0) if commands is None else commands
+        out["max_output_jump"] = max_output_jump(shaper, polygon, spacing=spacing, commands=cmds)
+    return {k: float(v) for k, v in out.items()}

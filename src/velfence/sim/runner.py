@@ -1,0 +1,343 @@
+r"""Closed-loop runner: a shaper in the loop of a scripted operator and a kinematic plant.
+
+Every step ``k = 0 … K`` at time :math:`t_k = k\,\Delta t` (see ``docs/simulation.md`` §1):
+
+1. measured position :math:`\tilde p_k = p_k + \varepsilon_k`, :math:`\varepsilon_k \sim
+   \mathcal N(0, \sigma^2 I)` drawn from ``numpy.random.default_rng(seed)``;
+2. command :math:`v^{cmd}_k = c(t_k, p_k)` (the operator sees the true position);
+3. shaped :math:`v_k = \mathrm{shaper}(\tilde p_k, v^{cmd}_k)`, then the actuator saturation
+   :math:`v_k \leftarrow \mathrm{sat}(p_k, v_k)` when given;
+4. explicit Euler on the true state, with the external velocity disturbance :math:`w`:
+   :math:`p_{k+1} = p_k + \Delta t\,(v_k + w(t_k, p_k))` (not applied after the last row).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from velfence.errors import InvalidInput, InvalidParameter
+from velfence.shaping.base import Shaper, as_pair, check_choice, check_positive
+
+__all__ = ["CommandFn", "DisturbanceFn", "SaturateFn", "Trajectory", "simulate", "simulate_many"]
+
+FloatArray = NDArray[np.float64]
+
+CommandFn = Callable[[float, FloatArray], ArrayLike]
+"""Scripted operator ``(t [s], p (2,)) -> v_cmd (2,)`` [workspace units / s]."""
+DisturbanceFn = Callable[[float, FloatArray], ArrayLike]
+"""External velocity disturbance ``(t [s], p (2,)) -> w (2,)`` [workspace units / s]."""
+SaturateFn = Callable[[FloatArray, FloatArray], ArrayLike]
+"""Actuator saturation ``(p (2,), v (2,)) -> v (2,)`` [workspace units / s]."""
+
+PLANTS = ("kinematic",)
+MAX_STEPS = 10_000_000  # ~ 3 h at 1 kHz; ~ 0.5 GB of arrays
+
+
+def _readonly_copy(name: str, x: ArrayLike, shape: tuple[int, ...]) -> FloatArray:
+    try:
+        a = np.array(x, dtype=float)
+    except (TypeError, ValueError):
+        raise InvalidInput(f"{name} must be an array of numbers of shape {shape}") from None
+    if a.shape != shape:
+        raise InvalidInput(f"{name} must have shape {shape}, got shape {a.shape}")
+    a.setflags(write=False)
+    return a
+
+
+@dataclass(frozen=True, eq=False, init=False)
+class Trajectory:
+    """A recorded closed-loop run (or a hand-made one, for metrics); read-only arrays.
+
+    Row ``k`` is the state at ``t[k]`` and what the loop did there; ``v_out[k]`` is applied over
+    ``[t[k], t[k+1])``. The last row is evaluated but not integrated.
+
+    Attributes:
+        t: Times, shape (N,), [s], strictly increasing, N >= 1.
+        p: True positions, shape (N, 2), workspace units.
+        v_cmd: Commanded velocities, shape (N, 2), workspace units per second.
+        v_out: Velocities sent to the plant (shaped, then saturated), shape (N, 2).
+        zone: Shaper zone names (``velfence.shaping.ZONE_NAMES``), shape (N,); ``"unknown"``
+            when not given.
+        name: Label of the run (the shaper's name in :func:`simulate_many`).
+        p_measured: Positions the shaper saw (true + noise), shape (N, 2); defaults to ``p``.
+    """
+
+    t: FloatArray
+    p: FloatArray
+    v_cmd: FloatArray
+    v_out: FloatArray
+    zone: NDArray[np.str_]
+    name: str
+    p_measured: FloatArray
+
+    def __init__(
+        self,
+        t: ArrayLike,
+        p: ArrayLike,
+        v_cmd: ArrayLike,
+        v_out: ArrayLike,
+        zone: ArrayLike | None = None,
+        name: str = "",
+        p_measured: ArrayLike | None = None,
+    ) -> None:
+        try:
+            ta = np.array(t, dtype=float)
+        except (TypeError, ValueError):
+            raise InvalidInput("t must be an array of numbers of shape (N,)") from None
+        if ta.ndim != 1 or ta.shape[0] < 1:
+            raise InvalidInput(f"t must have shape (N,) with N >= 1, got shape {ta.shape}")
+        if not np.all(np.isfinite(ta)) or np.any(np.diff(ta) <= 0.0):
+            raise InvalidInput("t must be finite and strictly increasing (seconds)")
+        ta.setflags(write=False)
+        n = ta.shape[0]
+        pa = _readonly_copy("p", p, (n, 2))
+        pm = pa if p_measured is None else _readonly_copy("p_measured", p_measured, (n, 2))
+        if zone is None:
+            za = np.full(n, "unknown")
+        else:
+            za = np.array(zone, dtype=str)
+            if za.shape != (n,):
+                raise InvalidInput(f"zone must have shape ({n},), got shape {za.shape}")
+        za.setflags(write=False)
+        object.__setattr__(self, "t", ta)
+        object.__setattr__(self, "p", pa)
+        object.__setattr__(self, "v_cmd", _readonly_copy("v_cmd", v_cmd, (n, 2)))
+        object.__setattr__(self, "v_out", _readonly_copy("v_out", v_out, (n, 2)))
+        object.__setattr__(self, "zone", za)
+        object.__setattr__(self, "name", str(name))
+        object.__setattr__(self, "p_measured", pm)
+
+    def __len__(self) -> int:
+        """Number of rows N."""
+        return int(self.t.shape[0])
+
+    @property
+    def duration(self) -> float:
+        """``t[-1] - t[0]``, [s]."""
+        return float(self.t[-1] - self.t[0])
+
+
+def _finite_pair(what: str, x: Any, k: int, t: float) -> tuple[float, float]:
+    a, b = as_pair(what, x)
+    if not (math.isfinite(a) and math.isfinite(b)):
+        raise InvalidInput(
+            f"{what} must be finite, got ({a}, {b}) at step {k} (t = {t} s); "
+            "check the callable that produced it"
+        )
+    return a, b
+
+
+def _optional_callable(name: str, f: Any) -> None:
+    if f is not None and not callable(f):
+        raise InvalidParameter(f"{name} must be a callable or None, got {type(f).__name__}")
+
+
+def _n_steps(duration: float, dt: float) -> int:
+    r = duration / dt
+    k = round(r)
+    steps = k if abs(r - k) <= 1e-9 * max(1.0, r) else math.ceil(r)
+    steps = max(1, steps)
+    if steps > MAX_STEPS:
+        raise InvalidParameter(
+            f"duration / dt must be at most {MAX_STEPS} steps, got {steps} "
+            f"(duration={duration} s, dt={dt} s); shorten the run or increase dt"
+        )
+    return steps
+
+
+def _validated_seed(seed: Any) -> int:
+    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
+        raise InvalidParameter(f"seed must be a non-negative int, got {seed!r}")
+    return int(seed)
+
+
+def simulate(
+    shaper: Shaper,
+    command: CommandFn,
+    p0: ArrayLike,
+    *,
+    duration: float,
+    dt: float = 1e-3,
+    disturbance: DisturbanceFn | None = None,
+    saturate: SaturateFn | None = None,
+    noise_std: float = 0.0,
+    seed: int = 0,
+    plant: str = "kinematic",
+    name: str | None = None,
+    on_progress: Callable[[float], None] | None = None,
+) -> Trajectory:
+    r"""Run ``shaper`` in closed loop and record the trajectory (explicit Euler, module docstring).
+
+    Args:
+        shaper: Any :class:`~velfence.shaping.base.Shaper`; its ``explain`` is called once per
+            step (output and zone).
+        command: Scripted operator ``(t, p) -> v_cmd``: time [s] and true position (read-only,
+            shape (2,)) to a commanded velocity, shape (2,), workspace units per second.
+        p0: Initial true position, shape (2,), workspace units.
+        duration: Simulated time, [s], > 0. The run has ``K = ceil(duration / dt)`` steps
+            (``round`` when within 1e-9 of an integer) and ``N = K + 1`` rows.
+        dt: Control and integration period, [s], > 0 (default 1 ms, 1 kHz).
+        disturbance: External velocity ``(t, p) -> w`` added to the plant's velocity, shape (2,),
+            workspace units per second (e.g. :meth:`~velfence.sim.Disturbance.push`).
+        saturate: Actuator limits ``(p, v) -> v`` applied to the shaped velocity at the true
+            position (e.g. a mechanism's ``saturate``).
+        noise_std: Standard deviation of the Gaussian position-measurement noise, per axis,
+            workspace units, >= 0.
+        seed: Seed of the ``numpy.random.default_rng`` that draws the noise (non-negative int).
+        plant: ``"kinematic"`` (the integrator above; the only plant so far).
+        name: Label of the trajectory; default ``type(shaper).__name__``.
+        on_progress: Called with the completed fraction in [0, 1], about 100 times per run and
+            with ``1.0`` at the end.
+
+    Returns:
+        The :class:`Trajectory` of ``N`` rows.
+
+    Raises:
+        InvalidParameter: for an out-of-range parameter or a non-callable.
+        InvalidInput: for a bad ``p0``, or a callable or the shaper returning a wrong shape or
+            non-finite values (the message names the step and time).
+    """
+    if not isinstance(shaper, Shaper):
+        raise InvalidParameter(
+            f"shaper must implement shape, explain and shape_batch, got {type(shaper).__name__}"
+        )
+    if not callable(command):
+        raise InvalidParameter(
+            f"command must be a callable (t, p) -> v_cmd, got {type(command).__name__}"
+        )
+    _optional_callable("disturbance", disturbance)
+    _optional_callable("saturate", saturate)
+    _optional_callable("on_progress", on_progress)
+    duration = check_positive("duration", duration, unit="s")
+    dt = check_positive("dt", dt, unit="s")
+    noise_std = check_positive("noise_std", noise_std, allow_zero=True, unit="workspace units")
+    seed = _validated_seed(seed)
+    check_choice("plant", plant, PLANTS)
+    px, py = as_pair("p0", p0)
+    if not (math.isfinite(px) and math.isfinite(py)):
+        raise InvalidInput(f"p0 must be finite, got ({px}, {py})")
+    steps = _n_steps(duration, dt)
+    n = steps + 1
+    rng = np.random.default_rng(seed)
+    noise = rng.normal(0.0, noise_std, size=(n, 2)) if noise_std > 0.0 else None
+    every = max(1, steps // 100)
+
+    t_rec = np.empty(n)
+    p_rec = np.empty((n, 2))
+    pm_rec = np.empty((n, 2))
+    vc_rec = np.empty((n, 2))
+    vo_rec = np.empty((n, 2))
+    zones: list[str] = []
+    for k in range(n):
+        t = k * dt
+        p = np.array((px, py))
+        p.setflags(write=False)
+        pm = p if noise is None else p + noise[k]
+        vcx, vcy = _finite_pair("command(t, p)", command(t, p), k, t)
+        res = shaper.explain(pm, np.array((vcx, vcy)))
+        vx, vy = _finite_pair("shaper output", res.output, k, t)
+        if saturate is not None:
+            vx, vy = _finite_pair("saturate(p, v)", saturate(p, np.array((vx, vy))), k, t)
+        t_rec[k] = t
+        p_rec[k] = (px, py)
+        pm_rec[k] = pm
+        vc_rec[k] = (vcx, vcy)
+        vo_rec[k] = (vx, vy)
+        zones.append(res.zone)
+        if k < steps:
+            if disturbance is not None:
+                wx, wy = _finite_pair("disturbance(t, p)", disturbance(t, p), k, t)
+                vx += wx
+                vy += wy
+            px += dt * vx
+            py += dt * vy
+            if on_progress is not None and (k + 1) % every == 0 and k + 1 < steps:
+                on_progress((k + 1) / steps)
+    if on_progress is not None:
+        on_progress(1.0)
+    return Trajectory(
+        t=t_rec,
+        p=p_rec,
+        v_cmd=vc_rec,
+        v_out=vo_rec,
+        zone=np.array(zones, dtype=str),
+        name=type(shaper).__name__ if name is None else str(name),
+        p_measured=pm_rec,
+    )
+
+
+def simulate_many(
+    shapers: Mapping[str, Shaper],
+    command: CommandFn,
+    p0: ArrayLike,
+    *,
+    duration: float,
+    dt: float = 1e-3,
+    disturbance: DisturbanceFn | None = None,
+    saturate: SaturateFn | None = None,
+    noise_std: float = 0.0,
+    seed: int = 0,
+    plant: str = "kinematic",
+    on_step: Callable[[str, float], None] | None = None,
+) -> dict[str, Trajectory]:
+    """Run several shapers through the same scenario, one :func:`simulate` each.
+
+    Every run uses the same ``seed``, hence the same noise sequence (common random numbers, so
+    differences between shapers are not noise).
+
+    Args:
+        shapers: Name -> shaper, non-empty; names become :attr:`Trajectory.name` and the keys of
+            the result (same order).
+        command: As in :func:`simulate`.
+        p0: As in :func:`simulate`.
+        duration: As in :func:`simulate`, [s].
+        dt: As in :func:`simulate`, [s].
+        disturbance: As in :func:`simulate`.
+        saturate: As in :func:`simulate`.
+        noise_std: As in :func:`simulate`, workspace units.
+        seed: As in :func:`simulate`.
+        plant: As in :func:`simulate`.
+        on_step: Progress callback ``(name, fraction)``, fraction in [0, 1] of that shaper's run
+            (about 100 calls per run, the last with 1.0); e.g. to drive a rich progress bar.
+
+    Returns:
+        Name -> :class:`Trajectory`.
+    """
+    if not isinstance(shapers, Mapping) or len(shapers) == 0:
+        raise InvalidParameter(
+            f"shapers must be a non-empty mapping name -> shaper, got {shapers!r}"
+        )
+    for key in shapers:
+        if not isinstance(key, str):
+            raise InvalidParameter(f"shaper names must be str, got {key!r}")
+    _optional_callable("on_step", on_step)
+
+    def progress(name: str) -> Callable[[float], None] | None:
+        if on_step is None:
+            return None
+        cb = on_step
+        return lambda fraction: cb(name, fraction)
+
+    return {
+        name: simulate(
+            shaper,
+            command,
+            p0,
+            duration=duration,
+            dt=dt,
+            disturbance=disturbance,
+            saturate=saturate,
+            noise_std=noise_std,
+            seed=seed,
+            plant=plant,
+            name=name,
+            on_progress=progress(name),
+        )
+        for name, shaper in shapers.items()
+    }

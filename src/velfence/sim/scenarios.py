@@ -1,0 +1,163 @@
+"""Scripted operators and the built-in demo scenario.
+
+An operator is a callable ``command(t, p) -> v`` (workspace units per second). The waypoint operator
+heads for the current target at up to the waypoint's speed, slowing linearly inside
+``speed / gain`` of it; targets placed beyond the boundary make it push into edges and corners,
+which is what the demo needs.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from velfence.errors import InvalidParameter
+from velfence.geometry.polygon import ConvexPolygon
+
+__all__ = [
+    "Script",
+    "Waypoint",
+    "WaypointOperator",
+    "constant",
+    "default_script",
+    "operator_from",
+]
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class Waypoint:
+    """From time ``t`` [s] head for ``target`` (workspace units) at up to ``speed`` [units/s]."""
+
+    t: float
+    target: tuple[float, float]
+    speed: float
+
+
+@dataclass(frozen=True)
+class Script:
+    """A scenario: start point, operator waypoints, disturbance pushes and duration."""
+
+    start: tuple[float, float]
+    waypoints: tuple[Waypoint, ...]
+    pushes: tuple[tuple[float, float, tuple[float, float]], ...]  # (t0, t1, velocity)
+    duration: float
+    labels: tuple[str, ...] = ()
+
+
+class WaypointOperator:
+    """A scripted operator following :class:`Waypoint` targets.
+
+    Args:
+        waypoints: In time order; the first must start at t = 0.
+        gain: Proportional gain near the target [1/s].
+    """
+
+    def __init__(self, waypoints: tuple[Waypoint, ...], *, gain: float = 6.0) -> None:
+        if not waypoints:
+            raise InvalidParameter("an operator needs at least one waypoint, got none")
+        if not (math.isfinite(gain) and gain > 0):
+            raise InvalidParameter(f"gain must be finite and > 0 [1/s], got {gain!r}")
+        self.waypoints = waypoints
+        self.gain = gain
+        self._times = [w.t for w in waypoints]
+
+    def active(self, t: float) -> Waypoint:
+        """The waypoint in force at time ``t``."""
+        i = 0
+        for k, tk in enumerate(self._times):
+            if tk <= t:
+                i = k
+        return self.waypoints[i]
+
+    def __call__(self, t: float, p: FloatArray) -> FloatArray:
+        """Commanded velocity at time ``t`` [s] from position ``p`` (shape (2,))."""
+        w = self.active(t)
+        e = np.asarray(w.target, dtype=float) - p
+        dist = math.hypot(e[0], e[1])
+        speed = min(w.speed, self.gain * dist)
+        if dist == 0.0:
+            return np.zeros(2)
+        return np.asarray(e * (speed / dist), dtype=float)
+
+
+def default_script(polygon: ConvexPolygon, *, buffer: float) -> Script:
+    """The built-in demo script, derived from the polygon's features.
+
+    Phases, each long enough to travel its distance at its speed and then dwell: start outside the
+    longest edge and come in; press into that edge and sweep along it; push into the most acute
+    corner; push into the most obtuse corner; a fast move into the far side; hold near the long
+    edge while an external push drives the mechanism outward, then let go.
+    """
+    c = polygon.corners
+    n = polygon.n
+    cen = polygon.centroid
+    size = float(np.max(np.linalg.norm(c - cen, axis=1)))
+    lengths = np.linalg.norm(np.roll(c, -1, axis=0) - c, axis=1)
+    e = int(np.argmax(lengths))
+    a, b = c[e], c[(e + 1) % n]
+    normal = polygon.normals[e]
+    start = 0.5 * (a + b) - 0.6 * buffer * normal
+    ang = polygon.interior_angles
+    acute = int(np.argmin(ang))
+    obtuse = int(np.argmax(np.where(np.arange(n) == acute, -1.0, ang)))
+    far = int(np.argmin(polygon.normals @ polygon.normals[obtuse - 1]))  # faces corner's edge
+
+    def beyond_corner(i: int) -> FloatArray:
+        d = c[i] - cen
+        return np.asarray(c[i] + 0.4 * size * d / np.linalg.norm(d), dtype=float)
+
+    plan: list[tuple[str, FloatArray, float, float]] = [  # label, target, speed, dwell [s]
+        ("start outside, come in", cen.copy(), 0.6, 0.2),
+        ("press into the long edge", a + 0.3 * (b - a) - 0.4 * size * normal, 0.8, 0.4),
+        ("sweep along it, pressing", a + 0.85 * (b - a) - 0.4 * size * normal, 0.7, 0.3),
+        (f"push into acute corner {acute}", beyond_corner(acute), 0.6, 0.8),
+        (f"push into obtuse corner {obtuse}", beyond_corner(obtuse), 0.6, 0.8),
+        (
+            "fast move into the far side",
+            0.5 * (c[far] + c[(far + 1) % n]) - 0.4 * size * polygon.normals[far],
+            2.0,
+            0.4,
+        ),
+        ("hold near the long edge", 0.5 * (a + b) + 0.5 * buffer * normal, 0.6, 0.3),
+    ]
+    t = 0.0
+    pos = np.asarray(start, dtype=float)
+    wps = []
+    for _label, target, speed, dwell in plan:
+        wps.append(Waypoint(t, (float(target[0]), float(target[1])), speed))
+        reach = polygon.closest_point(target)
+        t += float(np.linalg.norm(reach - pos)) / speed + dwell
+        pos = reach
+    push_v = -0.5 * normal
+    pushes = ((t, t + 0.8, (float(push_v[0]), float(push_v[1]))),)
+    return Script(
+        start=(float(start[0]), float(start[1])),
+        waypoints=tuple(wps),
+        pushes=pushes,
+        duration=t + 2.0,
+        labels=tuple(p[0] for p in plan),
+    )
+
+
+def constant(
+    velocity: tuple[float, float] | FloatArray,
+) -> Callable[[float, FloatArray], FloatArray]:
+    """An operator that always commands ``velocity`` (shape (2,), workspace units per second)."""
+    v = np.array(velocity, dtype=float)
+    v.setflags(write=False)
+
+    def command(t: float, p: FloatArray) -> FloatArray:
+        return v
+
+    return command
+
+
+def operator_from(script: Script) -> Callable[[float, FloatArray], FloatArray]:
+    """The :class:`WaypointOperator` of a script."""
+    return WaypointOperator(script.waypoints)

@@ -1,0 +1,21 @@
+"""Plots and animations (matplotlib, Agg backend; imported lazily by the CLI).
+
+Math contract: none; every function takes data already computed and writes one file, returning
+its path. Workspace axes are labelled in the polygon's units (pitch/yaw [rad] for the wrist).
+"""
+
+from velfence.viz.plots import (
+    animate_trajectories,
+    plot_quiver,
+    plot_velocity_patterns,
+    plot_velocity_profiles,
+    plot_workspace,
+)
+
+__all__ = [
+    "animate_trajectories",
+    "plot_quiver",
+    "plot_velocity_patterns",
+    "plot_velocity_profiles",
+    "plot_workspace",
+]

@@ -1,0 +1,295 @@
+"""Workspace, velocity-profile, velocity-field and animation plots."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any, Protocol
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.animation import FuncAnimation, PillowWriter
+from numpy.typing import NDArray
+
+from velfence.geometry.polygon import ConvexPolygon, Rectangle
+from velfence.shaping.base import Shaper
+
+__all__ = [
+    "animate_trajectories",
+    "plot_quiver",
+    "plot_velocity_patterns",
+    "plot_velocity_profiles",
+    "plot_workspace",
+]
+
+FloatArray = NDArray[np.float64]
+
+COLORS = {
+    "none": "#9e9e9e",
+    "hard-stop": "#d62728",
+    "axis-limits": "#ff7f0e",
+    "patent": "#1f77b4",
+    "exact": "#2ca02c",
+}
+
+
+class TrajectoryLike(Protocol):
+    """What the plots need of a simulated trajectory."""
+
+    @property
+    def t(self) -> FloatArray: ...
+
+    @property
+    def p(self) -> FloatArray: ...
+
+    @property
+    def v_cmd(self) -> FloatArray: ...
+
+    @property
+    def v_out(self) -> FloatArray: ...
+
+
+def _color(name: str, i: int) -> str:
+    return COLORS.get(name, f"C{i % 10}")
+
+
+def _draw_polygon(
+    ax: Any,
+    polygon: ConvexPolygon,
+    *,
+    buffer: float | None = None,
+    rectangle: Rectangle | None = None,
+    margin: float = 0.25,
+) -> None:
+    c = polygon.corners
+    closed = np.vstack([c, c[:1]])
+    ax.plot(closed[:, 0], closed[:, 1], color="k", lw=1.8, label="workspace polygon", zorder=3)
+    lo = c.min(axis=0)
+    hi = c.max(axis=0)
+    span = hi - lo
+    lo = lo - margin * span
+    hi = hi + margin * span
+    if buffer is not None:
+        xs = np.linspace(lo[0], hi[0], 300)
+        ys = np.linspace(lo[1], hi[1], 300)
+        X, Y = np.meshgrid(xs, ys)
+        D = polygon.signed_distances(np.stack([X.ravel(), Y.ravel()], axis=1)).min(axis=1)
+        ax.contourf(X, Y, D.reshape(X.shape), levels=[0.0, buffer], colors=["#fde9c9"], zorder=0)
+        ax.contour(
+            X, Y, D.reshape(X.shape), levels=[buffer], colors=["#e0a030"], linewidths=0.8,
+            linestyles="--",
+        )  # fmt: skip
+    if rectangle is not None:
+        r = np.vstack([rectangle.corners, rectangle.corners[:1]])
+        ax.plot(r[:, 0], r[:, 1], color="#7b3294", lw=1.0, ls=":", label="inscribed rectangle")
+    ax.set_xlim(lo[0], hi[0])
+    ax.set_ylim(lo[1], hi[1])
+    ax.set_aspect("equal")
+
+
+def plot_workspace(
+    polygon: ConvexPolygon,
+    trajectories: Mapping[str, TrajectoryLike],
+    path: str | Path,
+    *,
+    buffer: float | None = None,
+    rectangle: Rectangle | None = None,
+    labels: Sequence[str] = ("pitch [rad]", "yaw [rad]"),
+    title: str = "Workspace and trajectories",
+) -> Path:
+    """The polygon, its buffer band, the inscribed rectangle and every trajectory.
+
+    Returns:
+        The path written.
+    """
+    fig, ax = plt.subplots(figsize=(7.5, 6.5))
+    _draw_polygon(ax, polygon, buffer=buffer, rectangle=rectangle)
+    for i, (name, tr) in enumerate(trajectories.items()):
+        ax.plot(tr.p[:, 0], tr.p[:, 1], color=_color(name, i), lw=1.2, label=name, alpha=0.9)
+        ax.plot(tr.p[0, 0], tr.p[0, 1], "o", color=_color(name, i), ms=4)
+    ax.set_xlabel(labels[0])
+    ax.set_ylabel(labels[1])
+    ax.set_title(title)
+    ax.legend(loc="upper right", fontsize=8)
+    out = Path(path)
+    fig.tight_layout()
+    fig.savefig(out, dpi=130)
+    plt.close(fig)
+    return out
+
+
+def plot_velocity_profiles(
+    polygon: ConvexPolygon,
+    trajectories: Mapping[str, TrajectoryLike],
+    path: str | Path,
+) -> Path:
+    """Speed, normal speed and boundary distance of every method against time.
+
+    Panels: commanded vs shaped speed; inward normal speed towards the nearest edge; the
+    smallest signed distance to the boundary (negative = outside).
+
+    Returns:
+        The path written.
+    """
+    fig, axes = plt.subplots(3, 1, figsize=(9, 8), sharex=True)
+    for i, (name, tr) in enumerate(trajectories.items()):
+        col = _color(name, i)
+        d = polygon.signed_distances(tr.p)
+        nearest = np.argmin(d, axis=1)
+        normals = polygon.normals[nearest]
+        vn = np.einsum("ij,ij->i", tr.v_out, normals)
+        axes[0].plot(tr.t, np.linalg.norm(tr.v_out, axis=1), color=col, lw=1, label=name)
+        axes[1].plot(tr.t, vn, color=col, lw=1, label=name)
+        axes[2].plot(tr.t, d.min(axis=1), color=col, lw=1, label=name)
+    first = next(iter(trajectories.values()))
+    axes[0].plot(
+        first.t, np.linalg.norm(first.v_cmd, axis=1), color="k", lw=0.8, ls=":", label="commanded"
+    )
+    axes[0].set_ylabel("speed [rad/s]")
+    axes[1].set_ylabel("inward normal speed\n(nearest edge) [rad/s]")
+    axes[2].set_ylabel("min signed distance [rad]")
+    axes[2].axhline(0.0, color="k", lw=0.8)
+    axes[2].set_xlabel("time [s]")
+    axes[0].legend(fontsize=7, ncol=3)
+    fig.tight_layout()
+    out = Path(path)
+    fig.savefig(out, dpi=120)
+    plt.close(fig)
+    return out
+
+
+def plot_quiver(
+    polygon: ConvexPolygon,
+    shapers: Mapping[str, Shaper],
+    path: str | Path,
+    *,
+    command: Sequence[float] = (1.0, 0.35),
+    buffer: float | None = None,
+    grid: int = 23,
+) -> Path:
+    """The velocity field of each shaper for one constant command, over the workspace.
+
+    Returns:
+        The path written.
+    """
+    k = len(shapers)
+    cols = min(k, 3)
+    rows = (k + cols - 1) // cols
+    fig, axes = plt.subplots(rows, cols, figsize=(4.6 * cols, 4.3 * rows), squeeze=False)
+    c = polygon.corners
+    lo, hi = c.min(axis=0), c.max(axis=0)
+    span = hi - lo
+    xs = np.linspace(lo[0] - 0.15 * span[0], hi[0] + 0.15 * span[0], grid)
+    ys = np.linspace(lo[1] - 0.15 * span[1], hi[1] + 0.15 * span[1], grid)
+    X, Y = np.meshgrid(xs, ys)
+    P = np.stack([X.ravel(), Y.ravel()], axis=1)
+    V = np.tile(np.asarray(command, dtype=float), (P.shape[0], 1))
+    for ax, (i, (name, shaper)) in zip(axes.ravel(), enumerate(shapers.items()), strict=False):
+        _draw_polygon(ax, polygon, buffer=buffer, margin=0.18)
+        out = shaper.shape_batch(P, V)
+        mag = np.linalg.norm(out, axis=1)
+        ax.quiver(
+            P[:, 0], P[:, 1], out[:, 0], out[:, 1], mag, cmap="viridis", angles="xy",
+            scale_units="xy", scale=float(np.linalg.norm(command)) / (0.8 * (xs[1] - xs[0])),
+            width=0.004,
+        )  # fmt: skip
+        ax.set_title(f"{name}: command {tuple(round(x, 2) for x in command)}", fontsize=9)
+        _ = i
+    for ax in axes.ravel()[k:]:
+        ax.axis("off")
+    fig.tight_layout()
+    outp = Path(path)
+    fig.savefig(outp, dpi=110)
+    plt.close(fig)
+    return outp
+
+
+def animate_trajectories(
+    polygon: ConvexPolygon,
+    trajectories: Mapping[str, TrajectoryLike],
+    path: str | Path,
+    *,
+    buffer: float | None = None,
+    frames: int = 60,
+    fps: int = 12,
+) -> Path:
+    """A GIF of every trajectory's point moving through the workspace, with a fading trail.
+
+    Returns:
+        The path written.
+    """
+    fig, ax = plt.subplots(figsize=(4.8, 4.4))
+    _draw_polygon(ax, polygon, buffer=buffer)
+    first = next(iter(trajectories.values()))
+    n = len(first.t)
+    idx = np.linspace(0, n - 1, frames).astype(int)
+    dots = {}
+    trails = {}
+    for i, (name, _) in enumerate(trajectories.items()):
+        col = _color(name, i)
+        (trails[name],) = ax.plot([], [], color=col, lw=1.0, alpha=0.6)
+        (dots[name],) = ax.plot([], [], "o", color=col, ms=5, label=name)
+    ax.legend(loc="upper right", fontsize=7)
+    stamp = ax.set_title("")
+
+    def update(f: int) -> list[Any]:
+        j = idx[f]
+        for name, tr in trajectories.items():
+            lo = max(0, j - n // 8)
+            trails[name].set_data(tr.p[lo : j + 1, 0], tr.p[lo : j + 1, 1])
+            dots[name].set_data([tr.p[j, 0]], [tr.p[j, 1]])
+        stamp.set_text(f"t = {first.t[j]:.2f} s")
+        return [*trails.values(), *dots.values(), stamp]
+
+    anim = FuncAnimation(fig, update, frames=frames, blit=False)
+    out = Path(path)
+    anim.save(out, writer=PillowWriter(fps=fps), dpi=70)
+    plt.close(fig)
+    return out
+
+
+def plot_velocity_patterns(
+    polygon: ConvexPolygon,
+    shapers: Mapping[str, Shaper],
+    points: Sequence[Sequence[float]],
+    path: str | Path,
+    *,
+    buffer: float | None = None,
+    speed: float = 0.1,
+    rays: int = 48,
+) -> Path:
+    """The patent's FIG. 7: at sample points, the shaped output of a ring of commands.
+
+    Each point shows the ends of ``shape(p, speed·u)`` for unit vectors ``u`` around the circle:
+    a full circle where motion is free, a flattened circle in the buffer, a semicircle (plus the
+    spring) outside.
+
+    Returns:
+        The path written.
+    """
+    k = len(shapers)
+    fig, axes = plt.subplots(1, k, figsize=(5.2 * k, 4.8), squeeze=False)
+    ang = np.linspace(0.0, 2.0 * np.pi, rays, endpoint=False)
+    U = speed * np.stack([np.cos(ang), np.sin(ang)], axis=1)
+    for ax, (i, (name, shaper)) in zip(axes.ravel(), enumerate(shapers.items()), strict=False):
+        _draw_polygon(ax, polygon, buffer=buffer, margin=0.12)
+        for p in points:
+            P = np.tile(np.asarray(p, dtype=float), (rays, 1))
+            out = shaper.shape_batch(P, U)
+            ring = np.vstack([P + out, P[:1] + out[:1]])
+            ax.plot(ring[:, 0], ring[:, 1], color=_color(name, i), lw=1.2)
+            ax.plot(
+                P[0, 0] + U[:, 0].tolist() + [U[0, 0]],
+                P[0, 1] + U[:, 1].tolist() + [U[0, 1]],
+                color="k", lw=0.5, ls=":",
+            )  # fmt: skip
+            ax.plot(P[0, 0], P[0, 1], "k.", ms=3)
+        ax.set_title(f"{name}: allowed velocities (FIG. 7)", fontsize=9)
+    fig.tight_layout()
+    out_path = Path(path)
+    fig.savefig(out_path, dpi=120)
+    plt.close(fig)
+    return out_path
