@@ -277,6 +277,35 @@ class ConvexPolygon:
             raise InvalidGeometry(f"scale factor must be finite and > 0, got {factor!r}")
         return ConvexPolygon(self.centroid + factor * (self.corners - self.centroid))
 
+    def closest_point(self, p: ArrayLike) -> FloatArray:
+        """The point of the closed polygon nearest to ``p`` (``p`` itself when inside).
+
+        Args:
+            p: Point, shape (2,), workspace units.
+
+        Returns:
+            Shape (2,).
+        """
+        pa = _points(p)
+        if pa.ndim != 1:
+            raise InvalidInput(f"expected one point of shape (2,), got shape {pa.shape}")
+        if np.all(self.signed_distances(pa) >= 0.0):
+            return pa.copy()
+        a = self.corners
+        e = np.roll(a, -1, axis=0) - a
+        t = np.clip(np.einsum("ij,ij->i", pa - a, e) / np.einsum("ij,ij->i", e, e), 0.0, 1.0)
+        q = a + t[:, None] * e
+        return np.asarray(q[np.argmin(np.linalg.norm(q - pa, axis=1))], dtype=float)
+
+    @property
+    def interior_angles(self) -> FloatArray:
+        """Interior angle at every corner, [rad], shape (n,), each in (0, π)."""
+        c = self.corners
+        a = np.roll(c, 1, axis=0) - c
+        b = np.roll(c, -1, axis=0) - c
+        cross = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+        return np.asarray(np.abs(np.arctan2(cross, np.einsum("ij,ij->i", a, b))), dtype=float)
+
     def __repr__(self) -> str:
         pts = ", ".join(f"({x:.4g}, {y:.4g})" for x, y in self.corners)
         return f"ConvexPolygon([{pts}])"
