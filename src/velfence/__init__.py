@@ -5,23 +5,42 @@
 
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter, VelfenceError
 from velfence.geometry import ConvexPolygon, Rectangle, decompose, inscribed_rectangle
+from velfence.mechanisms import Wrist, WristGeometry
 from velfence.shaping import STAGE_NAMES, ZONE_NAMES, PolygonShaper, Shaper, ShapingResult
+from velfence.sim import (
+    AxisLimits,
+    Disturbance,
+    HardStop,
+    NoLimit,
+    Trajectory,
+    simulate,
+    simulate_many,
+)
 
 __version__ = "0.1.0"
 
 __all__ = [
     "STAGE_NAMES",
     "ZONE_NAMES",
+    "AxisLimits",
     "ConvexPolygon",
+    "Disturbance",
+    "HardStop",
     "InvalidGeometry",
     "InvalidInput",
     "InvalidParameter",
+    "NoLimit",
     "PolygonShaper",
     "Rectangle",
     "Shaper",
     "ShapingResult",
+    "Trajectory",
     "VelfenceError",
+    "Wrist",
+    "WristGeometry",
     "__version__",
     "decompose",
     "inscribed_rectangle",
+    "simulate",
+    "simulate_many",
 ]
