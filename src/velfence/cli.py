@@ -9,6 +9,7 @@ from typing import Annotated
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 from rich.table import Table
 
 from velfence.errors import VelfenceError
@@ -29,7 +30,7 @@ REPRODUCTIONS: dict[str, str] = {
 
 
 def _fail(msg: str) -> typer.Exit:
-    Console(stderr=True).print(f"[bold red]error:[/] {msg}")
+    Console(stderr=True).print(f"[bold red]error:[/] {escape(msg)}")
     return typer.Exit(code=2)
 
 
@@ -73,16 +74,16 @@ def reproduce(
     if json_out:
         sys.stdout.write(report.to_json() + "\n")
     else:
-        table = Table(title=f"reproduce {name}")
-        for col in ("check", "source", "expected", "measured", "tol", "ok"):
-            table.add_column(col)
+        table = Table(title=f"reproduce {name}", show_lines=True)
+        table.add_column("check (source)", ratio=3)
+        table.add_column("expected", ratio=1)
+        table.add_column("measured", ratio=1)
+        table.add_column("result", ratio=1)
         for c in report.checks:
             table.add_row(
-                c.name,
-                c.source,
-                str(c.expected),
+                f"{c.name}\n[dim]{c.source}[/]",
+                f"{c.expected} (tol {_short(c.tolerance)})",
                 _short(c.measured),
-                str(c.tolerance),
                 "[green]pass[/]"
                 if c.passed
                 else ("[yellow]FAIL (source defect)[/]" if c.source_defect else "[red]FAIL[/]"),

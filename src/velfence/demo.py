@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 from rich.console import Console
+from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
@@ -27,7 +28,14 @@ from velfence.shaping.base import Shaper
 from velfence.shaping.polygon import PolygonShaper
 from velfence.sim.baselines import AxisLimits, HardStop, NoLimit
 from velfence.sim.disturbances import Disturbance
-from velfence.sim.metrics import corner_escape_time, max_output_jump, summarize
+from velfence.sim.metrics import (
+    corner_escape_time,
+    max_output_jump,
+    max_penetration,
+    sliding_ratio,
+    summarize,
+    time_outside,
+)
 from velfence.sim.runner import Trajectory, simulate_many
 from velfence.sim.scenarios import Script, Waypoint, WaypointOperator, default_script
 
@@ -85,6 +93,28 @@ def _script(polygon: ConvexPolygon, cfg: DemoConfig) -> Script:
     )
 
 
+#: Phases of the default script whose metrics go into the summary table, by label prefix.
+_PHASE_KEYS = {
+    "start outside": "start",
+    "sweep along": "sweep",
+    "push into acute": "acute",
+    "fast move": "fast",
+}
+
+
+def _phase_windows(script: Script) -> dict[str, tuple[float, float]]:
+    """Time windows [s] of the named phases (default script) and of the external push."""
+    out: dict[str, tuple[float, float]] = {}
+    times = [w.t for w in script.waypoints] + [script.duration]
+    for k, label in enumerate(script.labels):
+        for prefix, key in _PHASE_KEYS.items():
+            if label.startswith(prefix):
+                out[key] = (times[k], times[k + 1])
+    if script.pushes:
+        out["push"] = (min(p[0] for p in script.pushes), script.duration)
+    return out
+
+
 def _fmt(x: float) -> str:
     if math.isinf(x):
         return "∞"
@@ -113,6 +143,8 @@ def run_demo(
     """
     cfg = config if config is not None else load_config(config_path)
     console = console or Console(quiet=True)
+    if console.width < 120 and not console.is_terminal:
+        console.width = 120
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     wrist = Wrist(WristGeometry())
@@ -158,6 +190,7 @@ def run_demo(
     acute = int(np.argmin(ang))
     probe = np.array([[1.0, 0.35], [-0.6, 0.8], [0.0, -1.0]])
     spacing = band / 8.0
+    windows = _phase_windows(script)
     metrics: dict[str, dict[str, float]] = {}
     for name, tr in trajs.items():
         m = summarize(tr, polygon, band=band)
@@ -167,6 +200,11 @@ def run_demo(
         m["max_output_jump"] = float(
             max_output_jump(shapers[name], polygon, spacing=spacing, commands=probe)
         )
+        for key, (t0, t1) in windows.items():
+            part = tr.window(t0, t1)
+            m[f"{key}.max_penetration"] = max_penetration(part, polygon)
+            m[f"{key}.time_outside"] = time_outside(part, polygon, tol=1e-6)
+            m[f"{key}.sliding_ratio"] = sliding_ratio(part, polygon, band=band)
         metrics[name] = m
     artifacts = list(_write_plots(polygon, trajs, shapers, cfg, out))
     meta = {
@@ -225,15 +263,16 @@ def _table(metrics: dict[str, dict[str, float]]) -> Table:
     table = Table(title="velfence demo — wrist scenario (1 kHz, actuator saturation, push)")
     cols = (
         ("method", None),
-        ("max penetration [rad]", "max_penetration"),
-        ("time outside [s]", "time_outside"),
-        ("chatter [1/s]", "chatter_rate"),
-        ("sliding ratio", "sliding_ratio"),
-        ("acute-corner time [s]", "acute_corner_escape_time"),
-        ("max output jump [rad/s]", "max_output_jump"),
+        ("start:\ntime to get in [s]", "start.time_outside"),
+        ("sweep:\nsliding ratio", "sweep.sliding_ratio"),
+        ("acute corner:\nmax out [rad]", "acute.max_penetration"),
+        ("fast move:\nmax out [rad]", "fast.max_penetration"),
+        ("push:\nmax out [rad]", "push.max_penetration"),
+        ("chatter\n[1/s]", "chatter_rate"),
+        ("max output\njump [rad/s]", "max_output_jump"),
     )
-    for title, _ in cols:
-        table.add_column(title, justify="right" if _ else "left")
+    for title, key in cols:
+        table.add_column(escape(title), justify="right" if key else "left")
     for name, m in metrics.items():
-        table.add_row(name, *(_fmt(m[key]) for _, key in cols[1:] if key is not None))
+        table.add_row(name, *(_fmt(m.get(key, math.nan)) for _, key in cols[1:] if key))
     return table

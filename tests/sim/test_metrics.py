@@ -155,3 +155,33 @@ def test_summarize_is_json_serialisable():
         max_penetration(traj.p, SQUARE)  # type: ignore[arg-type]
     with pytest.raises(vf.InvalidParameter, match=r"band must be finite and > 0"):
         chatter_rate(traj, SQUARE, band=-1.0)
+
+
+def test_chatter_ignores_reversals_the_operator_commanded():
+    n = 41
+    p = np.tile([0.5, 0.01], (n, 1))
+    v = np.zeros((n, 2))
+    v[:, 1] = np.where(np.arange(n) % 2 == 0, 1.0, -1.0)
+    # The output follows a command that itself alternates: the limiter added no reversal.
+    assert chatter_rate(make(p, v_out=v, v_cmd=v), SQUARE, band=0.05) == 0.0
+    # Same output against a constant command: every reversal is the limiter's.
+    steady = np.tile([0.0, -1.0], (n, 1))
+    assert chatter_rate(make(p, v_out=v, v_cmd=steady), SQUARE, band=0.05) > 0.0
+
+
+def test_chatter_ignores_the_reference_switch_at_a_corner():
+    # Moving diagonally through the corner region: the nearest edge switches from bottom to
+    # right, the output's normal sign with respect to the nearest edge flips; no chatter.
+    p = np.array([[0.9, 0.02], [0.95, 0.03], [0.98, 0.06], [0.985, 0.09]])
+    v = np.tile([0.5, 0.5], (4, 1))  # inward for the bottom edge, outward for the right edge
+    assert chatter_rate(make(p, v_out=v, v_cmd=v), SQUARE, band=0.2) == 0.0
+
+
+def test_trajectory_window_selects_half_open_interval():
+    traj = line_exiting_bottom()
+    part = traj.window(0.25, 0.75)
+    assert part.t[0] == pytest.approx(0.25)
+    assert part.t[-1] == pytest.approx(0.625)
+    np.testing.assert_array_equal(part.p, traj.p[2:6])
+    with pytest.raises(vf.InvalidInput, match="no row in the window"):
+        traj.window(100.0, 101.0)

@@ -101,7 +101,7 @@ def check_close(
     name: str, source: str, expected: float, measured: float, tol: float, note: str = ""
 ) -> Check:
     """A check that ``|measured - expected| <= tol``."""
-    ok = math.isfinite(measured) and abs(measured - expected) <= tol
+    ok = bool(math.isfinite(measured) and abs(measured - expected) <= tol)
     return Check(name, source, expected, measured, tol, ok, note)
 
 

@@ -101,8 +101,11 @@ def chatter_rate(
 
     For every row near the boundary, :math:`s_k = \mathrm{sign}_\epsilon(n_{e_k}\cdot v^{out}_k)`
     (+1 above ``deadband``, -1 below ``-deadband``, 0 otherwise). Within each maximal run of
-    consecutive near rows, zeros are skipped and the changes between successive non-zero signs
-    are counted (``+, 0, -`` is one change). The rate is that count divided by
+    consecutive near rows *with the same nearest edge*, zeros are skipped and the changes between
+    successive non-zero signs are counted (``+, 0, -`` is one change) — unless the command's own
+    normal sign changed between the two rows: a reversal the operator asked for is not chatter,
+    and neither is the change of reference normal when the nearest edge switches at a corner.
+    The rate is that count divided by
     :math:`T_{near} = \sum \Delta t_k` over consecutive row pairs both near; 0.0 when
     :math:`T_{near} = 0`.
 
@@ -121,18 +124,23 @@ def chatter_rate(
     count = 0
     t_near = 0.0
     last = 0
+    last_cmd = 0
     for k in range(len(traj)):
-        if not near[k]:
+        if not near[k] or (k > 0 and edge[k] != edge[k - 1]):
             last = 0
+        if not near[k]:
             continue
         if k > 0 and near[k - 1]:
             t_near += float(traj.t[k] - traj.t[k - 1])
         vn, _ = decompose(traj.v_out[k], polygon.normals[edge[k]])
+        cn, _ = decompose(traj.v_cmd[k], polygon.normals[edge[k]])
         s = _sign(vn, deadband)
+        c = _sign(cn, deadband)
         if s != 0:
-            if last != 0 and s != last:
+            if last != 0 and s != last and c == last_cmd:
                 count += 1
             last = s
+            last_cmd = c
     return count / t_near if t_near > 0.0 else 0.0
 
 

@@ -122,6 +122,27 @@ class Trajectory:
         """``t[-1] - t[0]``, [s]."""
         return float(self.t[-1] - self.t[0])
 
+    def window(self, t0: float, t1: float) -> Trajectory:
+        """The rows with ``t0 <= t < t1`` [s], as a new trajectory (for per-phase metrics).
+
+        Raises:
+            InvalidInput: when no row falls in the window.
+        """
+        rows = (self.t >= t0) & (self.t < t1)
+        if not rows.any():
+            raise InvalidInput(
+                f"no row in the window [{t0}, {t1}) s; the run covers [{self.t[0]}, {self.t[-1]}] s"
+            )
+        return Trajectory(
+            self.t[rows],
+            self.p[rows],
+            self.v_cmd[rows],
+            self.v_out[rows],
+            zone=self.zone[rows],
+            name=self.name,
+            p_measured=self.p_measured[rows],
+        )
+
 
 def _finite_pair(what: str, x: Any, k: int, t: float) -> tuple[float, float]:
     a, b = as_pair(what, x)

@@ -258,14 +258,27 @@ def plot_velocity_patterns(
     path: str | Path,
     *,
     buffer: float | None = None,
-    speed: float = 0.1,
+    speed: float = 1.0,
+    radius: float | None = None,
     rays: int = 48,
 ) -> Path:
     """The patent's FIG. 7: at sample points, the shaped output of a ring of commands.
 
-    Each point shows the ends of ``shape(p, speed·u)`` for unit vectors ``u`` around the circle:
-    a full circle where motion is free, a flattened circle in the buffer, a semicircle (plus the
-    spring) outside.
+    Each point shows the ends of ``shape(p, speed·u)`` for unit vectors ``u`` around the circle
+    (dotted: the commands), drawn so that ``speed`` spans ``radius`` workspace units: a full
+    circle where motion is free, a flattened circle in the buffer, a semicircle shifted inward by
+    the spring outside.
+
+    Args:
+        polygon: The workspace.
+        shapers: Name -> shaper, one panel each.
+        points: Sample positions, workspace units.
+        path: Output file.
+        buffer: Buffer width to shade, workspace units.
+        speed: Command speed [units/s].
+        radius: Drawn radius of the command circle [workspace units]; default 3 % of the
+            polygon's span.
+        rays: Commands per circle.
 
     Returns:
         The path written.
@@ -274,18 +287,17 @@ def plot_velocity_patterns(
     fig, axes = plt.subplots(1, k, figsize=(5.2 * k, 4.8), squeeze=False)
     ang = np.linspace(0.0, 2.0 * np.pi, rays, endpoint=False)
     U = speed * np.stack([np.cos(ang), np.sin(ang)], axis=1)
+    span = float(np.max(polygon.corners.max(axis=0) - polygon.corners.min(axis=0)))
+    draw = (0.03 * span if radius is None else radius) / speed
     for ax, (i, (name, shaper)) in zip(axes.ravel(), enumerate(shapers.items()), strict=False):
         _draw_polygon(ax, polygon, buffer=buffer, margin=0.12)
         for p in points:
             P = np.tile(np.asarray(p, dtype=float), (rays, 1))
-            out = shaper.shape_batch(P, U)
+            out = draw * shaper.shape_batch(P, U)
             ring = np.vstack([P + out, P[:1] + out[:1]])
             ax.plot(ring[:, 0], ring[:, 1], color=_color(name, i), lw=1.2)
-            ax.plot(
-                P[0, 0] + U[:, 0].tolist() + [U[0, 0]],
-                P[0, 1] + U[:, 1].tolist() + [U[0, 1]],
-                color="k", lw=0.5, ls=":",
-            )  # fmt: skip
+            cmd = np.vstack([P + draw * U, P[:1] + draw * U[:1]])
+            ax.plot(cmd[:, 0], cmd[:, 1], color="k", lw=0.5, ls=":")
             ax.plot(P[0, 0], P[0, 1], "k.", ms=3)
         ax.set_title(f"{name}: allowed velocities (FIG. 7)", fontsize=9)
     fig.tight_layout()
