@@ -24,6 +24,7 @@ from rich.table import Table
 from velfence.geometry.polygon import ConvexPolygon
 from velfence.io.config import DemoConfig, load_config
 from velfence.mechanisms.wrist import Wrist, WristGeometry
+from velfence.reproduce.base import jsonable
 from velfence.shaping.base import Shaper
 from velfence.shaping.polygon import PolygonShaper
 from velfence.sim.baselines import AxisLimits, HardStop, NoLimit
@@ -108,9 +109,9 @@ def _phase_windows(script: Script) -> dict[str, tuple[float, float]]:
     times = [w.t for w in script.waypoints] + [script.duration]
     for k, label in enumerate(script.labels):
         for prefix, key in _PHASE_KEYS.items():
-            if label.startswith(prefix):
+            if label.startswith(prefix) and times[k] < script.duration:  # reached in this run
                 out[key] = (times[k], times[k + 1])
-    if script.pushes:
+    if script.pushes and min(p[0] for p in script.pushes) < script.duration:
         out["push"] = (min(p[0] for p in script.pushes), script.duration)
     return out
 
@@ -228,7 +229,7 @@ def run_demo(
         },
     }
     mpath = out / "metrics.json"
-    mpath.write_text(json.dumps(meta, indent=2, default=str))
+    mpath.write_text(json.dumps(jsonable(meta), indent=2, default=str, allow_nan=False))
     artifacts.append(mpath)
     return DemoResult(metrics, _table(metrics), tuple(artifacts), trajs)
 

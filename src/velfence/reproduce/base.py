@@ -15,16 +15,19 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
-__all__ = ["Check", "Report", "check_at_least", "check_at_most", "check_close"]
+__all__ = ["Check", "Report", "check_at_least", "check_at_most", "check_close", "jsonable"]
 
 
-def _jsonable(x: Any) -> Any:
+def jsonable(x: Any) -> Any:
+    """A strict-JSON-ready copy: non-finite floats become strings, arrays lists, dicts recurse."""
     if isinstance(x, float) and not math.isfinite(x):
         return str(x)
+    if isinstance(x, dict):
+        return {str(k): jsonable(v) for k, v in x.items()}
     if isinstance(x, (list, tuple)):
-        return [_jsonable(a) for a in x]
+        return [jsonable(a) for a in x]
     if hasattr(x, "tolist"):
-        return _jsonable(x.tolist())
+        return jsonable(x.tolist())
     return x
 
 
@@ -59,9 +62,9 @@ class Check:
         d = {
             "name": self.name,
             "source": self.source,
-            "expected": _jsonable(self.expected),
-            "measured": _jsonable(self.measured),
-            "tolerance": _jsonable(self.tolerance),
+            "expected": jsonable(self.expected),
+            "measured": jsonable(self.measured),
+            "tolerance": jsonable(self.tolerance),
             "passed": bool(self.passed),
         }
         if self.note:
