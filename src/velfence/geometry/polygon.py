@@ -21,7 +21,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from velfence.errors import InvalidGeometry, InvalidInput
 
-__all__ = ["ConvexPolygon", "Rectangle", "decompose", "inscribed_rectangle"]
+__all__ = ["ConvexPolygon", "Rectangle", "as_polygon", "decompose", "inscribed_rectangle"]
 
 FloatArray = NDArray[np.float64]
 
@@ -341,6 +341,18 @@ def wedge_search(b: float, beta: Any, n: int) -> int:
 def wedge_index(px: float, py: float, cx: float, cy: float, a0: float, beta: Any, n: int) -> int:
     """Wedge (arc segment) of point (px, py) by one ``atan2`` and a binary search."""
     return wedge_search(wedge_angle(px, py, cx, cy, a0), beta, n)
+
+
+def as_polygon(x: Any, name: str = "polygon") -> ConvexPolygon:
+    """Return ``x`` if it is a :class:`ConvexPolygon`, else raise a clear InvalidParameter."""
+    if not isinstance(x, ConvexPolygon):
+        from velfence.errors import InvalidParameter
+
+        raise InvalidParameter(
+            f"{name} must be a velfence.ConvexPolygon, got {type(x).__name__}; "
+            "build one with velfence.ConvexPolygon(corners)"
+        )
+    return x
 
 
 def _points(p: ArrayLike) -> FloatArray:

@@ -23,8 +23,10 @@ from numpy.typing import ArrayLike, NDArray
 from velfence.errors import InvalidInput, InvalidParameter
 
 __all__ = [
+    "KernelOut",
     "OnInvalid",
     "Shaper",
+    "ShaperBase",
     "ShapingResult",
     "as_pair",
     "as_rows",
@@ -33,7 +35,14 @@ __all__ = [
 ]
 
 FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+BoolArray = NDArray[np.bool_]
 OnInvalid = Literal["raise", "stop"]
+
+#: What a shaper's scalar law returns: ``(ox, oy, zone, primary, secondary, d1, d2, sx, sy,
+#: stages)`` with ``zone`` indexing ``ZONE_NAMES`` and ``stages`` either a bit mask over
+#: ``STAGE_NAMES`` or a tuple of stage names.
+KernelOut = tuple[float, float, int, int, int, float, float, float, float, Any]
 
 
 @dataclass(frozen=True)
@@ -131,3 +140,161 @@ def as_rows(name: str, X: ArrayLike, n_cols: int = 2) -> FloatArray:
     if a.ndim != 2 or a.shape[1] != n_cols:
         raise InvalidInput(f"{name} must have shape (N, {n_cols}), got shape {a.shape}")
     return a
+
+
+class ShaperBase:
+    """The plumbing every 2-D shaper shares; a subclass supplies only its law.
+
+    Subclasses implement ``_law`` (one state, plain floats, returns :data:`KernelOut`) and
+    ``_law_batch`` (arrays, returns ``(out (N, 2), zones (N,))`` equal to looping ``_law``), and set
+    ``method``. This class owns input parsing, the ``on_invalid`` policy, the overflow guard,
+    :meth:`explain` and batch validation, so every shaper answers bad input the same way.
+    """
+
+    __slots__ = ("on_invalid",)
+    method: str = "shaper"
+
+    def __init__(self, *, on_invalid: str = "raise") -> None:
+        self.on_invalid = check_choice("on_invalid", on_invalid, ("raise", "stop"))
+
+    def _law(self, px: float, py: float, vx: float, vy: float) -> KernelOut:
+        raise NotImplementedError  # pragma: no cover
+
+    def _law_batch(self, P: FloatArray, V: FloatArray) -> tuple[FloatArray, IntArray]:
+        raise NotImplementedError  # pragma: no cover
+
+    def _invalid(self, what: str) -> None:
+        if self.on_invalid == "raise":
+            raise InvalidInput(
+                f"{what}; expected finite values. Pass on_invalid='stop' to get zero velocity "
+                "instead of an exception"
+            )
+
+    def _checked(self, px: float, py: float, vx: float, vy: float) -> KernelOut | None:
+        """The law's result, or None for invalid input / overflow under ``on_invalid="stop"``."""
+        s = px + py + vx + vy
+        if s - s != 0.0 and not all(math.isfinite(x) for x in (px, py, vx, vy)):
+            self._invalid(f"non-finite input: position=({px}, {py}), command=({vx}, {vy})")
+            return None
+        r = self._law(px, py, vx, vy)
+        if r[0] - r[0] != 0.0 or r[1] - r[1] != 0.0:
+            self._invalid(f"input too large, the shaped velocity overflowed: command=({vx}, {vy})")
+            return None
+        return r
+
+    def shape(self, p: ArrayLike, v: ArrayLike) -> FloatArray:
+        """Shaped velocity.
+
+        Args:
+            p: Position of the reference point, shape (2,), workspace units.
+            v: Commanded velocity, shape (2,), workspace units per second.
+
+        Returns:
+            The admissible velocity, shape (2,), never non-finite.
+
+        Raises:
+            InvalidInput: wrong shape, or non-finite input with ``on_invalid="raise"``.
+        """
+        # Fast path of as_pair() for the common case: two ndarrays of shape (2,).
+        if type(p) is np.ndarray and type(v) is np.ndarray and p.shape == (2,) and v.shape == (2,):
+            px, py = p.tolist()
+            vx, vy = v.tolist()
+        else:
+            px, py = as_pair("position", p)
+            vx, vy = as_pair("command", v)
+        r = self._checked(float(px), float(py), float(vx), float(vy))
+        if r is None:
+            return np.zeros(2)
+        return np.array((r[0], r[1]))
+
+    def explain(self, p: ArrayLike, v: ArrayLike) -> ShapingResult:
+        """Shaped velocity with the zone, edges, distances, spring and stages that produced it.
+
+        Args:
+            p: Position, shape (2,), workspace units.
+            v: Command, shape (2,), workspace units per second.
+        """
+        from velfence.shaping._kernels import STAGE_NAMES, ZONE_NAMES
+
+        px, py = as_pair("position", p)
+        vx, vy = as_pair("command", v)
+        pos = np.array((px, py))
+        cmd = np.array((vx, vy))
+        r = self._checked(px, py, vx, vy)
+        if r is None:
+            return ShapingResult(
+                np.zeros(2), cmd, pos, "invalid", -1, -1, math.nan, math.nan, np.zeros(2),
+                ("stop",), self.method,
+            )  # fmt: skip
+        st = r[9]
+        stages = (
+            tuple(name for bit, name in enumerate(STAGE_NAMES) if st & (1 << bit))
+            if isinstance(st, int)
+            else tuple(st)
+        )
+        return ShapingResult(
+            output=np.array((r[0], r[1])),
+            command=cmd,
+            position=pos,
+            zone=ZONE_NAMES[r[2]],
+            primary=r[3],
+            secondary=r[4],
+            d1=r[5],
+            d2=r[6],
+            spring=np.array((r[7], r[8])),
+            stages=stages,
+            method=self.method,
+        )
+
+    def shape_batch(self, P: ArrayLike, V: ArrayLike) -> FloatArray:
+        """Shaped velocities for N states at once; equal to looping :meth:`shape`.
+
+        Args:
+            P: Positions, shape (N, 2), workspace units.
+            V: Commands, shape (N, 2), workspace units per second.
+
+        Returns:
+            Shape (N, 2).
+        """
+        return self.zones_batch(P, V)[0]
+
+    def zones_batch(self, P: ArrayLike, V: ArrayLike) -> tuple[FloatArray, IntArray]:
+        """Like :meth:`shape_batch`, also returning the zone code of every row.
+
+        Returns:
+            ``(out, zones)``: shape (N, 2) and (N,) ints indexing
+            ``velfence.shaping.ZONE_NAMES``.
+        """
+        from velfence.shaping._kernels import ZONE_INVALID
+
+        Pa = as_rows("positions", P)
+        Va = as_rows("commands", V)
+        if Pa.shape != Va.shape:
+            raise InvalidInput(
+                f"positions and commands must have the same shape (N, 2), got {Pa.shape} and "
+                f"{Va.shape}"
+            )
+        good: BoolArray | None = None
+        if not (np.isfinite(Pa).all() and np.isfinite(Va).all()):
+            ok = _finite_rows(Pa) & _finite_rows(Va)
+            self._invalid(f"non-finite input in row(s) {np.flatnonzero(~ok)[:10].tolist()}")
+            Pa = np.where(ok[:, None], Pa, 0.0)
+            Va = np.where(ok[:, None], Va, 0.0)
+            good = ok
+        with np.errstate(over="ignore", invalid="ignore"):
+            out, zones = self._law_batch(np.ascontiguousarray(Pa), np.ascontiguousarray(Va))
+        if not np.isfinite(out).all():
+            finite = _finite_rows(out)
+            self._invalid(
+                f"input too large, the shaped velocity overflowed in row(s) "
+                f"{np.flatnonzero(~finite)[:10].tolist()}"
+            )
+            good = finite if good is None else good & finite
+        if good is not None:
+            out[~good] = 0.0
+            zones[~good] = ZONE_INVALID
+        return out, zones
+
+
+def _finite_rows(a: FloatArray) -> BoolArray:
+    return np.asarray(np.isfinite(a).all(axis=1), dtype=np.bool_)

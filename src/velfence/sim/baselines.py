@@ -17,18 +17,12 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
-from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
-from velfence.geometry.polygon import ConvexPolygon, Rectangle
+from velfence.errors import InvalidGeometry, InvalidParameter
+from velfence.geometry.polygon import ConvexPolygon, Rectangle, as_polygon
 from velfence.shaping import ZONE_NAMES
-from velfence.shaping.base import (
-    ShapingResult,
-    as_pair,
-    as_rows,
-    check_choice,
-    check_positive,
-)
+from velfence.shaping.base import ShaperBase, check_positive
 
 __all__ = ["AxisLimits", "HardStop", "NoLimit"]
 
@@ -59,135 +53,15 @@ def _two_smallest(d: list[float]) -> tuple[int, int, float, float]:
     return p1, p2, d1, d2
 
 
-class _Baseline:
-    """Shared plumbing: input checks, ``on_invalid`` handling, result packing."""
+class _Baseline(ShaperBase):
+    """A baseline: its law twice, on floats and on arrays, with identical results.
 
-    __slots__ = ("on_invalid",)
+    Both versions use the same floating-point operations in the same order; parsing,
+    ``on_invalid`` and batch validation come from :class:`ShaperBase`.
+    """
+
+    __slots__ = ()
     method = "baseline"
-
-    def __init__(self, on_invalid: str) -> None:
-        self.on_invalid = check_choice("on_invalid", on_invalid, ("raise", "stop"))
-
-    # Subclasses implement the law twice: on floats (single call) and on arrays (batch), with the
-    # same floating-point operations in the same order so that both give identical results.
-    def _law(self, px: float, py: float, vx: float, vy: float) -> _Out:
-        raise NotImplementedError  # pragma: no cover
-
-    def _law_batch(self, P: FloatArray, V: FloatArray) -> tuple[FloatArray, IntArray]:
-        raise NotImplementedError  # pragma: no cover
-
-    def _invalid(self, what: str) -> None:
-        if self.on_invalid == "raise":
-            raise InvalidInput(
-                f"{what}; expected finite values. Pass on_invalid='stop' to get zero velocity "
-                "instead of an exception"
-            )
-
-    def _checked(self, p: ArrayLike, v: ArrayLike) -> tuple[FloatArray, FloatArray, _Out | None]:
-        px, py = as_pair("position", p)
-        vx, vy = as_pair("command", v)
-        pos = np.array((px, py))
-        cmd = np.array((vx, vy))
-        if not all(math.isfinite(x) for x in (px, py, vx, vy)):
-            self._invalid(f"non-finite input: position=({px}, {py}), command=({vx}, {vy})")
-            return pos, cmd, None
-        r = self._law(px, py, vx, vy)
-        if not (math.isfinite(r[0]) and math.isfinite(r[1])):
-            self._invalid(f"input too large, the shaped velocity overflowed: command=({vx}, {vy})")
-            return pos, cmd, None
-        return pos, cmd, r
-
-    def shape(self, p: ArrayLike, v: ArrayLike) -> FloatArray:
-        """Shaped velocity.
-
-        Args:
-            p: Position, shape (2,), workspace units.
-            v: Commanded velocity, shape (2,), workspace units per second.
-
-        Returns:
-            The admissible velocity, shape (2,), never non-finite.
-
-        Raises:
-            InvalidInput: wrong shape, or non-finite input with ``on_invalid="raise"``.
-        """
-        _, _, r = self._checked(p, v)
-        if r is None:
-            return np.zeros(2)
-        return np.array((r[0], r[1]))
-
-    def explain(self, p: ArrayLike, v: ArrayLike) -> ShapingResult:
-        """Shaped velocity with zone, nearest limits and their distances.
-
-        Args:
-            p: Position, shape (2,), workspace units.
-            v: Command, shape (2,), workspace units per second.
-        """
-        pos, cmd, r = self._checked(p, v)
-        if r is None:
-            return ShapingResult(
-                np.zeros(2), cmd, pos, "invalid", -1, -1, math.nan, math.nan, np.zeros(2),
-                ("stop",), self.method,
-            )  # fmt: skip
-        return ShapingResult(
-            output=np.array((r[0], r[1])),
-            command=cmd,
-            position=pos,
-            zone=ZONE_NAMES[r[2]],
-            primary=r[3],
-            secondary=r[4],
-            d1=r[5],
-            d2=r[6],
-            spring=np.array((r[7], r[8])),
-            stages=r[9],
-            method=self.method,
-        )
-
-    def shape_batch(self, P: ArrayLike, V: ArrayLike) -> FloatArray:
-        """Shaped velocities for N states at once; equal to looping :meth:`shape`.
-
-        Args:
-            P: Positions, shape (N, 2), workspace units.
-            V: Commands, shape (N, 2), workspace units per second.
-
-        Returns:
-            Shape (N, 2).
-        """
-        return self.zones_batch(P, V)[0]
-
-    def zones_batch(self, P: ArrayLike, V: ArrayLike) -> tuple[FloatArray, IntArray]:
-        """Like :meth:`shape_batch`, also returning the zone code of every row.
-
-        Returns:
-            ``(out, zones)``: shape (N, 2) and (N,) ints indexing
-            ``velfence.shaping.ZONE_NAMES``.
-        """
-        Pa = as_rows("positions", P)
-        Va = as_rows("commands", V)
-        if Pa.shape != Va.shape:
-            raise InvalidInput(
-                f"positions and commands must have the same shape (N, 2), got {Pa.shape} and "
-                f"{Va.shape}"
-            )
-        good: NDArray[np.bool_] = np.asarray(
-            np.isfinite(Pa).all(axis=1) & np.isfinite(Va).all(axis=1)
-        )
-        if not good.all():
-            self._invalid(f"non-finite input in row(s) {np.flatnonzero(~good)[:10].tolist()}")
-            Pa = np.where(good[:, None], Pa, 0.0)
-            Va = np.where(good[:, None], Va, 0.0)
-        with np.errstate(over="ignore", invalid="ignore"):
-            out, zones = self._law_batch(Pa, Va)
-        finite = np.isfinite(out).all(axis=1)
-        if not finite.all():
-            self._invalid(
-                f"input too large, the shaped velocity overflowed in row(s) "
-                f"{np.flatnonzero(~finite)[:10].tolist()}"
-            )
-            good &= finite
-        if not good.all():
-            out[~good] = 0.0
-            zones[~good] = _INVALID
-        return out, zones
 
 
 class NoLimit(_Baseline):
@@ -202,7 +76,7 @@ class NoLimit(_Baseline):
     method = "no-limit"
 
     def __init__(self, *, on_invalid: str = "raise") -> None:
-        super().__init__(on_invalid)
+        super().__init__(on_invalid=on_invalid)
 
     def _law(self, px: float, py: float, vx: float, vy: float) -> _Out:
         return vx, vy, _FREE, -1, -1, math.inf, math.inf, 0.0, 0.0, ()
@@ -240,13 +114,8 @@ class HardStop(_Baseline):
     method = "hard-stop"
 
     def __init__(self, polygon: ConvexPolygon, *, dt: float, on_invalid: str = "raise") -> None:
-        super().__init__(on_invalid)
-        if not isinstance(polygon, ConvexPolygon):
-            raise InvalidParameter(
-                f"polygon must be a velfence.ConvexPolygon, got {type(polygon).__name__}; "
-                "build one with velfence.ConvexPolygon(corners)"
-            )
-        self.polygon = polygon
+        super().__init__(on_invalid=on_invalid)
+        self.polygon = as_polygon(polygon)
         self.dt = check_positive("dt", dt, unit="s")
         self._nx = tuple(float(a) for a in polygon.normals[:, 0])
         self._ny = tuple(float(a) for a in polygon.normals[:, 1])
@@ -326,7 +195,7 @@ class AxisLimits(_Baseline):
         spring_gain: float = 0.0,
         on_invalid: str = "raise",
     ) -> None:
-        super().__init__(on_invalid)
+        super().__init__(on_invalid=on_invalid)
         if not isinstance(rectangle, Rectangle):
             raise InvalidParameter(
                 f"rectangle must be a velfence.Rectangle, got {type(rectangle).__name__}; "
@@ -359,10 +228,7 @@ class AxisLimits(_Baseline):
             spring_gain: Per-axis spring gain beyond a limit, [1/s] (>= 0).
             on_invalid: ``"raise"`` or ``"stop"``.
         """
-        if not isinstance(polygon, ConvexPolygon):
-            raise InvalidParameter(
-                f"polygon must be a velfence.ConvexPolygon, got {type(polygon).__name__}"
-            )
+        as_polygon(polygon)
         return cls(
             polygon.inscribed_rectangle(),
             buffer=buffer,

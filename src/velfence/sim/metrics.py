@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from velfence.errors import InvalidParameter
-from velfence.geometry.polygon import ConvexPolygon, decompose
+from velfence.geometry.polygon import ConvexPolygon, as_polygon, decompose
 from velfence.shaping.base import Shaper, as_rows, check_positive
 from velfence.sim.runner import Trajectory
 
@@ -45,10 +45,7 @@ MAX_GRID_POINTS = 4_000_000
 def _check(traj: Any, polygon: Any) -> None:
     if not isinstance(traj, Trajectory):
         raise InvalidParameter(f"traj must be a velfence.sim.Trajectory, got {type(traj).__name__}")
-    if not isinstance(polygon, ConvexPolygon):
-        raise InvalidParameter(
-            f"polygon must be a velfence.ConvexPolygon, got {type(polygon).__name__}"
-        )
+    as_polygon(polygon)
 
 
 def _nearest(traj: Trajectory, polygon: ConvexPolygon) -> tuple[FloatArray, NDArray[np.intp]]:
@@ -260,10 +257,7 @@ def max_output_jump(
         raise InvalidParameter(
             f"shaper must implement shape, explain and shape_batch, got {type(shaper).__name__}"
         )
-    if not isinstance(polygon, ConvexPolygon):
-        raise InvalidParameter(
-            f"polygon must be a velfence.ConvexPolygon, got {type(polygon).__name__}"
-        )
+    as_polygon(polygon)
     spacing = check_positive("spacing", spacing, unit="workspace units")
     C = as_rows("commands", commands)
     if C.shape[0] == 0 or not np.all(np.isfinite(C)):
@@ -305,10 +299,7 @@ def area_gain(polygon: ConvexPolygon) -> float:
     Args:
         polygon: The permissible workspace.
     """
-    if not isinstance(polygon, ConvexPolygon):
-        raise InvalidParameter(
-            f"polygon must be a velfence.ConvexPolygon, got {type(polygon).__name__}"
-        )
+    as_polygon(polygon)
     return float(polygon.area_ratio())
 
 
