@@ -21,7 +21,14 @@ from numpy.typing import ArrayLike, NDArray
 
 from velfence.errors import InvalidGeometry, InvalidInput
 
-__all__ = ["ConvexPolygon", "Rectangle", "as_polygon", "decompose", "inscribed_rectangle"]
+__all__ = [
+    "ConvexPolygon",
+    "Rectangle",
+    "as_polygon",
+    "decompose",
+    "inscribed_rectangle",
+    "polygon_from_halfplanes",
+]
 
 FloatArray = NDArray[np.float64]
 
@@ -341,6 +348,93 @@ def wedge_search(b: float, beta: Any, n: int) -> int:
 def wedge_index(px: float, py: float, cx: float, cy: float, a0: float, beta: Any, n: int) -> int:
     """Wedge (arc segment) of point (px, py) by one ``atan2`` and a binary search."""
     return wedge_search(wedge_angle(px, py, cx, cy, a0), beta, n)
+
+
+def polygon_from_halfplanes(A: ArrayLike, c: ArrayLike) -> tuple[ConvexPolygon, NDArray[np.int64]]:
+    r"""The bounded convex polygon :math:`\{q : A q + c \ge 0\}` and which half-plane each edge is.
+
+    Every half-plane must contribute an edge (none redundant) and the result must be bounded.
+    Edge ``k`` of the returned polygon lies on half-plane ``order[k]``; when the half-planes are
+    already listed counter-clockwise (as Lê et al. 2024's stops d1…d4 are), ``order`` is the
+    identity. The polygon's signed distance to edge ``k`` equals
+    :math:`(A_j q + c_j)/\|A_j\|` with ``j = order[k]``.
+
+    Args:
+        A: Half-plane normals (not necessarily unit), shape (m, 2), m >= 3.
+        c: Offsets, shape (m,).
+
+    Returns:
+        ``(polygon, order)``.
+
+    Raises:
+        InvalidGeometry: wrong shapes, zero normals, unbounded region, redundant half-planes.
+    """
+    Aa = np.asarray(A, dtype=float)
+    ca = np.asarray(c, dtype=float)
+    if Aa.ndim != 2 or Aa.shape[1] != 2 or Aa.shape[0] < 3 or ca.shape != (Aa.shape[0],):
+        raise InvalidGeometry(
+            f"expected A of shape (m, 2) with m >= 3 and c of shape (m,), got {Aa.shape} and "
+            f"{ca.shape}"
+        )
+    if not (np.all(np.isfinite(Aa)) and np.all(np.isfinite(ca))):
+        raise InvalidGeometry("half-plane coefficients must be finite")
+    norms = np.hypot(Aa[:, 0], Aa[:, 1])
+    if np.any(norms == 0.0):
+        zero = np.flatnonzero(norms == 0).tolist()
+        raise InvalidGeometry(f"half-plane(s) {zero} have a zero normal")
+    ang = np.arctan2(Aa[:, 1], Aa[:, 0])
+    srt = np.sort(ang)
+    gaps = np.diff(np.append(srt, srt[0] + 2 * np.pi))
+    if np.any(gaps >= np.pi - 1e-12):
+        raise InvalidGeometry(
+            "the half-planes do not bound a region: their normals leave a gap of π or more "
+            f"(normals' angles {np.degrees(ang).round(3).tolist()} deg)"
+        )
+    m = Aa.shape[0]
+    U = Aa / norms[:, None]
+    o = -ca / norms  # unit form: U q >= o
+    scale = 1.0 + float(np.max(np.abs(o)))
+    tol = 1e-9 * scale
+    pts = []
+    for i in range(m):
+        for j in range(i + 1, m):
+            det = U[i, 0] * U[j, 1] - U[i, 1] * U[j, 0]
+            if abs(det) < 1e-12:
+                continue
+            x = np.linalg.solve(U[[i, j]], o[[i, j]])
+            if np.all(U @ x - o >= -tol):
+                pts.append(x)
+    if len(pts) < 3:
+        raise InvalidGeometry("the half-planes have an empty (or degenerate) intersection")
+    P = np.array(pts)
+    center = P.mean(axis=0)
+    P = P[np.argsort(np.arctan2(P[:, 1] - center[1], P[:, 0] - center[0]))]
+    keep = np.ones(len(P), dtype=bool)
+    for k in range(1, len(P)):
+        if np.linalg.norm(P[k] - P[k - 1]) <= tol:
+            keep[k] = False
+    if len(P) > 1 and np.linalg.norm(P[0] - P[-1]) <= tol:
+        keep[-1] = False
+    corners = P[keep]
+    on_line = np.abs(corners @ U.T - o) <= tol  # (corners, half-planes)
+    edges = []
+    for k in range(len(corners)):
+        both = np.flatnonzero(on_line[k] & on_line[(k + 1) % len(corners)])
+        if both.size == 0:
+            raise InvalidGeometry("the half-planes' intersection is degenerate")
+        edges.append(int(both[0]))
+    missing = sorted(set(range(m)) - set(edges))
+    if missing:
+        raise InvalidGeometry(
+            f"half-plane(s) {missing} contribute no edge (redundant, or touching only at a "
+            "corner); remove them so that every stop is an edge"
+        )
+    if len(edges) != m:
+        raise InvalidGeometry("two half-planes share an edge (duplicates); remove one")
+    shift = edges.index(min(edges))
+    order = np.roll(np.array(edges), -shift)
+    corners = np.roll(corners, -shift, axis=0)
+    return ConvexPolygon(corners), np.asarray(order, dtype=np.int64)
 
 
 def as_polygon(x: Any, name: str = "polygon") -> ConvexPolygon:

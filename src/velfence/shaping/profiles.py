@@ -1,0 +1,170 @@
+r"""Approach profiles: the admissible approach speed toward a constraint as a function of distance.
+
+A profile maps the signed distance :math:`\delta` to a constraint (positive inside) to a **cap** on
+the approach speed toward it: a shaper lets the normal velocity toward the constraint be at most
+``cap(δ, speed)``. Inside the cap is >= 0 and vanishes on the boundary; outside it is negative, i.e.
+a forced return speed. The same object serves the polygon shaper (linear buffer of
+US 8,676,382) and the joint-stop limiter (three-zone braking of Lê et al. 2024); derivations in
+``docs/derivations.md`` §6.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Protocol, runtime_checkable
+
+from velfence.errors import InvalidParameter
+from velfence.shaping.base import check_positive
+
+__all__ = ["ApproachProfile", "LinearBuffer", "ThreeZoneBraking"]
+
+
+@runtime_checkable
+class ApproachProfile(Protocol):
+    """Admissible approach speed toward a constraint at signed distance ``delta``."""
+
+    def cap(self, delta: float, speed: float = 0.0) -> float:
+        """Largest allowed approach speed [units/s]; negative means a forced return.
+
+        Args:
+            delta: Signed distance to the constraint, positive inside [units].
+            speed: The command's speed [units/s] (profiles that scale with it use it).
+        """
+        ...
+
+    def zone(self, delta: float) -> int:
+        """Zone index of ``delta`` (profile-specific; 0 means unconstrained)."""
+        ...
+
+
+@dataclass(frozen=True)
+class LinearBuffer:
+    r"""US 8,676,382's buffer: approach speed at most :math:`\|v\|\,\delta/d_{max}` inside.
+
+    Inside the buffer the cap grows linearly from 0 on the boundary to the command's own speed at
+    the inner boundary (a command straight into the edge is scaled by :math:`\delta/d_{max}`, the
+    patent's step 110); beyond it nothing is limited. Outside, the cap is the negative recovery
+    speed :math:`-\min(k\,|\delta|, r_{max})`.
+
+    Attributes:
+        d_max: Buffer width [units], > 0.
+        spring_gain: Recovery gain k outside [1/s], >= 0.
+        max_recovery_speed: Cap on the recovery speed [units/s]; default ``spring_gain * d_max``.
+    """
+
+    d_max: float
+    spring_gain: float = 0.0
+    max_recovery_speed: float | None = None
+
+    def __post_init__(self) -> None:
+        check_positive("d_max", self.d_max, unit="units")
+        check_positive("spring_gain", self.spring_gain, allow_zero=True, unit="1/s")
+        if self.max_recovery_speed is not None:
+            check_positive("max_recovery_speed", self.max_recovery_speed, unit="units/s")
+
+    @property
+    def recovery_cap(self) -> float:
+        """The recovery speed cap actually used [units/s]."""
+        if self.max_recovery_speed is None:
+            return self.spring_gain * self.d_max
+        return self.max_recovery_speed
+
+    def cap(self, delta: float, speed: float = 0.0) -> float:
+        """See :class:`ApproachProfile`."""
+        if delta >= 0.0:
+            return math.inf if delta >= self.d_max else speed * delta / self.d_max
+        return -min(-self.spring_gain * delta, self.recovery_cap)
+
+    def zone(self, delta: float) -> int:
+        """0 beyond the buffer, 1 inside it, 2 outside the constraint."""
+        return 0 if delta >= self.d_max else (1 if delta >= 0.0 else 2)
+
+
+@dataclass(frozen=True)
+class ThreeZoneBraking:
+    r"""Lê et al. 2024 eq. (4): nominal / maximal deceleration / linear approach.
+
+    .. math::
+        \mathrm{cap}(\delta) = \begin{cases}
+          \mathrm{sgn}(\delta)\, v_{max} & |\delta| > \delta_\varphi \quad\text{(zone 3)}\\
+          \mathrm{sgn}(\delta)\sqrt{2 a_{max}\,\big||\delta| - \delta_f\big|}
+             & \delta_{int} < |\delta| \le \delta_\varphi \quad\text{(zone 2)}\\
+          K\,\delta & |\delta| \le \delta_{int} \quad\text{(zone 1)}
+        \end{cases}
+
+    with :math:`\delta_{int} = a_{max}/K^2`, :math:`\delta_f = \delta_{int}/2` and
+    :math:`\delta_\varphi = \delta_f + v_{max}^2/(2 a_{max})`: the cap is C¹ at
+    :math:`\delta_{int}` (the line :math:`K\delta` is tangent to the braking parabola),
+    continuous at :math:`\delta_\varphi`, and riding it decelerates at exactly :math:`a_{max}` in
+    zone 2.
+
+    Attributes:
+        gain: K [1/s], > 0 (zone-1 time constant 1/K; a discrete loop needs K·Te < 1).
+        v_max: Nominal maximum normal speed [units/s], > 0.
+        a_max: Maximum normal deceleration [units/s²], > 0.
+    """
+
+    gain: float
+    v_max: float
+    a_max: float
+    delta_int: float = field(init=False)
+    delta_f: float = field(init=False)
+    delta_phi: float = field(init=False)
+
+    def __post_init__(self) -> None:
+        check_positive("gain", self.gain, unit="1/s")
+        check_positive("v_max", self.v_max, unit="units/s")
+        check_positive("a_max", self.a_max, unit="units/s²")
+        d_int = self.a_max / self.gain**2
+        object.__setattr__(self, "delta_int", d_int)
+        object.__setattr__(self, "delta_f", 0.5 * d_int)
+        object.__setattr__(self, "delta_phi", 0.5 * d_int + self.v_max**2 / (2.0 * self.a_max))
+
+    @classmethod
+    def from_actuator_limits(
+        cls, *, gain: float, joint_speed_max: float, joint_accel_max: float
+    ) -> ThreeZoneBraking:
+        r"""The paper's profile for identical actuators (eq. 3).
+
+        The joint-velocity cube projects on the auxiliary plane to a hexagon containing the disk
+        of radius :math:`\sqrt2\,\dot\theta_{max}`, so :math:`v_{max} = \sqrt2\,\dot\theta_{max}`
+        and :math:`a_{max} = \sqrt2\,\ddot\theta_{max}`.
+
+        Args:
+            gain: K [1/s].
+            joint_speed_max: :math:`\dot\theta_{max}` [rad/s].
+            joint_accel_max: :math:`\ddot\theta_{max}` [rad/s²].
+        """
+        r2 = math.sqrt(2.0)
+        return cls(
+            gain=gain,
+            v_max=r2 * check_positive("joint_speed_max", joint_speed_max, unit="rad/s"),
+            a_max=r2 * check_positive("joint_accel_max", joint_accel_max, unit="rad/s²"),
+        )
+
+    def check_period(self, dt: float) -> None:
+        """Raise if the zone-1 discrete loop ``δ[k+1] = (1 − K·dt) δ[k]`` would not converge.
+
+        Args:
+            dt: Control period [s].
+        """
+        if not self.gain * dt < 1.0:
+            raise InvalidParameter(
+                f"gain·dt must be < 1 for the linear zone to converge in discrete time, got "
+                f"K={self.gain} 1/s, dt={dt} s (K·dt={self.gain * dt:g}); lower K or dt"
+            )
+
+    def cap(self, delta: float, speed: float = 0.0) -> float:
+        """See :class:`ApproachProfile` (``speed`` is not used)."""
+        a = abs(delta)
+        if a > self.delta_phi:
+            return math.copysign(self.v_max, delta)
+        if a > self.delta_int:
+            return math.copysign(math.sqrt(2.0 * self.a_max * abs(a - self.delta_f)), delta)
+        return self.gain * delta
+
+    def zone(self, delta: float) -> int:
+        """The paper's zone flag: 3 nominal, 2 maximal deceleration, 1 linear."""
+        a = abs(delta)
+        return 3 if a > self.delta_phi else (2 if a > self.delta_int else 1)
