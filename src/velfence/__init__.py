@@ -6,7 +6,18 @@
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter, VelfenceError
 from velfence.geometry import ConvexPolygon, Rectangle, decompose, inscribed_rectangle
 from velfence.mechanisms import Wrist, WristGeometry
-from velfence.shaping import STAGE_NAMES, ZONE_NAMES, PolygonShaper, Shaper, ShapingResult
+from velfence.shaping import (
+    STAGE_NAMES,
+    ZONE_NAMES,
+    ApproachProfile,
+    LinearBuffer,
+    PolygonShaper,
+    RateLimiter,
+    Shaper,
+    ShapingResult,
+    StopLimiter,
+    ThreeZoneBraking,
+)
 from velfence.sim import (
     AxisLimits,
     Disturbance,
@@ -22,6 +33,7 @@ __version__ = "0.1.0"
 __all__ = [
     "STAGE_NAMES",
     "ZONE_NAMES",
+    "ApproachProfile",
     "AxisLimits",
     "ConvexPolygon",
     "Disturbance",
@@ -29,11 +41,15 @@ __all__ = [
     "InvalidGeometry",
     "InvalidInput",
     "InvalidParameter",
+    "LinearBuffer",
     "NoLimit",
     "PolygonShaper",
+    "RateLimiter",
     "Rectangle",
     "Shaper",
     "ShapingResult",
+    "StopLimiter",
+    "ThreeZoneBraking",
     "Trajectory",
     "VelfenceError",
     "Wrist",

@@ -11,5 +11,20 @@ violation, and (4) is finite for every input (non-finite input raises ``InvalidI
 from velfence.shaping._kernels import STAGE_NAMES, ZONE_NAMES
 from velfence.shaping.base import Shaper, ShapingResult
 from velfence.shaping.polygon import PolygonShaper
+from velfence.shaping.profiles import ApproachProfile, LinearBuffer, ThreeZoneBraking
+from velfence.shaping.rate import RateLimiter
+from velfence.shaping.stops import StopLimiter, StopResult
 
-__all__ = ["STAGE_NAMES", "ZONE_NAMES", "PolygonShaper", "Shaper", "ShapingResult"]
+__all__ = [
+    "STAGE_NAMES",
+    "ZONE_NAMES",
+    "ApproachProfile",
+    "LinearBuffer",
+    "PolygonShaper",
+    "RateLimiter",
+    "Shaper",
+    "ShapingResult",
+    "StopLimiter",
+    "StopResult",
+    "ThreeZoneBraking",
+]
