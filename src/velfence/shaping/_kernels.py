@@ -279,48 +279,64 @@ def exact_kernel(
     else:
         zone = ZONE_BUFFER if m == 1 else ZONE_CORNER
         stages = STAGE_PROJECT
-    scale = (math.sqrt(vx * vx + vy * vy) + rec) / dmax
+    # The problem is positively homogeneous in (v, bounds): solve it in units of |v| + R so that
+    # huge commands neither overflow (squared distances, NaN bounds) nor defeat the feasibility
+    # tolerance; `unit` is 1 unless v = 0 and R = 0. |v| is computed scaled by its largest
+    # component (not math.hypot, whose numba and CPython results differ in the last bit).
+    big = abs(vx) if abs(vx) > abs(vy) else abs(vy)
+    vnorm = 0.0
+    if big > 0.0:
+        qx = vx / big
+        qy = vy / big
+        vnorm = big * math.sqrt(qx * qx + qy * qy)
+    speed = vnorm + rec
+    scale = speed if speed > 0.0 else 1.0
+    unit = speed / scale
+    ux = vx / scale
+    uy = vy / scale
     for a in range(m):
         e = work[a]
         d = dist[e]
         if d >= 0.0:
-            bnd[e] = -scale * d
+            bnd[e] = -unit * (d / dmax)
         else:
             r = -k * d
-            bnd[e] = r if r < rmax else rmax
+            bnd[e] = (r if r < rmax else rmax) / scale
     while True:
-        ok, ox, oy = _solve(vx, vy, work, m, nx, ny, bnd)
+        ok, ox, oy = _solve(ux, uy, work, m, nx, ny, bnd)
         if not ok:
             break
-        # A far edge (d >= d_max) has bound -scale*d <= -(|v| + R) >= -|v_o| only when the answer
-        # is faster than |v| + R (Cauchy-Schwarz). Inside that never happens (0 is feasible, so
-        # the projection is no faster than v); outside, recovery can cause it: add those edges.
-        lim = scale * dmax
-        if n_out == 0 or ox * ox + oy * oy <= lim * lim:
-            return ox, oy, zone, p1, p2, d1, d2, 0.0, 0.0, stages
+        # A far edge (d >= d_max) has bound -(|v| + R) d/d_max <= -(|v| + R), binding only when the
+        # answer is faster than |v| + R (Cauchy-Schwarz). Inside that never happens (0 is feasible,
+        # so the projection is no faster than v); outside, recovery can cause it: add those edges.
+        if n_out == 0 or ox * ox + oy * oy <= unit * unit:
+            return ox * scale, oy * scale, zone, p1, p2, d1, d2, 0.0, 0.0, stages
         added = False
         for e in range(n):
             d = dist[e]
-            if d >= dmax and _violates(ox, oy, nx[e], ny[e], -scale * d):
-                bnd[e] = -scale * d
+            if d >= dmax and _violates(ox, oy, nx[e], ny[e], -unit * (d / dmax)):
+                bnd[e] = -unit * (d / dmax)
                 work[m] = e
                 m += 1
                 added = True
         if not added:
-            return ox, oy, zone, p1, p2, d1, d2, 0.0, 0.0, stages
+            return ox * scale, oy * scale, zone, p1, p2, d1, d2, 0.0, 0.0, stages
     # Infeasible together (only when the polygon is narrower than the buffer): recovery first.
     m = 0
     for e in range(n):
         if dist[e] < 0.0:
             work[m] = e
             m += 1
-    ok, ox, oy = _solve(vx, vy, work, m, nx, ny, bnd)
+    ok, ox, oy = _solve(ux, uy, work, m, nx, ny, bnd)
     if ok:
-        return ox, oy, zone, p1, p2, d1, d2, 0.0, 0.0, stages | STAGE_RELAXED
+        return ox * scale, oy * scale, zone, p1, p2, d1, d2, 0.0, 0.0, stages | STAGE_RELAXED
     # Unreachable for a valid convex polygon (violated inward normals always admit a common
     # direction); kept so that no input can produce a non-finite or outward answer: head home.
     hx = cx - px
     hy = cy - py
+    big = abs(hx) if abs(hx) > abs(hy) else abs(hy)
+    hx /= big
+    hy /= big
     hn = math.sqrt(hx * hx + hy * hy)
     return rec * hx / hn, rec * hy / hn, zone, p1, p2, d1, d2, 0.0, 0.0, stages | STAGE_RELAXED
 
