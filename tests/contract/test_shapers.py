@@ -23,9 +23,12 @@ import pytest
 
 from velfence import (
     ZONE_NAMES,
+    AxisLimits,
     ConvexPolygon,
+    HardStop,
     InvalidInput,
     InvalidParameter,
+    NoLimit,
     PolygonShaper,
     Shaper,
     ShapingResult,
@@ -45,9 +48,23 @@ def _polygon_shaper(method: str) -> Factory:
     return make
 
 
+def _baseline(kind: str) -> Factory:
+    def make(**overrides: Any) -> Any:
+        if kind == "none":
+            return NoLimit(**overrides)
+        if kind == "hard-stop":
+            return HardStop(POLYGON, **{"dt": 1e-3, **overrides})
+        return AxisLimits(POLYGON.inscribed_rectangle(), **{"buffer": 0.2, **overrides})
+
+    return make
+
+
 FACTORIES: list[tuple[str, Factory]] = [
     ("polygon-patent", _polygon_shaper("patent")),
     ("polygon-exact", _polygon_shaper("exact")),
+    ("baseline-none", _baseline("none")),
+    ("baseline-hard-stop", _baseline("hard-stop")),
+    ("baseline-axis-limits", _baseline("axis-limits")),
 ]
 
 IDS = [name for name, _ in FACTORIES]

@@ -130,7 +130,14 @@ class TestConstruction:
                 r"self-intersect .*edge 0-1 crosses edge 2-3",
                 id="pentagram",
             ),
-            pytest.param([[0, 0], [1, 1], [2, 2]], r"zero area .*\[\[0\.0, 0\.0\]", id="zero-area"),
+            pytest.param(
+                [[0, 0], [1, 1], [2, 2]],
+                r"zero area: corners 0-2 are all collinear",
+                id="zero-area",
+            ),
+            pytest.param(
+                [[0, 0], [1, 1], [1, 0], [0, 1]], r"edge 0-1 crosses edge 2-3", id="bow-tie"
+            ),
             pytest.param(
                 [[0, 0, 0], [1, 0, 0], [0, 1, 0]],
                 r"shape \(n, 2\) .*got shape \(3, 3\)",

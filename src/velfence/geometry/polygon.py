@@ -488,7 +488,16 @@ def _validated_corners(corners: ArrayLike) -> FloatArray:
     x, y = c[:, 0], c[:, 1]
     signed_area = 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
     if abs(signed_area) <= 1e-12 * scale * scale:
-        raise InvalidGeometry(f"the corners enclose zero area (all collinear?): {c.tolist()}")
+        i, j = _first_crossing(c)
+        if (i, j) != (0, 0):
+            raise InvalidGeometry(
+                f"the corners self-intersect: edge {i}-{(i + 1) % n} crosses edge "
+                f"{j}-{(j + 1) % n} (a bow-tie encloses zero net area); list the corners in "
+                "boundary order"
+            )
+        raise InvalidGeometry(
+            f"the corners enclose zero area: corners 0-{n - 1} are all collinear: {c.tolist()}"
+        )
     orientation = 1.0 if signed_area > 0 else -1.0
     prev = c - np.roll(c, 1, axis=0)
     nxt = np.roll(c, -1, axis=0) - c

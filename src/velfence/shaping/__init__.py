@@ -1,10 +1,12 @@
 """Shapers: ``v_out = shape(state, v_cmd)``.
 
 Math contract: a shaper returns, for a position and a commanded velocity, an admissible velocity
-that (1) equals the command wherever no constraint is near, (2) never has a larger outward normal
-speed than the command towards any nearby constraint while inside, (3) outside, reduces every
-violation, and (4) is finite for every input (non-finite input raises ``InvalidInput`` or, with
-``on_invalid="stop"``, gives zero). Every shaper implements ``shape``, ``explain`` and
+that (1) equals the command wherever no constraint is near, (2) inside, approaches every nearby
+constraint no faster than its approach profile allows at that distance (a cap that vanishes on the
+boundary; for the exact polygon law ``‖v‖·d/d_max``, and never faster than the command overall —
+though at an acute corner it may trade some approach to one edge, within that edge's cap, for
+the other's), (3) outside, reduces every violation, and (4) is finite for every input (non-finite
+input raises ``InvalidInput`` or, with ``on_invalid="stop"``, gives zero). Every shaper implements ``shape``, ``explain`` and
 ``shape_batch`` (see :mod:`velfence.shaping.base`).
 """
 

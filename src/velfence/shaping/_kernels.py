@@ -159,7 +159,9 @@ def _solve(
 
     In 2-D at most two bounds are active at the optimum, so the optimum is ``v`` itself, the
     projection onto one bound line, or the intersection of two; the feasible candidate nearest to
-    ``v`` is the optimum. Returns (feasible, x, y).
+    ``v`` is the optimum. Two shortcuts end the search early: a projection onto one bound that
+    satisfies every other bound *is* the optimum (the feasible set lies in that half-plane), and so
+    is a feasible vertex whose two multipliers are non-negative (KKT). Returns (feasible, x, y).
     """
     ok = True
     for a in range(m):
@@ -175,7 +177,7 @@ def _solve(
     for a in range(m):
         w = work[a]
         gap = bnd[w] - (nx[w] * vx + ny[w] * vy)
-        if gap <= 0.0 or gap * gap >= best:
+        if gap <= 0.0:
             continue
         x = vx + gap * nx[w]
         y = vy + gap * ny[w]
@@ -186,9 +188,7 @@ def _solve(
                 feas = False
                 break
         if feas:
-            best = gap * gap
-            bx = x
-            by = y
+            return True, x, y
     for a in range(m):
         w = work[a]
         for c in range(a + 1, m):
@@ -208,6 +208,13 @@ def _solve(
                     feas = False
                     break
             if feas:
+                # x - v = lw n_w + lu n_u; both multipliers >= 0 makes x the optimum (KKT).
+                dx = x - vx
+                dy = y - vy
+                lw = (dx * ny[u] - dy * nx[u]) / det
+                lu = (nx[w] * dy - ny[w] * dx) / det
+                if lw >= -_FEAS_TOL and lu >= -_FEAS_TOL:
+                    return True, x, y
                 best = dist
                 bx = x
                 by = y
