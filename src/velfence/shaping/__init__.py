@@ -6,8 +6,9 @@ constraint no faster than its approach profile allows at that distance (a cap th
 boundary; for the exact polygon law ``‖v‖·d/d_max``, and never faster than the command overall —
 though at an acute corner it may trade some approach to one edge, within that edge's cap, for
 the other's), (3) outside, reduces every violation, and (4) is finite for every input (non-finite
-input raises ``InvalidInput`` or, with ``on_invalid="stop"``, gives zero). Every shaper implements ``shape``, ``explain`` and
-``shape_batch`` (see :mod:`velfence.shaping.base`).
+input raises ``InvalidInput`` or, with ``on_invalid="stop"``, gives zero). Every 2-D shaper
+implements ``shape``, ``explain`` and ``shape_batch`` (see :mod:`velfence.shaping.base`); the
+joint-stop limiter does the same on n-D joint vectors.
 """
 
 from velfence.shaping._kernels import STAGE_NAMES, ZONE_NAMES
