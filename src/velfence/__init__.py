@@ -5,7 +5,7 @@
 
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter, VelfenceError
 from velfence.geometry import ConvexPolygon, Rectangle, decompose, inscribed_rectangle
-from velfence.mechanisms import Wrist, WristGeometry
+from velfence.mechanisms import CoSPM, CoSPMDesign, Wrist, WristGeometry
 from velfence.shaping import (
     STAGE_NAMES,
     ZONE_NAMES,
@@ -35,6 +35,8 @@ __all__ = [
     "ZONE_NAMES",
     "ApproachProfile",
     "AxisLimits",
+    "CoSPM",
+    "CoSPMDesign",
     "ConvexPolygon",
     "Disturbance",
     "HardStop",

@@ -10,10 +10,45 @@ value. Actuator speed limits are enforced by scaling the **whole** joint velocit
 workspace as a :class:`~velfence.geometry.polygon.ConvexPolygon` in joint space whose every point
 satisfies every physical limit ``g_k(q) <= 0`` (strokes, singularity margin, clearances).
 
+Parallel mechanisms (the CoSPM of Lê et al. 2024) give an implicit geometric model
+``f(θ, χ) = 0`` instead, with ``χ̇ = J θ̇``, ``J = −A⁻¹B``, ``A = ∂f/∂χ``, ``B = ∂f/∂θ``, closed-form
+inverse kinematics per leg and Newton forward kinematics by continuation; ``det A = 0`` (Type 2)
+and ``det B = 0`` (Type 1) are their singularities.
+
 Batches equal loops over their rows; non-finite inputs raise
 :class:`~velfence.errors.InvalidInput`; dimensions are frozen dataclasses validated on construction.
 """
 
+from velfence.mechanisms.cospm import (
+    PAPER_STOPS,
+    PAPER_WORKSPACE,
+    Q_AUX,
+    CoSPM,
+    CoSPMDesign,
+    RegionReport,
+    SingularGrid,
+    WorkspaceMap,
+    singular_curves,
+    stops_polygon,
+    validate_region,
+    workspace_map,
+)
 from velfence.mechanisms.wrist import LIMIT_NAMES, Wrist, WristGeometry
 
-__all__ = ["LIMIT_NAMES", "Wrist", "WristGeometry"]
+__all__ = [
+    "LIMIT_NAMES",
+    "PAPER_STOPS",
+    "PAPER_WORKSPACE",
+    "Q_AUX",
+    "CoSPM",
+    "CoSPMDesign",
+    "RegionReport",
+    "SingularGrid",
+    "WorkspaceMap",
+    "Wrist",
+    "WristGeometry",
+    "singular_curves",
+    "stops_polygon",
+    "validate_region",
+    "workspace_map",
+]

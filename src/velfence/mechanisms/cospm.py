@@ -1,0 +1,1587 @@
+r"""Kinematics of the spherical parallel manipulator with coaxial input shafts (Lê et al. 2024).
+
+The CoSPM of arXiv 2403.05370 is a 3-RRR spherical parallel manipulator whose three input
+shafts share one axis; it points a sight with bank :math:`\chi_1`, elevation :math:`\chi_2` and
+bearing :math:`\chi_3` (ZYX Tait-Bryan, :math:`R(\chi) = R_z(\chi_3) R_y(\chi_2) R_x(\chi_1)`).
+The paper gives the form of the geometric model but not its vectors; the reconstruction below
+(argued in ``docs/cospm.md`` §2) reproduces every property the paper states.
+
+Model, for leg ``i`` with design :math:`(\alpha_{1,i}, \alpha_{2,i}, \eta_i, \beta_1, \beta_2)`
+and :math:`e_z = (0, 0, 1)`:
+
+.. math::
+
+    u_i &= R_z(\eta_i) R_x(\beta_1 - \pi)\, e_z                       &\text{(input axis)}\\
+    w_i(\theta_i) &= R_z(\eta_i) R_x(\beta_1 - \pi) R_z(\theta_i) R_x(\sigma\alpha_{1,i})\, e_z
+                                                                      &\text{(intermediate axis)}\\
+    v_i(\chi) &= R(\chi) R_z(\eta_i) R_x(\beta_2)\, e_z              &\text{(platform axis)}\\
+    f_i(\theta_i, \chi) &= w_i(\theta_i)^T v_i(\chi) - \cos\alpha_{2,i} = 0
+                                                                      &\text{(Lê et al. 2024 §1)}
+
+with :math:`\sigma = +1` (default) or :math:`\sigma = -1` (``mirror=True``, the other sign
+convention: an exact mirror image, :math:`\chi_1 \to -\chi_1`, :math:`\chi_2 \to -\chi_2`).
+
+Velocities: :math:`A\dot\chi + B\dot\theta = 0` with :math:`A = \partial f/\partial\chi` (row
+``i`` = :math:`(v_i \times w_i)^T E(\chi)`) and :math:`B = \partial f/\partial\theta =
+\mathrm{diag}((u_i \times w_i)^T v_i)`, so :math:`\dot\chi = J\dot\theta`, :math:`J = -A^{-1}B`.
+Singularities: Type 1 (serial) :math:`\det B = 0`; Type 2 (parallel)
+:math:`\det[v_i \times w_i]_i = 0`; the representation singularity :math:`\det E = \cos\chi_2 = 0`
+(gimbal lock of the angles, not of the mechanism).
+
+Bearing invariance (paper §1): :math:`f(\theta + \varepsilon\mathbf 1, \chi) = f(\theta, \chi_1,
+\chi_2, \chi_3 + \varepsilon)` — rotating all three shafts together only turns the bearing, which
+is why the limiter works in the auxiliary coordinates :math:`q = Q\theta` of eq. (1)
+(:data:`Q_AUX`), where :math:`q_3` is the invariance axis and the stops act on :math:`(q_1, q_2)`.
+
+Region tools: :data:`PAPER_STOPS` and :func:`stops_polygon` (the quadrilateral :math:`Q^*`),
+:func:`validate_region` (our offline grid check that :math:`Q^*` is singularity-free and reaches
+the regular workspace :math:`W^*`), :func:`singular_curves` and :func:`workspace_map` (arrays for
+plots in the joint and workspace planes).
+
+Every method taking poses accepts one pose, shape (3,), or a batch, shape (N, 3); a batch equals a
+loop over its rows. Derivations: ``docs/cospm.md``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
+from velfence.geometry.polygon import ConvexPolygon, polygon_from_halfplanes
+
+__all__ = [
+    "PAPER_STOPS",
+    "PAPER_WORKSPACE",
+    "Q_AUX",
+    "CoSPM",
+    "CoSPMDesign",
+    "RegionReport",
+    "SingularGrid",
+    "WorkspaceMap",
+    "singular_curves",
+    "stops_polygon",
+    "validate_region",
+    "workspace_map",
+]
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+BoolArray = NDArray[np.bool_]
+
+_REAL = (int, float, np.integer, np.floating)
+_HALF_PI = 0.5 * math.pi
+_TWO_PI = 2.0 * math.pi
+# |C_i|/R_i may exceed 1 by round-off on the boundary of a leg's reach; beyond this it is a miss.
+_REACH_SLACK = 1e-12
+# A continuation step whose Newton correction moves chi farther than this from the first-order
+# predictor has left the branch (jumped to another assembly mode) [rad].
+_JUMP = 0.2
+
+
+def _read_only(a: NDArray[Any]) -> NDArray[Any]:
+    a.setflags(write=False)
+    return a
+
+
+def _rx(a: float) -> FloatArray:
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+
+
+def _ry(a: float) -> FloatArray:
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+
+
+def _rz(a: float) -> FloatArray:
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+#: The auxiliary map of Lê et al. 2024 eq. (1), :math:`Q = R_y(-\arctan(\sqrt2/2))\,R_x(\pi/4)`,
+#: shape (3, 3), orthogonal and read-only: :math:`q = Q\theta`, :math:`\theta = Q^T q`. Its third
+#: row is the invariance axis, :math:`[0, 0, 1]^T = (\sqrt3/3)\,Q\,[1, 1, 1]^T` (Proposition 1).
+Q_AUX: FloatArray = _read_only(_ry(-math.atan(math.sqrt(2.0) / 2.0)) @ _rx(math.pi / 4.0))
+
+#: The paper's four joint stops (§2), shape (4, 3), read-only, rows ``(a_i, b_i, c_i)``:
+#: :math:`d_i = a_i q_1 + b_i q_2 + c_i \ge 0` for every ``i`` iff :math:`(q_1, q_2) \in Q^*`.
+PAPER_STOPS: FloatArray = _read_only(
+    np.array([[0.624, 1.0, 0.353], [-1.72, 1.0, 3.05], [-0.528, -1.0, 0.346], [1.72, -1.0, 1.54]])
+)
+
+#: The paper's regular workspace :math:`W^*` (§1: "±10° in bank, 100° in elevation"), as
+#: ``(bank_min, bank_max, elevation_min, elevation_max)`` [rad]; bearing is unlimited.
+PAPER_WORKSPACE: tuple[float, float, float, float] = (
+    math.radians(-10.0),
+    math.radians(10.0),
+    math.radians(-50.0),
+    math.radians(50.0),
+)
+
+
+# ====================================================================== design
+def _triple(name: str, value: Any) -> FloatArray:
+    try:
+        a = np.array(value, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise InvalidGeometry(
+            f"CoSPMDesign.{name}: expected three angles [rad], got {value!r}; pass e.g. "
+            "(math.pi / 4, math.pi / 4, math.pi / 2)"
+        ) from exc
+    if a.shape != (3,):
+        raise InvalidGeometry(
+            f"CoSPMDesign.{name}: expected shape (3,) (one angle per leg) [rad], got shape "
+            f"{a.shape}"
+        )
+    if not np.all(np.isfinite(a)):
+        raise InvalidGeometry(f"CoSPMDesign.{name}: expected finite angles [rad], got {a.tolist()}")
+    out: FloatArray = _read_only(a)
+    return out
+
+
+def _angle(name: str, value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, _REAL):
+        raise InvalidGeometry(
+            f"CoSPMDesign.{name}: expected a real angle [rad], got {value!r} "
+            f"({type(value).__name__})"
+        )
+    x = float(value)
+    if not math.isfinite(x):
+        raise InvalidGeometry(f"CoSPMDesign.{name}: expected a finite angle [rad], got {x!r}")
+    return x
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class CoSPMDesign:
+    r"""Design parameters of a CoSPM (Lê et al. 2024 Table 1, Fig. 1).
+
+    Args:
+        alpha1: :math:`\alpha_{1,i}`, arc angle of each proximal link (input axis
+            :math:`u_i` to intermediate axis :math:`w_i`) [rad], shape (3,), each in
+            ``(0, π)``.
+        alpha2: :math:`\alpha_{2,i}`, arc angle of each distal link (:math:`w_i` to the
+            platform axis :math:`v_i`) [rad], shape (3,), each in ``(0, π)``.
+        eta: :math:`\eta_i`, angular position of each leg about the common axis, on the base
+            and on the platform [rad], shape (3,), pairwise distinct modulo 2π.
+        beta1: :math:`\beta_1`, tilt of the input axes [rad]; must be 0 or π (modulo 2π) so
+            that the three input shafts are coaxial.
+        beta2: :math:`\beta_2`, tilt of the platform axes from the platform normal [rad]; must
+            not be 0 or π (modulo 2π), where all platform axes coincide.
+
+    Raises:
+        InvalidGeometry: a field has the wrong shape, is not finite or is out of its range (the
+            field is named).
+    """
+
+    alpha1: FloatArray
+    alpha2: FloatArray
+    eta: FloatArray
+    beta1: float
+    beta2: float
+
+    def __post_init__(self) -> None:
+        for name in ("alpha1", "alpha2", "eta"):
+            object.__setattr__(self, name, _triple(name, getattr(self, name)))
+        for name in ("beta1", "beta2"):
+            object.__setattr__(self, name, _angle(name, getattr(self, name)))
+        for name in ("alpha1", "alpha2"):
+            a = getattr(self, name)
+            bad = np.flatnonzero(~((a > 0.0) & (a < math.pi)))
+            if bad.size:
+                raise InvalidGeometry(
+                    f"CoSPMDesign.{name}: expected link arcs in (0, π) rad, got "
+                    f"{a.tolist()} (leg(s) {bad.tolist()}); a link of arc 0 or π cannot move "
+                    "its distal axis"
+                )
+        e = np.mod(self.eta, _TWO_PI)
+        for i in range(3):
+            for j in range(i + 1, 3):
+                gap = abs(e[i] - e[j])
+                if min(gap, _TWO_PI - gap) < 1e-9:
+                    raise InvalidGeometry(
+                        f"CoSPMDesign.eta: expected pairwise distinct leg positions modulo 2π, "
+                        f"got eta[{i}] = {self.eta[i]!r} and eta[{j}] = {self.eta[j]!r} rad; "
+                        "two legs on the same meridian make the platform singular"
+                    )
+        if abs(math.sin(self.beta1)) > 1e-12:
+            raise InvalidGeometry(
+                f"CoSPMDesign.beta1: expected 0 or π rad (coaxial input shafts), got "
+                f"{self.beta1!r}; other values describe a non-coaxial SPM, not a CoSPM"
+            )
+        if abs(math.sin(self.beta2)) < 1e-9:
+            raise InvalidGeometry(
+                f"CoSPMDesign.beta2: expected a tilt away from 0 and π rad, got {self.beta2!r}; "
+                "at 0 or π the three platform axes coincide (permanent Type-2 singularity)"
+            )
+
+    @classmethod
+    def table1(cls) -> CoSPMDesign:
+        r"""The design of Lê et al. 2024 Table 1 [rad].
+
+        ``alpha1 = (π/4, π/4, π/2)``, ``alpha2 = (π/2, π/2, π/2)``, ``eta = (π/4, -π/4, 0)``,
+        ``beta1 = 0``, ``beta2 = π/2``.
+        """
+        q = math.pi / 4.0
+        return cls(
+            alpha1=np.array([q, q, _HALF_PI]),
+            alpha2=np.array([_HALF_PI, _HALF_PI, _HALF_PI]),
+            eta=np.array([q, -q, 0.0]),
+            beta1=0.0,
+            beta2=_HALF_PI,
+        )
+
+    def _key(self) -> tuple[float, ...]:
+        return (
+            *self.alpha1.tolist(),
+            *self.alpha2.tolist(),
+            *self.eta.tolist(),
+            self.beta1,
+            self.beta2,
+        )
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, CoSPMDesign):
+            return NotImplemented
+        return self._key() == other._key()
+
+    def __hash__(self) -> int:
+        return hash(self._key())
+
+
+# ====================================================================== input checks
+def _poses(name: str, x: ArrayLike) -> tuple[FloatArray, bool]:
+    """``x`` as float rows (N, 3) and whether it was a single (3,) vector."""
+    try:
+        a = np.array(x, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise InvalidInput(
+            f"{name}: expected numbers of shape (3,) or (N, 3) [rad], got {x!r}"
+        ) from exc
+    if a.ndim == 1 and a.shape[0] == 3:
+        single = True
+        a = a[None, :]
+    elif a.ndim == 2 and a.shape[1] == 3:
+        single = False
+    else:
+        raise InvalidInput(
+            f"{name}: expected shape (3,) or (N, 3) (one angle per leg or per Euler angle) "
+            f"[rad], got shape {a.shape}"
+        )
+    if not np.all(np.isfinite(a)):
+        bad = np.flatnonzero(~np.all(np.isfinite(a), axis=1))
+        raise InvalidInput(
+            f"{name}: expected finite values, got non-finite entries in row(s) "
+            f"{bad[:10].tolist()}; filter NaN/inf before calling"
+        )
+    return a, single
+
+
+def _like(name: str, x: ArrayLike, n: int, other: str) -> FloatArray:
+    """Rows of ``x`` broadcast to ``n`` rows (a single (3,) pose serves every row)."""
+    a, _ = _poses(name, x)
+    if a.shape[0] not in (1, n):
+        raise InvalidInput(
+            f"{name}: expected shape (3,) or ({n}, 3) to match {other}, got {np.shape(x)}"
+        )
+    return np.array(np.broadcast_to(a, (n, 3)), dtype=float)
+
+
+def _positive(name: str, value: Any, unit: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, _REAL):
+        raise InvalidParameter(f"{name}: expected a positive number {unit}, got {value!r}")
+    x = float(value)
+    if not (math.isfinite(x) and x > 0.0):
+        raise InvalidParameter(f"{name}: expected a finite number > 0 {unit}, got {x!r}")
+    return x
+
+
+def _rotations(chi: FloatArray) -> FloatArray:
+    """Rotation matrices R_z(chi3) R_y(chi2) R_x(chi1) for rows of chi (N, 3) -> (N, 3, 3)."""
+    s1, s2, s3 = np.sin(chi[:, 0]), np.sin(chi[:, 1]), np.sin(chi[:, 2])
+    c1, c2, c3 = np.cos(chi[:, 0]), np.cos(chi[:, 1]), np.cos(chi[:, 2])
+    R = np.empty((chi.shape[0], 3, 3))
+    R[:, 0, 0] = c3 * c2
+    R[:, 0, 1] = c3 * s2 * s1 - s3 * c1
+    R[:, 0, 2] = c3 * s2 * c1 + s3 * s1
+    R[:, 1, 0] = s3 * c2
+    R[:, 1, 1] = s3 * s2 * s1 + c3 * c1
+    R[:, 1, 2] = s3 * s2 * c1 - c3 * s1
+    R[:, 2, 0] = -s2
+    R[:, 2, 1] = c2 * s1
+    R[:, 2, 2] = c2 * c1
+    return R
+
+
+def _euler_rate_map(chi: FloatArray) -> FloatArray:
+    """E(chi) for rows of chi (N, 3) -> (N, 3, 3): omega = E chi_dot."""
+    s2, s3 = np.sin(chi[:, 1]), np.sin(chi[:, 2])
+    c2, c3 = np.cos(chi[:, 1]), np.cos(chi[:, 2])
+    E = np.zeros((chi.shape[0], 3, 3))
+    E[:, 0, 0] = c3 * c2
+    E[:, 1, 0] = s3 * c2
+    E[:, 2, 0] = -s2
+    E[:, 0, 1] = -s3
+    E[:, 1, 1] = c3
+    E[:, 2, 2] = 1.0
+    return E
+
+
+# ====================================================================== the mechanism
+class CoSPM:
+    r"""Geometric model, IKP, FKP, Jacobians and singularity indicators of a CoSPM.
+
+    Lê et al. 2024 §1 with the vectors reconstructed in ``docs/cospm.md`` (module docstring).
+    Angles: joints :math:`\theta` [rad] (unwrapped, multi-turn), orientation
+    :math:`\chi = (\text{bank}, \text{elevation}, \text{bearing})` [rad].
+
+    Args:
+        design: Design parameters; :meth:`CoSPMDesign.table1` when ``None``.
+        mirror: Sign convention of the proximal links: ``False`` uses
+            :math:`R_x(\alpha_{1,i})` (the notes' reading), ``True`` uses
+            :math:`R_x(-\alpha_{1,i})`, the mirror-image working mode (for Table 1:
+            :math:`\chi_1 \to -\chi_1`, :math:`\chi_2 \to -\chi_2` at equal :math:`\theta`).
+            Validate against hardware or Le24a before relying on either.
+        fk_tol: Convergence tolerance of the FKP Newton iteration on :math:`\max_i |f_i|`
+            (dimensionless, a cosine).
+        fk_max_iter: Iteration cap of each Newton solve.
+        fk_step: Largest joint displacement per continuation step of
+            :meth:`forward_kinematics` [rad].
+        singular_tol: Relative regularity :math:`|\det A| / |\det A(\text{home})|` below which
+            :meth:`jacobian` and :meth:`forward_kinematics` refuse to invert ``A``
+            (dimensionless, in ``(0, 1)``).
+
+    Raises:
+        InvalidParameter: ``design`` is not a :class:`CoSPMDesign`, ``mirror`` not a bool, or an
+            option is out of range.
+        InvalidGeometry: The design has no regular home assembly at :math:`\chi = 0`.
+    """
+
+    def __init__(
+        self,
+        design: CoSPMDesign | None = None,
+        *,
+        mirror: bool = False,
+        fk_tol: float = 1e-12,
+        fk_max_iter: int = 50,
+        fk_step: float = 0.05,
+        singular_tol: float = 1e-6,
+    ) -> None:
+        if design is None:
+            design = CoSPMDesign.table1()
+        if not isinstance(design, CoSPMDesign):
+            raise InvalidParameter(
+                f"design: expected a CoSPMDesign, got {type(design).__name__}; build one with "
+                "CoSPMDesign(...) or CoSPMDesign.table1()"
+            )
+        if not isinstance(mirror, (bool, np.bool_)):
+            raise InvalidParameter(f"mirror: expected True or False, got {mirror!r}")
+        self._design = design
+        self._mirror = bool(mirror)
+        self._fk_tol = _positive("fk_tol", fk_tol, "(dimensionless)")
+        if isinstance(fk_max_iter, bool) or not isinstance(fk_max_iter, (int, np.integer)):
+            raise InvalidParameter(
+                f"fk_max_iter: expected a positive int, got {fk_max_iter!r}; e.g. 50"
+            )
+        if fk_max_iter < 1:
+            raise InvalidParameter(f"fk_max_iter: expected an int >= 1, got {fk_max_iter!r}")
+        self._fk_max_iter = int(fk_max_iter)
+        self._fk_step = _positive("fk_step", fk_step, "[rad]")
+        self._singular_tol = _positive("singular_tol", singular_tol, "(fraction)")
+        if self._singular_tol >= 1.0:
+            raise InvalidParameter(
+                f"singular_tol: expected a fraction in (0, 1), got {singular_tol!r}; e.g. 1e-6"
+            )
+
+        sigma = -1.0 if self._mirror else 1.0
+        self._sigma = sigma
+        d = design
+        base = np.stack([_rz(float(e)) @ _rx(d.beta1 - math.pi) for e in d.eta])
+        self._M = _read_only(base)  # (3 legs, 3, 3)
+        self._u = _read_only(base[:, :, 2].copy())  # M_i e_z
+        # R_x(σ α1) e_z = (0, -σ sin α1, cos α1)
+        self._ay = _read_only(-sigma * np.sin(d.alpha1))
+        self._az = _read_only(np.cos(d.alpha1))
+        self._p = _read_only(
+            np.stack([_rz(float(e)) @ _rx(d.beta2) @ np.array([0.0, 0.0, 1.0]) for e in d.eta])
+        )
+        self._cos_a2 = _read_only(np.cos(d.alpha2))
+        # f(θ + ε1, χ) = f(θ, χ + κ ε e3): κ = +1 for β1 = 0, -1 for β1 = π.
+        self._kappa = 1.0 if math.cos(d.beta1) > 0.0 else -1.0
+
+        chi0 = np.zeros((1, 3))
+        try:
+            theta0 = self._ikp(chi0, np.full((1, 3), _HALF_PI), np.full(3, -1.0), "home")
+        except InvalidInput as exc:
+            raise InvalidGeometry(
+                f"the design has no home assembly at chi = 0 in working mode (-1, -1, -1): {exc}"
+            ) from exc
+        self._theta_home: FloatArray = _read_only(theta0[0])
+        _, v, w = self._vectors(theta0, chi0)
+        A0 = self._a_matrix(v, w, chi0)[0]
+        B0 = self._b_matrix(v, w)[0]
+        self._det_a_home = float(abs(np.linalg.det(A0)))
+        scale = float(np.prod(np.sin(d.alpha1)))
+        if not (self._det_a_home > 1e-9 and float(abs(np.prod(np.diag(B0)))) > 1e-9 * scale):
+            raise InvalidGeometry(
+                "the design is singular at its home assembly: expected det A != 0 and det B != 0 "
+                f"at chi = 0, got det A = {np.linalg.det(A0):.3g}, det B = "
+                f"{np.prod(np.diag(B0)):.3g}; change eta, alpha1 or beta2"
+            )
+
+    # ------------------------------------------------------------------ properties
+    @property
+    def design(self) -> CoSPMDesign:
+        """The design parameters."""
+        return self._design
+
+    @property
+    def mirror(self) -> bool:
+        r"""Whether the mirror sign convention :math:`R_x(-\alpha_{1,i})` is used."""
+        return self._mirror
+
+    @property
+    def bearing_sign(self) -> float:
+        r""":math:`\kappa` in :math:`f(\theta + \varepsilon\mathbf 1, \chi) = f(\theta, \chi +
+        \kappa\varepsilon e_3)`: +1 for :math:`\beta_1 = 0` (Table 1), -1 for :math:`\beta_1 = \pi`.
+        """  # noqa: D205
+        return self._kappa
+
+    # ------------------------------------------------------------------ model core
+    def _vectors(
+        self, theta: FloatArray, chi: FloatArray
+    ) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """Axes u (3, 3), v (N, 3, 3), w (N, 3, 3), leg i in axis 1."""
+        s, c = np.sin(theta), np.cos(theta)
+        # R_z(θ) (0, a_y, a_z) = (-sin θ a_y, cos θ a_y, a_z), then the base rotation M_i.
+        local = np.empty((*theta.shape, 3))
+        local[:, :, 0] = -s * self._ay
+        local[:, :, 1] = c * self._ay
+        local[:, :, 2] = self._az
+        w = np.einsum("ijk,nik->nij", self._M, local)
+        v = np.einsum("njk,ik->nij", _rotations(chi), self._p)
+        return self._u, v, w
+
+    def _f(self, v: FloatArray, w: FloatArray) -> FloatArray:
+        out: FloatArray = np.einsum("nij,nij->ni", w, v) - self._cos_a2
+        return out
+
+    @staticmethod
+    def _a_matrix(v: FloatArray, w: FloatArray, chi: FloatArray) -> FloatArray:
+        out: FloatArray = np.einsum("nik,nkj->nij", np.cross(v, w), _euler_rate_map(chi))
+        return out
+
+    def _b_matrix(self, v: FloatArray, w: FloatArray) -> FloatArray:
+        d = np.einsum("nij,nij->ni", np.cross(self._u[None], w), v)
+        B = np.zeros((*d.shape, 3))
+        idx = np.arange(3)
+        B[:, idx, idx] = d
+        return B
+
+    def _pair(self, theta: ArrayLike, chi: ArrayLike) -> tuple[FloatArray, FloatArray, bool]:
+        ta, ts = _poses("theta", theta)
+        ca, cs = _poses("chi", chi)
+        if ta.shape[0] != ca.shape[0] and 1 not in (ta.shape[0], ca.shape[0]):
+            raise InvalidInput(
+                f"theta and chi: expected matching shapes (3,) or (N, 3), got {np.shape(theta)} "
+                f"and {np.shape(chi)}; pass one orientation per joint pose"
+            )
+        n = max(ta.shape[0], ca.shape[0])
+        ta = np.broadcast_to(ta, (n, 3))
+        ca = np.broadcast_to(ca, (n, 3))
+        return ta, ca, ts and cs
+
+    # ------------------------------------------------------------------ public model
+    def home(self) -> tuple[FloatArray, FloatArray]:
+        r"""The home assembly :math:`(\theta_{init}, \chi_{init})` (Lê et al. 2024 §1).
+
+        :math:`\chi = 0` and :math:`\theta` = its IKP in working mode ``(-1, -1, -1)`` nearest
+        to :math:`\pi/2`; for Table 1 :math:`\theta = (\pi/2)\mathbf 1`.
+
+        Returns:
+            ``(theta, chi)`` [rad], each shape (3,).
+        """
+        return self._theta_home.copy(), np.zeros(3)
+
+    def geometric_model(self, theta: ArrayLike, chi: ArrayLike) -> FloatArray:
+        r"""The constraint :math:`f_i = w_i(\theta_i)^T v_i(\chi) - \cos\alpha_{2,i}`.
+
+        Lê et al. 2024 §1 (form), vectors as reconstructed in ``docs/cospm.md`` §2.
+
+        Args:
+            theta: Joint angles [rad], shape (3,) or (N, 3).
+            chi: Orientation (bank, elevation, bearing) [rad], shape (3,) or (N, 3).
+
+        Returns:
+            ``f`` (dimensionless), shape (3,) or (N, 3); zero on the assembly set.
+        """
+        ta, ca, single = self._pair(theta, chi)
+        _, v, w = self._vectors(ta, ca)
+        f = self._f(v, w)
+        return f[0] if single else f
+
+    def axes(self, theta: ArrayLike, chi: ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """Unit axes of every leg: input ``u_i``, intermediate ``w_i``, platform ``v_i``.
+
+        Args:
+            theta: Joint angles [rad], shape (3,) or (N, 3).
+            chi: Orientation [rad], shape (3,) or (N, 3).
+
+        Returns:
+            ``(u, w, v)``, each shape (3, 3) or (N, 3, 3) with row ``i`` the axis of leg ``i``
+            in the base frame (``u`` does not depend on the pose).
+        """
+        ta, ca, single = self._pair(theta, chi)
+        u, v, w = self._vectors(ta, ca)
+        uu = np.broadcast_to(u, w.shape).copy()
+        return (uu[0], w[0], v[0]) if single else (uu, w, v)
+
+    def E(self, chi: ArrayLike) -> FloatArray:  # noqa: N802 (the paper's notation)
+        r"""Euler-rate map of the ZYX angles: :math:`\omega = E\,\dot\chi`.
+
+        :math:`E = [R_z(\chi_3) R_y(\chi_2) e_x,\ R_z(\chi_3) e_y,\ e_z]`; ``det E = cos χ2``.
+
+        Args:
+            chi: Orientation [rad], shape (3,) or (N, 3).
+
+        Returns:
+            Shape (3, 3) or (N, 3, 3) (dimensionless); :math:`\omega` in the base frame.
+        """
+        ca, single = _poses("chi", chi)
+        E = _euler_rate_map(ca)
+        return E[0] if single else E
+
+    def A(self, theta: ArrayLike, chi: ArrayLike) -> FloatArray:  # noqa: N802 (paper notation)
+        r""":math:`A = \partial f/\partial\chi`, row ``i`` = :math:`(v_i \times w_i)^T E(\chi)`.
+
+        Args:
+            theta: Joint angles [rad], shape (3,) or (N, 3).
+            chi: Orientation [rad], shape (3,) or (N, 3).
+
+        Returns:
+            Shape (3, 3) or (N, 3, 3) [1/rad].
+        """
+        ta, ca, single = self._pair(theta, chi)
+        _, v, w = self._vectors(ta, ca)
+        A = self._a_matrix(v, w, ca)
+        return A[0] if single else A
+
+    def B(self, theta: ArrayLike, chi: ArrayLike) -> FloatArray:  # noqa: N802 (paper notation)
+        r""":math:`B = \partial f/\partial\theta = \mathrm{diag}((u_i \times w_i)^T v_i)`.
+
+        Args:
+            theta: Joint angles [rad], shape (3,) or (N, 3).
+            chi: Orientation [rad], shape (3,) or (N, 3).
+
+        Returns:
+            Shape (3, 3) or (N, 3, 3) [1/rad], diagonal.
+        """
+        ta, ca, single = self._pair(theta, chi)
+        _, v, w = self._vectors(ta, ca)
+        B = self._b_matrix(v, w)
+        return B[0] if single else B
+
+    def jacobian(self, theta: ArrayLike, chi: ArrayLike) -> FloatArray:
+        r"""Velocity map :math:`\dot\chi = J\dot\theta`, :math:`J = -A^{-1}B`.
+
+        Used by Lê et al. 2024 Fig. 7 for :math:`\dot\chi_{lim} = J\dot\theta_{lim}`. At home
+        (Table 1) :math:`J\mathbf 1 = (0, 0, -1)` exactly: the bearing invariance as velocities.
+
+        Args:
+            theta: Joint angles [rad], shape (3,) or (N, 3).
+            chi: Orientation [rad] of an assembly ``f(theta, chi) = 0``, shape (3,) or (N, 3).
+
+        Returns:
+            Shape (3, 3) or (N, 3, 3), dimensionless ([rad/s] per [rad/s]).
+
+        Raises:
+            InvalidInput: ``A`` is (near) singular, :math:`|\det A| < ` ``singular_tol`` times
+                its home value (a Type-2 or representation singularity); rows named.
+        """
+        ta, ca, single = self._pair(theta, chi)
+        _, v, w = self._vectors(ta, ca)
+        A = self._a_matrix(v, w, ca)
+        self._check_regular(ca, A, "jacobian")
+        J = np.asarray(-np.linalg.solve(A, self._b_matrix(v, w)), dtype=np.float64)
+        return J[0] if single else J
+
+    def type1(self, theta: ArrayLike, chi: ArrayLike) -> FloatArray | float:
+        r"""Type-1 (serial) singularity indicator :math:`\det B = \prod_i (u_i\times w_i)^T v_i`.
+
+        Args:
+            theta: Joint angles [rad], shape (3,) or (N, 3).
+            chi: Orientation [rad], shape (3,) or (N, 3).
+
+        Returns:
+            ``float`` for one pose, shape (N,) for a batch (dimensionless).
+        """
+        ta, ca, single = self._pair(theta, chi)
+        _, v, w = self._vectors(ta, ca)
+        d = np.prod(np.einsum("nij,nij->ni", np.cross(self._u[None], w), v), axis=1)
+        return float(d[0]) if single else np.asarray(d, dtype=np.float64)
+
+    def type2(self, theta: ArrayLike, chi: ArrayLike) -> FloatArray | float:
+        r"""Type-2 (parallel) singularity indicator :math:`\det[v_1\times w_1; v_2\times w_2;
+        v_3\times w_3]`.
+
+        ``det A = type2 · cos χ2``; it does not depend on the bearing.
+
+        Args:
+            theta: Joint angles [rad], shape (3,) or (N, 3).
+            chi: Orientation [rad], shape (3,) or (N, 3).
+
+        Returns:
+            ``float`` for one pose, shape (N,) for a batch (dimensionless).
+        """  # noqa: D205
+        ta, ca, single = self._pair(theta, chi)
+        _, v, w = self._vectors(ta, ca)
+        d = np.linalg.det(np.cross(v, w))
+        return float(d[0]) if single else np.asarray(d, dtype=np.float64)
+
+    @staticmethod
+    def representation(chi: ArrayLike) -> FloatArray | float:
+        r"""Representation-singularity indicator :math:`\det E(\chi) = \cos\chi_2`.
+
+        Zero at elevation ±90°: gimbal lock of the ZYX angles, not of the mechanism.
+
+        Args:
+            chi: Orientation [rad], shape (3,) or (N, 3).
+
+        Returns:
+            ``float`` for one pose, shape (N,) for a batch.
+        """
+        ca, single = _poses("chi", chi)
+        c = np.cos(ca[:, 1])
+        return float(c[0]) if single else np.asarray(c, dtype=np.float64)
+
+    def bearing_shift(
+        self, theta: ArrayLike, chi: ArrayLike, eps: float
+    ) -> tuple[FloatArray, FloatArray]:
+        r"""Move an assembly along the invariance axis (Lê et al. 2024 §1, Proposition 1).
+
+        From :math:`f(\theta + \varepsilon\mathbf 1, \chi) = f(\theta, \chi + \kappa\varepsilon
+        e_3)` (:attr:`bearing_sign` :math:`\kappa = 1` for Table 1): if ``(theta, chi)`` is an
+        assembly, so is :math:`(\theta + \varepsilon\mathbf 1, \chi - \kappa\varepsilon e_3)`,
+        with the same bank, elevation, Jacobian and singularity indicators.
+
+        Args:
+            theta: Joint angles [rad], shape (3,) or (N, 3).
+            chi: Orientation [rad], shape (3,) or (N, 3).
+            eps: Common rotation added to every shaft [rad].
+
+        Returns:
+            ``(theta + eps, chi - κ eps e3)`` [rad], shapes as given.
+        """
+        if isinstance(eps, bool) or not isinstance(eps, _REAL) or not math.isfinite(eps):
+            raise InvalidInput(f"eps: expected a finite angle [rad], got {eps!r}")
+        ta, ca, single = self._pair(theta, chi)
+        t2 = ta + float(eps)
+        c2 = np.array(ca, dtype=float)
+        c2[:, 2] -= self._kappa * float(eps)
+        return (t2[0], c2[0]) if single else (t2, c2)
+
+    # ------------------------------------------------------------------ IKP
+    def _ikp_raw(
+        self, chi: FloatArray, theta_prev: FloatArray, modes: FloatArray
+    ) -> tuple[FloatArray, BoolArray, FloatArray, FloatArray]:
+        """Closed-form IKP; never raises. Returns (theta, miss, |C|, R), theta NaN on a miss."""
+        v = np.einsum("njk,ik->nij", _rotations(chi), self._p)
+        # w_i^T v_i = a^T R_z(-θ) p_i with p_i = M_i^T v_i: A sin θ + B cos θ = C.
+        p = np.einsum("ikj,nik->nij", self._M, v)
+        Ac = -self._ay * p[:, :, 0]
+        Bc = self._ay * p[:, :, 1]
+        Cc = self._cos_a2 - self._az * p[:, :, 2]
+        R = np.hypot(Ac, Bc)
+        ratio = np.divide(Cc, R, out=np.full_like(Cc, np.inf), where=R > 0.0)
+        miss = np.abs(ratio) > 1.0 + _REACH_SLACK
+        gamma = np.arctan2(Ac, Bc)
+        theta = gamma + modes * self._sigma * np.arccos(np.clip(ratio, -1.0, 1.0))
+        theta += _TWO_PI * np.round((theta_prev - theta) / _TWO_PI)
+        theta[miss.any(axis=1)] = np.nan
+        return theta, miss, np.abs(Cc), R
+
+    def _ikp(
+        self, chi: FloatArray, theta_prev: FloatArray, modes: FloatArray, what: str
+    ) -> FloatArray:
+        theta, miss, C, R = self._ikp_raw(chi, theta_prev, modes)
+        if miss.any():
+            n, i = (int(k) for k in np.argwhere(miss)[0])
+            raise InvalidInput(
+                f"{what}: chi = {chi[n].tolist()} rad is out of reach of leg {i + 1}"
+                f"{'' if chi.shape[0] == 1 else f' (row {n})'}: expected |C_i| <= R_i, got "
+                f"|C_i| = {float(C[n, i]):.6g} > R_i = {float(R[n, i]):.6g}; that "
+                "orientation is outside the manipulator's workspace (or at a Type-1 "
+                "singularity when they are equal)"
+            )
+        return theta
+
+    def inverse_kinematics(
+        self,
+        chi: ArrayLike,
+        *,
+        theta_prev: ArrayLike | None = None,
+        modes: tuple[int, int, int] = (-1, -1, -1),
+    ) -> FloatArray:
+        r"""Closed-form IKP, leg by leg (``docs/cospm.md`` §3).
+
+        With :math:`p_i = (R_z(\eta_i)R_x(\beta_1-\pi))^T v_i(\chi)` each leg's constraint is
+        :math:`A_i\sin\theta_i + B_i\cos\theta_i = C_i`, so
+        :math:`\theta_i = \mathrm{atan2}(A_i, B_i) + m_i\,\sigma\arccos(C_i/R_i)`,
+        :math:`R_i = \sqrt{A_i^2 + B_i^2}`. The working mode :math:`m_i = \pm1` of leg ``i``
+        is :math:`-\sigma\,\mathrm{sign}(\partial f_i/\partial\theta_i)`; ``-1`` for every leg
+        is the mode of the home assembly (Table 1, either sign convention). The result is
+        unwrapped by multiples of 2π to the nearest of ``theta_prev``.
+
+        Args:
+            chi: Orientation (bank, elevation, bearing) [rad], shape (3,) or (N, 3).
+            theta_prev: Previous joint angles to unwrap to [rad], shape (3,) or (N, 3); the home
+                joint angles (π/2 each for Table 1) when ``None`` (start-up).
+            modes: Working mode of each leg, each ``-1`` or ``+1``.
+
+        Returns:
+            ``theta`` [rad] with ``f(theta, chi) = 0``, shape (3,) or (N, 3).
+
+        Raises:
+            InvalidInput: ``chi`` is out of reach of a leg (:math:`|C_i| > R_i`; leg and values
+                named), or wrong shapes / non-finite values.
+            InvalidParameter: ``modes`` is not three values in {-1, +1}.
+        """
+        ca, single = _poses("chi", chi)
+        m = _modes(modes)
+        if theta_prev is None:
+            prev = np.broadcast_to(self._theta_home, ca.shape)
+        else:
+            prev = _like("theta_prev", theta_prev, ca.shape[0], "chi")
+        theta = self._ikp(ca, prev, m, "inverse_kinematics")
+        return theta[0] if single else theta
+
+    # ------------------------------------------------------------------ FKP
+    def _newton(
+        self, theta: FloatArray, chi: FloatArray
+    ) -> tuple[FloatArray, BoolArray, FloatArray]:
+        """Newton on chi for every row; never raises. Returns (chi, converged, residual)."""
+        chi = np.array(chi, dtype=float)
+        n = chi.shape[0]
+        resid = np.full(n, np.inf)
+        alive = np.ones(n, dtype=bool)
+        for it in range(self._fk_max_iter + 1):
+            _, v, w = self._vectors(theta, chi)
+            f = self._f(v, w)
+            resid = np.max(np.abs(f), axis=1)
+            resid[~np.isfinite(resid)] = np.inf
+            active = alive & (resid > self._fk_tol)
+            if not active.any() or it == self._fk_max_iter:
+                break
+            A = self._a_matrix(v[active], w[active], chi[active])
+            regular = np.abs(np.linalg.det(A)) >= self._singular_tol * self._det_a_home
+            idx = np.flatnonzero(active)
+            alive[idx[~regular]] = False
+            if regular.any():
+                step = np.linalg.solve(A[regular], f[active][regular][:, :, None])[:, :, 0]
+                chi[idx[regular]] -= step
+        converged = alive & (resid <= self._fk_tol)
+        return chi, converged, resid
+
+    def _continue(
+        self, theta0: FloatArray, chi0: FloatArray, theta: FloatArray
+    ) -> tuple[FloatArray, BoolArray, FloatArray]:
+        """Predictor-corrector continuation along the segment theta0 -> theta (rows)."""
+        # The common-mode part of the move is exact by the invariance: remove it first.
+        eps = np.mean(theta - theta0, axis=1)
+        target = theta - eps[:, None]
+        span = float(np.max(np.abs(target - theta0))) if target.size else 0.0
+        steps = max(1, math.ceil(span / self._fk_step))
+        chi = np.array(chi0, dtype=float)
+        th = np.array(theta0, dtype=float)
+        ok = np.ones(theta.shape[0], dtype=bool)
+        resid = np.zeros(theta.shape[0])
+        for k in range(1, steps + 1):
+            nxt = theta0 + (target - theta0) * (k / steps)
+            pred = chi + self._predict(th, chi, nxt - th)
+            chi, conv, resid = self._newton(nxt, pred)
+            ok &= conv & (np.max(np.abs(chi - pred), axis=1) <= _JUMP)
+            th = nxt
+        chi[:, 2] -= self._kappa * eps
+        return chi, ok, resid
+
+    def _predict(self, theta: FloatArray, chi: FloatArray, dtheta: FloatArray) -> FloatArray:
+        """First-order predictor J dtheta (zero where A is singular)."""
+        _, v, w = self._vectors(theta, chi)
+        A = self._a_matrix(v, w, chi)
+        regular = np.abs(np.linalg.det(A)) >= self._singular_tol * self._det_a_home
+        out = np.zeros_like(chi)
+        if regular.any():
+            rhs = np.einsum("nij,nj->ni", self._b_matrix(v[regular], w[regular]), dtheta[regular])
+            out[regular] = -np.linalg.solve(A[regular], rhs[:, :, None])[:, :, 0]
+        return out
+
+    def forward_kinematics(
+        self,
+        theta: ArrayLike,
+        chi0: ArrayLike | None = None,
+        *,
+        theta0: ArrayLike | None = None,
+    ) -> FloatArray:
+        r"""FKP by Newton's method :math:`\chi \leftarrow \chi - A^{-1}f(\theta, \chi)`.
+
+        Lê et al. 2024 §1 picks "the" solution by continuity from home; three ways to start:
+
+        * ``chi0=None``: continuation from home along the straight joint path from the home
+          joint angles to ``theta`` (predictor :math:`J\,\Delta\theta`, Newton corrector, steps
+          of at most ``fk_step``); the common-mode part of the move is applied exactly through
+          the bearing invariance;
+        * ``chi0`` and ``theta0`` given: the same continuation from the assembly
+          ``(theta0, chi0)``;
+        * ``chi0`` only: plain Newton from ``chi0`` (the previous control cycle's solution).
+
+        Args:
+            theta: Joint angles [rad], shape (3,) or (N, 3).
+            chi0: Starting (or previous) orientation [rad], shape (3,) or (N, 3).
+            theta0: Joint angles of the assembly ``chi0`` belongs to [rad], shape (3,) or
+                (N, 3); requires ``chi0``.
+
+        Returns:
+            ``chi`` [rad] with :math:`\max_i|f_i| \le` ``fk_tol``, shape (3,) or (N, 3).
+
+        Raises:
+            InvalidInput: Newton does not converge in ``fk_max_iter`` steps, meets a singular
+                ``A``, or a continuation step jumps off its branch (rows, residual named); or
+                wrong shapes / non-finite values.
+            InvalidParameter: ``theta0`` without ``chi0``.
+        """
+        ta, single = _poses("theta", theta)
+        n = ta.shape[0]
+        if chi0 is None:
+            if theta0 is not None:
+                raise InvalidParameter(
+                    "theta0: expected together with chi0 (the assembly to continue from), got "
+                    "theta0 without chi0; pass both or neither"
+                )
+            th0 = np.array(np.broadcast_to(self._theta_home, (n, 3)))
+            chi, ok, resid = self._continue(th0, np.zeros((n, 3)), ta)
+        else:
+            c0 = _like("chi0", chi0, n, "theta")
+            if theta0 is None:
+                chi, ok, resid = self._newton(ta, c0)
+            else:
+                th0 = _like("theta0", theta0, n, "theta")
+                chi, ok, resid = self._continue(th0, c0, ta)
+        if not ok.all():
+            bad = np.flatnonzero(~ok)
+            i = int(bad[0])
+            raise InvalidInput(
+                f"forward_kinematics: Newton did not converge at theta = {ta[i].tolist()} rad"
+                f"{'' if single else f' (row(s) {bad[:10].tolist()})'}: expected max |f| <= "
+                f"{self._fk_tol:g} within {self._fk_max_iter} iterations on the start's branch, "
+                f"got {float(resid[i]):.3g}; start from a closer assembly (chi0 with theta0 "
+                "for continuation) or keep theta away from singularities"
+            )
+        return chi[0] if single else chi
+
+    # ------------------------------------------------------------------ helpers
+    def _check_regular(self, chi: FloatArray, A: FloatArray, what: str) -> None:
+        rel = np.abs(np.linalg.det(A)) / self._det_a_home
+        bad = np.flatnonzero(rel < self._singular_tol)
+        if bad.size:
+            i = int(bad[0])
+            raise InvalidInput(
+                f"{what}: A = df/dchi is singular at chi = {chi[i].tolist()} rad (row(s) "
+                f"{bad[:10].tolist()}): expected |det A|/|det A(home)| >= "
+                f"{self._singular_tol:g}, got {float(rel[i]):.3g}; this is a Type-2 "
+                "singularity or elevation ±90° (gimbal lock); stay inside the regular joint space"
+            )
+
+    def __repr__(self) -> str:
+        return f"CoSPM({self._design!r}, mirror={self._mirror})"
+
+
+def _modes(modes: Any) -> FloatArray:
+    try:
+        m = np.array(modes, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise InvalidParameter(
+            f"modes: expected three values in {{-1, +1}}, got {modes!r}"
+        ) from exc
+    if m.shape != (3,) or not np.all((m == 1.0) | (m == -1.0)):
+        raise InvalidParameter(
+            f"modes: expected three values in {{-1, +1}} (one working mode per leg), got "
+            f"{modes!r}; (-1, -1, -1) is the home mode"
+        )
+    return m
+
+
+# ====================================================================== stops and regions
+def _stops(stops: ArrayLike) -> FloatArray:
+    try:
+        S = np.array(stops, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise InvalidGeometry(
+            f"stops: expected rows (a_i, b_i, c_i) of shape (m, 3), got {stops!r}"
+        ) from exc
+    if S.ndim != 2 or S.shape[1] != 3 or S.shape[0] < 3:
+        raise InvalidGeometry(
+            f"stops: expected shape (m, 3) with m >= 3 rows (a_i, b_i, c_i), got shape {S.shape}"
+        )
+    if not np.all(np.isfinite(S)):
+        raise InvalidGeometry(f"stops: expected finite coefficients, got {S.tolist()}")
+    return S
+
+
+def stops_polygon(stops: ArrayLike = PAPER_STOPS) -> ConvexPolygon:
+    r"""The regular joint space :math:`Q^*` in :math:`(q_1, q_2)` from its stops (Lê et al. §2).
+
+    :math:`Q^* = \{q : a_i q_1 + b_i q_2 + c_i \ge 0\ \forall i\}`, built by
+    :func:`velfence.geometry.polygon.polygon_from_halfplanes` (half-planes ordered by normal
+    angle, consecutive lines intersected; bounded and every stop used, else an error). For
+    :data:`PAPER_STOPS` the corners (CCW) are d4∩d1, d1∩d2, d2∩d3, d3∩d4 and edge ``k`` lies on
+    stop ``k``; the polygon's signed distances are the paper's :math:`\delta_i`.
+
+    Args:
+        stops: Rows ``(a_i, b_i, c_i)``, shape (m, 3), m >= 3 (``a``, ``b`` dimensionless,
+            ``c`` [rad]).
+
+    Returns:
+        The polygon in the :math:`(q_1, q_2)` plane [rad].
+
+    Raises:
+        InvalidGeometry: wrong shape, non-finite coefficients, an unbounded region or a
+            redundant stop.
+    """
+    S = _stops(stops)
+    polygon, _ = polygon_from_halfplanes(S[:, :2], S[:, 2])
+    return polygon
+
+
+def _q3_for(q12: FloatArray, theta3: float | None, q3_home: float) -> FloatArray:
+    """q3 such that theta3 = Q^T q has the given value (or q3 = its home value when None)."""
+    if theta3 is None:
+        return np.full(q12.shape[0], q3_home)
+    out: FloatArray = (theta3 - Q_AUX[0, 2] * q12[:, 0] - Q_AUX[1, 2] * q12[:, 1]) / Q_AUX[2, 2]
+    return out
+
+
+def _flood(
+    cospm: CoSPM,
+    theta: FloatArray,
+    mask: NDArray[np.bool_],
+    start: tuple[int, int],
+    *,
+    keep_sign: bool,
+) -> tuple[FloatArray, BoolArray]:
+    """Continuation FKP over a 2-D grid of joint poses (n2, n1, 3), wave by wave from ``start``.
+
+    Each point's Newton starts from an already solved 8-neighbour's chi plus the predictor
+    J Δθ. Expansion stops at points that fail (no convergence or a branch jump) and, with
+    ``keep_sign``, at points where det[v×w] has left the home sign (the leaf's fold).
+    """
+    n2, n1 = mask.shape
+    chi = np.full((n2, n1, 3), np.nan)
+    solved = np.zeros((n2, n1), dtype=bool)
+    visited = np.zeros((n2, n1), dtype=bool)
+    th_home, _ = cospm.home()
+    sign0 = float(np.sign(cospm.type2(th_home, np.zeros(3))))
+    c0, ok0, _ = cospm._continue(th_home[None], np.zeros((1, 3)), theta[start][None])
+    visited[start] = True
+    if not ok0[0]:
+        return chi, solved
+    chi[start] = c0[0]
+    solved[start] = True
+    frontier = deque([start])
+    offsets = [(a, b) for a in (-1, 0, 1) for b in (-1, 0, 1) if (a, b) != (0, 0)]
+    while frontier:
+        wave: list[tuple[int, int]] = []
+        parent: list[tuple[int, int]] = []
+        for _ in range(len(frontier)):
+            i, j = frontier.popleft()
+            for di, dj in offsets:
+                a, b = i + di, j + dj
+                if 0 <= a < n2 and 0 <= b < n1 and mask[a, b] and not visited[a, b]:
+                    visited[a, b] = True
+                    wave.append((a, b))
+                    parent.append((i, j))
+        if not wave:
+            break
+        ia = np.array(wave)
+        pa = np.array(parent)
+        th_new = theta[ia[:, 0], ia[:, 1]]
+        th_par = theta[pa[:, 0], pa[:, 1]]
+        ch_par = chi[pa[:, 0], pa[:, 1]]
+        pred = ch_par + cospm._predict(th_par, ch_par, th_new - th_par)
+        ch_new, conv, _ = cospm._newton(th_new, pred)
+        good = conv & (np.max(np.abs(ch_new - pred), axis=1) <= _JUMP)
+        if keep_sign:
+            _, v, w = cospm._vectors(th_new, ch_new)
+            good &= np.sign(np.linalg.det(np.cross(v, w))) == sign0
+        for k in np.flatnonzero(good):
+            a, b = int(ia[k, 0]), int(ia[k, 1])
+            chi[a, b] = ch_new[k]
+            solved[a, b] = True
+            frontier.append((a, b))
+    return chi, solved
+
+
+def _grid(lo: float, hi: float, step: float) -> FloatArray:
+    """Multiples of ``step`` in [lo, hi] (so that 0, home, is a node when inside)."""
+    k0 = math.ceil(lo / step - 1e-9)
+    k1 = math.floor(hi / step + 1e-9)
+    out: FloatArray = np.arange(k0, k1 + 1, dtype=float) * step
+    return out
+
+
+def _sign(x: FloatArray) -> int:
+    if x.size and np.all(x > 0.0):
+        return 1
+    if x.size and np.all(x < 0.0):
+        return -1
+    return 0
+
+
+@dataclass(frozen=True, eq=False)
+class RegionReport:
+    r"""Outcome of :func:`validate_region`: is :math:`Q^*` regular and dextrous?
+
+    Attributes:
+        step: Grid step in :math:`(q_1, q_2)` [rad].
+        theta3: The fixed :math:`\theta_3` [rad] that sets :math:`q_3`, or ``None`` when
+            :math:`q_3` was held at its home value.
+        q: Grid points of :math:`Q^*`, shape (N, 2) [rad].
+        theta: Their joint angles :math:`Q_{AUX}^T (q_1, q_2, q_3)`, shape (N, 3) [rad].
+        chi: FKP by continuation from home, shape (N, 3) [rad]; NaN rows where it failed.
+        solved: Whether the FKP converged on the home branch, shape (N,).
+        det_a: :math:`\det(\partial f/\partial\chi)`, shape (N,).
+        det_b: :math:`\det(\partial f/\partial\theta)`, shape (N,).
+        type2: :math:`\det[v_i\times w_i]`, shape (N,).
+        leg_b: Diagonal of ``B``, shape (N, 3) (its signs are the legs' working modes).
+        sign_det_a: +1 or -1 when ``det_a`` keeps that sign over every point, else 0.
+        sign_det_b: Same for ``det_b``.
+        leg_modes_constant: Whether every leg's ``B_ii`` keeps the home sign everywhere.
+        min_abs_det_a: :math:`\min|\det A|` over the grid.
+        min_abs_det_b: :math:`\min|\det B|`.
+        min_abs_type2: :math:`\min|\det[v\times w]|`.
+        bank_range: ``(min, max)`` bank reached on the grid [rad].
+        elevation_range: ``(min, max)`` elevation reached on the grid [rad].
+        workspace: The rectangle checked, ``(bank_min, bank_max, elev_min, elev_max)`` [rad].
+        workspace_margin: Smallest signed distance (positive inside) of
+            :math:`\mathrm{IKP}(W^*)` to any stop, over the rectangle's sample grid [rad of q].
+        workspace_included: ``workspace_margin > 0``: :math:`W^* \subset FKP(Q^*)` strictly.
+        elevation_at_bank: For each requested bank ``b``, ``(b, elev_lo, elev_hi)`` [rad]:
+            the elevation interval through 0 whose IKP stays in :math:`Q^*` (NaN when the
+            bank itself is out).
+    """
+
+    step: float
+    theta3: float | None
+    q: FloatArray
+    theta: FloatArray
+    chi: FloatArray
+    solved: BoolArray
+    det_a: FloatArray
+    det_b: FloatArray
+    type2: FloatArray
+    leg_b: FloatArray
+    sign_det_a: int
+    sign_det_b: int
+    leg_modes_constant: bool
+    min_abs_det_a: float
+    min_abs_det_b: float
+    min_abs_type2: float
+    bank_range: tuple[float, float]
+    elevation_range: tuple[float, float]
+    workspace: tuple[float, float, float, float]
+    workspace_margin: float
+    workspace_included: bool
+    elevation_at_bank: tuple[tuple[float, float, float], ...]
+
+    @property
+    def n_points(self) -> int:
+        """Number of grid points in :math:`Q^*`."""
+        return int(self.q.shape[0])
+
+    @property
+    def n_failed(self) -> int:
+        """Grid points whose continuation FKP failed (0 for a regular, connected region)."""
+        return int(np.count_nonzero(~self.solved))
+
+    @property
+    def ok(self) -> bool:
+        """Every point solved, constant signs of det A and det B and of every leg's mode, and
+        :math:`W^*` strictly inside.
+        """  # noqa: D205
+        return (
+            self.n_failed == 0
+            and self.sign_det_a != 0
+            and self.sign_det_b != 0
+            and self.leg_modes_constant
+            and self.workspace_included
+        )
+
+
+def _workspace_margin(
+    cospm: CoSPM, S: FloatArray, chi: FloatArray, theta_prev: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """IKP (home modes) of orientations (N, 3) and their least signed stop distance (N,)."""
+    th = cospm._ikp(chi, theta_prev, np.full(3, -1.0), "validate_region")
+    q = th @ Q_AUX.T
+    d = (q[:, :2] @ S[:, :2].T + S[:, 2]) / np.hypot(S[:, 0], S[:, 1])
+    return th, np.asarray(np.min(d, axis=1), dtype=np.float64)
+
+
+def _elevation_interval(
+    cospm: CoSPM, S: FloatArray, bank: float, scan: float
+) -> tuple[float, float]:
+    """Elevation interval through 0 at this bank whose IKP stays inside the stops [rad]."""
+    th0, _ = cospm.home()
+
+    def margin(e: float, prev: FloatArray) -> tuple[FloatArray, float]:
+        try:
+            th, m = _workspace_margin(cospm, S, np.array([[bank, e, 0.0]]), prev[None])
+        except InvalidInput:
+            return prev, -math.inf
+        return th[0], float(m[0])
+
+    prev, m0 = margin(0.0, th0)
+    if not m0 >= 0.0:
+        return math.nan, math.nan
+    ends = []
+    limit = math.radians(89.0)
+    for direction in (-1.0, 1.0):
+        e_in, th_in = 0.0, prev
+        e_out = math.nan
+        while abs(e_in) < limit:
+            e = direction * min(abs(e_in) + scan, limit)
+            th, m = margin(e, th_in)
+            if m < 0.0:
+                e_out = e
+                break
+            e_in, th_in = e, th
+        if math.isnan(e_out):
+            ends.append(e_in)
+            continue
+        for _ in range(48):
+            mid = 0.5 * (e_in + e_out)
+            th, m = margin(mid, th_in)
+            if m >= 0.0:
+                e_in, th_in = mid, th
+            else:
+                e_out = mid
+        ends.append(e_in)
+    return ends[0], ends[1]
+
+
+def validate_region(
+    cospm: CoSPM | None = None,
+    stops: ArrayLike = PAPER_STOPS,
+    *,
+    step: float = 0.02,
+    theta3: float | None = _HALF_PI,
+    workspace: tuple[float, float, float, float] = PAPER_WORKSPACE,
+    workspace_step: float = math.radians(1.0),
+    banks: tuple[float, ...] = (math.radians(-10.0), 0.0, math.radians(10.0)),
+) -> RegionReport:
+    r"""Grid check that the stops' region :math:`Q^*` is regular and dextrous (our tool).
+
+    Stands in for Lê et al. 2024's offline certification (Kantorovich unicity operator and
+    certified Newton, §1), which the paper does not specify:
+
+    1. grid :math:`Q^*` in :math:`(q_1, q_2)` at multiples of ``step`` (home is a node);
+       :math:`q_3` is chosen so that :math:`\theta_3` = ``theta3`` (the paper's "immobilize
+       the 3rd leg" at π/2), or held at its home value :math:`\sqrt3\,\pi/2` when ``None``. By
+       the bearing invariance the choice changes only the bearing :math:`\chi_3`, never the
+       bank, elevation or any determinant;
+    2. FKP by continuation, wave by wave from home over the 8-connected grid (each Newton
+       starts from a solved neighbour); record det A, det B, :math:`\det[v\times w]` and the
+       bank/elevation reached;
+    3. dextrousness, exactly, through the closed-form IKP: sample the rectangle ``workspace``
+       (bank × elevation, bearing 0 — irrelevant by the invariance) every ``workspace_step``,
+       map each sample through IKP (home working modes, unwrapped along the grid) and
+       :data:`Q_AUX`, and take the least signed distance to the stops. This is valid because
+       step 2 checks that each leg keeps its home working mode over :math:`Q^*`.
+
+    Args:
+        cospm: The mechanism; ``CoSPM()`` (Table 1) when ``None``.
+        stops: Rows ``(a_i, b_i, c_i)``, shape (m, 3); the paper's by default.
+        step: Grid step in :math:`(q_1, q_2)` [rad], > 0.
+        theta3: Fixed third joint [rad], or ``None`` for a fixed :math:`q_3`.
+        workspace: ``(bank_min, bank_max, elev_min, elev_max)`` [rad] to check.
+        workspace_step: Sample spacing over ``workspace`` [rad], > 0.
+        banks: Bank values [rad] at which to report the reachable elevation interval.
+
+    Returns:
+        A :class:`RegionReport`.
+
+    Raises:
+        InvalidGeometry: bad stops (see :func:`stops_polygon`).
+        InvalidParameter: bad options.
+    """
+    if cospm is None:
+        cospm = CoSPM()
+    if not isinstance(cospm, CoSPM):
+        raise InvalidParameter(f"cospm: expected a CoSPM, got {type(cospm).__name__}")
+    S = _stops(stops)
+    polygon = stops_polygon(S)
+    step = _positive("step", step, "[rad]")
+    workspace_step = _positive("workspace_step", workspace_step, "[rad]")
+    if theta3 is not None:
+        if isinstance(theta3, bool) or not isinstance(theta3, _REAL) or not math.isfinite(theta3):
+            raise InvalidParameter(f"theta3: expected a finite angle [rad] or None, got {theta3!r}")
+        theta3 = float(theta3)
+    ws = tuple(float(x) for x in workspace)
+    if len(ws) != 4 or not all(math.isfinite(x) for x in ws) or ws[0] > ws[1] or ws[2] > ws[3]:
+        raise InvalidParameter(
+            "workspace: expected (bank_min, bank_max, elev_min, elev_max) [rad] with min <= max, "
+            f"got {workspace!r}"
+        )
+    th_home, _ = cospm.home()
+    q3_home = float((Q_AUX @ th_home)[2])
+    q_home = Q_AUX @ th_home
+
+    # 1-2. continuation FKP over the grid of Q*.
+    lo = polygon.corners.min(axis=0)
+    hi = polygon.corners.max(axis=0)
+    g1 = _grid(float(lo[0]), float(hi[0]), step)
+    g2 = _grid(float(lo[1]), float(hi[1]), step)
+    Q1, Q2 = np.meshgrid(g1, g2)
+    pts = np.column_stack([Q1.ravel(), Q2.ravel()])
+    inside = np.all(pts @ S[:, :2].T + S[:, 2] >= 0.0, axis=1)
+    mask = inside.reshape(Q1.shape)
+    if not mask.any():
+        raise InvalidParameter(
+            f"step: expected a grid fine enough to sample Q*, got step = {step!r} rad with no "
+            "node inside; use a smaller step"
+        )
+    q3 = _q3_for(pts, theta3, q3_home)
+    theta_grid = (np.column_stack([pts, q3]) @ Q_AUX).reshape((*Q1.shape, 3))
+    dist = np.where(mask, np.hypot(Q1 - q_home[0], Q2 - q_home[1]), np.inf)
+    start_flat = int(np.argmin(dist))
+    start = (start_flat // Q1.shape[1], start_flat % Q1.shape[1])
+    chi_grid, solved_grid = _flood(cospm, theta_grid, mask, start, keep_sign=False)
+
+    sel = mask.ravel()
+    q = pts[sel]
+    theta = theta_grid.reshape(-1, 3)[sel]
+    chi = chi_grid.reshape(-1, 3)[sel]
+    solved = solved_grid.ravel()[sel]
+    ok_t, ok_c = theta[solved], chi[solved]
+    _, v, w = cospm._vectors(ok_t, ok_c)
+    det_a_ok = np.linalg.det(cospm._a_matrix(v, w, ok_c))
+    leg_b_ok = np.einsum("nij,nij->ni", np.cross(cospm._u[None], w), v)
+    type2_ok = np.linalg.det(np.cross(v, w))
+
+    def full(x: FloatArray, shape: tuple[int, ...]) -> FloatArray:
+        out = np.full(shape, np.nan)
+        out[solved] = x
+        out.setflags(write=False)
+        return out
+
+    n = q.shape[0]
+    det_a = full(det_a_ok, (n,))
+    det_b = full(np.prod(leg_b_ok, axis=1), (n,))
+    type2 = full(type2_ok, (n,))
+    leg_b = full(leg_b_ok, (n, 3))
+    _, v0, w0 = cospm._vectors(th_home[None], np.zeros((1, 3)))
+    home_modes = np.sign(np.einsum("nij,nij->ni", np.cross(cospm._u[None], w0), v0))[0]
+    leg_constant = bool(np.all(np.sign(leg_b_ok) == home_modes))
+
+    def span(x: FloatArray) -> tuple[float, float]:
+        return (float(np.min(x)), float(np.max(x))) if x.size else (math.nan, math.nan)
+
+    def min_abs(x: FloatArray) -> float:
+        return float(np.min(np.abs(x))) if x.size else math.nan
+
+    # 3. dextrousness through the closed-form IKP, unwrapped along elevation rows.
+    banks_ws = np.linspace(ws[0], ws[1], max(2, math.ceil((ws[1] - ws[0]) / workspace_step) + 1))
+    elevs = np.linspace(ws[2], ws[3], max(2, math.ceil((ws[3] - ws[2]) / workspace_step) + 1))
+    margin = math.inf
+    try:
+        mid = int(np.argmin(np.abs(elevs)))
+        order = list(range(mid, elevs.size)) + list(range(mid - 1, -1, -1))
+        row0 = np.column_stack([banks_ws, np.zeros_like(banks_ws), np.zeros_like(banks_ws)])
+        start_th, _ = _workspace_margin(cospm, S, row0, np.broadcast_to(th_home, row0.shape).copy())
+        prev = start_th
+        for k in order:
+            if k == mid - 1:
+                prev = start_th
+            chi_row = np.column_stack(
+                [banks_ws, np.full_like(banks_ws, elevs[k]), np.zeros_like(banks_ws)]
+            )
+            prev, m = _workspace_margin(cospm, S, chi_row, prev)
+            margin = min(margin, float(np.min(m)))
+    except InvalidInput:
+        margin = -math.inf  # a sample of W* is out of reach of a leg: certainly not included
+
+    scan = math.radians(0.5)
+    at_bank: list[tuple[float, float, float]] = []
+    for b in banks:
+        e_lo, e_hi = _elevation_interval(cospm, S, float(b), scan)
+        at_bank.append((float(b), e_lo, e_hi))
+    return RegionReport(
+        step=step,
+        theta3=theta3,
+        q=_read_only(q),
+        theta=_read_only(theta),
+        chi=_read_only(chi),
+        solved=_read_only(solved),
+        det_a=det_a,
+        det_b=det_b,
+        type2=type2,
+        leg_b=leg_b,
+        sign_det_a=_sign(det_a_ok) if solved.all() else 0,
+        sign_det_b=_sign(np.prod(leg_b_ok, axis=1)) if solved.all() else 0,
+        leg_modes_constant=leg_constant and bool(solved.all()),
+        min_abs_det_a=min_abs(det_a_ok),
+        min_abs_det_b=min_abs(np.prod(leg_b_ok, axis=1)),
+        min_abs_type2=min_abs(type2_ok),
+        bank_range=span(ok_c[:, 0]),
+        elevation_range=span(ok_c[:, 1]),
+        workspace=(ws[0], ws[1], ws[2], ws[3]),
+        workspace_margin=margin,
+        workspace_included=bool(margin > 0.0),
+        elevation_at_bank=tuple(at_bank),
+    )
+
+
+@dataclass(frozen=True, eq=False)
+class SingularGrid:
+    r"""Singularity indicators of the home leaf over a window of the :math:`(q_1, q_2)` plane.
+
+    For a contour plot: ``contour(q1, q2, det_b, [0])`` draws the Type-1 curves crossed by the
+    leaf; the Type-2 curves (:math:`\det A = 0`) are where the leaf folds, i.e. the edge of
+    ``reached`` with :math:`|\det A| \to 0` there (``contour(q1, q2, type2, [small])`` or the
+    boundary of ``reached``). Values are NaN where the leaf was not reached.
+
+    Attributes:
+        q1: Grid abscissae [rad], shape (n1,).
+        q2: Grid ordinates [rad], shape (n2,).
+        theta3: The fixed :math:`\theta_3` [rad] (or ``None``: fixed home :math:`q_3`).
+        reached: Whether the continuation reached the point on the home leaf, shape (n2, n1).
+        chi: Orientation [rad], shape (n2, n1, 3).
+        det_a: :math:`\det A`, shape (n2, n1).
+        det_b: :math:`\det B`, shape (n2, n1).
+        type2: :math:`\det[v_i\times w_i]`, shape (n2, n1).
+    """
+
+    q1: FloatArray
+    q2: FloatArray
+    theta3: float | None
+    reached: BoolArray
+    chi: FloatArray
+    det_a: FloatArray
+    det_b: FloatArray
+    type2: FloatArray
+
+
+def singular_curves(
+    cospm: CoSPM | None = None,
+    window: tuple[float, float, float, float] = (-1.6, 2.4, -1.8, 1.4),
+    step: float = 0.02,
+    *,
+    theta3: float | None = _HALF_PI,
+) -> SingularGrid:
+    r"""Grids of det A, det B and :math:`\det[v\times w]` on the home leaf, for plotting.
+
+    FKP by continuation from home over the window (as :func:`validate_region`), expanding only
+    while :math:`\det[v\times w]` keeps its home sign, so the leaf stops at its Type-2 fold.
+
+    Args:
+        cospm: The mechanism; ``CoSPM()`` when ``None``.
+        window: ``(q1_min, q1_max, q2_min, q2_max)`` [rad]; must contain home (0, 0).
+        step: Grid step [rad], > 0.
+        theta3: Fixed third joint [rad] or ``None`` (fixed home :math:`q_3`); only the bearing
+            depends on it.
+
+    Returns:
+        A :class:`SingularGrid`.
+
+    Raises:
+        InvalidParameter: bad window or step.
+    """
+    if cospm is None:
+        cospm = CoSPM()
+    if not isinstance(cospm, CoSPM):
+        raise InvalidParameter(f"cospm: expected a CoSPM, got {type(cospm).__name__}")
+    step = _positive("step", step, "[rad]")
+    wnd = tuple(float(x) for x in window)
+    th_home, _ = cospm.home()
+    q_home = Q_AUX @ th_home
+    if (
+        len(wnd) != 4
+        or not all(math.isfinite(x) for x in wnd)
+        or not (wnd[0] <= q_home[0] <= wnd[1] and wnd[2] <= q_home[1] <= wnd[3])
+    ):
+        raise InvalidParameter(
+            "window: expected finite (q1_min, q1_max, q2_min, q2_max) [rad] around home "
+            f"({q_home[0]:.3g}, {q_home[1]:.3g}), got {window!r}"
+        )
+    g1 = _grid(wnd[0], wnd[1], step)
+    g2 = _grid(wnd[2], wnd[3], step)
+    Q1, Q2 = np.meshgrid(g1, g2)
+    pts = np.column_stack([Q1.ravel(), Q2.ravel()])
+    q3 = _q3_for(pts, theta3, float(q_home[2]))
+    theta = (np.column_stack([pts, q3]) @ Q_AUX).reshape((*Q1.shape, 3))
+    dist = np.hypot(Q1 - q_home[0], Q2 - q_home[1])
+    s = int(np.argmin(dist))
+    start = (s // Q1.shape[1], s % Q1.shape[1])
+    chi, reached = _flood(cospm, theta, np.ones(Q1.shape, dtype=bool), start, keep_sign=True)
+    det_a = np.full(Q1.shape, np.nan)
+    det_b = np.full(Q1.shape, np.nan)
+    type2 = np.full(Q1.shape, np.nan)
+    if reached.any():
+        t, c = theta[reached], chi[reached]
+        _, v, w = cospm._vectors(t, c)
+        det_a[reached] = np.linalg.det(cospm._a_matrix(v, w, c))
+        det_b[reached] = np.prod(np.einsum("nij,nij->ni", np.cross(cospm._u[None], w), v), axis=1)
+        type2[reached] = np.linalg.det(np.cross(v, w))
+    return SingularGrid(
+        q1=_read_only(g1),
+        q2=_read_only(g2),
+        theta3=theta3,
+        reached=_read_only(reached),
+        chi=_read_only(chi),
+        det_a=_read_only(det_a),
+        det_b=_read_only(det_b),
+        type2=_read_only(type2),
+    )
+
+
+@dataclass(frozen=True, eq=False)
+class WorkspaceMap:
+    r"""The home working mode over a (bank, elevation) grid, by the closed-form IKP.
+
+    The content of Lê et al. 2024 Fig. 3b: in the home working mode the reachable set is bounded
+    by the Type-1 singularities (:math:`|C_i| = R_i` for some leg, the edge of ``reachable``);
+    :math:`\mathrm{FKP}(Q^*)` is where ``stop_margin >= 0`` (valid when
+    :func:`validate_region` reports ``leg_modes_constant``); :math:`W^*` is the rectangle
+    :data:`PAPER_WORKSPACE`. The same grid mapped to :math:`(q_1, q_2)` (``q``, a curvilinear
+    grid) carries ``det_a`` for a contour of the Type-2 curves in the joint plane. Bearing is 0
+    (irrelevant by the invariance); NaN where unreachable.
+
+    Attributes:
+        bank: Bank samples [rad], shape (n1,).
+        elevation: Elevation samples [rad], shape (n2,).
+        reachable: IKP exists in working mode (-1, -1, -1), shape (n2, n1).
+        theta: Joint angles, unwrapped continuously from home [rad], shape (n2, n1, 3).
+        q: Auxiliary coordinates :math:`(q_1, q_2)` [rad], shape (n2, n1, 2).
+        det_a: :math:`\det A`, shape (n2, n1).
+        det_b: :math:`\det B`, shape (n2, n1).
+        type2: :math:`\det[v_i\times w_i]`, shape (n2, n1).
+        stop_margin: Least signed distance of ``q`` to the stops, positive inside [rad],
+            shape (n2, n1).
+    """
+
+    bank: FloatArray
+    elevation: FloatArray
+    reachable: BoolArray
+    theta: FloatArray
+    q: FloatArray
+    det_a: FloatArray
+    det_b: FloatArray
+    type2: FloatArray
+    stop_margin: FloatArray
+
+
+def workspace_map(
+    cospm: CoSPM | None = None,
+    stops: ArrayLike = PAPER_STOPS,
+    *,
+    bank: tuple[float, float] = (-_HALF_PI, _HALF_PI),
+    elevation: tuple[float, float] = (math.radians(-89.0), math.radians(89.0)),
+    step: float = math.radians(1.0),
+) -> WorkspaceMap:
+    r"""Map the (bank, elevation) plane through the closed-form IKP (Lê et al. 2024 Fig. 3b).
+
+    Each sample's joint angles are unwrapped to an already computed neighbour, marching outward
+    from the sample nearest home, so ``q`` is continuous over the reachable set.
+
+    Args:
+        cospm: The mechanism; ``CoSPM()`` when ``None``.
+        stops: Rows ``(a_i, b_i, c_i)``, shape (m, 3), for ``stop_margin``.
+        bank: ``(min, max)`` bank [rad].
+        elevation: ``(min, max)`` elevation [rad]; keep inside ``(-π/2, π/2)``.
+        step: Sample spacing [rad], > 0.
+
+    Returns:
+        A :class:`WorkspaceMap`.
+
+    Raises:
+        InvalidParameter: bad ranges or step.
+        InvalidGeometry: bad stops.
+    """
+    if cospm is None:
+        cospm = CoSPM()
+    if not isinstance(cospm, CoSPM):
+        raise InvalidParameter(f"cospm: expected a CoSPM, got {type(cospm).__name__}")
+    S = _stops(stops)
+    stops_polygon(S)
+    step = _positive("step", step, "[rad]")
+    ranges = []
+    for name, rng in (("bank", bank), ("elevation", elevation)):
+        lo, hi = (float(x) for x in rng)
+        if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+            raise InvalidParameter(f"{name}: expected (min, max) [rad] with min < max, got {rng!r}")
+        ranges.append((lo, hi))
+    elev_lo, elev_hi = ranges[1]
+    if not (elev_lo > -_HALF_PI and elev_hi < _HALF_PI):
+        raise InvalidParameter(
+            f"elevation: expected a range inside (-π/2, π/2) rad (gimbal lock at ±π/2), got "
+            f"{elevation!r}"
+        )
+    b = np.linspace(*ranges[0], max(2, math.ceil((ranges[0][1] - ranges[0][0]) / step) + 1))
+    e = np.linspace(*ranges[1], max(2, math.ceil((ranges[1][1] - ranges[1][0]) / step) + 1))
+    n1, n2 = b.size, e.size
+    modes = np.full(3, -1.0)
+    th_home, _ = cospm.home()
+    theta = np.full((n2, n1, 3), np.nan)
+    i0, j0 = int(np.argmin(np.abs(e))), int(np.argmin(np.abs(b)))
+    # Central row: march along bank from the sample nearest home.
+    for cols in (range(j0, n1), range(j0 - 1, -1, -1)):
+        prev = th_home if not cols or cols[0] == j0 else theta[i0, j0]
+        if not np.all(np.isfinite(prev)):
+            prev = th_home
+        for j in cols:
+            th, _, _, _ = cospm._ikp_raw(np.array([[b[j], e[i0], 0.0]]), prev[None], modes)
+            theta[i0, j] = th[0]
+            if np.all(np.isfinite(th[0])):
+                prev = th[0]
+    # Other rows: march along elevation, all columns at once; carry the last finite row.
+    for rows in (range(i0 + 1, n2), range(i0 - 1, -1, -1)):
+        carry = theta[i0].copy()
+        fill = np.broadcast_to(th_home, carry.shape)
+        carry = np.where(np.isfinite(carry), carry, fill)
+        for i in rows:
+            chi = np.column_stack([b, np.full(n1, e[i]), np.zeros(n1)])
+            th, _, _, _ = cospm._ikp_raw(chi, carry, modes)
+            theta[i] = th
+            carry = np.where(np.isfinite(th), th, carry)
+    reachable = np.all(np.isfinite(theta), axis=2)
+    q = theta @ Q_AUX.T
+    det_a = np.full((n2, n1), np.nan)
+    det_b = np.full((n2, n1), np.nan)
+    type2 = np.full((n2, n1), np.nan)
+    if reachable.any():
+        B_, E_ = np.meshgrid(b, e)
+        chi_r = np.column_stack([B_[reachable], E_[reachable], np.zeros(int(reachable.sum()))])
+        _, v, w = cospm._vectors(theta[reachable], chi_r)
+        det_a[reachable] = np.linalg.det(cospm._a_matrix(v, w, chi_r))
+        det_b[reachable] = np.prod(np.einsum("nij,nij->ni", np.cross(cospm._u[None], w), v), axis=1)
+        type2[reachable] = np.linalg.det(np.cross(v, w))
+    q12 = q[:, :, :2]
+    margin = np.min(
+        (q12 @ S[:, :2].T + S[:, 2]) / np.hypot(S[:, 0], S[:, 1]), axis=2, initial=np.inf
+    )
+    margin = np.where(reachable, margin, np.nan)
+    return WorkspaceMap(
+        bank=_read_only(b),
+        elevation=_read_only(e),
+        reachable=_read_only(reachable),
+        theta=_read_only(theta),
+        q=_read_only(np.ascontiguousarray(q12)),
+        det_a=_read_only(det_a),
+        det_b=_read_only(det_b),
+        type2=_read_only(type2),
+        stop_margin=_read_only(margin),
+    )
