@@ -26,6 +26,7 @@ app = typer.Typer(
 #: name -> "module:function" returning a velfence.reproduce.Report given an output folder.
 REPRODUCTIONS: dict[str, str] = {
     "wrist": "velfence.reproduce.wrist:run",
+    "cospm": "velfence.reproduce.cospm:run",
 }
 
 

@@ -23,6 +23,7 @@ from numpy.typing import ArrayLike, NDArray
 from velfence.errors import InvalidInput, InvalidParameter
 
 __all__ = [
+    "Explained",
     "KernelOut",
     "OnInvalid",
     "Shaper",
@@ -79,19 +80,37 @@ class ShapingResult:
     method: str
 
 
-@runtime_checkable
-class Shaper(Protocol):
-    """Anything that shapes commanded velocities (see module docstring for the contract)."""
+class Explained(Protocol):
+    """What every shaper's ``explain`` returns at least: the output and a zone label."""
 
-    def shape(self, p: ArrayLike, v: ArrayLike) -> FloatArray:
-        """Shaped velocity for position ``p`` and command ``v``."""
+    @property
+    def output(self) -> FloatArray:
+        """The shaped velocity."""
         ...
 
-    def explain(self, p: ArrayLike, v: ArrayLike) -> ShapingResult:
+    @property
+    def zone(self) -> Any:
+        """The zone the state was classified in (a name, or a profile's zone number)."""
+        ...
+
+
+@runtime_checkable
+class Shaper(Protocol):
+    """Anything that shapes commanded velocities (see module docstring for the contract).
+
+    Positional ``(state, command)``: a 2-D workspace point for the polygon shapers, a joint
+    vector for the joint-stop limiter.
+    """
+
+    def shape(self, p: ArrayLike, v: ArrayLike, /) -> FloatArray:
+        """Shaped velocity for state ``p`` and command ``v``."""
+        ...
+
+    def explain(self, p: ArrayLike, v: ArrayLike, /) -> Explained:
         """Shaped velocity with diagnostics."""
         ...
 
-    def shape_batch(self, P: ArrayLike, V: ArrayLike) -> FloatArray:
+    def shape_batch(self, P: ArrayLike, V: ArrayLike, /) -> FloatArray:
         """Shaped velocities for many states; equal to looping :meth:`shape`."""
         ...
 

@@ -9,6 +9,9 @@ Every step ``k = 0 … K`` at time :math:`t_k = k\,\Delta t` (see ``docs/simulat
    :math:`v_k \leftarrow \mathrm{sat}(p_k, v_k)` when given;
 4. explicit Euler on the true state, with the external velocity disturbance :math:`w`:
    :math:`p_{k+1} = p_k + \Delta t\,(v_k + w(t_k, p_k))` (not applied after the last row).
+
+The state has the dimension of ``p0``: 2 for a workspace point (the polygon shapers), n for joint
+vectors (the joint-stop limiter runs in the same loop, on joint angles).
 """
 
 from __future__ import annotations
@@ -22,18 +25,18 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from velfence.errors import InvalidInput, InvalidParameter
-from velfence.shaping.base import Shaper, as_pair, check_choice, check_positive
+from velfence.shaping.base import Shaper, check_choice, check_positive
 
 __all__ = ["CommandFn", "DisturbanceFn", "SaturateFn", "Trajectory", "simulate", "simulate_many"]
 
 FloatArray = NDArray[np.float64]
 
 CommandFn = Callable[[float, FloatArray], ArrayLike]
-"""Scripted operator ``(t [s], p (2,)) -> v_cmd (2,)`` [workspace units / s]."""
+"""Scripted operator ``(t [s], p (d,)) -> v_cmd (d,)`` [workspace units / s]."""
 DisturbanceFn = Callable[[float, FloatArray], ArrayLike]
-"""External velocity disturbance ``(t [s], p (2,)) -> w (2,)`` [workspace units / s]."""
+"""External velocity disturbance ``(t [s], p (d,)) -> w (d,)`` [workspace units / s]."""
 SaturateFn = Callable[[FloatArray, FloatArray], ArrayLike]
-"""Actuator saturation ``(p (2,), v (2,)) -> v (2,)`` [workspace units / s]."""
+"""Actuator saturation ``(p (d,), v (d,)) -> v (d,)`` [workspace units / s]."""
 
 PLANTS = ("kinematic",)
 MAX_STEPS = 10_000_000  # ~ 3 h at 1 kHz; ~ 0.5 GB of arrays
@@ -96,8 +99,9 @@ class Trajectory:
             raise InvalidInput("t must be finite and strictly increasing (seconds)")
         ta.setflags(write=False)
         n = ta.shape[0]
-        pa = _readonly_copy("p", p, (n, 2))
-        pm = pa if p_measured is None else _readonly_copy("p_measured", p_measured, (n, 2))
+        dim = int(np.shape(p)[-1]) if np.ndim(p) == 2 else 2
+        pa = _readonly_copy("p", p, (n, dim))
+        pm = pa if p_measured is None else _readonly_copy("p_measured", p_measured, (n, dim))
         if zone is None:
             za = np.full(n, "unknown")
         else:
@@ -107,8 +111,8 @@ class Trajectory:
         za.setflags(write=False)
         object.__setattr__(self, "t", ta)
         object.__setattr__(self, "p", pa)
-        object.__setattr__(self, "v_cmd", _readonly_copy("v_cmd", v_cmd, (n, 2)))
-        object.__setattr__(self, "v_out", _readonly_copy("v_out", v_out, (n, 2)))
+        object.__setattr__(self, "v_cmd", _readonly_copy("v_cmd", v_cmd, (n, dim)))
+        object.__setattr__(self, "v_out", _readonly_copy("v_out", v_out, (n, dim)))
         object.__setattr__(self, "zone", za)
         object.__setattr__(self, "name", str(name))
         object.__setattr__(self, "p_measured", pm)
@@ -144,14 +148,23 @@ class Trajectory:
         )
 
 
-def _finite_pair(what: str, x: Any, k: int, t: float) -> tuple[float, float]:
-    a, b = as_pair(what, x)
-    if not (math.isfinite(a) and math.isfinite(b)):
+def _finite_vec(what: str, x: Any, dim: int, k: int, t: float) -> FloatArray:
+    try:
+        a = np.array(x, dtype=float)
+    except (TypeError, ValueError):
         raise InvalidInput(
-            f"{what} must be finite, got ({a}, {b}) at step {k} (t = {t} s); "
+            f"{what} must be a vector of {dim} numbers, got {x!r} at step {k} (t = {t} s)"
+        ) from None
+    if a.shape != (dim,):
+        raise InvalidInput(
+            f"{what} must have shape ({dim},), got shape {a.shape} at step {k} (t = {t} s)"
+        )
+    if not np.all(np.isfinite(a)):
+        raise InvalidInput(
+            f"{what} must be finite, got {tuple(a.tolist())} at step {k} (t = {t} s); "
             "check the callable that produced it"
         )
-    return a, b
+    return a
 
 
 def _optional_callable(name: str, f: Any) -> None:
@@ -192,6 +205,7 @@ def simulate(
     plant: str = "kinematic",
     name: str | None = None,
     on_progress: Callable[[float], None] | None = None,
+    on_result: Callable[[int, float, Any], None] | None = None,
 ) -> Trajectory:
     r"""Run ``shaper`` in closed loop and record the trajectory (explicit Euler, module docstring).
 
@@ -215,6 +229,8 @@ def simulate(
         name: Label of the trajectory; default ``type(shaper).__name__``.
         on_progress: Called with the completed fraction in [0, 1], about 100 times per run and
             with ``1.0`` at the end.
+        on_result: Called as ``on_result(k, t, result)`` with every step's ``explain`` result
+            (to log a shaper's diagnostics, e.g. the stop limiter's normal/tangential speeds).
 
     Returns:
         The :class:`Trajectory` of ``N`` rows.
@@ -235,49 +251,53 @@ def simulate(
     _optional_callable("disturbance", disturbance)
     _optional_callable("saturate", saturate)
     _optional_callable("on_progress", on_progress)
+    _optional_callable("on_result", on_result)
     duration = check_positive("duration", duration, unit="s")
     dt = check_positive("dt", dt, unit="s")
     noise_std = check_positive("noise_std", noise_std, allow_zero=True, unit="workspace units")
     seed = _validated_seed(seed)
     check_choice("plant", plant, PLANTS)
-    px, py = as_pair("p0", p0)
-    if not (math.isfinite(px) and math.isfinite(py)):
-        raise InvalidInput(f"p0 must be finite, got ({px}, {py})")
+    p0a = np.array(p0, dtype=float) if np.ndim(p0) == 1 else None
+    if p0a is None or p0a.shape[0] < 1:
+        raise InvalidInput(f"p0 must be a vector (shape (d,)), got {p0!r}")
+    if not np.all(np.isfinite(p0a)):
+        raise InvalidInput(f"p0 must be finite, got {tuple(p0a.tolist())}")
+    dim = p0a.shape[0]
     steps = _n_steps(duration, dt)
     n = steps + 1
     rng = np.random.default_rng(seed)
-    noise = rng.normal(0.0, noise_std, size=(n, 2)) if noise_std > 0.0 else None
+    noise = rng.normal(0.0, noise_std, size=(n, dim)) if noise_std > 0.0 else None
     every = max(1, steps // 100)
 
     t_rec = np.empty(n)
-    p_rec = np.empty((n, 2))
-    pm_rec = np.empty((n, 2))
-    vc_rec = np.empty((n, 2))
-    vo_rec = np.empty((n, 2))
+    p_rec = np.empty((n, dim))
+    pm_rec = np.empty((n, dim))
+    vc_rec = np.empty((n, dim))
+    vo_rec = np.empty((n, dim))
     zones: list[str] = []
+    state = p0a.copy()
     for k in range(n):
         t = k * dt
-        p = np.array((px, py))
+        p = state.copy()
         p.setflags(write=False)
         pm = p if noise is None else p + noise[k]
-        vcx, vcy = _finite_pair("command(t, p)", command(t, p), k, t)
-        res = shaper.explain(pm, np.array((vcx, vcy)))
-        vx, vy = _finite_pair("shaper output", res.output, k, t)
+        vc = _finite_vec("command(t, p)", command(t, p), dim, k, t)
+        res = shaper.explain(pm, vc)
+        v = _finite_vec("shaper output", res.output, dim, k, t)
         if saturate is not None:
-            vx, vy = _finite_pair("saturate(p, v)", saturate(p, np.array((vx, vy))), k, t)
+            v = _finite_vec("saturate(p, v)", saturate(p, v), dim, k, t)
+        if on_result is not None:
+            on_result(k, t, res)
         t_rec[k] = t
-        p_rec[k] = (px, py)
+        p_rec[k] = state
         pm_rec[k] = pm
-        vc_rec[k] = (vcx, vcy)
-        vo_rec[k] = (vx, vy)
-        zones.append(res.zone)
+        vc_rec[k] = vc
+        vo_rec[k] = v
+        zones.append(str(res.zone))
         if k < steps:
             if disturbance is not None:
-                wx, wy = _finite_pair("disturbance(t, p)", disturbance(t, p), k, t)
-                vx += wx
-                vy += wy
-            px += dt * vx
-            py += dt * vy
+                v = v + _finite_vec("disturbance(t, p)", disturbance(t, p), dim, k, t)
+            state = state + dt * v
             if on_progress is not None and (k + 1) % every == 0 and k + 1 < steps:
                 on_progress((k + 1) / steps)
     if on_progress is not None:

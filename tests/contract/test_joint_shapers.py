@@ -1,0 +1,90 @@
+"""The shaper contract for shapers of joint vectors (n-D state and command).
+
+Adding one means adding a factory to ``FACTORIES``; each check mirrors the 2-D contract in
+``test_shapers.py``: finite (n,) output, ``explain().output == shape()``, batch == loop for
+stateless shapers, non-finite input refused naming "finite", wrong shapes refused, tuning
+parameters keyword-only, and the instance satisfies the ``Shaper`` protocol.
+"""
+
+from __future__ import annotations
+
+import inspect
+import math
+
+import numpy as np
+import pytest
+
+from velfence import InvalidInput, Shaper, StopLimiter, ThreeZoneBraking
+from velfence.mechanisms.cospm import PAPER_STOPS, Q_AUX
+
+
+def _stop_limiter(method: str):
+    def make():
+        prof = ThreeZoneBraking.from_actuator_limits(
+            gain=100, joint_speed_max=2, joint_accel_max=20
+        )
+        return StopLimiter(PAPER_STOPS, profile=prof, transform=Q_AUX, method=method)
+
+    return make
+
+
+FACTORIES = [
+    ("stops-nearest", _stop_limiter("nearest"), 3),
+    ("stops-exact", _stop_limiter("exact"), 3),
+]
+IDS = [f[0] for f in FACTORIES]
+
+
+def states(n, dim, seed=0):
+    rng = np.random.default_rng(seed)
+    X = np.pi / 2 + rng.uniform(-0.9, 0.9, (n, dim))
+    V = rng.normal(size=(n, dim)) * rng.uniform(0.0, 3.0, (n, 1))
+    return X, V
+
+
+@pytest.mark.parametrize(("name", "make", "dim"), FACTORIES, ids=IDS)
+def test_output_finite_and_explain_agrees(name, make, dim):
+    s = make()
+    assert isinstance(s, Shaper)
+    X, V = states(200, dim)
+    for x, v in zip(X, V, strict=True):
+        out = s.shape(x, v)
+        assert out.shape == (dim,)
+        assert np.all(np.isfinite(out))
+        np.testing.assert_array_equal(s.explain(x, v).output, out)
+
+
+@pytest.mark.parametrize(("name", "make", "dim"), FACTORIES, ids=IDS)
+def test_batch_equals_loop(name, make, dim):
+    s = make()
+    X, V = states(50, dim, seed=1)
+    np.testing.assert_array_equal(s.shape_batch(X, V), [s.shape(x, v) for x, v in zip(X, V, strict=False)])
+
+
+@pytest.mark.parametrize(("name", "make", "dim"), FACTORIES, ids=IDS)
+@pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf])
+def test_non_finite_input_is_refused(name, make, dim, bad):
+    s = make()
+    x = np.full(dim, np.pi / 2)
+    v = np.zeros(dim)
+    for arr in (x, v):
+        arr[0] = bad
+        with pytest.raises(InvalidInput, match="finite"):
+            s.shape(x if arr is x else np.full(dim, np.pi / 2), v if arr is v else np.zeros(dim))
+        arr[0] = 0.0 if arr is v else np.pi / 2
+
+
+@pytest.mark.parametrize(("name", "make", "dim"), FACTORIES, ids=IDS)
+def test_wrong_shapes_are_refused(name, make, dim):
+    s = make()
+    with pytest.raises(InvalidInput, match="shape"):
+        s.shape(np.zeros(dim + 1), np.zeros(dim))
+    with pytest.raises(InvalidInput, match="shape"):
+        s.shape_batch(np.zeros((4, dim)), np.zeros((3, dim)))
+
+
+@pytest.mark.parametrize(("name", "make", "dim"), FACTORIES, ids=IDS)
+def test_tuning_parameters_are_keyword_only(name, make, dim):
+    params = list(inspect.signature(type(make()).__init__).parameters.values())[1:]
+    positional = [p for p in params if p.kind is not inspect.Parameter.KEYWORD_ONLY]
+    assert len(positional) <= 1, [p.name for p in positional]
