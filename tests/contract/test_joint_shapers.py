@@ -58,7 +58,8 @@ def test_output_finite_and_explain_agrees(name, make, dim):
 def test_batch_equals_loop(name, make, dim):
     s = make()
     X, V = states(50, dim, seed=1)
-    np.testing.assert_array_equal(s.shape_batch(X, V), [s.shape(x, v) for x, v in zip(X, V, strict=False)])
+    loop = [s.shape(x, v) for x, v in zip(X, V, strict=True)]
+    np.testing.assert_array_equal(s.shape_batch(X, V), loop)
 
 
 @pytest.mark.parametrize(("name", "make", "dim"), FACTORIES, ids=IDS)
