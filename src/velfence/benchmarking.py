@@ -202,6 +202,30 @@ class LatencyRow:
 
 
 @dataclass(frozen=True)
+class StopLatencyRow:
+    """Latency of single :meth:`StopLimiter.shape` calls (Lê et al. 2024's limiter, 3 joints).
+
+    Attributes:
+        method: ``"nearest"`` (faithful) or ``"exact"``.
+        zone: Profile zone of the timed states (``3 nominal``, ``2 braking``, ``1 linear``,
+            ``outside``).
+        states: Distinct states cycled through.
+        calls: Timed calls.
+        median_us: Median latency, µs.
+        p99_us: 99th percentile, µs.
+        max_us: Largest latency, µs.
+    """
+
+    method: str
+    zone: str
+    states: int
+    calls: int
+    median_us: float
+    p99_us: float
+    max_us: float
+
+
+@dataclass(frozen=True)
 class WorstZone:
     """The zone with the largest median latency for one (polygon, method).
 
@@ -328,6 +352,7 @@ class BenchReport:
         batch: Batch throughput rows.
         targets: The issue's targets, pass/fail.
         notes: Skipped pieces and other remarks.
+        stops: Per-call latency of the joint-stop limiter, per method and zone.
     """
 
     settings: BenchSettings
@@ -339,6 +364,7 @@ class BenchReport:
     batch: tuple[BatchRow, ...]
     targets: tuple[TargetCheck, ...]
     notes: tuple[str, ...] = field(default=())
+    stops: tuple[StopLatencyRow, ...] = field(default=())
 
     def to_dict(self) -> dict[str, Any]:
         """Plain dicts, lists, strings and numbers (``json.dumps``-able)."""
@@ -636,6 +662,39 @@ def _latency(
     return rows, worst
 
 
+def _stop_latency(s: BenchSettings, step: _Steps) -> list[StopLatencyRow]:
+    """The paper's limiter (stateless: no rate limiters) on the paper's stops, per zone."""
+    from velfence.mechanisms.cospm import PAPER_STOPS, Q_AUX
+    from velfence.shaping.profiles import ThreeZoneBraking
+    from velfence.shaping.stops import StopLimiter
+
+    prof = ThreeZoneBraking.from_actuator_limits(gain=100, joint_speed_max=2, joint_accel_max=20)
+    rng = np.random.default_rng(s.seed + 1)
+    rows: list[StopLatencyRow] = []
+    for method in ("nearest", "exact"):
+        step(f"latency: joint-stop limiter, {method}")
+        lim = StopLimiter(PAPER_STOPS, profile=prof, transform=Q_AUX, method=method)
+        pools: dict[str, list[tuple[FloatArray, FloatArray]]] = {}
+        for _ in range(20_000):
+            q = np.array([rng.uniform(-1.0, 1.7), rng.uniform(-1.2, 0.8), rng.uniform(-1, 1)])
+            th = Q_AUX.T @ q
+            v = rng.normal(size=3)
+            r = lim.explain(th, v)
+            name = (
+                "outside"
+                if r.delta < 0
+                else f"{r.zone} " + {3: "nominal", 2: "braking", 1: "linear"}[r.zone]
+            )
+            pool = pools.setdefault(name, [])
+            if len(pool) < 64:
+                pool.append((th, v))
+        for zone in sorted(pools):
+            pool = pools[zone]
+            med, p99, mx = _stats_us(_time_shape(lim.shape, pool, s.calls, s.warmup))
+            rows.append(StopLatencyRow(method, zone, len(pool), s.calls, med, p99, mx))
+    return rows
+
+
 def _max_error(shaper: Any, pool: Sequence[tuple[FloatArray, FloatArray]], xs: list[Any]) -> float:
     err = 0.0
     for (p, v), x in zip(pool, xs, strict=True):
@@ -831,7 +890,7 @@ def run_benchmarks(*, quick: bool = False, progress: Progress | None = None) -> 
     if not qp_ok:
         notes.append("qpsolvers or daqp is not installed: the QP baseline is skipped.")
     n_batch = len(s.batch_edges) * 2 * (2 if numba_ok else 1)
-    step = _Steps(progress, 1 + 2 * len(s.latency_edges) + len(s.latency_edges) * qp_ok + n_batch)
+    step = _Steps(progress, 3 + 2 * len(s.latency_edges) + len(s.latency_edges) * qp_ok + n_batch)
 
     step("states and timer overhead")
     rng = np.random.default_rng(s.seed)
@@ -852,6 +911,7 @@ def run_benchmarks(*, quick: bool = False, progress: Progress | None = None) -> 
     latency, worst = _latency(s, pools, step)
     qp = _qp(s, pools, latency, step) if qp_ok else []
     batch = _batch(s, numba_ok, step)
+    stops = _stop_latency(s, step)
     if progress is not None:
         progress("done", 1.0)
     return BenchReport(
@@ -864,6 +924,7 @@ def run_benchmarks(*, quick: bool = False, progress: Progress | None = None) -> 
         batch=tuple(batch),
         targets=tuple(_targets(worst, qp, batch)),
         notes=tuple(notes),
+        stops=tuple(stops),
     )
 
 
@@ -1026,6 +1087,33 @@ def _markdown(r: BenchReport) -> str:
             "lllrrrrr",
         )
     )
+    if r.stops:
+        out.append(
+            "## Per-call latency of `StopLimiter.shape` (Lê et al. 2024), beside the polygon"
+        )
+        out.append(
+            "The joint-stop limiter on the paper's four stops, 3 joints, three-zone profile "
+            "(K = 100), without its stateful rate limiters; states drawn around Q* and binned by "
+            "the profile zone of the nearest stop. Same plain-float per-call path as the polygon "
+            "shaper, plus the 3-joint transform."
+        )
+        out.append(
+            _table(
+                ["method", "zone", "states", "median µs", "p99 µs", "max µs"],
+                [
+                    [
+                        x.method,
+                        x.zone,
+                        str(x.states),
+                        _f(x.median_us),
+                        _f(x.p99_us),
+                        _f(x.max_us, 1),
+                    ]
+                    for x in r.stops
+                ],
+                "llrrrr",
+            )
+        )
     if r.notes:
         out.append("## Notes")
         out.append("\n".join(f"* {n}" for n in r.notes))

@@ -34,7 +34,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from velfence.errors import InvalidInput, InvalidParameter
-from velfence.geometry.polygon import decompose, polygon_from_halfplanes
+from velfence.geometry.polygon import polygon_from_halfplanes
 from velfence.shaping._kernels import _solve
 from velfence.shaping.base import check_choice
 from velfence.shaping.profiles import ApproachProfile
@@ -152,6 +152,12 @@ class StopLimiter:
         e = self._edge_of_stop
         self._n = np.ascontiguousarray(polygon.normals[e])
         self._o = np.ascontiguousarray(polygon.offsets[e])
+        # Plain floats for the per-call path.
+        self._nx = tuple(float(a) for a in self._n[:, 0])
+        self._ny = tuple(float(a) for a in self._n[:, 1])
+        self._off = tuple(float(a) for a in self._o)
+        self._qi = tuple(float(a) for a in Q[self.limited[0]])
+        self._qj = tuple(float(a) for a in Q[self.limited[1]])
 
     # ------------------------------------------------------------------ state
     @property
@@ -166,6 +172,95 @@ class StopLimiter:
                 stage.reset()
 
     # ------------------------------------------------------------------ the law
+    def _parse(self, theta: ArrayLike, theta_dot: ArrayLike) -> tuple[list[float], list[float]]:
+        n = self.size
+        x = np.asarray(theta, dtype=float)
+        c = np.asarray(theta_dot, dtype=float)
+        if x.shape != (n,) or c.shape != (n,):
+            raise InvalidInput(
+                f"theta and theta_dot must have shape ({n},), got {x.shape} and {c.shape}"
+            )
+        xs: list[float] = x.tolist()
+        cs: list[float] = c.tolist()
+        total = sum(xs) + sum(cs)
+        if total - total != 0.0 and not all(math.isfinite(a) for a in xs + cs):
+            raise InvalidInput(f"theta and theta_dot must be finite, got {xs} and {cs}")
+        return xs, cs
+
+    def _core(
+        self, x: list[float], c: list[float]
+    ) -> tuple[list[float], list[float], int, list[float], tuple[float, ...]]:
+        """The law on plain floats.
+
+        Returns:
+            ``(out, pre, k, deltas, (w1, w2, wl1, wl2, v_perp, v_par, v_perp_lim, v_par_lim))``
+            with ``w`` the limited-plane velocity before and ``wl`` after limitation.
+        """
+        v = c if self.pre is None else self.pre.step(np.array(c)).tolist()
+        qi, qj = self._qi, self._qj
+        n = self.size
+        p1 = p2 = w1 = w2 = 0.0
+        for a in range(n):
+            p1 += qi[a] * x[a]
+            p2 += qj[a] * x[a]
+            w1 += qi[a] * v[a]
+            w2 += qj[a] * v[a]
+        nx, ny, off = self._nx, self._ny, self._off
+        deltas = [nx[s] * p1 + ny[s] * p2 - off[s] for s in range(len(off))]
+        k = min(range(len(deltas)), key=deltas.__getitem__)
+        delta = deltas[k]
+        ex, ey = -nx[k], -ny[k]  # e_perp: toward the stop
+        v_perp = ex * w1 + ey * w2
+        v_par = -ey * w1 + ex * w2  # along e_par = (-e_perp_y, e_perp_x)
+        if self.method == "nearest":
+            cap = self.profile.cap(delta, math.hypot(w1, w2))
+            v_perp_lim = v_perp if v_perp < cap else cap
+            if self.tangential == "scale_with_normal" and v_perp != 0.0:
+                v_par_lim = v_par * v_perp_lim / v_perp
+            else:
+                v_par_lim = v_par
+            wl1 = v_perp_lim * ex - v_par_lim * ey
+            wl2 = v_perp_lim * ey + v_par_lim * ex
+        else:
+            wl1, wl2 = self._exact(w1, w2, deltas)
+            v_perp_lim = ex * wl1 + ey * wl2
+            v_par_lim = -ey * wl1 + ex * wl2
+        # θ̇_lim = Qᵀ q̇_lim = v + Qᵀ(Δq̇_i e_i + Δq̇_j e_j): only the limited rows of Q are needed.
+        d1 = wl1 - w1
+        d2 = wl2 - w2
+        out = [v[a] + d1 * qi[a] + d2 * qj[a] for a in range(n)]
+        if self.post is not None:
+            out = self.post.step(np.array(out)).tolist()
+        info = (w1, w2, wl1, wl2, v_perp, v_par, v_perp_lim, v_par_lim)
+        return out, v, k, deltas, info
+
+    def _exact(self, w1: float, w2: float, deltas: list[float]) -> tuple[float, float]:
+        """Minimum change of ``w`` with every stop's approach cap: n_k·w >= -cap(δ_k)."""
+        speed = math.hypot(w1, w2)
+        caps = [self.profile.cap(d, speed) for d in deltas]
+        work = [k for k, cp in enumerate(caps) if math.isfinite(cp)]
+        bnd = [-cp if math.isfinite(cp) else -math.inf for cp in caps]
+        ok, ox, oy = _solve(w1, w2, work, len(work), self._nx, self._ny, bnd)
+        if not ok:  # caps infeasible together (region thinner than the braking zone): recover
+            work = [k for k in work if deltas[k] < 0.0]
+            ok, ox, oy = _solve(w1, w2, work, len(work), self._nx, self._ny, bnd)
+        if not ok:  # pragma: no cover - violated half-planes of a bounded polygon are compatible
+            return 0.0, 0.0
+        return ox, oy
+
+    def shape(self, theta: ArrayLike, theta_dot: ArrayLike) -> FloatArray:
+        """Limited joint velocity, shape (n,) (see :meth:`explain`).
+
+        Args:
+            theta: Joint positions, shape (n,) [rad] (unwrapped).
+            theta_dot: Commanded joint velocity, shape (n,) [rad/s].
+
+        Raises:
+            InvalidInput: wrong shapes or non-finite values.
+        """
+        x, c = self._parse(theta, theta_dot)
+        return np.array(self._core(x, c)[0])
+
     def explain(self, theta: ArrayLike, theta_dot: ArrayLike) -> StopResult:
         """Limit one command and report every intermediate quantity.
 
@@ -176,85 +271,32 @@ class StopLimiter:
         Raises:
             InvalidInput: wrong shapes or non-finite values.
         """
-        n = self.size
-        x = np.asarray(theta, dtype=float)
-        c = np.asarray(theta_dot, dtype=float)
-        if x.shape != (n,) or c.shape != (n,):
-            raise InvalidInput(
-                f"theta and theta_dot must have shape ({n},), got {x.shape} and {c.shape}"
-            )
-        if not (np.all(np.isfinite(x)) and np.all(np.isfinite(c))):
-            raise InvalidInput(
-                f"theta and theta_dot must be finite, got {x.tolist()} and {c.tolist()}"
-            )
-        v = c if self.pre is None else self.pre.step(c)
+        x, c = self._parse(theta, theta_dot)
+        out, v, k, deltas, info = self._core(x, c)
+        w1, w2, wl1, wl2, v_perp, v_par, v_perp_lim, v_par_lim = info
         Q = self.transform
-        q = Q @ x
-        qd = Q @ v
-        i, j = self.limited
-        p = np.array((q[i], q[j]))
-        w = np.array((qd[i], qd[j]))
-        deltas = self._n @ p - self._o
-        k = int(np.argmin(deltas))
-        delta = float(deltas[k])
-        e_perp = -self._n[k]
-        e_par = np.array((-e_perp[1], e_perp[0]))
-        v_perp, _ = decompose(w, e_perp)
-        v_par = float(w @ e_par)
-        if self.method == "nearest":
-            cap = self.profile.cap(delta, float(np.hypot(*w)))
-            v_perp_lim = min(v_perp, cap)
-            if self.tangential == "scale_with_normal" and v_perp != 0.0:
-                v_par_lim = v_par * v_perp_lim / v_perp
-            else:
-                v_par_lim = v_par
-            w_lim = v_perp_lim * e_perp + v_par_lim * e_par
-        else:
-            w_lim = self._exact(w, deltas)
-            v_perp_lim = float(w_lim @ e_perp)
-            v_par_lim = float(w_lim @ e_par)
+        qd = Q @ np.array(v)
         qd_lim = qd.copy()
-        qd_lim[i], qd_lim[j] = w_lim
-        out = Q.T @ qd_lim
-        if self.post is not None:
-            out = self.post.step(out)
+        i, j = self.limited
+        qd[i], qd[j] = w1, w2
+        qd_lim[i], qd_lim[j] = wl1, wl2
         return StopResult(
-            output=out,
-            command=c,
-            pre=np.asarray(v, dtype=float),
-            q=q,
+            output=np.array(out),
+            command=np.array(c),
+            pre=np.array(v),
+            q=Q @ np.array(x),
             q_dot=qd,
             q_dot_lim=qd_lim,
             stop=k,
-            delta=delta,
-            deltas=deltas,
-            zone=self.profile.zone(delta),
+            delta=deltas[k],
+            deltas=np.array(deltas),
+            zone=self.profile.zone(deltas[k]),
             v_perp=v_perp,
             v_par=v_par,
-            v_perp_lim=float(v_perp_lim),
-            v_par_lim=float(v_par_lim),
+            v_perp_lim=v_perp_lim,
+            v_par_lim=v_par_lim,
             method=self.method,
         )
-
-    def _exact(self, w: FloatArray, deltas: FloatArray) -> FloatArray:
-        """Minimum change of ``w`` with every stop's approach cap: n_k·w >= -cap(δ_k)."""
-        speed = float(np.hypot(*w))
-        caps = [self.profile.cap(float(d), speed) for d in deltas]
-        nx = self._n[:, 0].tolist()
-        ny = self._n[:, 1].tolist()
-        work = [k for k, cp in enumerate(caps) if math.isfinite(cp)]
-        bnd = [-cp if math.isfinite(cp) else -math.inf for cp in caps]
-        ok, ox, oy = _solve(float(w[0]), float(w[1]), work, len(work), nx, ny, bnd)
-        if not ok:  # caps infeasible together (region thinner than the braking zone): recover
-            work = [k for k in work if deltas[k] < 0.0]
-            ok, ox, oy = _solve(float(w[0]), float(w[1]), work, len(work), nx, ny, bnd)
-        if not ok:  # pragma: no cover - violated half-planes of a bounded polygon are compatible
-            return np.zeros(2)
-        return np.array((ox, oy))
-
-    def shape(self, theta: ArrayLike, theta_dot: ArrayLike) -> FloatArray:
-        """Limited joint velocity, shape (n,) (see :meth:`explain`)."""
-        return self.explain(theta, theta_dot).output
 
     def shape_batch(self, Theta: ArrayLike, Theta_dot: ArrayLike) -> FloatArray:
         """Limit N independent states, shape (N, n); only for a stateless limiter.
