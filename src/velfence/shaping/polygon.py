@@ -37,6 +37,7 @@ from velfence.shaping.base import (
     check_choice,
     check_positive,
 )
+from velfence.shaping.profiles import ApproachProfile, min_change_under_caps
 
 __all__ = ["PolygonShaper"]
 
@@ -57,6 +58,10 @@ class PolygonShaper(ShaperBase):
             [rad], in (0, π). Only used by ``"patent"``.
         max_recovery_speed: Largest recovery speed the exact law demands outside, in workspace
             units per second; default ``spring_gain * buffer``. Only used by ``"exact"``.
+        profile: An :class:`~velfence.shaping.profiles.ApproachProfile` (e.g.
+            ``ThreeZoneBraking``) replacing the linear buffer of the exact law: every edge's
+            approach speed is capped by ``profile.cap(d)`` (outside: a forced return). Only with
+            ``method="exact"`` and no ``buffer``; runs in plain Python (no numba batch).
         on_invalid: ``"raise"`` (default): non-finite inputs raise
             :class:`~velfence.errors.InvalidInput`; ``"stop"``: return zero velocity, zone
             ``"invalid"``.
@@ -75,6 +80,7 @@ class PolygonShaper(ShaperBase):
         "max_recovery_speed",
         "method",
         "polygon",
+        "profile",
         "spring_gain",
     )
 
@@ -82,16 +88,38 @@ class PolygonShaper(ShaperBase):
         self,
         polygon: ConvexPolygon,
         *,
-        buffer: float,
+        buffer: float | None = None,
         spring_gain: float = 0.0,
         method: str = "exact",
         corner_blend_angle: float = 0.3,
         max_recovery_speed: float | None = None,
+        profile: ApproachProfile | None = None,
         on_invalid: str = "raise",
         accelerate: bool = True,
     ) -> None:
         self.polygon = as_polygon(polygon)
-        self.buffer = check_positive("buffer", buffer, unit="workspace units")
+        if profile is not None:
+            if not isinstance(profile, ApproachProfile):
+                raise InvalidParameter(
+                    f"profile must be an ApproachProfile (cap, zone), got {type(profile).__name__}"
+                )
+            if method != "exact" or buffer is not None:
+                raise InvalidParameter(
+                    "profile replaces the linear buffer of the exact law: pass profile with "
+                    f"method='exact' and no buffer, got method={method!r}, buffer={buffer!r}"
+                )
+            buffer = math.inf
+        elif buffer is None:
+            raise InvalidParameter(
+                "buffer must be given (width of the buffer band, workspace units) unless a "
+                "profile is, got None"
+            )
+        self.profile = profile
+        self.buffer = (
+            buffer
+            if profile is not None
+            else check_positive("buffer", buffer, unit="workspace units")
+        )
         self.spring_gain = check_positive("spring_gain", spring_gain, allow_zero=True, unit="1/s")
         self.method = check_choice("method", method, _METHODS)
         self.corner_blend_angle = check_positive(
@@ -102,7 +130,7 @@ class PolygonShaper(ShaperBase):
                 f"corner_blend_angle must be in (0, π) rad, got {corner_blend_angle!r}"
             )
         if max_recovery_speed is None:
-            rmax = self.spring_gain * self.buffer
+            rmax = self.spring_gain * self.buffer if profile is None else 0.0
         else:
             rmax = check_positive(
                 "max_recovery_speed", max_recovery_speed, unit="workspace units per second"
@@ -129,11 +157,35 @@ class PolygonShaper(ShaperBase):
     ) -> tuple[float, float, int, int, int, float, float, float, float, int]:
         if self.method == "patent":
             return kern.patent_kernel(px, py, vx, vy, *self._fast)
+        if self.profile is not None:
+            return self._law_profile(px, py, vx, vy, self.profile)
         n = self.polygon.n
         args = (*self._fast, [0.0] * n, [0.0] * n, [0] * n)  # kernel scratch: dist, bnd, work
         return kern.exact_kernel(px, py, vx, vy, *args)
 
+    def _law_profile(
+        self, px: float, py: float, vx: float, vy: float, profile: ApproachProfile
+    ) -> tuple[float, float, int, int, int, float, float, float, float, int]:
+        """The exact law with a general approach profile (plain Python; no numba twin)."""
+        nx, ny, off = self._fast[0], self._fast[1], self._fast[2]
+        deltas = [nx[e] * px + ny[e] * py - off[e] for e in range(len(off))]
+        ox, oy, relaxed = min_change_under_caps(vx, vy, deltas, nx, ny, profile)
+        order = sorted(range(len(deltas)), key=deltas.__getitem__)
+        p1, p2 = order[0], order[1]
+        speed = math.hypot(vx, vy)
+        near = sum(1 for d in deltas if profile.cap(d, speed) < speed)
+        if deltas[p1] < 0.0:
+            zone = kern.ZONE_OUTSIDE if near <= 1 else kern.ZONE_OUTSIDE_CORNER
+        else:
+            zone = (kern.ZONE_FREE, kern.ZONE_BUFFER)[near] if near < 2 else kern.ZONE_CORNER
+        stages = (kern.STAGE_PROJECT if near else 0) | (kern.STAGE_RELAXED if relaxed else 0)
+        return ox, oy, zone, p1, p2, deltas[p1], deltas[p2], 0.0, 0.0, stages
+
     def _law_batch(self, P: FloatArray, V: FloatArray) -> tuple[FloatArray, IntArray]:
+        if self.profile is not None:
+            rows = [self._law(*p, *v) for p, v in zip(P.tolist(), V.tolist(), strict=True)]
+            out_p = np.array([r[:2] for r in rows], dtype=float).reshape(P.shape)
+            return out_p, np.array([r[2] for r in rows], dtype=np.int64)
         out = np.empty_like(P)
         zones = np.empty(P.shape[0], dtype=np.int64)
         fn = compiled_batch(self.method) if self.accelerate else None

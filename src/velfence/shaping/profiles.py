@@ -11,13 +11,14 @@ US 8,676,382) and the joint-stop limiter (three-zone braking of Lê et al. 2024)
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
 
 from velfence.errors import InvalidParameter
 from velfence.shaping.base import check_positive
 
-__all__ = ["ApproachProfile", "LinearBuffer", "ThreeZoneBraking"]
+__all__ = ["ApproachProfile", "LinearBuffer", "ThreeZoneBraking", "min_change_under_caps"]
 
 
 @runtime_checkable
@@ -168,3 +169,49 @@ class ThreeZoneBraking:
         """The paper's zone flag: 3 nominal, 2 maximal deceleration, 1 linear."""
         a = abs(delta)
         return 3 if a > self.delta_phi else (2 if a > self.delta_int else 1)
+
+
+def min_change_under_caps(
+    vx: float,
+    vy: float,
+    deltas: Sequence[float],
+    nx: Sequence[float],
+    ny: Sequence[float],
+    profile: ApproachProfile,
+) -> tuple[float, float, bool]:
+    r"""The exact multi-constraint law with any profile: minimum change under every cap at once.
+
+    .. math::
+        v_o = \arg\min_x \|x - v\|^2 \ \text{s.t.}\ n_k\cdot x \ge -\mathrm{cap}(\delta_k, \|v\|)
+
+    for every constraint with a finite cap (inward unit normals ``n_k``; outside, ``-cap > 0``
+    forces the return). Solved in closed form by the 2-D projection of the exact polygon law. If
+    the caps cannot all hold (a region thinner than the braking distance), only the violated
+    constraints' return bounds are kept: recovery first.
+
+    Args:
+        vx: Command, x component [units/s].
+        vy: Command, y component [units/s].
+        deltas: Signed distance to each constraint, positive inside [units].
+        nx: Inward unit normals, x components.
+        ny: Inward unit normals, y components.
+        profile: The approach profile.
+
+    Returns:
+        ``(x, y, relaxed)``: the shaped velocity, and whether the caps were infeasible together
+        so that only the violated constraints' return bounds were kept.
+    """
+    from velfence.shaping._kernels import _solve
+
+    speed = math.hypot(vx, vy)
+    caps = [profile.cap(d, speed) for d in deltas]
+    work = [k for k, cp in enumerate(caps) if math.isfinite(cp)]
+    bnd = [-cp if math.isfinite(cp) else -math.inf for cp in caps]
+    ok, ox, oy = _solve(vx, vy, work, len(work), nx, ny, bnd)
+    if ok:
+        return ox, oy, False
+    work = [k for k in work if deltas[k] < 0.0]
+    ok, ox, oy = _solve(vx, vy, work, len(work), nx, ny, bnd)
+    if not ok:  # pragma: no cover - violated half-planes of a bounded polygon are compatible
+        return 0.0, 0.0, True
+    return ox, oy, True

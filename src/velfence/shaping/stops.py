@@ -35,9 +35,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.geometry.polygon import polygon_from_halfplanes
-from velfence.shaping._kernels import _solve
 from velfence.shaping.base import check_choice
-from velfence.shaping.profiles import ApproachProfile
+from velfence.shaping.profiles import ApproachProfile, min_change_under_caps
 from velfence.shaping.rate import RateLimiter
 
 __all__ = ["StopLimiter", "StopResult"]
@@ -222,7 +221,7 @@ class StopLimiter:
             wl1 = v_perp_lim * ex - v_par_lim * ey
             wl2 = v_perp_lim * ey + v_par_lim * ex
         else:
-            wl1, wl2 = self._exact(w1, w2, deltas)
+            wl1, wl2, _ = min_change_under_caps(w1, w2, deltas, nx, ny, self.profile)
             v_perp_lim = ex * wl1 + ey * wl2
             v_par_lim = -ey * wl1 + ex * wl2
         # θ̇_lim = Qᵀ q̇_lim = v + Qᵀ(Δq̇_i e_i + Δq̇_j e_j): only the limited rows of Q are needed.
@@ -233,20 +232,6 @@ class StopLimiter:
             out = self.post.step(np.array(out)).tolist()
         info = (w1, w2, wl1, wl2, v_perp, v_par, v_perp_lim, v_par_lim)
         return out, v, k, deltas, info
-
-    def _exact(self, w1: float, w2: float, deltas: list[float]) -> tuple[float, float]:
-        """Minimum change of ``w`` with every stop's approach cap: n_k·w >= -cap(δ_k)."""
-        speed = math.hypot(w1, w2)
-        caps = [self.profile.cap(d, speed) for d in deltas]
-        work = [k for k, cp in enumerate(caps) if math.isfinite(cp)]
-        bnd = [-cp if math.isfinite(cp) else -math.inf for cp in caps]
-        ok, ox, oy = _solve(w1, w2, work, len(work), self._nx, self._ny, bnd)
-        if not ok:  # caps infeasible together (region thinner than the braking zone): recover
-            work = [k for k in work if deltas[k] < 0.0]
-            ok, ox, oy = _solve(w1, w2, work, len(work), self._nx, self._ny, bnd)
-        if not ok:  # pragma: no cover - violated half-planes of a bounded polygon are compatible
-            return 0.0, 0.0
-        return ox, oy
 
     def shape(self, theta: ArrayLike, theta_dot: ArrayLike) -> FloatArray:
         """Limited joint velocity, shape (n,) (see :meth:`explain`).
