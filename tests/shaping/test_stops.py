@@ -313,3 +313,32 @@ def test_polygon_shaper_profile_arguments_are_checked():
         vf.PolygonShaper(poly, method="patent", profile=LinearBuffer(d_max=0.1))
     with pytest.raises(vf.InvalidParameter, match="buffer must be given"):
         vf.PolygonShaper(poly)
+
+
+def test_eq5_ratio_is_clamped_by_default_and_unbounded_as_printed():
+    base = make(pre=False)
+    e = 0  # stop d1
+    n = base._n[e]
+    q12 = 0.5 * (base.polygon.corners[0] + base.polygon.corners[1]) - 0.01 * n  # just outside
+    th = Q.T @ np.array([q12[0], q12[1], 0.0])
+    e_perp = -n
+    e_par = np.array([-e_perp[1], e_perp[0]])
+    w = 1.0 * e_par + 1e-12 * e_perp  # tangential, a hair outward
+    thd = Q.T @ np.array([w[0], w[1], 0.0])
+    assert np.abs(base.shape(th, thd)).max() < 2.0
+    printed = StopLimiter(STOPS, profile=paper_profile(), transform=Q, clamp_ratio=False)
+    assert np.abs(printed.shape(th, thd)).max() > 1e9
+
+
+def test_stop_limiter_fail_safe_policy():
+    lim = StopLimiter(STOPS, profile=paper_profile(), transform=Q, on_invalid="stop")
+    np.testing.assert_array_equal(lim.shape(np.full(3, np.nan), np.zeros(3)), np.zeros(3))
+    r = lim.explain(np.zeros(3), np.full(3, np.inf))
+    np.testing.assert_array_equal(r.output, np.zeros(3))
+    with pytest.raises(vf.InvalidParameter, match="K·dt"):
+        StopLimiter(
+            STOPS,
+            profile=paper_profile(),
+            transform=Q,
+            pre=RateLimiter(3, v_max=2, a_max=20, dt=0.02),
+        )

@@ -179,3 +179,14 @@ def test_trajectory_is_read_only_and_validated():
         t=[0.0, 1.0], p=np.zeros((2, 2)), v_cmd=np.zeros((2, 2)), v_out=np.zeros((2, 2))
     )
     assert list(hand.zone) == ["unknown", "unknown"]
+
+
+def test_stateful_shapers_are_reset_between_runs():
+    from velfence.reproduce.cospm import limiter, paper_command
+
+    lim = limiter()
+    th0 = np.full(3, np.pi / 2)
+    a = vf.simulate(lim, paper_command, th0, duration=0.05)
+    b = vf.simulate(lim, paper_command, th0, duration=0.05)
+    np.testing.assert_array_equal(a.v_out, b.v_out)
+    assert abs(b.v_out[1, 1] - b.v_out[0, 1]) <= 20.0 * 1e-3 + 1e-12  # the ramp, not a step

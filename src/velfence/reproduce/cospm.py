@@ -44,9 +44,13 @@ def paper_profile() -> ThreeZoneBraking:
 
 
 def limiter(
-    *, method: str = "nearest", tangential: str = "scale_with_normal", post: bool = False
+    *,
+    method: str = "nearest",
+    tangential: str = "scale_with_normal",
+    post: bool = False,
+    clamp_ratio: bool = False,
 ) -> StopLimiter:
-    """The paper's limiter (faithful by default), with its pre-stage rate limiter."""
+    """The paper's limiter (faithful by default: eq. (5)'s ratio as printed, not clamped)."""
 
     def joints() -> RateLimiter:
         return RateLimiter(3, v_max=SPEED_MAX, a_max=ACCEL_MAX, dt=TE)
@@ -57,6 +61,7 @@ def limiter(
         transform=Q_AUX,
         method=method,
         tangential=tangential,
+        clamp_ratio=clamp_ratio,
         pre=joints(),
         post=joints() if post else None,
     )

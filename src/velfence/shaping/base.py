@@ -24,6 +24,7 @@ from velfence.errors import InvalidInput, InvalidParameter
 
 __all__ = [
     "Explained",
+    "InvalidPolicy",
     "KernelOut",
     "OnInvalid",
     "Shaper",
@@ -161,7 +162,27 @@ def as_rows(name: str, X: ArrayLike, n_cols: int = 2) -> FloatArray:
     return a
 
 
-class ShaperBase:
+class InvalidPolicy:
+    """The ``on_invalid`` policy every shaper shares (2-D or joint-space).
+
+    ``"raise"``: bad input raises :class:`~velfence.errors.InvalidInput`; ``"stop"``: the shaper
+    answers zero velocity. Either way no non-finite value is ever emitted.
+    """
+
+    __slots__ = ("on_invalid",)
+
+    def __init__(self, *, on_invalid: str = "raise") -> None:
+        self.on_invalid = check_choice("on_invalid", on_invalid, ("raise", "stop"))
+
+    def _invalid(self, what: str) -> None:
+        if self.on_invalid == "raise":
+            raise InvalidInput(
+                f"{what}; expected finite values. Pass on_invalid='stop' to get zero velocity "
+                "instead of an exception"
+            )
+
+
+class ShaperBase(InvalidPolicy):
     """The plumbing every 2-D shaper shares; a subclass supplies only its law.
 
     Subclasses implement ``_law`` (one state, plain floats, returns :data:`KernelOut`) and
@@ -170,24 +191,14 @@ class ShaperBase:
     :meth:`explain` and batch validation, so every shaper answers bad input the same way.
     """
 
-    __slots__ = ("on_invalid",)
+    __slots__ = ()
     method: str = "shaper"
-
-    def __init__(self, *, on_invalid: str = "raise") -> None:
-        self.on_invalid = check_choice("on_invalid", on_invalid, ("raise", "stop"))
 
     def _law(self, px: float, py: float, vx: float, vy: float) -> KernelOut:
         raise NotImplementedError  # pragma: no cover
 
     def _law_batch(self, P: FloatArray, V: FloatArray) -> tuple[FloatArray, IntArray]:
         raise NotImplementedError  # pragma: no cover
-
-    def _invalid(self, what: str) -> None:
-        if self.on_invalid == "raise":
-            raise InvalidInput(
-                f"{what}; expected finite values. Pass on_invalid='stop' to get zero velocity "
-                "instead of an exception"
-            )
 
     def _checked(self, px: float, py: float, vx: float, vy: float) -> KernelOut | None:
         """The law's result, or None for invalid input / overflow under ``on_invalid="stop"``."""

@@ -35,7 +35,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.geometry.polygon import polygon_from_halfplanes
-from velfence.shaping.base import check_choice
+from velfence.shaping.base import InvalidPolicy, check_choice
 from velfence.shaping.profiles import ApproachProfile, min_change_under_caps
 from velfence.shaping.rate import RateLimiter
 
@@ -83,7 +83,7 @@ class StopResult:
     method: str
 
 
-class StopLimiter:
+class StopLimiter(InvalidPolicy):
     r"""Velocity limiter for half-plane joint stops in an auxiliary plane (Lê et al. 2024).
 
     Args:
@@ -96,9 +96,15 @@ class StopLimiter:
         limited: The two auxiliary coordinates the stops act on (default ``(0, 1)``).
         tangential: ``"scale_with_normal"`` (faithful eq. 5) or ``"preserve"``; used by
             ``method="nearest"``.
+        clamp_ratio: Clamp eq. (5)'s ratio ``q̇⊥_lim / q̇⊥`` to [0, 1] (default True, our repair).
+            Outside a stop the cap is negative and the faithful ratio is unbounded as ``q̇⊥ → 0``
+            (an outward normal speed of 1e-12 rad/s turned 1 rad/s of tangential motion into
+            7e11 rad/s); ``False`` keeps the paper's formula as printed.
         method: ``"nearest"`` (faithful) or ``"exact"`` (all stops at once, minimum change).
         pre: Optional pre-stage rate limiter (stateful; the paper's requirement (i)).
         post: Optional post-stage rate limiter applied to the limited joint velocity.
+        on_invalid: ``"raise"`` (default): non-finite input raises
+            :class:`~velfence.errors.InvalidInput`; ``"stop"``: zero velocity.
     """
 
     def __init__(
@@ -109,10 +115,14 @@ class StopLimiter:
         transform: ArrayLike | None = None,
         limited: tuple[int, int] = (0, 1),
         tangential: str = "scale_with_normal",
+        clamp_ratio: bool = True,
         method: str = "nearest",
         pre: RateLimiter | None = None,
         post: RateLimiter | None = None,
+        on_invalid: str = "raise",
     ) -> None:
+        super().__init__(on_invalid=on_invalid)
+        self.clamp_ratio = bool(clamp_ratio)
         S = np.asarray(stops, dtype=float)
         if S.ndim != 2 or S.shape[1] != 3:
             raise InvalidParameter(f"stops must have shape (m, 3) rows (a, b, c), got {S.shape}")
@@ -147,6 +157,10 @@ class StopLimiter:
                 raise InvalidParameter(f"{name} must be a RateLimiter of size {n}, got {stage!r}")
         self.pre = pre
         self.post = post
+        check_period = getattr(profile, "check_period", None)
+        for stage in (pre, post):
+            if stage is not None and callable(check_period):
+                check_period(stage.dt)
         # Stop-ordered unit normals (inward) and offsets, taken from the polygon (one geometry).
         e = self._edge_of_stop
         self._n = np.ascontiguousarray(polygon.normals[e])
@@ -171,7 +185,10 @@ class StopLimiter:
                 stage.reset()
 
     # ------------------------------------------------------------------ the law
-    def _parse(self, theta: ArrayLike, theta_dot: ArrayLike) -> tuple[list[float], list[float]]:
+    def _parse(
+        self, theta: ArrayLike, theta_dot: ArrayLike
+    ) -> tuple[list[float], list[float], bool]:
+        """Floats of the inputs and whether they are finite (raises under ``"raise"``)."""
         n = self.size
         x = np.asarray(theta, dtype=float)
         c = np.asarray(theta_dot, dtype=float)
@@ -183,8 +200,20 @@ class StopLimiter:
         cs: list[float] = c.tolist()
         total = sum(xs) + sum(cs)
         if total - total != 0.0 and not all(math.isfinite(a) for a in xs + cs):
-            raise InvalidInput(f"theta and theta_dot must be finite, got {xs} and {cs}")
-        return xs, cs
+            self._invalid(f"non-finite input: theta={xs}, theta_dot={cs}")
+            return xs, cs, False
+        return xs, cs, True
+
+    def _checked_core(
+        self, x: list[float], c: list[float], ok: bool
+    ) -> tuple[list[float], list[float], int, list[float], tuple[float, ...]] | None:
+        if not ok:
+            return None
+        r = self._core(x, c)
+        if not all(math.isfinite(a) for a in r[0]):
+            self._invalid(f"input too large, the limited velocity overflowed: theta_dot={c}")
+            return None
+        return r
 
     def _core(
         self, x: list[float], c: list[float]
@@ -215,7 +244,10 @@ class StopLimiter:
             cap = self.profile.cap(delta, math.hypot(w1, w2))
             v_perp_lim = v_perp if v_perp < cap else cap
             if self.tangential == "scale_with_normal" and v_perp != 0.0:
-                v_par_lim = v_par * v_perp_lim / v_perp
+                ratio = v_perp_lim / v_perp
+                if self.clamp_ratio:
+                    ratio = 0.0 if ratio < 0.0 else (1.0 if ratio > 1.0 else ratio)
+                v_par_lim = v_par * ratio
             else:
                 v_par_lim = v_par
             wl1 = v_perp_lim * ex - v_par_lim * ey
@@ -243,8 +275,9 @@ class StopLimiter:
         Raises:
             InvalidInput: wrong shapes or non-finite values.
         """
-        x, c = self._parse(theta, theta_dot)
-        return np.array(self._core(x, c)[0])
+        x, c, ok = self._parse(theta, theta_dot)
+        r = self._checked_core(x, c, ok)
+        return np.zeros(self.size) if r is None else np.array(r[0])
 
     def explain(self, theta: ArrayLike, theta_dot: ArrayLike) -> StopResult:
         """Limit one command and report every intermediate quantity.
@@ -256,8 +289,16 @@ class StopLimiter:
         Raises:
             InvalidInput: wrong shapes or non-finite values.
         """
-        x, c = self._parse(theta, theta_dot)
-        out, v, k, deltas, info = self._core(x, c)
+        x, c, ok = self._parse(theta, theta_dot)
+        r = self._checked_core(x, c, ok)
+        if r is None:
+            n = self.size
+            nan = math.nan
+            return StopResult(
+                np.zeros(n), np.array(c), np.zeros(n), np.full(n, nan), np.zeros(n), np.zeros(n),
+                -1, nan, np.full(len(self._off), nan), 0, 0.0, 0.0, 0.0, 0.0, self.method,
+            )  # fmt: skip
+        out, v, k, deltas, info = r
         w1, w2, wl1, wl2, v_perp, v_par, v_perp_lim, v_par_lim = info
         Q = self.transform
         qd = Q @ np.array(v)

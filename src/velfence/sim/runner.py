@@ -232,6 +232,9 @@ def simulate(
         on_result: Called as ``on_result(k, t, result)`` with every step's ``explain`` result
             (to log a shaper's diagnostics, e.g. the stop limiter's normal/tangential speeds).
 
+    A shaper with ``stateful`` true and a ``reset()`` method (the stop limiter with rate
+    limiters) is reset before the first step.
+
     Returns:
         The :class:`Trajectory` of ``N`` rows.
 
@@ -265,6 +268,11 @@ def simulate(
     dim = p0a.shape[0]
     steps = _n_steps(duration, dt)
     n = steps + 1
+    # A stateful shaper (rate limiters) starts every run from rest, so runs never leak into
+    # each other (simulate_many may pass the same instance twice).
+    reset = getattr(shaper, "reset", None)
+    if getattr(shaper, "stateful", False) and callable(reset):
+        reset()
     rng = np.random.default_rng(seed)
     noise = rng.normal(0.0, noise_std, size=(n, dim)) if noise_std > 0.0 else None
     every = max(1, steps // 100)
