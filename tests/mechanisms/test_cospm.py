@@ -558,7 +558,7 @@ def test_validate_region_rejects_bad_options(cospm: CoSPM) -> None:
 
 
 def test_singular_curves_grid(cospm: CoSPM) -> None:
-    g = singular_curves(cospm, (-1.6, 2.4, -1.8, 1.4), 0.1)
+    g = singular_curves(cospm, window=(-1.6, 2.4, -1.8, 1.4), step=0.1)
     assert g.det_a.shape == (g.q2.size, g.q1.size) == g.reached.shape
     i0, j0 = int(np.argmin(np.abs(g.q2))), int(np.argmin(np.abs(g.q1)))
     assert g.reached[i0, j0]
@@ -572,7 +572,7 @@ def test_singular_curves_grid(cospm: CoSPM) -> None:
         i, j = int(np.argmin(np.abs(g.q2 - q[1]))), int(np.argmin(np.abs(g.q1 - q[0])))
         assert g.det_b[i, j] > 0
     with pytest.raises(InvalidParameter, match="window: expected"):
-        singular_curves(cospm, (0.5, 1.0, 0.5, 1.0))
+        singular_curves(cospm, window=(0.5, 1.0, 0.5, 1.0))
 
 
 def test_workspace_map_is_fig3b(cospm: CoSPM) -> None:

@@ -321,3 +321,12 @@ class TestInsideNeverFaster:
             v = rng.normal(size=2) * rng.uniform(0.01, 10.0)
             out = sh.shape(p, v)
             assert np.linalg.norm(out) <= np.linalg.norm(v) * (1 + 1e-12)
+
+
+def test_shaper_parameters_are_frozen_once_built():
+    import velfence as vf
+
+    s = vf.PolygonShaper(vf.ConvexPolygon([[0, 0], [1, 0], [0, 1]]), buffer=0.1)
+    with pytest.raises(AttributeError, match="immutable"):
+        s.buffer = 1.0
+    assert s.buffer == 0.1

@@ -1377,9 +1377,9 @@ class SingularGrid:
 
 def singular_curves(
     cospm: CoSPM | None = None,
+    *,
     window: tuple[float, float, float, float] = (-1.6, 2.4, -1.8, 1.4),
     step: float = 0.02,
-    *,
     theta3: float | None = _HALF_PI,
 ) -> SingularGrid:
     r"""Grids of det A, det B and :math:`\det[v\times w]` on the home leaf, for plotting.

@@ -74,6 +74,7 @@ class PolygonShaper(ShaperBase):
     __slots__ = (
         "_batch_args",
         "_fast",
+        "_ready",
         "accelerate",
         "buffer",
         "corner_blend_angle",
@@ -107,6 +108,12 @@ class PolygonShaper(ShaperBase):
                 raise InvalidParameter(
                     "profile replaces the linear buffer of the exact law: pass profile with "
                     f"method='exact' and no buffer, got method={method!r}, buffer={buffer!r}"
+                )
+            if spring_gain != 0.0 or max_recovery_speed is not None:
+                raise InvalidParameter(
+                    "with a profile the recovery outside is the profile's (its negative cap): "
+                    f"drop spring_gain and max_recovery_speed, got spring_gain={spring_gain!r}, "
+                    f"max_recovery_speed={max_recovery_speed!r}"
                 )
             buffer = math.inf
         elif buffer is None:
@@ -150,6 +157,17 @@ class PolygonShaper(ShaperBase):
         self._batch_args = tuple(
             np.asarray(a, dtype=float) if isinstance(a, tuple) else a for a in fast
         )
+        self._ready = True
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        # The kernels' arguments are precomputed from the parameters: a later change would be
+        # silently ignored, so parameters are frozen once built.
+        if getattr(self, "_ready", False):
+            raise AttributeError(
+                f"PolygonShaper is immutable (its law is precomputed): build a new one instead "
+                f"of setting {name!r}"
+            )
+        object.__setattr__(self, name, value)
 
     # ------------------------------------------------------------------ the law
     def _law(

@@ -46,7 +46,10 @@ class LinearBuffer:
     Inside the buffer the cap grows linearly from 0 on the boundary to the command's own speed at
     the inner boundary (a command straight into the edge is scaled by :math:`\delta/d_{max}`, the
     patent's step 110); beyond it nothing is limited. Outside, the cap is the negative recovery
-    speed :math:`-\min(k\,|\delta|, r_{max})`.
+    speed :math:`-\min(k\,|\delta|, r_{max})`. Used with the exact law it equals the built-in
+    ``PolygonShaper(buffer=…)`` inside the polygon; outside, the built-in law also relaxes the
+    non-violated edges by the recovery speed R (derivations.md §3), which a per-edge profile
+    cannot see.
 
     Attributes:
         d_max: Buffer width [units], > 0.
@@ -166,7 +169,11 @@ class ThreeZoneBraking:
         return self.gain * delta
 
     def zone(self, delta: float) -> int:
-        """The paper's zone flag: 3 nominal, 2 maximal deceleration, 1 linear."""
+        """The paper's zone flag of ``|δ|``: 3 nominal, 2 maximal deceleration, 1 linear.
+
+        As in the paper, the flag depends on ``|δ|`` only: outside (``δ < 0``) zone 3 means a
+        forced return at ``v_max``, not free motion; read the sign of ``δ`` alongside.
+        """
         a = abs(delta)
         return 3 if a > self.delta_phi else (2 if a > self.delta_int else 1)
 

@@ -8,8 +8,8 @@ Stateful, and says so: :class:`RateLimiter` keeps the previous output. Per compo
     y[k] = y[k-1] + T_e\,a .
 
 The paper prints the acceleration as the difference of consecutive *commands*
-(``mode="literal"``); read that way a step command gives one saturated sample and never reaches
-its value, which cannot produce the paper's own Fig. 8a (a 20 rad/s² ramp to 0.5 rad/s). The
+(``mode="literal"``); read that way a step command gives one rate-limited sample and then jumps
+to its value, which cannot produce the paper's own Fig. 8a (a 20 rad/s² ramp to 0.5 rad/s). The
 default ``mode="output"`` limits the change of the previous *output*, which does. See
 ``docs/derivations.md`` §6.
 """

@@ -187,7 +187,7 @@ def plot_quiver(
     X, Y = np.meshgrid(xs, ys)
     P = np.stack([X.ravel(), Y.ravel()], axis=1)
     V = np.tile(np.asarray(command, dtype=float), (P.shape[0], 1))
-    for ax, (i, (name, shaper)) in zip(axes.ravel(), enumerate(shapers.items()), strict=False):
+    for ax, (name, shaper) in zip(axes.ravel(), shapers.items(), strict=False):
         _draw_polygon(ax, polygon, buffer=buffer, margin=0.18)
         out = shaper.shape_batch(P, V)
         mag = np.linalg.norm(out, axis=1)
@@ -197,7 +197,6 @@ def plot_quiver(
             width=0.004,
         )  # fmt: skip
         ax.set_title(f"{name}: command {tuple(round(x, 2) for x in command)}", fontsize=9)
-        _ = i
     for ax in axes.ravel()[k:]:
         ax.axis("off")
     fig.tight_layout()
