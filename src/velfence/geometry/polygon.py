@@ -350,7 +350,9 @@ def wedge_index(px: float, py: float, cx: float, cy: float, a0: float, beta: Any
     return wedge_search(wedge_angle(px, py, cx, cy, a0), beta, n)
 
 
-def polygon_from_halfplanes(A: ArrayLike, c: ArrayLike) -> tuple[ConvexPolygon, NDArray[np.int64]]:
+def polygon_from_halfplanes(
+    A: ArrayLike, c: ArrayLike, *, allow_redundant: bool = False
+) -> tuple[ConvexPolygon, NDArray[np.int64]]:
     r"""The bounded convex polygon :math:`\{q : A q + c \ge 0\}` and which half-plane each edge is.
 
     Every half-plane must contribute an edge (none redundant) and the result must be bounded.
@@ -362,6 +364,8 @@ def polygon_from_halfplanes(A: ArrayLike, c: ArrayLike) -> tuple[ConvexPolygon, 
     Args:
         A: Half-plane normals (not necessarily unit), shape (m, 2), m >= 3.
         c: Offsets, shape (m,).
+        allow_redundant: Accept half-planes that contribute no edge (they are simply absent from
+            ``order``); by default they are refused, naming them.
 
     Returns:
         ``(polygon, order)``.
@@ -424,12 +428,12 @@ def polygon_from_halfplanes(A: ArrayLike, c: ArrayLike) -> tuple[ConvexPolygon, 
             raise InvalidGeometry("the half-planes' intersection is degenerate")
         edges.append(int(both[0]))
     missing = sorted(set(range(m)) - set(edges))
-    if missing:
+    if missing and not allow_redundant:
         raise InvalidGeometry(
             f"half-plane(s) {missing} contribute no edge (redundant, or touching only at a "
             "corner); remove them so that every stop is an edge"
         )
-    if len(edges) != m:
+    if len(set(edges)) != len(edges):
         raise InvalidGeometry("two half-planes share an edge (duplicates); remove one")
     shift = edges.index(min(edges))
     order = np.roll(np.array(edges), -shift)

@@ -1127,7 +1127,7 @@ def _workspace_margin(
     """IKP (home modes) of orientations (N, 3) and their least signed stop distance (N,)."""
     th = cospm._ikp(chi, theta_prev, np.full(3, -1.0), "validate_region")
     q = th @ Q_AUX.T
-    d = (q[:, :2] @ S[:, :2].T + S[:, 2]) / np.hypot(S[:, 0], S[:, 1])
+    d = stops_polygon(S).signed_distances(q[:, :2])
     return th, np.asarray(np.min(d, axis=1), dtype=np.float64)
 
 
@@ -1247,7 +1247,7 @@ def validate_region(
     g2 = _grid(float(lo[1]), float(hi[1]), step)
     Q1, Q2 = np.meshgrid(g1, g2)
     pts = np.column_stack([Q1.ravel(), Q2.ravel()])
-    inside = np.all(pts @ S[:, :2].T + S[:, 2] >= 0.0, axis=1)
+    inside = np.asarray(polygon.contains(pts), dtype=bool)
     mask = inside.reshape(Q1.shape)
     if not mask.any():
         raise InvalidParameter(
@@ -1570,8 +1570,8 @@ def workspace_map(
         det_b[reachable] = np.prod(np.einsum("nij,nij->ni", np.cross(cospm._u[None], w), v), axis=1)
         type2[reachable] = np.linalg.det(np.cross(v, w))
     q12 = q[:, :, :2]
-    margin = np.min(
-        (q12 @ S[:, :2].T + S[:, 2]) / np.hypot(S[:, 0], S[:, 1]), axis=2, initial=np.inf
+    margin = (
+        stops_polygon(S).signed_distances(q12.reshape(-1, 2)).min(axis=1).reshape(q12.shape[:2])
     )
     margin = np.where(reachable, margin, np.nan)
     return WorkspaceMap(

@@ -37,7 +37,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
-from velfence.geometry.polygon import ConvexPolygon
+from velfence.geometry.polygon import ConvexPolygon, polygon_from_halfplanes
 
 __all__ = ["LIMIT_NAMES", "Wrist", "WristGeometry"]
 
@@ -639,9 +639,8 @@ class Wrist:
         N = np.array(normals)
         o = np.array(offsets)
         slack = _DERIVE_SLACK[names]
-        _check_bounded(N, names)
         for _ in range(_DERIVE_MAX_ROUNDS):
-            corners, edge_k = _halfplane_polygon(N, o)
+            corners, edge_k = _halfplane_polygon(N, o, names)
             samples = _polygon_samples(corners)
             g = self._limit_values(samples)[:, names]
             bad = g > -slack[None, :]
@@ -773,54 +772,21 @@ def _vector(name: str, x: ArrayLike) -> FloatArray:
     return a
 
 
-def _check_bounded(N: FloatArray, names: list[int]) -> None:
-    """Raise unless the half-plane normals positively span the plane (bounded intersection)."""
-    if N.shape[0] < 3:
+def _halfplane_polygon(
+    N: FloatArray, o: FloatArray, names: list[int]
+) -> tuple[FloatArray, list[int]]:
+    """Corners of ``{q : N q <= o}`` from the least-pitch corner, and each edge's half-plane."""
+    try:
+        poly, order = polygon_from_halfplanes(-N, o, allow_redundant=True)
+    except InvalidGeometry as exc:
         raise InvalidGeometry(
-            f"default_polygon: expected at least 3 active limits around home, got "
-            f"{[LIMIT_NAMES[k] for k in names]}; tighten the stroke or the margins"
-        )
-    ang = np.sort(np.arctan2(N[:, 1], N[:, 0]))
-    gaps = np.diff(np.concatenate([ang, ang[:1] + 2.0 * math.pi]))
-    if float(gaps.max()) >= math.pi - 1e-9:
-        raise InvalidGeometry(
-            "default_polygon: the active limits "
-            f"{[LIMIT_NAMES[k] for k in names]} do not enclose a bounded region around home; "
-            "expected strokes, singularity and wire limits on every side; tighten the stroke"
-        )
-
-
-def _halfplane_polygon(N: FloatArray, o: FloatArray) -> tuple[FloatArray, list[int]]:
-    """Corners (CCW) of ``{q : N q <= o}`` and, per edge, the index of its half-plane."""
-    m = N.shape[0]
-    pts: list[FloatArray] = []
-    for i in range(m):
-        for j in range(i + 1, m):
-            det = N[i, 0] * N[j, 1] - N[i, 1] * N[j, 0]
-            if abs(det) < 1e-12:
-                continue
-            p = np.asarray(np.linalg.solve(N[[i, j]], o[[i, j]]), dtype=np.float64)
-            if np.all(N @ p <= o + 1e-10):
-                pts.append(p)
-    P = np.array(pts)
-    centre = P.mean(axis=0)
-    P = P[np.argsort(np.arctan2(P[:, 1] - centre[1], P[:, 0] - centre[0]))]
-    keep = [0]
-    for i in range(1, P.shape[0]):
-        if np.max(np.abs(P[i] - P[keep[-1]])) > 1e-9:
-            keep.append(i)
-    P = P[keep]
-    if np.max(np.abs(P[-1] - P[0])) <= 1e-9:
-        P = P[:-1]
+            f"default_polygon: the active limits {[LIMIT_NAMES[k] for k in names]} do not "
+            f"enclose a bounded region around home ({exc}); tighten the stroke or the margins"
+        ) from None
+    P = poly.corners
     # Start at the corner of least pitch (then least yaw) so the corner order is reproducible.
     first = int(np.lexsort((np.round(P[:, 1], 9), np.round(P[:, 0], 9)))[0])
-    P = np.roll(P, -first, axis=0)
-    edges: list[int] = []
-    for i in range(P.shape[0]):
-        a, b = P[i], P[(i + 1) % P.shape[0]]
-        slack = np.maximum(np.abs(N @ a - o), np.abs(N @ b - o))
-        edges.append(int(np.argmin(slack)))
-    return P, edges
+    return np.roll(P, -first, axis=0), np.roll(order, -first).tolist()
 
 
 def _polygon_samples(corners: FloatArray, per_edge: int = 96) -> FloatArray:
