@@ -124,7 +124,7 @@ def test_geometry_validation_names_the_field(
 @pytest.mark.parametrize(
     ("kwargs", "match"),
     [
-        ({"fk_tol": 0.0}, r"fk_tol: expected a finite number > 0 \[m\]"),
+        ({"fk_tol": 0.0}, r"fk_tol must be finite and > 0 \(\[m\]\), got 0\.0"),
         ({"fk_tol": math.nan}, r"fk_tol"),
         ({"fk_max_iter": 0}, r"fk_max_iter: expected an int >= 1"),
         ({"fk_max_iter": 2.5}, r"fk_max_iter: expected a positive int"),

@@ -54,6 +54,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon, polygon_from_halfplanes
+from velfence.shaping.base import check_positive
 
 __all__ = [
     "PAPER_STOPS",
@@ -292,15 +293,6 @@ def _like(name: str, x: ArrayLike, n: int, other: str) -> FloatArray:
     return np.array(np.broadcast_to(a, (n, 3)), dtype=float)
 
 
-def _positive(name: str, value: Any, unit: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, _REAL):
-        raise InvalidParameter(f"{name}: expected a positive number {unit}, got {value!r}")
-    x = float(value)
-    if not (math.isfinite(x) and x > 0.0):
-        raise InvalidParameter(f"{name}: expected a finite number > 0 {unit}, got {x!r}")
-    return x
-
-
 def _rotations(chi: FloatArray) -> FloatArray:
     """Rotation matrices R_z(chi3) R_y(chi2) R_x(chi1) for rows of chi (N, 3) -> (N, 3, 3)."""
     s1, s2, s3 = np.sin(chi[:, 0]), np.sin(chi[:, 1]), np.sin(chi[:, 2])
@@ -383,7 +375,7 @@ class CoSPM:
             raise InvalidParameter(f"mirror: expected True or False, got {mirror!r}")
         self._design = design
         self._mirror = bool(mirror)
-        self._fk_tol = _positive("fk_tol", fk_tol, "(dimensionless)")
+        self._fk_tol = check_positive("fk_tol", fk_tol, unit="(dimensionless)")
         if isinstance(fk_max_iter, bool) or not isinstance(fk_max_iter, (int, np.integer)):
             raise InvalidParameter(
                 f"fk_max_iter: expected a positive int, got {fk_max_iter!r}; e.g. 50"
@@ -391,8 +383,8 @@ class CoSPM:
         if fk_max_iter < 1:
             raise InvalidParameter(f"fk_max_iter: expected an int >= 1, got {fk_max_iter!r}")
         self._fk_max_iter = int(fk_max_iter)
-        self._fk_step = _positive("fk_step", fk_step, "[rad]")
-        self._singular_tol = _positive("singular_tol", singular_tol, "(fraction)")
+        self._fk_step = check_positive("fk_step", fk_step, unit="[rad]")
+        self._singular_tol = check_positive("singular_tol", singular_tol, unit="(fraction)")
         if self._singular_tol >= 1.0:
             raise InvalidParameter(
                 f"singular_tol: expected a fraction in (0, 1), got {singular_tol!r}; e.g. 1e-6"
@@ -1224,8 +1216,8 @@ def validate_region(
         raise InvalidParameter(f"cospm: expected a CoSPM, got {type(cospm).__name__}")
     S = _stops(stops)
     polygon = stops_polygon(S)
-    step = _positive("step", step, "[rad]")
-    workspace_step = _positive("workspace_step", workspace_step, "[rad]")
+    step = check_positive("step", step, unit="[rad]")
+    workspace_step = check_positive("workspace_step", workspace_step, unit="[rad]")
     if theta3 is not None:
         if isinstance(theta3, bool) or not isinstance(theta3, _REAL) or not math.isfinite(theta3):
             raise InvalidParameter(f"theta3: expected a finite angle [rad] or None, got {theta3!r}")
@@ -1404,7 +1396,7 @@ def singular_curves(
         cospm = CoSPM()
     if not isinstance(cospm, CoSPM):
         raise InvalidParameter(f"cospm: expected a CoSPM, got {type(cospm).__name__}")
-    step = _positive("step", step, "[rad]")
+    step = check_positive("step", step, unit="[rad]")
     wnd = tuple(float(x) for x in window)
     th_home, _ = cospm.home()
     q_home = Q_AUX @ th_home
@@ -1517,7 +1509,7 @@ def workspace_map(
         raise InvalidParameter(f"cospm: expected a CoSPM, got {type(cospm).__name__}")
     S = _stops(stops)
     stops_polygon(S)
-    step = _positive("step", step, "[rad]")
+    step = check_positive("step", step, unit="[rad]")
     ranges = []
     for name, rng in (("bank", bank), ("elevation", elevation)):
         lo, hi = (float(x) for x in rng)

@@ -31,13 +31,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, fields
-from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon, polygon_from_halfplanes
+from velfence.shaping.base import check_positive
 
 __all__ = ["LIMIT_NAMES", "Wrist", "WristGeometry"]
 
@@ -249,7 +249,7 @@ class Wrist:
                 "build one with WristGeometry(...)"
             )
         self._geometry = geometry
-        self._fk_tol = _positive("fk_tol", fk_tol, "[m]")
+        self._fk_tol = check_positive("fk_tol", fk_tol, unit="[m]")
         if isinstance(fk_max_iter, bool) or not isinstance(fk_max_iter, (int, np.integer)):
             raise InvalidParameter(
                 f"fk_max_iter: expected a positive int, got {fk_max_iter!r}; e.g. 50"
@@ -257,7 +257,7 @@ class Wrist:
         if fk_max_iter < 1:
             raise InvalidParameter(f"fk_max_iter: expected an int >= 1, got {fk_max_iter!r}")
         self._fk_max_iter = int(fk_max_iter)
-        self._singular_tol = _positive("singular_tol", singular_tol, "(fraction)")
+        self._singular_tol = check_positive("singular_tol", singular_tol, unit="(fraction)")
         if self._singular_tol >= 1.0:
             raise InvalidParameter(
                 f"singular_tol: expected a fraction in (0, 1), got {singular_tol!r}; e.g. 1e-3"
@@ -730,15 +730,6 @@ class Wrist:
 
     def __repr__(self) -> str:
         return f"Wrist({self._geometry!r})"
-
-
-def _positive(name: str, value: Any, unit: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, _REAL):
-        raise InvalidParameter(f"{name}: expected a positive number {unit}, got {value!r}")
-    x = float(value)
-    if not (math.isfinite(x) and x > 0.0):
-        raise InvalidParameter(f"{name}: expected a finite number > 0 {unit}, got {x!r}")
-    return x
 
 
 def _rows(name: str, x: ArrayLike) -> tuple[FloatArray, bool]:

@@ -119,6 +119,8 @@ class Shaper(Protocol):
 def check_positive(name: str, value: Any, *, allow_zero: bool = False, unit: str = "") -> float:
     """Validate a finite positive (or non-negative) scalar parameter and return it as float."""
     try:
+        if isinstance(value, bool):
+            raise TypeError
         x = float(value)
     except (TypeError, ValueError):
         raise InvalidParameter(
