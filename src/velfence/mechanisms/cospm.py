@@ -54,7 +54,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon, polygon_from_halfplanes
-from velfence.shaping.base import check_positive
+from velfence.shaping.base import check_positive, finite_rows
 
 __all__ = [
     "PAPER_STOPS",
@@ -258,29 +258,7 @@ class CoSPMDesign:
 # ====================================================================== input checks
 def _poses(name: str, x: ArrayLike) -> tuple[FloatArray, bool]:
     """``x`` as float rows (N, 3) and whether it was a single (3,) vector."""
-    try:
-        a = np.array(x, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise InvalidInput(
-            f"{name}: expected numbers of shape (3,) or (N, 3) [rad], got {x!r}"
-        ) from exc
-    if a.ndim == 1 and a.shape[0] == 3:
-        single = True
-        a = a[None, :]
-    elif a.ndim == 2 and a.shape[1] == 3:
-        single = False
-    else:
-        raise InvalidInput(
-            f"{name}: expected shape (3,) or (N, 3) (one angle per leg or per Euler angle) "
-            f"[rad], got shape {a.shape}"
-        )
-    if not np.all(np.isfinite(a)):
-        bad = np.flatnonzero(~np.all(np.isfinite(a), axis=1))
-        raise InvalidInput(
-            f"{name}: expected finite values, got non-finite entries in row(s) "
-            f"{bad[:10].tolist()}; filter NaN/inf before calling"
-        )
-    return a, single
+    return finite_rows(name, x, 3, "(one angle per leg or per Euler angle) [rad]")
 
 
 def _like(name: str, x: ArrayLike, n: int, other: str) -> FloatArray:

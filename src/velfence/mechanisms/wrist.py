@@ -37,7 +37,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon, polygon_from_halfplanes
-from velfence.shaping.base import check_positive
+from velfence.shaping.base import check_positive, finite_rows
 
 __all__ = ["LIMIT_NAMES", "Wrist", "WristGeometry"]
 
@@ -734,26 +734,7 @@ class Wrist:
 
 def _rows(name: str, x: ArrayLike) -> tuple[FloatArray, bool]:
     """``x`` as float rows (N, 2) and whether it was a single (2,) vector."""
-    try:
-        a = np.asarray(x, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise InvalidInput(f"{name}: expected numbers of shape (2,) or (N, 2), got {x!r}") from exc
-    if a.ndim == 1 and a.shape[0] == 2:
-        single = True
-        a = a[None, :]
-    elif a.ndim == 2 and a.shape[1] == 2:
-        single = False
-    else:
-        raise InvalidInput(
-            f"{name}: expected shape (2,) or (N, 2) as (pitch, yaw) pairs, got shape {a.shape}"
-        )
-    if not np.all(np.isfinite(a)):
-        bad = np.flatnonzero(~np.all(np.isfinite(a), axis=1))
-        raise InvalidInput(
-            f"{name}: expected finite values, got non-finite entries in row(s) "
-            f"{bad[:10].tolist()}; filter NaN/inf before calling"
-        )
-    return a, single
+    return finite_rows(name, x, 2, "as (pitch, yaw) pairs")
 
 
 def _vector(name: str, x: ArrayLike) -> FloatArray:

@@ -34,6 +34,7 @@ __all__ = [
     "as_rows",
     "check_choice",
     "check_positive",
+    "finite_rows",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -151,6 +152,42 @@ def as_pair(name: str, x: Any) -> tuple[float, float]:
         return float(a), float(b)
     except (TypeError, ValueError):
         raise InvalidInput(f"{name} must be a 2-vector of numbers, got {x!r}") from None
+
+
+def finite_rows(name: str, x: ArrayLike, width: int, what: str = "") -> tuple[FloatArray, bool]:
+    """``x`` as finite float rows (N, width) and whether it was a single (width,) vector.
+
+    Args:
+        name: Argument name for messages.
+        x: One vector of shape (width,) or rows of shape (N, width).
+        width: Row length.
+        what: What a row is, for messages (e.g. "as (pitch, yaw) pairs").
+
+    Raises:
+        InvalidInput: not numbers, wrong shape, or non-finite entries (rows named).
+    """
+    try:
+        a = np.array(x, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise InvalidInput(
+            f"{name}: expected numbers of shape ({width},) or (N, {width}), got {x!r}"
+        ) from exc
+    if a.ndim == 1 and a.shape[0] == width:
+        single = True
+        a = a[None, :]
+    elif a.ndim == 2 and a.shape[1] == width:
+        single = False
+    else:
+        raise InvalidInput(
+            f"{name}: expected shape ({width},) or (N, {width}) {what}, got shape {a.shape}"
+        )
+    if not np.all(np.isfinite(a)):
+        bad = np.flatnonzero(~np.all(np.isfinite(a), axis=1))
+        raise InvalidInput(
+            f"{name}: expected finite values, got non-finite entries in row(s) "
+            f"{bad[:10].tolist()}; filter NaN/inf before calling"
+        )
+    return a, single
 
 
 def as_rows(name: str, X: ArrayLike, n_cols: int = 2) -> FloatArray:
