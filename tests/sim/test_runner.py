@@ -190,3 +190,29 @@ def test_stateful_shapers_are_reset_between_runs():
     b = vf.simulate(lim, paper_command, th0, duration=0.05)
     np.testing.assert_array_equal(a.v_out, b.v_out)
     assert abs(b.v_out[1, 1] - b.v_out[0, 1]) <= 20.0 * 1e-3 + 1e-12  # the ramp, not a step
+
+
+def test_command_may_live_in_another_space_than_the_state():
+    from dataclasses import dataclass
+
+    @dataclass(frozen=True)
+    class Out:
+        output: np.ndarray
+        zone: str = "free"
+
+    class Lift:
+        """Maps a 2-D command to a 3-D state velocity (like end-effector -> joint rates)."""
+
+        def shape(self, p, v):
+            return np.array([v[0], v[1], v[0] + v[1]])
+
+        def explain(self, p, v):
+            return Out(self.shape(p, v))
+
+        def shape_batch(self, P, V):
+            return np.array([self.shape(p, v) for p, v in zip(P, V, strict=True)])
+
+    traj = simulate(Lift(), lambda t, p: np.array([1.0, 2.0]), np.zeros(3), duration=0.01, dt=1e-3)
+    assert traj.v_cmd.shape == (11, 2)
+    assert traj.v_out.shape == (11, 3)
+    np.testing.assert_allclose(traj.p[-1], [0.01, 0.02, 0.03], atol=1e-12)

@@ -32,7 +32,9 @@ __all__ = ["CommandFn", "DisturbanceFn", "SaturateFn", "Trajectory", "simulate",
 FloatArray = NDArray[np.float64]
 
 CommandFn = Callable[[float, FloatArray], ArrayLike]
-"""Scripted operator ``(t [s], p (d,)) -> v_cmd (d,)`` [workspace units / s]."""
+"""Scripted operator ``(t [s], p (d,)) -> v_cmd (c,)`` [units / s]; usually c = d, but a shaper
+may map another space's command into the state's (e.g. an end-effector velocity into joint
+rates, c = task dimension)."""
 DisturbanceFn = Callable[[float, FloatArray], ArrayLike]
 """External velocity disturbance ``(t [s], p (d,)) -> w (d,)`` [workspace units / s]."""
 SaturateFn = Callable[[FloatArray, FloatArray], ArrayLike]
@@ -63,7 +65,8 @@ class Trajectory:
     Attributes:
         t: Times, shape (N,), [s], strictly increasing, N >= 1.
         p: True positions, shape (N, 2), workspace units.
-        v_cmd: Commanded velocities, shape (N, 2), workspace units per second.
+        v_cmd: Commanded velocities, shape (N, c) (c = d unless the shaper maps another space's
+            command, e.g. end-effector velocities into joint rates), units per second.
         v_out: Velocities sent to the plant (shaped, then saturated), shape (N, 2).
         zone: Shaper zone names (``velfence.shaping.ZONE_NAMES``), shape (N,); ``"unknown"``
             when not given.
@@ -111,7 +114,8 @@ class Trajectory:
         za.setflags(write=False)
         object.__setattr__(self, "t", ta)
         object.__setattr__(self, "p", pa)
-        object.__setattr__(self, "v_cmd", _readonly_copy("v_cmd", v_cmd, (n, dim)))
+        cdim = int(np.shape(v_cmd)[-1]) if np.ndim(v_cmd) == 2 else dim
+        object.__setattr__(self, "v_cmd", _readonly_copy("v_cmd", v_cmd, (n, cdim)))
         object.__setattr__(self, "v_out", _readonly_copy("v_out", v_out, (n, dim)))
         object.__setattr__(self, "zone", za)
         object.__setattr__(self, "name", str(name))
@@ -280,7 +284,7 @@ def simulate(
     t_rec = np.empty(n)
     p_rec = np.empty((n, dim))
     pm_rec = np.empty((n, dim))
-    vc_rec = np.empty((n, dim))
+    vc_rec: FloatArray | None = None
     vo_rec = np.empty((n, dim))
     zones: list[str] = []
     state = p0a.copy()
@@ -289,7 +293,11 @@ def simulate(
         p = state.copy()
         p.setflags(write=False)
         pm = p if noise is None else p + noise[k]
-        vc = _finite_vec("command(t, p)", command(t, p), dim, k, t)
+        raw = command(t, p)
+        cdim = np.size(raw) if vc_rec is None else vc_rec.shape[1]
+        vc = _finite_vec("command(t, p)", raw, int(cdim), k, t)
+        if vc_rec is None:
+            vc_rec = np.empty((n, vc.shape[0]))
         res = shaper.explain(pm, vc)
         v = _finite_vec("shaper output", res.output, dim, k, t)
         if saturate is not None:
@@ -313,7 +321,7 @@ def simulate(
     return Trajectory(
         t=t_rec,
         p=p_rec,
-        v_cmd=vc_rec,
+        v_cmd=vc_rec if vc_rec is not None else np.empty((n, dim)),
         v_out=vo_rec,
         zone=np.array(zones, dtype=str),
         name=type(shaper).__name__ if name is None else str(name),
