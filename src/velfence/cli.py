@@ -107,7 +107,7 @@ def bench(
     """Time shape() per call and shape_batch() throughput, side by side with a QP baseline."""
     from rich.progress import Progress
 
-    from velfence.benchmarking import run_benchmarks
+    from velfence.benchmarking import run_benchmarks, write_report
 
     with Progress(transient=True) as progress:
         task = progress.add_task("benchmarking", total=1.0)
@@ -115,12 +115,11 @@ def bench(
             quick=quick,
             progress=lambda what, f: progress.update(task, completed=f, description=what),
         )
-    md = report.to_markdown()
     if out is not None:
-        out.write_text(md)
+        write_report(report, out)  # keeps a hand-written preamble above the generated part
         Console().print(f"[green]wrote[/] {out}")
     else:
-        sys.stdout.write(md)
+        sys.stdout.write(report.to_markdown())
 
 
 def _short(x: object) -> str:
