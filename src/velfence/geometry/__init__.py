@@ -7,6 +7,30 @@ Closest-point and facet-selection helpers return indices into the same facet arr
 normal/tangential decomposition (:func:`velfence.geometry.polygon.decompose`) serves all shapers.
 """
 
-from velfence.geometry.polygon import ConvexPolygon, Rectangle, decompose, inscribed_rectangle
+from velfence.geometry.polygon import (
+    ConvexPolygon,
+    Rectangle,
+    decompose,
+    inscribed_rectangle,
+    polygon_from_halfplanes,
+)
+from velfence.geometry.primitives import (
+    closest_point_on_segment,
+    closest_points_segments,
+    point_segment_distance_jacobian,
+    segment_segment_distance,
+    sphere_capsule_distance,
+)
 
-__all__ = ["ConvexPolygon", "Rectangle", "decompose", "inscribed_rectangle"]
+__all__ = [
+    "ConvexPolygon",
+    "Rectangle",
+    "closest_point_on_segment",
+    "closest_points_segments",
+    "decompose",
+    "inscribed_rectangle",
+    "point_segment_distance_jacobian",
+    "polygon_from_halfplanes",
+    "segment_segment_distance",
+    "sphere_capsule_distance",
+]
