@@ -19,6 +19,7 @@ Batches equal loops over their rows; non-finite inputs raise
 :class:`~velfence.errors.InvalidInput`; dimensions are frozen dataclasses validated on construction.
 """
 
+from velfence.mechanisms.chain import DHChain, PlanarArm, SerialChain
 from velfence.mechanisms.cospm import (
     PAPER_STOPS,
     PAPER_WORKSPACE,
@@ -42,7 +43,10 @@ __all__ = [
     "Q_AUX",
     "CoSPM",
     "CoSPMDesign",
+    "DHChain",
+    "PlanarArm",
     "RegionReport",
+    "SerialChain",
     "SingularGrid",
     "WorkspaceMap",
     "Wrist",

@@ -1,0 +1,624 @@
+r"""Serial chains of revolute joints: link geometry and point Jacobians for redundancy resolution.
+
+A :class:`SerialChain` exposes what a collision-aware redundancy resolver needs (configuration
+control, source 001): the straight segments that stand for the links, the linear-velocity Jacobian
+of any body-fixed point on them, and the end-effector position task with its Jacobian.
+
+Geometry shared by every chain (base frame, metres, radians):
+
+* ``joint_positions(q)`` are the ``n + 1`` points :math:`P_0, …, P_n`: joint ``j``'s origin
+  :math:`P_j` for ``j = 0 … n-1`` (a point on its axis) and the tool point :math:`P_n`;
+* link ``k`` is the segment :math:`P_k \to P_{k+1}` (``n_links = n``); it is fixed to the body
+  carried by joint ``k`` (its start :math:`P_k` lies on that joint's axis), so joints
+  ``0 … k`` move it and joints ``k+1 … n-1`` do not;
+* the point at fraction ``t`` along link ``k`` is :math:`p = (1-t)P_k + tP_{k+1}` and its
+  geometric (analytic) Jacobian has columns
+
+  .. math:: J_j = z_j \times (p - P_j) \quad (j \le k), \qquad J_j = 0 \quad (j > k),
+
+  with :math:`z_j` the unit axis of joint ``j`` (Siciliano et al., *Robotics*, eq. 3.30).
+
+Links of zero length (coincident joint origins, e.g. the PUMA 560 wrist) are kept, so link ``k``
+always ends at joint ``k+1``; their Jacobian is that of a single point and stays valid.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
+from velfence.shaping.base import check_positive, finite_rows
+
+__all__ = ["DHChain", "PlanarArm", "SerialChain"]
+
+FloatArray = NDArray[np.float64]
+_REAL = (int, float, np.integer, np.floating)
+
+
+@runtime_checkable
+class SerialChain(Protocol):
+    """A serial chain of ``n`` revolute joints whose links are capsules (see module docs).
+
+    Every method takes one joint position ``q`` of shape (n,) [rad]; wrong shapes or non-finite
+    values raise :class:`~velfence.errors.InvalidInput`.
+    """
+
+    @property
+    def dof(self) -> int:
+        """Number of joints ``n``."""
+        ...
+
+    @property
+    def n_links(self) -> int:
+        """Number of links (segments) whose collisions matter."""
+        ...
+
+    @property
+    def task_dim(self) -> int:
+        """Dimension of the end-effector position task: 2 (planar) or 3 (spatial)."""
+        ...
+
+    @property
+    def joint_limits(self) -> FloatArray:
+        """Lower/upper joint limits [rad], shape (n, 2), read-only."""
+        ...
+
+    @property
+    def link_radius(self) -> FloatArray:
+        """Capsule radius of each link [m], shape (n_links,), read-only (0 allowed)."""
+        ...
+
+    def link_segments(self, q: ArrayLike) -> FloatArray:
+        """Start and end point of each link in the base frame [m], shape (n_links, 2, 3)."""
+        ...
+
+    def point_jacobian(self, q: ArrayLike, link: int, t: float) -> FloatArray:
+        """Linear-velocity Jacobian of the point at fraction ``t`` along ``link``, (3, n)."""
+        ...
+
+    def end_effector(self, q: ArrayLike) -> FloatArray:
+        """End-effector (tool point) position [m], shape (task_dim,)."""
+        ...
+
+    def ee_jacobian(self, q: ArrayLike) -> FloatArray:
+        """End-effector position Jacobian [m/rad], shape (task_dim, n)."""
+        ...
+
+    def joint_positions(self, q: ArrayLike) -> FloatArray:
+        """Base/joint origins and the tool point [m], shape (n + 1, 3)."""
+        ...
+
+
+def _read_only(a: FloatArray) -> FloatArray:
+    a.setflags(write=False)
+    return a
+
+
+def _joint_limits(value: Any, n: int, default: tuple[float, float]) -> FloatArray:
+    """Validate joint limits into a read-only (n, 2) array [rad]."""
+    if value is None:
+        return _read_only(np.tile(np.array(default, dtype=float), (n, 1)))
+    try:
+        lim = np.array(value, dtype=float)
+    except (TypeError, ValueError):
+        raise InvalidParameter(
+            f"joint_limits: expected numbers of shape ({n}, 2) [rad], got {value!r}"
+        ) from None
+    if lim.shape != (n, 2):
+        raise InvalidParameter(
+            f"joint_limits: expected shape ({n}, 2) (lower, upper per joint) [rad], "
+            f"got shape {lim.shape}"
+        )
+    if not np.all(np.isfinite(lim)):
+        raise InvalidParameter(
+            "joint_limits: expected finite values [rad], got non-finite entries in row(s) "
+            f"{np.flatnonzero(~np.all(np.isfinite(lim), axis=1)).tolist()}; "
+            "use a wide finite range such as (-2π, 2π) for a continuous joint"
+        )
+    bad = np.flatnonzero(lim[:, 0] >= lim[:, 1])
+    if bad.size:
+        raise InvalidParameter(
+            f"joint_limits: expected lower < upper on every joint, got lower >= upper on "
+            f"joint(s) {bad.tolist()}; swap the columns"
+        )
+    return _read_only(lim)
+
+
+def _link_radius(value: Any, n_links: int) -> FloatArray:
+    """Validate a scalar or per-link capsule radius into a read-only (n_links,) array [m]."""
+    if isinstance(value, _REAL) and not isinstance(value, bool):
+        r = check_positive("link_radius", value, allow_zero=True, unit="[m]")
+        return _read_only(np.full(n_links, r))
+    try:
+        arr = np.array(value, dtype=float)
+    except (TypeError, ValueError):
+        raise InvalidGeometry(
+            f"link_radius: expected a number or numbers of shape ({n_links},) [m], got {value!r}"
+        ) from None
+    if arr.shape != (n_links,):
+        raise InvalidGeometry(
+            f"link_radius: expected a scalar or shape ({n_links},) [m], got shape {arr.shape}"
+        )
+    if not np.all(np.isfinite(arr) & (arr >= 0.0)):
+        raise InvalidGeometry(f"link_radius: expected finite radii >= 0 [m], got {arr.tolist()}")
+    return _read_only(arr)
+
+
+class _ChainBase:
+    """Shared validation, joint-limit helpers and the geometric point Jacobian."""
+
+    _n: int
+    _task_dim: int
+    _limits: FloatArray
+    _radius: FloatArray
+
+    # Subclasses provide the joint points P_0 … P_n (n + 1, 3) and joint axes z_0 … z_{n-1}.
+    def _points_and_axes(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
+        raise NotImplementedError
+
+    @property
+    def dof(self) -> int:
+        """Number of joints ``n``."""
+        return self._n
+
+    @property
+    def n_links(self) -> int:
+        """Number of links, equal to ``n`` (link ``k`` runs from joint ``k`` to joint ``k+1``)."""
+        return self._n
+
+    @property
+    def task_dim(self) -> int:
+        """Dimension of the end-effector position task (2 planar, 3 spatial)."""
+        return self._task_dim
+
+    @property
+    def joint_limits(self) -> FloatArray:
+        """Lower/upper joint limits [rad], shape (n, 2), read-only."""
+        return self._limits
+
+    @property
+    def link_radius(self) -> FloatArray:
+        """Capsule radius of each link [m], shape (n_links,), read-only."""
+        return self._radius
+
+    def _q(self, q: ArrayLike) -> FloatArray:
+        """One finite joint vector of shape (n,)."""
+        qa, single = finite_rows("q", q, self._n, "[rad]")
+        if not single:
+            raise InvalidInput(
+                f"q: expected one joint vector of shape ({self._n},) [rad], got shape "
+                f"{np.shape(q)}; loop over the rows of a batch"
+            )
+        row: FloatArray = qa[0]
+        return row
+
+    def _link_index(self, link: Any) -> int:
+        if isinstance(link, bool) or not isinstance(link, (int, np.integer)):
+            raise InvalidInput(
+                f"link: expected an int in [0, {self._n - 1}], got {link!r} ({type(link).__name__})"
+            )
+        if not 0 <= int(link) < self._n:
+            raise InvalidInput(
+                f"link: expected an index in [0, {self._n - 1}] (n_links = {self._n}), "
+                f"got {int(link)}"
+            )
+        return int(link)
+
+    def joint_positions(self, q: ArrayLike) -> FloatArray:
+        """Joint origins and tool point in the base frame.
+
+        Args:
+            q: Joint position [rad], shape (n,).
+
+        Returns:
+            Points :math:`P_0 … P_n` [m], shape (n + 1, 3): ``P_j`` lies on joint ``j``'s axis
+            (``P_0`` at the base), ``P_n`` is the tool point; planar chains have ``z = 0``.
+        """
+        points, _ = self._points_and_axes(self._q(q))
+        return points
+
+    def link_segments(self, q: ArrayLike) -> FloatArray:
+        """Start and end point of every link.
+
+        Args:
+            q: Joint position [rad], shape (n,).
+
+        Returns:
+            Segments [m], shape (n_links, 2, 3); ``[k, 0]`` = ``P_k``, ``[k, 1]`` = ``P_{k+1}``.
+        """
+        points, _ = self._points_and_axes(self._q(q))
+        return np.stack([points[:-1], points[1:]], axis=1)
+
+    def point_jacobian(self, q: ArrayLike, link: int, t: float) -> FloatArray:
+        r"""Linear-velocity Jacobian of a body-fixed point on a link (module docs).
+
+        Columns :math:`J_j = z_j \times (p - P_j)` for the joints ``j <= link`` that carry the
+        link; the distal joints' columns are zero.
+
+        Args:
+            q: Joint position [rad], shape (n,).
+            link: Link index in ``[0, n_links)``.
+            t: Fraction along the link from its start (``0``) to its end (``1``),
+                dimensionless.
+
+        Returns:
+            ``dp/dq`` [m/rad], shape (3, n) (row 2 is zero for planar chains).
+
+        Raises:
+            InvalidInput: ``q`` has the wrong shape or is not finite, ``link`` is out of range,
+                or ``t`` is not a finite number in ``[0, 1]``.
+        """
+        qa = self._q(q)
+        k = self._link_index(link)
+        if isinstance(t, bool) or not isinstance(t, _REAL) or not 0.0 <= float(t) <= 1.0:
+            raise InvalidInput(f"t: expected a finite fraction in [0, 1] along the link, got {t!r}")
+        points, axes = self._points_and_axes(qa)
+        tf = float(t)
+        p = (1.0 - tf) * points[k] + tf * points[k + 1]
+        J = np.zeros((3, self._n))
+        J[:, : k + 1] = np.cross(axes[: k + 1], p[None, :] - points[: k + 1]).T
+        return J
+
+    def end_effector(self, q: ArrayLike) -> FloatArray:
+        """End-effector (tool point ``P_n``) position.
+
+        Args:
+            q: Joint position [rad], shape (n,).
+
+        Returns:
+            Position [m], shape (task_dim,).
+        """
+        points, _ = self._points_and_axes(self._q(q))
+        return np.array(points[-1, : self._task_dim])
+
+    def ee_jacobian(self, q: ArrayLike) -> FloatArray:
+        """Jacobian of the end-effector position, ``point_jacobian(q, n - 1, 1.0)``.
+
+        Args:
+            q: Joint position [rad], shape (n,).
+
+        Returns:
+            ``d end_effector / dq`` [m/rad], shape (task_dim, n).
+        """
+        return np.array(self.point_jacobian(q, self._n - 1, 1.0)[: self._task_dim])
+
+    def within_limits(self, q: ArrayLike, *, tol: float = 0.0) -> bool:
+        """Whether every joint lies in ``[lower - tol, upper + tol]``.
+
+        Args:
+            q: Joint position [rad], shape (n,).
+            tol: Allowed excursion beyond each limit [rad], ``>= 0``.
+
+        Returns:
+            ``True`` when all joints are within their limits.
+        """
+        qa = self._q(q)
+        tl = check_positive("tol", tol, allow_zero=True, unit="[rad]")
+        lo, hi = self._limits[:, 0], self._limits[:, 1]
+        return bool(np.all((qa >= lo - tl) & (qa <= hi + tl)))
+
+    def clip_to_limits(self, q: ArrayLike) -> FloatArray:
+        """Clamp each joint into its limits.
+
+        Args:
+            q: Joint position [rad], shape (n,).
+
+        Returns:
+            The nearest joint position inside the limits [rad], shape (n,).
+        """
+        qa = self._q(q)
+        return np.clip(qa, self._limits[:, 0], self._limits[:, 1])
+
+
+class PlanarArm(_ChainBase):
+    r"""Planar arm of ``n`` revolute joints with parallel axes ``z``; ``task_dim = 2``.
+
+    Joint ``j`` sits at :math:`P_j` and link ``j`` (length :math:`l_j`) runs to
+    :math:`P_{j+1} = P_j + l_j(\cos φ_j, \sin φ_j, 0)` with absolute angle
+    :math:`φ_j = q_0 + … + q_j`; :math:`P_0` is the base.
+
+    Args:
+        lengths: Link lengths :math:`l_j` [m], shape (n,), each finite and > 0.
+        joint_limits: Lower/upper limit of each joint [rad], shape (n, 2); ``(-π, π)`` on every
+            joint when ``None``.
+        link_radius: Capsule radius of every link [m], a scalar or shape (n,), ``>= 0``.
+        base: Position of joint 0 in the plane [m], shape (2,).
+
+    Raises:
+        InvalidGeometry: Bad lengths, radius or base.
+        InvalidParameter: Bad joint limits.
+    """
+
+    def __init__(
+        self,
+        lengths: ArrayLike,
+        *,
+        joint_limits: ArrayLike | None = None,
+        link_radius: float | ArrayLike = 0.0,
+        base: ArrayLike = (0.0, 0.0),
+    ) -> None:
+        try:
+            lengths_a = np.array(lengths, dtype=float)
+        except (TypeError, ValueError):
+            raise InvalidGeometry(
+                f"lengths: expected link lengths [m] of shape (n,), got {lengths!r}"
+            ) from None
+        if lengths_a.ndim != 1 or lengths_a.size < 1:
+            raise InvalidGeometry(
+                f"lengths: expected shape (n,) with n >= 1 link lengths [m], got shape "
+                f"{lengths_a.shape}"
+            )
+        if not np.all(np.isfinite(lengths_a) & (lengths_a > 0.0)):
+            raise InvalidGeometry(
+                f"lengths: expected finite link lengths > 0 [m], got {lengths_a.tolist()}"
+            )
+        try:
+            base_a = np.array(base, dtype=float)
+        except (TypeError, ValueError):
+            raise InvalidGeometry(f"base: expected (x, y) [m], got {base!r}") from None
+        if base_a.shape != (2,) or not np.all(np.isfinite(base_a)):
+            raise InvalidGeometry(f"base: expected a finite (x, y) of shape (2,) [m], got {base!r}")
+        self._n = int(lengths_a.size)
+        self._task_dim = 2
+        self._lengths = _read_only(lengths_a)
+        self._base = _read_only(base_a)
+        self._limits = _joint_limits(joint_limits, self._n, (-math.pi, math.pi))
+        self._radius = _link_radius(link_radius, self._n)
+
+    @classmethod
+    def three_r(cls, **kwargs: Any) -> PlanarArm:
+        """Planar 3R arm with unit links (lengths 1, 1, 1 m); keywords as in the constructor."""
+        return cls((1.0, 1.0, 1.0), **kwargs)
+
+    @classmethod
+    def four_r(cls, **kwargs: Any) -> PlanarArm:
+        """Planar 4R arm with unit links (lengths 1, 1, 1, 1 m); keywords as the constructor."""
+        return cls((1.0, 1.0, 1.0, 1.0), **kwargs)
+
+    @property
+    def lengths(self) -> FloatArray:
+        """Link lengths [m], shape (n,), read-only."""
+        return self._lengths
+
+    @property
+    def base(self) -> FloatArray:
+        """Base position (joint 0) in the plane [m], shape (2,), read-only."""
+        return self._base
+
+    def _points_and_axes(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
+        phi = np.cumsum(q)
+        points = np.zeros((self._n + 1, 3))
+        points[0, :2] = self._base
+        points[1:, 0] = self._base[0] + np.cumsum(self._lengths * np.cos(phi))
+        points[1:, 1] = self._base[1] + np.cumsum(self._lengths * np.sin(phi))
+        axes = np.zeros((self._n, 3))
+        axes[:, 2] = 1.0
+        return points, axes
+
+
+# PUMA 560, standard DH of Fu, Gonzalez & Lee as implemented in Khokar 2009 (notes 002 §2.3,
+# [CHECKED] against the thesis's recorded end points): rows (a, alpha, d, theta_offset).
+_PUMA560_DH = (
+    (0.0, -math.pi / 2.0, 0.0, 0.0),
+    (0.4318, 0.0, 0.15, 0.0),
+    (-0.0203, math.pi / 2.0, 0.0, 0.0),
+    (0.0, -math.pi / 2.0, 0.4331, 0.0),
+    (0.0, math.pi / 2.0, 0.0, 0.0),
+    (0.0, 0.0, 0.0, 0.0),
+)
+# Unimation ranges as listed in Corke's Robotics Toolbox (mdl_puma560) [deg]; joints 2 and 3
+# mirrored because FGL's z_1 = +y is opposite to Corke's z_1 = -y. Both recorded thesis poses lie
+# inside. The thesis gives no values (J1LO … J6HI only).
+_PUMA560_LIMITS_DEG = (
+    (-160.0, 160.0),
+    (-225.0, 45.0),
+    (-45.0, 225.0),
+    (-110.0, 170.0),
+    (-100.0, 100.0),
+    (-266.0, 266.0),
+)
+# KUKA LBR iiwa 14 R820, standard DH (d from the KUKA manual: 0.36, 0.42, 0.40, 0.126 m to the
+# flange; alternating ±π/2 twists, straight up at q = 0), limits ±170/±120/…/±175 deg.
+_SEVEN_DOF_DH = (
+    (0.0, -math.pi / 2.0, 0.36, 0.0),
+    (0.0, math.pi / 2.0, 0.0, 0.0),
+    (0.0, -math.pi / 2.0, 0.42, 0.0),
+    (0.0, math.pi / 2.0, 0.0, 0.0),
+    (0.0, -math.pi / 2.0, 0.40, 0.0),
+    (0.0, math.pi / 2.0, 0.0, 0.0),
+    (0.0, 0.0, 0.126, 0.0),
+)
+_SEVEN_DOF_LIMITS_DEG = (170.0, 120.0, 170.0, 120.0, 170.0, 120.0, 175.0)
+
+
+class DHChain(_ChainBase):
+    r"""Spatial serial chain of revolute joints from standard Denavit-Hartenberg rows.
+
+    Row ``i`` (``i = 1 … n``) gives :math:`(a_i, α_i, d_i, θ^0_i)` and the link transform
+    :math:`A_i = R_z(q_{i-1} + θ^0_i)\,T_z(d_i)\,T_x(a_i)\,R_x(α_i)`, so
+    :math:`{}^0T_i = A_1 ⋯ A_i` (base frame 0 = DH frame 0). Joint ``j`` (0-based) turns about
+    :math:`z_j` through the origin :math:`o_j` of frame ``j``; the joint points are
+    :math:`P_j = o_j` (``j < n``) and the tool point :math:`P_n = o_n + R_n\,\text{tool}`.
+    The task is the tool point's position, ``task_dim = 3``. Links are the segments
+    :math:`P_k \to P_{k+1}` (zero-length ones kept; module docs).
+
+    Args:
+        dh: Standard DH rows ``(a [m], alpha [rad], d [m], theta_offset [rad])``, shape (n, 4).
+        joint_limits: Lower/upper limit of each joint [rad], shape (n, 2); ``(-π, π)`` on every
+            joint when ``None``.
+        link_radius: Capsule radius of every link [m], a scalar or shape (n,), ``>= 0``.
+        tool: Tool point in the last DH frame ``n`` [m], shape (3,); its origin when ``None``.
+
+    Raises:
+        InvalidGeometry: Bad DH table, radius or tool.
+        InvalidParameter: Bad joint limits.
+    """
+
+    def __init__(
+        self,
+        dh: ArrayLike,
+        *,
+        joint_limits: ArrayLike | None = None,
+        link_radius: float | ArrayLike = 0.0,
+        tool: ArrayLike | None = None,
+    ) -> None:
+        try:
+            dh_a = np.array(dh, dtype=float)
+        except (TypeError, ValueError):
+            raise InvalidGeometry(
+                f"dh: expected rows (a, alpha, d, theta_offset) of shape (n, 4), got {dh!r}"
+            ) from None
+        if dh_a.ndim != 2 or dh_a.shape[1] != 4 or dh_a.shape[0] < 1:
+            raise InvalidGeometry(
+                "dh: expected shape (n, 4) with n >= 1 rows (a [m], alpha [rad], d [m], "
+                f"theta_offset [rad]), got shape {dh_a.shape}"
+            )
+        if not np.all(np.isfinite(dh_a)):
+            raise InvalidGeometry(
+                "dh: expected finite values, got non-finite entries in row(s) "
+                f"{np.flatnonzero(~np.all(np.isfinite(dh_a), axis=1)).tolist()}"
+            )
+        if tool is None:
+            tool_a = np.zeros(3)
+        else:
+            try:
+                tool_a = np.array(tool, dtype=float)
+            except (TypeError, ValueError):
+                raise InvalidGeometry(
+                    f"tool: expected a point (x, y, z) [m] in the last frame, got {tool!r}"
+                ) from None
+            if tool_a.shape != (3,) or not np.all(np.isfinite(tool_a)):
+                raise InvalidGeometry(
+                    f"tool: expected a finite point of shape (3,) [m] in the last frame, "
+                    f"got {tool!r}"
+                )
+        self._n = int(dh_a.shape[0])
+        self._task_dim = 3
+        self._dh = _read_only(dh_a)
+        self._tool = _read_only(tool_a)
+        self._limits = _joint_limits(joint_limits, self._n, (-math.pi, math.pi))
+        self._radius = _link_radius(link_radius, self._n)
+
+    @classmethod
+    def puma560(
+        cls,
+        *,
+        joint_limits: ArrayLike | None = None,
+        link_radius: float | ArrayLike = 0.0,
+        tool: ArrayLike | None = None,
+    ) -> DHChain:
+        r"""The PUMA 560 as run in Khokar 2009 (source 002): standard DH of Fu, Gonzalez & Lee.
+
+        ============  =========  ========  ===========
+        joint         a [m]      d [m]     alpha
+        ============  =========  ========  ===========
+        1             0          0         -π/2
+        2             0.4318     0.15      0
+        3             -0.0203    0         +π/2
+        4             0          0.4331    -π/2
+        5             0          0         +π/2
+        6             0          0 (d6)    0
+        ============  =========  ========  ===========
+
+        This is the kinematics of the thesis's eqs. 11-22 (notes 002 §2.3: a3 = -0.0203 m
+        reproduces the recorded end points, +0.0203 misses by about 30 mm); the tool point is
+        the wrist centre (d6 = 0) unless ``tool`` is given. Default joint limits [deg]:
+        (-160, 160), (-225, 45), (-45, 225), (-110, 170), (-100, 100), (-266, 266) — the
+        Unimation ranges of Corke's toolbox placed for these axis senses (the thesis states
+        none).
+
+        Args:
+            joint_limits: Overrides the default limits [rad], shape (6, 2).
+            link_radius: Capsule radius of every link [m], a scalar or shape (6,).
+            tool: Tool point in frame 6 [m], shape (3,).
+        """
+        if joint_limits is None:
+            joint_limits = np.radians(np.array(_PUMA560_LIMITS_DEG))
+        return cls(_PUMA560_DH, joint_limits=joint_limits, link_radius=link_radius, tool=tool)
+
+    @classmethod
+    def seven_dof(
+        cls,
+        *,
+        joint_limits: ArrayLike | None = None,
+        link_radius: float | ArrayLike = 0.0,
+        tool: ArrayLike | None = None,
+    ) -> DHChain:
+        r"""A 7R anthropomorphic (S-R-S) arm with the dimensions of the KUKA LBR iiwa 14 R820.
+
+        ============  =====  ========  ======
+        joint         a [m]  d [m]     alpha
+        ============  =====  ========  ======
+        1             0      0.36      -π/2
+        2             0      0         +π/2
+        3             0      0.42      -π/2
+        4             0      0         +π/2
+        5             0      0.40      -π/2
+        6             0      0         +π/2
+        7             0      0.126     0
+        ============  =====  ========  ======
+
+        At ``q = 0`` the arm points straight up (flange at z = 1.306 m; a stretched, singular
+        pose). Joint axes there: z, y, z, y, z, y, z. Default limits ±170°, ±120°, ±170°,
+        ±120°, ±170°, ±120°, ±175°. For position tasks the redundancy is ``7 - 3 = 4``.
+
+        Args:
+            joint_limits: Overrides the default limits [rad], shape (7, 2).
+            link_radius: Capsule radius of every link [m], a scalar or shape (7,).
+            tool: Tool point in frame 7 (the flange) [m], shape (3,).
+        """
+        if joint_limits is None:
+            hi = np.radians(np.array(_SEVEN_DOF_LIMITS_DEG))
+            joint_limits = np.stack([-hi, hi], axis=1)
+        return cls(_SEVEN_DOF_DH, joint_limits=joint_limits, link_radius=link_radius, tool=tool)
+
+    @property
+    def dh(self) -> FloatArray:
+        """Standard DH rows ``(a [m], alpha [rad], d [m], theta_offset [rad])``, shape (n, 4)."""
+        return self._dh
+
+    @property
+    def tool(self) -> FloatArray:
+        """Tool point in the last DH frame [m], shape (3,), read-only."""
+        return self._tool
+
+    def frames(self, q: ArrayLike) -> FloatArray:
+        """Homogeneous transforms of the DH frames ``0 … n`` in the base frame.
+
+        Args:
+            q: Joint position [rad], shape (n,).
+
+        Returns:
+            :math:`{}^0T_i` for ``i = 0 … n``, shape (n + 1, 4, 4) (``[0]`` is the identity).
+        """
+        return self._frames(self._q(q))
+
+    def _frames(self, q: FloatArray) -> FloatArray:
+        T = np.empty((self._n + 1, 4, 4))
+        T[0] = np.eye(4)
+        for i, (a, alpha, d, offset) in enumerate(self._dh):
+            th = q[i] + offset
+            ct, st = math.cos(th), math.sin(th)
+            ca, sa = math.cos(alpha), math.sin(alpha)
+            A = np.array(
+                [
+                    [ct, -st * ca, st * sa, a * ct],
+                    [st, ct * ca, -ct * sa, a * st],
+                    [0.0, sa, ca, d],
+                    [0.0, 0.0, 0.0, 1.0],
+                ]
+            )
+            T[i + 1] = T[i] @ A
+        return T
+
+    def _points_and_axes(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
+        T = self._frames(q)
+        points = np.empty((self._n + 1, 3))
+        points[: self._n] = T[: self._n, :3, 3]
+        points[self._n] = T[self._n, :3, 3] + T[self._n, :3, :3] @ self._tool
+        axes = np.array(T[: self._n, :3, 2])
+        return points, axes
