@@ -11,6 +11,7 @@ SUBPACKAGES = [
     "velfence.sim",
     "velfence.reproduce",
     "velfence.io",
+    "velfence.redundancy",
     "velfence.viz",
 ]
 

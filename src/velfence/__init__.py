@@ -5,7 +5,8 @@
 
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter, VelfenceError
 from velfence.geometry import ConvexPolygon, Rectangle, decompose, inscribed_rectangle
-from velfence.mechanisms import CoSPM, CoSPMDesign, Wrist, WristGeometry
+from velfence.mechanisms import CoSPM, CoSPMDesign, DHChain, PlanarArm, Wrist, WristGeometry
+from velfence.redundancy import ConfigurationController, Obstacle, VelocityDamperQP
 from velfence.shaping import (
     STAGE_NAMES,
     ZONE_NAMES,
@@ -37,7 +38,9 @@ __all__ = [
     "AxisLimits",
     "CoSPM",
     "CoSPMDesign",
+    "ConfigurationController",
     "ConvexPolygon",
+    "DHChain",
     "Disturbance",
     "HardStop",
     "InvalidGeometry",
@@ -45,6 +48,8 @@ __all__ = [
     "InvalidParameter",
     "LinearBuffer",
     "NoLimit",
+    "Obstacle",
+    "PlanarArm",
     "PolygonShaper",
     "RateLimiter",
     "Rectangle",
@@ -54,6 +59,7 @@ __all__ = [
     "ThreeZoneBraking",
     "Trajectory",
     "VelfenceError",
+    "VelocityDamperQP",
     "Wrist",
     "WristGeometry",
     "__version__",

@@ -1,0 +1,579 @@
+r"""Configuration control with obstacle-avoidance inequality tasks (US 5,150,026 claim 1).
+
+The claim's steps A–F, formalised in ``docs/configuration_control.md`` (and
+``shared/notes/001-003-004-obstacles-cospm-cobots.md`` §1.2), for a serial chain
+(:class:`velfence.mechanisms.chain.SerialChain`) among spherical obstacles (:class:`Obstacle`):
+
+A. *critical point* — for every obstacle :math:`o` and link :math:`l`, the closest point
+   :math:`c_{o,l}` of the link axis (segment) to the obstacle centre :math:`x_o`; the critical
+   point of :math:`o` is the one of the link with the smallest critical distance (ties: the lower
+   link index);
+B. *critical distance* :math:`d_o = \|c_o - x_o\| - r_l`, the distance from the obstacle centre to
+   the surface of the link's capsule (axis distance minus link radius; equal to the axis distance
+   for thin links); the claim's inequality is :math:`d_o > \rho_o`;
+C. *constraint row* :math:`J_{z,o} = u_o^\top J_{c,o}` with :math:`u_o = (c_o - x_o)/\|c_o - x_o\|`
+   and :math:`J_{c,o}` the linear-velocity Jacobian of the body-fixed point of link :math:`l`
+   that coincides with :math:`c_o` (held fixed on the link during the cycle), so that
+   :math:`\dot d_o = J_{z,o}\dot\theta`;
+D. *activation* — obstacle :math:`o` joins the active set iff
+   :math:`d_o \le \rho_o + h\,\max(0, -\dot d_o)` (``activation_margin`` :math:`h` [s], the
+   discrete-time look-ahead; :math:`h = 0` is the claim's "when the critical distance equals the
+   radius") **and** the motion computed without it approaches, :math:`\dot d_o < \dot z_{r,o}`;
+   candidates are added one at a time in order of clearance :math:`d_o - \rho_o`, re-solving after
+   each, so a second, third … row joins while the earlier ones stay enforced (steps d–f);
+E. *augmented task*, weighted damped least squares (configuration control):
+
+   .. math::
+       \dot\theta = \Big[J_e^\top W_e J_e + \sum_{o\in\mathcal A} J_{z,o}^\top w_z J_{z,o}
+       + W_v\Big]^{-1}\Big[J_e^\top W_e \dot Y_r + \sum_{o\in\mathcal A} J_{z,o}^\top w_z
+       \dot z_{r,o}\Big],
+
+   :math:`\dot Y_r = \dot Y_d + K_e(Y_d - Y)` (the feedback term only with ``ee_target``),
+   :math:`\dot z_{r,o} = K_z \max(0, \rho_o - d_o)` (0 — "stop the approach" — at or outside
+   :math:`\rho_o`; recovery ``[OURS]`` when penetrated), :math:`W_e = w_e I`,
+   :math:`W_v = \lambda I`. It is solved as the equivalent stacked least-squares problem
+   (square roots of the weights), which is better conditioned than the normal matrix;
+F. only the approach is stopped: an obstacle whose motion is tangential or retreating
+   (:math:`\dot d_o \ge \dot z_{r,o}`) never enters the active set.
+
+Up to :math:`r = n - m` active rows can be met together with the end-effector task; beyond that
+the damped solve trades them off, the result is flagged ``exhausted`` and the tasks that gave way
+are named. The joint rate is bounded by :math:`\|b\|/\sqrt{\lambda}` in every case.
+
+Degenerate direction: when the obstacle centre lies on the link axis (:math:`\|c_o - x_o\| = 0`,
+:math:`u_o` undefined) the fallback is the deterministic one of
+:func:`velfence.geometry.primitives.sphere_capsule_distance`: :math:`\hat z \times (b - a)`
+normalised (the in-plane perpendicular for planar chains), or :math:`\hat x` when the link is
+along z or has zero length.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from velfence.errors import InvalidInput, InvalidParameter
+from velfence.shaping.base import InvalidPolicy, check_positive
+
+if TYPE_CHECKING:
+    from velfence.mechanisms.chain import SerialChain
+
+__all__ = ["ConfigurationController", "ControlResult", "Obstacle"]
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+_RATE_EPS = 1e-12  # [m/s] rounding deadband: a tangential motion (ḋ = 0 up to rounding) stays free
+_CHAIN_ATTRS = (
+    "dof",
+    "n_links",
+    "task_dim",
+    "link_radius",
+    "link_segments",
+    "point_jacobian",
+    "end_effector",
+    "ee_jacobian",
+)
+
+
+def _readonly(a: FloatArray) -> FloatArray:
+    a.setflags(write=False)
+    return a
+
+
+@dataclass(frozen=True, eq=False)
+class Obstacle:
+    r"""A spherical obstacle with its sphere of influence (US 5,150,026 claim 1).
+
+    The claim's "spheres of influence having fixed radii surrounding obstacles at known
+    positions".
+
+    Attributes:
+        center: Centre of the obstacle, shape (3,) [m], read-only; a (2,) centre of a planar
+            scene is stored with z = 0.
+        radius: Radius of the obstacle body [m], >= 0. Used by the QP baseline's surface
+            clearance; the configuration controller keeps the link surface outside
+            ``influence``, which contains the body.
+        influence: Radius :math:`\rho` of the sphere of influence [m], > ``radius``.
+    """
+
+    center: FloatArray
+    radius: float
+    influence: float
+
+    def __post_init__(self) -> None:
+        try:
+            c = np.array(self.center, dtype=float).reshape(-1)
+        except (TypeError, ValueError):
+            raise InvalidParameter(
+                f"center: expected 2 or 3 numbers [m], got {self.center!r}"
+            ) from None
+        if c.shape not in ((2,), (3,)) or not np.all(np.isfinite(c)):
+            raise InvalidParameter(
+                f"center: expected 2 or 3 finite numbers [m], got {self.center!r}"
+            )
+        if c.shape == (2,):
+            c = np.append(c, 0.0)
+        radius = check_positive("radius", self.radius, allow_zero=True, unit="m")
+        influence = check_positive("influence", self.influence, unit="m")
+        if not influence > radius:
+            raise InvalidParameter(
+                f"influence must exceed radius (the sphere of influence surrounds the obstacle), "
+                f"got influence={influence} m <= radius={radius} m"
+            )
+        object.__setattr__(self, "center", _readonly(c))
+        object.__setattr__(self, "radius", radius)
+        object.__setattr__(self, "influence", influence)
+
+
+@dataclass(frozen=True, eq=False)
+class ControlResult:
+    r"""What a configuration controller (or the QP baseline) did in one control cycle.
+
+    Per-obstacle arrays are in the order of the controller's ``obstacles``; ``N_o`` obstacles,
+    ``n`` joints, ``m`` end-effector coordinates.
+
+    Attributes:
+        q_dot: Joint velocity, shape (n,) [rad/s] (or [m/s] for prismatic joints); never
+            non-finite.
+        command: The commanded end-effector velocity as given, shape (m,) [m/s].
+        ee_reference: :math:`\dot Y_r`, the command plus the position feedback, shape (m,) [m/s].
+        zone: ``"free"`` (no active row), ``"active"``, ``"recovering"`` (an active obstacle is
+            penetrated, :math:`d < \rho`), ``"exhausted"`` (more active rows than redundancy),
+            ``"infeasible"`` (QP baseline: solver failed, zero output) or ``"invalid"``
+            (non-finite input under ``on_invalid="stop"``, zero output).
+        active: Indices of the obstacles whose rows were enforced, in order of activation.
+        critical_points: Critical point of each obstacle on the link axis, shape (N_o, 3) [m].
+        links: Link index of each critical point, shape (N_o,).
+        fractions: Fraction t in [0, 1] of the critical point along its link, shape (N_o,).
+        distances: Critical distance d (obstacle centre to the link capsule surface), shape
+            (N_o,) [m].
+        normals: Unit vector u from the obstacle centre to the critical point, shape (N_o, 3).
+        d_dot: :math:`\dot d = u^\top J_c \dot\theta` under ``q_dot``, shape (N_o,) [m/s].
+        d_dot_free: :math:`\dot d` under the solution without any obstacle row, shape (N_o,)
+            [m/s].
+        ee_rate_error: :math:`\|J_e\dot\theta - \dot Y_r\|` [m/s].
+        ee_error: :math:`\|Y_d - Y\|` [m] when an ``ee_target`` was given, else NaN.
+        condition: 2-norm condition number of the normal matrix of the final solve.
+        exhausted: More active rows than the redundancy :math:`r = n - m`.
+        ee_yielded: The end-effector task gave way (``ee_rate_error`` > ``task_tolerance``).
+        violated: Active obstacles whose rate task gave way
+            (:math:`\dot d < \dot z_r -` ``task_tolerance``).
+        redundancy: :math:`r = n - m`.
+        method: ``"configuration-control"`` or ``"velocity-damper-qp"``.
+    """
+
+    q_dot: FloatArray
+    command: FloatArray
+    ee_reference: FloatArray
+    zone: str
+    active: tuple[int, ...]
+    critical_points: FloatArray
+    links: IntArray
+    fractions: FloatArray
+    distances: FloatArray
+    normals: FloatArray
+    d_dot: FloatArray
+    d_dot_free: FloatArray
+    ee_rate_error: float
+    ee_error: float
+    condition: float
+    exhausted: bool
+    ee_yielded: bool
+    violated: tuple[int, ...]
+    redundancy: int
+    method: str
+
+    @property
+    def output(self) -> FloatArray:
+        """The shaped output (the shaper contract's name for ``q_dot``), shape (n,)."""
+        return self.q_dot
+
+
+@dataclass(frozen=True, eq=False)
+class Critical:
+    r"""Steps A–C for every obstacle at one configuration (internal, shared with the baseline).
+
+    Attributes:
+        points: Critical points, shape (N_o, 3) [m].
+        links: Their links, shape (N_o,).
+        fractions: Fractions along the links, shape (N_o,).
+        distances: Critical distances d, shape (N_o,) [m].
+        normals: Unit vectors u, shape (N_o, 3).
+        rows: Constraint rows :math:`J_z = u^\top J_c`, shape (N_o, n) [m/rad].
+    """
+
+    points: FloatArray
+    links: IntArray
+    fractions: FloatArray
+    distances: FloatArray
+    normals: FloatArray
+    rows: FloatArray
+
+
+class ChainObstacleBase(InvalidPolicy):
+    """Shared plumbing of the obstacle-avoiding chain controllers (validation, steps A–C, policy).
+
+    Subclasses implement ``_law(q, ee_velocity, ee_target) -> ControlResult``.
+    """
+
+    method = "chain-obstacles"
+
+    def __init__(
+        self, chain: SerialChain, obstacles: Sequence[Obstacle], *, on_invalid: str = "raise"
+    ) -> None:
+        super().__init__(on_invalid=on_invalid)
+        missing = [a for a in _CHAIN_ATTRS if not hasattr(chain, a)]
+        if missing:
+            raise InvalidParameter(
+                f"chain must implement the SerialChain protocol (velfence.mechanisms.chain), "
+                f"got {type(chain).__name__} missing {missing}"
+            )
+        obs = tuple(obstacles) if isinstance(obstacles, Sequence) else None
+        if obs is None or not all(isinstance(o, Obstacle) for o in obs):
+            raise InvalidParameter(
+                f"obstacles must be a sequence of Obstacle, got {obstacles!r}; wrap centres and "
+                "radii in Obstacle(center=..., radius=..., influence=...)"
+            )
+        self.chain = chain
+        self.obstacles: tuple[Obstacle, ...] = obs
+        self.dof = int(chain.dof)
+        self.task_dim = int(chain.task_dim)
+        self.redundancy = self.dof - self.task_dim
+        radii = np.array(chain.link_radius, dtype=float).reshape(-1)
+        self._link_radius = _readonly(radii)
+
+    # ------------------------------------------------------------------ input
+    def _vector(self, name: str, x: ArrayLike, width: int, unit: str) -> FloatArray:
+        try:
+            a = np.array(x, dtype=float)
+        except (TypeError, ValueError):
+            raise InvalidInput(f"{name}: expected {width} numbers [{unit}], got {x!r}") from None
+        if a.shape != (width,):
+            raise InvalidInput(f"{name}: expected shape ({width},) [{unit}], got shape {a.shape}")
+        return a
+
+    def _parse(
+        self, q: ArrayLike, v: ArrayLike, target: ArrayLike | None
+    ) -> tuple[FloatArray, FloatArray, FloatArray | None, bool]:
+        qa = self._vector("q", q, self.dof, "rad")
+        va = self._vector("ee_velocity", v, self.task_dim, "m/s")
+        ta = None if target is None else self._vector("ee_target", target, self.task_dim, "m")
+        ok = bool(np.all(np.isfinite(qa)) and np.all(np.isfinite(va)))
+        ok = ok and (ta is None or bool(np.all(np.isfinite(ta))))
+        if not ok:
+            self._invalid(
+                f"non-finite input: q={qa.tolist()}, ee_velocity={va.tolist()}, "
+                f"ee_target={None if ta is None else ta.tolist()}"
+            )
+        return qa, va, ta, ok
+
+    # ------------------------------------------------------------------ steps A–C
+    def critical(self, q: FloatArray) -> Critical:
+        """Critical point, distance, direction and constraint row of every obstacle (steps A–C).
+
+        Args:
+            q: Joint positions, shape (n,) [rad], finite.
+
+        Returns:
+            A :class:`Critical` with one row per obstacle.
+        """
+        from velfence.geometry.primitives import sphere_capsule_distance
+
+        segs = np.asarray(self.chain.link_segments(q), dtype=float)
+        n_o = len(self.obstacles)
+        points = np.zeros((n_o, 3))
+        links = np.zeros(n_o, dtype=np.int64)
+        fractions = np.zeros(n_o)
+        distances = np.zeros(n_o)
+        normals = np.zeros((n_o, 3))
+        rows = np.zeros((n_o, self.dof))
+        for i, ob in enumerate(self.obstacles):
+            best = math.inf
+            for link in range(segs.shape[0]):
+                d, x, t, n = sphere_capsule_distance(
+                    ob.center, 0.0, segs[link, 0], segs[link, 1], float(self._link_radius[link])
+                )
+                if d < best:  # strict: ties keep the lower (more proximal) link
+                    best = d
+                    points[i], links[i], fractions[i], distances[i] = x, link, t, d
+                    normals[i] = n
+            jc = np.asarray(
+                self.chain.point_jacobian(q, int(links[i]), float(fractions[i])), dtype=float
+            )
+            rows[i] = normals[i] @ jc
+        return Critical(points, links, fractions, distances, normals, rows)
+
+    def _ee_reference(
+        self, q: FloatArray, v: FloatArray, target: FloatArray | None, gain: float
+    ) -> tuple[FloatArray, float]:
+        if target is None:
+            return v.copy(), math.nan
+        err = target - np.asarray(self.chain.end_effector(q), dtype=float)
+        return v + gain * err, float(np.linalg.norm(err))
+
+    # ------------------------------------------------------------------ the contract
+    def _law(self, q: FloatArray, v: FloatArray, target: FloatArray | None) -> ControlResult:
+        raise NotImplementedError  # pragma: no cover
+
+    def _stopped(self, v: FloatArray, n_o: int) -> ControlResult:
+        nan = math.nan
+        return ControlResult(
+            q_dot=np.zeros(self.dof), command=v, ee_reference=np.zeros(self.task_dim),
+            zone="invalid", active=(), critical_points=np.full((n_o, 3), nan),
+            links=np.full(n_o, -1, dtype=np.int64), fractions=np.full(n_o, nan),
+            distances=np.full(n_o, nan), normals=np.full((n_o, 3), nan),
+            d_dot=np.full(n_o, nan), d_dot_free=np.full(n_o, nan), ee_rate_error=nan,
+            ee_error=nan, condition=nan, exhausted=False, ee_yielded=False, violated=(),
+            redundancy=self.redundancy, method=self.method,
+        )  # fmt: skip
+
+    def control(
+        self, q: ArrayLike, ee_velocity: ArrayLike, *, ee_target: ArrayLike | None = None
+    ) -> ControlResult:
+        r"""One control cycle: joint velocity and diagnostics.
+
+        Args:
+            q: Joint positions, shape (n,) [rad].
+            ee_velocity: Desired end-effector velocity :math:`\dot Y_d`, shape (m,) [m/s].
+            ee_target: Desired end-effector position :math:`Y_d`, shape (m,) [m]; when given
+                the reference gets the feedback term :math:`K_e(Y_d - Y)`.
+
+        Returns:
+            The :class:`ControlResult`; its ``q_dot`` is always finite.
+
+        Raises:
+            InvalidInput: wrong shapes, or non-finite values with ``on_invalid="raise"``.
+        """
+        qa, va, ta, ok = self._parse(q, ee_velocity, ee_target)
+        if not ok:
+            return self._stopped(va, len(self.obstacles))
+        with np.errstate(all="ignore"):
+            res = self._law(qa, va, ta)
+        if not np.all(np.isfinite(res.q_dot)):
+            self._invalid(f"input too large, the joint velocity overflowed: ee_velocity={va}")
+            return self._stopped(va, len(self.obstacles))
+        return res
+
+    def explain(self, q: ArrayLike, ee_velocity: ArrayLike) -> ControlResult:
+        """Joint velocity with diagnostics (:meth:`control` without a target).
+
+        Args:
+            q: Joint positions, shape (n,) [rad].
+            ee_velocity: Desired end-effector velocity, shape (m,) [m/s].
+        """
+        return self.control(q, ee_velocity)
+
+    def shape(self, q: ArrayLike, ee_velocity: ArrayLike) -> FloatArray:
+        """Joint velocity, shape (n,) [rad/s], for an end-effector velocity command.
+
+        Args:
+            q: Joint positions, shape (n,) [rad].
+            ee_velocity: Desired end-effector velocity, shape (m,) [m/s].
+
+        Raises:
+            InvalidInput: wrong shapes, or non-finite values with ``on_invalid="raise"``.
+        """
+        return self.control(q, ee_velocity).q_dot
+
+    def shape_batch(self, Q: ArrayLike, V: ArrayLike) -> FloatArray:
+        """Joint velocities for N independent states; equal to looping :meth:`shape`.
+
+        Args:
+            Q: Joint positions, shape (N, n) [rad].
+            V: End-effector velocity commands, shape (N, m) [m/s].
+
+        Returns:
+            Shape (N, n).
+
+        Raises:
+            InvalidInput: wrong shapes, or non-finite rows with ``on_invalid="raise"``.
+        """
+        try:
+            Qa = np.array(Q, dtype=float)
+            Va = np.array(V, dtype=float)
+        except (TypeError, ValueError):
+            raise InvalidInput(
+                f"Q and V must be arrays of numbers of shapes (N, {self.dof}) and "
+                f"(N, {self.task_dim})"
+            ) from None
+        if (
+            Qa.ndim != 2
+            or Va.ndim != 2
+            or Qa.shape[1] != self.dof
+            or Va.shape[1] != self.task_dim
+            or Qa.shape[0] != Va.shape[0]
+        ):
+            raise InvalidInput(
+                f"Q and V must have shapes (N, {self.dof}) and (N, {self.task_dim}), got "
+                f"{Qa.shape} and {Va.shape}"
+            )
+        out = np.zeros((Qa.shape[0], self.dof))
+        for k in range(Qa.shape[0]):
+            out[k] = self.shape(Qa[k], Va[k])
+        return out
+
+
+def _solve_stacked(
+    je: FloatArray,
+    yr: FloatArray,
+    rows: FloatArray,
+    zr: FloatArray,
+    w_e: float,
+    w_z: float,
+    lam: float,
+) -> tuple[FloatArray, float]:
+    """Weighted damped least squares (step E) as a stacked problem; returns (q_dot, cond(N))."""
+    n = je.shape[1]
+    A = np.vstack((math.sqrt(w_e) * je, math.sqrt(w_z) * rows, math.sqrt(lam) * np.eye(n)))
+    b = np.concatenate((math.sqrt(w_e) * yr, math.sqrt(w_z) * zr, np.zeros(n)))
+    if not (np.all(np.isfinite(A)) and np.all(np.isfinite(b))):
+        return np.full(n, math.nan), math.inf
+    x, _, _, s = np.linalg.lstsq(A, b, rcond=None)
+    cond = float((s[0] / s[-1]) ** 2) if s[-1] > 0 else math.inf
+    return np.asarray(x, dtype=float), cond
+
+
+class ConfigurationController(ChainObstacleBase):
+    r"""Obstacle avoidance by configuration control, US 5,150,026 claim 1 (steps A–F).
+
+    Maps a desired end-effector velocity to joint rates that track it while no link approaches
+    an obstacle's sphere of influence; the law and its active-set logic are in the module
+    docstring and ``docs/configuration_control.md``. Stateless: every cycle rebuilds the active
+    set, so a constraint stays enforced exactly as long as the unconstrained motion would push
+    the critical point into the sphere.
+
+    Args:
+        chain: The kinematics (:class:`~velfence.mechanisms.chain.SerialChain`: ``PlanarArm``,
+            ``DHChain`` …).
+        obstacles: Spherical obstacles with their spheres of influence (may be empty).
+        ee_gain: :math:`K_e`, end-effector position feedback gain [1/s], >= 0 (only used with
+            ``ee_target``).
+        damping: :math:`\lambda` of :math:`W_v = \lambda I`, [m²/rad²], > 0; bounds the joint
+            rate near singularities and when redundancy is exhausted.
+        ee_weight: :math:`w_e` of :math:`W_e = w_e I`, dimensionless, > 0.
+        constraint_weight: :math:`w_z`, dimensionless, > 0; large (default 1e4 × ``ee_weight``)
+            so that obstacle rows dominate the end-effector task when they conflict.
+        recovery_gain: :math:`K_z` [1/s], >= 0: desired :math:`\dot z_r = K_z(\rho - d)` when
+            penetrated (``[OURS]``; 0 is the faithful "stop the approach").
+        activation_margin: Look-ahead :math:`h` [s], >= 0: a constraint is a candidate once
+            :math:`d \le \rho + h\max(0, -\dot d)`; set it to the control period to stop before
+            the sphere instead of overshooting by up to :math:`|\dot d|\,\Delta t` (0: faithful).
+        task_tolerance: Rate error [m/s], > 0, above which a task counts as having given way.
+        max_joint_speed: Optional cap on every joint rate [rad/s], applied by scaling the whole
+            ``q_dot`` by one factor (direction kept). Near a singular combination of the
+            end-effector task and the active rows the damped solve can be fast (the linearised
+            ``ḋ = 0`` then no longer holds over one step); the cap, or more ``damping``, bounds it.
+        on_invalid: ``"raise"`` or ``"stop"`` (zero joint rate, zone ``"invalid"``).
+
+    Raises:
+        InvalidParameter: for an out-of-range parameter, a non-chain or non-obstacles.
+    """
+
+    method = "configuration-control"
+
+    def __init__(
+        self,
+        chain: SerialChain,
+        obstacles: Sequence[Obstacle],
+        *,
+        ee_gain: float = 1.0,
+        damping: float = 1e-2,
+        ee_weight: float = 1.0,
+        constraint_weight: float = 1e4,
+        recovery_gain: float = 0.0,
+        activation_margin: float = 0.0,
+        task_tolerance: float = 1e-3,
+        max_joint_speed: float | None = None,
+        on_invalid: str = "raise",
+    ) -> None:
+        super().__init__(chain, obstacles, on_invalid=on_invalid)
+        self.max_joint_speed = (
+            None
+            if max_joint_speed is None
+            else check_positive("max_joint_speed", max_joint_speed, unit="rad/s")
+        )
+        self.ee_gain = check_positive("ee_gain", ee_gain, allow_zero=True, unit="1/s")
+        self.damping = check_positive("damping", damping, unit="m²/rad²")
+        self.ee_weight = check_positive("ee_weight", ee_weight)
+        self.constraint_weight = check_positive("constraint_weight", constraint_weight)
+        self.recovery_gain = check_positive(
+            "recovery_gain", recovery_gain, allow_zero=True, unit="1/s"
+        )
+        self.activation_margin = check_positive(
+            "activation_margin", activation_margin, allow_zero=True, unit="s"
+        )
+        self.task_tolerance = check_positive("task_tolerance", task_tolerance, unit="m/s")
+        self._rho = _readonly(np.array([o.influence for o in self.obstacles], dtype=float))
+
+    def _law(self, q: FloatArray, v: FloatArray, target: FloatArray | None) -> ControlResult:
+        je = np.asarray(self.chain.ee_jacobian(q), dtype=float)
+        yr, ee_err = self._ee_reference(q, v, target, self.ee_gain)
+        crit = self.critical(q)
+        d, rho, rows = crit.distances, self._rho, crit.rows
+        zr = self.recovery_gain * np.maximum(0.0, rho - d)
+        solve_args = (self.ee_weight, self.constraint_weight, self.damping)
+        q_dot, cond = _solve_stacked(je, yr, rows[:0], zr[:0], *solve_args)
+        d_dot_free = rows @ q_dot
+        active: list[int] = []
+        h = self.activation_margin
+        while len(active) < len(self.obstacles):
+            dd = rows @ q_dot
+            cand = [
+                o
+                for o in range(len(self.obstacles))
+                if o not in active
+                and dd[o] < zr[o] - _RATE_EPS
+                and d[o] <= rho[o] + h * max(0.0, -dd[o])
+            ]
+            if not cand or not np.all(np.isfinite(dd)):
+                break
+            active.append(min(cand, key=lambda o: (d[o] - rho[o], o)))
+            idx = np.array(active)
+            q_dot, cond = _solve_stacked(je, yr, rows[idx], zr[idx], *solve_args)
+        if self.max_joint_speed is not None:
+            # One factor for every joint keeps the direction, hence the sign of every ḋ: a
+            # stopped approach stays stopped; the end-effector task is what slows down.
+            peak = float(np.max(np.abs(q_dot)))
+            if peak > self.max_joint_speed:
+                q_dot = q_dot * (self.max_joint_speed / peak)
+        d_dot = rows @ q_dot
+        ee_rate_error = float(np.linalg.norm(je @ q_dot - yr))
+        tol = self.task_tolerance
+        violated = tuple(o for o in active if d_dot[o] < zr[o] - tol)
+        exhausted = len(active) > self.redundancy
+        if exhausted:
+            zone = "exhausted"
+        elif any(d[o] < rho[o] for o in active):
+            zone = "recovering"
+        elif active:
+            zone = "active"
+        else:
+            zone = "free"
+        return ControlResult(
+            q_dot=q_dot,
+            command=v,
+            ee_reference=yr,
+            zone=zone,
+            active=tuple(active),
+            critical_points=crit.points,
+            links=crit.links,
+            fractions=crit.fractions,
+            distances=d,
+            normals=crit.normals,
+            d_dot=d_dot,
+            d_dot_free=d_dot_free,
+            ee_rate_error=ee_rate_error,
+            ee_error=ee_err,
+            condition=cond,
+            exhausted=exhausted,
+            ee_yielded=ee_rate_error > tol,
+            violated=violated,
+            redundancy=self.redundancy,
+            method=self.method,
+        )
