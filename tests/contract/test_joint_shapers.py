@@ -28,25 +28,42 @@ def _stop_limiter(method: str):
     return make
 
 
+def _configuration_control(kind: str):
+    def make():
+        from velfence.mechanisms.chain import PlanarArm
+        from velfence.redundancy import ConfigurationController, Obstacle, VelocityDamperQP
+
+        arm = PlanarArm.three_r()
+        obs = [Obstacle(center=np.array([0.8, 1.2]), radius=0.05, influence=0.3)]
+        if kind == "qp":
+            return VelocityDamperQP(arm, obs)
+        return ConfigurationController(arm, obs)
+
+    return make
+
+
+# (name, factory, state dimension, command dimension)
 FACTORIES = [
-    ("stops-nearest", _stop_limiter("nearest"), 3),
-    ("stops-exact", _stop_limiter("exact"), 3),
+    ("stops-nearest", _stop_limiter("nearest"), 3, 3),
+    ("stops-exact", _stop_limiter("exact"), 3, 3),
+    ("configuration-control", _configuration_control("dls"), 3, 2),
+    ("velocity-damper-qp", _configuration_control("qp"), 3, 2),
 ]
 IDS = [f[0] for f in FACTORIES]
 
 
-def states(n, dim, seed=0):
+def states(n, dim, seed=0, cdim=None):
     rng = np.random.default_rng(seed)
     X = np.pi / 2 + rng.uniform(-0.9, 0.9, (n, dim))
-    V = rng.normal(size=(n, dim)) * rng.uniform(0.0, 3.0, (n, 1))
+    V = rng.normal(size=(n, cdim or dim)) * rng.uniform(0.0, 3.0, (n, 1))
     return X, V
 
 
-@pytest.mark.parametrize(("name", "make", "dim"), FACTORIES, ids=IDS)
-def test_output_finite_and_explain_agrees(name, make, dim):
+@pytest.mark.parametrize(("name", "make", "dim", "cdim"), FACTORIES, ids=IDS)
+def test_output_finite_and_explain_agrees(name, make, dim, cdim):
     s = make()
     assert isinstance(s, Shaper)
-    X, V = states(200, dim)
+    X, V = states(200, dim, cdim=cdim)
     for x, v in zip(X, V, strict=True):
         out = s.shape(x, v)
         assert out.shape == (dim,)
@@ -54,38 +71,40 @@ def test_output_finite_and_explain_agrees(name, make, dim):
         np.testing.assert_array_equal(s.explain(x, v).output, out)
 
 
-@pytest.mark.parametrize(("name", "make", "dim"), FACTORIES, ids=IDS)
-def test_batch_equals_loop(name, make, dim):
+@pytest.mark.parametrize(("name", "make", "dim", "cdim"), FACTORIES, ids=IDS)
+def test_batch_equals_loop(name, make, dim, cdim):
     s = make()
-    X, V = states(50, dim, seed=1)
+    X, V = states(50, dim, seed=1, cdim=cdim)
     loop = [s.shape(x, v) for x, v in zip(X, V, strict=True)]
     np.testing.assert_array_equal(s.shape_batch(X, V), loop)
 
 
-@pytest.mark.parametrize(("name", "make", "dim"), FACTORIES, ids=IDS)
+@pytest.mark.parametrize(("name", "make", "dim", "cdim"), FACTORIES, ids=IDS)
 @pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf])
-def test_non_finite_input_is_refused(name, make, dim, bad):
+def test_non_finite_input_is_refused(name, make, dim, cdim, bad):
     s = make()
     x = np.full(dim, np.pi / 2)
-    v = np.zeros(dim)
+    v = np.zeros(cdim)
     for arr in (x, v):
         arr[0] = bad
         with pytest.raises(InvalidInput, match="finite"):
-            s.shape(x if arr is x else np.full(dim, np.pi / 2), v if arr is v else np.zeros(dim))
+            s.shape(x if arr is x else np.full(dim, np.pi / 2), v if arr is v else np.zeros(cdim))
         arr[0] = 0.0 if arr is v else np.pi / 2
 
 
-@pytest.mark.parametrize(("name", "make", "dim"), FACTORIES, ids=IDS)
-def test_wrong_shapes_are_refused(name, make, dim):
+@pytest.mark.parametrize(("name", "make", "dim", "cdim"), FACTORIES, ids=IDS)
+def test_wrong_shapes_are_refused(name, make, dim, cdim):
     s = make()
     with pytest.raises(InvalidInput, match="shape"):
-        s.shape(np.zeros(dim + 1), np.zeros(dim))
+        s.shape(np.zeros(dim + 1), np.zeros(cdim))
     with pytest.raises(InvalidInput, match="shape"):
-        s.shape_batch(np.zeros((4, dim)), np.zeros((3, dim)))
+        s.shape_batch(np.zeros((4, dim)), np.zeros((3, cdim)))
 
 
-@pytest.mark.parametrize(("name", "make", "dim"), FACTORIES, ids=IDS)
-def test_tuning_parameters_are_keyword_only(name, make, dim):
+@pytest.mark.parametrize(("name", "make", "dim", "cdim"), FACTORIES, ids=IDS)
+def test_tuning_parameters_are_keyword_only(name, make, dim, cdim):
     params = list(inspect.signature(type(make()).__init__).parameters.values())[1:]
-    positional = [p for p in params if p.kind is not inspect.Parameter.KEYWORD_ONLY]
-    assert len(positional) <= 1, [p.name for p in positional]
+    positional = [p.name for p in params if p.kind is not inspect.Parameter.KEYWORD_ONLY]
+    # Only the model may be positional (the stops, the kinematic chain and its obstacles).
+    assert set(positional) <= {"stops", "chain", "obstacles"}, positional
+    assert any(p.kind is inspect.Parameter.KEYWORD_ONLY for p in params)
