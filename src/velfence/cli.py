@@ -27,6 +27,7 @@ app = typer.Typer(
 REPRODUCTIONS: dict[str, str] = {
     "wrist": "velfence.reproduce.wrist:run",
     "cospm": "velfence.reproduce.cospm:run",
+    "obstacles": "velfence.reproduce.obstacles:run",
 }
 
 

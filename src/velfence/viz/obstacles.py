@@ -1,0 +1,168 @@
+"""Figures of the obstacle reproduction (configuration control, US 5,150,026 claim 1).
+
+Arm snapshots with obstacle bodies, spheres of influence and critical points (planar, or two
+projections for a spatial chain), clearance and EE error over time, the active-set timeline, and
+a GIF of scenario (i).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.animation import PillowWriter
+from matplotlib.patches import Circle
+
+if TYPE_CHECKING:
+    from velfence.reproduce.obstacles import ScenarioRun
+
+__all__ = ["animate_arm", "plot_active_sets", "plot_clearance", "plot_snapshots"]
+
+_PLANES = {"x-y": (0, 1), "x-z": (0, 2), "y-z": (1, 2)}
+
+
+def _obstacles(ax: Any, run: ScenarioRun, axes: tuple[int, int]) -> None:
+    for i, ob in enumerate(run.obstacles):
+        c = ob.center[list(axes)]
+        ax.add_patch(Circle(tuple(c), ob.radius, color="0.3", zorder=1))
+        ax.add_patch(
+            Circle(tuple(c), ob.influence, fill=False, ls="--", color=f"C{i + 3}", zorder=1)
+        )
+
+
+def _arm(ax: Any, run: ScenarioRun, k: int, axes: tuple[int, int], alpha: float) -> None:
+    pts = np.asarray(run.chain.joint_positions(run.q[k]))[:, list(axes)]
+    ax.plot(pts[:, 0], pts[:, 1], "-o", color="C0", lw=1.5, ms=2.5, alpha=alpha, zorder=2)
+    res = run.results[k]
+    for o in res.active:
+        c = res.critical_points[o][list(axes)]
+        ax.plot(c[0], c[1], "o", color="r", ms=4, zorder=3)
+
+
+def _snapshot_panel(ax: Any, run: ScenarioRun, axes: tuple[int, int], n_snap: int = 9) -> None:
+    _obstacles(ax, run, axes)
+    ks = np.linspace(0, len(run.t) - 1, n_snap).astype(int)
+    for j, k in enumerate(ks):
+        _arm(ax, run, int(k), axes, 0.25 + 0.75 * j / max(1, n_snap - 1))
+    ax.plot(run.y_d[:, axes[0]], run.y_d[:, axes[1]], "k:", lw=0.8, label="EE reference")
+    if run.y.shape[1] > max(axes):
+        ax.plot(run.y[:, axes[0]], run.y[:, axes[1]], color="C1", lw=1.0, label="EE path")
+    ax.set_aspect("equal")
+    ax.autoscale_view()
+    ax.legend(fontsize=7, loc="best")
+
+
+def plot_snapshots(runs: Sequence[ScenarioRun], path: str | Path) -> Path:
+    """Arm snapshots over time (light to dark) among the obstacles.
+
+    Obstacle bodies (grey), spheres of influence (dashed), critical points of the active rows
+    (red); spatial chains on the x-z and y-z planes.
+
+    Returns:
+        The path written.
+    """
+    panels: list[tuple[ScenarioRun, str]] = []
+    for r in runs:
+        if r.y.shape[1] == 2:
+            panels.append((r, "x-y"))
+        else:
+            panels.extend(((r, "x-z"), (r, "y-z")))
+    fig, axs = plt.subplots(1, len(panels), figsize=(5.0 * len(panels), 5.0), squeeze=False)
+    for ax, (r, plane) in zip(axs[0], panels, strict=True):
+        axes = _PLANES[plane]
+        _snapshot_panel(ax, r, axes)
+        ax.set_title(f"{r.name} ({plane})", fontsize=9)
+        ax.set_xlabel(f"{plane[0]} [m]")
+        ax.set_ylabel(f"{plane[2]} [m]")
+    fig.tight_layout()
+    out = Path(path)
+    fig.savefig(out, dpi=90)
+    plt.close(fig)
+    return out
+
+
+def plot_clearance(runs: Sequence[ScenarioRun], path: str | Path) -> Path:
+    """Clearance d − ρ of every obstacle (top) and EE error (bottom) over time, one column per run.
+
+    Returns:
+        The path written.
+    """
+    fig, axs = plt.subplots(2, len(runs), figsize=(3.6 * len(runs), 6.0), squeeze=False)
+    for col, r in enumerate(runs):
+        top, low = axs[0, col], axs[1, col]
+        d = r.distances - r.rho
+        for o in range(d.shape[1]):
+            top.plot(r.t, d[:, o], color=f"C{o + 3}", lw=1.0, label=f"obstacle {o}")
+        top.axhline(0.0, color="k", lw=0.8)
+        top.set_ylim(-0.01, max(0.1, float(np.percentile(d, 5))))
+        top.set_title(r.name, fontsize=8)
+        top.set_ylabel("d − ρ [m]")
+        top.legend(fontsize=6)
+        low.semilogy(r.t, np.maximum(r.ee_error, 1e-9), color="C1", lw=1.0)
+        low.set_ylabel("EE error [m]")
+        low.set_xlabel("t [s]")
+    fig.tight_layout()
+    out = Path(path)
+    fig.savefig(out, dpi=90)
+    plt.close(fig)
+    return out
+
+
+def plot_active_sets(runs: Sequence[ScenarioRun], path: str | Path) -> Path:
+    """Active-set timeline: one bar per obstacle where its row is enforced, and the row count.
+
+    Returns:
+        The path written.
+    """
+    fig, axs = plt.subplots(len(runs), 1, figsize=(9.0, 1.8 * len(runs)), squeeze=False)
+    for ax, r in zip(axs[:, 0], runs, strict=True):
+        a = r.active
+        for o in range(a.shape[1]):
+            ax.fill_between(
+                r.t, o + 0.1, o + 0.9, where=a[:, o], step="post", color=f"C{o + 3}", alpha=0.7
+            )
+        ax.step(r.t, a.sum(axis=1), where="post", color="k", lw=0.8, label="rows")
+        ax.axhline(r.results[0].redundancy, color="r", ls=":", lw=0.8, label="redundancy")
+        ax.set_ylim(-0.1, max(a.shape[1], r.results[0].redundancy) + 0.2)
+        ax.set_title(r.name, fontsize=8)
+        ax.set_ylabel("obstacle / rows")
+        ax.legend(fontsize=6, loc="upper left")
+    axs[-1, 0].set_xlabel("t [s]")
+    fig.tight_layout()
+    out = Path(path)
+    fig.savefig(out, dpi=90)
+    plt.close(fig)
+    return out
+
+
+def animate_arm(run: ScenarioRun, path: str | Path, *, frames: int = 40) -> Path:
+    """GIF of a planar run: the arm, obstacles, spheres and active critical points.
+
+    Returns:
+        The path written.
+    """
+    fig, ax = plt.subplots(figsize=(4.0, 4.0))
+    ks = np.linspace(0, len(run.t) - 1, frames).astype(int)
+    writer = PillowWriter(fps=8)
+    out = Path(path)
+    pts = np.array([np.asarray(run.chain.joint_positions(q))[:, :2] for q in run.q[ks]])
+    lo, hi = pts.reshape(-1, 2).min(axis=0) - 0.3, pts.reshape(-1, 2).max(axis=0) + 0.3
+    with writer.saving(fig, str(out), dpi=60):
+        for k in ks:
+            ax.clear()
+            _obstacles(ax, run, (0, 1))
+            _arm(ax, run, int(k), (0, 1), 1.0)
+            ax.plot(run.y_d[:, 0], run.y_d[:, 1], "k:", lw=0.8)
+            ax.set_xlim(lo[0], hi[0])
+            ax.set_ylim(lo[1], hi[1])
+            ax.set_aspect("equal")
+            ax.set_title(f"{run.name}\nt = {run.t[k]:.2f} s", fontsize=7)
+            writer.grab_frame()
+    plt.close(fig)
+    return out
