@@ -100,7 +100,8 @@ def plot_clearance(runs: Sequence[ScenarioRun], path: str | Path) -> Path:
         for o in range(d.shape[1]):
             top.plot(r.t, d[:, o], color=f"C{o + 3}", lw=1.0, label=f"obstacle {o}")
         top.axhline(0.0, color="k", lw=0.8)
-        top.set_ylim(-0.01, max(0.1, float(np.percentile(d, 5))))
+        # Never clip a penetration: the lower limit follows the deepest point.
+        top.set_ylim(min(-0.01, 1.1 * float(np.min(d))), max(0.1, float(np.percentile(d, 5))))
         top.set_title(r.name, fontsize=8)
         top.set_ylabel("d − ρ [m]")
         top.legend(fontsize=6)
