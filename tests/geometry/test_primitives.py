@@ -466,3 +466,23 @@ class TestInvalidInput:
     def test_errors_are_value_errors(self) -> None:
         with pytest.raises(ValueError, match="expected"):
             closest_point_on_segment([0, 0], [0, 0, 0], [1, 0, 0])
+
+
+def test_points_segments_distances_equals_the_scalar_route():
+    from velfence.geometry.primitives import (
+        closest_point_on_segment,
+        points_segments_distances,
+    )
+
+    rng = np.random.default_rng(11)
+    P = rng.normal(size=(7, 3))
+    A = rng.normal(size=(5, 3))
+    B = A + rng.normal(size=(5, 3))
+    B[2] = A[2]  # a degenerate segment
+    r = rng.uniform(0.0, 0.2, 5)
+    t, clear = points_segments_distances(P, A, B, r)
+    for i in range(7):
+        for j in range(5):
+            x, tj = closest_point_on_segment(P[i], A[j], B[j])
+            assert t[i, j] == pytest.approx(tj, abs=1e-12)
+            assert clear[i, j] == pytest.approx(np.linalg.norm(P[i] - x) - r[j], abs=1e-12)

@@ -30,6 +30,7 @@ __all__ = [
     "closest_point_on_segment",
     "closest_points_segments",
     "point_segment_distance_jacobian",
+    "points_segments_distances",
     "segment_segment_distance",
     "sphere_capsule_distance",
 ]
@@ -332,3 +333,41 @@ def point_segment_distance_jacobian(
         n = _fallback_normal(aa, bb)
         u = np.array((-n[0], -n[1], -n[2]))
     return np.asarray(u @ Jp - (1.0 - t) * (u @ Ja) - t * (u @ Jb), dtype=float)
+
+
+def points_segments_distances(
+    points: ArrayLike, starts: ArrayLike, ends: ArrayLike, radii: ArrayLike | float = 0.0
+) -> tuple[FloatArray, FloatArray]:
+    """All-pairs closest-point parameters and clearances of points to capsules, vectorised.
+
+    The batch form of :func:`closest_point_on_segment` (same clamped parameter, ``t = 0`` for a
+    degenerate segment), for searching the nearest capsule among many (a control loop's
+    critical-point search); refine the chosen pair with the scalar functions.
+
+    Args:
+        points: Shape (P, 3) [m].
+        starts: Segment starts, shape (S, 3) [m].
+        ends: Segment ends, shape (S, 3) [m].
+        radii: Capsule radius per segment, scalar or shape (S,) [m].
+
+    Returns:
+        ``(t, clearance)``, both shape (P, S): the parameter of the closest axis point and
+        ``|p − x| − radius``.
+    """
+    Pp = np.asarray(points, dtype=float)
+    A = np.asarray(starts, dtype=float)
+    B = np.asarray(ends, dtype=float)
+    if Pp.ndim != 2 or Pp.shape[1] != 3 or A.ndim != 2 or A.shape[1] != 3 or B.shape != A.shape:
+        raise InvalidInput(
+            f"expected points (P, 3) and segment starts/ends (S, 3), got {Pp.shape}, {A.shape}, "
+            f"{B.shape}"
+        )
+    E = B - A
+    ee = np.einsum("ij,ij->i", E, E)
+    rel = Pp[:, None, :] - A[None, :, :]  # (P, S, 3)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        t = np.where(ee > 0.0, np.einsum("psk,sk->ps", rel, E) / np.where(ee > 0, ee, 1.0), 0.0)
+    t = np.clip(t, 0.0, 1.0)
+    diff = rel - t[:, :, None] * E[None, :, :]
+    dist = np.sqrt(np.einsum("psk,psk->ps", diff, diff)) - np.asarray(radii, dtype=float)
+    return t, dist

@@ -283,9 +283,11 @@ class ChainObstacleBase(InvalidPolicy):
         Returns:
             A :class:`Critical` with one row per obstacle.
         """
-        from velfence.geometry.primitives import sphere_capsule_distance
+        from velfence.geometry.primitives import points_segments_distances, sphere_capsule_distance
 
         segs = np.asarray(self.chain.link_segments(q), dtype=float)
+        centers = np.array([ob.center for ob in self.obstacles]).reshape(-1, 3)
+        _, clear = points_segments_distances(centers, segs[:, 0], segs[:, 1], self._link_radius)
         n_o = len(self.obstacles)
         points = np.zeros((n_o, 3))
         links = np.zeros(n_o, dtype=np.int64)
@@ -294,15 +296,12 @@ class ChainObstacleBase(InvalidPolicy):
         normals = np.zeros((n_o, 3))
         rows = np.zeros((n_o, self.dof))
         for i, ob in enumerate(self.obstacles):
-            best = math.inf
-            for link in range(segs.shape[0]):
-                d, x, t, n = sphere_capsule_distance(
-                    ob.center, 0.0, segs[link, 0], segs[link, 1], float(self._link_radius[link])
-                )
-                if d < best:  # strict: ties keep the lower (more proximal) link
-                    best = d
-                    points[i], links[i], fractions[i], distances[i] = x, link, t, d
-                    normals[i] = n
+            link = int(np.argmin(clear[i]))  # first minimum: ties keep the more proximal link
+            d, x, t, n = sphere_capsule_distance(
+                ob.center, 0.0, segs[link, 0], segs[link, 1], float(self._link_radius[link])
+            )
+            points[i], links[i], fractions[i], distances[i] = x, link, t, d
+            normals[i] = n
             jc = np.asarray(
                 self.chain.point_jacobian(q, int(links[i]), float(fractions[i])), dtype=float
             )
