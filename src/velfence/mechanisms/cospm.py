@@ -54,7 +54,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon, polygon_from_halfplanes
-from velfence.shaping.base import check_positive, finite_rows
+from velfence.shaping.base import check_positive, check_positive_int, finite_rows
 
 __all__ = [
     "PAPER_STOPS",
@@ -354,13 +354,7 @@ class CoSPM:
         self._design = design
         self._mirror = bool(mirror)
         self._fk_tol = check_positive("fk_tol", fk_tol, unit="(dimensionless)")
-        if isinstance(fk_max_iter, bool) or not isinstance(fk_max_iter, (int, np.integer)):
-            raise InvalidParameter(
-                f"fk_max_iter: expected a positive int, got {fk_max_iter!r}; e.g. 50"
-            )
-        if fk_max_iter < 1:
-            raise InvalidParameter(f"fk_max_iter: expected an int >= 1, got {fk_max_iter!r}")
-        self._fk_max_iter = int(fk_max_iter)
+        self._fk_max_iter = check_positive_int("fk_max_iter", fk_max_iter, example=50)
         self._fk_step = check_positive("fk_step", fk_step, unit="[rad]")
         self._singular_tol = check_positive("singular_tol", singular_tol, unit="(fraction)")
         if self._singular_tol >= 1.0:

@@ -34,6 +34,7 @@ __all__ = [
     "as_rows",
     "check_choice",
     "check_positive",
+    "check_positive_int",
     "finite_rows",
 ]
 
@@ -134,6 +135,15 @@ def check_positive(name: str, value: Any, *, allow_zero: bool = False, unit: str
             f"{name} must be finite and {bound}{unit and ' (' + unit + ')'}, got {value!r}"
         )
     return x
+
+
+def check_positive_int(name: str, value: Any, *, example: int = 1) -> int:
+    """Validate an int parameter >= 1 (booleans refused) and return it."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise InvalidParameter(f"{name}: expected a positive int, got {value!r}; e.g. {example}")
+    if value < 1:
+        raise InvalidParameter(f"{name}: expected an int >= 1, got {value!r}")
+    return int(value)
 
 
 def check_choice(name: str, value: Any, choices: tuple[str, ...]) -> str:
