@@ -199,7 +199,7 @@ def test_4r_second_constraint_joins_while_first_stays():
         Obstacle(center=[0.3, -0.8], radius=0.05, influence=RHO),
         Obstacle(center=[1.1, -1.8], radius=0.05, influence=RHO),
     ]
-    c = _ctrl(arm, obs, activation_margin=DT)
+    c = _ctrl(arm, obs, activation_margin=DT, release="sequential")  # the claim's literal order
     res = _run(c, q0, _down_then_up(2.5, 1.0, 100.0), 10.0)
     actives = [r.active for *_, r in res]
     both = [k for k, a in enumerate(actives) if len(a) == 2]
@@ -239,7 +239,7 @@ def test_4r_redundancy_exhausted_flagged_bounded_no_nan():
     v = np.array([0.0, -SPEED])
     obs = _obstacles_in_front_of_links(arm, q, v, (1, 2, 3), _ctrl(arm, []))
     damping = 1e-4
-    c = _ctrl(arm, obs, damping=damping)
+    c = _ctrl(arm, obs, damping=damping, release="sequential")
     r = c.control(q, v)
     assert r.redundancy == 2
     assert len(r.active) == 3
@@ -391,3 +391,29 @@ def test_blocked_path_the_constraint_holds_and_the_end_effector_yields():
             q = q + 1e-3 * r.q_dot
         assert worst > -5e-3  # vs -0.24 m before the fix
         assert np.linalg.norm(y1 - arm.end_effector(q)) > 0.3  # the EE task gave way
+
+
+def test_recheck_release_never_holds_a_row_whose_point_would_retreat():
+    """Review finding: with rows kept in order, an earlier row could block a retreat."""
+    arm = PlanarArm.four_r()
+    obs = [
+        Obstacle(center=[0.3, -0.8], radius=0.05, influence=RHO),
+        Obstacle(center=[1.1, -1.8], radius=0.05, influence=RHO),
+    ]
+    recheck = ConfigurationController(arm, obs)
+    rng = np.random.default_rng(4)
+    held = 0
+    for _ in range(3000):
+        q = rng.uniform(-np.pi, np.pi, 4)
+        v = rng.normal(size=2)
+        r = recheck.control(q, v)
+        if len(r.active) < 2:
+            continue
+        held += 1
+        for o in r.active:
+            others = [a for a in r.active if a != o]
+            alone = ConfigurationController(arm, [obs[a] for a in others]).control(q, v)
+            # every kept row is needed: without it, its point would approach
+            crit = ConfigurationController(arm, [obs[o]]).critical(q)
+            assert float(crit.rows[0] @ alone.q_dot) < 1e-9
+    assert held > 0

@@ -58,7 +58,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from velfence.errors import InvalidInput, InvalidParameter
-from velfence.shaping.base import InvalidPolicy, check_positive
+from velfence.shaping.base import InvalidPolicy, check_choice, check_positive
 
 if TYPE_CHECKING:
     from velfence.mechanisms.chain import SerialChain
@@ -241,12 +241,17 @@ class ChainObstacleBase(InvalidPolicy):
                 "radii in Obstacle(center=..., radius=..., influence=...)"
             )
         self.chain = chain
-        self.obstacles: tuple[Obstacle, ...] = obs
+        self._obstacles: tuple[Obstacle, ...] = obs
         self.dof = int(chain.dof)
         self.task_dim = int(chain.task_dim)
         self.redundancy = self.dof - self.task_dim
         radii = np.array(chain.link_radius, dtype=float).reshape(-1)
         self._link_radius = _readonly(radii)
+
+    @property
+    def obstacles(self) -> tuple[Obstacle, ...]:
+        """The obstacles (read-only: per-obstacle data is cached; build a new controller)."""
+        return self._obstacles
 
     # ------------------------------------------------------------------ input
     def _vector(self, name: str, x: ArrayLike, width: int, unit: str) -> FloatArray:
@@ -464,6 +469,12 @@ class ConfigurationController(ChainObstacleBase):
             :math:`d \le \rho + h\max(0, -\dot d)`; set it to the control period to stop before
             the sphere instead of overshooting by up to :math:`|\dot d|\,\Delta t` (0: faithful).
         task_tolerance: Rate error [m/s], > 0, above which a task counts as having given way.
+        release: ``"recheck"`` (default): after a row joins, every earlier row is released if,
+            solved without it, its critical point would not approach — only the approach is ever
+            stopped, a retreat stays free. ``"sequential"``: the claim's literal reading, rows are
+            added one by one ("continuing to stop motion of said first critical point") and kept
+            for the cycle, which can hold a row whose point would retreat (a review measured this
+            in 170 of 6,396 two-row states of a 4R).
         max_joint_speed: Optional cap on every joint rate [rad/s], applied by scaling the whole
             ``q_dot`` by one factor (direction kept). Near a singular combination of the
             end-effector task and the active rows the damped solve can be fast (the linearised
@@ -488,10 +499,12 @@ class ConfigurationController(ChainObstacleBase):
         recovery_gain: float = 0.0,
         activation_margin: float = 0.0,
         task_tolerance: float = 1e-3,
+        release: str = "recheck",
         max_joint_speed: float | None = None,
         on_invalid: str = "raise",
     ) -> None:
         super().__init__(chain, obstacles, on_invalid=on_invalid)
+        self.release = check_choice("release", release, ("recheck", "sequential"))
         self.max_joint_speed = (
             None
             if max_joint_speed is None
@@ -518,10 +531,11 @@ class ConfigurationController(ChainObstacleBase):
         zr = self.recovery_gain * np.maximum(0.0, rho - d)
         solve_args = (self.ee_weight, self.constraint_weight, self.damping)
         q_dot, cond = _solve_stacked(je, yr, rows[:0], zr[:0], *solve_args)
+        q_free = q_dot
         d_dot_free = rows @ q_dot
         active: list[int] = []
         h = self.activation_margin
-        while len(active) < len(self.obstacles):
+        for _ in range(4 * len(self.obstacles) + 1):  # bounded: add/release cannot cycle long
             dd = rows @ q_dot
             cand = [
                 o
@@ -535,6 +549,16 @@ class ConfigurationController(ChainObstacleBase):
             active.append(min(cand, key=lambda o: (d[o] - rho[o], o)))
             idx = np.array(active)
             q_dot, cond = _solve_stacked(je, yr, rows[idx], zr[idx], *solve_args)
+            # A row added earlier may no longer be needed once a later one shapes the motion:
+            # release it if, solved without it, its critical point would not approach (only the
+            # approach is ever stopped; a retreat must stay free). "sequential" keeps the claim's
+            # literal order: rows added in a cycle stay for that cycle.
+            for o in list(active[:-1]) if self.release == "recheck" else []:
+                rest = np.array([a for a in active if a != o])
+                trial, trial_cond = _solve_stacked(je, yr, rows[rest], zr[rest], *solve_args)
+                if float(rows[o] @ trial) >= zr[o] - _RATE_EPS:
+                    active.remove(o)
+                    q_dot, cond = trial, trial_cond
         if self.max_joint_speed is not None:
             # One factor for every joint keeps the direction, hence the sign of every ḋ: a
             # stopped approach stays stopped; the end-effector task is what slows down.
@@ -543,6 +567,8 @@ class ConfigurationController(ChainObstacleBase):
                 q_dot = q_dot * (self.max_joint_speed / peak)
         d_dot = rows @ q_dot
         ee_rate_error = float(np.linalg.norm(je @ q_dot - yr))
+        # Yielding is measured against the unconstrained solve, whose error is the damping's.
+        ee_rate_error_free = float(np.linalg.norm(je @ q_free - yr))
         tol = self.task_tolerance
         violated = tuple(o for o in active if d_dot[o] < zr[o] - tol)
         exhausted = len(active) > self.redundancy
@@ -571,7 +597,7 @@ class ConfigurationController(ChainObstacleBase):
             ee_error=ee_err,
             condition=cond,
             exhausted=exhausted,
-            ee_yielded=ee_rate_error > tol,
+            ee_yielded=ee_rate_error > ee_rate_error_free + tol,
             violated=violated,
             redundancy=self.redundancy,
             method=self.method,

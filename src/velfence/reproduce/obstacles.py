@@ -263,15 +263,22 @@ def _qp(chain: SerialChain, obstacles: Sequence[Obstacle]) -> Any:
 def _in_front_of_links(
     chain: SerialChain, q: FloatArray, v: FloatArray, links: Sequence[int]
 ) -> list[Obstacle]:
-    """Obstacles 0.19 m (just inside ρ) in front of each link's midpoint along its free motion."""
+    """Obstacles 0.19 m (just inside ρ) from each link's midpoint, on the side it moves to.
+
+    The offset is along the link's normal (the motion's component across the link), so the
+    distance to that link's axis is exactly 0.19 m.
+    """
     qd = ConfigurationController(chain, []).shape(q, v)
     segs = np.asarray(chain.link_segments(q))
     obs = []
     for link in links:
         mid = 0.5 * (segs[link, 0] + segs[link, 1])
+        e = segs[link, 1] - segs[link, 0]
+        e = e / np.linalg.norm(e)
         vel = np.asarray(chain.point_jacobian(q, link, 0.5)) @ qd
+        across = vel - float(vel @ e) * e
         obs.append(
-            Obstacle(center=mid + (RHO - 0.01) * vel / np.linalg.norm(vel), radius=BODY,
+            Obstacle(center=mid + (RHO - 0.01) * across / np.linalg.norm(across), radius=BODY,
                      influence=RHO)
         )  # fmt: skip
     return obs
@@ -301,7 +308,7 @@ def scenarios(*, baseline: bool = True) -> dict[str, ScenarioRun]:
     ]
     out["ii"] = run_scenario(
         "(ii) 4R, two obstacles, configuration control",
-        ConfigurationController(arm4, ob2, activation_margin=DT),
+        ConfigurationController(arm4, ob2, activation_margin=DT, release="sequential"),
         line2,
         q4,
         10.0,
@@ -315,7 +322,7 @@ def scenarios(*, baseline: bool = True) -> dict[str, ScenarioRun]:
     ob4 = _in_front_of_links(arm4, q4, line4(0.5 * 2.0)[1], (1, 2, 3))
     out["iv"] = run_scenario(
         "(iv) 4R, three obstacles (exhausted)",
-        ConfigurationController(arm4, ob4, max_joint_speed=MAX_JOINT_SPEED),
+        ConfigurationController(arm4, ob4, max_joint_speed=MAX_JOINT_SPEED, release="sequential"),
         line4,
         q4,
         2.5,
@@ -334,13 +341,11 @@ def _seven_dof() -> ScenarioRun:
                         duration)  # fmt: skip
     # The obstacle sits where the elbow (joint 4's origin) passes without it, at the first
     # sample that is SEVEN_START_CLEAR from the whole initial arm (so the run starts free).
-    start = ConfigurationController(chain, [])
     centre = np.asarray(chain.joint_positions(free.q[-1]), dtype=float)[3]
     for q in free.q[::10]:
         elbow = np.asarray(chain.joint_positions(q), dtype=float)[3]
-        probe = Obstacle(center=elbow, radius=0.0, influence=1.0)
-        start.obstacles = (probe,)
-        if float(start.critical(q0).distances[0]) >= SEVEN_START_CLEAR:
+        probe = ConfigurationController(chain, [Obstacle(center=elbow, radius=0.0, influence=1.0)])
+        if float(probe.critical(q0).distances[0]) >= SEVEN_START_CLEAR:
             centre = elbow
             break
     ob = [Obstacle(center=centre, radius=0.03, influence=SEVEN_RHO)]
