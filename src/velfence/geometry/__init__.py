@@ -14,22 +14,30 @@ from velfence.geometry.polygon import (
     inscribed_rectangle,
     polygon_from_halfplanes,
 )
+from velfence.geometry.paths import Circle, Line, Path, Polyline, Spline
 from velfence.geometry.primitives import (
     closest_point_on_segment,
     closest_points_segments,
+    points_segments_distances,
     point_segment_distance_jacobian,
     segment_segment_distance,
     sphere_capsule_distance,
 )
 
 __all__ = [
+    "Circle",
     "ConvexPolygon",
+    "Line",
+    "Path",
+    "Polyline",
     "Rectangle",
+    "Spline",
     "closest_point_on_segment",
     "closest_points_segments",
     "decompose",
     "inscribed_rectangle",
     "point_segment_distance_jacobian",
+    "points_segments_distances",
     "polygon_from_halfplanes",
     "segment_segment_distance",
     "sphere_capsule_distance",
