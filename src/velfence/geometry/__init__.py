@@ -7,6 +7,7 @@ Closest-point and facet-selection helpers return indices into the same facet arr
 normal/tangential decomposition (:func:`velfence.geometry.polygon.decompose`) serves all shapers.
 """
 
+from velfence.geometry.paths import Circle, Line, Path, Polyline, Spline
 from velfence.geometry.polygon import (
     ConvexPolygon,
     Rectangle,
@@ -14,12 +15,11 @@ from velfence.geometry.polygon import (
     inscribed_rectangle,
     polygon_from_halfplanes,
 )
-from velfence.geometry.paths import Circle, Line, Path, Polyline, Spline
 from velfence.geometry.primitives import (
     closest_point_on_segment,
     closest_points_segments,
-    points_segments_distances,
     point_segment_distance_jacobian,
+    points_segments_distances,
     segment_segment_distance,
     sphere_capsule_distance,
 )
