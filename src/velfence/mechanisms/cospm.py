@@ -440,8 +440,22 @@ class CoSPM:
         out: FloatArray = np.einsum("nik,nkj->nij", np.cross(v, w), _euler_rate_map(chi))
         return out
 
+    def _leg_b(self, v: FloatArray, w: FloatArray) -> FloatArray:
+        """Diagonal of B, ``(u_i × w_i)·v_i`` per leg, shape (N, 3) (its signs are the modes)."""
+        out: FloatArray = np.einsum("nij,nij->ni", np.cross(self._u[None], w), v)
+        return out
+
+    def _indicators(
+        self, v: FloatArray, w: FloatArray, chi: FloatArray
+    ) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """``(det A, det B, det[v×w])`` per pose, each shape (N,)."""
+        det_a = np.linalg.det(self._a_matrix(v, w, chi))
+        det_b = np.prod(self._leg_b(v, w), axis=1)
+        type2 = np.linalg.det(np.cross(v, w))
+        return det_a, det_b, type2
+
     def _b_matrix(self, v: FloatArray, w: FloatArray) -> FloatArray:
-        d = np.einsum("nij,nij->ni", np.cross(self._u[None], w), v)
+        d = self._leg_b(v, w)
         B = np.zeros((*d.shape, 3))
         idx = np.arange(3)
         B[:, idx, idx] = d
@@ -586,7 +600,7 @@ class CoSPM:
         """
         ta, ca, single = self._pair(theta, chi)
         _, v, w = self._vectors(ta, ca)
-        d = np.prod(np.einsum("nij,nij->ni", np.cross(self._u[None], w), v), axis=1)
+        d = np.prod(self._leg_b(v, w), axis=1)
         return float(d[0]) if single else np.asarray(d, dtype=np.float64)
 
     def type2(self, theta: ArrayLike, chi: ArrayLike) -> FloatArray | float:
@@ -1232,9 +1246,8 @@ def validate_region(
     solved = solved_grid.ravel()[sel]
     ok_t, ok_c = theta[solved], chi[solved]
     _, v, w = cospm._vectors(ok_t, ok_c)
-    det_a_ok = np.linalg.det(cospm._a_matrix(v, w, ok_c))
-    leg_b_ok = np.einsum("nij,nij->ni", np.cross(cospm._u[None], w), v)
-    type2_ok = np.linalg.det(np.cross(v, w))
+    det_a_ok, _, type2_ok = cospm._indicators(v, w, ok_c)
+    leg_b_ok = cospm._leg_b(v, w)
 
     def full(x: FloatArray, shape: tuple[int, ...]) -> FloatArray:
         out = np.full(shape, np.nan)
@@ -1248,7 +1261,7 @@ def validate_region(
     type2 = full(type2_ok, (n,))
     leg_b = full(leg_b_ok, (n, 3))
     _, v0, w0 = cospm._vectors(th_home[None], np.zeros((1, 3)))
-    home_modes = np.sign(np.einsum("nij,nij->ni", np.cross(cospm._u[None], w0), v0))[0]
+    home_modes = np.sign(cospm._leg_b(v0, w0))[0]
     leg_constant = bool(np.all(np.sign(leg_b_ok) == home_modes))
 
     def span(x: FloatArray) -> tuple[float, float]:
@@ -1397,9 +1410,7 @@ def singular_curves(
     if reached.any():
         t, c = theta[reached], chi[reached]
         _, v, w = cospm._vectors(t, c)
-        det_a[reached] = np.linalg.det(cospm._a_matrix(v, w, c))
-        det_b[reached] = np.prod(np.einsum("nij,nij->ni", np.cross(cospm._u[None], w), v), axis=1)
-        type2[reached] = np.linalg.det(np.cross(v, w))
+        det_a[reached], det_b[reached], type2[reached] = cospm._indicators(v, w, c)
     return SingularGrid(
         q1=_read_only(g1),
         q2=_read_only(g2),
@@ -1530,9 +1541,7 @@ def workspace_map(
         B_, E_ = np.meshgrid(b, e)
         chi_r = np.column_stack([B_[reachable], E_[reachable], np.zeros(int(reachable.sum()))])
         _, v, w = cospm._vectors(theta[reachable], chi_r)
-        det_a[reachable] = np.linalg.det(cospm._a_matrix(v, w, chi_r))
-        det_b[reachable] = np.prod(np.einsum("nij,nij->ni", np.cross(cospm._u[None], w), v), axis=1)
-        type2[reachable] = np.linalg.det(np.cross(v, w))
+        det_a[reachable], det_b[reachable], type2[reachable] = cospm._indicators(v, w, chi_r)
     q12 = q[:, :, :2]
     margin = (
         stops_polygon(S).signed_distances(q12.reshape(-1, 2)).min(axis=1).reshape(q12.shape[:2])
