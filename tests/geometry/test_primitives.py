@@ -486,3 +486,23 @@ def test_points_segments_distances_equals_the_scalar_route():
             x, tj = closest_point_on_segment(P[i], A[j], B[j])
             assert t[i, j] == pytest.approx(tj, abs=1e-12)
             assert clear[i, j] == pytest.approx(np.linalg.norm(P[i] - x) - r[j], abs=1e-12)
+
+
+def test_polygon_closest_point_against_dense_boundary_sampling():
+    import velfence as vf
+
+    poly = vf.ConvexPolygon([[0, 0], [2, 0], [2.5, 1], [1, 2], [-0.5, 1]])
+    a = poly.corners
+    b = np.roll(a, -1, axis=0)
+    s = np.linspace(0.0, 1.0, 2001)
+    boundary = (a[:, None, :] + s[None, :, None] * (b - a)[:, None, :]).reshape(-1, 2)
+    rng = np.random.default_rng(3)
+    for p in rng.uniform(-2.0, 4.0, (200, 2)):
+        c = poly.closest_point(p)
+        if poly.contains(p):
+            np.testing.assert_array_equal(c, p)
+            continue
+        best = boundary[np.argmin(np.linalg.norm(boundary - p, axis=1))]
+        assert np.linalg.norm(c - p) <= np.linalg.norm(best - p) + 1e-12
+        assert np.linalg.norm(c - best) < 2e-3
+        assert abs(poly.signed_distances(c).min()) < 1e-12  # on the boundary

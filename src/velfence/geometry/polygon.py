@@ -298,11 +298,16 @@ class ConvexPolygon:
             raise InvalidInput(f"expected one point of shape (2,), got shape {pa.shape}")
         if np.all(self.signed_distances(pa) >= 0.0):
             return pa.copy()
+        from velfence.geometry.primitives import points_segments_distances
+
         a = self.corners
-        e = np.roll(a, -1, axis=0) - a
-        t = np.clip(np.einsum("ij,ij->i", pa - a, e) / np.einsum("ij,ij->i", e, e), 0.0, 1.0)
-        q = a + t[:, None] * e
-        return np.asarray(q[np.argmin(np.linalg.norm(q - pa, axis=1))], dtype=float)
+        b = np.roll(a, -1, axis=0)
+        z = np.zeros((a.shape[0], 1))
+        t, dist = points_segments_distances(
+            np.append(pa, 0.0)[None], np.hstack([a, z]), np.hstack([b, z])
+        )
+        k = int(np.argmin(dist[0]))
+        return np.asarray(a[k] + t[0, k] * (b[k] - a[k]), dtype=float)
 
     @property
     def interior_angles(self) -> FloatArray:
