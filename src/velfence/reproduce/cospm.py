@@ -88,8 +88,10 @@ class PaperRun:
 
 
 def run_paper(lim: StopLimiter, *, duration: float = 4.5, kinematics: bool = True) -> PaperRun:
-    """Run the paper's scenario through ``lim`` from home; optionally compute χ and χ̇."""
-    lim.reset()
+    """Run the paper's scenario through ``lim`` from home; optionally compute χ and χ̇.
+
+    ``simulate`` resets a stateful limiter (its rate limiters) before the first step.
+    """
     results: list[StopResult] = []
     theta0 = np.full(3, 0.5 * math.pi)
     traj = simulate(
@@ -133,7 +135,6 @@ def run_vertex(
     target = lim.polygon.corners[vertex]
     d = target / np.linalg.norm(target)
     theta_dot = Q_AUX.T @ np.array([speed * d[0], speed * d[1], 0.0])
-    lim.reset()
     results: list[StopResult] = []
     simulate(
         lim,

@@ -115,11 +115,12 @@ def run(out_dir: str | Path = "out/reproduce/wrist") -> Report:
             err_t,
         )
     )
-    straight = max(
-        float(np.abs(exact.shape(_edge_point(poly, e, d), -0.7 * n) - patent.shape(
-            _edge_point(poly, e, d), -0.7 * n)).max())
-        for d in np.linspace(0.0, BUFFER, 9)
-    )  # fmt: skip
+    straight = 0.0
+    for d in np.linspace(0.0, BUFFER, 9):
+        p = _edge_point(poly, e, float(d))
+        straight = max(
+            straight, float(np.abs(exact.shape(p, -0.7 * n) - patent.shape(p, -0.7 * n)).max())
+        )
     checks.append(
         check_at_most(
             "exact = patent for a command straight into one edge",
