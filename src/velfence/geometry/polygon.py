@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from velfence._arrays import readonly
 from velfence.errors import InvalidGeometry, InvalidInput
 
 __all__ = [
@@ -33,11 +34,6 @@ __all__ = [
 FloatArray = NDArray[np.float64]
 
 _TWO_PI = 2.0 * math.pi
-
-
-def _readonly(a: NDArray[Any]) -> NDArray[Any]:
-    a.setflags(write=False)
-    return a
 
 
 def decompose(v: ArrayLike, n: ArrayLike) -> tuple[float, FloatArray]:
@@ -130,11 +126,11 @@ class ConvexPolygon:
         ang = np.arctan2(y - cy, x - cx)
         beta = np.mod(ang - ang[0], _TWO_PI)
         beta[0] = 0.0
-        object.__setattr__(self, "corners", _readonly(c))
-        object.__setattr__(self, "normals", _readonly(normals))
-        object.__setattr__(self, "offsets", _readonly(offsets))
+        object.__setattr__(self, "corners", readonly(c))
+        object.__setattr__(self, "normals", readonly(normals))
+        object.__setattr__(self, "offsets", readonly(offsets))
         object.__setattr__(self, "area", area)
-        object.__setattr__(self, "centroid", _readonly(np.array([cx, cy])))
+        object.__setattr__(self, "centroid", readonly(np.array([cx, cy])))
         # Plain-float tuples for the scalar hot path (indexing tuples is ~5x faster than ndarrays).
         fast = (
             tuple(float(a) for a in normals[:, 0]),

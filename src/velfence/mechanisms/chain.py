@@ -30,6 +30,7 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from velfence._arrays import readonly
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 from velfence.shaping.base import check_positive, finite_rows
 
@@ -93,15 +94,10 @@ class SerialChain(Protocol):
         ...
 
 
-def _read_only(a: FloatArray) -> FloatArray:
-    a.setflags(write=False)
-    return a
-
-
 def _joint_limits(value: Any, n: int, default: tuple[float, float]) -> FloatArray:
     """Validate joint limits into a read-only (n, 2) array [rad]."""
     if value is None:
-        return _read_only(np.tile(np.array(default, dtype=float), (n, 1)))
+        return readonly(np.tile(np.array(default, dtype=float), (n, 1)))
     try:
         lim = np.array(value, dtype=float)
     except (TypeError, ValueError):
@@ -125,14 +121,14 @@ def _joint_limits(value: Any, n: int, default: tuple[float, float]) -> FloatArra
             f"joint_limits: expected lower < upper on every joint, got lower >= upper on "
             f"joint(s) {bad.tolist()}; swap the columns"
         )
-    return _read_only(lim)
+    return readonly(lim)
 
 
 def _link_radius(value: Any, n_links: int) -> FloatArray:
     """Validate a scalar or per-link capsule radius into a read-only (n_links,) array [m]."""
     if isinstance(value, _REAL) and not isinstance(value, bool):
         r = check_positive("link_radius", value, allow_zero=True, unit="[m]")
-        return _read_only(np.full(n_links, r))
+        return readonly(np.full(n_links, r))
     try:
         arr = np.array(value, dtype=float)
     except (TypeError, ValueError):
@@ -145,7 +141,7 @@ def _link_radius(value: Any, n_links: int) -> FloatArray:
         )
     if not np.all(np.isfinite(arr) & (arr >= 0.0)):
         raise InvalidGeometry(f"link_radius: expected finite radii >= 0 [m], got {arr.tolist()}")
-    return _read_only(arr)
+    return readonly(arr)
 
 
 class _ChainBase:
@@ -364,8 +360,8 @@ class PlanarArm(_ChainBase):
             raise InvalidGeometry(f"base: expected a finite (x, y) of shape (2,) [m], got {base!r}")
         self._n = int(lengths_a.size)
         self._task_dim = 2
-        self._lengths = _read_only(lengths_a)
-        self._base = _read_only(base_a)
+        self._lengths = readonly(lengths_a)
+        self._base = readonly(base_a)
         self._limits = _joint_limits(joint_limits, self._n, (-math.pi, math.pi))
         self._radius = _link_radius(link_radius, self._n)
 
@@ -498,8 +494,8 @@ class DHChain(_ChainBase):
                 )
         self._n = int(dh_a.shape[0])
         self._task_dim = 3
-        self._dh = _read_only(dh_a)
-        self._tool = _read_only(tool_a)
+        self._dh = readonly(dh_a)
+        self._tool = readonly(tool_a)
         self._limits = _joint_limits(joint_limits, self._n, (-math.pi, math.pi))
         self._radius = _link_radius(link_radius, self._n)
 

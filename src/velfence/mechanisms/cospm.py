@@ -52,6 +52,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from velfence._arrays import readonly
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon, polygon_from_halfplanes
 from velfence.shaping.base import check_positive, check_positive_int, finite_rows
@@ -85,11 +86,6 @@ _REACH_SLACK = 1e-12
 _JUMP = 0.2
 
 
-def _read_only(a: NDArray[Any]) -> NDArray[Any]:
-    a.setflags(write=False)
-    return a
-
-
 def _rx(a: float) -> FloatArray:
     c, s = math.cos(a), math.sin(a)
     return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
@@ -108,11 +104,11 @@ def _rz(a: float) -> FloatArray:
 #: The auxiliary map of Lê et al. 2024 eq. (1), :math:`Q = R_y(-\arctan(\sqrt2/2))\,R_x(\pi/4)`,
 #: shape (3, 3), orthogonal and read-only: :math:`q = Q\theta`, :math:`\theta = Q^T q`. Its third
 #: row is the invariance axis, :math:`[0, 0, 1]^T = (\sqrt3/3)\,Q\,[1, 1, 1]^T` (Proposition 1).
-Q_AUX: FloatArray = _read_only(_ry(-math.atan(math.sqrt(2.0) / 2.0)) @ _rx(math.pi / 4.0))
+Q_AUX: FloatArray = readonly(_ry(-math.atan(math.sqrt(2.0) / 2.0)) @ _rx(math.pi / 4.0))
 
 #: The paper's four joint stops (§2), shape (4, 3), read-only, rows ``(a_i, b_i, c_i)``:
 #: :math:`d_i = a_i q_1 + b_i q_2 + c_i \ge 0` for every ``i`` iff :math:`(q_1, q_2) \in Q^*`.
-PAPER_STOPS: FloatArray = _read_only(
+PAPER_STOPS: FloatArray = readonly(
     np.array([[0.624, 1.0, 0.353], [-1.72, 1.0, 3.05], [-0.528, -1.0, 0.346], [1.72, -1.0, 1.54]])
 )
 
@@ -142,7 +138,7 @@ def _triple(name: str, value: Any) -> FloatArray:
         )
     if not np.all(np.isfinite(a)):
         raise InvalidGeometry(f"CoSPMDesign.{name}: expected finite angles [rad], got {a.tolist()}")
-    out: FloatArray = _read_only(a)
+    out: FloatArray = readonly(a)
     return out
 
 
@@ -366,15 +362,15 @@ class CoSPM:
         self._sigma = sigma
         d = design
         base = np.stack([_rz(float(e)) @ _rx(d.beta1 - math.pi) for e in d.eta])
-        self._M = _read_only(base)  # (3 legs, 3, 3)
-        self._u = _read_only(base[:, :, 2].copy())  # M_i e_z
+        self._M = readonly(base)  # (3 legs, 3, 3)
+        self._u = readonly(base[:, :, 2].copy())  # M_i e_z
         # R_x(σ α1) e_z = (0, -σ sin α1, cos α1)
-        self._ay = _read_only(-sigma * np.sin(d.alpha1))
-        self._az = _read_only(np.cos(d.alpha1))
-        self._p = _read_only(
+        self._ay = readonly(-sigma * np.sin(d.alpha1))
+        self._az = readonly(np.cos(d.alpha1))
+        self._p = readonly(
             np.stack([_rz(float(e)) @ _rx(d.beta2) @ np.array([0.0, 0.0, 1.0]) for e in d.eta])
         )
-        self._cos_a2 = _read_only(np.cos(d.alpha2))
+        self._cos_a2 = readonly(np.cos(d.alpha2))
         # f(θ + ε1, χ) = f(θ, χ + κ ε e3): κ = +1 for β1 = 0, -1 for β1 = π.
         self._kappa = 1.0 if math.cos(d.beta1) > 0.0 else -1.0
 
@@ -385,7 +381,7 @@ class CoSPM:
             raise InvalidGeometry(
                 f"the design has no home assembly at chi = 0 in working mode (-1, -1, -1): {exc}"
             ) from exc
-        self._theta_home: FloatArray = _read_only(theta0[0])
+        self._theta_home: FloatArray = readonly(theta0[0])
         _, v, w = self._vectors(theta0, chi0)
         A0 = self._a_matrix(v, w, chi0)[0]
         B0 = self._b_matrix(v, w)[0]
@@ -1299,10 +1295,10 @@ def validate_region(
     return RegionReport(
         step=step,
         theta3=theta3,
-        q=_read_only(q),
-        theta=_read_only(theta),
-        chi=_read_only(chi),
-        solved=_read_only(solved),
+        q=readonly(q),
+        theta=readonly(theta),
+        chi=readonly(chi),
+        solved=readonly(solved),
         det_a=det_a,
         det_b=det_b,
         type2=type2,
@@ -1412,14 +1408,14 @@ def singular_curves(
         _, v, w = cospm._vectors(t, c)
         det_a[reached], det_b[reached], type2[reached] = cospm._indicators(v, w, c)
     return SingularGrid(
-        q1=_read_only(g1),
-        q2=_read_only(g2),
+        q1=readonly(g1),
+        q2=readonly(g2),
         theta3=theta3,
-        reached=_read_only(reached),
-        chi=_read_only(chi),
-        det_a=_read_only(det_a),
-        det_b=_read_only(det_b),
-        type2=_read_only(type2),
+        reached=readonly(reached),
+        chi=readonly(chi),
+        det_a=readonly(det_a),
+        det_b=readonly(det_b),
+        type2=readonly(type2),
     )
 
 
@@ -1548,13 +1544,13 @@ def workspace_map(
     )
     margin = np.where(reachable, margin, np.nan)
     return WorkspaceMap(
-        bank=_read_only(b),
-        elevation=_read_only(e),
-        reachable=_read_only(reachable),
-        theta=_read_only(theta),
-        q=_read_only(np.ascontiguousarray(q12)),
-        det_a=_read_only(det_a),
-        det_b=_read_only(det_b),
-        type2=_read_only(type2),
-        stop_margin=_read_only(margin),
+        bank=readonly(b),
+        elevation=readonly(e),
+        reachable=readonly(reachable),
+        theta=readonly(theta),
+        q=readonly(np.ascontiguousarray(q12)),
+        det_a=readonly(det_a),
+        det_b=readonly(det_b),
+        type2=readonly(type2),
+        stop_margin=readonly(margin),
     )

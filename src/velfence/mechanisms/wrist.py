@@ -35,6 +35,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from velfence._arrays import readonly
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon, polygon_from_halfplanes
 from velfence.shaping.base import check_positive, check_positive_int, finite_rows
@@ -61,11 +62,6 @@ LIMIT_NAMES: tuple[str, ...] = (
 _DERIVE_SLACK = np.array([1e-5, 1e-5, 1e-5, 1e-5, 1e-3, 1e-4])
 _DERIVE_RAY_MAX = 1.5  # [rad] search radius for each limit's boundary along its ray from home
 _DERIVE_MAX_ROUNDS = 200
-
-
-def _read_only(a: FloatArray) -> FloatArray:
-    a.setflags(write=False)
-    return a
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -184,13 +180,13 @@ class WristGeometry:
     def anchors(self) -> FloatArray:
         """Forearm anchors ``A_1, A_2`` in the forearm frame, shape (2, 3) [m]."""
         l0, a, h = self.anchor_setback, self.anchor_half_spacing, self.anchor_height
-        return _read_only(np.array([[-l0, a, h], [-l0, -a, h]]))
+        return readonly(np.array([[-l0, a, h], [-l0, -a, h]]))
 
     @property
     def attachments(self) -> FloatArray:
         """Rod attachments ``B_1, B_2`` in the hand frame, shape (2, 3) [m]."""
         b, c, h = self.rod_reach, self.rod_half_spacing, self.rod_height
-        return _read_only(np.array([[b, c, h], [b, -c, h]]))
+        return readonly(np.array([[b, c, h], [b, -c, h]]))
 
 
 _PARAMETER_FIELDS = frozenset(

@@ -57,6 +57,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from velfence._arrays import readonly
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.shaping.base import InvalidPolicy, check_choice, check_positive
 
@@ -79,11 +80,6 @@ _CHAIN_ATTRS = (
     "end_effector",
     "ee_jacobian",
 )
-
-
-def _readonly(a: FloatArray) -> FloatArray:
-    a.setflags(write=False)
-    return a
 
 
 @dataclass(frozen=True, eq=False)
@@ -126,7 +122,7 @@ class Obstacle:
                 f"influence must exceed radius (the sphere of influence surrounds the obstacle), "
                 f"got influence={influence} m <= radius={radius} m"
             )
-        object.__setattr__(self, "center", _readonly(c))
+        object.__setattr__(self, "center", readonly(c))
         object.__setattr__(self, "radius", radius)
         object.__setattr__(self, "influence", influence)
 
@@ -246,7 +242,7 @@ class ChainObstacleBase(InvalidPolicy):
         self.task_dim = int(chain.task_dim)
         self.redundancy = self.dof - self.task_dim
         radii = np.array(chain.link_radius, dtype=float).reshape(-1)
-        self._link_radius = _readonly(radii)
+        self._link_radius = readonly(radii)
 
     @property
     def obstacles(self) -> tuple[Obstacle, ...]:
@@ -521,7 +517,7 @@ class ConfigurationController(ChainObstacleBase):
             "activation_margin", activation_margin, allow_zero=True, unit="s"
         )
         self.task_tolerance = check_positive("task_tolerance", task_tolerance, unit="m/s")
-        self._rho = _readonly(np.array([o.influence for o in self.obstacles], dtype=float))
+        self._rho = readonly(np.array([o.influence for o in self.obstacles], dtype=float))
 
     def _law(self, q: FloatArray, v: FloatArray, target: FloatArray | None) -> ControlResult:
         je = np.asarray(self.chain.ee_jacobian(q), dtype=float)
