@@ -1,0 +1,295 @@
+r"""Path following for cobots in the spatial domain (Gillespie et al. 1999, §3, eqs. 3.1–3.8).
+
+The human sets the speed, the cobot only the heading, so the controller is designed in the cobot's
+own arc length :math:`s` (' = d/ds). With the reference point :math:`R_p(s_p)` on the path,
+
+.. math::
+
+    \Delta R = R - R_p(s_p),\quad \Delta R' = T - s_p' T_p,\quad
+    \Delta R'' = \kappa N - s_p'' T_p - s_p'^2\,\kappa_p N_p.          \tag{3.1–3.3}
+
+The inputs are the two projections of one n-vector U: :math:`s_p'' = T^\top U` (3.4) and
+:math:`\kappa N = (I - TT^\top)U` (3.5), so :math:`\Delta R'' = MU - b` with
+:math:`M = I - TT^\top - T_pT^\top`, :math:`b = s_p'^2\kappa_pN_p` (3.6), and
+:math:`U = M^{-1}(v + b)` (3.7) makes :math:`\Delta R'' = v`; the outer loop
+:math:`v = -(k_1\Delta R + k_2\Delta R')` (3.8) gives
+:math:`\Delta R'' + k_2\Delta R' + k_1\Delta R = 0` — poles in 1/length, independent of how fast
+the human pushes. :math:`\det M = -T^\top T_p`; with :math:`w = v + b` the inverse is
+
+.. math::
+
+    s_p'' = -\frac{T^\top w}{T^\top T_p},\qquad \kappa N = (I - TT^\top)(w + s_p'' T_p)
+
+(Sherman–Morrison; notes 004 §3.2.4). When :math:`|T^\top T_p|` falls below ``guard`` the heading
+is nearly perpendicular to the path and the inverse blows up: the controller flags it and, per
+``on_singular``, clamps the divisor to ``±guard`` (bounded output) or raises.
+
+The reference state :math:`(s_p, s_p')` belongs to the controller and is integrated over the
+*measured* arc length: ``ds = 0`` (the human stopped) leaves it unchanged.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from velfence.errors import InvalidInput, InvalidParameter
+from velfence.geometry.paths import Path
+from velfence.shaping.base import check_choice, check_positive
+
+__all__ = ["FollowerOutput", "PathFollower", "critically_damped", "gains_from_poles"]
+
+FloatArray = NDArray[np.float64]
+
+
+def gains_from_poles(p1: complex, p2: complex) -> tuple[float, float]:
+    r"""Outer-loop gains placing the spatial poles of :math:`x'' + k_2x' + k_1x = 0` at p1, p2.
+
+    :math:`k_1 = p_1 p_2`, :math:`k_2 = -(p_1 + p_2)`. Poles are in 1/length [1/m]; a complex
+    pair must be conjugate.
+
+    Args:
+        p1: First pole [1/m], real part < 0.
+        p2: Second pole [1/m], real part < 0.
+
+    Returns:
+        ``(k1, k2)`` in [1/m²] and [1/m].
+
+    Raises:
+        InvalidParameter: An unstable/marginal pole, or a non-conjugate complex pair.
+    """
+    a, b = complex(p1), complex(p2)
+    for name, p in (("p1", a), ("p2", b)):
+        if not (math.isfinite(p.real) and math.isfinite(p.imag)) or p.real >= 0.0:
+            raise InvalidParameter(
+                f"{name}: expected a stable pole (real part < 0) in 1/m, got {p}"
+            )
+    if abs(a.imag + b.imag) > 1e-12 * (1.0 + abs(a) + abs(b)) or (
+        a.imag != 0.0 and abs(a.real - b.real) > 1e-12 * (1.0 + abs(a))
+    ):
+        raise InvalidParameter(f"poles: a complex pair must be conjugate, got {a} and {b}")
+    return float((a * b).real), float(-(a + b).real)
+
+
+def critically_damped(omega: float) -> tuple[float, float]:
+    r"""Gains for a double pole at :math:`-\omega` [1/m]: :math:`(\omega^2, 2\omega)`."""
+    w = check_positive("omega", omega, unit="1/m")
+    return w * w, 2.0 * w
+
+
+@dataclass(frozen=True)
+class FollowerOutput:
+    r"""One evaluation of the path follower.
+
+    Attributes:
+        kN: Curvature command :math:`\kappa N` (eq. 3.5), shape (n,), orthogonal to T.
+        sp_dd: :math:`s_p''` (eq. 3.4).
+        U: The input vector (eq. 3.7), shape (n,).
+        v: Outer-loop output (eq. 3.8), shape (n,).
+        error: :math:`\Delta R`, shape (n,).
+        error_rate: :math:`\Delta R'`, shape (n,).
+        s_p: Reference arc length [m].
+        sp_d: :math:`s_p'`.
+        reference: :math:`R_p(s_p)`, shape (n,).
+        alignment: :math:`T^\top T_p` (= :math:`-\det M`).
+        singular: True when :math:`|T^\top T_p| <` ``guard`` (the guard acted).
+    """
+
+    kN: FloatArray
+    sp_dd: float
+    U: FloatArray
+    v: FloatArray
+    error: FloatArray
+    error_rate: FloatArray
+    s_p: float
+    sp_d: float
+    reference: FloatArray
+    alignment: float
+    singular: bool
+
+
+class PathFollower:
+    r"""The feedback-linearising path follower of §3 (module docs), with its reference state.
+
+    Args:
+        path: The planned path :math:`C_p` (any :class:`~velfence.geometry.paths.Path`).
+        gains: ``(k1, k2)`` [1/m², 1/m], both > 0 (stable); see :func:`gains_from_poles` and
+            :func:`critically_damped`. The paper gives none; (4, 4) is a double pole at -2 /m.
+        guard: Threshold on :math:`|T^\top T_p|` below which M counts as singular, in (0, 1).
+        on_singular: ``"clamp"`` (divide by ``±guard``; bounded, flagged) or ``"raise"``.
+        max_curvature: Optional bound on :math:`|\kappa N|` [1/m] (a steering-rate limit seen in
+            C_EE); ``None`` for none. When it acts the linearisation is no longer exact.
+
+    Raises:
+        InvalidParameter: Bad gains, guard or options.
+    """
+
+    def __init__(
+        self,
+        path: Path,
+        *,
+        gains: tuple[float, float] = (4.0, 4.0),
+        guard: float = 1e-3,
+        on_singular: str = "clamp",
+        max_curvature: float | None = None,
+    ) -> None:
+        if not isinstance(path, Path):
+            raise InvalidParameter(f"path: expected a velfence Path, got {path!r}")
+        try:
+            k1, k2 = gains
+        except (TypeError, ValueError):
+            raise InvalidParameter(f"gains: expected (k1, k2), got {gains!r}") from None
+        self._k1 = check_positive("gains[0] (k1)", k1, unit="1/m²")
+        self._k2 = check_positive("gains[1] (k2)", k2, unit="1/m")
+        g = check_positive("guard", guard)
+        if g >= 1.0:
+            raise InvalidParameter(f"guard: expected a value in (0, 1) on |T·T_p|, got {g}")
+        self._guard = g
+        self._on_singular = check_choice("on_singular", on_singular, ("clamp", "raise"))
+        self._kmax = (
+            None if max_curvature is None else check_positive("max_curvature", max_curvature)
+        )
+        self._path = path
+        self._n = int(path.dim)
+        self._sp = 0.0
+        self._spd = 1.0
+        self._spdd = 0.0
+
+    @property
+    def path(self) -> Path:
+        """The planned path."""
+        return self._path
+
+    @property
+    def gains(self) -> tuple[float, float]:
+        """``(k1, k2)``."""
+        return self._k1, self._k2
+
+    @property
+    def state(self) -> tuple[float, float]:
+        r"""The reference state :math:`(s_p, s_p')`."""
+        return self._sp, self._spd
+
+    def reset(
+        self, R: ArrayLike, *, s_p: float | None = None, sp_d: float = 1.0
+    ) -> tuple[float, float]:
+        r"""Initialise the reference state: :math:`s_p` at the closest point (or as given).
+
+        Args:
+            R: Current end-effector configuration, shape (n,).
+            s_p: Reference arc length [m]; the closest point of the path to R when ``None``.
+            sp_d: Initial :math:`s_p'` (1: the reference moves as fast as the cobot).
+
+        Returns:
+            The new state.
+        """
+        Ra = self._vector("R", R)
+        if s_p is None:
+            self._sp = float(self._path.closest(Ra))
+        else:
+            self._sp = self._finite("s_p", s_p)
+        self._spd = self._finite("sp_d", sp_d)
+        self._spdd = 0.0
+        return self.state
+
+    def _finite(self, name: str, x: float) -> float:
+        try:
+            v = float(x)
+        except (TypeError, ValueError):
+            raise InvalidInput(f"{name}: expected a number, got {x!r}") from None
+        if not math.isfinite(v):
+            raise InvalidInput(f"{name}: expected a finite number, got {v}")
+        return v
+
+    def _vector(self, name: str, x: ArrayLike) -> FloatArray:
+        try:
+            a = np.asarray(x, dtype=float)
+        except (TypeError, ValueError):
+            raise InvalidInput(
+                f"{name}: expected numbers of shape ({self._n},), got {x!r}"
+            ) from None
+        if a.shape != (self._n,):
+            raise InvalidInput(f"{name}: expected shape ({self._n},), got shape {a.shape}")
+        if not np.all(np.isfinite(a)):
+            raise InvalidInput(f"{name}: expected finite values, got {a.tolist()}")
+        return a
+
+    def evaluate(
+        self, R: ArrayLike, T: ArrayLike, *, s_p: float | None = None, sp_d: float | None = None
+    ) -> FollowerOutput:
+        r"""The control law at (R, T) for a reference state (default: the controller's own).
+
+        Pure: does not change the state.
+
+        Args:
+            R: End-effector configuration, shape (n,).
+            T: Unit heading, shape (n,) (normalised here; must be non-zero).
+            s_p: Reference arc length [m] (default: the controller's).
+            sp_d: :math:`s_p'` (default: the controller's).
+
+        Raises:
+            InvalidInput: Bad shapes, non-finite values, zero T; or M singular with
+                ``on_singular="raise"``.
+        """
+        Ra = self._vector("R", R)
+        Ta = self._vector("T", T)
+        nT = float(np.linalg.norm(Ta))
+        if nT == 0.0:
+            raise InvalidInput("T: expected a non-zero heading, got the zero vector")
+        Ta = Ta / nT
+        sp = self._sp if s_p is None else self._finite("s_p", s_p)
+        spd = self._spd if sp_d is None else self._finite("sp_d", sp_d)
+        Rp = self._path.point(sp)
+        Tp = self._path.tangent(sp)
+        kpNp = self._path.curvature(sp)
+        e = Ra - Rp  # (3.1)
+        ed = Ta - spd * Tp  # (3.2)
+        v = -(self._k1 * e + self._k2 * ed)  # (3.8)
+        w = v + spd * spd * kpNp  # v + b
+        c = float(Ta @ Tp)  # -det M
+        singular = abs(c) < self._guard
+        if singular:
+            if self._on_singular == "raise":
+                raise InvalidInput(
+                    f"M is singular: T·T_p = {c:.3g} (|T·T_p| < guard = {self._guard}); the "
+                    "heading is perpendicular to the path at the reference point. Use "
+                    "on_singular='clamp' or re-initialise s_p with reset()"
+                )
+            c = self._guard if c >= 0.0 else -self._guard
+        spdd = -float(Ta @ w) / c  # (3.4) via Sherman–Morrison
+        U = w + (Ta + Tp) * spdd
+        kN = U - Ta * float(Ta @ U)  # (3.5)
+        if self._kmax is not None:
+            mag = float(np.linalg.norm(kN))
+            if mag > self._kmax:
+                kN = kN * (self._kmax / mag)
+        return FollowerOutput(kN, spdd, U, v, e, ed, sp, spd, Rp, float(Ta @ Tp), singular)
+
+    def step(self, R: ArrayLike, T: ArrayLike, ds: float, t: float | None = None) -> FollowerOutput:
+        r"""Advance the reference by the measured arc length ``ds``, then evaluate at (R, T).
+
+        The reference integrates :math:`s_p' \mathrel{+}= s_p''\,ds`,
+        :math:`s_p \mathrel{+}= s_p'\,ds` (exact for constant :math:`s_p''` over ``ds``) with the
+        :math:`s_p''` of the previous evaluation. ``ds = 0`` leaves it untouched.
+
+        Args:
+            R: Measured end-effector configuration, shape (n,).
+            T: Measured unit heading, shape (n,).
+            ds: Arc length travelled since the previous call [m], >= 0.
+            t: Time [s]; unused (the law is spatial), accepted for the
+                :class:`~velfence.cobot.sim.HeadingController` protocol.
+        """
+        d = self._finite("ds", ds)
+        if d < 0.0:
+            raise InvalidInput(f"ds: expected the arc length travelled (>= 0), got {d}")
+        if d > 0.0:
+            self._sp += self._spd * d + 0.5 * self._spdd * d * d
+            self._spd += self._spdd * d
+            if self._path.closed:
+                self._sp %= self._path.length
+        out = self.evaluate(R, T)
+        self._spdd = out.sp_dd
+        return out

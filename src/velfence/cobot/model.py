@@ -1,0 +1,529 @@
+r"""A cobot description and its four spaces (Gillespie et al. 1999, §2; notes 004 §3.2).
+
+* **C_EE** — end-effector configuration :math:`R \in \mathbb R^n`, unit tangent :math:`T`,
+  curvature vector :math:`\kappa N`, arc length :math:`s`, speed :math:`u = \dot s` (the human's).
+* **C_J** — joint configuration :math:`q = L(R)` (inverse kinematics, the "easy" direction for
+  parallel cobots), :math:`\delta q = J(R)\,\delta R` (eq. 2.4).
+* **Σ_i** — one 2-D coupling space per CVT, :math:`\delta r_i = S_i\,\delta q` (eq. 2.9) or,
+  for wheeled cobots, :math:`\delta r_i = J_i(R)\,\delta R` computed directly (eq. 2.12).
+* **Φ** — steering angles :math:`\varphi_i` of the ``n - 1`` CVTs; their rates are the inputs.
+
+Inverse route (controller output → steering rates): :meth:`Cobot.steering_rates` maps
+:math:`(T, \kappa N)` to :math:`\kappa_i n_i` directly (eqs. 2.13, 2.14) or through the joint
+space (eqs. 2.5, 2.7, 2.10, 2.11) and then to :math:`\dot\varphi_i` with the CVT model.
+
+Forward route (measured steering → allowed direction): :meth:`Cobot.heading` builds
+:math:`\Omega` (eq. 2.21), the generalised cross product :math:`\Lambda` (eq. 2.22),
+:math:`T_J = \pm\Lambda/|\Lambda|` (eq. 2.23, the sign taken from the measured motion) and
+:math:`T = J^{-1} T_J / |J^{-1} T_J|` (eq. 2.24). Singular configurations — :math:`\Lambda = 0`
+(the CVTs do not fix one direction) or :math:`J` singular — are detected and reported, never
+divided through (the paper defers them, footnote 1).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from velfence._arrays import readonly
+from velfence.cobot.cvt import CVT, SteeredWheel, TetrahedralCVT
+from velfence.cobot.transforms import (
+    coupling_from_ee,
+    coupling_from_joint,
+    joint_from_ee,
+    signed_curvature,
+)
+from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
+from velfence.shaping.base import check_choice, check_positive
+
+__all__ = [
+    "Cobot",
+    "CobotKinematics",
+    "Coupling",
+    "Heading",
+    "IdentityKinematics",
+    "RThetaKinematics",
+    "Steering",
+    "generalised_cross",
+    "r_theta_cobot",
+    "unicycle",
+]
+
+FloatArray = NDArray[np.float64]
+
+#: |Λ| below this times the product of the Ω row norms means the CVTs do not fix a direction.
+LAMBDA_TOL = 1e-9
+#: Reciprocal condition number of J below this means J is singular.
+JACOBIAN_RCOND = 1e-9
+
+
+@runtime_checkable
+class CobotKinematics(Protocol):
+    r"""Kinematics of a cobot: :math:`q = L(R)`, :math:`R = L^{-1}(q)`, :math:`J`, Hessians."""
+
+    @property
+    def dim(self) -> int:
+        """n, the dimension of C_EE and C_J."""
+        ...
+
+    def joints(self, R: FloatArray) -> FloatArray:
+        """Inverse kinematics :math:`q = L(R)`, shape (n,)."""
+        ...
+
+    def position(self, q: FloatArray) -> FloatArray:
+        """Forward kinematics :math:`R = L^{-1}(q)` (eq. 2.25), shape (n,)."""
+        ...
+
+    def jacobian(self, R: FloatArray) -> FloatArray:
+        r""":math:`J(R)` with :math:`\delta q = J\,\delta R` (eq. 2.4), shape (n, n)."""
+        ...
+
+    def hessian(self, R: FloatArray) -> FloatArray:
+        r"""``H[i, k, j]`` :math:`= \partial J_{ij}/\partial R_k` (eq. 2.8), shape (n, n, n)."""
+        ...
+
+
+@dataclass(frozen=True)
+class RThetaKinematics:
+    r"""The r-θ cobot (§4): a boom turning about P by θ with a cart at distance r on it.
+
+    :math:`R = (x, y) = (r\cos\theta, r\sin\theta)`, :math:`q = (r, \theta)`, and (eqs. 4.1,
+    4.3, 4.4, signs restored in notes 004 §3.2.5)
+
+    .. math::
+
+        J = \frac{1}{r^2}\begin{bmatrix} r x & r y \\ -y & x \end{bmatrix},\quad
+        H_1 = \frac{1}{r^3}\begin{bmatrix} y^2 & -xy \\ -xy & x^2 \end{bmatrix},\quad
+        H_2 = \frac{1}{r^4}\begin{bmatrix} 2xy & y^2 - x^2 \\ y^2 - x^2 & -2xy \end{bmatrix}.
+
+    Singular at the pivot (r = 0).
+    """
+
+    @property
+    def dim(self) -> int:
+        """2."""
+        return 2
+
+    def joints(self, R: FloatArray) -> FloatArray:
+        """``(r, θ) = (|R|, atan2(y, x))`` [m, rad]."""
+        x, y = float(R[0]), float(R[1])
+        return np.array([math.hypot(x, y), math.atan2(y, x)])
+
+    def position(self, q: FloatArray) -> FloatArray:
+        """``(r cos θ, r sin θ)`` [m]."""
+        r, th = float(q[0]), float(q[1])
+        return np.array([r * math.cos(th), r * math.sin(th)])
+
+    def _r(self, R: FloatArray) -> tuple[float, float, float]:
+        x, y = float(R[0]), float(R[1])
+        r = math.hypot(x, y)
+        if r <= 0.0:
+            raise InvalidInput("R: the r-θ cobot's Jacobian is singular at the pivot (r = 0)")
+        return x, y, r
+
+    def jacobian(self, R: FloatArray) -> FloatArray:
+        """Eq. (4.1), shape (2, 2)."""
+        x, y, r = self._r(R)
+        r2 = r * r
+        return np.array([[x / r, y / r], [-y / r2, x / r2]])
+
+    def hessian(self, R: FloatArray) -> FloatArray:
+        """Eqs. (4.3), (4.4), shape (2, 2, 2)."""
+        x, y, r = self._r(R)
+        r3, r4 = r**3, r**4
+        H1 = np.array([[y * y, -x * y], [-x * y, x * x]]) / r3
+        H2 = np.array([[2 * x * y, y * y - x * x], [y * y - x * x, -2 * x * y]]) / r4
+        return np.stack([H1, H2])
+
+
+@dataclass(frozen=True)
+class IdentityKinematics:
+    """Joint space = end-effector space (q = R, J = I): wheeled cobots on a plane, n = 2 or 3."""
+
+    n: int = 2
+
+    def __post_init__(self) -> None:
+        if isinstance(self.n, bool) or not isinstance(self.n, int) or self.n < 2:
+            raise InvalidParameter(f"n: expected an int >= 2, got {self.n!r}")
+
+    @property
+    def dim(self) -> int:
+        """The dimension n."""
+        return self.n
+
+    def joints(self, R: FloatArray) -> FloatArray:
+        """Joints equal the configuration: q = R."""
+        return np.array(R, dtype=float)
+
+    def position(self, q: FloatArray) -> FloatArray:
+        """R = q."""
+        return np.array(q, dtype=float)
+
+    def jacobian(self, R: FloatArray) -> FloatArray:
+        """Identity, shape (n, n)."""
+        return np.eye(self.n)
+
+    def hessian(self, R: FloatArray) -> FloatArray:
+        """Zero, shape (n, n, n)."""
+        return np.zeros((self.n, self.n, self.n))
+
+
+@dataclass(frozen=True)
+class Coupling:
+    r"""One CVT and how its coupling space Σ_i sees the mechanism.
+
+    Give exactly one of
+
+    * ``selection``: :math:`S_i`, shape (2, n), constant (eq. 2.9; fixed transmission ratios
+      included), so :math:`J_i = S_i J` (eq. 2.12);
+    * ``jacobian``: a function ``R -> (J_i, H_i)`` of shapes (2, n) and (2, n, n), for wheeled
+      cobots whose coupling spaces are computed directly from R.
+
+    Attributes:
+        cvt: The transmission model.
+        selection: :math:`S_i` or ``None``.
+        jacobian: The direct map or ``None``.
+        name: Label.
+    """
+
+    cvt: CVT
+    selection: FloatArray | None = None
+    jacobian: Callable[[FloatArray], tuple[FloatArray, FloatArray]] | None = None
+    name: str = "cvt"
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.cvt, CVT):
+            raise InvalidParameter(f"cvt: expected a CVT model, got {self.cvt!r}")
+        if (self.selection is None) == (self.jacobian is None):
+            raise InvalidParameter(
+                "Coupling: give exactly one of selection (S_i, shape (2, n)) or jacobian "
+                "(R -> (J_i, H_i)), got " + ("both" if self.selection is not None else "neither")
+            )
+        if self.selection is not None:
+            S = np.array(self.selection, dtype=float)
+            if S.ndim != 2 or S.shape[0] != 2 or not np.all(np.isfinite(S)):
+                raise InvalidGeometry(
+                    f"selection: expected a finite matrix of shape (2, n), got {self.selection!r}"
+                )
+            object.__setattr__(self, "selection", readonly(S))
+
+    def maps(self, R: FloatArray, J: FloatArray, H: FloatArray) -> tuple[FloatArray, FloatArray]:
+        r""":math:`(J_i, H_i)` at R given the mechanism's :math:`J` and Hessian ``H``."""
+        if self.selection is not None:
+            S = self.selection
+            return S @ J, np.einsum("ai,ikj->akj", S, H)
+        if self.jacobian is None:  # unreachable: __post_init__ requires one of the two
+            raise InvalidParameter("Coupling has neither selection nor jacobian")
+        return self.jacobian(R)
+
+
+@dataclass(frozen=True)
+class Heading:
+    """The allowed direction read from the steering angles (forward route, eqs. 2.17–2.24).
+
+    Attributes:
+        T: End-effector unit tangent, shape (n,); zeros when ``singular``.
+        T_J: Joint-space unit tangent, shape (n,); zeros when ``singular``.
+        Lambda: Generalised cross product of Ω (eq. 2.22), shape (n,).
+        t: Coupling-space directions from the CVT models (eq. 2.17), shape (n-1, 2).
+        singular: ``""``, ``"lambda"`` (the CVTs do not fix one direction) or ``"jacobian"``
+            (J singular: joint motion does not determine end-effector motion).
+        ambiguous: True when no motion or reference was given to resolve the sign.
+    """
+
+    T: FloatArray
+    T_J: FloatArray
+    Lambda: FloatArray
+    t: FloatArray
+    singular: str = ""
+    ambiguous: bool = False
+
+
+@dataclass(frozen=True)
+class Steering:
+    r"""The inverse route's answer (controller curvature → steering rates), with intermediates.
+
+    Attributes:
+        phi_dot: Steering rates [rad/s], shape (n-1,).
+        t: Coupling-space unit tangents, shape (n-1, 2).
+        kappa_n: Coupling-space curvature vectors, shape (n-1, 2).
+        curvature: Signed coupling-space curvatures :math:`(Wt_i)^T\kappa_i n_i`, shape (n-1,).
+        speed: Signed coupling-space speeds :math:`\dot s_i`, shape (n-1,).
+        T_J: Joint-space tangent (joint route only, else empty), shape (n,) or (0,).
+        kJNJ: Joint-space curvature vector (joint route only, else empty).
+    """
+
+    phi_dot: FloatArray
+    t: FloatArray
+    kappa_n: FloatArray
+    curvature: FloatArray
+    speed: FloatArray
+    T_J: FloatArray = field(default_factory=lambda: np.zeros(0))
+    kJNJ: FloatArray = field(default_factory=lambda: np.zeros(0))
+
+
+def generalised_cross(Omega: ArrayLike) -> FloatArray:
+    r"""Eq. (2.22): :math:`\Lambda_k = (-1)^{k}\det(\Omega` without column k), 0-based k.
+
+    For an (n-1)×n matrix Ω, :math:`\Omega\Lambda = 0` and :math:`|\Lambda|` is the
+    (n-1)-volume spanned by Ω's rows (zero iff they are dependent).
+
+    Args:
+        Omega: Shape (n-1, n), n >= 2.
+
+    Returns:
+        Shape (n,).
+    """
+    om = np.asarray(Omega, dtype=float)
+    if om.ndim != 2 or om.shape[1] != om.shape[0] + 1:
+        raise InvalidInput(f"Omega: expected shape (n-1, n), got shape {om.shape}")
+    n = om.shape[1]
+    if n == 2:
+        return np.array([om[0, 1], -om[0, 0]])
+    out = np.empty(n)
+    for k in range(n):
+        out[k] = (-1) ** k * np.linalg.det(np.delete(om, k, axis=1))
+    return out
+
+
+def _vec(name: str, x: ArrayLike, n: int) -> FloatArray:
+    try:
+        a = np.asarray(x, dtype=float)
+    except (TypeError, ValueError):
+        raise InvalidInput(f"{name}: expected numbers of shape ({n},), got {x!r}") from None
+    if a.shape != (n,):
+        raise InvalidInput(f"{name}: expected shape ({n},), got shape {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise InvalidInput(f"{name}: expected finite values, got {a.tolist()}")
+    return a
+
+
+class Cobot:
+    """A cobot: kinematics plus ``n - 1`` CVT couplings (module docs for the four spaces).
+
+    Args:
+        kinematics: The mechanism (:class:`CobotKinematics`).
+        couplings: Exactly ``n - 1`` :class:`Coupling` objects.
+        name: Label for reports and plots.
+
+    Raises:
+        InvalidParameter: Wrong number of couplings or a selection matrix of the wrong width.
+    """
+
+    def __init__(
+        self,
+        kinematics: CobotKinematics,
+        couplings: Sequence[Coupling],
+        *,
+        name: str = "cobot",
+    ) -> None:
+        if not isinstance(kinematics, CobotKinematics):
+            raise InvalidParameter(f"kinematics: expected CobotKinematics, got {kinematics!r}")
+        n = int(kinematics.dim)
+        cs = tuple(couplings)
+        if len(cs) != n - 1:
+            raise InvalidParameter(
+                f"couplings: a non-redundant cobot with n = {n} joints needs n - 1 = {n - 1} "
+                f"CVTs, got {len(cs)}"
+            )
+        for i, c in enumerate(cs):
+            if not isinstance(c, Coupling):
+                raise InvalidParameter(f"couplings[{i}]: expected a Coupling, got {c!r}")
+            if c.selection is not None and c.selection.shape[1] != n:
+                raise InvalidParameter(
+                    f"couplings[{i}].selection: expected shape (2, {n}), got {c.selection.shape}"
+                )
+        self._kin = kinematics
+        self._couplings = cs
+        self._n = n
+        self._all_selection = all(c.selection is not None for c in cs)
+        self.name = str(name)
+
+    @property
+    def kinematics(self) -> CobotKinematics:
+        """The mechanism."""
+        return self._kin
+
+    @property
+    def couplings(self) -> tuple[Coupling, ...]:
+        """The CVT couplings, in order."""
+        return self._couplings
+
+    @property
+    def dim(self) -> int:
+        """The dimension n."""
+        return self._n
+
+    # ------------------------------------------------------------------ forward route
+    def directions(self, phi: ArrayLike) -> FloatArray:
+        r"""CVT directions :math:`t_i(\varphi_i)` (eq. 2.17), shape (n-1, 2)."""
+        p = _vec("phi", phi, self._n - 1)
+        return np.array(
+            [c.cvt.direction(float(a)) for c, a in zip(self._couplings, p, strict=True)]
+        )
+
+    def heading(
+        self,
+        q: ArrayLike,
+        phi: ArrayLike,
+        *,
+        reference: ArrayLike | None = None,
+    ) -> Heading:
+        r"""The allowed direction from joint and steering angles (eqs. 2.17, 2.19–2.24).
+
+        Args:
+            q: Joint configuration, shape (n,).
+            phi: Steering angles [rad], shape (n-1,).
+            reference: A C_EE vector the heading should not oppose (the measured velocity
+                :math:`\dot R`, or the previous heading), shape (n,). Resolves the sign of
+                eq. (2.23) (the notes' :math:`T_J^\top V_J \ge 0`); without it the sign of
+                :math:`\Lambda` is kept and ``ambiguous`` is set.
+
+        Returns:
+            :class:`Heading`; ``singular`` names a singular configuration (then T = 0).
+        """
+        qa = _vec("q", q, self._n)
+        t = self.directions(phi)
+        R = self._kin.position(qa)
+        J = self._kin.jacobian(R)
+        H = self._kin.hessian(R)
+        W = np.array([[0.0, -1.0], [1.0, 0.0]])
+        rows = []
+        for c, ti in zip(self._couplings, t, strict=True):
+            J_i, _ = c.maps(R, J, H)
+            # Ω row in C_J (eq. 2.21) when S_i is known; in C_EE (row · J) for direct couplings.
+            rows.append((W @ ti) @ (c.selection if self._all_selection else J_i))
+        Omega = np.array(rows)
+        Lam = generalised_cross(Omega)
+        zero = np.zeros(self._n)
+        scale = float(np.prod(np.linalg.norm(Omega, axis=1)))
+        if float(np.linalg.norm(Lam)) <= LAMBDA_TOL * max(scale, 1e-300):
+            return Heading(zero, zero.copy(), Lam, t, singular="lambda")
+        rcond = 1.0 / np.linalg.cond(J)
+        if not np.isfinite(rcond) or rcond < JACOBIAN_RCOND:
+            return Heading(zero, zero.copy(), Lam, t, singular="jacobian")
+        if self._all_selection:
+            T_J = Lam / np.linalg.norm(Lam)
+            x = np.linalg.solve(J, T_J)
+            T = x / np.linalg.norm(x)
+        else:
+            T = Lam / np.linalg.norm(Lam)
+            y = J @ T
+            T_J = y / np.linalg.norm(y)
+        ambiguous = reference is None
+        if reference is not None:
+            ref = _vec("reference", reference, self._n)
+            if float(T @ ref) < 0.0:
+                T, T_J = -T, -T_J
+            ambiguous = not np.any(ref)
+        return Heading(T, T_J, Lam, t, ambiguous=ambiguous)
+
+    # ------------------------------------------------------------------ inverse route
+    def steering_angles(self, R: ArrayLike, T: ArrayLike) -> FloatArray:
+        """Steering angles that allow heading T at R, shape (n-1,) (initialisation)."""
+        Ra = _vec("R", R, self._n)
+        Ta = _vec("T", T, self._n)
+        J = self._kin.jacobian(Ra)
+        H = self._kin.hessian(Ra)
+        out = []
+        for c in self._couplings:
+            J_i, _ = c.maps(Ra, J, H)
+            out.append(c.cvt.steering_angle(J_i @ Ta))
+        return np.array(out)
+
+    def steering_rates(
+        self,
+        R: ArrayLike,
+        phi: ArrayLike,
+        T: ArrayLike,
+        kN: ArrayLike,
+        speed: float,
+        *,
+        route: str = "direct",
+    ) -> Steering:
+        r"""Steering rates that realise curvature :math:`\kappa N` at speed ``speed``.
+
+        Args:
+            R: End-effector configuration, shape (n,).
+            phi: Current steering angles [rad], shape (n-1,).
+            T: Current unit heading, shape (n,).
+            kN: Wanted curvature vector (from the controller), shape (n,).
+            speed: Signed end-effector speed :math:`u = \dot s` along T [unit/s].
+            route: ``"direct"`` (eqs. 2.13, 2.14) or ``"joint"`` (eqs. 2.5, 2.7, 2.10, 2.11;
+                needs selection couplings). Both give the same answer (tested).
+
+        Returns:
+            :class:`Steering`.
+        """
+        check_choice("route", route, ("direct", "joint"))
+        Ra = _vec("R", R, self._n)
+        p = _vec("phi", phi, self._n - 1)
+        Ta = _vec("T", T, self._n)
+        kNa = _vec("kN", kN, self._n)
+        u = float(speed)
+        if not math.isfinite(u):
+            raise InvalidInput(f"speed: expected a finite speed, got {speed!r}")
+        J = self._kin.jacobian(Ra)
+        H = self._kin.hessian(Ra)
+        m = self._n - 1
+        t, kn = np.empty((m, 2)), np.empty((m, 2))
+        curv, spd, rate = np.empty(m), np.empty(m), np.empty(m)
+        T_J = kJNJ = np.zeros(0)
+        if route == "joint":
+            if not self._all_selection:
+                raise InvalidParameter(
+                    "route='joint' needs selection matrices S_i on every coupling; this cobot "
+                    "has direct J_i couplings, use route='direct'"
+                )
+            T_J, kJNJ, gJ = joint_from_ee(J, H, Ta, kNa)
+        for i, c in enumerate(self._couplings):
+            if route == "joint":
+                S = c.selection if c.selection is not None else np.zeros((2, self._n))
+                ti, kni, gi = coupling_from_joint(S, T_J, kJNJ)
+                gi *= gJ
+            else:
+                J_i, H_i = c.maps(Ra, J, H)
+                ti, kni, gi = coupling_from_ee(J_i, H_i, Ta, kNa)
+            t[i], kn[i] = ti, kni
+            curv[i] = signed_curvature(ti, kni)
+            spd[i] = gi * u
+            rate[i] = c.cvt.steering_rate(float(p[i]), float(curv[i]), float(spd[i]))
+        return Steering(rate, t, kn, curv, spd, T_J, kJNJ)
+
+
+def r_theta_cobot(*, r_o: float = 0.5, convention: int = 1) -> Cobot:
+    r"""The r-θ cobot of §4 with one tetrahedral CVT: :math:`S_1 = \mathrm{diag}(1/r_o, 1)`.
+
+    The CVT couples the cart's travel r (through a cable drive of radius ``r_o``) and the boom
+    angle θ (directly), eq. (4.2). The paper does not give ``r_o``; 0.5 m is the notes' choice
+    (it only scales the coupling space, the C_EE behaviour does not depend on it).
+
+    Args:
+        r_o: Cable-drive radius [m], > 0.
+        convention: Sign convention of the tetrahedral CVT (±1, :class:`TetrahedralCVT`).
+    """
+    ro = check_positive("r_o", r_o, unit="m")
+    S = np.array([[1.0 / ro, 0.0], [0.0, 1.0]])
+    return Cobot(
+        RThetaKinematics(),
+        [Coupling(TetrahedralCVT(convention), selection=S, name="tetrahedral")],
+        name="r-theta",
+    )
+
+
+def unicycle() -> Cobot:
+    """The Unicycle cobot: one steered wheel on a plane, :math:`J_1 = I` computed directly."""
+
+    def wheel(R: FloatArray) -> tuple[FloatArray, FloatArray]:
+        return np.eye(2), np.zeros((2, 2, 2))
+
+    return Cobot(
+        IdentityKinematics(2),
+        [Coupling(SteeredWheel(), jacobian=wheel, name="wheel")],
+        name="unicycle",
+    )

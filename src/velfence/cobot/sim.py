@@ -1,0 +1,345 @@
+r"""Cobot simulation: the human chooses the speed, the controller only steers.
+
+Two simulators, both recording a :class:`CobotTrace`:
+
+* :func:`follow_in_ee` — the generic C_EE model, in arc length: :math:`R' = T`,
+  :math:`T' = \kappa N` with :math:`\kappa N` held over each step ``ds``; ``integrator="arc"``
+  advances exactly along the circular arc of that curvature (no drift off :math:`|T| = 1`),
+  ``"euler"`` is the notes' explicit step. Time does not appear: this is the model the controller
+  is designed on.
+* :func:`simulate_cobot` — the full four-space cobot in time. The state is the joint configuration
+  q and the steering angles φ; the plant moves along the one allowed direction (forward route,
+  :meth:`~velfence.cobot.model.Cobot.heading`) at the human's speed, the controller runs every
+  ``dt`` on the measured (R, T, ds), and its steering rates (inverse route,
+  :meth:`~velfence.cobot.model.Cobot.steering_rates`) are held over the period (zero-order hold,
+  as a steering motor's velocity command). The plant is integrated with classical RK4 inside each
+  period.
+
+Why not :func:`velfence.sim.simulate`: that runner integrates a *commanded velocity*; a cobot's
+controller commands *steering rates* and the velocity magnitude is an exogenous human input, so the
+state (q, φ, controller reference) and the integration differ. The caster-mode wall, which is a
+velocity shaper, does run on :func:`velfence.sim.simulate` (see the cobot reproduction).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from velfence.cobot.model import Cobot
+from velfence.errors import InvalidInput, InvalidParameter
+from velfence.shaping.base import check_choice, check_positive
+
+__all__ = [
+    "CobotTrace",
+    "HeadingController",
+    "SpeedFn",
+    "constant_speed",
+    "follow_in_ee",
+    "pushing",
+    "simulate_cobot",
+]
+
+FloatArray = NDArray[np.float64]
+
+#: The human: ``(t, R, T) -> u``, the signed speed [m/s] along the allowed direction T.
+SpeedFn = Callable[[float, FloatArray, FloatArray], float]
+
+
+class _HasKN(Protocol):
+    @property
+    def kN(self) -> FloatArray: ...
+
+
+class HeadingController(Protocol):
+    """A steering controller: ``step(R, T, ds, t)`` returns an object with ``kN`` (shape (n,))."""
+
+    def step(self, R: ArrayLike, T: ArrayLike, ds: float, t: float | None = None) -> Any:
+        """Curvature command for the measured state and the arc length travelled since last."""
+        ...
+
+
+def constant_speed(u: float) -> SpeedFn:
+    """A human pushing at constant speed ``u`` [m/s] along whatever direction is allowed."""
+    v = float(u)
+
+    def speed(t: float, R: FloatArray, T: FloatArray) -> float:
+        return v
+
+    return speed
+
+
+def pushing(intent: Callable[[float, FloatArray], ArrayLike]) -> SpeedFn:
+    r"""A human pushing with intended velocity ``intent(t, R)``: speed :math:`u = T^\top v_h`."""
+
+    def speed(t: float, R: FloatArray, T: FloatArray) -> float:
+        return float(T @ np.asarray(intent(t, R), dtype=float))
+
+    return speed
+
+
+@dataclass
+class CobotTrace:
+    r"""A recorded cobot run (rows are control ticks).
+
+    Attributes:
+        s: Arc length travelled [m], shape (N,).
+        R: End-effector configuration, shape (N, n).
+        T: Heading, shape (N, n).
+        kN: Curvature command, shape (N, n).
+        t: Time [s], shape (N,) (the arc-length model: equal to ``s``).
+        q: Joint configuration, shape (N, n) (empty for the C_EE model).
+        phi: Steering angles [rad], shape (N, n-1) (empty for the C_EE model).
+        phi_dot: Steering rates [rad/s], shape (N, n-1) (empty for the C_EE model).
+        error: Path error :math:`\Delta R` when the controller is a path follower, shape (N, n).
+        reference: :math:`R_p(s_p)` when the controller is a path follower, shape (N, n).
+        s_p: Reference arc length when the controller is a path follower, shape (N,).
+        singular: Whether the follower's M guard acted, shape (N,).
+        zone: Wall zone per tick for wall steering (else empty).
+        name: Label.
+    """
+
+    s: FloatArray
+    R: FloatArray
+    T: FloatArray
+    kN: FloatArray
+    t: FloatArray
+    q: FloatArray = field(default_factory=lambda: np.zeros((0, 0)))
+    phi: FloatArray = field(default_factory=lambda: np.zeros((0, 0)))
+    phi_dot: FloatArray = field(default_factory=lambda: np.zeros((0, 0)))
+    error: FloatArray = field(default_factory=lambda: np.zeros((0, 0)))
+    reference: FloatArray = field(default_factory=lambda: np.zeros((0, 0)))
+    s_p: FloatArray = field(default_factory=lambda: np.zeros(0))
+    singular: NDArray[np.bool_] = field(default_factory=lambda: np.zeros(0, dtype=bool))
+    zone: tuple[str, ...] = ()
+    name: str = ""
+
+    @property
+    def error_norm(self) -> FloatArray:
+        r""":math:`|\Delta R|` per tick, shape (N,)."""
+        return np.asarray(np.linalg.norm(self.error, axis=1), dtype=float)
+
+    def at_arc_length(self, s: ArrayLike) -> FloatArray:
+        """Positions R interpolated at arc lengths ``s`` [m], shape (M, n)."""
+        S = np.atleast_1d(np.asarray(s, dtype=float))
+        return np.stack([np.interp(S, self.s, self.R[:, j]) for j in range(self.R.shape[1])], 1)
+
+    def error_at(self, s: ArrayLike) -> FloatArray:
+        r""":math:`|\Delta R|` interpolated at arc lengths ``s`` [m], shape (M,)."""
+        S = np.atleast_1d(np.asarray(s, dtype=float))
+        return np.asarray(np.interp(S, self.s, self.error_norm), dtype=float)
+
+
+class _Recorder:
+    def __init__(self) -> None:
+        self.rows: dict[str, list[Any]] = {}
+
+    def add(self, **kw: Any) -> None:
+        for k, v in kw.items():
+            self.rows.setdefault(k, []).append(v)
+
+    def array(self, key: str) -> FloatArray:
+        return np.array(self.rows[key], dtype=float) if key in self.rows else np.zeros((0, 0))
+
+
+def _record_output(rec: _Recorder, out: Any) -> None:
+    extra: dict[str, Any] = {}
+    if hasattr(out, "error"):
+        extra.update(
+            error=np.array(out.error),
+            reference=np.array(out.reference),
+            s_p=out.s_p,
+            singular=out.singular,
+        )
+    if hasattr(out, "zone"):
+        extra["zone"] = out.zone
+    rec.add(kN=np.array(out.kN), **extra)
+
+
+def _trace(rec: _Recorder, name: str) -> CobotTrace:
+    r = rec.rows
+    return CobotTrace(
+        s=rec.array("s"),
+        R=rec.array("R"),
+        T=rec.array("T"),
+        kN=rec.array("kN"),
+        t=rec.array("t"),
+        q=rec.array("q"),
+        phi=rec.array("phi"),
+        phi_dot=rec.array("phi_dot"),
+        error=rec.array("error"),
+        reference=rec.array("reference"),
+        s_p=np.array(r.get("s_p", []), dtype=float),
+        singular=np.array(r.get("singular", []), dtype=bool),
+        zone=tuple(r.get("zone", ())),
+        name=name,
+    )
+
+
+def _unit(name: str, x: ArrayLike, n: int | None = None) -> FloatArray:
+    a = np.asarray(x, dtype=float)
+    if a.ndim != 1 or (n is not None and a.shape != (n,)) or not np.all(np.isfinite(a)):
+        raise InvalidInput(f"{name}: expected a finite vector of shape ({n or 'n'},), got {x!r}")
+    m = float(np.linalg.norm(a))
+    if m == 0.0:
+        raise InvalidInput(f"{name}: expected a non-zero direction, got the zero vector")
+    return a / m
+
+
+def follow_in_ee(
+    controller: HeadingController,
+    R0: ArrayLike,
+    T0: ArrayLike,
+    *,
+    length: float,
+    ds: float = 1e-3,
+    integrator: str = "arc",
+    name: str = "C_EE",
+) -> CobotTrace:
+    r"""Run a heading controller on the generic C_EE model in arc length (module docs).
+
+    Args:
+        controller: E.g. a :class:`~velfence.cobot.follower.PathFollower` (already reset).
+        R0: Initial configuration, shape (n,).
+        T0: Initial heading, shape (n,) (normalised).
+        length: Arc length to travel [m], > 0.
+        ds: Step [m], > 0.
+        integrator: ``"arc"`` (exact for curvature held over the step) or ``"euler"``.
+        name: Trace label.
+    """
+    R = np.array(R0, dtype=float)
+    T = _unit("T0", T0, R.shape[0] if R.ndim == 1 else None)
+    if R.shape != T.shape or not np.all(np.isfinite(R)):
+        raise InvalidInput(f"R0: expected a finite vector of shape {T.shape}, got {R0!r}")
+    L = check_positive("length", length, unit="m")
+    h = check_positive("ds", ds, unit="m")
+    check_choice("integrator", integrator, ("arc", "euler"))
+    steps = math.ceil(L / h - 1e-9)
+    rec = _Recorder()
+    s = 0.0
+    step_ds = 0.0
+    for _ in range(steps + 1):
+        out = controller.step(R, T, step_ds, s)
+        rec.add(s=s, t=s, R=R.copy(), T=T.copy())
+        _record_output(rec, out)
+        kN = np.asarray(out.kN, dtype=float)
+        if integrator == "euler":
+            R = R + h * T
+            T = T + h * kN
+            T = T / np.linalg.norm(T)
+        else:
+            k = float(np.linalg.norm(kN))
+            if k * h < 1e-12:
+                R = R + h * T + 0.5 * h * h * kN
+            else:
+                N = kN / k
+                a = k * h
+                R = R + T * (math.sin(a) / k) + N * ((1.0 - math.cos(a)) / k)
+                T = T * math.cos(a) + N * math.sin(a)
+        s += h
+        step_ds = h
+    return _trace(rec, name)
+
+
+def simulate_cobot(
+    cobot: Cobot,
+    controller: HeadingController,
+    q0: ArrayLike,
+    phi0: ArrayLike,
+    *,
+    speed: SpeedFn,
+    duration: float,
+    dt: float = 1e-3,
+    heading0: ArrayLike | None = None,
+    route: str = "direct",
+    name: str | None = None,
+) -> CobotTrace:
+    r"""Run a cobot in time: human speed in, steering rates out (module docs).
+
+    Args:
+        cobot: The mechanism and its CVTs.
+        controller: Heading controller (reset beforehand), e.g. a path follower.
+        q0: Initial joint configuration, shape (n,).
+        phi0: Initial steering angles [rad], shape (n-1,) (see
+            :meth:`~velfence.cobot.model.Cobot.steering_angles`).
+        speed: The human, ``(t, R, T) -> u`` [m/s] (:func:`constant_speed`, :func:`pushing`);
+            a negative speed moves backward along T and flips the heading.
+        duration: Simulated time [s], > 0.
+        dt: Control period [s], > 0.
+        heading0: Resolves the initial sign of the allowed direction, shape (n,); the sign of
+            :math:`\Lambda` when ``None``.
+        route: ``"direct"`` or ``"joint"`` steering transform (same answer).
+        name: Trace label (default: the cobot's name).
+
+    Raises:
+        InvalidInput: The cobot reaches a singular configuration (named) or bad input.
+    """
+    n = cobot.dim
+    q = np.array(q0, dtype=float)
+    phi = np.array(phi0, dtype=float)
+    if q.shape != (n,) or not np.all(np.isfinite(q)):
+        raise InvalidInput(f"q0: expected a finite vector of shape ({n},), got {q0!r}")
+    if phi.shape != (n - 1,) or not np.all(np.isfinite(phi)):
+        raise InvalidInput(f"phi0: expected a finite vector of shape ({n - 1},), got {phi0!r}")
+    D = check_positive("duration", duration, unit="s")
+    h = check_positive("dt", dt, unit="s")
+    check_choice("route", route, ("direct", "joint"))
+    if not callable(speed):
+        raise InvalidParameter(f"speed: expected a function (t, R, T) -> u, got {speed!r}")
+    kin = cobot.kinematics
+
+    def heading(qq: FloatArray, pp: FloatArray, ref: FloatArray | None) -> FloatArray:
+        hd = cobot.heading(qq, pp, reference=ref)
+        if hd.singular:
+            raise InvalidInput(
+                f"the cobot reached a singular configuration ({hd.singular}) at q={qq.tolist()}, "
+                f"phi={pp.tolist()}: the allowed direction is undefined there"
+            )
+        return hd.T
+
+    T = heading(q, phi, None if heading0 is None else np.asarray(heading0, dtype=float))
+    rec = _Recorder()
+    steps = math.ceil(D / h - 1e-9)
+    s = 0.0
+    ds = 0.0
+    t = 0.0
+    for k in range(steps + 1):
+        t = k * h
+        R = kin.position(q)
+        u_now = float(speed(t, R, T))
+        if u_now < 0.0:  # the human pushes backward: the heading is the motion's direction
+            T = -T
+        out = controller.step(R, T, ds, t)
+        kN = np.asarray(out.kN, dtype=float)
+        st = cobot.steering_rates(R, phi, T, kN, abs(u_now), route=route)
+        rec.add(s=s, t=t, R=R, T=T.copy(), q=q.copy(), phi=phi.copy(), phi_dot=st.phi_dot)
+        _record_output(rec, out)
+        if k == steps:
+            break
+        # RK4 over one period, steering rates held (ZOH); y = (q, phi, s).
+        T_ref = T
+
+        def f(
+            tt: float, qq: FloatArray, pp: FloatArray, ref: FloatArray = T_ref
+        ) -> tuple[FloatArray, float, FloatArray]:
+            Rr = kin.position(qq)
+            Tt = heading(qq, pp, ref)
+            u = abs(float(speed(tt, Rr, Tt)))
+            return kin.jacobian(Rr) @ Tt * u, u, Tt
+
+        rate = st.phi_dot
+        k1q, k1s, _ = f(t, q, phi)
+        k2q, k2s, _ = f(t + h / 2, q + h / 2 * k1q, phi + h / 2 * rate)
+        k3q, k3s, _ = f(t + h / 2, q + h / 2 * k2q, phi + h / 2 * rate)
+        k4q, k4s, _ = f(t + h, q + h * k3q, phi + h * rate)
+        q = q + h / 6 * (k1q + 2 * k2q + 2 * k3q + k4q)
+        phi = phi + h * rate
+        ds = h / 6 * (k1s + 2 * k2s + 2 * k3s + k4s)
+        s += ds
+        T = heading(q, phi, T_ref)
+    return _trace(rec, name or cobot.name)

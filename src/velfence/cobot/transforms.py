@@ -1,0 +1,197 @@
+r"""Tangent and curvature transforms between the cobot spaces (Gillespie et al. 1999, §2.3.1).
+
+Every inverse transformation of the paper has the same form. A linear map :math:`A(R)` (the
+Jacobian :math:`J`, a selection matrix :math:`S_i`, or a CVT Jacobian :math:`J_i = S_i J`) sends a
+unit tangent :math:`T` and curvature vector :math:`\kappa N` in its domain to
+
+.. math::
+
+    t = \frac{A T}{|A T|}, \qquad
+    \kappa_t n_t = \frac{I - t t^\top}{|A T|^2}\,\bigl([T^\top \tfrac{\partial A}{\partial R} T]
+    + A\,\kappa N\bigr),
+
+which follows from eq. (2.6) (the derivative of a normalised vector) applied to :math:`X = A T`
+and the chain rule :math:`ds_A = |A T|\,ds`. With :math:`A = J` this is eqs. (2.5) and (2.7),
+with :math:`A = S_i` (constant, no Hessian term) eqs. (2.10) and (2.11), and with
+:math:`A = J_i` eqs. (2.13) and (2.14). :func:`map_tangent_curvature` is that one formula; the
+named functions are the paper's three uses of it.
+
+Hessian convention (eq. 2.8): ``H[i, k, j]`` :math:`= \partial A_{ij} / \partial R_k`, so that
+:math:`[T^\top \partial A/\partial R\, T]_i = T^\top H_i T`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from velfence.errors import InvalidInput
+
+__all__ = [
+    "SINGULAR_TOL",
+    "coupling_from_ee",
+    "coupling_from_joint",
+    "hessian_term",
+    "joint_from_ee",
+    "map_tangent_curvature",
+    "normalised_derivative",
+]
+
+FloatArray = NDArray[np.float64]
+
+#: A mapped tangent shorter than this (relative to ``|A|``) means the map is singular along T.
+SINGULAR_TOL = 1e-12
+
+
+def _finite(name: str, x: ArrayLike, shape: tuple[int, ...] | None = None) -> FloatArray:
+    try:
+        a = np.asarray(x, dtype=float)
+    except (TypeError, ValueError):
+        raise InvalidInput(f"{name}: expected an array of numbers, got {x!r}") from None
+    if shape is not None and a.shape != shape:
+        raise InvalidInput(f"{name}: expected shape {shape}, got shape {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise InvalidInput(f"{name}: expected finite values, got {a.tolist()}")
+    return a
+
+
+def normalised_derivative(x: ArrayLike, x_prime: ArrayLike) -> tuple[FloatArray, FloatArray]:
+    r"""Eq. (2.6): for :math:`A = X/|X|`, :math:`A' = [I - A A^\top] X' / |X|`.
+
+    Args:
+        x: :math:`X`, shape (m,), non-zero.
+        x_prime: :math:`X'`, its derivative, shape (m,).
+
+    Returns:
+        ``(A, A')``, each shape (m,).
+
+    Raises:
+        InvalidInput: ``X`` is zero (the direction is undefined) or inputs are not finite.
+    """
+    X = _finite("x", x)
+    Xp = _finite("x_prime", x_prime, X.shape)
+    n = float(np.linalg.norm(X))
+    if n <= 0.0:
+        raise InvalidInput("x: expected a non-zero vector (its direction is normalised), got 0")
+    a = X / n
+    return a, (Xp - a * float(a @ Xp)) / n
+
+
+def hessian_term(H: ArrayLike, T: ArrayLike) -> FloatArray:
+    r"""Eq. (2.8): :math:`[T^\top (\partial A/\partial R) T]_i = T^\top H_i T`.
+
+    Args:
+        H: ``H[i, k, j]`` :math:`= \partial A_{ij}/\partial R_k`, shape (m, n, n).
+        T: Tangent in the domain, shape (n,).
+
+    Returns:
+        Shape (m,).
+    """
+    Ha = np.asarray(H, dtype=float)
+    Ta = np.asarray(T, dtype=float)
+    return np.asarray(np.einsum("ikj,k,j->i", Ha, Ta, Ta), dtype=float)
+
+
+def map_tangent_curvature(
+    A: ArrayLike, T: ArrayLike, kN: ArrayLike, H: ArrayLike | None = None
+) -> tuple[FloatArray, FloatArray, float]:
+    r"""Map a unit tangent and curvature vector through a linear map :math:`A(R)` (module docs).
+
+    Args:
+        A: The map at the current point, shape (m, n).
+        T: Unit tangent in the domain, shape (n,).
+        kN: Curvature vector :math:`\kappa N = dT/ds` in the domain, shape (n,).
+        H: Its Hessian ``H[i, k, j]`` :math:`= \partial A_{ij}/\partial R_k`, shape (m, n, n);
+            ``None`` for a constant map.
+
+    Returns:
+        ``(t, kappa_n, gain)``: the unit tangent in the image, shape (m,); its curvature vector
+        (per unit arc length of the image), shape (m,); and :math:`|A T| = ds_A/ds`.
+
+    Raises:
+        InvalidInput: shapes disagree, non-finite input, or :math:`|A T| = 0` (the map is
+            singular along ``T``: the image does not move, so its direction is undefined).
+    """
+    Aa = _finite("A", A)
+    if Aa.ndim != 2:
+        raise InvalidInput(f"A: expected a matrix of shape (m, n), got shape {Aa.shape}")
+    m, n = Aa.shape
+    Ta = _finite("T", T, (n,))
+    kNa = _finite("kN", kN, (n,))
+    X = Aa @ Ta
+    gain = float(np.linalg.norm(X))
+    scale = float(np.linalg.norm(Aa)) or 1.0
+    if gain <= SINGULAR_TOL * scale:
+        raise InvalidInput(
+            f"|A T| = {gain:.3g}: the map is singular along T={Ta.tolist()} (the image does not "
+            "move, so its tangent is undefined); move away from the singular configuration"
+        )
+    Xp = Aa @ kNa
+    if H is not None:
+        Xp = Xp + hessian_term(_finite("H", H, (m, n, n)), Ta)
+    t, dt_ds = normalised_derivative(X, Xp)
+    return t, dt_ds / gain, gain
+
+
+def joint_from_ee(
+    J: ArrayLike, H: ArrayLike, T: ArrayLike, kN: ArrayLike
+) -> tuple[FloatArray, FloatArray, float]:
+    r"""C_EE → C_J, eqs. (2.5) and (2.7): :math:`T_J = JT/|JT|`, :math:`\kappa_J N_J`.
+
+    Args:
+        J: :math:`\delta q = J(R)\,\delta R`, shape (n, n).
+        H: Its Hessians (eq. 2.8), shape (n, n, n).
+        T: End-effector unit tangent, shape (n,).
+        kN: End-effector curvature vector, shape (n,).
+
+    Returns:
+        ``(T_J, kappa_J N_J, |J T|)``.
+    """
+    return map_tangent_curvature(J, T, kN, H)
+
+
+def coupling_from_joint(
+    S: ArrayLike, T_J: ArrayLike, kJNJ: ArrayLike
+) -> tuple[FloatArray, FloatArray, float]:
+    r"""C_J → Σ_i, eqs. (2.10) and (2.11): :math:`t_i = S_i T_J/|S_i T_J|`, :math:`\kappa_i n_i`.
+
+    Args:
+        S: Selection/ratio matrix of CVT i, :math:`\delta r_i = S_i\,\delta q` (eq. 2.9),
+            shape (2, n), constant.
+        T_J: Joint-space unit tangent, shape (n,).
+        kJNJ: Joint-space curvature vector, shape (n,).
+
+    Returns:
+        ``(t_i, kappa_i n_i, |S_i T_J|)``.
+    """
+    return map_tangent_curvature(S, T_J, kJNJ)
+
+
+def coupling_from_ee(
+    J_i: ArrayLike, H_i: ArrayLike, T: ArrayLike, kN: ArrayLike
+) -> tuple[FloatArray, FloatArray, float]:
+    r"""C_EE → Σ_i directly, eqs. (2.13) and (2.14), with :math:`J_i = S_i J` (eq. 2.12).
+
+    Args:
+        J_i: The CVT's Jacobian, :math:`\delta r_i = J_i\,\delta R`, shape (2, n).
+        H_i: Its Hessian ``H_i[a, k, j]`` :math:`= \partial (J_i)_{aj}/\partial R_k`,
+            shape (2, n, n).
+        T: End-effector unit tangent, shape (n,).
+        kN: End-effector curvature vector, shape (n,).
+
+    Returns:
+        ``(t_i, kappa_i n_i, |J_i T|)``.
+    """
+    return map_tangent_curvature(J_i, T, kN, H_i)
+
+
+def signed_curvature(t: FloatArray, kn: FloatArray) -> float:
+    r"""Signed planar curvature :math:`(W t)^\top (\kappa n)`, W the +90° rotation (eq. 2.19)."""
+    return float(-t[1] * kn[0] + t[0] * kn[1])
+
+
+def unit(x: FloatArray) -> FloatArray:
+    """``x / |x|`` (caller guarantees ``x != 0``)."""
+    return x / math.sqrt(float(x @ x))
