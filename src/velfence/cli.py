@@ -28,6 +28,7 @@ REPRODUCTIONS: dict[str, str] = {
     "wrist": "velfence.reproduce.wrist:run",
     "cospm": "velfence.reproduce.cospm:run",
     "obstacles": "velfence.reproduce.obstacles:run",
+    "cobot": "velfence.reproduce.cobot:run",
 }
 
 

@@ -58,7 +58,7 @@ FloatArray = NDArray[np.float64]
 
 #: |Λ| below this times the product of the Ω row norms means the CVTs do not fix a direction.
 LAMBDA_TOL = 1e-9
-#: Reciprocal condition number of J below this means J is singular.
+#: |det J| / |J|_F^n below this means J is singular.
 JACOBIAN_RCOND = 1e-9
 
 
@@ -391,30 +391,34 @@ class Cobot:
         t = self.directions(phi)
         R = self._kin.position(qa)
         J = self._kin.jacobian(R)
-        H = self._kin.hessian(R)
-        W = np.array([[0.0, -1.0], [1.0, 0.0]])
-        rows = []
-        for c, ti in zip(self._couplings, t, strict=True):
-            J_i, _ = c.maps(R, J, H)
-            # Ω row in C_J (eq. 2.21) when S_i is known; in C_EE (row · J) for direct couplings.
-            rows.append((W @ ti) @ (c.selection if self._all_selection else J_i))
-        Omega = np.array(rows)
-        Lam = generalised_cross(Omega)
+        rows = np.empty((self._n - 1, self._n))
+        if self._all_selection:  # Ω in C_J (eq. 2.21)
+            for i, c in enumerate(self._couplings):
+                S = c.selection if c.selection is not None else np.zeros((2, self._n))
+                rows[i] = S[1] * t[i, 0] - S[0] * t[i, 1]  # (W t_i)^T S_i
+        else:  # direct couplings: Ω in C_EE, rows (W t_i)^T J_i
+            H = self._kin.hessian(R)
+            for i, c in enumerate(self._couplings):
+                J_i, _ = c.maps(R, J, H)
+                rows[i] = J_i[1] * t[i, 0] - J_i[0] * t[i, 1]
+        Lam = generalised_cross(rows)
         zero = np.zeros(self._n)
-        scale = float(np.prod(np.linalg.norm(Omega, axis=1)))
-        if float(np.linalg.norm(Lam)) <= LAMBDA_TOL * max(scale, 1e-300):
+        scale = float(np.prod(np.sqrt(np.einsum("ij,ij->i", rows, rows))))
+        nL = math.sqrt(float(Lam @ Lam))
+        if nL <= LAMBDA_TOL * max(scale, 1e-300):
             return Heading(zero, zero.copy(), Lam, t, singular="lambda")
-        rcond = 1.0 / np.linalg.cond(J)
-        if not np.isfinite(rcond) or rcond < JACOBIAN_RCOND:
+        # |det J| / |J|_F^n is a cheap scale-free singularity measure (0 iff J is singular).
+        nJ = math.sqrt(float(np.einsum("ij,ij->", J, J)))
+        if not nJ > 0.0 or abs(float(np.linalg.det(J))) <= JACOBIAN_RCOND * nJ**self._n:
             return Heading(zero, zero.copy(), Lam, t, singular="jacobian")
         if self._all_selection:
-            T_J = Lam / np.linalg.norm(Lam)
+            T_J = Lam / nL
             x = np.linalg.solve(J, T_J)
-            T = x / np.linalg.norm(x)
+            T = x / math.sqrt(float(x @ x))
         else:
-            T = Lam / np.linalg.norm(Lam)
+            T = Lam / nL
             y = J @ T
-            T_J = y / np.linalg.norm(y)
+            T_J = y / math.sqrt(float(y @ y))
         ambiguous = reference is None
         if reference is not None:
             ref = _vec("reference", reference, self._n)

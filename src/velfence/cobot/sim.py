@@ -34,6 +34,7 @@ from numpy.typing import ArrayLike, NDArray
 from velfence.cobot.model import Cobot
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.shaping.base import check_choice, check_positive
+from velfence.sim.runner import Trajectory
 
 __all__ = [
     "CobotTrace",
@@ -123,6 +124,22 @@ class CobotTrace:
     def error_norm(self) -> FloatArray:
         r""":math:`|\Delta R|` per tick, shape (N,)."""
         return np.asarray(np.linalg.norm(self.error, axis=1), dtype=float)
+
+    def to_trajectory(self, v_cmd: ArrayLike | None = None) -> Trajectory:
+        """The run as a :class:`~velfence.sim.Trajectory` (for :mod:`velfence.sim.metrics`).
+
+        ``v_out`` is the realised velocity :math:`(R_{k+1} - R_k)/(t_{k+1} - t_k)` (the last row
+        repeats); ``v_cmd`` defaults to it (e.g. pass the human's intent instead).
+        """
+        if self.t.shape[0] >= 2:
+            v = np.diff(self.R, axis=0) / np.diff(self.t)[:, None]
+            v = np.vstack([v, v[-1:]])
+        else:
+            v = np.zeros_like(self.R)
+        zone = self.zone if len(self.zone) == self.t.shape[0] else None
+        return Trajectory(
+            self.t, self.R, v if v_cmd is None else v_cmd, v, zone=zone, name=self.name
+        )
 
     def at_arc_length(self, s: ArrayLike) -> FloatArray:
         """Positions R interpolated at arc lengths ``s`` [m], shape (M, n)."""

@@ -53,6 +53,9 @@ class CasterWall(ShaperBase):
     Args:
         polygon: The permitted workspace (corners or a :class:`ConvexPolygon`).
         buffer: Width of the band inside the wall where the direction starts turning [m], > 0.
+        recovery_gain: Outside the wall, tilt the allowed direction inward as the exact shaper's
+            recovery floor ``k·penetration`` would [1/s], >= 0 (0: no tilt). The device still
+            only moves when and as fast as the human pushes along that direction.
         on_invalid: ``"raise"`` (default) or ``"stop"`` (zero velocity) for non-finite input.
 
     Zones, edges and distances are those of the underlying exact shaper.
@@ -62,12 +65,18 @@ class CasterWall(ShaperBase):
     method = "caster-wall"
 
     def __init__(
-        self, polygon: ConvexPolygon | ArrayLike, *, buffer: float, on_invalid: str = "raise"
+        self,
+        polygon: ConvexPolygon | ArrayLike,
+        *,
+        buffer: float,
+        recovery_gain: float = 0.0,
+        on_invalid: str = "raise",
     ) -> None:
         super().__init__(on_invalid=on_invalid)
         self.polygon = as_polygon(polygon)
         self.buffer = check_positive("buffer", buffer, unit="m")
-        self._inner = PolygonShaper(self.polygon, buffer=self.buffer, method="exact")
+        k = check_positive("recovery_gain", recovery_gain, allow_zero=True, unit="1/s")
+        self._inner = PolygonShaper(self.polygon, buffer=self.buffer, spring_gain=k, method="exact")
 
     @property
     def shaper(self) -> PolygonShaper:
@@ -123,6 +132,10 @@ class WallSteering:
         wall: The caster-mode wall.
         intent: The human's intended velocity ``(t, R) -> v_h`` [m/s], shape (2,).
         gain: Steering gain g [1/m] (heading lag of 1/g metres of travel), > 0.
+        lookahead: The wall is evaluated at :math:`R + T\,\lambda/g`, λ lag lengths ahead
+            along the heading, so the lagging heading turns early (0: at R, the plain law). With
+            g = 30 /m, 1 lag length still cut 7.7 mm past a 103° corner in the cobot
+            reproduction; 2 kept the cart inside (measured, ``velfence reproduce cobot``).
     """
 
     def __init__(
@@ -131,12 +144,14 @@ class WallSteering:
         intent: Callable[[float, FloatArray], ArrayLike],
         *,
         gain: float = 20.0,
+        lookahead: float = 2.0,
     ) -> None:
         if not isinstance(wall, CasterWall):
             raise InvalidParameter(f"wall: expected a CasterWall, got {wall!r}")
         self.wall = wall
         self.intent = intent
         self.gain = check_positive("gain", gain, unit="1/m")
+        self.lookahead = check_positive("lookahead", lookahead, allow_zero=True)
 
     def step(
         self, R: ArrayLike, T: ArrayLike, ds: float, t: float | None = None
@@ -145,7 +160,7 @@ class WallSteering:
         Ra = np.asarray(R, dtype=float)
         Ta = np.asarray(T, dtype=float)
         vh = np.asarray(self.intent(0.0 if t is None else float(t), Ra), dtype=float)
-        r = self.wall.explain(Ra, vh)
+        r = self.wall.explain(Ra + Ta * (self.lookahead / self.gain), vh)
         out = r.output
         n = float(np.linalg.norm(out))
         target = out / n if n > 0.0 else np.zeros(2)
