@@ -59,12 +59,19 @@ def _baseline(kind: str) -> Factory:
     return make
 
 
+def _caster_wall(**overrides: Any) -> Any:
+    from velfence.cobot import CasterWall
+
+    return CasterWall(POLYGON, **{"buffer": 0.2, **overrides})
+
+
 FACTORIES: list[tuple[str, Factory]] = [
     ("polygon-patent", _polygon_shaper("patent")),
     ("polygon-exact", _polygon_shaper("exact")),
     ("baseline-none", _baseline("none")),
     ("baseline-hard-stop", _baseline("hard-stop")),
     ("baseline-axis-limits", _baseline("axis-limits")),
+    ("cobot-caster-wall", _caster_wall),
 ]
 
 IDS = [name for name, _ in FACTORIES]

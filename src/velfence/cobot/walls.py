@@ -86,8 +86,9 @@ class CasterWall(ShaperBase):
     def _law(self, px: float, py: float, vx: float, vy: float) -> KernelOut:
         r = self._inner._law(px, py, vx, vy)
         sx, sy = r[0], r[1]
-        ns = math.hypot(sx, sy)
-        if ns <= _BLOCKED * (1.0 + math.hypot(vx, vy)):
+        # sqrt of the sum of squares (not hypot) so that the batch path rounds identically.
+        ns = math.sqrt(sx * sx + sy * sy)
+        if ns <= _BLOCKED * (1.0 + math.sqrt(vx * vx + vy * vy)):
             ox = oy = 0.0
         else:
             lx, ly = sx / ns, sy / ns
@@ -97,8 +98,8 @@ class CasterWall(ShaperBase):
 
     def _law_batch(self, P: FloatArray, V: FloatArray) -> tuple[FloatArray, IntArray]:
         S, zones = self._inner._law_batch(P, V)
-        ns = np.hypot(S[:, 0], S[:, 1])
-        blocked = ns <= _BLOCKED * (1.0 + np.hypot(V[:, 0], V[:, 1]))
+        ns = np.sqrt(S[:, 0] * S[:, 0] + S[:, 1] * S[:, 1])
+        blocked = ns <= _BLOCKED * (1.0 + np.sqrt(V[:, 0] * V[:, 0] + V[:, 1] * V[:, 1]))
         L = S / np.where(blocked, 1.0, ns)[:, None]
         u = np.maximum(0.0, L[:, 0] * V[:, 0] + L[:, 1] * V[:, 1])
         out = np.where(blocked[:, None], 0.0, u[:, None] * L)
