@@ -249,6 +249,27 @@ class ControlCycleRow:
 
 
 @dataclass(frozen=True)
+class StepRow:
+    """One step of a controller other than a shaper (cobot path following, resolved rate).
+
+    Attributes:
+        family: Source and controller, e.g. ``"cobot (Gillespie 1999)"``.
+        step: What one call does.
+        median_us: Median latency, µs.
+        p99_us: 99th percentile, µs.
+        baseline: Name of the row this one is compared with (``""`` for none).
+        ratio: ``median_us`` over the baseline's median (``nan`` without a baseline).
+    """
+
+    family: str
+    step: str
+    median_us: float
+    p99_us: float
+    baseline: str = ""
+    ratio: float = math.nan
+
+
+@dataclass(frozen=True)
 class WorstZone:
     """The zone with the largest median latency for one (polygon, method).
 
@@ -377,6 +398,7 @@ class BenchReport:
         notes: Skipped pieces and other remarks.
         stops: Per-call latency of the joint-stop limiter, per method and zone.
         control: One obstacle-avoidance control cycle per arm size and obstacle count.
+        steps: One step of the other controllers (cobot path following, resolved rate).
     """
 
     settings: BenchSettings
@@ -390,6 +412,7 @@ class BenchReport:
     notes: tuple[str, ...] = field(default=())
     stops: tuple[StopLatencyRow, ...] = field(default=())
     control: tuple[ControlCycleRow, ...] = field(default=())
+    steps: tuple[StepRow, ...] = field(default=())
 
     def to_dict(self) -> dict[str, Any]:
         """Plain dicts, lists, strings and numbers (``json.dumps``-able)."""
@@ -763,6 +786,58 @@ def _control_cycles(s: BenchSettings, step: _Steps, qp_ok: bool) -> list[Control
     return rows
 
 
+def _cobot_steps(s: BenchSettings, step: _Steps) -> list[StepRow]:
+    """One tick of cobot path following (Gillespie et al. 1999) on the r-θ cobot."""
+    from velfence.cobot import CasterWall, PathFollower, r_theta_cobot
+    from velfence.geometry.paths import Circle
+
+    step("cobot path following")
+    rng = np.random.default_rng(s.seed + 3)
+    cob = r_theta_cobot()
+    follower = PathFollower(Circle([0.0, 0.0], 1.0), gains=(4.0, 4.0))
+    calls = max(200, s.calls // 20)
+    states = []
+    for _ in range(16):
+        ang = rng.uniform(0, 2 * math.pi)
+        R = (1.0 + rng.uniform(-0.2, 0.2)) * np.array([math.cos(ang), math.sin(ang)])
+        h = rng.uniform(0, 2 * math.pi)
+        T = np.array([math.cos(h), math.sin(h)])
+        q = cob.kinematics.joints(R)
+        phi = cob.steering_angles(R, T)
+        states.append((R, T, q, phi))
+    fam = "cobot (Gillespie 1999)"
+
+    def follow(R: FloatArray, T: FloatArray) -> Any:
+        return follower.evaluate(R, T, s_p=0.3, sp_d=1.0)
+
+    def steer(R: FloatArray, T: FloatArray) -> Any:
+        return cob.steering_rates(R, np.zeros(1), T, np.array([-T[1], T[0]]) * 0.7, 1.0)
+
+    def forward(q: FloatArray, phi: FloatArray) -> Any:
+        return cob.heading(q, phi, reference=np.ones(2))
+
+    def tick(q: FloatArray, phi: FloatArray) -> Any:
+        hd = cob.heading(q, phi, reference=np.ones(2))
+        R = cob.kinematics.position(q)
+        out = follower.evaluate(R, hd.T, s_p=0.3, sp_d=1.0)
+        return cob.steering_rates(R, phi, hd.T, out.kN, 1.0)
+
+    wall = CasterWall(regular_polygon(8), buffer=0.2)
+    rows = []
+    for name, fn, pool in (
+        ("path follower (eqs. 3.1-3.8): R, T -> κN", follow, [(a, b) for a, b, _, _ in states]),
+        ("steering (eqs. 2.13, 2.14, 2.18): κN -> φ̇", steer, [(a, b) for a, b, _, _ in states]),
+        ("forward transformation (eqs. 2.17-2.24): q, φ -> T", forward,
+         [(c, d) for _, _, c, d in states]),
+        ("whole tick: heading + follower + steering", tick, [(c, d) for _, _, c, d in states]),
+        ("CasterWall.shape (8-gon, passive virtual wall)", wall.shape,
+         [(0.8 * a / np.linalg.norm(a), b) for a, b, _, _ in states]),
+    ):  # fmt: skip
+        med, p99, _ = _stats_us(_time_shape(fn, pool, calls, 2))
+        rows.append(StepRow(fam, name, med, p99))
+    return rows
+
+
 def _max_error(shaper: Any, pool: Sequence[tuple[FloatArray, FloatArray]], xs: list[Any]) -> float:
     err = 0.0
     for (p, v), x in zip(pool, xs, strict=True):
@@ -958,7 +1033,7 @@ def run_benchmarks(*, quick: bool = False, progress: Progress | None = None) -> 
     if not qp_ok:
         notes.append("qpsolvers or daqp is not installed: the QP baseline is skipped.")
     n_batch = len(s.batch_edges) * 2 * (2 if numba_ok else 1)
-    step = _Steps(progress, 12 + 2 * len(s.latency_edges) + len(s.latency_edges) * qp_ok + n_batch)
+    step = _Steps(progress, 13 + 2 * len(s.latency_edges) + len(s.latency_edges) * qp_ok + n_batch)
 
     step("states and timer overhead")
     rng = np.random.default_rng(s.seed)
@@ -981,6 +1056,7 @@ def run_benchmarks(*, quick: bool = False, progress: Progress | None = None) -> 
     batch = _batch(s, numba_ok, step)
     stops = _stop_latency(s, step)
     control = _control_cycles(s, step, qp_ok)
+    steps = _cobot_steps(s, step)
     if progress is not None:
         progress("done", 1.0)
     return BenchReport(
@@ -995,6 +1071,7 @@ def run_benchmarks(*, quick: bool = False, progress: Progress | None = None) -> 
         notes=tuple(notes),
         stops=tuple(stops),
         control=tuple(control),
+        steps=tuple(steps),
     )
 
 
@@ -1208,6 +1285,28 @@ def _markdown(r: BenchReport) -> str:
                     for x in r.control
                 ],
                 "lrrlrrr",
+            )
+        )
+    if r.steps:
+        out.append("## One step of the other controllers")
+        out.append(
+            "Per call, Python + NumPy, one thread; `ratio` is the median over the named baseline's."
+        )
+        out.append(
+            _table(
+                ["family", "step", "median µs", "p99 µs", "baseline", "ratio"],
+                [
+                    [
+                        x.family,
+                        x.step,
+                        _f(x.median_us, 1),
+                        _f(x.p99_us, 1),
+                        x.baseline or "—",
+                        "—" if math.isnan(x.ratio) else _f(x.ratio, 2),
+                    ]
+                    for x in r.steps
+                ],
+                "llrrlr",
             )
         )
     if r.notes:

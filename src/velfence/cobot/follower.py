@@ -242,9 +242,7 @@ class PathFollower:
         Ta = Ta / nT
         sp = self._sp if s_p is None else self._finite("s_p", s_p)
         spd = self._spd if sp_d is None else self._finite("sp_d", sp_d)
-        Rp = self._path.point(sp)
-        Tp = self._path.tangent(sp)
-        kpNp = self._path.curvature(sp)
+        Rp, Tp, kpNp = self._path.frame(sp)
         e = Ra - Rp  # (3.1)
         ed = Ta - spd * Tp  # (3.2)
         v = -(self._k1 * e + self._k2 * ed)  # (3.8)

@@ -413,11 +413,11 @@ class Cobot:
             return Heading(zero, zero.copy(), Lam, t, singular="jacobian")
         if self._all_selection:
             T_J = Lam / nL
-            x = np.linalg.solve(J, T_J)
+            x = np.asarray(np.linalg.solve(J, T_J), dtype=float)
             T = x / math.sqrt(float(x @ x))
         else:
             T = Lam / nL
-            y = J @ T
+            y = np.asarray(J @ T, dtype=float)
             T_J = y / math.sqrt(float(y @ y))
         ambiguous = reference is None
         if reference is not None:

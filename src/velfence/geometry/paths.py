@@ -82,6 +82,10 @@ class Path(Protocol):
         r"""Curvature vector :math:`\kappa_p N_p(s) = dT_p/ds`, shape (n,) [1/m]."""
         ...
 
+    def frame(self, s: float) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """``(point, tangent, curvature)`` at ``s``, each shape (n,)."""
+        ...
+
     def points(self, S: ArrayLike) -> FloatArray:
         """:math:`R_p` at many arc lengths, shape (N,) -> (N, n)."""
         ...
@@ -213,6 +217,21 @@ class _PathBase:
         if self._closed:
             return np.asarray(np.mod(S, self._length), dtype=float)
         return np.clip(S, 0.0, self._length)
+
+    def frame(self, s: float) -> tuple[FloatArray, FloatArray, FloatArray]:
+        r"""Point, unit tangent and curvature vector at ``s`` in one evaluation.
+
+        The same values as :meth:`point`, :meth:`tangent` and :meth:`curvature` (what the path
+        follower needs every tick).
+
+        Args:
+            s: Arc length [m].
+
+        Returns:
+            ``(R_p, T_p, κ_p N_p)``, each shape (n,).
+        """
+        P, T, K = self._frames(self._normalise(np.array([_arc("s", s)])))
+        return P[0], T[0], K[0]
 
     def point(self, s: float) -> FloatArray:
         """The point :math:`R_p(s)` (source 004, eq. 3.1).

@@ -298,7 +298,7 @@ def run(out_dir: str | Path = "out/reproduce/cobot") -> Report:
 
     walls = wall_runs()
     dt_w = float(walls.caster.t[1] - walls.caster.t[0])
-    for tr, lim, note in (
+    for wt, lim, note in (
         (walls.actuated, 1e-9, "exact polygon shaper (actuated: brakes in the buffer)"),
         (
             walls.caster,
@@ -310,20 +310,20 @@ def run(out_dir: str | Path = "out/reproduce/cobot") -> Report:
     ):
         checks.append(
             check_at_most(
-                f"virtual wall, {tr.name}: max penetration [m]",
+                f"virtual wall, {wt.name}: max penetration [m]",
                 "issue 5 item 7",
                 lim,
-                max_penetration(tr, WALL_POLYGON),
+                max_penetration(wt, WALL_POLYGON),
                 note=note,
             )
         )
-    for tr in (walls.caster, walls.cobot):
+    for wt in (walls.caster, walls.cobot):
         checks.append(
             check_at_least(
-                f"virtual wall, {tr.name}: sliding ratio along the wall",
+                f"virtual wall, {wt.name}: sliding ratio along the wall",
                 "issue 5 item 7",
                 0.9,
-                sliding_ratio(tr, WALL_POLYGON, band=WALL_BUFFER),
+                sliding_ratio(wt, WALL_POLYGON, band=WALL_BUFFER),
                 note="tangential progress made over tangential progress intended at the wall",
             )
         )
