@@ -13,6 +13,8 @@ SUBPACKAGES = [
     "velfence.io",
     "velfence.redundancy",
     "velfence.viz",
+    "velfence.cobot",
+    "velfence.teleop",
 ]
 
 

@@ -3,9 +3,18 @@
 ``v_out = shape(state, v_cmd)`` every control cycle. See ``docs/`` for the derivations of every law.
 """
 
+from velfence.cobot import CasterWall, Cobot, PathFollower
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter, VelfenceError
 from velfence.geometry import ConvexPolygon, Rectangle, decompose, inscribed_rectangle
-from velfence.mechanisms import CoSPM, CoSPMDesign, DHChain, PlanarArm, Wrist, WristGeometry
+from velfence.mechanisms import (
+    CoSPM,
+    CoSPMDesign,
+    DHChain,
+    PlanarArm,
+    Puma560,
+    Wrist,
+    WristGeometry,
+)
 from velfence.redundancy import ConfigurationController, Obstacle, VelocityDamperQP
 from velfence.shaping import (
     STAGE_NAMES,
@@ -36,8 +45,10 @@ __all__ = [
     "ZONE_NAMES",
     "ApproachProfile",
     "AxisLimits",
+    "CasterWall",
     "CoSPM",
     "CoSPMDesign",
+    "Cobot",
     "ConfigurationController",
     "ConvexPolygon",
     "DHChain",
@@ -49,8 +60,10 @@ __all__ = [
     "LinearBuffer",
     "NoLimit",
     "Obstacle",
+    "PathFollower",
     "PlanarArm",
     "PolygonShaper",
+    "Puma560",
     "RateLimiter",
     "Rectangle",
     "Shaper",

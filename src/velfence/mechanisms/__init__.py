@@ -34,6 +34,7 @@ from velfence.mechanisms.cospm import (
     validate_region,
     workspace_map,
 )
+from velfence.mechanisms.puma560 import Puma560
 from velfence.mechanisms.wrist import LIMIT_NAMES, Wrist, WristGeometry
 
 __all__ = [
@@ -45,6 +46,7 @@ __all__ = [
     "CoSPMDesign",
     "DHChain",
     "PlanarArm",
+    "Puma560",
     "RegionReport",
     "SerialChain",
     "SingularGrid",
