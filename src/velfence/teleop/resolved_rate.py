@@ -1,0 +1,543 @@
+r"""Resolved-rate motion: joint rates from a Cartesian twist, with the singularity-robust inverse.
+
+Khokar 2009 (source 002) drives the PUMA 560 in every mode by resolved rate (§4.4.2, eq. 32):
+
+.. math:: \dot q = J^{-1}(q)\,\dot x, \qquad \dot x = [v;\ \omega] \in \mathbb R^6,
+
+with :math:`J` the base-frame geometric Jacobian of the end-effector frame. Near singularities it
+replaces :math:`J^{-1}` by Nakamura's singularity-robust (SR) inverse (§5.3, eqs. 33, 36, 37):
+
+.. math::
+
+    w = \sqrt{\det(J J^\top)}, \qquad
+    J^{*} = J^\top (J J^\top + k I)^{-1}, \qquad
+    k = \begin{cases} k_0 (1 - w/w_0)^2 & w < w_0 \\ 0 & w \ge w_0 \end{cases}
+
+with the thesis's final values :math:`k_0 = 0.025`, :math:`w_0 = 0.014`. For a square
+:math:`J`, :math:`w = |\det J|`; at :math:`k = 0` the SR inverse equals :math:`J^{-1}`, and
+for :math:`k > 0` every singular value of :math:`J^{*}` is
+:math:`\sigma/(\sigma^2 + k) \le 1/(2\sqrt k)`, so the joint rates stay bounded at and through a
+singularity (at the price of a Cartesian error).
+
+This module also holds the project's one implementation of rotation matrix ↔ equivalent
+angle-axis (Craig §2.8; the thesis's via-point subroutine, §6.2.1, corrected as in the reading
+notes §7 items 15-18) and the pose-error twist used by the self-correcting trajectory executor.
+Derivations: ``docs/telerobotics.md``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from velfence._arrays import readonly
+from velfence.errors import InvalidInput, InvalidParameter
+from velfence.shaping.base import InvalidPolicy, check_choice, check_positive
+
+__all__ = [
+    "K0",
+    "W0",
+    "JacobianArm",
+    "RateResult",
+    "ResolvedRate",
+    "angle_axis",
+    "damping",
+    "manipulability_of",
+    "pose_error",
+    "rotation_from_angle_axis",
+    "rotation_vector",
+    "sr_inverse",
+]
+
+FloatArray = NDArray[np.float64]
+
+K0 = 0.025
+"""Khokar 2009 §5.3-5.4: damping at the singular point, :math:`k_0` (units of :math:`J J^\\top`)."""
+W0 = 0.014
+"""Khokar 2009 §5.3-5.4: manipulability at the border of the damped neighbourhood, :math:`w_0`."""
+
+#: Largest tolerated deviation of ``RᵀR`` from the identity (and of ``det R`` from 1).
+ROTATION_TOL = 1e-6
+
+
+@runtime_checkable
+class JacobianArm(Protocol):
+    """What resolved rate needs of an arm: its base-frame geometric Jacobian."""
+
+    def jacobian(self, q: ArrayLike) -> FloatArray:
+        """Jacobian ``[v; ω] = J(q) q̇`` in the base frame, shape (6, n) ([m/rad; 1])."""
+        ...
+
+
+# --------------------------------------------------------------------------------------------
+# Rotations: equivalent angle-axis
+# --------------------------------------------------------------------------------------------
+
+
+def _matrix(name: str, x: ArrayLike, shape: tuple[int, int]) -> FloatArray:
+    try:
+        a = np.array(x, dtype=float)
+    except (TypeError, ValueError):
+        raise InvalidInput(f"{name}: expected numbers of shape {shape}, got {x!r}") from None
+    if a.shape != shape:
+        raise InvalidInput(f"{name}: expected shape {shape}, got shape {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise InvalidInput(f"{name}: expected finite values, got {a.tolist()}")
+    return a
+
+
+def _rotation(name: str, R: ArrayLike) -> FloatArray:
+    """A validated rotation matrix (orthonormal, det +1 within ``ROTATION_TOL``)."""
+    a = _matrix(name, R, (3, 3))
+    dev = float(np.max(np.abs(a.T @ a - np.eye(3))))
+    det = float(np.linalg.det(a))
+    if dev > ROTATION_TOL or abs(det - 1.0) > ROTATION_TOL:
+        raise InvalidInput(
+            f"{name}: expected a rotation matrix (RᵀR = I and det R = +1 within "
+            f"{ROTATION_TOL:g}), got max|RᵀR - I| = {dev:.3g}, det R = {det:.6g}; "
+            "re-orthonormalise it (e.g. via an SVD) first"
+        )
+    return a
+
+
+def angle_axis(R: ArrayLike) -> tuple[FloatArray, float]:
+    r"""Equivalent angle-axis of a rotation matrix (Craig eq. 2.81; Khokar 2009 §6.2.1).
+
+    :math:`\phi = \operatorname{atan2}(\lVert v\rVert, \operatorname{tr}R - 1)` with
+    :math:`v = (r_{32} - r_{23},\ r_{13} - r_{31},\ r_{21} - r_{12}) = 2\sin\phi\,k`. For
+    :math:`\phi < \pi/2` the axis is :math:`v / \lVert v\rVert`; for larger angles, where
+    :math:`v` loses precision, it is read from the symmetric part
+    :math:`(R + R^\top)/2 - \cos\phi\,I = (1 - \cos\phi)\,k k^\top` (column of the largest
+    diagonal entry, the thesis's "largest component" branch with magnitudes compared), with the
+    sign of :math:`v`. At :math:`\phi = 0` the axis is :math:`(0, 0, 1)` as in the thesis; at
+    :math:`\phi = \pi` (where :math:`\pm k` give the same rotation) the sign makes the largest
+    component positive.
+
+    Args:
+        R: Rotation matrix, shape (3, 3).
+
+    Returns:
+        ``(k, phi)``: unit axis, shape (3,), and angle :math:`\phi \in [0, \pi]` [rad], with
+        ``rotation_from_angle_axis(k, phi) == R``.
+
+    Raises:
+        InvalidInput: ``R`` is not a finite rotation matrix.
+    """
+    Ra = _rotation("R", R)
+    v = np.array((Ra[2, 1] - Ra[1, 2], Ra[0, 2] - Ra[2, 0], Ra[1, 0] - Ra[0, 1]))
+    s = float(np.linalg.norm(v))
+    c = float(np.trace(Ra)) - 1.0
+    phi = math.atan2(s, c)
+    if s == 0.0 and c > 0.0:
+        return np.array((0.0, 0.0, 1.0)), 0.0
+    if phi < 0.5 * math.pi:
+        return v / s, phi
+    B = 0.5 * (Ra + Ra.T) - math.cos(phi) * np.eye(3)
+    i = int(np.argmax(np.diag(B)))
+    k = B[:, i] / float(np.linalg.norm(B[:, i]))
+    ref = float(k @ v)
+    if ref < 0.0 or (ref == 0.0 and k[int(np.argmax(np.abs(k)))] < 0.0):
+        k = -k
+    return k, phi
+
+
+def rotation_from_angle_axis(axis: ArrayLike, angle: float) -> FloatArray:
+    r"""Rotation by ``angle`` about ``axis`` (Rodrigues; the thesis's ``dR``, §6.2.1).
+
+    .. math:: R = I + \sin\theta\,[k]_\times + (1 - \cos\theta)\,[k]_\times^2.
+
+    Args:
+        axis: Rotation axis, shape (3,), any non-zero length (it is normalised).
+        angle: Rotation angle [rad], finite.
+
+    Returns:
+        Rotation matrix, shape (3, 3).
+
+    Raises:
+        InvalidInput: the axis is zero or not finite, or the angle is not finite.
+    """
+    k = _vector("axis", axis, 3)
+    n = float(np.linalg.norm(k))
+    if n == 0.0:
+        raise InvalidInput("axis: expected a non-zero vector of shape (3,), got (0, 0, 0)")
+    k = k / n
+    try:
+        th = float(angle)
+    except (TypeError, ValueError):
+        raise InvalidInput(f"angle: expected a finite number [rad], got {angle!r}") from None
+    if not math.isfinite(th):
+        raise InvalidInput(f"angle: expected a finite number [rad], got {angle!r}")
+    K = np.array(((0.0, -k[2], k[1]), (k[2], 0.0, -k[0]), (-k[1], k[0], 0.0)))
+    R: FloatArray = np.eye(3) + math.sin(th) * K + (1.0 - math.cos(th)) * (K @ K)
+    return R
+
+
+def rotation_vector(R: ArrayLike) -> FloatArray:
+    r"""Rotation vector :math:`\phi\,k` of ``R`` (see :func:`angle_axis`), shape (3,) [rad]."""
+    k, phi = angle_axis(R)
+    return phi * k
+
+
+def _vector(name: str, x: ArrayLike, n: int) -> FloatArray:
+    try:
+        a = np.array(x, dtype=float)
+    except (TypeError, ValueError):
+        raise InvalidInput(f"{name}: expected numbers of shape ({n},), got {x!r}") from None
+    if a.shape != (n,):
+        raise InvalidInput(f"{name}: expected shape ({n},), got shape {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise InvalidInput(f"{name}: expected finite values, got {a.tolist()}")
+    return a
+
+
+def _pose(name: str, T: ArrayLike) -> FloatArray:
+    """A validated homogeneous transform, shape (4, 4)."""
+    a = _matrix(name, T, (4, 4))
+    if not np.array_equal(a[3], (0.0, 0.0, 0.0, 1.0)):
+        raise InvalidInput(f"{name}: expected the bottom row [0, 0, 0, 1], got {a[3].tolist()}")
+    _rotation(f"{name}[:3, :3]", a[:3, :3])
+    return a
+
+
+ORIENTATION_ERRORS = ("angle_axis", "cross")
+
+
+def pose_error(T: ArrayLike, T_target: ArrayLike, *, orientation: str = "angle_axis") -> FloatArray:
+    r"""Displacement twist from pose ``T`` to pose ``T_target``, in the base frame.
+
+    Position part :math:`p_t - p`. Orientation part, selectable:
+
+    * ``"angle_axis"`` (default, exact): the rotation vector :math:`\phi k` of
+      :math:`R_t R^\top`, i.e. the base-frame axis and angle that carry :math:`R` onto
+      :math:`R_t` (valid up to :math:`\phi = \pi`);
+    * ``"cross"`` (faithful, Khokar 2009 §6.2.1 step 11):
+      :math:`\tfrac12(n \times n_t + o \times o_t + a \times a_t) = \sin\phi\,k`, which equals
+      the angle-axis form to first order and is what the thesis feeds to resolved rate; it
+      shrinks again beyond :math:`\pi/2` and vanishes at :math:`\pi`.
+
+    Args:
+        T: Current pose, shape (4, 4) (rotation ``[n o a]``, position ``p``) [m].
+        T_target: Target pose, shape (4, 4) [m].
+        orientation: ``"angle_axis"`` or ``"cross"``.
+
+    Returns:
+        ``[dp; dθ]``, shape (6,), [m; rad]. Divided by a time step it is the twist ``[v; ω]``
+        that resolved rate turns into joint rates.
+
+    Raises:
+        InvalidInput: either pose is not a finite homogeneous transform with a rotation block.
+        InvalidParameter: unknown ``orientation``.
+    """
+    how = check_choice("orientation", orientation, ORIENTATION_ERRORS)
+    a = _pose("T", T)
+    b = _pose("T_target", T_target)
+    out = np.empty(6)
+    out[:3] = b[:3, 3] - a[:3, 3]
+    if how == "angle_axis":
+        out[3:] = rotation_vector(b[:3, :3] @ a[:3, :3].T)
+    else:
+        out[3:] = 0.5 * np.cross(a[:3, :3].T, b[:3, :3].T).sum(axis=0)
+    return out
+
+
+# --------------------------------------------------------------------------------------------
+# Manipulability, damping, SR inverse
+# --------------------------------------------------------------------------------------------
+
+
+def _jacobian(J: ArrayLike) -> FloatArray:
+    try:
+        a = np.array(J, dtype=float)
+    except (TypeError, ValueError):
+        raise InvalidInput(f"J: expected a 2-D array of numbers (m, n), got {J!r}") from None
+    if a.ndim != 2 or a.shape[0] == 0 or a.shape[1] == 0:
+        raise InvalidInput(f"J: expected a non-empty 2-D array (m, n), got shape {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise InvalidInput("J: expected finite entries, got NaN or inf; check the joint angles")
+    return a
+
+
+def manipulability_of(J: ArrayLike) -> float:
+    r"""Yoshikawa's manipulability :math:`w = \sqrt{\det(J J^\top)}` (Khokar 2009 eq. 33).
+
+    Computed as :math:`|\det J|` when ``J`` is square (the same number, one factorisation).
+
+    Args:
+        J: Jacobian, shape (m, n), m <= n for a non-zero value.
+
+    Returns:
+        :math:`w \ge 0` (units: product of the singular values of ``J``; m³ for the PUMA's
+        6×6 [m/rad; 1] Jacobian).
+    """
+    a = _jacobian(J)
+    if a.shape[0] == a.shape[1]:
+        return abs(float(np.linalg.det(a)))
+    return math.sqrt(max(float(np.linalg.det(a @ a.T)), 0.0))
+
+
+def damping(w: float, *, k0: float = K0, w0: float = W0) -> float:
+    r"""Adaptive damping of the SR inverse, Khokar 2009 eq. 37 (after Nakamura).
+
+    .. math:: k = k_0 (1 - w/w_0)^2 \ \text{if } w < w_0, \qquad k = 0 \ \text{otherwise}.
+
+    Args:
+        w: Manipulability, ``>= 0`` (same units as ``w0``).
+        k0: Damping at the singular point ``w = 0``, ``> 0`` (units of :math:`J J^\top`).
+        w0: Manipulability at the border of the damped neighbourhood, ``> 0``.
+
+    Returns:
+        ``k`` in ``[0, k0]``: ``k0`` at ``w = 0``, ``k0/4`` at ``w0/2``, 0 from ``w0`` on.
+
+    Raises:
+        InvalidInput: ``w`` is negative or not finite.
+        InvalidParameter: ``k0`` or ``w0`` is not a finite positive number.
+    """
+    k0f = check_positive("k0", k0)
+    w0f = check_positive("w0", w0)
+    try:
+        wf = float(w)
+    except (TypeError, ValueError):
+        raise InvalidInput(f"w: expected a finite manipulability >= 0, got {w!r}") from None
+    if not (math.isfinite(wf) and wf >= 0.0):
+        raise InvalidInput(f"w: expected a finite manipulability >= 0, got {w!r}")
+    if wf >= w0f:
+        return 0.0
+    return k0f * (1.0 - wf / w0f) ** 2
+
+
+def sr_inverse(J: ArrayLike, k: float) -> FloatArray:
+    r"""Singularity-robust inverse :math:`J^\top (J J^\top + k I)^{-1}` (Khokar 2009 eq. 36).
+
+    At ``k = 0`` this is :math:`J^{-1}` for a square, non-singular ``J`` (the right
+    pseudo-inverse for a wide full-rank one); for ``k > 0`` it is defined for every ``J`` and
+    its 2-norm is at most :math:`1/(2\sqrt k)`.
+
+    Args:
+        J: Jacobian, shape (m, n).
+        k: Damping, finite and ``>= 0`` (units of :math:`J J^\top`).
+
+    Returns:
+        The inverse, shape (n, m).
+
+    Raises:
+        InvalidInput: ``J`` is not a finite 2-D array, or ``k = 0`` and ``J Jᵀ`` is singular.
+        InvalidParameter: ``k`` is negative or not finite.
+    """
+    a = _jacobian(J)
+    kf = check_positive("k", k, allow_zero=True)
+    A = a @ a.T + kf * np.eye(a.shape[0])
+    X: FloatArray | None
+    try:
+        X = np.asarray(np.linalg.solve(A, a), dtype=float)
+    except np.linalg.LinAlgError:
+        X = None
+    if X is None or not np.all(np.isfinite(X)):
+        raise InvalidInput(
+            f"J Jᵀ + k I is singular at k = {kf:g} (manipulability w = {manipulability_of(a):.3g});"
+            " expected k > 0 at a singular Jacobian"
+        )
+    out: FloatArray = X.T
+    return out
+
+
+# --------------------------------------------------------------------------------------------
+# Resolved rate
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class RateResult:
+    r"""One resolved-rate step with its diagnostics.
+
+    Attributes:
+        qdot: Joint rates sent on [rad/s], shape (n,), read-only; never non-finite (zero when
+            ``stopped``).
+        w: Manipulability :math:`\sqrt{\det(J J^\top)}` at ``q`` (NaN only when the input
+            was not finite and the step stopped).
+        det: Signed :math:`\det J` for a square Jacobian (the thesis plots it for
+            :math:`J^{-1}` runs), NaN for a non-square one.
+        k: Damping used (0 for ``inverse="jinv"`` and outside the damped neighbourhood).
+        singular: ``True`` when ``w <= singular_tol``: :math:`J^{-1}` is refused there.
+        scale: Factor in ``(0, 1]`` applied by ``max_joint_speed`` (1 when not limiting).
+        stopped: ``True`` when ``on_invalid="stop"`` turned a refused step into zero rates.
+    """
+
+    qdot: FloatArray
+    w: float
+    det: float
+    k: float
+    singular: bool
+    scale: float
+    stopped: bool
+
+
+INVERSES = ("jinv", "sr")
+
+
+class ResolvedRate(InvalidPolicy):
+    r"""Joint rates for a commanded twist: :math:`\dot q = J^{-1}\dot x` or the SR form.
+
+    Khokar 2009 eq. 32 (``inverse="jinv"``) and eqs. 33, 36, 37 (``inverse="sr"``, the thesis's
+    final implementation, default). See the module docstring for the laws.
+
+    Args:
+        robot: Anything with ``jacobian(q) -> (6, n)`` giving the base-frame geometric Jacobian
+            ``[v; ω] = J q̇`` (e.g. :class:`velfence.mechanisms.puma560.Puma560`).
+        inverse: ``"sr"`` (singularity-robust, default) or ``"jinv"`` (plain inverse; needs a
+            square Jacobian).
+        k0: SR damping at the singular point, ``> 0`` (units of :math:`J J^\top`); thesis 0.025.
+        w0: Manipulability at the border of the damped neighbourhood, ``> 0``; thesis 0.014.
+        max_joint_speed: Optional cap on every joint rate [rad/s], enforced by scaling the whole
+            ``q̇`` by one factor (its direction, hence the Cartesian direction, is kept).
+        singular_tol: Manipulability at or below which :math:`J^{-1}` is refused (units of
+            ``w``, ``>= 0``). Above it, :math:`J^{-1}` answers however large the rates.
+        on_invalid: ``"raise"`` (default): a non-finite ``q`` or twist, a singular Jacobian
+            under ``"jinv"``, or an overflowing result raises
+            :class:`~velfence.errors.InvalidInput`; ``"stop"``: the step answers zero rates and
+            flags ``stopped``.
+
+    Raises:
+        InvalidParameter: an out-of-range parameter or a robot without ``jacobian``.
+    """
+
+    __slots__ = ("inverse", "k0", "max_joint_speed", "robot", "singular_tol", "w0")
+
+    def __init__(
+        self,
+        robot: JacobianArm,
+        *,
+        inverse: str = "sr",
+        k0: float = K0,
+        w0: float = W0,
+        max_joint_speed: float | None = None,
+        singular_tol: float = 1e-10,
+        on_invalid: str = "raise",
+    ) -> None:
+        super().__init__(on_invalid=on_invalid)
+        if not callable(getattr(robot, "jacobian", None)):
+            raise InvalidParameter(
+                "robot: expected an object with a jacobian(q) -> (6, n) method, got "
+                f"{type(robot).__name__}"
+            )
+        self.robot = robot
+        self.inverse = check_choice("inverse", inverse, INVERSES)
+        self.k0 = check_positive("k0", k0)
+        self.w0 = check_positive("w0", w0)
+        self.max_joint_speed = (
+            None
+            if max_joint_speed is None
+            else check_positive("max_joint_speed", max_joint_speed, unit="rad/s")
+        )
+        self.singular_tol = check_positive("singular_tol", singular_tol, allow_zero=True)
+
+    def __repr__(self) -> str:
+        return (
+            f"ResolvedRate(inverse={self.inverse!r}, k0={self.k0:g}, w0={self.w0:g}, "
+            f"max_joint_speed={self.max_joint_speed}, on_invalid={self.on_invalid!r})"
+        )
+
+    def step(self, q: ArrayLike, xdot: ArrayLike) -> FloatArray:
+        """Joint rates for one commanded twist.
+
+        Args:
+            q: Joint position [rad], shape (n,).
+            xdot: Commanded twist ``[v; ω]`` in the base frame [m/s; rad/s], shape (6,) (the
+                Jacobian's row count).
+
+        Returns:
+            Joint rates [rad/s], shape (n,), never non-finite.
+
+        Raises:
+            InvalidInput: wrong shapes; with ``on_invalid="raise"`` also non-finite input, a
+                singular Jacobian under ``"jinv"`` (message names ``w``) or overflow.
+        """
+        return np.array(self.explain(q, xdot).qdot)
+
+    def explain(self, q: ArrayLike, xdot: ArrayLike) -> RateResult:
+        """Like :meth:`step`, with the manipulability, damping and flags (:class:`RateResult`).
+
+        Args:
+            q: Joint position [rad], shape (n,).
+            xdot: Commanded twist ``[v; ω]`` [m/s; rad/s], shape (m,) with m the Jacobian's
+                row count (6).
+        """
+        qa = _flat("q", q)
+        xa = _flat("xdot", xdot)
+        n = qa.shape[0]
+        if not (np.all(np.isfinite(qa)) and np.all(np.isfinite(xa))):
+            self._invalid(f"non-finite input: q={qa.tolist()}, xdot={xa.tolist()}")
+            return self._stopped(n, math.nan, math.nan, 0.0, False)
+        J = np.asarray(self.robot.jacobian(qa), dtype=float)
+        m = J.shape[0]
+        if J.ndim != 2 or J.shape[1] != n:
+            raise InvalidInput(
+                f"robot.jacobian(q) returned shape {J.shape}; expected (m, {n}) for q of shape "
+                f"({n},)"
+            )
+        if xa.shape != (m,):
+            raise InvalidInput(f"xdot: expected shape ({m},) [m/s; rad/s], got shape {xa.shape}")
+        square = m == n
+        if square:
+            det = float(np.linalg.det(J))
+            w = abs(det)
+        else:
+            det = math.nan
+            w = manipulability_of(J)
+        singular = w <= self.singular_tol
+        if self.inverse == "jinv":
+            if not square:
+                raise InvalidInput(
+                    f"inverse='jinv' needs a square Jacobian, got shape {J.shape}; use 'sr'"
+                )
+            if singular:
+                return self._singular(n, w, det, qa)
+            k = 0.0
+            with np.errstate(over="ignore", invalid="ignore"):
+                qdot = np.linalg.solve(J, xa)
+        else:
+            k = damping(w, k0=self.k0, w0=self.w0)
+            if k == 0.0 and singular:  # only reachable with singular_tol >= w0
+                return self._singular(n, w, det, qa)
+            with np.errstate(over="ignore", invalid="ignore"):
+                qdot = J.T @ np.linalg.solve(J @ J.T + k * np.eye(m), xa)
+        if not np.all(np.isfinite(qdot)):
+            self._invalid(
+                f"the joint rates overflowed (manipulability w = {w:.3g}, max|xdot| = "
+                f"{float(np.max(np.abs(xa))):.3g}); expected a bounded twist"
+            )
+            return self._stopped(n, w, det, k, singular)
+        scale = 1.0
+        if self.max_joint_speed is not None:
+            peak = float(np.max(np.abs(qdot)))
+            if peak > self.max_joint_speed:
+                scale = self.max_joint_speed / peak
+                qdot = qdot * scale
+        return RateResult(readonly(qdot), w, det, k, singular, scale, False)
+
+    def _singular(self, n: int, w: float, det: float, q: FloatArray) -> RateResult:
+        if self.on_invalid == "raise":
+            raise InvalidInput(
+                f"the Jacobian is singular at q = {np.round(q, 6).tolist()}: manipulability "
+                f"w = {w:.3g} <= singular_tol = {self.singular_tol:g}, so J⁻¹ does not exist; "
+                "expected a non-singular configuration. Use inverse='sr' to pass through, or "
+                "on_invalid='stop' to get zero joint rates"
+            )
+        return self._stopped(n, w, det, 0.0, True)
+
+    @staticmethod
+    def _stopped(n: int, w: float, det: float, k: float, singular: bool) -> RateResult:
+        return RateResult(readonly(np.zeros(n)), w, det, k, singular, 1.0, True)
+
+
+def _flat(name: str, x: Any) -> FloatArray:
+    try:
+        a = np.array(x, dtype=float)
+    except (TypeError, ValueError):
+        raise InvalidInput(f"{name}: expected a 1-D array of numbers, got {x!r}") from None
+    if a.ndim != 1 or a.shape[0] == 0:
+        raise InvalidInput(f"{name}: expected a non-empty 1-D array, got shape {a.shape}")
+    return a
