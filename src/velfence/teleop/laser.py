@@ -1,0 +1,896 @@
+r"""The simulated SICK DT60 laser range finder of Khokar 2009 (source 002, §3.3.1, §6.2, §7.3).
+
+The thesis's laser pipeline (notes §2.1-§2.2, §4.5), and how it is simulated here:
+
+1. **Geometry** (eq. 40). The laser frame {L} is parallel to the flange frame {6}, offset by
+   ``(-0.026, -0.115, 0.115)`` m, with the beam along ``+z6``. The spot of a reading ``D`` [m] is
+   ``p = P_E + R_E (offset + (0, 0, D))``; :meth:`LaserRangeSensor.laser_point`. The true range
+   is a ray cast into a :class:`~velfence.teleop.scene.Scene`.
+2. **Sensor characteristic.** The DT60's 4-20 mA output is read as a voltage. A true distance
+   maps to a voltage through a *characteristic* (by default eq. (1) inverted; the reproduction
+   uses Table 1 itself, :class:`TabulatedCharacteristic`).
+3. **Noise and resolution.** Gaussian voltage noise of standard deviation ``noise_v`` and
+   quantisation to the ADC step ``quantum_v``. Defaults, both from the thesis's numbers:
+
+   * ``quantum_v = 5/4095`` V (a 12-bit converter over 0-5 V): every Table 1 voltage is an exact
+     multiple of half this step (the mean of an odd or even number of adjacent levels), and
+     126.18 cm/V × 1.221 mV = 1.54 mm is the DT60's stated 1.5 mm resolution;
+   * ``noise_v = 0.02 V / 6.4829 ≈ 3.09 mV``: §3.3.1.1 states a variation of "around 0.02 volts"
+     over the 1000 samples taken per distance; read as the max-min range of 1000 Gaussian
+     samples, whose expectation is 6.4829 σ. This predicts an unfiltered spread of
+     126.18 × 0.02 ≈ 2.5 cm, as §3.3.1.3 measured at 47.3 cm (2.4 cm) and Table 9 at 8
+     distances (old scheme, unfiltered: 2.2-2.6 cm). It does **not** produce §3.3.1.3's single
+     worst case, 4.2 cm at 24.9 cm (see ``docs/reproductions.md``).
+
+4. **Conversion** to distance with eq. (1), ``distance_cm = 126.1774 V - 104.8980``
+   (:class:`VoltageModel`), in metres.
+5. **Filtering.** ``"moving_average"``: the mean of the last 50 samples at 90 Hz (§3.3.1.3;
+   §7.3 says 100 Hz) — it settles 50/90 ≈ 0.55 s after the beam stops moving, the thesis's
+   "0.5 to 0.55 seconds". ``"old_10hz"``: the former scheme, 10 Hz and no averaging (§1.4,
+   §3.3.1.3). ``"none"``: raw samples at the sample rate.
+
+A reading outside the sensor's range (or no surface at all) is an explicit *no reading*
+(``None``), never a number; it also empties the averaging window, so a filtered value is
+always the mean of real samples of one continuous in-range stretch.
+
+The calibration tool :func:`calibrate` is the thesis's procedure (§3.3.1.1-2): N voltage samples
+per reference distance, keep the values occurring in more than 10 % of them, average those
+values, fit distance on voltage by least squares. :func:`plane_from_points` is the three-point
+plane of key 'P' (§6.4, eqs. 53-54).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, Protocol
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from velfence._arrays import readonly
+from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
+from velfence.geometry.primitives import _vec3
+from velfence.reproduce.telerobotics_data import (
+    EQ1_OFFSET_CM,
+    EQ1_SLOPE_CM_PER_V,
+    LASER_OFFSET_M,
+)
+
+if TYPE_CHECKING:
+    from velfence.teleop.scene import Hit, Scene
+
+__all__ = [
+    "ADC_STEP_V",
+    "DT60_MAX_RANGE_M",
+    "DT60_MIN_RANGE_M",
+    "EXPECTED_RANGE_1000",
+    "NOISE_SIGMA_V",
+    "Characteristic",
+    "LaserRangeSensor",
+    "LaserReading",
+    "LaserStream",
+    "TabulatedCharacteristic",
+    "VoltageModel",
+    "calibrate",
+    "frequent_level_mean",
+    "moving_average",
+    "plane_from_points",
+]
+
+FloatArray = NDArray[np.float64]
+
+#: ADC step [V]: 12 bits over 0-5 V. Table 1's voltages are exact multiples of half of it.
+ADC_STEP_V = 5.0 / 4095.0
+#: Expected max-min range of 1000 independent standard normal samples (numerical integral of
+#: ``1 - Φ(x)^n - (1 - Φ(x))^n`` for n = 1000).
+EXPECTED_RANGE_1000 = 6.4829
+#: Voltage noise standard deviation [V]: §3.3.1.1's 0.02 V spread of 1000 samples / 6.4829.
+NOISE_SIGMA_V = 0.02 / EXPECTED_RANGE_1000
+#: DT60-P111B0253 measuring range [m] (§3.3.1, App. B: 200-5300 mm).
+DT60_MIN_RANGE_M = 0.2
+DT60_MAX_RANGE_M = 5.3
+
+_FILTERS = ("moving_average", "old_10hz", "none")
+_NEW_RATE_HZ = 90.0  # §3.3.1.3
+_OLD_RATE_HZ = 10.0  # §3.3.1.3, "limited to 10 Hz"
+_NEW_WINDOW = 50  # §3.3.1.3
+_POSE_TOL = 1e-6  # orthonormality of a flange rotation
+
+
+# ---------------------------------------------------------------------------------- checks
+def _number(name: str, x: Any, unit: str, err: type[Exception] = InvalidParameter) -> float:
+    try:
+        if isinstance(x, bool):
+            raise TypeError
+        return float(x)
+    except (TypeError, ValueError):
+        raise err(f"{name}: expected a number [{unit}], got {x!r}") from None
+
+
+def _finite(name: str, x: Any, unit: str, *, low: float = -math.inf, strict: bool = False) -> float:
+    v = _number(name, x, unit)
+    ok = math.isfinite(v) and (v > low if strict else v >= low)
+    if not ok:
+        bound = "" if low == -math.inf else (f" > {low:g}" if strict else f" >= {low:g}")
+        raise InvalidParameter(f"{name}: expected a finite number{bound} [{unit}], got {x!r}")
+    return v
+
+
+def _distance_input(name: str, x: Any) -> float:
+    v = _number(name, x, "m", InvalidInput)
+    if not (math.isfinite(v) and v >= 0.0):
+        raise InvalidInput(f"{name}: expected a finite distance >= 0 [m], got {x!r}")
+    return v
+
+
+def _voltage_input(name: str, x: Any) -> float:
+    v = _number(name, x, "V", InvalidInput)
+    if not math.isfinite(v):
+        raise InvalidInput(f"{name}: expected a finite voltage [V], got {x!r}")
+    return v
+
+
+def _finite_1d(name: str, x: Any, unit: str) -> FloatArray:
+    try:
+        a = np.array(x, dtype=float)
+    except (TypeError, ValueError):
+        raise InvalidInput(f"{name}: expected a 1-D array of numbers [{unit}], got {x!r}") from None
+    if a.ndim != 1 or not np.all(np.isfinite(a)):
+        raise InvalidInput(
+            f"{name}: expected a 1-D array of finite numbers [{unit}], got shape {a.shape}"
+        )
+    return a
+
+
+def _pose(T: ArrayLike) -> tuple[FloatArray, FloatArray]:
+    """Validated flange pose: rotation (3, 3) and position (3,)."""
+    try:
+        a = np.asarray(T, dtype=float)
+    except (TypeError, ValueError):
+        raise InvalidInput(f"T_flange: expected a 4x4 homogeneous transform, got {T!r}") from None
+    if a.shape != (4, 4):
+        raise InvalidInput(f"T_flange: expected shape (4, 4), got shape {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise InvalidInput("T_flange: expected finite entries, got NaN or inf")
+    if float(np.max(np.abs(a[3] - (0.0, 0.0, 0.0, 1.0)))) > 1e-9:
+        raise InvalidInput(f"T_flange: expected bottom row [0, 0, 0, 1], got {a[3].tolist()}")
+    R = a[:3, :3]
+    err = float(np.max(np.abs(R.T @ R - np.eye(3))))
+    if err > _POSE_TOL or np.linalg.det(R) <= 0.0:
+        raise InvalidInput(
+            f"T_flange: expected a rotation block with |R^T R - I| <= {_POSE_TOL:g} and det +1, "
+            f"got |R^T R - I| = {err:.3g}; re-orthonormalise the pose"
+        )
+    return R, a[:3, 3]
+
+
+# ---------------------------------------------------------------------------------- models
+class Characteristic(Protocol):
+    """A sensor characteristic: the output voltage for a true distance."""
+
+    def voltage_v(self, distance_m: float) -> float:
+        """Output voltage [V] at true distance ``distance_m`` [m]."""
+        ...
+
+
+@dataclass(frozen=True)
+class VoltageModel:
+    """Eq. (1): the linear DT60 calibration ``distance_cm = slope · voltage + offset``.
+
+    Args:
+        slope_cm_per_v: Slope [cm/V], finite and > 0. Default eq. (1)'s 126.1774.
+        offset_cm: Intercept [cm], finite. Default eq. (1)'s -104.8980.
+
+    Raises:
+        InvalidParameter: a non-finite coefficient or a slope <= 0.
+    """
+
+    slope_cm_per_v: float = EQ1_SLOPE_CM_PER_V
+    offset_cm: float = EQ1_OFFSET_CM
+
+    def __post_init__(self) -> None:
+        s = _finite("slope_cm_per_v", self.slope_cm_per_v, "cm/V", low=0.0, strict=True)
+        o = _finite("offset_cm", self.offset_cm, "cm")
+        object.__setattr__(self, "slope_cm_per_v", s)
+        object.__setattr__(self, "offset_cm", o)
+
+    @classmethod
+    def from_calibration(cls, distances_cm: ArrayLike, voltages_v: ArrayLike) -> VoltageModel:
+        """Least-squares line of distance on voltage (Matlab ``regress``, §3.3.1.2).
+
+        Args:
+            distances_cm: Reference distances [cm], shape (n,), n >= 2.
+            voltages_v: Representative voltage per distance [V], shape (n,), not all equal.
+
+        Returns:
+            The fitted model.
+
+        Raises:
+            InvalidInput: shapes differ, fewer than 2 pairs, non-finite values, or all voltages
+                equal (the slope is undetermined).
+            InvalidParameter: the fitted slope is not positive (distance must grow with voltage).
+        """
+        d = _finite_1d("distances_cm", distances_cm, "cm")
+        v = _finite_1d("voltages_v", voltages_v, "V")
+        if d.shape != v.shape or d.size < 2:
+            raise InvalidInput(
+                f"expected distances_cm and voltages_v of the same length >= 2, got "
+                f"{d.size} and {v.size}"
+            )
+        vc = v - v.mean()
+        svv = float(vc @ vc)
+        if not svv > 0.0:
+            raise InvalidInput(
+                f"voltages_v: expected at least two different voltages, got all {v[0]!r} V; "
+                "calibrate over several distances"
+            )
+        slope = float(vc @ (d - d.mean())) / svv
+        return cls(slope_cm_per_v=slope, offset_cm=float(d.mean()) - slope * float(v.mean()))
+
+    def distance_cm(self, voltage_v: float) -> float:
+        """Distance [cm] for a voltage [V] (eq. (1))."""
+        return self.slope_cm_per_v * _voltage_input("voltage_v", voltage_v) + self.offset_cm
+
+    def distance_m(self, voltage_v: float) -> float:
+        """Distance [m] for a voltage [V] (eq. (1), converted to metres)."""
+        return 0.01 * self.distance_cm(voltage_v)
+
+    def voltage_v(self, distance_m: float) -> float:
+        """Voltage [V] the model assigns to a distance [m] (eq. (1) inverted)."""
+        d = _number("distance_m", distance_m, "m", InvalidInput)
+        if not math.isfinite(d):
+            raise InvalidInput(f"distance_m: expected a finite distance [m], got {distance_m!r}")
+        return (100.0 * d - self.offset_cm) / self.slope_cm_per_v
+
+    def distances_m(self, voltages_v: ArrayLike) -> FloatArray:
+        """Vectorised :meth:`distance_m`: voltages [V] of any shape to distances [m]."""
+        v = np.asarray(voltages_v, dtype=float)
+        if not np.all(np.isfinite(v)):
+            raise InvalidInput("voltages_v: expected finite voltages [V], got NaN or inf")
+        return np.asarray(0.01 * (self.slope_cm_per_v * v + self.offset_cm), dtype=float)
+
+    def voltages_v(self, distances_m: ArrayLike) -> FloatArray:
+        """Vectorised :meth:`voltage_v`: distances [m] of any shape to voltages [V]."""
+        d = np.asarray(distances_m, dtype=float)
+        if not np.all(np.isfinite(d)):
+            raise InvalidInput("distances_m: expected finite distances [m], got NaN or inf")
+        return np.asarray((100.0 * d - self.offset_cm) / self.slope_cm_per_v, dtype=float)
+
+
+@dataclass(frozen=True, eq=False)
+class TabulatedCharacteristic:
+    """A measured characteristic: piecewise-linear through calibration pairs (e.g. Table 1).
+
+    Used as the simulator's *truth* when the sensor should carry the calibration line's real
+    residuals (Table 1's are up to 0.6 cm). Beyond the tabulated range it continues with the
+    least-squares slope through all pairs, from the end pairs (continuous).
+
+    Args:
+        distances_cm: Reference distances [cm], shape (n,), n >= 2, strictly increasing.
+        voltages_v: Voltages [V], shape (n,), strictly increasing.
+
+    Raises:
+        InvalidGeometry: shapes differ, fewer than 2 pairs, non-finite values, or values not
+            strictly increasing (the characteristic must be invertible).
+    """
+
+    distances_cm: FloatArray = field(init=False)
+    voltages_v: FloatArray = field(init=False)
+    _slope_v_per_cm: float = field(init=False, repr=False)
+
+    def __init__(self, distances_cm: ArrayLike, voltages_v: ArrayLike) -> None:
+        d = np.array(distances_cm, dtype=float)
+        v = np.array(voltages_v, dtype=float)
+        if d.ndim != 1 or d.shape != v.shape or d.size < 2:
+            raise InvalidGeometry(
+                f"expected distances_cm and voltages_v of shape (n,), n >= 2, got {d.shape} and "
+                f"{v.shape}"
+            )
+        if not (np.all(np.isfinite(d)) and np.all(np.isfinite(v))):
+            raise InvalidGeometry("expected finite calibration pairs, got NaN or inf")
+        if not (np.all(np.diff(d) > 0) and np.all(np.diff(v) > 0)):
+            raise InvalidGeometry(
+                "expected strictly increasing distances and voltages (an invertible "
+                "characteristic), got a non-increasing pair; sort the table or drop duplicates"
+            )
+        dc = d - d.mean()
+        slope = float(dc @ (v - v.mean())) / float(dc @ dc)
+        object.__setattr__(self, "distances_cm", readonly(d))
+        object.__setattr__(self, "voltages_v", readonly(v))
+        object.__setattr__(self, "_slope_v_per_cm", slope)
+
+    def voltage_v(self, distance_m: float) -> float:
+        """Voltage [V] at true distance ``distance_m`` [m]."""
+        dc = 100.0 * _distance_input("distance_m", distance_m)
+        d, v = self.distances_cm, self.voltages_v
+        if dc < d[0]:
+            return float(v[0]) + self._slope_v_per_cm * (dc - float(d[0]))
+        if dc > d[-1]:
+            return float(v[-1]) + self._slope_v_per_cm * (dc - float(d[-1]))
+        return float(np.interp(dc, d, v))
+
+
+# ---------------------------------------------------------------------------------- calibration
+def frequent_level_mean(
+    voltages_v: ArrayLike, *, min_share: float = 0.10, quantum_v: float | None = None
+) -> float:
+    """The representative voltage of one reference distance (§3.3.1.1).
+
+    The thesis took "the average of the voltages that had more than one hundred instances per
+    the thousand readings": the *distinct* values occurring in more than ``min_share`` of the
+    samples, averaged with equal weight. (Equal weight is what Table 1 shows: all 21 of its
+    voltages are whole or half ADC steps, the mean of an odd or even number of adjacent levels;
+    a count-weighted mean would give arbitrary fractions of a step.)
+
+    Args:
+        voltages_v: The samples [V], shape (N,), N >= 1.
+        min_share: Share a value must exceed to count, in (0, 1). Default 0.10 (100 of 1000).
+        quantum_v: ADC step [V] used to group samples into levels (``round(v / quantum)``);
+            ``None`` (default) groups exactly equal floats.
+
+    Returns:
+        The mean of the frequent values [V].
+
+    Raises:
+        InvalidParameter: ``min_share`` outside (0, 1) or ``quantum_v`` not > 0.
+        InvalidInput: empty or non-finite samples, or no value frequent enough (samples that
+            are not quantised levels; pass ``quantum_v`` or lower ``min_share``).
+    """
+    share = _finite("min_share", min_share, "share of samples", low=0.0, strict=True)
+    if not share < 1.0:
+        raise InvalidParameter(f"min_share: expected a share in (0, 1), got {min_share!r}")
+    v = _finite_1d("voltages_v", voltages_v, "V")
+    if v.size == 0:
+        raise InvalidInput("voltages_v: expected at least one sample, got none")
+    if quantum_v is None:
+        levels, counts = np.unique(v, return_counts=True)
+        values = levels
+    else:
+        q = _finite("quantum_v", quantum_v, "V", low=0.0, strict=True)
+        ints, counts = np.unique(np.floor(v / q + 0.5).astype(np.int64), return_counts=True)
+        values = ints.astype(float) * q
+    keep = counts > share * v.size
+    if not np.any(keep):
+        raise InvalidInput(
+            f"voltages_v: expected some value to occur in more than {share:.0%} of the "
+            f"{v.size} samples, got at most {int(counts.max())}; the samples are not discrete "
+            "ADC levels: pass quantum_v (the ADC step) or lower min_share"
+        )
+    return float(np.mean(values[keep]))
+
+
+def calibrate(
+    samples: Mapping[float, Sequence[float] | FloatArray],
+    *,
+    min_share: float = 0.10,
+    quantum_v: float | None = None,
+) -> VoltageModel:
+    """The thesis's calibration procedure (§3.3.1.1-2): frequent-level means, then least squares.
+
+    Args:
+        samples: Reference distance [cm] (the DME2000 read-out) to the voltage samples [V]
+            recorded there (the thesis: 1000 per distance). At least two distances.
+        min_share: See :func:`frequent_level_mean` (default 0.10: "more than one hundred
+            instances per the thousand readings").
+        quantum_v: See :func:`frequent_level_mean`.
+
+    Returns:
+        The least-squares :class:`VoltageModel` of distance on the representative voltages.
+
+    Raises:
+        InvalidInput: fewer than two distances, non-finite keys, or a distance whose samples
+            fail :func:`frequent_level_mean`.
+        InvalidParameter: bad ``min_share`` / ``quantum_v``, or a non-positive fitted slope.
+    """
+    if not isinstance(samples, Mapping) or len(samples) < 2:
+        raise InvalidInput(
+            "samples: expected a mapping of at least two reference distances [cm] to voltage "
+            f"samples [V], got {type(samples).__name__} with "
+            f"{len(samples) if isinstance(samples, Mapping) else 'no'} entries"
+        )
+    distances: list[float] = []
+    voltages: list[float] = []
+    for key, vs in samples.items():
+        d = _number("samples key", key, "cm", InvalidInput)
+        if not math.isfinite(d):
+            raise InvalidInput(f"samples: expected finite reference distances [cm], got {key!r}")
+        try:
+            level = frequent_level_mean(vs, min_share=min_share, quantum_v=quantum_v)
+        except InvalidInput as exc:
+            raise InvalidInput(f"at reference distance {d:g} cm: {exc}") from None
+        distances.append(d)
+        voltages.append(level)
+    return VoltageModel.from_calibration(distances, voltages)
+
+
+def moving_average(samples: ArrayLike, window: int) -> FloatArray:
+    """Means of every full window of ``window`` consecutive samples, along the last axis.
+
+    The batch form of the ``"moving_average"`` filter once its window is full (§3.3.1.3).
+
+    Args:
+        samples: Shape (..., N), any units; finite.
+        window: Window length [samples], int in ``[1, N]``.
+
+    Returns:
+        Shape (..., N - window + 1): entry ``k`` is the mean of samples ``k .. k + window - 1``.
+
+    Raises:
+        InvalidParameter: a bad window.
+        InvalidInput: non-finite samples or fewer samples than the window.
+    """
+    x = np.asarray(samples, dtype=float)
+    if isinstance(window, bool) or not isinstance(window, int | np.integer) or window < 1:
+        raise InvalidParameter(f"window: expected an int >= 1 [samples], got {window!r}")
+    if x.ndim == 0 or x.shape[-1] < window:
+        raise InvalidInput(
+            f"samples: expected at least window = {window} samples along the last axis, got "
+            f"shape {x.shape}"
+        )
+    if not np.all(np.isfinite(x)):
+        raise InvalidInput("samples: expected finite values, got NaN or inf")
+    c = np.cumsum(x, axis=-1)
+    zero = np.zeros((*x.shape[:-1], 1))
+    c = np.concatenate([zero, c], axis=-1)
+    return np.asarray((c[..., window:] - c[..., :-window]) / window, dtype=float)
+
+
+# ---------------------------------------------------------------------------------- plane 'P'
+def plane_from_points(
+    p1: ArrayLike, p2: ArrayLike, p3: ArrayLike, *, tol: float = 1e-9
+) -> tuple[FloatArray, float]:
+    r"""The plane through three laser points (key 'P', §6.4, eqs. 53-54).
+
+    ``A = P1 - P2``, ``B = P1 - P3``, ``C = A × B`` (= ``(P2 - P1) × (P3 - P1)``). The unit
+    normal ``n = C / |C|`` points to the side from which P1, P2, P3 appear counter-clockwise —
+    the robot's side when the operator records them counter-clockwise, as the thesis requires;
+    the hand's alignment axis is then ``z = -n`` (into the surface).
+
+    Args:
+        p1: First point [m], shape (3,).
+        p2: Second point [m], shape (3,).
+        p3: Third point [m], shape (3,).
+        tol: Collinearity threshold (dimensionless, > 0): the points are rejected when
+            ``|C| <= tol · |A| · |B|`` (the sine of the angle at P1).
+
+    Returns:
+        ``(n, c)``: unit normal, shape (3,), read-only, and offset ``c = n · P1`` [m]; the plane
+        is ``n · x = c``.
+
+    Raises:
+        InvalidInput: a point that is not finite or not shape (3,).
+        InvalidParameter: ``tol`` not a finite number > 0.
+        InvalidGeometry: coincident or collinear points (no unique plane).
+    """
+    eps = _finite("tol", tol, "dimensionless", low=0.0, strict=True)
+    a1 = np.array(_vec3("p1", p1))
+    a2 = np.array(_vec3("p2", p2))
+    a3 = np.array(_vec3("p3", p3))
+    A = a1 - a2
+    B = a1 - a3
+    la, lb = float(np.linalg.norm(A)), float(np.linalg.norm(B))
+    if la == 0.0 or lb == 0.0 or float(np.linalg.norm(a2 - a3)) == 0.0:
+        raise InvalidGeometry(
+            f"expected three distinct points, got P1={a1.tolist()}, P2={a2.tolist()}, "
+            f"P3={a3.tolist()}; record the 'P' points at different spots"
+        )
+    C = np.cross(A, B)
+    lc = float(np.linalg.norm(C))
+    if lc <= eps * la * lb:
+        raise InvalidGeometry(
+            f"expected three non-collinear points, got sin(angle at P1) = {lc / (la * lb):.3g} "
+            f"<= tol = {eps:g}; spread the 'P' points out (not along one line)"
+        )
+    n = C / lc
+    return readonly(n), float(n @ a1)
+
+
+# ---------------------------------------------------------------------------------- sensor
+@dataclass(frozen=True)
+class LaserReading:
+    """One laser sample of a :class:`LaserStream`.
+
+    Attributes:
+        t: Sample time [s] (stream clock).
+        raw: This sample's distance [m], or ``None`` (no reading: out of range or no surface).
+        distance: The filtered distance [m] the application uses, or ``None`` (no reading).
+        samples: Number of samples in the averaging window (0 on no reading).
+        settled: Whether the window is full (the filtered value is the scheme's steady output).
+    """
+
+    t: float
+    raw: float | None
+    distance: float | None
+    samples: int
+    settled: bool
+
+    @property
+    def valid(self) -> bool:
+        """Whether there is a distance."""
+        return self.distance is not None
+
+
+@dataclass(frozen=True, eq=False)
+class LaserRangeSensor:
+    r"""The DT60 laser on the PUMA flange: geometry, characteristic, noise, conversion, filter.
+
+    All parameters are keyword-only.
+
+    Args:
+        offset: Laser origin in the flange frame {6} [m], shape (3,); default eq. (40)'s
+            ``(-0.026, -0.115, 0.115)``. The beam runs along ``+z6``.
+        min_range: Shortest measurable distance [m], >= 0; default the DT60's 0.2.
+        max_range: Longest measurable distance [m], > ``min_range``; default 5.3.
+        noise_v: Standard deviation of the Gaussian voltage noise [V], >= 0; default
+            :data:`NOISE_SIGMA_V` (3.09 mV, from §3.3.1.1's 0.02 V over 1000 samples).
+        quantum_v: ADC step [V], >= 0 (0 disables quantisation); default :data:`ADC_STEP_V`.
+        sample_rate: Sampling rate [Hz], > 0; default ``None``: 90 Hz (§3.3.1.3), or 10 Hz
+            for ``filter="old_10hz"``.
+        filter: ``"moving_average"`` (default; the new scheme), ``"old_10hz"`` (the former
+            scheme: no averaging, 10 Hz by default) or ``"none"`` (raw samples).
+        window: Moving-average length [samples], int >= 1; default ``None``: 50 (§3.3.1.3).
+            Only for ``filter="moving_average"``.
+        model: Voltage-to-distance conversion applied to the samples; default eq. (1).
+        characteristic: The *true* distance-to-voltage behaviour of the simulated sensor;
+            default ``None``: the conversion model itself (an ideal calibration).
+
+    Raises:
+        InvalidParameter: any value out of its range, with the expected range in the message.
+    """
+
+    offset: FloatArray = field(init=False)
+    min_range: float = field(init=False)
+    max_range: float = field(init=False)
+    noise_v: float = field(init=False)
+    quantum_v: float = field(init=False)
+    sample_rate: float = field(init=False)
+    filter: str = field(init=False)
+    window: int = field(init=False)
+    model: VoltageModel = field(init=False)
+    characteristic: Characteristic = field(init=False)
+
+    def __init__(
+        self,
+        *,
+        offset: ArrayLike = LASER_OFFSET_M,
+        min_range: float = DT60_MIN_RANGE_M,
+        max_range: float = DT60_MAX_RANGE_M,
+        noise_v: float = NOISE_SIGMA_V,
+        quantum_v: float = ADC_STEP_V,
+        sample_rate: float | None = None,
+        filter: str = "moving_average",
+        window: int | None = None,
+        model: VoltageModel | None = None,
+        characteristic: Characteristic | None = None,
+    ) -> None:
+        try:
+            off = np.array(offset, dtype=float)
+        except (TypeError, ValueError):
+            raise InvalidParameter(
+                f"offset: expected 3 numbers [m] (laser origin in frame 6), got {offset!r}"
+            ) from None
+        if off.shape != (3,) or not np.all(np.isfinite(off)):
+            raise InvalidParameter(
+                f"offset: expected 3 finite numbers [m], shape (3,), got {offset!r}"
+            )
+        lo = _finite("min_range", min_range, "m", low=0.0)
+        hi = _number("max_range", max_range, "m")
+        if not (hi > lo and not math.isnan(hi)):
+            raise InvalidParameter(
+                f"max_range: expected a number > min_range = {lo:g} [m], got {max_range!r}"
+            )
+        sigma = _finite("noise_v", noise_v, "V", low=0.0)
+        q = _finite("quantum_v", quantum_v, "V", low=0.0)
+        if filter not in _FILTERS:
+            raise InvalidParameter(f"filter: expected one of {list(_FILTERS)}, got {filter!r}")
+        if sample_rate is None:
+            rate = _OLD_RATE_HZ if filter == "old_10hz" else _NEW_RATE_HZ
+        else:
+            rate = _finite("sample_rate", sample_rate, "Hz", low=0.0, strict=True)
+        if window is not None and filter != "moving_average":
+            raise InvalidParameter(
+                f"window: expected None with filter={filter!r} (no averaging), got {window!r}; "
+                "use filter='moving_average' to average"
+            )
+        if window is None:
+            n = _NEW_WINDOW if filter == "moving_average" else 1
+        elif isinstance(window, bool) or not isinstance(window, int | np.integer) or window < 1:
+            raise InvalidParameter(f"window: expected an int >= 1 [samples], got {window!r}")
+        else:
+            n = int(window)
+        if model is None:
+            model = VoltageModel()
+        elif not isinstance(model, VoltageModel):
+            raise InvalidParameter(f"model: expected a VoltageModel, got {type(model).__name__}")
+        if characteristic is None:
+            characteristic = model
+        elif not callable(getattr(characteristic, "voltage_v", None)):
+            raise InvalidParameter(
+                "characteristic: expected an object with voltage_v(distance_m) -> volts "
+                f"(VoltageModel or TabulatedCharacteristic), got {type(characteristic).__name__}"
+            )
+        object.__setattr__(self, "offset", readonly(off))
+        object.__setattr__(self, "min_range", lo)
+        object.__setattr__(self, "max_range", hi)
+        object.__setattr__(self, "noise_v", sigma)
+        object.__setattr__(self, "quantum_v", q)
+        object.__setattr__(self, "sample_rate", rate)
+        object.__setattr__(self, "filter", filter)
+        object.__setattr__(self, "window", n)
+        object.__setattr__(self, "model", model)
+        object.__setattr__(self, "characteristic", characteristic)
+
+    @property
+    def period(self) -> float:
+        """Sampling period [s]."""
+        return 1.0 / self.sample_rate
+
+    @property
+    def settling_time(self) -> float:
+        """Time [s] for a full window of fresh samples: ``window / sample_rate`` (worst case)."""
+        return self.window / self.sample_rate
+
+    # -------------------------------------------------------------- geometry (eqs. 39-40)
+    def beam(self, T_flange: ArrayLike) -> tuple[FloatArray, FloatArray]:
+        """The beam in the base frame: origin ``P + R·offset`` [m] and unit direction ``R·ẑ``.
+
+        Args:
+            T_flange: Flange pose ``{}^B_6T``, shape (4, 4), metres.
+
+        Returns:
+            ``(origin, direction)``, shape (3,) each.
+
+        Raises:
+            InvalidInput: not a finite 4x4 rigid transform.
+        """
+        R, P = _pose(T_flange)
+        return P + R @ self.offset, R[:, 2].copy()
+
+    def laser_point(self, T_flange: ArrayLike, distance: float) -> FloatArray:
+        """The laser spot in the base frame for a reading (eq. 40, type 2 target translation).
+
+        ``p = P + R (offset + (0, 0, D))``.
+
+        Args:
+            T_flange: Flange pose, shape (4, 4), metres.
+            distance: Laser reading ``D`` [m], finite and >= 0.
+
+        Returns:
+            The spot [m], shape (3,).
+
+        Raises:
+            InvalidInput: a bad pose, or a distance that is ``None``, negative or not finite.
+        """
+        R, P = _pose(T_flange)
+        D = _distance_input("distance", distance)
+        return np.asarray(P + R @ (self.offset + np.array([0.0, 0.0, D])), dtype=float)
+
+    def target_transform(
+        self, T_flange: ArrayLike, distance: float, *, with_offset: bool = True
+    ) -> FloatArray:
+        """The target frame of a reading: eq. (40) ``T · T_EL · Tz(D)`` or eq. (39) ``T · Tz(D)``.
+
+        Args:
+            T_flange: Flange pose, shape (4, 4), metres.
+            distance: Laser reading ``D`` [m], finite and >= 0.
+            with_offset: ``True`` (default) for eq. (40) (type 2, the laser spot; keys 'D' and
+                'P'); ``False`` for eq. (39)/(42) (type 1, along the tool axis; 'A', 'S', 'F').
+
+        Returns:
+            The target pose, shape (4, 4); its rotation is the flange's.
+
+        Raises:
+            InvalidInput: a bad pose or distance.
+        """
+        R, P = _pose(T_flange)
+        D = _distance_input("distance", distance)
+        local = (self.offset if with_offset else np.zeros(3)) + np.array([0.0, 0.0, D])
+        out = np.eye(4)
+        out[:3, :3] = R
+        out[:3, 3] = P + R @ local
+        return out
+
+    def true_hit(self, T_flange: ArrayLike, scene: Scene) -> Hit | None:
+        """The surface the beam meets within ``max_range`` (ignoring ``min_range``), or ``None``."""
+        o, d = self.beam(T_flange)
+        return scene.raycast(o, d, max_range=self.max_range)
+
+    def true_range(self, T_flange: ArrayLike, scene: Scene) -> float | None:
+        """True beam length [m] to the scene, or ``None`` outside ``[min_range, max_range]``.
+
+        Args:
+            T_flange: Flange pose, shape (4, 4), metres.
+            scene: The scene to ray-cast.
+
+        Returns:
+            The distance [m] or ``None`` (no surface within range, or closer than ``min_range``).
+        """
+        hit = self.true_hit(T_flange, scene)
+        if hit is None or hit.distance < self.min_range:
+            return None
+        return hit.distance
+
+    # -------------------------------------------------------------- one sample
+    def in_range(self, distance: float | None) -> bool:
+        """Whether a true distance [m] yields a reading."""
+        return distance is not None and self.min_range <= distance <= self.max_range
+
+    def sample(self, true_distance: float | None, rng: np.random.Generator) -> float | None:
+        """One raw reading [m]: characteristic, voltage noise, ADC quantisation, eq. (1).
+
+        Args:
+            true_distance: True beam length [m] (finite, >= 0), or ``None`` for no surface.
+            rng: Random generator (seeded by the caller).
+
+        Returns:
+            The reading [m], or ``None`` when ``true_distance`` is ``None`` or out of range.
+
+        Raises:
+            InvalidInput: a negative or non-finite distance.
+        """
+        if true_distance is None:
+            return None
+        d = _distance_input("true_distance", true_distance)
+        if not self.in_range(d):
+            return None
+        v = self.characteristic.voltage_v(d)
+        if self.noise_v > 0.0:
+            v += self.noise_v * float(rng.standard_normal())
+        if self.quantum_v > 0.0:
+            v = math.floor(v / self.quantum_v + 0.5) * self.quantum_v
+        return self.model.distance_m(v)
+
+    def sample_many(
+        self, true_distance: float, n: int, rng: np.random.Generator
+    ) -> FloatArray | None:
+        """``n`` raw readings [m] at a fixed true distance, vectorised; same law as :meth:`sample`.
+
+        Draws the noise as one ``rng.standard_normal(n)`` call, which yields the same numbers
+        as ``n`` successive :meth:`sample` calls on an equally seeded generator.
+
+        Args:
+            true_distance: True beam length [m], finite and >= 0.
+            n: Number of samples, int >= 0.
+            rng: Random generator.
+
+        Returns:
+            Shape (n,) [m], or ``None`` when the distance is out of range (no reading).
+
+        Raises:
+            InvalidInput: a negative or non-finite distance, or ``n`` not an int >= 0.
+        """
+        d = _distance_input("true_distance", true_distance)
+        if isinstance(n, bool) or not isinstance(n, int | np.integer) or n < 0:
+            raise InvalidInput(f"n: expected an int >= 0 (number of samples), got {n!r}")
+        if not self.in_range(d):
+            return None
+        v = np.full(int(n), self.characteristic.voltage_v(d))
+        if self.noise_v > 0.0:
+            v = v + self.noise_v * rng.standard_normal(int(n))
+        if self.quantum_v > 0.0:
+            v = np.floor(v / self.quantum_v + 0.5) * self.quantum_v
+        return self.model.distances_m(v)
+
+    def stream(self, *, seed: int | np.random.Generator = 0, t0: float = 0.0) -> LaserStream:
+        """A fresh :class:`LaserStream` of this sensor (seeded)."""
+        return LaserStream(self, seed=seed, t0=t0)
+
+
+class LaserStream:
+    """The laser acquisition thread: samples at ``sample_rate`` and filters (stateful).
+
+    Sample ``k`` (from 0) is taken at ``t0 + k / sample_rate``. Each :meth:`step` takes the next
+    sample; :meth:`observe` ray-casts a pose first; :meth:`poll` catches up to a time ``t`` from
+    a control loop running at another rate.
+
+    Args:
+        sensor: The sensor.
+        seed: An int seed or a ``numpy.random.Generator`` (its state is shared, not copied).
+        t0: Time of the first sample [s].
+
+    Raises:
+        InvalidParameter: a bad seed or a non-finite ``t0``.
+    """
+
+    def __init__(
+        self,
+        sensor: LaserRangeSensor,
+        *,
+        seed: int | np.random.Generator = 0,
+        t0: float = 0.0,
+    ) -> None:
+        if not isinstance(sensor, LaserRangeSensor):
+            raise InvalidParameter(f"sensor: expected a LaserRangeSensor, got {sensor!r}")
+        if isinstance(seed, np.random.Generator):
+            rng = seed
+        elif isinstance(seed, int | np.integer) and not isinstance(seed, bool) and seed >= 0:
+            rng = np.random.default_rng(int(seed))
+        else:
+            raise InvalidParameter(f"seed: expected an int >= 0 or a numpy Generator, got {seed!r}")
+        self._sensor = sensor
+        self._rng = rng
+        self._window: deque[float] = deque(maxlen=sensor.window)
+        self._t0 = _finite("t0", t0, "s")
+        self._k = 0
+        self._last: LaserReading | None = None
+
+    @property
+    def sensor(self) -> LaserRangeSensor:
+        """The sensor."""
+        return self._sensor
+
+    @property
+    def next_time(self) -> float:
+        """Time [s] of the next sample."""
+        return self._t0 + self._k * self._sensor.period
+
+    @property
+    def last(self) -> LaserReading | None:
+        """The latest reading (``None`` before the first sample)."""
+        return self._last
+
+    def reset(self, *, t0: float = 0.0) -> None:
+        """Empty the window and restart the clock at ``t0`` [s] (the random stream continues)."""
+        self._window.clear()
+        self._t0 = _finite("t0", t0, "s")
+        self._k = 0
+        self._last = None
+
+    def step(self, true_distance: float | None) -> LaserReading:
+        """Take the next sample of a beam whose true length is ``true_distance`` [m] or ``None``.
+
+        Returns:
+            The reading; on no reading the window is emptied.
+
+        Raises:
+            InvalidInput: a negative or non-finite distance.
+        """
+        t = self.next_time
+        self._k += 1
+        raw = self._sensor.sample(true_distance, self._rng)
+        if raw is None:
+            self._window.clear()
+            reading = LaserReading(t=t, raw=None, distance=None, samples=0, settled=False)
+        else:
+            self._window.append(raw)
+            n = len(self._window)
+            reading = LaserReading(
+                t=t,
+                raw=raw,
+                distance=math.fsum(self._window) / n,
+                samples=n,
+                settled=n == self._sensor.window,
+            )
+        self._last = reading
+        return reading
+
+    def observe(self, T_flange: ArrayLike, scene: Scene) -> LaserReading:
+        """Take the next sample with the flange at ``T_flange`` (shape (4, 4)) in ``scene``."""
+        return self.step(self._sensor.true_range(T_flange, scene))
+
+    def poll(self, t: float, T_flange: ArrayLike, scene: Scene) -> LaserReading | None:
+        """Take every sample due by time ``t`` [s] with the flange at ``T_flange``.
+
+        Between calls the pose is taken as constant, so call this at least at the sample rate
+        for moving beams. The ray is cast once per call.
+
+        Returns:
+            The latest reading (possibly from an earlier call when no sample is due), or
+            ``None`` if no sample has been taken yet.
+        """
+        now = _number("t", t, "s", InvalidInput)
+        if not math.isfinite(now):
+            raise InvalidInput(f"t: expected a finite time [s], got {t!r}")
+        due = now + 1e-9 * self._sensor.period  # robust to rounding of t = k / rate
+        if self.next_time <= due:
+            d = self._sensor.true_range(T_flange, scene)
+            while self.next_time <= due:
+                self.step(d)
+        return self._last
+
+    def run(self, true_distances: Sequence[float | None] | FloatArray) -> list[LaserReading]:
+        """:meth:`step` through a sequence of true distances [m] (one per sample)."""
+        return [self.step(None if d is None else float(d)) for d in true_distances]
