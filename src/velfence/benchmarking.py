@@ -838,6 +838,42 @@ def _cobot_steps(s: BenchSettings, step: _Steps) -> list[StepRow]:
     return rows
 
 
+def _resolved_rate_steps(s: BenchSettings, step: _Steps) -> list[StepRow]:
+    """One resolved-rate step of the PUMA 560 (Khokar 2009): J⁻¹ vs the SR inverse."""
+    from velfence.mechanisms.puma560 import Puma560
+    from velfence.teleop.resolved_rate import ResolvedRate
+
+    step("resolved rate (PUMA 560)")
+    rng = np.random.default_rng(s.seed + 4)
+    robot = Puma560()
+    q_reg = np.array([-1.05628, -2.1085, 0.05893, 0.17227, -0.74605, 0.01345])  # §7.1 start
+    q_wrist = q_reg.copy()
+    q_wrist[4] = 1e-7  # wrist singularity: the SR inverse damps, J⁻¹ cannot be timed here
+    pool_reg = [
+        (q_reg + rng.normal(scale=0.01, size=6), rng.normal(size=6) * 0.1) for _ in range(16)
+    ]
+    pool_sing = [(q_wrist, rng.normal(size=6) * 0.1) for _ in range(16)]
+    calls = max(200, s.calls // 20)
+    fam = "resolved rate (Khokar 2009)"
+    jinv = ResolvedRate(robot, inverse="jinv")
+    sr = ResolvedRate(robot, inverse="sr")
+    rows: list[StepRow] = []
+    base = math.nan
+    for name, fn, pool in (
+        ("J⁻¹ step (Jacobian + solve), regular pose", jinv.step, pool_reg),
+        ("SR-inverse step, regular pose (w > w0, k = 0)", sr.step, pool_reg),
+        ("SR-inverse step at the wrist singularity (damped)", sr.step, pool_sing),
+        ("Puma560.jacobian alone", lambda q, v: robot.jacobian(q), pool_reg),
+    ):
+        med, p99, _ = _stats_us(_time_shape(fn, pool, calls, 2))
+        if math.isnan(base):
+            base = med
+            rows.append(StepRow(fam, name, med, p99))
+        else:
+            rows.append(StepRow(fam, name, med, p99, "J⁻¹ step", med / base))
+    return rows
+
+
 def _max_error(shaper: Any, pool: Sequence[tuple[FloatArray, FloatArray]], xs: list[Any]) -> float:
     err = 0.0
     for (p, v), x in zip(pool, xs, strict=True):
@@ -1033,7 +1069,7 @@ def run_benchmarks(*, quick: bool = False, progress: Progress | None = None) -> 
     if not qp_ok:
         notes.append("qpsolvers or daqp is not installed: the QP baseline is skipped.")
     n_batch = len(s.batch_edges) * 2 * (2 if numba_ok else 1)
-    step = _Steps(progress, 13 + 2 * len(s.latency_edges) + len(s.latency_edges) * qp_ok + n_batch)
+    step = _Steps(progress, 14 + 2 * len(s.latency_edges) + len(s.latency_edges) * qp_ok + n_batch)
 
     step("states and timer overhead")
     rng = np.random.default_rng(s.seed)
@@ -1056,7 +1092,7 @@ def run_benchmarks(*, quick: bool = False, progress: Progress | None = None) -> 
     batch = _batch(s, numba_ok, step)
     stops = _stop_latency(s, step)
     control = _control_cycles(s, step, qp_ok)
-    steps = _cobot_steps(s, step)
+    steps = _cobot_steps(s, step) + _resolved_rate_steps(s, step)
     if progress is not None:
         progress("done", 1.0)
     return BenchReport(
