@@ -29,6 +29,7 @@ REPRODUCTIONS: dict[str, str] = {
     "cospm": "velfence.reproduce.cospm:run",
     "obstacles": "velfence.reproduce.obstacles:run",
     "cobot": "velfence.reproduce.cobot:run",
+    "telerobotics": "velfence.reproduce.telerobotics:run",
 }
 
 
