@@ -8,4 +8,77 @@ interpolation; a laser range sensor ray-cast into a scene of primitives; and the
 modes whose virtual fixtures are velocity shapers from :mod:`velfence.shaping`.
 """
 
-__all__: list[str] = []
+from velfence.teleop.laser import (
+    Characteristic,
+    LaserRangeSensor,
+    LaserReading,
+    LaserStream,
+    TabulatedCharacteristic,
+    VoltageModel,
+    calibrate,
+    frequent_level_mean,
+    moving_average,
+    plane_from_points,
+)
+from velfence.teleop.resolved_rate import (
+    RateResult,
+    ResolvedRate,
+    angle_axis,
+    damping,
+    manipulability_of,
+    pose_error,
+    rotation_from_angle_axis,
+    rotation_vector,
+    sr_inverse,
+)
+from velfence.teleop.scene import (
+    Box,
+    Cylinder,
+    Disk,
+    Hit,
+    Plane,
+    Primitive,
+    Scene,
+    door_scene,
+    pick_and_place_scene,
+)
+from velfence.teleop.servo import FirstOrderServo, JointServo, PDGravityServo
+from velfence.teleop.trajectory import CartesianTrajectory, Execution, execute, straight_line
+
+__all__ = [
+    "Box",
+    "CartesianTrajectory",
+    "Characteristic",
+    "Cylinder",
+    "Disk",
+    "Execution",
+    "FirstOrderServo",
+    "Hit",
+    "JointServo",
+    "LaserRangeSensor",
+    "LaserReading",
+    "LaserStream",
+    "PDGravityServo",
+    "Plane",
+    "Primitive",
+    "RateResult",
+    "ResolvedRate",
+    "Scene",
+    "TabulatedCharacteristic",
+    "VoltageModel",
+    "angle_axis",
+    "calibrate",
+    "damping",
+    "door_scene",
+    "execute",
+    "frequent_level_mean",
+    "manipulability_of",
+    "moving_average",
+    "pick_and_place_scene",
+    "plane_from_points",
+    "pose_error",
+    "rotation_from_angle_axis",
+    "rotation_vector",
+    "sr_inverse",
+    "straight_line",
+]
