@@ -330,3 +330,37 @@ def test_shaper_parameters_are_frozen_once_built():
     with pytest.raises(AttributeError, match="immutable"):
         s.buffer = 1.0
     assert s.buffer == 0.1
+
+
+def test_bounds_are_the_ones_the_exact_law_meets() -> None:
+    """The exact law's output meets bounds(); a command that meets them passes unchanged."""
+    from velfence import InvalidInput, InvalidParameter
+
+    poly = ConvexPolygon([[0, 0], [2, 0], [2.5, 1], [1, 2], [-0.5, 1]])
+    sh = PolygonShaper(poly, buffer=0.3, spring_gain=3.0, method="exact")
+    rng = np.random.default_rng(11)
+    seen_active = seen_outside = 0
+    for _ in range(3000):
+        p = rng.uniform([-0.8, -0.4], [2.8, 2.3])
+        v = rng.normal(size=2) * rng.uniform(0, 3)
+        normals, lower, edges = sh.bounds(p, v)
+        d = poly.signed_distances(p)
+        np.testing.assert_array_equal(edges, np.flatnonzero(d < 0.3))  # every edge within buffer
+        np.testing.assert_array_equal(normals, poly.normals[edges])
+        r = sh.explain(p, v)
+        if "relaxed" in r.stages:
+            continue
+        out = r.output
+        assert np.all(normals @ out >= lower - 1e-9 * (1 + np.abs(v).sum()))
+        if len(edges):
+            seen_active += 1
+            seen_outside += bool(np.any(d < 0))
+            assert np.all(lower[d[edges] >= 0] <= 0.0)  # inside an edge the bound only limits
+        if np.all(normals @ v >= lower):
+            np.testing.assert_allclose(out, v, atol=1e-12)
+    assert seen_active > 100
+    assert seen_outside > 100
+    with pytest.raises(InvalidParameter, match="bounds\\(\\) describes the exact law"):
+        PolygonShaper(poly, buffer=0.3, method="patent").bounds([1, 1], [0, 1])
+    with pytest.raises(InvalidInput, match="finite"):
+        sh.bounds([np.nan, 1], [0, 1])

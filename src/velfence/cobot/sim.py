@@ -66,8 +66,12 @@ class HeadingController(Protocol):
 
 
 def constant_speed(u: float) -> SpeedFn:
-    """A human pushing at constant speed ``u`` [m/s] along whatever direction is allowed."""
-    v = float(u)
+    """A human pushing at constant speed ``u`` [m/s], >= 0, along whatever direction is allowed.
+
+    A backward push is a direction, not a negative speed: use :func:`pushing` with the intended
+    velocity (a negative constant speed would flip the heading every tick).
+    """
+    v = check_positive("u", u, allow_zero=True, unit="m/s")
 
     def speed(t: float, R: FloatArray, T: FloatArray) -> float:
         return v

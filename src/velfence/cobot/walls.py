@@ -1,28 +1,32 @@
 r"""Virtual walls for cobots: the passive-device analogue of the patent's shaping.
 
-A cobot cannot brake or push, only choose the one direction it allows (its CVTs), and the human
-supplies the speed along it. In *caster mode* the direction follows the human's intent (force
-sensing); a virtual wall bends it tangent to the wall at the boundary. :class:`CasterWall` uses the
-same :class:`~velfence.geometry.polygon.ConvexPolygon` and the same exact shaping law as an
-actuated device (:class:`~velfence.shaping.polygon.PolygonShaper`, ``method="exact"``), and turns
-the shaped velocity :math:`v_s` into what the passive device does:
+A cobot cannot brake or push, only choose the one direction (a line) it allows, and the human
+supplies the speed along it. With the human's intended velocity :math:`v_h` (caster mode: force
+sensing), the velocities a passive device can realise are :math:`w(\ell) = (\ell^\top v_h)\,\ell`
+for unit :math:`\ell` — the circle with diameter :math:`v_h` (Thales), including 0 (steer across
+the push: blocked). :class:`CasterWall` takes the *same* half-plane bounds as the actuated exact
+law (:meth:`~velfence.shaping.polygon.PolygonShaper.bounds`: :math:`n_i^\top w \ge L_i` for every
+edge within the buffer) and returns the realisable velocity closest to the intent that meets them:
 
 .. math::
 
-    \ell = v_s/|v_s|,\qquad v_{out} = \max(0, \ell^\top v_h)\,\ell,
+    w^* = \arg\min_{w = (\ell^\top v_h)\ell,\ n_i^\top w \ge L_i} |w - v_h|
+        = \arg\max |w| .
 
-(:math:`v_{out} = 0` when :math:`v_s = 0`: the device steers across the push and blocks it). So
-one workspace definition serves both kinds of device. Differences from the actuated shaper, by
-physics rather than by choice: the speed along the allowed direction is the human's (inside the
-buffer :math:`|v_{out}|` can exceed :math:`|v_s|`, never :math:`|v_h|`); a head-on push reaches
-the wall at full speed and stops there (a passive device cannot brake, only block), so in discrete
-time it may cross by at most :math:`|v_h|\,dt`; and outside it never pushes back (no recovery
-motion unless the human's push has an inward component).
+Writing :math:`\ell` at angle :math:`\varphi` from :math:`v_h` and :math:`\beta_i` for the angle
+from :math:`n_i` to :math:`v_h`, bound i reads
+:math:`\tfrac{|v_h|}{2}[\cos\beta_i + \cos(2\varphi + \beta_i)] \ge L_i`, i.e. it excludes one arc
+of :math:`\varphi` (mod π); the answer is the feasible :math:`\varphi` nearest 0 — 0 itself or an
+arc end point, closed form. So one workspace definition serves both devices: inside the buffer the
+passive wall *brakes by steering* (a head-on push is turned progressively toward the wall's
+tangent, and its speed along the allowed line falls as :math:`\cos\varphi`), at a corner it turns
+toward the open side or blocks. What physics still forbids: pushing back. If the recovery bounds
+outside (``recovery_gain > 0``) cannot be met by any realisable velocity, they are relaxed to "do
+not go further out" (zone stage ``relaxed``).
 
-:class:`WallSteering` realises the same wall on a simulated cobot through its steering: it
-turns the heading toward :math:`\ell` with curvature :math:`\kappa N = g\,(I - TT^\top)\ell` (a
-first-order lag of :math:`1/g` metres of travel), so the passive device's direction error is
-what the wall's buffer must absorb (measured in the cobot reproduction).
+:class:`WallSteering` realises the wall on a simulated cobot through its steering: it turns the
+heading toward the allowed line :math:`\ell^*` with curvature :math:`\kappa N = g\,(I - TT^\top)
+\ell^*` (a first-order lag of :math:`1/g` metres of travel).
 """
 
 from __future__ import annotations
@@ -34,17 +38,48 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence.errors import InvalidParameter
+from velfence.errors import InvalidInput, InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon, as_polygon
-from velfence.shaping.base import IntArray, KernelOut, ShaperBase, check_positive
+from velfence.shaping.base import IntArray, KernelOut, ShaperBase, as_pair, check_positive
 from velfence.shaping.polygon import PolygonShaper
 
 __all__ = ["CasterWall", "WallSteering", "WallSteeringOutput"]
 
 FloatArray = NDArray[np.float64]
 
-#: Shaped speeds below this fraction of the command count as "blocked" (direction undefined).
-_BLOCKED = 1e-12
+#: Angular slack [rad] when testing the bound arcs (round-off at arc end points).
+_FEAS_TOL = 1e-12
+
+
+def _nearest_feasible(
+    normals: FloatArray, lower: FloatArray, psi: float, speed: float
+) -> float | None:
+    r"""The :math:`\varphi \in [-\pi/2, \pi/2]` nearest 0 meeting every bound, or None.
+
+    Bound i holds iff :math:`\cos(2\varphi + \beta_i) \ge c_i`, :math:`c_i = 2L_i/|v| -
+    \cos\beta_i`: an arc of half-width :math:`\arccos(c_i)/2` about :math:`-\beta_i/2` (mod π).
+    """
+    half_pi = 0.5 * math.pi
+    cands = [0.0, half_pi]
+    arcs = []
+    for (nx, ny), low in zip(normals, lower, strict=True):
+        beta = psi - math.atan2(float(ny), float(nx))
+        c = 2.0 * float(low) / speed - math.cos(beta)
+        if c <= -1.0:
+            continue  # never binding
+        if c > 1.0 + _FEAS_TOL:
+            return None  # no realisable velocity meets it
+        a = math.acos(min(c, 1.0))
+        centre = -0.5 * beta
+        arcs.append((centre, 0.5 * a))
+        cands.extend((centre - 0.5 * a, centre + 0.5 * a))
+    best: float | None = None
+    for x in cands:
+        y = (x + half_pi) % math.pi - half_pi  # into [-π/2, π/2)
+        ok = all(abs((y - ctr + half_pi) % math.pi - half_pi) <= hw + _FEAS_TOL for ctr, hw in arcs)
+        if ok and (best is None or abs(y) < abs(best) - 1e-15):
+            best = y
+    return best
 
 
 class CasterWall(ShaperBase):
@@ -61,7 +96,7 @@ class CasterWall(ShaperBase):
     Zones, edges and distances are those of the underlying exact shaper.
     """
 
-    __slots__ = ("_inner", "buffer", "polygon")
+    __slots__ = ("_inner", "_last_line", "buffer", "polygon")
     method = "caster-wall"
 
     def __init__(
@@ -77,32 +112,80 @@ class CasterWall(ShaperBase):
         self.buffer = check_positive("buffer", buffer, unit="m")
         k = check_positive("recovery_gain", recovery_gain, allow_zero=True, unit="1/s")
         self._inner = PolygonShaper(self.polygon, buffer=self.buffer, spring_gain=k, method="exact")
+        self._last_line = (0.0, 0.0)
 
     @property
     def shaper(self) -> PolygonShaper:
         """The actuated-device shaper whose output gives the allowed direction."""
         return self._inner
 
+    def line(self, p: ArrayLike, v: ArrayLike) -> tuple[FloatArray, FloatArray, int]:
+        r"""The allowed line and the realised velocity for intent ``v`` at ``p`` (module docs).
+
+        Args:
+            p: Position, shape (2,) [m].
+            v: The human's intended velocity, shape (2,) [m/s].
+
+        Returns:
+            ``(ell, w, stages)``: unit direction of the allowed line (the intent's direction in
+            the free zone; perpendicular to the intent when blocked; zeros when ``v = 0``),
+            shape (2,); the realised velocity :math:`(\ell^\top v)\ell`, shape (2,); the stage
+            bits (``velfence.shaping.STAGE_NAMES``).
+        """
+        px, py = as_pair("position", p)
+        vx, vy = as_pair("command", v)
+        if not all(math.isfinite(x) for x in (px, py, vx, vy)):
+            raise InvalidInput(
+                f"line: expected finite values, got position=({px}, {py}), command=({vx}, {vy})"
+            )
+        r = self._law(px, py, vx, vy)
+        return np.array(self._last_line), np.array((r[0], r[1])), int(r[9])
+
     def _law(self, px: float, py: float, vx: float, vy: float) -> KernelOut:
-        r = self._inner._law(px, py, vx, vy)
-        sx, sy = r[0], r[1]
-        # sqrt of the sum of squares (not hypot) so that the batch path rounds identically.
-        ns = math.sqrt(sx * sx + sy * sy)
-        if ns <= _BLOCKED * (1.0 + math.sqrt(vx * vx + vy * vy)):
-            ox = oy = 0.0
+        from velfence.shaping._kernels import (
+            STAGE_PROJECT,
+            STAGE_RELAXED,
+            ZONE_BUFFER,
+            ZONE_CORNER,
+            ZONE_FREE,
+            ZONE_OUTSIDE,
+            ZONE_OUTSIDE_CORNER,
+        )
+
+        d = self.polygon.signed_distances(np.array([px, py]))
+        order = np.argsort(d, kind="stable")
+        p1, p2 = int(order[0]), int(order[1])
+        d1, d2 = float(d[p1]), float(d[p2])
+        speed = math.sqrt(vx * vx + vy * vy)
+        m = int(np.count_nonzero(d < self.buffer))
+        if m == 0 or speed == 0.0:
+            self._last_line = (vx / speed, vy / speed) if speed > 0.0 else (0.0, 0.0)
+            return vx, vy, ZONE_FREE if m == 0 else ZONE_BUFFER, p1, p2, d1, d2, 0.0, 0.0, 0
+        out_n = int(np.count_nonzero(d < 0.0))
+        if out_n:
+            zone = ZONE_OUTSIDE if m == 1 else ZONE_OUTSIDE_CORNER
         else:
-            lx, ly = sx / ns, sy / ns
-            u = max(0.0, lx * vx + ly * vy)
-            ox, oy = u * lx, u * ly
-        return (ox, oy, *r[2:])
+            zone = ZONE_BUFFER if m == 1 else ZONE_CORNER
+        normals, lower, _ = self._inner.bounds((px, py), (vx, vy))
+        psi = math.atan2(vy, vx)
+        stages = STAGE_PROJECT
+        phi = _nearest_feasible(normals, lower, psi, speed)
+        if phi is None:  # recovery not realisable: only forbid going further out
+            phi = _nearest_feasible(normals, np.minimum(lower, 0.0), psi, speed)
+            stages |= STAGE_RELAXED
+        if phi is None:  # unreachable: 0 (phi = π/2) always meets bounds <= 0
+            phi = 0.5 * math.pi
+        lx, ly = math.cos(psi + phi), math.sin(psi + phi)
+        u = 0.0 if abs(phi) >= 0.5 * math.pi else speed * math.cos(phi)
+        self._last_line = (lx, ly)
+        return u * lx, u * ly, zone, p1, p2, d1, d2, 0.0, 0.0, stages
 
     def _law_batch(self, P: FloatArray, V: FloatArray) -> tuple[FloatArray, IntArray]:
-        S, zones = self._inner._law_batch(P, V)
-        ns = np.sqrt(S[:, 0] * S[:, 0] + S[:, 1] * S[:, 1])
-        blocked = ns <= _BLOCKED * (1.0 + np.sqrt(V[:, 0] * V[:, 0] + V[:, 1] * V[:, 1]))
-        L = S / np.where(blocked, 1.0, ns)[:, None]
-        u = np.maximum(0.0, L[:, 0] * V[:, 0] + L[:, 1] * V[:, 1])
-        out = np.where(blocked[:, None], 0.0, u[:, None] * L)
+        out = np.empty_like(P)
+        zones = np.empty(P.shape[0], dtype=np.int64)
+        for k in range(P.shape[0]):
+            r = self._law(float(P[k, 0]), float(P[k, 1]), float(V[k, 0]), float(V[k, 1]))
+            out[k, 0], out[k, 1], zones[k] = r[0], r[1], r[2]
         return out, zones
 
     def __repr__(self) -> str:
@@ -134,9 +217,8 @@ class WallSteering:
         intent: The human's intended velocity ``(t, R) -> v_h`` [m/s], shape (2,).
         gain: Steering gain g [1/m] (heading lag of 1/g metres of travel), > 0.
         lookahead: The wall is evaluated at :math:`R + T\,\lambda/g`, λ lag lengths ahead
-            along the heading, so the lagging heading turns early (0: at R, the plain law). With
-            g = 30 /m, 1 lag length still cut 7.7 mm past a 103° corner in the cobot
-            reproduction; 2 kept the cart inside (measured, ``velfence reproduce cobot``).
+            along the heading, so the lagging heading turns early (0: at R). Measured in the
+            cobot reproduction (g = 30 /m): 0 let the cart 47 mm out, 1 → 0.4 mm, 2 → 0.
     """
 
     def __init__(
@@ -161,14 +243,9 @@ class WallSteering:
         Ra = np.asarray(R, dtype=float)
         Ta = np.asarray(T, dtype=float)
         vh = np.asarray(self.intent(0.0 if t is None else float(t), Ra), dtype=float)
-        r = self.wall.explain(Ra + Ta * (self.lookahead / self.gain), vh)
-        out = r.output
-        n = float(np.linalg.norm(out))
-        target = out / n if n > 0.0 else np.zeros(2)
-        if n == 0.0 and float(np.linalg.norm(vh)) > 0.0:
-            # Blocked: turn across the push so that the human's force does no work.
-            target = np.array([-vh[1], vh[0]]) / float(np.linalg.norm(vh))
+        target, _, _ = self.wall.line(Ra + Ta * (self.lookahead / self.gain), vh)
+        zone = self.wall.explain(Ra, vh).zone
         if float(target @ Ta) < 0.0:
             target = -target  # a direction is a line; turn the short way
         kN = self.gain * (target - Ta * float(Ta @ target))
-        return WallSteeringOutput(kN, target, vh, r.zone)
+        return WallSteeringOutput(kN, target, vh, zone)

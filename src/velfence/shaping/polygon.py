@@ -25,8 +25,9 @@ import math
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
-from velfence.errors import InvalidParameter
+from velfence.errors import InvalidInput, InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon, as_polygon
 from velfence.shaping import _kernels as kern
 from velfence.shaping._accel import compiled_batch
@@ -34,6 +35,7 @@ from velfence.shaping.base import (
     FloatArray,
     IntArray,
     ShaperBase,
+    as_pair,
     check_choice,
     check_positive,
 )
@@ -217,6 +219,47 @@ class PolygonShaper(ShaperBase):
             out[:] = res
             zones[:] = zl
         return out, zones
+
+    def bounds(self, p: ArrayLike, v: ArrayLike) -> tuple[FloatArray, FloatArray, IntArray]:
+        r"""The half-plane bounds the exact law enforces at ``p`` for command ``v``.
+
+        For every edge with :math:`d_i <` ``buffer``: :math:`n_i \cdot v_o \ge L_i` with
+        :math:`n_i` the inward normal, :math:`L_i = -(|v| + R)\,d_i/d_{max}` inside and
+        :math:`L_i = \min(k(-d_i), r_{max})` for a violated edge, :math:`R` the largest recovery
+        bound (derivations §3). The exact law's output is the velocity closest to ``v`` that meets
+        them all (unless they are infeasible together: stage ``relaxed``). Other laws built on
+        the same bounds (the passive :class:`~velfence.cobot.CasterWall`) read them here.
+
+        Args:
+            p: Position, shape (2,).
+            v: Command, shape (2,).
+
+        Returns:
+            ``(normals, lower, edges)``: inward unit normals, shape (m, 2); lower bounds on
+            :math:`n_i \cdot v_o`, shape (m,), velocity units; edge indices, shape (m,).
+
+        Raises:
+            InvalidParameter: For ``method="patent"`` or a ``profile`` (other bound forms).
+            InvalidInput: Bad or non-finite input.
+        """
+        if self.method != "exact" or self.profile is not None:
+            raise InvalidParameter(
+                "bounds() describes the exact law with a linear buffer; this shaper has "
+                f"method={self.method!r}, profile={self.profile!r}"
+            )
+        px, py = as_pair("position", p)
+        vx, vy = as_pair("command", v)
+        if not all(math.isfinite(x) for x in (px, py, vx, vy)):
+            raise InvalidInput(
+                f"bounds: expected finite values, got position=({px}, {py}), command=({vx}, {vy})"
+            )
+        d = self.polygon.signed_distances(np.array([px, py]))
+        active = np.flatnonzero(d < self.buffer)
+        da = d[active]
+        rec = np.minimum(self.spring_gain * np.maximum(-da, 0.0), self.max_recovery_speed)
+        R = float(rec.max()) if rec.size else 0.0
+        lower = np.where(da < 0.0, rec, -(math.hypot(vx, vy) + R) * da / self.buffer)
+        return self.polygon.normals[active].copy(), lower, active.astype(np.int64)
 
     def __repr__(self) -> str:
         return (
