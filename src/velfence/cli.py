@@ -125,6 +125,103 @@ def bench(
         sys.stdout.write(report.to_markdown())
 
 
+@app.command()
+def teleop(
+    port: Annotated[int, typer.Option(help="TCP port on 127.0.0.1 (0 picks a free one).")] = 8765,
+    no_browser: Annotated[
+        bool, typer.Option("--no-browser", help="Print the URL only; do not open a browser.")
+    ] = False,
+) -> None:
+    """Drive the simulated PUMA 560 (laser-assisted traded control) from a local web page."""
+    import webbrowser
+
+    from velfence.teleop import viewer
+    from velfence.teleop.session import Session
+
+    try:
+        server = viewer.serve(Session(), port=port)
+    except VelfenceError as exc:
+        raise _fail(str(exc)) from None
+    except OSError as exc:
+        raise _fail(f"cannot listen on 127.0.0.1:{port} ({exc}); try another --port") from None
+    console = Console()
+    console.print(f"velfence teleop: open {server.url}  (Ctrl-C to stop)", highlight=False)
+    if not no_browser:
+        webbrowser.open(server.url)
+    try:
+        while not server.wait(0.5):
+            pass
+    except KeyboardInterrupt:
+        pass
+    finally:
+        server.stop()
+    console.print("stopped")
+
+
+@app.command()
+def study(
+    subjects: Annotated[int, typer.Option(min=1, help="Simulated subjects (thesis: 10).")] = 10,
+    runs: Annotated[int, typer.Option(min=1, help="Runs per mode per subject (thesis: 3).")] = 3,
+    seed: Annotated[int, typer.Option(min=0, help="Study seed (reproducible).")] = 0,
+    out: Annotated[Path, typer.Option(help="Folder for study.json, plots and animation.")] = Path(
+        "out/study"
+    ),
+    json_out: Annotated[
+        bool, typer.Option("--json", help="Print one JSON object (summary + artifacts).")
+    ] = False,
+    animation: Annotated[
+        bool, typer.Option(help="Render one laser-assisted run as an animation.")
+    ] = True,
+) -> None:
+    """Simulated pick-and-place study (Khokar 2009 §7.2): unassisted vs laser-assisted."""
+    import json
+
+    from rich.progress import Progress
+
+    from velfence.teleop.study import record_animation, run_study, write_study
+
+    with Progress(transient=True, disable=json_out) as progress:
+        task = progress.add_task("pick-and-place runs", total=subjects * runs * 2)
+        result = run_study(
+            subjects, runs, seed, progress=lambda done, _: progress.update(task, completed=done)
+        )
+    artifacts = [str(p) for p in write_study(result, out)]
+    if animation:
+        path, _ = record_animation(out / "assisted_run.gif", seed=seed)
+        artifacts.append(str(path))
+    summary = result.summary()
+    if json_out:
+        sys.stdout.write(json.dumps({"summary": summary, "artifacts": artifacts}) + "\n")
+        return
+    table = Table(title=f"simulated study: {subjects} subjects x {runs} runs per mode")
+    table.add_column("per-subject mean")
+    table.add_column("unassisted", justify="right")
+    table.add_column("laser assisted", justify="right")
+    for key, unit in (
+        ("time", "s"),
+        ("path_length", "m"),
+        ("straightness", ""),
+        ("segments", ""),
+        ("clutch_presses", ""),
+        ("index_events", ""),
+        ("collisions", ""),
+    ):
+        row = summary[key]
+        table.add_row(
+            key + (f" [{unit}]" if unit else ""),
+            f"{row['unassisted']['mean']:.3g}",
+            f"{row['assisted']['mean']:.3g}",
+        )
+    console = Console()
+    console.print(table)
+    console.print(
+        f"faster with assistance: {summary['subjects_faster_assisted']}/{subjects} subjects "
+        f"(thesis: 10/10); mean speed-up x{summary['speedup_mean']:.2f}"
+    )
+    for a in artifacts:
+        console.print(f"  wrote {a}")
+
+
 def _short(x: object) -> str:
     if isinstance(x, float):
         return f"{x:.6g}"

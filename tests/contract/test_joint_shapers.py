@@ -42,12 +42,29 @@ def _configuration_control(kind: str):
     return make
 
 
+def _line_fixture(kind: str):
+    from velfence.shaping.fixtures import LineFixture, LineScaling
+
+    # The contract's states lie around (π/2, π/2, π/2) ± 0.9: a line through them with a
+    # cylinder of influence wide enough that both zones (and the saturated spring) occur.
+    point, direction = (1.5, 1.6, 1.4), (1.0, 0.5, -2.0)
+    if kind == "scaling":
+        return LineScaling(point, direction)
+    length = 0.6 if kind == "segment" else None
+    return LineFixture(
+        point, direction, stiffness=2.0, radius_of_influence=0.6, max_force=0.5, length=length
+    )
+
+
 # (name, factory, state dimension, command dimension)
 FACTORIES = [
     ("stops-nearest", _stop_limiter("nearest"), 3, 3),
     ("stops-exact", _stop_limiter("exact"), 3, 3),
     ("configuration-control", _configuration_control("dls"), 3, 2),
     ("velocity-damper-qp", _configuration_control("qp"), 3, 2),
+    ("line-scaling", lambda: _line_fixture("scaling"), 3, 3),
+    ("line-fixture", lambda: _line_fixture("fixture"), 3, 3),
+    ("line-fixture-segment", lambda: _line_fixture("segment"), 3, 3),
 ]
 IDS = [f[0] for f in FACTORIES]
 
@@ -105,6 +122,9 @@ def test_wrong_shapes_are_refused(name, make, dim, cdim):
 def test_tuning_parameters_are_keyword_only(name, make, dim, cdim):
     params = list(inspect.signature(type(make()).__init__).parameters.values())[1:]
     positional = [p.name for p in params if p.kind is not inspect.Parameter.KEYWORD_ONLY]
-    # Only the model may be positional (the stops, the kinematic chain and its obstacles).
-    assert set(positional) <= {"stops", "chain", "obstacles"}, positional
+    # Only the model may be positional (the stops, the kinematic chain and its obstacles, the
+    # fixture's line).
+    assert set(positional) <= {"stops", "chain", "obstacles", "line_point", "line_direction"}, (
+        positional
+    )
     assert any(p.kind is inspect.Parameter.KEYWORD_ONLY for p in params)

@@ -1,0 +1,1357 @@
+r"""Interactive local web viewer for a traded-control session (Khokar 2009, source 002, §3.5).
+
+The thesis's operator looked at the remote scene directly and drove the PUMA with an Omni stylus
+and an Omni-PC keyboard (notes 002 §2.14, §3.5). Here a person drives the simulated
+:class:`~velfence.teleop.session.Session` from a browser instead:
+
+* :func:`serve` starts a :class:`ViewerServer`: a stdlib ``ThreadingHTTPServer`` bound to
+  **127.0.0.1 only**, serving one HTML page whose inline script draws the arm, the scene, the
+  laser beam and the fixture line on a ``<canvas>`` (a small perspective projection; drag to
+  turn the view, wheel to zoom) from ``GET /state`` polled at about 20 Hz;
+* the keyboard sends the thesis's mode keys ``A S F D G P T``, ``C`` (clutch) and ``H`` (hand)
+  to ``POST /key``; held keys jog the master hand through ``POST /jog``, in the PUMA base
+  frame (the session's jog convention): Left/Right along ∓x, Down/Up along ∓y, PgDn/PgUp
+  along ∓z, and ``U O`` / ``I K`` / ``J L`` turn about ±x / ±y / ±z;
+* a background thread advances the session in real time (``realtime=True``), or, for tests and
+  recordings, the session only advances on ``POST /step`` (``realtime=False``, deterministic);
+* :class:`ScriptedDriver` is the test double of the person: it plays a timed script of key
+  presses and jogs by sending the same HTTP requests the page sends (or, with
+  :meth:`ScriptedDriver.replay`, the same calls in-process) and records the snapshots.
+
+HTTP API (JSON bodies, ``Content-Type: application/json``; errors are ``{"error": message}``
+with status 400 for a bad request, 404 unknown path, 409 wrong mode, 411/413 missing or oversized
+body, 415 not JSON, 403 foreign ``Host`` header, 500 a session failure):
+
+* ``GET /`` — the page; ``GET /scene`` — :meth:`SessionLike.scene_primitives`;
+* ``GET /state`` — :meth:`SessionLike.snapshot` plus ``"viewer": {"realtime": bool,
+  "jog": {"linear": [3], "angular": [3]}, "error": str | None}``;
+* ``POST /key`` ``{"key": "A"}`` (one of :data:`ALLOWED_KEYS`, either case);
+* ``POST /jog`` ``{"linear": [3] m/s, "angular": [3] rad/s}`` (``angular`` may be left out:
+  zero); each component finite, ``|linear| <= MAX_JOG_LINEAR``, ``|angular| <= MAX_JOG_ANGULAR``;
+* ``POST /step`` ``{"dt": s}`` with ``0 < dt <= MAX_STEP_REQUEST`` — only when not real time.
+
+Jogs are *held*: the server re-sends the last jog to the session before every ``advance``, so a
+session that forgets its jog after one advance and one that keeps it behave alike. In real time a
+jog older than ``jog_timeout`` is zeroed (a dead-man: a browser that lost a key-up or the
+connection must not leave the arm moving; cf. the thesis's stale-transform jerks, §8.1).
+
+Only loopback is ever bound. The server's ``Host`` check (it must be ``127.0.0.1:port`` or
+``localhost:port``) and the JSON content type of every ``POST`` keep other web pages from
+driving the arm (DNS rebinding, cross-site simple requests).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import threading
+import time
+import urllib.error
+import urllib.request
+from collections.abc import Callable, Mapping, Sequence
+from http import HTTPStatus
+from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+from types import TracebackType
+from typing import TYPE_CHECKING, Any, Protocol, cast
+from urllib.parse import urlsplit
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from velfence.errors import InvalidInput, InvalidParameter, VelfenceError
+
+if TYPE_CHECKING:
+    from velfence.teleop.scene import Scene
+
+__all__ = [
+    "ALLOWED_KEYS",
+    "CLUTCH_KEY",
+    "HAND_KEY",
+    "HOST",
+    "MAX_JOG_ANGULAR",
+    "MAX_JOG_LINEAR",
+    "MAX_STEP_REQUEST",
+    "MODE_KEYS",
+    "ScriptedDriver",
+    "SessionLike",
+    "ViewerServer",
+    "scene_to_dicts",
+    "serve",
+]
+
+FloatArray = NDArray[np.float64]
+
+#: The thesis's mode keys (notes 002 §2.14): trajectory, scaled, fixture, destination, path,
+#: plane point, align.
+MODE_KEYS: tuple[str, ...] = ("A", "S", "F", "D", "G", "P", "T")
+#: Toggles the clutch (the Omni's engage button).
+CLUTCH_KEY = "C"
+#: Closes / opens the hand (the Barrett Hand; the session's own key, not the thesis's).
+HAND_KEY = "H"
+#: Every key ``POST /key`` accepts (a session may still refuse one: 400 with its message).
+ALLOWED_KEYS: tuple[str, ...] = (*MODE_KEYS, CLUTCH_KEY, HAND_KEY)
+#: The only interface the server binds.
+HOST = "127.0.0.1"
+#: Largest accepted master-hand speed [m/s] (the Omni moves a few cm/s; 1 m/s is a typo guard).
+MAX_JOG_LINEAR = 1.0
+#: Largest accepted master-hand angular speed [rad/s].
+MAX_JOG_ANGULAR = 3.0
+#: Largest ``dt`` [s] one ``POST /step`` may ask for.
+MAX_STEP_REQUEST = 10.0
+#: Largest request body [bytes].
+MAX_BODY = 65536
+_DRAIN_LIMIT = 16 * MAX_BODY
+
+
+# ---------------------------------------------------------------------------------- protocol
+class SessionLike(Protocol):
+    """What the viewer needs of a traded-control session (``velfence.teleop.session.Session``).
+
+    Calls come from several threads; the viewer serialises them with one lock, so the session
+    itself need not be thread-safe.
+    """
+
+    def press(self, key: str) -> None:
+        """A key of the Omni-PC keyboard: one of :data:`ALLOWED_KEYS`."""
+        ...
+
+    def jog(self, linear: ArrayLike, angular: ArrayLike) -> None:
+        """The master hand's velocity for the next advance: [m/s] and [rad/s], shape (3,) each."""
+        ...
+
+    def advance(self, dt: float) -> None:
+        """Step the simulated world by ``dt`` [s] > 0."""
+        ...
+
+    def snapshot(self) -> dict[str, Any]:
+        """JSON-able state (keys listed in :mod:`velfence.viz.telerobotics`).
+
+        ``t`` [s], ``mode``, ``clutch``, ``q`` (6 angles [rad]), ``joints`` (points [m] base to
+        tool), ``tool`` (4 x 4), ``laser``, ``fixture``, ``status``, ``task``.
+        """
+        ...
+
+    def scene_primitives(self) -> list[dict[str, Any]]:
+        """The static scene as :func:`scene_to_dicts` writes it."""
+        ...
+
+
+# ---------------------------------------------------------------------------------- scene
+def scene_to_dicts(scene: Scene, *, dynamic: Sequence[str] = ()) -> list[dict[str, Any]]:
+    """A :class:`~velfence.teleop.scene.Scene` as JSON-able dicts, one per primitive, in order.
+
+    Every dict has ``"type"``, ``"name"`` and ``"dynamic"`` (bool: the object can move, and a
+    snapshot's ``task[name]`` gives its current ``base_center`` / ``center`` / ``point``, or
+    ``None`` when it is not to be drawn); vectors are lists of floats [m], all in the PUMA
+    base frame. By type (the field names are the dataclass fields; derived values are added so
+    that a viewer needs no geometry code):
+
+    * ``"plane"``: ``point`` [3], ``normal`` [3] (unit), ``u_axis`` [3], ``v_axis`` [3] (unit,
+      in-plane, ``v = normal × u``), ``half_extents`` ``[a, b]`` or ``None`` (infinite), and
+      ``corners`` [4][3] (counter-clockwise about the normal) or ``None``;
+    * ``"disk"``: ``center`` [3], ``normal`` [3] (unit), ``radius``;
+    * ``"cylinder"``: ``base_center`` [3] (bottom cap centre), ``radius``, ``height``, plus
+      ``center`` [3] (the centroid), ``top`` [3] (top cap centre) and ``axis`` ``[0, 0, 1]``;
+    * ``"box"``: ``center`` [3], ``half_extents`` [3], ``rotation`` [3][3] (columns are the box
+      axes), plus ``corners`` [8][3] (local sign pattern, x fastest: corner ``i`` has signs
+      ``(±x, ±y, ±z)`` from bits 0, 1, 2 of ``i``, bit set = ``+``).
+
+    Example: ``{"type": "cylinder", "name": "cup", "dynamic": true,
+    "base_center": [0.2, 0.58, -0.6], "center": [0.2, 0.58, -0.55], "top": [0.2, 0.58, -0.5],
+    "radius": 0.04, "height": 0.1, "axis": [0.0, 0.0, 1.0]}``.
+
+    Args:
+        scene: The scene.
+        dynamic: Names of the primitives that move (e.g. ``("cup",)``).
+
+    Returns:
+        One dict per primitive, in the scene's order.
+
+    Raises:
+        InvalidInput: ``scene`` is not a Scene, or ``dynamic`` names a primitive it lacks.
+    """
+    from velfence.teleop.scene import Box, Cylinder, Disk, Plane, Scene
+
+    if not isinstance(scene, Scene):
+        raise InvalidInput(f"scene: expected a velfence.teleop.scene.Scene, got {type(scene)!r}")
+    if isinstance(dynamic, str) or any(name not in scene for name in dynamic):
+        raise InvalidInput(f"dynamic: expected names from {list(scene.names)}, got {dynamic!r}")
+    out: list[dict[str, Any]] = []
+    for name, prim in scene.items():
+        if isinstance(prim, Plane):
+            out.append(
+                {
+                    "type": "plane",
+                    "name": name,
+                    "point": _floats(prim.point),
+                    "normal": _floats(prim.normal),
+                    "u_axis": _floats(prim.u_axis),
+                    "v_axis": _floats(prim.v_axis),
+                    "half_extents": None
+                    if prim.half_extents is None
+                    else [float(prim.half_extents[0]), float(prim.half_extents[1])],
+                    "corners": _floats(prim.corners) if prim.bounded else None,
+                }
+            )
+        elif isinstance(prim, Disk):
+            out.append(
+                {
+                    "type": "disk",
+                    "name": name,
+                    "center": _floats(prim.center),
+                    "normal": _floats(prim.normal),
+                    "radius": float(prim.radius),
+                }
+            )
+        elif isinstance(prim, Cylinder):
+            out.append(
+                {
+                    "type": "cylinder",
+                    "name": name,
+                    "base_center": _floats(prim.base_center),
+                    "center": _floats(prim.center),
+                    "top": _floats(prim.top),
+                    "radius": float(prim.radius),
+                    "height": float(prim.height),
+                    "axis": [0.0, 0.0, 1.0],
+                }
+            )
+        elif isinstance(prim, Box):
+            out.append(
+                {
+                    "type": "box",
+                    "name": name,
+                    "center": _floats(prim.center),
+                    "half_extents": _floats(prim.half_extents),
+                    "rotation": _floats(prim.rotation),
+                    "corners": _floats(prim.corners),
+                }
+            )
+        else:  # pragma: no cover - Scene validates its primitive types
+            raise InvalidInput(f"scene[{name!r}]: unknown primitive type {type(prim).__name__}")
+        out[-1]["dynamic"] = name in dynamic
+    return out
+
+
+def _floats(a: ArrayLike) -> Any:
+    return np.asarray(a, dtype=float).tolist()
+
+
+def _jsonable(x: Any) -> Any:
+    """``x`` with NumPy values turned into Python ones and non-finite floats into ``None``."""
+    if isinstance(x, Mapping):
+        return {str(k): _jsonable(v) for k, v in x.items()}
+    if isinstance(x, np.ndarray):
+        return _jsonable(x.tolist())
+    if isinstance(x, list | tuple):
+        return [_jsonable(v) for v in x]
+    if isinstance(x, bool | np.bool_):
+        return bool(x)
+    if isinstance(x, int | np.integer):
+        return int(x)
+    if isinstance(x, float | np.floating):
+        v = float(x)
+        return v if math.isfinite(v) else None
+    return x
+
+
+def _vector(name: str, value: Any, limit: float, unit: str) -> FloatArray:
+    """A finite 3-vector with norm <= limit, else :class:`InvalidInput` naming ``name``."""
+    try:
+        if isinstance(value, str | bytes):
+            raise TypeError
+        v = np.array(value, dtype=float)
+    except (TypeError, ValueError):
+        raise InvalidInput(f"{name}: expected 3 numbers [{unit}], got {value!r}") from None
+    if v.shape != (3,) or not np.all(np.isfinite(v)):
+        raise InvalidInput(f"{name}: expected 3 finite numbers [{unit}], got {value!r}")
+    norm = float(np.linalg.norm(v))
+    if norm > limit:
+        raise InvalidInput(
+            f"{name}: expected a speed of at most {limit:g} {unit}, got {norm:.6g} {unit}"
+        )
+    return v
+
+
+def _key(value: Any) -> str:
+    if not isinstance(value, str) or value.upper() not in ALLOWED_KEYS:
+        raise InvalidInput(f"key: expected one of {list(ALLOWED_KEYS)}, got {value!r}")
+    return value.upper()
+
+
+# ---------------------------------------------------------------------------------- server
+class _HTTPError(Exception):
+    def __init__(self, status: HTTPStatus, message: str) -> None:
+        super().__init__(message)
+        self.status = status
+        self.message = message
+
+
+class _HTTPServer(ThreadingHTTPServer):
+    daemon_threads = True
+
+    def __init__(self, viewer: ViewerServer, port: int) -> None:
+        self.viewer = viewer
+        super().__init__((HOST, port), _Handler)
+
+
+class _Handler(BaseHTTPRequestHandler):
+    server_version = "velfence-viewer"
+    _raw: bytes | None = None
+    _body_error: _HTTPError | None = None
+
+    def log_message(self, format: str, *args: Any) -> None:
+        """Silence the per-request log on stderr (the CLI prints the URL only)."""
+
+    # -------------------------------------------------------------------------- plumbing
+    @property
+    def _viewer(self) -> ViewerServer:
+        return cast(_HTTPServer, self.server).viewer
+
+    def _send(self, status: HTTPStatus, body: bytes, content_type: str) -> None:
+        self.send_response(status)
+        self.send_header("Content-Type", content_type)
+        self.send_header("Content-Length", str(len(body)))
+        self.send_header("Cache-Control", "no-store")
+        self.send_header("X-Content-Type-Options", "nosniff")
+        self.end_headers()
+        if self.command != "HEAD":
+            self.wfile.write(body)
+
+    def _json(self, status: HTTPStatus, payload: Any) -> None:
+        body = json.dumps(_jsonable(payload), allow_nan=False).encode()
+        self._send(status, body, "application/json")
+
+    def _check_host(self) -> None:
+        host = self.headers.get("Host")
+        port = self._viewer.port
+        if host is not None and host not in (f"{HOST}:{port}", f"localhost:{port}"):
+            raise _HTTPError(
+                HTTPStatus.FORBIDDEN,
+                f"Host: expected {HOST}:{port} or localhost:{port}, got {host!r}",
+            )
+
+    def _read_body(self) -> None:
+        """Read the body first: an early error reply must not leave unread bytes behind."""
+        # Closing a socket with unread input sends a reset, which can eat the error reply.
+        self._raw = None
+        self._body_error = None
+        length = self.headers.get("Content-Length")
+        if length is None:
+            self._body_error = _HTTPError(
+                HTTPStatus.LENGTH_REQUIRED, "Content-Length: expected a length"
+            )
+            return
+        try:
+            n = int(length)
+        except ValueError:
+            self._body_error = _HTTPError(
+                HTTPStatus.BAD_REQUEST, f"Content-Length: expected an integer, got {length!r}"
+            )
+            return
+        if not 0 <= n <= MAX_BODY:
+            self._body_error = _HTTPError(
+                HTTPStatus.REQUEST_ENTITY_TOO_LARGE,
+                f"body: expected at most {MAX_BODY} bytes, got {n}",
+            )
+            if 0 < n <= _DRAIN_LIMIT:  # drain a moderately large body so the reply arrives
+                self.rfile.read(n)
+            return
+        self._raw = self.rfile.read(n)
+
+    def _body(self) -> dict[str, Any]:
+        if self._body_error is not None:
+            raise self._body_error
+        ctype = self.headers.get("Content-Type", "")
+        if ctype.split(";")[0].strip().lower() != "application/json":
+            raise _HTTPError(
+                HTTPStatus.UNSUPPORTED_MEDIA_TYPE,
+                f"Content-Type: expected application/json, got {ctype!r}",
+            )
+        try:
+            data = json.loads((self._raw or b"").decode("utf-8"))
+        except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+            raise _HTTPError(HTTPStatus.BAD_REQUEST, f"body: expected JSON, got {exc}") from None
+        if not isinstance(data, dict):
+            raise _HTTPError(
+                HTTPStatus.BAD_REQUEST, f"body: expected a JSON object, got {type(data).__name__}"
+            )
+        return data
+
+    def _dispatch(self, action: Callable[[], None]) -> None:
+        try:
+            self._check_host()
+            action()
+        except _HTTPError as exc:
+            self._json(exc.status, {"error": exc.message})
+        except VelfenceError as exc:
+            self._json(HTTPStatus.BAD_REQUEST, {"error": str(exc)})
+        except Exception as exc:  # a session bug must answer 500, not drop the connection
+            self._json(HTTPStatus.INTERNAL_SERVER_ERROR, {"error": f"{type(exc).__name__}: {exc}"})
+
+    # -------------------------------------------------------------------------- routes
+    def do_GET(self) -> None:
+        """``/``, ``/state``, ``/scene``."""
+        self._dispatch(self._get)
+
+    def do_HEAD(self) -> None:
+        """Headers of a ``GET``."""
+        self._dispatch(self._get)
+
+    def do_POST(self) -> None:
+        """``/key``, ``/jog``, ``/step``."""
+        self._read_body()
+        self._dispatch(self._post)
+
+    def _get(self) -> None:
+        path = urlsplit(self.path).path
+        viewer = self._viewer
+        if path in ("/", "/index.html"):
+            self._send(HTTPStatus.OK, _PAGE.encode(), "text/html; charset=utf-8")
+        elif path == "/state":
+            self._json(HTTPStatus.OK, viewer.state())
+        elif path == "/scene":
+            self._json(HTTPStatus.OK, viewer.scene())
+        else:
+            raise _HTTPError(HTTPStatus.NOT_FOUND, f"no such page {path!r}; try / or /state")
+
+    def _post(self) -> None:
+        path = urlsplit(self.path).path
+        viewer = self._viewer
+        if path not in ("/key", "/jog", "/step"):
+            raise _HTTPError(
+                HTTPStatus.NOT_FOUND, f"no such endpoint {path!r}; expected /key, /jog or /step"
+            )
+        body = self._body()
+        if path == "/key":
+            if "key" not in body:
+                raise InvalidInput(f"body: expected {{'key': ...}}, got keys {sorted(body)}")
+            key = viewer.press(body["key"])
+            self._json(HTTPStatus.OK, {"ok": True, "key": key})
+        elif path == "/jog":
+            if "linear" not in body:
+                raise InvalidInput(
+                    f"body: expected {{'linear': [3], 'angular': [3]}}, got keys {sorted(body)}"
+                )
+            lin, ang = viewer.jog(body["linear"], body.get("angular", (0.0, 0.0, 0.0)))
+            self._json(HTTPStatus.OK, {"ok": True, "linear": lin, "angular": ang})
+        else:
+            if viewer.realtime:
+                raise _HTTPError(
+                    HTTPStatus.CONFLICT,
+                    "step: the session advances in real time; start the viewer with "
+                    "realtime=False to step it on request",
+                )
+            if "dt" not in body:
+                raise InvalidInput(f"body: expected {{'dt': seconds}}, got keys {sorted(body)}")
+            t = viewer.step(body["dt"])
+            self._json(HTTPStatus.OK, {"ok": True, "t": t})
+
+
+class ViewerServer:
+    """A running viewer: HTTP on ``127.0.0.1:port`` plus, in real time, a stepping thread.
+
+    Create it with :func:`serve`. Use it as a context manager, or call :meth:`stop`.
+
+    Args:
+        session: The session to show and drive.
+        port: TCP port; 0 (default) picks a free one (read it back from :attr:`port`).
+        realtime: Advance the session with wall-clock time in a background thread (default);
+            ``False`` advances only on :meth:`step` / ``POST /step`` (deterministic).
+        tick: Period of the real-time stepping thread [s], > 0.
+        max_step: Longest ``dt`` [s] one real-time advance may take; a stalled thread resumes
+            with this step instead of catching up, so simulated time then lags wall time.
+        jog_timeout: In real time, a jog not renewed for this long [s] is zeroed (dead-man);
+            ``math.inf`` disables it.
+
+    Raises:
+        InvalidParameter: a non-positive ``tick``, ``max_step`` or ``jog_timeout``, or a port
+            outside [0, 65535].
+        OSError: the port is in use.
+    """
+
+    def __init__(
+        self,
+        session: SessionLike,
+        *,
+        port: int = 0,
+        realtime: bool = True,
+        tick: float = 0.02,
+        max_step: float = 0.1,
+        jog_timeout: float = 0.5,
+    ) -> None:
+        if isinstance(port, bool) or not isinstance(port, int) or not 0 <= port <= 65535:
+            raise InvalidParameter(f"port: expected an integer in [0, 65535], got {port!r}")
+        for name, value in (("tick", tick), ("max_step", max_step), ("jog_timeout", jog_timeout)):
+            if not (isinstance(value, int | float) and value > 0):
+                raise InvalidParameter(f"{name}: expected a number > 0 [s], got {value!r}")
+        self._session = session
+        self._realtime = bool(realtime)
+        self._tick = float(tick)
+        self._max_step = float(max_step)
+        self._jog_timeout = float(jog_timeout)
+        self._lock = threading.RLock()
+        self._jog_linear = np.zeros(3)
+        self._jog_angular = np.zeros(3)
+        self._jog_time = time.monotonic()
+        self._error: str | None = None
+        self._stopping = threading.Event()
+        self._stopped = False
+        self._httpd = _HTTPServer(self, port)
+        self._port = int(self._httpd.server_address[1])
+        self._http_thread = threading.Thread(
+            target=self._httpd.serve_forever,
+            kwargs={"poll_interval": 0.05},
+            name="velfence-viewer-http",
+            daemon=True,
+        )
+        self._step_thread: threading.Thread | None = None
+        self._http_thread.start()
+        if self._realtime:
+            self._step_thread = threading.Thread(
+                target=self._run_realtime, name="velfence-viewer-step", daemon=True
+            )
+            self._step_thread.start()
+
+    # -------------------------------------------------------------------------- properties
+    @property
+    def port(self) -> int:
+        """The bound TCP port."""
+        return self._port
+
+    @property
+    def url(self) -> str:
+        """``http://127.0.0.1:<port>/``: open it in a browser."""
+        return f"http://{HOST}:{self._port}/"
+
+    @property
+    def realtime(self) -> bool:
+        """Whether a background thread advances the session with wall-clock time."""
+        return self._realtime
+
+    @property
+    def error(self) -> str | None:
+        """The failure that stopped real-time stepping (``"Type: message"``), else ``None``."""
+        return self._error
+
+    @property
+    def running(self) -> bool:
+        """Whether the server still answers (False after :meth:`stop`)."""
+        return not self._stopped
+
+    # -------------------------------------------------------------------------- actions
+    def state(self) -> dict[str, Any]:
+        """The session's snapshot plus ``"viewer"``: ``realtime``, held ``jog``, ``error``."""
+        with self._lock:
+            snap = dict(self._session.snapshot())
+            snap["viewer"] = {
+                "realtime": self._realtime,
+                "jog": {
+                    "linear": self._jog_linear.tolist(),
+                    "angular": self._jog_angular.tolist(),
+                },
+                "error": self._error,
+            }
+        return snap
+
+    def scene(self) -> list[dict[str, Any]]:
+        """The session's static scene primitives (see :func:`scene_to_dicts`)."""
+        with self._lock:
+            return list(self._session.scene_primitives())
+
+    def press(self, key: Any) -> str:
+        """Forward a key to the session.
+
+        Args:
+            key: One of :data:`ALLOWED_KEYS`, either case.
+
+        Returns:
+            The key sent (upper case).
+
+        Raises:
+            InvalidInput: any other key.
+        """
+        k = _key(key)
+        with self._lock:
+            self._session.press(k)
+        return k
+
+    def jog(self, linear: Any, angular: Any = (0.0, 0.0, 0.0)) -> tuple[list[float], list[float]]:
+        """Set the held master-hand velocity and forward it to the session.
+
+        Args:
+            linear: Velocity [m/s], shape (3,), norm <= :data:`MAX_JOG_LINEAR`.
+            angular: Angular velocity [rad/s], shape (3,), norm <= :data:`MAX_JOG_ANGULAR`.
+
+        Returns:
+            The accepted ``(linear, angular)`` as lists.
+
+        Raises:
+            InvalidInput: a wrong shape, non-finite components or too high a speed.
+        """
+        lin = _vector("linear", linear, MAX_JOG_LINEAR, "m/s")
+        ang = _vector("angular", angular, MAX_JOG_ANGULAR, "rad/s")
+        with self._lock:
+            self._jog_linear, self._jog_angular = lin, ang
+            self._jog_time = time.monotonic()
+            self._session.jog(lin.copy(), ang.copy())
+        return lin.tolist(), ang.tolist()
+
+    def step(self, dt: Any) -> float | None:
+        """Advance the session by ``dt`` (only when not in real time).
+
+        Args:
+            dt: Time step [s], ``0 < dt <= MAX_STEP_REQUEST``.
+
+        Returns:
+            The session's time ``t`` [s] after the step (``None`` if its snapshot has none).
+
+        Raises:
+            InvalidInput: a ``dt`` out of range.
+            InvalidParameter: the server runs in real time.
+        """
+        if self._realtime:
+            raise InvalidParameter(
+                "step: expected a viewer started with realtime=False, got a real-time one"
+            )
+        if isinstance(dt, bool) or not isinstance(dt, int | float):
+            raise InvalidInput(f"dt: expected a number of seconds, got {dt!r}")
+        value = float(dt)
+        if not 0.0 < value <= MAX_STEP_REQUEST:
+            raise InvalidInput(f"dt: expected 0 < dt <= {MAX_STEP_REQUEST:g} [s], got {dt!r}")
+        with self._lock:
+            self._session.jog(self._jog_linear.copy(), self._jog_angular.copy())
+            self._session.advance(value)
+            t = self._session.snapshot().get("t")
+        return None if t is None else float(t)
+
+    def wait(self, timeout: float | None = None) -> bool:
+        """Block until the server stops or ``timeout`` [s] passes.
+
+        Returns:
+            Whether the server has stopped.
+        """
+        self._http_thread.join(timeout)
+        return not self._http_thread.is_alive()
+
+    def stop(self) -> None:
+        """Stop stepping and serving, close the socket and join the threads (idempotent)."""
+        if self._stopped:
+            return
+        self._stopped = True
+        self._stopping.set()
+        if self._step_thread is not None:
+            self._step_thread.join()
+        self._httpd.shutdown()
+        self._httpd.server_close()
+        self._http_thread.join()
+
+    def __enter__(self) -> ViewerServer:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self.stop()
+
+    def __repr__(self) -> str:
+        mode = "realtime" if self._realtime else "step-on-request"
+        state = "running" if self.running else "stopped"
+        return f"ViewerServer({self.url}, {mode}, {state})"
+
+    # -------------------------------------------------------------------------- real time
+    def _run_realtime(self) -> None:
+        last = time.monotonic()
+        while not self._stopping.wait(self._tick):
+            now = time.monotonic()
+            dt = min(now - last, self._max_step)
+            last = now
+            if dt <= 0.0:
+                continue
+            try:
+                with self._lock:
+                    if now - self._jog_time > self._jog_timeout:
+                        self._jog_linear = np.zeros(3)
+                        self._jog_angular = np.zeros(3)
+                    self._session.jog(self._jog_linear.copy(), self._jog_angular.copy())
+                    self._session.advance(dt)
+            except Exception as exc:  # keep serving so the page can show what went wrong
+                self._error = f"{type(exc).__name__}: {exc}"
+                return
+
+
+def serve(
+    session: SessionLike,
+    *,
+    port: int = 0,
+    realtime: bool = True,
+    tick: float = 0.02,
+    jog_timeout: float = 0.5,
+) -> ViewerServer:
+    """Serve ``session`` on ``http://127.0.0.1:port/`` and return the running server.
+
+    Args:
+        session: The session to show and drive (:class:`SessionLike`).
+        port: TCP port; 0 (default) picks a free one.
+        realtime: Advance with wall-clock time in a background thread (default); ``False``
+            steps only on ``POST /step`` (tests, recordings).
+        tick: Real-time stepping period [s].
+        jog_timeout: Real-time dead-man: a jog not renewed within this time [s] is zeroed.
+
+    Returns:
+        The running :class:`ViewerServer`; call :meth:`ViewerServer.stop` (or use ``with``).
+
+    Raises:
+        InvalidParameter: bad port, tick or timeout.
+        OSError: the port is in use.
+    """
+    return ViewerServer(session, port=port, realtime=realtime, tick=tick, jog_timeout=jog_timeout)
+
+
+# ---------------------------------------------------------------------------------- driver
+_ACTIONS = ("key", "jog")
+
+
+class _Backend(Protocol):
+    def press(self, key: str) -> None: ...
+
+    def jog(self, linear: FloatArray, angular: FloatArray) -> None: ...
+
+    def advance_to(self, tau: float, dt: float) -> None: ...
+
+    def state(self) -> dict[str, Any]: ...
+
+
+class _LocalBackend:
+    """Calls the session directly, re-sending the held jog before each advance like the server."""
+
+    def __init__(self, session: SessionLike) -> None:
+        self._session = session
+        self._lin = np.zeros(3)
+        self._ang = np.zeros(3)
+
+    def press(self, key: str) -> None:
+        self._session.press(key)
+
+    def jog(self, linear: FloatArray, angular: FloatArray) -> None:
+        self._lin, self._ang = linear, angular
+        self._session.jog(linear.copy(), angular.copy())
+
+    def advance_to(self, tau: float, dt: float) -> None:
+        self._session.jog(self._lin.copy(), self._ang.copy())
+        self._session.advance(dt)
+
+    def state(self) -> dict[str, Any]:
+        return dict(self._session.snapshot())
+
+
+class _HTTPBackend:
+    """Sends what the page sends; ``step`` posts ``/step``, otherwise waits on the wall clock."""
+
+    def __init__(self, url: str, *, step: bool, timeout: float) -> None:
+        self._base = url.rstrip("/")
+        self._step = step
+        self._timeout = timeout
+        self._start = time.monotonic()
+        self._wake = threading.Event()  # never set: its wait() paces the real-time mode
+
+    def request(self, method: str, path: str, payload: Any = None) -> Any:
+        data = None if payload is None else json.dumps(payload).encode()
+        req = urllib.request.Request(self._base + path, data=data, method=method)
+        if data is not None:
+            req.add_header("Content-Type", "application/json")
+        try:
+            with urllib.request.urlopen(req, timeout=self._timeout) as resp:
+                return json.loads(resp.read().decode())
+        except urllib.error.HTTPError as exc:
+            try:
+                message = json.loads(exc.read().decode()).get("error", "")
+            except (ValueError, AttributeError):
+                message = ""
+            raise InvalidInput(
+                f"{method} {path}: the viewer answered {exc.code}: {message or exc.reason}"
+            ) from None
+        except urllib.error.URLError as exc:
+            raise VelfenceError(
+                f"{method} {path}: could not reach the viewer at {self._base} ({exc.reason}); "
+                f"is it running?"
+            ) from None
+
+    def press(self, key: str) -> None:
+        self.request("POST", "/key", {"key": key})
+
+    def jog(self, linear: FloatArray, angular: FloatArray) -> None:
+        self.request("POST", "/jog", {"linear": linear.tolist(), "angular": angular.tolist()})
+
+    def advance_to(self, tau: float, dt: float) -> None:
+        if self._step:
+            self.request("POST", "/step", {"dt": dt})
+        else:
+            remaining = self._start + tau - time.monotonic()
+            if remaining > 0.0:
+                self._wake.wait(remaining)
+
+    def state(self) -> dict[str, Any]:
+        snap = self.request("GET", "/state")
+        if not isinstance(snap, dict):
+            raise InvalidInput(f"GET /state: expected a JSON object, got {type(snap).__name__}")
+        snap.pop("viewer", None)
+        return snap
+
+
+class ScriptedDriver:
+    """A scripted operator at the keyboard: the test double of a person using the viewer.
+
+    The script is a list of ``(t, action, args)``, ``t`` [s] counted from the start of the run,
+    non-decreasing; entries with equal ``t`` run in order. Actions:
+
+    * ``("key", "A")`` — press a key (one of :data:`ALLOWED_KEYS`);
+    * ``("jog", (linear, angular))`` — set the held master-hand velocity, [m/s] and [rad/s],
+      shape (3,) each, until the next ``jog`` (``jog`` with zeros to stop).
+
+    Between actions time advances in samples of ``sample_dt``; a snapshot is recorded at the
+    start and after every advance, so the result can be fed to
+    :func:`velfence.viz.telerobotics.animate_session`.
+
+    Args:
+        script: The timed actions.
+
+    Raises:
+        InvalidParameter: a malformed entry (message names its index).
+    """
+
+    def __init__(self, script: Sequence[tuple[float, str, Any]]) -> None:
+        entries: list[tuple[float, str, Any]] = []
+        last = 0.0
+        for i, entry in enumerate(script):
+            try:
+                t_raw, action, args = entry
+            except (TypeError, ValueError):
+                raise InvalidParameter(
+                    f"script[{i}]: expected (t, action, args), got {entry!r}"
+                ) from None
+            if isinstance(t_raw, bool) or not isinstance(t_raw, int | float):
+                raise InvalidParameter(f"script[{i}]: expected a time t [s], got {t_raw!r}")
+            t = float(t_raw)
+            if not (math.isfinite(t) and t >= last):
+                raise InvalidParameter(
+                    f"script[{i}]: expected a finite time >= {last:g} s (non-decreasing, from 0), "
+                    f"got {t_raw!r}"
+                )
+            last = t
+            try:
+                if action == "key":
+                    parsed: Any = _key(args)
+                elif action == "jog":
+                    try:
+                        lin, ang = args
+                    except (TypeError, ValueError):
+                        raise InvalidInput(
+                            f"jog: expected (linear, angular), got {args!r}"
+                        ) from None
+                    parsed = (
+                        _vector("linear", lin, MAX_JOG_LINEAR, "m/s"),
+                        _vector("angular", ang, MAX_JOG_ANGULAR, "rad/s"),
+                    )
+                else:
+                    raise InvalidInput(f"action: expected one of {list(_ACTIONS)}, got {action!r}")
+            except InvalidInput as exc:
+                raise InvalidParameter(f"script[{i}]: {exc}") from None
+            entries.append((t, str(action), parsed))
+        self._script: tuple[tuple[float, str, Any], ...] = tuple(entries)
+
+    @property
+    def duration(self) -> float:
+        """Time of the last action [s] (0 for an empty script)."""
+        return self._script[-1][0] if self._script else 0.0
+
+    @property
+    def script(self) -> tuple[tuple[float, str, Any], ...]:
+        """The validated script: keys upper case, jogs as arrays."""
+        return self._script
+
+    def run(
+        self,
+        url: str,
+        *,
+        until: float | None = None,
+        sample_dt: float = 0.05,
+        step: bool = True,
+        timeout: float = 10.0,
+    ) -> list[dict[str, Any]]:
+        """Play the script against a running viewer over HTTP, as a browser would.
+
+        Args:
+            url: The viewer's URL (:attr:`ViewerServer.url`).
+            until: Run until this time [s] (default: the last action's time).
+            sample_dt: Spacing of recorded snapshots [s], > 0.
+            step: Advance the server with ``POST /step`` (a ``realtime=False`` viewer; the
+                default, deterministic); ``False`` waits on the wall clock instead, for a
+                real-time viewer.
+            timeout: Per-request timeout [s].
+
+        Returns:
+            The snapshots (``GET /state`` without its ``"viewer"`` entry), in time order.
+
+        Raises:
+            InvalidInput: the viewer rejected a request (status and message included).
+            VelfenceError: the viewer could not be reached.
+            InvalidParameter: bad ``until`` or ``sample_dt``.
+        """
+        backend = _HTTPBackend(url, step=step, timeout=timeout)
+        return self._play(backend, until, sample_dt)
+
+    def replay(
+        self, session: SessionLike, *, until: float | None = None, sample_dt: float = 0.05
+    ) -> list[dict[str, Any]]:
+        """Play the script in-process on ``session`` (same semantics as :meth:`run`, no HTTP).
+
+        Args:
+            session: The session to drive.
+            until: Run until this time [s] (default: the last action's time).
+            sample_dt: Spacing of recorded snapshots [s], > 0.
+
+        Returns:
+            The snapshots, in time order.
+        """
+        return self._play(_LocalBackend(session), until, sample_dt)
+
+    def _play(
+        self, backend: _Backend, until: float | None, sample_dt: float
+    ) -> list[dict[str, Any]]:
+        if not (isinstance(sample_dt, int | float) and sample_dt > 0 and math.isfinite(sample_dt)):
+            raise InvalidParameter(f"sample_dt: expected a number > 0 [s], got {sample_dt!r}")
+        end = self.duration if until is None else until
+        if not (isinstance(end, int | float) and math.isfinite(end) and end >= 0):
+            raise InvalidParameter(f"until: expected a time >= 0 [s], got {until!r}")
+        snapshots = [backend.state()]
+        tau = 0.0
+        i = 0
+        n = len(self._script)
+        eps = 1e-9
+        while True:
+            while i < n and self._script[i][0] <= tau + eps:
+                _, action, args = self._script[i]
+                if action == "key":
+                    backend.press(args)
+                else:
+                    backend.jog(args[0], args[1])
+                i += 1
+            if tau >= end - eps:
+                break
+            next_sample = (math.floor(tau / sample_dt + eps) + 1) * sample_dt
+            next_event = self._script[i][0] if i < n else math.inf
+            target = min(next_sample, next_event, float(end))
+            backend.advance_to(target, target - tau)
+            tau = target
+            snapshots.append(backend.state())
+        return snapshots
+
+
+# ---------------------------------------------------------------------------------- page
+_PAGE = r"""<!DOCTYPE html>
+<html lang="en">
+<head>
+<meta charset="utf-8">
+<title>velfence teleop — PUMA 560 laser-assisted traded control</title>
+<style>
+  html, body { margin: 0; height: 100%; background: #f4f4f2;
+               font: 13px/1.35 system-ui, sans-serif; }
+  #wrap { display: flex; height: 100%; }
+  #view { flex: 1; min-width: 0; background: #fff; cursor: grab; outline: none; }
+  #side { width: 320px; padding: 10px 14px; overflow-y: auto; border-left: 1px solid #ccc; }
+  h1 { font-size: 15px; margin: 4px 0 8px; }
+  .mode { font-size: 22px; font-weight: 700; }
+  .on { color: #1b7f2a; } .off { color: #a33; }
+  table { border-collapse: collapse; width: 100%; }
+  td { padding: 1px 4px; vertical-align: top; }
+  td.k { font-family: ui-monospace, monospace; font-weight: 700; white-space: nowrap; }
+  #status { margin: 6px 0; padding: 4px 6px; background: #eef; border-radius: 4px;
+            min-height: 1.3em; }
+  #err { color: #b00; white-space: pre-wrap; }
+  pre { font-size: 11px; background: #fafafa; border: 1px solid #ddd; padding: 4px;
+        overflow-x: auto; }
+</style>
+</head>
+<body>
+<div id="wrap">
+  <canvas id="view" tabindex="0"></canvas>
+  <div id="side">
+    <h1>PUMA 560 — laser-assisted traded control</h1>
+    <div>mode <span id="mode" class="mode">?</span>
+      &nbsp; clutch <b id="clutch">?</b> &nbsp; t = <span id="t">?</span> s</div>
+    <div id="status"></div>
+    <div id="err"></div>
+    <div>laser: <span id="range">?</span></div>
+    <div>jog: <span id="jog">0</span> &nbsp; speed <span id="speed"></span></div>
+    <h1>Keys</h1>
+    <table>
+      <tr><td class="k">A</td><td>autonomous straight line to the laser target</td></tr>
+      <tr><td class="k">S</td><td>toggle scaled teleoperation along the beam</td></tr>
+      <tr><td class="k">F</td><td>toggle the line fixture</td></tr>
+      <tr><td class="k">D</td><td>record the destination point</td></tr>
+      <tr><td class="k">G</td><td>three-leg path mode (then A, one leg each)</td></tr>
+      <tr><td class="k">P</td><td>record a plane point (twice per point)</td></tr>
+      <tr><td class="k">T</td><td>align to the plane (then A)</td></tr>
+      <tr><td class="k">C</td><td>toggle the clutch (couple the hand)</td></tr>
+      <tr><td class="k">H</td><td>close / open the gripper</td></tr>
+      <tr><td class="k">← →</td><td>jog −x / +x</td></tr>
+      <tr><td class="k">↓ ↑</td><td>jog −y / +y</td></tr>
+      <tr><td class="k">PgDn PgUp</td><td>jog −z / +z</td></tr>
+      <tr><td class="k">U O / I K / J L</td><td>turn about ±x / ±y / ±z</td></tr>
+      <tr><td class="k">Shift</td><td>jog 3× faster</td></tr>
+      <tr><td class="k">[ ]</td><td>halve / double jog speed</td></tr>
+      <tr><td class="k">Space</td><td>stop jogging</td></tr>
+      <tr><td class="k">drag / wheel</td><td>turn / zoom the view</td></tr>
+    </table>
+    <h1>Task</h1>
+    <pre id="task"></pre>
+    <pre id="q"></pre>
+  </div>
+</div>
+<script>
+"use strict";
+const canvas = document.getElementById("view");
+const ctx = canvas.getContext("2d");
+let W = 0, H = 0;
+let scene = [];
+let state = null;
+const view = { az: -2.0, el: 0.42, zoom: 1.0, target: [0.0, 0.35, -0.1], dist: 4.0 };
+let speed = 0.05;   // m/s per jog key
+let turn = 0.3;     // rad/s per turn key
+const held = new Set();
+let shift = false;
+
+const MODE_KEYS = "ASFDGPTCH";
+const MOVE = { ArrowRight: [0, 1], ArrowLeft: [0, -1], ArrowUp: [1, 1], ArrowDown: [1, -1],
+               PageUp: [2, 1], PageDown: [2, -1] };
+const TURN = { KeyU: [0, 1], KeyO: [0, -1], KeyI: [1, 1], KeyK: [1, -1],
+               KeyJ: [2, 1], KeyL: [2, -1] };
+
+function resize() {
+  const r = canvas.getBoundingClientRect();
+  W = canvas.width = Math.max(1, Math.floor(r.width));
+  H = canvas.height = Math.max(1, Math.floor(r.height));
+}
+window.addEventListener("resize", resize);
+
+function sub(a, b) { return [a[0] - b[0], a[1] - b[1], a[2] - b[2]]; }
+function add(a, b) { return [a[0] + b[0], a[1] + b[1], a[2] + b[2]]; }
+function mul(a, s) { return [a[0] * s, a[1] * s, a[2] * s]; }
+function cross(a, b) {
+  return [a[1]*b[2] - a[2]*b[1], a[2]*b[0] - a[0]*b[2], a[0]*b[1] - a[1]*b[0]];
+}
+function norm(a) { return Math.hypot(a[0], a[1], a[2]); }
+function unit(a) { const n = norm(a) || 1; return mul(a, 1 / n); }
+
+// Camera on the sphere (az, el) about the target, z up; mild perspective.
+function project(p) {
+  const d = sub(p, view.target);
+  const ca = Math.cos(view.az), sa = Math.sin(view.az);
+  const ce = Math.cos(view.el), se = Math.sin(view.el);
+  const right = -sa * d[0] + ca * d[1];
+  const horiz = ca * d[0] + sa * d[1];
+  const up = ce * d[2] - se * horiz;
+  const depth = ce * horiz + se * d[2];
+  const f = view.dist / Math.max(view.dist - depth, 0.2);
+  const s = Math.min(W, H) / 2.4 * view.zoom * f;
+  return [W / 2 + s * right, H / 2 - s * up, depth];
+}
+
+function poly(points, fill, stroke, width) {
+  if (points.length < 2) return;
+  ctx.beginPath();
+  points.forEach((p, i) => {
+    const q = project(p);
+    if (i) ctx.lineTo(q[0], q[1]); else ctx.moveTo(q[0], q[1]);
+  });
+  if (fill) { ctx.closePath(); ctx.fillStyle = fill; ctx.fill(); }
+  if (stroke) { ctx.strokeStyle = stroke; ctx.lineWidth = width || 1; ctx.stroke(); }
+}
+function line(a, b, color, width, dash) {
+  const p = project(a), q = project(b);
+  ctx.save();
+  ctx.setLineDash(dash || []);
+  ctx.lineCap = "round";
+  ctx.strokeStyle = color; ctx.lineWidth = width;
+  ctx.beginPath(); ctx.moveTo(p[0], p[1]); ctx.lineTo(q[0], q[1]); ctx.stroke();
+  ctx.restore();
+}
+function dot(p, r, color) {
+  const q = project(p);
+  ctx.beginPath(); ctx.arc(q[0], q[1], r, 0, 2 * Math.PI); ctx.fillStyle = color; ctx.fill();
+}
+function label(p, text, color) {
+  const q = project(p);
+  ctx.fillStyle = color || "#333"; ctx.font = "11px system-ui, sans-serif";
+  ctx.fillText(text, q[0] + 5, q[1] - 5);
+}
+function circle(center, normal, radius, n) {
+  const nn = unit(normal);
+  const a = Math.abs(nn[0]) < 0.9 ? [1, 0, 0] : [0, 1, 0];
+  const u = unit(sub(a, mul(nn, a[0]*nn[0] + a[1]*nn[1] + a[2]*nn[2])));
+  const v = cross(nn, u);
+  const pts = [];
+  for (let i = 0; i < n; i++) {
+    const t = 2 * Math.PI * i / n;
+    pts.push(add(center, add(mul(u, radius * Math.cos(t)), mul(v, radius * Math.sin(t)))));
+  }
+  return pts;
+}
+
+const COLORS = { plane: "rgba(200,200,190,0.45)", disk: "rgba(255,150,40,0.85)",
+                 cylinder: "rgba(70,130,200,0.55)", box: "rgba(160,120,70,0.35)" };
+
+// Each primitive becomes a list of faces {pts, fill, stroke}; faces are painted far to near.
+function faces(prim) {
+  const out = [];
+  if (prim.type === "plane") {
+    let c = prim.corners;
+    if (!c) {  // an infinite plane is drawn as a 2 m square
+      const h = prim.half_extents || [1, 1], u = prim.u_axis, v = prim.v_axis;
+      const p = prim.point || prim.center;
+      c = [[1, 1], [-1, 1], [-1, -1], [1, -1]].map(
+        ([a, b]) => add(p, add(mul(u, a * h[0]), mul(v, b * h[1]))));
+    }
+    out.push({ pts: c, fill: COLORS.plane, stroke: "#999" });
+  } else if (prim.type === "disk") {
+    const pts = circle(prim.center, prim.normal, prim.radius, 32);
+    out.push({ pts: pts, fill: COLORS.disk, stroke: "#c60" });
+  } else if (prim.type === "cylinder") {
+    const b = prim.base_center, t = add(b, [0, 0, prim.height]), n = 24;
+    const lo = circle(b, [0, 0, 1], prim.radius, n), hi = circle(t, [0, 0, 1], prim.radius, n);
+    for (let i = 0; i < n; i++) {
+      const j = (i + 1) % n;
+      out.push({ pts: [lo[i], lo[j], hi[j], hi[i]], fill: COLORS.cylinder, stroke: null });
+    }
+    out.push({ pts: hi, fill: COLORS.cylinder, stroke: "#245" });
+    out.push({ pts: lo, fill: null, stroke: "#245" });
+  } else if (prim.type === "box") {
+    const c = prim.corners || boxCorners(prim);
+    for (const axis of [0, 1, 2]) {
+      const o = [0, 1, 2].filter((k) => k !== axis);
+      for (const side of [0, 1]) {
+        const bit = (k, v) => (v ? 1 << k : 0);
+        const idx = [[0, 0], [1, 0], [1, 1], [0, 1]].map(
+          ([a, b2]) => bit(axis, side) | bit(o[0], a) | bit(o[1], b2));
+        out.push({ pts: idx.map((i) => c[i]), fill: COLORS.box, stroke: "#6b4a22" });
+      }
+    }
+  }
+  return out;
+}
+
+function boxCorners(prim) {
+  const R = prim.rotation || [[1, 0, 0], [0, 1, 0], [0, 0, 1]], h = prim.half_extents;
+  const out = [];
+  for (let i = 0; i < 8; i++) {
+    const l = [i & 1 ? h[0] : -h[0], i & 2 ? h[1] : -h[1], i & 4 ? h[2] : -h[2]];
+    out.push([0, 1, 2].map((r) => prim.center[r] + R[r][0]*l[0] + R[r][1]*l[1] + R[r][2]*l[2]));
+  }
+  return out;
+}
+
+const POINT_FIELDS = ["base_center", "center", "top", "point"];
+// A dynamic primitive moved to where the snapshot's task puts it (null: not drawn).
+function placed(prim) {
+  if (!prim.dynamic || !state || !state.task || !(prim.name in state.task)) return prim;
+  const where = state.task[prim.name];
+  if (!where) return null;
+  const ref = POINT_FIELDS.find((k) => prim[k]);
+  if (!ref) return prim;
+  const d = sub(where, prim[ref]), out = Object.assign({}, prim);
+  for (const k of POINT_FIELDS) if (prim[k]) out[k] = add(prim[k], d);
+  if (prim.corners) out.corners = prim.corners.map((c) => add(c, d));
+  return out;
+}
+
+function depthOf(pts) { let s = 0; for (const p of pts) s += project(p)[2]; return s / pts.length; }
+
+function draw() {
+  if (!W) resize();
+  ctx.clearRect(0, 0, W, H);
+  // floor grid at the table height (or z = -0.6) for orientation
+  const gz = -0.6;
+  for (let k = -10; k <= 10; k += 2) {
+    line([k / 10, -1, gz - 0.001], [k / 10, 1.4, gz - 0.001], "#eee", 1);
+    line([-1, k / 10 + 0.4, gz - 0.001], [1, k / 10 + 0.4, gz - 0.001], "#eee", 1);
+  }
+  let objects = scene.map(placed).filter((p) => p);
+  if (state && Array.isArray(state.objects)) {
+    const moved = new Map(state.objects.map((o) => [o.name, o]));
+    objects = scene.filter((p) => !moved.has(p.name)).concat(state.objects);
+  }
+  const all = [];
+  for (const prim of objects) {
+    for (const f of faces(prim)) { f.depth = depthOf(f.pts); all.push(f); }
+  }
+  all.sort((a, b) => a.depth - b.depth);
+  // the pedestal (illustration only) is painted in depth order with the scene faces
+  const pedestal = project([0, 0, gz / 2])[2];
+  let drawnPedestal = false;
+  const drawPedestal = () => {
+    line([0, 0, 0], [0, 0, gz], "#bbb", 14);
+    line([0, 0, 0], [0.15, 0, 0], "#d33", 1.5); line([0, 0, 0], [0, 0.15, 0], "#3a3", 1.5);
+    line([0, 0, 0], [0, 0, 0.15], "#33d", 1.5);
+    drawnPedestal = true;
+  };
+  for (const f of all) {
+    if (!drawnPedestal && f.depth > pedestal) drawPedestal();
+    poly(f.pts, f.fill, f.stroke, 1);
+  }
+  if (!drawnPedestal) drawPedestal();
+  for (const prim of objects) {
+    const at = prim.top || prim.center || prim.point
+      || (prim.base_center && add(prim.base_center, [0, 0, prim.height]));
+    if (at) label(at, prim.name, "#555");
+  }
+  if (!state) return;
+  // recorded task points: destination (key D), plane points (key P)
+  if (state.destination) {
+    dot(state.destination, 5, "#ff7f00"); label(state.destination, "D", "#c60");
+  }
+  for (const p of state.plane_points || []) dot(p, 4, "#7b3294");
+  // fixture line
+  if (state.fixture) {
+    const a = state.fixture.start, b = state.fixture.end, d = unit(sub(b, a));
+    line(sub(a, mul(d, 0.15)), add(b, mul(d, 0.15)), "rgba(200,0,200,0.35)", 1, [4, 4]);
+    line(a, b, "#c0c", 3, [10, 6]);
+  }
+  // arm
+  const J = state.joints || [];
+  for (let i = 0; i + 1 < J.length; i++) line(J[i], J[i + 1], "#4a6f96", 12);
+  for (const p of J) dot(p, 5, "#223");
+  if (state.gripper) line(state.gripper.start, state.gripper.end, "#777", 6);
+  // tool frame
+  const T = state.tool;
+  if (T) {
+    const o = [T[0][3], T[1][3], T[2][3]];
+    const cols = ["#e22", "#2a2", "#22e"];
+    for (let k = 0; k < 3; k++) {
+      line(o, add(o, mul([T[0][k], T[1][k], T[2][k]], 0.1)), cols[k], 2.5);
+    }
+  }
+  // laser
+  const L = state.laser;
+  if (L && L.origin) {
+    if (L.point) {
+      line(L.origin, L.point, "#f00", 2);
+      dot(L.point, 4, "#f00");
+      label(L.point, (norm(sub(L.point, L.origin)) * 100).toFixed(1) + " cm", "#c00");
+    } else {
+      const d = L.direction || (T ? [T[0][2], T[1][2], T[2][2]] : [0, 0, -1]);
+      line(L.origin, add(L.origin, mul(unit(d), 0.3)), "#f00", 1.5, [5, 5]);
+      label(add(L.origin, mul(unit(d), 0.3)), "no reading", "#c00");
+    }
+  }
+}
+
+function showState() {
+  if (!state) return;
+  document.getElementById("mode").textContent = state.mode;
+  const c = document.getElementById("clutch");
+  c.textContent = state.clutch ? "engaged" : "free";
+  c.className = state.clutch ? "on" : "off";
+  document.getElementById("t").textContent = Number(state.t).toFixed(2);
+  document.getElementById("status").textContent = state.status || "";
+  const L = state.laser;
+  const range = !L ? null : (L.distance != null ? L.distance
+    : (L.point && L.origin ? norm(sub(L.point, L.origin)) : null));
+  document.getElementById("range").textContent =
+    !L ? "no laser" : (range == null ? "no reading" : (range * 100).toFixed(1) + " cm");
+  document.getElementById("task").textContent = JSON.stringify(state.task || {}, null, 1);
+  if (state.q) document.getElementById("q").textContent =
+    "q [deg] " + state.q.map((x) => (x * 180 / Math.PI).toFixed(1)).join(", ");
+  const v = state.viewer || {};
+  if (v.error) document.getElementById("err").textContent = "session stopped: " + v.error;
+}
+
+async function post(path, body) {
+  try {
+    const r = await fetch(path, { method: "POST", headers: { "Content-Type": "application/json" },
+                                  body: JSON.stringify(body) });
+    const j = await r.json();
+    document.getElementById("err").textContent = r.ok ? "" : (path + ": " + (j.error || r.status));
+  } catch (e) {
+    document.getElementById("err").textContent = "viewer unreachable: " + e;
+  }
+}
+
+function jogVector() {
+  const lin = [0, 0, 0], ang = [0, 0, 0], k = shift ? 3 : 1;
+  for (const code of held) {
+    if (MOVE[code]) lin[MOVE[code][0]] += MOVE[code][1] * speed * k;
+    if (TURN[code]) ang[TURN[code][0]] += TURN[code][1] * turn * k;
+  }
+  return { linear: lin, angular: ang };
+}
+let lastJog = "";
+function sendJog(force) {
+  const j = jogVector();
+  const s = JSON.stringify(j);
+  document.getElementById("jog").textContent =
+    "[" + j.linear.map((x) => x.toFixed(3)).join(", ") + "] m/s";
+  document.getElementById("speed").textContent = speed.toFixed(3) + " m/s";
+  if (s !== lastJog || force) { lastJog = s; post("/jog", j); }
+}
+
+window.addEventListener("keydown", (e) => {
+  if (e.ctrlKey || e.metaKey || e.altKey) return;
+  shift = e.shiftKey;
+  if (MOVE[e.code] || TURN[e.code]) {
+    e.preventDefault(); held.add(e.code); sendJog(false); return;
+  }
+  if (e.repeat) return;
+  const ch = e.code.startsWith("Key") ? e.code.slice(3) : "";
+  if (ch && MODE_KEYS.includes(ch)) { e.preventDefault(); post("/key", { key: ch }); }
+  else if (e.code === "Space") { e.preventDefault(); held.clear(); sendJog(true); }
+  else if (e.code === "BracketLeft") { speed /= 2; turn /= 2; sendJog(false); }
+  else if (e.code === "BracketRight") {
+    speed = Math.min(speed * 2, 0.3); turn = Math.min(turn * 2, 1.5); sendJog(false);
+  }
+});
+window.addEventListener("keyup", (e) => {
+  shift = e.shiftKey;
+  if (held.delete(e.code) || e.key === "Shift") sendJog(false);
+});
+window.addEventListener("blur", () => { held.clear(); shift = false; sendJog(true); });
+
+let drag = null;
+canvas.addEventListener("mousedown", (e) => { drag = [e.clientX, e.clientY]; canvas.focus(); });
+window.addEventListener("mouseup", () => { drag = null; });
+window.addEventListener("mousemove", (e) => {
+  if (!drag) return;
+  view.az -= (e.clientX - drag[0]) * 0.01;
+  view.el = Math.max(-1.4, Math.min(1.4, view.el + (e.clientY - drag[1]) * 0.01));
+  drag = [e.clientX, e.clientY];
+});
+canvas.addEventListener("wheel", (e) => {
+  e.preventDefault();
+  view.zoom = Math.max(0.3, Math.min(5, view.zoom * Math.exp(-e.deltaY * 0.001)));
+}, { passive: false });
+
+async function poll() {
+  try {
+    const r = await fetch("/state", { cache: "no-store" });
+    if (r.ok) { state = await r.json(); showState(); }
+  } catch (e) {
+    document.getElementById("err").textContent = "viewer unreachable: " + e;
+  }
+  // keep-alive of a held jog: the server zeroes jogs that are not renewed (dead-man)
+  if (held.size) sendJog(true);
+  setTimeout(poll, 50);
+}
+function frame() { draw(); requestAnimationFrame(frame); }
+
+fetch("/scene").then((r) => r.json()).then((s) => { scene = s; }).catch(() => {});
+resize();
+sendJog(false);
+poll();
+requestAnimationFrame(frame);
+</script>
+</body>
+</html>
+"""

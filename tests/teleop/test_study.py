@@ -1,0 +1,107 @@
+"""The pick-and-place task, the simulated study and ``velfence study`` (tiny runs)."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from velfence.cli import app
+from velfence.errors import InvalidParameter
+from velfence.teleop.operator import OperatorProfile
+from velfence.teleop.study import run_study, write_study
+from velfence.teleop.task import run_task
+
+RATE = 50.0  # coarse control rate: these tests check the plumbing, the study uses 100 Hz
+
+
+@pytest.fixture(scope="module")
+def runs():
+    prof = OperatorProfile()
+    return {
+        c: run_task(c, prof, seed=11, rate=RATE, snapshot_rate=1.0)
+        for c in ("unassisted", "assisted")
+    }
+
+
+def test_both_conditions_complete_and_assistance_is_faster(runs):
+    un, asst = runs["unassisted"].record, runs["assisted"].record
+    assert un.done
+    assert asst.done
+    assert asst.time < un.time
+    assert asst.autonomous_time > 10.0  # approach, alignment and three legs
+    assert un.autonomous_time == 0.0
+    assert un.keys == 2  # only the hand: close and open
+    assert asst.keys >= 26  # D, 3 x P P, A, T A x 2, G A x 6, H x 2
+    assert asst.index_events < un.index_events
+    assert asst.straightness > un.straightness
+    assert asst.segments < un.segments
+
+
+def test_assisted_run_follows_the_thesis_workflow(runs):
+    ev = runs["assisted"].events
+    kinds = [e.message.split(":")[0] for e in ev if e.kind in ("record", "plane", "segment-start")]
+    assert kinds[0] == "D"
+    assert kinds[1:4] == ["P", "P", "P"]
+    starts = [e.message.split()[1].rstrip(":") for e in ev if e.kind == "segment-start"]
+    assert starts == ["approach", "align", "leg1", "leg2", "leg3"]
+    # The hand grasps between the alignment and the first leg.
+    t_grasp = next(e.t for e in ev if e.message.endswith("cup grasped"))
+    t_align = next(e.t for e in ev if e.kind == "segment-end" and "align" in e.message)
+    t_leg1 = next(e.t for e in ev if e.kind == "segment-start" and "leg1" in e.message)
+    assert t_align < t_grasp < t_leg1
+
+
+def test_snapshots_and_trace(runs):
+    run = runs["assisted"]
+    assert len(run.snapshots) >= run.record.time  # 1 Hz plus the final one
+    json.dumps(list(run.snapshots))
+    assert run.snapshots[-1]["task"]["done"] is True
+    assert run.trace.shape[1] == 9
+    assert run.trace[-1, 0] == pytest.approx(run.record.time, abs=0.05)
+
+
+def test_run_task_validation():
+    with pytest.raises(InvalidParameter, match="condition"):
+        run_task("shared")
+    with pytest.raises(InvalidParameter, match="seed"):
+        run_task("assisted", seed=-1)
+
+
+def test_tiny_study_summary_and_files(tmp_path):
+    result = run_study(1, runs=1, seed=3, rate=RATE)
+    assert len(result.records) == 2
+    assert result.values("time", "assisted").shape == (1, 1)
+    s = result.summary()
+    assert s["completed"] == {"unassisted": 1, "assisted": 1}
+    assert s["subjects_faster_assisted"] == 1
+    paths = write_study(result, tmp_path)
+    assert [p.name for p in paths] == ["study.json", "study_times.png", "study_paths.png"]
+    data = json.loads(paths[0].read_text())
+    assert len(data["records"]) == 2
+    assert data["profiles"][0] == result.profiles[0].to_dict()
+    # Subject s's profile comes from default_rng([seed, s]): adding subjects keeps the others.
+    assert result.profiles[0] == OperatorProfile.draw(np.random.default_rng([3, 0]))
+    # Same seed, same study (profiles and records).
+    again = run_study(1, runs=1, seed=3, rate=RATE)
+    assert again.records == result.records
+    with pytest.raises(InvalidParameter, match="n_subjects"):
+        run_study(0)
+
+
+def test_cli_study_json(tmp_path):
+    res = CliRunner().invoke(
+        app,
+        ["study", "--subjects", "1", "--runs", "1", "--seed", "2", "--out", str(tmp_path),
+         "--json", "--no-animation"],
+    )  # fmt: skip
+    assert res.exit_code == 0, res.output
+    obj = json.loads(res.stdout)
+    assert obj["summary"]["subjects"] == 1
+    assert {p.split("/")[-1] for p in obj["artifacts"]} == {
+        "study.json",
+        "study_times.png",
+        "study_paths.png",
+    }

@@ -1,0 +1,385 @@
+"""3-D pictures and animations of a traded-control session (velfence.viz.telerobotics)."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Any
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+import pytest
+from PIL import Image
+
+from velfence.errors import InvalidInput, InvalidParameter
+from velfence.mechanisms.puma560 import Puma560
+from velfence.teleop.scene import pick_and_place_scene
+from velfence.teleop.viewer import ScriptedDriver, scene_to_dicts
+from velfence.viz import telerobotics as tv
+
+LASER_OFFSET = np.array([-0.026, -0.115, 0.115])  # [m] in frame 6 (thesis eq. 40)
+
+
+class PumaJogSession:
+    """A minimal stand-in session: jog = joint velocity of joints 1-3 and 4-6 (not the real one).
+
+    Snapshots are honest PUMA 560 kinematics (FK, joint positions) with a ray-cast laser.
+    """
+
+    def __init__(self) -> None:
+        self.robot = Puma560()
+        self.scene = pick_and_place_scene()
+        self.T0 = np.array([[1, 0, 0, 0.2], [0, -1, 0, 0.55], [0, 0, -1, 0.0], [0, 0, 0, 1.0]])
+        self.q = self.robot.ik(self.T0, shoulder="left")
+        self.qd = np.zeros(6)
+        self.t = 0.0
+        self.clutch = False
+        self.mode = "teleop"
+
+    def press(self, key: str) -> None:
+        if key == "C":
+            self.clutch = not self.clutch
+        else:
+            self.mode = key
+
+    def jog(self, linear: Any, angular: Any) -> None:
+        self.qd = np.concatenate([np.asarray(linear, float), np.asarray(angular, float)])
+
+    def advance(self, dt: float) -> None:
+        self.t += dt
+        if self.clutch:
+            self.q = self.q + self.qd * dt
+
+    def snapshot(self) -> dict[str, Any]:
+        T = self.robot.fk(self.q)
+        origin = T[:3, 3] + T[:3, :3] @ LASER_OFFSET
+        hit = self.scene.raycast(origin, T[:3, 2], max_range=1.16)
+        return {
+            "t": self.t,
+            "mode": self.mode,
+            "clutch": self.clutch,
+            "q": self.q.tolist(),
+            "joints": self.robot.chain.joint_positions(self.q).tolist(),
+            "tool": T.tolist(),
+            "laser": {
+                "origin": origin.tolist(),
+                "point": None if hit is None else hit.point.tolist(),
+            },
+            "fixture": {"start": T[:3, 3].tolist(), "end": [0.2, 0.58, -0.3]}
+            if self.mode == "F"
+            else None,
+            "status": f"mode {self.mode}",
+            "task": {},
+        }
+
+    def scene_primitives(self) -> list[dict[str, Any]]:
+        return scene_to_dicts(self.scene)
+
+
+@pytest.fixture(scope="module")
+def recording() -> list[dict[str, Any]]:
+    script = [
+        (0.0, "key", "C"),
+        (0.0, "jog", ([0.3, 0.0, 0.0], [0.0, 0.0, 0.0])),
+        (0.5, "key", "F"),
+        (1.0, "jog", ([0.0, 0.2, -0.2], [0.0, 0.5, 0.0])),
+    ]
+    return ScriptedDriver(script).replay(PumaJogSession(), until=1.95, sample_dt=0.05)
+
+
+@pytest.fixture(scope="module")
+def scene() -> list[dict[str, Any]]:
+    return scene_to_dicts(pick_and_place_scene())
+
+
+def _png(path: Path) -> np.ndarray:
+    return np.asarray(Image.open(path).convert("RGB"))
+
+
+# ------------------------------------------------------------------------------ stills
+
+
+def test_plot_snapshot_writes_a_picture(
+    tmp_path: Path, recording: list[dict[str, Any]], scene: list[dict[str, Any]]
+) -> None:
+    snap = recording[20]
+    assert snap["laser"]["point"] is not None
+    assert snap["fixture"] is not None
+    out = tv.plot_snapshot(snap, scene, tmp_path / "snap.png")
+    assert out == tmp_path / "snap.png"
+    img = _png(out)
+    assert img.shape[0] > 300
+    assert img.shape[1] > 300
+    # the laser (pure-ish red) and the fixture (magenta) are on the picture
+    r, g, b = (img[..., k].astype(int) for k in range(3))
+    assert np.count_nonzero((r > 200) & (g < 60) & (b < 60)) > 20
+    assert np.count_nonzero((r > 150) & (g < 60) & (b > 150)) > 20
+
+
+def test_plot_snapshot_accepts_a_scene_and_draws_no_reading_as_a_ray(tmp_path: Path) -> None:
+    snap = PumaJogSession().snapshot()
+    snap["laser"]["point"] = None
+    snap["fixture"] = None
+    out = tv.plot_snapshot(snap, pick_and_place_scene(), tmp_path / "ray.png", title="no reading")
+    assert out.stat().st_size > 10_000
+
+
+def test_draw_functions_return_their_artists(
+    recording: list[dict[str, Any]], scene: list[dict[str, Any]]
+) -> None:
+    fig, ax = tv.new_axes()
+    try:
+        snap = recording[20]
+        assert len(tv.draw_scene(ax, scene)) >= len(scene)
+        arm = tv.draw_arm(ax, snap)
+        assert len(arm) == 2 + 3  # links, joint dots, three tool axes
+        assert len(tv.draw_laser(ax, snap)) == 2  # beam + spot
+        assert len(tv.draw_fixture(ax, snap)) == 1
+        no_laser = {**snap, "laser": None, "fixture": None}
+        assert tv.draw_laser(ax, no_laser) == []
+        assert tv.draw_fixture(ax, no_laser) == []
+        ray = {**snap, "laser": {"origin": [0, 0, 0], "point": None, "direction": [0, 0, -2]}}
+        (line,) = tv.draw_laser(ax, ray)
+        _, _, zs = line.get_data_3d()
+        np.testing.assert_allclose(zs, [0.0, -tv.NO_READING_RAY])
+        for a in arm:
+            a.remove()
+    finally:
+        plt.close(fig)
+
+
+def test_moved_objects_replace_static_ones(tmp_path: Path, scene: list[dict[str, Any]]) -> None:
+    snap = PumaJogSession().snapshot()
+    cup = dict(next(p for p in scene if p["name"] == "cup"))
+    cup["base_center"] = [0.0, 0.3, -0.2]
+    snap["objects"] = [cup]
+    static, dynamic = tv._static_and_dynamic(scene, [snap])
+    assert "cup" not in [p["name"] for p in static]
+    assert list(dynamic) == ["cup"]
+    assert tv.plot_snapshot(snap, scene, tmp_path / "carried.png").stat().st_size > 10_000
+
+
+@pytest.mark.parametrize(
+    ("snapshot", "message"),
+    [
+        ({"tool": np.eye(4).tolist()}, "expected a 'joints' entry"),
+        ({"joints": [[0, 0, 0]], "tool": np.eye(4).tolist()}, r"shape \(n >= 2, 3\)"),
+        ({"joints": [[0, 0, 0], [1, 1, 1]]}, "expected a 'tool' entry"),
+        ({"joints": [[0, 0, 0], [1, 1, 1]], "tool": [[1, 0], [0, 1]]}, "4 x 4 pose"),
+        ({"joints": [[0, 0, 0], [1, 1, float("nan")]], "tool": np.eye(4).tolist()}, "finite"),
+    ],
+)
+def test_malformed_snapshots_raise(snapshot: dict[str, Any], message: str) -> None:
+    fig, ax = tv.new_axes()
+    try:
+        with pytest.raises(InvalidInput, match=message):
+            tv.draw_arm(ax, snapshot)
+    finally:
+        plt.close(fig)
+
+
+def test_malformed_scene_raises(tmp_path: Path) -> None:
+    snap = PumaJogSession().snapshot()
+    with pytest.raises(InvalidInput, match="expected type plane, disk, cylinder or box"):
+        tv.plot_snapshot(snap, [{"type": "sphere", "name": "ball"}], tmp_path / "x.png")
+    with pytest.raises(InvalidInput, match="expected a dict with a 'type'"):
+        tv.plot_snapshot(snap, [{"name": "ball"}], tmp_path / "x.png")
+    with pytest.raises(InvalidInput, match="expected a Scene or a list"):
+        tv.plot_snapshot(snap, {"type": "plane"}, tmp_path / "x.png")  # type: ignore[arg-type]
+
+
+# ------------------------------------------------------------------------------ frames
+
+
+def test_frame_indices_count_and_spacing() -> None:
+    t = np.arange(40) * 0.05  # 0 .. 1.95 s
+    idx = tv.frame_indices(t, fps=10, max_frames=50)
+    assert len(idx) == 20  # floor(1.95 * 10) + 1
+    assert idx[0] == 0
+    assert idx[-1] == 39
+    assert np.all(np.diff(idx) > 0)
+    # frame times 1.95 / 19 s apart, each snapped to the nearest 0.05 s sample
+    np.testing.assert_allclose(t[idx], np.linspace(0.0, 1.95, 20), atol=0.025 + 1e-12)
+    assert len(tv.frame_indices(t, fps=10, max_frames=7)) == 7
+    assert len(tv.frame_indices(t, fps=100, max_frames=500)) == 40  # never more than snapshots
+
+
+def test_frame_indices_irregular_and_degenerate_times() -> None:
+    t = np.array([0.0, 0.01, 0.02, 1.0, 1.01, 2.0])
+    idx = tv.frame_indices(t, fps=2, max_frames=10)
+    # targets 0, 0.5, 1.0, 1.5, 2.0 s -> nearest snapshots
+    assert idx.tolist() == [0, 2, 3, 4, 5]
+    assert tv.frame_indices([3.0], fps=15, max_frames=5).tolist() == [0]
+    assert tv.frame_indices([1.0, 1.0, 1.0], fps=15, max_frames=5).tolist() == [2]
+
+
+@pytest.mark.parametrize(
+    ("times", "kwargs", "error", "message"),
+    [
+        ([], {}, InvalidInput, "shape \\(n >= 1,\\)"),
+        ([0.0, 1.0, 0.5], {}, InvalidInput, "non-decreasing"),
+        ([0.0, float("inf")], {}, InvalidInput, "finite"),
+        ([0.0, 1.0], {"fps": 0}, InvalidParameter, "fps: expected a number > 0"),
+        ([0.0, 1.0], {"max_frames": 0}, InvalidParameter, "max_frames: expected an integer"),
+    ],
+)
+def test_frame_indices_validation(
+    times: list[float], kwargs: dict[str, Any], error: type[Exception], message: str
+) -> None:
+    args: dict[str, Any] = {"fps": 15, "max_frames": 10, **kwargs}
+    with pytest.raises(error, match=message):
+        tv.frame_indices(times, **args)
+
+
+# ------------------------------------------------------------------------------ animation
+
+
+def test_animate_session_gif_frame_count(
+    tmp_path: Path, recording: list[dict[str, Any]], scene: list[dict[str, Any]]
+) -> None:
+    assert len(recording) == 40  # 0 .. 1.95 s every 0.05 s
+    timings: dict[str, float] = {}
+    out = tv.animate_session(
+        recording, scene, tmp_path / "run.gif", fps=10, max_frames=50, dpi=40, timings=timings
+    )
+    assert out.stat().st_size > 0
+    expected = len(tv.frame_indices([s["t"] for s in recording], fps=10, max_frames=50))
+    assert expected == 20
+    with Image.open(out) as gif:
+        assert gif.n_frames == expected
+        assert gif.info["duration"] == pytest.approx(100, abs=10)  # [ms] at 10 fps
+    assert timings["frames"] == expected
+    assert timings["render_s"] > 0.0
+    assert timings["speedup"] == pytest.approx(1.95 * 10 / 19)  # sim s per playback s
+
+
+def test_animate_session_caps_frames_and_reports_speedup(
+    tmp_path: Path, recording: list[dict[str, Any]], scene: list[dict[str, Any]]
+) -> None:
+    timings: dict[str, float] = {}
+    out = tv.animate_session(
+        recording, scene, tmp_path / "short.gif", fps=15, max_frames=6, dpi=30, timings=timings
+    )
+    with Image.open(out) as gif:
+        assert gif.n_frames == 6
+    assert timings["speedup"] == pytest.approx(1.95 * 15 / 5)
+    assert "   (×5.8" in tv._overlay(recording[-1], timings["speedup"])
+    assert "(×" not in tv._overlay(recording[-1], 1.0)
+
+
+def test_overlay_text() -> None:
+    text = tv._overlay({"t": 1.234, "mode": "S", "clutch": True, "status": "x" * 200})
+    head, status = text.split("\n")
+    assert head == "t =   1.23 s   mode: S   clutch: engaged"
+    assert status.endswith("...")
+    assert len(status) == 90
+    assert tv._overlay({}) == "t = ?   mode: ?   clutch: ?"
+
+
+def test_animate_session_rejects_bad_input(
+    tmp_path: Path, recording: list[dict[str, Any]], scene: list[dict[str, Any]]
+) -> None:
+    with pytest.raises(InvalidInput, match="at least one snapshot"):
+        tv.animate_session([], scene, tmp_path / "a.gif")
+    with pytest.raises(InvalidInput, match=r"snapshots\[0\]: expected a mapping with a time"):
+        tv.animate_session([{"joints": []}], scene, tmp_path / "a.gif")
+    with pytest.raises(InvalidParameter, match=r"expected a \.gif or \.mp4 file"):
+        tv.animate_session(recording, scene, tmp_path / "a.avi")
+
+
+def test_mp4_without_ffmpeg_says_what_to_do(
+    tmp_path: Path,
+    recording: list[dict[str, Any]],
+    scene: list[dict[str, Any]],
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    monkeypatch.setitem(sys.modules, "imageio_ffmpeg", None)
+    monkeypatch.setattr(tv.writers, "is_available", lambda name: False)
+    with pytest.raises(InvalidParameter, match="pip install imageio-ffmpeg"):
+        tv.animate_session(recording, scene, tmp_path / "a.mp4")
+    assert not (tmp_path / "a.mp4").exists()
+
+
+def test_mp4_when_ffmpeg_is_available(
+    tmp_path: Path, recording: list[dict[str, Any]], scene: list[dict[str, Any]]
+) -> None:
+    try:
+        tv._writer(tmp_path / "probe.mp4", 10)
+    except InvalidParameter:
+        pytest.skip("no ffmpeg here (imageio-ffmpeg not installed)")
+    out = tv.animate_session(recording, scene, tmp_path / "a.mp4", fps=10, max_frames=5, dpi=30)
+    assert out.stat().st_size > 0
+
+
+# ------------------------------------------------------------------------------ other formats
+
+
+def test_session_style_dicts_center_instead_of_point_and_no_corners() -> None:
+    from velfence.teleop.scene import Box
+
+    scene = pick_and_place_scene()
+    mine = scene_to_dicts(scene)
+    theirs = []
+    for d in mine:
+        e = {k: v for k, v in d.items() if k not in ("corners", "top", "center")}
+        if d["type"] == "plane":
+            e["center"] = e.pop("point")
+        elif d["type"] in ("box", "disk"):
+            e["center"] = d["center"]
+        theirs.append(e)
+    for a, b in zip(mine, theirs, strict=True):
+        fa, fb = tv._faces(a), tv._faces(b)
+        assert len(fa) == len(fb)
+        for x, y in zip(fa, fb, strict=True):
+            np.testing.assert_allclose(x, y, atol=1e-12)
+    folder = scene["folder"]
+    assert isinstance(folder, Box)
+    np.testing.assert_allclose(tv._box_corners(theirs[2]), folder.corners, atol=1e-12)
+
+
+def test_dynamic_objects_follow_the_task_entry(scene: list[dict[str, Any]]) -> None:
+    moving = scene_to_dicts(pick_and_place_scene(), dynamic=("cup",))
+    snap = PumaJogSession().snapshot()
+    static, dynamic = tv._static_and_dynamic(moving, [snap])
+    assert [p["name"] for p in static] == ["table", "folder", "destination"]
+    snap["task"] = {"cup": [0.0, 0.5, -0.3]}
+    (cup,) = tv._frame_objects(snap, dynamic)["objects"]
+    assert cup["base_center"] == pytest.approx([0.0, 0.5, -0.3])
+    assert cup["top"] == pytest.approx([0.0, 0.5, -0.2])
+    snap["task"] = {"cup": None}
+    assert tv._frame_objects(snap, dynamic)["objects"] == []
+    snap["task"] = {}
+    (cup,) = tv._frame_objects(snap, dynamic)["objects"]
+    assert cup["base_center"] == pytest.approx([0.2, 0.58, -0.6])
+
+
+def test_gripper_and_task_points_are_drawn(
+    recording: list[dict[str, Any]], scene: list[dict[str, Any]]
+) -> None:
+    snap = dict(recording[20])
+    T = np.asarray(snap["tool"])
+    snap["gripper"] = {"start": T[:3, 3].tolist(), "end": (T[:3, 3] + 0.23 * T[:3, 2]).tolist()}
+    snap["destination"] = [-0.18, 0.68, -0.6]
+    snap["plane_points"] = [[0, 0.5, -0.6], [0.1, 0.5, -0.6]]
+    fig, ax = tv.new_axes()
+    try:
+        assert len(tv.draw_arm(ax, snap)) == 2 + 1 + 3
+        artists = tv.draw_snapshot(ax, snap)
+        assert len(artists) == 2 + 1 + 2 + 6  # task points, fixture, laser, arm
+    finally:
+        plt.close(fig)
+
+
+def test_real_session_renders(tmp_path: Path) -> None:
+    session_module = pytest.importorskip("velfence.teleop.session")
+    session = session_module.Session(rate=100.0)
+    script = [(0.0, "key", "C"), (0.0, "jog", ([0.0, 0.0, 0.05], [0.0, 0.0, 0.0]))]
+    snaps = ScriptedDriver(script).replay(session, until=0.5, sample_dt=0.1)
+    scene = session.scene_primitives()
+    assert tv.plot_snapshot(snaps[-1], scene, tmp_path / "s.png").stat().st_size > 10_000
+    out = tv.animate_session(snaps, scene, tmp_path / "s.gif", fps=10, max_frames=6, dpi=30)
+    with Image.open(out) as gif:
+        assert gif.n_frames == 6
