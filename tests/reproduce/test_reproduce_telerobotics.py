@@ -24,7 +24,8 @@ GENUINE_FAILURES = {
 
 @pytest.fixture(scope="module")
 def report(tmp_path_factory):
-    return run(tmp_path_factory.mktemp("telerobotics"))
+    # A small study keeps the test short; `velfence reproduce telerobotics` runs 10 × 3.
+    return run(tmp_path_factory.mktemp("telerobotics"), subjects=2, runs=1)
 
 
 def test_failures_are_exactly_the_documented_ones(report):

@@ -23,13 +23,21 @@ from pathlib import Path
 from velfence.reproduce._telerobotics_kinematics import kinematics_checks
 from velfence.reproduce._telerobotics_laser import laser_checks
 from velfence.reproduce._telerobotics_motion import motion_checks
+from velfence.reproduce._telerobotics_study import study_checks
 from velfence.reproduce.base import Check, Report
 
 __all__ = ["run"]
 
 
-def run(out_dir: str | Path = "out/reproduce/telerobotics") -> Report:
+def run(
+    out_dir: str | Path = "out/reproduce/telerobotics", *, subjects: int = 10, runs: int = 3
+) -> Report:
     """Run every part and write the figures.
+
+    Args:
+        out_dir: Folder for the figures and ``study.json``.
+        subjects: Simulated subjects of the study (the thesis had 10; about 12 s each).
+        runs: Runs per mode per subject (the thesis: 3).
 
     Returns:
         The report (DESIGN.md §3 JSON via ``to_json()``).
@@ -42,4 +50,7 @@ def run(out_dir: str | Path = "out/reproduce/telerobotics") -> Report:
         c, a = part(out)
         checks.extend(c)
         artifacts.extend(a)
+    c, a = study_checks(out, subjects=subjects, runs=runs)
+    checks.extend(c)
+    artifacts.extend(a)
     return Report("telerobotics", tuple(checks), tuple(str(p) for p in artifacts))

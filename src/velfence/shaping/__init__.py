@@ -13,18 +13,32 @@ joint-stop limiter does the same on n-D joint vectors.
 
 from velfence.shaping._kernels import STAGE_NAMES, ZONE_NAMES
 from velfence.shaping.base import Shaper, ShapingResult
+from velfence.shaping.fixtures import (
+    OMNI_CONTINUOUS_FORCE,
+    OMNI_MAX_FORCE,
+    FixtureResult,
+    LineFixture,
+    LineScaling,
+    ScalingResult,
+)
 from velfence.shaping.polygon import PolygonShaper
 from velfence.shaping.profiles import ApproachProfile, LinearBuffer, ThreeZoneBraking
 from velfence.shaping.rate import RateLimiter
 from velfence.shaping.stops import StopLimiter, StopResult
 
 __all__ = [
+    "OMNI_CONTINUOUS_FORCE",
+    "OMNI_MAX_FORCE",
     "STAGE_NAMES",
     "ZONE_NAMES",
     "ApproachProfile",
+    "FixtureResult",
+    "LineFixture",
+    "LineScaling",
     "LinearBuffer",
     "PolygonShaper",
     "RateLimiter",
+    "ScalingResult",
     "Shaper",
     "ShapingResult",
     "StopLimiter",

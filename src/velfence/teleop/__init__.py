@@ -20,6 +20,8 @@ from velfence.teleop.laser import (
     moving_average,
     plane_from_points,
 )
+from velfence.teleop.modes import ModeEvent, ModeManager, Segment, aligned_rotation
+from velfence.teleop.operator import OperatorProfile, SyntheticOperator
 from velfence.teleop.resolved_rate import (
     RateResult,
     ResolvedRate,
@@ -43,6 +45,8 @@ from velfence.teleop.scene import (
     pick_and_place_scene,
 )
 from velfence.teleop.servo import FirstOrderServo, JointServo, PDGravityServo
+from velfence.teleop.session import Observation, Session
+from velfence.teleop.task import TaskRecord, TaskRun, run_task
 from velfence.teleop.trajectory import CartesianTrajectory, Execution, execute, straight_line
 
 __all__ = [
@@ -58,14 +62,24 @@ __all__ = [
     "LaserRangeSensor",
     "LaserReading",
     "LaserStream",
+    "ModeEvent",
+    "ModeManager",
+    "Observation",
+    "OperatorProfile",
     "PDGravityServo",
     "Plane",
     "Primitive",
     "RateResult",
     "ResolvedRate",
     "Scene",
+    "Segment",
+    "Session",
+    "SyntheticOperator",
     "TabulatedCharacteristic",
+    "TaskRecord",
+    "TaskRun",
     "VoltageModel",
+    "aligned_rotation",
     "angle_axis",
     "calibrate",
     "damping",
@@ -79,6 +93,7 @@ __all__ = [
     "pose_error",
     "rotation_from_angle_axis",
     "rotation_vector",
+    "run_task",
     "sr_inverse",
     "straight_line",
 ]
