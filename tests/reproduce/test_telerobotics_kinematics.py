@@ -13,13 +13,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from velfence.reproduce import telerobotics_data as data
 from velfence.reproduce._telerobotics_kinematics import (
     FK_TOL_MM,
     kinematics_checks,
     recorded_fk_errors_mm,
 )
 from velfence.reproduce.base import Check
+from velfence.teleop import thesis_data as data
 
 PNG = b"\x89PNG\r\n\x1a\n"
 A3 = 0.0203  # [m], |a3| of the PUMA 560 (notes 002 §2.3)

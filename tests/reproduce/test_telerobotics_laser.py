@@ -13,7 +13,7 @@ import pytest
 
 from velfence.reproduce._telerobotics_laser import laser_checks, spread_run
 from velfence.reproduce.base import Report
-from velfence.reproduce.telerobotics_data import TABLE1_DISTANCE_CM, TABLE1_VOLTAGE_V
+from velfence.teleop.thesis_data import TABLE1_DISTANCE_CM, TABLE1_VOLTAGE_V
 
 MUST_PASS = {
     "eq. (1) slope re-fitted from Table 1 [cm/V]",

@@ -21,8 +21,8 @@ from numpy.typing import NDArray
 
 from velfence.mechanisms.chain import DHChain
 from velfence.mechanisms.puma560 import CONFIGURATIONS, Puma560
-from velfence.reproduce import telerobotics_data as data
 from velfence.reproduce.base import Check, check_at_most
+from velfence.teleop import thesis_data as data
 
 __all__ = ["FK_TOL_MM", "kinematics_checks", "recorded_fk_errors_mm"]
 

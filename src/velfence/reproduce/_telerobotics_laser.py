@@ -33,16 +33,6 @@ from numpy.typing import NDArray
 
 from velfence.errors import InvalidInput
 from velfence.reproduce.base import Check, check_at_most, check_close
-from velfence.reproduce.telerobotics_data import (
-    EQ1_OFFSET_CM,
-    EQ1_SLOPE_CM_PER_V,
-    TABLE1_DISTANCE_CM,
-    TABLE1_VOLTAGE_V,
-    TABLE9_ACCURACY_NEW_CM,
-    TABLE9_DISTANCE_CM,
-    TABLE9_REPRODUCIBILITY_NEW_CM,
-    TABLE9_REPRODUCIBILITY_OLD_CM,
-)
 from velfence.teleop.laser import (
     ADC_STEP_V,
     EXPECTED_RANGE_1000,
@@ -54,6 +44,16 @@ from velfence.teleop.laser import (
     moving_average,
 )
 from velfence.teleop.scene import Plane, Scene
+from velfence.teleop.thesis_data import (
+    EQ1_OFFSET_CM,
+    EQ1_SLOPE_CM_PER_V,
+    TABLE1_DISTANCE_CM,
+    TABLE1_VOLTAGE_V,
+    TABLE9_ACCURACY_NEW_CM,
+    TABLE9_DISTANCE_CM,
+    TABLE9_REPRODUCIBILITY_NEW_CM,
+    TABLE9_REPRODUCIBILITY_OLD_CM,
+)
 
 __all__ = ["SpreadRun", "laser_checks", "spread_run"]
 

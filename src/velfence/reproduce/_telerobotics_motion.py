@@ -35,8 +35,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from velfence.mechanisms.puma560 import Puma560
-from velfence.reproduce import telerobotics_data as data
 from velfence.reproduce.base import Check, check_at_least, check_at_most, check_close
+from velfence.teleop import thesis_data as data
 from velfence.teleop.resolved_rate import K0, W0, ResolvedRate, rotation_from_angle_axis
 from velfence.teleop.servo import FirstOrderServo, PDGravityServo
 from velfence.teleop.trajectory import CartesianTrajectory, Execution, execute, straight_line

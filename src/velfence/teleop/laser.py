@@ -53,7 +53,7 @@ from numpy.typing import ArrayLike, NDArray
 from velfence._arrays import readonly
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 from velfence.geometry.primitives import _vec3
-from velfence.reproduce.telerobotics_data import (
+from velfence.teleop.thesis_data import (
     EQ1_OFFSET_CM,
     EQ1_SLOPE_CM_PER_V,
     LASER_OFFSET_M,

@@ -63,13 +63,13 @@ from numpy.typing import ArrayLike, NDArray
 from velfence._arrays import readonly
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.mechanisms.puma560 import Puma560
-from velfence.reproduce.telerobotics_data import TRAJECTORY_FINAL_Q_RAD
 from velfence.shaping.base import check_positive
 from velfence.teleop.laser import LaserRangeSensor, LaserStream
 from velfence.teleop.modes import KEYS, ModeEvent, ModeManager
 from velfence.teleop.resolved_rate import ResolvedRate
 from velfence.teleop.scene import Box, Cylinder, Disk, Plane, Scene, pick_and_place_scene
 from velfence.teleop.servo import FirstOrderServo, JointServo
+from velfence.teleop.thesis_data import TRAJECTORY_FINAL_Q_RAD
 
 __all__ = [
     "GRASP_DEPTH",
