@@ -86,7 +86,7 @@ class CasterWall(ShaperBase):
     """Caster mode bounded by a convex polygon, for a passive (steer-only) device.
 
     Args:
-        polygon: The permitted workspace (corners or a :class:`ConvexPolygon`).
+        polygon: The permitted workspace, a :class:`ConvexPolygon` [m].
         buffer: Width of the band inside the wall where the direction starts turning [m], > 0.
         recovery_gain: Outside the wall, tilt the allowed direction inward as the exact shaper's
             recovery floor ``k·penetration`` would [1/s], >= 0 (0: no tilt). The device still
@@ -101,7 +101,7 @@ class CasterWall(ShaperBase):
 
     def __init__(
         self,
-        polygon: ConvexPolygon | ArrayLike,
+        polygon: ConvexPolygon,
         *,
         buffer: float,
         recovery_gain: float = 0.0,
