@@ -336,5 +336,5 @@ def test_map_validation_messages() -> None:
         map_tangent_curvature(A, [1.0, 0.0], [math.inf, 0.0])
     with pytest.raises(InvalidInput, match=r"H: expected shape \(2, 2, 2\)"):
         map_tangent_curvature(A, [1.0, 0.0], [0.0, 0.0], np.zeros((2, 2)))
-    with pytest.raises(InvalidInput, match="array of numbers"):
+    with pytest.raises(InvalidInput, match="expected numbers"):
         map_tangent_curvature(A, ["a", "b"], [0.0, 0.0])

@@ -319,7 +319,7 @@ def test_bad_poses_and_distances_raise_with_message():
         s.beam(bad)
     bad = np.eye(4)
     bad[0, 3] = math.nan
-    with pytest.raises(InvalidInput, match="finite entries"):
+    with pytest.raises(InvalidInput, match="expected finite values"):
         s.beam(bad)
     with pytest.raises(InvalidInput, match=r"distance: expected a number \[m\], got None"):
         s.laser_point(np.eye(4), None)  # type: ignore[arg-type]

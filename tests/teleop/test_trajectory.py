@@ -150,7 +150,7 @@ def test_generator_validates(line):
         straight_line(T0, T1, timing="fast")
     skew = T1.copy()
     skew[:3, :3] *= 1.1
-    with pytest.raises(InvalidInput, match="expected a rotation matrix"):
+    with pytest.raises(InvalidInput, match="expected a rigid transform"):
         straight_line(T0, skew)
     with pytest.raises(InvalidInput, match=r"expected shape \(4, 4\)"):
         straight_line(T0, np.eye(3))

@@ -36,6 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from velfence._arrays import finite_array
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.geometry.paths import Path
 from velfence.shaping.base import check_choice, check_positive
@@ -205,17 +206,7 @@ class PathFollower:
         return v
 
     def _vector(self, name: str, x: ArrayLike) -> FloatArray:
-        try:
-            a = np.asarray(x, dtype=float)
-        except (TypeError, ValueError):
-            raise InvalidInput(
-                f"{name}: expected numbers of shape ({self._n},), got {x!r}"
-            ) from None
-        if a.shape != (self._n,):
-            raise InvalidInput(f"{name}: expected shape ({self._n},), got shape {a.shape}")
-        if not np.all(np.isfinite(a)):
-            raise InvalidInput(f"{name}: expected finite values, got {a.tolist()}")
-        return a
+        return finite_array(name, x, (self._n,))
 
     def evaluate(
         self, R: ArrayLike, T: ArrayLike, *, s_p: float | None = None, sp_d: float | None = None

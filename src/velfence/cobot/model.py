@@ -30,7 +30,7 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._arrays import readonly
+from velfence._arrays import finite_array, readonly
 from velfence.cobot.cvt import CVT, SteeredWheel, TetrahedralCVT
 from velfence.cobot.transforms import (
     coupling_from_ee,
@@ -292,15 +292,7 @@ def generalised_cross(Omega: ArrayLike) -> FloatArray:
 
 
 def _vec(name: str, x: ArrayLike, n: int) -> FloatArray:
-    try:
-        a = np.asarray(x, dtype=float)
-    except (TypeError, ValueError):
-        raise InvalidInput(f"{name}: expected numbers of shape ({n},), got {x!r}") from None
-    if a.shape != (n,):
-        raise InvalidInput(f"{name}: expected shape ({n},), got shape {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise InvalidInput(f"{name}: expected finite values, got {a.tolist()}")
-    return a
+    return finite_array(name, x, (n,))
 
 
 class Cobot:

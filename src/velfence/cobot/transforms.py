@@ -27,6 +27,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from velfence._arrays import finite_array
 from velfence.errors import InvalidInput
 
 __all__ = [
@@ -46,15 +47,7 @@ SINGULAR_TOL = 1e-12
 
 
 def _finite(name: str, x: ArrayLike, shape: tuple[int, ...] | None = None) -> FloatArray:
-    try:
-        a = np.asarray(x, dtype=float)
-    except (TypeError, ValueError):
-        raise InvalidInput(f"{name}: expected an array of numbers, got {x!r}") from None
-    if shape is not None and a.shape != shape:
-        raise InvalidInput(f"{name}: expected shape {shape}, got shape {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise InvalidInput(f"{name}: expected finite values, got {a.tolist()}")
-    return a
+    return finite_array(name, x, shape)
 
 
 def normalised_derivative(x: ArrayLike, x_prime: ArrayLike) -> tuple[FloatArray, FloatArray]:

@@ -47,7 +47,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._arrays import readonly
+from velfence._arrays import readonly, rigid_transform
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 from velfence.mechanisms.chain import DHChain
 
@@ -573,17 +573,4 @@ def _tool_transform(tool: Any) -> FloatArray:
 
 def _pose(T: ArrayLike) -> FloatArray:
     """Validate a pose argument into a float (4, 4) rigid transform."""
-    try:
-        a = np.array(T, dtype=float)
-    except (TypeError, ValueError):
-        raise InvalidInput(f"T: expected a 4 x 4 homogeneous transform, got {T!r}") from None
-    if a.shape != (4, 4):
-        raise InvalidInput(f"T: expected shape (4, 4), got shape {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise InvalidInput("T: expected finite values, got NaN or inf; filter before calling")
-    if not _is_rigid(a):
-        raise InvalidInput(
-            "T: expected a rigid transform (orthonormal rotation with det +1 to 1e-6, bottom "
-            f"row [0, 0, 0, 1]), got {np.round(a, 6).tolist()}; re-orthonormalise the rotation"
-        )
-    return a
+    return rigid_transform("T", T, tol=_ROT_TOL)

@@ -50,7 +50,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._arrays import readonly
+from velfence._arrays import readonly, rigid_transform
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 from velfence.geometry.primitives import _vec3
 from velfence.teleop.thesis_data import (
@@ -147,24 +147,8 @@ def _finite_1d(name: str, x: Any, unit: str) -> FloatArray:
 
 def _pose(T: ArrayLike) -> tuple[FloatArray, FloatArray]:
     """Validated flange pose: rotation (3, 3) and position (3,)."""
-    try:
-        a = np.asarray(T, dtype=float)
-    except (TypeError, ValueError):
-        raise InvalidInput(f"T_flange: expected a 4x4 homogeneous transform, got {T!r}") from None
-    if a.shape != (4, 4):
-        raise InvalidInput(f"T_flange: expected shape (4, 4), got shape {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise InvalidInput("T_flange: expected finite entries, got NaN or inf")
-    if float(np.max(np.abs(a[3] - (0.0, 0.0, 0.0, 1.0)))) > 1e-9:
-        raise InvalidInput(f"T_flange: expected bottom row [0, 0, 0, 1], got {a[3].tolist()}")
-    R = a[:3, :3]
-    err = float(np.max(np.abs(R.T @ R - np.eye(3))))
-    if err > _POSE_TOL or np.linalg.det(R) <= 0.0:
-        raise InvalidInput(
-            f"T_flange: expected a rotation block with |R^T R - I| <= {_POSE_TOL:g} and det +1, "
-            f"got |R^T R - I| = {err:.3g}; re-orthonormalise the pose"
-        )
-    return R, a[:3, 3]
+    a = rigid_transform("T_flange", T, tol=_POSE_TOL)
+    return a[:3, :3], a[:3, 3]
 
 
 # ---------------------------------------------------------------------------------- models

@@ -34,7 +34,7 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._arrays import readonly
+from velfence._arrays import finite_array, readonly, rigid_transform
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.shaping.base import InvalidPolicy, check_choice, check_positive
 
@@ -183,24 +183,12 @@ def rotation_vector(R: ArrayLike) -> FloatArray:
 
 
 def _vector(name: str, x: ArrayLike, n: int) -> FloatArray:
-    try:
-        a = np.array(x, dtype=float)
-    except (TypeError, ValueError):
-        raise InvalidInput(f"{name}: expected numbers of shape ({n},), got {x!r}") from None
-    if a.shape != (n,):
-        raise InvalidInput(f"{name}: expected shape ({n},), got shape {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise InvalidInput(f"{name}: expected finite values, got {a.tolist()}")
-    return a
+    return finite_array(name, x, (n,))
 
 
 def _pose(name: str, T: ArrayLike) -> FloatArray:
     """A validated homogeneous transform, shape (4, 4)."""
-    a = _matrix(name, T, (4, 4))
-    if not np.array_equal(a[3], (0.0, 0.0, 0.0, 1.0)):
-        raise InvalidInput(f"{name}: expected the bottom row [0, 0, 0, 1], got {a[3].tolist()}")
-    _rotation(f"{name}[:3, :3]", a[:3, :3])
-    return a
+    return rigid_transform(name, T, tol=ROTATION_TOL)
 
 
 ORIENTATION_ERRORS = ("angle_axis", "cross")
