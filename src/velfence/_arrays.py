@@ -18,13 +18,22 @@ def readonly(a: A) -> A:
     return a
 
 
-def finite_array(name: str, x: Any, shape: tuple[int, ...] | None = None) -> NDArray[np.float64]:
+def finite_array(
+    name: str,
+    x: Any,
+    shape: tuple[int, ...] | None = None,
+    *,
+    error: type[Exception] | None = None,
+) -> NDArray[np.float64]:
     """``x`` as a new float array, validated: numbers, the given shape, all finite.
 
     Args:
         name: Argument name for messages.
         x: Array-like input.
         shape: Required shape, or ``None`` for any.
+        error: The exception class to raise (a :class:`~velfence.errors.VelfenceError`
+            subclass); :class:`~velfence.errors.InvalidInput` by default, e.g.
+            ``InvalidGeometry`` for a constructor's geometry or ``InvalidParameter``.
 
     Returns:
         A float64 ndarray (a copy; the caller may modify it).
@@ -35,15 +44,16 @@ def finite_array(name: str, x: Any, shape: tuple[int, ...] | None = None) -> NDA
     """
     from velfence.errors import InvalidInput
 
+    err = error or InvalidInput
     want = "" if shape is None else f" of shape {_shape_text(shape)}"
     try:
         a = np.array(x, dtype=float)
     except (TypeError, ValueError):
-        raise InvalidInput(f"{name}: expected numbers{want}, got {x!r}") from None
+        raise err(f"{name}: expected numbers{want}, got {x!r}") from None
     if shape is not None and a.shape != shape:
-        raise InvalidInput(f"{name}: expected shape {_shape_text(shape)}, got shape {a.shape}")
+        raise err(f"{name}: expected shape {_shape_text(shape)}, got shape {a.shape}")
     if not np.all(np.isfinite(a)):
-        raise InvalidInput(
+        raise err(
             f"{name}: expected finite values, got {a.tolist()}; filter NaN/inf before calling"
         )
     return np.asarray(a, dtype=np.float64)
