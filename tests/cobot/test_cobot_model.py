@@ -51,7 +51,10 @@ def three_d_cobot() -> Cobot:
     """n = 3, identity kinematics, a wheel on (x, y) and a tetrahedral CVT on (y, 2z)."""
     return Cobot(
         IdentityKinematics(3),
-        [Coupling(SteeredWheel(), selection=S_XY), Coupling(TetrahedralCVT(1), selection=S_YZ)],
+        [
+            Coupling(SteeredWheel(), selection=S_XY),
+            Coupling(TetrahedralCVT(convention=1), selection=S_YZ),
+        ],
         name="xyz",
     )
 
@@ -133,7 +136,7 @@ def test_rtheta_heading_satisfies_the_cvt_constraint(convention: int) -> None:
         assert h.ambiguous
         R = kin.position(q)
         J = kin.jacobian(R)
-        t = TetrahedralCVT(convention).direction(phi)
+        t = TetrahedralCVT(convention=convention).direction(phi)
         np.testing.assert_allclose(h.t[0], t, atol=EXACT_TOL)
         assert float(np.linalg.norm(h.T)) == pytest.approx(1.0, abs=EXACT_TOL)
         image = S @ J @ h.T
@@ -164,14 +167,14 @@ def test_direct_and_mixed_couplings_give_the_same_heading() -> None:
         IdentityKinematics(3),
         [
             Coupling(SteeredWheel(), jacobian=direct_maps(S_XY)),
-            Coupling(TetrahedralCVT(1), jacobian=direct_maps(S_YZ)),
+            Coupling(TetrahedralCVT(convention=1), jacobian=direct_maps(S_YZ)),
         ],
     )
     mixed = Cobot(
         IdentityKinematics(3),
         [
             Coupling(SteeredWheel(), selection=S_XY),
-            Coupling(TetrahedralCVT(1), jacobian=direct_maps(S_YZ)),
+            Coupling(TetrahedralCVT(convention=1), jacobian=direct_maps(S_YZ)),
         ],
     )
     for _ in range(50):

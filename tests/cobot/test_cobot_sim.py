@@ -370,3 +370,42 @@ def test_constant_speed_refuses_a_negative_speed() -> None:
 
     with pytest.raises(InvalidParameter, match=r"u must be finite and >= 0 .*-0.5"):
         constant_speed(-0.5)
+
+
+def test_backward_push_moves_backward_and_blind_negative_speed_is_refused() -> None:
+    from velfence.cobot import pushing, simulate_cobot, unicycle
+    from velfence.errors import InvalidInput
+
+    cob = unicycle()
+
+    class Straight:
+        def step(self, R, T, ds, t=None):
+            class Out:
+                kN = np.zeros(2)  # noqa: N815 - the protocol field name
+
+            return Out()
+
+    # the human pushes along -x while the wheel points +x: the cart rolls backward, steadily
+    tr = simulate_cobot(
+        cob,
+        Straight(),
+        np.zeros(2),
+        np.zeros(1),
+        speed=pushing(lambda t, R: np.array([-1.0, 0.0])),
+        duration=0.1,
+        dt=1e-3,
+        heading0=np.array([1.0, 0.0]),
+    )
+    assert tr.R[-1, 0] == pytest.approx(-0.1, abs=1e-9)
+    assert np.all(np.diff(tr.R[:, 0]) < 0.0)
+    with pytest.raises(InvalidInput, match="negative along both T and -T"):
+        simulate_cobot(
+            cob,
+            Straight(),
+            np.zeros(2),
+            np.zeros(1),
+            speed=lambda t, R, T: -1.0,
+            duration=0.01,
+            dt=1e-3,
+            heading0=np.array([1.0, 0.0]),
+        )

@@ -23,8 +23,8 @@ PHIS = np.linspace(-3.1, 3.1, 41)
 
 MODELS = {
     "wheel": SteeredWheel(),
-    "tetra+": TetrahedralCVT(1),
-    "tetra-": TetrahedralCVT(-1),
+    "tetra+": TetrahedralCVT(convention=1),
+    "tetra-": TetrahedralCVT(convention=-1),
 }
 
 
@@ -52,7 +52,7 @@ def test_direction_is_unit(cvt: CVT) -> None:
 def test_tetrahedral_direction_closed_form() -> None:
     """(2.17) written out, both signs of the lost minus (c = ±1)."""
     for c in (1, -1):
-        m = TetrahedralCVT(c)
+        m = TetrahedralCVT(convention=c)
         for phi in PHIS:
             g = np.array(
                 [
@@ -63,7 +63,10 @@ def test_tetrahedral_direction_closed_form() -> None:
             np.testing.assert_allclose(m.direction(phi), g / np.linalg.norm(g), atol=EXACT_TOL)
     # the two conventions mirror φ: t_{-1}(φ) = t_{+1}(-φ) up to sign
     for phi in PHIS:
-        a, b = TetrahedralCVT(-1).direction(phi), TetrahedralCVT(1).direction(-phi)
+        a, b = (
+            TetrahedralCVT(convention=-1).direction(phi),
+            TetrahedralCVT(convention=1).direction(-phi),
+        )
         assert abs(a[0] * b[1] - a[1] * b[0]) < EXACT_TOL
 
 
@@ -82,8 +85,8 @@ def test_angle_rate_equals_derivative_of_polar_angle(cvt: CVT) -> None:
 
 def test_tetrahedral_angle_rate_value_from_notes() -> None:
     """Notes 004 §3.2.2: dψ/dφ = 0.756574 at φ = 0.37 (convention +1); mirrored for -1."""
-    assert TetrahedralCVT(1).angle_rate(0.37) == pytest.approx(0.756574, abs=1e-6)
-    assert TetrahedralCVT(-1).angle_rate(0.37) == pytest.approx(-0.756574, abs=1e-6)
+    assert TetrahedralCVT(convention=1).angle_rate(0.37) == pytest.approx(0.756574, abs=1e-6)
+    assert TetrahedralCVT(convention=-1).angle_rate(0.37) == pytest.approx(-0.756574, abs=1e-6)
 
 
 def test_steering_angle_inverts_direction(cvt: CVT) -> None:
@@ -104,7 +107,7 @@ def test_steering_angle_inverts_direction(cvt: CVT) -> None:
 
 def test_tetrahedral_phi_and_phi_plus_pi_are_opposite() -> None:
     for c in (1, -1):
-        m = TetrahedralCVT(c)
+        m = TetrahedralCVT(convention=c)
         for phi in PHIS:
             np.testing.assert_allclose(m.direction(phi + math.pi), -m.direction(phi), atol=1e-12)
 
@@ -112,7 +115,7 @@ def test_tetrahedral_phi_and_phi_plus_pi_are_opposite() -> None:
 def test_ratio_is_omega1_over_omega2() -> None:
     """(2.16): M(φ) = ω1/ω2 = t_1/t_2."""
     for c in (1, -1):
-        m = TetrahedralCVT(c)
+        m = TetrahedralCVT(convention=c)
         for phi in PHIS:
             t = m.direction(phi)
             if abs(t[1]) > 1e-6:
@@ -120,8 +123,8 @@ def test_ratio_is_omega1_over_omega2() -> None:
         # ω2 = 0 where tan φ = c√2: the ratio is unbounded there
         assert abs(m.ratio(math.atan(c * math.sqrt(2)))) > 1e12
     # M(0) = (0 + √2)/(0 - √2) = -1 for c = +1; M(π/2) = 1 for both
-    assert TetrahedralCVT(1).ratio(0.0) == pytest.approx(-1.0)
-    assert TetrahedralCVT(-1).ratio(math.pi / 2) == pytest.approx(1.0)
+    assert TetrahedralCVT(convention=1).ratio(0.0) == pytest.approx(-1.0)
+    assert TetrahedralCVT(convention=-1).ratio(math.pi / 2) == pytest.approx(1.0)
 
 
 def test_steering_rate_realises_the_curvature(cvt: CVT) -> None:
@@ -152,13 +155,15 @@ def test_tetrahedral_steering_rate_is_eq_2_18() -> None:
     """(2.18): φ̇ = ṡ κ (1 + cos²φ)/√2, with a leading minus for the mirrored convention."""
     for phi, kappa, u in [(0.37, 1.2, 0.9), (-2.5, -0.7, 1.1), (1.4, 2.5, -0.4)]:
         expected = u * kappa * (1 + math.cos(phi) ** 2) / math.sqrt(2)
-        assert TetrahedralCVT(1).steering_rate(phi, kappa, u) == pytest.approx(expected)
-        assert TetrahedralCVT(-1).steering_rate(phi, kappa, u) == pytest.approx(-expected)
+        assert TetrahedralCVT(convention=1).steering_rate(phi, kappa, u) == pytest.approx(expected)
+        assert TetrahedralCVT(convention=-1).steering_rate(phi, kappa, u) == pytest.approx(
+            -expected
+        )
 
 
 def test_steering_rate_does_not_depend_on_the_sign_of_t() -> None:
     """κ ṡ is invariant under t → -t (both flip), so φ and φ + π steer at the same rate."""
-    m = TetrahedralCVT(1)
+    m = TetrahedralCVT(convention=1)
     phi, kappa, u = 0.8, 1.3, 0.7
     assert m.steering_rate(phi + math.pi, -kappa, -u) == pytest.approx(
         m.steering_rate(phi, kappa, u)
@@ -192,4 +197,4 @@ def test_bad_direction_raises(cvt: CVT, t: list) -> None:
 @pytest.mark.parametrize("c", [0, 2, -2, True, 1.5, "1"])
 def test_bad_convention_raises(c: object) -> None:
     with pytest.raises(InvalidParameter, match=r"convention: expected \+1 or -1"):
-        TetrahedralCVT(c)  # type: ignore[arg-type]
+        TetrahedralCVT(convention=c)  # type: ignore[arg-type]

@@ -233,3 +233,18 @@ def test_wall_steering_survey_of_push_directions() -> None:
         _, dmin = run_wall(np.array([math.cos(a), math.sin(a)]) * 0.5, np.array([1.1, 0.0]), 2.0)
         worst = min(worst, dmin)
     assert worst >= -1e-3, worst
+
+
+def test_caster_wall_huge_commands_and_zero_command_zones() -> None:
+    wall = CasterWall(RECT, buffer=0.1)
+    inside_buffer = np.array([1.0, -0.45])
+    huge = wall.shape(inside_buffer, [0.0, -1e160])
+    small = wall.shape(inside_buffer, [0.0, -1.0])
+    assert np.all(np.isfinite(huge))
+    np.testing.assert_allclose(huge / 1e160, small, rtol=1e-12)  # positively homogeneous
+    assert wall.explain([1.0, -0.6], [0.0, 0.0]).zone == "outside"
+    assert wall.explain([1.0, -0.45], [0.0, 0.0]).zone == "buffer"
+    assert wall.explain([1.0, 0.0], [0.0, 0.0]).zone == "free"
+    ell, w, _ = wall.line(inside_buffer, [0.0, -1.0])
+    np.testing.assert_allclose(w, small)
+    assert abs(float(np.linalg.norm(ell)) - 1.0) < 1e-12

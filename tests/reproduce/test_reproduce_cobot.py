@@ -63,7 +63,7 @@ def test_positions_on_the_circle_at_known_arc_lengths():
 
 
 def test_faster_gains_converge_faster():
-    slow, fast = fig5_ee((1.0, 2.0)), fig5_ee((9.0, 6.0))
+    slow, fast = fig5_ee(gains=(1.0, 2.0)), fig5_ee(gains=(9.0, 6.0))
     assert fast.error_at(2.0)[0] < 0.25 * slow.error_at(2.0)[0]
     assert GAINS == (4.0, 4.0)
 

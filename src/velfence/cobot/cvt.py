@@ -114,7 +114,7 @@ class SteeredWheel:
         return float(speed) * float(curvature) / self.angle_rate(phi)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class TetrahedralCVT:
     r"""The tetrahedral CVT (eqs. 2.16–2.18, reconstructed; notes 004 §3.2.2).
 

@@ -213,7 +213,16 @@ class Coupling:
             object.__setattr__(self, "selection", readonly(S))
 
     def maps(self, R: FloatArray, J: FloatArray, H: FloatArray) -> tuple[FloatArray, FloatArray]:
-        r""":math:`(J_i, H_i)` at R given the mechanism's :math:`J` and Hessian ``H``."""
+        r""":math:`(J_i, H_i)` at R given the mechanism's :math:`J` and Hessian ``H``.
+
+        Args:
+            R: End-effector configuration, shape (n,).
+            J: The mechanism's Jacobian at R, shape (n, n).
+            H: Its Hessian ``H[i, k, j]``, shape (n, n, n).
+
+        Returns:
+            :math:`J_i`, shape (2, n), and :math:`H_i`, shape (2, n, n).
+        """
         if self.selection is not None:
             S = self.selection
             return S @ J, np.einsum("ai,ikj->akj", S, H)
@@ -421,7 +430,12 @@ class Cobot:
 
     # ------------------------------------------------------------------ inverse route
     def steering_angles(self, R: ArrayLike, T: ArrayLike) -> FloatArray:
-        """Steering angles that allow heading T at R, shape (n-1,) (initialisation)."""
+        """Steering angles [rad] that allow heading T at R, shape (n-1,) (initialisation).
+
+        Args:
+            R: End-effector configuration, shape (n,).
+            T: Wanted heading (any non-zero length), shape (n,).
+        """
         Ra = _vec("R", R, self._n)
         Ta = _vec("T", T, self._n)
         J = self._kin.jacobian(Ra)
@@ -507,7 +521,7 @@ def r_theta_cobot(*, r_o: float = 0.5, convention: int = 1) -> Cobot:
     S = np.array([[1.0 / ro, 0.0], [0.0, 1.0]])
     return Cobot(
         RThetaKinematics(),
-        [Coupling(TetrahedralCVT(convention), selection=S, name="tetrahedral")],
+        [Coupling(TetrahedralCVT(convention=convention), selection=S, name="tetrahedral")],
         name="r-theta",
     )
 

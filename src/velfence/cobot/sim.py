@@ -288,8 +288,10 @@ def simulate_cobot(
         q0: Initial joint configuration, shape (n,).
         phi0: Initial steering angles [rad], shape (n-1,) (see
             :meth:`~velfence.cobot.model.Cobot.steering_angles`).
-        speed: The human, ``(t, R, T) -> u`` [m/s] (:func:`constant_speed`, :func:`pushing`);
-            a negative speed moves backward along T and flips the heading.
+        speed: The human, ``(t, R, T) -> u`` [m/s] (:func:`constant_speed`, :func:`pushing`):
+            the signed speed along the direction T it is given. A negative value means the
+            human pushes backward: the heading is flipped (it is the motion's direction) and
+            the speed is read again along it, where it must not be negative.
         duration: Simulated time [s], > 0.
         dt: Control period [s], > 0.
         heading0: Resolves the initial sign of the allowed direction, shape (n,); the sign of
@@ -335,6 +337,13 @@ def simulate_cobot(
         u_now = float(speed(t, R, T))
         if u_now < 0.0:  # the human pushes backward: the heading is the motion's direction
             T = -T
+            u_now = float(speed(t, R, T))
+            if u_now < 0.0:
+                raise InvalidInput(
+                    f"speed: negative along both T and -T at t = {t:g} s; the human model must "
+                    "give the signed speed along the direction it is given (e.g. pushing(intent)"
+                    "), a direction-blind negative speed would flip the heading every tick"
+                )
         out = controller.step(R, T, ds, t)
         kN = np.asarray(out.kN, dtype=float)
         st = cobot.steering_rates(R, phi, T, kN, abs(u_now), route=route)

@@ -96,7 +96,7 @@ class CasterWall(ShaperBase):
     Zones, edges and distances are those of the underlying exact shaper.
     """
 
-    __slots__ = ("_inner", "_last_line", "buffer", "polygon")
+    __slots__ = ("_inner", "buffer", "polygon")
     method = "caster-wall"
 
     def __init__(
@@ -112,7 +112,6 @@ class CasterWall(ShaperBase):
         self.buffer = check_positive("buffer", buffer, unit="m")
         k = check_positive("recovery_gain", recovery_gain, allow_zero=True, unit="1/s")
         self._inner = PolygonShaper(self.polygon, buffer=self.buffer, spring_gain=k, method="exact")
-        self._last_line = (0.0, 0.0)
 
     @property
     def shaper(self) -> PolygonShaper:
@@ -138,10 +137,16 @@ class CasterWall(ShaperBase):
             raise InvalidInput(
                 f"line: expected finite values, got position=({px}, {py}), command=({vx}, {vy})"
             )
-        r = self._law(px, py, vx, vy)
-        return np.array(self._last_line), np.array((r[0], r[1])), int(r[9])
+        r, line = self._solve(px, py, vx, vy)
+        return np.array(line), np.array((r[0], r[1])), int(r[9])
 
     def _law(self, px: float, py: float, vx: float, vy: float) -> KernelOut:
+        return self._solve(px, py, vx, vy)[0]
+
+    def _solve(
+        self, px: float, py: float, vx: float, vy: float
+    ) -> tuple[KernelOut, tuple[float, float]]:
+        """The law's output and the allowed line's direction (pure: no state)."""
         from velfence.shaping._kernels import (
             STAGE_PROJECT,
             STAGE_RELAXED,
@@ -156,16 +161,18 @@ class CasterWall(ShaperBase):
         order = np.argsort(d, kind="stable")
         p1, p2 = int(order[0]), int(order[1])
         d1, d2 = float(d[p1]), float(d[p2])
-        speed = math.sqrt(vx * vx + vy * vy)
+        speed = math.hypot(vx, vy)  # no overflow for huge commands (sqrt of squares would)
         m = int(np.count_nonzero(d < self.buffer))
-        if m == 0 or speed == 0.0:
-            self._last_line = (vx / speed, vy / speed) if speed > 0.0 else (0.0, 0.0)
-            return vx, vy, ZONE_FREE if m == 0 else ZONE_BUFFER, p1, p2, d1, d2, 0.0, 0.0, 0
         out_n = int(np.count_nonzero(d < 0.0))
-        if out_n:
+        if m == 0:
+            zone = ZONE_FREE
+        elif out_n:
             zone = ZONE_OUTSIDE if m == 1 else ZONE_OUTSIDE_CORNER
         else:
             zone = ZONE_BUFFER if m == 1 else ZONE_CORNER
+        if m == 0 or speed == 0.0:
+            line = (vx / speed, vy / speed) if speed > 0.0 else (0.0, 0.0)
+            return (vx, vy, zone, p1, p2, d1, d2, 0.0, 0.0, 0), line
         normals, lower, _ = self._inner.bounds((px, py), (vx, vy))
         psi = math.atan2(vy, vx)
         stages = STAGE_PROJECT
@@ -177,8 +184,7 @@ class CasterWall(ShaperBase):
             phi = 0.5 * math.pi
         lx, ly = math.cos(psi + phi), math.sin(psi + phi)
         u = 0.0 if abs(phi) >= 0.5 * math.pi else speed * math.cos(phi)
-        self._last_line = (lx, ly)
-        return u * lx, u * ly, zone, p1, p2, d1, d2, 0.0, 0.0, stages
+        return (u * lx, u * ly, zone, p1, p2, d1, d2, 0.0, 0.0, stages), (lx, ly)
 
     def _law_batch(self, P: FloatArray, V: FloatArray) -> tuple[FloatArray, IntArray]:
         out = np.empty_like(P)

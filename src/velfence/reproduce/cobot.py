@@ -82,7 +82,7 @@ def varying_speed(t: float, R: FloatArray, T: FloatArray) -> float:
 
 
 def fig5_ee(
-    gains: tuple[float, float] = GAINS, *, ds: float = 1e-3, integrator: str = "arc"
+    *, gains: tuple[float, float] = GAINS, ds: float = 1e-3, integrator: str = "arc"
 ) -> CobotTrace:
     """Fig. 5 in the generic C_EE model (arc length, no cobot)."""
     f = PathFollower(PATH, gains=gains)
@@ -294,7 +294,11 @@ def run(out_dir: str | Path = "out/reproduce/cobot") -> Report:
             ),
         )
     )
-    gain_sets = {(1.0, 2.0): fig5_ee((1.0, 2.0)), GAINS: ee, (9.0, 6.0): fig5_ee((9.0, 6.0))}
+    gain_sets = {
+        (1.0, 2.0): fig5_ee(gains=(1.0, 2.0)),
+        GAINS: ee,
+        (9.0, 6.0): fig5_ee(gains=(9.0, 6.0)),
+    }
 
     walls = wall_runs()
     for wt, lim, note in (
