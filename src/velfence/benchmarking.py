@@ -790,6 +790,7 @@ def _cobot_steps(s: BenchSettings, step: _Steps) -> list[StepRow]:
     """One tick of cobot path following (Gillespie et al. 1999) on the r-θ cobot."""
     from velfence.cobot import CasterWall, PathFollower, r_theta_cobot
     from velfence.geometry.paths import Circle
+    from velfence.shaping.polygon import PolygonShaper
 
     step("cobot path following")
     rng = np.random.default_rng(s.seed + 3)
@@ -823,18 +824,26 @@ def _cobot_steps(s: BenchSettings, step: _Steps) -> list[StepRow]:
         return cob.steering_rates(R, phi, hd.T, out.kN, 1.0)
 
     wall = CasterWall(regular_polygon(8), buffer=0.2)
-    rows = []
+    actuated = PolygonShaper(regular_polygon(8), buffer=0.2, method="exact")
+    rows: list[StepRow] = []
     for name, fn, pool in (
         ("path follower (eqs. 3.1-3.8): R, T -> κN", follow, [(a, b) for a, b, _, _ in states]),
         ("steering (eqs. 2.13, 2.14, 2.18): κN -> φ̇", steer, [(a, b) for a, b, _, _ in states]),
         ("forward transformation (eqs. 2.17-2.24): q, φ -> T", forward,
          [(c, d) for _, _, c, d in states]),
         ("whole tick: heading + follower + steering", tick, [(c, d) for _, _, c, d in states]),
-        ("CasterWall.shape (8-gon, passive virtual wall)", wall.shape,
+        ("PolygonShaper.shape, exact (8-gon, the same states)", actuated.shape,
+         [(0.8 * a / np.linalg.norm(a), b) for a, b, _, _ in states]),
+        ("CasterWall.shape (8-gon, passive exact law)", wall.shape,
          [(0.8 * a / np.linalg.norm(a), b) for a, b, _, _ in states]),
     ):  # fmt: skip
         med, p99, _ = _stats_us(_time_shape(fn, pool, calls, 2))
-        rows.append(StepRow(fam, name, med, p99))
+        if name.startswith("CasterWall"):
+            rows.append(
+                StepRow(fam, name, med, p99, "PolygonShaper exact", med / rows[-1].median_us)
+            )
+        else:
+            rows.append(StepRow(fam, name, med, p99))
     return rows
 
 

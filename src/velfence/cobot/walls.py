@@ -52,7 +52,7 @@ _FEAS_TOL = 1e-12
 
 
 def _nearest_feasible(
-    normals: FloatArray, lower: FloatArray, psi: float, speed: float
+    bounds: list[tuple[float, float, float]], psi: float, speed: float
 ) -> float | None:
     r"""The :math:`\varphi \in [-\pi/2, \pi/2]` nearest 0 meeting every bound, or None.
 
@@ -62,9 +62,9 @@ def _nearest_feasible(
     half_pi = 0.5 * math.pi
     cands = [0.0, half_pi]
     arcs = []
-    for (nx, ny), low in zip(normals, lower, strict=True):
-        beta = psi - math.atan2(float(ny), float(nx))
-        c = 2.0 * float(low) / speed - math.cos(beta)
+    for nx, ny, low in bounds:
+        beta = psi - math.atan2(ny, nx)
+        c = 2.0 * low / speed - math.cos(beta)
         if c <= -1.0:
             continue  # never binding
         if c > 1.0 + _FEAS_TOL:
@@ -157,13 +157,13 @@ class CasterWall(ShaperBase):
             ZONE_OUTSIDE_CORNER,
         )
 
-        d = self.polygon.signed_distances(np.array([px, py]))
-        order = np.argsort(d, kind="stable")
-        p1, p2 = int(order[0]), int(order[1])
-        d1, d2 = float(d[p1]), float(d[p2])
+        rows, d = self._inner._bounds(px, py, vx, vy)
+        p1 = min(range(len(d)), key=d.__getitem__)
+        p2 = min((e for e in range(len(d)) if e != p1), key=d.__getitem__)
+        d1, d2 = d[p1], d[p2]
         speed = math.hypot(vx, vy)  # no overflow for huge commands (sqrt of squares would)
-        m = int(np.count_nonzero(d < self.buffer))
-        out_n = int(np.count_nonzero(d < 0.0))
+        m = len(rows)
+        out_n = sum(1 for x in d if x < 0.0)
         if m == 0:
             zone = ZONE_FREE
         elif out_n:
@@ -173,12 +173,12 @@ class CasterWall(ShaperBase):
         if m == 0 or speed == 0.0:
             line = (vx / speed, vy / speed) if speed > 0.0 else (0.0, 0.0)
             return (vx, vy, zone, p1, p2, d1, d2, 0.0, 0.0, 0), line
-        normals, lower, _ = self._inner.bounds((px, py), (vx, vy))
         psi = math.atan2(vy, vx)
         stages = STAGE_PROJECT
-        phi = _nearest_feasible(normals, lower, psi, speed)
+        bounds = [(r[0], r[1], r[2]) for r in rows]
+        phi = _nearest_feasible(bounds, psi, speed)
         if phi is None:  # recovery not realisable: only forbid going further out
-            phi = _nearest_feasible(normals, np.minimum(lower, 0.0), psi, speed)
+            phi = _nearest_feasible([(a, b, min(c, 0.0)) for a, b, c in bounds], psi, speed)
             stages |= STAGE_RELAXED
         if phi is None:  # unreachable: 0 (phi = π/2) always meets bounds <= 0
             phi = 0.5 * math.pi

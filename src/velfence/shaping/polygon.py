@@ -253,13 +253,31 @@ class PolygonShaper(ShaperBase):
             raise InvalidInput(
                 f"bounds: expected finite values, got position=({px}, {py}), command=({vx}, {vy})"
             )
-        d = self.polygon.signed_distances(np.array([px, py]))
-        active = np.flatnonzero(d < self.buffer)
-        da = d[active]
-        rec = np.minimum(self.spring_gain * np.maximum(-da, 0.0), self.max_recovery_speed)
-        R = float(rec.max()) if rec.size else 0.0
-        lower = np.where(da < 0.0, rec, -(math.hypot(vx, vy) + R) * da / self.buffer)
-        return self.polygon.normals[active].copy(), lower, active.astype(np.int64)
+        rows = self._bounds(px, py, vx, vy)[0]
+        if not rows:
+            return np.zeros((0, 2)), np.zeros(0), np.zeros(0, dtype=np.int64)
+        a = np.array(rows)
+        return np.ascontiguousarray(a[:, :2]), a[:, 2].copy(), a[:, 3].astype(np.int64)
+
+    def _bounds(
+        self, px: float, py: float, vx: float, vy: float
+    ) -> tuple[list[tuple[float, float, float, int]], list[float]]:
+        """Float-only :meth:`bounds`: rows ``(nx, ny, L, edge)`` and every edge's distance."""
+        nx, ny, off = self._fast[0], self._fast[1], self._fast[2]
+        n = len(off)
+        d = [nx[e] * px + ny[e] * py - off[e] for e in range(n)]
+        rec = 0.0
+        for e in range(n):
+            if d[e] < 0.0:
+                rec = max(rec, min(self.spring_gain * -d[e], self.max_recovery_speed))
+        scale = (math.hypot(vx, vy) + rec) / self.buffer
+        rows = [
+            (nx[e], ny[e], min(self.spring_gain * -d[e], self.max_recovery_speed)
+             if d[e] < 0.0 else -scale * d[e], e)
+            for e in range(n)
+            if d[e] < self.buffer
+        ]  # fmt: skip
+        return rows, d
 
     def __repr__(self) -> str:
         return (
