@@ -16,6 +16,7 @@ from velfence import InvalidInput
 from velfence.geometry.primitives import (
     closest_point_on_segment,
     closest_points_segments,
+    orthonormal_complement,
     point_segment_distance_jacobian,
     segment_segment_distance,
     sphere_capsule_distance,
@@ -466,6 +467,49 @@ class TestInvalidInput:
     def test_errors_are_value_errors(self) -> None:
         with pytest.raises(ValueError, match="expected"):
             closest_point_on_segment([0, 0], [0, 0, 0], [1, 0, 0])
+
+
+ORTHO_TOL = 1e-15  # unit lengths and dot products of the complement basis (a few ulps)
+
+
+class TestOrthonormalComplement:
+    def test_right_handed_orthonormal_frame_for_random_directions(self) -> None:
+        rng = np.random.default_rng(5)
+        for n in rng.normal(size=(200, 3)) * rng.uniform(1e-3, 1e3, (200, 1)):
+            e1, e2 = orthonormal_complement(n)
+            u = n / np.linalg.norm(n)
+            frame = np.column_stack([u, e1, e2])
+            np.testing.assert_allclose(frame.T @ frame, np.eye(3), atol=4 * ORTHO_TOL)
+            assert np.linalg.det(frame) == pytest.approx(1.0, abs=4 * ORTHO_TOL)
+
+    def test_depends_on_the_direction_only(self) -> None:
+        n = np.array([0.3, -0.2, 0.9])
+        for a, b in zip(orthonormal_complement(n), orthonormal_complement(250.0 * n), strict=True):
+            np.testing.assert_allclose(a, b, atol=ORTHO_TOL)
+        # the opposite normal keeps e1 and flips e2 (so e1 × e2 follows the normal)
+        e1, e2 = orthonormal_complement(n)
+        f1, f2 = orthonormal_complement(-n)
+        np.testing.assert_allclose(f1, e1, atol=ORTHO_TOL)
+        np.testing.assert_allclose(f2, -e2, atol=ORTHO_TOL)
+
+    def test_the_fixed_choice(self) -> None:
+        # x̂ projected for a vertical normal, ŷ projected once |n_x| >= 0.9
+        e1, e2 = orthonormal_complement([0.0, 0.0, 2.0])
+        np.testing.assert_array_equal(e1, [1.0, 0.0, 0.0])
+        np.testing.assert_array_equal(e2, [0.0, 1.0, 0.0])
+        e1, e2 = orthonormal_complement([1.0, 0.0, 0.0])
+        np.testing.assert_array_equal(e1, [0.0, 1.0, 0.0])
+        np.testing.assert_array_equal(e2, [0.0, 0.0, 1.0])
+        just_below = np.array([0.8999, math.sqrt(1.0 - 0.8999**2), 0.0])
+        assert orthonormal_complement(just_below)[0][0] > 0.4  # x̂'s projection, not ŷ's
+
+    def test_invalid(self) -> None:
+        with pytest.raises(InvalidInput, match=r"n: expected a non-zero direction"):
+            orthonormal_complement([0.0, 0.0, 0.0])
+        with pytest.raises(InvalidInput, match=r"n: expected shape \(3,\), got shape \(2,\)"):
+            orthonormal_complement([1.0, 0.0])
+        with pytest.raises(InvalidInput, match="n: expected finite values"):
+            orthonormal_complement([math.nan, 0.0, 1.0])
 
 
 def test_points_segments_distances_equals_the_scalar_route():

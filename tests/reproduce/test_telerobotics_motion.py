@@ -13,7 +13,9 @@ from velfence.reproduce._telerobotics_motion import (
 )
 from velfence.reproduce.base import Report
 
-SOURCE_DEFECTS = {"§7.4 SR: manipulability stays away from 0 (min w)"}
+# Our reading of the self-correcting SR law does not keep w away from 0: a failure of ours,
+# not a contradiction inside the thesis (docs/reproductions.md).
+GENUINE_FAILURES = {"§7.4 SR: manipulability stays away from 0 (min w)"}
 
 
 @pytest.fixture(scope="module")
@@ -23,13 +25,12 @@ def result(tmp_path_factory):
     return out, checks, artifacts, {c.name: c for c in checks}
 
 
-def test_every_check_passes_except_the_documented_source_defect(result):
+def test_every_check_passes_except_the_documented_failure(result):
     _, checks, _, _ = result
     failed = {c.name for c in checks if not c.passed}
-    assert failed == SOURCE_DEFECTS
-    for c in checks:
-        assert c.source_defect == (c.name in SOURCE_DEFECTS), c.name
-    assert Report("telerobotics-motion", tuple(checks)).passed
+    assert failed == GENUINE_FAILURES
+    assert not any(c.source_defect for c in checks)  # no motion claim contradicts the thesis
+    assert not Report("telerobotics-motion", tuple(checks)).passed
 
 
 def test_check_names_are_unique_and_json_ready(result):
@@ -58,11 +59,37 @@ def test_sr_keeps_joint_speeds_orders_below_jinv(result):
     assert jinv >= 1e3 * sr  # the blow-up size itself is chaotic (round-off sensitive)
 
 
-def test_the_source_defect_is_explained_with_numbers(result):
+def test_the_sr_failure_is_explained_with_numbers(result):
     c = result[3]["§7.4 SR: manipulability stays away from 0 (min w)"]
     assert c.measured < 1e-5
+    assert not c.source_defect
     assert "feedback='none'" in c.note
     assert "min w on trajectory 1 is" in c.note
+    assert "docs/reproductions.md" in c.note
+
+
+def test_the_fitted_times_say_so_and_the_ratio_is_the_independent_check(result):
+    by_name = result[3]
+    for which in (1, 2):
+        note = by_name[f"§7.4 trajectory {which}, J⁻¹: det J reaches 0 [s]"].note
+        assert "speed fitted from it" in note
+        assert "ratio of the two times is the independent check" in note
+    assert "independent" in by_name["§7.4 ratio of the two J⁻¹ singularity times"].note
+
+
+def test_accuracy_is_one_sided_and_says_how_much_better_we_are(result):
+    c = result[3]["§7.1 straight-line tracking error with servo lag, max of 5 runs [mm]"]
+    assert c.measured < 0.5  # an ideal servo: well under the real arm's 1.2-1.4 mm
+    assert "4x more accurate than the real one" in c.note
+    assert "ideal" in c.note
+
+
+def test_pure_rotation_is_checked_at_the_fingertip_where_it_can_fail(result):
+    by_name = result[3]
+    assert not any("duration = φ / ω_r" in name for name in by_name)  # a unit test now
+    c = by_name["§6.4 pure rotation executed: fingertip drift [m]"]
+    assert 0.0 < c.measured <= 1e-3  # not zero by construction, as the wrist centre's would be
+    assert "(all six move)" in c.note
 
 
 def test_artifacts_are_pngs(result):

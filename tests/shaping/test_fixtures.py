@@ -156,8 +156,12 @@ def test_fixture_validation_and_non_finite():
         LineFixture(P0, U, radius_of_influence=-1.0)
     with pytest.raises(InvalidParameter, match="max_force"):
         LineFixture(P0, U, max_force=float("nan"))
-    with pytest.raises(InvalidGeometry, match="line_point"):
+    with pytest.raises(InvalidGeometry, match=r"line_point \[m\]: expected finite values, got"):
         LineFixture([0.0, np.nan, 0.0], U)
+    with pytest.raises(InvalidGeometry, match=r"line_direction: expected shape \(3,\), got shape"):
+        LineScaling(P0, [1.0, 0.0])
+    with pytest.raises(InvalidGeometry, match="line_direction: expected a non-zero vector"):
+        LineFixture(P0, [0.0, 0.0, 0.0])
     with pytest.raises(InvalidInput, match="shape"):
         LineFixture(P0, U).shape(np.zeros(2), np.zeros(3))
     stop = LineFixture(P0, U, on_invalid="stop")

@@ -222,7 +222,10 @@ def test_expected_range_of_1000_normals():
         ({"min_range": 1.0, "max_range": 0.5}, "max_range: expected a number > min_range = 1"),
         ({"noise_v": -0.001}, r"noise_v: expected a finite number >= 0 \[V\]"),
         ({"quantum_v": math.nan}, "quantum_v: expected a finite number >= 0"),
-        ({"offset": (0.0, 0.1)}, r"offset: expected 3 finite numbers \[m\], shape \(3,\)"),
+        (
+            {"offset": (0.0, 0.1)},
+            r"offset \[m\] \(laser origin in frame 6\): expected shape \(3,\), got shape \(2,\)",
+        ),
         ({"model": "eq1"}, "model: expected a VoltageModel, got str"),
         ({"characteristic": 3.0}, "characteristic: expected an object with voltage_v"),
     ],
@@ -381,7 +384,7 @@ def test_moving_average_output_is_the_mean_of_the_last_window_raw_samples():
         assert r.settled == (k >= 6)
         assert r.distance == pytest.approx(float(np.mean(raw[lo : k + 1])), abs=EXACT)
     np.testing.assert_allclose(
-        moving_average(raw, 7), [r.distance for r in readings[6:]], atol=EXACT
+        moving_average(raw, window=7), [r.distance for r in readings[6:]], atol=EXACT
     )
 
 
@@ -455,9 +458,11 @@ def test_poll_takes_every_due_sample_from_a_faster_loop():
 
 def test_moving_average_helper_validates():
     with pytest.raises(InvalidInput, match="at least window = 5 samples"):
-        moving_average([1.0, 2.0], 5)
+        moving_average([1.0, 2.0], window=5)
     with pytest.raises(InvalidParameter, match="window: expected an int >= 1"):
-        moving_average([1.0, 2.0], 0)
+        moving_average([1.0, 2.0], window=0)
+    with pytest.raises(TypeError, match="positional argument"):
+        moving_average([1.0, 2.0], 1)  # type: ignore[misc]
 
 
 # ------------------------------------------------------------------ plane from three points

@@ -278,3 +278,13 @@ def test_aligned_rotation_faithful_equals_geodesic_for_a_tilt_about_x():
         aligned_rotation(R, [0, 0, 1]), aligned_rotation(R, [0, 0, 1], alignment="geodesic"),
         atol=1e-12,
     )  # fmt: skip
+
+
+def test_aligned_rotation_validates_the_normal():
+    R = np.eye(3)
+    with pytest.raises(InvalidInput, match=r"normal: expected shape \(3,\), got shape \(2,\)"):
+        aligned_rotation(R, [0.0, 1.0])
+    with pytest.raises(InvalidInput, match=r"normal: expected finite values, got \[0\.0, nan"):
+        aligned_rotation(R, [0.0, math.nan, 1.0])
+    with pytest.raises(InvalidInput, match="normal: expected a non-zero vector"):
+        aligned_rotation(R, [0.0, 0.0, 0.0])

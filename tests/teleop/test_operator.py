@@ -47,6 +47,12 @@ def test_profiles_are_drawn_reproducibly_within_their_ranges():
     assert set(a.to_dict()) == set(PROFILE_RANGES) | {"rainbow"}
 
 
+def test_profile_ranges_are_read_only():
+    with pytest.raises(TypeError, match="does not support item assignment"):
+        PROFILE_RANGES["reaction"] = (0.0, 10.0)  # type: ignore[index]
+    assert PROFILE_RANGES["reaction"] == (0.20, 0.40)
+
+
 def test_profile_and_operator_validation():
     with pytest.raises(InvalidParameter, match="peak_speed"):
         OperatorProfile(peak_speed=0.0)

@@ -9,6 +9,7 @@ samples; the rotated box is checked against the axis-aligned box in rotated coor
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 from collections.abc import Callable
 
@@ -16,6 +17,7 @@ import numpy as np
 import pytest
 
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
+from velfence.geometry.primitives import orthonormal_complement
 from velfence.teleop.scene import (
     Box,
     Cylinder,
@@ -24,6 +26,7 @@ from velfence.teleop.scene import (
     Scene,
     door_scene,
     pick_and_place_scene,
+    scene_to_dicts,
 )
 
 MARCH_TOL = 1e-9  # bisection-refined crossing vs closed form [m]
@@ -325,7 +328,11 @@ def test_scene_is_immutable_and_named():
     assert list(scene) == list(scene.names)
     with pytest.raises(AttributeError, match="immutable"):
         scene.foo = 1  # type: ignore[attr-defined]
-    with pytest.raises(KeyError, match="no primitive named 'mug'"):
+    with pytest.raises(
+        InvalidInput,
+        match=r"name: expected one of the scene's \['table', 'cup', 'folder', "
+        r"'destination'\], got 'mug'",
+    ):
         scene["mug"]
     cup = scene["cup"]
     with pytest.raises(dataclasses.FrozenInstanceError):
@@ -404,7 +411,17 @@ def test_door_scene_is_vertical_and_faces_the_robot():
     ("make", "exc", "match"),
     [
         (lambda: Plane((0, 0, 0), (0, 0, 0)), InvalidGeometry, "non-zero direction"),
-        (lambda: Plane((0, 0), (0, 0, 1)), InvalidGeometry, r"point: expected 3 finite"),
+        (
+            lambda: Plane((0, 0), (0, 0, 1)),
+            InvalidGeometry,
+            r"point: expected shape \(3,\), got shape \(2,\)",
+        ),
+        (
+            lambda: Disk((0, math.inf, 0), (0, 0, 1), 0.1),
+            InvalidGeometry,
+            r"center: expected finite values, got \[0.0, inf, 0.0\]",
+        ),
+        (lambda: Cylinder("abc", 0.1, 0.1), InvalidGeometry, "base_center: expected numbers"),
         (
             lambda: Plane((0, 0, 0), (0, 0, 1), half_extents=(1.0, 0.0)),
             InvalidGeometry,
@@ -457,3 +474,57 @@ def test_bad_rays_raise_with_message():
         scene.raycast((0, 0, 1), (0, 0, -1), max_range=-1.0)
     with pytest.raises(InvalidParameter, match="max_range: expected a number >= 0"):
         scene.raycast((0, 0, 1), (0, 0, -1), max_range=math.nan)
+
+
+# ------------------------------------------------------------------ scene dicts (the one format)
+
+
+def test_scene_to_dicts_format() -> None:
+    scene = pick_and_place_scene()
+    dicts = scene_to_dicts(scene)
+    assert [d["name"] for d in dicts] == ["table", "cup", "folder", "destination"]
+    assert [d["type"] for d in dicts] == ["plane", "cylinder", "box", "disk"]
+    assert json.loads(json.dumps(dicts, allow_nan=False)) == dicts
+    table, cup, folder, mark = dicts
+    assert set(table) == {
+        "type", "name", "dynamic", "point", "normal", "u_axis", "v_axis", "half_extents", "corners"
+    }  # fmt: skip
+    assert table["half_extents"] == [0.5, 0.35]
+    assert np.allclose(np.asarray(table["corners"])[:, 2], -0.6)
+    cyl = scene["cup"]
+    assert isinstance(cyl, Cylinder)
+    assert cup["base_center"] == cyl.base_center.tolist()
+    assert cup["center"] == pytest.approx(cyl.center.tolist())
+    assert cup["top"] == pytest.approx(cyl.top.tolist())
+    assert (cup["radius"], cup["height"], cup["axis"]) == (0.04, 0.10, [0.0, 0.0, 1.0])
+    box = scene["folder"]
+    assert isinstance(box, Box)
+    assert np.allclose(folder["corners"], box.corners)
+    assert np.allclose(folder["rotation"], np.eye(3))
+    assert folder["half_extents"] == pytest.approx([0.015, 0.16, 0.12])
+    assert set(mark) == {"type", "name", "dynamic", "center", "normal", "radius"}
+    assert not any(d["dynamic"] for d in dicts)
+    moving = scene_to_dicts(scene, dynamic=("cup",))
+    assert [d["dynamic"] for d in moving] == [False, True, False, False]
+
+
+def test_scene_to_dicts_infinite_plane_and_bad_input() -> None:
+    (d,) = scene_to_dicts(Scene({"floor": Plane((0, 0, -1), (0, 0, 1))}))
+    assert d["half_extents"] is None
+    assert d["corners"] is None
+    with pytest.raises(InvalidInput, match=r"expected a velfence\.teleop\.scene\.Scene"):
+        scene_to_dicts([{"type": "plane"}])  # type: ignore[arg-type]
+    with pytest.raises(InvalidInput, match=r"dynamic: expected names from \['floor'\]"):
+        scene_to_dicts(Scene({"floor": Plane((0, 0, -1), (0, 0, 1))}), dynamic=("cup",))
+    with pytest.raises(
+        InvalidInput, match=r"dynamic: expected names from \['floor'\], got 'floor'"
+    ):
+        scene_to_dicts(Scene({"floor": Plane((0, 0, -1), (0, 0, 1))}), dynamic="floor")
+
+
+def test_default_in_plane_axes_are_the_shared_orthonormal_complement() -> None:
+    for normal in ((0.0, 0.0, 1.0), (0.95, 0.1, 0.2), (0.0, -1.0, 0.0), (1.0, 2.0, -3.0)):
+        plane = Plane((0.0, 0.0, 0.0), normal)
+        e1, e2 = orthonormal_complement(normal)
+        np.testing.assert_allclose(plane.u_axis, e1, atol=1e-15)
+        np.testing.assert_allclose(plane.v_axis, e2, atol=1e-15)

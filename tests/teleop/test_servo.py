@@ -90,10 +90,14 @@ def test_errors():
     with pytest.raises(InvalidInput, match=r"call reset\(q0\) before step"):
         s.step(CMD, 0.001)
     s.reset(Q0)
-    with pytest.raises(InvalidInput, match=r"expected shape \(3,\)"):
+    with pytest.raises(InvalidInput, match=r"command \[rad\]: expected shape \(3,\), got shape"):
         s.step([1.0, 2.0], 0.001)
-    with pytest.raises(InvalidInput, match="expected finite values"):
+    with pytest.raises(InvalidInput, match=r"command \[rad\]: expected finite values, got \[nan"):
         s.step([np.nan, 0, 0], 0.001)
+    with pytest.raises(InvalidInput, match=r"q0 \[rad\]: expected shape \(n,\) with n >= 1, got"):
+        s.reset([[0.0, 1.0]])
+    with pytest.raises(InvalidInput, match=r"q0 \[rad\]: expected numbers, got 'home'"):
+        s.reset("home")
     with pytest.raises(InvalidInput, match="dt: expected a finite time step > 0"):
         s.step(CMD, 0.0)
     with pytest.raises(InvalidParameter, match="time_constant must be finite and >= 0"):

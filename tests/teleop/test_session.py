@@ -10,11 +10,15 @@ import pytest
 
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.mechanisms.puma560 import Puma560
+from velfence.teleop.laser import LaserRangeSensor
 from velfence.teleop.modes import ModeManager
+from velfence.teleop.scene import Plane, Scene, scene_to_dicts
+from velfence.teleop.servo import FirstOrderServo
 from velfence.teleop.session import (
     GRIPPER_LENGTH,
     OMNI_TO_PUMA,
     Session,
+    default_robot,
     omni_to_puma,
     ready_pose,
 )
@@ -58,20 +62,53 @@ def test_snapshot_and_scene_are_json_and_complete():
         "destination": "disk",
     }
     assert next(p for p in prims if p["name"] == "cup")["dynamic"] is True
+    # one scene format: the session's export is scene_to_dicts with the cup marked dynamic
+    assert prims == scene_to_dicts(s.scene, dynamic=("cup",))
+    assert [p["dynamic"] for p in prims] == [False, True, False, False]
 
 
 def test_protocol_input_validation():
     s = _session()
     with pytest.raises(InvalidInput, match="expected one of"):
         s.press("Q")
-    with pytest.raises(InvalidInput, match="shape"):
+    with pytest.raises(InvalidInput, match=r"linear \[m/s\]: expected shape \(3,\), got shape"):
         s.jog([0.0, 0.0], [0.0, 0.0, 0.0])
-    with pytest.raises(InvalidInput, match="finite"):
+    with pytest.raises(InvalidInput, match=r"linear \[m/s\]: expected finite values"):
         s.jog([0.0, math.nan, 0.0], [0.0, 0.0, 0.0])
+    with pytest.raises(InvalidInput, match=r"angular \[rad/s\]: expected numbers of shape"):
+        s.jog([0.0, 0.0, 0.0], "fast")
+    with pytest.raises(InvalidParameter, match=r"q0 \[rad\]: expected shape \(6,\), got shape"):
+        _session(q0=np.zeros(5))
     with pytest.raises(InvalidInput, match="dt"):
         s.advance(-0.1)
     with pytest.raises(InvalidParameter, match="rate"):
         Session(rate=200.0, modes=ModeManager(rate=100.0))
+
+
+def test_the_laser_is_cast_from_the_true_pose_not_the_noisy_measured_one():
+    # A resting arm whose encoders report 5 mrad of noise: the beam stays where the true joints
+    # put it, so a noise-free laser reads the true distance to the table exactly. Casting from
+    # the measured pose moved the spot by millimetres every cycle.
+    table = Scene({"table": Plane((0.0, 0.0, -0.6), (0.0, 0.0, 1.0))})
+    servo = FirstOrderServo(
+        time_constant=0.01, noise_std=5e-3, seed=3, joint_limits=default_robot().joint_limits
+    )
+    laser = LaserRangeSensor(noise_v=0.0, quantum_v=0.0)
+    s = Session(
+        scene=table, servo=servo, laser=laser, rate=RATE, modes=ModeManager(laser, rate=RATE)
+    )
+    s.advance(1.0)  # more than the 50-sample window at 90 Hz
+    hit = laser.true_hit(s.true_pose, table)
+    assert hit is not None
+    reading = s.observe().distance
+    assert reading is not None
+    assert reading == pytest.approx(hit.distance, abs=1e-9)
+    # the noise is really there: the measured pose the control layer sees is off the true one
+    assert np.linalg.norm(s.pose[:3, 3] - s.true_pose[:3, 3]) > 1e-4
+    measured_hit = laser.true_hit(s.pose, table)
+    assert measured_hit is not None
+    assert abs(measured_hit.distance - hit.distance) > 1e-4
+    np.testing.assert_allclose(s.observe().pose, s.true_pose, atol=0.0)
 
 
 def test_advance_accumulates_partial_cycles():

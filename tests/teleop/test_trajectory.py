@@ -116,6 +116,19 @@ def test_pure_rotation_duration_rule():
     assert np.all(tr.positions == T0[:3, 3])
 
 
+def test_pure_rotation_default_rule_is_half_a_radian_per_second():
+    # The 'T'+'A' alignment (§6.4): the thesis's N = D / (V_r dt) is 0 for D = 0; ours is
+    # N = ceil(φ / angular_spacing) with the default 2.5 mrad at 200 Hz, i.e. ω_r = 0.5 rad/s.
+    T0 = _pose(np.eye(3), [0.1, 0.5, -0.2])
+    phi = math.radians(40.0)
+    T1 = _pose(rotation_from_angle_axis([1.0, -1.0, 0.5], phi), [0.1, 0.5, -0.2])
+    tr = straight_line(T0, T1)
+    assert tr.n_steps == math.ceil(phi / 0.0025) == 280
+    assert tr.duration == pytest.approx(1.4)
+    assert abs(tr.duration - phi / 0.5) <= 1.0 / tr.rate  # φ / ω_r within one playback period
+    assert tr.angular_speed <= 0.5
+
+
 def test_identical_poses_give_one_step():
     T = _pose(np.eye(3), [0.1, 0.2, 0.3])
     tr = straight_line(T, T)
@@ -244,6 +257,36 @@ def test_executor_records_resolver_diagnostics(puma, short_line):
     assert np.array_equal(ex.qdot[-1], np.zeros(6))
 
 
+def test_manipulability_is_recorded_at_the_feedback_joints(puma, short_line):
+    # With a sagging servo the measured and the commanded joints differ by a few mrad; w and
+    # det J are those resolved rate used: at q for "measured", at q_cmd otherwise.
+    load = np.array([0.0, 40.0, 15.0, 0.0, 0.0, 0.0])
+
+    def servo():
+        return PDGravityServo(
+            kp=2500.0, inertia=0.1, gravity=lambda q: load, compensation_error=0.25
+        )
+
+    for feedback, joints in (("measured", "q"), ("commanded", "q_cmd"), ("none", "q_cmd")):
+        ex = execute(short_line, puma, Q_START, servo=servo(), feedback=feedback, settle=20)
+        Q = getattr(ex, joints)
+        assert np.max(np.abs(ex.q - ex.q_cmd)) > 1e-3  # the two really differ
+        for c in (0, len(ex.t) // 2, len(ex.t) - 1):
+            J = puma.jacobian(Q[c])
+            assert ex.w[c] == pytest.approx(puma.manipulability(Q[c]), rel=1e-12), feedback
+            assert ex.det[c] == pytest.approx(np.linalg.det(J), rel=1e-9), feedback
+
+
+def test_path_deviation_is_the_distance_to_the_segment(puma, short_line):
+    servo = FirstOrderServo(time_constant=0.02)
+    ex = execute(short_line, puma, Q_START, servo=servo, settle=40)
+    a, b = short_line.start[:3, 3], short_line.end[:3, 3]
+    for p, dev in zip(ex.position, ex.path_deviation, strict=True):
+        s = np.clip((p - a) @ (b - a) / ((b - a) @ (b - a)), 0.0, 1.0)
+        assert dev == pytest.approx(np.linalg.norm(p - (a + s * (b - a))), abs=1e-15)
+    assert ex.path_deviation.max() > 1e-6  # the lag makes it non-trivial
+
+
 def test_executor_validates(puma, short_line):
     with pytest.raises(InvalidParameter, match="expected a CartesianTrajectory"):
         execute("line", puma, Q_START)
@@ -255,6 +298,6 @@ def test_executor_validates(puma, short_line):
         execute(short_line, puma, Q_START, correction_gain=1.5)
     with pytest.raises(InvalidParameter, match=r"expected an arm with fk\(q\) and jacobian\(q\)"):
         execute(short_line, object(), Q_START)
-    with pytest.raises(InvalidInput, match="q0: expected finite values"):
+    with pytest.raises(InvalidInput, match=r"q0 \[rad\]: expected finite values, got \[nan"):
         execute(short_line, puma, np.full(6, np.nan))
     assert isinstance(short_line, CartesianTrajectory)

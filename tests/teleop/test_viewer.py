@@ -8,6 +8,8 @@ synchronise on events set by the fake session instead of sleeping.
 from __future__ import annotations
 
 import json
+import math
+import socket
 import sys
 import threading
 import types
@@ -20,13 +22,12 @@ import numpy as np
 import pytest
 
 from velfence.errors import InvalidInput, InvalidParameter, VelfenceError
-from velfence.teleop.scene import Box, Cylinder, pick_and_place_scene
+from velfence.teleop.scene import pick_and_place_scene, scene_to_dicts
 from velfence.teleop.viewer import (
     ALLOWED_KEYS,
     HOST,
     ScriptedDriver,
     ViewerServer,
-    scene_to_dicts,
     serve,
 )
 
@@ -130,50 +131,6 @@ def _call(
         return exc.code, json.loads(exc.read())
 
 
-# ------------------------------------------------------------------------------ scene dicts
-
-
-def test_scene_to_dicts_format() -> None:
-    scene = pick_and_place_scene()
-    dicts = scene_to_dicts(scene)
-    assert [d["name"] for d in dicts] == ["table", "cup", "folder", "destination"]
-    assert [d["type"] for d in dicts] == ["plane", "cylinder", "box", "disk"]
-    assert json.loads(json.dumps(dicts, allow_nan=False)) == dicts
-    table, cup, folder, mark = dicts
-    assert set(table) == {
-        "type", "name", "dynamic", "point", "normal", "u_axis", "v_axis", "half_extents", "corners"
-    }  # fmt: skip
-    assert table["half_extents"] == [0.5, 0.35]
-    assert np.allclose(np.asarray(table["corners"])[:, 2], -0.6)
-    cyl = scene["cup"]
-    assert isinstance(cyl, Cylinder)
-    assert cup["base_center"] == cyl.base_center.tolist()
-    assert cup["center"] == pytest.approx(cyl.center.tolist())
-    assert cup["top"] == pytest.approx(cyl.top.tolist())
-    assert (cup["radius"], cup["height"], cup["axis"]) == (0.04, 0.10, [0.0, 0.0, 1.0])
-    box = scene["folder"]
-    assert isinstance(box, Box)
-    assert np.allclose(folder["corners"], box.corners)
-    assert np.allclose(folder["rotation"], np.eye(3))
-    assert folder["half_extents"] == pytest.approx([0.015, 0.16, 0.12])
-    assert set(mark) == {"type", "name", "dynamic", "center", "normal", "radius"}
-    assert not any(d["dynamic"] for d in dicts)
-    moving = scene_to_dicts(scene, dynamic=("cup",))
-    assert [d["dynamic"] for d in moving] == [False, True, False, False]
-
-
-def test_scene_to_dicts_infinite_plane_and_bad_input() -> None:
-    from velfence.teleop.scene import Plane, Scene
-
-    (d,) = scene_to_dicts(Scene({"floor": Plane((0, 0, -1), (0, 0, 1))}))
-    assert d["half_extents"] is None
-    assert d["corners"] is None
-    with pytest.raises(InvalidInput, match=r"expected a velfence\.teleop\.scene\.Scene"):
-        scene_to_dicts([{"type": "plane"}])  # type: ignore[arg-type]
-    with pytest.raises(InvalidInput, match=r"dynamic: expected names from \['floor'\]"):
-        scene_to_dicts(Scene({"floor": Plane((0, 0, -1), (0, 0, 1))}), dynamic=("cup",))
-
-
 # ------------------------------------------------------------------------------ GET
 
 
@@ -260,9 +217,15 @@ BAD_REQUESTS = [
     ("POST", "/key", {"key": "X"}, 400, "key: expected one of"),
     ("POST", "/key", {"key": 3}, 400, "key: expected one of"),
     ("POST", "/key", {"kee": "A"}, 400, "expected {'key': ...}"),
-    ("POST", "/jog", {"linear": [1, 2]}, 400, "linear: expected 3 finite numbers"),
-    ("POST", "/jog", {"linear": "abc"}, 400, "linear: expected 3 numbers"),
-    ("POST", "/jog", {"linear": [0, 0, 0], "angular": [0, 0, float("nan")]}, 400, "angular"),
+    ("POST", "/jog", {"linear": [1, 2]}, 400, "linear [m/s]: expected shape (3,), got shape (2,)"),
+    ("POST", "/jog", {"linear": "abc"}, 400, "linear [m/s]: expected numbers of shape (3,)"),
+    (
+        "POST",
+        "/jog",
+        {"linear": [0, 0, 0], "angular": [0, 0, float("nan")]},
+        400,
+        "angular [rad/s]: expected finite values",
+    ),
     ("POST", "/jog", {"linear": [2.0, 0, 0]}, 400, "at most 1 m/s"),
     ("POST", "/jog", {"angular": [0, 0, 0]}, 400, "expected {'linear'"),
     ("POST", "/step", {"dt": -1}, 400, "dt: expected 0 < dt"),
@@ -311,6 +274,36 @@ def test_foreign_host_header_is_refused(server: ViewerServer, fake: FakeSession)
     assert fake.keys == []
     status, _ = _call(server, "GET", "/state", headers={"Host": f"localhost:{server.port}"})
     assert status == 200
+
+
+def _raw_http(server: ViewerServer, request: bytes) -> tuple[int, bytes]:
+    """Send ``request`` as is on a new connection; the status code and the body."""
+    with socket.create_connection((HOST, server.port), timeout=10) as conn:
+        conn.sendall(request)
+        reply = b""
+        while chunk := conn.recv(65536):
+            reply += chunk
+    head, _, body = reply.partition(b"\r\n\r\n")
+    return int(head.split()[1]), body
+
+
+def test_post_without_host_header_is_refused(server: ViewerServer, fake: FakeSession) -> None:
+    body = b'{"key": "A"}'
+    request = (
+        b"POST /key HTTP/1.0\r\nContent-Type: application/json\r\n"
+        b"Content-Length: %d\r\n\r\n%s" % (len(body), body)
+    )
+    status, reply = _raw_http(server, request)
+    assert status == 403
+    assert json.loads(reply) == {
+        "error": f"Host: expected 127.0.0.1:{server.port} or localhost:{server.port}, got None"
+    }
+    assert fake.keys == []
+    # the same request naming this server is accepted; a read-only GET needs no Host
+    named = request.replace(b"\r\n\r\n", f"\r\nHost: {HOST}:{server.port}\r\n\r\n".encode(), 1)
+    assert _raw_http(server, named)[0] == 200
+    assert fake.keys == ["A"]
+    assert _raw_http(server, b"GET /state HTTP/1.0\r\n\r\n")[0] == 200
 
 
 def test_session_errors_map_to_400_and_500(server: ViewerServer, fake: FakeSession) -> None:
@@ -373,6 +366,81 @@ def test_realtime_dead_man_zeroes_a_stale_jog(fake: FakeSession) -> None:
         assert fake.zero_jog_after_motion.wait(EVENT_TIMEOUT)
         _, state = _call(srv, "GET", "/state")
         assert state["viewer"]["jog"]["linear"] == [0.0, 0.0, 0.0]
+
+
+class ReentrancyGuardedSession(FakeSession):
+    """A FakeSession whose every call fails if another call is still inside it."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self._inside = threading.Lock()
+        self.overlapped = threading.Event()
+
+    def _guarded(self, call: Any, *args: Any) -> Any:
+        if not self._inside.acquire(blocking=False):
+            self.overlapped.set()
+            raise RuntimeError("re-entrant call into the session")
+        try:
+            # some work inside, so that an unserialised caller would likely overlap it
+            for _ in range(200):
+                np.linalg.norm(self.position)
+            return call(*args)
+        finally:
+            self._inside.release()
+
+    def press(self, key: str) -> None:
+        self._guarded(super().press, key)
+
+    def jog(self, linear: Any, angular: Any) -> None:
+        self._guarded(super().jog, linear, angular)
+
+    def advance(self, dt: float) -> None:
+        self._guarded(super().advance, dt)
+
+    def snapshot(self) -> dict[str, Any]:
+        out: dict[str, Any] = self._guarded(super().snapshot)
+        return out
+
+
+def test_concurrent_requests_and_realtime_stepping_never_overlap_in_the_session() -> None:
+    session = ReentrancyGuardedSession()
+    requests = (
+        ("POST", "/jog", {"linear": [0.01, 0.0, 0.0], "angular": [0.0, 0.0, 0.1]}),
+        ("POST", "/key", {"key": "A"}),
+        ("GET", "/state", None),
+    )
+    statuses: list[int] = []
+    record = threading.Lock()
+    switch = sys.getswitchinterval()
+    sys.setswitchinterval(1e-5)  # interleave the threads finely
+    try:
+        with serve(session, realtime=True, tick=0.001, jog_timeout=math.inf) as srv:
+            assert session.advanced.wait(EVENT_TIMEOUT)
+            start = len(session.advances)
+
+            def client(offset: int) -> None:
+                # bounded: stop once the stepping thread has advanced a few times meanwhile
+                for i in range(300):
+                    method, path, body = requests[(i + offset) % len(requests)]
+                    status, _ = _call(srv, method, path, body)
+                    with record:
+                        statuses.append(status)
+                    if i >= 30 and len(session.advances) >= start + 5:
+                        return
+
+            threads = [threading.Thread(target=client, args=(k,)) for k in range(4)]
+            for th in threads:
+                th.start()
+            for th in threads:
+                th.join(EVENT_TIMEOUT)
+            assert not any(th.is_alive() for th in threads)
+            assert srv.error is None
+    finally:
+        sys.setswitchinterval(switch)
+    assert len(session.advances) >= start + 5  # the real-time thread ran during the requests
+    assert len(statuses) >= 4 * 31
+    assert set(statuses) == {200}
+    assert not session.overlapped.is_set()
 
 
 def test_realtime_failure_is_reported_not_raised(fake: FakeSession) -> None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import subprocess
 import sys
 from pathlib import Path
 from typing import Any
@@ -16,8 +17,8 @@ from PIL import Image
 
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.mechanisms.puma560 import Puma560
-from velfence.teleop.scene import pick_and_place_scene
-from velfence.teleop.viewer import ScriptedDriver, scene_to_dicts
+from velfence.teleop.scene import Plane, Scene, pick_and_place_scene, scene_to_dicts
+from velfence.teleop.viewer import ScriptedDriver
 from velfence.viz import telerobotics as tv
 
 LASER_OFFSET = np.array([-0.026, -0.115, 0.115])  # [m] in frame 6 (thesis eq. 40)
@@ -189,6 +190,18 @@ def test_malformed_scene_raises(tmp_path: Path) -> None:
         tv.plot_snapshot(snap, [{"name": "ball"}], tmp_path / "x.png")
     with pytest.raises(InvalidInput, match="expected a Scene or a list"):
         tv.plot_snapshot(snap, {"type": "plane"}, tmp_path / "x.png")  # type: ignore[arg-type]
+    mark = {"type": "disk", "name": "mark", "center": [0, float("nan"), 0], "normal": [0, 0, 1]}
+    with pytest.raises(
+        InvalidInput, match=r"mark\.center: expected finite values, got \[0\.0, nan"
+    ):
+        tv.plot_snapshot(snap, [{**mark, "radius": 0.1}], tmp_path / "x.png")
+    snap["laser"] = {"origin": [0.0, 0.0], "point": None}
+    fig, ax = tv.new_axes()
+    try:
+        with pytest.raises(InvalidInput, match=r"laser\.origin: expected shape \(3,\), got"):
+            tv.draw_laser(ax, snap)
+    finally:
+        plt.close(fig)
 
 
 # ------------------------------------------------------------------------------ frames
@@ -317,27 +330,36 @@ def test_mp4_when_ffmpeg_is_available(
 # ------------------------------------------------------------------------------ other formats
 
 
-def test_session_style_dicts_center_instead_of_point_and_no_corners() -> None:
-    from velfence.teleop.scene import Box
+def test_one_scene_format_no_fallbacks() -> None:
+    # The old session-style dicts (plane "center" instead of "point", no "corners") are not a
+    # second format any more: they are refused with the missing field named.
+    table, _, folder, _ = scene_to_dicts(pick_and_place_scene())
+    old_table = {k: v for k, v in table.items() if k != "corners"}
+    old_table["center"] = old_table.pop("point")
+    with pytest.raises(InvalidInput, match=r"table\.corners: expected shape \(4, 3\), got shape"):
+        tv._faces(old_table)
+    old_folder = {k: v for k, v in folder.items() if k != "corners"}
+    with pytest.raises(InvalidInput, match=r"folder\.corners: expected shape \(8, 3\), got shape"):
+        tv._faces(old_folder)
+    (floor,) = scene_to_dicts(Scene({"floor": Plane((0.0, 0.0, -1.0), (0.0, 0.0, 1.0))}))
+    floor.pop("point")
+    with pytest.raises(InvalidInput, match=r"floor\.point: expected shape \(3,\), got shape"):
+        tv._faces(floor)
 
-    scene = pick_and_place_scene()
-    mine = scene_to_dicts(scene)
-    theirs = []
-    for d in mine:
-        e = {k: v for k, v in d.items() if k not in ("corners", "top", "center")}
-        if d["type"] == "plane":
-            e["center"] = e.pop("point")
-        elif d["type"] in ("box", "disk"):
-            e["center"] = d["center"]
-        theirs.append(e)
-    for a, b in zip(mine, theirs, strict=True):
-        fa, fb = tv._faces(a), tv._faces(b)
-        assert len(fa) == len(fb)
-        for x, y in zip(fa, fb, strict=True):
-            np.testing.assert_allclose(x, y, atol=1e-12)
-    folder = scene["folder"]
-    assert isinstance(folder, Box)
-    np.testing.assert_allclose(tv._box_corners(theirs[2]), folder.corners, atol=1e-12)
+
+def test_infinite_plane_is_a_2_m_square_about_its_point() -> None:
+    (floor,) = scene_to_dicts(Scene({"floor": Plane((0.1, 0.2, -1.0), (0.0, 0.0, 1.0))}))
+    (square,) = tv._faces(floor)
+    np.testing.assert_allclose(square.min(axis=0), [-0.9, -0.8, -1.0], atol=1e-12)
+    np.testing.assert_allclose(square.max(axis=0), [1.1, 1.2, -1.0], atol=1e-12)
+
+
+def test_viz_does_not_import_the_http_viewer() -> None:
+    code = (
+        "import sys, velfence.viz.telerobotics; "
+        "sys.exit(int('velfence.teleop.viewer' in sys.modules))"
+    )
+    assert subprocess.run([sys.executable, "-c", code], check=False).returncode == 0
 
 
 def test_dynamic_objects_follow_the_task_entry(scene: list[dict[str, Any]]) -> None:

@@ -29,6 +29,7 @@ from velfence.errors import InvalidInput
 __all__ = [
     "closest_point_on_segment",
     "closest_points_segments",
+    "orthonormal_complement",
     "point_segment_distance_jacobian",
     "points_segments_distances",
     "segment_segment_distance",
@@ -43,6 +44,11 @@ Vec3 = tuple[float, float, float]
 #: slightly skew pair as parallel costs at most ``sin · length`` ≈ 1e-8 · length in distance, and
 #: the skew formula's cancellation costs ≈ ``eps / sin`` · length ≈ 1e-8 · length at that angle.
 PARALLEL_SIN2 = 1e-16
+#: :func:`orthonormal_complement` projects x̂ onto the plane normal to the unit ``n`` while
+#: ``|n_x| < COMPLEMENT_SWITCH``, and ŷ otherwise: the projection then has length
+#: ``sqrt(1 - n_x²) > 0.43`` (x̂), or ``sqrt(1 - n_y²) >= 0.9`` (ŷ, as ``n_y² <= 1 - 0.9²``),
+#: never close to zero.
+COMPLEMENT_SWITCH = 0.9
 
 
 # ---------------------------------------------------------------------------- validation
@@ -166,6 +172,35 @@ def _fallback_normal(a: Vec3, b: Vec3) -> Vec3:
 
 
 # ---------------------------------------------------------------------------- public API
+def orthonormal_complement(n: ArrayLike) -> tuple[FloatArray, FloatArray]:
+    """Two unit vectors ``(e1, e2)`` spanning the plane perpendicular to ``n``, chosen fixed.
+
+    ``e1`` is x̂ projected onto that plane and normalised (ŷ's projection when
+    ``|n_x| >= 0.9``, where x̂ is too close to ``n``), and ``e2 = n̂ × e1``; so ``(n̂, e1, e2)``
+    is a right-handed orthonormal frame and the choice depends only on the direction of ``n``
+    (a plane's in-plane axes, a circle's parametrisation, a line fixture's cross directions).
+
+    Args:
+        n: Normal direction, shape (3,), any non-zero length (dimensionless, or any units).
+
+    Returns:
+        ``(e1, e2)``: unit vectors, shape (3,) each, perpendicular to ``n`` and to each other,
+        with ``e1 × e2 = n / |n|``.
+
+    Raises:
+        InvalidInput: ``n`` is not a finite vector of shape (3,), or is zero.
+    """
+    x, y, z = _vec3("n", n)
+    length = math.hypot(x, y, z)
+    if length == 0.0:
+        raise InvalidInput("n: expected a non-zero direction, got [0.0, 0.0, 0.0]")
+    u = np.array((x / length, y / length, z / length))
+    axis = np.array((1.0, 0.0, 0.0) if abs(float(u[0])) < COMPLEMENT_SWITCH else (0.0, 1.0, 0.0))
+    e1 = axis - float(axis @ u) * u
+    e1 /= float(np.linalg.norm(e1))
+    return e1, np.cross(u, e1)
+
+
 def closest_point_on_segment(p: ArrayLike, a: ArrayLike, b: ArrayLike) -> tuple[FloatArray, float]:
     """Closest point of segment ``[a, b]`` to point ``p``, and its parameter ``t``.
 

@@ -146,23 +146,31 @@ def _spread_mc(
         raise InvalidInput(f"expected {distance_cm} cm inside the sensor's range")
     x = 100.0 * raw.reshape(MC_RUNS, n)
     if filtered:
-        x = moving_average(x, w)
+        x = moving_average(x, window=w)
     return np.asarray(np.ptp(x, axis=-1), dtype=float)
 
 
-def _settling(sensor: LaserRangeSensor, phases: int = 40) -> tuple[float, float, float]:
-    """Time from a step of the beam length to a fully fresh window (noise-free), over phases.
-
-    Returns:
-        ``(mean, min, max)`` [s] over step instants spread evenly within one sample period.
-    """
-    exact = LaserRangeSensor(
+def _noise_free(sensor: LaserRangeSensor) -> LaserRangeSensor:
+    """``sensor``'s filter and timing without noise or quantisation (for latency checks)."""
+    return LaserRangeSensor(
         noise_v=0.0,
         quantum_v=0.0,
         filter=sensor.filter,
         sample_rate=sensor.sample_rate,
         window=sensor.window if sensor.filter == "moving_average" else None,
     )
+
+
+def _settling(exact: LaserRangeSensor, phases: int = 40) -> tuple[float, float, float]:
+    """Time from a step of the beam length to a fully fresh window, over step phases.
+
+    Args:
+        exact: A noise-free sensor (:func:`_noise_free`).
+        phases: Step instants spread evenly within one sample period.
+
+    Returns:
+        ``(mean, min, max)`` [s] over the step instants.
+    """
     before, after = 0.40, 0.60
     times = []
     for i in range(phases):
@@ -182,19 +190,13 @@ def _settling(sensor: LaserRangeSensor, phases: int = 40) -> tuple[float, float,
     return float(arr.mean()), float(arr.min()), float(arr.max())
 
 
-def _ramp_lag(sensor: LaserRangeSensor, *, speed: float = 0.1, rate: float = 1000.0) -> float:
+def _ramp_lag(exact: LaserRangeSensor, *, speed: float = 0.1, rate: float = 1000.0) -> float:
     """Mean lag [s] of the held filtered output behind a beam lengthening at ``speed`` [m/s].
 
-    A control loop polls the stream at ``rate`` [Hz] while the flange rises above a table
-    (noise-free sensor); lag = (true length - reading) / speed, averaged after the window fills.
+    A control loop polls the stream of the noise-free sensor ``exact`` (:func:`_noise_free`) at
+    ``rate`` [Hz] while the flange rises above a table; lag = (true length - reading) / speed,
+    averaged after the window fills.
     """
-    exact = LaserRangeSensor(
-        noise_v=0.0,
-        quantum_v=0.0,
-        filter=sensor.filter,
-        sample_rate=sensor.sample_rate,
-        window=sensor.window if sensor.filter == "moving_average" else None,
-    )
     scene = Scene({"table": Plane((0.0, 0.0, 0.0), (0.0, 0.0, 1.0))})
     stream = exact.stream()
     T = np.diag([1.0, -1.0, -1.0, 1.0])  # tool z pointing down
@@ -338,7 +340,7 @@ def laser_checks(out: Path, *, seed: int = 0) -> tuple[list[Check], list[Path]]:
                 f"model 95 % band [{lo:.2f}, {hi:.2f}]",
                 bool(lo <= printed <= hi),
                 defect_note + band_note,
-                source_defect=bool(defect_note) and not lo <= printed <= hi,
+                source_defect=bool(defect_note),
             )
         )
     table9 = np.asarray(TABLE9_DISTANCE_CM)
@@ -428,15 +430,16 @@ def laser_checks(out: Path, *, seed: int = 0) -> tuple[list[Check], list[Path]]:
             "high at 24.3 and 25.6 cm, while Table 9 reports at most +0.2 cm at 24.7 cm: a "
             "failure here is the thesis's two tables disagreeing near 25 cm "
             "(docs/reproductions.md)",
-            source_defect=not hi_ok,
+            source_defect=True,
         )
     )
 
     # ---- latency: settling and lag, old vs new
     new_sensor = LaserRangeSensor()
     old_sensor = LaserRangeSensor(filter="old_10hz")
-    s_new, s_new_lo, s_new_hi = _settling(new_sensor)
-    s_old, _, s_old_hi = _settling(old_sensor)
+    exact_new, exact_old = _noise_free(new_sensor), _noise_free(old_sensor)
+    s_new, s_new_lo, s_new_hi = _settling(exact_new)
+    s_old, _, s_old_hi = _settling(exact_old)
     checks.append(
         Check(
             "new scheme settling time after the beam stops [s]",
@@ -459,8 +462,8 @@ def laser_checks(out: Path, *, seed: int = 0) -> tuple[list[Check], list[Path]]:
             "for the old scheme; one 10 Hz sample is what its description implies",
         )
     )
-    lag_new = _ramp_lag(new_sensor)
-    lag_old = _ramp_lag(old_sensor)
+    lag_new = _ramp_lag(exact_new)
+    lag_old = _ramp_lag(exact_old)
     theory_new = new_sensor.window / (2.0 * new_sensor.sample_rate)
     theory_old = 1.0 / (2.0 * old_sensor.sample_rate)
     checks.append(

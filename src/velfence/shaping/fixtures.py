@@ -60,8 +60,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from velfence._arrays import finite_array
 from velfence.errors import InvalidGeometry, InvalidInput
 from velfence.geometry.polygon import decompose
+from velfence.geometry.primitives import orthonormal_complement
 from velfence.shaping.base import InvalidPolicy, check_positive
 
 __all__ = [
@@ -95,19 +97,9 @@ DEFAULT_DAMPING = 20.0
 
 
 # ------------------------------------------------------------------------------------ helpers
-def _geometry_vec3(name: str, x: Any, what: str) -> FloatArray:
-    try:
-        a = np.array(x, dtype=float)
-    except (TypeError, ValueError):
-        raise InvalidGeometry(f"{name}: expected 3 numbers ({what}), got {x!r}") from None
-    if a.shape != (3,) or not np.all(np.isfinite(a)):
-        raise InvalidGeometry(f"{name}: expected 3 finite numbers ({what}), shape (3,), got {x!r}")
-    return a
-
-
 def _line(point: Any, direction: Any) -> tuple[FloatArray, FloatArray]:
-    p0 = _geometry_vec3("line_point", point, "a point of the line [m]")
-    d = _geometry_vec3("line_direction", direction, "direction of the line")
+    p0 = finite_array("line_point [m]", point, (3,), error=InvalidGeometry)
+    d = finite_array("line_direction", direction, (3,), error=InvalidGeometry)
     n = float(np.linalg.norm(d))
     if not n > 1e-12:
         raise InvalidGeometry(
@@ -122,10 +114,7 @@ def _line(point: Any, direction: Any) -> tuple[FloatArray, FloatArray]:
 
 def _triad(u: FloatArray) -> tuple[FloatArray, FloatArray]:
     """Unit vectors L, M with (u, L, M) right-handed orthonormal (u × L = M)."""
-    axis = np.array([1.0, 0.0, 0.0]) if abs(float(u[0])) < 0.9 else np.array([0.0, 1.0, 0.0])
-    _, L = decompose(axis, u)
-    L = L / float(np.linalg.norm(L))
-    M = np.cross(u, L)
+    L, M = orthonormal_complement(u)
     L.setflags(write=False)
     M.setflags(write=False)
     return L, M

@@ -43,6 +43,7 @@ from velfence.teleop.scene import (
     Scene,
     door_scene,
     pick_and_place_scene,
+    scene_to_dicts,
 )
 from velfence.teleop.servo import FirstOrderServo, JointServo, PDGravityServo
 from velfence.teleop.session import Observation, Session
@@ -94,6 +95,7 @@ __all__ = [
     "rotation_from_angle_axis",
     "rotation_vector",
     "run_task",
+    "scene_to_dicts",
     "sr_inverse",
     "straight_line",
 ]

@@ -50,7 +50,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._arrays import readonly, rigid_transform
+from velfence._arrays import finite_array, readonly, rigid_transform
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 from velfence.geometry.primitives import _vec3
 from velfence.teleop.thesis_data import (
@@ -390,7 +390,7 @@ def calibrate(
     return VoltageModel.from_calibration(distances, voltages)
 
 
-def moving_average(samples: ArrayLike, window: int) -> FloatArray:
+def moving_average(samples: ArrayLike, *, window: int) -> FloatArray:
     """Means of every full window of ``window`` consecutive samples, along the last axis.
 
     The batch form of the ``"moving_average"`` filter once its window is full (§3.3.1.3).
@@ -550,16 +550,9 @@ class LaserRangeSensor:
         model: VoltageModel | None = None,
         characteristic: Characteristic | None = None,
     ) -> None:
-        try:
-            off = np.array(offset, dtype=float)
-        except (TypeError, ValueError):
-            raise InvalidParameter(
-                f"offset: expected 3 numbers [m] (laser origin in frame 6), got {offset!r}"
-            ) from None
-        if off.shape != (3,) or not np.all(np.isfinite(off)):
-            raise InvalidParameter(
-                f"offset: expected 3 finite numbers [m], shape (3,), got {offset!r}"
-            )
+        off = finite_array(
+            "offset [m] (laser origin in frame 6)", offset, (3,), error=InvalidParameter
+        )
         lo = _finite("min_range", min_range, "m", low=0.0)
         hi = _number("max_range", max_range, "m")
         if not (hi > lo and not math.isnan(hi)):

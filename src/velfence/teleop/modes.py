@@ -60,7 +60,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._arrays import readonly
+from velfence._arrays import finite_array, readonly
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 from velfence.shaping.base import check_choice, check_positive
 from velfence.shaping.fixtures import LineFixture, LineScaling
@@ -134,12 +134,7 @@ class Segment:
 
 
 def _unit(name: str, x: ArrayLike) -> FloatArray:
-    try:
-        a = np.array(x, dtype=float)
-    except (TypeError, ValueError):
-        raise InvalidInput(f"{name}: expected 3 numbers, got {x!r}") from None
-    if a.shape != (3,) or not np.all(np.isfinite(a)):
-        raise InvalidInput(f"{name}: expected 3 finite numbers, shape (3,), got {x!r}")
+    a = finite_array(name, x, (3,))
     n = float(np.linalg.norm(a))
     if not n > 1e-12:
         raise InvalidInput(f"{name}: expected a non-zero vector, got {a.tolist()}")

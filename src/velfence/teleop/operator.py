@@ -44,8 +44,9 @@ and the operator does not model adapting to their gains.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Generator, Iterator
+from collections.abc import Callable, Generator, Iterator, Mapping
 from dataclasses import asdict, dataclass, fields
+from types import MappingProxyType
 from typing import Any
 
 import numpy as np
@@ -72,31 +73,33 @@ OMNI_WORKSPACE = (0.160, 0.120, 0.070)
 """Phantom Omni workspace W × H × D [m] (App. A; notes §2.16), along the Omni x, y, z axes."""
 
 #: Parameter ranges [low, high] a subject's profile is drawn from (uniform); units as in
-#: :class:`OperatorProfile`. Modelling choices, see the module docstring.
-PROFILE_RANGES: dict[str, tuple[float, float]] = {
-    "reaction": (0.20, 0.40),
-    "fitts_a": (0.20, 0.40),
-    "fitts_b": (0.10, 0.20),
-    "peak_speed": (0.030, 0.060),
-    "endpoint_noise": (0.06, 0.15),
-    "curvature": (0.04, 0.12),
-    "tremor": (0.001, 0.003),
-    "perception": (0.001, 0.002),
-    "orient_plan": (0.5, 1.5),
-    "orient_a": (0.3, 0.6),
-    "orient_b": (0.2, 0.4),
-    "orient_peak": (0.20, 0.50),
-    "orient_noise": (0.20, 0.40),
-    "orient_axis_noise": (0.20, 0.50),
-    "aim_noise": (0.05, 0.12),
-    "aim_axis_noise": (0.05, 0.15),
-    "aim_peak": (0.30, 0.60),
-    "key_time": (0.30, 0.60),
-    "clutch_time": (0.25, 0.50),
-    "index_speed": (0.10, 0.20),
-    "laser_wait": (0.55, 0.80),
-    "lift_margin": (0.04, 0.12),
-}
+#: :class:`OperatorProfile`. Modelling choices, see the module docstring. Read-only.
+PROFILE_RANGES: Mapping[str, tuple[float, float]] = MappingProxyType(
+    {
+        "reaction": (0.20, 0.40),
+        "fitts_a": (0.20, 0.40),
+        "fitts_b": (0.10, 0.20),
+        "peak_speed": (0.030, 0.060),
+        "endpoint_noise": (0.06, 0.15),
+        "curvature": (0.04, 0.12),
+        "tremor": (0.001, 0.003),
+        "perception": (0.001, 0.002),
+        "orient_plan": (0.5, 1.5),
+        "orient_a": (0.3, 0.6),
+        "orient_b": (0.2, 0.4),
+        "orient_peak": (0.20, 0.50),
+        "orient_noise": (0.20, 0.40),
+        "orient_axis_noise": (0.20, 0.50),
+        "aim_noise": (0.05, 0.12),
+        "aim_axis_noise": (0.05, 0.15),
+        "aim_peak": (0.30, 0.60),
+        "key_time": (0.30, 0.60),
+        "clutch_time": (0.25, 0.50),
+        "index_speed": (0.10, 0.20),
+        "laser_wait": (0.55, 0.80),
+        "lift_margin": (0.04, 0.12),
+    }
+)
 
 
 @dataclass(frozen=True)

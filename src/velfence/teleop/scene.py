@@ -26,22 +26,23 @@ Conventions:
 
 Every primitive is a frozen dataclass whose arrays are read-only; definitions are validated on
 construction (:class:`~velfence.errors.InvalidGeometry`), run-time points and rays on every call
-(:class:`~velfence.errors.InvalidInput`).
+(:class:`~velfence.errors.InvalidInput`). :func:`scene_to_dicts` is the one JSON-able form of a
+scene (the web viewer, session snapshots and plots all read it).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, TypeAlias
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._arrays import readonly
+from velfence._arrays import finite_array, readonly
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
-from velfence.geometry.primitives import _vec3
+from velfence.geometry.primitives import _vec3, orthonormal_complement
 
 __all__ = [
     "Box",
@@ -53,6 +54,7 @@ __all__ = [
     "Scene",
     "door_scene",
     "pick_and_place_scene",
+    "scene_to_dicts",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -94,13 +96,8 @@ def _tuple(a: FloatArray) -> Vec3:
 
 
 def _geom_point(name: str, x: Any) -> FloatArray:
-    try:
-        v = np.array(x, dtype=float)
-    except (TypeError, ValueError):
-        raise InvalidGeometry(f"{name}: expected 3 numbers [m], shape (3,), got {x!r}") from None
-    if v.shape != (3,) or not np.all(np.isfinite(v)):
-        raise InvalidGeometry(f"{name}: expected 3 finite numbers [m], shape (3,), got {x!r}")
-    return v
+    """A definition's 3-vector (a point [m] or a direction), else :class:`InvalidGeometry`."""
+    return finite_array(name, x, (3,), error=InvalidGeometry)
 
 
 def _geom_unit(name: str, x: Any) -> FloatArray:
@@ -121,16 +118,6 @@ def _geom_length(name: str, x: Any, what: str) -> float:
     if not (math.isfinite(v) and v > 0.0):
         raise InvalidGeometry(f"{name}: expected a finite number > 0 [m] ({what}), got {x!r}")
     return v
-
-
-def _perpendicular(n: FloatArray) -> FloatArray:
-    """A fixed unit vector perpendicular to unit ``n``: x̂ projected onto the plane, or ŷ's.
-
-    ŷ is used when ``|n_x| >= 0.9``; then ``|n_y| <= 0.44`` and the projection is well defined.
-    """
-    axis = np.array([1.0, 0.0, 0.0]) if abs(float(n[0])) < 0.9 else np.array([0.0, 1.0, 0.0])
-    u = axis - float(axis @ n) * n
-    return u / float(np.linalg.norm(u))
 
 
 def _ray(origin: ArrayLike, direction: ArrayLike) -> tuple[Vec3, Vec3]:
@@ -191,7 +178,7 @@ class Plane:
         p = _geom_point("point", point)
         n = _geom_unit("normal", normal)
         if u_axis is None:
-            u = _perpendicular(n)
+            u = orthonormal_complement(n)[0]
         else:
             u0 = _geom_unit("u_axis", u_axis)
             u = u0 - float(u0 @ n) * n
@@ -626,10 +613,15 @@ class Scene:
         object.__setattr__(self, key, value)
 
     def __getitem__(self, name: str) -> Primitive:
+        """The primitive called ``name``.
+
+        Raises:
+            InvalidInput: the scene has no primitive of that name (test with ``in`` first).
+        """
         for n, p in self._items:
             if n == name:
                 return p
-        raise KeyError(f"no primitive named {name!r}; the scene has {list(self.names)}")
+        raise InvalidInput(f"name: expected one of the scene's {list(self.names)}, got {name!r}")
 
     def __contains__(self, name: object) -> bool:
         return any(n == name for n, _ in self._items)
@@ -811,3 +803,92 @@ def door_scene() -> Scene:
             "table": Plane((0.0, 0.65, TABLE_TOP_Z), (0.0, 0.0, 1.0), half_extents=(0.50, 0.35)),
         }
     )
+
+
+# ---------------------------------------------------------------------------------- export
+def _floats(a: ArrayLike) -> Any:
+    return np.asarray(a, dtype=float).tolist()
+
+
+def scene_to_dicts(scene: Scene, *, dynamic: Sequence[str] = ()) -> list[dict[str, Any]]:
+    """A :class:`Scene` as JSON-able dicts, one per primitive, in order: the one scene format.
+
+    The web viewer's ``GET /scene``, :meth:`velfence.teleop.session.Session.scene_primitives`,
+    recorded runs and the plots of :mod:`velfence.viz.telerobotics` all use it.
+
+    Every dict has ``"type"``, ``"name"`` and ``"dynamic"`` (bool: the object can move, and a
+    snapshot's ``task[name]`` gives its current ``base_center`` / ``center`` / ``point``, or
+    ``None`` when it is not to be drawn); vectors are lists of floats [m], all in the PUMA
+    base frame. By type (the field names are the dataclass fields; derived values are added so
+    that a viewer needs no geometry code):
+
+    * ``"plane"``: ``point`` [3], ``normal`` [3] (unit), ``u_axis`` [3], ``v_axis`` [3] (unit,
+      in-plane, ``v = normal × u``), ``half_extents`` ``[a, b]`` or ``None`` (infinite), and
+      ``corners`` [4][3] (counter-clockwise about the normal) or ``None`` (infinite);
+    * ``"disk"``: ``center`` [3], ``normal`` [3] (unit), ``radius``;
+    * ``"cylinder"``: ``base_center`` [3] (bottom cap centre), ``radius``, ``height``, plus
+      ``center`` [3] (the centroid), ``top`` [3] (top cap centre) and ``axis`` ``[0, 0, 1]``;
+    * ``"box"``: ``center`` [3], ``half_extents`` [3], ``rotation`` [3][3] (columns are the box
+      axes), plus ``corners`` [8][3] (local sign pattern, x fastest: corner ``i`` has signs
+      ``(±x, ±y, ±z)`` from bits 0, 1, 2 of ``i``, bit set = ``+``).
+
+    Example: ``{"type": "cylinder", "name": "cup", "dynamic": true,
+    "base_center": [0.2, 0.58, -0.6], "center": [0.2, 0.58, -0.55], "top": [0.2, 0.58, -0.5],
+    "radius": 0.04, "height": 0.1, "axis": [0.0, 0.0, 1.0]}``.
+
+    Args:
+        scene: The scene.
+        dynamic: Names of the primitives that move (e.g. ``("cup",)``).
+
+    Returns:
+        One dict per primitive, in the scene's order.
+
+    Raises:
+        InvalidInput: ``scene`` is not a Scene, or ``dynamic`` names a primitive it lacks.
+    """
+    if not isinstance(scene, Scene):
+        raise InvalidInput(f"scene: expected a velfence.teleop.scene.Scene, got {type(scene)!r}")
+    if isinstance(dynamic, str) or any(name not in scene for name in dynamic):
+        raise InvalidInput(f"dynamic: expected names from {list(scene.names)}, got {dynamic!r}")
+    out: list[dict[str, Any]] = []
+    for name, prim in scene.items():
+        entry: dict[str, Any]
+        if isinstance(prim, Plane):
+            entry = {
+                "type": "plane",
+                "point": _floats(prim.point),
+                "normal": _floats(prim.normal),
+                "u_axis": _floats(prim.u_axis),
+                "v_axis": _floats(prim.v_axis),
+                "half_extents": None
+                if prim.half_extents is None
+                else [float(prim.half_extents[0]), float(prim.half_extents[1])],
+                "corners": _floats(prim.corners) if prim.bounded else None,
+            }
+        elif isinstance(prim, Disk):
+            entry = {
+                "type": "disk",
+                "center": _floats(prim.center),
+                "normal": _floats(prim.normal),
+                "radius": float(prim.radius),
+            }
+        elif isinstance(prim, Cylinder):
+            entry = {
+                "type": "cylinder",
+                "base_center": _floats(prim.base_center),
+                "center": _floats(prim.center),
+                "top": _floats(prim.top),
+                "radius": float(prim.radius),
+                "height": float(prim.height),
+                "axis": [0.0, 0.0, 1.0],
+            }
+        else:
+            entry = {
+                "type": "box",
+                "center": _floats(prim.center),
+                "half_extents": _floats(prim.half_extents),
+                "rotation": _floats(prim.rotation),
+                "corners": _floats(prim.corners),
+            }
+        out.append({"type": entry.pop("type"), "name": name, **entry, "dynamic": name in dynamic})
+    return out

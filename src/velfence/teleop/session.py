@@ -13,10 +13,12 @@ A :class:`Session` couples the pieces the other ``teleop`` modules provide:
 * the Barrett Hand as a binary gripper 0.23 m along :math:`z_6` (§6.3) and the task object (the
   cup), which is carried once grasped.
 
-Each control cycle (period ``1/rate``, thesis 200 Hz): the laser is polled with the true flange
-pose; the mode manager turns the hand's velocity (or the next via point) into a twist; resolved
-rate turns it into joint rates at the *measured* joints; the commanded joints integrate them and
-the servo tracks them.
+Each control cycle (period ``1/rate``, thesis 200 Hz): the laser is ray-cast from the *true*
+flange pose (the servo's true joints: encoder noise moves the estimate, not the beam); the mode
+manager turns the hand's velocity (or the next via point) into a twist at the *measured* pose;
+resolved rate turns it into joint rates at the *measured* joints; the commanded joints integrate
+them and the servo tracks them. The physical world — the beam, the fingertip, the carried cup,
+collisions and the trace — follows the true pose; the control layer sees only the measured one.
 
 **Protocol** (the interactive viewer and the study drive it):
 
@@ -60,14 +62,22 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._arrays import readonly
+from velfence._arrays import finite_array, readonly
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.mechanisms.puma560 import Puma560
 from velfence.shaping.base import check_positive
 from velfence.teleop.laser import LaserRangeSensor, LaserStream
 from velfence.teleop.modes import KEYS, ModeEvent, ModeManager
 from velfence.teleop.resolved_rate import ResolvedRate
-from velfence.teleop.scene import Box, Cylinder, Disk, Plane, Scene, pick_and_place_scene
+from velfence.teleop.scene import (
+    Box,
+    Cylinder,
+    Disk,
+    Plane,
+    Scene,
+    pick_and_place_scene,
+    scene_to_dicts,
+)
 from velfence.teleop.servo import FirstOrderServo, JointServo
 from velfence.teleop.thesis_data import TRAJECTORY_FINAL_Q_RAD
 
@@ -197,16 +207,6 @@ class Observation:
     status: str
 
 
-def _vec3(name: str, x: ArrayLike, unit: str) -> FloatArray:
-    try:
-        a = np.array(x, dtype=float)
-    except (TypeError, ValueError):
-        raise InvalidInput(f"{name}: expected 3 numbers [{unit}], got {x!r}") from None
-    if a.shape != (3,) or not np.all(np.isfinite(a)):
-        raise InvalidInput(f"{name}: expected 3 finite numbers [{unit}], shape (3,), got {x!r}")
-    return a
-
-
 def _floats(a: ArrayLike) -> list[Any]:
     out: list[Any] = np.asarray(a, dtype=float).tolist()
     return out
@@ -302,6 +302,7 @@ class Session:
         self._q_meas = q
         self._q_cmd = np.array(self.servo.q, dtype=float)
         self._T = np.asarray(self.robot.fk(self._q_meas), dtype=float)
+        self._T_true = np.asarray(self.robot.fk(self.servo.q), dtype=float)
         self.modes.reset()
         self._stream: LaserStream = self.laser.stream(seed=self.seed)
         self._lin = np.zeros(3)
@@ -337,13 +338,19 @@ class Session:
 
     @property
     def pose(self) -> FloatArray:
-        """Measured tool (frame 6) pose, shape (4, 4)."""
+        """Measured tool (frame 6) pose, shape (4, 4): what the control layer sees."""
         return np.array(self._T)
 
     @property
+    def true_pose(self) -> FloatArray:
+        """True tool (frame 6) pose, shape (4, 4): where the beam and the hand really are."""
+        return np.array(self._T_true)
+
+    @property
     def tip(self) -> FloatArray:
-        """Fingertip point [m], shape (3,): ``GRIPPER_LENGTH`` along :math:`z_6`."""
-        return np.asarray(self._T[:3, 3] + GRIPPER_LENGTH * self._T[:3, 2], dtype=float)
+        """True fingertip point [m], shape (3,): ``GRIPPER_LENGTH`` along :math:`z_6`."""
+        T = self._T_true
+        return np.asarray(T[:3, 3] + GRIPPER_LENGTH * T[:3, 2], dtype=float)
 
     @property
     def events(self) -> tuple[ModeEvent, ...]:
@@ -424,8 +431,8 @@ class Session:
         Raises:
             InvalidInput: wrong shapes or non-finite values.
         """
-        self._lin = _vec3("linear", linear, "m/s")
-        self._ang = _vec3("angular", angular, "rad/s")
+        self._lin = finite_array("linear [m/s]", linear, (3,))
+        self._ang = finite_array("angular [rad/s]", angular, (3,))
 
     def advance(self, dt: float) -> None:
         """Advance the world by ``dt`` [s] in control cycles of ``1/rate``.
@@ -450,11 +457,11 @@ class Session:
     def observe(self) -> Observation:
         """What the operator perceives now (cheap; no JSON conversion)."""
         reading = self._stream.last
-        hit = self.laser.true_hit(self._T, self._laser_scene)
+        hit = self.laser.true_hit(self._T_true, self._laser_scene)
         seg_busy = self.modes.busy
         return Observation(
             t=self.t,
-            pose=np.array(self._T),
+            pose=np.array(self._T_true),
             tip=self.tip,
             spot=None if hit is None else np.array(hit.point),
             distance=None if reading is None else reading.distance,
@@ -487,7 +494,7 @@ class Session:
         bottom centre [m] or ``None``).
         """
         q = self.servo.q
-        T = np.asarray(self.robot.fk(q), dtype=float)
+        T = self._T_true
         origin, _ = self.laser.beam(T)
         hit = self.laser.true_hit(T, self._laser_scene)
         reading = self._stream.last
@@ -527,61 +534,12 @@ class Session:
         }
 
     def scene_primitives(self) -> list[dict[str, Any]]:
-        """The scene (as built; the cup's live position is in :meth:`snapshot`), JSON-able.
+        """The scene as built, JSON-able: :func:`~velfence.teleop.scene.scene_to_dicts`.
 
-        Each dict has ``type`` (``"plane"``, ``"disk"``, ``"cylinder"``, ``"box"``) and
-        ``name`` plus: plane ``center``, ``normal``, ``half_extents`` (or ``None``), ``u_axis``,
-        ``v_axis``; disk ``center``, ``normal``, ``radius``; cylinder ``base_center``,
-        ``radius``, ``height``, ``axis``; box ``center``, ``half_extents``, ``rotation``
-        (3×3). The graspable cup carries ``"dynamic": True``. Metres, base frame.
+        The graspable cup (if any) is marked ``"dynamic": True``; its live position is the
+        snapshot's ``task["cup"]`` (bottom centre [m], ``None`` without a cup).
         """
-        out: list[dict[str, Any]] = []
-        for name, p in self.scene.items():
-            if isinstance(p, Plane):
-                out.append(
-                    {
-                        "type": "plane",
-                        "name": name,
-                        "center": _floats(p.point),
-                        "normal": _floats(p.normal),
-                        "half_extents": None if p.half_extents is None else list(p.half_extents),
-                        "u_axis": _floats(p.u_axis),
-                        "v_axis": _floats(p.v_axis),
-                    }
-                )
-            elif isinstance(p, Disk):
-                out.append(
-                    {
-                        "type": "disk",
-                        "name": name,
-                        "center": _floats(p.center),
-                        "normal": _floats(p.normal),
-                        "radius": float(p.radius),
-                    }
-                )
-            elif isinstance(p, Cylinder):
-                out.append(
-                    {
-                        "type": "cylinder",
-                        "name": name,
-                        "base_center": _floats(p.base_center),
-                        "radius": float(p.radius),
-                        "height": float(p.height),
-                        "axis": [0.0, 0.0, 1.0],
-                        "dynamic": p is self._cup0,
-                    }
-                )
-            else:
-                out.append(
-                    {
-                        "type": "box",
-                        "name": name,
-                        "center": _floats(p.center),
-                        "half_extents": _floats(p.half_extents),
-                        "rotation": _floats(p.rotation),
-                    }
-                )
-        return out
+        return scene_to_dicts(self.scene, dynamic=("cup",) if self._cup0 is not None else ())
 
     # ------------------------------------------------------------------------------ stepping
     def _step(self) -> None:
@@ -590,7 +548,7 @@ class Session:
         cup, seen = self._cup, self._scene_cup
         if cup is not None and seen is not None and float(np.max(np.abs(cup - seen))) > 5e-4:
             self._rebuild_laser_scene()
-        self._stream.poll(t, self._T, self._laser_scene)
+        self._stream.poll(t, self._T_true, self._laser_scene)
         n_events = len(self.modes.events)
         twist = self.modes.control(t=t, pose=self._T, linear=self._lin, angular=self._ang)
         if len(self.modes.events) > n_events:
@@ -602,14 +560,15 @@ class Session:
             self._q_cmd = np.clip(q_cmd, lim[:, 0], lim[:, 1])
         self._q_meas = np.array(self.servo.step(self._q_cmd, self._h), dtype=float)
         self._T = np.asarray(self.robot.fk(self._q_meas), dtype=float)
+        self._T_true = np.asarray(self.robot.fk(self.servo.q), dtype=float)
         self._update_hand(t)
         self._update_contacts(t)
         if self._k % self._trace_every == 0:
             self._record_trace()
 
     def _record_trace(self) -> None:
-        p = self._T[:3, 3]
-        tip = p + GRIPPER_LENGTH * self._T[:3, 2]
+        p = self._T_true[:3, 3]
+        tip = self.tip
         self._trace.append(
             (
                 self.t,
@@ -650,14 +609,14 @@ class Session:
     def _update_hand(self, t: float) -> None:
         if self._hand in ("open", "closed") or t + 1e-12 < self._hand_until:
             if self._holding and self._grip is not None:
-                self._cup = (self._T @ self._grip)[:3]
+                self._cup = (self._T_true @ self._grip)[:3]
             return
         if self._hand == "closing":
             self._hand = "closed"
             if self._cup is not None and not self._done and self._graspable():
                 self._holding = True
                 self._grasps += 1
-                T_inv = np.linalg.inv(self._T)
+                T_inv = np.linalg.inv(self._T_true)
                 self._grip = T_inv @ np.append(self._cup, 1.0)
                 self._hand_event(t, "hand closed: cup grasped")
             else:
@@ -678,7 +637,7 @@ class Session:
         tip = self.tip
         top = float(self._cup[2]) + self._cup0.height
         radial = math.hypot(float(tip[0] - self._cup[0]), float(tip[1] - self._cup[1]))
-        tilt = math.acos(max(-1.0, min(1.0, -float(self._T[2, 2]))))
+        tilt = math.acos(max(-1.0, min(1.0, -float(self._T_true[2, 2]))))
         depth = top - float(tip[2])
         return radial <= GRASP_RADIAL and 0.005 <= depth <= GRASP_DEPTH and tilt <= GRASP_TILT
 
@@ -741,10 +700,4 @@ class Session:
 
 
 def _vec6(x: ArrayLike) -> FloatArray:
-    try:
-        a = np.array(x, dtype=float)
-    except (TypeError, ValueError):
-        raise InvalidParameter(f"q0: expected 6 joint angles [rad], got {x!r}") from None
-    if a.shape != (6,) or not np.all(np.isfinite(a)):
-        raise InvalidParameter(f"q0: expected 6 finite joint angles [rad], got {x!r}")
-    return a
+    return finite_array("q0 [rad]", x, (6,), error=InvalidParameter)

@@ -88,12 +88,11 @@ class _Layout:
 
 
 def _layout(scene: Scene) -> _Layout:
-    try:
-        cup, dest, table = scene["cup"], scene["destination"], scene["table"]
-    except KeyError as exc:
+    if not all(name in scene for name in ("cup", "destination", "table")):
         raise InvalidParameter(
             f"scene: expected primitives 'cup', 'destination' and 'table', got {list(scene.names)}"
-        ) from exc
+        )
+    cup, dest, table = scene["cup"], scene["destination"], scene["table"]
     boxes = [p for _, p in scene.items() if isinstance(p, Box)]
     if not (isinstance(cup, Cylinder) and isinstance(dest, Disk) and isinstance(table, Plane)):
         raise InvalidParameter("scene: expected a Cylinder cup, a Disk destination, a Plane table")

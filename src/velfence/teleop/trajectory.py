@@ -53,6 +53,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from velfence._arrays import readonly
 from velfence.errors import InvalidInput, InvalidParameter
+from velfence.geometry.primitives import points_segments_distances
 from velfence.shaping.base import check_choice, check_positive
 from velfence.teleop.resolved_rate import (
     ORIENTATION_ERRORS,
@@ -271,8 +272,12 @@ class Execution:
         q_true: True joint angles of the servo [rad], shape (K, n).
         q_cmd: Commanded joint angles [rad], shape (K, n).
         qdot: Joint rates from resolved rate [rad/s], shape (K, n).
-        w: Manipulability at the measured joints, shape (K,).
-        det: Signed Jacobian determinant there, shape (K,) (NaN for a non-square Jacobian).
+        w: Manipulability at the joints resolved rate was evaluated at — the feedback joints:
+            the measured ones (``q``) for ``feedback="measured"``, the commanded ones
+            (``q_cmd``) for ``"commanded"`` and ``"none"`` — shape (K,)
+            (:func:`~velfence.teleop.resolved_rate.manipulability_of`).
+        det: Signed Jacobian determinant at the same joints, shape (K,) (NaN for a non-square
+            Jacobian).
         k: SR damping used, shape (K,).
         stopped: Whether resolved rate refused the step (``on_invalid="stop"``), shape (K,).
         position: True tool position :math:`\mathrm{FK}(q_{true})` [m], shape (K, 3).
@@ -305,14 +310,6 @@ class Execution:
     def max_joint_speed(self) -> float:
         """Largest commanded joint rate magnitude over the run [rad/s]."""
         return float(np.max(np.abs(self.qdot)))
-
-
-def _segment_distance(P: FloatArray, a: FloatArray, b: FloatArray) -> FloatArray:
-    d = b - a
-    L2 = float(d @ d)
-    s = np.zeros(P.shape[0]) if L2 == 0.0 else np.clip((P - a) @ d / L2, 0.0, 1.0)
-    out: FloatArray = np.linalg.norm(P - (a + s[:, None] * d), axis=1)
-    return out
 
 
 def execute(
@@ -414,7 +411,7 @@ def execute(
         P[c] = T_true[:3, 3]
         Rerr[c] = angle_axis(T_true[:3, :3].T @ due[:3, :3])[1]
         if c == K - 1:
-            J = np.asarray(robot.jacobian(q_m), dtype=float)
+            J = np.asarray(robot.jacobian(q_m if mode == "measured" else q_cmd), dtype=float)
             Det[c] = float(np.linalg.det(J)) if J.shape[0] == J.shape[1] else math.nan
             W[c] = manipulability_of(J)
             break
@@ -436,6 +433,8 @@ def execute(
             q_m = np.array(sv.step(cmd, dt), dtype=float)
 
     ref = poses[np.minimum(np.arange(K), N), :3, 3]
+    start, end = trajectory.start[:3, 3], trajectory.end[:3, 3]
+    _, deviation = points_segments_distances(P, start[None], end[None])
     return Execution(
         t=readonly(np.arange(K, dtype=float) * h),
         q=readonly(Q),
@@ -450,9 +449,7 @@ def execute(
         reference=readonly(np.array(ref)),
         tracking_error=readonly(np.asarray(np.linalg.norm(P - ref, axis=1), dtype=float)),
         orientation_error=readonly(Rerr),
-        path_deviation=readonly(
-            _segment_distance(P, trajectory.start[:3, 3], trajectory.end[:3, 3])
-        ),
+        path_deviation=readonly(deviation[:, 0]),
         feedback=mode,
     )
 

@@ -20,7 +20,8 @@ and an Omni-PC keyboard (notes 002 §2.14, §3.5). Here a person drives the simu
 
 HTTP API (JSON bodies, ``Content-Type: application/json``; errors are ``{"error": message}``
 with status 400 for a bad request, 404 unknown path, 409 wrong mode, 411/413 missing or oversized
-body, 415 not JSON, 403 foreign ``Host`` header, 500 a session failure):
+body, 415 not JSON, 403 a foreign ``Host`` header (or none on a ``POST``), 500 a session
+failure):
 
 * ``GET /`` — the page; ``GET /scene`` — :meth:`SessionLike.scene_primitives`;
 * ``GET /state`` — :meth:`SessionLike.snapshot` plus ``"viewer": {"realtime": bool,
@@ -36,8 +37,8 @@ jog older than ``jog_timeout`` is zeroed (a dead-man: a browser that lost a key-
 connection must not leave the arm moving; cf. the thesis's stale-transform jerks, §8.1).
 
 Only loopback is ever bound. The server's ``Host`` check (it must be ``127.0.0.1:port`` or
-``localhost:port``) and the JSON content type of every ``POST`` keep other web pages from
-driving the arm (DNS rebinding, cross-site simple requests).
+``localhost:port``, and a ``POST`` must send it) and the JSON content type of every ``POST``
+keep other web pages from driving the arm (DNS rebinding, cross-site simple requests).
 """
 
 from __future__ import annotations
@@ -52,16 +53,14 @@ from collections.abc import Callable, Mapping, Sequence
 from http import HTTPStatus
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from types import TracebackType
-from typing import TYPE_CHECKING, Any, Protocol, cast
+from typing import Any, Protocol, cast
 from urllib.parse import urlsplit
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from velfence._arrays import finite_array
 from velfence.errors import InvalidInput, InvalidParameter, VelfenceError
-
-if TYPE_CHECKING:
-    from velfence.teleop.scene import Scene
 
 __all__ = [
     "ALLOWED_KEYS",
@@ -75,7 +74,6 @@ __all__ = [
     "ScriptedDriver",
     "SessionLike",
     "ViewerServer",
-    "scene_to_dicts",
     "serve",
 ]
 
@@ -132,109 +130,8 @@ class SessionLike(Protocol):
         ...
 
     def scene_primitives(self) -> list[dict[str, Any]]:
-        """The static scene as :func:`scene_to_dicts` writes it."""
+        """The scene as :func:`velfence.teleop.scene.scene_to_dicts` writes it."""
         ...
-
-
-# ---------------------------------------------------------------------------------- scene
-def scene_to_dicts(scene: Scene, *, dynamic: Sequence[str] = ()) -> list[dict[str, Any]]:
-    """A :class:`~velfence.teleop.scene.Scene` as JSON-able dicts, one per primitive, in order.
-
-    Every dict has ``"type"``, ``"name"`` and ``"dynamic"`` (bool: the object can move, and a
-    snapshot's ``task[name]`` gives its current ``base_center`` / ``center`` / ``point``, or
-    ``None`` when it is not to be drawn); vectors are lists of floats [m], all in the PUMA
-    base frame. By type (the field names are the dataclass fields; derived values are added so
-    that a viewer needs no geometry code):
-
-    * ``"plane"``: ``point`` [3], ``normal`` [3] (unit), ``u_axis`` [3], ``v_axis`` [3] (unit,
-      in-plane, ``v = normal × u``), ``half_extents`` ``[a, b]`` or ``None`` (infinite), and
-      ``corners`` [4][3] (counter-clockwise about the normal) or ``None``;
-    * ``"disk"``: ``center`` [3], ``normal`` [3] (unit), ``radius``;
-    * ``"cylinder"``: ``base_center`` [3] (bottom cap centre), ``radius``, ``height``, plus
-      ``center`` [3] (the centroid), ``top`` [3] (top cap centre) and ``axis`` ``[0, 0, 1]``;
-    * ``"box"``: ``center`` [3], ``half_extents`` [3], ``rotation`` [3][3] (columns are the box
-      axes), plus ``corners`` [8][3] (local sign pattern, x fastest: corner ``i`` has signs
-      ``(±x, ±y, ±z)`` from bits 0, 1, 2 of ``i``, bit set = ``+``).
-
-    Example: ``{"type": "cylinder", "name": "cup", "dynamic": true,
-    "base_center": [0.2, 0.58, -0.6], "center": [0.2, 0.58, -0.55], "top": [0.2, 0.58, -0.5],
-    "radius": 0.04, "height": 0.1, "axis": [0.0, 0.0, 1.0]}``.
-
-    Args:
-        scene: The scene.
-        dynamic: Names of the primitives that move (e.g. ``("cup",)``).
-
-    Returns:
-        One dict per primitive, in the scene's order.
-
-    Raises:
-        InvalidInput: ``scene`` is not a Scene, or ``dynamic`` names a primitive it lacks.
-    """
-    from velfence.teleop.scene import Box, Cylinder, Disk, Plane, Scene
-
-    if not isinstance(scene, Scene):
-        raise InvalidInput(f"scene: expected a velfence.teleop.scene.Scene, got {type(scene)!r}")
-    if isinstance(dynamic, str) or any(name not in scene for name in dynamic):
-        raise InvalidInput(f"dynamic: expected names from {list(scene.names)}, got {dynamic!r}")
-    out: list[dict[str, Any]] = []
-    for name, prim in scene.items():
-        if isinstance(prim, Plane):
-            out.append(
-                {
-                    "type": "plane",
-                    "name": name,
-                    "point": _floats(prim.point),
-                    "normal": _floats(prim.normal),
-                    "u_axis": _floats(prim.u_axis),
-                    "v_axis": _floats(prim.v_axis),
-                    "half_extents": None
-                    if prim.half_extents is None
-                    else [float(prim.half_extents[0]), float(prim.half_extents[1])],
-                    "corners": _floats(prim.corners) if prim.bounded else None,
-                }
-            )
-        elif isinstance(prim, Disk):
-            out.append(
-                {
-                    "type": "disk",
-                    "name": name,
-                    "center": _floats(prim.center),
-                    "normal": _floats(prim.normal),
-                    "radius": float(prim.radius),
-                }
-            )
-        elif isinstance(prim, Cylinder):
-            out.append(
-                {
-                    "type": "cylinder",
-                    "name": name,
-                    "base_center": _floats(prim.base_center),
-                    "center": _floats(prim.center),
-                    "top": _floats(prim.top),
-                    "radius": float(prim.radius),
-                    "height": float(prim.height),
-                    "axis": [0.0, 0.0, 1.0],
-                }
-            )
-        elif isinstance(prim, Box):
-            out.append(
-                {
-                    "type": "box",
-                    "name": name,
-                    "center": _floats(prim.center),
-                    "half_extents": _floats(prim.half_extents),
-                    "rotation": _floats(prim.rotation),
-                    "corners": _floats(prim.corners),
-                }
-            )
-        else:  # pragma: no cover - Scene validates its primitive types
-            raise InvalidInput(f"scene[{name!r}]: unknown primitive type {type(prim).__name__}")
-        out[-1]["dynamic"] = name in dynamic
-    return out
-
-
-def _floats(a: ArrayLike) -> Any:
-    return np.asarray(a, dtype=float).tolist()
 
 
 def _jsonable(x: Any) -> Any:
@@ -256,15 +153,8 @@ def _jsonable(x: Any) -> Any:
 
 
 def _vector(name: str, value: Any, limit: float, unit: str) -> FloatArray:
-    """A finite 3-vector with norm <= limit, else :class:`InvalidInput` naming ``name``."""
-    try:
-        if isinstance(value, str | bytes):
-            raise TypeError
-        v = np.array(value, dtype=float)
-    except (TypeError, ValueError):
-        raise InvalidInput(f"{name}: expected 3 numbers [{unit}], got {value!r}") from None
-    if v.shape != (3,) or not np.all(np.isfinite(v)):
-        raise InvalidInput(f"{name}: expected 3 finite numbers [{unit}], got {value!r}")
+    """A finite 3-vector [unit] with norm <= limit, else :class:`InvalidInput` naming ``name``."""
+    v = finite_array(f"{name} [{unit}]", value, (3,))
     norm = float(np.linalg.norm(v))
     if norm > limit:
         raise InvalidInput(
@@ -323,9 +213,13 @@ class _Handler(BaseHTTPRequestHandler):
         self._send(status, body, "application/json")
 
     def _check_host(self) -> None:
+        # Fail closed: the Host check is the DNS-rebinding guard, and a POST without Host (raw
+        # HTTP/1.0; browsers always send one) cannot show it was addressed to this server.
         host = self.headers.get("Host")
         port = self._viewer.port
-        if host is not None and host not in (f"{HOST}:{port}", f"localhost:{port}"):
+        if (host is None and self.command == "POST") or (
+            host is not None and host not in (f"{HOST}:{port}", f"localhost:{port}")
+        ):
             raise _HTTPError(
                 HTTPStatus.FORBIDDEN,
                 f"Host: expected {HOST}:{port} or localhost:{port}, got {host!r}",
@@ -555,7 +449,7 @@ class ViewerServer:
         return snap
 
     def scene(self) -> list[dict[str, Any]]:
-        """The session's static scene primitives (see :func:`scene_to_dicts`)."""
+        """The session's scene primitives (:func:`velfence.teleop.scene.scene_to_dicts`)."""
         with self._lock:
             return list(self._session.scene_primitives())
 
@@ -1112,9 +1006,8 @@ function faces(prim) {
     let c = prim.corners;
     if (!c) {  // an infinite plane is drawn as a 2 m square
       const h = prim.half_extents || [1, 1], u = prim.u_axis, v = prim.v_axis;
-      const p = prim.point || prim.center;
       c = [[1, 1], [-1, 1], [-1, -1], [1, -1]].map(
-        ([a, b]) => add(p, add(mul(u, a * h[0]), mul(v, b * h[1]))));
+        ([a, b]) => add(prim.point, add(mul(u, a * h[0]), mul(v, b * h[1]))));
     }
     out.push({ pts: c, fill: COLORS.plane, stroke: "#999" });
   } else if (prim.type === "disk") {
@@ -1130,7 +1023,7 @@ function faces(prim) {
     out.push({ pts: hi, fill: COLORS.cylinder, stroke: "#245" });
     out.push({ pts: lo, fill: null, stroke: "#245" });
   } else if (prim.type === "box") {
-    const c = prim.corners || boxCorners(prim);
+    const c = prim.corners;
     for (const axis of [0, 1, 2]) {
       const o = [0, 1, 2].filter((k) => k !== axis);
       for (const side of [0, 1]) {
@@ -1140,16 +1033,6 @@ function faces(prim) {
         out.push({ pts: idx.map((i) => c[i]), fill: COLORS.box, stroke: "#6b4a22" });
       }
     }
-  }
-  return out;
-}
-
-function boxCorners(prim) {
-  const R = prim.rotation || [[1, 0, 0], [0, 1, 0], [0, 0, 1]], h = prim.half_extents;
-  const out = [];
-  for (let i = 0; i < 8; i++) {
-    const l = [i & 1 ? h[0] : -h[0], i & 2 ? h[1] : -h[1], i & 4 ? h[2] : -h[2]];
-    out.push([0, 1, 2].map((r) => prim.center[r] + R[r][0]*l[0] + R[r][1]*l[1] + R[r][2]*l[2]));
   }
   return out;
 }
@@ -1204,8 +1087,7 @@ function draw() {
   }
   if (!drawnPedestal) drawPedestal();
   for (const prim of objects) {
-    const at = prim.top || prim.center || prim.point
-      || (prim.base_center && add(prim.base_center, [0, 0, prim.height]));
+    const at = prim.top || prim.center || prim.point;  // scene_to_dicts gives one of them
     if (at) label(at, prim.name, "#555");
   }
   if (!state) return;

@@ -19,12 +19,13 @@ in-process run draw alike:
   Optional extras drawn when present: ``gripper`` (``{"start": [3], "end": [3]}``, the hand
   along ``z6``), ``destination`` ([3], key 'D'), ``plane_points`` (list of [3], key 'P'), and
   ``objects`` (primitive dicts replacing the static ones of the same name);
-* a **scene** is a list of primitive dicts in the format of
-  :func:`velfence.teleop.viewer.scene_to_dicts` (or a :class:`~velfence.teleop.scene.Scene`).
-  Planes may give ``center`` instead of ``point``; plane and box ``corners`` are computed when
-  absent. A primitive with ``"dynamic": true`` whose name is a key of the snapshot's ``task``
-  moves with it: ``task[name]`` is its new ``base_center`` (cylinder) or ``center`` / ``point``
-  (others), or ``None`` to hide it (the carried cup).
+* a **scene** is a list of primitive dicts in the one format of
+  :func:`velfence.teleop.scene.scene_to_dicts` (or a :class:`~velfence.teleop.scene.Scene`),
+  as ``Session.scene_primitives()`` returns it: planes with ``point`` (and ``corners`` when
+  bounded; an infinite plane is drawn as a 2 m square), boxes with ``corners``. A primitive
+  with ``"dynamic": true`` whose name is a key of the snapshot's ``task`` moves with it:
+  ``task[name]`` is its new ``base_center`` (cylinder) or ``center`` / ``point`` (others), or
+  ``None`` to hide it (the carried cup).
 
 Coordinates: the PUMA base frame at the shoulder, metres, ``z`` up. The default view box is
 :data:`VIEW_LIMITS` (about ±1 m around the arm and the table).
@@ -37,7 +38,7 @@ import math
 import time
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import matplotlib
 
@@ -47,11 +48,10 @@ import numpy as np
 from matplotlib.animation import FFMpegWriter, PillowWriter, writers
 from numpy.typing import ArrayLike, NDArray
 
+from velfence._arrays import finite_array
 from velfence.errors import InvalidInput, InvalidParameter
-from velfence.teleop.viewer import scene_to_dicts
-
-if TYPE_CHECKING:
-    from velfence.teleop.scene import Scene
+from velfence.geometry.primitives import orthonormal_complement
+from velfence.teleop.scene import Scene, scene_to_dicts
 
 __all__ = [
     "VIEW_LIMITS",
@@ -93,13 +93,7 @@ NO_READING_RAY = 0.3  # [m], drawn length of the beam when the sensor reads noth
 
 # ---------------------------------------------------------------------------------- inputs
 def _vec(name: str, x: Any) -> FloatArray:
-    try:
-        v = np.asarray(x, dtype=float)
-    except (TypeError, ValueError):
-        raise InvalidInput(f"{name}: expected 3 numbers [m], got {x!r}") from None
-    if v.shape != (3,) or not np.all(np.isfinite(v)):
-        raise InvalidInput(f"{name}: expected 3 finite numbers [m], shape (3,), got {x!r}")
-    return v
+    return finite_array(name, x, (3,))
 
 
 def _joints(snapshot: Mapping[str, Any]) -> FloatArray:
@@ -139,8 +133,6 @@ def _tool(snapshot: Mapping[str, Any]) -> FloatArray:
 
 
 def _scene_list(scene: Any) -> list[Mapping[str, Any]]:
-    from velfence.teleop.scene import Scene
-
     if isinstance(scene, Scene):
         return list(scene_to_dicts(scene))
     if isinstance(scene, Mapping) or not isinstance(scene, Sequence):
@@ -153,16 +145,8 @@ def _scene_list(scene: Any) -> list[Mapping[str, Any]]:
     return list(scene)
 
 
-def _in_plane_axes(normal: FloatArray) -> tuple[FloatArray, FloatArray]:
-    n = normal / float(np.linalg.norm(normal))
-    a = np.array([1.0, 0.0, 0.0]) if abs(float(n[0])) < 0.9 else np.array([0.0, 1.0, 0.0])
-    u = a - float(a @ n) * n
-    u /= float(np.linalg.norm(u))
-    return u, np.cross(n, u)
-
-
 def _circle(center: FloatArray, normal: FloatArray, radius: float, n: int = 32) -> FloatArray:
-    u, v = _in_plane_axes(normal)
+    u, v = orthonormal_complement(normal)
     ang = np.linspace(0.0, 2.0 * np.pi, n, endpoint=False)
     pts: FloatArray = center + radius * (np.outer(np.cos(ang), u) + np.outer(np.sin(ang), v))
     return pts
@@ -173,15 +157,14 @@ def _faces(prim: Mapping[str, Any]) -> list[FloatArray]:
     kind = prim["type"]
     name = prim.get("name", "?")
     if kind == "plane":
-        if prim.get("corners") is not None:
-            return [np.asarray(prim["corners"], dtype=float)]
-        p = _vec(f"{name}.point", prim["point"] if "point" in prim else prim.get("center"))
-        u = _vec(f"{name}.u_axis", prim["u_axis"])
-        v = _vec(f"{name}.v_axis", prim["v_axis"])
+        if prim.get("half_extents") is not None:
+            return [finite_array(f"{name}.corners", prim.get("corners"), (4, 3))]
         # an infinite plane is drawn as a 2 m square about its point
-        a_half, b_half = prim.get("half_extents") or (1.0, 1.0)
+        p = _vec(f"{name}.point", prim.get("point"))
+        u = _vec(f"{name}.u_axis", prim.get("u_axis"))
+        v = _vec(f"{name}.v_axis", prim.get("v_axis"))
         signs = ((1, 1), (-1, 1), (-1, -1), (1, -1))
-        return [np.array([p + a * a_half * u + b * b_half * v for a, b in signs])]
+        return [np.array([p + a * u + b * v for a, b in signs])]
     if kind == "disk":
         c = _vec(f"{name}.center", prim["center"])
         return [_circle(c, _vec(f"{name}.normal", prim["normal"]), float(prim["radius"]))]
@@ -194,9 +177,7 @@ def _faces(prim: Mapping[str, Any]) -> list[FloatArray]:
         sides = [np.array([lo[i], lo[(i + 1) % 24], hi[(i + 1) % 24], hi[i]]) for i in range(24)]
         return [lo, *sides, hi]
     if kind == "box":
-        c = np.asarray(prim["corners"] if "corners" in prim else _box_corners(prim), dtype=float)
-        if c.shape != (8, 3):
-            raise InvalidInput(f"{name}.corners: expected shape (8, 3), got {c.shape}")
+        c = finite_array(f"{name}.corners", prim.get("corners"), (8, 3))
         out = []
         for axis in range(3):
             o1, o2 = (k for k in range(3) if k != axis)
@@ -210,16 +191,6 @@ def _faces(prim: Mapping[str, Any]) -> list[FloatArray]:
     raise InvalidInput(
         f"scene primitive {name!r}: expected type plane, disk, cylinder or box, got {kind!r}"
     )
-
-
-def _box_corners(prim: Mapping[str, Any]) -> FloatArray:
-    name = prim.get("name", "?")
-    c = _vec(f"{name}.center", prim["center"])
-    h = _vec(f"{name}.half_extents", prim["half_extents"])
-    R = np.asarray(prim.get("rotation", np.eye(3)), dtype=float)
-    signs = np.array([[sx, sy, sz] for sz in (-1, 1) for sy in (-1, 1) for sx in (-1, 1)])
-    corners: FloatArray = c + (signs * h) @ R.T
-    return corners
 
 
 _POINT_FIELDS = ("base_center", "center", "top", "point")
@@ -318,7 +289,7 @@ def draw_scene(
     Args:
         ax: A matplotlib 3-D axes.
         scene: A :class:`~velfence.teleop.scene.Scene` or a list of primitive dicts in the
-            :func:`~velfence.teleop.viewer.scene_to_dicts` format.
+            :func:`~velfence.teleop.scene.scene_to_dicts` format.
         labels: Write each primitive's name next to it.
         pedestal: Draw the base frame axes and a grey column under the shoulder (illustration
             only: the base frame is at the shoulder; the pedestal height is not modelled).
