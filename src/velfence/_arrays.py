@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["finite_array", "readonly", "rigid_transform"]
+__all__ = ["finite_array", "finite_scalar", "readonly", "rigid_transform"]
 
 A = TypeVar("A", bound=np.ndarray[Any, Any])
 
@@ -92,3 +93,39 @@ def rigid_transform(name: str, T: Any, *, tol: float = 1e-6) -> NDArray[np.float
 
 def _shape_text(shape: tuple[int, ...]) -> str:
     return "(" + ", ".join(str(s) for s in shape) + ("," if len(shape) == 1 else "") + ")"
+
+
+def finite_scalar(
+    name: str,
+    x: Any,
+    *,
+    unit: str = "",
+    what: str = "number",
+    error: type[Exception] | None = None,
+) -> float:
+    """``x`` as a finite float (booleans refused), or a clear error.
+
+    Args:
+        name: Argument name for messages.
+        x: The value.
+        unit: Unit shown in messages, e.g. ``"m"`` or ``"rad"``.
+        what: What the value is, for messages (``"arc length"``, ``"steering angle"``).
+        error: Exception class (default :class:`~velfence.errors.InvalidInput`).
+
+    Raises:
+        InvalidInput: Not a number, a boolean, or not finite.
+    """
+    from velfence.errors import InvalidInput
+
+    err = error or InvalidInput
+    u = f" [{unit}]" if unit else ""
+    try:
+        if isinstance(x, bool):
+            raise TypeError
+        v = float(x)
+    except (TypeError, ValueError):
+        article = "an" if what[:1] in "aeiou" else "a"
+        raise err(f"{name}: expected {article} {what}{u}, got {x!r}") from None
+    if not math.isfinite(v):
+        raise err(f"{name}: expected a finite {what}{u}, got {v}")
+    return v

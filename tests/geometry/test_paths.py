@@ -428,9 +428,9 @@ def test_construction_errors(
 
 def test_runtime_input_errors() -> None:
     line = Line([0.0, 0.0], [1.0, 0.0])
-    with pytest.raises(InvalidInput, match=r"s: expected a finite arc length in m, got nan"):
+    with pytest.raises(InvalidInput, match=r"s: expected a finite arc length \[m\], got nan"):
         line.point(math.nan)
-    with pytest.raises(InvalidInput, match=r"s: expected an arc length in m"):
+    with pytest.raises(InvalidInput, match=r"s: expected an arc length \[m\]"):
         line.tangent("a")  # type: ignore[arg-type]
     with pytest.raises(InvalidInput, match=r"S: expected finite arc lengths.*\[1\]"):
         line.points([0.0, math.inf])

@@ -30,6 +30,7 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import NDArray
 
+from velfence._arrays import finite_scalar
 from velfence.errors import InvalidInput, InvalidParameter
 
 __all__ = ["CVT", "SteeredWheel", "TetrahedralCVT"]
@@ -65,13 +66,7 @@ class CVT(Protocol):
 
 
 def _angle(name: str, phi: float) -> float:
-    try:
-        x = float(phi)
-    except (TypeError, ValueError):
-        raise InvalidInput(f"{name}: expected a steering angle in rad, got {phi!r}") from None
-    if not math.isfinite(x):
-        raise InvalidInput(f"{name}: expected a finite steering angle in rad, got {x}")
-    return x
+    return finite_scalar(name, phi, unit="rad", what="steering angle")
 
 
 def _direction_arg(t: FloatArray) -> tuple[float, float]:

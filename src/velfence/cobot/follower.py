@@ -36,7 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._arrays import finite_array
+from velfence._arrays import finite_array, finite_scalar
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.geometry.paths import Path
 from velfence.shaping.base import check_choice, check_positive
@@ -197,13 +197,7 @@ class PathFollower:
         return self.state
 
     def _finite(self, name: str, x: float) -> float:
-        try:
-            v = float(x)
-        except (TypeError, ValueError):
-            raise InvalidInput(f"{name}: expected a number, got {x!r}") from None
-        if not math.isfinite(v):
-            raise InvalidInput(f"{name}: expected a finite number, got {v}")
-        return v
+        return finite_scalar(name, x)
 
     def _vector(self, name: str, x: ArrayLike) -> FloatArray:
         return finite_array(name, x, (self._n,))

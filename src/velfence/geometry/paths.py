@@ -33,6 +33,7 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from velfence._arrays import finite_scalar
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 from velfence.shaping.base import check_positive, finite_rows
 
@@ -107,15 +108,7 @@ class Path(Protocol):
 
 # ---------------------------------------------------------------------------- validation
 def _arc(name: str, s: Any) -> float:
-    try:
-        if isinstance(s, bool):
-            raise TypeError
-        x = float(s)
-    except (TypeError, ValueError):
-        raise InvalidInput(f"{name}: expected an arc length in m (a number), got {s!r}") from None
-    if not math.isfinite(x):
-        raise InvalidInput(f"{name}: expected a finite arc length in m, got {x}")
-    return x
+    return finite_scalar(name, s, unit="m", what="arc length")
 
 
 def _arcs(S: ArrayLike) -> FloatArray:
