@@ -140,10 +140,49 @@ def _facing(n: Vec3, d: Vec3) -> Vec3:
 _MISS: tuple[float, Vec3] = (math.inf, (0.0, 0.0, 0.0))
 
 
+def _ray_plane(n: Vec3, c: Vec3, o: Vec3, d: Vec3) -> float:
+    """Ray parameter of the hit with the plane through ``c`` normal to ``n``; inf on a miss.
+
+    A ray parallel to the plane (``|n·d| <= PARALLEL_TOL``) or pointing away misses.
+    """
+    denom = _dot(n, d)
+    if abs(denom) <= PARALLEL_TOL:
+        return math.inf
+    t = _dot(n, _sub(c, o)) / denom
+    return t if t >= 0.0 else math.inf
+
+
+class _RayCast:
+    """The ray-casting entry point every primitive shares; subclasses implement ``_cast``."""
+
+    __slots__ = ()
+
+    def _cast(self, o: Vec3, d: Vec3) -> tuple[float, Vec3]:
+        raise NotImplementedError  # pragma: no cover
+
+    def intersect(self, origin: ArrayLike, direction: ArrayLike) -> float:
+        """Distance [m] along the unit ray to the primitive, ``math.inf`` on a miss.
+
+        The conventions (rims, grazing rays, origins inside) are in the class docstring.
+
+        Args:
+            origin: Ray origin [m], shape (3,).
+            direction: Unit direction, shape (3,).
+
+        Raises:
+            InvalidInput: non-finite or wrong-shape vectors, or a direction that is not unit.
+        """
+        o, d = _ray(origin, direction)
+        return self._cast(o, d)[0]
+
+
 # ---------------------------------------------------------------------------------- Plane
 @dataclass(frozen=True, eq=False)
-class Plane:
+class Plane(_RayCast):
     """An infinite plane, or a bounded rectangle in it (table top, door).
+
+    Ray casting: a ray parallel to the plane (``|n·d| <= 1e-12``) misses, even when it lies in
+    it; a bounded rectangle's edges count as hits.
 
     Args:
         point: A point of the plane [m], shape (3,); the rectangle's centre when bounded.
@@ -229,11 +268,8 @@ class Plane:
 
     def _cast(self, o: Vec3, d: Vec3) -> tuple[float, Vec3]:
         n = _tuple(self.normal)
-        denom = _dot(n, d)
-        if abs(denom) <= PARALLEL_TOL:
-            return _MISS
-        t = _dot(n, _sub(_tuple(self.point), o)) / denom
-        if not t >= 0.0:
+        t = _ray_plane(n, _tuple(self.point), o, d)
+        if t == math.inf:
             return _MISS
         if self.half_extents is not None:
             r = _sub(_at(o, d, t), _tuple(self.point))
@@ -241,21 +277,6 @@ class Plane:
             if abs(_dot(r, _tuple(self.u_axis))) > a or abs(_dot(r, _tuple(self.v_axis))) > b:
                 return _MISS
         return t, _facing(n, d)
-
-    def intersect(self, origin: ArrayLike, direction: ArrayLike) -> float:
-        """Distance [m] along the unit ray to the plane (rectangle), ``math.inf`` on a miss.
-
-        A ray parallel to the plane (``|n·d| <= 1e-12``) misses, even when it lies in it.
-
-        Args:
-            origin: Ray origin [m], shape (3,).
-            direction: Unit direction, shape (3,).
-
-        Raises:
-            InvalidInput: non-finite or wrong-shape vectors, or a direction that is not unit.
-        """
-        o, d = _ray(origin, direction)
-        return self._cast(o, d)[0]
 
     def signed_distance(self, p: ArrayLike) -> float:
         """Signed distance [m] of ``p`` (shape (3,)) to the infinite plane, + along the normal."""
@@ -275,8 +296,10 @@ class Plane:
 
 # ---------------------------------------------------------------------------------- Disk
 @dataclass(frozen=True, eq=False)
-class Disk:
+class Disk(_RayCast):
     """A flat disk (the destination mark: the cross on the orange sticky note).
+
+    Ray casting: the rim counts as a hit; a ray parallel to the disk misses.
 
     Args:
         center: Centre [m], shape (3,).
@@ -299,26 +322,10 @@ class Disk:
     def _cast(self, o: Vec3, d: Vec3) -> tuple[float, Vec3]:
         n = _tuple(self.normal)
         c = _tuple(self.center)
-        denom = _dot(n, d)
-        if abs(denom) <= PARALLEL_TOL:
-            return _MISS
-        t = _dot(n, _sub(c, o)) / denom
-        if not t >= 0.0 or _norm(_sub(_at(o, d, t), c)) > self.radius:
+        t = _ray_plane(n, c, o, d)
+        if t == math.inf or _norm(_sub(_at(o, d, t), c)) > self.radius:
             return _MISS
         return t, _facing(n, d)
-
-    def intersect(self, origin: ArrayLike, direction: ArrayLike) -> float:
-        """Distance [m] along the unit ray to the disk, ``math.inf`` on a miss (rim included).
-
-        Args:
-            origin: Ray origin [m], shape (3,).
-            direction: Unit direction, shape (3,).
-
-        Raises:
-            InvalidInput: non-finite or wrong-shape vectors, or a direction that is not unit.
-        """
-        o, d = _ray(origin, direction)
-        return self._cast(o, d)[0]
 
     def distance(self, p: ArrayLike) -> float:
         """Euclidean distance [m] from ``p`` (shape (3,)) to the disk."""
@@ -330,8 +337,10 @@ class Disk:
 
 # ---------------------------------------------------------------------------------- Cylinder
 @dataclass(frozen=True, eq=False)
-class Cylinder:
+class Cylinder(_RayCast):
     """A solid capped cylinder with a vertical (``+z``) axis (the cup).
+
+    Ray casting: from inside, the exit point; cap rims and tangent rays count as hits.
 
     Args:
         base_center: Centre of the bottom cap [m], shape (3,).
@@ -395,21 +404,6 @@ class Cylinder:
             return _MISS
         return best_t, _facing(best_n, d)
 
-    def intersect(self, origin: ArrayLike, direction: ArrayLike) -> float:
-        """Distance [m] along the unit ray to the cylinder surface, ``math.inf`` on a miss.
-
-        From inside, the exit point. Cap rims and tangent rays count as hits.
-
-        Args:
-            origin: Ray origin [m], shape (3,).
-            direction: Unit direction, shape (3,).
-
-        Raises:
-            InvalidInput: non-finite or wrong-shape vectors, or a direction that is not unit.
-        """
-        o, d = _ray(origin, direction)
-        return self._cast(o, d)[0]
-
     def distance(self, p: ArrayLike) -> float:
         """Signed distance [m] from ``p`` (shape (3,)) to the surface, negative inside."""
         x, y, z = _vec3("p", p)
@@ -427,8 +421,10 @@ class Cylinder:
 
 # ---------------------------------------------------------------------------------- Box
 @dataclass(frozen=True, eq=False)
-class Box:
+class Box(_RayCast):
     """A solid box, axis-aligned or rotated (the folder obstacle).
+
+    Ray casting: from inside, the exit point; edges and faces grazed by the ray count as hits.
 
     Args:
         center: Centre [m], shape (3,).
@@ -522,21 +518,6 @@ class Box:
             t, axis, sign = t_far, ax_far, math.copysign(1.0, dl[ax_far])
         col = self._cols[axis]
         return t, _facing((sign * col[0], sign * col[1], sign * col[2]), d)
-
-    def intersect(self, origin: ArrayLike, direction: ArrayLike) -> float:
-        """Distance [m] along the unit ray to the box surface, ``math.inf`` on a miss.
-
-        From inside, the exit point. Edges and faces grazed by the ray count as hits.
-
-        Args:
-            origin: Ray origin [m], shape (3,).
-            direction: Unit direction, shape (3,).
-
-        Raises:
-            InvalidInput: non-finite or wrong-shape vectors, or a direction that is not unit.
-        """
-        o, d = _ray(origin, direction)
-        return self._cast(o, d)[0]
 
     def distance(self, p: ArrayLike) -> float:
         """Signed distance [m] from ``p`` (shape (3,)) to the surface, negative inside."""
