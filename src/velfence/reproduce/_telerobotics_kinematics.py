@@ -242,6 +242,8 @@ def _plot_fk_errors(ea: FloatArray, eb: FloatArray, mean_err: dict[str, float], 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from velfence.viz.plots import save_figure
+
     path.parent.mkdir(parents=True, exist_ok=True)
     fig, ax = plt.subplots(figsize=(8.0, 3.8))
     idx = np.arange(1, 11)
@@ -260,7 +262,4 @@ def _plot_fk_errors(ea: FloatArray, eb: FloatArray, mean_err: dict[str, float], 
     ax.set_title("Khokar 2009: FK (eqs. 11-22) of the recorded joint angles vs Tables 4/5")
     ax.set_ylim(0.0, 1.6 * max(float(ea.max()), float(eb.max()), FK_TOL_MM))
     ax.legend(fontsize=7, loc="upper center", ncol=2)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=120)

@@ -503,6 +503,8 @@ def _plot_calibration(path: Path, fit: VoltageModel, residual: FloatArray) -> Pa
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from velfence.viz.plots import save_figure
+
     V = np.asarray(TABLE1_VOLTAGE_V)
     D = np.asarray(TABLE1_DISTANCE_CM)
     fig, (ax, axr) = plt.subplots(
@@ -529,10 +531,7 @@ def _plot_calibration(path: Path, fit: VoltageModel, residual: FloatArray) -> Pa
     axr.plot(V, residual, "o-", ms=3)
     axr.set_xlabel("voltage [V]")
     axr.set_ylabel("eq. (1) − ref [cm]")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=110)
 
 
 def _plot_readings(path: Path, runs: list[SpreadRun]) -> Path:
@@ -540,6 +539,8 @@ def _plot_readings(path: Path, runs: list[SpreadRun]) -> Path:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+
+    from velfence.viz.plots import save_figure
 
     fig, axes = plt.subplots(2, 4, figsize=(13, 6), sharex=True)
     for ax, r in zip(axes.ravel(), runs, strict=True):
@@ -558,10 +559,7 @@ def _plot_readings(path: Path, runs: list[SpreadRun]) -> Path:
         ax.set_ylabel("reading [cm]")
     axes[0, 0].legend(fontsize=7, loc="lower right")
     fig.suptitle("Simulated DT60 readings at the Table 9 distances (Khokar 2009, §7.3)")
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=100)
 
 
 def _plot_step(path: Path, rng: np.random.Generator) -> Path:
@@ -569,6 +567,8 @@ def _plot_step(path: Path, rng: np.random.Generator) -> Path:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+
+    from velfence.viz.plots import save_figure
 
     truth = table1_truth()
     fig, ax = plt.subplots(figsize=(7, 4))
@@ -592,7 +592,4 @@ def _plot_step(path: Path, rng: np.random.Generator) -> Path:
     ax.set_ylabel("reading [cm]")
     ax.set_title("Beam length steps 40 → 60 cm: settling of the two schemes")
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=110)

@@ -538,6 +538,8 @@ def _figures(r1: SingularityRun, r2: SingularityRun, acc: list[Execution], out: 
 
 def _plot_manipulability(runs: tuple[SingularityRun, ...], path: Path) -> Path:
     plt = _plt()
+    from velfence.viz.plots import save_figure
+
     fig, axes = plt.subplots(1, len(runs), figsize=(11.0, 4.0))
     for ax, run_ in zip(axes, runs, strict=True):
         t_s = singularity_time(run_.jinv)
@@ -558,14 +560,13 @@ def _plot_manipulability(runs: tuple[SingularityRun, ...], path: Path) -> Path:
         f"k0 = {K0:g})",
         fontsize=10,
     )
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=120)
 
 
 def _plot_joints(runs: tuple[SingularityRun, ...], path: Path) -> Path:
     plt = _plt()
+    from velfence.viz.plots import save_figure
+
     fig, axes = plt.subplots(len(runs), 2, figsize=(11.0, 6.5), sharex="row")
     for row, run_ in enumerate(runs):
         for col, (label, ex) in enumerate((("J⁻¹", run_.jinv), ("SR inverse", run_.sr))):
@@ -578,14 +579,13 @@ def _plot_joints(runs: tuple[SingularityRun, ...], path: Path) -> Path:
             ax.set_xlabel("t [s]")
             ax.set_ylabel("joint angle [deg]")
             ax.legend(fontsize=6, ncol=3)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=120)
 
 
 def _plot_errors(runs: tuple[SingularityRun, ...], path: Path) -> Path:
     plt = _plt()
+    from velfence.viz.plots import save_figure
+
     fig, axes = plt.subplots(1, len(runs), figsize=(11.0, 4.0))
     for ax, run_ in zip(axes, runs, strict=True):
         ex = run_.sr
@@ -601,14 +601,13 @@ def _plot_errors(runs: tuple[SingularityRun, ...], path: Path) -> Path:
         ax.set_xlabel("t [s]")
         ax.set_title(f"§7.4 {run_.name}, SR inverse: Cartesian error", fontsize=10)
         ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=120)
 
 
 def _plot_accuracy(acc: list[Execution], path: Path) -> Path:
     plt = _plt()
+    from velfence.viz.plots import save_figure
+
     fig, axes = plt.subplots(1, 2, figsize=(11.0, 3.8))
     for i, ex in enumerate(acc):
         axes[0].plot(ex.t, ex.tracking_error * 1e3, lw=1.0, label=f"trajectory {i + 1}")
@@ -625,7 +624,4 @@ def _plot_accuracy(acc: list[Execution], path: Path) -> Path:
         "self-correcting executor",
         fontsize=10,
     )
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=120)

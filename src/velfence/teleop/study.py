@@ -214,6 +214,8 @@ def plot_times(result: StudyResult, path: str | Path) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from velfence.viz.plots import save_figure
+
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)
     n = result.n_subjects
@@ -235,10 +237,7 @@ def plot_times(result: StudyResult, path: str | Path) -> Path:
     )
     ax.legend(loc="upper right", fontsize=8)
     ax.grid(axis="y", alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
-    return out
+    return save_figure(fig, out, dpi=110)
 
 
 def plot_paths(
@@ -259,6 +258,8 @@ def plot_paths(
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+
+    from velfence.viz.plots import save_figure
 
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -283,10 +284,7 @@ def plot_paths(
     fig.suptitle(
         "End-effector (wrist-centre) paths, pick-and-place (cf. thesis Fig. 74)", fontsize=10
     )
-    fig.tight_layout()
-    fig.savefig(out, dpi=100)
-    plt.close(fig)
-    return out
+    return save_figure(fig, out, dpi=100)
 
 
 def write_study(result: StudyResult, out: str | Path) -> list[Path]:

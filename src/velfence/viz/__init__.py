@@ -10,6 +10,7 @@ from velfence.viz.plots import (
     plot_velocity_patterns,
     plot_velocity_profiles,
     plot_workspace,
+    save_figure,
 )
 
 __all__ = [
@@ -18,4 +19,5 @@ __all__ = [
     "plot_velocity_patterns",
     "plot_velocity_profiles",
     "plot_workspace",
+    "save_figure",
 ]

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import matplotlib
 
@@ -14,21 +14,13 @@ import numpy as np
 
 from velfence.geometry.paths import Path as GeoPath
 from velfence.geometry.polygon import ConvexPolygon
-from velfence.viz.plots import _draw_polygon
+from velfence.viz.plots import _draw_polygon, save_figure
 
 if TYPE_CHECKING:
     from velfence.cobot.sim import CobotTrace
     from velfence.reproduce.cobot import WallRuns
 
 __all__ = ["plot_errors", "plot_fig5", "plot_steering", "plot_walls"]
-
-
-def _save(fig: Any, path: str | Path) -> Path:
-    out = Path(path)
-    fig.tight_layout()
-    fig.savefig(out, dpi=130)
-    plt.close(fig)
-    return out
 
 
 def plot_fig5(
@@ -70,7 +62,7 @@ def plot_fig5(
     ax.set_ylabel("y [m]")
     ax.set_title("Following the unit circle from (1.2, 0), heading +y (cf. Fig. 5)")
     ax.legend(loc="lower left", fontsize=8)
-    return _save(fig, out)
+    return save_figure(fig, out)
 
 
 def plot_errors(traces: Mapping[str, CobotTrace], out: str | Path) -> Path:
@@ -86,7 +78,7 @@ def plot_errors(traces: Mapping[str, CobotTrace], out: str | Path) -> Path:
     ax.set_ylabel("|ΔR| [m]")
     ax.set_title("Path error against arc length: identical at every human speed")
     ax.legend(fontsize=7, ncol=2)
-    return _save(fig, out)
+    return save_figure(fig, out)
 
 
 def plot_steering(traces: Mapping[str, CobotTrace], out: str | Path) -> Path:
@@ -100,7 +92,7 @@ def plot_steering(traces: Mapping[str, CobotTrace], out: str | Path) -> Path:
     a2.set_ylabel("steering rate φ̇ [rad/s]")
     a2.set_xlabel("arc length s [m]")
     a1.legend(fontsize=8)
-    return _save(fig, out)
+    return save_figure(fig, out)
 
 
 def plot_walls(runs: WallRuns, polygon: ConvexPolygon, buffer: float, out: str | Path) -> Path:
@@ -115,4 +107,4 @@ def plot_walls(runs: WallRuns, polygon: ConvexPolygon, buffer: float, out: str |
     ax.set_ylabel("y [m]")
     ax.set_title("Virtual wall: the same polygon for an actuated device and a cobot")
     ax.legend(loc="lower right", fontsize=8)
-    return _save(fig, out)
+    return save_figure(fig, out)

@@ -13,6 +13,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from velfence.geometry.polygon import ConvexPolygon
+from velfence.viz.plots import save_figure
 
 if TYPE_CHECKING:
     from velfence.reproduce.cospm import PaperRun
@@ -90,11 +91,7 @@ def plot_fig8(
     d.set_xlabel("t [s]")
     d.set_ylabel("[rad/s]")
     d.legend(fontsize=8)
-    fig.tight_layout()
-    out = Path(path)
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
-    return out
+    return save_figure(fig, path, dpi=110)
 
 
 def plot_vertex(
@@ -124,11 +121,7 @@ def plot_vertex(
         worst = min(r["min_delta"] for r in rows)
         sw = max(r["switches"] for r in rows)
         ax.set_title(f"{name}: min δ {worst:.2g} rad, ≤ {sw:.0f} stop switches", fontsize=9)
-    fig.tight_layout()
-    out = Path(path)
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
-    return out
+    return save_figure(fig, path, dpi=110)
 
 
 def plot_region(path: str | Path, *, step: float = 0.04) -> Path:
@@ -153,8 +146,4 @@ def plot_region(path: str | Path, *, step: float = 0.04) -> Path:
     ax.set_title(
         "Q* (stops d1–d4), det B, edge of the home leaf (magenta: Type 2 fold)", fontsize=9
     )
-    fig.tight_layout()
-    out = Path(path)
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
-    return out
+    return save_figure(fig, path, dpi=110)

@@ -19,6 +19,8 @@ import numpy as np
 from matplotlib.animation import PillowWriter
 from matplotlib.patches import Circle
 
+from velfence.viz.plots import save_figure
+
 if TYPE_CHECKING:
     from velfence.reproduce.obstacles import ScenarioRun
 
@@ -80,11 +82,7 @@ def plot_snapshots(runs: Sequence[ScenarioRun], path: str | Path) -> Path:
         ax.set_title(f"{r.name} ({plane})", fontsize=9)
         ax.set_xlabel(f"{plane[0]} [m]")
         ax.set_ylabel(f"{plane[2]} [m]")
-    fig.tight_layout()
-    out = Path(path)
-    fig.savefig(out, dpi=90)
-    plt.close(fig)
-    return out
+    return save_figure(fig, path, dpi=90)
 
 
 def plot_clearance(runs: Sequence[ScenarioRun], path: str | Path) -> Path:
@@ -108,11 +106,7 @@ def plot_clearance(runs: Sequence[ScenarioRun], path: str | Path) -> Path:
         low.semilogy(r.t, np.maximum(r.ee_error, 1e-9), color="C1", lw=1.0)
         low.set_ylabel("EE error [m]")
         low.set_xlabel("t [s]")
-    fig.tight_layout()
-    out = Path(path)
-    fig.savefig(out, dpi=90)
-    plt.close(fig)
-    return out
+    return save_figure(fig, path, dpi=90)
 
 
 def plot_active_sets(runs: Sequence[ScenarioRun], path: str | Path) -> Path:
@@ -135,11 +129,7 @@ def plot_active_sets(runs: Sequence[ScenarioRun], path: str | Path) -> Path:
         ax.set_ylabel("obstacle / rows")
         ax.legend(fontsize=6, loc="upper left")
     axs[-1, 0].set_xlabel("t [s]")
-    fig.tight_layout()
-    out = Path(path)
-    fig.savefig(out, dpi=90)
-    plt.close(fig)
-    return out
+    return save_figure(fig, path, dpi=90)
 
 
 def animate_arm(run: ScenarioRun, path: str | Path, *, frames: int = 40) -> Path:

@@ -23,6 +23,7 @@ __all__ = [
     "plot_velocity_patterns",
     "plot_velocity_profiles",
     "plot_workspace",
+    "save_figure",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -50,6 +51,18 @@ class TrajectoryLike(Protocol):
 
     @property
     def v_out(self) -> FloatArray: ...
+
+
+def save_figure(fig: Any, path: str | Path, *, dpi: int = 130) -> Path:
+    """Lay out ``fig``, write it to ``path`` at ``dpi``, close it, and return the path.
+
+    Every figure of the library is written this way (one place for layout and resource release).
+    """
+    out = Path(path)
+    fig.tight_layout()
+    fig.savefig(out, dpi=dpi)
+    plt.close(fig)
+    return out
 
 
 def _color(name: str, i: int) -> str:
@@ -114,11 +127,7 @@ def plot_workspace(
     ax.set_ylabel(labels[1])
     ax.set_title(title)
     ax.legend(loc="upper right", fontsize=8)
-    out = Path(path)
-    fig.tight_layout()
-    fig.savefig(out, dpi=130)
-    plt.close(fig)
-    return out
+    return save_figure(fig, path, dpi=130)
 
 
 def plot_velocity_profiles(
@@ -154,11 +163,7 @@ def plot_velocity_profiles(
     axes[2].axhline(0.0, color="k", lw=0.8)
     axes[2].set_xlabel("time [s]")
     axes[0].legend(fontsize=7, ncol=3)
-    fig.tight_layout()
-    out = Path(path)
-    fig.savefig(out, dpi=120)
-    plt.close(fig)
-    return out
+    return save_figure(fig, path, dpi=120)
 
 
 def plot_quiver(
@@ -199,11 +204,7 @@ def plot_quiver(
         ax.set_title(f"{name}: command {tuple(round(x, 2) for x in command)}", fontsize=9)
     for ax in axes.ravel()[k:]:
         ax.axis("off")
-    fig.tight_layout()
-    outp = Path(path)
-    fig.savefig(outp, dpi=110)
-    plt.close(fig)
-    return outp
+    return save_figure(fig, path, dpi=110)
 
 
 def animate_trajectories(
@@ -299,8 +300,4 @@ def plot_velocity_patterns(
             ax.plot(cmd[:, 0], cmd[:, 1], color="k", lw=0.5, ls=":")
             ax.plot(P[0, 0], P[0, 1], "k.", ms=3)
         ax.set_title(f"{name}: allowed velocities (FIG. 7)", fontsize=9)
-    fig.tight_layout()
-    out_path = Path(path)
-    fig.savefig(out_path, dpi=120)
-    plt.close(fig)
-    return out_path
+    return save_figure(fig, path, dpi=120)
