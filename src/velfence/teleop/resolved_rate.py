@@ -78,21 +78,9 @@ class JacobianArm(Protocol):
 # --------------------------------------------------------------------------------------------
 
 
-def _matrix(name: str, x: ArrayLike, shape: tuple[int, int]) -> FloatArray:
-    try:
-        a = np.array(x, dtype=float)
-    except (TypeError, ValueError):
-        raise InvalidInput(f"{name}: expected numbers of shape {shape}, got {x!r}") from None
-    if a.shape != shape:
-        raise InvalidInput(f"{name}: expected shape {shape}, got shape {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise InvalidInput(f"{name}: expected finite values, got {a.tolist()}")
-    return a
-
-
 def _rotation(name: str, R: ArrayLike) -> FloatArray:
     """A validated rotation matrix (orthonormal, det +1 within ``ROTATION_TOL``)."""
-    a = _matrix(name, R, (3, 3))
+    a = finite_array(name, R, (3, 3))
     dev = float(np.max(np.abs(a.T @ a - np.eye(3))))
     det = float(np.linalg.det(a))
     if dev > ROTATION_TOL or abs(det - 1.0) > ROTATION_TOL:
