@@ -64,7 +64,7 @@ from velfence._arrays import finite_array
 from velfence.errors import InvalidGeometry, InvalidInput
 from velfence.geometry.polygon import decompose
 from velfence.geometry.primitives import orthonormal_complement
-from velfence.shaping.base import InvalidPolicy, check_positive
+from velfence.shaping.base import InvalidPolicy, as_rows, check_positive
 
 __all__ = [
     "OMNI_CONTINUOUS_FORCE",
@@ -137,12 +137,8 @@ def _pair(p: ArrayLike, v: ArrayLike) -> tuple[FloatArray, FloatArray]:
 
 
 def _rows(P: ArrayLike, V: ArrayLike) -> tuple[FloatArray, FloatArray]:
-    try:
-        Pa = np.array(P, dtype=float)
-        Va = np.array(V, dtype=float)
-    except (TypeError, ValueError):
-        raise InvalidInput("positions and commands: expected arrays of shape (N, 3)") from None
-    if Pa.ndim != 2 or Pa.shape[1] != 3 or Pa.shape != Va.shape:
+    Pa, Va = as_rows("positions", P, 3), as_rows("commands", V, 3)
+    if Pa.shape != Va.shape:
         raise InvalidInput(
             f"positions and commands: expected the same shape (N, 3), got shape {Pa.shape} and "
             f"{Va.shape}"
