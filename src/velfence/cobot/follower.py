@@ -191,13 +191,10 @@ class PathFollower:
         if s_p is None:
             self._sp = float(self._path.closest(Ra))
         else:
-            self._sp = self._finite("s_p", s_p)
-        self._spd = self._finite("sp_d", sp_d)
+            self._sp = finite_scalar("s_p", s_p)
+        self._spd = finite_scalar("sp_d", sp_d)
         self._spdd = 0.0
         return self.state
-
-    def _finite(self, name: str, x: float) -> float:
-        return finite_scalar(name, x)
 
     def _vector(self, name: str, x: ArrayLike) -> FloatArray:
         return finite_array(name, x, (self._n,))
@@ -225,8 +222,8 @@ class PathFollower:
         if nT == 0.0:
             raise InvalidInput("T: expected a non-zero heading, got the zero vector")
         Ta = Ta / nT
-        sp = self._sp if s_p is None else self._finite("s_p", s_p)
-        spd = self._spd if sp_d is None else self._finite("sp_d", sp_d)
+        sp = self._sp if s_p is None else finite_scalar("s_p", s_p)
+        spd = self._spd if sp_d is None else finite_scalar("sp_d", sp_d)
         Rp, Tp, kpNp = self._path.frame(sp)
         e = Ra - Rp  # (3.1)
         ed = Ta - spd * Tp  # (3.2)
@@ -265,7 +262,7 @@ class PathFollower:
             t: Time [s]; unused (the law is spatial), accepted for the
                 :class:`~velfence.cobot.sim.HeadingController` protocol.
         """
-        d = self._finite("ds", ds)
+        d = finite_scalar("ds", ds)
         if d < 0.0:
             raise InvalidInput(f"ds: expected the arc length travelled (>= 0), got {d}")
         if d > 0.0:

@@ -46,10 +46,6 @@ FloatArray = NDArray[np.float64]
 SINGULAR_TOL = 1e-12
 
 
-def _finite(name: str, x: ArrayLike, shape: tuple[int, ...] | None = None) -> FloatArray:
-    return finite_array(name, x, shape)
-
-
 def normalised_derivative(x: ArrayLike, x_prime: ArrayLike) -> tuple[FloatArray, FloatArray]:
     r"""Eq. (2.6): for :math:`A = X/|X|`, :math:`A' = [I - A A^\top] X' / |X|`.
 
@@ -63,8 +59,8 @@ def normalised_derivative(x: ArrayLike, x_prime: ArrayLike) -> tuple[FloatArray,
     Raises:
         InvalidInput: ``X`` is zero (the direction is undefined) or inputs are not finite.
     """
-    X = _finite("x", x)
-    Xp = _finite("x_prime", x_prime, X.shape)
+    X = finite_array("x", x)
+    Xp = finite_array("x_prime", x_prime, X.shape)
     n = float(np.linalg.norm(X))
     if n <= 0.0:
         raise InvalidInput("x: expected a non-zero vector (its direction is normalised), got 0")
@@ -107,12 +103,12 @@ def map_tangent_curvature(
         InvalidInput: shapes disagree, non-finite input, or :math:`|A T| = 0` (the map is
             singular along ``T``: the image does not move, so its direction is undefined).
     """
-    Aa = _finite("A", A)
+    Aa = finite_array("A", A)
     if Aa.ndim != 2:
         raise InvalidInput(f"A: expected a matrix of shape (m, n), got shape {Aa.shape}")
     m, n = Aa.shape
-    Ta = _finite("T", T, (n,))
-    kNa = _finite("kN", kN, (n,))
+    Ta = finite_array("T", T, (n,))
+    kNa = finite_array("kN", kN, (n,))
     X = Aa @ Ta
     gain = float(np.linalg.norm(X))
     scale = float(np.linalg.norm(Aa)) or 1.0
@@ -123,7 +119,7 @@ def map_tangent_curvature(
         )
     Xp = Aa @ kNa
     if H is not None:
-        Xp = Xp + hessian_term(_finite("H", H, (m, n, n)), Ta)
+        Xp = Xp + hessian_term(finite_array("H", H, (m, n, n)), Ta)
     t, dt_ds = normalised_derivative(X, Xp)
     return t, dt_ds / gain, gain
 
