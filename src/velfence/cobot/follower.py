@@ -36,10 +36,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._arrays import finite_array, finite_scalar
+from velfence._validate import check_choice, check_positive, finite_array, finite_scalar
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.geometry.paths import Path
-from velfence.shaping.base import check_choice, check_positive
 
 __all__ = ["FollowerOutput", "PathFollower", "critically_damped", "gains_from_poles"]
 

@@ -30,7 +30,7 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._arrays import finite_array, readonly
+from velfence._validate import check_choice, check_positive, finite_array, readonly
 from velfence.cobot.cvt import CVT, SteeredWheel, TetrahedralCVT
 from velfence.cobot.transforms import (
     coupling_from_ee,
@@ -39,7 +39,6 @@ from velfence.cobot.transforms import (
     signed_curvature,
 )
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
-from velfence.shaping.base import check_choice, check_positive
 
 __all__ = [
     "Cobot",

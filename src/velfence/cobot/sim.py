@@ -31,9 +31,9 @@ from typing import Any, Protocol
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from velfence._validate import check_choice, check_positive
 from velfence.cobot.model import Cobot
 from velfence.errors import InvalidInput, InvalidParameter
-from velfence.shaping.base import check_choice, check_positive
 from velfence.sim.runner import Trajectory
 
 __all__ = [

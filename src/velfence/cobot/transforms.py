@@ -27,7 +27,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._arrays import finite_array
+from velfence._validate import finite_array
 from velfence.errors import InvalidInput
 
 __all__ = [

@@ -38,9 +38,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from velfence._validate import as_pair, check_positive
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon, as_polygon
-from velfence.shaping.base import IntArray, KernelOut, ShaperBase, as_pair, check_positive
+from velfence.shaping.base import IntArray, KernelOut, ShaperBase
 from velfence.shaping.polygon import PolygonShaper
 
 __all__ = ["CasterWall", "WallSteering", "WallSteeringOutput"]

@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._arrays import readonly
+from velfence._validate import readonly
 from velfence.errors import InvalidGeometry, InvalidInput
 
 __all__ = [

@@ -30,9 +30,8 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._arrays import readonly
+from velfence._validate import check_positive, finite_rows, readonly
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
-from velfence.shaping.base import check_positive, finite_rows
 
 __all__ = ["DHChain", "PlanarArm", "SerialChain"]
 

@@ -52,10 +52,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._arrays import readonly
+from velfence._validate import check_positive, check_positive_int, finite_rows, readonly
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon, polygon_from_halfplanes
-from velfence.shaping.base import check_positive, check_positive_int, finite_rows
 
 __all__ = [
     "PAPER_STOPS",

@@ -47,7 +47,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._arrays import readonly, rigid_transform
+from velfence._validate import readonly, rigid_transform
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 from velfence.mechanisms.chain import DHChain
 

@@ -57,9 +57,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._arrays import readonly
+from velfence._validate import check_choice, check_positive, readonly
 from velfence.errors import InvalidInput, InvalidParameter
-from velfence.shaping.base import InvalidPolicy, check_choice, check_positive
+from velfence.shaping.base import InvalidPolicy
 
 if TYPE_CHECKING:
     from velfence.mechanisms.chain import SerialChain

@@ -28,6 +28,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from velfence._validate import check_positive
 from velfence.errors import InvalidParameter
 from velfence.redundancy.configuration_control import (
     ChainObstacleBase,
@@ -35,7 +36,6 @@ from velfence.redundancy.configuration_control import (
     FloatArray,
     Obstacle,
 )
-from velfence.shaping.base import check_positive
 
 if TYPE_CHECKING:
     from velfence.mechanisms.chain import SerialChain

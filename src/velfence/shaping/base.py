@@ -20,7 +20,8 @@ from typing import Any, Literal, Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence.errors import InvalidInput, InvalidParameter
+from velfence._validate import as_pair, as_rows, check_choice
+from velfence.errors import InvalidInput
 
 __all__ = [
     "Explained",
@@ -30,12 +31,6 @@ __all__ = [
     "Shaper",
     "ShaperBase",
     "ShapingResult",
-    "as_pair",
-    "as_rows",
-    "check_choice",
-    "check_positive",
-    "check_positive_int",
-    "finite_rows",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -118,99 +113,6 @@ class Shaper(Protocol):
         ...
 
 
-def check_positive(name: str, value: Any, *, allow_zero: bool = False, unit: str = "") -> float:
-    """Validate a finite positive (or non-negative) scalar parameter and return it as float."""
-    try:
-        if isinstance(value, bool):
-            raise TypeError
-        x = float(value)
-    except (TypeError, ValueError):
-        raise InvalidParameter(
-            f"{name} must be a number{unit and ' in ' + unit}, got {value!r}"
-        ) from None
-    ok = math.isfinite(x) and (x >= 0.0 if allow_zero else x > 0.0)
-    if not ok:
-        bound = ">= 0" if allow_zero else "> 0"
-        raise InvalidParameter(
-            f"{name} must be finite and {bound}{unit and ' (' + unit + ')'}, got {value!r}"
-        )
-    return x
-
-
-def check_positive_int(name: str, value: Any, *, example: int = 1) -> int:
-    """Validate an int parameter >= 1 (booleans refused) and return it."""
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-        raise InvalidParameter(f"{name}: expected a positive int, got {value!r}; e.g. {example}")
-    if value < 1:
-        raise InvalidParameter(f"{name}: expected an int >= 1, got {value!r}")
-    return int(value)
-
-
-def check_choice(name: str, value: Any, choices: tuple[str, ...]) -> str:
-    """Validate a string option against its allowed values."""
-    if value not in choices:
-        raise InvalidParameter(f"{name} must be one of {list(choices)}, got {value!r}")
-    return str(value)
-
-
-def as_pair(name: str, x: Any) -> tuple[float, float]:
-    """Read a 2-vector as two floats, with a clear error for anything else (finite or not)."""
-    if isinstance(x, np.ndarray) and x.shape != (2,):
-        raise InvalidInput(f"{name} must have shape (2,), got shape {x.shape}")
-    try:
-        a, b = x
-        return float(a), float(b)
-    except (TypeError, ValueError):
-        raise InvalidInput(f"{name} must be a 2-vector of numbers, got {x!r}") from None
-
-
-def finite_rows(name: str, x: ArrayLike, width: int, what: str = "") -> tuple[FloatArray, bool]:
-    """``x`` as finite float rows (N, width) and whether it was a single (width,) vector.
-
-    Args:
-        name: Argument name for messages.
-        x: One vector of shape (width,) or rows of shape (N, width).
-        width: Row length.
-        what: What a row is, for messages (e.g. "as (pitch, yaw) pairs").
-
-    Raises:
-        InvalidInput: not numbers, wrong shape, or non-finite entries (rows named).
-    """
-    try:
-        a = np.array(x, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise InvalidInput(
-            f"{name}: expected numbers of shape ({width},) or (N, {width}), got {x!r}"
-        ) from exc
-    if a.ndim == 1 and a.shape[0] == width:
-        single = True
-        a = a[None, :]
-    elif a.ndim == 2 and a.shape[1] == width:
-        single = False
-    else:
-        raise InvalidInput(
-            f"{name}: expected shape ({width},) or (N, {width}) {what}, got shape {a.shape}"
-        )
-    if not np.all(np.isfinite(a)):
-        bad = np.flatnonzero(~np.all(np.isfinite(a), axis=1))
-        raise InvalidInput(
-            f"{name}: expected finite values, got non-finite entries in row(s) "
-            f"{bad[:10].tolist()}; filter NaN/inf before calling"
-        )
-    return a, single
-
-
-def as_rows(name: str, X: ArrayLike, n_cols: int = 2) -> FloatArray:
-    """Read an (N, n_cols) float array, with a clear error for anything else."""
-    try:
-        a = np.asarray(X, dtype=float)
-    except (TypeError, ValueError):
-        raise InvalidInput(f"{name} must be an (N, {n_cols}) array of numbers") from None
-    if a.ndim != 2 or a.shape[1] != n_cols:
-        raise InvalidInput(f"{name} must have shape (N, {n_cols}), got shape {a.shape}")
-    return a
-
-
 class InvalidPolicy:
     """The ``on_invalid`` policy every shaper shares (2-D or joint-space).
 
@@ -275,7 +177,14 @@ class ShaperBase(InvalidPolicy):
             InvalidInput: wrong shape, or non-finite input with ``on_invalid="raise"``.
         """
         # Fast path of as_pair() for the common case: two ndarrays of shape (2,).
-        if type(p) is np.ndarray and type(v) is np.ndarray and p.shape == (2,) and v.shape == (2,):
+        if (
+            type(p) is np.ndarray
+            and type(v) is np.ndarray
+            and p.shape == (2,)
+            and v.shape == (2,)
+            and p.dtype.char == "d"
+            and v.dtype.char == "d"
+        ):
             px, py = p.tolist()
             vx, vy = v.tolist()
         else:

@@ -60,11 +60,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._arrays import finite_array
+from velfence._validate import as_rows, check_positive, finite_array
 from velfence.errors import InvalidGeometry, InvalidInput
 from velfence.geometry.polygon import decompose
 from velfence.geometry.primitives import orthonormal_complement
-from velfence.shaping.base import InvalidPolicy, as_rows, check_positive
+from velfence.shaping.base import InvalidPolicy
 
 __all__ = [
     "OMNI_CONTINUOUS_FORCE",

@@ -27,18 +27,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from velfence._validate import as_pair, check_choice, check_positive
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon, as_polygon
 from velfence.shaping import _kernels as kern
 from velfence.shaping._accel import compiled_batch
-from velfence.shaping.base import (
-    FloatArray,
-    IntArray,
-    ShaperBase,
-    as_pair,
-    check_choice,
-    check_positive,
-)
+from velfence.shaping.base import FloatArray, IntArray, ShaperBase
 from velfence.shaping.profiles import ApproachProfile, min_change_under_caps
 
 __all__ = ["PolygonShaper"]

@@ -15,8 +15,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
 
+from velfence._validate import check_positive
 from velfence.errors import InvalidParameter
-from velfence.shaping.base import check_positive
 
 __all__ = ["ApproachProfile", "LinearBuffer", "ThreeZoneBraking", "min_change_under_caps"]
 

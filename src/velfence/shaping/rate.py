@@ -21,8 +21,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from velfence._validate import check_choice, check_positive
 from velfence.errors import InvalidInput, InvalidParameter
-from velfence.shaping.base import check_choice, check_positive
 
 __all__ = ["RateLimiter"]
 

@@ -33,9 +33,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from velfence._validate import check_choice
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.geometry.polygon import polygon_from_halfplanes
-from velfence.shaping.base import InvalidPolicy, check_choice
+from velfence.shaping.base import InvalidPolicy
 from velfence.shaping.profiles import ApproachProfile, min_change_under_caps
 from velfence.shaping.rate import RateLimiter
 

@@ -19,10 +19,11 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
+from velfence._validate import check_positive
 from velfence.errors import InvalidGeometry, InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon, Rectangle, as_polygon
 from velfence.shaping import ZONE_NAMES
-from velfence.shaping.base import ShaperBase, check_positive
+from velfence.shaping.base import ShaperBase
 
 __all__ = ["AxisLimits", "HardStop", "NoLimit"]
 

@@ -18,8 +18,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from velfence._validate import as_pair, check_positive
 from velfence.errors import InvalidParameter
-from velfence.shaping.base import as_pair, check_positive
 
 __all__ = ["Disturbance", "push"]
 

@@ -17,9 +17,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from velfence._validate import as_rows, check_positive
 from velfence.errors import InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon, as_polygon, decompose
-from velfence.shaping.base import Shaper, as_rows, check_positive
+from velfence.shaping.base import Shaper
 from velfence.sim.runner import Trajectory
 
 __all__ = [

@@ -24,8 +24,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from velfence._validate import check_choice, check_positive
 from velfence.errors import InvalidInput, InvalidParameter
-from velfence.shaping.base import Shaper, check_choice, check_positive
+from velfence.shaping.base import Shaper
 
 __all__ = ["CommandFn", "DisturbanceFn", "SaturateFn", "Trajectory", "simulate", "simulate_many"]
 

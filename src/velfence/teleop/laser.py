@@ -50,7 +50,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._arrays import finite_array, readonly, rigid_transform
+from velfence._validate import finite_array, readonly, rigid_transform
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 from velfence.geometry.primitives import _vec3
 from velfence.teleop.thesis_data import (

@@ -60,9 +60,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._arrays import finite_array, readonly
+from velfence._validate import check_choice, check_positive, finite_array, readonly
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
-from velfence.shaping.base import check_choice, check_positive
 from velfence.shaping.fixtures import LineFixture, LineScaling
 from velfence.teleop.laser import LaserRangeSensor, plane_from_points
 from velfence.teleop.resolved_rate import angle_axis, pose_error, rotation_from_angle_axis

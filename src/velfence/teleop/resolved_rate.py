@@ -34,9 +34,9 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._arrays import finite_array, readonly, rigid_transform
+from velfence._validate import check_choice, check_positive, finite_array, readonly, rigid_transform
 from velfence.errors import InvalidInput, InvalidParameter
-from velfence.shaping.base import InvalidPolicy, check_choice, check_positive
+from velfence.shaping.base import InvalidPolicy
 
 __all__ = [
     "K0",

@@ -40,7 +40,7 @@ from typing import Any, TypeAlias
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._arrays import finite_array, readonly
+from velfence._validate import finite_array, readonly
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 from velfence.geometry.primitives import _vec3, orthonormal_complement
 

@@ -42,9 +42,8 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._arrays import finite_array, readonly
+from velfence._validate import check_choice, check_positive, finite_array, readonly
 from velfence.errors import InvalidInput, InvalidParameter
-from velfence.shaping.base import check_choice, check_positive
 
 __all__ = ["FirstOrderServo", "JointServo", "PDGravityServo"]
 

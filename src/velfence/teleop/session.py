@@ -62,10 +62,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._arrays import finite_array, readonly
+from velfence._validate import check_positive, finite_array, readonly
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.mechanisms.puma560 import Puma560
-from velfence.shaping.base import check_positive
 from velfence.teleop.laser import LaserRangeSensor, LaserStream
 from velfence.teleop.modes import KEYS, ModeEvent, ModeManager
 from velfence.teleop.resolved_rate import ResolvedRate

@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from velfence._arrays import readonly
+from velfence._validate import readonly
 
 __all__ = [
     "EQ1_OFFSET_CM",

@@ -51,10 +51,9 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._arrays import readonly
+from velfence._validate import check_choice, check_positive, readonly
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.geometry.primitives import points_segments_distances
-from velfence.shaping.base import check_choice, check_positive
 from velfence.teleop.resolved_rate import (
     ORIENTATION_ERRORS,
     ResolvedRate,

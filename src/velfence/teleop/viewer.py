@@ -59,7 +59,7 @@ from urllib.parse import urlsplit
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._arrays import finite_array
+from velfence._validate import finite_array
 from velfence.errors import InvalidInput, InvalidParameter, VelfenceError
 
 __all__ = [

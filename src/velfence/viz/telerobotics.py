@@ -48,7 +48,7 @@ import numpy as np
 from matplotlib.animation import FFMpegWriter, PillowWriter, writers
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._arrays import finite_array
+from velfence._validate import finite_array
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.geometry.primitives import orthonormal_complement
 from velfence.teleop.scene import Scene, scene_to_dicts

@@ -1,0 +1,481 @@
+"""The one validation layer: every public input of velfence passes through these functions.
+
+It sits below geometry (only :mod:`velfence.errors` is imported) so that every layer can use it.
+Rules, the same everywhere:
+
+* **Real numbers only.** Booleans, complex numbers, strings, bytes, dicts, sets, ``None``,
+  datetimes and object arrays are refused, even where NumPy would convert them (``"12"`` is not
+  the position (1, 2); ``True`` is not a speed of 1; ``"0.2"`` is not a buffer width).
+* **Shapes checked**, with the expected and the received shape in the message.
+* **Finite checked** (NaN and inf refused unless a caller asks for them explicitly, as the
+  shapers' ``on_invalid`` policy does).
+* **Magnitudes that would overflow refused**: no input may exceed :data:`MAX_MAGNITUDE` in absolute
+  value, so squares and products of two inputs stay finite.
+* **Step and iteration counts bounded** before any allocation or loop (:func:`step_count`,
+  :func:`check_positive_int` with ``maximum``).
+
+Every refusal is a :class:`~velfence.errors.VelfenceError` subclass whose message names the
+*public* argument, what was expected and what was got.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+from collections.abc import Mapping, Set
+from typing import Any, TypeVar
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = [
+    "MAX_MAGNITUDE",
+    "MAX_STEPS",
+    "as_pair",
+    "as_rows",
+    "check_choice",
+    "check_positive",
+    "check_positive_int",
+    "check_range",
+    "finite_array",
+    "finite_rows",
+    "finite_scalar",
+    "readonly",
+    "real_array",
+    "rigid_transform",
+    "step_count",
+]
+
+#: Largest accepted magnitude of any numeric input (positions, commands, gains, lengths). Far
+#: beyond any physical quantity in SI units, and small enough that the product of two inputs
+#: (1e300) is still a finite double.
+MAX_MAGNITUDE = 1e150
+
+#: Default cap on the number of steps a simulator or iterative routine may be asked to run
+#: (10⁸ steps of 1 ms is more than a day of simulated time).
+MAX_STEPS = 100_000_000
+
+A = TypeVar("A", bound=np.ndarray[Any, Any])
+
+_REAL_KINDS = frozenset("iuf")
+_NOT_NUMBERS = (str, bytes, bytearray, memoryview, Mapping, Set)
+
+
+def _error(error: type[Exception] | None) -> type[Exception]:
+    from velfence.errors import InvalidInput
+
+    return error or InvalidInput
+
+
+def _show(x: Any, limit: int = 80) -> str:
+    """``repr(x)``, cut to ``limit`` characters (huge inputs must not make huge messages)."""
+    try:
+        text = repr(x)
+    except Exception:  # a hostile __repr__ must not escape as its own exception
+        text = f"<{type(x).__name__}>"
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def _type_text(x: Any) -> str:
+    if isinstance(x, np.ndarray):
+        return f"an array of dtype {x.dtype}"
+    return f"{type(x).__name__} {_show(x)}"
+
+
+def _shape_text(shape: tuple[int | None, ...]) -> str:
+    parts = ["N" if s is None else str(s) for s in shape]
+    return "(" + ", ".join(parts) + ("," if len(parts) == 1 else "") + ")"
+
+
+def readonly(a: A) -> A:
+    """Mark ``a`` read-only in place and return it (immutable, explicit state)."""
+    a.setflags(write=False)
+    return a
+
+
+def real_array(
+    name: str,
+    x: Any,
+    shape: tuple[int | None, ...] | None = None,
+    *,
+    error: type[Exception] | None = None,
+    what: str = "numbers",
+    allow_nonfinite: bool = False,
+    max_abs: float | None = MAX_MAGNITUDE,
+) -> NDArray[np.float64]:
+    """``x`` as a new float64 array of real numbers, validated.
+
+    Args:
+        name: The public argument's name, for messages.
+        x: Array-like input (a number, a sequence of numbers, nested sequences, an ndarray).
+        shape: Required shape; ``None`` entries match any length, ``None`` as a whole any shape.
+        error: The exception class to raise (a :class:`~velfence.errors.VelfenceError`
+            subclass); :class:`~velfence.errors.InvalidInput` by default.
+        what: What the values are, for messages ("joint angles [rad]").
+        allow_nonfinite: Let NaN and inf through (for callers that apply their own
+            ``on_invalid`` policy); magnitudes of finite entries are still checked.
+        max_abs: Largest accepted magnitude of a finite entry (``None``: no limit).
+
+    Returns:
+        A float64 ndarray (a copy; the caller may modify it).
+
+    Raises:
+        InvalidInput: (or ``error``) not real numbers, wrong shape, non-finite or too large
+            entries; the message names ``name``, what was expected and what was got.
+    """
+    err = _error(error)
+    want = "" if shape is None else f" of shape {_shape_text(shape)}"
+    if isinstance(x, _NOT_NUMBERS) or x is None or isinstance(x, (bool, np.bool_)):
+        raise err(f"{name}: expected {what}{want}, got {_type_text(x)}")
+    try:
+        raw = np.asarray(x)
+    except (TypeError, ValueError, OverflowError, RecursionError):
+        raise err(f"{name}: expected {what}{want}, got {_show(x)}") from None
+    if raw.dtype.kind not in _REAL_KINDS:
+        if raw.dtype.kind == "O" and raw.size and _all_real(raw):
+            raw = raw.astype(float)
+        else:
+            kind = {"b": "booleans", "c": "complex numbers", "U": "strings", "S": "bytes"}.get(
+                raw.dtype.kind, f"values of dtype {raw.dtype}"
+            )
+            raise err(f"{name}: expected {what}{want}, got {kind}: {_show(x)}")
+    if shape is not None and (
+        raw.ndim != len(shape)
+        or any(s is not None and s != n for s, n in zip(shape, raw.shape, strict=True))
+    ):
+        raise err(f"{name}: expected shape {_shape_text(shape)}, got shape {raw.shape}")
+    try:
+        a = np.array(raw, dtype=np.float64)
+    except OverflowError:
+        raise err(f"{name}: expected {what} of magnitude <= {MAX_MAGNITUDE:g}") from None
+    finite = np.isfinite(a)
+    if not allow_nonfinite and not finite.all():
+        got = _show(a.tolist(), 200)
+        raise err(f"{name}: expected finite values, got {got}; filter NaN/inf before calling")
+    if max_abs is not None and a.size:
+        with np.errstate(invalid="ignore"):
+            big = np.abs(np.where(finite, a, 0.0)) > max_abs
+        if big.any():
+            raise err(
+                f"{name}: expected {what} of magnitude <= {max_abs:g}, got "
+                f"{a[big].ravel()[:4].tolist()}"
+            )
+    return a
+
+
+def _all_real(a: np.ndarray[Any, Any]) -> bool:
+    return all(
+        isinstance(e, numbers.Real) and not isinstance(e, (bool, np.bool_)) for e in a.ravel()
+    )
+
+
+def finite_array(
+    name: str,
+    x: Any,
+    shape: tuple[int | None, ...] | None = None,
+    *,
+    error: type[Exception] | None = None,
+    what: str = "numbers",
+) -> NDArray[np.float64]:
+    """``x`` as a new finite float64 array of real numbers (:func:`real_array`, finite)."""
+    return real_array(name, x, shape, error=error, what=what)
+
+
+def finite_scalar(
+    name: str,
+    x: Any,
+    *,
+    unit: str = "",
+    what: str = "number",
+    error: type[Exception] | None = None,
+    max_abs: float | None = MAX_MAGNITUDE,
+) -> float:
+    """``x`` as a finite real float, or a clear error.
+
+    Args:
+        name: The public argument's name, for messages.
+        x: The value: an int, a float, a NumPy real scalar or a 0-d real array.
+        unit: Unit shown in messages, e.g. ``"m"`` or ``"rad"``.
+        what: What the value is, for messages (``"arc length"``, ``"steering angle"``).
+        error: Exception class (default :class:`~velfence.errors.InvalidInput`).
+        max_abs: Largest accepted magnitude (``None``: no limit).
+
+    Raises:
+        InvalidInput: (or ``error``) not a real number (booleans, strings, complex refused), not
+            finite, or too large.
+    """
+    err = _error(error)
+    u = f" [{unit}]" if unit else ""
+    v = _real_float(x)
+    if v is None:
+        article = "an" if what[:1] in "aeiou" else "a"
+        raise err(f"{name}: expected {article} {what}{u}, got {_type_text(x)}")
+    if not math.isfinite(v):
+        raise err(f"{name}: expected a finite {what}{u}, got {v}")
+    if max_abs is not None and abs(v) > max_abs:
+        raise err(f"{name}: expected a {what}{u} of magnitude <= {max_abs:g}, got {v:g}")
+    return v
+
+
+def _real_float(x: Any) -> float | None:
+    """``float(x)`` for a real number, ``None`` for anything else (bool, str, complex, ...)."""
+    if isinstance(x, (bool, np.bool_)):
+        return None
+    if isinstance(x, np.ndarray):
+        if x.shape != () or x.dtype.kind not in _REAL_KINDS:
+            return None
+        x = x.item()
+    if not isinstance(x, numbers.Real):
+        return None
+    try:
+        return float(x)
+    except (OverflowError, ValueError, TypeError):
+        return math.inf if isinstance(x, numbers.Integral) else None
+
+
+def check_range(
+    name: str,
+    value: Any,
+    *,
+    low: float = -math.inf,
+    high: float = math.inf,
+    low_open: bool = False,
+    high_open: bool = False,
+    unit: str = "",
+    error: type[Exception] | None = None,
+) -> float:
+    """A finite real scalar in ``[low, high]`` (or open ends), as float.
+
+    Raises:
+        InvalidParameter: (or ``error``) not a real number or outside the range.
+    """
+    from velfence.errors import InvalidParameter
+
+    err = error or InvalidParameter
+    x = finite_scalar(name, value, unit=unit, error=err)
+    lo_ok = x > low if low_open else x >= low
+    hi_ok = x < high if high_open else x <= high
+    if not (lo_ok and hi_ok):
+        lb = "(" if low_open else "["
+        hb = ")" if high_open else "]"
+        u = f" {unit}" if unit else ""
+        raise err(f"{name}: expected a value in {lb}{low:g}, {high:g}{hb}{u}, got {x:g}")
+    return x
+
+
+def check_positive(
+    name: str,
+    value: Any,
+    *,
+    allow_zero: bool = False,
+    unit: str = "",
+    error: type[Exception] | None = None,
+) -> float:
+    """A finite positive (or non-negative) real scalar parameter, as float.
+
+    Raises:
+        InvalidParameter: (or ``error``) not a real number (booleans and strings refused), not
+            finite, too large (see :data:`MAX_MAGNITUDE`), or not > 0 (>= 0 with ``allow_zero``).
+    """
+    from velfence.errors import InvalidParameter
+
+    err = error or InvalidParameter
+    x = _real_float(value)
+    u = f" in {unit}" if unit else ""
+    if x is None:
+        raise err(f"{name} must be a number{u}, got {_type_text(value)}")
+    ok = math.isfinite(x) and (x >= 0.0 if allow_zero else x > 0.0)
+    if not ok:
+        bound = ">= 0" if allow_zero else "> 0"
+        raise err(f"{name} must be finite and {bound}{unit and ' (' + unit + ')'}, got {value!r}")
+    if x > MAX_MAGNITUDE:
+        raise err(f"{name} must be <= {MAX_MAGNITUDE:g}{unit and ' ' + unit}, got {x:g}")
+    return x
+
+
+def check_positive_int(
+    name: str,
+    value: Any,
+    *,
+    example: int = 1,
+    minimum: int = 1,
+    maximum: int | None = None,
+    error: type[Exception] | None = None,
+) -> int:
+    """An int parameter in ``[minimum, maximum]`` (booleans and floats refused).
+
+    Raises:
+        InvalidParameter: (or ``error``) not an int, or out of range.
+    """
+    from velfence.errors import InvalidParameter
+
+    err = error or InvalidParameter
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        want = "a positive int" if minimum == 1 else f"an int >= {minimum}"
+        raise err(f"{name}: expected {want}, got {_type_text(value)}; e.g. {example}")
+    if value < minimum:
+        raise err(f"{name}: expected an int >= {minimum}, got {value!r}")
+    if maximum is not None and value > maximum:
+        raise err(f"{name}: expected an int <= {maximum:,}, got {_show(value)}")
+    return int(value)
+
+
+def step_count(
+    duration_name: str,
+    duration: Any,
+    dt_name: str,
+    dt: Any,
+    *,
+    max_steps: int = MAX_STEPS,
+    error: type[Exception] | None = None,
+) -> int:
+    """The number of steps ``ceil(duration / dt)``, validated before anything is allocated.
+
+    Args:
+        duration_name: Public name of the duration argument.
+        duration: Length of the run [s], finite and > 0.
+        dt_name: Public name of the step argument.
+        dt: Step [s], finite and > 0.
+        max_steps: Largest accepted number of steps.
+        error: Exception class (default :class:`~velfence.errors.InvalidParameter`).
+
+    Returns:
+        The number of steps, ``>= 1``.
+
+    Raises:
+        InvalidParameter: (or ``error``) non-numbers, non-positive values, or a step count above
+            ``max_steps`` (message gives both values and the count they imply).
+    """
+    from velfence.errors import InvalidParameter
+
+    err = error or InvalidParameter
+    T = check_positive(duration_name, duration, unit="s", error=err)
+    h = check_positive(dt_name, dt, unit="s", error=err)
+    ratio = T / h  # finite or inf, never an exception for positive floats
+    if not ratio <= max_steps:
+        raise err(
+            f"{duration_name}={T:g} s with {dt_name}={h:g} s needs {ratio:.3g} steps; at most "
+            f"{max_steps:,} are allowed: shorten {duration_name} or increase {dt_name}"
+        )
+    return max(1, math.ceil(ratio - 1e-9))
+
+
+def check_choice(name: str, value: Any, choices: tuple[str, ...]) -> str:
+    """A string option among ``choices``.
+
+    Raises:
+        InvalidParameter: anything else (the allowed values are listed).
+    """
+    from velfence.errors import InvalidParameter
+
+    if not isinstance(value, str) or value not in choices:
+        raise InvalidParameter(f"{name} must be one of {list(choices)}, got {_show(value)}")
+    return value
+
+
+def as_pair(name: str, x: Any) -> tuple[float, float]:
+    """A 2-vector of real numbers as two floats.
+
+    Non-finite and huge entries pass: the shapers' ``on_invalid`` policy decides about them.
+
+    Raises:
+        InvalidInput: not a 2-vector of real numbers (strings, bytes, dicts, booleans, complex
+            refused).
+    """
+    from velfence.errors import InvalidInput
+
+    if isinstance(x, np.ndarray):
+        if x.shape != (2,):
+            raise InvalidInput(f"{name} must have shape (2,), got shape {x.shape}")
+        if x.dtype.kind not in _REAL_KINDS:
+            raise InvalidInput(f"{name} must be a 2-vector of real numbers, got {_type_text(x)}")
+        a, b = x.tolist()
+    elif isinstance(x, (list, tuple)) and len(x) == 2:
+        a, b = x
+    else:
+        raise InvalidInput(f"{name} must be a 2-vector of real numbers, got {_type_text(x)}")
+    fa, fb = _real_float(a), _real_float(b)
+    if fa is None or fb is None:
+        raise InvalidInput(f"{name} must be a 2-vector of real numbers, got {_show(x)}")
+    return fa, fb
+
+
+def finite_rows(name: str, x: Any, width: int, what: str = "") -> tuple[NDArray[np.float64], bool]:
+    """``x`` as finite float rows (N, width) and whether it was a single (width,) vector.
+
+    Args:
+        name: The public argument's name, for messages.
+        x: One vector of shape (width,) or rows of shape (N, width).
+        width: Row length.
+        what: What a row is, for messages (e.g. "as (pitch, yaw) pairs").
+
+    Raises:
+        InvalidInput: not real numbers, wrong shape, or non-finite entries (rows named).
+    """
+    from velfence.errors import InvalidInput
+
+    a = real_array(
+        name, x, allow_nonfinite=True, what=f"numbers of shape ({width},) or (N, {width})"
+    )
+    if a.ndim == 1 and a.shape[0] == width:
+        single = True
+        a = a[None, :]
+    elif a.ndim == 2 and a.shape[1] == width:
+        single = False
+    else:
+        sep = " " if what else ""
+        raise InvalidInput(
+            f"{name}: expected shape ({width},) or (N, {width}){sep}{what}, got shape {a.shape}"
+        )
+    if not np.all(np.isfinite(a)):
+        bad = np.flatnonzero(~np.all(np.isfinite(a), axis=1))
+        raise InvalidInput(
+            f"{name}: expected finite values, got non-finite entries in row(s) "
+            f"{bad[:10].tolist()}; filter NaN/inf before calling"
+        )
+    return a, single
+
+
+def as_rows(name: str, X: Any, n_cols: int = 2) -> NDArray[np.float64]:
+    """An (N, n_cols) float array of real numbers; non-finite and huge entries pass.
+
+    The shapers' ``on_invalid`` policy decides about non-finite and huge entries.
+
+    Raises:
+        InvalidInput: not real numbers or wrong shape.
+    """
+    from velfence.errors import InvalidInput
+
+    a = real_array(
+        name, X, allow_nonfinite=True, max_abs=None, what=f"numbers of shape (N, {n_cols})"
+    )
+    if a.ndim != 2 or a.shape[1] != n_cols:
+        raise InvalidInput(f"{name} must have shape (N, {n_cols}), got shape {a.shape}")
+    return a
+
+
+def rigid_transform(name: str, T: Any, *, tol: float = 1e-6) -> NDArray[np.float64]:
+    """``T`` as a validated 4 x 4 rigid transform (float copy).
+
+    The rotation block must be orthonormal with determinant +1 to ``tol`` and the bottom row
+    ``[0, 0, 0, 1]`` to 1e-9 (poses read from logs with 6-7 significant digits pass).
+
+    Raises:
+        InvalidInput: Not real numbers, not (4, 4), non-finite, or not rigid.
+    """
+    from velfence.errors import InvalidInput
+
+    a = real_array(name, T, (4, 4), what="a 4 x 4 homogeneous transform")
+    if float(np.max(np.abs(a[3] - (0.0, 0.0, 0.0, 1.0)))) > 1e-9:
+        raise InvalidInput(
+            f"{name}: expected a rigid transform with bottom row [0, 0, 0, 1], got {a[3].tolist()}"
+        )
+    R = a[:3, :3]
+    err = float(np.max(np.abs(R.T @ R - np.eye(3))))
+    det = float(np.linalg.det(R))
+    if err > tol or abs(det - 1.0) > tol:
+        raise InvalidInput(
+            f"{name}: expected a rigid transform (orthonormal rotation, det +1, to {tol:g}), got "
+            f"|RᵀR - I| = {err:.3g}, det = {det:.6g}; re-orthonormalise the rotation"
+        )
+    return a
