@@ -5,7 +5,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 export MPLBACKEND := Agg
 
-.PHONY: demo test lint typecheck pytest bench clean
+.PHONY: demo test lint typecheck pytest bench soak clean
 
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -30,6 +30,11 @@ test: lint typecheck pytest
 
 bench: $(STAMP)
 	$(BIN)/velfence bench --out docs/benchmarks.md
+
+# Randomised closed-loop containment campaign, 10^6 steps per shaper (minutes, not part of
+# `make test`; its 10^4-step smoke version is tests/sim/test_soak.py).
+soak: $(STAMP)
+	$(BIN)/python -m velfence.sim.soak --steps 1000000 --out docs/reliability.md
 
 clean:
 	rm -rf $(VENV) out .pytest_cache .mypy_cache .ruff_cache
