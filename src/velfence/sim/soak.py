@@ -191,7 +191,7 @@ def run_case(
             V[pusher] = push * (case.max_speed * rng.uniform(0.3, 1.0, (int(pusher.sum()), 1)))
         V[idle] = 0.0
         U = case.step(X, V)
-        bad: NDArray[np.bool_] = ~np.isfinite(U).all(axis=1)
+        bad = np.asarray(~np.isfinite(U).all(axis=1), dtype=np.bool_)
         if bad.any():
             nonfinite += int(bad.sum())
             U = np.where(bad[:, None], 0.0, U)
