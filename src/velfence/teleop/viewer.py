@@ -311,6 +311,10 @@ class _Handler(BaseHTTPRequestHandler):
         super().end_headers()
 
     def _send(self, status: HTTPStatus, body: bytes, content_type: str) -> None:
+        # The stdlib answers an unparsable request line as HTTP/0.9, i.e. without status line
+        # and headers; every reply here has both (the security headers above all).
+        if self.request_version == "HTTP/0.9":
+            self.request_version = "HTTP/1.0"
         try:
             self.send_response(status)
             self.send_header("Content-Type", content_type)
