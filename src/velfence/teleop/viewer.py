@@ -19,9 +19,10 @@ and an Omni-PC keyboard (notes 002 §2.14, §3.5). Here a person drives the simu
   :meth:`ScriptedDriver.replay`, the same calls in-process) and records the snapshots.
 
 HTTP API (JSON bodies, ``Content-Type: application/json``; errors are ``{"error": message}``
-with status 400 for a bad request, 404 unknown path, 409 wrong mode, 411/413 missing or oversized
-body, 415 not JSON, 403 a foreign ``Host`` header (or none on a ``POST``), 500 a session
-failure):
+with status 400 for a bad request (malformed JSON, a field that is not real numbers, a missing or
+repeated ``Host``), 403 a foreign ``Host`` or ``Origin``, 404 unknown path, 409 wrong mode,
+411/413 missing or oversized body (``Content-Length`` required, at most :data:`MAX_BODY` bytes),
+415 not JSON, 500 a session failure, 503 too many connections or a stopped session):
 
 * ``GET /`` — the page; ``GET /scene`` — :meth:`SessionLike.scene_primitives`;
 * ``GET /state`` — :meth:`SessionLike.snapshot` plus ``"viewer": {"realtime": bool,
@@ -36,9 +37,24 @@ session that forgets its jog after one advance and one that keeps it behave alik
 jog older than ``jog_timeout`` is zeroed (a dead-man: a browser that lost a key-up or the
 connection must not leave the arm moving; cf. the thesis's stale-transform jerks, §8.1).
 
-Only loopback is ever bound. The server's ``Host`` check (it must be ``127.0.0.1:port`` or
-``localhost:port``, and a ``POST`` must send it) and the JSON content type of every ``POST``
-keep other web pages from driving the arm (DNS rebinding, cross-site simple requests).
+Only loopback is ever bound, and these checks keep other web pages from driving the arm:
+
+* ``Host`` must be ``127.0.0.1:port`` or ``localhost:port`` (DNS rebinding); more than one
+  ``Host`` header, or none on an HTTP/1.1 request, is a 400; an HTTP/1.0 ``POST`` without one
+  is a 403 (it cannot show it was addressed here); an HTTP/1.0 ``GET`` may omit it;
+* a ``POST`` whose ``Origin`` is present and not ``http://127.0.0.1:port`` or
+  ``http://localhost:port`` (``null`` included) is a 403. A ``POST`` without ``Origin`` is
+  allowed: browsers send ``Origin`` on every ``POST`` a page makes, so its absence means a
+  non-browser client (curl, :class:`ScriptedDriver`), which can reach loopback only locally;
+* every ``POST`` must be JSON (no cross-site "simple" form posts);
+* every response carries ``X-Frame-Options: DENY`` and a ``Content-Security-Policy`` with
+  ``frame-ancestors 'none'`` (no clickjacking of the keys), ``default-src 'none'`` and the
+  hashes of the page's own inline script and style, plus ``X-Content-Type-Options: nosniff``.
+
+Each connection has a socket timeout (``connection_timeout``) and at most ``max_connections``
+are served at once, so idle or slow clients cannot pin threads; a client that disconnects early
+is logged at debug level only. If the real-time stepping thread fails, :attr:`ViewerServer.error`
+records why, ``GET /state`` reports it and every ``POST`` answers 503.
 """
 
 from __future__ import annotations
@@ -1524,5 +1540,5 @@ _SECURITY_HEADERS: tuple[tuple[str, str], ...] = (
     ("X-Frame-Options", "DENY"),
     ("Content-Security-Policy", _CSP),
     ("X-Content-Type-Options", "nosniff"),
-    ("Referrer-Policy", "no-referrer"),
+    ("Referrer-Policy", "same-origin"),
 )
