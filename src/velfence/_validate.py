@@ -479,3 +479,20 @@ def rigid_transform(name: str, T: Any, *, tol: float = 1e-6) -> NDArray[np.float
             f"|RᵀR - I| = {err:.3g}, det = {det:.6g}; re-orthonormalise the rotation"
         )
     return a
+
+
+def check_flag(name: str, value: Any, *, error: type[Exception] | None = None) -> bool:
+    """A boolean option, as ``bool``: ``True``/``False`` (or NumPy booleans) only.
+
+    ``bool(x)`` would turn ``"no"``, ``"False"``, ``2`` and ``[]`` into flags silently.
+
+    Raises:
+        InvalidParameter: (or ``error``) anything else.
+    """
+    from velfence.errors import InvalidParameter
+
+    if not isinstance(value, (bool, np.bool_)):
+        raise (error or InvalidParameter)(
+            f"{name}: expected True or False, got {_type_text(value)}"
+        )
+    return bool(value)

@@ -19,9 +19,10 @@ and an Omni-PC keyboard (notes 002 §2.14, §3.5). Here a person drives the simu
   :meth:`ScriptedDriver.replay`, the same calls in-process) and records the snapshots.
 
 HTTP API (JSON bodies, ``Content-Type: application/json``; errors are ``{"error": message}``
-with status 400 for a bad request, 404 unknown path, 409 wrong mode, 411/413 missing or oversized
-body, 415 not JSON, 403 a foreign ``Host`` header (or none on a ``POST``), 500 a session
-failure):
+with status 400 for a bad request (malformed JSON, a field that is not real numbers, a missing or
+repeated ``Host``), 403 a foreign ``Host`` or ``Origin``, 404 unknown path, 409 wrong mode,
+411/413 missing or oversized body (``Content-Length`` required, at most :data:`MAX_BODY` bytes),
+415 not JSON, 500 a session failure, 503 too many connections or a stopped session):
 
 * ``GET /`` — the page; ``GET /scene`` — :meth:`SessionLike.scene_primitives`;
 * ``GET /state`` — :meth:`SessionLike.snapshot` plus ``"viewer": {"realtime": bool,
@@ -36,15 +37,35 @@ session that forgets its jog after one advance and one that keeps it behave alik
 jog older than ``jog_timeout`` is zeroed (a dead-man: a browser that lost a key-up or the
 connection must not leave the arm moving; cf. the thesis's stale-transform jerks, §8.1).
 
-Only loopback is ever bound. The server's ``Host`` check (it must be ``127.0.0.1:port`` or
-``localhost:port``, and a ``POST`` must send it) and the JSON content type of every ``POST``
-keep other web pages from driving the arm (DNS rebinding, cross-site simple requests).
+Only loopback is ever bound, and these checks keep other web pages from driving the arm:
+
+* ``Host`` must be ``127.0.0.1:port`` or ``localhost:port`` (DNS rebinding); more than one
+  ``Host`` header, or none on an HTTP/1.1 request, is a 400; an HTTP/1.0 ``POST`` without one
+  is a 403 (it cannot show it was addressed here); an HTTP/1.0 ``GET`` may omit it;
+* a ``POST`` whose ``Origin`` is present and not ``http://127.0.0.1:port`` or
+  ``http://localhost:port`` (``null`` included) is a 403. A ``POST`` without ``Origin`` is
+  allowed: browsers send ``Origin`` on every ``POST`` a page makes, so its absence means a
+  non-browser client (curl, :class:`ScriptedDriver`), which can reach loopback only locally;
+* every ``POST`` must be JSON (no cross-site "simple" form posts);
+* every response carries ``X-Frame-Options: DENY`` and a ``Content-Security-Policy`` with
+  ``frame-ancestors 'none'`` (no clickjacking of the keys), ``default-src 'none'`` and the
+  hashes of the page's own inline script and style, plus ``X-Content-Type-Options: nosniff``.
+
+Each connection has a socket timeout (``connection_timeout``) and at most ``max_connections``
+are served at once, so idle or slow clients cannot pin threads; a client that disconnects early
+is logged at debug level only. If the real-time stepping thread fails, :attr:`ViewerServer.error`
+records why, ``GET /state`` reports it and every ``POST`` answers 503.
 """
 
 from __future__ import annotations
 
+import base64
+import hashlib
 import json
+import logging
 import math
+import re
+import sys
 import threading
 import time
 import urllib.error
@@ -59,17 +80,33 @@ from urllib.parse import urlsplit
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._validate import finite_array
+from velfence._validate import (
+    check_flag,
+    check_positive_int,
+    check_range,
+    finite_array,
+    finite_scalar,
+    step_count,
+)
 from velfence.errors import InvalidInput, InvalidParameter, VelfenceError
 
 __all__ = [
     "ALLOWED_KEYS",
     "CLUTCH_KEY",
+    "DEFAULT_CONNECTION_TIMEOUT",
+    "DEFAULT_MAX_CONNECTIONS",
     "HAND_KEY",
     "HOST",
+    "MAX_BODY",
+    "MAX_CONNECTIONS",
+    "MAX_CONNECTION_TIMEOUT",
     "MAX_JOG_ANGULAR",
     "MAX_JOG_LINEAR",
+    "MAX_JOG_TIMEOUT",
+    "MAX_SAMPLES",
     "MAX_STEP_REQUEST",
+    "MAX_TICK",
+    "MIN_TICK",
     "MODE_KEYS",
     "ScriptedDriver",
     "SessionLike",
@@ -78,6 +115,8 @@ __all__ = [
 ]
 
 FloatArray = NDArray[np.float64]
+
+_log = logging.getLogger(__name__)
 
 #: The thesis's mode keys (notes 002 §2.14): trajectory, scaled, fixture, destination, path,
 #: plane point, align.
@@ -96,9 +135,23 @@ MAX_JOG_LINEAR = 1.0
 MAX_JOG_ANGULAR = 3.0
 #: Largest ``dt`` [s] one ``POST /step`` may ask for.
 MAX_STEP_REQUEST = 10.0
-#: Largest request body [bytes].
+#: Largest request body [bytes] (a request states it in ``Content-Length``; more: 413).
 MAX_BODY = 65536
 _DRAIN_LIMIT = 16 * MAX_BODY
+#: Shortest and longest real-time stepping period ``tick`` [s].
+MIN_TICK = 1e-4
+MAX_TICK = 1.0
+#: Longest finite dead-man ``jog_timeout`` [s] (``math.inf`` disables the dead-man).
+MAX_JOG_TIMEOUT = 3600.0
+#: Default and longest per-connection socket timeout [s]: an idle or stalled client is dropped.
+DEFAULT_CONNECTION_TIMEOUT = 10.0
+MAX_CONNECTION_TIMEOUT = 3600.0
+#: Default and largest number of connections served at once (one thread each).
+DEFAULT_MAX_CONNECTIONS = 128
+MAX_CONNECTIONS = 4096
+#: Most snapshots one :class:`ScriptedDriver` run may record (``until / sample_dt``).
+MAX_SAMPLES = 1_000_000
+_SESSION_METHODS = ("press", "jog", "advance", "snapshot", "scene_primitives")
 
 
 # ---------------------------------------------------------------------------------- protocol
@@ -155,6 +208,11 @@ def _jsonable(x: Any) -> Any:
 def _vector(name: str, value: Any, limit: float, unit: str) -> FloatArray:
     """A finite 3-vector [unit] with norm <= limit, else :class:`InvalidInput` naming ``name``."""
     v = finite_array(f"{name} [{unit}]", value, (3,))
+    if isinstance(value, list | tuple):
+        # NumPy turns [true, 0, 0] into the integers [1, 0, 0]: a 1 m/s jog. Each component
+        # must be a real number itself (booleans and strings refused).
+        for i, component in enumerate(value):
+            finite_scalar(f"{name}[{i}]", component, unit=unit, what="speed")
     norm = float(np.linalg.norm(v))
     if norm > limit:
         raise InvalidInput(
@@ -165,7 +223,7 @@ def _vector(name: str, value: Any, limit: float, unit: str) -> FloatArray:
 
 def _key(value: Any) -> str:
     if not isinstance(value, str) or value.upper() not in ALLOWED_KEYS:
-        raise InvalidInput(f"key: expected one of {list(ALLOWED_KEYS)}, got {value!r}")
+        raise InvalidInput(f"key: expected one of {list(ALLOWED_KEYS)}, got {value!r:.80}")
     return value.upper()
 
 
@@ -177,12 +235,69 @@ class _HTTPError(Exception):
         self.message = message
 
 
+#: Errors of a client that went away (closed, reset, stalled): nothing to answer, nothing to print.
+_GONE = (ConnectionError, TimeoutError)
+
+
+def _refusal(status: HTTPStatus, message: str) -> bytes:
+    """A complete HTTP/1.0 error response, for the accept thread (no handler runs)."""
+    body = json.dumps({"error": message}).encode()
+    head = [f"HTTP/1.0 {status.value} {status.phrase}", "Content-Type: application/json"]
+    head += [f"Content-Length: {len(body)}", "Connection: close"]
+    head += [f"{k}: {v}" for k, v in _SECURITY_HEADERS]
+    return ("\r\n".join(head) + "\r\n\r\n").encode() + body
+
+
 class _HTTPServer(ThreadingHTTPServer):
     daemon_threads = True
+    # The stdlib's backlog of 5 overflows under a few dozen concurrent clients: refused SYNs are
+    # retried after 1 s, 2 s, ... (measured p99 above 1 s with 50 clients; 80 ms with 128).
+    request_queue_size = 128
 
-    def __init__(self, viewer: ViewerServer, port: int) -> None:
+    def __init__(self, viewer: ViewerServer, port: int, max_connections: int) -> None:
         self.viewer = viewer
+        self._slots = threading.BoundedSemaphore(max_connections)
+        self._max_connections = max_connections
         super().__init__((HOST, port), _Handler)
+
+    def process_request(self, request: Any, client_address: Any) -> None:
+        """Serve in a new thread, or refuse with 503 when ``max_connections`` are open."""
+        if not self._slots.acquire(blocking=False):
+            # Answered from the accept thread, so it must never block: a non-blocking send of
+            # a few hundred bytes to a fresh socket fits its buffer; if not, just close.
+            try:
+                request.setblocking(False)
+                request.send(
+                    _refusal(
+                        HTTPStatus.SERVICE_UNAVAILABLE,
+                        f"too many open connections (max_connections={self._max_connections});"
+                        " retry",
+                    )
+                )
+            except OSError:
+                pass
+            self.shutdown_request(request)
+            return
+        try:
+            super().process_request(request, client_address)
+        except BaseException:  # the thread did not start: give the slot back
+            self._slots.release()
+            raise
+
+    def process_request_thread(self, request: Any, client_address: Any) -> None:
+        """The handler thread; frees its connection slot when done."""
+        try:
+            super().process_request_thread(request, client_address)
+        finally:
+            self._slots.release()
+
+    def handle_error(self, request: Any, client_address: Any) -> None:
+        """Log instead of printing a traceback; a client that went away is only a debug note."""
+        exc = sys.exc_info()[1]
+        if isinstance(exc, _GONE):
+            _log.debug("client %s went away: %s", client_address, type(exc).__name__)
+        else:
+            _log.error("request from %s failed", client_address, exc_info=True)
 
 
 class _Handler(BaseHTTPRequestHandler):
@@ -190,39 +305,105 @@ class _Handler(BaseHTTPRequestHandler):
     _raw: bytes | None = None
     _body_error: _HTTPError | None = None
 
+    def setup(self) -> None:
+        """Apply the per-connection socket timeout (it also governs the file streams)."""
+        super().setup()
+        # An idle or stalled client then costs its thread at most this long, not forever.
+        self.connection.settimeout(self._viewer.connection_timeout)
+
     def log_message(self, format: str, *args: Any) -> None:
-        """Silence the per-request log on stderr (the CLI prints the URL only)."""
+        """Per-request log at debug level only (the CLI prints the URL, nothing per request)."""
+        _log.debug("%s " + format, self.address_string(), *args)
 
     # -------------------------------------------------------------------------- plumbing
     @property
     def _viewer(self) -> ViewerServer:
         return cast(_HTTPServer, self.server).viewer
 
+    def end_headers(self) -> None:
+        """Every response, error replies of the stdlib included, carries the security headers."""
+        for name, value in _SECURITY_HEADERS:
+            self.send_header(name, value)
+        super().end_headers()
+
     def _send(self, status: HTTPStatus, body: bytes, content_type: str) -> None:
-        self.send_response(status)
-        self.send_header("Content-Type", content_type)
-        self.send_header("Content-Length", str(len(body)))
-        self.send_header("Cache-Control", "no-store")
-        self.send_header("X-Content-Type-Options", "nosniff")
-        self.end_headers()
-        if self.command != "HEAD":
-            self.wfile.write(body)
+        # The stdlib answers an unparsable request line as HTTP/0.9, i.e. without status line
+        # and headers; every reply here has both (the security headers above all).
+        if self.request_version == "HTTP/0.9":
+            self.request_version = "HTTP/1.0"
+        try:
+            self.send_response(status)
+            self.send_header("Content-Type", content_type)
+            self.send_header("Content-Length", str(len(body)))
+            self.send_header("Cache-Control", "no-store")
+            if status >= 400:
+                self.send_header("Connection", "close")
+                self.close_connection = True
+            self.end_headers()
+            if self.command != "HEAD":
+                self.wfile.write(body)
+        except _GONE as exc:  # the client closed early: nobody left to tell
+            self.close_connection = True
+            _log.debug(
+                "client %s went away mid-response: %s", self.client_address, type(exc).__name__
+            )
 
     def _json(self, status: HTTPStatus, payload: Any) -> None:
         body = json.dumps(_jsonable(payload), allow_nan=False).encode()
         self._send(status, body, "application/json")
 
-    def _check_host(self) -> None:
+    def send_error(self, code: int, message: str | None = None, explain: str | None = None) -> None:
+        """The stdlib's own errors (bad request line, unknown method, ...) as JSON too."""
+        try:
+            status = HTTPStatus(code)
+        except ValueError:
+            status = HTTPStatus.BAD_REQUEST
+        self.log_error("code %d, message %s", code, message)
+        self.close_connection = True
+        self._json(status, {"error": message or status.phrase})
+
+    def _check_request(self) -> None:
+        """Refuse requests not addressed to this server, or (POST) sent by another web page."""
+        if self.request_version == "HTTP/0.9":  # no headers at all: nothing to check
+            raise _HTTPError(HTTPStatus.BAD_REQUEST, "HTTP/0.9: expected HTTP/1.0 or HTTP/1.1")
+        port = self._viewer.port
+        expected = (f"{HOST}:{port}", f"localhost:{port}")
+        hosts = self.headers.get_all("Host") or []
+        # Duplicates are refused outright: servers and proxies disagree about which one counts.
+        if len(hosts) > 1:
+            raise _HTTPError(
+                HTTPStatus.BAD_REQUEST, f"Host: expected one Host header, got {len(hosts)}"
+            )
+        if not hosts and self.request_version != "HTTP/1.0":
+            raise _HTTPError(
+                HTTPStatus.BAD_REQUEST,
+                f"Host: an {self.request_version} request must send a Host header; expected "
+                f"{expected[0]} or {expected[1]}",
+            )
+        host = hosts[0] if hosts else None
         # Fail closed: the Host check is the DNS-rebinding guard, and a POST without Host (raw
         # HTTP/1.0; browsers always send one) cannot show it was addressed to this server.
-        host = self.headers.get("Host")
-        port = self._viewer.port
-        if (host is None and self.command == "POST") or (
-            host is not None and host not in (f"{HOST}:{port}", f"localhost:{port}")
-        ):
+        if (host is None and self.command == "POST") or (host is not None and host not in expected):
             raise _HTTPError(
                 HTTPStatus.FORBIDDEN,
-                f"Host: expected {HOST}:{port} or localhost:{port}, got {host!r}",
+                f"Host: expected {expected[0]} or {expected[1]}, got {host!r:.80}",
+            )
+        if self.command != "POST":
+            return
+        # A browser sends Origin on every POST a page makes; another site's page (or a sandboxed
+        # frame, "null") must not drive the arm. No Origin at all is a non-browser client (curl,
+        # ScriptedDriver), already bound to loopback and to this Host: allowed.
+        origins = self.headers.get_all("Origin") or []
+        if len(origins) > 1:
+            raise _HTTPError(
+                HTTPStatus.BAD_REQUEST, f"Origin: expected at most one, got {len(origins)}"
+            )
+        allowed = tuple(f"http://{h}" for h in expected)
+        if origins and origins[0] not in allowed:
+            raise _HTTPError(
+                HTTPStatus.FORBIDDEN,
+                f"Origin: expected {allowed[0]} or {allowed[1]} (this viewer's own page), "
+                f"got {origins[0]!r:.80}",
             )
 
     def _read_body(self) -> None:
@@ -230,28 +411,44 @@ class _Handler(BaseHTTPRequestHandler):
         # Closing a socket with unread input sends a reset, which can eat the error reply.
         self._raw = None
         self._body_error = None
-        length = self.headers.get("Content-Length")
-        if length is None:
+        lengths = self.headers.get_all("Content-Length") or []
+        if not lengths:
             self._body_error = _HTTPError(
                 HTTPStatus.LENGTH_REQUIRED, "Content-Length: expected a length"
             )
             return
-        try:
-            n = int(length)
-        except ValueError:
+        length = lengths[0].strip()
+        if len(lengths) > 1 or self.headers.get("Transfer-Encoding") is not None:
+            # Two framings of one body (request smuggling): refuse, and read nothing.
             self._body_error = _HTTPError(
-                HTTPStatus.BAD_REQUEST, f"Content-Length: expected an integer, got {length!r}"
+                HTTPStatus.BAD_REQUEST,
+                "Content-Length: expected exactly one and no Transfer-Encoding, got "
+                f"{len(lengths)} Content-Length and Transfer-Encoding "
+                f"{self.headers.get('Transfer-Encoding')!r:.40}",
             )
             return
-        if not 0 <= n <= MAX_BODY:
+        # Digits only: int() would also take "+5", " 5", "5_0" and thousands of digits.
+        if not (length.isascii() and length.isdigit()) or len(length) > 20:
+            self._body_error = _HTTPError(
+                HTTPStatus.BAD_REQUEST,
+                f"Content-Length: expected a number of bytes, got {length!r:.40}",
+            )
+            return
+        n = int(length)
+        if n > MAX_BODY:
             self._body_error = _HTTPError(
                 HTTPStatus.REQUEST_ENTITY_TOO_LARGE,
                 f"body: expected at most {MAX_BODY} bytes, got {n}",
             )
-            if 0 < n <= _DRAIN_LIMIT:  # drain a moderately large body so the reply arrives
+            if n <= _DRAIN_LIMIT:  # drain a moderately large body so the reply arrives
                 self.rfile.read(n)
             return
         self._raw = self.rfile.read(n)
+        if len(self._raw) < n:
+            self._body_error = _HTTPError(
+                HTTPStatus.BAD_REQUEST,
+                f"body: expected {n} bytes (Content-Length), got {len(self._raw)}",
+            )
 
     def _body(self) -> dict[str, Any]:
         if self._body_error is not None:
@@ -260,11 +457,19 @@ class _Handler(BaseHTTPRequestHandler):
         if ctype.split(";")[0].strip().lower() != "application/json":
             raise _HTTPError(
                 HTTPStatus.UNSUPPORTED_MEDIA_TYPE,
-                f"Content-Type: expected application/json, got {ctype!r}",
+                f"Content-Type: expected application/json, got {ctype!r:.80}",
             )
         try:
-            data = json.loads((self._raw or b"").decode("utf-8"))
+            # Long integers become floats (inf beyond the float range): the field's validator
+            # then refuses them by name, instead of an OverflowError deep in NumPy.
+            data = json.loads((self._raw or b"").decode("utf-8"), parse_int=_parse_int)
         except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+            raise _HTTPError(HTTPStatus.BAD_REQUEST, f"body: expected JSON, got {exc}") from None
+        except RecursionError:
+            raise _HTTPError(
+                HTTPStatus.BAD_REQUEST, "body: expected JSON nested at most a few levels deep"
+            ) from None
+        except ValueError as exc:  # what else the decoder may refuse
             raise _HTTPError(HTTPStatus.BAD_REQUEST, f"body: expected JSON, got {exc}") from None
         if not isinstance(data, dict):
             raise _HTTPError(
@@ -274,12 +479,14 @@ class _Handler(BaseHTTPRequestHandler):
 
     def _dispatch(self, action: Callable[[], None]) -> None:
         try:
-            self._check_host()
+            self._check_request()
             action()
         except _HTTPError as exc:
             self._json(exc.status, {"error": exc.message})
         except VelfenceError as exc:
             self._json(HTTPStatus.BAD_REQUEST, {"error": str(exc)})
+        except _GONE:  # the client went away while we read or computed: nobody to answer
+            self.close_connection = True
         except Exception as exc:  # a session bug must answer 500, not drop the connection
             self._json(HTTPStatus.INTERNAL_SERVER_ERROR, {"error": f"{type(exc).__name__}: {exc}"})
 
@@ -301,31 +508,37 @@ class _Handler(BaseHTTPRequestHandler):
         path = urlsplit(self.path).path
         viewer = self._viewer
         if path in ("/", "/index.html"):
-            self._send(HTTPStatus.OK, _PAGE.encode(), "text/html; charset=utf-8")
+            self._send(HTTPStatus.OK, _PAGE_BYTES, "text/html; charset=utf-8")
         elif path == "/state":
             self._json(HTTPStatus.OK, viewer.state())
         elif path == "/scene":
             self._json(HTTPStatus.OK, viewer.scene())
         else:
-            raise _HTTPError(HTTPStatus.NOT_FOUND, f"no such page {path!r}; try / or /state")
+            raise _HTTPError(HTTPStatus.NOT_FOUND, f"no such page {path!r:.80}; try / or /state")
 
     def _post(self) -> None:
         path = urlsplit(self.path).path
         viewer = self._viewer
+        if viewer.error is not None:
+            raise _HTTPError(
+                HTTPStatus.SERVICE_UNAVAILABLE,
+                f"session stopped: {viewer.error}; restart the viewer",
+            )
         if path not in ("/key", "/jog", "/step"):
             raise _HTTPError(
-                HTTPStatus.NOT_FOUND, f"no such endpoint {path!r}; expected /key, /jog or /step"
+                HTTPStatus.NOT_FOUND,
+                f"no such endpoint {path!r:.80}; expected /key, /jog or /step",
             )
         body = self._body()
         if path == "/key":
             if "key" not in body:
-                raise InvalidInput(f"body: expected {{'key': ...}}, got keys {sorted(body)}")
+                raise InvalidInput(f"body: expected {{'key': ...}}, got keys {_keys(body)}")
             key = viewer.press(body["key"])
             self._json(HTTPStatus.OK, {"ok": True, "key": key})
         elif path == "/jog":
             if "linear" not in body:
                 raise InvalidInput(
-                    f"body: expected {{'linear': [3], 'angular': [3]}}, got keys {sorted(body)}"
+                    f"body: expected {{'linear': [3], 'angular': [3]}}, got keys {_keys(body)}"
                 )
             lin, ang = viewer.jog(body["linear"], body.get("angular", (0.0, 0.0, 0.0)))
             self._json(HTTPStatus.OK, {"ok": True, "linear": lin, "angular": ang})
@@ -337,9 +550,21 @@ class _Handler(BaseHTTPRequestHandler):
                     "realtime=False to step it on request",
                 )
             if "dt" not in body:
-                raise InvalidInput(f"body: expected {{'dt': seconds}}, got keys {sorted(body)}")
+                raise InvalidInput(f"body: expected {{'dt': seconds}}, got keys {_keys(body)}")
             t = viewer.step(body["dt"])
             self._json(HTTPStatus.OK, {"ok": True, "t": t})
+
+
+def _keys(body: Mapping[str, Any]) -> list[str]:
+    """The first few keys of a body, for messages (a 64 kB body must not echo 64 kB)."""
+    return [k[:40] for k in sorted(body)[:10]]
+
+
+def _parse_int(text: str) -> int | float:
+    """JSON integers: exact up to 18 digits, else a float (``inf`` beyond the float range)."""
+    # int() of thousands of digits is slow (and refused past sys.get_int_max_str_digits()),
+    # and such an int overflows when converted to float later on.
+    return int(text) if len(text) <= 18 else float(text)
 
 
 class ViewerServer:
@@ -352,15 +577,21 @@ class ViewerServer:
         port: TCP port; 0 (default) picks a free one (read it back from :attr:`port`).
         realtime: Advance the session with wall-clock time in a background thread (default);
             ``False`` advances only on :meth:`step` / ``POST /step`` (deterministic).
-        tick: Period of the real-time stepping thread [s], > 0.
-        max_step: Longest ``dt`` [s] one real-time advance may take; a stalled thread resumes
-            with this step instead of catching up, so simulated time then lags wall time.
-        jog_timeout: In real time, a jog not renewed for this long [s] is zeroed (dead-man);
-            ``math.inf`` disables it.
+        tick: Period of the real-time stepping thread [s], in [``MIN_TICK``, ``MAX_TICK``].
+        max_step: Longest ``dt`` [s] one real-time advance may take, in (0,
+            ``MAX_STEP_REQUEST``]; a stalled thread resumes with this step instead of catching
+            up, so simulated time then lags wall time.
+        jog_timeout: In real time, a jog not renewed for this long [s] is zeroed (dead-man), in
+            (0, ``MAX_JOG_TIMEOUT``]; ``math.inf`` disables it.
+        connection_timeout: Socket timeout of each connection [s], in (0,
+            ``MAX_CONNECTION_TIMEOUT``]: a client idle or stalled this long is disconnected.
+        max_connections: Connections served at once (one thread each), in [1,
+            ``MAX_CONNECTIONS``]; more are answered 503 at once.
 
     Raises:
-        InvalidParameter: a non-positive ``tick``, ``max_step`` or ``jog_timeout``, or a port
-            outside [0, 65535].
+        InvalidParameter: a ``session`` without the :class:`SessionLike` methods, a
+            ``realtime`` that is not a bool, a port outside [0, 65535], or a time or count that
+            is not a finite number in its range (the message names the argument).
         OSError: the port is in use.
     """
 
@@ -373,17 +604,39 @@ class ViewerServer:
         tick: float = 0.02,
         max_step: float = 0.1,
         jog_timeout: float = 0.5,
+        connection_timeout: float = DEFAULT_CONNECTION_TIMEOUT,
+        max_connections: int = DEFAULT_MAX_CONNECTIONS,
     ) -> None:
-        if isinstance(port, bool) or not isinstance(port, int) or not 0 <= port <= 65535:
-            raise InvalidParameter(f"port: expected an integer in [0, 65535], got {port!r}")
-        for name, value in (("tick", tick), ("max_step", max_step), ("jog_timeout", jog_timeout)):
-            if not (isinstance(value, int | float) and value > 0):
-                raise InvalidParameter(f"{name}: expected a number > 0 [s], got {value!r}")
+        missing = [m for m in _SESSION_METHODS if not callable(getattr(session, m, None))]
+        if missing:
+            raise InvalidParameter(
+                f"session: expected a SessionLike with methods {list(_SESSION_METHODS)}, got "
+                f"{type(session).__name__} without {missing}"
+            )
+        self._port = check_positive_int("port", port, minimum=0, maximum=65535, example=8765)
+        self._realtime = check_flag("realtime", realtime)
+        self._tick = check_range("tick", tick, low=MIN_TICK, high=MAX_TICK, unit="s")
+        self._max_step = check_range(
+            "max_step", max_step, low=0.0, low_open=True, high=MAX_STEP_REQUEST, unit="s"
+        )
+        if isinstance(jog_timeout, float) and jog_timeout == math.inf:
+            self._jog_timeout = math.inf  # documented: no dead-man
+        else:
+            self._jog_timeout = check_range(
+                "jog_timeout", jog_timeout, low=0.0, low_open=True, high=MAX_JOG_TIMEOUT, unit="s"
+            )
+        self._connection_timeout = check_range(
+            "connection_timeout",
+            connection_timeout,
+            low=0.0,
+            low_open=True,
+            high=MAX_CONNECTION_TIMEOUT,
+            unit="s",
+        )
+        n_connections = check_positive_int(
+            "max_connections", max_connections, maximum=MAX_CONNECTIONS, example=128
+        )
         self._session = session
-        self._realtime = bool(realtime)
-        self._tick = float(tick)
-        self._max_step = float(max_step)
-        self._jog_timeout = float(jog_timeout)
         self._lock = threading.RLock()
         self._jog_linear = np.zeros(3)
         self._jog_angular = np.zeros(3)
@@ -391,7 +644,7 @@ class ViewerServer:
         self._error: str | None = None
         self._stopping = threading.Event()
         self._stopped = False
-        self._httpd = _HTTPServer(self, port)
+        self._httpd = _HTTPServer(self, self._port, n_connections)
         self._port = int(self._httpd.server_address[1])
         self._http_thread = threading.Thread(
             target=self._httpd.serve_forever,
@@ -427,6 +680,11 @@ class ViewerServer:
     def error(self) -> str | None:
         """The failure that stopped real-time stepping (``"Type: message"``), else ``None``."""
         return self._error
+
+    @property
+    def connection_timeout(self) -> float:
+        """Socket timeout of each connection [s]."""
+        return self._connection_timeout
 
     @property
     def running(self) -> bool:
@@ -508,11 +766,9 @@ class ViewerServer:
             raise InvalidParameter(
                 "step: expected a viewer started with realtime=False, got a real-time one"
             )
-        if isinstance(dt, bool) or not isinstance(dt, int | float):
-            raise InvalidInput(f"dt: expected a number of seconds, got {dt!r}")
-        value = float(dt)
-        if not 0.0 < value <= MAX_STEP_REQUEST:
-            raise InvalidInput(f"dt: expected 0 < dt <= {MAX_STEP_REQUEST:g} [s], got {dt!r}")
+        value = check_range(
+            "dt", dt, low=0.0, low_open=True, high=MAX_STEP_REQUEST, unit="s", error=InvalidInput
+        )
         with self._lock:
             self._session.jog(self._jog_linear.copy(), self._jog_angular.copy())
             self._session.advance(value)
@@ -558,23 +814,25 @@ class ViewerServer:
 
     # -------------------------------------------------------------------------- real time
     def _run_realtime(self) -> None:
-        last = time.monotonic()
-        while not self._stopping.wait(self._tick):
-            now = time.monotonic()
-            dt = min(now - last, self._max_step)
-            last = now
-            if dt <= 0.0:
-                continue
-            try:
+        # Whatever stops this thread is recorded: a stepping thread that dies silently would
+        # leave the page showing a frozen arm as if all were well.
+        try:
+            last = time.monotonic()
+            while not self._stopping.wait(self._tick):
+                now = time.monotonic()
+                dt = min(now - last, self._max_step)
+                last = now
+                if dt <= 0.0:
+                    continue
                 with self._lock:
                     if now - self._jog_time > self._jog_timeout:
                         self._jog_linear = np.zeros(3)
                         self._jog_angular = np.zeros(3)
                     self._session.jog(self._jog_linear.copy(), self._jog_angular.copy())
                     self._session.advance(dt)
-            except Exception as exc:  # keep serving so the page can show what went wrong
-                self._error = f"{type(exc).__name__}: {exc}"
-                return
+        except Exception as exc:  # keep serving so the page can show what went wrong
+            self._error = f"{type(exc).__name__}: {exc}"
+            _log.debug("real-time stepping stopped", exc_info=True)
 
 
 def serve(
@@ -583,7 +841,10 @@ def serve(
     port: int = 0,
     realtime: bool = True,
     tick: float = 0.02,
+    max_step: float = 0.1,
     jog_timeout: float = 0.5,
+    connection_timeout: float = DEFAULT_CONNECTION_TIMEOUT,
+    max_connections: int = DEFAULT_MAX_CONNECTIONS,
 ) -> ViewerServer:
     """Serve ``session`` on ``http://127.0.0.1:port/`` and return the running server.
 
@@ -592,17 +853,30 @@ def serve(
         port: TCP port; 0 (default) picks a free one.
         realtime: Advance with wall-clock time in a background thread (default); ``False``
             steps only on ``POST /step`` (tests, recordings).
-        tick: Real-time stepping period [s].
-        jog_timeout: Real-time dead-man: a jog not renewed within this time [s] is zeroed.
+        tick: Real-time stepping period [s], in [``MIN_TICK``, ``MAX_TICK``].
+        max_step: Longest real-time advance [s], in (0, ``MAX_STEP_REQUEST``].
+        jog_timeout: Real-time dead-man: a jog not renewed within this time [s] is zeroed;
+            ``math.inf`` disables it.
+        connection_timeout: Per-connection socket timeout [s].
+        max_connections: Connections served at once; more are answered 503.
 
     Returns:
         The running :class:`ViewerServer`; call :meth:`ViewerServer.stop` (or use ``with``).
 
     Raises:
-        InvalidParameter: bad port, tick or timeout.
+        InvalidParameter: a bad session, flag, port, time or count (see :class:`ViewerServer`).
         OSError: the port is in use.
     """
-    return ViewerServer(session, port=port, realtime=realtime, tick=tick, jog_timeout=jog_timeout)
+    return ViewerServer(
+        session,
+        port=port,
+        realtime=realtime,
+        tick=tick,
+        max_step=max_step,
+        jog_timeout=jog_timeout,
+        connection_timeout=connection_timeout,
+        max_connections=max_connections,
+    )
 
 
 # ---------------------------------------------------------------------------------- driver
@@ -795,7 +1069,10 @@ class ScriptedDriver:
             VelfenceError: the viewer could not be reached.
             InvalidParameter: bad ``until`` or ``sample_dt``.
         """
-        backend = _HTTPBackend(url, step=step, timeout=timeout)
+        wait = check_range(
+            "timeout", timeout, low=0.0, low_open=True, high=MAX_CONNECTION_TIMEOUT, unit="s"
+        )
+        backend = _HTTPBackend(url, step=check_flag("step", step), timeout=wait)
         return self._play(backend, until, sample_dt)
 
     def replay(
@@ -816,11 +1093,14 @@ class ScriptedDriver:
     def _play(
         self, backend: _Backend, until: float | None, sample_dt: float
     ) -> list[dict[str, Any]]:
-        if not (isinstance(sample_dt, int | float) and sample_dt > 0 and math.isfinite(sample_dt)):
-            raise InvalidParameter(f"sample_dt: expected a number > 0 [s], got {sample_dt!r}")
-        end = self.duration if until is None else until
-        if not (isinstance(end, int | float) and math.isfinite(end) and end >= 0):
-            raise InvalidParameter(f"until: expected a time >= 0 [s], got {until!r}")
+        h = check_range("sample_dt", sample_dt, low=0.0, low_open=True, unit="s")
+        if until is None:
+            end, end_name = self.duration, "until (default: the script's last time)"
+        else:
+            end, end_name = check_range("until", until, low=0.0, unit="s"), "until"
+        if end > 0.0:  # bounded before the first request: no endless loop, no huge list
+            step_count(end_name, end, "sample_dt", h, max_steps=MAX_SAMPLES)
+        sample_dt = h
         snapshots = [backend.state()]
         tau = 0.0
         i = 0
@@ -1237,3 +1517,28 @@ requestAnimationFrame(frame);
 </body>
 </html>
 """
+
+
+def _csp_hash(tag: str) -> str:
+    """``'sha256-…'`` of the one inline ``<tag>`` element of the page, for the CSP."""
+    found = re.findall(rf"<{tag}>(.*?)</{tag}>", _PAGE, flags=re.DOTALL)
+    if len(found) != 1:  # a page edit that adds a second element must also extend the CSP
+        raise RuntimeError(f"viewer page: expected one inline <{tag}>, found {len(found)}")
+    digest = hashlib.sha256(found[0].encode()).digest()
+    return f"'sha256-{base64.b64encode(digest).decode()}'"
+
+
+_PAGE_BYTES = _PAGE.encode()
+#: Sent on every response. The page runs only its own inline script and style (by hash), talks
+#: only to this server, and may not be framed (no clickjacking of the arm's keys).
+_CSP = (
+    f"default-src 'none'; script-src {_csp_hash('script')}; style-src {_csp_hash('style')}; "
+    "connect-src 'self'; img-src 'self'; base-uri 'none'; form-action 'none'; "
+    "frame-ancestors 'none'"
+)
+_SECURITY_HEADERS: tuple[tuple[str, str], ...] = (
+    ("X-Frame-Options", "DENY"),
+    ("Content-Security-Policy", _CSP),
+    ("X-Content-Type-Options", "nosniff"),
+    ("Referrer-Policy", "same-origin"),
+)
