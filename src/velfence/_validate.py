@@ -479,3 +479,21 @@ def rigid_transform(name: str, T: Any, *, tol: float = 1e-6) -> NDArray[np.float
             f"|RᵀR - I| = {err:.3g}, det = {det:.6g}; re-orthonormalise the rotation"
         )
     return a
+
+
+def check_flag(name: str, value: Any, *, error: type[Exception] | None = None) -> bool:
+    """A boolean switch: ``True``/``False`` (or NumPy booleans) only.
+
+    Strings (``"no"`` is truthy), numbers and ``None`` are refused rather than read as truth
+    values.
+
+    Raises:
+        InvalidParameter: (or ``error``) anything but a boolean.
+    """
+    from velfence.errors import InvalidParameter
+
+    if not isinstance(value, (bool, np.bool_)):
+        raise (error or InvalidParameter)(
+            f"{name}: expected True or False, got {_type_text(value)}"
+        )
+    return bool(value)

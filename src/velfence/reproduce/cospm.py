@@ -53,7 +53,7 @@ def limiter(
     """The paper's limiter (faithful by default: eq. (5)'s ratio as printed, not clamped)."""
 
     def joints() -> RateLimiter:
-        return RateLimiter(3, v_max=SPEED_MAX, a_max=ACCEL_MAX, dt=TE)
+        return RateLimiter(size=3, v_max=SPEED_MAX, a_max=ACCEL_MAX, dt=TE)
 
     return StopLimiter(
         PAPER_STOPS,
