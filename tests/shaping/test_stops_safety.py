@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from strategies import convex_corners
 
 import velfence as vf
+from strategies import convex_corners
 from velfence.mechanisms import PAPER_STOPS, Q_AUX
 from velfence.shaping.stops import StopLimiter
 

@@ -129,12 +129,8 @@ def _pair(p: ArrayLike, v: ArrayLike) -> tuple[FloatArray, FloatArray]:
         InvalidInput: not real numbers (strings, bytes, dicts, booleans, complex refused) or not
             of shape (3,), naming ``position`` or ``command``.
     """
-    pa = real_array(
-        "position", p, (3,), allow_nonfinite=True, max_abs=None, what="a position [m]"
-    )
-    va = real_array(
-        "command", v, (3,), allow_nonfinite=True, max_abs=None, what="a velocity [m/s]"
-    )
+    pa = real_array("position", p, (3,), allow_nonfinite=True, max_abs=None, what="a position [m]")
+    va = real_array("command", v, (3,), allow_nonfinite=True, max_abs=None, what="a velocity [m/s]")
     return pa, va
 
 
@@ -254,7 +250,9 @@ class LineScaling(InvalidPolicy):
 
     def _law(self, v: FloatArray) -> tuple[FloatArray, float]:
         vn, vt = decompose(v, self.line_direction)
-        return self.along * vn * self.line_direction + self.across * vt, vn
+        # A huge command may overflow (inf·0 = NaN): the callers check and apply on_invalid.
+        with np.errstate(over="ignore", invalid="ignore"):
+            return self.along * vn * self.line_direction + self.across * vt, vn
 
     def shape(self, p: ArrayLike, v: ArrayLike) -> FloatArray:
         """Scaled velocity.

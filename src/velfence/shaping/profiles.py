@@ -114,7 +114,8 @@ class ThreeZoneBraking:
     Every parameter is keyword-only: ``ThreeZoneBraking(gain=100, v_max=2.83, a_max=28.3)``
     (positionally, a swapped speed and acceleration would silently give a wrong profile).
     Parameters whose derived thresholds would overflow or underflow (e.g. ``gain=1e-200``) are
-    refused, naming the parameters.
+    refused, naming the parameters, and so is ``v_max <= a_max/gain`` (the linear zone would
+    then end above ``v_max``).
 
     Attributes:
         gain: K [1/s], > 0 (zone-1 time constant 1/K; a discrete loop needs K·Te < 1).
@@ -146,6 +147,13 @@ class ThreeZoneBraking:
                 f"gain={K:g} 1/s with a_max={a:g} units/s²: the linear zone width "
                 f"δ_int = a_max/gain² = {d_int:g} is not a usable positive number; choose gain "
                 "and a_max with a_max/gain² between 1e-307 and 1e307 (e.g. gain=100, a_max=28.3)"
+            )
+        if not v > a / K:
+            # Then δ_φ < δ_int: the linear zone would end above v_max and the cap would jump
+            # down to v_max at δ_φ (neither continuous nor bounded by v_max).
+            raise InvalidParameter(
+                f"v_max={v:g} units/s must exceed a_max/gain = {a:g}/{K:g} = {a / K:g} units/s "
+                "(the speed at the top of the linear zone); raise v_max or gain, or lower a_max"
             )
         brake = (v / a) * (0.5 * v)  # v²/(2a) without forming v² (finite for finite inputs)
         d_phi = 0.5 * d_int + brake
