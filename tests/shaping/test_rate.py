@@ -55,7 +55,8 @@ def test_bounds_contain_the_next_output_and_hold_sets_the_state():
     np.testing.assert_allclose(lo, [-1.0, -1.0])
     np.testing.assert_allclose(hi, [1.0, 1.0])
     out = r.step([5.0, -0.3])
-    assert np.all(out >= lo) and np.all(out <= hi)
+    assert np.all(out >= lo)
+    assert np.all(out <= hi)
     r.hold(np.array([1.8, 0.0]))  # an override beyond v_max
     lo, hi = r.bounds()
     np.testing.assert_allclose(lo, [0.8, -1.0])  # the reachable end, not an empty box

@@ -7,9 +7,9 @@ import math
 import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from strategies import convex_corners
 
 import velfence as vf
+from strategies import convex_corners
 from velfence.shaping.stops import StopLimiter
 
 PROFILE = vf.ThreeZoneBraking(gain=100.0, v_max=2.0, a_max=20.0)
