@@ -15,7 +15,7 @@ def main() -> None:
         profile=profile,
         transform=Q_AUX,
         method="exact",
-        pre=vf.RateLimiter(3, v_max=2, a_max=20, dt=1e-3),
+        pre=vf.RateLimiter(size=3, v_max=2, a_max=20, dt=1e-3),
     )
     theta = np.full(3, np.pi / 2)  # home
     command = np.array([-0.5, 0.5, 0.0])  # elevation, toward stop d4

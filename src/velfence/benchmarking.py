@@ -710,6 +710,10 @@ def _latency(
     return rows, worst
 
 
+#: Names of the three-zone profile's zones (``StopResult.zone`` is an int, or "invalid").
+_ZONE_LABELS: dict[int | str, str] = {3: "nominal", 2: "braking", 1: "linear"}
+
+
 def _stop_latency(s: BenchSettings, step: _Steps) -> list[StopLatencyRow]:
     """The paper's limiter (stateless: no rate limiters) on the paper's stops, per zone."""
     from velfence.mechanisms.cospm import PAPER_STOPS, Q_AUX
@@ -728,11 +732,7 @@ def _stop_latency(s: BenchSettings, step: _Steps) -> list[StopLatencyRow]:
             th = Q_AUX.T @ q
             v = rng.normal(size=3)
             r = lim.explain(th, v)
-            name = (
-                "outside"
-                if r.delta < 0
-                else f"{r.zone} " + {3: "nominal", 2: "braking", 1: "linear"}[r.zone]
-            )
+            name = "outside" if r.delta < 0 else f"{r.zone} " + _ZONE_LABELS[r.zone]
             pool = pools.setdefault(name, [])
             if len(pool) < 64:
                 pool.append((th, v))

@@ -60,7 +60,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._validate import as_rows, check_positive, finite_array
+from velfence._validate import as_rows, check_positive, finite_array, real_array
 from velfence.errors import InvalidGeometry, InvalidInput
 from velfence.geometry.polygon import decompose
 from velfence.geometry.primitives import orthonormal_complement
@@ -121,18 +121,16 @@ def _triad(u: FloatArray) -> tuple[FloatArray, FloatArray]:
 
 
 def _pair(p: ArrayLike, v: ArrayLike) -> tuple[FloatArray, FloatArray]:
-    """Position and command as float arrays of shape (3,) (shape checked, finiteness not)."""
-    try:
-        pa = np.array(p, dtype=float)
-        va = np.array(v, dtype=float)
-    except (TypeError, ValueError):
-        raise InvalidInput(
-            f"expected position and command of shape (3,) [m], [m/s], got {p!r} and {v!r}"
-        ) from None
-    if pa.shape != (3,) or va.shape != (3,):
-        raise InvalidInput(
-            f"position and command: expected shape (3,) each, got shape {pa.shape} and {va.shape}"
-        )
+    """Position and command as float arrays of shape (3,) (real numbers and shape checked).
+
+    Non-finite entries pass: the ``on_invalid`` policy decides about them.
+
+    Raises:
+        InvalidInput: not real numbers (strings, bytes, dicts, booleans, complex refused) or not
+            of shape (3,), naming ``position`` or ``command``.
+    """
+    pa = real_array("position", p, (3,), allow_nonfinite=True, max_abs=None, what="a position [m]")
+    va = real_array("command", v, (3,), allow_nonfinite=True, max_abs=None, what="a velocity [m/s]")
     return pa, va
 
 
@@ -159,7 +157,8 @@ class ScalingResult:
         output: Scaled velocity [m/s], shape (3,).
         command: The command as given [m/s], shape (3,).
         position: The position as given [m], shape (3,).
-        zone: ``"scaled"``, or ``"invalid"`` when non-finite input was stopped.
+        zone: ``"scaled"``, or ``"invalid"`` when non-finite input (or an overflow) was
+            answered with zero velocity under ``on_invalid="stop"``.
         along: Signed projection ``A·K`` of the command on the line direction [m/s].
         across_l: Signed projection ``A·L`` [m/s] (thesis eq. 45).
         across_m: Signed projection ``A·M`` [m/s] (thesis eq. 46).
@@ -185,7 +184,8 @@ class FixtureResult:
         command: The command as given [m/s], shape (3,).
         position: The position as given [m], shape (3,).
         zone: ``"snapped"`` inside the cylinder of influence, ``"free"`` outside, ``"invalid"``
-            when non-finite input was stopped.
+            when non-finite input (or an overflow) was answered with zero velocity under
+            ``on_invalid="stop"``.
         offset: ``r``, the position minus its nearest point on the line [m], shape (3,).
         distance: ``|r|`` [m].
         force: Fixture force on the master [N], shape (3,), perpendicular to the line.
@@ -250,7 +250,9 @@ class LineScaling(InvalidPolicy):
 
     def _law(self, v: FloatArray) -> tuple[FloatArray, float]:
         vn, vt = decompose(v, self.line_direction)
-        return self.along * vn * self.line_direction + self.across * vt, vn
+        # A huge command may overflow (inf·0 = NaN): the callers check and apply on_invalid.
+        with np.errstate(over="ignore", invalid="ignore"):
+            return self.along * vn * self.line_direction + self.across * vt, vn
 
     def shape(self, p: ArrayLike, v: ArrayLike) -> FloatArray:
         """Scaled velocity.
@@ -284,10 +286,12 @@ class LineScaling(InvalidPolicy):
         """
         pa, va = _pair(p, v)
         out = self.shape(pa, va)
+        nan = math.nan
         if not _finite(pa, va):
-            nan = math.nan
             return ScalingResult(out, va, pa, "invalid", nan, nan, nan, nan)
-        _, vn = self._law(va)
+        law, vn = self._law(va)
+        if not _finite(law):  # overflow answered with zero velocity under on_invalid="stop"
+            return ScalingResult(out, va, pa, "invalid", vn, nan, nan, nan)
         _, r = decompose(pa - self.line_point, self.line_direction)
         return ScalingResult(
             output=out,
@@ -455,14 +459,16 @@ class LineFixture(InvalidPolicy):
         r = self._offset(pa)
         f, d, inside, saturated = self._force(r)
         out = va + f / self.damping
-        if not _finite(out):
+        zone = "snapped" if inside else "free"
+        if not _finite(out, r, f):
             self._invalid(f"input too large, the velocity overflowed: command={va.tolist()}")
             out = np.zeros(3)
+            zone = "invalid"
         return FixtureResult(
             output=out,
             command=va,
             position=pa,
-            zone="snapped" if inside else "free",
+            zone=zone,
             offset=r,
             distance=d,
             force=f,

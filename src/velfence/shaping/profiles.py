@@ -11,6 +11,7 @@ US 8,676,382) and the joint-stop limiter (three-zone braking of Lê et al. 2024)
 from __future__ import annotations
 
 import math
+import sys
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
@@ -39,7 +40,7 @@ class ApproachProfile(Protocol):
         ...
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class LinearBuffer:
     r"""US 8,676,382's buffer: approach speed at most :math:`\|v\|\,\delta/d_{max}` inside.
 
@@ -50,6 +51,9 @@ class LinearBuffer:
     ``PolygonShaper(buffer=…)`` inside the polygon; outside, the built-in law also relaxes the
     non-violated edges by the recovery speed R (derivations.md §3), which a per-edge profile
     cannot see.
+
+    Every parameter is keyword-only (``LinearBuffer(d_max=0.1)``); numeric strings and booleans
+    are refused.
 
     Attributes:
         d_max: Buffer width [units], > 0.
@@ -62,10 +66,13 @@ class LinearBuffer:
     max_recovery_speed: float | None = None
 
     def __post_init__(self) -> None:
-        check_positive("d_max", self.d_max, unit="units")
-        check_positive("spring_gain", self.spring_gain, allow_zero=True, unit="1/s")
+        d = check_positive("d_max", self.d_max, unit="units")
+        k = check_positive("spring_gain", self.spring_gain, allow_zero=True, unit="1/s")
+        object.__setattr__(self, "d_max", d)
+        object.__setattr__(self, "spring_gain", k)
         if self.max_recovery_speed is not None:
-            check_positive("max_recovery_speed", self.max_recovery_speed, unit="units/s")
+            r = check_positive("max_recovery_speed", self.max_recovery_speed, unit="units/s")
+            object.__setattr__(self, "max_recovery_speed", r)
 
     @property
     def recovery_cap(self) -> float:
@@ -77,7 +84,8 @@ class LinearBuffer:
     def cap(self, delta: float, speed: float = 0.0) -> float:
         """See :class:`ApproachProfile`."""
         if delta >= 0.0:
-            return math.inf if delta >= self.d_max else speed * delta / self.d_max
+            # speed·(δ/d_max), not (speed·δ)/d_max: the product of two large inputs could overflow.
+            return math.inf if delta >= self.d_max else speed * (delta / self.d_max)
         return -min(-self.spring_gain * delta, self.recovery_cap)
 
     def zone(self, delta: float) -> int:
@@ -85,7 +93,7 @@ class LinearBuffer:
         return 0 if delta >= self.d_max else (1 if delta >= 0.0 else 2)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class ThreeZoneBraking:
     r"""Lê et al. 2024 eq. (4): nominal / maximal deceleration / linear approach.
 
@@ -103,6 +111,12 @@ class ThreeZoneBraking:
     continuous at :math:`\delta_\varphi`, and riding it decelerates at exactly :math:`a_{max}` in
     zone 2.
 
+    Every parameter is keyword-only: ``ThreeZoneBraking(gain=100, v_max=2.83, a_max=28.3)``
+    (positionally, a swapped speed and acceleration would silently give a wrong profile).
+    Parameters whose derived thresholds would overflow or underflow (e.g. ``gain=1e-200``) are
+    refused, naming the parameters, and so is ``v_max <= a_max/gain`` (the linear zone would
+    then end above ``v_max``).
+
     Attributes:
         gain: K [1/s], > 0 (zone-1 time constant 1/K; a discrete loop needs K·Te < 1).
         v_max: Nominal maximum normal speed [units/s], > 0.
@@ -117,13 +131,40 @@ class ThreeZoneBraking:
     delta_phi: float = field(init=False)
 
     def __post_init__(self) -> None:
-        check_positive("gain", self.gain, unit="1/s")
-        check_positive("v_max", self.v_max, unit="units/s")
-        check_positive("a_max", self.a_max, unit="units/s²")
-        d_int = self.a_max / self.gain**2
+        K = check_positive("gain", self.gain, unit="1/s")
+        v = check_positive("v_max", self.v_max, unit="units/s")
+        a = check_positive("a_max", self.a_max, unit="units/s²")
+        # Store plain floats (NumPy scalars in, floats out) so every derived value is a float.
+        object.__setattr__(self, "gain", K)
+        object.__setattr__(self, "v_max", v)
+        object.__setattr__(self, "a_max", a)
+        # a/K² as (a/K)/K: K² alone overflows (OverflowError) for K > 1e154 and underflows to 0
+        # (ZeroDivisionError) for K < 1e-162. Inputs are <= 1e150, so each quotient is finite or
+        # inf, never an exception; inf or a subnormal result is refused below.
+        d_int = (a / K) / K
+        if not (math.isfinite(d_int) and d_int >= sys.float_info.min):
+            raise InvalidParameter(
+                f"gain={K:g} 1/s with a_max={a:g} units/s²: the linear zone width "
+                f"δ_int = a_max/gain² = {d_int:g} is not a usable positive number; choose gain "
+                "and a_max with a_max/gain² between 1e-307 and 1e307 (e.g. gain=100, a_max=28.3)"
+            )
+        if not v > a / K:
+            # Then δ_φ < δ_int: the linear zone would end above v_max and the cap would jump
+            # down to v_max at δ_φ (neither continuous nor bounded by v_max).
+            raise InvalidParameter(
+                f"v_max={v:g} units/s must exceed a_max/gain = {a:g}/{K:g} = {a / K:g} units/s "
+                "(the speed at the top of the linear zone); raise v_max or gain, or lower a_max"
+            )
+        brake = (v / a) * (0.5 * v)  # v²/(2a) without forming v² (finite for finite inputs)
+        d_phi = 0.5 * d_int + brake
+        if not math.isfinite(d_phi):
+            raise InvalidParameter(
+                f"v_max={v:g} units/s with a_max={a:g} units/s²: the braking distance "
+                f"v_max²/(2·a_max) overflows; lower v_max or raise a_max"
+            )
         object.__setattr__(self, "delta_int", d_int)
         object.__setattr__(self, "delta_f", 0.5 * d_int)
-        object.__setattr__(self, "delta_phi", 0.5 * d_int + self.v_max**2 / (2.0 * self.a_max))
+        object.__setattr__(self, "delta_phi", d_phi)
 
     @classmethod
     def from_actuator_limits(

@@ -12,6 +12,13 @@ The paper prints the acceleration as the difference of consecutive *commands*
 to its value, which cannot produce the paper's own Fig. 8a (a 20 rad/s² ramp to 0.5 rad/s). The
 default ``mode="output"`` limits the change of the previous *output*, which does. See
 ``docs/derivations.md`` §6.
+
+**A rate limiter alone does not keep joint stops.** Placed after a
+:class:`~velfence.shaping.stops.StopLimiter` by hand, it delays the braking the limiter asked for
+and the robot crosses the stop (pushing the CoSPM into stop d1 at 1 rad/s with the paper's limits
+crosses it by 3.65e-4 rad). Pass it as ``StopLimiter(..., post=RateLimiter(...))`` instead: the
+limiter then re-applies the stop bounds after the rate limit, position safety first, and flags
+every cycle where the acceleration limit had to give way.
 """
 
 from __future__ import annotations
@@ -21,17 +28,25 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._validate import check_choice, check_positive
-from velfence.errors import InvalidInput, InvalidParameter
+from velfence._validate import check_choice, check_positive, check_positive_int, real_array
+from velfence.errors import InvalidParameter
 
 __all__ = ["RateLimiter"]
 
 FloatArray = NDArray[np.float64]
 
+#: Largest accepted number of components (a joint vector, not a data set).
+MAX_SIZE = 100_000
+
 
 def _limits(name: str, x: Any, n: int, unit: str) -> FloatArray:
-    a = np.broadcast_to(np.asarray(x, dtype=float), (n,)).copy()
-    if not (np.all(np.isfinite(a)) and np.all(a > 0.0)):
+    a = real_array(
+        name, x, error=InvalidParameter, what=f"limits [{unit}], a scalar or shape ({n},)"
+    )
+    if a.shape not in ((), (n,)):
+        raise InvalidParameter(f"{name}: expected a scalar or shape ({n},), got shape {a.shape}")
+    a = np.broadcast_to(a, (n,)).copy()
+    if not np.all(a > 0.0):
         raise InvalidParameter(f"{name} must be finite and > 0 ({unit}), got {x!r}")
     a.setflags(write=False)
     return a
@@ -40,8 +55,12 @@ def _limits(name: str, x: Any, n: int, unit: str) -> FloatArray:
 class RateLimiter:
     """Clamp each component's velocity and its rate of change (stateful).
 
+    Alone it does not guarantee joint stops (module docstring): compose it with a
+    :class:`~velfence.shaping.stops.StopLimiter` through ``post=``, which keeps position safety
+    first and flags the cycles where the acceleration limit gave way.
+
     Args:
-        size: Number of components n (e.g. 3 joints).
+        size: Number of components n (e.g. 3 joints), keyword-only.
         v_max: Speed limit per component [units/s], scalar or shape (n,).
         a_max: Acceleration limit per component [units/s²], scalar or shape (n,).
         dt: Sampling period Te [s].
@@ -51,21 +70,26 @@ class RateLimiter:
 
     def __init__(
         self,
-        size: int,
         *,
+        size: int,
         v_max: ArrayLike,
         a_max: ArrayLike,
         dt: float,
         mode: str = "output",
     ) -> None:
-        if not (isinstance(size, int) and size >= 1):
-            raise InvalidParameter(f"size must be a positive int, got {size!r}")
-        self.size = size
-        self.v_max = _limits("v_max", v_max, size, "units/s")
-        self.a_max = _limits("a_max", a_max, size, "units/s²")
+        self.size = check_positive_int("size", size, maximum=MAX_SIZE, example=3)
+        self.v_max = _limits("v_max", v_max, self.size, "units/s")
+        self.a_max = _limits("a_max", a_max, self.size, "units/s²")
         self.dt = check_positive("dt", dt, unit="s")
         self.mode = check_choice("mode", mode, ("output", "literal"))
-        self._prev = np.zeros(size)
+        self._step = self.a_max * self.dt  # <= 1e300: both factors are <= 1e150
+        self._prev = np.zeros(self.size)
+
+    def __repr__(self) -> str:
+        return (
+            f"RateLimiter(size={self.size}, v_max={self.v_max.tolist()}, "
+            f"a_max={self.a_max.tolist()}, dt={self.dt:g}, mode={self.mode!r})"
+        )
 
     @property
     def state(self) -> FloatArray:
@@ -76,27 +100,58 @@ class RateLimiter:
 
     def reset(self, value: ArrayLike | None = None) -> None:
         """Forget the history; start from ``value`` (default zero), shape (n,)."""
-        v = np.zeros(self.size) if value is None else np.asarray(value, dtype=float)
-        if v.shape != (self.size,) or not np.all(np.isfinite(v)):
-            raise InvalidInput(f"reset value must be finite with shape ({self.size},), got {v!r}")
-        self._prev = v.copy()
+        if value is None:
+            self._prev = np.zeros(self.size)
+            return
+        self._prev = real_array("value", value, (self.size,), what="a velocity to start from")
+
+    def _command(self, command: ArrayLike) -> FloatArray:
+        if (
+            type(command) is np.ndarray
+            and command.dtype.char == "d"
+            and command.shape == (self.size,)
+            and np.isfinite(command).all()
+        ):
+            return command
+        return real_array("command", command, (self.size,), what="a velocity [units/s]")
+
+    def bounds(self) -> tuple[FloatArray, FloatArray]:
+        """The box the next output of :meth:`step` lies in, per component ``(low, high)``.
+
+        ``state ± a_max·dt``, intersected with ``±v_max`` where that leaves a non-empty range
+        (after an override the state may lie beyond ``v_max``; the box then keeps the reachable
+        end). Used by :class:`~velfence.shaping.stops.StopLimiter` to stay inside it when a stop
+        bound must hold.
+        """
+        p, s, v = self._prev, self._step, self.v_max
+        lo = np.minimum(np.maximum(p - s, -v), p + s)
+        hi = np.maximum(np.minimum(p + s, v), p - s)
+        return lo, hi
+
+    def hold(self, value: FloatArray) -> None:
+        """Remember ``value`` as the last output (output mode; literal mode keeps commands).
+
+        A stage that replaced the rate limiter's output (the stop limiter's position-first
+        override) calls this so that the next step is rate-limited from what was really sent.
+        """
+        if self.mode == "output":
+            self._prev = np.array(value, dtype=float)
 
     def step(self, command: ArrayLike) -> FloatArray:
         """Limit one command and advance the state.
 
         Args:
-            command: Commanded velocity, shape (n,) [units/s], finite.
+            command: Commanded velocity, shape (n,) [units/s], finite real numbers.
 
         Returns:
             The limited velocity, shape (n,).
+
+        Raises:
+            InvalidInput: wrong shape, non-real or non-finite values (naming ``command``).
         """
-        c = np.asarray(command, dtype=float)
-        if c.shape != (self.size,):
-            raise InvalidInput(f"command must have shape ({self.size},), got shape {c.shape}")
-        if not np.all(np.isfinite(c)):
-            raise InvalidInput(f"command must be finite, got {c.tolist()}")
+        c = self._command(command)
         v = np.clip(c, -self.v_max, self.v_max)
-        step = self.a_max * self.dt
+        step = self._step
         if self.mode == "output":
             out: FloatArray = self._prev + np.clip(v - self._prev, -step, step)
             self._prev = out

@@ -20,7 +20,19 @@ Pipeline (paper Fig. 7), for joint positions :math:`\theta` and a commanded join
    ``method="exact"``: every stop's cap at once, as the minimum-change velocity in the limited
    plane (the core's exact multi-facet law; solves the paper's open problem at vertices);
 5. back to joints, :math:`\dot\theta^{lim} = Q^T \dot q^{lim}`; optional post-stage rate limiter
-   (keeps every joint within its speed and acceleration limits after the limitation).
+   (keeps every joint within its speed and acceleration limits after the limitation), composed
+   **position first**: after the rate limit the stop bounds are applied again, staying inside the
+   rate limiter's box of reachable velocities when the box allows it; when it does not, the stop
+   bound wins and the cycle is flagged (``StopResult.rate_override``, counted in
+   :attr:`StopLimiter.rate_overrides`). A rate limiter placed after the limiter by hand gives no
+   such guarantee.
+
+Discrete time: with ``dt`` (the control period) every cap is also limited to ``δ/dt``, so one
+period of motion never covers more than the remaining distance to any stop. Without it the caps
+are the profile's continuous-time law; for :class:`ThreeZoneBraking` that is still discrete-time
+safe whenever ``gain·Te < 1`` (its cap never exceeds ``gain·δ``, so
+``δ[k+1] >= (1 - gain·Te) δ[k]``), but not for every profile (a :class:`LinearBuffer` needs
+``speed·Te <= d_max``).
 
 Derivations and the repairs of the source: ``docs/derivations.md`` §6.
 """
@@ -28,13 +40,21 @@ Derivations and the repairs of the source: ``docs/derivations.md`` §6.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._validate import check_choice
-from velfence.errors import InvalidInput, InvalidParameter
+from velfence._validate import (
+    as_rows,
+    check_choice,
+    check_flag,
+    check_positive,
+    check_positive_int,
+    real_array,
+)
+from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 from velfence.geometry.polygon import polygon_from_halfplanes
 from velfence.shaping.base import InvalidPolicy
 from velfence.shaping.profiles import ApproachProfile, min_change_under_caps
@@ -44,13 +64,16 @@ __all__ = ["StopLimiter", "StopResult"]
 
 FloatArray = NDArray[np.float64]
 
+#: Largest accepted size of the joint vector (and of ``transform``).
+MAX_JOINTS = 10_000
+
 
 @dataclass(frozen=True)
 class StopResult:
     """What the stop limiter did to one command.
 
     Attributes:
-        output: Limited joint velocity, shape (n,).
+        output: Limited joint velocity, shape (n,) (zero when ``invalid``).
         command: The command as given, shape (n,).
         pre: The command after the pre-stage (equal to ``command`` without one), shape (n,).
         q: Auxiliary coordinates of the position, shape (n,).
@@ -59,12 +82,21 @@ class StopResult:
         stop: Index of the nearest stop (input order), -1 when none.
         delta: Signed distance to it, positive inside [units].
         deltas: Signed distances to every stop, shape (m,).
-        zone: The profile's zone flag for ``delta`` (three-zone: 3 nominal, 2 braking, 1 linear).
+        zone: The profile's zone flag for ``delta`` (three-zone: 3 nominal, 2 braking, 1 linear),
+            or ``"invalid"`` when non-finite input (or an overflow) was answered with zero
+            velocity under ``on_invalid="stop"``.
         v_perp: Normal speed toward the stop before limitation [units/s].
         v_par: Tangential speed (along ``e_par``, right-handed with ``e_perp``) before.
         v_perp_lim: Normal speed after limitation.
         v_par_lim: Tangential speed after limitation.
         method: ``"nearest"`` or ``"exact"``.
+        rate_limited: The post-stage rate limiter's output before the stop bounds were applied
+            again, shape (n,) (equal to ``output`` without a post-stage).
+        rate_override: True when the post-stage's acceleration (or speed) limit had to give way
+            to a stop bound in this cycle: ``output`` leaves the rate limiter's box by more than
+            round-off. Position safety always wins.
+        invalid: True when the input was invalid and zero velocity was answered (then ``zone``
+            is ``"invalid"``, ``stop`` is -1 and the distances and speeds are NaN).
     """
 
     output: FloatArray
@@ -76,21 +108,98 @@ class StopResult:
     stop: int
     delta: float
     deltas: FloatArray
-    zone: int
+    zone: int | Literal["invalid"]
     v_perp: float
     v_par: float
     v_perp_lim: float
     v_par_lim: float
     method: str
+    rate_limited: FloatArray = field(default_factory=lambda: np.zeros(0))
+    rate_override: bool = False
+    invalid: bool = False
+
+
+class _PerPeriod:
+    """A profile whose caps never let one period ``dt`` cover the remaining distance ``δ``."""
+
+    __slots__ = ("dt", "profile")
+
+    def __init__(self, profile: ApproachProfile, dt: float) -> None:
+        self.profile = profile
+        self.dt = dt
+
+    def cap(self, delta: float, speed: float = 0.0) -> float:
+        c = self.profile.cap(delta, speed)
+        if delta >= 0.0:
+            per_period = delta / self.dt  # may be inf for a tiny dt: then the profile's cap rules
+            return c if c < per_period else per_period
+        return c
+
+    def zone(self, delta: float) -> int:
+        return self.profile.zone(delta)
+
+
+def _index_pair(value: Any, n: int) -> tuple[int, int]:
+    """``limited`` as two distinct coordinate indices in ``[0, n)``."""
+    items = value.tolist() if isinstance(value, np.ndarray) and value.ndim == 1 else value
+    if not isinstance(items, (tuple, list)) or len(items) != 2:
+        raise InvalidParameter(
+            f"limited: expected two distinct coordinate indices (i, j) < {n}, e.g. (0, 1), got "
+            f"{type(value).__name__} {value!r:.80}"
+        )
+    i = check_positive_int("limited", items[0], minimum=0, maximum=n - 1, example=0)
+    j = check_positive_int("limited", items[1], minimum=0, maximum=n - 1, example=1)
+    if i == j:
+        raise InvalidParameter(f"limited: expected two distinct coordinates, got ({i}, {j})")
+    return i, j
+
+
+def _box_correction(
+    y: list[float],
+    g: list[float],
+    b: float,
+    lo: list[float],
+    hi: list[float],
+) -> list[float] | None:
+    r"""The point of the box ``[lo, hi]`` nearest ``y`` with ``g·x >= b``, or None if none.
+
+    KKT: the answer is :math:`x(\lambda) = \mathrm{clip}(y + \lambda g, lo, hi)` for the smallest
+    :math:`\lambda \ge 0` with :math:`g\cdot x(\lambda) \ge b`; :math:`g\cdot x(\lambda)` is
+    non-decreasing and piecewise linear, so the breakpoints are walked in order. ``y`` lies in
+    the box (it is the rate limiter's output).
+    """
+    n = len(y)
+    f = sum(g[a] * y[a] for a in range(n))
+    if f >= b:
+        return y
+    hits: list[tuple[float, int]] = []
+    for a in range(n):
+        if g[a] > 0.0:
+            hits.append((max((hi[a] - y[a]) / g[a], 0.0), a))
+        elif g[a] < 0.0:
+            hits.append((max((lo[a] - y[a]) / g[a], 0.0), a))
+    hits.sort()
+    slope = sum(g[a] * g[a] for _, a in hits)
+    lam = 0.0
+    for lam_next, a in hits:
+        if slope > 0.0 and f + slope * (lam_next - lam) >= b:
+            lam += (b - f) / slope
+            break
+        f += slope * (lam_next - lam)
+        lam = lam_next
+        slope -= g[a] * g[a]
+    else:
+        return None  # even the box's best corner cannot satisfy the bound
+    return [min(max(y[a] + lam * g[a], lo[a]), hi[a]) for a in range(n)]
 
 
 class StopLimiter(InvalidPolicy):
     r"""Velocity limiter for half-plane joint stops in an auxiliary plane (Lê et al. 2024).
 
     Args:
-        stops: Shape (m, 3), rows ``(a_k, b_k, c_k)``: stop k is :math:`a_k q_i + b_k q_j + c_k
-            \ge 0` on the limited coordinates ``(q_i, q_j)``; they must bound a convex polygon
-            with one edge per stop.
+        stops: Shape (m, 3), m >= 3, rows ``(a_k, b_k, c_k)``: stop k is
+            :math:`a_k q_i + b_k q_j + c_k \ge 0` on the limited coordinates ``(q_i, q_j)``; they
+            must bound a convex polygon with one edge per stop.
         profile: The approach profile (e.g. :class:`ThreeZoneBraking`).
         transform: Constant orthonormal matrix Q, shape (n, n), joint → auxiliary; default
             identity of size 2.
@@ -100,12 +209,24 @@ class StopLimiter(InvalidPolicy):
         clamp_ratio: Clamp eq. (5)'s ratio ``q̇⊥_lim / q̇⊥`` to [0, 1] (default True, our repair).
             Outside a stop the cap is negative and the faithful ratio is unbounded as ``q̇⊥ → 0``
             (an outward normal speed of 1e-12 rad/s turned 1 rad/s of tangential motion into
-            7e11 rad/s); ``False`` keeps the paper's formula as printed.
+            7e11 rad/s); ``False`` keeps the paper's formula as printed. A bool.
         method: ``"nearest"`` (faithful) or ``"exact"`` (all stops at once, minimum change).
         pre: Optional pre-stage rate limiter (stateful; the paper's requirement (i)).
-        post: Optional post-stage rate limiter applied to the limited joint velocity.
+        post: Optional post-stage rate limiter applied to the limited joint velocity, composed
+            position first (module docstring): the stop bounds are applied again after it, and
+            a cycle in which its acceleration or speed limit had to give way is flagged.
+        dt: Optional control period [s]. When given, every cap is also limited to ``δ/dt`` (one
+            period never covers the remaining distance to a stop); it must equal the stages'
+            ``dt``. ``None`` (default) keeps the profile's continuous-time law (module
+            docstring: what holds without it).
         on_invalid: ``"raise"`` (default): non-finite input raises
-            :class:`~velfence.errors.InvalidInput`; ``"stop"``: zero velocity.
+            :class:`~velfence.errors.InvalidInput`; ``"stop"``: zero velocity, and
+            :meth:`explain` reports ``zone="invalid"``, ``invalid=True``.
+
+    Raises:
+        InvalidGeometry: ``stops`` not real numbers of shape (m, 3), fewer than three, or not
+            bounding a convex polygon with one edge each.
+        InvalidParameter: any other parameter out of range or of the wrong type.
     """
 
     def __init__(
@@ -120,14 +241,24 @@ class StopLimiter(InvalidPolicy):
         method: str = "nearest",
         pre: RateLimiter | None = None,
         post: RateLimiter | None = None,
+        dt: float | None = None,
         on_invalid: str = "raise",
     ) -> None:
         super().__init__(on_invalid=on_invalid)
-        self.clamp_ratio = bool(clamp_ratio)
-        S = np.asarray(stops, dtype=float)
-        if S.ndim != 2 or S.shape[1] != 3:
-            raise InvalidParameter(f"stops must have shape (m, 3) rows (a, b, c), got {S.shape}")
-        polygon, order = polygon_from_halfplanes(S[:, :2], S[:, 2])
+        self.clamp_ratio = check_flag("clamp_ratio", clamp_ratio)
+        S = real_array(
+            "stops", stops, (None, 3), error=InvalidGeometry, what="half-plane rows (a, b, c)"
+        )
+        if S.shape[0] < 3:
+            raise InvalidGeometry(
+                f"stops: expected at least 3 rows (a, b, c) that bound a polygon, got "
+                f"{S.shape[0]}: {S.tolist()}"
+            )
+        try:
+            polygon, order = polygon_from_halfplanes(S[:, :2], S[:, 2])
+        except InvalidGeometry as exc:
+            raise InvalidGeometry(f"stops: {exc} (half-plane k is row k of stops)") from None
+        S.setflags(write=False)
         self.stops = S
         self.polygon = polygon
         self._edge_of_stop = np.argsort(order)
@@ -136,21 +267,28 @@ class StopLimiter(InvalidPolicy):
                 f"profile must be an ApproachProfile (cap, zone), got {type(profile).__name__}"
             )
         self.profile = profile
-        Q = np.eye(2) if transform is None else np.array(transform, dtype=float)
+        if transform is None:
+            Q = np.eye(2)
+        else:
+            Q = real_array(
+                "transform", transform, (None, None), error=InvalidParameter,
+                what="a square orthonormal matrix",
+            )  # fmt: skip
         n = Q.shape[0]
-        if Q.shape != (n, n) or not np.allclose(Q @ Q.T, np.eye(n), atol=1e-9):
+        if Q.shape != (n, n) or not 2 <= n <= MAX_JOINTS:
             raise InvalidParameter(
-                f"transform must be a square orthonormal matrix (Q Qᵀ = I), got shape {Q.shape}"
+                f"transform: expected a square orthonormal matrix of size 2 to {MAX_JOINTS}, got "
+                f"shape {Q.shape}"
+            )
+        if not np.allclose(Q @ Q.T, np.eye(n), atol=1e-9):
+            raise InvalidParameter(
+                f"transform must be a square orthonormal matrix (Q Qᵀ = I), got "
+                f"|Q Qᵀ - I| = {float(np.abs(Q @ Q.T - np.eye(n)).max()):.3g}"
             )
         Q.setflags(write=False)
         self.transform = Q
         self.size = n
-        i, j = limited
-        if not (0 <= i < n and 0 <= j < n and i != j):
-            raise InvalidParameter(
-                f"limited must name two distinct coordinates < {n}, got {limited}"
-            )
-        self.limited = (int(i), int(j))
+        self.limited = _index_pair(limited, n)
         self.tangential = check_choice("tangential", tangential, ("scale_with_normal", "preserve"))
         self.method = check_choice("method", method, ("nearest", "exact"))
         for name, stage in (("pre", pre), ("post", post)):
@@ -158,10 +296,22 @@ class StopLimiter(InvalidPolicy):
                 raise InvalidParameter(f"{name} must be a RateLimiter of size {n}, got {stage!r}")
         self.pre = pre
         self.post = post
+        self.dt = None if dt is None else check_positive("dt", dt, unit="s")
+        if self.dt is not None:
+            for name, stage in (("pre", pre), ("post", post)):
+                if stage is not None and not math.isclose(stage.dt, self.dt, rel_tol=1e-9):
+                    raise InvalidParameter(
+                        f"dt={self.dt:g} s differs from {name}.dt={stage.dt:g} s: one control "
+                        "period for the limiter and its stages"
+                    )
         check_period = getattr(profile, "check_period", None)
-        for stage in (pre, post):
-            if stage is not None and callable(check_period):
-                check_period(stage.dt)
+        for period in (pre and pre.dt, post and post.dt, self.dt):
+            if period is not None and callable(check_period):
+                check_period(period)
+        self._caps: ApproachProfile = profile if self.dt is None else _PerPeriod(profile, self.dt)
+        #: Number of cycles since :meth:`reset` in which the post-stage's acceleration or speed
+        #: limit had to give way to a stop bound (see ``StopResult.rate_override``).
+        self.rate_overrides = 0
         # Stop-ordered unit normals (inward) and offsets, taken from the polygon (one geometry).
         e = self._edge_of_stop
         self._n = np.ascontiguousarray(polygon.normals[e])
@@ -180,50 +330,101 @@ class StopLimiter(InvalidPolicy):
         return self.pre is not None or self.post is not None
 
     def reset(self) -> None:
-        """Reset the rate limiters' history to zero velocity."""
+        """Reset the rate limiters' history to zero velocity and the override count to 0."""
         for stage in (self.pre, self.post):
             if stage is not None:
                 stage.reset()
+        self.rate_overrides = 0
+
+    @property
+    def braking_capacity(self) -> float | None:
+        r"""Normal deceleration the post-stage can always deliver toward every stop [units/s²].
+
+        :math:`\min_k \sum_j \ddot\theta_{max,j}\,|(Q_{ij}^T n_k)_j|`: the largest decrease
+        of the normal speed toward stop k in one period when every joint may change by its
+        ``a_max·dt`` (the rate limiter's box). A :class:`ThreeZoneBraking` with
+        ``a_max <= braking_capacity / (1 + gain·dt/2)`` can be followed by the post-stage without
+        the acceleration limit ever giving way while the joint speeds stay below ``v_max`` (the
+        factor covers the discrete ride down the braking parabola); a more demanding profile is
+        still safe, and the cycles where the limit gives way are flagged. ``None`` without a
+        post-stage.
+        """
+        if self.post is None:
+            return None
+        a = self.post.a_max
+        g = np.outer(self._nx, self.transform[self.limited[0]]) + np.outer(
+            self._ny, self.transform[self.limited[1]]
+        )
+        return float(np.min(np.abs(g) @ a))
 
     # ------------------------------------------------------------------ the law
+    def _vector(self, name: str, x: ArrayLike, what: str) -> list[float]:
+        if type(x) is np.ndarray and x.dtype.char == "d" and x.shape == (self.size,):
+            out: list[float] = x.tolist()
+            return out
+        a = real_array(name, x, (self.size,), allow_nonfinite=True, max_abs=None, what=what)
+        vals: list[float] = a.tolist()
+        return vals
+
     def _parse(
         self, theta: ArrayLike, theta_dot: ArrayLike
     ) -> tuple[list[float], list[float], bool]:
         """Floats of the inputs and whether they are finite (raises under ``"raise"``)."""
-        n = self.size
-        x = np.asarray(theta, dtype=float)
-        c = np.asarray(theta_dot, dtype=float)
-        if x.shape != (n,) or c.shape != (n,):
-            raise InvalidInput(
-                f"theta and theta_dot must have shape ({n},), got {x.shape} and {c.shape}"
-            )
-        xs: list[float] = x.tolist()
-        cs: list[float] = c.tolist()
+        xs = self._vector("theta", theta, "joint positions [rad]")
+        cs = self._vector("theta_dot", theta_dot, "joint velocities [rad/s]")
         total = sum(xs) + sum(cs)
         if total - total != 0.0 and not all(math.isfinite(a) for a in xs + cs):
             self._invalid(f"non-finite input: theta={xs}, theta_dot={cs}")
             return xs, cs, False
         return xs, cs, True
 
-    def _checked_core(
-        self, x: list[float], c: list[float], ok: bool
-    ) -> tuple[list[float], list[float], int, list[float], tuple[float, ...]] | None:
+    def _checked_core(self, x: list[float], c: list[float], ok: bool) -> _Core | None:
         if not ok:
             return None
         r = self._core(x, c)
         if not all(math.isfinite(a) for a in r[0]):
             self._invalid(f"input too large, the limited velocity overflowed: theta_dot={c}")
             return None
+        if r[5]:
+            self.rate_overrides += 1
         return r
 
-    def _core(
-        self, x: list[float], c: list[float]
-    ) -> tuple[list[float], list[float], int, list[float], tuple[float, ...]]:
+    def _plane_law(
+        self, w1: float, w2: float, deltas: list[float], k: int
+    ) -> tuple[float, float, float, float, float, float]:
+        """The stop law on the limited-plane velocity ``(w1, w2)``.
+
+        Returns:
+            ``(wl1, wl2, v_perp, v_par, v_perp_lim, v_par_lim)`` in stop ``k``'s frame.
+        """
+        ex, ey = -self._nx[k], -self._ny[k]  # e_perp: toward the stop
+        v_perp = ex * w1 + ey * w2
+        v_par = -ey * w1 + ex * w2  # along e_par = (-e_perp_y, e_perp_x)
+        if self.method == "nearest":
+            cap = self._caps.cap(deltas[k], math.hypot(w1, w2))
+            v_perp_lim = v_perp if v_perp < cap else cap
+            if self.tangential == "scale_with_normal" and v_perp != 0.0:
+                ratio = v_perp_lim / v_perp
+                if self.clamp_ratio:
+                    ratio = 0.0 if ratio < 0.0 else (1.0 if ratio > 1.0 else ratio)
+                v_par_lim = v_par * ratio
+            else:
+                v_par_lim = v_par
+            wl1 = v_perp_lim * ex - v_par_lim * ey
+            wl2 = v_perp_lim * ey + v_par_lim * ex
+        else:
+            wl1, wl2, _ = min_change_under_caps(w1, w2, deltas, self._nx, self._ny, self._caps)
+            v_perp_lim = ex * wl1 + ey * wl2
+            v_par_lim = -ey * wl1 + ex * wl2
+        return wl1, wl2, v_perp, v_par, v_perp_lim, v_par_lim
+
+    def _core(self, x: list[float], c: list[float]) -> _Core:
         """The law on plain floats.
 
         Returns:
-            ``(out, pre, k, deltas, (w1, w2, wl1, wl2, v_perp, v_par, v_perp_lim, v_par_lim))``
-            with ``w`` the limited-plane velocity before and ``wl`` after limitation.
+            ``(out, pre, k, deltas, (w1, w2, wl1, wl2, v_perp, v_par, v_perp_lim, v_par_lim),
+            override, rate_limited)`` with ``w`` the limited-plane velocity before and ``wl``
+            after limitation.
         """
         v = c if self.pre is None else self.pre.step(np.array(c)).tolist()
         qi, qj = self._qi, self._qj
@@ -237,44 +438,95 @@ class StopLimiter(InvalidPolicy):
         nx, ny, off = self._nx, self._ny, self._off
         deltas = [nx[s] * p1 + ny[s] * p2 - off[s] for s in range(len(off))]
         k = min(range(len(deltas)), key=deltas.__getitem__)
-        delta = deltas[k]
-        ex, ey = -nx[k], -ny[k]  # e_perp: toward the stop
-        v_perp = ex * w1 + ey * w2
-        v_par = -ey * w1 + ex * w2  # along e_par = (-e_perp_y, e_perp_x)
-        if self.method == "nearest":
-            cap = self.profile.cap(delta, math.hypot(w1, w2))
-            v_perp_lim = v_perp if v_perp < cap else cap
-            if self.tangential == "scale_with_normal" and v_perp != 0.0:
-                ratio = v_perp_lim / v_perp
-                if self.clamp_ratio:
-                    ratio = 0.0 if ratio < 0.0 else (1.0 if ratio > 1.0 else ratio)
-                v_par_lim = v_par * ratio
-            else:
-                v_par_lim = v_par
-            wl1 = v_perp_lim * ex - v_par_lim * ey
-            wl2 = v_perp_lim * ey + v_par_lim * ex
-        else:
-            wl1, wl2, _ = min_change_under_caps(w1, w2, deltas, nx, ny, self.profile)
-            v_perp_lim = ex * wl1 + ey * wl2
-            v_par_lim = -ey * wl1 + ex * wl2
+        wl1, wl2, v_perp, v_par, v_perp_lim, v_par_lim = self._plane_law(w1, w2, deltas, k)
         # θ̇_lim = Qᵀ q̇_lim = v + Qᵀ(Δq̇_i e_i + Δq̇_j e_j): only the limited rows of Q are needed.
         d1 = wl1 - w1
         d2 = wl2 - w2
         out = [v[a] + d1 * qi[a] + d2 * qj[a] for a in range(n)]
+        override = False
+        rate_limited = out
         if self.post is not None:
-            out = self.post.step(np.array(out)).tolist()
+            out, rate_limited, override = self._position_first(out, deltas, k)
         info = (w1, w2, wl1, wl2, v_perp, v_par, v_perp_lim, v_par_lim)
-        return out, v, k, deltas, info
+        return out, v, k, deltas, info, override, rate_limited
+
+    def _position_first(
+        self, limited: list[float], deltas: list[float], k: int
+    ) -> tuple[list[float], list[float], bool]:
+        """The post-stage rate limit, then the stop bounds again: position safety first.
+
+        1. ``y`` = the rate limiter's output (inside its box ``[lo, hi]``).
+        2. If ``y`` violates a stop bound, move it to the nearest point of the box that satisfies
+           the violated bounds (:func:`_box_correction`, one bound at a time, most violated
+           first): the acceleration limit still holds.
+        3. Apply the stop law to the result (a no-op when step 2 succeeded). This last step is
+           what guarantees the stops; if it had to leave the box, the acceleration (or speed)
+           limit gave way and the cycle is flagged.
+
+        Returns:
+            ``(out, rate_limited, override)``.
+        """
+        post = self.post
+        if post is None:  # pragma: no cover - only called with a post-stage
+            return limited, limited, False
+        lo_a, hi_a = post.bounds()
+        y: list[float] = post.step(np.array(limited)).tolist()
+        qi, qj, n = self._qi, self._qj, self.size
+        lo: list[float] = lo_a.tolist()
+        hi: list[float] = hi_a.tolist()
+        z = y
+        y1 = sum(qi[a] * y[a] for a in range(n))
+        y2 = sum(qj[a] * y[a] for a in range(n))
+        bounds = self._violated(y1, y2, deltas, k)
+        for _, s, b in bounds:
+            g = [qi[a] * self._nx[s] + qj[a] * self._ny[s] for a in range(n)]
+            moved = _box_correction(z, g, b, lo, hi)
+            if moved is None:
+                break
+            z = moved
+        # The stop law on the corrected velocity: the guarantee (unchanged when z satisfies it).
+        z1 = sum(qi[a] * z[a] for a in range(n))
+        z2 = sum(qj[a] * z[a] for a in range(n))
+        if bounds:
+            zl1, zl2 = self._plane_law(z1, z2, deltas, k)[:2]
+            d1, d2 = zl1 - z1, zl2 - z2
+            z = [z[a] + d1 * qi[a] + d2 * qj[a] for a in range(n)]
+        step = post._step
+        override = any(
+            z[a] < lo[a] - (1e-12 + 1e-9 * step[a]) or z[a] > hi[a] + (1e-12 + 1e-9 * step[a])
+            for a in range(n)
+        )
+        post.hold(np.array(z))
+        return z, y, override
+
+    def _violated(
+        self, w1: float, w2: float, deltas: list[float], k: int
+    ) -> list[tuple[float, int, float]]:
+        """Stop bounds ``n_s·w >= b_s`` that ``(w1, w2)`` violates, most violated first."""
+        speed = math.hypot(w1, w2)
+        stops = range(len(deltas)) if self.method == "exact" else (k,)
+        out = []
+        for s in stops:
+            cap = self._caps.cap(deltas[s], speed)
+            if not math.isfinite(cap):
+                continue
+            b = -cap
+            slack = self._nx[s] * w1 + self._ny[s] * w2 - b
+            if slack < 0.0:
+                out.append((slack, s, b))
+        out.sort()
+        return out
 
     def shape(self, theta: ArrayLike, theta_dot: ArrayLike) -> FloatArray:
         """Limited joint velocity, shape (n,) (see :meth:`explain`).
 
         Args:
-            theta: Joint positions, shape (n,) [rad] (unwrapped).
-            theta_dot: Commanded joint velocity, shape (n,) [rad/s].
+            theta: Joint positions, shape (n,) [rad] (unwrapped), real numbers.
+            theta_dot: Commanded joint velocity, shape (n,) [rad/s], real numbers.
 
         Raises:
-            InvalidInput: wrong shapes or non-finite values.
+            InvalidInput: not real numbers (strings, bytes, dicts, booleans, complex refused),
+                wrong shapes, or non-finite values under ``on_invalid="raise"``.
         """
         x, c, ok = self._parse(theta, theta_dot)
         r = self._checked_core(x, c, ok)
@@ -284,11 +536,16 @@ class StopLimiter(InvalidPolicy):
         """Limit one command and report every intermediate quantity.
 
         Args:
-            theta: Joint positions, shape (n,) [rad] (unwrapped).
-            theta_dot: Commanded joint velocity, shape (n,) [rad/s].
+            theta: Joint positions, shape (n,) [rad] (unwrapped), real numbers.
+            theta_dot: Commanded joint velocity, shape (n,) [rad/s], real numbers.
+
+        Returns:
+            The :class:`StopResult`; under ``on_invalid="stop"`` an invalid input gives zero
+            output with ``zone="invalid"`` and ``invalid=True``.
 
         Raises:
-            InvalidInput: wrong shapes or non-finite values.
+            InvalidInput: not real numbers, wrong shapes, or non-finite values under
+                ``on_invalid="raise"``.
         """
         x, c, ok = self._parse(theta, theta_dot)
         r = self._checked_core(x, c, ok)
@@ -296,10 +553,26 @@ class StopLimiter(InvalidPolicy):
             n = self.size
             nan = math.nan
             return StopResult(
-                np.zeros(n), np.array(c), np.zeros(n), np.full(n, nan), np.zeros(n), np.zeros(n),
-                -1, nan, np.full(len(self._off), nan), 0, 0.0, 0.0, 0.0, 0.0, self.method,
-            )  # fmt: skip
-        out, v, k, deltas, info = r
+                output=np.zeros(n),
+                command=np.array(c),
+                pre=np.zeros(n),
+                q=np.full(n, nan),
+                q_dot=np.full(n, nan),
+                q_dot_lim=np.full(n, nan),
+                stop=-1,
+                delta=nan,
+                deltas=np.full(len(self._off), nan),
+                zone="invalid",
+                v_perp=nan,
+                v_par=nan,
+                v_perp_lim=nan,
+                v_par_lim=nan,
+                method=self.method,
+                rate_limited=np.zeros(n),
+                rate_override=False,
+                invalid=True,
+            )
+        out, v, k, deltas, info, override, rate_limited = r
         w1, w2, wl1, wl2, v_perp, v_par, v_perp_lim, v_par_lim = info
         Q = self.transform
         qd = Q @ np.array(v)
@@ -323,25 +596,45 @@ class StopLimiter(InvalidPolicy):
             v_perp_lim=v_perp_lim,
             v_par_lim=v_par_lim,
             method=self.method,
+            rate_limited=np.array(rate_limited),
+            rate_override=override,
         )
 
     def shape_batch(self, Theta: ArrayLike, Theta_dot: ArrayLike) -> FloatArray:
         """Limit N independent states, shape (N, n); only for a stateless limiter.
 
+        Args:
+            Theta: Joint positions, shape (N, n) [rad].
+            Theta_dot: Commanded joint velocities, shape (N, n) [rad/s].
+
         Raises:
             InvalidParameter: when a pre- or post-stage keeps history (rows would not be
                 independent; call :meth:`shape` in time order instead).
+            InvalidInput: not real numbers or wrong shapes; non-finite rows follow
+                ``on_invalid`` (zero rows under ``"stop"``).
         """
         if self.stateful:
             raise InvalidParameter(
                 "shape_batch needs a stateless limiter (no pre/post rate limiter): the rows of a "
                 "batch are independent states; call shape() in time order instead"
             )
-        X = np.asarray(Theta, dtype=float)
-        V = np.asarray(Theta_dot, dtype=float)
-        if X.ndim != 2 or X.shape != V.shape or X.shape[1] != self.size:
+        X = as_rows("Theta", Theta, self.size)
+        V = as_rows("Theta_dot", Theta_dot, self.size)
+        if X.shape != V.shape:
             raise InvalidInput(
                 f"Theta and Theta_dot must both have shape (N, {self.size}), got {X.shape} and "
                 f"{V.shape}"
             )
         return np.array([self.shape(x, v) for x, v in zip(X, V, strict=True)]).reshape(X.shape)
+
+
+#: What :meth:`StopLimiter._core` returns (see its docstring).
+_Core = tuple[
+    list[float],
+    list[float],
+    int,
+    list[float],
+    tuple[float, float, float, float, float, float, float, float],
+    bool,
+    list[float],
+]
