@@ -64,12 +64,15 @@ def test_continuous_law_at_20_hz_leaks() -> None:
     assert r.max_penetration > 0.01
 
 
-def test_stop_limiter_is_contained() -> None:
-    (case,) = stop_cases(episodes=10)
-    r = run_case(case, **SMOKE, seed=2)
-    assert r.escapes == 0
-    assert r.max_penetration <= 1e-9
-    assert r.recovered == r.outside_episodes
+def test_stop_limiter_is_contained_with_and_without_rate_limiter() -> None:
+    alone, rated = stop_cases(episodes=10)
+    for case in (alone, rated):
+        r = run_case(case, **SMOKE, seed=2)
+        assert r.escapes == 0, case.name
+        assert r.max_penetration <= 1e-9, case.name
+        assert r.recovered == r.outside_episodes, case.name
+    assert run_case(alone, **SMOKE, seed=2).flagged == -1
+    assert run_case(rated, **SMOKE, seed=2).flagged >= 0
 
 
 def test_the_campaign_detects_a_shaper_that_does_not_limit() -> None:
@@ -80,7 +83,7 @@ def test_the_campaign_detects_a_shaper_that_does_not_limit() -> None:
 
 
 def test_campaign_parameters_are_validated() -> None:
-    (case,) = stop_cases(episodes=2)
+    case = stop_cases(episodes=2)[0]
     with pytest.raises(InvalidParameter, match="episodes"):
         run_case(case, episodes=0)
     with pytest.raises(InvalidParameter, match="push_fraction"):

@@ -47,8 +47,9 @@ class SoakCase:
         name: Label used in reports.
         sample: ``sample(rng, n, outside)`` → states, shape (n, d): inside the safe set where
             ``outside[i]`` is False, within a band just outside it where True.
-        margin: ``margin(X)`` (the whole batch, row i = episode i) → shape (n,): signed distance of each state to the boundary of the
-            safe set, positive inside [state units].
+        margin: ``margin(X)`` (the whole batch, row i = episode i) → shape (n,): signed
+            distance of each state to the boundary of the safe set, positive inside [state
+            units].
         outward: ``outward(X)`` → shape (n, d): unit outward normal of the nearest boundary
             facet, in state coordinates (the pushing operator drives along it).
         step: ``step(X, V)`` → shape (n, d): the shaped velocities of a batch of episodes; may be
@@ -381,10 +382,13 @@ def stop_cases(*, episodes: int) -> list[SoakCase]:
     """Campaigns of the joint-stop limiter with the CoSPM paper's stops and profile.
 
     Stops d1-d4 in the auxiliary plane (``PAPER_STOPS``, ``Q_AUX``), three-zone braking with
-    K = 100 /s, 2 rad/s, 20 rad/s², control at 1 kHz, joint commands up to 2 rad/s.
+    K = 100 /s, 2 rad/s, 20 rad/s², control at 1 kHz, joint commands up to 2 rad/s; once alone
+    and once with the paper's post-stage rate limiter (position first: the cycles where the
+    acceleration limit gave way are counted).
     """
     from velfence.mechanisms import PAPER_STOPS, Q_AUX
     from velfence.shaping.profiles import ThreeZoneBraking
+    from velfence.shaping.rate import RateLimiter
     from velfence.shaping.stops import StopLimiter
 
     profile = ThreeZoneBraking.from_actuator_limits(
@@ -397,6 +401,25 @@ def stop_cases(*, episodes: int) -> list[SoakCase]:
     def step(X: FloatArray, V: FloatArray) -> FloatArray:
         return lim.shape_batch(X, V)
 
+    # One limiter per episode: the post-stage rate limiter keeps history.
+    rated = [
+        StopLimiter(
+            PAPER_STOPS,
+            profile=profile,
+            transform=Q_AUX,
+            method="exact",
+            post=RateLimiter(size=3, v_max=2.0, a_max=20.0, dt=1e-3),
+        )
+        for _ in range(episodes)
+    ]
+
+    def step_rated(X: FloatArray, V: FloatArray) -> FloatArray:
+        return np.array([r.shape(x, v) for r, x, v in zip(rated, X, V, strict=True)])
+
+    def reset() -> None:
+        for r in rated:
+            r.reset()
+
     return [
         SoakCase(
             "StopLimiter exact (CoSPM stops), 1 kHz",
@@ -407,7 +430,19 @@ def stop_cases(*, episodes: int) -> list[SoakCase]:
             1e-3,
             2.0,
             3,
-        )
+        ),
+        SoakCase(
+            "StopLimiter exact + post-stage RateLimiter (2 rad/s, 20 rad/s²), 1 kHz",
+            sets.sample,
+            sets.margin,
+            sets.outward,
+            step_rated,
+            1e-3,
+            2.0,
+            3,
+            reset=reset,
+            flagged=lambda: sum(r.rate_overrides for r in rated),
+        ),
     ]
 
 
