@@ -83,12 +83,13 @@ def test_reproduce_wrist_json(runner: CliRunner, tmp_path: Path) -> None:
         assert isinstance(c["passed"], bool)
         assert c["passed"] or c.get("source_defect") is True, c["name"]
     assert any(c.get("source_defect") for c in obj["checks"])
-    # Artifacts are written under OUT/NAME.
+    # Artifacts are written directly into --out (not OUT/NAME, and never OUT/NAME/NAME).
     assert obj["artifacts"]
     for a in obj["artifacts"]:
         p = Path(a)
         assert p.is_file()
-        assert p.parent == tmp_path / "wrist"
+        assert p.parent == tmp_path
+    assert not (tmp_path / "wrist").exists()
 
 
 def test_reproduce_unknown_name(runner: CliRunner, tmp_path: Path) -> None:
@@ -145,7 +146,7 @@ def test_reproduce_exit_code(
     args = ["reproduce", "fake", "--out", str(tmp_path)] + (["--json"] if as_json else [])
     result = _invoke(runner, *args)
     assert result.exit_code == code, result.output
-    assert seen == [tmp_path / "fake"]
+    assert seen == [tmp_path]
     if as_json:
         assert json.loads(result.stdout) == Report("fake", checks, ("fake.png",)).to_dict()
 

@@ -110,7 +110,9 @@ def test_overrides_without_file() -> None:
 
 
 def test_bad_override_names_the_field() -> None:
-    with pytest.raises(InvalidParameter, match=r"^invalid config: dt: .*greater than 0"):
+    with pytest.raises(
+        InvalidParameter, match=r"^invalid config: dt: .*greater than or equal to 0.000001$"
+    ):
         load_config(None, dt=-1.0)
 
 
@@ -122,8 +124,8 @@ def test_dump_round_trips() -> None:
 @pytest.mark.parametrize(
     ("text", "field", "detail"),
     [
-        ("shaper: {buffer: -1}\n", "shaper.buffer", "greater than 0"),
-        ("shaper: {buffer: 0}\n", "shaper.buffer", "greater than 0"),
+        ("shaper: {buffer: -1}\n", "shaper.buffer", "greater than or equal to 0.000001"),
+        ("shaper: {buffer: 0}\n", "shaper.buffer", "greater than or equal to 0.000001"),
         ("shaper: {spring_gain: -0.1}\n", "shaper.spring_gain", "greater than or equal to 0"),
         ("shaper: {corner_blend_angle: 4}\n", "shaper.corner_blend_angle", "less than"),
         ("shaper: {max_recovery_speed: 0}\n", "shaper.max_recovery_speed", "greater than 0"),
@@ -142,7 +144,7 @@ def test_dump_round_trips() -> None:
         ("methods: [patent, foo]\n", "methods.1", "'exact'"),
         ("methods: []\n", "methods", "at least 1 item"),
         ("dt: 0.5\n", "dt", "less than or equal to 0.1"),
-        ("dt: 0\n", "dt", "greater than 0"),
+        ("dt: 0\n", "dt", "greater than or equal to 0.000001"),
         ("duration: -2\n", "duration", "greater than 0"),
         ("noise_std: -0.1\n", "noise_std", "greater than or equal to 0"),
         ("start: [0]\n", "start.1", "Field required"),
