@@ -29,10 +29,13 @@ EXTRA_OF: dict[str, str] = {
 }
 
 
+def _top(exc: ModuleNotFoundError) -> str:
+    return (exc.name or "").partition(".")[0]
+
+
 def missing_extra(exc: ModuleNotFoundError) -> str | None:
     """The extra that provides the module ``exc`` failed to import, or None if it is not ours."""
-    top = (exc.name or "").partition(".")[0]
-    return EXTRA_OF.get(top)
+    return EXTRA_OF.get(_top(exc))
 
 
 def main() -> None:
@@ -47,7 +50,7 @@ def main() -> None:
             raise
         what = "the velfence command" if extra == "app" else "this command"
         sys.stderr.write(
-            f"velfence: {what} needs the optional '{extra}' dependencies ({exc.name} is not "
+            f"velfence: {what} needs the optional '{extra}' dependencies ({_top(exc)} is not "
             f"installed); install them with: pip install 'velfence[{extra}]'\n"
         )
         raise SystemExit(2) from None

@@ -94,7 +94,7 @@ def reproduce(
         Path | None,
         typer.Option(
             help="Folder for the reproduction's files, written directly into it "
-            "[default: out/reproduce/NAME]."
+            "(default: out/reproduce/NAME)."
         ),
     ] = None,
 ) -> None:
