@@ -4,7 +4,11 @@ from __future__ import annotations
 
 import importlib
 import json
+import math
+import os
+import subprocess
 import sys
+import tomllib
 import types
 from pathlib import Path
 from typing import Any
@@ -12,7 +16,8 @@ from typing import Any
 import pytest
 from typer.testing import CliRunner
 
-from velfence import cli
+import velfence
+from velfence import _entry, cli
 from velfence.cli import app
 from velfence.reproduce.base import Check, Report
 
@@ -83,12 +88,13 @@ def test_reproduce_wrist_json(runner: CliRunner, tmp_path: Path) -> None:
         assert isinstance(c["passed"], bool)
         assert c["passed"] or c.get("source_defect") is True, c["name"]
     assert any(c.get("source_defect") for c in obj["checks"])
-    # Artifacts are written under OUT/NAME.
+    # Artifacts are written directly into --out (not OUT/NAME, and never OUT/NAME/NAME).
     assert obj["artifacts"]
     for a in obj["artifacts"]:
         p = Path(a)
         assert p.is_file()
-        assert p.parent == tmp_path / "wrist"
+        assert p.parent == tmp_path
+    assert not (tmp_path / "wrist").exists()
 
 
 def test_reproduce_unknown_name(runner: CliRunner, tmp_path: Path) -> None:
@@ -145,7 +151,7 @@ def test_reproduce_exit_code(
     args = ["reproduce", "fake", "--out", str(tmp_path)] + (["--json"] if as_json else [])
     result = _invoke(runner, *args)
     assert result.exit_code == code, result.output
-    assert seen == [tmp_path / "fake"]
+    assert seen == [tmp_path]
     if as_json:
         assert json.loads(result.stdout) == Report("fake", checks, ("fake.png",)).to_dict()
 
@@ -177,9 +183,9 @@ def test_demo_bad_config_names_the_field(runner: CliRunner, tmp_path: Path) -> N
     err = _flat(result.stderr)
     assert "error:" in err
     assert "shaper.buffer" in err
-    assert "greater than 0" in err
+    assert "greater than or equal to 0.000001" in err
     assert result.stdout == ""
-    assert not (out / "metrics.json").exists()
+    assert not out.exists()  # refused before any work: not even the folder is created
 
 
 def test_demo_missing_config_keeps_brackets_in_the_path(runner: CliRunner, tmp_path: Path) -> None:
@@ -222,3 +228,228 @@ def test_bench_quick_writes_markdown(runner: CliRunner, tmp_path: Path) -> None:
     assert "## Machine" in md
     assert "| " in md  # markdown tables
     assert str(out) in _flat(result.stdout)
+
+
+# ---------------------------------------------------------------------- demo: bad config files
+# Each reproducer is refused before any work (no output folder), exit code 2, one line on stderr
+# naming the field, and no traceback.
+
+_ANGLES = [2 * math.pi * k / 3000 for k in range(3000)]
+LONG_POLYGON = "polygon:\n" + "".join(f"  - [{math.cos(a)!r}, {math.sin(a)!r}]\n" for a in _ANGLES)
+
+
+@pytest.mark.parametrize(
+    ("content", "words"),
+    [
+        (b"dt: 0.001\nmethods: [\xff]\n", ("not UTF-8", "line 2, column 11")),
+        (("a: " + "[" * 5000 + "]" * 5000 + "\n").encode(), ("nesting deeper than 16",)),
+        (b"dt: 1.0e-320\n", ("dt: ", "greater than or equal to 0.000001")),
+        (b"duration: 1.0e308\n", ("duration: ", "less than or equal to 1000000")),
+        (b"shaper: {buffer: 1.0e-320}\n", ("shaper.buffer: ",)),
+        (b"dt: 0.001\ndt: 0.002\n", ("duplicate key 'dt'", "line 2", "first at line 1")),
+        (b'shaper: {buffer: "0.2"}\n', ("shaper.buffer: ", "without quotes")),
+        (b"duration: 9000\n", ("duration=9000 s", "at most 100,000", "--max-steps")),
+        (LONG_POLYGON.encode(), ("polygon: ", "3000 corners", "at most 1000")),
+        (b"a: &a [1, 2]\nb: [*a, *a]\n", ("anchors (&a) are not accepted", "line 1")),
+        (b"dt: true\n", ("dt: ", "valid number", "got bool True")),
+        (b"noise_std: .nan\n", ("noise_std: ", "finite")),
+        (b"bogus: 1\n", ("bogus: ", "Extra inputs")),
+        (b"- 1\n", ("must hold a mapping",)),
+    ],
+    ids=[
+        "non-utf8",
+        "deep",
+        "tiny-dt",
+        "huge-duration",
+        "tiny-buffer",
+        "duplicate-key",
+        "quoted-number",
+        "long-run",
+        "many-corners",
+        "aliases",
+        "bool-number",
+        "nan",
+        "unknown-key",
+        "not-a-mapping",
+    ],
+)
+def test_demo_refuses_bad_config_before_any_work(
+    runner: CliRunner, tmp_path: Path, content: bytes, words: tuple[str, ...]
+) -> None:
+    bad = tmp_path / "bad.yaml"
+    bad.write_bytes(content)
+    out = tmp_path / "out"
+    result = runner.invoke(
+        app, ["demo", "--config", str(bad), "--out", str(out)], env={**ENV, "COLUMNS": "40"}
+    )
+    assert result.exit_code == 2, result.output
+    assert result.exception is None or isinstance(result.exception, SystemExit)
+    err = result.stderr
+    assert err.startswith("error: ")
+    assert err.count("\n") == 1, err  # one line, even on a 40-column terminal
+    assert "Traceback" not in err
+    for w in words:
+        assert w in err, (w, err)
+    assert result.stdout == ""
+    assert not out.exists()
+
+
+def test_demo_missing_and_directory_config(runner: CliRunner, tmp_path: Path) -> None:
+    for path, words in (
+        (tmp_path / "nope.yaml", "No such file"),
+        (tmp_path, "it is a directory"),
+    ):
+        result = _invoke(runner, "demo", "--config", str(path), "--out", str(tmp_path / "o"))
+        assert result.exit_code == 2
+        assert "cannot read config file" in result.stderr
+        assert words in result.stderr
+
+
+def test_demo_max_steps_option(runner: CliRunner, tmp_path: Path) -> None:
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text("methods: [none]\ngif: false\nduration: 0.3\n")  # 300 steps
+    out = tmp_path / "out"
+    result = _invoke(runner, "demo", "--config", str(cfg), "--out", str(out), "--max-steps", "299")
+    assert result.exit_code == 2
+    assert "needs 300 steps; at most 299 are allowed" in _flat(result.stderr)
+    assert not out.exists()
+    result = _invoke(runner, "demo", "--config", str(cfg), "--out", str(out), "--max-steps", "300")
+    assert result.exit_code == 0, result.output
+    assert (out / "metrics.json").is_file()
+
+
+@pytest.mark.parametrize("value", ["0", "-5", "100000001"])
+def test_demo_bad_max_steps(runner: CliRunner, tmp_path: Path, value: str) -> None:
+    result = _invoke(runner, "demo", "--out", str(tmp_path / "o"), "--max-steps", value)
+    assert result.exit_code == 2
+    assert "max_steps: expected an int" in _flat(result.stderr)
+    assert not (tmp_path / "o").exists()
+
+
+def test_demo_help_documents_max_steps(runner: CliRunner) -> None:
+    text = _flat(_invoke(runner, "demo", "--help").stdout)
+    assert "--max-steps" in text
+    assert "100000" in text.replace(",", "")
+    assert "docs/config.md" in text
+
+
+# ------------------------------------------------------------------------- reproduce: out folder
+
+
+def test_reproduction_dir() -> None:
+    assert cli.reproduction_dir("wrist", None) == Path("out/reproduce/wrist")
+    assert cli.reproduction_dir("wrist", Path("x/y")) == Path("x/y")
+    # A folder already named after the reproduction is used as is (no x/wrist/wrist).
+    assert cli.reproduction_dir("wrist", Path("x/wrist")) == Path("x/wrist")
+
+
+def test_reproduce_default_out(
+    runner: CliRunner, monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    seen = _fake(monkeypatch, (OK,))
+    monkeypatch.chdir(tmp_path)
+    assert _invoke(runner, "reproduce", "fake", "--json").exit_code == 0
+    assert seen == [Path("out/reproduce/fake")]
+
+
+def test_reproduce_out_named_like_the_reproduction(
+    runner: CliRunner, monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    seen = _fake(monkeypatch, (OK,))
+    out = tmp_path / "fake"
+    assert _invoke(runner, "reproduce", "fake", "--json", "--out", str(out)).exit_code == 0
+    assert seen == [out]
+
+
+def test_reproduce_out_is_a_file(
+    runner: CliRunner, monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    seen = _fake(monkeypatch, (OK,))
+    out = tmp_path / "file.txt"
+    out.write_text("x")
+    result = _invoke(runner, "reproduce", "fake", "--out", str(out))
+    assert result.exit_code == 2
+    assert "exists and is not a folder" in _flat(result.stderr)
+    assert seen == []
+
+
+def test_reproduce_help_says_where_files_go(runner: CliRunner) -> None:
+    text = _flat(_invoke(runner, "reproduce", "--help").stdout)
+    assert "directly into it" in text
+    assert "out/reproduce/NAME" in text
+
+
+# ------------------------------------------------------------------- console script entry point
+
+SRC = str(Path(velfence.__file__).resolve().parents[1])
+
+
+def _run_entry(blocked: str | None, *args: str, cwd: Path | None = None) -> Any:
+    """Run the console-script entry in a fresh interpreter with module ``blocked`` missing."""
+    code = (
+        "import sys\n"
+        + (f"sys.modules[{blocked!r}] = None\n" if blocked else "")
+        + f"sys.argv = ['velfence', *{list(args)!r}]\n"
+        + "from velfence._entry import main\n"
+        + "main()\n"
+    )
+    env = {**os.environ, "PYTHONPATH": SRC, "COLUMNS": "200", "NO_COLOR": "1"}
+    return subprocess.run(
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        env=env,
+        cwd=cwd,
+        timeout=120,
+        check=False,
+    )
+
+
+def test_script_entry_is_the_guarded_one() -> None:
+    pyproject = Path(SRC).parent / "pyproject.toml"
+    scripts = tomllib.loads(pyproject.read_text())["project"]["scripts"]
+    assert scripts == {"velfence": "velfence._entry:main"}
+
+
+@pytest.mark.parametrize("blocked", ["typer", "rich", "pydantic"])
+def test_core_only_install_gets_one_line(blocked: str) -> None:
+    proc = _run_entry(blocked, "--help")
+    assert proc.returncode == 2, proc.stderr
+    assert proc.stdout == ""
+    lines = proc.stderr.splitlines()
+    assert len(lines) == 1, proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert "pip install 'velfence[app]'" in lines[0]
+    assert f"({blocked} is not installed)" in lines[0]
+
+
+def test_missing_matplotlib_is_reported_before_the_demo_runs(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    proc = _run_entry("matplotlib", "demo", "--out", str(out))
+    assert proc.returncode == 2, proc.stderr
+    assert proc.stderr.splitlines() == [
+        "velfence: the velfence command needs the optional 'app' dependencies (matplotlib is "
+        "not installed); install them with: pip install 'velfence[app]'"
+    ]
+    assert not out.exists()
+
+
+def test_entry_runs_the_cli_when_installed() -> None:
+    proc = _run_entry(None, "--help")
+    assert proc.returncode == 0, proc.stderr
+    assert "reproduce" in proc.stdout
+
+
+def test_missing_module_inside_velfence_is_not_masked(monkeypatch: pytest.MonkeyPatch) -> None:
+    # A bug (a velfence module that cannot be imported) must surface, not read as a missing extra.
+    monkeypatch.setitem(sys.modules, "velfence.cli", None)
+    with pytest.raises(ModuleNotFoundError, match=r"velfence\.cli"):
+        _entry.main()
+
+
+def test_missing_extra_mapping() -> None:
+    assert _entry.missing_extra(ModuleNotFoundError("x", name="typer")) == "app"
+    assert _entry.missing_extra(ModuleNotFoundError("x", name="yaml.constructor")) == "app"
+    assert _entry.missing_extra(ModuleNotFoundError("x", name="qpsolvers")) == "qp"
+    assert _entry.missing_extra(ModuleNotFoundError("x", name="velfence.geometry")) is None
+    assert _entry.missing_extra(ModuleNotFoundError("x")) is None

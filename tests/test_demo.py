@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from pathlib import Path
 from typing import Any
 
@@ -11,8 +12,9 @@ import numpy as np
 import pytest
 
 from velfence.demo import DemoResult, build_shapers, run_demo
+from velfence.errors import InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon
-from velfence.io.config import DemoConfig, load_config
+from velfence.io.config import DemoConfig, ShaperSettings, load_config
 from velfence.mechanisms.wrist import Wrist, WristGeometry
 from velfence.shaping.polygon import PolygonShaper
 from velfence.sim.baselines import AxisLimits, HardStop, NoLimit
@@ -207,8 +209,9 @@ def test_bad_polygon_in_config_raises(tmp_path: Path) -> None:
     from velfence.errors import VelfenceError
 
     cfg = load_config(None, polygon=[(0, 0), (1, 0), (0, 1), (1, 1)], methods=["none"])
-    with pytest.raises(VelfenceError):
-        run_demo(config=cfg, out_dir=tmp_path)
+    with pytest.raises(VelfenceError, match=r"^polygon: "):
+        run_demo(config=cfg, out_dir=tmp_path / "out")
+    assert not (tmp_path / "out").exists()
 
 
 def test_build_shapers_in_config_order() -> None:
@@ -231,3 +234,92 @@ def test_build_shapers_in_config_order() -> None:
         np.testing.assert_array_equal(s.shape(np.array([0.5, 0.5]), v), v)
         out = s.shape(np.array([0.5, -0.05]), np.zeros(2))
         assert out[1] == pytest.approx(3.0 * 0.05)
+
+
+# ------------------------------------------------------------- the shipped example config file
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLE = ROOT / "examples" / "demo-config.yaml"
+DOC = ROOT / "docs" / "config.md"
+
+
+def test_example_config_sets_every_field() -> None:
+    import yaml
+
+    data = yaml.safe_load(EXAMPLE.read_text(encoding="utf-8"))
+    assert set(data) == set(DemoConfig.model_fields)
+    assert set(data["shaper"]) == set(ShaperSettings.model_fields)
+    cfg = load_config(EXAMPLE)
+    assert cfg.polygon is not None
+    assert len(cfg.polygon) == 5
+    assert cfg.methods == ["hard-stop", "patent", "exact"]
+
+
+def test_example_config_runs_a_short_demo(tmp_path: Path) -> None:
+    cfg = load_config(EXAMPLE, duration=0.3, gif=False)  # short: the file's own run is 6 s
+    result = run_demo(config=cfg, out_dir=tmp_path)
+    assert list(result.metrics) == ["hard-stop", "patent", "exact"]
+    poly = ConvexPolygon(cfg.polygon)
+    for name, tr in result.trajectories.items():
+        np.testing.assert_array_equal(tr.p[0], [0.0, -0.55])  # the file's start
+        assert tr.duration == pytest.approx(0.3)
+        assert np.all(np.isfinite(tr.p)), name
+    # The shapers move the start (outside) towards the polygon; the hard stop cannot.
+    for name in ("patent", "exact"):
+        tr = result.trajectories[name]
+        assert poly.signed_distances(tr.p[-1]).min() > poly.signed_distances(tr.p[0]).min()
+    assert (tmp_path / "metrics.json").is_file()
+
+
+def test_config_doc_lists_every_field_and_limit() -> None:
+    import velfence.io.config as cfgmod
+
+    text = DOC.read_text(encoding="utf-8")
+    for name in DemoConfig.model_fields:
+        assert f"`{name}`" in text, name
+    for name in ShaperSettings.model_fields:
+        assert f"`shaper.{name}`" in text, name
+    for value in ("1 MiB", "16", "1000", "100", "1e6", "1e-6", "100,000", "--max-steps"):
+        assert value in text, value
+    assert cfgmod.MAX_FILE_BYTES == 1024 * 1024
+    assert (cfgmod.MAX_DEPTH, cfgmod.MAX_CORNERS, cfgmod.MAX_WAYPOINTS) == (16, 1000, 1000)
+    assert (cfgmod.MAX_PUSHES, cfgmod.MAX_VALUE, cfgmod.MIN_BUFFER) == (100, 1e6, 1e-6)
+    assert (cfgmod.MIN_DT, cfgmod.DEFAULT_MAX_STEPS) == (1e-6, 100_000)
+    assert "examples/demo-config.yaml" in text
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    assert "docs/config.md" in readme
+
+
+# ------------------------------------------------------------------ refused before any work
+
+
+def test_default_script_run_length_is_checked(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    with pytest.raises(InvalidParameter, match=r"default script.*at most 1,000 are allowed"):
+        run_demo(config=DemoConfig(methods=["none"]), out_dir=out, max_steps=1000)
+    assert not out.exists()
+
+
+def test_config_built_directly_is_checked_too(tmp_path: Path) -> None:
+    # DemoConfig(...) skips load_config; run_demo still caps the run before simulating.
+    out = tmp_path / "out"
+    with pytest.raises(InvalidParameter, match=r"^duration=100000 s with dt=0\.001 s needs 1e\+08"):
+        run_demo(config=DemoConfig(methods=["none"], duration=1e5), out_dir=out)
+    assert not out.exists()
+
+
+def test_bad_max_steps_is_refused(tmp_path: Path) -> None:
+    with pytest.raises(InvalidParameter, match=r"^max_steps: "):
+        run_demo(out_dir=tmp_path / "out", max_steps=0)
+    assert not (tmp_path / "out").exists()
+
+
+def test_tiny_buffer_keeps_the_continuity_grid_bounded(tmp_path: Path) -> None:
+    cfg = load_config(None, methods=["none"], gif=False, duration=0.05, shaper={"buffer": 1e-6})
+    run_demo(config=cfg, out_dir=tmp_path)
+    meta = json.loads((tmp_path / "metrics.json").read_text())
+    note = meta["metric_notes"]["max_output_jump"]
+    spacing = float(re.search(r"neighbours (\S+) rad apart", note).group(1))  # type: ignore[union-attr]
+    corners = np.array(meta["polygon"])
+    side = float(np.max(corners.max(axis=0) - corners.min(axis=0)))
+    assert spacing == pytest.approx(side / 400, rel=1e-5)  # not buffer / 8 = 1.25e-7

@@ -1,4 +1,8 @@
-"""The ``velfence`` command line: ``demo``, ``reproduce NAME [--json]``, ``bench``."""
+"""The ``velfence`` command line: ``demo``, ``reproduce NAME [--json]``, ``bench``, ...
+
+The console script enters through :mod:`velfence._entry`, which answers with one line naming the
+``[app]`` extra when typer or another app-layer dependency is not installed.
+"""
 
 from __future__ import annotations
 
@@ -13,8 +17,9 @@ from rich.markup import escape
 from rich.table import Table
 
 from velfence.errors import VelfenceError
+from velfence.io.config import DEFAULT_MAX_STEPS
 
-__all__ = ["REPRODUCTIONS", "app", "main"]
+__all__ = ["REPRODUCTIONS", "app", "main", "reproduction_dir"]
 
 app = typer.Typer(
     help="Keep velocity-controlled robots inside their safe sets by shaping commanded velocity.",
@@ -34,8 +39,14 @@ REPRODUCTIONS: dict[str, str] = {
 
 
 def _fail(msg: str) -> typer.Exit:
-    Console(stderr=True).print(f"[bold red]error:[/] {escape(msg)}")
+    # soft_wrap: the error stays on one line however narrow the terminal is.
+    Console(stderr=True, soft_wrap=True).print(f"[bold red]error:[/] {escape(msg)}")
     return typer.Exit(code=2)
+
+
+def reproduction_dir(name: str, out: Path | None) -> Path:
+    """Where ``velfence reproduce NAME [--out DIR]`` writes: DIR itself, else out/reproduce/NAME."""
+    return Path("out/reproduce") / name if out is None else out
 
 
 @app.command()
@@ -44,17 +55,31 @@ def demo(
         "out/demo"
     ),
     config: Annotated[
-        Path | None, typer.Option(help="YAML scenario file (defaults built in).")
+        Path | None,
+        typer.Option(help="YAML scenario file (format: docs/config.md; defaults built in)."),
     ] = None,
+    max_steps: Annotated[
+        int,
+        typer.Option(
+            help="Largest number of simulated steps per method (duration / dt); raise it only "
+            "for a deliberately long run (at most 100,000,000)."
+        ),
+    ] = DEFAULT_MAX_STEPS,
 ) -> None:
     """Run the built-in wrist scenario for every method and baseline; write plots and metrics."""
+    # Import everything the run needs first, so a missing app dependency is reported before any
+    # simulation, not after it (velfence._entry turns it into a one-line message).
+    importlib.import_module("yaml")
+    importlib.import_module("velfence.viz.plots")
     from velfence.demo import run_demo
 
     console = Console()
     try:
-        result = run_demo(config_path=config, out_dir=out, console=console)
+        result = run_demo(config_path=config, out_dir=out, console=console, max_steps=max_steps)
     except VelfenceError as exc:
         raise _fail(str(exc)) from None
+    except OSError as exc:
+        raise _fail(f"cannot write to {out}: {exc.strerror or exc}") from None
     console.print(result.table)
     console.print(f"[green]wrote[/] {len(result.artifacts)} files to {out}/")
 
@@ -65,16 +90,23 @@ def reproduce(
     json_out: Annotated[
         bool, typer.Option("--json", help="Print one JSON object (checks + artifacts).")
     ] = False,
-    out: Annotated[Path, typer.Option(help="Folder for the reproduction's plots.")] = Path(
-        "out/reproduce"
-    ),
+    out: Annotated[
+        Path | None,
+        typer.Option(
+            help="Folder for the reproduction's files, written directly into it "
+            "(default: out/reproduce/NAME)."
+        ),
+    ] = None,
 ) -> None:
     """Run a source's experiment and check our numbers against the source's."""
     if name not in REPRODUCTIONS:
         raise _fail(f"unknown reproduction {name!r}; expected one of {sorted(REPRODUCTIONS)}")
+    folder = reproduction_dir(name, out)
+    if folder.exists() and not folder.is_dir():
+        raise _fail(f"--out {folder} exists and is not a folder")
     module, func = REPRODUCTIONS[name].split(":")
     run = getattr(importlib.import_module(module), func)
-    report = run(out / name)
+    report = run(folder)
     if json_out:
         sys.stdout.write(report.to_json() + "\n")
     else:

@@ -21,8 +21,9 @@ from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
+from velfence.errors import VelfenceError
 from velfence.geometry.polygon import ConvexPolygon
-from velfence.io.config import DemoConfig, load_config
+from velfence.io.config import DEFAULT_MAX_STEPS, DemoConfig, check_run_length, load_config
 from velfence.mechanisms.wrist import Wrist, WristGeometry
 from velfence.reproduce.base import jsonable
 from velfence.shaping.base import Shaper
@@ -116,6 +117,10 @@ def _phase_windows(script: Script) -> dict[str, tuple[float, float]]:
     return out
 
 
+#: Finest continuity grid: points per larger side of the polygon (about 480² points with margin).
+_GRID_SIDE = 400
+
+
 def _fmt(x: float) -> str:
     if math.isinf(x):
         return "∞"
@@ -130,28 +135,52 @@ def run_demo(
     out_dir: str | Path = "out/demo",
     console: Console | None = None,
     config: DemoConfig | None = None,
+    max_steps: int = DEFAULT_MAX_STEPS,
 ) -> DemoResult:
     """Run the demo scenario and write its artifacts.
 
+    Everything is validated (the config, the polygon, the run length, the shapers' tuning)
+    before the output folder is created or any step is simulated.
+
     Args:
-        config_path: YAML scenario file, or None for the built-in defaults.
+        config_path: YAML scenario file (format: ``docs/config.md``), or None for the built-in
+            defaults.
         out_dir: Folder for the artifacts (created).
         console: Where the progress bar goes (a quiet console if None).
         config: An already-built config (overrides ``config_path``).
+        max_steps: Largest accepted number of steps per method (``duration / dt``); default
+            :data:`~velfence.io.config.DEFAULT_MAX_STEPS`, at most 10⁸.
 
     Returns:
         The metrics per method, the summary table and the artifact paths.
+
+    Raises:
+        InvalidParameter: a bad config field (named), or a run longer than ``max_steps``.
+        InvalidGeometry: the config's polygon is not a convex polygon.
     """
-    cfg = config if config is not None else load_config(config_path)
+    cfg = config if config is not None else load_config(config_path, max_steps=max_steps)
     console = console or Console(quiet=True)
     if console.width < 120 and not console.is_terminal:
         console.width = 120
+    wrist = Wrist(WristGeometry())
+    try:
+        polygon = wrist.default_polygon() if cfg.polygon is None else ConvexPolygon(cfg.polygon)
+    except VelfenceError as exc:
+        raise type(exc)(f"polygon: {exc}") from None
+    script = _script(polygon, cfg)
+    check_run_length(
+        script.duration,
+        cfg.dt,
+        max_steps=max_steps,
+        duration_name="duration"
+        if cfg.duration is not None
+        else "duration (of the default script for this polygon)"
+        if cfg.waypoints is None
+        else "duration (last waypoint t + 1.5 s)",
+    )
+    shapers = build_shapers(polygon, cfg)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    wrist = Wrist(WristGeometry())
-    polygon = wrist.default_polygon() if cfg.polygon is None else ConvexPolygon(cfg.polygon)
-    script = _script(polygon, cfg)
-    shapers = build_shapers(polygon, cfg)
     disturbance: Disturbance | None = None
     for t0, t1, vel in script.pushes:
         d = Disturbance.push(t0, t1, vel)
@@ -190,7 +219,10 @@ def run_demo(
     ang = polygon.interior_angles
     acute = int(np.argmin(ang))
     probe = np.array([[1.0, 0.35], [-0.6, 0.8], [0.0, -1.0]])
-    spacing = band / 8.0
+    # The continuity grid is spaced by the buffer, but never finer than 1/400 of the polygon's
+    # larger side: a tiny buffer must not ask for a grid of billions of points.
+    side = float(np.max(polygon.corners.max(axis=0) - polygon.corners.min(axis=0)))
+    spacing = max(band / 8.0, side / _GRID_SIDE)
     windows = _phase_windows(script)
     metrics: dict[str, dict[str, float]] = {}
     for name, tr in trajs.items():

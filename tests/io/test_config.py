@@ -7,9 +7,12 @@ import re
 from pathlib import Path
 
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
+import velfence.io.config as cfgmod
 from velfence.errors import InvalidParameter, VelfenceError
-from velfence.io.config import ALL_METHODS, DemoConfig, load_config
+from velfence.io.config import ALL_METHODS, DemoConfig, check_run_length, load_config
 
 
 def _write(tmp_path: Path, text: str, name: str = "scenario.yaml") -> Path:
@@ -110,7 +113,9 @@ def test_overrides_without_file() -> None:
 
 
 def test_bad_override_names_the_field() -> None:
-    with pytest.raises(InvalidParameter, match=r"^invalid config: dt: .*greater than 0"):
+    with pytest.raises(
+        InvalidParameter, match=r"^invalid config: dt: .*greater than or equal to 0.000001$"
+    ):
         load_config(None, dt=-1.0)
 
 
@@ -122,8 +127,8 @@ def test_dump_round_trips() -> None:
 @pytest.mark.parametrize(
     ("text", "field", "detail"),
     [
-        ("shaper: {buffer: -1}\n", "shaper.buffer", "greater than 0"),
-        ("shaper: {buffer: 0}\n", "shaper.buffer", "greater than 0"),
+        ("shaper: {buffer: -1}\n", "shaper.buffer", "greater than or equal to 0.000001"),
+        ("shaper: {buffer: 0}\n", "shaper.buffer", "greater than or equal to 0.000001"),
         ("shaper: {spring_gain: -0.1}\n", "shaper.spring_gain", "greater than or equal to 0"),
         ("shaper: {corner_blend_angle: 4}\n", "shaper.corner_blend_angle", "less than"),
         ("shaper: {max_recovery_speed: 0}\n", "shaper.max_recovery_speed", "greater than 0"),
@@ -142,7 +147,7 @@ def test_dump_round_trips() -> None:
         ("methods: [patent, foo]\n", "methods.1", "'exact'"),
         ("methods: []\n", "methods", "at least 1 item"),
         ("dt: 0.5\n", "dt", "less than or equal to 0.1"),
-        ("dt: 0\n", "dt", "greater than 0"),
+        ("dt: 0\n", "dt", "greater than or equal to 0.000001"),
         ("duration: -2\n", "duration", "greater than 0"),
         ("noise_std: -0.1\n", "noise_std", "greater than or equal to 0"),
         ("start: [0]\n", "start.1", "Field required"),
@@ -244,3 +249,284 @@ def test_nan_and_inf_bounds_are_rejected(tmp_path: Path) -> None:
         with pytest.raises(InvalidParameter, match=rf"{re.escape(field)}: "):
             load_config(path)
     assert math.isfinite(load_config().dt)
+
+
+# ------------------------------------------------------------------------- robust file reading
+
+
+def _write_bytes(tmp_path: Path, data: bytes, name: str = "scenario.yaml") -> Path:
+    path = tmp_path / name
+    path.write_bytes(data)
+    return path
+
+
+def _refused(path: Path, *words: str) -> str:
+    with pytest.raises(InvalidParameter) as info:
+        load_config(path)
+    msg = str(info.value)
+    assert info.value.__cause__ is None
+    assert "\n" not in msg, msg
+    for w in words:
+        assert w in msg, (w, msg)
+    return msg
+
+
+def test_non_utf8_file_names_line_and_column(tmp_path: Path) -> None:
+    path = _write_bytes(tmp_path, b"dt: 0.001\nmethods: [\xff]\n")
+    _refused(path, str(path), "is not UTF-8 text", "ff", "line 2, column 11", "save the file")
+
+
+def test_utf8_with_bom_and_non_ascii_comments_are_read(tmp_path: Path) -> None:
+    path = _write_bytes(tmp_path, "\ufeff# θ_max in rad\ndt: 0.002\n".encode())
+    assert load_config(path).dt == 0.002
+
+
+def test_file_size_is_capped(tmp_path: Path) -> None:
+    path = _write_bytes(tmp_path, b"#" * (cfgmod.MAX_FILE_BYTES + 1))
+    _refused(path, "1,048,577 bytes", "at most 1,048,576")
+
+
+@pytest.mark.parametrize("depth", [17, 5000])
+def test_deep_nesting_is_refused(tmp_path: Path, depth: int) -> None:
+    path = _write(tmp_path, "a: " + "[" * depth + "]" * depth + "\n")
+    _refused(path, "nesting deeper than 16 levels", "line 1")
+
+
+def test_nesting_the_schema_needs_is_accepted(tmp_path: Path) -> None:
+    path = _write(tmp_path, "waypoints:\n  - t: 0\n    target: [0.1, 0.2]\n    speed: 1\n")
+    cfg = load_config(path)
+    assert cfg.waypoints is not None
+    assert cfg.waypoints[0].target == (0.1, 0.2)
+
+
+@pytest.mark.parametrize(
+    ("text", "words"),
+    [
+        ("dt: 0.001\ndt: 0.002\n", ("duplicate key 'dt'", "line 2", "first at line 1")),
+        (
+            "shaper:\n  buffer: 0.1\n  spring_gain: 2\n  buffer: 0.2\n",
+            ("duplicate key 'buffer'", "line 4", "first at line 2"),
+        ),
+        (
+            "waypoints: [{t: 0, t: 1, target: [0, 0], speed: 1}]\n",
+            ("duplicate key 't'", "line 1"),
+        ),
+    ],
+)
+def test_duplicate_keys_are_refused(tmp_path: Path, text: str, words: tuple[str, ...]) -> None:
+    _refused(_write(tmp_path, text), *words)
+
+
+@pytest.mark.parametrize(
+    ("text", "words"),
+    [
+        ("a: &a [1, 2]\nb: [*a, *a]\n", ("anchors (&a) are not accepted", "line 1")),
+        ("b: *a\n", ("aliases (*a) are not accepted", "line 1")),
+        ("shaper: {<<: {buffer: 0.1}}\n", ("merge keys (<<) are not accepted",)),
+        ("waypoints: [{t: 2024-01-01, target: [0, 0], speed: 1}]\n", ("dates and times",)),
+        ("start: !!set {1, 2}\n", ("sets",)),
+        ("start: !!binary aGVsbG8=\n", ("binary values",)),
+        ("seed: " + "9" * 5000 + "\n", ("integer with too many digits",)),
+        ("start: !!python/tuple [1, 2]\n", ("is not valid YAML", "python/tuple")),
+        ("? [1, 2]\n: 3\n", ("a key must be a plain value",)),
+    ],
+)
+def test_non_plain_yaml_is_refused(tmp_path: Path, text: str, words: tuple[str, ...]) -> None:
+    _refused(_write(tmp_path, text), *words)
+
+
+def test_billion_laughs_is_refused_quickly(tmp_path: Path) -> None:
+    lines = ["a: &a [lol, lol, lol, lol, lol, lol, lol, lol, lol]"]
+    for prev, name in zip("abcdefgh", "bcdefghi", strict=True):
+        lines.append(f"{name}: &{name} [" + ", ".join([f"*{prev}"] * 9) + "]")
+    lines.append("polygon: *i")
+    _refused(_write(tmp_path, "\n".join(lines) + "\n"), "anchors (&a) are not accepted")
+
+
+def test_other_loaders_are_left_alone() -> None:
+    import yaml
+
+    load_config(None)
+    # The exponent resolver is added to our loader only, not to yaml.SafeLoader.
+    assert yaml.safe_load("a: 1e-3") == {"a": "1e-3"}
+
+
+@pytest.mark.parametrize(
+    ("text", "value"),
+    [("dt: 1e-3\n", 1e-3), ("dt: 2E-3\n", 2e-3), ("dt: 1.5e-3\n", 1.5e-3), ("dt: .5e-2\n", 5e-3)],
+)
+def test_exponent_notation_is_a_number(tmp_path: Path, text: str, value: float) -> None:
+    assert load_config(_write(tmp_path, text)).dt == value
+
+
+# ---------------------------------------------------------------------------- numbers and limits
+
+
+@pytest.mark.parametrize(
+    ("text", "field", "detail"),
+    [
+        ("dt: 1.0e-320\n", "dt", "greater than or equal to 0.000001"),
+        ("duration: 1.0e308\n", "duration", "less than or equal to 1000000"),
+        ("duration: 1e400\n", "duration", "finite"),
+        ("shaper: {buffer: 1.0e-320}\n", "shaper.buffer", "greater than or equal to 0.000001"),
+        ("shaper: {buffer: 2e6}\n", "shaper.buffer", "less than or equal to 1000000"),
+        ("shaper: {spring_gain: 1e300}\n", "shaper.spring_gain", "less than or equal"),
+        ("shaper: {max_recovery_speed: -.inf}\n", "shaper.max_recovery_speed", "finite"),
+        ("start: [.nan, 0]\n", "start.0", "finite"),
+        ("start: [1e7, 0]\n", "start.0", "less than or equal to 1000000"),
+        ("polygon: [[0, 0], [1, 0], [.inf, 1]]\n", "polygon.2.0", "finite"),
+        ("waypoints: [{t: 0, target: [0, -.inf], speed: 1}]\n", "waypoints.0.target.1", "finite"),
+        ("waypoints: [{t: .nan, target: [0, 0], speed: 1}]\n", "waypoints.0.t", "finite"),
+        ("pushes: [{t0: 0, t1: 1, velocity: [.inf, 0]}]\n", "pushes.0.velocity.0", "finite"),
+        ("noise_std: .inf\n", "noise_std", "finite"),
+        ("noise_std: 0\nseed: -1\n", "seed", "greater than or equal to 0"),
+        ("seed: 18446744073709551616\n", "seed", "less than or equal to"),
+    ],
+)
+def test_out_of_range_numbers_name_the_field(
+    tmp_path: Path, text: str, field: str, detail: str
+) -> None:
+    msg = _refused(_write(tmp_path, text), f"{field}: ", detail)
+    assert msg.startswith("invalid config file ")
+
+
+@pytest.mark.parametrize(
+    ("text", "field", "got"),
+    [
+        ('shaper: {buffer: "0.2"}\n', "shaper.buffer", "got str '0.2'; write numbers without"),
+        ("dt: '0.001'\n", "dt", "got str '0.001'; write numbers without quotes"),
+        ('seed: "3"\n', "seed", "got str '3'; write numbers without quotes"),
+        ('start: ["0.1", 0]\n', "start.0", "got str '0.1'"),
+        ("shaper: {buffer: true}\n", "shaper.buffer", "got bool True"),
+        ("dt: yes\n", "dt", "got bool True"),
+        ("seed: true\n", "seed", "got bool True"),
+        ("seed: 3.0\n", "seed", "valid integer"),
+        ("waypoints: [{t: false, target: [0, 0], speed: 1}]\n", "waypoints.0.t", "got bool"),
+        ("gif: 1\n", "gif", "got int 1"),
+        ('saturate: "true"\n', "saturate", "got str 'true'"),
+        ("methods: exact\n", "methods", "valid list"),
+    ],
+)
+def test_wrong_types_are_refused(tmp_path: Path, text: str, field: str, got: str) -> None:
+    _refused(_write(tmp_path, text), f"{field}: ", got)
+
+
+def test_quoted_numbers_refused_in_overrides_too() -> None:
+    with pytest.raises(InvalidParameter, match=r"shaper\.buffer: .*got str '0\.2'"):
+        load_config(None, shaper={"buffer": "0.2"})
+
+
+def test_numbers_at_the_limits_are_accepted(tmp_path: Path) -> None:
+    path = _write(
+        tmp_path,
+        f"dt: {cfgmod.MIN_DT}\nduration: 0.05\nshaper: {{buffer: {cfgmod.MIN_BUFFER}}}\n"
+        f"start: [{cfgmod.MAX_VALUE}, -{cfgmod.MAX_VALUE}]\nseed: {cfgmod.MAX_SEED}\n",
+    )
+    cfg = load_config(path)
+    assert cfg.dt == cfgmod.MIN_DT
+    assert cfg.shaper.buffer == cfgmod.MIN_BUFFER
+    assert cfg.start == (1e6, -1e6)
+    assert cfg.seed == 2**64 - 1
+
+
+def test_methods_listed_twice_are_refused(tmp_path: Path) -> None:
+    _refused(_write(tmp_path, "methods: [exact, patent, exact]\n"), "methods: ", "['exact']")
+
+
+def test_polygon_corner_count_is_capped(tmp_path: Path) -> None:
+    def poly(n: int) -> str:
+        pts = ", ".join(
+            f"[{math.cos(2 * math.pi * k / n)!r}, {math.sin(2 * math.pi * k / n)!r}]"
+            for k in range(n)
+        )
+        return f"polygon: [{pts}]\n"
+
+    assert len(load_config(_write(tmp_path, poly(1000))).polygon or ()) == 1000
+    _refused(_write(tmp_path, poly(3000)), "polygon: ", "3000 corners", "at most 1000")
+
+
+def test_waypoint_and_push_counts_are_capped(tmp_path: Path) -> None:
+    wps = ", ".join(f"{{t: {k}, target: [0, 0], speed: 1}}" for k in range(1001))
+    _refused(_write(tmp_path, f"waypoints: [{wps}]\n"), "waypoints: ", "1001 waypoints")
+    pushes = ", ".join("{t0: 0, t1: 1, velocity: [0, 0]}" for _ in range(101))
+    _refused(_write(tmp_path, f"pushes: [{pushes}]\n"), "pushes: ", "at most 100")
+
+
+# ----------------------------------------------------------------------------------- run length
+
+
+def test_long_duration_is_refused_with_a_way_out(tmp_path: Path) -> None:
+    path = _write(tmp_path, "duration: 9000\n")
+    _refused(
+        path,
+        "duration=9000 s with dt=0.001 s needs 9e+06 steps",
+        "at most 100,000 are allowed",
+        "--max-steps N",
+        "max_steps=N",
+    )
+    assert load_config(path, max_steps=9_000_000).duration == 9000.0
+
+
+def test_run_length_from_waypoints_is_capped(tmp_path: Path) -> None:
+    path = _write(tmp_path, "waypoints: [{t: 200, target: [0, 0], speed: 1}]\n")
+    _refused(path, "duration (last waypoint t + 1.5 s)=201.5 s", "at most 100,000")
+
+
+def test_tiny_dt_never_overflows(tmp_path: Path) -> None:
+    with pytest.raises(InvalidParameter, match="needs 1e\\+06 steps"):
+        load_config(None, dt=1e-6, duration=1.0)
+
+
+@pytest.mark.parametrize("bad", [0, -1, True, 1.5, "10", cfgmod.MAX_STEPS + 1])
+def test_max_steps_is_validated(bad: object) -> None:
+    with pytest.raises(InvalidParameter, match=r"^max_steps: expected (a positive int|an int)"):
+        load_config(None, max_steps=bad)  # type: ignore[arg-type]
+
+
+def test_check_run_length() -> None:
+    assert check_run_length(1.0, 1e-3) == 1000
+    with pytest.raises(InvalidParameter, match="needs 1e\\+05 steps; at most 99,999"):
+        check_run_length(100.0, 1e-3, max_steps=99_999)
+
+
+# ------------------------------------------------------------------------------ paths and fuzzing
+
+
+def test_path_must_be_a_path() -> None:
+    with pytest.raises(InvalidParameter, match=r"^path: expected a file path"):
+        load_config(42)  # type: ignore[arg-type]
+
+
+@pytest.mark.skipif(not Path("/dev/null").exists(), reason="needs /dev/null")
+def test_device_is_not_a_regular_file() -> None:
+    with pytest.raises(InvalidParameter, match="not a regular file"):
+        load_config("/dev/null")
+
+
+@settings(
+    max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(data=st.binary(max_size=300))
+def test_any_bytes_load_or_raise_invalid_parameter(tmp_path: Path, data: bytes) -> None:
+    path = _write_bytes(tmp_path, data)
+    try:
+        cfg: DemoConfig | str = load_config(path)
+    except InvalidParameter as exc:
+        cfg = str(exc)
+    assert isinstance(cfg, DemoConfig) or "\n" not in cfg
+
+
+_YAMLISH = st.text(alphabet=list("{}[]:,-&*!<>'\"#|. \n\t0123456789eE+abdtnx"), max_size=120)
+
+
+@settings(
+    max_examples=200, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(text=_YAMLISH)
+def test_any_yamlish_text_loads_or_raises_invalid_parameter(tmp_path: Path, text: str) -> None:
+    path = _write(tmp_path, text)
+    try:
+        cfg: DemoConfig | str = load_config(path)
+    except InvalidParameter as exc:
+        cfg = str(exc)
+    assert isinstance(cfg, DemoConfig) or cfg.startswith(("config file", "invalid config file"))

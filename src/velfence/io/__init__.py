@@ -1,9 +1,9 @@
-"""Input/output: validated configuration files.
+"""Input/output: validated configuration files (format: ``docs/config.md``).
 
 Math contract: none; every configuration is validated on load, and a bad file raises
-:class:`~velfence.errors.InvalidParameter` naming the offending field.
+:class:`~velfence.errors.InvalidParameter` naming the offending field before any work starts.
 """
 
-from velfence.io.config import DemoConfig, load_config
+from velfence.io.config import DEFAULT_MAX_STEPS, DemoConfig, check_run_length, load_config
 
-__all__ = ["DemoConfig", "load_config"]
+__all__ = ["DEFAULT_MAX_STEPS", "DemoConfig", "check_run_length", "load_config"]

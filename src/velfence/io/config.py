@@ -1,56 +1,132 @@
 """Validated configuration of the demo scenario (YAML or JSON file, or built-in defaults).
 
-Every field has a unit and a range; a bad file raises :class:`~velfence.errors.InvalidParameter`
-whose message names the field (``waypoints.2.speed: Input should be greater than 0``).
+Every field has a type, a unit and a range; a bad file raises
+:class:`~velfence.errors.InvalidParameter` whose message names the field
+(``waypoints.2.speed: Input should be greater than 0``), before any simulation starts.
+
+The reader is deliberately narrow (the format is documented in ``docs/config.md``):
+
+* at most :data:`MAX_FILE_BYTES` of UTF-8 text, nested at most :data:`MAX_DEPTH` levels;
+* plain YAML only: anchors, aliases, merge keys (``<<``), duplicate keys and the YAML tags that
+  build dates, binary data, sets or ordered pairs are refused, each with its line;
+* numbers must be written as numbers (``"0.2"`` and ``true`` are not a buffer width), finite
+  (``.nan``, ``.inf`` refused) and at most :data:`MAX_VALUE` in magnitude;
+* unknown keys are refused; lists are capped (:data:`MAX_CORNERS`, :data:`MAX_WAYPOINTS`,
+  :data:`MAX_PUSHES`), and the run length ``duration / dt`` is capped at ``max_steps``
+  (:data:`DEFAULT_MAX_STEPS` unless the caller raises it).
 """
 
 from __future__ import annotations
 
 import math
+import os
+import re
+import stat
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import TYPE_CHECKING, Annotated, Any, Literal, NoReturn
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    Strict,
+    ValidationError,
+    field_validator,
+    model_validator,
+)
 
+from velfence._validate import MAX_STEPS, _show, check_positive_int, step_count
 from velfence.errors import InvalidParameter
 
-__all__ = ["DemoConfig", "PushSpec", "ShaperSettings", "WaypointSpec", "load_config"]
+if TYPE_CHECKING:
+    import yaml
 
-Pair = tuple[float, float]
+__all__ = [
+    "DEFAULT_MAX_STEPS",
+    "MAX_CORNERS",
+    "MAX_DEPTH",
+    "MAX_FILE_BYTES",
+    "MAX_PUSHES",
+    "MAX_VALUE",
+    "MAX_WAYPOINTS",
+    "MIN_BUFFER",
+    "MIN_DT",
+    "DemoConfig",
+    "PushSpec",
+    "ShaperSettings",
+    "WaypointSpec",
+    "check_run_length",
+    "load_config",
+]
+
+#: Largest accepted config file [bytes] (a full scenario with 1000 corners is about 50 KiB).
+MAX_FILE_BYTES = 1024 * 1024
+#: Deepest accepted nesting of the YAML document (the schema itself needs 4 levels).
+MAX_DEPTH = 16
+#: Most corners accepted in ``polygon``.
+MAX_CORNERS = 1000
+#: Most entries accepted in ``waypoints``.
+MAX_WAYPOINTS = 1000
+#: Most entries accepted in ``pushes``.
+MAX_PUSHES = 100
+#: Largest magnitude of any number in the file, in the field's own unit ([rad], [s], [rad/s],
+#: [1/s]): far beyond any wrist scenario, small enough that no product of two fields overflows.
+MAX_VALUE = 1e6
+#: Smallest accepted ``shaper.buffer`` [rad] (a micro-radian, below any joint encoder's step).
+MIN_BUFFER = 1e-6
+#: Smallest accepted ``dt`` [s] (a 1 MHz control loop; no velocity loop runs faster).
+MIN_DT = 1e-6
+#: Default cap on the steps of one simulated run (``duration / dt``): 100 s at 1 kHz, about ten
+#: times the built-in scenario. Every method runs that many steps; raise it with ``max_steps``
+#: (``velfence demo --max-steps N``) when a longer run is really wanted.
+DEFAULT_MAX_STEPS = 100_000
+#: Largest accepted ``seed`` (NumPy seeds are non-negative; 64 bits is plenty).
+MAX_SEED = 2**64 - 1
+
 Method = Literal["none", "hard-stop", "axis-limits", "patent", "exact"]
 ALL_METHODS: tuple[Method, ...] = ("none", "hard-stop", "axis-limits", "patent", "exact")
 
+# Numbers written as numbers only (Strict: no "0.2", no true), finite, bounded by MAX_VALUE.
+Number = Annotated[float, Strict(), Field(allow_inf_nan=False, ge=-MAX_VALUE, le=MAX_VALUE)]
+Positive = Annotated[float, Strict(), Field(allow_inf_nan=False, gt=0, le=MAX_VALUE)]
+NonNegative = Annotated[float, Strict(), Field(allow_inf_nan=False, ge=0, le=MAX_VALUE)]
+Pair = tuple[Number, Number]
+
 
 class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 
 class ShaperSettings(_Strict):
     """Tuning shared by the shapers of the demo (workspace units are [rad] on the wrist)."""
 
-    buffer: Annotated[float, Field(gt=0, description="buffer width d_max [rad]")] = 0.08
-    spring_gain: Annotated[float, Field(ge=0, description="virtual spring gain k [1/s]")] = 8.0
+    buffer: Annotated[
+        float,
+        Strict(),
+        Field(ge=MIN_BUFFER, le=MAX_VALUE, description="buffer width d_max [rad]"),
+    ] = 0.08
+    spring_gain: Annotated[NonNegative, Field(description="virtual spring gain k [1/s]")] = 8.0
     corner_blend_angle: Annotated[
-        float, Field(gt=0, lt=math.pi, description="patent θ_max [rad]")
+        float, Strict(), Field(gt=0, lt=math.pi, description="patent θ_max [rad]")
     ] = 0.3
     max_recovery_speed: Annotated[
-        float | None, Field(gt=0, description="exact: cap on recovery speed [rad/s]")
+        Positive | None, Field(description="exact: cap on recovery speed [rad/s]")
     ] = None
 
 
 class WaypointSpec(_Strict):
     """From time ``t`` [s] the operator heads for ``target`` [rad] at up to ``speed`` [rad/s]."""
 
-    t: Annotated[float, Field(ge=0)]
+    t: NonNegative
     target: Pair
-    speed: Annotated[float, Field(gt=0)]
+    speed: Positive
 
 
 class PushSpec(_Strict):
     """An external velocity disturbance ``velocity`` [rad/s] during ``[t0, t1)`` [s]."""
 
-    t0: Annotated[float, Field(ge=0)]
-    t1: Annotated[float, Field(gt=0)]
+    t0: NonNegative
+    t1: Positive
     velocity: Pair
 
     @model_validator(mode="after")
@@ -61,7 +137,7 @@ class PushSpec(_Strict):
 
 
 class DemoConfig(_Strict):
-    """The demo scenario. Fields left out take the built-in defaults.
+    """The demo scenario. Fields left out take the built-in defaults (see ``docs/config.md``).
 
     ``polygon: null`` means the wrist's default polygon; ``start``, ``waypoints`` and ``pushes``
     left null are generated from the polygon's features (longest edge, most acute and most obtuse
@@ -71,60 +147,321 @@ class DemoConfig(_Strict):
     polygon: list[Pair] | None = None
     shaper: ShaperSettings = ShaperSettings()
     methods: list[Method] = Field(default_factory=lambda: list(ALL_METHODS), min_length=1)
-    dt: Annotated[float, Field(gt=0, le=0.1, description="control period [s]")] = 1e-3
-    duration: Annotated[float | None, Field(gt=0, description="[s]")] = None
+    dt: Annotated[
+        float,
+        Strict(),
+        Field(ge=MIN_DT, le=0.1, allow_inf_nan=False, description="control period [s]"),
+    ] = 1e-3
+    duration: Annotated[Positive | None, Field(description="[s]")] = None
     start: Pair | None = None
     waypoints: list[WaypointSpec] | None = None
-    pushes: list[PushSpec] | None = None
-    noise_std: Annotated[float, Field(ge=0, description="position noise [rad]")] = 0.0
-    seed: int = 0
-    saturate: bool = True
-    gif: bool = True
+    pushes: Annotated[list[PushSpec] | None, Field(max_length=MAX_PUSHES)] = None
+    noise_std: Annotated[NonNegative, Field(description="position noise [rad]")] = 0.0
+    seed: Annotated[int, Strict(), Field(ge=0, le=MAX_SEED)] = 0
+    saturate: Annotated[bool, Strict()] = True
+    gif: Annotated[bool, Strict()] = True
 
-    @model_validator(mode="after")
-    def _check(self) -> DemoConfig:
-        if self.polygon is not None and len(self.polygon) < 3:
-            raise ValueError(f"polygon needs at least 3 corners, got {len(self.polygon)}")
-        if self.waypoints is not None:
-            if not self.waypoints:
-                raise ValueError("waypoints must not be empty (leave it out for the default)")
-            ts = [w.t for w in self.waypoints]
-            if ts != sorted(ts):
-                raise ValueError(f"waypoints must be in time order, got t = {ts}")
-        return self
+    @field_validator("polygon")
+    @classmethod
+    def _corner_count(cls, value: list[Pair] | None) -> list[Pair] | None:
+        if value is not None and len(value) < 3:
+            raise ValueError(f"polygon needs at least 3 corners, got {len(value)}")
+        if value is not None and len(value) > MAX_CORNERS:
+            raise ValueError(
+                f"polygon has {len(value)} corners; at most {MAX_CORNERS} are accepted"
+            )
+        return value
+
+    @field_validator("methods")
+    @classmethod
+    def _distinct(cls, value: list[Method]) -> list[Method]:
+        twice = sorted({m for m in value if value.count(m) > 1})
+        if twice:
+            raise ValueError(f"each method may be listed once, got {twice} more than once")
+        return value
+
+    @field_validator("waypoints")
+    @classmethod
+    def _in_time_order(cls, value: list[WaypointSpec] | None) -> list[WaypointSpec] | None:
+        if value is None:
+            return value
+        if not value:
+            raise ValueError("waypoints must not be empty (leave it out for the default)")
+        if len(value) > MAX_WAYPOINTS:
+            raise ValueError(f"{len(value)} waypoints given; at most {MAX_WAYPOINTS} are accepted")
+        ts = [w.t for w in value]
+        if ts != sorted(ts):
+            raise ValueError(f"waypoints must be in time order, got t = {ts}")
+        return value
+
+
+def check_run_length(
+    duration: float,
+    dt: float,
+    *,
+    max_steps: int = DEFAULT_MAX_STEPS,
+    duration_name: str = "duration",
+) -> int:
+    """The number of steps of one demo run, refused above ``max_steps``.
+
+    Args:
+        duration: Simulated time [s].
+        dt: Control period [s].
+        max_steps: Largest accepted ``duration / dt`` (``1 <= max_steps <= 10⁸``).
+        duration_name: How the duration is named in messages.
+
+    Returns:
+        The number of steps.
+
+    Raises:
+        InvalidParameter: too many steps (the message says how to allow more), or bad values.
+    """
+    limit = check_positive_int("max_steps", max_steps, maximum=MAX_STEPS, example=DEFAULT_MAX_STEPS)
+    try:
+        return step_count(duration_name, duration, "dt", dt, max_steps=limit)
+    except InvalidParameter as exc:
+        raise InvalidParameter(
+            f"{exc} (every method runs that many steps; if a longer run is really wanted, "
+            f"allow it with --max-steps N on the command line or max_steps=N in Python)"
+        ) from None
 
 
 def _describe(err: ValidationError) -> str:
     lines = []
     for e in err.errors():
         loc = ".".join(str(x) for x in e["loc"]) or "(top level)"
-        lines.append(f"{loc}: {e['msg']}")
+        msg = e["msg"]
+        if e["type"] == "value_error":  # our own check: its message stands on its own
+            msg = str(e.get("ctx", {}).get("error", msg.removeprefix("Value error, ")))
+        elif e["type"].endswith("_type") and "input" in e:  # wrong type: say what was got
+            got = e["input"]
+            msg += f", got {type(got).__name__} {_show(got, 40)}"
+            if isinstance(got, str) and _numeric_text(got):
+                msg += "; write numbers without quotes"
+        lines.append(f"{loc}: {msg}")
     return "; ".join(lines)
 
 
-def load_config(path: str | Path | None = None, **overrides: Any) -> DemoConfig:
+def _numeric_text(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def _path(path: Any) -> Path:
+    if isinstance(path, Path):
+        return path
+    if isinstance(path, str) or (isinstance(path, os.PathLike) and not isinstance(path, bytes)):
+        return Path(path)
+    raise InvalidParameter(f"path: expected a file path (str or Path), got {type(path).__name__}")
+
+
+def _read_text(p: Path) -> str:
+    """The file's text: a regular file of at most MAX_FILE_BYTES, UTF-8 (BOM allowed)."""
+    try:
+        st = p.stat()
+    except OSError as exc:
+        raise InvalidParameter(f"cannot read config file {p}: {exc.strerror}") from None
+    if stat.S_ISDIR(st.st_mode):
+        raise InvalidParameter(f"cannot read config file {p}: it is a directory, not a file")
+    if not stat.S_ISREG(st.st_mode):
+        # A FIFO or device (/dev/zero) could block or never end.
+        raise InvalidParameter(f"cannot read config file {p}: not a regular file")
+    if st.st_size > MAX_FILE_BYTES:
+        raise InvalidParameter(
+            f"config file {p} is {st.st_size:,} bytes; at most {MAX_FILE_BYTES:,} are accepted"
+        )
+    try:
+        with p.open("rb") as fh:
+            raw = fh.read(MAX_FILE_BYTES + 1)  # the file may have grown since stat()
+    except OSError as exc:
+        raise InvalidParameter(f"cannot read config file {p}: {exc.strerror}") from None
+    if len(raw) > MAX_FILE_BYTES:
+        raise InvalidParameter(f"config file {p} is larger than {MAX_FILE_BYTES:,} bytes")
+    try:
+        return raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        line = raw.count(b"\n", 0, exc.start) + 1
+        column = exc.start - (raw.rfind(b"\n", 0, exc.start) + 1) + 1
+        bad = raw[exc.start : exc.end].hex(" ")
+        raise InvalidParameter(
+            f"config file {p} is not UTF-8 text: byte(s) {bad} at line {line}, column {column}; "
+            "save the file as UTF-8"
+        ) from None
+
+
+def _yaml_error_text(exc: Exception) -> str:
+    """One line: 'line L, column C: problem (context)' for a marked YAML error."""
+    import yaml
+
+    if isinstance(exc, yaml.MarkedYAMLError) and exc.problem_mark is not None:
+        mark = exc.problem_mark
+        text = f"line {mark.line + 1}, column {mark.column + 1}: {exc.problem}"
+        if exc.context:
+            text += f" ({exc.context}"
+            if exc.context_mark is not None and exc.context_mark.line != mark.line:
+                text += f" at line {exc.context_mark.line + 1}"
+            text += ")"
+        return " ".join(text.split())
+    return " ".join(str(exc).split())
+
+
+_LOADER: type[yaml.SafeLoader] | None = None
+_REFUSED: type[yaml.MarkedYAMLError] | None = None
+
+
+def _refused_error() -> type[yaml.MarkedYAMLError]:
+    """The error of well-formed YAML that the config reader does not accept (aliases, ...)."""
+    global _REFUSED
+    if _REFUSED is None:
+        import yaml
+
+        class Refused(yaml.MarkedYAMLError):
+            pass
+
+        _REFUSED = Refused
+    return _REFUSED
+
+
+def _loader() -> type[yaml.SafeLoader]:
+    """The SafeLoader subclass of the config reader (built once, on first use)."""
+    global _LOADER
+    if _LOADER is not None:
+        return _LOADER
+    import yaml
+
+    refused = _refused_error()
+
+    def stop(problem: str, mark: Any) -> NoReturn:
+        raise refused(None, None, problem, mark)
+
+    def _refuse(what: str) -> Any:
+        def construct(loader: yaml.SafeLoader, node: yaml.Node) -> Any:
+            stop(f"{what} ({node.tag}) are not accepted in a config file", node.start_mark)
+
+        return construct
+
+    class Loader(yaml.SafeLoader):
+        """Plain YAML: no aliases or anchors, no duplicate or merge keys, bounded nesting."""
+
+        def __init__(self, stream: str) -> None:
+            super().__init__(stream)
+            self._depth = 0
+
+        def compose_node(self, parent: yaml.Node | None, index: Any) -> yaml.Node | None:
+            event = self.peek_event()  # type: ignore[no-untyped-call]
+            if isinstance(event, yaml.AliasEvent):
+                stop(
+                    f"aliases (*{event.anchor}) are not accepted in a config file; write the "
+                    "value out",
+                    event.start_mark,
+                )
+            anchor = getattr(event, "anchor", None)
+            if anchor is not None:
+                stop(
+                    f"anchors (&{anchor}) are not accepted in a config file; write the value out",
+                    event.start_mark,
+                )
+            if self._depth >= MAX_DEPTH:
+                stop(
+                    f"nesting deeper than {MAX_DEPTH} levels is not accepted in a config file",
+                    event.start_mark,
+                )
+            self._depth += 1
+            try:
+                return super().compose_node(parent, index)
+            finally:
+                self._depth -= 1
+
+        def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict[Any, Any]:
+            first: dict[Any, int] = {}
+            for key_node, _ in node.value:
+                if key_node.tag == "tag:yaml.org,2002:merge":
+                    stop(
+                        "merge keys (<<) are not accepted in a config file; write the keys out",
+                        key_node.start_mark,
+                    )
+                key = self.construct_object(key_node, deep=True)
+                try:
+                    seen = key in first
+                except TypeError:
+                    stop("a key must be a plain value", key_node.start_mark)
+                if seen:
+                    stop(
+                        f"duplicate key {key!r} (first at line {first[key]}); each key may "
+                        "appear once",
+                        key_node.start_mark,
+                    )
+                first[key] = key_node.start_mark.line + 1
+            return super().construct_mapping(node, deep)
+
+        def construct_yaml_int(self, node: yaml.ScalarNode) -> int:
+            try:
+                return super().construct_yaml_int(node)
+            except ValueError:  # more digits than Python converts (sys.get_int_max_str_digits)
+                stop("integer with too many digits", node.start_mark)
+
+    Loader.add_constructor("tag:yaml.org,2002:int", Loader.construct_yaml_int)
+    # YAML 1.1 (PyYAML) reads 1e-3 and 1.0e308 as strings (it wants a dot and a signed
+    # exponent); numbers in exponent notation are numbers here, as in YAML 1.2 and JSON.
+    Loader.add_implicit_resolver(
+        "tag:yaml.org,2002:float",
+        re.compile(r"^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?|\.[0-9_]+)[eE][-+]?[0-9]+$"),
+        list("-+0123456789."),
+    )
+    for tag, what in (
+        ("timestamp", "dates and times"),
+        ("binary", "binary values"),
+        ("set", "sets"),
+        ("omap", "ordered maps"),
+        ("pairs", "pair lists"),
+    ):
+        Loader.add_constructor(f"tag:yaml.org,2002:{tag}", _refuse(what))
+    _LOADER = Loader
+    return Loader
+
+
+def _parse(p: Path, text: str) -> Any:
+    import yaml
+
+    try:
+        return yaml.load(text, Loader=_loader())
+    except _refused_error() as exc:
+        raise InvalidParameter(f"config file {p}, {_yaml_error_text(exc)}") from None
+    except yaml.YAMLError as exc:
+        raise InvalidParameter(
+            f"config file {p} is not valid YAML: {_yaml_error_text(exc)}"
+        ) from None
+    except RecursionError:  # belt and braces: nesting is capped in compose_node
+        raise InvalidParameter(
+            f"config file {p} is nested too deeply (at most {MAX_DEPTH} levels)"
+        ) from None
+
+
+def load_config(
+    path: str | Path | None = None, *, max_steps: int = DEFAULT_MAX_STEPS, **overrides: Any
+) -> DemoConfig:
     """Load and validate a demo configuration.
 
     Args:
-        path: A YAML (or JSON) file; None for the built-in defaults.
+        path: A YAML (or JSON) file; None for the built-in defaults. The format, every field and
+            its limits are documented in ``docs/config.md``.
+        max_steps: Largest accepted number of steps of one run (``duration / dt``); default
+            :data:`DEFAULT_MAX_STEPS`, at most 10⁸.
         **overrides: Top-level fields that replace the file's.
 
     Raises:
-        InvalidParameter: the file is missing, not YAML, or a field is invalid (named).
+        InvalidParameter: the file is missing, too large, not UTF-8, not plain YAML, or a field
+            is invalid (named); the run would be longer than ``max_steps``.
     """
-    data: dict[str, Any] = {}
+    limit = check_positive_int("max_steps", max_steps, maximum=MAX_STEPS, example=DEFAULT_MAX_STEPS)
+    data: dict[Any, Any] = {}
+    p: Path | None = None
     if path is not None:
-        import yaml
-
-        p = Path(path)
-        try:
-            text = p.read_text()
-        except OSError as exc:
-            raise InvalidParameter(f"cannot read config file {p}: {exc.strerror}") from None
-        try:
-            loaded = yaml.safe_load(text)
-        except yaml.YAMLError as exc:
-            raise InvalidParameter(f"config file {p} is not valid YAML: {exc}") from None
+        p = _path(path)
+        loaded = _parse(p, _read_text(p))
         if loaded is None:
             loaded = {}
         if not isinstance(loaded, dict):
@@ -133,8 +470,23 @@ def load_config(path: str | Path | None = None, **overrides: Any) -> DemoConfig:
             )
         data = loaded
     data.update(overrides)
+    where = f"config file {p}" if p is not None else "config"
     try:
-        return DemoConfig.model_validate(data)
+        cfg = DemoConfig.model_validate(data)
     except ValidationError as err:
-        where = f"config file {path}" if path is not None else "config"
         raise InvalidParameter(f"invalid {where}: {_describe(err)}") from None
+    # The run length is known here unless it comes from the default script; then run_demo
+    # checks it once the script is built, still before any step is simulated.
+    try:
+        if cfg.duration is not None:
+            check_run_length(cfg.duration, cfg.dt, max_steps=limit)
+        elif cfg.waypoints is not None:
+            check_run_length(
+                cfg.waypoints[-1].t + 1.5,
+                cfg.dt,
+                max_steps=limit,
+                duration_name="duration (last waypoint t + 1.5 s)",
+            )
+    except InvalidParameter as exc:
+        raise InvalidParameter(f"invalid {where}: {exc}") from None
+    return cfg
