@@ -479,3 +479,16 @@ def rigid_transform(name: str, T: Any, *, tol: float = 1e-6) -> NDArray[np.float
             f"|RᵀR - I| = {err:.3g}, det = {det:.6g}; re-orthonormalise the rotation"
         )
     return a
+
+
+def check_flag(name: str, value: Any) -> bool:
+    """A boolean switch: ``True``/``False`` (or NumPy booleans) only.
+
+    Raises:
+        InvalidParameter: anything else (``1``, ``"yes"``, ``None`` are not switches).
+    """
+    from velfence.errors import InvalidParameter
+
+    if not isinstance(value, (bool, np.bool_)):
+        raise InvalidParameter(f"{name}: expected True or False, got {_type_text(value)}")
+    return bool(value)
