@@ -148,7 +148,9 @@ class TestBufferLimit:
     def test_buffer_wider_than_the_inradius_is_refused(self) -> None:
         box = ConvexPolygon([[0, 0], [2, 0], [2, 1], [0, 1]])  # inradius 0.5
         assert box.inradius == pytest.approx(0.5, rel=1e-12)
-        with pytest.raises(InvalidParameter, match=r"buffer=5 .*inradius.* is 0\.5.*buffer <= 0\.5"):
+        with pytest.raises(
+            InvalidParameter, match=r"buffer=5 .*inradius.* is 0\.5.*buffer <= 0\.5"
+        ):
             PolygonShaper(box, buffer=5)
         with pytest.raises(InvalidParameter, match="inradius"):
             PolygonShaper(box, buffer=0.6, method="patent")
@@ -192,7 +194,9 @@ class TestDiscreteTime:
             a = rng.uniform(0, 2 * np.pi)
             s = rng.uniform(0.5, 10.0)
             cmd = np.array([s * math.cos(a), s * math.sin(a)])
-            tr = simulate(sh, lambda t, p, c=cmd: c, rng.uniform(0.1, 0.9, 2), duration=2.0, dt=0.05)
+            tr = simulate(
+                sh, lambda t, p, c=cmd: c, rng.uniform(0.1, 0.9, 2), duration=2.0, dt=0.05
+            )
             d = UNIT.signed_distances(tr.p).min()
             assert d >= -1e-15, (trial, cmd.tolist(), d)
 
@@ -304,3 +308,70 @@ def test_caster_wall_closed_loop_never_leaves(poly: ConvexPolygon, seed: int, dt
     cmd = rng.normal(size=2) * 3.0
     tr = simulate(wall, lambda t, p: cmd, poly.incenter, duration=20 * dt, dt=dt)
     assert poly.signed_distances(tr.p).min() >= -1e-12
+
+
+# ---------------------------------------------------------------------------- 8. inputs
+def _two_d_shapers(on_invalid: str) -> list[object]:
+    from velfence.sim import AxisLimits, HardStop, NoLimit
+
+    rect = UNIT.inscribed_rectangle()
+    return [
+        PolygonShaper(UNIT, buffer=0.1, on_invalid=on_invalid),
+        PolygonShaper(UNIT, buffer=0.1, method="patent", on_invalid=on_invalid),
+        PolygonShaper(UNIT, buffer=0.1, dt=0.05, on_invalid=on_invalid),
+        CasterWall(UNIT, buffer=0.1, on_invalid=on_invalid),
+        HardStop(UNIT, dt=0.01, on_invalid=on_invalid),
+        AxisLimits(rect, buffer=0.1, on_invalid=on_invalid),
+        NoLimit(on_invalid=on_invalid),
+    ]
+
+
+BAD_PAIRS = [
+    "12",
+    b"\x01\x02",
+    {0: 5, 1: 7},
+    np.array([1 + 1j, 2]),
+    np.array([object(), object()]),
+    np.array(["2020-01-01", "2020-01-02"], dtype="datetime64[D]"),
+    np.array(["1", "2"]),
+    [True, False],
+    None,
+    [1.0, 2.0, 3.0],
+]
+
+
+@pytest.mark.parametrize("on_invalid", ["raise", "stop"])
+@pytest.mark.parametrize(
+    "bad", BAD_PAIRS, ids=lambda b: type(b).__name__ + str(getattr(b, "dtype", ""))
+)
+def test_type_errors_raise_for_every_2d_shaper(on_invalid: str, bad: object) -> None:
+    from velfence import InvalidInput
+
+    for sh in _two_d_shapers(on_invalid):
+        for call in ("shape", "explain"):
+            with pytest.raises(InvalidInput, match="position"):
+                getattr(sh, call)(bad, [0.0, 0.0])
+            with pytest.raises(InvalidInput, match="command"):
+                getattr(sh, call)([0.5, 0.5], bad)
+        with pytest.raises(InvalidInput, match="positions"):
+            sh.shape_batch([bad], [[0.0, 0.0]])  # type: ignore[attr-defined]
+        with pytest.raises(InvalidInput, match="commands"):
+            sh.shape_batch([[0.5, 0.5]], [bad])  # type: ignore[attr-defined]
+
+
+def test_tuning_parameters_are_keyword_only_and_validated() -> None:
+    import inspect
+
+    for cls in (PolygonShaper, CasterWall):
+        params = list(inspect.signature(cls).parameters.values())
+        assert [p.kind for p in params[1:]] == [inspect.Parameter.KEYWORD_ONLY] * (len(params) - 1)
+    for name in ("buffer", "spring_gain", "corner_blend_angle", "max_recovery_speed", "dt"):
+        for bad in ("0.2", True, 1j, None if name == "buffer" else "x"):
+            with pytest.raises(InvalidParameter, match=name):
+                PolygonShaper(UNIT, **{"buffer": 0.1, name: bad})  # type: ignore[arg-type]
+    for bad_flag in (1, "yes", None):
+        with pytest.raises(InvalidParameter, match="accelerate"):
+            PolygonShaper(UNIT, buffer=0.1, accelerate=bad_flag)  # type: ignore[arg-type]
+    for name in ("buffer", "recovery_gain", "dt"):
+        with pytest.raises(InvalidParameter, match=name):
+            CasterWall(UNIT, **{"buffer": 0.1, name: "0.2"})  # type: ignore[arg-type]

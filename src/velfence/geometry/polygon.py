@@ -21,6 +21,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from velfence._validate import (
     MAX_MAGNITUDE,
+    check_flag,
     check_positive,
     check_positive_int,
     finite_scalar,
@@ -446,8 +447,9 @@ def polygon_from_halfplanes(
     Raises:
         InvalidGeometry: wrong shapes, zero normals, unbounded region, redundant half-planes.
     """
-    Aa = np.asarray(A, dtype=float)
-    ca = np.asarray(c, dtype=float)
+    allow_redundant = check_flag("allow_redundant", allow_redundant)
+    Aa = real_array("A", A, error=InvalidGeometry, what="half-plane normals of shape (m, 2)")
+    ca = real_array("c", c, error=InvalidGeometry, what="offsets of shape (m,)")
     if Aa.ndim != 2 or Aa.shape[1] != 2 or Aa.shape[0] < 3 or ca.shape != (Aa.shape[0],):
         raise InvalidGeometry(
             f"expected A of shape (m, 2) with m >= 3 and c of shape (m,), got {Aa.shape} and "
@@ -764,7 +766,7 @@ def _chebyshev(
     def inner(x: float) -> float:
         base = nx * x - offsets
         if small:
-            pairs = list(zip(base.tolist(), nyl, strict=True))
+            pairs: list[tuple[float, float]] = list(zip(base.tolist(), nyl, strict=True))
 
             def f(y: float) -> float:
                 return min(b + s * y for b, s in pairs)
