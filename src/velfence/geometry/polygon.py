@@ -50,34 +50,32 @@ def decompose(v: ArrayLike, n: ArrayLike) -> tuple[float, FloatArray]:
     This is the one normal/tangential decomposition of the library: ``v = vn * n + vt``.
 
     Args:
-        v: Velocity, shape (2,) (any units, e.g. [rad/s]).
-        n: Unit normal, shape (2,).
+        v: Velocity, shape (k,) (2-D or 3-D; any units, e.g. [rad/s]).
+        n: Unit normal, the same shape as ``v``.
 
     Returns:
         ``(vn, vt)``: the signed normal speed (positive along ``n``) and the tangential vector,
-        shape (2,).
+        shape (k,).
 
     Raises:
-        InvalidInput: ``v`` or ``n`` not a finite real 2-vector (the message names which).
+        InvalidInput: ``v`` or ``n`` not a finite real vector, or of different shapes (the
+            message names which).
     """
-    va = _vec2("v", v)
-    na = _vec2("n", n)
+    va = _vector("v", v)
+    na = _vector("n", n)
+    if va.shape != na.shape:
+        raise InvalidInput(f"n: expected the shape of v, {va.shape}, got shape {na.shape}")
     vn = float(va @ na)
     return vn, va - vn * na
 
 
-def _vec2(name: str, x: ArrayLike) -> FloatArray:
-    """A finite real 2-vector; fast path for a finite float64 ndarray of shape (2,)."""
-    if (
-        type(x) is np.ndarray
-        and x.shape == (2,)
-        and x.dtype.char == "d"
-        and math.isfinite(float(x[0]) + float(x[1]))
-        and abs(float(x[0])) <= MAX_MAGNITUDE
-        and abs(float(x[1])) <= MAX_MAGNITUDE
-    ):
-        return x
-    return real_array(name, x, (2,), what="a 2-vector of real numbers")
+def _vector(name: str, x: ArrayLike) -> FloatArray:
+    """A finite real vector, shape (k,); fast path for a finite float64 ndarray (hot loops)."""
+    if type(x) is np.ndarray and x.ndim == 1 and x.dtype.char == "d":
+        big = float(np.max(np.abs(x))) if x.size else 0.0
+        if big <= MAX_MAGNITUDE:  # False for NaN as well
+            return x
+    return real_array(name, x, (None,), what="a vector of real numbers")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -130,7 +128,7 @@ class Rectangle:
 
     def contains(self, p: ArrayLike) -> bool:
         """Whether point ``p`` (shape (2,)) lies in the closed rectangle."""
-        x, y = _vec2("p", p).tolist()
+        x, y = real_array("p", p, (2,), what="a point of 2 real numbers").tolist()
         return bool(self.xmin <= x <= self.xmax and self.ymin <= y <= self.ymax)
 
 

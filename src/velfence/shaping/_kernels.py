@@ -384,6 +384,8 @@ def exact_kernel(
         elif d < d2:
             d2 = d
             p2 = e
+    if m == 0 and idt == 0.0:
+        return vx, vy, ZONE_FREE, p1, p2, d1, d2, 0.0, 0.0, 0
     # |v| scaled by its largest component (not math.hypot, whose numba and CPython results differ
     # in the last bit).
     big = abs(vx) if abs(vx) > abs(vy) else abs(vy)
