@@ -189,7 +189,9 @@ class CasterWall(ShaperBase):
             zone = ZONE_BUFFER if m == 1 else ZONE_CORNER
         if m == 0 or speed == 0.0:
             line = (vx / speed, vy / speed) if speed > 0.0 else (0.0, 0.0)
-            return (vx, vy, zone, p1, p2, d1, d2, 0.0, 0.0, 0), line
+            # No intent: the device stays put, which cannot meet a recovery bound (> 0).
+            st = STAGE_RELAXED if any(r[2] > 0.0 for r in rows) else 0
+            return (vx, vy, zone, p1, p2, d1, d2, 0.0, 0.0, st), line
         psi = math.atan2(vy, vx)
         stages = STAGE_PROJECT
         bounds = [(r[0], r[1], r[2]) for r in rows]
