@@ -126,17 +126,21 @@ def test_hardstop_deadlocks_outside():
 
 def test_axis_limits_validation():
     with pytest.raises(vf.InvalidParameter, match=r"buffer must be finite and > 0.*got 0"):
-        AxisLimits(vf.Rectangle(0, 1, 0, 1), buffer=0)
+        AxisLimits(vf.Rectangle(xmin=0, xmax=1, ymin=0, ymax=1), buffer=0)
     with pytest.raises(vf.InvalidParameter, match=r"spring_gain must be finite and >= 0"):
-        AxisLimits(vf.Rectangle(0, 1, 0, 1), buffer=0.1, spring_gain=-1)
+        AxisLimits(vf.Rectangle(xmin=0, xmax=1, ymin=0, ymax=1), buffer=0.1, spring_gain=-1)
+    with pytest.raises(vf.InvalidGeometry, match=r"xmin <= xmax, got xmin=1.0, xmax=0.0"):
+        vf.Rectangle(xmin=1, xmax=0, ymin=0, ymax=1)  # was accepted, with area -1
     with pytest.raises(vf.InvalidGeometry, match=r"xmin < xmax"):
-        AxisLimits(vf.Rectangle(1, 0, 0, 1), buffer=0.1)
+        AxisLimits(vf.Rectangle(xmin=1, xmax=1, ymin=0, ymax=1), buffer=0.1)
     with pytest.raises(vf.InvalidParameter, match=r"rectangle must be a velfence.Rectangle"):
         AxisLimits((0, 1, 0, 1), buffer=0.1)  # type: ignore[arg-type]
 
 
 def test_axis_limits_per_axis_law():
-    al = AxisLimits(vf.Rectangle(0.0, 1.0, 0.0, 2.0), buffer=0.5, spring_gain=4.0)
+    al = AxisLimits(
+        vf.Rectangle(xmin=0.0, xmax=1.0, ymin=0.0, ymax=2.0), buffer=0.5, spring_gain=4.0
+    )
     # x: 0.25 from xmax, moving +x: scaled by 0.5; y free
     r = al.explain([0.75, 1.0], [1.0, 1.0])
     np.testing.assert_allclose(r.output, [0.5, 1.0])
@@ -160,7 +164,7 @@ def test_axis_limits_inscribed_uses_polygon_rectangle():
 
 
 def test_axis_limits_stays_in_rectangle_closed_loop():
-    rect = vf.Rectangle(0.0, 1.0, 0.0, 0.5)
+    rect = vf.Rectangle(xmin=0.0, xmax=1.0, ymin=0.0, ymax=0.5)
     al = AxisLimits(rect, buffer=0.1)
     traj = simulate(al, lambda t, p: np.array([0.8, 0.6]), [0.2, 0.1], duration=3.0, dt=2e-3)
     x, y = traj.p.T
@@ -169,3 +173,24 @@ def test_axis_limits_stays_in_rectangle_closed_loop():
     assert x[-1] > 0.99
     assert y[-1] > 0.49
     assert set(traj.zone) <= {"free", "buffer", "corner"}
+
+
+def test_baseline_parameters_are_validated_and_keyword_only():
+    import inspect
+
+    poly = vf.ConvexPolygon([[0, 0], [1, 0], [1, 1], [0, 1]])
+    rect = vf.Rectangle(xmin=0, xmax=1, ymin=0, ymax=1)
+    for bad in ("0.2", True, None, 1j):
+        with pytest.raises(vf.InvalidParameter, match="buffer"):
+            AxisLimits(rect, buffer=bad)  # type: ignore[arg-type]
+        with pytest.raises(vf.InvalidParameter, match="dt"):
+            HardStop(poly, dt=bad)  # type: ignore[arg-type]
+    for cls in (AxisLimits, HardStop, NoLimit, vf.Rectangle):
+        for prm in inspect.signature(cls).parameters.values():
+            if prm.default is not inspect.Parameter.empty:
+                assert prm.kind is inspect.Parameter.KEYWORD_ONLY, (cls, prm.name)
+    with pytest.raises(TypeError):
+        vf.Rectangle(0, 1, 0, 1)  # type: ignore[misc]
+    for bad_value in ("1", True, math.nan, 1e200):
+        with pytest.raises(vf.InvalidGeometry, match="xmax"):
+            vf.Rectangle(xmin=0, xmax=bad_value, ymin=0, ymax=1)  # type: ignore[arg-type]

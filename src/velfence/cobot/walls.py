@@ -92,12 +92,24 @@ class CasterWall(ShaperBase):
         recovery_gain: Outside the wall, tilt the allowed direction inward as the exact shaper's
             recovery floor ``k·penetration`` would [1/s], >= 0 (0: no tilt). The device still
             only moves when and as fast as the human pushes along that direction.
+        dt: Control period [s], > 0, or None (default: continuous-time bounds, so a loop that
+            holds the realised velocity for ``dt`` may overshoot by up to ``|v|·dt`` per
+            step). With ``dt`` the bounds are those of ``PolygonShaper(..., dt=dt)``: the
+            approach to every edge per period is at most the remaining distance, so one
+            explicit-Euler step from inside never leaves.
         on_invalid: ``"raise"`` (default) or ``"stop"`` (zero velocity) for non-finite input.
 
-    Zones, edges and distances are those of the underlying exact shaper.
+    The realised velocity meets every bound of :meth:`PolygonShaper.bounds
+    <velfence.shaping.polygon.PolygonShaper.bounds>` of :attr:`shaper` (to round-off relative
+    to the intent's speed), or is zero (blocked). Zones, edges and distances are those of the
+    underlying exact shaper.
+
+    Raises:
+        InvalidParameter: a parameter out of range, or a buffer wider than the polygon's
+            inradius.
     """
 
-    __slots__ = ("_inner", "buffer", "polygon")
+    __slots__ = ("_inner", "buffer", "dt", "polygon")
     method = "caster-wall"
 
     def __init__(
@@ -106,13 +118,17 @@ class CasterWall(ShaperBase):
         *,
         buffer: float,
         recovery_gain: float = 0.0,
+        dt: float | None = None,
         on_invalid: str = "raise",
     ) -> None:
         super().__init__(on_invalid=on_invalid)
         self.polygon = as_polygon(polygon)
         self.buffer = check_positive("buffer", buffer, unit="m")
         k = check_positive("recovery_gain", recovery_gain, allow_zero=True, unit="1/s")
-        self._inner = PolygonShaper(self.polygon, buffer=self.buffer, spring_gain=k, method="exact")
+        self.dt = None if dt is None else check_positive("dt", dt, unit="s")
+        self._inner = PolygonShaper(
+            self.polygon, buffer=self.buffer, spring_gain=k, method="exact", dt=self.dt
+        )
 
     @property
     def shaper(self) -> PolygonShaper:
@@ -173,7 +189,9 @@ class CasterWall(ShaperBase):
             zone = ZONE_BUFFER if m == 1 else ZONE_CORNER
         if m == 0 or speed == 0.0:
             line = (vx / speed, vy / speed) if speed > 0.0 else (0.0, 0.0)
-            return (vx, vy, zone, p1, p2, d1, d2, 0.0, 0.0, 0), line
+            # No intent: the device stays put, which cannot meet a recovery bound (> 0).
+            st = STAGE_RELAXED if any(r[2] > 0.0 for r in rows) else 0
+            return (vx, vy, zone, p1, p2, d1, d2, 0.0, 0.0, st), line
         psi = math.atan2(vy, vx)
         stages = STAGE_PROJECT
         bounds = [(r[0], r[1], r[2]) for r in rows]
@@ -196,7 +214,7 @@ class CasterWall(ShaperBase):
         return out, zones
 
     def __repr__(self) -> str:
-        return f"CasterWall({self.polygon.n}-gon, buffer={self.buffer})"
+        return f"CasterWall({self.polygon.n}-gon, buffer={self.buffer}, dt={self.dt})"
 
 
 @dataclass(frozen=True)

@@ -19,7 +19,15 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._validate import readonly
+from velfence._validate import (
+    MAX_MAGNITUDE,
+    check_flag,
+    check_positive,
+    check_positive_int,
+    finite_scalar,
+    readonly,
+    real_array,
+)
 from velfence.errors import InvalidGeometry, InvalidInput
 
 __all__ = [
@@ -42,27 +50,64 @@ def decompose(v: ArrayLike, n: ArrayLike) -> tuple[float, FloatArray]:
     This is the one normal/tangential decomposition of the library: ``v = vn * n + vt``.
 
     Args:
-        v: Velocity, shape (2,) (any units, e.g. [rad/s]).
-        n: Unit normal, shape (2,).
+        v: Velocity, shape (k,) (2-D or 3-D; any units, e.g. [rad/s]).
+        n: Unit normal, the same shape as ``v``.
 
     Returns:
         ``(vn, vt)``: the signed normal speed (positive along ``n``) and the tangential vector,
-        shape (2,).
+        shape (k,).
+
+    Raises:
+        InvalidInput: ``v`` or ``n`` not a finite real vector, or of different shapes (the
+            message names which).
     """
-    va = np.asarray(v, dtype=float)
-    na = np.asarray(n, dtype=float)
+    va = _vector("v", v)
+    na = _vector("n", n)
+    if va.shape != na.shape:
+        raise InvalidInput(f"n: expected the shape of v, {va.shape}, got shape {na.shape}")
     vn = float(va @ na)
     return vn, va - vn * na
 
 
-@dataclass(frozen=True)
+def _vector(name: str, x: ArrayLike) -> FloatArray:
+    """A finite real vector, shape (k,); fast path for a finite float64 ndarray (hot loops)."""
+    if type(x) is np.ndarray and x.ndim == 1 and x.dtype.char == "d":
+        big = float(np.max(np.abs(x))) if x.size else 0.0
+        if big <= MAX_MAGNITUDE:  # False for NaN as well
+            return x
+    return real_array(name, x, (None,), what="a vector of real numbers")
+
+
+@dataclass(frozen=True, kw_only=True)
 class Rectangle:
-    """An axis-aligned rectangle ``[xmin, xmax] × [ymin, ymax]`` (workspace units)."""
+    """An axis-aligned rectangle ``[xmin, xmax] × [ymin, ymax]`` (workspace units).
+
+    Args:
+        xmin: Lower x limit (keyword-only, as are all four).
+        xmax: Upper x limit, ``>= xmin``.
+        ymin: Lower y limit.
+        ymax: Upper y limit, ``>= ymin``.
+
+    Raises:
+        InvalidGeometry: a limit that is not a finite real number (booleans, strings refused) or
+            of magnitude above ``MAX_MAGNITUDE``, or a lower limit above its upper limit.
+    """
 
     xmin: float
     xmax: float
     ymin: float
     ymax: float
+
+    def __post_init__(self) -> None:
+        for name in ("xmin", "xmax", "ymin", "ymax"):
+            value = finite_scalar(name, getattr(self, name), error=InvalidGeometry)
+            object.__setattr__(self, name, value)
+        for lo, hi in (("xmin", "xmax"), ("ymin", "ymax")):
+            if getattr(self, lo) > getattr(self, hi):
+                raise InvalidGeometry(
+                    f"Rectangle: expected {lo} <= {hi}, got {lo}={getattr(self, lo)!r}, "
+                    f"{hi}={getattr(self, hi)!r}; swap them"
+                )
 
     @property
     def area(self) -> float:
@@ -83,7 +128,7 @@ class Rectangle:
 
     def contains(self, p: ArrayLike) -> bool:
         """Whether point ``p`` (shape (2,)) lies in the closed rectangle."""
-        x, y = np.asarray(p, dtype=float)
+        x, y = real_array("p", p, (2,), what="a point of 2 real numbers").tolist()
         return bool(self.xmin <= x <= self.xmax and self.ymin <= y <= self.ymax)
 
 
@@ -107,6 +152,7 @@ class ConvexPolygon:
     area: float = field(init=False)
     centroid: FloatArray = field(init=False)
     _fast: tuple[Any, ...] = field(init=False, repr=False)
+    _cache: dict[str, Any] = field(init=False, repr=False)
 
     def __init__(self, corners: ArrayLike) -> None:
         c = _validated_corners(corners)
@@ -143,8 +189,33 @@ class ConvexPolygon:
             n,
         )
         object.__setattr__(self, "_fast", fast)
+        object.__setattr__(self, "_cache", {})
 
     # ------------------------------------------------------------------ basic queries
+    @property
+    def inradius(self) -> float:
+        r"""Radius of the largest circle inside the polygon, workspace units (computed once).
+
+        :math:`\max_p \min_i d_i(p)`: the largest buffer width for which some point of the
+        polygon is clear of every edge's buffer (the shapers refuse wider buffers). ``min_i d_i``
+        is concave, so a nested golden-section search (over x, and over y for each x) finds it
+        to about 1e-12 of the polygon's size; a point certifying the value is
+        :attr:`incenter`.
+        """
+        if "inradius" not in self._cache:
+            r, x, y = _chebyshev(self.corners, self.normals, self.offsets)
+            self._cache["inradius"] = r
+            self._cache["incenter"] = readonly(np.array([x, y]))
+        r_out: float = self._cache["inradius"]
+        return r_out
+
+    @property
+    def incenter(self) -> FloatArray:
+        """A point at distance :attr:`inradius` from every edge line or farther, shape (2,)."""
+        _ = self.inradius
+        c: FloatArray = self._cache["incenter"]
+        return c
+
     @property
     def n(self) -> int:
         """Number of corners (= number of edges)."""
@@ -172,6 +243,7 @@ class ConvexPolygon:
         Returns:
             ``bool`` for one point, boolean array shape (N,) for N points.
         """
+        tol = check_positive("tol", tol, allow_zero=True, unit="workspace units")
         d = self.signed_distances(p)
         inside = np.all(d >= -tol, axis=-1)
         return bool(inside) if d.ndim == 1 else inside
@@ -276,8 +348,7 @@ class ConvexPolygon:
 
     def scaled(self, factor: float) -> ConvexPolygon:
         """A copy scaled about the centroid (``factor`` > 0)."""
-        if not (math.isfinite(factor) and factor > 0.0):
-            raise InvalidGeometry(f"scale factor must be finite and > 0, got {factor!r}")
+        factor = check_positive("scale factor", factor, error=InvalidGeometry)
         return ConvexPolygon(self.centroid + factor * (self.corners - self.centroid))
 
     def closest_point(self, p: ArrayLike) -> FloatArray:
@@ -374,8 +445,9 @@ def polygon_from_halfplanes(
     Raises:
         InvalidGeometry: wrong shapes, zero normals, unbounded region, redundant half-planes.
     """
-    Aa = np.asarray(A, dtype=float)
-    ca = np.asarray(c, dtype=float)
+    allow_redundant = check_flag("allow_redundant", allow_redundant)
+    Aa = real_array("A", A, error=InvalidGeometry, what="half-plane normals of shape (m, 2)")
+    ca = real_array("c", c, error=InvalidGeometry, what="offsets of shape (m,)")
     if Aa.ndim != 2 or Aa.shape[1] != 2 or Aa.shape[0] < 3 or ca.shape != (Aa.shape[0],):
         raise InvalidGeometry(
             f"expected A of shape (m, 2) with m >= 3 and c of shape (m,), got {Aa.shape} and "
@@ -454,23 +526,21 @@ def as_polygon(x: Any, name: str = "polygon") -> ConvexPolygon:
     return x
 
 
-def _points(p: ArrayLike) -> FloatArray:
-    try:
-        pa = np.asarray(p, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise InvalidInput(f"expected point(s) of shape (2,) or (N, 2), got {p!r}") from exc
+def _points(p: ArrayLike, name: str = "p") -> FloatArray:
+    pa = real_array(name, p, what="point(s) of shape (2,) or (N, 2)")
     if pa.shape[-1:] != (2,) or pa.ndim > 2:
         raise InvalidInput(f"expected point(s) of shape (2,) or (N, 2), got shape {pa.shape}")
     return pa
 
 
 def _validated_corners(corners: ArrayLike) -> FloatArray:
-    try:
-        c = np.array(corners, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise InvalidGeometry(
-            f"corners must be an (n, 2) array of numbers, got {corners!r}"
-        ) from exc
+    c = real_array(
+        "corners",
+        corners,
+        error=InvalidGeometry,
+        what="an (n, 2) array of numbers",
+        allow_nonfinite=True,
+    )
     if c.ndim != 2 or c.shape[1] != 2:
         raise InvalidGeometry(
             f"corners must have shape (n, 2) with n >= 3, got shape {c.shape}; "
@@ -484,12 +554,10 @@ def _validated_corners(corners: ArrayLike) -> FloatArray:
         raise InvalidGeometry(f"corner(s) {bad.tolist()} are not finite: {c[bad].tolist()}")
     scale = float(np.max(np.abs(c - c.mean(axis=0)))) or 1.0
     tol_len = 1e-12 * scale
-    for i in range(n):
-        for j in range(i + 1, n):
-            if np.all(np.abs(c[i] - c[j]) <= tol_len):
-                raise InvalidGeometry(
-                    f"corners {i} and {j} are duplicates ({c[i].tolist()}); remove one"
-                )
+    pair = _first_duplicate(c, tol_len)
+    if pair is not None:
+        i, j = pair
+        raise InvalidGeometry(f"corners {i} and {j} are duplicates ({c[i].tolist()}); remove one")
     x, y = c[:, 0], c[:, 1]
     signed_area = 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
     if abs(signed_area) <= 1e-12 * scale * scale:
@@ -535,20 +603,54 @@ def _validated_corners(corners: ArrayLike) -> FloatArray:
     return c
 
 
-def _first_crossing(c: FloatArray) -> tuple[int, int]:
+def _first_duplicate(c: FloatArray, tol: float) -> tuple[int, int] | None:
+    """The lexicographically first pair ``i < j`` of corners equal to ``tol`` in x and y, if any.
+
+    O(n log n) for any valid polygon: corners are sorted by x and each is compared with the next
+    ones in that order while their x differ by at most ``tol`` (a convex polygon has at most two
+    corners per x, so the scan stops after one or two shifts).
+    """
     n = c.shape[0]
+    order = np.argsort(c[:, 0], kind="stable")
+    xs = c[order, 0]
+    ys = c[order, 1]
+    found: list[tuple[int, int]] = []
+    for shift in range(1, n):
+        close_x = xs[shift:] - xs[:-shift] <= tol
+        if not close_x.any():
+            break
+        hit = close_x & (np.abs(ys[shift:] - ys[:-shift]) <= tol)
+        for k in np.flatnonzero(hit)[:n].tolist():
+            a, b = int(order[k]), int(order[k + shift])
+            found.append((min(a, b), max(a, b)))
+    return min(found) if found else None
 
-    def orient(a: FloatArray, b: FloatArray, p: FloatArray) -> float:
-        return float((b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0]))
 
-    for i in range(n):
-        a, b = c[i], c[(i + 1) % n]
-        for j in range(i + 2, n):
-            if (j + 1) % n == i:
+def _first_crossing(c: FloatArray) -> tuple[int, int]:
+    """The first pair of non-adjacent edges ``(i, j)``, ``i < j``, that cross (vectorised in j)."""
+    n = c.shape[0]
+    a_all = c
+    b_all = np.roll(c, -1, axis=0)
+
+    def orient(a: FloatArray, b: FloatArray, p: FloatArray) -> FloatArray:
+        return np.asarray(
+            (b[..., 0] - a[..., 0]) * (p[..., 1] - a[..., 1])
+            - (b[..., 1] - a[..., 1]) * (p[..., 0] - a[..., 0])
+        )
+
+    with np.errstate(over="ignore", invalid="ignore"):
+        for i in range(n):
+            j = np.arange(i + 2, n)
+            j = j[(j + 1) % n != i]
+            if j.size == 0:
                 continue
-            p, q = c[j], c[(j + 1) % n]
-            if orient(a, b, p) * orient(a, b, q) < 0 and orient(p, q, a) * orient(p, q, b) < 0:
-                return i, j
+            a, b = a_all[i], b_all[i]
+            p, q = a_all[j], b_all[j]
+            cross = (orient(a, b, p) * orient(a, b, q) < 0) & (
+                orient(p, q, a) * orient(p, q, b) < 0
+            )
+            if cross.any():
+                return i, int(j[np.argmax(cross)])
     return 0, 0  # pragma: no cover - winding > 1 implies a crossing
 
 
@@ -577,11 +679,17 @@ def inscribed_rectangle(poly: ConvexPolygon, *, iterations: int = 40) -> Rectang
 
     Args:
         poly: The polygon.
-        iterations: Grid refinements (each shrinks the search window by 4).
+        iterations: Grid refinements (each shrinks the search window by 4), an int in
+            [1, 200] (beyond ~30 the window is below double precision).
 
     Returns:
         The rectangle, in workspace units.
+
+    Raises:
+        InvalidParameter: ``iterations`` not an int in [1, 200].
     """
+    poly = as_polygon(poly, "poly")
+    iterations = check_positive_int("iterations", iterations, maximum=200, example=40)
     ymin, ymax = float(poly.corners[:, 1].min()), float(poly.corners[:, 1].max())
     lo0, hi0, lo1, hi1 = ymin, ymax, ymin, ymax
     best = (0.0, ymin, ymin, 0.0, 0.0)
@@ -612,3 +720,64 @@ def inscribed_rectangle(poly: ConvexPolygon, *, iterations: int = 40) -> Rectang
         lo1, hi1 = max(ymin, y1 - s1), min(ymax, y1 + s1)
     _, y0, y1, x0, x1 = best
     return Rectangle(xmin=x0, xmax=x1, ymin=y0, ymax=y1)
+
+
+_GOLDEN = 0.5 * (math.sqrt(5.0) - 1.0)
+
+
+def _golden_max(f: Any, lo: float, hi: float, iters: int) -> tuple[float, float]:
+    """``(argmax, max)`` of a concave ``f`` on ``[lo, hi]`` by golden-section search."""
+    a, b = lo, hi
+    x1 = b - _GOLDEN * (b - a)
+    x2 = a + _GOLDEN * (b - a)
+    f1, f2 = f(x1), f(x2)
+    for _ in range(iters):
+        if f1 < f2:
+            a, x1, f1 = x1, x2, f2
+            x2 = a + _GOLDEN * (b - a)
+            f2 = f(x2)
+        else:
+            b, x2, f2 = x2, x1, f1
+            x1 = b - _GOLDEN * (b - a)
+            f1 = f(x1)
+    return (x1, f1) if f1 >= f2 else (x2, f2)
+
+
+def _chebyshev(
+    c: FloatArray, normals: FloatArray, offsets: FloatArray
+) -> tuple[float, float, float]:
+    """Largest inscribed circle ``(r, x, y)`` of a convex polygon (see ``inradius``).
+
+    ``g(x) = max_y min_i d_i(x, y)`` is concave (a partial maximum of a concave function), and on
+    every vertical chord the maximum over y lies inside the chord, so both searches run on the
+    polygon's bounding box. 64 golden steps shrink each interval by 0.618^64 ≈ 4e-14.
+    """
+    nx = normals[:, 0].copy()
+    ny = normals[:, 1].copy()
+    xlo, ylo = (float(v) for v in c.min(axis=0))
+    xhi, yhi = (float(v) for v in c.max(axis=0))
+    best = [-math.inf, 0.0, 0.0]
+
+    small = len(nx) <= 64  # plain floats beat NumPy's per-call overhead on small polygons
+    nyl = ny.tolist()
+
+    def inner(x: float) -> float:
+        base = nx * x - offsets
+        if small:
+            pairs: list[tuple[float, float]] = list(zip(base.tolist(), nyl, strict=True))
+
+            def f(y: float) -> float:
+                return min(b + s * y for b, s in pairs)
+
+        else:
+
+            def f(y: float) -> float:
+                return float(np.min(base + ny * y))
+
+        y, val = _golden_max(f, ylo, yhi, 64)
+        if val > best[0]:
+            best[:] = [val, x, y]
+        return val
+
+    _golden_max(inner, xlo, xhi, 64)
+    return best[0], best[1], best[2]

@@ -1539,7 +1539,10 @@ def workspace_map(
         det_a[reachable], det_b[reachable], type2[reachable] = cospm._indicators(v, w, chi_r)
     q12 = q[:, :, :2]
     margin = (
-        stops_polygon(S).signed_distances(q12.reshape(-1, 2)).min(axis=1).reshape(q12.shape[:2])
+        stops_polygon(S)
+        .signed_distances(np.nan_to_num(q12).reshape(-1, 2))
+        .min(axis=1)
+        .reshape(q12.shape[:2])
     )
     margin = np.where(reachable, margin, np.nan)
     return WorkspaceMap(

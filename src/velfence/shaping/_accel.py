@@ -31,14 +31,16 @@ def _compiled() -> dict[str, Callable[..., Any]] | None:
     def jit(f: Callable[..., Any]) -> Callable[..., Any]:
         clone = types.FunctionType(f.__code__, table, f.__name__, f.__defaults__, f.__closure__)
         parallel = f.__name__.endswith("_batch")
-        out: Callable[..., Any] = numba.njit(cache=False, parallel=parallel)(clone)
+        out: Callable[..., Any] = numba.njit(cache=True, parallel=parallel)(clone)
         return out
 
     for name, fn in (
         ("wedge_angle", _polygon.wedge_angle),
         ("wedge_search", _polygon.wedge_search),
         ("_violates", _kernels._violates),
+        ("_solve_tol", _kernels._solve_tol),
         ("_solve", _kernels._solve),
+        ("_patent_core", _kernels._patent_core),
         ("patent_kernel", _kernels.patent_kernel),
         ("exact_kernel", _kernels.exact_kernel),
         ("patent_batch", _kernels.patent_batch),

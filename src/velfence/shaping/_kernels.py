@@ -39,6 +39,7 @@ STAGE_BLEND = 16  # patent: spring blended between two normals near a corner
 STAGE_PROJECT = 32  # exact: minimum-change projection onto the active bounds
 STAGE_RELAXED = 64  # exact: bounds infeasible together, recovery bounds kept, others dropped
 STAGE_STOP = 128  # invalid input answered with zero velocity
+STAGE_PERIOD = 256  # patent, discrete time: output scaled so one period reaches no edge
 STAGE_NAMES = (
     "secondary-projection",
     "primary-projection",
@@ -48,13 +49,15 @@ STAGE_NAMES = (
     "exact-projection",
     "relaxed",
     "stop",
+    "period-cap",
 )
 
 _TWO_PI = 2.0 * math.pi
 _FEAS_TOL = 1e-12
+_REPAIR_ULPS = 4.0 * 2.220446049250313e-16  # a few ulps of margin when repairing
 
 
-def patent_kernel(
+def _patent_core(
     px: float,
     py: float,
     vx: float,
@@ -148,12 +151,61 @@ def patent_kernel(
     return ox, oy, zone, i, j, d1, d2, sx, sy, stages
 
 
-def _violates(x: float, y: float, nxe: float, nye: float, b: float) -> bool:
-    return nxe * x + nye * y < b - _FEAS_TOL * (1.0 + abs(b))
+def patent_kernel(
+    px: float,
+    py: float,
+    vx: float,
+    vy: float,
+    nx: Any,
+    ny: Any,
+    off: Any,
+    cx: float,
+    cy: float,
+    a0: float,
+    beta: Any,
+    n: int,
+    dmax: float,
+    k: float,
+    theta_max: float,
+    idt: float,
+) -> tuple[float, float, int, int, int, float, float, float, float, int]:
+    """The patent law (:func:`_patent_core`), then in discrete time (``idt = 1/dt > 0``) the cap.
+
+    The patent shapes only the primary and secondary edges' normal components, so in discrete
+    time its output is scaled down (direction kept) until one period of length ``dt`` approaches
+    no edge with ``d >= 0`` by more than ``d``: ``t = min(1, min_i d_i / (dt · approach_i))``.
+    Scaling never breaks what the law already ensured (it only shortens the velocity).
+    """
+    res = _patent_core(
+        px, py, vx, vy, nx, ny, off, cx, cy, a0, beta, n, dmax, k, theta_max
+    )  # fmt: skip
+    if idt <= 0.0:
+        return res
+    ox = res[0]
+    oy = res[1]
+    t = 1.0
+    for e in range(n):
+        d = nx[e] * px + ny[e] * py - off[e]
+        if d >= 0.0:
+            a = -(nx[e] * ox + ny[e] * oy)  # approach speed to edge e
+            if a > d * idt:
+                c = d * idt / a
+                if c < t:
+                    t = c
+    if t >= 1.0:
+        return res
+    return (
+        ox * t, oy * t, res[2], res[3], res[4], res[5], res[6], res[7], res[8],
+        res[9] | STAGE_PERIOD,
+    )  # fmt: skip
 
 
-def _solve(
-    vx: float, vy: float, work: Any, m: int, nx: Any, ny: Any, bnd: Any
+def _violates(x: float, y: float, nxe: float, nye: float, b: float, tol: float) -> bool:
+    return nxe * x + nye * y < b - tol * (1.0 + abs(b))
+
+
+def _solve_tol(
+    vx: float, vy: float, work: Any, m: int, nx: Any, ny: Any, bnd: Any, tol: float
 ) -> tuple[bool, float, float]:
     """Minimise ||x - v||² s.t. n_w · x >= b_w for w in work[:m], by enumeration.
 
@@ -161,12 +213,19 @@ def _solve(
     projection onto one bound line, or the intersection of two; the feasible candidate nearest to
     ``v`` is the optimum. Two shortcuts end the search early: a projection onto one bound that
     satisfies every other bound *is* the optimum (the feasible set lies in that half-plane), and so
-    is a feasible vertex whose two multipliers are non-negative (KKT). Returns (feasible, x, y).
+    is a feasible vertex whose two multipliers are non-negative (KKT). Feasibility is tested with
+    slack ``tol`` (relative, see :func:`_violates`); the caller runs it with ``tol = 0`` first so
+    that a candidate that is only *almost* feasible never hides the true optimum (at a near-flat
+    corner the two differ by ``tol / sin θ``). Returns (feasible, x, y).
+
+    The projection onto one bound is built from the tangential part of ``v`` plus ``b_w n_w``
+    (not ``v + gap n_w``): when ``v`` is huge against ``b_w`` the sum would lose ``b_w`` (a
+    recovery bound of 1e-17 in units of a 1e15 command), the tangential form keeps it.
     """
     ok = True
     for a in range(m):
         w = work[a]
-        if _violates(vx, vy, nx[w], ny[w], bnd[w]):
+        if _violates(vx, vy, nx[w], ny[w], bnd[w], tol):
             ok = False
             break
     if ok:
@@ -179,12 +238,13 @@ def _solve(
         gap = bnd[w] - (nx[w] * vx + ny[w] * vy)
         if gap <= 0.0:
             continue
-        x = vx + gap * nx[w]
-        y = vy + gap * ny[w]
+        vt = ny[w] * vx - nx[w] * vy  # component of v along the tangent t = (ny, -nx)
+        x = vt * ny[w] + bnd[w] * nx[w]
+        y = bnd[w] * ny[w] - vt * nx[w]
         feas = True
         for c in range(m):
             u = work[c]
-            if u != w and _violates(x, y, nx[u], ny[u], bnd[u]):
+            if u != w and _violates(x, y, nx[u], ny[u], bnd[u], tol):
                 feas = False
                 break
         if feas:
@@ -204,7 +264,7 @@ def _solve(
             feas = True
             for e in range(m):
                 q = work[e]
-                if q != w and q != u and _violates(x, y, nx[q], ny[q], bnd[q]):
+                if q != w and q != u and _violates(x, y, nx[q], ny[q], bnd[q], tol):
                     feas = False
                     break
             if feas:
@@ -223,6 +283,41 @@ def _solve(
     return True, bx, by
 
 
+def _solve(
+    vx: float, vy: float, work: Any, m: int, nx: Any, ny: Any, bnd: Any
+) -> tuple[bool, float, float]:
+    """:func:`_solve_tol` whose answer meets every bound in floating point, or (False, 0, 0).
+
+    Strict pass first (``tol = 0``): its answer already meets every bound as evaluated. Only when
+    round-off makes the strict pass find nothing (three bound lines through one point), the
+    tolerant pass runs and its answer is repaired: each violated bound in turn is met by moving
+    along its normal by the violation plus a few ulps (at most ``_FEAS_TOL`` relative, because
+    the tolerant pass accepted it). A few rounds settle any case in which the repaired bounds do
+    not fight each other; otherwise the caller falls back to an answer known to be feasible.
+    """
+    ok, x, y = _solve_tol(vx, vy, work, m, nx, ny, bnd, 0.0)
+    if ok:
+        return True, x, y
+    ok, x, y = _solve_tol(vx, vy, work, m, nx, ny, bnd, _FEAS_TOL)
+    if not ok:
+        return False, 0.0, 0.0
+    for _ in range(8):
+        worst = 0.0
+        wi = -1
+        for a in range(m):
+            w = work[a]
+            g = bnd[w] - (nx[w] * x + ny[w] * y)
+            if g > worst:
+                worst = g
+                wi = w
+        if wi < 0:
+            return True, x, y
+        g = worst + _REPAIR_ULPS * (1.0 + abs(bnd[wi]) + abs(x) + abs(y))
+        x += g * nx[wi]
+        y += g * ny[wi]
+    return False, 0.0, 0.0
+
+
 def exact_kernel(
     px: float,
     py: float,
@@ -237,6 +332,7 @@ def exact_kernel(
     dmax: float,
     k: float,
     rmax: float,
+    idt: float,
     dist: Any,
     bnd: Any,
     work: Any,
@@ -246,6 +342,14 @@ def exact_kernel(
     ``n_i · v_o >= -(|v| + R) d_i / d_max`` for edges with ``0 <= d_i < d_max`` and
     ``n_i · v_o >= min(k (-d_i), r_max)`` for violated edges, where ``R`` is the largest recovery
     bound (0 inside, so inside the bound is exactly the issue's ``-|v| d_i / d_max``).
+
+    ``idt`` is ``1 / dt`` for a discrete-time law (0: continuous time). Then every edge's bound
+    also caps the approach per period by the remaining distance, ``n_i · v_o >= -d_i / dt``, and
+    the recovery by the penetration, ``min(k (-d_i), r_max, -d_i / dt)``; edges up to
+    ``(|v| + R) dt`` away (not only ``d_max``) are bounded (derivations §3.6).
+
+    The answer meets every bound as evaluated in floating point in the kernel's units (strict
+    solve, else tolerant solve plus repair, else a known-feasible fallback).
 
     ``dist``, ``bnd`` (floats) and ``work`` (ints) are caller-provided scratch of length >= n, so
     the kernel itself allocates nothing.
@@ -268,6 +372,8 @@ def exact_kernel(
                 r = -k * d
                 if r > rmax:
                     r = rmax
+                if idt > 0.0 and r > -d * idt:
+                    r = -d * idt
                 if r > rec:
                     rec = r
         if d < d1:
@@ -278,6 +384,25 @@ def exact_kernel(
         elif d < d2:
             d2 = d
             p2 = e
+    if m == 0 and idt == 0.0:
+        return vx, vy, ZONE_FREE, p1, p2, d1, d2, 0.0, 0.0, 0
+    # |v| scaled by its largest component (not math.hypot, whose numba and CPython results differ
+    # in the last bit).
+    big = abs(vx) if abs(vx) > abs(vy) else abs(vy)
+    vnorm = 0.0
+    if big > 0.0:
+        qx = vx / big
+        qy = vy / big
+        vnorm = big * math.sqrt(qx * qx + qy * qy)
+    speed = vnorm + rec
+    if idt > 0.0 and speed > dmax * idt:
+        # Discrete time: an edge up to speed·dt away can be reached in one period.
+        reach = speed / idt
+        m = 0
+        for e in range(n):
+            if dist[e] < reach:
+                work[m] = e
+                m += 1
     if m == 0:
         return vx, vy, ZONE_FREE, p1, p2, d1, d2, 0.0, 0.0, 0
     if n_out > 0:
@@ -288,47 +413,63 @@ def exact_kernel(
         stages = STAGE_PROJECT
     # The problem is positively homogeneous in (v, bounds): solve it in units of |v| + R so that
     # huge commands neither overflow (squared distances, NaN bounds) nor defeat the feasibility
-    # tolerance; `unit` is 1 unless v = 0 and R = 0. |v| is computed scaled by its largest
-    # component (not math.hypot, whose numba and CPython results differ in the last bit).
-    big = abs(vx) if abs(vx) > abs(vy) else abs(vy)
-    vnorm = 0.0
-    if big > 0.0:
-        qx = vx / big
-        qy = vy / big
-        vnorm = big * math.sqrt(qx * qx + qy * qy)
-    speed = vnorm + rec
+    # tolerance; `unit` is 1 unless v = 0 and R = 0.
     scale = speed if speed > 0.0 else 1.0
     unit = speed / scale
+    rate = idt / scale  # discrete-time approach cap per unit distance, kernel units
     ux = vx / scale
     uy = vy / scale
     for a in range(m):
         e = work[a]
         d = dist[e]
         if d >= 0.0:
-            bnd[e] = -unit * (d / dmax)
+            b = -unit * (d / dmax)
+            if idt > 0.0 and -rate * d > b:
+                b = -rate * d
+            bnd[e] = b
         else:
             r = -k * d
-            bnd[e] = (r if r < rmax else rmax) / scale
+            if r > rmax:
+                r = rmax
+            if idt > 0.0 and r > -d * idt:
+                r = -d * idt
+            bnd[e] = r / scale
     while True:
         ok, ox, oy = _solve(ux, uy, work, m, nx, ny, bnd)
         if not ok:
             break
-        # A far edge (d >= d_max) has bound -(|v| + R) d/d_max <= -(|v| + R), binding only when the
-        # answer is faster than |v| + R (Cauchy-Schwarz). Inside that never happens (0 is feasible,
-        # so the projection is no faster than v); outside, recovery can cause it: add those edges.
+        # A far edge has bound <= -(|v| + R) (d >= d_max, and d >= (|v| + R) dt in discrete
+        # time), binding only when the answer is faster than |v| + R (Cauchy-Schwarz). Inside that
+        # never happens (0 is feasible, so the projection is no faster than v); outside, recovery
+        # can cause it: add those edges.
         if n_out == 0 or ox * ox + oy * oy <= unit * unit:
             return ox * scale, oy * scale, zone, p1, p2, d1, d2, 0.0, 0.0, stages
         added = False
         for e in range(n):
             d = dist[e]
-            if d >= dmax and _violates(ox, oy, nx[e], ny[e], -unit * (d / dmax)):
-                bnd[e] = -unit * (d / dmax)
+            if d < 0.0:
+                continue
+            b = -unit * (d / dmax)
+            if idt > 0.0 and -rate * d > b:
+                b = -rate * d
+            in_work = False
+            for a in range(m):
+                if work[a] == e:
+                    in_work = True
+                    break
+            if not in_work and _violates(ox, oy, nx[e], ny[e], b, 0.0):
+                bnd[e] = b
                 work[m] = e
                 m += 1
                 added = True
         if not added:
             return ox * scale, oy * scale, zone, p1, p2, d1, d2, 0.0, 0.0, stages
-    # Infeasible together (only when the polygon is narrower than the buffer): recovery first.
+    if n_out == 0:
+        # Inside every bound is <= 0, so zero velocity meets them all exactly. Reached only if
+        # round-off defeats both solves (never observed); stopping is the safe answer.
+        return 0.0, 0.0, zone, p1, p2, d1, d2, 0.0, 0.0, stages | STAGE_STOP
+    # Infeasible together (the buffer is refused wider than the inradius, so only by round-off
+    # or a far edge): recovery first.
     m = 0
     for e in range(n):
         if dist[e] < 0.0:
@@ -370,6 +511,7 @@ def patent_batch(
     dmax: float,
     k: float,
     theta_max: float,
+    idt: float,
 ) -> None:
     """Loop of :func:`patent_kernel` over rows of P, V (writes ``out`` (N, 2), ``zones`` (N,))."""
     N = len(P)
@@ -377,7 +519,7 @@ def patent_batch(
         for r in range(c * BATCH_CHUNK, min(N, (c + 1) * BATCH_CHUNK)):
             res = patent_kernel(
                 P[r][0], P[r][1], V[r][0], V[r][1], nx, ny, off, cx, cy, a0, beta, n, dmax, k,
-                theta_max,
+                theta_max, idt,
             )  # fmt: skip
             out[r][0] = res[0]
             out[r][1] = res[1]
@@ -398,6 +540,7 @@ def exact_batch(
     dmax: float,
     k: float,
     rmax: float,
+    idt: float,
 ) -> None:
     """Loop of :func:`exact_kernel` over rows of P, V (writes ``out`` (N, 2), ``zones`` (N,))."""
     N = len(P)
@@ -407,7 +550,7 @@ def exact_batch(
         work = np.zeros(n, dtype=np.int64)
         for r in range(c * BATCH_CHUNK, min(N, (c + 1) * BATCH_CHUNK)):
             res = exact_kernel(
-                P[r][0], P[r][1], V[r][0], V[r][1], nx, ny, off, cx, cy, n, dmax, k, rmax,
+                P[r][0], P[r][1], V[r][0], V[r][1], nx, ny, off, cx, cy, n, dmax, k, rmax, idt,
                 dist, bnd, work,
             )  # fmt: skip
             out[r][0] = res[0]

@@ -27,8 +27,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from velfence._validate import as_pair, check_choice, check_positive
-from velfence.errors import InvalidInput, InvalidParameter
+from velfence._validate import check_choice, check_flag, check_positive, real_array
+from velfence.errors import InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon, as_polygon
 from velfence.shaping import _kernels as kern
 from velfence.shaping._accel import compiled_batch
@@ -43,12 +43,22 @@ _METHODS = ("patent", "exact")
 class PolygonShaper(ShaperBase):
     r"""Shape commanded velocities so that a point stays inside a convex polygon.
 
+    Every parameter is keyword-only and validated (real numbers only: ``"0.2"`` and ``True`` are
+    refused with :class:`~velfence.errors.InvalidParameter`).
+
     Args:
         polygon: The permissible workspace.
         buffer: Width :math:`d_{max}` of the buffer band inside the boundary, in workspace units
-            (e.g. [rad] for the wrist). Must be > 0.
+            (e.g. [rad] for the wrist). Must be > 0 and at most :attr:`ConvexPolygon.inradius
+            <velfence.geometry.polygon.ConvexPolygon.inradius>`: a wider band leaves no point of
+            the polygon free (every speed is cut everywhere) and makes the recovery bounds
+            incompatible with the buffer bounds, so it is refused, the message giving the
+            largest admissible width.
         spring_gain: Virtual-spring gain :math:`k` pulling a point outside back, in [1/s]
-            (velocity per unit of penetration). Must be >= 0.
+            (velocity per unit of penetration), >= 0. Default 1.0 /s (0.0 with a ``profile``,
+            which sets its own return): a point outside with a zero command returns with time
+            constant 1 s, at most ``max_recovery_speed``; 0 only stops outward motion, it does
+            not recover.
         method: ``"patent"`` (US 8,676,382, faithful) or ``"exact"`` (our improved law).
         corner_blend_angle: :math:`\theta_{max}` of the patent's spring blend near corners, in
             [rad], in (0, π). Only used by ``"patent"``.
@@ -58,9 +68,17 @@ class PolygonShaper(ShaperBase):
             ``ThreeZoneBraking``) replacing the linear buffer of the exact law: every edge's
             approach speed is capped by ``profile.cap(d)`` (outside: a forced return). Only with
             ``method="exact"`` and no ``buffer``; runs in plain Python (no numba batch).
+        dt: Control period [s] of the loop that integrates the output, > 0, or None (default).
+            **None: continuous-time law** — the bounds hold for the velocity itself, and a
+            discrete loop that holds the output for ``dt`` may overshoot the boundary by up to
+            ``|v|·dt`` per step. With ``dt`` the law is discrete-time safe: the approach to every
+            edge in one period is also capped by the remaining distance (exact:
+            :math:`n_i\cdot v_o \ge -d_i/dt` added to every bound, recovery at most
+            :math:`-d_i/dt`; patent: the output scaled down until no edge is reached), so one
+            explicit-Euler step ``p + dt·v_o`` from inside never leaves (to round-off).
         on_invalid: ``"raise"`` (default): non-finite inputs raise
             :class:`~velfence.errors.InvalidInput`; ``"stop"``: return zero velocity, zone
-            ``"invalid"``.
+            ``"invalid"``. Type errors (strings, complex, wrong shapes) always raise.
         accelerate: Use numba for :meth:`shape_batch` when it is installed (default True).
 
     Raises:
@@ -70,10 +88,12 @@ class PolygonShaper(ShaperBase):
     __slots__ = (
         "_batch_args",
         "_fast",
+        "_idt",
         "_ready",
         "accelerate",
         "buffer",
         "corner_blend_angle",
+        "dt",
         "max_recovery_speed",
         "method",
         "polygon",
@@ -86,15 +106,17 @@ class PolygonShaper(ShaperBase):
         polygon: ConvexPolygon,
         *,
         buffer: float | None = None,
-        spring_gain: float = 0.0,
+        spring_gain: float | None = None,
         method: str = "exact",
         corner_blend_angle: float = 0.3,
         max_recovery_speed: float | None = None,
         profile: ApproachProfile | None = None,
+        dt: float | None = None,
         on_invalid: str = "raise",
         accelerate: bool = True,
     ) -> None:
         self.polygon = as_polygon(polygon)
+        self.method = check_choice("method", method, _METHODS)
         if profile is not None:
             if not isinstance(profile, ApproachProfile):
                 raise InvalidParameter(
@@ -105,26 +127,41 @@ class PolygonShaper(ShaperBase):
                     "profile replaces the linear buffer of the exact law: pass profile with "
                     f"method='exact' and no buffer, got method={method!r}, buffer={buffer!r}"
                 )
-            if spring_gain != 0.0 or max_recovery_speed is not None:
+            if spring_gain is not None or max_recovery_speed is not None:
                 raise InvalidParameter(
                     "with a profile the recovery outside is the profile's (its negative cap): "
                     f"drop spring_gain and max_recovery_speed, got spring_gain={spring_gain!r}, "
                     f"max_recovery_speed={max_recovery_speed!r}"
                 )
+            if dt is not None:
+                raise InvalidParameter(
+                    "dt is not supported with a profile: build the period into the profile "
+                    f"(its cap), or use buffer=; got dt={dt!r}"
+                )
             buffer = math.inf
+            spring_gain = 0.0
         elif buffer is None:
             raise InvalidParameter(
                 "buffer must be given (width of the buffer band, workspace units) unless a "
                 "profile is, got None"
             )
         self.profile = profile
-        self.buffer = (
-            buffer
-            if profile is not None
-            else check_positive("buffer", buffer, unit="workspace units")
+        if profile is None:
+            self.buffer = check_positive("buffer", buffer, unit="workspace units")
+            limit = self.polygon.inradius
+            if self.buffer > limit * (1.0 + 1e-9):
+                raise InvalidParameter(
+                    f"buffer={self.buffer:g} is wider than the polygon admits: its inradius "
+                    f"(largest inscribed circle) is {limit:.6g}, so no point would be clear of "
+                    "every edge's buffer (every speed cut everywhere) and, outside, recovery "
+                    f"could not be combined with the other edges' bounds; use buffer <= "
+                    f"{limit:.6g}"
+                )
+        else:
+            self.buffer = math.inf
+        self.spring_gain = check_positive(
+            "spring_gain", 1.0 if spring_gain is None else spring_gain, allow_zero=True, unit="1/s"
         )
-        self.spring_gain = check_positive("spring_gain", spring_gain, allow_zero=True, unit="1/s")
-        self.method = check_choice("method", method, _METHODS)
         self.corner_blend_angle = check_positive(
             "corner_blend_angle", corner_blend_angle, unit="rad"
         )
@@ -139,16 +176,23 @@ class PolygonShaper(ShaperBase):
                 "max_recovery_speed", max_recovery_speed, unit="workspace units per second"
             )
         self.max_recovery_speed = rmax
+        self.dt = None if dt is None else check_positive("dt", dt, unit="s")
+        idt = 0.0 if self.dt is None else 1.0 / self.dt
+        if not math.isfinite(idt):
+            raise InvalidParameter(
+                f"dt: expected a control period of at least 1e-300 s, got {dt!r}"
+            )
+        self._idt = idt
         super().__init__(on_invalid=on_invalid)
-        self.accelerate = bool(accelerate)
-        nx, ny, off, cx, cy, a0, beta, n = polygon._fast
+        self.accelerate = check_flag("accelerate", accelerate)
+        nx, ny, off, cx, cy, a0, beta, n = self.polygon._fast
         if self.method == "patent":
             fast: tuple[Any, ...] = (
                 nx, ny, off, cx, cy, a0, beta, n,
-                self.buffer, self.spring_gain, self.corner_blend_angle,
+                self.buffer, self.spring_gain, self.corner_blend_angle, idt,
             )  # fmt: skip
         else:
-            fast = (nx, ny, off, cx, cy, n, self.buffer, self.spring_gain, rmax)
+            fast = (nx, ny, off, cx, cy, n, self.buffer, self.spring_gain, rmax, idt)
         self._fast = fast
         self._batch_args = tuple(
             np.asarray(a, dtype=float) if isinstance(a, tuple) else a for a in fast
@@ -241,12 +285,8 @@ class PolygonShaper(ShaperBase):
                 "bounds() describes the exact law with a linear buffer; this shaper has "
                 f"method={self.method!r}, profile={self.profile!r}"
             )
-        px, py = as_pair("position", p)
-        vx, vy = as_pair("command", v)
-        if not all(math.isfinite(x) for x in (px, py, vx, vy)):
-            raise InvalidInput(
-                f"bounds: expected finite values, got position=({px}, {py}), command=({vx}, {vy})"
-            )
+        px, py = real_array("position", p, (2,), what="a 2-vector of real numbers").tolist()
+        vx, vy = real_array("command", v, (2,), what="a 2-vector of real numbers").tolist()
         rows = self._bounds(px, py, vx, vy)[0]
         if not rows:
             return np.zeros((0, 2)), np.zeros(0), np.zeros(0, dtype=np.int64)
@@ -256,25 +296,38 @@ class PolygonShaper(ShaperBase):
     def _bounds(
         self, px: float, py: float, vx: float, vy: float
     ) -> tuple[list[tuple[float, float, float, int]], list[float]]:
-        """Float-only :meth:`bounds`: rows ``(nx, ny, L, edge)`` and every edge's distance."""
+        """Float-only :meth:`bounds`: rows ``(nx, ny, L, edge)`` and every edge's distance.
+
+        The same arithmetic as the exact kernel (same recovery caps, same discrete-time terms,
+        same set of edges), in the caller's units.
+        """
         nx, ny, off = self._fast[0], self._fast[1], self._fast[2]
         n = len(off)
+        k, rmax, dmax, idt = self.spring_gain, self.max_recovery_speed, self.buffer, self._idt
         d = [nx[e] * px + ny[e] * py - off[e] for e in range(n)]
+
+        def recovery(de: float) -> float:
+            r = min(k * -de, rmax)
+            return min(r, -de * idt) if idt > 0.0 else r
+
         rec = 0.0
         for e in range(n):
             if d[e] < 0.0:
-                rec = max(rec, min(self.spring_gain * -d[e], self.max_recovery_speed))
-        scale = (math.hypot(vx, vy) + rec) / self.buffer
-        rows = [
-            (nx[e], ny[e], min(self.spring_gain * -d[e], self.max_recovery_speed)
-             if d[e] < 0.0 else -scale * d[e], e)
-            for e in range(n)
-            if d[e] < self.buffer
-        ]  # fmt: skip
+                rec = max(rec, recovery(d[e]))
+        speed = math.hypot(vx, vy) + rec
+        reach = dmax if idt == 0.0 else max(dmax, speed / idt)
+
+        def lower(de: float) -> float:
+            if de < 0.0:
+                return recovery(de)
+            b = -speed * (de / dmax)
+            return max(b, -de * idt) if idt > 0.0 else b
+
+        rows = [(nx[e], ny[e], lower(d[e]), e) for e in range(n) if d[e] < reach]
         return rows, d
 
     def __repr__(self) -> str:
         return (
             f"PolygonShaper({self.polygon.n}-gon, method={self.method!r}, buffer={self.buffer}, "
-            f"spring_gain={self.spring_gain})"
+            f"spring_gain={self.spring_gain}, dt={self.dt})"
         )
