@@ -45,6 +45,15 @@ def test_exact_polygon_recovers_from_outside(polygon_results: dict[str, object])
     assert 0.0 < r.median_recovery_time < 1.0
 
 
+def test_exact_polygon_with_the_control_period_is_contained_at_20_hz(
+    polygon_results: dict[str, object],
+) -> None:
+    r = polygon_results["PolygonShaper exact, 20 Hz, 3 units/s, dt=0.05"]
+    assert r.escapes == 0
+    assert r.max_penetration <= 1e-9
+    assert r.recovered == r.outside_episodes
+
+
 def _square_case(name: str, shaper: object, dt: float, speed: float) -> SoakCase:
     square = ConvexPolygon([[0, 0], [2, 0], [2, 2], [0, 2]])
     sets = _PlanarSets([square], 10, np.eye(2))
@@ -62,6 +71,10 @@ def test_continuous_law_at_20_hz_leaks() -> None:
     r = run_case(_square_case("20 Hz", shaper, 0.05, 3.0), **SMOKE, seed=4)
     assert r.escapes > 0
     assert r.max_penetration > 0.01
+    periodic = PolygonShaper(square, buffer=0.05, spring_gain=1.0, method="exact", dt=0.05)
+    r = run_case(_square_case("20 Hz, dt", periodic, 0.05, 3.0), **SMOKE, seed=4)
+    assert r.escapes == 0
+    assert r.max_penetration <= 1e-9
 
 
 def test_stop_limiter_is_contained_with_and_without_rate_limiter() -> None:

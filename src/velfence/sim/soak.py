@@ -60,6 +60,8 @@ class SoakCase:
         dt: Control period and Euler step [s].
         max_speed: Largest commanded speed [state units / s].
         dim: State dimension d.
+        passive: A passive device (a cobot wall) cannot move without a push: its outside
+            starts always get a non-zero command.
     """
 
     name: str
@@ -72,6 +74,7 @@ class SoakCase:
     dim: int
     reset: Callable[[], None] | None = None
     flagged: Callable[[], int] | None = None
+    passive: bool = False
 
 
 @dataclass(frozen=True)
@@ -164,7 +167,7 @@ def run_case(
     outside = rng.random(n) < outside_fraction
     X = case.sample(rng, n, outside)
     pusher = rng.random(n) < push_fraction
-    idle = outside & (rng.random(n) < 0.2)
+    idle = outside & (rng.random(n) < 0.2) & (not case.passive)
     pusher &= ~idle
     if case.reset is not None:
         case.reset()
@@ -348,7 +351,14 @@ def polygon_cases(
     gains = [float(rng.uniform(1.0, 5.0)) for _ in polys]
     sets = _PlanarSets(polys, episodes, np.eye(2))
 
-    def case(name: str, build: Callable[[int], object], dt: float, speed: float) -> SoakCase:
+    def case(
+        name: str,
+        build: Callable[[int], object],
+        dt: float,
+        speed: float,
+        *,
+        passive: bool = False,
+    ) -> SoakCase:
         shapers = [build(g) for g in range(len(polys))]
 
         def step(X: FloatArray, V: FloatArray) -> FloatArray:
@@ -357,7 +367,9 @@ def polygon_cases(
                 U[rows] = shapers[g].shape_batch(X[rows], V[rows])  # type: ignore[attr-defined]
             return U
 
-        return SoakCase(name, sets.sample, sets.margin, sets.outward, step, dt, speed, 2)
+        return SoakCase(
+            name, sets.sample, sets.margin, sets.outward, step, dt, speed, 2, passive=passive
+        )
 
     def exact(g: int) -> object:
         return PolygonShaper(polys[g], buffer=buffers[g], spring_gain=gains[g], method="exact")
@@ -371,10 +383,17 @@ def polygon_cases(
     cases = [
         case("PolygonShaper exact, 1 kHz", exact, 1e-3, 1.0),
         case("PolygonShaper patent (faithful), 1 kHz", patent, 1e-3, 1.0),
-        case("CasterWall, 1 kHz", caster, 1e-3, 1.0),
+        case("CasterWall, 1 kHz", caster, 1e-3, 1.0, passive=True),
     ]
     if coarse:
-        cases.append(case("PolygonShaper exact, 20 Hz, 3 units/s", exact, 0.05, 3.0))
+
+        def exact_dt(g: int) -> object:
+            return PolygonShaper(
+                polys[g], buffer=buffers[g], spring_gain=gains[g], method="exact", dt=0.05
+            )
+
+        cases.append(case("PolygonShaper exact, 20 Hz, 3 units/s, no dt", exact, 0.05, 3.0))
+        cases.append(case("PolygonShaper exact, 20 Hz, 3 units/s, dt=0.05", exact_dt, 0.05, 3.0))
     return cases
 
 
