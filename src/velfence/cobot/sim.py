@@ -279,6 +279,8 @@ def follow_in_ee(
     """
     _controller(controller)
     R = finite_array("R0", R0, (None,), what="a configuration")
+    if R.shape[0] == 0:
+        raise InvalidInput("R0: expected a configuration of shape (n,) with n >= 1, got shape (0,)")
     T = _unit("T0", T0, R.shape[0])
     steps = step_count("length", length, "ds", ds)
     h = check_positive("ds", ds, unit="m")

@@ -40,6 +40,7 @@ from velfence._validate import (
     finite_array,
     finite_scalar,
     readonly,
+    real_array,
     rigid_transform,
 )
 from velfence.errors import InvalidInput, InvalidParameter
@@ -500,10 +501,8 @@ class ResolvedRate(InvalidPolicy):
 
 
 def _flat(name: str, x: Any) -> FloatArray:
-    try:
-        a = np.array(x, dtype=float)
-    except (TypeError, ValueError):
-        raise InvalidInput(f"{name}: expected a 1-D array of numbers, got {x!r}") from None
+    # Non-finite entries pass: the on_invalid policy decides about them.
+    a = real_array(name, x, allow_nonfinite=True, what="a 1-D array of numbers")
     if a.ndim != 1 or a.shape[0] == 0:
         raise InvalidInput(f"{name}: expected a non-empty 1-D array, got shape {a.shape}")
     return a

@@ -95,7 +95,8 @@ def _vec(name: str, x: ArrayLike, n: int | None, unit: str) -> FloatArray:
 
 def _per_joint(name: str, value: Any, unit: str, *, allow_zero: bool) -> FloatArray:
     """A positive scalar or 1-D array parameter, as a read-only 1-D array (length 1 if scalar)."""
-    if np.ndim(value) == 0:
+    scalar = isinstance(value, np.ndarray) and value.ndim == 0
+    if scalar or not isinstance(value, (list, tuple, np.ndarray)):
         return readonly(np.array([check_positive(name, value, allow_zero=allow_zero, unit=unit)]))
     a = finite_array(name, value, error=InvalidParameter, what=f"a number or 1-D numbers {unit}")
     ok = (a >= 0.0) if allow_zero else (a > 0.0)

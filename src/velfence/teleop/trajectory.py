@@ -52,10 +52,12 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from velfence._validate import (
+    MAX_MAGNITUDE,
     MAX_STEPS,
     check_choice,
     check_positive,
     check_positive_int,
+    check_range,
     finite_scalar,
     readonly,
 )
@@ -229,7 +231,8 @@ def straight_line(
         InvalidParameter: an out-of-range parameter.
     """
     sp = check_positive("spacing", spacing, unit="m")
-    hz = check_positive("rate", rate, unit="Hz")
+    # >= 1/MAX_MAGNITUDE: the via-point period (and so the duration) must stay finite.
+    hz = check_range("rate", rate, low=1.0 / MAX_MAGNITUDE, unit="Hz")
     asp = check_positive("angular_spacing", angular_spacing, unit="rad")
     how = check_choice("timing", timing, TIMINGS)
     dmin = check_positive("min_distance", min_distance, allow_zero=True, unit="m")
