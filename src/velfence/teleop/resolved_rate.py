@@ -502,7 +502,7 @@ class ResolvedRate(InvalidPolicy):
 
 def _flat(name: str, x: Any) -> FloatArray:
     # Non-finite entries pass: the on_invalid policy decides about them.
-    a = real_array(name, x, allow_nonfinite=True, what="a 1-D array of numbers")
+    a = real_array(name, x, allow_nonfinite=True, max_abs=None, what="a 1-D array of numbers")
     if a.ndim != 1 or a.shape[0] == 0:
         raise InvalidInput(f"{name}: expected a non-empty 1-D array, got shape {a.shape}")
     return a

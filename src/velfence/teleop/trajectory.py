@@ -57,7 +57,6 @@ from velfence._validate import (
     check_choice,
     check_positive,
     check_positive_int,
-    check_range,
     finite_scalar,
     readonly,
 )
@@ -231,8 +230,9 @@ def straight_line(
         InvalidParameter: an out-of-range parameter.
     """
     sp = check_positive("spacing", spacing, unit="m")
-    # >= 1/MAX_MAGNITUDE: the via-point period (and so the duration) must stay finite.
-    hz = check_range("rate", rate, low=1.0 / MAX_MAGNITUDE, unit="Hz")
+    hz = check_positive("rate", rate, unit="Hz")
+    if hz < 1.0 / MAX_MAGNITUDE:  # the via-point period (and so the duration) must stay finite
+        raise InvalidParameter(f"rate: expected a rate >= {1.0 / MAX_MAGNITUDE:g} Hz, got {hz:g}")
     asp = check_positive("angular_spacing", angular_spacing, unit="rad")
     how = check_choice("timing", timing, TIMINGS)
     dmin = check_positive("min_distance", min_distance, allow_zero=True, unit="m")
