@@ -129,9 +129,9 @@ def test_follow_in_ee_validation() -> None:
     f = fig5_follower()
     with pytest.raises(InvalidInput, match="T0: expected a non-zero direction"):
         follow_in_ee(f, R0, [0.0, 0.0], length=1.0)
-    with pytest.raises(InvalidInput, match=r"expected a finite vector of shape \(3,\)"):
+    with pytest.raises(InvalidInput, match=r"T0: expected shape \(3,\), got shape \(2,\)"):
         follow_in_ee(f, [1.0, 0.0, 0.0], T0, length=1.0)
-    with pytest.raises(InvalidInput, match="R0: expected a finite vector of shape"):
+    with pytest.raises(InvalidInput, match="R0: expected finite values"):
         follow_in_ee(f, [math.nan, 0.0], T0, length=1.0)
     with pytest.raises(InvalidParameter, match="length must be finite and > 0"):
         follow_in_ee(f, R0, T0, length=0.0)
@@ -350,9 +350,9 @@ def test_simulate_cobot_validation() -> None:
     f = fig5_follower()
     q0, phi0 = cob.kinematics.joints(R0), cob.steering_angles(R0, T0)
     sp = constant_speed(1.0)
-    with pytest.raises(InvalidInput, match=r"q0: expected a finite vector of shape \(2,\)"):
+    with pytest.raises(InvalidInput, match=r"q0: expected shape \(2,\), got shape \(1,\)"):
         simulate_cobot(cob, f, [1.0], phi0, speed=sp, duration=1.0)
-    with pytest.raises(InvalidInput, match=r"phi0: expected a finite vector of shape \(1,\)"):
+    with pytest.raises(InvalidInput, match=r"phi0: expected finite values"):
         simulate_cobot(cob, f, q0, [math.nan], speed=sp, duration=1.0)
     with pytest.raises(InvalidParameter, match="duration must be finite and > 0"):
         simulate_cobot(cob, f, q0, phi0, speed=sp, duration=0.0)

@@ -43,7 +43,7 @@ def _follow(m: ModeManager, T, *, t=0.0, limit=20000):
 
 
 def test_startup_is_teleoperation_disengaged_and_nothing_is_sent():
-    m = ModeManager(LASER, rate=RATE)
+    m = ModeManager(laser=LASER, rate=RATE)
     T = _pose()
     assert m.mode == "teleop"
     assert not m.clutch
@@ -59,19 +59,19 @@ def test_startup_is_teleoperation_disengaged_and_nothing_is_sent():
 
 
 def test_unknown_key_and_bad_inputs_are_refused():
-    m = ModeManager(LASER)
+    m = ModeManager(laser=LASER)
     with pytest.raises(InvalidInput, match="expected one of"):
         m.press("X", t=0.0, pose=_pose(), distance=0.4)
     with pytest.raises(InvalidInput, match="distance"):
         m.press("D", t=0.0, pose=_pose(), distance=-1.0)
     with pytest.raises(InvalidParameter, match="presses_per_point"):
-        ModeManager(LASER, presses_per_point=0)
+        ModeManager(laser=LASER, presses_per_point=0)
     with pytest.raises(InvalidParameter, match="fixture_options"):
-        ModeManager(LASER, fixture_options={"stiff": 1.0})
+        ModeManager(laser=LASER, fixture_options={"stiff": 1.0})
 
 
 def test_a_needs_a_reading_and_a_spot_beyond_the_standoff():
-    m = ModeManager(LASER)
+    m = ModeManager(laser=LASER)
     m.press("A", t=0.0, pose=_pose(), distance=None)
     m.press("A", t=0.0, pose=_pose(), distance=0.15)
     assert [e.kind for e in m.events] == ["refused", "refused"]
@@ -79,7 +79,7 @@ def test_a_needs_a_reading_and_a_spot_beyond_the_standoff():
 
 
 def test_a_stops_20_cm_short_along_the_beam_then_hands_back():
-    m = ModeManager(LASER, rate=RATE)
+    m = ModeManager(laser=LASER, rate=RATE)
     T0 = _pose()
     D = 0.43
     spot = LASER.target_transform(T0, D, with_offset=True)[:3, 3]
@@ -102,7 +102,7 @@ def test_a_stops_20_cm_short_along_the_beam_then_hands_back():
 
 
 def test_s_toggles_scaled_teleoperation_along_the_beam():
-    m = ModeManager(LASER, rate=RATE)
+    m = ModeManager(laser=LASER, rate=RATE)
     T = _pose()
     m.press("C", t=0.0, pose=T, distance=None)
     m.press("S", t=0.0, pose=T, distance=None)
@@ -121,7 +121,7 @@ def test_s_toggles_scaled_teleoperation_along_the_beam():
 
 
 def test_f_applies_the_line_fixture():
-    m = ModeManager(LASER, fixture_options={"stiffness": 300.0})
+    m = ModeManager(laser=LASER, fixture_options={"stiffness": 300.0})
     T = _pose()
     m.press("C", t=0.0, pose=T, distance=None)
     m.press("F", t=0.0, pose=T, distance=0.4)
@@ -138,7 +138,7 @@ def test_f_applies_the_line_fixture():
 
 
 def test_d_records_the_laser_spot_with_the_offset():
-    m = ModeManager(LASER)
+    m = ModeManager(laser=LASER)
     T = _pose()
     m.press("D", t=0.0, pose=T, distance=0.5)
     np.testing.assert_allclose(m.destination, LASER.laser_point(T, 0.5))
@@ -151,7 +151,7 @@ def _record_plane(m, points_T, distance=0.5):
 
 
 def test_p_twice_per_point_records_a_ccw_plane():
-    m = ModeManager(LASER)
+    m = ModeManager(laser=LASER)
     T = _pose(tilt=0.0)
     m.press("P", t=0.0, pose=T, distance=0.5)
     assert m.plane_points == ()
@@ -169,7 +169,7 @@ def test_p_twice_per_point_records_a_ccw_plane():
 
 
 def test_collinear_plane_points_are_refused():
-    m = ModeManager(LASER)
+    m = ModeManager(laser=LASER)
     poses = []
     for x in (0.0, 0.05, 0.1):
         T = _pose(tilt=0.0)
@@ -182,7 +182,7 @@ def test_collinear_plane_points_are_refused():
 
 
 def test_g_a_runs_three_legs_up_across_down_with_toggle_presses():
-    m = ModeManager(LASER, rate=RATE, speed=0.4)
+    m = ModeManager(laser=LASER, rate=RATE, speed=0.4)
     T = _pose()
     m.press("G", t=0.0, pose=T, distance=None)
     m.press("A", t=0.0, pose=T, distance=None)
@@ -212,7 +212,7 @@ def test_g_a_runs_three_legs_up_across_down_with_toggle_presses():
 
 
 def test_g_a_without_toggle_off_starts_the_next_leg_directly():
-    m = ModeManager(LASER, rate=RATE, speed=0.4, toggle_off=False)
+    m = ModeManager(laser=LASER, rate=RATE, speed=0.4, toggle_off=False)
     m._destination = np.array([-0.18, 0.68, -0.6])
     T = _pose()
     for leg in (1, 2):
@@ -223,7 +223,7 @@ def test_g_a_without_toggle_off_starts_the_next_leg_directly():
 
 
 def test_prefix_is_cancelled_by_another_key():
-    m = ModeManager(LASER)
+    m = ModeManager(laser=LASER)
     T = _pose()
     m.press("G", t=0.0, pose=T, distance=0.4)
     assert m.prefix == "G"
@@ -234,7 +234,7 @@ def test_prefix_is_cancelled_by_another_key():
 
 
 def test_t_a_aligns_the_tool_axis_with_the_plane_normal():
-    m = ModeManager(LASER, rate=RATE)
+    m = ModeManager(laser=LASER, rate=RATE)
     m._normal = np.array([0.0, 0.0, 1.0])
     T0 = _pose(tilt=0.4)
     m.press("T", t=0.0, pose=T0, distance=None)

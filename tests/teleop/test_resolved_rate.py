@@ -62,7 +62,7 @@ def test_damping_is_continuous_at_w0_and_decreasing():
 
 @pytest.mark.parametrize("w", [-1e-3, math.nan, math.inf, "x"])
 def test_damping_rejects_bad_w(w):
-    with pytest.raises(InvalidInput, match="expected a finite manipulability >= 0"):
+    with pytest.raises(InvalidInput, match=r"w: expected a (finite )?manipulability >= 0"):
         damping(w)
 
 
@@ -116,7 +116,7 @@ def test_sr_inverse_validates():
         sr_inverse(np.eye(6), -1.0)
     with pytest.raises(InvalidInput, match="expected a non-empty 2-D array"):
         sr_inverse(np.ones(6), 0.1)
-    with pytest.raises(InvalidInput, match="expected finite entries"):
+    with pytest.raises(InvalidInput, match="J: expected finite values"):
         sr_inverse(np.full((6, 6), np.nan), 0.1)
 
 

@@ -69,7 +69,7 @@ def _rot(axis, angle):
 # ------------------------------------------------------------------ brute force, random rays
 def test_cylinder_matches_marching_for_random_rays():
     rng = np.random.default_rng(11)
-    cyl = Cylinder((0.1, -0.2, 0.3), 0.25, 0.4)
+    cyl = Cylinder((0.1, -0.2, 0.3), radius=0.25, height=0.4)
 
     def inside(p):
         radial = np.hypot(p[:, 0] - 0.1, p[:, 1] + 0.2) <= 0.25
@@ -125,7 +125,7 @@ def test_bounded_plane_and_disk_match_marching():
     v = np.cross(n, u)
     p0 = np.array([0.0, 0.5, -0.4])
     plane = Plane(p0, n, half_extents=(0.3, 0.2), u_axis=u)
-    disk = Disk(p0, n, 0.25)
+    disk = Disk(p0, n, radius=0.25)
 
     def side(p):
         return (p - p0) @ n > 0.0
@@ -192,7 +192,7 @@ def test_infinite_plane_hits_far_away_and_from_below():
 
 
 def test_cylinder_special_rays():
-    cup = Cylinder((0, 0, 0), 0.04, 0.10)
+    cup = Cylinder((0, 0, 0), radius=0.04, height=0.10)
     down = (0.0, 0.0, -1.0)
     assert cup.intersect((0, 0, 0.5), down) == pytest.approx(0.4, abs=EXACT)  # top cap
     assert cup.intersect((0.04, 0, 0.5), down) == pytest.approx(0.4, abs=EXACT)  # rim
@@ -230,7 +230,7 @@ def test_box_edges_corners_and_inside():
 
 
 def test_disk_rim_is_inclusive():
-    mark = Disk((0, 0, 0), (0, 0, 1), 0.038)
+    mark = Disk((0, 0, 0), (0, 0, 1), radius=0.038)
     assert mark.intersect((0.038, 0, 1), (0, 0, -1)) == pytest.approx(1.0, abs=EXACT)
     assert math.isinf(mark.intersect((0.038 + 1e-9, 0, 1), (0, 0, -1)))
     assert mark.distance((0.1, 0, 0.0)) == pytest.approx(0.062)
@@ -239,7 +239,7 @@ def test_disk_rim_is_inclusive():
 
 # ------------------------------------------------------------------ distances
 def test_cylinder_signed_distance_matches_surface_sampling():
-    cyl = Cylinder((0, 0, 0), 0.3, 0.5)
+    cyl = Cylinder((0, 0, 0), radius=0.3, height=0.5)
     a = np.linspace(0, 2 * np.pi, 361)
     z = np.linspace(0, 0.5, 101)
     r = np.linspace(0, 0.3, 61)
@@ -299,7 +299,7 @@ def test_raycast_returns_nearest_hit_with_facing_normal_and_respects_max_range()
 
 def test_raycast_ties_go_to_the_earlier_primitive():
     a = Plane((0, 0, 0), (0, 0, 1))
-    b = Disk((0, 0, 0), (0, 0, 1), 1.0)
+    b = Disk((0, 0, 0), (0, 0, 1), radius=1.0)
     hit_ab = Scene({"a": a, "b": b}).raycast((0, 0, 1), (0, 0, -1))
     hit_ba = Scene({"b": b, "a": a}).raycast((0, 0, 1), (0, 0, -1))
     assert hit_ab is not None
@@ -417,11 +417,15 @@ def test_door_scene_is_vertical_and_faces_the_robot():
             r"point: expected shape \(3,\), got shape \(2,\)",
         ),
         (
-            lambda: Disk((0, math.inf, 0), (0, 0, 1), 0.1),
+            lambda: Disk((0, math.inf, 0), (0, 0, 1), radius=0.1),
             InvalidGeometry,
             r"center: expected finite values, got \[0.0, inf, 0.0\]",
         ),
-        (lambda: Cylinder("abc", 0.1, 0.1), InvalidGeometry, "base_center: expected numbers"),
+        (
+            lambda: Cylinder("abc", radius=0.1, height=0.1),
+            InvalidGeometry,
+            "base_center: expected numbers",
+        ),
         (
             lambda: Plane((0, 0, 0), (0, 0, 1), half_extents=(1.0, 0.0)),
             InvalidGeometry,
@@ -437,9 +441,21 @@ def test_door_scene_is_vertical_and_faces_the_robot():
             InvalidGeometry,
             "not parallel to the normal",
         ),
-        (lambda: Cylinder((0, 0, 0), 0.0, 1.0), InvalidGeometry, "radius: expected a finite"),
-        (lambda: Cylinder((0, 0, 0), 1.0, math.nan), InvalidGeometry, "height: expected a fin"),
-        (lambda: Disk((0, 0, 0), (0, 0, 1), -1), InvalidGeometry, "radius: expected a finite"),
+        (
+            lambda: Cylinder((0, 0, 0), radius=0.0, height=1.0),
+            InvalidGeometry,
+            "radius: expected a finite",
+        ),
+        (
+            lambda: Cylinder((0, 0, 0), radius=1.0, height=math.nan),
+            InvalidGeometry,
+            "height: expected a fin",
+        ),
+        (
+            lambda: Disk((0, 0, 0), (0, 0, 1), radius=-1),
+            InvalidGeometry,
+            "radius: expected a finite",
+        ),
         (lambda: Box((0, 0, 0), (1, 0, 1)), InvalidGeometry, "three numbers > 0"),
         (
             lambda: Box((0, 0, 0), (1, 1, 1), rotation=np.diag([1.0, 1.0, -1.0])),
@@ -462,7 +478,7 @@ def test_bad_definitions_raise_with_message(make, exc, match):
 
 
 def test_bad_rays_raise_with_message():
-    cup = Cylinder((0, 0, 0), 0.04, 0.10)
+    cup = Cylinder((0, 0, 0), radius=0.04, height=0.10)
     with pytest.raises(InvalidInput, match=r"direction: expected a unit vector .* normalise"):
         cup.intersect((0, 0, 1), (0, 0, -2))
     with pytest.raises(InvalidInput, match="origin: expected finite values"):
@@ -470,9 +486,9 @@ def test_bad_rays_raise_with_message():
     with pytest.raises(InvalidInput, match=r"direction: expected shape \(3,\)"):
         cup.intersect((0, 0, 1), (0, -1))
     scene = Scene({"cup": cup})
-    with pytest.raises(InvalidParameter, match="max_range: expected a number >= 0"):
+    with pytest.raises(InvalidParameter, match=r"max_range must be finite and >= 0 \(m\)"):
         scene.raycast((0, 0, 1), (0, 0, -1), max_range=-1.0)
-    with pytest.raises(InvalidParameter, match="max_range: expected a number >= 0"):
+    with pytest.raises(InvalidParameter, match=r"max_range must be finite and >= 0 \(m\)"):
         scene.raycast((0, 0, 1), (0, 0, -1), max_range=math.nan)
 
 

@@ -95,7 +95,7 @@ def test_the_laser_is_cast_from_the_true_pose_not_the_noisy_measured_one():
     )
     laser = LaserRangeSensor(noise_v=0.0, quantum_v=0.0)
     s = Session(
-        scene=table, servo=servo, laser=laser, rate=RATE, modes=ModeManager(laser, rate=RATE)
+        scene=table, servo=servo, laser=laser, rate=RATE, modes=ModeManager(laser=laser, rate=RATE)
     )
     s.advance(1.0)  # more than the 50-sample window at 90 Hz
     hit = laser.true_hit(s.true_pose, table)

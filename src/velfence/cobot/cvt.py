@@ -30,7 +30,7 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import NDArray
 
-from velfence._validate import finite_scalar
+from velfence._validate import finite_array, finite_scalar
 from velfence.errors import InvalidInput, InvalidParameter
 
 __all__ = ["CVT", "SteeredWheel", "TetrahedralCVT"]
@@ -70,10 +70,16 @@ def _angle(name: str, phi: float) -> float:
 
 
 def _direction_arg(t: FloatArray) -> tuple[float, float]:
-    a = np.asarray(t, dtype=float)
-    if a.shape != (2,) or not np.all(np.isfinite(a)) or not np.any(a):
-        raise InvalidInput(f"t: expected a finite non-zero direction of shape (2,), got {t!r}")
+    a = finite_array("t", t, (2,), what="a direction")
+    if not np.any(a):
+        raise InvalidInput("t: expected a non-zero direction of shape (2,), got [0.0, 0.0]")
     return float(a[0]), float(a[1])
+
+
+def _rate_args(curvature: float, speed: float) -> tuple[float, float]:
+    k = finite_scalar("curvature", curvature, unit="1/unit", what="signed curvature")
+    u = finite_scalar("speed", speed, unit="unit/s", what="speed")
+    return k, u
 
 
 @dataclass(frozen=True)
@@ -97,6 +103,7 @@ class SteeredWheel:
 
     def angle_rate(self, phi: float) -> float:
         """Always 1: the wheel's direction angle is its steering angle."""
+        _angle("phi", phi)
         return 1.0
 
     def steering_angle(self, t: FloatArray) -> float:
@@ -106,7 +113,8 @@ class SteeredWheel:
 
     def steering_rate(self, phi: float, curvature: float, speed: float) -> float:
         """Eq. (2.15): ``speed * curvature``."""
-        return float(speed) * float(curvature) / self.angle_rate(phi)
+        k, u = _rate_args(curvature, speed)
+        return u * k / self.angle_rate(phi)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -132,7 +140,9 @@ class TetrahedralCVT:
     convention: int = 1
 
     def __post_init__(self) -> None:
-        if isinstance(self.convention, bool) or self.convention not in (1, -1):
+        c = self.convention
+        is_int = isinstance(c, (int, np.integer)) and not isinstance(c, (bool, np.bool_))
+        if not is_int or c not in (1, -1):
             raise InvalidParameter(
                 f"convention: expected +1 or -1 (the sign lost from eq. 2.16), "
                 f"got {self.convention!r}"
@@ -173,4 +183,5 @@ class TetrahedralCVT:
 
     def steering_rate(self, phi: float, curvature: float, speed: float) -> float:
         """Eq. (2.18): ``curvature * speed * (1 + cos² φ) / (c √2)``."""
-        return float(curvature) * float(speed) / self.angle_rate(phi)
+        k, u = _rate_args(curvature, speed)
+        return k * u / self.angle_rate(phi)

@@ -31,12 +31,19 @@ The reference state :math:`(s_p, s_p')` belongs to the controller and is integra
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._validate import check_choice, check_positive, finite_array, finite_scalar
+from velfence._validate import (
+    MAX_MAGNITUDE,
+    check_choice,
+    check_positive,
+    finite_array,
+    finite_scalar,
+)
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.geometry.paths import Path
 
@@ -61,17 +68,33 @@ def gains_from_poles(p1: complex, p2: complex) -> tuple[float, float]:
     Raises:
         InvalidParameter: An unstable/marginal pole, or a non-conjugate complex pair.
     """
-    a, b = complex(p1), complex(p2)
-    for name, p in (("p1", a), ("p2", b)):
-        if not (math.isfinite(p.real) and math.isfinite(p.imag)) or p.real >= 0.0:
-            raise InvalidParameter(
-                f"{name}: expected a stable pole (real part < 0) in 1/m, got {p}"
-            )
+    a, b = _pole("p1", p1), _pole("p2", p2)
     if abs(a.imag + b.imag) > 1e-12 * (1.0 + abs(a) + abs(b)) or (
         a.imag != 0.0 and abs(a.real - b.real) > 1e-12 * (1.0 + abs(a))
     ):
         raise InvalidParameter(f"poles: a complex pair must be conjugate, got {a} and {b}")
     return float((a * b).real), float(-(a + b).real)
+
+
+def _pole(name: str, p: object) -> complex:
+    """A pole as a finite complex number with real part < 0 (strings and booleans refused)."""
+    if isinstance(p, (bool, np.bool_)) or not isinstance(p, numbers.Number):
+        raise InvalidParameter(
+            f"{name}: expected a stable pole (a real or complex number) in 1/m, got "
+            f"{type(p).__name__} {p!r:.60}"
+        )
+    try:
+        z: complex = complex(p)  # type: ignore[call-overload]
+    except (OverflowError, TypeError, ValueError):
+        z = complex(math.inf)
+    if not (math.isfinite(z.real) and math.isfinite(z.imag)) or abs(z) > MAX_MAGNITUDE:
+        raise InvalidParameter(
+            f"{name}: expected a stable pole (finite, magnitude <= {MAX_MAGNITUDE:g}) in 1/m, "
+            f"got {p!r:.60}"
+        )
+    if z.real >= 0.0:
+        raise InvalidParameter(f"{name}: expected a stable pole (real part < 0) in 1/m, got {z}")
+    return z
 
 
 def critically_damped(omega: float) -> tuple[float, float]:
@@ -139,6 +162,8 @@ class PathFollower:
         if not isinstance(path, Path):
             raise InvalidParameter(f"path: expected a velfence Path, got {path!r}")
         try:
+            if isinstance(gains, (str, bytes, bytearray)):
+                raise TypeError
             k1, k2 = gains
         except (TypeError, ValueError):
             raise InvalidParameter(f"gains: expected (k1, k2), got {gains!r}") from None
@@ -261,7 +286,9 @@ class PathFollower:
             t: Time [s]; unused (the law is spatial), accepted for the
                 :class:`~velfence.cobot.sim.HeadingController` protocol.
         """
-        d = finite_scalar("ds", ds)
+        d = finite_scalar("ds", ds, unit="m")
+        if t is not None:
+            finite_scalar("t", t, unit="s", what="time")
         if d < 0.0:
             raise InvalidInput(f"ds: expected the arc length travelled (>= 0), got {d}")
         if d > 0.0:

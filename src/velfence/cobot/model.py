@@ -24,13 +24,20 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import KW_ONLY, dataclass, field
 from typing import Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._validate import check_choice, check_positive, finite_array, readonly
+from velfence._validate import (
+    check_choice,
+    check_positive,
+    check_positive_int,
+    finite_array,
+    finite_scalar,
+    readonly,
+)
 from velfence.cobot.cvt import CVT, SteeredWheel, TetrahedralCVT
 from velfence.cobot.transforms import (
     coupling_from_ee,
@@ -110,16 +117,16 @@ class RThetaKinematics:
 
     def joints(self, R: FloatArray) -> FloatArray:
         """``(r, θ) = (|R|, atan2(y, x))`` [m, rad]."""
-        x, y = float(R[0]), float(R[1])
+        x, y = finite_array("R", R, (2,)).tolist()
         return np.array([math.hypot(x, y), math.atan2(y, x)])
 
     def position(self, q: FloatArray) -> FloatArray:
         """``(r cos θ, r sin θ)`` [m]."""
-        r, th = float(q[0]), float(q[1])
+        r, th = finite_array("q", q, (2,)).tolist()
         return np.array([r * math.cos(th), r * math.sin(th)])
 
     def _r(self, R: FloatArray) -> tuple[float, float, float]:
-        x, y = float(R[0]), float(R[1])
+        x, y = finite_array("R", R, (2,)).tolist()
         r = math.hypot(x, y)
         if r <= 0.0:
             raise InvalidInput("R: the r-θ cobot's Jacobian is singular at the pivot (r = 0)")
@@ -140,15 +147,14 @@ class RThetaKinematics:
         return np.stack([H1, H2])
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class IdentityKinematics:
     """Joint space = end-effector space (q = R, J = I): wheeled cobots on a plane, n = 2 or 3."""
 
     n: int = 2
 
     def __post_init__(self) -> None:
-        if isinstance(self.n, bool) or not isinstance(self.n, int) or self.n < 2:
-            raise InvalidParameter(f"n: expected an int >= 2, got {self.n!r}")
+        object.__setattr__(self, "n", check_positive_int("n", self.n, minimum=2, maximum=10_000))
 
     @property
     def dim(self) -> int:
@@ -157,18 +163,20 @@ class IdentityKinematics:
 
     def joints(self, R: FloatArray) -> FloatArray:
         """Joints equal the configuration: q = R."""
-        return np.array(R, dtype=float)
+        return finite_array("R", R, (self.n,))
 
     def position(self, q: FloatArray) -> FloatArray:
         """R = q."""
-        return np.array(q, dtype=float)
+        return finite_array("q", q, (self.n,))
 
     def jacobian(self, R: FloatArray) -> FloatArray:
         """Identity, shape (n, n)."""
+        finite_array("R", R, (self.n,))
         return np.eye(self.n)
 
     def hessian(self, R: FloatArray) -> FloatArray:
         """Zero, shape (n, n, n)."""
+        finite_array("R", R, (self.n,))
         return np.zeros((self.n, self.n, self.n))
 
 
@@ -191,6 +199,7 @@ class Coupling:
     """
 
     cvt: CVT
+    _: KW_ONLY
     selection: FloatArray | None = None
     jacobian: Callable[[FloatArray], tuple[FloatArray, FloatArray]] | None = None
     name: str = "cvt"
@@ -203,12 +212,18 @@ class Coupling:
                 "Coupling: give exactly one of selection (S_i, shape (2, n)) or jacobian "
                 "(R -> (J_i, H_i)), got " + ("both" if self.selection is not None else "neither")
             )
+        if self.jacobian is not None and not callable(self.jacobian):
+            raise InvalidParameter(
+                f"jacobian: expected a function R -> (J_i, H_i), got {type(self.jacobian).__name__}"
+            )
+        if not isinstance(self.name, str):
+            raise InvalidParameter(f"name: expected a str label, got {type(self.name).__name__}")
         if self.selection is not None:
-            S = np.array(self.selection, dtype=float)
-            if S.ndim != 2 or S.shape[0] != 2 or not np.all(np.isfinite(S)):
-                raise InvalidGeometry(
-                    f"selection: expected a finite matrix of shape (2, n), got {self.selection!r}"
-                )
+            S = finite_array(
+                "selection", self.selection, (2, None), error=InvalidGeometry, what="a matrix S_i"
+            )
+            if S.shape[1] == 0:
+                raise InvalidGeometry("selection: expected shape (2, n) with n >= 1, got (2, 0)")
             object.__setattr__(self, "selection", readonly(S))
 
     def maps(self, R: FloatArray, J: FloatArray, H: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -227,7 +242,12 @@ class Coupling:
             return S @ J, np.einsum("ai,ikj->akj", S, H)
         if self.jacobian is None:  # unreachable: __post_init__ requires one of the two
             raise InvalidParameter("Coupling has neither selection nor jacobian")
-        return self.jacobian(R)
+        n = np.shape(R)[0] if np.ndim(R) == 1 else -1
+        J_i, H_i = _pair(self.name, self.jacobian(R))
+        return (
+            finite_array(f"{self.name}.jacobian(R)[0] (J_i)", J_i, (2, n)),
+            finite_array(f"{self.name}.jacobian(R)[1] (H_i)", H_i, (2, n, n)),
+        )
 
 
 @dataclass(frozen=True)
@@ -248,6 +268,7 @@ class Heading:
     T_J: FloatArray
     Lambda: FloatArray
     t: FloatArray
+    _: KW_ONLY
     singular: str = ""
     ambiguous: bool = False
 
@@ -271,8 +292,18 @@ class Steering:
     kappa_n: FloatArray
     curvature: FloatArray
     speed: FloatArray
+    _: KW_ONLY
     T_J: FloatArray = field(default_factory=lambda: np.zeros(0))
     kJNJ: FloatArray = field(default_factory=lambda: np.zeros(0))
+
+
+def _pair(name: str, out: object) -> tuple[object, object]:
+    """The ``(J_i, H_i)`` pair a coupling function returned, or a clear error."""
+    if not isinstance(out, tuple) or len(out) != 2:
+        raise InvalidInput(
+            f"{name}.jacobian(R): expected a pair (J_i, H_i), got {type(out).__name__}"
+        )
+    return out[0], out[1]
 
 
 def generalised_cross(Omega: ArrayLike) -> FloatArray:
@@ -287,7 +318,7 @@ def generalised_cross(Omega: ArrayLike) -> FloatArray:
     Returns:
         Shape (n,).
     """
-    om = np.asarray(Omega, dtype=float)
+    om = finite_array("Omega", Omega, what="numbers of shape (n-1, n)")
     if om.ndim != 2 or om.shape[1] != om.shape[0] + 1:
         raise InvalidInput(f"Omega: expected shape (n-1, n), got shape {om.shape}")
     n = om.shape[1]
@@ -324,7 +355,13 @@ class Cobot:
     ) -> None:
         if not isinstance(kinematics, CobotKinematics):
             raise InvalidParameter(f"kinematics: expected CobotKinematics, got {kinematics!r}")
-        n = int(kinematics.dim)
+        n = check_positive_int("kinematics.dim", kinematics.dim, minimum=2, maximum=10_000)
+        given: object = couplings
+        if isinstance(given, (str, bytes)) or not isinstance(given, Sequence):
+            raise InvalidParameter(
+                f"couplings: expected a sequence of {n - 1} Coupling objects, got "
+                f"{type(couplings).__name__}"
+            )
         cs = tuple(couplings)
         if len(cs) != n - 1:
             raise InvalidParameter(
@@ -342,7 +379,9 @@ class Cobot:
         self._couplings = cs
         self._n = n
         self._all_selection = all(c.selection is not None for c in cs)
-        self.name = str(name)
+        if not isinstance(name, str):
+            raise InvalidParameter(f"name: expected a str label, got {type(name).__name__}")
+        self.name = name
 
     @property
     def kinematics(self) -> CobotKinematics:
@@ -474,9 +513,7 @@ class Cobot:
         p = _vec("phi", phi, self._n - 1)
         Ta = _vec("T", T, self._n)
         kNa = _vec("kN", kN, self._n)
-        u = float(speed)
-        if not math.isfinite(u):
-            raise InvalidInput(f"speed: expected a finite speed, got {speed!r}")
+        u = finite_scalar("speed", speed, unit="unit/s", what="speed")
         J = self._kin.jacobian(Ra)
         H = self._kin.hessian(Ra)
         m = self._n - 1
@@ -502,7 +539,7 @@ class Cobot:
             curv[i] = signed_curvature(ti, kni)
             spd[i] = gi * u
             rate[i] = c.cvt.steering_rate(float(p[i]), float(curv[i]), float(spd[i]))
-        return Steering(rate, t, kn, curv, spd, T_J, kJNJ)
+        return Steering(rate, t, kn, curv, spd, T_J=T_J, kJNJ=kJNJ)
 
 
 def r_theta_cobot(*, r_o: float = 0.5, convention: int = 1) -> Cobot:
@@ -532,7 +569,7 @@ def unicycle() -> Cobot:
         return np.eye(2), np.zeros((2, 2, 2))
 
     return Cobot(
-        IdentityKinematics(2),
+        IdentityKinematics(n=2),
         [Coupling(SteeredWheel(), jacobian=wheel, name="wheel")],
         name="unicycle",
     )

@@ -25,13 +25,19 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import KW_ONLY, dataclass, field
 from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._validate import check_choice, check_positive
+from velfence._validate import (
+    check_choice,
+    check_positive,
+    finite_array,
+    finite_scalar,
+    step_count,
+)
 from velfence.cobot.model import Cobot
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.sim.runner import Trajectory
@@ -80,10 +86,22 @@ def constant_speed(u: float) -> SpeedFn:
 
 
 def pushing(intent: Callable[[float, FloatArray], ArrayLike]) -> SpeedFn:
-    r"""A human pushing with intended velocity ``intent(t, R)``: speed :math:`u = T^\top v_h`."""
+    r"""A human pushing with intended velocity ``intent(t, R)``: speed :math:`u = T^\top v_h`.
+
+    Raises:
+        InvalidParameter: ``intent`` is not callable.
+        InvalidInput: (when called) ``intent`` returned a velocity that is not a finite vector of
+            the shape of ``T``.
+    """
+    if not callable(intent):
+        raise InvalidParameter(
+            f"intent: expected a function (t, R) -> velocity, got {type(intent).__name__}"
+        )
 
     def speed(t: float, R: FloatArray, T: FloatArray) -> float:
-        return float(T @ np.asarray(intent(t, R), dtype=float))
+        Ta = np.asarray(T, dtype=float)
+        v = finite_array("intent(t, R)", intent(t, R), Ta.shape, what="a velocity [m/s]")
+        return float(Ta @ v)
 
     return speed
 
@@ -114,6 +132,7 @@ class CobotTrace:
     T: FloatArray
     kN: FloatArray
     t: FloatArray
+    _: KW_ONLY
     q: FloatArray = field(default_factory=lambda: np.zeros((0, 0)))
     phi: FloatArray = field(default_factory=lambda: np.zeros((0, 0)))
     phi_dot: FloatArray = field(default_factory=lambda: np.zeros((0, 0)))
@@ -141,18 +160,17 @@ class CobotTrace:
         else:
             v = np.zeros_like(self.R)
         zone = self.zone if len(self.zone) == self.t.shape[0] else None
-        return Trajectory(
-            self.t, self.R, v if v_cmd is None else v_cmd, v, zone=zone, name=self.name
-        )
+        cmd = v if v_cmd is None else finite_array("v_cmd", v_cmd, v.shape, what="velocities")
+        return Trajectory(self.t, self.R, cmd, v, zone=zone, name=self.name)
 
     def at_arc_length(self, s: ArrayLike) -> FloatArray:
         """Positions R interpolated at arc lengths ``s`` [m], shape (M, n)."""
-        S = np.atleast_1d(np.asarray(s, dtype=float))
+        S = np.atleast_1d(finite_array("s", s, what="arc lengths [m]"))
         return np.stack([np.interp(S, self.s, self.R[:, j]) for j in range(self.R.shape[1])], 1)
 
     def error_at(self, s: ArrayLike) -> FloatArray:
         r""":math:`|\Delta R|` interpolated at arc lengths ``s`` [m], shape (M,)."""
-        S = np.atleast_1d(np.asarray(s, dtype=float))
+        S = np.atleast_1d(finite_array("s", s, what="arc lengths [m]"))
         return np.asarray(np.interp(S, self.s, self.error_norm), dtype=float)
 
 
@@ -202,10 +220,36 @@ def _trace(rec: _Recorder, name: str) -> CobotTrace:
     )
 
 
+def _controller(controller: Any) -> HeadingController:
+    if not callable(getattr(controller, "step", None)):
+        raise InvalidParameter(
+            "controller: expected a heading controller with step(R, T, ds, t) (e.g. a "
+            f"PathFollower), got {type(controller).__name__}"
+        )
+    return controller  # type: ignore[no-any-return]
+
+
+def _kN(out: Any, n: int) -> FloatArray:
+    """The controller's curvature command, validated (a bad controller must not corrupt R)."""
+    kN = getattr(out, "kN", None)
+    if kN is None:
+        raise InvalidInput(
+            f"controller.step(...): expected an output with a kN attribute, got "
+            f"{type(out).__name__}"
+        )
+    return finite_array("controller.step(...).kN", kN, (n,), what="a curvature vector")
+
+
+def _label(name: Any) -> str:
+    if not isinstance(name, str):
+        raise InvalidParameter(f"name: expected a str label, got {type(name).__name__}")
+    return name
+
+
 def _unit(name: str, x: ArrayLike, n: int | None = None) -> FloatArray:
-    a = np.asarray(x, dtype=float)
-    if a.ndim != 1 or (n is not None and a.shape != (n,)) or not np.all(np.isfinite(a)):
-        raise InvalidInput(f"{name}: expected a finite vector of shape ({n or 'n'},), got {x!r}")
+    a = finite_array(name, x, None if n is None else (n,), what="a direction")
+    if a.ndim != 1:
+        raise InvalidInput(f"{name}: expected shape ({n or 'n'},), got shape {a.shape}")
     m = float(np.linalg.norm(a))
     if m == 0.0:
         raise InvalidInput(f"{name}: expected a non-zero direction, got the zero vector")
@@ -233,22 +277,23 @@ def follow_in_ee(
         integrator: ``"arc"`` (exact for curvature held over the step) or ``"euler"``.
         name: Trace label.
     """
-    R = np.array(R0, dtype=float)
-    T = _unit("T0", T0, R.shape[0] if R.ndim == 1 else None)
-    if R.shape != T.shape or not np.all(np.isfinite(R)):
-        raise InvalidInput(f"R0: expected a finite vector of shape {T.shape}, got {R0!r}")
-    L = check_positive("length", length, unit="m")
+    _controller(controller)
+    R = finite_array("R0", R0, (None,), what="a configuration")
+    if R.shape[0] == 0:
+        raise InvalidInput("R0: expected a configuration of shape (n,) with n >= 1, got shape (0,)")
+    T = _unit("T0", T0, R.shape[0])
+    steps = step_count("length", length, "ds", ds)
     h = check_positive("ds", ds, unit="m")
     check_choice("integrator", integrator, ("arc", "euler"))
-    steps = math.ceil(L / h - 1e-9)
+    label = _label(name)
     rec = _Recorder()
     s = 0.0
     step_ds = 0.0
     for _ in range(steps + 1):
         out = controller.step(R, T, step_ds, s)
         rec.add(s=s, t=s, R=R.copy(), T=T.copy())
+        kN = _kN(out, R.shape[0])
         _record_output(rec, out)
-        kN = np.asarray(out.kN, dtype=float)
         if integrator == "euler":
             R = R + h * T
             T = T + h * kN
@@ -264,7 +309,7 @@ def follow_in_ee(
                 T = T * math.cos(a) + N * math.sin(a)
         s += h
         step_ds = h
-    return _trace(rec, name)
+    return _trace(rec, label)
 
 
 def simulate_cobot(
@@ -302,18 +347,25 @@ def simulate_cobot(
     Raises:
         InvalidInput: The cobot reaches a singular configuration (named) or bad input.
     """
+    if not isinstance(cobot, Cobot):
+        raise InvalidParameter(f"cobot: expected a Cobot, got {type(cobot).__name__}")
+    _controller(controller)
     n = cobot.dim
-    q = np.array(q0, dtype=float)
-    phi = np.array(phi0, dtype=float)
-    if q.shape != (n,) or not np.all(np.isfinite(q)):
-        raise InvalidInput(f"q0: expected a finite vector of shape ({n},), got {q0!r}")
-    if phi.shape != (n - 1,) or not np.all(np.isfinite(phi)):
-        raise InvalidInput(f"phi0: expected a finite vector of shape ({n - 1},), got {phi0!r}")
-    D = check_positive("duration", duration, unit="s")
+    q = finite_array("q0", q0, (n,), what="joint angles")
+    phi = finite_array("phi0", phi0, (n - 1,), what="steering angles [rad]")
+    steps = step_count("duration", duration, "dt", dt)
     h = check_positive("dt", dt, unit="s")
     check_choice("route", route, ("direct", "joint"))
     if not callable(speed):
-        raise InvalidParameter(f"speed: expected a function (t, R, T) -> u, got {speed!r}")
+        raise InvalidParameter(
+            f"speed: expected a function (t, R, T) -> u, got {type(speed).__name__}"
+        )
+    label = cobot.name if name is None else (_label(name) or cobot.name)
+    ref0 = None if heading0 is None else finite_array("heading0", heading0, (n,))
+
+    def human(tt: float, Rr: FloatArray, Tt: FloatArray) -> float:
+        return finite_scalar("speed(t, R, T)", speed(tt, Rr, Tt), unit="m/s", what="speed")
+
     kin = cobot.kinematics
 
     def heading(qq: FloatArray, pp: FloatArray, ref: FloatArray | None) -> FloatArray:
@@ -325,19 +377,18 @@ def simulate_cobot(
             )
         return hd.T
 
-    T = heading(q, phi, None if heading0 is None else np.asarray(heading0, dtype=float))
+    T = heading(q, phi, ref0)
     rec = _Recorder()
-    steps = math.ceil(D / h - 1e-9)
     s = 0.0
     ds = 0.0
     t = 0.0
     for k in range(steps + 1):
         t = k * h
         R = kin.position(q)
-        u_now = float(speed(t, R, T))
+        u_now = human(t, R, T)
         if u_now < 0.0:  # the human pushes backward: the heading is the motion's direction
             T = -T
-            u_now = float(speed(t, R, T))
+            u_now = human(t, R, T)
             if u_now < 0.0:
                 raise InvalidInput(
                     f"speed: negative along both T and -T at t = {t:g} s; the human model must "
@@ -345,7 +396,7 @@ def simulate_cobot(
                     "), a direction-blind negative speed would flip the heading every tick"
                 )
         out = controller.step(R, T, ds, t)
-        kN = np.asarray(out.kN, dtype=float)
+        kN = _kN(out, n)
         st = cobot.steering_rates(R, phi, T, kN, abs(u_now), route=route)
         rec.add(s=s, t=t, R=R, T=T.copy(), q=q.copy(), phi=phi.copy(), phi_dot=st.phi_dot)
         _record_output(rec, out)
@@ -359,7 +410,7 @@ def simulate_cobot(
         ) -> tuple[FloatArray, float, FloatArray]:
             Rr = kin.position(qq)
             Tt = heading(qq, pp, ref)
-            u = abs(float(speed(tt, Rr, Tt)))
+            u = abs(human(tt, Rr, Tt))
             return kin.jacobian(Rr) @ Tt * u, u, Tt
 
         rate = st.phi_dot
@@ -372,4 +423,4 @@ def simulate_cobot(
         ds = h / 6 * (k1s + 2 * k2s + 2 * k3s + k4s)
         s += ds
         T = heading(q, phi, T_ref)
-    return _trace(rec, name or cobot.name)
+    return _trace(rec, label)

@@ -78,8 +78,10 @@ def hessian_term(H: ArrayLike, T: ArrayLike) -> FloatArray:
     Returns:
         Shape (m,).
     """
-    Ha = np.asarray(H, dtype=float)
-    Ta = np.asarray(T, dtype=float)
+    Ha = finite_array("H", H, (None, None, None))
+    Ta = finite_array("T", T, (Ha.shape[1],))
+    if Ha.shape[2] != Ta.shape[0]:
+        raise InvalidInput(f"H: expected shape (m, n, n), got shape {Ha.shape}")
     return np.asarray(np.einsum("ikj,k,j->i", Ha, Ta, Ta), dtype=float)
 
 

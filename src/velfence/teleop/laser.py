@@ -50,9 +50,19 @@ from typing import TYPE_CHECKING, Any, Protocol
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._validate import finite_array, readonly, rigid_transform
+from velfence._validate import (
+    MAX_MAGNITUDE,
+    check_choice,
+    check_positive,
+    check_positive_int,
+    check_range,
+    finite_array,
+    finite_scalar,
+    readonly,
+    rigid_transform,
+)
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
-from velfence.geometry.primitives import _vec3
+from velfence.teleop.scene import Scene
 from velfence.teleop.thesis_data import (
     EQ1_OFFSET_CM,
     EQ1_SLOPE_CM_PER_V,
@@ -60,7 +70,7 @@ from velfence.teleop.thesis_data import (
 )
 
 if TYPE_CHECKING:
-    from velfence.teleop.scene import Hit, Scene
+    from velfence.teleop.scene import Hit
 
 __all__ = [
     "ADC_STEP_V",
@@ -101,48 +111,27 @@ _POSE_TOL = 1e-6  # orthonormality of a flange rotation
 
 
 # ---------------------------------------------------------------------------------- checks
-def _number(name: str, x: Any, unit: str, err: type[Exception] = InvalidParameter) -> float:
-    try:
-        if isinstance(x, bool):
-            raise TypeError
-        return float(x)
-    except (TypeError, ValueError):
-        raise err(f"{name}: expected a number [{unit}], got {x!r}") from None
-
-
-def _finite(name: str, x: Any, unit: str, *, low: float = -math.inf, strict: bool = False) -> float:
-    v = _number(name, x, unit)
-    ok = math.isfinite(v) and (v > low if strict else v >= low)
-    if not ok:
-        bound = "" if low == -math.inf else (f" > {low:g}" if strict else f" >= {low:g}")
-        raise InvalidParameter(f"{name}: expected a finite number{bound} [{unit}], got {x!r}")
-    return v
+#: Most samples one :meth:`LaserStream.poll` may catch up on (about 3 h at 90 Hz): a larger
+#: gap is a clock error, not a pose held constant.
+MAX_POLL_SAMPLES = 1_000_000
+#: Most samples one :meth:`LaserRangeSensor.sample_many` call may draw.
+MAX_SAMPLES = 10_000_000
 
 
 def _distance_input(name: str, x: Any) -> float:
-    v = _number(name, x, "m", InvalidInput)
-    if not (math.isfinite(v) and v >= 0.0):
-        raise InvalidInput(f"{name}: expected a finite distance >= 0 [m], got {x!r}")
+    v = finite_scalar(name, x, unit="m", what="distance >= 0")
+    if v < 0.0:
+        raise InvalidInput(f"{name}: expected a finite distance >= 0 [m], got {v!r}")
     return v
 
 
-def _voltage_input(name: str, x: Any) -> float:
-    v = _number(name, x, "V", InvalidInput)
-    if not math.isfinite(v):
-        raise InvalidInput(f"{name}: expected a finite voltage [V], got {x!r}")
-    return v
-
-
-def _finite_1d(name: str, x: Any, unit: str) -> FloatArray:
-    try:
-        a = np.array(x, dtype=float)
-    except (TypeError, ValueError):
-        raise InvalidInput(f"{name}: expected a 1-D array of numbers [{unit}], got {x!r}") from None
-    if a.ndim != 1 or not np.all(np.isfinite(a)):
-        raise InvalidInput(
-            f"{name}: expected a 1-D array of finite numbers [{unit}], got shape {a.shape}"
+def _rng(rng: Any) -> np.random.Generator:
+    if not isinstance(rng, np.random.Generator):
+        raise InvalidParameter(
+            f"rng: expected a numpy.random.Generator (np.random.default_rng(seed)), got "
+            f"{type(rng).__name__}"
         )
-    return a
+    return rng
 
 
 def _pose(T: ArrayLike) -> tuple[FloatArray, FloatArray]:
@@ -160,7 +149,7 @@ class Characteristic(Protocol):
         ...
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class VoltageModel:
     """Eq. (1): the linear DT60 calibration ``distance_cm = slope · voltage + offset``.
 
@@ -176,8 +165,8 @@ class VoltageModel:
     offset_cm: float = EQ1_OFFSET_CM
 
     def __post_init__(self) -> None:
-        s = _finite("slope_cm_per_v", self.slope_cm_per_v, "cm/V", low=0.0, strict=True)
-        o = _finite("offset_cm", self.offset_cm, "cm")
+        s = check_positive("slope_cm_per_v", self.slope_cm_per_v, unit="cm/V")
+        o = finite_scalar("offset_cm", self.offset_cm, unit="cm", error=InvalidParameter)
         object.__setattr__(self, "slope_cm_per_v", s)
         object.__setattr__(self, "offset_cm", o)
 
@@ -197,8 +186,8 @@ class VoltageModel:
                 equal (the slope is undetermined).
             InvalidParameter: the fitted slope is not positive (distance must grow with voltage).
         """
-        d = _finite_1d("distances_cm", distances_cm, "cm")
-        v = _finite_1d("voltages_v", voltages_v, "V")
+        d = finite_array("distances_cm", distances_cm, (None,), what="distances [cm]")
+        v = finite_array("voltages_v", voltages_v, (None,), what="voltages [V]")
         if d.shape != v.shape or d.size < 2:
             raise InvalidInput(
                 f"expected distances_cm and voltages_v of the same length >= 2, got "
@@ -216,7 +205,8 @@ class VoltageModel:
 
     def distance_cm(self, voltage_v: float) -> float:
         """Distance [cm] for a voltage [V] (eq. (1))."""
-        return self.slope_cm_per_v * _voltage_input("voltage_v", voltage_v) + self.offset_cm
+        v = finite_scalar("voltage_v", voltage_v, unit="V", what="voltage")
+        return self.slope_cm_per_v * v + self.offset_cm
 
     def distance_m(self, voltage_v: float) -> float:
         """Distance [m] for a voltage [V] (eq. (1), converted to metres)."""
@@ -224,23 +214,17 @@ class VoltageModel:
 
     def voltage_v(self, distance_m: float) -> float:
         """Voltage [V] the model assigns to a distance [m] (eq. (1) inverted)."""
-        d = _number("distance_m", distance_m, "m", InvalidInput)
-        if not math.isfinite(d):
-            raise InvalidInput(f"distance_m: expected a finite distance [m], got {distance_m!r}")
+        d = finite_scalar("distance_m", distance_m, unit="m", what="distance")
         return (100.0 * d - self.offset_cm) / self.slope_cm_per_v
 
     def distances_m(self, voltages_v: ArrayLike) -> FloatArray:
         """Vectorised :meth:`distance_m`: voltages [V] of any shape to distances [m]."""
-        v = np.asarray(voltages_v, dtype=float)
-        if not np.all(np.isfinite(v)):
-            raise InvalidInput("voltages_v: expected finite voltages [V], got NaN or inf")
+        v = finite_array("voltages_v", voltages_v, what="voltages [V]")
         return np.asarray(0.01 * (self.slope_cm_per_v * v + self.offset_cm), dtype=float)
 
     def voltages_v(self, distances_m: ArrayLike) -> FloatArray:
         """Vectorised :meth:`voltage_v`: distances [m] of any shape to voltages [V]."""
-        d = np.asarray(distances_m, dtype=float)
-        if not np.all(np.isfinite(d)):
-            raise InvalidInput("distances_m: expected finite distances [m], got NaN or inf")
+        d = finite_array("distances_m", distances_m, what="distances [m]")
         return np.asarray((100.0 * d - self.offset_cm) / self.slope_cm_per_v, dtype=float)
 
 
@@ -266,8 +250,8 @@ class TabulatedCharacteristic:
     _slope_v_per_cm: float = field(init=False, repr=False)
 
     def __init__(self, distances_cm: ArrayLike, voltages_v: ArrayLike) -> None:
-        d = np.array(distances_cm, dtype=float)
-        v = np.array(voltages_v, dtype=float)
+        d = finite_array("distances_cm", distances_cm, error=InvalidGeometry, what="distances [cm]")
+        v = finite_array("voltages_v", voltages_v, error=InvalidGeometry, what="voltages [V]")
         if d.ndim != 1 or d.shape != v.shape or d.size < 2:
             raise InvalidGeometry(
                 f"expected distances_cm and voltages_v of shape (n,), n >= 2, got {d.shape} and "
@@ -323,18 +307,22 @@ def frequent_level_mean(
         InvalidInput: empty or non-finite samples, or no value frequent enough (samples that
             are not quantised levels; pass ``quantum_v`` or lower ``min_share``).
     """
-    share = _finite("min_share", min_share, "share of samples", low=0.0, strict=True)
-    if not share < 1.0:
-        raise InvalidParameter(f"min_share: expected a share in (0, 1), got {min_share!r}")
-    v = _finite_1d("voltages_v", voltages_v, "V")
+    share = check_range("min_share", min_share, low=0.0, high=1.0, low_open=True, high_open=True)
+    v = finite_array("voltages_v", voltages_v, (None,), what="voltage samples [V]")
     if v.size == 0:
         raise InvalidInput("voltages_v: expected at least one sample, got none")
     if quantum_v is None:
         levels, counts = np.unique(v, return_counts=True)
         values = levels
     else:
-        q = _finite("quantum_v", quantum_v, "V", low=0.0, strict=True)
-        ints, counts = np.unique(np.floor(v / q + 0.5).astype(np.int64), return_counts=True)
+        q = check_positive("quantum_v", quantum_v, unit="V")
+        scaled = np.floor(v / q + 0.5)
+        if not np.all(np.abs(scaled) < 2.0**62):
+            raise InvalidParameter(
+                f"quantum_v: expected an ADC step that gives at most 2^62 levels over the samples, "
+                f"got {q:g} V"
+            )
+        ints, counts = np.unique(scaled.astype(np.int64), return_counts=True)
         values = ints.astype(float) * q
     keep = counts > share * v.size
     if not np.any(keep):
@@ -369,6 +357,9 @@ def calibrate(
             fail :func:`frequent_level_mean`.
         InvalidParameter: bad ``min_share`` / ``quantum_v``, or a non-positive fitted slope.
     """
+    check_range("min_share", min_share, low=0.0, high=1.0, low_open=True, high_open=True)
+    if quantum_v is not None:
+        check_positive("quantum_v", quantum_v, unit="V")
     if not isinstance(samples, Mapping) or len(samples) < 2:
         raise InvalidInput(
             "samples: expected a mapping of at least two reference distances [cm] to voltage "
@@ -378,9 +369,7 @@ def calibrate(
     distances: list[float] = []
     voltages: list[float] = []
     for key, vs in samples.items():
-        d = _number("samples key", key, "cm", InvalidInput)
-        if not math.isfinite(d):
-            raise InvalidInput(f"samples: expected finite reference distances [cm], got {key!r}")
+        d = finite_scalar("samples key", key, unit="cm", what="reference distance")
         try:
             level = frequent_level_mean(vs, min_share=min_share, quantum_v=quantum_v)
         except InvalidInput as exc:
@@ -406,16 +395,14 @@ def moving_average(samples: ArrayLike, *, window: int) -> FloatArray:
         InvalidParameter: a bad window.
         InvalidInput: non-finite samples or fewer samples than the window.
     """
-    x = np.asarray(samples, dtype=float)
-    if isinstance(window, bool) or not isinstance(window, int | np.integer) or window < 1:
-        raise InvalidParameter(f"window: expected an int >= 1 [samples], got {window!r}")
+    x = finite_array("samples", samples)
+    n_win = check_positive_int("window", window, example=50)
     if x.ndim == 0 or x.shape[-1] < window:
         raise InvalidInput(
             f"samples: expected at least window = {window} samples along the last axis, got "
             f"shape {x.shape}"
         )
-    if not np.all(np.isfinite(x)):
-        raise InvalidInput("samples: expected finite values, got NaN or inf")
+    window = n_win
     c = np.cumsum(x, axis=-1)
     zero = np.zeros((*x.shape[:-1], 1))
     c = np.concatenate([zero, c], axis=-1)
@@ -449,10 +436,10 @@ def plane_from_points(
         InvalidParameter: ``tol`` not a finite number > 0.
         InvalidGeometry: coincident or collinear points (no unique plane).
     """
-    eps = _finite("tol", tol, "dimensionless", low=0.0, strict=True)
-    a1 = np.array(_vec3("p1", p1))
-    a2 = np.array(_vec3("p2", p2))
-    a3 = np.array(_vec3("p3", p3))
+    eps = check_positive("tol", tol)
+    a1 = finite_array("p1", p1, (3,), what="a point [m]")
+    a2 = finite_array("p2", p2, (3,), what="a point [m]")
+    a3 = finite_array("p3", p3, (3,), what="a point [m]")
     A = a1 - a2
     B = a1 - a3
     la, lb = float(np.linalg.norm(A)), float(np.linalg.norm(B))
@@ -553,20 +540,20 @@ class LaserRangeSensor:
         off = finite_array(
             "offset [m] (laser origin in frame 6)", offset, (3,), error=InvalidParameter
         )
-        lo = _finite("min_range", min_range, "m", low=0.0)
-        hi = _number("max_range", max_range, "m")
-        if not (hi > lo and not math.isnan(hi)):
+        lo = check_positive("min_range", min_range, allow_zero=True, unit="m")
+        hi = check_positive("max_range", max_range, unit="m")
+        if not hi > lo:
             raise InvalidParameter(
                 f"max_range: expected a number > min_range = {lo:g} [m], got {max_range!r}"
             )
-        sigma = _finite("noise_v", noise_v, "V", low=0.0)
-        q = _finite("quantum_v", quantum_v, "V", low=0.0)
-        if filter not in _FILTERS:
-            raise InvalidParameter(f"filter: expected one of {list(_FILTERS)}, got {filter!r}")
+        sigma = check_positive("noise_v", noise_v, allow_zero=True, unit="V")
+        q = check_positive("quantum_v", quantum_v, allow_zero=True, unit="V")
+        filter = check_choice("filter", filter, _FILTERS)
         if sample_rate is None:
             rate = _OLD_RATE_HZ if filter == "old_10hz" else _NEW_RATE_HZ
         else:
-            rate = _finite("sample_rate", sample_rate, "Hz", low=0.0, strict=True)
+            # >= 1/MAX_MAGNITUDE: the sampling period must be a finite number of seconds.
+            rate = check_range("sample_rate", sample_rate, low=1.0 / MAX_MAGNITUDE, unit="Hz")
         if window is not None and filter != "moving_average":
             raise InvalidParameter(
                 f"window: expected None with filter={filter!r} (no averaging), got {window!r}; "
@@ -574,10 +561,8 @@ class LaserRangeSensor:
             )
         if window is None:
             n = _NEW_WINDOW if filter == "moving_average" else 1
-        elif isinstance(window, bool) or not isinstance(window, int | np.integer) or window < 1:
-            raise InvalidParameter(f"window: expected an int >= 1 [samples], got {window!r}")
         else:
-            n = int(window)
+            n = check_positive_int("window", window, example=_NEW_WINDOW, maximum=MAX_SAMPLES)
         if model is None:
             model = VoltageModel()
         elif not isinstance(model, VoltageModel):
@@ -664,6 +649,11 @@ class LaserRangeSensor:
         """
         R, P = _pose(T_flange)
         D = _distance_input("distance", distance)
+        if not isinstance(with_offset, (bool, np.bool_)):
+            raise InvalidParameter(
+                f"with_offset: expected True (eq. 40) or False (eq. 39), got "
+                f"{type(with_offset).__name__}"
+            )
         local = (self.offset if with_offset else np.zeros(3)) + np.array([0.0, 0.0, D])
         out = np.eye(4)
         out[:3, :3] = R
@@ -672,6 +662,8 @@ class LaserRangeSensor:
 
     def true_hit(self, T_flange: ArrayLike, scene: Scene) -> Hit | None:
         """The surface the beam meets within ``max_range`` (ignoring ``min_range``), or ``None``."""
+        if not isinstance(scene, Scene):
+            raise InvalidParameter(f"scene: expected a Scene, got {type(scene).__name__}")
         o, d = self.beam(T_flange)
         return scene.raycast(o, d, max_range=self.max_range)
 
@@ -692,8 +684,11 @@ class LaserRangeSensor:
 
     # -------------------------------------------------------------- one sample
     def in_range(self, distance: float | None) -> bool:
-        """Whether a true distance [m] yields a reading."""
-        return distance is not None and self.min_range <= distance <= self.max_range
+        """Whether a true distance [m] (or ``None``: no surface) yields a reading."""
+        if distance is None:
+            return False
+        d = finite_scalar("distance", distance, unit="m", what="distance", max_abs=None)
+        return self.min_range <= d <= self.max_range
 
     def sample(self, true_distance: float | None, rng: np.random.Generator) -> float | None:
         """One raw reading [m]: characteristic, voltage noise, ADC quantisation, eq. (1).
@@ -708,6 +703,7 @@ class LaserRangeSensor:
         Raises:
             InvalidInput: a negative or non-finite distance.
         """
+        _rng(rng)
         if true_distance is None:
             return None
         d = _distance_input("true_distance", true_distance)
@@ -740,8 +736,10 @@ class LaserRangeSensor:
             InvalidInput: a negative or non-finite distance, or ``n`` not an int >= 0.
         """
         d = _distance_input("true_distance", true_distance)
-        if isinstance(n, bool) or not isinstance(n, int | np.integer) or n < 0:
-            raise InvalidInput(f"n: expected an int >= 0 (number of samples), got {n!r}")
+        n = check_positive_int(
+            "n", n, minimum=0, maximum=MAX_SAMPLES, example=1000, error=InvalidInput
+        )
+        _rng(rng)
         if not self.in_range(d):
             return None
         v = np.full(int(n), self.characteristic.voltage_v(d))
@@ -780,7 +778,9 @@ class LaserStream:
         t0: float = 0.0,
     ) -> None:
         if not isinstance(sensor, LaserRangeSensor):
-            raise InvalidParameter(f"sensor: expected a LaserRangeSensor, got {sensor!r}")
+            raise InvalidParameter(
+                f"sensor: expected a LaserRangeSensor, got {type(sensor).__name__}"
+            )
         if isinstance(seed, np.random.Generator):
             rng = seed
         elif isinstance(seed, int | np.integer) and not isinstance(seed, bool) and seed >= 0:
@@ -790,7 +790,7 @@ class LaserStream:
         self._sensor = sensor
         self._rng = rng
         self._window: deque[float] = deque(maxlen=sensor.window)
-        self._t0 = _finite("t0", t0, "s")
+        self._t0 = finite_scalar("t0", t0, unit="s", what="time", error=InvalidParameter)
         self._k = 0
         self._last: LaserReading | None = None
 
@@ -812,7 +812,7 @@ class LaserStream:
     def reset(self, *, t0: float = 0.0) -> None:
         """Empty the window and restart the clock at ``t0`` [s] (the random stream continues)."""
         self._window.clear()
-        self._t0 = _finite("t0", t0, "s")
+        self._t0 = finite_scalar("t0", t0, unit="s", what="time", error=InvalidParameter)
         self._k = 0
         self._last = None
 
@@ -858,16 +858,39 @@ class LaserStream:
             The latest reading (possibly from an earlier call when no sample is due), or
             ``None`` if no sample has been taken yet.
         """
-        now = _number("t", t, "s", InvalidInput)
-        if not math.isfinite(now):
-            raise InvalidInput(f"t: expected a finite time [s], got {t!r}")
+        now = finite_scalar("t", t, unit="s", what="time")
         due = now + 1e-9 * self._sensor.period  # robust to rounding of t = k / rate
         if self.next_time <= due:
+            backlog = (due - self.next_time) * self._sensor.sample_rate
+            if not backlog < MAX_POLL_SAMPLES:
+                raise InvalidInput(
+                    f"t: {now:g} s is {backlog:.3g} samples after the next sample time "
+                    f"{self.next_time:g} s; at most {MAX_POLL_SAMPLES:,} may be caught up in one "
+                    "call: poll at least at the sample rate, or reset(t0=...) the stream"
+                )
             d = self._sensor.true_range(T_flange, scene)
             while self.next_time <= due:
                 self.step(d)
         return self._last
 
     def run(self, true_distances: Sequence[float | None] | FloatArray) -> list[LaserReading]:
-        """:meth:`step` through a sequence of true distances [m] (one per sample)."""
-        return [self.step(None if d is None else float(d)) for d in true_distances]
+        """:meth:`step` through a sequence of true distances [m] (one per sample).
+
+        Raises:
+            InvalidInput: not a sequence, or an entry that is neither ``None`` nor a finite
+                distance >= 0 (checked before any sample is taken).
+        """
+        if isinstance(true_distances, np.ndarray):
+            seq: list[Any] = list(finite_array("true_distances", true_distances, (None,)))
+        elif isinstance(true_distances, (list, tuple)):
+            seq = list(true_distances)
+        else:
+            raise InvalidInput(
+                "true_distances: expected a sequence of distances [m] or None, got "
+                f"{type(true_distances).__name__}"
+            )
+        ds = [
+            None if d is None else _distance_input(f"true_distances[{i}]", d)
+            for i, d in enumerate(seq)
+        ]
+        return [self.step(d) for d in ds]

@@ -60,7 +60,15 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._validate import check_choice, check_positive, finite_array, readonly
+from velfence._validate import (
+    check_choice,
+    check_positive,
+    check_positive_int,
+    finite_array,
+    finite_scalar,
+    readonly,
+    rigid_transform,
+)
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 from velfence.shaping.fixtures import LineFixture, LineScaling
 from velfence.teleop.laser import LaserRangeSensor, plane_from_points
@@ -85,6 +93,9 @@ KEYS = ("A", "S", "F", "D", "G", "P", "T", "C")
 MODES = ("teleop", "scaled", "fixture", "autonomous")
 """``teleop`` (unassisted, the default), ``scaled`` ('S'), ``fixture`` ('F'), ``autonomous``."""
 ALIGNMENTS = ("faithful", "geodesic")
+#: Rigid-transform tolerance of the measured poses that :meth:`ModeManager.press` and
+#: :meth:`ModeManager.control` accept (rotation orthonormal and det +1 to this).
+POSE_TOL = 1e-6
 
 AUTONOMOUS_SPEED = 0.08
 """Speed of the autonomous straight lines [m/s]: the thesis's 1 ms via-point spacing at the
@@ -161,12 +172,7 @@ def aligned_rotation(R: ArrayLike, normal: ArrayLike, *, alignment: str = "faith
     """
     how = check_choice("alignment", alignment, ALIGNMENTS)
     z = -_unit("normal", normal)
-    try:
-        Ra = np.array(R, dtype=float)
-    except (TypeError, ValueError):
-        raise InvalidInput(f"R: expected a 3x3 rotation matrix, got {R!r}") from None
-    if Ra.shape != (3, 3) or not np.all(np.isfinite(Ra)):
-        raise InvalidInput(f"R: expected a finite 3x3 rotation matrix, got shape {Ra.shape}")
+    Ra = finite_array("R", R, (3, 3), what="a 3x3 rotation matrix")
     angle_axis(Ra)  # validates orthonormality (raises InvalidInput)
     if how == "faithful":
         temp = np.cross(z, Ra[:, 0])
@@ -195,7 +201,7 @@ def aligned_rotation(R: ArrayLike, normal: ArrayLike, *, alignment: str = "faith
 class ModeManager:
     r"""Traded-control logic: keys, clutch, teleoperation shaping, autonomous segments.
 
-    See the module docstring for the key semantics. All tuning parameters are keyword-only.
+    See the module docstring for the key semantics. All parameters are keyword-only.
 
     Args:
         laser: The laser model whose geometry turns a reading into targets (eqs. 39-40);
@@ -230,8 +236,8 @@ class ModeManager:
 
     def __init__(
         self,
-        laser: LaserRangeSensor | None = None,
         *,
+        laser: LaserRangeSensor | None = None,
         rate: float = 200.0,
         speed: float = AUTONOMOUS_SPEED,
         angular_speed: float = ANGULAR_SPEED,
@@ -263,26 +269,27 @@ class ModeManager:
         LineScaling((0, 0, 0), (0, 0, 1), along=along, across=across)
         self.along = float(along)
         self.across = float(across)
+        if fixture_options is not None and not isinstance(fixture_options, Mapping):
+            raise InvalidParameter(
+                f"fixture_options: expected a mapping of LineFixture keywords or None, got "
+                f"{type(fixture_options).__name__}"
+            )
         options = dict(fixture_options or {})
         if {"line_point", "line_direction"} & options.keys():
             raise InvalidParameter("fixture_options: the line comes from the laser, not options")
         try:
             LineFixture((0, 0, 0), (0, 0, 1), **options)
-        except TypeError as exc:
+        except (TypeError, AttributeError, OverflowError) as exc:
             raise InvalidParameter(
                 f"fixture_options: expected LineFixture keywords (stiffness, "
                 f"radius_of_influence, max_force, damping, length), got {sorted(options)}"
             ) from exc
         self.fixture_options = options
-        if (
-            isinstance(presses_per_point, bool)
-            or not isinstance(presses_per_point, int | np.integer)
-            or presses_per_point < 1
-        ):
-            raise InvalidParameter(
-                f"presses_per_point: expected an int >= 1, got {presses_per_point!r}"
-            )
-        self.presses_per_point = int(presses_per_point)
+        self.presses_per_point = check_positive_int(
+            "presses_per_point", presses_per_point, maximum=1000, example=2
+        )
+        if not isinstance(toggle_off, (bool, np.bool_)):
+            raise InvalidParameter(f"toggle_off: expected True or False, got {toggle_off!r:.60}")
         self.toggle_off = bool(toggle_off)
         self.alignment = check_choice("alignment", alignment, ALIGNMENTS)
         self.settle_position = check_positive("settle_position", settle_position, unit="m")
@@ -408,15 +415,16 @@ class ModeManager:
         if not isinstance(key, str) or key.upper() not in KEYS:
             raise InvalidInput(f"key: expected one of {list(KEYS)} (C = clutch), got {key!r}")
         k = key.upper()
-        T = np.array(pose, dtype=float)
-        if T.shape != (4, 4) or not np.all(np.isfinite(T)):
-            raise InvalidInput(f"pose: expected a finite 4x4 transform, got shape {T.shape}")
-        if distance is not None and not (math.isfinite(distance) and distance >= 0.0):
-            raise InvalidInput(
-                f"distance: expected a finite reading >= 0 [m] or None, got {distance!r}"
-            )
+        tf = finite_scalar("t", t, unit="s", what="time")
+        T = rigid_transform("pose", pose, tol=POSE_TOL)
+        if distance is not None:
+            d = finite_scalar("distance", distance, unit="m", what="reading")
+            if d < 0.0:
+                raise InvalidInput(
+                    f"distance: expected a finite reading >= 0 [m] or None, got {distance!r}"
+                )
+            distance = d
         n0 = len(self._events)
-        tf = float(t)
         if k == "C":
             self._clutch = not self._clutch
             state = "engaged" if self._clutch else "disengaged (indexing: hand motion dropped)"
@@ -616,18 +624,15 @@ class ModeManager:
             hand velocity, zero while disengaged; during a segment ``e(T, T_next)·rate`` toward
             the next via point (self-correcting, §6.2.1); zero on the cycle a segment completes.
         """
-        T = np.asarray(pose, dtype=float)
+        tf = finite_scalar("t", t, unit="s", what="time")
+        T = rigid_transform("pose", pose, tol=POSE_TOL)
+        v = finite_array("linear", linear, (3,), what="a velocity [m/s]")
+        w = finite_array("angular", angular, (3,), what="an angular velocity [rad/s]")
         if self._segment is not None:
-            return self._autonomous(float(t), T)
+            return self._autonomous(tf, T)
         out = np.zeros(6)
         if not self._clutch:
             return out
-        v = np.asarray(linear, dtype=float)
-        w = np.asarray(angular, dtype=float)
-        if v.shape != (3,) or w.shape != (3,):
-            raise InvalidInput(
-                f"linear, angular: expected shape (3,) each, got {v.shape}, {w.shape}"
-            )
         p = T[:3, 3]
         if self._scaling is not None:
             v = self._scaling.shape(p, v)

@@ -45,13 +45,14 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Generator, Iterator, Mapping
-from dataclasses import asdict, dataclass, fields
+from dataclasses import KW_ONLY, asdict, dataclass, fields
 from types import MappingProxyType
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from velfence._validate import check_positive, finite_array, step_count
 from velfence.errors import InvalidParameter
 from velfence.teleop.modes import aligned_rotation
 from velfence.teleop.resolved_rate import rotation_from_angle_axis, rotation_vector
@@ -70,6 +71,8 @@ __all__ = [
 FloatArray = NDArray[np.float64]
 
 OMNI_WORKSPACE = (0.160, 0.120, 0.070)
+#: Most operator ticks one waiting or moving behaviour may last (5.5 h at 50 Hz).
+MAX_TICKS = 1_000_000
 """Phantom Omni workspace W × H × D [m] (App. A; notes §2.16), along the Omni x, y, z axes."""
 
 #: Parameter ranges [low, high] a subject's profile is drawn from (uniform); units as in
@@ -102,7 +105,7 @@ PROFILE_RANGES: Mapping[str, tuple[float, float]] = MappingProxyType(
 )
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class OperatorProfile:
     """One subject's parameters (module docstring; draw them with :meth:`draw`).
 
@@ -161,11 +164,11 @@ class OperatorProfile:
         for f in fields(self):
             if f.name == "rainbow":
                 continue
-            value = getattr(self, f.name)
-            if isinstance(value, bool) or not isinstance(value, int | float):
-                raise InvalidParameter(f"{f.name}: expected a number, got {value!r}")
-            if not (math.isfinite(value) and value >= 0.0):
-                raise InvalidParameter(f"{f.name}: expected a finite number >= 0, got {value!r}")
+            value = check_positive(f.name, getattr(self, f.name), allow_zero=True)
+            object.__setattr__(self, f.name, value)
+        if not isinstance(self.rainbow, (bool, np.bool_)):
+            raise InvalidParameter(f"rainbow: expected True or False, got {self.rainbow!r:.60}")
+        object.__setattr__(self, "rainbow", bool(self.rainbow))
         for name in ("peak_speed", "orient_peak", "aim_peak", "index_speed"):
             if not getattr(self, name) > 0.0:
                 raise InvalidParameter(f"{name}: expected a speed > 0, got {getattr(self, name)!r}")
@@ -176,7 +179,14 @@ class OperatorProfile:
 
         Args:
             rng: Seeded generator (the subject's stream).
+
+        Raises:
+            InvalidParameter: ``rng`` is not a ``numpy.random.Generator``.
         """
+        if not isinstance(rng, np.random.Generator):
+            raise InvalidParameter(
+                f"rng: expected a numpy.random.Generator, got {type(rng).__name__}"
+            )
         values: dict[str, Any] = {
             name: float(rng.uniform(lo, hi)) for name, (lo, hi) in PROFILE_RANGES.items()
         }
@@ -200,10 +210,11 @@ class Action:
 
     linear: FloatArray
     angular: FloatArray
+    _: KW_ONLY
     keys: tuple[str, ...] = ()
 
 
-@dataclass
+@dataclass(kw_only=True)
 class OperatorStats:
     """Counters of what the operator did (workload proxies; the thesis has no numeric workload).
 
@@ -279,8 +290,8 @@ class SyntheticOperator:
 
     def __init__(
         self,
-        profile: OperatorProfile | None = None,
         *,
+        profile: OperatorProfile | None = None,
         seed: int | np.random.Generator = 0,
         tick: float = 0.02,
         workspace: tuple[float, float, float] = OMNI_WORKSPACE,
@@ -294,11 +305,9 @@ class SyntheticOperator:
             self.rng = np.random.default_rng(int(seed))
         else:
             raise InvalidParameter(f"seed: expected an int >= 0 or a Generator, got {seed!r}")
-        if not (isinstance(tick, int | float) and math.isfinite(tick) and tick > 0.0):
-            raise InvalidParameter(f"tick: expected a finite period > 0 [s], got {tick!r}")
-        self.tick = float(tick)
-        ws = np.array(workspace, dtype=float)
-        if ws.shape != (3,) or not np.all(np.isfinite(ws)) or not np.all(ws > 0.0):
+        self.tick = check_positive("tick", tick, unit="s")
+        ws = finite_array("workspace", workspace, (3,), error=InvalidParameter, what="sizes [m]")
+        if not np.all(ws > 0.0):
             raise InvalidParameter(f"workspace: expected 3 sizes > 0 [m], got {workspace!r}")
         self.half = 0.5 * ws
         self.hand = np.zeros(3)  # Omni-frame hand position, workspace centre at 0
@@ -349,8 +358,11 @@ class SyntheticOperator:
         if self._engaged:
             self.stats.active_time += self.tick
 
-    def _ticks(self, duration: float) -> int:
-        return max(1, math.ceil(duration / self.tick - 1e-9))
+    def _ticks(self, duration: float, name: str = "duration") -> int:
+        d = check_positive(name, duration, allow_zero=True, unit="s")
+        if d == 0.0:
+            return 1
+        return step_count(name, d, "tick", self.tick, max_steps=MAX_TICKS)
 
     # ------------------------------------------------------------------------------ primitives
     def wait(self, duration: float) -> Behaviour:
@@ -362,7 +374,7 @@ class SyntheticOperator:
         self, predicate: Callable[[Observation], bool], *, limit: float = 120.0
     ) -> Behaviour:
         """Idle until ``predicate(observation)`` holds (or ``limit`` [s] passes)."""
-        for _ in range(self._ticks(limit)):
+        for _ in range(self._ticks(limit, "limit")):
             if predicate(self.obs):
                 return
             yield Action(_IDLE_V, _IDLE_V)
@@ -376,7 +388,7 @@ class SyntheticOperator:
                 self.stats.clutch_presses += 1
             else:
                 self.stats.keys += 1
-            yield Action(_IDLE_V, _IDLE_V, (key,))
+            yield Action(_IDLE_V, _IDLE_V, keys=(key,))
 
     def engage(self) -> Behaviour:
         """Engage the clutch if it is not (one stylus-button press)."""

@@ -34,7 +34,15 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._validate import check_choice, check_positive, finite_array, readonly, rigid_transform
+from velfence._validate import (
+    check_choice,
+    check_positive,
+    finite_array,
+    finite_scalar,
+    readonly,
+    real_array,
+    rigid_transform,
+)
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.shaping.base import InvalidPolicy
 
@@ -148,17 +156,12 @@ def rotation_from_angle_axis(axis: ArrayLike, angle: float) -> FloatArray:
     Raises:
         InvalidInput: the axis is zero or not finite, or the angle is not finite.
     """
-    k = _vector("axis", axis, 3)
+    k = finite_array("axis", axis, (3,))
     n = float(np.linalg.norm(k))
     if n == 0.0:
         raise InvalidInput("axis: expected a non-zero vector of shape (3,), got (0, 0, 0)")
     k = k / n
-    try:
-        th = float(angle)
-    except (TypeError, ValueError):
-        raise InvalidInput(f"angle: expected a finite number [rad], got {angle!r}") from None
-    if not math.isfinite(th):
-        raise InvalidInput(f"angle: expected a finite number [rad], got {angle!r}")
+    th = finite_scalar("angle", angle, unit="rad")
     K = np.array(((0.0, -k[2], k[1]), (k[2], 0.0, -k[0]), (-k[1], k[0], 0.0)))
     R: FloatArray = np.eye(3) + math.sin(th) * K + (1.0 - math.cos(th)) * (K @ K)
     return R
@@ -168,10 +171,6 @@ def rotation_vector(R: ArrayLike) -> FloatArray:
     r"""Rotation vector :math:`\phi\,k` of ``R`` (see :func:`angle_axis`), shape (3,) [rad]."""
     k, phi = angle_axis(R)
     return phi * k
-
-
-def _vector(name: str, x: ArrayLike, n: int) -> FloatArray:
-    return finite_array(name, x, (n,))
 
 
 def _pose(name: str, T: ArrayLike) -> FloatArray:
@@ -226,14 +225,9 @@ def pose_error(T: ArrayLike, T_target: ArrayLike, *, orientation: str = "angle_a
 
 
 def _jacobian(J: ArrayLike) -> FloatArray:
-    try:
-        a = np.array(J, dtype=float)
-    except (TypeError, ValueError):
-        raise InvalidInput(f"J: expected a 2-D array of numbers (m, n), got {J!r}") from None
+    a = finite_array("J", J, what="a 2-D array of numbers (m, n)")
     if a.ndim != 2 or a.shape[0] == 0 or a.shape[1] == 0:
         raise InvalidInput(f"J: expected a non-empty 2-D array (m, n), got shape {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise InvalidInput("J: expected finite entries, got NaN or inf; check the joint angles")
     return a
 
 
@@ -274,11 +268,8 @@ def damping(w: float, *, k0: float = K0, w0: float = W0) -> float:
     """
     k0f = check_positive("k0", k0)
     w0f = check_positive("w0", w0)
-    try:
-        wf = float(w)
-    except (TypeError, ValueError):
-        raise InvalidInput(f"w: expected a finite manipulability >= 0, got {w!r}") from None
-    if not (math.isfinite(wf) and wf >= 0.0):
+    wf = finite_scalar("w", w, what="manipulability >= 0", max_abs=None)
+    if not wf >= 0.0:
         raise InvalidInput(f"w: expected a finite manipulability >= 0, got {w!r}")
     if wf >= w0f:
         return 0.0
@@ -510,10 +501,8 @@ class ResolvedRate(InvalidPolicy):
 
 
 def _flat(name: str, x: Any) -> FloatArray:
-    try:
-        a = np.array(x, dtype=float)
-    except (TypeError, ValueError):
-        raise InvalidInput(f"{name}: expected a 1-D array of numbers, got {x!r}") from None
+    # Non-finite entries pass: the on_invalid policy decides about them.
+    a = real_array(name, x, allow_nonfinite=True, max_abs=None, what="a 1-D array of numbers")
     if a.ndim != 1 or a.shape[0] == 0:
         raise InvalidInput(f"{name}: expected a non-empty 1-D array, got shape {a.shape}")
     return a

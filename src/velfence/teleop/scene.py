@@ -40,9 +40,9 @@ from typing import Any, TypeAlias
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._validate import finite_array, readonly
-from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
-from velfence.geometry.primitives import _vec3, orthonormal_complement
+from velfence._validate import check_positive, finite_array, finite_scalar, readonly
+from velfence.errors import InvalidGeometry, InvalidInput
+from velfence.geometry.primitives import orthonormal_complement
 
 __all__ = [
     "Box",
@@ -109,15 +109,16 @@ def _geom_unit(name: str, x: Any) -> FloatArray:
 
 
 def _geom_length(name: str, x: Any, what: str) -> float:
-    try:
-        if isinstance(x, bool):
-            raise TypeError
-        v = float(x)
-    except (TypeError, ValueError):
-        raise InvalidGeometry(f"{name}: expected a number > 0 [m] ({what}), got {x!r}") from None
-    if not (math.isfinite(v) and v > 0.0):
-        raise InvalidGeometry(f"{name}: expected a finite number > 0 [m] ({what}), got {x!r}")
+    v = finite_scalar(name, x, unit="m", what=f"number > 0 ({what})", error=InvalidGeometry)
+    if not v > 0.0:
+        raise InvalidGeometry(f"{name}: expected a finite number > 0 [m] ({what}), got {v!r}")
     return v
+
+
+def _vec3(name: str, x: Any) -> Vec3:
+    """A run-time point or direction of shape (3,) as a tuple (:class:`InvalidInput`)."""
+    x0, x1, x2 = finite_array(name, x, (3,), what="a point of 3 numbers").tolist()
+    return (x0, x1, x2)
 
 
 def _ray(origin: ArrayLike, direction: ArrayLike) -> tuple[Vec3, Vec3]:
@@ -231,6 +232,8 @@ class Plane(_RayCast):
         half: tuple[float, float] | None = None
         if half_extents is not None:
             try:
+                if isinstance(half_extents, (str, bytes, bytearray)):
+                    raise TypeError
                 a, b = half_extents
             except (TypeError, ValueError):
                 raise InvalidGeometry(
@@ -314,7 +317,7 @@ class Disk(_RayCast):
     normal: FloatArray = field(init=False)
     radius: float = field(init=False)
 
-    def __init__(self, center: ArrayLike, normal: ArrayLike, radius: float) -> None:
+    def __init__(self, center: ArrayLike, normal: ArrayLike, *, radius: float) -> None:
         object.__setattr__(self, "center", readonly(_geom_point("center", center)))
         object.__setattr__(self, "normal", readonly(_geom_unit("normal", normal)))
         object.__setattr__(self, "radius", _geom_length("radius", radius, "disk radius"))
@@ -355,7 +358,7 @@ class Cylinder(_RayCast):
     radius: float = field(init=False)
     height: float = field(init=False)
 
-    def __init__(self, base_center: ArrayLike, radius: float, height: float) -> None:
+    def __init__(self, base_center: ArrayLike, *, radius: float, height: float) -> None:
         c = _geom_point("base_center", base_center)
         object.__setattr__(self, "base_center", readonly(c))
         object.__setattr__(self, "radius", _geom_length("radius", radius, "cylinder radius"))
@@ -452,16 +455,9 @@ class Box(_RayCast):
         if rotation is None:
             R = np.eye(3)
         else:
-            try:
-                R = np.array(rotation, dtype=float)
-            except (TypeError, ValueError):
-                raise InvalidGeometry(
-                    f"rotation: expected a 3x3 rotation matrix, got {rotation!r}"
-                ) from None
-            if R.shape != (3, 3) or not np.all(np.isfinite(R)):
-                raise InvalidGeometry(
-                    f"rotation: expected a finite 3x3 rotation matrix, got shape {R.shape}"
-                )
+            R = finite_array(
+                "rotation", rotation, (3, 3), error=InvalidGeometry, what="a 3x3 rotation matrix"
+            )
             err = float(np.max(np.abs(R.T @ R - np.eye(3))))
             if err > ROTATION_TOL or np.linalg.det(R) <= 0.0:
                 raise InvalidGeometry(
@@ -599,13 +595,14 @@ class Scene:
         Raises:
             InvalidInput: the scene has no primitive of that name (test with ``in`` first).
         """
-        for n, p in self._items:
-            if n == name:
-                return p
+        if isinstance(name, str):
+            for n, p in self._items:
+                if n == name:
+                    return p
         raise InvalidInput(f"name: expected one of the scene's {list(self.names)}, got {name!r}")
 
     def __contains__(self, name: object) -> bool:
-        return any(n == name for n, _ in self._items)
+        return isinstance(name, str) and any(n == name for n, _ in self._items)
 
     def __iter__(self) -> Iterator[str]:
         return iter(self.names)
@@ -643,14 +640,10 @@ class Scene:
             InvalidInput: non-finite or wrong-shape vectors, or a direction that is not unit.
             InvalidParameter: ``max_range`` negative or NaN.
         """
-        try:
-            limit = float(max_range)
-        except (TypeError, ValueError):
-            raise InvalidParameter(
-                f"max_range: expected a number >= 0 [m], got {max_range!r}"
-            ) from None
-        if not limit >= 0.0:
-            raise InvalidParameter(f"max_range: expected a number >= 0 [m], got {max_range!r}")
+        if isinstance(max_range, float) and max_range == math.inf:
+            limit = math.inf
+        else:
+            limit = check_positive("max_range", max_range, allow_zero=True, unit="m")
         o, d = _ray(origin, direction)
         return self._cast(o, d, limit)
 
@@ -758,9 +751,9 @@ def pick_and_place_scene() -> Scene:
     return Scene(
         {
             "table": Plane((0.0, 0.65, z), (0.0, 0.0, 1.0), half_extents=(0.50, 0.35)),
-            "cup": Cylinder((0.20, 0.58, z), 0.04, 0.10),
+            "cup": Cylinder((0.20, 0.58, z), radius=0.04, height=0.10),
             "folder": Box((0.02, 0.63, z + 0.12), (0.015, 0.16, 0.12)),
-            "destination": Disk((-0.18, 0.68, z + 1e-4), (0.0, 0.0, 1.0), 0.038),
+            "destination": Disk((-0.18, 0.68, z + 1e-4), (0.0, 0.0, 1.0), radius=0.038),
         }
     )
 
@@ -829,7 +822,11 @@ def scene_to_dicts(scene: Scene, *, dynamic: Sequence[str] = ()) -> list[dict[st
     """
     if not isinstance(scene, Scene):
         raise InvalidInput(f"scene: expected a velfence.teleop.scene.Scene, got {type(scene)!r}")
-    if isinstance(dynamic, str) or any(name not in scene for name in dynamic):
+    if (
+        not isinstance(dynamic, (list, tuple, set, frozenset))
+        or not all(isinstance(name, str) for name in dynamic)
+        or any(name not in scene for name in dynamic)
+    ):
         raise InvalidInput(f"dynamic: expected names from {list(scene.names)}, got {dynamic!r}")
     out: list[dict[str, Any]] = []
     for name, prim in scene.items():

@@ -35,14 +35,21 @@ angles), set by :meth:`reset`; the same seed gives the same run.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._validate import check_choice, check_positive, finite_array, readonly
+from velfence._validate import (
+    check_choice,
+    check_positive,
+    check_positive_int,
+    finite_array,
+    readonly,
+    real_array,
+    step_count,
+)
 from velfence.errors import InvalidInput, InvalidParameter
 
 __all__ = ["FirstOrderServo", "JointServo", "PDGravityServo"]
@@ -88,15 +95,11 @@ def _vec(name: str, x: ArrayLike, n: int | None, unit: str) -> FloatArray:
 
 def _per_joint(name: str, value: Any, unit: str, *, allow_zero: bool) -> FloatArray:
     """A positive scalar or 1-D array parameter, as a read-only 1-D array (length 1 if scalar)."""
-    if np.ndim(value) == 0:
+    scalar = isinstance(value, np.ndarray) and value.ndim == 0
+    if scalar or not isinstance(value, (list, tuple, np.ndarray)):
         return readonly(np.array([check_positive(name, value, allow_zero=allow_zero, unit=unit)]))
-    try:
-        a = np.array(value, dtype=float)
-    except (TypeError, ValueError):
-        raise InvalidParameter(
-            f"{name}: expected a number or 1-D numbers {unit}, got {value!r}"
-        ) from None
-    ok = np.isfinite(a) & ((a >= 0.0) if allow_zero else (a > 0.0))
+    a = finite_array(name, value, error=InvalidParameter, what=f"a number or 1-D numbers {unit}")
+    ok = (a >= 0.0) if allow_zero else (a > 0.0)
     if a.ndim != 1 or a.shape[0] == 0 or not np.all(ok):
         bound = ">= 0" if allow_zero else "> 0"
         raise InvalidParameter(
@@ -108,12 +111,9 @@ def _per_joint(name: str, value: Any, unit: str, *, allow_zero: bool) -> FloatAr
 def _limits(value: Any) -> FloatArray | None:
     if value is None:
         return None
-    try:
-        a = np.array(value, dtype=float)
-    except (TypeError, ValueError):
-        raise InvalidParameter(
-            f"joint_limits: expected numbers of shape (n, 2) [rad], got {value!r}"
-        ) from None
+    a = real_array(
+        "joint_limits", value, error=InvalidParameter, allow_nonfinite=True, what="numbers [rad]"
+    )
     if a.ndim != 2 or a.shape[1] != 2 or a.shape[0] == 0:
         raise InvalidParameter(
             f"joint_limits: expected shape (n, 2) (lower, upper) [rad], got shape {a.shape}"
@@ -125,20 +125,16 @@ def _limits(value: Any) -> FloatArray | None:
     return readonly(a)
 
 
+#: Most integration sub-steps one :meth:`PDGravityServo.step` may take.
+MAX_SUBSTEPS = 1_000_000
+
+
 def _seed(seed: Any) -> int:
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise InvalidParameter(f"seed: expected an int >= 0, got {seed!r}")
-    return int(seed)
+    return check_positive_int("seed", seed, minimum=0, example=0)
 
 
 def _dt(dt: Any) -> float:
-    try:
-        d = float(dt)
-    except (TypeError, ValueError):
-        raise InvalidInput(f"dt: expected a finite time step > 0 [s], got {dt!r}") from None
-    if not (math.isfinite(d) and d > 0.0):
-        raise InvalidInput(f"dt: expected a finite time step > 0 [s], got {dt!r}")
-    return d
+    return check_positive("dt", dt, unit="s", error=InvalidInput)
 
 
 class _ServoBase:
@@ -426,7 +422,9 @@ class PDGravityServo(_ServoBase):
         c = self._command_vec(command)
         h = _dt(dt)
         q, qd = self._state()
-        m = max(1, math.ceil(h / self.max_substep - 1e-9))
+        m = step_count(
+            "dt", h, "max_substep", self.max_substep, max_steps=MAX_SUBSTEPS, error=InvalidInput
+        )
         hs = h / m
         for _ in range(m):
             g = self._g(q)

@@ -62,7 +62,16 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._validate import check_positive, finite_array, readonly
+from velfence._validate import (
+    MAX_MAGNITUDE,
+    MAX_STEPS,
+    check_positive,
+    check_positive_int,
+    check_range,
+    finite_array,
+    readonly,
+    step_count,
+)
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.mechanisms.puma560 import Puma560
 from velfence.teleop.laser import LaserRangeSensor, LaserStream
@@ -120,6 +129,8 @@ vertical grasp keep |θ5| above about 30° in one wrist branch (a ready pose low
 closer, e.g. (0.10, 0.45, -0.05), put the wrist singularity between the aims and the wrist flipped
 while pointing)."""
 SESSION_KEYS = (*KEYS, "H")
+MAX_ADVANCE_CYCLES = 1_000_000
+"""Most control cycles one :meth:`Session.advance` call may run (83 min at 200 Hz)."""
 WRIST_ROLL_LIMIT = math.radians(266.0)
 """Joint-4 range of the session's default arm, ±266° [rad] (module docstring, "joint limits")."""
 """Keys :meth:`Session.press` accepts: the mode keys, ``C`` (clutch) and ``H`` (hand)."""
@@ -137,7 +148,7 @@ def omni_to_puma(v: ArrayLike) -> FloatArray:
     Returns:
         ``v M`` in the PUMA base frame, shape (3,).
     """
-    return np.asarray(np.asarray(v, dtype=float) @ OMNI_TO_PUMA, dtype=float)
+    return np.asarray(finite_array("v", v, (3,)) @ OMNI_TO_PUMA, dtype=float)
 
 
 def default_robot() -> Puma560:
@@ -160,7 +171,7 @@ def ready_pose(robot: Puma560 | None = None) -> tuple[FloatArray, FloatArray]:
     Returns:
         ``(q, T)``: joint angles [rad], shape (6,) (branch right/up/noflip), and the pose (4, 4).
     """
-    arm = default_robot() if robot is None else robot
+    arm = default_robot() if robot is None else _robot(robot)
     T = np.array(arm.fk(TRAJECTORY_FINAL_Q_RAD[0]))
     T[:3, 3] = READY_POSITION
     q = arm.ik(T, shoulder="right", elbow="up", wrist="noflip")
@@ -223,7 +234,7 @@ class Session:
         robot: The arm (default :func:`default_robot`, frame 6 at the wrist centre).
         laser: The laser sensor (default the DT60 model with the thesis's offset and filter).
         servo: Joint servo (default a 10 ms first-order lag with the arm's joint limits).
-        modes: The mode manager (default ``ModeManager(laser, rate=rate)``); its ``rate`` must
+        modes: The mode manager (default ``ModeManager(laser=laser, rate=rate)``); its ``rate`` must
             equal ``rate``.
         rate: Control rate [Hz], ``> 0`` (thesis 200).
         q0: Initial joint angles [rad], shape (6,); default :func:`ready_pose`.
@@ -249,15 +260,22 @@ class Session:
         hand_time: float = HAND_TIME,
         trace_every: int = 1,
     ) -> None:
-        self.rate = check_positive("rate", rate, unit="Hz")
+        # >= 1/MAX_MAGNITUDE: the control period must be a finite number of seconds.
+        self.rate = check_range("rate", rate, low=1.0 / MAX_MAGNITUDE, low_open=False, unit="Hz")
         self._h = 1.0 / self.rate
         self.scene = pick_and_place_scene() if scene is None else scene
         if not isinstance(self.scene, Scene):
             raise InvalidParameter(f"scene: expected a Scene, got {type(self.scene).__name__}")
-        self.robot = default_robot() if robot is None else robot
+        self.robot = default_robot() if robot is None else _robot(robot)
         self.laser = LaserRangeSensor() if laser is None else laser
+        if not isinstance(self.laser, LaserRangeSensor):
+            raise InvalidParameter(
+                f"laser: expected a LaserRangeSensor, got {type(self.laser).__name__}"
+            )
+        if modes is not None and not isinstance(modes, ModeManager):
+            raise InvalidParameter(f"modes: expected a ModeManager, got {type(modes).__name__}")
         if modes is None:
-            modes = ModeManager(self.laser, rate=self.rate)
+            modes = ModeManager(laser=self.laser, rate=self.rate)
         elif abs(modes.rate - self.rate) > 1e-9 * self.rate:
             raise InvalidParameter(
                 f"modes.rate: expected the session's control rate {self.rate:g} Hz, got "
@@ -269,18 +287,19 @@ class Session:
             if servo is None
             else servo
         )
+        if not isinstance(self.servo, JointServo):
+            raise InvalidParameter(
+                f"servo: expected a JointServo (reset, step, q, command), got "
+                f"{type(self.servo).__name__}"
+            )
         if self.servo.command != "position":
             raise InvalidParameter(
                 f"servo.command: expected 'position' (joint angles), got {self.servo.command!r}"
             )
         self.resolver = ResolvedRate(self.robot, on_invalid="stop")
         self.hand_time = check_positive("hand_time", hand_time, allow_zero=True, unit="s")
-        if isinstance(trace_every, bool) or not isinstance(trace_every, int) or trace_every < 1:
-            raise InvalidParameter(f"trace_every: expected an int >= 1, got {trace_every!r}")
-        self._trace_every = trace_every
-        if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
-            raise InvalidParameter(f"seed: expected an int >= 0, got {seed!r}")
-        self.seed = int(seed)
+        self._trace_every = check_positive_int("trace_every", trace_every, maximum=MAX_STEPS)
+        self.seed = check_positive_int("seed", seed, minimum=0, example=0)
         self._q0 = ready_pose(self.robot)[0] if q0 is None else _vec6(q0)
         names = self.scene.names
         cup = self.scene["cup"] if "cup" in names else None
@@ -442,12 +461,9 @@ class Session:
         Raises:
             InvalidInput: ``dt`` negative or not finite.
         """
-        try:
-            d = float(dt)
-        except (TypeError, ValueError):
-            raise InvalidInput(f"dt: expected a finite time >= 0 [s], got {dt!r}") from None
-        if not (math.isfinite(d) and d >= 0.0):
-            raise InvalidInput(f"dt: expected a finite time >= 0 [s], got {dt!r}")
+        d = check_positive("dt", dt, allow_zero=True, unit="s", error=InvalidInput)
+        if d > 0.0:  # bounded before any cycle runs: no hang, no overflow on 1e308
+            step_count("dt", d, "1/rate", self._h, max_steps=MAX_ADVANCE_CYCLES, error=InvalidInput)
         self._t_goal += d
         n = math.floor(self._t_goal * self.rate + 1e-9) - self._k
         for _ in range(max(n, 0)):
@@ -585,7 +601,7 @@ class Session:
     def _rebuild_laser_scene(self) -> None:
         if self._cup0 is None or self._cup is None:
             return
-        cup = Cylinder(self._cup, self._cup0.radius, self._cup0.height)
+        cup = Cylinder(self._cup, radius=self._cup0.radius, height=self._cup0.height)
         prims = {n: (cup if p is self._cup0 else p) for n, p in self.scene.items()}
         self._laser_scene = Scene(prims)
         self._scene_cup = self._cup.copy()
@@ -696,6 +712,12 @@ class Session:
             self._collisions += 1
             self._collision_log.append((t, name))
         self._contact = now
+
+
+def _robot(robot: Any) -> Puma560:
+    if not isinstance(robot, Puma560):
+        raise InvalidParameter(f"robot: expected a Puma560, got {type(robot).__name__}")
+    return robot
 
 
 def _vec6(x: ArrayLike) -> FloatArray:

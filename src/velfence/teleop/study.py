@@ -27,9 +27,13 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from velfence._validate import check_positive, check_positive_int, step_count
 from velfence.errors import InvalidParameter
 from velfence.teleop.operator import OperatorProfile
-from velfence.teleop.task import CONDITIONS, TaskRecord, TaskRun, run_task
+from velfence.teleop.task import CONDITIONS, MAX_TICKS, TaskRecord, TaskRun, run_task
+
+#: Most runs per condition of one study (``n_subjects * runs``).
+MAX_RUNS = 10_000
 
 __all__ = [
     "StudyResult",
@@ -165,11 +169,21 @@ def run_study(
     Raises:
         InvalidParameter: non-positive counts or a bad seed.
     """
-    for name, value in (("n_subjects", n_subjects), ("runs", runs)):
-        if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
-            raise InvalidParameter(f"{name}: expected an int >= 1, got {value!r}")
-    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
-        raise InvalidParameter(f"seed: expected an int >= 0, got {seed!r}")
+    n_subjects = check_positive_int("n_subjects", n_subjects, maximum=MAX_RUNS, example=10)
+    runs = check_positive_int("runs", runs, maximum=MAX_RUNS, example=3)
+    check_positive_int("seed", seed, minimum=0, example=0)
+    if n_subjects * runs > MAX_RUNS:
+        raise InvalidParameter(
+            f"n_subjects * runs: expected at most {MAX_RUNS:,} runs per condition, got "
+            f"{n_subjects * runs:,}"
+        )
+    if progress is not None and not callable(progress):
+        raise InvalidParameter(
+            f"progress: expected a function (done, total) or None, got {type(progress).__name__}"
+        )
+    # rate, tick and time_limit are checked once here, before any subject is drawn.
+    check_positive("rate", rate, unit="Hz")
+    step_count("time_limit", time_limit, "tick", tick, max_steps=MAX_TICKS)
     profiles = tuple(
         OperatorProfile.draw(np.random.default_rng([int(seed), s])) for s in range(n_subjects)
     )

@@ -38,11 +38,15 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from velfence._validate import check_choice, check_positive, check_positive_int, step_count
 from velfence.errors import InvalidParameter
 from velfence.teleop.modes import ModeEvent, ModeManager
 from velfence.teleop.operator import Behaviour, OperatorProfile, SyntheticOperator
 from velfence.teleop.scene import Box, Cylinder, Disk, Plane, Scene, pick_and_place_scene
 from velfence.teleop.session import Observation, Session
+
+#: Most operator ticks one run may take (``time_limit / tick``; 5.5 h at the default tick).
+MAX_TICKS = 1_000_000
 
 __all__ = [
     "CONDITIONS",
@@ -339,13 +343,26 @@ def run_task(
     Raises:
         InvalidParameter: an unknown condition or bad rates.
     """
-    if condition not in CONDITIONS:
-        raise InvalidParameter(f"condition: expected one of {list(CONDITIONS)}, got {condition!r}")
-    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
-        raise InvalidParameter(f"seed: expected an int >= 0, got {seed!r}")
-    for name, value in (("time_limit", time_limit), ("trace_rate", trace_rate)):
-        if not (math.isfinite(value) and value > 0.0):
-            raise InvalidParameter(f"{name}: expected a finite number > 0, got {value!r}")
+    check_choice("condition", condition, CONDITIONS)
+    if profile is not None and not isinstance(profile, OperatorProfile):
+        raise InvalidParameter(
+            f"profile: expected an OperatorProfile or None, got {type(profile).__name__}"
+        )
+    check_positive_int("seed", seed, minimum=0, example=0)
+    check_positive_int("subject", subject, minimum=0, example=0)
+    check_positive_int("run", run, minimum=0, example=0)
+    if scene is not None and not isinstance(scene, Scene):
+        raise InvalidParameter(f"scene: expected a Scene or None, got {type(scene).__name__}")
+    step_count("time_limit", time_limit, "tick", tick, max_steps=MAX_TICKS)
+    check_positive("trace_rate", trace_rate, unit="Hz")
+    if snapshot_rate is not None:
+        step_count(
+            "time_limit",
+            time_limit,
+            "1/snapshot_rate",
+            1.0 / check_positive("snapshot_rate", snapshot_rate, unit="Hz"),
+            max_steps=MAX_TICKS,
+        )
     sc = pick_and_place_scene() if scene is None else scene
     rng = np.random.default_rng([int(seed), 1])
     session = Session(
@@ -354,7 +371,7 @@ def run_task(
         rate=rate,
         seed=int(rng.integers(2**31)),
     )
-    op = SyntheticOperator(profile, seed=rng, tick=tick)
+    op = SyntheticOperator(profile=profile, seed=rng, tick=tick)
     op.start(assisted_plan(sc) if condition == "assisted" else unassisted_plan(sc))
     snaps: list[dict[str, Any]] = []
     next_snap = 0.0
@@ -381,7 +398,8 @@ def run_task(
         snaps.append(session.snapshot())
     tr = session.trace
     record = _record(condition, subject, run, session, op, tr, grasp_index, t_done)
-    step = max(1, round(session.rate / trace_rate))
+    ratio = session.rate / trace_rate  # inf for a tiny trace_rate: keep first and last rows
+    step = tr.shape[0] if not ratio < tr.shape[0] else max(1, round(ratio))
     keep = np.r_[np.arange(0, tr.shape[0], step), tr.shape[0] - 1]
     return TaskRun(
         record=record,

@@ -51,8 +51,16 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._validate import check_choice, check_positive, readonly
-from velfence.errors import InvalidInput, InvalidParameter
+from velfence._validate import (
+    MAX_MAGNITUDE,
+    MAX_STEPS,
+    check_choice,
+    check_positive,
+    check_positive_int,
+    finite_scalar,
+    readonly,
+)
+from velfence.errors import InvalidParameter
 from velfence.geometry.primitives import points_segments_distances
 from velfence.teleop.resolved_rate import (
     ORIENTATION_ERRORS,
@@ -77,6 +85,10 @@ FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
 
 TIMINGS = ("linear", "max")
+#: Most via-point steps of one trajectory (83 min at 200 Hz; 2 km at the default spacing).
+MAX_VIA_STEPS = 1_000_000
+#: Most servo steps per trajectory cycle.
+MAX_SUBSTEPS = 10_000
 FEEDBACKS = ("measured", "commanded", "none")
 
 
@@ -166,12 +178,7 @@ class CartesianTrajectory:
         Raises:
             InvalidInput: ``t`` is not a finite number.
         """
-        try:
-            tf = float(t)
-        except (TypeError, ValueError):
-            raise InvalidInput(f"t: expected a finite time [s], got {t!r}") from None
-        if not math.isfinite(tf):
-            raise InvalidInput(f"t: expected a finite time [s], got {t!r}")
+        tf = finite_scalar("t", t, unit="s", what="time", max_abs=None)
         s = min(max(tf / self.duration, 0.0), 1.0)
         return _interpolate(self.start, self.end, self.axis, self.angle, s)
 
@@ -224,6 +231,8 @@ def straight_line(
     """
     sp = check_positive("spacing", spacing, unit="m")
     hz = check_positive("rate", rate, unit="Hz")
+    if hz < 1.0 / MAX_MAGNITUDE:  # the via-point period (and so the duration) must stay finite
+        raise InvalidParameter(f"rate: expected a rate >= {1.0 / MAX_MAGNITUDE:g} Hz, got {hz:g}")
     asp = check_positive("angular_spacing", angular_spacing, unit="rad")
     how = check_choice("timing", timing, TIMINGS)
     dmin = check_positive("min_distance", min_distance, allow_zero=True, unit="m")
@@ -232,6 +241,12 @@ def straight_line(
     k, phi = angle_axis(A[:3, :3].T @ B[:3, :3])
     axis_base = A[:3, :3] @ k
     dist = float(np.linalg.norm(B[:3, 3] - A[:3, 3]))
+    for name, count, value in (("spacing", dist / sp, sp), ("angular_spacing", phi / asp, asp)):
+        if not count <= MAX_VIA_STEPS:
+            raise InvalidParameter(
+                f"{name}: {value:g} needs {count:.3g} via-point steps for this trajectory; at "
+                f"most {MAX_VIA_STEPS:,} are allowed: increase {name}"
+            )
     n_lin = _count(dist / sp)
     n_ang = _count(phi / asp)
     # "linear": the translation sets N (thesis); a pure rotation falls back to the angle.
@@ -372,12 +387,22 @@ def execute(
     lam = check_positive("correction_gain", correction_gain)
     if lam > 1.0:
         raise InvalidParameter(f"correction_gain: expected a value in (0, 1], got {lam!r}")
-    sub = _int("substeps", substeps, 1)
-    extra = _int("settle", settle, 0)
+    sub = check_positive_int("substeps", substeps, maximum=MAX_SUBSTEPS, example=5)
+    extra = check_positive_int("settle", settle, minimum=0, maximum=MAX_VIA_STEPS, example=0)
+    total = (trajectory.n_steps + extra + 1) * sub
+    if total > MAX_STEPS:
+        raise InvalidParameter(
+            f"substeps={sub} and settle={extra} need {total:,} servo steps; at most "
+            f"{MAX_STEPS:,} are allowed: lower substeps or settle"
+        )
     rr = ResolvedRate(robot) if resolver is None else resolver
     if not isinstance(rr, ResolvedRate):
         raise InvalidParameter(f"resolver: expected a ResolvedRate, got {type(rr).__name__}")
     sv: JointServo = FirstOrderServo(time_constant=0.0) if servo is None else servo
+    if not isinstance(sv, JointServo):
+        raise InvalidParameter(
+            f"servo: expected a JointServo (reset, step, q, command), got {type(sv).__name__}"
+        )
     if sv.command not in ("position", "velocity"):
         raise InvalidParameter(
             f"servo.command: expected 'position' or 'velocity', got {sv.command!r}"
@@ -451,9 +476,3 @@ def execute(
         path_deviation=readonly(deviation[:, 0]),
         feedback=mode,
     )
-
-
-def _int(name: str, value: object, lo: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < lo:
-        raise InvalidParameter(f"{name}: expected an int >= {lo}, got {value!r}")
-    return int(value)
