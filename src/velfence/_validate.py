@@ -131,6 +131,8 @@ def real_array(
         raw = np.asarray(x)
     except (TypeError, ValueError, OverflowError, RecursionError):
         raise err(f"{name}: expected {what}{want}, got {_show(x)}") from None
+    if isinstance(x, (list, tuple)) and raw.dtype.kind in _REAL_KINDS and _has_bool(x):
+        raise err(f"{name}: expected {what}{want}, got booleans among the numbers: {_show(x)}")
     if raw.dtype.kind not in _REAL_KINDS:
         if raw.dtype.kind == "O" and raw.size and _all_real(raw):
             try:
@@ -164,6 +166,18 @@ def real_array(
                 f"{a[big].ravel()[:4].tolist()}"
             )
     return a
+
+
+def _has_bool(x: list[Any] | tuple[Any, ...]) -> bool:
+    """Whether a nested list/tuple holds a boolean (NumPy would read ``True`` as 1)."""
+    stack: list[Any] = [x]
+    while stack:
+        for e in stack.pop():
+            if isinstance(e, (bool, np.bool_)):
+                return True
+            if isinstance(e, (list, tuple)):
+                stack.append(e)
+    return False
 
 
 def _all_real(a: np.ndarray[Any, Any]) -> bool:
