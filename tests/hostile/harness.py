@@ -1,0 +1,678 @@
+"""The machinery of the hostile suite: public-name enumeration, spec types, the guarded call and
+the checks (see ``docs/reliability-inputs.md``)."""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import importlib
+import inspect
+import math
+import multiprocessing
+import os
+import pkgutil
+import re
+import resource
+import signal
+import time
+import warnings
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from kinds import KINDS, NotApplicable, expectation
+
+import velfence
+from velfence.errors import VelfenceError
+
+#: Seconds one call may take before it counts as a hang (a kind may allow more, e.g. 10⁶ entries).
+TIMEOUT_S = 1.0
+#: The wall-clock alarm is this many times the CPU-time limit.
+WALL_FACTOR = 10.0
+#: Seconds the first (valid) call may take: it may compile numba kernels.
+WARMUP_TIMEOUT_S = 60.0
+#: After this many arguments that hung, a callable is not attacked further (heavy callables:
+#: after the first).
+MAX_HANGS = 2
+#: The kinds tried on callables too heavy to run (their valid call is never made).
+HEAVY_KINDS = ("str_int", "nan", "true", "dict_xy", "int_minus_1", "float_1e308")
+#: Extra address space one call may take [bytes] (beyond what the process already has): a call
+#: that tries to allocate more gets MemoryError (reported as an escape) instead of swapping.
+MEMORY_HEADROOM = 2 * 1024**3
+#: Skipped modules: the command-line front end (tested by tests/test_cli.py).
+SKIP_MODULES = ("velfence.cli",)
+
+
+# --- the registry's vocabulary ----------------------------------------------------------------
+
+
+@dataclass
+class Call:
+    """One call: positional and keyword arguments."""
+
+    args: tuple[Any, ...] = ()
+    kwargs: dict[str, Any] = field(default_factory=dict)
+
+
+def call(*args: Any, **kwargs: Any) -> Call:
+    """A :class:`Call` (shorthand used by the spec modules)."""
+    return Call(args, kwargs)
+
+
+@dataclass
+class F:
+    """Spec of a function, or of a method (inside :class:`C`), or of a constructor (``C.new``).
+
+    Attributes:
+        valid: Factory of one valid call.
+        types: Parameter name -> parameter type (see :mod:`kinds`), overriding the inferred type.
+        heavy: Reason the callable is too heavy to run: then only :data:`HEAVY_KINDS` are tried,
+            and they must all be refused quickly.
+        skip: Parameter name -> reason it is not attacked (e.g. a numpy Generator).
+        required: Parameters whose annotation allows ``None`` but whose valid call needs a
+            value (``None`` is then tried as "either").
+    """
+
+    valid: Callable[[], Call]
+    types: dict[str, str] = field(default_factory=dict)
+    heavy: str | None = None
+    skip: dict[str, str] = field(default_factory=dict)
+    required: frozenset[str] = frozenset()  # parameters typed Optional where None is refused here
+
+
+@dataclass
+class C:
+    """Spec of a class: its constructor and its public methods.
+
+    Attributes:
+        new: Spec of the constructor (``None`` with ``record`` or ``abstract`` given).
+        methods: Method name -> spec (an :class:`F`, or a bare factory of a valid call).
+        instance: Factory of a valid instance for the methods (default: call ``new``).
+        record: Reason the constructor is not attacked (an output record the library builds).
+        abstract: Reason the class is not called at all (a Protocol).
+    """
+
+    new: F | Callable[[], Call] | None = None
+    methods: dict[str, F | Callable[[], Call]] = field(default_factory=dict)
+    instance: Callable[[], Any] | None = None
+    record: str | None = None
+    abstract: str | None = None
+
+
+def as_f(spec: F | Callable[[], Call]) -> F:
+    return spec if isinstance(spec, F) else F(spec)
+
+
+# --- enumeration ------------------------------------------------------------------------------
+
+
+def public_modules() -> list[str]:
+    """``velfence`` and every public sub-module or sub-package that declares ``__all__``."""
+    names = ["velfence"]
+    for info in pkgutil.iter_modules(velfence.__path__):
+        full = f"velfence.{info.name}"
+        if info.name.startswith("_") or full in SKIP_MODULES:
+            continue
+        names.append(full)
+    return names
+
+
+def _skipped_by_type(obj: Any) -> bool:
+    if inspect.isclass(obj):
+        return issubclass(obj, BaseException)
+    return not callable(obj)
+
+
+def public_callables() -> dict[str, Any]:
+    """Canonical name (``"shaping.PolygonShaper"``) -> object, for every public callable.
+
+    A name exported from several modules gets the name of the deepest module (the sub-package,
+    not the top-level re-export). Constants, data and exception classes are skipped by type.
+    """
+    found: dict[int, tuple[str, Any]] = {}
+    for modname in public_modules():
+        mod = importlib.import_module(modname)
+        for name in getattr(mod, "__all__", ()):
+            obj = getattr(mod, name)
+            if _skipped_by_type(obj):
+                continue
+            short = modname.removeprefix("velfence").lstrip(".")
+            key = f"{short}.{name}" if short else name
+            old = found.get(id(obj))
+            if old is None or old[0].count(".") < key.count("."):
+                found[id(obj)] = (key, obj)
+    return dict(sorted(found.values(), key=lambda kv: kv[0]))
+
+
+def is_protocol(cls: type) -> bool:
+    return bool(getattr(cls, "_is_protocol", False))
+
+
+def public_methods(cls: type) -> list[str]:
+    """Public methods (not properties, not from outside velfence) of ``cls``, sorted."""
+    out = []
+    for name in dir(cls):
+        if name.startswith("_"):
+            continue
+        owner = next((c for c in cls.__mro__ if name in c.__dict__), None)
+        if owner is None or not owner.__module__.startswith("velfence"):
+            continue
+        raw = owner.__dict__[name]
+        if isinstance(raw, property) or not callable(getattr(cls, name)):
+            continue
+        if dataclasses.is_dataclass(cls) and name in {f.name for f in dataclasses.fields(cls)}:
+            continue
+        out.append(name)
+    return sorted(out)
+
+
+# --- parameter types --------------------------------------------------------------------------
+
+_POSITIVE = re.compile(
+    r"(^dt$|duration|radius|^tol$|_tol$|gain|rate$|speed|spacing|time|length|stiffness|force|"
+    r"window|step|margin|buffer|influence|_range$|inertia|^k[pd0]?$|^w0$|^max_|^min_|period|"
+    r"extent|height|quantum|share|limit$|tick|band$|substep|along|across|standoff|rise|"
+    r"above_destination|settle|d_max|d_safe|friction|noise|spring|recovery|damping|weight|"
+    r"^omega$|^eps$|^u$|^r_o$|^v_max$|^a_max$|^ds$|^epsilon$|^sigma$)"
+)
+
+
+_NONNEG = re.compile(
+    r"(noise|tremor|margin|friction|damping|spring|recovery|tol$|weight|"
+    r"lookahead|error$|^t0$|curvature$)"
+)
+
+
+def infer_type(param: inspect.Parameter) -> str:
+    """The parameter type of ``param`` (see :mod:`kinds`), from its annotation, name and default."""
+    ann = param.annotation
+    text = ann if isinstance(ann, str) else getattr(ann, "__name__", str(ann))
+    base = text.replace(" | None", "").replace("None | ", "").strip()
+    name = param.name
+    if "Callable" in base or base.endswith("Fn") or base == "Progress":
+        return "callable"
+    if base in ("float", "float | int"):
+        if _NONNEG.search(name):
+            return "nonneg"
+        if _POSITIVE.search(name):
+            d = param.default
+            zero_ok = isinstance(d, (int, float)) and d == 0
+            return "nonneg" if zero_ok else "positive"
+        return "scalar"
+    if base == "int":
+        return "seed" if name == "seed" else "count"
+    if base == "bool":
+        return "flag"
+    if base == "str":
+        return "text" if name in ("name", "title", "message", "source", "note") else "choice"
+    if base == "complex":
+        return "scalar"
+    if any(t in base for t in ("ArrayLike", "FloatArray", "Sequence[float", "tuple[float")):
+        return "vector"
+    if "Sequence[Sequence[float" in base or "tuple[int, int" in base:
+        return "vector"
+    if "str | Path" in base or "PathLike" in base:
+        return "path"
+    return "object"
+
+
+def is_optional(param: inspect.Parameter) -> bool:
+    ann = param.annotation
+    text = ann if isinstance(ann, str) else str(ann)
+    return param.default is None or "None" in text.split("->")[0]
+
+
+# --- the guarded call -------------------------------------------------------------------------
+
+
+class Hang(BaseException):
+    """Raised by the alarm: the call took longer than its timeout (BaseException so that a
+    library ``except Exception`` cannot swallow it)."""
+
+
+def _alarm(_signum: int, _frame: Any) -> None:
+    raise Hang
+
+
+def guarded(fn: Callable[[], Any], timeout: float = TIMEOUT_S) -> tuple[str, Any, list[str]]:
+    """Run ``fn()`` in the main thread under two alarms, recording (not raising) warnings.
+
+    ``timeout`` is CPU time (SIGPROF: the process's user + system time), so a loaded machine does
+    not turn slow calls into false hangs; a wall-clock alarm of :data:`WALL_FACTOR` times as
+    much catches calls that block without computing.
+
+    Returns:
+        ``("ok", result, warnings)``, ``("raised", exception, warnings)`` or
+        ``("hang", None, warnings)``; ``warnings`` names the RuntimeWarning-family categories
+        (overflow, invalid value, ComplexWarning, ...) the call emitted.
+    """
+    old_prof = signal.signal(signal.SIGPROF, _alarm)
+    old_real = signal.signal(signal.SIGALRM, _alarm)
+    caught: list[warnings.WarningMessage] = []
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            signal.setitimer(signal.ITIMER_PROF, timeout)
+            signal.setitimer(signal.ITIMER_REAL, timeout * WALL_FACTOR)
+            try:
+                result: tuple[str, Any] = ("ok", fn())
+            except Hang:
+                result = ("hang", None)
+            except Exception as exc:  # the point: catch everything the library lets escape
+                result = ("raised", exc)
+            finally:
+                signal.setitimer(signal.ITIMER_PROF, 0)
+                signal.setitimer(signal.ITIMER_REAL, 0)
+    finally:
+        signal.signal(signal.SIGPROF, old_prof)
+        signal.signal(signal.SIGALRM, old_real)
+    names = sorted({w.category.__name__ for w in caught if issubclass(w.category, RuntimeWarning)})
+    return result[0], result[1], names
+
+
+def nonfinite_paths(obj: Any, path: str = "out", depth: int = 0) -> Iterator[str]:
+    """Paths of non-finite floats inside a returned object (arrays, floats, dataclasses, ...)."""
+    if depth > 6:
+        return
+    if isinstance(obj, (bool, np.bool_, int, np.integer, str, bytes)) or obj is None:
+        return
+    if isinstance(obj, (float, np.floating)):
+        if not math.isfinite(float(obj)):
+            yield f"{path}={float(obj)}"
+        return
+    if isinstance(obj, (complex, np.complexfloating)):
+        if not (math.isfinite(obj.real) and math.isfinite(obj.imag)):
+            yield f"{path}={obj}"
+        return
+    if isinstance(obj, np.ndarray):
+        obj = obj.view(np.ndarray)  # masked arrays and other subclasses: the raw data
+        if obj.dtype.kind in "fc" and obj.size and not np.all(np.isfinite(obj)):
+            yield f"{path}[{int(np.sum(~np.isfinite(obj)))} non-finite of {obj.size}]"
+        elif obj.dtype.kind == "O":
+            for i, e in enumerate(obj.ravel()[:50]):
+                yield from nonfinite_paths(e, f"{path}[{i}]", depth + 1)
+        return
+    if isinstance(obj, (list, tuple)):
+        for i, e in enumerate(obj[:200]):
+            yield from nonfinite_paths(e, f"{path}[{i}]", depth + 1)
+        return
+    if isinstance(obj, dict):
+        for k, e in list(obj.items())[:200]:
+            yield from nonfinite_paths(e, f"{path}[{k!r}]", depth + 1)
+        return
+    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
+        for f in dataclasses.fields(obj):
+            yield from nonfinite_paths(getattr(obj, f.name, None), f"{path}.{f.name}", depth + 1)
+
+
+# --- attacking one callable -------------------------------------------------------------------
+
+
+@dataclass
+class Failure:
+    """One (callable, argument, kind) that did not behave."""
+
+    target: str
+    param: str
+    kind: str
+    klass: str  # escape / non-finite / silently-accepted / unnamed / hang / refused-valid / ...
+    detail: str
+
+    def line(self) -> str:
+        return f"{self.target}({self.param}) <- {self.kind}: {self.klass}: {self.detail}"
+
+
+@dataclass
+class Target:
+    """One callable under attack: how to get the function and its valid call."""
+
+    key: str
+    get: Callable[[], Callable[..., Any]]  # fresh bound callable (builds a fresh instance)
+    spec: F
+    constructor: bool
+
+
+def _short(exc: BaseException) -> str:
+    text = str(exc).replace("\n", " ")
+    return f"{type(exc).__name__}: {text[:120]}"
+
+
+def _names(message: str, param: str) -> bool:
+    return re.search(rf"(?<![A-Za-z0-9_]){re.escape(param)}(?![A-Za-z0-9_])", message) is not None
+
+
+def _classify(
+    target: str,
+    param: str,
+    kind: str,
+    code: str,
+    outcome: tuple[str, Any, list[str]],
+    walk: bool,
+    known_nonfinite: frozenset[str] = frozenset(),
+) -> Failure | None:
+    """The failure of one call given what it had to do (``code``), or ``None``."""
+    status, value, warned = outcome
+    f: Failure | None = None
+    if status == "hang":
+        f = Failure(target, param, kind, "hang", "no answer within the time limit")
+    elif status == "raised":
+        if not isinstance(value, VelfenceError):
+            f = Failure(target, param, kind, f"escape:{type(value).__name__}", _short(value))
+        elif code == "A":
+            f = Failure(target, param, kind, "refused-valid", _short(value))
+        elif param != "(valid)" and not _names(str(value), param):
+            f = Failure(target, param, kind, "unnamed", _short(value))
+    elif code == "R":
+        f = Failure(target, param, kind, "silently-accepted", f"returned {type(value).__name__}")
+    elif walk:
+        bad = [
+            p
+            for p in nonfinite_paths(value)
+            if p.split("[")[0].split("=")[0] not in known_nonfinite
+        ]
+        if bad:
+            f = Failure(target, param, kind, "non-finite", ", ".join(bad[:3]))
+    if warned:
+        text = "emitted " + ", ".join(warned)
+        if f is None:
+            f = Failure(target, param, kind, "warning", text)
+        else:
+            f.detail += f" ({text})"
+    return f
+
+
+def _signature(fn: Callable[..., Any]) -> inspect.Signature | None:
+    try:
+        return inspect.signature(fn)
+    except (TypeError, ValueError):
+        return None
+
+
+def _copy(x: Any) -> Any:
+    try:
+        return copy.deepcopy(x)
+    except Exception:  # immutable library objects refuse to be copied: they need not be
+        return x
+
+
+class memory_cap:  # noqa: N801 (a context manager used like a function)
+    """Cap the address space at what the process has plus :data:`MEMORY_HEADROOM`."""
+
+    def __enter__(self) -> None:
+        self.limits = resource.getrlimit(resource.RLIMIT_AS)
+        with open("/proc/self/statm") as fh:
+            in_use = int(fh.read().split()[0]) * resource.getpagesize()
+        cap = in_use + MEMORY_HEADROOM
+        if self.limits[1] != resource.RLIM_INFINITY:
+            cap = min(cap, self.limits[1])
+        resource.setrlimit(resource.RLIMIT_AS, (cap, self.limits[1]))
+
+    def __exit__(self, *exc: object) -> None:
+        resource.setrlimit(resource.RLIMIT_AS, self.limits)
+
+
+def attack(t: Target) -> tuple[list[Failure], int]:
+    """:func:`attack_uncapped` under :class:`memory_cap`."""
+    with memory_cap():
+        return attack_uncapped(t)
+
+
+def attack_uncapped(t: Target) -> tuple[list[Failure], int]:
+    """Apply every applicable kind to every parameter of ``t``.
+
+    The valid call is made first (and must return finite output); then each parameter in turn
+    gets each kind while the others keep their valid values.
+
+    Returns:
+        The failures and the number of calls made.
+    """
+    spec = t.spec
+    fails: list[Failure] = []
+    calls = 0
+    probe = guarded(t.get, WARMUP_TIMEOUT_S)
+    if probe[0] != "ok":
+        return [Failure(t.key, "(valid)", "instance", "valid-failed", _short(probe[1]))], 0
+    sig = _signature(probe[1])
+    if sig is None:
+        return [Failure(t.key, "(valid)", "signature", "valid-failed", "no signature")], 0
+    valid = spec.valid()
+    walk_default = not t.constructor
+    known: frozenset[str] = frozenset()
+    if spec.heavy is None:
+        fresh = spec.valid()
+        outcome = guarded(lambda: t.get()(*fresh.args, **fresh.kwargs), WARMUP_TIMEOUT_S)
+        calls += 1
+        walk = walk_default or dataclasses.is_dataclass(outcome[1])
+        f = _classify(t.key, "(valid)", "valid", "A", outcome, walk)
+        if f is not None:
+            if f.klass == "refused-valid" or f.klass.startswith("escape") or f.klass == "hang":
+                f.klass = "valid-failed"
+                return [f], calls
+            fails.append(f)  # non-finite output of the valid call: reported once, then ignored
+            if outcome[0] == "ok":
+                known = frozenset(
+                    p.split("[")[0].split("=")[0] for p in nonfinite_paths(outcome[1])
+                )
+    try:
+        bound = sig.bind_partial(*valid.args, **valid.kwargs)
+    except TypeError as exc:
+        return [Failure(t.key, "(valid)", "bind", "valid-failed", str(exc))], calls
+    names = list(bound.arguments)
+    total_hangs = 0
+    for name, p in sig.parameters.items():
+        if p.kind in (p.VAR_POSITIONAL, p.VAR_KEYWORD) or name in spec.skip:
+            continue
+        if p.kind is p.POSITIONAL_ONLY and name not in bound.arguments:
+            continue
+        ptype = spec.types.get(name) or infer_type(p)
+        optional = is_optional(p)
+        if name in bound.arguments:
+            vvalue = bound.arguments[name]
+        elif p.default is not p.empty:
+            vvalue = p.default
+        else:
+            continue
+        index = names.index(name) if name in names else -1
+        positional = 0 <= index < len(valid.args)
+        hangs = 0
+        for kind in KINDS:
+            if spec.heavy is not None and kind.name not in HEAVY_KINDS:
+                continue
+            code = expectation(kind, ptype)
+            if code is None:
+                continue
+            try:
+                value = kind.make(_copy(vvalue) if kind.derived else None)
+            except NotApplicable:
+                continue
+            if kind.name == "none" and optional:
+                code = "E" if name in spec.required else "A"
+            if (
+                kind.name in ("nan", "np_nan", "inf", "neg_inf")
+                and isinstance(vvalue, float)
+                and not math.isfinite(vvalue)
+            ):
+                code = "E"
+            if spec.heavy is not None and code != "R":
+                continue
+
+            def run(
+                value: Any = value,
+                positional: bool = positional,
+                index: int = index,
+                name: str = name,
+            ) -> Any:
+                c = spec.valid()
+                args = list(c.args)
+                if positional:
+                    args[index] = value
+                else:
+                    c.kwargs[name] = value
+                return t.get()(*args, **c.kwargs)
+
+            outcome = guarded(run, kind.timeout or TIMEOUT_S)
+            calls += 1
+            walk = walk_default or dataclasses.is_dataclass(outcome[1])
+            f = _classify(t.key, name, kind.name, code, outcome, walk, known)
+            if f is not None:
+                fails.append(f)
+                if f.klass == "hang":
+                    hangs += 1
+                    break  # one hang per argument is enough: the rest would cost 2 s each
+        if hangs:
+            total_hangs += 1
+            if total_hangs >= (1 if spec.heavy else MAX_HANGS):
+                fails.append(
+                    Failure(
+                        t.key, name, "(rest)", "hang", "stopped attacking after this hung argument"
+                    )
+                )
+                break
+    return fails, calls
+
+
+def _method_getter(make: Callable[[], Any], method: str) -> Callable[[], Any]:
+    """A getter of ``method`` on a fresh instance: a deep copy of one prototype where the
+    instance can be copied (cheap), else a new instance from ``make``."""
+    cache: dict[str, Any] = {}
+
+    def get() -> Any:
+        if "proto" not in cache:
+            t0 = time.perf_counter()
+            proto = make()
+            cache["proto"] = None
+            if time.perf_counter() - t0 > 2e-3:  # slow to build: copy instead, if it can be
+                try:
+                    copy.deepcopy(proto)
+                    cache["proto"] = proto
+                except Exception:  # immutable or holding generators: build anew each time
+                    pass
+        proto = cache["proto"]
+        return getattr(make() if proto is None else copy.deepcopy(proto), method)
+
+    return get
+
+
+# --- registry assembly ------------------------------------------------------------------------
+
+SPEC_MODULES = (
+    "specs_top",
+    "specs_geometry",
+    "specs_shaping",
+    "specs_mechanisms",
+    "specs_redundancy",
+    "specs_sim",
+    "specs_cobot",
+    "specs_teleop",
+    "specs_io",
+    "specs_viz",
+    "specs_reproduce",
+    "specs_tools",
+)
+
+
+def registry() -> dict[str, F | C]:
+    """Canonical public name -> spec, merged from every spec module."""
+    reg: dict[str, F | C] = {}
+    for modname in SPEC_MODULES:
+        mod = importlib.import_module(modname)
+        for key, spec in mod.SPECS.items():
+            assert key not in reg, f"{key} registered twice"
+            reg[key] = spec
+    return reg
+
+
+def targets() -> tuple[list[Target], list[str]]:
+    """Every attackable target and the names that are missing from the registry."""
+    reg = registry()
+    out: list[Target] = []
+    missing: list[str] = []
+    for key, obj in public_callables().items():
+        spec = reg.get(key)
+        if spec is None:
+            missing.append(key)
+            continue
+        if inspect.isclass(obj):
+            if not isinstance(spec, C):
+                missing.append(f"{key} (registered as a function, is a class)")
+                continue
+            if spec.abstract:
+                continue
+            if spec.new is None and not spec.record:
+                missing.append(f"{key} (constructor)")
+            if spec.new is not None:
+                out.append(Target(key, lambda obj=obj: obj, as_f(spec.new), True))
+            make = spec.instance
+            if make is None and spec.new is not None:
+                new = as_f(spec.new)
+
+                def make(obj: Any = obj, new: F = new) -> Any:
+                    c = new.valid()
+                    return obj(*c.args, **c.kwargs)
+
+            for m in public_methods(obj):
+                mspec = spec.methods.get(m)
+                if mspec is None:
+                    missing.append(f"{key}.{m}")
+                    continue
+                if make is None:
+                    missing.append(f"{key}.{m} (no instance factory)")
+                    continue
+                out.append(Target(f"{key}.{m}", _method_getter(make, m), as_f(mspec), False))
+            extra = set(spec.methods) - set(public_methods(obj))
+            missing.extend(f"{key}.{m} (registered but not public)" for m in sorted(extra))
+        else:
+            if isinstance(spec, C):
+                missing.append(f"{key} (registered as a class, is a function)")
+                continue
+            out.append(Target(key, lambda obj=obj: obj, spec, False))
+    missing.extend(
+        f"{k} (registered but not public)" for k in sorted(set(reg) - set(public_callables()))
+    )
+    return out, missing
+
+
+# --- running many targets in parallel -------------------------------------------------------
+
+
+def _attack_key(key: str) -> tuple[str, list[Failure], int]:
+    for t in _WORKER_TARGETS:
+        if t.key == key:
+            fails, calls = attack(t)
+            return key, fails, calls
+    raise KeyError(key)
+
+
+_WORKER_TARGETS: list[Target] = []
+
+
+def jobs() -> int:
+    """Worker processes: ``HOSTILE_JOBS`` or the usable cores (at most 4)."""
+    env = os.environ.get("HOSTILE_JOBS")
+    if env:
+        return max(1, int(env))
+    return max(1, min(4, len(os.sched_getaffinity(0))))
+
+
+def attack_many(keys: list[str], n_jobs: int | None = None) -> dict[str, tuple[list[Failure], int]]:
+    """Attack the targets named ``keys`` in ``n_jobs`` forked worker processes.
+
+    Each worker runs its calls in its own main thread, so the SIGALRM guard works there too;
+    a worker that dies takes only its own target down (reported as a failure).
+    """
+    global _WORKER_TARGETS
+    all_targets, _ = targets()
+    _WORKER_TARGETS = [t for t in all_targets if t.key in set(keys)]
+    n = n_jobs or jobs()
+    out: dict[str, tuple[list[Failure], int]] = {}
+    if n == 1 or len(keys) < 2:
+        for k in keys:
+            _, fails, calls = _attack_key(k)
+            out[k] = (fails, calls)
+        return out
+    ctx = multiprocessing.get_context("fork")
+    with ctx.Pool(n, maxtasksperchild=50) as pool:
+        for key, fails, calls in pool.imap_unordered(_attack_key, keys, chunksize=1):
+            out[key] = (fails, calls)
+    return out

@@ -1,0 +1,86 @@
+"""Specs of velfence.geometry."""
+
+from __future__ import annotations
+
+import numpy as np
+from common import P2, SQUARE_CORNERS, V2, square
+from harness import C, F, call
+
+_PATH_METHODS = {
+    "closest": lambda: call([0.9, 0.3]),
+    "curvature": lambda: call(0.3),
+    "curvatures": lambda: call([0.0, 0.3, 0.6]),
+    "frame": lambda: call(0.3),
+    "point": lambda: call(0.3),
+    "points": lambda: call([0.0, 0.3, 0.6]),
+    "tangent": lambda: call(0.3),
+    "tangents": lambda: call([0.0, 0.3, 0.6]),
+}
+_S = {"s": "scalar", "s0": "scalar", "start_angle": "scalar"}
+
+SPECS: dict[str, F | C] = {
+    "geometry.Circle": C(
+        F(lambda: call([0.0, 0.0], 1.0), types=_S),
+        {k: F(v, types=_S) for k, v in _PATH_METHODS.items()},
+    ),
+    "geometry.Line": C(
+        lambda: call([0.0, 0.0], [1.0, 0.5]), {k: F(v, types=_S) for k, v in _PATH_METHODS.items()}
+    ),
+    "geometry.Polyline": C(
+        lambda: call([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]], corner_radius=0.2),
+        {k: F(v, types=_S) for k, v in _PATH_METHODS.items()},
+    ),
+    "geometry.Spline": C(
+        lambda: call([[0.0, 0.0], [1.0, 0.2], [2.0, 0.0], [3.0, 0.5]]),
+        {k: F(v, types=_S) for k, v in _PATH_METHODS.items()},
+    ),
+    "geometry.Path": C(abstract="Protocol: exercised through Circle, Line, Polyline, Spline"),
+    "geometry.ConvexPolygon": C(
+        lambda: call(SQUARE_CORNERS),
+        {
+            "arc_segment": lambda: call(P2),
+            "area_ratio": lambda: call(),
+            "closest_point": lambda: call([1.5, 0.2]),
+            "contains": lambda: call(P2),
+            "inscribed_rectangle": lambda: call(),
+            "inside_by_angle_sum": lambda: call(P2),
+            "inside_by_normals": lambda: call(P2),
+            "scaled": F(lambda: call(0.5), types={"factor": "positive"}),
+            "signed_distances": lambda: call(P2),
+            "wedge": lambda: call([1.5, 1.5]),
+        },
+    ),
+    "geometry.Rectangle": C(F(lambda: call(-1.0, 1.0, -0.5, 0.5)), {"contains": lambda: call(P2)}),
+    "geometry.decompose": F(lambda: call(V2, [0.0, 1.0])),
+    "geometry.inscribed_rectangle": F(lambda: call(square())),
+    "geometry.polygon_from_halfplanes": F(
+        lambda: call([[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]], [1.0, 1.0, 1.0, 1.0])
+    ),
+    "geometry.closest_point_on_segment": F(
+        lambda: call([0.5, 1.0, 0.0], [0.0, 0.0, 0.0], [1.0, 0.0, 0.0])
+    ),
+    "geometry.closest_points_segments": F(
+        lambda: call([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.5, 1.0, 0.0], [0.5, 1.0, 1.0])
+    ),
+    "geometry.point_segment_distance_jacobian": F(
+        lambda: call(
+            [0.5, 1.0, 0.0],
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            np.eye(3),
+            np.zeros((3, 3)),
+            np.zeros((3, 3)),
+        )
+    ),
+    "geometry.points_segments_distances": F(
+        lambda: call([[0.5, 1.0, 0.0]], [[0.0, 0.0, 0.0]], [[1.0, 0.0, 0.0]], 0.1),
+        types={"radii": "vector"},
+    ),
+    "geometry.segment_segment_distance": F(
+        lambda: call([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.5, 1.0, 0.0], [0.5, 1.0, 1.0])
+    ),
+    "geometry.sphere_capsule_distance": F(
+        lambda: call([0.5, 1.0, 0.0], 0.1, [0.0, 0.0, 0.0], [1.0, 0.0, 0.0], 0.05),
+        types={"sphere_radius": "nonneg", "capsule_radius": "nonneg"},
+    ),
+}

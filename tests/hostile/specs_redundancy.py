@@ -1,0 +1,49 @@
+"""Specs of velfence.redundancy."""
+
+from __future__ import annotations
+
+import numpy as np
+from common import planar3
+from harness import C, F, call
+
+from velfence.redundancy import ConfigurationController, Obstacle
+
+_Q = np.array([0.3, 0.4, -0.2])
+_V = np.array([0.1, -0.2])
+
+
+def _obstacles() -> list[Obstacle]:
+    return [Obstacle(center=np.array([1.5, 1.2]), radius=0.1, influence=0.3)]
+
+
+def _methods(extra: dict[str, F] | None = None) -> dict[str, F]:
+    out = {
+        "control": F(lambda: call(_Q, _V)),
+        "critical": F(lambda: call(_Q.copy())),
+        "explain": F(lambda: call(_Q, _V)),
+        "shape": F(lambda: call(_Q, _V)),
+        "shape_batch": F(lambda: call(np.array([_Q, _Q]), np.array([_V, -_V]))),
+    }
+    out.update(extra or {})
+    return out
+
+
+def _distances() -> np.ndarray:
+    c = ConfigurationController(planar3(), _obstacles())
+    return np.asarray(c.control(_Q, _V).distances, dtype=float)
+
+
+SPECS: dict[str, F | C] = {
+    "redundancy.Obstacle": C(
+        F(
+            lambda: call(np.array([1.5, 1.2]), 0.1, 0.3),
+            types={"radius": "positive", "influence": "positive"},
+        )
+    ),
+    "redundancy.ConfigurationController": C(lambda: call(planar3(), _obstacles()), _methods()),
+    "redundancy.VelocityDamperQP": C(
+        lambda: call(planar3(), _obstacles()),
+        _methods({"clearances": F(lambda: call(_distances()))}),
+    ),
+    "redundancy.ControlResult": C(record="output record of ConfigurationController.control()"),
+}

@@ -1,0 +1,58 @@
+"""Specs of velfence.sim."""
+
+from __future__ import annotations
+
+import numpy as np
+from common import command, square
+from harness import C, F, call
+from specs_shaping import SHAPER_2D
+
+import velfence as vf
+from velfence.geometry import Rectangle
+
+
+def traj() -> vf.Trajectory:
+    """A short valid trajectory (50 steps inside the square, then out)."""
+    t = np.linspace(0.0, 0.49, 50)
+    p = np.column_stack([np.linspace(0.0, 1.2, 50), np.zeros(50)])
+    v = np.tile([2.4, 0.0], (50, 1))
+    return vf.Trajectory(t, p, v, v)
+
+
+def shaper() -> vf.PolygonShaper:
+    return vf.PolygonShaper(square(), buffer=0.2, accelerate=False)
+
+
+_TRAJ_POLY = lambda: call(traj(), square())  # noqa: E731
+_CMDS = np.array([[1.0, 0.0], [0.0, 1.0]])
+
+SPECS: dict[str, F | C] = {
+    "sim.NoLimit": C(lambda: call(), SHAPER_2D),
+    "sim.HardStop": C(lambda: call(square(), dt=0.001), SHAPER_2D),
+    "sim.AxisLimits": C(
+        lambda: call(Rectangle(-1.0, 1.0, -1.0, 1.0), buffer=0.2),
+        {**SHAPER_2D, "inscribed": lambda: call(square(), buffer=0.2)},
+    ),
+    "sim.Disturbance": C(
+        F(lambda: call(((0.1, 0.2, 0.5, 0.0),)), types={"pushes": "vector"}),
+        {"push": F(lambda: call(0.1, 0.2, [0.5, 0.0]), types={"t0": "nonneg", "t1": "positive"})},
+    ),
+    "sim.push": F(lambda: call(0.1, 0.2, [0.5, 0.0]), types={"t0": "nonneg", "t1": "positive"}),
+    "sim.Trajectory": C(
+        lambda: call([0.0, 0.1], [[0.0, 0.0], [0.1, 0.0]], [[1.0, 0.0]] * 2, [[1.0, 0.0]] * 2),
+        {"window": F(lambda: call(0.0, 0.2), types={"t0": "scalar", "t1": "scalar"})},
+        instance=traj,
+    ),
+    "sim.simulate": F(lambda: call(shaper(), command, [0.0, 0.0], duration=0.05)),
+    "sim.simulate_many": F(lambda: call({"exact": shaper()}, command, [0.0, 0.0], duration=0.05)),
+    "sim.area_gain": F(lambda: call(square())),
+    "sim.chatter_rate": F(lambda: call(traj(), square(), band=0.1)),
+    "sim.corner_escape_time": F(
+        lambda: call(traj(), square(), 0, radius=0.2), types={"corner_index": "seed"}
+    ),
+    "sim.max_output_jump": F(lambda: call(shaper(), square(), spacing=0.25, commands=_CMDS)),
+    "sim.max_penetration": F(_TRAJ_POLY),
+    "sim.sliding_ratio": F(lambda: call(traj(), square(), band=0.1)),
+    "sim.summarize": F(lambda: call(traj(), square(), band=0.1), types={"corner_index": "count"}),
+    "sim.time_outside": F(_TRAJ_POLY),
+}

@@ -1,0 +1,77 @@
+"""The hostile-input catalogue applied to every public callable (docs/reliability-inputs.md).
+
+One test per callable: it loops over the callable's parameters and every applicable kind of
+:mod:`kinds`, and fails with one readable list of every (argument, kind) that misbehaved.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import inspect
+
+import pytest
+from harness import attack, attack_many, public_callables, targets
+from kinds import KINDS
+
+TARGETS, MISSING = targets()
+
+
+def test_catalogue_has_at_least_80_kinds() -> None:
+    assert len(KINDS) >= 80
+    assert {"refuse", "accept"} <= {
+        {"R": "refuse", "A": "accept", "E": "either"}[c] for k in KINDS for c in k.expect.values()
+    }
+
+
+def test_every_public_callable_has_a_spec() -> None:
+    """A new public name (function, class, public method) must be added to a specs_*.py file."""
+    assert not MISSING, "public names without a hostile spec:\n  " + "\n  ".join(MISSING)
+
+
+@pytest.fixture(scope="session")
+def hostile_results(request: pytest.FixtureRequest) -> dict[str, tuple[list, int]]:
+    """Every selected target attacked once, in parallel worker processes (see harness.jobs)."""
+    keys = [
+        item.callspec.params["target"].key
+        for item in request.session.items
+        if getattr(item, "originalname", "") == "test_hostile_inputs"
+    ]
+    return attack_many(keys)
+
+
+@pytest.mark.parametrize("target", TARGETS, ids=[t.key for t in TARGETS])
+def test_hostile_inputs(target, hostile_results) -> None:  # type: ignore[no-untyped-def]
+    failures, _calls = hostile_results.get(target.key) or attack(target)
+    if failures:
+        lines = "\n  ".join(f.line() for f in failures)
+        pytest.fail(f"{len(failures)} hostile-input failure(s):\n  {lines}", pytrace=False)
+
+
+def _classes() -> list[tuple[str, type]]:
+    return [
+        (k, o)
+        for k, o in public_callables().items()
+        if inspect.isclass(o) and not getattr(o, "_is_protocol", False)
+    ]
+
+
+@pytest.mark.parametrize("cls", [c for _, c in _classes()], ids=[k for k, _ in _classes()])
+def test_constructor_keyword_only_rule(cls: type) -> None:
+    """Defaults are keyword-only; positional parameters are never scalar tuning values."""
+    sig = inspect.signature(cls)
+    bad = []
+    for p in sig.parameters.values():
+        if p.kind in (p.VAR_POSITIONAL, p.VAR_KEYWORD):
+            continue
+        if p.default is not p.empty and p.kind is not p.KEYWORD_ONLY:
+            bad.append(f"{p.name} has a default but is not keyword-only")
+        ann = (
+            p.annotation if isinstance(p.annotation, str) else getattr(p.annotation, "__name__", "")
+        )
+        base = ann.replace(" | None", "").strip() if isinstance(ann, str) else ""
+        if p.kind is not p.KEYWORD_ONLY and base in ("float", "int", "bool", "str"):
+            bad.append(f"{p.name}: {base} is positional (scalar tuning values are keyword-only)")
+    assert not bad, f"{cls.__name__}{sig}: " + "; ".join(bad)
+
+
+_ = dataclasses
