@@ -133,7 +133,10 @@ def real_array(
         raise err(f"{name}: expected {what}{want}, got {_show(x)}") from None
     if raw.dtype.kind not in _REAL_KINDS:
         if raw.dtype.kind == "O" and raw.size and _all_real(raw):
-            raw = raw.astype(float)
+            try:
+                raw = raw.astype(float)
+            except OverflowError:  # Python ints beyond the float range (10**400)
+                raise err(f"{name}: expected {what} of magnitude <= {MAX_MAGNITUDE:g}") from None
         else:
             kind = {"b": "booleans", "c": "complex numbers", "U": "strings", "S": "bytes"}.get(
                 raw.dtype.kind, f"values of dtype {raw.dtype}"
