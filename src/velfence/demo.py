@@ -77,7 +77,7 @@ def _script(polygon: ConvexPolygon, cfg: DemoConfig) -> Script:
     wps = (
         base.waypoints
         if cfg.waypoints is None
-        else tuple(Waypoint(w.t, w.target, w.speed) for w in cfg.waypoints)
+        else tuple(Waypoint(t=w.t, target=w.target, speed=w.speed) for w in cfg.waypoints)
     )
     pushes = (
         base.pushes if cfg.pushes is None else tuple((p.t0, p.t1, p.velocity) for p in cfg.pushes)

@@ -72,9 +72,11 @@ def test_disturbance_sum_and_validation():
         push(1.0, 0.5, [1.0, 0.0])
     with pytest.raises(vf.InvalidParameter, match=r"t0 must be finite and >= 0"):
         push(-1.0, 0.5, [1.0, 0.0])
-    with pytest.raises(vf.InvalidParameter, match=r"velocity must be finite"):
+    with pytest.raises(vf.InvalidParameter, match=r"velocity: expected finite values, got \[nan"):
         push(0.0, 0.5, [math.nan, 0.0])
-    with pytest.raises(vf.InvalidParameter, match=r"velocity must have shape \(2,\)"):
+    with pytest.raises(
+        vf.InvalidParameter, match=r"velocity: expected shape \(2,\), got shape \(3,\)"
+    ):
         push(0.0, 0.5, np.zeros(3))
 
 
@@ -121,7 +123,10 @@ def test_parameter_validation_messages():
         simulate(NoLimit(), [1.0, 0.0], [0, 0], duration=1.0)  # type: ignore[arg-type]
     with pytest.raises(vf.InvalidParameter, match=r"disturbance must be a callable or None"):
         simulate(NoLimit(), c, [0, 0], duration=1.0, disturbance=3)  # type: ignore[arg-type]
-    with pytest.raises(vf.InvalidParameter, match=r"duration=100000 s with dt=0.001 s needs 1e\+08 steps; at most 10,000,000"):
+    with pytest.raises(
+        vf.InvalidParameter,
+        match=r"duration=100000 s with dt=0.001 s needs 1e\+08 steps; at most 10,0",
+    ):
         simulate(NoLimit(), c, [0, 0], duration=1e5, dt=1e-3)
     with pytest.raises(vf.InvalidInput, match=r"p0: expected finite values, got \[nan, 0.0\]"):
         simulate(NoLimit(), c, [math.nan, 0], duration=1.0)
@@ -133,7 +138,9 @@ def test_bad_callable_output_names_step_and_time():
 
     with pytest.raises(vf.InvalidInput, match=r"command\(t, p\): expected finite values.*step 2"):
         simulate(NoLimit(), cmd, [0, 0], duration=0.01)
-    with pytest.raises(vf.InvalidInput, match=r"saturate\(p, v\): expected shape \(2,\), got shape \(1,\) at step 0"):
+    with pytest.raises(
+        vf.InvalidInput, match=r"saturate\(p, v\): expected shape \(2,\).* at step 0"
+    ):
         simulate(NoLimit(), const([0, 0]), [0, 0], duration=0.01, saturate=lambda p, v: v[:1])
 
 
