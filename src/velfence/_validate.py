@@ -34,6 +34,7 @@ __all__ = [
     "as_pair",
     "as_rows",
     "check_choice",
+    "check_flag",
     "check_positive",
     "check_positive_int",
     "check_range",
@@ -482,3 +483,16 @@ def rigid_transform(name: str, T: Any, *, tol: float = 1e-6) -> NDArray[np.float
             f"|RᵀR - I| = {err:.3g}, det = {det:.6g}; re-orthonormalise the rotation"
         )
     return a
+
+
+def check_flag(name: str, value: Any, *, error: type[Exception] | None = None) -> bool:
+    """A boolean option (``True``/``False`` or a NumPy bool; ints and strings refused).
+
+    Raises:
+        InvalidParameter: (or ``error``) anything but a bool.
+    """
+    from velfence.errors import InvalidParameter
+
+    if not isinstance(value, (bool, np.bool_)):
+        raise (error or InvalidParameter)(f"{name}: expected True or False, got {_show(value)}")
+    return bool(value)
