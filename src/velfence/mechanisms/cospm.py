@@ -1047,7 +1047,7 @@ def _sign(x: FloatArray) -> int:
     return 0
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, kw_only=True)
 class RegionReport:
     r"""Outcome of :func:`validate_region`: is :math:`Q^*` regular and dextrous?
 
@@ -1362,7 +1362,7 @@ def validate_region(
     )
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, kw_only=True)
 class SingularGrid:
     r"""Singularity indicators of the home leaf over a window of the :math:`(q_1, q_2)` plane.
 
@@ -1475,7 +1475,7 @@ def singular_curves(
     )
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, kw_only=True)
 class WorkspaceMap:
     r"""The home working mode over a (bank, elevation) grid, by the closed-form IKP.
 
