@@ -148,7 +148,7 @@ def run_demo(
         console.width = 120
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    wrist = Wrist(WristGeometry())
+    wrist = Wrist(geometry=WristGeometry())
     polygon = wrist.default_polygon() if cfg.polygon is None else ConvexPolygon(cfg.polygon)
     script = _script(polygon, cfg)
     shapers = build_shapers(polygon, cfg)

@@ -292,7 +292,11 @@ def test_default_limits_and_radius() -> None:
         ({"lengths": [1.0, 0.0]}, InvalidGeometry, r"expected finite link lengths > 0"),
         ({"lengths": [[1.0, 2.0]]}, InvalidGeometry, r"expected shape \(n,\) with n >= 1"),
         ({"lengths": []}, InvalidGeometry, r"n >= 1"),
-        ({"lengths": [1.0], "base": (0.0, math.nan)}, InvalidGeometry, r"base: expected finite values, got \[0.0, nan\]"),
+        (
+            {"lengths": [1.0], "base": (0.0, math.nan)},
+            InvalidGeometry,
+            r"base: expected finite values, got \[0.0, nan\]",
+        ),
         (
             {"lengths": [1.0, 1.0], "joint_limits": [[0.0, 1.0]]},
             InvalidParameter,

@@ -136,7 +136,7 @@ SQUARE = ConvexPolygon([[0.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0]])
 def _polygons() -> list[tuple[str, ConvexPolygon, float]]:
     return [
         ("square", SQUARE, 0.2),
-        ("wrist", Wrist(WristGeometry()).default_polygon(), 0.08),
+        ("wrist", Wrist(geometry=WristGeometry()).default_polygon(), 0.08),
         ("pentagon", ConvexPolygon([[0, 0], [2, 0], [2.5, 1], [1, 2], [-0.5, 1]]), 0.2),
     ]
 

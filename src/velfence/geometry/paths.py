@@ -629,7 +629,9 @@ class Polyline(_Piecewise):
 
     @staticmethod
     def _radii_arg(corner_radius: Any, count: int) -> list[float]:
-        if not isinstance(corner_radius, (list, tuple, np.ndarray)) or np.ndim(corner_radius) == 0:
+        if not isinstance(corner_radius, (list, tuple, np.ndarray)) or (
+            isinstance(corner_radius, np.ndarray) and corner_radius.ndim == 0
+        ):
             r = check_positive("corner_radius", corner_radius, unit="m")
             return [r] * count
         arr = real_array(

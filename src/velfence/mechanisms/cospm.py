@@ -90,6 +90,8 @@ MAX_FK_ITER = 10_000
 MAX_CONTINUATION_STEPS = 100_000
 #: Most grid nodes validate_region, singular_curves and workspace_map may be asked to evaluate.
 MAX_GRID_NODES = 1_000_000
+#: Most bank angles validate_region reports an elevation interval for (each is a bisection).
+MAX_BANKS = 100
 #: Largest accepted |theta3| [rad] of the region tools (far beyond any multi-turn joint).
 MAX_THETA3 = 1e3
 _TWO_PI = 2.0 * math.pi
@@ -338,8 +340,8 @@ class CoSPM:
 
     def __init__(
         self,
-        design: CoSPMDesign | None = None,
         *,
+        design: CoSPMDesign | None = None,
         mirror: bool = False,
         fk_tol: float = 1e-12,
         fk_max_iter: int = 50,
@@ -885,7 +887,7 @@ class CoSPM:
             )
 
     def __repr__(self) -> str:
-        return f"CoSPM({self._design!r}, mirror={self._mirror})"
+        return f"CoSPM(design={self._design!r}, mirror={self._mirror})"
 
 
 def _modes(modes: Any) -> FloatArray:
@@ -1250,8 +1252,12 @@ def validate_region(
             f"got {workspace!r}"
         )
     banks_a = real_array(
-        "banks", banks, error=InvalidParameter, what="bank angles [rad]", max_abs=1e3
-    ).reshape(-1)
+        "banks", banks, (None,), error=InvalidParameter, what="bank angles [rad]", max_abs=1e3
+    )
+    if banks_a.shape[0] > MAX_BANKS:
+        raise InvalidParameter(
+            f"banks: expected at most {MAX_BANKS} bank angles, got {banks_a.shape[0]}"
+        )
     th_home, _ = cospm.home()
     q3_home = float((Q_AUX @ th_home)[2])
     q_home = Q_AUX @ th_home

@@ -227,8 +227,8 @@ class Wrist:
 
     def __init__(
         self,
-        geometry: WristGeometry | None = None,
         *,
+        geometry: WristGeometry | None = None,
         fk_tol: float = 1e-12,
         fk_max_iter: int = 50,
         singular_tol: float = 1e-3,
@@ -717,7 +717,7 @@ class Wrist:
             )
 
     def __repr__(self) -> str:
-        return f"Wrist({self._geometry!r})"
+        return f"Wrist(geometry={self._geometry!r})"
 
 
 def _rows(name: str, x: ArrayLike) -> tuple[FloatArray, bool]:
