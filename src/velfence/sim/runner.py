@@ -25,6 +25,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from velfence._validate import (
+    MAX_MAGNITUDE,
     check_choice,
     check_positive,
     check_positive_int,
@@ -331,10 +332,11 @@ def simulate(
             if disturbance is not None:
                 v = v + _finite_vec("disturbance(t, p)", disturbance(t, p), dim, k, t)
             state = state + dt * v
-            if not np.all(np.isfinite(state)):
+            if not np.all(np.abs(state) <= MAX_MAGNITUDE):  # also catches NaN and inf
                 raise InvalidInput(
-                    f"the state overflowed at step {k} (t = {t} s): p = {state.tolist()}; "
-                    "check the shaper output and the disturbance (too large for dt)"
+                    f"the state overflowed at step {k} (t = {t} s): expected |p| <= "
+                    f"{MAX_MAGNITUDE:g}, got p = {state.tolist()}; check the shaper output and "
+                    "the disturbance (too large for dt)"
                 )
             if on_progress is not None and (k + 1) % every == 0 and k + 1 < steps:
                 on_progress((k + 1) / steps)
