@@ -82,7 +82,7 @@ def test_trajectories_follow_the_config(short: tuple[DemoConfig, Path, DemoResul
         assert np.allclose(np.diff(tr.t), cfg.dt)
         assert np.all(np.isfinite(tr.p))
     # Every method starts from the same point, outside the polygon (the default script).
-    poly = Wrist(WristGeometry()).default_polygon()
+    poly = Wrist(geometry=WristGeometry()).default_polygon()
     starts = np.array([tr.p[0] for tr in result.trajectories.values()])
     np.testing.assert_array_equal(starts, np.repeat(starts[:1], len(METHODS), axis=0))
     assert not poly.contains(starts[0])
@@ -130,7 +130,7 @@ def test_metrics_json_records_polygon_config_and_phases(
     short: tuple[DemoConfig, Path, DemoResult], meta: dict[str, Any]
 ) -> None:
     cfg, _, _ = short
-    poly = Wrist(WristGeometry()).default_polygon()
+    poly = Wrist(geometry=WristGeometry()).default_polygon()
     np.testing.assert_allclose(meta["polygon"], poly.corners)
     assert meta["polygon_area"] == pytest.approx(poly.area)
     assert meta["inscribed_rectangle_area"] == pytest.approx(poly.inscribed_rectangle().area)
@@ -159,7 +159,7 @@ def test_shapers_come_back_inside(short: tuple[DemoConfig, Path, DemoResult]) ->
         m = result.metrics[name]
         assert 0.0 < m["time_outside"] < 0.5 * DURATION, name
         tr = result.trajectories[name]
-        poly = Wrist(WristGeometry()).default_polygon()
+        poly = Wrist(geometry=WristGeometry()).default_polygon()
         assert poly.signed_distances(tr.p[-1]).min() > -1e-3, name
 
 

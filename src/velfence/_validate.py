@@ -34,6 +34,7 @@ __all__ = [
     "as_pair",
     "as_rows",
     "check_choice",
+    "check_flag",
     "check_positive",
     "check_positive_int",
     "check_range",

@@ -795,7 +795,7 @@ def _cobot_steps(s: BenchSettings, step: _Steps) -> list[StepRow]:
     step("cobot path following")
     rng = np.random.default_rng(s.seed + 3)
     cob = r_theta_cobot()
-    follower = PathFollower(Circle([0.0, 0.0], 1.0), gains=(4.0, 4.0))
+    follower = PathFollower(Circle([0.0, 0.0], radius=1.0), gains=(4.0, 4.0))
     calls = max(200, s.calls // 20)
     states = []
     for _ in range(16):

@@ -78,7 +78,7 @@ def _script(polygon: ConvexPolygon, cfg: DemoConfig) -> Script:
     wps = (
         base.waypoints
         if cfg.waypoints is None
-        else tuple(Waypoint(w.t, w.target, w.speed) for w in cfg.waypoints)
+        else tuple(Waypoint(t=w.t, target=w.target, speed=w.speed) for w in cfg.waypoints)
     )
     pushes = (
         base.pushes if cfg.pushes is None else tuple((p.t0, p.t1, p.velocity) for p in cfg.pushes)
@@ -162,7 +162,7 @@ def run_demo(
     console = console or Console(quiet=True)
     if console.width < 120 and not console.is_terminal:
         console.width = 120
-    wrist = Wrist(WristGeometry())
+    wrist = Wrist(geometry=WristGeometry())
     try:
         polygon = wrist.default_polygon() if cfg.polygon is None else ConvexPolygon(cfg.polygon)
     except VelfenceError as exc:

@@ -28,7 +28,7 @@ from velfence.errors import InvalidInput, InvalidParameter
 from velfence.geometry.paths import Circle
 
 W = np.array([[0.0, -1.0], [1.0, 0.0]])
-UNIT_CIRCLE = Circle([0.0, 0.0], 1.0)
+UNIT_CIRCLE = Circle([0.0, 0.0], radius=1.0)
 R0 = np.array([1.2, 0.0])  # Fig. 5: start off the unit circle, heading +y
 T0 = np.array([0.0, 1.0])
 

@@ -22,7 +22,7 @@ W = np.array([[0.0, -1.0], [1.0, 0.0]])
 
 PATHS = {
     "line": lambda: Line([-1.0, 0.0], [60.0, 0.0]),
-    "circle": lambda: Circle([0.0, 0.0], 1.0),
+    "circle": lambda: Circle([0.0, 0.0], radius=1.0),
     "polyline": lambda: Polyline(
         [[0, 0], [2, 0], [2, 2], [-1, 2], [-1, -3]], corner_radius=0.4
     ),  # C¹: curvature jumps at the joins
@@ -32,7 +32,7 @@ PATHS = {
 }
 PATHS_3D = {
     "line-3d": lambda: Line([0.0, 0.0, 0.0], [10.0, 5.0, -3.0]),
-    "circle-3d": lambda: Circle([0.5, 0.0, 1.0], 1.5, normal=[0.2, 1.0, 0.5]),
+    "circle-3d": lambda: Circle([0.5, 0.0, 1.0], radius=1.5, normal=[0.2, 1.0, 0.5]),
 }
 
 
@@ -120,7 +120,7 @@ def test_closed_form_equals_dense_solve(name: str) -> None:
 
 
 def test_evaluate_normalises_the_heading_and_is_pure() -> None:
-    f = PathFollower(Circle([0.0, 0.0], 1.0))
+    f = PathFollower(Circle([0.0, 0.0], radius=1.0))
     f.reset([1.2, 0.0], s_p=0.1, sp_d=0.8)
     before = f.state
     a = f.evaluate([1.2, 0.0], [0.0, 1.0])
@@ -267,7 +267,7 @@ def test_step_integrates_the_reference_exactly_for_constant_sp_dd() -> None:
 
 
 def test_reset_uses_the_closest_point_and_wraps_on_closed_paths() -> None:
-    f = PathFollower(Circle([0.0, 0.0], 1.0))
+    f = PathFollower(Circle([0.0, 0.0], radius=1.0))
     sp, spd = f.reset([0.0, 2.0])
     assert sp == pytest.approx(math.pi / 2)
     assert spd == 1.0

@@ -36,9 +36,9 @@ def _lemniscate(n: int = 40) -> np.ndarray:
 FACTORIES: dict[str, Callable[[], Path]] = {
     "line-2d": lambda: Line([0.0, 0.0], [3.0, 4.0]),
     "line-3d": lambda: Line([1.0, -1.0, 0.5], [2.0, 1.0, -1.5]),
-    "circle-2d": lambda: Circle([0.5, -0.2], 1.5, start_angle=0.3),
-    "circle-2d-cw": lambda: Circle([0.0, 0.0], 0.8, ccw=False),
-    "circle-3d": lambda: Circle([0.0, 1.0, 2.0], 1.2, normal=[1.0, 1.0, 1.0]),
+    "circle-2d": lambda: Circle([0.5, -0.2], radius=1.5, start_angle=0.3),
+    "circle-2d-cw": lambda: Circle([0.0, 0.0], radius=0.8, ccw=False),
+    "circle-3d": lambda: Circle([0.0, 1.0, 2.0], radius=1.2, normal=[1.0, 1.0, 1.0]),
     "polyline-2d": lambda: Polyline(
         [[0, 0], [2, 0], [3, 1.5], [1, 3], [0, 2]], corner_radius=[0.4, 0.5, 0.3]
     ),
@@ -93,7 +93,7 @@ def test_line_closed_form() -> None:
 @pytest.mark.parametrize("ccw", [True, False])
 def test_circle_2d_closed_form(ccw: bool) -> None:
     c, r, a0 = np.array([0.5, -0.2]), 1.5, 0.3
-    circ = Circle(c, r, start_angle=a0, ccw=ccw)
+    circ = Circle(c, radius=r, start_angle=a0, ccw=ccw)
     sign = 1.0 if ccw else -1.0
     assert circ.length == pytest.approx(2 * math.pi * r, abs=EXACT_TOL)
     assert circ.closed
@@ -116,7 +116,7 @@ def test_circle_3d_lies_in_its_plane_and_turns_about_the_normal() -> None:
     c, r = np.array([0.0, 1.0, 2.0]), 1.2
     nrm = np.array([1.0, 1.0, 1.0]) / math.sqrt(3.0)
     for ccw in (True, False):
-        circ = Circle(c, r, normal=[1.0, 1.0, 1.0], ccw=ccw)
+        circ = Circle(c, radius=r, normal=[1.0, 1.0, 1.0], ccw=ccw)
         for s in np.linspace(0.0, circ.length, 11):
             rel = circ.point(s) - c
             assert abs(rel @ nrm) < EXACT_TOL
@@ -338,7 +338,7 @@ def test_local_window_follows_a_moving_point_through_a_crossing(
 
 
 def test_closest_ties_are_deterministic() -> None:
-    circ = Circle([0.0, 0.0], 1.0)
+    circ = Circle([0.0, 0.0], radius=1.0)
     assert circ.closest([0.0, 0.0]) == 0.0  # every point ties: smallest s
     assert circ.closest([0.0, 0.0], s0=2.0, window=0.5) == pytest.approx(2.0)
     # Two ends of a U equally far from a point on its axis: smallest s, or nearest s0.
@@ -364,13 +364,13 @@ def test_local_window_on_open_path_is_clipped() -> None:
         (lambda: Line([1, 2], [1, 2]), InvalidGeometry, r"distinct start and end"),
         (lambda: Line([1, 2], [1, 2, 3]), InvalidGeometry, r"end: expected shape \(2,\)"),
         (lambda: Line([1, math.nan], [1, 2]), InvalidGeometry, r"expected finite"),
-        (lambda: Circle([0, 0], 0.0), InvalidParameter, r"radius must be finite and > 0"),
-        (lambda: Circle([0, 0], -1), InvalidParameter, r"radius must be finite and > 0"),
-        (lambda: Circle([0, 0, 0], 1.0), InvalidGeometry, r"needs its plane normal"),
-        (lambda: Circle([0, 0], 1.0, normal=[0, 0, 1]), InvalidGeometry, r"normal=None"),
-        (lambda: Circle([0, 0, 0], 1.0, normal=[0, 0, 0]), InvalidGeometry, r"non-zero"),
-        (lambda: Circle([0, 0, 0, 0], 1.0), InvalidGeometry, r"2-D or 3-D"),
-        (lambda: Circle([0, 0], 1.0, ccw="yes"), InvalidParameter, r"ccw: expected True"),
+        (lambda: Circle([0, 0], radius=0.0), InvalidParameter, r"radius must be finite and > 0"),
+        (lambda: Circle([0, 0], radius=-1), InvalidParameter, r"radius must be finite and > 0"),
+        (lambda: Circle([0, 0, 0], radius=1.0), InvalidGeometry, r"needs its plane normal"),
+        (lambda: Circle([0, 0], radius=1.0, normal=[0, 0, 1]), InvalidGeometry, r"normal=None"),
+        (lambda: Circle([0, 0, 0], radius=1.0, normal=[0, 0, 0]), InvalidGeometry, r"non-zero"),
+        (lambda: Circle([0, 0, 0, 0], radius=1.0), InvalidGeometry, r"2-D or 3-D"),
+        (lambda: Circle([0, 0], radius=1.0, ccw="yes"), InvalidParameter, r"ccw: expected True"),
         (
             lambda: Polyline([[0, 0], [2, 0], [2, 2]], corner_radius=1.5),
             InvalidGeometry,

@@ -292,7 +292,11 @@ def test_default_limits_and_radius() -> None:
         ({"lengths": [1.0, 0.0]}, InvalidGeometry, r"expected finite link lengths > 0"),
         ({"lengths": [[1.0, 2.0]]}, InvalidGeometry, r"expected shape \(n,\) with n >= 1"),
         ({"lengths": []}, InvalidGeometry, r"n >= 1"),
-        ({"lengths": [1.0], "base": (0.0, math.nan)}, InvalidGeometry, r"base: expected a finite"),
+        (
+            {"lengths": [1.0], "base": (0.0, math.nan)},
+            InvalidGeometry,
+            r"base: expected finite values, got \[0.0, nan\]",
+        ),
         (
             {"lengths": [1.0, 1.0], "joint_limits": [[0.0, 1.0]]},
             InvalidParameter,
@@ -334,7 +338,7 @@ def test_dh_constructor_validation() -> None:
         DHChain([[0.0, 0.0, 0.0]])
     with pytest.raises(InvalidGeometry, match=r"non-finite entries in row\(s\) \[1\]"):
         DHChain([[0.0, 0.0, 0.0, 0.0], [0.0, math.nan, 0.0, 0.0]])
-    with pytest.raises(InvalidGeometry, match=r"tool: expected a finite point of shape \(3,\)"):
+    with pytest.raises(InvalidGeometry, match=r"tool: expected shape \(3,\), got shape \(2,\)"):
         DHChain.puma560(tool=(0.0, 0.1))
     with pytest.raises(InvalidParameter, match=r"joint_limits: expected shape \(7, 2\)"):
         DHChain.seven_dof(joint_limits=np.zeros((6, 2)))

@@ -151,7 +151,7 @@ def test_design_without_a_regular_home_is_rejected() -> None:
     # a distal arc of 0.2 rad needs w_1 · v_1 = cos 0.2 = 0.98: out of reach.
     d = dataclasses.replace(CoSPMDesign.table1(), alpha2=[0.2, HALF_PI, HALF_PI])
     with pytest.raises(InvalidGeometry, match="no home assembly at chi = 0"):
-        CoSPM(d)
+        CoSPM(design=d)
 
 
 # ---------------------------------------------------------------------- geometric model
@@ -224,7 +224,7 @@ def test_bearing_shift_maps_assemblies_to_assemblies(cospm: CoSPM) -> None:
 
 def test_bearing_sign_flips_for_beta1_pi() -> None:
     d = dataclasses.replace(CoSPMDesign.table1(), beta1=math.pi)
-    m = CoSPM(d)
+    m = CoSPM(design=d)
     assert m.bearing_sign == -1.0
     theta, chi, eps = np.array([0.4, 1.0, 2.0]), np.array([0.1, -0.2, 0.3]), 0.37
     np.testing.assert_allclose(

@@ -463,13 +463,17 @@ def test_bad_joint_vector_rejected(method: str) -> None:
 
 
 def test_parameter_validation() -> None:
-    with pytest.raises(InvalidParameter, match=r"convention: expected one of \['fu', 'craig'\]"):
+    with pytest.raises(InvalidParameter, match=r"convention must be one of \['fu', 'craig'\]"):
         Puma560(convention="paul")
-    with pytest.raises(InvalidParameter, match=r"elbow: expected one of \['up', 'down'\]"):
+    with pytest.raises(InvalidParameter, match=r"elbow must be one of \['up', 'down'\]"):
         Puma560().ik(np.eye(4), elbow="middle")
-    with pytest.raises(InvalidParameter, match="shoulder: expected"):
+    with pytest.raises(
+        InvalidParameter, match=r"shoulder must be one of \[.right., .left.\], got .RIGHT."
+    ):
         Puma560().ik(np.eye(4), shoulder="RIGHT")
-    with pytest.raises(InvalidParameter, match="wrist: expected"):
+    with pytest.raises(
+        InvalidParameter, match=r"wrist must be one of \[.noflip., .flip.\], got .up."
+    ):
         Puma560().ik(np.eye(4), wrist="up")
     with pytest.raises(InvalidGeometry, match="rigid"):
         Puma560(tool=np.diag([1.0, 2.0, 1.0, 1.0]))

@@ -138,12 +138,12 @@ def test_wrist_option_validation(kwargs: dict[str, object], match: str) -> None:
 
 def test_wrist_rejects_non_geometry() -> None:
     with pytest.raises(InvalidParameter, match="geometry: expected a WristGeometry, got dict"):
-        Wrist({"anchor_setback": 0.1})  # type: ignore[arg-type]
+        Wrist(geometry={"anchor_setback": 0.1})  # type: ignore[arg-type]
 
 
 def test_wrist_options_are_keyword_only() -> None:
     with pytest.raises(TypeError):
-        Wrist(WristGeometry(), 1e-12)  # type: ignore[misc]
+        Wrist(WristGeometry())  # type: ignore[misc]
 
 
 # ---------------------------------------------------------------------- kinematics
@@ -420,14 +420,16 @@ def test_default_polygon_is_larger_than_its_rectangle(polygon: ConvexPolygon) ->
 
 
 def test_default_polygon_follows_the_wire_limit() -> None:
-    tight = Wrist(WristGeometry(wire_max_bend=0.70)).default_polygon()
-    loose = Wrist(WristGeometry()).default_polygon()
+    tight = Wrist(geometry=WristGeometry(wire_max_bend=0.70)).default_polygon()
+    loose = Wrist(geometry=WristGeometry()).default_polygon()
     assert tight.area < loose.area
-    assert Wrist(WristGeometry(wire_max_bend=0.70)).default_polygon_edges().count("wire") == 1
+    assert (
+        Wrist(geometry=WristGeometry(wire_max_bend=0.70)).default_polygon_edges().count("wire") == 1
+    )
 
 
 def test_default_polygon_refuses_a_margin_that_cuts_home() -> None:
-    w = Wrist(WristGeometry(singularity_margin=0.9))
+    w = Wrist(geometry=WristGeometry(singularity_margin=0.9))
     with pytest.raises(InvalidGeometry, match=r"excluded the home pose"):
         w.default_polygon()
 

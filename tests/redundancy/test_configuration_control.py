@@ -81,7 +81,7 @@ def test_obstacle_validation_and_readonly():
         ob.center[0] = 5.0
     with pytest.raises(InvalidParameter, match="influence must exceed radius"):
         Obstacle(center=[0, 0, 0], radius=0.3, influence=0.3)
-    with pytest.raises(InvalidParameter, match="center: expected 2 or 3 finite"):
+    with pytest.raises(InvalidParameter, match=r"center: expected finite values, got \[0.0, nan\]"):
         Obstacle(center=[0, np.nan], radius=0.1, influence=0.3)
     with pytest.raises(InvalidParameter, match="radius must be finite and >= 0"):
         Obstacle(center=[0, 0], radius=-1, influence=0.3)

@@ -109,7 +109,7 @@ def test_corner_escape_time():
     assert corner_escape_time(traj, SQUARE, 2, radius=0.2) == pytest.approx(4 * DT)
     assert math.isnan(corner_escape_time(traj, SQUARE, 0, radius=0.2))
     assert corner_escape_time(make(p[:6]), SQUARE, 2, radius=0.2) == math.inf
-    with pytest.raises(vf.InvalidParameter, match=r"corner_index must be an int in \[0, 4\)"):
+    with pytest.raises(vf.InvalidParameter, match=r"corner_index: expected an int <= 3, got 4"):
         corner_escape_time(traj, SQUARE, 4, radius=0.2)
     with pytest.raises(vf.InvalidParameter, match=r"radius must be finite and > 0"):
         corner_escape_time(traj, SQUARE, 1, radius=0.0)

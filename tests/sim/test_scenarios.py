@@ -25,9 +25,9 @@ from velfence.sim.scenarios import (
 
 TOL = 1e-12
 WPS = (
-    Waypoint(0.0, (1.0, 0.0), 0.5),
-    Waypoint(2.0, (0.0, 1.0), 1.0),
-    Waypoint(3.5, (-1.0, -1.0), 0.25),
+    Waypoint(t=0.0, target=(1.0, 0.0), speed=0.5),
+    Waypoint(t=2.0, target=(0.0, 1.0), speed=1.0),
+    Waypoint(t=3.5, target=(-1.0, -1.0), speed=0.25),
 )
 
 finite = st.floats(-10.0, 10.0, allow_nan=False)
@@ -106,7 +106,7 @@ def test_operator_rejects_bad_arguments() -> None:
     with pytest.raises(InvalidParameter, match="at least one waypoint"):
         WaypointOperator(())
     for gain in (0.0, -1.0, math.nan, math.inf):
-        with pytest.raises(InvalidParameter, match=r"gain must be finite and > 0 \[1/s\]"):
+        with pytest.raises(InvalidParameter, match=r"gain must be finite and > 0 \(1/s\)"):
             WaypointOperator(WPS, gain=gain)
 
 
@@ -136,7 +136,7 @@ SQUARE = ConvexPolygon([[0.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0]])
 def _polygons() -> list[tuple[str, ConvexPolygon, float]]:
     return [
         ("square", SQUARE, 0.2),
-        ("wrist", Wrist(WristGeometry()).default_polygon(), 0.08),
+        ("wrist", Wrist(geometry=WristGeometry()).default_polygon(), 0.08),
         ("pentagon", ConvexPolygon([[0, 0], [2, 0], [2.5, 1], [1, 2], [-0.5, 1]]), 0.2),
     ]
 

@@ -33,7 +33,7 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._validate import check_positive, finite_rows, finite_scalar
+from velfence._validate import check_positive, finite_scalar, readonly, real_array
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 
 __all__ = ["Circle", "Line", "Path", "Polyline", "Spline"]
@@ -111,10 +111,7 @@ def _arc(name: str, s: Any) -> float:
 
 
 def _arcs(S: ArrayLike) -> FloatArray:
-    try:
-        a = np.asarray(S, dtype=float)
-    except (TypeError, ValueError):
-        raise InvalidInput(f"S: expected arc lengths in m, shape (N,), got {S!r}") from None
+    a = real_array("S", S, what="arc lengths [m] of shape (N,)", allow_nonfinite=True)
     if a.ndim > 1:
         raise InvalidInput(f"S: expected shape (N,), got shape {a.shape}")
     a = a.reshape(-1)
@@ -126,42 +123,31 @@ def _arcs(S: ArrayLike) -> FloatArray:
     return a
 
 
-def _vector(name: str, x: ArrayLike, dim: int | None = None) -> FloatArray:
+def _vector(
+    name: str, x: ArrayLike, dim: int | None = None, *, error: type[Exception] = InvalidInput
+) -> FloatArray:
     """One finite point, shape (dim,) (any dim >= 2 when ``dim`` is None)."""
-    try:
-        a = np.asarray(x, dtype=float)
-    except (TypeError, ValueError):
-        raise InvalidInput(f"{name}: expected a point (numbers), got {x!r}") from None
-    if dim is None:
-        if a.ndim != 1 or a.shape[0] < 2:
-            raise InvalidInput(f"{name}: expected shape (n,) with n >= 2, got shape {a.shape}")
-        dim = a.shape[0]
-    rows, single = finite_rows(name, a, dim)
-    if not single:
-        raise InvalidInput(f"{name}: expected one point of shape ({dim},), got shape {a.shape}")
-    return np.array(rows[0])
+    a = real_array(name, x, error=error, what="a point [m]")
+    if dim is not None and a.shape != (dim,):
+        raise error(f"{name}: expected shape ({dim},), got shape {a.shape}")
+    if a.ndim != 1 or a.shape[0] < 2:
+        raise error(f"{name}: expected shape (n,) with n >= 2, got shape {a.shape}")
+    return a
 
 
 def _vertices(name: str, x: ArrayLike, minimum: int) -> FloatArray:
-    try:
-        a = np.asarray(x, dtype=float)
-    except (TypeError, ValueError):
-        raise InvalidGeometry(f"{name}: expected an (N, n) array of numbers, got {x!r}") from None
+    a = real_array(name, x, error=InvalidGeometry, what="coordinates [m] of shape (N, n)")
     if a.ndim != 2 or a.shape[1] < 2:
         raise InvalidGeometry(f"{name}: expected shape (N, n) with n >= 2, got shape {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise InvalidGeometry(f"{name}: expected finite coordinates, got {a.tolist()!r}")
     if a.shape[0] < minimum:
         raise InvalidGeometry(
             f"{name}: expected at least {minimum} points, got {a.shape[0]}; add points"
         )
-    return np.array(a)
+    return a
 
 
 def _readonly(a: FloatArray) -> FloatArray:
-    a = np.array(a, dtype=float)
-    a.setflags(write=False)
-    return a
+    return readonly(np.array(a, dtype=float))
 
 
 def _unit(v: FloatArray) -> FloatArray:
@@ -438,11 +424,8 @@ class Line(_Piecewise):
         Raises:
             InvalidGeometry: mismatched shapes, non-finite values or ``start == end``.
         """
-        try:
-            a0 = _vector("start", start)
-            a1 = _vector("end", end, a0.shape[0])
-        except InvalidInput as exc:
-            raise InvalidGeometry(f"Line: {exc}") from None
+        a0 = _vector("start", start, error=InvalidGeometry)
+        a1 = _vector("end", end, a0.shape[0], error=InvalidGeometry)
         a = np.array([a0, a1])
         d = a[1] - a[0]
         n = float(np.linalg.norm(d))
@@ -483,8 +466,8 @@ class Circle(_Piecewise):
     def __init__(
         self,
         center: ArrayLike,
-        radius: float,
         *,
+        radius: float,
         start_angle: float = 0.0,
         ccw: bool = True,
         normal: ArrayLike | None = None,
@@ -504,16 +487,11 @@ class Circle(_Piecewise):
             InvalidGeometry: bad centre or normal.
             InvalidParameter: bad radius, start angle or ``ccw``.
         """
-        try:
-            c = _vector("center", center)
-        except InvalidInput as exc:
-            raise InvalidGeometry(str(exc)) from None
+        c = _vector("center", center, error=InvalidGeometry)
         r = check_positive("radius", radius, unit="m")
-        if isinstance(start_angle, bool) or not isinstance(start_angle, (int, float, np.number)):
-            raise InvalidParameter(f"start_angle: expected a number in rad, got {start_angle!r}")
-        a0 = float(start_angle)
-        if not math.isfinite(a0):
-            raise InvalidParameter(f"start_angle: expected a finite angle in rad, got {a0}")
+        a0 = finite_scalar(
+            "start_angle", start_angle, unit="rad", what="angle", error=InvalidParameter
+        )
         if not isinstance(ccw, (bool, np.bool_)):
             raise InvalidParameter(f"ccw: expected True or False, got {ccw!r}")
         if c.shape[0] == 2:
@@ -527,10 +505,7 @@ class Circle(_Piecewise):
                 raise InvalidGeometry(
                     "normal: a 3-D circle needs its plane normal, shape (3,), got None"
                 )
-            try:
-                nv = _vector("normal", normal, 3)
-            except InvalidInput as exc:
-                raise InvalidGeometry(str(exc)) from None
+            nv = _vector("normal", normal, 3, error=InvalidGeometry)
             nn = float(np.linalg.norm(nv))
             if nn == 0.0:
                 raise InvalidGeometry("normal: expected a non-zero vector, got [0, 0, 0]")
@@ -654,16 +629,22 @@ class Polyline(_Piecewise):
 
     @staticmethod
     def _radii_arg(corner_radius: Any, count: int) -> list[float]:
-        if np.ndim(corner_radius) == 0:
+        if not isinstance(corner_radius, (list, tuple, np.ndarray)) or (
+            isinstance(corner_radius, np.ndarray) and corner_radius.ndim == 0
+        ):
             r = check_positive("corner_radius", corner_radius, unit="m")
             return [r] * count
-        arr = np.asarray(corner_radius, dtype=object).reshape(-1)
+        arr = real_array(
+            "corner_radius", corner_radius, error=InvalidParameter, what="radii [m]"
+        ).reshape(-1)
         if arr.shape[0] != count:
             raise InvalidParameter(
                 f"corner_radius: expected one radius per corner, shape ({count},), got "
                 f"shape {np.shape(corner_radius)}"
             )
-        return [check_positive(f"corner_radius[{i}]", x, unit="m") for i, x in enumerate(arr)]
+        return [
+            check_positive(f"corner_radius[{i}]", x, unit="m") for i, x in enumerate(arr.tolist())
+        ]
 
     @property
     def vertices(self) -> FloatArray:

@@ -30,7 +30,7 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._validate import check_positive, finite_rows, readonly
+from velfence._validate import check_positive, finite_rows, finite_scalar, readonly, real_array
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 
 __all__ = ["DHChain", "PlanarArm", "SerialChain"]
@@ -97,12 +97,13 @@ def _joint_limits(value: Any, n: int, default: tuple[float, float]) -> FloatArra
     """Validate joint limits into a read-only (n, 2) array [rad]."""
     if value is None:
         return readonly(np.tile(np.array(default, dtype=float), (n, 1)))
-    try:
-        lim = np.array(value, dtype=float)
-    except (TypeError, ValueError):
-        raise InvalidParameter(
-            f"joint_limits: expected numbers of shape ({n}, 2) [rad], got {value!r}"
-        ) from None
+    lim = real_array(
+        "joint_limits",
+        value,
+        error=InvalidParameter,
+        what=f"limits [rad] of shape ({n}, 2)",
+        allow_nonfinite=True,
+    )
     if lim.shape != (n, 2):
         raise InvalidParameter(
             f"joint_limits: expected shape ({n}, 2) (lower, upper per joint) [rad], "
@@ -128,12 +129,13 @@ def _link_radius(value: Any, n_links: int) -> FloatArray:
     if isinstance(value, _REAL) and not isinstance(value, bool):
         r = check_positive("link_radius", value, allow_zero=True, unit="[m]")
         return readonly(np.full(n_links, r))
-    try:
-        arr = np.array(value, dtype=float)
-    except (TypeError, ValueError):
-        raise InvalidGeometry(
-            f"link_radius: expected a number or numbers of shape ({n_links},) [m], got {value!r}"
-        ) from None
+    arr = real_array(
+        "link_radius",
+        value,
+        error=InvalidGeometry,
+        what=f"a number or numbers of shape ({n_links},) [m]",
+        allow_nonfinite=True,
+    )
     if arr.shape != (n_links,):
         raise InvalidGeometry(
             f"link_radius: expected a scalar or shape ({n_links},) [m], got shape {arr.shape}"
@@ -180,12 +182,12 @@ class _ChainBase:
         """Capsule radius of each link [m], shape (n_links,), read-only."""
         return self._radius
 
-    def _q(self, q: ArrayLike) -> FloatArray:
-        """One finite joint vector of shape (n,)."""
-        qa, single = finite_rows("q", q, self._n, "[rad]")
+    def _q(self, q: ArrayLike, name: str = "q") -> FloatArray:
+        """One finite joint vector of shape (n,); ``name`` is the caller's public argument."""
+        qa, single = finite_rows(name, q, self._n, "[rad]")
         if not single:
             raise InvalidInput(
-                f"q: expected one joint vector of shape ({self._n},) [rad], got shape "
+                f"{name}: expected one joint vector of shape ({self._n},) [rad], got shape "
                 f"{np.shape(q)}; loop over the rows of a batch"
             )
         row: FloatArray = qa[0]
@@ -249,10 +251,10 @@ class _ChainBase:
         """
         qa = self._q(q)
         k = self._link_index(link)
-        if isinstance(t, bool) or not isinstance(t, _REAL) or not 0.0 <= float(t) <= 1.0:
+        tf = finite_scalar("t", t, what="fraction along the link", max_abs=None)
+        if not 0.0 <= tf <= 1.0:
             raise InvalidInput(f"t: expected a finite fraction in [0, 1] along the link, got {t!r}")
         points, axes = self._points_and_axes(qa)
-        tf = float(t)
         p = (1.0 - tf) * points[k] + tf * points[k + 1]
         J = np.zeros((3, self._n))
         J[:, : k + 1] = np.cross(axes[: k + 1], p[None, :] - points[: k + 1]).T
@@ -336,12 +338,13 @@ class PlanarArm(_ChainBase):
         link_radius: float | ArrayLike = 0.0,
         base: ArrayLike = (0.0, 0.0),
     ) -> None:
-        try:
-            lengths_a = np.array(lengths, dtype=float)
-        except (TypeError, ValueError):
-            raise InvalidGeometry(
-                f"lengths: expected link lengths [m] of shape (n,), got {lengths!r}"
-            ) from None
+        lengths_a = real_array(
+            "lengths",
+            lengths,
+            error=InvalidGeometry,
+            what="link lengths [m] of shape (n,)",
+            allow_nonfinite=True,
+        )
         if lengths_a.ndim != 1 or lengths_a.size < 1:
             raise InvalidGeometry(
                 f"lengths: expected shape (n,) with n >= 1 link lengths [m], got shape "
@@ -351,12 +354,7 @@ class PlanarArm(_ChainBase):
             raise InvalidGeometry(
                 f"lengths: expected finite link lengths > 0 [m], got {lengths_a.tolist()}"
             )
-        try:
-            base_a = np.array(base, dtype=float)
-        except (TypeError, ValueError):
-            raise InvalidGeometry(f"base: expected (x, y) [m], got {base!r}") from None
-        if base_a.shape != (2,) or not np.all(np.isfinite(base_a)):
-            raise InvalidGeometry(f"base: expected a finite (x, y) of shape (2,) [m], got {base!r}")
+        base_a = real_array("base", base, (2,), error=InvalidGeometry, what="a point (x, y) [m]")
         self._n = int(lengths_a.size)
         self._task_dim = 2
         self._lengths = readonly(lengths_a)
@@ -461,12 +459,13 @@ class DHChain(_ChainBase):
         link_radius: float | ArrayLike = 0.0,
         tool: ArrayLike | None = None,
     ) -> None:
-        try:
-            dh_a = np.array(dh, dtype=float)
-        except (TypeError, ValueError):
-            raise InvalidGeometry(
-                f"dh: expected rows (a, alpha, d, theta_offset) of shape (n, 4), got {dh!r}"
-            ) from None
+        dh_a = real_array(
+            "dh",
+            dh,
+            error=InvalidGeometry,
+            what="rows (a, alpha, d, theta_offset) of shape (n, 4)",
+            allow_nonfinite=True,
+        )
         if dh_a.ndim != 2 or dh_a.shape[1] != 4 or dh_a.shape[0] < 1:
             raise InvalidGeometry(
                 "dh: expected shape (n, 4) with n >= 1 rows (a [m], alpha [rad], d [m], "
@@ -480,17 +479,9 @@ class DHChain(_ChainBase):
         if tool is None:
             tool_a = np.zeros(3)
         else:
-            try:
-                tool_a = np.array(tool, dtype=float)
-            except (TypeError, ValueError):
-                raise InvalidGeometry(
-                    f"tool: expected a point (x, y, z) [m] in the last frame, got {tool!r}"
-                ) from None
-            if tool_a.shape != (3,) or not np.all(np.isfinite(tool_a)):
-                raise InvalidGeometry(
-                    f"tool: expected a finite point of shape (3,) [m] in the last frame, "
-                    f"got {tool!r}"
-                )
+            tool_a = real_array(
+                "tool", tool, (3,), error=InvalidGeometry, what="a point (x, y, z) [m]"
+            )
         self._n = int(dh_a.shape[0])
         self._task_dim = 3
         self._dh = readonly(dh_a)

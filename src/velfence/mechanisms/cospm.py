@@ -52,7 +52,15 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._validate import check_positive, check_positive_int, finite_rows, readonly
+from velfence._validate import (
+    check_flag,
+    check_positive,
+    check_positive_int,
+    finite_rows,
+    finite_scalar,
+    readonly,
+    real_array,
+)
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon, polygon_from_halfplanes
 
@@ -75,8 +83,17 @@ FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 BoolArray = NDArray[np.bool_]
 
-_REAL = (int, float, np.integer, np.floating)
 _HALF_PI = 0.5 * math.pi
+#: Largest accepted ``fk_max_iter`` (Newton converges in a handful of steps or not at all).
+MAX_FK_ITER = 10_000
+#: Most continuation steps one forward_kinematics call may take (span / fk_step).
+MAX_CONTINUATION_STEPS = 100_000
+#: Most grid nodes validate_region, singular_curves and workspace_map may be asked to evaluate.
+MAX_GRID_NODES = 1_000_000
+#: Most bank angles validate_region reports an elevation interval for (each is a bisection).
+MAX_BANKS = 100
+#: Largest accepted |theta3| [rad] of the region tools (far beyond any multi-turn joint).
+MAX_THETA3 = 1e3
 _TWO_PI = 2.0 * math.pi
 # |C_i|/R_i may exceed 1 by round-off on the boundary of a leg's reach; beyond this it is a miss.
 _REACH_SLACK = 1e-12
@@ -123,13 +140,13 @@ PAPER_WORKSPACE: tuple[float, float, float, float] = (
 
 # ====================================================================== design
 def _triple(name: str, value: Any) -> FloatArray:
-    try:
-        a = np.array(value, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise InvalidGeometry(
-            f"CoSPMDesign.{name}: expected three angles [rad], got {value!r}; pass e.g. "
-            "(math.pi / 4, math.pi / 4, math.pi / 2)"
-        ) from exc
+    a = real_array(
+        f"CoSPMDesign.{name}",
+        value,
+        error=InvalidGeometry,
+        what="three angles [rad], e.g. (math.pi / 4, math.pi / 4, math.pi / 2)",
+        allow_nonfinite=True,
+    )
     if a.shape != (3,):
         raise InvalidGeometry(
             f"CoSPMDesign.{name}: expected shape (3,) (one angle per leg) [rad], got shape "
@@ -142,15 +159,9 @@ def _triple(name: str, value: Any) -> FloatArray:
 
 
 def _angle(name: str, value: Any) -> float:
-    if isinstance(value, bool) or not isinstance(value, _REAL):
-        raise InvalidGeometry(
-            f"CoSPMDesign.{name}: expected a real angle [rad], got {value!r} "
-            f"({type(value).__name__})"
-        )
-    x = float(value)
-    if not math.isfinite(x):
-        raise InvalidGeometry(f"CoSPMDesign.{name}: expected a finite angle [rad], got {x!r}")
-    return x
+    return finite_scalar(
+        f"CoSPMDesign.{name}", value, unit="rad", what="real angle", error=InvalidGeometry
+    )
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -329,8 +340,8 @@ class CoSPM:
 
     def __init__(
         self,
-        design: CoSPMDesign | None = None,
         *,
+        design: CoSPMDesign | None = None,
         mirror: bool = False,
         fk_tol: float = 1e-12,
         fk_max_iter: int = 50,
@@ -344,12 +355,12 @@ class CoSPM:
                 f"design: expected a CoSPMDesign, got {type(design).__name__}; build one with "
                 "CoSPMDesign(...) or CoSPMDesign.table1()"
             )
-        if not isinstance(mirror, (bool, np.bool_)):
-            raise InvalidParameter(f"mirror: expected True or False, got {mirror!r}")
         self._design = design
-        self._mirror = bool(mirror)
+        self._mirror = check_flag("mirror", mirror)
         self._fk_tol = check_positive("fk_tol", fk_tol, unit="(dimensionless)")
-        self._fk_max_iter = check_positive_int("fk_max_iter", fk_max_iter, example=50)
+        self._fk_max_iter = check_positive_int(
+            "fk_max_iter", fk_max_iter, example=50, maximum=MAX_FK_ITER
+        )
         self._fk_step = check_positive("fk_step", fk_step, unit="[rad]")
         self._singular_tol = check_positive("singular_tol", singular_tol, unit="(fraction)")
         if self._singular_tol >= 1.0:
@@ -650,12 +661,11 @@ class CoSPM:
         Returns:
             ``(theta + eps, chi - κ eps e3)`` [rad], shapes as given.
         """
-        if isinstance(eps, bool) or not isinstance(eps, _REAL) or not math.isfinite(eps):
-            raise InvalidInput(f"eps: expected a finite angle [rad], got {eps!r}")
+        e = finite_scalar("eps", eps, unit="rad", what="angle")
         ta, ca, single = self._pair(theta, chi)
-        t2 = ta + float(eps)
+        t2 = ta + e
         c2 = np.array(ca, dtype=float)
-        c2[:, 2] -= self._kappa * float(eps)
+        c2[:, 2] -= self._kappa * e
         return (t2[0], c2[0]) if single else (t2, c2)
 
     # ------------------------------------------------------------------ IKP
@@ -768,6 +778,13 @@ class CoSPM:
         eps = np.mean(theta - theta0, axis=1)
         target = theta - eps[:, None]
         span = float(np.max(np.abs(target - theta0))) if target.size else 0.0
+        # Bounded before the loop: a far theta (or a tiny fk_step) must not hang the call.
+        if not span / self._fk_step <= MAX_CONTINUATION_STEPS:
+            raise InvalidInput(
+                f"theta: expected joint angles within {MAX_CONTINUATION_STEPS:,} continuation "
+                f"steps of fk_step = {self._fk_step:g} rad from the start, got a move of "
+                f"{span:.3g} rad; start from a closer assembly (chi0 with theta0) or wrap theta"
+            )
         steps = max(1, math.ceil(span / self._fk_step))
         chi = np.array(chi0, dtype=float)
         th = np.array(theta0, dtype=float)
@@ -870,16 +887,13 @@ class CoSPM:
             )
 
     def __repr__(self) -> str:
-        return f"CoSPM({self._design!r}, mirror={self._mirror})"
+        return f"CoSPM(design={self._design!r}, mirror={self._mirror})"
 
 
 def _modes(modes: Any) -> FloatArray:
-    try:
-        m = np.array(modes, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise InvalidParameter(
-            f"modes: expected three values in {{-1, +1}}, got {modes!r}"
-        ) from exc
+    m = real_array(
+        "modes", modes, error=InvalidParameter, what="three values in {-1, +1}", max_abs=None
+    )
     if m.shape != (3,) or not np.all((m == 1.0) | (m == -1.0)):
         raise InvalidParameter(
             f"modes: expected three values in {{-1, +1}} (one working mode per leg), got "
@@ -890,12 +904,13 @@ def _modes(modes: Any) -> FloatArray:
 
 # ====================================================================== stops and regions
 def _stops(stops: ArrayLike) -> FloatArray:
-    try:
-        S = np.array(stops, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise InvalidGeometry(
-            f"stops: expected rows (a_i, b_i, c_i) of shape (m, 3), got {stops!r}"
-        ) from exc
+    S = real_array(
+        "stops",
+        stops,
+        error=InvalidGeometry,
+        what="rows (a_i, b_i, c_i) of shape (m, 3)",
+        allow_nonfinite=True,
+    )
     if S.ndim != 2 or S.shape[1] != 3 or S.shape[0] < 3:
         raise InvalidGeometry(
             f"stops: expected shape (m, 3) with m >= 3 rows (a_i, b_i, c_i), got shape {S.shape}"
@@ -998,6 +1013,26 @@ def _flood(
     return chi, solved
 
 
+def _grid_nodes(step_name: str, step: float, *spans: float) -> None:
+    """Refuse a grid of more than MAX_GRID_NODES nodes before anything is allocated."""
+    nodes = 1.0
+    for span in spans:
+        nodes *= span / step + 2.0  # float: 5e-324 gives inf, never an OverflowError
+    if not nodes <= MAX_GRID_NODES:
+        raise InvalidParameter(
+            f"{step_name}: expected a grid of at most {MAX_GRID_NODES:,} nodes, got "
+            f"{step_name} = {step:g} rad giving about {nodes:.3g}; increase {step_name}"
+        )
+
+
+def _theta3(theta3: Any) -> float | None:
+    if theta3 is None:
+        return None
+    return finite_scalar(
+        "theta3", theta3, unit="rad", what="angle", error=InvalidParameter, max_abs=MAX_THETA3
+    )
+
+
 def _grid(lo: float, hi: float, step: float) -> FloatArray:
     """Multiples of ``step`` in [lo, hi] (so that 0, home, is a node when inside)."""
     k0 = math.ceil(lo / step - 1e-9)
@@ -1014,7 +1049,7 @@ def _sign(x: FloatArray) -> int:
     return 0
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, kw_only=True)
 class RegionReport:
     r"""Outcome of :func:`validate_region`: is :math:`Q^*` regular and dextrous?
 
@@ -1199,15 +1234,29 @@ def validate_region(
     polygon = stops_polygon(S)
     step = check_positive("step", step, unit="[rad]")
     workspace_step = check_positive("workspace_step", workspace_step, unit="[rad]")
-    if theta3 is not None:
-        if isinstance(theta3, bool) or not isinstance(theta3, _REAL) or not math.isfinite(theta3):
-            raise InvalidParameter(f"theta3: expected a finite angle [rad] or None, got {theta3!r}")
-        theta3 = float(theta3)
-    ws = tuple(float(x) for x in workspace)
+    theta3 = _theta3(theta3)
+    ws = tuple(
+        real_array(
+            "workspace",
+            workspace,
+            error=InvalidParameter,
+            what="(bank_min, bank_max, elev_min, elev_max) [rad]",
+            allow_nonfinite=True,
+        )
+        .reshape(-1)
+        .tolist()
+    )
     if len(ws) != 4 or not all(math.isfinite(x) for x in ws) or ws[0] > ws[1] or ws[2] > ws[3]:
         raise InvalidParameter(
             "workspace: expected (bank_min, bank_max, elev_min, elev_max) [rad] with min <= max, "
             f"got {workspace!r}"
+        )
+    banks_a = real_array(
+        "banks", banks, (None,), error=InvalidParameter, what="bank angles [rad]", max_abs=1e3
+    )
+    if banks_a.shape[0] > MAX_BANKS:
+        raise InvalidParameter(
+            f"banks: expected at most {MAX_BANKS} bank angles, got {banks_a.shape[0]}"
         )
     th_home, _ = cospm.home()
     q3_home = float((Q_AUX @ th_home)[2])
@@ -1216,6 +1265,8 @@ def validate_region(
     # 1-2. continuation FKP over the grid of Q*.
     lo = polygon.corners.min(axis=0)
     hi = polygon.corners.max(axis=0)
+    _grid_nodes("step", step, float(hi[0] - lo[0]), float(hi[1] - lo[1]))
+    _grid_nodes("workspace_step", workspace_step, ws[1] - ws[0], ws[3] - ws[2])
     g1 = _grid(float(lo[0]), float(hi[0]), step)
     g2 = _grid(float(lo[1]), float(hi[1]), step)
     Q1, Q2 = np.meshgrid(g1, g2)
@@ -1288,7 +1339,7 @@ def validate_region(
 
     scan = math.radians(0.5)
     at_bank: list[tuple[float, float, float]] = []
-    for b in banks:
+    for b in banks_a.tolist():
         e_lo, e_hi = _elevation_interval(cospm, S, float(b), scan)
         at_bank.append((float(b), e_lo, e_hi))
     return RegionReport(
@@ -1317,7 +1368,7 @@ def validate_region(
     )
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, kw_only=True)
 class SingularGrid:
     r"""Singularity indicators of the home leaf over a window of the :math:`(q_1, q_2)` plane.
 
@@ -1377,7 +1428,18 @@ def singular_curves(
     if not isinstance(cospm, CoSPM):
         raise InvalidParameter(f"cospm: expected a CoSPM, got {type(cospm).__name__}")
     step = check_positive("step", step, unit="[rad]")
-    wnd = tuple(float(x) for x in window)
+    theta3 = _theta3(theta3)
+    wnd = tuple(
+        real_array(
+            "window",
+            window,
+            error=InvalidParameter,
+            what="(q1_min, q1_max, q2_min, q2_max) [rad]",
+            allow_nonfinite=True,
+        )
+        .reshape(-1)
+        .tolist()
+    )
     th_home, _ = cospm.home()
     q_home = Q_AUX @ th_home
     if (
@@ -1389,6 +1451,7 @@ def singular_curves(
             "window: expected finite (q1_min, q1_max, q2_min, q2_max) [rad] around home "
             f"({q_home[0]:.3g}, {q_home[1]:.3g}), got {window!r}"
         )
+    _grid_nodes("step", step, wnd[1] - wnd[0], wnd[3] - wnd[2])
     g1 = _grid(wnd[0], wnd[1], step)
     g2 = _grid(wnd[2], wnd[3], step)
     Q1, Q2 = np.meshgrid(g1, g2)
@@ -1418,7 +1481,7 @@ def singular_curves(
     )
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, kw_only=True)
 class WorkspaceMap:
     r"""The home working mode over a (bank, elevation) grid, by the closed-form IKP.
 
@@ -1490,7 +1553,9 @@ def workspace_map(
     step = check_positive("step", step, unit="[rad]")
     ranges = []
     for name, rng in (("bank", bank), ("elevation", elevation)):
-        lo, hi = (float(x) for x in rng)
+        lo, hi = real_array(
+            name, rng, (2,), error=InvalidParameter, what="(min, max) [rad]", allow_nonfinite=True
+        ).tolist()
         if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
             raise InvalidParameter(f"{name}: expected (min, max) [rad] with min < max, got {rng!r}")
         ranges.append((lo, hi))
@@ -1500,6 +1565,7 @@ def workspace_map(
             f"elevation: expected a range inside (-π/2, π/2) rad (gimbal lock at ±π/2), got "
             f"{elevation!r}"
         )
+    _grid_nodes("step", step, ranges[0][1] - ranges[0][0], ranges[1][1] - ranges[1][0])
     b = np.linspace(*ranges[0], max(2, math.ceil((ranges[0][1] - ranges[0][0]) / step) + 1))
     e = np.linspace(*ranges[1], max(2, math.ceil((ranges[1][1] - ranges[1][0]) / step) + 1))
     n1, n2 = b.size, e.size

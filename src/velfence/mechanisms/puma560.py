@@ -47,8 +47,8 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._validate import readonly, rigid_transform
-from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
+from velfence._validate import check_choice, check_flag, readonly, real_array, rigid_transform
+from velfence.errors import InvalidGeometry, InvalidInput
 from velfence.mechanisms.chain import DHChain
 
 __all__ = [
@@ -146,10 +146,7 @@ class Puma560:
         tool: ArrayLike | None = None,
         joint_limits: ArrayLike | None = None,
     ) -> None:
-        if convention not in _CONVENTIONS:
-            raise InvalidParameter(
-                f"convention: expected one of {list(_CONVENTIONS)}, got {convention!r}"
-            )
+        check_choice("convention", convention, _CONVENTIONS)
         self._convention = convention
         tool_T = _tool_transform(tool)
         # Everything is computed in the "fu" (standard DH) description; for "craig" the flange
@@ -384,9 +381,10 @@ class Puma560:
                 ``respect_limits=True``.
             InvalidParameter: Unknown branch label.
         """
-        _label("shoulder", shoulder, _SHOULDERS)
-        _label("elbow", elbow, _ELBOWS)
-        _label("wrist", wrist, _WRISTS)
+        check_choice("shoulder", shoulder, _SHOULDERS)
+        check_choice("elbow", elbow, _ELBOWS)
+        check_choice("wrist", wrist, _WRISTS)
+        check_flag("respect_limits", respect_limits)
         T6 = _pose(T) @ self._flange_inv
         q = self._solve(T6, shoulder, elbow, wrist)
         if respect_limits and not self._chain.within_limits(q):
@@ -418,6 +416,7 @@ class Puma560:
             InvalidInput: ``T`` not a finite rigid transform, or the wrist centre out of reach
                 (then no branch exists).
         """
+        check_flag("respect_limits", respect_limits)
         T6 = _pose(T) @ self._flange_inv
         out: dict[tuple[str, str, str], FloatArray] = {}
         for s, e, w in CONFIGURATIONS:
@@ -445,7 +444,8 @@ class Puma560:
             InvalidInput: Bad ``T`` or ``q_ref``, ``T`` out of reach, or no branch within the
                 limits.
         """
-        ref = self._chain._q(q_ref)
+        ref = self._chain._q(q_ref, "q_ref")
+        check_flag("respect_limits", respect_limits)
         sols = self.ik_all(T, respect_limits=respect_limits)
         if not sols:
             raise InvalidInput(
@@ -520,11 +520,6 @@ class Puma560:
         return np.array([_fit(float(q[i]), float(lim[i, 0]), float(lim[i, 1])) for i in range(6)])
 
 
-def _label(name: str, value: Any, choices: tuple[str, ...]) -> None:
-    if value not in choices:
-        raise InvalidParameter(f"{name}: expected one of {list(choices)}, got {value!r}")
-
-
 def _rigid_inverse(T: FloatArray) -> FloatArray:
     R = T[:3, :3]
     out = np.eye(4)
@@ -546,12 +541,13 @@ def _tool_transform(tool: Any) -> FloatArray:
     """Validate ``tool`` into a rigid 4 x 4 transform (frame 6 → tool)."""
     if tool is None:
         return np.eye(4)
-    try:
-        a = np.array(tool, dtype=float)
-    except (TypeError, ValueError):
-        raise InvalidGeometry(
-            f"tool: expected a translation (3,) [m] or a 4 x 4 transform, got {tool!r}"
-        ) from None
+    a = real_array(
+        "tool",
+        tool,
+        error=InvalidGeometry,
+        what="a translation (3,) [m] or a 4 x 4 transform",
+        allow_nonfinite=True,
+    )
     if a.shape == (3,):
         T = np.eye(4)
         T[:3, 3] = a

@@ -35,7 +35,14 @@ from dataclasses import dataclass, fields
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._validate import check_positive, check_positive_int, finite_rows, readonly
+from velfence._validate import (
+    check_positive,
+    check_positive_int,
+    finite_rows,
+    finite_scalar,
+    readonly,
+    real_array,
+)
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon, polygon_from_halfplanes
 
@@ -61,6 +68,8 @@ LIMIT_NAMES: tuple[str, ...] = (
 _DERIVE_SLACK = np.array([1e-5, 1e-5, 1e-5, 1e-5, 1e-3, 1e-4])
 _DERIVE_RAY_MAX = 1.5  # [rad] search radius for each limit's boundary along its ray from home
 _DERIVE_MAX_ROUNDS = 200
+#: Largest accepted ``fk_max_iter``: Newton converges in a handful of steps or not at all.
+MAX_FK_ITER = 10_000
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -119,19 +128,7 @@ class WristGeometry:
         for f in fields(self):
             value = getattr(self, f.name)
             error = InvalidParameter if f.name in _PARAMETER_FIELDS else InvalidGeometry
-            if isinstance(value, bool) or not isinstance(
-                value, (int, float, np.integer, np.floating)
-            ):
-                raise error(
-                    f"WristGeometry.{f.name}: expected a real number, got {value!r} "
-                    f"({type(value).__name__}); pass a float in {_UNITS[f.name]}"
-                )
-            x = float(value)
-            if not math.isfinite(x):
-                raise error(
-                    f"WristGeometry.{f.name}: expected a finite number, got {x!r}; "
-                    f"pass a float in {_UNITS[f.name]}"
-                )
+            x = finite_scalar(f"WristGeometry.{f.name}", value, what="real number", error=error)
             if f.name not in ("wire_azimuth",) and x <= 0.0:
                 raise error(
                     f"WristGeometry.{f.name}: expected a value > 0 {_UNITS[f.name]}, got {x!r}; "
@@ -230,8 +227,8 @@ class Wrist:
 
     def __init__(
         self,
-        geometry: WristGeometry | None = None,
         *,
+        geometry: WristGeometry | None = None,
         fk_tol: float = 1e-12,
         fk_max_iter: int = 50,
         singular_tol: float = 1e-3,
@@ -245,7 +242,9 @@ class Wrist:
             )
         self._geometry = geometry
         self._fk_tol = check_positive("fk_tol", fk_tol, unit="[m]")
-        self._fk_max_iter = check_positive_int("fk_max_iter", fk_max_iter, example=50)
+        self._fk_max_iter = check_positive_int(
+            "fk_max_iter", fk_max_iter, example=50, maximum=MAX_FK_ITER
+        )
         self._singular_tol = check_positive("singular_tol", singular_tol, unit="(fraction)")
         if self._singular_tol >= 1.0:
             raise InvalidParameter(
@@ -718,7 +717,7 @@ class Wrist:
             )
 
     def __repr__(self) -> str:
-        return f"Wrist({self._geometry!r})"
+        return f"Wrist(geometry={self._geometry!r})"
 
 
 def _rows(name: str, x: ArrayLike) -> tuple[FloatArray, bool]:
@@ -727,7 +726,7 @@ def _rows(name: str, x: ArrayLike) -> tuple[FloatArray, bool]:
 
 
 def _vector(name: str, x: ArrayLike) -> FloatArray:
-    a = np.asarray(x, dtype=float)
+    a = real_array(name, x, what="a non-empty finite 1-D array [rad]", allow_nonfinite=True)
     if a.ndim != 1 or a.size == 0 or not np.all(np.isfinite(a)):
         raise InvalidInput(f"{name}: expected a non-empty finite 1-D array, got shape {a.shape}")
     return a

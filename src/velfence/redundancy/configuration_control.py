@@ -51,13 +51,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import KW_ONLY, dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._validate import check_choice, check_positive, readonly
+from velfence._validate import check_choice, check_positive, readonly, real_array
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.shaping.base import InvalidPolicy
 
@@ -99,17 +99,15 @@ class Obstacle:
     """
 
     center: FloatArray
+    _: KW_ONLY
     radius: float
     influence: float
 
     def __post_init__(self) -> None:
-        try:
-            c = np.array(self.center, dtype=float).reshape(-1)
-        except (TypeError, ValueError):
-            raise InvalidParameter(
-                f"center: expected 2 or 3 numbers [m], got {self.center!r}"
-            ) from None
-        if c.shape not in ((2,), (3,)) or not np.all(np.isfinite(c)):
+        c = real_array(
+            "center", self.center, error=InvalidParameter, what="2 or 3 numbers [m]"
+        ).reshape(-1)
+        if c.shape not in ((2,), (3,)):
             raise InvalidParameter(
                 f"center: expected 2 or 3 finite numbers [m], got {self.center!r}"
             )
@@ -127,7 +125,7 @@ class Obstacle:
         object.__setattr__(self, "influence", influence)
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, kw_only=True)
 class ControlResult:
     r"""What a configuration controller (or the QP baseline) did in one control cycle.
 
@@ -250,21 +248,13 @@ class ChainObstacleBase(InvalidPolicy):
         return self._obstacles
 
     # ------------------------------------------------------------------ input
-    def _vector(self, name: str, x: ArrayLike, width: int, unit: str) -> FloatArray:
-        try:
-            a = np.array(x, dtype=float)
-        except (TypeError, ValueError):
-            raise InvalidInput(f"{name}: expected {width} numbers [{unit}], got {x!r}") from None
-        if a.shape != (width,):
-            raise InvalidInput(f"{name}: expected shape ({width},) [{unit}], got shape {a.shape}")
-        return a
-
     def _parse(
         self, q: ArrayLike, v: ArrayLike, target: ArrayLike | None
     ) -> tuple[FloatArray, FloatArray, FloatArray | None, bool]:
-        qa = self._vector("q", q, self.dof, "rad")
-        va = self._vector("ee_velocity", v, self.task_dim, "m/s")
-        ta = None if target is None else self._vector("ee_target", target, self.task_dim, "m")
+        # Non-finite and huge entries pass to the on_invalid policy (and the overflow guard).
+        qa = _policy_vector("q", q, self.dof, "rad")
+        va = _policy_vector("ee_velocity", v, self.task_dim, "m/s")
+        ta = None if target is None else _policy_vector("ee_target", target, self.task_dim, "m")
         ok = bool(np.all(np.isfinite(qa)) and np.all(np.isfinite(va)))
         ok = ok and (ta is None or bool(np.all(np.isfinite(ta))))
         if not ok:
@@ -394,14 +384,20 @@ class ChainObstacleBase(InvalidPolicy):
         Raises:
             InvalidInput: wrong shapes, or non-finite rows with ``on_invalid="raise"``.
         """
-        try:
-            Qa = np.array(Q, dtype=float)
-            Va = np.array(V, dtype=float)
-        except (TypeError, ValueError):
-            raise InvalidInput(
-                f"Q and V must be arrays of numbers of shapes (N, {self.dof}) and "
-                f"(N, {self.task_dim})"
-            ) from None
+        Qa = real_array(
+            "Q",
+            Q,
+            what=f"joint positions of shape (N, {self.dof}) [rad]",
+            allow_nonfinite=True,
+            max_abs=None,
+        )
+        Va = real_array(
+            "V",
+            V,
+            what=f"end-effector velocities of shape (N, {self.task_dim}) [m/s]",
+            allow_nonfinite=True,
+            max_abs=None,
+        )
         if (
             Qa.ndim != 2
             or Va.ndim != 2
@@ -417,6 +413,13 @@ class ChainObstacleBase(InvalidPolicy):
         for k in range(Qa.shape[0]):
             out[k] = self.shape(Qa[k], Va[k])
         return out
+
+
+def _policy_vector(name: str, x: ArrayLike, width: int, unit: str) -> FloatArray:
+    """A (width,) vector of real numbers; NaN/inf pass to the ``on_invalid`` policy."""
+    return real_array(
+        name, x, (width,), what=f"{width} numbers [{unit}]", allow_nonfinite=True, max_abs=None
+    )
 
 
 def _solve_stacked(

@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from velfence._validate import check_positive
+from velfence._validate import check_positive, real_array
 from velfence.errors import InvalidParameter
 from velfence.redundancy.configuration_control import (
     ChainObstacleBase,
@@ -113,14 +113,23 @@ class VelocityDamperQP(ChainObstacleBase):
         self.damping = check_positive("damping", damping, unit="m²/rad²")
         self.task_tolerance = check_positive("task_tolerance", task_tolerance, unit="m/s")
         if not isinstance(solver, str):
-            raise InvalidParameter(f"solver must be a qpsolvers back-end name, got {solver!r}")
+            raise InvalidParameter(
+                f"solver must be a qpsolvers back-end name, got {type(solver).__name__}"
+            )
         _qpsolvers(solver)
         self.solver = solver
         self._body = np.array([o.radius for o in self.obstacles], dtype=float)
 
     def clearances(self, distances: FloatArray) -> FloatArray:
-        """Surface clearances :math:`s = d - r_o` from critical distances, shape (N_o,) [m]."""
-        return np.asarray(distances - self._body, dtype=float)
+        """Surface clearances :math:`s = d - r_o` from critical distances, shape (N_o,) [m].
+
+        Raises:
+            InvalidInput: ``distances`` not finite real numbers of shape (N_o,).
+        """
+        d = real_array(
+            "distances", distances, (self._body.shape[0],), what="critical distances [m]"
+        )
+        return np.asarray(d - self._body, dtype=float)
 
     def _law(self, q: FloatArray, v: FloatArray, target: FloatArray | None) -> ControlResult:
         qp = _qpsolvers(self.solver)
@@ -128,7 +137,7 @@ class VelocityDamperQP(ChainObstacleBase):
         yr, ee_err = self._ee_reference(q, v, target, self.ee_gain)
         crit = self.critical(q)
         rows = crit.rows
-        s = self.clearances(crit.distances)
+        s = np.asarray(crit.distances - self._body, dtype=float)  # clearances(), unchecked
         n = self.dof
         P = je.T @ je + self.damping * np.eye(n)
         P = 0.5 * (P + P.T)

@@ -66,7 +66,7 @@ GAINS = (4.0, 4.0)
 R0 = np.array([1.2, 0.0])
 T0 = np.array([0.0, 1.0])
 LENGTH = 8.0
-PATH = Circle([0.0, 0.0], 1.0)
+PATH = Circle([0.0, 0.0], radius=1.0)
 #: Control period of the four-space runs [s].
 DT = 1e-3
 #: The workspace of the virtual-wall scenario, in the r-θ cobot's plane [m] (clear of the pivot).

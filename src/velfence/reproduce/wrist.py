@@ -61,7 +61,7 @@ def run(out_dir: str | Path = "out/reproduce/wrist") -> Report:
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    wrist = Wrist(WristGeometry())
+    wrist = Wrist(geometry=WristGeometry())
     poly = wrist.default_polygon()
     sh = _shapers(poly)
     patent = sh["patent"]

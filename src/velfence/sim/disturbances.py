@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._validate import as_pair, check_positive
+from velfence._validate import check_positive, finite_scalar, real_array
 from velfence.errors import InvalidParameter
 
 __all__ = ["Disturbance", "push"]
@@ -26,7 +26,25 @@ __all__ = ["Disturbance", "push"]
 FloatArray = NDArray[np.float64]
 
 
-@dataclass(frozen=True)
+def _t1(t1: object, t0: float) -> float:
+    """The end of a push window [s]: a real number > t0, ``math.inf`` allowed."""
+    b = float(
+        real_array(
+            "t1",
+            t1,
+            (),
+            error=InvalidParameter,
+            what="an end time [s]",
+            allow_nonfinite=True,
+            max_abs=None,
+        )
+    )
+    if math.isnan(b) or b <= t0:
+        raise InvalidParameter(f"t1 must be > t0 = {t0} s (math.inf allowed), got {t1!r}")
+    return b
+
+
+@dataclass(frozen=True, kw_only=True)
 class Disturbance:
     """A sum of constant velocity pushes, callable as ``w(t, p)``.
 
@@ -36,6 +54,33 @@ class Disturbance:
     """
 
     pushes: tuple[tuple[float, float, float, float], ...] = ()
+
+    def __post_init__(self) -> None:
+        rows = real_array(
+            "pushes",
+            list(self.pushes) if isinstance(self.pushes, tuple) else self.pushes,
+            None,
+            error=InvalidParameter,
+            what="rows (t0, t1, vx, vy)",
+            allow_nonfinite=True,
+        )
+        if rows.size == 0:
+            rows = rows.reshape(0, 4)
+        if rows.ndim != 2 or rows.shape[1] != 4:
+            raise InvalidParameter(
+                f"pushes: expected rows (t0, t1, vx, vy) of shape (N, 4), got shape {rows.shape}"
+            )
+        clean = []
+        for i, (t0, t1, vx, vy) in enumerate(rows.tolist()):
+            a = check_positive(f"pushes[{i}] t0", t0, allow_zero=True, unit="s")
+            b = _t1(t1, a)
+            if not (math.isfinite(vx) and math.isfinite(vy)):
+                raise InvalidParameter(
+                    f"pushes[{i}]: velocity must be finite (workspace units per second), got "
+                    f"({vx}, {vy})"
+                )
+            clean.append((a, b, float(vx), float(vy)))
+        object.__setattr__(self, "pushes", tuple(clean))
 
     @classmethod
     def push(cls, t0: float, t1: float, velocity: ArrayLike) -> Disturbance:
@@ -50,30 +95,26 @@ class Disturbance:
             InvalidParameter: for an empty or non-finite window or a non-finite velocity.
         """
         a = check_positive("t0", t0, allow_zero=True, unit="s")
-        try:
-            b = float(t1)
-        except (TypeError, ValueError):
-            raise InvalidParameter(f"t1 must be a number in s, got {t1!r}") from None
-        if math.isnan(b) or b <= a:
-            raise InvalidParameter(f"t1 must be > t0 = {a} s (math.inf allowed), got {t1!r}")
-        try:
-            vx, vy = as_pair("velocity", velocity)
-        except ValueError as exc:
-            raise InvalidParameter(str(exc)) from None
-        if not (math.isfinite(vx) and math.isfinite(vy)):
-            raise InvalidParameter(
-                f"velocity must be finite (workspace units per second), got ({vx}, {vy})"
-            )
-        return cls(((a, b, vx, vy),))
+        b = _t1(t1, a)
+        vx, vy = real_array(
+            "velocity", velocity, (2,), error=InvalidParameter, what="a push velocity"
+        ).tolist()
+        return cls(pushes=((a, b, vx, vy),))
 
     def __add__(self, other: Disturbance) -> Disturbance:
         """The sum of two disturbances (their pushes superpose)."""
         if not isinstance(other, Disturbance):
             return NotImplemented
-        return Disturbance(self.pushes + other.pushes)
+        return Disturbance(pushes=self.pushes + other.pushes)
 
     def __call__(self, t: float, p: ArrayLike) -> FloatArray:
-        """Disturbance velocity at time ``t`` [s] and position ``p`` (unused), shape (2,)."""
+        """Disturbance velocity at time ``t`` [s] and position ``p`` (unused), shape (2,).
+
+        Raises:
+            InvalidInput: ``t`` not a finite real number or ``p`` not real numbers.
+        """
+        t = finite_scalar("t", t, unit="s", what="time")
+        real_array("p", p, (None,), what="a position", allow_nonfinite=True, max_abs=None)
         wx = 0.0
         wy = 0.0
         for t0, t1, vx, vy in self.pushes:

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._validate import as_rows, check_positive
+from velfence._validate import check_positive, check_positive_int, real_array
 from velfence.errors import InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon, as_polygon, decompose
 from velfence.shaping.base import Shaper
@@ -203,14 +203,7 @@ def corner_escape_time(
         The time, ``inf`` when the run never leaves the disc, ``nan`` when it never enters it.
     """
     _check(traj, polygon)
-    if (
-        isinstance(corner_index, bool)
-        or not isinstance(corner_index, int | np.integer)
-        or not 0 <= corner_index < polygon.n
-    ):
-        raise InvalidParameter(
-            f"corner_index must be an int in [0, {polygon.n}), got {corner_index!r}"
-        )
+    check_positive_int("corner_index", corner_index, minimum=0, maximum=polygon.n - 1)
     radius = check_positive("radius", radius, unit="workspace units")
     r = np.hypot(*(traj.p - polygon.corners[int(corner_index)]).T)
     inside = r < radius
@@ -260,8 +253,10 @@ def max_output_jump(
         )
     as_polygon(polygon)
     spacing = check_positive("spacing", spacing, unit="workspace units")
-    C = as_rows("commands", commands)
-    if C.shape[0] == 0 or not np.all(np.isfinite(C)):
+    C = real_array(
+        "commands", commands, (None, 2), error=InvalidParameter, what="commands of shape (M, 2)"
+    )
+    if C.shape[0] == 0:
         raise InvalidParameter(
             f"commands must be a non-empty finite (M, 2) array, got shape {C.shape}"
         )
@@ -271,7 +266,14 @@ def max_output_jump(
         m = 0.1 * float((hi - lo).max())
     else:
         m = check_positive("margin", margin, allow_zero=True, unit="workspace units")
-    counts = [math.ceil(float(hi[a] - lo[a] + 2.0 * m) / spacing) + 1 for a in (0, 1)]
+    # Ratios as floats first: spacing = 5e-324 gives inf, which must not reach math.ceil.
+    ratios = [float(hi[a] - lo[a] + 2.0 * m) / spacing for a in (0, 1)]
+    if not (ratios[0] + 1.0) * (ratios[1] + 1.0) <= MAX_GRID_POINTS:
+        raise InvalidParameter(
+            f"spacing {spacing:g} gives a {ratios[0] + 1.0:.3g} x {ratios[1] + 1.0:.3g} grid, "
+            f"more than {MAX_GRID_POINTS} points; increase spacing"
+        )
+    counts = [math.ceil(r) + 1 for r in ratios]
     if counts[0] * counts[1] > MAX_GRID_POINTS:
         raise InvalidParameter(
             f"spacing {spacing} gives a {counts[0]} x {counts[1]} grid, more than "

@@ -24,7 +24,16 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._validate import check_choice, check_positive
+from velfence._validate import (
+    MAX_MAGNITUDE,
+    check_choice,
+    check_positive,
+    check_positive_int,
+    finite_scalar,
+    readonly,
+    real_array,
+    step_count,
+)
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.shaping.base import Shaper
 
@@ -45,15 +54,17 @@ PLANTS = ("kinematic",)
 MAX_STEPS = 10_000_000  # ~ 3 h at 1 kHz; ~ 0.5 GB of arrays
 
 
-def _readonly_copy(name: str, x: ArrayLike, shape: tuple[int, ...]) -> FloatArray:
+def _readonly_copy(name: str, x: ArrayLike, shape: tuple[int | None, ...]) -> FloatArray:
+    return readonly(real_array(name, x, shape, what="finite numbers"))
+
+
+def _width(name: str, x: Any, default: int) -> int:
+    """Row length of a recorded (N, c) array, ``default`` when ``x`` is not 2-D."""
     try:
-        a = np.array(x, dtype=float)
-    except (TypeError, ValueError):
-        raise InvalidInput(f"{name} must be an array of numbers of shape {shape}") from None
-    if a.shape != shape:
-        raise InvalidInput(f"{name} must have shape {shape}, got shape {a.shape}")
-    a.setflags(write=False)
-    return a
+        shape = np.shape(x)
+    except (TypeError, ValueError):  # ragged nesting: real_array names the argument
+        return default
+    return int(shape[1]) if len(shape) == 2 else default
 
 
 @dataclass(frozen=True, eq=False, init=False)
@@ -89,37 +100,49 @@ class Trajectory:
         p: ArrayLike,
         v_cmd: ArrayLike,
         v_out: ArrayLike,
+        *,
         zone: ArrayLike | None = None,
         name: str = "",
         p_measured: ArrayLike | None = None,
     ) -> None:
-        try:
-            ta = np.array(t, dtype=float)
-        except (TypeError, ValueError):
-            raise InvalidInput("t must be an array of numbers of shape (N,)") from None
-        if ta.ndim != 1 or ta.shape[0] < 1:
-            raise InvalidInput(f"t must have shape (N,) with N >= 1, got shape {ta.shape}")
-        if not np.all(np.isfinite(ta)) or np.any(np.diff(ta) <= 0.0):
-            raise InvalidInput("t must be finite and strictly increasing (seconds)")
-        ta.setflags(write=False)
+        ta = real_array("t", t, (None,), what="times [s]")
+        if ta.shape[0] < 1:
+            raise InvalidInput("t: expected shape (N,) with N >= 1 times [s], got no rows")
+        if np.any(np.diff(ta) <= 0.0):
+            k = int(np.flatnonzero(np.diff(ta) <= 0.0)[0])
+            raise InvalidInput(
+                f"t: expected strictly increasing times [s], got t[{k}] = {ta[k]!r} >= "
+                f"t[{k + 1}] = {ta[k + 1]!r}"
+            )
+        ta = readonly(ta)
         n = ta.shape[0]
-        dim = int(np.shape(p)[-1]) if np.ndim(p) == 2 else 2
+        dim = _width("p", p, 2)
         pa = _readonly_copy("p", p, (n, dim))
         pm = pa if p_measured is None else _readonly_copy("p_measured", p_measured, (n, dim))
         if zone is None:
             za = np.full(n, "unknown")
         else:
-            za = np.array(zone, dtype=str)
-            if za.shape != (n,):
-                raise InvalidInput(f"zone must have shape ({n},), got shape {za.shape}")
+            if isinstance(zone, (str, bytes)):
+                raise InvalidInput(f"zone: expected {n} zone names, got {type(zone).__name__}")
+            try:
+                za = np.array(zone)
+            except (TypeError, ValueError):
+                raise InvalidInput(f"zone: expected {n} zone names (str), got {zone!r}") from None
+            if za.shape != (n,) or za.dtype.kind != "U":
+                raise InvalidInput(
+                    f"zone: expected {n} zone names (str) of shape ({n},), got "
+                    f"{'dtype ' + str(za.dtype) if za.shape == (n,) else 'shape ' + str(za.shape)}"
+                )
         za.setflags(write=False)
+        if not isinstance(name, str):
+            raise InvalidInput(f"name: expected a str label, got {type(name).__name__}")
         object.__setattr__(self, "t", ta)
         object.__setattr__(self, "p", pa)
-        cdim = int(np.shape(v_cmd)[-1]) if np.ndim(v_cmd) == 2 else dim
+        cdim = _width("v_cmd", v_cmd, dim)
         object.__setattr__(self, "v_cmd", _readonly_copy("v_cmd", v_cmd, (n, cdim)))
         object.__setattr__(self, "v_out", _readonly_copy("v_out", v_out, (n, dim)))
         object.__setattr__(self, "zone", za)
-        object.__setattr__(self, "name", str(name))
+        object.__setattr__(self, "name", name)
         object.__setattr__(self, "p_measured", pm)
 
     def __len__(self) -> int:
@@ -135,8 +158,10 @@ class Trajectory:
         """The rows with ``t0 <= t < t1`` [s], as a new trajectory (for per-phase metrics).
 
         Raises:
-            InvalidInput: when no row falls in the window.
+            InvalidInput: ``t0`` or ``t1`` not a finite real number, or no row in the window.
         """
+        t0 = finite_scalar("t0", t0, unit="s", what="time")
+        t1 = finite_scalar("t1", t1, unit="s", what="time")
         rows = (self.t >= t0) & (self.t < t1)
         if not rows.any():
             raise InvalidInput(
@@ -153,23 +178,15 @@ class Trajectory:
         )
 
 
-def _finite_vec(what: str, x: Any, dim: int, k: int, t: float) -> FloatArray:
+def _finite_vec(what: str, x: Any, dim: int | None, k: int, t: float) -> FloatArray:
+    """A callable's result as a finite (dim,) vector; the message names the step and time."""
+    size = "" if dim is None else f"{dim} "
     try:
-        a = np.array(x, dtype=float)
-    except (TypeError, ValueError):
+        return real_array(what, x, (dim,), what=f"a vector of {size}finite numbers")
+    except InvalidInput as exc:
         raise InvalidInput(
-            f"{what} must be a vector of {dim} numbers, got {x!r} at step {k} (t = {t} s)"
+            f"{exc} at step {k} (t = {t} s); check the callable that produced it"
         ) from None
-    if a.shape != (dim,):
-        raise InvalidInput(
-            f"{what} must have shape ({dim},), got shape {a.shape} at step {k} (t = {t} s)"
-        )
-    if not np.all(np.isfinite(a)):
-        raise InvalidInput(
-            f"{what} must be finite, got {tuple(a.tolist())} at step {k} (t = {t} s); "
-            "check the callable that produced it"
-        )
-    return a
 
 
 def _optional_callable(name: str, f: Any) -> None:
@@ -178,6 +195,8 @@ def _optional_callable(name: str, f: Any) -> None:
 
 
 def _n_steps(duration: float, dt: float) -> int:
+    # Bounded first (no OverflowError, no hang for dt = 5e-324), then the exact rounding rule.
+    step_count("duration", duration, "dt", dt, max_steps=MAX_STEPS)
     r = duration / dt
     k = round(r)
     steps = k if abs(r - k) <= 1e-9 * max(1.0, r) else math.ceil(r)
@@ -191,9 +210,7 @@ def _n_steps(duration: float, dt: float) -> int:
 
 
 def _validated_seed(seed: Any) -> int:
-    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
-        raise InvalidParameter(f"seed must be a non-negative int, got {seed!r}")
-    return int(seed)
+    return check_positive_int("seed", seed, minimum=0, maximum=2**63 - 1, example=0)
 
 
 def simulate(
@@ -265,11 +282,11 @@ def simulate(
     noise_std = check_positive("noise_std", noise_std, allow_zero=True, unit="workspace units")
     seed = _validated_seed(seed)
     check_choice("plant", plant, PLANTS)
-    p0a = np.array(p0, dtype=float) if np.ndim(p0) == 1 else None
-    if p0a is None or p0a.shape[0] < 1:
-        raise InvalidInput(f"p0 must be a vector (shape (d,)), got {p0!r}")
-    if not np.all(np.isfinite(p0a)):
-        raise InvalidInput(f"p0 must be finite, got {tuple(p0a.tolist())}")
+    if name is not None and not isinstance(name, str):
+        raise InvalidParameter(f"name: expected a str label or None, got {type(name).__name__}")
+    p0a = real_array("p0", p0, (None,), what="an initial position")
+    if p0a.shape[0] < 1:
+        raise InvalidInput("p0: expected an initial position of shape (d,) with d >= 1, got []")
     dim = p0a.shape[0]
     steps = _n_steps(duration, dt)
     n = steps + 1
@@ -295,8 +312,8 @@ def simulate(
         p.setflags(write=False)
         pm = p if noise is None else p + noise[k]
         raw = command(t, p)
-        cdim = np.size(raw) if vc_rec is None else vc_rec.shape[1]
-        vc = _finite_vec("command(t, p)", raw, int(cdim), k, t)
+        cdim = None if vc_rec is None else vc_rec.shape[1]
+        vc = _finite_vec("command(t, p)", raw, cdim, k, t)
         if vc_rec is None:
             vc_rec = np.empty((n, vc.shape[0]))
         res = shaper.explain(pm, vc)
@@ -315,6 +332,12 @@ def simulate(
             if disturbance is not None:
                 v = v + _finite_vec("disturbance(t, p)", disturbance(t, p), dim, k, t)
             state = state + dt * v
+            if not np.all(np.abs(state) <= MAX_MAGNITUDE):  # also catches NaN and inf
+                raise InvalidInput(
+                    f"the state overflowed at step {k} (t = {t} s): expected |p| <= "
+                    f"{MAX_MAGNITUDE:g}, got p = {state.tolist()}; check the shaper output and "
+                    "the disturbance (too large for dt)"
+                )
             if on_progress is not None and (k + 1) % every == 0 and k + 1 < steps:
                 on_progress((k + 1) / steps)
     if on_progress is not None:
@@ -325,7 +348,7 @@ def simulate(
         v_cmd=vc_rec if vc_rec is not None else np.empty((n, dim)),
         v_out=vo_rec,
         zone=np.array(zones, dtype=str),
-        name=type(shaper).__name__ if name is None else str(name),
+        name=type(shaper).__name__ if name is None else name,
         p_measured=pm_rec,
     )
 

@@ -15,8 +15,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from velfence._validate import check_positive, finite_scalar, real_array
 from velfence.errors import InvalidParameter
-from velfence.geometry.polygon import ConvexPolygon
+from velfence.geometry.polygon import ConvexPolygon, as_polygon
 
 __all__ = [
     "Script",
@@ -30,24 +31,83 @@ __all__ = [
 FloatArray = NDArray[np.float64]
 
 
-@dataclass(frozen=True)
+def _pair(name: str, x: object, what: str) -> tuple[float, float]:
+    a, b = real_array(name, x, (2,), error=InvalidParameter, what=what).tolist()
+    return (a, b)
+
+
+@dataclass(frozen=True, kw_only=True)
 class Waypoint:
-    """From time ``t`` [s] head for ``target`` (workspace units) at up to ``speed`` [units/s]."""
+    """From time ``t`` [s] head for ``target`` (workspace units) at up to ``speed`` [units/s].
+
+    Raises:
+        InvalidParameter: ``t`` not a finite time >= 0, ``target`` not two finite numbers, or
+            ``speed`` not finite and > 0.
+    """
 
     t: float
     target: tuple[float, float]
     speed: float
 
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "t", check_positive("t", self.t, allow_zero=True, unit="s"))
+        object.__setattr__(self, "target", _pair("target", self.target, "a target (x, y)"))
+        object.__setattr__(self, "speed", check_positive("speed", self.speed, unit="units/s"))
 
-@dataclass(frozen=True)
+
+@dataclass(frozen=True, kw_only=True)
 class Script:
-    """A scenario: start point, operator waypoints, disturbance pushes and duration."""
+    """A scenario: start point, operator waypoints, disturbance pushes and duration.
+
+    Raises:
+        InvalidParameter: a field of the wrong kind (``start`` not two finite numbers, a
+            waypoint that is not a :class:`Waypoint`, a push not ``(t0, t1, (vx, vy))``, a
+            ``duration`` not finite and > 0, labels not strings).
+    """
 
     start: tuple[float, float]
     waypoints: tuple[Waypoint, ...]
     pushes: tuple[tuple[float, float, tuple[float, float]], ...]  # (t0, t1, velocity)
     duration: float
     labels: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "start", _pair("start", self.start, "a start point (x, y)"))
+        object.__setattr__(self, "waypoints", _waypoints(self.waypoints))
+        if not isinstance(self.pushes, (tuple, list)):
+            raise InvalidParameter(
+                f"pushes: expected a tuple of (t0, t1, (vx, vy)), got {type(self.pushes).__name__}"
+            )
+        pushes = []
+        for i, push in enumerate(self.pushes):
+            if not isinstance(push, (tuple, list)) or len(push) != 3:
+                raise InvalidParameter(f"pushes[{i}]: expected (t0, t1, (vx, vy)), got {push!r}")
+            t0 = check_positive(f"pushes[{i}] t0", push[0], allow_zero=True, unit="s")
+            t1 = real_array(
+                f"pushes[{i}] t1", push[1], (), error=InvalidParameter, allow_nonfinite=True
+            )
+            if not float(t1) > t0:
+                raise InvalidParameter(f"pushes[{i}]: expected t1 > t0 = {t0} s, got {push[1]!r}")
+            v = _pair(f"pushes[{i}] velocity", push[2], "a push velocity (vx, vy)")
+            pushes.append((t0, float(t1), v))
+        object.__setattr__(self, "pushes", tuple(pushes))
+        object.__setattr__(self, "duration", check_positive("duration", self.duration, unit="s"))
+        if not isinstance(self.labels, (tuple, list)) or not all(
+            isinstance(x, str) for x in self.labels
+        ):
+            raise InvalidParameter(f"labels: expected a tuple of str, got {self.labels!r}")
+        object.__setattr__(self, "labels", tuple(self.labels))
+
+
+def _waypoints(waypoints: object) -> tuple[Waypoint, ...]:
+    if not isinstance(waypoints, (tuple, list)) or not all(
+        isinstance(w, Waypoint) for w in waypoints
+    ):
+        raise InvalidParameter(
+            f"waypoints: expected a tuple of Waypoint, got {type(waypoints).__name__}; build "
+            "them with Waypoint(t=..., target=..., speed=...)"
+        )
+    return tuple(waypoints)
 
 
 class WaypointOperator:
@@ -59,16 +119,20 @@ class WaypointOperator:
     """
 
     def __init__(self, waypoints: tuple[Waypoint, ...], *, gain: float = 6.0) -> None:
+        waypoints = _waypoints(waypoints)
         if not waypoints:
             raise InvalidParameter("an operator needs at least one waypoint, got none")
-        if not (math.isfinite(gain) and gain > 0):
-            raise InvalidParameter(f"gain must be finite and > 0 [1/s], got {gain!r}")
         self.waypoints = waypoints
-        self.gain = gain
+        self.gain = check_positive("gain", gain, unit="1/s")
         self._times = [w.t for w in waypoints]
 
     def active(self, t: float) -> Waypoint:
-        """The waypoint in force at time ``t``."""
+        """The waypoint in force at time ``t`` [s].
+
+        Raises:
+            InvalidInput: ``t`` not a finite real number.
+        """
+        t = finite_scalar("t", t, unit="s", what="time")
         i = 0
         for k, tk in enumerate(self._times):
             if tk <= t:
@@ -76,9 +140,13 @@ class WaypointOperator:
         return self.waypoints[i]
 
     def __call__(self, t: float, p: FloatArray) -> FloatArray:
-        """Commanded velocity at time ``t`` [s] from position ``p`` (shape (2,))."""
+        """Commanded velocity at time ``t`` [s] from position ``p`` (shape (2,)).
+
+        Raises:
+            InvalidInput: ``t`` not a finite real number, ``p`` not a finite (2,) position.
+        """
         w = self.active(t)
-        e = np.asarray(w.target, dtype=float) - p
+        e = np.asarray(w.target, dtype=float) - real_array("p", p, (2,), what="a position")
         dist = math.hypot(e[0], e[1])
         speed = min(w.speed, self.gain * dist)
         if dist == 0.0:
@@ -93,7 +161,16 @@ def default_script(polygon: ConvexPolygon, *, buffer: float) -> Script:
     longest edge and come in; press into that edge and sweep along it; push into the most acute
     corner; push into the most obtuse corner; a fast move into the far side; hold near the long
     edge while an external push drives the mechanism outward, then let go.
+
+    Args:
+        polygon: The workspace (:class:`~velfence.geometry.polygon.ConvexPolygon`).
+        buffer: The shaper's buffer width, workspace units, > 0 (sets the start and hold points).
+
+    Raises:
+        InvalidParameter: ``polygon`` not a polygon or ``buffer`` not finite and > 0.
     """
+    polygon = as_polygon(polygon)
+    buffer = check_positive("buffer", buffer, unit="workspace units")
     c = polygon.corners
     n = polygon.n
     cen = polygon.centroid
@@ -130,7 +207,7 @@ def default_script(polygon: ConvexPolygon, *, buffer: float) -> Script:
     pos = np.asarray(start, dtype=float)
     wps = []
     for _label, target, speed, dwell in plan:
-        wps.append(Waypoint(t, (float(target[0]), float(target[1])), speed))
+        wps.append(Waypoint(t=t, target=(float(target[0]), float(target[1])), speed=speed))
         reach = polygon.closest_point(target)
         t += float(np.linalg.norm(reach - pos)) / speed + dwell
         pos = reach
@@ -148,8 +225,12 @@ def default_script(polygon: ConvexPolygon, *, buffer: float) -> Script:
 def constant(
     velocity: tuple[float, float] | FloatArray,
 ) -> Callable[[float, FloatArray], FloatArray]:
-    """An operator that always commands ``velocity`` (shape (2,), workspace units per second)."""
-    v = np.array(velocity, dtype=float)
+    """An operator that always commands ``velocity`` (shape (2,), workspace units per second).
+
+    Raises:
+        InvalidParameter: ``velocity`` not two finite real numbers.
+    """
+    v = real_array("velocity", velocity, (2,), error=InvalidParameter, what="a velocity")
     v.setflags(write=False)
 
     def command(t: float, p: FloatArray) -> FloatArray:
@@ -159,5 +240,11 @@ def constant(
 
 
 def operator_from(script: Script) -> Callable[[float, FloatArray], FloatArray]:
-    """The :class:`WaypointOperator` of a script."""
+    """The :class:`WaypointOperator` of a script.
+
+    Raises:
+        InvalidParameter: ``script`` is not a :class:`Script`.
+    """
+    if not isinstance(script, Script):
+        raise InvalidParameter(f"script: expected a Script, got {type(script).__name__}")
     return WaypointOperator(script.waypoints)

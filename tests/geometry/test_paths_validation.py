@@ -1,0 +1,83 @@
+"""Bad inputs to the paths raise library errors that name the public argument."""
+
+import datetime
+import inspect
+import math
+
+import numpy as np
+import pytest
+
+from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
+from velfence.geometry.paths import Circle, Line, Polyline, Spline
+
+BAD = {
+    "str": "12",
+    "bytes": b"12",
+    "dict": {"x": 1.0},
+    "None": None,
+    "bool": True,
+    "complex": np.array([1j, 2j]),
+    "object": np.array([object(), object()], dtype=object),
+    "datetime": datetime.datetime(2020, 1, 1),
+    "ragged": [[1.0, 2.0], [3.0]],
+    "huge-int": [10**400, 0],
+    "nan": [math.nan, 0.0],
+    "big": [1e308, 0.0],
+}
+PATHS = {
+    "line": lambda: Line([0.0, 0.0], [1.0, 0.0]),
+    "circle": lambda: Circle([0.0, 0.0], radius=1.0),
+    "polyline": lambda: Polyline([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]], corner_radius=0.2),
+    "spline": lambda: Spline([[0.0, 0.0], [1.0, 0.5], [2.0, 0.0]]),
+}
+
+
+@pytest.mark.parametrize("kind", sorted(BAD))
+def test_constructors_name_their_points(kind: str):
+    bad = BAD[kind]
+    with pytest.raises(InvalidGeometry, match=r"^start: "):
+        Line(bad, [1.0, 0.0])
+    with pytest.raises(InvalidGeometry, match=r"^center: "):
+        Circle(bad, radius=1.0)
+    if kind != "ragged":  # a ragged (N, n) list is 1-D: still named
+        with pytest.raises(InvalidGeometry, match=r"^vertices: "):
+            Polyline([bad, [1.0, 0.0], [1.0, 1.0]], corner_radius=0.1)
+    with pytest.raises(InvalidGeometry, match=r"^points: "):
+        Spline([bad, [1.0, 0.5], [2.0, 0.0]])
+
+
+@pytest.mark.parametrize("value", ["1", True, 1j, math.nan, 10**400, None])
+def test_circle_scalars(value: object):
+    with pytest.raises(InvalidParameter, match=r"^radius"):
+        Circle([0.0, 0.0], radius=value)  # type: ignore[arg-type]
+    with pytest.raises(InvalidParameter, match=r"^start_angle: "):
+        Circle([0.0, 0.0], radius=1.0, start_angle=value)  # type: ignore[arg-type]
+
+
+def test_circle_radius_is_keyword_only():
+    assert inspect.signature(Circle).parameters["radius"].kind is inspect.Parameter.KEYWORD_ONLY
+    with pytest.raises(TypeError):
+        Circle([0.0, 0.0], 1.0)  # type: ignore[misc]
+
+
+@pytest.mark.parametrize("radius", [[[0.1], [0.2, 0.3]], ["a"], [1j], [math.nan]])
+def test_polyline_corner_radii(radius: object):
+    with pytest.raises(InvalidParameter, match=r"^corner_radius"):
+        Polyline([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]], corner_radius=radius)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("name", sorted(PATHS))
+@pytest.mark.parametrize("kind", sorted(BAD))
+def test_queries_name_their_argument(name: str, kind: str):
+    path = PATHS[name]()
+    bad = BAD[kind]
+    with pytest.raises(InvalidInput, match=r"^p: "):
+        path.closest(bad)
+    with pytest.raises(InvalidInput, match=r"^S: "):
+        path.points(bad if kind != "None" else None)
+    scalar = bad[0] if isinstance(bad, list) and kind in ("huge-int", "nan", "big") else bad
+    with pytest.raises(InvalidInput, match=r"^s: "):
+        path.point(scalar)
+    if kind != "None":  # s0=None is "no reference"
+        with pytest.raises(InvalidInput, match=r"^s0: "):
+            path.closest([0.0, 0.0], s0=scalar, window=0.5)

@@ -1,0 +1,69 @@
+"""Bad inputs to the redundancy controllers raise library errors that name the argument."""
+
+import datetime
+import inspect
+import math
+
+import numpy as np
+import pytest
+
+from velfence.errors import InvalidInput, InvalidParameter
+from velfence.mechanisms import PlanarArm
+from velfence.redundancy import ConfigurationController, ControlResult, Obstacle
+
+BAD = {
+    "str": "12",
+    "bytes": b"12",
+    "dict": {"x": 1.0},
+    "None": None,
+    "bool": True,
+    "complex": np.array([1j, 2j]),
+    "object": np.array([object(), object()], dtype=object),
+    "datetime": datetime.datetime(2020, 1, 1),
+    "ragged": [[1.0, 2.0], [3.0]],
+    "huge-int": [10**400, 0],
+    "wrong-shape": np.zeros((2, 2, 2)),
+}
+
+
+@pytest.mark.parametrize("kind", sorted(BAD))
+def test_obstacle_center(kind: str):
+    with pytest.raises(InvalidParameter, match=r"^center: "):
+        Obstacle(BAD[kind], radius=0.1, influence=0.3)
+
+
+@pytest.mark.parametrize("value", ["0.1", True, 1j, math.nan, 10**400, None])
+@pytest.mark.parametrize("field", ["radius", "influence"])
+def test_obstacle_sizes(value: object, field: str):
+    args: dict[str, object] = {"radius": 0.1, "influence": 0.3, field: value}
+    with pytest.raises(InvalidParameter, match=rf"^{field}"):
+        Obstacle([0.0, 0.0], **args)  # type: ignore[arg-type]
+
+
+def test_obstacle_and_result_are_keyword_only():
+    with pytest.raises(TypeError):
+        Obstacle([0.0, 0.0], 0.1, 0.3)  # type: ignore[misc]
+    for cls in (Obstacle, ControlResult):
+        params = list(inspect.signature(cls).parameters.values())
+        for p in params[1:] if cls is Obstacle else params:
+            assert p.kind is inspect.Parameter.KEYWORD_ONLY, (cls.__name__, p.name)
+
+
+@pytest.mark.parametrize("kind", sorted(BAD))
+@pytest.mark.parametrize("arg", ["q", "ee_velocity", "ee_target"])
+def test_control_names_the_argument(kind: str, arg: str):
+    ctl = ConfigurationController(PlanarArm((1.0, 1.0, 1.0)), [])
+    args: dict[str, object] = {"q": np.zeros(3), "ee_velocity": np.zeros(2), arg: BAD[kind]}
+    if kind == "None" and arg == "ee_target":
+        return  # ee_target=None is "no target"
+    with pytest.raises(InvalidInput, match=rf"^{arg}: "):
+        ctl.control(**args)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("kind", ["str", "dict", "complex", "ragged", "huge-int"])
+def test_shape_batch_names_q_and_v(kind: str):
+    ctl = ConfigurationController(PlanarArm((1.0, 1.0, 1.0)), [])
+    with pytest.raises(InvalidInput, match=r"^Q: "):
+        ctl.shape_batch(BAD[kind], np.zeros((1, 2)))
+    with pytest.raises(InvalidInput, match=r"^V: "):
+        ctl.shape_batch(np.zeros((1, 3)), BAD[kind])
