@@ -436,7 +436,10 @@ def attack_uncapped(t: Target) -> tuple[list[Failure], int]:
     sig = _signature(probe[1])
     if sig is None:
         return [Failure(t.key, "(valid)", "signature", "valid-failed", "no signature")], 0
-    valid = spec.valid()
+    try:
+        valid = spec.valid()
+    except Exception as exc:  # a registry entry out of date with the library is a failure
+        return [Failure(t.key, "(valid)", "factory", "valid-failed", _short(exc))], 0
     walk_default = not t.constructor
     known: frozenset[str] = frozenset()
     if spec.heavy is None:

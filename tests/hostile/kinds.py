@@ -489,7 +489,9 @@ KINDS: tuple[Kind, ...] = (
     Kind("nan_in_valid", _with(float("nan")), {"vector": "R"}, derived=True),
     Kind("inf_in_valid", _with(float("inf")), {"vector": "R"}, derived=True),
     Kind("neg_inf_in_valid", _with(float("-inf")), {"vector": "R"}, derived=True),
-    Kind("huge_in_valid", _with(1e308), {"vector": "R"}, derived=True),
+    # A huge finite entry is a real number: a shaper may refuse it or answer finitely (the
+    # output walk checks the answer), as its on_invalid policy says.
+    Kind("huge_in_valid", _with(1e308), {"vector": "E"}, derived=True),
     Kind("int_10_30_of_valid", _huge_int_array, {"vector": "E"}, derived=True),
     # empty, nested and ragged
     Kind("empty_list", _const([]), _merge(NUM_R, {"choice": "R", "text": "R", "object": "R"})),

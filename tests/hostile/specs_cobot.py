@@ -73,7 +73,7 @@ SPECS: dict[str, F | C] = {
     ),
     "cobot.Cobot": C(
         lambda: call(
-            IdentityKinematics(2),
+            IdentityKinematics(n=2),
             [Coupling(SteeredWheel(), jacobian=lambda R: (np.eye(2), np.zeros((2, 2, 2))))],
         ),
         {
