@@ -487,17 +487,67 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(
             f"{r.name}: {r.steps:,} steps, escapes {r.escapes}, max penetration "
             f"{r.max_penetration:.3g}, recovered {r.recovered}/{r.outside_episodes}, "
-            f"{r.steps_per_second:,.0f} steps/s"
+            f"accel. gave way {r.flagged}, {r.steps_per_second:,.0f} steps/s"
         )
         results.append(r)
     if args.out is not None:
         cmd = f"python -m velfence.sim.soak --steps {args.steps} --episode-steps {per}"
         args.out.write_text(_page(results, cmd))
-    return 0 if all(r.contained for r in results if "faithful" not in r.name) else 1
+    required = [r for r in results if "faithful" not in r.name and "no dt" not in r.name]
+    ok = all(r.escapes == 0 and r.nonfinite == 0 for r in required)
+    return 0 if ok else 1
 
 
 def _page(results: Sequence[SoakResult], command: str) -> str:
-    return "# Reliability: containment soak\n\n" + render_markdown(results, command=command)
+    intro = """# Reliability: the containment soak
+
+velfence is a safety filter, so its first promise is containment: a state that starts inside
+the safe set stays inside, and a state outside comes back. `make soak` checks that promise in
+closed loop, at scale, on every shaper: each case below runs 10⁶ steps of an explicit-Euler plant
+`x ← x + dt · shape(x, v_cmd)` (module `velfence.sim.soak`, reusable on your own configuration).
+
+**Episodes.** Starts are drawn uniformly inside the safe set (80 %) or in a band just outside it
+(20 %, up to a fifth of the set's size). The operator of an episode either *wanders* (a random
+direction and speed, held for 0.1 s) or *pushes* straight at the nearest boundary with a random
+tangential part (40 %); a fifth of the outside starts command nothing (except for passive
+devices, which cannot move without a push). The 2-D cases use 20 random convex polygons (3–9
+corners on random ellipses, from very acute to nearly flat corners), each with a random buffer
+(5–90 % of a lower bound on its inradius) and recovery gain (1–5 /s). The joint-stop cases use
+the CoSPM paper's stops d1–d4 and braking profile (K = 100 /s, 2 rad/s, 20 rad/s²).
+
+**Columns.** *escapes*: steps that begin inside and end outside by more than 1e-9; *max
+penetration*: the deepest excursion of any episode that started inside (round-off shows as
+~1e-15); *non-finite*: steps whose output had a NaN or inf; *recovered*: outside starts whose
+penetration shrank to 10 % of its initial depth within the 4 s episode (spring recovery
+approaches the boundary exponentially); *accel. gave way*: cycles in which the post-stage's
+acceleration limit had to yield to a stop (position first), counted by
+`StopLimiter.rate_overrides`.
+
+"""
+    notes = """
+**Reading the table.**
+
+* The exact polygon law, the cobot wall and the joint-stop limiter (alone and with the paper's
+  post-stage rate limiter) never let an inside state out: every max penetration is round-off.
+* *20 Hz, no dt* is the exact law's continuous-time guarantee used at a coarse control rate
+  (0.05 s, 3 units/s): one Euler step can cross a thin buffer, and it does. The same law with
+  the control period (`PolygonShaper(..., dt=0.05)`) caps every approach at the remaining
+  distance per period and is contained. Give shapers your control period whenever
+  `max speed × dt` can exceed the buffer.
+* The patent's law (`method="patent"`, faithful to US 8,676,382) is contained in this campaign
+  but is not guaranteed to be: its two-stage corner projection leaks out of acute corners under
+  fast pushes (`velfence reproduce wrist` measures the leak); it is shown for comparison.
+* `CasterWall` is a passive device: it can only steer the human's push, never push back, so an
+  outside start recovers only when the human's push has an inward component it can steer to.
+  Its recovery count measures that, not a defect.
+* With the paper's own braking profile the post-stage rate limiter occasionally cannot follow
+  the braking demand within 20 rad/s²; those cycles are flagged and the stop wins. A profile
+  within `StopLimiter.braking_capacity` needs no override.
+
+The hostile-input side of reliability (every public callable against a catalogue of bad inputs)
+is described in [reliability-inputs.md](reliability-inputs.md).
+"""
+    return intro + render_markdown(results, command=command, notes=notes)
 
 
 if __name__ == "__main__":  # pragma: no cover
