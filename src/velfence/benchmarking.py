@@ -1,6 +1,6 @@
 r"""Benchmarks of the polygon shapers: per-call latency, a QP baseline, batch throughput.
 
-Timing targets live here, not in unit tests (DESIGN.md §6). :func:`run_benchmarks` measures
+Timing targets live here, not in unit tests. :func:`run_benchmarks` measures
 
 1. the latency of one :meth:`~velfence.PolygonShaper.shape` call (median, p99, max in µs; every
    call timed on its own with :func:`time.perf_counter_ns`, after a warm-up, with the garbage
