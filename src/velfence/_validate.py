@@ -561,3 +561,39 @@ def check_text(
             f"{name}: expected at most {max_length} characters, got {len(value):,}"
         )
     return str(value)
+
+
+def array_input(
+    name: str,
+    x: Any,
+    shape: tuple[int | None, ...] | None = None,
+    *,
+    error: type[Exception] | None = None,
+    what: str = "numbers",
+    allow_nonfinite: bool = False,
+    max_abs: float | None = MAX_MAGNITUDE,
+) -> NDArray[np.float64]:
+    """:func:`real_array`, also refusing objects whose conversion itself fails.
+
+    An object whose ``__array__`` raises, or whose ``__len__`` claims more entries than memory
+    holds, is refused with the argument's name instead of leaking its own exception.
+
+    Raises:
+        InvalidInput: (or ``error``) as :func:`real_array`, or the conversion failed.
+    """
+    from velfence.errors import VelfenceError
+
+    try:
+        return real_array(
+            name,
+            x,
+            shape,
+            error=error,
+            what=what,
+            allow_nonfinite=allow_nonfinite,
+            max_abs=max_abs,
+        )
+    except VelfenceError:
+        raise
+    except (Exception, MemoryError):  # the object's own conversion failed: not an array
+        raise _error(error)(f"{name}: expected {what}, got {_type_text(x)}") from None
