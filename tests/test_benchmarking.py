@@ -122,3 +122,38 @@ def test_qp_bounds_match_the_law() -> None:
         poly, np.array([h + 0.5, 0.0]), np.array([0.0, 0.0]), buffer=0.1, spring_gain=4.0
     )
     assert out[3] == pytest.approx(0.4)  # recovery capped at k d_max
+
+
+def test_qp_bounds_and_regular_polygon_refuse_bad_inputs_by_name() -> None:
+    from velfence.benchmarking import qp_bounds, regular_polygon
+    from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
+
+    poly = regular_polygon(6)
+    p, v = np.array([0.5, 0.2]), np.array([1.0, 0.3])
+    with pytest.raises(InvalidParameter, match="edges: expected an int >= 3"):
+        regular_polygon(2)
+    with pytest.raises(InvalidParameter, match="edges: expected"):
+        regular_polygon(6.0)  # type: ignore[arg-type]
+    with pytest.raises(InvalidParameter, match="radius"):
+        regular_polygon(6, radius=-1.0)
+    with pytest.raises(InvalidGeometry, match="radius: 5e-324 is too small"):
+        regular_polygon(6, radius=5e-324)
+    with pytest.raises(InvalidParameter, match="poly: expected a ConvexPolygon"):
+        qp_bounds("square", p, v, buffer=0.2, spring_gain=2.0)  # type: ignore[arg-type]
+    with pytest.raises(InvalidInput, match="v: expected shape"):
+        qp_bounds(poly, p, [1.0], buffer=0.2, spring_gain=2.0)  # type: ignore[arg-type]
+    with pytest.raises(InvalidParameter, match="buffer"):
+        qp_bounds(poly, p, v, buffer=0.0, spring_gain=2.0)
+    with pytest.raises(InvalidParameter, match="buffer: 5e-324 is too small"):
+        qp_bounds(poly, p, v, buffer=5e-324, spring_gain=2.0)
+    assert np.all(np.isfinite(qp_bounds(poly, p, v, buffer=0.2, spring_gain=2.0)))
+
+
+def test_bench_settings_and_write_report_refuse_bad_inputs_by_name() -> None:
+    from velfence.benchmarking import BenchSettings, write_report
+    from velfence.errors import InvalidParameter
+
+    with pytest.raises(InvalidParameter, match="quick: expected True or False"):
+        BenchSettings.make(quick="yes")  # type: ignore[arg-type]
+    with pytest.raises(InvalidParameter, match="report: expected a BenchReport"):
+        write_report("report", "out.md")  # type: ignore[arg-type]

@@ -514,3 +514,86 @@ def check_flag(name: str, value: Any, *, error: type[Exception] | None = None) -
             f"{name}: expected True or False, got {_type_text(value)}"
         )
     return bool(value)
+
+
+def check_count(
+    name: str,
+    value: Any,
+    *,
+    example: int = 1,
+    minimum: int = 1,
+    maximum: int | None = None,
+    error: type[Exception] | None = None,
+) -> int:
+    """An int parameter in ``[minimum, maximum]``, as :func:`check_positive_int`.
+
+    Also refuses ``np.timedelta64`` (an ``np.integer`` subclass that NumPy will not compare
+    with an int) with the parameter's name.
+
+    Raises:
+        InvalidParameter: (or ``error``) not an int, or out of range.
+    """
+    from velfence.errors import InvalidParameter
+
+    if isinstance(value, (np.timedelta64, np.datetime64)):
+        raise (error or InvalidParameter)(
+            f"{name}: expected an int, got {_type_text(value)}; e.g. {example}"
+        )
+    return check_positive_int(
+        name, value, example=example, minimum=minimum, maximum=maximum, error=error
+    )
+
+
+def check_text(
+    name: str, value: Any, *, max_length: int = 1000, error: type[Exception] | None = None
+) -> str:
+    """A label (a name, a title) as ``str``: ``str`` or ``np.str_`` of at most ``max_length``.
+
+    Raises:
+        InvalidParameter: (or ``error``) not a string, or longer than ``max_length``.
+    """
+    from velfence.errors import InvalidParameter
+
+    if not isinstance(value, str):
+        raise (error or InvalidParameter)(f"{name}: expected a string, got {_type_text(value)}")
+    if len(value) > max_length:
+        raise (error or InvalidParameter)(
+            f"{name}: expected at most {max_length} characters, got {len(value):,}"
+        )
+    return str(value)
+
+
+def array_input(
+    name: str,
+    x: Any,
+    shape: tuple[int | None, ...] | None = None,
+    *,
+    error: type[Exception] | None = None,
+    what: str = "numbers",
+    allow_nonfinite: bool = False,
+    max_abs: float | None = MAX_MAGNITUDE,
+) -> NDArray[np.float64]:
+    """:func:`real_array`, also refusing objects whose conversion itself fails.
+
+    An object whose ``__array__`` raises, or whose ``__len__`` claims more entries than memory
+    holds, is refused with the argument's name instead of leaking its own exception.
+
+    Raises:
+        InvalidInput: (or ``error``) as :func:`real_array`, or the conversion failed.
+    """
+    from velfence.errors import VelfenceError
+
+    try:
+        return real_array(
+            name,
+            x,
+            shape,
+            error=error,
+            what=what,
+            allow_nonfinite=allow_nonfinite,
+            max_abs=max_abs,
+        )
+    except VelfenceError:
+        raise
+    except (Exception, MemoryError):  # the object's own conversion failed: not an array
+        raise _error(error)(f"{name}: expected {what}, got {_type_text(x)}") from None

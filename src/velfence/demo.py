@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -21,7 +22,7 @@ from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from velfence.errors import VelfenceError
+from velfence.errors import InvalidParameter, VelfenceError
 from velfence.geometry.polygon import ConvexPolygon
 from velfence.io.config import DEFAULT_MAX_STEPS, DemoConfig, check_run_length, load_config
 from velfence.mechanisms.wrist import Wrist, WristGeometry
@@ -55,7 +56,17 @@ class DemoResult:
 
 
 def build_shapers(polygon: ConvexPolygon, cfg: DemoConfig) -> dict[str, Shaper]:
-    """The shapers the config asks for, in the config's order."""
+    """The shapers the config asks for, in the config's order.
+
+    Raises:
+        InvalidParameter: ``polygon`` is not a ConvexPolygon or ``cfg`` not a DemoConfig.
+    """
+    if not isinstance(polygon, ConvexPolygon):
+        raise InvalidParameter(f"polygon: expected a ConvexPolygon, got {type(polygon).__name__}")
+    if not isinstance(cfg, DemoConfig):
+        raise InvalidParameter(
+            f"cfg: expected a DemoConfig (from velfence.io.load_config), got {type(cfg).__name__}"
+        )
     s = cfg.shaper
     common: dict[str, Any] = {
         "buffer": s.buffer,
@@ -158,6 +169,22 @@ def run_demo(
         InvalidParameter: a bad config field (named), or a run longer than ``max_steps``.
         InvalidGeometry: the config's polygon is not a convex polygon.
     """
+    for name, value in (("config_path", config_path), ("out_dir", out_dir)):
+        if (value is not None or name == "out_dir") and (
+            isinstance(value, bytes) or not isinstance(value, (str, os.PathLike))
+        ):
+            raise InvalidParameter(
+                f"{name}: expected a file path (str or Path), got {type(value).__name__}"
+            )
+    if config is not None and not isinstance(config, DemoConfig):
+        raise InvalidParameter(
+            f"config: expected a DemoConfig or None, got {type(config).__name__}; build one "
+            "with velfence.io.load_config"
+        )
+    if console is not None and not isinstance(console, Console):
+        raise InvalidParameter(
+            f"console: expected a rich Console or None, got {type(console).__name__}"
+        )
     cfg = config if config is not None else load_config(config_path, max_steps=max_steps)
     console = console or Console(quiet=True)
     if console.width < 120 and not console.is_terminal:

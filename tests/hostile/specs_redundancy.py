@@ -36,7 +36,7 @@ def _distances() -> np.ndarray:
 SPECS: dict[str, F | C] = {
     "redundancy.Obstacle": C(
         F(
-            lambda: call(np.array([1.5, 1.2]), 0.1, 0.3),
+            lambda: call(np.array([1.5, 1.2]), radius=0.1, influence=0.3),
             types={"radius": "positive", "influence": "positive"},
         )
     ),

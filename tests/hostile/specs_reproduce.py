@@ -2,25 +2,22 @@
 
 from __future__ import annotations
 
-from harness import C, F, call
+from harness import C, call
 
-from velfence.reproduce import Check
+from velfence.reproduce import Check, Report
+
+_RECORD = "output record of the reproductions (velfence.reproduce.run_* build and return it)"
 
 
 def _check() -> Check:
     return Check("c", "source", 1.0, 1.0, 0.1, True)
 
 
-SPECS: dict[str, F | C] = {
-    "reproduce.Check": C(
-        F(
-            lambda: call("c", "source", 1.0, 1.0, 0.1, True),
-            types={"expected": "object", "measured": "object", "tolerance": "object"},
-        ),
-        {"to_dict": lambda: call()},
-    ),
+SPECS: dict[str, C] = {
+    "reproduce.Check": C(record=_RECORD, instance=_check, methods={"to_dict": lambda: call()}),
     "reproduce.Report": C(
-        F(lambda: call("r", (_check(),)), types={"checks": "object", "artifacts": "object"}),
-        {"to_dict": lambda: call(), "to_json": lambda: call()},
+        record=_RECORD,
+        instance=lambda: Report("r", (_check(),)),
+        methods={"to_dict": lambda: call(), "to_json": lambda: call()},
     ),
 }

@@ -34,7 +34,7 @@ SPECS: dict[str, F | C] = {
         {**SHAPER_2D, "inscribed": lambda: call(square(), buffer=0.2)},
     ),
     "sim.Disturbance": C(
-        F(lambda: call(((0.1, 0.2, 0.5, 0.0),)), types={"pushes": "vector"}),
+        F(lambda: call(pushes=((0.1, 0.2, 0.5, 0.0),)), types={"pushes": "vector"}),
         {"push": F(lambda: call(0.1, 0.2, [0.5, 0.0]), types={"t0": "nonneg", "t1": "positive"})},
     ),
     "sim.push": F(lambda: call(0.1, 0.2, [0.5, 0.0]), types={"t0": "nonneg", "t1": "positive"}),

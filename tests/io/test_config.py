@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import math
 import re
+from decimal import Decimal
 from pathlib import Path
 
+import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -530,3 +532,44 @@ def test_any_yamlish_text_loads_or_raises_invalid_parameter(tmp_path: Path, text
     except InvalidParameter as exc:
         cfg = str(exc)
     assert isinstance(cfg, DemoConfig) or cfg.startswith(("config file", "invalid config file"))
+
+
+@pytest.mark.parametrize(
+    ("fields", "named", "says"),
+    [
+        ({"dt": "0.01"}, "dt", "write numbers without quotes"),
+        ({"duration": np.True_}, "duration", "got bool"),
+        ({"noise_std": Decimal("0.1")}, "noise_std", "got Decimal"),
+        ({"start": {0.0, 0.1}}, "start", "got set"),
+        ({"start": np.array([1 + 1j, 0.0])}, "start", "complex128"),
+        ({"seed": np.timedelta64(1, "s")}, "seed", "timedelta64"),
+        ({"shaper": {}}, "shaper", "leave it out for the defaults"),
+        ({"shaper": {"buffer": "x"}}, "shaper.buffer", "valid number"),
+    ],
+)
+def test_direct_construction_raises_invalid_parameter_naming_the_field(
+    fields: dict[str, object], named: str, says: str
+) -> None:
+    with pytest.raises(InvalidParameter, match=rf"^invalid DemoConfig: {re.escape(named)}: ") as e:
+        DemoConfig(**fields)  # type: ignore[arg-type]
+    assert says in str(e.value)
+
+
+def test_direct_construction_accepts_numpy_numbers() -> None:
+    cfg = DemoConfig(dt=np.float32(0.002), seed=np.int64(3), start=np.array([0.1, -0.2]))
+    assert cfg.seed == 3
+    assert type(cfg.seed) is int
+    assert cfg.start == (0.1, -0.2)
+    assert abs(cfg.dt - 0.002) < 1e-9
+
+
+def test_loader_keeps_its_wording_after_direct_construction_errors() -> None:
+    with pytest.raises(InvalidParameter, match=r"^invalid config: dt: .*without quotes"):
+        load_config(None, dt="0.01")
+    with pytest.raises(InvalidParameter, match=r"^invalid DemoConfig: dt: "):
+        DemoConfig(dt="0.01")  # the loader's name for the config does not leak out
+
+
+def test_check_run_length_refuses_a_non_string_duration_name() -> None:
+    with pytest.raises(InvalidParameter, match="duration_name: expected a string"):
+        check_run_length(1.0, 0.001, duration_name=3)  # type: ignore[arg-type]

@@ -22,9 +22,11 @@ import math
 import os
 import re
 import stat
+from contextvars import ContextVar
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any, Literal, NoReturn
 
+import numpy as np
 from pydantic import (
     BaseModel,
     ConfigDict,
@@ -35,7 +37,7 @@ from pydantic import (
     model_validator,
 )
 
-from velfence._validate import MAX_STEPS, _show, check_positive_int, step_count
+from velfence._validate import MAX_STEPS, _show, check_count, check_text, step_count
 from velfence.errors import InvalidParameter
 
 if TYPE_CHECKING:
@@ -93,8 +95,58 @@ NonNegative = Annotated[float, Strict(), Field(allow_inf_nan=False, ge=0, le=MAX
 Pair = tuple[Number, Number]
 
 
+#: How a config is named in the messages of DemoConfig(...): load_config sets the file's name.
+_WHERE: ContextVar[str] = ContextVar("velfence_config_where", default="DemoConfig")
+
+#: Most entries of one list a field value may have before it is even looked at (the largest
+#: list field, ``polygon``, takes :data:`MAX_CORNERS`; a longer one is refused without a walk).
+_MAX_ENTRIES = 10 * MAX_CORNERS
+
+
+def _plain(value: Any, depth: int = 0) -> Any:
+    """``value`` with NumPy scalars and arrays turned into plain Python numbers and lists.
+
+    A config file only ever holds numbers, strings, booleans, lists and mappings; objects built
+    in Python may hold NumPy types (accepted as the numbers they are) and anything else (sets,
+    iterators, complex numbers, Decimals, bytes ...), which is refused here: pydantic would read
+    some of them as numbers (``np.True_`` as 1.0, ``0.5+0j`` as 0.5).
+
+    Raises:
+        ValueError: a value that is no config value (pydantic reports it with the field's name).
+    """
+    if value is None or isinstance(value, (str, dict, bool, int, float)):
+        return value  # pydantic's own (strict) checks judge these
+    if isinstance(value, np.bool_):
+        return bool(value)
+    if isinstance(value, (np.timedelta64, np.datetime64)):  # np.timedelta64 is an np.integer
+        raise ValueError(f"expected a number, got {type(value).__name__} {value}")
+    if isinstance(value, (np.integer, np.floating)):
+        with np.errstate(all="ignore"):  # a long double beyond float range becomes inf: refused
+            return int(value) if isinstance(value, np.integer) else float(value)
+    if depth >= MAX_DEPTH:
+        raise ValueError(f"nested deeper than {MAX_DEPTH} levels")
+    if isinstance(value, np.ndarray):
+        if value.dtype.kind not in "biuf":
+            raise ValueError(f"expected real numbers, got an array of dtype {value.dtype}")
+        if value.size > _MAX_ENTRIES:
+            raise ValueError(f"expected at most {_MAX_ENTRIES} numbers, got {value.size}")
+        return _plain(np.asarray(value).tolist(), depth + 1)
+    if isinstance(value, (list, tuple)):
+        if len(value) > _MAX_ENTRIES:
+            raise ValueError(f"expected at most {_MAX_ENTRIES} entries, got {len(value)}")
+        return [_plain(v, depth + 1) for v in value]
+    raise ValueError(
+        f"expected a number, a string, a list or a mapping, got {type(value).__name__}"
+    )
+
+
 class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+    @field_validator("*", mode="before")
+    @classmethod
+    def _plain_values(cls, value: Any) -> Any:
+        return _plain(value)
 
 
 class ShaperSettings(_Strict):
@@ -161,6 +213,24 @@ class DemoConfig(_Strict):
     saturate: Annotated[bool, Strict()] = True
     gif: Annotated[bool, Strict()] = True
 
+    def __init__(self, **data: Any) -> None:
+        """Build a configuration directly (the fields are documented in ``docs/config.md``).
+
+        Raises:
+            InvalidParameter: a field is invalid; the message names it (``dt: ...``).
+        """
+        try:
+            super().__init__(**data)
+        except ValidationError as err:
+            raise InvalidParameter(f"invalid {_WHERE.get()}: {_describe(err)}") from None
+
+    @field_validator("shaper", mode="before")
+    @classmethod
+    def _shaper_not_empty(cls, value: Any) -> Any:
+        if isinstance(value, dict) and not value:
+            raise ValueError("shaper must not be empty (leave it out for the defaults)")
+        return value
+
     @field_validator("polygon")
     @classmethod
     def _corner_count(cls, value: list[Pair] | None) -> list[Pair] | None:
@@ -216,7 +286,8 @@ def check_run_length(
     Raises:
         InvalidParameter: too many steps (the message says how to allow more), or bad values.
     """
-    limit = check_positive_int("max_steps", max_steps, maximum=MAX_STEPS, example=DEFAULT_MAX_STEPS)
+    limit = check_count("max_steps", max_steps, maximum=MAX_STEPS, example=DEFAULT_MAX_STEPS)
+    duration_name = check_text("duration_name", duration_name)
     try:
         return step_count(duration_name, duration, "dt", dt, max_steps=limit)
     except InvalidParameter as exc:
@@ -263,12 +334,18 @@ def _read_text(p: Path) -> str:
     try:
         st = p.stat()
     except OSError as exc:
-        raise InvalidParameter(f"cannot read config file {p}: {exc.strerror}") from None
+        raise InvalidParameter(
+            f"cannot read config file {p}: {exc.strerror}; check the path"
+        ) from None
     if stat.S_ISDIR(st.st_mode):
-        raise InvalidParameter(f"cannot read config file {p}: it is a directory, not a file")
+        raise InvalidParameter(
+            f"cannot read config file {p}: it is a directory; give the path of a file"
+        )
     if not stat.S_ISREG(st.st_mode):
         # A FIFO or device (/dev/zero) could block or never end.
-        raise InvalidParameter(f"cannot read config file {p}: not a regular file")
+        raise InvalidParameter(
+            f"cannot read config file {p}: not a regular file; give the path of a file"
+        )
     if st.st_size > MAX_FILE_BYTES:
         raise InvalidParameter(
             f"config file {p} is {st.st_size:,} bytes; at most {MAX_FILE_BYTES:,} are accepted"
@@ -277,7 +354,9 @@ def _read_text(p: Path) -> str:
         with p.open("rb") as fh:
             raw = fh.read(MAX_FILE_BYTES + 1)  # the file may have grown since stat()
     except OSError as exc:
-        raise InvalidParameter(f"cannot read config file {p}: {exc.strerror}") from None
+        raise InvalidParameter(
+            f"cannot read config file {p}: {exc.strerror}; check the path"
+        ) from None
     if len(raw) > MAX_FILE_BYTES:
         raise InvalidParameter(f"config file {p} is larger than {MAX_FILE_BYTES:,} bytes")
     try:
@@ -456,7 +535,7 @@ def load_config(
         InvalidParameter: the file is missing, too large, not UTF-8, not plain YAML, or a field
             is invalid (named); the run would be longer than ``max_steps``.
     """
-    limit = check_positive_int("max_steps", max_steps, maximum=MAX_STEPS, example=DEFAULT_MAX_STEPS)
+    limit = check_count("max_steps", max_steps, maximum=MAX_STEPS, example=DEFAULT_MAX_STEPS)
     data: dict[Any, Any] = {}
     p: Path | None = None
     if path is not None:
@@ -471,10 +550,21 @@ def load_config(
         data = loaded
     data.update(overrides)
     where = f"config file {p}" if p is not None else "config"
+    odd = [k for k in data if not isinstance(k, str)]
+    if odd:  # field names are strings; DemoConfig(**data) could not even be called
+        raise InvalidParameter(f"invalid {where}: {odd[0]!r}: Extra inputs are not permitted")
+    token = _WHERE.set(where)
     try:
         cfg = DemoConfig.model_validate(data)
     except ValidationError as err:
+        # model_validate runs DemoConfig.__init__, whose InvalidParameter (already worded with
+        # `where`) pydantic wraps as one top-level error: hand that one on as it is.
+        inner = [e.get("ctx", {}).get("error") for e in err.errors()]
+        if len(inner) == 1 and isinstance(inner[0], InvalidParameter):
+            raise inner[0] from None
         raise InvalidParameter(f"invalid {where}: {_describe(err)}") from None
+    finally:
+        _WHERE.reset(token)
     # The run length is known here unless it comes from the default script; then run_demo
     # checks it once the script is built, still before any step is simulated.
     try:

@@ -2,7 +2,7 @@
 
 Every reproduction returns a :class:`Report`: a list of :class:`Check` (what the source claims or
 publishes, what we measured, the tolerance we can honestly meet, and whether it passed) plus the
-paths of the artifacts (plots) it wrote. The JSON shape is fixed by DESIGN.md §3::
+paths of the artifacts (plots) it wrote. The JSON shape is fixed::
 
     {"name": ..., "checks": [{"name", "source", "expected", "measured", "tolerance", "passed"}],
      "artifacts": [paths]}
@@ -33,7 +33,7 @@ def jsonable(x: Any) -> Any:
 
 @dataclass(frozen=True)
 class Check:
-    """One named check of a reproduction.
+    """One named check of a reproduction (an output record: the reproductions build it).
 
     Attributes:
         name: Short identifier, e.g. ``"free-zone pass-through"``.
@@ -76,7 +76,7 @@ class Check:
 
 @dataclass(frozen=True)
 class Report:
-    """The outcome of one reproduction."""
+    """The outcome of one reproduction (an output record: each reproduction returns one)."""
 
     name: str
     checks: tuple[Check, ...]
@@ -88,7 +88,7 @@ class Report:
         return all(c.passed or c.source_defect for c in self.checks)
 
     def to_dict(self) -> dict[str, Any]:
-        """The DESIGN.md §3 JSON object."""
+        """The JSON object of the report (shape in the module docstring)."""
         return {
             "name": self.name,
             "checks": [c.to_dict() for c in self.checks],

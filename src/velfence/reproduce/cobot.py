@@ -164,7 +164,7 @@ def run(out_dir: str | Path = "out/reproduce/cobot") -> Report:
     """Run every check and write the figures.
 
     Returns:
-        The report (DESIGN.md §3 JSON via ``to_json()``).
+        The report (its JSON via ``to_json()``, format in :mod:`velfence.reproduce.base`).
     """
     from velfence.viz.cobot import plot_errors, plot_fig5, plot_steering, plot_walls
 

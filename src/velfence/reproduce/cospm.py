@@ -199,7 +199,7 @@ def run(out_dir: str | Path = "out/reproduce/cospm") -> Report:
     """Run every check and write the figures.
 
     Returns:
-        The report (DESIGN.md §3 JSON via ``to_json()``).
+        The report (its JSON via ``to_json()``, format in :mod:`velfence.reproduce.base`).
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)

@@ -42,7 +42,7 @@ def run(
         runs: Runs per mode per subject (the thesis: 3).
 
     Returns:
-        The report (DESIGN.md §3 JSON via ``to_json()``).
+        The report (its JSON via ``to_json()``, format in :mod:`velfence.reproduce.base`).
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)

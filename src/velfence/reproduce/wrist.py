@@ -57,7 +57,7 @@ def run(out_dir: str | Path = "out/reproduce/wrist") -> Report:
     """Run every check; write the figures to ``out_dir``.
 
     Returns:
-        The report (DESIGN.md §3 JSON via ``to_json()``).
+        The report (its JSON via ``to_json()``, format in :mod:`velfence.reproduce.base`).
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
