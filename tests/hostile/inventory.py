@@ -2,14 +2,17 @@
 
 Usage (from the repository root)::
 
-    PYTHONPATH=src python tests/hostile/inventory.py OUT.txt
+    PYTHONPATH=src python tests/hostile/inventory.py OUT.txt [--write-known]
 
-Per public callable and argument: which kinds fail and how, then totals by failure class.
+Per public callable and argument: which kinds fail and how, then totals by failure class. With
+``--write-known`` the failures are also written to ``known_defects.json`` (the open-defect
+baseline the test compares against; see docs/reliability-inputs.md).
 """
 
 from __future__ import annotations
 
 import collections
+import json
 import sys
 import time
 from pathlib import Path
@@ -45,7 +48,15 @@ def keyword_only_violations() -> list[str]:
     return out
 
 
-def main(out: str) -> int:
+KNOWN = Path(__file__).parent / "known_defects.json"
+
+
+def failure_id(f: harness.Failure) -> str:
+    """The stable identity of one failure: argument, kind and failure class."""
+    return f"{f.param}|{f.kind}|{f.klass}"
+
+
+def main(out: str, write_known: bool = False) -> int:
     t_start = time.perf_counter()
     targets, missing = harness.targets()
     by_class: collections.Counter[str] = collections.Counter()
@@ -96,9 +107,19 @@ def main(out: str) -> int:
         "per callable and argument (class: kinds that failed):",
     ]
     Path(out).write_text("\n".join(head + lines) + "\n")
+    if write_known:
+        known = {
+            t.key: sorted({failure_id(f) for f in results[t.key][0]})
+            for t in targets
+            if results[t.key][0]
+        }
+        KNOWN.write_text(json.dumps(known, indent=1, sort_keys=True) + "\n")
     print("\n".join(head[:16]))
     return 0
 
 
 if __name__ == "__main__":
-    raise SystemExit(main(sys.argv[1] if len(sys.argv) > 1 else "hostile-inventory.txt"))
+    args = [a for a in sys.argv[1:] if not a.startswith("--")]
+    raise SystemExit(
+        main(args[0] if args else "hostile-inventory.txt", "--write-known" in sys.argv)
+    )

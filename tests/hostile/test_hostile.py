@@ -8,9 +8,12 @@ from __future__ import annotations
 
 import dataclasses
 import inspect
+import json
 
 import pytest
 from harness import C, attack, attack_many, public_callables, registry, targets
+from inventory import KNOWN as KNOWN_FILE
+from inventory import failure_id
 from kinds import KINDS
 
 TARGETS, MISSING = targets()
@@ -39,12 +42,34 @@ def hostile_results(request: pytest.FixtureRequest) -> dict[str, tuple[list, int
     return attack_many(keys)
 
 
+#: Open defects, listed one by one (argument | kind | failure class) and regenerated with
+#: ``inventory.py --write-known``. A new failure fails the test; so does a listed one that no
+#: longer fails (the list may only shrink: remove the fixed entries).
+KNOWN: dict[str, list[str]] = json.loads(KNOWN_FILE.read_text()) if KNOWN_FILE.exists() else {}
+
+
 @pytest.mark.parametrize("target", TARGETS, ids=[t.key for t in TARGETS])
 def test_hostile_inputs(target, hostile_results) -> None:  # type: ignore[no-untyped-def]
     failures, _calls = hostile_results.get(target.key) or attack(target)
-    if failures:
-        lines = "\n  ".join(f.line() for f in failures)
-        pytest.fail(f"{len(failures)} hostile-input failure(s):\n  {lines}", pytrace=False)
+    known = set(KNOWN.get(target.key, ()))
+    new = [f for f in failures if failure_id(f) not in known]
+    fixed = sorted(known - {failure_id(f) for f in failures})
+    msg = []
+    if new:
+        lines = "\n  ".join(f.line() for f in new)
+        msg.append(f"{len(new)} new hostile-input failure(s):\n  {lines}")
+    if fixed:
+        msg.append(
+            f"{len(fixed)} listed defect(s) no longer fail; remove them from "
+            f"known_defects.json:\n  " + "\n  ".join(fixed)
+        )
+    if msg:
+        pytest.fail("\n".join(msg), pytrace=False)
+
+
+def test_known_defects_name_only_public_targets() -> None:
+    keys = {t.key for t in TARGETS}
+    assert not set(KNOWN) - keys, sorted(set(KNOWN) - keys)
 
 
 def _classes() -> list[tuple[str, type]]:
