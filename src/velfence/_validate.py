@@ -38,6 +38,8 @@ __all__ = [
     "check_positive",
     "check_positive_int",
     "check_range",
+    "checked_array",
+    "checked_transform",
     "finite_array",
     "finite_rows",
     "finite_scalar",
@@ -514,3 +516,66 @@ def check_flag(name: str, value: Any, *, error: type[Exception] | None = None) -
             f"{name}: expected True or False, got {_type_text(value)}"
         )
     return bool(value)
+
+
+def checked_array(
+    name: str,
+    x: Any,
+    shape: tuple[int | None, ...] | None = None,
+    *,
+    error: type[Exception] | None = None,
+    what: str = "numbers",
+    allow_nonfinite: bool = False,
+    max_abs: float | None = MAX_MAGNITUDE,
+) -> NDArray[np.float64]:
+    """:func:`real_array`, also safe against array-likes that misbehave while NumPy reads them.
+
+    An object whose ``__array__`` raises, a sequence that claims 10¹² entries (NumPy would try
+    to allocate them: ``MemoryError``), one whose ``__len__`` lies about its items, and extended
+    precision values beyond the float64 range (NumPy warns on the cast) are refused with the
+    argument's name instead of escaping as their own exceptions or warnings.
+
+    Arguments and result as for :func:`real_array`.
+    """
+    err = _error(error)
+    want = "" if shape is None else f" of shape {_shape_text(shape)}"
+    plain = (np.ndarray, list, tuple, numbers.Real, *_NOT_NUMBERS)
+    if not isinstance(x, plain) and hasattr(x, "__len__"):
+        try:
+            n = len(x)
+            items = [x[i] for i in range(n)] if n <= 1_000_000 else None
+        except Exception:  # a lying or hostile sequence
+            items = None
+        if items is None:
+            raise err(f"{name}: expected {what}{want}, got {_type_text(x)}")
+        x = items
+    if isinstance(x, np.ndarray) and x.dtype.kind == "f" and x.dtype.itemsize > 8:
+        with np.errstate(over="ignore", invalid="ignore"):
+            big = bool(np.any(np.abs(x[np.isfinite(x)]) > MAX_MAGNITUDE)) if x.size else False
+        if big:
+            raise err(f"{name}: expected {what} of magnitude <= {MAX_MAGNITUDE:g}")
+    if isinstance(x, np.floating) and np.dtype(type(x)).itemsize > 8:
+        x = np.asarray(x)
+        if np.isfinite(x) and abs(x) > MAX_MAGNITUDE:
+            raise err(f"{name}: expected {what} of magnitude <= {MAX_MAGNITUDE:g}")
+    try:
+        return real_array(
+            name, x, shape, error=error, what=what, allow_nonfinite=allow_nonfinite, max_abs=max_abs
+        )
+    except MemoryError:
+        raise err(f"{name}: expected {what}{want}, got an object too large to read") from None
+    except Exception as exc:
+        from velfence.errors import VelfenceError
+
+        if isinstance(exc, VelfenceError) or type(exc) is err:
+            raise
+        raise err(
+            f"{name}: expected {what}{want}, got {_type_text(x)} that could not be read as "
+            f"numbers ({type(exc).__name__})"
+        ) from None
+
+
+def checked_transform(name: str, T: Any, *, tol: float = 1e-6) -> NDArray[np.float64]:
+    """:func:`rigid_transform`, read through :func:`checked_array` (misbehaving array-likes)."""
+    a = checked_array(name, T, (4, 4), what="a 4 x 4 homogeneous transform")
+    return rigid_transform(name, a, tol=tol)

@@ -60,9 +60,9 @@ SPECS: dict[str, F | C] = {
         lambda: call([0.0, 1.0, 0.0], [0.0, -1.0, 0.0]),
         {**_PRIM, "signed_distance": lambda: call(_P3)},
     ),
-    "teleop.Disk": C(lambda: call([0.0, 1.0, 0.0], [0.0, -1.0, 0.0], 0.1), _PRIM),
+    "teleop.Disk": C(lambda: call([0.0, 1.0, 0.0], [0.0, -1.0, 0.0], radius=0.1), _PRIM),
     "teleop.Cylinder": C(
-        lambda: call([0.0, 1.0, 0.0], 0.05, 0.1), {**_PRIM, "contains": lambda: call(_P3)}
+        lambda: call([0.0, 1.0, 0.0], radius=0.05, height=0.1), {**_PRIM, "contains": lambda: call(_P3)}
     ),
     "teleop.Box": C(
         lambda: call([0.0, 1.0, 0.0], [0.1, 0.1, 0.1]), {**_PRIM, "contains": lambda: call(_P3)}
@@ -211,7 +211,7 @@ SPECS: dict[str, F | C] = {
         },
     ),
     "teleop.SyntheticOperator": C(
-        F(lambda: call(OperatorProfile(), seed=0), types={"seed": "seed"}),
+        F(lambda: call(profile=OperatorProfile(), seed=0), types={"seed": "seed"}),
         {
             "act": lambda: call(_observation()),
             "aim": lambda: call(np.array([0.0, 1.0, 0.0]), 0.01),
@@ -224,9 +224,14 @@ SPECS: dict[str, F | C] = {
             "record": lambda: call("A"),
             "start": lambda: call(lambda op: op.wait(0.1)),
             "stroke": lambda: call(np.array([0.01, 0.0, 0.0]), 0.001),
-            "turn": lambda: call(np.array([0.0, 0.0, 0.1]), peak=0.3, a=0.4, b=0.3, tol=0.01),
+            # a and b are Fitts-law coefficients [s], [s/bit]: zero is a valid value
+            "turn": F(
+                lambda: call(np.array([0.0, 0.0, 0.1]), peak=0.3, a=0.4, b=0.3, tol=0.01),
+                types={"a": "nonneg", "b": "nonneg"},
+            ),
             "vertical": lambda: call(0.05),
-            "wait": lambda: call(0.1),
+            # waiting 0 s is a valid one-tick no-op (plans compute their waits)
+            "wait": F(lambda: call(0.1), types={"duration": "nonneg"}),
             "wait_until": lambda: call(lambda o: True),
         },
         instance=_operator,

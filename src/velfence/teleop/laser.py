@@ -56,10 +56,10 @@ from velfence._validate import (
     check_positive,
     check_positive_int,
     check_range,
-    finite_array,
+    checked_array,
+    checked_transform,
     finite_scalar,
     readonly,
-    rigid_transform,
 )
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 from velfence.teleop.scene import Scene
@@ -136,7 +136,7 @@ def _rng(rng: Any) -> np.random.Generator:
 
 def _pose(T: ArrayLike) -> tuple[FloatArray, FloatArray]:
     """Validated flange pose: rotation (3, 3) and position (3,)."""
-    a = rigid_transform("T_flange", T, tol=_POSE_TOL)
+    a = checked_transform("T_flange", T, tol=_POSE_TOL)
     return a[:3, :3], a[:3, 3]
 
 
@@ -186,8 +186,8 @@ class VoltageModel:
                 equal (the slope is undetermined).
             InvalidParameter: the fitted slope is not positive (distance must grow with voltage).
         """
-        d = finite_array("distances_cm", distances_cm, (None,), what="distances [cm]")
-        v = finite_array("voltages_v", voltages_v, (None,), what="voltages [V]")
+        d = checked_array("distances_cm", distances_cm, (None,), what="distances [cm]")
+        v = checked_array("voltages_v", voltages_v, (None,), what="voltages [V]")
         if d.shape != v.shape or d.size < 2:
             raise InvalidInput(
                 f"expected distances_cm and voltages_v of the same length >= 2, got "
@@ -219,12 +219,12 @@ class VoltageModel:
 
     def distances_m(self, voltages_v: ArrayLike) -> FloatArray:
         """Vectorised :meth:`distance_m`: voltages [V] of any shape to distances [m]."""
-        v = finite_array("voltages_v", voltages_v, what="voltages [V]")
+        v = checked_array("voltages_v", voltages_v, what="voltages [V]")
         return np.asarray(0.01 * (self.slope_cm_per_v * v + self.offset_cm), dtype=float)
 
     def voltages_v(self, distances_m: ArrayLike) -> FloatArray:
         """Vectorised :meth:`voltage_v`: distances [m] of any shape to voltages [V]."""
-        d = finite_array("distances_m", distances_m, what="distances [m]")
+        d = checked_array("distances_m", distances_m, what="distances [m]")
         return np.asarray((100.0 * d - self.offset_cm) / self.slope_cm_per_v, dtype=float)
 
 
@@ -250,8 +250,10 @@ class TabulatedCharacteristic:
     _slope_v_per_cm: float = field(init=False, repr=False)
 
     def __init__(self, distances_cm: ArrayLike, voltages_v: ArrayLike) -> None:
-        d = finite_array("distances_cm", distances_cm, error=InvalidGeometry, what="distances [cm]")
-        v = finite_array("voltages_v", voltages_v, error=InvalidGeometry, what="voltages [V]")
+        d = checked_array(
+            "distances_cm", distances_cm, error=InvalidGeometry, what="distances [cm]"
+        )
+        v = checked_array("voltages_v", voltages_v, error=InvalidGeometry, what="voltages [V]")
         if d.ndim != 1 or d.shape != v.shape or d.size < 2:
             raise InvalidGeometry(
                 f"expected distances_cm and voltages_v of shape (n,), n >= 2, got {d.shape} and "
@@ -308,7 +310,7 @@ def frequent_level_mean(
             are not quantised levels; pass ``quantum_v`` or lower ``min_share``).
     """
     share = check_range("min_share", min_share, low=0.0, high=1.0, low_open=True, high_open=True)
-    v = finite_array("voltages_v", voltages_v, (None,), what="voltage samples [V]")
+    v = checked_array("voltages_v", voltages_v, (None,), what="voltage samples [V]")
     if v.size == 0:
         raise InvalidInput("voltages_v: expected at least one sample, got none")
     if quantum_v is None:
@@ -395,7 +397,7 @@ def moving_average(samples: ArrayLike, *, window: int) -> FloatArray:
         InvalidParameter: a bad window.
         InvalidInput: non-finite samples or fewer samples than the window.
     """
-    x = finite_array("samples", samples)
+    x = checked_array("samples", samples)
     n_win = check_positive_int("window", window, example=50)
     if x.ndim == 0 or x.shape[-1] < window:
         raise InvalidInput(
@@ -437,9 +439,9 @@ def plane_from_points(
         InvalidGeometry: coincident or collinear points (no unique plane).
     """
     eps = check_positive("tol", tol)
-    a1 = finite_array("p1", p1, (3,), what="a point [m]")
-    a2 = finite_array("p2", p2, (3,), what="a point [m]")
-    a3 = finite_array("p3", p3, (3,), what="a point [m]")
+    a1 = checked_array("p1", p1, (3,), what="a point [m]")
+    a2 = checked_array("p2", p2, (3,), what="a point [m]")
+    a3 = checked_array("p3", p3, (3,), what="a point [m]")
     A = a1 - a2
     B = a1 - a3
     la, lb = float(np.linalg.norm(A)), float(np.linalg.norm(B))
@@ -537,7 +539,7 @@ class LaserRangeSensor:
         model: VoltageModel | None = None,
         characteristic: Characteristic | None = None,
     ) -> None:
-        off = finite_array(
+        off = checked_array(
             "offset [m] (laser origin in frame 6)", offset, (3,), error=InvalidParameter
         )
         lo = check_positive("min_range", min_range, allow_zero=True, unit="m")
@@ -881,7 +883,7 @@ class LaserStream:
                 distance >= 0 (checked before any sample is taken).
         """
         if isinstance(true_distances, np.ndarray):
-            seq: list[Any] = list(finite_array("true_distances", true_distances, (None,)))
+            seq: list[Any] = list(checked_array("true_distances", true_distances, (None,)))
         elif isinstance(true_distances, (list, tuple)):
             seq = list(true_distances)
         else:

@@ -64,10 +64,10 @@ from velfence._validate import (
     check_choice,
     check_positive,
     check_positive_int,
-    finite_array,
+    checked_array,
+    checked_transform,
     finite_scalar,
     readonly,
-    rigid_transform,
 )
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 from velfence.shaping.fixtures import LineFixture, LineScaling
@@ -144,7 +144,7 @@ class Segment:
 
 
 def _unit(name: str, x: ArrayLike) -> FloatArray:
-    a = finite_array(name, x, (3,))
+    a = checked_array(name, x, (3,))
     n = float(np.linalg.norm(a))
     if not n > 1e-12:
         raise InvalidInput(f"{name}: expected a non-zero vector, got {a.tolist()}")
@@ -172,7 +172,7 @@ def aligned_rotation(R: ArrayLike, normal: ArrayLike, *, alignment: str = "faith
     """
     how = check_choice("alignment", alignment, ALIGNMENTS)
     z = -_unit("normal", normal)
-    Ra = finite_array("R", R, (3, 3), what="a 3x3 rotation matrix")
+    Ra = checked_array("R", R, (3, 3), what="a 3x3 rotation matrix")
     angle_axis(Ra)  # validates orthonormality (raises InvalidInput)
     if how == "faithful":
         temp = np.cross(z, Ra[:, 0])
@@ -416,7 +416,7 @@ class ModeManager:
             raise InvalidInput(f"key: expected one of {list(KEYS)} (C = clutch), got {key!r}")
         k = key.upper()
         tf = finite_scalar("t", t, unit="s", what="time")
-        T = rigid_transform("pose", pose, tol=POSE_TOL)
+        T = checked_transform("pose", pose, tol=POSE_TOL)
         if distance is not None:
             d = finite_scalar("distance", distance, unit="m", what="reading")
             if d < 0.0:
@@ -625,9 +625,9 @@ class ModeManager:
             the next via point (self-correcting, §6.2.1); zero on the cycle a segment completes.
         """
         tf = finite_scalar("t", t, unit="s", what="time")
-        T = rigid_transform("pose", pose, tol=POSE_TOL)
-        v = finite_array("linear", linear, (3,), what="a velocity [m/s]")
-        w = finite_array("angular", angular, (3,), what="an angular velocity [rad/s]")
+        T = checked_transform("pose", pose, tol=POSE_TOL)
+        v = checked_array("linear", linear, (3,), what="a velocity [m/s]")
+        w = checked_array("angular", angular, (3,), what="an angular velocity [rad/s]")
         if self._segment is not None:
             return self._autonomous(tf, T)
         out = np.zeros(6)

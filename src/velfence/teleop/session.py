@@ -68,7 +68,7 @@ from velfence._validate import (
     check_positive,
     check_positive_int,
     check_range,
-    finite_array,
+    checked_array,
     readonly,
     step_count,
 )
@@ -148,7 +148,7 @@ def omni_to_puma(v: ArrayLike) -> FloatArray:
     Returns:
         ``v M`` in the PUMA base frame, shape (3,).
     """
-    return np.asarray(finite_array("v", v, (3,)) @ OMNI_TO_PUMA, dtype=float)
+    return np.asarray(checked_array("v", v, (3,)) @ OMNI_TO_PUMA, dtype=float)
 
 
 def default_robot() -> Puma560:
@@ -449,8 +449,8 @@ class Session:
         Raises:
             InvalidInput: wrong shapes or non-finite values.
         """
-        self._lin = finite_array("linear [m/s]", linear, (3,))
-        self._ang = finite_array("angular [rad/s]", angular, (3,))
+        self._lin = checked_array("linear [m/s]", linear, (3,))
+        self._ang = checked_array("angular [rad/s]", angular, (3,))
 
     def advance(self, dt: float) -> None:
         """Advance the world by ``dt`` [s] in control cycles of ``1/rate``.
@@ -721,4 +721,4 @@ def _robot(robot: Any) -> Puma560:
 
 
 def _vec6(x: ArrayLike) -> FloatArray:
-    return finite_array("q0 [rad]", x, (6,), error=InvalidParameter)
+    return checked_array("q0 [rad]", x, (6,), error=InvalidParameter)

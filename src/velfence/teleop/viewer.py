@@ -84,7 +84,7 @@ from velfence._validate import (
     check_flag,
     check_positive_int,
     check_range,
-    finite_array,
+    checked_array,
     finite_scalar,
     step_count,
 )
@@ -207,7 +207,7 @@ def _jsonable(x: Any) -> Any:
 
 def _vector(name: str, value: Any, limit: float, unit: str) -> FloatArray:
     """A finite 3-vector [unit] with norm <= limit, else :class:`InvalidInput` naming ``name``."""
-    v = finite_array(f"{name} [{unit}]", value, (3,))
+    v = checked_array(f"{name} [{unit}]", value, (3,))
     if isinstance(value, list | tuple):
         # NumPy turns [true, 0, 0] into the integers [1, 0, 0]: a 1 m/s jog. Each component
         # must be a real number itself (booleans and strings refused).
