@@ -34,12 +34,15 @@ __all__ = [
     "as_pair",
     "as_rows",
     "check_choice",
+    "check_count",
     "check_flag",
     "check_positive",
     "check_positive_int",
     "check_range",
+    "check_seed",
     "checked_array",
     "checked_transform",
+    "describe",
     "finite_array",
     "finite_rows",
     "finite_scalar",
@@ -579,3 +582,62 @@ def checked_transform(name: str, T: Any, *, tol: float = 1e-6) -> NDArray[np.flo
     """:func:`rigid_transform`, read through :func:`checked_array` (misbehaving array-likes)."""
     a = checked_array(name, T, (4, 4), what="a 4 x 4 homogeneous transform")
     return rigid_transform(name, a, tol=tol)
+
+
+def describe(x: Any) -> str:
+    """A short, safe description of ``x`` for messages (type and cut ``repr``; never raises)."""
+    return _type_text(x)
+
+
+#: Largest accepted integer seed (NumPy seeds any int, but a seed of 10⁴⁰⁰ is a mistake).
+MAX_SEED = 2**63 - 1
+
+
+def check_count(
+    name: str,
+    value: Any,
+    *,
+    example: int = 1,
+    minimum: int = 1,
+    maximum: int | None = None,
+    error: type[Exception] | None = None,
+) -> int:
+    """:func:`check_positive_int`, also refusing NumPy time deltas (NumPy counts them integers).
+
+    Raises:
+        InvalidParameter: (or ``error``) not an int, or out of range.
+    """
+    from velfence.errors import InvalidParameter
+
+    if isinstance(value, (np.timedelta64, np.datetime64)):
+        want = "a positive int" if minimum == 1 else f"an int >= {minimum}"
+        raise (error or InvalidParameter)(
+            f"{name}: expected {want}, got {_type_text(value)}; e.g. {example}"
+        )
+    return check_positive_int(
+        name, value, example=example, minimum=minimum, maximum=maximum, error=error
+    )
+
+
+def check_seed(
+    name: str, seed: Any, *, allow_generator: bool = False, error: type[Exception] | None = None
+) -> Any:
+    """An int seed in ``[0, MAX_SEED]`` (or, with ``allow_generator``, a NumPy ``Generator``).
+
+    Raises:
+        InvalidParameter: (or ``error``) anything else.
+    """
+    from velfence.errors import InvalidParameter
+
+    if allow_generator and isinstance(seed, np.random.Generator):
+        return seed
+    if (
+        isinstance(seed, (bool, np.bool_, np.timedelta64, np.datetime64))
+        or not isinstance(seed, (int, np.integer))
+        or not 0 <= seed <= MAX_SEED
+    ):
+        alt = " or a numpy.random.Generator" if allow_generator else ""
+        raise (error or InvalidParameter)(
+            f"{name}: expected an int in [0, 2**63 - 1]{alt}, got {_type_text(seed)}"
+        )
+    return int(seed)

@@ -104,7 +104,7 @@ def test_errors():
         FirstOrderServo(time_constant=-1.0)
     with pytest.raises(InvalidParameter, match="noise_std must be finite and >= 0"):
         FirstOrderServo(time_constant=0.0, noise_std=-0.1)
-    with pytest.raises(InvalidParameter, match="seed: expected an int >= 0"):
+    with pytest.raises(InvalidParameter, match=r"seed: expected an int in \[0, 2\*\*63 - 1\]"):
         FirstOrderServo(time_constant=0.0, seed=1.5)
     with pytest.raises(InvalidParameter, match="command must be one of"):
         FirstOrderServo(time_constant=0.0, command="torque")

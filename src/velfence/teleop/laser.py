@@ -53,11 +53,13 @@ from numpy.typing import ArrayLike, NDArray
 from velfence._validate import (
     MAX_MAGNITUDE,
     check_choice,
+    check_count,
     check_positive,
-    check_positive_int,
     check_range,
+    check_seed,
     checked_array,
     checked_transform,
+    describe,
     finite_scalar,
     readonly,
 )
@@ -121,7 +123,7 @@ MAX_SAMPLES = 10_000_000
 def _distance_input(name: str, x: Any) -> float:
     v = finite_scalar(name, x, unit="m", what="distance >= 0")
     if v < 0.0:
-        raise InvalidInput(f"{name}: expected a finite distance >= 0 [m], got {v!r}")
+        raise InvalidInput(f"{name}: expected a finite distance >= 0 [m], got {describe(v)}")
     return v
 
 
@@ -398,7 +400,7 @@ def moving_average(samples: ArrayLike, *, window: int) -> FloatArray:
         InvalidInput: non-finite samples or fewer samples than the window.
     """
     x = checked_array("samples", samples)
-    n_win = check_positive_int("window", window, example=50)
+    n_win = check_count("window", window, example=50)
     if x.ndim == 0 or x.shape[-1] < window:
         raise InvalidInput(
             f"samples: expected at least window = {window} samples along the last axis, got "
@@ -546,7 +548,7 @@ class LaserRangeSensor:
         hi = check_positive("max_range", max_range, unit="m")
         if not hi > lo:
             raise InvalidParameter(
-                f"max_range: expected a number > min_range = {lo:g} [m], got {max_range!r}"
+                f"max_range: expected a number > min_range = {lo:g} [m], got {describe(max_range)}"
             )
         sigma = check_positive("noise_v", noise_v, allow_zero=True, unit="V")
         q = check_positive("quantum_v", quantum_v, allow_zero=True, unit="V")
@@ -564,7 +566,7 @@ class LaserRangeSensor:
         if window is None:
             n = _NEW_WINDOW if filter == "moving_average" else 1
         else:
-            n = check_positive_int("window", window, example=_NEW_WINDOW, maximum=MAX_SAMPLES)
+            n = check_count("window", window, example=_NEW_WINDOW, maximum=MAX_SAMPLES)
         if model is None:
             model = VoltageModel()
         elif not isinstance(model, VoltageModel):
@@ -689,7 +691,7 @@ class LaserRangeSensor:
         """Whether a true distance [m] (or ``None``: no surface) yields a reading."""
         if distance is None:
             return False
-        d = finite_scalar("distance", distance, unit="m", what="distance", max_abs=None)
+        d = finite_scalar("distance", distance, unit="m", what="distance")
         return self.min_range <= d <= self.max_range
 
     def sample(self, true_distance: float | None, rng: np.random.Generator) -> float | None:
@@ -738,9 +740,7 @@ class LaserRangeSensor:
             InvalidInput: a negative or non-finite distance, or ``n`` not an int >= 0.
         """
         d = _distance_input("true_distance", true_distance)
-        n = check_positive_int(
-            "n", n, minimum=0, maximum=MAX_SAMPLES, example=1000, error=InvalidInput
-        )
+        n = check_count("n", n, minimum=0, maximum=MAX_SAMPLES, example=1000, error=InvalidInput)
         _rng(rng)
         if not self.in_range(d):
             return None
@@ -754,6 +754,10 @@ class LaserRangeSensor:
     def stream(self, *, seed: int | np.random.Generator = 0, t0: float = 0.0) -> LaserStream:
         """A fresh :class:`LaserStream` of this sensor (seeded)."""
         return LaserStream(self, seed=seed, t0=t0)
+
+
+#: Most samples one :meth:`LaserStream.run` call may take (about 18 min at 90 Hz).
+MAX_RUN_SAMPLES = 100_000
 
 
 class LaserStream:
@@ -783,12 +787,8 @@ class LaserStream:
             raise InvalidParameter(
                 f"sensor: expected a LaserRangeSensor, got {type(sensor).__name__}"
             )
-        if isinstance(seed, np.random.Generator):
-            rng = seed
-        elif isinstance(seed, int | np.integer) and not isinstance(seed, bool) and seed >= 0:
-            rng = np.random.default_rng(int(seed))
-        else:
-            raise InvalidParameter(f"seed: expected an int >= 0 or a numpy Generator, got {seed!r}")
+        s = check_seed("seed", seed, allow_generator=True)
+        rng = s if isinstance(s, np.random.Generator) else np.random.default_rng(s)
         self._sensor = sensor
         self._rng = rng
         self._window: deque[float] = deque(maxlen=sensor.window)
@@ -879,8 +879,9 @@ class LaserStream:
         """:meth:`step` through a sequence of true distances [m] (one per sample).
 
         Raises:
-            InvalidInput: not a sequence, or an entry that is neither ``None`` nor a finite
-                distance >= 0 (checked before any sample is taken).
+            InvalidInput: not a sequence of 1 to :data:`MAX_RUN_SAMPLES` entries, or an entry
+                that is neither ``None`` nor a finite distance >= 0 (checked before any sample
+                is taken).
         """
         if isinstance(true_distances, np.ndarray):
             seq: list[Any] = list(checked_array("true_distances", true_distances, (None,)))
@@ -890,6 +891,11 @@ class LaserStream:
             raise InvalidInput(
                 "true_distances: expected a sequence of distances [m] or None, got "
                 f"{type(true_distances).__name__}"
+            )
+        if not 1 <= len(seq) <= MAX_RUN_SAMPLES:
+            raise InvalidInput(
+                f"true_distances: expected 1 to {MAX_RUN_SAMPLES:,} distances, got {len(seq):,}; "
+                "run longer sequences in chunks"
             )
         ds = [
             None if d is None else _distance_input(f"true_distances[{i}]", d)

@@ -62,10 +62,11 @@ from numpy.typing import ArrayLike, NDArray
 
 from velfence._validate import (
     check_choice,
+    check_count,
     check_positive,
-    check_positive_int,
     checked_array,
     checked_transform,
+    describe,
     finite_scalar,
     readonly,
 )
@@ -257,7 +258,7 @@ class ModeManager:
         if laser is None:
             laser = LaserRangeSensor()
         elif not isinstance(laser, LaserRangeSensor):
-            raise InvalidParameter(f"laser: expected a LaserRangeSensor, got {laser!r}")
+            raise InvalidParameter(f"laser: expected a LaserRangeSensor, got {describe(laser)}")
         self.laser = laser
         self.rate = check_positive("rate", rate, unit="Hz")
         self.speed = check_positive("speed", speed, unit="m/s")
@@ -285,11 +286,13 @@ class ModeManager:
                 f"radius_of_influence, max_force, damping, length), got {sorted(options)}"
             ) from exc
         self.fixture_options = options
-        self.presses_per_point = check_positive_int(
+        self.presses_per_point = check_count(
             "presses_per_point", presses_per_point, maximum=1000, example=2
         )
         if not isinstance(toggle_off, (bool, np.bool_)):
-            raise InvalidParameter(f"toggle_off: expected True or False, got {toggle_off!r:.60}")
+            raise InvalidParameter(
+                f"toggle_off: expected True or False, got {describe(toggle_off)}"
+            )
         self.toggle_off = bool(toggle_off)
         self.alignment = check_choice("alignment", alignment, ALIGNMENTS)
         self.settle_position = check_positive("settle_position", settle_position, unit="m")
@@ -413,7 +416,9 @@ class ModeManager:
             InvalidInput: an unknown key, a bad pose, or a negative/non-finite distance.
         """
         if not isinstance(key, str) or key.upper() not in KEYS:
-            raise InvalidInput(f"key: expected one of {list(KEYS)} (C = clutch), got {key!r}")
+            raise InvalidInput(
+                f"key: expected one of {list(KEYS)} (C = clutch), got {describe(key)}"
+            )
         k = key.upper()
         tf = finite_scalar("t", t, unit="s", what="time")
         T = checked_transform("pose", pose, tol=POSE_TOL)
@@ -421,7 +426,8 @@ class ModeManager:
             d = finite_scalar("distance", distance, unit="m", what="reading")
             if d < 0.0:
                 raise InvalidInput(
-                    f"distance: expected a finite reading >= 0 [m] or None, got {distance!r}"
+                    f"distance: expected a finite reading >= 0 [m] or None, got "
+                    f"{describe(distance)}"
                 )
             distance = d
         n0 = len(self._events)

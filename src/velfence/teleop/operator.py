@@ -53,9 +53,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from velfence._validate import (
+    check_count,
     check_positive,
-    check_positive_int,
+    check_seed,
     checked_array,
+    describe,
     finite_scalar,
     step_count,
 )
@@ -173,7 +175,7 @@ class OperatorProfile:
             value = check_positive(f.name, getattr(self, f.name), allow_zero=True)
             object.__setattr__(self, f.name, value)
         if not isinstance(self.rainbow, (bool, np.bool_)):
-            raise InvalidParameter(f"rainbow: expected True or False, got {self.rainbow!r:.60}")
+            raise InvalidParameter(f"rainbow: expected True or False, got {describe(self.rainbow)}")
         object.__setattr__(self, "rainbow", bool(self.rainbow))
         for name in ("peak_speed", "orient_peak", "aim_peak", "index_speed"):
             if not getattr(self, name) > 0.0:
@@ -304,17 +306,13 @@ class SyntheticOperator:
     ) -> None:
         self.profile = OperatorProfile() if profile is None else profile
         if not isinstance(self.profile, OperatorProfile):
-            raise InvalidParameter(f"profile: expected an OperatorProfile, got {profile!r}")
-        if isinstance(seed, np.random.Generator):
-            self.rng = seed
-        elif isinstance(seed, int | np.integer) and not isinstance(seed, bool) and seed >= 0:
-            self.rng = np.random.default_rng(int(seed))
-        else:
-            raise InvalidParameter(f"seed: expected an int >= 0 or a Generator, got {seed!r}")
+            raise InvalidParameter(f"profile: expected an OperatorProfile, got {describe(profile)}")
+        s = check_seed("seed", seed, allow_generator=True)
+        self.rng = s if isinstance(s, np.random.Generator) else np.random.default_rng(s)
         self.tick = check_positive("tick", tick, unit="s")
         ws = checked_array("workspace", workspace, (3,), error=InvalidParameter, what="sizes [m]")
         if not np.all(ws > 0.0):
-            raise InvalidParameter(f"workspace: expected 3 sizes > 0 [m], got {workspace!r}")
+            raise InvalidParameter(f"workspace: expected 3 sizes > 0 [m], got {ws.tolist()}")
         self.half = 0.5 * ws
         self.hand = np.zeros(3)  # Omni-frame hand position, workspace centre at 0
         self.stats = OperatorStats()
@@ -365,7 +363,7 @@ class SyntheticOperator:
         if self._plan is None:
             return Action(_IDLE_V, _IDLE_V)
         try:
-            action = next(self._plan)
+            action: Any = next(self._plan)  # a user plan may yield anything
         except StopIteration:
             self._plan = None
             self.finished = True
@@ -566,7 +564,7 @@ class SyntheticOperator:
         tl = check_positive("tol", tol, unit="rad", error=InvalidInput)
         # the stroke's duration is bounded here, before any tick is produced
         angle = float(np.linalg.norm(rv))
-        self._ticks(_turn_time(angle, pk, fa, fb, tl), "a, b")
+        self._ticks(_turn_time(angle, pk, fa, fb, tl), "peak")
         return self._turn(rv, pk, fa, fb, tl)
 
     def _turn(self, rotvec: FloatArray, peak: float, a: float, b: float, tol: float) -> Behaviour:
@@ -604,7 +602,7 @@ class SyntheticOperator:
         _check_callable("target", target)
         tl = check_positive("tol", tol, unit="m", error=InvalidInput)
         pt = _choice("point", point, ("tip", "wrist", "cup"))
-        n = check_positive_int("max_strokes", max_strokes, maximum=MAX_STROKES, example=40)
+        n = check_count("max_strokes", max_strokes, maximum=MAX_STROKES, example=40)
         return self._reach(target, tl, pt, n)
 
     def _reach(
@@ -651,7 +649,7 @@ class SyntheticOperator:
         tl = check_positive("tol", tol, unit="rad", error=InvalidInput)
         if error is not None:
             _check_callable("error", error)
-        n = check_positive_int("max_strokes", max_strokes, maximum=MAX_STROKES, example=20)
+        n = check_count("max_strokes", max_strokes, maximum=MAX_STROKES, example=20)
         return self._orient(target, tl, error, n)
 
     def _orient(
@@ -702,7 +700,7 @@ class SyntheticOperator:
         """
         goal = _vector3("target", target, "a point [m]")
         tl = check_positive("tol", tol, unit="m", error=InvalidInput)
-        n = check_positive_int("max_strokes", max_strokes, maximum=MAX_STROKES, example=25)
+        n = check_count("max_strokes", max_strokes, maximum=MAX_STROKES, example=25)
         return self._aim(goal, tl, n)
 
     def _aim(self, goal: FloatArray, tol: float, n: int) -> Behaviour:

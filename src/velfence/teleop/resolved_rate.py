@@ -39,6 +39,7 @@ from velfence._validate import (
     check_positive,
     checked_array,
     checked_transform,
+    describe,
     finite_scalar,
     readonly,
 )
@@ -267,9 +268,9 @@ def damping(w: float, *, k0: float = K0, w0: float = W0) -> float:
     """
     k0f = check_positive("k0", k0)
     w0f = check_positive("w0", w0)
-    wf = finite_scalar("w", w, what="manipulability >= 0", max_abs=None)
+    wf = finite_scalar("w", w, what="manipulability >= 0")
     if not wf >= 0.0:
-        raise InvalidInput(f"w: expected a finite manipulability >= 0, got {w!r}")
+        raise InvalidInput(f"w: expected a finite manipulability >= 0, got {describe(w)}")
     if wf >= w0f:
         return 0.0
     return k0f * (1.0 - wf / w0f) ** 2

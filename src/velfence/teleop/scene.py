@@ -40,7 +40,7 @@ from typing import Any, TypeAlias
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._validate import check_positive, checked_array, finite_scalar, readonly
+from velfence._validate import check_positive, checked_array, describe, finite_scalar, readonly
 from velfence.errors import InvalidGeometry, InvalidInput
 from velfence.geometry.primitives import orthonormal_complement
 
@@ -104,7 +104,7 @@ def _geom_unit(name: str, x: Any) -> FloatArray:
     v = _geom_point(name, x)
     n = float(np.linalg.norm(v))
     if not n > 0.0:
-        raise InvalidGeometry(f"{name}: expected a non-zero direction vector, got {x!r}")
+        raise InvalidGeometry(f"{name}: expected a non-zero direction vector, got {describe(x)}")
     return v / n
 
 
@@ -238,7 +238,7 @@ class Plane(_RayCast):
             except (TypeError, ValueError):
                 raise InvalidGeometry(
                     f"half_extents: expected two numbers (a, b) > 0 [m] or None, got "
-                    f"{half_extents!r}"
+                    f"{describe(half_extents)}"
                 ) from None
             half = (
                 _geom_length("half_extents[0]", a, "half width along u"),
@@ -570,7 +570,8 @@ class Scene:
     def __init__(self, primitives: Mapping[str, Primitive]) -> None:
         if not isinstance(primitives, Mapping) or len(primitives) == 0:
             raise InvalidGeometry(
-                f"primitives: expected a non-empty mapping name -> primitive, got {primitives!r}"
+                f"primitives: expected a non-empty mapping name -> primitive, got "
+                f"{describe(primitives)}"
             )
         items: list[tuple[str, Primitive]] = []
         for name, prim in primitives.items():
@@ -827,7 +828,9 @@ def scene_to_dicts(scene: Scene, *, dynamic: Sequence[str] = ()) -> list[dict[st
         or not all(isinstance(name, str) for name in dynamic)
         or any(name not in scene for name in dynamic)
     ):
-        raise InvalidInput(f"dynamic: expected names from {list(scene.names)}, got {dynamic!r}")
+        raise InvalidInput(
+            f"dynamic: expected names from {list(scene.names)}, got {describe(dynamic)}"
+        )
     out: list[dict[str, Any]] = []
     for name, prim in scene.items():
         entry: dict[str, Any]

@@ -44,8 +44,9 @@ from numpy.typing import ArrayLike, NDArray
 from velfence._validate import (
     check_choice,
     check_positive,
-    check_positive_int,
+    check_seed,
     checked_array,
+    describe,
     readonly,
     step_count,
 )
@@ -102,7 +103,8 @@ def _per_joint(name: str, value: Any, unit: str, *, allow_zero: bool) -> FloatAr
     if a.ndim != 1 or a.shape[0] == 0 or not np.all(ok):
         bound = ">= 0" if allow_zero else "> 0"
         raise InvalidParameter(
-            f"{name}: expected a finite number {bound} or a 1-D array of them {unit}, got {value!r}"
+            f"{name}: expected a finite number {bound} or a 1-D array of them {unit}, got "
+            f"{describe(value)}"
         )
     return readonly(a)
 
@@ -129,7 +131,7 @@ MAX_SUBSTEPS = 1_000_000
 
 
 def _seed(seed: Any) -> int:
-    return check_positive_int("seed", seed, minimum=0, example=0)
+    return int(check_seed("seed", seed))
 
 
 def _dt(dt: Any) -> float:
@@ -367,7 +369,7 @@ class PDGravityServo(_ServoBase):
             )
         if gravity is not None and not callable(gravity):
             raise InvalidParameter(
-                f"gravity: expected a callable g(q) -> (n,) [N·m] or None, got {gravity!r}"
+                f"gravity: expected a callable g(q) -> (n,) [N·m] or None, got {describe(gravity)}"
             )
         self.gravity = gravity
         self.compensation_error = check_positive(

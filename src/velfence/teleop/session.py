@@ -65,10 +65,12 @@ from numpy.typing import ArrayLike, NDArray
 from velfence._validate import (
     MAX_MAGNITUDE,
     MAX_STEPS,
+    check_count,
     check_positive,
-    check_positive_int,
     check_range,
+    check_seed,
     checked_array,
+    describe,
     readonly,
     step_count,
 )
@@ -298,8 +300,8 @@ class Session:
             )
         self.resolver = ResolvedRate(self.robot, on_invalid="stop")
         self.hand_time = check_positive("hand_time", hand_time, allow_zero=True, unit="s")
-        self._trace_every = check_positive_int("trace_every", trace_every, maximum=MAX_STEPS)
-        self.seed = check_positive_int("seed", seed, minimum=0, example=0)
+        self._trace_every = check_count("trace_every", trace_every, maximum=MAX_STEPS)
+        self.seed = int(check_seed("seed", seed))
         self._q0 = ready_pose(self.robot)[0] if q0 is None else _vec6(q0)
         names = self.scene.names
         cup = self.scene["cup"] if "cup" in names else None
@@ -428,7 +430,7 @@ class Session:
             InvalidInput: an unknown key (the message lists the valid ones).
         """
         if not isinstance(key, str) or key.upper() not in SESSION_KEYS:
-            raise InvalidInput(f"key: expected one of {list(SESSION_KEYS)}, got {key!r}")
+            raise InvalidInput(f"key: expected one of {list(SESSION_KEYS)}, got {describe(key)}")
         k = key.upper()
         t = self.t
         self._status_extra = None

@@ -81,8 +81,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from velfence._validate import (
+    check_count,
     check_flag,
-    check_positive_int,
     check_range,
     checked_array,
     finite_scalar,
@@ -613,7 +613,7 @@ class ViewerServer:
                 f"session: expected a SessionLike with methods {list(_SESSION_METHODS)}, got "
                 f"{type(session).__name__} without {missing}"
             )
-        self._port = check_positive_int("port", port, minimum=0, maximum=65535, example=8765)
+        self._port = check_count("port", port, minimum=0, maximum=65535, example=8765)
         self._realtime = check_flag("realtime", realtime)
         self._tick = check_range("tick", tick, low=MIN_TICK, high=MAX_TICK, unit="s")
         self._max_step = check_range(
@@ -633,7 +633,7 @@ class ViewerServer:
             high=MAX_CONNECTION_TIMEOUT,
             unit="s",
         )
-        n_connections = check_positive_int(
+        n_connections = check_count(
             "max_connections", max_connections, maximum=MAX_CONNECTIONS, example=128
         )
         self._session = session
