@@ -170,7 +170,10 @@ def test_torque_saturation_limits_acceleration():
 
 
 def test_pd_validates():
-    with pytest.raises(InvalidParameter, match="max_substep: expected a sub-step short enough"):
+    with pytest.raises(
+        InvalidParameter,
+        match=r"max_substep \(with kp, kd, friction and inertia\): expected a sub-step short",
+    ):
         PDGravityServo(kp=1e6, inertia=1e-3, max_substep=1e-3)
     with pytest.raises(InvalidParameter, match="kp must be finite and > 0"):
         PDGravityServo(kp=0.0, inertia=1.0)

@@ -203,6 +203,11 @@ class VoltageModel:
                 "calibrate over several distances"
             )
         slope = float(vc @ (d - d.mean())) / svv
+        if not (math.isfinite(slope) and slope > 0.0):
+            raise InvalidParameter(
+                f"distances_cm, voltages_v: expected distances that grow with the voltage (a "
+                f"fitted slope > 0 cm/V), got a slope of {slope:g} cm/V"
+            )
         return cls(slope_cm_per_v=slope, offset_cm=float(d.mean()) - slope * float(v.mean()))
 
     def distance_cm(self, voltage_v: float) -> float:
@@ -265,7 +270,8 @@ class TabulatedCharacteristic:
             raise InvalidGeometry("expected finite calibration pairs, got NaN or inf")
         if not (np.all(np.diff(d) > 0) and np.all(np.diff(v) > 0)):
             raise InvalidGeometry(
-                "expected strictly increasing distances and voltages (an invertible "
+                "distances_cm, voltages_v: expected strictly increasing distances and voltages "
+                "(an invertible "
                 "characteristic), got a non-increasing pair; sort the table or drop duplicates"
             )
         dc = d - d.mean()
@@ -320,7 +326,8 @@ def frequent_level_mean(
         values = levels
     else:
         q = check_positive("quantum_v", quantum_v, unit="V")
-        scaled = np.floor(v / q + 0.5)
+        with np.errstate(over="ignore", invalid="ignore"):  # huge ratios are refused below
+            scaled = np.floor(v / q + 0.5)
         if not np.all(np.abs(scaled) < 2.0**62):
             raise InvalidParameter(
                 f"quantum_v: expected an ADC step that gives at most 2^62 levels over the samples, "
@@ -362,8 +369,7 @@ def calibrate(
         InvalidParameter: bad ``min_share`` / ``quantum_v``, or a non-positive fitted slope.
     """
     check_range("min_share", min_share, low=0.0, high=1.0, low_open=True, high_open=True)
-    if quantum_v is not None:
-        check_positive("quantum_v", quantum_v, unit="V")
+    q_v = None if quantum_v is None else check_positive("quantum_v", quantum_v, unit="V")
     if not isinstance(samples, Mapping) or len(samples) < 2:
         raise InvalidInput(
             "samples: expected a mapping of at least two reference distances [cm] to voltage "
@@ -380,7 +386,12 @@ def calibrate(
             raise InvalidInput(f"at reference distance {d:g} cm: {exc}") from None
         distances.append(d)
         voltages.append(level)
-    return VoltageModel.from_calibration(distances, voltages)
+    try:
+        return VoltageModel.from_calibration(distances, voltages)
+    except InvalidInput as exc:
+        if quantum_v is None:
+            raise
+        raise InvalidInput(f"{exc} (the levels were grouped with quantum_v={q_v:g} V)") from None
 
 
 def moving_average(samples: ArrayLike, *, window: int) -> FloatArray:
@@ -449,15 +460,15 @@ def plane_from_points(
     la, lb = float(np.linalg.norm(A)), float(np.linalg.norm(B))
     if la == 0.0 or lb == 0.0 or float(np.linalg.norm(a2 - a3)) == 0.0:
         raise InvalidGeometry(
-            f"expected three distinct points, got P1={a1.tolist()}, P2={a2.tolist()}, "
+            f"p1, p2, p3: expected three distinct points, got P1={a1.tolist()}, P2={a2.tolist()}, "
             f"P3={a3.tolist()}; record the 'P' points at different spots"
         )
     C = np.cross(A, B)
     lc = float(np.linalg.norm(C))
     if lc <= eps * la * lb:
         raise InvalidGeometry(
-            f"expected three non-collinear points, got sin(angle at P1) = {lc / (la * lb):.3g} "
-            f"<= tol = {eps:g}; spread the 'P' points out (not along one line)"
+            f"p1, p2, p3: expected three non-collinear points, got sin(angle at P1) = "
+            f"{lc / (la * lb):.3g} <= tol = {eps:g}; spread the 'P' points out (not along one line)"
         )
     n = C / lc
     return readonly(n), float(n @ a1)

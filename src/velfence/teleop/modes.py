@@ -424,10 +424,10 @@ class ModeManager:
         T = checked_transform("pose", pose, tol=POSE_TOL)
         if distance is not None:
             d = finite_scalar("distance", distance, unit="m", what="reading")
-            if d < 0.0:
+            if not 0.0 <= d <= self.laser.max_range:
                 raise InvalidInput(
-                    f"distance: expected a finite reading >= 0 [m] or None, got "
-                    f"{describe(distance)}"
+                    f"distance: expected a reading in [0, {self.laser.max_range:g}] m (the "
+                    f"laser's range) or None, got {describe(distance)}"
                 )
             distance = d
         n0 = len(self._events)

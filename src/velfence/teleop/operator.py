@@ -564,7 +564,12 @@ class SyntheticOperator:
         tl = check_positive("tol", tol, unit="rad", error=InvalidInput)
         # the stroke's duration is bounded here, before any tick is produced
         angle = float(np.linalg.norm(rv))
-        self._ticks(_turn_time(angle, pk, fa, fb, tl), "peak")
+        T = _turn_time(angle, pk, fa, fb, tl)
+        if not MAX_TICKS * self.tick >= T:
+            raise InvalidInput(
+                f"peak, a, b: a turn by {angle:.3g} rad with peak={pk:g} rad/s, a={fa:g} s and "
+                f"b={fb:g} s/bit lasts {T:.3g} s, more than {MAX_TICKS:,} ticks of {self.tick:g} s"
+            )
         return self._turn(rv, pk, fa, fb, tl)
 
     def _turn(self, rotvec: FloatArray, peak: float, a: float, b: float, tol: float) -> Behaviour:

@@ -232,7 +232,7 @@ class Plane(_RayCast):
         half: tuple[float, float] | None = None
         if half_extents is not None:
             try:
-                if isinstance(half_extents, (str, bytes, bytearray)):
+                if not isinstance(half_extents, (list, tuple, np.ndarray)):
                     raise TypeError
                 a, b = half_extents
             except (TypeError, ValueError):

@@ -367,7 +367,7 @@ class PDGravityServo(_ServoBase):
             raise InvalidParameter(
                 f"kd: expected a scalar or {sizes.pop()} values to match kp, got {self.kd.size}"
             )
-        if gravity is not None and not callable(gravity):
+        if gravity is not None and (not callable(gravity) or isinstance(gravity, type)):
             raise InvalidParameter(
                 f"gravity: expected a callable g(q) -> (n,) [N·m] or None, got {describe(gravity)}"
             )
@@ -379,13 +379,15 @@ class PDGravityServo(_ServoBase):
         # Semi-implicit Euler on I q'' = -Kp q - (Kd + b) q' is stable iff h c < 2 and
         # h² ω² + 2 h c < 4 (ω² = Kp/I, c = (Kd + b)/I); keep a factor 2 of margin.
         h = self.max_substep
-        w2 = self.kp / self.inertia
-        c = (self.kd + self.friction) / self.inertia
-        margin = float(np.max(h * h * w2 + 2.0 * h * c))
-        if margin >= 2.0:
+        with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+            w2 = self.kp / self.inertia  # a tiny inertia overflows: inf, refused just below
+            c = (self.kd + self.friction) / self.inertia
+            margin = float(np.max(h * h * w2 + 2.0 * h * c))
             h_ok = 1.0 / float(np.max(np.sqrt(w2) + c))  # meets the bound with the margin
+        if not margin < 2.0:
             raise InvalidParameter(
-                f"max_substep: expected a sub-step short enough for these gains (below about "
+                f"max_substep (with kp, kd, friction and inertia): expected a sub-step short "
+                f"enough for these gains (below about "
                 f"{h_ok:.3g} s), got {h:g} s"
             )
 
