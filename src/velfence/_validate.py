@@ -543,7 +543,10 @@ def checked_array(
     err = _error(error)
     want = "" if shape is None else f" of shape {_shape_text(shape)}"
     plain = (np.ndarray, list, tuple, numbers.Real, *_NOT_NUMBERS)
-    if not isinstance(x, plain) and hasattr(x, "__len__"):
+    array_like = hasattr(x, "__array__") or hasattr(x, "__array_interface__")
+    if not isinstance(x, plain) and not array_like and hasattr(x, "__len__"):
+        # a plain Python sequence: read it item by item (bounded) rather than let NumPy trust
+        # its __len__ (10**12 entries would be allocated before anything is checked)
         try:
             n = len(x)
             items = [x[i] for i in range(n)] if n <= 1_000_000 else None
