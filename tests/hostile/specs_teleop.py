@@ -60,9 +60,10 @@ SPECS: dict[str, F | C] = {
         lambda: call([0.0, 1.0, 0.0], [0.0, -1.0, 0.0]),
         {**_PRIM, "signed_distance": lambda: call(_P3)},
     ),
-    "teleop.Disk": C(lambda: call([0.0, 1.0, 0.0], [0.0, -1.0, 0.0], 0.1), _PRIM),
+    "teleop.Disk": C(lambda: call([0.0, 1.0, 0.0], [0.0, -1.0, 0.0], radius=0.1), _PRIM),
     "teleop.Cylinder": C(
-        lambda: call([0.0, 1.0, 0.0], 0.05, 0.1), {**_PRIM, "contains": lambda: call(_P3)}
+        lambda: call([0.0, 1.0, 0.0], radius=0.05, height=0.1),
+        {**_PRIM, "contains": lambda: call(_P3)},
     ),
     "teleop.Box": C(
         lambda: call([0.0, 1.0, 0.0], [0.1, 0.1, 0.1]), {**_PRIM, "contains": lambda: call(_P3)}
@@ -78,7 +79,8 @@ SPECS: dict[str, F | C] = {
             "inside": lambda: call(_P3),
             "items": lambda: call(),
             "nearest": lambda: call(_P3),
-            "raycast": lambda: call([0.0, 0.0, 0.0], _D3),
+            # documented >= 0
+            "raycast": F(lambda: call([0.0, 0.0, 0.0], _D3), types={"max_range": "nonneg"}),
             "segment_hit": lambda: call([0.0, 0.0, 0.0], [0.0, 2.0, 0.0]),
         },
     ),
@@ -102,35 +104,39 @@ SPECS: dict[str, F | C] = {
         {"voltage_v": F(lambda: call(0.2), types={"distance_m": "scalar"})},
     ),
     "teleop.LaserRangeSensor": C(
-        lambda: call(),
+        # documented >= 0: a zero minimum range and a zero ADC step (no quantisation) are valid
+        F(lambda: call(), types={"min_range": "nonneg", "quantum_v": "nonneg"}),
         {
             "beam": lambda: call(pose()),
             "in_range": F(lambda: call(1.0), types={"distance": "scalar"}),
-            "laser_point": F(lambda: call(pose(), 1.0), types={"distance": "positive"}),
+            # a reading of 0 m (target at the window) is a valid reading
+            "laser_point": F(lambda: call(pose(), 1.0), types={"distance": "nonneg"}),
             "sample": F(
                 lambda: call(1.0, np.random.default_rng(0)),
-                types={"true_distance": "positive"},
+                types={"true_distance": "nonneg"},  # documented >= 0 (below min_range: None)
                 skip={"rng": _RNG},
             ),
             "sample_many": F(
                 lambda: call(1.0, 5, np.random.default_rng(0)),
-                types={"true_distance": "positive"},
+                types={"true_distance": "nonneg"},  # documented >= 0 (below min_range: None)
                 skip={"rng": _RNG},
             ),
-            "stream": F(lambda: call(seed=0), types={"seed": "seed", "t0": "nonneg"}),
-            "target_transform": F(lambda: call(pose(), 1.0), types={"distance": "positive"}),
+            # t0 is a clock origin: any finite time
+            "stream": F(lambda: call(seed=0), types={"seed": "seed", "t0": "scalar"}),
+            "target_transform": F(lambda: call(pose(), 1.0), types={"distance": "nonneg"}),
             "true_hit": lambda: call(pose(), door_scene()),
             "true_range": lambda: call(pose(), door_scene()),
         },
     ),
     "teleop.LaserStream": C(
-        F(lambda: call(LaserRangeSensor(), seed=0), types={"seed": "seed", "t0": "nonneg"}),
+        F(lambda: call(LaserRangeSensor(), seed=0), types={"seed": "seed", "t0": "scalar"}),
         {
             "observe": lambda: call(pose(), door_scene()),
-            "poll": F(lambda: call(0.01, pose(), door_scene()), types={"t": "nonneg"}),
-            "reset": F(lambda: call(t0=0.0), types={"t0": "nonneg"}),
-            "run": lambda: call([1.0, 1.1, None]),
-            "step": F(lambda: call(1.0), types={"true_distance": "positive"}),
+            # times on the stream clock (t0 is any finite origin)
+            "poll": F(lambda: call(0.01, pose(), door_scene()), types={"t": "scalar"}),
+            "reset": F(lambda: call(t0=0.0), types={"t0": "scalar"}),
+            "run": F(lambda: call([1.0, 1.1, None]), required=frozenset({"true_distances"})),
+            "step": F(lambda: call(1.0), types={"true_distance": "nonneg"}),  # documented >= 0
         },
     ),
     "teleop.LaserReading": C(record="output record of LaserStream.step()"),
@@ -159,9 +165,11 @@ SPECS: dict[str, F | C] = {
     "teleop.CartesianTrajectory": C(
         record="output record of straight_line()",
         instance=_line,
-        methods={"sample": F(lambda: call(0.01), types={"t": "nonneg"})},
+        # t is clamped into [0, duration] (documented): any finite time
+        methods={"sample": F(lambda: call(0.01), types={"t": "scalar"})},
     ),
-    "teleop.straight_line": F(lambda: call(pose(), _line().end)),
+    # documented >= 0 (0: only exact zero translations count as pure rotations)
+    "teleop.straight_line": F(lambda: call(pose(), _line().end), types={"min_distance": "nonneg"}),
     "teleop.execute": F(lambda: call(_line(), puma(), Q6)),
     "teleop.Execution": C(record="output record of execute()"),
     "teleop.FirstOrderServo": C(
@@ -175,14 +183,16 @@ SPECS: dict[str, F | C] = {
         instance=lambda: _reset_servo(pd=True),
     ),
     "teleop.ModeManager": C(
-        lambda: call(),
+        # documented >= 0: stopping at the spot, no scaling across, no settling wait are valid
+        F(lambda: call(), types={"standoff": "nonneg", "across": "nonneg", "max_settle": "nonneg"}),
         {
             "control": lambda: call(
                 t=0.0, pose=pose(), linear=[0.01, 0.0, 0.0], angular=[0.0, 0.0, 0.0]
             ),
             "press": F(
                 lambda: call("A", t=0.0, pose=pose(), distance=0.5),
-                types={"t": "nonneg", "distance": "positive"},
+                # t: any finite time (event log clock); a reading of 0 m is documented valid (>= 0)
+                types={"t": "scalar", "distance": "nonneg"},
             ),
             "reset": lambda: call(),
         },
@@ -190,9 +200,9 @@ SPECS: dict[str, F | C] = {
     "teleop.ModeEvent": C(record="output record of ModeManager.press()"),
     "teleop.Segment": C(record="internal motion segment exposed for inspection"),
     "teleop.Session": C(
-        lambda: call(),
+        F(lambda: call(), types={"hand_time": "nonneg"}),  # documented >= 0: an instant hand
         {
-            "advance": lambda: call(0.01),
+            "advance": F(lambda: call(0.01), types={"dt": "nonneg"}),  # documented: 0 s is a no-op
             "jog": lambda: call([0.01, 0.0, 0.0], [0.0, 0.0, 0.0]),
             "observe": lambda: call(),
             "press": lambda: call("C"),
@@ -204,14 +214,15 @@ SPECS: dict[str, F | C] = {
     ),
     "teleop.Observation": C(record="output record of Session.observe()"),
     "teleop.OperatorProfile": C(
-        lambda: call(),
+        # every time of the profile is documented >= 0 (an instant key press is a valid model)
+        F(lambda: call(), types={"key_time": "nonneg", "clutch_time": "nonneg"}),
         {
             "draw": F(lambda: call(np.random.default_rng(0)), skip={"rng": _RNG}),
             "to_dict": lambda: call(),
         },
     ),
     "teleop.SyntheticOperator": C(
-        F(lambda: call(OperatorProfile(), seed=0), types={"seed": "seed"}),
+        F(lambda: call(profile=OperatorProfile(), seed=0), types={"seed": "seed"}),
         {
             "act": lambda: call(_observation()),
             "aim": lambda: call(np.array([0.0, 1.0, 0.0]), 0.01),
@@ -224,9 +235,14 @@ SPECS: dict[str, F | C] = {
             "record": lambda: call("A"),
             "start": lambda: call(lambda op: op.wait(0.1)),
             "stroke": lambda: call(np.array([0.01, 0.0, 0.0]), 0.001),
-            "turn": lambda: call(np.array([0.0, 0.0, 0.1]), peak=0.3, a=0.4, b=0.3, tol=0.01),
+            # a and b are Fitts-law coefficients [s], [s/bit]: zero is a valid value
+            "turn": F(
+                lambda: call(np.array([0.0, 0.0, 0.1]), peak=0.3, a=0.4, b=0.3, tol=0.01),
+                types={"a": "nonneg", "b": "nonneg"},
+            ),
             "vertical": lambda: call(0.05),
-            "wait": lambda: call(0.1),
+            # waiting 0 s is a valid one-tick no-op (plans compute their waits)
+            "wait": F(lambda: call(0.1), types={"duration": "nonneg"}),
             "wait_until": lambda: call(lambda o: True),
         },
         instance=_operator,

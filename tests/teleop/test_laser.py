@@ -433,7 +433,10 @@ def test_streams_are_deterministic_per_seed_and_reset_restarts_the_clock():
     assert stream.last is None
     r = stream.step(0.5)
     assert (r.t, r.samples) == (2.0, 1)
-    with pytest.raises(InvalidParameter, match="seed: expected an int >= 0 or a numpy Generator"):
+    with pytest.raises(
+        InvalidParameter,
+        match=r"seed: expected an int in \[0, 2\*\*63 - 1\] or a numpy.random.Generator",
+    ):
         s.stream(seed=-1)
 
 

@@ -533,7 +533,7 @@ def test_scene_to_dicts_infinite_plane_and_bad_input() -> None:
     with pytest.raises(InvalidInput, match=r"dynamic: expected names from \['floor'\]"):
         scene_to_dicts(Scene({"floor": Plane((0, 0, -1), (0, 0, 1))}), dynamic=("cup",))
     with pytest.raises(
-        InvalidInput, match=r"dynamic: expected names from \['floor'\], got 'floor'"
+        InvalidInput, match=r"dynamic: expected names from \['floor'\], got str 'floor'"
     ):
         scene_to_dicts(Scene({"floor": Plane((0, 0, -1), (0, 0, 1))}), dynamic="floor")
 

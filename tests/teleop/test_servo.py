@@ -104,7 +104,7 @@ def test_errors():
         FirstOrderServo(time_constant=-1.0)
     with pytest.raises(InvalidParameter, match="noise_std must be finite and >= 0"):
         FirstOrderServo(time_constant=0.0, noise_std=-0.1)
-    with pytest.raises(InvalidParameter, match="seed: expected an int >= 0"):
+    with pytest.raises(InvalidParameter, match=r"seed: expected an int in \[0, 2\*\*63 - 1\]"):
         FirstOrderServo(time_constant=0.0, seed=1.5)
     with pytest.raises(InvalidParameter, match="command must be one of"):
         FirstOrderServo(time_constant=0.0, command="torque")
@@ -170,7 +170,10 @@ def test_torque_saturation_limits_acceleration():
 
 
 def test_pd_validates():
-    with pytest.raises(InvalidParameter, match="max_substep: expected a sub-step short enough"):
+    with pytest.raises(
+        InvalidParameter,
+        match=r"max_substep \(with kp, kd, friction and inertia\): expected a sub-step short",
+    ):
         PDGravityServo(kp=1e6, inertia=1e-3, max_substep=1e-3)
     with pytest.raises(InvalidParameter, match="kp must be finite and > 0"):
         PDGravityServo(kp=0.0, inertia=1.0)

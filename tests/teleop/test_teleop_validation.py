@@ -269,3 +269,132 @@ def test_wrong_objects_are_refused_with_the_argument_named() -> None:
 def test_tuning_parameters_are_keyword_only(make: Callable[[], object]) -> None:
     with pytest.raises(TypeError, match="positional"):
         make()
+
+
+# --- wave 2: behaviours validate when called; misbehaving array-likes; seeds and counts ---------
+
+
+class _RaisingArray:
+    def __array__(self, *args: Any, **kwargs: Any) -> Any:
+        raise ZeroDivisionError("hostile __array__")
+
+
+class _HugeLen:
+    def __len__(self) -> int:
+        return 10**12
+
+    def __getitem__(self, i: int) -> float:
+        if i < 3:
+            return 0.0
+        raise IndexError(i)
+
+
+@pytest.mark.parametrize(
+    ("call", "message"),
+    [
+        (lambda op: op.wait("0.1"), r"duration .*must be a number"),
+        (lambda op: op.wait(1e100), r"duration=1e\+100 s with tick=0.02 s needs"),
+        (lambda op: op.wait_until("yes"), r"predicate: expected a function, got str"),
+        (lambda op: op.wait_until(lambda o: True, limit=0.0), r"limit must be finite and > 0"),
+        (lambda op: op.stroke([0.01, 0.0], 0.001), r"d: expected shape \(3,\), got shape \(2,\)"),
+        (lambda op: op.stroke([1e3, 0.0, 0.0], 0.001), r"d: expected a displacement .*<= 100"),
+        (lambda op: op.stroke([0.01, 0.0, 0.0], 0.0), r"tol must be finite and > 0"),
+        (lambda op: op.index([0.0, 0.0, 0.0]), r"hand_d: expected a non-zero displacement"),
+        (lambda op: op.turn([0.0, 0.0, 0.1], peak=0.3, a=-1.0, b=0.3, tol=0.01), r"a must be"),
+        (
+            lambda op: op.turn([0.0, 0.0, 0.1], peak=5e-324, a=0.4, b=0.3, tol=0.01),
+            r"peak, a, b: a turn by 0.1 rad",
+        ),
+        (lambda op: op.reach(np.zeros(3), 0.01), r"target: expected a function, got ndarray"),
+        (lambda op: op.reach(lambda o: np.zeros(3), 0.01, point="toe"), r"point: expected one of"),
+        (
+            lambda op: op.reach(lambda o: np.zeros(3), 0.01, max_strokes=10**9),
+            r"max_strokes: expected an int <= 10,000",
+        ),
+        (lambda op: op.orient(lambda o: np.eye(3), 0.05, error=float), r"error: expected a func"),
+        (lambda op: op.aim(_RaisingArray(), 0.01), r"target: expected .*ZeroDivisionError"),
+        (lambda op: op.vertical(float("nan")), r"tol must be finite"),
+        (lambda op: op.press("q"), r"keys: expected keys among"),
+        (lambda op: op.record("A", 3), r"keys: expected keys among .* got int"),
+        (lambda op: op.start("plan"), r"plan: expected a function, got str"),
+        (lambda op: op.start(lambda o: 3), r"plan: expected a function returning a behaviour"),
+        (lambda op: op.act({"clutch": True}), r"obs: expected an Observation"),
+    ],
+)
+def test_operator_behaviours_refuse_bad_arguments_when_called(
+    call: Callable[[SyntheticOperator], Any], message: str
+) -> None:
+    # the error comes from the call itself, not many ticks later when a plan advances it
+    with pytest.raises(VelfenceError, match=message):
+        call(SyntheticOperator(seed=0))
+
+
+def test_operator_callbacks_are_checked_while_running() -> None:
+    session = Session()
+    op = SyntheticOperator(seed=0)
+    op.start(lambda o: o.wait_until(lambda obs: "yes"))  # type: ignore[arg-type, return-value]
+    with pytest.raises(InvalidInput, match=r"predicate: expected a function returning True"):
+        op.act(session.observe())
+    op.start(lambda o: o.reach(lambda obs: "here", 0.01))  # type: ignore[arg-type, return-value]
+    obs = session.observe()
+
+    def run() -> None:
+        for _ in range(100):  # the reaction pause, then the first look at the target
+            op.act(obs)
+
+    with pytest.raises(InvalidInput, match=r"target: expected a position"):
+        run()
+
+
+def test_operator_plans_run_after_eager_validation() -> None:
+    op = SyntheticOperator(seed=0)
+    op.start(lambda o: o.wait(0.0))
+    session = Session()
+    op.act(session.observe())
+    assert op.act(session.observe()).keys == ()
+    assert op.finished
+
+
+@pytest.mark.parametrize("bad", [_RaisingArray(), _HugeLen(), np.array([np.longdouble("1e4000")])])
+def test_misbehaving_array_likes_are_refused_by_name(bad: Any) -> None:
+    with _no_warning(), pytest.raises(InvalidInput, match=r"^p: expected"):
+        Scene({"floor": Cylinder((0, 0, 0), radius=0.1, height=0.1)}).nearest(bad)
+
+
+class _no_warning:  # noqa: N801 (used like a function)
+    def __enter__(self) -> None:
+        import warnings
+
+        self._ctx = warnings.catch_warnings()
+        self._ctx.__enter__()
+        warnings.simplefilter("error")
+
+    def __exit__(self, *exc: object) -> None:
+        self._ctx.__exit__(*exc)
+
+
+@pytest.mark.parametrize("seed", [np.timedelta64(1, "s"), 10**400, -1, 2.0, True, "3"], ids=repr)
+def test_seeds_are_ints_in_the_numpy_range(seed: Any) -> None:
+    with pytest.raises(InvalidParameter, match=r"seed: expected an int in \[0, 2\*\*63 - 1\]"):
+        Session(seed=seed)
+    with pytest.raises(InvalidParameter, match=r"seed: expected an int in \[0, 2\*\*63 - 1\] or"):
+        LaserRangeSensor().stream(seed=seed)
+
+
+def test_counts_refuse_time_deltas() -> None:
+    with pytest.raises(InvalidParameter, match=r"window: expected a positive int, got"):
+        moving_average([1.0, 2.0, 3.0], window=np.timedelta64(2, "s"))  # type: ignore[arg-type]
+
+
+def test_laser_stream_run_is_bounded_and_not_empty() -> None:
+    stream = LaserRangeSensor().stream(seed=0)
+    with pytest.raises(InvalidInput, match=r"true_distances: expected 1 to 100,000 distances"):
+        stream.run([])
+    with pytest.raises(InvalidInput, match=r"true_distances: expected 1 to 100,000 distances"):
+        stream.run(np.zeros(1_000_000))
+
+
+def test_mode_manager_refuses_readings_beyond_the_laser_range() -> None:
+    pose = Session().observe().pose
+    with pytest.raises(InvalidInput, match=r"distance: expected a reading in \[0, 5.3\] m"):
+        ModeManager().press("A", t=0.0, pose=pose, distance=1e30)

@@ -312,14 +312,26 @@ def test_huge_jog_components_answer_400_naming_the_field(
     [
         ("linear", ["0.5", "0", "0"], "linear [m/s]: expected numbers of shape (3,), got strings"),
         ("linear", [True, False, False], "linear [m/s]: expected numbers of shape (3,), got bool"),
-        ("linear", [True, 0, 0], "linear[0]: expected a speed [m/s], got bool True"),
-        ("linear", [0.0, False, 0], "linear[1]: expected a speed [m/s], got bool False"),
+        (
+            "linear",
+            [True, 0, 0],
+            "linear [m/s]: expected numbers of shape (3,), got booleans among the numbers",
+        ),
+        (
+            "linear",
+            [0.0, False, 0],
+            "linear [m/s]: expected numbers of shape (3,), got booleans among the numbers",
+        ),
         ("linear", [0, 0, "0.5"], "linear [m/s]: expected numbers of shape (3,), got strings"),
         ("linear", [None, 0, 0], "linear [m/s]: expected numbers of shape (3,)"),
         ("linear", [[0, 0, 0]], "linear [m/s]: expected shape (3,), got shape (1, 3)"),
         ("linear", {"x": 0}, "linear [m/s]: expected numbers of shape (3,), got dict"),
         ("linear", True, "linear [m/s]: expected numbers of shape (3,), got bool"),
-        ("angular", [0, 0, True], "angular[2]: expected a speed [rad/s], got bool True"),
+        (
+            "angular",
+            [0, 0, True],
+            "angular [rad/s]: expected numbers of shape (3,), got booleans among the numbers",
+        ),
         ("angular", ["0", "0", "1"], "angular [rad/s]: expected numbers of shape (3,)"),
     ],
 )

@@ -53,13 +53,15 @@ from numpy.typing import ArrayLike, NDArray
 from velfence._validate import (
     MAX_MAGNITUDE,
     check_choice,
+    check_count,
     check_positive,
-    check_positive_int,
     check_range,
-    finite_array,
+    check_seed,
+    checked_array,
+    checked_transform,
+    describe,
     finite_scalar,
     readonly,
-    rigid_transform,
 )
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 from velfence.teleop.scene import Scene
@@ -121,7 +123,7 @@ MAX_SAMPLES = 10_000_000
 def _distance_input(name: str, x: Any) -> float:
     v = finite_scalar(name, x, unit="m", what="distance >= 0")
     if v < 0.0:
-        raise InvalidInput(f"{name}: expected a finite distance >= 0 [m], got {v!r}")
+        raise InvalidInput(f"{name}: expected a finite distance >= 0 [m], got {describe(v)}")
     return v
 
 
@@ -136,7 +138,7 @@ def _rng(rng: Any) -> np.random.Generator:
 
 def _pose(T: ArrayLike) -> tuple[FloatArray, FloatArray]:
     """Validated flange pose: rotation (3, 3) and position (3,)."""
-    a = rigid_transform("T_flange", T, tol=_POSE_TOL)
+    a = checked_transform("T_flange", T, tol=_POSE_TOL)
     return a[:3, :3], a[:3, 3]
 
 
@@ -186,8 +188,8 @@ class VoltageModel:
                 equal (the slope is undetermined).
             InvalidParameter: the fitted slope is not positive (distance must grow with voltage).
         """
-        d = finite_array("distances_cm", distances_cm, (None,), what="distances [cm]")
-        v = finite_array("voltages_v", voltages_v, (None,), what="voltages [V]")
+        d = checked_array("distances_cm", distances_cm, (None,), what="distances [cm]")
+        v = checked_array("voltages_v", voltages_v, (None,), what="voltages [V]")
         if d.shape != v.shape or d.size < 2:
             raise InvalidInput(
                 f"expected distances_cm and voltages_v of the same length >= 2, got "
@@ -201,6 +203,11 @@ class VoltageModel:
                 "calibrate over several distances"
             )
         slope = float(vc @ (d - d.mean())) / svv
+        if not (math.isfinite(slope) and slope > 0.0):
+            raise InvalidParameter(
+                f"distances_cm, voltages_v: expected distances that grow with the voltage (a "
+                f"fitted slope > 0 cm/V), got a slope of {slope:g} cm/V"
+            )
         return cls(slope_cm_per_v=slope, offset_cm=float(d.mean()) - slope * float(v.mean()))
 
     def distance_cm(self, voltage_v: float) -> float:
@@ -219,12 +226,12 @@ class VoltageModel:
 
     def distances_m(self, voltages_v: ArrayLike) -> FloatArray:
         """Vectorised :meth:`distance_m`: voltages [V] of any shape to distances [m]."""
-        v = finite_array("voltages_v", voltages_v, what="voltages [V]")
+        v = checked_array("voltages_v", voltages_v, what="voltages [V]")
         return np.asarray(0.01 * (self.slope_cm_per_v * v + self.offset_cm), dtype=float)
 
     def voltages_v(self, distances_m: ArrayLike) -> FloatArray:
         """Vectorised :meth:`voltage_v`: distances [m] of any shape to voltages [V]."""
-        d = finite_array("distances_m", distances_m, what="distances [m]")
+        d = checked_array("distances_m", distances_m, what="distances [m]")
         return np.asarray((100.0 * d - self.offset_cm) / self.slope_cm_per_v, dtype=float)
 
 
@@ -250,8 +257,10 @@ class TabulatedCharacteristic:
     _slope_v_per_cm: float = field(init=False, repr=False)
 
     def __init__(self, distances_cm: ArrayLike, voltages_v: ArrayLike) -> None:
-        d = finite_array("distances_cm", distances_cm, error=InvalidGeometry, what="distances [cm]")
-        v = finite_array("voltages_v", voltages_v, error=InvalidGeometry, what="voltages [V]")
+        d = checked_array(
+            "distances_cm", distances_cm, error=InvalidGeometry, what="distances [cm]"
+        )
+        v = checked_array("voltages_v", voltages_v, error=InvalidGeometry, what="voltages [V]")
         if d.ndim != 1 or d.shape != v.shape or d.size < 2:
             raise InvalidGeometry(
                 f"expected distances_cm and voltages_v of shape (n,), n >= 2, got {d.shape} and "
@@ -261,7 +270,8 @@ class TabulatedCharacteristic:
             raise InvalidGeometry("expected finite calibration pairs, got NaN or inf")
         if not (np.all(np.diff(d) > 0) and np.all(np.diff(v) > 0)):
             raise InvalidGeometry(
-                "expected strictly increasing distances and voltages (an invertible "
+                "distances_cm, voltages_v: expected strictly increasing distances and voltages "
+                "(an invertible "
                 "characteristic), got a non-increasing pair; sort the table or drop duplicates"
             )
         dc = d - d.mean()
@@ -308,7 +318,7 @@ def frequent_level_mean(
             are not quantised levels; pass ``quantum_v`` or lower ``min_share``).
     """
     share = check_range("min_share", min_share, low=0.0, high=1.0, low_open=True, high_open=True)
-    v = finite_array("voltages_v", voltages_v, (None,), what="voltage samples [V]")
+    v = checked_array("voltages_v", voltages_v, (None,), what="voltage samples [V]")
     if v.size == 0:
         raise InvalidInput("voltages_v: expected at least one sample, got none")
     if quantum_v is None:
@@ -316,7 +326,8 @@ def frequent_level_mean(
         values = levels
     else:
         q = check_positive("quantum_v", quantum_v, unit="V")
-        scaled = np.floor(v / q + 0.5)
+        with np.errstate(over="ignore", invalid="ignore"):  # huge ratios are refused below
+            scaled = np.floor(v / q + 0.5)
         if not np.all(np.abs(scaled) < 2.0**62):
             raise InvalidParameter(
                 f"quantum_v: expected an ADC step that gives at most 2^62 levels over the samples, "
@@ -358,8 +369,7 @@ def calibrate(
         InvalidParameter: bad ``min_share`` / ``quantum_v``, or a non-positive fitted slope.
     """
     check_range("min_share", min_share, low=0.0, high=1.0, low_open=True, high_open=True)
-    if quantum_v is not None:
-        check_positive("quantum_v", quantum_v, unit="V")
+    q_v = None if quantum_v is None else check_positive("quantum_v", quantum_v, unit="V")
     if not isinstance(samples, Mapping) or len(samples) < 2:
         raise InvalidInput(
             "samples: expected a mapping of at least two reference distances [cm] to voltage "
@@ -376,7 +386,12 @@ def calibrate(
             raise InvalidInput(f"at reference distance {d:g} cm: {exc}") from None
         distances.append(d)
         voltages.append(level)
-    return VoltageModel.from_calibration(distances, voltages)
+    try:
+        return VoltageModel.from_calibration(distances, voltages)
+    except InvalidInput as exc:
+        if quantum_v is None:
+            raise
+        raise InvalidInput(f"{exc} (the levels were grouped with quantum_v={q_v:g} V)") from None
 
 
 def moving_average(samples: ArrayLike, *, window: int) -> FloatArray:
@@ -395,8 +410,8 @@ def moving_average(samples: ArrayLike, *, window: int) -> FloatArray:
         InvalidParameter: a bad window.
         InvalidInput: non-finite samples or fewer samples than the window.
     """
-    x = finite_array("samples", samples)
-    n_win = check_positive_int("window", window, example=50)
+    x = checked_array("samples", samples)
+    n_win = check_count("window", window, example=50)
     if x.ndim == 0 or x.shape[-1] < window:
         raise InvalidInput(
             f"samples: expected at least window = {window} samples along the last axis, got "
@@ -437,23 +452,23 @@ def plane_from_points(
         InvalidGeometry: coincident or collinear points (no unique plane).
     """
     eps = check_positive("tol", tol)
-    a1 = finite_array("p1", p1, (3,), what="a point [m]")
-    a2 = finite_array("p2", p2, (3,), what="a point [m]")
-    a3 = finite_array("p3", p3, (3,), what="a point [m]")
+    a1 = checked_array("p1", p1, (3,), what="a point [m]")
+    a2 = checked_array("p2", p2, (3,), what="a point [m]")
+    a3 = checked_array("p3", p3, (3,), what="a point [m]")
     A = a1 - a2
     B = a1 - a3
     la, lb = float(np.linalg.norm(A)), float(np.linalg.norm(B))
     if la == 0.0 or lb == 0.0 or float(np.linalg.norm(a2 - a3)) == 0.0:
         raise InvalidGeometry(
-            f"expected three distinct points, got P1={a1.tolist()}, P2={a2.tolist()}, "
+            f"p1, p2, p3: expected three distinct points, got P1={a1.tolist()}, P2={a2.tolist()}, "
             f"P3={a3.tolist()}; record the 'P' points at different spots"
         )
     C = np.cross(A, B)
     lc = float(np.linalg.norm(C))
     if lc <= eps * la * lb:
         raise InvalidGeometry(
-            f"expected three non-collinear points, got sin(angle at P1) = {lc / (la * lb):.3g} "
-            f"<= tol = {eps:g}; spread the 'P' points out (not along one line)"
+            f"p1, p2, p3: expected three non-collinear points, got sin(angle at P1) = "
+            f"{lc / (la * lb):.3g} <= tol = {eps:g}; spread the 'P' points out (not along one line)"
         )
     n = C / lc
     return readonly(n), float(n @ a1)
@@ -537,14 +552,14 @@ class LaserRangeSensor:
         model: VoltageModel | None = None,
         characteristic: Characteristic | None = None,
     ) -> None:
-        off = finite_array(
+        off = checked_array(
             "offset [m] (laser origin in frame 6)", offset, (3,), error=InvalidParameter
         )
         lo = check_positive("min_range", min_range, allow_zero=True, unit="m")
         hi = check_positive("max_range", max_range, unit="m")
         if not hi > lo:
             raise InvalidParameter(
-                f"max_range: expected a number > min_range = {lo:g} [m], got {max_range!r}"
+                f"max_range: expected a number > min_range = {lo:g} [m], got {describe(max_range)}"
             )
         sigma = check_positive("noise_v", noise_v, allow_zero=True, unit="V")
         q = check_positive("quantum_v", quantum_v, allow_zero=True, unit="V")
@@ -562,7 +577,7 @@ class LaserRangeSensor:
         if window is None:
             n = _NEW_WINDOW if filter == "moving_average" else 1
         else:
-            n = check_positive_int("window", window, example=_NEW_WINDOW, maximum=MAX_SAMPLES)
+            n = check_count("window", window, example=_NEW_WINDOW, maximum=MAX_SAMPLES)
         if model is None:
             model = VoltageModel()
         elif not isinstance(model, VoltageModel):
@@ -687,7 +702,7 @@ class LaserRangeSensor:
         """Whether a true distance [m] (or ``None``: no surface) yields a reading."""
         if distance is None:
             return False
-        d = finite_scalar("distance", distance, unit="m", what="distance", max_abs=None)
+        d = finite_scalar("distance", distance, unit="m", what="distance")
         return self.min_range <= d <= self.max_range
 
     def sample(self, true_distance: float | None, rng: np.random.Generator) -> float | None:
@@ -736,9 +751,7 @@ class LaserRangeSensor:
             InvalidInput: a negative or non-finite distance, or ``n`` not an int >= 0.
         """
         d = _distance_input("true_distance", true_distance)
-        n = check_positive_int(
-            "n", n, minimum=0, maximum=MAX_SAMPLES, example=1000, error=InvalidInput
-        )
+        n = check_count("n", n, minimum=0, maximum=MAX_SAMPLES, example=1000, error=InvalidInput)
         _rng(rng)
         if not self.in_range(d):
             return None
@@ -752,6 +765,10 @@ class LaserRangeSensor:
     def stream(self, *, seed: int | np.random.Generator = 0, t0: float = 0.0) -> LaserStream:
         """A fresh :class:`LaserStream` of this sensor (seeded)."""
         return LaserStream(self, seed=seed, t0=t0)
+
+
+#: Most samples one :meth:`LaserStream.run` call may take (about 18 min at 90 Hz).
+MAX_RUN_SAMPLES = 100_000
 
 
 class LaserStream:
@@ -781,12 +798,8 @@ class LaserStream:
             raise InvalidParameter(
                 f"sensor: expected a LaserRangeSensor, got {type(sensor).__name__}"
             )
-        if isinstance(seed, np.random.Generator):
-            rng = seed
-        elif isinstance(seed, int | np.integer) and not isinstance(seed, bool) and seed >= 0:
-            rng = np.random.default_rng(int(seed))
-        else:
-            raise InvalidParameter(f"seed: expected an int >= 0 or a numpy Generator, got {seed!r}")
+        s = check_seed("seed", seed, allow_generator=True)
+        rng = s if isinstance(s, np.random.Generator) else np.random.default_rng(s)
         self._sensor = sensor
         self._rng = rng
         self._window: deque[float] = deque(maxlen=sensor.window)
@@ -877,17 +890,23 @@ class LaserStream:
         """:meth:`step` through a sequence of true distances [m] (one per sample).
 
         Raises:
-            InvalidInput: not a sequence, or an entry that is neither ``None`` nor a finite
-                distance >= 0 (checked before any sample is taken).
+            InvalidInput: not a sequence of 1 to :data:`MAX_RUN_SAMPLES` entries, or an entry
+                that is neither ``None`` nor a finite distance >= 0 (checked before any sample
+                is taken).
         """
         if isinstance(true_distances, np.ndarray):
-            seq: list[Any] = list(finite_array("true_distances", true_distances, (None,)))
+            seq: list[Any] = list(checked_array("true_distances", true_distances, (None,)))
         elif isinstance(true_distances, (list, tuple)):
             seq = list(true_distances)
         else:
             raise InvalidInput(
                 "true_distances: expected a sequence of distances [m] or None, got "
                 f"{type(true_distances).__name__}"
+            )
+        if not 1 <= len(seq) <= MAX_RUN_SAMPLES:
+            raise InvalidInput(
+                f"true_distances: expected 1 to {MAX_RUN_SAMPLES:,} distances, got {len(seq):,}; "
+                "run longer sequences in chunks"
             )
         ds = [
             None if d is None else _distance_input(f"true_distances[{i}]", d)

@@ -62,12 +62,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from velfence._validate import (
     check_choice,
+    check_count,
     check_positive,
-    check_positive_int,
-    finite_array,
+    checked_array,
+    checked_transform,
+    describe,
     finite_scalar,
     readonly,
-    rigid_transform,
 )
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 from velfence.shaping.fixtures import LineFixture, LineScaling
@@ -144,7 +145,7 @@ class Segment:
 
 
 def _unit(name: str, x: ArrayLike) -> FloatArray:
-    a = finite_array(name, x, (3,))
+    a = checked_array(name, x, (3,))
     n = float(np.linalg.norm(a))
     if not n > 1e-12:
         raise InvalidInput(f"{name}: expected a non-zero vector, got {a.tolist()}")
@@ -172,7 +173,7 @@ def aligned_rotation(R: ArrayLike, normal: ArrayLike, *, alignment: str = "faith
     """
     how = check_choice("alignment", alignment, ALIGNMENTS)
     z = -_unit("normal", normal)
-    Ra = finite_array("R", R, (3, 3), what="a 3x3 rotation matrix")
+    Ra = checked_array("R", R, (3, 3), what="a 3x3 rotation matrix")
     angle_axis(Ra)  # validates orthonormality (raises InvalidInput)
     if how == "faithful":
         temp = np.cross(z, Ra[:, 0])
@@ -257,7 +258,7 @@ class ModeManager:
         if laser is None:
             laser = LaserRangeSensor()
         elif not isinstance(laser, LaserRangeSensor):
-            raise InvalidParameter(f"laser: expected a LaserRangeSensor, got {laser!r}")
+            raise InvalidParameter(f"laser: expected a LaserRangeSensor, got {describe(laser)}")
         self.laser = laser
         self.rate = check_positive("rate", rate, unit="Hz")
         self.speed = check_positive("speed", speed, unit="m/s")
@@ -285,11 +286,13 @@ class ModeManager:
                 f"radius_of_influence, max_force, damping, length), got {sorted(options)}"
             ) from exc
         self.fixture_options = options
-        self.presses_per_point = check_positive_int(
+        self.presses_per_point = check_count(
             "presses_per_point", presses_per_point, maximum=1000, example=2
         )
         if not isinstance(toggle_off, (bool, np.bool_)):
-            raise InvalidParameter(f"toggle_off: expected True or False, got {toggle_off!r:.60}")
+            raise InvalidParameter(
+                f"toggle_off: expected True or False, got {describe(toggle_off)}"
+            )
         self.toggle_off = bool(toggle_off)
         self.alignment = check_choice("alignment", alignment, ALIGNMENTS)
         self.settle_position = check_positive("settle_position", settle_position, unit="m")
@@ -413,15 +416,18 @@ class ModeManager:
             InvalidInput: an unknown key, a bad pose, or a negative/non-finite distance.
         """
         if not isinstance(key, str) or key.upper() not in KEYS:
-            raise InvalidInput(f"key: expected one of {list(KEYS)} (C = clutch), got {key!r}")
+            raise InvalidInput(
+                f"key: expected one of {list(KEYS)} (C = clutch), got {describe(key)}"
+            )
         k = key.upper()
         tf = finite_scalar("t", t, unit="s", what="time")
-        T = rigid_transform("pose", pose, tol=POSE_TOL)
+        T = checked_transform("pose", pose, tol=POSE_TOL)
         if distance is not None:
             d = finite_scalar("distance", distance, unit="m", what="reading")
-            if d < 0.0:
+            if not 0.0 <= d <= self.laser.max_range:
                 raise InvalidInput(
-                    f"distance: expected a finite reading >= 0 [m] or None, got {distance!r}"
+                    f"distance: expected a reading in [0, {self.laser.max_range:g}] m (the "
+                    f"laser's range) or None, got {describe(distance)}"
                 )
             distance = d
         n0 = len(self._events)
@@ -625,9 +631,9 @@ class ModeManager:
             the next via point (self-correcting, §6.2.1); zero on the cycle a segment completes.
         """
         tf = finite_scalar("t", t, unit="s", what="time")
-        T = rigid_transform("pose", pose, tol=POSE_TOL)
-        v = finite_array("linear", linear, (3,), what="a velocity [m/s]")
-        w = finite_array("angular", angular, (3,), what="an angular velocity [rad/s]")
+        T = checked_transform("pose", pose, tol=POSE_TOL)
+        v = checked_array("linear", linear, (3,), what="a velocity [m/s]")
+        w = checked_array("angular", angular, (3,), what="an angular velocity [rad/s]")
         if self._segment is not None:
             return self._autonomous(tf, T)
         out = np.zeros(6)

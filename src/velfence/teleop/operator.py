@@ -52,11 +52,19 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from velfence._validate import check_positive, finite_array, step_count
-from velfence.errors import InvalidParameter
+from velfence._validate import (
+    check_count,
+    check_positive,
+    check_seed,
+    checked_array,
+    describe,
+    finite_scalar,
+    step_count,
+)
+from velfence.errors import InvalidInput, InvalidParameter
 from velfence.teleop.modes import aligned_rotation
 from velfence.teleop.resolved_rate import rotation_from_angle_axis, rotation_vector
-from velfence.teleop.session import OMNI_TO_PUMA, Observation
+from velfence.teleop.session import OMNI_TO_PUMA, SESSION_KEYS, Observation
 
 __all__ = [
     "OMNI_WORKSPACE",
@@ -167,7 +175,7 @@ class OperatorProfile:
             value = check_positive(f.name, getattr(self, f.name), allow_zero=True)
             object.__setattr__(self, f.name, value)
         if not isinstance(self.rainbow, (bool, np.bool_)):
-            raise InvalidParameter(f"rainbow: expected True or False, got {self.rainbow!r:.60}")
+            raise InvalidParameter(f"rainbow: expected True or False, got {describe(self.rainbow)}")
         object.__setattr__(self, "rainbow", bool(self.rainbow))
         for name in ("peak_speed", "orient_peak", "aim_peak", "index_speed"):
             if not getattr(self, name) > 0.0:
@@ -298,17 +306,13 @@ class SyntheticOperator:
     ) -> None:
         self.profile = OperatorProfile() if profile is None else profile
         if not isinstance(self.profile, OperatorProfile):
-            raise InvalidParameter(f"profile: expected an OperatorProfile, got {profile!r}")
-        if isinstance(seed, np.random.Generator):
-            self.rng = seed
-        elif isinstance(seed, int | np.integer) and not isinstance(seed, bool) and seed >= 0:
-            self.rng = np.random.default_rng(int(seed))
-        else:
-            raise InvalidParameter(f"seed: expected an int >= 0 or a Generator, got {seed!r}")
+            raise InvalidParameter(f"profile: expected an OperatorProfile, got {describe(profile)}")
+        s = check_seed("seed", seed, allow_generator=True)
+        self.rng = s if isinstance(s, np.random.Generator) else np.random.default_rng(s)
         self.tick = check_positive("tick", tick, unit="s")
-        ws = finite_array("workspace", workspace, (3,), error=InvalidParameter, what="sizes [m]")
+        ws = checked_array("workspace", workspace, (3,), error=InvalidParameter, what="sizes [m]")
         if not np.all(ws > 0.0):
-            raise InvalidParameter(f"workspace: expected 3 sizes > 0 [m], got {workspace!r}")
+            raise InvalidParameter(f"workspace: expected 3 sizes > 0 [m], got {ws.tolist()}")
         self.half = 0.5 * ws
         self.hand = np.zeros(3)  # Omni-frame hand position, workspace centre at 0
         self.stats = OperatorStats()
@@ -326,8 +330,19 @@ class SyntheticOperator:
         return self._obs
 
     def start(self, plan: Callable[[SyntheticOperator], Behaviour]) -> None:
-        """Start a plan: a function of this operator returning a behaviour."""
-        self._plan = plan(self)
+        """Start a plan: a function of this operator returning a behaviour.
+
+        Raises:
+            InvalidInput: ``plan`` is not a function, or does not return an iterator.
+        """
+        _check_callable("plan", plan)
+        behaviour = plan(self)
+        if not isinstance(behaviour, Iterator):
+            raise InvalidInput(
+                f"plan: expected a function returning a behaviour (a generator of Actions), "
+                f"got one returning {type(behaviour).__name__}"
+            )
+        self._plan = behaviour
         self.finished = False
 
     def act(self, obs: Observation) -> Action:
@@ -335,17 +350,29 @@ class SyntheticOperator:
 
         Returns:
             The tick's :class:`Action` (idle once the plan is finished).
+
+        Raises:
+            InvalidInput: ``obs`` is not an :class:`Observation`.
         """
+        if not isinstance(obs, Observation):
+            raise InvalidInput(
+                f"obs: expected an Observation (Session.observe()), got {type(obs).__name__}"
+            )
         self._obs = obs
         self._engaged = obs.clutch
         if self._plan is None:
             return Action(_IDLE_V, _IDLE_V)
         try:
-            action = next(self._plan)
+            action: Any = next(self._plan)  # a user plan may yield anything
         except StopIteration:
             self._plan = None
             self.finished = True
             return Action(_IDLE_V, _IDLE_V)
+        if not isinstance(action, Action):
+            self._plan = None
+            raise InvalidInput(
+                f"plan: expected a behaviour yielding Actions, got {type(action).__name__}"
+            )
         self._account(action)
         return action
 
@@ -358,29 +385,55 @@ class SyntheticOperator:
         if self._engaged:
             self.stats.active_time += self.tick
 
-    def _ticks(self, duration: float, name: str = "duration") -> int:
-        d = check_positive(name, duration, allow_zero=True, unit="s")
+    def _ticks(self, duration: float, name: str = "duration", *, allow_zero: bool = True) -> int:
+        d = check_positive(name, duration, allow_zero=allow_zero, unit="s", error=InvalidInput)
         if d == 0.0:
             return 1
-        return step_count(name, d, "tick", self.tick, max_steps=MAX_TICKS)
+        return step_count(name, d, "tick", self.tick, max_steps=MAX_TICKS, error=InvalidInput)
 
     # ------------------------------------------------------------------------------ primitives
+    # Every public behaviour validates its arguments when it is called (not when its generator
+    # is first advanced, which may be many ticks later inside a plan), then returns the
+    # generator of its private ``_name`` twin.
     def wait(self, duration: float) -> Behaviour:
-        """Do nothing for ``duration`` [s] (at least one tick)."""
-        for _ in range(self._ticks(duration)):
+        """Do nothing for ``duration`` [s], ``>= 0`` (at least one tick).
+
+        Raises:
+            InvalidInput: ``duration`` is not a real number >= 0 or needs too many ticks.
+        """
+        return self._idle(self._ticks(duration))
+
+    def _idle(self, n: int) -> Behaviour:
+        for _ in range(n):
             yield Action(_IDLE_V, _IDLE_V)
 
     def wait_until(
         self, predicate: Callable[[Observation], bool], *, limit: float = 120.0
     ) -> Behaviour:
-        """Idle until ``predicate(observation)`` holds (or ``limit`` [s] passes)."""
-        for _ in range(self._ticks(limit, "limit")):
-            if predicate(self.obs):
+        """Idle until ``predicate(observation)`` holds (or ``limit`` [s], ``> 0``, passes).
+
+        Raises:
+            InvalidInput: ``predicate`` is not a function, or ``limit`` is not > 0 or needs
+                too many ticks; (while running) ``predicate`` returns something else than a bool.
+        """
+        _check_callable("predicate", predicate)
+        return self._wait_until(predicate, self._ticks(limit, "limit", allow_zero=False))
+
+    def _wait_until(self, predicate: Callable[[Observation], bool], n: int) -> Behaviour:
+        for _ in range(n):
+            if _truth("predicate", predicate(self.obs)):
                 return
             yield Action(_IDLE_V, _IDLE_V)
 
     def press(self, *keys: str) -> Behaviour:
-        """Press keys one after another, each after ``key_time`` (``C`` after ``clutch_time``)."""
+        """Press keys one after another, each after ``key_time`` (``C`` after ``clutch_time``).
+
+        Raises:
+            InvalidInput: a key is not one of :data:`~velfence.teleop.session.SESSION_KEYS`.
+        """
+        return self._press(_check_keys(keys))
+
+    def _press(self, keys: tuple[str, ...]) -> Behaviour:
         for key in keys:
             delay = self.profile.clutch_time if key == "C" else self.profile.key_time
             yield from self.wait(max(delay - self.tick, 0.0))
@@ -415,10 +468,24 @@ class SyntheticOperator:
         return s
 
     def index(self, hand_d: FloatArray) -> Behaviour:
-        """Clutch out, move the hand back across the workspace against ``hand_d``, clutch in."""
+        """Clutch out, move the hand back across the workspace against ``hand_d``, clutch in.
+
+        Args:
+            hand_d: The hand displacement that ran out of room (Omni frame) [m], shape (3,),
+                not zero.
+
+        Raises:
+            InvalidInput: ``hand_d`` is not a finite non-zero 3-vector.
+        """
+        hd = _vector3("hand_d", hand_d, "a hand displacement [m]")
+        norm = float(np.linalg.norm(hd))
+        if not norm > 0.0:
+            raise InvalidInput(f"hand_d: expected a non-zero displacement [m], got {hd.tolist()}")
+        return self._index(hd / norm)
+
+    def _index(self, u: FloatArray) -> Behaviour:
         self.stats.index_events += 1
         yield from self.disengage()
-        u = hand_d / float(np.linalg.norm(hand_d))
         goal = np.where(np.abs(u) > 0.3, -0.6 * self.half * np.sign(u), 0.5 * self.hand)
         move = goal - self.hand
         dist = float(np.linalg.norm(move))
@@ -435,7 +502,19 @@ class SyntheticOperator:
 
         Indexes first when the hand has no room left in that direction; otherwise the stroke is
         cut at the workspace edge (the corrective strokes continue from there).
+
+        Args:
+            d: Displacement [m], shape (3,), magnitude <= :data:`MAX_STROKE`.
+            tol: Tolerance [m] the stroke is aimed at (Fitts-law width), ``> 0``.
+
+        Raises:
+            InvalidInput: ``d`` or ``tol`` out of range.
         """
+        dv = _vector3("d", d, "a displacement [m]", limit=MAX_STROKE)
+        tl = check_positive("tol", tol, unit="m", error=InvalidInput)
+        return self._stroke(dv, tl)
+
+    def _stroke(self, d: FloatArray, tol: float) -> Behaviour:
         amp = float(np.linalg.norm(d))
         if amp < 1e-6:
             return
@@ -443,7 +522,7 @@ class SyntheticOperator:
         hand_d = OMNI_TO_PUMA @ d
         s = self._room(hand_d)
         if s * amp < min(0.015, 0.5 * amp):
-            yield from self.index(hand_d)
+            yield from self._index(hand_d / float(np.linalg.norm(hand_d)))
             s = self._room(hand_d)
         d = s * d
         amp = float(np.linalg.norm(d))
@@ -466,13 +545,39 @@ class SyntheticOperator:
             yield Action(np.asarray(v, dtype=float), _IDLE_V)
 
     def turn(self, rotvec: FloatArray, *, peak: float, a: float, b: float, tol: float) -> Behaviour:
-        """One minimum-jerk rotation of the tool by the rotation vector ``rotvec`` [rad]."""
+        """One minimum-jerk rotation of the tool by the rotation vector ``rotvec`` [rad].
+
+        Args:
+            rotvec: Rotation vector [rad], shape (3,), angle <= 2π.
+            peak: Largest angular speed [rad/s], ``> 0``.
+            a: Fitts intercept [s], ``>= 0``.
+            b: Fitts slope [s/bit], ``>= 0``.
+            tol: Angular tolerance [rad] (Fitts-law width), ``> 0``.
+
+        Raises:
+            InvalidInput: an argument out of range.
+        """
+        rv = _vector3("rotvec", rotvec, "a rotation vector [rad]", limit=2.0 * math.pi)
+        pk = check_positive("peak", peak, unit="rad/s", error=InvalidInput)
+        fa = check_positive("a", a, allow_zero=True, unit="s", error=InvalidInput)
+        fb = check_positive("b", b, allow_zero=True, unit="s/bit", error=InvalidInput)
+        tl = check_positive("tol", tol, unit="rad", error=InvalidInput)
+        # the stroke's duration is bounded here, before any tick is produced
+        angle = float(np.linalg.norm(rv))
+        T = _turn_time(angle, pk, fa, fb, tl)
+        if not MAX_TICKS * self.tick >= T:
+            raise InvalidInput(
+                f"peak, a, b: a turn by {angle:.3g} rad with peak={pk:g} rad/s, a={fa:g} s and "
+                f"b={fb:g} s/bit lasts {T:.3g} s, more than {MAX_TICKS:,} ticks of {self.tick:g} s"
+            )
+        return self._turn(rv, pk, fa, fb, tl)
+
+    def _turn(self, rotvec: FloatArray, peak: float, a: float, b: float, tol: float) -> Behaviour:
         angle = float(np.linalg.norm(rotvec))
         if angle < 1e-6:
             return
         yield from self.engage()
-        T = max(a + b * math.log2(2.0 * angle / max(tol, 1e-3) + 1.0), 1.875 * angle / peak)
-        n = self._ticks(T)
+        n = self._ticks(_turn_time(angle, peak, a, b, tol))
         Tn = n * self.tick
         axis = rotvec / angle
         for i in range(n):
@@ -492,22 +597,38 @@ class SyntheticOperator:
 
         Args:
             target: The goal position [m] as a function of the observation.
-            tol: Tolerance [m] the operator is satisfied with.
+            tol: Tolerance [m] the operator is satisfied with, ``> 0``.
             point: ``"tip"`` (fingertips), ``"wrist"`` (frame 6) or ``"cup"`` (held cup bottom).
-            max_strokes: Give up after this many strokes.
+            max_strokes: Give up after this many strokes (1 to :data:`MAX_STROKES`).
+
+        Raises:
+            InvalidInput: a bad argument; (while running) ``target`` returns no 3-vector.
         """
+        _check_callable("target", target)
+        tl = check_positive("tol", tol, unit="m", error=InvalidInput)
+        pt = _choice("point", point, ("tip", "wrist", "cup"))
+        n = check_count("max_strokes", max_strokes, maximum=MAX_STROKES, example=40)
+        return self._reach(target, tl, pt, n)
+
+    def _reach(
+        self, target: Callable[[Observation], FloatArray], tol: float, point: str, n: int
+    ) -> Behaviour:
         p = self.profile
-        for _ in range(max_strokes):
+        for _ in range(n):
             yield from self.wait(p.reaction)
             obs = self.obs
             cur = obs.tip if point == "tip" else obs.cup if point == "cup" else obs.pose[:3, 3]
-            err = np.asarray(target(obs), dtype=float) - cur
+            goal = _vector3("target", target(obs), "a position [m] from target(obs)")
+            err = goal - cur
             err = err + self.rng.normal(0.0, p.perception, 3)
+            if not np.all(np.isfinite(err)):
+                return  # no cup to carry (its position is NaN): nothing to reach
             if float(np.linalg.norm(err)) <= tol:
                 return
             amp = float(np.linalg.norm(err))
             d = err + self.rng.normal(0.0, p.endpoint_noise * amp / math.sqrt(3.0), 3)
-            yield from self.stroke(d, tol)
+            d = _clip_norm(d, MAX_STROKE)
+            yield from self._stroke(d, tol)
 
     def orient(
         self,
@@ -521,25 +642,51 @@ class SyntheticOperator:
 
         Args:
             target: Goal rotation as a function of the observation.
-            tol: Tolerance [rad] on ``error(obs)`` (default: the full rotation angle).
+            tol: Tolerance [rad] on ``error(obs)`` (default: the full rotation angle), ``> 0``.
             error: The angle the operator judges [rad], e.g. only the tilt of the tool axis.
-            max_strokes: Give up after this many strokes.
+            max_strokes: Give up after this many strokes (1 to :data:`MAX_STROKES`).
+
+        Raises:
+            InvalidInput: a bad argument; (while running) ``target`` returns no rotation or
+                ``error`` no angle.
         """
+        _check_callable("target", target)
+        tl = check_positive("tol", tol, unit="rad", error=InvalidInput)
+        if error is not None:
+            _check_callable("error", error)
+        n = check_count("max_strokes", max_strokes, maximum=MAX_STROKES, example=20)
+        return self._orient(target, tl, error, n)
+
+    def _orient(
+        self,
+        target: Callable[[Observation], FloatArray],
+        tol: float,
+        error: Callable[[Observation], float] | None,
+        n: int,
+    ) -> Behaviour:
         p = self.profile
-        for _ in range(max_strokes):
+        for _ in range(n):
             yield from self.wait(p.reaction + p.orient_plan)
             obs = self.obs
             R = obs.pose[:3, :3]
-            e = rotation_vector(np.asarray(target(obs), dtype=float) @ R.T)
-            judged = float(np.linalg.norm(e)) if error is None else error(obs)
+            goal = checked_array("target", target(obs), (3, 3), what="a rotation from target(obs)")
+            e = rotation_vector(goal @ R.T)
+            if error is None:
+                judged = float(np.linalg.norm(e))
+            else:
+                judged = finite_scalar(
+                    "error", error(obs), unit="rad", what="angle from error(obs)"
+                )
             if judged <= tol:
                 return
-            angle = float(np.linalg.norm(e)) * (1.0 + float(self.rng.normal(0.0, p.orient_noise)))
-            axis = _perturb_axis(e / float(np.linalg.norm(e)), p.orient_axis_noise, self.rng)
+            norm_e = float(np.linalg.norm(e))
+            if norm_e < 1e-12:
+                return
+            angle = norm_e * (1.0 + float(self.rng.normal(0.0, p.orient_noise)))
+            angle = max(-2.0 * math.pi, min(2.0 * math.pi, angle))
+            axis = _perturb_axis(e / norm_e, p.orient_axis_noise, self.rng)
             self.stats.orient_strokes += 1
-            yield from self.turn(
-                axis * angle, peak=p.orient_peak, a=p.orient_a, b=p.orient_b, tol=tol
-            )
+            yield from self._turn(axis * angle, p.orient_peak, p.orient_a, p.orient_b, tol)
 
     def aim(self, target: FloatArray, tol: float, *, max_strokes: int = 25) -> Behaviour:
         """Point the laser spot within ``tol`` [m] of ``target`` by wrist rotations.
@@ -547,10 +694,23 @@ class SyntheticOperator:
         The rotation is judged about the wrist centre, from the direction of the visible spot
         to the direction of the target (the beam's offset from the wrist makes this approximate;
         the corrective strokes absorb it).
+
+        Args:
+            target: The point to put the spot on [m], shape (3,).
+            tol: Tolerance [m], ``> 0``.
+            max_strokes: Give up after this many strokes (1 to :data:`MAX_STROKES`).
+
+        Raises:
+            InvalidInput: a bad argument.
         """
+        goal = _vector3("target", target, "a point [m]")
+        tl = check_positive("tol", tol, unit="m", error=InvalidInput)
+        n = check_count("max_strokes", max_strokes, maximum=MAX_STROKES, example=25)
+        return self._aim(goal, tl, n)
+
+    def _aim(self, goal: FloatArray, tol: float, n: int) -> Behaviour:
         p = self.profile
-        goal = np.asarray(target, dtype=float)
-        for _ in range(max_strokes):
+        for _ in range(n):
             yield from self.wait(p.reaction)
             obs = self.obs
             c = obs.pose[:3, 3]
@@ -558,8 +718,12 @@ class SyntheticOperator:
             seen = spot + self.rng.normal(0.0, p.perception, 3)
             if float(np.linalg.norm(seen - goal)) <= tol:
                 return
-            u1 = (seen - c) / float(np.linalg.norm(seen - c))
-            u2 = (goal - c) / float(np.linalg.norm(goal - c))
+            r1 = float(np.linalg.norm(seen - c))
+            r2 = float(np.linalg.norm(goal - c))
+            if r1 < 1e-9 or r2 < 1e-9:
+                return  # the target is at the wrist centre: no direction to point in
+            u1 = (seen - c) / r1
+            u2 = (goal - c) / r2
             axis = np.cross(u1, u2)
             s = float(np.linalg.norm(axis))
             if s < 1e-9:
@@ -567,18 +731,28 @@ class SyntheticOperator:
             angle = math.atan2(s, float(u1 @ u2)) * (1.0 + float(self.rng.normal(0.0, p.aim_noise)))
             axis = _perturb_axis(axis / s, p.aim_axis_noise, self.rng)
             self.stats.aim_strokes += 1
-            angle_tol = tol / float(np.linalg.norm(goal - c))
-            yield from self.turn(
-                axis * angle, peak=p.aim_peak, a=p.fitts_a, b=p.fitts_b, tol=angle_tol
-            )
+            angle_tol = tol / r2
+            yield from self._turn(axis * angle, p.aim_peak, p.fitts_a, p.fitts_b, angle_tol)
 
     def record(self, *keys: str) -> Behaviour:
-        """Hold still for the laser to settle (``laser_wait``), then press ``keys``."""
+        """Hold still for the laser to settle (``laser_wait``), then press ``keys``.
+
+        Raises:
+            InvalidInput: a key is not one of :data:`~velfence.teleop.session.SESSION_KEYS`.
+        """
+        return self._record(_check_keys(keys))
+
+    def _record(self, keys: tuple[str, ...]) -> Behaviour:
         yield from self.wait(self.profile.laser_wait)
-        yield from self.press(*keys)
+        yield from self._press(keys)
 
     def vertical(self, tol: float) -> Behaviour:
-        """Orient the tool axis straight down (least rotation) within ``tol`` [rad] of tilt."""
+        """Orient the tool axis straight down (least rotation) within ``tol`` [rad] of tilt.
+
+        Raises:
+            InvalidInput: ``tol`` is not > 0.
+        """
+        tl = check_positive("tol", tol, unit="rad", error=InvalidInput)
 
         def goal(o: Observation) -> FloatArray:
             return aligned_rotation(o.pose[:3, :3], (0.0, 0.0, 1.0), alignment="geodesic")
@@ -586,4 +760,58 @@ class SyntheticOperator:
         def tilt(o: Observation) -> float:
             return math.acos(max(-1.0, min(1.0, -float(o.pose[2, 2]))))
 
-        yield from self.orient(goal, tol, error=tilt)
+        return self._orient(goal, tl, tilt, 20)
+
+
+#: Largest displacement one translation stroke may ask for [m] (far beyond any teleoperated
+#: reach; keeps stroke durations and tick counts bounded).
+MAX_STROKE = 100.0
+#: Most strokes one reaching, orienting or aiming behaviour may make.
+MAX_STROKES = 10_000
+
+
+def _turn_time(angle: float, peak: float, a: float, b: float, tol: float) -> float:
+    return max(a + b * math.log2(2.0 * angle / max(tol, 1e-3) + 1.0), 1.875 * angle / peak)
+
+
+def _clip_norm(v: FloatArray, limit: float) -> FloatArray:
+    n = float(np.linalg.norm(v))
+    return v * (limit / n) if n > limit else v
+
+
+def _check_callable(name: str, fn: Any) -> None:
+    """A function (classes such as ``float`` are callable but not behaviour callbacks)."""
+    if not callable(fn) or isinstance(fn, type):
+        raise InvalidInput(f"{name}: expected a function, got {type(fn).__name__}")
+
+
+def _truth(name: str, value: Any) -> bool:
+    if not isinstance(value, (bool, np.bool_)):
+        raise InvalidInput(
+            f"{name}: expected a function returning True or False, got a {type(value).__name__}"
+        )
+    return bool(value)
+
+
+def _choice(name: str, value: Any, choices: tuple[str, ...]) -> str:
+    if not isinstance(value, str) or value not in choices:
+        shown = repr(value) if isinstance(value, str) else type(value).__name__
+        raise InvalidInput(f"{name}: expected one of {list(choices)}, got {shown:.60}")
+    return value
+
+
+def _check_keys(keys: tuple[Any, ...]) -> tuple[str, ...]:
+    out = []
+    for k in keys:
+        if not isinstance(k, str) or k.upper() not in SESSION_KEYS:
+            shown = repr(k) if isinstance(k, str) else type(k).__name__
+            raise InvalidInput(f"keys: expected keys among {list(SESSION_KEYS)}, got {shown:.40}")
+        out.append(k.upper())
+    return tuple(out)
+
+
+def _vector3(name: str, x: Any, what: str, limit: float | None = None) -> FloatArray:
+    v = checked_array(name, x, (3,), what=what)
+    if limit is not None and not float(np.linalg.norm(v)) <= limit:
+        raise InvalidInput(f"{name}: expected {what} of length <= {limit:g}, got {v.tolist()}")
+    return v

@@ -40,7 +40,7 @@ from typing import Any, TypeAlias
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._validate import check_positive, finite_array, finite_scalar, readonly
+from velfence._validate import check_positive, checked_array, describe, finite_scalar, readonly
 from velfence.errors import InvalidGeometry, InvalidInput
 from velfence.geometry.primitives import orthonormal_complement
 
@@ -97,14 +97,14 @@ def _tuple(a: FloatArray) -> Vec3:
 
 def _geom_point(name: str, x: Any) -> FloatArray:
     """A definition's 3-vector (a point [m] or a direction), else :class:`InvalidGeometry`."""
-    return finite_array(name, x, (3,), error=InvalidGeometry)
+    return checked_array(name, x, (3,), error=InvalidGeometry)
 
 
 def _geom_unit(name: str, x: Any) -> FloatArray:
     v = _geom_point(name, x)
     n = float(np.linalg.norm(v))
     if not n > 0.0:
-        raise InvalidGeometry(f"{name}: expected a non-zero direction vector, got {x!r}")
+        raise InvalidGeometry(f"{name}: expected a non-zero direction vector, got {describe(x)}")
     return v / n
 
 
@@ -117,7 +117,7 @@ def _geom_length(name: str, x: Any, what: str) -> float:
 
 def _vec3(name: str, x: Any) -> Vec3:
     """A run-time point or direction of shape (3,) as a tuple (:class:`InvalidInput`)."""
-    x0, x1, x2 = finite_array(name, x, (3,), what="a point of 3 numbers").tolist()
+    x0, x1, x2 = checked_array(name, x, (3,), what="a point of 3 numbers").tolist()
     return (x0, x1, x2)
 
 
@@ -232,13 +232,13 @@ class Plane(_RayCast):
         half: tuple[float, float] | None = None
         if half_extents is not None:
             try:
-                if isinstance(half_extents, (str, bytes, bytearray)):
+                if not isinstance(half_extents, (list, tuple, np.ndarray)):
                     raise TypeError
                 a, b = half_extents
             except (TypeError, ValueError):
                 raise InvalidGeometry(
                     f"half_extents: expected two numbers (a, b) > 0 [m] or None, got "
-                    f"{half_extents!r}"
+                    f"{describe(half_extents)}"
                 ) from None
             half = (
                 _geom_length("half_extents[0]", a, "half width along u"),
@@ -455,7 +455,7 @@ class Box(_RayCast):
         if rotation is None:
             R = np.eye(3)
         else:
-            R = finite_array(
+            R = checked_array(
                 "rotation", rotation, (3, 3), error=InvalidGeometry, what="a 3x3 rotation matrix"
             )
             err = float(np.max(np.abs(R.T @ R - np.eye(3))))
@@ -570,7 +570,8 @@ class Scene:
     def __init__(self, primitives: Mapping[str, Primitive]) -> None:
         if not isinstance(primitives, Mapping) or len(primitives) == 0:
             raise InvalidGeometry(
-                f"primitives: expected a non-empty mapping name -> primitive, got {primitives!r}"
+                f"primitives: expected a non-empty mapping name -> primitive, got "
+                f"{describe(primitives)}"
             )
         items: list[tuple[str, Primitive]] = []
         for name, prim in primitives.items():
@@ -827,7 +828,9 @@ def scene_to_dicts(scene: Scene, *, dynamic: Sequence[str] = ()) -> list[dict[st
         or not all(isinstance(name, str) for name in dynamic)
         or any(name not in scene for name in dynamic)
     ):
-        raise InvalidInput(f"dynamic: expected names from {list(scene.names)}, got {dynamic!r}")
+        raise InvalidInput(
+            f"dynamic: expected names from {list(scene.names)}, got {describe(dynamic)}"
+        )
     out: list[dict[str, Any]] = []
     for name, prim in scene.items():
         entry: dict[str, Any]

@@ -44,10 +44,10 @@ from numpy.typing import ArrayLike, NDArray
 from velfence._validate import (
     check_choice,
     check_positive,
-    check_positive_int,
-    finite_array,
+    check_seed,
+    checked_array,
+    describe,
     readonly,
-    real_array,
     step_count,
 )
 from velfence.errors import InvalidInput, InvalidParameter
@@ -87,7 +87,7 @@ class JointServo(Protocol):
 def _vec(name: str, x: ArrayLike, n: int | None, unit: str) -> FloatArray:
     """A finite 1-D vector, of length ``n`` when given, else :class:`InvalidInput`."""
     label = f"{name} {unit}"
-    a = finite_array(label, x, None if n is None else (n,))
+    a = checked_array(label, x, None if n is None else (n,))
     if a.ndim != 1 or a.shape[0] == 0:
         raise InvalidInput(f"{label}: expected shape (n,) with n >= 1, got shape {a.shape}")
     return a
@@ -98,12 +98,13 @@ def _per_joint(name: str, value: Any, unit: str, *, allow_zero: bool) -> FloatAr
     scalar = isinstance(value, np.ndarray) and value.ndim == 0
     if scalar or not isinstance(value, (list, tuple, np.ndarray)):
         return readonly(np.array([check_positive(name, value, allow_zero=allow_zero, unit=unit)]))
-    a = finite_array(name, value, error=InvalidParameter, what=f"a number or 1-D numbers {unit}")
+    a = checked_array(name, value, error=InvalidParameter, what=f"a number or 1-D numbers {unit}")
     ok = (a >= 0.0) if allow_zero else (a > 0.0)
     if a.ndim != 1 or a.shape[0] == 0 or not np.all(ok):
         bound = ">= 0" if allow_zero else "> 0"
         raise InvalidParameter(
-            f"{name}: expected a finite number {bound} or a 1-D array of them {unit}, got {value!r}"
+            f"{name}: expected a finite number {bound} or a 1-D array of them {unit}, got "
+            f"{describe(value)}"
         )
     return readonly(a)
 
@@ -111,7 +112,7 @@ def _per_joint(name: str, value: Any, unit: str, *, allow_zero: bool) -> FloatAr
 def _limits(value: Any) -> FloatArray | None:
     if value is None:
         return None
-    a = real_array(
+    a = checked_array(
         "joint_limits", value, error=InvalidParameter, allow_nonfinite=True, what="numbers [rad]"
     )
     if a.ndim != 2 or a.shape[1] != 2 or a.shape[0] == 0:
@@ -130,7 +131,7 @@ MAX_SUBSTEPS = 1_000_000
 
 
 def _seed(seed: Any) -> int:
-    return check_positive_int("seed", seed, minimum=0, example=0)
+    return int(check_seed("seed", seed))
 
 
 def _dt(dt: Any) -> float:
@@ -366,9 +367,9 @@ class PDGravityServo(_ServoBase):
             raise InvalidParameter(
                 f"kd: expected a scalar or {sizes.pop()} values to match kp, got {self.kd.size}"
             )
-        if gravity is not None and not callable(gravity):
+        if gravity is not None and (not callable(gravity) or isinstance(gravity, type)):
             raise InvalidParameter(
-                f"gravity: expected a callable g(q) -> (n,) [N·m] or None, got {gravity!r}"
+                f"gravity: expected a callable g(q) -> (n,) [N·m] or None, got {describe(gravity)}"
             )
         self.gravity = gravity
         self.compensation_error = check_positive(
@@ -378,13 +379,15 @@ class PDGravityServo(_ServoBase):
         # Semi-implicit Euler on I q'' = -Kp q - (Kd + b) q' is stable iff h c < 2 and
         # h² ω² + 2 h c < 4 (ω² = Kp/I, c = (Kd + b)/I); keep a factor 2 of margin.
         h = self.max_substep
-        w2 = self.kp / self.inertia
-        c = (self.kd + self.friction) / self.inertia
-        margin = float(np.max(h * h * w2 + 2.0 * h * c))
-        if margin >= 2.0:
+        with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+            w2 = self.kp / self.inertia  # a tiny inertia overflows: inf, refused just below
+            c = (self.kd + self.friction) / self.inertia
+            margin = float(np.max(h * h * w2 + 2.0 * h * c))
             h_ok = 1.0 / float(np.max(np.sqrt(w2) + c))  # meets the bound with the margin
+        if not margin < 2.0:
             raise InvalidParameter(
-                f"max_substep: expected a sub-step short enough for these gains (below about "
+                f"max_substep (with kp, kd, friction and inertia): expected a sub-step short "
+                f"enough for these gains (below about "
                 f"{h_ok:.3g} s), got {h:g} s"
             )
 

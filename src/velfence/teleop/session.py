@@ -65,10 +65,12 @@ from numpy.typing import ArrayLike, NDArray
 from velfence._validate import (
     MAX_MAGNITUDE,
     MAX_STEPS,
+    check_count,
     check_positive,
-    check_positive_int,
     check_range,
-    finite_array,
+    check_seed,
+    checked_array,
+    describe,
     readonly,
     step_count,
 )
@@ -148,7 +150,7 @@ def omni_to_puma(v: ArrayLike) -> FloatArray:
     Returns:
         ``v M`` in the PUMA base frame, shape (3,).
     """
-    return np.asarray(finite_array("v", v, (3,)) @ OMNI_TO_PUMA, dtype=float)
+    return np.asarray(checked_array("v", v, (3,)) @ OMNI_TO_PUMA, dtype=float)
 
 
 def default_robot() -> Puma560:
@@ -298,8 +300,8 @@ class Session:
             )
         self.resolver = ResolvedRate(self.robot, on_invalid="stop")
         self.hand_time = check_positive("hand_time", hand_time, allow_zero=True, unit="s")
-        self._trace_every = check_positive_int("trace_every", trace_every, maximum=MAX_STEPS)
-        self.seed = check_positive_int("seed", seed, minimum=0, example=0)
+        self._trace_every = check_count("trace_every", trace_every, maximum=MAX_STEPS)
+        self.seed = int(check_seed("seed", seed))
         self._q0 = ready_pose(self.robot)[0] if q0 is None else _vec6(q0)
         names = self.scene.names
         cup = self.scene["cup"] if "cup" in names else None
@@ -428,7 +430,7 @@ class Session:
             InvalidInput: an unknown key (the message lists the valid ones).
         """
         if not isinstance(key, str) or key.upper() not in SESSION_KEYS:
-            raise InvalidInput(f"key: expected one of {list(SESSION_KEYS)}, got {key!r}")
+            raise InvalidInput(f"key: expected one of {list(SESSION_KEYS)}, got {describe(key)}")
         k = key.upper()
         t = self.t
         self._status_extra = None
@@ -449,8 +451,8 @@ class Session:
         Raises:
             InvalidInput: wrong shapes or non-finite values.
         """
-        self._lin = finite_array("linear [m/s]", linear, (3,))
-        self._ang = finite_array("angular [rad/s]", angular, (3,))
+        self._lin = checked_array("linear [m/s]", linear, (3,))
+        self._ang = checked_array("angular [rad/s]", angular, (3,))
 
     def advance(self, dt: float) -> None:
         """Advance the world by ``dt`` [s] in control cycles of ``1/rate``.
@@ -721,4 +723,4 @@ def _robot(robot: Any) -> Puma560:
 
 
 def _vec6(x: ArrayLike) -> FloatArray:
-    return finite_array("q0 [rad]", x, (6,), error=InvalidParameter)
+    return checked_array("q0 [rad]", x, (6,), error=InvalidParameter)

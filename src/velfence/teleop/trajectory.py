@@ -55,12 +55,13 @@ from velfence._validate import (
     MAX_MAGNITUDE,
     MAX_STEPS,
     check_choice,
+    check_count,
     check_positive,
-    check_positive_int,
+    checked_array,
     finite_scalar,
     readonly,
 )
-from velfence.errors import InvalidParameter
+from velfence.errors import InvalidInput, InvalidParameter, VelfenceError
 from velfence.geometry.primitives import points_segments_distances
 from velfence.teleop.resolved_rate import (
     ORIENTATION_ERRORS,
@@ -178,7 +179,7 @@ class CartesianTrajectory:
         Raises:
             InvalidInput: ``t`` is not a finite number.
         """
-        tf = finite_scalar("t", t, unit="s", what="time", max_abs=None)
+        tf = finite_scalar("t", t, unit="s", what="time")
         s = min(max(tf / self.duration, 0.0), 1.0)
         return _interpolate(self.start, self.end, self.axis, self.angle, s)
 
@@ -387,14 +388,19 @@ def execute(
     lam = check_positive("correction_gain", correction_gain)
     if lam > 1.0:
         raise InvalidParameter(f"correction_gain: expected a value in (0, 1], got {lam!r}")
-    sub = check_positive_int("substeps", substeps, maximum=MAX_SUBSTEPS, example=5)
-    extra = check_positive_int("settle", settle, minimum=0, maximum=MAX_VIA_STEPS, example=0)
+    sub = check_count("substeps", substeps, maximum=MAX_SUBSTEPS, example=5)
+    extra = check_count("settle", settle, minimum=0, maximum=MAX_VIA_STEPS, example=0)
     total = (trajectory.n_steps + extra + 1) * sub
     if total > MAX_STEPS:
         raise InvalidParameter(
             f"substeps={sub} and settle={extra} need {total:,} servo steps; at most "
             f"{MAX_STEPS:,} are allowed: lower substeps or settle"
         )
+    q_start = checked_array("q0 [rad]", q0, (None,), what="joint angles")
+    try:
+        robot.fk(q_start)
+    except VelfenceError as exc:  # the arm's own message names its internal argument
+        raise InvalidInput(f"q0: not a configuration of this robot: {exc}") from None
     rr = ResolvedRate(robot) if resolver is None else resolver
     if not isinstance(rr, ResolvedRate):
         raise InvalidParameter(f"resolver: expected a ResolvedRate, got {type(rr).__name__}")
@@ -412,7 +418,7 @@ def execute(
     h = 1.0 / trajectory.rate
     dt = h / sub
     K = N + extra + 1
-    q_m = np.array(sv.reset(q0), dtype=float)
+    q_m = np.array(sv.reset(q_start), dtype=float)
     n = q_m.shape[0]
     q_cmd = np.array(sv.q, dtype=float)
 
