@@ -65,6 +65,15 @@ def decompose(v: ArrayLike, n: ArrayLike) -> tuple[float, FloatArray]:
     na = _vector("n", n)
     if va.shape != na.shape:
         raise InvalidInput(f"n: expected the shape of v, {va.shape}, got shape {na.shape}")
+    return split_along(va, na)
+
+
+def split_along(va: FloatArray, na: FloatArray) -> tuple[float, FloatArray]:
+    """:func:`decompose` for already-validated float64 vectors of one shape (no checks).
+
+    For callers that apply their own ``on_invalid`` policy to huge or non-finite values: the
+    result may then overflow, and the caller checks it.
+    """
     vn = float(va @ na)
     return vn, va - vn * na
 
