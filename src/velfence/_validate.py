@@ -30,6 +30,7 @@ from numpy.typing import NDArray
 
 __all__ = [
     "MAX_MAGNITUDE",
+    "MAX_SEQUENCE_LENGTH",
     "MAX_STEPS",
     "as_pair",
     "as_rows",
@@ -60,6 +61,10 @@ MAX_MAGNITUDE = 1e150
 #: Default cap on the number of steps a simulator or iterative routine may be asked to run
 #: (10⁸ steps of 1 ms is more than a day of simulated time).
 MAX_STEPS = 100_000_000
+
+#: Longest Python sequence (list, tuple, ...) converted to an array; longer inputs must be passed
+#: as ndarrays (a sequence that claims 10¹² entries must not trigger the allocation).
+MAX_SEQUENCE_LENGTH = 10_000_000
 
 A = TypeVar("A", bound=np.ndarray[Any, Any])
 
@@ -133,9 +138,20 @@ def real_array(
     want = "" if shape is None else f" of shape {_shape_text(shape)}"
     if isinstance(x, _NOT_NUMBERS) or x is None or isinstance(x, (bool, np.bool_)):
         raise err(f"{name}: expected {what}{want}, got {_type_text(x)}")
+    if not isinstance(x, np.ndarray) and hasattr(x, "__len__"):
+        # A sequence claiming billions of entries would make NumPy try the allocation first.
+        try:
+            n = len(x)
+        except Exception:  # a hostile __len__ is refused, not propagated
+            raise err(f"{name}: expected {what}{want}, got {_show(x)}") from None
+        if n > MAX_SEQUENCE_LENGTH:
+            raise err(
+                f"{name}: expected {what}{want} with at most {MAX_SEQUENCE_LENGTH} entries, got "
+                f"a {type(x).__name__} of length {n}; pass an ndarray"
+            )
     try:
         raw = np.asarray(x)
-    except (TypeError, ValueError, OverflowError, RecursionError):
+    except Exception:  # whatever a hostile __array__/__getitem__/__float__ raises is refused
         raise err(f"{name}: expected {what}{want}, got {_show(x)}") from None
     if isinstance(x, (list, tuple)) and raw.dtype.kind in _REAL_KINDS and _has_bool(x):
         raise err(f"{name}: expected {what}{want}, got booleans among the numbers: {_show(x)}")
@@ -156,10 +172,15 @@ def real_array(
     ):
         raise err(f"{name}: expected shape {_shape_text(shape)}, got shape {raw.shape}")
     try:
-        a = np.array(raw, dtype=np.float64)
+        with np.errstate(over="ignore", invalid="ignore"):
+            a = np.array(raw, dtype=np.float64)
     except OverflowError:
         raise err(f"{name}: expected {what} of magnitude <= {MAX_MAGNITUDE:g}") from None
     finite = np.isfinite(a)
+    # A long double beyond the float64 range became inf in the cast: too large, not NaN/inf.
+    if raw.dtype.kind == "f" and raw.dtype.itemsize > 8 and not finite.all():  # noqa: SIM102
+        if np.isfinite(raw[~finite]).any():
+            raise err(f"{name}: expected {what} of magnitude <= {MAX_MAGNITUDE:g}, got {_show(x)}")
     if not allow_nonfinite and not finite.all():
         got = _show(a.tolist(), 200)
         raise err(f"{name}: expected finite values, got {got}; filter NaN/inf before calling")
@@ -333,7 +354,10 @@ def check_positive_int(
     from velfence.errors import InvalidParameter
 
     err = error or InvalidParameter
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+    # np.timedelta64 subclasses np.signedinteger but is a duration, not a count.
+    if isinstance(value, (bool, np.bool_, np.timedelta64)) or not isinstance(
+        value, (int, np.integer)
+    ):
         want = "a positive int" if minimum == 1 else f"an int >= {minimum}"
         raise err(f"{name}: expected {want}, got {_type_text(value)}; e.g. {example}")
     if value < minimum:

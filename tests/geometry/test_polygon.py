@@ -203,7 +203,7 @@ class TestConstruction:
         assert big.area == pytest.approx(4.0 * poly.area, rel=RTOL)
         np.testing.assert_allclose(big.centroid, poly.centroid, rtol=RTOL, atol=ATOL)
         for bad in (0.0, -1.0, math.nan, math.inf):
-            with pytest.raises(InvalidGeometry, match="scale factor must be finite and > 0"):
+            with pytest.raises(InvalidGeometry, match="factor must be finite and > 0"):
                 poly.scaled(bad)
 
 
@@ -565,5 +565,5 @@ class TestInputHardening:
         poly = ConvexPolygon(SQUARE)
         with pytest.raises(InvalidParameter, match="tol"):
             poly.contains([0.5, 0.5], tol="0.1")  # type: ignore[arg-type]
-        with pytest.raises(InvalidGeometry, match="scale factor"):
+        with pytest.raises(InvalidGeometry, match="factor must be a number"):
             poly.scaled("2")  # type: ignore[arg-type]

@@ -437,20 +437,24 @@ class TestInvalidInput:
 
     @pytest.mark.parametrize("radius", [-0.1, math.nan, math.inf])
     def test_bad_radius(self, radius: float) -> None:
-        with pytest.raises(InvalidInput, match="sphere_radius: expected a finite radius >= 0"):
+        with pytest.raises(InvalidInput, match="sphere_radius must be finite and >= 0"):
             sphere_capsule_distance([0, 0, 0], radius, [0, 0, 1], [1, 0, 1], 0.1)
-        with pytest.raises(InvalidInput, match="capsule_radius: expected a finite radius >= 0"):
+        with pytest.raises(InvalidInput, match="capsule_radius must be finite and >= 0"):
             sphere_capsule_distance([0, 0, 0], 0.1, [0, 0, 1], [1, 0, 1], radius)
 
     def test_radius_not_a_number(self) -> None:
         with pytest.raises(
-            InvalidInput, match="capsule_radius: expected a finite radius >= 0, got"
+            InvalidInput, match="capsule_radius must be a number in length units, got"
         ):
             sphere_capsule_distance([0, 0, 0], 0.1, [0, 0, 1], [1, 0, 1], "wide")
 
     def test_jacobian_shapes(self) -> None:
         J = np.zeros((3, 2))
-        with pytest.raises(InvalidInput, match=r"da: expected a Jacobian of shape \(3, n\)"):
+        with pytest.raises(
+            InvalidInput,
+            match=r"da: expected shape \(3, N\), got shape \(3,\); expected a Jacobian of shape "
+            r"\(3, n\)",
+        ):
             point_segment_distance_jacobian([0, 1, 0], [0, 0, 0], [1, 0, 0], J, np.zeros(3), J)
         with pytest.raises(InvalidInput, match=r"got shape \(2, 2\)"):
             point_segment_distance_jacobian([0, 1, 0], [0, 0, 0], [1, 0, 0], np.eye(2), J, J)

@@ -20,7 +20,7 @@ _S = {"s": "scalar", "s0": "scalar", "start_angle": "scalar"}
 
 SPECS: dict[str, F | C] = {
     "geometry.Circle": C(
-        F(lambda: call([0.0, 0.0], 1.0), types=_S),
+        F(lambda: call([0.0, 0.0], radius=1.0), types=_S),
         {k: F(v, types=_S) for k, v in _PATH_METHODS.items()},
     ),
     "geometry.Line": C(
@@ -50,7 +50,9 @@ SPECS: dict[str, F | C] = {
             "wedge": lambda: call([1.5, 1.5]),
         },
     ),
-    "geometry.Rectangle": C(F(lambda: call(-1.0, 1.0, -0.5, 0.5)), {"contains": lambda: call(P2)}),
+    "geometry.Rectangle": C(
+        F(lambda: call(xmin=-1.0, xmax=1.0, ymin=-0.5, ymax=0.5)), {"contains": lambda: call(P2)}
+    ),
     "geometry.decompose": F(lambda: call(V2, [0.0, 1.0])),
     "geometry.inscribed_rectangle": F(lambda: call(square())),
     "geometry.polygon_from_halfplanes": F(

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
-from common import P2, P_ROWS, V2, V_ROWS, profile, square
+from common import P2, P_ROWS, V2, V_ROWS, square
 from harness import C, F, call
 
 import velfence as vf
@@ -32,6 +32,11 @@ _THETA = np.array([0.2, 0.1, 0.0])
 _THETA_DOT = np.array([0.5, -0.2, 0.1])
 
 
+def profile() -> vf.ThreeZoneBraking:
+    """A valid braking profile (v_max above a_max/gain, as the profile requires)."""
+    return vf.ThreeZoneBraking(gain=4.0, v_max=1.0, a_max=2.0)
+
+
 def stop_limiter() -> vf.StopLimiter:
     return vf.StopLimiter(PAPER_STOPS, profile=profile(), transform=Q_AUX)
 
@@ -39,14 +44,14 @@ def stop_limiter() -> vf.StopLimiter:
 SPECS: dict[str, F | C] = {
     "shaping.ApproachProfile": C(abstract="Protocol: exercised through its implementations"),
     "shaping.Shaper": C(abstract="Protocol: exercised through its implementations"),
-    "shaping.LinearBuffer": C(F(lambda: call(0.2, spring_gain=4.0)), _PROFILE_METHODS),
+    "shaping.LinearBuffer": C(F(lambda: call(d_max=0.2, spring_gain=4.0)), _PROFILE_METHODS),
     "shaping.ThreeZoneBraking": C(
-        lambda: call(gain=4.0, v_max=1.0, a_max=10.0),
+        lambda: call(gain=4.0, v_max=1.0, a_max=2.0),
         {
             **_PROFILE_METHODS,
             "check_period": lambda: call(0.001),
             "from_actuator_limits": lambda: call(
-                gain=4.0, joint_speed_max=1.0, joint_accel_max=10.0
+                gain=4.0, joint_speed_max=1.0, joint_accel_max=2.0
             ),
         },
     ),
@@ -60,8 +65,13 @@ SPECS: dict[str, F | C] = {
         {**SHAPER_2D, "bounds": lambda: call(P2, V2)},
     ),
     "shaping.RateLimiter": C(
-        lambda: call(2, v_max=1.0, a_max=10.0, dt=0.001),
-        {"reset": lambda: call([0.1, 0.2]), "step": lambda: call([0.5, 0.2])},
+        lambda: call(size=2, v_max=1.0, a_max=10.0, dt=0.001),
+        {
+            "bounds": lambda: call(),
+            "hold": lambda: call(np.array([0.1, 0.2])),
+            "reset": lambda: call([0.1, 0.2]),
+            "step": lambda: call([0.5, 0.2]),
+        },
     ),
     "shaping.StopLimiter": C(
         lambda: call(PAPER_STOPS, profile=profile(), transform=Q_AUX),

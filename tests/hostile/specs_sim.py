@@ -30,7 +30,7 @@ SPECS: dict[str, F | C] = {
     "sim.NoLimit": C(lambda: call(), SHAPER_2D),
     "sim.HardStop": C(lambda: call(square(), dt=0.001), SHAPER_2D),
     "sim.AxisLimits": C(
-        lambda: call(Rectangle(-1.0, 1.0, -1.0, 1.0), buffer=0.2),
+        lambda: call(Rectangle(xmin=-1.0, xmax=1.0, ymin=-1.0, ymax=1.0), buffer=0.2),
         {**SHAPER_2D, "inscribed": lambda: call(square(), buffer=0.2)},
     ),
     "sim.Disturbance": C(

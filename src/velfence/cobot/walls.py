@@ -135,12 +135,14 @@ class CasterWall(ShaperBase):
         """The actuated-device shaper whose output gives the allowed direction."""
         return self._inner
 
-    def line(self, p: ArrayLike, v: ArrayLike) -> tuple[FloatArray, FloatArray, int]:
-        r"""The allowed line and the realised velocity for intent ``v`` at ``p`` (module docs).
+    def line(self, position: ArrayLike, command: ArrayLike) -> tuple[FloatArray, FloatArray, int]:
+        r"""The allowed line and realised velocity for intent ``command`` at ``position``.
+
+        See the module docs for the law.
 
         Args:
-            p: Position, shape (2,) [m].
-            v: The human's intended velocity, shape (2,) [m/s].
+            position: Position, shape (2,) [m].
+            command: The human's intended velocity, shape (2,) [m/s].
 
         Returns:
             ``(ell, w, stages)``: unit direction of the allowed line (the intent's direction in
@@ -148,8 +150,8 @@ class CasterWall(ShaperBase):
             shape (2,); the realised velocity :math:`(\ell^\top v)\ell`, shape (2,); the stage
             bits (``velfence.shaping.STAGE_NAMES``).
         """
-        px, py = as_pair("position", p)
-        vx, vy = as_pair("command", v)
+        px, py = as_pair("position", position)
+        vx, vy = as_pair("command", command)
         if not all(math.isfinite(x) for x in (px, py, vx, vy)):
             raise InvalidInput(
                 f"line: expected finite values, got position=({px}, {py}), command=({vx}, {vy})"

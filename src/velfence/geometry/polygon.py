@@ -65,6 +65,15 @@ def decompose(v: ArrayLike, n: ArrayLike) -> tuple[float, FloatArray]:
     na = _vector("n", n)
     if va.shape != na.shape:
         raise InvalidInput(f"n: expected the shape of v, {va.shape}, got shape {na.shape}")
+    return split_along(va, na)
+
+
+def split_along(va: FloatArray, na: FloatArray) -> tuple[float, FloatArray]:
+    """:func:`decompose` for already-validated float64 vectors of one shape (no checks).
+
+    For callers that apply their own ``on_invalid`` policy to huge or non-finite values: the
+    result may then overflow, and the caller checks it.
+    """
     vn = float(va @ na)
     return vn, va - vn * na
 
@@ -258,7 +267,7 @@ class ConvexPolygon:
         """
         pa = _points(p)
         if pa.ndim != 1:
-            raise InvalidInput(f"expected one point of shape (2,), got shape {pa.shape}")
+            raise InvalidInput(f"p: expected one point of shape (2,), got shape {pa.shape}")
         rip = pa[None, :] - self.corners
         return bool(np.all(np.einsum("ij,ij->i", rip, self.normals) > 0.0))
 
@@ -271,11 +280,12 @@ class ConvexPolygon:
 
         Args:
             p: Point, shape (2,).
-            tol: Tolerance on the angle sum [rad].
+            tol: Tolerance on the angle sum [rad], >= 0.
         """
+        tol = check_positive("tol", tol, allow_zero=True, unit="rad")
         pa = _points(p)
         if pa.ndim != 1:
-            raise InvalidInput(f"expected one point of shape (2,), got shape {pa.shape}")
+            raise InvalidInput(f"p: expected one point of shape (2,), got shape {pa.shape}")
         r = self.corners - pa[None, :]
         norms = np.hypot(r[:, 0], r[:, 1])
         if np.any(norms == 0.0):
@@ -306,7 +316,7 @@ class ConvexPolygon:
         """
         pa = _points(p)
         if pa.ndim != 1:
-            raise InvalidInput(f"expected one point of shape (2,), got shape {pa.shape}")
+            raise InvalidInput(f"p: expected one point of shape (2,), got shape {pa.shape}")
         r = pa - self.centroid
         if r[0] == 0.0 and r[1] == 0.0:
             return 0
@@ -333,7 +343,7 @@ class ConvexPolygon:
         """
         pa = _points(p)
         if pa.ndim != 1:
-            raise InvalidInput(f"expected one point of shape (2,), got shape {pa.shape}")
+            raise InvalidInput(f"p: expected one point of shape (2,), got shape {pa.shape}")
         _, _, _, cx, cy, a0, beta, n = self._fast
         return wedge_index(float(pa[0]), float(pa[1]), cx, cy, a0, beta, n)
 
@@ -348,7 +358,7 @@ class ConvexPolygon:
 
     def scaled(self, factor: float) -> ConvexPolygon:
         """A copy scaled about the centroid (``factor`` > 0)."""
-        factor = check_positive("scale factor", factor, error=InvalidGeometry)
+        factor = check_positive("factor", factor, error=InvalidGeometry)
         return ConvexPolygon(self.centroid + factor * (self.corners - self.centroid))
 
     def closest_point(self, p: ArrayLike) -> FloatArray:
@@ -362,7 +372,7 @@ class ConvexPolygon:
         """
         pa = _points(p)
         if pa.ndim != 1:
-            raise InvalidInput(f"expected one point of shape (2,), got shape {pa.shape}")
+            raise InvalidInput(f"p: expected one point of shape (2,), got shape {pa.shape}")
         if np.all(self.signed_distances(pa) >= 0.0):
             return pa.copy()
         from velfence.geometry.primitives import points_segments_distances
@@ -529,7 +539,9 @@ def as_polygon(x: Any, name: str = "polygon") -> ConvexPolygon:
 def _points(p: ArrayLike, name: str = "p") -> FloatArray:
     pa = real_array(name, p, what="point(s) of shape (2,) or (N, 2)")
     if pa.shape[-1:] != (2,) or pa.ndim > 2:
-        raise InvalidInput(f"expected point(s) of shape (2,) or (N, 2), got shape {pa.shape}")
+        raise InvalidInput(
+            f"{name}: expected point(s) of shape (2,) or (N, 2), got shape {pa.shape}"
+        )
     return pa
 
 

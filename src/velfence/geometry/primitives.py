@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from velfence._validate import MAX_MAGNITUDE, check_positive, real_array
 from velfence.errors import InvalidInput
 
 __all__ = [
@@ -51,52 +52,37 @@ PARALLEL_SIN2 = 1e-16
 COMPLEMENT_SWITCH = 0.9
 
 
+#: Largest number of (point, segment) pairs :func:`points_segments_distances` evaluates in one
+#: call (its work and memory are proportional to it: 3 doubles per pair and temporaries).
+MAX_PAIRS = 10_000_000
+
+
 # ---------------------------------------------------------------------------- validation
 def _vec3(name: str, x: ArrayLike) -> Vec3:
+    # Fast path: a finite float64 ndarray of shape (3,) (the control loops' case).
+    if type(x) is np.ndarray and x.shape == (3,) and x.dtype.char == "d":
+        x0, x1, x2 = x.tolist()
+        if max(abs(x0), abs(x1), abs(x2)) <= MAX_MAGNITUDE:  # False for NaN as well
+            return x0, x1, x2
     try:
-        v = np.asarray(x, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise InvalidInput(
-            f"{name}: expected a point of 3 numbers, shape (3,), got {x!r}; "
-            "2-D callers append z = 0"
-        ) from exc
-    if v.shape != (3,):
-        raise InvalidInput(
-            f"{name}: expected shape (3,), got shape {v.shape}; 2-D callers append z = 0"
-        )
+        v = real_array(name, x, (3,), what="a point of 3 numbers")
+    except InvalidInput as e:
+        raise InvalidInput(f"{e}; 2-D callers append z = 0") from None
     x0, x1, x2 = v.tolist()
-    if not (math.isfinite(x0) and math.isfinite(x1) and math.isfinite(x2)):
-        raise InvalidInput(
-            f"{name}: expected finite values, got {[x0, x1, x2]}; filter NaN/inf before calling"
-        )
     return x0, x1, x2
 
 
 def _radius(name: str, r: Any) -> float:
-    try:
-        value = float(r)
-    except (TypeError, ValueError) as exc:
-        raise InvalidInput(f"{name}: expected a finite radius >= 0, got {r!r}") from exc
-    if not (math.isfinite(value) and value >= 0.0):
-        raise InvalidInput(
-            f"{name}: expected a finite radius >= 0, got {value}; radii are distances"
-        )
-    return value
+    return check_positive(name, r, allow_zero=True, unit="length units", error=InvalidInput)
 
 
 def _jac3(name: str, J: ArrayLike) -> FloatArray:
     try:
-        a = np.asarray(J, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise InvalidInput(f"{name}: expected a Jacobian of shape (3, n), got {J!r}") from exc
-    if a.ndim != 2 or a.shape[0] != 3:
+        return real_array(name, J, (3, None), what="a Jacobian")
+    except InvalidInput as e:
         raise InvalidInput(
-            f"{name}: expected a Jacobian of shape (3, n) (one column per parameter), "
-            f"got shape {a.shape}"
-        )
-    if not np.all(np.isfinite(a)):
-        raise InvalidInput(f"{name}: expected finite values, got non-finite entries")
-    return a
+            f"{e}; expected a Jacobian of shape (3, n), one column per parameter"
+        ) from None
 
 
 # ---------------------------------------------------------------------------- float kernels
@@ -389,13 +375,26 @@ def points_segments_distances(
         ``(t, clearance)``, both shape (P, S): the parameter of the closest axis point and
         ``|p − x| − radius``.
     """
-    Pp = np.asarray(points, dtype=float)
-    A = np.asarray(starts, dtype=float)
-    B = np.asarray(ends, dtype=float)
-    if Pp.ndim != 2 or Pp.shape[1] != 3 or A.ndim != 2 or A.shape[1] != 3 or B.shape != A.shape:
+    Pp = real_array("points", points, (None, 3), what="points [m]")
+    A = real_array("starts", starts, (None, 3), what="segment starts [m]")
+    B = real_array("ends", ends, (None, 3), what="segment ends [m]")
+    if B.shape != A.shape:
         raise InvalidInput(
-            f"expected points (P, 3) and segment starts/ends (S, 3), got {Pp.shape}, {A.shape}, "
-            f"{B.shape}"
+            f"ends: expected the shape of starts, {A.shape}, got shape {B.shape}; one end per "
+            "segment"
+        )
+    R = real_array("radii", radii, what="capsule radii [m], a scalar or shape (S,)")
+    if R.shape not in ((), (A.shape[0],)):
+        raise InvalidInput(
+            f"radii: expected a scalar or shape ({A.shape[0]},) (one per segment), got shape "
+            f"{R.shape}"
+        )
+    if np.any(R < 0.0):
+        raise InvalidInput(f"radii: expected radii >= 0 [m], got {R.ravel()[:4].tolist()}")
+    if Pp.shape[0] * A.shape[0] > MAX_PAIRS:
+        raise InvalidInput(
+            f"points and starts: {Pp.shape[0]} points × {A.shape[0]} segments exceeds "
+            f"{MAX_PAIRS:,} pairs; split the query"
         )
     E = B - A
     ee = np.einsum("ij,ij->i", E, E)
@@ -404,5 +403,5 @@ def points_segments_distances(
         t = np.where(ee > 0.0, np.einsum("psk,sk->ps", rel, E) / np.where(ee > 0, ee, 1.0), 0.0)
     t = np.clip(t, 0.0, 1.0)
     diff = rel - t[:, :, None] * E[None, :, :]
-    dist = np.sqrt(np.einsum("psk,psk->ps", diff, diff)) - np.asarray(radii, dtype=float)
+    dist = np.sqrt(np.einsum("psk,psk->ps", diff, diff)) - R
     return t, dist

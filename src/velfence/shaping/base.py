@@ -100,15 +100,15 @@ class Shaper(Protocol):
     vector for the joint-stop limiter.
     """
 
-    def shape(self, p: ArrayLike, v: ArrayLike, /) -> FloatArray:
-        """Shaped velocity for state ``p`` and command ``v``."""
+    def shape(self, position: ArrayLike, command: ArrayLike, /) -> FloatArray:
+        """Shaped velocity for state ``position`` and command ``command``."""
         ...
 
-    def explain(self, p: ArrayLike, v: ArrayLike, /) -> Explained:
+    def explain(self, position: ArrayLike, command: ArrayLike, /) -> Explained:
         """Shaped velocity with diagnostics."""
         ...
 
-    def shape_batch(self, P: ArrayLike, V: ArrayLike, /) -> FloatArray:
+    def shape_batch(self, positions: ArrayLike, commands: ArrayLike, /) -> FloatArray:
         """Shaped velocities for many states; equal to looping :meth:`shape`."""
         ...
 
@@ -159,16 +159,19 @@ class ShaperBase(InvalidPolicy):
             return None
         r = self._law(px, py, vx, vy)
         if r[0] - r[0] != 0.0 or r[1] - r[1] != 0.0:
-            self._invalid(f"input too large, the shaped velocity overflowed: command=({vx}, {vy})")
+            self._invalid(
+                f"input too large, the shaped velocity overflowed: position=({px}, {py}), "
+                f"command=({vx}, {vy})"
+            )
             return None
         return r
 
-    def shape(self, p: ArrayLike, v: ArrayLike) -> FloatArray:
+    def shape(self, position: ArrayLike, command: ArrayLike) -> FloatArray:
         """Shaped velocity.
 
         Args:
-            p: Position of the reference point, shape (2,), workspace units.
-            v: Commanded velocity, shape (2,), workspace units per second.
+            position: Position of the reference point, shape (2,), workspace units.
+            command: Commanded velocity, shape (2,), workspace units per second.
 
         Returns:
             The admissible velocity, shape (2,), never non-finite.
@@ -178,34 +181,34 @@ class ShaperBase(InvalidPolicy):
         """
         # Fast path of as_pair() for the common case: two ndarrays of shape (2,).
         if (
-            type(p) is np.ndarray
-            and type(v) is np.ndarray
-            and p.shape == (2,)
-            and v.shape == (2,)
-            and p.dtype.char == "d"
-            and v.dtype.char == "d"
+            type(position) is np.ndarray
+            and type(command) is np.ndarray
+            and position.shape == (2,)
+            and command.shape == (2,)
+            and position.dtype.char == "d"
+            and command.dtype.char == "d"
         ):
-            px, py = p.tolist()
-            vx, vy = v.tolist()
+            px, py = position.tolist()
+            vx, vy = command.tolist()
         else:
-            px, py = as_pair("position", p)
-            vx, vy = as_pair("command", v)
+            px, py = as_pair("position", position)
+            vx, vy = as_pair("command", command)
         r = self._checked(float(px), float(py), float(vx), float(vy))
         if r is None:
             return np.zeros(2)
         return np.array((r[0], r[1]))
 
-    def explain(self, p: ArrayLike, v: ArrayLike) -> ShapingResult:
+    def explain(self, position: ArrayLike, command: ArrayLike) -> ShapingResult:
         """Shaped velocity with the zone, edges, distances, spring and stages that produced it.
 
         Args:
-            p: Position, shape (2,), workspace units.
-            v: Command, shape (2,), workspace units per second.
+            position: Position, shape (2,), workspace units.
+            command: Command, shape (2,), workspace units per second.
         """
         from velfence.shaping._kernels import STAGE_NAMES, ZONE_NAMES
 
-        px, py = as_pair("position", p)
-        vx, vy = as_pair("command", v)
+        px, py = as_pair("position", position)
+        vx, vy = as_pair("command", command)
         pos = np.array((px, py))
         cmd = np.array((vx, vy))
         r = self._checked(px, py, vx, vy)
@@ -234,20 +237,24 @@ class ShaperBase(InvalidPolicy):
             method=self.method,
         )
 
-    def shape_batch(self, P: ArrayLike, V: ArrayLike) -> FloatArray:
+    def shape_batch(self, positions: ArrayLike, commands: ArrayLike) -> FloatArray:
         """Shaped velocities for N states at once; equal to looping :meth:`shape`.
 
         Args:
-            P: Positions, shape (N, 2), workspace units.
-            V: Commands, shape (N, 2), workspace units per second.
+            positions: Positions, shape (N, 2), workspace units.
+            commands: Commands, shape (N, 2), workspace units per second.
 
         Returns:
             Shape (N, 2).
         """
-        return self.zones_batch(P, V)[0]
+        return self.zones_batch(positions, commands)[0]
 
-    def zones_batch(self, P: ArrayLike, V: ArrayLike) -> tuple[FloatArray, IntArray]:
+    def zones_batch(self, positions: ArrayLike, commands: ArrayLike) -> tuple[FloatArray, IntArray]:
         """Like :meth:`shape_batch`, also returning the zone code of every row.
+
+        Args:
+            positions: Positions, shape (N, 2), workspace units.
+            commands: Commands, shape (N, 2), workspace units per second.
 
         Returns:
             ``(out, zones)``: shape (N, 2) and (N,) ints indexing
@@ -255,8 +262,8 @@ class ShaperBase(InvalidPolicy):
         """
         from velfence.shaping._kernels import ZONE_INVALID
 
-        Pa = as_rows("positions", P)
-        Va = as_rows("commands", V)
+        Pa = as_rows("positions", positions)
+        Va = as_rows("commands", commands)
         if Pa.shape != Va.shape:
             raise InvalidInput(
                 f"positions and commands must have the same shape (N, 2), got {Pa.shape} and "
@@ -264,8 +271,13 @@ class ShaperBase(InvalidPolicy):
             )
         good: BoolArray | None = None
         if not (np.isfinite(Pa).all() and np.isfinite(Va).all()):
-            ok = _finite_rows(Pa) & _finite_rows(Va)
-            self._invalid(f"non-finite input in row(s) {np.flatnonzero(~ok)[:10].tolist()}")
+            ok_p, ok_v = _finite_rows(Pa), _finite_rows(Va)
+            ok = ok_p & ok_v
+            # Name the argument(s) that hold the bad rows, as the user called them.
+            bad = " and ".join(
+                n for n, o in (("positions", ok_p), ("commands", ok_v)) if not o.all()
+            )
+            self._invalid(f"non-finite {bad} in row(s) {np.flatnonzero(~ok)[:10].tolist()}")
             Pa = np.where(ok[:, None], Pa, 0.0)
             Va = np.where(ok[:, None], Va, 0.0)
             good = ok
@@ -274,7 +286,7 @@ class ShaperBase(InvalidPolicy):
         if not np.isfinite(out).all():
             finite = _finite_rows(out)
             self._invalid(
-                f"input too large, the shaped velocity overflowed in row(s) "
+                f"positions or commands too large, the shaped velocity overflowed in row(s) "
                 f"{np.flatnonzero(~finite)[:10].tolist()}"
             )
             good = finite if good is None else good & finite

@@ -62,7 +62,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from velfence._validate import as_rows, check_positive, finite_array, real_array
 from velfence.errors import InvalidGeometry, InvalidInput
-from velfence.geometry.polygon import decompose
+from velfence.geometry.polygon import split_along
 from velfence.geometry.primitives import orthonormal_complement
 from velfence.shaping.base import InvalidPolicy
 
@@ -134,14 +134,28 @@ def _pair(p: ArrayLike, v: ArrayLike) -> tuple[FloatArray, FloatArray]:
     return pa, va
 
 
-def _rows(P: ArrayLike, V: ArrayLike) -> tuple[FloatArray, FloatArray]:
-    Pa, Va = as_rows("positions", P, 3), as_rows("commands", V, 3)
+def _rows(positions: ArrayLike, commands: ArrayLike) -> tuple[FloatArray, FloatArray]:
+    Pa, Va = as_rows("positions", positions, 3), as_rows("commands", commands, 3)
     if Pa.shape != Va.shape:
         raise InvalidInput(
             f"positions and commands: expected the same shape (N, 3), got shape {Pa.shape} and "
             f"{Va.shape}"
         )
     return Pa, Va
+
+
+def _batch(
+    shaper: LineScaling | LineFixture, positions: ArrayLike, commands: ArrayLike
+) -> FloatArray:
+    """Loop ``shaper.shape`` over rows; a refused row is reported by the batch arguments' names."""
+    Pa, Va = _rows(positions, commands)
+    out = np.zeros_like(Pa)
+    for k in range(Pa.shape[0]):
+        try:
+            out[k] = shaper.shape(Pa[k], Va[k])
+        except InvalidInput as e:
+            raise InvalidInput(f"positions and commands, row {k}: {e}") from e
+    return out
 
 
 def _finite(*arrays: FloatArray) -> bool:
@@ -249,17 +263,18 @@ class LineScaling(InvalidPolicy):
         )
 
     def _law(self, v: FloatArray) -> tuple[FloatArray, float]:
-        vn, vt = decompose(v, self.line_direction)
         # A huge command may overflow (inf·0 = NaN): the callers check and apply on_invalid.
         with np.errstate(over="ignore", invalid="ignore"):
+            vn, vt = split_along(v, self.line_direction)
             return self.along * vn * self.line_direction + self.across * vt, vn
 
-    def shape(self, p: ArrayLike, v: ArrayLike) -> FloatArray:
+    def shape(self, position: ArrayLike, command: ArrayLike) -> FloatArray:
         """Scaled velocity.
 
         Args:
-            p: Position of the tool [m], shape (3,) (validated; the law does not depend on it).
-            v: Commanded (mapped master) velocity [m/s], shape (3,), base frame.
+            position: Position of the tool [m], shape (3,) (validated; the law does not depend
+                on it).
+            command: Commanded (mapped master) velocity [m/s], shape (3,), base frame.
 
         Returns:
             The scaled velocity [m/s], shape (3,), never non-finite.
@@ -267,24 +282,26 @@ class LineScaling(InvalidPolicy):
         Raises:
             InvalidInput: wrong shapes, or non-finite input with ``on_invalid="raise"``.
         """
-        pa, va = _pair(p, v)
+        pa, va = _pair(position, command)
         if not _finite(pa, va):
             self._invalid(f"non-finite input: position={pa.tolist()}, command={va.tolist()}")
             return np.zeros(3)
         out, _ = self._law(va)
         if not _finite(out):
-            self._invalid(f"input too large, the scaled velocity overflowed: {va.tolist()}")
+            self._invalid(
+                f"command too large, the scaled velocity overflowed: command={va.tolist()}"
+            )
             return np.zeros(3)
         return out
 
-    def explain(self, p: ArrayLike, v: ArrayLike) -> ScalingResult:
+    def explain(self, position: ArrayLike, command: ArrayLike) -> ScalingResult:
         """Scaled velocity with the thesis's signed projections (eqs. 44-46) and the distance.
 
         Args:
-            p: Position [m], shape (3,).
-            v: Command [m/s], shape (3,).
+            position: Position [m], shape (3,).
+            command: Command [m/s], shape (3,).
         """
-        pa, va = _pair(p, v)
+        pa, va = _pair(position, command)
         out = self.shape(pa, va)
         nan = math.nan
         if not _finite(pa, va):
@@ -292,27 +309,34 @@ class LineScaling(InvalidPolicy):
         law, vn = self._law(va)
         if not _finite(law):  # overflow answered with zero velocity under on_invalid="stop"
             return ScalingResult(out, va, pa, "invalid", vn, nan, nan, nan)
-        _, r = decompose(pa - self.line_point, self.line_direction)
+        with np.errstate(over="ignore", invalid="ignore"):
+            _, r = split_along(pa - self.line_point, self.line_direction)
+            diag = np.array((va @ self._l, va @ self._m, np.linalg.norm(r)))
+        if not _finite(diag):
+            self._invalid(
+                f"input too large, the diagnostics overflowed: position={pa.tolist()}, "
+                f"command={va.tolist()}"
+            )
+            return ScalingResult(np.zeros(3), va, pa, "invalid", vn, nan, nan, nan)
         return ScalingResult(
             output=out,
             command=va,
             position=pa,
             zone="scaled",
             along=vn,
-            across_l=float(va @ self._l),
-            across_m=float(va @ self._m),
-            distance=float(np.linalg.norm(r)),
+            across_l=float(diag[0]),
+            across_m=float(diag[1]),
+            distance=float(diag[2]),
         )
 
-    def shape_batch(self, P: ArrayLike, V: ArrayLike) -> FloatArray:
+    def shape_batch(self, positions: ArrayLike, commands: ArrayLike) -> FloatArray:
         """Scaled velocities for N states, shape (N, 3); equal to looping :meth:`shape`.
 
         Args:
-            P: Positions [m], shape (N, 3).
-            V: Commands [m/s], shape (N, 3).
+            positions: Positions [m], shape (N, 3).
+            commands: Commands [m/s], shape (N, 3).
         """
-        Pa, Va = _rows(P, V)
-        return np.array([self.shape(p, v) for p, v in zip(Pa, Va, strict=True)]).reshape(Pa.shape)
+        return _batch(self, positions, commands)
 
 
 # ------------------------------------------------------------------------------------ fixture
@@ -391,7 +415,7 @@ class LineFixture(InvalidPolicy):
         return np.asarray(self.line_point + self.length * self.line_direction, dtype=float)
 
     def _offset(self, p: FloatArray) -> FloatArray:
-        s, r = decompose(p - self.line_point, self.line_direction)
+        s, r = split_along(p - self.line_point, self.line_direction)
         if self.length is not None and not 0.0 <= s <= self.length:
             s_c = min(max(s, 0.0), self.length)
             return np.asarray(r + (s - s_c) * self.line_direction, dtype=float)
@@ -407,11 +431,11 @@ class LineFixture(InvalidPolicy):
             return -(self.max_force / d) * r, d, True, True
         return -self.stiffness * r, d, True, False
 
-    def force(self, p: ArrayLike) -> FloatArray:
-        """Fixture force on the master at ``p``.
+    def force(self, position: ArrayLike) -> FloatArray:
+        """Fixture force on the master at ``position``.
 
         Args:
-            p: Position [m], shape (3,).
+            position: Position [m], shape (3,).
 
         Returns:
             Force [N], shape (3,): ``-sat(k r)`` inside the cylinder of influence, zero outside;
@@ -421,18 +445,23 @@ class LineFixture(InvalidPolicy):
             InvalidInput: wrong shape, or non-finite with ``on_invalid="raise"`` (``"stop"``
                 answers zero force).
         """
-        pa, _ = _pair(p, np.zeros(3))
+        pa, _ = _pair(position, np.zeros(3))
         if not _finite(pa):
             self._invalid(f"non-finite position: {pa.tolist()}")
             return np.zeros(3)
-        return self._force(self._offset(pa))[0]
+        with np.errstate(over="ignore", invalid="ignore"):
+            f = self._force(self._offset(pa))[0]
+        if not _finite(f):
+            self._invalid(f"position too large, the force overflowed: position={pa.tolist()}")
+            return np.zeros(3)
+        return f
 
-    def shape(self, p: ArrayLike, v: ArrayLike) -> FloatArray:
-        """Velocity the fixture lets through: ``v + force(p) / damping``.
+    def shape(self, position: ArrayLike, command: ArrayLike) -> FloatArray:
+        """Velocity the fixture lets through: ``command + force(position) / damping``.
 
         Args:
-            p: Position of the tool [m], shape (3,).
-            v: Commanded (hand) velocity [m/s], shape (3,).
+            position: Position of the tool [m], shape (3,).
+            command: Commanded (hand) velocity [m/s], shape (3,).
 
         Returns:
             Velocity [m/s], shape (3,), never non-finite.
@@ -440,28 +469,32 @@ class LineFixture(InvalidPolicy):
         Raises:
             InvalidInput: wrong shapes, or non-finite input with ``on_invalid="raise"``.
         """
-        return self.explain(p, v).output
+        return self.explain(position, command).output
 
-    def explain(self, p: ArrayLike, v: ArrayLike) -> FixtureResult:
+    def explain(self, position: ArrayLike, command: ArrayLike) -> FixtureResult:
         """:meth:`shape` with the offset, force and saturation flag.
 
         Args:
-            p: Position [m], shape (3,).
-            v: Command [m/s], shape (3,).
+            position: Position [m], shape (3,).
+            command: Command [m/s], shape (3,).
         """
-        pa, va = _pair(p, v)
+        pa, va = _pair(position, command)
         if not _finite(pa, va):
             self._invalid(f"non-finite input: position={pa.tolist()}, command={va.tolist()}")
             nan = math.nan
             return FixtureResult(
                 np.zeros(3), va, pa, "invalid", np.full(3, nan), nan, np.zeros(3), False, nan
             )
-        r = self._offset(pa)
-        f, d, inside, saturated = self._force(r)
-        out = va + f / self.damping
+        with np.errstate(over="ignore", invalid="ignore"):
+            r = self._offset(pa)
+            f, d, inside, saturated = self._force(r)
+            out = va + f / self.damping
         zone = "snapped" if inside else "free"
         if not _finite(out, r, f):
-            self._invalid(f"input too large, the velocity overflowed: command={va.tolist()}")
+            self._invalid(
+                f"input too large, the velocity overflowed: position={pa.tolist()}, "
+                f"command={va.tolist()}"
+            )
             out = np.zeros(3)
             zone = "invalid"
         return FixtureResult(
@@ -476,12 +509,11 @@ class LineFixture(InvalidPolicy):
             along=float(va @ self.line_direction),
         )
 
-    def shape_batch(self, P: ArrayLike, V: ArrayLike) -> FloatArray:
+    def shape_batch(self, positions: ArrayLike, commands: ArrayLike) -> FloatArray:
         """Velocities for N states, shape (N, 3); equal to looping :meth:`shape`.
 
         Args:
-            P: Positions [m], shape (N, 3).
-            V: Commands [m/s], shape (N, 3).
+            positions: Positions [m], shape (N, 3).
+            commands: Commands [m/s], shape (N, 3).
         """
-        Pa, Va = _rows(P, V)
-        return np.array([self.shape(p, v) for p, v in zip(Pa, Va, strict=True)]).reshape(Pa.shape)
+        return _batch(self, positions, commands)

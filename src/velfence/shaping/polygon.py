@@ -258,19 +258,21 @@ class PolygonShaper(ShaperBase):
             zones[:] = zl
         return out, zones
 
-    def bounds(self, p: ArrayLike, v: ArrayLike) -> tuple[FloatArray, FloatArray, IntArray]:
-        r"""The half-plane bounds the exact law enforces at ``p`` for command ``v``.
+    def bounds(
+        self, position: ArrayLike, command: ArrayLike
+    ) -> tuple[FloatArray, FloatArray, IntArray]:
+        r"""The half-plane bounds the exact law enforces at ``position`` for ``command``.
 
         For every edge with :math:`d_i <` ``buffer``: :math:`n_i \cdot v_o \ge L_i` with
         :math:`n_i` the inward normal, :math:`L_i = -(|v| + R)\,d_i/d_{max}` inside and
         :math:`L_i = \min(k(-d_i), r_{max})` for a violated edge, :math:`R` the largest recovery
-        bound (derivations §3). The exact law's output is the velocity closest to ``v`` that meets
-        them all (unless they are infeasible together: stage ``relaxed``). Other laws built on
+        bound (derivations §3). The exact law's output is the velocity closest to ``command`` that
+        meets them all (unless they are infeasible together: stage ``relaxed``). Other laws built on
         the same bounds (the passive :class:`~velfence.cobot.CasterWall`) read them here.
 
         Args:
-            p: Position, shape (2,).
-            v: Command, shape (2,).
+            position: Position, shape (2,).
+            command: Command, shape (2,).
 
         Returns:
             ``(normals, lower, edges)``: inward unit normals, shape (m, 2); lower bounds on
@@ -285,8 +287,8 @@ class PolygonShaper(ShaperBase):
                 "bounds() describes the exact law with a linear buffer; this shaper has "
                 f"method={self.method!r}, profile={self.profile!r}"
             )
-        px, py = real_array("position", p, (2,), what="a 2-vector of real numbers").tolist()
-        vx, vy = real_array("command", v, (2,), what="a 2-vector of real numbers").tolist()
+        px, py = real_array("position", position, (2,), what="a 2-vector of real numbers").tolist()
+        vx, vy = real_array("command", command, (2,), what="a 2-vector of real numbers").tolist()
         rows = self._bounds(px, py, vx, vy)[0]
         if not rows:
             return np.zeros((0, 2)), np.zeros(0), np.zeros(0, dtype=np.int64)

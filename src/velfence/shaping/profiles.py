@@ -16,8 +16,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
 
-from velfence._validate import check_positive
-from velfence.errors import InvalidParameter
+from velfence._validate import MAX_MAGNITUDE, check_positive, finite_scalar
+from velfence.errors import InvalidInput, InvalidParameter
 
 __all__ = ["ApproachProfile", "LinearBuffer", "ThreeZoneBraking", "min_change_under_caps"]
 
@@ -38,6 +38,23 @@ class ApproachProfile(Protocol):
     def zone(self, delta: float) -> int:
         """Zone index of ``delta`` (profile-specific; 0 means unconstrained)."""
         ...
+
+
+def _delta(delta: float) -> float:
+    """``delta`` checked: a plain finite float passes at once (the shapers' inner loops)."""
+    if type(delta) is float and -MAX_MAGNITUDE <= delta <= MAX_MAGNITUDE:
+        return delta
+    return finite_scalar("delta", delta, unit="units", what="signed distance")
+
+
+def _speed(speed: float) -> float:
+    """``speed`` checked: a finite real number >= 0 (plain floats take the fast path)."""
+    if type(speed) is float and 0.0 <= speed <= MAX_MAGNITUDE:
+        return speed
+    x = finite_scalar("speed", speed, unit="units/s", what="speed")
+    if x < 0.0:
+        raise InvalidInput(f"speed: expected a speed >= 0 [units/s], got {x:g}; pass |v|")
+    return x
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -82,7 +99,12 @@ class LinearBuffer:
         return self.max_recovery_speed
 
     def cap(self, delta: float, speed: float = 0.0) -> float:
-        """See :class:`ApproachProfile`."""
+        """See :class:`ApproachProfile` (``math.inf``, no cap, beyond the buffer).
+
+        Raises:
+            InvalidInput: ``delta`` or ``speed`` not a finite real number, or ``speed < 0``.
+        """
+        delta, speed = _delta(delta), _speed(speed)
         if delta >= 0.0:
             # speed·(δ/d_max), not (speed·δ)/d_max: the product of two large inputs could overflow.
             return math.inf if delta >= self.d_max else speed * (delta / self.d_max)
@@ -90,6 +112,7 @@ class LinearBuffer:
 
     def zone(self, delta: float) -> int:
         """0 beyond the buffer, 1 inside it, 2 outside the constraint."""
+        delta = _delta(delta)
         return 0 if delta >= self.d_max else (1 if delta >= 0.0 else 2)
 
 
@@ -194,6 +217,7 @@ class ThreeZoneBraking:
         Args:
             dt: Control period [s].
         """
+        dt = check_positive("dt", dt, unit="s")
         if not self.gain * dt < 1.0:
             raise InvalidParameter(
                 f"gain·dt must be < 1 for the linear zone to converge in discrete time, got "
@@ -201,7 +225,13 @@ class ThreeZoneBraking:
             )
 
     def cap(self, delta: float, speed: float = 0.0) -> float:
-        """See :class:`ApproachProfile` (``speed`` is not used)."""
+        """See :class:`ApproachProfile` (``speed`` is checked but not used).
+
+        Raises:
+            InvalidInput: ``delta`` or ``speed`` not a finite real number, or ``speed < 0``.
+        """
+        delta = _delta(delta)
+        _speed(speed)
         a = abs(delta)
         if a > self.delta_phi:
             return math.copysign(self.v_max, delta)
@@ -215,7 +245,7 @@ class ThreeZoneBraking:
         As in the paper, the flag depends on ``|δ|`` only: outside (``δ < 0``) zone 3 means a
         forced return at ``v_max``, not free motion; read the sign of ``δ`` alongside.
         """
-        a = abs(delta)
+        a = abs(_delta(delta))
         return 3 if a > self.delta_phi else (2 if a > self.delta_int else 1)
 
 

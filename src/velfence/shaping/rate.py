@@ -128,14 +128,29 @@ class RateLimiter:
         hi = np.maximum(np.minimum(p + s, v), p - s)
         return lo, hi
 
-    def hold(self, value: FloatArray) -> None:
+    def hold(self, value: ArrayLike) -> None:
         """Remember ``value`` as the last output (output mode; literal mode keeps commands).
 
         A stage that replaced the rate limiter's output (the stop limiter's position-first
         override) calls this so that the next step is rate-limited from what was really sent.
+
+        Args:
+            value: The velocity really sent, shape (n,) [units/s], finite.
+
+        Raises:
+            InvalidInput: not a finite real vector of shape (n,).
         """
+        if (
+            type(value) is np.ndarray
+            and value.dtype.char == "d"
+            and value.shape == (self.size,)
+            and np.isfinite(value).all()
+        ):
+            held = value.copy()
+        else:
+            held = real_array("value", value, (self.size,), what="a velocity [units/s]")
         if self.mode == "output":
-            self._prev = np.array(value, dtype=float)
+            self._prev = held
 
     def step(self, command: ArrayLike) -> FloatArray:
         """Limit one command and advance the state.

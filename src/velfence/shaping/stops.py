@@ -47,6 +47,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from velfence._validate import (
+    MAX_MAGNITUDE,
     as_rows,
     check_choice,
     check_flag,
@@ -376,6 +377,12 @@ class StopLimiter(InvalidPolicy):
         if total - total != 0.0 and not all(math.isfinite(a) for a in xs + cs):
             self._invalid(f"non-finite input: theta={xs}, theta_dot={cs}")
             return xs, cs, False
+        if max(map(abs, xs + cs)) > MAX_MAGNITUDE:
+            # Beyond MAX_MAGNITUDE distances and speeds overflow inside the law: same policy.
+            self._invalid(
+                f"input too large (magnitude above {MAX_MAGNITUDE:g}): theta={xs}, theta_dot={cs}"
+            )
+            return xs, cs, False
         return xs, cs, True
 
     def _checked_core(self, x: list[float], c: list[float], ok: bool) -> _Core | None:
@@ -625,7 +632,13 @@ class StopLimiter(InvalidPolicy):
                 f"Theta and Theta_dot must both have shape (N, {self.size}), got {X.shape} and "
                 f"{V.shape}"
             )
-        return np.array([self.shape(x, v) for x, v in zip(X, V, strict=True)]).reshape(X.shape)
+        out = np.zeros_like(X)
+        for k in range(X.shape[0]):
+            try:
+                out[k] = self.shape(X[k], V[k])
+            except InvalidInput as e:  # name the batch arguments, as the caller typed them
+                raise InvalidInput(f"Theta and Theta_dot, row {k}: {e}") from e
+        return out
 
 
 #: What :meth:`StopLimiter._core` returns (see its docstring).

@@ -19,7 +19,7 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from velfence._validate import check_positive
+from velfence._validate import MAX_MAGNITUDE, check_positive
 from velfence.errors import InvalidGeometry, InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon, Rectangle, as_polygon
 from velfence.shaping import ZONE_NAMES
@@ -80,7 +80,9 @@ class NoLimit(_Baseline):
         super().__init__(on_invalid=on_invalid)
 
     def _law(self, px: float, py: float, vx: float, vy: float) -> _Out:
-        return vx, vy, _FREE, -1, -1, math.inf, math.inf, 0.0, 0.0, ()
+        # No edges (primary = secondary = -1): the distances report "farther than any
+        # workspace" as the largest magnitude the library handles, a finite number.
+        return vx, vy, _FREE, -1, -1, MAX_MAGNITUDE, MAX_MAGNITUDE, 0.0, 0.0, ()
 
     def _law_batch(self, P: FloatArray, V: FloatArray) -> tuple[FloatArray, IntArray]:
         return V.copy(), np.full(V.shape[0], _FREE, dtype=np.int64)
