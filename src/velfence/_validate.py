@@ -35,14 +35,11 @@ __all__ = [
     "as_pair",
     "as_rows",
     "check_choice",
-    "check_count",
     "check_flag",
     "check_positive",
     "check_positive_int",
     "check_range",
     "check_seed",
-    "checked_array",
-    "checked_transform",
     "describe",
     "finite_array",
     "finite_rows",
@@ -545,72 +542,6 @@ def check_flag(name: str, value: Any, *, error: type[Exception] | None = None) -
     return bool(value)
 
 
-def checked_array(
-    name: str,
-    x: Any,
-    shape: tuple[int | None, ...] | None = None,
-    *,
-    error: type[Exception] | None = None,
-    what: str = "numbers",
-    allow_nonfinite: bool = False,
-    max_abs: float | None = MAX_MAGNITUDE,
-) -> NDArray[np.float64]:
-    """:func:`real_array`, also safe against array-likes that misbehave while NumPy reads them.
-
-    An object whose ``__array__`` raises, a sequence that claims 10¹² entries (NumPy would try
-    to allocate them: ``MemoryError``), one whose ``__len__`` lies about its items, and extended
-    precision values beyond the float64 range (NumPy warns on the cast) are refused with the
-    argument's name instead of escaping as their own exceptions or warnings.
-
-    Arguments and result as for :func:`real_array`.
-    """
-    err = _error(error)
-    want = "" if shape is None else f" of shape {_shape_text(shape)}"
-    plain = (np.ndarray, list, tuple, numbers.Real, *_NOT_NUMBERS)
-    array_like = hasattr(x, "__array__") or hasattr(x, "__array_interface__")
-    if not isinstance(x, plain) and not array_like and hasattr(x, "__len__"):
-        # a plain Python sequence: read it item by item (bounded) rather than let NumPy trust
-        # its __len__ (10**12 entries would be allocated before anything is checked)
-        try:
-            n = len(x)
-            items = [x[i] for i in range(n)] if n <= 1_000_000 else None
-        except Exception:  # a lying or hostile sequence
-            items = None
-        if items is None:
-            raise err(f"{name}: expected {what}{want}, got {_type_text(x)}")
-        x = items
-    if isinstance(x, np.ndarray) and x.dtype.kind == "f" and x.dtype.itemsize > 8:
-        with np.errstate(over="ignore", invalid="ignore"):
-            big = bool(np.any(np.abs(x[np.isfinite(x)]) > MAX_MAGNITUDE)) if x.size else False
-        if big:
-            raise err(f"{name}: expected {what} of magnitude <= {MAX_MAGNITUDE:g}")
-    if isinstance(x, np.floating) and np.dtype(type(x)).itemsize > 8:
-        x = np.asarray(x)
-        if np.isfinite(x) and abs(x) > MAX_MAGNITUDE:
-            raise err(f"{name}: expected {what} of magnitude <= {MAX_MAGNITUDE:g}")
-    try:
-        return real_array(
-            name, x, shape, error=error, what=what, allow_nonfinite=allow_nonfinite, max_abs=max_abs
-        )
-    except MemoryError:
-        raise err(f"{name}: expected {what}{want}, got an object too large to read") from None
-    except Exception as exc:
-        from velfence.errors import VelfenceError
-
-        if isinstance(exc, VelfenceError) or type(exc) is err:
-            raise
-        raise err(
-            f"{name}: expected {what}{want}, got {_type_text(x)} that could not be read as "
-            f"numbers ({type(exc).__name__})"
-        ) from None
-
-
-def checked_transform(name: str, T: Any, *, tol: float = 1e-6) -> NDArray[np.float64]:
-    """:func:`rigid_transform`, read through :func:`checked_array` (misbehaving array-likes)."""
-    a = checked_array(name, T, (4, 4), what="a 4 x 4 homogeneous transform")
-    return rigid_transform(name, a, tol=tol)
-
-
 def describe(x: Any) -> str:
     """A short, safe description of ``x`` for messages (type and cut ``repr``; never raises)."""
     return _type_text(x)
@@ -618,35 +549,6 @@ def describe(x: Any) -> str:
 
 #: Largest accepted integer seed (NumPy seeds any int, but a seed of 10⁴⁰⁰ is a mistake).
 MAX_SEED = 2**63 - 1
-
-
-def check_count(
-    name: str,
-    value: Any,
-    *,
-    example: int = 1,
-    minimum: int = 1,
-    maximum: int | None = None,
-    error: type[Exception] | None = None,
-) -> int:
-    """An int parameter in ``[minimum, maximum]``, as :func:`check_positive_int`.
-
-    Also refuses ``np.timedelta64`` / ``np.datetime64`` (NumPy counts them as integers) with the
-    parameter's name.
-
-    Raises:
-        InvalidParameter: (or ``error``) not an int, or out of range.
-    """
-    from velfence.errors import InvalidParameter
-
-    if isinstance(value, (np.timedelta64, np.datetime64)):
-        want = "a positive int" if minimum == 1 else f"an int >= {minimum}"
-        raise (error or InvalidParameter)(
-            f"{name}: expected {want}, got {_type_text(value)}; e.g. {example}"
-        )
-    return check_positive_int(
-        name, value, example=example, minimum=minimum, maximum=maximum, error=error
-    )
 
 
 def check_text(
@@ -666,42 +568,6 @@ def check_text(
             f"{name}: expected at most {max_length} characters, got {len(value):,}"
         )
     return str(value)
-
-
-def array_input(
-    name: str,
-    x: Any,
-    shape: tuple[int | None, ...] | None = None,
-    *,
-    error: type[Exception] | None = None,
-    what: str = "numbers",
-    allow_nonfinite: bool = False,
-    max_abs: float | None = MAX_MAGNITUDE,
-) -> NDArray[np.float64]:
-    """:func:`real_array`, also refusing objects whose conversion itself fails.
-
-    An object whose ``__array__`` raises, or whose ``__len__`` claims more entries than memory
-    holds, is refused with the argument's name instead of leaking its own exception.
-
-    Raises:
-        InvalidInput: (or ``error``) as :func:`real_array`, or the conversion failed.
-    """
-    from velfence.errors import VelfenceError
-
-    try:
-        return real_array(
-            name,
-            x,
-            shape,
-            error=error,
-            what=what,
-            allow_nonfinite=allow_nonfinite,
-            max_abs=max_abs,
-        )
-    except VelfenceError:
-        raise
-    except (Exception, MemoryError):  # the object's own conversion failed: not an array
-        raise _error(error)(f"{name}: expected {what}, got {_type_text(x)}") from None
 
 
 def check_seed(

@@ -42,7 +42,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from velfence._validate import array_input, check_count, check_flag, check_positive
+from velfence._validate import check_flag, check_positive, check_positive_int, real_array
 from velfence.errors import InvalidGeometry, InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon
 from velfence.shaping import ZONE_NAMES
@@ -445,7 +445,7 @@ def regular_polygon(edges: int, *, radius: float = 1.0) -> ConvexPolygon:
         InvalidParameter: ``edges`` is not an int in range, or ``radius`` is not positive.
         InvalidGeometry: ``radius`` is so small that the corners coincide.
     """
-    edges = check_count("edges", edges, minimum=3, maximum=MAX_EDGES, example=8)
+    edges = check_positive_int("edges", edges, minimum=3, maximum=MAX_EDGES, example=8)
     radius = check_positive("radius", radius)
     ang = math.pi / edges + 2.0 * math.pi * np.arange(edges) / edges
     try:
@@ -520,8 +520,8 @@ def qp_bounds(
     """
     if not isinstance(poly, ConvexPolygon):
         raise InvalidParameter(f"poly: expected a ConvexPolygon, got {type(poly).__name__}")
-    p = array_input("p", p, (2,), what="position")
-    v = array_input("v", v, (2,), what="command")
+    p = real_array("p", p, (2,), what="position")
+    v = real_array("v", v, (2,), what="command")
     buffer = check_positive("buffer", buffer)
     spring_gain = check_positive("spring_gain", spring_gain, allow_zero=True)
     out = _qp_bounds(poly, p, v, buffer, spring_gain)

@@ -37,7 +37,7 @@ from pydantic import (
     model_validator,
 )
 
-from velfence._validate import MAX_STEPS, _show, check_count, check_text, step_count
+from velfence._validate import MAX_STEPS, _show, check_positive_int, check_text, step_count
 from velfence.errors import InvalidParameter
 
 if TYPE_CHECKING:
@@ -286,7 +286,7 @@ def check_run_length(
     Raises:
         InvalidParameter: too many steps (the message says how to allow more), or bad values.
     """
-    limit = check_count("max_steps", max_steps, maximum=MAX_STEPS, example=DEFAULT_MAX_STEPS)
+    limit = check_positive_int("max_steps", max_steps, maximum=MAX_STEPS, example=DEFAULT_MAX_STEPS)
     duration_name = check_text("duration_name", duration_name)
     try:
         return step_count(duration_name, duration, "dt", dt, max_steps=limit)
@@ -535,7 +535,7 @@ def load_config(
         InvalidParameter: the file is missing, too large, not UTF-8, not plain YAML, or a field
             is invalid (named); the run would be longer than ``max_steps``.
     """
-    limit = check_count("max_steps", max_steps, maximum=MAX_STEPS, example=DEFAULT_MAX_STEPS)
+    limit = check_positive_int("max_steps", max_steps, maximum=MAX_STEPS, example=DEFAULT_MAX_STEPS)
     data: dict[Any, Any] = {}
     p: Path | None = None
     if path is not None:

@@ -53,15 +53,15 @@ from numpy.typing import ArrayLike, NDArray
 from velfence._validate import (
     MAX_MAGNITUDE,
     check_choice,
-    check_count,
     check_positive,
+    check_positive_int,
     check_range,
     check_seed,
-    checked_array,
-    checked_transform,
     describe,
     finite_scalar,
     readonly,
+    real_array,
+    rigid_transform,
 )
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 from velfence.teleop.scene import Scene
@@ -138,7 +138,7 @@ def _rng(rng: Any) -> np.random.Generator:
 
 def _pose(T: ArrayLike) -> tuple[FloatArray, FloatArray]:
     """Validated flange pose: rotation (3, 3) and position (3,)."""
-    a = checked_transform("T_flange", T, tol=_POSE_TOL)
+    a = rigid_transform("T_flange", T, tol=_POSE_TOL)
     return a[:3, :3], a[:3, 3]
 
 
@@ -188,8 +188,8 @@ class VoltageModel:
                 equal (the slope is undetermined).
             InvalidParameter: the fitted slope is not positive (distance must grow with voltage).
         """
-        d = checked_array("distances_cm", distances_cm, (None,), what="distances [cm]")
-        v = checked_array("voltages_v", voltages_v, (None,), what="voltages [V]")
+        d = real_array("distances_cm", distances_cm, (None,), what="distances [cm]")
+        v = real_array("voltages_v", voltages_v, (None,), what="voltages [V]")
         if d.shape != v.shape or d.size < 2:
             raise InvalidInput(
                 f"expected distances_cm and voltages_v of the same length >= 2, got "
@@ -226,12 +226,12 @@ class VoltageModel:
 
     def distances_m(self, voltages_v: ArrayLike) -> FloatArray:
         """Vectorised :meth:`distance_m`: voltages [V] of any shape to distances [m]."""
-        v = checked_array("voltages_v", voltages_v, what="voltages [V]")
+        v = real_array("voltages_v", voltages_v, what="voltages [V]")
         return np.asarray(0.01 * (self.slope_cm_per_v * v + self.offset_cm), dtype=float)
 
     def voltages_v(self, distances_m: ArrayLike) -> FloatArray:
         """Vectorised :meth:`voltage_v`: distances [m] of any shape to voltages [V]."""
-        d = checked_array("distances_m", distances_m, what="distances [m]")
+        d = real_array("distances_m", distances_m, what="distances [m]")
         return np.asarray((100.0 * d - self.offset_cm) / self.slope_cm_per_v, dtype=float)
 
 
@@ -257,10 +257,8 @@ class TabulatedCharacteristic:
     _slope_v_per_cm: float = field(init=False, repr=False)
 
     def __init__(self, distances_cm: ArrayLike, voltages_v: ArrayLike) -> None:
-        d = checked_array(
-            "distances_cm", distances_cm, error=InvalidGeometry, what="distances [cm]"
-        )
-        v = checked_array("voltages_v", voltages_v, error=InvalidGeometry, what="voltages [V]")
+        d = real_array("distances_cm", distances_cm, error=InvalidGeometry, what="distances [cm]")
+        v = real_array("voltages_v", voltages_v, error=InvalidGeometry, what="voltages [V]")
         if d.ndim != 1 or d.shape != v.shape or d.size < 2:
             raise InvalidGeometry(
                 f"expected distances_cm and voltages_v of shape (n,), n >= 2, got {d.shape} and "
@@ -318,7 +316,7 @@ def frequent_level_mean(
             are not quantised levels; pass ``quantum_v`` or lower ``min_share``).
     """
     share = check_range("min_share", min_share, low=0.0, high=1.0, low_open=True, high_open=True)
-    v = checked_array("voltages_v", voltages_v, (None,), what="voltage samples [V]")
+    v = real_array("voltages_v", voltages_v, (None,), what="voltage samples [V]")
     if v.size == 0:
         raise InvalidInput("voltages_v: expected at least one sample, got none")
     if quantum_v is None:
@@ -410,8 +408,8 @@ def moving_average(samples: ArrayLike, *, window: int) -> FloatArray:
         InvalidParameter: a bad window.
         InvalidInput: non-finite samples or fewer samples than the window.
     """
-    x = checked_array("samples", samples)
-    n_win = check_count("window", window, example=50)
+    x = real_array("samples", samples)
+    n_win = check_positive_int("window", window, example=50)
     if x.ndim == 0 or x.shape[-1] < window:
         raise InvalidInput(
             f"samples: expected at least window = {window} samples along the last axis, got "
@@ -452,9 +450,9 @@ def plane_from_points(
         InvalidGeometry: coincident or collinear points (no unique plane).
     """
     eps = check_positive("tol", tol)
-    a1 = checked_array("p1", p1, (3,), what="a point [m]")
-    a2 = checked_array("p2", p2, (3,), what="a point [m]")
-    a3 = checked_array("p3", p3, (3,), what="a point [m]")
+    a1 = real_array("p1", p1, (3,), what="a point [m]")
+    a2 = real_array("p2", p2, (3,), what="a point [m]")
+    a3 = real_array("p3", p3, (3,), what="a point [m]")
     A = a1 - a2
     B = a1 - a3
     la, lb = float(np.linalg.norm(A)), float(np.linalg.norm(B))
@@ -552,7 +550,7 @@ class LaserRangeSensor:
         model: VoltageModel | None = None,
         characteristic: Characteristic | None = None,
     ) -> None:
-        off = checked_array(
+        off = real_array(
             "offset [m] (laser origin in frame 6)", offset, (3,), error=InvalidParameter
         )
         lo = check_positive("min_range", min_range, allow_zero=True, unit="m")
@@ -577,7 +575,7 @@ class LaserRangeSensor:
         if window is None:
             n = _NEW_WINDOW if filter == "moving_average" else 1
         else:
-            n = check_count("window", window, example=_NEW_WINDOW, maximum=MAX_SAMPLES)
+            n = check_positive_int("window", window, example=_NEW_WINDOW, maximum=MAX_SAMPLES)
         if model is None:
             model = VoltageModel()
         elif not isinstance(model, VoltageModel):
@@ -751,7 +749,9 @@ class LaserRangeSensor:
             InvalidInput: a negative or non-finite distance, or ``n`` not an int >= 0.
         """
         d = _distance_input("true_distance", true_distance)
-        n = check_count("n", n, minimum=0, maximum=MAX_SAMPLES, example=1000, error=InvalidInput)
+        n = check_positive_int(
+            "n", n, minimum=0, maximum=MAX_SAMPLES, example=1000, error=InvalidInput
+        )
         _rng(rng)
         if not self.in_range(d):
             return None
@@ -895,7 +895,7 @@ class LaserStream:
                 is taken).
         """
         if isinstance(true_distances, np.ndarray):
-            seq: list[Any] = list(checked_array("true_distances", true_distances, (None,)))
+            seq: list[Any] = list(real_array("true_distances", true_distances, (None,)))
         elif isinstance(true_distances, (list, tuple)):
             seq = list(true_distances)
         else:

@@ -62,13 +62,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from velfence._validate import (
     check_choice,
-    check_count,
     check_positive,
-    checked_array,
-    checked_transform,
+    check_positive_int,
     describe,
     finite_scalar,
     readonly,
+    real_array,
+    rigid_transform,
 )
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 from velfence.shaping.fixtures import LineFixture, LineScaling
@@ -145,7 +145,7 @@ class Segment:
 
 
 def _unit(name: str, x: ArrayLike) -> FloatArray:
-    a = checked_array(name, x, (3,))
+    a = real_array(name, x, (3,))
     n = float(np.linalg.norm(a))
     if not n > 1e-12:
         raise InvalidInput(f"{name}: expected a non-zero vector, got {a.tolist()}")
@@ -173,7 +173,7 @@ def aligned_rotation(R: ArrayLike, normal: ArrayLike, *, alignment: str = "faith
     """
     how = check_choice("alignment", alignment, ALIGNMENTS)
     z = -_unit("normal", normal)
-    Ra = checked_array("R", R, (3, 3), what="a 3x3 rotation matrix")
+    Ra = real_array("R", R, (3, 3), what="a 3x3 rotation matrix")
     angle_axis(Ra)  # validates orthonormality (raises InvalidInput)
     if how == "faithful":
         temp = np.cross(z, Ra[:, 0])
@@ -286,7 +286,7 @@ class ModeManager:
                 f"radius_of_influence, max_force, damping, length), got {sorted(options)}"
             ) from exc
         self.fixture_options = options
-        self.presses_per_point = check_count(
+        self.presses_per_point = check_positive_int(
             "presses_per_point", presses_per_point, maximum=1000, example=2
         )
         if not isinstance(toggle_off, (bool, np.bool_)):
@@ -421,7 +421,7 @@ class ModeManager:
             )
         k = key.upper()
         tf = finite_scalar("t", t, unit="s", what="time")
-        T = checked_transform("pose", pose, tol=POSE_TOL)
+        T = rigid_transform("pose", pose, tol=POSE_TOL)
         if distance is not None:
             d = finite_scalar("distance", distance, unit="m", what="reading")
             if not 0.0 <= d <= self.laser.max_range:
@@ -631,9 +631,9 @@ class ModeManager:
             the next via point (self-correcting, §6.2.1); zero on the cycle a segment completes.
         """
         tf = finite_scalar("t", t, unit="s", what="time")
-        T = checked_transform("pose", pose, tol=POSE_TOL)
-        v = checked_array("linear", linear, (3,), what="a velocity [m/s]")
-        w = checked_array("angular", angular, (3,), what="an angular velocity [rad/s]")
+        T = rigid_transform("pose", pose, tol=POSE_TOL)
+        v = real_array("linear", linear, (3,), what="a velocity [m/s]")
+        w = real_array("angular", angular, (3,), what="an angular velocity [rad/s]")
         if self._segment is not None:
             return self._autonomous(tf, T)
         out = np.zeros(6)

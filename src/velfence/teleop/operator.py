@@ -53,12 +53,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from velfence._validate import (
-    check_count,
     check_positive,
+    check_positive_int,
     check_seed,
-    checked_array,
     describe,
     finite_scalar,
+    real_array,
     step_count,
 )
 from velfence.errors import InvalidInput, InvalidParameter
@@ -310,7 +310,7 @@ class SyntheticOperator:
         s = check_seed("seed", seed, allow_generator=True)
         self.rng = s if isinstance(s, np.random.Generator) else np.random.default_rng(s)
         self.tick = check_positive("tick", tick, unit="s")
-        ws = checked_array("workspace", workspace, (3,), error=InvalidParameter, what="sizes [m]")
+        ws = real_array("workspace", workspace, (3,), error=InvalidParameter, what="sizes [m]")
         if not np.all(ws > 0.0):
             raise InvalidParameter(f"workspace: expected 3 sizes > 0 [m], got {ws.tolist()}")
         self.half = 0.5 * ws
@@ -607,7 +607,7 @@ class SyntheticOperator:
         _check_callable("target", target)
         tl = check_positive("tol", tol, unit="m", error=InvalidInput)
         pt = _choice("point", point, ("tip", "wrist", "cup"))
-        n = check_count("max_strokes", max_strokes, maximum=MAX_STROKES, example=40)
+        n = check_positive_int("max_strokes", max_strokes, maximum=MAX_STROKES, example=40)
         return self._reach(target, tl, pt, n)
 
     def _reach(
@@ -654,7 +654,7 @@ class SyntheticOperator:
         tl = check_positive("tol", tol, unit="rad", error=InvalidInput)
         if error is not None:
             _check_callable("error", error)
-        n = check_count("max_strokes", max_strokes, maximum=MAX_STROKES, example=20)
+        n = check_positive_int("max_strokes", max_strokes, maximum=MAX_STROKES, example=20)
         return self._orient(target, tl, error, n)
 
     def _orient(
@@ -669,7 +669,7 @@ class SyntheticOperator:
             yield from self.wait(p.reaction + p.orient_plan)
             obs = self.obs
             R = obs.pose[:3, :3]
-            goal = checked_array("target", target(obs), (3, 3), what="a rotation from target(obs)")
+            goal = real_array("target", target(obs), (3, 3), what="a rotation from target(obs)")
             e = rotation_vector(goal @ R.T)
             if error is None:
                 judged = float(np.linalg.norm(e))
@@ -705,7 +705,7 @@ class SyntheticOperator:
         """
         goal = _vector3("target", target, "a point [m]")
         tl = check_positive("tol", tol, unit="m", error=InvalidInput)
-        n = check_count("max_strokes", max_strokes, maximum=MAX_STROKES, example=25)
+        n = check_positive_int("max_strokes", max_strokes, maximum=MAX_STROKES, example=25)
         return self._aim(goal, tl, n)
 
     def _aim(self, goal: FloatArray, tol: float, n: int) -> Behaviour:
@@ -811,7 +811,7 @@ def _check_keys(keys: tuple[Any, ...]) -> tuple[str, ...]:
 
 
 def _vector3(name: str, x: Any, what: str, limit: float | None = None) -> FloatArray:
-    v = checked_array(name, x, (3,), what=what)
+    v = real_array(name, x, (3,), what=what)
     if limit is not None and not float(np.linalg.norm(v)) <= limit:
         raise InvalidInput(f"{name}: expected {what} of length <= {limit:g}, got {v.tolist()}")
     return v

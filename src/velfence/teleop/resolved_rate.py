@@ -37,11 +37,11 @@ from numpy.typing import ArrayLike, NDArray
 from velfence._validate import (
     check_choice,
     check_positive,
-    checked_array,
-    checked_transform,
     describe,
     finite_scalar,
     readonly,
+    real_array,
+    rigid_transform,
 )
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.shaping.base import InvalidPolicy
@@ -88,7 +88,7 @@ class JacobianArm(Protocol):
 
 def _rotation(name: str, R: ArrayLike) -> FloatArray:
     """A validated rotation matrix (orthonormal, det +1 within ``ROTATION_TOL``)."""
-    a = checked_array(name, R, (3, 3))
+    a = real_array(name, R, (3, 3))
     dev = float(np.max(np.abs(a.T @ a - np.eye(3))))
     det = float(np.linalg.det(a))
     if dev > ROTATION_TOL or abs(det - 1.0) > ROTATION_TOL:
@@ -156,7 +156,7 @@ def rotation_from_angle_axis(axis: ArrayLike, angle: float) -> FloatArray:
     Raises:
         InvalidInput: the axis is zero or not finite, or the angle is not finite.
     """
-    k = checked_array("axis", axis, (3,))
+    k = real_array("axis", axis, (3,))
     n = float(np.linalg.norm(k))
     if n == 0.0:
         raise InvalidInput("axis: expected a non-zero vector of shape (3,), got (0, 0, 0)")
@@ -175,7 +175,7 @@ def rotation_vector(R: ArrayLike) -> FloatArray:
 
 def _pose(name: str, T: ArrayLike) -> FloatArray:
     """A validated homogeneous transform, shape (4, 4)."""
-    return checked_transform(name, T, tol=ROTATION_TOL)
+    return rigid_transform(name, T, tol=ROTATION_TOL)
 
 
 ORIENTATION_ERRORS = ("angle_axis", "cross")
@@ -225,7 +225,7 @@ def pose_error(T: ArrayLike, T_target: ArrayLike, *, orientation: str = "angle_a
 
 
 def _jacobian(J: ArrayLike) -> FloatArray:
-    a = checked_array("J", J, what="a 2-D array of numbers (m, n)")
+    a = real_array("J", J, what="a 2-D array of numbers (m, n)")
     if a.ndim != 2 or a.shape[0] == 0 or a.shape[1] == 0:
         raise InvalidInput(f"J: expected a non-empty 2-D array (m, n), got shape {a.shape}")
     return a
@@ -502,7 +502,7 @@ class ResolvedRate(InvalidPolicy):
 
 def _flat(name: str, x: Any) -> FloatArray:
     # Non-finite entries pass: the on_invalid policy decides about them.
-    a = checked_array(name, x, allow_nonfinite=True, max_abs=None, what="a 1-D array of numbers")
+    a = real_array(name, x, allow_nonfinite=True, max_abs=None, what="a 1-D array of numbers")
     if a.ndim != 1 or a.shape[0] == 0:
         raise InvalidInput(f"{name}: expected a non-empty 1-D array, got shape {a.shape}")
     return a

@@ -40,7 +40,7 @@ from typing import Any, TypeAlias
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._validate import check_positive, checked_array, describe, finite_scalar, readonly
+from velfence._validate import check_positive, describe, finite_scalar, readonly, real_array
 from velfence.errors import InvalidGeometry, InvalidInput
 from velfence.geometry.primitives import orthonormal_complement
 
@@ -97,7 +97,7 @@ def _tuple(a: FloatArray) -> Vec3:
 
 def _geom_point(name: str, x: Any) -> FloatArray:
     """A definition's 3-vector (a point [m] or a direction), else :class:`InvalidGeometry`."""
-    return checked_array(name, x, (3,), error=InvalidGeometry)
+    return real_array(name, x, (3,), error=InvalidGeometry)
 
 
 def _geom_unit(name: str, x: Any) -> FloatArray:
@@ -117,7 +117,7 @@ def _geom_length(name: str, x: Any, what: str) -> float:
 
 def _vec3(name: str, x: Any) -> Vec3:
     """A run-time point or direction of shape (3,) as a tuple (:class:`InvalidInput`)."""
-    x0, x1, x2 = checked_array(name, x, (3,), what="a point of 3 numbers").tolist()
+    x0, x1, x2 = real_array(name, x, (3,), what="a point of 3 numbers").tolist()
     return (x0, x1, x2)
 
 
@@ -455,7 +455,7 @@ class Box(_RayCast):
         if rotation is None:
             R = np.eye(3)
         else:
-            R = checked_array(
+            R = real_array(
                 "rotation", rotation, (3, 3), error=InvalidGeometry, what="a 3x3 rotation matrix"
             )
             err = float(np.max(np.abs(R.T @ R - np.eye(3))))

@@ -45,9 +45,9 @@ from velfence._validate import (
     check_choice,
     check_positive,
     check_seed,
-    checked_array,
     describe,
     readonly,
+    real_array,
     step_count,
 )
 from velfence.errors import InvalidInput, InvalidParameter
@@ -87,7 +87,7 @@ class JointServo(Protocol):
 def _vec(name: str, x: ArrayLike, n: int | None, unit: str) -> FloatArray:
     """A finite 1-D vector, of length ``n`` when given, else :class:`InvalidInput`."""
     label = f"{name} {unit}"
-    a = checked_array(label, x, None if n is None else (n,))
+    a = real_array(label, x, None if n is None else (n,))
     if a.ndim != 1 or a.shape[0] == 0:
         raise InvalidInput(f"{label}: expected shape (n,) with n >= 1, got shape {a.shape}")
     return a
@@ -98,7 +98,7 @@ def _per_joint(name: str, value: Any, unit: str, *, allow_zero: bool) -> FloatAr
     scalar = isinstance(value, np.ndarray) and value.ndim == 0
     if scalar or not isinstance(value, (list, tuple, np.ndarray)):
         return readonly(np.array([check_positive(name, value, allow_zero=allow_zero, unit=unit)]))
-    a = checked_array(name, value, error=InvalidParameter, what=f"a number or 1-D numbers {unit}")
+    a = real_array(name, value, error=InvalidParameter, what=f"a number or 1-D numbers {unit}")
     ok = (a >= 0.0) if allow_zero else (a > 0.0)
     if a.ndim != 1 or a.shape[0] == 0 or not np.all(ok):
         bound = ">= 0" if allow_zero else "> 0"
@@ -112,7 +112,7 @@ def _per_joint(name: str, value: Any, unit: str, *, allow_zero: bool) -> FloatAr
 def _limits(value: Any) -> FloatArray | None:
     if value is None:
         return None
-    a = checked_array(
+    a = real_array(
         "joint_limits", value, error=InvalidParameter, allow_nonfinite=True, what="numbers [rad]"
     )
     if a.ndim != 2 or a.shape[1] != 2 or a.shape[0] == 0:

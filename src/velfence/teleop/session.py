@@ -65,13 +65,13 @@ from numpy.typing import ArrayLike, NDArray
 from velfence._validate import (
     MAX_MAGNITUDE,
     MAX_STEPS,
-    check_count,
     check_positive,
+    check_positive_int,
     check_range,
     check_seed,
-    checked_array,
     describe,
     readonly,
+    real_array,
     step_count,
 )
 from velfence.errors import InvalidInput, InvalidParameter
@@ -150,7 +150,7 @@ def omni_to_puma(v: ArrayLike) -> FloatArray:
     Returns:
         ``v M`` in the PUMA base frame, shape (3,).
     """
-    return np.asarray(checked_array("v", v, (3,)) @ OMNI_TO_PUMA, dtype=float)
+    return np.asarray(real_array("v", v, (3,)) @ OMNI_TO_PUMA, dtype=float)
 
 
 def default_robot() -> Puma560:
@@ -300,7 +300,7 @@ class Session:
             )
         self.resolver = ResolvedRate(self.robot, on_invalid="stop")
         self.hand_time = check_positive("hand_time", hand_time, allow_zero=True, unit="s")
-        self._trace_every = check_count("trace_every", trace_every, maximum=MAX_STEPS)
+        self._trace_every = check_positive_int("trace_every", trace_every, maximum=MAX_STEPS)
         self.seed = int(check_seed("seed", seed))
         self._q0 = ready_pose(self.robot)[0] if q0 is None else _vec6(q0)
         names = self.scene.names
@@ -451,8 +451,8 @@ class Session:
         Raises:
             InvalidInput: wrong shapes or non-finite values.
         """
-        self._lin = checked_array("linear [m/s]", linear, (3,))
-        self._ang = checked_array("angular [rad/s]", angular, (3,))
+        self._lin = real_array("linear [m/s]", linear, (3,))
+        self._ang = real_array("angular [rad/s]", angular, (3,))
 
     def advance(self, dt: float) -> None:
         """Advance the world by ``dt`` [s] in control cycles of ``1/rate``.
@@ -723,4 +723,4 @@ def _robot(robot: Any) -> Puma560:
 
 
 def _vec6(x: ArrayLike) -> FloatArray:
-    return checked_array("q0 [rad]", x, (6,), error=InvalidParameter)
+    return real_array("q0 [rad]", x, (6,), error=InvalidParameter)

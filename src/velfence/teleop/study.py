@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from velfence._validate import check_count, check_positive, step_count
+from velfence._validate import check_positive, check_positive_int, step_count
 from velfence.errors import InvalidParameter
 from velfence.teleop.operator import OperatorProfile
 from velfence.teleop.task import CONDITIONS, MAX_TICKS, TaskRecord, TaskRun, run_task
@@ -169,9 +169,9 @@ def run_study(
     Raises:
         InvalidParameter: non-positive counts or a bad seed.
     """
-    n_subjects = check_count("n_subjects", n_subjects, maximum=MAX_RUNS, example=10)
-    runs = check_count("runs", runs, maximum=MAX_RUNS, example=3)
-    check_count("seed", seed, minimum=0, example=0)
+    n_subjects = check_positive_int("n_subjects", n_subjects, maximum=MAX_RUNS, example=10)
+    runs = check_positive_int("runs", runs, maximum=MAX_RUNS, example=3)
+    check_positive_int("seed", seed, minimum=0, example=0)
     if n_subjects * runs > MAX_RUNS:
         raise InvalidParameter(
             f"n_subjects * runs: expected at most {MAX_RUNS:,} runs per condition, got "

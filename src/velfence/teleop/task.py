@@ -38,7 +38,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from velfence._validate import check_choice, check_count, check_positive, step_count
+from velfence._validate import check_choice, check_positive, check_positive_int, step_count
 from velfence.errors import InvalidParameter
 from velfence.teleop.modes import ModeEvent, ModeManager
 from velfence.teleop.operator import Behaviour, OperatorProfile, SyntheticOperator
@@ -348,9 +348,9 @@ def run_task(
         raise InvalidParameter(
             f"profile: expected an OperatorProfile or None, got {type(profile).__name__}"
         )
-    check_count("seed", seed, minimum=0, example=0)
-    check_count("subject", subject, minimum=0, example=0)
-    check_count("run", run, minimum=0, example=0)
+    check_positive_int("seed", seed, minimum=0, example=0)
+    check_positive_int("subject", subject, minimum=0, example=0)
+    check_positive_int("run", run, minimum=0, example=0)
     if scene is not None and not isinstance(scene, Scene):
         raise InvalidParameter(f"scene: expected a Scene or None, got {type(scene).__name__}")
     step_count("time_limit", time_limit, "tick", tick, max_steps=MAX_TICKS)

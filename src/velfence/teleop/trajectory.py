@@ -55,11 +55,11 @@ from velfence._validate import (
     MAX_MAGNITUDE,
     MAX_STEPS,
     check_choice,
-    check_count,
     check_positive,
-    checked_array,
+    check_positive_int,
     finite_scalar,
     readonly,
+    real_array,
 )
 from velfence.errors import InvalidInput, InvalidParameter, VelfenceError
 from velfence.geometry.primitives import points_segments_distances
@@ -388,15 +388,15 @@ def execute(
     lam = check_positive("correction_gain", correction_gain)
     if lam > 1.0:
         raise InvalidParameter(f"correction_gain: expected a value in (0, 1], got {lam!r}")
-    sub = check_count("substeps", substeps, maximum=MAX_SUBSTEPS, example=5)
-    extra = check_count("settle", settle, minimum=0, maximum=MAX_VIA_STEPS, example=0)
+    sub = check_positive_int("substeps", substeps, maximum=MAX_SUBSTEPS, example=5)
+    extra = check_positive_int("settle", settle, minimum=0, maximum=MAX_VIA_STEPS, example=0)
     total = (trajectory.n_steps + extra + 1) * sub
     if total > MAX_STEPS:
         raise InvalidParameter(
             f"substeps={sub} and settle={extra} need {total:,} servo steps; at most "
             f"{MAX_STEPS:,} are allowed: lower substeps or settle"
         )
-    q_start = checked_array("q0 [rad]", q0, (None,), what="joint angles")
+    q_start = real_array("q0 [rad]", q0, (None,), what="joint angles")
     try:
         robot.fk(q_start)
     except VelfenceError as exc:  # the arm's own message names its internal argument

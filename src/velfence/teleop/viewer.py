@@ -81,11 +81,11 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from velfence._validate import (
-    check_count,
     check_flag,
+    check_positive_int,
     check_range,
-    checked_array,
     finite_scalar,
+    real_array,
     step_count,
 )
 from velfence.errors import InvalidInput, InvalidParameter, VelfenceError
@@ -207,7 +207,7 @@ def _jsonable(x: Any) -> Any:
 
 def _vector(name: str, value: Any, limit: float, unit: str) -> FloatArray:
     """A finite 3-vector [unit] with norm <= limit, else :class:`InvalidInput` naming ``name``."""
-    v = checked_array(f"{name} [{unit}]", value, (3,))
+    v = real_array(f"{name} [{unit}]", value, (3,))
     if isinstance(value, list | tuple):
         # NumPy turns [true, 0, 0] into the integers [1, 0, 0]: a 1 m/s jog. Each component
         # must be a real number itself (booleans and strings refused).
@@ -613,7 +613,7 @@ class ViewerServer:
                 f"session: expected a SessionLike with methods {list(_SESSION_METHODS)}, got "
                 f"{type(session).__name__} without {missing}"
             )
-        self._port = check_count("port", port, minimum=0, maximum=65535, example=8765)
+        self._port = check_positive_int("port", port, minimum=0, maximum=65535, example=8765)
         self._realtime = check_flag("realtime", realtime)
         self._tick = check_range("tick", tick, low=MIN_TICK, high=MAX_TICK, unit="s")
         self._max_step = check_range(
@@ -633,7 +633,7 @@ class ViewerServer:
             high=MAX_CONNECTION_TIMEOUT,
             unit="s",
         )
-        n_connections = check_count(
+        n_connections = check_positive_int(
             "max_connections", max_connections, maximum=MAX_CONNECTIONS, example=128
         )
         self._session = session
