@@ -16,11 +16,11 @@ def square() -> ConvexPolygon:
 
 
 def profile() -> vf.ThreeZoneBraking:
-    return vf.ThreeZoneBraking(gain=4.0, v_max=1.0, a_max=10.0)
+    return vf.ThreeZoneBraking(gain=4.0, v_max=1.0, a_max=2.0)
 
 
 def circle() -> Circle:
-    return Circle([0.0, 0.0], 1.0)
+    return Circle([0.0, 0.0], radius=1.0)
 
 
 def puma() -> vf.Puma560:
