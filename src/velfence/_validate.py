@@ -514,3 +514,53 @@ def check_flag(name: str, value: Any, *, error: type[Exception] | None = None) -
             f"{name}: expected True or False, got {_type_text(value)}"
         )
     return bool(value)
+
+
+def real_input(
+    name: str,
+    x: Any,
+    shape: tuple[int | None, ...] | None = None,
+    *,
+    error: type[Exception] | None = None,
+    what: str = "numbers",
+    allow_nonfinite: bool = False,
+    max_abs: float | None = MAX_MAGNITUDE,
+) -> NDArray[np.float64]:
+    """:func:`real_array` for inputs that may be arbitrary objects (same arguments and result).
+
+    Only numbers, NumPy scalars, lists, tuples and ndarrays are read: any other object (a
+    ``range``, a generator, an object with its own ``__len__`` or ``__array__``) is refused
+    before NumPy asks it for its length or its data, so a sequence that claims 10**12 entries, or
+    whose length lies, or whose ``__array__`` raises, becomes a refusal naming ``name`` instead of a
+    ``MemoryError``, a silently shortened vector or a foreign exception. A conversion that raises
+    anything but a velfence error (an element whose ``__float__`` raises) is refused the same
+    way, and a float overflow while casting (``np.longdouble('1e4000')``) is refused as
+    non-finite without a ``RuntimeWarning``.
+
+    Raises:
+        InvalidInput: (or ``error``) as :func:`real_array`, and for the objects above.
+    """
+    from velfence.errors import VelfenceError
+
+    err = _error(error)
+    want = "" if shape is None else f" of shape {_shape_text(shape)}"
+    if not isinstance(x, (np.ndarray, np.generic, list, tuple, numbers.Real)):
+        raise err(f"{name}: expected {what}{want}, got {_type_text(x)}")
+    try:
+        with np.errstate(over="ignore", invalid="ignore"):
+            return real_array(
+                name,
+                x,
+                shape,
+                error=err,
+                what=what,
+                allow_nonfinite=allow_nonfinite,
+                max_abs=max_abs,
+            )
+    except VelfenceError:
+        raise
+    except Exception as e:  # a hostile element: refuse it, do not let its exception escape
+        raise err(
+            f"{name}: expected {what}{want}, got {_show(x)} (reading it raised "
+            f"{type(e).__name__})"
+        ) from None

@@ -30,7 +30,7 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import NDArray
 
-from velfence._validate import finite_array, finite_scalar
+from velfence._validate import real_input, finite_scalar
 from velfence.errors import InvalidInput, InvalidParameter
 
 __all__ = ["CVT", "SteeredWheel", "TetrahedralCVT"]
@@ -70,7 +70,7 @@ def _angle(name: str, phi: float) -> float:
 
 
 def _direction_arg(t: FloatArray) -> tuple[float, float]:
-    a = finite_array("t", t, (2,), what="a direction")
+    a = real_input("t", t, (2,), what="a direction")
     if not np.any(a):
         raise InvalidInput("t: expected a non-zero direction of shape (2,), got [0.0, 0.0]")
     return float(a[0]), float(a[1])

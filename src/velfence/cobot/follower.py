@@ -41,7 +41,7 @@ from velfence._validate import (
     MAX_MAGNITUDE,
     check_choice,
     check_positive,
-    finite_array,
+    real_input,
     finite_scalar,
 )
 from velfence.errors import InvalidInput, InvalidParameter
@@ -221,7 +221,7 @@ class PathFollower:
         return self.state
 
     def _vector(self, name: str, x: ArrayLike) -> FloatArray:
-        return finite_array(name, x, (self._n,))
+        return real_input(name, x, (self._n,))
 
     def evaluate(
         self, R: ArrayLike, T: ArrayLike, *, s_p: float | None = None, sp_d: float | None = None

@@ -34,7 +34,7 @@ from velfence._validate import (
     check_choice,
     check_positive,
     check_positive_int,
-    finite_array,
+    real_input,
     finite_scalar,
     readonly,
 )
@@ -117,16 +117,16 @@ class RThetaKinematics:
 
     def joints(self, R: FloatArray) -> FloatArray:
         """``(r, θ) = (|R|, atan2(y, x))`` [m, rad]."""
-        x, y = finite_array("R", R, (2,)).tolist()
+        x, y = real_input("R", R, (2,)).tolist()
         return np.array([math.hypot(x, y), math.atan2(y, x)])
 
     def position(self, q: FloatArray) -> FloatArray:
         """``(r cos θ, r sin θ)`` [m]."""
-        r, th = finite_array("q", q, (2,)).tolist()
+        r, th = real_input("q", q, (2,)).tolist()
         return np.array([r * math.cos(th), r * math.sin(th)])
 
     def _r(self, R: FloatArray) -> tuple[float, float, float]:
-        x, y = finite_array("R", R, (2,)).tolist()
+        x, y = real_input("R", R, (2,)).tolist()
         r = math.hypot(x, y)
         if r <= 0.0:
             raise InvalidInput("R: the r-θ cobot's Jacobian is singular at the pivot (r = 0)")
@@ -163,20 +163,20 @@ class IdentityKinematics:
 
     def joints(self, R: FloatArray) -> FloatArray:
         """Joints equal the configuration: q = R."""
-        return finite_array("R", R, (self.n,))
+        return real_input("R", R, (self.n,))
 
     def position(self, q: FloatArray) -> FloatArray:
         """R = q."""
-        return finite_array("q", q, (self.n,))
+        return real_input("q", q, (self.n,))
 
     def jacobian(self, R: FloatArray) -> FloatArray:
         """Identity, shape (n, n)."""
-        finite_array("R", R, (self.n,))
+        real_input("R", R, (self.n,))
         return np.eye(self.n)
 
     def hessian(self, R: FloatArray) -> FloatArray:
         """Zero, shape (n, n, n)."""
-        finite_array("R", R, (self.n,))
+        real_input("R", R, (self.n,))
         return np.zeros((self.n, self.n, self.n))
 
 
@@ -219,7 +219,7 @@ class Coupling:
         if not isinstance(self.name, str):
             raise InvalidParameter(f"name: expected a str label, got {type(self.name).__name__}")
         if self.selection is not None:
-            S = finite_array(
+            S = real_input(
                 "selection", self.selection, (2, None), error=InvalidGeometry, what="a matrix S_i"
             )
             if S.shape[1] == 0:
@@ -245,8 +245,8 @@ class Coupling:
         n = np.shape(R)[0] if np.ndim(R) == 1 else -1
         J_i, H_i = _pair(self.name, self.jacobian(R))
         return (
-            finite_array(f"{self.name}.jacobian(R)[0] (J_i)", J_i, (2, n)),
-            finite_array(f"{self.name}.jacobian(R)[1] (H_i)", H_i, (2, n, n)),
+            real_input(f"{self.name}.jacobian(R)[0] (J_i)", J_i, (2, n)),
+            real_input(f"{self.name}.jacobian(R)[1] (H_i)", H_i, (2, n, n)),
         )
 
 
@@ -318,7 +318,7 @@ def generalised_cross(Omega: ArrayLike) -> FloatArray:
     Returns:
         Shape (n,).
     """
-    om = finite_array("Omega", Omega, what="numbers of shape (n-1, n)")
+    om = real_input("Omega", Omega, what="numbers of shape (n-1, n)")
     if om.ndim != 2 or om.shape[1] != om.shape[0] + 1:
         raise InvalidInput(f"Omega: expected shape (n-1, n), got shape {om.shape}")
     n = om.shape[1]
@@ -331,7 +331,7 @@ def generalised_cross(Omega: ArrayLike) -> FloatArray:
 
 
 def _vec(name: str, x: ArrayLike, n: int) -> FloatArray:
-    return finite_array(name, x, (n,))
+    return real_input(name, x, (n,))
 
 
 class Cobot:

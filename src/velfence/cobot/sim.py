@@ -34,7 +34,7 @@ from numpy.typing import ArrayLike, NDArray
 from velfence._validate import (
     check_choice,
     check_positive,
-    finite_array,
+    real_input,
     finite_scalar,
     step_count,
 )
@@ -100,7 +100,7 @@ def pushing(intent: Callable[[float, FloatArray], ArrayLike]) -> SpeedFn:
 
     def speed(t: float, R: FloatArray, T: FloatArray) -> float:
         Ta = np.asarray(T, dtype=float)
-        v = finite_array("intent(t, R)", intent(t, R), Ta.shape, what="a velocity [m/s]")
+        v = real_input("intent(t, R)", intent(t, R), Ta.shape, what="a velocity [m/s]")
         return float(Ta @ v)
 
     return speed
@@ -160,17 +160,17 @@ class CobotTrace:
         else:
             v = np.zeros_like(self.R)
         zone = self.zone if len(self.zone) == self.t.shape[0] else None
-        cmd = v if v_cmd is None else finite_array("v_cmd", v_cmd, v.shape, what="velocities")
+        cmd = v if v_cmd is None else real_input("v_cmd", v_cmd, v.shape, what="velocities")
         return Trajectory(self.t, self.R, cmd, v, zone=zone, name=self.name)
 
     def at_arc_length(self, s: ArrayLike) -> FloatArray:
         """Positions R interpolated at arc lengths ``s`` [m], shape (M, n)."""
-        S = np.atleast_1d(finite_array("s", s, what="arc lengths [m]"))
+        S = np.atleast_1d(real_input("s", s, what="arc lengths [m]"))
         return np.stack([np.interp(S, self.s, self.R[:, j]) for j in range(self.R.shape[1])], 1)
 
     def error_at(self, s: ArrayLike) -> FloatArray:
         r""":math:`|\Delta R|` interpolated at arc lengths ``s`` [m], shape (M,)."""
-        S = np.atleast_1d(finite_array("s", s, what="arc lengths [m]"))
+        S = np.atleast_1d(real_input("s", s, what="arc lengths [m]"))
         return np.asarray(np.interp(S, self.s, self.error_norm), dtype=float)
 
 
@@ -237,7 +237,7 @@ def _kN(out: Any, n: int) -> FloatArray:
             f"controller.step(...): expected an output with a kN attribute, got "
             f"{type(out).__name__}"
         )
-    return finite_array("controller.step(...).kN", kN, (n,), what="a curvature vector")
+    return real_input("controller.step(...).kN", kN, (n,), what="a curvature vector")
 
 
 def _label(name: Any) -> str:
@@ -247,7 +247,7 @@ def _label(name: Any) -> str:
 
 
 def _unit(name: str, x: ArrayLike, n: int | None = None) -> FloatArray:
-    a = finite_array(name, x, None if n is None else (n,), what="a direction")
+    a = real_input(name, x, None if n is None else (n,), what="a direction")
     if a.ndim != 1:
         raise InvalidInput(f"{name}: expected shape ({n or 'n'},), got shape {a.shape}")
     m = float(np.linalg.norm(a))
@@ -278,7 +278,7 @@ def follow_in_ee(
         name: Trace label.
     """
     _controller(controller)
-    R = finite_array("R0", R0, (None,), what="a configuration")
+    R = real_input("R0", R0, (None,), what="a configuration")
     if R.shape[0] == 0:
         raise InvalidInput("R0: expected a configuration of shape (n,) with n >= 1, got shape (0,)")
     T = _unit("T0", T0, R.shape[0])
@@ -351,8 +351,8 @@ def simulate_cobot(
         raise InvalidParameter(f"cobot: expected a Cobot, got {type(cobot).__name__}")
     _controller(controller)
     n = cobot.dim
-    q = finite_array("q0", q0, (n,), what="joint angles")
-    phi = finite_array("phi0", phi0, (n - 1,), what="steering angles [rad]")
+    q = real_input("q0", q0, (n,), what="joint angles")
+    phi = real_input("phi0", phi0, (n - 1,), what="steering angles [rad]")
     steps = step_count("duration", duration, "dt", dt)
     h = check_positive("dt", dt, unit="s")
     check_choice("route", route, ("direct", "joint"))
@@ -361,7 +361,7 @@ def simulate_cobot(
             f"speed: expected a function (t, R, T) -> u, got {type(speed).__name__}"
         )
     label = cobot.name if name is None else (_label(name) or cobot.name)
-    ref0 = None if heading0 is None else finite_array("heading0", heading0, (n,))
+    ref0 = None if heading0 is None else real_input("heading0", heading0, (n,))
 
     def human(tt: float, Rr: FloatArray, Tt: FloatArray) -> float:
         return finite_scalar("speed(t, R, T)", speed(tt, Rr, Tt), unit="m/s", what="speed")
