@@ -30,7 +30,7 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import NDArray
 
-from velfence._validate import real_input, finite_scalar
+from velfence._validate import finite_scalar, real_input
 from velfence.errors import InvalidInput, InvalidParameter
 
 __all__ = ["CVT", "SteeredWheel", "TetrahedralCVT"]
@@ -141,12 +141,14 @@ class TetrahedralCVT:
 
     def __post_init__(self) -> None:
         c = self.convention
-        is_int = isinstance(c, (int, np.integer)) and not isinstance(c, (bool, np.bool_))
-        if not is_int or c not in (1, -1):
-            raise InvalidParameter(
-                f"convention: expected +1 or -1 (the sign lost from eq. 2.16), "
-                f"got {self.convention!r}"
-            )
+        want = "+1 or -1 (the sign lost from eq. 2.16)"
+        # timedelta64 is an integer type to NumPy; it is a duration, not a sign.
+        if isinstance(c, (np.timedelta64, np.datetime64)):
+            raise InvalidParameter(f"convention: expected {want}, got {type(c).__name__}")
+        v = finite_scalar("convention", c, what="sign", error=InvalidParameter)
+        if v not in (1.0, -1.0):
+            raise InvalidParameter(f"convention: expected {want}, got {v:g}")
+        object.__setattr__(self, "convention", int(v))
 
     @property
     def name(self) -> str:
