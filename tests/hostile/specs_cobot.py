@@ -102,7 +102,8 @@ SPECS: dict[str, F | C] = {
         {
             "step": F(
                 lambda: call([0.5, 0.2], [1.0, 0.0], 0.01, 0.0),
-                types={"t": "nonneg", "ds": "positive"},
+                # ds is the HeadingController protocol's arc length: 0 (human stopped) is valid
+                types={"t": "nonneg", "ds": "nonneg"},
             )
         },
     ),
@@ -111,7 +112,8 @@ SPECS: dict[str, F | C] = {
         {
             "evaluate": lambda: call(_R, _T),
             "reset": F(lambda: call(_R, s_p=0.0), types={"s_p": "scalar"}),
-            "step": F(lambda: call(_R, _T, 0.01), types={"t": "nonneg"}),
+            # ds = 0 is valid: the human stopped (the reference state is kept)
+            "step": F(lambda: call(_R, _T, 0.01), types={"t": "nonneg", "ds": "nonneg"}),
         },
         instance=follower,
     ),

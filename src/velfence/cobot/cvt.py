@@ -145,7 +145,10 @@ class TetrahedralCVT:
         # timedelta64 is an integer type to NumPy; it is a duration, not a sign.
         if isinstance(c, (np.timedelta64, np.datetime64)):
             raise InvalidParameter(f"convention: expected {want}, got {type(c).__name__}")
-        v = finite_scalar("convention", c, what="sign", error=InvalidParameter)
+        try:
+            v = finite_scalar("convention", c, what="sign", error=InvalidParameter)
+        except InvalidParameter:
+            raise InvalidParameter(f"convention: expected {want}, got {type(c).__name__}") from None
         if v not in (1.0, -1.0):
             raise InvalidParameter(f"convention: expected {want}, got {v:g}")
         object.__setattr__(self, "convention", int(v))

@@ -81,7 +81,7 @@ def _pole(name: str, p: object) -> complex:
     if isinstance(p, (bool, np.bool_)) or not isinstance(p, numbers.Number):
         raise InvalidParameter(
             f"{name}: expected a stable pole (a real or complex number) in 1/m, got "
-            f"{type(p).__name__} {p!r:.60}"
+            f"{type(p).__name__}"
         )
     try:
         z: complex = complex(p)  # type: ignore[call-overload]
@@ -160,13 +160,17 @@ class PathFollower:
         max_curvature: float | None = None,
     ) -> None:
         if not isinstance(path, Path):
-            raise InvalidParameter(f"path: expected a velfence Path, got {path!r}")
-        try:
-            if isinstance(gains, (str, bytes, bytearray)):
-                raise TypeError
+            raise InvalidParameter(f"path: expected a velfence Path, got {type(path).__name__}")
+        # Only a pair in a list, tuple or array: unpacking a set, an iterator or a memoryview
+        # would read an arbitrary order or bytes.
+        if isinstance(gains, np.ndarray) and gains.shape == (2,):
+            k1, k2 = gains.tolist()
+        elif isinstance(gains, (list, tuple)) and len(gains) == 2:
             k1, k2 = gains
-        except (TypeError, ValueError):
-            raise InvalidParameter(f"gains: expected (k1, k2), got {gains!r}") from None
+        else:
+            raise InvalidParameter(
+                f"gains: expected a pair (k1, k2) of positive numbers, got {type(gains).__name__}"
+            )
         self._k1 = check_positive("gains[0] (k1)", k1, unit="1/m²")
         self._k2 = check_positive("gains[1] (k2)", k2, unit="1/m")
         g = check_positive("guard", guard)
@@ -287,8 +291,8 @@ class PathFollower:
                 :class:`~velfence.cobot.sim.HeadingController` protocol.
         """
         d = finite_scalar("ds", ds, unit="m")
-        if t is not None:
-            finite_scalar("t", t, unit="s", what="time")
+        if t is not None and finite_scalar("t", t, unit="s", what="time") < 0.0:
+            raise InvalidInput(f"t: expected a time >= 0 s, got {t}")
         if d < 0.0:
             raise InvalidInput(f"ds: expected the arc length travelled (>= 0), got {d}")
         if d > 0.0:

@@ -93,7 +93,7 @@ def pushing(intent: Callable[[float, FloatArray], ArrayLike]) -> SpeedFn:
         InvalidInput: (when called) ``intent`` returned a velocity that is not a finite vector of
             the shape of ``T``.
     """
-    if not callable(intent):
+    if not callable(intent) or isinstance(intent, type):
         raise InvalidParameter(
             f"intent: expected a function (t, R) -> velocity, got {type(intent).__name__}"
         )
@@ -165,13 +165,23 @@ class CobotTrace:
 
     def at_arc_length(self, s: ArrayLike) -> FloatArray:
         """Positions R interpolated at arc lengths ``s`` [m], shape (M, n)."""
-        S = np.atleast_1d(real_input("s", s, what="arc lengths [m]"))
+        S = _arc_lengths(s)
         return np.stack([np.interp(S, self.s, self.R[:, j]) for j in range(self.R.shape[1])], 1)
 
     def error_at(self, s: ArrayLike) -> FloatArray:
         r""":math:`|\Delta R|` interpolated at arc lengths ``s`` [m], shape (M,)."""
-        S = np.atleast_1d(real_input("s", s, what="arc lengths [m]"))
+        S = _arc_lengths(s)
         return np.asarray(np.interp(S, self.s, self.error_norm), dtype=float)
+
+
+def _arc_lengths(s: ArrayLike) -> FloatArray:
+    """Arc lengths to interpolate at: one number or a non-empty (M,) vector."""
+    S = real_input("s", s, what="arc lengths [m]")
+    if S.ndim > 1 or S.size == 0:
+        raise InvalidInput(
+            f"s: expected an arc length or a non-empty vector of shape (M,), got shape {S.shape}"
+        )
+    return np.atleast_1d(S)
 
 
 class _Recorder:
@@ -281,7 +291,12 @@ def follow_in_ee(
     R = real_input("R0", R0, (None,), what="a configuration")
     if R.shape[0] == 0:
         raise InvalidInput("R0: expected a configuration of shape (n,) with n >= 1, got shape (0,)")
-    T = _unit("T0", T0, R.shape[0])
+    T = _unit("T0", T0)
+    if T.shape != R.shape:
+        raise InvalidInput(
+            f"T0: expected shape {R.shape}, the shape of R0, got shape {T.shape} (R0 and T0 must "
+            "have the same length)"
+        )
     steps = step_count("length", length, "ds", ds)
     h = check_positive("ds", ds, unit="m")
     check_choice("integrator", integrator, ("arc", "euler"))
@@ -292,7 +307,13 @@ def follow_in_ee(
     for _ in range(steps + 1):
         out = controller.step(R, T, step_ds, s)
         rec.add(s=s, t=s, R=R.copy(), T=T.copy())
-        kN = _kN(out, R.shape[0])
+        try:
+            kN = _kN(out, R.shape[0])
+        except InvalidInput as e:
+            raise InvalidInput(
+                f"the run from R0, T0 stopped at s = {s:g} m: {e} (the controller diverged; "
+                "start closer to its path or lower its gains)"
+            ) from None
         _record_output(rec, out)
         if integrator == "euler":
             R = R + h * T
@@ -355,8 +376,10 @@ def simulate_cobot(
     phi = real_input("phi0", phi0, (n - 1,), what="steering angles [rad]")
     steps = step_count("duration", duration, "dt", dt)
     h = check_positive("dt", dt, unit="s")
+    if h > float(duration):
+        raise InvalidParameter(f"dt: expected a step <= duration = {duration:g} s, got {h:g} s")
     check_choice("route", route, ("direct", "joint"))
-    if not callable(speed):
+    if not callable(speed) or isinstance(speed, type):
         raise InvalidParameter(
             f"speed: expected a function (t, R, T) -> u, got {type(speed).__name__}"
         )
@@ -377,7 +400,10 @@ def simulate_cobot(
             )
         return hd.T
 
-    T = heading(q, phi, ref0)
+    try:
+        T = heading(q, phi, ref0)
+    except InvalidInput as e:
+        raise InvalidInput(f"q0, phi0: no allowed direction at the start: {e}") from None
     rec = _Recorder()
     s = 0.0
     ds = 0.0
