@@ -561,6 +561,5 @@ def real_input(
         raise
     except Exception as e:  # a hostile element: refuse it, do not let its exception escape
         raise err(
-            f"{name}: expected {what}{want}, got {_show(x)} (reading it raised "
-            f"{type(e).__name__})"
+            f"{name}: expected {what}{want}, got {_show(x)} (reading it raised {type(e).__name__})"
         ) from None

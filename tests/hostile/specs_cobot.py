@@ -7,7 +7,6 @@ from common import P2, square
 from harness import C, F, call
 from specs_shaping import SHAPER_2D
 
-from velfence.geometry import Circle
 from velfence.cobot import (
     CasterWall,
     Coupling,
@@ -17,6 +16,7 @@ from velfence.cobot import (
     TetrahedralCVT,
     r_theta_cobot,
 )
+from velfence.geometry import Circle
 
 _R = np.array([1.2, 0.0])
 _T = np.array([0.0, 1.0])

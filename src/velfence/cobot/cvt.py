@@ -140,7 +140,7 @@ class TetrahedralCVT:
     convention: int = 1
 
     def __post_init__(self) -> None:
-        c = self.convention
+        c: object = self.convention
         want = "+1 or -1 (the sign lost from eq. 2.16)"
         # timedelta64 is an integer type to NumPy; it is a duration, not a sign.
         if isinstance(c, (np.timedelta64, np.datetime64)):

@@ -41,8 +41,8 @@ from velfence._validate import (
     MAX_MAGNITUDE,
     check_choice,
     check_positive,
-    real_input,
     finite_scalar,
+    real_input,
 )
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.geometry.paths import Path
@@ -163,10 +163,11 @@ class PathFollower:
             raise InvalidParameter(f"path: expected a velfence Path, got {type(path).__name__}")
         # Only a pair in a list, tuple or array: unpacking a set, an iterator or a memoryview
         # would read an arbitrary order or bytes.
-        if isinstance(gains, np.ndarray) and gains.shape == (2,):
-            k1, k2 = gains.tolist()
-        elif isinstance(gains, (list, tuple)) and len(gains) == 2:
-            k1, k2 = gains
+        given: object = gains
+        if isinstance(given, np.ndarray) and given.shape == (2,):
+            k1, k2 = given.tolist()
+        elif isinstance(given, (list, tuple)) and len(given) == 2:
+            k1, k2 = given
         else:
             raise InvalidParameter(
                 f"gains: expected a pair (k1, k2) of positive numbers, got {type(gains).__name__}"

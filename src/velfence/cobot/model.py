@@ -35,9 +35,9 @@ from velfence._validate import (
     check_choice,
     check_positive,
     check_positive_int,
-    real_input,
     finite_scalar,
     readonly,
+    real_input,
 )
 from velfence.cobot.cvt import CVT, SteeredWheel, TetrahedralCVT
 from velfence.cobot.transforms import (
@@ -277,10 +277,10 @@ class Coupling:
         if self.jacobian is None:  # unreachable: __post_init__ requires one of the two
             raise InvalidParameter("Coupling has neither selection nor jacobian")
         n = R.shape[0]
-        J_i, H_i = _pair(self.name, self.jacobian(R))
+        J_d, H_d = _pair(self.name, self.jacobian(R))
         return (
-            real_input(f"{self.name}.jacobian(R)[0] (J_i)", J_i, (2, n)),
-            real_input(f"{self.name}.jacobian(R)[1] (H_i)", H_i, (2, n, n)),
+            real_input(f"{self.name}.jacobian(R)[0] (J_i)", J_d, (2, n)),
+            real_input(f"{self.name}.jacobian(R)[1] (H_i)", H_d, (2, n, n)),
         )
 
 

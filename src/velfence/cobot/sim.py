@@ -34,8 +34,8 @@ from numpy.typing import ArrayLike, NDArray
 from velfence._validate import (
     check_choice,
     check_positive,
-    real_input,
     finite_scalar,
+    real_input,
     step_count,
 )
 from velfence.cobot.model import Cobot
