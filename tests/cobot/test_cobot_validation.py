@@ -274,7 +274,8 @@ def test_r_theta_near_the_pivot_is_finite_or_refused_by_name() -> None:
     kin = RThetaKinematics()
     J = kin.jacobian([1e-50, 0.0])
     H = kin.hessian([1e-50, 0.0])
-    assert np.all(np.isfinite(J)) and np.all(np.isfinite(H))
+    assert np.all(np.isfinite(J))
+    assert np.all(np.isfinite(H))
     assert J[1, 1] == pytest.approx(1e50)
     with pytest.raises(InvalidInput, match=r"^R: .*singular at the pivot"):
         kin.jacobian([5e-324, 5e-324])
