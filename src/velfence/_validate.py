@@ -260,8 +260,8 @@ def finite_scalar(
 
 def _real_float(x: Any) -> float | None:
     """``float(x)`` for a real number, ``None`` for anything else (bool, str, complex, ...)."""
-    if isinstance(x, (bool, np.bool_)):
-        return None
+    if isinstance(x, (bool, np.bool_, np.timedelta64, np.datetime64)):
+        return None  # NumPy counts time deltas as integers; they are durations, not numbers
     if isinstance(x, np.ndarray):
         if x.shape != () or x.dtype.kind not in _REAL_KINDS:
             return None

@@ -129,7 +129,9 @@ def test_follow_in_ee_validation() -> None:
     f = fig5_follower()
     with pytest.raises(InvalidInput, match="T0: expected a non-zero direction"):
         follow_in_ee(f, R0, [0.0, 0.0], length=1.0)
-    with pytest.raises(InvalidInput, match=r"T0: expected shape \(3,\), got shape \(2,\)"):
+    with pytest.raises(
+        InvalidInput, match=r"T0: expected shape \(3,\), the shape of R0, got shape \(2,\)"
+    ):
         follow_in_ee(f, [1.0, 0.0, 0.0], T0, length=1.0)
     with pytest.raises(InvalidInput, match="R0: expected finite values"):
         follow_in_ee(f, [math.nan, 0.0], T0, length=1.0)

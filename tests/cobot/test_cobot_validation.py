@@ -232,3 +232,90 @@ def test_huge_python_ints_are_refused_not_overflowing() -> None:
 def test_tuning_parameters_are_keyword_only(make: Callable[[], object]) -> None:
     with pytest.raises(TypeError, match="positional"):
         make()
+
+
+class _ClaimsHugeLength:
+    """A sequence that claims 10**12 entries (NumPy would try to allocate them)."""
+
+    def __len__(self) -> int:
+        return 10**12
+
+    def __getitem__(self, i: int) -> float:
+        if i < 3:
+            return 0.0
+        raise IndexError(i)
+
+
+class _RaisingArray:
+    def __array__(self, *args: Any, **kwargs: Any) -> Any:
+        raise ZeroDivisionError("boom")
+
+
+@pytest.mark.parametrize("bad", [_ClaimsHugeLength(), _RaisingArray(), range(2), iter([1.0, 2.0])])
+def test_odd_sequences_are_refused_by_name(bad: Any) -> None:
+    with pytest.raises(InvalidInput, match=r"^phi: expected"):
+        r_theta_cobot().directions(bad)
+
+
+def test_coupling_maps_validates_its_inputs() -> None:
+    c = Coupling(TetrahedralCVT(), selection=np.diag([2.0, 1.0]))
+    J_i, H_i = c.maps([0.8, 0.3], np.eye(2), np.zeros((2, 2, 2)))
+    np.testing.assert_array_equal(J_i, np.diag([2.0, 1.0]))
+    assert H_i.shape == (2, 2, 2)
+    with pytest.raises(InvalidInput, match=r"^J: expected shape \(2, 2\)"):
+        c.maps([0.8, 0.3], np.eye(3), np.zeros((2, 2, 2)))
+    with pytest.raises(InvalidInput, match=r"^H: expected finite"):
+        c.maps([0.8, 0.3], np.eye(2), np.full((2, 2, 2), math.nan))
+    with pytest.raises(InvalidInput, match=r"^R: expected shape \(2,\)"):
+        c.maps([0.8, 0.3, 0.1], np.eye(2), np.zeros((2, 2, 2)))
+
+
+def test_r_theta_near_the_pivot_is_finite_or_refused_by_name() -> None:
+    kin = RThetaKinematics()
+    J = kin.jacobian([1e-50, 0.0])
+    H = kin.hessian([1e-50, 0.0])
+    assert np.all(np.isfinite(J))
+    assert np.all(np.isfinite(H))
+    assert J[1, 1] == pytest.approx(1e50)
+    with pytest.raises(InvalidInput, match=r"^R: .*singular at the pivot"):
+        kin.jacobian([5e-324, 5e-324])
+    with pytest.raises(InvalidInput, match=r"^q: .*singular at the pivot"):
+        r_theta_cobot().heading([5e-324, 0.3], [0.3])
+
+
+def test_convention_is_a_sign_of_any_real_type() -> None:
+    assert TetrahedralCVT(convention=np.float64(-1.0)).convention == -1
+    assert type(TetrahedralCVT(convention=np.int64(1)).convention) is int
+    with pytest.raises(InvalidParameter, match=r"convention: expected \+1 or -1"):
+        TetrahedralCVT(convention=np.timedelta64(1, "s"))  # type: ignore[arg-type]
+
+
+def test_transform_shape_mismatch_names_both_arguments() -> None:
+    from velfence.cobot import coupling_from_joint, normalised_derivative
+
+    with pytest.raises(InvalidInput, match=r"^S: .*n = len\(T_J\) = 3.*S and T_J must agree"):
+        coupling_from_joint(np.eye(2), [1.0, 0.0, 0.0], [0.0, 0.0, 0.0])
+    with pytest.raises(InvalidInput, match=r"^x_prime: expected the shape of x"):
+        normalised_derivative([1.0, 0.0], [0.0, 1.0, 2.0])
+    with pytest.raises(InvalidInput, match=r"^x: .*too small"):
+        normalised_derivative([5e-324, 0.0], [0.0, 1.0])
+
+
+def test_wall_steering_step_inputs() -> None:
+    from velfence.cobot import CasterWall, WallSteering
+    from velfence.geometry.polygon import ConvexPolygon
+
+    square = ConvexPolygon([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]])
+    ws = WallSteering(CasterWall(square, buffer=0.2), lambda t, R: np.array([1.0, 0.2]))
+    out = ws.step([0.5, 0.2], [1.0, 0.0], 0.0)
+    assert np.all(np.isfinite(out.kN))
+    with pytest.raises(InvalidInput, match=r"^R: expected"):
+        ws.step("12", [1.0, 0.0], 0.01)
+    with pytest.raises(InvalidInput, match=r"^t: expected a time >= 0"):
+        ws.step([0.5, 0.2], [1.0, 0.0], 0.01, -1.0)
+    with pytest.raises(InvalidInput, match=r"^ds: expected"):
+        ws.step([0.5, 0.2], [1.0, 0.0], -0.01)
+    with pytest.raises(InvalidParameter, match=r"^intent: expected a function"):
+        WallSteering(CasterWall(square, buffer=0.2), float)  # type: ignore[arg-type]
+    with pytest.raises(InvalidParameter, match=r"lookahead/gain"):
+        WallSteering(CasterWall(square, buffer=0.2), lambda t, R: R, gain=1e-300, lookahead=1.0)

@@ -317,8 +317,8 @@ def test_max_curvature_bounds_the_command() -> None:
     [
         ({"gains": (0.0, 1.0)}, r"gains\[0\] \(k1\) must be finite and > 0"),
         ({"gains": (1.0, -1.0)}, r"gains\[1\] \(k2\) must be finite and > 0"),
-        ({"gains": (1.0, 2.0, 3.0)}, r"gains: expected \(k1, k2\)"),
-        ({"gains": 4.0}, r"gains: expected \(k1, k2\)"),
+        ({"gains": (1.0, 2.0, 3.0)}, r"gains: expected a pair \(k1, k2\)"),
+        ({"gains": 4.0}, r"gains: expected a pair \(k1, k2\)"),
         ({"guard": 0.0}, "guard must be finite and > 0"),
         ({"guard": 1.0}, r"guard: expected a value in \(0, 1\)"),
         ({"on_singular": "ignore"}, "on_singular must be one of"),

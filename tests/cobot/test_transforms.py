@@ -330,7 +330,7 @@ def test_map_validation_messages() -> None:
     A = np.eye(2)
     with pytest.raises(InvalidInput, match=r"shape \(m, n\)"):
         map_tangent_curvature(np.ones(3), [1.0, 0.0], [0.0, 0.0])
-    with pytest.raises(InvalidInput, match=r"T: expected shape \(2,\)"):
+    with pytest.raises(InvalidInput, match=r"A: .* n = len\(T\) = 3, got shape \(2, 2\)"):
         map_tangent_curvature(A, [1.0, 0.0, 0.0], [0.0, 0.0])
     with pytest.raises(InvalidInput, match=r"kN: expected finite"):
         map_tangent_curvature(A, [1.0, 0.0], [math.inf, 0.0])

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
-from common import P2, circle, square
+from common import P2, square
 from harness import C, F, call
 from specs_shaping import SHAPER_2D
 
@@ -16,6 +16,7 @@ from velfence.cobot import (
     TetrahedralCVT,
     r_theta_cobot,
 )
+from velfence.geometry import Circle
 
 _R = np.array([1.2, 0.0])
 _T = np.array([0.0, 1.0])
@@ -31,6 +32,10 @@ _CVT = {
 }
 _KIN_R = lambda: call(np.array([0.8, 0.3]))  # noqa: E731
 _KIN = {"hessian": _KIN_R, "jacobian": _KIN_R, "joints": _KIN_R, "position": _KIN_R}
+
+
+def circle() -> Circle:
+    return Circle([0.0, 0.0], radius=1.0)
 
 
 def follower() -> PathFollower:
@@ -59,10 +64,11 @@ SPECS: dict[str, F | C] = {
     "cobot.HeadingController": C(abstract="Protocol: exercised through PathFollower"),
     "cobot.SteeredWheel": C(lambda: call(), _CVT),
     "cobot.TetrahedralCVT": C(
-        F(lambda: call(convention=1), types={"convention": "choice"}),
+        # convention is a sign (+1 or -1, any real type): -1 is valid, so not a count or choice
+        F(lambda: call(convention=1), types={"convention": "scalar"}),
         {**_CVT, "ratio": F(_PHI, types={"phi": "scalar"})},
     ),
-    "cobot.IdentityKinematics": C(lambda: call(2), _KIN),
+    "cobot.IdentityKinematics": C(lambda: call(n=2), _KIN),
     "cobot.RThetaKinematics": C(lambda: call(), _KIN),
     "cobot.Coupling": C(
         F(
@@ -81,7 +87,9 @@ SPECS: dict[str, F | C] = {
             "heading": lambda: call(_COBOT_Q, [0.3]),
             "steering_angles": lambda: call(_COBOT_Q, _T),
             "steering_rates": F(
-                lambda: call(_COBOT_Q, [0.3], _T, [0.0, 0.0], 1.0), types={"speed": "nonneg"}
+                # speed is the signed speed along T (pushing backwards is allowed)
+                lambda: call(_COBOT_Q, [0.3], _T, [0.0, 0.0], 1.0),
+                types={"speed": "scalar"},
             ),
         },
         instance=r_theta_cobot,
@@ -94,7 +102,8 @@ SPECS: dict[str, F | C] = {
         {
             "step": F(
                 lambda: call([0.5, 0.2], [1.0, 0.0], 0.01, 0.0),
-                types={"t": "nonneg", "ds": "positive"},
+                # ds is the HeadingController protocol's arc length: 0 (human stopped) is valid
+                types={"t": "nonneg", "ds": "nonneg"},
             )
         },
     ),
@@ -103,7 +112,8 @@ SPECS: dict[str, F | C] = {
         {
             "evaluate": lambda: call(_R, _T),
             "reset": F(lambda: call(_R, s_p=0.0), types={"s_p": "scalar"}),
-            "step": F(lambda: call(_R, _T, 0.01), types={"t": "nonneg"}),
+            # ds = 0 is valid: the human stopped (the reference state is kept)
+            "step": F(lambda: call(_R, _T, 0.01), types={"t": "nonneg", "ds": "nonneg"}),
         },
         instance=follower,
     ),
@@ -130,7 +140,8 @@ SPECS: dict[str, F | C] = {
     "cobot.joint_from_ee": F(lambda: call(_J, _H, _T, [0.0, 0.0])),
     "cobot.coupling_from_ee": F(lambda: call(_J, _H, _T, [0.0, 0.0])),
     "cobot.coupling_from_joint": F(lambda: call(np.eye(2), _T, [0.0, 0.0])),
-    "cobot.r_theta_cobot": F(lambda: call(r_o=0.5), types={"convention": "choice"}),
+    # convention is a sign (+1 or -1, any real type): -1 is valid, so not a count or choice
+    "cobot.r_theta_cobot": F(lambda: call(r_o=0.5), types={"convention": "scalar"}),
     "cobot.unicycle": F(lambda: call()),
     "cobot.follow_in_ee": F(lambda: call(follower(), _R, _T, length=0.05, ds=0.01)),
     "cobot.simulate_cobot": F(

@@ -30,7 +30,7 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import NDArray
 
-from velfence._validate import finite_array, finite_scalar
+from velfence._validate import finite_scalar, real_array
 from velfence.errors import InvalidInput, InvalidParameter
 
 __all__ = ["CVT", "SteeredWheel", "TetrahedralCVT"]
@@ -70,7 +70,7 @@ def _angle(name: str, phi: float) -> float:
 
 
 def _direction_arg(t: FloatArray) -> tuple[float, float]:
-    a = finite_array("t", t, (2,), what="a direction")
+    a = real_array("t", t, (2,), what="a direction")
     if not np.any(a):
         raise InvalidInput("t: expected a non-zero direction of shape (2,), got [0.0, 0.0]")
     return float(a[0]), float(a[1])
@@ -140,13 +140,18 @@ class TetrahedralCVT:
     convention: int = 1
 
     def __post_init__(self) -> None:
-        c = self.convention
-        is_int = isinstance(c, (int, np.integer)) and not isinstance(c, (bool, np.bool_))
-        if not is_int or c not in (1, -1):
-            raise InvalidParameter(
-                f"convention: expected +1 or -1 (the sign lost from eq. 2.16), "
-                f"got {self.convention!r}"
-            )
+        c: object = self.convention
+        want = "+1 or -1 (the sign lost from eq. 2.16)"
+        # timedelta64 is an integer type to NumPy; it is a duration, not a sign.
+        if isinstance(c, (np.timedelta64, np.datetime64)):
+            raise InvalidParameter(f"convention: expected {want}, got {type(c).__name__}")
+        try:
+            v = finite_scalar("convention", c, what="sign", error=InvalidParameter)
+        except InvalidParameter:
+            raise InvalidParameter(f"convention: expected {want}, got {type(c).__name__}") from None
+        if v not in (1.0, -1.0):
+            raise InvalidParameter(f"convention: expected {want}, got {v:g}")
+        object.__setattr__(self, "convention", int(v))
 
     @property
     def name(self) -> str:

@@ -41,8 +41,8 @@ from velfence._validate import (
     MAX_MAGNITUDE,
     check_choice,
     check_positive,
-    finite_array,
     finite_scalar,
+    real_array,
 )
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.geometry.paths import Path
@@ -81,7 +81,7 @@ def _pole(name: str, p: object) -> complex:
     if isinstance(p, (bool, np.bool_)) or not isinstance(p, numbers.Number):
         raise InvalidParameter(
             f"{name}: expected a stable pole (a real or complex number) in 1/m, got "
-            f"{type(p).__name__} {p!r:.60}"
+            f"{type(p).__name__}"
         )
     try:
         z: complex = complex(p)  # type: ignore[call-overload]
@@ -160,13 +160,18 @@ class PathFollower:
         max_curvature: float | None = None,
     ) -> None:
         if not isinstance(path, Path):
-            raise InvalidParameter(f"path: expected a velfence Path, got {path!r}")
-        try:
-            if isinstance(gains, (str, bytes, bytearray)):
-                raise TypeError
-            k1, k2 = gains
-        except (TypeError, ValueError):
-            raise InvalidParameter(f"gains: expected (k1, k2), got {gains!r}") from None
+            raise InvalidParameter(f"path: expected a velfence Path, got {type(path).__name__}")
+        # Only a pair in a list, tuple or array: unpacking a set, an iterator or a memoryview
+        # would read an arbitrary order or bytes.
+        given: object = gains
+        if isinstance(given, np.ndarray) and given.shape == (2,):
+            k1, k2 = given.tolist()
+        elif isinstance(given, (list, tuple)) and len(given) == 2:
+            k1, k2 = given
+        else:
+            raise InvalidParameter(
+                f"gains: expected a pair (k1, k2) of positive numbers, got {type(gains).__name__}"
+            )
         self._k1 = check_positive("gains[0] (k1)", k1, unit="1/m²")
         self._k2 = check_positive("gains[1] (k2)", k2, unit="1/m")
         g = check_positive("guard", guard)
@@ -221,7 +226,7 @@ class PathFollower:
         return self.state
 
     def _vector(self, name: str, x: ArrayLike) -> FloatArray:
-        return finite_array(name, x, (self._n,))
+        return real_array(name, x, (self._n,))
 
     def evaluate(
         self, R: ArrayLike, T: ArrayLike, *, s_p: float | None = None, sp_d: float | None = None
@@ -287,8 +292,8 @@ class PathFollower:
                 :class:`~velfence.cobot.sim.HeadingController` protocol.
         """
         d = finite_scalar("ds", ds, unit="m")
-        if t is not None:
-            finite_scalar("t", t, unit="s", what="time")
+        if t is not None and finite_scalar("t", t, unit="s", what="time") < 0.0:
+            raise InvalidInput(f"t: expected a time >= 0 s, got {t}")
         if d < 0.0:
             raise InvalidInput(f"ds: expected the arc length travelled (>= 0), got {d}")
         if d > 0.0:

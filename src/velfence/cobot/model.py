@@ -31,12 +31,13 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from velfence._validate import (
+    MAX_MAGNITUDE,
     check_choice,
     check_positive,
     check_positive_int,
-    finite_array,
     finite_scalar,
     readonly,
+    real_array,
 )
 from velfence.cobot.cvt import CVT, SteeredWheel, TetrahedralCVT
 from velfence.cobot.transforms import (
@@ -66,6 +67,10 @@ FloatArray = NDArray[np.float64]
 LAMBDA_TOL = 1e-9
 #: |det J| / |J|_F^n below this means J is singular.
 JACOBIAN_RCOND = 1e-9
+#: Distance [m] from the r-θ cobot's pivot below which its Jacobian is treated as singular (its
+#: entries grow as 1/r and the Hessian's as 1/r²: beyond this they would stop being finite
+#: after a product with another input).
+PIVOT_TOL = 1e-100
 
 
 @runtime_checkable
@@ -117,33 +122,36 @@ class RThetaKinematics:
 
     def joints(self, R: FloatArray) -> FloatArray:
         """``(r, θ) = (|R|, atan2(y, x))`` [m, rad]."""
-        x, y = finite_array("R", R, (2,)).tolist()
+        x, y = real_array("R", R, (2,)).tolist()
         return np.array([math.hypot(x, y), math.atan2(y, x)])
 
     def position(self, q: FloatArray) -> FloatArray:
         """``(r cos θ, r sin θ)`` [m]."""
-        r, th = finite_array("q", q, (2,)).tolist()
+        r, th = real_array("q", q, (2,)).tolist()
         return np.array([r * math.cos(th), r * math.sin(th)])
 
     def _r(self, R: FloatArray) -> tuple[float, float, float]:
-        x, y = finite_array("R", R, (2,)).tolist()
+        """``(cos θ, sin θ, r)`` at R; refused within :data:`PIVOT_TOL` of the pivot."""
+        x, y = real_array("R", R, (2,)).tolist()
         r = math.hypot(x, y)
-        if r <= 0.0:
-            raise InvalidInput("R: the r-θ cobot's Jacobian is singular at the pivot (r = 0)")
-        return x, y, r
+        if not r > PIVOT_TOL:
+            raise InvalidInput(
+                f"R: the r-θ cobot's Jacobian is singular at the pivot (r = |R| = {r:.3g} <= "
+                f"{PIVOT_TOL:g}); keep the cart away from the pivot"
+            )
+        return x / r, y / r, r
 
     def jacobian(self, R: FloatArray) -> FloatArray:
         """Eq. (4.1), shape (2, 2)."""
-        x, y, r = self._r(R)
-        r2 = r * r
-        return np.array([[x / r, y / r], [-y / r2, x / r2]])
+        c, s, r = self._r(R)
+        # Written with the unit vector (c, s): no r² or r⁴ that could underflow to 0.
+        return np.array([[c, s], [-s / r, c / r]])
 
     def hessian(self, R: FloatArray) -> FloatArray:
         """Eqs. (4.3), (4.4), shape (2, 2, 2)."""
-        x, y, r = self._r(R)
-        r3, r4 = r**3, r**4
-        H1 = np.array([[y * y, -x * y], [-x * y, x * x]]) / r3
-        H2 = np.array([[2 * x * y, y * y - x * x], [y * y - x * x, -2 * x * y]]) / r4
+        c, s, r = self._r(R)
+        H1 = np.array([[s * s, -c * s], [-c * s, c * c]]) / r
+        H2 = np.array([[2 * c * s, s * s - c * c], [s * s - c * c, -2 * c * s]]) / (r * r)
         return np.stack([H1, H2])
 
 
@@ -163,20 +171,20 @@ class IdentityKinematics:
 
     def joints(self, R: FloatArray) -> FloatArray:
         """Joints equal the configuration: q = R."""
-        return finite_array("R", R, (self.n,))
+        return real_array("R", R, (self.n,))
 
     def position(self, q: FloatArray) -> FloatArray:
         """R = q."""
-        return finite_array("q", q, (self.n,))
+        return real_array("q", q, (self.n,))
 
     def jacobian(self, R: FloatArray) -> FloatArray:
         """Identity, shape (n, n)."""
-        finite_array("R", R, (self.n,))
+        real_array("R", R, (self.n,))
         return np.eye(self.n)
 
     def hessian(self, R: FloatArray) -> FloatArray:
         """Zero, shape (n, n, n)."""
-        finite_array("R", R, (self.n,))
+        real_array("R", R, (self.n,))
         return np.zeros((self.n, self.n, self.n))
 
 
@@ -206,7 +214,10 @@ class Coupling:
 
     def __post_init__(self) -> None:
         if not isinstance(self.cvt, CVT):
-            raise InvalidParameter(f"cvt: expected a CVT model, got {self.cvt!r}")
+            raise InvalidParameter(
+                f"cvt: expected a CVT model (SteeredWheel, TetrahedralCVT), got "
+                f"{type(self.cvt).__name__}"
+            )
         if (self.selection is None) == (self.jacobian is None):
             raise InvalidParameter(
                 "Coupling: give exactly one of selection (S_i, shape (2, n)) or jacobian "
@@ -219,14 +230,14 @@ class Coupling:
         if not isinstance(self.name, str):
             raise InvalidParameter(f"name: expected a str label, got {type(self.name).__name__}")
         if self.selection is not None:
-            S = finite_array(
+            S = real_array(
                 "selection", self.selection, (2, None), error=InvalidGeometry, what="a matrix S_i"
             )
             if S.shape[1] == 0:
                 raise InvalidGeometry("selection: expected shape (2, n) with n >= 1, got (2, 0)")
             object.__setattr__(self, "selection", readonly(S))
 
-    def maps(self, R: FloatArray, J: FloatArray, H: FloatArray) -> tuple[FloatArray, FloatArray]:
+    def maps(self, R: ArrayLike, J: ArrayLike, H: ArrayLike) -> tuple[FloatArray, FloatArray]:
         r""":math:`(J_i, H_i)` at R given the mechanism's :math:`J` and Hessian ``H``.
 
         Args:
@@ -236,17 +247,40 @@ class Coupling:
 
         Returns:
             :math:`J_i`, shape (2, n), and :math:`H_i`, shape (2, n, n).
+
+        Raises:
+            InvalidInput: R, J or H not finite real numbers of those shapes (n is the width of
+                ``selection``, or the length of R for a ``jacobian`` coupling).
         """
+        Ra = real_array("R", R, (None,))
+        n = Ra.shape[0] if self.selection is None else self.selection.shape[1]
+        if Ra.shape[0] != n or n == 0:
+            raise InvalidInput(
+                f"R: expected shape ({n},), the width of this coupling's selection, got shape "
+                f"{Ra.shape}"
+            )
+        Ja = real_array("J", J, (n, n), what=f"a Jacobian of shape ({n}, {n})")
+        Ha = real_array("H", H, (n, n, n), what=f"a Hessian of shape ({n}, {n}, {n})")
+        return self._maps(Ra, Ja, Ha)
+
+    def _maps(self, R: FloatArray, J: FloatArray, H: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """:meth:`maps` for validated inputs (the cobot's own calls)."""
         if self.selection is not None:
             S = self.selection
-            return S @ J, np.einsum("ai,ikj->akj", S, H)
+            with np.errstate(over="ignore", invalid="ignore"):
+                J_i, H_i = S @ J, np.einsum("ai,ikj->akj", S, H)
+            if not (np.all(np.isfinite(J_i)) and np.all(np.isfinite(H_i))):
+                raise InvalidInput(
+                    "J, H: the coupling's J_i = S_i J or H_i overflows; scale the inputs"
+                )
+            return np.asarray(J_i, dtype=float), np.asarray(H_i, dtype=float)
         if self.jacobian is None:  # unreachable: __post_init__ requires one of the two
             raise InvalidParameter("Coupling has neither selection nor jacobian")
-        n = np.shape(R)[0] if np.ndim(R) == 1 else -1
-        J_i, H_i = _pair(self.name, self.jacobian(R))
+        n = R.shape[0]
+        J_d, H_d = _pair(self.name, self.jacobian(R))
         return (
-            finite_array(f"{self.name}.jacobian(R)[0] (J_i)", J_i, (2, n)),
-            finite_array(f"{self.name}.jacobian(R)[1] (H_i)", H_i, (2, n, n)),
+            real_array(f"{self.name}.jacobian(R)[0] (J_i)", J_d, (2, n)),
+            real_array(f"{self.name}.jacobian(R)[1] (H_i)", H_d, (2, n, n)),
         )
 
 
@@ -318,7 +352,7 @@ def generalised_cross(Omega: ArrayLike) -> FloatArray:
     Returns:
         Shape (n,).
     """
-    om = finite_array("Omega", Omega, what="numbers of shape (n-1, n)")
+    om = real_array("Omega", Omega, what="numbers of shape (n-1, n)")
     if om.ndim != 2 or om.shape[1] != om.shape[0] + 1:
         raise InvalidInput(f"Omega: expected shape (n-1, n), got shape {om.shape}")
     n = om.shape[1]
@@ -331,7 +365,7 @@ def generalised_cross(Omega: ArrayLike) -> FloatArray:
 
 
 def _vec(name: str, x: ArrayLike, n: int) -> FloatArray:
-    return finite_array(name, x, (n,))
+    return real_array(name, x, (n,))
 
 
 class Cobot:
@@ -354,7 +388,9 @@ class Cobot:
         name: str = "cobot",
     ) -> None:
         if not isinstance(kinematics, CobotKinematics):
-            raise InvalidParameter(f"kinematics: expected CobotKinematics, got {kinematics!r}")
+            raise InvalidParameter(
+                f"kinematics: expected CobotKinematics, got {type(kinematics).__name__}"
+            )
         n = check_positive_int("kinematics.dim", kinematics.dim, minimum=2, maximum=10_000)
         given: object = couplings
         if isinstance(given, (str, bytes)) or not isinstance(given, Sequence):
@@ -370,7 +406,9 @@ class Cobot:
             )
         for i, c in enumerate(cs):
             if not isinstance(c, Coupling):
-                raise InvalidParameter(f"couplings[{i}]: expected a Coupling, got {c!r}")
+                raise InvalidParameter(
+                    f"couplings[{i}]: expected a Coupling, got {type(c).__name__}"
+                )
             if c.selection is not None and c.selection.shape[1] != n:
                 raise InvalidParameter(
                     f"couplings[{i}].selection: expected shape (2, {n}), got {c.selection.shape}"
@@ -397,6 +435,20 @@ class Cobot:
     def dim(self) -> int:
         """The dimension n."""
         return self._n
+
+    def _jacobians(self, R: FloatArray, arg: str) -> tuple[FloatArray, FloatArray]:
+        """The kinematics' J and H at R, validated; its refusals name ``arg`` (the public input)."""
+        try:
+            J = self._kin.jacobian(R)
+            H = self._kin.hessian(R)
+        except InvalidInput as e:
+            text = str(e)
+            raise InvalidInput(text if text.startswith(f"{arg}:") else f"{arg}: {text}") from None
+        n = self._n
+        return (
+            real_array("kinematics.jacobian(R)", J, (n, n)),
+            real_array("kinematics.hessian(R)", H, (n, n, n)),
+        )
 
     # ------------------------------------------------------------------ forward route
     def directions(self, phi: ArrayLike) -> FloatArray:
@@ -428,17 +480,19 @@ class Cobot:
         """
         qa = _vec("q", q, self._n)
         t = self.directions(phi)
-        R = self._kin.position(qa)
-        J = self._kin.jacobian(R)
+        try:
+            R = real_array("kinematics.position(q)", self._kin.position(qa), (self._n,))
+        except InvalidInput as e:
+            raise InvalidInput(f"q: {e}") from None
+        J, H = self._jacobians(R, "q")
         rows = np.empty((self._n - 1, self._n))
         if self._all_selection:  # Ω in C_J (eq. 2.21)
             for i, c in enumerate(self._couplings):
                 S = c.selection if c.selection is not None else np.zeros((2, self._n))
                 rows[i] = S[1] * t[i, 0] - S[0] * t[i, 1]  # (W t_i)^T S_i
         else:  # direct couplings: Ω in C_EE, rows (W t_i)^T J_i
-            H = self._kin.hessian(R)
             for i, c in enumerate(self._couplings):
-                J_i, _ = c.maps(R, J, H)
+                J_i, _ = c._maps(R, J, H)
                 rows[i] = J_i[1] * t[i, 0] - J_i[0] * t[i, 1]
         Lam = generalised_cross(rows)
         zero = np.zeros(self._n)
@@ -476,11 +530,10 @@ class Cobot:
         """
         Ra = _vec("R", R, self._n)
         Ta = _vec("T", T, self._n)
-        J = self._kin.jacobian(Ra)
-        H = self._kin.hessian(Ra)
+        J, H = self._jacobians(Ra, "R")
         out = []
         for c in self._couplings:
-            J_i, _ = c.maps(Ra, J, H)
+            J_i, _ = c._maps(Ra, J, H)
             out.append(c.cvt.steering_angle(J_i @ Ta))
         return np.array(out)
 
@@ -514,8 +567,7 @@ class Cobot:
         Ta = _vec("T", T, self._n)
         kNa = _vec("kN", kN, self._n)
         u = finite_scalar("speed", speed, unit="unit/s", what="speed")
-        J = self._kin.jacobian(Ra)
-        H = self._kin.hessian(Ra)
+        J, H = self._jacobians(Ra, "R")
         m = self._n - 1
         t, kn = np.empty((m, 2)), np.empty((m, 2))
         curv, spd, rate = np.empty(m), np.empty(m), np.empty(m)
@@ -533,7 +585,7 @@ class Cobot:
                 ti, kni, gi = coupling_from_joint(S, T_J, kJNJ)
                 gi *= gJ
             else:
-                J_i, H_i = c.maps(Ra, J, H)
+                J_i, H_i = c._maps(Ra, J, H)
                 ti, kni, gi = coupling_from_ee(J_i, H_i, Ta, kNa)
             t[i], kn[i] = ti, kni
             curv[i] = signed_curvature(ti, kni)
@@ -554,6 +606,8 @@ def r_theta_cobot(*, r_o: float = 0.5, convention: int = 1) -> Cobot:
         convention: Sign convention of the tetrahedral CVT (±1, :class:`TetrahedralCVT`).
     """
     ro = check_positive("r_o", r_o, unit="m")
+    if ro < 1.0 / MAX_MAGNITUDE:  # 1/r_o is the selection's entry: it must stay finite
+        raise InvalidParameter(f"r_o: expected a radius >= {1.0 / MAX_MAGNITUDE:g} m, got {ro:g}")
     S = np.array([[1.0 / ro, 0.0], [0.0, 1.0]])
     return Cobot(
         RThetaKinematics(),

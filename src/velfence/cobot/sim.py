@@ -34,8 +34,8 @@ from numpy.typing import ArrayLike, NDArray
 from velfence._validate import (
     check_choice,
     check_positive,
-    finite_array,
     finite_scalar,
+    real_array,
     step_count,
 )
 from velfence.cobot.model import Cobot
@@ -93,14 +93,14 @@ def pushing(intent: Callable[[float, FloatArray], ArrayLike]) -> SpeedFn:
         InvalidInput: (when called) ``intent`` returned a velocity that is not a finite vector of
             the shape of ``T``.
     """
-    if not callable(intent):
+    if not callable(intent) or isinstance(intent, type):
         raise InvalidParameter(
             f"intent: expected a function (t, R) -> velocity, got {type(intent).__name__}"
         )
 
     def speed(t: float, R: FloatArray, T: FloatArray) -> float:
         Ta = np.asarray(T, dtype=float)
-        v = finite_array("intent(t, R)", intent(t, R), Ta.shape, what="a velocity [m/s]")
+        v = real_array("intent(t, R)", intent(t, R), Ta.shape, what="a velocity [m/s]")
         return float(Ta @ v)
 
     return speed
@@ -160,18 +160,28 @@ class CobotTrace:
         else:
             v = np.zeros_like(self.R)
         zone = self.zone if len(self.zone) == self.t.shape[0] else None
-        cmd = v if v_cmd is None else finite_array("v_cmd", v_cmd, v.shape, what="velocities")
+        cmd = v if v_cmd is None else real_array("v_cmd", v_cmd, v.shape, what="velocities")
         return Trajectory(self.t, self.R, cmd, v, zone=zone, name=self.name)
 
     def at_arc_length(self, s: ArrayLike) -> FloatArray:
         """Positions R interpolated at arc lengths ``s`` [m], shape (M, n)."""
-        S = np.atleast_1d(finite_array("s", s, what="arc lengths [m]"))
+        S = _arc_lengths(s)
         return np.stack([np.interp(S, self.s, self.R[:, j]) for j in range(self.R.shape[1])], 1)
 
     def error_at(self, s: ArrayLike) -> FloatArray:
         r""":math:`|\Delta R|` interpolated at arc lengths ``s`` [m], shape (M,)."""
-        S = np.atleast_1d(finite_array("s", s, what="arc lengths [m]"))
+        S = _arc_lengths(s)
         return np.asarray(np.interp(S, self.s, self.error_norm), dtype=float)
+
+
+def _arc_lengths(s: ArrayLike) -> FloatArray:
+    """Arc lengths to interpolate at: one number or a non-empty (M,) vector."""
+    S = real_array("s", s, what="arc lengths [m]")
+    if S.ndim > 1 or S.size == 0:
+        raise InvalidInput(
+            f"s: expected an arc length or a non-empty vector of shape (M,), got shape {S.shape}"
+        )
+    return np.atleast_1d(S)
 
 
 class _Recorder:
@@ -237,7 +247,7 @@ def _kN(out: Any, n: int) -> FloatArray:
             f"controller.step(...): expected an output with a kN attribute, got "
             f"{type(out).__name__}"
         )
-    return finite_array("controller.step(...).kN", kN, (n,), what="a curvature vector")
+    return real_array("controller.step(...).kN", kN, (n,), what="a curvature vector")
 
 
 def _label(name: Any) -> str:
@@ -247,7 +257,7 @@ def _label(name: Any) -> str:
 
 
 def _unit(name: str, x: ArrayLike, n: int | None = None) -> FloatArray:
-    a = finite_array(name, x, None if n is None else (n,), what="a direction")
+    a = real_array(name, x, None if n is None else (n,), what="a direction")
     if a.ndim != 1:
         raise InvalidInput(f"{name}: expected shape ({n or 'n'},), got shape {a.shape}")
     m = float(np.linalg.norm(a))
@@ -278,10 +288,15 @@ def follow_in_ee(
         name: Trace label.
     """
     _controller(controller)
-    R = finite_array("R0", R0, (None,), what="a configuration")
+    R = real_array("R0", R0, (None,), what="a configuration")
     if R.shape[0] == 0:
         raise InvalidInput("R0: expected a configuration of shape (n,) with n >= 1, got shape (0,)")
-    T = _unit("T0", T0, R.shape[0])
+    T = _unit("T0", T0)
+    if T.shape != R.shape:
+        raise InvalidInput(
+            f"T0: expected shape {R.shape}, the shape of R0, got shape {T.shape} (R0 and T0 must "
+            "have the same length)"
+        )
     steps = step_count("length", length, "ds", ds)
     h = check_positive("ds", ds, unit="m")
     check_choice("integrator", integrator, ("arc", "euler"))
@@ -292,7 +307,13 @@ def follow_in_ee(
     for _ in range(steps + 1):
         out = controller.step(R, T, step_ds, s)
         rec.add(s=s, t=s, R=R.copy(), T=T.copy())
-        kN = _kN(out, R.shape[0])
+        try:
+            kN = _kN(out, R.shape[0])
+        except InvalidInput as e:
+            raise InvalidInput(
+                f"the run from R0, T0 stopped at s = {s:g} m: {e} (the controller diverged; "
+                "start closer to its path or lower its gains)"
+            ) from None
         _record_output(rec, out)
         if integrator == "euler":
             R = R + h * T
@@ -351,17 +372,19 @@ def simulate_cobot(
         raise InvalidParameter(f"cobot: expected a Cobot, got {type(cobot).__name__}")
     _controller(controller)
     n = cobot.dim
-    q = finite_array("q0", q0, (n,), what="joint angles")
-    phi = finite_array("phi0", phi0, (n - 1,), what="steering angles [rad]")
+    q = real_array("q0", q0, (n,), what="joint angles")
+    phi = real_array("phi0", phi0, (n - 1,), what="steering angles [rad]")
     steps = step_count("duration", duration, "dt", dt)
     h = check_positive("dt", dt, unit="s")
+    if h > float(duration):
+        raise InvalidParameter(f"dt: expected a step <= duration = {duration:g} s, got {h:g} s")
     check_choice("route", route, ("direct", "joint"))
-    if not callable(speed):
+    if not callable(speed) or isinstance(speed, type):
         raise InvalidParameter(
             f"speed: expected a function (t, R, T) -> u, got {type(speed).__name__}"
         )
     label = cobot.name if name is None else (_label(name) or cobot.name)
-    ref0 = None if heading0 is None else finite_array("heading0", heading0, (n,))
+    ref0 = None if heading0 is None else real_array("heading0", heading0, (n,))
 
     def human(tt: float, Rr: FloatArray, Tt: FloatArray) -> float:
         return finite_scalar("speed(t, R, T)", speed(tt, Rr, Tt), unit="m/s", what="speed")
@@ -377,7 +400,10 @@ def simulate_cobot(
             )
         return hd.T
 
-    T = heading(q, phi, ref0)
+    try:
+        T = heading(q, phi, ref0)
+    except InvalidInput as e:
+        raise InvalidInput(f"q0, phi0: no allowed direction at the start: {e}") from None
     rec = _Recorder()
     s = 0.0
     ds = 0.0

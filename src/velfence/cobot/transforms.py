@@ -27,7 +27,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from velfence._validate import finite_array
+from velfence._validate import real_array
 from velfence.errors import InvalidInput
 
 __all__ = [
@@ -59,13 +59,36 @@ def normalised_derivative(x: ArrayLike, x_prime: ArrayLike) -> tuple[FloatArray,
     Raises:
         InvalidInput: ``X`` is zero (the direction is undefined) or inputs are not finite.
     """
-    X = finite_array("x", x)
-    Xp = finite_array("x_prime", x_prime, X.shape)
-    n = float(np.linalg.norm(X))
-    if n <= 0.0:
-        raise InvalidInput("x: expected a non-zero vector (its direction is normalised), got 0")
-    a = X / n
-    return a, (Xp - a * float(a @ Xp)) / n
+    X = real_array("x", x, (None,))
+    if X.shape[0] == 0:
+        raise InvalidInput("x: expected a vector of shape (m,) with m >= 1, got shape (0,)")
+    Xp = real_array("x_prime", x_prime, (None,))
+    if Xp.shape != X.shape:
+        raise InvalidInput(
+            f"x_prime: expected the shape of x, {X.shape}, got shape {Xp.shape} (x and x_prime "
+            "must have the same length)"
+        )
+    return _normalised(X, Xp, "x")
+
+
+def _normalised(X: FloatArray, Xp: FloatArray, name: str) -> tuple[FloatArray, FloatArray]:
+    # The norm is taken of X scaled by its largest entry: tiny vectors (5e-324) would square to 0
+    # and huge ones to inf.
+    big = float(np.max(np.abs(X)))
+    if not big > 0.0:
+        raise InvalidInput(
+            f"{name}: expected a non-zero vector (its direction is normalised), got 0"
+        )
+    with np.errstate(over="ignore", invalid="ignore"):
+        n = big * float(np.linalg.norm(X / big))
+        a = X / n
+        d = (Xp - a * float(a @ Xp)) / n
+    if not (np.all(np.isfinite(a)) and np.all(np.isfinite(d))):
+        raise InvalidInput(
+            f"{name}: |{name}| = {n:.3g} is too small for its derivative (the direction's "
+            "derivative overflows)"
+        )
+    return a, d
 
 
 def hessian_term(H: ArrayLike, T: ArrayLike) -> FloatArray:
@@ -78,8 +101,8 @@ def hessian_term(H: ArrayLike, T: ArrayLike) -> FloatArray:
     Returns:
         Shape (m,).
     """
-    Ha = finite_array("H", H, (None, None, None))
-    Ta = finite_array("T", T, (Ha.shape[1],))
+    Ha = real_array("H", H, (None, None, None))
+    Ta = real_array("T", T, (Ha.shape[1],))
     if Ha.shape[2] != Ta.shape[0]:
         raise InvalidInput(f"H: expected shape (m, n, n), got shape {Ha.shape}")
     return np.asarray(np.einsum("ikj,k,j->i", Ha, Ta, Ta), dtype=float)
@@ -105,25 +128,77 @@ def map_tangent_curvature(
         InvalidInput: shapes disagree, non-finite input, or :math:`|A T| = 0` (the map is
             singular along ``T``: the image does not move, so its direction is undefined).
     """
-    Aa = finite_array("A", A)
+    return _map(A, T, kN, H, ("A", "T", "kN", "H"))
+
+
+def _map(
+    A: ArrayLike,
+    T: ArrayLike,
+    kN: ArrayLike,
+    H: ArrayLike | None,
+    names: tuple[str, str, str, str],
+    *,
+    rows: int | None = None,
+) -> tuple[FloatArray, FloatArray, float]:
+    """:func:`map_tangent_curvature` with the caller's public argument names in messages.
+
+    ``rows``: the required number of rows of ``A`` (``0``: square, ``None``: any).
+    """
+    nA, nT, nk, nH = names
+    Ta = real_array(nT, T, (None,))
+    n = Ta.shape[0]
+    if n == 0:
+        raise InvalidInput(f"{nT}: expected a tangent of shape (n,) with n >= 1, got shape (0,)")
+    m_req = n if rows == 0 else rows
+    shape_text = f"({'m' if m_req is None else m_req}, {n})"
+    Aa = real_array(nA, A)
     if Aa.ndim != 2:
-        raise InvalidInput(f"A: expected a matrix of shape (m, n), got shape {Aa.shape}")
-    m, n = Aa.shape
-    Ta = finite_array("T", T, (n,))
-    kNa = finite_array("kN", kN, (n,))
-    X = Aa @ Ta
-    gain = float(np.linalg.norm(X))
-    scale = float(np.linalg.norm(Aa)) or 1.0
-    if gain <= SINGULAR_TOL * scale:
+        raise InvalidInput(f"{nA}: expected a matrix of shape (m, n), got shape {Aa.shape}")
+    m = Aa.shape[0]
+    if Aa.shape[1] != n or (m_req is not None and m != m_req) or m == 0:
         raise InvalidInput(
-            f"|A T| = {gain:.3g}: the map is singular along T={Ta.tolist()} (the image does not "
-            "move, so its tangent is undefined); move away from the singular configuration"
+            f"{nA}: expected a matrix of shape {shape_text} with n = len({nT}) = {n}, got shape "
+            f"{Aa.shape} ({nA} and {nT} must agree)"
         )
-    Xp = Aa @ kNa
+    kNa = real_array(nk, kN, (None,))
+    if kNa.shape[0] != n:
+        raise InvalidInput(
+            f"{nk}: expected shape ({n},), the length of {nT}, got shape {kNa.shape} ({nk} and "
+            f"{nT} must agree)"
+        )
+    with np.errstate(over="ignore", invalid="ignore"):
+        X = Aa @ Ta
+        Xp = Aa @ kNa
     if H is not None:
-        Xp = Xp + hessian_term(finite_array("H", H, (m, n, n)), Ta)
-    t, dt_ds = normalised_derivative(X, Xp)
-    return t, dt_ds / gain, gain
+        Ha = real_array(nH, H)
+        if Ha.shape != (m, n, n):
+            raise InvalidInput(
+                f"{nH}: expected shape ({m}, {n}, {n}) to match {nA} of shape {Aa.shape} and "
+                f"{nT} of shape ({n},), got shape {Ha.shape}"
+            )
+        with np.errstate(over="ignore", invalid="ignore"):
+            Xp = Xp + np.einsum("ikj,k,j->i", Ha, Ta, Ta)
+    if not (np.all(np.isfinite(X)) and np.all(np.isfinite(Xp))):
+        raise InvalidInput(
+            f"{nA}, {nT}, {nk}: the mapped tangent or curvature overflows; scale the inputs"
+        )
+    big = float(np.max(np.abs(X)))
+    gain = big * float(np.linalg.norm(X / big)) if big > 0.0 else 0.0
+    scale = float(np.linalg.norm(Aa)) or 1.0
+    if not gain > SINGULAR_TOL * scale:
+        raise InvalidInput(
+            f"{nA}: |{nA} {nT}| = {gain:.3g}: the map is singular along {nT}={Ta.tolist()} (the "
+            "image does not move, so its tangent is undefined); move away from the singular "
+            "configuration"
+        )
+    t, dt_ds = _normalised(X, Xp, nA)
+    with np.errstate(over="ignore", invalid="ignore"):
+        kn = dt_ds / gain
+    if not np.all(np.isfinite(kn)):
+        raise InvalidInput(
+            f"{nA}: |{nA} {nT}| = {gain:.3g} is too small: the mapped curvature overflows"
+        )
+    return t, kn, gain
 
 
 def joint_from_ee(
@@ -139,8 +214,13 @@ def joint_from_ee(
 
     Returns:
         ``(T_J, kappa_J N_J, |J T|)``.
+
+    Raises:
+        InvalidInput: as :func:`map_tangent_curvature`, naming these arguments; ``J`` not square.
     """
-    return map_tangent_curvature(J, T, kN, H)
+    if H is None:
+        raise InvalidInput("H: expected the Hessian of J, shape (n, n, n), got None")
+    return _map(J, T, kN, H, ("J", "T", "kN", "H"), rows=0)
 
 
 def coupling_from_joint(
@@ -156,8 +236,11 @@ def coupling_from_joint(
 
     Returns:
         ``(t_i, kappa_i n_i, |S_i T_J|)``.
+
+    Raises:
+        InvalidInput: as :func:`map_tangent_curvature`, naming these arguments.
     """
-    return map_tangent_curvature(S, T_J, kJNJ)
+    return _map(S, T_J, kJNJ, None, ("S", "T_J", "kJNJ", ""), rows=2)
 
 
 def coupling_from_ee(
@@ -174,8 +257,13 @@ def coupling_from_ee(
 
     Returns:
         ``(t_i, kappa_i n_i, |J_i T|)``.
+
+    Raises:
+        InvalidInput: as :func:`map_tangent_curvature`, naming these arguments.
     """
-    return map_tangent_curvature(J_i, T, kN, H_i)
+    if H_i is None:
+        raise InvalidInput("H_i: expected the Hessian of J_i, shape (2, n, n), got None")
+    return _map(J_i, T, kN, H_i, ("J_i", "T", "kN", "H_i"), rows=2)
 
 
 def signed_curvature(t: FloatArray, kn: FloatArray) -> float:

@@ -256,23 +256,74 @@ class WallSteering:
         gain: float = 20.0,
         lookahead: float = 2.0,
     ) -> None:
+        # Imported here so that this class's inputs stay beside it (the module's imports serve
+        # CasterWall).
+        from velfence._validate import MAX_MAGNITUDE
+
         if not isinstance(wall, CasterWall):
-            raise InvalidParameter(f"wall: expected a CasterWall, got {wall!r}")
+            raise InvalidParameter(f"wall: expected a CasterWall, got {type(wall).__name__}")
+        if not callable(intent) or isinstance(intent, type):
+            raise InvalidParameter(
+                f"intent: expected a function (t, R) -> intended velocity [m/s], got "
+                f"{type(intent).__name__}"
+            )
         self.wall = wall
         self.intent = intent
         self.gain = check_positive("gain", gain, unit="1/m")
         self.lookahead = check_positive("lookahead", lookahead, allow_zero=True)
+        # The look-ahead distance λ/g multiplies T: it must be a finite length.
+        ahead = self.lookahead / self.gain
+        if not ahead <= MAX_MAGNITUDE:
+            raise InvalidParameter(
+                f"lookahead, gain: the look-ahead distance lookahead/gain = {ahead:g} m exceeds "
+                f"{MAX_MAGNITUDE:g} m; lower lookahead or raise gain"
+            )
+        self._ahead = ahead
 
     def step(
         self, R: ArrayLike, T: ArrayLike, ds: float, t: float | None = None
     ) -> WallSteeringOutput:
-        """Curvature command at (R, T) for the intent at time ``t`` [s] (``ds`` unused)."""
-        Ra = np.asarray(R, dtype=float)
-        Ta = np.asarray(T, dtype=float)
-        vh = np.asarray(self.intent(0.0 if t is None else float(t), Ra), dtype=float)
-        target, _, _ = self.wall.line(Ra + Ta * (self.lookahead / self.gain), vh)
+        """Curvature command at (R, T) for the intent at time ``t`` [s].
+
+        Args:
+            R: Cobot position, shape (2,) [m].
+            T: Current heading, shape (2,) (unit).
+            ds: Arc length travelled since the previous call [m], >= 0 (unused: the law is
+                spatial; accepted for the :class:`~velfence.cobot.sim.HeadingController`
+                protocol).
+            t: Time [s], >= 0, passed to ``intent`` (0 when ``None``).
+
+        Raises:
+            InvalidInput: R, T not finite 2-vectors, ``ds`` or ``t`` not finite and >= 0, or the
+                intent not a finite 2-vector.
+        """
+        from velfence._validate import MAX_MAGNITUDE, finite_scalar, real_array
+
+        Ra = real_array("R", R, (2,), what="a position [m]")
+        Ta = real_array("T", T, (2,), what="a heading")
+        if finite_scalar("ds", ds, unit="m", what="arc length") < 0.0:
+            raise InvalidInput(f"ds: expected the arc length travelled (>= 0), got {ds}")
+        tt = 0.0 if t is None else finite_scalar("t", t, unit="s", what="time")
+        if tt < 0.0:
+            raise InvalidInput(f"t: expected a time >= 0 s, got {tt:g}")
+        vh = real_array(
+            "intent(t, R)", self.intent(tt, Ra), (2,), what="an intended velocity [m/s]"
+        )
+        with np.errstate(over="ignore", invalid="ignore"):
+            ahead = Ra + Ta * self._ahead
+        if not np.all(np.abs(ahead) <= MAX_MAGNITUDE):  # also False for inf/NaN
+            raise InvalidInput(
+                f"R, T: the look-ahead point R + T*lookahead/gain = {ahead.tolist()} is beyond "
+                f"{MAX_MAGNITUDE:g} m; give R and a unit heading T"
+            )
+        target, _, _ = self.wall.line(ahead, vh)
         zone = self.wall.explain(Ra, vh).zone
         if float(target @ Ta) < 0.0:
             target = -target  # a direction is a line; turn the short way
-        kN = self.gain * (target - Ta * float(Ta @ target))
+        with np.errstate(over="ignore", invalid="ignore"):
+            kN = self.gain * (target - Ta * float(Ta @ target))
+        if not np.all(np.isfinite(kN)):
+            raise InvalidInput(
+                f"T: the curvature command is not finite for T = {Ta.tolist()}; give a unit heading"
+            )
         return WallSteeringOutput(kN, target, vh, zone)
