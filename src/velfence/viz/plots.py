@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Any
 
 import matplotlib
 
@@ -62,22 +62,6 @@ COLORS = {
     "patent": "#1f77b4",
     "exact": "#2ca02c",
 }
-
-
-class TrajectoryLike(Protocol):
-    """What the plots need of a simulated trajectory."""
-
-    @property
-    def t(self) -> FloatArray: ...
-
-    @property
-    def p(self) -> FloatArray: ...
-
-    @property
-    def v_cmd(self) -> FloatArray: ...
-
-    @property
-    def v_out(self) -> FloatArray: ...
 
 
 def _check_polygon(name: str, polygon: Any) -> ConvexPolygon:
@@ -201,7 +185,7 @@ def _draw_polygon(
 
 def plot_workspace(
     polygon: ConvexPolygon,
-    trajectories: Mapping[str, TrajectoryLike],
+    trajectories: Mapping[str, Trajectory],
     path: str | Path,
     *,
     buffer: float | None = None,
@@ -245,7 +229,7 @@ def plot_workspace(
 
 def plot_velocity_profiles(
     polygon: ConvexPolygon,
-    trajectories: Mapping[str, TrajectoryLike],
+    trajectories: Mapping[str, Trajectory],
     path: str | Path,
 ) -> Path:
     """Speed, normal speed and boundary distance of every method against time.
@@ -342,7 +326,7 @@ def plot_quiver(
 
 def animate_trajectories(
     polygon: ConvexPolygon,
-    trajectories: Mapping[str, TrajectoryLike],
+    trajectories: Mapping[str, Trajectory],
     path: str | Path,
     *,
     buffer: float | None = None,
