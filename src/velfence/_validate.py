@@ -22,7 +22,9 @@ from __future__ import annotations
 
 import math
 import numbers
+import os
 from collections.abc import Mapping, Set
+from pathlib import Path
 from typing import Any, TypeVar
 
 import numpy as np
@@ -592,3 +594,41 @@ def check_seed(
             f"{name}: expected an int in [0, 2**63 - 1]{alt}, got {_type_text(seed)}"
         )
     return int(seed)
+
+
+#: Longest accepted output file path [characters].
+MAX_PATH_LENGTH = 4096
+
+
+def check_output_path(name: str, value: Any, *, error: type[Exception] | None = None) -> Path:
+    """A file path to write, as :class:`~pathlib.Path`, whose directory exists.
+
+    ``str`` or :class:`os.PathLike` (``bytes`` refused), non-empty, without NUL characters, at
+    most :data:`MAX_PATH_LENGTH` characters, not a directory, in an existing directory: checked
+    before any expensive work so that a typo costs nothing.
+
+    Raises:
+        InvalidParameter: (or ``error``) anything else; the message names ``name``.
+    """
+    from velfence.errors import InvalidParameter
+
+    err = error or InvalidParameter
+    if isinstance(value, (bytes, bytearray)) or not isinstance(value, (str, os.PathLike)):
+        raise err(f"{name}: expected a file path (str or pathlib.Path), got {_type_text(value)}")
+    try:
+        text = os.fspath(value)
+    except Exception:  # a hostile __fspath__ is refused, not propagated
+        raise err(
+            f"{name}: expected a file path (str or pathlib.Path), got {_show(value)}"
+        ) from None
+    if not isinstance(text, str) or not text or "\x00" in text or len(text) > MAX_PATH_LENGTH:
+        raise err(
+            f"{name}: expected a non-empty file path of at most {MAX_PATH_LENGTH} characters "
+            f"without NUL, got {_show(text)}"
+        )
+    out = Path(text)
+    if out.is_dir():
+        raise err(f"{name}: expected a file path, got the directory {text!r}; add a file name")
+    if not out.parent.is_dir():
+        raise err(f"{name}: the directory {str(out.parent)!r} does not exist; create it first")
+    return out

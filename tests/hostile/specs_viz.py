@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from common import square
 from harness import F, call
+from matplotlib.figure import Figure
 from specs_sim import shaper, traj
 
 _HEAVY = "renders a figure with matplotlib and writes a file; only refusals are tried"
@@ -19,5 +20,6 @@ SPECS: dict[str, F] = {
     ),
     "viz.plot_velocity_profiles": F(lambda: call(square(), {"a": traj()}, _OUT), heavy=_HEAVY),
     "viz.plot_workspace": F(lambda: call(square(), {"a": traj()}, _OUT), heavy=_HEAVY),
-    "viz.save_figure": F(lambda: call(None, _OUT), heavy=_HEAVY, types={"fig": "object"}),
+    # A Figure outside pyplot's registry: nothing to release when a refusal closes it.
+    "viz.save_figure": F(lambda: call(Figure(), _OUT), heavy=_HEAVY),
 }

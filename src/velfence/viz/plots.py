@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Any
 
 import matplotlib
 
@@ -12,10 +12,21 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.animation import FuncAnimation, PillowWriter
+from matplotlib.figure import Figure
 from numpy.typing import NDArray
 
+from velfence._validate import (
+    check_output_path,
+    check_positive,
+    check_positive_int,
+    check_text,
+    describe,
+    real_array,
+)
+from velfence.errors import InvalidInput, InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon, Rectangle
 from velfence.shaping.base import Shaper
+from velfence.sim.runner import Trajectory
 
 __all__ = [
     "animate_trajectories",
@@ -28,6 +39,22 @@ __all__ = [
 
 FloatArray = NDArray[np.float64]
 
+#: Most panels (shapers) one figure draws; more would make an unreadable, huge image.
+MAX_PANELS = 24
+#: Most trajectories one figure draws.
+MAX_TRAJECTORIES = 100
+#: Most sample points of :func:`plot_velocity_patterns`.
+MAX_POINTS = 1000
+#: Largest quiver grid side (grid² arrows per panel).
+MAX_GRID = 200
+#: Most commands per circle of :func:`plot_velocity_patterns`.
+MAX_RAYS = 3600
+#: Most frames of an animation, and the largest frame rate [1/s].
+MAX_FRAMES = 2000
+MAX_FPS = 100
+#: Largest resolution of a written figure [dots per inch].
+MAX_DPI = 1200
+
 COLORS = {
     "none": "#9e9e9e",
     "hard-stop": "#d62728",
@@ -37,31 +64,84 @@ COLORS = {
 }
 
 
-class TrajectoryLike(Protocol):
-    """What the plots need of a simulated trajectory."""
+def _check_polygon(name: str, polygon: Any) -> ConvexPolygon:
+    if not isinstance(polygon, ConvexPolygon):
+        raise InvalidInput(
+            f"{name}: expected a velfence ConvexPolygon (the workspace), got {describe(polygon)}"
+        )
+    return polygon
 
-    @property
-    def t(self) -> FloatArray: ...
 
-    @property
-    def p(self) -> FloatArray: ...
+def _check_named(name: str, items: Any, kind: type, what: str, maximum: int) -> dict[str, Any]:
+    """A non-empty mapping of string labels to ``kind`` objects (at most ``maximum``)."""
+    if not isinstance(items, Mapping):
+        raise InvalidInput(f"{name}: expected a mapping of name -> {what}, got {describe(items)}")
+    if not 1 <= len(items) <= maximum:
+        raise InvalidInput(
+            f"{name}: expected 1 to {maximum} entries (name -> {what}), got {len(items)}"
+        )
+    out: dict[str, Any] = {}
+    for key, value in items.items():
+        label = check_text(f"{name} key", key, max_length=200, error=InvalidInput)
+        if not isinstance(value, kind):
+            raise InvalidInput(f"{name}[{key!r}]: expected a {what}, got {describe(value)}")
+        out[label] = value
+    return out
 
-    @property
-    def v_cmd(self) -> FloatArray: ...
 
-    @property
-    def v_out(self) -> FloatArray: ...
+def _check_trajectories(name: str, trajectories: Any) -> dict[str, Trajectory]:
+    trs = _check_named(
+        name, trajectories, Trajectory, "velfence Trajectory (velfence.sim)", MAX_TRAJECTORIES
+    )
+    for key, tr in trs.items():
+        if tr.p.ndim != 2 or tr.p.shape[1] != 2 or tr.v_out.shape != tr.p.shape:
+            raise InvalidInput(
+                f"{name}[{key!r}]: expected a planar trajectory (positions of shape (N, 2)), "
+                f"got positions of shape {tr.p.shape}"
+            )
+    return trs
+
+
+def _check_buffer(buffer: Any) -> float | None:
+    if buffer is None:
+        return None
+    return check_positive("buffer", buffer, unit="workspace units")
 
 
 def save_figure(fig: Any, path: str | Path, *, dpi: int = 130) -> Path:
     """Lay out ``fig``, write it to ``path`` at ``dpi``, close it, and return the path.
 
     Every figure of the library is written this way (one place for layout and resource release).
+
+    Args:
+        fig: A matplotlib ``Figure``.
+        path: Output file; its directory must exist. The format follows the suffix.
+        dpi: Resolution, 1 to :data:`MAX_DPI` dots per inch.
+
+    Raises:
+        InvalidInput: ``fig`` is not a matplotlib figure.
+        InvalidParameter: ``path`` or ``dpi`` is unusable (the figure is closed all the same).
     """
-    out = Path(path)
+    if not isinstance(fig, Figure):
+        raise InvalidInput(f"fig: expected a matplotlib Figure, got {describe(fig)}")
+    try:
+        dots = check_positive_int("dpi", dpi, maximum=MAX_DPI, example=130)
+        out = check_output_path("path", path)
+    except InvalidParameter:
+        plt.close(fig)  # an unusable argument must not leak the figure
+        raise
+    return _write(fig, out, dots)
+
+
+def _write(fig: Figure, out: Path, dpi: int) -> Path:
+    """Lay out, write and close ``fig`` (arguments already validated)."""
     fig.tight_layout()
-    fig.savefig(out, dpi=dpi)
-    plt.close(fig)
+    try:
+        fig.savefig(out, dpi=dpi)
+    except (OSError, ValueError) as exc:  # unwritable file, unknown suffix
+        raise InvalidParameter(f"path: cannot write {str(out)!r}: {exc}") from None
+    finally:
+        plt.close(fig)
     return out
 
 
@@ -105,7 +185,7 @@ def _draw_polygon(
 
 def plot_workspace(
     polygon: ConvexPolygon,
-    trajectories: Mapping[str, TrajectoryLike],
+    trajectories: Mapping[str, Trajectory],
     path: str | Path,
     *,
     buffer: float | None = None,
@@ -117,22 +197,39 @@ def plot_workspace(
 
     Returns:
         The path written.
+
+    Raises:
+        InvalidInput: ``polygon``, ``trajectories`` or ``rectangle`` of the wrong type.
+        InvalidParameter: ``buffer``, ``labels``, ``title`` or ``path`` unusable.
     """
+    _check_polygon("polygon", polygon)
+    trs = _check_trajectories("trajectories", trajectories)
+    width = _check_buffer(buffer)
+    if rectangle is not None and not isinstance(rectangle, Rectangle):
+        raise InvalidInput(f"rectangle: expected a velfence Rectangle, got {describe(rectangle)}")
+    if not isinstance(labels, (list, tuple)) or len(labels) != 2:
+        raise InvalidParameter(
+            f"labels: expected two axis labels (x, y) as a tuple of strings, got {describe(labels)}"
+        )
+    xlabel = check_text("labels", labels[0])
+    ylabel = check_text("labels", labels[1])
+    heading = check_text("title", title)
+    out = check_output_path("path", path)
     fig, ax = plt.subplots(figsize=(7.5, 6.5))
-    _draw_polygon(ax, polygon, buffer=buffer, rectangle=rectangle)
-    for i, (name, tr) in enumerate(trajectories.items()):
+    _draw_polygon(ax, polygon, buffer=width, rectangle=rectangle)
+    for i, (name, tr) in enumerate(trs.items()):
         ax.plot(tr.p[:, 0], tr.p[:, 1], color=_color(name, i), lw=1.2, label=name, alpha=0.9)
         ax.plot(tr.p[0, 0], tr.p[0, 1], "o", color=_color(name, i), ms=4)
-    ax.set_xlabel(labels[0])
-    ax.set_ylabel(labels[1])
-    ax.set_title(title)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(heading)
     ax.legend(loc="upper right", fontsize=8)
-    return save_figure(fig, path, dpi=130)
+    return _write(fig, out, 130)
 
 
 def plot_velocity_profiles(
     polygon: ConvexPolygon,
-    trajectories: Mapping[str, TrajectoryLike],
+    trajectories: Mapping[str, Trajectory],
     path: str | Path,
 ) -> Path:
     """Speed, normal speed and boundary distance of every method against time.
@@ -142,9 +239,16 @@ def plot_velocity_profiles(
 
     Returns:
         The path written.
+
+    Raises:
+        InvalidInput: ``polygon`` or ``trajectories`` of the wrong type.
+        InvalidParameter: ``path`` unusable.
     """
+    _check_polygon("polygon", polygon)
+    trs = _check_trajectories("trajectories", trajectories)
+    out = check_output_path("path", path)
     fig, axes = plt.subplots(3, 1, figsize=(9, 8), sharex=True)
-    for i, (name, tr) in enumerate(trajectories.items()):
+    for i, (name, tr) in enumerate(trs.items()):
         col = _color(name, i)
         d = polygon.signed_distances(tr.p)
         nearest = np.argmin(d, axis=1)
@@ -153,7 +257,7 @@ def plot_velocity_profiles(
         axes[0].plot(tr.t, np.linalg.norm(tr.v_out, axis=1), color=col, lw=1, label=name)
         axes[1].plot(tr.t, vn, color=col, lw=1, label=name)
         axes[2].plot(tr.t, d.min(axis=1), color=col, lw=1, label=name)
-    first = next(iter(trajectories.values()))
+    first = next(iter(trs.values()))
     axes[0].plot(
         first.t, np.linalg.norm(first.v_cmd, axis=1), color="k", lw=0.8, ls=":", label="commanded"
     )
@@ -163,7 +267,7 @@ def plot_velocity_profiles(
     axes[2].axhline(0.0, color="k", lw=0.8)
     axes[2].set_xlabel("time [s]")
     axes[0].legend(fontsize=7, ncol=3)
-    return save_figure(fig, path, dpi=120)
+    return _write(fig, out, 120)
 
 
 def plot_quiver(
@@ -179,37 +283,50 @@ def plot_quiver(
 
     Returns:
         The path written.
+
+    Raises:
+        InvalidInput: ``polygon``, ``shapers`` or ``command`` unusable.
+        InvalidParameter: ``buffer``, ``grid`` or ``path`` unusable.
     """
-    k = len(shapers)
+    _check_polygon("polygon", polygon)
+    shs = _check_named("shapers", shapers, Shaper, "velfence shaper", MAX_PANELS)
+    cmd = real_array("command", command, (2,), what="a 2-D command velocity")
+    norm = float(np.linalg.norm(cmd))
+    if not norm > 0.0:
+        raise InvalidInput("command: expected a nonzero 2-D command velocity, got (0, 0)")
+    width = _check_buffer(buffer)
+    n = check_positive_int("grid", grid, minimum=2, maximum=MAX_GRID, example=23)
+    out_path = check_output_path("path", path)
+    k = len(shs)
     cols = min(k, 3)
     rows = (k + cols - 1) // cols
     fig, axes = plt.subplots(rows, cols, figsize=(4.6 * cols, 4.3 * rows), squeeze=False)
     c = polygon.corners
     lo, hi = c.min(axis=0), c.max(axis=0)
     span = hi - lo
-    xs = np.linspace(lo[0] - 0.15 * span[0], hi[0] + 0.15 * span[0], grid)
-    ys = np.linspace(lo[1] - 0.15 * span[1], hi[1] + 0.15 * span[1], grid)
+    xs = np.linspace(lo[0] - 0.15 * span[0], hi[0] + 0.15 * span[0], n)
+    ys = np.linspace(lo[1] - 0.15 * span[1], hi[1] + 0.15 * span[1], n)
     X, Y = np.meshgrid(xs, ys)
     P = np.stack([X.ravel(), Y.ravel()], axis=1)
-    V = np.tile(np.asarray(command, dtype=float), (P.shape[0], 1))
-    for ax, (name, shaper) in zip(axes.ravel(), shapers.items(), strict=False):
-        _draw_polygon(ax, polygon, buffer=buffer, margin=0.18)
+    V = np.tile(cmd, (P.shape[0], 1))
+    for ax, (name, shaper) in zip(axes.ravel(), shs.items(), strict=False):
+        _draw_polygon(ax, polygon, buffer=width, margin=0.18)
         out = shaper.shape_batch(P, V)
         mag = np.linalg.norm(out, axis=1)
         ax.quiver(
             P[:, 0], P[:, 1], out[:, 0], out[:, 1], mag, cmap="viridis", angles="xy",
-            scale_units="xy", scale=float(np.linalg.norm(command)) / (0.8 * (xs[1] - xs[0])),
+            scale_units="xy", scale=norm / (0.8 * (xs[1] - xs[0])),
             width=0.004,
         )  # fmt: skip
-        ax.set_title(f"{name}: command {tuple(round(x, 2) for x in command)}", fontsize=9)
+        ax.set_title(f"{name}: command {tuple(round(x, 2) for x in cmd.tolist())}", fontsize=9)
     for ax in axes.ravel()[k:]:
         ax.axis("off")
-    return save_figure(fig, path, dpi=110)
+    return _write(fig, out_path, 110)
 
 
 def animate_trajectories(
     polygon: ConvexPolygon,
-    trajectories: Mapping[str, TrajectoryLike],
+    trajectories: Mapping[str, Trajectory],
     path: str | Path,
     *,
     buffer: float | None = None,
@@ -220,15 +337,25 @@ def animate_trajectories(
 
     Returns:
         The path written.
+
+    Raises:
+        InvalidInput: ``polygon`` or ``trajectories`` of the wrong type.
+        InvalidParameter: ``buffer``, ``frames``, ``fps`` or ``path`` unusable.
     """
+    _check_polygon("polygon", polygon)
+    trs = _check_trajectories("trajectories", trajectories)
+    width = _check_buffer(buffer)
+    n_frames = check_positive_int("frames", frames, maximum=MAX_FRAMES, example=60)
+    rate = check_positive_int("fps", fps, maximum=MAX_FPS, example=12)
+    out = check_output_path("path", path)
     fig, ax = plt.subplots(figsize=(4.8, 4.4))
-    _draw_polygon(ax, polygon, buffer=buffer)
-    first = next(iter(trajectories.values()))
+    _draw_polygon(ax, polygon, buffer=width)
+    first = next(iter(trs.values()))
     n = len(first.t)
-    idx = np.linspace(0, n - 1, frames).astype(int)
+    idx = np.linspace(0, n - 1, n_frames).astype(int)
     dots = {}
     trails = {}
-    for i, (name, _) in enumerate(trajectories.items()):
+    for i, name in enumerate(trs):
         col = _color(name, i)
         (trails[name],) = ax.plot([], [], color=col, lw=1.0, alpha=0.6)
         (dots[name],) = ax.plot([], [], "o", color=col, ms=5, label=name)
@@ -237,17 +364,20 @@ def animate_trajectories(
 
     def update(f: int) -> list[Any]:
         j = idx[f]
-        for name, tr in trajectories.items():
+        for name, tr in trs.items():
             lo = max(0, j - n // 8)
             trails[name].set_data(tr.p[lo : j + 1, 0], tr.p[lo : j + 1, 1])
             dots[name].set_data([tr.p[j, 0]], [tr.p[j, 1]])
         stamp.set_text(f"t = {first.t[j]:.2f} s")
         return [*trails.values(), *dots.values(), stamp]
 
-    anim = FuncAnimation(fig, update, frames=frames, blit=False)
-    out = Path(path)
-    anim.save(out, writer=PillowWriter(fps=fps), dpi=70)
-    plt.close(fig)
+    anim = FuncAnimation(fig, update, frames=n_frames, blit=False)
+    try:
+        anim.save(out, writer=PillowWriter(fps=rate), dpi=70)
+    except (OSError, ValueError) as exc:  # unwritable file, unknown suffix
+        raise InvalidParameter(f"path: cannot write {str(out)!r}: {exc}") from None
+    finally:
+        plt.close(fig)
     return out
 
 
@@ -282,17 +412,31 @@ def plot_velocity_patterns(
 
     Returns:
         The path written.
+
+    Raises:
+        InvalidInput: ``polygon``, ``shapers`` or ``points`` unusable.
+        InvalidParameter: ``buffer``, ``speed``, ``radius``, ``rays`` or ``path`` unusable.
     """
-    k = len(shapers)
+    _check_polygon("polygon", polygon)
+    shs = _check_named("shapers", shapers, Shaper, "velfence shaper", MAX_PANELS)
+    pts = real_array("points", points, (None, 2), what="sample positions (workspace units)")
+    if pts.shape[0] > MAX_POINTS:
+        raise InvalidInput(f"points: expected at most {MAX_POINTS} points, got {pts.shape[0]}")
+    width = _check_buffer(buffer)
+    v = check_positive("speed", speed, unit="units/s")
+    r = None if radius is None else check_positive("radius", radius, unit="workspace units")
+    n_rays = check_positive_int("rays", rays, minimum=3, maximum=MAX_RAYS, example=48)
+    out_path = check_output_path("path", path)
+    k = len(shs)
     fig, axes = plt.subplots(1, k, figsize=(5.2 * k, 4.8), squeeze=False)
-    ang = np.linspace(0.0, 2.0 * np.pi, rays, endpoint=False)
-    U = speed * np.stack([np.cos(ang), np.sin(ang)], axis=1)
+    ang = np.linspace(0.0, 2.0 * np.pi, n_rays, endpoint=False)
+    U = v * np.stack([np.cos(ang), np.sin(ang)], axis=1)
     span = float(np.max(polygon.corners.max(axis=0) - polygon.corners.min(axis=0)))
-    draw = (0.03 * span if radius is None else radius) / speed
-    for ax, (i, (name, shaper)) in zip(axes.ravel(), enumerate(shapers.items()), strict=False):
-        _draw_polygon(ax, polygon, buffer=buffer, margin=0.12)
-        for p in points:
-            P = np.tile(np.asarray(p, dtype=float), (rays, 1))
+    draw = (0.03 * span if r is None else r) / v
+    for ax, (i, (name, shaper)) in zip(axes.ravel(), enumerate(shs.items()), strict=False):
+        _draw_polygon(ax, polygon, buffer=width, margin=0.12)
+        for p in pts:
+            P = np.tile(p, (n_rays, 1))
             out = draw * shaper.shape_batch(P, U)
             ring = np.vstack([P + out, P[:1] + out[:1]])
             ax.plot(ring[:, 0], ring[:, 1], color=_color(name, i), lw=1.2)
@@ -300,4 +444,4 @@ def plot_velocity_patterns(
             ax.plot(cmd[:, 0], cmd[:, 1], color="k", lw=0.5, ls=":")
             ax.plot(P[0, 0], P[0, 1], "k.", ms=3)
         ax.set_title(f"{name}: allowed velocities (FIG. 7)", fontsize=9)
-    return save_figure(fig, path, dpi=120)
+    return _write(fig, out_path, 120)
