@@ -146,7 +146,9 @@ class WristGeometry:
             raise InvalidGeometry(
                 f"the home pose q = 0 must lie strictly inside the stroke: expected "
                 f"stroke_min < {home:.6g} m < stroke_max, got [{self.stroke_min!r}, "
-                f"{self.stroke_max!r}] m; adjust the stroke or the anchor/rod dimensions"
+                f"{self.stroke_max!r}] m; adjust stroke_min/stroke_max or the dimensions that "
+                "set the home length (anchor_setback, anchor_half_spacing, anchor_height, "
+                "rod_reach, rod_half_spacing, rod_height)"
             )
         if not -math.pi <= self.wire_azimuth <= math.pi:
             raise InvalidParameter(
