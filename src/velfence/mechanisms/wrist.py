@@ -68,6 +68,7 @@ LIMIT_NAMES: tuple[str, ...] = (
 _DERIVE_SLACK = np.array([1e-5, 1e-5, 1e-5, 1e-5, 1e-3, 1e-4])
 _DERIVE_RAY_MAX = 1.5  # [rad] search radius for each limit's boundary along its ray from home
 _DERIVE_MAX_ROUNDS = 200
+_GRID_MAX_POINTS = 250_000  # feasible_grid: bounded so a mistaken 1e6 x 1e6 grid is refused
 #: Largest accepted ``fk_max_iter``: Newton converges in a handful of steps or not at all.
 MAX_FK_ITER = 10_000
 
@@ -565,6 +566,11 @@ class Wrist:
         """
         p = _vector("pitch", pitch)
         y = _vector("yaw", yaw)
+        if p.size * y.size > _GRID_MAX_POINTS:
+            raise InvalidInput(
+                f"pitch, yaw: expected at most {_GRID_MAX_POINTS} grid points in total, got "
+                f"{p.size} x {y.size}; sample more coarsely"
+            )
         T, S = np.meshgrid(p, y, indexing="ij")
         ok = np.asarray(self.feasible(np.column_stack([T.ravel(), S.ravel()])), dtype=bool)
         return ok.reshape(T.shape)
