@@ -81,3 +81,26 @@ def test_queries_name_their_argument(name: str, kind: str):
     if kind != "None":  # s0=None is "no reference"
         with pytest.raises(InvalidInput, match=r"^s0: "):
             path.closest([0.0, 0.0], s0=scalar, window=0.5)
+
+
+class _LyingLen:
+    def __len__(self) -> int:
+        return 3
+
+    def __getitem__(self, i: int) -> float:
+        if i == 0:
+            return 1.0
+        raise IndexError(i)
+
+
+@pytest.mark.parametrize("method", ["points", "tangents", "curvatures"])
+def test_batch_queries_refuse_empty_lying_and_oversized_batches(method: str):
+    line = Line([0.0, 0.0], [1.0, 0.0])
+    with pytest.raises(InvalidInput, match=r"S: expected at least one arc length"):
+        getattr(line, method)([])
+    with pytest.raises(InvalidInput, match=r"S: its len\(\) says 3 but it yields 1"):
+        getattr(line, method)(_LyingLen())
+    spline = Spline([[0.0, 0.0], [1.0, 0.2], [2.0, 0.0]])
+    with pytest.raises(InvalidInput, match=r"S: expected at most 100000 arc lengths"):
+        getattr(spline, method)(np.zeros(Spline.MAX_BATCH + 1))
+    assert getattr(line, method)([0.5]).shape == (1, 2)

@@ -37,12 +37,17 @@ SPECS: dict[str, F | C] = {
     "redundancy.Obstacle": C(
         F(
             lambda: call(np.array([1.5, 1.2]), radius=0.1, influence=0.3),
-            types={"radius": "positive", "influence": "positive"},
+            # radius 0 is documented (>= 0): a point obstacle.
+            types={"radius": "nonneg", "influence": "positive"},
         )
     ),
-    "redundancy.ConfigurationController": C(lambda: call(planar3(), _obstacles()), _methods()),
+    # ee_gain 0 is documented (>= 0): no end-effector position feedback.
+    "redundancy.ConfigurationController": C(
+        F(lambda: call(planar3(), _obstacles()), types={"ee_gain": "nonneg"}), _methods()
+    ),
+    # ee_gain and d_safe 0 are documented (>= 0): no feedback; contact allowed.
     "redundancy.VelocityDamperQP": C(
-        lambda: call(planar3(), _obstacles()),
+        F(lambda: call(planar3(), _obstacles()), types={"ee_gain": "nonneg", "d_safe": "nonneg"}),
         _methods({"clearances": F(lambda: call(_distances()))}),
     ),
     "redundancy.ControlResult": C(record="output record of ConfigurationController.control()"),

@@ -362,3 +362,9 @@ def test_runtime_input_validation() -> None:
         arm.point_jacobian(np.zeros(3), 0, math.nan)
     with pytest.raises(InvalidParameter, match=r"tol must be finite and >= 0"):
         arm.within_limits(np.zeros(3), tol=-1.0)
+
+
+def test_point_jacobian_refuses_a_duration_as_link():
+    arm = PlanarArm([1.0, 1.0])
+    with pytest.raises(InvalidInput, match=r"link: expected an int in \[0, 1\], got timedelta64"):
+        arm.point_jacobian([0.0, 0.0], np.timedelta64(1, "s"), 0.5)

@@ -602,3 +602,14 @@ def test_workspace_map_is_fig3b(cospm: CoSPM) -> None:
         workspace_map(cospm, elevation=(-HALF_PI, 0.0))
     with pytest.raises(InvalidParameter, match="bank: expected"):
         workspace_map(cospm, bank=(1.0, 0.0))
+
+
+def test_unbounded_stops_are_named():
+    bad = np.tile([1.0, 1.0, 1.0], (4, 1))
+    with pytest.raises(InvalidGeometry, match=r"^stops: "):
+        stops_polygon(bad)
+
+
+def test_singular_curves_window_must_be_four_numbers():
+    with pytest.raises(InvalidParameter, match=r"window: expected shape \(4,\)"):
+        singular_curves(window=[[-0.2, 0.2, -0.2, 0.2]], step=0.1)

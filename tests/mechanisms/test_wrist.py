@@ -439,3 +439,13 @@ def test_feasible_grid_validates_its_axes(wrist: Wrist) -> None:
         wrist.feasible_grid([], [0.0])
     with pytest.raises(InvalidInput, match=r"yaw: expected a non-empty finite 1-D array"):
         wrist.feasible_grid([0.0], [[0.0]])
+
+
+def test_home_stroke_message_names_the_dimensions():
+    with pytest.raises(InvalidGeometry, match=r"anchor_setback, anchor_half_spacing"):
+        WristGeometry(anchor_setback=0.3)
+
+
+def test_feasible_grid_is_bounded():
+    with pytest.raises(InvalidInput, match=r"pitch, yaw: expected at most 250000 grid points"):
+        Wrist().feasible_grid(np.zeros(1000), np.zeros(1000))

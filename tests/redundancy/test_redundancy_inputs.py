@@ -67,3 +67,24 @@ def test_shape_batch_names_q_and_v(kind: str):
         ctl.shape_batch(BAD[kind], np.zeros((1, 2)))
     with pytest.raises(InvalidInput, match=r"^V: "):
         ctl.shape_batch(np.zeros((1, 3)), BAD[kind])
+
+
+def test_obstacles_refuse_a_string_and_name_the_bad_entries():
+    with pytest.raises(
+        InvalidParameter, match=r"obstacles must be a sequence of Obstacle, got str"
+    ):
+        ConfigurationController(PlanarArm([1.0, 1.0, 1.0]), "")
+    with pytest.raises(InvalidParameter, match=r"got list containing float"):
+        ConfigurationController(PlanarArm([1.0, 1.0, 1.0]), [1.0])
+
+
+def test_obstacle_center_must_be_one_point():
+    with pytest.raises(InvalidParameter, match=r"center: .*got shape \(1, 2\)"):
+        Obstacle(center=np.array([[1.0, 1.0]]), radius=0.1, influence=0.3)
+
+
+def test_shape_batch_names_the_row():
+    c = ConfigurationController(PlanarArm([1.0, 1.0, 1.0]), [])
+    Q = np.array([[0.3, 0.4, -0.2], [np.nan, 0.4, -0.2]])
+    with pytest.raises(InvalidInput, match=r"Q, V row 1: "):
+        c.shape_batch(Q, np.zeros((2, 2)))

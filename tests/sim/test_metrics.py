@@ -185,3 +185,11 @@ def test_trajectory_window_selects_half_open_interval():
     np.testing.assert_array_equal(part.p, traj.p[2:6])
     with pytest.raises(vf.InvalidInput, match="no row in the window"):
         traj.window(100.0, 101.0)
+
+
+def test_summarize_refuses_commands_without_a_shaper():
+    traj = make(np.array([[0.5, 0.5], [0.6, 0.5]]))
+    with pytest.raises(vf.InvalidParameter, match=r"commands is only used by max_output_jump"):
+        summarize(traj, SQUARE, band=0.1, commands=[[1.0, 0.0]])
+    with pytest.raises(vf.InvalidParameter, match=r"got corner_index given and radius not given"):
+        summarize(traj, SQUARE, band=0.1, corner_index=0)

@@ -223,3 +223,39 @@ def test_command_may_live_in_another_space_than_the_state():
     assert traj.v_cmd.shape == (11, 2)
     assert traj.v_out.shape == (11, 3)
     np.testing.assert_allclose(traj.p[-1], [0.01, 0.02, 0.03], atol=1e-12)
+
+
+def test_classes_are_refused_as_callbacks():
+    # float is callable, but float(t, p) would raise TypeError in the middle of the run.
+    with pytest.raises(vf.InvalidParameter, match=r"command must be a function .*class float"):
+        simulate(NoLimit(), float, [0.0, 0.0], duration=0.01)
+    for name in ("disturbance", "saturate", "on_progress", "on_result"):
+        with pytest.raises(vf.InvalidParameter, match=rf"{name} must be a function"):
+            simulate(NoLimit(), const([0.0, 0.0]), [0.0, 0.0], duration=0.01, **{name: float})
+
+
+def test_p0_of_the_wrong_dimension_is_named():
+    shaper = vf.PolygonShaper(SQUARE, buffer=0.1)
+    with pytest.raises(vf.InvalidInput, match=r"p0 \(shape \(3,\)\).*does not fit the shaper"):
+        simulate(shaper, const([0.0, 0.0]), [0.5, 0.5, 0.0], duration=0.01)
+
+
+def test_simulate_many_names_a_bad_shaper_entry():
+    with pytest.raises(vf.InvalidParameter, match=r"shapers\['x'\] must implement .* got float"):
+        simulate_many({"x": 1.0}, const([0.0, 0.0]), [0.0, 0.0], duration=0.01)
+
+
+def test_trajectory_shape_errors_name_the_argument_that_fixed_them():
+    with pytest.raises(
+        vf.InvalidInput, match=r"p: expected shape \(1, 2\).*one row per entry of t"
+    ):
+        Trajectory([0.0], [[0.0, 0.0], [1.0, 1.0]], [[0.0, 0.0]], [[0.0, 0.0]])
+    with pytest.raises(vf.InvalidInput, match=r"v_out: .*as wide as p"):
+        Trajectory([0.0], [[0.0, 0.0, 0.0]], [[0.0, 0.0]], [[0.0, 0.0]])
+
+
+def test_window_names_t1_before_t0():
+    traj = Trajectory([0.0, 0.1], [[0.0, 0.0]] * 2, [[0.0, 0.0]] * 2, [[0.0, 0.0]] * 2)
+    with pytest.raises(vf.InvalidInput, match=r"t1 must be later than t0"):
+        traj.window(0.1, 0.0)
+    assert len(traj.window(0.0, 0.05)) == 1

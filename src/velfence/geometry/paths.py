@@ -110,11 +110,29 @@ def _arc(name: str, s: Any) -> float:
     return finite_scalar(name, s, unit="m", what="arc length")
 
 
-def _arcs(S: ArrayLike) -> FloatArray:
+def _arcs(S: ArrayLike, maximum: int) -> FloatArray:
     a = real_array("S", S, what="arc lengths [m] of shape (N,)", allow_nonfinite=True)
     if a.ndim > 1:
         raise InvalidInput(f"S: expected shape (N,), got shape {a.shape}")
+    # A sequence whose len() disagrees with what it yields is refused, not half-read.
+    if a.ndim == 1 and not isinstance(S, np.ndarray) and hasattr(S, "__len__"):
+        try:
+            claimed = len(S)  # type: ignore[arg-type]
+        except Exception:  # a broken __len__: the array has already been read
+            claimed = a.shape[0]
+        if claimed != a.shape[0]:
+            raise InvalidInput(
+                f"S: its len() says {claimed} but it yields {a.shape[0]} arc lengths; "
+                "pass a list or an array"
+            )
     a = a.reshape(-1)
+    if a.size == 0:
+        raise InvalidInput("S: expected at least one arc length [m], got none")
+    if a.size > maximum:
+        raise InvalidInput(
+            f"S: expected at most {maximum} arc lengths per call on this path, got {a.size}; "
+            "split the batch"
+        )
     if not np.all(np.isfinite(a)):
         bad = np.flatnonzero(~np.isfinite(a))
         raise InvalidInput(
@@ -159,6 +177,9 @@ class _PathBase:
     """Arc-length wrapping, input checks, :meth:`closest` tie rules; subclasses add the curve."""
 
     __slots__ = ("_closed", "_dim", "_length")
+
+    #: Largest batch of arc lengths one call of ``points``/``tangents``/``curvatures`` takes.
+    MAX_BATCH = 10_000_000
 
     _closed: bool
     _dim: int
@@ -253,15 +274,15 @@ class _PathBase:
         Returns:
             Shape (N, n).
         """
-        return self._frames(self._normalise(_arcs(S)))[0]
+        return self._frames(self._normalise(_arcs(S, self.MAX_BATCH)))[0]
 
     def tangents(self, S: ArrayLike) -> FloatArray:
         """Unit tangents at many arc lengths, shape (N,) -> (N, n)."""
-        return self._frames(self._normalise(_arcs(S)))[1]
+        return self._frames(self._normalise(_arcs(S, self.MAX_BATCH)))[1]
 
     def curvatures(self, S: ArrayLike) -> FloatArray:
         """Curvature vectors [1/m] at many arc lengths, shape (N,) -> (N, n)."""
-        return self._frames(self._normalise(_arcs(S)))[2]
+        return self._frames(self._normalise(_arcs(S, self.MAX_BATCH)))[2]
 
     # -- closest point
     def _intervals(self, ref: float | None, window: float | None) -> list[tuple[float, float]]:
@@ -425,7 +446,10 @@ class Line(_Piecewise):
             InvalidGeometry: mismatched shapes, non-finite values or ``start == end``.
         """
         a0 = _vector("start", start, error=InvalidGeometry)
-        a1 = _vector("end", end, a0.shape[0], error=InvalidGeometry)
+        try:
+            a1 = _vector("end", end, a0.shape[0], error=InvalidGeometry)
+        except InvalidGeometry as exc:
+            raise InvalidGeometry(f"{exc} (the shape of start)") from None
         a = np.array([a0, a1])
         d = a[1] - a[0]
         n = float(np.linalg.norm(d))
@@ -493,17 +517,19 @@ class Circle(_Piecewise):
             "start_angle", start_angle, unit="rad", what="angle", error=InvalidParameter
         )
         if not isinstance(ccw, (bool, np.bool_)):
-            raise InvalidParameter(f"ccw: expected True or False, got {ccw!r}")
+            raise InvalidParameter(f"ccw: expected True or False, got {type(ccw).__name__}")
         if c.shape[0] == 2:
             if normal is not None:
                 raise InvalidGeometry(
-                    f"normal: a 2-D circle lies in its plane, expected normal=None, got {normal!r}"
+                    "normal: a 2-D circle (center of shape (2,)) lies in its plane, expected "
+                    f"normal=None, got {type(normal).__name__}"
                 )
             e1, e2 = np.array([1.0, 0.0]), np.array([0.0, 1.0])
         elif c.shape[0] == 3:
             if normal is None:
                 raise InvalidGeometry(
-                    "normal: a 3-D circle needs its plane normal, shape (3,), got None"
+                    "normal: a 3-D circle (center of shape (3,)) needs its plane normal, "
+                    "shape (3,), got None; pass normal=... or a 2-D center"
                 )
             nv = _vector("normal", normal, 3, error=InvalidGeometry)
             nn = float(np.linalg.norm(nv))
@@ -570,7 +596,7 @@ class Polyline(_Piecewise):
             InvalidParameter: bad radii.
         """
         if not isinstance(closed, (bool, np.bool_)):
-            raise InvalidParameter(f"closed: expected True or False, got {closed!r}")
+            raise InvalidParameter(f"closed: expected True or False, got {type(closed).__name__}")
         V = _vertices("vertices", vertices, 3 if closed else 2)
         if closed and V.shape[0] > 3 and np.array_equal(V[0], V[-1]):
             V = V[:-1]
@@ -678,6 +704,10 @@ class Spline(_PathBase):
 
     __slots__ = ("_S", "_U", "_X", "_coef", "_knots", "_points")
 
+    #: A Newton solve per query (a few microseconds each): batches are bounded to stay well
+    #: under a second per call.
+    MAX_BATCH = 100_000
+
     #: Sub-pieces per spline interval in the arc-length table.
     SUBDIVISIONS = 16
 
@@ -696,7 +726,7 @@ class Spline(_PathBase):
             InvalidParameter: ``closed`` not a bool.
         """
         if not isinstance(closed, (bool, np.bool_)):
-            raise InvalidParameter(f"closed: expected True or False, got {closed!r}")
+            raise InvalidParameter(f"closed: expected True or False, got {type(closed).__name__}")
         P = _vertices("points", points, 3 if closed else 2)
         if closed and P.shape[0] > 3 and np.array_equal(P[0], P[-1]):
             P = P[:-1]

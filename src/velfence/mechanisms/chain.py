@@ -194,9 +194,11 @@ class _ChainBase:
         return row
 
     def _link_index(self, link: Any) -> int:
-        if isinstance(link, bool) or not isinstance(link, (int, np.integer)):
+        # np.timedelta64 subclasses np.signedinteger but is a duration, not an index; the
+        # message names the type only (a value's __repr__ is user code).
+        if isinstance(link, (bool, np.timedelta64)) or not isinstance(link, (int, np.integer)):
             raise InvalidInput(
-                f"link: expected an int in [0, {self._n - 1}], got {link!r} ({type(link).__name__})"
+                f"link: expected an int in [0, {self._n - 1}], got {type(link).__name__}"
             )
         if not 0 <= int(link) < self._n:
             raise InvalidInput(

@@ -941,7 +941,10 @@ def stops_polygon(stops: ArrayLike = PAPER_STOPS) -> ConvexPolygon:
             redundant stop.
     """
     S = _stops(stops)
-    polygon, _ = polygon_from_halfplanes(S[:, :2], S[:, 2])
+    try:
+        polygon, _ = polygon_from_halfplanes(S[:, :2], S[:, 2])
+    except InvalidGeometry as exc:
+        raise InvalidGeometry(f"stops: {exc}") from None
     return polygon
 
 
@@ -1433,12 +1436,11 @@ def singular_curves(
         real_array(
             "window",
             window,
+            (4,),
             error=InvalidParameter,
             what="(q1_min, q1_max, q2_min, q2_max) [rad]",
             allow_nonfinite=True,
-        )
-        .reshape(-1)
-        .tolist()
+        ).tolist()
     )
     th_home, _ = cospm.home()
     q_home = Q_AUX @ th_home

@@ -68,6 +68,7 @@ LIMIT_NAMES: tuple[str, ...] = (
 _DERIVE_SLACK = np.array([1e-5, 1e-5, 1e-5, 1e-5, 1e-3, 1e-4])
 _DERIVE_RAY_MAX = 1.5  # [rad] search radius for each limit's boundary along its ray from home
 _DERIVE_MAX_ROUNDS = 200
+_GRID_MAX_POINTS = 250_000  # feasible_grid: bounded so a mistaken 1e6 x 1e6 grid is refused
 #: Largest accepted ``fk_max_iter``: Newton converges in a handful of steps or not at all.
 MAX_FK_ITER = 10_000
 
@@ -146,7 +147,9 @@ class WristGeometry:
             raise InvalidGeometry(
                 f"the home pose q = 0 must lie strictly inside the stroke: expected "
                 f"stroke_min < {home:.6g} m < stroke_max, got [{self.stroke_min!r}, "
-                f"{self.stroke_max!r}] m; adjust the stroke or the anchor/rod dimensions"
+                f"{self.stroke_max!r}] m; adjust stroke_min/stroke_max or the dimensions that "
+                "set the home length (anchor_setback, anchor_half_spacing, anchor_height, "
+                "rod_reach, rod_half_spacing, rod_height)"
             )
         if not -math.pi <= self.wire_azimuth <= math.pi:
             raise InvalidParameter(
@@ -563,6 +566,11 @@ class Wrist:
         """
         p = _vector("pitch", pitch)
         y = _vector("yaw", yaw)
+        if p.size * y.size > _GRID_MAX_POINTS:
+            raise InvalidInput(
+                f"pitch, yaw: expected at most {_GRID_MAX_POINTS} grid points in total, got "
+                f"{p.size} x {y.size}; sample more coarsely"
+            )
         T, S = np.meshgrid(p, y, indexing="ij")
         ok = np.asarray(self.feasible(np.column_stack([T.ravel(), S.ravel()])), dtype=bool)
         return ok.reshape(T.shape)

@@ -104,12 +104,11 @@ class Obstacle:
     influence: float
 
     def __post_init__(self) -> None:
-        c = real_array(
-            "center", self.center, error=InvalidParameter, what="2 or 3 numbers [m]"
-        ).reshape(-1)
+        c = real_array("center", self.center, error=InvalidParameter, what="2 or 3 numbers [m]")
         if c.shape not in ((2,), (3,)):
             raise InvalidParameter(
-                f"center: expected 2 or 3 finite numbers [m], got {self.center!r}"
+                f"center: expected 2 or 3 finite numbers [m] of shape (2,) or (3,), got shape "
+                f"{c.shape}"
             )
         if c.shape == (2,):
             c = np.append(c, 0.0)
@@ -228,10 +227,18 @@ class ChainObstacleBase(InvalidPolicy):
                 f"chain must implement the SerialChain protocol (velfence.mechanisms.chain), "
                 f"got {type(chain).__name__} missing {missing}"
             )
-        obs = tuple(obstacles) if isinstance(obstacles, Sequence) else None
+        # A str is a Sequence too (of characters); the message names types only, since a
+        # value's __repr__ is user code.
+        ok = isinstance(obstacles, Sequence) and not isinstance(obstacles, (str, bytes))
+        obs = tuple(obstacles) if ok else None
         if obs is None or not all(isinstance(o, Obstacle) for o in obs):
+            got = type(obstacles).__name__
+            if obs is not None:
+                got += " containing " + ", ".join(
+                    sorted({type(o).__name__ for o in obs if not isinstance(o, Obstacle)})
+                )
             raise InvalidParameter(
-                f"obstacles must be a sequence of Obstacle, got {obstacles!r}; wrap centres and "
+                f"obstacles must be a sequence of Obstacle, got {got}; wrap centres and "
                 "radii in Obstacle(center=..., radius=..., influence=...)"
             )
         self.chain = chain
@@ -411,7 +418,11 @@ class ChainObstacleBase(InvalidPolicy):
             )
         out = np.zeros((Qa.shape[0], self.dof))
         for k in range(Qa.shape[0]):
-            out[k] = self.shape(Qa[k], Va[k])
+            try:
+                out[k] = self.shape(Qa[k], Va[k])
+            except InvalidInput as exc:
+                # shape() names its own q / ee_velocity; say which batch row of Q, V it was.
+                raise InvalidInput(f"Q, V row {k}: {exc}") from None
         return out
 
 

@@ -73,7 +73,10 @@ class Disturbance:
         clean = []
         for i, (t0, t1, vx, vy) in enumerate(rows.tolist()):
             a = check_positive(f"pushes[{i}] t0", t0, allow_zero=True, unit="s")
-            b = _t1(t1, a)
+            try:
+                b = _t1(t1, a)
+            except InvalidParameter as exc:
+                raise InvalidParameter(f"pushes[{i}]: {exc}") from None
             if not (math.isfinite(vx) and math.isfinite(vy)):
                 raise InvalidParameter(
                     f"pushes[{i}]: velocity must be finite (workspace units per second), got "

@@ -306,6 +306,10 @@ def area_gain(polygon: ConvexPolygon) -> float:
     return float(polygon.area_ratio())
 
 
+def _given(x: object) -> str:
+    return "not given" if x is None else "given"
+
+
 def summarize(
     traj: Trajectory,
     polygon: ConvexPolygon,
@@ -345,17 +349,23 @@ def summarize(
         "sliding_ratio": sliding_ratio(traj, polygon, band=band),
         "area_gain": area_gain(polygon),
     }
+    # Messages say "given"/"not given", never repr(): a value's __repr__ is user code.
     if (corner_index is None) != (radius is None):
         raise InvalidParameter(
             "corner_index and radius go together: pass both for corner_escape_time or neither, "
-            f"got corner_index={corner_index!r}, radius={radius!r}"
+            f"got corner_index {_given(corner_index)} and radius {_given(radius)}"
         )
     if corner_index is not None and radius is not None:
         out["corner_escape_time"] = corner_escape_time(traj, polygon, corner_index, radius=radius)
     if (shaper is None) != (spacing is None):
         raise InvalidParameter(
             "shaper and spacing go together: pass both for max_output_jump or neither, "
-            f"got shaper={shaper!r}, spacing={spacing!r}"
+            f"got shaper {_given(shaper)} and spacing {_given(spacing)}"
+        )
+    if commands is not None and shaper is None:
+        raise InvalidParameter(
+            "commands is only used by max_output_jump: pass shaper and spacing with it, "
+            "or leave commands out"
         )
     if shaper is not None and spacing is not None:
         cmds = np.unique(traj.v_cmd, axis=0) if commands is None else commands

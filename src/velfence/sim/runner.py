@@ -34,7 +34,7 @@ from velfence._validate import (
     real_array,
     step_count,
 )
-from velfence.errors import InvalidInput, InvalidParameter
+from velfence.errors import InvalidInput, InvalidParameter, VelfenceError
 from velfence.shaping.base import Shaper
 
 __all__ = ["CommandFn", "DisturbanceFn", "SaturateFn", "Trajectory", "simulate", "simulate_many"]
@@ -54,15 +54,23 @@ PLANTS = ("kinematic",)
 MAX_STEPS = 10_000_000  # ~ 3 h at 1 kHz; ~ 0.5 GB of arrays
 
 
-def _readonly_copy(name: str, x: ArrayLike, shape: tuple[int | None, ...]) -> FloatArray:
-    return readonly(real_array(name, x, shape, what="finite numbers"))
+def _readonly_copy(
+    name: str, x: ArrayLike, shape: tuple[int | None, ...], rule: str = ""
+) -> FloatArray:
+    # ``rule`` says which other argument fixed the expected shape (N rows from t, width from p).
+    try:
+        return readonly(real_array(name, x, shape, what="finite numbers"))
+    except InvalidInput as exc:
+        if not rule:
+            raise
+        raise InvalidInput(f"{exc}{rule}") from None
 
 
 def _width(name: str, x: Any, default: int) -> int:
     """Row length of a recorded (N, c) array, ``default`` when ``x`` is not 2-D."""
     try:
         shape = np.shape(x)
-    except (TypeError, ValueError):  # ragged nesting: real_array names the argument
+    except Exception:  # ragged, hostile or huge: real_array names the argument
         return default
     return int(shape[1]) if len(shape) == 2 else default
 
@@ -117,8 +125,9 @@ class Trajectory:
         ta = readonly(ta)
         n = ta.shape[0]
         dim = _width("p", p, 2)
-        pa = _readonly_copy("p", p, (n, dim))
-        pm = pa if p_measured is None else _readonly_copy("p_measured", p_measured, (n, dim))
+        pa = _readonly_copy("p", p, (n, dim), " (one row per entry of t)")
+        rule = " (one row per entry of t, as wide as p)"
+        pm = pa if p_measured is None else _readonly_copy("p_measured", p_measured, (n, dim), rule)
         if zone is None:
             za = np.full(n, "unknown")
         else:
@@ -126,8 +135,10 @@ class Trajectory:
                 raise InvalidInput(f"zone: expected {n} zone names, got {type(zone).__name__}")
             try:
                 za = np.array(zone)
-            except (TypeError, ValueError):
-                raise InvalidInput(f"zone: expected {n} zone names (str), got {zone!r}") from None
+            except Exception:  # ragged, hostile or huge input; never repr() it
+                raise InvalidInput(
+                    f"zone: expected {n} zone names (str), got {type(zone).__name__}"
+                ) from None
             if za.shape != (n,) or za.dtype.kind != "U":
                 raise InvalidInput(
                     f"zone: expected {n} zone names (str) of shape ({n},), got "
@@ -139,8 +150,10 @@ class Trajectory:
         object.__setattr__(self, "t", ta)
         object.__setattr__(self, "p", pa)
         cdim = _width("v_cmd", v_cmd, dim)
-        object.__setattr__(self, "v_cmd", _readonly_copy("v_cmd", v_cmd, (n, cdim)))
-        object.__setattr__(self, "v_out", _readonly_copy("v_out", v_out, (n, dim)))
+        object.__setattr__(
+            self, "v_cmd", _readonly_copy("v_cmd", v_cmd, (n, cdim), " (one row per entry of t)")
+        )
+        object.__setattr__(self, "v_out", _readonly_copy("v_out", v_out, (n, dim), rule))
         object.__setattr__(self, "zone", za)
         object.__setattr__(self, "name", name)
         object.__setattr__(self, "p_measured", pm)
@@ -162,10 +175,15 @@ class Trajectory:
         """
         t0 = finite_scalar("t0", t0, unit="s", what="time")
         t1 = finite_scalar("t1", t1, unit="s", what="time")
+        if not t1 > t0:
+            raise InvalidInput(
+                f"t1 must be later than t0 = {t0} s for the window [t0, t1), got t1 = {t1} s"
+            )
         rows = (self.t >= t0) & (self.t < t1)
         if not rows.any():
             raise InvalidInput(
-                f"no row in the window [{t0}, {t1}) s; the run covers [{self.t[0]}, {self.t[-1]}] s"
+                f"t0, t1: no row in the window [{t0}, {t1}) s; "
+                f"the run covers [{self.t[0]}, {self.t[-1]}] s"
             )
         return Trajectory(
             self.t[rows],
@@ -192,6 +210,11 @@ def _finite_vec(what: str, x: Any, dim: int | None, k: int, t: float) -> FloatAr
 def _optional_callable(name: str, f: Any) -> None:
     if f is not None and not callable(f):
         raise InvalidParameter(f"{name} must be a callable or None, got {type(f).__name__}")
+    # A class is callable but is not a callback: float(t, p) would raise TypeError mid-run.
+    if isinstance(f, type):
+        raise InvalidParameter(
+            f"{name} must be a function (or None), got the class {f.__name__}; pass a function"
+        )
 
 
 def _n_steps(duration: float, dt: float) -> int:
@@ -273,6 +296,7 @@ def simulate(
         raise InvalidParameter(
             f"command must be a callable (t, p) -> v_cmd, got {type(command).__name__}"
         )
+    _optional_callable("command", command)
     _optional_callable("disturbance", disturbance)
     _optional_callable("saturate", saturate)
     _optional_callable("on_progress", on_progress)
@@ -316,7 +340,17 @@ def simulate(
         vc = _finite_vec("command(t, p)", raw, cdim, k, t)
         if vc_rec is None:
             vc_rec = np.empty((n, vc.shape[0]))
-        res = shaper.explain(pm, vc)
+        if k == 0:
+            try:
+                res = shaper.explain(pm, vc)
+            except VelfenceError as exc:
+                # The first call is where a p0 or command of the wrong dimension shows up.
+                raise type(exc)(
+                    f"p0 (shape {p0a.shape}) or command(t, p) (shape {vc.shape}) does not fit "
+                    f"the shaper: {exc}"
+                ) from None
+        else:
+            res = shaper.explain(pm, vc)
         v = _finite_vec("shaper output", res.output, dim, k, t)
         if saturate is not None:
             v = _finite_vec("saturate(p, v)", saturate(p, v), dim, k, t)
@@ -392,11 +426,17 @@ def simulate_many(
     """
     if not isinstance(shapers, Mapping) or len(shapers) == 0:
         raise InvalidParameter(
-            f"shapers must be a non-empty mapping name -> shaper, got {shapers!r}"
+            "shapers must be a non-empty mapping name -> shaper, got "
+            f"{'an empty ' if isinstance(shapers, Mapping) else ''}{type(shapers).__name__}"
         )
-    for key in shapers:
+    for key, value in shapers.items():
         if not isinstance(key, str):
-            raise InvalidParameter(f"shaper names must be str, got {key!r}")
+            raise InvalidParameter(f"shapers: names must be str, got {type(key).__name__}")
+        if not isinstance(value, Shaper):
+            raise InvalidParameter(
+                f"shapers['{str.__str__(key)}'] must implement shape, explain and shape_batch, "
+                f"got {type(value).__name__}"
+            )
     _optional_callable("on_step", on_step)
 
     def progress(name: str) -> Callable[[float], None] | None:
