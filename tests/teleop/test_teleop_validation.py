@@ -312,7 +312,10 @@ class _HugeLen:
             r"max_strokes: expected an int <= 10,000",
         ),
         (lambda op: op.orient(lambda o: np.eye(3), 0.05, error=float), r"error: expected a func"),
-        (lambda op: op.aim(_RaisingArray(), 0.01), r"target: expected .*ZeroDivisionError"),
+        (
+            lambda op: op.aim(_RaisingArray(), 0.01),
+            r"target: expected a point \[m\] of shape \(3,\), got <",
+        ),
         (lambda op: op.vertical(float("nan")), r"tol must be finite"),
         (lambda op: op.press("q"), r"keys: expected keys among"),
         (lambda op: op.record("A", 3), r"keys: expected keys among .* got int"),
