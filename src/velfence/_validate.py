@@ -137,6 +137,14 @@ def real_array(
     want = "" if shape is None else f" of shape {_shape_text(shape)}"
     if isinstance(x, _NOT_NUMBERS) or x is None or isinstance(x, (bool, np.bool_)):
         raise err(f"{name}: expected {what}{want}, got {_type_text(x)}")
+    if not isinstance(x, (np.ndarray, list, tuple, range, numbers.Real, np.generic)) and not (
+        hasattr(x, "__array__") or hasattr(x, "__array_interface__")
+    ):
+        # Other containers (custom sequences, deques, iterators) are refused rather than read
+        # item by item: their length may lie and NumPy would trust it.
+        raise err(
+            f"{name}: expected {what}{want} as a number, list, tuple or array, got {_type_text(x)}"
+        )
     if not isinstance(x, np.ndarray) and hasattr(x, "__len__"):
         # A sequence claiming billions of entries would make NumPy try the allocation first.
         try:

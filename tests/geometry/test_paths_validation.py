@@ -98,7 +98,9 @@ def test_batch_queries_refuse_empty_lying_and_oversized_batches(method: str):
     line = Line([0.0, 0.0], [1.0, 0.0])
     with pytest.raises(InvalidInput, match=r"S: expected at least one arc length"):
         getattr(line, method)([])
-    with pytest.raises(InvalidInput, match=r"S: its len\(\) says 3 but it yields 1"):
+    with pytest.raises(
+        InvalidInput, match=r"S: expected arc lengths .* as a number, list, tuple or array"
+    ):
         getattr(line, method)(_LyingLen())
     spline = Spline([[0.0, 0.0], [1.0, 0.2], [2.0, 0.0]])
     with pytest.raises(InvalidInput, match=r"S: expected at most 100000 arc lengths"):

@@ -55,8 +55,15 @@ class _HostileArray:
 
 
 def test_real_array_refuses_lying_sequences_by_name() -> None:
-    with pytest.raises(InvalidInput, match=r"position: expected .* at most 10000000 entries"):
+    with pytest.raises(InvalidInput, match=r"position: expected .* list, tuple or array"):
         real_array("position", _HugeLen(), (2,))
+
+    class HugeList(list):  # type: ignore[type-arg]
+        def __len__(self) -> int:
+            return 10**12
+
+    with pytest.raises(InvalidInput, match=r"position: expected .* at most 10000000 entries"):
+        real_array("position", HugeList([1.0, 2.0]), (2,))
     with pytest.raises(InvalidInput, match="command: expected"):
         real_array("command", _HostileArray(), (2,))
 

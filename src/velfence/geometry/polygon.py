@@ -563,7 +563,9 @@ def _validated_corners(corners: ArrayLike) -> FloatArray:
         raise InvalidGeometry(f"a polygon needs at least 3 corners, got {n}")
     bad = np.flatnonzero(~np.all(np.isfinite(c), axis=1))
     if bad.size:
-        raise InvalidGeometry(f"corner(s) {bad.tolist()} are not finite: {c[bad].tolist()}")
+        raise InvalidGeometry(
+            f"corners: corner(s) {bad.tolist()} are not finite: {c[bad].tolist()}"
+        )
     scale = float(np.max(np.abs(c - c.mean(axis=0)))) or 1.0
     tol_len = 1e-12 * scale
     pair = _first_duplicate(c, tol_len)

@@ -205,11 +205,15 @@ class ThreeZoneBraking:
             joint_accel_max: :math:`\ddot\theta_{max}` [rad/s²].
         """
         r2 = math.sqrt(2.0)
-        return cls(
-            gain=gain,
-            v_max=r2 * check_positive("joint_speed_max", joint_speed_max, unit="rad/s"),
-            a_max=r2 * check_positive("joint_accel_max", joint_accel_max, unit="rad/s²"),
-        )
+        speed = check_positive("joint_speed_max", joint_speed_max, unit="rad/s")
+        accel = check_positive("joint_accel_max", joint_accel_max, unit="rad/s²")
+        try:
+            return cls(gain=gain, v_max=r2 * speed, a_max=r2 * accel)
+        except InvalidParameter as exc:  # name the arguments the caller passed
+            raise InvalidParameter(
+                f"joint_speed_max={speed:g} rad/s, joint_accel_max={accel:g} rad/s² "
+                f"(v_max = √2·joint_speed_max, a_max = √2·joint_accel_max): {exc}"
+            ) from None
 
     def check_period(self, dt: float) -> None:
         """Raise if the zone-1 discrete loop ``δ[k+1] = (1 − K·dt) δ[k]`` would not converge.

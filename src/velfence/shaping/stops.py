@@ -53,6 +53,7 @@ from velfence._validate import (
     check_flag,
     check_positive,
     check_positive_int,
+    describe,
     real_array,
 )
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
@@ -146,7 +147,7 @@ def _index_pair(value: Any, n: int) -> tuple[int, int]:
     if not isinstance(items, (tuple, list)) or len(items) != 2:
         raise InvalidParameter(
             f"limited: expected two distinct coordinate indices (i, j) < {n}, e.g. (0, 1), got "
-            f"{type(value).__name__} {value!r:.80}"
+            f"{describe(value)}"
         )
     i = check_positive_int("limited", items[0], minimum=0, maximum=n - 1, example=0)
     j = check_positive_int("limited", items[1], minimum=0, maximum=n - 1, example=1)
@@ -294,7 +295,9 @@ class StopLimiter(InvalidPolicy):
         self.method = check_choice("method", method, ("nearest", "exact"))
         for name, stage in (("pre", pre), ("post", post)):
             if stage is not None and (not isinstance(stage, RateLimiter) or stage.size != n):
-                raise InvalidParameter(f"{name} must be a RateLimiter of size {n}, got {stage!r}")
+                raise InvalidParameter(
+                    f"{name} must be a RateLimiter of size {n}, got {describe(stage)}"
+                )
         self.pre = pre
         self.post = post
         self.dt = None if dt is None else check_positive("dt", dt, unit="s")
