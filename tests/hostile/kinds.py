@@ -42,6 +42,7 @@ PTYPES = (
     "object",
     "callable",
     "path",
+    "rows",
 )
 NUMERIC = ("vector", "scalar", "positive", "nonneg", "count", "seed")
 ALL = PTYPES
@@ -593,4 +594,10 @@ def expectation(kind: Kind, ptype: str) -> str | None:
         if kind.name in ("int_zero", "neg_zero"):
             return "E"
         return kind.expect.get("nonneg", kind.expect.get("positive"))
+    if ptype == "rows":
+        # One vector or a batch of them (shape (d,) or (N, d)): a batch of one row and an
+        # empty batch are valid batches.
+        if kind.name in ("added_axis", "empty_rows"):
+            return "E"
+        return kind.expect.get("vector")
     return kind.expect.get(ptype)

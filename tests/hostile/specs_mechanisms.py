@@ -9,7 +9,7 @@ from harness import C, F, call
 from velfence.mechanisms import PAPER_STOPS, CoSPM, CoSPMDesign
 
 _THETA, _CHI = (np.asarray(a, dtype=float) for a in CoSPM().home())
-_TC = lambda: call(_THETA, _CHI)  # noqa: E731 (a table of factories)
+_TC = F(lambda: call(_THETA, _CHI), types={"theta": "rows", "chi": "rows"})
 _Q2 = np.array([0.1, 0.2])
 _QD2 = np.array([0.3, -0.1])
 
@@ -72,40 +72,43 @@ SPECS: dict[str, F | C] = {
     ),
     "mechanisms.CoSPM": C(
         lambda: call(),
-        {
+        {  # chi, theta: one vector or a batch of rows, documented (3,) or (N, 3)
             "A": _TC,
             "B": _TC,
-            "E": lambda: call(_CHI),
+            "E": F(lambda: call(_CHI), types={"chi": "rows"}),
             "axes": _TC,
-            "bearing_shift": F(lambda: call(_THETA, _CHI, 0.01), types={"eps": "scalar"}),
-            "forward_kinematics": lambda: call(_THETA),
+            "bearing_shift": F(
+                lambda: call(_THETA, _CHI, 0.01),
+                types={"eps": "scalar", "theta": "rows", "chi": "rows"},
+            ),
+            "forward_kinematics": F(lambda: call(_THETA), types={"theta": "rows"}),
             "geometric_model": _TC,
             "home": lambda: call(),
-            "inverse_kinematics": lambda: call(_CHI),
+            "inverse_kinematics": F(lambda: call(_CHI), types={"chi": "rows"}),
             "jacobian": _TC,
-            "representation": lambda: call(_CHI),
+            "representation": F(lambda: call(_CHI), types={"chi": "rows"}),
             "type1": _TC,
             "type2": _TC,
         },
     ),
     "mechanisms.Wrist": C(
         lambda: call(),
-        {
-            "actuator_lengths": lambda: call(_Q2),
+        {  # q, lengths: one vector or a batch of rows, documented (2,) or (N, 2)
+            "actuator_lengths": F(lambda: call(_Q2), types={"q": "rows"}),
             "actuator_velocity": lambda: call(_Q2, _QD2),
             "default_polygon": lambda: call(),
             "default_polygon_edges": lambda: call(),
-            "feasible": lambda: call(_Q2),
+            "feasible": F(lambda: call(_Q2), types={"q": "rows"}),
             "feasible_grid": lambda: call([0.0, 0.1], [0.0, 0.1, 0.2]),
-            "forward_kinematics": lambda: call([0.129, 0.129]),
-            "jacobian": lambda: call(_Q2),
+            "forward_kinematics": F(lambda: call([0.129, 0.129]), types={"lengths": "rows"}),
+            "jacobian": F(lambda: call(_Q2), types={"q": "rows"}),
             "joint_velocity": lambda: call(_Q2, [0.01, -0.01]),
-            "limit_values": lambda: call(_Q2),
-            "manipulability": lambda: call(_Q2),
+            "limit_values": F(lambda: call(_Q2), types={"q": "rows"}),
+            "manipulability": F(lambda: call(_Q2), types={"q": "rows"}),
             "saturate": lambda: call(_Q2, _QD2),
             "saturation_factor": lambda: call(_Q2, _QD2),
-            "singularity_measure": lambda: call(_Q2),
-            "wire_bend": lambda: call(_Q2),
+            "singularity_measure": F(lambda: call(_Q2), types={"q": "rows"}),
+            "wire_bend": F(lambda: call(_Q2), types={"q": "rows"}),
         },
     ),
     "mechanisms.WristGeometry": C(lambda: call(), {}),
