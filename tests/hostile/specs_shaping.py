@@ -87,7 +87,11 @@ SPECS: dict[str, F | C] = {
         lambda: call([0.0, 0.0, 0.0], [1.0, 0.0, 0.0]),
         {**_LINE_METHODS, "force": lambda: call(_P3)},
     ),
-    "shaping.LineScaling": C(lambda: call([0.0, 0.0, 0.0], [1.0, 0.0, 0.0]), _LINE_METHODS),
+    "shaping.LineScaling": C(
+        # across = 0 is documented (motion across the line suppressed): >= 0, not > 0
+        F(lambda: call([0.0, 0.0, 0.0], [1.0, 0.0, 0.0]), types={"across": "nonneg"}),
+        _LINE_METHODS,
+    ),
     "shaping.ShapingResult": C(
         record="output record built by every shaper's explain()",
         instance=lambda: vf.PolygonShaper(square(), buffer=0.2).explain(P2, V2),

@@ -359,7 +359,10 @@ class ConvexPolygon:
     def scaled(self, factor: float) -> ConvexPolygon:
         """A copy scaled about the centroid (``factor`` > 0)."""
         factor = check_positive("factor", factor, error=InvalidGeometry)
-        return ConvexPolygon(self.centroid + factor * (self.corners - self.centroid))
+        try:
+            return ConvexPolygon(self.centroid + factor * (self.corners - self.centroid))
+        except InvalidGeometry as exc:  # e.g. a factor so small the corners coincide
+            raise InvalidGeometry(f"factor={factor:g} gives an unusable polygon: {exc}") from None
 
     def closest_point(self, p: ArrayLike) -> FloatArray:
         """The point of the closed polygon nearest to ``p`` (``p`` itself when inside).

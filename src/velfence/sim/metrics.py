@@ -270,14 +270,15 @@ def max_output_jump(
     ratios = [float(hi[a] - lo[a] + 2.0 * m) / spacing for a in (0, 1)]
     if not (ratios[0] + 1.0) * (ratios[1] + 1.0) <= MAX_GRID_POINTS:
         raise InvalidParameter(
-            f"spacing {spacing:g} gives a {ratios[0] + 1.0:.3g} x {ratios[1] + 1.0:.3g} grid, "
-            f"more than {MAX_GRID_POINTS} points; increase spacing"
+            f"spacing {spacing:g} with margin {m:g} gives a {ratios[0] + 1.0:.3g} x "
+            f"{ratios[1] + 1.0:.3g} grid, more than {MAX_GRID_POINTS} points; increase spacing "
+            "or reduce margin"
         )
     counts = [math.ceil(r) + 1 for r in ratios]
     if counts[0] * counts[1] > MAX_GRID_POINTS:
         raise InvalidParameter(
-            f"spacing {spacing} gives a {counts[0]} x {counts[1]} grid, more than "
-            f"{MAX_GRID_POINTS} points; increase spacing"
+            f"spacing {spacing} with margin {m:g} gives a {counts[0]} x {counts[1]} grid, more "
+            f"than {MAX_GRID_POINTS} points; increase spacing or reduce margin"
         )
     xs = lo[0] - m + spacing * np.arange(counts[0])
     ys = lo[1] - m + spacing * np.arange(counts[1])
