@@ -114,17 +114,6 @@ def _arcs(S: ArrayLike, maximum: int) -> FloatArray:
     a = real_array("S", S, what="arc lengths [m] of shape (N,)", allow_nonfinite=True)
     if a.ndim > 1:
         raise InvalidInput(f"S: expected shape (N,), got shape {a.shape}")
-    # A sequence whose len() disagrees with what it yields is refused, not half-read.
-    if a.ndim == 1 and not isinstance(S, np.ndarray) and hasattr(S, "__len__"):
-        try:
-            claimed = len(S)  # type: ignore[arg-type]
-        except Exception:  # a broken __len__: the array has already been read
-            claimed = a.shape[0]
-        if claimed != a.shape[0]:
-            raise InvalidInput(
-                f"S: its len() says {claimed} but it yields {a.shape[0]} arc lengths; "
-                "pass a list or an array"
-            )
     a = a.reshape(-1)
     if a.size == 0:
         raise InvalidInput("S: expected at least one arc length [m], got none")
