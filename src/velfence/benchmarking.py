@@ -370,7 +370,7 @@ class BatchRow:
 
 @dataclass(frozen=True)
 class TargetCheck:
-    """One target from the issue, measured (reported, never asserted).
+    """One timing target of the benchmark suite, measured (reported, never asserted).
 
     Attributes:
         name: What is checked.

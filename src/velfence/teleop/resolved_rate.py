@@ -20,8 +20,9 @@ for :math:`k > 0` every singular value of :math:`J^{*}` is
 singularity (at the price of a Cartesian error).
 
 This module also holds the project's one implementation of rotation matrix ↔ equivalent
-angle-axis (Craig §2.8; the thesis's via-point subroutine, §6.2.1, corrected as in the reading
-notes §7 items 15-18) and the pose-error twist used by the self-correcting trajectory executor.
+angle-axis (Craig §2.8; the thesis's via-point subroutine, §6.2.1, with the corrections argued
+in ``docs/telerobotics.md``) and the pose-error twist used by the self-correcting trajectory
+executor.
 Derivations: ``docs/telerobotics.md``.
 """
 

