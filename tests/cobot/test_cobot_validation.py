@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from bad_inputs import HugeLen, RaisingArray
 from velfence.cobot import (
     Cobot,
     Coupling,
@@ -234,24 +235,7 @@ def test_tuning_parameters_are_keyword_only(make: Callable[[], object]) -> None:
         make()
 
 
-class _ClaimsHugeLength:
-    """A sequence that claims 10**12 entries (NumPy would try to allocate them)."""
-
-    def __len__(self) -> int:
-        return 10**12
-
-    def __getitem__(self, i: int) -> float:
-        if i < 3:
-            return 0.0
-        raise IndexError(i)
-
-
-class _RaisingArray:
-    def __array__(self, *args: Any, **kwargs: Any) -> Any:
-        raise ZeroDivisionError("boom")
-
-
-@pytest.mark.parametrize("bad", [_ClaimsHugeLength(), _RaisingArray(), range(2), iter([1.0, 2.0])])
+@pytest.mark.parametrize("bad", [HugeLen(), RaisingArray(), range(2), iter([1.0, 2.0])])
 def test_odd_sequences_are_refused_by_name(bad: Any) -> None:
     with pytest.raises(InvalidInput, match=r"^phi: expected"):
         r_theta_cobot().directions(bad)

@@ -1,26 +1,17 @@
 """Bad inputs to the paths raise library errors that name the public argument."""
 
-import datetime
 import inspect
 import math
 
 import numpy as np
 import pytest
 
+from bad_inputs import BAD_VECTORS, LyingLen
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 from velfence.geometry.paths import Circle, Line, Polyline, Spline
 
 BAD = {
-    "str": "12",
-    "bytes": b"12",
-    "dict": {"x": 1.0},
-    "None": None,
-    "bool": True,
-    "complex": np.array([1j, 2j]),
-    "object": np.array([object(), object()], dtype=object),
-    "datetime": datetime.datetime(2020, 1, 1),
-    "ragged": [[1.0, 2.0], [3.0]],
-    "huge-int": [10**400, 0],
+    **BAD_VECTORS,
     "nan": [math.nan, 0.0],
     "big": [1e308, 0.0],
 }
@@ -83,16 +74,6 @@ def test_queries_name_their_argument(name: str, kind: str):
             path.closest([0.0, 0.0], s0=scalar, window=0.5)
 
 
-class _LyingLen:
-    def __len__(self) -> int:
-        return 3
-
-    def __getitem__(self, i: int) -> float:
-        if i == 0:
-            return 1.0
-        raise IndexError(i)
-
-
 @pytest.mark.parametrize("method", ["points", "tangents", "curvatures"])
 def test_batch_queries_refuse_empty_lying_and_oversized_batches(method: str):
     line = Line([0.0, 0.0], [1.0, 0.0])
@@ -101,7 +82,7 @@ def test_batch_queries_refuse_empty_lying_and_oversized_batches(method: str):
     with pytest.raises(
         InvalidInput, match=r"S: expected arc lengths .* as a number, list, tuple or array"
     ):
-        getattr(line, method)(_LyingLen())
+        getattr(line, method)(LyingLen())
     spline = Spline([[0.0, 0.0], [1.0, 0.2], [2.0, 0.0]])
     with pytest.raises(InvalidInput, match=r"S: expected at most 100000 arc lengths"):
         getattr(spline, method)(np.zeros(Spline.MAX_BATCH + 1))

@@ -1,27 +1,18 @@
 """Bad inputs to the redundancy controllers raise library errors that name the argument."""
 
-import datetime
 import inspect
 import math
 
 import numpy as np
 import pytest
 
+from bad_inputs import BAD_VECTORS
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.mechanisms import PlanarArm
 from velfence.redundancy import ConfigurationController, ControlResult, Obstacle
 
 BAD = {
-    "str": "12",
-    "bytes": b"12",
-    "dict": {"x": 1.0},
-    "None": None,
-    "bool": True,
-    "complex": np.array([1j, 2j]),
-    "object": np.array([object(), object()], dtype=object),
-    "datetime": datetime.datetime(2020, 1, 1),
-    "ragged": [[1.0, 2.0], [3.0]],
-    "huge-int": [10**400, 0],
+    **BAD_VECTORS,
     "wrong-shape": np.zeros((2, 2, 2)),
 }
 

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 import velfence as vf
+from bad_inputs import HugeLen, RaisingArray
 from velfence._validate import real_array
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.geometry import ConvexPolygon, points_segments_distances
@@ -41,22 +42,9 @@ def test_no_limit_explain_reports_finite_distances() -> None:
     assert r.d1 >= 1e150
 
 
-class _HugeLen:
-    def __len__(self) -> int:
-        return 10**12
-
-    def __getitem__(self, i: int) -> float:
-        raise IndexError(i)
-
-
-class _HostileArray:
-    def __array__(self, *args: object, **kwargs: object) -> object:
-        raise ZeroDivisionError("hostile")
-
-
 def test_real_array_refuses_lying_sequences_by_name() -> None:
     with pytest.raises(InvalidInput, match=r"position: expected .* list, tuple or array"):
-        real_array("position", _HugeLen(), (2,))
+        real_array("position", HugeLen(), (2,))
 
     class HugeList(list):  # type: ignore[type-arg]
         def __len__(self) -> int:
@@ -65,7 +53,7 @@ def test_real_array_refuses_lying_sequences_by_name() -> None:
     with pytest.raises(InvalidInput, match=r"position: expected .* at most 10000000 entries"):
         real_array("position", HugeList([1.0, 2.0]), (2,))
     with pytest.raises(InvalidInput, match="command: expected"):
-        real_array("command", _HostileArray(), (2,))
+        real_array("command", RaisingArray(), (2,))
 
 
 def test_long_double_beyond_float64_is_too_large_not_inf() -> None:

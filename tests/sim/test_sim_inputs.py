@@ -8,21 +8,13 @@ import numpy as np
 import pytest
 
 import velfence as vf
+from bad_inputs import BAD_VECTORS as COMMON_BAD_VECTORS
 from velfence.errors import InvalidInput, InvalidParameter, VelfenceError
 from velfence.sim import Disturbance, NoLimit, Trajectory, metrics, push, scenarios, simulate
 
 SQUARE = vf.ConvexPolygon([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
 BAD_VECTORS = {
-    "str": "12",
-    "bytes": b"12",
-    "dict": {"x": 1.0},
-    "None": None,
-    "bool": True,
-    "complex": np.array([1j, 2j]),
-    "object": np.array([object(), object()], dtype=object),
-    "datetime": datetime.datetime(2020, 1, 1),
-    "ragged": [[1.0, 2.0], [3.0]],
-    "huge-int": [10**400, 0],
+    **COMMON_BAD_VECTORS,
     "nan": [math.nan, 0.0],
     "inf": [math.inf, 0.0],
 }

@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from bad_inputs import HugeLen, RaisingArray
 from velfence.errors import InvalidInput, InvalidParameter, VelfenceError
 from velfence.teleop import (
     Cylinder,
@@ -274,21 +275,6 @@ def test_tuning_parameters_are_keyword_only(make: Callable[[], object]) -> None:
 # --- wave 2: behaviours validate when called; misbehaving array-likes; seeds and counts ---------
 
 
-class _RaisingArray:
-    def __array__(self, *args: Any, **kwargs: Any) -> Any:
-        raise ZeroDivisionError("hostile __array__")
-
-
-class _HugeLen:
-    def __len__(self) -> int:
-        return 10**12
-
-    def __getitem__(self, i: int) -> float:
-        if i < 3:
-            return 0.0
-        raise IndexError(i)
-
-
 @pytest.mark.parametrize(
     ("call", "message"),
     [
@@ -313,7 +299,7 @@ class _HugeLen:
         ),
         (lambda op: op.orient(lambda o: np.eye(3), 0.05, error=float), r"error: expected a func"),
         (
-            lambda op: op.aim(_RaisingArray(), 0.01),
+            lambda op: op.aim(RaisingArray(), 0.01),
             r"target: expected a point \[m\] of shape \(3,\), got <",
         ),
         (lambda op: op.vertical(float("nan")), r"tol must be finite"),
@@ -358,7 +344,7 @@ def test_operator_plans_run_after_eager_validation() -> None:
     assert op.finished
 
 
-@pytest.mark.parametrize("bad", [_RaisingArray(), _HugeLen(), np.array([np.longdouble("1e4000")])])
+@pytest.mark.parametrize("bad", [RaisingArray(), HugeLen(), np.array([np.longdouble("1e4000")])])
 def test_misbehaving_array_likes_are_refused_by_name(bad: Any) -> None:
     with _no_warning(), pytest.raises(InvalidInput, match=r"^p: expected"):
         Scene({"floor": Cylinder((0, 0, 0), radius=0.1, height=0.1)}).nearest(bad)
