@@ -40,8 +40,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
+from velfence._typing import FloatArray
 from velfence._validate import check_flag, check_positive, check_positive_int, real_array
 from velfence.errors import InvalidGeometry, InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon
@@ -65,7 +65,6 @@ __all__ = [
     "write_report",
 ]
 
-FloatArray = NDArray[np.float64]
 Progress = Callable[[str, float], None]
 
 #: Zones timed per polygon, in the order of ``velfence.shaping.ZONE_NAMES``.

@@ -28,14 +28,13 @@ from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
 import numpy as np
-from numpy.typing import NDArray
 
+from velfence._typing import FloatArray
 from velfence._validate import finite_scalar, real_array
 from velfence.errors import InvalidInput, InvalidParameter
 
 __all__ = ["CVT", "SteeredWheel", "TetrahedralCVT"]
 
-FloatArray = NDArray[np.float64]
 _SQRT2 = math.sqrt(2.0)
 
 

@@ -35,8 +35,9 @@ import numbers
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from velfence._typing import FloatArray
 from velfence._validate import (
     MAX_MAGNITUDE,
     check_choice,
@@ -48,8 +49,6 @@ from velfence.errors import InvalidInput, InvalidParameter
 from velfence.geometry.paths import Path
 
 __all__ = ["FollowerOutput", "PathFollower", "critically_damped", "gains_from_poles"]
-
-FloatArray = NDArray[np.float64]
 
 
 def gains_from_poles(p1: complex, p2: complex) -> tuple[float, float]:

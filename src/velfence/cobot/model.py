@@ -28,8 +28,9 @@ from dataclasses import KW_ONLY, dataclass, field
 from typing import Protocol, runtime_checkable
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from velfence._typing import FloatArray
 from velfence._validate import (
     MAX_MAGNITUDE,
     check_choice,
@@ -61,7 +62,6 @@ __all__ = [
     "unicycle",
 ]
 
-FloatArray = NDArray[np.float64]
 
 #: |Λ| below this times the product of the Ω row norms means the CVTs do not fix a direction.
 LAMBDA_TOL = 1e-9

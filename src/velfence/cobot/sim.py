@@ -31,6 +31,7 @@ from typing import Any, Protocol
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from velfence._typing import FloatArray
 from velfence._validate import (
     check_choice,
     check_positive,
@@ -52,7 +53,6 @@ __all__ = [
     "simulate_cobot",
 ]
 
-FloatArray = NDArray[np.float64]
 
 #: The human: ``(t, R, T) -> u``, the signed speed [m/s] along the allowed direction T.
 SpeedFn = Callable[[float, FloatArray, FloatArray], float]

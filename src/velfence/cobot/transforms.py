@@ -25,8 +25,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from velfence._typing import FloatArray
 from velfence._validate import real_array
 from velfence.errors import InvalidInput
 
@@ -40,7 +41,6 @@ __all__ = [
     "normalised_derivative",
 ]
 
-FloatArray = NDArray[np.float64]
 
 #: A mapped tangent shorter than this (relative to ``|A|``) means the map is singular along T.
 SINGULAR_TOL = 1e-12

@@ -36,17 +36,17 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from velfence._typing import FloatArray, IntArray
 from velfence._validate import as_pair, check_positive
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon, as_polygon
-from velfence.shaping.base import IntArray, KernelOut, ShaperBase
+from velfence.shaping.base import KernelOut, ShaperBase
 from velfence.shaping.polygon import PolygonShaper
 
 __all__ = ["CasterWall", "WallSteering", "WallSteeringOutput"]
 
-FloatArray = NDArray[np.float64]
 
 #: Angular slack [rad] when testing the bound arcs (round-off at arc end points).
 _FEAS_TOL = 1e-12

@@ -33,12 +33,12 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from velfence._typing import FloatArray
 from velfence._validate import check_positive, finite_scalar, readonly, real_array
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 
 __all__ = ["Circle", "Line", "Path", "Polyline", "Spline"]
 
-FloatArray = NDArray[np.float64]
 
 #: Candidates whose distances differ by less than ``TIE_RTOL * (1 + length + distance)`` are ties;
 #: ties go to the candidate nearest ``s0`` along the path (or, without ``s0``, the smallest ``s``).

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from velfence._typing import FloatArray
 from velfence._validate import (
     MAX_MAGNITUDE,
     check_flag,
@@ -39,7 +40,6 @@ __all__ = [
     "polygon_from_halfplanes",
 ]
 
-FloatArray = NDArray[np.float64]
 
 _TWO_PI = 2.0 * math.pi
 

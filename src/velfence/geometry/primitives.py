@@ -22,8 +22,9 @@ import math
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from velfence._typing import FloatArray
 from velfence._validate import MAX_MAGNITUDE, check_positive, real_array
 from velfence.errors import InvalidInput
 
@@ -37,7 +38,6 @@ __all__ = [
     "sphere_capsule_distance",
 ]
 
-FloatArray = NDArray[np.float64]
 Vec3 = tuple[float, float, float]
 
 #: Segments whose directions make an angle with ``sin² <= PARALLEL_SIN2`` are treated as parallel

@@ -28,14 +28,14 @@ import math
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from velfence._typing import FloatArray
 from velfence._validate import check_positive, finite_rows, finite_scalar, readonly, real_array
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 
 __all__ = ["DHChain", "PlanarArm", "SerialChain"]
 
-FloatArray = NDArray[np.float64]
 _REAL = (int, float, np.integer, np.floating)
 
 

@@ -52,6 +52,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from velfence._typing import BoolArray, FloatArray
 from velfence._validate import (
     check_flag,
     check_positive,
@@ -79,9 +80,6 @@ __all__ = [
     "workspace_map",
 ]
 
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
-BoolArray = NDArray[np.bool_]
 
 _HALF_PI = 0.5 * math.pi
 #: Largest accepted ``fk_max_iter`` (Newton converges in a handful of steps or not at all).

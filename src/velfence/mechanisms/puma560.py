@@ -45,8 +45,9 @@ import math
 from typing import Any, Literal
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from velfence._typing import FloatArray
 from velfence._validate import check_choice, check_flag, readonly, real_array, rigid_transform
 from velfence.errors import InvalidGeometry, InvalidInput
 from velfence.mechanisms.chain import DHChain
@@ -57,7 +58,6 @@ __all__ = [
     "Puma560",
 ]
 
-FloatArray = NDArray[np.float64]
 Shoulder = Literal["right", "left"]
 Elbow = Literal["up", "down"]
 WristLabel = Literal["noflip", "flip"]

@@ -33,8 +33,9 @@ import math
 from dataclasses import dataclass, fields
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from velfence._typing import BoolArray, FloatArray
 from velfence._validate import (
     check_positive,
     check_positive_int,
@@ -48,9 +49,7 @@ from velfence.geometry.polygon import ConvexPolygon, polygon_from_halfplanes
 
 __all__ = ["LIMIT_NAMES", "Wrist", "WristGeometry"]
 
-FloatArray = NDArray[np.float64]
 _REAL = (int, float, np.integer, np.floating)
-BoolArray = NDArray[np.bool_]
 
 #: Names of the physical limits, in the column order of :meth:`Wrist.limit_values`.
 LIMIT_NAMES: tuple[str, ...] = (

@@ -55,8 +55,9 @@ from dataclasses import KW_ONLY, dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from velfence._typing import FloatArray, IntArray
 from velfence._validate import check_choice, check_positive, readonly, real_array
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.shaping.base import InvalidPolicy
@@ -66,8 +67,6 @@ if TYPE_CHECKING:
 
 __all__ = ["ConfigurationController", "ControlResult", "Obstacle"]
 
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
 
 _RATE_EPS = 1e-12  # [m/s] rounding deadband: a tangential motion (ḋ = 0 up to rounding) stays free
 _CHAIN_ATTRS = (

@@ -28,12 +28,12 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from velfence._typing import FloatArray
 from velfence._validate import check_positive, real_array
 from velfence.errors import InvalidParameter
 from velfence.redundancy.configuration_control import (
     ChainObstacleBase,
     ControlResult,
-    FloatArray,
     Obstacle,
 )
 

@@ -17,8 +17,8 @@ import math
 from pathlib import Path
 
 import numpy as np
-from numpy.typing import NDArray
 
+from velfence._typing import FloatArray
 from velfence.mechanisms.chain import DHChain
 from velfence.mechanisms.puma560 import CONFIGURATIONS, Puma560
 from velfence.reproduce.base import Check, check_at_most
@@ -26,7 +26,6 @@ from velfence.teleop import thesis_data as data
 
 __all__ = ["FK_TOL_MM", "kinematics_checks", "recorded_fk_errors_mm"]
 
-FloatArray = NDArray[np.float64]
 SRC = "Khokar 2009"
 FK_TOL_MM = 1.5  # [mm] FK of the recorded destination vs the mean of its Table 4/5 set
 TABLE_PRINT_M = 1e-4  # Tables 6/7 are printed to 4 decimals [m]

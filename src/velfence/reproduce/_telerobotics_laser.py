@@ -29,8 +29,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from numpy.typing import NDArray
 
+from velfence._typing import FloatArray
 from velfence.errors import InvalidInput
 from velfence.reproduce.base import Check, check_at_most, check_close
 from velfence.teleop.laser import (
@@ -57,7 +57,6 @@ from velfence.teleop.thesis_data import (
 
 __all__ = ["SpreadRun", "laser_checks", "spread_run"]
 
-FloatArray = NDArray[np.float64]
 SRC = "Khokar 2009"
 N_READINGS = (
     1000  # "around a thousand distance outputs" per distance (§7.3), 1000 samples (§3.3.1.1)

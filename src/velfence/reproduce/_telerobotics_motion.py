@@ -38,8 +38,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
+from velfence._typing import FloatArray
 from velfence.mechanisms.puma560 import Puma560
 from velfence.reproduce.base import Check, check_at_least, check_at_most, check_close
 from velfence.teleop import thesis_data as data
@@ -59,7 +59,6 @@ __all__ = [
     "singularity_time",
 ]
 
-FloatArray = NDArray[np.float64]
 SRC = "Khokar 2009"
 
 SPEED = 0.4

@@ -25,8 +25,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from numpy.typing import NDArray
 
+from velfence._typing import FloatArray
 from velfence.cobot import (
     CasterWall,
     CobotTrace,
@@ -57,7 +57,6 @@ __all__ = [
     "wall_runs",
 ]
 
-FloatArray = NDArray[np.float64]
 
 SRC = "Gillespie, Colgate & Peshkin 1999"
 NOTES = "notes 004 §3.3 acceptance test"

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from velfence._typing import FloatArray
 from velfence.mechanisms.cospm import PAPER_STOPS, Q_AUX, CoSPM, validate_region
 from velfence.reproduce.base import Check, Report, check_at_least, check_at_most, check_close
 from velfence.shaping.profiles import ThreeZoneBraking
@@ -37,7 +38,6 @@ __all__ = [
     "run_vertex",
 ]
 
-FloatArray = NDArray[np.float64]
 SRC = "Lê et al. 2024"
 K_GAIN = 100.0  # [1/s]
 SPEED_MAX = 2.0  # θ̇_max [rad/s]

@@ -50,6 +50,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from velfence._typing import FloatArray
 from velfence.mechanisms.chain import DHChain, PlanarArm, SerialChain
 from velfence.redundancy.configuration_control import (
     ConfigurationController,
@@ -61,7 +62,6 @@ from velfence.sim.runner import simulate
 
 __all__ = ["ScenarioRun", "run", "run_scenario", "scenarios"]
 
-FloatArray = NDArray[np.float64]
 SRC = "US 5,150,026 claim 1"
 ISSUE = "issue 4"
 DT = 1e-3  # [s] control period (1 kHz)

@@ -13,8 +13,8 @@ import math
 from pathlib import Path
 
 import numpy as np
-from numpy.typing import NDArray
 
+from velfence._typing import FloatArray
 from velfence.geometry.polygon import ConvexPolygon
 from velfence.mechanisms.wrist import Wrist, WristGeometry
 from velfence.reproduce.base import Check, Report, check_at_least, check_at_most, check_close
@@ -26,7 +26,6 @@ from velfence.sim.scenarios import constant
 
 __all__ = ["run"]
 
-FloatArray = NDArray[np.float64]
 
 BUFFER = 0.08  # [rad], the demo's buffer
 GAIN = 8.0  # [1/s], the demo's spring gain

@@ -18,8 +18,9 @@ from dataclasses import dataclass
 from typing import Any, Literal, Protocol, runtime_checkable
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from velfence._typing import BoolArray, FloatArray, IntArray
 from velfence._validate import as_pair, as_rows, check_choice
 from velfence.errors import InvalidInput
 
@@ -33,9 +34,6 @@ __all__ = [
     "ShapingResult",
 ]
 
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
-BoolArray = NDArray[np.bool_]
 OnInvalid = Literal["raise", "stop"]
 
 #: What a shaper's scalar law returns: ``(ox, oy, zone, primary, secondary, d1, d2, sx, sy,

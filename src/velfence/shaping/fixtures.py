@@ -58,8 +58,9 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from velfence._typing import FloatArray
 from velfence._validate import as_rows, check_positive, finite_array, real_array
 from velfence.errors import InvalidGeometry, InvalidInput
 from velfence.geometry.polygon import split_along
@@ -76,7 +77,6 @@ __all__ = [
     "ScalingResult",
 ]
 
-FloatArray = NDArray[np.float64]
 
 OMNI_MAX_FORCE = 3.3
 """Phantom Omni peak force [N] (Khokar 2009 App. A; notes §2.16)."""

@@ -27,12 +27,13 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from velfence._typing import FloatArray, IntArray
 from velfence._validate import check_choice, check_flag, check_positive, real_array
 from velfence.errors import InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon, as_polygon
 from velfence.shaping import _kernels as kern
 from velfence.shaping._accel import compiled_batch
-from velfence.shaping.base import FloatArray, IntArray, ShaperBase
+from velfence.shaping.base import ShaperBase
 from velfence.shaping.profiles import ApproachProfile, min_change_under_caps
 
 __all__ = ["PolygonShaper"]

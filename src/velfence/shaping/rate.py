@@ -26,14 +26,14 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from velfence._typing import FloatArray
 from velfence._validate import check_choice, check_positive, check_positive_int, real_array
 from velfence.errors import InvalidParameter
 
 __all__ = ["RateLimiter"]
 
-FloatArray = NDArray[np.float64]
 
 #: Largest accepted number of components (a joint vector, not a data set).
 MAX_SIZE = 100_000

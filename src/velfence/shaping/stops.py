@@ -44,8 +44,9 @@ from dataclasses import dataclass, field
 from typing import Any, Literal
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from velfence._typing import FloatArray
 from velfence._validate import (
     MAX_MAGNITUDE,
     as_rows,
@@ -64,7 +65,6 @@ from velfence.shaping.rate import RateLimiter
 
 __all__ = ["StopLimiter", "StopResult"]
 
-FloatArray = NDArray[np.float64]
 
 #: Largest accepted size of the joint vector (and of ``transform``).
 MAX_JOINTS = 10_000

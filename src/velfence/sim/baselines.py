@@ -17,8 +17,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numpy.typing import NDArray
 
+from velfence._typing import FloatArray, IntArray
 from velfence._validate import MAX_MAGNITUDE, check_positive
 from velfence.errors import InvalidGeometry, InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon, Rectangle, as_polygon
@@ -27,8 +27,6 @@ from velfence.shaping.base import ShaperBase
 
 __all__ = ["AxisLimits", "HardStop", "NoLimit"]
 
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
 
 _FREE = ZONE_NAMES.index("free")
 _BUFFER = ZONE_NAMES.index("buffer")

@@ -16,14 +16,13 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from velfence._typing import FloatArray
 from velfence._validate import check_positive, finite_scalar, real_array
 from velfence.errors import InvalidParameter
 
 __all__ = ["Disturbance", "push"]
-
-FloatArray = NDArray[np.float64]
 
 
 def _t1(t1: object, t0: float) -> float:

@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from velfence._typing import FloatArray
 from velfence._validate import check_positive, check_positive_int, real_array
 from velfence.errors import InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon, as_polygon, decompose
@@ -35,7 +36,6 @@ __all__ = [
     "time_outside",
 ]
 
-FloatArray = NDArray[np.float64]
 
 DEADBAND = 1e-9
 """Default deadband on normal and tangential speeds, workspace units per second."""

@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from velfence._typing import FloatArray
 from velfence._validate import (
     MAX_MAGNITUDE,
     check_choice,
@@ -39,7 +40,6 @@ from velfence.shaping.base import Shaper
 
 __all__ = ["CommandFn", "DisturbanceFn", "SaturateFn", "Trajectory", "simulate", "simulate_many"]
 
-FloatArray = NDArray[np.float64]
 
 CommandFn = Callable[[float, FloatArray], ArrayLike]
 """Scripted operator ``(t [s], p (d,)) -> v_cmd (c,)`` [units / s]; usually c = d, but a shaper

@@ -13,8 +13,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
 
+from velfence._typing import FloatArray
 from velfence._validate import check_positive, finite_scalar, real_array
 from velfence.errors import InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon, as_polygon
@@ -27,8 +27,6 @@ __all__ = [
     "default_script",
     "operator_from",
 ]
-
-FloatArray = NDArray[np.float64]
 
 
 def _pair(name: str, x: object, what: str) -> tuple[float, float]:

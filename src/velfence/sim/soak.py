@@ -29,13 +29,13 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from velfence._typing import FloatArray
 from velfence._validate import check_positive, check_positive_int
 from velfence.errors import InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon
 
 __all__ = ["SoakCase", "SoakResult", "render_markdown", "run_case"]
 
-FloatArray = NDArray[np.float64]
 Rng = np.random.Generator
 
 

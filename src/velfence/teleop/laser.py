@@ -48,8 +48,9 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from velfence._typing import FloatArray
 from velfence._validate import (
     MAX_MAGNITUDE,
     check_choice,
@@ -92,7 +93,6 @@ __all__ = [
     "plane_from_points",
 ]
 
-FloatArray = NDArray[np.float64]
 
 #: ADC step [V]: 12 bits over 0-5 V. Table 1's voltages are exact multiples of half of it.
 ADC_STEP_V = 5.0 / 4095.0

@@ -58,8 +58,9 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from velfence._typing import FloatArray
 from velfence._validate import (
     check_choice,
     check_positive,
@@ -87,7 +88,6 @@ __all__ = [
     "aligned_rotation",
 ]
 
-FloatArray = NDArray[np.float64]
 
 KEYS = ("A", "S", "F", "D", "G", "P", "T", "C")
 """The keys of the thesis's interface (§3.6, §6) plus ``C`` for the clutch (stylus button)."""

@@ -50,8 +50,8 @@ from types import MappingProxyType
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
+from velfence._typing import FloatArray
 from velfence._validate import (
     check_positive,
     check_positive_int,
@@ -76,7 +76,6 @@ __all__ = [
     "SyntheticOperator",
 ]
 
-FloatArray = NDArray[np.float64]
 
 OMNI_WORKSPACE = (0.160, 0.120, 0.070)
 #: Most operator ticks one waiting or moving behaviour may last (5.5 h at 50 Hz).

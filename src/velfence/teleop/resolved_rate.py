@@ -33,8 +33,9 @@ from dataclasses import dataclass
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from velfence._typing import FloatArray
 from velfence._validate import (
     check_choice,
     check_positive,
@@ -62,7 +63,6 @@ __all__ = [
     "sr_inverse",
 ]
 
-FloatArray = NDArray[np.float64]
 
 K0 = 0.025
 """Khokar 2009 §5.3-5.4: damping at the singular point, :math:`k_0` (units of :math:`J J^\\top`)."""

@@ -38,8 +38,9 @@ from dataclasses import dataclass, field
 from typing import Any, TypeAlias
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from velfence._typing import FloatArray
 from velfence._validate import check_positive, describe, finite_scalar, readonly, real_array
 from velfence.errors import InvalidGeometry, InvalidInput
 from velfence.geometry.primitives import orthonormal_complement
@@ -57,7 +58,6 @@ __all__ = [
     "scene_to_dicts",
 ]
 
-FloatArray = NDArray[np.float64]
 Vec3 = tuple[float, float, float]
 
 #: A ray direction must have ``| |d| - 1 | <= UNIT_TOL``; directions built from rotation-matrix

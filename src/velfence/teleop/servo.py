@@ -39,8 +39,9 @@ from collections.abc import Callable
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from velfence._typing import FloatArray
 from velfence._validate import (
     check_choice,
     check_positive,
@@ -54,7 +55,6 @@ from velfence.errors import InvalidInput, InvalidParameter
 
 __all__ = ["FirstOrderServo", "JointServo", "PDGravityServo"]
 
-FloatArray = NDArray[np.float64]
 GravityFn = Callable[[FloatArray], ArrayLike]
 """Gravity torque ``g(q) -> (n,)`` [N·m] at joint position ``q`` (n,) [rad]."""
 

@@ -60,8 +60,9 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from velfence._typing import FloatArray
 from velfence._validate import (
     MAX_MAGNITUDE,
     MAX_STEPS,
@@ -109,7 +110,6 @@ __all__ = [
     "ready_pose",
 ]
 
-FloatArray = NDArray[np.float64]
 
 GRIPPER_LENGTH = 0.23
 """Barrett Hand length beyond frame 6 along :math:`z_6` [m] (thesis §6.3)."""

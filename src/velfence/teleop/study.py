@@ -25,8 +25,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
+from velfence._typing import FloatArray
 from velfence._validate import check_positive, check_positive_int, step_count
 from velfence.errors import InvalidParameter
 from velfence.teleop.operator import OperatorProfile
@@ -44,7 +44,6 @@ __all__ = [
     "write_study",
 ]
 
-FloatArray = NDArray[np.float64]
 
 _COLORS = {"unassisted": "#d62728", "assisted": "#1f77b4"}
 _LABELS = {"unassisted": "Unassisted mode", "assisted": "Laser assisted mode"}

@@ -36,8 +36,8 @@ from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
+from velfence._typing import FloatArray
 from velfence._validate import check_choice, check_positive, check_positive_int, step_count
 from velfence.errors import InvalidParameter
 from velfence.teleop.modes import ModeEvent, ModeManager
@@ -58,7 +58,6 @@ __all__ = [
     "unassisted_plan",
 ]
 
-FloatArray = NDArray[np.float64]
 
 CONDITIONS = ("unassisted", "assisted")
 """The two conditions of §7.2."""

@@ -15,8 +15,8 @@ Arrays are read-only (``setflags(write=False)``); lengths follow each constant's
 from __future__ import annotations
 
 import numpy as np
-from numpy.typing import NDArray
 
+from velfence._typing import FloatArray
 from velfence._validate import readonly
 
 __all__ = [
@@ -45,8 +45,6 @@ __all__ = [
     "TRAJECTORY_INITIAL_Q_RAD",
     "TRAJECTORY_SET_OF_FINAL",
 ]
-
-FloatArray = NDArray[np.float64]
 
 
 def _ro(rows: object) -> FloatArray:

@@ -49,8 +49,9 @@ from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from velfence._typing import BoolArray, FloatArray
 from velfence._validate import (
     MAX_MAGNITUDE,
     MAX_STEPS,
@@ -82,8 +83,6 @@ __all__ = [
     "straight_line",
 ]
 
-FloatArray = NDArray[np.float64]
-BoolArray = NDArray[np.bool_]
 
 TIMINGS = ("linear", "max")
 #: Most via-point steps of one trajectory (83 min at 200 Hz; 2 km at the default spacing).

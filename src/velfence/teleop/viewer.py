@@ -78,8 +78,9 @@ from typing import Any, Protocol, cast
 from urllib.parse import urlsplit
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from velfence._typing import FloatArray
 from velfence._validate import (
     check_flag,
     check_positive_int,
@@ -114,7 +115,6 @@ __all__ = [
     "serve",
 ]
 
-FloatArray = NDArray[np.float64]
 
 _log = logging.getLogger(__name__)
 

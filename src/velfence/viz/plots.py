@@ -13,7 +13,6 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.animation import FuncAnimation, PillowWriter
 from matplotlib.figure import Figure
-from numpy.typing import NDArray
 
 from velfence._validate import (
     check_output_path,
@@ -37,7 +36,6 @@ __all__ = [
     "save_figure",
 ]
 
-FloatArray = NDArray[np.float64]
 
 #: Most panels (shapers) one figure draws; more would make an unreadable, huge image.
 MAX_PANELS = 24

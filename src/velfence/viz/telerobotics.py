@@ -48,6 +48,7 @@ import numpy as np
 from matplotlib.animation import FFMpegWriter, PillowWriter, writers
 from numpy.typing import ArrayLike, NDArray
 
+from velfence._typing import FloatArray
 from velfence._validate import finite_array
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.geometry.primitives import orthonormal_complement
@@ -66,7 +67,6 @@ __all__ = [
     "plot_snapshot",
 ]
 
-FloatArray = NDArray[np.float64]
 
 #: Default view box ``((x_lo, x_hi), (y_lo, y_hi), (z_lo, z_hi))`` [m]: 2 m cubed around the
 #: shoulder (reach 0.88 m) and the pick-and-place table (y from 0.3 to 1.0 m, z = -0.6 m).
