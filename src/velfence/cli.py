@@ -210,7 +210,8 @@ def study(
 
     from rich.progress import Progress
 
-    from velfence.teleop.study import record_animation, run_study, write_study
+    from velfence.teleop.study import run_study
+    from velfence.viz.study import record_animation, write_study
 
     with Progress(transient=True, disable=json_out) as progress:
         task = progress.add_task("pick-and-place runs", total=subjects * runs * 2)

@@ -11,8 +11,9 @@ from typer.testing import CliRunner
 from velfence.cli import app
 from velfence.errors import InvalidParameter
 from velfence.teleop.operator import OperatorProfile
-from velfence.teleop.study import run_study, write_study
+from velfence.teleop.study import run_study
 from velfence.teleop.task import run_task
+from velfence.viz.study import write_study
 
 RATE = 50.0  # coarse control rate: these tests check the plumbing, the study uses 100 Hz
 

@@ -230,35 +230,9 @@ def kinematics_checks(out: Path) -> tuple[list[Check], list[Path]]:
         )
     )
 
-    artifacts = [_plot_fk_errors(ea, eb, mean_err, out / "telerobotics_fk_error.png")]
+    from velfence.viz.telerobotics_figures import plot_fk_errors
+
+    artifacts = [
+        plot_fk_errors(ea, eb, mean_err, out / "telerobotics_fk_error.png", tolerance_mm=FK_TOL_MM)
+    ]
     return checks, artifacts
-
-
-def _plot_fk_errors(ea: FloatArray, eb: FloatArray, mean_err: dict[str, float], path: Path) -> Path:
-    """Bar chart of the FK error per recorded final point (Tables 4/5)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from velfence.viz.plots import save_figure
-
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig, ax = plt.subplots(figsize=(8.0, 3.8))
-    idx = np.arange(1, 11)
-    ax.bar(idx - 0.2, ea, width=0.4, label="set A (Table 4) vs FK(traj. 1-2 final q)")
-    ax.bar(idx + 0.2, eb, width=0.4, label="set B (Table 5) vs FK(traj. 3-5 final q)")
-    ax.axhline(
-        mean_err["A"], color="C0", ls="--", lw=1, label=f"|FK - set-A mean| {mean_err['A']:.2f}"
-    )
-    ax.axhline(
-        mean_err["B"], color="C1", ls="--", lw=1, label=f"|FK - set-B mean| {mean_err['B']:.2f}"
-    )
-    ax.axhline(FK_TOL_MM, color="k", ls=":", lw=1, label=f"tolerance {FK_TOL_MM:g} (means)")
-    ax.set_xticks(idx)
-    ax.set_xlabel("recorded final point (trajectory of the repeatability set)")
-    ax.set_ylabel("distance to FK [mm]")
-    ax.set_title("Khokar 2009: FK (eqs. 11-22) of the recorded joint angles vs Tables 4/5")
-    ax.set_ylim(0.0, 1.6 * max(float(ea.max()), float(eb.max()), FK_TOL_MM))
-    ax.legend(fontsize=7, loc="upper center", ncol=2)
-    return save_figure(fig, path, dpi=120)

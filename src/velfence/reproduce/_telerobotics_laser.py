@@ -487,91 +487,30 @@ def laser_checks(out: Path, *, seed: int = 0) -> tuple[list[Check], list[Path]]:
         )
     )
 
+    from velfence.viz.telerobotics_figures import plot_calibration, plot_readings, plot_step
+
     paths = [
-        _plot_calibration(out / "laser_calibration.png", fit, residual),
-        _plot_readings(out / "laser_readings.png", runs),
-        _plot_step(out / "laser_step.png", rng),
+        plot_calibration(out / "laser_calibration.png", fit, residual),
+        plot_readings(out / "laser_readings.png", runs),
+        plot_step(out / "laser_step.png", _step_runs(rng), t_step=1.0),
     ]
     return checks, paths
 
 
-# ---------------------------------------------------------------------------------- plots
-def _plot_calibration(path: Path, fit: VoltageModel, residual: FloatArray) -> Path:
-    import matplotlib
+@dataclass(frozen=True)
+class _StepRun:
+    """One scheme's readings across the 40 → 60 cm beam step (for the step figure)."""
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from velfence.viz.plots import save_figure
-
-    V = np.asarray(TABLE1_VOLTAGE_V)
-    D = np.asarray(TABLE1_DISTANCE_CM)
-    fig, (ax, axr) = plt.subplots(
-        2, 1, figsize=(6.4, 6.0), sharex=True, gridspec_kw={"height_ratios": [3, 1]}
-    )
-    vv = np.linspace(V.min() - 0.02, V.max() + 0.02, 50)
-    ax.plot(V, D, "o", label="Table 1 (DME2000 reference)")
-    ax.plot(
-        vv,
-        EQ1_SLOPE_CM_PER_V * vv + EQ1_OFFSET_CM,
-        "-",
-        label=f"eq. (1): {EQ1_SLOPE_CM_PER_V:.4f} V {EQ1_OFFSET_CM:+.4f}",
-    )
-    ax.plot(
-        vv,
-        fit.slope_cm_per_v * vv + fit.offset_cm,
-        "--",
-        label=f"re-fit: {fit.slope_cm_per_v:.4f} V {fit.offset_cm:+.4f}",
-    )
-    ax.set_ylabel("distance [cm]")
-    ax.set_title("DT60 calibration (Khokar 2009, §3.3.1)")
-    ax.legend(loc="upper left")
-    axr.axhline(0.0, color="0.6", lw=0.8)
-    axr.plot(V, residual, "o-", ms=3)
-    axr.set_xlabel("voltage [V]")
-    axr.set_ylabel("eq. (1) − ref [cm]")
-    return save_figure(fig, path, dpi=110)
+    label: str
+    style: str
+    t: list[float]
+    distance_cm: list[float]
 
 
-def _plot_readings(path: Path, runs: list[SpreadRun]) -> Path:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from velfence.viz.plots import save_figure
-
-    fig, axes = plt.subplots(2, 4, figsize=(13, 6), sharex=True)
-    for ax, r in zip(axes.ravel(), runs, strict=True):
-        t = r.t - r.t[0]
-        ax.plot(t, r.raw_cm, ".", ms=1.5, color="0.6", label="unfiltered (90 Hz)")
-        ax.plot(t, r.filtered_cm, "-", lw=1.2, color="C0", label="50-sample average")
-        ax.axhline(r.distance_cm, color="k", ls="--", lw=0.8, label="true")
-        ax.set_title(
-            f"{r.distance_cm:g} cm: spread {r.raw_spread:.1f} → {r.filtered_spread:.2f} cm",
-            fontsize=9,
-        )
-        ax.set_ylim(r.distance_cm - 2.5, r.distance_cm + 2.5)
-    for ax in axes[1]:
-        ax.set_xlabel("time [s]")
-    for ax in axes[:, 0]:
-        ax.set_ylabel("reading [cm]")
-    axes[0, 0].legend(fontsize=7, loc="lower right")
-    fig.suptitle("Simulated DT60 readings at the Table 9 distances (Khokar 2009, §7.3)")
-    return save_figure(fig, path, dpi=100)
-
-
-def _plot_step(path: Path, rng: np.random.Generator) -> Path:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from velfence.viz.plots import save_figure
-
+def _step_runs(rng: np.random.Generator, *, t_step: float = 1.0) -> list[_StepRun]:
+    """Both schemes' readings while the beam steps from 40 to 60 cm at ``t_step`` [s]."""
     truth = table1_truth()
-    fig, ax = plt.subplots(figsize=(7, 4))
-    t_step = 1.0
+    out = []
     for label, sensor, style in (
         ("new: 50-sample average, 90 Hz", LaserRangeSensor(characteristic=truth), "-"),
         ("old: 10 Hz, no average", LaserRangeSensor(characteristic=truth, filter="old_10hz"), "o-"),
@@ -584,11 +523,5 @@ def _plot_step(path: Path, rng: np.random.Generator) -> Path:
             if r.distance is not None:
                 ts.append(t)
                 ds.append(100.0 * r.distance)
-        ax.step(ts, ds, style, where="post", ms=3, label=label)
-    ax.axvline(t_step, color="k", lw=0.8, ls=":")
-    ax.axvspan(t_step + 0.5, t_step + 0.55, color="C2", alpha=0.3, label="thesis: 0.5-0.55 s")
-    ax.set_xlabel("time [s]")
-    ax.set_ylabel("reading [cm]")
-    ax.set_title("Beam length steps 40 → 60 cm: settling of the two schemes")
-    ax.legend(fontsize=8)
-    return save_figure(fig, path, dpi=110)
+        out.append(_StepRun(label, style, ts, ds))
+    return out

@@ -35,7 +35,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -516,111 +515,36 @@ def motion_checks(out: Path) -> tuple[list[Check], list[Path]]:
 # ------------------------------------------------------------------------------------------------
 
 
-def _plt() -> Any:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
-
-
 def _figures(r1: SingularityRun, r2: SingularityRun, acc: list[Execution], out: Path) -> list[Path]:
+    from velfence.viz.telerobotics_figures import (
+        plot_accuracy,
+        plot_cartesian_errors,
+        plot_joint_angles,
+        plot_manipulability,
+    )
+
     out.mkdir(parents=True, exist_ok=True)
+    runs = (r1, r2)
     return [
-        _plot_manipulability((r1, r2), out / "telerobotics_manipulability.png"),
-        _plot_joints((r1, r2), out / "telerobotics_joints.png"),
-        _plot_errors((r1, r2), out / "telerobotics_cartesian_error.png"),
-        _plot_accuracy(acc, out / "telerobotics_accuracy.png"),
+        plot_manipulability(
+            runs,
+            [singularity_time(r.jinv) for r in runs],
+            out / "telerobotics_manipulability.png",
+            w0=W0,
+            title=(
+                f"Khokar 2009 Figs. 78/79 regenerated (V_r = {SPEED:g} m/s fitted to the J⁻¹ "
+                f"times, k0 = {K0:g})"
+            ),
+        ),
+        plot_joint_angles(runs, out / "telerobotics_joints.png"),
+        plot_cartesian_errors(runs, out / "telerobotics_cartesian_error.png"),
+        plot_accuracy(
+            acc,
+            out / "telerobotics_accuracy.png",
+            table_max_mm=float(np.max(data.TABLE3_POSITION_ERROR_MM)),
+            title=(
+                f"§7.1 trajectories at {ACCURACY_SPEED:g} m/s, {LAG * 1e3:g} ms servo lag, "
+                "self-correcting executor"
+            ),
+        ),
     ]
-
-
-def _plot_manipulability(runs: tuple[SingularityRun, ...], path: Path) -> Path:
-    plt = _plt()
-    from velfence.viz.plots import save_figure
-
-    fig, axes = plt.subplots(1, len(runs), figsize=(11.0, 4.0))
-    for ax, run_ in zip(axes, runs, strict=True):
-        t_s = singularity_time(run_.jinv)
-        ax.plot(run_.jinv.t, run_.jinv.det, color="C3", lw=1.0, label="det J, J⁻¹")
-        ax.plot(run_.sr.t, run_.sr.w, color="C0", lw=1.4, label="w, SR inverse")
-        ax.plot(run_.sr.t, run_.sr.det, color="C0", lw=0.8, ls=":", label="det J, SR")
-        ax.axhline(W0, color="k", ls="--", lw=0.8, label=f"w0 = {W0:g}")
-        ax.axhline(0.0, color="k", lw=0.5)
-        ax.axvline(t_s, color="C3", ls=":", lw=0.8, label=f"J⁻¹: det J = 0 at {t_s:.3f} s")
-        top = 1.2 * float(np.max(run_.sr.w))
-        ax.set_ylim(-0.3 * top, top)
-        ax.set_xlabel("t [s]")
-        ax.set_ylabel("manipulability / det J")
-        ax.set_title(f"§7.4 {run_.name}", fontsize=10)
-        ax.legend(fontsize=7)
-    fig.suptitle(
-        f"Khokar 2009 Figs. 78/79 regenerated (V_r = {SPEED:g} m/s fitted to the J⁻¹ times, "
-        f"k0 = {K0:g})",
-        fontsize=10,
-    )
-    return save_figure(fig, path, dpi=120)
-
-
-def _plot_joints(runs: tuple[SingularityRun, ...], path: Path) -> Path:
-    plt = _plt()
-    from velfence.viz.plots import save_figure
-
-    fig, axes = plt.subplots(len(runs), 2, figsize=(11.0, 6.5), sharex="row")
-    for row, run_ in enumerate(runs):
-        for col, (label, ex) in enumerate((("J⁻¹", run_.jinv), ("SR inverse", run_.sr))):
-            ax = axes[row, col]
-            for j in range(ex.q.shape[1]):
-                ax.plot(ex.t, np.degrees(ex.q_true[:, j]), lw=1.0, label=f"θ{j + 1}")
-            if col == 0:
-                ax.set_yscale("symlog", linthresh=360.0)
-            ax.set_title(f"§7.4 {run_.name}, {label}", fontsize=9)
-            ax.set_xlabel("t [s]")
-            ax.set_ylabel("joint angle [deg]")
-            ax.legend(fontsize=6, ncol=3)
-    return save_figure(fig, path, dpi=120)
-
-
-def _plot_errors(runs: tuple[SingularityRun, ...], path: Path) -> Path:
-    plt = _plt()
-    from velfence.viz.plots import save_figure
-
-    fig, axes = plt.subplots(1, len(runs), figsize=(11.0, 4.0))
-    for ax, run_ in zip(axes, runs, strict=True):
-        ex = run_.sr
-        ax.plot(ex.t, ex.tracking_error * 1e2, color="C0", label="position error [cm]")
-        ax.plot(ex.t, np.degrees(ex.orientation_error), color="C1", label="orientation error [deg]")
-        ax.plot(
-            run_.open_loop_sr.t,
-            run_.open_loop_sr.tracking_error * 1e2,
-            color="C0",
-            ls=":",
-            label="position error, via-to-via (open loop) [cm]",
-        )
-        ax.set_xlabel("t [s]")
-        ax.set_title(f"§7.4 {run_.name}, SR inverse: Cartesian error", fontsize=10)
-        ax.legend(fontsize=7)
-    return save_figure(fig, path, dpi=120)
-
-
-def _plot_accuracy(acc: list[Execution], path: Path) -> Path:
-    plt = _plt()
-    from velfence.viz.plots import save_figure
-
-    fig, axes = plt.subplots(1, 2, figsize=(11.0, 3.8))
-    for i, ex in enumerate(acc):
-        axes[0].plot(ex.t, ex.tracking_error * 1e3, lw=1.0, label=f"trajectory {i + 1}")
-        axes[1].plot(ex.t, ex.path_deviation * 1e3, lw=1.0, label=f"trajectory {i + 1}")
-    top = float(np.max(data.TABLE3_POSITION_ERROR_MM))
-    axes[0].axhline(top, color="k", ls="--", lw=0.8, label=f"Table 3 max {top:g} mm")
-    axes[0].set_ylabel("|FK(q) - due via point| [mm]")
-    axes[1].set_ylabel("distance from the segment start-end [mm] (overshoot at the stop)")
-    for ax in axes:
-        ax.set_xlabel("t [s]")
-        ax.legend(fontsize=7)
-    fig.suptitle(
-        f"§7.1 trajectories at {ACCURACY_SPEED:g} m/s, {LAG * 1e3:g} ms servo lag, "
-        "self-correcting executor",
-        fontsize=10,
-    )
-    return save_figure(fig, path, dpi=120)

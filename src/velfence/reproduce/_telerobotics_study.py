@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from velfence.reproduce.base import Check
-from velfence.teleop.study import StudyResult, run_study, write_study
+from velfence.teleop.study import StudyResult, run_study
 from velfence.teleop.task import CONDITIONS
 
 __all__ = ["study_checks"]
@@ -75,6 +75,8 @@ def study_checks(
     Returns:
         ``(checks, artifacts)``.
     """
+    from velfence.viz.study import write_study
+
     result = run_study(subjects, runs, seed)
     paths = write_study(result, out)
     summary = result.summary()

@@ -6,8 +6,8 @@ taken ... in the unassisted mode was always more than ... in the laser assisted 
 pick-up point (Fig. 74, lost), and six workload comments. :func:`run_study` repeats the protocol
 with synthetic operators (:mod:`velfence.teleop.operator`), one :class:`OperatorProfile` drawn per
 subject from a seeded generator, and returns every run's :class:`~velfence.teleop.task.TaskRecord`.
-:func:`plot_times` and :func:`plot_paths` redraw Figs. 75 and 74 from it; :func:`write_study`
-writes them with the records as JSON; :func:`record_animation` renders one assisted run.
+:func:`assisted_run` is the one assisted run a study's animation shows. Drawing is in
+:mod:`velfence.viz.study` (Figs. 75 and 74 redrawn, the files of a study, the animation).
 
 Seeds: subject ``s``'s profile comes from ``default_rng([seed, s])``, run ``r`` of condition
 ``c`` from ``SeedSequence([seed, s, c, r])``, so a study is reproducible and adding subjects does
@@ -17,11 +17,9 @@ the thesis trained subjects to a uniform comfort level first).
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -35,18 +33,7 @@ from velfence.teleop.task import CONDITIONS, MAX_TICKS, TaskRecord, TaskRun, run
 #: Most runs per condition of one study (``n_subjects * runs``).
 MAX_RUNS = 10_000
 
-__all__ = [
-    "StudyResult",
-    "plot_paths",
-    "plot_times",
-    "record_animation",
-    "run_study",
-    "write_study",
-]
-
-
-_COLORS = {"unassisted": "#d62728", "assisted": "#1f77b4"}
-_LABELS = {"unassisted": "Unassisted mode", "assisted": "Laser assisted mode"}
+__all__ = ["StudyResult", "assisted_run", "run_study"]
 
 
 @dataclass(frozen=True)
@@ -211,151 +198,28 @@ def run_study(
     )
 
 
-# ------------------------------------------------------------------------------------ plots
-def plot_times(result: StudyResult, path: str | Path) -> Path:
-    """Fig. 75 redrawn: per-subject mean task time in both modes, runs as dots.
-
-    Args:
-        result: The study.
-        path: Output image (``.png``).
-
-    Returns:
-        The path written.
-    """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from velfence.viz.plots import save_figure
-
-    out = Path(path)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    n = result.n_subjects
-    x = np.arange(n)
-    width = 0.38
-    fig, ax = plt.subplots(figsize=(max(6.0, 0.8 * n + 2.0), 4.2))
-    for i, cond in enumerate(CONDITIONS):
-        vals = result.values("time", cond)
-        xs = x + (i - 0.5) * width
-        ax.bar(xs, vals.mean(axis=1), width, color=_COLORS[cond], alpha=0.8, label=_LABELS[cond])
-        for k in range(vals.shape[1]):
-            ax.plot(xs, vals[:, k], "k.", ms=3)
-    ax.set_xticks(x, [str(s + 1) for s in range(n)])
-    ax.set_xlabel("subject (simulated)")
-    ax.set_ylabel("task time [s] (mean of runs; dots: runs)")
-    faster = result.summary()["subjects_faster_assisted"]
-    ax.set_title(
-        f"Pick-and-place time, unassisted vs laser assisted ({faster}/{n} faster assisted)"
-    )
-    ax.legend(loc="upper right", fontsize=8)
-    ax.grid(axis="y", alpha=0.3)
-    return save_figure(fig, out, dpi=110)
-
-
-def plot_paths(
-    result: StudyResult, path: str | Path, *, run: int = 0, max_subjects: int = 10
-) -> Path:
-    """Fig. 74 redrawn: each subject's end-effector (wrist-centre) path in both modes.
-
-    Args:
-        result: The study.
-        path: Output image (``.png``).
-        run: Which run of each subject to draw.
-        max_subjects: Draw at most this many subjects (first ones).
-
-    Returns:
-        The path written.
-    """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from velfence.viz.plots import save_figure
-
-    out = Path(path)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    n = min(result.n_subjects, max_subjects)
-    cols = min(n, 5)
-    rows = math.ceil(n / cols)
-    fig = plt.figure(figsize=(3.2 * cols, 3.0 * rows))
-    for s in range(n):
-        ax = fig.add_subplot(rows, cols, s + 1, projection="3d")
-        for cond in CONDITIONS:
-            tr = result.traces.get((s, cond, run))
-            if tr is None:
-                continue
-            ax.plot(tr[:, 1], tr[:, 2], tr[:, 3], color=_COLORS[cond], lw=1.0, label=_LABELS[cond])
-        ax.set_title(f"subject {s + 1}", fontsize=9)
-        ax.tick_params(labelsize=6)
-        ax.set_xlabel("x [m]", fontsize=7)
-        ax.set_ylabel("y [m]", fontsize=7)
-        ax.set_zlabel("z [m]", fontsize=7)
-        if s == 0:
-            ax.legend(fontsize=6, loc="upper left")
-    fig.suptitle(
-        "End-effector (wrist-centre) paths, pick-and-place (cf. thesis Fig. 74)", fontsize=10
-    )
-    return save_figure(fig, out, dpi=100)
-
-
-def write_study(result: StudyResult, out: str | Path) -> list[Path]:
-    """Write ``study.json`` (summary, records, profiles) and the two figures into ``out``.
-
-    Returns:
-        The files written.
-    """
-    folder = Path(out)
-    folder.mkdir(parents=True, exist_ok=True)
-    data = folder / "study.json"
-    data.write_text(json.dumps(result.to_dict(), indent=2) + "\n")
-    return [
-        data,
-        plot_times(result, folder / "study_times.png"),
-        plot_paths(result, folder / "study_paths.png"),
-    ]
-
-
-def record_animation(
-    path: str | Path,
+def assisted_run(
     *,
     seed: int = 0,
     profile: OperatorProfile | None = None,
-    fps: int = 15,
     snapshot_rate: float = 5.0,
     rate: float = 100.0,
-) -> tuple[Path, TaskRun]:
-    """Run one assisted pick-and-place and render it (``velfence.viz.telerobotics``).
-
-    Falls back to writing the snapshots and scene as JSON (``path`` with suffix ``.json``) when
-    the renderer is not available.
+) -> TaskRun:
+    """One laser-assisted pick-and-place with snapshots, the run a study's animation shows.
 
     Args:
-        path: Output animation (``.gif``).
-        seed: Seed of the run.
+        seed: Seed of the run; the same run as subject 0's first assisted run of a study with
+            this seed.
         profile: The operator (default: subject 0 of a study with this seed).
-        fps: Playback frames per second.
         snapshot_rate: Snapshots per simulated second [Hz].
         rate: Session control rate [Hz].
 
     Returns:
-        ``(written path, the run)``.
+        The :class:`~velfence.teleop.task.TaskRun` (record, snapshots, scene, trace).
     """
     prof = (
         profile if profile is not None else OperatorProfile.draw(np.random.default_rng([seed, 0]))
     )
-    run = run_task(
+    return run_task(
         "assisted", prof, seed=_seed(seed, 0, 1, 0), rate=rate, snapshot_rate=snapshot_rate
     )
-    out = Path(path)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    try:
-        from velfence.viz.telerobotics import animate_session
-    except ImportError:
-        fallback = out.with_suffix(".json")
-        payload = {"snapshots": list(run.snapshots), "scene": list(run.scene)}
-        fallback.write_text(json.dumps(payload) + "\n")
-        return fallback, run
-    written = animate_session(list(run.snapshots), list(run.scene), out, fps=fps)
-    return Path(written), run

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import matplotlib
 
@@ -12,15 +12,36 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
+from velfence.cobot.sim import CobotTrace
 from velfence.geometry.paths import Path as GeoPath
 from velfence.geometry.polygon import ConvexPolygon
+from velfence.sim.runner import Trajectory
 from velfence.viz.plots import _draw_polygon, save_figure
 
-if TYPE_CHECKING:
-    from velfence.cobot.sim import CobotTrace
-    from velfence.reproduce.cobot import WallRuns
+__all__ = ["WallTraces", "plot_errors", "plot_fig5", "plot_steering", "plot_walls"]
 
-__all__ = ["plot_errors", "plot_fig5", "plot_steering", "plot_walls"]
+
+class WallTraces(Protocol):
+    """What :func:`plot_walls` reads of the virtual-wall scenario.
+
+    :class:`velfence.reproduce.cobot.WallRuns` has these members; any object with them draws
+    alike.
+    """
+
+    @property
+    def actuated(self) -> Trajectory:
+        """The actuated device under the exact polygon shaper."""
+        ...
+
+    @property
+    def caster(self) -> Trajectory:
+        """The ideal passive caster wall."""
+        ...
+
+    @property
+    def cobot(self) -> Trajectory:
+        """The simulated r-θ cobot."""
+        ...
 
 
 def plot_fig5(
@@ -95,7 +116,7 @@ def plot_steering(traces: Mapping[str, CobotTrace], out: str | Path) -> Path:
     return save_figure(fig, out)
 
 
-def plot_walls(runs: WallRuns, polygon: ConvexPolygon, buffer: float, out: str | Path) -> Path:
+def plot_walls(runs: WallTraces, polygon: ConvexPolygon, buffer: float, out: str | Path) -> Path:
     """One workspace polygon bounding an actuated device and a passive cobot."""
     fig, ax = plt.subplots(figsize=(7.5, 6.5))
     _draw_polygon(ax, polygon, buffer=buffer, margin=0.15)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import matplotlib
 
@@ -12,13 +12,34 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
+from velfence._typing import FloatArray
 from velfence.geometry.polygon import ConvexPolygon
+from velfence.sim.runner import Trajectory
 from velfence.viz.plots import save_figure
 
-if TYPE_CHECKING:
-    from velfence.reproduce.cospm import PaperRun
+__all__ = ["StopRun", "plot_fig8", "plot_region", "plot_vertex"]
 
-__all__ = ["plot_fig8", "plot_region", "plot_vertex"]
+
+class StopRun(Protocol):
+    """What :func:`plot_fig8` reads of a stop-limiter run.
+
+    :class:`velfence.reproduce.cospm.PaperRun` has these members; any object with them draws
+    alike.
+    """
+
+    @property
+    def traj(self) -> Trajectory:
+        """The closed-loop trajectory."""
+        ...
+
+    @property
+    def chi_dot(self) -> FloatArray | None:
+        """Platform angular rates χ̇ [rad/s], shape (N, 3), or None when not computed."""
+        ...
+
+    def column(self, name: str) -> FloatArray:
+        """One per-step result field over time, shape (N,) or (N, k)."""
+        ...
 
 
 def _stops(ax: Any, polygon: ConvexPolygon, labels: bool = True) -> None:
@@ -37,7 +58,7 @@ def _stops(ax: Any, polygon: ConvexPolygon, labels: bool = True) -> None:
 
 
 def plot_fig8(
-    run: PaperRun, polygon: ConvexPolygon, path: str | Path, *, compare: PaperRun | None = None
+    run: StopRun, polygon: ConvexPolygon, path: str | Path, *, compare: StopRun | None = None
 ) -> Path:
     """Four panels like the paper's Fig. 8.
 

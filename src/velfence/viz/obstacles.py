@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import matplotlib
 
@@ -18,18 +18,88 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.animation import PillowWriter
 from matplotlib.patches import Circle
+from numpy.typing import NDArray
 
+from velfence._typing import FloatArray
+from velfence.mechanisms.chain import SerialChain
+from velfence.redundancy.configuration_control import ControlResult, Obstacle
 from velfence.viz.plots import save_figure
 
-if TYPE_CHECKING:
-    from velfence.reproduce.obstacles import ScenarioRun
+__all__ = ["ArmRun", "animate_arm", "plot_active_sets", "plot_clearance", "plot_snapshots"]
 
-__all__ = ["animate_arm", "plot_active_sets", "plot_clearance", "plot_snapshots"]
+
+class ArmRun(Protocol):
+    """What the figures read of a closed-loop configuration-control run.
+
+    :class:`velfence.reproduce.obstacles.ScenarioRun` has these members; any object with them
+    draws alike.
+    """
+
+    @property
+    def name(self) -> str:
+        """Label of the run."""
+        ...
+
+    @property
+    def chain(self) -> SerialChain:
+        """The kinematics."""
+        ...
+
+    @property
+    def obstacles(self) -> Sequence[Obstacle]:
+        """The obstacles."""
+        ...
+
+    @property
+    def t(self) -> FloatArray:
+        """Times [s], shape (N,)."""
+        ...
+
+    @property
+    def q(self) -> FloatArray:
+        """Joint positions [rad], shape (N, n)."""
+        ...
+
+    @property
+    def y(self) -> FloatArray:
+        """End-effector positions [m], shape (N, m)."""
+        ...
+
+    @property
+    def y_d(self) -> FloatArray:
+        """Reference positions [m], shape (N, m)."""
+        ...
+
+    @property
+    def results(self) -> Sequence[ControlResult]:
+        """Every cycle's result, length N."""
+        ...
+
+    @property
+    def ee_error(self) -> FloatArray:
+        """End-effector position error [m], shape (N,)."""
+        ...
+
+    @property
+    def distances(self) -> FloatArray:
+        """Critical distances [m], shape (N, N_o)."""
+        ...
+
+    @property
+    def rho(self) -> FloatArray:
+        """Sphere-of-influence radii [m], shape (N_o,)."""
+        ...
+
+    @property
+    def active(self) -> NDArray[np.bool_]:
+        """Whether each obstacle's row was enforced, shape (N, N_o)."""
+        ...
+
 
 _PLANES = {"x-y": (0, 1), "x-z": (0, 2), "y-z": (1, 2)}
 
 
-def _obstacles(ax: Any, run: ScenarioRun, axes: tuple[int, int]) -> None:
+def _obstacles(ax: Any, run: ArmRun, axes: tuple[int, int]) -> None:
     for i, ob in enumerate(run.obstacles):
         c = ob.center[list(axes)]
         ax.add_patch(Circle(tuple(c), ob.radius, color="0.3", zorder=1))
@@ -38,7 +108,7 @@ def _obstacles(ax: Any, run: ScenarioRun, axes: tuple[int, int]) -> None:
         )
 
 
-def _arm(ax: Any, run: ScenarioRun, k: int, axes: tuple[int, int], alpha: float) -> None:
+def _arm(ax: Any, run: ArmRun, k: int, axes: tuple[int, int], alpha: float) -> None:
     pts = np.asarray(run.chain.joint_positions(run.q[k]))[:, list(axes)]
     ax.plot(pts[:, 0], pts[:, 1], "-o", color="C0", lw=1.5, ms=2.5, alpha=alpha, zorder=2)
     res = run.results[k]
@@ -47,7 +117,7 @@ def _arm(ax: Any, run: ScenarioRun, k: int, axes: tuple[int, int], alpha: float)
         ax.plot(c[0], c[1], "o", color="r", ms=4, zorder=3)
 
 
-def _snapshot_panel(ax: Any, run: ScenarioRun, axes: tuple[int, int], n_snap: int = 9) -> None:
+def _snapshot_panel(ax: Any, run: ArmRun, axes: tuple[int, int], n_snap: int = 9) -> None:
     _obstacles(ax, run, axes)
     ks = np.linspace(0, len(run.t) - 1, n_snap).astype(int)
     for j, k in enumerate(ks):
@@ -60,7 +130,7 @@ def _snapshot_panel(ax: Any, run: ScenarioRun, axes: tuple[int, int], n_snap: in
     ax.legend(fontsize=7, loc="best")
 
 
-def plot_snapshots(runs: Sequence[ScenarioRun], path: str | Path) -> Path:
+def plot_snapshots(runs: Sequence[ArmRun], path: str | Path) -> Path:
     """Arm snapshots over time (light to dark) among the obstacles.
 
     Obstacle bodies (grey), spheres of influence (dashed), critical points of the active rows
@@ -69,7 +139,7 @@ def plot_snapshots(runs: Sequence[ScenarioRun], path: str | Path) -> Path:
     Returns:
         The path written.
     """
-    panels: list[tuple[ScenarioRun, str]] = []
+    panels: list[tuple[ArmRun, str]] = []
     for r in runs:
         if r.y.shape[1] == 2:
             panels.append((r, "x-y"))
@@ -85,7 +155,7 @@ def plot_snapshots(runs: Sequence[ScenarioRun], path: str | Path) -> Path:
     return save_figure(fig, path, dpi=90)
 
 
-def plot_clearance(runs: Sequence[ScenarioRun], path: str | Path) -> Path:
+def plot_clearance(runs: Sequence[ArmRun], path: str | Path) -> Path:
     """Clearance d − ρ of every obstacle (top) and EE error (bottom) over time, one column per run.
 
     Returns:
@@ -109,7 +179,7 @@ def plot_clearance(runs: Sequence[ScenarioRun], path: str | Path) -> Path:
     return save_figure(fig, path, dpi=90)
 
 
-def plot_active_sets(runs: Sequence[ScenarioRun], path: str | Path) -> Path:
+def plot_active_sets(runs: Sequence[ArmRun], path: str | Path) -> Path:
     """Active-set timeline: one bar per obstacle where its row is enforced, and the row count.
 
     Returns:
@@ -132,7 +202,7 @@ def plot_active_sets(runs: Sequence[ScenarioRun], path: str | Path) -> Path:
     return save_figure(fig, path, dpi=90)
 
 
-def animate_arm(run: ScenarioRun, path: str | Path, *, frames: int = 40) -> Path:
+def animate_arm(run: ArmRun, path: str | Path, *, frames: int = 40) -> Path:
     """GIF of a planar run: the arm, obstacles, spheres and active critical points.
 
     Returns:
