@@ -16,6 +16,8 @@ from velfence.mechanisms.cospm import (
     Q_AUX,
     CoSPM,
     CoSPMDesign,
+)
+from velfence.mechanisms.cospm_region import (
     RegionReport,
     singular_curves,
     stops_polygon,

@@ -20,12 +20,8 @@ Batches equal loops over their rows; non-finite inputs raise
 """
 
 from velfence.mechanisms.chain import DHChain, PlanarArm, SerialChain
-from velfence.mechanisms.cospm import (
-    PAPER_STOPS,
-    PAPER_WORKSPACE,
-    Q_AUX,
-    CoSPM,
-    CoSPMDesign,
+from velfence.mechanisms.cospm import PAPER_STOPS, PAPER_WORKSPACE, Q_AUX, CoSPM, CoSPMDesign
+from velfence.mechanisms.cospm_region import (
     RegionReport,
     SingularGrid,
     WorkspaceMap,

@@ -20,7 +20,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from velfence._typing import FloatArray
-from velfence.mechanisms.cospm import PAPER_STOPS, Q_AUX, CoSPM, validate_region
+from velfence.mechanisms.cospm import PAPER_STOPS, Q_AUX, CoSPM
+from velfence.mechanisms.cospm_region import validate_region
 from velfence.reproduce.base import Check, Report, check_at_least, check_at_most, check_close
 from velfence.shaping.profiles import ThreeZoneBraking
 from velfence.shaping.rate import RateLimiter

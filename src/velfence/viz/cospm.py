@@ -151,7 +151,8 @@ def plot_region(path: str | Path, *, step: float = 0.04) -> Path:
     Returns:
         The path written.
     """
-    from velfence.mechanisms.cospm import PAPER_STOPS, singular_curves, stops_polygon
+    from velfence.mechanisms.cospm import PAPER_STOPS
+    from velfence.mechanisms.cospm_region import singular_curves, stops_polygon
 
     grid = singular_curves(step=step)
     poly = stops_polygon(PAPER_STOPS)
