@@ -65,6 +65,7 @@ from velfence._validate import (
     real_array,
 )
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
+from velfence.geometry.so3 import rot_x, rot_y, rot_z, rotations_zyx, zyx_rate_map
 
 __all__ = ["PAPER_STOPS", "PAPER_WORKSPACE", "Q_AUX", "CoSPM", "CoSPMDesign"]
 
@@ -82,25 +83,10 @@ _REACH_SLACK = 1e-12
 _JUMP = 0.2
 
 
-def _rx(a: float) -> FloatArray:
-    c, s = math.cos(a), math.sin(a)
-    return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
-
-
-def _ry(a: float) -> FloatArray:
-    c, s = math.cos(a), math.sin(a)
-    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
-
-
-def _rz(a: float) -> FloatArray:
-    c, s = math.cos(a), math.sin(a)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-
-
 #: The auxiliary map of Lê et al. 2024 eq. (1), :math:`Q = R_y(-\arctan(\sqrt2/2))\,R_x(\pi/4)`,
 #: shape (3, 3), orthogonal and read-only: :math:`q = Q\theta`, :math:`\theta = Q^T q`. Its third
 #: row is the invariance axis, :math:`[0, 0, 1]^T = (\sqrt3/3)\,Q\,[1, 1, 1]^T` (Proposition 1).
-Q_AUX: FloatArray = readonly(_ry(-math.atan(math.sqrt(2.0) / 2.0)) @ _rx(math.pi / 4.0))
+Q_AUX: FloatArray = readonly(rot_y(-math.atan(math.sqrt(2.0) / 2.0)) @ rot_x(math.pi / 4.0))
 
 #: The paper's four joint stops (§2), shape (4, 3), read-only, rows ``(a_i, b_i, c_i)``:
 #: :math:`d_i = a_i q_1 + b_i q_2 + c_i \ge 0` for every ``i`` iff :math:`(q_1, q_2) \in Q^*`.
@@ -257,37 +243,6 @@ def _like(name: str, x: ArrayLike, n: int, other: str) -> FloatArray:
     return np.array(np.broadcast_to(a, (n, 3)), dtype=float)
 
 
-def _rotations(chi: FloatArray) -> FloatArray:
-    """Rotation matrices R_z(chi3) R_y(chi2) R_x(chi1) for rows of chi (N, 3) -> (N, 3, 3)."""
-    s1, s2, s3 = np.sin(chi[:, 0]), np.sin(chi[:, 1]), np.sin(chi[:, 2])
-    c1, c2, c3 = np.cos(chi[:, 0]), np.cos(chi[:, 1]), np.cos(chi[:, 2])
-    R = np.empty((chi.shape[0], 3, 3))
-    R[:, 0, 0] = c3 * c2
-    R[:, 0, 1] = c3 * s2 * s1 - s3 * c1
-    R[:, 0, 2] = c3 * s2 * c1 + s3 * s1
-    R[:, 1, 0] = s3 * c2
-    R[:, 1, 1] = s3 * s2 * s1 + c3 * c1
-    R[:, 1, 2] = s3 * s2 * c1 - c3 * s1
-    R[:, 2, 0] = -s2
-    R[:, 2, 1] = c2 * s1
-    R[:, 2, 2] = c2 * c1
-    return R
-
-
-def _euler_rate_map(chi: FloatArray) -> FloatArray:
-    """E(chi) for rows of chi (N, 3) -> (N, 3, 3): omega = E chi_dot."""
-    s2, s3 = np.sin(chi[:, 1]), np.sin(chi[:, 2])
-    c2, c3 = np.cos(chi[:, 1]), np.cos(chi[:, 2])
-    E = np.zeros((chi.shape[0], 3, 3))
-    E[:, 0, 0] = c3 * c2
-    E[:, 1, 0] = s3 * c2
-    E[:, 2, 0] = -s2
-    E[:, 0, 1] = -s3
-    E[:, 1, 1] = c3
-    E[:, 2, 2] = 1.0
-    return E
-
-
 # ====================================================================== the mechanism
 class CoSPM:
     r"""Geometric model, IKP, FKP, Jacobians and singularity indicators of a CoSPM.
@@ -351,14 +306,14 @@ class CoSPM:
         sigma = -1.0 if self._mirror else 1.0
         self._sigma = sigma
         d = design
-        base = np.stack([_rz(float(e)) @ _rx(d.beta1 - math.pi) for e in d.eta])
+        base = np.stack([rot_z(float(e)) @ rot_x(d.beta1 - math.pi) for e in d.eta])
         self._M = readonly(base)  # (3 legs, 3, 3)
         self._u = readonly(base[:, :, 2].copy())  # M_i e_z
         # R_x(σ α1) e_z = (0, -σ sin α1, cos α1)
         self._ay = readonly(-sigma * np.sin(d.alpha1))
         self._az = readonly(np.cos(d.alpha1))
         self._p = readonly(
-            np.stack([_rz(float(e)) @ _rx(d.beta2) @ np.array([0.0, 0.0, 1.0]) for e in d.eta])
+            np.stack([rot_z(float(e)) @ rot_x(d.beta2) @ np.array([0.0, 0.0, 1.0]) for e in d.eta])
         )
         self._cos_a2 = readonly(np.cos(d.alpha2))
         # f(θ + ε1, χ) = f(θ, χ + κ ε e3): κ = +1 for β1 = 0, -1 for β1 = π.
@@ -414,7 +369,7 @@ class CoSPM:
         local[:, :, 1] = c * self._ay
         local[:, :, 2] = self._az
         w = np.einsum("ijk,nik->nij", self._M, local)
-        v = np.einsum("njk,ik->nij", _rotations(chi), self._p)
+        v = np.einsum("njk,ik->nij", rotations_zyx(chi), self._p)
         return self._u, v, w
 
     def _f(self, v: FloatArray, w: FloatArray) -> FloatArray:
@@ -423,7 +378,7 @@ class CoSPM:
 
     @staticmethod
     def _a_matrix(v: FloatArray, w: FloatArray, chi: FloatArray) -> FloatArray:
-        out: FloatArray = np.einsum("nik,nkj->nij", np.cross(v, w), _euler_rate_map(chi))
+        out: FloatArray = np.einsum("nik,nkj->nij", np.cross(v, w), zyx_rate_map(chi))
         return out
 
     def _leg_b(self, v: FloatArray, w: FloatArray) -> FloatArray:
@@ -517,7 +472,7 @@ class CoSPM:
             Shape (3, 3) or (N, 3, 3) (dimensionless); :math:`\omega` in the base frame.
         """
         ca, single = _poses("chi", chi)
-        E = _euler_rate_map(ca)
+        E = zyx_rate_map(ca)
         return E[0] if single else E
 
     def A(self, theta: ArrayLike, chi: ArrayLike) -> FloatArray:  # noqa: N802 (paper notation)
@@ -653,7 +608,7 @@ class CoSPM:
         self, chi: FloatArray, theta_prev: FloatArray, modes: FloatArray
     ) -> tuple[FloatArray, BoolArray, FloatArray, FloatArray]:
         """Closed-form IKP; never raises. Returns (theta, miss, |C|, R), theta NaN on a miss."""
-        v = np.einsum("njk,ik->nij", _rotations(chi), self._p)
+        v = np.einsum("njk,ik->nij", rotations_zyx(chi), self._p)
         # w_i^T v_i = a^T R_z(-θ) p_i with p_i = M_i^T v_i: A sin θ + B cos θ = C.
         p = np.einsum("ikj,nik->nij", self._M, v)
         Ac = -self._ay * p[:, :, 0]

@@ -19,10 +19,11 @@ for :math:`k > 0` every singular value of :math:`J^{*}` is
 :math:`\sigma/(\sigma^2 + k) \le 1/(2\sqrt k)`, so the joint rates stay bounded at and through a
 singularity (at the price of a Cartesian error).
 
-This module also holds the project's one implementation of rotation matrix ↔ equivalent
-angle-axis (Craig §2.8; the thesis's via-point subroutine, §6.2.1, with the corrections argued
-in ``docs/telerobotics.md``) and the pose-error twist used by the self-correcting trajectory
-executor.
+This module also holds the pose-error twist used by the self-correcting trajectory executor. The
+rotation matrix ↔ equivalent angle-axis conversions it uses (Craig §2.8; the thesis's via-point
+subroutine, §6.2.1, with the corrections argued in ``docs/telerobotics.md``) live in
+:mod:`velfence.geometry.so3` and are re-exported here (:func:`angle_axis`,
+:func:`rotation_from_angle_axis`, :func:`rotation_vector`).
 Derivations: ``docs/telerobotics.md``.
 """
 
@@ -46,6 +47,12 @@ from velfence._validate import (
     rigid_transform,
 )
 from velfence.errors import InvalidInput, InvalidParameter
+from velfence.geometry.so3 import (
+    ROTATION_TOL,
+    angle_axis,
+    rotation_from_angle_axis,
+    rotation_vector,
+)
 from velfence.shaping.base import InvalidPolicy
 
 __all__ = [
@@ -69,9 +76,6 @@ K0 = 0.025
 W0 = 0.014
 """Khokar 2009 §5.3-5.4: manipulability at the border of the damped neighbourhood, :math:`w_0`."""
 
-#: Largest tolerated deviation of ``RᵀR`` from the identity (and of ``det R`` from 1).
-ROTATION_TOL = 1e-6
-
 
 @runtime_checkable
 class JacobianArm(Protocol):
@@ -83,95 +87,8 @@ class JacobianArm(Protocol):
 
 
 # --------------------------------------------------------------------------------------------
-# Rotations: equivalent angle-axis
+# Pose error (rotations: velfence.geometry.so3)
 # --------------------------------------------------------------------------------------------
-
-
-def _rotation(name: str, R: ArrayLike) -> FloatArray:
-    """A validated rotation matrix (orthonormal, det +1 within ``ROTATION_TOL``)."""
-    a = real_array(name, R, (3, 3))
-    dev = float(np.max(np.abs(a.T @ a - np.eye(3))))
-    det = float(np.linalg.det(a))
-    if dev > ROTATION_TOL or abs(det - 1.0) > ROTATION_TOL:
-        raise InvalidInput(
-            f"{name}: expected a rotation matrix (RᵀR = I and det R = +1 within "
-            f"{ROTATION_TOL:g}), got max|RᵀR - I| = {dev:.3g}, det R = {det:.6g}; "
-            "re-orthonormalise it (e.g. via an SVD) first"
-        )
-    return a
-
-
-def angle_axis(R: ArrayLike) -> tuple[FloatArray, float]:
-    r"""Equivalent angle-axis of a rotation matrix (Craig eq. 2.81; Khokar 2009 §6.2.1).
-
-    :math:`\phi = \operatorname{atan2}(\lVert v\rVert, \operatorname{tr}R - 1)` with
-    :math:`v = (r_{32} - r_{23},\ r_{13} - r_{31},\ r_{21} - r_{12}) = 2\sin\phi\,k`. For
-    :math:`\phi < \pi/2` the axis is :math:`v / \lVert v\rVert`; for larger angles, where
-    :math:`v` loses precision, it is read from the symmetric part
-    :math:`(R + R^\top)/2 - \cos\phi\,I = (1 - \cos\phi)\,k k^\top` (column of the largest
-    diagonal entry, the thesis's "largest component" branch with magnitudes compared), with the
-    sign of :math:`v`. At :math:`\phi = 0` the axis is :math:`(0, 0, 1)` as in the thesis; at
-    :math:`\phi = \pi` (where :math:`\pm k` give the same rotation) the sign makes the largest
-    component positive.
-
-    Args:
-        R: Rotation matrix, shape (3, 3).
-
-    Returns:
-        ``(k, phi)``: unit axis, shape (3,), and angle :math:`\phi \in [0, \pi]` [rad], with
-        ``rotation_from_angle_axis(k, phi) == R``.
-
-    Raises:
-        InvalidInput: ``R`` is not a finite rotation matrix.
-    """
-    Ra = _rotation("R", R)
-    v = np.array((Ra[2, 1] - Ra[1, 2], Ra[0, 2] - Ra[2, 0], Ra[1, 0] - Ra[0, 1]))
-    s = float(np.linalg.norm(v))
-    c = float(np.trace(Ra)) - 1.0
-    phi = math.atan2(s, c)
-    if s == 0.0 and c > 0.0:
-        return np.array((0.0, 0.0, 1.0)), 0.0
-    if phi < 0.5 * math.pi:
-        return v / s, phi
-    B = 0.5 * (Ra + Ra.T) - math.cos(phi) * np.eye(3)
-    i = int(np.argmax(np.diag(B)))
-    k = B[:, i] / float(np.linalg.norm(B[:, i]))
-    ref = float(k @ v)
-    if ref < 0.0 or (ref == 0.0 and k[int(np.argmax(np.abs(k)))] < 0.0):
-        k = -k
-    return k, phi
-
-
-def rotation_from_angle_axis(axis: ArrayLike, angle: float) -> FloatArray:
-    r"""Rotation by ``angle`` about ``axis`` (Rodrigues; the thesis's ``dR``, §6.2.1).
-
-    .. math:: R = I + \sin\theta\,[k]_\times + (1 - \cos\theta)\,[k]_\times^2.
-
-    Args:
-        axis: Rotation axis, shape (3,), any non-zero length (it is normalised).
-        angle: Rotation angle [rad], finite.
-
-    Returns:
-        Rotation matrix, shape (3, 3).
-
-    Raises:
-        InvalidInput: the axis is zero or not finite, or the angle is not finite.
-    """
-    k = real_array("axis", axis, (3,))
-    n = float(np.linalg.norm(k))
-    if n == 0.0:
-        raise InvalidInput("axis: expected a non-zero vector of shape (3,), got (0, 0, 0)")
-    k = k / n
-    th = finite_scalar("angle", angle, unit="rad")
-    K = np.array(((0.0, -k[2], k[1]), (k[2], 0.0, -k[0]), (-k[1], k[0], 0.0)))
-    R: FloatArray = np.eye(3) + math.sin(th) * K + (1.0 - math.cos(th)) * (K @ K)
-    return R
-
-
-def rotation_vector(R: ArrayLike) -> FloatArray:
-    r"""Rotation vector :math:`\phi\,k` of ``R`` (see :func:`angle_axis`), shape (3,) [rad]."""
-    k, phi = angle_axis(R)
-    return phi * k
 
 
 def _pose(name: str, T: ArrayLike) -> FloatArray:
