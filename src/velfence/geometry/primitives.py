@@ -1,8 +1,11 @@
-r"""Closest points between points, segments, spheres and capsules in 3-D.
+r"""Closest points between points, segments, spheres and capsules in 3-D; rays against planes.
 
 These are the distance primitives of configuration control (Seraji & Bon, source 001): obstacle
 spheres against link capsules, and the gradient of a point–segment distance for the critical-point
-Jacobian. Everything is 3-D; 2-D callers pass ``z = 0``.
+Jacobian. Everything is 3-D; 2-D callers pass ``z = 0``. The ray helpers (:func:`unit_ray`,
+:func:`ray_plane`, :func:`ray_point`) and the float kernels on 3-tuples (:func:`dot3`,
+:func:`sub3`, :func:`norm3`, :func:`as_vec3`) are shared with the ray casts of the simulated laser
+(:mod:`velfence.teleop.scene`).
 
 Conventions (see ``docs/derivations.md``):
 
@@ -10,7 +13,9 @@ Conventions (see ``docs/derivations.md``):
   ``t = 0`` returns ``a`` exactly and ``t = 1`` returns ``b`` exactly;
 * a degenerate segment (``a == b``) is the point ``a`` with ``t = 0``;
 * a *capsule* is the segment swept by a ball of radius ``r_c``; the sphere–capsule clearance
-  ``|c - x| - r_s - r_c`` is **negative when they penetrate**.
+  ``|c - x| - r_s - r_c`` is **negative when they penetrate**;
+* a *ray* is ``x(t) = o + t d`` with a **unit** direction ``d`` and ``t >= 0`` (distance along
+  it).
 
 The functions run inside control loops, so they work on plain Python floats (one small array is
 built per returned point) and validate their inputs with cheap checks.
@@ -29,16 +34,27 @@ from velfence._validate import MAX_MAGNITUDE, check_positive, real_array
 from velfence.errors import InvalidInput
 
 __all__ = [
+    "RAY_PARALLEL_TOL",
+    "UNIT_TOL",
+    "Vec3",
+    "as_vec3",
     "closest_point_on_segment",
     "closest_points_segments",
+    "dot3",
+    "norm3",
     "orthonormal_complement",
     "point_segment_distance_jacobian",
     "points_segments_distances",
+    "ray_plane",
+    "ray_point",
     "segment_segment_distance",
     "sphere_capsule_distance",
+    "sub3",
+    "unit_ray",
 ]
 
 Vec3 = tuple[float, float, float]
+"""A point or direction as three Python floats (the float kernels' type)."""
 
 #: Segments whose directions make an angle with ``sin² <= PARALLEL_SIN2`` are treated as parallel
 #: (see :func:`closest_points_segments`). ``1e-16`` balances the two error sources: treating a
@@ -52,24 +68,46 @@ PARALLEL_SIN2 = 1e-16
 COMPLEMENT_SWITCH = 0.9
 
 
+#: A ray direction must have ``| |d| - 1 | <= UNIT_TOL`` (:func:`unit_ray`); directions built from
+#: rotation-matrix columns are unit to ~1e-15, so anything off by more is a caller's mistake.
+UNIT_TOL = 1e-6
+#: ``|n · d| <= RAY_PARALLEL_TOL`` counts as a ray parallel to a plane (:func:`ray_plane`).
+RAY_PARALLEL_TOL = 1e-12
+
 #: Largest number of (point, segment) pairs :func:`points_segments_distances` evaluates in one
 #: call (its work and memory are proportional to it: 3 doubles per pair and temporaries).
 MAX_PAIRS = 10_000_000
 
 
 # ---------------------------------------------------------------------------- validation
-def _vec3(name: str, x: ArrayLike) -> Vec3:
+def as_vec3(name: str, x: ArrayLike, *, what: str = "a point of 3 numbers") -> Vec3:
+    """A finite vector of shape (3,) as a tuple of floats (validated).
+
+    Args:
+        name: Public argument name used in the error message.
+        x: The vector, shape (3,), any units.
+        what: What the argument is, for the error message.
+
+    Returns:
+        ``(x0, x1, x2)`` as Python floats.
+
+    Raises:
+        InvalidInput: ``x`` is not a finite vector of shape (3,).
+    """
     # Fast path: a finite float64 ndarray of shape (3,) (the control loops' case).
     if type(x) is np.ndarray and x.shape == (3,) and x.dtype.char == "d":
         x0, x1, x2 = x.tolist()
         if max(abs(x0), abs(x1), abs(x2)) <= MAX_MAGNITUDE:  # False for NaN as well
             return x0, x1, x2
+    x0, x1, x2 = real_array(name, x, (3,), what=what).tolist()
+    return x0, x1, x2
+
+
+def _vec3(name: str, x: ArrayLike) -> Vec3:
     try:
-        v = real_array(name, x, (3,), what="a point of 3 numbers")
+        return as_vec3(name, x)
     except InvalidInput as e:
         raise InvalidInput(f"{e}; 2-D callers append z = 0") from None
-    x0, x1, x2 = v.tolist()
-    return x0, x1, x2
 
 
 def _radius(name: str, r: Any) -> float:
@@ -86,6 +124,26 @@ def _jac3(name: str, J: ArrayLike) -> FloatArray:
 
 
 # ---------------------------------------------------------------------------- float kernels
+def dot3(a: Vec3, b: Vec3) -> float:
+    """Dot product of two 3-tuples (no validation: a kernel for validated inputs)."""
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def sub3(a: Vec3, b: Vec3) -> Vec3:
+    """Difference ``a - b`` of two 3-tuples (no validation)."""
+    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
+
+
+def norm3(a: Vec3) -> float:
+    """Euclidean length of a 3-tuple (no validation; ``math.hypot``, no overflow)."""
+    return math.hypot(a[0], a[1], a[2])
+
+
+def ray_point(o: Vec3, d: Vec3, t: float) -> Vec3:
+    """The point ``o + t d`` of a ray (no validation)."""
+    return (o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2])
+
+
 def _lerp(a: Vec3, b: Vec3, t: float) -> Vec3:
     """``a + t (b - a)``, exact at both ends (``t = 0`` gives ``a``, ``t = 1`` gives ``b``)."""
     if t <= 0.5:
@@ -158,6 +216,52 @@ def _fallback_normal(a: Vec3, b: Vec3) -> Vec3:
 
 
 # ---------------------------------------------------------------------------- public API
+def unit_ray(origin: ArrayLike, direction: ArrayLike) -> tuple[Vec3, Vec3]:
+    """A validated ray: finite origin and a unit direction (renormalised exactly).
+
+    Args:
+        origin: Ray origin, shape (3,), length units (e.g. [m]).
+        direction: Unit direction, shape (3,), ``| |d| - 1 | <= UNIT_TOL``.
+
+    Returns:
+        ``(o, d)`` as 3-tuples of floats, ``d`` divided by its length.
+
+    Raises:
+        InvalidInput: non-finite or wrong-shape vectors, or a direction that is not unit.
+    """
+    o = as_vec3("origin", origin)
+    d = as_vec3("direction", direction)
+    length = norm3(d)
+    if abs(length - 1.0) > UNIT_TOL:
+        raise InvalidInput(
+            f"direction: expected a unit vector (|d| = 1 within {UNIT_TOL:g}), got |d| = "
+            f"{length:.9g}; normalise it first"
+        )
+    return o, (d[0] / length, d[1] / length, d[2] / length)
+
+
+def ray_plane(n: Vec3, c: Vec3, o: Vec3, d: Vec3) -> float:
+    """Ray parameter of the hit with the plane through ``c`` normal to ``n``; ``inf`` on a miss.
+
+    A ray parallel to the plane (``|n·d| <= RAY_PARALLEL_TOL``, even one lying in it) or pointing
+    away from it misses. A kernel on 3-tuples (validate with :func:`unit_ray` first).
+
+    Args:
+        n: Plane normal (any non-zero length; the result scales with neither its length nor sign).
+        c: A point of the plane.
+        o: Ray origin.
+        d: Ray direction, unit.
+
+    Returns:
+        ``t >= 0`` with ``o + t d`` on the plane, or ``math.inf``.
+    """
+    denom = dot3(n, d)
+    if abs(denom) <= RAY_PARALLEL_TOL:
+        return math.inf
+    t = dot3(n, sub3(c, o)) / denom
+    return t if t >= 0.0 else math.inf
+
+
 def orthonormal_complement(n: ArrayLike) -> tuple[FloatArray, FloatArray]:
     """Two unit vectors ``(e1, e2)`` spanning the plane perpendicular to ``n``, chosen fixed.
 

@@ -43,7 +43,18 @@ from numpy.typing import ArrayLike
 from velfence._typing import FloatArray
 from velfence._validate import check_positive, describe, finite_scalar, readonly, real_array
 from velfence.errors import InvalidGeometry, InvalidInput
-from velfence.geometry.primitives import orthonormal_complement
+from velfence.geometry.primitives import (
+    RAY_PARALLEL_TOL,
+    Vec3,
+    as_vec3,
+    dot3,
+    norm3,
+    orthonormal_complement,
+    ray_plane,
+    ray_point,
+    sub3,
+    unit_ray,
+)
 
 __all__ = [
     "Box",
@@ -58,38 +69,15 @@ __all__ = [
     "scene_to_dicts",
 ]
 
-Vec3 = tuple[float, float, float]
-
-#: A ray direction must have ``| |d| - 1 | <= UNIT_TOL``; directions built from rotation-matrix
-#: columns are unit to ~1e-15, so anything off by more than this is a caller's mistake.
-UNIT_TOL = 1e-6
-#: ``|n · d| <= PARALLEL_TOL`` counts as a ray parallel to a plane (no single crossing point).
-PARALLEL_TOL = 1e-12
+# UNIT_TOL (imported): a ray direction must have ``| |d| - 1 | <= UNIT_TOL``.
+#: ``|n · d| <= PARALLEL_TOL`` counts as a ray parallel to a plane (no single crossing point);
+#: the same number as :data:`velfence.geometry.primitives.RAY_PARALLEL_TOL`.
+PARALLEL_TOL = RAY_PARALLEL_TOL
 #: Rotation matrices must satisfy ``|R^T R - I| <= ROTATION_TOL`` and ``det R > 0``.
 ROTATION_TOL = 1e-9
 
 
 # ---------------------------------------------------------------------------------- helpers
-def _dot(a: Vec3, b: Vec3) -> float:
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-
-
-def _sub(a: Vec3, b: Vec3) -> Vec3:
-    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
-
-
-def _cross(a: Vec3, b: Vec3) -> Vec3:
-    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
-
-
-def _norm(a: Vec3) -> float:
-    return math.hypot(a[0], a[1], a[2])
-
-
-def _at(o: Vec3, d: Vec3, t: float) -> Vec3:
-    return (o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2])
-
-
 def _tuple(a: FloatArray) -> Vec3:
     x, y, z = a.tolist()
     return (x, y, z)
@@ -115,42 +103,11 @@ def _geom_length(name: str, x: Any, what: str) -> float:
     return v
 
 
-def _vec3(name: str, x: Any) -> Vec3:
-    """A run-time point or direction of shape (3,) as a tuple (:class:`InvalidInput`)."""
-    x0, x1, x2 = real_array(name, x, (3,), what="a point of 3 numbers").tolist()
-    return (x0, x1, x2)
-
-
-def _ray(origin: ArrayLike, direction: ArrayLike) -> tuple[Vec3, Vec3]:
-    """Validated ray: finite origin and a unit direction (renormalised exactly)."""
-    o = _vec3("origin", origin)
-    d = _vec3("direction", direction)
-    length = _norm(d)
-    if abs(length - 1.0) > UNIT_TOL:
-        raise InvalidInput(
-            f"direction: expected a unit vector (|d| = 1 within {UNIT_TOL:g}), got |d| = "
-            f"{length:.9g}; normalise it first"
-        )
-    return o, (d[0] / length, d[1] / length, d[2] / length)
-
-
 def _facing(n: Vec3, d: Vec3) -> Vec3:
-    return n if _dot(n, d) <= 0.0 else (-n[0], -n[1], -n[2])
+    return n if dot3(n, d) <= 0.0 else (-n[0], -n[1], -n[2])
 
 
 _MISS: tuple[float, Vec3] = (math.inf, (0.0, 0.0, 0.0))
-
-
-def _ray_plane(n: Vec3, c: Vec3, o: Vec3, d: Vec3) -> float:
-    """Ray parameter of the hit with the plane through ``c`` normal to ``n``; inf on a miss.
-
-    A ray parallel to the plane (``|n·d| <= PARALLEL_TOL``) or pointing away misses.
-    """
-    denom = _dot(n, d)
-    if abs(denom) <= PARALLEL_TOL:
-        return math.inf
-    t = _dot(n, _sub(c, o)) / denom
-    return t if t >= 0.0 else math.inf
 
 
 class _RayCast:
@@ -173,7 +130,7 @@ class _RayCast:
         Raises:
             InvalidInput: non-finite or wrong-shape vectors, or a direction that is not unit.
         """
-        o, d = _ray(origin, direction)
+        o, d = unit_ray(origin, direction)
         return self._cast(o, d)[0]
 
 
@@ -271,29 +228,29 @@ class Plane(_RayCast):
 
     def _cast(self, o: Vec3, d: Vec3) -> tuple[float, Vec3]:
         n = _tuple(self.normal)
-        t = _ray_plane(n, _tuple(self.point), o, d)
+        t = ray_plane(n, _tuple(self.point), o, d)
         if t == math.inf:
             return _MISS
         if self.half_extents is not None:
-            r = _sub(_at(o, d, t), _tuple(self.point))
+            r = sub3(ray_point(o, d, t), _tuple(self.point))
             a, b = self.half_extents
-            if abs(_dot(r, _tuple(self.u_axis))) > a or abs(_dot(r, _tuple(self.v_axis))) > b:
+            if abs(dot3(r, _tuple(self.u_axis))) > a or abs(dot3(r, _tuple(self.v_axis))) > b:
                 return _MISS
         return t, _facing(n, d)
 
     def signed_distance(self, p: ArrayLike) -> float:
         """Signed distance [m] of ``p`` (shape (3,)) to the infinite plane, + along the normal."""
-        return _dot(_sub(_vec3("p", p), _tuple(self.point)), _tuple(self.normal))
+        return dot3(sub3(as_vec3("p", p), _tuple(self.point)), _tuple(self.normal))
 
     def distance(self, p: ArrayLike) -> float:
         """Euclidean distance [m] from ``p`` (shape (3,)) to the plane, or to the rectangle."""
-        r = _sub(_vec3("p", p), _tuple(self.point))
-        h = _dot(r, _tuple(self.normal))
+        r = sub3(as_vec3("p", p), _tuple(self.point))
+        h = dot3(r, _tuple(self.normal))
         if self.half_extents is None:
             return abs(h)
         a, b = self.half_extents
-        du = max(abs(_dot(r, _tuple(self.u_axis))) - a, 0.0)
-        dv = max(abs(_dot(r, _tuple(self.v_axis))) - b, 0.0)
+        du = max(abs(dot3(r, _tuple(self.u_axis))) - a, 0.0)
+        dv = max(abs(dot3(r, _tuple(self.v_axis))) - b, 0.0)
         return math.hypot(h, du, dv)
 
 
@@ -325,16 +282,16 @@ class Disk(_RayCast):
     def _cast(self, o: Vec3, d: Vec3) -> tuple[float, Vec3]:
         n = _tuple(self.normal)
         c = _tuple(self.center)
-        t = _ray_plane(n, c, o, d)
-        if t == math.inf or _norm(_sub(_at(o, d, t), c)) > self.radius:
+        t = ray_plane(n, c, o, d)
+        if t == math.inf or norm3(sub3(ray_point(o, d, t), c)) > self.radius:
             return _MISS
         return t, _facing(n, d)
 
     def distance(self, p: ArrayLike) -> float:
         """Euclidean distance [m] from ``p`` (shape (3,)) to the disk."""
-        r = _sub(_vec3("p", p), _tuple(self.center))
-        h = _dot(r, _tuple(self.normal))
-        radial = math.sqrt(max(_dot(r, r) - h * h, 0.0))
+        r = sub3(as_vec3("p", p), _tuple(self.center))
+        h = dot3(r, _tuple(self.normal))
+        radial = math.sqrt(max(dot3(r, r) - h * h, 0.0))
         return math.hypot(h, max(radial - self.radius, 0.0))
 
 
@@ -409,7 +366,7 @@ class Cylinder(_RayCast):
 
     def distance(self, p: ArrayLike) -> float:
         """Signed distance [m] from ``p`` (shape (3,)) to the surface, negative inside."""
-        x, y, z = _vec3("p", p)
+        x, y, z = as_vec3("p", p)
         cx, cy, z0 = _tuple(self.base_center)
         dr = math.hypot(x - cx, y - cy) - self.radius
         dz = max(z0 - z, z - (z0 + self.height))
@@ -487,10 +444,10 @@ class Box(_RayCast):
 
     def _local(self, v: Vec3) -> Vec3:
         c0, c1, c2 = self._cols
-        return (_dot(c0, v), _dot(c1, v), _dot(c2, v))
+        return (dot3(c0, v), dot3(c1, v), dot3(c2, v))
 
     def _cast(self, o: Vec3, d: Vec3) -> tuple[float, Vec3]:
-        ol = self._local(_sub(o, _tuple(self.center)))
+        ol = self._local(sub3(o, _tuple(self.center)))
         dl = self._local(d)
         h = _tuple(self.half_extents)
         t_near, t_far = -math.inf, math.inf
@@ -517,7 +474,7 @@ class Box(_RayCast):
 
     def distance(self, p: ArrayLike) -> float:
         """Signed distance [m] from ``p`` (shape (3,)) to the surface, negative inside."""
-        pl = self._local(_sub(_vec3("p", p), _tuple(self.center)))
+        pl = self._local(sub3(as_vec3("p", p), _tuple(self.center)))
         h = _tuple(self.half_extents)
         q = (abs(pl[0]) - h[0], abs(pl[1]) - h[1], abs(pl[2]) - h[2])
         outside = math.hypot(max(q[0], 0.0), max(q[1], 0.0), max(q[2], 0.0))
@@ -645,7 +602,7 @@ class Scene:
             limit = math.inf
         else:
             limit = check_positive("max_range", max_range, allow_zero=True, unit="m")
-        o, d = _ray(origin, direction)
+        o, d = unit_ray(origin, direction)
         return self._cast(o, d, limit)
 
     def _cast(self, o: Vec3, d: Vec3, limit: float) -> Hit | None:
@@ -658,7 +615,7 @@ class Scene:
             return None
         return Hit(
             distance=best_t,
-            point=readonly(np.array(_at(o, d, best_t))),
+            point=readonly(np.array(ray_point(o, d, best_t))),
             normal=readonly(np.array(best_n)),
             name=best_name,
         )
@@ -678,9 +635,9 @@ class Scene:
         Raises:
             InvalidInput: non-finite or wrong-shape points.
         """
-        pa, pb = _vec3("a", a), _vec3("b", b)
-        ab = _sub(pb, pa)
-        length = _norm(ab)
+        pa, pb = as_vec3("a", a), as_vec3("b", b)
+        ab = sub3(pb, pa)
+        length = norm3(ab)
         if length == 0.0:
             return None
         return self._cast(pa, (ab[0] / length, ab[1] / length, ab[2] / length), length)
@@ -697,13 +654,13 @@ class Scene:
         Raises:
             InvalidInput: a non-finite or wrong-shape point.
         """
-        q = np.array(_vec3("p", p))
+        q = np.array(as_vec3("p", p))
         best = min(self._items, key=lambda item: item[1].distance(q))
         return best[0], best[1].distance(q)
 
     def inside(self, p: ArrayLike) -> tuple[str, ...]:
         """Names of the solids (cylinders, boxes) whose closed volume contains ``p`` [m], (3,)."""
-        q = np.array(_vec3("p", p))
+        q = np.array(as_vec3("p", p))
         return tuple(
             n for n, prim in self._items if isinstance(prim, Cylinder | Box) and prim.contains(q)
         )
