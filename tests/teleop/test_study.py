@@ -11,7 +11,7 @@ from typer.testing import CliRunner
 from velfence.cli import app
 from velfence.errors import InvalidParameter
 from velfence.teleop.operator import OperatorProfile
-from velfence.teleop.study import run_study
+from velfence.teleop.study import assisted_run, run_study
 from velfence.teleop.task import run_task
 from velfence.viz.study import write_study
 
@@ -90,6 +90,8 @@ def test_tiny_study_summary_and_files(tmp_path):
     assert again.records == result.records
     with pytest.raises(InvalidParameter, match="n_subjects"):
         run_study(0)
+    with pytest.raises(InvalidParameter, match="seed"):
+        assisted_run(seed=-1)
 
 
 def test_cli_study_json(tmp_path):

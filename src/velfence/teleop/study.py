@@ -208,15 +208,19 @@ def assisted_run(
     """One laser-assisted pick-and-place with snapshots, the run a study's animation shows.
 
     Args:
-        seed: Seed of the run; the same run as subject 0's first assisted run of a study with
-            this seed.
+        seed: Seed, int ``>= 0``; the run gets the seeds of subject 0's first assisted run in a
+            study with this seed.
         profile: The operator (default: subject 0 of a study with this seed).
         snapshot_rate: Snapshots per simulated second [Hz].
         rate: Session control rate [Hz].
 
     Returns:
         The :class:`~velfence.teleop.task.TaskRun` (record, snapshots, scene, trace).
+
+    Raises:
+        InvalidParameter: a bad seed or rate (see :func:`~velfence.teleop.task.run_task`).
     """
+    seed = check_positive_int("seed", seed, minimum=0, example=0)
     prof = (
         profile if profile is not None else OperatorProfile.draw(np.random.default_rng([seed, 0]))
     )
