@@ -210,8 +210,8 @@ def study(
 
     from rich.progress import Progress
 
-    from velfence.teleop.study import run_study
-    from velfence.viz.study import record_animation, write_study
+    from velfence.teleop.study import assisted_run, run_study
+    from velfence.viz.study import animate_run, write_study
 
     with Progress(transient=True, disable=json_out) as progress:
         task = progress.add_task("pick-and-place runs", total=subjects * runs * 2)
@@ -220,7 +220,7 @@ def study(
         )
     artifacts = [str(p) for p in write_study(result, out)]
     if animation:
-        path, _ = record_animation(out / "assisted_run.gif", seed=seed)
+        path = animate_run(assisted_run(seed=seed), out / "assisted_run.gif")
         artifacts.append(str(path))
     summary = result.summary()
     if json_out:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import sys
 
 import numpy as np
 import pytest
@@ -13,7 +14,7 @@ from velfence.errors import InvalidParameter
 from velfence.teleop.operator import OperatorProfile
 from velfence.teleop.study import assisted_run, run_study
 from velfence.teleop.task import run_task
-from velfence.viz.study import write_study
+from velfence.viz.study import animate_run, write_study
 
 RATE = 50.0  # coarse control rate: these tests check the plumbing, the study uses 100 Hz
 
@@ -62,6 +63,19 @@ def test_snapshots_and_trace(runs):
     assert run.snapshots[-1]["task"]["done"] is True
     assert run.trace.shape[1] == 9
     assert run.trace[-1, 0] == pytest.approx(run.record.time, abs=0.05)
+
+
+def test_animate_run_writes_a_gif_or_falls_back_to_json(runs, tmp_path, monkeypatch):
+    run = runs["assisted"]
+    gif = animate_run(run, tmp_path / "a" / "run.gif", fps=5, max_frames=3)
+    assert gif == tmp_path / "a" / "run.gif"
+    assert gif.read_bytes()[:6] in (b"GIF87a", b"GIF89a")
+    monkeypatch.setitem(sys.modules, "velfence.viz.telerobotics", None)  # renderer unavailable
+    fallback = animate_run(run, tmp_path / "b" / "run.gif")
+    assert fallback == tmp_path / "b" / "run.json"
+    data = json.loads(fallback.read_text())
+    assert len(data["snapshots"]) == len(run.snapshots)
+    assert data["scene"] == json.loads(json.dumps(list(run.scene)))
 
 
 def test_run_task_validation():

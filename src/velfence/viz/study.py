@@ -1,8 +1,8 @@
 r"""Figures and files of the simulated user study (Khokar 2009 §7.2, Figs. 74 and 75 redrawn).
 
 :func:`plot_times` and :func:`plot_paths` draw a :class:`~velfence.teleop.study.StudyResult`;
-:func:`write_study` writes them with the records as JSON; :func:`record_animation` renders one
-assisted run (:func:`~velfence.teleop.study.assisted_run`).
+:func:`write_study` writes them with the records as JSON; :func:`animate_run` renders a recorded
+run (e.g. :func:`~velfence.teleop.study.assisted_run`).
 """
 
 from __future__ import annotations
@@ -13,11 +13,10 @@ from pathlib import Path
 
 import numpy as np
 
-from velfence.teleop.operator import OperatorProfile
-from velfence.teleop.study import StudyResult, assisted_run
+from velfence.teleop.study import StudyResult
 from velfence.teleop.task import CONDITIONS, TaskRun
 
-__all__ = ["plot_paths", "plot_times", "record_animation", "write_study"]
+__all__ = ["animate_run", "plot_paths", "plot_times", "write_study"]
 
 
 _COLORS = {"unassisted": "#d62728", "assisted": "#1f77b4"}
@@ -129,32 +128,22 @@ def write_study(result: StudyResult, out: str | Path) -> list[Path]:
     ]
 
 
-def record_animation(
-    path: str | Path,
-    *,
-    seed: int = 0,
-    profile: OperatorProfile | None = None,
-    fps: int = 15,
-    snapshot_rate: float = 5.0,
-    rate: float = 100.0,
-) -> tuple[Path, TaskRun]:
-    """Run one assisted pick-and-place and render it (:mod:`velfence.viz.telerobotics`).
+def animate_run(run: TaskRun, path: str | Path, *, fps: int = 15, max_frames: int = 150) -> Path:
+    """Render a recorded pick-and-place run (:mod:`velfence.viz.telerobotics`).
 
     Falls back to writing the snapshots and scene as JSON (``path`` with suffix ``.json``) when
     the renderer is not available.
 
     Args:
-        path: Output animation (``.gif``).
-        seed: Seed of the run.
-        profile: The operator (default: subject 0 of a study with this seed).
+        run: A run with snapshots, e.g. :func:`~velfence.teleop.study.assisted_run`.
+        path: Output animation (``.gif``); its folder is created.
         fps: Playback frames per second.
-        snapshot_rate: Snapshots per simulated second [Hz].
-        rate: Session control rate [Hz].
+        max_frames: Most frames to render (see
+            :func:`~velfence.viz.telerobotics.animate_session`).
 
     Returns:
-        ``(written path, the run)``.
+        The path written.
     """
-    run = assisted_run(seed=seed, profile=profile, snapshot_rate=snapshot_rate, rate=rate)
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)
     try:
@@ -163,6 +152,8 @@ def record_animation(
         fallback = out.with_suffix(".json")
         payload = {"snapshots": list(run.snapshots), "scene": list(run.scene)}
         fallback.write_text(json.dumps(payload) + "\n")
-        return fallback, run
-    written = animate_session(list(run.snapshots), list(run.scene), out, fps=fps)
-    return Path(written), run
+        return fallback
+    written = animate_session(
+        list(run.snapshots), list(run.scene), out, fps=fps, max_frames=max_frames
+    )
+    return Path(written)
