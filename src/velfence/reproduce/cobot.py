@@ -1,4 +1,4 @@
-"""Reproduction of Gillespie, Colgate & Peshkin 1999 : Fig. 5 and virtual walls.
+"""Reproduction of Gillespie, Colgate & Peshkin 1999: Fig. 5 and virtual walls.
 
 Fig. 5: the r-θ cobot with one tetrahedral CVT starts at (1.2, 0) heading +y and follows the unit
 circle; "the cart approaches then stays on the circular path". The paper prints no gains, r_o,
