@@ -183,7 +183,7 @@ def test_axes_are_unit_and_inputs_coaxial(cospm: CoSPM) -> None:
 
 
 def test_check_a_home_needs_eta_on_the_base_side_too() -> None:
-    """Notes §2.2.2 (a): without the base-side R_z(η_i), home would need θ_i = π/2 - η_i."""
+    """docs/cospm.md §2 (a): without the base-side R_z(η_i), home would need θ_i = π/2 - η_i."""
     home = np.full(3, HALF_PI)
     np.testing.assert_allclose(_f_explicit(home, np.zeros(3)), 0.0, atol=IDENTITY_ATOL)
     assert np.max(np.abs(_f_explicit(home, np.zeros(3), base_eta=False))) > 0.5
@@ -354,7 +354,7 @@ def test_ikp_modes_are_branches_of_opposite_b_sign(cospm: CoSPM) -> None:
 
 
 def test_home_mode_equals_fkp_continuation_at_the_vertices_of_q_star(cospm: CoSPM) -> None:
-    """Notes §2.2.2: the '-' branch equals the FKP-continuation solutions at Q*'s vertices."""
+    """docs/cospm.md §3: the '-' branch equals the FKP-continuation solutions at Q*'s vertices."""
     for q12 in stops_polygon().corners:
         q3 = (HALF_PI - Q_AUX[0, 2] * q12[0] - Q_AUX[1, 2] * q12[1]) / Q_AUX[2, 2]
         theta = Q_AUX.T @ np.array([q12[0], q12[1], q3])
@@ -475,7 +475,7 @@ def paper_report(cospm: CoSPM) -> RegionReport:
 
 
 def test_checks_d_and_e_on_the_notes_grid(paper_report: RegionReport) -> None:
-    """Notes §2.2.4: the flood-fill grid of Q* at step 0.02 and its numbers."""
+    """docs/cospm.md §7: the flood-fill grid of Q* at step 0.02 and its numbers."""
     r = paper_report
     assert r.n_points == 3651
     assert r.n_failed == 0
@@ -523,7 +523,7 @@ def test_q3_choice_changes_only_the_bearing(cospm: CoSPM) -> None:
 
 @pytest.mark.parametrize("shift", [5.0, -5.0])
 def test_check_d_inclusion_is_tight(cospm: CoSPM, shift: float) -> None:
-    """Notes §2.2.2 (d): shifting W*'s elevation by ±5 deg breaks the inclusion."""
+    """docs/cospm.md §2 (d): shifting W*'s elevation by ±5 deg breaks the inclusion."""
     lo_b, hi_b, lo_e, hi_e = PAPER_WORKSPACE
     r = validate_region(
         cospm, step=0.1, workspace=(lo_b, hi_b, lo_e + shift * DEG, hi_e + shift * DEG), banks=()
