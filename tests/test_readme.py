@@ -54,24 +54,28 @@ def extract(markdown: str, page: str) -> list[Block]:
 BLOCKS = [b for page in PAGES for b in extract(page.read_text(encoding="utf-8"), page.name)]
 
 
-def run_block(code: str) -> subprocess.CompletedProcess[str]:
-    env = dict(os.environ, MPLBACKEND="Agg", PYTHONHASHSEED="0")
+def run_block(code: str, folder: Path) -> subprocess.CompletedProcess[str]:
+    """Run ``code`` as a script in a fresh interpreter, from the repository root."""
+    script = folder / "block.py"
+    script.write_text(code, encoding="utf-8")
+    env = dict(os.environ, MPLBACKEND="Agg", PYTHONHASHSEED="0", PYTHONIOENCODING="utf-8")
     src = str(ROOT / "src")
     env["PYTHONPATH"] = src + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
     return subprocess.run(
-        [sys.executable, "-c", code],
+        [sys.executable, str(script)],
         cwd=ROOT,
         env=env,
         capture_output=True,
         text=True,
+        encoding="utf-8",
         timeout=TIMEOUT_S,
         check=False,
     )
 
 
 @pytest.mark.parametrize("block", BLOCKS, ids=[f"{b.page}:{b.line}" for b in BLOCKS])
-def test_block_runs_and_prints_what_the_page_shows(block: Block) -> None:
-    proc = run_block(block.code)
+def test_block_runs_and_prints_what_the_page_shows(block: Block, tmp_path: Path) -> None:
+    proc = run_block(block.code, tmp_path)
     assert proc.returncode == 0, f"{block.page}:{block.line} failed:\n{proc.stderr}"
     if block.expected is not None:
         assert normalise(proc.stdout) == normalise(block.expected), (
@@ -100,10 +104,10 @@ def test_extract_pairs_a_block_only_with_the_text_block_right_after_it() -> None
     assert (b.code, b.expected) == ("print(2)\n", None)
 
 
-def test_comparison_is_exact_up_to_trailing_whitespace() -> None:
+def test_comparison_is_exact_up_to_trailing_whitespace(tmp_path: Path) -> None:
     assert normalise("a  \nb\n\n") == normalise("a\nb")
     assert normalise(" a") != normalise("a")
     assert normalise("[0.1 0.2]") != normalise("[0.1  0.2]")
-    proc = run_block("print('x')")
+    proc = run_block("print('x')", tmp_path)
     assert normalise(proc.stdout) == "x"
     assert normalise(proc.stdout) != normalise("y")
