@@ -1,4 +1,4 @@
-"""Shared test configuration: one seeded, deterministic hypothesis profile (DESIGN.md §6).
+"""Shared test configuration: one seeded, deterministic hypothesis profile.
 
 ``HYPOTHESIS_PROFILE=thorough`` runs ten times more examples (still derandomized).
 """

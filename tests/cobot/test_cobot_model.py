@@ -1,4 +1,4 @@
-"""The cobot model (source 004 §2.3.2, eqs. 2.19–2.24) and the inverse route through the CVTs.
+"""The cobot model (Gillespie 1999 §2.3.2, eqs. 2.19–2.24) and the inverse route through the CVTs.
 
 Independent routes: Λ against the Gram determinant and the Laplace expansion; the heading against
 the constraint it must satisfy, (W t_i)ᵀ S_i J T = 0 (eq. 2.20), for every CVT; the two inverse

@@ -1,4 +1,4 @@
-"""CVT models (source 004 eqs. 2.15–2.18): directions, angle rates, inverse maps, steering rates.
+"""CVT models (Gillespie 1999 eqs. 2.15–2.18): directions, angle rates, inverse maps, steer rates.
 
 Independent routes: the polar angle of ``direction(φ)`` differentiated numerically (for
 ``angle_rate``); the ratio ω1/ω2 read off the direction (for eq. 2.16); and the turning rate of
@@ -84,7 +84,7 @@ def test_angle_rate_equals_derivative_of_polar_angle(cvt: CVT) -> None:
 
 
 def test_tetrahedral_angle_rate_value_from_notes() -> None:
-    """Notes 004 §3.2.2: dψ/dφ = 0.756574 at φ = 0.37 (convention +1); mirrored for -1."""
+    """docs/cobot.md §2: dψ/dφ = 0.756574 at φ = 0.37 (convention +1); mirrored for -1."""
     assert TetrahedralCVT(convention=1).angle_rate(0.37) == pytest.approx(0.756574, abs=1e-6)
     assert TetrahedralCVT(convention=-1).angle_rate(0.37) == pytest.approx(-0.756574, abs=1e-6)
 

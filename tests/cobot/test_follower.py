@@ -1,4 +1,4 @@
-"""The spatial path follower (source 004 §3, eqs. 3.1–3.8), gains and its singularity guard.
+"""The spatial path follower (Gillespie 1999 §3, eqs. 3.1–3.8), gains and its singularity guard.
 
 Independent routes: U = M⁻¹(v + b) by ``np.linalg.solve`` with M, b, v built here from (3.1),
 (3.2), (3.6), (3.8) (the code uses a Sherman–Morrison closed form); the closed-loop error against

@@ -1,4 +1,4 @@
-"""Tangent/curvature transforms (source 004 eqs. 2.5–2.14) against finite differences.
+"""Tangent/curvature transforms (Gillespie et al. 1999 eqs. 2.5–2.14) against finite differences.
 
 Independent route: a curve R(s) parametrised by arc length is pushed through the r-θ inverse
 kinematics q(s) = L(R(s)) and the selection r(s) = S q(s); the image's unit tangent is the finite

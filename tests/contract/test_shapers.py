@@ -1,4 +1,4 @@
-"""The shaper contract (DESIGN.md §4, velfence.shaping.base), run over every shaper.
+"""The shaper contract (velfence.shaping.base), run over every shaper.
 
 Adding a shaper means adding one entry to ``FACTORIES``: ``(name, make)`` where
 ``make(**overrides)`` returns a shaper whose ``shape(p, v)`` takes a 2-D position and command.
@@ -34,7 +34,7 @@ from velfence import (
     ShapingResult,
 )
 
-POLYGON = ConvexPolygon([[0, 0], [2, 0], [2.5, 1], [1, 2], [-0.5, 1]])  # DESIGN.md §3
+POLYGON = ConvexPolygon([[0, 0], [2, 0], [2.5, 1], [1, 2], [-0.5, 1]])  # the README's pentagon
 
 Factory = Callable[..., Any]
 

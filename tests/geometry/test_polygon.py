@@ -1,7 +1,7 @@
 """ConvexPolygon, Rectangle, inscribed_rectangle, decompose: US 8,676,382 geometry.
 
 Every closed form is checked against an independent route: triangle fans and the shoelace formula
-for area and centroid, the patent's own normal formula (notes/000 §2, [RECON]), brute-force
+for area and centroid, the patent's own normal formula (derivations §1, [RECON]), brute-force
 point-to-line distances, both patent inside tests, the literal arc-segment test against the
 ``atan2`` fast path, and brute-force rectangle sampling for the inscribed rectangle.
 """
@@ -32,7 +32,7 @@ RTOL = 1e-12  # closed forms against independent closed forms
 ATOL = 1e-12
 MARGIN = 1e-6  # keep random points this far from boundaries / rays where tests may disagree
 
-PENTAGON = [[0, 0], [2, 0], [2.5, 1], [1, 2], [-0.5, 1]]  # DESIGN.md §3
+PENTAGON = [[0, 0], [2, 0], [2.5, 1], [1, 2], [-0.5, 1]]  # the README's pentagon
 SQUARE = [[-1, -1], [1, -1], [1, 1], [-1, 1]]
 DIAMOND = [[1, 0], [0, 1], [-1, 0], [0, -1]]  # |x| + |y| <= 1
 
@@ -237,7 +237,7 @@ class TestAreaCentroid:
 
 # ---------------------------------------------------------------------------- normals, distances
 def _patent_normals(c: np.ndarray, centroid: np.ndarray) -> np.ndarray:
-    """Notes/000 §2 [RECON]: ñ_i = r_iC − ((r_iC·e_i)/(e_i·e_i)) e_i, normalised."""
+    """docs/derivations.md §1 [RECON]: ñ_i = r_iC − ((r_iC·e_i)/(e_i·e_i)) e_i, normalised."""
     out = []
     for i in range(len(c)):
         e = c[(i + 1) % len(c)] - c[i]

@@ -14,9 +14,9 @@ FK_ATOL = 1e-12  # [m], closed-form FK vs ours
 JAC_RTOL = 1e-6  # Jacobian vs central differences
 JAC_ATOL = 1e-9  # [m/rad], for entries that pass through zero
 FD_STEP = 1e-6  # [rad]
-THESIS_ATOL = 5e-5  # [m], FK vs notes 002 values printed to 0.1 mm
+THESIS_ATOL = 5e-5  # [m], FK vs reference values printed to 0.1 mm
 
-# Khokar 2009 §7.1 recorded final joint angles and the FK end points quoted in notes 002 §2.3.
+# Khokar 2009 §7.1 recorded final joint angles and their FK end points from eqs. 11-22.
 THESIS_POSES = (
     ((-1.68307, -3.10591, 0.79649, -0.51276, -0.58633, 0.09572), (0.2317, 0.7166, -0.2912)),
     ((-1.18062, -3.11768, 0.56893, 0.99229, -0.48414, -0.42776), (-0.1111, 0.6645, -0.3602)),
@@ -68,7 +68,7 @@ def dh_transform(a: float, alpha: float, d: float, theta: float) -> np.ndarray:
 
 
 def puma_fgl_position(q: np.ndarray) -> np.ndarray:
-    """Khokar 2009 eqs. 20-22 (notes 002 §2.3) with a2, a3, d3, d4, d6 = 0.4318, -0.0203, ..."""
+    """Khokar 2009 eqs. 20-22 (telerobotics.md §8, T1): a2, a3, d3, d4 = 0.4318, -0.0203, ..."""
     a2, a3, d3, d4 = 0.4318, -0.0203, 0.15, 0.4331
     c1, s1 = math.cos(q[0]), math.sin(q[0])
     c2, s2 = math.cos(q[1]), math.sin(q[1])

@@ -26,7 +26,7 @@ from velfence.mechanisms.cospm_region import (
 )
 
 IDENTITY_ATOL = 1e-12  # exact identities of the model, evaluated in float64
-NOTES_ATOL = 1e-4  # numbers printed in the notes with 4-5 decimals
+NOTES_ATOL = 1e-4  # reference values printed with 4-5 decimals
 FD_STEP = 1e-6  # [rad], central differences
 FD_RTOL = 1e-6
 FD_ATOL = 1e-8
@@ -34,7 +34,7 @@ ROUND_TRIP_ATOL = 1e-9  # [rad], FKP converged to |f| <= 1e-12
 DEG = math.pi / 180.0
 HALF_PI = math.pi / 2.0
 
-# shared/notes §2.2.3 and §2.2.5
+# Reference values of an independent hand computation of the Table 1 model (docs/cospm.md §5, §7)
 NOTES_HOME_J = np.array([[-0.7071, -0.7071, 1.4142], [-0.7071, 0.7071, 0.0], [0.0, 0.0, -1.0]])
 NOTES_VERTICES = {
     (0, 1): (1.15060, -1.07097),
@@ -72,7 +72,7 @@ EZ = np.array([0.0, 0.0, 1.0])
 def _f_explicit(
     theta: np.ndarray, chi: np.ndarray, *, mirror: bool = False, base_eta: bool = True
 ) -> np.ndarray:
-    """The notes' §2.2.2 vectors from explicit rotation matrices, Table 1."""
+    """The §2 model vectors (docs/cospm.md) from explicit rotation matrices, Table 1."""
     d = CoSPMDesign.table1()
     R = _rz(chi[2]) @ _ry(chi[1]) @ _rx(chi[0])
     out = np.empty(3)
@@ -185,7 +185,7 @@ def test_axes_are_unit_and_inputs_coaxial(cospm: CoSPM) -> None:
 
 
 def test_check_a_home_needs_eta_on_the_base_side_too() -> None:
-    """Notes §2.2.2 (a): without the base-side R_z(η_i), home would need θ_i = π/2 - η_i."""
+    """docs/cospm.md §2 (a): without the base-side R_z(η_i), home would need θ_i = π/2 - η_i."""
     home = np.full(3, HALF_PI)
     np.testing.assert_allclose(_f_explicit(home, np.zeros(3)), 0.0, atol=IDENTITY_ATOL)
     assert np.max(np.abs(_f_explicit(home, np.zeros(3), base_eta=False))) > 0.5
@@ -204,7 +204,7 @@ def test_check_b_bearing_invariance_identity_and_its_sign(cospm: CoSPM) -> None:
         lhs = cospm.geometric_model(theta + eps, chi)
         rhs = cospm.geometric_model(theta, chi + eps * np.array([0.0, 0.0, 1.0]))
         np.testing.assert_allclose(lhs, rhs, atol=IDENTITY_ATOL)
-    # The sign matters (the R_x(-π) flip of the notes): the opposite sign is not an identity.
+    # The sign matters (the R_x(-π) flip of docs/cospm.md §2): the opposite sign is not an identity.
     theta, chi, eps = np.array([1.0, 2.0, 0.5]), np.array([0.2, 0.3, 0.1]), 0.7
     wrong = cospm.geometric_model(theta, chi - eps * np.array([0.0, 0.0, 1.0]))
     assert np.max(np.abs(cospm.geometric_model(theta + eps, chi) - wrong)) > 0.1
@@ -356,7 +356,7 @@ def test_ikp_modes_are_branches_of_opposite_b_sign(cospm: CoSPM) -> None:
 
 
 def test_home_mode_equals_fkp_continuation_at_the_vertices_of_q_star(cospm: CoSPM) -> None:
-    """Notes §2.2.2: the '-' branch equals the FKP-continuation solutions at Q*'s vertices."""
+    """docs/cospm.md §3: the '-' branch equals the FKP-continuation solutions at Q*'s vertices."""
     for q12 in stops_polygon().corners:
         q3 = (HALF_PI - Q_AUX[0, 2] * q12[0] - Q_AUX[1, 2] * q12[1]) / Q_AUX[2, 2]
         theta = Q_AUX.T @ np.array([q12[0], q12[1], q3])
@@ -374,9 +374,9 @@ def test_ikp_out_of_reach_raises_with_leg_and_values(cospm: CoSPM) -> None:
 
 
 def test_fkp_continuation_options(cospm: CoSPM) -> None:
-    theta = np.array([1.0235, 2.1181, 1.5708])  # the notes' stop configuration at d4
+    theta = np.array([1.0235, 2.1181, 1.5708])  # the reference stop configuration at d4
     chi = cospm.forward_kinematics(theta)
-    assert chi[1] == pytest.approx(57.79 * DEG, abs=0.01 * DEG)  # notes §2.3: +57.79 deg
+    assert chi[1] == pytest.approx(57.79 * DEG, abs=0.01 * DEG)  # docs/cospm.md §7: +57.79 deg
     # a large common rotation is applied exactly through the invariance
     far = cospm.forward_kinematics(theta + 40.0)
     np.testing.assert_allclose(far, chi - [0.0, 0.0, 40.0], atol=ROUND_TRIP_ATOL)
@@ -477,7 +477,7 @@ def paper_report(cospm: CoSPM) -> RegionReport:
 
 
 def test_checks_d_and_e_on_the_notes_grid(paper_report: RegionReport) -> None:
-    """Notes §2.2.4: the flood-fill grid of Q* at step 0.02 and its numbers."""
+    """docs/cospm.md §7: the flood-fill grid of Q* at step 0.02 and its numbers."""
     r = paper_report
     assert r.n_points == 3651
     assert r.n_failed == 0
@@ -525,7 +525,7 @@ def test_q3_choice_changes_only_the_bearing(cospm: CoSPM) -> None:
 
 @pytest.mark.parametrize("shift", [5.0, -5.0])
 def test_check_d_inclusion_is_tight(cospm: CoSPM, shift: float) -> None:
-    """Notes §2.2.2 (d): shifting W*'s elevation by ±5 deg breaks the inclusion."""
+    """docs/cospm.md §2 (d): shifting W*'s elevation by ±5 deg breaks the inclusion."""
     lo_b, hi_b, lo_e, hi_e = PAPER_WORKSPACE
     r = validate_region(
         cospm, step=0.1, workspace=(lo_b, hi_b, lo_e + shift * DEG, hi_e + shift * DEG), banks=()

@@ -3,7 +3,7 @@
 Every expected value comes from a route independent of the implementation: the thesis's printed
 FK formulas (eqs. 11-22), a product of exponentials from the screw axes at q = 0 (derived by hand
 below), the printed Craig Table 2 multiplied out with modified-DH link matrices, central
-differences, the closed-form PUMA Jacobian determinant, and the numbers quoted in notes 002.
+differences, the closed-form PUMA Jacobian determinant, and the numbers the thesis prints.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 from velfence.mechanisms.chain import DHChain
 from velfence.mechanisms.puma560 import CONFIGURATIONS, CRAIG_TABLE2, Puma560
 
-A2, A3, D3, D4 = 0.4318, -0.0203, 0.15, 0.4331  # [m], notes 002 §2.3 (FGL, as implemented)
+A2, A3, D3, D4 = 0.4318, -0.0203, 0.15, 0.4331  # [m], Khokar 2009 eqs. 11-22 (FGL, as implemented)
 POSE_ATOL = 1e-12  # FK vs independent closed forms
 IK_ATOL = 1e-9  # fk(ik(T)) vs T
 FD_STEP = 1e-6  # [rad]
@@ -39,7 +39,7 @@ RECORDED_Q = np.array(
 # Independent routes
 # --------------------------------------------------------------------------------------------
 def printed_fk(q: np.ndarray, d6: float = 0.0) -> np.ndarray:
-    """Thesis eqs. 11-22 (noap0..noap11), typed from notes 002 §2.3."""
+    """Thesis eqs. 11-22 (noap0..noap11), typed from the thesis."""
     c1, s1 = math.cos(q[0]), math.sin(q[0])
     c4, s4 = math.cos(q[3]), math.sin(q[3])
     c5, s5 = math.cos(q[4]), math.sin(q[4])
@@ -197,13 +197,13 @@ def test_position_is_translation_and_tool_composes() -> None:
 
 
 def test_fk_reproduces_recorded_end_points() -> None:
-    # notes 002 §2.3: FK of the §7.1 destinations vs the means of Tables 4/5: 0.2 mm and 1.3 mm.
+    # Khokar 2009: FK of the §7.1 destinations vs the means of Tables 4/5: 0.2 mm and 1.3 mm.
     robot = Puma560()
     table4_mean = np.array([0.23149, 0.71659, -0.29119])
     table5_mean = np.array([-0.11033, 0.66371, -0.35949])
     assert np.linalg.norm(robot.position(RECORDED_Q[0]) - table4_mean) < 0.5e-3
     assert np.linalg.norm(robot.position(RECORDED_Q[1]) - table5_mean) < 1.5e-3
-    # ... and the printed a3 = +0.0203 would miss by ~30 mm (notes §2.3): the sign matters.
+    # ... and the printed a3 = +0.0203 misses by 41 mm (telerobotics.md §8, T1): the sign matters.
     wrong_dh = [
         [0, -math.pi / 2, 0, 0],
         [A2, 0, D3, 0],
@@ -223,7 +223,7 @@ def test_craig_convention_is_printed_table2() -> None:
 
 
 def test_craig_and_fu_relation() -> None:
-    # T_fu(q) = T_craig(q + π e3) Rz(π): the same arm (notes 002 §2.3).
+    # T_fu(q) = T_craig(q + π e3) Rz(π): the same arm (docs/telerobotics.md §8, T2).
     fu, craig = Puma560(), Puma560(convention="craig")
     Rz_pi = rot(Z, math.pi)
     for q in random_qs(100, 5):
@@ -294,7 +294,7 @@ def test_manipulability_closed_form_and_yoshikawa() -> None:
 
 
 def test_manipulability_at_thesis_trajectory_1_start() -> None:
-    # notes 002 §2.6 [CHECKED]: w = 0.054 at the start of §7.4 trajectory 1 (w0 = 0.014).
+    # Khokar 2009 §5.4, §7.4: w = 0.054 at the start of §7.4 trajectory 1 (w0 = 0.014).
     assert Puma560().manipulability(RECORDED_Q[2]) == pytest.approx(0.054, abs=5e-4)
 
 

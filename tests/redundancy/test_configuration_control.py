@@ -1,6 +1,6 @@
 """Configuration control with obstacle inequality tasks (US 5,150,026 claim 1, steps A–F).
 
-Scenarios from shared/notes/001-003-004 §1.3: a planar 3R tracking a straight end-effector line
+Scenarios (ours; the claim gives none): a planar 3R tracking a straight end-effector line
 that passes near an obstacle, two obstacles on a 4R, redundancy exhausted, critical-point switching
 links, plus the shaper contract and the invalid-input policy. The closed loop is a plain explicit
 Euler loop (``velfence.sim.simulate`` expects the command in the state's space).

@@ -36,7 +36,7 @@ def test_the_issue_s_named_checks_are_there(report):
 
 
 def test_convergence_numbers_match_the_notes_reconstruction(report):
-    # notes 004 §3.3 (independent simulation by the note's author): 8.1e-2 at s = 1, 1.8e-2 at 2.
+    # An independent simulation of Fig. 5 (docs/reproductions.md): 8.1e-2 at s = 1, 1.8e-2 at 2.
     by = {c.name: c.measured for c in report.checks}
     assert by["r-θ cobot: |ΔR| at s = 2 m [m]"] == pytest.approx(1.83e-2, rel=0.02)
     assert by["C_EE model: |ΔR| at s = 2 m [m]"] == pytest.approx(1.83e-2, rel=0.02)
@@ -52,7 +52,7 @@ def test_json_and_artifacts(report):
 
 
 def test_positions_on_the_circle_at_known_arc_lengths():
-    # The notes' reconstruction lists (0.673, 0.806), (-0.284, 0.953), (-0.748, -0.664),
+    # The independent simulation of Fig. 5 gives (0.673, 0.806), (-0.284, 0.953), (-0.748, -0.664),
     # (0.915, -0.404) at s = 1, 2, 4, 6 for every speed.
     tr = fig5_ee()
     np.testing.assert_allclose(

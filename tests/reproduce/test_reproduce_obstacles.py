@@ -27,7 +27,7 @@ def test_checks_are_named_sourced_and_finite(report):
     names = [c.name for c in report.checks]
     assert len(names) == len(set(names))
     for c in report.checks:
-        assert c.source.startswith(("US 5,150,026 claim 1", "issue 4")), c.name
+        assert c.source.startswith(("US 5,150,026 claim 1", "velfence scenario")), c.name
         if isinstance(c.measured, float):
             assert math.isfinite(c.measured), c.name
     text = " ".join(names)

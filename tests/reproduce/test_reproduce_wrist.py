@@ -12,7 +12,7 @@ import pytest
 from velfence.reproduce.base import Report
 from velfence.reproduce.wrist import BUFFER, GAIN, run
 
-#: The patent's own law fails these claims (measured and explained in the notes): the finding.
+#: The patent's own law fails these claims (see docs/reproductions.md): the finding.
 SOURCE_DEFECTS = {
     "patent: corner: outward speed toward the neighbouring edge not increased",
     "patent: a fast push into the acute corner never leaves",
@@ -69,7 +69,7 @@ def test_source_defects_are_measured_and_explained(report: Report) -> None:
 def test_every_check_names_its_source(report: Report) -> None:
     for c in report.checks:
         assert c.source.strip(), c.name
-        assert c.source.startswith(("US 8,676,382", "issue requirement")), c.name
+        assert c.source.startswith(("US 8,676,382", "velfence requirement")), c.name
 
 
 def test_spring_holds_penetration_at_push_over_gain(report: Report) -> None:

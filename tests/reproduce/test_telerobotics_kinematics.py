@@ -1,7 +1,7 @@
 """Kinematics checks of Khokar 2009 (velfence.reproduce._telerobotics_kinematics) and its tables.
 
 Expected values are the thesis's own statements (text, eq. 1, Table 9 summary) or the numbers
-quoted in notes 002 (§2.3, §4.3), recomputed here by independent numpy code, not read back from
+it implies (docs/telerobotics.md §8), recomputed here by independent numpy code, not read back from
 the implementation.
 """
 
@@ -22,7 +22,7 @@ from velfence.reproduce.base import Check
 from velfence.teleop import thesis_data as data
 
 PNG = b"\x89PNG\r\n\x1a\n"
-A3 = 0.0203  # [m], |a3| of the PUMA 560 (notes 002 §2.3)
+A3 = 0.0203  # [m], |a3| of the PUMA 560 (Khokar 2009 Table 2, eq. 7)
 
 
 @pytest.fixture(scope="module")
@@ -62,7 +62,7 @@ def test_names_unique_and_all_pass_except_the_source_defect(
 
 def test_fk_vs_tables_4_5_numbers(result: tuple[list[Check], list[Path]]) -> None:
     checks, _ = result
-    # notes 002 §2.3: 0.2 mm (set A) and about 1.3 mm (set B).
+    # FK of the recorded joints vs Tables 4/5: 0.2 mm (set A) and about 1.3 mm (set B).
     a = find(checks, "set-A destination")
     b = find(checks, "set-B destination")
     assert a.tolerance == FK_TOL_MM == 1.5
@@ -102,7 +102,7 @@ def test_tables_6_7_and_repeatability(result: tuple[list[Check], list[Path]]) ->
         assert c.measured <= 0.5e-4
         assert "0 mismatches" in c.note
         r = find(checks, f"repeatability of {stated}")
-        assert r.measured == pytest.approx(expected_mm, abs=0.005)  # notes 002 §4.3
+        assert r.measured == pytest.approx(expected_mm, abs=0.005)  # Tables 6/7 recomputed
 
 
 def test_printed_a3_sign_misses_by_twice_a3(result: tuple[list[Check], list[Path]]) -> None:

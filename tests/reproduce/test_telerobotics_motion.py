@@ -46,7 +46,7 @@ def test_singularity_times_against_the_thesis(result):
     t2 = by_name["§7.4 trajectory 2, J⁻¹: det J reaches 0 [s]"].measured
     assert abs(t1 - 0.63) <= 0.05  # thesis §7.4, "approximately 0.63 seconds"
     assert abs(t2 - 2.1) <= 0.05  # thesis §7.4, "about 2.1 seconds"
-    # the notes' geometry: elbow stretch after 0.256 m, shoulder singularity after 0.84 m of path
+    # the §7.4 geometry: elbow stretch after 0.256 m, shoulder singularity after 0.84 m of path
     assert t1 * SPEED == pytest.approx(0.256, abs=0.004)
     assert t2 * SPEED == pytest.approx(0.84, abs=0.004)
 

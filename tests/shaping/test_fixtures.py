@@ -36,9 +36,9 @@ def test_scaling_matches_thesis_closed_form_and_signed_projection():
     s = LineScaling(P0, U)
     rng = np.random.default_rng(0)
     for a in rng.normal(size=(50, 3)):
-        expected = 0.2 * a + 2.8 * (a @ UHAT) * UHAT  # eq. 47 rewritten (notes §2.9)
+        expected = 0.2 * a + 2.8 * (a @ UHAT) * UHAT  # eq. 47 rewritten
         np.testing.assert_allclose(s.shape(P0, a), expected, atol=TOL)
-    # Moving back along the line moves the arm back (no absolute value, notes §7 item 21).
+    # Moving back along the line moves the arm back (no absolute value: telerobotics.md §8, T12).
     assert s.shape(P0, -UHAT) @ UHAT == pytest.approx(-3.0)
 
 

@@ -1,4 +1,4 @@
-r"""PolygonShaper(method="exact"): the issue's requirements (a)-(e), each proven on a case.
+r"""PolygonShaper(method="exact"): the exact law's requirements (a)-(e) (derivations §3), proven.
 
 Law (kernel docstring, derivations §3): minimise :math:`\|v_o - v\|^2` subject to
 :math:`n_i\cdot v_o \ge -(\|v\| + R)\,d_i/d_{max}` for edges with :math:`0 \le d_i` and

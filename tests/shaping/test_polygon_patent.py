@@ -1,4 +1,4 @@
-"""PolygonShaper(method="patent"): US 8,676,382 algorithm 100 (notes/000 §3), hand-checked.
+"""PolygonShaper(method="patent"): US 8,676,382 algorithm 100 (derivations §2), hand-checked.
 
 Besides the faithful behaviour (pass-through, buffer scaling, two-stage corner projection, outside
 zeroing + spring + blend), two tests *demonstrate the defects* the exact method exists to remove:
@@ -95,7 +95,7 @@ class TestInside:
 
     def test_primary_edge_alone_decides_inside_the_wedge(self) -> None:
         # Faithful step 108: d1 >= d_max passes the command through even when the secondary edge
-        # is nearer than d_max (derivations §2.3). Just below the ray C→(4, 0) of the 3-4-5
+        # is nearer than d_max (derivations §2, step 108). Just below the ray C→(4, 0) of the 3-4-5
         # triangle the primary is the bottom edge, and d(bottom) = 1.25·d(hypotenuse) there.
         sh = patent(TRI345, buffer=0.5)
         p = np.array([2.5333, 0.54])
@@ -181,7 +181,7 @@ class TestOutside:
 
 
 class TestDefects:
-    """What the exact method fixes (notes/000 §4; ArduPilot issue #4807)."""
+    """What the exact method fixes (derivations §2, known defects; ArduPilot issue #4807)."""
 
     def test_two_stage_projection_reintroduces_outward_motion_at_acute_corner(self) -> None:
         dmax = 0.5

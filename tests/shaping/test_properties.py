@@ -21,7 +21,7 @@ from qpsolvers import solve_qp
 from strategies import convex_polygons, min_interior_width, positions, random_points, vectors
 from velfence import ZONE_NAMES, ConvexPolygon, InvalidInput, PolygonShaper
 
-QP_TOL = 1e-9  # issue target: exact == QP to 1e-9 (relative to the speed scale |v| + R) ...
+QP_TOL = 1e-9  # target: exact == QP to 1e-9 (relative to the speed scale |v| + R) ...
 # ... plus an absolute floor [velocity units] for positions within round-off of an edge, where the
 # signed distances (and so the bounds) are themselves only known to ~1e-15.
 QP_ABS_TOL = 1e-12

@@ -201,7 +201,7 @@ def test_paper_scenario_never_crosses_and_ends_with_pure_bearing():
     last = rows[-1][1]
     np.testing.assert_allclose(last.q_dot_lim[:2], 0.0, atol=1e-9)
     np.testing.assert_allclose(last.output, np.full(3, 0.5 / 3), atol=1e-9)
-    # the faithful tangential scaling exceeds the joints' acceleration limit (notes: 51.5)
+    # the faithful tangential scaling exceeds the joints' acceleration limit (derivations §4: 51.5)
     outs = np.array([r.output for _, r in rows])
     assert np.abs(np.diff(outs, axis=0)).max() / 1e-3 == pytest.approx(51.5, abs=0.5)
 

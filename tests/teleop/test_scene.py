@@ -343,7 +343,7 @@ def test_scene_is_immutable_and_named():
 
 # ------------------------------------------------------------------ the pick-and-place task
 SHOULDER_OFFSET = 0.15  # d3 (FGL d2) [m]
-REACH = 0.4318 + math.hypot(0.4331, 0.0203)  # a2 + |(d4, a3)| [m], notes §2.3
+REACH = 0.4318 + math.hypot(0.4331, 0.0203)  # a2 + |(d4, a3)| [m], eqs. 11-22
 
 
 def _wrist_reachable(p) -> bool:

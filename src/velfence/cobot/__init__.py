@@ -1,9 +1,9 @@
-r"""Cobot control (Gillespie, Colgate & Peshkin 1999, source 004): steer direction, never speed.
+r"""Cobot control (Gillespie, Colgate & Peshkin 1999): steer direction, never speed.
 
-Math contract (derivations in ``docs/cobot.md``; reconstructed equations in the reading notes
-004 §3). A non-redundant cobot with n joints has n - 1 CVTs and allows one direction of motion at a
-time; the human supplies the speed. Four spaces — end effector C_EE (R, T, κN, s), joints C_J (q),
-one coupling space Σ_i per CVT, steering Φ (φ_i) — are linked by
+Math contract (derivations, and every equation reconstructed from the damaged printed text, in
+``docs/cobot.md``). A non-redundant cobot with n joints has n - 1 CVTs and allows one direction
+of motion at a time; the human supplies the speed. Four spaces — end effector C_EE (R, T, κN, s),
+joints C_J (q), one coupling space Σ_i per CVT, steering Φ (φ_i) — are linked by
 
 * tangent/curvature transforms C_EE → C_J → Σ_i (eqs. 2.5, 2.7, 2.10, 2.11) or C_EE → Σ_i
   directly (2.13, 2.14), all one formula (:func:`map_tangent_curvature`);

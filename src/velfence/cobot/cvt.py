@@ -16,7 +16,7 @@ Since the curvature of a direction is the rate of turn of its angle per unit arc
 :math:`\dot\psi = \kappa_i \dot s_i`, so the one formula gives eq. (2.15) for the steered wheel
 (:math:`d\psi/d\varphi = 1`) and eq. (2.18) for the tetrahedral CVT
 (:math:`d\psi/d\varphi = \sqrt2/(1 + \cos^2\varphi)`), and it stays right for either sign
-convention of eq. (2.16) — the OCR lost the sign (notes 004 §3.2.2), ``convention=-1`` mirrors
+convention of eq. (2.16) — the OCR lost the sign (``docs/cobot.md`` §2), ``convention=-1`` mirrors
 :math:`\varphi`. The product :math:`\kappa_i \dot s_i` does not depend on the sign chosen for
 :math:`t_i`, so neither does :math:`\dot\varphi_i`. Add a CVT by implementing :class:`CVT`.
 """
@@ -118,7 +118,7 @@ class SteeredWheel:
 
 @dataclass(frozen=True, kw_only=True)
 class TetrahedralCVT:
-    r"""The tetrahedral CVT (eqs. 2.16–2.18, reconstructed; notes 004 §3.2.2).
+    r"""The tetrahedral CVT (eqs. 2.16–2.18, reconstructed; ``docs/cobot.md`` §2).
 
     Ratio :math:`M(\varphi) = \omega_1/\omega_2 = (\sin\varphi + c\sqrt2\cos\varphi) /
     (\sin\varphi - c\sqrt2\cos\varphi)` with ``c = convention`` (±1), so
@@ -133,7 +133,7 @@ class TetrahedralCVT:
     :math:`\varphi + \pi` give opposite directions.
 
     Attributes:
-        convention: +1 (the reading in the notes) or -1 (the mirrored sign of eq. 2.16).
+        convention: +1 (our reading of eq. 2.16) or -1 (the mirrored sign of eq. 2.16).
     """
 
     convention: int = 1

@@ -20,9 +20,9 @@ the human pushes. :math:`\det M = -T^\top T_p`; with :math:`w = v + b` the inver
 
     s_p'' = -\frac{T^\top w}{T^\top T_p},\qquad \kappa N = (I - TT^\top)(w + s_p'' T_p)
 
-(Sherman–Morrison; notes 004 §3.2.4). When :math:`|T^\top T_p|` falls below ``guard`` the heading
-is nearly perpendicular to the path and the inverse blows up: the controller flags it and, per
-``on_singular``, clamps the divisor to ``±guard`` (bounded output) or raises.
+(Sherman–Morrison; ``docs/cobot.md`` §4). When :math:`|T^\top T_p|` falls below ``guard`` the
+heading is nearly perpendicular to the path and the inverse blows up: the controller flags it and,
+per ``on_singular``, clamps the divisor to ``±guard`` (bounded output) or raises.
 
 The reference state :math:`(s_p, s_p')` belongs to the controller and is integrated over the
 *measured* arc length: ``ds = 0`` (the human stopped) leaves it unchanged.

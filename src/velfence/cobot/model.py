@@ -1,4 +1,4 @@
-r"""A cobot description and its four spaces (Gillespie et al. 1999, §2; notes 004 §3.2).
+r"""A cobot description and its four spaces (Gillespie et al. 1999, §2; ``docs/cobot.md`` §1-3).
 
 * **C_EE** — end-effector configuration :math:`R \in \mathbb R^n`, unit tangent :math:`T`,
   curvature vector :math:`\kappa N`, arc length :math:`s`, speed :math:`u = \dot s` (the human's).
@@ -104,7 +104,7 @@ class RThetaKinematics:
     r"""The r-θ cobot (§4): a boom turning about P by θ with a cart at distance r on it.
 
     :math:`R = (x, y) = (r\cos\theta, r\sin\theta)`, :math:`q = (r, \theta)`, and (eqs. 4.1,
-    4.3, 4.4, signs restored in notes 004 §3.2.5)
+    4.3, 4.4, signs restored: ``docs/cobot.md`` §5)
 
     .. math::
 
@@ -472,7 +472,7 @@ class Cobot:
             phi: Steering angles [rad], shape (n-1,).
             reference: A C_EE vector the heading should not oppose (the measured velocity
                 :math:`\dot R`, or the previous heading), shape (n,). Resolves the sign of
-                eq. (2.23) (the notes' :math:`T_J^\top V_J \ge 0`); without it the sign of
+                eq. (2.23) (our condition :math:`T_J^\top V_J \ge 0`); without it the sign of
                 :math:`\Lambda` is kept and ``ambiguous`` is set.
 
         Returns:
@@ -598,7 +598,7 @@ def r_theta_cobot(*, r_o: float = 0.5, convention: int = 1) -> Cobot:
     r"""The r-θ cobot of §4 with one tetrahedral CVT: :math:`S_1 = \mathrm{diag}(1/r_o, 1)`.
 
     The CVT couples the cart's travel r (through a cable drive of radius ``r_o``) and the boom
-    angle θ (directly), eq. (4.2). The paper does not give ``r_o``; 0.5 m is the notes' choice
+    angle θ (directly), eq. (4.2). The paper does not give ``r_o``; 0.5 m is our choice
     (it only scales the coupling space, the C_EE behaviour does not depend on it).
 
     Args:

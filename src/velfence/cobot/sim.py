@@ -5,7 +5,7 @@ Two simulators, both recording a :class:`CobotTrace`:
 * :func:`follow_in_ee` — the generic C_EE model, in arc length: :math:`R' = T`,
   :math:`T' = \kappa N` with :math:`\kappa N` held over each step ``ds``; ``integrator="arc"``
   advances exactly along the circular arc of that curvature (no drift off :math:`|T| = 1`),
-  ``"euler"`` is the notes' explicit step. Time does not appear: this is the model the controller
+  ``"euler"`` is the explicit Euler step. Time does not appear: this is the model the controller
   is designed on.
 * :func:`simulate_cobot` — the full four-space cobot in time. The state is the joint configuration
   q and the steering angles φ; the plant moves along the one allowed direction (forward route,

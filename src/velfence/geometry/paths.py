@@ -1,7 +1,7 @@
 r"""Arc-length parametrised paths with unit tangent and curvature vector, in n dimensions.
 
 These are the planned paths :math:`C_p` of cobot path following (Gillespie, Colgate & Peshkin 1999,
-source 004, §3.1; see ``docs/derivations.md``). The controller's error equations (3.1)–(3.3) need,
+§3.1; see ``docs/cobot.md`` §4). The controller's error equations (3.1)–(3.3) need,
 at the reference arc length :math:`s_p`,
 
 * the point :math:`R_p(s_p)`, shape (n,);
@@ -53,7 +53,7 @@ _GL_X, _GL_W = np.polynomial.legendre.leggauss(8)
 
 @runtime_checkable
 class Path(Protocol):
-    """What a path gives the path-following controller (source 004, eqs. 2.2, 2.3, 3.1–3.3)."""
+    """What a path gives the path-following controller (Gillespie 1999, eqs. 2.2, 2.3, 3.1–3.3)."""
 
     @property
     def length(self) -> float:
@@ -222,7 +222,7 @@ class _PathBase:
         return P[0], T[0], K[0]
 
     def point(self, s: float) -> FloatArray:
-        """The point :math:`R_p(s)` (source 004, eq. 3.1).
+        """The point :math:`R_p(s)` (Gillespie et al. 1999, eq. 3.1).
 
         Args:
             s: Arc length [m]; wrapped (closed) or clamped (open) into ``[0, length]``.
@@ -233,7 +233,7 @@ class _PathBase:
         return np.asarray(self._frames(self._normalise(np.array([_arc("s", s)])))[0][0])
 
     def tangent(self, s: float) -> FloatArray:
-        """The unit tangent :math:`T_p = dR_p/ds` (source 004, eq. 2.2).
+        """The unit tangent :math:`T_p = dR_p/ds` (Gillespie et al. 1999, eq. 2.2).
 
         Args:
             s: Arc length [m].
@@ -244,7 +244,7 @@ class _PathBase:
         return np.asarray(self._frames(self._normalise(np.array([_arc("s", s)])))[1][0])
 
     def curvature(self, s: float) -> FloatArray:
-        r"""The curvature vector :math:`\kappa_p N_p = dT_p/ds` (source 004, eq. 2.3).
+        r"""The curvature vector :math:`\kappa_p N_p = dT_p/ds` (Gillespie et al. 1999, eq. 2.3).
 
         Args:
             s: Arc length [m].

@@ -1,6 +1,6 @@
 r"""Closest points between points, segments, spheres and capsules in 3-D; rays against planes.
 
-These are the distance primitives of configuration control (Seraji & Bon, source 001): obstacle
+These are the distance primitives of configuration control (Seraji & Bon, US 5,150,026): obstacle
 spheres against link capsules, and the gradient of a point–segment distance for the critical-point
 Jacobian. Everything is 3-D; 2-D callers pass ``z = 0``. The ray helpers (:func:`unit_ray`,
 :func:`ray_plane`, :func:`ray_point`) and the float kernels on 3-tuples (:func:`dot3`,
@@ -373,7 +373,7 @@ def sphere_capsule_distance(
     b: ArrayLike,
     capsule_radius: float,
 ) -> tuple[float, FloatArray, float, FloatArray]:
-    """Signed surface clearance between a sphere and a capsule (source 001's obstacle vs link).
+    """Signed surface clearance between a sphere and a capsule (US 5,150,026's obstacle vs link).
 
     The capsule is the segment ``[a, b]`` swept by a ball of radius ``capsule_radius``.
 

@@ -1,7 +1,7 @@
 r"""Serial chains of revolute joints: link geometry and point Jacobians for redundancy resolution.
 
 A :class:`SerialChain` exposes what a collision-aware redundancy resolver needs (configuration
-control, source 001): the straight segments that stand for the links, the linear-velocity Jacobian
+control, US 5,150,026): the straight segments that stand for the links, the linear-velocity Jacobian
 of any body-fixed point on them, and the end-effector position task with its Jacobian.
 
 Geometry shared by every chain (base frame, metres, radians):
@@ -395,8 +395,8 @@ class PlanarArm(_ChainBase):
         return points, axes
 
 
-# PUMA 560, standard DH of Fu, Gonzalez & Lee as implemented in Khokar 2009 (notes 002 §2.3,
-# [CHECKED] against the thesis's recorded end points): rows (a, alpha, d, theta_offset).
+# PUMA 560, standard DH of Fu, Gonzalez & Lee as implemented in Khokar 2009, checked against the
+# thesis's recorded end points (docs/telerobotics.md §8, T1): rows (a, alpha, d, theta_offset).
 _PUMA560_DH = (
     (0.0, -math.pi / 2.0, 0.0, 0.0),
     (0.4318, 0.0, 0.15, 0.0),
@@ -499,7 +499,7 @@ class DHChain(_ChainBase):
         link_radius: float | ArrayLike = 0.0,
         tool: ArrayLike | None = None,
     ) -> DHChain:
-        r"""The PUMA 560 as run in Khokar 2009 (source 002): standard DH of Fu, Gonzalez & Lee.
+        r"""The PUMA 560 as run in Khokar 2009: standard DH of Fu, Gonzalez & Lee.
 
         ============  =========  ========  ===========
         joint         a [m]      d [m]     alpha
@@ -512,9 +512,9 @@ class DHChain(_ChainBase):
         6             0          0 (d6)    0
         ============  =========  ========  ===========
 
-        This is the kinematics of the thesis's eqs. 11-22 (notes 002 §2.3: a3 = -0.0203 m
-        reproduces the recorded end points, +0.0203 misses by about 30 mm); the tool point is
-        the wrist centre (d6 = 0) unless ``tool`` is given. Default joint limits [deg]:
+        This is the kinematics of the thesis's eqs. 11-22 (a3 = -0.0203 m reproduces the recorded
+        end points, +0.0203 misses them by 41 mm; ``docs/telerobotics.md`` §8, T1); the tool point
+        is the wrist centre (d6 = 0) unless ``tool`` is given. Default joint limits [deg]:
         (-160, 160), (-225, 45), (-45, 225), (-110, 170), (-100, 100), (-266, 266) — the
         Unimation ranges of Corke's toolbox placed for these axis senses (the thesis states
         none).

@@ -254,7 +254,7 @@ class CoSPM:
     Args:
         design: Design parameters; :meth:`CoSPMDesign.table1` when ``None``.
         mirror: Sign convention of the proximal links: ``False`` uses
-            :math:`R_x(\alpha_{1,i})` (the notes' reading), ``True`` uses
+            :math:`R_x(\alpha_{1,i})` (our reading, ``docs/cospm.md`` §2), ``True`` uses
             :math:`R_x(-\alpha_{1,i})`, the mirror-image working mode (for Table 1:
             :math:`\chi_1 \to -\chi_1`, :math:`\chi_2 \to -\chi_2` at equal :math:`\theta`).
             Validate against hardware or Le24a before relying on either.

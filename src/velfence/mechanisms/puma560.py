@@ -1,7 +1,8 @@
-r"""PUMA 560 kinematics as run in Khokar 2009 (source 002): FK, Jacobian, manipulability, IK.
+r"""PUMA 560 kinematics as run in Khokar 2009: FK, Jacobian, manipulability, IK.
 
 The implemented kinematics of the thesis are its eqs. 11-22, which are the **standard-DH PUMA of
-Fu, Gonzalez & Lee** (notes 002 §2.3, [CHECKED] against the recorded end points of Tables 4/5):
+Fu, Gonzalez & Lee** (checked against the recorded end points of Tables 4/5; repair T1 of
+``docs/telerobotics.md`` §8):
 
 ============  =========  ========  ===========
 joint         a [m]      d [m]     alpha
@@ -20,7 +21,7 @@ library).
 
 **Craig convention.** The thesis also prints a modified-DH table (its Table 2, Craig's
 :math:`α_{i-1}, a_{i-1}, d_i, θ_i`) with :math:`a_3 = +0.0203` m, which is *not* the product its
-FK formulas implement (notes §7 items 3-4). Both describe the same physical arm:
+FK formulas implement (repairs T1-T2). Both describe the same physical arm:
 
 .. math:: T^{\text{fu}}_6(q) = T^{\text{craig}}_6(q_1, q_2, q_3 + π, q_4, q_5, q_6)\,R_z(π),
 
@@ -29,7 +30,7 @@ all joint senses agree. ``Puma560(convention="craig")`` takes Craig joint angles
 Craig frame-6 pose; the laser offset of eq. 40 reads (+0.026, +0.115, 0.115) m in that tool frame
 instead of (-0.026, -0.115, 0.115) m.
 
-**Inverse kinematics** (thesis §4.4.1, corrected per notes §2.4): closed form for the wrist centre
+**Inverse kinematics** (thesis §4.4.1, corrected: repair T4): closed form for the wrist centre
 (:math:`θ_1` from the shoulder offset, :math:`θ_3` from the law of cosines, :math:`θ_2` from the
 planar arm), then the wrist, whose rotation :math:`{}^3R_6 = R_z(θ_4) R_y(θ_5) R_z(θ_6)` is a ZYZ
 Euler triple in this DH convention. Branch labels follow Fu, Gonzalez & Lee's indicators
@@ -358,8 +359,9 @@ class Puma560:
           :math:`\sin θ_5 \le 0` (``"noflip"``) or :math:`\ge 0` (``"flip"``); at
           :math:`\sin θ_5 = 0` the wrist is singular and :math:`θ_4 = 0` is chosen.
 
-        These are the thesis's steps 1-3 with the notes' corrections (``-d3²`` in step 1,
-        :math:`θ_3` not :math:`θ_1`, the ``*`` products of :math:`θ_{23}`); the wrist is solved
+        These are the thesis's steps 1-3 with our corrections (repair T4 of ``docs/telerobotics.md``
+        §8: ``-d3²`` in step 1, :math:`θ_3` not :math:`θ_1`, the ``*`` products of
+        :math:`θ_{23}`); the wrist is solved
         from :math:`{}^3R_6` rather than the thesis's element formulas (same solutions). Each
         angle is returned as the 2π-equivalent inside the joint limits of smallest magnitude when
         one exists, else wrapped to [-π, π).

@@ -1,4 +1,4 @@
-r"""Obstacle avoidance for redundant arms by configuration control (US 5,150,026, source 001).
+r"""Obstacle avoidance for redundant arms by configuration control (US 5,150,026).
 
 Math contract (derivation in ``docs/configuration_control.md``). For a chain with joint angles
 :math:`\theta \in \mathbb R^n`, end-effector coordinates :math:`Y = k_e(\theta) \in \mathbb R^m`

@@ -1,7 +1,6 @@
 r"""Configuration control with obstacle-avoidance inequality tasks (US 5,150,026 claim 1).
 
-The claim's steps A–F, formalised in ``docs/configuration_control.md`` (and
-``shared/notes/001-003-004-obstacles-cospm-cobots.md`` §1.2), for a serial chain
+The claim's steps A–F, formalised in ``docs/configuration_control.md``, for a serial chain
 (:class:`velfence.mechanisms.chain.SerialChain`) among spherical obstacles (:class:`Obstacle`):
 
 A. *critical point* — for every obstacle :math:`o` and link :math:`l`, the closest point

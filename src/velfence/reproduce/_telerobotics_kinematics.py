@@ -1,13 +1,13 @@
-"""Kinematics part of ``velfence reproduce telerobotics`` (Khokar 2009, source 002).
+"""Kinematics part of ``velfence reproduce telerobotics`` (Khokar 2009).
 
 Checks the PUMA 560 model of :mod:`velfence.mechanisms.puma560` against the thesis's recorded
-numbers (§7.1, Tables 4-7; notes 002 §2.3, §4.3):
+numbers (§7.1, Tables 4-7; repairs T1-T4 of ``docs/telerobotics.md`` §8):
 
 * forward kinematics (eqs. 11-22) of the recorded §7.1 destination joint angles vs the final points
   of the two repeatability sets (Tables 4/5);
 * Tables 6/7 (pairwise distances) recomputed from Tables 4/5, and the stated repeatability;
 * the printed Craig Table 2 vs the implemented FK (same arm up to θ3 + π and a tool Rz(π)), and
-  the printed a3 = +0.0203 (a source defect: it misses the recorded points by about 30 mm);
+  the printed a3 = +0.0203 (a source defect: it misses the recorded points by 41 mm);
 * the closed-form IK (§4.4.1, corrected) round trip on the recorded and on random poses.
 """
 
@@ -155,7 +155,7 @@ def kinematics_checks(out: Path) -> tuple[list[Check], list[Path]]:
     checks.append(
         check_at_most(
             "Table 2 (Craig) with θ3 + π and tool Rz(π) equals eqs. 11-22, max |ΔT|",
-            f"{SRC} §4.2-4.3 Table 2, eqs. 11-22; notes 002 §2.3",
+            f"{SRC} §4.2-4.3 Table 2, eqs. 11-22",
             1e-12,
             rel,
             note=f"{len(qs)} joint vectors (the recorded ones and random)",
@@ -178,8 +178,8 @@ def kinematics_checks(out: Path) -> tuple[list[Check], list[Path]]:
             FK_TOL_MM,
             bool(miss <= FK_TOL_MM),
             "Table 2 prints a3 = +0.0203 but eq. 7 and the code that produced Tables 4/5 use "
-            "-0.0203 (notes 002 §7 item 3); the printed sign misses the recorded points "
-            f"(set A {miss_each[0]:.1f} mm, set B {miss_each[1]:.1f} mm; notes: about 30 mm)",
+            "-0.0203 (docs/telerobotics.md §8, T1); the printed sign misses the recorded points "
+            f"(set A {miss_each[0]:.1f} mm, set B {miss_each[1]:.1f} mm)",
             source_defect=True,
         )
     )
@@ -203,7 +203,7 @@ def kinematics_checks(out: Path) -> tuple[list[Check], list[Path]]:
     checks.append(
         check_at_most(
             "IK of FK of the recorded joint angles returns them, max |Δq| [rad]",
-            f"{SRC} §4.4.1 (corrected: notes 002 §2.4), §7.1, §7.4",
+            f"{SRC} §4.4.1 (corrected: docs/telerobotics.md §8, T4), §7.1, §7.4",
             IK_TOL,
             q_err,
             note=f"{len(recorded)} recorded joint vectors, all on branch(es) {sorted(labels)}",
@@ -221,7 +221,7 @@ def kinematics_checks(out: Path) -> tuple[list[Check], list[Path]]:
     checks.append(
         Check(
             "IK round trip fk(ik(T)) = T, all 8 branches, max |ΔT|",
-            f"{SRC} §4.4.1 (corrected: notes 002 §2.4)",
+            f"{SRC} §4.4.1 (corrected: docs/telerobotics.md §8, T4)",
             f"<= {IK_TOL:g} and branch labels consistent",
             pose_err,
             IK_TOL,

@@ -1,4 +1,4 @@
-r"""Laser checks of the Khokar 2009 reproduction (source 002, §3.3.1, §7.3, Tables 1 and 9).
+r"""Laser checks of the Khokar 2009 reproduction (§3.3.1, §7.3, Tables 1 and 9).
 
 What is checked, and how the simulated sensor's numbers were chosen (none is tuned to a check):
 

@@ -1,14 +1,14 @@
-r"""Motion part of ``velfence reproduce telerobotics`` (Khokar 2009, source 002).
+r"""Motion part of ``velfence reproduce telerobotics`` (Khokar 2009).
 
 Runs the thesis's resolved-rate motion layer in simulation and checks it against what the thesis
-reports (reading notes 002 §2.5-2.7, §4.2, §4.6):
+reports (§4.4.2, §5.2-5.4, §6.2.1, §7.1, §7.4; docs/telerobotics.md §8):
 
 * **§7.4 singularity trajectories** (Figs. 78/79, lost): the two laser type-1 lines
   :math:`T_1 = T_0\,T_z(D)` from the printed initial joint angles, run through the
   self-correcting executor with :math:`J^{-1}` and with the SR inverse
   (:math:`k_0 = 0.025`, :math:`w_0 = 0.014`) on an ideal servo. The thesis gives no speed: we use
-  :math:`V_r = 0.4` m/s with simulation time = step × 1 ms, the speed the notes **fitted** to the
-  two reported J⁻¹ times themselves (0.256 m / 0.63 s and 0.84 m / 2.1 s, §2.7, §4.6). Those two
+  :math:`V_r = 0.4` m/s with simulation time = step × 1 ms, the speed we **fitted** to the
+  two reported J⁻¹ times themselves (0.256 m / 0.63 s and 0.84 m / 2.1 s, §7.4). Those two
   absolute times are therefore reproduced by construction (a consistency check of the fit and
   the geometry); only their **ratio**, which does not depend on the speed, is an independent
   check.
@@ -61,7 +61,7 @@ __all__ = [
 SRC = "Khokar 2009"
 
 SPEED = 0.4
-"""§7.4 trajectory speed :math:`V_r` [m/s], fitted by the notes (§2.7) to the two reported J⁻¹
+"""§7.4 trajectory speed :math:`V_r` [m/s], fitted by us to the two reported J⁻¹
 times (0.256 m in 0.63 s, 0.84 m in 2.1 s): those times cannot test it, their ratio can."""
 SIM_RATE = 1000.0
 """§7.4 simulation step rate [Hz]: time = step × dt with the algorithm's dt = 1 ms (inferred)."""
@@ -219,10 +219,10 @@ def motion_checks(out: Path) -> tuple[list[Check], list[Path]]:
     checks: list[Check] = []
     r1, r2 = singularity_run(1, robot), singularity_run(2, robot)
     fitted = (
-        f"a time at the speed fitted from it: V_r = {SPEED:g} m/s is what the notes (002 §2.7, "
-        "§4.6) derived from these same times (0.256 m / 0.63 s, 0.84 m / 2.1 s; the thesis "
-        "states no speed), so this agreement only confirms the fit and our geometry; the ratio "
-        f"of the two times is the independent check. Time = step x {1e3 / SIM_RATE:g} ms"
+        f"a time at the speed fitted from it: V_r = {SPEED:g} m/s is what we derived "
+        "(docs/telerobotics.md §8) from these same times (0.256 m / 0.63 s, 0.84 m / 2.1 s; "
+        "the thesis states no speed), so this agreement only confirms the fit and our geometry; "
+        f"the ratio of the two times is the independent check. Time = step x {1e3 / SIM_RATE:g} ms"
     )
 
     # 1-3. J⁻¹: when det J reaches 0.
@@ -373,7 +373,7 @@ def motion_checks(out: Path) -> tuple[list[Check], list[Path]]:
             round(t_min, 4),
             0.1,
             note=(
-                f"V_r = {SPEED:g} m/s fitted by the notes to the two J⁻¹ times, not to this "
+                f"V_r = {SPEED:g} m/s fitted by us to the two J⁻¹ times, not to this "
                 f"one (the thesis states no speed), time = step x {1e3 / SIM_RATE:g} ms; "
                 f"minimum of the tracking error in [2.3, 2.95] s: {e_min * 1e3:.2f} mm, after a "
                 f"peak of {peak_before * 1e2:.2f} cm"

@@ -1,4 +1,4 @@
-r"""Study part of ``velfence reproduce telerobotics`` (Khokar 2009 §7.2; notes §4.4).
+r"""Study part of ``velfence reproduce telerobotics`` (Khokar 2009 §7.2).
 
 The thesis's main hypothesis test: 10 subjects, 3 runs per mode, a cup pick-and-place over a
 folder, unassisted teleoperation vs laser-assisted traded control. What it reports, and what we can

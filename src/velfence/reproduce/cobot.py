@@ -1,9 +1,9 @@
-"""Reproduction of Gillespie, Colgate & Peshkin 1999 (source 004): Fig. 5 and virtual walls.
+"""Reproduction of Gillespie, Colgate & Peshkin 1999: Fig. 5 and virtual walls.
 
 Fig. 5: the r-θ cobot with one tetrahedral CVT starts at (1.2, 0) heading +y and follows the unit
 circle; "the cart approaches then stays on the circular path". The paper prints no gains, r_o,
-speeds or errors, so the numeric checks are the notes' acceptance tests (004 §3.3) with stated
-gains k = (4, 4) (a double spatial pole at -2 /m) and r_o = 0.5 m:
+speeds or errors, so the numeric checks are our acceptance tests (``docs/reproductions.md``) with
+stated gains k = (4, 4) (a double spatial pole at -2 /m) and r_o = 0.5 m:
 
 * convergence: |ΔR| < 2e-2 by s = 2 and < 1e-3 by s = 5, in the generic C_EE model and through
   the full four-space cobot (φ → Λ → T; κN → κ_1 n_1 → φ̇);
@@ -59,7 +59,7 @@ __all__ = [
 
 
 SRC = "Gillespie, Colgate & Peshkin 1999"
-NOTES = "notes 004 §3.3 acceptance test"
+NOTES = "velfence acceptance test"
 #: Outer-loop gains (k1, k2) [1/m², 1/m] — not in the paper; a double pole at -2 /m.
 GAINS = (4.0, 4.0)
 R0 = np.array([1.2, 0.0])
@@ -262,7 +262,7 @@ def run(out_dir: str | Path = "out/reproduce/cobot") -> Report:
     checks.append(
         check_at_most(
             "tetrahedral CVT sign convention ±1: max gap [m]",
-            "notes 004 §3.2.2 (the sign lost from eq. 2.16)",
+            f"{SRC} eq. (2.16) (its sign lost in the printed text)",
             1e-9,
             _gap(mirrored, base),
             note="φ̇ = κ·ṡ/(dψ/dφ) stays right for either convention",
@@ -313,7 +313,7 @@ def run(out_dir: str | Path = "out/reproduce/cobot") -> Report:
         checks.append(
             check_at_most(
                 f"virtual wall, {wt.name}: max penetration [m]",
-                "issue 5 item 7",
+                "velfence virtual-wall scenario",
                 lim,
                 max_penetration(wt, WALL_POLYGON),
                 note=note,
@@ -323,7 +323,7 @@ def run(out_dir: str | Path = "out/reproduce/cobot") -> Report:
         checks.append(
             check_at_least(
                 f"virtual wall, {wt.name}: sliding ratio along the wall",
-                "issue 5 item 7",
+                "velfence virtual-wall scenario",
                 0.9,
                 sliding_ratio(wt, WALL_POLYGON, band=WALL_BUFFER),
                 note="tangential progress made over tangential progress intended at the wall",

@@ -317,7 +317,7 @@ def run(out_dir: str | Path = "out/reproduce/cospm") -> Report:
     checks.append(
         check_close(
             "faithful: peak joint acceleration after limitation [rad/s²]",
-            "notes §2.2.10 (eq. 5 scales the tangential part)",
+            f"{SRC} eq. (5) (scales the tangential part)",
             51.5,
             float(acc),
             0.5,
@@ -334,7 +334,7 @@ def run(out_dir: str | Path = "out/reproduce/cospm") -> Report:
     checks.append(
         check_at_least(
             "exact + post limiter, paper profile: no stop crossed: min δ [rad]",
-            "position-first composition (derivations.md §6)",
+            "position-first composition (derivations.md §4)",
             -1e-9,
             float(paper_post.column("deltas").min()),
             note=(
@@ -348,7 +348,7 @@ def run(out_dir: str | Path = "out/reproduce/cospm") -> Report:
         check_at_most(
             "exact + post limiter, paper profile: peak joint acceleration on flagged cycles "
             "[rad/s²]",
-            "position-first composition (derivations.md §6)",
+            "position-first composition (derivations.md §4)",
             ACCEL_MAX * (1.0 + 0.5 * K_GAIN * TE),
             paper_acc,
         )
@@ -364,7 +364,7 @@ def run(out_dir: str | Path = "out/reproduce/cospm") -> Report:
     checks.append(
         check_at_most(
             "exact + post limiter: every joint within θ̈_max [rad/s²]",
-            "issue item 3",
+            "velfence extension",
             ACCEL_MAX + 1e-9,
             safe_acc,
             note=(
@@ -376,12 +376,12 @@ def run(out_dir: str | Path = "out/reproduce/cospm") -> Report:
     checks.append(
         check_at_least(
             "exact + post limiter: no stop crossed: min δ [rad]",
-            "issue item 3",
+            "velfence extension",
             -1e-9,
             safe_min,
             note=(
                 "before the position-first composition the faithful law with the same post "
-                "limiter crossed d1 by 1.0e-3 rad (derivations.md §6)"
+                "limiter crossed d1 by 1.0e-3 rad (derivations.md §4)"
             ),
         )
     )
@@ -397,7 +397,7 @@ def run(out_dir: str | Path = "out/reproduce/cospm") -> Report:
     checks.append(
         check_at_least(
             "vertex scenario, exact: no stop crossed [rad]",
-            "issue item 3 (paper's future work)",
+            "velfence extension (the paper's future work)",
             -1e-9,
             worst["exact"]["min_delta"],
             note=(
@@ -411,7 +411,7 @@ def run(out_dir: str | Path = "out/reproduce/cospm") -> Report:
     checks.append(
         check_at_most(
             "vertex scenario, exact: nearest-stop switches (chatter)",
-            "issue item 3",
+            "velfence extension",
             1.0,
             worst["exact"]["switches"],
         )
@@ -419,7 +419,7 @@ def run(out_dir: str | Path = "out/reproduce/cospm") -> Report:
     checks.append(
         check_at_most(
             "vertex scenario, exact: reaches the vertex [rad]",
-            "issue item 3",
+            "velfence extension",
             1e-6,
             worst["exact"]["final_distance"],
         )

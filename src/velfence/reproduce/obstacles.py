@@ -1,7 +1,7 @@
 r"""``velfence reproduce obstacles``: configuration control among obstacles (US 5,150,026 claim 1).
 
-The claim has no numbers or figures, so the scenarios are ours (notes 001-003-004 §1.3, issue 4
-items 4-5); every number is chosen here and documented. Common setup:
+The claim has no numbers or figures, so the scenarios are ours (checks labelled ``velfence
+scenario``); every number is chosen here and documented. Common setup:
 
 * control and integration period :math:`\Delta t` = 1 ms (1 kHz), explicit Euler through
   :func:`velfence.sim.runner.simulate`; the operator command is stateless,
@@ -32,7 +32,7 @@ Scenarios:
     :math:`\rho` = 0.1 m) is put where the elbow passes without it, at the first sample 0.16 m
     from the whole initial arm.
 
-Baseline (issue 4 item 4): (i) and (ii) also run with
+Baseline (velocity-damper QP, ``docs/configuration_control.md`` §6): (i) and (ii) also run with
 :class:`~velfence.redundancy.VelocityDamperQP`, ``d_safe`` = :math:`\rho` - R (the same surface
 clearance), ``d_influence`` = ``d_safe`` + 0.15 m, :math:`\xi` = 0.5 m/s (:math:`\xi\Delta t`
 is 0.3 % of the band) and the same damping 1e-2.
@@ -63,7 +63,7 @@ from velfence.sim.runner import simulate
 __all__ = ["ScenarioRun", "run", "run_scenario", "scenarios"]
 
 SRC = "US 5,150,026 claim 1"
-ISSUE = "issue 4"
+ISSUE = "velfence scenario"
 DT = 1e-3  # [s] control period (1 kHz)
 K_FB = 10.0  # [1/s] end-effector position feedback in the command
 RHO = 0.2  # [m] sphere of influence, planar scenarios
@@ -576,7 +576,7 @@ def run(out_dir: str | Path = "out/reproduce/obstacles") -> Report:
         checks.append(
             check_at_least(
                 f"baseline ({key}): QP min clearance d − ρ [m]",
-                ISSUE + " item 4 (velocity damper)",
+                ISSUE + ", velocity-damper baseline",
                 -tol_qp,
                 qp["min_clearance"],
                 note=table,

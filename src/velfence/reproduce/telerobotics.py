@@ -1,4 +1,4 @@
-"""Reproduction of Khokar 2009 (source 002): laser-assisted traded control of a PUMA 560.
+"""Reproduction of Khokar 2009: laser-assisted traded control of a PUMA 560.
 
 Named checks from four parts, each in its own module:
 
@@ -8,7 +8,7 @@ Named checks from four parts, each in its own module:
 * laser (:mod:`velfence.reproduce._telerobotics_laser`) — eq. (1) from Table 1, the calibration
   procedure, reproducibility and accuracy at the Table 9 distances, old vs new sampling scheme;
 * motion (:mod:`velfence.reproduce._telerobotics_motion`) — singularity times 0.63 s and 2.1 s
-  with J⁻¹ on the §7.4 trajectories (at the speed the notes fitted to those times, so their
+  with J⁻¹ on the §7.4 trajectories (at the speed we fitted to those times, so their
   ratio is the independent check), bounded joint speeds with the SR inverse, straight-line
   accuracy (a one-sided bound), a pure rotation about the fingertip, and the plots the thesis
   lost;

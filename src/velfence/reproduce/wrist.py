@@ -1,8 +1,9 @@
 """``velfence reproduce wrist``: the claims of US 8,676,382 as named, measured checks.
 
-The patent publishes no numbers, so its claims (notes §5) are turned into measurable statements
-and checked on the wrist's default polygon (``velfence.mechanisms.wrist``), with the patent's own
-law (``method="patent"``) and, where the claim is about the enforcement itself, also our exact law.
+The patent publishes no numbers, so its claims (listed with their checks in
+``docs/reproductions.md``) are turned into measurable statements and checked on the wrist's default
+polygon (``velfence.mechanisms.wrist``), with the patent's own law (``method="patent"``) and, where
+the claim is about the enforcement itself, also our exact law.
 The defects of the faithful law that the text itself admits (sequential corner projection,
 discontinuity across arc segments) are measured too and reported in each check's note.
 """
@@ -123,7 +124,7 @@ def run(out_dir: str | Path = "out/reproduce/wrist") -> Report:
     checks.append(
         check_at_most(
             "exact = patent for a command straight into one edge",
-            "issue requirement (a)",
+            "velfence requirement (a)",
             1e-12,
             straight,
         )
@@ -235,7 +236,7 @@ def run(out_dir: str | Path = "out/reproduce/wrist") -> Report:
     checks.append(
         check_at_least(
             "exact: slides along edges (sliding ratio)",
-            "issue requirement (a)",
+            "velfence requirement (a)",
             0.9,
             slide["exact"],
         )
@@ -252,7 +253,7 @@ def run(out_dir: str | Path = "out/reproduce/wrist") -> Report:
     checks.append(
         check_at_most(
             "exact: a fast push into the acute corner never leaves",
-            "issue requirement (b)",
+            "velfence requirement (b)",
             0.0,
             leak["exact"],
             note=(
@@ -320,7 +321,7 @@ def run(out_dir: str | Path = "out/reproduce/wrist") -> Report:
     checks.append(
         check_at_most(
             "exact: every nearby edge's bound holds at the acute corner",
-            "issue requirement (b)",
+            "velfence requirement (b)",
             1e-9,
             acute_viol["exact"],
             note=(
@@ -337,7 +338,7 @@ def run(out_dir: str | Path = "out/reproduce/wrist") -> Report:
     checks.append(
         check_at_most(
             "exact: continuous (jump shrinks with grid spacing)",
-            "issue requirement (c)",
+            "velfence requirement (c)",
             0.5,
             jumps2["exact"] / jumps["exact"],
             note=(

@@ -101,7 +101,7 @@ def _patent_core(
     sx = 0.0
     sy = 0.0
     stages = 0
-    if d1 >= 0.0:  # inside: in a wedge, the primary edge alone decides (derivations.md §2.3)
+    if d1 >= 0.0:  # inside: in a wedge, the primary edge alone decides (derivations §2, step 106)
         if d1 >= dmax:  # step 108 -> 112: pass through
             return ox, oy, ZONE_FREE, i, j, d1, d2, sx, sy, stages
         zone = ZONE_BUFFER
@@ -341,12 +341,12 @@ def exact_kernel(
 
     ``n_i · v_o >= -(|v| + R) d_i / d_max`` for edges with ``0 <= d_i < d_max`` and
     ``n_i · v_o >= min(k (-d_i), r_max)`` for violated edges, where ``R`` is the largest recovery
-    bound (0 inside, so inside the bound is exactly the issue's ``-|v| d_i / d_max``).
+    bound (0 inside, so inside the bound is exactly ``-|v| d_i / d_max``).
 
     ``idt`` is ``1 / dt`` for a discrete-time law (0: continuous time). Then every edge's bound
     also caps the approach per period by the remaining distance, ``n_i · v_o >= -d_i / dt``, and
     the recovery by the penetration, ``min(k (-d_i), r_max, -d_i / dt)``; edges up to
-    ``(|v| + R) dt`` away (not only ``d_max``) are bounded (derivations §3.6).
+    ``(|v| + R) dt`` away (not only ``d_max``) are bounded (derivations §3.3).
 
     The answer meets every bound as evaluated in floating point in the kernel's units (strict
     solve, else tolerant solve plus repair, else a known-feasible fallback).

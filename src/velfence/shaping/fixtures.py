@@ -1,4 +1,4 @@
-r"""Virtual fixtures along a line in 3-D task space (Khokar 2009, source 002, keys 'S' and 'F').
+r"""Virtual fixtures along a line in 3-D task space (Khokar 2009, keys 'S' and 'F').
 
 Both fixtures are built on the library's one normal/tangential decomposition,
 :func:`velfence.geometry.polygon.decompose` (``v = (v·u) u + v_⊥``), applied with the unit line
@@ -14,13 +14,14 @@ triad :math:`(K, L, M)` with :math:`K = u` the line direction, and rescaled
               = \text{along}\,(A\cdot K)K + \text{across}\,A_\perp .
 
 The dot products are **signed** (the thesis's ``|A.B|`` bars denote the dot product; an absolute
-value would drive the arm forward when the hand moves back; notes §2.9, §7 item 21). Applied to
-a velocity (an increment per control period) the law is the same linear map, independent of
-position; the position only enters :meth:`LineScaling.explain` (distance from the line).
+value would drive the arm forward when the hand moves back; repair T12 of
+``docs/telerobotics.md`` §8). Applied to a velocity (an increment per control period) the law is the
+same linear map, independent of position; the position only enters :meth:`LineScaling.explain`
+(distance from the line).
 
 **Haptic line fixture** (:class:`LineFixture`, key 'F', §6.2.3). The thesis renders the line on
 the Phantom Omni with the HLAPI "constraint" touch model: a spring snaps the stylus to the line
-inside a cylinder of influence. Its simulation (notes §2.10, §6):
+inside a cylinder of influence. Its simulation:
 
 .. math::
 
@@ -45,7 +46,7 @@ at :math:`v_\perp` settles at the offset :math:`b v_\perp / k`, and one that pus
 :math:`F_{max}` (:math:`b v_\perp > F_{max}`) breaks away — the thesis's "the user must pull
 harder than normal to leave the line". Outside the cylinder the command is untouched.
 
-Parameters the thesis gives or implies (notes §2.10, §2.16, §8): stiffness "0.2" — read as 0.2
+Parameters the thesis gives or implies (§6.2.3, App. A; repair T13): stiffness "0.2" — read as 0.2
 of the Omni's normalised HLAPI stiffness, about 0.2-0.46 N/mm (the printed "0.2 N/m" would be
 imperceptible); maximum force 3.3 N peak, 0.88 N continuous (App. A). The snap radius, friction
 and the damping :math:`b` are not given; the defaults below are our choices.
@@ -79,11 +80,11 @@ __all__ = [
 
 
 OMNI_MAX_FORCE = 3.3
-"""Phantom Omni peak force [N] (Khokar 2009 App. A; notes §2.16)."""
+"""Phantom Omni peak force [N] (Khokar 2009 App. A)."""
 OMNI_CONTINUOUS_FORCE = 0.88
-"""Phantom Omni continuous force [N] (App. A gives "> 0.88 N"; notes §2.16)."""
+"""Phantom Omni continuous force [N] (App. A gives "> 0.88 N")."""
 OMNI_MIN_STIFFNESS = 1020.0
-"""Lowest axis stiffness of the Phantom Omni [N/m] (App. A: Z > 1.02 N/mm; notes §2.16)."""
+"""Lowest axis stiffness of the Phantom Omni [N/m] (App. A: Z > 1.02 N/mm)."""
 
 #: Default fixture stiffness [N/m]: the thesis's "0.2" read as 0.2 of the normalised HLAPI
 #: stiffness, on the Omni's stiffest guaranteed value along every axis (0.2 × 1.02 N/mm).
@@ -350,7 +351,7 @@ class LineFixture(InvalidPolicy):
         line_point: A point of the line [m], shape (3,) (the thesis's :math:`P_i`).
         line_direction: Direction, shape (3,), non-zero (normalised).
         stiffness: Spring stiffness :math:`k` [N/m], ``> 0``. Default 204 N/m: the thesis's
-            "0.2" as 0.2 × the Omni's 1.02 N/mm (notes §2.10 [FLAG]).
+            "0.2" as 0.2 × the Omni's 1.02 N/mm (repair T13 of ``docs/telerobotics.md`` §8).
         radius_of_influence: Radius :math:`R` of the cylinder in which the spring acts [m],
             ``> 0`` (the thesis's snap radius is not given; default 0.02 m).
         max_force: Force limit :math:`F_{max}` [N], ``> 0``. Default

@@ -5,7 +5,7 @@ the approach speed toward it: a shaper lets the normal velocity toward the const
 ``cap(δ, speed)``. Inside the cap is >= 0 and vanishes on the boundary; outside it is negative, i.e.
 a forced return speed. The same object serves the polygon shaper (linear buffer of
 US 8,676,382) and the joint-stop limiter (three-zone braking of Lê et al. 2024); derivations in
-``docs/derivations.md`` §6.
+``docs/derivations.md`` §4.
 """
 
 from __future__ import annotations

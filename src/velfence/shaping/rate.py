@@ -11,7 +11,7 @@ The paper prints the acceleration as the difference of consecutive *commands*
 (``mode="literal"``); read that way a step command gives one rate-limited sample and then jumps
 to its value, which cannot produce the paper's own Fig. 8a (a 20 rad/s² ramp to 0.5 rad/s). The
 default ``mode="output"`` limits the change of the previous *output*, which does. See
-``docs/derivations.md`` §6.
+``docs/derivations.md`` §4.
 
 **A rate limiter alone does not keep joint stops.** Placed after a
 :class:`~velfence.shaping.stops.StopLimiter` by hand, it delays the braking the limiter asked for

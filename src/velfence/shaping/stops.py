@@ -34,7 +34,7 @@ safe whenever ``gain·Te < 1`` (its cap never exceeds ``gain·δ``, so
 ``δ[k+1] >= (1 - gain·Te) δ[k]``), but not for every profile (a :class:`LinearBuffer` needs
 ``speed·Te <= d_max``).
 
-Derivations and the repairs of the source: ``docs/derivations.md`` §6.
+Derivations and the repairs of the source: ``docs/derivations.md`` §4.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-r"""Laser-assisted traded control of a PUMA 560 (Khokar 2009, source 002), simulated end to end.
+r"""Laser-assisted traded control of a PUMA 560 (Khokar 2009), simulated end to end.
 
 Math contract (derivations in ``docs/telerobotics.md``): resolved-rate motion
 :math:`\dot q = J^{-1}(q)\,\dot x` or the singularity-robust inverse

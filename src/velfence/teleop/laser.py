@@ -1,6 +1,7 @@
-r"""The simulated SICK DT60 laser range finder of Khokar 2009 (source 002, §3.3.1, §6.2, §7.3).
+r"""The simulated SICK DT60 laser range finder of Khokar 2009 (§3.3.1, §6.2, §7.3).
 
-The thesis's laser pipeline (notes §2.1-§2.2, §4.5), and how it is simulated here:
+The thesis's laser pipeline (§3.3, App. B, §6.2.1, §7.3; repairs T8-T9 of
+``docs/telerobotics.md`` §8), and how it is simulated here:
 
 1. **Geometry** (eq. 40). The laser frame {L} is parallel to the flange frame {6}, offset by
    ``(-0.026, -0.115, 0.115)`` m, with the beam along ``+z6``. The spot of a reading ``D`` [m] is

@@ -1,4 +1,4 @@
-r"""Traded-control mode manager of Khokar 2009 (source 002, §1.1, §6.1-6.5; notes §2.8-2.14).
+r"""Traded-control mode manager of Khokar 2009 (§1.1, §6.1-6.5; repairs in docs/telerobotics.md §8).
 
 The human points the laser and presses keys; the machine turns laser range plus forward kinematics
 into task geometry and executes it. :class:`ModeManager` holds that logic and nothing else: it
@@ -6,7 +6,7 @@ takes key presses and, every control cycle, the measured tool pose and the hand'
 answers the Cartesian twist to send to resolved rate. (Arm, servo, laser stream and scene live in
 :class:`velfence.teleop.session.Session`.)
 
-Keys (thesis §3.6, §6; notes §2.14):
+Keys (thesis §3.6, §6):
 
 ===========  ===============================================================================
 ``C``        clutch: toggles engaged/disengaged (the stylus button; engage and index). While
@@ -35,7 +35,7 @@ measured pose settled), then control returns to unassisted teleoperation — the
 mode; scaled teleoperation and the fixture are switched off when a segment starts. Keys pressed
 while a segment runs are ignored (logged), except the clutch. The thesis's 'G'+'A' and 'T'+'A' are
 on/off switches: after a leg (alignment) the mode stays *on* until the next 'G'+'A' ('T'+'A')
-switches it off, and only the press after that starts the next leg (notes §2.12) —
+switches it off, and only the press after that starts the next leg (repair T15) —
 ``toggle_off=True``, the default; ``toggle_off=False`` lets every 'G'+'A' start the next leg.
 Between the two presses the operator may teleoperate (control has been handed back).
 
@@ -100,7 +100,7 @@ POSE_TOL = 1e-6
 
 AUTONOMOUS_SPEED = 0.08
 """Speed of the autonomous straight lines [m/s]: the thesis's 1 ms via-point spacing at the
-:math:`V_r \\approx 0.4` m/s the notes infer from §7.4, played back at 200 Hz (notes §2.7): the
+:math:`V_r \\approx 0.4` m/s we fit to §7.4's times, played back at 200 Hz (§6.2.1): the
 real robot moved at about 0.08 m/s. An inference; the thesis states no speed."""
 ANGULAR_SPEED = 0.3
 """Rotation rate of pure rotations ('T'+'A') [rad/s] (our choice; the thesis gives no rule)."""
@@ -216,7 +216,7 @@ class ModeManager:
             measured from the laser head along the beam: :math:`T_f = T\,T_z(D - s)`).
         rise: Height of the first path leg [m], ``> 0`` (thesis 0.3, "hard coded").
         above_destination: Height above the destination where the third leg stops [m], ``> 0``
-            (thesis eq. 0.35 m; its narrative says 20 cm, notes §2.12 [FLAG]).
+            (thesis eq. 0.35 m; its narrative says 20 cm: repair T14 of docs/telerobotics.md §8).
         along: Scaling along the laser line ('S'), ``> 0`` (thesis 3.0).
         across: Scaling across it, ``>= 0`` (thesis 0.2).
         fixture_options: Keyword arguments for :class:`~velfence.shaping.fixtures.LineFixture`

@@ -1,9 +1,9 @@
-r"""A synthetic teleoperator for the Khokar 2009 study (source 002, notes §6 "synthetic operator").
+r"""A synthetic teleoperator for the Khokar 2009 study (§7.2).
 
 The thesis's subjects (10, §7.2) are replaced by a model of a human driving a Phantom Omni while
 watching the remote scene. It is built from standard motor-control ingredients; every number is a
 **modelling choice** (the thesis reports no human data beyond "every subject was faster with
-assistance", §4.4 of the notes), drawn per subject from the ranges of :meth:`OperatorProfile.draw`:
+assistance", §7.2), drawn per subject from the ranges of :meth:`OperatorProfile.draw`:
 
 * **Sub-movements.** A reach is a sequence of minimum-jerk strokes (Flash & Hogan), each aimed at
   the *perceived* remaining error (perception noise ``perception`` [m]) and landing with an
@@ -80,7 +80,7 @@ __all__ = [
 OMNI_WORKSPACE = (0.160, 0.120, 0.070)
 #: Most operator ticks one waiting or moving behaviour may last (5.5 h at 50 Hz).
 MAX_TICKS = 1_000_000
-"""Phantom Omni workspace W × H × D [m] (App. A; notes §2.16), along the Omni x, y, z axes."""
+"""Phantom Omni workspace W × H × D [m] (App. A), along the Omni x, y, z axes."""
 
 #: Parameter ranges [low, high] a subject's profile is drawn from (uniform); units as in
 #: :class:`OperatorProfile`. Modelling choices, see the module docstring. Read-only.

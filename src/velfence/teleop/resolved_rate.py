@@ -1,6 +1,6 @@
 r"""Resolved-rate motion: joint rates from a Cartesian twist, with the singularity-robust inverse.
 
-Khokar 2009 (source 002) drives the PUMA 560 in every mode by resolved rate (§4.4.2, eq. 32):
+Khokar 2009 drives the PUMA 560 in every mode by resolved rate (§4.4.2, eq. 32):
 
 .. math:: \dot q = J^{-1}(q)\,\dot x, \qquad \dot x = [v;\ \omega] \in \mathbb R^6,
 

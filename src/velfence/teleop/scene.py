@@ -1,9 +1,9 @@
-r"""Scene primitives for the simulated laser and the pick-and-place task (Khokar 2009, source 002).
+r"""Scene primitives for the simulated laser and the pick-and-place task (Khokar 2009).
 
 The thesis's remote scene is a table top (the white poster board), a cup (the target), a folder
 standing between source and destination (the obstacle), an orange sticky note with a cross mark
 (the destination) and, for the plane-capture demonstration, a door (§6.4, §7.2). Its simulation
-stand-in (notes §6) ray-casts the laser beam against these as primitives:
+stand-in ray-casts the laser beam against these as primitives:
 
 * :class:`Plane` — an infinite plane or a bounded rectangle (table, door);
 * :class:`Cylinder` — a capped cylinder with a vertical axis (cup);
@@ -13,7 +13,7 @@ stand-in (notes §6) ray-casts the laser beam against these as primitives:
 Conventions:
 
 * all coordinates are in the PUMA base frame, metres, ``z`` up (origin at the shoulder, the
-  frame {0} of the implemented kinematics, notes §2.3);
+  frame {0} of the implemented kinematics, eqs. 11-22);
 * ``intersect(origin, direction)`` takes a **unit** direction and returns the distance ``t >= 0``
   along the ray to the first surface point ``origin + t·direction``, or ``math.inf`` on a miss.
   Surfaces are closed (edges and tangent grazes count as hits). A ray that starts inside a solid

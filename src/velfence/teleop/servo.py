@@ -1,4 +1,4 @@
-r"""Joint-servo stand-ins for the real PUMA 560 (Khokar 2009 §2.15 of the reading notes).
+r"""Joint-servo stand-ins for the real PUMA 560 (Khokar 2009 §3.1.1, §3.5.2).
 
 The thesis's arm is driven by a 1 kHz PD + gravity-compensation joint controller whose gains and
 gravity model are not given (§3.5.2). The trajectory layer only sees *where the joints got to*,
@@ -12,11 +12,11 @@ so a simulation needs a servo model between the commanded and the measured joint
 
   (``command="position"``), or the joint *velocity* follows the commanded rate with that lag
   and the position integrates it (``command="velocity"``). :math:`\tau = 0` is perfect
-  tracking. This is the stand-in the notes (§6) suggest. Its lag is **not fitted** to the
-  thesis: the 10 ms the session and the reproduction use is an assumption (the thesis gives no
-  gains), and with it the §7.1 straight lines track to about 0.29 mm where the real arm showed
-  1.2-1.4 mm (Table 3) — an ideal lag has no friction, backlash, gravity sag, coupling or
-  calibration error, so the simulated arm is about 4× more accurate than the real one.
+  tracking. It is the simplest stand-in that separates command from measurement. Its lag is
+  **not fitted** to the thesis: the 10 ms the session and the reproduction use is an assumption
+  (the thesis gives no gains), and with it the §7.1 straight lines track to about 0.29 mm where
+  the real arm showed 1.2-1.4 mm (Table 3) — an ideal lag has no friction, backlash, gravity sag,
+  coupling or calibration error, so the simulated arm is about 4× more accurate than the real one.
 * :class:`PDGravityServo` — the thesis's control law :math:`\tau = K_p(q_c - q) - K_d\dot q +
   \hat g(q)` on a **documented simple plant**: one rigid body per joint with constant inertia
   :math:`I_i`, viscous friction :math:`b_i` and an optional gravity torque :math:`g(q)`,
@@ -300,7 +300,7 @@ class FirstOrderServo(_ServoBase):
 class PDGravityServo(_ServoBase):
     r"""PD + gravity compensation on one rigid body per joint (module docs; Khokar 2009 §3.5.2).
 
-    Control law (the thesis names it, without gains; the form is the notes' assumption):
+    Control law (the thesis names it, without gains; the form is our assumption):
     :math:`\tau = \mathrm{sat}\bigl(K_p(q_c - q) - K_d\dot q + (1 - e)\,g(q)\bigr)`; plant
     :math:`I\ddot q = \tau - b\dot q - g(q)`, integrated by semi-implicit Euler with sub-steps of
     at most ``max_substep``. Velocity feed-forward :math:`\dot q_d` is taken as zero (the

@@ -1,4 +1,4 @@
-r"""One simulated traded-control world of Khokar 2009 (source 002), advanced in time.
+r"""One simulated traded-control world of Khokar 2009, advanced in time.
 
 A :class:`Session` couples the pieces the other ``teleop`` modules provide:
 
@@ -31,9 +31,10 @@ collisions and the trace — follows the true pose; the control layer sees only 
 * :meth:`Session.advance` — step the world by ``dt`` seconds at the control rate;
 * :meth:`Session.snapshot` — a JSON-able state; :meth:`Session.scene_primitives` — the scene.
 
-Teleoperation mapping (notes §2.8 [FLAG]): the translation increment is added in the base frame
-(§6.2.2's "added to the current PUMA position") and the rotation is the hand's angular velocity
-in the base frame (the thesis's tool-frame ``R_{P1} dR`` expressed there); no position scale.
+Teleoperation mapping (repair T10 of ``docs/telerobotics.md`` §8): the translation increment is
+added in the base frame (§6.2.2's "added to the current PUMA position") and the rotation is the
+hand's angular velocity in the base frame (the thesis's tool-frame ``R_{P1} dR`` expressed there);
+no position scale.
 
 **Joint limits.** The thesis gives none (only the symbols J1LO … J6HI). :class:`Puma560`'s default
 table has joint 4 in (-110°, 170°); in this task the wrist works close to its singularity

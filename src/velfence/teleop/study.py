@@ -1,4 +1,4 @@
-r"""The simulated user study of Khokar 2009 §7.2 (notes §4.4): unassisted vs laser-assisted.
+r"""The simulated user study of Khokar 2009 §7.2: unassisted vs laser-assisted.
 
 The thesis ran 10 subjects, 3 runs per mode, and reports only that "for each subject the time
 taken ... in the unassisted mode was always more than ... in the laser assisted control mode"

@@ -1,4 +1,4 @@
-"""Numeric tables of Khokar 2009 (source 002), transcribed as typed, read-only constants.
+"""Numeric tables of Khokar 2009, transcribed as typed, read-only constants.
 
 Source: K. Khokar, *Laser Assisted Telerobotic Control for Remote Manipulation Activities*,
 MSME thesis, University of South Florida, 2009. Every value below was transcribed from the
@@ -134,7 +134,7 @@ LASER_OFFSET_M: FloatArray = _ro([-0.026, -0.115, 0.115])
 # ---------------------------------------------------------------------------------------------
 # §7.1 accuracy trajectories (thesis p. ~170): recorded initial and final joint angles [rad],
 # theta1..theta6, implemented FGL convention. Trajectories 1-2 share one destination (the set A
-# destination of Table 4), 3-5 another (set B, Table 5) — the notes' [CHECKED] item 1.
+# destination of Table 4), 3-5 another (set B, Table 5) — checked against their FK end points.
 # ---------------------------------------------------------------------------------------------
 TRAJECTORY_INITIAL_Q_RAD: FloatArray = _ro(
     [

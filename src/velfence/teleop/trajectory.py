@@ -8,11 +8,11 @@ r"""Straight-line Cartesian trajectories and their self-correcting execution (Kh
     X_i = X_0\,\frac{N - i}{N} + X_1\,\frac{i}{N}, \qquad
     R_i = R_0\,\mathrm{Rot}\!\left(k, \tfrac{i}{N}\phi\right), \qquad i = 0 … N,
 
-with :math:`(k, \phi)` the equivalent angle-axis of :math:`R_0^\top R_1` (reading notes §7
-items 15-19: subscripts ``_r``, ``sign()``, magnitudes compared, cumulative angle ``iφ/N``). The
-position moves along the segment at constant speed and the orientation turns about **one fixed
-axis** (:math:`R_0 k` in the base frame) at constant rate. Three quantities the thesis merges
-or leaves out are kept separate here:
+with :math:`(k, \phi)` the equivalent angle-axis of :math:`R_0^\top R_1` (repair T6 of
+``docs/telerobotics.md`` §8: subscripts ``_r``, ``sign()``, magnitudes compared, cumulative
+angle ``iφ/N``). The position moves along the segment at constant speed and the orientation turns
+about **one fixed axis** (:math:`R_0 k` in the base frame) at constant rate. Three quantities the
+thesis merges or leaves out are kept separate here:
 
 * ``spacing`` [m] — the largest distance between consecutive via points (the thesis's
   :math:`V_r\,dt` with :math:`dt = 1` ms);

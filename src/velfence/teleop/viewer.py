@@ -1,7 +1,7 @@
-r"""Interactive local web viewer for a traded-control session (Khokar 2009, source 002, §3.5).
+r"""Interactive local web viewer for a traded-control session (Khokar 2009, §3.5).
 
 The thesis's operator looked at the remote scene directly and drove the PUMA with an Omni stylus
-and an Omni-PC keyboard (notes 002 §2.14, §3.5). Here a person drives the simulated
+and an Omni-PC keyboard (§3.6, §6). Here a person drives the simulated
 :class:`~velfence.teleop.session.Session` from a browser instead:
 
 * :func:`serve` starts a :class:`ViewerServer`: a stdlib ``ThreadingHTTPServer`` bound to
@@ -118,7 +118,7 @@ __all__ = [
 
 _log = logging.getLogger(__name__)
 
-#: The thesis's mode keys (notes 002 §2.14): trajectory, scaled, fixture, destination, path,
+#: The thesis's mode keys (§6): trajectory, scaled, fixture, destination, path,
 #: plane point, align.
 MODE_KEYS: tuple[str, ...] = ("A", "S", "F", "D", "G", "P", "T")
 #: Toggles the clutch (the Omni's engage button).

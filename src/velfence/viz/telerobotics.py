@@ -1,4 +1,4 @@
-r"""3-D views of a laser-assisted traded-control session (Khokar 2009, source 002).
+r"""3-D views of a laser-assisted traded-control session (Khokar 2009).
 
 Pictures of the simulated PUMA 560 and its remote scene, drawn with matplotlib's 3-D axes (Agg):
 the arm as thick links with joint dots and the tool frame's axes, the scene primitives (table,
