@@ -1,4 +1,4 @@
-"""Specs of the public tool modules velfence.benchmarking and velfence.demo."""
+"""Specs of the public tool modules velfence.bench and velfence.demo."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import numpy as np
 from common import square
 from harness import C, F, call
 
-from velfence import benchmarking as bm
+from velfence import bench as bm
 
 _ROW = "output record of run_benchmarks() (one table row)"
 
@@ -31,33 +31,33 @@ def _cfg():  # type: ignore[no-untyped-def]
 
 
 SPECS: dict[str, F | C] = {
-    "benchmarking.BatchRow": C(record=_ROW),
-    "benchmarking.LatencyRow": C(record=_ROW),
-    "benchmarking.QPRow": C(record=_ROW),
-    "benchmarking.TargetCheck": C(record=_ROW),
-    "benchmarking.WorstZone": C(record=_ROW),
-    "benchmarking.Machine": C(record="output record of machine_info()"),
-    "benchmarking.BenchSettings": C(
+    "bench.BatchRow": C(record=_ROW),
+    "bench.LatencyRow": C(record=_ROW),
+    "bench.QPRow": C(record=_ROW),
+    "bench.TargetCheck": C(record=_ROW),
+    "bench.WorstZone": C(record=_ROW),
+    "bench.Machine": C(record="output record of machine_info()"),
+    "bench.BenchSettings": C(
         record="settings record built by BenchSettings.make()",
         instance=lambda: bm.BenchSettings.make(quick=True),
         methods={"make": lambda: call(quick=True)},
     ),
-    "benchmarking.BenchReport": C(
+    "bench.BenchReport": C(
         record="output record of run_benchmarks()",
         instance=_report,
         methods={"to_dict": lambda: call(), "to_markdown": lambda: call()},
     ),
-    "benchmarking.machine_info": F(lambda: call()),
-    "benchmarking.qp_bounds": F(
+    "bench.machine_info": F(lambda: call()),
+    "bench.qp_bounds": F(
         lambda: call(
             square(), np.array([0.5, 0.2]), np.array([1.0, 0.3]), buffer=0.2, spring_gain=2.0
         )
     ),
-    "benchmarking.regular_polygon": F(lambda: call(6)),
-    "benchmarking.run_benchmarks": F(
+    "bench.regular_polygon": F(lambda: call(6)),
+    "bench.run_benchmarks": F(
         lambda: call(quick=True), heavy="times every shaper (minutes); only refusals are tried"
     ),
-    "benchmarking.write_report": F(
+    "bench.write_report": F(
         lambda: call(_report(), "/nonexistent-velfence-hostile/bench.md"),
         heavy="writes a report file; only refusals are tried",
     ),
