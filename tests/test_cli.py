@@ -239,6 +239,37 @@ def test_bench_quick_writes_markdown(runner: CliRunner, tmp_path: Path) -> None:
         assert t["name"] in text
 
 
+def test_bench_without_out_prints_only_the_markdown(
+    runner: CliRunner, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import velfence.bench as bm
+
+    report = bm.BenchReport(
+        settings=bm.BenchSettings.make(quick=True),
+        machine=bm.machine_info(),
+        timer_overhead_ns=40.0,
+        latency=(),
+        worst=(),
+        qp=(),
+        batch=(),
+        targets=(bm.TargetCheck("a target", "≤ 5 µs", 1.0, "µs", True),),
+    )
+    seen: dict[str, Any] = {}
+
+    def fake_run(**kwargs: Any) -> bm.BenchReport:
+        seen.update(kwargs)
+        return report
+
+    monkeypatch.setattr(bm, "run_benchmarks", fake_run)
+    js = tmp_path / "bench.json"
+    result = _invoke(runner, "bench", "--quick", "--json", str(js))
+    assert result.exit_code == 0, result.output
+    assert seen["quick"] is True
+    assert result.stdout == report.to_markdown()  # redirectable: no status lines mixed in
+    assert f"wrote {js}" in _flat(result.stderr)
+    assert json.loads(js.read_text())["timer_overhead_ns"] == 40.0
+
+
 @pytest.mark.parametrize("option", ["--out", "--json"])
 def test_bench_refuses_a_folder_before_timing(
     runner: CliRunner, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, option: str

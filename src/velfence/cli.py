@@ -156,13 +156,14 @@ def bench(
     for option, path in (("--out", out), ("--json", json_path)):
         if path is not None and path.is_dir():  # refused before minutes of timing, not after
             raise _fail(f"{option} {path} is a folder; expected a file path")
-    with Progress(transient=True) as progress:
+    with Progress(transient=True, console=Console(stderr=True)) as progress:
         task = progress.add_task("benchmarking", total=1.0)
         report = run_benchmarks(
             quick=quick,
             progress=lambda what, f: progress.update(task, completed=f, description=what),
         )
-    console = Console()
+    # Status lines go to stderr when stdout carries the Markdown (so it can be redirected).
+    console = Console(stderr=out is None)
     if out is not None:
         try:
             write_report(report, out)  # keeps a hand-written preamble above the generated part
