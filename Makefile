@@ -5,7 +5,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 export MPLBACKEND := Agg
 
-.PHONY: demo test lint typecheck docs pytest bench soak clean
+.PHONY: demo test lint typecheck docs pytest bench bench-docs soak clean
 
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -33,13 +33,19 @@ pytest: $(STAMP)
 
 test: lint typecheck docs pytest
 
+# Benchmarks (minutes; never part of `make test`). `make bench` writes out/benchmarks.md
+# (untracked) and leaves the published numbers alone; `make bench-docs` regenerates the part of
+# docs/benchmarks.md below its marker line (the hand-written preamble is kept).
 bench: $(STAMP)
+	$(BIN)/velfence bench --out out/benchmarks.md --json out/benchmarks.json
+
+bench-docs: $(STAMP)
 	$(BIN)/velfence bench --out docs/benchmarks.md
 
 # Randomised closed-loop containment campaign, 10^6 steps per shaper (minutes, not part of
-# `make test`; its 10^4-step smoke version is tests/sim/test_soak.py).
+# `make test`; its 10^4-step smoke version is tests/test_soak.py).
 soak: $(STAMP)
-	$(BIN)/python -m velfence.sim.soak --steps 1000000 --out docs/reliability.md
+	$(BIN)/python -m velfence.soak --steps 1000000 --out docs/reliability.md
 
 clean:
 	rm -rf $(VENV) out .pytest_cache .mypy_cache .ruff_cache

@@ -1,15 +1,29 @@
-"""Smoke test of the benchmark suite: structure only, never timings (DESIGN.md §6)."""
+"""The benchmark suite through its real code path: structure only, never timings.
+
+Timing targets are reported by the benchmarks (docs/benchmarks.md), never asserted in tests: a
+loaded machine must not fail the suite. The quick configuration runs once (as ``velfence bench
+--quick`` does); a tiny one (a few calls per row) runs every case family again, directly and
+through :func:`velfence.bench.run.run_settings`, and its rows and Markdown are checked.
+"""
 
 from __future__ import annotations
 
+import dataclasses
+import importlib.util
 import json
 import math
+import re
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 
-from velfence import benchmarking as bm
+from velfence import bench as bm
+from velfence.bench import run
+from velfence.bench.cases import controllers, peers, redundancy, shaping
+from velfence.bench.cases.shaping import METHODS
+from velfence.bench.timing import Latency, latency_of, time_calls
 
 
 @pytest.fixture(scope="module")
@@ -125,7 +139,7 @@ def test_qp_bounds_match_the_law() -> None:
 
 
 def test_qp_bounds_and_regular_polygon_refuse_bad_inputs_by_name() -> None:
-    from velfence.benchmarking import qp_bounds, regular_polygon
+    from velfence.bench import qp_bounds, regular_polygon
     from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 
     poly = regular_polygon(6)
@@ -150,10 +164,318 @@ def test_qp_bounds_and_regular_polygon_refuse_bad_inputs_by_name() -> None:
 
 
 def test_bench_settings_and_write_report_refuse_bad_inputs_by_name() -> None:
-    from velfence.benchmarking import BenchSettings, write_report
+    from velfence.bench import BenchSettings, write_report
     from velfence.errors import InvalidParameter
 
     with pytest.raises(InvalidParameter, match="quick: expected True or False"):
         BenchSettings.make(quick="yes")  # type: ignore[arg-type]
     with pytest.raises(InvalidParameter, match="report: expected a BenchReport"):
         write_report("report", "out.md")  # type: ignore[arg-type]
+
+
+# ------------------------------------------------------------------ the tiny configuration
+
+TINY = bm.BenchSettings(
+    quick=True,
+    calls=5,
+    warmup=1,
+    states_per_zone=2,
+    latency_edges=(4, 8),
+    batch_edges=(8,),
+    batch_n=64,
+    batch_repeats=1,
+    python_n=32,
+    stop_candidates=400,
+)
+HAVE_QP = all(importlib.util.find_spec(m) is not None for m in ("qpsolvers", "daqp"))
+HAVE_NUMBA = importlib.util.find_spec("numba") is not None
+
+
+class _Recorder:
+    def __init__(self) -> None:
+        self.messages: list[str] = []
+
+    def __call__(self, message: str) -> None:
+        self.messages.append(message)
+
+
+@pytest.fixture(scope="module")
+def tiny() -> tuple[bm.BenchReport, list[tuple[str, float]]]:
+    calls: list[tuple[str, float]] = []
+    rep = run.run_settings(TINY, progress=lambda msg, frac: calls.append((msg, frac)))
+    return rep, calls
+
+
+def test_tiny_run_reports_every_step_once_in_order(
+    tiny: tuple[bm.BenchReport, list[tuple[str, float]]],
+) -> None:
+    _, calls = tiny
+    assert calls[-1] == ("done", 1.0)
+    steps = calls[:-1]
+    total = run._step_count(TINY, numba_ok=HAVE_NUMBA, qp_ok=HAVE_QP)
+    assert len(steps) == total  # the fraction is exact: one call before each step
+    assert [f for _, f in steps] == [i / total for i in range(total)]
+    assert len({m for m, _ in steps}) == total
+
+
+def test_tiny_run_has_rows_of_every_family(
+    tiny: tuple[bm.BenchReport, list[tuple[str, float]]],
+) -> None:
+    rep, _ = tiny
+    assert rep.settings is TINY
+    assert {(r.edges, r.method) for r in rep.latency} == {(e, m) for e in (4, 8) for m in METHODS}
+    assert len(rep.worst) == 4
+    assert {b.backend for b in rep.batch} == ({"numba", "python"} if HAVE_NUMBA else {"python"})
+    assert {r.method for r in rep.stops} == {"nearest", "exact"}
+    arms = {r.arm for r in rep.control}
+    assert arms == set(redundancy.ARMS)
+    assert {r.obstacles for r in rep.control} == set(redundancy.obstacle_counts(TINY))
+    families = {r.family for r in rep.steps}
+    assert families == {"cobot (Gillespie 1999)", "resolved rate (Khokar 2009)"}
+    if HAVE_QP:
+        assert {q.edges for q in rep.qp} == {4, 8}
+        assert {r.method for r in rep.control} == {"configuration-control", "velocity-damper-qp"}
+    else:
+        assert rep.qp == ()
+
+
+def test_per_call_rows_are_latency_records(
+    tiny: tuple[bm.BenchReport, list[tuple[str, float]]],
+) -> None:
+    rep, _ = tiny
+    rows: list[Latency] = [*rep.latency, *rep.worst, *rep.stops, *rep.control, *rep.steps]
+    assert rows
+    for r in rows:
+        assert isinstance(r, Latency)
+        assert r.calls >= TINY.calls
+        assert 0.0 < r.median_us <= r.p99_us <= r.max_us
+    for r in rep.latency:
+        assert r.calls == TINY.calls
+        assert 0 < r.states <= TINY.states_per_zone
+    for r in rep.stops:
+        assert r.calls == TINY.calls
+        assert 0 < r.states <= 64
+    for c in rep.control:
+        assert c.calls == 50  # at least 50 cycles per row, whatever the settings
+        assert c.active >= 0.0
+    for st in rep.steps:
+        assert st.calls == 200
+        if st.baseline:
+            base = [b for b in rep.steps if b.family == st.family and b.baseline == ""]
+            assert base
+            assert st.ratio > 0.0
+        else:
+            assert math.isnan(st.ratio)
+
+
+def test_rows_share_one_definition_of_the_timing_fields() -> None:
+    shared = {f.name for f in dataclasses.fields(Latency)}
+    assert shared == {"calls", "median_us", "p99_us", "max_us"}
+    for cls in (
+        bm.LatencyRow,
+        bm.WorstZone,
+        bm.StopLatencyRow,
+        bm.ControlCycleRow,
+        bm.StepRow,
+    ):
+        assert issubclass(cls, Latency)
+        own = set(vars(cls).get("__annotations__", {}))
+        assert not own & shared, (cls.__name__, own & shared)  # not copied, inherited
+        assert shared <= {f.name for f in dataclasses.fields(cls)}
+
+
+def test_worst_zone_picks_the_largest_median() -> None:
+    def row(zone: str, median: float) -> bm.LatencyRow:
+        return bm.LatencyRow(
+            calls=3, median_us=median, p99_us=median + 1, max_us=median + 2,
+            edges=8, method="exact", zone=zone, states=2,
+        )  # fmt: skip
+
+    w = shaping.worst_zone([row("free", 1.0), row("corner", 3.0), row("buffer", 2.0)])
+    assert (w.zone, w.median_us, w.p99_us, w.max_us, w.edges) == ("corner", 3.0, 4.0, 5.0, 8)
+
+
+def test_time_calls_calls_every_pool_entry_warm_and_timed() -> None:
+    seen: list[tuple[int, int]] = []
+    lat = time_calls(lambda a, b: seen.append((a, b)), [(1, 2), (3, 4)], calls=5, warmup=2)
+    assert seen == [(1, 2), (3, 4)] * 2 + [(1, 2), (3, 4), (1, 2), (3, 4), (1, 2)]
+    assert lat.calls == 5
+    assert 0.0 < lat.median_us <= lat.p99_us <= lat.max_us
+    assert latency_of([1000, 2000, 3000]) == Latency(3, 2.0, pytest.approx(2.98), 3.0)
+
+
+def test_each_family_runs_on_its_own() -> None:
+    notes: list[str] = []
+    pools = shaping.zone_pools(TINY, notes)
+    assert set(pools) == {(e, m) for e in (4, 8) for m in METHODS}
+    step = _Recorder()
+    rows, worst = shaping.latency(TINY, pools, step)
+    assert step.messages == [f"latency: {e}-gon, {m}" for e in (4, 8) for m in METHODS]
+    assert {w.zone for w in worst} <= set(bm.ZONES)
+    assert len(rows) == sum(1 for p in pools.values() for states in p.values() if states)
+
+    step = _Recorder()
+    stops = shaping.stop_latency(TINY, step)
+    assert step.messages == [
+        "latency: joint-stop limiter, nearest",
+        "latency: joint-stop limiter, exact",
+    ]
+    assert {r.zone for r in stops} <= {"3 nominal", "2 braking", "1 linear", "outside"}
+
+    step = _Recorder()
+    batch = shaping.batch(TINY, False, step)  # the Python back-end only
+    assert [(b.backend, b.n, b.repeats, b.compile_s) for b in batch] == [("python", 32, 1, 0.0)] * 2
+
+    step = _Recorder()
+    control = redundancy.control_cycles(TINY, step, False)  # without the QP baseline
+    assert {c.method for c in control} == {"configuration-control"}
+    assert len(step.messages) == len(redundancy.ARMS) * len(redundancy.obstacle_counts(TINY))
+
+    step = _Recorder()
+    cobot = controllers.cobot_steps(TINY, step)
+    rate = controllers.resolved_rate_steps(TINY, step)
+    assert step.messages == ["cobot path following", "resolved rate (PUMA 560)"]
+    assert [r.baseline for r in cobot] == [""] * 5 + ["PolygonShaper exact"]
+    assert [r.baseline for r in rate] == ["", "J⁻¹ step", "J⁻¹ step", "J⁻¹ step"]
+    for r in rate[1:]:
+        assert r.ratio == pytest.approx(r.median_us / rate[0].median_us)
+
+    if HAVE_QP:
+        step = _Recorder()
+        qp = peers.qp(TINY, pools, rows, step)
+        assert step.messages == ["QP baseline: 4-gon", "QP baseline: 8-gon"]
+        by_key = {(r.edges, r.zone): r for r in rows if r.method == "exact"}
+        for q in qp:
+            vf = by_key[q.edges, q.zone]
+            assert (q.velfence_median_us, q.velfence_p99_us) == (vf.median_us, vf.p99_us)
+            assert q.calls == TINY.calls
+            assert q.daqp_ratio_median == pytest.approx(q.daqp_median_us / vf.median_us)
+            assert q.qpsolvers_max_error <= bm.AGREEMENT_TARGET
+            assert q.daqp_max_error <= bm.AGREEMENT_TARGET
+
+
+# ------------------------------------------------------------------ the Markdown of a report
+
+
+def _tables(md: str) -> dict[str, list[tuple[list[str], list[list[str]]]]]:
+    """Section heading -> its tables, each as (header cells, body rows of cells)."""
+    out: dict[str, list[tuple[list[str], list[list[str]]]]] = {}
+    section = ""
+    for block in md.split("\n\n"):
+        if block.startswith("## "):
+            section = block[3:].strip()
+            continue
+        lines = [ln for ln in block.splitlines() if ln.startswith("|")]
+        if not lines:
+            continue
+        cells = [[c.strip() for c in ln.strip().strip("|").split("|")] for ln in lines]
+        assert all(set(c) <= set("-: ") for c in cells[1]), block  # the rule line
+        out.setdefault(section, []).append((cells[0], cells[2:]))
+    return out
+
+
+_NUMBER = re.compile(r"^-?\d+(\.\d+)?(e[-+]\d+)?$")
+#: Columns of counts and labels (no unit): everything else that holds numbers must name one.
+_UNITLESS = {"edges", "states", "N", "links", "obstacles", "active"}
+_UNITS = ("µs", "ms", " s", "M states/s", "ratio", "‖Δv‖∞")
+
+
+def _numeric(cell: str) -> bool:
+    return all(_NUMBER.match(part.strip()) for part in cell.split(" / "))
+
+
+def _columns_without_units(
+    tables: dict[str, list[tuple[list[str], list[list[str]]]]],
+) -> list[tuple[str, str]]:
+    """(section, column) of every numeric column that is neither a count nor names a unit."""
+    out = []
+    for section, found in tables.items():
+        for header, body in found:
+            assert body, section
+            for row in body:
+                assert len(row) == len(header), (section, row)
+            for j, name in enumerate(header):
+                numeric = all(_numeric(row[j]) for row in body)
+                if numeric and name not in _UNITLESS and not any(u in name for u in _UNITS):
+                    out.append((section, name))
+    return out
+
+
+def _section(tables: dict[str, Any], prefix: str) -> list[tuple[list[str], list[list[str]]]]:
+    (key,) = [k for k in tables if k.startswith(prefix)]
+    return tables[key]
+
+
+def test_markdown_tables_name_units_and_match_the_rows(
+    tiny: tuple[bm.BenchReport, list[tuple[str, float]]],
+) -> None:
+    rep, _ = tiny
+    md = rep.to_markdown()
+    tables = _tables(md)
+    assert _columns_without_units(tables) == []
+    ((head, body),) = [t for t in _section(tables, "Single-call latency") if "zone" in t[0]]
+    assert head[4:] == ["median µs", "p99 µs", "max µs"]
+    assert len(body) == len(rep.latency)
+    ((head, body),) = _section(tables, "Batch throughput")
+    assert "median ms / call" in head
+    assert "M states/s (median)" in head
+    assert len(body) == len(rep.batch)
+    ((head, body),) = _section(tables, "Per-call latency of `StopLimiter")
+    assert len(body) == len(rep.stops)
+    ((head, body),) = _section(tables, "One obstacle-avoidance control cycle")
+    assert len(body) == len(rep.control)
+    # ratio columns: the cells are the rows' ratios, "—" where a row has no baseline
+    ((head, body),) = _section(tables, "One step of the other controllers")
+    j = head.index("ratio")
+    assert [row[j] for row in body] == [
+        "—" if math.isnan(r.ratio) else f"{r.ratio:.2f}" for r in rep.steps
+    ]
+    assert [row[head.index("baseline")] for row in body] == [r.baseline or "—" for r in rep.steps]
+    if HAVE_QP:
+        ((head, body),) = _section(tables, "The exact law against the same QP")
+        j = head.index("qpsolvers ratio med / p99")
+        k = head.index("daqp ratio med / p99")
+        assert len(body) == len(rep.qp)
+        for row, q in zip(body, rep.qp, strict=True):
+            assert row[j] == f"{q.qpsolvers_ratio_median:.1f} / {q.qpsolvers_ratio_p99:.1f}"
+            assert row[k] == f"{q.daqp_ratio_median:.1f} / {q.daqp_ratio_p99:.1f}"
+
+
+def test_unit_check_finds_a_numeric_column_without_a_unit() -> None:
+    bad = "## T\n\n| edges | median | p99 µs |\n| --- | ---: | ---: |\n| 4 | 1.00 | 2.0 |\n"
+    assert _columns_without_units(_tables(bad)) == [("T", "median")]
+
+
+# ------------------------------------------------------------------ API edges
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "message"),
+    [
+        ("calls", 0, "calls: expected an int >= 1"),
+        ("calls", 2.5, "calls: expected a positive int"),
+        ("warmup", -1, "warmup: expected an int >= 0"),
+        ("batch_n", 10**12, "batch_n: expected an int <="),
+        ("latency_edges", (), "latency_edges: expected a non-empty tuple"),
+        ("latency_edges", [8], "latency_edges: expected a non-empty tuple"),
+        ("batch_edges", (8, 2), r"batch_edges\[1\]: expected an int >= 3"),
+        ("buffer", 0.0, "buffer"),
+        ("spring_gain", math.nan, "spring_gain"),
+        ("quick", "yes", "quick: expected True or False"),
+        ("stop_candidates", True, "stop_candidates: expected a positive int"),
+    ],
+)
+def test_bench_settings_refuse_bad_fields_by_name(field: str, value: Any, message: str) -> None:
+    from velfence.errors import InvalidParameter
+
+    with pytest.raises(InvalidParameter, match=message):
+        dataclasses.replace(TINY, **{field: value})
+
+
+def test_run_settings_refuses_other_objects_by_name() -> None:
+    from velfence.errors import InvalidParameter
+
+    with pytest.raises(InvalidParameter, match="s: expected a BenchSettings"):
+        run.run_settings({"calls": 5})  # type: ignore[arg-type]
+    with pytest.raises(InvalidParameter, match="progress: expected a callable"):
+        run.run_settings(TINY, progress="bar")  # type: ignore[arg-type]

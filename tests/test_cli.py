@@ -217,17 +217,72 @@ def test_demo_with_short_config(runner: CliRunner, tmp_path: Path) -> None:
 
 
 def test_bench_quick_writes_markdown(runner: CliRunner, tmp_path: Path) -> None:
-    bm = pytest.importorskip("velfence.benchmarking")
-    if not hasattr(bm, "run_benchmarks"):
-        pytest.skip("velfence.benchmarking.run_benchmarks is not there yet")
+    from velfence.bench import GENERATED_MARKER
+
     out = tmp_path / "bench.md"
-    result = _invoke(runner, "bench", "--quick", "--out", str(out))
+    js = tmp_path / "raw" / "bench.json"
+    result = _invoke(runner, "bench", "--quick", "--out", str(out), "--json", str(js))
     assert result.exit_code == 0, result.output
     md = out.read_text()
     assert md.strip()
     assert "## Machine" in md
     assert "| " in md  # markdown tables
-    assert str(out) in _flat(result.stdout)
+    assert md.count(GENERATED_MARKER) == 1
+    assert "quick (indicative only) mode" in md
+    text = _flat(result.stdout)
+    assert str(out) in text
+    assert str(js) in text
+    raw = json.loads(js.read_text())
+    assert raw["settings"]["quick"] is True
+    assert {"latency", "qp", "batch", "stops", "control", "steps", "targets"} <= set(raw)
+    for t in raw["targets"]:  # one pass/FAIL line per target, reported, not asserted
+        assert t["name"] in text
+
+
+def test_bench_without_out_prints_only_the_markdown(
+    runner: CliRunner, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import velfence.bench as bm
+
+    report = bm.BenchReport(
+        settings=bm.BenchSettings.make(quick=True),
+        machine=bm.machine_info(),
+        timer_overhead_ns=40.0,
+        latency=(),
+        worst=(),
+        qp=(),
+        batch=(),
+        targets=(bm.TargetCheck("a target", "≤ 5 µs", 1.0, "µs", True),),
+    )
+    seen: dict[str, Any] = {}
+
+    def fake_run(**kwargs: Any) -> bm.BenchReport:
+        seen.update(kwargs)
+        return report
+
+    monkeypatch.setattr(bm, "run_benchmarks", fake_run)
+    js = tmp_path / "bench.json"
+    result = _invoke(runner, "bench", "--quick", "--json", str(js))
+    assert result.exit_code == 0, result.output
+    assert seen["quick"] is True
+    assert result.stdout == report.to_markdown()  # redirectable: no status lines mixed in
+    assert f"wrote {js}" in _flat(result.stderr)
+    assert json.loads(js.read_text())["timer_overhead_ns"] == 40.0
+
+
+@pytest.mark.parametrize("option", ["--out", "--json"])
+def test_bench_refuses_a_folder_before_timing(
+    runner: CliRunner, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, option: str
+) -> None:
+    import velfence.bench
+
+    def boom(**kwargs: Any) -> None:
+        raise AssertionError("the benchmarks ran")
+
+    monkeypatch.setattr(velfence.bench, "run_benchmarks", boom)
+    result = _invoke(runner, "bench", "--quick", option, str(tmp_path))
+    assert result.exit_code == 2
+    assert f"{option} {tmp_path} is a folder" in _flat(result.stderr)
 
 
 # ---------------------------------------------------------------------- demo: bad config files

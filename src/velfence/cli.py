@@ -135,26 +135,54 @@ def reproduce(
 @app.command()
 def bench(
     out: Annotated[
-        Path | None, typer.Option(help="Write the markdown report here (e.g. docs/benchmarks.md).")
+        Path | None,
+        typer.Option(
+            help="Write the markdown report here (e.g. out/benchmarks.md; docs/benchmarks.md "
+            "only to update the published numbers). Default: print it."
+        ),
     ] = None,
     quick: Annotated[bool, typer.Option(help="Small sizes, a few seconds.")] = False,
+    json_path: Annotated[
+        Path | None, typer.Option("--json", help="Also write the raw report as JSON here.")
+    ] = None,
 ) -> None:
     """Time shape() per call and shape_batch() throughput, side by side with a QP baseline."""
+    import json
+
     from rich.progress import Progress
 
-    from velfence.benchmarking import run_benchmarks, write_report
+    from velfence.bench import run_benchmarks, write_report
 
-    with Progress(transient=True) as progress:
+    for option, path in (("--out", out), ("--json", json_path)):
+        if path is not None and path.is_dir():  # refused before minutes of timing, not after
+            raise _fail(f"{option} {path} is a folder; expected a file path")
+    with Progress(transient=True, console=Console(stderr=True)) as progress:
         task = progress.add_task("benchmarking", total=1.0)
         report = run_benchmarks(
             quick=quick,
             progress=lambda what, f: progress.update(task, completed=f, description=what),
         )
+    # Status lines go to stderr when stdout carries the Markdown (so it can be redirected).
+    console = Console(stderr=out is None)
     if out is not None:
-        write_report(report, out)  # keeps a hand-written preamble above the generated part
-        Console().print(f"[green]wrote[/] {out}")
+        try:
+            write_report(report, out)  # keeps a hand-written preamble above the generated part
+        except VelfenceError as exc:
+            raise _fail(str(exc)) from None
+        console.print(f"[green]wrote[/] {escape(str(out))}")
     else:
         sys.stdout.write(report.to_markdown())
+    if json_path is not None:
+        try:
+            json_path.parent.mkdir(parents=True, exist_ok=True)
+            json_path.write_text(json.dumps(report.to_dict(), indent=2) + "\n", encoding="utf-8")
+        except OSError as exc:
+            raise _fail(f"--json: cannot write {json_path}: {exc.strerror or exc}") from None
+        console.print(f"[green]wrote[/] {escape(str(json_path))}")
+    if out is not None:  # the Markdown was not printed: summarise the targets
+        for t in report.targets:
+            mark = "[green]pass[/]" if t.passed else "[red]FAIL[/]"
+            console.print(f"{mark}  {escape(t.name)}: {t.measured:.3g} {t.unit} ({t.target})")
 
 
 @app.command()

@@ -1,4 +1,4 @@
-"""Specs of the public tool modules velfence.benchmarking and velfence.demo."""
+"""Specs of the public tool modules velfence.bench, velfence.demo and velfence.soak."""
 
 from __future__ import annotations
 
@@ -6,7 +6,8 @@ import numpy as np
 from common import square
 from harness import C, F, call
 
-from velfence import benchmarking as bm
+from velfence import bench as bm
+from velfence import soak
 
 _ROW = "output record of run_benchmarks() (one table row)"
 
@@ -24,6 +25,14 @@ def _report() -> bm.BenchReport:
     )
 
 
+def _soak_case() -> soak.SoakCase:
+    return soak.polygon_cases(episodes=2, polygons=1, seed=0)[0]
+
+
+def _soak_result() -> soak.SoakResult:
+    return soak.run_case(_soak_case(), episodes=2, steps_per_episode=5)
+
+
 def _cfg():  # type: ignore[no-untyped-def]
     from velfence.io import load_config
 
@@ -31,33 +40,33 @@ def _cfg():  # type: ignore[no-untyped-def]
 
 
 SPECS: dict[str, F | C] = {
-    "benchmarking.BatchRow": C(record=_ROW),
-    "benchmarking.LatencyRow": C(record=_ROW),
-    "benchmarking.QPRow": C(record=_ROW),
-    "benchmarking.TargetCheck": C(record=_ROW),
-    "benchmarking.WorstZone": C(record=_ROW),
-    "benchmarking.Machine": C(record="output record of machine_info()"),
-    "benchmarking.BenchSettings": C(
+    "bench.BatchRow": C(record=_ROW),
+    "bench.LatencyRow": C(record=_ROW),
+    "bench.QPRow": C(record=_ROW),
+    "bench.TargetCheck": C(record=_ROW),
+    "bench.WorstZone": C(record=_ROW),
+    "bench.Machine": C(record="output record of machine_info()"),
+    "bench.BenchSettings": C(
         record="settings record built by BenchSettings.make()",
         instance=lambda: bm.BenchSettings.make(quick=True),
         methods={"make": lambda: call(quick=True)},
     ),
-    "benchmarking.BenchReport": C(
+    "bench.BenchReport": C(
         record="output record of run_benchmarks()",
         instance=_report,
         methods={"to_dict": lambda: call(), "to_markdown": lambda: call()},
     ),
-    "benchmarking.machine_info": F(lambda: call()),
-    "benchmarking.qp_bounds": F(
+    "bench.machine_info": F(lambda: call()),
+    "bench.qp_bounds": F(
         lambda: call(
             square(), np.array([0.5, 0.2]), np.array([1.0, 0.3]), buffer=0.2, spring_gain=2.0
         )
     ),
-    "benchmarking.regular_polygon": F(lambda: call(6)),
-    "benchmarking.run_benchmarks": F(
+    "bench.regular_polygon": F(lambda: call(6)),
+    "bench.run_benchmarks": F(
         lambda: call(quick=True), heavy="times every shaper (minutes); only refusals are tried"
     ),
-    "benchmarking.write_report": F(
+    "bench.write_report": F(
         lambda: call(_report(), "/nonexistent-velfence-hostile/bench.md"),
         heavy="writes a report file; only refusals are tried",
     ),
@@ -68,4 +77,11 @@ SPECS: dict[str, F | C] = {
         heavy="runs the demo scenario and writes plots; only refusals are tried",
         types={"config_path": "path", "out_dir": "path", "console": "object", "config": "object"},
     ),
+    "soak.SoakCase": C(
+        record="a campaign configuration of callables (polygon_cases(), stop_cases()); "
+        "run_case() calls what it holds"
+    ),
+    "soak.SoakResult": C(record="output record of run_case()"),
+    "soak.render_markdown": F(lambda: call([_soak_result()], command="make soak")),
+    "soak.run_case": F(lambda: call(_soak_case(), episodes=2, steps_per_episode=5)),
 }

@@ -7,15 +7,20 @@ synchronise on events set by the fake session instead of sleeping.
 
 from __future__ import annotations
 
+import importlib.resources
 import json
 import math
+import shutil
 import socket
+import subprocess
 import sys
 import threading
 import types
 import urllib.error
 import urllib.request
 from collections.abc import Iterator
+from html.parser import HTMLParser
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -23,6 +28,7 @@ import pytest
 
 from velfence.errors import InvalidInput, InvalidParameter, VelfenceError
 from velfence.teleop.scene import pick_and_place_scene, scene_to_dicts
+from velfence.teleop.session import Session
 from velfence.teleop.viewer import (
     ALLOWED_KEYS,
     HOST,
@@ -181,6 +187,110 @@ def test_page_has_canvas_keys_and_endpoints(server: ViewerServer) -> None:
         assert needle in page
     for key in ALLOWED_KEYS:
         assert f'<td class="k">{key}</td>' in page
+
+
+# ------------------------------------------------------------------------------ the page file
+PAGE_FILE = "static/viewer.html"
+
+
+class _PageParser(HTMLParser):
+    """Collects the page's ``<script>`` and ``<style>`` elements: attributes and text."""
+
+    def __init__(self) -> None:
+        super().__init__(convert_charrefs=True)
+        self.elements: list[tuple[str, dict[str, str | None], str]] = []
+        self._open: tuple[str, dict[str, str | None]] | None = None
+        self._text: list[str] = []
+
+    def handle_starttag(self, tag: str, attrs: list[tuple[str, str | None]]) -> None:
+        if tag in ("script", "style"):
+            self._open, self._text = (tag, dict(attrs)), []
+
+    def handle_data(self, data: str) -> None:
+        if self._open is not None:
+            self._text.append(data)
+
+    def handle_endtag(self, tag: str) -> None:
+        if self._open is not None and tag == self._open[0]:
+            self.elements.append((*self._open, "".join(self._text)))
+            self._open = None
+
+
+def _page_file_text() -> str:
+    resource = importlib.resources.files("velfence.teleop").joinpath(PAGE_FILE)
+    assert resource.is_file(), f"velfence/teleop/{PAGE_FILE} is not in the installed package"
+    return resource.read_text(encoding="utf-8")
+
+
+def _page_script() -> str:
+    parser = _PageParser()
+    parser.feed(_page_file_text())
+    parser.close()
+    scripts = [(attrs, text) for tag, attrs, text in parser.elements if tag == "script"]
+    assert len(scripts) == 1, scripts
+    attrs, text = scripts[0]
+    assert attrs == {}  # inline, no src: the CSP allows it by hash
+    return text
+
+
+def test_page_is_package_data_and_is_what_the_server_sends(server: ViewerServer) -> None:
+    status, page = _call(server, "GET", "/")
+    assert status == 200
+    assert page == _page_file_text()
+
+
+def test_page_script_binds_the_documented_keys() -> None:
+    script = _page_script()
+    assert 'const MODE_KEYS = "ASFDGPTCH";' in script
+    assert set("ASFDGPTCH") == set(ALLOWED_KEYS)
+    # jog keys of the module docstring: Left/Right -x/+x, Down/Up -y/+y, PgDn/PgUp -z/+z
+    for binding in (
+        "ArrowRight: [0, 1]",
+        "ArrowLeft: [0, -1]",
+        "ArrowUp: [1, 1]",
+        "ArrowDown: [1, -1]",
+        "PageUp: [2, 1]",
+        "PageDown: [2, -1]",
+    ):
+        assert binding in script, binding
+    # U O / I K / J L turn about +-x / +-y / +-z
+    for binding in (
+        "KeyU: [0, 1]",
+        "KeyO: [0, -1]",
+        "KeyI: [1, 1]",
+        "KeyK: [1, -1]",
+        "KeyJ: [2, 1]",
+        "KeyL: [2, -1]",
+    ):
+        assert binding in script, binding
+    for call in ('post("/key", { key: ch })', '"/jog"', 'fetch("/state"', 'fetch("/scene")'):
+        assert call in script, call
+    for event in ('"keydown"', '"keyup"', '"blur"'):
+        assert f"window.addEventListener({event}" in script, event
+
+
+def test_page_script_is_valid_javascript(tmp_path: Path) -> None:
+    node = shutil.which("node")
+    if node is None:
+        pytest.skip("node is not installed: the script's syntax is not checked")
+    js = tmp_path / "viewer.js"
+    js.write_text(_page_script(), encoding="utf-8")
+    done = subprocess.run(
+        [node, "--check", str(js)], capture_output=True, text=True, timeout=60, check=False
+    )
+    assert done.returncode == 0, done.stderr
+
+
+def test_node_check_catches_a_syntax_error(tmp_path: Path) -> None:
+    node = shutil.which("node")
+    if node is None:
+        pytest.skip("node is not installed")
+    js = tmp_path / "broken.js"
+    js.write_text(
+        _page_script().replace("function frame()", "function frame(", 1), encoding="utf-8"
+    )
+    done = subprocess.run([node, "--check", str(js)], capture_output=True, timeout=60, check=False)
+    assert done.returncode != 0
 
 
 def test_head_request(server: ViewerServer) -> None:
@@ -575,8 +685,7 @@ def test_cli_teleop_serves_until_interrupted(monkeypatch: pytest.MonkeyPatch) ->
 
 
 def test_real_session_moves_when_clutched_and_jogged() -> None:
-    session_module = pytest.importorskip("velfence.teleop.session")
-    session = session_module.Session()
+    session = Session()
     with serve(session, realtime=False) as srv:
         _, before = _call(srv, "GET", "/state")
         snaps = ScriptedDriver(

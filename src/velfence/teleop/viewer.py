@@ -1,11 +1,12 @@
 r"""Interactive local web viewer for a traded-control session (Khokar 2009, §3.5).
 
 The thesis's operator looked at the remote scene directly and drove the PUMA with an Omni stylus
-and an Omni-PC keyboard (§3.6, §6). Here a person drives the simulated
+and an Omni-PC keyboard (the thesis, §3.5). Here a person drives the simulated
 :class:`~velfence.teleop.session.Session` from a browser instead:
 
 * :func:`serve` starts a :class:`ViewerServer`: a stdlib ``ThreadingHTTPServer`` bound to
-  **127.0.0.1 only**, serving one HTML page whose inline script draws the arm, the scene, the
+  **127.0.0.1 only**, serving one HTML page (package data, ``velfence/teleop/static/viewer.html``,
+  read with :mod:`importlib.resources`) whose inline script draws the arm, the scene, the
   laser beam and the fixture line on a ``<canvas>`` (a small perspective projection; drag to
   turn the view, wheel to zoom) from ``GET /state`` polled at about 20 Hz;
 * the keyboard sends the thesis's mode keys ``A S F D G P T``, ``C`` (clutch) and ``H`` (hand)
@@ -73,6 +74,7 @@ import urllib.request
 from collections.abc import Callable, Mapping, Sequence
 from http import HTTPStatus
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+from importlib.resources import files
 from types import TracebackType
 from typing import Any, Protocol, cast
 from urllib.parse import urlsplit
@@ -118,8 +120,8 @@ __all__ = [
 
 _log = logging.getLogger(__name__)
 
-#: The thesis's mode keys (§6): trajectory, scaled, fixture, destination, path,
-#: plane point, align.
+#: The thesis's mode keys (§1.1, §6.1-6.5; docs/telerobotics.md): trajectory, scaled, fixture,
+#: destination, path, plane point, align.
 MODE_KEYS: tuple[str, ...] = ("A", "S", "F", "D", "G", "P", "T")
 #: Toggles the clutch (the Omni's engage button).
 CLUTCH_KEY = "C"
@@ -1126,397 +1128,23 @@ class ScriptedDriver:
 
 
 # ---------------------------------------------------------------------------------- page
-_PAGE = r"""<!DOCTYPE html>
-<html lang="en">
-<head>
-<meta charset="utf-8">
-<title>velfence teleop — PUMA 560 laser-assisted traded control</title>
-<style>
-  html, body { margin: 0; height: 100%; background: #f4f4f2;
-               font: 13px/1.35 system-ui, sans-serif; }
-  #wrap { display: flex; height: 100%; }
-  #view { flex: 1; min-width: 0; background: #fff; cursor: grab; outline: none; }
-  #side { width: 320px; padding: 10px 14px; overflow-y: auto; border-left: 1px solid #ccc; }
-  h1 { font-size: 15px; margin: 4px 0 8px; }
-  .mode { font-size: 22px; font-weight: 700; }
-  .on { color: #1b7f2a; } .off { color: #a33; }
-  table { border-collapse: collapse; width: 100%; }
-  td { padding: 1px 4px; vertical-align: top; }
-  td.k { font-family: ui-monospace, monospace; font-weight: 700; white-space: nowrap; }
-  #status { margin: 6px 0; padding: 4px 6px; background: #eef; border-radius: 4px;
-            min-height: 1.3em; }
-  #err { color: #b00; white-space: pre-wrap; }
-  pre { font-size: 11px; background: #fafafa; border: 1px solid #ddd; padding: 4px;
-        overflow-x: auto; }
-</style>
-</head>
-<body>
-<div id="wrap">
-  <canvas id="view" tabindex="0"></canvas>
-  <div id="side">
-    <h1>PUMA 560 — laser-assisted traded control</h1>
-    <div>mode <span id="mode" class="mode">?</span>
-      &nbsp; clutch <b id="clutch">?</b> &nbsp; t = <span id="t">?</span> s</div>
-    <div id="status"></div>
-    <div id="err"></div>
-    <div>laser: <span id="range">?</span></div>
-    <div>jog: <span id="jog">0</span> &nbsp; speed <span id="speed"></span></div>
-    <h1>Keys</h1>
-    <table>
-      <tr><td class="k">A</td><td>autonomous straight line to the laser target</td></tr>
-      <tr><td class="k">S</td><td>toggle scaled teleoperation along the beam</td></tr>
-      <tr><td class="k">F</td><td>toggle the line fixture</td></tr>
-      <tr><td class="k">D</td><td>record the destination point</td></tr>
-      <tr><td class="k">G</td><td>three-leg path mode (then A, one leg each)</td></tr>
-      <tr><td class="k">P</td><td>record a plane point (twice per point)</td></tr>
-      <tr><td class="k">T</td><td>align to the plane (then A)</td></tr>
-      <tr><td class="k">C</td><td>toggle the clutch (couple the hand)</td></tr>
-      <tr><td class="k">H</td><td>close / open the gripper</td></tr>
-      <tr><td class="k">← →</td><td>jog −x / +x</td></tr>
-      <tr><td class="k">↓ ↑</td><td>jog −y / +y</td></tr>
-      <tr><td class="k">PgDn PgUp</td><td>jog −z / +z</td></tr>
-      <tr><td class="k">U O / I K / J L</td><td>turn about ±x / ±y / ±z</td></tr>
-      <tr><td class="k">Shift</td><td>jog 3× faster</td></tr>
-      <tr><td class="k">[ ]</td><td>halve / double jog speed</td></tr>
-      <tr><td class="k">Space</td><td>stop jogging</td></tr>
-      <tr><td class="k">drag / wheel</td><td>turn / zoom the view</td></tr>
-    </table>
-    <h1>Task</h1>
-    <pre id="task"></pre>
-    <pre id="q"></pre>
-  </div>
-</div>
-<script>
-"use strict";
-const canvas = document.getElementById("view");
-const ctx = canvas.getContext("2d");
-let W = 0, H = 0;
-let scene = [];
-let state = null;
-const view = { az: -2.0, el: 0.42, zoom: 1.0, target: [0.0, 0.35, -0.1], dist: 4.0 };
-let speed = 0.05;   // m/s per jog key
-let turn = 0.3;     // rad/s per turn key
-const held = new Set();
-let shift = false;
+#: The page, shipped as package data next to this module: ``static/viewer.html`` (one inline
+#: ``<script>`` and one inline ``<style>``, allowed by hash in the CSP below).
+_PAGE_RESOURCE = "static/viewer.html"
 
-const MODE_KEYS = "ASFDGPTCH";
-const MOVE = { ArrowRight: [0, 1], ArrowLeft: [0, -1], ArrowUp: [1, 1], ArrowDown: [1, -1],
-               PageUp: [2, 1], PageDown: [2, -1] };
-const TURN = { KeyU: [0, 1], KeyO: [0, -1], KeyI: [1, 1], KeyK: [1, -1],
-               KeyJ: [2, 1], KeyL: [2, -1] };
 
-function resize() {
-  const r = canvas.getBoundingClientRect();
-  W = canvas.width = Math.max(1, Math.floor(r.width));
-  H = canvas.height = Math.max(1, Math.floor(r.height));
-}
-window.addEventListener("resize", resize);
+def _load_page() -> str:
+    """The viewer page's text, read from the installed package with :mod:`importlib.resources`."""
+    try:
+        return files("velfence.teleop").joinpath(_PAGE_RESOURCE).read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:  # a broken install: say which file is missing
+        raise RuntimeError(
+            f"viewer page: cannot read velfence/teleop/{_PAGE_RESOURCE} from the installed "
+            f"package ({exc}); reinstall velfence"
+        ) from None
 
-function sub(a, b) { return [a[0] - b[0], a[1] - b[1], a[2] - b[2]]; }
-function add(a, b) { return [a[0] + b[0], a[1] + b[1], a[2] + b[2]]; }
-function mul(a, s) { return [a[0] * s, a[1] * s, a[2] * s]; }
-function cross(a, b) {
-  return [a[1]*b[2] - a[2]*b[1], a[2]*b[0] - a[0]*b[2], a[0]*b[1] - a[1]*b[0]];
-}
-function norm(a) { return Math.hypot(a[0], a[1], a[2]); }
-function unit(a) { const n = norm(a) || 1; return mul(a, 1 / n); }
 
-// Camera on the sphere (az, el) about the target, z up; mild perspective.
-function project(p) {
-  const d = sub(p, view.target);
-  const ca = Math.cos(view.az), sa = Math.sin(view.az);
-  const ce = Math.cos(view.el), se = Math.sin(view.el);
-  const right = -sa * d[0] + ca * d[1];
-  const horiz = ca * d[0] + sa * d[1];
-  const up = ce * d[2] - se * horiz;
-  const depth = ce * horiz + se * d[2];
-  const f = view.dist / Math.max(view.dist - depth, 0.2);
-  const s = Math.min(W, H) / 2.4 * view.zoom * f;
-  return [W / 2 + s * right, H / 2 - s * up, depth];
-}
-
-function poly(points, fill, stroke, width) {
-  if (points.length < 2) return;
-  ctx.beginPath();
-  points.forEach((p, i) => {
-    const q = project(p);
-    if (i) ctx.lineTo(q[0], q[1]); else ctx.moveTo(q[0], q[1]);
-  });
-  if (fill) { ctx.closePath(); ctx.fillStyle = fill; ctx.fill(); }
-  if (stroke) { ctx.strokeStyle = stroke; ctx.lineWidth = width || 1; ctx.stroke(); }
-}
-function line(a, b, color, width, dash) {
-  const p = project(a), q = project(b);
-  ctx.save();
-  ctx.setLineDash(dash || []);
-  ctx.lineCap = "round";
-  ctx.strokeStyle = color; ctx.lineWidth = width;
-  ctx.beginPath(); ctx.moveTo(p[0], p[1]); ctx.lineTo(q[0], q[1]); ctx.stroke();
-  ctx.restore();
-}
-function dot(p, r, color) {
-  const q = project(p);
-  ctx.beginPath(); ctx.arc(q[0], q[1], r, 0, 2 * Math.PI); ctx.fillStyle = color; ctx.fill();
-}
-function label(p, text, color) {
-  const q = project(p);
-  ctx.fillStyle = color || "#333"; ctx.font = "11px system-ui, sans-serif";
-  ctx.fillText(text, q[0] + 5, q[1] - 5);
-}
-function circle(center, normal, radius, n) {
-  const nn = unit(normal);
-  const a = Math.abs(nn[0]) < 0.9 ? [1, 0, 0] : [0, 1, 0];
-  const u = unit(sub(a, mul(nn, a[0]*nn[0] + a[1]*nn[1] + a[2]*nn[2])));
-  const v = cross(nn, u);
-  const pts = [];
-  for (let i = 0; i < n; i++) {
-    const t = 2 * Math.PI * i / n;
-    pts.push(add(center, add(mul(u, radius * Math.cos(t)), mul(v, radius * Math.sin(t)))));
-  }
-  return pts;
-}
-
-const COLORS = { plane: "rgba(200,200,190,0.45)", disk: "rgba(255,150,40,0.85)",
-                 cylinder: "rgba(70,130,200,0.55)", box: "rgba(160,120,70,0.35)" };
-
-// Each primitive becomes a list of faces {pts, fill, stroke}; faces are painted far to near.
-function faces(prim) {
-  const out = [];
-  if (prim.type === "plane") {
-    let c = prim.corners;
-    if (!c) {  // an infinite plane is drawn as a 2 m square
-      const h = prim.half_extents || [1, 1], u = prim.u_axis, v = prim.v_axis;
-      c = [[1, 1], [-1, 1], [-1, -1], [1, -1]].map(
-        ([a, b]) => add(prim.point, add(mul(u, a * h[0]), mul(v, b * h[1]))));
-    }
-    out.push({ pts: c, fill: COLORS.plane, stroke: "#999" });
-  } else if (prim.type === "disk") {
-    const pts = circle(prim.center, prim.normal, prim.radius, 32);
-    out.push({ pts: pts, fill: COLORS.disk, stroke: "#c60" });
-  } else if (prim.type === "cylinder") {
-    const b = prim.base_center, t = add(b, [0, 0, prim.height]), n = 24;
-    const lo = circle(b, [0, 0, 1], prim.radius, n), hi = circle(t, [0, 0, 1], prim.radius, n);
-    for (let i = 0; i < n; i++) {
-      const j = (i + 1) % n;
-      out.push({ pts: [lo[i], lo[j], hi[j], hi[i]], fill: COLORS.cylinder, stroke: null });
-    }
-    out.push({ pts: hi, fill: COLORS.cylinder, stroke: "#245" });
-    out.push({ pts: lo, fill: null, stroke: "#245" });
-  } else if (prim.type === "box") {
-    const c = prim.corners;
-    for (const axis of [0, 1, 2]) {
-      const o = [0, 1, 2].filter((k) => k !== axis);
-      for (const side of [0, 1]) {
-        const bit = (k, v) => (v ? 1 << k : 0);
-        const idx = [[0, 0], [1, 0], [1, 1], [0, 1]].map(
-          ([a, b2]) => bit(axis, side) | bit(o[0], a) | bit(o[1], b2));
-        out.push({ pts: idx.map((i) => c[i]), fill: COLORS.box, stroke: "#6b4a22" });
-      }
-    }
-  }
-  return out;
-}
-
-const POINT_FIELDS = ["base_center", "center", "top", "point"];
-// A dynamic primitive moved to where the snapshot's task puts it (null: not drawn).
-function placed(prim) {
-  if (!prim.dynamic || !state || !state.task || !(prim.name in state.task)) return prim;
-  const where = state.task[prim.name];
-  if (!where) return null;
-  const ref = POINT_FIELDS.find((k) => prim[k]);
-  if (!ref) return prim;
-  const d = sub(where, prim[ref]), out = Object.assign({}, prim);
-  for (const k of POINT_FIELDS) if (prim[k]) out[k] = add(prim[k], d);
-  if (prim.corners) out.corners = prim.corners.map((c) => add(c, d));
-  return out;
-}
-
-function depthOf(pts) { let s = 0; for (const p of pts) s += project(p)[2]; return s / pts.length; }
-
-function draw() {
-  if (!W) resize();
-  ctx.clearRect(0, 0, W, H);
-  // floor grid at the table height (or z = -0.6) for orientation
-  const gz = -0.6;
-  for (let k = -10; k <= 10; k += 2) {
-    line([k / 10, -1, gz - 0.001], [k / 10, 1.4, gz - 0.001], "#eee", 1);
-    line([-1, k / 10 + 0.4, gz - 0.001], [1, k / 10 + 0.4, gz - 0.001], "#eee", 1);
-  }
-  let objects = scene.map(placed).filter((p) => p);
-  if (state && Array.isArray(state.objects)) {
-    const moved = new Map(state.objects.map((o) => [o.name, o]));
-    objects = scene.filter((p) => !moved.has(p.name)).concat(state.objects);
-  }
-  const all = [];
-  for (const prim of objects) {
-    for (const f of faces(prim)) { f.depth = depthOf(f.pts); all.push(f); }
-  }
-  all.sort((a, b) => a.depth - b.depth);
-  // the pedestal (illustration only) is painted in depth order with the scene faces
-  const pedestal = project([0, 0, gz / 2])[2];
-  let drawnPedestal = false;
-  const drawPedestal = () => {
-    line([0, 0, 0], [0, 0, gz], "#bbb", 14);
-    line([0, 0, 0], [0.15, 0, 0], "#d33", 1.5); line([0, 0, 0], [0, 0.15, 0], "#3a3", 1.5);
-    line([0, 0, 0], [0, 0, 0.15], "#33d", 1.5);
-    drawnPedestal = true;
-  };
-  for (const f of all) {
-    if (!drawnPedestal && f.depth > pedestal) drawPedestal();
-    poly(f.pts, f.fill, f.stroke, 1);
-  }
-  if (!drawnPedestal) drawPedestal();
-  for (const prim of objects) {
-    const at = prim.top || prim.center || prim.point;  // scene_to_dicts gives one of them
-    if (at) label(at, prim.name, "#555");
-  }
-  if (!state) return;
-  // recorded task points: destination (key D), plane points (key P)
-  if (state.destination) {
-    dot(state.destination, 5, "#ff7f00"); label(state.destination, "D", "#c60");
-  }
-  for (const p of state.plane_points || []) dot(p, 4, "#7b3294");
-  // fixture line
-  if (state.fixture) {
-    const a = state.fixture.start, b = state.fixture.end, d = unit(sub(b, a));
-    line(sub(a, mul(d, 0.15)), add(b, mul(d, 0.15)), "rgba(200,0,200,0.35)", 1, [4, 4]);
-    line(a, b, "#c0c", 3, [10, 6]);
-  }
-  // arm
-  const J = state.joints || [];
-  for (let i = 0; i + 1 < J.length; i++) line(J[i], J[i + 1], "#4a6f96", 12);
-  for (const p of J) dot(p, 5, "#223");
-  if (state.gripper) line(state.gripper.start, state.gripper.end, "#777", 6);
-  // tool frame
-  const T = state.tool;
-  if (T) {
-    const o = [T[0][3], T[1][3], T[2][3]];
-    const cols = ["#e22", "#2a2", "#22e"];
-    for (let k = 0; k < 3; k++) {
-      line(o, add(o, mul([T[0][k], T[1][k], T[2][k]], 0.1)), cols[k], 2.5);
-    }
-  }
-  // laser
-  const L = state.laser;
-  if (L && L.origin) {
-    if (L.point) {
-      line(L.origin, L.point, "#f00", 2);
-      dot(L.point, 4, "#f00");
-      label(L.point, (norm(sub(L.point, L.origin)) * 100).toFixed(1) + " cm", "#c00");
-    } else {
-      const d = L.direction || (T ? [T[0][2], T[1][2], T[2][2]] : [0, 0, -1]);
-      line(L.origin, add(L.origin, mul(unit(d), 0.3)), "#f00", 1.5, [5, 5]);
-      label(add(L.origin, mul(unit(d), 0.3)), "no reading", "#c00");
-    }
-  }
-}
-
-function showState() {
-  if (!state) return;
-  document.getElementById("mode").textContent = state.mode;
-  const c = document.getElementById("clutch");
-  c.textContent = state.clutch ? "engaged" : "free";
-  c.className = state.clutch ? "on" : "off";
-  document.getElementById("t").textContent = Number(state.t).toFixed(2);
-  document.getElementById("status").textContent = state.status || "";
-  const L = state.laser;
-  const range = !L ? null : (L.distance != null ? L.distance
-    : (L.point && L.origin ? norm(sub(L.point, L.origin)) : null));
-  document.getElementById("range").textContent =
-    !L ? "no laser" : (range == null ? "no reading" : (range * 100).toFixed(1) + " cm");
-  document.getElementById("task").textContent = JSON.stringify(state.task || {}, null, 1);
-  if (state.q) document.getElementById("q").textContent =
-    "q [deg] " + state.q.map((x) => (x * 180 / Math.PI).toFixed(1)).join(", ");
-  const v = state.viewer || {};
-  if (v.error) document.getElementById("err").textContent = "session stopped: " + v.error;
-}
-
-async function post(path, body) {
-  try {
-    const r = await fetch(path, { method: "POST", headers: { "Content-Type": "application/json" },
-                                  body: JSON.stringify(body) });
-    const j = await r.json();
-    document.getElementById("err").textContent = r.ok ? "" : (path + ": " + (j.error || r.status));
-  } catch (e) {
-    document.getElementById("err").textContent = "viewer unreachable: " + e;
-  }
-}
-
-function jogVector() {
-  const lin = [0, 0, 0], ang = [0, 0, 0], k = shift ? 3 : 1;
-  for (const code of held) {
-    if (MOVE[code]) lin[MOVE[code][0]] += MOVE[code][1] * speed * k;
-    if (TURN[code]) ang[TURN[code][0]] += TURN[code][1] * turn * k;
-  }
-  return { linear: lin, angular: ang };
-}
-let lastJog = "";
-function sendJog(force) {
-  const j = jogVector();
-  const s = JSON.stringify(j);
-  document.getElementById("jog").textContent =
-    "[" + j.linear.map((x) => x.toFixed(3)).join(", ") + "] m/s";
-  document.getElementById("speed").textContent = speed.toFixed(3) + " m/s";
-  if (s !== lastJog || force) { lastJog = s; post("/jog", j); }
-}
-
-window.addEventListener("keydown", (e) => {
-  if (e.ctrlKey || e.metaKey || e.altKey) return;
-  shift = e.shiftKey;
-  if (MOVE[e.code] || TURN[e.code]) {
-    e.preventDefault(); held.add(e.code); sendJog(false); return;
-  }
-  if (e.repeat) return;
-  const ch = e.code.startsWith("Key") ? e.code.slice(3) : "";
-  if (ch && MODE_KEYS.includes(ch)) { e.preventDefault(); post("/key", { key: ch }); }
-  else if (e.code === "Space") { e.preventDefault(); held.clear(); sendJog(true); }
-  else if (e.code === "BracketLeft") { speed /= 2; turn /= 2; sendJog(false); }
-  else if (e.code === "BracketRight") {
-    speed = Math.min(speed * 2, 0.3); turn = Math.min(turn * 2, 1.5); sendJog(false);
-  }
-});
-window.addEventListener("keyup", (e) => {
-  shift = e.shiftKey;
-  if (held.delete(e.code) || e.key === "Shift") sendJog(false);
-});
-window.addEventListener("blur", () => { held.clear(); shift = false; sendJog(true); });
-
-let drag = null;
-canvas.addEventListener("mousedown", (e) => { drag = [e.clientX, e.clientY]; canvas.focus(); });
-window.addEventListener("mouseup", () => { drag = null; });
-window.addEventListener("mousemove", (e) => {
-  if (!drag) return;
-  view.az -= (e.clientX - drag[0]) * 0.01;
-  view.el = Math.max(-1.4, Math.min(1.4, view.el + (e.clientY - drag[1]) * 0.01));
-  drag = [e.clientX, e.clientY];
-});
-canvas.addEventListener("wheel", (e) => {
-  e.preventDefault();
-  view.zoom = Math.max(0.3, Math.min(5, view.zoom * Math.exp(-e.deltaY * 0.001)));
-}, { passive: false });
-
-async function poll() {
-  try {
-    const r = await fetch("/state", { cache: "no-store" });
-    if (r.ok) { state = await r.json(); showState(); }
-  } catch (e) {
-    document.getElementById("err").textContent = "viewer unreachable: " + e;
-  }
-  // keep-alive of a held jog: the server zeroes jogs that are not renewed (dead-man)
-  if (held.size) sendJog(true);
-  setTimeout(poll, 50);
-}
-function frame() { draw(); requestAnimationFrame(frame); }
-
-fetch("/scene").then((r) => r.json()).then((s) => { scene = s; }).catch(() => {});
-resize();
-sendJog(false);
-poll();
-requestAnimationFrame(frame);
-</script>
-</body>
-</html>
-"""
+_PAGE = _load_page()
 
 
 def _csp_hash(tag: str) -> str:

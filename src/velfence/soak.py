@@ -466,11 +466,11 @@ def stop_cases(*, episodes: int) -> list[SoakCase]:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """``python -m velfence.sim.soak``: run the standard campaigns, print and write the table."""
+    """``python -m velfence.soak``: run the standard campaigns, print and write the table."""
     import argparse
     from pathlib import Path
 
-    ap = argparse.ArgumentParser(prog="python -m velfence.sim.soak", description=__doc__)
+    ap = argparse.ArgumentParser(prog="python -m velfence.soak", description=__doc__)
     ap.add_argument("--steps", type=int, default=1_000_000, help="closed-loop steps per case")
     ap.add_argument(
         "--episode-steps", type=int, default=4000, help="steps per episode (4 s at 1 kHz)"
@@ -491,7 +491,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         )
         results.append(r)
     if args.out is not None:
-        cmd = f"python -m velfence.sim.soak --steps {args.steps} --episode-steps {per}"
+        cmd = f"python -m velfence.soak --steps {args.steps} --episode-steps {per}"
         args.out.write_text(_page(results, cmd))
     required = [r for r in results if "faithful" not in r.name and "no dt" not in r.name]
     ok = all(r.escapes == 0 and r.nonfinite == 0 for r in required)
@@ -504,7 +504,7 @@ def _page(results: Sequence[SoakResult], command: str) -> str:
 velfence is a safety filter, so its first promise is containment: a state that starts inside
 the safe set stays inside, and a state outside comes back. `make soak` checks that promise in
 closed loop, at scale, on every shaper: each case below runs 10⁶ steps of an explicit-Euler plant
-`x ← x + dt · shape(x, v_cmd)` (module `velfence.sim.soak`, reusable on your own configuration).
+`x ← x + dt · shape(x, v_cmd)` (module `velfence.soak`, reusable on your own configuration).
 
 **Episodes.** Starts are drawn uniformly inside the safe set (80 %) or in a band just outside it
 (20 %, up to a fifth of the set's size). The operator of an episode either *wanders* (a random

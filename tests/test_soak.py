@@ -11,7 +11,7 @@ from velfence.errors import InvalidParameter
 from velfence.geometry import ConvexPolygon
 from velfence.shaping import PolygonShaper
 from velfence.sim.baselines import NoLimit
-from velfence.sim.soak import (
+from velfence.soak import (
     SoakCase,
     _PlanarSets,
     polygon_cases,

@@ -1,0 +1,68 @@
+r"""Benchmarks: per-call latency, a QP baseline, batch throughput, the other controllers.
+
+Timing targets live here, not in unit tests. :func:`run_benchmarks` (the ``velfence bench``
+command) measures
+
+1. the latency of one :meth:`~velfence.PolygonShaper.shape` call (median, p99, max in µs; every
+   call timed on its own with :func:`time.perf_counter_ns`, after a warm-up, with the garbage
+   collector disabled) for regular 4-, 8- and 32-gons, both methods, the point in each zone;
+2. the *same* constraint set as the exact law solved as a QP through :func:`qpsolvers.solve_qp`
+   (``solver="daqp"``) and through ``daqp.solve`` directly, on the same states, with the ratios
+   QP / velfence and the largest difference between the answers;
+3. the throughput of :meth:`~velfence.PolygonShaper.shape_batch` with and without numba;
+4. the joint-stop limiter, one obstacle-avoidance control cycle of redundant arms, one step of
+   cobot path following and of resolved-rate teleoperation;
+5. the machine it ran on.
+
+The result is a :class:`BenchReport` (``to_dict()`` for JSON, ``to_markdown()`` for
+``docs/benchmarks.md``). The optional pieces (numba, qpsolvers, daqp) are skipped, with a note,
+when they are not installed.
+
+Modules: :mod:`~velfence.bench.timing` (the measuring primitive), :mod:`~velfence.bench.rows`
+(the table rows), :mod:`~velfence.bench.cases` (one module per family of cases),
+:mod:`~velfence.bench.report` (the report and its Markdown), :mod:`~velfence.bench.run` (the
+run), :mod:`~velfence.bench.settings` and :mod:`~velfence.bench.machine`.
+"""
+
+from __future__ import annotations
+
+from velfence.bench.cases.peers import qp_bounds
+from velfence.bench.cases.shaping import regular_polygon
+from velfence.bench.machine import Machine, machine_info
+from velfence.bench.report import DEFAULT_PREAMBLE as DEFAULT_PREAMBLE
+from velfence.bench.report import GENERATED_MARKER, BenchReport, write_report
+from velfence.bench.rows import BatchRow, LatencyRow, QPRow, TargetCheck, WorstZone
+from velfence.bench.rows import ControlCycleRow as ControlCycleRow
+from velfence.bench.rows import StepRow as StepRow
+from velfence.bench.rows import StopLatencyRow as StopLatencyRow
+from velfence.bench.run import Progress as Progress
+from velfence.bench.run import run_benchmarks
+from velfence.bench.settings import AGREEMENT_TARGET as AGREEMENT_TARGET
+from velfence.bench.settings import BUFFER as BUFFER
+from velfence.bench.settings import LATENCY_TARGET_US as LATENCY_TARGET_US
+from velfence.bench.settings import MAX_EDGES as MAX_EDGES
+from velfence.bench.settings import SEED as SEED
+from velfence.bench.settings import SPRING_GAIN as SPRING_GAIN
+from velfence.bench.settings import THROUGHPUT_TARGET as THROUGHPUT_TARGET
+from velfence.bench.settings import ZONES as ZONES
+from velfence.bench.settings import BenchSettings
+
+# The names above imported "as" themselves are importable from here too (as before the split)
+# but, as before, not part of __all__.
+
+__all__ = [
+    "GENERATED_MARKER",
+    "BatchRow",
+    "BenchReport",
+    "BenchSettings",
+    "LatencyRow",
+    "Machine",
+    "QPRow",
+    "TargetCheck",
+    "WorstZone",
+    "machine_info",
+    "qp_bounds",
+    "regular_polygon",
+    "run_benchmarks",
+    "write_report",
+]
