@@ -14,6 +14,9 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+
+pytest.importorskip("typer", reason="the command line needs the [app] extra")
+pytest.importorskip("rich", reason="the command line needs the [app] extra")
 from typer.testing import CliRunner
 
 import velfence

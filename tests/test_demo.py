@@ -11,13 +11,16 @@ from typing import Any
 import numpy as np
 import pytest
 
-from velfence.demo import DemoResult, build_shapers, run_demo
-from velfence.errors import InvalidParameter
-from velfence.geometry.polygon import ConvexPolygon
-from velfence.io.config import DemoConfig, ShaperSettings, load_config
-from velfence.mechanisms.wrist import Wrist, WristGeometry
-from velfence.shaping.polygon import PolygonShaper
-from velfence.sim.baselines import AxisLimits, HardStop, NoLimit
+for _extra in ("rich", "matplotlib", "pydantic", "yaml"):
+    pytest.importorskip(_extra, reason="the demo needs the [app] extra")
+
+from velfence.demo import DemoResult, build_shapers, run_demo  # noqa: E402
+from velfence.errors import InvalidParameter  # noqa: E402
+from velfence.geometry.polygon import ConvexPolygon  # noqa: E402
+from velfence.io.config import DemoConfig, ShaperSettings, load_config  # noqa: E402
+from velfence.mechanisms.wrist import Wrist, WristGeometry  # noqa: E402
+from velfence.shaping.polygon import PolygonShaper  # noqa: E402
+from velfence.sim.baselines import AxisLimits, HardStop, NoLimit  # noqa: E402
 
 METHODS = ["patent", "exact", "hard-stop"]
 DURATION = 1.5

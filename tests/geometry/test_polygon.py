@@ -32,7 +32,7 @@ RTOL = 1e-12  # closed forms against independent closed forms
 ATOL = 1e-12
 MARGIN = 1e-6  # keep random points this far from boundaries / rays where tests may disagree
 
-PENTAGON = [[0, 0], [2, 0], [2.5, 1], [1, 2], [-0.5, 1]]  # DESIGN.md §3
+PENTAGON = [[0, 0], [2, 0], [2.5, 1], [1, 2], [-0.5, 1]]  # the README's example workspace
 SQUARE = [[-1, -1], [1, -1], [1, 1], [-1, 1]]
 DIAMOND = [[1, 0], [0, 1], [-1, 0], [0, -1]]  # |x| + |y| <= 1
 
@@ -401,6 +401,8 @@ class TestArcSegment:
         assert wedge_angle(cx, cy, cx, cy, 1.0) == 0.0
 
     def test_wedge_index_matches_method(self) -> None:
+        # Deliberately internal: the scalar kernel (the compiled shapers' path) is checked
+        # against the public method, so it reads the polygon's packed kernel constants.
         poly = ConvexPolygon(PENTAGON)
         _, _, _, cx, cy, a0, beta, n = poly._fast
         for p in random_points(np.random.default_rng(3), poly, 50):

@@ -6,9 +6,8 @@ import json
 
 import numpy as np
 import pytest
-from typer.testing import CliRunner
 
-from velfence.cli import app
+from optional import requires
 from velfence.errors import InvalidParameter
 from velfence.teleop.operator import OperatorProfile
 from velfence.teleop.study import run_study, write_study
@@ -70,6 +69,7 @@ def test_run_task_validation():
         run_task("assisted", seed=-1)
 
 
+@requires("matplotlib")  # write_study draws the figures
 def test_tiny_study_summary_and_files(tmp_path):
     result = run_study(1, runs=1, seed=3, rate=RATE)
     assert len(result.records) == 2
@@ -91,7 +91,12 @@ def test_tiny_study_summary_and_files(tmp_path):
         run_study(0)
 
 
+@requires("typer", "rich", "matplotlib")
 def test_cli_study_json(tmp_path):
+    from typer.testing import CliRunner
+
+    from velfence.cli import app
+
     res = CliRunner().invoke(
         app,
         ["study", "--subjects", "1", "--runs", "1", "--seed", "2", "--out", str(tmp_path),
