@@ -5,7 +5,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 export MPLBACKEND := Agg
 
-.PHONY: demo test lint typecheck pytest bench soak clean
+.PHONY: demo test check lint typecheck pytest pytest-fast bench soak clean
 
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -27,6 +27,14 @@ pytest: $(STAMP)
 	$(BIN)/python -m pytest
 
 test: lint typecheck pytest
+
+# The quick loop (under 2 minutes here): lint, types and every test not marked `slow` (the whole
+# reproductions, the soak smoke runs, the hostile-input catalogue, the benchmarks). `make test`
+# runs everything.
+pytest-fast: $(STAMP)
+	$(BIN)/python -m pytest -m "not slow"
+
+check: lint typecheck pytest-fast
 
 bench: $(STAMP)
 	$(BIN)/velfence bench --out docs/benchmarks.md

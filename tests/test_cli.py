@@ -76,6 +76,7 @@ def test_unknown_command(runner: CliRunner) -> None:
 # --------------------------------------------------------------------------------------- reproduce
 
 
+@pytest.mark.slow
 def test_reproduce_wrist_json(runner: CliRunner, tmp_path: Path) -> None:
     result = _invoke(runner, "reproduce", "wrist", "--json", "--out", str(tmp_path))
     # Source defects (documented findings) do not fail the reproduction.

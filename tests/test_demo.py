@@ -182,6 +182,7 @@ def test_summary_table(short: tuple[DemoConfig, Path, DemoResult]) -> None:
     assert len(table.columns) > 1
 
 
+@pytest.mark.slow
 def test_gif_is_written(tmp_path: Path) -> None:
     cfg = load_config(None, methods=["exact"], gif=True, duration=0.3)
     result = run_demo(config=cfg, out_dir=tmp_path)

@@ -98,6 +98,7 @@ def test_joint_stops(capsys: pytest.CaptureFixture[str]) -> None:
     assert np.abs(velocity).max() < 2e-3
 
 
+@pytest.mark.slow
 def test_obstacle_avoidance(capsys: pytest.CaptureFixture[str]) -> None:
     lines = run_example("obstacle_avoidance", capsys)
     assert len(lines) == 10
@@ -121,6 +122,7 @@ def test_obstacle_avoidance(capsys: pytest.CaptureFixture[str]) -> None:
     assert zones[0] == zones[-1] == "free"  # far from the obstacle at both ends of the line
 
 
+@pytest.mark.slow
 def test_cobot_path_following(capsys: pytest.CaptureFixture[str]) -> None:
     lines = run_example("cobot_path_following", capsys)
     ticks, walls = lines[:6], lines[6:]

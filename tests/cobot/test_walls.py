@@ -226,6 +226,7 @@ def test_wall_steering_corner_pushes(v: list[float], R0: list[float], duration: 
     assert dmin >= -1e-3
 
 
+@pytest.mark.slow
 def test_wall_steering_survey_of_push_directions() -> None:
     """Twelve push directions from the centre, each into a wall or a corner: never > 1 mm out."""
     worst = math.inf

@@ -65,6 +65,7 @@ def test_optional_modules_are_attacked_too() -> None:
         pytest.skip(f"not attacked, an extra is not installed: {missing}")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("target", TARGETS, ids=[t.key for t in TARGETS])
 def test_hostile_inputs(target, hostile_results) -> None:  # type: ignore[no-untyped-def]
     failures, _calls = hostile_results.get(target.key) or attack(target)

@@ -170,6 +170,7 @@ def test_dt_caps_each_period_to_the_remaining_distance():
     np.testing.assert_array_equal(safe.shape(q, -v), plain.shape(q, -v))  # moving away: no cap
 
 
+@pytest.mark.slow
 @settings(max_examples=60)
 @given(
     corners=convex_corners(max_n=6),

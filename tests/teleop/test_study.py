@@ -25,6 +25,7 @@ def runs():
     }
 
 
+@pytest.mark.slow
 def test_both_conditions_complete_and_assistance_is_faster(runs):
     un, asst = runs["unassisted"].record, runs["assisted"].record
     assert un.done
@@ -39,6 +40,7 @@ def test_both_conditions_complete_and_assistance_is_faster(runs):
     assert asst.segments < un.segments
 
 
+@pytest.mark.slow
 def test_assisted_run_follows_the_thesis_workflow(runs):
     ev = runs["assisted"].events
     kinds = [e.message.split(":")[0] for e in ev if e.kind in ("record", "plane", "segment-start")]
@@ -53,6 +55,7 @@ def test_assisted_run_follows_the_thesis_workflow(runs):
     assert t_align < t_grasp < t_leg1
 
 
+@pytest.mark.slow
 def test_snapshots_and_trace(runs):
     run = runs["assisted"]
     assert len(run.snapshots) >= run.record.time  # 1 Hz plus the final one
@@ -69,6 +72,7 @@ def test_run_task_validation():
         run_task("assisted", seed=-1)
 
 
+@pytest.mark.slow
 @requires("matplotlib")  # write_study draws the figures
 def test_tiny_study_summary_and_files(tmp_path):
     result = run_study(1, runs=1, seed=3, rate=RATE)
@@ -91,6 +95,7 @@ def test_tiny_study_summary_and_files(tmp_path):
         run_study(0)
 
 
+@pytest.mark.slow
 @requires("typer", "rich", "matplotlib")
 def test_cli_study_json(tmp_path):
     from typer.testing import CliRunner
