@@ -30,15 +30,7 @@ SLOW_NODES = (
 )
 
 
-def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    xdist = config.pluginmanager.hasplugin("xdist")
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     for item in items:
         if item.nodeid.startswith(SLOW_NODES):
             item.add_marker(pytest.mark.slow)
-        if xdist:
-            # With pytest-xdist (``-n 2 --dist loadgroup``) a file's tests stay on one worker,
-            # so a module-scoped reproduction runs once; the files sharing the session-scoped
-            # telerobotics run form one group.
-            shared = "telerobotics_run" in getattr(item, "fixturenames", ())
-            group = "telerobotics" if shared else item.nodeid.split("::")[0]
-            item.add_marker(pytest.mark.xdist_group(group))
