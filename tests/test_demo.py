@@ -192,6 +192,7 @@ def test_gif_is_written(tmp_path: Path) -> None:
     assert result.artifacts[-1].name == "metrics.json"
 
 
+@pytest.mark.slow
 def test_custom_script_from_config(tmp_path: Path) -> None:
     cfg_path = tmp_path / "scenario.yaml"
     cfg_path.write_text(
@@ -259,6 +260,7 @@ def test_example_config_sets_every_field() -> None:
     assert cfg.methods == ["hard-stop", "patent", "exact"]
 
 
+@pytest.mark.slow
 def test_example_config_runs_a_short_demo(tmp_path: Path) -> None:
     cfg = load_config(EXAMPLE, duration=0.3, gif=False)  # short: the file's own run is 6 s
     result = run_demo(config=cfg, out_dir=tmp_path)

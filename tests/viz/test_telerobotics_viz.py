@@ -313,6 +313,7 @@ def test_frame_indices_validation(
 # ------------------------------------------------------------------------------ animation
 
 
+@pytest.mark.slow
 def test_animate_session_gif_frame_count(
     tmp_path: Path, recording: list[dict[str, Any]], scene: list[dict[str, Any]]
 ) -> None:
@@ -492,6 +493,7 @@ def test_gripper_and_task_points_are_drawn(
         plt.close(fig)
 
 
+@pytest.mark.slow
 def test_real_session_renders(tmp_path: Path) -> None:
     session = Session(rate=100.0)
     script = [(0.0, "key", "C"), (0.0, "jog", ([0.0, 0.0, 0.05], [0.0, 0.0, 0.0]))]
