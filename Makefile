@@ -5,7 +5,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 export MPLBACKEND := Agg
 
-.PHONY: demo test lint typecheck docs pytest bench bench-docs soak clean
+.PHONY: demo test check lint typecheck docs pytest pytest-fast bench bench-docs soak clean
 
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -32,6 +32,14 @@ pytest: $(STAMP)
 	$(BIN)/python -m pytest
 
 test: lint typecheck docs pytest
+
+# The quick loop (under 2 minutes here): lint, types and every test not marked `slow` (the whole
+# reproductions, the soak smoke runs, the hostile-input catalogue, the benchmarks). `make test`
+# runs everything.
+pytest-fast: $(STAMP)
+	$(BIN)/python -m pytest -m "not slow"
+
+check: lint typecheck pytest-fast
 
 # Benchmarks (minutes; never part of `make test`). `make bench` writes out/benchmarks.md
 # (untracked) and leaves the published numbers alone; `make bench-docs` regenerates the part of

@@ -1,5 +1,6 @@
-"""Shared test configuration: one seeded, deterministic hypothesis profile.
+"""Shared test configuration: one seeded, deterministic hypothesis profile, and the slow marks.
 
+Every property test is reproducible: examples are derandomized and no example database is kept.
 ``HYPOTHESIS_PROFILE=thorough`` runs ten times more examples (still derandomized).
 """
 
@@ -7,6 +8,7 @@ from __future__ import annotations
 
 import os
 
+import pytest
 from hypothesis import HealthCheck, settings
 
 _COMMON = {
@@ -20,3 +22,15 @@ _COMMON = {
 settings.register_profile("velfence", max_examples=100, **_COMMON)
 settings.register_profile("thorough", max_examples=1000, **_COMMON)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "velfence"))
+
+#: Slow tests marked here rather than in their files (node-id prefixes): the benchmark runs.
+SLOW_NODES = (
+    "tests/test_benchmarking.py::",
+    "tests/test_cli.py::test_bench_",
+)
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    for item in items:
+        if item.nodeid.startswith(SLOW_NODES):
+            item.add_marker(pytest.mark.slow)

@@ -95,3 +95,13 @@ def random_points(
     mid = 0.5 * (lo + hi)
     half = 0.5 * spread * (hi - lo)
     return mid + rng.uniform(-1.0, 1.0, size=(n, 2)) * half
+
+
+def inward_normals(limiter: Any) -> np.ndarray:
+    """Unit inward normals of a StopLimiter's stops, shape (m, 2), row k for stop k.
+
+    Stop k is ``a q_i + b q_j + c >= 0`` (row k of the public ``stops``), so ``(a, b)`` points
+    into the allowed side.
+    """
+    ab = np.asarray(limiter.stops)[:, :2]
+    return np.asarray(ab / np.linalg.norm(ab, axis=1, keepdims=True))

@@ -14,6 +14,9 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+
+pytest.importorskip("typer", reason="the command line needs the [app] extra")
+pytest.importorskip("rich", reason="the command line needs the [app] extra")
 from typer.testing import CliRunner
 
 import velfence
@@ -73,6 +76,7 @@ def test_unknown_command(runner: CliRunner) -> None:
 # --------------------------------------------------------------------------------------- reproduce
 
 
+@pytest.mark.slow
 def test_reproduce_wrist_json(runner: CliRunner, tmp_path: Path) -> None:
     result = _invoke(runner, "reproduce", "wrist", "--json", "--out", str(tmp_path))
     # Source defects (documented findings) do not fail the reproduction.

@@ -11,13 +11,16 @@ from typing import Any
 import numpy as np
 import pytest
 
-from velfence.demo import DemoResult, build_shapers, run_demo
-from velfence.errors import InvalidParameter
-from velfence.geometry.polygon import ConvexPolygon
-from velfence.io.config import DemoConfig, ShaperSettings, load_config
-from velfence.mechanisms.wrist import Wrist, WristGeometry
-from velfence.shaping.polygon import PolygonShaper
-from velfence.sim.baselines import AxisLimits, HardStop, NoLimit
+for _extra in ("rich", "matplotlib", "pydantic", "yaml"):
+    pytest.importorskip(_extra, reason="the demo needs the [app] extra")
+
+from velfence.demo import DemoResult, build_shapers, run_demo  # noqa: E402
+from velfence.errors import InvalidParameter  # noqa: E402
+from velfence.geometry.polygon import ConvexPolygon  # noqa: E402
+from velfence.io.config import DemoConfig, ShaperSettings, load_config  # noqa: E402
+from velfence.mechanisms.wrist import Wrist, WristGeometry  # noqa: E402
+from velfence.shaping.polygon import PolygonShaper  # noqa: E402
+from velfence.sim.baselines import AxisLimits, HardStop, NoLimit  # noqa: E402
 
 METHODS = ["patent", "exact", "hard-stop"]
 DURATION = 1.5
@@ -179,6 +182,7 @@ def test_summary_table(short: tuple[DemoConfig, Path, DemoResult]) -> None:
     assert len(table.columns) > 1
 
 
+@pytest.mark.slow
 def test_gif_is_written(tmp_path: Path) -> None:
     cfg = load_config(None, methods=["exact"], gif=True, duration=0.3)
     result = run_demo(config=cfg, out_dir=tmp_path)
@@ -188,6 +192,7 @@ def test_gif_is_written(tmp_path: Path) -> None:
     assert result.artifacts[-1].name == "metrics.json"
 
 
+@pytest.mark.slow
 def test_custom_script_from_config(tmp_path: Path) -> None:
     cfg_path = tmp_path / "scenario.yaml"
     cfg_path.write_text(
@@ -255,6 +260,7 @@ def test_example_config_sets_every_field() -> None:
     assert cfg.methods == ["hard-stop", "patent", "exact"]
 
 
+@pytest.mark.slow
 def test_example_config_runs_a_short_demo(tmp_path: Path) -> None:
     cfg = load_config(EXAMPLE, duration=0.3, gif=False)  # short: the file's own run is 6 s
     result = run_demo(config=cfg, out_dir=tmp_path)

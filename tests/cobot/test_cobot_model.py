@@ -13,8 +13,8 @@ import math
 
 import numpy as np
 import pytest
-from scipy.integrate import solve_ivp
 
+from optional import requires
 from velfence.cobot import (
     Cobot,
     CobotKinematics,
@@ -346,6 +346,8 @@ def integrate_constant_curvature(
         st = cob.steering_rates(R, phi, T, kappa * (W @ T), 1.0, route=route)
         return np.concatenate([kin.jacobian(R) @ T, st.phi_dot])
 
+    from scipy.integrate import solve_ivp
+
     S = np.linspace(0.0, length, 41)
     sol = solve_ivp(
         rhs,
@@ -362,6 +364,7 @@ def integrate_constant_curvature(
     return S, R
 
 
+@requires("scipy")
 @pytest.mark.parametrize(
     ("name", "route", "kappa"),
     [
@@ -391,6 +394,7 @@ def test_prescribed_curvature_traces_the_circle(name: str, route: str, kappa: fl
     np.testing.assert_allclose(R, expected, atol=1e-8)
 
 
+@requires("scipy")
 def test_rtheta_closed_loop_does_not_depend_on_r_o() -> None:
     R0, T0 = np.array([1.2, 0.3]), np.array([0.6, 0.8])
     _, a = integrate_constant_curvature(r_theta_cobot(r_o=0.5), R0, T0, 1.5, 2.0, "direct")

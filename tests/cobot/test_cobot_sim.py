@@ -149,6 +149,7 @@ def fig5_run() -> CobotTrace:
     return run_rtheta(constant_speed(1.0), 5.2, 2e-3)
 
 
+@pytest.mark.slow
 def test_fig5_convergence(fig5_run: CobotTrace) -> None:
     """Acceptance test (a): |ΔR| < 2e-2 at s = 2 and < 1e-3 at s = 5, k = (4, 4)."""
     tr = fig5_run
@@ -162,12 +163,14 @@ def test_fig5_convergence(fig5_run: CobotTrace) -> None:
     assert float(np.min(np.linalg.norm(tr.R, axis=1))) > 0.9
 
 
+@pytest.mark.slow
 def test_fig5_four_space_run_equals_the_c_ee_model(fig5_run: CobotTrace) -> None:
     """Acceptance test (c): the r-θ cobot traces what the C_EE model traces (measured 1.1e-5)."""
     ee = follow_in_ee(fig5_follower(), R0, T0, length=5.2, ds=2e-3)
     assert gap(fig5_run, ee, 5.0) < 1e-4
 
 
+@pytest.mark.slow
 def test_fig5_trace_is_consistent(fig5_run: CobotTrace) -> None:
     tr = fig5_run
     cob = r_theta_cobot()
@@ -205,6 +208,7 @@ def varying_speed(t: float, R: np.ndarray, T: np.ndarray) -> float:
     return 1.0 + 0.6 * math.sin(1.5 * t)
 
 
+@pytest.mark.slow
 def test_speed_invariance_at_equal_arc_length() -> None:
     """Speeds 0.5, 2 and a time-varying speed trace the same path up to the control step.
 
@@ -232,6 +236,7 @@ def test_speed_invariance_at_equal_arc_length() -> None:
         assert 1.7 < gaps[key, 4e-3] / gaps[key, 2e-3] < 2.3  # shrinks with dt, first order
 
 
+@pytest.mark.slow
 def test_a_pause_changes_nothing_but_time() -> None:
     """Speed 0 for 1 s (the human stops): positions, steering, reference and s are untouched."""
 
@@ -284,6 +289,7 @@ def test_pushing_backward_flips_the_heading_and_moves_along_the_push() -> None:
     np.testing.assert_allclose(tr.s, 0.5 * tr.t, atol=1e-12)
 
 
+@pytest.mark.slow
 def test_unicycle_constant_curvature_in_time() -> None:
     """The wheel's steering rate (eq. 2.15) makes the circle of radius 1/κ.
 

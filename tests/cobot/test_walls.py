@@ -186,6 +186,7 @@ def run_wall(v: np.ndarray, R0: np.ndarray, duration: float):
 
 # Measured min signed distance over the run (defaults g = 20 /m, lookahead 2, dt = 2e-3; the same
 # to 2e-4 m at dt = 1e-3): 45°: +4.3e-3 m, 60°: +2.9e-3 m, 75°: +4.8e-3 m, head-on: +1.05e-2 m.
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("angle_deg", "R0", "duration"),
     [
@@ -213,6 +214,7 @@ def test_wall_steering_keeps_the_cart_inside(
 
 # Pushes that end in a 90° corner (these left the rectangle by up to 0.26 m with the earlier
 # caster law, which followed the exact shaper's direction and blocked only at v_s = 0).
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("v", "R0", "duration"),
     [
@@ -226,6 +228,7 @@ def test_wall_steering_corner_pushes(v: list[float], R0: list[float], duration: 
     assert dmin >= -1e-3
 
 
+@pytest.mark.slow
 def test_wall_steering_survey_of_push_directions() -> None:
     """Twelve push directions from the centre, each into a wall or a corner: never > 1 mm out."""
     worst = math.inf

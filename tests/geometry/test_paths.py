@@ -129,8 +129,22 @@ def test_circle_3d_lies_in_its_plane_and_turns_about_the_normal() -> None:
 # ---------------------------------------------------------------------------- all path types
 
 
-def test_is_a_path(path: Path) -> None:
-    assert isinstance(path, Path)
+def test_frame_and_batches_agree_with_the_single_queries(path: Path) -> None:
+    """The Path protocol's three views of one point agree: frame(), the single and the batch
+    queries; a closed path wraps modulo its length."""
+    S = np.linspace(0.0, path.length, 17)
+    T, K = path.tangents(S), path.curvatures(S)
+    assert T.shape == K.shape == (17, path.dim)
+    for s, t_row, k_row in zip(S, T, K, strict=True):
+        point, tangent, curvature = path.frame(float(s))
+        np.testing.assert_array_equal(point, path.point(float(s)))
+        np.testing.assert_array_equal(tangent, path.tangent(float(s)))
+        np.testing.assert_array_equal(curvature, path.curvature(float(s)))
+        np.testing.assert_allclose(t_row, tangent, rtol=0, atol=1e-14)
+        np.testing.assert_allclose(k_row, curvature, rtol=0, atol=1e-12)
+    if path.closed:
+        s = 0.3 * path.length
+        np.testing.assert_allclose(path.point(s + path.length), path.point(s), atol=1e-12)
 
 
 def test_tangent_is_unit_and_curvature_normal(path: Path) -> None:

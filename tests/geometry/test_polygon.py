@@ -401,6 +401,8 @@ class TestArcSegment:
         assert wedge_angle(cx, cy, cx, cy, 1.0) == 0.0
 
     def test_wedge_index_matches_method(self) -> None:
+        # Deliberately internal: the scalar kernel (the compiled shapers' path) is checked
+        # against the public method, so it reads the polygon's packed kernel constants.
         poly = ConvexPolygon(PENTAGON)
         _, _, _, cx, cy, a0, beta, n = poly._fast
         for p in random_points(np.random.default_rng(3), poly, 50):

@@ -107,6 +107,17 @@ def as_f(spec: F | Callable[[], Call]) -> F:
 # --- enumeration ------------------------------------------------------------------------------
 
 
+#: Public modules that cannot be imported here because an optional dependency (an extra) is not
+#: installed: module -> the missing package. Their names are neither attacked nor required to
+#: have a spec (a core-only install runs the catalogue on the core modules).
+UNAVAILABLE: dict[str, str] = {}
+
+
+def _optional(exc: ModuleNotFoundError) -> bool:
+    """Whether the missing module is a third-party one (a missing velfence module is a bug)."""
+    return exc.name is not None and exc.name.split(".")[0] != "velfence"
+
+
 def public_modules() -> list[str]:
     """``velfence`` and every public sub-module or sub-package that declares ``__all__``."""
     names = ["velfence"]
@@ -114,8 +125,20 @@ def public_modules() -> list[str]:
         full = f"velfence.{info.name}"
         if info.name.startswith("_") or full in SKIP_MODULES:
             continue
+        try:
+            importlib.import_module(full)
+        except ModuleNotFoundError as exc:
+            if not _optional(exc):
+                raise
+            UNAVAILABLE[full] = str(exc.name)
+            continue
         names.append(full)
     return names
+
+
+def available(key: str) -> bool:
+    """Whether the module of a canonical name (``"viz.plot_quiver"``) could be imported."""
+    return f"velfence.{key.split('.')[0]}" not in UNAVAILABLE
 
 
 def _skipped_by_type(obj: Any) -> bool:
@@ -577,12 +600,19 @@ SPEC_MODULES = (
 
 def registry() -> dict[str, F | C]:
     """Canonical public name -> spec, merged from every spec module."""
+    public_modules()  # fills UNAVAILABLE
     reg: dict[str, F | C] = {}
     for modname in SPEC_MODULES:
-        mod = importlib.import_module(modname)
+        try:
+            mod = importlib.import_module(modname)
+        except ModuleNotFoundError as exc:
+            if not _optional(exc) or not UNAVAILABLE:
+                raise  # a spec module may only need what an unavailable module needs
+            continue
         for key, spec in mod.SPECS.items():
             assert key not in reg, f"{key} registered twice"
-            reg[key] = spec
+            if available(key):
+                reg[key] = spec
     return reg
 
 

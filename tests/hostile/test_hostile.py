@@ -11,7 +11,16 @@ import inspect
 import json
 
 import pytest
-from harness import C, attack, attack_many, public_callables, registry, targets
+from harness import (
+    UNAVAILABLE,
+    C,
+    attack,
+    attack_many,
+    available,
+    public_callables,
+    registry,
+    targets,
+)
 from inventory import KNOWN as KNOWN_FILE
 from inventory import failure_id
 from kinds import KINDS
@@ -46,8 +55,17 @@ def hostile_results(request: pytest.FixtureRequest) -> dict[str, tuple[list, int
 #: ``inventory.py --write-known``. A new failure fails the test; so does a listed one that no
 #: longer fails (the list may only shrink: remove the fixed entries).
 KNOWN: dict[str, list[str]] = json.loads(KNOWN_FILE.read_text()) if KNOWN_FILE.exists() else {}
+KNOWN = {k: v for k, v in KNOWN.items() if available(k)}
 
 
+def test_optional_modules_are_attacked_too() -> None:
+    """Reports (as a skip) the modules left out because their optional dependency is missing."""
+    if UNAVAILABLE:
+        missing = ", ".join(f"{m} (needs {dep})" for m, dep in sorted(UNAVAILABLE.items()))
+        pytest.skip(f"not attacked, an extra is not installed: {missing}")
+
+
+@pytest.mark.slow
 @pytest.mark.parametrize("target", TARGETS, ids=[t.key for t in TARGETS])
 def test_hostile_inputs(target, hostile_results) -> None:  # type: ignore[no-untyped-def]
     failures, _calls = hostile_results.get(target.key) or attack(target)

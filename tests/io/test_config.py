@@ -12,9 +12,16 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+pytest.importorskip("pydantic", reason="velfence.io needs the [app] extra")
+pytest.importorskip("yaml", reason="velfence.io needs the [app] extra")
 import velfence.io.config as cfgmod
 from velfence.errors import InvalidParameter, VelfenceError
-from velfence.io.config import ALL_METHODS, DemoConfig, check_run_length, load_config
+from velfence.io.config import (
+    ALL_METHODS,
+    DemoConfig,
+    check_run_length,
+    load_config,
+)
 
 
 def _write(tmp_path: Path, text: str, name: str = "scenario.yaml") -> Path:

@@ -356,6 +356,7 @@ def test_spatial_seven_dof_single_state():
     assert back.d_dot[0] > 0
 
 
+@pytest.mark.slow
 def test_blocked_path_the_constraint_holds_and_the_end_effector_yields():
     """The EE path forces link 1 through the sphere: the controller must not spin the arm.
 

@@ -9,6 +9,9 @@ import pytest
 from velfence.cobot import constant_speed
 from velfence.reproduce.cobot import GAINS, fig5_cobot, fig5_ee, run
 
+#: Slow, left out of `make check` (`make test` runs them): the whole reproduction (a minute).
+pytestmark = pytest.mark.slow
+
 
 @pytest.fixture(scope="module")
 def report(tmp_path_factory):

@@ -6,6 +6,9 @@ import pytest
 
 from velfence.reproduce.cospm import limiter, run, run_paper
 
+#: Slow, left out of `make check` (`make test` runs them): the reproduction, the paper's runs.
+pytestmark = pytest.mark.slow
+
 SOURCE_DEFECTS = {
     "final χ̇3 vs the paper's printed value [rad/s]",
     "stopped at d1 [s]",

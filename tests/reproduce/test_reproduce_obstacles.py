@@ -11,6 +11,9 @@ from velfence.reproduce.obstacles import run
 pytest.importorskip("qpsolvers")
 pytest.importorskip("daqp")
 
+#: Slow, left out of `make check` (`make test` runs them): the whole reproduction (30 s).
+pytestmark = pytest.mark.slow
+
 
 @pytest.fixture(scope="module")
 def report(tmp_path_factory):

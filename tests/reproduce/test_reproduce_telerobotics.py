@@ -5,8 +5,6 @@ from pathlib import Path
 
 import pytest
 
-from velfence.reproduce.telerobotics import run
-
 # Thesis numbers the thesis itself contradicts (each note gives both numbers).
 SOURCE_DEFECTS = {
     "FK with the printed a3 = +0.0203 m vs Tables 4/5 means [mm]",
@@ -24,9 +22,10 @@ GENUINE_FAILURES = {
 
 
 @pytest.fixture(scope="module")
-def report(tmp_path_factory):
-    # A small study keeps the test short; `velfence reproduce telerobotics` runs 10 × 3.
-    return run(tmp_path_factory.mktemp("telerobotics"), subjects=2, runs=1)
+def report(telerobotics_run):
+    # One shared run (tests/reproduce/conftest.py) with a small study (2 subjects x 1 run keeps
+    # the test short; `velfence reproduce telerobotics` runs 10 x 3).
+    return telerobotics_run.report
 
 
 def test_failures_are_exactly_the_documented_ones(report):

@@ -12,6 +12,9 @@ import pytest
 from velfence.reproduce.base import Report
 from velfence.reproduce.wrist import BUFFER, GAIN, run
 
+#: Slow, left out of `make check` (`make test` runs them): the whole reproduction.
+pytestmark = pytest.mark.slow
+
 #: The patent's own law fails these claims (see docs/reproductions.md): the finding.
 SOURCE_DEFECTS = {
     "patent: corner: outward speed toward the neighbouring edge not increased",

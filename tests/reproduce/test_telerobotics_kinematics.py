@@ -9,13 +9,13 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 
 from velfence.reproduce._telerobotics_kinematics import (
     FK_TOL_MM,
-    kinematics_checks,
     recorded_fk_errors_mm,
 )
 from velfence.reproduce.base import Check
@@ -26,8 +26,9 @@ A3 = 0.0203  # [m], |a3| of the PUMA 560 (Khokar 2009 Table 2, eq. 7)
 
 
 @pytest.fixture(scope="module")
-def result(tmp_path_factory: pytest.TempPathFactory) -> tuple[list[Check], list[Path]]:
-    return kinematics_checks(tmp_path_factory.mktemp("telerobotics") / "kin")
+def result(telerobotics_run: Any) -> tuple[list[Check], list[Path]]:
+    """kinematics_checks(out) as the shared reproduction ran it (tests/reproduce/conftest.py)."""
+    return telerobotics_run.parts["kinematics_checks"]
 
 
 def by_name(checks: list[Check]) -> dict[str, Check]:

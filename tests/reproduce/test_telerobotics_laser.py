@@ -32,10 +32,11 @@ MUST_PASS = {
 
 
 @pytest.fixture(scope="module")
-def result(tmp_path_factory):
-    out = tmp_path_factory.mktemp("laser")
-    checks, paths = laser_checks(out, seed=0)
-    return out, checks, paths
+def result(telerobotics_run):
+    # laser_checks(out) (seed 0) as the shared reproduction ran it (tests/reproduce/conftest.py)
+    assert telerobotics_run.calls["laser_checks"] == ((telerobotics_run.out,), {})
+    checks, paths = telerobotics_run.parts["laser_checks"]
+    return telerobotics_run.out, checks, paths
 
 
 def test_names_are_unique_and_the_thesis_claims_pass(result):

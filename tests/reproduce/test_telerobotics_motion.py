@@ -7,7 +7,6 @@ import pytest
 from velfence.reproduce._telerobotics_motion import (
     SIM_RATE,
     SPEED,
-    motion_checks,
     singularity_run,
     singularity_time,
 )
@@ -19,10 +18,11 @@ GENUINE_FAILURES = {"§7.4 SR: manipulability stays away from 0 (min w)"}
 
 
 @pytest.fixture(scope="module")
-def result(tmp_path_factory):
-    out = tmp_path_factory.mktemp("motion")
-    checks, artifacts = motion_checks(out)
-    return out, checks, artifacts, {c.name: c for c in checks}
+def result(telerobotics_run):
+    # motion_checks(out) as the shared reproduction ran it (tests/reproduce/conftest.py)
+    assert telerobotics_run.calls["motion_checks"] == ((telerobotics_run.out,), {})
+    checks, artifacts = telerobotics_run.parts["motion_checks"]
+    return telerobotics_run.out, checks, artifacts, {c.name: c for c in checks}
 
 
 def test_every_check_passes_except_the_documented_failure(result):

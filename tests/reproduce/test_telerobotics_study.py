@@ -4,11 +4,15 @@ from __future__ import annotations
 
 import json
 
-from velfence.reproduce._telerobotics_study import study_checks
 
-
-def test_study_checks_on_one_subject(tmp_path):
-    checks, paths = study_checks(tmp_path, subjects=1, runs=1, seed=1)
+def test_study_checks_on_a_tiny_study(telerobotics_run):
+    # study_checks as the shared reproduction ran it (tests/reproduce/conftest.py): 2 subjects
+    # x 1 run, seed 0
+    assert telerobotics_run.calls["study_checks"] == (
+        (telerobotics_run.out,),
+        {"subjects": 2, "runs": 1},
+    )
+    checks, paths = telerobotics_run.parts["study_checks"]
     names = [c.name for c in checks]
     assert "every simulated subject faster with assistance (per-subject mean time)" in names
     assert any("straighter" in n for n in names)

@@ -14,8 +14,8 @@ import math
 
 import numpy as np
 import pytest
-from qpsolvers import solve_qp
 
+from optional import requires_qp
 from velfence import ConvexPolygon, InvalidParameter, PolygonShaper
 
 TOL = 1e-12  # closed forms in double precision
@@ -291,7 +291,10 @@ class TestOutside:
         with pytest.raises(InvalidParameter, match=r"buffer=0\.5 .*use buffer <= 0\.075"):
             exact(STRIP, buffer=0.5, spring_gain=4.0)
 
+    @requires_qp
     def test_far_edge_beyond_the_buffer_still_counts(self) -> None:
+        from qpsolvers import solve_qp
+
         # Outside, recovery can make the answer faster than |v| + R; then edges beyond the buffer
         # are added. At the admissible limit the answer meets every edge's bound and the
         # recovery bound, with no relaxed stage.

@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 from hypothesis import assume, given, note
 from hypothesis import strategies as st
-from qpsolvers import solve_qp
 
+from optional import requires_qp
 from strategies import convex_polygons, min_interior_width, positions, random_points, vectors
 from velfence import ZONE_NAMES, ConvexPolygon, InvalidInput, PolygonShaper
 
@@ -127,6 +127,8 @@ def qp_reference(sc: Scenario, sh: PolygonShaper) -> tuple[np.ndarray, bool]:
     daqp's tolerances are absolute, so the data is brought to O(1) first: the problem is
     positively homogeneous, x(s·v, s·b) = s·x(v, b).
     """
+    from qpsolvers import solve_qp
+
     _, b, viol, R = law_bounds(sc, sh)
     s = _scale(sc, R)
     N = sc.poly.normals
@@ -249,6 +251,7 @@ def test_patent_outside(sc: Scenario) -> None:
 QP_MAX_DIFF = [0.0]
 
 
+@requires_qp
 @given(scenarios())
 def test_exact_agrees_with_qp_solver(sc: Scenario) -> None:
     sh = sc.shaper("exact")

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 import velfence as vf
+from strategies import inward_normals
 from velfence.geometry.polygon import polygon_from_halfplanes
 from velfence.shaping.profiles import LinearBuffer, ThreeZoneBraking
 from velfence.shaping.rate import RateLimiter
@@ -158,7 +159,7 @@ def test_frame_matches_the_papers_zeta_formulas():
     )
     lim = make(pre=False)
     for k in range(4):
-        e_perp = -lim._n[k]
+        e_perp = -inward_normals(lim)[k]
         np.testing.assert_allclose(e_perp, [np.cos(zeta[k]), np.sin(zeta[k])], atol=1e-12)
 
 
@@ -279,7 +280,7 @@ def test_exact_respects_every_stop_at_a_vertex():
         speed = float(np.hypot(*r.q_dot[:2]))
         for k, d in enumerate(r.deltas):
             cap = lim.profile.cap(float(d), speed)
-            assert lim._n[k] @ r.q_dot_lim[:2] >= -cap - 1e-9
+            assert inward_normals(lim)[k] @ r.q_dot_lim[:2] >= -cap - 1e-9
 
 
 def test_stateless_batch_equals_loop_and_stateful_batch_is_refused():
@@ -364,7 +365,7 @@ def test_polygon_shaper_profile_arguments_are_checked():
 def test_eq5_ratio_is_clamped_by_default_and_unbounded_as_printed():
     base = make(pre=False)
     e = 0  # stop d1
-    n = base._n[e]
+    n = inward_normals(base)[e]
     q12 = 0.5 * (base.polygon.corners[0] + base.polygon.corners[1]) - 0.01 * n  # just outside
     th = Q.T @ np.array([q12[0], q12[1], 0.0])
     e_perp = -n

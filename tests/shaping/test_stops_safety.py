@@ -16,7 +16,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import velfence as vf
-from strategies import convex_corners
+from strategies import convex_corners, inward_normals
 from velfence.mechanisms import PAPER_STOPS, Q_AUX
 from velfence.shaping.stops import StopLimiter
 
@@ -73,7 +73,7 @@ def test_pushing_into_d1_with_a_post_stage_no_longer_crosses(speed, before):
     lim = StopLimiter(
         PAPER_STOPS, profile=paper_profile(), transform=Q_AUX, method="exact", post=joints()
     )
-    n0 = lim.polygon.normals[lim._edge_of_stop[0]]
+    n0 = inward_normals(lim)[0]
     c = lim.polygon.centroid
     theta = Q_AUX.T @ np.array([c[0], c[1], 0.0])
     command = Q_AUX.T @ np.array([-speed * n0[0], -speed * n0[1], 0.0])
@@ -123,7 +123,7 @@ def test_an_unavoidable_override_is_flagged_and_position_still_wins():
     # in time, so the acceleration limit must give way.
     prof = paper_profile()
     lim = StopLimiter(PAPER_STOPS, profile=prof, transform=Q_AUX, method="exact", post=joints())
-    n0 = lim.polygon.normals[lim._edge_of_stop[0]]
+    n0 = inward_normals(lim)[0]
     mid = 0.5 * (lim.polygon.corners[0] + lim.polygon.corners[1]) + 0.005 * n0
     theta = Q_AUX.T @ np.array([mid[0], mid[1], 0.0])
     v = Q_AUX.T @ np.array([-2.0 * n0[0], -2.0 * n0[1], 0.0])
@@ -170,6 +170,7 @@ def test_dt_caps_each_period_to_the_remaining_distance():
     np.testing.assert_array_equal(safe.shape(q, -v), plain.shape(q, -v))  # moving away: no cap
 
 
+@pytest.mark.slow
 @settings(max_examples=60)
 @given(
     corners=convex_corners(max_n=6),

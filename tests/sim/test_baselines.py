@@ -33,8 +33,14 @@ def random_states(n=400, seed=3):
     return P, V
 
 
-def test_is_a_shaper(make):
-    assert isinstance(make(), vf.Shaper)
+def test_runs_in_closed_loop_as_a_shaper(make):
+    """The simulator accepts the baseline and applies exactly its shape() at every step."""
+    shaper = make()
+    traj = simulate(shaper, lambda t, p: np.array([1.5, 0.7]), [1.0, 1.0], duration=2.0, dt=0.05)
+    assert len(traj.t) == 41
+    for k in range(len(traj.t)):
+        np.testing.assert_array_equal(traj.v_out[k], shaper.shape(traj.p[k], traj.v_cmd[k]))
+    np.testing.assert_allclose(traj.p[1:], traj.p[:-1] + 0.05 * traj.v_out[:-1], atol=1e-12)
 
 
 def test_batch_equals_loop_and_explain(make):

@@ -42,6 +42,19 @@ def _follow(m: ModeManager, T, *, t=0.0, limit=20000):
     raise AssertionError("segment did not finish")
 
 
+def _pointing_at(spot, distance=0.4):
+    """A tool pose whose laser reads ``distance`` at ``spot`` (base frame) [m]."""
+    T = _pose()
+    T[:3, 3] = np.asarray(spot) - T[:3, :3] @ (LASER.offset + np.array([0.0, 0.0, distance]))
+    return T
+
+
+def _record_destination(m: ModeManager, spot) -> None:
+    """Record ``spot`` as the destination the way an operator does: point the laser, press D."""
+    m.press("D", t=0.0, pose=_pointing_at(spot), distance=0.4)
+    np.testing.assert_allclose(m.destination, spot, atol=1e-12)
+
+
 def test_startup_is_teleoperation_disengaged_and_nothing_is_sent():
     m = ModeManager(laser=LASER, rate=RATE)
     T = _pose()
@@ -189,7 +202,7 @@ def test_g_a_runs_three_legs_up_across_down_with_toggle_presses():
     assert m.events[-1].kind == "refused"  # no destination yet
     dest = np.array([-0.18, 0.68, -0.6])
     T_d = np.array(T)
-    m._destination = dest  # as if recorded with 'D'
+    _record_destination(m, dest)
     starts, ends = [], []
     for leg in (1, 2, 3):
         m.press("G", t=0.0, pose=T, distance=None)
@@ -213,7 +226,7 @@ def test_g_a_runs_three_legs_up_across_down_with_toggle_presses():
 
 def test_g_a_without_toggle_off_starts_the_next_leg_directly():
     m = ModeManager(laser=LASER, rate=RATE, speed=0.4, toggle_off=False)
-    m._destination = np.array([-0.18, 0.68, -0.6])
+    _record_destination(m, [-0.18, 0.68, -0.6])
     T = _pose()
     for leg in (1, 2):
         m.press("G", t=0.0, pose=T, distance=None)
@@ -235,7 +248,10 @@ def test_prefix_is_cancelled_by_another_key():
 
 def test_t_a_aligns_the_tool_axis_with_the_plane_normal():
     m = ModeManager(laser=LASER, rate=RATE)
-    m._normal = np.array([0.0, 0.0, 1.0])
+    # counter-clockwise seen from above: the recorded normal is +z
+    spots = [[0.0, 0.5, -0.6], [0.2, 0.5, -0.6], [0.0, 0.7, -0.6]]
+    _record_plane(m, [_pointing_at(p, 0.5) for p in spots])
+    np.testing.assert_allclose(m.plane_normal, [0.0, 0.0, 1.0], atol=1e-12)
     T0 = _pose(tilt=0.4)
     m.press("T", t=0.0, pose=T0, distance=None)
     m.press("A", t=0.0, pose=T0, distance=None)

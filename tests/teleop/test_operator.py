@@ -120,11 +120,29 @@ def test_long_reach_stays_in_the_omni_workspace_and_indexes_with_the_clutch():
     assert len(frozen) > 10
 
 
-def test_index_moves_the_hand_against_the_stroke():
+@pytest.mark.parametrize(("hand_y", "indexes"), [(0.055, True), (0.0, False)])
+def test_index_moves_the_hand_against_the_stroke(hand_y, indexes):
+    # 5 cm up for the robot is 5 cm up for the hand (Omni +y); near the top of the 120 mm
+    # height there is no room for it: the operator indexes (clutch out, hand down) first.
+    assert pytest.approx(0.05) == (OMNI_TO_PUMA @ [0.0, 0.0, 0.05]) @ [0.0, 1.0, 0.0]
+    s = _session()
     op = SyntheticOperator(seed=0)
-    op.hand = np.array([0.0, 0.055, 0.0])  # near the top of the 120 mm height
-    need = OMNI_TO_PUMA @ np.array([0.0, 0.0, 0.05])  # robot up = hand up (Omni +y)
-    assert op._room(need) < 0.2
+    op.hand = np.array([0.0, hand_y, 0.0])
+    free_y = []  # the hand's height on the ticks the clutch was out after the first press
+
+    def watch(session, oper, action):
+        if oper.stats.clutch_presses > 1 and not session.modes.clutch:
+            free_y.append(float(oper.hand[1]))
+
+    _drive(s, op, lambda o: o.stroke(np.array([0.0, 0.0, 0.05]), tol=0.01), on_tick=watch)
+    assert op.finished
+    assert op.stats.index_events == int(indexes)
+    if indexes:
+        assert min(free_y) == pytest.approx(-0.6 * op.half[1], abs=1e-3)  # moved against it
+        assert op.hand[1] > min(free_y) + 0.02  # then the stroke itself went up
+    else:
+        assert free_y == []
+        assert op.hand[1] == pytest.approx(0.05, abs=0.01)
 
 
 def test_vertical_orientation_with_planning_pauses():

@@ -10,9 +10,25 @@ Q0 = np.array([0.1, -0.2, 0.3])
 CMD = np.array([0.4, 0.0, -0.1])
 
 
-def test_servos_satisfy_the_protocol():
-    assert isinstance(FirstOrderServo(time_constant=0.01), JointServo)
-    assert isinstance(PDGravityServo(kp=100.0, inertia=1.0), JointServo)
+@pytest.mark.parametrize(
+    "servo",
+    [FirstOrderServo(time_constant=0.01), PDGravityServo(kp=100.0, inertia=1.0)],
+    ids=["first-order", "pd-gravity"],
+)
+def test_servos_keep_the_joint_servo_contract(servo: JointServo) -> None:
+    """JointServo's contract: reset() starts at rest where asked; holding the position keeps
+    it; a step toward a command moves every joint toward it and reports the true position."""
+    assert servo.command == "position"
+    np.testing.assert_array_equal(servo.reset(Q0), Q0)  # no noise: measured = true
+    np.testing.assert_array_equal(servo.q, Q0)
+    np.testing.assert_allclose(servo.step(Q0, 0.01), Q0, atol=1e-15)  # at rest, held
+    before = np.abs(CMD - servo.q)
+    q = servo.step(CMD, 0.01)
+    assert q.shape == (3,)
+    np.testing.assert_array_equal(q, servo.q)
+    assert np.all(np.abs(CMD - q) < before)
+    with pytest.raises(ValueError, match="read-only"):
+        servo.q[0] = 1.0  # the state is not writable through the property
 
 
 # ------------------------------------------------------------------------------------------

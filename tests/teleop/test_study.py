@@ -7,9 +7,8 @@ import sys
 
 import numpy as np
 import pytest
-from typer.testing import CliRunner
 
-from velfence.cli import app
+from optional import requires
 from velfence.errors import InvalidParameter
 from velfence.teleop.operator import OperatorProfile
 from velfence.teleop.study import assisted_run, run_study
@@ -28,6 +27,7 @@ def runs():
     }
 
 
+@pytest.mark.slow
 def test_both_conditions_complete_and_assistance_is_faster(runs):
     un, asst = runs["unassisted"].record, runs["assisted"].record
     assert un.done
@@ -42,6 +42,7 @@ def test_both_conditions_complete_and_assistance_is_faster(runs):
     assert asst.segments < un.segments
 
 
+@pytest.mark.slow
 def test_assisted_run_follows_the_thesis_workflow(runs):
     ev = runs["assisted"].events
     kinds = [e.message.split(":")[0] for e in ev if e.kind in ("record", "plane", "segment-start")]
@@ -56,6 +57,7 @@ def test_assisted_run_follows_the_thesis_workflow(runs):
     assert t_align < t_grasp < t_leg1
 
 
+@pytest.mark.slow
 def test_snapshots_and_trace(runs):
     run = runs["assisted"]
     assert len(run.snapshots) >= run.record.time  # 1 Hz plus the final one
@@ -85,6 +87,8 @@ def test_run_task_validation():
         run_task("assisted", seed=-1)
 
 
+@pytest.mark.slow
+@requires("matplotlib")  # write_study draws the figures
 def test_tiny_study_summary_and_files(tmp_path):
     result = run_study(1, runs=1, seed=3, rate=RATE)
     assert len(result.records) == 2
@@ -108,7 +112,13 @@ def test_tiny_study_summary_and_files(tmp_path):
         assisted_run(seed=-1)
 
 
+@pytest.mark.slow
+@requires("typer", "rich", "matplotlib")
 def test_cli_study_json(tmp_path):
+    from typer.testing import CliRunner
+
+    from velfence.cli import app
+
     res = CliRunner().invoke(
         app,
         ["study", "--subjects", "1", "--runs", "1", "--seed", "2", "--out", str(tmp_path),

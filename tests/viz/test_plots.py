@@ -5,18 +5,18 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
 import numpy as np
 import pytest
-from matplotlib.figure import Figure
 
-import velfence as vf
-from velfence.errors import InvalidInput, InvalidParameter
-from velfence.geometry.polygon import ConvexPolygon
-from velfence.viz import plots
+matplotlib = pytest.importorskip("matplotlib", reason="velfence.viz needs the [app] extra")
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
+
+import velfence as vf  # noqa: E402
+from velfence.errors import InvalidInput, InvalidParameter  # noqa: E402
+from velfence.geometry.polygon import ConvexPolygon  # noqa: E402
+from velfence.viz import plots  # noqa: E402
 
 SQUARE = ConvexPolygon([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]])
 

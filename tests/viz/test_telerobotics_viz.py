@@ -7,19 +7,23 @@ import sys
 from pathlib import Path
 from typing import Any
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
 import numpy as np
 import pytest
-from PIL import Image
 
-from velfence.errors import InvalidInput, InvalidParameter
-from velfence.mechanisms.puma560 import Puma560
-from velfence.teleop.scene import Plane, Scene, pick_and_place_scene, scene_to_dicts
-from velfence.teleop.viewer import ScriptedDriver
-from velfence.viz import telerobotics as tv
+matplotlib = pytest.importorskip("matplotlib", reason="velfence.viz needs the [app] extra")
+matplotlib.use("Agg")
+import matplotlib.animation  # noqa: E402
+import matplotlib.figure  # noqa: E402
+import matplotlib.pyplot as plt  # noqa: E402
+from mpl_toolkits.mplot3d import art3d  # noqa: E402
+from PIL import Image  # noqa: E402
+
+from velfence.errors import InvalidInput, InvalidParameter  # noqa: E402
+from velfence.mechanisms.puma560 import Puma560  # noqa: E402
+from velfence.teleop.scene import Plane, Scene, pick_and_place_scene, scene_to_dicts  # noqa: E402
+from velfence.teleop.session import Session  # noqa: E402
+from velfence.teleop.viewer import ScriptedDriver  # noqa: E402
+from velfence.viz import telerobotics as tv  # noqa: E402
 
 LASER_OFFSET = np.array([-0.026, -0.115, 0.115])  # [m] in frame 6 (thesis eq. 40)
 
@@ -100,6 +104,60 @@ def _png(path: Path) -> np.ndarray:
     return np.asarray(Image.open(path).convert("RGB"))
 
 
+class Drawn:
+    """What the public drawing functions were given, and the figure texts at each save/frame."""
+
+    def __init__(self) -> None:
+        self.scenes: list[list[dict[str, Any]]] = []
+        self.snapshots: list[dict[str, Any]] = []
+        self.texts: list[list[str]] = []
+        self.polygons: list[list[np.ndarray]] = []
+
+
+@pytest.fixture
+def drawn(monkeypatch: pytest.MonkeyPatch) -> Drawn:
+    """Spies on plot_snapshot / animate_session through the functions and classes they call."""
+    rec = Drawn()
+    draw_scene, draw_snapshot = tv.draw_scene, tv.draw_snapshot
+
+    def scene_spy(ax: Any, scene: Any, **kw: Any) -> list[Any]:
+        rec.scenes.append([dict(p) for p in scene])
+        return draw_scene(ax, scene, **kw)
+
+    def snapshot_spy(ax: Any, snapshot: Any) -> list[Any]:
+        rec.snapshots.append(dict(snapshot))
+        return draw_snapshot(ax, snapshot)
+
+    savefig, grab = matplotlib.figure.Figure.savefig, matplotlib.animation.PillowWriter.grab_frame
+
+    grabbing = []
+
+    def savefig_spy(fig: Any, *args: Any, **kw: Any) -> Any:
+        if not grabbing:  # a frame grab saves through savefig too: counted once, as a frame
+            rec.texts.append([t.get_text() for t in fig.texts])
+        return savefig(fig, *args, **kw)
+
+    def grab_spy(writer: Any, **kw: Any) -> Any:
+        rec.texts.append([t.get_text() for t in writer.fig.texts])
+        grabbing.append(True)
+        try:
+            return grab(writer, **kw)
+        finally:
+            grabbing.pop()
+
+    class Poly3DSpy(art3d.Poly3DCollection):  # type: ignore[misc]
+        def __init__(self, verts: Any, *args: Any, **kw: Any) -> None:
+            rec.polygons.append([np.array(v) for v in verts])
+            super().__init__(verts, *args, **kw)
+
+    monkeypatch.setattr(tv, "draw_scene", scene_spy)
+    monkeypatch.setattr(tv, "draw_snapshot", snapshot_spy)
+    monkeypatch.setattr(matplotlib.figure.Figure, "savefig", savefig_spy)
+    monkeypatch.setattr(matplotlib.animation.PillowWriter, "grab_frame", grab_spy)
+    monkeypatch.setattr(art3d, "Poly3DCollection", Poly3DSpy)
+    return rec
+
+
 # ------------------------------------------------------------------------------ stills
 
 
@@ -152,15 +210,20 @@ def test_draw_functions_return_their_artists(
         plt.close(fig)
 
 
-def test_moved_objects_replace_static_ones(tmp_path: Path, scene: list[dict[str, Any]]) -> None:
+def test_moved_objects_replace_static_ones(
+    tmp_path: Path, scene: list[dict[str, Any]], drawn: Drawn
+) -> None:
     snap = PumaJogSession().snapshot()
     cup = dict(next(p for p in scene if p["name"] == "cup"))
     cup["base_center"] = [0.0, 0.3, -0.2]
     snap["objects"] = [cup]
-    static, dynamic = tv._static_and_dynamic(scene, [snap])
-    assert "cup" not in [p["name"] for p in static]
-    assert list(dynamic) == ["cup"]
     assert tv.plot_snapshot(snap, scene, tmp_path / "carried.png").stat().st_size > 10_000
+    static = drawn.scenes[0]  # the static scene, drawn first, without the carried cup
+    assert "cup" not in [p["name"] for p in static]
+    assert len(static) == len(scene) - 1
+    (frame,) = drawn.snapshots  # the cup drawn where the snapshot puts it
+    assert [o["name"] for o in frame["objects"]] == ["cup"]
+    assert frame["objects"][0]["base_center"] == [0.0, 0.3, -0.2]
 
 
 @pytest.mark.parametrize(
@@ -250,6 +313,7 @@ def test_frame_indices_validation(
 # ------------------------------------------------------------------------------ animation
 
 
+@pytest.mark.slow
 def test_animate_session_gif_frame_count(
     tmp_path: Path, recording: list[dict[str, Any]], scene: list[dict[str, Any]]
 ) -> None:
@@ -270,7 +334,7 @@ def test_animate_session_gif_frame_count(
 
 
 def test_animate_session_caps_frames_and_reports_speedup(
-    tmp_path: Path, recording: list[dict[str, Any]], scene: list[dict[str, Any]]
+    tmp_path: Path, recording: list[dict[str, Any]], scene: list[dict[str, Any]], drawn: Drawn
 ) -> None:
     timings: dict[str, float] = {}
     out = tv.animate_session(
@@ -279,17 +343,30 @@ def test_animate_session_caps_frames_and_reports_speedup(
     with Image.open(out) as gif:
         assert gif.n_frames == 6
     assert timings["speedup"] == pytest.approx(1.95 * 15 / 5)
-    assert "   (×5.8" in tv._overlay(recording[-1], timings["speedup"])
-    assert "(×" not in tv._overlay(recording[-1], 1.0)
+    assert len(drawn.texts) == 6  # one overlay per frame, each with the speed-up factor
+    assert all(len(t) == 1 and "   (×5.8" in t[0] for t in drawn.texts), drawn.texts
+    assert drawn.texts[-1][0].startswith("t =   1.95 s")
+    drawn.texts.clear()
+    # the first 0.5 s at 4 fps: 3 frames 0.25 s apart, real time, so no factor is shown
+    tv.animate_session(recording[:11], scene, tmp_path / "real.gif", fps=4, dpi=20)
+    assert len(drawn.texts) == 3
+    assert not any("(×" in t[0] for t in drawn.texts)
 
 
-def test_overlay_text() -> None:
-    text = tv._overlay({"t": 1.234, "mode": "S", "clutch": True, "status": "x" * 200})
-    head, status = text.split("\n")
+def test_overlay_text(tmp_path: Path, drawn: Drawn) -> None:
+    snap = PumaJogSession().snapshot()
+    snap.update(t=1.234, mode="S", clutch=True, status="x" * 200)
+    tv.plot_snapshot(snap, [], tmp_path / "a.png", dpi=20)
+    head, status = drawn.texts[-1][0].split("\n")
     assert head == "t =   1.23 s   mode: S   clutch: engaged"
     assert status.endswith("...")
     assert len(status) == 90
-    assert tv._overlay({}) == "t = ?   mode: ?   clutch: ?"
+    for key in ("t", "mode", "clutch", "status"):
+        del snap[key]
+    tv.plot_snapshot(snap, [], tmp_path / "b.png", dpi=20)
+    assert drawn.texts[-1] == ["t = ?   mode: ?   clutch: ?"]
+    tv.plot_snapshot(snap, [], tmp_path / "c.png", dpi=20, title="mine")
+    assert drawn.texts[-1] == ["mine"]
 
 
 def test_animate_session_rejects_bad_input(
@@ -320,14 +397,23 @@ def test_mp4_when_ffmpeg_is_available(
     tmp_path: Path, recording: list[dict[str, Any]], scene: list[dict[str, Any]]
 ) -> None:
     try:
-        tv._writer(tmp_path / "probe.mp4", 10)
-    except InvalidParameter:
+        out = tv.animate_session(recording, scene, tmp_path / "a.mp4", fps=10, max_frames=5, dpi=30)
+    except InvalidParameter as exc:
+        if "pip install imageio-ffmpeg" not in str(exc):
+            raise
         pytest.skip("no ffmpeg here (imageio-ffmpeg not installed)")
-    out = tv.animate_session(recording, scene, tmp_path / "a.mp4", fps=10, max_frames=5, dpi=30)
     assert out.stat().st_size > 0
 
 
 # ------------------------------------------------------------------------------ other formats
+
+
+def _draw(scene: list[dict[str, Any]]) -> None:
+    fig, ax = tv.new_axes()
+    try:
+        tv.draw_scene(ax, scene, labels=False, pedestal=False)
+    finally:
+        plt.close(fig)
 
 
 def test_one_scene_format_no_fallbacks() -> None:
@@ -339,23 +425,24 @@ def test_one_scene_format_no_fallbacks() -> None:
     with pytest.raises(
         InvalidInput, match=r"table\.corners: expected numbers of shape \(4, 3\), got NoneType"
     ):
-        tv._faces(old_table)
+        _draw([old_table])
     old_folder = {k: v for k, v in folder.items() if k != "corners"}
     with pytest.raises(
         InvalidInput, match=r"folder\.corners: expected numbers of shape \(8, 3\), got NoneType"
     ):
-        tv._faces(old_folder)
+        _draw([old_folder])
     (floor,) = scene_to_dicts(Scene({"floor": Plane((0.0, 0.0, -1.0), (0.0, 0.0, 1.0))}))
     floor.pop("point")
     with pytest.raises(
         InvalidInput, match=r"floor\.point: expected numbers of shape \(3,\), got NoneType"
     ):
-        tv._faces(floor)
+        _draw([floor])
 
 
-def test_infinite_plane_is_a_2_m_square_about_its_point() -> None:
+def test_infinite_plane_is_a_2_m_square_about_its_point(drawn: Drawn) -> None:
     (floor,) = scene_to_dicts(Scene({"floor": Plane((0.1, 0.2, -1.0), (0.0, 0.0, 1.0))}))
-    (square,) = tv._faces(floor)
+    _draw([floor])
+    ((square,),) = drawn.polygons  # one collection of one polygon
     np.testing.assert_allclose(square.min(axis=0), [-0.9, -0.8, -1.0], atol=1e-12)
     np.testing.assert_allclose(square.max(axis=0), [1.1, 1.2, -1.0], atol=1e-12)
 
@@ -368,19 +455,24 @@ def test_viz_does_not_import_the_http_viewer() -> None:
     assert subprocess.run([sys.executable, "-c", code], check=False).returncode == 0
 
 
-def test_dynamic_objects_follow_the_task_entry(scene: list[dict[str, Any]]) -> None:
+def test_dynamic_objects_follow_the_task_entry(tmp_path: Path, drawn: Drawn) -> None:
     moving = scene_to_dicts(pick_and_place_scene(), dynamic=("cup",))
     snap = PumaJogSession().snapshot()
-    static, dynamic = tv._static_and_dynamic(moving, [snap])
-    assert [p["name"] for p in static] == ["table", "folder", "destination"]
-    snap["task"] = {"cup": [0.0, 0.5, -0.3]}
-    (cup,) = tv._frame_objects(snap, dynamic)["objects"]
+
+    def objects(task: dict[str, Any]) -> list[dict[str, Any]]:
+        drawn.scenes.clear()
+        drawn.snapshots.clear()
+        tv.plot_snapshot({**snap, "task": task}, moving, tmp_path / "d.png", dpi=20)
+        static = drawn.scenes[0]  # the static scene, drawn first (moved objects come after)
+        assert [p["name"] for p in static] == ["table", "folder", "destination"]
+        (frame,) = drawn.snapshots
+        return list(frame["objects"])
+
+    (cup,) = objects({"cup": [0.0, 0.5, -0.3]})
     assert cup["base_center"] == pytest.approx([0.0, 0.5, -0.3])
     assert cup["top"] == pytest.approx([0.0, 0.5, -0.2])
-    snap["task"] = {"cup": None}
-    assert tv._frame_objects(snap, dynamic)["objects"] == []
-    snap["task"] = {}
-    (cup,) = tv._frame_objects(snap, dynamic)["objects"]
+    assert objects({"cup": None}) == []
+    (cup,) = objects({})
     assert cup["base_center"] == pytest.approx([0.2, 0.58, -0.6])
 
 
@@ -401,9 +493,9 @@ def test_gripper_and_task_points_are_drawn(
         plt.close(fig)
 
 
+@pytest.mark.slow
 def test_real_session_renders(tmp_path: Path) -> None:
-    session_module = pytest.importorskip("velfence.teleop.session")
-    session = session_module.Session(rate=100.0)
+    session = Session(rate=100.0)
     script = [(0.0, "key", "C"), (0.0, "jog", ([0.0, 0.0, 0.05], [0.0, 0.0, 0.0]))]
     snaps = ScriptedDriver(script).replay(session, until=0.5, sample_dt=0.1)
     scene = session.scene_primitives()
