@@ -455,7 +455,11 @@ def regular_polygon(edges: int, *, radius: float = 1.0) -> ConvexPolygon:
 
 def _shaper(poly: ConvexPolygon, method: str, s: BenchSettings, *, accelerate: bool = True) -> Any:
     return PolygonShaper(
-        poly, buffer=s.buffer, spring_gain=s.spring_gain, method=method, accelerate=accelerate
+        poly,
+        buffer=s.buffer,
+        spring_gain=s.spring_gain,
+        method=method,  # type: ignore[arg-type]
+        accelerate=accelerate,
     )
 
 
