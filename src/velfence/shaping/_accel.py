@@ -15,7 +15,7 @@ from typing import Any
 from velfence.geometry import polygon as _polygon
 from velfence.shaping import _kernels
 
-__all__ = ["compiled_batch"]
+__all__ = ["compiled_batch", "compiled_loop"]
 
 
 #: Helpers compiled into their callers (numba IR inlining): the one bound definition is split
@@ -66,3 +66,34 @@ def compiled_batch(method: str) -> Callable[..., Any] | None:
     """The numba-compiled batch loop of ``method``, or None when numba is not installed."""
     table = _compiled()
     return None if table is None else table[method]
+
+
+@cache
+def _compiled_loops(module: types.ModuleType, names: tuple[str, ...]) -> Callable[..., Any] | None:
+    try:
+        import numba
+    except ImportError:
+        return None
+    table: dict[str, Any] = dict(vars(module))
+    table["prange"] = numba.prange
+    table["zone_code"] = numba.njit(cache=True)(
+        types.FunctionType(_kernels.zone_code.__code__, dict(vars(_kernels)), "zone_code")
+    )
+    out: Callable[..., Any] | None = None
+    for name in names:
+        f = table[name]
+        clone = types.FunctionType(f.__code__, table, f.__name__, f.__defaults__, f.__closure__)
+        out = numba.njit(cache=True, parallel=name.endswith("_batch"))(clone)
+        table[name] = out
+    return out
+
+
+def compiled_loop(module: types.ModuleType, *names: str) -> Callable[..., Any] | None:
+    """Another module's kernels compiled the same way, or None when numba is not installed.
+
+    ``names`` are plain-Python kernel functions of ``module`` in dependency order, the last a
+    ``*_batch`` loop using ``prange``; each is cloned with a globals table in which its callees
+    (and :func:`~velfence.shaping._kernels.zone_code`) are compiled twins. Returns the compiled
+    last one.
+    """
+    return _compiled_loops(module, names)
