@@ -758,7 +758,7 @@ def _latency(
     return rows, worst
 
 
-#: Names of the three-zone profile's zones (``StopResult.zone`` is an int, or "invalid").
+#: Names of the three-zone profile's zones (``StopResult.profile_zone``).
 _ZONE_LABELS: dict[int | str, str] = {3: "nominal", 2: "braking", 1: "linear"}
 
 
@@ -780,7 +780,7 @@ def _stop_latency(s: BenchSettings, step: _Steps) -> list[StopLatencyRow]:
             th = Q_AUX.T @ q
             v = rng.normal(size=3)
             r = lim.explain(th, v)
-            name = "outside" if r.delta < 0 else f"{r.zone} " + _ZONE_LABELS[r.zone]
+            name = "outside" if r.delta < 0 else f"{r.profile_zone} " + _ZONE_LABELS[r.profile_zone]
             pool = pools.setdefault(name, [])
             if len(pool) < 64:
                 pool.append((th, v))

@@ -55,7 +55,7 @@ def test_bounds_rows_are_the_bounds_the_kernel_solved_with(name: str) -> None:
         np.testing.assert_allclose(lower, used, rtol=1e-15, atol=1e-15 * scale)
         np.testing.assert_array_equal(normals, PENTAGON.normals[edges])
         # ... and bit for bit the shared definition evaluated in the caller's units.
-        rows = sh.bound_rows(*p, *v)
+        rows = sh.bound_rows(p, v)
         assert [r[3] for r in rows.rows] == edges.tolist()
         assert [r[2] for r in rows.rows] == lower.tolist()
         checked += m > 0
@@ -66,16 +66,16 @@ def test_bound_rows_report_the_nearest_edges_and_violations() -> None:
     sh = vf.PolygonShaper(PENTAGON, buffer=0.3, spring_gain=2.0)
     P, V = _states(2)
     for p, v in zip(P.tolist(), V.tolist(), strict=True):
-        b = sh.bound_rows(*p, *v)
+        b = sh.bound_rows(p, v)
         r = sh.explain(p, v)
         assert (b.primary, b.secondary, b.d1, b.d2) == (r.primary, r.secondary, r.d1, r.d2)
         assert b.n_out == int((PENTAGON.signed_distances(np.array(p)) < 0).sum())
-    with pytest.raises(vf.InvalidInput, match="px"):
-        sh.bound_rows(math.nan, 0.0, 0.0, 0.0)
-    with pytest.raises(vf.InvalidInput, match="vy"):
-        sh.bound_rows(0.0, 0.0, 0.0, "1")  # type: ignore[arg-type]
+    with pytest.raises(vf.InvalidInput, match="finite"):
+        sh.bound_rows((math.nan, 0.0), (0.0, 0.0))
+    with pytest.raises(vf.InvalidInput, match="command"):
+        sh.bound_rows((0.0, 0.0), (0.0, "1"))
     with pytest.raises(vf.InvalidParameter, match="bounds"):
-        vf.PolygonShaper(PENTAGON, buffer=0.3, method="edge-scaling").bound_rows(1, 1, 0, 1)
+        vf.PolygonShaper(PENTAGON, buffer=0.3, method="edge-scaling").bound_rows((1, 1), (0, 1))
 
 
 @pytest.mark.parametrize(

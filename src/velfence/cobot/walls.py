@@ -42,7 +42,7 @@ from velfence._typing import FloatArray, IntArray
 from velfence._validate import as_pair, check_positive
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon, as_polygon
-from velfence.shaping.base import KernelOut, ShaperBase
+from velfence.shaping.base import KernelOut, OnInvalid, ShaperBase, Zone
 from velfence.shaping.polygon import PolygonShaper
 
 __all__ = ["CasterWall", "WallSteering", "WallSteeringOutput"]
@@ -119,7 +119,7 @@ class CasterWall(ShaperBase):
         buffer: float,
         recovery_gain: float = 0.0,
         dt: float | None = None,
-        on_invalid: str = "raise",
+        on_invalid: OnInvalid = "raise",
     ) -> None:
         super().__init__(on_invalid=on_invalid)
         self.polygon = as_polygon(polygon)
@@ -168,7 +168,7 @@ class CasterWall(ShaperBase):
         """The law's output and the allowed line's direction (pure: no state)."""
         from velfence.shaping._kernels import STAGE_PROJECT, STAGE_RELAXED, zone_code
 
-        b = self._inner.bound_rows(px, py, vx, vy)
+        b = self._inner.bound_rows((px, py), (vx, vy))
         rows, p1, p2, d1, d2 = b.rows, b.primary, b.secondary, b.d1, b.d2
         speed = math.hypot(vx, vy)  # no overflow for huge commands (sqrt of squares would)
         m = len(rows)
@@ -217,7 +217,7 @@ class WallSteeringOutput:
     kN: FloatArray
     target: FloatArray
     intent: FloatArray
-    zone: str
+    zone: Zone
 
 
 class WallSteering:
