@@ -324,7 +324,6 @@ def _solve(
 PROFILE_LINEAR = 0  # (d_max, k, r_max, 0, 0, 0): cap s·d/d_max inside, -min(k·(-d), r_max) out
 PROFILE_THREE_ZONE = 1  # (K, v_max, a_max, δ_int, δ_f, δ_φ): ThreeZoneBraking.cap
 PROFILE_PARAMS = 6
-PROFILE_NAMES = ("linear-buffer", "three-zone-braking")
 
 
 def zone_code(n_out: int, n_near: int) -> int:
