@@ -86,7 +86,9 @@ def _compiled_loops(module: types.ModuleType, names: tuple[str, ...]) -> Callabl
     for name in names:
         f = table[name]
         clone = types.FunctionType(f.__code__, table, f.__name__, f.__defaults__, f.__closure__)
-        out = numba.njit(cache=True, parallel=name.endswith("_batch"))(clone)
+        # Serial (prange acts as range): these loops are cheap, and a process forked after a
+        # parallel loop ran must not start numba's thread pool again (fork-unsafe).
+        out = numba.njit(cache=True)(clone)
         table[name] = out
     return out
 
@@ -95,7 +97,7 @@ def compiled_loop(module: types.ModuleType, *names: str) -> Callable[..., Any] |
     """Another module's kernels compiled the same way, or None when numba is not installed.
 
     ``names`` are plain-Python kernel functions of ``module`` in dependency order, the last a
-    ``*_batch`` loop using ``prange``; each is cloned with a globals table in which its callees
+    ``*_batch`` loop (compiled serial); each is cloned with a globals table in which its callees
     (and :func:`~velfence.shaping._kernels.zone_code`) are compiled twins. Returns the compiled
     last one.
     """
