@@ -30,7 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from velfence._typing import FloatArray
-from velfence._validate import check_positive, check_positive_int
+from velfence._validate import check_positive, check_positive_int, check_seed
 from velfence.errors import InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon
 
@@ -150,9 +150,14 @@ def run_case(
         The campaign's :class:`SoakResult`.
 
     Raises:
-        InvalidParameter: counts not positive ints (or above 10⁸ steps in total), fractions
+        InvalidParameter: ``case`` not a :class:`SoakCase`, ``seed`` not an int in [0, 2⁶³),
+            counts not positive ints (or above 10⁸ steps in total), fractions
             outside [0, 1], ``tol`` negative.
     """
+    if not isinstance(case, SoakCase):
+        raise InvalidParameter(
+            f"case: expected a SoakCase (e.g. from polygon_cases()), got {type(case).__name__}"
+        )
     n = check_positive_int("episodes", episodes, maximum=10**6)
     k = check_positive_int("steps_per_episode", steps_per_episode, maximum=10**8)
     if n * k > 10**8:
@@ -163,7 +168,7 @@ def run_case(
         f = check_positive(name, frac, allow_zero=True)
         if f > 1.0:
             raise InvalidParameter(f"{name} must be in [0, 1], got {f}")
-    rng = np.random.default_rng(seed)
+    rng = np.random.default_rng(check_seed("seed", seed))
     outside = rng.random(n) < outside_fraction
     X = case.sample(rng, n, outside)
     pusher = rng.random(n) < push_fraction

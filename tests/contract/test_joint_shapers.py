@@ -16,6 +16,7 @@ import pytest
 
 from velfence import InvalidInput, Shaper, StopLimiter, ThreeZoneBraking
 from velfence.mechanisms.cospm import PAPER_STOPS, Q_AUX
+from velfence.shaping.base import ZONES, ShaperResult
 
 
 def _stop_limiter(method: str):
@@ -86,6 +87,35 @@ def test_output_finite_and_explain_agrees(name, make, dim, cdim):
         assert out.shape == (dim,)
         assert np.all(np.isfinite(out))
         np.testing.assert_array_equal(s.explain(x, v).output, out)
+
+
+#: The shapers of velfence.shaping: their explain() satisfies the typed result contract. (The
+#: redundancy controllers report zones and stages of their own.)
+TYPED = [f for f in FACTORIES if f[0].startswith(("stops-", "line-"))]
+
+
+@pytest.mark.parametrize(("name", "make", "dim", "cdim"), TYPED, ids=[f[0] for f in TYPED])
+def test_explain_satisfies_the_typed_result_contract(name, make, dim, cdim):
+    s = make()
+    X, V = states(200, dim, seed=2, cdim=cdim)
+    seen = set()
+    for x, v in zip(X, V, strict=True):
+        r = s.explain(x, v)
+        assert isinstance(r, ShaperResult)
+        assert r.zone in ZONES
+        assert isinstance(r.active, tuple)
+        assert all(isinstance(k, int) and k >= 0 for k in r.active)
+        assert isinstance(r.stages, tuple)
+        assert all(isinstance(t, str) for t in r.stages)
+        if r.zone in ("free", "invalid"):
+            assert r.active == ()
+        else:
+            assert r.active
+        if name.startswith("stops-"):
+            assert isinstance(r.profile_zone, int)
+            assert set(r.active) <= set(range(len(r.deltas)))
+        seen.add(r.zone)
+    assert len(seen) >= 2 or name == "line-scaling", seen
 
 
 @pytest.mark.parametrize(("name", "make", "dim", "cdim"), FACTORIES, ids=IDS)

@@ -6,17 +6,19 @@ Adding a shaper means adding one entry to ``FACTORIES``: ``(name, make)`` where
 for the parameter checks, each keyword-only parameter). States are drawn around ``POLYGON``.
 
 Checks: finite float (2,) output; ``explain().output == shape()``; ``shape_batch`` equals a loop of
-``shape`` exactly; non-finite input raises ``InvalidInput`` naming "finite" or, with
-``on_invalid="stop"``, gives zeros; wrong shapes raise ``InvalidInput``; all tuning parameters are
-keyword-only; a bad parameter raises ``InvalidParameter`` naming it.
+``shape`` exactly; ``explain`` satisfies the typed result contract (``ShaperResult``: a ``Zone``
+name, the active constraints, the stage names); non-finite input raises ``InvalidInput`` naming
+"finite" or, with ``on_invalid="stop"``, gives zeros; wrong shapes raise ``InvalidInput``; all
+tuning parameters are keyword-only; a bad parameter raises ``InvalidParameter`` naming it.
 """
 
 from __future__ import annotations
 
 import inspect
 import math
+import typing
 from collections.abc import Callable
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 import pytest
@@ -33,6 +35,7 @@ from velfence import (
     Shaper,
     ShapingResult,
 )
+from velfence.shaping.base import ZONES, ShaperResult
 
 POLYGON = ConvexPolygon([[0, 0], [2, 0], [2.5, 1], [1, 2], [-0.5, 1]])  # the README's pentagon
 
@@ -132,6 +135,30 @@ def test_explain_output_equals_shape(make: Factory) -> None:
         np.testing.assert_array_equal(r.position, p)
         np.testing.assert_array_equal(r.command, v)
         assert r.zone in {"free", "buffer", "corner", "outside", "outside-corner"}
+
+
+@pytest.mark.parametrize("make", MAKERS, ids=IDS)
+def test_explain_satisfies_the_typed_result_contract(make: Factory) -> None:
+    sh = make()
+    P, V = states(seed=4)
+    seen: set[str] = set()
+    for p, v in zip(P, V, strict=True):
+        r = sh.explain(p, v)
+        assert isinstance(r, ShaperResult)
+        assert r.zone in ZONES
+        assert isinstance(r.stages, tuple)
+        assert all(isinstance(x, str) for x in r.stages)
+        assert isinstance(r.active, tuple)
+        assert all(isinstance(e, int) and 0 <= e < POLYGON.n for e in r.active)
+        # The active constraints are the ones the zone names: one edge, or two at a corner.
+        expected = {"free": 0, "buffer": 1, "outside": 1, "corner": 2, "outside-corner": 2}
+        assert len(r.active) == expected[r.zone]
+        if r.active:
+            assert r.active[0] == r.primary
+        seen.add(r.zone)
+    invalid = make(on_invalid="stop").explain([math.nan, 0.0], [0.0, 0.0])
+    assert (invalid.zone, invalid.active, invalid.stages) == ("invalid", (), ("stop",))
+    assert {"free", "buffer"} <= seen or sh.method == "no-limit"
 
 
 @pytest.mark.parametrize("make", MAKERS, ids=IDS)
@@ -256,9 +283,11 @@ def test_polygon_shaper_positional_call_raises() -> None:
         PolygonShaper(POLYGON, 0.2, 4.0, "exact")  # type: ignore[misc]
 
 
-def _bad_values_for(p: inspect.Parameter) -> list[Any]:
+def _bad_values_for(p: inspect.Parameter, hints: dict[str, Any]) -> list[Any]:
     """Values every float or choice parameter must reject, derived from the annotation."""
     ann = str(p.annotation)
+    if typing.get_origin(hints.get(p.name)) is Literal:
+        return ["no-such-choice"]  # a choice (the Literal aliases: OnInvalid, PolygonMethod)
     if "bool" in ann:
         return []
     if "float" in ann:
@@ -270,17 +299,21 @@ def _bad_values_for(p: inspect.Parameter) -> list[Any]:
 
 @pytest.mark.parametrize("make", MAKERS, ids=IDS)
 def test_bad_parameters_are_named(make: Factory) -> None:
-    _, params = _constructor_params(make)
+    cls, params = _constructor_params(make)
+    hints = typing.get_type_hints(cls.__init__)
     checked = 0
+    choices = 0
     for p in params:
         if p.kind is not inspect.Parameter.KEYWORD_ONLY:
             continue
-        for bad in _bad_values_for(p):
+        for bad in _bad_values_for(p, hints):
+            choices += bad == "no-such-choice"
             with pytest.raises(InvalidParameter, match=p.name) as info:
                 make(**{p.name: bad})
             assert repr(bad) in str(info.value)  # the value got is in the message
             checked += 1
     assert checked > 0
+    assert choices > 0  # every shaper has at least on_invalid
 
 
 @pytest.mark.parametrize(

@@ -44,6 +44,7 @@ def stop_limiter() -> vf.StopLimiter:
 SPECS: dict[str, F | C] = {
     "shaping.ApproachProfile": C(abstract="Protocol: exercised through its implementations"),
     "shaping.Shaper": C(abstract="Protocol: exercised through its implementations"),
+    "shaping.ShaperResult": C(abstract="Protocol: satisfied by every shaper's explain() record"),
     "shaping.LinearBuffer": C(F(lambda: call(d_max=0.2, spring_gain=4.0)), _PROFILE_METHODS),
     "shaping.ThreeZoneBraking": C(
         lambda: call(gain=4.0, v_max=1.0, a_max=2.0),
@@ -62,7 +63,11 @@ SPECS: dict[str, F | C] = {
             lambda: call(square(), buffer=0.2, spring_gain=2.0, accelerate=False),
             required=frozenset({"buffer"}),
         ),
-        {**SHAPER_2D, "bounds": lambda: call(P2, V2)},
+        {
+            **SHAPER_2D,
+            "bounds": lambda: call(P2, V2),
+            "bound_rows": lambda: call(P2, V2),
+        },
     ),
     "shaping.RateLimiter": C(
         lambda: call(size=2, v_max=1.0, a_max=10.0, dt=0.001),

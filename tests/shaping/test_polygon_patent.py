@@ -237,8 +237,9 @@ class TestDefects:
 def test_explain_reports_method_and_inputs() -> None:
     sh = patent(SQUARE2, buffer=0.5)
     r = sh.explain([1.0, 0.1], [0.0, -1.0])
-    assert r.method == "patent"
+    assert r.method == "edge-scaling"  # the canonical name of the alias "patent"
+    assert sh.method == "edge-scaling"
     np.testing.assert_array_equal(r.position, [1.0, 0.1])
     np.testing.assert_array_equal(r.command, [0.0, -1.0])
     np.testing.assert_array_equal(r.spring, [0.0, 0.0])
-    assert "patent" in repr(sh)
+    assert "edge-scaling" in repr(sh)

@@ -186,9 +186,16 @@ def run_paper(lim, seconds=4.5, dt=1e-3):
 
 def test_paper_scenario_phase_one_event_times():
     rows = run_paper(make(), seconds=1.3)
-    t2 = next(t for t, r in rows if r.stop == 3 and r.zone == 2)
+    t2 = next(t for t, r in rows if r.stop == 3 and r.profile_zone == 2)
     t_lim = next(t for t, r in rows if r.v_perp_lim < r.v_perp - 1e-12)
-    t1 = next(t for t, r in rows if r.stop == 3 and r.zone == 1)
+    t1 = next(t for t, r in rows if r.stop == 3 and r.profile_zone == 1)
+    # Zone names: entering the braking zone the cap is still above the speed (free); in the
+    # linear zone stop d4 (index 3) caps the command (buffer, the stop active, the cap applied).
+    r2 = next(r for t, r in rows if t == t2)
+    r1 = next(r for t, r in rows if t == t1)
+    assert (r2.zone, r2.active) == ("free", ())
+    assert (r1.zone, r1.active) == ("buffer", (3,))
+    assert "stop-cap" in r1.stages
     t_stop = next(t for t, r in rows if t > 1.0 and np.hypot(*r.q_dot_lim[:2]) < 1e-2)
     assert t2 == pytest.approx(0.9, abs=0.02)
     assert t_lim == pytest.approx(1.09, abs=0.02)

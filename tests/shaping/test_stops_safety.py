@@ -237,7 +237,8 @@ def test_invalid_input_under_stop_reports_an_explicit_marker(post):
         np.testing.assert_array_equal(lim.shape(theta, theta_dot), np.zeros(3))
     good = lim.explain(np.full(3, np.pi / 2), np.zeros(3))
     assert not good.invalid
-    assert good.zone in (1, 2, 3)
+    assert good.profile_zone in (1, 2, 3)
+    assert good.zone == "free"  # a zero command: no cap is below its speed
 
 
 def test_invalid_rows_of_a_batch_are_zero_under_stop():

@@ -200,3 +200,19 @@ def test_baseline_parameters_are_validated_and_keyword_only():
     for bad_value in ("1", True, math.nan, 1e200):
         with pytest.raises(vf.InvalidGeometry, match="xmax"):
             vf.Rectangle(xmin=0, xmax=bad_value, ymin=0, ymax=1)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("name", ["hardstop", "axis"])
+def test_one_kernel_serves_scalar_and_batch_compiled_or_not(name, monkeypatch):
+    """The batch runs the scalar kernel in a loop: compiled (numba) and Python agree bit for bit."""
+    from velfence.sim import baselines
+
+    shaper = factories()[name]()
+    P, V = random_states(n=3000, seed=11)
+    out_c, z_c = shaper.zones_batch(P, V)
+    monkeypatch.setattr(baselines, "compiled_loop", lambda *names: None)
+    out_p, z_p = shaper.zones_batch(P, V)
+    np.testing.assert_array_equal(out_c, out_p)
+    np.testing.assert_array_equal(z_c, z_p)
+    loop = np.array([shaper.shape(p, v) for p, v in zip(P, V, strict=True)])
+    np.testing.assert_array_equal(out_p, loop)

@@ -42,7 +42,7 @@ from velfence._typing import FloatArray, IntArray
 from velfence._validate import as_pair, check_positive
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon, as_polygon
-from velfence.shaping.base import KernelOut, ShaperBase
+from velfence.shaping.base import KernelOut, OnInvalid, ShaperBase, Zone
 from velfence.shaping.polygon import PolygonShaper
 
 __all__ = ["CasterWall", "WallSteering", "WallSteeringOutput"]
@@ -119,7 +119,7 @@ class CasterWall(ShaperBase):
         buffer: float,
         recovery_gain: float = 0.0,
         dt: float | None = None,
-        on_invalid: str = "raise",
+        on_invalid: OnInvalid = "raise",
     ) -> None:
         super().__init__(on_invalid=on_invalid)
         self.polygon = as_polygon(polygon)
@@ -166,29 +166,13 @@ class CasterWall(ShaperBase):
         self, px: float, py: float, vx: float, vy: float
     ) -> tuple[KernelOut, tuple[float, float]]:
         """The law's output and the allowed line's direction (pure: no state)."""
-        from velfence.shaping._kernels import (
-            STAGE_PROJECT,
-            STAGE_RELAXED,
-            ZONE_BUFFER,
-            ZONE_CORNER,
-            ZONE_FREE,
-            ZONE_OUTSIDE,
-            ZONE_OUTSIDE_CORNER,
-        )
+        from velfence.shaping._kernels import STAGE_PROJECT, STAGE_RELAXED, zone_code
 
-        rows, d = self._inner._bounds(px, py, vx, vy)
-        p1 = min(range(len(d)), key=d.__getitem__)
-        p2 = min((e for e in range(len(d)) if e != p1), key=d.__getitem__)
-        d1, d2 = d[p1], d[p2]
+        b = self._inner.bound_rows((px, py), (vx, vy))
+        rows, p1, p2, d1, d2 = b.rows, b.primary, b.secondary, b.d1, b.d2
         speed = math.hypot(vx, vy)  # no overflow for huge commands (sqrt of squares would)
         m = len(rows)
-        out_n = sum(1 for x in d if x < 0.0)
-        if m == 0:
-            zone = ZONE_FREE
-        elif out_n:
-            zone = ZONE_OUTSIDE if m == 1 else ZONE_OUTSIDE_CORNER
-        else:
-            zone = ZONE_BUFFER if m == 1 else ZONE_CORNER
+        zone = zone_code(b.n_out, m)
         if m == 0 or speed == 0.0:
             line = (vx / speed, vy / speed) if speed > 0.0 else (0.0, 0.0)
             # No intent: the device stays put, which cannot meet a recovery bound (> 0).
@@ -233,7 +217,7 @@ class WallSteeringOutput:
     kN: FloatArray
     target: FloatArray
     intent: FloatArray
-    zone: str
+    zone: Zone
 
 
 class WallSteering:

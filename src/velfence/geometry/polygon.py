@@ -202,6 +202,18 @@ class ConvexPolygon:
 
     # ------------------------------------------------------------------ basic queries
     @property
+    def kernel_data(self) -> tuple[Any, ...]:
+        """The packed plain-float data the shaping kernels read (read-only, computed once).
+
+        ``(nx, ny, off, cx, cy, a0, beta, n)``: inward normals' x and y components and the edge
+        offsets (tuples of n floats, ``d_i = nx_i·x + ny_i·y - off_i``), the centroid, the angle
+        of corner 0 seen from the centroid [rad], the corners' angles from it (n + 1 floats,
+        ending with 2π) and the number of edges. Tuples, because indexing them is several times
+        faster than indexing arrays in the scalar hot path.
+        """
+        return self._fast
+
+    @property
     def inradius(self) -> float:
         r"""Radius of the largest circle inside the polygon, workspace units (computed once).
 

@@ -25,7 +25,7 @@ from velfence.mechanisms.cospm_region import validate_region
 from velfence.reproduce.base import Check, Report, check_at_least, check_at_most, check_close
 from velfence.shaping.profiles import ThreeZoneBraking
 from velfence.shaping.rate import RateLimiter
-from velfence.shaping.stops import StopLimiter, StopResult
+from velfence.shaping.stops import StopLimiter, StopMethod, StopResult, Tangential
 from velfence.sim.runner import Trajectory, simulate
 
 __all__ = [
@@ -80,8 +80,8 @@ def compatible_profile() -> ThreeZoneBraking:
 
 def limiter(
     *,
-    method: str = "nearest",
-    tangential: str = "scale_with_normal",
+    method: StopMethod = "nearest",
+    tangential: Tangential = "scale_with_normal",
     post: bool = False,
     clamp_ratio: bool = False,
     profile: ThreeZoneBraking | None = None,
@@ -219,7 +219,7 @@ def run(out_dir: str | Path = "out/reproduce/cospm") -> Report:
     faithful = run_paper(limiter())
     t = faithful.traj.t
     stop = faithful.column("stop")
-    zone = faithful.column("zone")
+    zone = faithful.column("profile_zone")
     vp = faithful.column("v_perp")
     vpl = faithful.column("v_perp_lim")
     q_lim = faithful.column("q_dot_lim")

@@ -12,7 +12,7 @@ joint-stop limiter does the same on n-D joint vectors.
 """
 
 from velfence.shaping._kernels import STAGE_NAMES, ZONE_NAMES
-from velfence.shaping.base import Shaper, ShapingResult
+from velfence.shaping.base import Shaper, ShaperResult, ShapingResult
 from velfence.shaping.fixtures import (
     OMNI_CONTINUOUS_FORCE,
     OMNI_MAX_FORCE,
@@ -40,6 +40,7 @@ __all__ = [
     "RateLimiter",
     "ScalingResult",
     "Shaper",
+    "ShaperResult",
     "ShapingResult",
     "StopLimiter",
     "StopResult",

@@ -15,7 +15,15 @@ from typing import Any
 from velfence.geometry import polygon as _polygon
 from velfence.shaping import _kernels
 
-__all__ = ["compiled_batch"]
+__all__ = ["compiled_batch", "compiled_loop"]
+
+
+#: Kernels compiled into their callers (numba IR inlining): the exact law's bound definition
+#: (`exact_bounds`) into its kernel, and the kernel into the batch loop. Measured on the 8-gon
+#: (one thread): 8 ns per free row and 100 ns per corner row, against 80 / 140 ns as separate
+#: compiled functions, at an unchanged compile time; inlining the small helpers as well made
+#: compilation several times slower for little more.
+_INLINE = frozenset({"exact_bounds", "exact_kernel"})
 
 
 @cache
@@ -31,7 +39,10 @@ def _compiled() -> dict[str, Callable[..., Any]] | None:
     def jit(f: Callable[..., Any]) -> Callable[..., Any]:
         clone = types.FunctionType(f.__code__, table, f.__name__, f.__defaults__, f.__closure__)
         parallel = f.__name__.endswith("_batch")
-        out: Callable[..., Any] = numba.njit(cache=True, parallel=parallel)(clone)
+        opts: dict[str, Any] = {"cache": True, "parallel": parallel}
+        if f.__name__ in _INLINE:
+            opts["inline"] = "always"
+        out: Callable[..., Any] = numba.njit(**opts)(clone)
         return out
 
     for name, fn in (
@@ -40,6 +51,10 @@ def _compiled() -> dict[str, Callable[..., Any]] | None:
         ("_violates", _kernels._violates),
         ("_solve_tol", _kernels._solve_tol),
         ("_solve", _kernels._solve),
+        ("zone_code", _kernels.zone_code),
+        ("profile_cap", _kernels.profile_cap),
+        ("fill_bounds", _kernels.fill_bounds),
+        ("exact_bounds", _kernels.exact_bounds),
         ("_patent_core", _kernels._patent_core),
         ("patent_kernel", _kernels.patent_kernel),
         ("exact_kernel", _kernels.exact_kernel),
@@ -54,3 +69,36 @@ def compiled_batch(method: str) -> Callable[..., Any] | None:
     """The numba-compiled batch loop of ``method``, or None when numba is not installed."""
     table = _compiled()
     return None if table is None else table[method]
+
+
+@cache
+def _compiled_loops(module: types.ModuleType, names: tuple[str, ...]) -> Callable[..., Any] | None:
+    try:
+        import numba
+    except ImportError:
+        return None
+    table: dict[str, Any] = dict(vars(module))
+    table["prange"] = numba.prange
+    table["zone_code"] = numba.njit(cache=True)(
+        types.FunctionType(_kernels.zone_code.__code__, dict(vars(_kernels)), "zone_code")
+    )
+    out: Callable[..., Any] | None = None
+    for name in names:
+        f = table[name]
+        clone = types.FunctionType(f.__code__, table, f.__name__, f.__defaults__, f.__closure__)
+        # Serial (prange acts as range): these loops are cheap, and a process forked after a
+        # parallel loop ran must not start numba's thread pool again (fork-unsafe).
+        out = numba.njit(cache=True)(clone)
+        table[name] = out
+    return out
+
+
+def compiled_loop(module: types.ModuleType, *names: str) -> Callable[..., Any] | None:
+    """Another module's kernels compiled the same way, or None when numba is not installed.
+
+    ``names`` are plain-Python kernel functions of ``module`` in dependency order, the last a
+    ``*_batch`` loop (compiled serial); each is cloned with a globals table in which its callees
+    (and :func:`~velfence.shaping._kernels.zone_code`) are compiled twins. Returns the compiled
+    last one.
+    """
+    return _compiled_loops(module, names)

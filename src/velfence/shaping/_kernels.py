@@ -17,6 +17,7 @@ in ``docs/derivations.md`` §2 (patent) and §3 (exact).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -318,6 +319,252 @@ def _solve(
     return False, 0.0, 0.0
 
 
+# Profile kinds the kernels evaluate; each has PROFILE_PARAMS float parameters (zero-padded), a
+# fixed-length tuple so that compiled code keeps them in registers.
+PROFILE_LINEAR = 0  # (d_max, k, r_max, 0, 0, 0): cap s·d/d_max inside, -min(k·(-d), r_max) out
+PROFILE_THREE_ZONE = 1  # (K, v_max, a_max, δ_int, δ_f, δ_φ): ThreeZoneBraking.cap
+PROFILE_PARAMS = 6
+
+
+def zone_code(n_out: int, n_near: int) -> int:
+    """The one zone rule of every 2-D law (polygon laws, caster wall, baselines).
+
+    Args:
+        n_out: How many constraints the point violates (signed distance < 0).
+        n_near: How many constraints constrain the command (the law's own count: edges within
+            the buffer, caps below the speed, limits within the band).
+
+    Returns:
+        ``ZONE_FREE`` when nothing constrains; ``ZONE_BUFFER`` / ``ZONE_CORNER`` for one /
+        several constraints with none violated; ``ZONE_OUTSIDE`` / ``ZONE_OUTSIDE_CORNER`` when
+        some are violated and at most one / several constrain.
+    """
+    if n_out > 0:
+        return ZONE_OUTSIDE if n_near <= 1 else ZONE_OUTSIDE_CORNER
+    if n_near == 0:
+        return ZONE_FREE
+    return ZONE_BUFFER if n_near == 1 else ZONE_CORNER
+
+
+def profile_cap(kind: int, prm: Sequence[float], extend: bool, d: float, s: float) -> float:
+    """Largest approach speed toward a constraint at signed distance ``d`` (negative: a return).
+
+    The one definition of the profiles the kernels understand (``PROFILE_*`` codes and their
+    float parameters ``prm``); :class:`~velfence.shaping.profiles.LinearBuffer` and
+    :class:`~velfence.shaping.profiles.ThreeZoneBraking` evaluate their ``cap`` here.
+
+    Args:
+        kind: ``PROFILE_LINEAR`` or ``PROFILE_THREE_ZONE``.
+        prm: The kind's parameters (see the ``PROFILE_*`` comments).
+        extend: Linear kind only: keep the linear cap ``s·d/d_max`` beyond ``d_max`` (the
+            built-in law's bound, never binding for the command itself) instead of no cap (inf).
+        d: Signed distance, positive inside [units].
+        s: Speed the cap scales with [units/s] (the linear kind is homogeneous in it).
+    """
+    if kind == PROFILE_LINEAR:
+        if d >= 0.0:
+            if d >= prm[0] and not extend:
+                return math.inf
+            # s·(d/d_max), not (s·d)/d_max: the product of two large inputs could overflow.
+            return s * (d / prm[0])
+        r = -prm[1] * d
+        if r > prm[2]:
+            r = prm[2]
+        return -r
+    a = abs(d)
+    if a > prm[5]:
+        return math.copysign(prm[1], d)
+    if a > prm[3]:
+        return math.copysign(math.sqrt(2.0 * prm[2] * abs(a - prm[4])), d)
+    return prm[0] * d
+
+
+def fill_bounds(
+    kind: int,
+    prm: Any,
+    extend: bool,
+    dist: Any,
+    work: Any,
+    lo: int,
+    hi: int,
+    cs: float,
+    scale: float,
+    idt: float,
+    bnd: Any,
+) -> None:
+    r"""The per-edge bound of the exact law: ``bnd[e]`` for ``e`` in ``work[lo:hi]``.
+
+    ``bnd[e]`` is the lower bound on :math:`n_e\cdot x`, in units of ``scale``.
+
+    An edge with ``d >= 0``: ``-cap(d, s)`` with the cap's speed ``s = cs·scale`` (``-inf``: the
+    edge is unconstrained); in discrete time also at least ``-d/dt`` (one period never crosses
+    the edge). A violated edge: its recovery speed, which :func:`exact_bounds` stored in
+    ``bnd[e]`` in the caller's units, divided by ``scale``.
+    """
+    rate = idt / scale  # discrete-time approach cap per unit distance, kernel units
+    lin = kind == PROFILE_LINEAR
+    for a in range(lo, hi):
+        e = work[a]
+        d = dist[e]
+        if d < 0.0:
+            bnd[e] = bnd[e] / scale
+            continue
+        if lin:
+            b = -profile_cap(kind, prm, extend, d, cs)  # homogeneous in s: kernel units
+        else:
+            b = -(profile_cap(kind, prm, extend, d, cs * scale) / scale)
+        if idt > 0.0 and -rate * d > b:
+            b = -rate * d
+        bnd[e] = b
+
+
+def exact_bounds(
+    px: float,
+    py: float,
+    vx: float,
+    vy: float,
+    nx: Any,
+    ny: Any,
+    off: Any,
+    n: int,
+    kind: int,
+    prm: Any,
+    relax: bool,
+    idt: float,
+    normalise: bool,
+    dist: Any,
+    bnd: Any,
+    work: Any,
+) -> tuple[int, int, int, float, float, float, int, int, float, float]:
+    r"""The exact law's bounds: the one definition (derivations §3), used by every caller.
+
+    Fills ``dist[:n]`` with every edge's signed distance, ``work[:m]`` with the bounded edges in
+    ascending order and ``bnd[e]`` for each of them with the lower bound on :math:`n_e\cdot x`
+    (:func:`fill_bounds`). The bounded edges are the violated ones and those the profile caps
+    below the command's speed (linear kind: every edge with ``d < d_max``); in discrete time
+    also every edge within ``(|v| + R)·dt`` (reachable in one period).
+
+    ``relax`` is the built-in linear buffer's formulation (``PolygonShaper(buffer=…)``): the
+    cap speed is ``|v| + R`` with ``R`` the largest recovery speed, so outside the
+    non-violated edges are relaxed by the recovery speed, the linear bound extends beyond
+    ``d_max``, and every bounded edge counts as near. Without it (a profile) the cap speed is
+    ``|v|`` and an edge counts as near when its cap is below ``|v|``.
+
+    Args:
+        px: Position, x.
+        py: Position, y.
+        vx: Command, x.
+        vy: Command, y.
+        nx: Inward unit normals, x (n,).
+        ny: Inward unit normals, y (n,).
+        off: Edge offsets (n,): ``d_e = n_e·p - off_e``.
+        n: Number of edges.
+        kind: ``PROFILE_*`` code.
+        prm: The profile's float parameters.
+        relax: Built-in relaxation (above).
+        idt: ``1/dt`` [1/s], 0 for the continuous-time law.
+        normalise: Bounds in units of ``|v| + R`` (the kernel's, so huge commands neither
+            overflow nor defeat the tolerances) instead of the caller's.
+        dist: Scratch, floats, length >= n.
+        bnd: Scratch, floats, length >= n.
+        work: Scratch, ints, length >= n.
+
+    Returns:
+        ``(m, n_out, n_near, rec, cs, scale, p1, p2, d1, d2)``: bounded edges, violated edges,
+        near edges, largest recovery speed R (caller units), the cap speed and the unit of the
+        bounds (caller units per unit), the nearest and second-nearest edges and their
+        distances. ``m == 0``: nothing bounds the command.
+    """
+    lin = kind == PROFILE_LINEAR
+    dmax = prm[0]
+    # Edges at d >= gate are never bounded: d_max for the linear kind; other kinds keep every
+    # edge here and drop those whose cap does not bind once |v| is known.
+    gate = dmax if lin else math.inf
+    rec = 0.0
+    p1 = -1
+    p2 = -1
+    d1 = math.inf
+    d2 = math.inf
+    m = 0
+    n_out = 0
+    for e in range(n):
+        d = nx[e] * px + ny[e] * py - off[e]
+        dist[e] = d
+        if d < gate:
+            if d < 0.0:
+                work[m] = e
+                m += 1
+                n_out += 1
+                # Recovery: the profile's forced return -cap(d); in discrete time at most the
+                # penetration per period. Caller units; divided by the scale in fill_bounds.
+                r = -profile_cap(kind, prm, False, d, 0.0)
+                if idt > 0.0 and r > -d * idt:
+                    r = -d * idt
+                bnd[e] = r
+                if r > rec:
+                    rec = r
+            else:
+                work[m] = e
+                m += 1
+        if d < d1:
+            d2 = d1
+            p2 = p1
+            d1 = d
+            p1 = e
+        elif d < d2:
+            d2 = d
+            p2 = e
+    if m == 0 and idt == 0.0:
+        return 0, 0, 0, 0.0, 0.0, 1.0, p1, p2, d1, d2
+    # |v| scaled by its largest component (not math.hypot, whose numba and CPython results differ
+    # in the last bit).
+    big = abs(vx) if abs(vx) > abs(vy) else abs(vy)
+    vnorm = 0.0
+    if big > 0.0:
+        qx = vx / big
+        qy = vy / big
+        vnorm = big * math.sqrt(qx * qx + qy * qy)
+    if not lin:
+        # Keep the violated edges and those whose cap binds at this speed.
+        c = 0
+        for a in range(m):
+            e = work[a]
+            d = dist[e]
+            if d < 0.0 or profile_cap(kind, prm, relax, d, vnorm) < vnorm:
+                work[c] = e
+                c += 1
+        m = c
+        if m == 0 and idt == 0.0:
+            return 0, 0, 0, 0.0, 0.0, 1.0, p1, p2, d1, d2
+    speed = vnorm + rec
+    if idt > 0.0 and (speed > dmax * idt or not lin):
+        # Discrete time: an edge up to speed·dt away can be reached in one period.
+        reach = speed / idt
+        m = 0
+        for e in range(n):
+            d = dist[e]
+            if d < reach or (
+                not lin and (d < 0.0 or profile_cap(kind, prm, relax, d, vnorm) < vnorm)
+            ):
+                work[m] = e
+                m += 1
+    if m == 0:
+        return 0, 0, 0, rec, 0.0, 1.0, p1, p2, d1, d2
+    # The problem is positively homogeneous in (v, bounds): solved in units of |v| + R; the cap
+    # speed `cs` is 1 then unless v = 0 and R = 0 (built-in law).
+    scale = speed if normalise and speed > 0.0 else 1.0
+    cs = (speed if relax else vnorm) / scale
+    if relax:
+        n_near = m
+    else:
+        n_near = 0
+        for a in range(m):
+            if profile_cap(kind, prm, relax, dist[work[a]], vnorm) < vnorm:
+                n_near += 1
+    fill_bounds(kind, prm, relax, dist, work, 0, m, cs, scale, idt, bnd)
+    return m, n_out, n_near, rec, cs, scale, p1, p2, d1, d2
+
+
 def exact_kernel(
     px: float,
     py: float,
@@ -329,9 +576,9 @@ def exact_kernel(
     cx: float,
     cy: float,
     n: int,
-    dmax: float,
-    k: float,
-    rmax: float,
+    kind: int,
+    prm: Any,
+    relax: bool,
     idt: float,
     dist: Any,
     bnd: Any,
@@ -339,9 +586,12 @@ def exact_kernel(
 ) -> tuple[float, float, int, int, int, float, float, float, float, int]:
     r"""Minimum-change velocity subject to one half-plane bound per nearby edge (derivations §3).
 
-    ``n_i · v_o >= -(|v| + R) d_i / d_max`` for edges with ``0 <= d_i < d_max`` and
-    ``n_i · v_o >= min(k (-d_i), r_max)`` for violated edges, where ``R`` is the largest recovery
-    bound (0 inside, so inside the bound is exactly ``-|v| d_i / d_max``).
+    The bounds are :func:`exact_bounds` (one definition, shared with
+    :meth:`~velfence.shaping.polygon.PolygonShaper.bounds`); the built-in linear buffer
+    (``kind = PROFILE_LINEAR``, ``relax``) gives ``n_i · v_o >= -(|v| + R) d_i / d_max`` for
+    edges with ``0 <= d_i < d_max`` and ``n_i · v_o >= min(k (-d_i), r_max)`` for violated
+    edges, ``R`` the largest recovery bound (0 inside). A profile gives ``n_i · v_o >=
+    -cap(d_i, |v|)``. Zones follow :func:`zone_code`.
 
     ``idt`` is ``1 / dt`` for a discrete-time law (0: continuous time). Then every edge's bound
     also caps the approach per period by the remaining distance, ``n_i · v_o >= -d_i / dt``, and
@@ -354,111 +604,47 @@ def exact_kernel(
     ``dist``, ``bnd`` (floats) and ``work`` (ints) are caller-provided scratch of length >= n, so
     the kernel itself allocates nothing.
     """
-    rec = 0.0
-    p1 = -1
-    p2 = -1
-    d1 = math.inf
-    d2 = math.inf
-    m = 0
-    n_out = 0
-    for e in range(n):
-        d = nx[e] * px + ny[e] * py - off[e]
-        dist[e] = d
-        if d < dmax:
-            work[m] = e
-            m += 1
-            if d < 0.0:
-                n_out += 1
-                r = -k * d
-                if r > rmax:
-                    r = rmax
-                if idt > 0.0 and r > -d * idt:
-                    r = -d * idt
-                if r > rec:
-                    rec = r
-        if d < d1:
-            d2 = d1
-            p2 = p1
-            d1 = d
-            p1 = e
-        elif d < d2:
-            d2 = d
-            p2 = e
-    if m == 0 and idt == 0.0:
-        return vx, vy, ZONE_FREE, p1, p2, d1, d2, 0.0, 0.0, 0
-    # |v| scaled by its largest component (not math.hypot, whose numba and CPython results differ
-    # in the last bit).
-    big = abs(vx) if abs(vx) > abs(vy) else abs(vy)
-    vnorm = 0.0
-    if big > 0.0:
-        qx = vx / big
-        qy = vy / big
-        vnorm = big * math.sqrt(qx * qx + qy * qy)
-    speed = vnorm + rec
-    if idt > 0.0 and speed > dmax * idt:
-        # Discrete time: an edge up to speed·dt away can be reached in one period.
-        reach = speed / idt
-        m = 0
-        for e in range(n):
-            if dist[e] < reach:
-                work[m] = e
-                m += 1
+    m, n_out, n_near, rec, unit, scale, p1, p2, d1, d2 = exact_bounds(
+        px, py, vx, vy, nx, ny, off, n, kind, prm, relax, idt, True, dist, bnd, work
+    )
     if m == 0:
         return vx, vy, ZONE_FREE, p1, p2, d1, d2, 0.0, 0.0, 0
+    zone = zone_code(n_out, n_near)
+    stages = STAGE_PROJECT if n_near > 0 else 0
     if n_out > 0:
-        zone = ZONE_OUTSIDE if m == 1 else ZONE_OUTSIDE_CORNER
-        stages = STAGE_PROJECT | STAGE_SPRING
-    else:
-        zone = ZONE_BUFFER if m == 1 else ZONE_CORNER
-        stages = STAGE_PROJECT
-    # The problem is positively homogeneous in (v, bounds): solve it in units of |v| + R so that
-    # huge commands neither overflow (squared distances, NaN bounds) nor defeat the feasibility
-    # tolerance; `unit` is 1 unless v = 0 and R = 0.
-    scale = speed if speed > 0.0 else 1.0
-    unit = speed / scale
-    rate = idt / scale  # discrete-time approach cap per unit distance, kernel units
+        stages |= STAGE_SPRING
     ux = vx / scale
     uy = vy / scale
-    for a in range(m):
-        e = work[a]
-        d = dist[e]
-        if d >= 0.0:
-            b = -unit * (d / dmax)
-            if idt > 0.0 and -rate * d > b:
-                b = -rate * d
-            bnd[e] = b
-        else:
-            r = -k * d
-            if r > rmax:
-                r = rmax
-            if idt > 0.0 and r > -d * idt:
-                r = -d * idt
-            bnd[e] = r / scale
     while True:
         ok, ox, oy = _solve(ux, uy, work, m, nx, ny, bnd)
         if not ok:
             break
-        # A far edge has bound <= -(|v| + R) (d >= d_max, and d >= (|v| + R) dt in discrete
-        # time), binding only when the answer is faster than |v| + R (Cauchy-Schwarz). Inside that
-        # never happens (0 is feasible, so the projection is no faster than v); outside, recovery
-        # can cause it: add those edges.
+        # An unbounded edge's bound is <= -cap speed (beyond the cap's reach; and d >= (|v| + R)
+        # dt in discrete time), binding only when the answer is faster than that
+        # (Cauchy-Schwarz). Inside that never happens (0 is feasible, so the projection is no
+        # faster than v); outside, recovery can cause it: add those edges.
         if n_out == 0 or ox * ox + oy * oy <= unit * unit:
             return ox * scale, oy * scale, zone, p1, p2, d1, d2, 0.0, 0.0, stages
-        added = False
+        # Candidates: every edge not yet bounded with d >= 0, in edge order after work[:m];
+        # the violated ones are kept.
+        c = m
         for e in range(n):
-            d = dist[e]
-            if d < 0.0:
+            if dist[e] < 0.0:
                 continue
-            b = -unit * (d / dmax)
-            if idt > 0.0 and -rate * d > b:
-                b = -rate * d
             in_work = False
             for a in range(m):
                 if work[a] == e:
                     in_work = True
                     break
-            if not in_work and _violates(ox, oy, nx[e], ny[e], b, 0.0):
-                bnd[e] = b
+            if not in_work:
+                work[c] = e
+                c += 1
+        fill_bounds(kind, prm, relax, dist, work, m, c, unit, scale, idt, bnd)
+        added = False
+        for a in range(m, c):
+            e = work[a]
+            b = bnd[e]
+            if b > -math.inf and _violates(ox, oy, nx[e], ny[e], b, 0.0):
                 work[m] = e
                 m += 1
                 added = True
@@ -469,7 +655,7 @@ def exact_kernel(
         # round-off defeats both solves (never observed); stopping is the safe answer.
         return 0.0, 0.0, zone, p1, p2, d1, d2, 0.0, 0.0, stages | STAGE_STOP
     # Infeasible together (the buffer is refused wider than the inradius, so only by round-off
-    # or a far edge): recovery first.
+    # or a far edge; a profile steeper than the polygon is thin): recovery first.
     m = 0
     for e in range(n):
         if dist[e] < 0.0:
@@ -537,9 +723,9 @@ def exact_batch(
     cx: float,
     cy: float,
     n: int,
-    dmax: float,
-    k: float,
-    rmax: float,
+    kind: int,
+    prm: Any,
+    relax: bool,
     idt: float,
 ) -> None:
     """Loop of :func:`exact_kernel` over rows of P, V (writes ``out`` (N, 2), ``zones`` (N,))."""
@@ -550,8 +736,8 @@ def exact_batch(
         work = np.zeros(n, dtype=np.int64)
         for r in range(c * BATCH_CHUNK, min(N, (c + 1) * BATCH_CHUNK)):
             res = exact_kernel(
-                P[r][0], P[r][1], V[r][0], V[r][1], nx, ny, off, cx, cy, n, dmax, k, rmax, idt,
-                dist, bnd, work,
+                P[r][0], P[r][1], V[r][0], V[r][1], nx, ny, off, cx, cy, n, kind, prm, relax,
+                idt, dist, bnd, work,
             )  # fmt: skip
             out[r][0] = res[0]
             out[r][1] = res[1]

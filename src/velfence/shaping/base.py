@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, Literal, Protocol, runtime_checkable
+from typing import Any, Literal, Protocol, get_args, runtime_checkable
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -25,16 +25,33 @@ from velfence._validate import as_pair, as_rows, check_choice
 from velfence.errors import InvalidInput
 
 __all__ = [
+    "ZONES",
     "Explained",
     "InvalidPolicy",
     "KernelOut",
     "OnInvalid",
     "Shaper",
     "ShaperBase",
+    "ShaperResult",
     "ShapingResult",
+    "Zone",
 ]
 
 OnInvalid = Literal["raise", "stop"]
+
+#: The name of the zone a shaper classified a state in, shared by every shaper's result:
+#: ``"free"`` (nothing constrains), ``"buffer"`` / ``"corner"`` (one / several constraints near,
+#: none violated), ``"outside"`` / ``"outside-corner"`` (some violated; at most one / several
+#: near), ``"invalid"`` (non-finite input answered with zero velocity), and the line fixtures'
+#: ``"scaled"`` (line scaling, always active) and ``"snapped"`` (inside the line's cylinder of
+#: influence). The 2-D and joint-stop laws classify by the one zone rule
+#: (``velfence.shaping._kernels.zone_code``).
+Zone = Literal[
+    "free", "buffer", "corner", "outside", "outside-corner", "invalid", "scaled", "snapped"
+]
+
+#: Every :data:`Zone` name, in order (the first six are ``ZONE_NAMES``).
+ZONES: tuple[Zone, ...] = get_args(Zone)
 
 #: What a shaper's scalar law returns: ``(ox, oy, zone, primary, secondary, d1, d2, sx, sy,
 #: stages)`` with ``zone`` indexing ``ZONE_NAMES`` and ``stages`` either a bit mask over
@@ -51,7 +68,7 @@ class ShapingResult:
         command: The command as given, shape (2,).
         position: The position as given, shape (2,).
         zone: ``"free"``, ``"buffer"``, ``"corner"``, ``"outside"``, ``"outside-corner"`` or
-            ``"invalid"``.
+            ``"invalid"`` (a :data:`Zone`).
         primary: Index of the primary edge (patent: the wedge's edge; exact: the nearest edge).
         secondary: Index of the secondary edge (patent: the neighbour at the nearer corner;
             exact: the second-nearest edge).
@@ -61,12 +78,15 @@ class ShapingResult:
             methods that express recovery as a bound instead.
         stages: Names of the stages applied, in order of the ``STAGE_NAMES`` table.
         method: Name of the law that produced the output.
+        active: The constraints (edge indices) the zone refers to: none when free or invalid,
+            ``(primary,)`` in ``"buffer"`` / ``"outside"``, ``(primary, secondary)`` at a
+            corner.
     """
 
     output: FloatArray
     command: FloatArray
     position: FloatArray
-    zone: str
+    zone: Zone
     primary: int
     secondary: int
     d1: float
@@ -74,10 +94,24 @@ class ShapingResult:
     spring: FloatArray
     stages: tuple[str, ...]
     method: str
+    active: tuple[int, ...] = ()
+
+
+def active_of(zone: Zone, primary: int, secondary: int) -> tuple[int, ...]:
+    """The constraints a 2-D zone refers to (:attr:`ShapingResult.active`)."""
+    if zone in ("buffer", "outside"):
+        return (primary,)
+    if zone in ("corner", "outside-corner"):
+        return (primary, secondary)
+    return ()
 
 
 class Explained(Protocol):
-    """What every shaper's ``explain`` returns at least: the output and a zone label."""
+    """What the :class:`Shaper` protocol asks of ``explain``: the output and a zone name.
+
+    Every velfence shaper's result satisfies the stricter :class:`ShaperResult`; this minimal
+    form admits shapers with zones of their own (the redundancy controllers).
+    """
 
     @property
     def output(self) -> FloatArray:
@@ -85,8 +119,33 @@ class Explained(Protocol):
         ...
 
     @property
-    def zone(self) -> Any:
-        """The zone the state was classified in (a name, or a profile's zone number)."""
+    def zone(self) -> str:
+        """The name of the zone the state was classified in."""
+        ...
+
+
+@runtime_checkable
+class ShaperResult(Explained, Protocol):
+    """The one typed result contract of the shapers in :mod:`velfence.shaping` and their users.
+
+    :class:`ShapingResult` (polygon laws, baselines, the caster wall),
+    :class:`~velfence.shaping.stops.StopResult`, :class:`~velfence.shaping.fixtures.ScalingResult`
+    and :class:`~velfence.shaping.fixtures.FixtureResult` satisfy it.
+    """
+
+    @property
+    def zone(self) -> Zone:
+        """The :data:`Zone` the state was classified in."""
+        ...
+
+    @property
+    def active(self) -> tuple[int, ...]:
+        """Indices of the constraints (edges, stops, the line) the zone refers to."""
+        ...
+
+    @property
+    def stages(self) -> tuple[str, ...]:
+        """Names of the stages the law applied, in order."""
         ...
 
 
@@ -121,7 +180,9 @@ class InvalidPolicy:
     __slots__ = ("on_invalid",)
 
     def __init__(self, *, on_invalid: str = "raise") -> None:
-        self.on_invalid = check_choice("on_invalid", on_invalid, ("raise", "stop"))
+        self.on_invalid: OnInvalid = check_choice(  # type: ignore[assignment]
+            "on_invalid", on_invalid, ("raise", "stop")
+        )
 
     def _invalid(self, what: str) -> None:
         if self.on_invalid == "raise":
@@ -216,6 +277,7 @@ class ShaperBase(InvalidPolicy):
                 ("stop",), self.method,
             )  # fmt: skip
         st = r[9]
+        zone: Zone = ZONE_NAMES[r[2]]  # type: ignore[assignment]
         stages = (
             tuple(name for bit, name in enumerate(STAGE_NAMES) if st & (1 << bit))
             if isinstance(st, int)
@@ -225,7 +287,7 @@ class ShaperBase(InvalidPolicy):
             output=np.array((r[0], r[1])),
             command=cmd,
             position=pos,
-            zone=ZONE_NAMES[r[2]],
+            zone=zone,
             primary=r[3],
             secondary=r[4],
             d1=r[5],
@@ -233,6 +295,7 @@ class ShaperBase(InvalidPolicy):
             spring=np.array((r[7], r[8])),
             stages=stages,
             method=self.method,
+            active=active_of(zone, r[3], r[4]),
         )
 
     def shape_batch(self, positions: ArrayLike, commands: ArrayLike) -> FloatArray:

@@ -66,7 +66,7 @@ from velfence._validate import as_rows, check_positive, finite_array, real_array
 from velfence.errors import InvalidGeometry, InvalidInput
 from velfence.geometry.polygon import split_along
 from velfence.geometry.primitives import orthonormal_complement
-from velfence.shaping.base import InvalidPolicy
+from velfence.shaping.base import InvalidPolicy, OnInvalid, Zone
 
 __all__ = [
     "OMNI_CONTINUOUS_FORCE",
@@ -178,16 +178,20 @@ class ScalingResult:
         across_l: Signed projection ``A·L`` [m/s] (thesis eq. 45).
         across_m: Signed projection ``A·M`` [m/s] (thesis eq. 46).
         distance: Distance of the position from the line [m] (NaN when invalid).
+        active: ``(0,)``, the line, when scaled; ``()`` when invalid.
+        stages: ``("line-scaling",)``; ``("stop",)`` when invalid.
     """
 
     output: FloatArray
     command: FloatArray
     position: FloatArray
-    zone: str
+    zone: Zone
     along: float
     across_l: float
     across_m: float
     distance: float
+    active: tuple[int, ...] = ()
+    stages: tuple[str, ...] = ("stop",)
 
 
 @dataclass(frozen=True)
@@ -206,17 +210,22 @@ class FixtureResult:
         force: Fixture force on the master [N], shape (3,), perpendicular to the line.
         saturated: Whether the spring force was capped at ``max_force``.
         along: Signed command speed along the line ``v·u`` [m/s].
+        active: ``(0,)``, the line, when snapped; ``()`` otherwise.
+        stages: ``("fixture-spring",)`` when snapped, followed by ``"saturated"`` when the
+            force was capped; ``()`` when free; ``("stop",)`` when invalid.
     """
 
     output: FloatArray
     command: FloatArray
     position: FloatArray
-    zone: str
+    zone: Zone
     offset: FloatArray
     distance: float
     force: FloatArray
     saturated: bool
     along: float
+    active: tuple[int, ...] = ()
+    stages: tuple[str, ...] = ("stop",)
 
 
 # ------------------------------------------------------------------------------------ scaling
@@ -248,7 +257,7 @@ class LineScaling(InvalidPolicy):
         *,
         along: float = 3.0,
         across: float = 0.2,
-        on_invalid: str = "raise",
+        on_invalid: OnInvalid = "raise",
     ) -> None:
         super().__init__(on_invalid=on_invalid)
         self.line_point, self.line_direction = _line(line_point, line_direction)
@@ -328,6 +337,8 @@ class LineScaling(InvalidPolicy):
             across_l=float(diag[0]),
             across_m=float(diag[1]),
             distance=float(diag[2]),
+            active=(0,),
+            stages=("line-scaling",),
         )
 
     def shape_batch(self, positions: ArrayLike, commands: ArrayLike) -> FloatArray:
@@ -388,7 +399,7 @@ class LineFixture(InvalidPolicy):
         max_force: float = OMNI_CONTINUOUS_FORCE,
         damping: float = DEFAULT_DAMPING,
         length: float | None = None,
-        on_invalid: str = "raise",
+        on_invalid: OnInvalid = "raise",
     ) -> None:
         super().__init__(on_invalid=on_invalid)
         self.line_point, self.line_direction = _line(line_point, line_direction)
@@ -490,7 +501,10 @@ class LineFixture(InvalidPolicy):
             r = self._offset(pa)
             f, d, inside, saturated = self._force(r)
             out = va + f / self.damping
-        zone = "snapped" if inside else "free"
+        zone: Zone = "snapped" if inside else "free"
+        stages: tuple[str, ...] = (
+            ("fixture-spring", "saturated")[: 1 + bool(saturated)] if inside else ()
+        )
         if not _finite(out, r, f):
             self._invalid(
                 f"input too large, the velocity overflowed: position={pa.tolist()}, "
@@ -498,6 +512,7 @@ class LineFixture(InvalidPolicy):
             )
             out = np.zeros(3)
             zone = "invalid"
+            stages = ("stop",)
         return FixtureResult(
             output=out,
             command=va,
@@ -508,6 +523,8 @@ class LineFixture(InvalidPolicy):
             force=f,
             saturated=saturated,
             along=float(va @ self.line_direction),
+            active=(0,) if zone == "snapped" else (),
+            stages=stages,
         )
 
     def shape_batch(self, positions: ArrayLike, commands: ArrayLike) -> FloatArray:

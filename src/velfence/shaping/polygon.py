@@ -1,10 +1,11 @@
-r"""Velocity shaping inside a convex polygon: US 8,676,382 (``"patent"``) and our exact law.
+r"""Velocity shaping inside a convex polygon: US 8,676,382's edge scaling and our exact law.
 
-``method="patent"`` is algorithm 100 of the patent (steps 102-115) as reconstructed in
-``docs/derivations.md`` §2: arc-segment selection of a primary and a secondary edge, pass-through
-outside the buffer, the outward normal component scaled by :math:`\hat d = 1 - d/d_{max}` inside
-the buffer, the two-stage corner projection, and outside: outward normal zeroed, tangent kept,
-virtual spring :math:`k d n` blended between the two normals near a corner.
+``method="edge-scaling"`` (alias ``"patent"``, accepted forever) is algorithm 100 of the patent
+(steps 102-115) as reconstructed in ``docs/derivations.md`` §2: arc-segment selection of a
+primary and a secondary edge, pass-through outside the buffer, the outward normal component
+scaled by :math:`\hat d = 1 - d/d_{max}` inside the buffer, the two-stage corner projection, and
+outside: outward normal zeroed, tangent kept, virtual spring :math:`k d n` blended between the
+two normals near a corner.
 
 ``method="exact"`` (derivations §3) is the minimum-change velocity subject to one half-plane bound
 per nearby edge, solved in closed form:
@@ -14,31 +15,68 @@ per nearby edge, solved in closed form:
     n_i\cdot x \ge \begin{cases} -(\|v\| + R)\, d_i/d_{max} & 0 \le d_i < d_{max}\\
     \min(k\,(-d_i),\ r_{max}) & d_i < 0 \end{cases}
 
-with :math:`R` the largest recovery bound (0 inside). It keeps every edge's bound at once (no
-sequential-projection error at corners), is continuous in position and command, never speeds up a
-command inside, and outside always reduces every violation at a bounded recovery speed.
+with :math:`R` the largest recovery bound (0 inside). The bounds have one definition
+(``_kernels.exact_bounds``, also behind :meth:`PolygonShaper.bounds`); a ``profile``
+(:class:`~velfence.shaping.profiles.LinearBuffer`,
+:class:`~velfence.shaping.profiles.ThreeZoneBraking`) replaces the linear buffer by
+:math:`n_i\cdot x \ge -\mathrm{cap}(d_i, \|v\|)` in the same formulation (same solve, same zone
+rule). It keeps every edge's bound at once (no sequential-projection error at corners), is
+continuous in position and command, never speeds up a command inside, and outside always reduces
+every violation at a bounded recovery speed.
 """
 
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, Literal, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from velfence._typing import FloatArray, IntArray
-from velfence._validate import check_choice, check_flag, check_positive, real_array
-from velfence.errors import InvalidParameter
+from velfence._validate import as_pair, check_choice, check_flag, check_positive, real_array
+from velfence.errors import InvalidInput, InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon, as_polygon
 from velfence.shaping import _kernels as kern
 from velfence.shaping._accel import compiled_batch
-from velfence.shaping.base import ShaperBase
-from velfence.shaping.profiles import ApproachProfile, min_change_under_caps
+from velfence.shaping.base import OnInvalid, ShaperBase
+from velfence.shaping.profiles import (
+    ApproachProfile,
+    LinearBuffer,
+    ThreeZoneBraking,
+    min_change_under_caps,
+)
 
-__all__ = ["PolygonShaper"]
+__all__ = ["BoundRows", "PolygonMethod", "PolygonShaper"]
 
-_METHODS = ("patent", "exact")
+#: The laws of :class:`PolygonShaper`. ``"edge-scaling"`` is US 8,676,382's law (the normal
+#: component scaled by d/d_max, two-stage projection at corners); ``"patent"`` is its alias
+#: (accepted forever; ``.method`` reports ``"edge-scaling"``).
+PolygonMethod = Literal["edge-scaling", "patent", "exact"]
+
+_METHODS = ("edge-scaling", "patent", "exact")
+_ALIASES = {"patent": "edge-scaling"}
+
+
+class BoundRows(NamedTuple):
+    """The exact law's bounds at one state, as plain floats (:meth:`PolygonShaper.bound_rows`).
+
+    Attributes:
+        rows: One ``(nx, ny, lower, edge)`` per bounded edge, in edge order: inward unit normal,
+            lower bound on the normal component of the output [velocity units], edge index.
+        primary: The nearest edge (smallest signed distance; first on ties).
+        secondary: The second-nearest edge.
+        d1: Signed distance to ``primary`` [workspace units], positive inside.
+        d2: Signed distance to ``secondary``.
+        n_out: Number of violated edges (signed distance < 0).
+    """
+
+    rows: tuple[tuple[float, float, float, int], ...]
+    primary: int
+    secondary: int
+    d1: float
+    d2: float
+    n_out: int
 
 
 class PolygonShaper(ShaperBase):
@@ -60,15 +98,18 @@ class PolygonShaper(ShaperBase):
             which sets its own return): a point outside with a zero command returns with time
             constant 1 s, at most ``max_recovery_speed``; 0 only stops outward motion, it does
             not recover.
-        method: ``"patent"`` (US 8,676,382, faithful) or ``"exact"`` (our improved law).
+        method: ``"edge-scaling"`` (US 8,676,382's law, faithful; ``"patent"`` is an alias and
+            :attr:`method` then reads ``"edge-scaling"``) or ``"exact"`` (our improved law).
         corner_blend_angle: :math:`\theta_{max}` of the patent's spring blend near corners, in
-            [rad], in (0, π). Only used by ``"patent"``.
+            [rad], in (0, π). Only used by ``"edge-scaling"``.
         max_recovery_speed: Largest recovery speed the exact law demands outside, in workspace
             units per second; default ``spring_gain * buffer``. Only used by ``"exact"``.
         profile: An :class:`~velfence.shaping.profiles.ApproachProfile` (e.g.
             ``ThreeZoneBraking``) replacing the linear buffer of the exact law: every edge's
             approach speed is capped by ``profile.cap(d)`` (outside: a forced return). Only with
-            ``method="exact"`` and no ``buffer``; runs in plain Python (no numba batch).
+            ``method="exact"`` and no ``buffer``. ``LinearBuffer`` and ``ThreeZoneBraking`` run
+            in the compiled kernels (their ``kernel_profile``); any other profile object runs
+            in plain Python with the same solve and zone rule.
         dt: Control period [s] of the loop that integrates the output, > 0, or None (default).
             **None: continuous-time law** — the bounds hold for the velocity itself, and a
             discrete loop that holds the output for ``dt`` may overshoot the boundary by up to
@@ -89,6 +130,7 @@ class PolygonShaper(ShaperBase):
     __slots__ = (
         "_batch_args",
         "_fast",
+        "_generic",
         "_idt",
         "_ready",
         "accelerate",
@@ -108,16 +150,17 @@ class PolygonShaper(ShaperBase):
         *,
         buffer: float | None = None,
         spring_gain: float | None = None,
-        method: str = "exact",
+        method: PolygonMethod = "exact",
         corner_blend_angle: float = 0.3,
         max_recovery_speed: float | None = None,
         profile: ApproachProfile | None = None,
         dt: float | None = None,
-        on_invalid: str = "raise",
+        on_invalid: OnInvalid = "raise",
         accelerate: bool = True,
     ) -> None:
         self.polygon = as_polygon(polygon)
-        self.method = check_choice("method", method, _METHODS)
+        chosen = check_choice("method", method, _METHODS)
+        self.method: PolygonMethod = _ALIASES.get(chosen, chosen)  # type: ignore[assignment]
         if profile is not None:
             if not isinstance(profile, ApproachProfile):
                 raise InvalidParameter(
@@ -186,17 +229,38 @@ class PolygonShaper(ShaperBase):
         self._idt = idt
         super().__init__(on_invalid=on_invalid)
         self.accelerate = check_flag("accelerate", accelerate)
-        nx, ny, off, cx, cy, a0, beta, n = self.polygon._fast
-        if self.method == "patent":
+        nx, ny, off, cx, cy, a0, beta, n = self.polygon.kernel_data
+        self._generic = False
+        if self.method == "edge-scaling":
             fast: tuple[Any, ...] = (
                 nx, ny, off, cx, cy, a0, beta, n,
                 self.buffer, self.spring_gain, self.corner_blend_angle, idt,
             )  # fmt: skip
         else:
-            fast = (nx, ny, off, cx, cy, n, self.buffer, self.spring_gain, rmax, idt)
+            # One formulation: a profile kind + its float parameters + whether the built-in
+            # relaxation by the recovery speed R applies (kernels.exact_bounds).
+            prm: tuple[float, ...]
+            if profile is None:
+                # LinearBuffer(d_max=buffer, spring_gain, max_recovery_speed)'s parameters.
+                kind, prm = (
+                    kern.PROFILE_LINEAR,
+                    (self.buffer, self.spring_gain, rmax, 0.0, 0.0, 0.0),
+                )
+                relax = True
+            elif isinstance(profile, (LinearBuffer, ThreeZoneBraking)):
+                kind, prm = profile.kernel_profile
+                relax = False
+            else:
+                # Not a kernel kind: _law_profile calls the profile's own cap.
+                kind, prm, relax = kern.PROFILE_LINEAR, (math.inf, 0.0, 0.0, 0.0, 0.0, 0.0), False
+                self._generic = True
+            fast = (nx, ny, off, cx, cy, n, kind, prm, relax, idt)
         self._fast = fast
+        # Arrays for the compiled loops; the profile's parameters stay a tuple of floats (numba
+        # keeps them in registers, as it would separate scalar arguments).
         self._batch_args = tuple(
-            np.asarray(a, dtype=float) if isinstance(a, tuple) else a for a in fast
+            np.asarray(a, dtype=float) if isinstance(a, tuple) and i != 7 else a
+            for i, a in enumerate(fast)
         )
         self._ready = True
 
@@ -214,18 +278,23 @@ class PolygonShaper(ShaperBase):
     def _law(
         self, px: float, py: float, vx: float, vy: float
     ) -> tuple[float, float, int, int, int, float, float, float, float, int]:
-        if self.method == "patent":
+        if self.method == "edge-scaling":
             return kern.patent_kernel(px, py, vx, vy, *self._fast)
-        if self.profile is not None:
+        if self._generic:
+            assert self.profile is not None
             return self._law_profile(px, py, vx, vy, self.profile)
-        n = self.polygon.n
+        n = self._fast[5]
         args = (*self._fast, [0.0] * n, [0.0] * n, [0] * n)  # kernel scratch: dist, bnd, work
         return kern.exact_kernel(px, py, vx, vy, *args)
 
     def _law_profile(
         self, px: float, py: float, vx: float, vy: float, profile: ApproachProfile
     ) -> tuple[float, float, int, int, int, float, float, float, float, int]:
-        """The exact law with a general approach profile (plain Python; no numba twin)."""
+        """The exact law with a profile the kernels do not know (plain Python, calls its cap).
+
+        The same formulation as the kernel path without the built-in relaxation: the same
+        solve (``min_change_under_caps``), the same zone rule (``zone_code``) and stages.
+        """
         nx, ny, off = self._fast[0], self._fast[1], self._fast[2]
         deltas = [nx[e] * px + ny[e] * py - off[e] for e in range(len(off))]
         ox, oy, relaxed = min_change_under_caps(vx, vy, deltas, nx, ny, profile)
@@ -233,25 +302,26 @@ class PolygonShaper(ShaperBase):
         p1, p2 = order[0], order[1]
         speed = math.hypot(vx, vy)
         near = sum(1 for d in deltas if profile.cap(d, speed) < speed)
-        if deltas[p1] < 0.0:
-            zone = kern.ZONE_OUTSIDE if near <= 1 else kern.ZONE_OUTSIDE_CORNER
-        else:
-            zone = (kern.ZONE_FREE, kern.ZONE_BUFFER)[near] if near < 2 else kern.ZONE_CORNER
-        stages = (kern.STAGE_PROJECT if near else 0) | (kern.STAGE_RELAXED if relaxed else 0)
+        n_out = sum(1 for d in deltas if d < 0.0)
+        zone = kern.zone_code(n_out, near)
+        stages = (kern.STAGE_PROJECT if near else 0) | (kern.STAGE_SPRING if n_out else 0)
+        if relaxed:
+            stages |= kern.STAGE_RELAXED
         return ox, oy, zone, p1, p2, deltas[p1], deltas[p2], 0.0, 0.0, stages
 
     def _law_batch(self, P: FloatArray, V: FloatArray) -> tuple[FloatArray, IntArray]:
-        if self.profile is not None:
+        if self._generic:
             rows = [self._law(*p, *v) for p, v in zip(P.tolist(), V.tolist(), strict=True)]
             out_p = np.array([r[:2] for r in rows], dtype=float).reshape(P.shape)
             return out_p, np.array([r[2] for r in rows], dtype=np.int64)
         out = np.empty_like(P)
         zones = np.empty(P.shape[0], dtype=np.int64)
-        fn = compiled_batch(self.method) if self.accelerate else None
+        exact = self.method == "exact"
+        fn = compiled_batch("exact" if exact else "patent") if self.accelerate else None
         if fn is not None:
             fn(P, V, out, zones, *self._batch_args)
         else:
-            py_fn = kern.patent_batch if self.method == "patent" else kern.exact_batch
+            py_fn = kern.exact_batch if exact else kern.patent_batch
             res = np.zeros_like(P).tolist()
             zl = [0] * P.shape[0]
             py_fn(P.tolist(), V.tolist(), res, zl, *self._fast)
@@ -268,8 +338,10 @@ class PolygonShaper(ShaperBase):
         :math:`n_i` the inward normal, :math:`L_i = -(|v| + R)\,d_i/d_{max}` inside and
         :math:`L_i = \min(k(-d_i), r_{max})` for a violated edge, :math:`R` the largest recovery
         bound (derivations §3). The exact law's output is the velocity closest to ``command`` that
-        meets them all (unless they are infeasible together: stage ``relaxed``). Other laws built on
-        the same bounds (the passive :class:`~velfence.cobot.CasterWall`) read them here.
+        meets them all (unless they are infeasible together: stage ``relaxed``). These are the
+        kernel's own bounds (one definition), in the caller's units. Other laws built on the same
+        bounds (the passive :class:`~velfence.cobot.CasterWall`) read them here or, as plain
+        floats, from :meth:`bound_rows`.
 
         Args:
             position: Position, shape (2,).
@@ -280,54 +352,64 @@ class PolygonShaper(ShaperBase):
             :math:`n_i \cdot v_o`, shape (m,), velocity units; edge indices, shape (m,).
 
         Raises:
-            InvalidParameter: For ``method="patent"`` or a ``profile`` (other bound forms).
+            InvalidParameter: For ``method="edge-scaling"`` or a ``profile`` (other bound forms).
             InvalidInput: Bad or non-finite input.
         """
-        if self.method != "exact" or self.profile is not None:
-            raise InvalidParameter(
-                "bounds() describes the exact law with a linear buffer; this shaper has "
-                f"method={self.method!r}, profile={self.profile!r}"
-            )
+        self._check_bounds_law()
         px, py = real_array("position", position, (2,), what="a 2-vector of real numbers").tolist()
         vx, vy = real_array("command", command, (2,), what="a 2-vector of real numbers").tolist()
-        rows = self._bounds(px, py, vx, vy)[0]
+        rows = self._bound_rows(px, py, vx, vy).rows
         if not rows:
             return np.zeros((0, 2)), np.zeros(0), np.zeros(0, dtype=np.int64)
         a = np.array(rows)
         return np.ascontiguousarray(a[:, :2]), a[:, 2].copy(), a[:, 3].astype(np.int64)
 
-    def _bounds(
-        self, px: float, py: float, vx: float, vy: float
-    ) -> tuple[list[tuple[float, float, float, int]], list[float]]:
-        """Float-only :meth:`bounds`: rows ``(nx, ny, L, edge)`` and every edge's distance.
+    def bound_rows(self, position: ArrayLike, command: ArrayLike) -> BoundRows:
+        """:meth:`bounds` as plain floats, with the nearest edges (for laws built on them).
 
-        The same arithmetic as the exact kernel (same recovery caps, same discrete-time terms,
-        same set of edges), in the caller's units.
+        Cheaper than :meth:`bounds` (no arrays are built); any finite magnitude is accepted,
+        as by :meth:`shape`.
+
+        Args:
+            position: Position, shape (2,) [workspace units] (a tuple of two floats is fastest).
+            command: Command, shape (2,) [workspace units/s].
+
+        Returns:
+            The :class:`BoundRows` (rows in edge order, caller's units).
+
+        Raises:
+            InvalidParameter: For ``method="edge-scaling"`` or a ``profile``.
+            InvalidInput: Not two 2-vectors of finite real numbers.
         """
-        nx, ny, off = self._fast[0], self._fast[1], self._fast[2]
-        n = len(off)
-        k, rmax, dmax, idt = self.spring_gain, self.max_recovery_speed, self.buffer, self._idt
-        d = [nx[e] * px + ny[e] * py - off[e] for e in range(n)]
+        self._check_bounds_law()
+        px, py = as_pair("position", position)
+        vx, vy = as_pair("command", command)
+        s = px + py + vx + vy
+        if s - s != 0.0 and not all(math.isfinite(x) for x in (px, py, vx, vy)):
+            raise InvalidInput(
+                f"bound_rows: expected finite values, got position=({px}, {py}), "
+                f"command=({vx}, {vy})"
+            )
+        return self._bound_rows(px, py, vx, vy)
 
-        def recovery(de: float) -> float:
-            r = min(k * -de, rmax)
-            return min(r, -de * idt) if idt > 0.0 else r
+    def _check_bounds_law(self) -> None:
+        if self.method != "exact" or self.profile is not None:
+            raise InvalidParameter(
+                "bounds() describes the exact law with a linear buffer; this shaper has "
+                f"method={self.method!r}, profile={self.profile!r}"
+            )
 
-        rec = 0.0
-        for e in range(n):
-            if d[e] < 0.0:
-                rec = max(rec, recovery(d[e]))
-        speed = math.hypot(vx, vy) + rec
-        reach = dmax if idt == 0.0 else max(dmax, speed / idt)
-
-        def lower(de: float) -> float:
-            if de < 0.0:
-                return recovery(de)
-            b = -speed * (de / dmax)
-            return max(b, -de * idt) if idt > 0.0 else b
-
-        rows = [(nx[e], ny[e], lower(d[e]), e) for e in range(n) if d[e] < reach]
-        return rows, d
+    def _bound_rows(self, px: float, py: float, vx: float, vy: float) -> BoundRows:
+        """The kernel's bound definition (``exact_bounds``) in the caller's units."""
+        nx, ny, off, _, _, n, kind, prm, relax, idt = self._fast
+        dist = [0.0] * n
+        bnd = [0.0] * n
+        work = [0] * n
+        m, n_out, _, _, _, _, p1, p2, d1, d2 = kern.exact_bounds(
+            px, py, vx, vy, nx, ny, off, n, kind, prm, relax, idt, False, dist, bnd, work
+        )
+        rows = tuple((nx[e], ny[e], bnd[e], e) for e in work[:m])
+        return BoundRows(rows, p1, p2, d1, d2, n_out)
 
     def __repr__(self) -> str:
         return (

@@ -18,6 +18,7 @@ from typing import Protocol, runtime_checkable
 
 from velfence._validate import MAX_MAGNITUDE, check_positive, finite_scalar
 from velfence.errors import InvalidInput, InvalidParameter
+from velfence.shaping._kernels import PROFILE_LINEAR, PROFILE_THREE_ZONE, profile_cap
 
 __all__ = ["ApproachProfile", "LinearBuffer", "ThreeZoneBraking", "min_change_under_caps"]
 
@@ -81,6 +82,7 @@ class LinearBuffer:
     d_max: float
     spring_gain: float = 0.0
     max_recovery_speed: float | None = None
+    _params: tuple[float, ...] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         d = check_positive("d_max", self.d_max, unit="units")
@@ -90,6 +92,16 @@ class LinearBuffer:
         if self.max_recovery_speed is not None:
             r = check_positive("max_recovery_speed", self.max_recovery_speed, unit="units/s")
             object.__setattr__(self, "max_recovery_speed", r)
+        object.__setattr__(self, "_params", (d, k, self.recovery_cap, 0.0, 0.0, 0.0))
+
+    @property
+    def kernel_profile(self) -> tuple[int, tuple[float, ...]]:
+        """``(kind, params)``: this profile as the compiled shaping kernels read it.
+
+        ``kind`` is the linear-buffer code, ``params`` is ``(d_max, spring_gain,
+        recovery_cap, 0, 0, 0)``; the cap is evaluated by the same kernel function either way.
+        """
+        return PROFILE_LINEAR, self._params
 
     @property
     def recovery_cap(self) -> float:
@@ -104,11 +116,7 @@ class LinearBuffer:
         Raises:
             InvalidInput: ``delta`` or ``speed`` not a finite real number, or ``speed < 0``.
         """
-        delta, speed = _delta(delta), _speed(speed)
-        if delta >= 0.0:
-            # speed·(δ/d_max), not (speed·δ)/d_max: the product of two large inputs could overflow.
-            return math.inf if delta >= self.d_max else speed * (delta / self.d_max)
-        return -min(-self.spring_gain * delta, self.recovery_cap)
+        return profile_cap(PROFILE_LINEAR, self._params, False, _delta(delta), _speed(speed))
 
     def zone(self, delta: float) -> int:
         """0 beyond the buffer, 1 inside it, 2 outside the constraint."""
@@ -152,6 +160,7 @@ class ThreeZoneBraking:
     delta_int: float = field(init=False)
     delta_f: float = field(init=False)
     delta_phi: float = field(init=False)
+    _params: tuple[float, ...] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         K = check_positive("gain", self.gain, unit="1/s")
@@ -188,6 +197,16 @@ class ThreeZoneBraking:
         object.__setattr__(self, "delta_int", d_int)
         object.__setattr__(self, "delta_f", 0.5 * d_int)
         object.__setattr__(self, "delta_phi", d_phi)
+        object.__setattr__(self, "_params", (K, v, a, d_int, 0.5 * d_int, d_phi))
+
+    @property
+    def kernel_profile(self) -> tuple[int, tuple[float, ...]]:
+        """``(kind, params)``: this profile as the compiled shaping kernels read it.
+
+        ``kind`` is the three-zone code, ``params`` is ``(gain, v_max, a_max, delta_int,
+        delta_f, delta_phi)``; the cap is evaluated by the same kernel function either way.
+        """
+        return PROFILE_THREE_ZONE, self._params
 
     @classmethod
     def from_actuator_limits(
@@ -236,12 +255,7 @@ class ThreeZoneBraking:
         """
         delta = _delta(delta)
         _speed(speed)
-        a = abs(delta)
-        if a > self.delta_phi:
-            return math.copysign(self.v_max, delta)
-        if a > self.delta_int:
-            return math.copysign(math.sqrt(2.0 * self.a_max * abs(a - self.delta_f)), delta)
-        return self.gain * delta
+        return profile_cap(PROFILE_THREE_ZONE, self._params, False, delta, 0.0)
 
     def zone(self, delta: float) -> int:
         """The paper's zone flag of ``|δ|``: 3 nominal, 2 maximal deceleration, 1 linear.

@@ -23,7 +23,7 @@ every cycle where the acceleration limit had to give way.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -32,7 +32,10 @@ from velfence._typing import FloatArray
 from velfence._validate import check_choice, check_positive, check_positive_int, real_array
 from velfence.errors import InvalidParameter
 
-__all__ = ["RateLimiter"]
+__all__ = ["RateLimiter", "RateMode"]
+
+#: What the rate limiter limits the change of: its previous output, or the previous command.
+RateMode = Literal["output", "literal"]
 
 
 #: Largest accepted number of components (a joint vector, not a data set).
@@ -75,13 +78,15 @@ class RateLimiter:
         v_max: ArrayLike,
         a_max: ArrayLike,
         dt: float,
-        mode: str = "output",
+        mode: RateMode = "output",
     ) -> None:
         self.size = check_positive_int("size", size, maximum=MAX_SIZE, example=3)
         self.v_max = _limits("v_max", v_max, self.size, "units/s")
         self.a_max = _limits("a_max", a_max, self.size, "units/s²")
         self.dt = check_positive("dt", dt, unit="s")
-        self.mode = check_choice("mode", mode, ("output", "literal"))
+        self.mode: RateMode = check_choice(  # type: ignore[assignment]
+            "mode", mode, ("output", "literal")
+        )
         self._step = self.a_max * self.dt  # <= 1e300: both factors are <= 1e150
         self._prev = np.zeros(self.size)
 

@@ -59,11 +59,17 @@ from velfence._validate import (
 )
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 from velfence.geometry.polygon import polygon_from_halfplanes
-from velfence.shaping.base import InvalidPolicy
+from velfence.shaping._kernels import ZONE_NAMES, zone_code
+from velfence.shaping.base import InvalidPolicy, OnInvalid, Zone
 from velfence.shaping.profiles import ApproachProfile, min_change_under_caps
 from velfence.shaping.rate import RateLimiter
 
-__all__ = ["StopLimiter", "StopResult"]
+__all__ = ["StopLimiter", "StopMethod", "StopResult", "Tangential"]
+
+#: The laws of :class:`StopLimiter`: the paper's nearest stop, or every stop at once.
+StopMethod = Literal["nearest", "exact"]
+#: What happens to the tangential component (eq. 5 faithful, or kept).
+Tangential = Literal["scale_with_normal", "preserve"]
 
 
 #: Largest accepted size of the joint vector (and of ``transform``).
@@ -84,9 +90,13 @@ class StopResult:
         stop: Index of the nearest stop (input order), -1 when none.
         delta: Signed distance to it, positive inside [units].
         deltas: Signed distances to every stop, shape (m,).
-        zone: The profile's zone flag for ``delta`` (three-zone: 3 nominal, 2 braking, 1 linear),
-            or ``"invalid"`` when non-finite input (or an overflow) was answered with zero
-            velocity under ``on_invalid="stop"``.
+        zone: The zone name (:data:`~velfence.shaping.base.Zone`) by the one zone rule of the
+            2-D laws: ``"free"`` when no stop's cap is below the limited-plane speed,
+            ``"buffer"`` / ``"corner"`` when one / several are, ``"outside"`` /
+            ``"outside-corner"`` when some stop is violated, ``"invalid"`` when non-finite input
+            (or an overflow) was answered with zero velocity under ``on_invalid="stop"``.
+        profile_zone: The profile's zone number for ``delta`` (three-zone: 3 nominal, 2
+            braking, 1 linear); -1 when ``invalid``.
         v_perp: Normal speed toward the stop before limitation [units/s].
         v_par: Tangential speed (along ``e_par``, right-handed with ``e_perp``) before.
         v_perp_lim: Normal speed after limitation.
@@ -99,6 +109,10 @@ class StopResult:
             round-off. Position safety always wins.
         invalid: True when the input was invalid and zero velocity was answered (then ``zone``
             is ``"invalid"``, ``stop`` is -1 and the distances and speeds are NaN).
+        active: The stops whose cap is below the limited-plane speed (input order).
+        stages: Names of the stages applied, in order: ``"pre-rate-limit"``, ``"stop-cap"``
+            (the stop bounds changed the limited-plane velocity), ``"post-rate-limit"``,
+            ``"rate-override"``; ``("stop",)`` when invalid.
     """
 
     output: FloatArray
@@ -110,15 +124,18 @@ class StopResult:
     stop: int
     delta: float
     deltas: FloatArray
-    zone: int | Literal["invalid"]
+    zone: Zone
+    profile_zone: int
     v_perp: float
     v_par: float
     v_perp_lim: float
     v_par_lim: float
-    method: str
+    method: StopMethod
     rate_limited: FloatArray = field(default_factory=lambda: np.zeros(0))
     rate_override: bool = False
     invalid: bool = False
+    active: tuple[int, ...] = ()
+    stages: tuple[str, ...] = ()
 
 
 class _PerPeriod:
@@ -238,13 +255,13 @@ class StopLimiter(InvalidPolicy):
         profile: ApproachProfile,
         transform: ArrayLike | None = None,
         limited: tuple[int, int] = (0, 1),
-        tangential: str = "scale_with_normal",
+        tangential: Tangential = "scale_with_normal",
         clamp_ratio: bool = True,
-        method: str = "nearest",
+        method: StopMethod = "nearest",
         pre: RateLimiter | None = None,
         post: RateLimiter | None = None,
         dt: float | None = None,
-        on_invalid: str = "raise",
+        on_invalid: OnInvalid = "raise",
     ) -> None:
         super().__init__(on_invalid=on_invalid)
         self.clamp_ratio = check_flag("clamp_ratio", clamp_ratio)
@@ -291,8 +308,12 @@ class StopLimiter(InvalidPolicy):
         self.transform = Q
         self.size = n
         self.limited = _index_pair(limited, n)
-        self.tangential = check_choice("tangential", tangential, ("scale_with_normal", "preserve"))
-        self.method = check_choice("method", method, ("nearest", "exact"))
+        self.tangential: Tangential = check_choice(  # type: ignore[assignment]
+            "tangential", tangential, ("scale_with_normal", "preserve")
+        )
+        self.method: StopMethod = check_choice(  # type: ignore[assignment]
+            "method", method, ("nearest", "exact")
+        )
         for name, stage in (("pre", pre), ("post", post)):
             if stage is not None and (not isinstance(stage, RateLimiter) or stage.size != n):
                 raise InvalidParameter(
@@ -573,6 +594,7 @@ class StopLimiter(InvalidPolicy):
                 delta=nan,
                 deltas=np.full(len(self._off), nan),
                 zone="invalid",
+                profile_zone=-1,
                 v_perp=nan,
                 v_par=nan,
                 v_perp_lim=nan,
@@ -581,6 +603,7 @@ class StopLimiter(InvalidPolicy):
                 rate_limited=np.zeros(n),
                 rate_override=False,
                 invalid=True,
+                stages=("stop",),
             )
         out, v, k, deltas, info, override, rate_limited = r
         w1, w2, wl1, wl2, v_perp, v_par, v_perp_lim, v_par_lim = info
@@ -590,6 +613,17 @@ class StopLimiter(InvalidPolicy):
         i, j = self.limited
         qd[i], qd[j] = w1, w2
         qd_lim[i], qd_lim[j] = wl1, wl2
+        speed = math.hypot(w1, w2)
+        active = tuple(e for e, d in enumerate(deltas) if self._caps.cap(d, speed) < speed)
+        zone: Zone = ZONE_NAMES[  # type: ignore[assignment]
+            zone_code(sum(1 for d in deltas if d < 0.0), len(active))
+        ]
+        stages = (
+            ("pre-rate-limit",) * (self.pre is not None)
+            + ("stop-cap",) * ((wl1, wl2) != (w1, w2))
+            + ("post-rate-limit",) * (self.post is not None)
+            + ("rate-override",) * bool(override)
+        )
         return StopResult(
             output=np.array(out),
             command=np.array(c),
@@ -600,7 +634,8 @@ class StopLimiter(InvalidPolicy):
             stop=k,
             delta=deltas[k],
             deltas=np.array(deltas),
-            zone=self.profile.zone(deltas[k]),
+            zone=zone,
+            profile_zone=self.profile.zone(deltas[k]),
             v_perp=v_perp,
             v_par=v_par,
             v_perp_lim=v_perp_lim,
@@ -608,6 +643,8 @@ class StopLimiter(InvalidPolicy):
             method=self.method,
             rate_limited=np.array(rate_limited),
             rate_override=override,
+            active=active,
+            stages=stages,
         )
 
     def shape_batch(self, Theta: ArrayLike, Theta_dot: ArrayLike) -> FloatArray:

@@ -15,6 +15,8 @@ velocity and zone ``"invalid"``). Definitions in ``docs/simulation.md`` §3.
 from __future__ import annotations
 
 import math
+import sys
+from typing import Any
 
 import numpy as np
 
@@ -23,33 +25,181 @@ from velfence._validate import MAX_MAGNITUDE, check_positive
 from velfence.errors import InvalidGeometry, InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon, Rectangle, as_polygon
 from velfence.shaping import ZONE_NAMES
-from velfence.shaping.base import ShaperBase
+from velfence.shaping._accel import compiled_loop
+from velfence.shaping._kernels import zone_code
+from velfence.shaping.base import OnInvalid, ShaperBase
 
 __all__ = ["AxisLimits", "HardStop", "NoLimit"]
 
 
 _FREE = ZONE_NAMES.index("free")
-_BUFFER = ZONE_NAMES.index("buffer")
-_CORNER = ZONE_NAMES.index("corner")
-_OUTSIDE = ZONE_NAMES.index("outside")
-_OUTSIDE_CORNER = ZONE_NAMES.index("outside-corner")
-_INVALID = ZONE_NAMES.index("invalid")
 
 # (ox, oy, zone, primary, secondary, d1, d2, sx, sy, stages)
 _Out = tuple[float, float, int, int, int, float, float, float, float, tuple[str, ...]]
 
 
-def _two_smallest(d: list[float]) -> tuple[int, int, float, float]:
-    """Indices and values of the smallest and second-smallest entries (first index on ties)."""
-    p1 = p2 = -1
-    d1 = d2 = math.inf
-    for i, x in enumerate(d):
-        if x < d1:
-            p2, d2 = p1, d1
-            p1, d1 = i, x
-        elif x < d2:
-            p2, d2 = i, x
-    return p1, p2, d1, d2
+# ---------------------------------------------------------------- kernels
+# Each baseline's law is written once, as a scalar kernel on floats; `_law` runs it as Python and
+# `_law_batch` runs its `*_batch` loop, compiled with numba when installed (else as Python), so
+# the two can only agree. Plain arithmetic only (see velfence.shaping._kernels).
+
+# Replaced by numba.prange in the compiled twins; plain range in pure Python.
+prange = range
+
+
+def hard_stop_kernel(
+    px: float, py: float, vx: float, vy: float, nx: Any, ny: Any, off: Any, n: int, dt: float
+) -> tuple[float, float, int, int, int, float, float]:
+    """HardStop's law: ``(ox, oy, zone, primary, secondary, d1, d2)`` (class docs)."""
+    p1 = -1
+    p2 = -1
+    d1 = math.inf
+    d2 = math.inf
+    qx = px + dt * vx
+    qy = py + dt * vy
+    blocked = False
+    for e in range(n):
+        d = nx[e] * px + ny[e] * py - off[e]
+        if d < d1:
+            d2 = d1
+            p2 = p1
+            d1 = d
+            p1 = e
+        elif d < d2:
+            d2 = d
+            p2 = e
+        if nx[e] * qx + ny[e] * qy - off[e] < 0.0:
+            blocked = True
+    # Outside: one violated constraint reported; inside: the blocked step is the near one.
+    zone = zone_code(1 if d1 < 0.0 else 0, 1 if blocked else 0)
+    if blocked:
+        return 0.0, 0.0, zone, p1, p2, d1, d2
+    return vx, vy, zone, p1, p2, d1, d2
+
+
+def hard_stop_batch(
+    P: Any, V: Any, out: Any, zones: Any, nx: Any, ny: Any, off: Any, n: int, dt: float
+) -> None:
+    """Loop of :func:`hard_stop_kernel` over rows (writes ``out`` (N, 2), ``zones`` (N,))."""
+    for r in prange(len(P)):
+        res = hard_stop_kernel(P[r][0], P[r][1], V[r][0], V[r][1], nx, ny, off, n, dt)
+        out[r][0] = res[0]
+        out[r][1] = res[1]
+        zones[r] = res[2]
+
+
+def _axis(u: float, d_lo: float, d_hi: float, b: float, k: float) -> tuple[float, float, int]:
+    """One axis of AxisLimits: (shaped component, spring, stage bits 1=scaled 2=zeroed)."""
+    bits = 0
+    if u > 0.0:
+        if d_hi < 0.0:
+            u = 0.0
+            bits |= 2
+        elif d_hi < b:
+            u = u * (d_hi / b)
+            bits |= 1
+    elif u < 0.0:
+        if d_lo < 0.0:
+            u = 0.0
+            bits |= 2
+        elif d_lo < b:
+            u = u * (d_lo / b)
+            bits |= 1
+    s = 0.0
+    if d_hi < 0.0:
+        s = k * d_hi
+    elif d_lo < 0.0:
+        s = -k * d_lo
+    return u + s, s, bits
+
+
+def axis_limits_kernel(
+    px: float,
+    py: float,
+    vx: float,
+    vy: float,
+    xmin: float,
+    xmax: float,
+    ymin: float,
+    ymax: float,
+    b: float,
+    k: float,
+) -> tuple[float, float, int, int, int, float, float, float, float, int]:
+    """AxisLimits' law: ``(ox, oy, zone, primary, secondary, d1, d2, sx, sy, bits)``.
+
+    The limit distances are ``d = [y - ymin, xmax - x, ymax - y, x - xmin]``; ``bits``: 1 a
+    component was scaled, 2 one was zeroed.
+    """
+    p1 = -1
+    p2 = -1
+    d1 = math.inf
+    d2 = math.inf
+    near = 0
+    for e in range(4):
+        if e == 0:
+            d = py - ymin
+        elif e == 1:
+            d = xmax - px
+        elif e == 2:
+            d = ymax - py
+        else:
+            d = px - xmin
+        if d < b:
+            near += 1
+        if d < d1:
+            d2 = d1
+            p2 = p1
+            d1 = d
+            p1 = e
+        elif d < d2:
+            d2 = d
+            p2 = e
+    ox, sx, bx = _axis(vx, px - xmin, xmax - px, b, k)
+    oy, sy, by = _axis(vy, py - ymin, ymax - py, b, k)
+    zone = zone_code(1 if d1 < 0.0 else 0, near)
+    return ox, oy, zone, p1, p2, d1, d2, sx, sy, bx | by
+
+
+def axis_limits_batch(
+    P: Any,
+    V: Any,
+    out: Any,
+    zones: Any,
+    xmin: float,
+    xmax: float,
+    ymin: float,
+    ymax: float,
+    b: float,
+    k: float,
+) -> None:
+    """Loop of :func:`axis_limits_kernel` over rows (writes ``out`` (N, 2), ``zones`` (N,))."""
+    for r in prange(len(P)):
+        res = axis_limits_kernel(
+            P[r][0], P[r][1], V[r][0], V[r][1], xmin, xmax, ymin, ymax, b, k
+        )  # fmt: skip
+        out[r][0] = res[0]
+        out[r][1] = res[1]
+        zones[r] = res[2]
+
+
+def _run_batch(name: str, P: FloatArray, V: FloatArray, *args: Any) -> tuple[FloatArray, IntArray]:
+    """Run the ``name`` batch loop: compiled when numba is installed, else as Python."""
+    out = np.empty_like(P)
+    zones = np.empty(P.shape[0], dtype=np.int64)
+    deps = {
+        "hard_stop_batch": ("hard_stop_kernel",),
+        "axis_limits_batch": ("_axis", "axis_limits_kernel"),
+    }
+    fn = compiled_loop(sys.modules[__name__], *deps[name], name)
+    if fn is not None:
+        fn(P, V, out, zones, *args)
+        return out, zones
+    res = np.zeros_like(P).tolist()
+    zl = [0] * P.shape[0]
+    globals()[name](P.tolist(), V.tolist(), res, zl, *args)
+    out[:] = res
+    zones[:] = zl
+    return out, zones
 
 
 class _Baseline(ShaperBase):
@@ -74,7 +224,7 @@ class NoLimit(_Baseline):
     __slots__ = ()
     method = "no-limit"
 
-    def __init__(self, *, on_invalid: str = "raise") -> None:
+    def __init__(self, *, on_invalid: OnInvalid = "raise") -> None:
         super().__init__(on_invalid=on_invalid)
 
     def _law(self, px: float, py: float, vx: float, vy: float) -> _Out:
@@ -114,7 +264,9 @@ class HardStop(_Baseline):
     __slots__ = ("_nx", "_ny", "_off", "dt", "polygon")
     method = "hard-stop"
 
-    def __init__(self, polygon: ConvexPolygon, *, dt: float, on_invalid: str = "raise") -> None:
+    def __init__(
+        self, polygon: ConvexPolygon, *, dt: float, on_invalid: OnInvalid = "raise"
+    ) -> None:
         super().__init__(on_invalid=on_invalid)
         self.polygon = as_polygon(polygon)
         self.dt = check_positive("dt", dt, unit="s")
@@ -122,31 +274,15 @@ class HardStop(_Baseline):
         self._ny = tuple(float(a) for a in polygon.normals[:, 1])
         self._off = tuple(float(a) for a in polygon.offsets)
 
-    def _dist(self, x: float, y: float) -> list[float]:
-        return [a * x + b * y - o for a, b, o in zip(self._nx, self._ny, self._off, strict=True)]
-
     def _law(self, px: float, py: float, vx: float, vy: float) -> _Out:
-        d = self._dist(px, py)
-        p1, p2, d1, d2 = _two_smallest(d)
-        nxt = self._dist(px + self.dt * vx, py + self.dt * vy)
-        blocked = min(nxt) < 0.0
-        zone = _OUTSIDE if d1 < 0.0 else (_BUFFER if blocked else _FREE)
-        if blocked:
-            return 0.0, 0.0, zone, p1, p2, d1, d2, 0.0, 0.0, ()
-        return vx, vy, zone, p1, p2, d1, d2, 0.0, 0.0, ()
+        r = hard_stop_kernel(px, py, vx, vy, self._nx, self._ny, self._off, len(self._off), self.dt)
+        return r[0], r[1], r[2], r[3], r[4], r[5], r[6], 0.0, 0.0, ()
 
     def _law_batch(self, P: FloatArray, V: FloatArray) -> tuple[FloatArray, IntArray]:
-        nx = np.asarray(self._nx)[None, :]
-        ny = np.asarray(self._ny)[None, :]
-        off = np.asarray(self._off)[None, :]
-        d = P[:, 0:1] * nx + P[:, 1:2] * ny - off
-        Q = P + self.dt * V
-        dn = Q[:, 0:1] * nx + Q[:, 1:2] * ny - off
-        blocked = dn.min(axis=1) < 0.0
-        outside = d.min(axis=1) < 0.0
-        out = np.where(blocked[:, None], 0.0, V)
-        zones = np.where(outside, _OUTSIDE, np.where(blocked, _BUFFER, _FREE)).astype(np.int64)
-        return out, zones
+        return _run_batch(
+            "hard_stop_batch", P, V, np.asarray(self._nx), np.asarray(self._ny),
+            np.asarray(self._off), len(self._off), self.dt,
+        )  # fmt: skip
 
     def __repr__(self) -> str:
         return f"HardStop({self.polygon.n}-gon, dt={self.dt})"
@@ -194,7 +330,7 @@ class AxisLimits(_Baseline):
         *,
         buffer: float,
         spring_gain: float = 0.0,
-        on_invalid: str = "raise",
+        on_invalid: OnInvalid = "raise",
     ) -> None:
         super().__init__(on_invalid=on_invalid)
         if not isinstance(rectangle, Rectangle):
@@ -219,7 +355,7 @@ class AxisLimits(_Baseline):
         *,
         buffer: float,
         spring_gain: float = 0.0,
-        on_invalid: str = "raise",
+        on_invalid: OnInvalid = "raise",
     ) -> AxisLimits:
         """Axis limits on the polygon's largest inscribed axis-aligned rectangle.
 
@@ -237,40 +373,11 @@ class AxisLimits(_Baseline):
             on_invalid=on_invalid,
         )
 
-    def _axis(self, u: float, d_lo: float, d_hi: float) -> tuple[float, float, int]:
-        """One axis: (shaped component, spring, stage bits 1=scaled 2=zeroed)."""
-        b = self.buffer
-        k = self.spring_gain
-        bits = 0
-        if u > 0.0:
-            if d_hi < 0.0:
-                u = 0.0
-                bits |= 2
-            elif d_hi < b:
-                u = u * (d_hi / b)
-                bits |= 1
-        elif u < 0.0:
-            if d_lo < 0.0:
-                u = 0.0
-                bits |= 2
-            elif d_lo < b:
-                u = u * (d_lo / b)
-                bits |= 1
-        s = 0.0
-        if d_hi < 0.0:
-            s = k * d_hi
-        elif d_lo < 0.0:
-            s = -k * d_lo
-        return u + s, s, bits
-
     def _law(self, px: float, py: float, vx: float, vy: float) -> _Out:
         r = self.rectangle
-        d = [py - r.ymin, r.xmax - px, r.ymax - py, px - r.xmin]
-        p1, p2, d1, d2 = _two_smallest(d)
-        ox, sx, bx = self._axis(vx, d[3], d[1])
-        oy, sy, by = self._axis(vy, d[0], d[2])
-        zone = _zone(sum(1 for x in d if x < self.buffer), d1 < 0.0)
-        bits = bx | by
+        ox, oy, zone, p1, p2, d1, d2, sx, sy, bits = axis_limits_kernel(
+            px, py, vx, vy, r.xmin, r.xmax, r.ymin, r.ymax, self.buffer, self.spring_gain
+        )
         stages: list[str] = []
         if bits & 1:
             stages.append("primary-projection")
@@ -280,35 +387,12 @@ class AxisLimits(_Baseline):
             stages.append("spring")
         return ox, oy, zone, p1, p2, d1, d2, sx, sy, tuple(stages)
 
-    def _axis_batch(self, u: FloatArray, d_lo: FloatArray, d_hi: FloatArray) -> FloatArray:
-        b = self.buffer
-        k = self.spring_gain
-        up = np.where(d_hi < 0.0, 0.0, np.where(d_hi < b, u * (d_hi / b), u))
-        down = np.where(d_lo < 0.0, 0.0, np.where(d_lo < b, u * (d_lo / b), u))
-        shaped = np.where(u > 0.0, up, np.where(u < 0.0, down, u))
-        s = np.where(d_hi < 0.0, k * d_hi, np.where(d_lo < 0.0, -k * d_lo, 0.0))
-        out: FloatArray = shaped + s
-        return out
-
     def _law_batch(self, P: FloatArray, V: FloatArray) -> tuple[FloatArray, IntArray]:
         r = self.rectangle
-        x, y = P[:, 0], P[:, 1]
-        d = np.stack([y - r.ymin, r.xmax - x, r.ymax - y, x - r.xmin], axis=1)
-        out = np.stack(
-            [
-                self._axis_batch(V[:, 0], d[:, 3], d[:, 1]),
-                self._axis_batch(V[:, 1], d[:, 0], d[:, 2]),
-            ],
-            axis=1,
-        )
-        near = (d < self.buffer).sum(axis=1)
-        outside = d.min(axis=1) < 0.0
-        zones = np.where(
-            outside,
-            np.where(near <= 1, _OUTSIDE, _OUTSIDE_CORNER),
-            np.where(near == 0, _FREE, np.where(near == 1, _BUFFER, _CORNER)),
-        ).astype(np.int64)
-        return out, zones
+        return _run_batch(
+            "axis_limits_batch", P, V, float(r.xmin), float(r.xmax), float(r.ymin),
+            float(r.ymax), self.buffer, self.spring_gain,
+        )  # fmt: skip
 
     def __repr__(self) -> str:
         r = self.rectangle
@@ -316,11 +400,3 @@ class AxisLimits(_Baseline):
             f"AxisLimits(x=[{r.xmin:.4g}, {r.xmax:.4g}], y=[{r.ymin:.4g}, {r.ymax:.4g}], "
             f"buffer={self.buffer}, spring_gain={self.spring_gain})"
         )
-
-
-def _zone(n_near: int, outside: bool) -> int:
-    if outside:
-        return _OUTSIDE if n_near <= 1 else _OUTSIDE_CORNER
-    if n_near == 0:
-        return _FREE
-    return _BUFFER if n_near == 1 else _CORNER

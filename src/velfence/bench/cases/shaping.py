@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Sequence
+from typing import cast
 
 import numpy as np
 
@@ -20,7 +21,7 @@ from velfence.bench.settings import MAX_EDGES, ZONES, BenchSettings
 from velfence.bench.timing import as_fields, time_calls
 from velfence.errors import InvalidGeometry
 from velfence.geometry.polygon import ConvexPolygon
-from velfence.shaping.polygon import PolygonShaper
+from velfence.shaping.polygon import PolygonMethod, PolygonShaper
 
 __all__ = [
     "METHODS",
@@ -69,7 +70,11 @@ def shaper(
 ) -> PolygonShaper:
     """The benchmark's :class:`PolygonShaper` of ``poly`` (buffer and gain from ``s``)."""
     return PolygonShaper(
-        poly, buffer=s.buffer, spring_gain=s.spring_gain, method=method, accelerate=accelerate
+        poly,
+        buffer=s.buffer,
+        spring_gain=s.spring_gain,
+        method=cast("PolygonMethod", method),  # checked by the constructor
+        accelerate=accelerate,
     )
 
 
@@ -169,7 +174,7 @@ def worst_zone(rows: Sequence[LatencyRow]) -> WorstZone:
     )
 
 
-#: Names of the three-zone profile's zones (``StopResult.zone`` is an int, or "invalid").
+#: Names of the three-zone profile's zones (``StopResult.profile_zone``).
 _ZONE_LABELS: dict[int | str, str] = {3: "nominal", 2: "braking", 1: "linear"}
 
 
@@ -191,7 +196,7 @@ def stop_latency(s: BenchSettings, step: Step) -> list[StopLatencyRow]:
             th = Q_AUX.T @ q
             v = rng.normal(size=3)
             r = lim.explain(th, v)
-            name = "outside" if r.delta < 0 else f"{r.zone} " + _ZONE_LABELS[r.zone]
+            name = "outside" if r.delta < 0 else f"{r.profile_zone} " + _ZONE_LABELS[r.profile_zone]
             pool = pools.setdefault(name, [])
             if len(pool) < 64:
                 pool.append((th, v))
