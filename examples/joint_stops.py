@@ -7,15 +7,13 @@ from velfence.mechanisms import PAPER_STOPS, Q_AUX
 
 
 def main() -> None:
-    profile = vf.ThreeZoneBraking.from_actuator_limits(
-        gain=100, joint_speed_max=2, joint_accel_max=20
-    )
+    profile = vf.ThreeZoneBraking.from_actuator_limits(gain=100, max_speed=2, max_acceleration=20)
     limiter = vf.StopLimiter(
         PAPER_STOPS,
         profile=profile,
         transform=Q_AUX,
         method="exact",
-        pre=vf.RateLimiter(size=3, v_max=2, a_max=20, dt=1e-3),
+        pre=vf.RateLimiter(size=3, max_speed=2, max_acceleration=20, dt=1e-3),
     )
     theta = np.full(3, np.pi / 2)  # home
     command = np.array([-0.5, 0.5, 0.0])  # elevation, toward stop d4
@@ -23,7 +21,10 @@ def main() -> None:
         r = limiter.explain(theta, command)
         theta = theta + 1e-3 * r.output
         if k % 250 == 0:
-            print(f"t={k * 1e-3:.2f} s  stop d{r.stop + 1}  zone {r.zone}  delta {r.delta:.4f}")
+            print(
+                f"t={k * 1e-3:.2f} s  stop d{r.stop + 1}  zone {r.profile_zone} ({r.zone})  "
+                f"delta {r.delta:.4f}"
+            )
     print("after 1.5 s: theta", theta.round(4), "velocity", r.output.round(6))
 
 

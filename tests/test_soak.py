@@ -45,6 +45,7 @@ def test_exact_polygon_recovers_from_outside(polygon_results: dict[str, object])
     r = polygon_results["PolygonShaper exact, 1 kHz"]
     assert r.outside_episodes > 0
     assert r.recovered == r.outside_episodes
+    assert r.median_recovery_time is not None
     assert 0.0 < r.median_recovery_time < 1.0
 
 

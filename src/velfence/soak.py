@@ -30,7 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from velfence._typing import FloatArray
-from velfence._validate import check_positive, check_positive_int, check_seed
+from velfence._validate import check_positive, check_positive_int, check_seed, check_text
 from velfence.errors import InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon
 
@@ -91,7 +91,8 @@ class SoakResult:
         nonfinite: Steps whose output had a non-finite entry.
         outside_episodes: Episodes that started outside.
         recovered: Of those, how many reduced their penetration to 10 % of its initial depth.
-        median_recovery_time: Median time to do so over the recovered episodes [s].
+        median_recovery_time: Median time to do so over the recovered episodes [s]; ``None``
+            when no episode recovered (or none started outside).
         flagged: Steps where a comfort limit gave way to safety (-1: not applicable).
         seconds: Wall time of the campaign [s].
         tol: Penetration tolerance used for ``escapes`` [state units].
@@ -105,7 +106,7 @@ class SoakResult:
     nonfinite: int
     outside_episodes: int
     recovered: int
-    median_recovery_time: float
+    median_recovery_time: float | None
     flagged: int
     seconds: float
     tol: float
@@ -224,7 +225,7 @@ def run_case(
         nonfinite=nonfinite,
         outside_episodes=int(outside.sum()),
         recovered=int(done.size),
-        median_recovery_time=float(np.median(done) * case.dt) if done.size else math.nan,
+        median_recovery_time=float(np.median(done) * case.dt) if done.size else None,
         flagged=-1 if case.flagged is None else int(case.flagged()),
         seconds=seconds,
         tol=tol,
@@ -244,7 +245,26 @@ def render_markdown(results: Sequence[SoakResult], *, command: str, notes: str =
         results: The campaigns' results, in display order.
         command: The command that produced them (printed above the table).
         notes: Extra Markdown appended after the table.
+
+    Returns:
+        The Markdown: a line naming ``command``, the table, then ``notes``.
+
+    Raises:
+        InvalidParameter: ``results`` not a non-empty list or tuple of :class:`SoakResult`,
+            ``command`` or ``notes`` not text.
     """
+    if not isinstance(results, list | tuple):
+        raise InvalidParameter(
+            "results: expected a non-empty list or tuple of SoakResult (from run_case()), got "
+            f"{type(results).__name__}"
+        )
+    if not results or not all(isinstance(r, SoakResult) for r in results):
+        raise InvalidParameter(
+            "results: expected a non-empty list or tuple of SoakResult (from run_case()), got "
+            f"{len(results)} item(s) of types {sorted({type(r).__name__ for r in results})}"
+        )
+    command = check_text("command", command)
+    notes = check_text("notes", notes, max_length=100_000)
     head = (
         "| case | steps | escapes | max penetration | non-finite | recovered | "
         "median recovery [s] | accel. gave way | steps/s |\n"
@@ -254,7 +274,7 @@ def render_markdown(results: Sequence[SoakResult], *, command: str, notes: str =
     for r in results:
         flag = "n/a" if r.flagged < 0 else f"{r.flagged:,}"
         rec = f"{r.recovered}/{r.outside_episodes}"
-        med = "—" if math.isnan(r.median_recovery_time) else f"{r.median_recovery_time:.3f}"
+        med = "—" if r.median_recovery_time is None else f"{r.median_recovery_time:.3f}"
         rows.append(
             f"| {r.name} | {r.steps:,} | {r.escapes:,} | {r.max_penetration:.3g} | "
             f"{r.nonfinite:,} | {rec} | {med} | {flag} | {r.steps_per_second:,.0f} |"
@@ -383,7 +403,7 @@ def polygon_cases(
         return PolygonShaper(polys[g], buffer=buffers[g], spring_gain=gains[g], method="patent")
 
     def caster(g: int) -> object:
-        return CasterWall(polys[g], buffer=buffers[g], recovery_gain=gains[g])
+        return CasterWall(polys[g], buffer=buffers[g], spring_gain=gains[g])
 
     cases = [
         case("PolygonShaper exact, 1 kHz", exact, 1e-3, 1.0),
@@ -416,7 +436,7 @@ def stop_cases(*, episodes: int) -> list[SoakCase]:
     from velfence.shaping.stops import StopLimiter
 
     profile = ThreeZoneBraking.from_actuator_limits(
-        gain=100.0, joint_speed_max=2.0, joint_accel_max=20.0
+        gain=100.0, max_speed=2.0, max_acceleration=20.0
     )
     lim = StopLimiter(PAPER_STOPS, profile=profile, transform=Q_AUX, method="exact")
     L = np.asarray(Q_AUX, dtype=np.float64)[list(lim.limited)]
@@ -432,7 +452,7 @@ def stop_cases(*, episodes: int) -> list[SoakCase]:
             profile=profile,
             transform=Q_AUX,
             method="exact",
-            post=RateLimiter(size=3, v_max=2.0, a_max=20.0, dt=1e-3),
+            post=RateLimiter(size=3, max_speed=2.0, max_acceleration=20.0, dt=1e-3),
         )
         for _ in range(episodes)
     ]

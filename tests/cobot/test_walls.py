@@ -58,7 +58,7 @@ def _brute_force(shaper: PolygonShaper, p: np.ndarray, v: np.ndarray, k: int = 2
 @pytest.mark.parametrize("poly", [RECT, PENTAGON], ids=["rect", "pentagon"])
 def test_caster_wall_properties(poly: ConvexPolygon, recovery: float) -> None:
     """Realisable by a passive device, meets the exact law's bounds, and is the fastest such."""
-    wall = CasterWall(poly, buffer=0.2, recovery_gain=recovery)
+    wall = CasterWall(poly, buffer=0.2, spring_gain=recovery)
     exact = PolygonShaper(poly, buffer=0.2, spring_gain=recovery, method="exact")
     P, V = samples(poly, 600, seed=3)
     blocked = relaxed = 0
@@ -95,11 +95,11 @@ def test_caster_wall_recovery_tilts_inward_outside() -> None:
     outside, v = np.array([1.0, -0.55]), np.array([1.0, 0.0])
     slide = CasterWall(RECT, buffer=0.1).shape(outside, v)
     np.testing.assert_allclose(slide, [1.0, 0.0], atol=TOL)
-    tilt = CasterWall(RECT, buffer=0.1, recovery_gain=5.0).shape(outside, v)
+    tilt = CasterWall(RECT, buffer=0.1, spring_gain=5.0).shape(outside, v)
     assert tilt[1] > 0.0  # inward (the bottom edge's inward normal is +y)
     assert float(np.linalg.norm(tilt)) <= 1.0 + TOL
-    with pytest.raises(InvalidParameter, match="recovery_gain must be finite and >= 0"):
-        CasterWall(RECT, buffer=0.1, recovery_gain=-1.0)
+    with pytest.raises(InvalidParameter, match="spring_gain must be finite and >= 0"):
+        CasterWall(RECT, buffer=0.1, spring_gain=-1.0)
 
 
 def test_caster_wall_free_zone_passes_the_push() -> None:

@@ -21,9 +21,7 @@ from velfence.shaping.base import ZONES, ShaperResult
 
 def _stop_limiter(method: str):
     def make():
-        prof = ThreeZoneBraking.from_actuator_limits(
-            gain=100, joint_speed_max=2, joint_accel_max=20
-        )
+        prof = ThreeZoneBraking.from_actuator_limits(gain=100, max_speed=2, max_acceleration=20)
         return StopLimiter(PAPER_STOPS, profile=prof, transform=Q_AUX, method=method)
 
     return make

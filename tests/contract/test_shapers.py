@@ -186,6 +186,10 @@ def test_polygon_batch_equals_loop_with_and_without_numba(method: str, accelerat
     assert [ZONE_NAMES[z] for z in zones] == [
         sh.explain(p, v).zone for p, v in zip(P, V, strict=True)
     ]
+    # an empty batch on either path (the plain-Python path once failed to broadcast it)
+    empty, empty_zones = sh.zones_batch(np.zeros((0, 2)), np.zeros((0, 2)))
+    assert empty.shape == (0, 2)
+    assert empty_zones.shape == (0,)
 
 
 # ---------------------------------------------------------------------------- invalid input

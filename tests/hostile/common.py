@@ -16,7 +16,7 @@ def square() -> ConvexPolygon:
 
 
 def profile() -> vf.ThreeZoneBraking:
-    return vf.ThreeZoneBraking(gain=4.0, v_max=1.0, a_max=2.0)
+    return vf.ThreeZoneBraking(gain=4.0, max_speed=1.0, max_acceleration=2.0)
 
 
 def circle() -> Circle:

@@ -197,7 +197,7 @@ _POSITIVE = re.compile(
     r"window|step|margin|buffer|influence|_range$|inertia|^k[pd0]?$|^w0$|^max_|^min_|period|"
     r"extent|height|quantum|share|limit$|tick|band$|substep|along|across|standoff|rise|"
     r"above_destination|settle|d_max|d_safe|friction|noise|spring|recovery|damping|weight|"
-    r"^omega$|^eps$|^u$|^r_o$|^v_max$|^a_max$|^ds$|^epsilon$|^sigma$)"
+    r"^omega$|^eps$|^u$|^r_o$|^max_speed$|^max_acceleration$|^ds$|^epsilon$|^sigma$)"
 )
 
 

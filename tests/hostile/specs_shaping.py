@@ -33,8 +33,8 @@ _THETA_DOT = np.array([0.5, -0.2, 0.1])
 
 
 def profile() -> vf.ThreeZoneBraking:
-    """A valid braking profile (v_max above a_max/gain, as the profile requires)."""
-    return vf.ThreeZoneBraking(gain=4.0, v_max=1.0, a_max=2.0)
+    """A valid braking profile (max_speed above max_acceleration/gain, as the profile requires)."""
+    return vf.ThreeZoneBraking(gain=4.0, max_speed=1.0, max_acceleration=2.0)
 
 
 def stop_limiter() -> vf.StopLimiter:
@@ -47,13 +47,11 @@ SPECS: dict[str, F | C] = {
     "shaping.ShaperResult": C(abstract="Protocol: satisfied by every shaper's explain() record"),
     "shaping.LinearBuffer": C(F(lambda: call(d_max=0.2, spring_gain=4.0)), _PROFILE_METHODS),
     "shaping.ThreeZoneBraking": C(
-        lambda: call(gain=4.0, v_max=1.0, a_max=2.0),
+        lambda: call(gain=4.0, max_speed=1.0, max_acceleration=2.0),
         {
             **_PROFILE_METHODS,
             "check_period": lambda: call(0.001),
-            "from_actuator_limits": lambda: call(
-                gain=4.0, joint_speed_max=1.0, joint_accel_max=2.0
-            ),
+            "from_actuator_limits": lambda: call(gain=4.0, max_speed=1.0, max_acceleration=2.0),
         },
     ),
     # accelerate=False: the numba batch kernel takes 10+ s to compile on this machine and only
@@ -70,7 +68,7 @@ SPECS: dict[str, F | C] = {
         },
     ),
     "shaping.RateLimiter": C(
-        lambda: call(size=2, v_max=1.0, a_max=10.0, dt=0.001),
+        lambda: call(size=2, max_speed=1.0, max_acceleration=10.0, dt=0.001),
         {
             "bounds": lambda: call(),
             "hold": lambda: call(np.array([0.1, 0.2])),

@@ -82,6 +82,9 @@ SPECS: dict[str, F | C] = {
         "run_case() calls what it holds"
     ),
     "soak.SoakResult": C(record="output record of run_case()"),
-    "soak.render_markdown": F(lambda: call([_soak_result()], command="make soak")),
+    "soak.render_markdown": F(
+        lambda: call([_soak_result()], command="make soak"),
+        types={"command": "text", "notes": "text"},
+    ),
     "soak.run_case": F(lambda: call(_soak_case(), episodes=2, steps_per_episode=5)),
 }

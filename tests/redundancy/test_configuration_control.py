@@ -262,7 +262,7 @@ def test_4r_redundancy_exhausted_flagged_bounded_no_nan():
 def test_centre_on_link_axis_uses_deterministic_fallback(arm3):
     q = np.array([0.0, 0.0, 0.0])  # links along +x
     ob = Obstacle(center=[0.5, 0.0, 0.0], radius=0.05, influence=RHO)
-    c = _ctrl(arm3, [ob], recovery_gain=1.0)
+    c = _ctrl(arm3, [ob], spring_gain=1.0)
     r = c.control(q, np.array([0.0, 0.1]))
     np.testing.assert_allclose(r.normals[0], [0.0, 1.0, 0.0])  # ẑ × link direction
     assert r.distances[0] == 0.0
@@ -277,7 +277,7 @@ def test_recovery_gain_pushes_out_when_penetrated(arm3):
     e = segs[1, 1] - segs[1, 0]
     nrm = np.array([-e[1], e[0], 0.0]) / np.linalg.norm(e)
     ob = Obstacle(center=mid + 0.1 * nrm, radius=0.05, influence=RHO)
-    c = _ctrl(arm3, [ob], recovery_gain=2.0)
+    c = _ctrl(arm3, [ob], spring_gain=2.0)
     r = c.control(q, np.zeros(2))
     assert r.active == (0,)
     assert r.zone == "recovering"
@@ -362,7 +362,7 @@ def test_blocked_path_the_constraint_holds_and_the_end_effector_yields():
 
     Found in review: with damping 1e-4 the near-singular (EE task + constraint) solve gave
     ~28 rad/s and, over 1 ms steps, the second-order motion drove the link 0.24 m into the
-    sphere although the linearised ḋ was 0. Default damping 1e-2 (or max_joint_speed) fixes it.
+    sphere although the linearised ḋ was 0. Default damping 1e-2 (or max_speed) fixes it.
     """
     from velfence.mechanisms.chain import PlanarArm
     from velfence.redundancy import ConfigurationController, Obstacle
@@ -376,9 +376,7 @@ def test_blocked_path_the_constraint_holds_and_the_end_effector_yields():
     obs = [Obstacle(center=np.array([0.5, 1.0]), radius=0.05, influence=0.25)]
     for ctrl in (
         ConfigurationController(arm, obs, activation_margin=1e-3),
-        ConfigurationController(
-            arm, obs, activation_margin=1e-3, damping=1e-4, max_joint_speed=2.0
-        ),
+        ConfigurationController(arm, obs, activation_margin=1e-3, damping=1e-4, max_speed=2.0),
     ):
         q = q0.copy()
         worst = np.inf

@@ -62,19 +62,19 @@ def test_long_double_beyond_float64_is_too_large_not_inf() -> None:
 
 
 def test_profiles_check_delta_and_speed() -> None:
-    p = vf.LinearBuffer(d_max=0.2, spring_gain=4.0)
+    p = vf.LinearBuffer(buffer=0.2, spring_gain=4.0)
     with pytest.raises(InvalidInput, match="delta: expected a signed distance"):
         p.cap("0.1", 1.0)  # type: ignore[arg-type]
     with pytest.raises(InvalidInput, match="speed: expected a speed >= 0"):
         p.cap(0.1, -1.0)
     assert p.cap(np.float32(0.1), np.int64(1)) == pytest.approx(0.5)
-    t = vf.ThreeZoneBraking(gain=4.0, v_max=1.0, a_max=2.0)
+    t = vf.ThreeZoneBraking(gain=4.0, max_speed=1.0, max_acceleration=2.0)
     with pytest.raises(InvalidParameter, match="dt must be finite and > 0"):
         t.check_period(-1.0)
 
 
 def test_rate_limiter_hold_checks_the_value() -> None:
-    r = vf.RateLimiter(size=2, v_max=1.0, a_max=10.0, dt=0.001)
+    r = vf.RateLimiter(size=2, max_speed=1.0, max_acceleration=10.0, dt=0.001)
     with pytest.raises(InvalidInput, match="value: expected"):
         r.hold(["a", "b"])
     r.hold((0.1, 0.2))

@@ -212,7 +212,7 @@ class TestDiscreteTime:
             with pytest.raises(InvalidParameter, match="dt"):
                 PolygonShaper(UNIT, buffer=0.1, dt=bad)  # type: ignore[arg-type]
         with pytest.raises(InvalidParameter, match="dt is not supported with a profile"):
-            PolygonShaper(UNIT, profile=LinearBuffer(d_max=0.1), dt=0.05)
+            PolygonShaper(UNIT, profile=LinearBuffer(buffer=0.1), dt=0.05)
 
     def test_period_cap_stage_is_reported(self) -> None:
         sh = PolygonShaper(UNIT, buffer=0.05, method="patent", dt=0.05)
@@ -281,7 +281,7 @@ def test_claimed_bounds_hold_and_one_step_never_leaves(
 def test_caster_wall_properties(
     data: st.DataObject, poly: ConvexPolygon, buffer_frac: float, k: float, dt: float | None
 ) -> None:
-    wall = CasterWall(poly, buffer=buffer_frac * poly.inradius, recovery_gain=k, dt=dt)
+    wall = CasterWall(poly, buffer=buffer_frac * poly.inradius, spring_gain=k, dt=dt)
     p = data.draw(positions(poly))
     v = data.draw(vectors(bound=3.0))
     w = wall.shape(p, v)
@@ -375,6 +375,6 @@ def test_tuning_parameters_are_keyword_only_and_validated() -> None:
     for bad_flag in (1, "yes", None):
         with pytest.raises(InvalidParameter, match="accelerate"):
             PolygonShaper(UNIT, buffer=0.1, accelerate=bad_flag)  # type: ignore[arg-type]
-    for name in ("buffer", "recovery_gain", "dt"):
+    for name in ("buffer", "spring_gain", "dt"):
         with pytest.raises(InvalidParameter, match=name):
             CasterWall(UNIT, **{"buffer": 0.1, name: "0.2"})  # type: ignore[arg-type]

@@ -81,9 +81,9 @@ def test_bound_rows_report_the_nearest_edges_and_violations() -> None:
 @pytest.mark.parametrize(
     "profile",
     [
-        LinearBuffer(d_max=0.2, spring_gain=4.0),
-        LinearBuffer(d_max=0.3),
-        ThreeZoneBraking(gain=50.0, v_max=1.0, a_max=5.0),
+        LinearBuffer(buffer=0.2, spring_gain=4.0),
+        LinearBuffer(buffer=0.3),
+        ThreeZoneBraking(gain=50.0, max_speed=1.0, max_acceleration=5.0),
     ],
     ids=repr,
 )
@@ -118,8 +118,8 @@ def test_profile_kernels_equal_the_generic_python_path(profile: object) -> None:
     "kw",
     [
         dict(buffer=0.3, spring_gain=2.0, dt=0.05),
-        dict(profile=LinearBuffer(d_max=0.2, spring_gain=4.0)),
-        dict(profile=ThreeZoneBraking(gain=50.0, v_max=1.0, a_max=5.0)),
+        dict(profile=LinearBuffer(buffer=0.2, spring_gain=4.0)),
+        dict(profile=ThreeZoneBraking(gain=50.0, max_speed=1.0, max_acceleration=5.0)),
     ],
     ids=["builtin-dt", "linear-buffer", "three-zone"],
 )
@@ -139,8 +139,8 @@ def test_compiled_and_python_kernels_are_equal_for_every_profile_kind(kw: dict) 
 
 
 def test_profiles_cap_is_the_kernels_cap() -> None:
-    lb = LinearBuffer(d_max=0.2, spring_gain=4.0, max_recovery_speed=0.5)
-    tz = ThreeZoneBraking(gain=50.0, v_max=1.0, a_max=5.0)
+    lb = LinearBuffer(buffer=0.2, spring_gain=4.0, max_recovery_speed=0.5)
+    tz = ThreeZoneBraking(gain=50.0, max_speed=1.0, max_acceleration=5.0)
     for prof in (lb, tz):
         kind, prm = prof.kernel_profile
         for d in np.linspace(-0.5, 0.5, 201).tolist():

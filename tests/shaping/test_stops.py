@@ -16,7 +16,7 @@ STOPS = np.array([[0.624, 1, 0.353], [-1.72, 1, 3.05], [-0.528, -1, 0.346], [1.7
 
 
 def paper_profile():
-    return ThreeZoneBraking.from_actuator_limits(gain=100, joint_speed_max=2, joint_accel_max=20)
+    return ThreeZoneBraking.from_actuator_limits(gain=100, max_speed=2, max_acceleration=20)
 
 
 # ---------------------------------------------------------------- half-planes -> polygon
@@ -58,8 +58,8 @@ def test_three_zone_constants_are_the_papers():
     assert p.delta_f == pytest.approx(0.00141421, abs=1e-8)
     assert p.delta_int == pytest.approx(0.00282843, abs=1e-8)
     assert p.delta_phi == pytest.approx(0.14283557, abs=1e-8)
-    assert p.v_max == pytest.approx(2.82842712, abs=1e-8)
-    assert p.a_max == pytest.approx(28.28427125, abs=1e-7)
+    assert p.max_speed == pytest.approx(2.82842712, abs=1e-8)
+    assert p.max_acceleration == pytest.approx(28.28427125, abs=1e-7)
 
 
 def test_three_zone_is_c0_at_both_joins_and_c1_at_delta_int():
@@ -76,16 +76,16 @@ def test_three_zone_is_c0_at_both_joins_and_c1_at_delta_int():
 
 def test_three_zone_outside_forces_return_with_the_signed_profile():
     p = paper_profile()
-    assert p.cap(-0.2) == -p.v_max
+    assert p.cap(-0.2) == -p.max_speed
     assert p.cap(-0.001) == pytest.approx(-0.1)
-    assert p.cap(-0.05) == pytest.approx(-math.sqrt(2 * p.a_max * (0.05 - p.delta_f)))
+    assert p.cap(-0.05) == pytest.approx(-math.sqrt(2 * p.max_acceleration * (0.05 - p.delta_f)))
 
 
 def test_riding_the_braking_curve_decelerates_at_a_max():
     p = paper_profile()
     d, v, dt = 0.1, p.cap(0.1), 1e-6
     v2 = p.cap(d - v * dt)
-    assert (v - v2) / dt == pytest.approx(p.a_max, rel=1e-4)
+    assert (v - v2) / dt == pytest.approx(p.max_acceleration, rel=1e-4)
 
 
 def test_check_period_guards_k_dt():
@@ -96,7 +96,7 @@ def test_check_period_guards_k_dt():
 
 
 def test_linear_buffer_profile_matches_the_patent_scaling():
-    lb = LinearBuffer(d_max=0.2, spring_gain=4.0)
+    lb = LinearBuffer(buffer=0.2, spring_gain=4.0)
     assert lb.cap(0.05, speed=2.0) == pytest.approx(0.5)
     assert lb.cap(0.3, speed=2.0) == math.inf
     assert lb.cap(-0.1) == pytest.approx(-0.4)
@@ -108,7 +108,7 @@ def test_linear_buffer_profile_matches_the_patent_scaling():
 
 
 def test_rate_limiter_output_mode_ramps_at_a_max():
-    r = RateLimiter(size=3, v_max=2, a_max=20, dt=1e-3)
+    r = RateLimiter(size=3, max_speed=2, max_acceleration=20, dt=1e-3)
     out = np.array([r.step([-0.5, 0.5, 0.0]) for _ in range(30)])
     np.testing.assert_allclose(np.diff(out[:25, 1]), 0.02)
     assert out[24, 1] == pytest.approx(0.5)
@@ -116,20 +116,20 @@ def test_rate_limiter_output_mode_ramps_at_a_max():
 
 
 def test_rate_limiter_literal_mode_cannot_ramp():
-    r = RateLimiter(size=3, v_max=2, a_max=20, dt=1e-3, mode="literal")
+    r = RateLimiter(size=3, max_speed=2, max_acceleration=20, dt=1e-3, mode="literal")
     out = [r.step([0.0, 0.5, 0.0])[1] for _ in range(3)]
     assert out == pytest.approx([0.02, 0.5, 0.5])  # one limited sample, then the full step
 
 
 def test_rate_limiter_clamps_speed_and_validates():
-    r = RateLimiter(size=2, v_max=1.0, a_max=1e6, dt=1e-3)
+    r = RateLimiter(size=2, max_speed=1.0, max_acceleration=1e6, dt=1e-3)
     assert r.step([5.0, -5.0]).tolist() == [1.0, -1.0]
     with pytest.raises(vf.InvalidInput, match="shape"):
         r.step([1.0])
     with pytest.raises(vf.InvalidInput, match="finite"):
         r.step([math.nan, 0.0])
-    with pytest.raises(vf.InvalidParameter, match="a_max"):
-        RateLimiter(size=2, v_max=1.0, a_max=0.0, dt=1e-3)
+    with pytest.raises(vf.InvalidParameter, match="max_acceleration"):
+        RateLimiter(size=2, max_speed=1.0, max_acceleration=0.0, dt=1e-3)
 
 
 # ---------------------------------------------------------------- the limiter
@@ -142,8 +142,8 @@ def make(method="nearest", tangential="scale_with_normal", pre=True, post=False)
         transform=Q,
         method=method,
         tangential=tangential,
-        pre=RateLimiter(size=3, v_max=2, a_max=20, dt=1e-3) if pre else None,
-        post=RateLimiter(size=3, v_max=2, a_max=20, dt=1e-3) if post else None,
+        pre=RateLimiter(size=3, max_speed=2, max_acceleration=20, dt=1e-3) if pre else None,
+        post=RateLimiter(size=3, max_speed=2, max_acceleration=20, dt=1e-3) if post else None,
     )
 
 
@@ -251,12 +251,12 @@ def test_faithful_law_with_post_stage_no_longer_crosses():
 
 @pytest.mark.parametrize("method", ["exact", "nearest"])
 def test_a_profile_within_the_braking_capacity_never_needs_an_override(method):
-    post = RateLimiter(size=3, v_max=2, a_max=20, dt=1e-3)
+    post = RateLimiter(size=3, max_speed=2, max_acceleration=20, dt=1e-3)
     probe = StopLimiter(STOPS, profile=paper_profile(), transform=Q, post=post)
     assert probe.braking_capacity == pytest.approx(28.3336, abs=1e-4)
     assert make().braking_capacity is None
     prof = ThreeZoneBraking(
-        gain=100.0, v_max=2 * R2, a_max=probe.braking_capacity / (1 + 100 * 1e-3 / 2)
+        gain=100.0, max_speed=2 * R2, max_acceleration=probe.braking_capacity / (1 + 100 * 1e-3 / 2)
     )
     lim = StopLimiter(
         STOPS,
@@ -264,8 +264,8 @@ def test_a_profile_within_the_braking_capacity_never_needs_an_override(method):
         transform=Q,
         method=method,
         tangential="preserve",
-        pre=RateLimiter(size=3, v_max=2, a_max=20, dt=1e-3),
-        post=RateLimiter(size=3, v_max=2, a_max=20, dt=1e-3),
+        pre=RateLimiter(size=3, max_speed=2, max_acceleration=20, dt=1e-3),
+        post=RateLimiter(size=3, max_speed=2, max_acceleration=20, dt=1e-3),
     )
     rows, _, acc, flags = _post_run(lim)
     assert not flags.any()
@@ -322,7 +322,7 @@ def test_limiter_validates_inputs():
 def test_polygon_shaper_with_linear_buffer_profile_equals_the_builtin_exact_law_inside():
     poly = vf.ConvexPolygon([[0, 0], [2, 0], [2.5, 1], [1, 2], [-0.5, 1]])
     builtin = vf.PolygonShaper(poly, buffer=0.2, spring_gain=4.0, method="exact")
-    with_profile = vf.PolygonShaper(poly, profile=LinearBuffer(d_max=0.2, spring_gain=4.0))
+    with_profile = vf.PolygonShaper(poly, profile=LinearBuffer(buffer=0.2, spring_gain=4.0))
     rng = np.random.default_rng(5)
     P = rng.uniform(-0.5, 2.5, (400, 2))
     P = P[poly.contains(P)]
@@ -334,7 +334,7 @@ def test_polygon_shaper_with_linear_buffer_profile_equals_the_builtin_exact_law_
 
 def test_polygon_shaper_with_three_zone_profile_respects_every_cap():
     poly = vf.ConvexPolygon([[0, 0], [2, 0], [2.5, 1], [1, 2], [-0.5, 1]])
-    prof = ThreeZoneBraking(gain=50.0, v_max=1.0, a_max=5.0)
+    prof = ThreeZoneBraking(gain=50.0, max_speed=1.0, max_acceleration=5.0)
     s = vf.PolygonShaper(poly, method="exact", profile=prof)
     rng = np.random.default_rng(6)
     relaxed = 0
@@ -347,8 +347,8 @@ def test_polygon_shaper_with_three_zone_profile_respects_every_cap():
         # the violated edges' forced return always holds
         assert np.all(slack[d < 0] >= -1e-9)
         if "relaxed" in r.stages:
-            # outside a corner the zone-3 return (v_max along two normals) can need more than
-            # v_max, which the other edges' caps forbid: recovery first, and it says so
+            # outside a corner the zone-3 return (max_speed along two normals) can need more than
+            # max_speed, which the other edges' caps forbid: recovery first, and it says so
             relaxed += 1
             assert d.min() < 0
         else:
@@ -362,9 +362,9 @@ def test_polygon_shaper_with_three_zone_profile_respects_every_cap():
 def test_polygon_shaper_profile_arguments_are_checked():
     poly = vf.ConvexPolygon([[0, 0], [1, 0], [0, 1]])
     with pytest.raises(vf.InvalidParameter, match="profile replaces the linear buffer"):
-        vf.PolygonShaper(poly, buffer=0.1, profile=LinearBuffer(d_max=0.1))
+        vf.PolygonShaper(poly, buffer=0.1, profile=LinearBuffer(buffer=0.1))
     with pytest.raises(vf.InvalidParameter, match="profile replaces the linear buffer"):
-        vf.PolygonShaper(poly, method="patent", profile=LinearBuffer(d_max=0.1))
+        vf.PolygonShaper(poly, method="patent", profile=LinearBuffer(buffer=0.1))
     with pytest.raises(vf.InvalidParameter, match="buffer must be given"):
         vf.PolygonShaper(poly)
 
@@ -394,5 +394,5 @@ def test_stop_limiter_fail_safe_policy():
             STOPS,
             profile=paper_profile(),
             transform=Q,
-            pre=RateLimiter(size=3, v_max=2, a_max=20, dt=0.02),
+            pre=RateLimiter(size=3, max_speed=2, max_acceleration=20, dt=0.02),
         )

@@ -12,7 +12,7 @@ import velfence as vf
 from strategies import convex_corners, inward_normals
 from velfence.shaping.stops import StopLimiter
 
-PROFILE = vf.ThreeZoneBraking(gain=100.0, v_max=2.0, a_max=20.0)
+PROFILE = vf.ThreeZoneBraking(gain=100.0, max_speed=2.0, max_acceleration=20.0)
 
 
 def rotation(seed):
@@ -72,8 +72,8 @@ def test_bearing_untouched_and_nothing_changes_far_from_every_stop(case):
     q_cmd = lim.transform @ theta_dot
     q_out = lim.transform @ r.output
     assert math.isclose(q_out[2], q_cmd[2], abs_tol=1e-12)  # the unlimited coordinate
-    if r.deltas.min() > PROFILE.delta_phi and np.hypot(*q_cmd[:2]) <= PROFILE.v_max:
-        # no stop near and the speed within v_max: tangential (and everything) untouched
+    if r.deltas.min() > PROFILE.delta_phi and np.hypot(*q_cmd[:2]) <= PROFILE.max_speed:
+        # no stop near and the speed within max_speed: tangential (and everything) untouched
         np.testing.assert_allclose(r.output, theta_dot, atol=1e-12)
 
 

@@ -24,11 +24,11 @@ DT = 1e-3
 
 
 def paper_profile():
-    return vf.ThreeZoneBraking.from_actuator_limits(gain=100, joint_speed_max=2, joint_accel_max=20)
+    return vf.ThreeZoneBraking.from_actuator_limits(gain=100, max_speed=2, max_acceleration=20)
 
 
-def joints(dt=DT, v_max=2.0, a_max=20.0):
-    return vf.RateLimiter(size=3, v_max=v_max, a_max=a_max, dt=dt)
+def joints(dt=DT, max_speed=2.0, max_acceleration=20.0):
+    return vf.RateLimiter(size=3, max_speed=max_speed, max_acceleration=max_acceleration, dt=dt)
 
 
 def stops_of(poly):
@@ -100,7 +100,7 @@ def test_closed_loop_with_post_stage_never_crosses_and_flags_every_override(
 ):
     poly = vf.ConvexPolygon(corners)
     Q = random_rotation(rot)
-    prof = vf.ThreeZoneBraking(gain=gain, v_max=2.0, a_max=accel)
+    prof = vf.ThreeZoneBraking(gain=gain, max_speed=2.0, max_acceleration=accel)
     lim = StopLimiter(stops_of(poly), profile=prof, transform=Q, method="exact", post=joints())
     theta = start_theta(poly, Q, frac, corner % len(corners))
     w = speed * np.array([math.cos(angle), math.sin(angle)])
@@ -155,10 +155,10 @@ def test_rate_limiter_docstring_says_it_does_not_keep_stops_alone():
 
 
 def test_dt_caps_each_period_to_the_remaining_distance():
-    # A linear buffer caps the approach at speed·δ/d_max = 2 rad/s here: over a 20 ms period
+    # A linear buffer caps the approach at speed·δ/buffer = 2 rad/s here: over a 20 ms period
     # that covers 0.04 rad, more than the 0.02 rad left. With dt the cap is δ/dt = 1 rad/s.
     stops = [[1.0, 0.0, 1.0], [-1.0, 0.0, 1.0], [0.0, 1.0, 1.0], [0.0, -1.0, 1.0]]
-    prof = vf.LinearBuffer(d_max=0.05)
+    prof = vf.LinearBuffer(buffer=0.05)
     plain = StopLimiter(stops, profile=prof)
     safe = StopLimiter(stops, profile=prof, dt=0.02)
     q = np.array([-0.98, 0.0])
@@ -174,15 +174,15 @@ def test_dt_caps_each_period_to_the_remaining_distance():
 @settings(max_examples=60)
 @given(
     corners=convex_corners(max_n=6),
-    d_max=st.floats(0.001, 0.3),
+    buffer=st.floats(0.001, 0.3),
     dt=st.floats(1e-3, 0.05),
     angle=st.floats(0.0, 2 * math.pi),
     speed=st.floats(0.1, 20.0),
     method=st.sampled_from(["exact", "nearest"]),
 )
-def test_dt_keeps_any_profile_inside_in_discrete_time(corners, d_max, dt, angle, speed, method):
+def test_dt_keeps_any_profile_inside_in_discrete_time(corners, buffer, dt, angle, speed, method):
     poly = vf.ConvexPolygon(corners)
-    lim = StopLimiter(stops_of(poly), profile=vf.LinearBuffer(d_max=d_max), dt=dt, method=method)
+    lim = StopLimiter(stops_of(poly), profile=vf.LinearBuffer(buffer=buffer), dt=dt, method=method)
     q = poly.centroid.copy()
     v = speed * np.array([math.cos(angle), math.sin(angle)])
     for _ in range(200):
@@ -274,7 +274,7 @@ def test_invalid_rows_of_a_batch_are_zero_under_stop():
         ({"clamp_ratio": 0}, vf.InvalidParameter, "clamp_ratio"),
         ({"post": "x"}, vf.InvalidParameter, "post must be a RateLimiter of size 3"),
         (
-            {"post": vf.RateLimiter(size=2, v_max=1, a_max=1, dt=DT)},
+            {"post": vf.RateLimiter(size=2, max_speed=1, max_acceleration=1, dt=DT)},
             vf.InvalidParameter,
             "post must be a RateLimiter of size 3",
         ),

@@ -201,7 +201,7 @@ def test_max_joint_speed_scales_the_whole_vector(puma):
     xdot = np.array([0.5, 0.2, -0.3, 1.0, 0.5, 0.2])
     free = ResolvedRate(puma).step(Q_GOOD, xdot)
     cap = 0.5 * float(np.max(np.abs(free)))
-    r = ResolvedRate(puma, max_joint_speed=cap).explain(Q_GOOD, xdot)
+    r = ResolvedRate(puma, max_speed=cap).explain(Q_GOOD, xdot)
     assert np.max(np.abs(r.qdot)) == pytest.approx(cap)
     np.testing.assert_allclose(r.qdot, 0.5 * free, atol=1e-12)
     assert r.scale == pytest.approx(0.5)
@@ -217,8 +217,8 @@ def test_shapes_and_parameters_are_validated(puma):
         ResolvedRate(puma, inverse="pinv")
     with pytest.raises(InvalidParameter, match="k0 must be finite and > 0"):
         ResolvedRate(puma, k0=0.0)
-    with pytest.raises(InvalidParameter, match="max_joint_speed must be finite and > 0"):
-        ResolvedRate(puma, max_joint_speed=-1.0)
+    with pytest.raises(InvalidParameter, match="max_speed must be finite and > 0"):
+        ResolvedRate(puma, max_speed=-1.0)
     with pytest.raises(InvalidParameter, match="on_invalid must be one of"):
         ResolvedRate(puma, on_invalid="ignore")
     with pytest.raises(InvalidParameter, match=r"expected an object with a jacobian\(q\)"):

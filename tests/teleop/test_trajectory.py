@@ -253,7 +253,7 @@ def test_executor_records_resolver_diagnostics(puma, short_line):
     np.testing.assert_allclose(ex.w[0], puma.manipulability(Q_START), rtol=1e-12)
     np.testing.assert_allclose(ex.det, np.abs(ex.det) * np.sign(ex.det))
     assert np.all(ex.k == 0.0)
-    assert ex.max_joint_speed == pytest.approx(float(np.max(np.abs(ex.qdot))))
+    assert ex.max_speed == pytest.approx(float(np.max(np.abs(ex.qdot))))
     assert np.array_equal(ex.qdot[-1], np.zeros(6))
 
 

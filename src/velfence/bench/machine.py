@@ -81,7 +81,11 @@ def _load_average() -> float:
 
 
 def machine_info() -> Machine:
-    """Describe this machine and the versions of everything timed."""
+    """Describe this machine and the versions of everything timed.
+
+    Returns:
+        The CPU, core counts, numba threads, platform and library versions.
+    """
     logical = os.cpu_count() or 0
     try:
         usable = len(os.sched_getaffinity(0))

@@ -30,8 +30,12 @@ class LatencyRow(Latency):
     """Latency of single :meth:`PolygonShaper.shape` calls for one (polygon, method, zone).
 
     Attributes:
+        calls: Timed calls.
+        median_us: Median latency, µs.
+        p99_us: 99th percentile, µs.
+        max_us: Largest latency, µs.
         edges: Number of polygon edges.
-        method: ``"patent"`` or ``"exact"``.
+        method: ``"edge-scaling"`` (the patent's law) or ``"exact"``.
         zone: Zone of every timed state (as the method itself classifies it).
         states: Distinct states cycled through.
     """
@@ -44,7 +48,18 @@ class LatencyRow(Latency):
 
 @dataclass(frozen=True, kw_only=True)
 class WorstZone(LatencyRow):
-    """The row of the zone with the largest median latency for one (polygon, method)."""
+    """The row of the zone with the largest median latency for one (polygon, method).
+
+    Attributes:
+        calls: Timed calls.
+        median_us: Median latency, µs.
+        p99_us: 99th percentile, µs.
+        max_us: Largest latency, µs.
+        edges: Number of polygon edges.
+        method: ``"edge-scaling"`` (the patent's law) or ``"exact"``.
+        zone: The slowest zone.
+        states: Distinct states cycled through.
+    """
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -21,7 +21,7 @@ arc end point, closed form. So one workspace definition serves both devices: ins
 passive wall *brakes by steering* (a head-on push is turned progressively toward the wall's
 tangent, and its speed along the allowed line falls as :math:`\cos\varphi`), at a corner it turns
 toward the open side or blocks. What physics still forbids: pushing back. If the recovery bounds
-outside (``recovery_gain > 0``) cannot be met by any realisable velocity, they are relaxed to "do
+outside (``spring_gain > 0``) cannot be met by any realisable velocity, they are relaxed to "do
 not go further out" (zone stage ``relaxed``).
 
 :class:`WallSteering` realises the wall on a simulated cobot through its steering: it turns the
@@ -89,7 +89,7 @@ class CasterWall(ShaperBase):
     Args:
         polygon: The permitted workspace, a :class:`ConvexPolygon` [m].
         buffer: Width of the band inside the wall where the direction starts turning [m], > 0.
-        recovery_gain: Outside the wall, tilt the allowed direction inward as the exact shaper's
+        spring_gain: Outside the wall, tilt the allowed direction inward as the exact shaper's
             recovery floor ``k·penetration`` would [1/s], >= 0 (0: no tilt). The device still
             only moves when and as fast as the human pushes along that direction.
         dt: Control period [s], > 0, or None (default: continuous-time bounds, so a loop that
@@ -117,14 +117,14 @@ class CasterWall(ShaperBase):
         polygon: ConvexPolygon,
         *,
         buffer: float,
-        recovery_gain: float = 0.0,
+        spring_gain: float = 0.0,
         dt: float | None = None,
         on_invalid: OnInvalid = "raise",
     ) -> None:
         super().__init__(on_invalid=on_invalid)
         self.polygon = as_polygon(polygon)
         self.buffer = check_positive("buffer", buffer, unit="m")
-        k = check_positive("recovery_gain", recovery_gain, allow_zero=True, unit="1/s")
+        k = check_positive("spring_gain", spring_gain, allow_zero=True, unit="1/s")
         self.dt = None if dt is None else check_positive("dt", dt, unit="s")
         self._inner = PolygonShaper(
             self.polygon, buffer=self.buffer, spring_gain=k, method="exact", dt=self.dt

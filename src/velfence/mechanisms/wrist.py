@@ -421,7 +421,7 @@ class Wrist:
     def saturation_factor(self, q: ArrayLike, qdot: ArrayLike) -> float | FloatArray:
         """Single factor ``s ∈ (0, 1]`` that brings every actuator speed within its limit.
 
-        ``s = min(1, v_max / max_i |(J(q) qdot)_i|)``, with ``v_max`` =
+        ``s = min(1, max_speed / max_i |(J(q) qdot)_i|)``, with ``max_speed`` =
         ``geometry.max_actuator_speed``.
 
         Args:

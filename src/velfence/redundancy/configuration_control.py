@@ -471,7 +471,7 @@ class ConfigurationController(ChainObstacleBase):
         ee_weight: :math:`w_e` of :math:`W_e = w_e I`, dimensionless, > 0.
         constraint_weight: :math:`w_z`, dimensionless, > 0; large (default 1e4 × ``ee_weight``)
             so that obstacle rows dominate the end-effector task when they conflict.
-        recovery_gain: :math:`K_z` [1/s], >= 0: desired :math:`\dot z_r = K_z(\rho - d)` when
+        spring_gain: :math:`K_z` [1/s], >= 0: desired :math:`\dot z_r = K_z(\rho - d)` when
             penetrated (``[OURS]``; 0 is the faithful "stop the approach").
         activation_margin: Look-ahead :math:`h` [s], >= 0: a constraint is a candidate once
             :math:`d \le \rho + h\max(0, -\dot d)`; set it to the control period to stop before
@@ -483,7 +483,7 @@ class ConfigurationController(ChainObstacleBase):
             added one by one ("continuing to stop motion of said first critical point") and kept
             for the cycle, which can hold a row whose point would retreat (a review measured this
             in 170 of 6,396 two-row states of a 4R).
-        max_joint_speed: Optional cap on every joint rate [rad/s], applied by scaling the whole
+        max_speed: Optional cap on every joint rate [rad/s], applied by scaling the whole
             ``q_dot`` by one factor (direction kept). Near a singular combination of the
             end-effector task and the active rows the damped solve can be fast (the linearised
             ``ḋ = 0`` then no longer holds over one step); the cap, or more ``damping``, bounds it.
@@ -504,27 +504,23 @@ class ConfigurationController(ChainObstacleBase):
         damping: float = 1e-2,
         ee_weight: float = 1.0,
         constraint_weight: float = 1e4,
-        recovery_gain: float = 0.0,
+        spring_gain: float = 0.0,
         activation_margin: float = 0.0,
         task_tolerance: float = 1e-3,
         release: str = "recheck",
-        max_joint_speed: float | None = None,
+        max_speed: float | None = None,
         on_invalid: str = "raise",
     ) -> None:
         super().__init__(chain, obstacles, on_invalid=on_invalid)
         self.release = check_choice("release", release, ("recheck", "sequential"))
-        self.max_joint_speed = (
-            None
-            if max_joint_speed is None
-            else check_positive("max_joint_speed", max_joint_speed, unit="rad/s")
+        self.max_speed = (
+            None if max_speed is None else check_positive("max_speed", max_speed, unit="rad/s")
         )
         self.ee_gain = check_positive("ee_gain", ee_gain, allow_zero=True, unit="1/s")
         self.damping = check_positive("damping", damping, unit="m²/rad²")
         self.ee_weight = check_positive("ee_weight", ee_weight)
         self.constraint_weight = check_positive("constraint_weight", constraint_weight)
-        self.recovery_gain = check_positive(
-            "recovery_gain", recovery_gain, allow_zero=True, unit="1/s"
-        )
+        self.spring_gain = check_positive("spring_gain", spring_gain, allow_zero=True, unit="1/s")
         self.activation_margin = check_positive(
             "activation_margin", activation_margin, allow_zero=True, unit="s"
         )
@@ -536,7 +532,7 @@ class ConfigurationController(ChainObstacleBase):
         yr, ee_err = self._ee_reference(q, v, target, self.ee_gain)
         crit = self.critical(q)
         d, rho, rows = crit.distances, self._rho, crit.rows
-        zr = self.recovery_gain * np.maximum(0.0, rho - d)
+        zr = self.spring_gain * np.maximum(0.0, rho - d)
         solve_args = (self.ee_weight, self.constraint_weight, self.damping)
         q_dot, cond = _solve_stacked(je, yr, rows[:0], zr[:0], *solve_args)
         q_free = q_dot
@@ -567,12 +563,12 @@ class ConfigurationController(ChainObstacleBase):
                 if float(rows[o] @ trial) >= zr[o] - _RATE_EPS:
                     active.remove(o)
                     q_dot, cond = trial, trial_cond
-        if self.max_joint_speed is not None:
+        if self.max_speed is not None:
             # One factor for every joint keeps the direction, hence the sign of every ḋ: a
             # stopped approach stays stopped; the end-effector task is what slows down.
             peak = float(np.max(np.abs(q_dot)))
-            if peak > self.max_joint_speed:
-                q_dot = q_dot * (self.max_joint_speed / peak)
+            if peak > self.max_speed:
+                q_dot = q_dot * (self.max_speed / peak)
         d_dot = rows @ q_dot
         ee_rate_error = float(np.linalg.norm(je @ q_dot - yr))
         # Yielding is measured against the unconstrained solve, whose error is the damping's.

@@ -255,7 +255,7 @@ def motion_checks(out: Path) -> tuple[list[Check], list[Path]]:
     )
 
     # 4-5. J⁻¹ blows up; joint 1 least (trajectory 1).
-    blow = min(r1.jinv.max_joint_speed, r2.jinv.max_joint_speed)
+    blow = min(r1.jinv.max_speed, r2.jinv.max_speed)
     checks.append(
         check_at_least(
             "§7.4 J⁻¹: peak joint speed after det J = 0 [rad/s]",
@@ -263,8 +263,8 @@ def motion_checks(out: Path) -> tuple[list[Check], list[Path]]:
             1e3,
             float(f"{blow:.4g}"),
             note=(
-                f"trajectory 1 {r1.jinv.max_joint_speed:.3g} rad/s, trajectory 2 "
-                f"{r2.jinv.max_joint_speed:.3g} rad/s; the angles reached after the blow-up "
+                f"trajectory 1 {r1.jinv.max_speed:.3g} rad/s, trajectory 2 "
+                f"{r2.jinv.max_speed:.3g} rad/s; the angles reached after the blow-up "
                 "depend on the discrete-time dynamics and are not comparable with the thesis's"
             ),
         )
@@ -303,7 +303,7 @@ def motion_checks(out: Path) -> tuple[list[Check], list[Path]]:
     )
 
     # 7-8. SR: bounded joint speeds, joints within limits (trajectory 1).
-    peak_sr = max(r1.sr.max_joint_speed, r2.sr.max_joint_speed)
+    peak_sr = max(r1.sr.max_speed, r2.sr.max_speed)
     w_at_peak = [float(r.sr.w[int(np.argmax(np.max(np.abs(r.sr.qdot), axis=1)))]) for r in (r1, r2)]
     checks.append(
         check_at_most(
@@ -312,8 +312,8 @@ def motion_checks(out: Path) -> tuple[list[Check], list[Path]]:
             SR_RATE_CAP,
             round(peak_sr, 4),
             note=(
-                f"trajectory 1 {r1.sr.max_joint_speed:.3f} rad/s, trajectory 2 "
-                f"{r2.sr.max_joint_speed:.3f} rad/s (J⁻¹: {blow:.3g}); w at the peaks "
+                f"trajectory 1 {r1.sr.max_speed:.3f} rad/s, trajectory 2 "
+                f"{r2.sr.max_speed:.3f} rad/s (J⁻¹: {blow:.3g}); w at the peaks "
                 f"{np.round(w_at_peak, 4).tolist()} (w0 = {W0:g}: above it SR equals J⁻¹)"
             ),
         )

@@ -49,13 +49,13 @@ TE = 1e-3  # [s]
 def paper_profile() -> ThreeZoneBraking:
     """The paper's braking profile (eq. 3-4)."""
     return ThreeZoneBraking.from_actuator_limits(
-        gain=K_GAIN, joint_speed_max=SPEED_MAX, joint_accel_max=ACCEL_MAX
+        gain=K_GAIN, max_speed=SPEED_MAX, max_acceleration=ACCEL_MAX
     )
 
 
 def joint_rate_limiter() -> RateLimiter:
     """The paper's joint saturation and rate limiter (θ̇_max, θ̈_max, T_e)."""
-    return RateLimiter(size=3, v_max=SPEED_MAX, a_max=ACCEL_MAX, dt=TE)
+    return RateLimiter(size=3, max_speed=SPEED_MAX, max_acceleration=ACCEL_MAX, dt=TE)
 
 
 def compatible_profile() -> ThreeZoneBraking:
@@ -73,8 +73,8 @@ def compatible_profile() -> ThreeZoneBraking:
         raise RuntimeError("braking_capacity needs a post-stage")
     return ThreeZoneBraking(
         gain=K_GAIN,
-        v_max=math.sqrt(2.0) * SPEED_MAX,
-        a_max=capacity / (1.0 + 0.5 * K_GAIN * TE),
+        max_speed=math.sqrt(2.0) * SPEED_MAX,
+        max_acceleration=capacity / (1.0 + 0.5 * K_GAIN * TE),
     )
 
 
@@ -211,8 +211,8 @@ def run(out_dir: str | Path = "out/reproduce/cospm") -> Report:
         ("δ_f", 0.0014, prof.delta_f, 5e-5),
         ("δ_int", 0.0028, prof.delta_int, 5e-5),
         ("δ_φ", 0.1428, prof.delta_phi, 5e-5),
-        ("q̇_max⊥", 2.8284, prof.v_max, 5e-5),
-        ("q̈_max⊥", 28.28, prof.a_max, 5e-3),
+        ("q̇_max⊥", 2.8284, prof.max_speed, 5e-5),
+        ("q̈_max⊥", 28.28, prof.max_acceleration, 5e-3),
     ):
         checks.append(check_close(f"derived constant {name}", f"{SRC} §3", paper, value, tol))
 

@@ -25,7 +25,7 @@ Scenarios:
     (1.1, -1.8): the second row joins while the first is held (``activation_margin`` = Δt: with
     the faithful switch the second row makes the first one retreat, so it is released instead).
 (iv) planar 4R, three obstacles placed 0.19 m in front of the midpoints of links 1-3 along their
-    free velocity, EE line down 0.6 m (T = 2 s): 3 rows > redundancy 2; ``max_joint_speed``
+    free velocity, EE line down 0.6 m (T = 2 s): 3 rows > redundancy 2; ``max_speed``
     2 rad/s (the near-singular pinch, module docs of the controller).
 (v) KUKA-iiwa-sized 7R (:meth:`DHChain.seven_dof`), EE line 0.6 m along +y (T = 4 s) from
     q0 = (0, 0.4, 0, 1.8, 0, 0.5, 0) (EE at (0.54, 0, 0.40) m); the obstacle (R = 0.03 m,
@@ -322,7 +322,7 @@ def scenarios(*, baseline: bool = True) -> dict[str, ScenarioRun]:
     ob4 = _in_front_of_links(arm4, q4, line4(0.5 * 2.0)[1], (1, 2, 3))
     out["iv"] = run_scenario(
         "(iv) 4R, three obstacles (exhausted)",
-        ConfigurationController(arm4, ob4, max_joint_speed=MAX_JOINT_SPEED, release="sequential"),
+        ConfigurationController(arm4, ob4, max_speed=MAX_JOINT_SPEED, release="sequential"),
         line4,
         q4,
         2.5,
@@ -559,7 +559,7 @@ def run(out_dir: str | Path = "out/reproduce/obstacles") -> Report:
             ISSUE,
             MAX_JOINT_SPEED + 1e-12,
             float(np.abs(r4.q_dot).max()),
-            note=f"max_joint_speed = {MAX_JOINT_SPEED:g} rad/s (one factor, direction kept)",
+            note=f"max_speed = {MAX_JOINT_SPEED:g} rad/s (one factor, direction kept)",
         )
     )
     # Baseline comparison.

@@ -322,7 +322,7 @@ def _solve(
 # Profile kinds the kernels evaluate; each has PROFILE_PARAMS float parameters (zero-padded), a
 # fixed-length tuple so that compiled code keeps them in registers.
 PROFILE_LINEAR = 0  # (d_max, k, r_max, 0, 0, 0): cap s·d/d_max inside, -min(k·(-d), r_max) out
-PROFILE_THREE_ZONE = 1  # (K, v_max, a_max, δ_int, δ_f, δ_φ): ThreeZoneBraking.cap
+PROFILE_THREE_ZONE = 1  # (K, max_speed, max_acceleration, δ_int, δ_f, δ_φ): ThreeZoneBraking.cap
 PROFILE_PARAMS = 6
 
 

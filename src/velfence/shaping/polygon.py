@@ -241,7 +241,7 @@ class PolygonShaper(ShaperBase):
             # relaxation by the recovery speed R applies (kernels.exact_bounds).
             prm: tuple[float, ...]
             if profile is None:
-                # LinearBuffer(d_max=buffer, spring_gain, max_recovery_speed)'s parameters.
+                # LinearBuffer(buffer=buffer, spring_gain, max_recovery_speed)'s parameters.
                 kind, prm = (
                     kern.PROFILE_LINEAR,
                     (self.buffer, self.spring_gain, rmax, 0.0, 0.0, 0.0),
@@ -316,6 +316,8 @@ class PolygonShaper(ShaperBase):
             return out_p, np.array([r[2] for r in rows], dtype=np.int64)
         out = np.empty_like(P)
         zones = np.empty(P.shape[0], dtype=np.int64)
+        if P.shape[0] == 0:  # nothing to shape (a (0,) list would not broadcast into (0, 2))
+            return out, zones
         exact = self.method == "exact"
         fn = compiled_batch("exact" if exact else "patent") if self.accelerate else None
         if fn is not None:

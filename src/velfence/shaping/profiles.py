@@ -70,24 +70,24 @@ class LinearBuffer:
     non-violated edges by the recovery speed R (derivations.md §3), which a per-edge profile
     cannot see.
 
-    Every parameter is keyword-only (``LinearBuffer(d_max=0.1)``); numeric strings and booleans
+    Every parameter is keyword-only (``LinearBuffer(buffer=0.1)``); numeric strings and booleans
     are refused.
 
     Attributes:
-        d_max: Buffer width [units], > 0.
+        buffer: Buffer width :math:`d_{max}` [units], > 0.
         spring_gain: Recovery gain k outside [1/s], >= 0.
-        max_recovery_speed: Cap on the recovery speed [units/s]; default ``spring_gain * d_max``.
+        max_recovery_speed: Cap on the recovery speed [units/s]; default ``spring_gain * buffer``.
     """
 
-    d_max: float
+    buffer: float
     spring_gain: float = 0.0
     max_recovery_speed: float | None = None
     _params: tuple[float, ...] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
-        d = check_positive("d_max", self.d_max, unit="units")
+        d = check_positive("buffer", self.buffer, unit="units")
         k = check_positive("spring_gain", self.spring_gain, allow_zero=True, unit="1/s")
-        object.__setattr__(self, "d_max", d)
+        object.__setattr__(self, "buffer", d)
         object.__setattr__(self, "spring_gain", k)
         if self.max_recovery_speed is not None:
             r = check_positive("max_recovery_speed", self.max_recovery_speed, unit="units/s")
@@ -98,7 +98,7 @@ class LinearBuffer:
     def kernel_profile(self) -> tuple[int, tuple[float, ...]]:
         """``(kind, params)``: this profile as the compiled shaping kernels read it.
 
-        ``kind`` is the linear-buffer code, ``params`` is ``(d_max, spring_gain,
+        ``kind`` is the linear-buffer code, ``params`` is ``(buffer, spring_gain,
         recovery_cap, 0, 0, 0)``; the cap is evaluated by the same kernel function either way.
         """
         return PROFILE_LINEAR, self._params
@@ -107,7 +107,7 @@ class LinearBuffer:
     def recovery_cap(self) -> float:
         """The recovery speed cap actually used [units/s]."""
         if self.max_recovery_speed is None:
-            return self.spring_gain * self.d_max
+            return self.spring_gain * self.buffer
         return self.max_recovery_speed
 
     def cap(self, delta: float, speed: float = 0.0) -> float:
@@ -121,7 +121,7 @@ class LinearBuffer:
     def zone(self, delta: float) -> int:
         """0 beyond the buffer, 1 inside it, 2 outside the constraint."""
         delta = _delta(delta)
-        return 0 if delta >= self.d_max else (1 if delta >= 0.0 else 2)
+        return 0 if delta >= self.buffer else (1 if delta >= 0.0 else 2)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -142,21 +142,22 @@ class ThreeZoneBraking:
     continuous at :math:`\delta_\varphi`, and riding it decelerates at exactly :math:`a_{max}` in
     zone 2.
 
-    Every parameter is keyword-only: ``ThreeZoneBraking(gain=100, v_max=2.83, a_max=28.3)``
-    (positionally, a swapped speed and acceleration would silently give a wrong profile).
+    Every parameter is keyword-only:
+    ``ThreeZoneBraking(gain=100, max_speed=2.83, max_acceleration=28.3)`` (positionally, a
+    swapped speed and acceleration would silently give a wrong profile).
     Parameters whose derived thresholds would overflow or underflow (e.g. ``gain=1e-200``) are
-    refused, naming the parameters, and so is ``v_max <= a_max/gain`` (the linear zone would
-    then end above ``v_max``).
+    refused, naming the parameters, and so is ``max_speed <= max_acceleration/gain`` (the linear
+    zone would then end above ``max_speed``).
 
     Attributes:
         gain: K [1/s], > 0 (zone-1 time constant 1/K; a discrete loop needs K·Te < 1).
-        v_max: Nominal maximum normal speed [units/s], > 0.
-        a_max: Maximum normal deceleration [units/s²], > 0.
+        max_speed: Nominal maximum normal speed [units/s], > 0.
+        max_acceleration: Maximum normal deceleration [units/s²], > 0.
     """
 
     gain: float
-    v_max: float
-    a_max: float
+    max_speed: float
+    max_acceleration: float
     delta_int: float = field(init=False)
     delta_f: float = field(init=False)
     delta_phi: float = field(init=False)
@@ -164,35 +165,38 @@ class ThreeZoneBraking:
 
     def __post_init__(self) -> None:
         K = check_positive("gain", self.gain, unit="1/s")
-        v = check_positive("v_max", self.v_max, unit="units/s")
-        a = check_positive("a_max", self.a_max, unit="units/s²")
+        v = check_positive("max_speed", self.max_speed, unit="units/s")
+        a = check_positive("max_acceleration", self.max_acceleration, unit="units/s²")
         # Store plain floats (NumPy scalars in, floats out) so every derived value is a float.
         object.__setattr__(self, "gain", K)
-        object.__setattr__(self, "v_max", v)
-        object.__setattr__(self, "a_max", a)
+        object.__setattr__(self, "max_speed", v)
+        object.__setattr__(self, "max_acceleration", a)
         # a/K² as (a/K)/K: K² alone overflows (OverflowError) for K > 1e154 and underflows to 0
         # (ZeroDivisionError) for K < 1e-162. Inputs are <= 1e150, so each quotient is finite or
         # inf, never an exception; inf or a subnormal result is refused below.
         d_int = (a / K) / K
         if not (math.isfinite(d_int) and d_int >= sys.float_info.min):
             raise InvalidParameter(
-                f"gain={K:g} 1/s with a_max={a:g} units/s²: the linear zone width "
-                f"δ_int = a_max/gain² = {d_int:g} is not a usable positive number; choose gain "
-                "and a_max with a_max/gain² between 1e-307 and 1e307 (e.g. gain=100, a_max=28.3)"
+                f"gain={K:g} 1/s with max_acceleration={a:g} units/s²: the linear zone width "
+                f"δ_int = max_acceleration/gain² = {d_int:g} is not a usable positive number; "
+                "choose gain and max_acceleration with max_acceleration/gain² between 1e-307 and "
+                "1e307 (e.g. gain=100, max_acceleration=28.3)"
             )
         if not v > a / K:
-            # Then δ_φ < δ_int: the linear zone would end above v_max and the cap would jump
-            # down to v_max at δ_φ (neither continuous nor bounded by v_max).
+            # Then δ_φ < δ_int: the linear zone would end above max_speed and the cap would jump
+            # down to max_speed at δ_φ (neither continuous nor bounded by max_speed).
             raise InvalidParameter(
-                f"v_max={v:g} units/s must exceed a_max/gain = {a:g}/{K:g} = {a / K:g} units/s "
-                "(the speed at the top of the linear zone); raise v_max or gain, or lower a_max"
+                f"max_speed={v:g} units/s must exceed max_acceleration/gain = {a:g}/{K:g} = "
+                f"{a / K:g} units/s (the speed at the top of the linear zone); raise max_speed or "
+                "gain, or lower max_acceleration"
             )
         brake = (v / a) * (0.5 * v)  # v²/(2a) without forming v² (finite for finite inputs)
         d_phi = 0.5 * d_int + brake
         if not math.isfinite(d_phi):
             raise InvalidParameter(
-                f"v_max={v:g} units/s with a_max={a:g} units/s²: the braking distance "
-                f"v_max²/(2·a_max) overflows; lower v_max or raise a_max"
+                f"max_speed={v:g} units/s with max_acceleration={a:g} units/s²: the braking "
+                "distance max_speed²/(2·max_acceleration) overflows; lower max_speed or raise "
+                "max_acceleration"
             )
         object.__setattr__(self, "delta_int", d_int)
         object.__setattr__(self, "delta_f", 0.5 * d_int)
@@ -203,14 +207,15 @@ class ThreeZoneBraking:
     def kernel_profile(self) -> tuple[int, tuple[float, ...]]:
         """``(kind, params)``: this profile as the compiled shaping kernels read it.
 
-        ``kind`` is the three-zone code, ``params`` is ``(gain, v_max, a_max, delta_int,
-        delta_f, delta_phi)``; the cap is evaluated by the same kernel function either way.
+        ``kind`` is the three-zone code, ``params`` is ``(gain, max_speed, max_acceleration,
+        delta_int, delta_f, delta_phi)``; the cap is evaluated by the same kernel function either
+        way.
         """
         return PROFILE_THREE_ZONE, self._params
 
     @classmethod
     def from_actuator_limits(
-        cls, *, gain: float, joint_speed_max: float, joint_accel_max: float
+        cls, *, gain: float, max_speed: float, max_acceleration: float
     ) -> ThreeZoneBraking:
         r"""The paper's profile for identical actuators (eq. 3).
 
@@ -220,18 +225,18 @@ class ThreeZoneBraking:
 
         Args:
             gain: K [1/s].
-            joint_speed_max: :math:`\dot\theta_{max}` [rad/s].
-            joint_accel_max: :math:`\ddot\theta_{max}` [rad/s²].
+            max_speed: :math:`\dot\theta_{max}` [rad/s].
+            max_acceleration: :math:`\ddot\theta_{max}` [rad/s²].
         """
         r2 = math.sqrt(2.0)
-        speed = check_positive("joint_speed_max", joint_speed_max, unit="rad/s")
-        accel = check_positive("joint_accel_max", joint_accel_max, unit="rad/s²")
+        speed = check_positive("max_speed", max_speed, unit="rad/s")
+        accel = check_positive("max_acceleration", max_acceleration, unit="rad/s²")
         try:
-            return cls(gain=gain, v_max=r2 * speed, a_max=r2 * accel)
+            return cls(gain=gain, max_speed=r2 * speed, max_acceleration=r2 * accel)
         except InvalidParameter as exc:  # name the arguments the caller passed
             raise InvalidParameter(
-                f"joint_speed_max={speed:g} rad/s, joint_accel_max={accel:g} rad/s² "
-                f"(v_max = √2·joint_speed_max, a_max = √2·joint_accel_max): {exc}"
+                f"max_speed={speed:g} rad/s, max_acceleration={accel:g} rad/s² "
+                f"(max_speed = √2·max_speed, max_acceleration = √2·max_acceleration): {exc}"
             ) from None
 
     def check_period(self, dt: float) -> None:
@@ -261,7 +266,7 @@ class ThreeZoneBraking:
         """The paper's zone flag of ``|δ|``: 3 nominal, 2 maximal deceleration, 1 linear.
 
         As in the paper, the flag depends on ``|δ|`` only: outside (``δ < 0``) zone 3 means a
-        forced return at ``v_max``, not free motion; read the sign of ``δ`` alongside.
+        forced return at ``max_speed``, not free motion; read the sign of ``δ`` alongside.
         """
         a = abs(_delta(delta))
         return 3 if a > self.delta_phi else (2 if a > self.delta_int else 1)

@@ -64,8 +64,8 @@ class RateLimiter:
 
     Args:
         size: Number of components n (e.g. 3 joints), keyword-only.
-        v_max: Speed limit per component [units/s], scalar or shape (n,).
-        a_max: Acceleration limit per component [units/s²], scalar or shape (n,).
+        max_speed: Speed limit per component [units/s], scalar or shape (n,).
+        max_acceleration: Acceleration limit per component [units/s²], scalar or shape (n,).
         dt: Sampling period Te [s].
         mode: ``"output"`` (default; rate-limit the previous output) or ``"literal"`` (the
             paper's printed Euler form on consecutive commands; kept to document why it fails).
@@ -75,25 +75,26 @@ class RateLimiter:
         self,
         *,
         size: int,
-        v_max: ArrayLike,
-        a_max: ArrayLike,
+        max_speed: ArrayLike,
+        max_acceleration: ArrayLike,
         dt: float,
         mode: RateMode = "output",
     ) -> None:
         self.size = check_positive_int("size", size, maximum=MAX_SIZE, example=3)
-        self.v_max = _limits("v_max", v_max, self.size, "units/s")
-        self.a_max = _limits("a_max", a_max, self.size, "units/s²")
+        self.max_speed = _limits("max_speed", max_speed, self.size, "units/s")
+        self.max_acceleration = _limits("max_acceleration", max_acceleration, self.size, "units/s²")
         self.dt = check_positive("dt", dt, unit="s")
         self.mode: RateMode = check_choice(  # type: ignore[assignment]
             "mode", mode, ("output", "literal")
         )
-        self._step = self.a_max * self.dt  # <= 1e300: both factors are <= 1e150
+        self._step = self.max_acceleration * self.dt  # <= 1e300: both factors are <= 1e150
         self._prev = np.zeros(self.size)
 
     def __repr__(self) -> str:
         return (
-            f"RateLimiter(size={self.size}, v_max={self.v_max.tolist()}, "
-            f"a_max={self.a_max.tolist()}, dt={self.dt:g}, mode={self.mode!r})"
+            f"RateLimiter(size={self.size}, max_speed={self.max_speed.tolist()}, "
+            f"max_acceleration={self.max_acceleration.tolist()}, dt={self.dt:g}, "
+            f"mode={self.mode!r})"
         )
 
     @property
@@ -123,12 +124,12 @@ class RateLimiter:
     def bounds(self) -> tuple[FloatArray, FloatArray]:
         """The box the next output of :meth:`step` lies in, per component ``(low, high)``.
 
-        ``state ± a_max·dt``, intersected with ``±v_max`` where that leaves a non-empty range
-        (after an override the state may lie beyond ``v_max``; the box then keeps the reachable
-        end). Used by :class:`~velfence.shaping.stops.StopLimiter` to stay inside it when a stop
-        bound must hold.
+        ``state ± max_acceleration·dt``, intersected with ``±max_speed`` where that leaves a
+        non-empty range (after an override the state may lie beyond ``max_speed``; the box then
+        keeps the reachable end). Used by :class:`~velfence.shaping.stops.StopLimiter` to stay
+        inside it when a stop bound must hold.
         """
-        p, s, v = self._prev, self._step, self.v_max
+        p, s, v = self._prev, self._step, self.max_speed
         lo = np.minimum(np.maximum(p - s, -v), p + s)
         hi = np.maximum(np.minimum(p + s, v), p - s)
         return lo, hi
@@ -170,7 +171,7 @@ class RateLimiter:
             InvalidInput: wrong shape, non-real or non-finite values (naming ``command``).
         """
         c = self._command(command)
-        v = np.clip(c, -self.v_max, self.v_max)
+        v = np.clip(c, -self.max_speed, self.max_speed)
         step = self._step
         if self.mode == "output":
             out: FloatArray = self._prev + np.clip(v - self._prev, -step, step)

@@ -367,16 +367,16 @@ class StopLimiter(InvalidPolicy):
 
         :math:`\min_k \sum_j \ddot\theta_{max,j}\,|(Q_{ij}^T n_k)_j|`: the largest decrease
         of the normal speed toward stop k in one period when every joint may change by its
-        ``a_max·dt`` (the rate limiter's box). A :class:`ThreeZoneBraking` with
-        ``a_max <= braking_capacity / (1 + gain·dt/2)`` can be followed by the post-stage without
-        the acceleration limit ever giving way while the joint speeds stay below ``v_max`` (the
-        factor covers the discrete ride down the braking parabola); a more demanding profile is
-        still safe, and the cycles where the limit gives way are flagged. ``None`` without a
-        post-stage.
+        ``max_acceleration·dt`` (the rate limiter's box). A :class:`ThreeZoneBraking` with
+        ``max_acceleration <= braking_capacity / (1 + gain·dt/2)`` can be followed by the
+        post-stage without the acceleration limit ever giving way while the joint speeds stay below
+        ``max_speed`` (the factor covers the discrete ride down the braking parabola); a more
+        demanding profile is still safe, and the cycles where the limit gives way are flagged.
+        ``None`` without a post-stage.
         """
         if self.post is None:
             return None
-        a = self.post.a_max
+        a = self.post.max_acceleration
         g = np.outer(self._nx, self.transform[self.limited[0]]) + np.outer(
             self._ny, self.transform[self.limited[1]]
         )

@@ -247,7 +247,7 @@ class RateResult:
             :math:`J^{-1}` runs), NaN for a non-square one.
         k: Damping used (0 for ``inverse="jinv"`` and outside the damped neighbourhood).
         singular: ``True`` when ``w <= singular_tol``: :math:`J^{-1}` is refused there.
-        scale: Factor in ``(0, 1]`` applied by ``max_joint_speed`` (1 when not limiting).
+        scale: Factor in ``(0, 1]`` applied by ``max_speed`` (1 when not limiting).
         stopped: ``True`` when ``on_invalid="stop"`` turned a refused step into zero rates.
     """
 
@@ -276,7 +276,7 @@ class ResolvedRate(InvalidPolicy):
             square Jacobian).
         k0: SR damping at the singular point, ``> 0`` (units of :math:`J J^\top`); thesis 0.025.
         w0: Manipulability at the border of the damped neighbourhood, ``> 0``; thesis 0.014.
-        max_joint_speed: Optional cap on every joint rate [rad/s], enforced by scaling the whole
+        max_speed: Optional cap on every joint rate [rad/s], enforced by scaling the whole
             ``q̇`` by one factor (its direction, hence the Cartesian direction, is kept).
         singular_tol: Manipulability at or below which :math:`J^{-1}` is refused (units of
             ``w``, ``>= 0``). Above it, :math:`J^{-1}` answers however large the rates.
@@ -289,7 +289,7 @@ class ResolvedRate(InvalidPolicy):
         InvalidParameter: an out-of-range parameter or a robot without ``jacobian``.
     """
 
-    __slots__ = ("inverse", "k0", "max_joint_speed", "robot", "singular_tol", "w0")
+    __slots__ = ("inverse", "k0", "max_speed", "robot", "singular_tol", "w0")
 
     def __init__(
         self,
@@ -298,7 +298,7 @@ class ResolvedRate(InvalidPolicy):
         inverse: str = "sr",
         k0: float = K0,
         w0: float = W0,
-        max_joint_speed: float | None = None,
+        max_speed: float | None = None,
         singular_tol: float = 1e-10,
         on_invalid: str = "raise",
     ) -> None:
@@ -312,17 +312,15 @@ class ResolvedRate(InvalidPolicy):
         self.inverse = check_choice("inverse", inverse, INVERSES)
         self.k0 = check_positive("k0", k0)
         self.w0 = check_positive("w0", w0)
-        self.max_joint_speed = (
-            None
-            if max_joint_speed is None
-            else check_positive("max_joint_speed", max_joint_speed, unit="rad/s")
+        self.max_speed = (
+            None if max_speed is None else check_positive("max_speed", max_speed, unit="rad/s")
         )
         self.singular_tol = check_positive("singular_tol", singular_tol, allow_zero=True)
 
     def __repr__(self) -> str:
         return (
             f"ResolvedRate(inverse={self.inverse!r}, k0={self.k0:g}, w0={self.w0:g}, "
-            f"max_joint_speed={self.max_joint_speed}, on_invalid={self.on_invalid!r})"
+            f"max_speed={self.max_speed}, on_invalid={self.on_invalid!r})"
         )
 
     def step(self, q: ArrayLike, xdot: ArrayLike) -> FloatArray:
@@ -396,10 +394,10 @@ class ResolvedRate(InvalidPolicy):
             )
             return self._stopped(n, w, det, k, singular)
         scale = 1.0
-        if self.max_joint_speed is not None:
+        if self.max_speed is not None:
             peak = float(np.max(np.abs(qdot)))
-            if peak > self.max_joint_speed:
-                scale = self.max_joint_speed / peak
+            if peak > self.max_speed:
+                scale = self.max_speed / peak
                 qdot = qdot * scale
         return RateResult(readonly(qdot), w, det, k, singular, scale, False)
 

@@ -321,7 +321,7 @@ class Execution:
     feedback: str
 
     @property
-    def max_joint_speed(self) -> float:
+    def max_speed(self) -> float:
         """Largest commanded joint rate magnitude over the run [rad/s]."""
         return float(np.max(np.abs(self.qdot)))
 

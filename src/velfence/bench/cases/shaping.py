@@ -52,6 +52,9 @@ def regular_polygon(edges: int, *, radius: float = 1.0) -> ConvexPolygon:
         edges: Number of edges, ``3 <= edges <=`` :data:`MAX_EDGES`.
         radius: Circumradius, workspace units (> 0).
 
+    Returns:
+        The polygon.
+
     Raises:
         InvalidParameter: ``edges`` is not an int in range, or ``radius`` is not positive.
         InvalidGeometry: ``radius`` is so small that the corners coincide.
@@ -184,7 +187,7 @@ def stop_latency(s: BenchSettings, step: Step) -> list[StopLatencyRow]:
     from velfence.shaping.profiles import ThreeZoneBraking
     from velfence.shaping.stops import StopLimiter
 
-    prof = ThreeZoneBraking.from_actuator_limits(gain=100, joint_speed_max=2, joint_accel_max=20)
+    prof = ThreeZoneBraking.from_actuator_limits(gain=100, max_speed=2, max_acceleration=20)
     rng = np.random.default_rng(s.seed + 1)
     rows: list[StopLatencyRow] = []
     for method in ("nearest", "exact"):
