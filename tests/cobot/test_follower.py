@@ -302,6 +302,47 @@ def test_perpendicular_heading_is_flagged_and_bounded() -> None:
     assert not g.evaluate([0.0, 0.3], [1.0, 1.0], s_p=1.0).singular
 
 
+def test_guard_holds_the_reference_and_steers_with_the_reachable_part() -> None:
+    """At T ⟂ T_p no U reaches ΔR'' along T; the guard takes s_p'' = 0, κN = (I - TTᵀ)w."""
+    path = Circle([0.0, 0.0], radius=1.0)
+    f = PathFollower(path)
+    out = f.evaluate([1.2, 0.0], [1.0, 0.0], s_p=0.0, sp_d=1.0)
+    assert out.singular
+    assert out.sp_dd == 0.0
+    # e = (0.2, 0), ΔR' = (1, -1), v = -(4e + 4ΔR') = (-4.8, 4), w = v + κ_pN_p = (-5.8, 4).
+    np.testing.assert_allclose(out.v, [-4.8, 4.0], atol=1e-12)
+    np.testing.assert_allclose(out.kN, [0.0, 4.0], atol=1e-12)
+    np.testing.assert_allclose(out.U, out.kN, atol=0.0)
+    # The normal part of ΔR'' = κN - s_p'' T_p - s_p'^2 κ_pN_p is exactly the demanded one.
+    ddR = out.kN - out.sp_dd * path.tangent(0.0) - path.frame(0.0)[2]
+    assert float(ddR[1]) == pytest.approx(float(out.v[1]), abs=1e-12)
+
+
+def test_perpendicular_start_converges_and_does_not_hinge_on_rounding() -> None:
+    """The r-θ start of Fig. 5 with the heading ⟂ the path: one flagged tick, bounded, converges.
+
+    With the divisor clamped to ±guard the first step turned the heading by 5.8 rad and a 1e-15
+    rad change of the start heading decided between convergence and overflow.
+    """
+    from velfence.cobot import constant_speed
+    from velfence.reproduce.cobot import LENGTH, fig5_cobot
+
+    runs = [
+        fig5_cobot(
+            constant_speed(1.0), duration=LENGTH + 0.01, heading=np.array([1.0, eps]), name="⊥"
+        )
+        for eps in (0.0, 1e-15, -1e-15)
+    ]
+    for tr in runs:
+        assert 1 <= int(tr.singular.sum()) <= 2
+        assert bool(tr.singular[0])
+        assert float(tr.error_norm[-1]) < 1e-5
+        step = np.diff(tr.s_p)
+        step = (step + math.pi) % (2.0 * math.pi) - math.pi  # s_p wraps on the closed circle
+        assert float(np.max(np.abs(step))) < 0.05  # the reference never races off
+        np.testing.assert_allclose(tr.R, runs[0].R, atol=1e-9)
+
+
 def test_max_curvature_bounds_the_command() -> None:
     path = PATHS["line"]()
     free = PathFollower(path).evaluate([0.0, 1.0], [1.0, 1.0], s_p=1.0)

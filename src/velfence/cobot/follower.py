@@ -21,8 +21,16 @@ the human pushes. :math:`\det M = -T^\top T_p`; with :math:`w = v + b` the inver
     s_p'' = -\frac{T^\top w}{T^\top T_p},\qquad \kappa N = (I - TT^\top)(w + s_p'' T_p)
 
 (Sherman–Morrison; ``docs/cobot.md`` §4). When :math:`|T^\top T_p|` falls below ``guard`` the
-heading is nearly perpendicular to the path and the inverse blows up: the controller flags it and,
-per ``on_singular``, clamps the divisor to ``±guard`` (bounded output) or raises.
+heading is nearly perpendicular to the path and the inverse blows up: the controller flags it
+and, per ``on_singular``, raises or (``"clamp"``) holds the reference, :math:`s_p'' = 0`, and steers with
+:math:`\kappa N = (I - TT^\top)w`. At :math:`T \perp T_p` the range of M is the complement of T,
+so no input reaches the T component of :math:`\Delta R''`, while every :math:`s_p''` gives the
+exact normal part :math:`(I - TT^\top)\Delta R'' = (I - TT^\top)v`; of these least-squares
+solutions the one with :math:`s_p'' = 0` does not kick the reference state, and its curvature is
+bounded, :math:`|\kappa N| \le |w|`. (Dividing by a clamped :math:`\pm` ``guard`` instead gave
+:math:`|s_p''| = |T^\top w|/` ``guard`` — 5800 for the r-θ start with the heading ⟂ the path —
+whose zero-order hold over one step turned the heading by radians and left the run's fate to
+rounding.)
 
 The reference state :math:`(s_p, s_p')` belongs to the controller and is integrated over the
 *measured* arc length: ``ds = 0`` (the human stopped) leaves it unchanged.
@@ -141,7 +149,8 @@ class PathFollower:
         gains: ``(k1, k2)`` [1/m², 1/m], both > 0 (stable); see :func:`gains_from_poles` and
             :func:`critically_damped`. The paper gives none; (4, 4) is a double pole at -2 /m.
         guard: Threshold on :math:`|T^\top T_p|` below which M counts as singular, in (0, 1).
-        on_singular: ``"clamp"`` (divide by ``±guard``; bounded, flagged) or ``"raise"``.
+        on_singular: ``"clamp"`` (hold the reference, :math:`s_p'' = 0`, and steer with
+            :math:`(I - TT^\top)w`; bounded, flagged; module docs) or ``"raise"``.
         max_curvature: Optional bound on :math:`|\kappa N|` [1/m] (a steering-rate limit seen in
             C_EE); ``None`` for none. When it acts the linearisation is no longer exact.
 
@@ -266,10 +275,17 @@ class PathFollower:
                     "heading is perpendicular to the path at the reference point. Use "
                     "on_singular='clamp' or re-initialise s_p with reset()"
                 )
-            c = self._guard if c >= 0.0 else -self._guard
-        spdd = -float(Ta @ w) / c  # (3.4) via Sherman–Morrison
-        U = w + (Ta + Tp) * spdd
-        kN = U - Ta * float(Ta @ U)  # (3.5)
+            # Every U leaves the T component of ΔR'' at -s_p'^2 T·κ_pN_p when T ⟂ T_p (the
+            # range of M is T's orthogonal complement), and every s_p'' gives the exact normal
+            # part (I - TTᵀ)ΔR'' = (I - TTᵀ)v with κN = (I - TTᵀ)(w + s_p'' T_p): hold the
+            # reference (s_p'' = 0) and steer with the reachable part, |κN| <= |w|.
+            spdd = 0.0
+            U = w - Ta * float(Ta @ w)
+            kN = U
+        else:
+            spdd = -float(Ta @ w) / c  # (3.4) via Sherman–Morrison
+            U = w + (Ta + Tp) * spdd
+            kN = U - Ta * float(Ta @ U)  # (3.5)
         if self._kmax is not None:
             mag = float(np.linalg.norm(kN))
             if mag > self._kmax:
