@@ -21,16 +21,15 @@ the human pushes. :math:`\det M = -T^\top T_p`; with :math:`w = v + b` the inver
     s_p'' = -\frac{T^\top w}{T^\top T_p},\qquad \kappa N = (I - TT^\top)(w + s_p'' T_p)
 
 (Sherman–Morrison; ``docs/cobot.md`` §4). When :math:`|T^\top T_p|` falls below ``guard`` the
-heading is nearly perpendicular to the path and the inverse blows up: the controller flags it
-and, per ``on_singular``, raises or (``"clamp"``) holds the reference, :math:`s_p'' = 0`, and steers with
-:math:`\kappa N = (I - TT^\top)w`. At :math:`T \perp T_p` the range of M is the complement of T,
-so no input reaches the T component of :math:`\Delta R''`, while every :math:`s_p''` gives the
-exact normal part :math:`(I - TT^\top)\Delta R'' = (I - TT^\top)v`; of these least-squares
-solutions the one with :math:`s_p'' = 0` does not kick the reference state, and its curvature is
-bounded, :math:`|\kappa N| \le |w|`. (Dividing by a clamped :math:`\pm` ``guard`` instead gave
-:math:`|s_p''| = |T^\top w|/` ``guard`` — 5800 for the r-θ start with the heading ⟂ the path —
-whose zero-order hold over one step turned the heading by radians and left the run's fate to
-rounding.)
+heading is nearly perpendicular to the path and the inverse blows up: the controller flags it and,
+per ``on_singular``, raises or (``"clamp"``) holds the reference, :math:`s_p'' = 0`, and steers with
+:math:`\kappa N = (I - TT^\top)w`. At :math:`T \perp T_p` the range of M is the complement of T, so
+no input reaches the T component of :math:`\Delta R''`, while every :math:`s_p''` gives the exact
+normal part :math:`(I - TT^\top)\Delta R'' = (I - TT^\top)v`; of these least-squares solutions the
+one with :math:`s_p'' = 0` does not kick the reference state, and its curvature is bounded,
+:math:`|\kappa N| \le |w|`. (Dividing by a clamped :math:`\pm` ``guard`` instead gave :math:`|s_p''|
+= |T^\top w|/` ``guard`` — 5800 for the r-θ start with the heading ⟂ the path — whose zero-order
+hold over one step turned the heading by radians and left the run's fate to rounding.)
 
 The reference state :math:`(s_p, s_p')` belongs to the controller and is integrated over the
 *measured* arc length: ``ds = 0`` (the human stopped) leaves it unchanged.
