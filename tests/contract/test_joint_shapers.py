@@ -3,56 +3,62 @@
 Adding one means adding a factory to ``FACTORIES``; each check mirrors the 2-D contract in
 ``test_shapers.py``: finite (n,) output, ``explain().output == shape()``, batch == loop for
 stateless shapers, non-finite input refused naming "finite", wrong shapes refused, tuning
-parameters keyword-only, and the instance satisfies the ``Shaper`` protocol.
+parameters keyword-only, the instance satisfies the ``Shaper`` protocol, an empty batch gives an
+empty answer, ``on_invalid="stop"`` answers a non-finite input with zero velocity and zone
+``"invalid"``, and every bad tuning value is refused naming its parameter.
 """
 
 from __future__ import annotations
 
+import contextlib
 import inspect
 import math
+import sys
+import typing
+from typing import Literal
 
 import numpy as np
 import pytest
 
-from velfence import InvalidInput, Shaper, StopLimiter, ThreeZoneBraking
+from velfence import InvalidInput, InvalidParameter, Shaper, StopLimiter, ThreeZoneBraking
 from velfence.mechanisms.cospm import PAPER_STOPS, Q_AUX
 from velfence.shaping.base import ZONES, ShaperResult
 
 
 def _stop_limiter(method: str):
-    def make():
+    def make(**overrides):
         prof = ThreeZoneBraking.from_actuator_limits(gain=100, max_speed=2, max_acceleration=20)
-        return StopLimiter(PAPER_STOPS, profile=prof, transform=Q_AUX, method=method)
+        kw = {"profile": prof, "transform": Q_AUX, "method": method, **overrides}
+        return StopLimiter(PAPER_STOPS, **kw)
 
     return make
 
 
 def _configuration_control(kind: str):
-    def make():
+    def make(**overrides):
         from velfence.mechanisms.chain import PlanarArm
         from velfence.redundancy import ConfigurationController, Obstacle, VelocityDamperQP
 
         arm = PlanarArm.three_r()
         obs = [Obstacle(center=np.array([0.8, 1.2]), radius=0.05, influence=0.3)]
         if kind == "qp":
-            return VelocityDamperQP(arm, obs)
-        return ConfigurationController(arm, obs)
+            return VelocityDamperQP(arm, obs, **overrides)
+        return ConfigurationController(arm, obs, **overrides)
 
     return make
 
 
-def _line_fixture(kind: str):
+def _line_fixture(kind: str, **overrides):
     from velfence.shaping.fixtures import LineFixture, LineScaling
 
     # The contract's states lie around (π/2, π/2, π/2) ± 0.9: a line through them with a
     # cylinder of influence wide enough that both zones (and the saturated spring) occur.
     point, direction = (1.5, 1.6, 1.4), (1.0, 0.5, -2.0)
     if kind == "scaling":
-        return LineScaling(point, direction)
-    length = 0.6 if kind == "segment" else None
-    return LineFixture(
-        point, direction, stiffness=2.0, radius_of_influence=0.6, max_force=0.5, length=length
-    )
+        return LineScaling(point, direction, **overrides)
+    kw = {"stiffness": 2.0, "radius_of_influence": 0.6, "max_force": 0.5}
+    kw["length"] = 0.6 if kind == "segment" else None
+    return LineFixture(point, direction, **{**kw, **overrides})
 
 
 # (name, factory, state dimension, command dimension)
@@ -61,9 +67,9 @@ FACTORIES = [
     ("stops-exact", _stop_limiter("exact"), 3, 3),
     ("configuration-control", _configuration_control("dls"), 3, 2),
     ("velocity-damper-qp", _configuration_control("qp"), 3, 2),
-    ("line-scaling", lambda: _line_fixture("scaling"), 3, 3),
-    ("line-fixture", lambda: _line_fixture("fixture"), 3, 3),
-    ("line-fixture-segment", lambda: _line_fixture("segment"), 3, 3),
+    ("line-scaling", lambda **kw: _line_fixture("scaling", **kw), 3, 3),
+    ("line-fixture", lambda **kw: _line_fixture("fixture", **kw), 3, 3),
+    ("line-fixture-segment", lambda **kw: _line_fixture("segment", **kw), 3, 3),
 ]
 IDS = [f[0] for f in FACTORIES]
 
@@ -156,3 +162,75 @@ def test_tuning_parameters_are_keyword_only(name, make, dim, cdim):
         positional
     )
     assert any(p.kind is inspect.Parameter.KEYWORD_ONLY for p in params)
+
+
+@pytest.mark.parametrize(("name", "make", "dim", "cdim"), FACTORIES, ids=IDS)
+def test_empty_batch_is_an_empty_answer(name, make, dim, cdim):
+    out = make().shape_batch(np.zeros((0, dim)), np.zeros((0, cdim)))
+    assert out.shape == (0, dim)
+    assert out.dtype == np.float64
+
+
+@pytest.mark.parametrize(("name", "make", "dim", "cdim"), FACTORIES, ids=IDS)
+@pytest.mark.parametrize("slot", ["state", "command"])
+def test_on_invalid_stop_returns_zero_and_says_so(name, make, dim, cdim, slot):
+    s = make(on_invalid="stop")
+    x, v = np.full(dim, np.pi / 2), np.full(cdim, 0.3)
+    (x if slot == "state" else v)[0] = math.nan
+    out = s.shape(x, v)
+    np.testing.assert_array_equal(out, np.zeros(dim))
+    r = s.explain(x, v)
+    np.testing.assert_array_equal(r.output, np.zeros(dim))
+    assert r.zone == "invalid"
+    # a batch with one bad row stops that row only
+    X, V = states(4, dim, seed=5, cdim=cdim)
+    (X if slot == "state" else V)[2, 0] = math.nan
+    batch = s.shape_batch(X, V)
+    np.testing.assert_array_equal(batch[2], np.zeros(dim))
+    assert np.all(np.isfinite(batch))
+    # the default refuses the same input, naming finiteness
+    with pytest.raises(InvalidInput, match="finite"):
+        make().shape(x, v)
+
+
+def _hints(cls: type) -> dict:
+    """Each constructor parameter's annotation, evaluated where the module can (a name imported
+    only for type checking stays a string)."""
+    namespace = dict(vars(sys.modules[cls.__module__]))
+    out = {}
+    for p in inspect.signature(cls.__init__).parameters.values():
+        ann = p.annotation
+        if isinstance(ann, str):
+            with contextlib.suppress(NameError):
+                ann = eval(ann, namespace)
+        out[p.name] = ann
+    return out
+
+
+def _bad_values(p: inspect.Parameter, hints: dict) -> list:
+    """Values a float or choice tuning parameter must reject, from its annotation."""
+    hint = hints.get(p.name)
+    if typing.get_origin(hint) is Literal:
+        return ["no-such-choice"]
+    ann = str(p.annotation)
+    if "bool" in ann:
+        return []
+    if "float" in ann:
+        return [math.nan, "fast"]
+    return []
+
+
+@pytest.mark.parametrize(("name", "make", "dim", "cdim"), FACTORIES, ids=IDS)
+def test_bad_parameters_are_named(name, make, dim, cdim):
+    cls = type(make())
+    hints = _hints(cls)
+    checked = 0
+    for p in inspect.signature(cls.__init__).parameters.values():
+        if p.kind is not inspect.Parameter.KEYWORD_ONLY:
+            continue
+        for bad in _bad_values(p, hints):
+            with pytest.raises(InvalidParameter, match=p.name) as info:
+                make(**{p.name: bad})
+            assert repr(bad) in str(info.value) or str(bad) in str(info.value), info.value
+            checked += 1
+    assert checked > 0  # at least on_invalid

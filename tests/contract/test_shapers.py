@@ -30,10 +30,12 @@ from velfence import (
     HardStop,
     InvalidInput,
     InvalidParameter,
+    LinearBuffer,
     NoLimit,
     PolygonShaper,
     Shaper,
     ShapingResult,
+    ThreeZoneBraking,
 )
 from velfence.shaping.base import ZONES, ShaperResult
 
@@ -47,6 +49,19 @@ def _polygon_shaper(method: str) -> Factory:
         kw: dict[str, Any] = {"buffer": 0.2, "spring_gain": 4.0, "method": method}
         kw.update(overrides)
         return PolygonShaper(POLYGON, **kw)
+
+    return make
+
+
+def _polygon_profile(kind: str) -> Factory:
+    """The exact law with an approach profile instead of the built-in buffer."""
+
+    def make(**overrides: Any) -> PolygonShaper:
+        if kind == "linear":
+            profile: Any = LinearBuffer(buffer=0.2, spring_gain=4.0)
+        else:
+            profile = ThreeZoneBraking(gain=20.0, max_speed=2.0, max_acceleration=10.0)
+        return PolygonShaper(POLYGON, **{"profile": profile, **overrides})
 
     return make
 
@@ -71,6 +86,8 @@ def _caster_wall(**overrides: Any) -> Any:
 FACTORIES: list[tuple[str, Factory]] = [
     ("polygon-patent", _polygon_shaper("patent")),
     ("polygon-exact", _polygon_shaper("exact")),
+    ("polygon-linear-profile", _polygon_profile("linear")),
+    ("polygon-three-zone-profile", _polygon_profile("three-zone")),
     ("baseline-none", _baseline("none")),
     ("baseline-hard-stop", _baseline("hard-stop")),
     ("baseline-axis-limits", _baseline("axis-limits")),
