@@ -414,8 +414,11 @@ def step_count(
     return max(1, math.ceil(ratio - 1e-9))
 
 
-def check_choice(name: str, value: Any, choices: tuple[str, ...]) -> str:
-    """A string option among ``choices``.
+_Choice = TypeVar("_Choice", bound=str)
+
+
+def check_choice(name: str, value: Any, choices: tuple[_Choice, ...]) -> _Choice:
+    """A string option among ``choices`` (typed as the choices' ``Literal``, when they have one).
 
     Raises:
         InvalidParameter: anything else (the allowed values are listed).

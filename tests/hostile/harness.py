@@ -14,11 +14,13 @@ import pkgutil
 import re
 import resource
 import signal
+import sys
 import time
+import typing
 import warnings
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from kinds import KINDS, NotApplicable, expectation
@@ -207,12 +209,26 @@ _NONNEG = re.compile(
 )
 
 
-def infer_type(param: inspect.Parameter) -> str:
-    """The parameter type of ``param`` (see :mod:`kinds`), from its annotation, name and default."""
+def _is_choice(base: str, namespace: dict[str, Any] | None) -> bool:
+    """Whether the annotation ``base`` names a ``Literal`` of strings (a typed choice)."""
+    alias = (namespace or {}).get(base)
+    if typing.get_origin(alias) is not Literal:
+        return False
+    return all(isinstance(a, str) for a in typing.get_args(alias))
+
+
+def infer_type(param: inspect.Parameter, namespace: dict[str, Any] | None = None) -> str:
+    """The parameter type of ``param`` (see :mod:`kinds`), from its annotation, name and default.
+
+    ``namespace`` (the callable's module globals) resolves an annotation that names a ``Literal``
+    alias (``OnInvalid``, ``PolygonMethod``, ...): such a parameter is a choice.
+    """
     ann = param.annotation
     text = ann if isinstance(ann, str) else getattr(ann, "__name__", str(ann))
     base = text.replace(" | None", "").replace("None | ", "").strip()
     name = param.name
+    if _is_choice(base, namespace):
+        return "choice"
     if "Callable" in base or base.endswith("Fn") or base == "Progress":
         return "callable"
     if base in ("float", "float | int"):
@@ -459,6 +475,8 @@ def attack_uncapped(t: Target) -> tuple[list[Failure], int]:
     sig = _signature(probe[1])
     if sig is None:
         return [Failure(t.key, "(valid)", "signature", "valid-failed", "no signature")], 0
+    module = sys.modules.get(getattr(probe[1], "__module__", "") or "")
+    namespace = vars(module) if module is not None else None
     try:
         valid = spec.valid()
     except Exception as exc:  # a registry entry out of date with the library is a failure
@@ -491,7 +509,7 @@ def attack_uncapped(t: Target) -> tuple[list[Failure], int]:
             continue
         if p.kind is p.POSITIONAL_ONLY and name not in bound.arguments:
             continue
-        ptype = spec.types.get(name) or infer_type(p)
+        ptype = spec.types.get(name) or infer_type(p, namespace)
         optional = is_optional(p)
         if name in bound.arguments:
             vvalue = bound.arguments[name]
@@ -670,6 +688,9 @@ def targets() -> tuple[list[Target], list[str]]:
 
 
 def _attack_key(key: str) -> tuple[str, list[Failure], int]:
+    global _WORKER_TARGETS
+    if not _WORKER_TARGETS:  # a fresh worker process: build the targets here
+        _WORKER_TARGETS = targets()[0]
     for t in _WORKER_TARGETS:
         if t.key == key:
             fails, calls = attack(t)
@@ -689,10 +710,13 @@ def jobs() -> int:
 
 
 def attack_many(keys: list[str], n_jobs: int | None = None) -> dict[str, tuple[list[Failure], int]]:
-    """Attack the targets named ``keys`` in ``n_jobs`` forked worker processes.
+    """Attack the targets named ``keys`` in ``n_jobs`` worker processes.
 
-    Each worker runs its calls in its own main thread, so the SIGALRM guard works there too;
-    a worker that dies takes only its own target down (reported as a failure).
+    Each worker runs its calls in its own main thread, so the SIGALRM guard works there too.
+    Workers come from a fork server (a clean single-threaded process), not from a fork of the
+    test process: by the time this runs, earlier tests may have started threads in it (numba's
+    parallel thread pool behind ``shape_batch``), and a forked child that uses such a pool again
+    can die or deadlock, which loses its task and hangs the pool.
     """
     global _WORKER_TARGETS
     all_targets, _ = targets()
@@ -704,7 +728,8 @@ def attack_many(keys: list[str], n_jobs: int | None = None) -> dict[str, tuple[l
             _, fails, calls = _attack_key(k)
             out[k] = (fails, calls)
         return out
-    ctx = multiprocessing.get_context("fork")
+    ctx = multiprocessing.get_context("forkserver")
+    ctx.set_forkserver_preload(["harness"])
     with ctx.Pool(n, maxtasksperchild=50) as pool:
         for key, fails, calls in pool.imap_unordered(_attack_key, keys, chunksize=1):
             out[key] = (fails, calls)

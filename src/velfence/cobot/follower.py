@@ -40,6 +40,7 @@ from __future__ import annotations
 import math
 import numbers
 from dataclasses import dataclass
+from typing import Literal, get_args
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -56,6 +57,8 @@ from velfence.errors import InvalidInput, InvalidParameter
 from velfence.geometry.paths import Path
 
 __all__ = ["FollowerOutput", "PathFollower", "critically_damped", "gains_from_poles"]
+
+OnSingular = Literal["clamp", "raise"]
 
 
 def gains_from_poles(p1: complex, p2: complex) -> tuple[float, float]:
@@ -163,7 +166,7 @@ class PathFollower:
         *,
         gains: tuple[float, float] = (4.0, 4.0),
         guard: float = 1e-3,
-        on_singular: str = "clamp",
+        on_singular: OnSingular = "clamp",
         max_curvature: float | None = None,
     ) -> None:
         if not isinstance(path, Path):
@@ -185,7 +188,7 @@ class PathFollower:
         if g >= 1.0:
             raise InvalidParameter(f"guard: expected a value in (0, 1) on |T·T_p|, got {g}")
         self._guard = g
-        self._on_singular = check_choice("on_singular", on_singular, ("clamp", "raise"))
+        self._on_singular = check_choice("on_singular", on_singular, get_args(OnSingular))
         self._kmax = (
             None if max_curvature is None else check_positive("max_curvature", max_curvature)
         )

@@ -25,7 +25,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import KW_ONLY, dataclass, field
-from typing import Protocol, runtime_checkable
+from typing import Literal, Protocol, get_args, runtime_checkable
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -61,6 +61,8 @@ __all__ = [
     "r_theta_cobot",
     "unicycle",
 ]
+
+Route = Literal["direct", "joint"]
 
 
 #: |Λ| below this times the product of the Ω row norms means the CVTs do not fix a direction.
@@ -545,7 +547,7 @@ class Cobot:
         kN: ArrayLike,
         speed: float,
         *,
-        route: str = "direct",
+        route: Route = "direct",
     ) -> Steering:
         r"""Steering rates that realise curvature :math:`\kappa N` at speed ``speed``.
 
@@ -561,7 +563,7 @@ class Cobot:
         Returns:
             :class:`Steering`.
         """
-        check_choice("route", route, ("direct", "joint"))
+        check_choice("route", route, get_args(Route))
         Ra = _vec("R", R, self._n)
         p = _vec("phi", phi, self._n - 1)
         Ta = _vec("T", T, self._n)

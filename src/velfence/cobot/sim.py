@@ -26,7 +26,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import KW_ONLY, dataclass, field
-from typing import Any, Protocol
+from typing import Any, Literal, Protocol, get_args
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -39,7 +39,7 @@ from velfence._validate import (
     real_array,
     step_count,
 )
-from velfence.cobot.model import Cobot
+from velfence.cobot.model import Cobot, Route
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.sim.runner import Trajectory
 
@@ -52,6 +52,8 @@ __all__ = [
     "pushing",
     "simulate_cobot",
 ]
+
+Integrator = Literal["arc", "euler"]
 
 
 #: The human: ``(t, R, T) -> u``, the signed speed [m/s] along the allowed direction T.
@@ -273,7 +275,7 @@ def follow_in_ee(
     *,
     length: float,
     ds: float = 1e-3,
-    integrator: str = "arc",
+    integrator: Integrator = "arc",
     name: str = "C_EE",
 ) -> CobotTrace:
     r"""Run a heading controller on the generic C_EE model in arc length (module docs).
@@ -299,7 +301,7 @@ def follow_in_ee(
         )
     steps = step_count("length", length, "ds", ds)
     h = check_positive("ds", ds, unit="m")
-    check_choice("integrator", integrator, ("arc", "euler"))
+    check_choice("integrator", integrator, get_args(Integrator))
     label = _label(name)
     rec = _Recorder()
     s = 0.0
@@ -343,7 +345,7 @@ def simulate_cobot(
     duration: float,
     dt: float = 1e-3,
     heading0: ArrayLike | None = None,
-    route: str = "direct",
+    route: Route = "direct",
     name: str | None = None,
 ) -> CobotTrace:
     r"""Run a cobot in time: human speed in, steering rates out (module docs).

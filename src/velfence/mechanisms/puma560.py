@@ -43,7 +43,7 @@ Units: metres, radians; poses are 4 x 4 homogeneous transforms in the base frame
 from __future__ import annotations
 
 import math
-from typing import Any, Literal
+from typing import Any, Literal, get_args
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -62,12 +62,13 @@ __all__ = [
 Shoulder = Literal["right", "left"]
 Elbow = Literal["up", "down"]
 WristLabel = Literal["noflip", "flip"]
-Configuration = tuple[str, str, str]
+Configuration = tuple[Shoulder, Elbow, WristLabel]
 
-_CONVENTIONS = ("fu", "craig")
-_SHOULDERS = ("right", "left")
-_ELBOWS = ("up", "down")
-_WRISTS = ("noflip", "flip")
+DHConvention = Literal["fu", "craig"]
+_CONVENTIONS: tuple[DHConvention, ...] = get_args(DHConvention)
+_SHOULDERS: tuple[Shoulder, ...] = get_args(Shoulder)
+_ELBOWS: tuple[Elbow, ...] = get_args(Elbow)
+_WRISTS: tuple[WristLabel, ...] = get_args(WristLabel)
 
 CONFIGURATIONS: tuple[Configuration, ...] = tuple(
     (s, e, w) for s in _SHOULDERS for e in _ELBOWS for w in _WRISTS
@@ -143,7 +144,7 @@ class Puma560:
     def __init__(
         self,
         *,
-        convention: str = "fu",
+        convention: DHConvention = "fu",
         tool: ArrayLike | None = None,
         joint_limits: ArrayLike | None = None,
     ) -> None:
@@ -284,7 +285,7 @@ class Puma560:
     # ----------------------------------------------------------------------------------------
     # Configuration labels, limits
     # ----------------------------------------------------------------------------------------
-    def configuration(self, q: ArrayLike) -> tuple[str, str, str]:
+    def configuration(self, q: ArrayLike) -> Configuration:
         r"""IK branch labels ``(shoulder, elbow, wrist)`` of a joint vector.
 
         With the ``"fu"`` angles (Fu, Gonzalez & Lee's indicators):
@@ -339,9 +340,9 @@ class Puma560:
         self,
         T: ArrayLike,
         *,
-        shoulder: str = "right",
-        elbow: str = "up",
-        wrist: str = "noflip",
+        shoulder: Shoulder = "right",
+        elbow: Elbow = "up",
+        wrist: WristLabel = "noflip",
         respect_limits: bool = False,
     ) -> FloatArray:
         r"""Closed-form inverse kinematics of one branch (thesis §4.4.1, corrected).

@@ -51,7 +51,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import KW_ONLY, dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Literal, get_args
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -59,12 +59,14 @@ from numpy.typing import ArrayLike
 from velfence._typing import FloatArray, IntArray
 from velfence._validate import check_choice, check_positive, readonly, real_array
 from velfence.errors import InvalidInput, InvalidParameter
-from velfence.shaping.base import InvalidPolicy
+from velfence.shaping.base import InvalidPolicy, OnInvalid
 
 if TYPE_CHECKING:
     from velfence.mechanisms.chain import SerialChain
 
 __all__ = ["ConfigurationController", "ControlResult", "Obstacle"]
+
+Release = Literal["recheck", "sequential"]
 
 
 _RATE_EPS = 1e-12  # [m/s] rounding deadband: a tangential motion (ḋ = 0 up to rounding) stays free
@@ -216,7 +218,7 @@ class ChainObstacleBase(InvalidPolicy):
     method = "chain-obstacles"
 
     def __init__(
-        self, chain: SerialChain, obstacles: Sequence[Obstacle], *, on_invalid: str = "raise"
+        self, chain: SerialChain, obstacles: Sequence[Obstacle], *, on_invalid: OnInvalid = "raise"
     ) -> None:
         super().__init__(on_invalid=on_invalid)
         missing = [a for a in _CHAIN_ATTRS if not hasattr(chain, a)]
@@ -507,12 +509,12 @@ class ConfigurationController(ChainObstacleBase):
         spring_gain: float = 0.0,
         activation_margin: float = 0.0,
         task_tolerance: float = 1e-3,
-        release: str = "recheck",
+        release: Release = "recheck",
         max_speed: float | None = None,
-        on_invalid: str = "raise",
+        on_invalid: OnInvalid = "raise",
     ) -> None:
         super().__init__(chain, obstacles, on_invalid=on_invalid)
-        self.release = check_choice("release", release, ("recheck", "sequential"))
+        self.release = check_choice("release", release, get_args(Release))
         self.max_speed = (
             None if max_speed is None else check_positive("max_speed", max_speed, unit="rad/s")
         )

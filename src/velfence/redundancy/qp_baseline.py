@@ -36,6 +36,7 @@ from velfence.redundancy.configuration_control import (
     ControlResult,
     Obstacle,
 )
+from velfence.shaping.base import OnInvalid
 
 if TYPE_CHECKING:
     from velfence.mechanisms.chain import SerialChain
@@ -98,7 +99,7 @@ class VelocityDamperQP(ChainObstacleBase):
         damping: float = 1e-4,
         solver: str = "daqp",
         task_tolerance: float = 1e-3,
-        on_invalid: str = "raise",
+        on_invalid: OnInvalid = "raise",
     ) -> None:
         super().__init__(chain, obstacles, on_invalid=on_invalid)
         self.gain_xi = check_positive("gain_xi", gain_xi, unit="m/s")

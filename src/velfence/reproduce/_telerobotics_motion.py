@@ -42,10 +42,22 @@ from velfence._typing import FloatArray
 from velfence.mechanisms.puma560 import Puma560
 from velfence.reproduce.base import Check, check_at_least, check_at_most, check_close
 from velfence.teleop import thesis_data as data
-from velfence.teleop.resolved_rate import K0, W0, ResolvedRate, rotation_from_angle_axis
+from velfence.teleop.resolved_rate import (
+    K0,
+    W0,
+    Inverse,
+    ResolvedRate,
+    rotation_from_angle_axis,
+)
 from velfence.teleop.servo import FirstOrderServo, PDGravityServo
 from velfence.teleop.session import GRIPPER_LENGTH
-from velfence.teleop.trajectory import CartesianTrajectory, Execution, execute, straight_line
+from velfence.teleop.trajectory import (
+    CartesianTrajectory,
+    Execution,
+    Feedback,
+    execute,
+    straight_line,
+)
 
 __all__ = [
     "ACCURACY_SPEED",
@@ -125,7 +137,7 @@ def singularity_run(which: int, robot: Puma560 | None = None) -> SingularityRun:
     T0 = arm.fk(q0)
     traj = straight_line(T0, T0 @ _tz(dist), spacing=SPEED / SIM_RATE, rate=SIM_RATE)
 
-    def run(inverse: str, feedback: str = "measured") -> Execution:
+    def run(inverse: Inverse, feedback: Feedback = "measured") -> Execution:
         rr = ResolvedRate(arm, inverse=inverse, k0=K0, w0=W0, on_invalid="stop")
         return execute(traj, arm, q0, resolver=rr, feedback=feedback, substeps=1)
 
@@ -439,7 +451,7 @@ def motion_checks(out: Path) -> tuple[list[Check], list[Path]]:
         T0, robot.fk(data.TRAJECTORY_FINAL_Q_RAD[0]), spacing=ACCURACY_SPEED / 200.0
     )
 
-    def sag_run(feedback: str, inertia: float, gain: float = 1.0) -> Execution:
+    def sag_run(feedback: Feedback, inertia: float, gain: float = 1.0) -> Execution:
         servo = _sagging_servo(inertia)
         return execute(
             traj, robot, q_start, servo=servo, feedback=feedback, settle=200, correction_gain=gain

@@ -38,7 +38,8 @@ from velfence.cobot import (
     r_theta_cobot,
     simulate_cobot,
 )
-from velfence.cobot.sim import SpeedFn
+from velfence.cobot.model import Route
+from velfence.cobot.sim import Integrator, SpeedFn
 from velfence.geometry.paths import Circle
 from velfence.geometry.polygon import ConvexPolygon
 from velfence.reproduce.base import Check, Report, check_at_least, check_at_most
@@ -81,7 +82,7 @@ def varying_speed(t: float, R: FloatArray, T: FloatArray) -> float:
 
 
 def fig5_ee(
-    *, gains: tuple[float, float] = GAINS, ds: float = 1e-3, integrator: str = "arc"
+    *, gains: tuple[float, float] = GAINS, ds: float = 1e-3, integrator: Integrator = "arc"
 ) -> CobotTrace:
     """Fig. 5 in the generic C_EE model (arc length, no cobot)."""
     f = PathFollower(PATH, gains=gains)
@@ -95,7 +96,7 @@ def fig5_cobot(
     duration: float,
     gains: tuple[float, float] = GAINS,
     dt: float = DT,
-    route: str = "direct",
+    route: Route = "direct",
     convention: int = 1,
     heading: FloatArray = T0,
     name: str = "r-θ cobot",

@@ -180,9 +180,7 @@ class InvalidPolicy:
     __slots__ = ("on_invalid",)
 
     def __init__(self, *, on_invalid: str = "raise") -> None:
-        self.on_invalid: OnInvalid = check_choice(  # type: ignore[assignment]
-            "on_invalid", on_invalid, ("raise", "stop")
-        )
+        self.on_invalid: OnInvalid = check_choice("on_invalid", on_invalid, ("raise", "stop"))
 
     def _invalid(self, what: str) -> None:
         if self.on_invalid == "raise":

@@ -84,9 +84,7 @@ class RateLimiter:
         self.max_speed = _limits("max_speed", max_speed, self.size, "units/s")
         self.max_acceleration = _limits("max_acceleration", max_acceleration, self.size, "units/s²")
         self.dt = check_positive("dt", dt, unit="s")
-        self.mode: RateMode = check_choice(  # type: ignore[assignment]
-            "mode", mode, ("output", "literal")
-        )
+        self.mode: RateMode = check_choice("mode", mode, ("output", "literal"))
         self._step = self.max_acceleration * self.dt  # <= 1e300: both factors are <= 1e150
         self._prev = np.zeros(self.size)
 

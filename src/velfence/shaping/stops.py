@@ -308,12 +308,10 @@ class StopLimiter(InvalidPolicy):
         self.transform = Q
         self.size = n
         self.limited = _index_pair(limited, n)
-        self.tangential: Tangential = check_choice(  # type: ignore[assignment]
+        self.tangential: Tangential = check_choice(
             "tangential", tangential, ("scale_with_normal", "preserve")
         )
-        self.method: StopMethod = check_choice(  # type: ignore[assignment]
-            "method", method, ("nearest", "exact")
-        )
+        self.method: StopMethod = check_choice("method", method, ("nearest", "exact"))
         for name, stage in (("pre", pre), ("post", post)):
             if stage is not None and (not isinstance(stage, RateLimiter) or stage.size != n):
                 raise InvalidParameter(

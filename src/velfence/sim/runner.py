@@ -19,7 +19,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Literal, get_args
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -50,7 +50,8 @@ DisturbanceFn = Callable[[float, FloatArray], ArrayLike]
 SaturateFn = Callable[[FloatArray, FloatArray], ArrayLike]
 """Actuator saturation ``(p (d,), v (d,)) -> v (d,)`` [workspace units / s]."""
 
-PLANTS = ("kinematic",)
+Plant = Literal["kinematic"]
+PLANTS: tuple[Plant, ...] = get_args(Plant)
 MAX_STEPS = 10_000_000  # ~ 3 h at 1 kHz; ~ 0.5 GB of arrays
 
 
@@ -247,7 +248,7 @@ def simulate(
     saturate: SaturateFn | None = None,
     noise_std: float = 0.0,
     seed: int = 0,
-    plant: str = "kinematic",
+    plant: Plant = "kinematic",
     name: str | None = None,
     on_progress: Callable[[float], None] | None = None,
     on_result: Callable[[int, float, Any], None] | None = None,
@@ -398,7 +399,7 @@ def simulate_many(
     saturate: SaturateFn | None = None,
     noise_std: float = 0.0,
     seed: int = 0,
-    plant: str = "kinematic",
+    plant: Plant = "kinematic",
     on_step: Callable[[str, float], None] | None = None,
 ) -> dict[str, Trajectory]:
     """Run several shapers through the same scenario, one :func:`simulate` each.

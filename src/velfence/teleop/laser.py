@@ -46,7 +46,7 @@ import math
 from collections import deque
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import TYPE_CHECKING, Any, Literal, Protocol, get_args
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -106,7 +106,8 @@ NOISE_SIGMA_V = 0.02 / EXPECTED_RANGE_1000
 DT60_MIN_RANGE_M = 0.2
 DT60_MAX_RANGE_M = 5.3
 
-_FILTERS = ("moving_average", "old_10hz", "none")
+LaserFilter = Literal["moving_average", "old_10hz", "none"]
+_FILTERS: tuple[LaserFilter, ...] = get_args(LaserFilter)
 _NEW_RATE_HZ = 90.0  # §3.3.1.3
 _OLD_RATE_HZ = 10.0  # §3.3.1.3, "limited to 10 Hz"
 _NEW_WINDOW = 50  # §3.3.1.3
@@ -532,7 +533,7 @@ class LaserRangeSensor:
     noise_v: float = field(init=False)
     quantum_v: float = field(init=False)
     sample_rate: float = field(init=False)
-    filter: str = field(init=False)
+    filter: LaserFilter = field(init=False)
     window: int = field(init=False)
     model: VoltageModel = field(init=False)
     characteristic: Characteristic = field(init=False)
@@ -546,7 +547,7 @@ class LaserRangeSensor:
         noise_v: float = NOISE_SIGMA_V,
         quantum_v: float = ADC_STEP_V,
         sample_rate: float | None = None,
-        filter: str = "moving_average",
+        filter: LaserFilter = "moving_average",
         window: int | None = None,
         model: VoltageModel | None = None,
         characteristic: Characteristic | None = None,

@@ -55,7 +55,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Literal, get_args
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -93,7 +93,8 @@ KEYS = ("A", "S", "F", "D", "G", "P", "T", "C")
 """The keys of the thesis's interface (§3.6, §6) plus ``C`` for the clutch (stylus button)."""
 MODES = ("teleop", "scaled", "fixture", "autonomous")
 """``teleop`` (unassisted, the default), ``scaled`` ('S'), ``fixture`` ('F'), ``autonomous``."""
-ALIGNMENTS = ("faithful", "geodesic")
+Alignment = Literal["faithful", "geodesic"]
+ALIGNMENTS: tuple[Alignment, ...] = get_args(Alignment)
 #: Rigid-transform tolerance of the measured poses that :meth:`ModeManager.press` and
 #: :meth:`ModeManager.control` accept (rotation orthonormal and det +1 to this).
 POSE_TOL = 1e-6
@@ -152,7 +153,9 @@ def _unit(name: str, x: ArrayLike) -> FloatArray:
     return a / n
 
 
-def aligned_rotation(R: ArrayLike, normal: ArrayLike, *, alignment: str = "faithful") -> FloatArray:
+def aligned_rotation(
+    R: ArrayLike, normal: ArrayLike, *, alignment: Alignment = "faithful"
+) -> FloatArray:
     r"""Tool orientation aligned with a surface: z-axis into it, along :math:`-n` (§6.4).
 
     Args:
@@ -250,7 +253,7 @@ class ModeManager:
         fixture_options: Mapping[str, Any] | None = None,
         presses_per_point: int = 2,
         toggle_off: bool = True,
-        alignment: str = "faithful",
+        alignment: Alignment = "faithful",
         settle_position: float = 1e-3,
         settle_angle: float = 5e-3,
         max_settle: float = 0.5,

@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, Protocol, runtime_checkable
+from typing import Any, Literal, Protocol, get_args, runtime_checkable
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -53,7 +53,7 @@ from velfence.geometry.so3 import (
     rotation_from_angle_axis,
     rotation_vector,
 )
-from velfence.shaping.base import InvalidPolicy
+from velfence.shaping.base import InvalidPolicy, OnInvalid
 
 __all__ = [
     "K0",
@@ -96,10 +96,13 @@ def _pose(name: str, T: ArrayLike) -> FloatArray:
     return rigid_transform(name, T, tol=ROTATION_TOL)
 
 
-ORIENTATION_ERRORS = ("angle_axis", "cross")
+OrientationError = Literal["angle_axis", "cross"]
+ORIENTATION_ERRORS: tuple[OrientationError, ...] = get_args(OrientationError)
 
 
-def pose_error(T: ArrayLike, T_target: ArrayLike, *, orientation: str = "angle_axis") -> FloatArray:
+def pose_error(
+    T: ArrayLike, T_target: ArrayLike, *, orientation: OrientationError = "angle_axis"
+) -> FloatArray:
     r"""Displacement twist from pose ``T`` to pose ``T_target``, in the base frame.
 
     Position part :math:`p_t - p`. Orientation part, selectable:
@@ -260,7 +263,8 @@ class RateResult:
     stopped: bool
 
 
-INVERSES = ("jinv", "sr")
+Inverse = Literal["jinv", "sr"]
+INVERSES: tuple[Inverse, ...] = get_args(Inverse)
 
 
 class ResolvedRate(InvalidPolicy):
@@ -295,12 +299,12 @@ class ResolvedRate(InvalidPolicy):
         self,
         robot: JacobianArm,
         *,
-        inverse: str = "sr",
+        inverse: Inverse = "sr",
         k0: float = K0,
         w0: float = W0,
         max_speed: float | None = None,
         singular_tol: float = 1e-10,
-        on_invalid: str = "raise",
+        on_invalid: OnInvalid = "raise",
     ) -> None:
         super().__init__(on_invalid=on_invalid)
         if not callable(getattr(robot, "jacobian", None)):

@@ -36,7 +36,7 @@ angles), set by :meth:`reset`; the same seed gives the same run.
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any, Protocol, runtime_checkable
+from typing import Any, Literal, Protocol, get_args, runtime_checkable
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -58,7 +58,8 @@ __all__ = ["FirstOrderServo", "JointServo", "PDGravityServo"]
 GravityFn = Callable[[FloatArray], ArrayLike]
 """Gravity torque ``g(q) -> (n,)`` [N·m] at joint position ``q`` (n,) [rad]."""
 
-COMMANDS = ("position", "velocity")
+ServoCommand = Literal["position", "velocity"]
+COMMANDS: tuple[ServoCommand, ...] = get_args(ServoCommand)
 
 
 @runtime_checkable
@@ -249,7 +250,7 @@ class FirstOrderServo(_ServoBase):
         noise_std: float = 0.0,
         seed: int = 0,
         joint_limits: ArrayLike | None = None,
-        command: str = "position",
+        command: ServoCommand = "position",
     ) -> None:
         super().__init__(noise_std=noise_std, seed=seed, joint_limits=joint_limits, command=command)
         self.time_constant = _per_joint("time_constant", time_constant, "[s]", allow_zero=True)

@@ -33,7 +33,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
-from typing import Any
+from typing import Any, Literal, get_args
 
 import numpy as np
 
@@ -59,7 +59,8 @@ __all__ = [
 ]
 
 
-CONDITIONS = ("unassisted", "assisted")
+Condition = Literal["unassisted", "assisted"]
+CONDITIONS: tuple[Condition, ...] = get_args(Condition)
 """The two conditions of §7.2."""
 
 TABLE_POINTS = ((0.30, 0.50), (0.32, 0.68), (0.14, 0.70))

@@ -46,7 +46,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Protocol, runtime_checkable
+from typing import Literal, Protocol, get_args, runtime_checkable
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -66,6 +66,7 @@ from velfence.errors import InvalidInput, InvalidParameter, VelfenceError
 from velfence.geometry.primitives import points_segments_distances
 from velfence.teleop.resolved_rate import (
     ORIENTATION_ERRORS,
+    OrientationError,
     ResolvedRate,
     _pose,
     angle_axis,
@@ -84,12 +85,14 @@ __all__ = [
 ]
 
 
-TIMINGS = ("linear", "max")
+Timing = Literal["linear", "max"]
+TIMINGS: tuple[Timing, ...] = get_args(Timing)
 #: Most via-point steps of one trajectory (83 min at 200 Hz; 2 km at the default spacing).
 MAX_VIA_STEPS = 1_000_000
 #: Most servo steps per trajectory cycle.
 MAX_SUBSTEPS = 10_000
-FEEDBACKS = ("measured", "commanded", "none")
+Feedback = Literal["measured", "commanded", "none"]
+FEEDBACKS: tuple[Feedback, ...] = get_args(Feedback)
 
 
 @runtime_checkable
@@ -202,7 +205,7 @@ def straight_line(
     spacing: float = 0.002,
     rate: float = 200.0,
     angular_spacing: float = 0.0025,
-    timing: str = "linear",
+    timing: Timing = "linear",
     min_distance: float = 1e-9,
 ) -> CartesianTrajectory:
     r"""Straight-line trajectory from ``T0`` to ``T1`` (Khokar 2009 §6.2.1; module docs).
@@ -333,10 +336,10 @@ def execute(
     *,
     resolver: ResolvedRate | None = None,
     servo: JointServo | None = None,
-    feedback: str = "measured",
+    feedback: Feedback = "measured",
     substeps: int = 5,
     settle: int = 0,
-    orientation: str = "angle_axis",
+    orientation: OrientationError = "angle_axis",
     correction_gain: float = 1.0,
 ) -> Execution:
     r"""Run ``trajectory`` on ``robot`` through resolved rate and a joint servo (module docs).
