@@ -2,8 +2,13 @@
 
 from __future__ import annotations
 
+import contextlib
 import datetime
-from typing import Any
+import inspect
+import math
+import sys
+import typing
+from typing import Any, Literal
 
 import numpy as np
 
@@ -51,3 +56,32 @@ class RaisingArray:
 
     def __array__(self, *args: Any, **kwargs: Any) -> Any:
         raise ZeroDivisionError("hostile __array__")
+
+
+def bad_tuning_values(cls: type) -> list[tuple[str, Any]]:
+    """``(parameter, value)`` pairs every keyword-only tuning parameter of ``cls`` must refuse.
+
+    Derived from the constructor's annotations, each evaluated in the class's module (a name
+    imported only for type checking stays a string): a ``Literal`` (or plain ``str``) choice gets an
+    unknown option; a ``float`` gets NaN, infinity and a word. Booleans and other types get none.
+    """
+    namespace = dict(vars(sys.modules[cls.__module__]))
+    out: list[tuple[str, Any]] = []
+    for p in inspect.signature(cls.__init__).parameters.values():
+        if p.kind is not inspect.Parameter.KEYWORD_ONLY:
+            continue
+        ann = p.annotation
+        hint = ann
+        if isinstance(ann, str):
+            with contextlib.suppress(NameError):
+                hint = eval(ann, namespace)
+        text = str(ann)
+        if typing.get_origin(hint) is Literal:
+            out.append((p.name, "no-such-choice"))
+        elif "bool" in text:
+            continue
+        elif "float" in text:
+            out.extend((p.name, bad) for bad in (math.nan, math.inf, "fast"))
+        elif "str" in text:
+            out.append((p.name, "no-such-choice"))
+    return out

@@ -10,16 +10,13 @@ empty answer, ``on_invalid="stop"`` answers a non-finite input with zero velocit
 
 from __future__ import annotations
 
-import contextlib
 import inspect
 import math
-import sys
-import typing
-from typing import Literal
 
 import numpy as np
 import pytest
 
+from bad_inputs import bad_tuning_values
 from velfence import InvalidInput, InvalidParameter, Shaper, StopLimiter, ThreeZoneBraking
 from velfence.mechanisms.cospm import PAPER_STOPS, Q_AUX
 from velfence.shaping.base import ZONES, ShaperResult
@@ -193,44 +190,12 @@ def test_on_invalid_stop_returns_zero_and_says_so(name, make, dim, cdim, slot):
         make().shape(x, v)
 
 
-def _hints(cls: type) -> dict:
-    """Each constructor parameter's annotation, evaluated where the module can (a name imported
-    only for type checking stays a string)."""
-    namespace = dict(vars(sys.modules[cls.__module__]))
-    out = {}
-    for p in inspect.signature(cls.__init__).parameters.values():
-        ann = p.annotation
-        if isinstance(ann, str):
-            with contextlib.suppress(NameError):
-                ann = eval(ann, namespace)
-        out[p.name] = ann
-    return out
-
-
-def _bad_values(p: inspect.Parameter, hints: dict) -> list:
-    """Values a float or choice tuning parameter must reject, from its annotation."""
-    hint = hints.get(p.name)
-    if typing.get_origin(hint) is Literal:
-        return ["no-such-choice"]
-    ann = str(p.annotation)
-    if "bool" in ann:
-        return []
-    if "float" in ann:
-        return [math.nan, "fast"]
-    return []
-
-
 @pytest.mark.parametrize(("name", "make", "dim", "cdim"), FACTORIES, ids=IDS)
 def test_bad_parameters_are_named(name, make, dim, cdim):
-    cls = type(make())
-    hints = _hints(cls)
     checked = 0
-    for p in inspect.signature(cls.__init__).parameters.values():
-        if p.kind is not inspect.Parameter.KEYWORD_ONLY:
-            continue
-        for bad in _bad_values(p, hints):
-            with pytest.raises(InvalidParameter, match=p.name) as info:
-                make(**{p.name: bad})
-            assert repr(bad) in str(info.value) or str(bad) in str(info.value), info.value
-            checked += 1
+    for param, bad in bad_tuning_values(type(make())):
+        with pytest.raises(InvalidParameter, match=param) as info:
+            make(**{param: bad})
+        assert repr(bad) in str(info.value) or str(bad) in str(info.value), info.value
+        checked += 1
     assert checked > 0  # at least on_invalid
