@@ -230,7 +230,8 @@ class PolygonShaper(ShaperBase):
         super().__init__(on_invalid=on_invalid)
         self.accelerate = check_flag("accelerate", accelerate)
         nx, ny, off, cx, cy, a0, beta, n = self.polygon.kernel_data
-        self._generic = False
+        # A profile the kernels do not know: the plain-Python law calls its own cap.
+        self._generic: ApproachProfile | None = None
         if self.method == "edge-scaling":
             fast: tuple[Any, ...] = (
                 nx, ny, off, cx, cy, a0, beta, n,
@@ -253,14 +254,15 @@ class PolygonShaper(ShaperBase):
             else:
                 # Not a kernel kind: _law_profile calls the profile's own cap.
                 kind, prm, relax = kern.PROFILE_LINEAR, (math.inf, 0.0, 0.0, 0.0, 0.0, 0.0), False
-                self._generic = True
+                self._generic = profile
             fast = (nx, ny, off, cx, cy, n, kind, prm, relax, idt)
         self._fast = fast
-        # Arrays for the compiled loops; the profile's parameters stay a tuple of floats (numba
-        # keeps them in registers, as it would separate scalar arguments).
+        # Arrays for the compiled loops: the per-edge tuples become float arrays; the profile's
+        # parameters stay a tuple of floats (numba keeps them in registers, as it would separate
+        # scalar arguments).
+        per_edge = (nx, ny, off, beta)
         self._batch_args = tuple(
-            np.asarray(a, dtype=float) if isinstance(a, tuple) and i != 7 else a
-            for i, a in enumerate(fast)
+            np.asarray(a, dtype=float) if any(a is x for x in per_edge) else a for a in fast
         )
         self._ready = True
 
@@ -280,9 +282,8 @@ class PolygonShaper(ShaperBase):
     ) -> tuple[float, float, int, int, int, float, float, float, float, int]:
         if self.method == "edge-scaling":
             return kern.patent_kernel(px, py, vx, vy, *self._fast)
-        if self._generic:
-            assert self.profile is not None
-            return self._law_profile(px, py, vx, vy, self.profile)
+        if self._generic is not None:
+            return self._law_profile(px, py, vx, vy, self._generic)
         n = self._fast[5]
         args = (*self._fast, [0.0] * n, [0.0] * n, [0] * n)  # kernel scratch: dist, bnd, work
         return kern.exact_kernel(px, py, vx, vy, *args)
@@ -310,7 +311,7 @@ class PolygonShaper(ShaperBase):
         return ox, oy, zone, p1, p2, deltas[p1], deltas[p2], 0.0, 0.0, stages
 
     def _law_batch(self, P: FloatArray, V: FloatArray) -> tuple[FloatArray, IntArray]:
-        if self._generic:
+        if self._generic is not None:
             rows = [self._law(*p, *v) for p, v in zip(P.tolist(), V.tolist(), strict=True)]
             out_p = np.array([r[:2] for r in rows], dtype=float).reshape(P.shape)
             return out_p, np.array([r[2] for r in rows], dtype=np.int64)
