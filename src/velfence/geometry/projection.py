@@ -1,0 +1,339 @@
+r"""Euclidean projection onto a polyhedron: the one solve behind every n-D minimum-change law.
+
+.. math::
+    x^\star = \arg\min_x \tfrac12 \|x - u\|^2 \quad\text{s.t.}\quad g_i\cdot x \ge b_i,
+    \; i = 0, \dots, m-1
+
+is solved exactly by a finite **dual active-set method** (Goldfarb and Idnani, "A numerically
+stable dual method for solving strictly convex quadratic programs", Math. Programming 27, 1983),
+specialised to the identity Hessian: start at the unconstrained optimum :math:`u`, add the most violated
+constraint, move along the part of its normal orthogonal to the active normals while the
+multipliers stay non-negative, drop a constraint whose multiplier would turn negative, and repeat.
+Every iterate is optimal for the constraints added so far, so the objective grows monotonically and
+no active set repeats: the method ends after finitely many steps with the optimum, or with a proof
+of infeasibility (a violated constraint whose normal is a non-negative combination of active normals
+that no step can satisfy). The active normals are kept as an orthonormal basis ``Q`` with a
+triangular ``R`` (``N_A = Q R``, Gram-Schmidt twice for orthogonality to round-off); a new
+constraint whose normal lies in their span is never added, so ``R`` stays invertible.
+
+The answer then meets every bound *as evaluated in floating point* (a repair step moves it along
+each bound that round-off left violated by a few ulps), which is what a safety filter has to
+promise. Derivation and tests: ``docs/derivations.md`` §6.
+
+:func:`project_kernel` is the plain-arithmetic kernel (loops over scalars and caller-provided
+scratch, no allocation): it runs as ordinary Python and is compiled unchanged by numba for the
+shapers' fast paths. :func:`project` is the validated public wrapper.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, NamedTuple
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from velfence._typing import FloatArray
+from velfence._validate import real_array
+from velfence.errors import InvalidInput
+
+__all__ = [
+    "PROJECT_INFEASIBLE",
+    "PROJECT_ITERATION_LIMIT",
+    "PROJECT_OPTIMAL",
+    "Projection",
+    "project",
+    "project_kernel",
+    "projection_scratch",
+]
+
+PROJECT_OPTIMAL = 0
+PROJECT_INFEASIBLE = 1
+PROJECT_ITERATION_LIMIT = 2
+
+_DEP_TOL = 1e-13  # |z| below this (relative to |g_p|): g_p lies in the span of the active normals
+_VIOL_TOL = 1e-13  # violations below this (relative) end the dual iteration; repaired afterwards
+_REPAIR_ULPS = 8.0 * 2.220446049250313e-16
+_ROUND_OFF = 1e-12  # accepted residual violation (relative) when repairs cannot settle
+
+
+def projection_scratch(m: int, n: int) -> tuple[FloatArray, FloatArray, Any]:
+    """Scratch for :func:`project_kernel`: floats ``(2 n² + 4 n + m + 2,)``, multipliers, ints.
+
+    Returns:
+        ``(wsf, lam, act)``: float scratch, multipliers (length ``n + 1``) and active indices
+        (length ``n + 1``, int64).
+    """
+    return (
+        np.zeros(2 * n * n + 4 * n + m + 2),
+        np.zeros(n + 1),
+        np.zeros(n + 1, dtype=np.int64),
+    )
+
+
+def _rebuild(G: Any, act: Any, q: int, n: int, wsf: Any, oq: int, orr: int) -> int:
+    """Gram-Schmidt (twice) of the active normals into Q (n x q) and R (q x q); returns the rank."""
+    for c in range(q):
+        g = act[c]
+        for i in range(n):
+            wsf[oq + i * n + c] = G[g, i]
+        for r in range(c + 1):
+            wsf[orr + r * n + c] = 0.0
+        for _ in range(2):
+            for r in range(c):
+                h = 0.0
+                for i in range(n):
+                    h += wsf[oq + i * n + r] * wsf[oq + i * n + c]
+                wsf[orr + r * n + c] += h
+                for i in range(n):
+                    wsf[oq + i * n + c] -= h * wsf[oq + i * n + r]
+        rho = 0.0
+        for i in range(n):
+            rho += wsf[oq + i * n + c] * wsf[oq + i * n + c]
+        rho = math.sqrt(rho)
+        wsf[orr + c * n + c] = rho
+        if rho > 0.0:
+            for i in range(n):
+                wsf[oq + i * n + c] /= rho
+    return q
+
+
+def _row_norm(G: Any, i: int, n: int) -> float:
+    s = 0.0
+    for k in range(n):
+        s += G[i, k] * G[i, k]
+    return math.sqrt(s)
+
+
+def _slack(G: Any, b: Any, i: int, x: Any, n: int) -> float:
+    s = 0.0
+    for k in range(n):
+        s += G[i, k] * x[k]
+    r: float = s - b[i]
+    return r
+
+
+def project_kernel(
+    u: Any, G: Any, b: Any, m: int, n: int, x: Any, lam: Any, act: Any, wsf: Any
+) -> tuple[int, int, int]:
+    r"""Minimise :math:`\|x - u\|^2` s.t. ``G[i] · x >= b[i]`` for ``i < m`` (module docstring).
+
+    Args:
+        u: Target, (n,).
+        G: Constraint normals, (>= m, n); rows need not be unit, zero rows are allowed (they are
+            met when ``b <= 0`` and make the problem infeasible otherwise).
+        b: Lower bounds, (>= m,); ``-inf`` rows are ignored.
+        m: Number of constraints.
+        n: Dimension.
+        x: Output, (n,).
+        lam: Output multipliers of the active constraints, (n + 1,).
+        act: Output active constraint indices, (n + 1,), int.
+        wsf: Float scratch from :func:`projection_scratch`.
+
+    Returns:
+        ``(status, q, iterations)``: ``PROJECT_OPTIMAL`` (``x`` is the projection, its ``q``
+        active constraints in ``act[:q]`` with multipliers ``lam[:q]`` >= 0, every bound met as
+        evaluated, or to ``1e-12`` relative where several bounds through one point make that
+        impossible), ``PROJECT_INFEASIBLE`` (the bounds have no common point; ``x`` finite, the last
+        iterate) or ``PROJECT_ITERATION_LIMIT`` (round-off stalled the method; ``x`` finite).
+    """
+    oq = 0  # Q, n x n, row-major with stride n
+    orr = n * n  # R, n x n, upper triangular, stride n
+    oz = 2 * n * n  # z (n)
+    oh = oz + n  # Q^T g_p (n)
+    orv = oh + n  # r = R^-1 Q^T g_p (n)
+    ogn = orv + n  # |g_i| (m)
+    for k in range(n):
+        x[k] = u[k]
+    scale = 0.0
+    for k in range(n):
+        if abs(u[k]) > scale:
+            scale = abs(u[k])
+    for i in range(m):
+        wsf[ogn + i] = _row_norm(G, i, n)
+    q = 0
+    iters = 0
+    limit = 4 * (m + n) + 16
+    while True:
+        # Most violated constraint (relative to its normal's length), not active.
+        p = -1
+        worst = 0.0
+        for i in range(m):
+            if b[i] == -math.inf:
+                continue
+            in_act = False
+            for c in range(q):
+                if act[c] == i:
+                    in_act = True
+                    break
+            if in_act:
+                continue
+            s = _slack(G, b, i, x, n)
+            gn = wsf[ogn + i]
+            tol = _VIOL_TOL * (abs(b[i]) + gn * (scale + 1e-300) + 1e-300)
+            if s < -tol:
+                v = s / gn if gn > 0.0 else -math.inf
+                if p < 0 or v < worst:
+                    worst = v
+                    p = i
+        if p < 0:
+            break
+        if wsf[ogn + p] == 0.0:
+            return PROJECT_INFEASIBLE, q, iters
+        lp = 0.0  # multiplier of the constraint being added
+        while True:
+            iters += 1
+            if iters > limit:
+                return PROJECT_ITERATION_LIMIT, q, iters
+            # h = Q^T g_p, z = g_p - Q h (twice, for orthogonality), r = R^-1 h.
+            for c in range(q):
+                wsf[oh + c] = 0.0
+            for k in range(n):
+                wsf[oz + k] = G[p, k]
+            for _ in range(2):
+                for c in range(q):
+                    h = 0.0
+                    for k in range(n):
+                        h += wsf[oq + k * n + c] * wsf[oz + k]
+                    wsf[oh + c] += h
+                    for k in range(n):
+                        wsf[oz + k] -= h * wsf[oq + k * n + c]
+            for c in range(q - 1, -1, -1):
+                s = wsf[oh + c]
+                for j in range(c + 1, q):
+                    s -= wsf[orr + c * n + j] * wsf[orv + j]
+                wsf[orv + c] = s / wsf[orr + c * n + c]
+            zz = 0.0
+            for k in range(n):
+                zz += wsf[oz + k] * wsf[oz + k]
+            # Partial step: the first active multiplier to reach zero.
+            t1 = math.inf
+            kd = -1
+            for c in range(q):
+                r = wsf[orv + c]
+                if r > 0.0:
+                    t = lam[c] / r
+                    if t < t1:
+                        t1 = t
+                        kd = c
+            t2 = math.inf
+            sp = _slack(G, b, p, x, n)
+            if zz > (_DEP_TOL * wsf[ogn + p]) ** 2:
+                t2 = -sp / zz
+            t = t1 if t1 < t2 else t2
+            if t == math.inf:
+                return PROJECT_INFEASIBLE, q, iters
+            if t2 < math.inf:
+                for k in range(n):
+                    x[k] += t * wsf[oz + k]
+            for c in range(q):
+                lam[c] -= t * wsf[orv + c]
+            lp += t
+            if t2 <= t1:
+                # Full step: p becomes active.
+                act[q] = p
+                lam[q] = lp
+                q += 1
+                _rebuild(G, act, q, n, wsf, oq, orr)
+                break
+            # Drop constraint kd, keep the order of the others.
+            for c in range(kd, q - 1):
+                act[c] = act[c + 1]
+                lam[c] = lam[c + 1]
+            q -= 1
+            _rebuild(G, act, q, n, wsf, oq, orr)
+    # Repair: every bound as evaluated in floating point, not only to the dual tolerance.
+    for _ in range(8):
+        wi = -1
+        wg = 0.0
+        for i in range(m):
+            if b[i] == -math.inf:
+                continue
+            g = -_slack(G, b, i, x, n)
+            if g > 0.0:
+                gn = wsf[ogn + i]
+                g = g / gn if gn > 0.0 else math.inf
+                if g > wg:
+                    wg = g
+                    wi = i
+        if wi < 0:
+            return PROJECT_OPTIMAL, q, iters
+        gn = wsf[ogn + wi]
+        if gn == 0.0:
+            return PROJECT_INFEASIBLE, q, iters
+        big = 0.0
+        for k in range(n):
+            if abs(x[k]) > big:
+                big = abs(x[k])
+        step = wg + _REPAIR_ULPS * (1.0 + abs(b[wi]) / gn + big)
+        for k in range(n):
+            x[k] += step * G[wi, k] / gn
+    # Repairs that fight each other (many bounds through one point): accept round-off.
+    big = 0.0
+    for k in range(n):
+        if abs(x[k]) > big:
+            big = abs(x[k])
+    for i in range(m):
+        if b[i] == -math.inf:
+            continue
+        if -_slack(G, b, i, x, n) > _ROUND_OFF * (abs(b[i]) + wsf[ogn + i] * (big + 1.0)):
+            return PROJECT_ITERATION_LIMIT, q, iters
+    return PROJECT_OPTIMAL, q, iters
+
+
+class Projection(NamedTuple):
+    """The result of :func:`project`.
+
+    Attributes:
+        x: The projection (the minimiser), shape (n,); when ``feasible`` is False, the method's
+            last iterate (finite, not feasible).
+        active: Indices of the constraints active at ``x`` (in the order they were added).
+        multipliers: Their Lagrange multipliers, >= 0, shape (len(active),): ``x - u =
+            Σ multipliers[k] · G[active[k]]``.
+        feasible: Whether the bounds have a common point (and ``x`` meets every bound as
+            evaluated in floating point).
+        iterations: Inner iterations taken.
+    """
+
+    x: FloatArray
+    active: tuple[int, ...]
+    multipliers: FloatArray
+    feasible: bool
+    iterations: int
+
+
+def project(u: ArrayLike, G: ArrayLike, b: ArrayLike) -> Projection:
+    r"""Euclidean projection of ``u`` onto :math:`\{x : G x \ge b\}` (module docstring).
+
+    Args:
+        u: The point to project, shape (n,), finite.
+        G: Constraint normals, shape (m, n), finite (rows need not be unit).
+        b: Lower bounds, shape (m,), finite or ``-inf`` (an ignored row).
+
+    Returns:
+        A :class:`Projection`.
+
+    Raises:
+        InvalidInput: for non-real, non-finite or mis-shaped inputs (naming the argument).
+    """
+    uu = real_array("u", u, (None,), what="a point")
+    n = uu.shape[0]
+    if n == 0:
+        raise InvalidInput("u: expected at least one component, got shape (0,)")
+    GG = real_array("G", G, (None, n), what="constraint normals")
+    m = GG.shape[0]
+    bb = real_array("b", b, (m,), what="lower bounds", allow_nonfinite=True)
+    if np.isnan(bb).any() or (bb == np.inf).any():
+        raise InvalidInput("b: expected finite values or -inf (an ignored row), got NaN or +inf")
+    x = np.zeros(n)
+    wsf, lam, act = projection_scratch(m, n)
+    status, q, iters = project_kernel(
+        uu, np.ascontiguousarray(GG, dtype=float), bb, m, n, x, lam, act, wsf
+    )
+    return Projection(
+        x=x,
+        active=tuple(int(a) for a in act[:q]),
+        multipliers=lam[:q].copy(),
+        feasible=status == PROJECT_OPTIMAL,
+        iterations=iters,
+    )
