@@ -6,8 +6,8 @@ r"""Euclidean projection onto a polyhedron: the one solve behind every n-D minim
 
 is solved exactly by a finite **dual active-set method** (Goldfarb and Idnani, "A numerically
 stable dual method for solving strictly convex quadratic programs", Math. Programming 27, 1983),
-specialised to the identity Hessian: start at the unconstrained optimum :math:`u`, add the most violated
-constraint, move along the part of its normal orthogonal to the active normals while the
+specialised to the identity Hessian: start at the unconstrained optimum :math:`u`, add the most
+violated constraint, move along the part of its normal orthogonal to the active normals while the
 multipliers stay non-negative, drop a constraint whose multiplier would turn negative, and repeat.
 Every iterate is optimal for the constraints added so far, so the objective grows monotonically and
 no active set repeats: the method ends after finitely many steps with the optimum, or with a proof
