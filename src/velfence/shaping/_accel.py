@@ -23,7 +23,7 @@ __all__ = ["compiled_batch", "compiled_loop"]
 #: (one thread): 8 ns per free row and 100 ns per corner row, against 80 / 140 ns as separate
 #: compiled functions, at an unchanged compile time; inlining the small helpers as well made
 #: compilation several times slower for little more.
-_INLINE = frozenset({"exact_bounds", "exact_kernel"})
+_INLINE = frozenset({"bounds_from_distances", "exact_bounds", "exact_kernel"})
 
 
 @cache
@@ -54,6 +54,7 @@ def _compiled() -> dict[str, Callable[..., Any]] | None:
         ("zone_code", _kernels.zone_code),
         ("profile_cap", _kernels.profile_cap),
         ("fill_bounds", _kernels.fill_bounds),
+        ("bounds_from_distances", _kernels.bounds_from_distances),
         ("exact_bounds", _kernels.exact_bounds),
         ("_patent_core", _kernels._patent_core),
         ("patent_kernel", _kernels.patent_kernel),
