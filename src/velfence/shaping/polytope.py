@@ -24,8 +24,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from velfence._typing import FloatArray, IntArray
-from velfence._validate import check_flag, check_positive, real_array
+from velfence._typing import BoolArray, FloatArray, IntArray
+from velfence._validate import MAX_MAGNITUDE, check_flag, check_positive, real_array
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.geometry.polytope import ConvexPolytope
 from velfence.geometry.projection import PROJECT_OPTIMAL, project_kernel
@@ -40,7 +40,7 @@ __all__ = ["PolytopeResult", "PolytopeShaper"]
 
 @dataclass(frozen=True)
 class PolytopeResult:
-    """What :class:`PolytopeShaper` did to one command.
+    r"""What :class:`PolytopeShaper` did to one command.
 
     Attributes:
         output: Shaped velocity, shape (n,), the command's units.
@@ -49,12 +49,14 @@ class PolytopeResult:
         zone: A :data:`~velfence.shaping.base.Zone` name: ``"free"``, ``"buffer"`` (one facet
             bounds the command), ``"corner"`` (several), ``"outside"`` / ``"outside-corner"``
             (some facet violated; at most one / several bound), ``"invalid"``.
-        active: The facets whose bound is binding at the output (the projection's active set),
-            in the order the solver took them.
+        active: The facets the zone refers to: every facet with a bound at this state (violated,
+            or near enough that its cap is below the command's speed), ascending.
         active_names: Their names (``ConvexPolytope.facet_names``).
-        bounded: Every facet that has a bound at this state, ascending.
-        lower: Their lower bounds on :math:`n_i\\cdot v_o` [velocity units], shape (len(bounded),).
-        slack: :math:`n_i\\cdot v_o - L_i` for every facet, shape (m,): 0 on a binding bound,
+        lower: Their lower bounds on :math:`n_i\cdot v_o` [velocity units], shape (len(active),).
+        binding: The facets whose bound holds with equality at the output (the projection's
+            active set), in the order the solver took them.
+        binding_names: Their names.
+        slack: :math:`n_i\cdot v_o - L_i` for every facet, shape (m,): 0 on a binding bound,
             ``inf`` for a facet without a bound.
         distances: Signed distance to every facet, shape (m,), positive inside.
         stages: Names of the stages applied (``"exact-projection"``, ``"spring"``,
@@ -70,8 +72,9 @@ class PolytopeResult:
     zone: Zone
     active: tuple[int, ...]
     active_names: tuple[str, ...]
-    bounded: tuple[int, ...]
     lower: FloatArray
+    binding: tuple[int, ...]
+    binding_names: tuple[str, ...]
     slack: FloatArray
     distances: FloatArray
     stages: tuple[str, ...]
@@ -199,7 +202,9 @@ class PolytopeShaper(InvalidPolicy):
         self.dt = None if dt is None else check_positive("dt", dt, unit="s")
         idt = 0.0 if self.dt is None else 1.0 / self.dt
         if not math.isfinite(idt):
-            raise InvalidParameter(f"dt: expected a control period of at least 1e-300 s, got {dt!r}")
+            raise InvalidParameter(
+                f"dt: expected a control period of at least 1e-300 s, got {dt!r}"
+            )
         super().__init__(on_invalid=on_invalid)
         self.accelerate = check_flag("accelerate", accelerate)
         self._generic: ApproachProfile | None = None
@@ -218,7 +223,9 @@ class PolytopeShaper(InvalidPolicy):
         off = np.ascontiguousarray(polytope.offsets, dtype=float)
         cen = np.ascontiguousarray(polytope.chebyshev_center, dtype=float)
         nf, dim = polytope.normals.shape
-        self._args: tuple[Any, ...] = (N, off, nf, dim, cen, kind, prm, relax, idt)
+        # The compiled kernels take the profile's parameters as an array (cheaper to pass than a
+        # tuple of six floats); the plain-Python kernel takes lists.
+        self._args: tuple[Any, ...] = (N, off, nf, dim, cen, kind, np.array(prm), relax, idt)
         self._lists: tuple[Any, ...] = (
             N.tolist(), off.tolist(), nf, dim, cen.tolist(), kind, prm, relax, idt
         )  # fmt: skip
@@ -240,6 +247,20 @@ class PolytopeShaper(InvalidPolicy):
     # ------------------------------------------------------------------ inputs
     def _vectors(self, position: ArrayLike, command: ArrayLike) -> tuple[FloatArray, FloatArray]:
         n = self.dim
+        if (
+            type(position) is np.ndarray
+            and type(command) is np.ndarray
+            and position.shape == (n,)
+            and command.shape == (n,)
+            and position.dtype.char == "d"
+            and command.dtype.char == "d"
+        ):
+            # Fast path for the common call (two float64 vectors): only the magnitude check of
+            # real_array is needed; non-finite values go on to the on_invalid policy.
+            vals = position.tolist() + command.tolist()
+            s = sum(vals)
+            if s - s == 0.0 and max(map(abs, vals)) <= MAX_MAGNITUDE:
+                return position, command
         p = real_array("position", position, (n,), what=f"a {n}-vector", allow_nonfinite=True)
         v = real_array("command", command, (n,), what=f"a {n}-vector", allow_nonfinite=True)
         return p, v
@@ -270,7 +291,15 @@ class PolytopeShaper(InvalidPolicy):
             [0] * (dim + 1), [0.0] * (2 * dim * dim + 4 * dim + nf + 2),
         )  # fmt: skip
         res = nd.polytope_kernel(
-            p.tolist(), v.tolist(), *self._lists, outl, activel, distl, bndl, workl, *scratch
+            p.tolist(),
+            v.tolist(),
+            *self._lists,
+            outl,
+            activel,
+            distl,
+            bndl,
+            workl,
+            *scratch,  # type: ignore[call-arg]
         )
         return np.array(outl), res, activel, distl, (bndl, workl)
 
@@ -360,7 +389,7 @@ class PolytopeShaper(InvalidPolicy):
             A :class:`PolytopeResult`.
         """
         p, v = self._vectors(position, command)
-        nf, dim = self._args[2], self._args[3]
+        nf = self._args[2]
         if not (np.isfinite(p).all() and np.isfinite(v).all()):
             self._invalid(f"non-finite input: position={p.tolist()}, command={v.tolist()}")
             return self._stopped(p, v)
@@ -370,7 +399,7 @@ class PolytopeShaper(InvalidPolicy):
             return self._stopped(p, v)
         zone_c, stages_c, q, *_, m = res
         names = self.polytope.facet_names
-        act = tuple(int(a) for a in list(active)[:q])
+        binding = tuple(int(a) for a in list(active)[:q])
         bounded = tuple(sorted(int(e) for e in list(work)[:m]))
         lower = np.array([bnd[e] for e in bounded], dtype=float)
         N = self.polytope.normals
@@ -385,10 +414,11 @@ class PolytopeShaper(InvalidPolicy):
             command=v,
             position=p,
             zone=zone,
-            active=act,
-            active_names=tuple(names[a] for a in act),
-            bounded=bounded,
+            active=bounded,
+            active_names=tuple(names[a] for a in bounded),
             lower=lower,
+            binding=binding,
+            binding_names=tuple(names[a] for a in binding),
             slack=slack,
             distances=np.array(dist[:nf], dtype=float),
             stages=stages,
@@ -399,7 +429,8 @@ class PolytopeShaper(InvalidPolicy):
         nf, dim = self._args[2], self._args[3]
         return PolytopeResult(
             output=np.zeros(dim), command=v, position=p, zone="invalid", active=(),
-            active_names=(), bounded=(), lower=np.zeros(0), slack=np.full(nf, math.inf),
+            active_names=(), lower=np.zeros(0), binding=(), binding_names=(),
+            slack=np.full(nf, math.inf),
             distances=np.full(nf, math.nan), stages=("stop",),
         )  # fmt: skip
 
@@ -433,7 +464,7 @@ class PolytopeShaper(InvalidPolicy):
                 f"positions and commands must have the same shape (N, {n}), got {P.shape} and "
                 f"{V.shape}"
             )
-        good = np.isfinite(P).all(axis=1) & np.isfinite(V).all(axis=1)
+        good: BoolArray = np.asarray(np.isfinite(P).all(axis=1) & np.isfinite(V).all(axis=1))
         if not good.all():
             self._invalid(f"non-finite input in row(s) {np.flatnonzero(~good)[:10].tolist()}")
             P = np.where(good[:, None], P, 0.0)
@@ -480,7 +511,7 @@ class PolytopeShaper(InvalidPolicy):
         r = self.explain(position, command)
         if r.zone == "invalid":
             return np.zeros((0, self.dim)), np.zeros(0), np.zeros(0, dtype=np.int64)
-        idx = np.array(r.bounded, dtype=np.int64)
+        idx = np.array(r.active, dtype=np.int64)
         return self.polytope.normals[idx].copy(), r.lower.copy(), idx
 
     def __repr__(self) -> str:
