@@ -18,7 +18,7 @@ constraint whose normal lies in their span is never added, so ``R`` stays invert
 
 The answer then meets every bound *as evaluated in floating point* (a repair step moves it along
 each bound that round-off left violated by a few ulps), which is what a safety filter has to
-promise. Derivation and tests: ``docs/derivations.md`` §6.
+promise. Derivation and tests: ``docs/derivations.md`` §7.
 
 :func:`project_kernel` is the plain-arithmetic kernel (loops over scalars and caller-provided
 scratch, no allocation): it runs as ordinary Python and is compiled unchanged by numba for the

@@ -1,7 +1,7 @@
 r"""Velocity shaping inside a convex polytope of any dimension: the exact law in n-D.
 
 The 2-D exact law of :class:`~velfence.shaping.polygon.PolygonShaper` (derivations §3) carried to
-``n`` coordinates (derivations §6): one half-space bound per nearby facet,
+``n`` coordinates (derivations §7): one half-space bound per nearby facet,
 
 .. math::
     v_o = \arg\min_x \|x - v\|^2 \;\text{s.t.}\;
