@@ -245,7 +245,10 @@ class PolytopeShaper(InvalidPolicy):
         return int(self._args[3])
 
     # ------------------------------------------------------------------ inputs
-    def _vectors(self, position: ArrayLike, command: ArrayLike) -> tuple[FloatArray, FloatArray]:
+    def _vectors(
+        self, position: ArrayLike, command: ArrayLike
+    ) -> tuple[FloatArray, FloatArray, bool]:
+        """Validated position and command, and whether both are finite."""
         n = self.dim
         if (
             type(position) is np.ndarray
@@ -260,10 +263,10 @@ class PolytopeShaper(InvalidPolicy):
             vals = position.tolist() + command.tolist()
             s = sum(vals)
             if s - s == 0.0 and max(map(abs, vals)) <= MAX_MAGNITUDE:
-                return position, command
+                return position, command, True
         p = real_array("position", position, (n,), what=f"a {n}-vector", allow_nonfinite=True)
         v = real_array("command", command, (n,), what=f"a {n}-vector", allow_nonfinite=True)
-        return p, v
+        return p, v, bool(np.isfinite(p).all() and np.isfinite(v).all())
 
     def _run(
         self, p: FloatArray, v: FloatArray, compiled: bool = True
@@ -368,12 +371,13 @@ class PolytopeShaper(InvalidPolicy):
         Raises:
             InvalidInput: wrong shape or type, or non-finite input with ``on_invalid="raise"``.
         """
-        p, v = self._vectors(position, command)
-        if not (np.isfinite(p).all() and np.isfinite(v).all()):
+        p, v, finite = self._vectors(position, command)
+        if not finite:
             self._invalid(f"non-finite input: position={p.tolist()}, command={v.tolist()}")
             return np.zeros(self.dim)
         out = self._run(p, v)[0]
-        if not np.isfinite(out).all():
+        s = sum(out.tolist())
+        if s - s != 0.0:
             self._invalid("input too large, the shaped velocity overflowed")
             return np.zeros(self.dim)
         return out
@@ -388,9 +392,9 @@ class PolytopeShaper(InvalidPolicy):
         Returns:
             A :class:`PolytopeResult`.
         """
-        p, v = self._vectors(position, command)
+        p, v, finite = self._vectors(position, command)
         nf = self._args[2]
-        if not (np.isfinite(p).all() and np.isfinite(v).all()):
+        if not finite:
             self._invalid(f"non-finite input: position={p.tolist()}, command={v.tolist()}")
             return self._stopped(p, v)
         out, res, active, dist, (bnd, work) = self._run(p, v)
