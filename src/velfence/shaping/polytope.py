@@ -56,8 +56,8 @@ class PolytopeResult:
         binding: The facets whose bound holds with equality at the output (the projection's
             active set), in the order the solver took them.
         binding_names: Their names.
-        slack: :math:`n_i\cdot v_o - L_i` for every facet, shape (m,): 0 on a binding bound,
-            ``inf`` for a facet without a bound.
+        slack: :math:`n_i\cdot v_o - L_i` for every facet in ``active``, shape
+            (len(active),): 0 on a binding bound.
         distances: Signed distance to every facet, shape (m,), positive inside.
         stages: Names of the stages applied (``"exact-projection"``, ``"spring"``,
             ``"relaxed"``, ``"stop"``).
@@ -407,10 +407,8 @@ class PolytopeShaper(InvalidPolicy):
         bounded = tuple(sorted(int(e) for e in list(work)[:m]))
         lower = np.array([bnd[e] for e in bounded], dtype=float)
         N = self.polytope.normals
-        slack = np.full(nf, math.inf)
-        if bounded:
-            idx = list(bounded)
-            slack[idx] = N[idx] @ out - lower
+        idx = list(bounded)
+        slack = N[idx] @ out - lower if bounded else np.zeros(0)
         zone: Zone = kern.ZONE_NAMES[zone_c]  # type: ignore[assignment]
         stages = tuple(n for bit, n in enumerate(kern.STAGE_NAMES) if stages_c & (1 << bit))
         return PolytopeResult(
@@ -433,9 +431,8 @@ class PolytopeShaper(InvalidPolicy):
         nf, dim = self._args[2], self._args[3]
         return PolytopeResult(
             output=np.zeros(dim), command=v, position=p, zone="invalid", active=(),
-            active_names=(), lower=np.zeros(0), binding=(), binding_names=(),
-            slack=np.full(nf, math.inf),
-            distances=np.full(nf, math.nan), stages=("stop",),
+            active_names=(), lower=np.zeros(0), binding=(), binding_names=(), slack=np.zeros(0),
+            distances=np.zeros(nf), stages=("stop",),
         )  # fmt: skip
 
     def shape_batch(self, positions: ArrayLike, commands: ArrayLike) -> FloatArray:
@@ -468,9 +465,14 @@ class PolytopeShaper(InvalidPolicy):
                 f"positions and commands must have the same shape (N, {n}), got {P.shape} and "
                 f"{V.shape}"
             )
-        good: BoolArray = np.asarray(np.isfinite(P).all(axis=1) & np.isfinite(V).all(axis=1))
+        ok_p = np.isfinite(P).all(axis=1)
+        ok_v = np.isfinite(V).all(axis=1)
+        good: BoolArray = np.asarray(ok_p & ok_v)
         if not good.all():
-            self._invalid(f"non-finite input in row(s) {np.flatnonzero(~good)[:10].tolist()}")
+            bad = " and ".join(
+                n for n, o in (("positions", ok_p), ("commands", ok_v)) if not o.all()
+            )
+            self._invalid(f"non-finite {bad} in row(s) {np.flatnonzero(~good)[:10].tolist()}")
             P = np.where(good[:, None], P, 0.0)
             V = np.where(good[:, None], V, 0.0)
         out = np.zeros_like(P)
