@@ -469,10 +469,10 @@ class PolytopeShaper(InvalidPolicy):
         ok_v = np.isfinite(V).all(axis=1)
         good: BoolArray = np.asarray(ok_p & ok_v)
         if not good.all():
-            bad = " and ".join(
+            which = " and ".join(
                 n for n, o in (("positions", ok_p), ("commands", ok_v)) if not o.all()
             )
-            self._invalid(f"non-finite {bad} in row(s) {np.flatnonzero(~good)[:10].tolist()}")
+            self._invalid(f"non-finite {which} in row(s) {np.flatnonzero(~good)[:10].tolist()}")
             P = np.where(good[:, None], P, 0.0)
             V = np.where(good[:, None], V, 0.0)
         out = np.zeros_like(P)
