@@ -173,7 +173,7 @@ def test_box_in_n_dimensions(n: int) -> None:
 def test_box_messages() -> None:
     with pytest.raises(InvalidGeometry, match=r"upper: expected upper > lower element-wise, got "):
         ConvexPolytope.box([0.0, 1.0], [1.0, 1.0])
-    with pytest.raises(InvalidGeometry, match=r"upper: expected shape \(2,\), got shape \(3,\)"):
+    with pytest.raises(InvalidGeometry, match=r"lower, upper: expected corners of one shape, got"):
         ConvexPolytope.box([0.0, 0.0], [1.0, 1.0, 1.0])
     with pytest.raises(InvalidGeometry, match=r"lower: expected at least one dimension"):
         ConvexPolytope.box([], [])
@@ -181,6 +181,8 @@ def test_box_messages() -> None:
         ConvexPolytope.box([np.nan], [1.0])
     with pytest.raises(InvalidGeometry, match="names: expected 4 names"):
         ConvexPolytope.box([0.0, 0.0], [1.0, 1.0], names=["a"])
+    with pytest.raises(InvalidGeometry, match=r"lower, upper: the box is unusable: .*lower-dim"):
+        ConvexPolytope.box([0.0, 0.0], [1.0, 1e-12])
     P = ConvexPolytope.box([0.0], [1.0], names=["low", "high"])
     assert P.facet_names == ("low", "high")
 

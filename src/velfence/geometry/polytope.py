@@ -51,7 +51,7 @@ _ZERO_NORMAL = 1e-12  # rows with a shorter normal are refused
 _DUPLICATE = 1e-12  # unit normals closer than this (max-norm) are one facet
 _THIN = 1e-9  # Chebyshev radius below _THIN * (1 + scale): empty or lower-dimensional
 _REDUNDANCY = 1e-9  # row i redundant: min n_i·x over the others >= o_i - _REDUNDANCY (1 + scale)
-_RADIUS_CAP = 1e9  # the Chebyshev LP caps r at _RADIUS_CAP * (1 + scale): inf when it binds
+_RADIUS_CAP = 1e9  # the Chebyshev LP caps r at _RADIUS_CAP (1 + scale): inf when it binds
 _LP_OPTIONS = {"primal_feasibility_tolerance": 1e-10, "dual_feasibility_tolerance": 1e-10}
 
 
@@ -71,32 +71,31 @@ def _linprog(c: Any, A_ub: Any, b_ub: Any, bounds: Any, A_eq: Any = None, b_eq: 
     )
 
 
-def _chebyshev(N: FloatArray, off: FloatArray, scale: float) -> tuple[FloatArray, float, bool]:
-    """The Chebyshev ball of ``{x : N x >= off}`` (unit rows): ``(centre, radius, capped)``.
+def _chebyshev(N: FloatArray, off: FloatArray) -> tuple[FloatArray, float]:
+    """The Chebyshev ball of ``{x : N x >= off}`` (unit rows, offsets of magnitude <= 1).
 
-    ``radius`` is ``-1`` when the half-spaces have no common point. ``capped``: the radius cap
-    bound, so the set holds arbitrarily large balls (the centre is then the one of a ball of
-    radius ``1 + scale``, a moderate interior point).
+    Returns ``(centre, radius)``: ``radius`` is ``-1`` when the half-spaces have no common point
+    and ``inf`` when the radius cap binds (the set holds arbitrarily large balls; the centre is
+    then the one of a ball of radius 1, a moderate interior point).
     """
     m, n = N.shape
     # Variables (c, r): maximise r s.t. N c - r >= off, i.e. -N c + r <= -off.
     A = np.hstack([-N, np.ones((m, 1))])
     cost = np.zeros(n + 1)
     cost[-1] = -1.0
-    cap = _RADIUS_CAP * (1.0 + scale)
-    res = _linprog(cost, A, -off, [(None, None)] * n + [(0.0, cap)])
+    res = _linprog(cost, A, -off, [(None, None)] * n + [(0.0, _RADIUS_CAP)])
     if res.status == 2:
-        return np.zeros(n), -1.0, False
+        return np.zeros(n), -1.0
     if res.status != 0:
         raise InvalidGeometry(
             f"normals, offsets: the Chebyshev-ball linear program failed ({res.message}); "
             "rescale the half-spaces"
         )
     r = float(res.x[-1])
-    if r >= cap * (1.0 - 1e-9):
-        res = _linprog(cost, A, -off, [(None, None)] * n + [(0.0, 1.0 + scale)])
-        return np.asarray(res.x[:n], dtype=float), math.inf, True
-    return np.asarray(res.x[:n], dtype=float), r, False
+    if r >= _RADIUS_CAP * (1.0 - 1e-9):
+        res = _linprog(cost, A, -off, [(None, None)] * n + [(0.0, 1.0)])
+        return np.asarray(res.x[:n], dtype=float), math.inf
+    return np.asarray(res.x[:n], dtype=float), r
 
 
 def _is_bounded(N: FloatArray) -> bool:
@@ -142,8 +141,6 @@ class ConvexPolytope:
             the facet it was merged into), or ``-1`` for a removed redundant row.
         chebyshev_center: Centre of a largest inscribed ball, shape (n,), read-only (for a set
             holding arbitrarily large balls: the centre of a ball of radius ``1 + scale``).
-        chebyshev_radius: Radius of the largest inscribed ball (inradius), ``inf`` when the set
-            holds arbitrarily large balls.
         bounded: Whether the set is bounded (its recession cone ``{y : N y >= 0}`` is ``{0}``).
 
     Raises:
@@ -159,9 +156,10 @@ class ConvexPolytope:
     removed: tuple[int, ...] = field(init=False)
     source_rows: tuple[int, ...] = field(init=False)
     chebyshev_center: FloatArray = field(init=False)
-    chebyshev_radius: float = field(init=False)
     bounded: bool = field(init=False)
     _cache: dict[str, Any] = field(init=False, repr=False)
+    if TYPE_CHECKING:
+        _radius: float
 
     def __init__(
         self,
@@ -205,18 +203,22 @@ class ConvexPolytope:
             best = int(same[np.argmax(off[same])])  # first of the largest offsets
             rep[same] = best
         kept = sorted({int(r) for r in rep})
-        scale = float(np.max(np.abs(off)))
-        centre, radius, _ = _chebyshev(N[kept], off[kept], scale)
-        if radius <= _THIN * (1.0 + scale):
-            shown = radius if radius > 0 else 0.0
-            got = "no common point" if radius < 0 else f"Chebyshev radius {shown:.3g}"
+        # The linear programs run in units of 1 + scale (offsets of magnitude <= 1), so that
+        # their tolerances are relative and no bound reaches HiGHS's infinity (1e20).
+        unit = 1.0 + float(np.max(np.abs(off)))
+        off_u = off / unit
+        centre_u, radius_u = _chebyshev(N[kept], off_u[kept])
+        if radius_u <= _THIN:
+            shown = radius_u * unit if radius_u > 0 else 0.0
+            got = "no common point" if radius_u < 0 else f"Chebyshev radius {shown:.3g}"
             raise InvalidGeometry(
                 "normals, offsets: empty or lower-dimensional: expected a full-dimensional set "
-                f"(an inscribed ball of radius > {_THIN * (1.0 + scale):.3g}), got {got}; check "
+                f"(an inscribed ball of radius > {_THIN * unit:.3g}), got {got}; check "
                 "the signs of the offsets (n_i·x >= offset_i inside)"
             )
+        centre, radius = centre_u * unit, radius_u * unit
         if mode == "remove" and len(kept) > 1:
-            kept = _irredundant(N, off, kept, _REDUNDANCY * (1.0 + scale))
+            kept = _irredundant(N, off_u, kept, _REDUNDANCY)
         index = {r: k for k, r in enumerate(kept)}
         source = tuple(index.get(int(rep[i]), -1) for i in range(m))
         object.__setattr__(self, "normals", readonly(np.ascontiguousarray(N[kept])))
@@ -225,7 +227,7 @@ class ConvexPolytope:
         object.__setattr__(self, "removed", tuple(i for i in range(m) if i not in index))
         object.__setattr__(self, "source_rows", source)
         object.__setattr__(self, "chebyshev_center", readonly(centre))
-        object.__setattr__(self, "chebyshev_radius", radius)
+        object.__setattr__(self, "_radius", radius)  # not a field: see chebyshev_radius
         object.__setattr__(self, "bounded", _is_bounded(self.normals))
         object.__setattr__(self, "_cache", {})
 
@@ -254,7 +256,12 @@ class ConvexPolytope:
         n = lo.shape[0]
         if n < 1:
             raise InvalidGeometry("lower: expected at least one dimension, got shape (0,)")
-        hi = real_array("upper", upper, (n,), error=InvalidGeometry, what="an upper corner")
+        hi = real_array("upper", upper, error=InvalidGeometry, what="an upper corner")
+        if hi.shape != (n,):
+            raise InvalidGeometry(
+                f"lower, upper: expected corners of one shape, got lower of shape {lo.shape} and "
+                f"upper of shape {hi.shape}"
+            )
         bad = np.flatnonzero(~(hi > lo))
         if bad.size:
             j = int(bad[0])
@@ -271,7 +278,10 @@ class ConvexPolytope:
         off[1::2] = -hi
         default = [f"{a}_{side}" for a in _axis_names(n) for side in ("min", "max")]
         labels = _names("names", names, 2 * n, default)
-        return cls(N, off, names=labels, redundant="keep")
+        try:
+            return cls(N, off, names=labels, redundant="keep")
+        except InvalidGeometry as exc:  # a box too thin for the tolerance
+            raise InvalidGeometry(f"lower, upper: the box is unusable: {exc}") from None
 
     @classmethod
     def from_polygon(cls, polygon: ConvexPolygon) -> ConvexPolytope:
@@ -353,6 +363,16 @@ class ConvexPolytope:
         return cls(unnamed.normals, unnamed.offsets, names=labels, redundant="keep")
 
     # ------------------------------------------------------------------ sizes
+    @property
+    def chebyshev_radius(self) -> float:
+        """Radius of the largest inscribed ball (the inradius), in the units of ``x``.
+
+        ``inf`` when the set holds arbitrarily large balls (a half-space, a wedge): the one
+        non-finite value this class reports, on purpose, so it is a property rather than a
+        record field.
+        """
+        return self._radius
+
     @property
     def dim(self) -> int:
         """Dimension ``n`` of the space."""
