@@ -500,8 +500,9 @@ class ConvexPolytope:
         out = X.copy()
         wsf, lam, act = projection_scratch(m, n)
         y = np.zeros(n)
+        G = self.normals.ravel()  # the kernel reads flat row-major rows
         for k in np.flatnonzero(~inside):
-            project_kernel(X[k], self.normals, self.offsets, m, n, y, lam, act, wsf)
+            project_kernel(X[k], G, self.offsets, m, n, y, lam, act, wsf)
             out[k] = y
         return out
 
