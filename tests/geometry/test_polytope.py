@@ -478,3 +478,25 @@ def test_largest_box_is_read_only_and_cached() -> None:
         L[0] = 1.0
     np.testing.assert_allclose(L, [0.0, 0.0], atol=1e-8)
     np.testing.assert_allclose(U, [1.0, 0.5], atol=1e-8)
+
+
+@pytest.mark.parametrize("n", range(2, 7))
+def test_largest_box_meets_the_kkt_conditions(n: int) -> None:
+    """An optimality certificate independent of the solver: at the optimum, the objective's
+    gradient is a non-negative combination of the active facets' rows (non-negative least
+    squares on the active set), and the box is inside."""
+    from scipy.optimize import nnls
+
+    rng = np.random.default_rng(40 + n)
+    for _ in range(4):
+        pts = rng.normal(size=(int(rng.integers(n + 3, 25)), n)) * rng.uniform(0.5, 3.0, size=n)
+        P = ConvexPolytope.from_vertices(pts)
+        L, U = P.largest_inscribed_box()
+        assert _corners_inside(P, L, U)
+        N = P.normals
+        A = np.hstack([np.maximum(N, 0.0), -np.maximum(-N, 0.0)])  # min of n_i·x over the box
+        w = U - L
+        active = A @ np.r_[L, U] - P.offsets <= 1e-7 * P.chebyshev_radius
+        grad = np.r_[1.0 / w, -1.0 / w]  # minus the gradient of Σ log w_j in (l, u)
+        _, residual = nnls(A[active].T, grad)
+        assert residual <= 1e-6 * float(np.linalg.norm(grad))

@@ -354,7 +354,9 @@ class ConvexPolytope:
             N = -hull.equations[:, :n]
             off = np.asarray(hull.equations[:, n], dtype=float)
         try:
-            unnamed = cls(N, off)
+            # Every qhull facet supports the hull on n affinely independent points, so none is
+            # redundant; the triangles of one planar facet are duplicates, merged here.
+            unnamed = cls(N, off, redundant="keep")
         except InvalidGeometry as exc:
             raise InvalidGeometry(f"points: the hull is unusable: {exc}") from None
         if names is None:
