@@ -15,6 +15,7 @@ from velfence.geometry.polygon import (
     inscribed_rectangle,
     polygon_from_halfplanes,
 )
+from velfence.geometry.polytope import ConvexPolytope
 from velfence.geometry.primitives import (
     closest_point_on_segment,
     closest_points_segments,
@@ -27,6 +28,7 @@ from velfence.geometry.primitives import (
 __all__ = [
     "Circle",
     "ConvexPolygon",
+    "ConvexPolytope",
     "Line",
     "Path",
     "Polyline",

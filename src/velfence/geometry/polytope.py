@@ -1,0 +1,469 @@
+r"""Convex polytopes in any dimension: intersections of half-spaces with inward unit normals.
+
+Conventions (the same as :class:`~velfence.geometry.polygon.ConvexPolygon`, in ``n`` dimensions):
+
+* facet ``i`` is the half-space :math:`n_i \cdot x \ge o_i` with the **inward unit normal**
+  :math:`n_i` and the offset :math:`o_i`, so the signed distance
+  :math:`d_i(x) = n_i \cdot x - o_i` is **positive inside** and is the Euclidean distance to the
+  facet's hyperplane;
+* the polytope is the set where every :math:`d_i \ge 0`; it need not be bounded (a slab, a wedge,
+  a half-space are accepted) but it must be full-dimensional (a ball of positive radius fits);
+* facets are kept in the order of the input rows, after exact duplicates are merged and (by
+  default) redundant rows removed; :attr:`ConvexPolytope.removed` and
+  :attr:`ConvexPolytope.source_rows` say what happened to every input row.
+
+The linear programs (Chebyshev ball, redundancy, boundedness) are solved by HiGHS through
+:func:`scipy.optimize.linprog`; vertices come from qhull (:mod:`scipy.spatial`). SciPy is
+imported inside the functions that need it, so ``import velfence`` stays light.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, Literal
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from velfence._typing import FloatArray
+from velfence._validate import (
+    check_choice,
+    check_positive,
+    check_text,
+    describe,
+    readonly,
+    real_array,
+)
+from velfence.errors import InvalidGeometry
+
+if TYPE_CHECKING:
+    from velfence.geometry.polygon import ConvexPolygon
+
+__all__ = ["ConvexPolytope", "Redundant"]
+
+#: What the constructor does with redundant rows: drop them (reported in ``removed``) or keep them.
+Redundant = Literal["remove", "keep"]
+_REDUNDANT: tuple[Redundant, ...] = ("remove", "keep")
+
+_ZERO_NORMAL = 1e-12  # rows with a shorter normal are refused
+_DUPLICATE = 1e-12  # unit normals closer than this (max-norm) are one facet
+_THIN = 1e-9  # Chebyshev radius below _THIN * (1 + scale): empty or lower-dimensional
+_REDUNDANCY = 1e-9  # row i redundant: min n_i·x over the others >= o_i - _REDUNDANCY (1 + scale)
+_RADIUS_CAP = 1e9  # the Chebyshev LP caps r at _RADIUS_CAP * (1 + scale): inf when it binds
+_LP_OPTIONS = {"primal_feasibility_tolerance": 1e-10, "dual_feasibility_tolerance": 1e-10}
+
+
+def _linprog(c: Any, A_ub: Any, b_ub: Any, bounds: Any, A_eq: Any = None, b_eq: Any = None) -> Any:
+    """``scipy.optimize.linprog`` with HiGHS and tight tolerances (minimise ``c·z``)."""
+    from scipy.optimize import linprog
+
+    return linprog(
+        c,
+        A_ub=A_ub,
+        b_ub=b_ub,
+        A_eq=A_eq,
+        b_eq=b_eq,
+        bounds=bounds,
+        method="highs",
+        options=_LP_OPTIONS,
+    )
+
+
+def _chebyshev(N: FloatArray, off: FloatArray, scale: float) -> tuple[FloatArray, float, bool]:
+    """The Chebyshev ball of ``{x : N x >= off}`` (unit rows): ``(centre, radius, capped)``.
+
+    ``radius`` is ``-1`` when the half-spaces have no common point. ``capped``: the radius cap
+    bound, so the set holds arbitrarily large balls (the centre is then the one of a ball of
+    radius ``1 + scale``, a moderate interior point).
+    """
+    m, n = N.shape
+    # Variables (c, r): maximise r s.t. N c - r >= off, i.e. -N c + r <= -off.
+    A = np.hstack([-N, np.ones((m, 1))])
+    cost = np.zeros(n + 1)
+    cost[-1] = -1.0
+    cap = _RADIUS_CAP * (1.0 + scale)
+    res = _linprog(cost, A, -off, [(None, None)] * n + [(0.0, cap)])
+    if res.status == 2:
+        return np.zeros(n), -1.0, False
+    if res.status != 0:
+        raise InvalidGeometry(
+            f"normals, offsets: the Chebyshev-ball linear program failed ({res.message}); "
+            "rescale the half-spaces"
+        )
+    r = float(res.x[-1])
+    if r >= cap * (1.0 - 1e-9):
+        res = _linprog(cost, A, -off, [(None, None)] * n + [(0.0, 1.0 + scale)])
+        return np.asarray(res.x[:n], dtype=float), math.inf, True
+    return np.asarray(res.x[:n], dtype=float), r, False
+
+
+def _is_bounded(N: FloatArray) -> bool:
+    """Whether ``{y : N y >= 0} = {0}``: rank n and ``Nᵀ λ = 0`` for some ``λ >= 1`` (Stiemke)."""
+    m, n = N.shape
+    if m <= n or np.linalg.matrix_rank(N) < n:
+        return False
+    res = _linprog(np.zeros(m), None, None, [(1.0, None)] * m, A_eq=N.T, b_eq=np.zeros(n))
+    return bool(res.status == 0)
+
+
+def _axis_names(n: int) -> list[str]:
+    return list("xyz"[:n]) if n <= 3 else [f"q{j}" for j in range(n)]
+
+
+@dataclass(frozen=True, eq=False)
+class ConvexPolytope:
+    r"""A full-dimensional convex polyhedron :math:`\{x : n_i \cdot x \ge o_i\}` in n dimensions.
+
+    Rows are normalised (the normal and the offset divided by the normal's length). Exact
+    duplicates (unit normals equal to ``1e-12``) are always merged, the tighter offset kept.
+    Redundant rows (those whose removal does not change the set, decided by one linear program
+    per row: row ``i`` is redundant when :math:`\min n_i\cdot x` over the other rows' polytope is
+    ``>= o_i - 1e-9 (1 + scale)``, ``scale`` the largest offset magnitude) are removed and
+    reported in :attr:`removed` unless ``redundant="keep"``. The set must be non-empty and
+    full-dimensional: its Chebyshev radius (the largest inscribed ball, a linear program) must
+    exceed ``1e-9 (1 + scale)``.
+
+    Args:
+        normals: Inward normals, shape (m, n), m >= 1 facets in n >= 1 dimensions, finite, none
+            shorter than 1e-12 (any length: rows are normalised).
+        offsets: Offsets, shape (m,), in the units of ``x`` times the normal's length.
+        names: One name per input row (strings); default ``"facet i"`` for input row ``i``.
+        redundant: ``"remove"`` (default) drops redundant rows, ``"keep"`` keeps them (duplicates
+            are merged either way).
+
+    Attributes:
+        normals: Inward unit normals of the kept facets, shape (n_facets, n), read-only.
+        offsets: Their offsets, shape (n_facets,), read-only.
+        facet_names: One name per kept facet.
+        removed: Input row indices that are not facets (merged duplicates and redundant rows).
+        source_rows: For every input row, the index of the facet it became (a merged duplicate:
+            the facet it was merged into), or ``-1`` for a removed redundant row.
+        chebyshev_center: Centre of a largest inscribed ball, shape (n,), read-only (for a set
+            holding arbitrarily large balls: the centre of a ball of radius ``1 + scale``).
+        chebyshev_radius: Radius of the largest inscribed ball (inradius), ``inf`` when the set
+            holds arbitrarily large balls.
+        bounded: Whether the set is bounded (its recession cone ``{y : N y >= 0}`` is ``{0}``).
+
+    Raises:
+        InvalidGeometry: non-real or non-finite entries, wrong shapes, a normal shorter than
+            1e-12, a wrong number of names, or an empty or lower-dimensional set (the message
+            gives the Chebyshev radius).
+        InvalidParameter: ``redundant`` not one of ``"remove"``, ``"keep"``.
+    """
+
+    normals: FloatArray = field(init=False)
+    offsets: FloatArray = field(init=False)
+    facet_names: tuple[str, ...] = field(init=False)
+    removed: tuple[int, ...] = field(init=False)
+    source_rows: tuple[int, ...] = field(init=False)
+    chebyshev_center: FloatArray = field(init=False)
+    chebyshev_radius: float = field(init=False)
+    bounded: bool = field(init=False)
+    _cache: dict[str, Any] = field(init=False, repr=False)
+
+    def __init__(
+        self,
+        normals: ArrayLike,
+        offsets: ArrayLike,
+        *,
+        names: Sequence[str] | None = None,
+        redundant: Redundant = "remove",
+    ) -> None:
+        mode = check_choice("redundant", redundant, _REDUNDANT)
+        N = real_array("normals", normals, error=InvalidGeometry, what="inward facet normals")
+        if N.ndim != 2 or N.shape[0] < 1 or N.shape[1] < 1:
+            raise InvalidGeometry(
+                "normals: expected shape (m, n) with m >= 1 facets and n >= 1 dimensions, got "
+                f"shape {N.shape}"
+            )
+        m = N.shape[0]
+        off = real_array("offsets", offsets, error=InvalidGeometry, what="facet offsets")
+        if off.shape != (m,):
+            raise InvalidGeometry(
+                f"offsets: expected shape ({m},), one offset per row of normals {N.shape}, got "
+                f"shape {off.shape}"
+            )
+        labels = _names("names", names, m, [f"facet {i}" for i in range(m)])
+        length = np.sqrt(np.einsum("ij,ij->i", N, N))
+        short = np.flatnonzero(~(length >= _ZERO_NORMAL))
+        if short.size:
+            raise InvalidGeometry(
+                f"normals: expected rows of length >= {_ZERO_NORMAL:g}, got row(s) "
+                f"{short[:10].tolist()} of length {length[short[:4]].tolist()}"
+            )
+        N = N / length[:, None] + 0.0  # + 0.0: no negative zeros
+        off = off / length + 0.0
+        # Exact duplicates: one facet per unit normal, the tighter (larger) offset kept.
+        rep = np.arange(m)  # representative input row of each row's group
+        for i in range(m):
+            if rep[i] != i:
+                continue
+            same = np.flatnonzero(np.max(np.abs(N - N[i]), axis=1) <= _DUPLICATE)
+            same = same[same >= i]
+            best = int(same[np.argmax(off[same])])  # first of the largest offsets
+            rep[same] = best
+        kept = sorted({int(r) for r in rep})
+        scale = float(np.max(np.abs(off)))
+        centre, radius, _ = _chebyshev(N[kept], off[kept], scale)
+        if radius <= _THIN * (1.0 + scale):
+            shown = radius if radius > 0 else 0.0
+            got = "no common point" if radius < 0 else f"Chebyshev radius {shown:.3g}"
+            raise InvalidGeometry(
+                "normals, offsets: empty or lower-dimensional: expected a full-dimensional set "
+                f"(an inscribed ball of radius > {_THIN * (1.0 + scale):.3g}), got {got}; check "
+                "the signs of the offsets (n_i·x >= offset_i inside)"
+            )
+        if mode == "remove" and len(kept) > 1:
+            kept = _irredundant(N, off, kept, _REDUNDANCY * (1.0 + scale))
+        index = {r: k for k, r in enumerate(kept)}
+        source = tuple(index.get(int(rep[i]), -1) for i in range(m))
+        object.__setattr__(self, "normals", readonly(np.ascontiguousarray(N[kept])))
+        object.__setattr__(self, "offsets", readonly(np.ascontiguousarray(off[kept])))
+        object.__setattr__(self, "facet_names", tuple(labels[r] for r in kept))
+        object.__setattr__(self, "removed", tuple(i for i in range(m) if i not in index))
+        object.__setattr__(self, "source_rows", source)
+        object.__setattr__(self, "chebyshev_center", readonly(centre))
+        object.__setattr__(self, "chebyshev_radius", radius)
+        object.__setattr__(self, "bounded", _is_bounded(self.normals))
+        object.__setattr__(self, "_cache", {})
+
+    # ------------------------------------------------------------------ other constructors
+    @classmethod
+    def box(
+        cls, lower: ArrayLike, upper: ArrayLike, *, names: Sequence[str] | None = None
+    ) -> ConvexPolytope:
+        """The axis-aligned box ``lower <= x <= upper``.
+
+        Facets in the order lower, upper bound of axis 0, then of axis 1, ...: named ``"x_min"``,
+        ``"x_max"``, ``"y_min"``, ... for n <= 3 and ``"q0_min"``, ``"q0_max"``, ... beyond.
+
+        Args:
+            lower: Lower corner, shape (n,), n >= 1, finite.
+            upper: Upper corner, shape (n,), ``upper > lower`` element-wise.
+            names: One name per facet (2 n strings) instead of the default names.
+
+        Returns:
+            The box (2 n facets, none removed).
+
+        Raises:
+            InvalidGeometry: non-finite or mis-shaped corners, or ``upper <= lower`` somewhere.
+        """
+        lo = real_array("lower", lower, (None,), error=InvalidGeometry, what="a lower corner")
+        n = lo.shape[0]
+        if n < 1:
+            raise InvalidGeometry("lower: expected at least one dimension, got shape (0,)")
+        hi = real_array("upper", upper, (n,), error=InvalidGeometry, what="an upper corner")
+        bad = np.flatnonzero(~(hi > lo))
+        if bad.size:
+            j = int(bad[0])
+            raise InvalidGeometry(
+                f"upper: expected upper > lower element-wise, got upper[{j}]={hi[j]!r} <= "
+                f"lower[{j}]={lo[j]!r}"
+            )
+        eye = np.eye(n)
+        N = np.empty((2 * n, n))
+        N[0::2] = eye
+        N[1::2] = -eye
+        off = np.empty(2 * n)
+        off[0::2] = lo
+        off[1::2] = -hi
+        default = [f"{a}_{side}" for a in _axis_names(n) for side in ("min", "max")]
+        labels = _names("names", names, 2 * n, default)
+        return cls(N, off, names=labels, redundant="keep")
+
+    @classmethod
+    def from_polygon(cls, polygon: ConvexPolygon) -> ConvexPolytope:
+        """The polygon as a 2-D polytope: the same normals, offsets and edge order.
+
+        Args:
+            polygon: A :class:`~velfence.geometry.polygon.ConvexPolygon`.
+
+        Returns:
+            The polytope with facets ``"edge 0"``, ``"edge 1"``, ... (edge ``i`` of the polygon).
+
+        Raises:
+            InvalidGeometry: ``polygon`` is not a ``ConvexPolygon``.
+        """
+        from velfence.geometry.polygon import ConvexPolygon
+
+        if not isinstance(polygon, ConvexPolygon):
+            raise InvalidGeometry(f"polygon: expected a ConvexPolygon, got {describe(polygon)}")
+        k = polygon.n
+        return cls(
+            polygon.normals,
+            polygon.offsets,
+            names=[f"edge {i}" for i in range(k)],
+            redundant="keep",
+        )
+
+    @classmethod
+    def from_vertices(
+        cls, points: ArrayLike, *, names: Sequence[str] | None = None
+    ) -> ConvexPolytope:
+        """The convex hull of ``points`` (qhull through :class:`scipy.spatial.ConvexHull`).
+
+        Points inside the hull are ignored; coplanar hull triangles are merged into one facet.
+        Facets come in qhull's order (deterministic for given points).
+
+        Args:
+            points: Points, shape (k, n), k >= n + 1, n >= 1, finite, not all in one hyperplane.
+            names: One name per resulting facet (check :attr:`n_facets` of an unnamed hull first).
+
+        Returns:
+            The hull as a polytope (for n = 1, the interval between the extreme points).
+
+        Raises:
+            InvalidGeometry: non-finite or mis-shaped points, fewer than n + 1 points, a
+                degenerate (lower-dimensional) point set, or a wrong number of names.
+        """
+        P = real_array("points", points, error=InvalidGeometry, what="hull points")
+        if P.ndim != 2 or P.shape[1] < 1:
+            raise InvalidGeometry(f"points: expected shape (k, n) with n >= 1, got shape {P.shape}")
+        k, n = P.shape
+        if k < n + 1:
+            raise InvalidGeometry(
+                f"points: expected at least n + 1 = {n + 1} points in {n} dimensions, got {k}"
+            )
+        if n == 1:
+            lo, hi = float(P.min()), float(P.max())
+            N = np.array([[1.0], [-1.0]])
+            off = np.array([lo, -hi])
+        else:
+            from scipy.spatial import ConvexHull, QhullError
+
+            try:
+                hull = ConvexHull(P)
+            except QhullError:
+                raise InvalidGeometry(
+                    f"points: expected points spanning {n} dimensions, got a degenerate set "
+                    f"(all {k} points in a lower-dimensional affine subspace, or too close)"
+                ) from None
+            # qhull: a·x + b <= 0 inside, a outward unit; inward n = -a, offset b.
+            N = -hull.equations[:, :n]
+            off = np.asarray(hull.equations[:, n], dtype=float)
+        try:
+            unnamed = cls(N, off)
+        except InvalidGeometry as exc:
+            raise InvalidGeometry(f"points: the hull is unusable: {exc}") from None
+        if names is None:
+            return unnamed
+        labels = _names("names", names, unnamed.n_facets, [])
+        return cls(unnamed.normals, unnamed.offsets, names=labels, redundant="keep")
+
+    # ------------------------------------------------------------------ sizes
+    @property
+    def dim(self) -> int:
+        """Dimension ``n`` of the space."""
+        return int(self.normals.shape[1])
+
+    @property
+    def n_facets(self) -> int:
+        """Number of kept facets ``m``."""
+        return int(self.normals.shape[0])
+
+    # ------------------------------------------------------------------ point queries
+    def signed_distances(self, x: ArrayLike) -> FloatArray:
+        """Signed distance of ``x`` to every facet hyperplane, positive inside.
+
+        Args:
+            x: Point, shape (n,), finite.
+
+        Returns:
+            Shape (n_facets,), in the units of ``x``.
+
+        Raises:
+            InvalidInput: ``x`` not a finite real vector of shape (n,).
+        """
+        xa = real_array("x", x, (self.dim,), what="a point")
+        d: FloatArray = self._distances(xa[None, :])[0]
+        return d
+
+    def signed_distances_batch(self, X: ArrayLike) -> FloatArray:
+        """:meth:`signed_distances` of N points at once.
+
+        Args:
+            X: Points, shape (N, n), finite.
+
+        Returns:
+            Shape (N, n_facets).
+
+        Raises:
+            InvalidInput: ``X`` not finite real numbers of shape (N, n).
+        """
+        Xa = real_array("X", X, (None, self.dim), what="points")
+        return self._distances(Xa)
+
+    def _distances(self, X: FloatArray) -> FloatArray:
+        """``X @ normals.T - offsets`` summed in one fixed order (one point = one batch row)."""
+        N = self.normals
+        d = X[:, 0:1] * N[None, :, 0]
+        for j in range(1, N.shape[1]):
+            d += X[:, j : j + 1] * N[None, :, j]
+        return np.asarray(d - self.offsets, dtype=float)
+
+    def contains(self, x: ArrayLike, *, tol: float = 0.0) -> bool:
+        """Whether ``x`` lies in the closed polytope (every signed distance ``>= -tol``).
+
+        Args:
+            x: Point, shape (n,), finite.
+            tol: Tolerance >= 0, in the units of ``x``.
+
+        Returns:
+            ``True`` inside or on the boundary (to ``tol``).
+
+        Raises:
+            InvalidInput: a bad ``x``.
+            InvalidParameter: a negative or non-finite ``tol``.
+        """
+        t = check_positive("tol", tol, allow_zero=True)
+        return bool(np.all(self.signed_distances(x) >= -t))
+
+    def contains_batch(self, X: ArrayLike, *, tol: float = 0.0) -> NDArray[np.bool_]:
+        """:meth:`contains` for N points at once.
+
+        Args:
+            X: Points, shape (N, n), finite.
+            tol: Tolerance >= 0, in the units of ``X``.
+
+        Returns:
+            Boolean array, shape (N,).
+
+        Raises:
+            InvalidInput: a bad ``X``.
+            InvalidParameter: a negative or non-finite ``tol``.
+        """
+        t = check_positive("tol", tol, allow_zero=True)
+        return np.asarray(np.all(self.signed_distances_batch(X) >= -t, axis=1))
+
+    def __repr__(self) -> str:
+        kind = "bounded" if self.bounded else "unbounded"
+        return f"ConvexPolytope(dim={self.dim}, n_facets={self.n_facets}, {kind})"
+
+
+def _names(name: str, names: Sequence[str] | None, m: int, default: list[str]) -> list[str]:
+    """``names`` as ``m`` strings (``default`` when ``None``), validated."""
+    if names is None:
+        return default
+    if isinstance(names, (str, bytes)) or not isinstance(names, Sequence):
+        raise InvalidGeometry(f"{name}: expected a sequence of {m} strings, got {describe(names)}")
+    if len(names) != m:
+        raise InvalidGeometry(f"{name}: expected {m} names, one per facet row, got {len(names)}")
+    return [check_text(f"{name}[{i}]", s, error=InvalidGeometry) for i, s in enumerate(names)]
+
+
+def _irredundant(N: FloatArray, off: FloatArray, rows: list[int], tol: float) -> list[int]:
+    """``rows`` without the redundant ones, tested one at a time against the current set."""
+    kept = list(rows)
+    for i in rows:
+        others = [r for r in kept if r != i]
+        if not others:
+            break
+        # minimise n_i·x over the others' polytope, with n_i·x >= o_i - 1 to keep it bounded.
+        A = -np.vstack([N[others], N[i]])
+        b = -np.append(off[others], off[i] - 1.0)
+        res = _linprog(N[i], A, b, [(None, None)] * N.shape[1])
+        if res.status == 0 and float(res.fun) >= off[i] - tol:
+            kept.remove(i)
+    return kept
