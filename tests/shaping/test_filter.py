@@ -41,7 +41,7 @@ DAQP_PRIMAL_TOL = 1e-14
 
 
 def limits(acc: bool = False) -> JointLimits:
-    return JointLimits(LIM[:, 0], LIM[:, 1], VMAX, AMAX if acc else None)
+    return JointLimits(LIM[:, 0], LIM[:, 1], VMAX, max_acceleration=AMAX if acc else None)
 
 
 def box_filter(**kw: object) -> SafetyFilter:
@@ -155,7 +155,7 @@ def test_three_zone_joints_and_weights_equal_an_independent_qp(
 @given(states())
 def test_obstacle_rows_equal_an_independent_qp(state: tuple[np.ndarray, np.ndarray]) -> None:
     q, u = state
-    obs = [SphereObstacle(ARM.fk(Q0, "elbow") + np.array([0.0, 0.12, 0.0]), 0.03)]
+    obs = [SphereObstacle(ARM.fk(Q0, "elbow") + np.array([0.0, 0.12, 0.0]), radius=0.03)]
     f = box_filter(obstacles=obs, obstacle_buffer=0.1, workspace=())
     r = f.explain(q, u)
     G, b = reference_rows(f, q, u)
@@ -196,7 +196,7 @@ def test_unconstrained_twist_is_the_damped_least_squares_solution() -> None:
 @given(states())
 def test_reported_rows_hold_at_the_output(state: tuple[np.ndarray, np.ndarray]) -> None:
     q, u = state
-    obs = [SphereObstacle(ARM.fk(Q0, "wrist") + np.array([0.0, 0.1, 0.0]), 0.03)]
+    obs = [SphereObstacle(ARM.fk(Q0, "wrist") + np.array([0.0, 0.1, 0.0]), radius=0.03)]
     f = box_filter(obstacles=obs, dt=0.002, limits=limits(acc=True))
     r = f.explain(q, u, previous=u * 0.9)
     G, b = r.rows
@@ -267,7 +267,7 @@ def test_joint_limits_are_never_crossed() -> None:
 def test_an_obstacle_is_never_penetrated() -> None:
     dt = 0.002
     centre = ARM.fk(Q0, "elbow") + np.array([0.0, 0.15, 0.0])
-    ob = SphereObstacle(centre, 0.05)
+    ob = SphereObstacle(centre, radius=0.05)
     f = SafetyFilter(ARM, limits=limits(), obstacles=[ob], dt=dt, obstacle_buffer=0.08)
     # drive the elbow straight at the obstacle with the elbow's twist
     qs = [Q0]
@@ -415,7 +415,7 @@ def test_joint_limits_are_validated() -> None:
     with pytest.raises(InvalidParameter, match="max_velocity"):
         JointLimits([0.0], [1.0], 0.0)
     with pytest.raises(InvalidParameter, match="max_acceleration"):
-        JointLimits([0.0], [1.0], 1.0, [-1.0])
+        JointLimits([0.0], [1.0], 1.0, max_acceleration=[-1.0])
     with pytest.raises(InvalidParameter, match="names"):
         JointLimits([0.0], [1.0], 1.0, names=("a", "b"))
     lim = JointLimits([-math.inf], [1.0], [2.0])
@@ -431,7 +431,7 @@ def test_planar_arm_in_the_plane() -> None:
         arm,
         limits=lim,
         workspace=WorkspaceLimit(square, buffer=0.1),
-        obstacles=[SphereObstacle([1.0, 0.2], 0.05)],
+        obstacles=[SphereObstacle([1.0, 0.2], radius=0.05)],
         dt=0.01,
     )
     q = np.array([0.5, 0.5, 0.5])

@@ -628,6 +628,6 @@ def load_joint_limits(path: str | Path, joint_names: Sequence[str]) -> JointLimi
             f"joint limits file {p}: expected a mapping with a 'joint_limits' key, got {got}"
         )
     try:
-        return JointLimits.from_ros2_control(loaded, joint_names)
+        return JointLimits._from_ros2(loaded, joint_names)
     except InvalidParameter as exc:
         raise InvalidParameter(f"joint limits file {p}: {exc}") from None

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import KW_ONLY, dataclass
 from typing import Any
 
 import numpy as np
@@ -32,10 +32,18 @@ __all__ = ["JointLimits", "Profile", "SphereObstacle", "WorkspaceLimit"]
 Profile = LinearBuffer | ThreeZoneBraking
 
 
-def _vector(name: str, x: Any, n: int | None, what: str, *, nonfinite: bool = False) -> FloatArray:
+def _vector(
+    name: str, x: Any, n: int | None, what: str, *, nonfinite: bool = False, scalar: bool = False
+) -> FloatArray:
+    """One value per joint: shape (n,) (``scalar``: a number is repeated); NaN refused."""
     a = real_array(
-        name, x, (n,), error=InvalidParameter, what=what, allow_nonfinite=nonfinite, max_abs=None
+        name, x, None, error=InvalidParameter, what=what, allow_nonfinite=nonfinite, max_abs=None
     )
+    if scalar and a.ndim == 0 and n is not None:
+        a = np.full(n, float(a))
+    if a.ndim != 1 or (n is not None and a.shape[0] != n):
+        want = "(n,)" if n is None else f"({n},), one per joint of lower"
+        raise InvalidParameter(f"{name}: expected shape {want}, got shape {a.shape}")
     if np.isnan(a).any():
         raise InvalidParameter(f"{name}: expected {what}, got NaN in {a.tolist()}")
     big = np.isfinite(a) & (np.abs(a) > MAX_MAGNITUDE)
@@ -66,6 +74,7 @@ class JointLimits:
     lower: FloatArray
     upper: FloatArray
     max_velocity: FloatArray
+    _: KW_ONLY
     max_acceleration: FloatArray | None = None
     names: tuple[str, ...] | None = None
 
@@ -87,22 +96,17 @@ class JointLimits:
                 f"upper: expected upper > lower on every joint, got upper[{j}]={hi[j]!r} <= "
                 f"lower[{j}]={lo[j]!r}"
             )
-        vraw: Any = self.max_velocity
-        if isinstance(vraw, (int, float, np.integer, np.floating)) and not isinstance(vraw, bool):
-            vraw = np.full(n, check_positive("max_velocity", vraw, unit="rad/s"))
-        v = _vector("max_velocity", vraw, n, f"joint speeds [rad/s] of shape ({n},)")
+        v = _vector(
+            "max_velocity", self.max_velocity, n, f"joint speeds [rad/s] of shape ({n},)",
+            scalar=True,
+        )  # fmt: skip
         if not np.all(v > 0.0):
             raise InvalidParameter(f"max_velocity: expected speeds > 0 [rad/s], got {v.tolist()}")
         acc: FloatArray | None = None
         if self.max_acceleration is not None:
-            araw: Any = self.max_acceleration
-            if isinstance(araw, (int, float, np.integer, np.floating)) and not isinstance(
-                araw, bool
-            ):
-                araw = np.full(n, float(araw))
             acc = _vector(
-                "max_acceleration", araw, n, f"accelerations [rad/s²] of shape ({n},)",
-                nonfinite=True,
+                "max_acceleration", self.max_acceleration, n,
+                f"accelerations [rad/s²] of shape ({n},)", nonfinite=True, scalar=True,
             )  # fmt: skip
             if not np.all(acc > 0.0):
                 raise InvalidParameter(
@@ -158,7 +162,22 @@ class JointLimits:
             InvalidParameter: wrong structure, joint set or values (the message names the
                 joint and the field).
         """
+        try:
+            return cls._from_ros2(mapping, joint_names)
+        except InvalidParameter as exc:
+            raise InvalidParameter(f"mapping: {exc}") from None
+
+    @classmethod
+    def _from_ros2(cls, mapping: Any, joint_names: Any) -> JointLimits:
+        if isinstance(joint_names, (str, bytes)) or not isinstance(joint_names, (list, tuple)):
+            raise InvalidParameter(
+                f"joint_names: expected a list or tuple of joint names, got {describe(joint_names)}"
+            )
         names = tuple(check_text("joint_names", s, max_length=200) for s in joint_names)
+        if not names or len(set(names)) != len(names) or not all(names):
+            raise InvalidParameter(
+                f"joint_names: expected at least one distinct non-empty name, got {list(names)}"
+            )
         if not isinstance(mapping, Mapping):
             raise InvalidParameter(
                 f"joint_limits: expected a mapping of joint names, got {describe(mapping)}"
@@ -204,11 +223,7 @@ class JointLimits:
                 acc[j] = _number(entry, s, "max_acceleration", "rad/s²")
         try:
             return cls(
-                lo,
-                hi,
-                vel,
-                acc if np.isfinite(acc).any() else None,
-                names=names,
+                lo, hi, vel, max_acceleration=acc if np.isfinite(acc).any() else None, names=names
             )
         except InvalidParameter as exc:
             raise InvalidParameter(f"joint_limits: {exc}") from None
@@ -278,6 +293,7 @@ class WorkspaceLimit:
     """
 
     polytope: Any
+    _: KW_ONLY
     point: str = "tcp"
     buffer: float = 0.05
     spring_gain: float = 1.0
@@ -322,6 +338,7 @@ class SphereObstacle:
     """
 
     center: FloatArray
+    _: KW_ONLY
     radius: float
     name: str | None = None
 
