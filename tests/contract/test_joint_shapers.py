@@ -79,6 +79,27 @@ def _safety_filter(**overrides):
     return SafetyFilter(arm, **kw)
 
 
+def _polytope(kind: str):
+    def make(**overrides):
+        from velfence import ConvexPolytope, PolytopeShaper
+
+        # The contract's states lie around π/2 ± 0.9: a box of half-width 0.7 around π/2 (and a
+        # tilted cut) has them inside, in the band and outside.
+        c = np.pi / 2
+        box = ConvexPolytope.box(np.full(3, c - 0.7), np.full(3, c + 0.7))
+        cut = np.array([[-1.0, -1.0, -1.0]]) / np.sqrt(3.0)
+        poly = ConvexPolytope(
+            np.vstack([box.normals, cut]), np.concatenate([box.offsets, cut @ np.full(3, c) - 0.6])
+        )
+        if kind == "three-zone":
+            prof = ThreeZoneBraking.from_actuator_limits(gain=20, max_speed=2, max_acceleration=10)
+            return PolytopeShaper(poly, **{"profile": prof, **overrides})
+        kw = {"buffer": 0.2, "spring_gain": 2.0, "dt": 0.01 if kind == "dt" else None}
+        return PolytopeShaper(poly, **{**kw, **overrides})
+
+    return make
+
+
 # (name, factory, state dimension, command dimension)
 FACTORIES = [
     ("stops-nearest", _stop_limiter("nearest"), 3, 3),
@@ -89,6 +110,9 @@ FACTORIES = [
     ("line-fixture", lambda **kw: _line_fixture("fixture", **kw), 3, 3),
     ("line-fixture-segment", lambda **kw: _line_fixture("segment", **kw), 3, 3),
     ("safety-filter", _safety_filter, 7, 7),
+    ("polytope-buffer", _polytope("buffer"), 3, 3),
+    ("polytope-dt", _polytope("dt"), 3, 3),
+    ("polytope-three-zone", _polytope("three-zone"), 3, 3),
 ]
 IDS = [f[0] for f in FACTORIES]
 
@@ -114,7 +138,7 @@ def test_output_finite_and_explain_agrees(name, make, dim, cdim):
 
 #: The shapers of velfence.shaping: their explain() satisfies the typed result contract. (The
 #: redundancy controllers report zones and stages of their own.)
-TYPED = [f for f in FACTORIES if f[0].startswith(("stops-", "line-", "safety-"))]
+TYPED = [f for f in FACTORIES if f[0].startswith(("stops-", "line-", "polytope-", "safety-"))]
 
 
 @pytest.mark.parametrize(("name", "make", "dim", "cdim"), TYPED, ids=[f[0] for f in TYPED])
@@ -176,9 +200,9 @@ def test_tuning_parameters_are_keyword_only(name, make, dim, cdim):
     params = list(inspect.signature(type(make()).__init__).parameters.values())[1:]
     positional = [p.name for p in params if p.kind is not inspect.Parameter.KEYWORD_ONLY]
     # Only the model may be positional (the stops, the kinematic chain or robot and its
-    # obstacles, the fixture's line).
-    allowed = {"stops", "chain", "robot", "obstacles", "line_point", "line_direction"}
-    assert set(positional) <= allowed, positional
+    # obstacles, the fixture's line, the polytope).
+    model = {"stops", "chain", "robot", "obstacles", "line_point", "line_direction", "polytope"}
+    assert set(positional) <= model, positional
     assert any(p.kind is inspect.Parameter.KEYWORD_ONLY for p in params)
 
 

@@ -8,7 +8,7 @@ though at an acute corner it may trade some approach to one edge, within that ed
 the other's), (3) outside, reduces every violation, and (4) is finite for every input (non-finite
 input raises ``InvalidInput`` or, with ``on_invalid="stop"``, gives zero). Every 2-D shaper
 implements ``shape``, ``explain`` and ``shape_batch`` (see :mod:`velfence.shaping.base`); the
-joint-stop limiter does the same on n-D joint vectors.
+joint-stop limiter and the n-D polytope shaper do the same on n-vectors.
 """
 
 from velfence.shaping._kernels import STAGE_NAMES, ZONE_NAMES
@@ -24,6 +24,7 @@ from velfence.shaping.fixtures import (
 )
 from velfence.shaping.limits import JointLimits, SphereObstacle, WorkspaceLimit
 from velfence.shaping.polygon import PolygonShaper
+from velfence.shaping.polytope import PolytopeResult, PolytopeShaper
 from velfence.shaping.profiles import ApproachProfile, LinearBuffer, ThreeZoneBraking
 from velfence.shaping.rate import RateLimiter
 from velfence.shaping.stops import StopLimiter, StopResult
@@ -42,6 +43,8 @@ __all__ = [
     "LineScaling",
     "LinearBuffer",
     "PolygonShaper",
+    "PolytopeResult",
+    "PolytopeShaper",
     "RateLimiter",
     "SafetyFilter",
     "ScalingResult",
