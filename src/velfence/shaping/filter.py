@@ -63,8 +63,8 @@ from velfence.errors import InvalidInput, InvalidParameter
 from velfence.shaping._kernels import (
     STAGE_NAMES,
     ZONE_NAMES,
+    bounds_from_distances,
     fill_bounds,
-    profile_cap,
     zone_code,
 )
 from velfence.shaping.base import InvalidPolicy, OnInvalid, Zone
@@ -199,26 +199,27 @@ class _Rows:
         return len(self.b) - 1
 
 
-def _bounds(prm: Profile, dist: FloatArray, speed: FloatArray, idt: float) -> FloatArray:
+def _bounds(prm: Profile, dist: FloatArray, speed: float, idt: float) -> FloatArray:
     """Lower bounds on the approach rate ``n·x`` toward constraints at distances ``dist``.
 
-    The exact law's bound definition (``exact_bounds`` / ``fill_bounds`` of
-    :mod:`velfence.shaping._kernels`): inside ``-cap(d, s)``, in discrete time at least ``-d/dt``;
-    outside the profile's forced return ``-cap(d)``, in discrete time at most the penetration
-    per period. ``speed`` is the cap speed ``s`` of each row (linear profiles scale with it).
+    The exact law's one bound definition, :func:`velfence.shaping._kernels.bounds_from_distances`
+    (cap speed ``speed`` shared by the rows): inside ``-cap(d, s)``, in discrete time at least
+    ``-d/dt``; outside the profile's forced return, in discrete time at most the penetration per
+    period. That function keeps only the rows that bind the *command* (cap below its speed,
+    reachable in one period at its speed); here the output may move a point faster than the
+    command does (a joint-space projection is not a Cartesian one), so the rows it leaves out
+    get the same definition from :func:`~velfence.shaping._kernels.fill_bounds` (``-inf`` where
+    the profile sets no cap and there is no period).
     """
     kind, params = prm.kernel_profile
     k = dist.shape[0]
     bnd = np.zeros(k)
-    work = np.arange(k, dtype=np.int64)
-    for e in range(k):
-        d = float(dist[e])
-        if d < 0.0:
-            r = -profile_cap(kind, params, False, d, 0.0)
-            if idt > 0.0 and r > -d * idt:
-                r = -d * idt
-            bnd[e] = r
-        fill_bounds(kind, params, False, dist, work, e, e + 1, float(speed[e]), 1.0, idt, bnd)
+    work = np.zeros(k, dtype=np.int64)
+    m = bounds_from_distances(dist, k, speed, kind, params, False, idt, False, bnd, work)[0]
+    chosen = set(work[:m].tolist())
+    rest = np.array([e for e in range(k) if e not in chosen], dtype=np.int64)
+    # (violated rows are always chosen, so ``rest`` holds rows with d >= 0 only)
+    fill_bounds(kind, params, False, dist, rest, 0, rest.shape[0], speed, 1.0, idt, bnd)
     return bnd
 
 
@@ -451,7 +452,9 @@ class SafetyFilter(InvalidPolicy):
             ):
                 if not math.isfinite(d):
                     continue
-                b = float(_bounds(prof, np.array([d]), np.array([v]), idt)[0])
+                b = float(_bounds(prof, np.array([d]), v, idt)[0])
+                if b == -math.inf:
+                    continue  # beyond the profile's reach: no bound
                 b = min(b, v)  # a recovery no faster than the joint can move
                 rows.add(sign * eye[j], b, LEVEL_JOINT, d < 0.0, f"joint {j} position ({side})")
             rows.add(eye[j], -v, LEVEL_JOINT, False, f"joint {j} velocity (lower)")
@@ -477,7 +480,7 @@ class SafetyFilter(InvalidPolicy):
             dist = poly.normals @ p - poly.offsets
             s = float(np.linalg.norm(J @ u))
             prof = w.profile if w.profile is not None else LinearBuffer(buffer=w.buffer)
-            bnd = _bounds(prof, dist, np.full(dist.shape[0], s), idt)
+            bnd = _bounds(prof, dist, s, idt)
             label = "TCP" if w.point == "tcp" else w.point
             prefix = f"workspace {w_i}: " if len(self._workspace) > 1 else ""
             NJ = poly.normals @ J
@@ -519,7 +522,7 @@ class SafetyFilter(InvalidPolicy):
                     if d > 2.0 * reach:
                         continue  # not reachable in one period, even at full joint speed
                 s = float(np.linalg.norm(Jc @ u))
-                b = float(_bounds(prof, np.array([d]), np.array([s]), idt)[0])
+                b = float(_bounds(prof, np.array([d]), s, idt)[0])
                 if b == -math.inf:
                     continue
                 r = rows.add(g, b, LEVEL_OBSTACLE, d < 0.0, f"obstacle {i} on link {link}")
