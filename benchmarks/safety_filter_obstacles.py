@@ -118,8 +118,10 @@ def main() -> None:
             line, duration = lines[key]  # type: ignore[misc]
         rows.append((key, "configuration control", summarise_cc(ref)))
         rows.append((key, "SafetyFilter (twist)", run_filter(key, ref, line, duration)))
-    print("| scenario | method | min clearance to ρ [mm] | min clearance to body [mm] | "
-          "max EE error [mm] | RMS EE error [mm] | mean cycle [µs] |")
+    print(
+        "| scenario | method | min clearance to ρ [mm] | min clearance to body [mm] | "
+        "max EE error [mm] | RMS EE error [mm] | mean cycle [µs] |"
+    )
     print("|---|---|---:|---:|---:|---:|---:|")
     for key, name, s in rows:
         print(
