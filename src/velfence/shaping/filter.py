@@ -107,8 +107,8 @@ class Kinematics(Protocol):
 
     Obstacles additionally need the capsule geometry of
     :class:`~velfence.mechanisms.chain.SerialChain`: ``link_segments(q)`` (L, 2, 3),
-    ``link_radius`` (L,) and ``point_jacobian(q, link, t)`` (3, dof); a twist of shape (6,)
-    needs ``angular_jacobian(q)`` (3, dof).
+    ``link_radius`` (L,), ``point_jacobian(q, link, t)`` (3, dof) and ``joint_positions(q)``; a
+    twist of shape (6,) needs ``angular_jacobian(q)`` (3, dof).
     """
 
     @property
@@ -223,6 +223,25 @@ def _bounds(prm: Profile, dist: FloatArray, speed: float, idt: float) -> FloatAr
     return bnd
 
 
+def _projection(u: FloatArray, G: FloatArray, b: FloatArray) -> tuple[bool, FloatArray]:
+    """Projection of ``u`` onto ``{x : G x >= b}`` for the filter's own arrays: ``(feasible, x)``.
+
+    :func:`velfence.geometry.projection.project_kernel` (the solve behind ``project``) run on
+    Python lists, which plain Python indexes faster than arrays; the inputs are finite (``b``
+    finite), built by the filter.
+    """
+    from velfence.geometry.projection import PROJECT_OPTIMAL, project_kernel
+
+    m, n = G.shape
+    x = [0.0] * n
+    lam = [0.0] * (n + 1)
+    act = [0] * (n + 1)
+    wsf = [0.0] * (2 * n * n + 4 * n + m + 2)
+    status = project_kernel(u.tolist(), G.ravel().tolist(), b.tolist(), m, n, x, lam, act, wsf)[0]
+    xa = np.array(x, dtype=np.float64)
+    return status == PROJECT_OPTIMAL and bool(np.all(np.isfinite(xa))), xa
+
+
 def _cholesky(name: str, W: FloatArray) -> FloatArray:
     try:
         L: FloatArray = np.asarray(np.linalg.cholesky(W), dtype=np.float64)
@@ -271,6 +290,7 @@ class SafetyFilter(InvalidPolicy):
 
     __slots__ = (
         "_acc_rows",
+        "_fast_jacobian",
         "_has_accel",
         "_joint_prof",
         "_metric",
@@ -392,13 +412,17 @@ class SafetyFilter(InvalidPolicy):
                     f"obstacles: expected SphereObstacle entries, got {describe(o)}"
                 )
         if obstacles:
-            for attr in ("link_segments", "link_radius", "point_jacobian"):
+            for attr in ("link_segments", "link_radius", "point_jacobian", "joint_positions"):
                 if not hasattr(robot, attr):
                     raise InvalidParameter(
                         f"obstacles: the robot {type(robot).__name__} has no capsule geometry "
                         f"({attr!r}); use a DHChain or PlanarArm (Puma560.chain)"
                     )
         self._obstacles: tuple[SphereObstacle, ...] = tuple(obstacles)
+        # DHChain / PlanarArm: the link Jacobians from the joint points and axes in one pass.
+        self._fast_jacobian = type(robot).__module__ == "velfence.mechanisms.chain" and all(
+            hasattr(robot, a) for a in ("joint_positions", "angular_jacobian")
+        )
         # Metric of the joint mode: W = L Lᵀ.
         self._metric: _Metric = None
         if weights is not None:
@@ -507,20 +531,30 @@ class SafetyFilter(InvalidPolicy):
         _, clear = points_segments_distances(centers, segs[:, 0], segs[:, 1], radii)
         vmax = self.limits.max_velocity
         prof = LinearBuffer(buffer=self.obstacle_buffer, spring_gain=self.spring_gain)
+        # The SerialChain geometry: joint points P_j and axes z_j; link k is carried by joints
+        # 0 … k, so a body-fixed point p on it has Jacobian columns z_j × (p − P_j), j <= k.
+        P = np.asarray(robot.joint_positions(q), dtype=float)
+        Z = np.asarray(robot.angular_jacobian(q), dtype=float).T if self._fast_jacobian else None
         for i, o in enumerate(self._obstacles):
             for link in range(segs.shape[0]):
                 c0 = float(clear[i, link]) - o.radius
                 if c0 >= self.obstacle_buffer and idt == 0.0:
                     continue  # beyond the buffer the linear cap is infinite
-                d, _, t, nrm = sphere_capsule_distance(
+                if idt > 0.0 and c0 >= self.obstacle_buffer and self.dt is not None:
+                    # |ṗ| <= Σ_j v_j |p − P_j| for every point of the link (j <= link): beyond
+                    # one period's reach at full joint speed (with margin), no bound needed.
+                    lever = np.linalg.norm(segs[link][:, None, :] - P[None, : link + 1], axis=2)
+                    if c0 > 1.5 * self.dt * float(lever.max(axis=0) @ vmax[: link + 1]):
+                        continue
+                d, x_c, t, nrm = sphere_capsule_distance(
                     o.center, o.radius, segs[link, 0], segs[link, 1], float(radii[link])
                 )
-                Jc = np.asarray(robot.point_jacobian(q, link, t), dtype=float)
+                if Z is not None:
+                    Jc = np.zeros((3, self.dof))
+                    Jc[:, : link + 1] = np.cross(Z[: link + 1], x_c[None, :] - P[: link + 1]).T
+                else:
+                    Jc = np.asarray(robot.point_jacobian(q, link, t), dtype=float)
                 g = nrm @ Jc
-                if idt > 0.0 and d >= self.obstacle_buffer:
-                    reach = float(np.abs(Jc).sum(axis=0) @ vmax) * self.dt if self.dt else 0.0
-                    if d > 2.0 * reach:
-                        continue  # not reachable in one period, even at full joint speed
                 s = float(np.linalg.norm(Jc @ u))
                 b = float(_bounds(prof, np.array([d]), s, idt)[0])
                 if b == -math.inf:
@@ -533,21 +567,17 @@ class SafetyFilter(InvalidPolicy):
     def _project(
         self, u: FloatArray, G: FloatArray, b: FloatArray, L: _Metric
     ) -> tuple[bool, FloatArray]:
-        from velfence.geometry.projection import project
-
         if G.shape[0] == 0:
             return True, u.copy()
         if L is None:
-            res = project(u, G, b)
-            return res.feasible, res.x
-        if L.ndim == 1:  # diagonal metric: L = diag(lv)
-            res = project(u * L, G / L[None, :], b)
-            return res.feasible, res.x / L
-        # y = Lᵀ x: G x = G L⁻ᵀ y.
-        GL = np.linalg.solve(L, G.T).T
-        res = project(L.T @ u, GL, b)
-        x: FloatArray = np.asarray(np.linalg.solve(L.T, res.x), dtype=np.float64)
-        if res.feasible:
+            return _projection(u, G, b)
+        if L.ndim == 1:  # diagonal metric: L = diag(lv), y = lv * x
+            ok, y = _projection(u * L, G / L[None, :], b)
+            x: FloatArray = y / L
+        else:  # y = Lᵀ x: G x = G L⁻ᵀ y
+            ok, y = _projection(L.T @ u, np.asarray(np.linalg.solve(L, G.T).T, dtype=np.float64), b)
+            x = np.asarray(np.linalg.solve(L.T, y), dtype=np.float64)
+        if ok:
             # Round-off of the back-substitution: repair along the violated rows (a few ulps).
             for _ in range(4):
                 gap = b - G @ x
@@ -556,7 +586,7 @@ class SafetyFilter(InvalidPolicy):
                     break
                 gk = G[k]
                 x = x + (gap[k] * (1.0 + 1e-12) + 1e-300) * gk / float(gk @ gk)
-        return res.feasible, x
+        return ok, x
 
     def _next_distances(self, q: FloatArray, x: FloatArray, rows: _Rows) -> dict[int, float]:
         """True next distance of every checked row at ``q + x dt`` (model check)."""
