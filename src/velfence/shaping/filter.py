@@ -1,0 +1,850 @@
+r"""A joint-space safety filter: one minimum-change problem per control cycle.
+
+Every cycle the commanded joint velocity ``u`` (or the joint velocity a task-space twist asks
+for) is replaced by the nearest joint velocity ``x`` that meets every safety bound at once::
+
+    minimise ½ (x - u)ᵀ W (x - u)                  joint mode (W = diag(weights), default I)
+    or       ½ ‖J x - v‖² + ½ λ² ‖x‖²              twist mode (damped least squares, λ = damping)
+    subject to  G x >= b                           (joint, workspace, obstacle, rate rows)
+
+Both objectives are ``½ (x - u)ᵀ H (x - u) + const`` (twist mode: ``H = JᵀJ + λ²I``,
+``u = H⁻¹ Jᵀ v``); with the Cholesky factor ``H = L Lᵀ`` and ``y = Lᵀ x`` the problem is the
+Euclidean projection of ``Lᵀ u`` onto ``{y : G L⁻ᵀ y >= b}``, solved exactly by
+:func:`velfence.geometry.projection.project`.
+
+The rows (derivation and argument in ``docs/safety_filter.md``):
+
+1. **joint position**: toward each finite limit at distance ``d`` the approach speed is capped by
+   the exact law's bound definition (:func:`velfence.shaping._kernels.fill_bounds` with
+   :func:`~velfence.shaping._kernels.profile_cap`): three-zone braking (Lê et al. 2024; the
+   square-root zone is the braking law :math:`\sqrt{2 a d}`) for a joint with an acceleration
+   limit, a linear buffer otherwise; beyond a limit the profile's forced return (capped at the
+   joint's ``max_velocity``). With ``dt``: the approach per period is at most ``d``.
+2. **joint velocity** ``|x_j| <= max_velocity_j``.
+3. **acceleration** (with ``dt`` and ``max_acceleration``): ``|x - previous| <= a dt``.
+4. **workspace**: for every facet ``i`` of each :class:`WorkspaceLimit` (a
+   :class:`~velfence.geometry.polytope.ConvexPolytope` on a named point ``p``):
+   ``(n_iᵀ J_p) x >= lower_i`` from the same bound definition.
+5. **obstacles**: for every :class:`SphereObstacle` and every capsule link within reach: the
+   critical point of the link (the closest axis point to the centre), its direction ``n`` and
+   Jacobian ``J_c``: ``(nᵀ J_c) x >= lower`` from a linear buffer of width ``obstacle_buffer``.
+
+In discrete time the linearised rows are checked on the kinematic model after the solve: a
+workspace facet or obstacle clearance that the next position ``q + x dt`` would cross although
+it is not crossed now has its bound tightened by the crossing and the problem is solved again
+(a few rounds; second-order effects of the tangential motion are then not left to the recovery).
+
+Priorities when the rows are infeasible together: joint limits (position and velocity) first,
+then workspace, then obstacles, then the acceleration rows, then the task (the objective). The
+ladder: drop the acceleration rows (``rate_override``); relax the obstacle recovery bounds to
+"no further out" (0); drop the obstacles; the same for the workspace; relax the joint recovery
+bounds; zero velocity (which meets every relaxed bound). The result names what was dropped.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from velfence._typing import FloatArray
+from velfence._validate import (
+    MAX_MAGNITUDE,
+    check_positive,
+    describe,
+    readonly,
+    real_array,
+)
+from velfence.errors import InvalidInput, InvalidParameter
+from velfence.shaping._kernels import (
+    ZONE_NAMES,
+    bounds_from_distances,
+    fill_bounds,
+    zone_code,
+)
+from velfence.shaping.base import InvalidPolicy, OnInvalid, Zone
+from velfence.shaping.kinematics import Kinematics
+from velfence.shaping.limits import JointLimits, Profile, SphereObstacle, WorkspaceLimit
+from velfence.shaping.profiles import LinearBuffer, ThreeZoneBraking
+
+__all__ = [
+    "FilterResult",
+    "JointLimits",
+    "Kinematics",
+    "SafetyFilter",
+    "SphereObstacle",
+    "WorkspaceLimit",
+]
+
+#: Priority levels of the rows, highest first.
+LEVEL_JOINT = 0
+LEVEL_WORKSPACE = 1
+LEVEL_OBSTACLE = 2
+LEVEL_RATE = 3
+LEVEL_NAMES = ("joint limits", "workspace", "obstacles", "acceleration")
+
+_BINDING = 1e-9  # relative slack under which a row counts as active
+_CORRECTION_ROUNDS = 4  # discrete-time model checks per cycle
+
+# The metric's factor L (W = L Lᵀ): None (identity), a vector (diagonal) or a lower-triangular
+# matrix.
+_Metric = FloatArray | None
+
+
+# ---------------------------------------------------------------------------------- result
+@dataclass(frozen=True, eq=False)
+class FilterResult:
+    """What the safety filter did in one cycle.
+
+    Attributes:
+        output: The filtered joint velocity [rad/s], shape (n,); always finite.
+        command: The command as given: joint velocity (n,) or twist (3,)/(6,).
+        position: The joint position [rad], shape (n,).
+        zone: :data:`~velfence.shaping.base.Zone` from ``zone_code(violated, active)``:
+            ``"free"``, ``"buffer"``/``"corner"`` (one/several active rows, none violated),
+            ``"outside"``/``"outside-corner"`` (some constraint violated), ``"invalid"``.
+        active: Indices (into :attr:`constraint_names`) of the rows that bind at the output
+            (slack <= 1e-9 relative) or whose constraint is violated.
+        active_names: Their names (``"joint 4 position (upper)"``, ``"joint 2 velocity
+            (lower)"``, ``"TCP face x_max"``, ``"obstacle 2 on link 5"``).
+        slack: ``G x - b`` of every row, shape (m,) (``inf`` for an unbounded row; a dropped
+            row's slack is still reported against its bound).
+        constraint_names: Name of every row, in row order.
+        stages: What was applied, in order: ``"projection"`` (the output differs from the
+            unconstrained optimum), ``"recovery"``, ``"model-check"`` (a discrete-time bound
+            was tightened), ``"relaxed <level>"``, ``"dropped <level>"``, ``"stop"``.
+        dropped: Levels dropped or relaxed to reach feasibility: ``"acceleration"``,
+            ``"obstacles"``, ``"workspace"``, ``"joint limits"`` (relaxed only).
+        rate_override: Whether the acceleration rows were dropped (safety over smoothness).
+        rows: ``(G (m, n), b (m,))``: the rows ``G x >= b`` as built this cycle, before any
+            relaxation or discrete-time tightening (read-only).
+        method: ``"safety-filter"``.
+    """
+
+    output: FloatArray
+    command: FloatArray
+    position: FloatArray
+    zone: Zone
+    active: tuple[int, ...]
+    active_names: tuple[str, ...]
+    slack: FloatArray
+    constraint_names: tuple[str, ...]
+    stages: tuple[str, ...]
+    dropped: tuple[str, ...]
+    rate_override: bool
+    rows: tuple[FloatArray, FloatArray]
+    method: str = "safety-filter"
+
+
+@dataclass
+class _Rows:
+    G: list[FloatArray] = field(default_factory=list)
+    b: list[float] = field(default_factory=list)
+    level: list[int] = field(default_factory=list)
+    violated: list[bool] = field(default_factory=list)
+    names: list[str] = field(default_factory=list)
+    # discrete-time model checks: (row index, kind, key) with kind "ws" or "ob"
+    check: list[tuple[int, str, tuple[int, int]]] = field(default_factory=list)
+
+    def add(self, g: FloatArray, b: float, level: int, violated: bool, name: str) -> int:
+        self.G.append(g)
+        self.b.append(b)
+        self.level.append(level)
+        self.violated.append(violated)
+        self.names.append(name)
+        return len(self.b) - 1
+
+
+def _bounds(prm: Profile, dist: FloatArray, speed: float, idt: float) -> FloatArray:
+    """Lower bounds on the approach rate ``n·x`` toward constraints at distances ``dist``.
+
+    The exact law's one bound definition, :func:`velfence.shaping._kernels.bounds_from_distances`
+    (cap speed ``speed`` shared by the rows): inside ``-cap(d, s)``, in discrete time at least
+    ``-d/dt``; outside the profile's forced return, in discrete time at most the penetration per
+    period. That function keeps only the rows that bind the *command* (cap below its speed,
+    reachable in one period at its speed); here the output may move a point faster than the
+    command does (a joint-space projection is not a Cartesian one), so the rows it leaves out
+    get the same definition from :func:`~velfence.shaping._kernels.fill_bounds` (``-inf`` where
+    the profile sets no cap and there is no period).
+    """
+    kind, params = prm.kernel_profile
+    k = dist.shape[0]
+    bnd = np.zeros(k)
+    work = np.zeros(k, dtype=np.int64)
+    m = bounds_from_distances(dist, k, speed, kind, params, False, idt, False, bnd, work)[0]
+    chosen = set(work[:m].tolist())
+    rest = np.array([e for e in range(k) if e not in chosen], dtype=np.int64)
+    # (violated rows are always chosen, so ``rest`` holds rows with d >= 0 only)
+    fill_bounds(kind, params, False, dist, rest, 0, rest.shape[0], speed, 1.0, idt, bnd)
+    return bnd
+
+
+def _projection(u: FloatArray, G: FloatArray, b: FloatArray) -> tuple[bool, FloatArray]:
+    """Projection of ``u`` onto ``{x : G x >= b}`` for the filter's own arrays: ``(feasible, x)``.
+
+    :func:`velfence.geometry.projection.project_kernel` (the solve behind ``project``) run on
+    Python lists, which plain Python indexes faster than arrays; the inputs are finite (``b``
+    finite), built by the filter.
+    """
+    from velfence.geometry.projection import PROJECT_OPTIMAL, project_kernel
+
+    m, n = G.shape
+    x = [0.0] * n
+    lam = [0.0] * (n + 1)
+    act = [0] * (n + 1)
+    wsf = [0.0] * (2 * n * n + 4 * n + m + 2)
+    status = project_kernel(u.tolist(), G.ravel().tolist(), b.tolist(), m, n, x, lam, act, wsf)[0]
+    xa = np.array(x, dtype=np.float64)
+    return status == PROJECT_OPTIMAL and bool(np.all(np.isfinite(xa))), xa
+
+
+def _cholesky(name: str, W: FloatArray) -> FloatArray:
+    try:
+        L: FloatArray = np.asarray(np.linalg.cholesky(W), dtype=np.float64)
+        return L
+    except np.linalg.LinAlgError:
+        raise InvalidParameter(
+            f"{name}: expected a symmetric positive definite matrix, got eigenvalues "
+            f"{np.linalg.eigvalsh(0.5 * (W + W.T)).tolist()}"
+        ) from None
+
+
+class SafetyFilter(InvalidPolicy):
+    r"""Minimum-change joint velocity under joint, workspace, obstacle and rate limits.
+
+    See the module docstring and ``docs/safety_filter.md`` for the problem, the rows and the
+    priorities.
+
+    Args:
+        robot: The kinematics (:class:`Kinematics`: ``DHChain``, ``PlanarArm``, ``Puma560``).
+        limits: The joint limits (:class:`JointLimits`, ``dof`` joints; names checked against
+            ``robot.joint_names`` when given).
+        workspace: Workspace limits (:class:`WorkspaceLimit`, one or a sequence).
+        obstacles: Sphere obstacles (:class:`SphereObstacle`); need the robot's capsule
+            geometry (``link_segments``, ``link_radius``, ``point_jacobian``).
+        dt: Control period [s] (``None``: continuous-time bounds). With ``dt`` every row also
+            keeps one period's motion inside, the rows are checked on the model, and the
+            acceleration rows apply.
+        profile: One approach profile for every joint limit (radians); by default a
+            three-zone braking profile for each joint with an acceleration limit
+            (``ThreeZoneBraking(gain=2 a/v, max_speed=v, max_acceleration=a)`` with that
+            joint's limits), else a linear buffer of width ``joint_buffer`` whose cap speed is
+            the joint's ``max_velocity``.
+        joint_buffer: Width of the default linear buffer at joint limits [rad], > 0.
+        spring_gain: Recovery gain of the default joint buffers and the obstacles [1/s], >= 0.
+        obstacle_buffer: Width of the obstacles' linear buffer [m], > 0.
+        weights: Joint-mode metric ``W``: ``None`` (identity), per-joint weights (n,) > 0, or a
+            symmetric positive definite (n, n) matrix.
+        damping: :math:`\lambda` of the twist mode's damped least squares [m/rad], > 0.
+        on_invalid: ``"raise"`` or ``"stop"`` (zero velocity, zone ``"invalid"``).
+
+    Raises:
+        InvalidParameter: a bad parameter, limits of the wrong size or names, a workspace point
+            the robot does not have or whose dimension differs from its polytope's, obstacles
+            on a robot without capsule geometry.
+    """
+
+    __slots__ = (
+        "_fast_jacobian",
+        "_has_accel",
+        "_joint_prof",
+        "_metric",
+        "_obstacles",
+        "_previous",
+        "_workspace",
+        "damping",
+        "dof",
+        "dt",
+        "limits",
+        "obstacle_buffer",
+        "robot",
+        "spring_gain",
+        "task_dim",
+    )
+
+    method = "safety-filter"
+
+    def __init__(
+        self,
+        robot: Kinematics,
+        *,
+        limits: JointLimits,
+        workspace: WorkspaceLimit | Sequence[WorkspaceLimit] = (),
+        obstacles: Sequence[SphereObstacle] = (),
+        dt: float | None = None,
+        profile: Profile | None = None,
+        joint_buffer: float = 0.1,
+        spring_gain: float = 1.0,
+        obstacle_buffer: float = 0.05,
+        weights: ArrayLike | None = None,
+        damping: float = 1e-2,
+        on_invalid: OnInvalid = "raise",
+    ) -> None:
+        super().__init__(on_invalid=on_invalid)
+        for attr in ("dof", "joint_names", "points", "fk", "jacobian"):
+            if not hasattr(robot, attr):
+                raise InvalidParameter(
+                    f"robot: expected the Kinematics protocol (dof, joint_names, points, fk, "
+                    f"jacobian), got {type(robot).__name__} without {attr!r}"
+                )
+        self.robot = robot
+        n = int(robot.dof)
+        self.dof = n
+        if not isinstance(limits, JointLimits):
+            raise InvalidParameter(f"limits: expected a JointLimits, got {describe(limits)}")
+        if limits.dof != n:
+            raise InvalidParameter(
+                f"limits: expected limits of the robot's {n} joints, got {limits.dof}"
+            )
+        if limits.names is not None and tuple(limits.names) != tuple(robot.joint_names):
+            raise InvalidParameter(
+                f"limits: joint names {list(limits.names)} differ from the robot's "
+                f"{list(robot.joint_names)}"
+            )
+        self.limits = limits
+        self.dt = None if dt is None else check_positive("dt", dt, unit="s")
+        self.spring_gain = check_positive("spring_gain", spring_gain, allow_zero=True, unit="1/s")
+        jb = check_positive("joint_buffer", joint_buffer, unit="rad")
+        self.obstacle_buffer = check_positive("obstacle_buffer", obstacle_buffer, unit="m")
+        self.damping = check_positive("damping", damping, unit="m/rad")
+        # Joint profiles, one per joint.
+        if profile is not None and not isinstance(profile, (LinearBuffer, ThreeZoneBraking)):
+            raise InvalidParameter(
+                f"profile: expected None, a LinearBuffer or a ThreeZoneBraking, got "
+                f"{describe(profile)}"
+            )
+        acc = limits.max_acceleration
+        profs: list[Profile] = []
+        for j in range(n):
+            v = float(limits.max_velocity[j])
+            if profile is not None:
+                profs.append(profile)
+            elif acc is not None and math.isfinite(acc[j]):
+                a = float(acc[j])
+                profs.append(ThreeZoneBraking(gain=2.0 * a / v, max_speed=v, max_acceleration=a))
+            else:
+                profs.append(
+                    LinearBuffer(buffer=jb, spring_gain=self.spring_gain, max_recovery_speed=v)
+                )
+        self._joint_prof = tuple(profs)
+        self._has_accel = acc is not None and self.dt is not None and bool(np.isfinite(acc).any())
+        self._previous: FloatArray | None = None
+        # Workspace limits.
+        ws: Any = (workspace,) if isinstance(workspace, WorkspaceLimit) else workspace
+        if isinstance(ws, (str, bytes)) or not isinstance(ws, Sequence):
+            raise InvalidParameter(
+                f"workspace: expected a WorkspaceLimit or a sequence of them, got "
+                f"{describe(workspace)}"
+            )
+        q0 = np.zeros(n)
+        for w in ws:
+            if not isinstance(w, WorkspaceLimit):
+                raise InvalidParameter(
+                    f"workspace: expected WorkspaceLimit entries, got {describe(w)}"
+                )
+            if w.point not in robot.points:
+                raise InvalidParameter(
+                    f"workspace: point {w.point!r} is not one of the robot's points "
+                    f"{list(robot.points)}"
+                )
+            dim = np.asarray(robot.fk(q0, w.point)).shape[0]
+            if w.polytope.dim != dim:
+                raise InvalidParameter(
+                    f"workspace: the polytope on {w.point!r} is {w.polytope.dim}-D, the robot's "
+                    f"task space is {dim}-D"
+                )
+        self._workspace: tuple[WorkspaceLimit, ...] = tuple(ws)
+        self.task_dim = int(np.asarray(robot.fk(q0, "tcp")).shape[0])
+        obs: Any = obstacles
+        if isinstance(obs, (str, bytes)) or not isinstance(obs, Sequence):
+            raise InvalidParameter(
+                f"obstacles: expected a sequence of SphereObstacle, got {describe(obstacles)}"
+            )
+        for o in obs:
+            if not isinstance(o, SphereObstacle):
+                raise InvalidParameter(
+                    f"obstacles: expected SphereObstacle entries, got {describe(o)}"
+                )
+        if obstacles:
+            for attr in ("link_segments", "link_radius", "point_jacobian", "joint_positions"):
+                if not hasattr(robot, attr):
+                    raise InvalidParameter(
+                        f"obstacles: the robot {type(robot).__name__} has no capsule geometry "
+                        f"({attr!r}); use a DHChain or PlanarArm (Puma560.chain)"
+                    )
+        self._obstacles: tuple[SphereObstacle, ...] = tuple(obstacles)
+        # DHChain / PlanarArm: the link Jacobians from the joint points and axes in one pass.
+        self._fast_jacobian = type(robot).__module__ == "velfence.mechanisms.chain" and all(
+            hasattr(robot, a) for a in ("joint_positions", "angular_jacobian")
+        )
+        # Metric of the joint mode: W = L Lᵀ.
+        self._metric: _Metric = None
+        if weights is not None:
+            Wa = real_array("weights", weights, error=InvalidParameter, what="weights")
+            if Wa.shape == (n,):
+                if not np.all(Wa > 0.0):
+                    raise InvalidParameter(f"weights: expected weights > 0, got {Wa.tolist()}")
+                self._metric = readonly(np.sqrt(Wa))
+            elif Wa.shape == (n, n):
+                if not np.allclose(Wa, Wa.T, rtol=1e-12, atol=0.0):
+                    raise InvalidParameter("weights: expected a symmetric (n, n) matrix")
+                self._metric = readonly(_cholesky("weights", Wa))
+            else:
+                raise InvalidParameter(
+                    f"weights: expected shape ({n},) or ({n}, {n}), got shape {Wa.shape}"
+                )
+
+    # ------------------------------------------------------------------ state
+    @property
+    def workspace(self) -> tuple[WorkspaceLimit, ...]:
+        """The workspace limits."""
+        return self._workspace
+
+    @property
+    def obstacles(self) -> tuple[SphereObstacle, ...]:
+        """The obstacles."""
+        return self._obstacles
+
+    @property
+    def stateful(self) -> bool:
+        """True when acceleration rows apply and the filter remembers its last output."""
+        return self._has_accel
+
+    def reset(self) -> None:
+        """Forget the remembered last output (the next cycle has no acceleration rows)."""
+        self._previous = None
+
+    # ------------------------------------------------------------------ rows
+    def _rows(self, q: FloatArray, u: FloatArray, previous: FloatArray | None) -> _Rows:
+        n = self.dof
+        idt = 0.0 if self.dt is None else 1.0 / self.dt
+        rows = _Rows()
+        lim = self.limits
+        eye = np.eye(n)
+        for j in range(n):
+            v = float(lim.max_velocity[j])
+            prof = self._joint_prof[j]
+            for side, sign, d in (
+                ("lower", 1.0, q[j] - lim.lower[j]),
+                ("upper", -1.0, lim.upper[j] - q[j]),
+            ):
+                if not math.isfinite(d):
+                    continue
+                b = float(_bounds(prof, np.array([d]), v, idt)[0])
+                if b == -math.inf:
+                    continue  # beyond the profile's reach: no bound
+                b = min(b, v)  # a recovery no faster than the joint can move
+                rows.add(sign * eye[j], b, LEVEL_JOINT, d < 0.0, f"joint {j} position ({side})")
+            rows.add(eye[j], -v, LEVEL_JOINT, False, f"joint {j} velocity (lower)")
+            rows.add(-eye[j], -v, LEVEL_JOINT, False, f"joint {j} velocity (upper)")
+        if self._has_accel and previous is not None and self.dt is not None:
+            acc = lim.max_acceleration
+            if acc is not None:
+                for j in range(n):
+                    if math.isfinite(acc[j]):
+                        step = float(acc[j]) * self.dt
+                        rows.add(
+                            eye[j], float(previous[j]) - step, LEVEL_RATE, False,
+                            f"joint {j} acceleration (lower)",
+                        )  # fmt: skip
+                        rows.add(
+                            -eye[j], -(float(previous[j]) + step), LEVEL_RATE, False,
+                            f"joint {j} acceleration (upper)",
+                        )  # fmt: skip
+        for w_i, w in enumerate(self._workspace):
+            p = np.asarray(self.robot.fk(q, w.point), dtype=float)
+            J = np.asarray(self.robot.jacobian(q, w.point), dtype=float)
+            poly = w.polytope
+            dist = poly.normals @ p - poly.offsets
+            s = float(np.linalg.norm(J @ u))
+            prof = w.profile if w.profile is not None else LinearBuffer(buffer=w.buffer)
+            bnd = _bounds(prof, dist, s, idt)
+            label = "TCP" if w.point == "tcp" else w.point
+            prefix = f"workspace {w_i}: " if len(self._workspace) > 1 else ""
+            NJ = poly.normals @ J
+            for i in range(dist.shape[0]):
+                if bnd[i] == -math.inf:
+                    continue
+                r = rows.add(
+                    NJ[i], float(bnd[i]), LEVEL_WORKSPACE, bool(dist[i] < 0.0),
+                    f"{prefix}{label} face {poly.facet_names[i]}",
+                )  # fmt: skip
+                if idt > 0.0 and dist[i] >= 0.0:
+                    rows.check.append((r, "ws", (w_i, i)))
+        if self._obstacles:
+            self._obstacle_rows(q, u, idt, rows)
+        return rows
+
+    def _obstacle_rows(self, q: FloatArray, u: FloatArray, idt: float, rows: _Rows) -> None:
+        from velfence.geometry.primitives import points_segments_distances, sphere_capsule_distance
+
+        robot: Any = self.robot
+        segs = np.asarray(robot.link_segments(q), dtype=float)
+        radii = np.asarray(robot.link_radius, dtype=float).reshape(-1)
+        centers = np.array([o.center for o in self._obstacles])
+        _, clear = points_segments_distances(centers, segs[:, 0], segs[:, 1], radii)
+        vmax = self.limits.max_velocity
+        prof = LinearBuffer(buffer=self.obstacle_buffer, spring_gain=self.spring_gain)
+        # The SerialChain geometry: joint points P_j and axes z_j; link k is carried by joints
+        # 0 … k, so a body-fixed point p on it has Jacobian columns z_j × (p − P_j), j <= k.
+        P = np.asarray(robot.joint_positions(q), dtype=float)
+        Z = np.asarray(robot.angular_jacobian(q), dtype=float).T if self._fast_jacobian else None
+        for i, o in enumerate(self._obstacles):
+            for link in range(segs.shape[0]):
+                c0 = float(clear[i, link]) - o.radius
+                if c0 >= self.obstacle_buffer and idt == 0.0:
+                    continue  # beyond the buffer the linear cap is infinite
+                if idt > 0.0 and c0 >= self.obstacle_buffer and self.dt is not None:
+                    # |ṗ| <= Σ_j v_j |p − P_j| for every point of the link (j <= link): beyond
+                    # one period's reach at full joint speed (with margin), no bound needed.
+                    lever = np.linalg.norm(segs[link][:, None, :] - P[None, : link + 1], axis=2)
+                    if c0 > 1.5 * self.dt * float(lever.max(axis=0) @ vmax[: link + 1]):
+                        continue
+                d, x_c, t, nrm = sphere_capsule_distance(
+                    o.center, o.radius, segs[link, 0], segs[link, 1], float(radii[link])
+                )
+                if Z is not None:
+                    Jc = np.zeros((3, self.dof))
+                    Jc[:, : link + 1] = np.cross(Z[: link + 1], x_c[None, :] - P[: link + 1]).T
+                else:
+                    Jc = np.asarray(robot.point_jacobian(q, link, t), dtype=float)
+                g = nrm @ Jc
+                s = float(np.linalg.norm(Jc @ u))
+                b = float(_bounds(prof, np.array([d]), s, idt)[0])
+                if b == -math.inf:
+                    continue
+                r = rows.add(g, b, LEVEL_OBSTACLE, d < 0.0, f"obstacle {i} on link {link}")
+                if idt > 0.0 and d >= 0.0:
+                    rows.check.append((r, "ob", (i, link)))
+
+    # ------------------------------------------------------------------ solve
+    def _project(
+        self, u: FloatArray, G: FloatArray, b: FloatArray, L: _Metric
+    ) -> tuple[bool, FloatArray]:
+        if G.shape[0] == 0:
+            return True, u.copy()
+        if L is None:
+            return _projection(u, G, b)
+        if L.ndim == 1:  # diagonal metric: L = diag(lv), y = lv * x
+            ok, y = _projection(u * L, G / L[None, :], b)
+            x: FloatArray = y / L
+        else:  # y = Lᵀ x: G x = G L⁻ᵀ y
+            ok, y = _projection(L.T @ u, np.asarray(np.linalg.solve(L, G.T).T, dtype=np.float64), b)
+            x = np.asarray(np.linalg.solve(L.T, y), dtype=np.float64)
+        if ok:
+            # Round-off of the back-substitution: repair along the violated rows (a few ulps).
+            for _ in range(4):
+                gap = b - G @ x
+                k = int(np.argmax(gap))
+                if not gap[k] > 0.0:
+                    break
+                gk = G[k]
+                x = x + (gap[k] * (1.0 + 1e-12) + 1e-300) * gk / float(gk @ gk)
+        return ok, x
+
+    def _next_distances(self, q: FloatArray, x: FloatArray, rows: _Rows) -> dict[int, float]:
+        """True next distance of every checked row at ``q + x dt`` (model check)."""
+        from velfence.geometry.primitives import points_segments_distances
+
+        q1 = q + x * (self.dt or 0.0)
+        out: dict[int, float] = {}
+        pts: dict[int, FloatArray] = {}
+        clear = None
+        for r, kind, (a, i) in rows.check:
+            if kind == "ws":
+                if a not in pts:
+                    w = self._workspace[a]
+                    pts[a] = np.asarray(self.robot.fk(q1, w.point), dtype=float)
+                poly = self._workspace[a].polytope
+                out[r] = float(poly.normals[i] @ pts[a] - poly.offsets[i])
+            else:
+                if clear is None:
+                    robot: Any = self.robot
+                    segs = np.asarray(robot.link_segments(q1), dtype=float)
+                    radii = np.asarray(robot.link_radius, dtype=float).reshape(-1)
+                    centers = np.array([o.center for o in self._obstacles])
+                    _, clear = points_segments_distances(centers, segs[:, 0], segs[:, 1], radii)
+                out[r] = float(clear[a, i]) - self._obstacles[a].radius
+        return out
+
+    def _solve_ladder(
+        self, q: FloatArray, u: FloatArray, rows: _Rows, L: _Metric
+    ) -> tuple[FloatArray, FloatArray, list[str], list[str], bool]:
+        """The priority ladder; returns (x, b used, dropped levels, stages, rate_override)."""
+        n = self.dof
+        m = len(rows.b)
+        G = np.array(rows.G).reshape(m, n)
+        b0 = np.array(rows.b, dtype=float)
+        level = np.array(rows.level, dtype=np.int64)
+        viol = np.array(rows.violated, dtype=bool)
+        present = set(rows.level)
+        # Each step: (keep mask, bounds, dropped label, stage label)
+        steps: list[tuple[FloatArray, FloatArray, str | None, str | None]] = []
+        keep = np.ones(m, dtype=bool)
+        b = b0.copy()
+        steps.append((keep.copy(), b.copy(), None, None))
+        if LEVEL_RATE in present:
+            keep &= level != LEVEL_RATE
+            steps.append((keep.copy(), b.copy(), "acceleration", "dropped acceleration"))
+        for lv in (LEVEL_OBSTACLE, LEVEL_WORKSPACE):
+            if lv not in present:
+                continue
+            rec = (level == lv) & viol
+            if rec.any():
+                b = np.where(rec, np.minimum(b, 0.0), b)
+                steps.append((keep.copy(), b.copy(), LEVEL_NAMES[lv], f"relaxed {LEVEL_NAMES[lv]}"))
+            keep &= level != lv
+            steps.append((keep.copy(), b.copy(), LEVEL_NAMES[lv], f"dropped {LEVEL_NAMES[lv]}"))
+        rec = (level == LEVEL_JOINT) & viol
+        if rec.any():
+            b = np.where(rec, np.minimum(b, 0.0), b)
+            steps.append((keep.copy(), b.copy(), "joint limits", "relaxed joint limits"))
+        dropped: list[str] = []
+        stages: list[str] = []
+        for mask, bb, drop, stage in steps:
+            if drop is not None and drop not in dropped:
+                dropped.append(drop)
+            if stage is not None:
+                stages.append(stage)
+            bb = bb.copy()
+            ok, x = self._project(u, G[mask], bb[mask], L)
+            if ok and rows.check:
+                ok, x, tightened = self._model_check(q, u, G, bb, mask, rows, x, L)
+                if tightened:
+                    stages.append("model-check")
+            if ok and np.all(np.isfinite(x)):
+                return x, bb, dropped, stages, "acceleration" in dropped
+        stages.append("stop")
+        return np.zeros(n), b, dropped, stages, "acceleration" in dropped
+
+    def _model_check(
+        self,
+        q: FloatArray,
+        u: FloatArray,
+        G: FloatArray,
+        bb: FloatArray,
+        mask: Any,
+        rows: _Rows,
+        x: FloatArray,
+        L: _Metric,
+    ) -> tuple[bool, FloatArray, bool]:
+        """Discrete time: tighten rows whose constraint the next position would cross."""
+        dt = self.dt or 0.0
+        tightened = False
+        for _ in range(_CORRECTION_ROUNDS):
+            nxt = self._next_distances(q, x, rows)
+            bad = [(r, d) for r, d in nxt.items() if mask[r] and d < 0.0]
+            if not bad:
+                return True, x, tightened
+            for r, d in bad:
+                bb[r] += (-d) / dt * (1.0 + 1e-6) + 1e-12
+            tightened = True
+            ok, x = self._project(u, G[mask], bb[mask], L)
+            if not ok:
+                return False, x, tightened
+        nxt = self._next_distances(q, x, rows)
+        return all(d >= 0.0 for r, d in nxt.items() if mask[r]), x, tightened
+
+    # ------------------------------------------------------------------ public
+    def _state(self, name: str, x: Any, width: int, unit: str) -> FloatArray:
+        return real_array(
+            name, x, (width,), what=f"{width} numbers [{unit}]", allow_nonfinite=True,
+            max_abs=None,
+        )  # fmt: skip
+
+    def _stopped(self, q: FloatArray, cmd: FloatArray) -> FilterResult:
+        return FilterResult(
+            output=np.zeros(self.dof), command=cmd, position=q, zone="invalid", active=(),
+            active_names=(), slack=np.zeros(0), constraint_names=(), stages=("stop",),
+            dropped=(), rate_override=False, rows=(np.zeros((0, self.dof)), np.zeros(0)),
+        )  # fmt: skip
+
+    def _bad(self, *arrays: FloatArray) -> bool:
+        return not all(
+            bool(np.all(np.isfinite(a)) and np.all(np.abs(a) <= MAX_MAGNITUDE)) for a in arrays
+        )
+
+    def _run(
+        self,
+        q: FloatArray,
+        u: FloatArray,
+        cmd: FloatArray,
+        L: _Metric,
+        previous: Any,
+        remember: bool,
+    ) -> FilterResult:
+        prev: FloatArray | None = None
+        if previous is not None:
+            prev = self._state("previous", previous, self.dof, "rad/s")
+            if self._bad(prev):
+                self._invalid(f"non-finite previous={prev.tolist()}")
+                return self._stopped(q, cmd)
+        elif remember:
+            prev = self._previous
+        with np.errstate(all="ignore"):
+            rows = self._rows(q, u, prev)
+            x, _, dropped, stages, override = self._solve_ladder(q, u, rows, L)
+        if not np.all(np.isfinite(x)):
+            self._invalid("input too large: the filtered velocity overflowed")
+            return self._stopped(q, cmd)
+        m = len(rows.b)
+        G = np.array(rows.G).reshape(m, self.dof)
+        b0 = np.array(rows.b, dtype=float)
+        with np.errstate(invalid="ignore"):
+            slack = np.where(np.isfinite(b0), G @ x - b0, math.inf)
+        viol = np.array(rows.violated, dtype=bool)
+        tol = _BINDING * (1.0 + np.abs(np.where(np.isfinite(b0), b0, 0.0)))
+        act = tuple(int(i) for i in np.flatnonzero((slack <= tol) | viol))
+        n_out = int(viol.sum())
+        zone: Zone = ZONE_NAMES[zone_code(n_out, len(act))]  # type: ignore[assignment]
+        pre: list[str] = []
+        if not np.array_equal(x, u):
+            pre.append("projection")
+        if n_out:
+            pre.append("recovery")
+        if remember and self._has_accel:
+            self._previous = readonly(x.copy())
+        return FilterResult(
+            output=x, command=cmd, position=q, zone=zone, active=act,
+            active_names=tuple(rows.names[i] for i in act), slack=readonly(slack),
+            constraint_names=tuple(rows.names), stages=tuple(pre + stages),
+            dropped=tuple(dropped), rate_override=override,
+            rows=(readonly(G), readonly(b0)),
+        )  # fmt: skip
+
+    def explain(
+        self, q: ArrayLike, qd_cmd: ArrayLike, *, previous: ArrayLike | None = None
+    ) -> FilterResult:
+        """Filter a joint-velocity command, with diagnostics.
+
+        Args:
+            q: Joint position [rad], shape (dof,).
+            qd_cmd: Commanded joint velocity [rad/s], shape (dof,).
+            previous: The last output [rad/s], shape (dof,), for the acceleration rows; when
+                ``None`` and acceleration rows apply (``dt`` and ``max_acceleration``) the
+                filter uses the output it remembered from its last call (none after
+                :meth:`reset`).
+
+        Returns:
+            A :class:`FilterResult`.
+
+        Raises:
+            InvalidInput: wrong shapes, or non-finite values with ``on_invalid="raise"``.
+        """
+        qa = self._state("q", q, self.dof, "rad")
+        ua = self._state("qd_cmd", qd_cmd, self.dof, "rad/s")
+        if self._bad(qa, ua):
+            self._invalid(f"non-finite input: q={qa.tolist()}, qd_cmd={ua.tolist()}")
+            return self._stopped(qa, ua)
+        return self._run(qa, ua, ua, self._metric, previous, True)
+
+    def filter(
+        self, q: ArrayLike, qd_cmd: ArrayLike, *, previous: ArrayLike | None = None
+    ) -> FloatArray:
+        """The filtered joint velocity [rad/s], shape (dof,) (:meth:`explain`'s output)."""
+        return self.explain(q, qd_cmd, previous=previous).output
+
+    def explain_twist(
+        self,
+        q: ArrayLike,
+        twist: ArrayLike,
+        *,
+        point: str = "tcp",
+        previous: ArrayLike | None = None,
+    ) -> FilterResult:
+        r"""Filter a task-space command: damped least squares under the same rows.
+
+        Minimises :math:`\tfrac12\|J x - v\|^2 + \tfrac12\lambda^2\|x\|^2` (``λ = damping``)
+        subject to every row; ``J`` is the point's linear Jacobian (twist of shape
+        (task_dim,)) or, for a spatial robot with ``angular_jacobian``, stacked with the angular
+        one (twist (6,): linear [m/s] then angular [rad/s]).
+
+        Args:
+            q: Joint position [rad], shape (dof,).
+            twist: Desired velocity of ``point``, shape (task_dim,) or (6,).
+            point: The point the twist is for (a name of the robot's ``points``).
+            previous: As in :meth:`explain`.
+
+        Raises:
+            InvalidInput: wrong shapes or an unknown point; non-finite values with
+                ``on_invalid="raise"``.
+        """
+        qa = self._state("q", q, self.dof, "rad")
+        va = real_array("twist", twist, (None,), allow_nonfinite=True, max_abs=None)
+        sizes = (self.task_dim, 6) if hasattr(self.robot, "angular_jacobian") else (self.task_dim,)
+        if self.task_dim != 3:
+            sizes = (self.task_dim,)
+        if va.shape[0] not in sizes:
+            raise InvalidInput(
+                f"twist: expected shape {' or '.join(f'({s},)' for s in sizes)}, got shape "
+                f"{va.shape}"
+            )
+        if not isinstance(point, str) or point not in self.robot.points:
+            raise InvalidInput(
+                f"point: expected one of {list(self.robot.points)}, got {describe(point)}"
+            )
+        if self._bad(qa, va):
+            self._invalid(f"non-finite input: q={qa.tolist()}, twist={va.tolist()}")
+            return self._stopped(qa, va)
+        J = np.asarray(self.robot.jacobian(qa, point), dtype=float)
+        if va.shape[0] == 6 and self.task_dim == 3:
+            robot: Any = self.robot
+            J = np.vstack((J, np.asarray(robot.angular_jacobian(qa), dtype=float)))
+        with np.errstate(all="ignore"):
+            H = J.T @ J + (self.damping**2) * np.eye(self.dof)
+            L = np.linalg.cholesky(H) if np.all(np.isfinite(H)) else np.full_like(H, np.nan)
+            u = np.linalg.solve(L.T, np.linalg.solve(L, J.T @ va))
+        if self._bad(u):
+            self._invalid("input too large: the twist's joint velocity overflowed")
+            return self._stopped(qa, va)
+        return self._run(qa, u, va, L, previous, True)
+
+    def filter_twist(
+        self,
+        q: ArrayLike,
+        twist: ArrayLike,
+        *,
+        point: str = "tcp",
+        previous: ArrayLike | None = None,
+    ) -> FloatArray:
+        """The filtered joint velocity for a twist [rad/s], shape (dof,) (:meth:`explain_twist`)."""
+        return self.explain_twist(q, twist, point=point, previous=previous).output
+
+    def shape(self, q: ArrayLike, qd_cmd: ArrayLike) -> FloatArray:
+        """Contract alias of :meth:`filter` (joint position, joint-velocity command)."""
+        return self.filter(q, qd_cmd)
+
+    def shape_batch(self, Q: ArrayLike, QD: ArrayLike) -> FloatArray:
+        """:meth:`filter` on N independent states (no remembered output read or written).
+
+        Args:
+            Q: Joint positions [rad], shape (N, dof).
+            QD: Commanded joint velocities [rad/s], shape (N, dof).
+
+        Returns:
+            Shape (N, dof).
+
+        Raises:
+            InvalidInput: wrong shapes, or non-finite rows with ``on_invalid="raise"``.
+        """
+        n = self.dof
+        Qa = real_array("Q", Q, (None, n), allow_nonfinite=True, max_abs=None)
+        Va = real_array("QD", QD, (None, n), allow_nonfinite=True, max_abs=None)
+        if Qa.shape != Va.shape:
+            raise InvalidInput(
+                f"Q and QD: expected the same shape (N, {n}), got {Qa.shape} and {Va.shape}"
+            )
+        out = np.zeros((Qa.shape[0], n))
+        for k in range(Qa.shape[0]):
+            if self._bad(Qa[k], Va[k]):
+                try:
+                    self._invalid(f"non-finite input in row {k}")
+                except InvalidInput as exc:
+                    raise InvalidInput(f"Q, QD row {k}: {exc}") from None
+                continue
+            out[k] = self._run(Qa[k], Va[k], Va[k], self._metric, None, False).output
+        return out
