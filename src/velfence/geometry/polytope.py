@@ -116,7 +116,7 @@ class ConvexPolytope:
     r"""A full-dimensional convex polyhedron :math:`\{x : n_i \cdot x \ge o_i\}` in n dimensions.
 
     Rows are normalised (the normal and the offset divided by the normal's length). Exact
-    duplicates (unit normals equal to ``1e-12``) are always merged, the tighter offset kept.
+    duplicates (unit normals equal to within ``1e-12``) are always merged, the tighter offset kept.
     Redundant rows (those whose removal does not change the set, decided by one linear program
     per row: row ``i`` is redundant when :math:`\min n_i\cdot x` over the other rows' polytope is
     ``>= o_i - 1e-9 (1 + scale)``, ``scale`` the largest offset magnitude) are removed and
