@@ -370,7 +370,6 @@ class _ChainBase:
         qa = self._q(q)
         return np.clip(qa, self._limits[:, 0], self._limits[:, 1])
 
-
     # ------------------------------------------------------------------ Kinematics protocol
     # (velfence.shaping.filter.Kinematics): named points, their positions and Jacobians.
     @property

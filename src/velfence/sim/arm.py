@@ -80,6 +80,8 @@ class ArmScene:
     Attributes:
         robot: The 7R arm with capsule links.
         box: The TCP's permitted box, a 3-D ConvexPolytope [m].
+        box_lower: The box's lower corner, shape (3,), [m].
+        box_upper: The box's upper corner, shape (3,), [m].
         sphere_center: Centre of the spherical obstacle, shape (3,), [m].
         sphere_radius: Its radius [m].
         lower: Lower joint limits, shape (n,), [rad].
@@ -94,6 +96,8 @@ class ArmScene:
 
     robot: DHChain
     box: ConvexPolytope
+    box_lower: FloatArray
+    box_upper: FloatArray
     sphere_center: FloatArray
     sphere_radius: float
     lower: FloatArray
@@ -121,10 +125,14 @@ def arm_box_scene(*, dt: float = 1e-3) -> ArmScene:
     hi = np.radians([170.0, 120.0, 170.0, 120.0, 170.0, 120.0, 175.0])
     lower, upper = -hi, hi.copy()
     lower[0] = -0.20  # joint 1 narrowed: the path along the face crosses this end
+    box_lower = readonly(np.array([0.45, -0.25, 0.35]))
+    box_upper = readonly(np.array([0.80, 0.25, 0.70]))
     robot = DHChain.seven_dof(joint_limits=np.stack([lower, upper], axis=1), link_radius=0.05)
     return ArmScene(
         robot=robot,
-        box=ConvexPolytope.box([0.45, -0.25, 0.35], [0.80, 0.25, 0.70]),
+        box=ConvexPolytope.box(box_lower, box_upper),
+        box_lower=box_lower,
+        box_upper=box_upper,
         sphere_center=readonly(np.array([0.67, -0.02, 0.39])),
         sphere_radius=0.05,
         lower=readonly(lower),
@@ -199,7 +207,9 @@ def arm_script(scene: ArmScene, speed: float, *, dwell: float = 0.4) -> ArmScrip
     phases = []
     for k, (label, target, face) in enumerate(_SCRIPT):
         tg = np.array(target)
-        dur = float(np.linalg.norm(tg - prev)) / speed + dwell * (2.0 if k == len(_SCRIPT) - 1 else 1.0)
+        dur = float(np.linalg.norm(tg - prev)) / speed + dwell * (
+            2.0 if k == len(_SCRIPT) - 1 else 1.0
+        )
         phases.append(ArmPhase(label, t, t + dur, readonly(tg), face))
         t += dur
         prev = tg
@@ -264,9 +274,7 @@ class TwistMode:
         """:meth:`shape` row by row: ``Q`` (N, n), ``V`` (N, 3) -> (N, n)."""
         Qa = real_array("Q", Q, (None, None), what="joint positions [rad]")
         Va = real_array("V", V, (Qa.shape[0], 3), what="TCP velocities [m/s]")
-        return np.array([self.shape(q, v) for q, v in zip(Qa, Va, strict=True)]).reshape(
-            Qa.shape
-        )
+        return np.array([self.shape(q, v) for q, v in zip(Qa, Va, strict=True)]).reshape(Qa.shape)
 
 
 def _limits(scene: ArmScene) -> Any:
@@ -280,10 +288,10 @@ def _limits(scene: ArmScene) -> Any:
 def build_arm_controllers(
     scene: ArmScene, *, methods: Sequence[str] = ARM_METHODS
 ) -> dict[str, Shaper]:
-    """The controllers of :data:`ARM_METHODS` (or a subset), built for ``scene``.
+    r"""The controllers of :data:`ARM_METHODS` (or a subset), built for ``scene``.
 
     Damper settings shared by the scalar scale and the QP: position gain 0.95, workspace gain 0.5,
-    obstacle gain :math:`\\xi` = 0.5 m/s, influence 0.1 m, safety clearance 0.
+    obstacle gain :math:`\xi` = 0.5 m/s, influence 0.1 m, safety clearance 0.
 
     Raises:
         InvalidParameter: an unknown method name.
@@ -361,13 +369,19 @@ def run_arm(
         Method -> :class:`ArmRun`.
     """
     script = arm_script(scene, speed)
-    ctrl = dict(controllers) if controllers is not None else build_arm_controllers(scene, methods=methods)
+    ctrl = (
+        dict(controllers)
+        if controllers is not None
+        else build_arm_controllers(scene, methods=methods)
+    )
     out: dict[str, ArmRun] = {}
     for name in methods:
         active: list[tuple[str, ...]] = []
         dropped: list[tuple[str, ...]] = []
 
-        def record(k: int, t: float, res: Any, active: list[Any] = active, dropped: list[Any] = dropped) -> None:
+        def record(
+            k: int, t: float, res: Any, active: list[Any] = active, dropped: list[Any] = dropped
+        ) -> None:
             active.append(tuple(getattr(res, "active_names", ())))
             dropped.append(tuple(getattr(res, "dropped", ())))
 
@@ -384,7 +398,9 @@ def run_arm(
         )
         tcp = np.array([scene.robot.end_effector(q) for q in traj.p])
         segs = np.array([scene.robot.link_segments(q) for q in traj.p])
-        out[name] = ArmRun(traj, readonly(tcp), readonly(segs), tuple(active), tuple(dropped), speed)
+        out[name] = ArmRun(
+            traj, readonly(tcp), readonly(segs), tuple(active), tuple(dropped), speed
+        )
     return out
 
 

@@ -77,23 +77,23 @@ class _Limits(Protocol):
     """What the baselines read of a joint-limit set (``velfence.shaping.filter.JointLimits``)."""
 
     @property
-    def lower(self) -> FloatArray: ...  # noqa: D102
+    def lower(self) -> FloatArray: ...
 
     @property
-    def upper(self) -> FloatArray: ...  # noqa: D102
+    def upper(self) -> FloatArray: ...
 
     @property
-    def max_velocity(self) -> FloatArray: ...  # noqa: D102
+    def max_velocity(self) -> FloatArray: ...
 
 
 class _Sphere(Protocol):
     """What the baselines read of a sphere (``velfence.shaping.filter.SphereObstacle``)."""
 
     @property
-    def center(self) -> FloatArray: ...  # noqa: D102
+    def center(self) -> FloatArray: ...
 
     @property
-    def radius(self) -> float: ...  # noqa: D102
+    def radius(self) -> float: ...
 
 
 @dataclass(frozen=True)
@@ -259,7 +259,9 @@ class _ArmController:
         qa, va = self._inputs(q, twist)
         res = self._step(qa, va)
         if not np.all(np.isfinite(res.output)):
-            raise InvalidInput(f"{self.method}: the joint velocity is not finite at q={qa.tolist()}")
+            raise InvalidInput(
+                f"{self.method}: the joint velocity is not finite at q={qa.tolist()}"
+            )
         return res
 
     def shape(self, q: ArrayLike, twist: ArrayLike, /) -> FloatArray:
@@ -276,13 +278,13 @@ class _ArmController:
 
 
 class ResolvedRate(_ArmController):
-    """No limit: the damped least-squares joint velocity of the TCP command (module docstring).
+    r"""No limit: the damped least-squares joint velocity of the TCP command (module docstring).
 
     Args:
         robot: The arm (:class:`~velfence.mechanisms.DHChain`).
         limits: Joint limits (``lower``, ``upper``, ``max_velocity``, shape (n,) each); unused
             here, kept so every baseline is built the same way.
-        damping: DLS damping :math:`\\lambda` [m²], > 0.
+        damping: DLS damping :math:`\lambda` [m²], > 0.
     """
 
     method = "no limit"
@@ -311,14 +313,16 @@ class JointClamp(_ArmController):
         out = np.clip(qd, lo, hi)
         names = []
         for i in np.flatnonzero(out != qd):
-            pos = (self.upper[i] - q[i]) / self.dt if qd[i] > 0 else (self.lower[i] - q[i]) / self.dt
+            pos = (
+                (self.upper[i] - q[i]) / self.dt if qd[i] > 0 else (self.lower[i] - q[i]) / self.dt
+            )
             kind = "position" if abs(pos) < self.max_velocity[i] else "velocity"
             names.append(f"joint {int(i) + 1} {kind}")
         return ArmStep(out, v, q, _zone(names), tuple(names), ("dls", "clamp"), self.method)
 
 
 class ScalarScale(_ArmController):
-    """One scalar on the whole joint command, MoveIt Servo style (module docstring).
+    r"""One scalar on the whole joint command, MoveIt Servo style (module docstring).
 
     Args:
         robot: The arm.
@@ -327,11 +331,11 @@ class ScalarScale(_ArmController):
         dt: Control period [s], > 0.
         damping: DLS damping [m²], > 0.
         position_gain: :math:`g_q`, > 0 (fraction of the distance to a joint limit per period).
-        obstacle_gain: :math:`\\xi` [m/s], > 0.
+        obstacle_gain: :math:`\xi` [m/s], > 0.
         influence: :math:`d_i` [m], > ``safety``.
         safety: :math:`d_s` [m], >= 0.
-        singular_slow: :math:`\\kappa_{lo}`, condition number where slowing starts, > 1.
-        singular_stop: :math:`\\kappa_{hi}`, condition number of a full stop, > ``singular_slow``.
+        singular_slow: :math:`\kappa_{lo}`, condition number where slowing starts, > 1.
+        singular_stop: :math:`\kappa_{hi}`, condition number of a full stop, > ``singular_slow``.
     """
 
     method = "scalar scale"
@@ -402,7 +406,7 @@ def _qpsolvers() -> Any:
 
 
 class DamperQP(_ArmController):
-    """A velocity-damper QP, mink style, solved by qpsolvers + daqp (module docstring).
+    r"""A velocity-damper QP, mink style, solved by qpsolvers + daqp (module docstring).
 
     Args:
         robot: The arm.
@@ -410,10 +414,10 @@ class DamperQP(_ArmController):
         workspace: The TCP box (a 3-D :class:`~velfence.geometry.polytope.ConvexPolytope`).
         obstacles: Spheres (``center`` (3,) [m], ``radius`` [m]).
         dt: Control period [s], > 0.
-        damping: :math:`\\lambda` [m²/rad²], > 0.
+        damping: :math:`\lambda` [m²/rad²], > 0.
         position_gain: :math:`g_q`, > 0.
         workspace_gain: :math:`g_w`, > 0 (fraction of the face distance closed per period).
-        obstacle_gain: :math:`\\xi` [m/s], > 0.
+        obstacle_gain: :math:`\xi` [m/s], > 0.
         influence: :math:`d_i` [m], > ``safety``.
         safety: :math:`d_s` [m], >= 0.
         tolerance: Slack below which a row counts as binding [m/s or rad/s], > 0.

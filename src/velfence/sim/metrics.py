@@ -448,7 +448,9 @@ def sphere_penetration(
 
 
 def joint_limit_violation(q: ArrayLike, lower: ArrayLike, upper: ArrayLike) -> float:
-    r"""Largest excursion beyond a joint limit: :math:`\max_{k,i} \max(0, q_{ki} - u_i, l_i - q_{ki})`.
+    r"""Largest excursion beyond a joint limit, [rad].
+
+    :math:`\max_{k,i} \max(0,\ q_{ki} - u_i,\ l_i - q_{ki})`.
 
     Args:
         q: Joint positions, shape (N, n), [rad].
@@ -527,8 +529,10 @@ def face_sliding_ratio(
 def time_to_reach(
     t: ArrayLike, points: ArrayLike, target: ArrayLike, *, tol: float, after: float = -math.inf
 ) -> float:
-    r"""First time the path comes within ``tol`` of ``target``: :math:`\min\{t_k \ge`
-    ``after`` :math:`: \|x_k - x^\star\| \le` ``tol``:math:`\}`.
+    r"""First time the path comes within ``tol`` of ``target``, [s].
+
+    :math:`\min\{t_k : t_k \ge t_a,\ \|x_k - x^\star\| \le \epsilon\}` with :math:`t_a` =
+    ``after`` and :math:`\epsilon` = ``tol``.
 
     Args:
         t: Times, shape (N,), [s].
@@ -549,8 +553,9 @@ def time_to_reach(
 
 
 def max_joint_acceleration(traj: Trajectory) -> float:
-    r"""Largest finite-difference acceleration of the output: :math:`\max_{k,i}
-    |v^{out}_{k+1,i} - v^{out}_{k,i}| / (t_{k+1} - t_k)`.
+    r"""Largest finite-difference acceleration of the output, [units of ``v_out`` / s].
+
+    :math:`\max_{k,i} |v^{out}_{k+1,i} - v^{out}_{k,i}| / (t_{k+1} - t_k)`.
 
     The start from rest is not counted (row 0 is the first output).
 
