@@ -48,7 +48,7 @@ def run(shaper: vf.PolygonShaper | None) -> tuple[np.ndarray, float]:
         pdot = M @ np.array(operator(k))
         if shaper is not None:
             pdot = shaper.shape(p, pdot)
-        v, omega = np.linalg.solve(M, pdot)
+        _, omega = np.linalg.solve(M, pdot)  # (v, ω) sent to the wheels
         p = p + DT * pdot
         theta += DT * omega
         path.append(p.copy())

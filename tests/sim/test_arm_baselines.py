@@ -76,7 +76,9 @@ def test_joint_clamp_is_the_per_joint_clip(q: np.ndarray, v: np.ndarray) -> None
 
 @given(qs, twist.map(lambda v: 8 * v))
 def test_scalar_scale_is_the_largest_admissible_scalar(q: np.ndarray, v: np.ndarray) -> None:
-    sphere = types.SimpleNamespace(center=ROBOT.end_effector(Q0) + [0.0, 0.0, -0.12], radius=0.05)
+    sphere = types.SimpleNamespace(
+        center=ROBOT.end_effector(Q0) + np.array([0.0, 0.0, -0.12]), radius=0.05
+    )
     ctrl = ScalarScale(ROBOT, limits=LIMITS, obstacles=(sphere,), dt=DT, singular_slow=1e6,
                        singular_stop=2e6)  # fmt: skip
     segs = ROBOT.link_segments(q)
@@ -121,7 +123,7 @@ def test_damper_qp_matches_an_independent_solver(seed: int) -> None:
     q = Q0 + rng.uniform(-0.3, 0.3, 7)
     p = ROBOT.end_effector(q)
     # a box whose x_max face is 2 mm ahead of the TCP, pushed into at 0.5 m/s
-    box = ConvexPolytope.box(p - [0.3, 0.3, 0.3], p + [0.002, 0.3, 0.3])
+    box = ConvexPolytope.box(p - 0.3, p + np.array([0.002, 0.3, 0.3]))
     v = np.array([0.5, rng.uniform(-0.3, 0.3), rng.uniform(-0.3, 0.3)])
     ctrl = DamperQP(ROBOT, limits=LIMITS, workspace=box, dt=DT)
     res = ctrl.explain(q, v)
@@ -138,8 +140,10 @@ def test_damper_qp_matches_an_independent_solver(seed: int) -> None:
         (max(-1.5, g * (LIMITS.lower[i] - q[i])), min(1.5, g * (LIMITS.upper[i] - q[i])))
         for i in range(7)
     ]
-    ref = scipy_optimize.minimize(cost, np.zeros(7), method="SLSQP", bounds=bounds,
-                                  constraints=cons, options={"ftol": 1e-14, "maxiter": 500})  # fmt: skip
+    opts = {"ftol": 1e-14, "maxiter": 500}
+    ref = scipy_optimize.minimize(
+        cost, np.zeros(7), method="SLSQP", bounds=bounds, constraints=cons, options=opts
+    )
     assert ref.success
     assert cost(res.output) == pytest.approx(ref.fun, rel=1e-4, abs=1e-9)
     # the x_max face binds: 2 mm at gain 0.5 per ms allows at most 1 m/s... the command is 0.5
