@@ -386,11 +386,7 @@ class _ChainBase:
         ``"elbow"``, ``"wrist"``) and ``"joint0"`` … ``"joint{n-1}"`` (joint ``j``'s point
         :math:`P_j` on its axis).
         """
-        return (
-            ("tcp", "flange")
-            + tuple(self._extra_points)
-            + tuple(f"joint{j}" for j in range(self._n))
-        )
+        return ("tcp", "flange", *self._extra_points, *(f"joint{j}" for j in range(self._n)))
 
     def _point_index(self, point: Any) -> int:
         """Joint-point index of a named point (``n`` for the tcp, ``-1`` for the flange)."""
@@ -412,7 +408,8 @@ class _ChainBase:
 
     def _flange(self, q: FloatArray, points: FloatArray) -> FloatArray:
         """Origin of the last frame [m], (3,); the tool point unless a subclass has a tool."""
-        return points[self._n]
+        flange: FloatArray = points[self._n]
+        return flange
 
     def _named(self, q: FloatArray, point: Any) -> tuple[FloatArray, int, FloatArray, FloatArray]:
         """``(p (3,), k, points, axes)``: a named point and the number ``k`` of joints moving it."""

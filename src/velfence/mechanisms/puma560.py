@@ -231,9 +231,12 @@ class Puma560:
 
     @property
     def points(self) -> tuple[str, ...]:
-        """Named points: ``"tcp"`` (the tool point), ``"flange"`` (the wrist centre, frame 6's
-        origin), ``"elbow"`` (joint 3's point), ``"wrist"`` (the wrist centre) and ``"joint0"``
-        … ``"joint5"`` (see :meth:`DHChain.fk`)."""
+        """Named points of :meth:`fk` and :meth:`jacobian` (the ``Kinematics`` protocol).
+
+        ``"tcp"`` (the tool point), ``"flange"`` (frame 6's origin, the wrist centre),
+        ``"elbow"`` (joint 2's point), ``"wrist"`` (the wrist centre) and ``"joint0"`` …
+        ``"joint5"`` (see :meth:`DHChain.fk`).
+        """
         return self._chain.points
 
     def fk(self, q: ArrayLike, point: str | None = None) -> FloatArray:
@@ -287,6 +290,7 @@ class Puma560:
 
         Args:
             q: Joint angles [rad], shape (6,).
+            point: ``None`` for the tool's 6 x 6 Jacobian, else a name from :attr:`points`.
 
         Returns:
             ``J`` of shape (6, 6): rows 0-2 in [m/rad], rows 3-5 dimensionless; with ``point``
