@@ -2,13 +2,13 @@ r"""The arm-in-a-box scenario: a 7-DoF arm jogged in Cartesian space, five ways 
 
 The scene (:func:`arm_box_scene`): the 7R arm of :meth:`~velfence.mechanisms.DHChain.seven_dof`
 with capsule links of radius 0.05 m; its TCP (the flange centre) must stay in an axis-aligned box
-(:meth:`~velfence.geometry.polytope.ConvexPolytope.box`); a sphere stands near the path; joint 1
-has a narrowed range whose lower end the path crosses.
+(:meth:`~velfence.geometry.polytope.ConvexPolytope.box`); a sphere stands near the path; joint 0
+(the base) has a narrowed range whose lower end the path crosses.
 
 The operator (:class:`TcpJog`) is a scripted jog in Cartesian space: during phase ``k`` it
 commands the TCP velocity :math:`v = \min(s, g\,\|e\|)\,e/\|e\|` towards the phase's target,
 :math:`e = x^\star_k - x_{tcp}(q)`, with the jog speed ``s`` [m/s] and gain ``g`` [1/s]. The
-phases (:func:`arm_script`): into a corner of the box, along a face (pressing it), past joint 1's
+phases (:func:`arm_script`): into a corner of the box, along a face (pressing it), past joint 0's
 limit, past the sphere, to a final waypoint; each lasts its straight-line length over ``s`` plus a
 dwell, so the script scales with the speed.
 
@@ -124,7 +124,7 @@ def arm_box_scene(*, dt: float = 1e-3) -> ArmScene:
     dt = check_positive("dt", dt, unit="s")
     hi = np.radians([170.0, 120.0, 170.0, 120.0, 170.0, 120.0, 175.0])
     lower, upper = -hi, hi.copy()
-    lower[0] = -0.20  # joint 1 narrowed: the path along the face crosses this end
+    lower[0] = -0.15  # joint 0 narrowed: the path along the face crosses this end
     box_lower = readonly(np.array([0.45, -0.25, 0.35]))
     box_upper = readonly(np.array([0.80, 0.25, 0.70]))
     robot = DHChain.seven_dof(joint_limits=np.stack([lower, upper], axis=1), link_radius=0.05)
@@ -183,7 +183,7 @@ class ArmScript:
 #: (label, target [m], pressed face) of the built-in script.
 _SCRIPT: tuple[tuple[str, tuple[float, float, float], str], ...] = (
     ("into the corner x_max, y_max, z_max", (0.86, 0.32, 0.76), ""),
-    ("along the face x_max, past joint 1's limit", (0.84, -0.28, 0.52), "x_max"),
+    ("along the face x_max, past joint 0's limit", (0.84, -0.20, 0.50), "x_max"),
     ("past the sphere", (0.56, 0.16, 0.42), ""),
     ("to the final waypoint", (0.62, 0.10, 0.55), ""),
 )
@@ -261,6 +261,15 @@ class TwistMode:
     def __init__(self, safety_filter: Any, *, point: str = "tcp") -> None:
         self.filter = safety_filter
         self.point = point
+
+    @property
+    def stateful(self) -> bool:
+        """Whether the filter remembers its last output (acceleration rows)."""
+        return bool(getattr(self.filter, "stateful", False))
+
+    def reset(self) -> None:
+        """Forget the filter's remembered output (:func:`velfence.sim.simulate` calls it)."""
+        self.filter.reset()
 
     def explain(self, q: ArrayLike, twist: ArrayLike, /) -> Any:
         """The filter's :class:`~velfence.shaping.filter.FilterResult` for TCP command ``twist``."""

@@ -40,8 +40,9 @@ Sphere clearance :math:`d_l = |c - x_l| - r_s - r_l` (centre to link axis, minus
 :math:`\dot d_l = -u_l^\top J_{x_l}\dot q` with :math:`u_l` from the link towards the centre (the
 normal of :func:`velfence.geometry.primitives.sphere_capsule_distance`, reversed).
 
-Active rows are named as the filter names them: ``"joint 4 position"``, ``"joint 2 velocity"``,
-``"TCP face x_max"``, ``"obstacle 0 on link 6"`` (1-based joints and links).
+Active rows are named as the filter names them: ``"joint 4 position (upper)"``,
+``"joint 2 velocity (lower)"``,
+``"TCP face x_max"``, ``"obstacle 0 on link 6"`` (0-based joints, links and obstacles).
 """
 
 from __future__ import annotations
@@ -231,7 +232,7 @@ class _ArmController:
                 Jc = np.asarray(self.robot.point_jacobian(q, int(link), float(t)), dtype=float)
                 rows.append(n @ Jc)  # d_dot = n·(x_dot), n from the centre to the axis
                 bounds.append(self.obstacle_gain * (d - self.safety) / span)
-                names.append(f"obstacle {i} on link {int(link) + 1}")
+                names.append(f"obstacle {i} on link {int(link)}")
         return np.array(rows).reshape(-1, self.dof), np.array(bounds), names
 
     def _workspace_rows(self, q: FloatArray, J: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -313,11 +314,10 @@ class JointClamp(_ArmController):
         out = np.clip(qd, lo, hi)
         names = []
         for i in np.flatnonzero(out != qd):
-            pos = (
-                (self.upper[i] - q[i]) / self.dt if qd[i] > 0 else (self.lower[i] - q[i]) / self.dt
-            )
+            side = "upper" if qd[i] > 0 else "lower"
+            pos = ((self.upper if qd[i] > 0 else self.lower)[i] - q[i]) / self.dt
             kind = "position" if abs(pos) < self.max_velocity[i] else "velocity"
-            names.append(f"joint {int(i) + 1} {kind}")
+            names.append(f"joint {int(i)} {kind} ({side})")
         return ArmStep(out, v, q, _zone(names), tuple(names), ("dls", "clamp"), self.method)
 
 
@@ -367,11 +367,11 @@ class ScalarScale(_ArmController):
         s, why = 1.0, ""
         lo, hi = self._joint_bounds(q)
         for i in range(self.dof):
-            for bound, x in ((hi[i], qd[i]), (-lo[i], -qd[i])):
+            for bound, x, side in ((hi[i], qd[i], "upper"), (-lo[i], -qd[i], "lower")):
                 if x > 0.0 and bound / x < s:
                     s = max(0.0, bound / x)
                     at_v = abs(bound - self.max_velocity[i]) <= 1e-12
-                    why = f"joint {i + 1} {'velocity' if at_v else 'position'}"
+                    why = f"joint {i} {'velocity' if at_v else 'position'} ({side})"
         rows, bounds, names = self._sphere_rows(q)
         for a, b, name in zip(rows, bounds, names, strict=True):
             rate = float(a @ qd)
@@ -462,5 +462,6 @@ class DamperQP(_ArmController):
         for i in range(n):
             if qd[i] >= hi[i] - tol or qd[i] <= lo[i] + tol:
                 at_v = min(abs(qd[i]) - self.max_velocity[i], 0.0) >= -tol
-                names.append(f"joint {i + 1} {'velocity' if at_v else 'position'}")
+                side = "upper" if qd[i] >= hi[i] - tol else "lower"
+                names.append(f"joint {i} {'velocity' if at_v else 'position'} ({side})")
         return ArmStep(qd, v, q, _zone(names), tuple(names), ("qp",), self.method)
