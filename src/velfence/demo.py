@@ -417,7 +417,8 @@ def run_arm_demo(
         run_arm,
     )
 
-    if isinstance(out_dir, bytes) or not isinstance(out_dir, (str, os.PathLike)):
+    path_ok: Any = out_dir
+    if isinstance(path_ok, bytes) or not isinstance(path_ok, (str, os.PathLike)):
         raise InvalidParameter(
             f"out_dir: expected a folder path (str or Path), got {type(out_dir).__name__}"
         )

@@ -14,6 +14,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.animation import FuncAnimation, PillowWriter
 from matplotlib.collections import LineCollection
+from matplotlib.colors import Normalize
 
 from velfence._validate import check_output_path, check_positive_int
 from velfence.errors import InvalidInput, InvalidParameter
@@ -103,17 +104,19 @@ def plot_arm_paths(scene: ArmScene, runs: Mapping[str, ArmRun], path: str | Path
     sc, rs = _scene(scene), _runs(runs)
     out = check_output_path("path", path)
     k = len(rs)
-    fig = plt.figure(figsize=(4.4 * k, 4.8))
+    cols = min(3, k)
+    rows_n = -(-k // cols)
+    fig = plt.figure(figsize=(5.0 * cols + 1.0, 4.6 * rows_n))
     t_max = max(float(r.trajectory.t[-1]) for r in rs.values())
-    norm = plt.Normalize(0.0, t_max)
+    norm = Normalize(0.0, t_max)
     mappable = None
     for i, (name, run) in enumerate(rs.items()):
-        ax = fig.add_subplot(1, k, i + 1, projection="3d")
+        ax = fig.add_subplot(rows_n, cols, i + 1, projection="3d")
         _draw_scene(ax, sc)
         p = run.tcp[:: max(1, len(run.tcp) // 1500)]
         t = run.trajectory.t[:: max(1, len(run.tcp) // 1500)]
         pts = np.stack([p[:-1], p[1:]], axis=1)
-        from mpl_toolkits.mplot3d.art3d import Line3DCollection
+        from mpl_toolkits.mplot3d.art3d import Line3DCollection  # type: ignore[import-untyped]
 
         lc = Line3DCollection(pts, cmap="viridis", norm=norm, linewidths=1.6)
         lc.set_array(t[:-1])
@@ -127,7 +130,7 @@ def plot_arm_paths(scene: ArmScene, runs: Mapping[str, ArmRun], path: str | Path
         ax.set_zlim(0.3, 0.8)
         ax.legend(loc="upper left", fontsize=7)
     if mappable is not None:
-        fig.colorbar(mappable, ax=fig.axes, shrink=0.6, pad=0.02, label="time [s]")
+        fig.colorbar(mappable, ax=fig.axes, shrink=0.5, pad=0.03, label="time [s]")
     fig.savefig(out, dpi=110)
     plt.close(fig)
     return out
@@ -147,7 +150,8 @@ def plot_arm_joints(scene: ArmScene, runs: Mapping[str, ArmRun], path: str | Pat
     sc, rs = _scene(scene), _runs(runs)
     check_output_path("path", path)
     n = sc.lower.shape[0]
-    fig, axes = plt.subplots(n, 1, figsize=(9, 1.5 * n + 0.8), sharex=True)
+    fig, axs = plt.subplots(n, 1, figsize=(9, 1.5 * n + 0.8), sharex=True, squeeze=False)
+    axes = list(axs[:, 0])
     for j, ax in enumerate(axes):
         for i, (name, run) in enumerate(rs.items()):
             ax.plot(
@@ -158,7 +162,7 @@ def plot_arm_joints(scene: ArmScene, runs: Mapping[str, ArmRun], path: str | Pat
         for lim in (sc.lower[j], sc.upper[j]):
             if lo_q - 0.3 <= lim <= hi_q + 0.3:
                 ax.axhline(lim, color="k", ls="--", lw=0.9)
-        ax.set_ylabel(f"q{j + 1} [rad]")
+        ax.set_ylabel(f"q{j} [rad]")
         ax.grid(alpha=0.3)
     axes[0].legend(loc="upper right", fontsize=7, ncol=len(rs))
     axes[0].set_title("joint positions; dashed: joint limits")
@@ -214,7 +218,7 @@ def plot_arm_activity(runs: Mapping[str, ArmRun], path: str | Path) -> Path:
 
 
 def animate_arm(
-    scene: ArmScene, run: ArmRun, path: str | Path, *, frames: int = 80, fps: int = 15
+    scene: ArmScene, run: ArmRun, path: str | Path, *, frames: int = 60, fps: int = 12
 ) -> Path:
     """A GIF of the arm (links as thick lines), its TCP trail, the box and the sphere.
 
@@ -233,8 +237,8 @@ def animate_arm(
     sc = _scene(scene)
     if not isinstance(run, ArmRun):
         raise InvalidInput(f"run: expected an ArmRun, got {type(run).__name__}")
-    n_frames = check_positive_int("frames", frames, maximum=MAX_FRAMES, example=80)
-    rate = check_positive_int("fps", fps, maximum=MAX_FPS, example=15)
+    n_frames = check_positive_int("frames", frames, maximum=MAX_FRAMES, example=60)
+    rate = check_positive_int("fps", fps, maximum=MAX_FPS, example=12)
     out = check_output_path("path", path)
     fig = plt.figure(figsize=(7.5, 6.0))
     ax = fig.add_subplot(projection="3d")
@@ -248,7 +252,7 @@ def animate_arm(
     (links,) = ax.plot([], [], [], "-o", color="#1f77b4", lw=5, ms=3, label="links")
     (trail,) = ax.plot([], [], [], color="#2ca02c", lw=1.2, label="TCP path")
     ax.legend(loc="upper left", fontsize=8)
-    stamp = ax.set_title("")
+    stamp = ax.set_title("", fontsize=9)
 
     def update(f: int) -> list[Any]:
         j = int(idx[f])
@@ -258,8 +262,9 @@ def animate_arm(
         links.set_3d_properties(pts[:, 2])
         trail.set_data(run.tcp[: j + 1, 0], run.tcp[: j + 1, 1])
         trail.set_3d_properties(run.tcp[: j + 1, 2])
-        act = ", ".join(run.active[j][:3]) or "none"
-        stamp.set_text(f"{run.trajectory.name}, t = {run.trajectory.t[j]:.2f} s, active: {act}")
+        rows = sorted(run.active[j], key=lambda a: "acceleration" in a)  # limits first
+        act = ", ".join(rows[:2]) + (f" (+{len(rows) - 2})" if len(rows) > 2 else "") or "none"
+        stamp.set_text(f"{run.trajectory.name}, t = {run.trajectory.t[j]:.2f} s\nactive: {act}")
         return [links, trail, stamp]
 
     anim = FuncAnimation(fig, update, frames=n_frames, blit=False)
