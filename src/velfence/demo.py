@@ -407,6 +407,7 @@ def run_arm_demo(
         InvalidParameter: an unknown method, a non-positive speed, or a ``figure_speed`` not
             among ``speeds``.
     """
+    from velfence._validate import check_flag, check_positive, describe, real_array
     from velfence.sim.arm import (
         ARM_METHODS,
         ARM_SPEEDS,
@@ -426,16 +427,34 @@ def run_arm_demo(
         raise InvalidParameter(
             f"console: expected a rich Console or None, got {type(console).__name__}"
         )
-    sp = tuple(ARM_SPEEDS if speeds is None else speeds)
-    ms = tuple(ARM_METHODS if methods is None else methods)
+    if speeds is None:
+        sp = tuple(ARM_SPEEDS)
+    else:
+        raw = real_array("speeds", speeds, (None,), error=InvalidParameter, what="jog speeds [m/s]")
+        if raw.shape[0] == 0 or not np.all(raw > 0.0):
+            raise InvalidParameter(
+                f"speeds: expected one or more jog speeds > 0 [m/s], got {raw.tolist()}"
+            )
+        sp = tuple(float(v) for v in raw)
+    if methods is None:
+        ms = tuple(ARM_METHODS)
+    else:
+        ok = isinstance(methods, (tuple, list)) and all(isinstance(m, str) for m in methods)
+        if not ok or not methods or any(m not in ARM_METHODS for m in methods):
+            raise InvalidParameter(
+                f"methods: expected names from {list(ARM_METHODS)}, got {describe(methods)}"
+            )
+        ms = tuple(methods)
+    gif = check_flag("gif", gif)
     scene = arm_box_scene()
-    for v in sp:
-        arm_script(scene, v)  # validates the speed
-    if not sp:
-        raise InvalidParameter("speeds: expected at least one jog speed [m/s], got none")
-    fig_speed = sp[len(sp) // 2] if figure_speed is None else figure_speed
-    if fig_speed not in sp:
-        raise InvalidParameter(f"figure_speed must be one of speeds {list(sp)}, got {fig_speed!r}")
+    if figure_speed is None:
+        fig_speed = sp[len(sp) // 2]
+    else:
+        fig_speed = check_positive("figure_speed", figure_speed, unit="m/s")
+        if fig_speed not in sp:
+            raise InvalidParameter(
+                f"figure_speed must be one of speeds {list(sp)}, got {fig_speed!r}"
+            )
     controllers = build_arm_controllers(scene, methods=ms)
     console = console or Console(quiet=True)
     out = Path(out_dir)
