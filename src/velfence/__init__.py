@@ -5,7 +5,13 @@
 
 from velfence.cobot import CasterWall, Cobot, PathFollower
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter, VelfenceError
-from velfence.geometry import ConvexPolygon, Rectangle, decompose, inscribed_rectangle
+from velfence.geometry import (
+    ConvexPolygon,
+    ConvexPolytope,
+    Rectangle,
+    decompose,
+    inscribed_rectangle,
+)
 from velfence.mechanisms import (
     CoSPM,
     CoSPMDesign,
@@ -24,6 +30,8 @@ from velfence.shaping import (
     LineFixture,
     LineScaling,
     PolygonShaper,
+    PolytopeResult,
+    PolytopeShaper,
     RateLimiter,
     Shaper,
     ShaperResult,
@@ -54,6 +62,7 @@ __all__ = [
     "Cobot",
     "ConfigurationController",
     "ConvexPolygon",
+    "ConvexPolytope",
     "DHChain",
     "Disturbance",
     "HardStop",
@@ -68,6 +77,8 @@ __all__ = [
     "PathFollower",
     "PlanarArm",
     "PolygonShaper",
+    "PolytopeResult",
+    "PolytopeShaper",
     "Puma560",
     "RateLimiter",
     "Rectangle",

@@ -24,6 +24,7 @@ from velfence.geometry.primitives import (
     segment_segment_distance,
     sphere_capsule_distance,
 )
+from velfence.geometry.projection import Projection, project
 
 __all__ = [
     "Circle",
@@ -32,6 +33,7 @@ __all__ = [
     "Line",
     "Path",
     "Polyline",
+    "Projection",
     "Rectangle",
     "Spline",
     "closest_point_on_segment",
@@ -41,6 +43,7 @@ __all__ = [
     "point_segment_distance_jacobian",
     "points_segments_distances",
     "polygon_from_halfplanes",
+    "project",
     "segment_segment_distance",
     "sphere_capsule_distance",
 ]

@@ -18,7 +18,7 @@ constraint whose normal lies in their span is never added, so ``R`` stays invert
 
 The answer then meets every bound *as evaluated in floating point* (a repair step moves it along
 each bound that round-off left violated by a few ulps), which is what a safety filter has to
-promise. Derivation and tests: ``docs/derivations.md`` §6.
+promise. Derivation and tests: ``docs/derivations.md`` §7.
 
 :func:`project_kernel` is the plain-arithmetic kernel (loops over scalars and caller-provided
 scratch, no allocation): it runs as ordinary Python and is compiled unchanged by numba for the
@@ -76,7 +76,7 @@ def _rebuild(G: Any, act: Any, q: int, n: int, wsf: Any, oq: int, orr: int) -> i
     for c in range(q):
         g = act[c]
         for i in range(n):
-            wsf[oq + i * n + c] = G[g, i]
+            wsf[oq + i * n + c] = G[g * n + i]
         for r in range(c + 1):
             wsf[orr + r * n + c] = 0.0
         for _ in range(2):
@@ -101,14 +101,14 @@ def _rebuild(G: Any, act: Any, q: int, n: int, wsf: Any, oq: int, orr: int) -> i
 def _row_norm(G: Any, i: int, n: int) -> float:
     s = 0.0
     for k in range(n):
-        s += G[i, k] * G[i, k]
+        s += G[i * n + k] * G[i * n + k]
     return math.sqrt(s)
 
 
 def _slack(G: Any, b: Any, i: int, x: Any, n: int) -> float:
     s = 0.0
     for k in range(n):
-        s += G[i, k] * x[k]
+        s += G[i * n + k] * x[k]
     r: float = s - b[i]
     return r
 
@@ -120,8 +120,8 @@ def project_kernel(
 
     Args:
         u: Target, (n,).
-        G: Constraint normals, (>= m, n); rows need not be unit, zero rows are allowed (they are
-            met when ``b <= 0`` and make the problem infeasible otherwise).
+        G: Constraint normals, flat row-major (``G[i * n + k]``, length >= m·n): rows need not
+            be unit; a zero row is met when ``b <= 0`` and makes the problem infeasible otherwise.
         b: Lower bounds, (>= m,); ``-inf`` rows are ignored.
         m: Number of constraints.
         n: Dimension.
@@ -189,7 +189,7 @@ def project_kernel(
             for c in range(q):
                 wsf[oh + c] = 0.0
             for k in range(n):
-                wsf[oz + k] = G[p, k]
+                wsf[oz + k] = G[p * n + k]
             for _ in range(2):
                 for c in range(q):
                     h = 0.0
@@ -267,7 +267,7 @@ def project_kernel(
                 big = abs(x[k])
         step = wg + _REPAIR_ULPS * (1.0 + abs(b[wi]) / gn + big)
         for k in range(n):
-            x[k] += step * G[wi, k] / gn
+            x[k] += step * G[wi * n + k] / gn
     # Repairs that fight each other (many bounds through one point): accept round-off.
     big = 0.0
     for k in range(n):
@@ -308,7 +308,7 @@ def project(u: ArrayLike, G: ArrayLike, b: ArrayLike) -> Projection:
     Args:
         u: The point to project, shape (n,), finite.
         G: Constraint normals, shape (m, n), finite (rows need not be unit).
-        b: Lower bounds, shape (m,), finite or ``-inf`` (an ignored row).
+        b: Lower bounds, shape (m,), finite.
 
     Returns:
         A :class:`Projection`.
@@ -320,16 +320,21 @@ def project(u: ArrayLike, G: ArrayLike, b: ArrayLike) -> Projection:
     n = uu.shape[0]
     if n == 0:
         raise InvalidInput("u: expected at least one component, got shape (0,)")
-    GG = real_array("G", G, (None, n), what="constraint normals")
+    GG = real_array("G", G, (None, None), what="constraint normals")
+    if GG.shape[1] != n and GG.shape[0] > 0:
+        raise InvalidInput(
+            f"u and G disagree: u has {n} components, G has shape {GG.shape} (expected (m, {n}))"
+        )
+    GG = GG.reshape(-1, n)
     m = GG.shape[0]
-    bb = real_array("b", b, (m,), what="lower bounds", allow_nonfinite=True)
-    if np.isnan(bb).any() or (bb == np.inf).any():
-        raise InvalidInput("b: expected finite values or -inf (an ignored row), got NaN or +inf")
+    bb = real_array("b", b, (None,), what="lower bounds")
+    if bb.shape[0] != m:
+        raise InvalidInput(
+            f"b and G disagree: b has shape {bb.shape}, G has {m} rows (expected b of shape ({m},))"
+        )
     x = np.zeros(n)
     wsf, lam, act = projection_scratch(m, n)
-    status, q, iters = project_kernel(
-        uu, np.ascontiguousarray(GG, dtype=float), bb, m, n, x, lam, act, wsf
-    )
+    status, q, iters = project_kernel(uu, GG.ravel(), bb, m, n, x, lam, act, wsf)
     return Projection(
         x=x,
         active=tuple(int(a) for a in act[:q]),

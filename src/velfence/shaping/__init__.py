@@ -8,11 +8,12 @@ though at an acute corner it may trade some approach to one edge, within that ed
 the other's), (3) outside, reduces every violation, and (4) is finite for every input (non-finite
 input raises ``InvalidInput`` or, with ``on_invalid="stop"``, gives zero). Every 2-D shaper
 implements ``shape``, ``explain`` and ``shape_batch`` (see :mod:`velfence.shaping.base`); the
-joint-stop limiter does the same on n-D joint vectors.
+joint-stop limiter and the n-D polytope shaper do the same on n-vectors.
 """
 
 from velfence.shaping._kernels import STAGE_NAMES, ZONE_NAMES
 from velfence.shaping.base import Shaper, ShaperResult, ShapingResult
+from velfence.shaping.filter import FilterResult, Kinematics, SafetyFilter
 from velfence.shaping.fixtures import (
     OMNI_CONTINUOUS_FORCE,
     OMNI_MAX_FORCE,
@@ -21,7 +22,9 @@ from velfence.shaping.fixtures import (
     LineScaling,
     ScalingResult,
 )
+from velfence.shaping.limits import JointLimits, SphereObstacle, WorkspaceLimit
 from velfence.shaping.polygon import PolygonShaper
+from velfence.shaping.polytope import PolytopeResult, PolytopeShaper
 from velfence.shaping.profiles import ApproachProfile, LinearBuffer, ThreeZoneBraking
 from velfence.shaping.rate import RateLimiter
 from velfence.shaping.stops import StopLimiter, StopResult
@@ -32,17 +35,25 @@ __all__ = [
     "STAGE_NAMES",
     "ZONE_NAMES",
     "ApproachProfile",
+    "FilterResult",
     "FixtureResult",
+    "JointLimits",
+    "Kinematics",
     "LineFixture",
     "LineScaling",
     "LinearBuffer",
     "PolygonShaper",
+    "PolytopeResult",
+    "PolytopeShaper",
     "RateLimiter",
+    "SafetyFilter",
     "ScalingResult",
     "Shaper",
     "ShaperResult",
     "ShapingResult",
+    "SphereObstacle",
     "StopLimiter",
     "StopResult",
     "ThreeZoneBraking",
+    "WorkspaceLimit",
 ]

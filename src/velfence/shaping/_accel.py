@@ -13,9 +13,10 @@ from functools import cache
 from typing import Any
 
 from velfence.geometry import polygon as _polygon
-from velfence.shaping import _kernels
+from velfence.geometry import projection as _projection
+from velfence.shaping import _kernels, _nd_kernels
 
-__all__ = ["compiled_batch", "compiled_loop"]
+__all__ = ["compiled_batch", "compiled_loop", "compiled_polytope"]
 
 
 #: Kernels compiled into their callers (numba IR inlining): the exact law's bound definition
@@ -23,7 +24,7 @@ __all__ = ["compiled_batch", "compiled_loop"]
 #: (one thread): 8 ns per free row and 100 ns per corner row, against 80 / 140 ns as separate
 #: compiled functions, at an unchanged compile time; inlining the small helpers as well made
 #: compilation several times slower for little more.
-_INLINE = frozenset({"exact_bounds", "exact_kernel"})
+_INLINE = frozenset({"bounds_from_distances", "exact_bounds", "exact_kernel"})
 
 
 @cache
@@ -54,6 +55,7 @@ def _compiled() -> dict[str, Callable[..., Any]] | None:
         ("zone_code", _kernels.zone_code),
         ("profile_cap", _kernels.profile_cap),
         ("fill_bounds", _kernels.fill_bounds),
+        ("bounds_from_distances", _kernels.bounds_from_distances),
         ("exact_bounds", _kernels.exact_bounds),
         ("_patent_core", _kernels._patent_core),
         ("patent_kernel", _kernels.patent_kernel),
@@ -102,3 +104,46 @@ def compiled_loop(module: types.ModuleType, *names: str) -> Callable[..., Any] |
     last one.
     """
     return _compiled_loops(module, names)
+
+
+@cache
+def _compiled_polytope() -> tuple[Callable[..., Any], Callable[..., Any]] | None:
+    try:
+        import numba
+    except ImportError:
+        return None
+    # One globals table for the three modules (their constants and callees), the n-D module last.
+    table: dict[str, Any] = {**vars(_projection), **vars(_kernels), **vars(_nd_kernels)}
+    table["prange"] = numba.prange
+
+    def jit(module: types.ModuleType, name: str) -> None:
+        f = getattr(module, name)
+        clone = types.FunctionType(f.__code__, table, f.__name__, f.__defaults__, f.__closure__)
+        parallel = name.endswith("_batch")
+        opts: dict[str, Any] = {"cache": True, "parallel": parallel}
+        table[name] = numba.njit(**opts)(clone)
+
+    for module, name in (
+        (_projection, "_rebuild"),
+        (_projection, "_row_norm"),
+        (_projection, "_slack"),
+        (_projection, "project_kernel"),
+        (_kernels, "zone_code"),
+        (_kernels, "profile_cap"),
+        (_kernels, "fill_bounds"),
+        (_kernels, "bounds_from_distances"),
+        (_nd_kernels, "vector_norm"),
+        (_nd_kernels, "_solve_rows"),
+        (_nd_kernels, "polytope_kernel"),
+        (_nd_kernels, "polytope_scratch"),
+        (_nd_kernels, "polytope_one"),
+        (_nd_kernels, "polytope_batch"),
+    ):
+        jit(module, name)
+    return table["polytope_one"], table["polytope_batch"]
+
+
+def compiled_polytope() -> tuple[Callable[..., Any] | None, Callable[..., Any] | None]:
+    """The numba-compiled n-D exact law: ``(one state, batch loop)``, or Nones without numba."""
+    pair = _compiled_polytope()
+    return (None, None) if pair is None else pair

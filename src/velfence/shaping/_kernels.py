@@ -475,6 +475,39 @@ def exact_bounds(
         bounds (caller units per unit), the nearest and second-nearest edges and their
         distances. ``m == 0``: nothing bounds the command.
     """
+    for e in range(n):
+        dist[e] = nx[e] * px + ny[e] * py - off[e]
+    # |v| scaled by its largest component (not math.hypot, whose numba and CPython results differ
+    # in the last bit).
+    big = abs(vx) if abs(vx) > abs(vy) else abs(vy)
+    vnorm = 0.0
+    if big > 0.0:
+        qx = vx / big
+        qy = vy / big
+        vnorm = big * math.sqrt(qx * qx + qy * qy)
+    return bounds_from_distances(dist, n, vnorm, kind, prm, relax, idt, normalise, bnd, work)
+
+
+def bounds_from_distances(
+    dist: Any,
+    n: int,
+    vnorm: float,
+    kind: int,
+    prm: Any,
+    relax: bool,
+    idt: float,
+    normalise: bool,
+    bnd: Any,
+    work: Any,
+) -> tuple[int, int, int, float, float, float, int, int, float, float]:
+    r"""The exact law's bounds from the constraints' signed distances, in any dimension.
+
+    The dimension-free half of :func:`exact_bounds` (which computes the 2-D distances and
+    ``|v|`` and calls this); the n-D polytope law and the joint-space safety filter call it with
+    their own distances, so every exact law has one bound definition. ``dist[:n]`` holds the
+    signed distances (positive inside) and ``vnorm`` the command's Euclidean norm; the other
+    arguments and the returned tuple are those of :func:`exact_bounds`.
+    """
     lin = kind == PROFILE_LINEAR
     dmax = prm[0]
     # Edges at d >= gate are never bounded: d_max for the linear kind; other kinds keep every
@@ -488,8 +521,7 @@ def exact_bounds(
     m = 0
     n_out = 0
     for e in range(n):
-        d = nx[e] * px + ny[e] * py - off[e]
-        dist[e] = d
+        d = dist[e]
         if d < gate:
             if d < 0.0:
                 work[m] = e
@@ -516,14 +548,6 @@ def exact_bounds(
             p2 = e
     if m == 0 and idt == 0.0:
         return 0, 0, 0, 0.0, 0.0, 1.0, p1, p2, d1, d2
-    # |v| scaled by its largest component (not math.hypot, whose numba and CPython results differ
-    # in the last bit).
-    big = abs(vx) if abs(vx) > abs(vy) else abs(vy)
-    vnorm = 0.0
-    if big > 0.0:
-        qx = vx / big
-        qy = vy / big
-        vnorm = big * math.sqrt(qx * qx + qy * qy)
     if not lin:
         # Keep the violated edges and those whose cap binds at this speed.
         c = 0
