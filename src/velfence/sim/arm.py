@@ -311,7 +311,7 @@ def build_arm_controllers(
     from velfence.shaping.filter import SafetyFilter, SphereObstacle, WorkspaceLimit
 
     limits = _limits(scene)
-    sphere = SphereObstacle(scene.sphere_center, scene.sphere_radius, name="sphere")
+    sphere = SphereObstacle(scene.sphere_center, radius=scene.sphere_radius, name="sphere")
     common: dict[str, Any] = {"limits": limits, "dt": scene.dt}
     obstacles = (sphere,)
     make: dict[str, Callable[[], Shaper]] = {
