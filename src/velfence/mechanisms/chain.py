@@ -25,13 +25,21 @@ always ends at joint ``k+1``; their Jacobian is that of a single point and stays
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from velfence._typing import FloatArray
-from velfence._validate import check_positive, finite_rows, finite_scalar, readonly, real_array
+from velfence._validate import (
+    check_positive,
+    check_text,
+    finite_rows,
+    finite_scalar,
+    readonly,
+    real_array,
+)
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 
 __all__ = ["DHChain", "PlanarArm", "SerialChain"]
@@ -145,6 +153,54 @@ def _link_radius(value: Any, n_links: int) -> FloatArray:
     return readonly(arr)
 
 
+def _joint_names(value: Any, n: int) -> tuple[str, ...]:
+    """Validate joint names: ``n`` distinct non-empty strings (``joint0`` … by default)."""
+    if value is None:
+        return tuple(f"joint{j}" for j in range(n))
+    if isinstance(value, (str, bytes)) or not isinstance(value, (list, tuple)):
+        raise InvalidParameter(
+            f"joint_names: expected a tuple of {n} strings, got {type(value).__name__}"
+        )
+    names = tuple(check_text("joint_names", v, max_length=200) for v in value)
+    if len(names) != n or len(set(names)) != n or not all(names):
+        raise InvalidParameter(
+            f"joint_names: expected {n} distinct non-empty names (one per joint), got "
+            f"{len(names)} name(s) with {len(set(names))} distinct"
+        )
+    return names
+
+
+def _named_points(value: Any, n: int) -> dict[str, int]:
+    """Validate extra named points: a mapping name -> joint-point index in ``[0, n - 1]``."""
+    if value is None:
+        return {}
+    if not isinstance(value, Mapping):
+        raise InvalidParameter(
+            f"named_points: expected a mapping of names to joint indices, got "
+            f"{type(value).__name__}"
+        )
+    out: dict[str, int] = {}
+    reserved = {"tcp", "flange"} | {f"joint{j}" for j in range(n)}
+    for key, idx in value.items():
+        name = check_text("named_points", key, max_length=200)
+        if name in reserved or not name:
+            raise InvalidParameter(
+                f"named_points: {name!r} is a built-in point name (tcp, flange, joint0 … "
+                f"joint{n - 1}); choose another name"
+            )
+        if (
+            isinstance(idx, (bool, np.bool_))
+            or not isinstance(idx, (int, np.integer))
+            or not 0 <= int(idx) < n
+        ):
+            raise InvalidParameter(
+                f"named_points[{name!r}]: expected a joint index in [0, {n - 1}], got "
+                f"{type(idx).__name__}"
+            )
+        out[name] = int(idx)
+    return out
+
+
 class _ChainBase:
     """Shared validation, joint-limit helpers and the geometric point Jacobian."""
 
@@ -152,6 +208,8 @@ class _ChainBase:
     _task_dim: int
     _limits: FloatArray
     _radius: FloatArray
+    _joint_names: tuple[str, ...]
+    _extra_points: dict[str, int]
 
     # Subclasses provide the joint points P_0 … P_n (n + 1, 3) and joint axes z_0 … z_{n-1}.
     def _points_and_axes(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -312,6 +370,106 @@ class _ChainBase:
         qa = self._q(q)
         return np.clip(qa, self._limits[:, 0], self._limits[:, 1])
 
+    # ------------------------------------------------------------------ Kinematics protocol
+    # (velfence.shaping.filter.Kinematics): named points, their positions and Jacobians.
+    @property
+    def joint_names(self) -> tuple[str, ...]:
+        """Name of each joint, shape (n,) (``"joint0"`` … unless given)."""
+        return self._joint_names
+
+    @property
+    def points(self) -> tuple[str, ...]:
+        """Names of the points :meth:`fk` and :meth:`jacobian` accept.
+
+        ``"tcp"`` (the tool point :math:`P_n`), ``"flange"`` (the origin of the last frame;
+        the tool point when there is no tool offset), the named points of the chain (e.g.
+        ``"elbow"``, ``"wrist"``) and ``"joint0"`` … ``"joint{n-1}"`` (joint ``j``'s point
+        :math:`P_j` on its axis).
+        """
+        return ("tcp", "flange", *self._extra_points, *(f"joint{j}" for j in range(self._n)))
+
+    def _point_index(self, point: Any) -> int:
+        """Joint-point index of a named point (``n`` for the tcp, ``-1`` for the flange)."""
+        if isinstance(point, str):
+            if point == "tcp":
+                return self._n
+            if point == "flange":
+                return -1
+            if point in self._extra_points:
+                return self._extra_points[point]
+            if point.startswith("joint") and point[5:].isdigit():
+                j = int(point[5:])
+                if 0 <= j < self._n and point == f"joint{j}":
+                    return j
+        if not isinstance(point, str):
+            raise InvalidInput(f"point: expected a point name (str), got {type(point).__name__}")
+        shown = point if len(point) <= 40 else point[:37] + "..."
+        raise InvalidInput(f"point: expected one of {list(self.points)}, got {shown!r}")
+
+    def _flange(self, q: FloatArray, points: FloatArray) -> FloatArray:
+        """Origin of the last frame [m], (3,); the tool point unless a subclass has a tool."""
+        flange: FloatArray = points[self._n]
+        return flange
+
+    def _named(self, q: FloatArray, point: Any) -> tuple[FloatArray, int, FloatArray, FloatArray]:
+        """``(p (3,), k, points, axes)``: a named point and the number ``k`` of joints moving it."""
+        idx = self._point_index(point)
+        points, axes = self._points_and_axes(q)
+        if idx < 0:
+            return self._flange(q, points), self._n, points, axes
+        return points[idx], idx, points, axes
+
+    def fk(self, q: ArrayLike, point: str = "tcp") -> FloatArray:
+        """Position of a named point in the base frame (the ``Kinematics`` protocol).
+
+        Args:
+            q: Joint position [rad], shape (n,).
+            point: A name from :attr:`points` (default the tool point).
+
+        Returns:
+            Position [m], shape (task_dim,).
+
+        Raises:
+            InvalidInput: bad ``q`` or an unknown ``point``.
+        """
+        p, _, _, _ = self._named(self._q(q), point)
+        return np.array(p[: self._task_dim])
+
+    def jacobian(self, q: ArrayLike, point: str = "tcp") -> FloatArray:
+        r"""Linear-velocity Jacobian of a named point (the ``Kinematics`` protocol).
+
+        The point :math:`P_j` on joint ``j``'s axis is moved by joints ``0 … j-1`` (joint ``j``
+        turns about an axis through it), the flange and the tool point by every joint: columns
+        :math:`z_i \times (p - P_i)` for the joints that move it, zero for the others.
+
+        Args:
+            q: Joint position [rad], shape (n,).
+            point: A name from :attr:`points` (default the tool point).
+
+        Returns:
+            ``dp/dq`` [m/rad], shape (task_dim, n).
+
+        Raises:
+            InvalidInput: bad ``q`` or an unknown ``point``.
+        """
+        p, k, points, axes = self._named(self._q(q), point)
+        J = np.zeros((3, self._n))
+        if k > 0:
+            J[:, :k] = np.cross(axes[:k], p[None, :] - points[:k]).T
+        return np.array(J[: self._task_dim])
+
+    def angular_jacobian(self, q: ArrayLike) -> FloatArray:
+        """Angular-velocity Jacobian of the last body: its columns are the joint axes.
+
+        Args:
+            q: Joint position [rad], shape (n,).
+
+        Returns:
+            ``ω = J q̇`` [1], shape (3, n) (planar chains: every column ``(0, 0, 1)``).
+        """
+        _, axes = self._points_and_axes(self._q(q))
+        return np.array(axes.T)
+
 
 class PlanarArm(_ChainBase):
     r"""Planar arm of ``n`` revolute joints with parallel axes ``z``; ``task_dim = 2``.
@@ -326,6 +484,10 @@ class PlanarArm(_ChainBase):
             joint when ``None``.
         link_radius: Capsule radius of every link [m], a scalar or shape (n,), ``>= 0``.
         base: Position of joint 0 in the plane [m], shape (2,).
+        joint_names: Name of each joint, ``n`` distinct strings; ``"joint0"`` … when ``None``.
+
+    Named points (:attr:`points`): ``"tcp"`` and ``"flange"`` (both the tip :math:`P_n`) and
+    ``"joint0"`` … (the joint centres).
 
     Raises:
         InvalidGeometry: Bad lengths, radius or base.
@@ -339,6 +501,7 @@ class PlanarArm(_ChainBase):
         joint_limits: ArrayLike | None = None,
         link_radius: float | ArrayLike = 0.0,
         base: ArrayLike = (0.0, 0.0),
+        joint_names: tuple[str, ...] | None = None,
     ) -> None:
         lengths_a = real_array(
             "lengths",
@@ -363,6 +526,8 @@ class PlanarArm(_ChainBase):
         self._base = readonly(base_a)
         self._limits = _joint_limits(joint_limits, self._n, (-math.pi, math.pi))
         self._radius = _link_radius(link_radius, self._n)
+        self._joint_names = _joint_names(joint_names, self._n)
+        self._extra_points = {}
 
     @classmethod
     def three_r(cls, **kwargs: Any) -> PlanarArm:
@@ -428,6 +593,23 @@ _SEVEN_DOF_DH = (
     (0.0, 0.0, 0.126, 0.0),
 )
 _SEVEN_DOF_LIMITS_DEG = (170.0, 120.0, 170.0, 120.0, 170.0, 120.0, 175.0)
+# Universal Robots UR5e, standard DH as published by Universal Robots (DHChain.ur5e docstring).
+_UR5E_DH = (
+    (0.0, math.pi / 2.0, 0.1625, 0.0),
+    (-0.425, 0.0, 0.0, 0.0),
+    (-0.3922, 0.0, 0.0, 0.0),
+    (0.0, math.pi / 2.0, 0.1333, 0.0),
+    (0.0, -math.pi / 2.0, 0.0997, 0.0),
+    (0.0, 0.0, 0.0996, 0.0),
+)
+_UR5E_JOINTS = (
+    "shoulder_pan_joint",
+    "shoulder_lift_joint",
+    "elbow_joint",
+    "wrist_1_joint",
+    "wrist_2_joint",
+    "wrist_3_joint",
+)
 
 
 class DHChain(_ChainBase):
@@ -447,6 +629,16 @@ class DHChain(_ChainBase):
             joint when ``None``.
         link_radius: Capsule radius of every link [m], a scalar or shape (n,), ``>= 0``.
         tool: Tool point in the last DH frame ``n`` [m], shape (3,); its origin when ``None``.
+        joint_names: Name of each joint, ``n`` distinct strings; ``"joint0"`` … when ``None``.
+        named_points: Extra point names mapped to a joint-point index ``j`` (the point
+            :math:`P_j = o_j` on joint ``j``'s axis), e.g. ``{"elbow": 2, "wrist": 4}``.
+
+    Named points (:attr:`points`): ``"tcp"`` (:math:`P_n`), ``"flange"`` (:math:`o_n`, the
+    origin of the last DH frame, without the tool offset), ``"joint0"`` … ``"joint{n-1}"``
+    (:math:`P_j = o_j`) and ``named_points``. The factories name ``"elbow"`` (the joint point
+    at the elbow axis) and ``"wrist"`` (the wrist centre where the last axes meet, or for the
+    UR5e, whose wrist axes do not meet, the end of the forearm at the wrist 1 joint): the points
+    a workspace limit usually guards besides the tool.
 
     Raises:
         InvalidGeometry: Bad DH table, radius or tool.
@@ -460,6 +652,8 @@ class DHChain(_ChainBase):
         joint_limits: ArrayLike | None = None,
         link_radius: float | ArrayLike = 0.0,
         tool: ArrayLike | None = None,
+        joint_names: tuple[str, ...] | None = None,
+        named_points: Mapping[str, int] | None = None,
     ) -> None:
         dh_a = real_array(
             "dh",
@@ -490,6 +684,8 @@ class DHChain(_ChainBase):
         self._tool = readonly(tool_a)
         self._limits = _joint_limits(joint_limits, self._n, (-math.pi, math.pi))
         self._radius = _link_radius(link_radius, self._n)
+        self._joint_names = _joint_names(joint_names, self._n)
+        self._extra_points = _named_points(named_points, self._n)
 
     @classmethod
     def puma560(
@@ -526,7 +722,13 @@ class DHChain(_ChainBase):
         """
         if joint_limits is None:
             joint_limits = np.radians(np.array(_PUMA560_LIMITS_DEG))
-        return cls(_PUMA560_DH, joint_limits=joint_limits, link_radius=link_radius, tool=tool)
+        return cls(
+            _PUMA560_DH,
+            joint_limits=joint_limits,
+            link_radius=link_radius,
+            tool=tool,
+            named_points={"elbow": 2, "wrist": 4},
+        )
 
     @classmethod
     def seven_dof(
@@ -562,7 +764,59 @@ class DHChain(_ChainBase):
         if joint_limits is None:
             hi = np.radians(np.array(_SEVEN_DOF_LIMITS_DEG))
             joint_limits = np.stack([-hi, hi], axis=1)
-        return cls(_SEVEN_DOF_DH, joint_limits=joint_limits, link_radius=link_radius, tool=tool)
+        return cls(
+            _SEVEN_DOF_DH,
+            joint_limits=joint_limits,
+            link_radius=link_radius,
+            tool=tool,
+            named_points={"elbow": 3, "wrist": 5},
+        )
+
+    @classmethod
+    def ur5e(
+        cls,
+        *,
+        joint_limits: ArrayLike | None = None,
+        link_radius: float | ArrayLike = 0.0,
+        tool: ArrayLike | None = None,
+    ) -> DHChain:
+        r"""The Universal Robots UR5e, standard DH as published by Universal Robots.
+
+        Source: Universal Robots, "DH parameters for calculations of kinematics and dynamics"
+        (support article, universal-robots.com), UR5e column:
+
+        ============  ========  ========  ======
+        joint         a [m]     d [m]     alpha
+        ============  ========  ========  ======
+        1 (base)      0         0.1625    +π/2
+        2 (shoulder)  -0.425    0         0
+        3 (elbow)     -0.3922   0         0
+        4 (wrist 1)   0         0.1333    +π/2
+        5 (wrist 2)   0         0.0997    -π/2
+        6 (wrist 3)   0         0.0996    0
+        ============  ========  ========  ======
+
+        Joint names are the ones of the ``ur_robot_driver`` (``shoulder_pan_joint`` …
+        ``wrist_3_joint``); default limits ±2π on every joint (the controller's ±360°). The
+        tool point is the flange (frame 6) unless ``tool`` is given. Named points: ``"elbow"``
+        (joint 2's point, ``P_2``) and ``"wrist"`` (the wrist 1 joint at the forearm's end,
+        ``P_3``).
+
+        Args:
+            joint_limits: Overrides the default limits [rad], shape (6, 2).
+            link_radius: Capsule radius of every link [m], a scalar or shape (6,).
+            tool: Tool point in frame 6 (the flange) [m], shape (3,).
+        """
+        if joint_limits is None:
+            joint_limits = np.tile((-2.0 * math.pi, 2.0 * math.pi), (6, 1))
+        return cls(
+            _UR5E_DH,
+            joint_limits=joint_limits,
+            link_radius=link_radius,
+            tool=tool,
+            joint_names=_UR5E_JOINTS,
+            named_points={"elbow": 2, "wrist": 3},
+        )
 
     @property
     def dh(self) -> FloatArray:
@@ -610,3 +864,6 @@ class DHChain(_ChainBase):
         points[self._n] = T[self._n, :3, 3] + T[self._n, :3, :3] @ self._tool
         axes = np.array(T[: self._n, :3, 2])
         return points, axes
+
+    def _flange(self, q: FloatArray, points: FloatArray) -> FloatArray:
+        return np.array(self._frames(q)[self._n, :3, 3])

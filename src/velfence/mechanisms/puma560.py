@@ -168,7 +168,12 @@ class Puma560:
         dh[:, 3] -= offset
         if joint_limits is None:
             joint_limits = np.array(base.joint_limits) + offset[:, None]
-        self._chain = DHChain(dh, joint_limits=joint_limits, tool=flange[:3, 3])
+        self._chain = DHChain(
+            dh,
+            joint_limits=joint_limits,
+            tool=flange[:3, 3],
+            named_points={"elbow": 2, "wrist": 4},
+        )
         fu = base.dh
         self._a2 = float(fu[1, 0])
         self._a3 = float(fu[2, 0])
@@ -214,20 +219,52 @@ class Puma560:
     # ----------------------------------------------------------------------------------------
     # Forward kinematics, Jacobian, manipulability
     # ----------------------------------------------------------------------------------------
-    def fk(self, q: ArrayLike) -> FloatArray:
-        """Tool pose in the base frame (thesis eqs. 11-22 composed with the tool).
+    @property
+    def dof(self) -> int:
+        """Number of joints, 6."""
+        return 6
+
+    @property
+    def joint_names(self) -> tuple[str, ...]:
+        """Joint names ``"joint0"`` … ``"joint5"`` (the ``Kinematics`` protocol)."""
+        return self._chain.joint_names
+
+    @property
+    def points(self) -> tuple[str, ...]:
+        """Named points of :meth:`fk` and :meth:`jacobian` (the ``Kinematics`` protocol).
+
+        ``"tcp"`` (the tool point), ``"flange"`` (frame 6's origin, the wrist centre),
+        ``"elbow"`` (joint 2's point), ``"wrist"`` (the wrist centre) and ``"joint0"`` …
+        ``"joint5"`` (see :meth:`DHChain.fk`).
+        """
+        return self._chain.points
+
+    def fk(self, q: ArrayLike, point: str | None = None) -> FloatArray:
+        """Tool pose in the base frame (thesis eqs. 11-22 composed with the tool), or a point.
+
+        Without ``point`` this is the pose (the teleoperation code's use); with a point name it
+        is that point's position, as the ``Kinematics`` protocol of
+        :mod:`velfence.shaping.filter` asks (the safety filter always names the point).
 
         Args:
             q: Joint angles [rad], shape (6,), in this convention.
+            point: ``None`` for the tool pose, else a name from :attr:`points`.
 
         Returns:
-            Homogeneous transform ``[[R, p], [0, 1]]`` (p in [m]), shape (4, 4).
+            Homogeneous transform ``[[R, p], [0, 1]]`` (p in [m]), shape (4, 4); or with
+            ``point`` the position [m], shape (3,).
 
         Raises:
-            InvalidInput: ``q`` of the wrong shape or not finite.
+            InvalidInput: ``q`` of the wrong shape or not finite, or an unknown ``point``.
         """
+        if point is not None:
+            return self._chain.fk(q, point)
         T6: FloatArray = self._chain.frames(q)[6] @ self._flange
         return T6
+
+    def angular_jacobian(self, q: ArrayLike) -> FloatArray:
+        """Angular-velocity rows of :meth:`jacobian`: the joint axes, shape (3, 6)."""
+        return self._chain.angular_jacobian(q)
 
     def position(self, q: ArrayLike) -> FloatArray:
         """Tool point in the base frame.
@@ -240,8 +277,11 @@ class Puma560:
         """
         return np.array(self.fk(q)[:3, 3])
 
-    def jacobian(self, q: ArrayLike) -> FloatArray:
+    def jacobian(self, q: ArrayLike, point: str | None = None) -> FloatArray:
         r"""Base-frame geometric Jacobian of the tool point (thesis eqs. 28-31, "Jac0").
+
+        With a ``point`` name: that point's linear-velocity Jacobian (3, 6) instead, as the
+        ``Kinematics`` protocol asks (:meth:`DHChain.jacobian`).
 
         Column ``i`` is :math:`[z_{i-1} \times (p - o_{i-1});\ z_{i-1}]` with :math:`z_{i-1},
         o_{i-1}` the axis and origin of joint ``i`` and ``p`` the tool point, so
@@ -250,10 +290,14 @@ class Puma560:
 
         Args:
             q: Joint angles [rad], shape (6,).
+            point: ``None`` for the tool's 6 x 6 Jacobian, else a name from :attr:`points`.
 
         Returns:
-            ``J`` of shape (6, 6): rows 0-2 in [m/rad], rows 3-5 dimensionless.
+            ``J`` of shape (6, 6): rows 0-2 in [m/rad], rows 3-5 dimensionless; with ``point``
+            shape (3, 6) [m/rad].
         """
+        if point is not None:
+            return self._chain.jacobian(q, point)
         F = self._chain.frames(q)
         p = F[6, :3, :3] @ self._flange[:3, 3] + F[6, :3, 3]
         z = F[:6, :3, 2]
