@@ -347,7 +347,7 @@ def _nd_markdown(r: BenchReport) -> list[str]:
     s = r.settings
     out: list[str] = []
     if r.polytope:
-        out.append("## Single-call latency of `PolytopeShaper.shape` (n-D exact law)")
+        out.append("## n-D exact law: single-call latency of `PolytopeShaper.shape`")
         out.append(
             "Buffer and spring gain as above. `3-D box`: [-1, 1]³ (6 facets); `3-D icosahedron`: "
             "the regular icosahedron of circumradius 1 (20 facets); `7-D joint box`: the joint "
@@ -376,7 +376,7 @@ def _nd_markdown(r: BenchReport) -> list[str]:
             )
         )
     if r.polytope_qp:
-        out.append("## The n-D exact law against the same QP")
+        out.append("## n-D exact law against the same QP")
         out.append(
             "The law's own bound rows (`PolytopeShaper.bound_rows`, prebuilt: the QP times are "
             "the solver call alone) solved as `min ‖x − v‖² s.t. N x ≥ L`; free-zone states "
@@ -415,7 +415,7 @@ def _nd_markdown(r: BenchReport) -> list[str]:
             )
         )
     if r.polytope_batch:
-        out.append("## Batch throughput of `PolytopeShaper.shape_batch`")
+        out.append("## n-D exact law: batch throughput of `PolytopeShaper.shape_batch`")
         out.append(
             "Positions uniform in the polytope's bounding box grown by 10 %, standard-normal "
             "commands. numba: median of the timed calls (at least "
