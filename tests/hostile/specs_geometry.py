@@ -55,6 +55,8 @@ SPECS: dict[str, F | C] = {
         F(lambda: call(xmin=-1.0, xmax=1.0, ymin=-0.5, ymax=0.5)), {"contains": lambda: call(P2)}
     ),
     "geometry.decompose": F(lambda: call(V2, [0.0, 1.0])),
+    "geometry.project": F(lambda: call([1.0, 2.0], [[1.0, 0.0], [0.0, -1.0]], [0.0, -1.0])),
+    "geometry.Projection": C(record="output record of project()"),
     "geometry.inscribed_rectangle": F(lambda: call(square())),
     "geometry.polygon_from_halfplanes": F(
         lambda: call([[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]], [1.0, 1.0, 1.0, 1.0])

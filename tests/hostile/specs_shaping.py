@@ -37,6 +37,21 @@ def profile() -> vf.ThreeZoneBraking:
     return vf.ThreeZoneBraking(gain=4.0, max_speed=1.0, max_acceleration=2.0)
 
 
+def box3() -> vf.ConvexPolytope:
+    return vf.ConvexPolytope.box([-1.0, -1.0, -1.0], [1.0, 1.0, 1.0])
+
+
+_PT3 = np.array([0.95, 0.2, -0.1])
+_VT3 = np.array([0.5, -0.2, 0.1])
+_POLYTOPE_METHODS = {
+    "explain": lambda: call(_PT3, _VT3),
+    "shape": lambda: call(_PT3, _VT3),
+    "shape_batch": lambda: call(np.array([_PT3, -_PT3]), np.array([_VT3, _VT3])),
+    "zones_batch": lambda: call(np.array([_PT3, -_PT3]), np.array([_VT3, _VT3])),
+    "bound_rows": lambda: call(_PT3, _VT3),
+}
+
+
 def stop_limiter() -> vf.StopLimiter:
     return vf.StopLimiter(PAPER_STOPS, profile=profile(), transform=Q_AUX)
 
@@ -67,6 +82,15 @@ SPECS: dict[str, F | C] = {
             "bound_rows": lambda: call(P2, V2),
         },
     ),
+    # accelerate=False as for PolygonShaper (the compiled kernels see only validated arrays).
+    "shaping.PolytopeShaper": C(
+        F(
+            lambda: call(box3(), buffer=0.2, spring_gain=2.0, accelerate=False),
+            required=frozenset({"buffer"}),
+        ),
+        _POLYTOPE_METHODS,
+    ),
+    "shaping.PolytopeResult": C(record="output record of PolytopeShaper.explain()"),
     "shaping.RateLimiter": C(
         lambda: call(size=2, max_speed=1.0, max_acceleration=10.0, dt=0.001),
         {

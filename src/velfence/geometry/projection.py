@@ -18,7 +18,7 @@ constraint whose normal lies in their span is never added, so ``R`` stays invert
 
 The answer then meets every bound *as evaluated in floating point* (a repair step moves it along
 each bound that round-off left violated by a few ulps), which is what a safety filter has to
-promise. Derivation and tests: ``docs/derivations.md`` §6.
+promise. Derivation and tests: ``docs/derivations.md`` §7.
 
 :func:`project_kernel` is the plain-arithmetic kernel (loops over scalars and caller-provided
 scratch, no allocation): it runs as ordinary Python and is compiled unchanged by numba for the
@@ -308,7 +308,7 @@ def project(u: ArrayLike, G: ArrayLike, b: ArrayLike) -> Projection:
     Args:
         u: The point to project, shape (n,), finite.
         G: Constraint normals, shape (m, n), finite (rows need not be unit).
-        b: Lower bounds, shape (m,), finite or ``-inf`` (an ignored row).
+        b: Lower bounds, shape (m,), finite.
 
     Returns:
         A :class:`Projection`.
@@ -320,11 +320,18 @@ def project(u: ArrayLike, G: ArrayLike, b: ArrayLike) -> Projection:
     n = uu.shape[0]
     if n == 0:
         raise InvalidInput("u: expected at least one component, got shape (0,)")
-    GG = real_array("G", G, (None, n), what="constraint normals")
+    GG = real_array("G", G, (None, None), what="constraint normals")
+    if GG.shape[1] != n and GG.shape[0] > 0:
+        raise InvalidInput(
+            f"u and G disagree: u has {n} components, G has shape {GG.shape} (expected (m, {n}))"
+        )
+    GG = GG.reshape(-1, n)
     m = GG.shape[0]
-    bb = real_array("b", b, (m,), what="lower bounds", allow_nonfinite=True)
-    if np.isnan(bb).any() or (bb == np.inf).any():
-        raise InvalidInput("b: expected finite values or -inf (an ignored row), got NaN or +inf")
+    bb = real_array("b", b, (None,), what="lower bounds")
+    if bb.shape[0] != m:
+        raise InvalidInput(
+            f"b and G disagree: b has shape {bb.shape}, G has {m} rows (expected b of shape ({m},))"
+        )
     x = np.zeros(n)
     wsf, lam, act = projection_scratch(m, n)
     status, q, iters = project_kernel(uu, GG.ravel(), bb, m, n, x, lam, act, wsf)

@@ -105,7 +105,7 @@ def polytope_kernel(
     act: Any,
     wsf: Any,
 ) -> tuple[int, int, int, int, int, float, float, int]:
-    r"""Minimum-change velocity under one half-space bound per nearby facet (derivations §6).
+    r"""Minimum-change velocity under one half-space bound per nearby facet (derivations §7).
 
     :math:`v_o = \arg\min_x \|x - v\|^2` s.t. :math:`n_i\cdot x \ge L_i` for every bounded facet
     ``i``, with :math:`L_i` from :func:`~velfence.shaping._kernels.bounds_from_distances`

@@ -1,7 +1,7 @@
 r"""Velocity shaping inside a convex polytope of any dimension: the exact law in n-D.
 
 The 2-D exact law of :class:`~velfence.shaping.polygon.PolygonShaper` (derivations §3) carried to
-``n`` coordinates (derivations §6): one half-space bound per nearby facet,
+``n`` coordinates (derivations §7): one half-space bound per nearby facet,
 
 .. math::
     v_o = \arg\min_x \|x - v\|^2 \;\text{s.t.}\;
@@ -56,8 +56,8 @@ class PolytopeResult:
         binding: The facets whose bound holds with equality at the output (the projection's
             active set), in the order the solver took them.
         binding_names: Their names.
-        slack: :math:`n_i\cdot v_o - L_i` for every facet, shape (m,): 0 on a binding bound,
-            ``inf`` for a facet without a bound.
+        slack: :math:`n_i\cdot v_o - L_i` for every facet in ``active``, shape
+            (len(active),): 0 on a binding bound.
         distances: Signed distance to every facet, shape (m,), positive inside.
         stages: Names of the stages applied (``"exact-projection"``, ``"spring"``,
             ``"relaxed"``, ``"stop"``).
@@ -245,7 +245,10 @@ class PolytopeShaper(InvalidPolicy):
         return int(self._args[3])
 
     # ------------------------------------------------------------------ inputs
-    def _vectors(self, position: ArrayLike, command: ArrayLike) -> tuple[FloatArray, FloatArray]:
+    def _vectors(
+        self, position: ArrayLike, command: ArrayLike
+    ) -> tuple[FloatArray, FloatArray, bool]:
+        """Validated position and command, and whether both are finite."""
         n = self.dim
         if (
             type(position) is np.ndarray
@@ -260,10 +263,10 @@ class PolytopeShaper(InvalidPolicy):
             vals = position.tolist() + command.tolist()
             s = sum(vals)
             if s - s == 0.0 and max(map(abs, vals)) <= MAX_MAGNITUDE:
-                return position, command
+                return position, command, True
         p = real_array("position", position, (n,), what=f"a {n}-vector", allow_nonfinite=True)
         v = real_array("command", command, (n,), what=f"a {n}-vector", allow_nonfinite=True)
-        return p, v
+        return p, v, bool(np.isfinite(p).all() and np.isfinite(v).all())
 
     def _run(
         self, p: FloatArray, v: FloatArray, compiled: bool = True
@@ -368,12 +371,13 @@ class PolytopeShaper(InvalidPolicy):
         Raises:
             InvalidInput: wrong shape or type, or non-finite input with ``on_invalid="raise"``.
         """
-        p, v = self._vectors(position, command)
-        if not (np.isfinite(p).all() and np.isfinite(v).all()):
+        p, v, finite = self._vectors(position, command)
+        if not finite:
             self._invalid(f"non-finite input: position={p.tolist()}, command={v.tolist()}")
             return np.zeros(self.dim)
         out = self._run(p, v)[0]
-        if not np.isfinite(out).all():
+        s = sum(out.tolist())
+        if s - s != 0.0:
             self._invalid("input too large, the shaped velocity overflowed")
             return np.zeros(self.dim)
         return out
@@ -388,9 +392,9 @@ class PolytopeShaper(InvalidPolicy):
         Returns:
             A :class:`PolytopeResult`.
         """
-        p, v = self._vectors(position, command)
+        p, v, finite = self._vectors(position, command)
         nf = self._args[2]
-        if not (np.isfinite(p).all() and np.isfinite(v).all()):
+        if not finite:
             self._invalid(f"non-finite input: position={p.tolist()}, command={v.tolist()}")
             return self._stopped(p, v)
         out, res, active, dist, (bnd, work) = self._run(p, v)
@@ -403,10 +407,8 @@ class PolytopeShaper(InvalidPolicy):
         bounded = tuple(sorted(int(e) for e in list(work)[:m]))
         lower = np.array([bnd[e] for e in bounded], dtype=float)
         N = self.polytope.normals
-        slack = np.full(nf, math.inf)
-        if bounded:
-            idx = list(bounded)
-            slack[idx] = N[idx] @ out - lower
+        idx = list(bounded)
+        slack = N[idx] @ out - lower if bounded else np.zeros(0)
         zone: Zone = kern.ZONE_NAMES[zone_c]  # type: ignore[assignment]
         stages = tuple(n for bit, n in enumerate(kern.STAGE_NAMES) if stages_c & (1 << bit))
         return PolytopeResult(
@@ -429,9 +431,8 @@ class PolytopeShaper(InvalidPolicy):
         nf, dim = self._args[2], self._args[3]
         return PolytopeResult(
             output=np.zeros(dim), command=v, position=p, zone="invalid", active=(),
-            active_names=(), lower=np.zeros(0), binding=(), binding_names=(),
-            slack=np.full(nf, math.inf),
-            distances=np.full(nf, math.nan), stages=("stop",),
+            active_names=(), lower=np.zeros(0), binding=(), binding_names=(), slack=np.zeros(0),
+            distances=np.zeros(nf), stages=("stop",),
         )  # fmt: skip
 
     def shape_batch(self, positions: ArrayLike, commands: ArrayLike) -> FloatArray:
@@ -464,9 +465,14 @@ class PolytopeShaper(InvalidPolicy):
                 f"positions and commands must have the same shape (N, {n}), got {P.shape} and "
                 f"{V.shape}"
             )
-        good: BoolArray = np.asarray(np.isfinite(P).all(axis=1) & np.isfinite(V).all(axis=1))
+        ok_p = np.isfinite(P).all(axis=1)
+        ok_v = np.isfinite(V).all(axis=1)
+        good: BoolArray = np.asarray(ok_p & ok_v)
         if not good.all():
-            self._invalid(f"non-finite input in row(s) {np.flatnonzero(~good)[:10].tolist()}")
+            which = " and ".join(
+                n for n, o in (("positions", ok_p), ("commands", ok_v)) if not o.all()
+            )
+            self._invalid(f"non-finite {which} in row(s) {np.flatnonzero(~good)[:10].tolist()}")
             P = np.where(good[:, None], P, 0.0)
             V = np.where(good[:, None], V, 0.0)
         out = np.zeros_like(P)
