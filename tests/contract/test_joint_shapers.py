@@ -58,6 +58,27 @@ def _line_fixture(kind: str, **overrides):
     return LineFixture(point, direction, **{**kw, **overrides})
 
 
+def _safety_filter(**overrides):
+    from velfence.geometry.polytope import ConvexPolytope
+    from velfence.mechanisms.chain import DHChain
+    from velfence.shaping.filter import JointLimits, SafetyFilter, SphereObstacle, WorkspaceLimit
+
+    arm = DHChain.seven_dof(link_radius=0.04)
+    lim = arm.joint_limits
+    limits = JointLimits(lim[:, 0], lim[:, 1], np.full(7, 2.0), max_acceleration=np.full(7, 10.0))
+    # The contract's states (π/2 ± 0.9 on every joint) put the tool around this box and the
+    # elbow near the sphere, some joints past their limits.
+    box = ConvexPolytope.box([-0.6, -0.6, 0.0], [0.6, 0.6, 0.9])
+    kw = {
+        "limits": limits,
+        "workspace": WorkspaceLimit(box, buffer=0.1),
+        "obstacles": [SphereObstacle([0.0, 0.3, 0.5], radius=0.1)],
+        "obstacle_buffer": 0.1,
+        **overrides,
+    }
+    return SafetyFilter(arm, **kw)
+
+
 def _polytope(kind: str):
     def make(**overrides):
         from velfence import ConvexPolytope, PolytopeShaper
@@ -88,6 +109,7 @@ FACTORIES = [
     ("line-scaling", lambda **kw: _line_fixture("scaling", **kw), 3, 3),
     ("line-fixture", lambda **kw: _line_fixture("fixture", **kw), 3, 3),
     ("line-fixture-segment", lambda **kw: _line_fixture("segment", **kw), 3, 3),
+    ("safety-filter", _safety_filter, 7, 7),
     ("polytope-buffer", _polytope("buffer"), 3, 3),
     ("polytope-dt", _polytope("dt"), 3, 3),
     ("polytope-three-zone", _polytope("three-zone"), 3, 3),
@@ -116,7 +138,7 @@ def test_output_finite_and_explain_agrees(name, make, dim, cdim):
 
 #: The shapers of velfence.shaping: their explain() satisfies the typed result contract. (The
 #: redundancy controllers report zones and stages of their own.)
-TYPED = [f for f in FACTORIES if f[0].startswith(("stops-", "line-", "polytope-"))]
+TYPED = [f for f in FACTORIES if f[0].startswith(("stops-", "line-", "polytope-", "safety-"))]
 
 
 @pytest.mark.parametrize(("name", "make", "dim", "cdim"), TYPED, ids=[f[0] for f in TYPED])
@@ -177,9 +199,9 @@ def test_wrong_shapes_are_refused(name, make, dim, cdim):
 def test_tuning_parameters_are_keyword_only(name, make, dim, cdim):
     params = list(inspect.signature(type(make()).__init__).parameters.values())[1:]
     positional = [p.name for p in params if p.kind is not inspect.Parameter.KEYWORD_ONLY]
-    # Only the model may be positional (the stops, the kinematic chain and its obstacles, the
-    # fixture's line).
-    model = {"stops", "chain", "obstacles", "line_point", "line_direction", "polytope"}
+    # Only the model may be positional (the stops, the kinematic chain or robot and its
+    # obstacles, the fixture's line, the polytope).
+    model = {"stops", "chain", "robot", "obstacles", "line_point", "line_direction", "polytope"}
     assert set(positional) <= model, positional
     assert any(p.kind is inspect.Parameter.KEYWORD_ONLY for p in params)
 

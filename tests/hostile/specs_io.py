@@ -2,7 +2,23 @@
 
 from __future__ import annotations
 
+import tempfile
+from pathlib import Path
+
 from harness import C, F, call
+
+
+def _joint_limits_file() -> Path:
+    """A valid one-joint ros2_control joint_limits file."""
+    p = Path(tempfile.mkdtemp()) / "joint_limits.yaml"
+    p.write_text(
+        "joint_limits:\n  a:\n    has_position_limits: true\n    min_position: -1.0\n"
+        "    max_position: 1.0\n    has_velocity_limits: true\n    max_velocity: 1.0\n"
+        "    has_acceleration_limits: false\n    max_acceleration: 0.0\n",
+        encoding="utf-8",
+    )
+    return p
+
 
 SPECS: dict[str, F | C] = {
     "io.DemoConfig": C(
@@ -22,5 +38,8 @@ SPECS: dict[str, F | C] = {
         )
     ),
     "io.load_config": F(lambda: call(None), types={"path": "path"}),
+    "io.load_joint_limits": F(
+        lambda: call(_joint_limits_file(), ["a"]), types={"path": "path", "joint_names": "object"}
+    ),
     "io.check_run_length": F(lambda: call(1.0, 0.001), types={"duration_name": "text"}),
 }

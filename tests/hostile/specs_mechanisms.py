@@ -26,6 +26,10 @@ _CHAIN_METHODS = {
 def _chain(q: np.ndarray) -> dict[str, F]:
     out: dict[str, F] = {m: F(lambda q=q: call(q)) for m in _CHAIN_METHODS}
     out["point_jacobian"] = F(lambda q=q: call(q, 1, 0.5), types={"t": "scalar", "link": "seed"})
+    # the Kinematics protocol of the safety filter: a named point (a choice among robot.points)
+    out["fk"] = F(lambda q=q: call(q, "joint1"), types={"point": "choice"})
+    out["jacobian"] = F(lambda q=q: call(q, "joint1"), types={"point": "choice"})
+    out["angular_jacobian"] = F(lambda q=q: call(q))
     return out
 
 
@@ -45,17 +49,19 @@ SPECS: dict[str, F | C] = {
             "frames": lambda: call([0.3, 0.4]),
             "puma560": lambda: call(),
             "seven_dof": lambda: call(),
+            "ur5e": lambda: call(),
         },
     ),
     "mechanisms.Puma560": C(
         lambda: call(),
         {
             "configuration": lambda: call(_Q6),
-            "fk": lambda: call(_Q6),
+            "angular_jacobian": lambda: call(_Q6),
+            "fk": F(lambda: call(_Q6, "elbow"), types={"point": "choice"}),
             "ik": lambda: call(pose()),
             "ik_all": lambda: call(pose()),
             "ik_nearest": lambda: call(pose(), _Q6),
-            "jacobian": lambda: call(_Q6),
+            "jacobian": F(lambda: call(_Q6, "wrist"), types={"point": "choice"}),
             "manipulability": lambda: call(_Q6),
             "position": lambda: call(_Q6),
             "within_limits": lambda: call(_Q6),

@@ -32,6 +32,56 @@ _THETA = np.array([0.2, 0.1, 0.0])
 _THETA_DOT = np.array([0.5, -0.2, 0.1])
 
 
+_Q7 = np.array([0.1, 0.6, 0.0, -1.2, 0.0, 0.8, 0.0])
+_QD7 = np.array([0.3, -0.2, 0.1, 0.0, 0.5, -0.4, 0.2])
+
+
+def _arm() -> object:
+    from velfence.mechanisms import DHChain
+
+    return DHChain.seven_dof(link_radius=0.04)
+
+
+def _limits() -> object:
+    from velfence.shaping import JointLimits
+
+    lo = np.radians([-170.0, -120.0, -170.0, -120.0, -170.0, -120.0, -175.0])
+    return JointLimits(lo, -lo, np.full(7, 1.5), max_acceleration=np.full(7, 10.0))
+
+
+def _box() -> object:
+    from velfence.geometry.polytope import ConvexPolytope
+
+    return ConvexPolytope.box([-0.3, -0.3, 0.8], [0.3, 0.3, 1.3])
+
+
+def safety_filter() -> object:
+    from velfence.shaping import SafetyFilter, SphereObstacle, WorkspaceLimit
+
+    return SafetyFilter(
+        _arm(),  # type: ignore[arg-type]
+        limits=_limits(),  # type: ignore[arg-type]
+        workspace=WorkspaceLimit(_box(), buffer=0.05),
+        obstacles=[SphereObstacle([0.0, 0.3, 0.6], radius=0.05)],
+        dt=0.002,
+    )
+
+
+_ROS2 = {
+    "joint_limits": {
+        "a": {
+            "has_position_limits": True,
+            "min_position": -1.0,
+            "max_position": 1.0,
+            "has_velocity_limits": True,
+            "max_velocity": 1.0,
+            "has_acceleration_limits": False,
+            "max_acceleration": 0.0,
+        }
+    }
+}
+
+
 def profile() -> vf.ThreeZoneBraking:
     """A valid braking profile (max_speed above max_acceleration/gain, as the profile requires)."""
     return vf.ThreeZoneBraking(gain=4.0, max_speed=1.0, max_acceleration=2.0)
@@ -126,4 +176,37 @@ SPECS: dict[str, F | C] = {
     "shaping.FixtureResult": C(record="output record of LineFixture.explain()"),
     "shaping.ScalingResult": C(record="output record of LineScaling.explain()"),
     "shaping.StopResult": C(record="output record of StopLimiter.explain()"),
+    "shaping.Kinematics": C(abstract="Protocol: exercised through DHChain, PlanarArm, Puma560"),
+    "shaping.FilterResult": C(record="output record of SafetyFilter.explain()"),
+    "shaping.JointLimits": C(
+        F(
+            lambda: call([-1.0, -2.0], [1.0, 2.0], [1.0, 0.5], max_acceleration=[5.0, 4.0]),
+            types={"lower": "vector", "upper": "vector", "max_velocity": "vector"},
+        ),
+        {
+            "from_ros2_control": F(
+                lambda: call(_ROS2, ["a"]), types={"mapping": "object", "joint_names": "object"}
+            )
+        },
+    ),
+    "shaping.WorkspaceLimit": C(F(lambda: call(_box(), buffer=0.05), types={"point": "text"})),
+    "shaping.SphereObstacle": C(
+        F(lambda: call([0.0, 0.3, 0.6], radius=0.05), types={"radius": "nonneg"})
+    ),
+    "shaping.SafetyFilter": C(
+        F(
+            lambda: call(_arm(), limits=_limits(), dt=0.002),
+            types={"robot": "object", "limits": "object", "weights": "vector"},
+        ),
+        {
+            "explain": lambda: call(_Q7, _QD7),
+            "filter": lambda: call(_Q7, _QD7),
+            "explain_twist": F(lambda: call(_Q7, [0.1, 0.0, 0.2]), types={"point": "choice"}),
+            "filter_twist": F(lambda: call(_Q7, [0.1, 0.0, 0.2]), types={"point": "choice"}),
+            "reset": lambda: call(),
+            "shape": lambda: call(_Q7, _QD7),
+            "shape_batch": lambda: call(np.array([_Q7, _Q7]), np.array([_QD7, -_QD7])),
+        },
+        instance=safety_filter,
+    ),
 }

@@ -41,7 +41,11 @@ from velfence._validate import MAX_STEPS, _show, check_positive_int, check_text,
 from velfence.errors import InvalidParameter
 
 if TYPE_CHECKING:
+    from collections.abc import Sequence
+
     import yaml
+
+    from velfence.shaping.limits import JointLimits
 
 __all__ = [
     "DEFAULT_MAX_STEPS",
@@ -59,6 +63,7 @@ __all__ = [
     "WaypointSpec",
     "check_run_length",
     "load_config",
+    "load_joint_limits",
 ]
 
 #: Largest accepted config file [bytes] (a full scenario with 1000 corners is about 50 KiB).
@@ -580,3 +585,49 @@ def load_config(
     except InvalidParameter as exc:
         raise InvalidParameter(f"invalid {where}: {exc}") from None
     return cfg
+
+
+def load_joint_limits(path: str | Path, joint_names: Sequence[str]) -> JointLimits:
+    """Joint limits from a ros2_control ``joint_limits`` YAML file, checked against a robot.
+
+    The file (read with the same narrow YAML reader as :func:`load_config`) holds::
+
+        joint_limits:
+          shoulder_pan_joint:
+            has_position_limits: true
+            min_position: -6.28
+            max_position: 6.28
+            has_velocity_limits: true
+            max_velocity: 3.14
+            has_acceleration_limits: false
+            max_acceleration: 0.0
+
+    one entry per joint; see :meth:`velfence.shaping.limits.JointLimits.from_ros2_control` for
+    the fields. The joints must be exactly ``joint_names`` (typically ``robot.joint_names``): a
+    file for another robot (a 7-joint default on a 6-joint arm) is refused, naming the missing
+    and the extra joints.
+
+    Args:
+        path: The YAML file.
+        joint_names: The robot's joint names, in order.
+
+    Returns:
+        The :class:`~velfence.shaping.limits.JointLimits`, in the order of ``joint_names``.
+
+    Raises:
+        InvalidParameter: the file is missing, too large, not UTF-8 or not plain YAML, or its
+            joints or fields are wrong (the message names the file, the joint and the field).
+    """
+    from velfence.shaping.limits import JointLimits
+
+    p = _path(path)
+    loaded = _parse(p, _read_text(p))
+    if not isinstance(loaded, dict) or "joint_limits" not in loaded:
+        got = type(loaded).__name__ if not isinstance(loaded, dict) else f"keys {list(loaded)}"
+        raise InvalidParameter(
+            f"joint limits file {p}: expected a mapping with a 'joint_limits' key, got {got}"
+        )
+    try:
+        return JointLimits._from_ros2(loaded, joint_names)
+    except InvalidParameter as exc:
+        raise InvalidParameter(f"joint limits file {p}: {exc}") from None

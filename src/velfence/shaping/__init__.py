@@ -13,6 +13,7 @@ joint-stop limiter and the n-D polytope shaper do the same on n-vectors.
 
 from velfence.shaping._kernels import STAGE_NAMES, ZONE_NAMES
 from velfence.shaping.base import Shaper, ShaperResult, ShapingResult
+from velfence.shaping.filter import FilterResult, Kinematics, SafetyFilter
 from velfence.shaping.fixtures import (
     OMNI_CONTINUOUS_FORCE,
     OMNI_MAX_FORCE,
@@ -21,6 +22,7 @@ from velfence.shaping.fixtures import (
     LineScaling,
     ScalingResult,
 )
+from velfence.shaping.limits import JointLimits, SphereObstacle, WorkspaceLimit
 from velfence.shaping.polygon import PolygonShaper
 from velfence.shaping.polytope import PolytopeResult, PolytopeShaper
 from velfence.shaping.profiles import ApproachProfile, LinearBuffer, ThreeZoneBraking
@@ -33,7 +35,10 @@ __all__ = [
     "STAGE_NAMES",
     "ZONE_NAMES",
     "ApproachProfile",
+    "FilterResult",
     "FixtureResult",
+    "JointLimits",
+    "Kinematics",
     "LineFixture",
     "LineScaling",
     "LinearBuffer",
@@ -41,11 +46,14 @@ __all__ = [
     "PolytopeResult",
     "PolytopeShaper",
     "RateLimiter",
+    "SafetyFilter",
     "ScalingResult",
     "Shaper",
     "ShaperResult",
     "ShapingResult",
+    "SphereObstacle",
     "StopLimiter",
     "StopResult",
     "ThreeZoneBraking",
+    "WorkspaceLimit",
 ]

@@ -44,7 +44,7 @@ bounds; zero velocity (which meets every relaxed bound). The result names what w
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any, Protocol, runtime_checkable
 
@@ -55,9 +55,7 @@ from velfence._typing import FloatArray
 from velfence._validate import (
     MAX_MAGNITUDE,
     check_positive,
-    check_text,
     describe,
-    finite_scalar,
     readonly,
     real_array,
 )
@@ -65,11 +63,12 @@ from velfence.errors import InvalidInput, InvalidParameter
 from velfence.shaping._kernels import (
     STAGE_NAMES,
     ZONE_NAMES,
+    bounds_from_distances,
     fill_bounds,
-    profile_cap,
     zone_code,
 )
 from velfence.shaping.base import InvalidPolicy, OnInvalid, Zone
+from velfence.shaping.limits import JointLimits, Profile, SphereObstacle, WorkspaceLimit
 from velfence.shaping.profiles import LinearBuffer, ThreeZoneBraking
 
 __all__ = [
@@ -93,7 +92,6 @@ LEVEL_NAMES = ("joint limits", "workspace", "obstacles", "acceleration")
 _BINDING = 1e-9  # relative slack under which a row counts as active
 _CORRECTION_ROUNDS = 4  # discrete-time model checks per cycle
 
-Profile = LinearBuffer | ThreeZoneBraking
 # The metric's factor L (W = L Lᵀ): None (identity), a vector (diagonal) or a lower-triangular
 # matrix.
 _Metric = FloatArray | None
@@ -109,8 +107,8 @@ class Kinematics(Protocol):
 
     Obstacles additionally need the capsule geometry of
     :class:`~velfence.mechanisms.chain.SerialChain`: ``link_segments(q)`` (L, 2, 3),
-    ``link_radius`` (L,) and ``point_jacobian(q, link, t)`` (3, dof); a twist of shape (6,)
-    needs ``angular_jacobian(q)`` (3, dof).
+    ``link_radius`` (L,), ``point_jacobian(q, link, t)`` (3, dof) and ``joint_positions(q)``; a
+    twist of shape (6,) needs ``angular_jacobian(q)`` (3, dof).
     """
 
     @property
@@ -135,282 +133,6 @@ class Kinematics(Protocol):
     def jacobian(self, q: ArrayLike, point: str = "tcp") -> FloatArray:
         """Linear-velocity Jacobian of a named point [m/rad], shape (task_dim, dof)."""
         ...
-
-
-# ---------------------------------------------------------------------------------- limits
-def _vector(name: str, x: Any, n: int | None, what: str, *, nonfinite: bool = False) -> FloatArray:
-    a = real_array(
-        name, x, (n,), error=InvalidParameter, what=what, allow_nonfinite=nonfinite, max_abs=None
-    )
-    if np.isnan(a).any():
-        raise InvalidParameter(f"{name}: expected {what}, got NaN in {a.tolist()}")
-    big = np.isfinite(a) & (np.abs(a) > MAX_MAGNITUDE)
-    if big.any():
-        raise InvalidParameter(f"{name}: expected magnitudes <= {MAX_MAGNITUDE:g}, got {a[big]}")
-    return a
-
-
-@dataclass(frozen=True)
-class JointLimits:
-    """Position, velocity and (optional) acceleration limits of every joint.
-
-    Attributes:
-        lower: Lower position limit of each joint [rad], shape (n,); ``-inf``: none.
-        upper: Upper position limit [rad], shape (n,), ``> lower``; ``+inf``: none.
-        max_velocity: Largest joint speed [rad/s], shape (n,), finite and > 0 (a scalar is
-            repeated).
-        max_acceleration: Largest joint acceleration [rad/s²], shape (n,), > 0, ``inf`` for a
-            joint without one; ``None`` (the default): none on any joint.
-        names: One name per joint, or ``None``; when given, a :class:`SafetyFilter` checks it
-            against the robot's ``joint_names``.
-
-    Raises:
-        InvalidParameter: wrong shapes, NaN, ``lower >= upper``, non-positive or infinite
-            speeds, non-positive accelerations, or names of the wrong number.
-    """
-
-    lower: FloatArray
-    upper: FloatArray
-    max_velocity: FloatArray
-    max_acceleration: FloatArray | None = None
-    names: tuple[str, ...] | None = None
-
-    def __post_init__(self) -> None:
-        lo = _vector("lower", self.lower, None, "lower limits [rad] of shape (n,)", nonfinite=True)
-        n = lo.shape[0]
-        if n < 1:
-            raise InvalidParameter("lower: expected at least one joint, got shape (0,)")
-        hi = _vector("upper", self.upper, n, f"upper limits [rad] of shape ({n},)", nonfinite=True)
-        if lo.max() == math.inf or hi.min() == -math.inf:
-            raise InvalidParameter(
-                "lower, upper: expected lower < +inf and upper > -inf (infinite limits mean no "
-                f"limit on that side), got lower={lo.tolist()}, upper={hi.tolist()}"
-            )
-        bad = np.flatnonzero(~(hi > lo))
-        if bad.size:
-            j = int(bad[0])
-            raise InvalidParameter(
-                f"upper: expected upper > lower on every joint, got upper[{j}]={hi[j]!r} <= "
-                f"lower[{j}]={lo[j]!r}"
-            )
-        vraw: Any = self.max_velocity
-        if isinstance(vraw, (int, float, np.integer, np.floating)) and not isinstance(vraw, bool):
-            vraw = np.full(n, check_positive("max_velocity", vraw, unit="rad/s"))
-        v = _vector("max_velocity", vraw, n, f"joint speeds [rad/s] of shape ({n},)")
-        if not np.all(v > 0.0):
-            raise InvalidParameter(f"max_velocity: expected speeds > 0 [rad/s], got {v.tolist()}")
-        acc: FloatArray | None = None
-        if self.max_acceleration is not None:
-            araw: Any = self.max_acceleration
-            if isinstance(araw, (int, float, np.integer, np.floating)) and not isinstance(
-                araw, bool
-            ):
-                araw = np.full(n, float(araw))
-            acc = _vector(
-                "max_acceleration", araw, n, f"accelerations [rad/s²] of shape ({n},)",
-                nonfinite=True,
-            )  # fmt: skip
-            if not np.all(acc > 0.0):
-                raise InvalidParameter(
-                    f"max_acceleration: expected accelerations > 0 [rad/s²] (inf: none), got "
-                    f"{acc.tolist()}"
-                )
-            acc = readonly(acc)
-        names = None
-        raw_names: Any = self.names
-        if raw_names is not None:
-            if isinstance(raw_names, (str, bytes)) or not isinstance(raw_names, (list, tuple)):
-                raise InvalidParameter(
-                    f"names: expected {n} joint names, got {describe(raw_names)}"
-                )
-            names = tuple(check_text("names", s, max_length=200) for s in raw_names)
-            if len(names) != n or len(set(names)) != n:
-                raise InvalidParameter(
-                    f"names: expected {n} distinct joint names, got {len(names)}: {list(names)}"
-                )
-        object.__setattr__(self, "lower", readonly(lo))
-        object.__setattr__(self, "upper", readonly(hi))
-        object.__setattr__(self, "max_velocity", readonly(v))
-        object.__setattr__(self, "max_acceleration", acc)
-        object.__setattr__(self, "names", names)
-
-    @property
-    def dof(self) -> int:
-        """Number of joints."""
-        return int(self.lower.shape[0])
-
-    @classmethod
-    def from_ros2_control(
-        cls, mapping: Mapping[str, Any], joint_names: Sequence[str]
-    ) -> JointLimits:
-        """Limits from a ros2_control ``joint_limits`` mapping, ordered as ``joint_names``.
-
-        The mapping is ``{"joint_limits": {name: {...}}}`` (the YAML file's document) or the
-        inner ``{name: {...}}``; each joint's entry has ``has_position_limits``,
-        ``min_position``, ``max_position``, ``has_velocity_limits``, ``max_velocity``,
-        ``has_acceleration_limits``, ``max_acceleration`` (a limit's value is only read when its
-        ``has_…`` flag is true). The joints must be exactly ``joint_names``: a missing or an
-        extra joint is refused (a 7-joint file on a 6-joint arm, say), and so is a joint without
-        a velocity limit (the filter needs every joint's speed).
-
-        Args:
-            mapping: The parsed document.
-            joint_names: The robot's joint names, in order.
-
-        Returns:
-            The limits (``names`` = ``joint_names``).
-
-        Raises:
-            InvalidParameter: wrong structure, joint set or values (the message names the
-                joint and the field).
-        """
-        names = tuple(check_text("joint_names", s, max_length=200) for s in joint_names)
-        if not isinstance(mapping, Mapping):
-            raise InvalidParameter(
-                f"joint_limits: expected a mapping of joint names, got {describe(mapping)}"
-            )
-        inner = mapping.get("joint_limits", mapping)
-        if not isinstance(inner, Mapping):
-            raise InvalidParameter(
-                f"joint_limits: expected a mapping of joint names, got {describe(inner)}"
-            )
-        keys = [str(k) for k in inner]
-        missing = [s for s in names if s not in inner]
-        extra = [k for k in keys if k not in names]
-        if missing or extra:
-            raise InvalidParameter(
-                f"joint_limits: expected the robot's {len(names)} joints {list(names)}, got "
-                f"{len(keys)} joint(s) {keys} (missing {missing}, not on this robot {extra})"
-            )
-        n = len(names)
-        lo, hi = np.full(n, -math.inf), np.full(n, math.inf)
-        vel, acc = np.zeros(n), np.full(n, math.inf)
-        for j, s in enumerate(names):
-            entry = inner[s]
-            if not isinstance(entry, Mapping):
-                raise InvalidParameter(
-                    f"joint_limits.{s}: expected a mapping of limit fields, got {describe(entry)}"
-                )
-            if _flag(entry, s, "has_position_limits"):
-                lo[j] = _number(entry, s, "min_position", "rad")
-                hi[j] = _number(entry, s, "max_position", "rad")
-            if not _flag(entry, s, "has_velocity_limits"):
-                raise InvalidParameter(
-                    f"joint_limits.{s}.has_velocity_limits: expected true (the safety filter "
-                    "needs every joint's max_velocity), got false"
-                )
-            vel[j] = _number(entry, s, "max_velocity", "rad/s")
-            if _flag(entry, s, "has_acceleration_limits"):
-                acc[j] = _number(entry, s, "max_acceleration", "rad/s²")
-        try:
-            return cls(
-                lo,
-                hi,
-                vel,
-                acc if np.isfinite(acc).any() else None,
-                names=names,
-            )
-        except InvalidParameter as exc:
-            raise InvalidParameter(f"joint_limits: {exc}") from None
-
-
-def _flag(entry: Mapping[str, Any], joint: str, key: str) -> bool:
-    if key not in entry:
-        raise InvalidParameter(f"joint_limits.{joint}.{key}: missing (expected true or false)")
-    v = entry[key]
-    if not isinstance(v, bool):
-        raise InvalidParameter(f"joint_limits.{joint}.{key}: expected true or false, got {v!r}")
-    return v
-
-
-def _number(entry: Mapping[str, Any], joint: str, key: str, unit: str) -> float:
-    if key not in entry:
-        raise InvalidParameter(f"joint_limits.{joint}.{key}: missing (expected a number [{unit}])")
-    return finite_scalar(
-        f"joint_limits.{joint}.{key}", entry[key], unit=unit, error=InvalidParameter
-    )
-
-
-# ---------------------------------------------------------------------------------- geometry
-@dataclass(frozen=True)
-class WorkspaceLimit:
-    """A convex polytope a named point of the robot must stay in.
-
-    Attributes:
-        polytope: The allowed region (a :class:`~velfence.geometry.polytope.ConvexPolytope` in
-            the robot's task space: 3-D, or 2-D for a ``PlanarArm``) [m].
-        point: The guarded point (a name of the robot's ``points``), default ``"tcp"``.
-        buffer: Width of the linear buffer inside every facet [m], > 0: the point's approach
-            speed toward a facet at distance ``d < buffer`` is at most ``s d / buffer``, ``s``
-            the commanded speed of the point (the exact law's buffer).
-        spring_gain: Recovery gain outside [1/s], >= 0.
-        max_recovery_speed: Cap on the recovery speed [m/s]; default ``spring_gain * buffer``.
-        profile: An approach profile instead of the linear buffer (``LinearBuffer`` or
-            ``ThreeZoneBraking``, in metres).
-
-    Raises:
-        InvalidParameter: a non-polytope, a non-string point or a bad buffer/gain/profile.
-    """
-
-    polytope: Any
-    point: str = "tcp"
-    buffer: float = 0.05
-    spring_gain: float = 1.0
-    max_recovery_speed: float | None = None
-    profile: Profile | None = None
-
-    def __post_init__(self) -> None:
-        from velfence.geometry.polytope import ConvexPolytope
-
-        if not isinstance(self.polytope, ConvexPolytope):
-            raise InvalidParameter(
-                f"polytope: expected a ConvexPolytope, got {describe(self.polytope)}"
-            )
-        object.__setattr__(self, "point", check_text("point", self.point, max_length=200))
-        if self.profile is None:
-            prof: Profile = LinearBuffer(
-                buffer=self.buffer,
-                spring_gain=self.spring_gain,
-                max_recovery_speed=self.max_recovery_speed,
-            )
-        elif isinstance(self.profile, (LinearBuffer, ThreeZoneBraking)):
-            prof = self.profile
-        else:
-            raise InvalidParameter(
-                f"profile: expected a LinearBuffer or ThreeZoneBraking, got "
-                f"{describe(self.profile)}"
-            )
-        object.__setattr__(self, "profile", prof)
-
-
-@dataclass(frozen=True)
-class SphereObstacle:
-    """A spherical obstacle no capsule link may enter.
-
-    Attributes:
-        center: Centre [m], shape (3,) (a (2,) centre of a planar scene gets z = 0).
-        radius: Radius [m], >= 0.
-        name: Optional label for reports.
-
-    Raises:
-        InvalidParameter: a bad centre or radius, or a non-string name.
-    """
-
-    center: FloatArray
-    radius: float
-    name: str | None = None
-
-    def __post_init__(self) -> None:
-        c = real_array("center", self.center, error=InvalidParameter, what="2 or 3 numbers [m]")
-        if c.shape not in ((2,), (3,)):
-            raise InvalidParameter(f"center: expected shape (2,) or (3,) [m], got shape {c.shape}")
-        if c.shape == (2,):
-            c = np.append(c, 0.0)
-        object.__setattr__(self, "center", readonly(c))
-        r = check_positive("radius", self.radius, allow_zero=True, unit="m")
-        object.__setattr__(self, "radius", r)
-        if self.name is not None:
-            object.__setattr__(self, "name", check_text("name", self.name, max_length=200))
 
 
 # ---------------------------------------------------------------------------------- result
@@ -438,6 +160,8 @@ class FilterResult:
         dropped: Levels dropped or relaxed to reach feasibility: ``"acceleration"``,
             ``"obstacles"``, ``"workspace"``, ``"joint limits"`` (relaxed only).
         rate_override: Whether the acceleration rows were dropped (safety over smoothness).
+        rows: ``(G (m, n), b (m,))``: the rows ``G x >= b`` as built this cycle, before any
+            relaxation or discrete-time tightening (read-only).
         method: ``"safety-filter"``.
     """
 
@@ -452,15 +176,8 @@ class FilterResult:
     stages: tuple[str, ...]
     dropped: tuple[str, ...]
     rate_override: bool
+    rows: tuple[FloatArray, FloatArray]
     method: str = "safety-filter"
-    _rows: tuple[FloatArray, FloatArray] | None = field(default=None, repr=False)
-
-    @property
-    def rows(self) -> tuple[FloatArray, FloatArray]:
-        """``(G (m, n), b (m,))``: the rows as built this cycle (before any relaxation)."""
-        if self._rows is None:
-            return np.zeros((0, self.output.shape[0])), np.zeros(0)
-        return self._rows
 
 
 @dataclass
@@ -482,27 +199,47 @@ class _Rows:
         return len(self.b) - 1
 
 
-def _bounds(prm: Profile, dist: FloatArray, speed: FloatArray, idt: float) -> FloatArray:
+def _bounds(prm: Profile, dist: FloatArray, speed: float, idt: float) -> FloatArray:
     """Lower bounds on the approach rate ``n·x`` toward constraints at distances ``dist``.
 
-    The exact law's bound definition (``exact_bounds`` / ``fill_bounds`` of
-    :mod:`velfence.shaping._kernels`): inside ``-cap(d, s)``, in discrete time at least ``-d/dt``;
-    outside the profile's forced return ``-cap(d)``, in discrete time at most the penetration
-    per period. ``speed`` is the cap speed ``s`` of each row (linear profiles scale with it).
+    The exact law's one bound definition, :func:`velfence.shaping._kernels.bounds_from_distances`
+    (cap speed ``speed`` shared by the rows): inside ``-cap(d, s)``, in discrete time at least
+    ``-d/dt``; outside the profile's forced return, in discrete time at most the penetration per
+    period. That function keeps only the rows that bind the *command* (cap below its speed,
+    reachable in one period at its speed); here the output may move a point faster than the
+    command does (a joint-space projection is not a Cartesian one), so the rows it leaves out
+    get the same definition from :func:`~velfence.shaping._kernels.fill_bounds` (``-inf`` where
+    the profile sets no cap and there is no period).
     """
     kind, params = prm.kernel_profile
     k = dist.shape[0]
     bnd = np.zeros(k)
-    work = np.arange(k, dtype=np.int64)
-    for e in range(k):
-        d = float(dist[e])
-        if d < 0.0:
-            r = -profile_cap(kind, params, False, d, 0.0)
-            if idt > 0.0 and r > -d * idt:
-                r = -d * idt
-            bnd[e] = r
-        fill_bounds(kind, params, False, dist, work, e, e + 1, float(speed[e]), 1.0, idt, bnd)
+    work = np.zeros(k, dtype=np.int64)
+    m = bounds_from_distances(dist, k, speed, kind, params, False, idt, False, bnd, work)[0]
+    chosen = set(work[:m].tolist())
+    rest = np.array([e for e in range(k) if e not in chosen], dtype=np.int64)
+    # (violated rows are always chosen, so ``rest`` holds rows with d >= 0 only)
+    fill_bounds(kind, params, False, dist, rest, 0, rest.shape[0], speed, 1.0, idt, bnd)
     return bnd
+
+
+def _projection(u: FloatArray, G: FloatArray, b: FloatArray) -> tuple[bool, FloatArray]:
+    """Projection of ``u`` onto ``{x : G x >= b}`` for the filter's own arrays: ``(feasible, x)``.
+
+    :func:`velfence.geometry.projection.project_kernel` (the solve behind ``project``) run on
+    Python lists, which plain Python indexes faster than arrays; the inputs are finite (``b``
+    finite), built by the filter.
+    """
+    from velfence.geometry.projection import PROJECT_OPTIMAL, project_kernel
+
+    m, n = G.shape
+    x = [0.0] * n
+    lam = [0.0] * (n + 1)
+    act = [0] * (n + 1)
+    wsf = [0.0] * (2 * n * n + 4 * n + m + 2)
+    status = project_kernel(u.tolist(), G.ravel().tolist(), b.tolist(), m, n, x, lam, act, wsf)[0]
+    xa = np.array(x, dtype=np.float64)
+    return status == PROJECT_OPTIMAL and bool(np.all(np.isfinite(xa))), xa
 
 
 def _cholesky(name: str, W: FloatArray) -> FloatArray:
@@ -553,6 +290,7 @@ class SafetyFilter(InvalidPolicy):
 
     __slots__ = (
         "_acc_rows",
+        "_fast_jacobian",
         "_has_accel",
         "_joint_prof",
         "_metric",
@@ -674,13 +412,17 @@ class SafetyFilter(InvalidPolicy):
                     f"obstacles: expected SphereObstacle entries, got {describe(o)}"
                 )
         if obstacles:
-            for attr in ("link_segments", "link_radius", "point_jacobian"):
+            for attr in ("link_segments", "link_radius", "point_jacobian", "joint_positions"):
                 if not hasattr(robot, attr):
                     raise InvalidParameter(
                         f"obstacles: the robot {type(robot).__name__} has no capsule geometry "
                         f"({attr!r}); use a DHChain or PlanarArm (Puma560.chain)"
                     )
         self._obstacles: tuple[SphereObstacle, ...] = tuple(obstacles)
+        # DHChain / PlanarArm: the link Jacobians from the joint points and axes in one pass.
+        self._fast_jacobian = type(robot).__module__ == "velfence.mechanisms.chain" and all(
+            hasattr(robot, a) for a in ("joint_positions", "angular_jacobian")
+        )
         # Metric of the joint mode: W = L Lᵀ.
         self._metric: _Metric = None
         if weights is not None:
@@ -734,7 +476,9 @@ class SafetyFilter(InvalidPolicy):
             ):
                 if not math.isfinite(d):
                     continue
-                b = float(_bounds(prof, np.array([d]), np.array([v]), idt)[0])
+                b = float(_bounds(prof, np.array([d]), v, idt)[0])
+                if b == -math.inf:
+                    continue  # beyond the profile's reach: no bound
                 b = min(b, v)  # a recovery no faster than the joint can move
                 rows.add(sign * eye[j], b, LEVEL_JOINT, d < 0.0, f"joint {j} position ({side})")
             rows.add(eye[j], -v, LEVEL_JOINT, False, f"joint {j} velocity (lower)")
@@ -760,7 +504,7 @@ class SafetyFilter(InvalidPolicy):
             dist = poly.normals @ p - poly.offsets
             s = float(np.linalg.norm(J @ u))
             prof = w.profile if w.profile is not None else LinearBuffer(buffer=w.buffer)
-            bnd = _bounds(prof, dist, np.full(dist.shape[0], s), idt)
+            bnd = _bounds(prof, dist, s, idt)
             label = "TCP" if w.point == "tcp" else w.point
             prefix = f"workspace {w_i}: " if len(self._workspace) > 1 else ""
             NJ = poly.normals @ J
@@ -787,22 +531,32 @@ class SafetyFilter(InvalidPolicy):
         _, clear = points_segments_distances(centers, segs[:, 0], segs[:, 1], radii)
         vmax = self.limits.max_velocity
         prof = LinearBuffer(buffer=self.obstacle_buffer, spring_gain=self.spring_gain)
+        # The SerialChain geometry: joint points P_j and axes z_j; link k is carried by joints
+        # 0 … k, so a body-fixed point p on it has Jacobian columns z_j × (p − P_j), j <= k.
+        P = np.asarray(robot.joint_positions(q), dtype=float)
+        Z = np.asarray(robot.angular_jacobian(q), dtype=float).T if self._fast_jacobian else None
         for i, o in enumerate(self._obstacles):
             for link in range(segs.shape[0]):
                 c0 = float(clear[i, link]) - o.radius
                 if c0 >= self.obstacle_buffer and idt == 0.0:
                     continue  # beyond the buffer the linear cap is infinite
-                d, _, t, nrm = sphere_capsule_distance(
+                if idt > 0.0 and c0 >= self.obstacle_buffer and self.dt is not None:
+                    # |ṗ| <= Σ_j v_j |p − P_j| for every point of the link (j <= link): beyond
+                    # one period's reach at full joint speed (with margin), no bound needed.
+                    lever = np.linalg.norm(segs[link][:, None, :] - P[None, : link + 1], axis=2)
+                    if c0 > 1.5 * self.dt * float(lever.max(axis=0) @ vmax[: link + 1]):
+                        continue
+                d, x_c, t, nrm = sphere_capsule_distance(
                     o.center, o.radius, segs[link, 0], segs[link, 1], float(radii[link])
                 )
-                Jc = np.asarray(robot.point_jacobian(q, link, t), dtype=float)
+                if Z is not None:
+                    Jc = np.zeros((3, self.dof))
+                    Jc[:, : link + 1] = np.cross(Z[: link + 1], x_c[None, :] - P[: link + 1]).T
+                else:
+                    Jc = np.asarray(robot.point_jacobian(q, link, t), dtype=float)
                 g = nrm @ Jc
-                if idt > 0.0 and d >= self.obstacle_buffer:
-                    reach = float(np.abs(Jc).sum(axis=0) @ vmax) * self.dt if self.dt else 0.0
-                    if d > 2.0 * reach:
-                        continue  # not reachable in one period, even at full joint speed
                 s = float(np.linalg.norm(Jc @ u))
-                b = float(_bounds(prof, np.array([d]), np.array([s]), idt)[0])
+                b = float(_bounds(prof, np.array([d]), s, idt)[0])
                 if b == -math.inf:
                     continue
                 r = rows.add(g, b, LEVEL_OBSTACLE, d < 0.0, f"obstacle {i} on link {link}")
@@ -813,21 +567,17 @@ class SafetyFilter(InvalidPolicy):
     def _project(
         self, u: FloatArray, G: FloatArray, b: FloatArray, L: _Metric
     ) -> tuple[bool, FloatArray]:
-        from velfence.geometry.projection import project
-
         if G.shape[0] == 0:
             return True, u.copy()
         if L is None:
-            res = project(u, G, b)
-            return res.feasible, res.x
-        if L.ndim == 1:  # diagonal metric: L = diag(lv)
-            res = project(u * L, G / L[None, :], b)
-            return res.feasible, res.x / L
-        # y = Lᵀ x: G x = G L⁻ᵀ y.
-        GL = np.linalg.solve(L, G.T).T
-        res = project(L.T @ u, GL, b)
-        x: FloatArray = np.asarray(np.linalg.solve(L.T, res.x), dtype=np.float64)
-        if res.feasible:
+            return _projection(u, G, b)
+        if L.ndim == 1:  # diagonal metric: L = diag(lv), y = lv * x
+            ok, y = _projection(u * L, G / L[None, :], b)
+            x: FloatArray = y / L
+        else:  # y = Lᵀ x: G x = G L⁻ᵀ y
+            ok, y = _projection(L.T @ u, np.asarray(np.linalg.solve(L, G.T).T, dtype=np.float64), b)
+            x = np.asarray(np.linalg.solve(L.T, y), dtype=np.float64)
+        if ok:
             # Round-off of the back-substitution: repair along the violated rows (a few ulps).
             for _ in range(4):
                 gap = b - G @ x
@@ -836,7 +586,7 @@ class SafetyFilter(InvalidPolicy):
                     break
                 gk = G[k]
                 x = x + (gap[k] * (1.0 + 1e-12) + 1e-300) * gk / float(gk @ gk)
-        return res.feasible, x
+        return ok, x
 
     def _next_distances(self, q: FloatArray, x: FloatArray, rows: _Rows) -> dict[int, float]:
         """True next distance of every checked row at ``q + x dt`` (model check)."""
@@ -952,7 +702,7 @@ class SafetyFilter(InvalidPolicy):
         return FilterResult(
             output=np.zeros(self.dof), command=cmd, position=q, zone="invalid", active=(),
             active_names=(), slack=np.zeros(0), constraint_names=(), stages=("stop",),
-            dropped=(), rate_override=False,
+            dropped=(), rate_override=False, rows=(np.zeros((0, self.dof)), np.zeros(0)),
         )  # fmt: skip
 
     def _bad(self, *arrays: FloatArray) -> bool:
@@ -1005,7 +755,7 @@ class SafetyFilter(InvalidPolicy):
             active_names=tuple(rows.names[i] for i in act), slack=readonly(slack),
             constraint_names=tuple(rows.names), stages=tuple(pre + stages),
             dropped=tuple(dropped), rate_override=override,
-            _rows=(readonly(G), readonly(b0)),
+            rows=(readonly(G), readonly(b0)),
         )  # fmt: skip
 
     def explain(

@@ -1,0 +1,355 @@
+"""Limits a :class:`~velfence.shaping.filter.SafetyFilter` enforces: joints, workspace, obstacles.
+
+Frozen, validated value objects (their units and shapes in each class); the filter turns them into
+rows of its minimum-change problem every cycle.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import KW_ONLY, dataclass
+from typing import Any
+
+import numpy as np
+
+from velfence._typing import FloatArray
+from velfence._validate import (
+    MAX_MAGNITUDE,
+    check_positive,
+    check_text,
+    describe,
+    finite_scalar,
+    readonly,
+    real_array,
+)
+from velfence.errors import InvalidParameter
+from velfence.shaping.profiles import LinearBuffer, ThreeZoneBraking
+
+__all__ = ["JointLimits", "Profile", "SphereObstacle", "WorkspaceLimit"]
+
+#: The approach profiles the filter's rows understand (the exact law's kernel profiles).
+Profile = LinearBuffer | ThreeZoneBraking
+
+
+def _vector(
+    name: str, x: Any, n: int | None, what: str, *, nonfinite: bool = False, scalar: bool = False
+) -> FloatArray:
+    """One value per joint: shape (n,) (``scalar``: a number is repeated); NaN refused."""
+    a = real_array(
+        name, x, None, error=InvalidParameter, what=what, allow_nonfinite=nonfinite, max_abs=None
+    )
+    if scalar and a.ndim == 0 and n is not None:
+        a = np.full(n, float(a))
+    if a.ndim != 1 or (n is not None and a.shape[0] != n):
+        want = "(n,)" if n is None else f"({n},), one per joint of lower"
+        raise InvalidParameter(f"{name}: expected shape {want}, got shape {a.shape}")
+    if np.isnan(a).any():
+        raise InvalidParameter(f"{name}: expected {what}, got NaN in {a.tolist()}")
+    big = np.isfinite(a) & (np.abs(a) > MAX_MAGNITUDE)
+    if big.any():
+        raise InvalidParameter(f"{name}: expected magnitudes <= {MAX_MAGNITUDE:g}, got {a[big]}")
+    return a
+
+
+@dataclass(frozen=True)
+class JointLimits:
+    """Position, velocity and (optional) acceleration limits of every joint.
+
+    Attributes:
+        lower: Lower position limit of each joint [rad], shape (n,); ``-inf``: none.
+        upper: Upper position limit [rad], shape (n,), ``> lower``; ``+inf``: none.
+        max_velocity: Largest joint speed [rad/s], shape (n,), finite and > 0 (a scalar is
+            repeated).
+        max_acceleration: Largest joint acceleration [rad/s²], shape (n,), > 0, ``inf`` for a
+            joint without one; ``None`` (the default): none on any joint.
+        names: One name per joint, or ``None``; when given, a :class:`SafetyFilter` checks it
+            against the robot's ``joint_names``.
+
+    Raises:
+        InvalidParameter: wrong shapes, NaN, ``lower >= upper``, non-positive or infinite
+            speeds, non-positive accelerations, or names of the wrong number.
+    """
+
+    lower: FloatArray
+    upper: FloatArray
+    max_velocity: FloatArray
+    _: KW_ONLY
+    max_acceleration: FloatArray | None = None
+    names: tuple[str, ...] | None = None
+
+    def __post_init__(self) -> None:
+        lo = _vector("lower", self.lower, None, "lower limits [rad] of shape (n,)", nonfinite=True)
+        n = lo.shape[0]
+        if n < 1:
+            raise InvalidParameter("lower: expected at least one joint, got shape (0,)")
+        hi = _vector("upper", self.upper, n, f"upper limits [rad] of shape ({n},)", nonfinite=True)
+        if lo.max() == math.inf or hi.min() == -math.inf:
+            raise InvalidParameter(
+                "lower, upper: expected lower < +inf and upper > -inf (infinite limits mean no "
+                f"limit on that side), got lower={lo.tolist()}, upper={hi.tolist()}"
+            )
+        bad = np.flatnonzero(~(hi > lo))
+        if bad.size:
+            j = int(bad[0])
+            raise InvalidParameter(
+                f"upper: expected upper > lower on every joint, got upper[{j}]={hi[j]!r} <= "
+                f"lower[{j}]={lo[j]!r}"
+            )
+        v = _vector(
+            "max_velocity", self.max_velocity, n, f"joint speeds [rad/s] of shape ({n},)",
+            scalar=True,
+        )  # fmt: skip
+        if not np.all(v > 0.0):
+            raise InvalidParameter(f"max_velocity: expected speeds > 0 [rad/s], got {v.tolist()}")
+        acc: FloatArray | None = None
+        if self.max_acceleration is not None:
+            acc = _vector(
+                "max_acceleration", self.max_acceleration, n,
+                f"accelerations [rad/s²] of shape ({n},)", nonfinite=True, scalar=True,
+            )  # fmt: skip
+            if not np.all(acc > 0.0):
+                raise InvalidParameter(
+                    f"max_acceleration: expected accelerations > 0 [rad/s²] (inf: none), got "
+                    f"{acc.tolist()}"
+                )
+            acc = readonly(acc)
+        names = None
+        raw_names: Any = self.names
+        if raw_names is not None:
+            if isinstance(raw_names, (str, bytes)) or not isinstance(raw_names, (list, tuple)):
+                raise InvalidParameter(
+                    f"names: expected {n} joint names, got {describe(raw_names)}"
+                )
+            names = tuple(check_text("names", s, max_length=200) for s in raw_names)
+            if len(names) != n or len(set(names)) != n:
+                raise InvalidParameter(
+                    f"names: expected {n} distinct joint names, got {len(names)}: {list(names)}"
+                )
+        object.__setattr__(self, "lower", readonly(lo))
+        object.__setattr__(self, "upper", readonly(hi))
+        object.__setattr__(self, "max_velocity", readonly(v))
+        object.__setattr__(self, "max_acceleration", acc)
+        object.__setattr__(self, "names", names)
+
+    @property
+    def dof(self) -> int:
+        """Number of joints."""
+        return int(self.lower.shape[0])
+
+    @classmethod
+    def from_ros2_control(
+        cls, mapping: Mapping[str, Any], joint_names: Sequence[str]
+    ) -> JointLimits:
+        """Limits from a ros2_control ``joint_limits`` mapping, ordered as ``joint_names``.
+
+        The mapping is ``{"joint_limits": {name: {...}}}`` (the YAML file's document) or the
+        inner ``{name: {...}}``; each joint's entry has ``has_position_limits``,
+        ``min_position``, ``max_position``, ``has_velocity_limits``, ``max_velocity``,
+        ``has_acceleration_limits``, ``max_acceleration`` (a limit's value is only read when its
+        ``has_…`` flag is true). The joints must be exactly ``joint_names``: a missing or an
+        extra joint is refused (a 7-joint file on a 6-joint arm, say), and so is a joint without
+        a velocity limit (the filter needs every joint's speed).
+
+        Args:
+            mapping: The parsed document.
+            joint_names: The robot's joint names, in order.
+
+        Returns:
+            The limits (``names`` = ``joint_names``).
+
+        Raises:
+            InvalidParameter: wrong structure, joint set or values (the message names the
+                joint and the field).
+        """
+        try:
+            return cls._from_ros2(mapping, joint_names)
+        except InvalidParameter as exc:
+            raise InvalidParameter(f"mapping: {exc}") from None
+
+    @classmethod
+    def _from_ros2(cls, mapping: Any, joint_names: Any) -> JointLimits:
+        if isinstance(joint_names, (str, bytes)) or not isinstance(joint_names, (list, tuple)):
+            raise InvalidParameter(
+                f"joint_names: expected a list or tuple of joint names, got {describe(joint_names)}"
+            )
+        names = tuple(check_text("joint_names", s, max_length=200) for s in joint_names)
+        if not names or len(set(names)) != len(names) or not all(names):
+            raise InvalidParameter(
+                f"joint_names: expected at least one distinct non-empty name, got {list(names)}"
+            )
+        if not isinstance(mapping, Mapping):
+            raise InvalidParameter(
+                f"joint_limits: expected a mapping of joint names, got {describe(mapping)}"
+            )
+        inner = mapping.get("joint_limits", mapping)
+        if not isinstance(inner, Mapping):
+            raise InvalidParameter(
+                f"joint_limits: expected a mapping of joint names, got {describe(inner)}"
+            )
+        keys = [str(k) for k in inner]
+        missing = [s for s in names if s not in inner]
+        extra = [k for k in keys if k not in names]
+        if missing or extra:
+            raise InvalidParameter(
+                f"joint_limits: expected the robot's {len(names)} joints {list(names)}, got "
+                f"{len(keys)} joint(s) {keys} (missing {missing}, not on this robot {extra})"
+            )
+        n = len(names)
+        lo, hi = np.full(n, -math.inf), np.full(n, math.inf)
+        vel, acc = np.zeros(n), np.full(n, math.inf)
+        for j, s in enumerate(names):
+            entry = inner[s]
+            if not isinstance(entry, Mapping):
+                raise InvalidParameter(
+                    f"joint_limits.{s}: expected a mapping of limit fields, got {describe(entry)}"
+                )
+            unknown = [str(k) for k in entry if k not in _ROS2_KEYS]
+            if unknown:
+                raise InvalidParameter(
+                    f"joint_limits.{s}: unknown field(s) {unknown}; expected ros2_control "
+                    f"joint_limits fields {list(_ROS2_KEYS)}"
+                )
+            if _flag(entry, s, "has_position_limits"):
+                lo[j] = _number(entry, s, "min_position", "rad")
+                hi[j] = _number(entry, s, "max_position", "rad")
+            if not _flag(entry, s, "has_velocity_limits"):
+                raise InvalidParameter(
+                    f"joint_limits.{s}.has_velocity_limits: expected true (the safety filter "
+                    "needs every joint's max_velocity), got false"
+                )
+            vel[j] = _number(entry, s, "max_velocity", "rad/s")
+            if _flag(entry, s, "has_acceleration_limits"):
+                acc[j] = _number(entry, s, "max_acceleration", "rad/s²")
+        try:
+            return cls(
+                lo, hi, vel, max_acceleration=acc if np.isfinite(acc).any() else None, names=names
+            )
+        except InvalidParameter as exc:
+            raise InvalidParameter(f"joint_limits: {exc}") from None
+
+
+#: The fields of a ros2_control joint_limits entry (joint_limits/joint_limits_rosparam.hpp);
+#: only the position, velocity and acceleration ones are read.
+_ROS2_KEYS = (
+    "has_position_limits",
+    "min_position",
+    "max_position",
+    "has_velocity_limits",
+    "max_velocity",
+    "has_acceleration_limits",
+    "max_acceleration",
+    "has_deceleration_limits",
+    "max_deceleration",
+    "has_jerk_limits",
+    "max_jerk",
+    "has_effort_limits",
+    "max_effort",
+    "angle_wraparound",
+    "has_soft_limits",
+    "k_position",
+    "k_velocity",
+    "soft_lower_limit",
+    "soft_upper_limit",
+)
+
+
+def _flag(entry: Mapping[str, Any], joint: str, key: str) -> bool:
+    if key not in entry:
+        raise InvalidParameter(f"joint_limits.{joint}.{key}: missing (expected true or false)")
+    v = entry[key]
+    if not isinstance(v, bool):
+        raise InvalidParameter(f"joint_limits.{joint}.{key}: expected true or false, got {v!r}")
+    return v
+
+
+def _number(entry: Mapping[str, Any], joint: str, key: str, unit: str) -> float:
+    if key not in entry:
+        raise InvalidParameter(f"joint_limits.{joint}.{key}: missing (expected a number [{unit}])")
+    return finite_scalar(
+        f"joint_limits.{joint}.{key}", entry[key], unit=unit, error=InvalidParameter
+    )
+
+
+# ---------------------------------------------------------------------------------- geometry
+@dataclass(frozen=True)
+class WorkspaceLimit:
+    """A convex polytope a named point of the robot must stay in.
+
+    Attributes:
+        polytope: The allowed region (a :class:`~velfence.geometry.polytope.ConvexPolytope` in
+            the robot's task space: 3-D, or 2-D for a ``PlanarArm``) [m].
+        point: The guarded point (a name of the robot's ``points``), default ``"tcp"``.
+        buffer: Width of the linear buffer inside every facet [m], > 0: the point's approach
+            speed toward a facet at distance ``d < buffer`` is at most ``s d / buffer``, ``s``
+            the commanded speed of the point (the exact law's buffer).
+        spring_gain: Recovery gain outside [1/s], >= 0.
+        max_recovery_speed: Cap on the recovery speed [m/s]; default ``spring_gain * buffer``.
+        profile: An approach profile instead of the linear buffer (``LinearBuffer`` or
+            ``ThreeZoneBraking``, in metres).
+
+    Raises:
+        InvalidParameter: a non-polytope, a non-string point or a bad buffer/gain/profile.
+    """
+
+    polytope: Any
+    _: KW_ONLY
+    point: str = "tcp"
+    buffer: float = 0.05
+    spring_gain: float = 1.0
+    max_recovery_speed: float | None = None
+    profile: Profile | None = None
+
+    def __post_init__(self) -> None:
+        from velfence.geometry.polytope import ConvexPolytope
+
+        if not isinstance(self.polytope, ConvexPolytope):
+            raise InvalidParameter(
+                f"polytope: expected a ConvexPolytope, got {describe(self.polytope)}"
+            )
+        object.__setattr__(self, "point", check_text("point", self.point, max_length=200))
+        if self.profile is None:
+            prof: Profile = LinearBuffer(
+                buffer=self.buffer,
+                spring_gain=self.spring_gain,
+                max_recovery_speed=self.max_recovery_speed,
+            )
+        elif isinstance(self.profile, (LinearBuffer, ThreeZoneBraking)):
+            prof = self.profile
+        else:
+            raise InvalidParameter(
+                f"profile: expected a LinearBuffer or ThreeZoneBraking, got "
+                f"{describe(self.profile)}"
+            )
+        object.__setattr__(self, "profile", prof)
+
+
+@dataclass(frozen=True)
+class SphereObstacle:
+    """A spherical obstacle no capsule link may enter.
+
+    Attributes:
+        center: Centre [m], shape (3,) (a (2,) centre of a planar scene gets z = 0).
+        radius: Radius [m], >= 0.
+        name: Optional label for reports.
+
+    Raises:
+        InvalidParameter: a bad centre or radius, or a non-string name.
+    """
+
+    center: FloatArray
+    _: KW_ONLY
+    radius: float
+    name: str | None = None
+
+    def __post_init__(self) -> None:
+        c = real_array("center", self.center, error=InvalidParameter, what="2 or 3 numbers [m]")
+        if c.shape not in ((2,), (3,)):
+            raise InvalidParameter(f"center: expected shape (2,) or (3,) [m], got shape {c.shape}")
+        if c.shape == (2,):
+            c = np.append(c, 0.0)
+        object.__setattr__(self, "center", readonly(c))
+        r = check_positive("radius", self.radius, allow_zero=True, unit="m")
+        object.__setattr__(self, "radius", r)
+        if self.name is not None:
+            object.__setattr__(self, "name", check_text("name", self.name, max_length=200))
