@@ -453,9 +453,11 @@ def _nd_markdown(r: BenchReport) -> list[str]:
     if r.filter:
         out.append("## One cycle of `SafetyFilter` (7-DoF arm), beside the same QP and mink")
         out.append(
-            "`DHChain.seven_dof(link_radius=0.06)`: 14 joint-position and 7 joint-velocity "
-            "rows, a 6-facet TCP box, two sphere obstacles near the upper arm and the forearm "
-            "(buffer 0.1 m), Jacobians built every cycle; states: a nominal pose scattered by "
+            "`DHChain.seven_dof(link_radius=0.06)`: 14 joint-position bounds, 7 joint-velocity "
+            "bounds (two one-sided rows each), a 6-facet TCP box (a row for each face within "
+            "its 0.1 m buffer), two sphere obstacles near the upper arm and the forearm "
+            "(buffer 0.1 m; a row per link within reach), Jacobians built every cycle; `rows`: "
+            "mean number of constraint rows; states: a nominal pose scattered by "
             "0.05 rad, commands 0.5 rad/s (joint mode) or 0.2 m/s (twist mode) standard normal, "
             f"binned by the filter's zone; {s.filter_calls} timed calls per row. `velfence rows "
             "only`: the filter's row building alone (forward kinematics, Jacobians, distances, "

@@ -39,7 +39,6 @@ __all__ = [
     "CASES",
     "NDPools",
     "batch",
-    "batch_counts",
     "icosahedron",
     "latency",
     "nd_shaper",
@@ -337,11 +336,6 @@ def _batch_states(
     grow = 0.05 * (hi - lo)
     P = rng.uniform(lo - grow, hi + grow, (n, poly.dim))
     return P, rng.standard_normal((n, poly.dim))
-
-
-def batch_counts(s: BenchSettings) -> int:
-    """Rows of :func:`batch` (and its progress steps) for ``numba_ok=True``, per case."""
-    return len(s.nd_batch_n) + 1
 
 
 def batch(s: BenchSettings, numba_ok: bool, step: Step) -> list[PolytopeBatchRow]:
