@@ -197,3 +197,61 @@ def test_teleop_session(
     assert np.linalg.norm(spot_p - origin) == pytest.approx(0.20, abs=0.003)  # spot printed to mm
     np.testing.assert_allclose(vector(tool), np.array(snap["tool"])[:3, 3], atol=6e-4)
     assert snap["mode"] == "teleop"
+
+
+def _inside_fence(p: np.ndarray, corners: list[list[float]]) -> float:
+    """Smallest signed distance to the CCW fence's edges by cross products (positive inside)."""
+    c = np.asarray(corners, dtype=float)
+    e = np.roll(c, -1, axis=0) - c
+    cross = e[:, 0] * (p[1] - c[:, 1]) - e[:, 1] * (p[0] - c[:, 0])
+    return float((cross / np.hypot(e[:, 0], e[:, 1])).min())
+
+
+def test_mobile_base_fence(capsys: pytest.CaptureFixture[str]) -> None:
+    unshaped, closest, final = run_example("mobile_base_fence", capsys)
+    ns = runpy.run_path(str(EXAMPLES_DIR / "mobile_base_fence.py"))
+    fence = ns["FENCE"]
+    # Independent route for the unshaped drive: integrate (P, θ) with the example's commands,
+    # P' = (v cos θ - l ω sin θ, v sin θ + l ω cos θ), and find the first step outside.
+    p, theta, left = np.array([1.0, 1.0]), 0.3, math.inf
+    for k in range(ns["STEPS"]):
+        v, w = ns["operator"](k)
+        pdot = np.array(
+            [v * math.cos(theta) - ns["L"] * w * math.sin(theta),
+             v * math.sin(theta) + ns["L"] * w * math.cos(theta)]
+        )  # fmt: skip
+        p, theta = p + ns["DT"] * pdot, theta + ns["DT"] * w
+        if _inside_fence(p, fence) < 0.0:
+            left = (k + 1) * ns["DT"]
+            break
+    assert unshaped.startswith("unshaped: P leaves the fence at t =")
+    assert numbers(unshaped)[0] == pytest.approx(left, abs=1e-9)
+    # Shaped: the printed closest approach is non-negative and within the 0.4 m buffer (the
+    # fence was really approached), and the end point is inside by the cross-product test.
+    (d_min,) = numbers(closest.split("fence")[1].split("m")[0])
+    assert 0.0 <= d_min < 0.4
+    assert final.endswith("inside at every step: True")
+    assert _inside_fence(vector(final), fence) >= 0.0
+
+
+@pytest.mark.slow
+def test_ur5e_safety_planes(capsys: pytest.CaptureFixture[str]) -> None:
+    start_line, planes_line, closest, final = run_example("ur5e_safety_planes", capsys)
+    start = vector(start_line)
+    twist = vector(start_line.split("command")[1])
+    normals = np.array(numbers(planes_line.split("offsets")[0])).reshape(2, 3)
+    offsets = vector(planes_line.split("offsets")[1])
+    # The planes as the docstring says: unit normals, 15° and 10° from the axes.
+    np.testing.assert_allclose(np.linalg.norm(normals, axis=1), 1.0, atol=1e-5)
+    assert math.degrees(math.asin(normals[0, 2])) == pytest.approx(15.0, abs=1e-3)
+    assert math.degrees(math.asin(normals[1, 1])) == pytest.approx(10.0, abs=1e-3)
+    # Unfiltered, the constant command would cross both planes within the 3 s (closed form).
+    ahead = normals @ (start + 3.0 * twist) - offsets
+    assert np.all(ahead < -0.1)
+    # Filtered: never on the wrong side, and the TCP ends resting on both planes.
+    wall, floor = numbers(closest.split("wall")[1])[0], numbers(closest.split("floor")[1])[0]
+    assert wall >= -1e-9
+    assert floor >= -1e-9
+    d_end = normals @ vector(final) - offsets
+    assert np.all(d_end >= -1e-6)
+    assert np.all(d_end < 5e-3)

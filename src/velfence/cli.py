@@ -65,17 +65,32 @@ def demo(
             "for a deliberately long run (at most 100,000,000)."
         ),
     ] = DEFAULT_MAX_STEPS,
+    scenario: Annotated[
+        str,
+        typer.Option(
+            help="Which scenario: 'wrist' (the 2-D wrist, configurable with --config) or "
+            "'arm-box' (a 7-DoF arm with its TCP in a box; docs/arm_box.md)."
+        ),
+    ] = "wrist",
 ) -> None:
-    """Run the built-in wrist scenario for every method and baseline; write plots and metrics."""
+    """Run the built-in wrist scenario (or --scenario arm-box) for every method; write plots."""
     # Import everything the run needs first, so a missing app dependency is reported before any
     # simulation, not after it (velfence._entry turns it into a one-line message).
     importlib.import_module("yaml")
     importlib.import_module("velfence.viz.plots")
-    from velfence.demo import run_demo
+    from velfence.demo import SCENARIOS, run_arm_demo, run_demo
 
+    if scenario not in SCENARIOS:
+        raise _fail(f"--scenario: expected one of {list(SCENARIOS)}, got {scenario!r}")
+    if scenario == "arm-box" and config is not None:
+        raise _fail("--config applies to the wrist scenario only; drop it for --scenario arm-box")
     console = Console()
     try:
-        result = run_demo(config_path=config, out_dir=out, console=console, max_steps=max_steps)
+        if scenario == "arm-box":
+            importlib.import_module("velfence.viz.arm")
+            result = run_arm_demo(out_dir=out, console=console)
+        else:
+            result = run_demo(config_path=config, out_dir=out, console=console, max_steps=max_steps)
     except VelfenceError as exc:
         raise _fail(str(exc)) from None
     except OSError as exc:

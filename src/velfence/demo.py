@@ -4,6 +4,10 @@
 simulates each shaper in closed loop at 1 kHz with the wrist's actuator saturation and an external
 push, computes the metrics of :mod:`velfence.sim.metrics`, and writes a workspace plot, velocity
 profiles, a velocity-field quiver per method, a GIF and ``metrics.json``.
+
+``velfence demo --scenario arm-box`` calls :func:`run_arm_demo`: the 7-DoF arm in a box of
+:mod:`velfence.sim.arm`, five controllers at several jog speeds, a Markdown and JSON metrics
+table, 3-D paths, joints against limits, constraint activity and a GIF of the velfence run.
 """
 
 from __future__ import annotations
@@ -42,7 +46,17 @@ from velfence.sim.metrics import (
 from velfence.sim.runner import Trajectory, simulate_many
 from velfence.sim.scenarios import Script, Waypoint, WaypointOperator, default_script
 
-__all__ = ["DemoResult", "build_shapers", "run_demo"]
+__all__ = [
+    "ARM_METRIC_COLUMNS",
+    "SCENARIOS",
+    "DemoResult",
+    "build_shapers",
+    "run_arm_demo",
+    "run_demo",
+]
+
+#: The scenarios of ``velfence demo --scenario``; the first is the default.
+SCENARIOS: tuple[str, ...] = ("wrist", "arm-box")
 
 
 @dataclass(frozen=True)
@@ -335,4 +349,188 @@ def _table(metrics: dict[str, dict[str, float]]) -> Table:
         table.add_column(escape(title), justify="right" if key else "left")
     for name, m in metrics.items():
         table.add_row(name, *(_fmt(m.get(key, math.nan)) for _, key in cols[1:] if key))
+    return table
+
+
+#: (metrics key, column title) of the arm-box table, in order.
+ARM_METRIC_COLUMNS: tuple[tuple[str, str], ...] = (
+    ("box_penetration", "box pen. [m]"),
+    ("sphere_penetration", "sphere pen. [m]"),
+    ("joint_limit_violation", "joint viol. [rad]"),
+    ("sliding_ratio", "sliding ratio"),
+    ("time_lost", "time lost [s]"),
+    ("max_joint_acceleration", "max accel [rad/s²]"),
+    ("dropped_cycles", "dropped cycles"),
+)
+
+
+def _arm_markdown(metrics: dict[str, dict[str, dict[str, float]]]) -> str:
+    head = "| speed [m/s] | method | " + " | ".join(t for _, t in ARM_METRIC_COLUMNS) + " |"
+    rule = "|" + "---|" * (len(ARM_METRIC_COLUMNS) + 2)
+    lines = [head, rule]
+    for speed, per in metrics.items():
+        for name, m in per.items():
+            cells = " | ".join(_fmt(m.get(k, math.nan)) for k, _ in ARM_METRIC_COLUMNS)
+            lines.append(f"| {speed} | {name} | {cells} |")
+    return "\n".join(lines) + "\n"
+
+
+def run_arm_demo(
+    *,
+    out_dir: str | Path = "out/demo-arm",
+    console: Console | None = None,
+    speeds: tuple[float, ...] | None = None,
+    methods: tuple[str, ...] | None = None,
+    figure_speed: float | None = None,
+    gif: bool = True,
+) -> DemoResult:
+    """Run the arm-in-a-box scenario (:mod:`velfence.sim.arm`) and write its artifacts.
+
+    Files: ``metrics.md`` and ``metrics.json`` (every speed and method), ``arm_paths.png``
+    (3-D TCP paths per method), ``arm_joints.png`` (joints against limits),
+    ``arm_activity.png`` (active rows over time), all at ``figure_speed``, and
+    ``arm_velfence.gif`` when ``gif`` and velfence ran.
+
+    Args:
+        out_dir: Folder for the artifacts (created).
+        console: Where the progress bars go (a quiet console if None).
+        speeds: Jog speeds [m/s] (default :data:`~velfence.sim.arm.ARM_SPEEDS`).
+        methods: Controllers (default :data:`~velfence.sim.arm.ARM_METHODS`).
+        figure_speed: The speed whose runs are plotted (default: the middle of ``speeds``).
+        gif: Whether to write the GIF.
+
+    Returns:
+        Metrics keyed ``"<method> @ <speed> m/s"``, the summary table, the files, and the
+        trajectories (same keys).
+
+    Raises:
+        InvalidParameter: an unknown method, a non-positive speed, or a ``figure_speed`` not
+            among ``speeds``.
+    """
+    from velfence._validate import check_flag, check_positive, describe, real_array
+    from velfence.sim.arm import (
+        ARM_METHODS,
+        ARM_SPEEDS,
+        arm_box_scene,
+        arm_metrics,
+        arm_script,
+        build_arm_controllers,
+        run_arm,
+    )
+
+    path_ok: Any = out_dir
+    if isinstance(path_ok, bytes) or not isinstance(path_ok, (str, os.PathLike)):
+        raise InvalidParameter(
+            f"out_dir: expected a folder path (str or Path), got {type(out_dir).__name__}"
+        )
+    if console is not None and not isinstance(console, Console):
+        raise InvalidParameter(
+            f"console: expected a rich Console or None, got {type(console).__name__}"
+        )
+    if speeds is None:
+        sp = tuple(ARM_SPEEDS)
+    else:
+        raw = real_array("speeds", speeds, (None,), error=InvalidParameter, what="jog speeds [m/s]")
+        if raw.shape[0] == 0 or not np.all(raw > 0.0):
+            raise InvalidParameter(
+                f"speeds: expected one or more jog speeds > 0 [m/s], got {raw.tolist()}"
+            )
+        sp = tuple(float(v) for v in raw)
+    if methods is None:
+        ms = tuple(ARM_METHODS)
+    else:
+        ok = isinstance(methods, (tuple, list)) and all(isinstance(m, str) for m in methods)
+        if not ok or not methods or any(m not in ARM_METHODS for m in methods):
+            raise InvalidParameter(
+                f"methods: expected names from {list(ARM_METHODS)}, got {describe(methods)}"
+            )
+        ms = tuple(methods)
+    gif = check_flag("gif", gif)
+    scene = arm_box_scene()
+    if figure_speed is None:
+        fig_speed = sp[len(sp) // 2]
+    else:
+        fig_speed = check_positive("figure_speed", figure_speed, unit="m/s")
+        if fig_speed not in sp:
+            raise InvalidParameter(
+                f"figure_speed must be one of speeds {list(sp)}, got {fig_speed!r}"
+            )
+    controllers = build_arm_controllers(scene, methods=ms)
+    console = console or Console(quiet=True)
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    all_metrics: dict[str, dict[str, dict[str, float]]] = {}
+    runs_at: dict[float, Any] = {}
+    with Progress(
+        TextColumn("[bold]{task.description:<26}"),
+        BarColumn(),
+        TextColumn("{task.percentage:>3.0f}%"),
+        TimeElapsedColumn(),
+        console=console,
+        transient=False,
+    ) as progress:
+        tasks = {(m, v): progress.add_task(f"{m} @ {v:g} m/s", total=1.0) for v in sp for m in ms}
+        for v in sp:
+
+            def on_step(name: str, frac: float, v: float = v) -> None:
+                progress.update(tasks[(name, v)], completed=frac)
+
+            runs = run_arm(scene, v, methods=ms, controllers=controllers, on_step=on_step)
+            runs_at[v] = runs
+            all_metrics[f"{v:g}"] = arm_metrics(scene, runs)
+    artifacts = _write_arm_plots(scene, runs_at[fig_speed], out, gif=gif)
+    md = out / "metrics.md"
+    md.write_text(
+        f"Arm in a box: {len(ms)} controllers at {', '.join(f'{v:g}' for v in sp)} m/s "
+        "(1 kHz, kinematic plant).\n\n" + _arm_markdown(all_metrics)
+    )
+    meta = {
+        "scenario": "arm-box",
+        "dt": scene.dt,
+        "box": {"lower": scene.box_lower, "upper": scene.box_upper},
+        "sphere": {"center": scene.sphere_center, "radius": scene.sphere_radius},
+        "joint_limits": {"lower": scene.lower, "upper": scene.upper},
+        "q0": scene.q0,
+        "speeds": list(sp),
+        "phases": {
+            f"{v:g}": [
+                {"label": p.label, "t0": p.t0, "t1": p.t1, "target": p.target}
+                for p in arm_script(scene, v).phases
+            ]
+            for v in sp
+        },
+        "metrics": all_metrics,
+    }
+    js = out / "metrics.json"
+    js.write_text(json.dumps(jsonable(meta), indent=2, allow_nan=False))
+    artifacts += [md, js]
+    flat = {f"{m} @ {s} m/s": vals for s, per in all_metrics.items() for m, vals in per.items()}
+    trajs = {
+        f"{m} @ {v:g} m/s": r.trajectory for v, runs in runs_at.items() for m, r in runs.items()
+    }
+    return DemoResult(flat, _arm_table(all_metrics), tuple(artifacts), trajs)
+
+
+def _write_arm_plots(scene: Any, runs: dict[str, Any], out: Path, *, gif: bool) -> list[Path]:
+    from velfence.viz.arm import animate_arm, plot_arm_activity, plot_arm_joints, plot_arm_paths
+
+    paths = [
+        plot_arm_paths(scene, runs, out / "arm_paths.png"),
+        plot_arm_joints(scene, runs, out / "arm_joints.png"),
+        plot_arm_activity(runs, out / "arm_activity.png"),
+    ]
+    if gif and "velfence" in runs:
+        paths.append(animate_arm(scene, runs["velfence"], out / "arm_velfence.gif"))
+    return paths
+
+
+def _arm_table(metrics: dict[str, dict[str, dict[str, float]]]) -> Table:
+    table = Table(title="velfence demo — arm in a box (7-DoF, 1 kHz, Cartesian jog)")
+    table.add_column("speed\n[m/s]", justify="right")
+    table.add_column("method")
+    for _, title in ARM_METRIC_COLUMNS:
+        table.add_column(escape(title), justify="right")
+    for speed, per in metrics.items():
+        for name, m in per.items():
+            table.add_row(speed, name, *(_fmt(m.get(k, math.nan)) for k, _ in ARM_METRIC_COLUMNS))
     return table

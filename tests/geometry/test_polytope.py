@@ -10,6 +10,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from optional import requires_qp
 from strategies import convex_polygons
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 from velfence.geometry import ConvexPolygon, ConvexPolytope
@@ -172,7 +173,7 @@ def test_box_in_n_dimensions(n: int) -> None:
 def test_box_messages() -> None:
     with pytest.raises(InvalidGeometry, match=r"upper: expected upper > lower element-wise, got "):
         ConvexPolytope.box([0.0, 1.0], [1.0, 1.0])
-    with pytest.raises(InvalidGeometry, match=r"upper: expected shape \(2,\), got shape \(3,\)"):
+    with pytest.raises(InvalidGeometry, match=r"lower, upper: expected corners of one shape, got"):
         ConvexPolytope.box([0.0, 0.0], [1.0, 1.0, 1.0])
     with pytest.raises(InvalidGeometry, match=r"lower: expected at least one dimension"):
         ConvexPolytope.box([], [])
@@ -180,6 +181,8 @@ def test_box_messages() -> None:
         ConvexPolytope.box([np.nan], [1.0])
     with pytest.raises(InvalidGeometry, match="names: expected 4 names"):
         ConvexPolytope.box([0.0, 0.0], [1.0, 1.0], names=["a"])
+    with pytest.raises(InvalidGeometry, match=r"lower, upper: the box is unusable: .*lower-dim"):
+        ConvexPolytope.box([0.0, 0.0], [1.0, 1e-12])
     P = ConvexPolytope.box([0.0], [1.0], names=["low", "high"])
     assert P.facet_names == ("low", "high")
 
@@ -280,3 +283,220 @@ def test_bounded_agrees_with_coordinate_lps() -> None:
             res = linprog(c, A_ub=-N, b_ub=-off, bounds=[(None, None)] * n, method="highs-ds")
             finite &= res.status == 0
         assert P.bounded == finite, trial
+
+
+# ------------------------------------------------------------------------------ closest point
+
+
+def _random_polytope(rng: np.random.Generator, n: int, m: int) -> ConvexPolytope:
+    """Random half-spaces around a random point (the point is inside by at least 0.2)."""
+    c = rng.uniform(-1.0, 1.0, size=n)
+    N = rng.normal(size=(m, n))
+    N /= np.linalg.norm(N, axis=1)[:, None]
+    return ConvexPolytope(N, N @ c - rng.uniform(0.2, 1.5, size=m), redundant="keep")
+
+
+@requires_qp
+@pytest.mark.parametrize("n", range(1, 8))
+def test_closest_point_matches_daqp(n: int) -> None:
+    from qpsolvers import solve_qp
+
+    rng = np.random.default_rng(100 + n)
+    for _ in range(6):
+        P = _random_polytope(rng, n, int(rng.integers(1, 3 * n + 3)))
+        X = rng.uniform(-4.0, 4.0, size=(20, n))
+        Y = P.closest_point_batch(X)
+        for x, y in zip(X, Y, strict=True):
+            ref = solve_qp(np.eye(n), -x, -P.normals, -P.offsets, solver="daqp")
+            np.testing.assert_allclose(y, ref, atol=1e-9)
+            assert np.array_equal(y, P.closest_point(x))  # batch = one at a time
+            # inside, as evaluated or (where many facets meet) to round-off
+            assert np.all(P.signed_distances(y) >= -1e-12 * (1.0 + np.abs(P.offsets)))
+
+
+def test_closest_point_of_an_inside_point_is_the_point() -> None:
+    P = ConvexPolytope.box([0.0, 0.0, 0.0], [1.0, 1.0, 1.0])
+    x = np.array([0.25, 0.5, 1.0])
+    y = P.closest_point(x)
+    assert np.array_equal(y, x)
+    assert y is not x
+    # Outside a box, the projection is the clip (an independent route).
+    X = np.random.default_rng(5).uniform(-2.0, 3.0, size=(100, 3))
+    np.testing.assert_allclose(P.closest_point_batch(X), np.clip(X, 0.0, 1.0), atol=1e-15)
+    with pytest.raises(InvalidInput, match=r"x: expected shape \(3,\), got shape \(2,\)"):
+        P.closest_point([1.0, 2.0])
+    with pytest.raises(InvalidInput, match=r"X: expected shape \(N, 3\)"):
+        P.closest_point_batch([[1.0, 2.0]])
+
+
+def test_closest_point_on_an_unbounded_set() -> None:
+    P = ConvexPolytope([[-1.0, 0.0, 1.0], [1.0, 0.0, 1.0]], [0.0, 0.0])  # z >= |x|
+    np.testing.assert_allclose(P.closest_point([0.0, 7.0, -1.0]), [0.0, 7.0, 0.0], atol=1e-15)
+    np.testing.assert_allclose(P.closest_point([2.0, 0.0, 0.0]), [1.0, 0.0, 1.0], atol=1e-15)
+
+
+# ------------------------------------------------------------------------------ vertices, hull
+
+
+def _rows(P: ConvexPolytope) -> np.ndarray:
+    """The facets as rows (normal, offset), sorted, for set comparisons."""
+    R = np.round(np.hstack([P.normals, P.offsets[:, None]]), 9) + 0.0
+    return R[np.lexsort(R.T[::-1])]
+
+
+@pytest.mark.parametrize("n", range(1, 8))
+def test_from_vertices_of_box_corners_is_the_box(n: int) -> None:
+    rng = np.random.default_rng(n)
+    lo = rng.uniform(-2.0, 0.0, size=n)
+    hi = lo + rng.uniform(0.5, 2.0, size=n)
+    corners = np.array(list(itertools.product(*zip(lo, hi, strict=True))))
+    inner = lo + (hi - lo) * rng.uniform(0.1, 0.9, size=(10, n))  # ignored interior points
+    H = ConvexPolytope.from_vertices(np.vstack([inner, corners]))
+    B = ConvexPolytope.box(lo, hi)
+    assert H.n_facets == 2 * n
+    np.testing.assert_allclose(_rows(H), _rows(B), atol=1e-9)
+    V = B.vertices
+    assert V.shape == (2**n, n)
+    got = {tuple(np.round(v, 9)) for v in V}
+    assert got == {tuple(np.round(c, 9)) for c in corners}
+    assert B.volume == pytest.approx(float(np.prod(hi - lo)), rel=1e-9)
+
+
+@pytest.mark.parametrize("n", range(2, 6))
+def test_vertices_of_random_polytopes(n: int) -> None:
+    rng = np.random.default_rng(20 + n)
+    P = _random_polytope(rng, n, 4 * n + 4)
+    P = ConvexPolytope(P.normals, P.offsets)  # redundant rows removed: facets are the hull's
+    if not P.bounded:
+        P = ConvexPolytope(
+            np.vstack([P.normals, np.eye(n), -np.eye(n)]),
+            np.concatenate([P.offsets, -5.0 * np.ones(2 * n)]),
+        )
+    V = P.vertices
+    D = P.signed_distances_batch(V)
+    assert np.all(D >= -1e-9)  # inside
+    assert np.all(np.sum(np.abs(D) <= 1e-9, axis=1) >= n)  # on at least n facets: vertices
+    # The hull of the vertices is the polytope again (facets compared as sets).
+    np.testing.assert_allclose(_rows(ConvexPolytope.from_vertices(V)), _rows(P), atol=1e-7)
+    # Volume against Monte Carlo in the bounding box (independent of qhull).
+    lo, hi = V.min(axis=0), V.max(axis=0)
+    X = rng.uniform(lo, hi, size=(200_000, n))
+    mc = float(np.prod(hi - lo)) * float(np.mean(P.contains_batch(X)))
+    assert P.volume == pytest.approx(mc, rel=0.03)
+
+
+def test_simplex_volume_and_vertices() -> None:
+    for n in range(1, 8):
+        P = ConvexPolytope(np.vstack([np.eye(n), -np.ones((1, n))]), np.r_[np.zeros(n), -1.0])
+        assert P.volume == pytest.approx(1.0 / math.factorial(n), rel=1e-9)
+        assert P.vertices.shape == (n + 1, n)
+
+
+def test_unbounded_sets_have_no_vertices_and_infinite_volume() -> None:
+    P = ConvexPolytope([[1.0, 0.0], [0.0, 1.0]], [0.0, 0.0])
+    assert P.volume == math.inf
+    with pytest.raises(InvalidGeometry, match="vertices: expected a bounded polytope, got an"):
+        _ = P.vertices
+    with pytest.raises(InvalidGeometry, match="largest_inscribed_box: expected a bounded"):
+        P.largest_inscribed_box()
+
+
+def test_from_vertices_messages() -> None:
+    with pytest.raises(InvalidGeometry, match=r"points: expected at least n \+ 1 = 3 points"):
+        ConvexPolytope.from_vertices([[0.0, 0.0], [1.0, 0.0]])
+    with pytest.raises(InvalidGeometry, match="points: expected points spanning 3 dimensions"):
+        ConvexPolytope.from_vertices([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0], [2, 3, 0]])
+    with pytest.raises(InvalidGeometry, match="points: expected points spanning 2 dimensions"):
+        ConvexPolytope.from_vertices([[0.0, 0.0], [1.0, 1.0], [2.0, 2.0]])  # collinear
+    with pytest.raises(InvalidGeometry, match=r"points: the hull is unusable: .*lower-dimensional"):
+        ConvexPolytope.from_vertices([[1.0], [1.0]])
+    with pytest.raises(InvalidGeometry, match=r"points: expected shape \(k, n\)"):
+        ConvexPolytope.from_vertices([1.0, 2.0, 3.0])
+    with pytest.raises(InvalidGeometry, match="points: expected finite values"):
+        ConvexPolytope.from_vertices([[0.0, 0.0], [1.0, 0.0], [0.0, np.inf]])
+    with pytest.raises(InvalidGeometry, match="names: expected 3 names"):
+        ConvexPolytope.from_vertices([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]], names=["a"])
+    T = ConvexPolytope.from_vertices([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]], names=["a", "b", "c"])
+    assert T.facet_names == ("a", "b", "c")
+    assert T.volume == pytest.approx(0.5, rel=1e-12)
+    line = ConvexPolytope.from_vertices([[2.0], [-1.0], [0.5]])
+    np.testing.assert_allclose(line.vertices.ravel(), [-1.0, 2.0])
+
+
+# ------------------------------------------------------------------------------ inscribed box
+
+
+def _corners_inside(P: ConvexPolytope, lo: np.ndarray, hi: np.ndarray) -> bool:
+    corners = np.array(list(itertools.product(*zip(lo, hi, strict=True))))
+    return bool(np.all(P.contains_batch(corners, tol=1e-12)))
+
+
+@pytest.mark.parametrize("n", range(1, 8))
+def test_largest_box_of_a_box_is_the_box(n: int) -> None:
+    rng = np.random.default_rng(n)
+    lo = rng.uniform(-2.0, 0.0, size=n)
+    hi = lo + rng.uniform(0.5, 2.0, size=n)
+    L, U = ConvexPolytope.box(lo, hi).largest_inscribed_box()
+    np.testing.assert_allclose(L, lo, atol=1e-9)
+    np.testing.assert_allclose(U, hi, atol=1e-9)
+
+
+@pytest.mark.parametrize("n", range(1, 8))
+def test_largest_box_in_the_simplex_and_the_cross_polytope(n: int) -> None:
+    # Simplex x >= 0, Σx <= 1: by AM-GM the box is [0, 1/n]^n.
+    S = ConvexPolytope(np.vstack([np.eye(n), -np.ones((1, n))]), np.r_[np.zeros(n), -1.0])
+    L, U = S.largest_inscribed_box()
+    np.testing.assert_allclose(L, 0.0, atol=1e-7)
+    np.testing.assert_allclose(U, 1.0 / n, atol=1e-7)
+    assert _corners_inside(S, L, U)
+    # Cross-polytope Σ|x| <= 1 (2^n facets): the box is [-1/n, 1/n]^n.
+    signs = np.array(list(itertools.product((1.0, -1.0), repeat=n)))
+    X = ConvexPolytope(signs, -np.ones(len(signs)))
+    L, U = X.largest_inscribed_box()
+    np.testing.assert_allclose(L, -1.0 / n, atol=1e-7)
+    np.testing.assert_allclose(U, 1.0 / n, atol=1e-7)
+    assert _corners_inside(X, L, U)
+
+
+@given(convex_polygons())
+def test_largest_box_matches_the_polygon_rectangle(poly: ConvexPolygon) -> None:
+    L, U = ConvexPolytope.from_polygon(poly).largest_inscribed_box()
+    r = poly.inscribed_rectangle()  # grid search on log-concave area: an independent route
+    area = float(np.prod(U - L))
+    # Inside (so at most the optimum) and never smaller than the grid search's rectangle, which
+    # is itself up to ~1e-5 below the optimum on some polygons (the convex solve finds more).
+    assert _corners_inside(ConvexPolytope.from_polygon(poly), L, U)
+    assert area >= r.area * (1.0 - 1e-9)
+    assert area == pytest.approx(r.area, rel=1e-4)
+
+
+def test_largest_box_is_read_only_and_cached() -> None:
+    P = ConvexPolytope.from_vertices([[0.0, 0.0], [2.0, 0.0], [0.0, 1.0]])
+    L, U = P.largest_inscribed_box()
+    assert P.largest_inscribed_box()[0] is L
+    with pytest.raises(ValueError, match="read-only"):
+        L[0] = 1.0
+    np.testing.assert_allclose(L, [0.0, 0.0], atol=1e-8)
+    np.testing.assert_allclose(U, [1.0, 0.5], atol=1e-8)
+
+
+@pytest.mark.parametrize("n", range(2, 7))
+def test_largest_box_meets_the_kkt_conditions(n: int) -> None:
+    """An optimality certificate independent of the solver: at the optimum, the objective's
+    gradient is a non-negative combination of the active facets' rows (non-negative least
+    squares on the active set), and the box is inside."""
+    from scipy.optimize import nnls
+
+    rng = np.random.default_rng(40 + n)
+    for _ in range(4):
+        pts = rng.normal(size=(int(rng.integers(n + 3, 25)), n)) * rng.uniform(0.5, 3.0, size=n)
+        P = ConvexPolytope.from_vertices(pts)
+        L, U = P.largest_inscribed_box()
+        assert _corners_inside(P, L, U)
+        N = P.normals
+        A = np.hstack([np.maximum(N, 0.0), -np.maximum(-N, 0.0)])  # min of n_i·x over the box
+        w = U - L
+        active = A @ np.r_[L, U] - P.offsets <= 1e-7 * P.chebyshev_radius
+        grad = np.r_[1.0 / w, -1.0 / w]  # minus the gradient of Σ log w_j in (l, u)
+        _, residual = nnls(A[active].T, grad)
+        assert residual <= 1e-6 * float(np.linalg.norm(grad))

@@ -51,6 +51,23 @@ SPECS: dict[str, F | C] = {
             "wedge": lambda: call([1.5, 1.5]),
         },
     ),
+    "geometry.ConvexPolytope": C(
+        lambda: call([[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]], [0.0, -1.0, 0.0, -1.0]),
+        {
+            "box": lambda: call([0.0, 0.0], [1.0, 1.0]),
+            "from_vertices": lambda: call([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]),
+            "from_polygon": lambda: call(square()),
+            "signed_distances": lambda: call(P2),
+            "signed_distances_batch": F(
+                lambda: call([[0.5, 0.5], [2.0, 0.0]]), types={"X": "rows"}
+            ),
+            "contains": lambda: call(P2),
+            "contains_batch": F(lambda: call([[0.5, 0.5], [2.0, 0.0]]), types={"X": "rows"}),
+            "closest_point": lambda: call([1.5, 0.2]),
+            "closest_point_batch": F(lambda: call([[1.5, 0.2], [0.5, 0.5]]), types={"X": "rows"}),
+            "largest_inscribed_box": lambda: call(),
+        },
+    ),
     "geometry.Rectangle": C(
         F(lambda: call(xmin=-1.0, xmax=1.0, ymin=-0.5, ymax=0.5)), {"contains": lambda: call(P2)}
     ),

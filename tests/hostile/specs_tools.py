@@ -77,6 +77,11 @@ SPECS: dict[str, F | C] = {
         heavy="runs the demo scenario and writes plots; only refusals are tried",
         types={"config_path": "path", "out_dir": "path", "console": "object", "config": "object"},
     ),
+    "demo.run_arm_demo": F(
+        lambda: call(out_dir="/nonexistent-velfence-hostile/demo-arm"),
+        heavy="runs the arm scenario (minutes) and writes plots; only refusals are tried",
+        types={"out_dir": "path", "console": "object", "methods": "object"},
+    ),
     "soak.SoakCase": C(
         record="a campaign configuration of callables (polygon_cases(), stop_cases()); "
         "run_case() calls what it holds"

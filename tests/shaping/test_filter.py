@@ -449,3 +449,47 @@ def test_shape_batch_equals_loop() -> None:
     np.testing.assert_array_equal(
         f.shape_batch(Q, V), [f.shape(q, v) for q, v in zip(Q, V, strict=True)]
     )
+
+
+@requires("qpsolvers", "daqp")
+@given(states())
+def test_a_full_weight_matrix_equals_an_independent_qp(
+    state: tuple[np.ndarray, np.ndarray],
+) -> None:
+    q, u = state
+    A = np.random.default_rng(7).normal(size=(7, 7))
+    W = A @ A.T + 0.5 * np.eye(7)
+    f = box_filter(weights=W)
+    r = f.explain(q, u)
+    G, b = reference_rows(f, q, u)
+    ref = qp(W, -W @ u, G, b)
+    np.testing.assert_allclose(r.output, ref, atol=1e-9, rtol=0)
+
+
+@pytest.mark.parametrize("robot", ["puma560", "ur5e"])
+def test_other_arms_keep_a_named_point_in_a_box(robot: str) -> None:
+    from velfence.mechanisms.puma560 import Puma560
+
+    if robot == "puma560":
+        arm, point = Puma560(tool=(0.0, 0.0, 0.1)), "wrist"
+        q0 = np.array([0.0, -0.6, 0.4, 0.0, -0.5, 0.0])
+    else:
+        arm, point = DHChain.ur5e(), "tcp"
+        q0 = np.array([0.0, -1.2, 1.4, -1.7, -1.57, 0.0])
+    lim = np.asarray(arm.joint_limits)
+    p0 = arm.fk(q0, point)
+    box = ConvexPolytope.box(p0 - 0.06, p0 + 0.06)
+    dt = 0.002
+    f = SafetyFilter(
+        arm,
+        limits=JointLimits(lim[:, 0], lim[:, 1], np.full(6, 2.0)),
+        workspace=WorkspaceLimit(box, point=point, buffer=0.02),
+        dt=dt,
+    )
+    q = q0
+    worst = math.inf
+    for v in _walk(5, 400, 0.5, every=100):
+        q = q + f.filter_twist(q, v, point=point) * dt
+        worst = min(worst, float(box.signed_distances(arm.fk(q, point)).min()))
+    assert worst >= -1e-9, worst
+    assert worst < 0.01  # the walk did press on a face

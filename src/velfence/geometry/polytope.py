@@ -51,7 +51,7 @@ _ZERO_NORMAL = 1e-12  # rows with a shorter normal are refused
 _DUPLICATE = 1e-12  # unit normals closer than this (max-norm) are one facet
 _THIN = 1e-9  # Chebyshev radius below _THIN * (1 + scale): empty or lower-dimensional
 _REDUNDANCY = 1e-9  # row i redundant: min n_i·x over the others >= o_i - _REDUNDANCY (1 + scale)
-_RADIUS_CAP = 1e9  # the Chebyshev LP caps r at _RADIUS_CAP * (1 + scale): inf when it binds
+_RADIUS_CAP = 1e9  # the Chebyshev LP caps r at _RADIUS_CAP (1 + scale): inf when it binds
 _LP_OPTIONS = {"primal_feasibility_tolerance": 1e-10, "dual_feasibility_tolerance": 1e-10}
 
 
@@ -71,32 +71,31 @@ def _linprog(c: Any, A_ub: Any, b_ub: Any, bounds: Any, A_eq: Any = None, b_eq: 
     )
 
 
-def _chebyshev(N: FloatArray, off: FloatArray, scale: float) -> tuple[FloatArray, float, bool]:
-    """The Chebyshev ball of ``{x : N x >= off}`` (unit rows): ``(centre, radius, capped)``.
+def _chebyshev(N: FloatArray, off: FloatArray) -> tuple[FloatArray, float]:
+    """The Chebyshev ball of ``{x : N x >= off}`` (unit rows, offsets of magnitude <= 1).
 
-    ``radius`` is ``-1`` when the half-spaces have no common point. ``capped``: the radius cap
-    bound, so the set holds arbitrarily large balls (the centre is then the one of a ball of
-    radius ``1 + scale``, a moderate interior point).
+    Returns ``(centre, radius)``: ``radius`` is ``-1`` when the half-spaces have no common point
+    and ``inf`` when the radius cap binds (the set holds arbitrarily large balls; the centre is
+    then the one of a ball of radius 1, a moderate interior point).
     """
     m, n = N.shape
     # Variables (c, r): maximise r s.t. N c - r >= off, i.e. -N c + r <= -off.
     A = np.hstack([-N, np.ones((m, 1))])
     cost = np.zeros(n + 1)
     cost[-1] = -1.0
-    cap = _RADIUS_CAP * (1.0 + scale)
-    res = _linprog(cost, A, -off, [(None, None)] * n + [(0.0, cap)])
+    res = _linprog(cost, A, -off, [(None, None)] * n + [(0.0, _RADIUS_CAP)])
     if res.status == 2:
-        return np.zeros(n), -1.0, False
+        return np.zeros(n), -1.0
     if res.status != 0:
         raise InvalidGeometry(
             f"normals, offsets: the Chebyshev-ball linear program failed ({res.message}); "
             "rescale the half-spaces"
         )
     r = float(res.x[-1])
-    if r >= cap * (1.0 - 1e-9):
-        res = _linprog(cost, A, -off, [(None, None)] * n + [(0.0, 1.0 + scale)])
-        return np.asarray(res.x[:n], dtype=float), math.inf, True
-    return np.asarray(res.x[:n], dtype=float), r, False
+    if r >= _RADIUS_CAP * (1.0 - 1e-9):
+        res = _linprog(cost, A, -off, [(None, None)] * n + [(0.0, 1.0)])
+        return np.asarray(res.x[:n], dtype=float), math.inf
+    return np.asarray(res.x[:n], dtype=float), r
 
 
 def _is_bounded(N: FloatArray) -> bool:
@@ -117,7 +116,7 @@ class ConvexPolytope:
     r"""A full-dimensional convex polyhedron :math:`\{x : n_i \cdot x \ge o_i\}` in n dimensions.
 
     Rows are normalised (the normal and the offset divided by the normal's length). Exact
-    duplicates (unit normals equal to ``1e-12``) are always merged, the tighter offset kept.
+    duplicates (unit normals equal to within ``1e-12``) are always merged, the tighter offset kept.
     Redundant rows (those whose removal does not change the set, decided by one linear program
     per row: row ``i`` is redundant when :math:`\min n_i\cdot x` over the other rows' polytope is
     ``>= o_i - 1e-9 (1 + scale)``, ``scale`` the largest offset magnitude) are removed and
@@ -142,8 +141,6 @@ class ConvexPolytope:
             the facet it was merged into), or ``-1`` for a removed redundant row.
         chebyshev_center: Centre of a largest inscribed ball, shape (n,), read-only (for a set
             holding arbitrarily large balls: the centre of a ball of radius ``1 + scale``).
-        chebyshev_radius: Radius of the largest inscribed ball (inradius), ``inf`` when the set
-            holds arbitrarily large balls.
         bounded: Whether the set is bounded (its recession cone ``{y : N y >= 0}`` is ``{0}``).
 
     Raises:
@@ -159,9 +156,10 @@ class ConvexPolytope:
     removed: tuple[int, ...] = field(init=False)
     source_rows: tuple[int, ...] = field(init=False)
     chebyshev_center: FloatArray = field(init=False)
-    chebyshev_radius: float = field(init=False)
     bounded: bool = field(init=False)
     _cache: dict[str, Any] = field(init=False, repr=False)
+    if TYPE_CHECKING:
+        _radius: float
 
     def __init__(
         self,
@@ -205,18 +203,22 @@ class ConvexPolytope:
             best = int(same[np.argmax(off[same])])  # first of the largest offsets
             rep[same] = best
         kept = sorted({int(r) for r in rep})
-        scale = float(np.max(np.abs(off)))
-        centre, radius, _ = _chebyshev(N[kept], off[kept], scale)
-        if radius <= _THIN * (1.0 + scale):
-            shown = radius if radius > 0 else 0.0
-            got = "no common point" if radius < 0 else f"Chebyshev radius {shown:.3g}"
+        # The linear programs run in units of 1 + scale (offsets of magnitude <= 1), so that
+        # their tolerances are relative and no bound reaches HiGHS's infinity (1e20).
+        unit = 1.0 + float(np.max(np.abs(off)))
+        off_u = off / unit
+        centre_u, radius_u = _chebyshev(N[kept], off_u[kept])
+        if radius_u <= _THIN:
+            shown = radius_u * unit if radius_u > 0 else 0.0
+            got = "no common point" if radius_u < 0 else f"Chebyshev radius {shown:.3g}"
             raise InvalidGeometry(
                 "normals, offsets: empty or lower-dimensional: expected a full-dimensional set "
-                f"(an inscribed ball of radius > {_THIN * (1.0 + scale):.3g}), got {got}; check "
+                f"(an inscribed ball of radius > {_THIN * unit:.3g}), got {got}; check "
                 "the signs of the offsets (n_i·x >= offset_i inside)"
             )
+        centre, radius = centre_u * unit, radius_u * unit
         if mode == "remove" and len(kept) > 1:
-            kept = _irredundant(N, off, kept, _REDUNDANCY * (1.0 + scale))
+            kept = _irredundant(N, off_u, kept, _REDUNDANCY)
         index = {r: k for k, r in enumerate(kept)}
         source = tuple(index.get(int(rep[i]), -1) for i in range(m))
         object.__setattr__(self, "normals", readonly(np.ascontiguousarray(N[kept])))
@@ -225,7 +227,7 @@ class ConvexPolytope:
         object.__setattr__(self, "removed", tuple(i for i in range(m) if i not in index))
         object.__setattr__(self, "source_rows", source)
         object.__setattr__(self, "chebyshev_center", readonly(centre))
-        object.__setattr__(self, "chebyshev_radius", radius)
+        object.__setattr__(self, "_radius", radius)  # not a field: see chebyshev_radius
         object.__setattr__(self, "bounded", _is_bounded(self.normals))
         object.__setattr__(self, "_cache", {})
 
@@ -254,7 +256,12 @@ class ConvexPolytope:
         n = lo.shape[0]
         if n < 1:
             raise InvalidGeometry("lower: expected at least one dimension, got shape (0,)")
-        hi = real_array("upper", upper, (n,), error=InvalidGeometry, what="an upper corner")
+        hi = real_array("upper", upper, error=InvalidGeometry, what="an upper corner")
+        if hi.shape != (n,):
+            raise InvalidGeometry(
+                f"lower, upper: expected corners of one shape, got lower of shape {lo.shape} and "
+                f"upper of shape {hi.shape}"
+            )
         bad = np.flatnonzero(~(hi > lo))
         if bad.size:
             j = int(bad[0])
@@ -271,7 +278,10 @@ class ConvexPolytope:
         off[1::2] = -hi
         default = [f"{a}_{side}" for a in _axis_names(n) for side in ("min", "max")]
         labels = _names("names", names, 2 * n, default)
-        return cls(N, off, names=labels, redundant="keep")
+        try:
+            return cls(N, off, names=labels, redundant="keep")
+        except InvalidGeometry as exc:  # a box too thin for the tolerance
+            raise InvalidGeometry(f"lower, upper: the box is unusable: {exc}") from None
 
     @classmethod
     def from_polygon(cls, polygon: ConvexPolygon) -> ConvexPolytope:
@@ -344,7 +354,9 @@ class ConvexPolytope:
             N = -hull.equations[:, :n]
             off = np.asarray(hull.equations[:, n], dtype=float)
         try:
-            unnamed = cls(N, off)
+            # Every qhull facet supports the hull on n affinely independent points, so none is
+            # redundant; the triangles of one planar facet are duplicates, merged here.
+            unnamed = cls(N, off, redundant="keep")
         except InvalidGeometry as exc:
             raise InvalidGeometry(f"points: the hull is unusable: {exc}") from None
         if names is None:
@@ -353,6 +365,16 @@ class ConvexPolytope:
         return cls(unnamed.normals, unnamed.offsets, names=labels, redundant="keep")
 
     # ------------------------------------------------------------------ sizes
+    @property
+    def chebyshev_radius(self) -> float:
+        """Radius of the largest inscribed ball (the inradius), in the units of ``x``.
+
+        ``inf`` when the set holds arbitrarily large balls (a half-space, a wedge): the one
+        non-finite value this class reports, on purpose, so it is a property rather than a
+        record field.
+        """
+        return self._radius
+
     @property
     def dim(self) -> int:
         """Dimension ``n`` of the space."""
@@ -437,6 +459,129 @@ class ConvexPolytope:
         t = check_positive("tol", tol, allow_zero=True)
         return np.asarray(np.all(self.signed_distances_batch(X) >= -t, axis=1))
 
+    def closest_point(self, x: ArrayLike) -> FloatArray:
+        r"""The point of the closed polytope nearest to ``x`` (``x`` itself when inside).
+
+        The Euclidean projection :math:`\arg\min_y \|y - x\|^2` s.t. :math:`N y \ge o`, solved
+        exactly by :func:`velfence.geometry.projection.project` (a finite dual active-set method);
+        the answer meets every facet as evaluated in floating point.
+
+        Args:
+            x: Point, shape (n,), finite.
+
+        Returns:
+            Shape (n,), a new array.
+
+        Raises:
+            InvalidInput: ``x`` not a finite real vector of shape (n,).
+        """
+        xa = real_array("x", x, (self.dim,), what="a point")
+        y: FloatArray = self._project(xa[None, :])[0]
+        return y
+
+    def closest_point_batch(self, X: ArrayLike) -> FloatArray:
+        """:meth:`closest_point` of N points at once (the same answers as one at a time).
+
+        Args:
+            X: Points, shape (N, n), finite.
+
+        Returns:
+            Shape (N, n).
+
+        Raises:
+            InvalidInput: ``X`` not finite real numbers of shape (N, n).
+        """
+        Xa = real_array("X", X, (None, self.dim), what="points")
+        return self._project(Xa)
+
+    def _project(self, X: FloatArray) -> FloatArray:
+        from velfence.geometry.projection import project_kernel, projection_scratch
+
+        m, n = self.normals.shape
+        inside = np.all(self._distances(X) >= 0.0, axis=1)
+        out = X.copy()
+        wsf, lam, act = projection_scratch(m, n)
+        y = np.zeros(n)
+        G = self.normals.ravel()  # the kernel reads flat row-major rows
+        for k in np.flatnonzero(~inside):
+            project_kernel(X[k], G, self.offsets, m, n, y, lam, act, wsf)
+            out[k] = y
+        return out
+
+    # ------------------------------------------------------------------ bounded sets
+    def _require_bounded(self, what: str) -> None:
+        if not self.bounded:
+            raise InvalidGeometry(
+                f"{what}: expected a bounded polytope, got an unbounded one (its recession cone "
+                "{y : normals @ y >= 0} is not {0}); intersect it with a box first"
+            )
+
+    def largest_inscribed_box(self) -> tuple[FloatArray, FloatArray]:
+        r"""The largest-volume axis-aligned box ``[lower, upper]`` inside the polytope.
+
+        The box lies inside iff every facet's minimum over it is at least the offset,
+        :math:`\sum_j (n_{ij}^+ l_j - n_{ij}^- u_j) \ge o_i` with :math:`n^\pm = \max(\pm n, 0)`:
+        linear in ``(l, u)``. The objective :math:`\sum_j \log(u_j - l_j)` is concave, so the
+        problem is convex with one optimum; it is solved by SLSQP (:func:`scipy.optimize.minimize`,
+        analytic gradients, ``ftol=1e-15``) in coordinates centred on the Chebyshev ball and scaled
+        by its radius, from the cube inscribed in that ball. The volume found is the optimum to
+        about 1e-9 relative; the box is then shrunk about its centre by the smallest factor that
+        puts every corner inside as evaluated in floating point (a few ulps at most). For a box
+        the answer is that box. Computed once.
+
+        An unbounded polytope is refused: its largest box is infinite, or finite but not unique
+        (it slides along the unbounded directions), and neither is a useful answer.
+
+        Returns:
+            ``(lower, upper)``, shapes (n,), ``lower < upper``, read-only.
+
+        Raises:
+            InvalidGeometry: the polytope is unbounded.
+        """
+        self._require_bounded("largest_inscribed_box")
+        if "box" not in self._cache:
+            self._cache["box"] = _largest_box(self)
+        lo, hi = self._cache["box"]
+        return lo, hi
+
+    @property
+    def vertices(self) -> FloatArray:
+        """The vertices, shape (k, n), read-only (computed once; bounded polytopes only).
+
+        Intersections of the facets found by qhull (:class:`scipy.spatial.HalfspaceIntersection`
+        from the Chebyshev centre); vertices closer than 1e-9 (1 + scale) are one vertex (a
+        vertex where more than n facets meet is reported once).
+
+        Raises:
+            InvalidGeometry: the polytope is unbounded.
+        """
+        self._require_bounded("vertices")
+        if "vertices" not in self._cache:
+            self._cache["vertices"] = readonly(_vertices(self))
+        v: FloatArray = self._cache["vertices"]
+        return v
+
+    @property
+    def volume(self) -> float:
+        """The n-dimensional volume (length for n = 1, area for n = 2), ``inf`` when unbounded.
+
+        ``ConvexHull(vertices).volume`` (qhull), computed once. An unbounded full-dimensional set
+        has infinite volume, so ``inf`` is exact there.
+        """
+        if not self.bounded:
+            return math.inf
+        if "volume" not in self._cache:
+            V = self.vertices
+            if self.dim == 1:
+                vol = float(V.max() - V.min())
+            else:
+                from scipy.spatial import ConvexHull
+
+                vol = float(ConvexHull(V).volume)
+            self._cache["volume"] = vol
+        out: float = self._cache["volume"]
+        return out
+
     def __repr__(self) -> str:
         kind = "bounded" if self.bounded else "unbounded"
         return f"ConvexPolytope(dim={self.dim}, n_facets={self.n_facets}, {kind})"
@@ -467,3 +612,81 @@ def _irredundant(N: FloatArray, off: FloatArray, rows: list[int], tol: float) ->
         if res.status == 0 and float(res.fun) >= off[i] - tol:
             kept.remove(i)
     return kept
+
+
+def _vertices(P: ConvexPolytope) -> FloatArray:
+    """The vertices of a bounded polytope (qhull), duplicates within tolerance merged."""
+    N, off, n = P.normals, P.offsets, P.dim
+    if n == 1:
+        return np.array([[float(np.max(off[N[:, 0] > 0]))], [float(np.min(-off[N[:, 0] < 0]))]])
+    from scipy.spatial import HalfspaceIntersection
+
+    # qhull: A x + b <= 0 inside; ours n·x - o >= 0, so A = -n, b = o.
+    hs = HalfspaceIntersection(np.hstack([-N, off[:, None]]), np.array(P.chebyshev_center))
+    pts = np.asarray(hs.intersections, dtype=float)
+    tol = 1e-9 * (1.0 + float(np.max(np.abs(off))))
+    keep: list[FloatArray] = []
+    for p in pts[np.lexsort(pts.T[::-1])]:
+        if not any(float(np.max(np.abs(p - q))) <= tol for q in keep[-64:]):
+            keep.append(p)
+    return np.array(keep)
+
+
+def _largest_box(P: ConvexPolytope) -> tuple[FloatArray, FloatArray]:
+    """Largest-volume inscribed axis-aligned box (see ``largest_inscribed_box``)."""
+    from scipy.optimize import minimize
+
+    N, n = P.normals, P.dim
+    c = np.array(P.chebyshev_center)
+    R = float(P.chebyshev_radius)
+    b = (P.offsets - N @ c) / R  # facets in z = (x - c) / R: n_i·z >= b_i, the unit ball inside
+    A = np.hstack([np.maximum(N, 0.0), -np.maximum(-N, 0.0)])  # min of n_i·z over [l, u]
+    D = np.hstack([-np.eye(n), np.eye(n)])  # widths u - l
+    h = 1.0 / math.sqrt(n)
+    start = np.concatenate([-h * np.ones(n), h * np.ones(n)])
+
+    def objective(v: FloatArray) -> tuple[float, FloatArray]:
+        w = np.maximum(D @ v, 1e-300)
+        return -float(np.sum(np.log(w))), -(D.T @ (1.0 / w))
+
+    constraints = [
+        {"type": "ineq", "fun": lambda v: A @ v - b, "jac": lambda v: A},
+        {"type": "ineq", "fun": lambda v: D @ v - 1e-9, "jac": lambda v: D},
+    ]
+    res = minimize(
+        objective,
+        start,
+        jac=True,
+        method="SLSQP",
+        constraints=constraints,
+        options={"ftol": 1e-15, "maxiter": 1000},
+    )
+    v = np.asarray(res.x, dtype=float)
+    if (
+        not (np.all(np.isfinite(v)) and np.all(D @ v > 0.0))
+        or objective(v)[0] > objective(start)[0]
+    ):
+        v = start
+    lo, hi = c + R * v[:n], c + R * v[n:]
+    return _shrink_inside(P, lo, hi)
+
+
+def _shrink_inside(
+    P: ConvexPolytope, lo: FloatArray, hi: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """``[lo, hi]`` shrunk about its centre until every facet holds over it as evaluated."""
+    N, off = P.normals, P.offsets
+    mid = 0.5 * (lo + hi)
+    half = 0.5 * (hi - lo)
+    for _ in range(60):
+        low_corner = np.maximum(N, 0.0) @ lo - np.maximum(-N, 0.0) @ hi  # min of n_i·x
+        short = off - low_corner
+        if np.all(short <= 0.0):
+            break
+        spread = np.abs(N) @ half  # n_i·mid - min over the box
+        room = N @ mid - off
+        factor = float(np.min(np.where(short > 0.0, room / spread, 1.0)))
+        factor = min(max(factor, 0.0), 1.0) * (1.0 - 1e-15) - 4e-16
+        half = half * factor
+        lo, hi = mid - half, mid + half
+    return readonly(lo), readonly(hi)

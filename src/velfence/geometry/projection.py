@@ -28,7 +28,8 @@ shapers' fast paths. :func:`project` is the validated public wrapper.
 from __future__ import annotations
 
 import math
-from typing import Any, NamedTuple
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -281,7 +282,8 @@ def project_kernel(
     return PROJECT_OPTIMAL, q, iters
 
 
-class Projection(NamedTuple):
+@dataclass(frozen=True)
+class Projection:
     """The result of :func:`project`.
 
     Attributes:

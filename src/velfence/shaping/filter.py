@@ -46,7 +46,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any, Protocol, runtime_checkable
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -61,13 +61,13 @@ from velfence._validate import (
 )
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.shaping._kernels import (
-    STAGE_NAMES,
     ZONE_NAMES,
     bounds_from_distances,
     fill_bounds,
     zone_code,
 )
 from velfence.shaping.base import InvalidPolicy, OnInvalid, Zone
+from velfence.shaping.kinematics import Kinematics
 from velfence.shaping.limits import JointLimits, Profile, SphereObstacle, WorkspaceLimit
 from velfence.shaping.profiles import LinearBuffer, ThreeZoneBraking
 
@@ -79,8 +79,6 @@ __all__ = [
     "SphereObstacle",
     "WorkspaceLimit",
 ]
-
-_ = STAGE_NAMES  # the 2-D laws' stage names; the filter reports its own (FilterResult.stages)
 
 #: Priority levels of the rows, highest first.
 LEVEL_JOINT = 0
@@ -95,44 +93,6 @@ _CORRECTION_ROUNDS = 4  # discrete-time model checks per cycle
 # The metric's factor L (W = L Lᵀ): None (identity), a vector (diagonal) or a lower-triangular
 # matrix.
 _Metric = FloatArray | None
-
-
-@runtime_checkable
-class Kinematics(Protocol):
-    """The kinematics a :class:`SafetyFilter` needs.
-
-    Implemented structurally by ``DHChain``, ``PlanarArm`` and ``Puma560`` of
-    :mod:`velfence.mechanisms` (``Puma560.fk``/``jacobian`` without a point keep returning the
-    tool pose and the 6 x 6 geometric Jacobian; the filter always names the point).
-
-    Obstacles additionally need the capsule geometry of
-    :class:`~velfence.mechanisms.chain.SerialChain`: ``link_segments(q)`` (L, 2, 3),
-    ``link_radius`` (L,), ``point_jacobian(q, link, t)`` (3, dof) and ``joint_positions(q)``; a
-    twist of shape (6,) needs ``angular_jacobian(q)`` (3, dof).
-    """
-
-    @property
-    def dof(self) -> int:
-        """Number of joints."""
-        ...
-
-    @property
-    def joint_names(self) -> tuple[str, ...]:
-        """One name per joint."""
-        ...
-
-    @property
-    def points(self) -> tuple[str, ...]:
-        """Names of the points ``fk`` and ``jacobian`` accept; ``"tcp"`` always."""
-        ...
-
-    def fk(self, q: ArrayLike, point: str = "tcp") -> FloatArray:
-        """Position of a named point [m], shape (task_dim,), for joints ``q`` (dof,) [rad]."""
-        ...
-
-    def jacobian(self, q: ArrayLike, point: str = "tcp") -> FloatArray:
-        """Linear-velocity Jacobian of a named point [m/rad], shape (task_dim, dof)."""
-        ...
 
 
 # ---------------------------------------------------------------------------------- result
@@ -289,14 +249,12 @@ class SafetyFilter(InvalidPolicy):
     """
 
     __slots__ = (
-        "_acc_rows",
         "_fast_jacobian",
         "_has_accel",
         "_joint_prof",
         "_metric",
         "_obstacles",
         "_previous",
-        "_q0",
         "_workspace",
         "damping",
         "dof",
@@ -382,7 +340,7 @@ class SafetyFilter(InvalidPolicy):
                 f"workspace: expected a WorkspaceLimit or a sequence of them, got "
                 f"{describe(workspace)}"
             )
-        self._q0 = np.zeros(n)
+        q0 = np.zeros(n)
         for w in ws:
             if not isinstance(w, WorkspaceLimit):
                 raise InvalidParameter(
@@ -393,14 +351,14 @@ class SafetyFilter(InvalidPolicy):
                     f"workspace: point {w.point!r} is not one of the robot's points "
                     f"{list(robot.points)}"
                 )
-            dim = np.asarray(robot.fk(self._q0, w.point)).shape[0]
+            dim = np.asarray(robot.fk(q0, w.point)).shape[0]
             if w.polytope.dim != dim:
                 raise InvalidParameter(
                     f"workspace: the polytope on {w.point!r} is {w.polytope.dim}-D, the robot's "
                     f"task space is {dim}-D"
                 )
         self._workspace: tuple[WorkspaceLimit, ...] = tuple(ws)
-        self.task_dim = int(np.asarray(robot.fk(self._q0, "tcp")).shape[0])
+        self.task_dim = int(np.asarray(robot.fk(q0, "tcp")).shape[0])
         obs: Any = obstacles
         if isinstance(obs, (str, bytes)) or not isinstance(obs, Sequence):
             raise InvalidParameter(

@@ -38,7 +38,7 @@ from velfence.shaping.profiles import ApproachProfile, LinearBuffer, ThreeZoneBr
 __all__ = ["PolytopeResult", "PolytopeShaper"]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class PolytopeResult:
     r"""What :class:`PolytopeShaper` did to one command.
 

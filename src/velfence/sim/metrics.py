@@ -12,7 +12,7 @@ of :math:`e_k`.
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -24,16 +24,25 @@ from velfence.geometry.polygon import ConvexPolygon, as_polygon, decompose
 from velfence.shaping.base import Shaper
 from velfence.sim.runner import Trajectory
 
+if TYPE_CHECKING:
+    from velfence.geometry.polytope import ConvexPolytope
+
 __all__ = [
     "DEADBAND",
     "area_gain",
+    "box_penetration",
     "chatter_rate",
     "corner_escape_time",
+    "face_sliding_ratio",
+    "joint_limit_violation",
+    "max_joint_acceleration",
     "max_output_jump",
     "max_penetration",
     "sliding_ratio",
+    "sphere_penetration",
     "summarize",
     "time_outside",
+    "time_to_reach",
 ]
 
 
@@ -372,3 +381,193 @@ def summarize(
         cmds = np.unique(traj.v_cmd, axis=0) if commands is None else commands
         out["max_output_jump"] = max_output_jump(shaper, polygon, spacing=spacing, commands=cmds)
     return {k: float(v) for k, v in out.items()}
+
+
+# ----------------------------------------------------------------------------- arm (n-D) metrics
+# The arm scenario's runs live in joint space (Trajectory.p = q); these metrics take the task-space
+# arrays (TCP positions, link segments) that go with the rows, plus the trajectory where joint data
+# is enough. Definitions in docs/arm_box.md.
+
+
+def _points(name: str, x: Any, width: int | None = None) -> FloatArray:
+    return real_array(name, x, (None, width), what="positions, one row per sample")
+
+
+def box_penetration(points: ArrayLike, polytope: ConvexPolytope) -> float:
+    r"""Largest violation of a polytope over a path: :math:`\max_k \max(0, -\min_i d_i(x_k))`.
+
+    The n-D form of :func:`max_penetration` (e.g. the TCP path and its box).
+
+    Args:
+        points: Positions, shape (N, n), length units (e.g. [m]).
+        polytope: A :class:`~velfence.geometry.polytope.ConvexPolytope` of dimension n.
+
+    Returns:
+        The penetration depth in the units of ``points``; 0.0 when the path stays in the closed
+        polytope (and for an empty path).
+    """
+    if not hasattr(polytope, "signed_distances_batch"):
+        raise InvalidParameter(
+            f"polytope must be a velfence ConvexPolytope, got {type(polytope).__name__}"
+        )
+    X = _points("points", points, int(polytope.dim))
+    if X.shape[0] == 0:
+        return 0.0
+    d = np.asarray(polytope.signed_distances_batch(X), dtype=float)
+    return float(max(0.0, float(-d.min())))
+
+
+def sphere_penetration(
+    segments: ArrayLike, link_radius: ArrayLike, center: ArrayLike, radius: float
+) -> float:
+    r"""Largest overlap of capsule links with a sphere: :math:`\max_{k,l} \max(0, -s_{kl})`.
+
+    :math:`s_{kl} = |c - x_{kl}| - r - r_l` with :math:`x_{kl}` the point of link ``l``'s axis
+    nearest to the centre ``c`` at row ``k`` (the clearance of
+    :func:`velfence.geometry.primitives.sphere_capsule_distance`).
+
+    Args:
+        segments: Link axes per row, shape (N, L, 2, 3), [m] (start, end).
+        link_radius: Capsule radius per link, shape (L,) or scalar, [m].
+        center: Sphere centre, shape (3,), [m].
+        radius: Sphere radius [m], >= 0.
+
+    Returns:
+        The overlap depth [m]; 0.0 when no link ever touches the sphere's interior.
+    """
+    from velfence.geometry.primitives import points_segments_distances
+
+    S = real_array("segments", segments, (None, None, 2, 3), what="link segments [m]")
+    c = real_array("center", center, (3,), what="a sphere centre [m]")
+    r = check_positive("radius", radius, allow_zero=True, unit="m")
+    worst = 0.0
+    for seg in S:
+        _, clear = points_segments_distances(c[None, :], seg[:, 0], seg[:, 1], link_radius)
+        worst = max(worst, float(-(clear.min() - r)))
+    return worst
+
+
+def joint_limit_violation(q: ArrayLike, lower: ArrayLike, upper: ArrayLike) -> float:
+    r"""Largest excursion beyond a joint limit, [rad].
+
+    :math:`\max_{k,i} \max(0,\ q_{ki} - u_i,\ l_i - q_{ki})`.
+
+    Args:
+        q: Joint positions, shape (N, n), [rad].
+        lower: Lower limits, shape (n,), [rad].
+        upper: Upper limits, shape (n,), [rad].
+
+    Returns:
+        The violation [rad]; 0.0 when every row is within the limits.
+    """
+    Q = _points("q", q)
+    n = Q.shape[1]
+    lo = real_array("lower", lower, (n,), what="joint limits [rad]")
+    hi = real_array("upper", upper, (n,), what="joint limits [rad]")
+    if Q.shape[0] == 0:
+        return 0.0
+    return float(max(0.0, float((Q - hi).max()), float((lo - Q).max())))
+
+
+def face_sliding_ratio(
+    t: ArrayLike,
+    points: ArrayLike,
+    commands: ArrayLike,
+    polytope: ConvexPolytope,
+    *,
+    band: float,
+    deadband: float = DEADBAND,
+) -> float:
+    r"""The n-D form of :func:`sliding_ratio`: tangential progress kept while pressing a facet.
+
+    Row ``k < N-1`` *presses* when :math:`|\delta_k| \le` ``band`` for the nearest facet
+    :math:`f_k = \arg\min_i d_i(x_k)` (:math:`\delta_k` its distance) and the command points out
+    through it, :math:`n_{f_k}\cdot v_k < -`\ ``deadband``. With the tangential part
+    :math:`v_{t,k} = v_k - (n_{f_k}\cdot v_k)\,n_{f_k}` (norm > ``deadband``) and
+    :math:`u_k = v_{t,k}/\|v_{t,k}\|`:
+
+    .. math:: \rho = \frac{\sum_{k\ \mathrm{presses}} u_k\cdot(x_{k+1} - x_k)}
+                          {\sum_{k\ \mathrm{presses}} \|v_{t,k}\|\,(t_{k+1} - t_k)}
+
+    Args:
+        t: Times, shape (N,), [s].
+        points: Positions, shape (N, n), length units (the TCP [m]).
+        commands: Commanded velocities of the points, shape (N, n), length units per second.
+        polytope: The permitted set, dimension n.
+        band: Half-width of the band around the boundary, length units (> 0).
+        deadband: Speeds at or below this count as zero, length units per second (>= 0).
+
+    Returns:
+        The ratio, ``nan`` when no row presses with a tangential component.
+    """
+    band = check_positive("band", band, unit="length units")
+    deadband = check_positive("deadband", deadband, allow_zero=True, unit="length units / s")
+    n = int(polytope.dim)
+    X = _points("points", points, n)
+    N = X.shape[0]
+    ta = real_array("t", t, (N,), what="times [s]")
+    V = real_array("commands", commands, (N, n), what="commanded velocities")
+    if N < 2:
+        return math.nan
+    d = np.asarray(polytope.signed_distances_batch(X), dtype=float)
+    facet = d.argmin(axis=1)
+    delta = d[np.arange(N), facet]
+    normals = np.asarray(polytope.normals, dtype=float)[facet]
+    vn = np.einsum("ij,ij->i", V, normals)
+    vt = V - vn[:, None] * normals
+    speed_t = np.linalg.norm(vt, axis=1)
+    press = (np.abs(delta) <= band) & (vn < -deadband) & (speed_t > deadband)
+    press[-1] = False
+    k = np.flatnonzero(press)
+    if k.size == 0:
+        return math.nan
+    commanded = float(np.sum(speed_t[k] * (ta[k + 1] - ta[k])))
+    achieved = float(np.sum(np.einsum("ij,ij->i", vt[k], X[k + 1] - X[k]) / speed_t[k]))
+    return achieved / commanded
+
+
+def time_to_reach(
+    t: ArrayLike, points: ArrayLike, target: ArrayLike, *, tol: float, after: float = -math.inf
+) -> float:
+    r"""First time the path comes within ``tol`` of ``target``, [s].
+
+    :math:`\min\{t_k : t_k \ge t_a,\ \|x_k - x^\star\| \le \epsilon\}` with :math:`t_a` =
+    ``after`` and :math:`\epsilon` = ``tol``.
+
+    Args:
+        t: Times, shape (N,), [s].
+        points: Positions, shape (N, n), length units.
+        target: The target, shape (n,).
+        tol: Reach radius, length units, > 0.
+        after: Rows before this time [s] are ignored (e.g. the start of the final phase).
+
+    Returns:
+        The time [s], ``inf`` when never reached.
+    """
+    X = _points("points", points)
+    ta = real_array("t", t, (X.shape[0],), what="times [s]")
+    x = real_array("target", target, (X.shape[1],), what="a target position")
+    tol = check_positive("tol", tol, unit="length units")
+    ok = (np.linalg.norm(X - x, axis=1) <= tol) & (ta >= after)
+    return float(ta[int(np.argmax(ok))]) if ok.any() else math.inf
+
+
+def max_joint_acceleration(traj: Trajectory) -> float:
+    r"""Largest finite-difference acceleration of the output, [units of ``v_out`` / s].
+
+    :math:`\max_{k,i} |v^{out}_{k+1,i} - v^{out}_{k,i}| / (t_{k+1} - t_k)`.
+
+    The start from rest is not counted (row 0 is the first output).
+
+    Args:
+        traj: The run (joint velocities in ``v_out`` [rad/s]).
+
+    Returns:
+        The acceleration [rad/s²] (units of ``v_out`` per second); 0.0 for a single row.
+    """
+    if not isinstance(traj, Trajectory):
+        raise InvalidParameter(f"traj must be a velfence.sim.Trajectory, got {type(traj).__name__}")
+    if len(traj) < 2:
+        return 0.0
+    acc = np.abs(np.diff(traj.v_out, axis=0)) / np.diff(traj.t)[:, None]
+    return float(acc.max())
