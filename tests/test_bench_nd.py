@@ -157,16 +157,20 @@ def test_polytope_batch_rows() -> None:
     step = _Recorder()
     rows = pc.batch(TINY, HAVE_NUMBA, step)
     sizes = TINY.nd_batch_n if HAVE_NUMBA else ()
-    expect = [(c, "numba", n) for c in pc.CASES for n in sizes]
+    expect = [(c, b, n) for c in pc.CASES for n in sizes for b in ("numba", "numba, 1 thread")]
     expect = sorted(expect + [(c, "python", TINY.nd_python_n) for c in pc.CASES])
     assert sorted((r.case, r.backend, r.n) for r in rows) == expect
-    assert len(step.messages) == len(rows)
+    assert len(step.messages) == len(pc.CASES) * (len(sizes) + 1)
     for r in rows:
         assert r.rows_per_s == pytest.approx(r.n / r.median_s)
         assert r.ns_per_row == pytest.approx(1e9 * r.median_s / r.n)
         assert r.best_rows_per_s >= r.rows_per_s
-        if r.backend == "numba":
+        if r.backend.startswith("numba"):
             assert r.repeats >= TINY.batch_repeats
+    if HAVE_NUMBA:
+        import numba
+
+        assert numba.get_num_threads() == numba.config.NUMBA_NUM_THREADS  # restored
 
 
 # ------------------------------------------------------------------ the safety filter

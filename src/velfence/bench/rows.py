@@ -292,7 +292,8 @@ class PolytopeBatchRow:
         case: The polytope.
         dim: Dimension n.
         facets: Number of facets m.
-        backend: ``"numba"`` (``accelerate=True``) or ``"python"`` (``accelerate=False``).
+        backend: ``"numba"`` (``accelerate=True``, all numba threads), ``"numba, 1 thread"``
+            or ``"python"`` (``accelerate=False``).
         n: Rows per call.
         repeats: Timed calls.
         compile_s: First (compiling or cache-loading) call, seconds; 0 for the Python back-end.

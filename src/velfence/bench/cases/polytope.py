@@ -338,8 +338,32 @@ def _batch_states(
     return P, rng.standard_normal((n, poly.dim))
 
 
+def _time_batch(
+    fast: PolytopeShaper, P: FloatArray, V: FloatArray, reps: int, threads: int
+) -> list[float]:
+    """Wall times of ``reps`` calls after a warm one; ``threads``: numba threads (0: all)."""
+    import numba
+
+    before = numba.get_num_threads()
+    if threads:
+        numba.set_num_threads(threads)
+    try:
+        fast.shape_batch(P, V)  # warm caches and the thread pool
+        times = []
+        for _ in range(reps):
+            t0 = time.perf_counter()
+            fast.shape_batch(P, V)
+            times.append(time.perf_counter() - t0)
+    finally:
+        numba.set_num_threads(before)
+    return times
+
+
 def batch(s: BenchSettings, numba_ok: bool, step: Step) -> list[PolytopeBatchRow]:
     """Throughput of :meth:`PolytopeShaper.shape_batch` per case: numba per N, Python at one N.
+
+    numba runs twice per N: on all its threads and on one (the kernel's own cost per row, free
+    of the thread pool's wake-up and of other processes holding a core).
 
     Args:
         s: The settings (``nd_batch_n``, ``nd_python_n``, ``batch_repeats``).
@@ -364,27 +388,23 @@ def batch(s: BenchSettings, numba_ok: bool, step: Step) -> list[PolytopeBatchRow
             for n in s.nd_batch_n:
                 step(f"batch: PolytopeShaper, {case}, numba, N={n}")
                 Pn, Vn = P[:n], V[:n]
-                fast.shape_batch(Pn, Vn)  # warm caches and the thread pool
                 reps = max(s.batch_repeats, min(101, 100_000 // n))
-                times = []
-                for _ in range(reps):
-                    t0 = time.perf_counter()
-                    fast.shape_batch(Pn, Vn)
-                    times.append(time.perf_counter() - t0)
-                med = float(np.median(times))
-                rows.append(
-                    PolytopeBatchRow(
-                        *label,
-                        "numba",
-                        n,
-                        reps,
-                        compile_s,
-                        med,
-                        n / med,
-                        n / min(times),
-                        1e9 * med / n,
+                for backend, threads in (("numba", 0), ("numba, 1 thread", 1)):
+                    times = _time_batch(fast, Pn, Vn, reps, threads)
+                    med = float(np.median(times))
+                    rows.append(
+                        PolytopeBatchRow(
+                            *label,
+                            backend,
+                            n,
+                            reps,
+                            compile_s,
+                            med,
+                            n / med,
+                            n / min(times),
+                            1e9 * med / n,
+                        )
                     )
-                )
         n = s.nd_python_n
         step(f"batch: PolytopeShaper, {case}, python, N={n}")
         slow = nd_shaper(poly, s, accelerate=False)
