@@ -186,6 +186,10 @@ TINY = bm.BenchSettings(
     batch_repeats=1,
     python_n=32,
     stop_candidates=400,
+    nd_batch_n=(64, 128),
+    nd_python_n=32,
+    filter_calls=5,
+    filter_states=2,
 )
 HAVE_QP = all(importlib.util.find_spec(m) is not None for m in ("qpsolvers", "daqp"))
 HAVE_NUMBA = importlib.util.find_spec("numba") is not None
@@ -239,11 +243,42 @@ def test_tiny_run_has_rows_of_every_family(
         assert rep.qp == ()
 
 
+def test_tiny_run_has_the_nd_and_filter_families(
+    tiny: tuple[bm.BenchReport, list[tuple[str, float]]],
+) -> None:
+    from velfence.bench.cases import polytope
+
+    rep, _ = tiny
+    assert {r.case for r in rep.polytope} == set(polytope.CASES)
+    assert {r.case for r in rep.polytope_batch} == set(polytope.CASES)
+    assert {r.mode for r in rep.filter} == {"joint", "twist", "joint, dt 4 ms"}
+    assert bool(rep.polytope_qp) == HAVE_QP
+    names = [t.name for t in rep.targets]
+    assert sum("`PolytopeShaper.shape`" in n for n in names) == 2
+    assert sum("`SafetyFilter.filter`" in n for n in names) == 2
+    md = rep.to_markdown()
+    tables = _tables(md)
+    ((_, body),) = _section(tables, "n-D exact law: single-call latency")
+    assert len(body) == len(rep.polytope)
+    ((_, body),) = _section(tables, "n-D exact law: batch throughput")
+    assert len(body) == len(rep.polytope_batch)
+    ((head, body),) = _section(tables, "One cycle of `SafetyFilter`")
+    assert len(body) == len(rep.filter)
+    j = head.index("ratio")
+    assert [row[j] for row in body] == [f"{r.ratio:.3f}" for r in rep.filter]
+    if HAVE_QP:
+        ((_, body),) = _section(tables, "n-D exact law against the same QP")
+        assert len(body) == len(rep.polytope_qp)
+
+
 def test_per_call_rows_are_latency_records(
     tiny: tuple[bm.BenchReport, list[tuple[str, float]]],
 ) -> None:
     rep, _ = tiny
-    rows: list[Latency] = [*rep.latency, *rep.worst, *rep.stops, *rep.control, *rep.steps]
+    rows: list[Latency] = [
+        *rep.latency, *rep.worst, *rep.stops, *rep.control, *rep.steps, *rep.polytope,
+        *rep.filter,
+    ]  # fmt: skip
     assert rows
     for r in rows:
         assert isinstance(r, Latency)
@@ -376,8 +411,8 @@ def _tables(md: str) -> dict[str, list[tuple[list[str], list[list[str]]]]]:
 
 _NUMBER = re.compile(r"^-?\d+(\.\d+)?(e[-+]\d+)?$")
 #: Columns of counts and labels (no unit): everything else that holds numbers must name one.
-_UNITLESS = {"edges", "states", "N", "links", "obstacles", "active"}
-_UNITS = ("µs", "ms", " s", "M states/s", "ratio", "‖Δv‖∞")
+_UNITLESS = {"edges", "states", "N", "links", "obstacles", "active", "facets", "rows"}
+_UNITS = ("µs", "ms", " s", "M states/s", "ratio", "‖Δv‖∞", "ns", "M rows/s", "‖Δq̇‖∞")
 
 
 def _numeric(cell: str) -> bool:
@@ -463,6 +498,11 @@ def test_unit_check_finds_a_numeric_column_without_a_unit() -> None:
         ("spring_gain", math.nan, "spring_gain"),
         ("quick", "yes", "quick: expected True or False"),
         ("stop_candidates", True, "stop_candidates: expected a positive int"),
+        ("nd_batch_n", (), "nd_batch_n: expected a non-empty tuple"),
+        ("nd_batch_n", (1000, 4), r"nd_batch_n\[1\]: expected an int >= 16"),
+        ("nd_python_n", 0, "nd_python_n: expected an int >= 16"),
+        ("filter_calls", 0, "filter_calls: expected an int >= 1"),
+        ("filter_states", 1.5, "filter_states: expected a positive int"),
     ],
 )
 def test_bench_settings_refuse_bad_fields_by_name(field: str, value: Any, message: str) -> None:

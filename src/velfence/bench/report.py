@@ -19,7 +19,11 @@ from velfence.bench.machine import Machine
 from velfence.bench.rows import (
     BatchRow,
     ControlCycleRow,
+    FilterRow,
     LatencyRow,
+    PolytopeBatchRow,
+    PolytopeLatencyRow,
+    PolytopeQPRow,
     QPRow,
     StepRow,
     StopLatencyRow,
@@ -61,6 +65,11 @@ class BenchReport:
         stops: Per-call latency of the joint-stop limiter, per method and zone.
         control: One obstacle-avoidance control cycle per arm size and obstacle count.
         steps: One step of the other controllers (cobot path following, resolved rate).
+        polytope: Per-call latency of the n-D exact law (:class:`PolytopeShaper`), per case
+            and zone.
+        polytope_qp: The n-D exact law against the same QP, per case and zone.
+        polytope_batch: Batch throughput of the n-D exact law.
+        filter: One cycle of the safety filter per mode, route and zone (with its peers).
     """
 
     settings: BenchSettings
@@ -75,6 +84,10 @@ class BenchReport:
     stops: tuple[StopLatencyRow, ...] = field(default=())
     control: tuple[ControlCycleRow, ...] = field(default=())
     steps: tuple[StepRow, ...] = field(default=())
+    polytope: tuple[PolytopeLatencyRow, ...] = field(default=())
+    polytope_qp: tuple[PolytopeQPRow, ...] = field(default=())
+    polytope_batch: tuple[PolytopeBatchRow, ...] = field(default=())
+    filter: tuple[FilterRow, ...] = field(default=())
 
     def to_dict(self) -> dict[str, Any]:
         """Plain dicts, lists, strings and numbers (``json.dumps``-able)."""
@@ -318,10 +331,174 @@ def _markdown(r: BenchReport) -> str:
                 "llrrlr",
             )
         )
+    out += _nd_markdown(r)
     if r.notes:
         out.append("## Notes")
         out.append("\n".join(f"* {n}" for n in r.notes))
     return "\n\n".join(out) + "\n"
+
+
+def _nan(x: float, digits: int = 2, fmt: str = "f") -> str:
+    return "—" if math.isnan(x) else f"{x:.{digits}{fmt}}"
+
+
+def _nd_markdown(r: BenchReport) -> list[str]:
+    """The sections of the n-D exact law and of the safety filter (empty without rows)."""
+    s = r.settings
+    out: list[str] = []
+    if r.polytope:
+        out.append("## n-D exact law: single-call latency of `PolytopeShaper.shape`")
+        out.append(
+            "Buffer and spring gain as above. `3-D box`: [-1, 1]³ (6 facets); `3-D icosahedron`: "
+            "the regular icosahedron of circumradius 1 (20 facets); `7-D joint box`: the joint "
+            "limits of `DHChain.seven_dof()` (14 facets, rad). States within 1.5 buffers of the "
+            "boundary on either side, commands heading out; `outside-corner, 3 violated`: the "
+            "box's corners with all three nearby facets violated. `rows`: mean number of "
+            f"bounded facets. {s.calls} timed calls per row, compiled (numba) kernels."
+        )
+        out.append(
+            _table(
+                ["case", "facets", "zone", "states", "rows", "median µs", "p99 µs", "max µs"],
+                [
+                    [
+                        x.case,
+                        str(x.facets),
+                        x.zone,
+                        str(x.states),
+                        f"{x.rows:.1f}",
+                        _f(x.median_us),
+                        _f(x.p99_us),
+                        _f(x.max_us, 1),
+                    ]
+                    for x in r.polytope
+                ],
+                "lrlrrrrr",
+            )
+        )
+    if r.polytope_qp:
+        out.append("## n-D exact law against the same QP")
+        out.append(
+            "The law's own bound rows (`PolytopeShaper.bound_rows`, prebuilt: the QP times are "
+            "the solver call alone) solved as `min ‖x − v‖² s.t. N x ≥ L`; free-zone states "
+            "(no rows) left out. Ratios are QP time / velfence time."
+        )
+        out.append(
+            _table(
+                [
+                    "case",
+                    "zone",
+                    "rows",
+                    "velfence med / p99 µs",
+                    "qpsolvers med / p99 µs",
+                    "daqp med / p99 µs",
+                    "qpsolvers ratio",
+                    "daqp ratio",
+                    "max ‖Δv‖∞ qpsolvers",
+                    "max ‖Δv‖∞ daqp",
+                ],
+                [
+                    [
+                        q.case,
+                        q.zone,
+                        f"{q.rows:.1f}",
+                        f"{_f(q.velfence_median_us)} / {_f(q.velfence_p99_us)}",
+                        f"{_f(q.qpsolvers_median_us)} / {_f(q.qpsolvers_p99_us)}",
+                        f"{_f(q.daqp_median_us)} / {_f(q.daqp_p99_us)}",
+                        _f(q.qpsolvers_ratio_median, 1),
+                        _f(q.daqp_ratio_median, 1),
+                        f"{q.qpsolvers_max_error:.1e}",
+                        f"{q.daqp_max_error:.1e}",
+                    ]
+                    for q in r.polytope_qp
+                ],
+                "llrrrrrrrr",
+            )
+        )
+    if r.polytope_batch:
+        out.append("## n-D exact law: batch throughput of `PolytopeShaper.shape_batch`")
+        out.append(
+            "Positions uniform in the polytope's bounding box grown by 10 %, standard-normal "
+            "commands. numba: median of the timed calls (at least "
+            f"{s.batch_repeats}) after a first (compiling or cache-loading, once per process) "
+            "call and a warm one, on all numba threads and on one (`numba, 1 thread`: the "
+            "kernel's own cost, free of the thread pool's wake-up and of other processes "
+            "holding a core); Python (`accelerate=False`): one call."
+        )
+        out.append(
+            _table(
+                [
+                    "case",
+                    "back-end",
+                    "N",
+                    "median ms / call",
+                    "ns / row",
+                    "M rows/s (median)",
+                    "M rows/s (best)",
+                    "first call s",
+                ],
+                [
+                    [
+                        b.case,
+                        b.backend,
+                        str(b.n),
+                        _f(b.median_s * 1e3, 3),
+                        f"{b.ns_per_row:.0f}",
+                        _f(b.rows_per_s / 1e6, 3),
+                        _f(b.best_rows_per_s / 1e6, 3),
+                        _f(b.compile_s) if b.backend.startswith("numba") else "–",
+                    ]
+                    for b in r.polytope_batch
+                ],
+                "llrrrrrr",
+            )
+        )
+    if r.filter:
+        out.append("## One cycle of `SafetyFilter` (7-DoF arm), beside the same QP and mink")
+        out.append(
+            "`DHChain.seven_dof(link_radius=0.06)`: 14 joint-position bounds, 7 joint-velocity "
+            "bounds (two one-sided rows each), a 6-facet TCP box (a row for each face within "
+            "its 0.1 m buffer), two sphere obstacles near the upper arm and the forearm "
+            "(buffer 0.1 m; a row per link within reach), Jacobians built every cycle; `rows`: "
+            "mean number of constraint rows; states: a nominal pose scattered by "
+            "0.05 rad, commands 0.5 rad/s (joint mode) or 0.2 m/s (twist mode) standard normal, "
+            f"binned by the filter's zone; {s.filter_calls} timed calls per row. `velfence rows "
+            "only`: the filter's row building alone (forward kinematics, Jacobians, distances, "
+            "bounds). The QP routes solve the filter's own rows, prebuilt (solver call alone); "
+            "mink's `solve_ik` solves its own problem (see the notes), so no difference is "
+            "given. `ratio`: median over the `velfence SafetyFilter` row's of the same mode "
+            "and zone (< 1: faster than the filter)."
+        )
+        out.append(
+            _table(
+                [
+                    "mode",
+                    "route",
+                    "zone",
+                    "states",
+                    "rows",
+                    "median µs",
+                    "p99 µs",
+                    "ratio",
+                    "max ‖Δq̇‖∞",
+                ],
+                [
+                    [
+                        x.mode,
+                        x.route,
+                        x.zone,
+                        str(x.states),
+                        _nan(x.rows, 1),
+                        _f(x.median_us, 1),
+                        _f(x.p99_us, 1),
+                        _nan(x.ratio, 3),
+                        _nan(x.max_error, 1, "e"),
+                    ]
+                    for x in r.filter
+                ],
+                "lllrrrrrr",
+            )
+        )
+    return out
 
 
 def write_report(report: BenchReport, path: str | os.PathLike[str]) -> Path:

@@ -15,8 +15,12 @@ from velfence.bench.timing import Latency
 __all__ = [
     "BatchRow",
     "ControlCycleRow",
+    "FilterRow",
     "Latency",
     "LatencyRow",
+    "PolytopeBatchRow",
+    "PolytopeLatencyRow",
+    "PolytopeQPRow",
     "QPRow",
     "StepRow",
     "StopLatencyRow",
@@ -205,3 +209,138 @@ class TargetCheck:
     measured: float
     unit: str
     passed: bool
+
+
+@dataclass(frozen=True, kw_only=True)
+class PolytopeLatencyRow(Latency):
+    """Latency of single :meth:`PolytopeShaper.shape` calls (exact law) for one (case, zone).
+
+    Attributes:
+        calls: Timed calls.
+        median_us: Median latency, µs.
+        p99_us: 99th percentile, µs.
+        max_us: Largest latency, µs.
+        case: The polytope, e.g. ``"3-D box"``.
+        dim: Dimension n.
+        facets: Number of facets m.
+        zone: Zone of every timed state (the shaper's classification), or a narrower label
+            such as ``"outside-corner, 3 violated"``.
+        states: Distinct states cycled through.
+        rows: Mean number of bounded facets (QP constraint rows) over the states.
+    """
+
+    case: str
+    dim: int
+    facets: int
+    zone: str
+    states: int
+    rows: float
+
+
+@dataclass(frozen=True)
+class PolytopeQPRow:
+    """The n-D exact law against the same QP (its own bound rows), for one (case, zone).
+
+    Latencies in µs; ratios are QP time / velfence time (> 1: velfence is faster). The QP
+    timings are the solver call alone, with the rows (:meth:`PolytopeShaper.bound_rows`)
+    prebuilt. Errors are the largest ``max(|velfence - QP|)`` over the states.
+
+    Attributes:
+        case: The polytope.
+        dim: Dimension n.
+        facets: Number of facets m.
+        zone: Zone of the states.
+        states: Distinct states.
+        calls: Timed calls per route.
+        rows: Mean number of constraint rows.
+        velfence_median_us: ``PolytopeShaper.shape`` median.
+        velfence_p99_us: Its 99th percentile.
+        qpsolvers_median_us: ``qpsolvers.solve_qp(..., solver="daqp")`` median.
+        qpsolvers_p99_us: Its 99th percentile.
+        daqp_median_us: ``daqp.solve`` median.
+        daqp_p99_us: Its 99th percentile.
+        qpsolvers_ratio_median: ``qpsolvers_median_us / velfence_median_us``.
+        daqp_ratio_median: ``daqp_median_us / velfence_median_us``.
+        qpsolvers_max_error: Largest difference to the qpsolvers answer.
+        daqp_max_error: Largest difference to the daqp answer.
+    """
+
+    case: str
+    dim: int
+    facets: int
+    zone: str
+    states: int
+    calls: int
+    rows: float
+    velfence_median_us: float
+    velfence_p99_us: float
+    qpsolvers_median_us: float
+    qpsolvers_p99_us: float
+    daqp_median_us: float
+    daqp_p99_us: float
+    qpsolvers_ratio_median: float
+    daqp_ratio_median: float
+    qpsolvers_max_error: float
+    daqp_max_error: float
+
+
+@dataclass(frozen=True)
+class PolytopeBatchRow:
+    """Throughput of :meth:`PolytopeShaper.shape_batch` for one (case, back-end, N).
+
+    Attributes:
+        case: The polytope.
+        dim: Dimension n.
+        facets: Number of facets m.
+        backend: ``"numba"`` (``accelerate=True``, all numba threads), ``"numba, 1 thread"``
+            or ``"python"`` (``accelerate=False``).
+        n: Rows per call.
+        repeats: Timed calls.
+        compile_s: First (compiling or cache-loading) call, seconds; 0 for the Python back-end.
+        median_s: Median wall time of one call, seconds.
+        rows_per_s: ``n / median_s``.
+        best_rows_per_s: ``n / min(call time)``.
+        ns_per_row: ``1e9 * median_s / n``.
+    """
+
+    case: str
+    dim: int
+    facets: int
+    backend: str
+    n: int
+    repeats: int
+    compile_s: float
+    median_s: float
+    rows_per_s: float
+    best_rows_per_s: float
+    ns_per_row: float
+
+
+@dataclass(frozen=True, kw_only=True)
+class FilterRow(Latency):
+    """One cycle of the joint-space safety filter, or of a peer on the same problem.
+
+    Attributes:
+        calls: Timed calls.
+        median_us: Median latency, µs.
+        p99_us: 99th percentile, µs.
+        max_us: Largest latency, µs.
+        mode: ``"joint"`` (joint-velocity command), ``"twist"`` (TCP velocity) or either with
+            the control period, e.g. ``"joint, dt 4 ms"``.
+        route: What was timed: ``"velfence SafetyFilter"``, ``"qpsolvers+daqp (same rows)"``,
+            ``"daqp (same rows)"`` or ``"mink solve_ik"``.
+        zone: Zone of the states (the filter's classification) or ``"all"``.
+        states: Distinct states cycled through.
+        rows: Mean number of constraint rows.
+        ratio: ``median_us`` over the velfence row's of the same mode and zone (1 for it).
+        max_error: Largest ``max(|velfence - route|)`` over the states, rad/s (``nan`` where the
+            route solves a different problem, e.g. mink).
+    """
+
+    mode: str
+    route: str
+    zone: str
+    states: int
+    rows: float
+    ratio: float = math.nan
+    max_error: float = math.nan

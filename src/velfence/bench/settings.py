@@ -17,8 +17,12 @@ from velfence.shaping import ZONE_NAMES
 __all__ = [
     "AGREEMENT_TARGET",
     "BUFFER",
+    "FILTER_MEDIAN_TARGET_US",
+    "FILTER_P99_TARGET_US",
     "LATENCY_TARGET_US",
     "MAX_EDGES",
+    "POLYTOPE_BOX_TARGET_US",
+    "POLYTOPE_FACETS_TARGET_US",
     "SEED",
     "SPRING_GAIN",
     "THROUGHPUT_TARGET",
@@ -33,6 +37,10 @@ ZONES: tuple[str, ...] = ZONE_NAMES[:5]
 LATENCY_TARGET_US = 5.0  # 8-edge single-call median, µs
 AGREEMENT_TARGET = 1e-9  # max |exact - QP|, workspace units per second
 THROUGHPUT_TARGET = 10e6  # shape_batch with numba, states per second
+POLYTOPE_BOX_TARGET_US = 10.0  # PolytopeShaper.shape, 3-D box, three facets violated, median µs
+POLYTOPE_FACETS_TARGET_US = 20.0  # PolytopeShaper.shape, 3-D 20-facet polytope, worst zone, µs
+FILTER_MEDIAN_TARGET_US = 80.0  # SafetyFilter.filter, 7-DoF arm, worst zone, median µs
+FILTER_P99_TARGET_US = 200.0  # the same, 99th percentile µs
 
 # The benchmark geometry: regular polygons of circumradius 1 (workspace units) about the origin.
 BUFFER = 0.1  # workspace units
@@ -65,6 +73,11 @@ class BenchSettings:
         spring_gain: Spring gain of every shaper, 1/s.
         seed: Seed of every random state.
         stop_candidates: Random states drawn to fill the joint-stop limiter's zones.
+        nd_batch_n: Rows per :meth:`PolytopeShaper.shape_batch` call with numba, one row of the
+            table per size.
+        nd_python_n: Rows of the plain-Python :meth:`PolytopeShaper.shape_batch` run.
+        filter_calls: Timed single calls per :class:`SafetyFilter` (and peer) row.
+        filter_states: Distinct states per zone of the safety-filter rows.
     """
 
     quick: bool
@@ -80,6 +93,10 @@ class BenchSettings:
     spring_gain: float = SPRING_GAIN
     seed: int = SEED
     stop_candidates: int = 20_000
+    nd_batch_n: tuple[int, ...] = (1_000, 10_000, 1_000_000)
+    nd_python_n: int = 2_000
+    filter_calls: int = 2_000
+    filter_states: int = 16
 
     def __post_init__(self) -> None:
         """Check every field (a hand-built configuration is refused by field name).
@@ -97,6 +114,9 @@ class BenchSettings:
             ("python_n", self.python_n, 16, _MAX_BATCH),
             ("stop_candidates", self.stop_candidates, 1, _MAX_BATCH),
             ("seed", self.seed, 0, MAX_SEED),
+            ("nd_python_n", self.nd_python_n, 16, _MAX_BATCH),
+            ("filter_calls", self.filter_calls, 1, _MAX_CALLS),
+            ("filter_states", self.filter_states, 1, _MAX_CALLS),
         ):
             check_positive_int(name, value, minimum=minimum, maximum=maximum)
         for name, edges in (
@@ -109,6 +129,13 @@ class BenchSettings:
                 )
             for i, n in enumerate(edges):
                 check_positive_int(f"{name}[{i}]", n, minimum=3, maximum=MAX_EDGES, example=8)
+        if not isinstance(self.nd_batch_n, tuple) or not self.nd_batch_n:
+            raise InvalidParameter(
+                f"nd_batch_n: expected a non-empty tuple of row counts, got "
+                f"{describe(self.nd_batch_n)}"
+            )
+        for i, n in enumerate(self.nd_batch_n):
+            check_positive_int(f"nd_batch_n[{i}]", n, minimum=16, maximum=_MAX_BATCH, example=1000)
         check_positive("buffer", self.buffer)
         check_positive("spring_gain", self.spring_gain, allow_zero=True)
 
@@ -130,6 +157,10 @@ class BenchSettings:
                 batch_n=10_000,
                 batch_repeats=2,
                 python_n=400,
+                nd_batch_n=(1_000, 10_000),
+                nd_python_n=200,
+                filter_calls=100,
+                filter_states=4,
             )
         return cls(
             quick=False,
@@ -141,4 +172,8 @@ class BenchSettings:
             batch_n=1_000_000,
             batch_repeats=7,
             python_n=20_000,
+            nd_batch_n=(1_000, 10_000, 1_000_000),
+            nd_python_n=2_000,
+            filter_calls=2_000,
+            filter_states=16,
         )
