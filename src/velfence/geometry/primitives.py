@@ -500,6 +500,13 @@ def points_segments_distances(
             f"points and starts: {Pp.shape[0]} points × {A.shape[0]} segments exceeds "
             f"{MAX_PAIRS:,} pairs; split the query"
         )
+    return _points_segments(Pp, A, B, R)
+
+
+def _points_segments(
+    Pp: FloatArray, A: FloatArray, B: FloatArray, R: FloatArray | float
+) -> tuple[FloatArray, FloatArray]:
+    """:func:`points_segments_distances` on validated float arrays (no checks): ``(t, clear)``."""
     E = B - A
     ee = np.einsum("ij,ij->i", E, E)
     rel = Pp[:, None, :] - A[None, :, :]  # (P, S, 3)

@@ -45,7 +45,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -54,6 +54,7 @@ from numpy.typing import ArrayLike
 from velfence._typing import FloatArray
 from velfence._validate import (
     MAX_MAGNITUDE,
+    check_flag,
     check_positive,
     describe,
     readonly,
@@ -140,26 +141,70 @@ class FilterResult:
     method: str = "safety-filter"
 
 
-@dataclass
 class _Rows:
-    G: list[FloatArray] = field(default_factory=list)
-    b: list[float] = field(default_factory=list)
-    level: list[int] = field(default_factory=list)
-    violated: list[bool] = field(default_factory=list)
-    names: list[str] = field(default_factory=list)
-    # discrete-time model checks: (row index, kind, key) with kind "ws" or "ob"
-    check: list[tuple[int, str, tuple[int, int]]] = field(default_factory=list)
+    """The rows of one cycle, appended in blocks, then :meth:`done` (arrays)."""
 
-    def add(self, g: FloatArray, b: float, level: int, violated: bool, name: str) -> int:
-        self.G.append(g)
-        self.b.append(b)
-        self.level.append(level)
-        self.violated.append(violated)
-        self.names.append(name)
-        return len(self.b) - 1
+    __slots__ = (
+        "G",
+        "_G",
+        "_b",
+        "_level",
+        "_viol",
+        "b",
+        "check",
+        "level",
+        "m",
+        "names",
+        "violated",
+    )
+
+    def __init__(self) -> None:
+        self._G: list[FloatArray] = []
+        self._b: list[FloatArray] = []
+        self._level: list[FloatArray] = []
+        self._viol: list[Any] = []
+        self.names: list[str] = []
+        self.m = 0
+        # discrete-time model checks: (row index, kind, key) with kind "ws" or "ob"
+        self.check: list[tuple[int, str, tuple[int, int]]] = []
+        self.G: FloatArray = np.zeros((0, 0))
+        self.b: FloatArray = np.zeros(0)
+        self.level: Any = np.zeros(0, dtype=np.int64)
+        self.violated: Any = np.zeros(0, dtype=bool)
+
+    def block(self, G: FloatArray, b: FloatArray, level: int, viol: Any, names: list[str]) -> int:
+        """Append rows ``G x >= b`` (k, n) of one level; returns the first one's index."""
+        first = self.m
+        k = b.shape[0]
+        if k:
+            self._G.append(G)
+            self._b.append(b)
+            self._level.append(np.full(k, level, dtype=np.int64))
+            self._viol.append(viol)
+            self.names.extend(names)
+            self.m += k
+        return first
+
+    def done(self, n: int) -> _Rows:
+        """Stack the blocks into ``G`` (m, n), ``b``, ``level`` and ``violated`` (m,)."""
+        if self._b:
+            self.G = np.concatenate(self._G).reshape(self.m, n)
+            self.b = np.concatenate(self._b).astype(np.float64, copy=False)
+            self.level = np.concatenate(self._level)
+            self.violated = np.concatenate(self._viol).astype(bool, copy=False)
+        else:
+            self.G = np.zeros((0, n))
+        return self
 
 
-def _bounds(prm: Profile, dist: FloatArray, speed: float, idt: float) -> FloatArray:
+#: The bound kernels: (bounds_from_distances, fill_bounds), plain Python or compiled twins.
+_BoundKernels = tuple[Any, Any]
+_PLAIN_BOUNDS: _BoundKernels = (bounds_from_distances, fill_bounds)
+
+
+def _bounds(
+    prm: Profile, dist: FloatArray, speed: float, idt: float, kern: _BoundKernels = _PLAIN_BOUNDS
+) -> FloatArray:
     """Lower bounds on the approach rate ``n·x`` toward constraints at distances ``dist``.
 
     The exact law's one bound definition, :func:`velfence.shaping._kernels.bounds_from_distances`
@@ -169,30 +214,48 @@ def _bounds(prm: Profile, dist: FloatArray, speed: float, idt: float) -> FloatAr
     reachable in one period at its speed); here the output may move a point faster than the
     command does (a joint-space projection is not a Cartesian one), so the rows it leaves out
     get the same definition from :func:`~velfence.shaping._kernels.fill_bounds` (``-inf`` where
-    the profile sets no cap and there is no period).
+    the profile sets no cap and there is no period). Each row's bound depends on its own
+    distance only (both kernels run with unit scale and the cap speed ``speed``), so rows of
+    one profile and speed may share a call. ``kern``: the kernels, plain or compiled.
     """
     kind, params = prm.kernel_profile
     k = dist.shape[0]
     bnd = np.zeros(k)
     work = np.zeros(k, dtype=np.int64)
-    m = bounds_from_distances(dist, k, speed, kind, params, False, idt, False, bnd, work)[0]
-    chosen = set(work[:m].tolist())
-    rest = np.array([e for e in range(k) if e not in chosen], dtype=np.int64)
-    # (violated rows are always chosen, so ``rest`` holds rows with d >= 0 only)
-    fill_bounds(kind, params, False, dist, rest, 0, rest.shape[0], speed, 1.0, idt, bnd)
+    bfd, fill = kern
+    m = bfd(dist, k, speed, kind, params, False, idt, False, bnd, work)[0]
+    if m < k:
+        # (violated rows are always chosen, so the rest holds rows with d >= 0 only)
+        rest = np.ones(k, dtype=bool)
+        rest[work[:m]] = False
+        idx = np.flatnonzero(rest).astype(np.int64)
+        fill(kind, params, False, dist, idx, 0, idx.shape[0], speed, 1.0, idt, bnd)
     return bnd
 
 
-def _projection(u: FloatArray, G: FloatArray, b: FloatArray) -> tuple[bool, FloatArray]:
+def _projection(
+    u: FloatArray, G: FloatArray, b: FloatArray, kernel: Any = None
+) -> tuple[bool, FloatArray]:
     """Projection of ``u`` onto ``{x : G x >= b}`` for the filter's own arrays: ``(feasible, x)``.
 
-    :func:`velfence.geometry.projection.project_kernel` (the solve behind ``project``) run on
-    Python lists, which plain Python indexes faster than arrays; the inputs are finite (``b``
-    finite), built by the filter.
+    :func:`velfence.geometry.projection.project_kernel` (the solve behind ``project``): its
+    compiled twin ``kernel`` on contiguous float64 arrays, or (``kernel`` None) the plain kernel
+    on Python lists, which plain Python indexes faster than arrays; the inputs are finite
+    (``b`` finite), built by the filter.
     """
     from velfence.geometry.projection import PROJECT_OPTIMAL, project_kernel
 
     m, n = G.shape
+    if kernel is not None:
+        xa = np.zeros(n)
+        status = kernel(
+            np.ascontiguousarray(u, dtype=np.float64),
+            np.ascontiguousarray(G, dtype=np.float64).reshape(m * n),
+            np.ascontiguousarray(b, dtype=np.float64),
+            m, n, xa, np.zeros(n + 1), np.zeros(n + 1, dtype=np.int64),
+            np.zeros(2 * n * n + 4 * n + m + 2),
+        )[0]  # fmt: skip
+        return status == PROJECT_OPTIMAL and bool(np.all(np.isfinite(xa))), xa
     x = [0.0] * n
     lam = [0.0] * (n + 1)
     act = [0] * (n + 1)
@@ -240,6 +303,8 @@ class SafetyFilter(InvalidPolicy):
         weights: Joint-mode metric ``W``: ``None`` (identity), per-joint weights (n,) > 0, or a
             symmetric positive definite (n, n) matrix.
         damping: :math:`\lambda` of the twist mode's damped least squares [m/rad], > 0.
+        accelerate: Solve with the numba-compiled projection and bound kernels when numba is
+            installed (default True; the same results to round-off); plain Python otherwise.
         on_invalid: ``"raise"`` or ``"stop"`` (zero velocity, zone ``"invalid"``).
 
     Raises:
@@ -249,13 +314,20 @@ class SafetyFilter(InvalidPolicy):
     """
 
     __slots__ = (
-        "_fast_jacobian",
+        "_cached",
         "_has_accel",
         "_joint_prof",
+        "_joint_rows",
+        "_kern",
         "_metric",
+        "_obstacle_geometry",
         "_obstacles",
         "_previous",
+        "_rate_rows",
+        "_solver",
         "_workspace",
+        "_ws_names",
+        "accelerate",
         "damping",
         "dof",
         "dt",
@@ -282,6 +354,7 @@ class SafetyFilter(InvalidPolicy):
         obstacle_buffer: float = 0.05,
         weights: ArrayLike | None = None,
         damping: float = 1e-2,
+        accelerate: bool = True,
         on_invalid: OnInvalid = "raise",
     ) -> None:
         super().__init__(on_invalid=on_invalid)
@@ -377,9 +450,46 @@ class SafetyFilter(InvalidPolicy):
                         f"({attr!r}); use a DHChain or PlanarArm (Puma560.chain)"
                     )
         self._obstacles: tuple[SphereObstacle, ...] = tuple(obstacles)
-        # DHChain / PlanarArm: the link Jacobians from the joint points and axes in one pass.
-        self._fast_jacobian = type(robot).__module__ == "velfence.mechanisms.chain" and all(
-            hasattr(robot, a) for a in ("joint_positions", "angular_jacobian")
+        # DHChain / PlanarArm: the pose's geometry computed once per cycle (their private
+        # _kinematics_cache and *_cached methods, q validated here); any other robot is asked
+        # through the public protocol methods.
+        self._cached = type(robot).__module__ == "velfence.mechanisms.chain" and all(
+            hasattr(robot, a)
+            for a in (
+                "_kinematics_cache",
+                "_fk_cached",
+                "_jacobian_cached",
+                "_segments_cached",
+                "_jacobian_at",
+            )
+        )
+        self.accelerate = check_flag("accelerate", accelerate)
+        self._solver: Any = None
+        self._kern: _BoundKernels = _PLAIN_BOUNDS
+        if self.accelerate:
+            from velfence.shaping._accel import compiled_bounds, compiled_project
+
+            self._solver = compiled_project()
+            self._kern = compiled_bounds() or _PLAIN_BOUNDS
+        self._joint_rows = self._joint_layout()
+        # Obstacles' fixed parts: centres (k, 3), radii (k,), the links' capsule radii, profile.
+        self._obstacle_geometry: tuple[Any, ...] = ()
+        if self._obstacles:
+            capsules: Any = robot
+            self._obstacle_geometry = (
+                np.array([o.center for o in self._obstacles], dtype=float),
+                np.array([o.radius for o in self._obstacles], dtype=float),
+                np.array(capsules.link_radius, dtype=float).reshape(-1),
+                LinearBuffer(buffer=self.obstacle_buffer, spring_gain=self.spring_gain),
+            )
+        self._rate_rows = self._rate_layout()
+        self._ws_names = tuple(
+            [
+                f"{f'workspace {w_i}: ' if len(self._workspace) > 1 else ''}"
+                f"{'TCP' if w.point == 'tcp' else w.point} face {name}"
+                for name in w.polytope.facet_names
+            ]
+            for w_i, w in enumerate(self._workspace)
         )
         # Metric of the joint mode: W = L Lᵀ.
         self._metric: _Metric = None
@@ -419,97 +529,168 @@ class SafetyFilter(InvalidPolicy):
         self._previous = None
 
     # ------------------------------------------------------------------ rows
-    def _rows(self, q: FloatArray, u: FloatArray, previous: FloatArray | None) -> _Rows:
+    def _joint_layout(self) -> tuple[Any, ...]:
+        """The joint rows' fixed parts, in row order (per joint: position lower, upper, velocity).
+
+        ``(G (4n, n), names, finite position sides (2n,), groups, vmax (2n,))``; per joint the
+        rows are position lower, upper, velocity lower, upper; ``groups`` are ``(profile,
+        speed, sides)`` sharing one bound call.
+        """
+        n = self.dof
+        lim = self.limits
+        eye = np.eye(n)
+        G = np.zeros((4 * n, n))
+        names: list[str] = []
+        for j in range(n):
+            G[4 * j : 4 * j + 4] = (eye[j], -eye[j], eye[j], -eye[j])
+            names += [
+                f"joint {j} position (lower)", f"joint {j} position (upper)",
+                f"joint {j} velocity (lower)", f"joint {j} velocity (upper)",
+            ]  # fmt: skip
+        finite = np.isfinite(np.stack([lim.lower, lim.upper], axis=1).ravel())
+        groups: dict[tuple[Any, ...], tuple[Profile, float, list[int]]] = {}
+        for side in np.flatnonzero(finite).tolist():
+            j = side // 2
+            prof = self._joint_prof[j]
+            v = float(lim.max_velocity[j])
+            key = (*prof.kernel_profile, v)
+            groups.setdefault(key, (prof, v, []))[2].append(side)
+        grp = tuple((p, v, np.array(sides, dtype=np.int64)) for p, v, sides in groups.values())
+        vmax = np.repeat(np.asarray(lim.max_velocity, dtype=float), 2)
+        return readonly(G), tuple(names), finite, grp, vmax
+
+    def _rate_layout(self) -> tuple[FloatArray, tuple[str, ...], Any, FloatArray]:
+        """The acceleration rows' fixed parts: ``(G, names, joints, a (per joint))``."""
+        n = self.dof
+        acc = self.limits.max_acceleration
+        joints = np.zeros(0, dtype=np.int64) if acc is None else np.flatnonzero(np.isfinite(acc))
+        eye = np.eye(n)
+        G = np.zeros((2 * joints.shape[0], n))
+        G[0::2] = eye[joints]
+        G[1::2] = -eye[joints]
+        names = tuple(
+            f"joint {j} acceleration ({side})"
+            for j in joints.tolist()
+            for side in ("lower", "upper")
+        )
+        step = np.zeros(0) if acc is None else np.asarray(acc, dtype=float)[joints]
+        return readonly(G), names, joints, step
+
+    def _kinematics(self, q: FloatArray) -> Any:
+        """The pose's geometry for the cached fast path (None for other robots)."""
+        if not self._cached:
+            return None
+        robot: Any = self.robot
+        return robot._kinematics_cache(q)
+
+    def _fk(self, q: FloatArray, kin: Any, point: str) -> FloatArray:
+        if kin is None:
+            return np.asarray(self.robot.fk(q, point), dtype=float)
+        robot: Any = self.robot
+        p: FloatArray = robot._fk_cached(kin, point)
+        return p
+
+    def _jac(self, q: FloatArray, kin: Any, point: str) -> FloatArray:
+        if kin is None:
+            return np.asarray(self.robot.jacobian(q, point), dtype=float)
+        robot: Any = self.robot
+        J: FloatArray = robot._jacobian_cached(kin, point)
+        return J
+
+    def _rows(
+        self, q: FloatArray, u: FloatArray, previous: FloatArray | None, kin: Any = None
+    ) -> _Rows:
         n = self.dof
         idt = 0.0 if self.dt is None else 1.0 / self.dt
         rows = _Rows()
         lim = self.limits
-        eye = np.eye(n)
-        for j in range(n):
-            v = float(lim.max_velocity[j])
-            prof = self._joint_prof[j]
-            for side, sign, d in (
-                ("lower", 1.0, q[j] - lim.lower[j]),
-                ("upper", -1.0, lim.upper[j] - q[j]),
-            ):
-                if not math.isfinite(d):
-                    continue
-                b = float(_bounds(prof, np.array([d]), v, idt)[0])
-                if b == -math.inf:
-                    continue  # beyond the profile's reach: no bound
-                b = min(b, v)  # a recovery no faster than the joint can move
-                rows.add(sign * eye[j], b, LEVEL_JOINT, d < 0.0, f"joint {j} position ({side})")
-            rows.add(eye[j], -v, LEVEL_JOINT, False, f"joint {j} velocity (lower)")
-            rows.add(-eye[j], -v, LEVEL_JOINT, False, f"joint {j} velocity (upper)")
+        # Joint position and velocity rows (the fixed layout, bounds per profile group).
+        G4, names4, finite, groups, vside = self._joint_rows
+        dpos = np.stack([q - lim.lower, lim.upper - q], axis=1).ravel()
+        bpos = np.full(2 * n, -math.inf)
+        for prof, v, sides in groups:
+            bpos[sides] = _bounds(prof, dpos[sides], v, idt, self._kern)
+        keep_pos = finite & (bpos != -math.inf)  # beyond the profile's reach: no bound
+        bpos = np.minimum(bpos, vside)  # a recovery no faster than the joint can move
+        b4 = np.empty((n, 4))
+        b4[:, :2] = bpos.reshape(n, 2)
+        b4[:, 2] = -lim.max_velocity
+        b4[:, 3] = -lim.max_velocity
+        keep4 = np.ones((n, 4), dtype=bool)
+        keep4[:, :2] = keep_pos.reshape(n, 2)
+        viol4 = np.zeros((n, 4), dtype=bool)
+        viol4[:, :2] = (dpos < 0.0).reshape(n, 2)
+        keep = keep4.ravel()
+        rows.block(
+            G4[keep], b4.ravel()[keep], LEVEL_JOINT, viol4.ravel()[keep],
+            [nm for nm, k in zip(names4, keep.tolist(), strict=True) if k],
+        )  # fmt: skip
         if self._has_accel and previous is not None and self.dt is not None:
-            acc = lim.max_acceleration
-            if acc is not None:
-                for j in range(n):
-                    if math.isfinite(acc[j]):
-                        step = float(acc[j]) * self.dt
-                        rows.add(
-                            eye[j], float(previous[j]) - step, LEVEL_RATE, False,
-                            f"joint {j} acceleration (lower)",
-                        )  # fmt: skip
-                        rows.add(
-                            -eye[j], -(float(previous[j]) + step), LEVEL_RATE, False,
-                            f"joint {j} acceleration (upper)",
-                        )  # fmt: skip
+            Gr, names_r, joints, acc = self._rate_rows
+            if joints.shape[0]:
+                step = acc * self.dt
+                pj = previous[joints]
+                br = np.empty(2 * joints.shape[0])
+                br[0::2] = pj - step
+                br[1::2] = -(pj + step)
+                rows.block(Gr, br, LEVEL_RATE, np.zeros(br.shape[0], dtype=bool), list(names_r))
         for w_i, w in enumerate(self._workspace):
-            p = np.asarray(self.robot.fk(q, w.point), dtype=float)
-            J = np.asarray(self.robot.jacobian(q, w.point), dtype=float)
+            p = self._fk(q, kin, w.point)
+            J = self._jac(q, kin, w.point)
             poly = w.polytope
             dist = poly.normals @ p - poly.offsets
             s = float(np.linalg.norm(J @ u))
             prof = w.profile if w.profile is not None else LinearBuffer(buffer=w.buffer)
-            bnd = _bounds(prof, dist, s, idt)
-            label = "TCP" if w.point == "tcp" else w.point
-            prefix = f"workspace {w_i}: " if len(self._workspace) > 1 else ""
-            NJ = poly.normals @ J
-            for i in range(dist.shape[0]):
-                if bnd[i] == -math.inf:
-                    continue
-                r = rows.add(
-                    NJ[i], float(bnd[i]), LEVEL_WORKSPACE, bool(dist[i] < 0.0),
-                    f"{prefix}{label} face {poly.facet_names[i]}",
-                )  # fmt: skip
-                if idt > 0.0 and dist[i] >= 0.0:
-                    rows.check.append((r, "ws", (w_i, i)))
+            bnd = _bounds(prof, dist, s, idt, self._kern)
+            kept = np.flatnonzero(bnd != -math.inf)
+            names = self._ws_names[w_i]
+            first = rows.block(
+                (poly.normals @ J)[kept], bnd[kept], LEVEL_WORKSPACE, dist[kept] < 0.0,
+                [names[i] for i in kept.tolist()],
+            )  # fmt: skip
+            if idt > 0.0:
+                for r, i in enumerate(kept.tolist()):
+                    if dist[i] >= 0.0:
+                        rows.check.append((first + r, "ws", (w_i, i)))
         if self._obstacles:
-            self._obstacle_rows(q, u, idt, rows)
-        return rows
+            self._obstacle_rows(q, u, idt, rows, kin)
+        return rows.done(n)
 
-    def _obstacle_rows(self, q: FloatArray, u: FloatArray, idt: float, rows: _Rows) -> None:
-        from velfence.geometry.primitives import points_segments_distances, sphere_capsule_distance
+    def _obstacle_rows(
+        self, q: FloatArray, u: FloatArray, idt: float, rows: _Rows, kin: Any = None
+    ) -> None:
+        from velfence.geometry.primitives import _points_segments, sphere_capsule_distance
 
         robot: Any = self.robot
-        segs = np.asarray(robot.link_segments(q), dtype=float)
-        radii = np.asarray(robot.link_radius, dtype=float).reshape(-1)
-        centers = np.array([o.center for o in self._obstacles])
-        _, clear = points_segments_distances(centers, segs[:, 0], segs[:, 1], radii)
+        if kin is None:
+            segs = np.asarray(robot.link_segments(q), dtype=float)
+            P = np.asarray(robot.joint_positions(q), dtype=float)
+        else:
+            segs = robot._segments_cached(kin)
+            P = kin[0]
+        centers, _, radii, prof = self._obstacle_geometry
+        _, clear = _points_segments(centers, segs[:, 0], segs[:, 1], radii)
         vmax = self.limits.max_velocity
-        prof = LinearBuffer(buffer=self.obstacle_buffer, spring_gain=self.spring_gain)
         # The SerialChain geometry: joint points P_j and axes z_j; link k is carried by joints
         # 0 … k, so a body-fixed point p on it has Jacobian columns z_j × (p − P_j), j <= k.
-        P = np.asarray(robot.joint_positions(q), dtype=float)
-        Z = np.asarray(robot.angular_jacobian(q), dtype=float).T if self._fast_jacobian else None
+        nl = segs.shape[0]
+        reach = None
+        if idt > 0.0 and self.dt is not None:
+            # |ṗ| <= Σ_j v_j |p − P_j| for every point of link k (j <= k): beyond one period's
+            # reach at full joint speed (with margin), no bound needed. Per link (all at once):
+            # Σ_{j <= k} v_j max(|a_k − P_j|, |b_k − P_j|).
+            lever = np.linalg.norm(segs[:, :, None, :] - P[None, None, :nl], axis=3).max(axis=1)
+            reach = 1.5 * self.dt * (np.tril(lever) @ vmax[:nl])
         for i, o in enumerate(self._obstacles):
-            for link in range(segs.shape[0]):
+            for link in range(nl):
                 c0 = float(clear[i, link]) - o.radius
-                if c0 >= self.obstacle_buffer and idt == 0.0:
-                    continue  # beyond the buffer the linear cap is infinite
-                if idt > 0.0 and c0 >= self.obstacle_buffer and self.dt is not None:
-                    # |ṗ| <= Σ_j v_j |p − P_j| for every point of the link (j <= link): beyond
-                    # one period's reach at full joint speed (with margin), no bound needed.
-                    lever = np.linalg.norm(segs[link][:, None, :] - P[None, : link + 1], axis=2)
-                    if c0 > 1.5 * self.dt * float(lever.max(axis=0) @ vmax[: link + 1]):
-                        continue
+                if c0 >= self.obstacle_buffer and (reach is None or c0 > reach[link]):
+                    continue  # beyond the buffer: no cap; in discrete time also out of reach
                 d, x_c, t, nrm = sphere_capsule_distance(
                     o.center, o.radius, segs[link, 0], segs[link, 1], float(radii[link])
                 )
-                if Z is not None:
-                    Jc = np.zeros((3, self.dof))
-                    Jc[:, : link + 1] = np.cross(Z[: link + 1], x_c[None, :] - P[: link + 1]).T
+                if kin is not None:
+                    Jc = robot._jacobian_at(kin, link + 1, x_c)
                 else:
                     Jc = np.asarray(robot.point_jacobian(q, link, t), dtype=float)
                 g = nrm @ Jc
@@ -517,7 +698,10 @@ class SafetyFilter(InvalidPolicy):
                 b = float(_bounds(prof, np.array([d]), s, idt)[0])
                 if b == -math.inf:
                     continue
-                r = rows.add(g, b, LEVEL_OBSTACLE, d < 0.0, f"obstacle {i} on link {link}")
+                r = rows.block(
+                    g[None, :], np.array([b]), LEVEL_OBSTACLE, np.array([d < 0.0]),
+                    [f"obstacle {i} on link {link}"],
+                )  # fmt: skip
                 if idt > 0.0 and d >= 0.0:
                     rows.check.append((r, "ob", (i, link)))
 
@@ -525,15 +709,18 @@ class SafetyFilter(InvalidPolicy):
     def _project(
         self, u: FloatArray, G: FloatArray, b: FloatArray, L: _Metric
     ) -> tuple[bool, FloatArray]:
-        if G.shape[0] == 0:
+        if G.shape[0] == 0 or bool(np.all(G @ u >= b)):
+            # Nothing violated (as evaluated): the optimum is the command itself, exactly (the
+            # metric's round trip L⁻ᵀ Lᵀ u would move it by round-off).
             return True, u.copy()
         if L is None:
-            return _projection(u, G, b)
+            return _projection(u, G, b, self._solver)
         if L.ndim == 1:  # diagonal metric: L = diag(lv), y = lv * x
-            ok, y = _projection(u * L, G / L[None, :], b)
+            ok, y = _projection(u * L, G / L[None, :], b, self._solver)
             x: FloatArray = y / L
         else:  # y = Lᵀ x: G x = G L⁻ᵀ y
-            ok, y = _projection(L.T @ u, np.asarray(np.linalg.solve(L, G.T).T, dtype=np.float64), b)
+            GL = np.asarray(np.linalg.solve(L, G.T).T, dtype=np.float64)
+            ok, y = _projection(L.T @ u, GL, b, self._solver)
             x = np.asarray(np.linalg.solve(L.T, y), dtype=np.float64)
         if ok:
             # Round-off of the back-substitution: repair along the violated rows (a few ulps).
@@ -548,64 +735,70 @@ class SafetyFilter(InvalidPolicy):
 
     def _next_distances(self, q: FloatArray, x: FloatArray, rows: _Rows) -> dict[int, float]:
         """True next distance of every checked row at ``q + x dt`` (model check)."""
-        from velfence.geometry.primitives import points_segments_distances
+        from velfence.geometry.primitives import _points_segments
 
         q1 = q + x * (self.dt or 0.0)
+        kin = self._kinematics(q1)
         out: dict[int, float] = {}
-        pts: dict[int, FloatArray] = {}
+        dists: dict[int, list[float]] = {}
         clear = None
         for r, kind, (a, i) in rows.check:
             if kind == "ws":
-                if a not in pts:
-                    w = self._workspace[a]
-                    pts[a] = np.asarray(self.robot.fk(q1, w.point), dtype=float)
-                poly = self._workspace[a].polytope
-                out[r] = float(poly.normals[i] @ pts[a] - poly.offsets[i])
+                if a not in dists:
+                    poly = self._workspace[a].polytope
+                    p1 = self._fk(q1, kin, self._workspace[a].point)
+                    dists[a] = (poly.normals @ p1 - poly.offsets).tolist()
+                out[r] = dists[a][i]
             else:
                 if clear is None:
                     robot: Any = self.robot
-                    segs = np.asarray(robot.link_segments(q1), dtype=float)
-                    radii = np.asarray(robot.link_radius, dtype=float).reshape(-1)
-                    centers = np.array([o.center for o in self._obstacles])
-                    _, clear = points_segments_distances(centers, segs[:, 0], segs[:, 1], radii)
-                out[r] = float(clear[a, i]) - self._obstacles[a].radius
+                    if kin is None:
+                        segs = np.asarray(robot.link_segments(q1), dtype=float)
+                    else:
+                        segs = robot._segments_cached(kin)
+                    centers, orad, radii, _ = self._obstacle_geometry
+                    _, clear = _points_segments(centers, segs[:, 0], segs[:, 1], radii)
+                    clear = (clear - orad[:, None]).tolist()
+                out[r] = clear[a][i]
         return out
 
-    def _solve_ladder(
-        self, q: FloatArray, u: FloatArray, rows: _Rows, L: _Metric
-    ) -> tuple[FloatArray, FloatArray, list[str], list[str], bool]:
-        """The priority ladder; returns (x, b used, dropped levels, stages, rate_override)."""
-        n = self.dof
-        m = len(rows.b)
-        G = np.array(rows.G).reshape(m, n)
-        b0 = np.array(rows.b, dtype=float)
-        level = np.array(rows.level, dtype=np.int64)
-        viol = np.array(rows.violated, dtype=bool)
-        present = set(rows.level)
-        # Each step: (keep mask, bounds, dropped label, stage label)
-        steps: list[tuple[FloatArray, FloatArray, str | None, str | None]] = []
+    @staticmethod
+    def _steps(rows: _Rows) -> Any:
+        """The ladder's steps, made as they are needed: (keep mask, bounds, dropped, stage)."""
+        m = rows.m
+        level = rows.level
+        viol = rows.violated
+        present = set(level.tolist())
         keep = np.ones(m, dtype=bool)
-        b = b0.copy()
-        steps.append((keep.copy(), b.copy(), None, None))
+        b = rows.b.copy()
+        yield keep.copy(), b.copy(), None, None
         if LEVEL_RATE in present:
             keep &= level != LEVEL_RATE
-            steps.append((keep.copy(), b.copy(), "acceleration", "dropped acceleration"))
+            yield keep.copy(), b.copy(), "acceleration", "dropped acceleration"
         for lv in (LEVEL_OBSTACLE, LEVEL_WORKSPACE):
             if lv not in present:
                 continue
             rec = (level == lv) & viol
             if rec.any():
                 b = np.where(rec, np.minimum(b, 0.0), b)
-                steps.append((keep.copy(), b.copy(), LEVEL_NAMES[lv], f"relaxed {LEVEL_NAMES[lv]}"))
+                yield keep.copy(), b.copy(), LEVEL_NAMES[lv], f"relaxed {LEVEL_NAMES[lv]}"
             keep &= level != lv
-            steps.append((keep.copy(), b.copy(), LEVEL_NAMES[lv], f"dropped {LEVEL_NAMES[lv]}"))
+            yield keep.copy(), b.copy(), LEVEL_NAMES[lv], f"dropped {LEVEL_NAMES[lv]}"
         rec = (level == LEVEL_JOINT) & viol
         if rec.any():
             b = np.where(rec, np.minimum(b, 0.0), b)
-            steps.append((keep.copy(), b.copy(), "joint limits", "relaxed joint limits"))
+            yield keep.copy(), b.copy(), "joint limits", "relaxed joint limits"
+
+    def _solve_ladder(
+        self, q: FloatArray, u: FloatArray, rows: _Rows, L: _Metric
+    ) -> tuple[FloatArray, FloatArray, list[str], list[str], bool]:
+        """The priority ladder; returns (x, b used, dropped levels, stages, rate_override)."""
+        n = self.dof
+        G = rows.G
+        b = rows.b.copy()
         dropped: list[str] = []
         stages: list[str] = []
-        for mask, bb, drop, stage in steps:
+        for mask, bb, drop, stage in self._steps(rows):
             if drop is not None and drop not in dropped:
                 dropped.append(drop)
             if stage is not None:
@@ -618,6 +811,7 @@ class SafetyFilter(InvalidPolicy):
                     stages.append("model-check")
             if ok and np.all(np.isfinite(x)):
                 return x, bb, dropped, stages, "acceleration" in dropped
+            b = bb
         stages.append("stop")
         return np.zeros(n), b, dropped, stages, "acceleration" in dropped
 
@@ -676,6 +870,7 @@ class SafetyFilter(InvalidPolicy):
         L: _Metric,
         previous: Any,
         remember: bool,
+        kin: Any = None,
     ) -> FilterResult:
         prev: FloatArray | None = None
         if previous is not None:
@@ -686,17 +881,16 @@ class SafetyFilter(InvalidPolicy):
         elif remember:
             prev = self._previous
         with np.errstate(all="ignore"):
-            rows = self._rows(q, u, prev)
+            rows = self._rows(q, u, prev, self._kinematics(q) if kin is None else kin)
             x, _, dropped, stages, override = self._solve_ladder(q, u, rows, L)
         if not np.all(np.isfinite(x)):
             self._invalid("input too large: the filtered velocity overflowed")
             return self._stopped(q, cmd)
-        m = len(rows.b)
-        G = np.array(rows.G).reshape(m, self.dof)
-        b0 = np.array(rows.b, dtype=float)
+        G = rows.G
+        b0 = rows.b
         with np.errstate(invalid="ignore"):
             slack = np.where(np.isfinite(b0), G @ x - b0, math.inf)
-        viol = np.array(rows.violated, dtype=bool)
+        viol = rows.violated
         tol = _BINDING * (1.0 + np.abs(np.where(np.isfinite(b0), b0, 0.0)))
         act = tuple(int(i) for i in np.flatnonzero((slack <= tol) | viol))
         n_out = int(viol.sum())
@@ -790,10 +984,12 @@ class SafetyFilter(InvalidPolicy):
         if self._bad(qa, va):
             self._invalid(f"non-finite input: q={qa.tolist()}, twist={va.tolist()}")
             return self._stopped(qa, va)
-        J = np.asarray(self.robot.jacobian(qa, point), dtype=float)
+        kin = self._kinematics(qa)
+        J: Any = self._jac(qa, kin, point)
         if va.shape[0] == 6 and self.task_dim == 3:
             robot: Any = self.robot
-            J = np.vstack((J, np.asarray(robot.angular_jacobian(qa), dtype=float)))
+            Ja = robot.angular_jacobian(qa) if kin is None else kin[1].T
+            J = np.vstack((J, np.asarray(Ja, dtype=np.float64)))
         with np.errstate(all="ignore"):
             H = J.T @ J + (self.damping**2) * np.eye(self.dof)
             L = np.linalg.cholesky(H) if np.all(np.isfinite(H)) else np.full_like(H, np.nan)
@@ -801,7 +997,7 @@ class SafetyFilter(InvalidPolicy):
         if self._bad(u):
             self._invalid("input too large: the twist's joint velocity overflowed")
             return self._stopped(qa, va)
-        return self._run(qa, u, va, L, previous, True)
+        return self._run(qa, u, va, L, previous, True, kin)
 
     def filter_twist(
         self,
