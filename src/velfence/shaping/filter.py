@@ -172,7 +172,9 @@ class _Rows:
         self.level: Any = np.zeros(0, dtype=np.int64)
         self.violated: Any = np.zeros(0, dtype=bool)
 
-    def block(self, G: FloatArray, b: FloatArray, level: int, viol: Any, names: list[str]) -> int:
+    def block(
+        self, G: FloatArray, b: FloatArray, level: int, viol: Any, names: Sequence[str]
+    ) -> int:
         """Append rows ``G x >= b`` (k, n) of one level; returns the first one's index."""
         first = self.m
         k = b.shape[0]
@@ -472,7 +474,8 @@ class SafetyFilter(InvalidPolicy):
             self._solver = compiled_project()
             self._kern = compiled_bounds() or _PLAIN_BOUNDS
         self._joint_rows = self._joint_layout()
-        # Obstacles' fixed parts: centres (k, 3), radii (k,), the links' capsule radii, profile.
+        # Obstacles' fixed parts: centres (k, 3), radii (k,), the links' capsule radii, profile,
+        # (centre, radius) as floats.
         self._obstacle_geometry: tuple[Any, ...] = ()
         if self._obstacles:
             capsules: Any = robot
@@ -481,6 +484,7 @@ class SafetyFilter(InvalidPolicy):
                 np.array([o.radius for o in self._obstacles], dtype=float),
                 np.array(capsules.link_radius, dtype=float).reshape(-1),
                 LinearBuffer(buffer=self.obstacle_buffer, spring_gain=self.spring_gain),
+                tuple((tuple(o.center.tolist()), o.radius) for o in self._obstacles),
             )
         self._rate_rows = self._rate_layout()
         self._ws_names = tuple(
@@ -532,9 +536,10 @@ class SafetyFilter(InvalidPolicy):
     def _joint_layout(self) -> tuple[Any, ...]:
         """The joint rows' fixed parts, in row order (per joint: position lower, upper, velocity).
 
-        ``(G (4n, n), names, finite position sides (2n,), groups, vmax (2n,))``; per joint the
-        rows are position lower, upper, velocity lower, upper; ``groups`` are ``(profile,
-        speed, sides)`` sharing one bound call.
+        ``(G (4n, n), names, finite position sides (2n,), groups, vmax (2n,), position rows
+        (2n,), bounds (4n,) with the velocity rows' filled in)``; per joint the rows are
+        position lower, upper, velocity lower, upper; ``groups`` are ``(profile, speed,
+        sides)`` sharing one bound call.
         """
         n = self.dof
         lim = self.limits
@@ -557,7 +562,11 @@ class SafetyFilter(InvalidPolicy):
             groups.setdefault(key, (prof, v, []))[2].append(side)
         grp = tuple((p, v, np.array(sides, dtype=np.int64)) for p, v, sides in groups.values())
         vmax = np.repeat(np.asarray(lim.max_velocity, dtype=float), 2)
-        return readonly(G), tuple(names), finite, grp, vmax
+        pos = (4 * np.arange(n)[:, None] + np.arange(2)[None, :]).ravel()  # position rows
+        b = np.zeros(4 * n)
+        b[2::4] = -vmax[0::2]
+        b[3::4] = -vmax[0::2]
+        return readonly(G), tuple(names), finite, grp, vmax, pos, b
 
     def _rate_layout(self) -> tuple[FloatArray, tuple[str, ...], Any, FloatArray]:
         """The acceleration rows' fixed parts: ``(G, names, joints, a (per joint))``."""
@@ -605,26 +614,30 @@ class SafetyFilter(InvalidPolicy):
         rows = _Rows()
         lim = self.limits
         # Joint position and velocity rows (the fixed layout, bounds per profile group).
-        G4, names4, finite, groups, vside = self._joint_rows
-        dpos = np.stack([q - lim.lower, lim.upper - q], axis=1).ravel()
-        bpos = np.full(2 * n, -math.inf)
-        for prof, v, sides in groups:
-            bpos[sides] = _bounds(prof, dpos[sides], v, idt, self._kern)
+        G4, names4, finite, groups, vside, pos, b4 = self._joint_rows
+        dpos = np.empty(2 * n)
+        dpos[0::2] = q - lim.lower
+        dpos[1::2] = lim.upper - q
+        if len(groups) == 1 and groups[0][2].shape[0] == 2 * n:
+            bpos = _bounds(groups[0][0], dpos, groups[0][1], idt, self._kern)
+        else:
+            bpos = np.full(2 * n, -math.inf)
+            for prof, v, sides in groups:
+                bpos[sides] = _bounds(prof, dpos[sides], v, idt, self._kern)
         keep_pos = finite & (bpos != -math.inf)  # beyond the profile's reach: no bound
-        bpos = np.minimum(bpos, vside)  # a recovery no faster than the joint can move
-        b4 = np.empty((n, 4))
-        b4[:, :2] = bpos.reshape(n, 2)
-        b4[:, 2] = -lim.max_velocity
-        b4[:, 3] = -lim.max_velocity
-        keep4 = np.ones((n, 4), dtype=bool)
-        keep4[:, :2] = keep_pos.reshape(n, 2)
-        viol4 = np.zeros((n, 4), dtype=bool)
-        viol4[:, :2] = (dpos < 0.0).reshape(n, 2)
-        keep = keep4.ravel()
-        rows.block(
-            G4[keep], b4.ravel()[keep], LEVEL_JOINT, viol4.ravel()[keep],
-            [nm for nm, k in zip(names4, keep.tolist(), strict=True) if k],
-        )  # fmt: skip
+        b = b4.copy()
+        b[pos] = np.minimum(bpos, vside)  # a recovery no faster than the joint can move
+        viol = np.zeros(4 * n, dtype=bool)
+        viol[pos] = dpos < 0.0
+        if keep_pos.all():
+            rows.block(G4, b, LEVEL_JOINT, viol, names4)
+        else:
+            keep = np.ones(4 * n, dtype=bool)
+            keep[pos] = keep_pos
+            rows.block(
+                G4[keep], b[keep], LEVEL_JOINT, viol[keep],
+                [nm for nm, k in zip(names4, keep.tolist(), strict=True) if k],
+            )  # fmt: skip
         if self._has_accel and previous is not None and self.dt is not None:
             Gr, names_r, joints, acc = self._rate_rows
             if joints.shape[0]:
@@ -659,7 +672,7 @@ class SafetyFilter(InvalidPolicy):
     def _obstacle_rows(
         self, q: FloatArray, u: FloatArray, idt: float, rows: _Rows, kin: Any = None
     ) -> None:
-        from velfence.geometry.primitives import _points_segments, sphere_capsule_distance
+        from velfence.geometry.primitives import _sphere_capsule
 
         robot: Any = self.robot
         if kin is None:
@@ -668,42 +681,57 @@ class SafetyFilter(InvalidPolicy):
         else:
             segs = robot._segments_cached(kin)
             P = kin[0]
-        centers, _, radii, prof = self._obstacle_geometry
-        _, clear = _points_segments(centers, segs[:, 0], segs[:, 1], radii)
-        vmax = self.limits.max_velocity
-        # The SerialChain geometry: joint points P_j and axes z_j; link k is carried by joints
-        # 0 … k, so a body-fixed point p on it has Jacobian columns z_j × (p − P_j), j <= k.
-        nl = segs.shape[0]
-        reach = None
-        if idt > 0.0 and self.dt is not None:
+        _, _, radii, prof, spheres = self._obstacle_geometry
+        S = segs.tolist()
+        rl = radii.tolist()
+        nl = len(S)
+        # Every (obstacle, link) pair's clearance, critical point and normal, in plain floats
+        # (under a microsecond a pair, below the batch form's fixed cost at these sizes).
+        pairs = [
+            _sphere_capsule(c, rs, (a[0], a[1], a[2]), (e[0], e[1], e[2]), rl[k])
+            for c, rs in spheres
+            for k, (a, e) in enumerate(S)
+        ]
+        buf = self.obstacle_buffer
+        reach: Any = None
+        if idt > 0.0 and self.dt is not None and any(p[0] >= buf for p in pairs):
             # |ṗ| <= Σ_j v_j |p − P_j| for every point of link k (j <= k): beyond one period's
             # reach at full joint speed (with margin), no bound needed. Per link (all at once):
             # Σ_{j <= k} v_j max(|a_k − P_j|, |b_k − P_j|).
-            lever = np.linalg.norm(segs[:, :, None, :] - P[None, None, :nl], axis=3).max(axis=1)
-            reach = 1.5 * self.dt * (np.tril(lever) @ vmax[:nl])
-        for i, o in enumerate(self._obstacles):
-            for link in range(nl):
-                c0 = float(clear[i, link]) - o.radius
-                if c0 >= self.obstacle_buffer and (reach is None or c0 > reach[link]):
-                    continue  # beyond the buffer: no cap; in discrete time also out of reach
-                d, x_c, t, nrm = sphere_capsule_distance(
-                    o.center, o.radius, segs[link, 0], segs[link, 1], float(radii[link])
-                )
-                if kin is not None:
-                    Jc = robot._jacobian_at(kin, link + 1, x_c)
-                else:
-                    Jc = np.asarray(robot.point_jacobian(q, link, t), dtype=float)
-                g = nrm @ Jc
-                s = float(np.linalg.norm(Jc @ u))
-                b = float(_bounds(prof, np.array([d]), s, idt)[0])
-                if b == -math.inf:
-                    continue
-                r = rows.block(
-                    g[None, :], np.array([b]), LEVEL_OBSTACLE, np.array([d < 0.0]),
-                    [f"obstacle {i} on link {link}"],
-                )  # fmt: skip
-                if idt > 0.0 and d >= 0.0:
-                    rows.check.append((r, "ob", (i, link)))
+            if kin is not None:  # a SerialChain: a_k = P_k, b_k = P_{k+1}
+                M = np.linalg.norm(P[:, None, :] - P[None, :nl], axis=2)
+                lever = np.maximum(M[:-1], M[1:])
+            else:
+                D = segs[:, :, None, :] - P[None, None, :nl]
+                lever = np.linalg.norm(D, axis=3).max(axis=1)
+            reach = (1.5 * self.dt * (np.tril(lever) @ self.limits.max_velocity[:nl])).tolist()
+        G: list[FloatArray] = []
+        bs: list[float] = []
+        viol: list[bool] = []
+        names: list[str] = []
+        checks: list[tuple[int, tuple[int, int]]] = []
+        for ip, (d, x_c, t, nrm) in enumerate(pairs):
+            if d >= buf and (reach is None or d > reach[ip % nl]):
+                continue  # beyond the buffer: no cap; in discrete time also out of reach
+            i, link = divmod(ip, nl)
+            if kin is not None:
+                Jc = robot._jacobian_at(kin, link + 1, np.array(x_c))
+            else:
+                Jc = np.asarray(robot.point_jacobian(q, link, t), dtype=float)
+            s = float(np.linalg.norm(Jc @ u))
+            b = float(_bounds(prof, np.array([d]), s, idt, self._kern)[0])
+            if b == -math.inf:
+                continue
+            if idt > 0.0 and d >= 0.0:
+                checks.append((len(bs), (i, link)))
+            G.append(np.array(nrm) @ Jc)
+            bs.append(b)
+            viol.append(d < 0.0)
+            names.append(f"obstacle {i} on link {link}")
+        if not bs:
+            return
+        first = rows.block(np.array(G), np.array(bs), LEVEL_OBSTACLE, np.array(viol), names)
+        rows.check.extend((first + r, "ob", key) for r, key in checks)
 
     # ------------------------------------------------------------------ solve
     def _project(
@@ -735,13 +763,14 @@ class SafetyFilter(InvalidPolicy):
 
     def _next_distances(self, q: FloatArray, x: FloatArray, rows: _Rows) -> dict[int, float]:
         """True next distance of every checked row at ``q + x dt`` (model check)."""
-        from velfence.geometry.primitives import _points_segments
+        from velfence.geometry.primitives import _sphere_capsule
 
         q1 = q + x * (self.dt or 0.0)
         kin = self._kinematics(q1)
         out: dict[int, float] = {}
         dists: dict[int, list[float]] = {}
-        clear = None
+        segs: Any = None
+        rl: list[float] = []
         for r, kind, (a, i) in rows.check:
             if kind == "ws":
                 if a not in dists:
@@ -750,16 +779,17 @@ class SafetyFilter(InvalidPolicy):
                     dists[a] = (poly.normals @ p1 - poly.offsets).tolist()
                 out[r] = dists[a][i]
             else:
-                if clear is None:
+                if segs is None:
                     robot: Any = self.robot
                     if kin is None:
-                        segs = np.asarray(robot.link_segments(q1), dtype=float)
+                        segs = np.asarray(robot.link_segments(q1), dtype=float).tolist()
                     else:
-                        segs = robot._segments_cached(kin)
-                    centers, orad, radii, _ = self._obstacle_geometry
-                    _, clear = _points_segments(centers, segs[:, 0], segs[:, 1], radii)
-                    clear = (clear - orad[:, None]).tolist()
-                out[r] = clear[a][i]
+                        pts = kin[0].tolist()
+                        segs = [(pts[k], pts[k + 1]) for k in range(len(pts) - 1)]
+                    rl = self._obstacle_geometry[2].tolist()
+                c, rs = self._obstacle_geometry[4][a]
+                sa, sb = segs[i]
+                out[r] = _sphere_capsule(c, rs, tuple(sa), tuple(sb), rl[i])[0]
         return out
 
     @staticmethod
@@ -858,9 +888,8 @@ class SafetyFilter(InvalidPolicy):
         )  # fmt: skip
 
     def _bad(self, *arrays: FloatArray) -> bool:
-        return not all(
-            bool(np.all(np.isfinite(a)) and np.all(np.abs(a) <= MAX_MAGNITUDE)) for a in arrays
-        )
+        # max |a| is NaN when a holds a NaN, and NaN <= MAX_MAGNITUDE is False
+        return not all(a.size == 0 or bool(np.abs(a).max() <= MAX_MAGNITUDE) for a in arrays)
 
     def _run(
         self,
@@ -888,12 +917,17 @@ class SafetyFilter(InvalidPolicy):
             return self._stopped(q, cmd)
         G = rows.G
         b0 = rows.b
-        with np.errstate(invalid="ignore"):
-            slack = np.where(np.isfinite(b0), G @ x - b0, math.inf)
+        fin = np.isfinite(b0)
+        if fin.all():
+            slack = G @ x - b0
+            tol = _BINDING * (1.0 + np.abs(b0))
+        else:
+            with np.errstate(invalid="ignore"):
+                slack = np.where(fin, G @ x - b0, math.inf)
+            tol = _BINDING * (1.0 + np.abs(np.where(fin, b0, 0.0)))
         viol = rows.violated
-        tol = _BINDING * (1.0 + np.abs(np.where(np.isfinite(b0), b0, 0.0)))
-        act = tuple(int(i) for i in np.flatnonzero((slack <= tol) | viol))
-        n_out = int(viol.sum())
+        act = tuple(np.flatnonzero((slack <= tol) | viol).tolist())
+        n_out = int(np.count_nonzero(viol))
         zone: Zone = ZONE_NAMES[zone_code(n_out, len(act))]  # type: ignore[assignment]
         pre: list[str] = []
         if not np.array_equal(x, u):
