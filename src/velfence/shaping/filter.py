@@ -897,6 +897,9 @@ class SafetyFilter(InvalidPolicy):
 
     # ------------------------------------------------------------------ public
     def _state(self, name: str, x: Any, width: int, unit: str) -> FloatArray:
+        if type(x) is np.ndarray and x.dtype == np.float64 and x.shape == (width,):
+            # What real_array returns for this input (non-finite values let through): a copy.
+            return x.copy()
         return real_array(
             name, x, (width,), what=f"{width} numbers [{unit}]", allow_nonfinite=True,
             max_abs=None,
