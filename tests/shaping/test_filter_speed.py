@@ -104,7 +104,8 @@ def test_compiled_solve_equals_the_plain_python_one(
 ) -> None:
     q, u, prev = state
     fast, plain = scene(ARM), scene(ARM, accelerate=False)
-    assert fast._solver is not None and plain._solver is None
+    assert fast._solver is not None
+    assert plain._solver is None
     same(fast.explain(q, u, previous=prev), plain.explain(q, u, previous=prev))
     v = u[:3] * 0.3
     same(fast.explain_twist(q, v), plain.explain_twist(q, v), tol=1e-11)
@@ -116,7 +117,8 @@ def test_cached_kinematics_equal_the_public_protocol(
 ) -> None:
     q, u, prev = state
     cached, public = scene(ARM), scene(PublicOnly(ARM))
-    assert cached._cached and not public._cached
+    assert cached._cached
+    assert not public._cached
     if mode == "joint":
         same(cached.explain(q, u, previous=prev), public.explain(q, u, previous=prev))
     else:
@@ -135,7 +137,8 @@ def test_nothing_binding_returns_the_command_exactly() -> None:
     f = scene(ARM, weights=np.arange(1.0, 8.0), obstacles=(), workspace=())
     u = np.full(7, 0.01)
     r = f.explain(Q0, u, previous=u)
-    assert np.array_equal(r.output, u) and "projection" not in r.stages
+    assert np.array_equal(r.output, u)
+    assert "projection" not in r.stages
 
 
 @pytest.mark.parametrize(
