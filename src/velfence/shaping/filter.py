@@ -619,7 +619,12 @@ class SafetyFilter(InvalidPolicy):
         return J
 
     def _rows(
-        self, q: FloatArray, u: FloatArray, previous: FloatArray | None, kin: Any = None
+        self,
+        q: FloatArray,
+        u: FloatArray,
+        previous: FloatArray | None,
+        kin: Any = None,
+        known: tuple[str, FloatArray] | None = None,
     ) -> _Rows:
         n = self.dof
         idt = 0.0 if self.dt is None else 1.0 / self.dt
@@ -661,7 +666,12 @@ class SafetyFilter(InvalidPolicy):
                 rows.block(Gr, br, LEVEL_RATE, np.zeros(br.shape[0], dtype=bool), list(names_r))
         for w_i, w in enumerate(self._workspace):
             p = self._fk(q, kin, w.point)
-            J = self._jac(q, kin, w.point)
+            # (twist mode: the commanded point's Jacobian of this cycle, already computed)
+            J = (
+                known[1]
+                if known is not None and known[0] == w.point
+                else self._jac(q, kin, w.point)
+            )
             poly = w.polytope
             dist = poly.normals @ p - poly.offsets
             s = float(np.linalg.norm(J @ u))
@@ -925,6 +935,7 @@ class SafetyFilter(InvalidPolicy):
         previous: Any,
         remember: bool,
         kin: Any = None,
+        known: tuple[str, FloatArray] | None = None,
     ) -> FilterResult:
         prev: FloatArray | None = None
         if previous is not None:
@@ -935,7 +946,7 @@ class SafetyFilter(InvalidPolicy):
         elif remember:
             prev = self._previous
         with np.errstate(all="ignore"):
-            rows = self._rows(q, u, prev, self._kinematics(q) if kin is None else kin)
+            rows = self._rows(q, u, prev, self._kinematics(q) if kin is None else kin, known)
             x, _, dropped, stages, override = self._solve_ladder(q, u, rows, L)
         if not np.all(np.isfinite(x)):
             self._invalid("input too large: the filtered velocity overflowed")
@@ -1045,6 +1056,7 @@ class SafetyFilter(InvalidPolicy):
             return self._stopped(qa, va)
         kin = self._kinematics(qa)
         J: Any = self._jac(qa, kin, point)
+        known = (point, J)
         if va.shape[0] == 6 and self.task_dim == 3:
             robot: Any = self.robot
             Ja = robot.angular_jacobian(qa) if kin is None else kin[1].T
@@ -1056,7 +1068,7 @@ class SafetyFilter(InvalidPolicy):
         if self._bad(u):
             self._invalid("input too large: the twist's joint velocity overflowed")
             return self._stopped(qa, va)
-        return self._run(qa, u, va, L, previous, True, kin)
+        return self._run(qa, u, va, L, previous, True, kin, known)
 
     def filter_twist(
         self,
