@@ -399,12 +399,20 @@ def sphere_capsule_distance(
     rs = _radius("sphere_radius", sphere_radius)
     aa, bb = _vec3("a", a), _vec3("b", b)
     rc = _radius("capsule_radius", capsule_radius)
+    clear, x, t, n = _sphere_capsule(c, rs, aa, bb, rc)
+    return clear, np.array(x), t, np.array(n)
+
+
+def _sphere_capsule(
+    c: Vec3, rs: float, aa: Vec3, bb: Vec3, rc: float
+) -> tuple[float, Vec3, float, Vec3]:
+    """:func:`sphere_capsule_distance` on validated floats (no checks; ``x``, ``n`` as tuples)."""
     t = _point_segment_t(c, aa, bb)
     x = _lerp(aa, bb, t)
     dx, dy, dz = x[0] - c[0], x[1] - c[1], x[2] - c[2]
     dist = math.hypot(dx, dy, dz)
     n = (dx / dist, dy / dist, dz / dist) if dist > 0.0 else _fallback_normal(aa, bb)
-    return dist - rs - rc, np.array(x), t, np.array(n)
+    return dist - rs - rc, x, t, n
 
 
 def point_segment_distance_jacobian(

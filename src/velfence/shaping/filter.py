@@ -45,7 +45,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -54,6 +54,7 @@ from numpy.typing import ArrayLike
 from velfence._typing import FloatArray
 from velfence._validate import (
     MAX_MAGNITUDE,
+    check_flag,
     check_positive,
     describe,
     readonly,
@@ -140,26 +141,72 @@ class FilterResult:
     method: str = "safety-filter"
 
 
-@dataclass
 class _Rows:
-    G: list[FloatArray] = field(default_factory=list)
-    b: list[float] = field(default_factory=list)
-    level: list[int] = field(default_factory=list)
-    violated: list[bool] = field(default_factory=list)
-    names: list[str] = field(default_factory=list)
-    # discrete-time model checks: (row index, kind, key) with kind "ws" or "ob"
-    check: list[tuple[int, str, tuple[int, int]]] = field(default_factory=list)
+    """The rows of one cycle, appended in blocks, then :meth:`done` (arrays)."""
 
-    def add(self, g: FloatArray, b: float, level: int, violated: bool, name: str) -> int:
-        self.G.append(g)
-        self.b.append(b)
-        self.level.append(level)
-        self.violated.append(violated)
-        self.names.append(name)
-        return len(self.b) - 1
+    __slots__ = (
+        "G",
+        "_G",
+        "_b",
+        "_level",
+        "_viol",
+        "b",
+        "check",
+        "level",
+        "m",
+        "names",
+        "violated",
+    )
+
+    def __init__(self) -> None:
+        self._G: list[FloatArray] = []
+        self._b: list[FloatArray] = []
+        self._level: list[FloatArray] = []
+        self._viol: list[Any] = []
+        self.names: list[str] = []
+        self.m = 0
+        # discrete-time model checks: (row index, kind, key) with kind "ws" or "ob"
+        self.check: list[tuple[int, str, tuple[int, int]]] = []
+        self.G: FloatArray = np.zeros((0, 0))
+        self.b: FloatArray = np.zeros(0)
+        self.level: Any = np.zeros(0, dtype=np.int64)
+        self.violated: Any = np.zeros(0, dtype=bool)
+
+    def block(
+        self, G: FloatArray, b: FloatArray, level: int, viol: Any, names: Sequence[str]
+    ) -> int:
+        """Append rows ``G x >= b`` (k, n) of one level; returns the first one's index."""
+        first = self.m
+        k = b.shape[0]
+        if k:
+            self._G.append(G)
+            self._b.append(b)
+            self._level.append(np.full(k, level, dtype=np.int64))
+            self._viol.append(viol)
+            self.names.extend(names)
+            self.m += k
+        return first
+
+    def done(self, n: int) -> _Rows:
+        """Stack the blocks into ``G`` (m, n), ``b``, ``level`` and ``violated`` (m,)."""
+        if self._b:
+            self.G = np.concatenate(self._G).reshape(self.m, n)
+            self.b = np.concatenate(self._b).astype(np.float64, copy=False)
+            self.level = np.concatenate(self._level)
+            self.violated = np.concatenate(self._viol).astype(bool, copy=False)
+        else:
+            self.G = np.zeros((0, n))
+        return self
 
 
-def _bounds(prm: Profile, dist: FloatArray, speed: float, idt: float) -> FloatArray:
+#: The bound kernels: (bounds_from_distances, fill_bounds), plain Python or compiled twins.
+_BoundKernels = tuple[Any, Any]
+_PLAIN_BOUNDS: _BoundKernels = (bounds_from_distances, fill_bounds)
+
+
+def _bounds(
+    prm: Profile, dist: FloatArray, speed: float, idt: float, kern: _BoundKernels = _PLAIN_BOUNDS
+) -> FloatArray:
     """Lower bounds on the approach rate ``n·x`` toward constraints at distances ``dist``.
 
     The exact law's one bound definition, :func:`velfence.shaping._kernels.bounds_from_distances`
@@ -169,30 +216,58 @@ def _bounds(prm: Profile, dist: FloatArray, speed: float, idt: float) -> FloatAr
     reachable in one period at its speed); here the output may move a point faster than the
     command does (a joint-space projection is not a Cartesian one), so the rows it leaves out
     get the same definition from :func:`~velfence.shaping._kernels.fill_bounds` (``-inf`` where
-    the profile sets no cap and there is no period).
+    the profile sets no cap and there is no period). Each row's bound depends on its own
+    distance only (both kernels run with unit scale and the cap speed ``speed``), so rows of
+    one profile and speed may share a call. ``kern``: the kernels, plain or compiled.
     """
     kind, params = prm.kernel_profile
     k = dist.shape[0]
     bnd = np.zeros(k)
     work = np.zeros(k, dtype=np.int64)
-    m = bounds_from_distances(dist, k, speed, kind, params, False, idt, False, bnd, work)[0]
-    chosen = set(work[:m].tolist())
-    rest = np.array([e for e in range(k) if e not in chosen], dtype=np.int64)
-    # (violated rows are always chosen, so ``rest`` holds rows with d >= 0 only)
-    fill_bounds(kind, params, False, dist, rest, 0, rest.shape[0], speed, 1.0, idt, bnd)
+    bfd, fill = kern
+    m = bfd(dist, k, speed, kind, params, False, idt, False, bnd, work)[0]
+    if m < k:
+        # (violated rows are always chosen, so the rest holds rows with d >= 0 only)
+        rest = np.ones(k, dtype=bool)
+        rest[work[:m]] = False
+        idx = np.flatnonzero(rest).astype(np.int64)
+        fill(kind, params, False, dist, idx, 0, idx.shape[0], speed, 1.0, idt, bnd)
     return bnd
 
 
-def _projection(u: FloatArray, G: FloatArray, b: FloatArray) -> tuple[bool, FloatArray]:
+def _bound1(prm: Profile, d: float, speed: float, idt: float) -> float:
+    """:func:`_bounds` of one row, the plain kernels on Python floats (cheaper for one row)."""
+    kind, params = prm.kernel_profile
+    bnd = [0.0]
+    work = [0]
+    if bounds_from_distances([d], 1, speed, kind, params, False, idt, False, bnd, work)[0] == 0:
+        fill_bounds(kind, params, False, [d], [0], 0, 1, speed, 1.0, idt, bnd)
+    return bnd[0]
+
+
+def _projection(
+    u: FloatArray, G: FloatArray, b: FloatArray, kernel: Any = None
+) -> tuple[bool, FloatArray]:
     """Projection of ``u`` onto ``{x : G x >= b}`` for the filter's own arrays: ``(feasible, x)``.
 
-    :func:`velfence.geometry.projection.project_kernel` (the solve behind ``project``) run on
-    Python lists, which plain Python indexes faster than arrays; the inputs are finite (``b``
-    finite), built by the filter.
+    :func:`velfence.geometry.projection.project_kernel` (the solve behind ``project``): its
+    compiled twin ``kernel`` on contiguous float64 arrays, or (``kernel`` None) the plain kernel
+    on Python lists, which plain Python indexes faster than arrays; the inputs are finite
+    (``b`` finite), built by the filter.
     """
     from velfence.geometry.projection import PROJECT_OPTIMAL, project_kernel
 
     m, n = G.shape
+    if kernel is not None:
+        xa = np.zeros(n)
+        status = kernel(
+            np.ascontiguousarray(u, dtype=np.float64),
+            np.ascontiguousarray(G, dtype=np.float64).reshape(m * n),
+            np.ascontiguousarray(b, dtype=np.float64),
+            m, n, xa, np.zeros(n + 1), np.zeros(n + 1, dtype=np.int64),
+            np.zeros(2 * n * n + 4 * n + m + 2),
+        )[0]  # fmt: skip
+        return status == PROJECT_OPTIMAL and bool(np.all(np.isfinite(xa))), xa
     x = [0.0] * n
     lam = [0.0] * (n + 1)
     act = [0] * (n + 1)
@@ -240,6 +315,8 @@ class SafetyFilter(InvalidPolicy):
         weights: Joint-mode metric ``W``: ``None`` (identity), per-joint weights (n,) > 0, or a
             symmetric positive definite (n, n) matrix.
         damping: :math:`\lambda` of the twist mode's damped least squares [m/rad], > 0.
+        accelerate: Solve with the numba-compiled projection and bound kernels when numba is
+            installed (default True; the same results to round-off); plain Python otherwise.
         on_invalid: ``"raise"`` or ``"stop"`` (zero velocity, zone ``"invalid"``).
 
     Raises:
@@ -249,13 +326,21 @@ class SafetyFilter(InvalidPolicy):
     """
 
     __slots__ = (
-        "_fast_jacobian",
+        "_cached",
         "_has_accel",
         "_joint_prof",
+        "_joint_rows",
+        "_kern",
         "_metric",
+        "_obstacle_geometry",
         "_obstacles",
         "_previous",
+        "_rate_rows",
+        "_solver",
+        "_vsum",
         "_workspace",
+        "_ws_names",
+        "accelerate",
         "damping",
         "dof",
         "dt",
@@ -282,6 +367,7 @@ class SafetyFilter(InvalidPolicy):
         obstacle_buffer: float = 0.05,
         weights: ArrayLike | None = None,
         damping: float = 1e-2,
+        accelerate: bool = True,
         on_invalid: OnInvalid = "raise",
     ) -> None:
         super().__init__(on_invalid=on_invalid)
@@ -377,9 +463,49 @@ class SafetyFilter(InvalidPolicy):
                         f"({attr!r}); use a DHChain or PlanarArm (Puma560.chain)"
                     )
         self._obstacles: tuple[SphereObstacle, ...] = tuple(obstacles)
-        # DHChain / PlanarArm: the link Jacobians from the joint points and axes in one pass.
-        self._fast_jacobian = type(robot).__module__ == "velfence.mechanisms.chain" and all(
-            hasattr(robot, a) for a in ("joint_positions", "angular_jacobian")
+        # DHChain / PlanarArm: the pose's geometry computed once per cycle (their private
+        # _kinematics_cache and *_cached methods, q validated here); any other robot is asked
+        # through the public protocol methods.
+        self._cached = type(robot).__module__ == "velfence.mechanisms.chain" and all(
+            hasattr(robot, a)
+            for a in (
+                "_kinematics_cache",
+                "_fk_cached",
+                "_jacobian_cached",
+                "_segments_cached",
+                "_jacobian_at",
+            )
+        )
+        self.accelerate = check_flag("accelerate", accelerate)
+        self._solver: Any = None
+        self._kern: _BoundKernels = _PLAIN_BOUNDS
+        if self.accelerate:
+            from velfence.shaping._accel import compiled_bounds, compiled_project
+
+            self._solver = compiled_project()
+            self._kern = compiled_bounds() or _PLAIN_BOUNDS
+        self._joint_rows = self._joint_layout()
+        self._vsum = float(np.sum(limits.max_velocity))  # Σ_j v_j [rad/s]
+        # Obstacles' fixed parts: centres (k, 3), radii (k,), the links' capsule radii, profile,
+        # (centre, radius) as floats.
+        self._obstacle_geometry: tuple[Any, ...] = ()
+        if self._obstacles:
+            capsules: Any = robot
+            self._obstacle_geometry = (
+                np.array([o.center for o in self._obstacles], dtype=float),
+                np.array([o.radius for o in self._obstacles], dtype=float),
+                np.array(capsules.link_radius, dtype=float).reshape(-1),
+                LinearBuffer(buffer=self.obstacle_buffer, spring_gain=self.spring_gain),
+                tuple((tuple(o.center.tolist()), o.radius) for o in self._obstacles),
+            )
+        self._rate_rows = self._rate_layout()
+        self._ws_names = tuple(
+            [
+                f"{f'workspace {w_i}: ' if len(self._workspace) > 1 else ''}"
+                f"{'TCP' if w.point == 'tcp' else w.point} face {name}"
+                for name in w.polytope.facet_names
+            ]
+            for w_i, w in enumerate(self._workspace)
         )
         # Metric of the joint mode: W = L Lᵀ.
         self._metric: _Metric = None
@@ -419,121 +545,242 @@ class SafetyFilter(InvalidPolicy):
         self._previous = None
 
     # ------------------------------------------------------------------ rows
-    def _rows(self, q: FloatArray, u: FloatArray, previous: FloatArray | None) -> _Rows:
+    def _joint_layout(self) -> tuple[Any, ...]:
+        """The joint rows' fixed parts, in row order (per joint: position lower, upper, velocity).
+
+        ``(G (4n, n), names, finite position sides (2n,), groups, vmax (2n,), position rows
+        (2n,), bounds (4n,) with the velocity rows' filled in)``; per joint the rows are
+        position lower, upper, velocity lower, upper; ``groups`` are ``(profile, speed,
+        sides)`` sharing one bound call.
+        """
+        n = self.dof
+        lim = self.limits
+        eye = np.eye(n)
+        G = np.zeros((4 * n, n))
+        names: list[str] = []
+        for j in range(n):
+            G[4 * j : 4 * j + 4] = (eye[j], -eye[j], eye[j], -eye[j])
+            names += [
+                f"joint {j} position (lower)", f"joint {j} position (upper)",
+                f"joint {j} velocity (lower)", f"joint {j} velocity (upper)",
+            ]  # fmt: skip
+        finite = np.isfinite(np.stack([lim.lower, lim.upper], axis=1).ravel())
+        groups: dict[tuple[Any, ...], tuple[Profile, float, list[int]]] = {}
+        for side in np.flatnonzero(finite).tolist():
+            j = side // 2
+            prof = self._joint_prof[j]
+            v = float(lim.max_velocity[j])
+            key = (*prof.kernel_profile, v)
+            groups.setdefault(key, (prof, v, []))[2].append(side)
+        grp = tuple((p, v, np.array(sides, dtype=np.int64)) for p, v, sides in groups.values())
+        vmax = np.repeat(np.asarray(lim.max_velocity, dtype=float), 2)
+        pos = (4 * np.arange(n)[:, None] + np.arange(2)[None, :]).ravel()  # position rows
+        b = np.zeros(4 * n)
+        b[2::4] = -vmax[0::2]
+        b[3::4] = -vmax[0::2]
+        return readonly(G), tuple(names), finite, grp, vmax, pos, b
+
+    def _rate_layout(self) -> tuple[FloatArray, tuple[str, ...], Any, FloatArray]:
+        """The acceleration rows' fixed parts: ``(G, names, joints, a (per joint))``."""
+        n = self.dof
+        acc = self.limits.max_acceleration
+        joints = np.zeros(0, dtype=np.int64) if acc is None else np.flatnonzero(np.isfinite(acc))
+        eye = np.eye(n)
+        G = np.zeros((2 * joints.shape[0], n))
+        G[0::2] = eye[joints]
+        G[1::2] = -eye[joints]
+        names = tuple(
+            f"joint {j} acceleration ({side})"
+            for j in joints.tolist()
+            for side in ("lower", "upper")
+        )
+        step = np.zeros(0) if acc is None else np.asarray(acc, dtype=float)[joints]
+        return readonly(G), names, joints, step
+
+    def _kinematics(self, q: FloatArray) -> Any:
+        """The pose's geometry for the cached fast path (None for other robots)."""
+        if not self._cached:
+            return None
+        robot: Any = self.robot
+        return robot._kinematics_cache(q)
+
+    def _fk(self, q: FloatArray, kin: Any, point: str) -> FloatArray:
+        if kin is None:
+            return np.asarray(self.robot.fk(q, point), dtype=float)
+        robot: Any = self.robot
+        p: FloatArray = robot._fk_cached(kin, point)
+        return p
+
+    def _jac(self, q: FloatArray, kin: Any, point: str) -> FloatArray:
+        if kin is None:
+            return np.asarray(self.robot.jacobian(q, point), dtype=float)
+        robot: Any = self.robot
+        J: FloatArray = robot._jacobian_cached(kin, point)
+        return J
+
+    def _rows(
+        self,
+        q: FloatArray,
+        u: FloatArray,
+        previous: FloatArray | None,
+        kin: Any = None,
+        known: tuple[str, FloatArray] | None = None,
+    ) -> _Rows:
         n = self.dof
         idt = 0.0 if self.dt is None else 1.0 / self.dt
         rows = _Rows()
         lim = self.limits
-        eye = np.eye(n)
-        for j in range(n):
-            v = float(lim.max_velocity[j])
-            prof = self._joint_prof[j]
-            for side, sign, d in (
-                ("lower", 1.0, q[j] - lim.lower[j]),
-                ("upper", -1.0, lim.upper[j] - q[j]),
-            ):
-                if not math.isfinite(d):
-                    continue
-                b = float(_bounds(prof, np.array([d]), v, idt)[0])
-                if b == -math.inf:
-                    continue  # beyond the profile's reach: no bound
-                b = min(b, v)  # a recovery no faster than the joint can move
-                rows.add(sign * eye[j], b, LEVEL_JOINT, d < 0.0, f"joint {j} position ({side})")
-            rows.add(eye[j], -v, LEVEL_JOINT, False, f"joint {j} velocity (lower)")
-            rows.add(-eye[j], -v, LEVEL_JOINT, False, f"joint {j} velocity (upper)")
+        # Joint position and velocity rows (the fixed layout, bounds per profile group).
+        G4, names4, finite, groups, vside, pos, b4 = self._joint_rows
+        dpos = np.empty(2 * n)
+        dpos[0::2] = q - lim.lower
+        dpos[1::2] = lim.upper - q
+        if len(groups) == 1 and groups[0][2].shape[0] == 2 * n:
+            bpos = _bounds(groups[0][0], dpos, groups[0][1], idt, self._kern)
+        else:
+            bpos = np.full(2 * n, -math.inf)
+            for prof, v, sides in groups:
+                bpos[sides] = _bounds(prof, dpos[sides], v, idt, self._kern)
+        keep_pos = finite & (bpos != -math.inf)  # beyond the profile's reach: no bound
+        b = b4.copy()
+        b[pos] = np.minimum(bpos, vside)  # a recovery no faster than the joint can move
+        viol = np.zeros(4 * n, dtype=bool)
+        viol[pos] = dpos < 0.0
+        if keep_pos.all():
+            rows.block(G4, b, LEVEL_JOINT, viol, names4)
+        else:
+            keep = np.ones(4 * n, dtype=bool)
+            keep[pos] = keep_pos
+            rows.block(
+                G4[keep], b[keep], LEVEL_JOINT, viol[keep],
+                [nm for nm, k in zip(names4, keep.tolist(), strict=True) if k],
+            )  # fmt: skip
         if self._has_accel and previous is not None and self.dt is not None:
-            acc = lim.max_acceleration
-            if acc is not None:
-                for j in range(n):
-                    if math.isfinite(acc[j]):
-                        step = float(acc[j]) * self.dt
-                        rows.add(
-                            eye[j], float(previous[j]) - step, LEVEL_RATE, False,
-                            f"joint {j} acceleration (lower)",
-                        )  # fmt: skip
-                        rows.add(
-                            -eye[j], -(float(previous[j]) + step), LEVEL_RATE, False,
-                            f"joint {j} acceleration (upper)",
-                        )  # fmt: skip
+            Gr, names_r, joints, acc = self._rate_rows
+            if joints.shape[0]:
+                step = acc * self.dt
+                pj = previous[joints]
+                br = np.empty(2 * joints.shape[0])
+                br[0::2] = pj - step
+                br[1::2] = -(pj + step)
+                rows.block(Gr, br, LEVEL_RATE, np.zeros(br.shape[0], dtype=bool), list(names_r))
         for w_i, w in enumerate(self._workspace):
-            p = np.asarray(self.robot.fk(q, w.point), dtype=float)
-            J = np.asarray(self.robot.jacobian(q, w.point), dtype=float)
+            p = self._fk(q, kin, w.point)
+            # (twist mode: the commanded point's Jacobian of this cycle, already computed)
+            J = (
+                known[1]
+                if known is not None and known[0] == w.point
+                else self._jac(q, kin, w.point)
+            )
             poly = w.polytope
             dist = poly.normals @ p - poly.offsets
             s = float(np.linalg.norm(J @ u))
             prof = w.profile if w.profile is not None else LinearBuffer(buffer=w.buffer)
-            bnd = _bounds(prof, dist, s, idt)
-            label = "TCP" if w.point == "tcp" else w.point
-            prefix = f"workspace {w_i}: " if len(self._workspace) > 1 else ""
-            NJ = poly.normals @ J
-            for i in range(dist.shape[0]):
-                if bnd[i] == -math.inf:
-                    continue
-                r = rows.add(
-                    NJ[i], float(bnd[i]), LEVEL_WORKSPACE, bool(dist[i] < 0.0),
-                    f"{prefix}{label} face {poly.facet_names[i]}",
-                )  # fmt: skip
-                if idt > 0.0 and dist[i] >= 0.0:
-                    rows.check.append((r, "ws", (w_i, i)))
+            bnd = _bounds(prof, dist, s, idt, self._kern)
+            kept = np.flatnonzero(bnd != -math.inf)
+            names = self._ws_names[w_i]
+            first = rows.block(
+                (poly.normals @ J)[kept], bnd[kept], LEVEL_WORKSPACE, dist[kept] < 0.0,
+                [names[i] for i in kept.tolist()],
+            )  # fmt: skip
+            if idt > 0.0:
+                for r, i in enumerate(kept.tolist()):
+                    if dist[i] >= 0.0:
+                        rows.check.append((first + r, "ws", (w_i, i)))
         if self._obstacles:
-            self._obstacle_rows(q, u, idt, rows)
-        return rows
+            self._obstacle_rows(q, u, idt, rows, kin)
+        return rows.done(n)
 
-    def _obstacle_rows(self, q: FloatArray, u: FloatArray, idt: float, rows: _Rows) -> None:
-        from velfence.geometry.primitives import points_segments_distances, sphere_capsule_distance
+    def _obstacle_rows(
+        self, q: FloatArray, u: FloatArray, idt: float, rows: _Rows, kin: Any = None
+    ) -> None:
+        from velfence.geometry.primitives import _sphere_capsule
 
         robot: Any = self.robot
-        segs = np.asarray(robot.link_segments(q), dtype=float)
-        radii = np.asarray(robot.link_radius, dtype=float).reshape(-1)
-        centers = np.array([o.center for o in self._obstacles])
-        _, clear = points_segments_distances(centers, segs[:, 0], segs[:, 1], radii)
-        vmax = self.limits.max_velocity
-        prof = LinearBuffer(buffer=self.obstacle_buffer, spring_gain=self.spring_gain)
-        # The SerialChain geometry: joint points P_j and axes z_j; link k is carried by joints
-        # 0 … k, so a body-fixed point p on it has Jacobian columns z_j × (p − P_j), j <= k.
-        P = np.asarray(robot.joint_positions(q), dtype=float)
-        Z = np.asarray(robot.angular_jacobian(q), dtype=float).T if self._fast_jacobian else None
-        for i, o in enumerate(self._obstacles):
-            for link in range(segs.shape[0]):
-                c0 = float(clear[i, link]) - o.radius
-                if c0 >= self.obstacle_buffer and idt == 0.0:
-                    continue  # beyond the buffer the linear cap is infinite
-                if idt > 0.0 and c0 >= self.obstacle_buffer and self.dt is not None:
-                    # |ṗ| <= Σ_j v_j |p − P_j| for every point of the link (j <= link): beyond
-                    # one period's reach at full joint speed (with margin), no bound needed.
-                    lever = np.linalg.norm(segs[link][:, None, :] - P[None, : link + 1], axis=2)
-                    if c0 > 1.5 * self.dt * float(lever.max(axis=0) @ vmax[: link + 1]):
-                        continue
-                d, x_c, t, nrm = sphere_capsule_distance(
-                    o.center, o.radius, segs[link, 0], segs[link, 1], float(radii[link])
-                )
-                if Z is not None:
-                    Jc = np.zeros((3, self.dof))
-                    Jc[:, : link + 1] = np.cross(Z[: link + 1], x_c[None, :] - P[: link + 1]).T
-                else:
-                    Jc = np.asarray(robot.point_jacobian(q, link, t), dtype=float)
-                g = nrm @ Jc
-                s = float(np.linalg.norm(Jc @ u))
-                b = float(_bounds(prof, np.array([d]), s, idt)[0])
-                if b == -math.inf:
-                    continue
-                r = rows.add(g, b, LEVEL_OBSTACLE, d < 0.0, f"obstacle {i} on link {link}")
-                if idt > 0.0 and d >= 0.0:
-                    rows.check.append((r, "ob", (i, link)))
+        segs: Any = None
+        if kin is None:
+            segs = np.asarray(robot.link_segments(q), dtype=float)
+            P = np.asarray(robot.joint_positions(q), dtype=float)
+            S = segs.tolist()
+        else:  # a SerialChain: link k runs from P_k to P_{k+1}
+            P = kin[0]
+            pts = P.tolist()
+            S = [(pts[k], pts[k + 1]) for k in range(len(pts) - 1)]
+        _, _, radii, prof, spheres = self._obstacle_geometry
+        rl = radii.tolist()
+        nl = len(S)
+        # Every (obstacle, link) pair's clearance, critical point and normal, in plain floats
+        # (under a microsecond a pair, below the batch form's fixed cost at these sizes).
+        pairs = [
+            _sphere_capsule(c, rs, (a[0], a[1], a[2]), (e[0], e[1], e[2]), rl[k])
+            for c, rs in spheres
+            for k, (a, e) in enumerate(S)
+        ]
+        buf = self.obstacle_buffer
+        reach: Any = None
+        far = [p[0] for p in pairs if p[0] >= buf]
+        if far and kin is not None and self.dt is not None:
+            # Σ_j v_j |p − P_j| <= Σ_j v_j · 2 max_a |P_a − P_0| (triangle inequality): when
+            # every pair beyond the buffer is farther than that (with margin), none is in reach
+            # and the exact per-link reach below is not needed.
+            bound = 2.0 * float(np.linalg.norm(P - P[0], axis=1).max()) * self._vsum
+            if min(far) > 1.5 * self.dt * bound * (1.0 + 1e-9):
+                far = []
+        if idt > 0.0 and self.dt is not None and far:
+            # |ṗ| <= Σ_j v_j |p − P_j| for every point of link k (j <= k): beyond one period's
+            # reach at full joint speed (with margin), no bound needed. Per link (all at once):
+            # Σ_{j <= k} v_j max(|a_k − P_j|, |b_k − P_j|).
+            if kin is not None:  # a SerialChain: a_k = P_k, b_k = P_{k+1}
+                M = np.linalg.norm(P[:, None, :] - P[None, :nl], axis=2)
+                lever = np.maximum(M[:-1], M[1:])
+            else:
+                D = segs[:, :, None, :] - P[None, None, :nl]
+                lever = np.linalg.norm(D, axis=3).max(axis=1)
+            reach = (1.5 * self.dt * (np.tril(lever) @ self.limits.max_velocity[:nl])).tolist()
+        G: list[FloatArray] = []
+        bs: list[float] = []
+        viol: list[bool] = []
+        names: list[str] = []
+        checks: list[tuple[int, tuple[int, int]]] = []
+        for ip, (d, x_c, t, nrm) in enumerate(pairs):
+            if d >= buf and (reach is None or d > reach[ip % nl]):
+                continue  # beyond the buffer: no cap; in discrete time also out of reach
+            i, link = divmod(ip, nl)
+            if kin is not None:
+                Jc = robot._jacobian_at(kin, link + 1, np.array(x_c))
+            else:
+                Jc = np.asarray(robot.point_jacobian(q, link, t), dtype=float)
+            s = float(np.linalg.norm(Jc @ u))
+            b = _bound1(prof, d, s, idt)
+            if b == -math.inf:
+                continue
+            if idt > 0.0 and d >= 0.0:
+                checks.append((len(bs), (i, link)))
+            G.append(np.array(nrm) @ Jc)
+            bs.append(b)
+            viol.append(d < 0.0)
+            names.append(f"obstacle {i} on link {link}")
+        if not bs:
+            return
+        first = rows.block(np.array(G), np.array(bs), LEVEL_OBSTACLE, np.array(viol), names)
+        rows.check.extend((first + r, "ob", key) for r, key in checks)
 
     # ------------------------------------------------------------------ solve
     def _project(
         self, u: FloatArray, G: FloatArray, b: FloatArray, L: _Metric
     ) -> tuple[bool, FloatArray]:
-        if G.shape[0] == 0:
+        if G.shape[0] == 0 or bool(np.all(G @ u >= b)):
+            # Nothing violated (as evaluated): the optimum is the command itself, exactly (the
+            # metric's round trip L⁻ᵀ Lᵀ u would move it by round-off).
             return True, u.copy()
         if L is None:
-            return _projection(u, G, b)
+            return _projection(u, G, b, self._solver)
         if L.ndim == 1:  # diagonal metric: L = diag(lv), y = lv * x
-            ok, y = _projection(u * L, G / L[None, :], b)
+            ok, y = _projection(u * L, G / L[None, :], b, self._solver)
             x: FloatArray = y / L
         else:  # y = Lᵀ x: G x = G L⁻ᵀ y
-            ok, y = _projection(L.T @ u, np.asarray(np.linalg.solve(L, G.T).T, dtype=np.float64), b)
+            GL = np.asarray(np.linalg.solve(L, G.T).T, dtype=np.float64)
+            ok, y = _projection(L.T @ u, GL, b, self._solver)
             x = np.asarray(np.linalg.solve(L.T, y), dtype=np.float64)
         if ok:
             # Round-off of the back-substitution: repair along the violated rows (a few ulps).
@@ -548,64 +795,72 @@ class SafetyFilter(InvalidPolicy):
 
     def _next_distances(self, q: FloatArray, x: FloatArray, rows: _Rows) -> dict[int, float]:
         """True next distance of every checked row at ``q + x dt`` (model check)."""
-        from velfence.geometry.primitives import points_segments_distances
+        from velfence.geometry.primitives import _sphere_capsule
 
         q1 = q + x * (self.dt or 0.0)
+        kin = self._kinematics(q1)
         out: dict[int, float] = {}
-        pts: dict[int, FloatArray] = {}
-        clear = None
+        dists: dict[int, list[float]] = {}
+        segs: Any = None
+        rl: list[float] = []
         for r, kind, (a, i) in rows.check:
             if kind == "ws":
-                if a not in pts:
-                    w = self._workspace[a]
-                    pts[a] = np.asarray(self.robot.fk(q1, w.point), dtype=float)
-                poly = self._workspace[a].polytope
-                out[r] = float(poly.normals[i] @ pts[a] - poly.offsets[i])
+                if a not in dists:
+                    poly = self._workspace[a].polytope
+                    p1 = self._fk(q1, kin, self._workspace[a].point)
+                    dists[a] = (poly.normals @ p1 - poly.offsets).tolist()
+                out[r] = dists[a][i]
             else:
-                if clear is None:
+                if segs is None:
                     robot: Any = self.robot
-                    segs = np.asarray(robot.link_segments(q1), dtype=float)
-                    radii = np.asarray(robot.link_radius, dtype=float).reshape(-1)
-                    centers = np.array([o.center for o in self._obstacles])
-                    _, clear = points_segments_distances(centers, segs[:, 0], segs[:, 1], radii)
-                out[r] = float(clear[a, i]) - self._obstacles[a].radius
+                    if kin is None:
+                        segs = np.asarray(robot.link_segments(q1), dtype=float).tolist()
+                    else:
+                        pts = kin[0].tolist()
+                        segs = [(pts[k], pts[k + 1]) for k in range(len(pts) - 1)]
+                    rl = self._obstacle_geometry[2].tolist()
+                c, rs = self._obstacle_geometry[4][a]
+                sa, sb = segs[i]
+                out[r] = _sphere_capsule(c, rs, tuple(sa), tuple(sb), rl[i])[0]
         return out
 
-    def _solve_ladder(
-        self, q: FloatArray, u: FloatArray, rows: _Rows, L: _Metric
-    ) -> tuple[FloatArray, FloatArray, list[str], list[str], bool]:
-        """The priority ladder; returns (x, b used, dropped levels, stages, rate_override)."""
-        n = self.dof
-        m = len(rows.b)
-        G = np.array(rows.G).reshape(m, n)
-        b0 = np.array(rows.b, dtype=float)
-        level = np.array(rows.level, dtype=np.int64)
-        viol = np.array(rows.violated, dtype=bool)
-        present = set(rows.level)
-        # Each step: (keep mask, bounds, dropped label, stage label)
-        steps: list[tuple[FloatArray, FloatArray, str | None, str | None]] = []
+    @staticmethod
+    def _steps(rows: _Rows) -> Any:
+        """The ladder's steps, made as they are needed: (keep mask, bounds, dropped, stage)."""
+        m = rows.m
+        level = rows.level
+        viol = rows.violated
+        present = set(level.tolist())
         keep = np.ones(m, dtype=bool)
-        b = b0.copy()
-        steps.append((keep.copy(), b.copy(), None, None))
+        b = rows.b.copy()
+        yield keep.copy(), b.copy(), None, None
         if LEVEL_RATE in present:
             keep &= level != LEVEL_RATE
-            steps.append((keep.copy(), b.copy(), "acceleration", "dropped acceleration"))
+            yield keep.copy(), b.copy(), "acceleration", "dropped acceleration"
         for lv in (LEVEL_OBSTACLE, LEVEL_WORKSPACE):
             if lv not in present:
                 continue
             rec = (level == lv) & viol
             if rec.any():
                 b = np.where(rec, np.minimum(b, 0.0), b)
-                steps.append((keep.copy(), b.copy(), LEVEL_NAMES[lv], f"relaxed {LEVEL_NAMES[lv]}"))
+                yield keep.copy(), b.copy(), LEVEL_NAMES[lv], f"relaxed {LEVEL_NAMES[lv]}"
             keep &= level != lv
-            steps.append((keep.copy(), b.copy(), LEVEL_NAMES[lv], f"dropped {LEVEL_NAMES[lv]}"))
+            yield keep.copy(), b.copy(), LEVEL_NAMES[lv], f"dropped {LEVEL_NAMES[lv]}"
         rec = (level == LEVEL_JOINT) & viol
         if rec.any():
             b = np.where(rec, np.minimum(b, 0.0), b)
-            steps.append((keep.copy(), b.copy(), "joint limits", "relaxed joint limits"))
+            yield keep.copy(), b.copy(), "joint limits", "relaxed joint limits"
+
+    def _solve_ladder(
+        self, q: FloatArray, u: FloatArray, rows: _Rows, L: _Metric
+    ) -> tuple[FloatArray, FloatArray, list[str], list[str], bool]:
+        """The priority ladder; returns (x, b used, dropped levels, stages, rate_override)."""
+        n = self.dof
+        G = rows.G
+        b = rows.b.copy()
         dropped: list[str] = []
         stages: list[str] = []
-        for mask, bb, drop, stage in steps:
+        for mask, bb, drop, stage in self._steps(rows):
             if drop is not None and drop not in dropped:
                 dropped.append(drop)
             if stage is not None:
@@ -618,6 +873,7 @@ class SafetyFilter(InvalidPolicy):
                     stages.append("model-check")
             if ok and np.all(np.isfinite(x)):
                 return x, bb, dropped, stages, "acceleration" in dropped
+            b = bb
         stages.append("stop")
         return np.zeros(n), b, dropped, stages, "acceleration" in dropped
 
@@ -651,6 +907,9 @@ class SafetyFilter(InvalidPolicy):
 
     # ------------------------------------------------------------------ public
     def _state(self, name: str, x: Any, width: int, unit: str) -> FloatArray:
+        if type(x) is np.ndarray and x.dtype == np.float64 and x.shape == (width,):
+            # What real_array returns for this input (non-finite values let through): a copy.
+            return x.copy()
         return real_array(
             name, x, (width,), what=f"{width} numbers [{unit}]", allow_nonfinite=True,
             max_abs=None,
@@ -664,9 +923,8 @@ class SafetyFilter(InvalidPolicy):
         )  # fmt: skip
 
     def _bad(self, *arrays: FloatArray) -> bool:
-        return not all(
-            bool(np.all(np.isfinite(a)) and np.all(np.abs(a) <= MAX_MAGNITUDE)) for a in arrays
-        )
+        # max |a| is NaN when a holds a NaN, and NaN <= MAX_MAGNITUDE is False
+        return not all(a.size == 0 or bool(np.abs(a).max() <= MAX_MAGNITUDE) for a in arrays)
 
     def _run(
         self,
@@ -676,6 +934,8 @@ class SafetyFilter(InvalidPolicy):
         L: _Metric,
         previous: Any,
         remember: bool,
+        kin: Any = None,
+        known: tuple[str, FloatArray] | None = None,
     ) -> FilterResult:
         prev: FloatArray | None = None
         if previous is not None:
@@ -686,20 +946,24 @@ class SafetyFilter(InvalidPolicy):
         elif remember:
             prev = self._previous
         with np.errstate(all="ignore"):
-            rows = self._rows(q, u, prev)
+            rows = self._rows(q, u, prev, self._kinematics(q) if kin is None else kin, known)
             x, _, dropped, stages, override = self._solve_ladder(q, u, rows, L)
         if not np.all(np.isfinite(x)):
             self._invalid("input too large: the filtered velocity overflowed")
             return self._stopped(q, cmd)
-        m = len(rows.b)
-        G = np.array(rows.G).reshape(m, self.dof)
-        b0 = np.array(rows.b, dtype=float)
-        with np.errstate(invalid="ignore"):
-            slack = np.where(np.isfinite(b0), G @ x - b0, math.inf)
-        viol = np.array(rows.violated, dtype=bool)
-        tol = _BINDING * (1.0 + np.abs(np.where(np.isfinite(b0), b0, 0.0)))
-        act = tuple(int(i) for i in np.flatnonzero((slack <= tol) | viol))
-        n_out = int(viol.sum())
+        G = rows.G
+        b0 = rows.b
+        fin = np.isfinite(b0)
+        if fin.all():
+            slack = G @ x - b0
+            tol = _BINDING * (1.0 + np.abs(b0))
+        else:
+            with np.errstate(invalid="ignore"):
+                slack = np.where(fin, G @ x - b0, math.inf)
+            tol = _BINDING * (1.0 + np.abs(np.where(fin, b0, 0.0)))
+        viol = rows.violated
+        act = tuple(np.flatnonzero((slack <= tol) | viol).tolist())
+        n_out = int(np.count_nonzero(viol))
         zone: Zone = ZONE_NAMES[zone_code(n_out, len(act))]  # type: ignore[assignment]
         pre: list[str] = []
         if not np.array_equal(x, u):
@@ -790,10 +1054,13 @@ class SafetyFilter(InvalidPolicy):
         if self._bad(qa, va):
             self._invalid(f"non-finite input: q={qa.tolist()}, twist={va.tolist()}")
             return self._stopped(qa, va)
-        J = np.asarray(self.robot.jacobian(qa, point), dtype=float)
+        kin = self._kinematics(qa)
+        J: Any = self._jac(qa, kin, point)
+        known = (point, J)
         if va.shape[0] == 6 and self.task_dim == 3:
             robot: Any = self.robot
-            J = np.vstack((J, np.asarray(robot.angular_jacobian(qa), dtype=float)))
+            Ja = robot.angular_jacobian(qa) if kin is None else kin[1].T
+            J = np.vstack((J, np.asarray(Ja, dtype=np.float64)))
         with np.errstate(all="ignore"):
             H = J.T @ J + (self.damping**2) * np.eye(self.dof)
             L = np.linalg.cholesky(H) if np.all(np.isfinite(H)) else np.full_like(H, np.nan)
@@ -801,7 +1068,7 @@ class SafetyFilter(InvalidPolicy):
         if self._bad(u):
             self._invalid("input too large: the twist's joint velocity overflowed")
             return self._stopped(qa, va)
-        return self._run(qa, u, va, L, previous, True)
+        return self._run(qa, u, va, L, previous, True, kin, known)
 
     def filter_twist(
         self,
