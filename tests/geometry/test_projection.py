@@ -93,3 +93,14 @@ def test_inputs_are_validated_by_name():
         project([0.0], [[1.0]], [math.nan])
     with pytest.raises(InvalidInput, match="finite"):
         project([math.inf], [[1.0]], [0.0])
+
+
+@pytest.mark.parametrize("far", [1e6, 1e16, 1e100])
+def test_bounds_far_smaller_than_the_target_keep_their_precision(far):
+    # The unit cube's corner seen from far away: the answer is exact, not lost in the
+    # round-off of the target (the closed form from the active set keeps the bounds).
+    G = np.vstack([np.eye(3), -np.eye(3)])
+    b = np.array([0.0, 0.0, 0.0, -1.0, -1.0, -1.0])
+    r = project([far, 0.5, -far / 3], G, b)
+    assert r.feasible
+    np.testing.assert_array_equal(r.x, [1.0, 0.5, 0.0])

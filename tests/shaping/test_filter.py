@@ -325,6 +325,25 @@ def test_workspace_conflicting_with_joint_limits_gives_way() -> None:
     d = BOX.signed_distances(ARM.fk(q))
     rates = BOX.normals @ J @ r.output
     assert np.all(rates[d < 0] >= -1e-15)
+    # a slower way back is taken before "no further out": the violated faces are approached
+    assert np.abs(r.output).max() > 1e-6
+    assert np.all(rates[d < 0] > 0.0)
+
+
+def test_absurd_commands_are_shortened_not_answered_with_zero() -> None:
+    # A TCP 30 cm outside the box; commands up to 1e140 rad/s: the answer is the projection of
+    # the command shortened to 1e3 x the fastest joint limit, and it still recovers.
+    q = Q0.copy()
+    q[1] += 0.3
+    f = SafetyFilter(ARM, limits=limits(), workspace=WorkspaceLimit(BOX, buffer=0.05))
+    J = ARM.jacobian(q)
+    d = BOX.signed_distances(ARM.fk(q))
+    for mag in (1e6, 1e20, 1e140):
+        r = f.explain(q, np.full(7, mag))
+        assert "command-scaled" in r.stages
+        assert np.all(np.isfinite(r.output))
+        assert r.dropped == ()
+        assert np.all((BOX.normals @ J @ r.output)[d < 0] > 0.0)
 
 
 def test_acceleration_gives_way_to_a_joint_limit() -> None:

@@ -314,3 +314,32 @@ def test_inputs_are_validated():
     assert stop.explain(np.zeros(3), np.array([math.inf, 0, 0])).zone == "invalid"
     with pytest.raises(AttributeError, match="immutable"):
         sh.buffer = 0.2  # type: ignore[misc]
+
+
+@pytest.mark.parametrize("magnitude", [1e-300, 1e-12, 1.0, 1e6, 1e12, 1e18, 1e60, 1e149])
+@pytest.mark.parametrize("profile", [False, True], ids=["buffer", "three-zone"])
+def test_every_bound_holds_in_caller_units_at_any_command_magnitude(magnitude, profile):
+    # A bound tiny against the command (1 m/s against 1e18) must still hold to its own
+    # precision; when the arithmetic cannot resolve it the law shortens the command
+    # (stage "command-scaled") or stops, never answers a violation.
+    rng = np.random.default_rng(int(math.log10(magnitude) + 400))
+    P = ConvexPolytope.box(-np.ones(3), np.ones(3))
+    if profile:
+        prof = vf.ThreeZoneBraking.from_actuator_limits(
+            gain=20.0, max_speed=1.0, max_acceleration=5.0
+        )
+        sh = PolytopeShaper(P, profile=prof)
+    else:
+        sh = PolytopeShaper(P, buffer=0.3, spring_gain=2.0, dt=1e-3)
+    for _ in range(300):
+        p = rng.uniform(-1.1, 1.1, 3)
+        v = rng.normal(size=3) * magnitude
+        r = sh.explain(p, v)
+        assert np.all(np.isfinite(r.output))
+        normals, lower, _ = sh.bound_rows(p, v)
+        if r.relaxed:
+            continue
+        gap = normals @ r.output - lower
+        assert np.all(gap >= -1e-9 * (np.abs(lower) + 1e-300)), (p, v, gap, r.stages)
+        if not profile and P.contains(p):
+            assert P.signed_distances(p + 1e-3 * r.output).min() >= -1e-12

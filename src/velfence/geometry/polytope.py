@@ -575,9 +575,18 @@ class ConvexPolytope:
             if self.dim == 1:
                 vol = float(V.max() - V.min())
             else:
-                from scipy.spatial import ConvexHull
+                from scipy.spatial import ConvexHull, QhullError
 
-                vol = float(ConvexHull(V).volume)
+                # In the vertices' own scale (qhull's tolerances are absolute), then scaled back.
+                c = V.mean(axis=0)
+                r = float(np.max(np.abs(V - c)))
+                try:
+                    unit = float(ConvexHull((V - c) / r).volume)
+                except QhullError as exc:
+                    raise InvalidGeometry(f"volume: qhull failed on the hull ({exc})") from None
+                # r**n may exceed the float range (a box of side 1e140 in 3-D): inf then.
+                logv = math.log(unit) + self.dim * math.log(r) if unit > 0 else -math.inf
+                vol = math.inf if logv > 709.0 else math.exp(logv)
             self._cache["volume"] = vol
         out: float = self._cache["volume"]
         return out
@@ -619,11 +628,19 @@ def _vertices(P: ConvexPolytope) -> FloatArray:
     N, off, n = P.normals, P.offsets, P.dim
     if n == 1:
         return np.array([[float(np.max(off[N[:, 0] > 0]))], [float(np.min(-off[N[:, 0] < 0]))]])
-    from scipy.spatial import HalfspaceIntersection
+    from scipy.spatial import HalfspaceIntersection, QhullError
 
-    # qhull: A x + b <= 0 inside; ours n·x - o >= 0, so A = -n, b = o.
-    hs = HalfspaceIntersection(np.hstack([-N, off[:, None]]), np.array(P.chebyshev_center))
-    pts = np.asarray(hs.intersections, dtype=float)
+    # qhull: A x + b <= 0 inside; ours n·x - o >= 0, so A = -n, b = o. Solved in coordinates
+    # z = (x - c) / R about the Chebyshev ball (centre c, radius R), where the set has unit
+    # inradius: qhull's fixed tolerances fail on a box of side 1e140 or 1e-6 otherwise.
+    c = np.array(P.chebyshev_center)
+    R = float(P.chebyshev_radius)
+    bz = (off - N @ c) / R
+    try:
+        hs = HalfspaceIntersection(np.hstack([-N, bz[:, None]]), np.zeros(n))
+    except QhullError as exc:  # not expected for a validated polytope; never let it escape
+        raise InvalidGeometry(f"vertices: qhull could not intersect the facets ({exc})") from None
+    pts = c + R * np.asarray(hs.intersections, dtype=float)
     tol = 1e-9 * (1.0 + float(np.max(np.abs(off))))
     keep: list[FloatArray] = []
     for p in pts[np.lexsort(pts.T[::-1])]:

@@ -41,6 +41,7 @@ STAGE_PROJECT = 32  # exact: minimum-change projection onto the active bounds
 STAGE_RELAXED = 64  # exact: bounds infeasible together, recovery bounds kept, others dropped
 STAGE_STOP = 128  # invalid input answered with zero velocity
 STAGE_PERIOD = 256  # patent, discrete time: output scaled so one period reaches no edge
+STAGE_SCALED = 512  # n-D exact: command shortened (direction kept) for a solve in floating point
 STAGE_NAMES = (
     "secondary-projection",
     "primary-projection",
@@ -51,6 +52,7 @@ STAGE_NAMES = (
     "relaxed",
     "stop",
     "period-cap",
+    "command-scaled",
 )
 
 _TWO_PI = 2.0 * math.pi

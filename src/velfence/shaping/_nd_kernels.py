@@ -27,6 +27,7 @@ from velfence.geometry.projection import PROJECT_OPTIMAL, project_kernel
 from velfence.shaping._kernels import (
     STAGE_PROJECT,
     STAGE_RELAXED,
+    STAGE_SCALED,
     STAGE_SPRING,
     STAGE_STOP,
     ZONE_FREE,
@@ -161,52 +162,69 @@ def polytope_kernel(
         stages |= STAGE_SPRING
     for k in range(dim):
         u[k] = v[k] / scale
-    while True:
-        status, q = _solve_rows(u, N, bnd, work, m, dim, G, b, x, lam, act, wsf)
-        if status != PROJECT_OPTIMAL:
-            break
-        done = n_out == 0
-        if not done:
-            xx = 0.0
-            for k in range(dim):
-                xx += x[k] * x[k]
-            done = xx <= unit * unit
-        if not done:
-            # Outside, recovery can make the answer faster than an unbounded facet's reach
-            # (Cauchy-Schwarz): bound every facet not yet bounded and keep those it violates.
-            c = m
-            for e in range(nf):
-                if dist[e] < 0.0:
-                    continue
-                found = False
-                for a in range(m):
-                    if work[a] == e:
-                        found = True
-                        break
-                if not found:
-                    work[c] = e
-                    c += 1
-            fill_bounds(kind, prm, relax, dist, work, m, c, unit, scale, idt, bnd)
-            added = False
-            for a in range(m, c):
-                e = work[a]
-                if bnd[e] > -math.inf:
-                    s = 0.0
-                    for k in range(dim):
-                        s += N[e * dim + k] * x[k]
-                    if s < bnd[e]:
-                        work[m] = e
-                        m += 1
-                        added = True
-            done = not added
-        if done:
-            for k in range(dim):
-                out[k] = x[k] * scale
-            for c in range(q):
-                active[c] = work[act[c]]
+    for attempt in range(2):
+        if attempt == 1:
+            # The solve failed in floating point: a command many orders of magnitude beyond
+            # every bound (1e12 against a 1 m/s cap) leaves the bounds below the round-off of
+            # the arithmetic on it. Solve once more for the command shortened (direction kept)
+            # to 1e3 times the largest bound: its projection meets every bound as well.
+            bmax = 0.0
             for a in range(m):
-                bnd[work[a]] *= scale
-            return zone, stages, q, p1, p2, d1, d2, m
+                if abs(bnd[work[a]]) > bmax:
+                    bmax = abs(bnd[work[a]])
+            un = vector_norm(u, dim)
+            if not un > 1e3 * bmax:
+                break
+            f = 1e3 * bmax / un
+            for k in range(dim):
+                u[k] *= f
+            stages |= STAGE_SCALED
+        while True:
+            status, q = _solve_rows(u, N, bnd, work, m, dim, G, b, x, lam, act, wsf)
+            if status != PROJECT_OPTIMAL:
+                break
+            done = n_out == 0
+            if not done:
+                xx = 0.0
+                for k in range(dim):
+                    xx += x[k] * x[k]
+                done = xx <= unit * unit
+            if not done:
+                # Outside, recovery can make the answer faster than an unbounded facet's reach
+                # (Cauchy-Schwarz): bound every facet not yet bounded and keep those it violates.
+                c = m
+                for e in range(nf):
+                    if dist[e] < 0.0:
+                        continue
+                    found = False
+                    for a in range(m):
+                        if work[a] == e:
+                            found = True
+                            break
+                    if not found:
+                        work[c] = e
+                        c += 1
+                fill_bounds(kind, prm, relax, dist, work, m, c, unit, scale, idt, bnd)
+                added = False
+                for a in range(m, c):
+                    e = work[a]
+                    if bnd[e] > -math.inf:
+                        s = 0.0
+                        for k in range(dim):
+                            s += N[e * dim + k] * x[k]
+                        if s < bnd[e]:
+                            work[m] = e
+                            m += 1
+                            added = True
+                done = not added
+            if done:
+                for k in range(dim):
+                    out[k] = x[k] * scale
+                for c in range(q):
+                    active[c] = work[act[c]]
+                for a in range(m):
+                    bnd[work[a]] *= scale
+                return zone, stages, q, p1, p2, d1, d2, m
     if n_out == 0:
         # Inside every bound is <= 0, so zero meets them all; reached only if round-off
         # defeats the projection (never observed): stopping is the safe answer.

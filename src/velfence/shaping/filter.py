@@ -245,6 +245,12 @@ def _bound1(prm: Profile, d: float, speed: float, idt: float) -> float:
     return bnd[0]
 
 
+#: Fractions of a violated level's recovery bounds the priority ladder tries, in order, before it
+#: drops the level: a slower way back (1/4, 1/16, ... down to 4^-8) before "no further out" (0).
+_COMMAND_CAP = 1e3  # commands are shortened beyond this multiple of the fastest joint limit
+_RECOVERY_FRACTIONS = (*(0.25**k for k in range(1, 9)), 0.0)
+
+
 def _projection(
     u: FloatArray, G: FloatArray, b: FloatArray, kernel: Any = None
 ) -> tuple[bool, FloatArray]:
@@ -275,6 +281,25 @@ def _projection(
     status = project_kernel(u.tolist(), G.ravel().tolist(), b.tolist(), m, n, x, lam, act, wsf)[0]
     xa = np.array(x, dtype=np.float64)
     return status == PROJECT_OPTIMAL and bool(np.all(np.isfinite(xa))), xa
+
+
+def _factor(H: FloatArray) -> FloatArray:
+    """Cholesky factor of the damped normal matrix; NaN when it has none (the caller stops).
+
+    With a damping far below the Jacobian's scale (1e-9 against entries of 1) round-off can make
+    ``JᵀJ + λ²I`` lose definiteness at a singular pose: a relative jitter of 1e-12 restores it.
+    """
+    if not np.all(np.isfinite(H)):
+        return np.full_like(H, np.nan)
+    n = H.shape[0]
+    for jitter in (0.0, 1e-12, 1e-9):
+        try:
+            shift = jitter * (float(np.trace(H)) / n + 1e-300)
+            L: FloatArray = np.linalg.cholesky(H + shift * np.eye(n))
+            return L
+        except np.linalg.LinAlgError:
+            continue
+    return np.full_like(H, np.nan)
 
 
 def _cholesky(name: str, W: FloatArray) -> FloatArray:
@@ -337,6 +362,7 @@ class SafetyFilter(InvalidPolicy):
         "_previous",
         "_rate_rows",
         "_solver",
+        "_speed_scale",
         "_vsum",
         "_workspace",
         "_ws_names",
@@ -392,6 +418,7 @@ class SafetyFilter(InvalidPolicy):
                 f"{list(robot.joint_names)}"
             )
         self.limits = limits
+        self._speed_scale = float(np.max(limits.max_velocity))
         self.dt = None if dt is None else check_positive("dt", dt, unit="s")
         self.spring_gain = check_positive("spring_gain", spring_gain, allow_zero=True, unit="1/s")
         jb = check_positive("joint_buffer", joint_buffer, unit="rad")
@@ -842,14 +869,18 @@ class SafetyFilter(InvalidPolicy):
                 continue
             rec = (level == lv) & viol
             if rec.any():
+                # A slower recovery first (a quarter, a sixteenth, ...), "no further out" last.
+                for frac in _RECOVERY_FRACTIONS:
+                    bf = np.where(rec & (b > 0.0), b * frac, np.minimum(b, 0.0) if frac == 0 else b)
+                    yield keep.copy(), bf, LEVEL_NAMES[lv], f"relaxed {LEVEL_NAMES[lv]}"
                 b = np.where(rec, np.minimum(b, 0.0), b)
-                yield keep.copy(), b.copy(), LEVEL_NAMES[lv], f"relaxed {LEVEL_NAMES[lv]}"
             keep &= level != lv
             yield keep.copy(), b.copy(), LEVEL_NAMES[lv], f"dropped {LEVEL_NAMES[lv]}"
         rec = (level == LEVEL_JOINT) & viol
         if rec.any():
-            b = np.where(rec, np.minimum(b, 0.0), b)
-            yield keep.copy(), b.copy(), "joint limits", "relaxed joint limits"
+            for frac in _RECOVERY_FRACTIONS:
+                bf = np.where(rec & (b > 0.0), b * frac, np.minimum(b, 0.0) if frac == 0 else b)
+                yield keep.copy(), bf, "joint limits", "relaxed joint limits"
 
     def _solve_ladder(
         self, q: FloatArray, u: FloatArray, rows: _Rows, L: _Metric
@@ -945,6 +976,15 @@ class SafetyFilter(InvalidPolicy):
                 return self._stopped(q, cmd)
         elif remember:
             prev = self._previous
+        scaled = False
+        cap = _COMMAND_CAP * self._speed_scale
+        big = float(np.abs(u).max()) if u.size else 0.0
+        if big > cap:
+            # A command far beyond what the joints can do (1e3 times their fastest limit) is
+            # shortened in its own direction first, so the solve stays well inside floating
+            # point; its answer meets every row as the full command's would.
+            u = u * (cap / big)
+            scaled = True
         with np.errstate(all="ignore"):
             rows = self._rows(q, u, prev, self._kinematics(q) if kin is None else kin, known)
             x, _, dropped, stages, override = self._solve_ladder(q, u, rows, L)
@@ -965,7 +1005,7 @@ class SafetyFilter(InvalidPolicy):
         act = tuple(np.flatnonzero((slack <= tol) | viol).tolist())
         n_out = int(np.count_nonzero(viol))
         zone: Zone = ZONE_NAMES[zone_code(n_out, len(act))]  # type: ignore[assignment]
-        pre: list[str] = []
+        pre: list[str] = ["command-scaled"] if scaled else []
         if not np.array_equal(x, u):
             pre.append("projection")
         if n_out:
@@ -1063,8 +1103,10 @@ class SafetyFilter(InvalidPolicy):
             J = np.vstack((J, np.asarray(Ja, dtype=np.float64)))
         with np.errstate(all="ignore"):
             H = J.T @ J + (self.damping**2) * np.eye(self.dof)
-            L = np.linalg.cholesky(H) if np.all(np.isfinite(H)) else np.full_like(H, np.nan)
-            u = np.linalg.solve(L.T, np.linalg.solve(L, J.T @ va))
+            L = _factor(H)
+            u: FloatArray = np.asarray(
+                np.linalg.solve(L.T, np.linalg.solve(L, J.T @ va)), dtype=np.float64
+            )
         if self._bad(u):
             self._invalid("input too large: the twist's joint velocity overflowed")
             return self._stopped(qa, va)

@@ -332,8 +332,9 @@ class PolytopeShaper(InvalidPolicy):
         active = [0] * (dim + 1)
         q = 0
         if bounded:
-            rows = bounded
-            for attempt in range(2):
+            rows = list(bounded)
+            relaxed = False
+            while True:
                 G = N[rows].ravel().tolist()
                 b = [bnd[e] for e in rows]
                 x = [0.0] * dim
@@ -342,18 +343,33 @@ class PolytopeShaper(InvalidPolicy):
                 wsf = [0.0] * (2 * dim * dim + 4 * dim + len(rows) + 2)
                 status, q, _ = project_kernel(v.tolist(), G, b, len(rows), dim, x, lam, act, wsf)
                 if status == PROJECT_OPTIMAL:
-                    out = np.array(x)
+                    # Outside, the answer can be faster than the command: a facet whose cap was
+                    # not below |v| may bind then (as in the kernels); bound those it violates.
+                    xa = np.array(x)
+                    extra = [
+                        e for e in range(nf)
+                        if e not in rows and dist[e] >= 0.0 and float(N[e] @ xa) < -caps[e]
+                    ] if n_out and not relaxed else []  # fmt: skip
+                    if extra:
+                        for e in extra:
+                            bnd[e] = -caps[e]
+                        rows += extra
+                        bounded = sorted(set(bounded) | set(extra))
+                        continue
+                    out = xa
                     for c in range(q):
                         active[c] = rows[act[c]]
                     break
                 q = 0
-                if attempt == 0 and n_out > 0:
+                if not relaxed and n_out > 0:
                     rows = [e for e in bounded if dist[e] < 0.0]
                     stages |= kern.STAGE_RELAXED
+                    relaxed = True
                     continue
                 out = np.zeros(dim)
                 stages |= kern.STAGE_STOP
                 break
+            work = list(bounded) + [0] * (nf - len(bounded))
         res = (zone, stages, q, p1, p2, d1, d2, len(bounded))
         return out, res, active, dist, (bnd, work)
 
