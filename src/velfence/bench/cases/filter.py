@@ -392,8 +392,12 @@ def cycles(s: BenchSettings, step: Step, qp_ok: bool, notes: list[str]) -> list[
             base[zone] = row
             out.append(row)
             if mode == "joint":
-                build = flt._rows  # the filter's own row building, timed alone
-                args = [(q, u, None) for q, u in pool]
+                # The filter's own row building, timed alone, with the pose's kinematics as the
+                # filter computes them (once per cycle) included.
+                def build(q: Any, u: Any, f: Any = flt) -> Any:
+                    return f._rows(q, u, None, f._kinematics(q))
+
+                args = [(q, u) for q, u in pool]
                 t = time_calls(build, args, calls=calls, warmup=warm)
                 out.append(
                     FilterRow(
