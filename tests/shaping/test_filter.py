@@ -512,3 +512,10 @@ def test_other_arms_keep_a_named_point_in_a_box(robot: str) -> None:
         worst = min(worst, float(box.signed_distances(arm.fk(q, point)).min()))
     assert worst >= -1e-9, worst
     assert worst < 0.01  # the walk did press on a face
+
+
+def test_a_non_symmetric_weight_matrix_is_refused_saying_how_far_off() -> None:
+    W = np.eye(7)
+    W[0, 1] = 0.5
+    with pytest.raises(InvalidParameter, match=r"weights: expected a symmetric \(7, 7\).*0\.5"):
+        SafetyFilter(ARM, limits=limits(), weights=W)

@@ -12,11 +12,15 @@ command) measures
 3. the throughput of :meth:`~velfence.PolygonShaper.shape_batch` with and without numba;
 4. the joint-stop limiter, one obstacle-avoidance control cycle of redundant arms, one step of
    cobot path following and of resolved-rate teleoperation;
-5. the machine it ran on.
+5. the n-D exact law (:class:`~velfence.PolytopeShaper`: per call on a 3-D box, an icosahedron
+   and a 7-D joint box, beside qpsolvers/daqp on its own bound rows, and in batch) and one
+   :class:`~velfence.SafetyFilter` cycle of a 7-DoF arm (joint and twist mode, beside daqp on
+   the filter's own rows and mink's ``solve_ik`` when mink is installed);
+6. the machine it ran on.
 
 The result is a :class:`BenchReport` (``to_dict()`` for JSON, ``to_markdown()`` for
 ``docs/benchmarks.md``). The optional pieces (numba, qpsolvers, daqp) are skipped, with a note,
-when they are not installed.
+when they are not installed (mink too: the ``peers`` extra).
 
 Modules: :mod:`~velfence.bench.timing` (the measuring primitive), :mod:`~velfence.bench.rows`
 (the table rows), :mod:`~velfence.bench.cases` (one module per family of cases),

@@ -544,7 +544,11 @@ class SafetyFilter(InvalidPolicy):
                 self._metric = readonly(np.sqrt(Wa))
             elif Wa.shape == (n, n):
                 if not np.allclose(Wa, Wa.T, rtol=1e-12, atol=0.0):
-                    raise InvalidParameter("weights: expected a symmetric (n, n) matrix")
+                    asym = float(np.max(np.abs(Wa - Wa.T)))
+                    raise InvalidParameter(
+                        f"weights: expected a symmetric ({n}, {n}) matrix, got one whose largest "
+                        f"|W - Wᵀ| entry is {asym:g}"
+                    )
                 self._metric = readonly(_cholesky("weights", Wa))
             else:
                 raise InvalidParameter(

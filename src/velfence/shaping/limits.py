@@ -330,7 +330,8 @@ class SphereObstacle:
 
     Attributes:
         center: Centre [m], shape (3,) (a (2,) centre of a planar scene gets z = 0).
-        radius: Radius [m], >= 0.
+        radius: Radius [m], >= 0 (0: a point obstacle; the links' own capsule radius and the
+            filter's ``obstacle_buffer`` still keep them away from it).
         name: Optional label for reports.
 
     Raises:
