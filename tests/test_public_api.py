@@ -254,7 +254,8 @@ def test_version_is_single_sourced() -> None:
 def test_core_import_is_light() -> None:
     code = (
         "import sys, velfence; "
-        "heavy = [m for m in ('matplotlib', 'numba', 'qpsolvers', 'pydantic', 'typer', 'yaml') "
+        "heavy = [m for m in ('matplotlib', 'mujoco', 'numba', 'qpsolvers', 'pydantic', 'typer', "
+        "'yaml') "
         "if m in sys.modules]; print(','.join(heavy))"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)

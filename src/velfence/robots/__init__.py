@@ -1,0 +1,16 @@
+"""Robot models whose kinematics MuJoCo computes (the ``physics`` extra).
+
+:class:`MujocoRobot` loads an MJCF arm and implements the ``Kinematics`` protocol of the
+:class:`~velfence.shaping.filter.SafetyFilter`; :func:`dh_mjcf` and :func:`mdh_mjcf` write the
+MJCF of a revolute arm from a standard or modified DH table; :func:`panda`, :func:`ur5e`,
+:func:`seven_dof` and :func:`puma560` are the shipped arms. MuJoCo is imported only when a model
+is loaded.
+"""
+
+from __future__ import annotations
+
+from velfence.robots.mjcf import dh_mjcf, mdh_mjcf
+from velfence.robots.model import MujocoRobot
+from velfence.robots.models import panda, puma560, seven_dof, ur5e
+
+__all__ = ["MujocoRobot", "dh_mjcf", "mdh_mjcf", "panda", "puma560", "seven_dof", "ur5e"]

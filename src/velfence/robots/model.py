@@ -1,0 +1,248 @@
+"""A robot whose kinematics MuJoCo computes from an MJCF model.
+
+:class:`MujocoRobot` implements the ``Kinematics`` protocol of
+:mod:`velfence.shaping.kinematics` (``dof``, ``joint_names``, ``points``, ``fk``, ``jacobian``,
+``angular_jacobian``) for any MJCF arm of hinge and slide joints with a site named ``"tcp"``:
+the points are the model's sites, their positions come from ``mj_kinematics`` and their
+Jacobians from ``mj_jacSite``. MuJoCo is imported when a model is loaded, not with
+:mod:`velfence`.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from velfence._typing import FloatArray
+from velfence._validate import check_text, finite_rows, readonly
+from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
+
+__all__ = ["MujocoRobot"]
+
+
+def _mujoco() -> Any:
+    try:
+        import mujoco
+    except ImportError as exc:  # pragma: no cover - the physics extra is missing
+        raise InvalidParameter(
+            "xml: loading an MJCF model needs the 'mujoco' package, got ImportError; "
+            "install velfence[physics]"
+        ) from exc
+    return mujoco
+
+
+class MujocoRobot:
+    """Kinematics of an MJCF arm, computed by MuJoCo.
+
+    Every joint must be a hinge or a slide (one ``qpos`` entry each, in model order) and the
+    model must have a site named ``"tcp"``. Joints without a ``range`` get ``(-π, π)`` [rad]
+    (slides ``(-1, 1)`` [m]) as :attr:`joint_limits`.
+
+    One ``MjData`` per instance is reused by every call: an instance is not thread-safe (use one
+    per thread).
+
+    Args:
+        xml: The MJCF document (str).
+
+    Raises:
+        InvalidGeometry: MuJoCo rejects the document, a joint is not a hinge or slide, or there
+            is no ``"tcp"`` site.
+        InvalidParameter: ``xml`` is not a string, or MuJoCo is not installed.
+    """
+
+    def __init__(self, xml: str) -> None:
+        text = check_text("xml", xml, max_length=10_000_000)
+        mujoco = _mujoco()
+        try:
+            model = mujoco.MjModel.from_xml_string(text)
+        except ValueError as exc:
+            msg = str(exc).strip().splitlines()
+            first = msg[0][:200] if msg else "no message"
+            raise InvalidGeometry(
+                f"xml: expected an MJCF document MuJoCo compiles, got the error: {first}"
+            ) from None
+        self._mj = mujoco
+        self._model = model
+        self._data = mujoco.MjData(model)
+        types = [int(t) for t in model.jnt_type]
+        allowed = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
+        bad = [i for i, t in enumerate(types) if t not in allowed]
+        if bad or model.nq != model.njnt or model.njnt < 1:
+            raise InvalidGeometry(
+                "xml: expected at least one joint, every joint a hinge or slide, got "
+                f"{model.njnt} joints, non-hinge/slide joint(s) {bad}"
+            )
+        names = tuple(model.joint(i).name or f"joint{i}" for i in range(model.njnt))
+        if len(set(names)) != len(names):
+            raise InvalidGeometry(f"xml: expected distinct joint names, got {list(names)}")
+        sites = [model.site(i).name for i in range(model.nsite)]
+        if "tcp" not in sites:
+            raise InvalidGeometry(f"xml: expected a site named 'tcp', got sites {sites}")
+        self._site = {s: i for i, s in enumerate(sites) if s}
+        self._points = ("tcp", *(s for s in self._site if s != "tcp"))
+        self._names = names
+        lim = np.empty((model.njnt, 2))
+        for i in range(model.njnt):
+            if bool(model.jnt_limited[i]):
+                lim[i] = model.jnt_range[i]
+            elif types[i] == allowed[0]:
+                lim[i] = (-np.pi, np.pi)
+            else:
+                lim[i] = (-1.0, 1.0)
+        self._limits = readonly(lim)
+        self._jacp = np.zeros((3, model.nv))
+        self._jacr = np.zeros((3, model.nv))
+
+    @classmethod
+    def from_xml(cls, text: str) -> MujocoRobot:
+        """Load an MJCF document from a string.
+
+        Args:
+            text: The MJCF document.
+
+        Returns:
+            The robot.
+
+        Raises:
+            InvalidGeometry: see :class:`MujocoRobot`.
+            InvalidParameter: ``text`` is not a string.
+        """
+        if not isinstance(text, str):
+            raise InvalidParameter(f"text: expected an MJCF string, got {type(text).__name__}")
+        return cls(text)
+
+    @classmethod
+    def from_file(cls, path: str | Path) -> MujocoRobot:
+        """Load an MJCF file (no ``<include>`` of other files or meshes relative to it).
+
+        Args:
+            path: Path of the ``.xml`` file.
+
+        Returns:
+            The robot.
+
+        Raises:
+            InvalidParameter: ``path`` is not a path of a readable file.
+            InvalidGeometry: see :class:`MujocoRobot`.
+        """
+        if not isinstance(path, (str, Path)):
+            raise InvalidParameter(f"path: expected a str or Path, got {type(path).__name__}")
+        p = Path(path)
+        try:
+            text = p.read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError, ValueError) as exc:
+            raise InvalidParameter(
+                f"path: expected a readable UTF-8 MJCF file, got {str(p)[:200]!r} "
+                f"({type(exc).__name__})"
+            ) from None
+        return cls(text)
+
+    @property
+    def dof(self) -> int:
+        """Number of joints ``n``."""
+        return int(self._model.nv)
+
+    @property
+    def joint_names(self) -> tuple[str, ...]:
+        """The MJCF joint names in model order, shape (n,)."""
+        return self._names
+
+    @property
+    def points(self) -> tuple[str, ...]:
+        """Names of the points :meth:`fk` and :meth:`jacobian` accept: the named sites.
+
+        ``"tcp"`` first, then the other named sites in model order.
+        """
+        return self._points
+
+    @property
+    def joint_limits(self) -> FloatArray:
+        """Lower/upper joint limits [rad] (slides [m]), shape (n, 2), read-only."""
+        return self._limits
+
+    def _q(self, q: ArrayLike) -> FloatArray:
+        n = self.dof
+        qa, single = finite_rows("q", q, n, "[rad]")
+        if not single:
+            raise InvalidInput(
+                f"q: expected one joint vector of shape ({n},) [rad], got shape {np.shape(q)}; "
+                "loop over the rows of a batch"
+            )
+        row: FloatArray = qa[0]
+        return row
+
+    def _site_id(self, point: Any) -> int:
+        if not isinstance(point, str):
+            raise InvalidInput(f"point: expected a point name (str), got {type(point).__name__}")
+        sid = self._site.get(point)
+        if sid is None:
+            shown = point if len(point) <= 40 else point[:37] + "..."
+            raise InvalidInput(f"point: expected one of {list(self._points)}, got {shown!r}")
+        return sid
+
+    def _pose(self, q: FloatArray) -> None:
+        self._data.qpos[:] = q
+        self._mj.mj_kinematics(self._model, self._data)
+        self._mj.mj_comPos(self._model, self._data)
+
+    def _finite(self, out: FloatArray) -> FloatArray:
+        if not np.all(np.isfinite(out)):
+            raise InvalidInput("q: expected a pose with finite kinematics, got non-finite values")
+        return out
+
+    def fk(self, q: ArrayLike, point: str = "tcp") -> FloatArray:
+        """Position of a named site in the world frame (the ``Kinematics`` protocol).
+
+        Args:
+            q: Joint position [rad] (slides [m]), shape (n,).
+            point: A name from :attr:`points` (default the tool point).
+
+        Returns:
+            Position [m], shape (3,).
+
+        Raises:
+            InvalidInput: bad ``q`` or an unknown ``point``.
+        """
+        qa = self._q(q)
+        sid = self._site_id(point)
+        self._pose(qa)
+        return self._finite(np.array(self._data.site_xpos[sid], dtype=float))
+
+    def jacobian(self, q: ArrayLike, point: str = "tcp") -> FloatArray:
+        """Linear-velocity Jacobian of a named site (``mj_jacSite``).
+
+        Args:
+            q: Joint position [rad] (slides [m]), shape (n,).
+            point: A name from :attr:`points` (default the tool point).
+
+        Returns:
+            ``dp/dq`` [m/rad], shape (3, n).
+
+        Raises:
+            InvalidInput: bad ``q`` or an unknown ``point``.
+        """
+        qa = self._q(q)
+        sid = self._site_id(point)
+        self._pose(qa)
+        self._mj.mj_jacSite(self._model, self._data, self._jacp, self._jacr, sid)
+        return self._finite(np.array(self._jacp, dtype=float))
+
+    def angular_jacobian(self, q: ArrayLike) -> FloatArray:
+        """Angular-velocity Jacobian of the ``"tcp"`` site's body in the world frame.
+
+        Args:
+            q: Joint position [rad] (slides [m]), shape (n,).
+
+        Returns:
+            ``ω = J q̇`` [1/s per rad/s], shape (3, n).
+
+        Raises:
+            InvalidInput: bad ``q``.
+        """
+        qa = self._q(q)
+        self._pose(qa)
+        self._mj.mj_jacSite(self._model, self._data, self._jacp, self._jacr, self._site["tcp"])
+        return self._finite(np.array(self._jacr, dtype=float))
