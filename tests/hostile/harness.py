@@ -605,6 +605,7 @@ SPEC_MODULES = (
     "specs_geometry",
     "specs_shaping",
     "specs_mechanisms",
+    "specs_robots",
     "specs_redundancy",
     "specs_sim",
     "specs_cobot",

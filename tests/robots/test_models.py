@@ -178,19 +178,23 @@ def test_validation_messages() -> None:
         robot.fk(np.zeros(7), "knee")
     with pytest.raises(InvalidInput, match="point: expected a point name"):
         robot.jacobian(np.zeros(7), 3)  # type: ignore[arg-type]
-    with pytest.raises(InvalidGeometry, match="xml: expected an MJCF document"):
+    with pytest.raises(InvalidGeometry, match="text: expected an MJCF document"):
         MujocoRobot.from_xml("<mujoco><worldbody><body></mujoco>")
     with pytest.raises(InvalidGeometry, match="xml: expected a site named 'tcp'"):
-        MujocoRobot.from_xml(dh_mjcf([[0, 0, 1, 0]], [[-1, 1]]).replace('"tcp"', '"tip"'))
-    with pytest.raises(InvalidGeometry, match="hinge or slide"):
+        MujocoRobot(xml=dh_mjcf([[0, 0, 1, 0]], [[-1, 1]]).replace('"tcp"', '"tip"'))
+    with pytest.raises(InvalidGeometry, match=r"text: expected at least one joint.*hinge or slide"):
         MujocoRobot.from_xml(
             '<mujoco><worldbody><body><freejoint/><inertial pos="0 0 0" mass="1" '
             'diaginertia="1 1 1"/><site name="tcp"/></body></worldbody></mujoco>'
         )
-    with pytest.raises(InvalidParameter, match="text: expected an MJCF string"):
+    with pytest.raises(InvalidParameter, match="text: expected a string"):
         MujocoRobot.from_xml(b"<mujoco/>")  # type: ignore[arg-type]
     with pytest.raises(InvalidParameter, match="path: expected a readable"):
         MujocoRobot.from_file("/nonexistent/arm.xml")
+    with pytest.raises(
+        InvalidGeometry, match=r"joint_limits: expected one .* row per row of dh_rows"
+    ):
+        dh_mjcf([[0, 0, 1, 0]], [[-1, 1], [-1, 1]])
     with pytest.raises(InvalidGeometry, match="joint_limits: expected lower < upper"):
         dh_mjcf([[0, 0, 1, 0]], [[1, -1]])
     with pytest.raises(InvalidGeometry, match="dh_rows"):

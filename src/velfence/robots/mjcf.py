@@ -20,6 +20,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from typing import Any
+from xml.sax.saxutils import quoteattr
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -58,6 +59,7 @@ def _fmt(v: Any) -> str:
 
 
 def _inputs(
+    rows_name: str,
     rows: ArrayLike,
     joint_limits: ArrayLike,
     tool: ArrayLike | None,
@@ -65,13 +67,18 @@ def _inputs(
     radius: Any,
     named_points: Mapping[str, int] | None,
 ) -> tuple[FloatArray, FloatArray, FloatArray, str, float, dict[str, int]]:
-    r = real_array("dh_rows", rows, (None, 4), error=InvalidGeometry, what="DH rows (n, 4)")
+    r = real_array(rows_name, rows, (None, 4), error=InvalidGeometry, what="DH rows")
     n = r.shape[0]
     if n < 1:
-        raise InvalidGeometry("dh_rows: expected at least one row of shape (4,), got 0 rows")
+        raise InvalidGeometry(f"{rows_name}: expected at least one row of shape (4,), got 0 rows")
     lim = real_array(
-        "joint_limits", joint_limits, (n, 2), error=InvalidGeometry, what="limits [rad] (n, 2)"
+        "joint_limits", joint_limits, (None, 2), error=InvalidGeometry, what="limits [rad]"
     )
+    if lim.shape[0] != n:
+        raise InvalidGeometry(
+            f"joint_limits: expected one (lower, upper) row per row of {rows_name} ({n}), got "
+            f"{lim.shape[0]} rows; or {rows_name}: expected {lim.shape[0]} rows, got {n}"
+        )
     if not np.all(lim[:, 0] < lim[:, 1]):
         bad = np.flatnonzero(lim[:, 0] >= lim[:, 1]).tolist()
         raise InvalidGeometry(
@@ -79,20 +86,28 @@ def _inputs(
             f"joint(s) {bad}"
         )
     t = np.zeros(3) if tool is None else real_array("tool", tool, (3,), error=InvalidGeometry)
-    nm = check_text("name", name)
-    if not nm.replace("_", "").isalnum():
-        raise InvalidGeometry(f"name: expected letters, digits and '_', got {nm!r}")
+    nm = check_text("name", name, error=InvalidGeometry)
     rad = check_positive("radius", radius, allow_zero=True, unit="[m]")
     pts: dict[str, int] = {}
+    if named_points is not None and not isinstance(named_points, Mapping):
+        raise InvalidGeometry(
+            f"named_points: expected a mapping of site names to joint indices, got "
+            f"{type(named_points).__name__}"
+        )
     for key, idx in dict(named_points or {}).items():
-        if not isinstance(key, str) or not key.replace("_", "").isalnum():
-            raise InvalidGeometry(f"named_points: expected identifier names, got {key!r}")
+        if not isinstance(key, str) or not key:
+            raise InvalidGeometry(
+                f"named_points: expected non-empty str site names, got {type(key).__name__}"
+            )
         if isinstance(idx, bool) or not isinstance(idx, (int, np.integer)) or not 0 <= idx < n:
             raise InvalidGeometry(
-                f"named_points: expected a joint index in [0, {n - 1}] for {key!r}, got {idx!r}"
+                f"named_points: expected a joint index (int) in [0, {n - 1}] for {key[:40]!r}, "
+                f"got {type(idx).__name__}"
             )
         if key in ("tcp", "flange") or (key.startswith("joint") and key[5:].isdigit()):
-            raise InvalidGeometry(f"named_points: {key!r} is a reserved site name")
+            raise InvalidGeometry(
+                f"named_points: expected a name other than tcp, flange, joint<j>, got {key!r}"
+            )
         pts[key] = int(idx)
     return r, lim, t, nm, rad, pts
 
@@ -109,7 +124,7 @@ def _document(
     """Nest the bodies: ``frames[i]`` = (pos, quat) of body ``i`` in its parent."""
     n = len(frames)
     lines = [
-        f'<mujoco model="{name}">',
+        f"<mujoco model={quoteattr(name)}>",
         '  <compiler angle="radian" autolimits="true"/>',
         '  <option gravity="0 0 0"/>',
         "  <worldbody>",
@@ -125,7 +140,7 @@ def _document(
         lines.append(f'{ind}  <site name="joint{i}" pos="0 0 0"/>')
         for key, idx in named.items():
             if idx == i:
-                lines.append(f'{ind}  <site name="{key}" pos="0 0 0"/>')
+                lines.append(f'{ind}  <site name={quoteattr(key)} pos="0 0 0"/>')
         end = children[i][0]
         if radius > 0.0 and float(np.linalg.norm(end)) > 1e-9:
             lines.append(
@@ -160,7 +175,7 @@ def dh_mjcf(
             ``qpos`` is the DH joint variable minus the offset, as in ``DHChain``.
         joint_limits: Lower/upper limit of each joint [rad], shape (n, 2), lower < upper.
         tool: Tool point in the last DH frame [m], shape (3,); the flange when ``None``.
-        name: Model name (letters, digits, ``_``).
+        name: Model name (any string; XML-escaped).
         radius: Capsule radius of the link geoms [m], ``>= 0``; ``0``: no geoms.
         named_points: Extra site names mapped to a joint index ``j`` (a site at joint ``j``'s
             body origin), e.g. ``{"elbow": 2}``.
@@ -172,7 +187,9 @@ def dh_mjcf(
         InvalidGeometry: bad rows, limits, tool, name or named points.
         InvalidParameter: a negative radius.
     """
-    r, lim, t, nm, rad, pts = _inputs(dh_rows, joint_limits, tool, name, radius, named_points)
+    r, lim, t, nm, rad, pts = _inputs(
+        "dh_rows", dh_rows, joint_limits, tool, name, radius, named_points
+    )
     frames: list[tuple[FloatArray, FloatArray]] = [(np.zeros(3), np.array([1.0, 0, 0, 0]))]
     statics: list[tuple[FloatArray, FloatArray]] = []
     for a, alpha, d, off in r.tolist():
@@ -199,7 +216,7 @@ def mdh_mjcf(
             shape (n, 4).
         joint_limits: Lower/upper limit of each joint [rad], shape (n, 2), lower < upper.
         tool: Tool point in the flange frame [m], shape (3,); the flange when ``None``.
-        name: Model name (letters, digits, ``_``).
+        name: Model name (any string; XML-escaped).
         flange_d: Distance of the flange along the last joint's ``z`` axis [m].
         radius: Capsule radius of the link geoms [m], ``>= 0``; ``0``: no geoms.
         named_points: Extra site names mapped to a joint index (see :func:`dh_mjcf`).
@@ -211,7 +228,9 @@ def mdh_mjcf(
         InvalidGeometry: bad rows, limits, tool, name, flange_d or named points.
         InvalidParameter: a negative radius.
     """
-    r, lim, t, nm, rad, pts = _inputs(mdh_rows, joint_limits, tool, name, radius, named_points)
+    r, lim, t, nm, rad, pts = _inputs(
+        "mdh_rows", mdh_rows, joint_limits, tool, name, radius, named_points
+    )
     fd = real_array("flange_d", flange_d, (), error=InvalidGeometry, what="a distance [m]")
     frames: list[tuple[FloatArray, FloatArray]] = []
     for a, alpha, d, off in r.tolist():

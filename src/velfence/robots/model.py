@@ -45,7 +45,8 @@ class MujocoRobot:
     per thread).
 
     Args:
-        xml: The MJCF document (str).
+        xml: The MJCF document (str), keyword-only (``MujocoRobot(xml=...)``; or
+            :meth:`from_xml`, :meth:`from_file`).
 
     Raises:
         InvalidGeometry: MuJoCo rejects the document, a joint is not a hinge or slide, or there
@@ -53,8 +54,12 @@ class MujocoRobot:
         InvalidParameter: ``xml`` is not a string, or MuJoCo is not installed.
     """
 
-    def __init__(self, xml: str) -> None:
-        text = check_text("xml", xml, max_length=10_000_000)
+    def __init__(self, *, xml: str) -> None:
+        self._load("xml", xml)
+
+    def _load(self, arg: str, xml: Any) -> None:
+        """Compile ``xml``; ``arg`` is the caller's public argument, for messages."""
+        text = check_text(arg, xml, max_length=100_000_000)
         mujoco = _mujoco()
         try:
             model = mujoco.MjModel.from_xml_string(text)
@@ -62,7 +67,7 @@ class MujocoRobot:
             msg = str(exc).strip().splitlines()
             first = msg[0][:200] if msg else "no message"
             raise InvalidGeometry(
-                f"xml: expected an MJCF document MuJoCo compiles, got the error: {first}"
+                f"{arg}: expected an MJCF document MuJoCo compiles, got the error: {first}"
             ) from None
         self._mj = mujoco
         self._model = model
@@ -72,15 +77,15 @@ class MujocoRobot:
         bad = [i for i, t in enumerate(types) if t not in allowed]
         if bad or model.nq != model.njnt or model.njnt < 1:
             raise InvalidGeometry(
-                "xml: expected at least one joint, every joint a hinge or slide, got "
+                f"{arg}: expected at least one joint, every joint a hinge or slide, got "
                 f"{model.njnt} joints, non-hinge/slide joint(s) {bad}"
             )
         names = tuple(model.joint(i).name or f"joint{i}" for i in range(model.njnt))
         if len(set(names)) != len(names):
-            raise InvalidGeometry(f"xml: expected distinct joint names, got {list(names)}")
+            raise InvalidGeometry(f"{arg}: expected distinct joint names, got {list(names)}")
         sites = [model.site(i).name for i in range(model.nsite)]
         if "tcp" not in sites:
-            raise InvalidGeometry(f"xml: expected a site named 'tcp', got sites {sites}")
+            raise InvalidGeometry(f"{arg}: expected a site named 'tcp', got sites {sites[:20]}")
         self._site = {s: i for i, s in enumerate(sites) if s}
         self._points = ("tcp", *(s for s in self._site if s != "tcp"))
         self._names = names
@@ -110,9 +115,9 @@ class MujocoRobot:
             InvalidGeometry: see :class:`MujocoRobot`.
             InvalidParameter: ``text`` is not a string.
         """
-        if not isinstance(text, str):
-            raise InvalidParameter(f"text: expected an MJCF string, got {type(text).__name__}")
-        return cls(text)
+        robot = cls.__new__(cls)
+        robot._load("text", text)
+        return robot
 
     @classmethod
     def from_file(cls, path: str | Path) -> MujocoRobot:
@@ -138,7 +143,9 @@ class MujocoRobot:
                 f"path: expected a readable UTF-8 MJCF file, got {str(p)[:200]!r} "
                 f"({type(exc).__name__})"
             ) from None
-        return cls(text)
+        robot = cls.__new__(cls)
+        robot._load("path", text)
+        return robot
 
     @property
     def dof(self) -> int:
