@@ -15,6 +15,7 @@ from velfence.geometry.polytope import ConvexPolytope
 from velfence.mechanisms.chain import DHChain
 from velfence.robots import MujocoRobot, dh_mjcf, mdh_mjcf, panda, puma560, seven_dof, ur5e
 from velfence.shaping.filter import SafetyFilter
+from velfence.shaping.kinematics import Kinematics
 from velfence.shaping.limits import JointLimits, WorkspaceLimit
 
 PAIRS = [
@@ -118,6 +119,7 @@ def test_panda_angular_jacobian_matches_finite_rotations() -> None:
 
 def test_panda_names_and_limits() -> None:
     robot = panda()
+    assert isinstance(robot, Kinematics)
     assert robot.dof == 7
     assert robot.joint_names == tuple(f"panda_joint{i}" for i in range(1, 8))
     assert robot.points[0] == "tcp"
