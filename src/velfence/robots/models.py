@@ -1,8 +1,8 @@
 """The shipped arms: MJCF generated from published DH tables.
 
-The standard DH tables of :func:`seven_dof`, :func:`ur5e` and :func:`puma560` are the ones of
-``velfence.mechanisms.DHChain``'s factories of the same names (repeated here: the two packages
-are independent layers), so both give the same kinematics. :func:`panda` is a
+The standard DH tables and joint limits of :func:`seven_dof`, :func:`ur5e` and :func:`puma560`
+are read from ``velfence.mechanisms.DHChain``'s factories of the same names (one table each), so
+both give the same kinematics. :func:`panda` is a
 Franka-Emika-Panda-like arm from Franka's published modified-DH parameters.
 """
 
@@ -12,30 +12,13 @@ import math
 
 from numpy.typing import ArrayLike
 
+from velfence.mechanisms.chain import DHChain
 from velfence.robots.mjcf import dh_mjcf, mdh_mjcf
 from velfence.robots.model import MujocoRobot
 
 __all__ = ["panda", "puma560", "seven_dof", "ur5e"]
 
 _H = math.pi / 2.0
-_SEVEN_DOF_DH = (
-    (0.0, -_H, 0.36, 0.0),
-    (0.0, _H, 0.0, 0.0),
-    (0.0, -_H, 0.42, 0.0),
-    (0.0, _H, 0.0, 0.0),
-    (0.0, -_H, 0.40, 0.0),
-    (0.0, _H, 0.0, 0.0),
-    (0.0, 0.0, 0.126, 0.0),
-)
-_SEVEN_DOF_LIMITS_DEG = (170.0, 120.0, 170.0, 120.0, 170.0, 120.0, 175.0)
-_UR5E_DH = (
-    (0.0, _H, 0.1625, 0.0),
-    (-0.425, 0.0, 0.0, 0.0),
-    (-0.3922, 0.0, 0.0, 0.0),
-    (0.0, _H, 0.1333, 0.0),
-    (0.0, -_H, 0.0997, 0.0),
-    (0.0, 0.0, 0.0996, 0.0),
-)
 _UR5E_JOINTS = (
     "shoulder_pan_joint",
     "shoulder_lift_joint",
@@ -44,22 +27,15 @@ _UR5E_JOINTS = (
     "wrist_2_joint",
     "wrist_3_joint",
 )
-_PUMA560_DH = (
-    (0.0, -_H, 0.0, 0.0),
-    (0.4318, 0.0, 0.15, 0.0),
-    (-0.0203, _H, 0.0, 0.0),
-    (0.0, -_H, 0.4331, 0.0),
-    (0.0, _H, 0.0, 0.0),
-    (0.0, 0.0, 0.0, 0.0),
-)
-_PUMA560_LIMITS_DEG = (
-    (-160.0, 160.0),
-    (-225.0, 45.0),
-    (-45.0, 225.0),
-    (-110.0, 170.0),
-    (-100.0, 100.0),
-    (-266.0, 266.0),
-)
+
+
+def _table(chain: DHChain) -> tuple[list[tuple[float, ...]], list[tuple[float, ...]]]:
+    """A DH chain's rows and joint limits, as the MJCF generator takes them."""
+    rows = [tuple(float(x) for x in r) for r in chain.dh.tolist()]
+    lim = [tuple(float(x) for x in r) for r in chain.joint_limits.tolist()]
+    return rows, lim
+
+
 # Franka Emika, "Robot and interface specifications": modified DH (Craig) rows
 # (a_{i-1} [m], alpha_{i-1} [rad], d_i [m], theta_offset), flange d = 0.107 m, joint limits [rad].
 _PANDA_MDH = (
@@ -105,9 +81,9 @@ def seven_dof(*, tool: ArrayLike | None = None, radius: float = 0.0) -> MujocoRo
     Returns:
         The robot (7 joints ``joint0`` … ``joint6``).
     """
-    lim = [(-math.radians(h), math.radians(h)) for h in _SEVEN_DOF_LIMITS_DEG]
+    rows, lim = _table(DHChain.seven_dof())
     xml = dh_mjcf(
-        _SEVEN_DOF_DH, lim, tool, "seven_dof", radius=radius, named_points={"elbow": 3, "wrist": 5}
+        rows, lim, tool, "seven_dof", radius=radius, named_points={"elbow": 3, "wrist": 5}
     )
     return MujocoRobot.from_xml(xml)
 
@@ -128,8 +104,8 @@ def ur5e(*, tool: ArrayLike | None = None, radius: float = 0.0) -> MujocoRobot:
     Returns:
         The robot (6 joints).
     """
-    lim = [(-2.0 * math.pi, 2.0 * math.pi)] * 6
-    xml = dh_mjcf(_UR5E_DH, lim, tool, "ur5e", radius=radius, named_points={"elbow": 2, "wrist": 3})
+    rows, lim = _table(DHChain.ur5e())
+    xml = dh_mjcf(rows, lim, tool, "ur5e", radius=radius, named_points={"elbow": 2, "wrist": 3})
     return MujocoRobot.from_xml(_with_names(xml, _UR5E_JOINTS))
 
 
@@ -148,10 +124,8 @@ def puma560(*, tool: ArrayLike | None = None, radius: float = 0.0) -> MujocoRobo
     Returns:
         The robot (6 joints ``joint0`` … ``joint5``).
     """
-    lim = [(math.radians(lo), math.radians(hi)) for lo, hi in _PUMA560_LIMITS_DEG]
-    xml = dh_mjcf(
-        _PUMA560_DH, lim, tool, "puma560", radius=radius, named_points={"elbow": 2, "wrist": 4}
-    )
+    rows, lim = _table(DHChain.puma560())
+    xml = dh_mjcf(rows, lim, tool, "puma560", radius=radius, named_points={"elbow": 2, "wrist": 4})
     return MujocoRobot.from_xml(xml)
 
 
