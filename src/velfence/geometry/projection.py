@@ -46,6 +46,7 @@ __all__ = [
     "project",
     "project_kernel",
     "projection_scratch",
+    "scratch_length",
 ]
 
 PROJECT_OPTIMAL = 0
@@ -58,6 +59,11 @@ _REPAIR_ULPS = 8.0 * 2.220446049250313e-16
 _ROUND_OFF = 1e-12  # accepted residual violation (relative) when repairs cannot settle
 
 
+def scratch_length(m: int, n: int) -> int:
+    """Length of the float scratch :func:`project_kernel` needs for ``m`` rows in ``n``-D."""
+    return 2 * n * n + 4 * n + m + 2
+
+
 def projection_scratch(m: int, n: int) -> tuple[FloatArray, FloatArray, Any]:
     """Scratch for :func:`project_kernel`: floats ``(2 n² + 4 n + m + 2,)``, multipliers, ints.
 
@@ -66,7 +72,7 @@ def projection_scratch(m: int, n: int) -> tuple[FloatArray, FloatArray, Any]:
         (length ``n + 1``, int64).
     """
     return (
-        np.zeros(2 * n * n + 4 * n + m + 2),
+        np.zeros(scratch_length(m, n)),
         np.zeros(n + 1),
         np.zeros(n + 1, dtype=np.int64),
     )

@@ -591,6 +591,31 @@ def bounds_from_distances(
     return m, n_out, n_near, rec, cs, scale, p1, p2, d1, d2
 
 
+def unbounded_candidates(dist: Any, work: Any, m: int, n: int) -> int:
+    """Append every constraint not in ``work[:m]`` with ``d >= 0`` to ``work`` (in index order).
+
+    The exact laws' far constraints (2-D and n-D): outside, the answer may be faster than the
+    cap speed, and then an unbounded constraint can bind; the caller bounds the candidates and
+    keeps those the answer violates. The violated ones are all in ``work[:m]`` already.
+
+    Returns:
+        The end ``c`` of the candidates, ``work[m:c]``.
+    """
+    c = m
+    for e in range(n):
+        if dist[e] < 0.0:
+            continue
+        in_work = False
+        for a in range(m):
+            if work[a] == e:
+                in_work = True
+                break
+        if not in_work:
+            work[c] = e
+            c += 1
+    return c
+
+
 def exact_kernel(
     px: float,
     py: float,
@@ -651,20 +676,7 @@ def exact_kernel(
         # faster than v); outside, recovery can cause it: add those edges.
         if n_out == 0 or ox * ox + oy * oy <= unit * unit:
             return ox * scale, oy * scale, zone, p1, p2, d1, d2, 0.0, 0.0, stages
-        # Candidates: every edge not yet bounded with d >= 0, in edge order after work[:m];
-        # the violated ones are kept.
-        c = m
-        for e in range(n):
-            if dist[e] < 0.0:
-                continue
-            in_work = False
-            for a in range(m):
-                if work[a] == e:
-                    in_work = True
-                    break
-            if not in_work:
-                work[c] = e
-                c += 1
+        c = unbounded_candidates(dist, work, m, n)
         fill_bounds(kind, prm, relax, dist, work, m, c, unit, scale, idt, bnd)
         added = False
         for a in range(m, c):

@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from velfence.geometry.projection import PROJECT_OPTIMAL, project_kernel
+from velfence.geometry.projection import PROJECT_OPTIMAL, project_kernel, scratch_length
 from velfence.shaping._kernels import (
     STAGE_PROJECT,
     STAGE_RELAXED,
@@ -33,6 +33,7 @@ from velfence.shaping._kernels import (
     ZONE_FREE,
     bounds_from_distances,
     fill_bounds,
+    unbounded_candidates,
     zone_code,
 )
 
@@ -192,18 +193,7 @@ def polytope_kernel(
             if not done:
                 # Outside, recovery can make the answer faster than an unbounded facet's reach
                 # (Cauchy-Schwarz): bound every facet not yet bounded and keep those it violates.
-                c = m
-                for e in range(nf):
-                    if dist[e] < 0.0:
-                        continue
-                    found = False
-                    for a in range(m):
-                        if work[a] == e:
-                            found = True
-                            break
-                    if not found:
-                        work[c] = e
-                        c += 1
+                c = unbounded_candidates(dist, work, m, nf)
                 fill_bounds(kind, prm, relax, dist, work, m, c, unit, scale, idt, bnd)
                 added = False
                 for a in range(m, c):
@@ -274,7 +264,7 @@ def polytope_scratch(nf: int, dim: int) -> tuple[Any, ...]:
         np.zeros(dim),  # x
         np.zeros(dim + 1),  # lam
         np.zeros(dim + 1, dtype=np.int64),  # act
-        np.zeros(2 * dim * dim + 4 * dim + nf + 2),  # wsf
+        np.zeros(scratch_length(nf, dim)),  # wsf
     )
 
 
@@ -330,7 +320,7 @@ def polytope_one(
     x = np.zeros(dim)
     lam = np.zeros(dim + 1)
     act = np.zeros(dim + 1, dtype=np.int64)
-    wsf = np.zeros(2 * dim * dim + 4 * dim + nf + 2)
+    wsf = np.zeros(scratch_length(nf, dim))
     return polytope_kernel(
         p, v, N, off, nf, dim, cen, kind, prm, relax, idt, out, active, dist, bnd, work, G, b, u,
         x, lam, act, wsf,

@@ -261,7 +261,7 @@ def _projection(
     on Python lists, which plain Python indexes faster than arrays; the inputs are finite
     (``b`` finite), built by the filter.
     """
-    from velfence.geometry.projection import PROJECT_OPTIMAL, project_kernel
+    from velfence.geometry.projection import PROJECT_OPTIMAL, project_kernel, scratch_length
 
     m, n = G.shape
     if kernel is not None:
@@ -271,13 +271,13 @@ def _projection(
             np.ascontiguousarray(G, dtype=np.float64).reshape(m * n),
             np.ascontiguousarray(b, dtype=np.float64),
             m, n, xa, np.zeros(n + 1), np.zeros(n + 1, dtype=np.int64),
-            np.zeros(2 * n * n + 4 * n + m + 2),
+            np.zeros(scratch_length(m, n)),
         )[0]  # fmt: skip
         return status == PROJECT_OPTIMAL and bool(np.all(np.isfinite(xa))), xa
     x = [0.0] * n
     lam = [0.0] * (n + 1)
     act = [0] * (n + 1)
-    wsf = [0.0] * (2 * n * n + 4 * n + m + 2)
+    wsf = [0.0] * scratch_length(m, n)
     status = project_kernel(u.tolist(), G.ravel().tolist(), b.tolist(), m, n, x, lam, act, wsf)[0]
     xa = np.array(x, dtype=np.float64)
     return status == PROJECT_OPTIMAL and bool(np.all(np.isfinite(xa))), xa

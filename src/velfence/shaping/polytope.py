@@ -28,7 +28,7 @@ from velfence._typing import BoolArray, FloatArray, IntArray
 from velfence._validate import MAX_MAGNITUDE, check_flag, check_positive, real_array
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.geometry.polytope import ConvexPolytope
-from velfence.geometry.projection import PROJECT_OPTIMAL, project_kernel
+from velfence.geometry.projection import PROJECT_OPTIMAL, project_kernel, scratch_length
 from velfence.shaping import _kernels as kern
 from velfence.shaping import _nd_kernels as nd
 from velfence.shaping._accel import compiled_polytope
@@ -291,7 +291,7 @@ class PolytopeShaper(InvalidPolicy):
         workl = [0] * nf
         scratch = (
             [0.0] * (nf * dim), [0.0] * nf, [0.0] * dim, [0.0] * dim, [0.0] * (dim + 1),
-            [0] * (dim + 1), [0.0] * (2 * dim * dim + 4 * dim + nf + 2),
+            [0] * (dim + 1), [0.0] * scratch_length(nf, dim),
         )  # fmt: skip
         res = nd.polytope_kernel(
             p.tolist(),
@@ -340,7 +340,7 @@ class PolytopeShaper(InvalidPolicy):
                 x = [0.0] * dim
                 lam = [0.0] * (dim + 1)
                 act = [0] * (dim + 1)
-                wsf = [0.0] * (2 * dim * dim + 4 * dim + len(rows) + 2)
+                wsf = [0.0] * scratch_length(len(rows), dim)
                 status, q, _ = project_kernel(v.tolist(), G, b, len(rows), dim, x, lam, act, wsf)
                 if status == PROJECT_OPTIMAL:
                     # Outside, the answer can be faster than the command: a facet whose cap was
