@@ -70,6 +70,7 @@ class MujocoRobot:
                 f"{arg}: expected an MJCF document MuJoCo compiles, got the error: {first}"
             ) from None
         self._mj = mujoco
+        self._xml = text
         self._model = model
         self._data = mujoco.MjData(model)
         types = [int(t) for t in model.jnt_type]
@@ -146,6 +147,16 @@ class MujocoRobot:
         robot = cls.__new__(cls)
         robot._load("path", text)
         return robot
+
+    @property
+    def xml(self) -> str:
+        """The MJCF document this robot was compiled from (to build a physics scene on it)."""
+        return self._xml
+
+    @property
+    def model(self) -> Any:
+        """The compiled ``mujoco.MjModel`` (shared, not a copy: do not modify it)."""
+        return self._model
 
     @property
     def dof(self) -> int:
