@@ -8,6 +8,10 @@ from __future__ import annotations
 
 import os
 
+# Offscreen rendering with no display: MuJoCo reads MUJOCO_GL when it is first imported, so it is
+# set here, before any test module imports it (EGL, software rendering on a machine without GPU).
+os.environ.setdefault("MUJOCO_GL", "egl")
+
 import pytest
 from hypothesis import HealthCheck, settings
 
