@@ -23,6 +23,7 @@ from velfence.shaping.fixtures import (
     ScalingResult,
 )
 from velfence.shaping.limits import JointLimits, SphereObstacle, WorkspaceLimit
+from velfence.shaping.lookahead import LagCompensation
 from velfence.shaping.polygon import PolygonShaper
 from velfence.shaping.polytope import PolytopeResult, PolytopeShaper
 from velfence.shaping.profiles import ApproachProfile, LinearBuffer, ThreeZoneBraking
@@ -39,6 +40,7 @@ __all__ = [
     "FixtureResult",
     "JointLimits",
     "Kinematics",
+    "LagCompensation",
     "LineFixture",
     "LineScaling",
     "LinearBuffer",

@@ -13,6 +13,10 @@ disturbance :math:`w`:
 The same seed gives the same run. Baselines (:class:`NoLimit`, :class:`HardStop`,
 :class:`AxisLimits`) follow the shaper contract; every metric in :mod:`velfence.sim.metrics` has
 one definition, stated in its docstring and in ``docs/simulation.md`` §2.
+
+:class:`MujocoPlant` (the ``physics`` extra) replaces the integrator by MuJoCo rigid-body dynamics
+behind a joint velocity servo (``docs/physics.md``); the shaped velocity is then a reference held
+over each control period.
 """
 
 from velfence.sim.baselines import AxisLimits, HardStop, NoLimit
@@ -27,13 +31,18 @@ from velfence.sim.metrics import (
     summarize,
     time_outside,
 )
-from velfence.sim.runner import Trajectory, simulate, simulate_many
+from velfence.sim.physics import BodyPush, MujocoPlant, PhysicsRecord
+from velfence.sim.runner import DynamicPlant, Trajectory, simulate, simulate_many
 
 __all__ = [
     "AxisLimits",
+    "BodyPush",
     "Disturbance",
+    "DynamicPlant",
     "HardStop",
+    "MujocoPlant",
     "NoLimit",
+    "PhysicsRecord",
     "Trajectory",
     "area_gain",
     "chatter_rate",

@@ -19,7 +19,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Any, Literal, get_args
+from typing import Any, Literal, Protocol, get_args, runtime_checkable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -38,7 +38,15 @@ from velfence._validate import (
 from velfence.errors import InvalidInput, InvalidParameter, VelfenceError
 from velfence.shaping.base import Shaper
 
-__all__ = ["CommandFn", "DisturbanceFn", "SaturateFn", "Trajectory", "simulate", "simulate_many"]
+__all__ = [
+    "CommandFn",
+    "DisturbanceFn",
+    "DynamicPlant",
+    "SaturateFn",
+    "Trajectory",
+    "simulate",
+    "simulate_many",
+]
 
 
 CommandFn = Callable[[float, FloatArray], ArrayLike]
@@ -52,6 +60,26 @@ SaturateFn = Callable[[FloatArray, FloatArray], ArrayLike]
 
 Plant = Literal["kinematic"]
 PLANTS: tuple[Plant, ...] = get_args(Plant)
+
+
+@runtime_checkable
+class DynamicPlant(Protocol):
+    """A plant with dynamics of its own (e.g. :class:`velfence.sim.physics.MujocoPlant`).
+
+    The runner calls ``reset(p0, dt)`` once (it returns the true initial state) and then, for
+    every control period, ``advance(v, t)`` with the velocity reference held over
+    ``[t, t + dt)``; it returns the true state at ``t + dt``.
+    """
+
+    def reset(self, q0: FloatArray, dt: float) -> FloatArray:
+        """Start a run at ``q0`` [state units] with control period ``dt`` [s]; the true state."""
+        ...
+
+    def advance(self, v: FloatArray, t: float) -> FloatArray:
+        """Apply reference ``v`` over one period from time ``t`` [s]; the new true state."""
+        ...
+
+
 MAX_STEPS = 10_000_000  # ~ 3 h at 1 kHz; ~ 0.5 GB of arrays
 
 
@@ -248,7 +276,7 @@ def simulate(
     saturate: SaturateFn | None = None,
     noise_std: float = 0.0,
     seed: int = 0,
-    plant: Plant = "kinematic",
+    plant: Plant | DynamicPlant = "kinematic",
     name: str | None = None,
     on_progress: Callable[[float], None] | None = None,
     on_result: Callable[[int, float, Any], None] | None = None,
@@ -271,7 +299,10 @@ def simulate(
         noise_std: Standard deviation of the Gaussian position-measurement noise, per axis,
             workspace units, >= 0.
         seed: Seed of the ``numpy.random.default_rng`` that draws the noise (non-negative int).
-        plant: ``"kinematic"`` (the integrator above; the only plant so far).
+        plant: ``"kinematic"`` (the integrator above) or a :class:`DynamicPlant` such as
+            :class:`~velfence.sim.physics.MujocoPlant`, which receives the velocity (zero-order
+            hold over each period) instead of the Euler step; ``disturbance`` is then refused
+            (push bodies with the plant's own forces).
         name: Label of the trajectory; default ``type(shaper).__name__``.
         on_progress: Called with the completed fraction in [0, 1], about 100 times per run and
             with ``1.0`` at the end.
@@ -306,7 +337,16 @@ def simulate(
     dt = check_positive("dt", dt, unit="s")
     noise_std = check_positive("noise_std", noise_std, allow_zero=True, unit="workspace units")
     seed = _validated_seed(seed)
-    check_choice("plant", plant, PLANTS)
+    dynamic: DynamicPlant | None = None
+    if isinstance(plant, DynamicPlant) and not isinstance(plant, str):
+        dynamic = plant
+        if disturbance is not None:
+            raise InvalidParameter(
+                "disturbance: a velocity disturbance belongs to the kinematic plant, got one with "
+                f"plant={type(plant).__name__}; push bodies with the plant's forces instead"
+            )
+    else:
+        check_choice("plant", plant, PLANTS)
     if name is not None and not isinstance(name, str):
         raise InvalidParameter(f"name: expected a str label or None, got {type(name).__name__}")
     p0a = real_array("p0", p0, (None,), what="an initial position")
@@ -331,6 +371,8 @@ def simulate(
     vo_rec = np.empty((n, dim))
     zones: list[str] = []
     state = p0a.copy()
+    if dynamic is not None:
+        state = real_array("plant.reset(p0)", dynamic.reset(p0a.copy(), dt), (dim,))
     for k in range(n):
         t = k * dt
         p = state.copy()
@@ -364,9 +406,12 @@ def simulate(
         vo_rec[k] = v
         zones.append(str(res.zone))
         if k < steps:
-            if disturbance is not None:
-                v = v + _finite_vec("disturbance(t, p)", disturbance(t, p), dim, k, t)
-            state = state + dt * v
+            if dynamic is not None:
+                state = _finite_vec("plant.advance(v, t)", dynamic.advance(v.copy(), t), dim, k, t)
+            else:
+                if disturbance is not None:
+                    v = v + _finite_vec("disturbance(t, p)", disturbance(t, p), dim, k, t)
+                state = state + dt * v
             if not np.all(np.abs(state) <= MAX_MAGNITUDE):  # also catches NaN and inf
                 raise InvalidInput(
                     f"the state overflowed at step {k} (t = {t} s): expected |p| <= "
@@ -399,7 +444,7 @@ def simulate_many(
     saturate: SaturateFn | None = None,
     noise_std: float = 0.0,
     seed: int = 0,
-    plant: Plant = "kinematic",
+    plant: Plant | DynamicPlant = "kinematic",
     on_step: Callable[[str, float], None] | None = None,
 ) -> dict[str, Trajectory]:
     """Run several shapers through the same scenario, one :func:`simulate` each.
