@@ -210,3 +210,25 @@ SPECS: dict[str, F | C] = {
         instance=safety_filter,
     ),
 }
+
+
+def _lagged() -> vf.LagCompensation:
+    inner = vf.PolygonShaper(square(), buffer=0.2, accelerate=False)
+    return vf.LagCompensation(inner, time_constant=0.02, dt=0.001)
+
+
+SPECS["shaping.LagCompensation"] = C(
+    F(
+        lambda: call(
+            vf.PolygonShaper(square(), buffer=0.2, accelerate=False), time_constant=0.02, dt=1e-3
+        ),
+        types={"shaper": "object"},
+    ),
+    {
+        "explain": lambda: call([0.1, 0.2], [1.0, 0.0]),
+        "shape": lambda: call([0.1, 0.2], [1.0, 0.0]),
+        "shape_batch": lambda: call([[0.1, 0.2]], [[1.0, 0.0]]),
+        "reset": lambda: call(),
+    },
+    instance=_lagged,
+)

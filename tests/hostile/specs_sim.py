@@ -72,3 +72,56 @@ SPECS: dict[str, F | C] = {
     ),
     "sim.time_outside": F(_TRAJ_POLY),
 }
+
+
+def _robot() -> object:
+    from velfence.robots import dh_mjcf
+
+    return dh_mjcf([[0.0, 0.0, 0.3, 0.0], [0.25, 0.0, 0.0, 0.0]], [[-2.0, 2.0], [-2.0, 2.0]])
+
+
+def _plant() -> vf.sim.MujocoPlant:
+    plant = vf.sim.MujocoPlant(_robot(), physics_dt=5e-4)
+    plant.reset(np.array([0.1, 0.2]), 1e-3)
+    return plant
+
+
+SPECS.update(
+    {
+        "sim.BodyPush": C(
+            F(
+                lambda: call(
+                    body="link1", force=[1.0, 0.0, 0.0], torque=[0.0, 0.0, 0.1], start=0.1
+                ),
+                types={"body": "text", "start": "nonneg", "duration": "positive"},
+            ),
+            {"active": F(lambda: call(0.15), types={"t": "scalar"})},
+        ),
+        "sim.MujocoPlant": C(
+            F(
+                lambda: call(_robot(), bandwidth=30.0, physics_dt=5e-4, max_effort=50.0),
+                types={
+                    "robot": "path",
+                    "kv": "vector",
+                    "max_effort": "vector",
+                    "max_velocity": "vector",
+                    "servo": "choice",
+                },
+                skip={
+                    "obstacles": "a sequence of SphereObstacle, () valid: tests/sim/test_physics.py",
+                    "pushes": "a sequence of BodyPush, () valid: tests/sim/test_physics.py",
+                    "joints": "names checked against the model: tests/sim/test_physics.py",
+                    "actuated": "names checked against the model: tests/sim/test_physics.py",
+                },
+            ),
+            {
+                "reset": F(lambda: call([0.1, 0.2], 1e-3), types={"dt": "positive"}),
+                "advance": F(lambda: call([0.1, -0.1], 0.0), types={"t": "scalar"}),
+                "state": lambda: call(),
+            },
+            instance=_plant,
+        ),
+        "sim.PhysicsRecord": C(record="a record the plant builds (MujocoPlant.record)"),
+        "sim.DynamicPlant": C(abstract="a Protocol"),
+    }
+)

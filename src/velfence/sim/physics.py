@@ -48,6 +48,7 @@ from velfence._validate import (
     check_choice,
     check_positive,
     check_text,
+    finite_scalar,
     readonly,
     real_array,
 )
@@ -80,6 +81,8 @@ def _mujoco() -> Any:
 class BodyPush:
     """An external force and torque on a body during a time window (MuJoCo ``xfrc_applied``).
 
+    Every field is keyword-only: ``BodyPush(body="link7", force=[0, 0, -20], start=0.5)``.
+
     Attributes:
         body: Name of the MJCF body pushed.
         force: Force at the body's centre of mass, world frame [N], shape (3,).
@@ -88,9 +91,9 @@ class BodyPush:
         duration: How long it lasts [s], > 0.
     """
 
+    _: KW_ONLY
     body: str
     force: FloatArray
-    _: KW_ONLY
     torque: FloatArray | None = None
     start: float = 0.0
     duration: float = 0.1
@@ -108,7 +111,18 @@ class BodyPush:
         object.__setattr__(self, "duration", check_positive("duration", self.duration, unit="s"))
 
     def active(self, t: float) -> bool:
-        """Whether the push acts at time ``t`` [s] (``start <= t < start + duration``)."""
+        """Whether the push acts at time ``t`` [s] (``start <= t < start + duration``).
+
+        Args:
+            t: Time [s].
+
+        Returns:
+            True inside the window.
+
+        Raises:
+            InvalidInput: ``t`` not a finite real number.
+        """
+        t = finite_scalar("t", t, unit="s", what="time")
         return self.start <= t < self.start + self.duration
 
 
@@ -218,7 +232,15 @@ class MujocoPlant:
         self.obstacles = self._obstacles(obstacles)
         self.pushes = self._pushes(pushes)
 
-        spec = mujoco.MjSpec.from_string(xml)
+        try:
+            spec = mujoco.MjSpec.from_string(xml)
+        except ValueError as exc:
+            from velfence.errors import InvalidGeometry
+
+            first = (str(exc).strip().splitlines() or ["no message"])[0][:200]
+            raise InvalidGeometry(
+                f"robot: expected an MJCF document MuJoCo parses, got the error: {first}"
+            ) from None
         spec.option.timestep = self.physics_dt
         if not gravity:
             spec.option.gravity = [0.0, 0.0, 0.0]
@@ -255,6 +277,10 @@ class MujocoPlant:
         self.max_velocity = self._per_joint(
             "max_velocity", max_velocity, m, self._default_vlim(robot_vlim, all_joints), "rad/s"
         )
+        if kv is None:
+            raise InvalidParameter(
+                "kv: expected a gain > 0 [N·m·s/rad], a scalar or per joint, got None"
+            )
         self.kv = self._per_joint("kv", kv, m, None, "N·m·s/rad")
         if self.servo == "computed-torque":
             if probe.nv != len(self.joints) or probe.nq != probe.nv or self.actuated != self.joints:
@@ -401,7 +427,7 @@ class MujocoPlant:
 
         Args:
             q0: State joint positions, shape (n,).
-            dt: Control period [s]; a whole multiple of ``physics_dt`` (within 1e-9).
+            dt: Control period [s]; a whole multiple of ``physics_dt`` (within 1e-6 relative).
 
         Returns:
             The true initial state (``q0`` as assembled), shape (n,).
@@ -411,15 +437,16 @@ class MujocoPlant:
             InvalidInput: ``q0`` of the wrong shape, or an ``assemble`` result that is.
         """
         mj = self._mj
+        dt = check_positive("dt", dt, unit="s")
         r = dt / self.physics_dt
         sub = round(r)
-        if sub < 1 or abs(r - sub) > 1e-9 * max(1.0, r) or sub > _MAX_SUBSTEPS:
+        if sub < 1 or abs(r - sub) > 1e-6 * max(1.0, r) or sub > _MAX_SUBSTEPS:
             raise InvalidParameter(
                 f"dt: expected a whole multiple (1 … {_MAX_SUBSTEPS}) of physics_dt = "
                 f"{self.physics_dt} s, got dt = {dt} s"
             )
         n = len(self.joints)
-        q = real_array("p0", q0, (n,), what="joint positions")
+        q = real_array("q0", q0, (n,), what="joint positions")
         mj.mj_resetData(self.model, self.data)
         if self._assemble is not None:
             full = real_array("assemble(q)", self._assemble(q), (self.model.nq,), what="a qpos")
@@ -451,8 +478,11 @@ class MujocoPlant:
                 the simulation diverged (MuJoCo's warnings, non-finite state).
         """
         mj, mdl, d = self._mj, self.model, self.data
+        if not self._rows:
+            raise InvalidInput("advance: expected reset(q0, dt) first, got no run started")
+        ref = real_array("v", v, (len(self.joints),), what="joint velocity references")
+        t = finite_scalar("t", t, unit="s", what="time")
         q = self.state()
-        ref = np.asarray(v, dtype=float)
         if self._transmission is not None:
             ref = real_array(
                 "transmission(q, v)",
@@ -469,7 +499,7 @@ class MujocoPlant:
             ts = t + s * self.physics_dt
             d.xfrc_applied[:] = 0.0
             for p in self.pushes:
-                if p.active(ts):
+                if p.start <= ts < p.start + p.duration:
                     d.xfrc_applied[self._bodies[p.body], :3] += p.force
                     d.xfrc_applied[self._bodies[p.body], 3:] += p.torque
             mj.mj_step1(mdl, d)

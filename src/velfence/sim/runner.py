@@ -372,7 +372,7 @@ def simulate(
     zones: list[str] = []
     state = p0a.copy()
     if dynamic is not None:
-        state = real_array("plant.reset(p0)", dynamic.reset(p0a.copy(), dt), (dim,))
+        state = _finite_vec("plant.reset(p0, dt)", dynamic.reset(p0a.copy(), dt), dim, 0, 0.0)
     for k in range(n):
         t = k * dt
         p = state.copy()
