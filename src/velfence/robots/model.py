@@ -19,6 +19,7 @@ from numpy.typing import ArrayLike
 from velfence._typing import FloatArray
 from velfence._validate import check_text, finite_rows, readonly
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
+from velfence.robots.capsules import CapsuleLinks
 
 __all__ = ["MujocoRobot"]
 
@@ -34,8 +35,12 @@ def _mujoco() -> Any:
     return mujoco
 
 
-class MujocoRobot:
+class MujocoRobot(CapsuleLinks):
     """Kinematics of an MJCF arm, computed by MuJoCo.
+
+    Arms with the sites ``"joint0"`` … ``"joint{n-1}"`` (every shipped arm) also have capsule
+    links (``link_radius``, ``link_segments``, ``joint_positions``, ``point_jacobian``;
+    :mod:`velfence.robots.capsules`), so the SafetyFilter's obstacle rows work on them.
 
     Every joint must be a hinge or a slide (one ``qpos`` entry each, in model order) and the
     model must have a site named ``"tcp"``. Joints without a ``range`` get ``(-π, π)`` [rad]
@@ -205,6 +210,11 @@ class MujocoRobot:
         self._data.qpos[:] = q
         self._mj.mj_kinematics(self._model, self._data)
         self._mj.mj_comPos(self._model, self._data)
+
+    def _site_jacobian(self, q: FloatArray, sid: int) -> FloatArray:
+        self._pose(q)
+        self._mj.mj_jacSite(self._model, self._data, self._jacp, self._jacr, sid)
+        return self._finite(np.array(self._jacp, dtype=float))
 
     def _finite(self, out: FloatArray) -> FloatArray:
         if not np.all(np.isfinite(out)):

@@ -191,7 +191,8 @@ class MujocoPlant:
             be a whole multiple of it.
         obstacles: Spheres added as geoms (module docstring).
         pushes: External pushes on bodies.
-        gravity: ``False`` switches gravity off.
+        gravity: Standard gravity, -9.81 m/s² along world ``z`` (whatever the document says);
+            ``False`` switches it off.
 
     Raises:
         InvalidParameter: a bad parameter, an unknown joint or body name, or MuJoCo missing.
@@ -242,8 +243,7 @@ class MujocoPlant:
                 f"robot: expected an MJCF document MuJoCo parses, got the error: {first}"
             ) from None
         spec.option.timestep = self.physics_dt
-        if not gravity:
-            spec.option.gravity = [0.0, 0.0, 0.0]
+        spec.option.gravity = [0.0, 0.0, -9.81] if gravity else [0.0, 0.0, 0.0]
         for i, ob in enumerate(self.obstacles):
             g = spec.worldbody.add_geom()
             g.name = f"velfence_obstacle{i}"
