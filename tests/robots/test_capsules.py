@@ -66,3 +66,31 @@ def test_bad_link_arguments_and_missing_sites() -> None:
     )
     with pytest.raises(InvalidGeometry, match="joint0"):
         bare.link_segments([0.0])
+
+
+def test_the_serial_chain_interface_runs_the_arm_baselines_and_configuration_control() -> None:
+    from velfence.redundancy import ConfigurationController, Obstacle
+    from velfence.robots import seven_dof
+    from velfence.shaping.limits import JointLimits
+    from velfence.sim.arm_baselines import JointClamp
+
+    robot, chain = seven_dof(radius=0.05), DHChain.seven_dof(link_radius=0.05)
+    q = np.array([0.0, 0.4, 0.0, 1.8, 0.0, 0.5, 0.0])
+    assert robot.n_links == chain.n_links
+    assert robot.task_dim == 3
+    np.testing.assert_allclose(robot.end_effector(q), chain.end_effector(q), atol=1e-12)
+    np.testing.assert_allclose(robot.ee_jacobian(q), chain.ee_jacobian(q), atol=1e-12)
+    ob = [Obstacle(center=[0.3, 0.1, 0.6], radius=0.03, influence=0.1)]
+    v = np.array([0.0, 0.2, 0.0])
+    np.testing.assert_allclose(
+        ConfigurationController(robot, ob).shape(q, v),
+        ConfigurationController(chain, ob).shape(q, v),
+        atol=1e-9,
+    )
+    hi = np.full(7, 2.9)
+    lim = JointLimits(-hi, hi, np.full(7, 1.5))
+    np.testing.assert_allclose(
+        JointClamp(robot, limits=lim).shape(q, v),
+        JointClamp(chain, limits=lim).shape(q, v),
+        atol=1e-9,
+    )

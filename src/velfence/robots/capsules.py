@@ -143,3 +143,46 @@ class CapsuleLinks:
 
     def _site_jacobian(self, q: FloatArray, sid: int) -> FloatArray:  # provided by MujocoRobot
         raise NotImplementedError
+
+    # The rest of the serial-chain interface of velfence.mechanisms.chain (end effector = the
+    # "tcp" site), so the arm baselines and the configuration controller run on MJCF arms too.
+
+    @property
+    def n_links(self) -> int:
+        """Number of capsule links (one per joint)."""
+        return len(self._link_sites()) - 1
+
+    @property
+    def task_dim(self) -> int:
+        """Dimension of the end-effector task space: 3 (the ``"tcp"`` site's position)."""
+        return 3
+
+    def end_effector(self, q: ArrayLike) -> FloatArray:
+        """Position of the ``"tcp"`` site [m], shape (3,).
+
+        Args:
+            q: Joint position [rad], shape (n,).
+
+        Returns:
+            The tool point [m], shape (3,).
+        """
+        qa = self._q(q)
+        return self._site_jacobian_point(qa)
+
+    def ee_jacobian(self, q: ArrayLike) -> FloatArray:
+        """Linear-velocity Jacobian of the ``"tcp"`` site [m/rad], shape (3, n).
+
+        Args:
+            q: Joint position [rad], shape (n,).
+
+        Returns:
+            ``dp/dq`` [m/rad], shape (3, n).
+        """
+        return self._site_jacobian(self._q(q), self._site["tcp"])
+
+    def _site_jacobian_point(self, q: FloatArray) -> FloatArray:
+        self._pose(q)
+        out = np.array(self._data_site_xpos()[self._site["tcp"]], dtype=float)
+        if not np.all(np.isfinite(out)):
+            raise InvalidInput("q: expected a pose with finite kinematics, got non-finite values")
+        return out
