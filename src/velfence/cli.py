@@ -7,6 +7,8 @@ The console script enters through :mod:`velfence._entry`, which answers with one
 from __future__ import annotations
 
 import importlib
+import importlib.util
+import json
 import sys
 from pathlib import Path
 from typing import Annotated
@@ -19,7 +21,7 @@ from rich.table import Table
 from velfence.errors import VelfenceError
 from velfence.io.config import DEFAULT_MAX_STEPS
 
-__all__ = ["REPRODUCTIONS", "app", "main", "reproduction_dir"]
+__all__ = ["REPRODUCTIONS", "SIM_SCENARIOS", "app", "main", "reproduction_dir"]
 
 app = typer.Typer(
     help="Keep velocity-controlled robots inside their safe sets by shaping commanded velocity.",
@@ -147,6 +149,113 @@ def reproduce(
         raise typer.Exit(code=1)
 
 
+#: ``velfence sim --scenario NAME`` -> (module, the robots it runs on).
+SIM_SCENARIOS: dict[str, tuple[str, tuple[str, ...]]] = {
+    "fence-box": ("velfence.robot_sim.fence_box", ("panda",)),
+    "wrist-push": ("velfence.robot_sim.wrist", ("wrist",)),
+    "redundant-obstacle": ("velfence.robot_sim.obstacles", ("seven_dof",)),
+}
+
+
+@app.command()
+def sim(
+    scenario: Annotated[
+        str, typer.Option(help=f"One of: {', '.join(SIM_SCENARIOS)} (docs/physics.md).")
+    ] = "fence-box",
+    robot: Annotated[
+        str | None,
+        typer.Option(help="The robot (each scenario has its own: panda, wrist, seven_dof)."),
+    ] = None,
+    out: Annotated[
+        Path | None,
+        typer.Option(help="Folder for video, figures and metrics.json (default out/sim/NAME)."),
+    ] = None,
+    video: Annotated[bool, typer.Option(help="Render the side-by-side MP4 and GIF.")] = True,
+    width: Annotated[int, typer.Option(min=64, max=1920, help="Video panel width [px].")] = 480,
+    height: Annotated[int, typer.Option(min=48, max=1080, help="Video panel height [px].")] = 360,
+    fps: Annotated[int, typer.Option(min=1, max=60, help="Video frames per second.")] = 25,
+    json_out: Annotated[
+        bool, typer.Option("--json", help="Print one JSON object (checks + artifacts).")
+    ] = False,
+) -> None:
+    """Run a robot in MuJoCo with velfence and its baselines; write video, plots, metrics.json.
+
+    Exit code 0: every named check passed; 1: a check failed; 2: bad options or a missing extra.
+    """
+    import os
+
+    from rich.progress import Progress
+
+    if scenario not in SIM_SCENARIOS:
+        raise _fail(f"--scenario: expected one of {list(SIM_SCENARIOS)}, got {scenario!r}")
+    module, robots = SIM_SCENARIOS[scenario]
+    if robot is not None and robot not in robots:
+        raise _fail(f"--robot: scenario {scenario!r} runs on {list(robots)}, got {robot!r}")
+    folder = Path("out/sim") / scenario if out is None else out
+    if folder.exists() and not folder.is_dir():
+        raise _fail(f"--out {folder} exists and is not a folder")
+    if importlib.util.find_spec("mujoco") is None:
+        raise _fail("velfence sim needs MuJoCo: pip install 'velfence[physics]'")
+    os.environ.setdefault("MUJOCO_GL", "egl")  # offscreen rendering, read when MuJoCo loads
+    from velfence.robot_sim.output import write_outputs
+
+    err = Console(stderr=True)
+    try:
+        with Progress(transient=True, console=err) as progress:
+            task = progress.add_task(f"{scenario}: simulating", total=1.0)
+            runner = importlib.import_module(module).run
+            names: list[str] = []
+
+            def step(name: str, f: float) -> None:
+                if name not in names:
+                    names.append(name)
+                progress.update(task, description=f"{scenario}: {name}", completed=0.6 * f)
+
+            result = runner(on_step=step)
+            progress.update(task, description=f"{scenario}: rendering", completed=0.6)
+            files = write_outputs(
+                result,
+                folder,
+                video=video,
+                width=width,
+                height=height,
+                fps=fps,
+                progress=lambda f: progress.update(task, completed=0.6 + 0.4 * f),
+            )
+    except VelfenceError as exc:
+        raise _fail(str(exc)) from None
+    except OSError as exc:
+        raise _fail(f"cannot write to {folder}: {exc.strerror or exc}") from None
+    report = result.report
+    if json_out:
+        doc = report.to_dict()
+        doc["artifacts"] = [str(f) for f in files]
+        sys.stdout.write(json.dumps(doc, indent=2) + "\n")
+    else:
+        console = Console()
+        table = Table(title=f"sim {scenario} (MuJoCo)")
+        table.add_column("metric [unit]")
+        for name in result.metrics:
+            table.add_column(name)
+        for key, unit in result.units.items():
+            table.add_row(
+                f"{key} [{unit}]", *(_short(result.metrics[m][key]) for m in result.metrics)
+            )
+        console.print(table)
+        for c in report.checks:
+            mark = "[green]pass[/]" if c.passed else "[red]FAIL[/]"
+            console.print(f"{mark}  {escape(c.name)}: {_short(c.measured)} ({c.expected})")
+        for f in files:
+            console.print(f"  wrote {escape(str(f))}")
+    failed = sum(1 for c in report.checks if not c.passed)
+    Console(stderr=True).print(
+        f"{len(report.checks) - failed}/{len(report.checks)} checks passed"
+        + (f", {failed} failed (exit 1)" if failed else " (exit 0)")
+    )
+    if failed:
+        raise typer.Exit(code=1)
+
+
 @app.command()
 def bench(
     out: Annotated[
@@ -162,8 +271,6 @@ def bench(
     ] = None,
 ) -> None:
     """Time shape() per call and shape_batch() throughput, side by side with a QP baseline."""
-    import json
-
     from rich.progress import Progress
 
     from velfence.bench import run_benchmarks, write_report
@@ -249,8 +356,6 @@ def study(
     ] = True,
 ) -> None:
     """Simulated pick-and-place study (Khokar 2009 §7.2): unassisted vs laser-assisted."""
-    import json
-
     from rich.progress import Progress
 
     from velfence.teleop.study import assisted_run, run_study

@@ -194,11 +194,15 @@ def run_scenario(
     line: Line,
     q0: ArrayLike,
     duration: float,
+    *,
+    plant: Any = "kinematic",
+    dt: float = DT,
 ) -> ScenarioRun:
     """Run ``controller`` through :func:`simulate` on the reference ``line``.
 
     The command is ``Ẏ_d(t) + K_FB (Y_d(t) - Y(q))`` (stateless controller, feedback in the
-    operator).
+    operator). ``plant`` and ``dt`` [s] are :func:`simulate`'s (a
+    :class:`~velfence.sim.physics.MujocoPlant` runs the scenario in physics).
     """
     chain: SerialChain = controller.chain
     timed = _Timed(controller)
@@ -214,8 +218,9 @@ def run_scenario(
         command,
         q0,
         duration=duration,
-        dt=DT,
+        dt=dt,
         name=name,
+        plant=plant,
         on_result=lambda k, t, r: results.append(r),
     )
     y = np.array([chain.end_effector(q) for q in traj.p])

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -29,6 +29,7 @@ class PhysicsRun:
         record: What the physics did (qpos for rendering, contacts, efforts).
         model: The plant's ``mujoco.MjModel`` (obstacle geoms included), for rendering.
         point: The tracked point (TCP, or the wrist's (pitch, yaw)), shape (N, k).
+        extra: Scenario-specific series (e.g. ``"y_d"``, the reference path, shape (N, 3)).
     """
 
     method: str
@@ -36,6 +37,7 @@ class PhysicsRun:
     record: PhysicsRecord
     model: Any
     point: FloatArray
+    extra: dict[str, Any] = field(default_factory=dict)
 
 
 @dataclass(frozen=True, eq=False)

@@ -172,7 +172,8 @@ def run(
             on_progress=progress,
         )
         tcp = np.array([robot.fk(q) for q in tr.p])
-        runs[name] = PhysicsRun(name, tr, plant.record, plant.model, tcp)
+        margin = np.min(box.normals @ tcp.T - box.offsets[:, None], axis=0)
+        runs[name] = PhysicsRun(name, tr, plant.record, plant.model, tcp, {"margin": margin})
     metrics = _metrics(runs, box, phases, push_t0, robot.joint_limits)
     report = _report(metrics, speed)
     scene = {
@@ -180,6 +181,7 @@ def run(
         "spheres": [(np.array(SPHERE_CENTER), SPHERE_RADIUS)],
         "push": (push_t0, push_t0 + PUSH_DURATION),
         "point": "TCP",
+        "margin": ("TCP distance inside the box", "m", {"buffer": BUFFER, "wall": 0.0}),
     }
     return ScenarioResult("fence-box", runs, metrics, UNITS, report, scene)
 
