@@ -1,0 +1,97 @@
+"""The physics scenarios of ``velfence sim`` (MuJoCo): named checks and what they measure.
+
+Each scenario runs once per session (a few seconds each); the checks recompute nothing the
+scenario asserts by itself: they read the recorded joint paths and MuJoCo's contact record.
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from optional import requires
+
+pytestmark = [requires("mujoco"), pytest.mark.slow]
+
+
+@pytest.fixture(scope="session")
+def fence_box():  # noqa: ANN201
+    from velfence.robot_sim import fence_box
+
+    return fence_box.run()
+
+
+@pytest.fixture(scope="session")
+def obstacle():  # noqa: ANN201
+    from velfence.robot_sim import obstacles
+
+    return obstacles.run()
+
+
+def test_fence_box_named_checks_pass(fence_box) -> None:  # noqa: ANN001
+    failed = [(c.name, c.measured) for c in fence_box.report.checks if not c.passed]
+    assert not failed
+
+
+def test_fence_box_penetration_from_the_recorded_path(fence_box) -> None:  # noqa: ANN001
+    from velfence.robot_sim.fence_box import BOX_LOWER, BOX_UPPER
+    from velfence.robots import panda
+
+    robot = panda()
+    lo, hi = np.array(BOX_LOWER), np.array(BOX_UPPER)
+    out = {}
+    for name, run in fence_box.runs.items():
+        tcp = np.array([robot.fk(q) for q in run.trajectory.p])
+        out[name] = float(np.max(np.maximum(lo - tcp, tcp - hi).max(axis=1).clip(min=0.0)))
+    push = fence_box.scene["push"]
+    assert out["no limit"] > 0.05
+    assert out["velfence + look-ahead"] <= out["velfence"]
+    # Outside the push window, the look-ahead variant keeps the TCP within 1 mm of the box.
+    run = fence_box.runs["velfence + look-ahead"]
+    t = run.trajectory.t
+    quiet = (t < push[0]) | (t > push[1] + 1.0)
+    tcp = np.array([robot.fk(q) for q in run.trajectory.p[quiet]])
+    assert np.max(np.maximum(lo - tcp, tcp - hi)) < 1e-3
+
+
+def test_fence_box_contacts_are_mujocos(fence_box) -> None:  # noqa: ANN001
+    assert fence_box.runs["no limit"].record.contact_steps > 0
+    assert fence_box.runs["velfence"].record.contact_steps == 0
+    assert fence_box.runs["velfence + look-ahead"].record.contact_steps == 0
+
+
+def test_redundant_obstacle_named_checks_pass(obstacle) -> None:  # noqa: ANN001
+    failed = [(c.name, c.measured) for c in obstacle.report.checks if not c.passed]
+    assert not failed
+    assert obstacle.runs["no avoidance"].record.contact_steps > 0
+    assert (
+        obstacle.metrics["velfence"]["min_clearance"]
+        >= obstacle.metrics["configuration control"]["min_clearance"]
+    )
+
+
+def test_outputs_metrics_figure_and_video(obstacle, tmp_path) -> None:  # noqa: ANN001
+    from PIL import Image
+
+    from velfence.robot_sim.output import write_outputs
+
+    files = write_outputs(obstacle, tmp_path, width=128, height=96, fps=4)
+    names = {f.name for f in files}
+    assert {"redundant-obstacle.mp4", "redundant-obstacle.gif", "metrics.json"} <= names
+    doc = json.loads((tmp_path / "metrics.json").read_text())
+    assert doc["metrics"]["velfence"]["contact_steps"] == 0
+    assert doc["units"]["min_clearance"] == "m"
+    gif = Image.open(tmp_path / "redundant-obstacle.gif")
+    assert gif.width >= 3 * 128  # three panels side by side
+    assert gif.n_frames > 1
+    import imageio_ffmpeg
+
+    reader = imageio_ffmpeg.read_frames(str(tmp_path / "redundant-obstacle.mp4"))
+    meta = next(reader)
+    frames = sum(1 for _ in reader)
+    assert meta["size"][0] >= 3 * 128
+    t = obstacle.runs["velfence"].record.t
+    step = round(1.0 / (4 * float(t[1] - t[0])))
+    assert frames == len(np.arange(0, len(t), step))
