@@ -17,25 +17,25 @@ pytestmark = [requires("mujoco"), pytest.mark.slow]
 
 
 @pytest.fixture(scope="session")
-def fence_box():  # noqa: ANN201
+def fence_box():
     from velfence.robot_sim import fence_box
 
     return fence_box.run()
 
 
 @pytest.fixture(scope="session")
-def obstacle():  # noqa: ANN201
+def obstacle():
     from velfence.robot_sim import obstacles
 
     return obstacles.run()
 
 
-def test_fence_box_named_checks_pass(fence_box) -> None:  # noqa: ANN001
+def test_fence_box_named_checks_pass(fence_box) -> None:
     failed = [(c.name, c.measured) for c in fence_box.report.checks if not c.passed]
     assert not failed
 
 
-def test_fence_box_penetration_from_the_recorded_path(fence_box) -> None:  # noqa: ANN001
+def test_fence_box_penetration_from_the_recorded_path(fence_box) -> None:
     from velfence.robot_sim.fence_box import BOX_LOWER, BOX_UPPER
     from velfence.robots import panda
 
@@ -56,13 +56,13 @@ def test_fence_box_penetration_from_the_recorded_path(fence_box) -> None:  # noq
     assert np.max(np.maximum(lo - tcp, tcp - hi)) < 1e-3
 
 
-def test_fence_box_contacts_are_mujocos(fence_box) -> None:  # noqa: ANN001
+def test_fence_box_contacts_are_mujocos(fence_box) -> None:
     assert fence_box.runs["no limit"].record.contact_steps > 0
     assert fence_box.runs["velfence"].record.contact_steps == 0
     assert fence_box.runs["velfence + look-ahead"].record.contact_steps == 0
 
 
-def test_redundant_obstacle_named_checks_pass(obstacle) -> None:  # noqa: ANN001
+def test_redundant_obstacle_named_checks_pass(obstacle) -> None:
     failed = [(c.name, c.measured) for c in obstacle.report.checks if not c.passed]
     assert not failed
     assert obstacle.runs["no avoidance"].record.contact_steps > 0
@@ -72,7 +72,7 @@ def test_redundant_obstacle_named_checks_pass(obstacle) -> None:  # noqa: ANN001
     )
 
 
-def test_outputs_metrics_figure_and_video(obstacle, tmp_path) -> None:  # noqa: ANN001
+def test_outputs_metrics_figure_and_video(obstacle, tmp_path) -> None:
     from PIL import Image
 
     from velfence.robot_sim.output import write_outputs
