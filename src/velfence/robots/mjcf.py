@@ -145,7 +145,7 @@ def _document(
         if radius > 0.0 and float(np.linalg.norm(end)) > 1e-9:
             lines.append(
                 f'{ind}  <geom type="capsule" size="{radius!r}" fromto="0 0 0 {_fmt(end)}" '
-                'contype="0" conaffinity="0" mass="0"/>'
+                'contype="2" conaffinity="0" mass="0"/>'
             )
     ind = "  " * (n + 2)
     lines.append(f'{ind}<body name="flange" pos="{_fmt(flange[0])}" quat="{_fmt(flange[1])}">')
