@@ -108,7 +108,7 @@ SPECS.update(
                     "servo": "choice",
                 },
                 skip={
-                    "obstacles": "a sequence of SphereObstacle, () valid: tests/sim/test_physics.py",
+                    "obstacles": "SphereObstacle sequence, () valid: tests/sim/test_physics.py",
                     "pushes": "a sequence of BodyPush, () valid: tests/sim/test_physics.py",
                     "joints": "names checked against the model: tests/sim/test_physics.py",
                     "actuated": "names checked against the model: tests/sim/test_physics.py",

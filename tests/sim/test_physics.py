@@ -164,7 +164,9 @@ def test_contacts_are_counted_by_the_simulator(robot) -> None:
     assert np.max(free.record.contact_depth) > 1e-3
     guarded = _plant(robot, obstacles=[ball])
     f = SafetyFilter(robot, limits=limits, obstacles=[ball], dt=DT, obstacle_buffer=0.05)
-    shaper = LagCompensation(TwistMode(f), time_constant=guarded.time_constant, dt=DT)
+    shaper = LagCompensation(
+        TwistMode(f), time_constant=guarded.time_constant, dt=DT, guard=f
+    )
     simulate(shaper, lambda t, q: down, Q0, duration=0.6, dt=DT, plant=guarded)
     assert guarded.record.contact_steps == 0
 
@@ -182,7 +184,7 @@ def _box_run(robot, bandwidth: float, lookahead: bool) -> float:
     plant = _plant(robot, bandwidth=bandwidth)
     shaper = TwistMode(f)
     if lookahead:
-        shaper = LagCompensation(shaper, time_constant=plant.time_constant, dt=DT)
+        shaper = LagCompensation(shaper, time_constant=plant.time_constant, dt=DT, guard=f)
     tr = simulate(
         shaper, lambda t, q: np.array([0.0, 0.0, -1.0]), Q0, duration=0.5, dt=DT, plant=plant
     )
@@ -206,8 +208,15 @@ def test_lag_compensation_predicts_a_first_order_lag() -> None:
     v_hat = lag.predicted_velocity
     assert v_hat is not None
     np.testing.assert_allclose(v_hat[0], 1.0 - math.exp(-3 * 0.01 / 0.05), rtol=1e-12)
-    r = lag.explain(np.zeros(2), np.array([1.0, 0.0]))
-    np.testing.assert_allclose(r.position, 0.05 * v_hat, rtol=1e-12)  # shaped at p + T v_hat
+    # Shaped at p + T v_hat first, then guarded at the measured position p.
+    inner = PolygonShaper(poly, buffer=0.1)
+    p = np.array([9.895, 0.0])  # 0.105 from the wall, outside the buffer; p + T v_hat is inside
+    cmd = np.array([1.0, 0.0])
+    ahead = inner.shape(p + 0.05 * v_hat, cmd)
+    assert ahead[0] < inner.shape(p, cmd)[0] - 0.05  # the look-ahead brakes
+    r = lag.explain(p, cmd)
+    np.testing.assert_allclose(r.output, inner.shape(p, ahead), rtol=0, atol=1e-15)
+    np.testing.assert_allclose(r.position, p, rtol=0, atol=0)
     lag.reset()
     assert lag.predicted_velocity is None
 

@@ -2,7 +2,7 @@ r"""The Panda-like arm's TCP in a box, in MuJoCo: operator pushes, an external p
 
 Scene (``docs/physics.md``): :func:`velfence.robots.panda` with capsule links of radius 0.05 m,
 the TCP at the flange; the box :math:`[0.35, 0.65] \times [-0.25, 0.25] \times [0.30, 0.60]` m
-(the TCP starts at (0.47, 0, 0.52) m); a sphere of radius 0.05 m at (0.55, 0.05, 0.45) m, a MuJoCo
+(the TCP starts at (0.47, 0, 0.52) m); a sphere of radius 0.04 m at (0.55, -0.12, 0.48) m, a MuJoCo
 geom the links can touch. The operator (:class:`~velfence.robot_sim.common.TcpJog`, speed
 ``speed``) jogs into the corner (x_max, y_max, z_min), along the face z_min pressing it, holds
 near the face x_min while a 25 N push along −x acts on the flange body for 0.4 s, jogs through
@@ -37,8 +37,8 @@ __all__ = ["BOX_LOWER", "BOX_UPPER", "METHODS", "run"]
 METHODS: tuple[str, ...] = ("no limit", "per-joint clamp", "velfence", "velfence + look-ahead")
 BOX_LOWER = (0.35, -0.25, 0.30)
 BOX_UPPER = (0.65, 0.25, 0.60)
-SPHERE_CENTER = (0.55, 0.05, 0.45)
-SPHERE_RADIUS = 0.05
+SPHERE_CENTER = (0.55, -0.12, 0.48)
+SPHERE_RADIUS = 0.04
 Q0 = (0.0, -0.3, 0.0, -2.2, 0.0, 2.0, 0.8)
 DT = 2e-3
 PHYSICS_DT = 5e-4
@@ -51,7 +51,7 @@ _SCRIPT: tuple[tuple[str, tuple[float, float, float], str, bool], ...] = (
     ("into the corner x_max, y_max, z_min", (0.72, 0.32, 0.22), "", False),
     ("along the face z_min, pressing it", (0.45, -0.20, 0.22), "z_min", False),
     ("hold near x_min, pushed along -x", (0.40, -0.10, 0.40), "", True),
-    ("through the sphere, past x_max", (0.70, 0.20, 0.50), "", False),
+    ("through the sphere, past x_max", (0.70, -0.14, 0.56), "", False),
     ("to the final waypoint", (0.45, 0.15, 0.55), "", False),
 )
 UNITS = {
@@ -96,25 +96,28 @@ def _controllers(robot: Any, box: ConvexPolytope, methods: Sequence[str]) -> dic
     limits = JointLimits(lim[:, 0], lim[:, 1], np.where(np.isfinite(vmax), vmax, 2.0))
     sphere = SphereObstacle(np.array(SPHERE_CENTER), radius=SPHERE_RADIUS, name="sphere")
 
-    def vf() -> Any:
-        return TwistMode(
-            SafetyFilter(
-                robot,
-                limits=limits,
-                workspace=(WorkspaceLimit(box, point="tcp", buffer=BUFFER),),
-                obstacles=(sphere,),
-                dt=DT,
-                obstacle_buffer=0.05,
-            )
+    def joint_filter() -> Any:
+        return SafetyFilter(
+            robot,
+            limits=limits,
+            workspace=(WorkspaceLimit(box, point="tcp", buffer=BUFFER),),
+            obstacles=(sphere,),
+            dt=DT,
+            obstacle_buffer=0.05,
         )
+
+    def vf() -> Any:
+        return TwistMode(joint_filter())
+
+    def ahead() -> Any:
+        f = joint_filter()
+        return LagCompensation(TwistMode(f), time_constant=1.0 / BANDWIDTH, dt=DT, guard=f)
 
     make: dict[str, Callable[[], Any]] = {
         "no limit": lambda: ResolvedRate(robot, limits=limits, dt=DT),
         "per-joint clamp": lambda: JointClamp(robot, limits=limits, dt=DT),
         "velfence": vf,
-        "velfence + look-ahead": lambda: LagCompensation(
-            vf(), time_constant=1.0 / BANDWIDTH, dt=DT
-        ),
+        "velfence + look-ahead": ahead,
     }
     return {m: make[m]() for m in methods}
 

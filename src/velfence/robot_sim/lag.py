@@ -72,7 +72,7 @@ def _depth(bandwidth: float, speed: float, buffer: float, lookahead: bool) -> fl
     )
     shaper: object = TwistMode(f)
     if lookahead:
-        shaper = LagCompensation(shaper, time_constant=1.0 / bandwidth, dt=DT)
+        shaper = LagCompensation(shaper, time_constant=1.0 / bandwidth, dt=DT, guard=f)
     plant = MujocoPlant(robot, bandwidth=bandwidth, physics_dt=5e-4)
     down = np.array([0.0, 0.0, -speed])
     tr = simulate(shaper, lambda t, q: down, q0, duration=0.12 / speed + 0.5, dt=DT, plant=plant)  # type: ignore[arg-type]

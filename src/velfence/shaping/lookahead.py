@@ -13,12 +13,19 @@ speed :math:`u\,d/b` for a command :math:`u`) is the second-order loop
 the buffer must be at least :math:`4\,u\,T` wide, or the robot goes through it.
 
 :class:`LagCompensation` shapes at the predicted stopping position :math:`\hat p = p + T\,\hat v`
-instead, with :math:`\hat v` the servo's velocity predicted from the shaper's own past outputs
+first, with :math:`\hat v` the servo's velocity predicted from the shaper's own past outputs
 (the discrete first-order model :math:`\hat v_{k+1} = \hat v_k + (1 - e^{-\Delta t/T})(v_k -
 \hat v_k)`, needing no velocity measurement). The loop becomes
 :math:`T\ddot d + (1 + uT/b)\,\dot d + (u/b)\,d = 0`, whose damping ratio
 :math:`(1 + uT/b)/(2\sqrt{uT/b}) \ge 1` for every speed, buffer and lag: no overshoot in the
 linear regime, and at rest (:math:`\hat v = 0`) the whole set stays usable.
+
+The predicted point alone is not enough: passing an obstacle, the arm now is closer to it than
+where it would stop, and a filter that only looks ahead lets it touch (seen in MuJoCo). So the
+result of the look-ahead stage is shaped once more at the measured position by ``guard`` (the
+wrapped shaper itself when its command and output live in one space; for a twist-mode filter the
+same :class:`~velfence.shaping.filter.SafetyFilter` in joint mode): the output keeps every
+guarantee the guard gives at the measured state, and the look-ahead only adds braking.
 ``docs/physics.md`` has the penetration measured in MuJoCo with and without it.
 """
 
@@ -40,10 +47,12 @@ __all__ = ["LagCompensation"]
 class LagCompensation:
     r"""A shaper evaluated at the predicted stopping position of a lagging servo (module docs).
 
-    ``explain(p, v)`` is ``shaper.explain(p + T * v_hat, v)``; the result's positions and
-    distances are those of the predicted point. Stateful: the predicted servo velocity
-    ``v_hat`` starts at zero and :meth:`reset` forgets it (the runner resets it before a run).
-    :meth:`shape_batch` evaluates every row from rest (no history).
+    ``explain(p, v)`` is ``guard.explain(p, shaper.explain(p + T * v_hat, v).output)`` (a single
+    call while ``v_hat`` is zero); the result is the guard's, at the measured position.
+    Stateful: the predicted servo velocity ``v_hat`` starts at zero and :meth:`reset` forgets it
+    (the runner resets it before a run). :meth:`shape_batch` evaluates every row from rest (no
+    history). The wrapped shaper and the guard must be stateless (two calls a cycle would
+    advance a rate limiter twice).
 
     Args:
         shaper: Any shaper whose output lives in the state's space (joint velocities for a
@@ -51,19 +60,33 @@ class LagCompensation:
         time_constant: The servo's lag time constant :math:`T` [s], > 0 (for
             :class:`~velfence.sim.physics.MujocoPlant`'s computed-torque servo ``1/bandwidth``).
         dt: Control period [s], > 0 (one :meth:`explain` per period).
+        guard: A shaper whose command is ``shaper``'s output (e.g. the SafetyFilter in joint mode
+            under a twist-mode wrapper); default ``shaper`` itself, which needs equal command and
+            output spaces.
 
     Raises:
-        InvalidParameter: a shaper without ``explain``/``shape_batch``, or a bad time.
+        InvalidParameter: a shaper or guard without ``explain``/``shape_batch`` or stateful, or
+            a bad time.
     """
 
     stateful = True
 
-    def __init__(self, shaper: Any, *, time_constant: float, dt: float) -> None:
-        if not all(callable(getattr(shaper, m, None)) for m in ("explain", "shape_batch")):
-            raise InvalidParameter(
-                f"shaper must implement explain and shape_batch, got {type(shaper).__name__}"
-            )
+    def __init__(self, shaper: Any, *, time_constant: float, dt: float, guard: Any = None) -> None:
+        for name, obj in (("shaper", shaper), ("guard", guard)):
+            if obj is None and name == "guard":
+                continue
+            if not all(callable(getattr(obj, m, None)) for m in ("explain", "shape_batch")):
+                raise InvalidParameter(
+                    f"{name} must implement explain and shape_batch, got {type(obj).__name__}"
+                )
+            if getattr(obj, "stateful", False) is True:
+                raise InvalidParameter(
+                    f"{name} must be stateless (it is called twice a cycle), got a stateful "
+                    f"{type(obj).__name__}; drop its rate or acceleration limits"
+                )
         self.shaper = shaper
+        self.guard = shaper if guard is None else guard
+        self._own_guard = guard is None
         self.time_constant = check_positive("time_constant", time_constant, unit="s")
         self.dt = check_positive("dt", dt, unit="s")
         self._alpha = -math.expm1(-self.dt / self.time_constant)
@@ -80,11 +103,8 @@ class LagCompensation:
         return None if self._v is None else self._v.copy()
 
     def reset(self) -> None:
-        """Forget the predicted velocity (start from rest); resets the wrapped shaper too."""
+        """Forget the predicted velocity (start from rest)."""
         self._v = None
-        inner = getattr(self.shaper, "reset", None)
-        if getattr(self.shaper, "stateful", False) and callable(inner):
-            inner()
 
     def explain(self, position: ArrayLike, command: ArrayLike, /) -> Any:
         """The wrapped shaper's result at the predicted stopping position.
@@ -102,7 +122,20 @@ class LagCompensation:
         """
         p = real_array("position", position, None, allow_nonfinite=True)
         v_hat = np.zeros_like(p) if self._v is None or self._v.shape != p.shape else self._v
-        res = self.shaper.explain(p + self.time_constant * v_hat, command)
+        if not np.any(v_hat):
+            res = self.shaper.explain(p, command)
+        else:
+            ahead = np.asarray(
+                self.shaper.explain(p + self.time_constant * v_hat, command).output, dtype=float
+            )
+            c = np.asarray(command)
+            if self._own_guard and c.shape != ahead.shape:
+                raise InvalidParameter(
+                    f"guard: the shaper's command {c.shape} and output {ahead.shape} live in "
+                    "different spaces; pass guard= a shaper of its output (e.g. the SafetyFilter "
+                    "itself in joint mode)"
+                )
+            res = self.guard.explain(p, ahead)
         out = np.asarray(res.output, dtype=float)
         if out.shape != p.shape:
             raise InvalidParameter(
