@@ -164,9 +164,7 @@ def test_contacts_are_counted_by_the_simulator(robot) -> None:
     assert np.max(free.record.contact_depth) > 1e-3
     guarded = _plant(robot, obstacles=[ball])
     f = SafetyFilter(robot, limits=limits, obstacles=[ball], dt=DT, obstacle_buffer=0.05)
-    shaper = LagCompensation(
-        TwistMode(f), time_constant=guarded.time_constant, dt=DT, guard=f
-    )
+    shaper = LagCompensation(TwistMode(f), time_constant=guarded.time_constant, dt=DT, guard=f)
     simulate(shaper, lambda t, q: down, Q0, duration=0.6, dt=DT, plant=guarded)
     assert guarded.record.contact_steps == 0
 
