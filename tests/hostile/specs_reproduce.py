@@ -21,3 +21,12 @@ SPECS: dict[str, C] = {
         methods={"to_dict": lambda: call(), "to_json": lambda: call()},
     ),
 }
+
+SPECS.update(
+    {
+        "robot_sim.PhysicsRun": C(record="a record a physics scenario builds (robot_sim.*.run)"),
+        "robot_sim.ScenarioResult": C(
+            record="a record a physics scenario builds (robot_sim.*.run)"
+        ),
+    }
+)

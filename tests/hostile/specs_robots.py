@@ -24,6 +24,11 @@ _ROBOT_METHODS = {
     "angular_jacobian": lambda: call(_Q2),
     "from_xml": F(lambda: call(_XML), types={"text": "path"}),
     "from_file": F(lambda: call(_FILE), types={"path": "path"}),
+    "joint_positions": lambda: call(_Q2),
+    "link_segments": lambda: call(_Q2),
+    "point_jacobian": F(lambda: call(_Q2, 1, 0.5), types={"link": "count", "t": "nonneg"}),
+    "end_effector": lambda: call(_Q2),
+    "ee_jacobian": lambda: call(_Q2),
 }
 
 SPECS: dict[str, F | C] = {

@@ -123,7 +123,7 @@ def write_video(
         overlays_common.append(PolytopeOverlay(result.scene["polytope"], rgba=(0.1, 0.5, 1.0, 1.0)))
     for j, (c, r) in enumerate(result.scene.get("spheres", [])):
         alpha = 0.35 if j == 0 else 0.12
-        overlays_common.append(SphereOverlay(c, r, rgba=(0.9, 0.2, 0.2, alpha)))
+        overlays_common.append(SphereOverlay(c, radius=r, rgba=(0.9, 0.2, 0.2, alpha)))
     panels: dict[str, Any] = {}
     for k, name in enumerate(names):
         run = result.runs[name]

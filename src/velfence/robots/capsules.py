@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from velfence._typing import FloatArray
-from velfence._validate import finite_scalar, readonly
+from velfence._validate import check_positive_int, finite_scalar, readonly
 from velfence.errors import InvalidGeometry, InvalidInput
 
 __all__ = ["CapsuleLinks"]
@@ -127,12 +127,7 @@ class CapsuleLinks:
         """
         ids = self._link_sites()
         nl = len(ids) - 1
-        if (
-            isinstance(link, bool)
-            or not isinstance(link, (int, np.integer))
-            or not (0 <= int(link) < nl)
-        ):
-            raise InvalidInput(f"link: expected an int in [0, {nl - 1}], got {link!r}"[:200])
+        link = check_positive_int("link", link, minimum=0, maximum=nl - 1, error=InvalidInput)
         tt = finite_scalar("t", t, what="fraction along the link")
         if not 0.0 <= tt <= 1.0:
             raise InvalidInput(f"t: expected a fraction in [0, 1], got {tt}")

@@ -1,4 +1,4 @@
-"""Plots and animations (matplotlib, Agg backend; imported lazily by the CLI).
+"""Plots and animations (matplotlib, Agg backend; imported lazily by the CLI) and physics videos.
 
 Math contract: none; every function takes data already computed and writes one file, returning
 its path. Workspace axes are labelled in the polygon's units (pitch/yaw [rad] for the wrist).
@@ -12,12 +12,26 @@ from velfence.viz.plots import (
     plot_workspace,
     save_figure,
 )
+from velfence.viz.video import (
+    PolytopeOverlay,
+    SphereOverlay,
+    TrailOverlay,
+    render_frames,
+    side_by_side,
+    write_video,
+)
 
 __all__ = [
+    "PolytopeOverlay",
+    "SphereOverlay",
+    "TrailOverlay",
     "animate_trajectories",
     "plot_quiver",
     "plot_velocity_patterns",
     "plot_velocity_profiles",
     "plot_workspace",
+    "render_frames",
     "save_figure",
+    "side_by_side",
+    "write_video",
 ]
