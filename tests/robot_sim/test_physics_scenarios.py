@@ -47,13 +47,30 @@ def test_fence_box_penetration_from_the_recorded_path(fence_box) -> None:
         out[name] = float(np.max(np.maximum(lo - tcp, tcp - hi).max(axis=1).clip(min=0.0)))
     push = fence_box.scene["push"]
     assert out["no limit"] > 0.05
-    assert out["velfence + look-ahead"] <= out["velfence"]
-    # Outside the push window, the look-ahead variant keeps the TCP within 1 mm of the box.
-    run = fence_box.runs["velfence + look-ahead"]
-    t = run.trajectory.t
-    quiet = (t < push[0]) | (t > push[1] + 1.0)
-    tcp = np.array([robot.fk(q) for q in run.trajectory.p[quiet]])
-    assert np.max(np.maximum(lo - tcp, tcp - hi)) < 1e-3
+    assert out["velfence"] < 0.01  # the 25 N push is the worst moment
+    # Outside the push window: the plain filter overshoots by servo lag, the look-ahead does not.
+    quiet_out = {}
+    for name in ("velfence", "velfence + look-ahead"):
+        run = fence_box.runs[name]
+        t = run.trajectory.t
+        quiet = (t < push[0]) | (t > push[1] + 1.0)
+        tcp = np.array([robot.fk(q) for q in run.trajectory.p[quiet]])
+        quiet_out[name] = float(np.max(np.maximum(lo - tcp, tcp - hi)))
+    assert 0.0 < quiet_out["velfence"] < 1e-3
+    assert quiet_out["velfence + look-ahead"] <= 0.0
+
+
+def test_fence_box_joint_range_from_the_recorded_path(fence_box) -> None:
+    from velfence.robot_sim.fence_box import CELL_JOINT1
+
+    lo, hi = CELL_JOINT1
+    over = {
+        name: float(np.max(np.maximum(lo - run.trajectory.p[:, 0], run.trajectory.p[:, 0] - hi)))
+        for name, run in fence_box.runs.items()
+    }
+    assert over["no limit"] > 0.05  # the operator's corner needs more base rotation
+    assert over["per-joint clamp"] < 0.1 * over["no limit"]
+    assert over["velfence + look-ahead"] <= 1e-9
 
 
 def test_fence_box_contacts_are_mujocos(fence_box) -> None:

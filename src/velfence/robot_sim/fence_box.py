@@ -6,7 +6,9 @@ the TCP at the flange; the box :math:`[0.35, 0.65] \times [-0.25, 0.25] \times [
 geom the links can touch. The operator (:class:`~velfence.robot_sim.common.TcpJog`, speed
 ``speed``) jogs into the corner (x_max, y_max, z_min), along the face z_min pressing it, holds
 near the face x_min while a 25 N push along −x acts on the flange body for 0.4 s, jogs through
-the sphere to a target beyond x_max, and ends at a waypoint inside.
+the sphere to a target beyond x_max, and ends at a waypoint inside. Joint 1 (base rotation) is
+limited to the cell's range :data:`CELL_JOINT1` (the corner targets need more), so the per-joint
+clamp has something to clamp.
 
 Controllers: ``"no limit"`` (damped resolved rate), ``"per-joint clamp"`` (resolved rate, joint
 velocity and position limits), ``"velfence"`` (:class:`~velfence.shaping.filter.SafetyFilter`
@@ -31,7 +33,7 @@ from velfence.robot_sim.common import PhysicsRun, ScenarioResult, TcpJog
 from velfence.sim.metrics import box_penetration, face_sliding_ratio, joint_limit_violation
 from velfence.sim.runner import simulate
 
-__all__ = ["BOX_LOWER", "BOX_UPPER", "METHODS", "run"]
+__all__ = ["BOX_LOWER", "BOX_UPPER", "CELL_JOINT1", "METHODS", "run"]
 
 #: The compared controllers, in table order.
 METHODS: tuple[str, ...] = ("no limit", "per-joint clamp", "velfence", "velfence + look-ahead")
@@ -39,6 +41,9 @@ BOX_LOWER = (0.35, -0.25, 0.30)
 BOX_UPPER = (0.65, 0.25, 0.60)
 SPHERE_CENTER = (0.55, -0.12, 0.48)
 SPHERE_RADIUS = 0.04
+#: The cell's own range of joint 1 (base rotation) [rad], narrower than the arm's ±2.8973: a
+#: layout limit like the joint position limits of a vendor safety configuration.
+CELL_JOINT1 = (-0.2, 0.2)
 Q0 = (0.0, -0.3, 0.0, -2.2, 0.0, 2.0, 0.8)
 DT = 2e-3
 PHYSICS_DT = 5e-4
@@ -84,14 +89,15 @@ def _phases(x0: FloatArray, speed: float, dwell: float) -> list[tuple[str, float
     return out
 
 
-def _controllers(robot: Any, box: ConvexPolytope, methods: Sequence[str]) -> dict[str, Any]:
+def _controllers(
+    robot: Any, box: ConvexPolytope, lim: FloatArray, methods: Sequence[str]
+) -> dict[str, Any]:
     from velfence.shaping.filter import SafetyFilter
     from velfence.shaping.limits import JointLimits, SphereObstacle, WorkspaceLimit
     from velfence.shaping.lookahead import LagCompensation
     from velfence.sim.arm import TwistMode
     from velfence.sim.arm_baselines import JointClamp, ResolvedRate
 
-    lim = robot.joint_limits
     vmax = np.asarray(getattr(robot, "velocity_limits", np.full(robot.dof, np.inf)), dtype=float)
     limits = JointLimits(lim[:, 0], lim[:, 1], np.where(np.isfinite(vmax), vmax, 2.0))
     sphere = SphereObstacle(np.array(SPHERE_CENTER), radius=SPHERE_RADIUS, name="sphere")
@@ -152,7 +158,9 @@ def run(
     push_t0 = push_phase[1] + 0.3
     push = BodyPush(body="link6", force=np.array(PUSH_FORCE), start=push_t0, duration=PUSH_DURATION)
     sphere = SphereObstacle(np.array(SPHERE_CENTER), radius=SPHERE_RADIUS, name="sphere")
-    ctrl = _controllers(robot, box, methods)
+    lim = np.array(robot.joint_limits)
+    lim[0] = CELL_JOINT1
+    ctrl = _controllers(robot, box, lim, methods)
     runs: dict[str, PhysicsRun] = {}
     for name in methods:
         plant = MujocoPlant(
@@ -177,7 +185,7 @@ def run(
         tcp = np.array([robot.fk(q) for q in tr.p])
         margin = np.min(box.normals @ tcp.T - box.offsets[:, None], axis=0)
         runs[name] = PhysicsRun(name, tr, plant.record, plant.model, tcp, {"margin": margin})
-    metrics = _metrics(runs, box, phases, push_t0, robot.joint_limits)
+    metrics = _metrics(runs, box, phases, push_t0, lim)
     report = _report(metrics, speed)
     scene = {
         "polytope": box,
@@ -256,8 +264,10 @@ def _report(metrics: dict[str, dict[str, float]], speed: float) -> Report:
             check_at_most(
                 f"{m}: joint limit violation, operator phases [rad]",
                 src,
-                1e-3,
+                2e-3 if m == "velfence" else 1e-6,
                 v["operator_joint_violation"],
+                "servo lag carries the plain filter past a joint limit it commands to stop at; "
+                "the look-ahead stops it in time",
             ),
             check_at_least(f"{m}: sliding ratio along z_min", src, 0.9, v["sliding_ratio"]),
             check_at_most(f"{m}: recovery after the push [s]", src, 1.0, v["recovery_time"]),
@@ -275,7 +285,7 @@ def _report(metrics: dict[str, dict[str, float]], speed: float) -> Report:
             check_at_most(
                 "velfence + look-ahead: joint limit violation, whole run [rad]",
                 src,
-                1e-3,
+                1e-6,
                 metrics["velfence + look-ahead"]["joint_limit_violation"],
             )
         )
@@ -289,14 +299,29 @@ def _report(metrics: dict[str, dict[str, float]], speed: float) -> Report:
                 "no limit hits the sphere [periods] (stated failure)", src, 1.0, v["contact_steps"]
             ),
         ]
+        checks.append(
+            check_at_least(
+                "no limit exceeds the cell's joint-1 range [rad] (stated failure)",
+                src,
+                0.02,
+                v["operator_joint_violation"],
+            )
+        )
     if "per-joint clamp" in metrics:
         v = metrics["per-joint clamp"]
-        checks.append(
+        checks += [
             check_at_least(
                 "per-joint clamp leaves the box [m] (stated failure)",
                 src,
                 0.05,
                 v["operator_penetration"],
-            )
-        )
+            ),
+            check_at_most(
+                "per-joint clamp: joint limit violation, operator phases [rad]",
+                src,
+                5e-3,
+                v["operator_joint_violation"],
+                "it lands on the limit in one period; servo lag adds a little",
+            ),
+        ]
     return Report(f"sim fence-box ({speed} m/s)", tuple(checks))
