@@ -132,7 +132,7 @@ def test_h_with_three_zone_braking_and_outside() -> None:
     out_box = ConvexPolytope.box(P0 - 0.3, P0 + np.array([-0.01, 0.3, 0.3]))
     lb = LinearBuffer(buffer=BUFFER, spring_gain=2.0, max_recovery_speed=0.015)
     lim = PolytopeLimit(MODEL, out_box, frame_name="tcp", profile=lb, speed=SPEED)
-    G, h = lim.compute_qp_inequalities(_configuration(q), DT)
+    h = lim.compute_qp_inequalities(_configuration(q), DT).h
     dd = out_box.signed_distances(P0)
     k = int(np.argmin(dd))
     assert dd[k] == pytest.approx(-0.01)
@@ -249,7 +249,7 @@ def test_refuses_bad_arguments_naming_them() -> None:
         PolytopeLimit(MODEL, BOX, frame_name="nope")
     with pytest.raises(InvalidParameter, match="frame_type must be one of"):
         PolytopeLimit(MODEL, BOX, frame_name="tcp", frame_type="joint")  # type: ignore[arg-type]
-    with pytest.raises(InvalidParameter, match="model: expected a mujoco.MjModel"):
+    with pytest.raises(InvalidParameter, match=r"model: expected a mujoco\.MjModel"):
         PolytopeLimit("panda.xml", BOX, frame_name="tcp")
     square = ConvexPolytope.box([0.0, 0.0], [1.0, 1.0])
     with pytest.raises(InvalidParameter, match="polytope: expected a 3-D"):
@@ -262,7 +262,7 @@ def test_refuses_bad_arguments_naming_them() -> None:
     conf = _configuration(Q0)
     with pytest.raises(InvalidInput, match="dt must be finite and > 0"):
         lim.compute_qp_inequalities(conf, 0.0)
-    with pytest.raises(InvalidInput, match="configuration: expected a mink.Configuration"):
+    with pytest.raises(InvalidInput, match=r"configuration: expected a mink\.Configuration"):
         lim.compute_qp_inequalities(Q0, DT)
     import mujoco
 
@@ -288,3 +288,13 @@ def test_import_velfence_does_not_import_mink() -> None:
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == ""
+
+
+def test_the_docs_snippet_runs_and_prints_what_the_page_says(capsys) -> None:  # type: ignore[no-untyped-def]
+    from pathlib import Path
+
+    page = (Path(__file__).resolve().parents[2] / "docs" / "mink.md").read_text(encoding="utf-8")
+    code = page.split("```python\n", 1)[1].split("```", 1)[0]
+    exec(compile(code, "docs/mink.md", "exec"), {})
+    assert capsys.readouterr().out == "True\n"
+    assert "prints `True`" in page

@@ -15,7 +15,9 @@ frame origin's linear velocity (MuJoCo's ``mj_jacSite``/``mj_jacBody``/``mj_jacG
 (:func:`velfence.shaping.filter.workspace_bounds`, the exact law's one bound definition): inside,
 an approach speed at most the profile's cap (linear buffer: :math:`s\,d/\text{buffer}` within the
 buffer), and in discrete time at most :math:`d/dt` (one step never crosses the linearised facet);
-outside, the profile's forced return (at most the penetration per step). mink is imported with
+outside, the profile's forced return (at most the penetration per step). With the linear buffer
+the approach beyond the buffer is also capped at the cap speed :math:`s` (the SafetyFilter's
+command meets that by itself: there :math:`s` is the command's own speed). mink is imported with
 this module (the class derives from ``mink.Limit``); ``import velfence`` does not import it.
 Semantics and measurements in ``docs/mink.md``.
 """
@@ -86,8 +88,8 @@ class PolytopeLimit(mink.Limit):
         profile: An approach profile instead of the linear buffer (``LinearBuffer`` or
             ``ThreeZoneBraking``, in metres).
         speed: Cap speed ``s`` [m/s], > 0: the linear buffer lets the frame approach a facet at
-            distance ``d < buffer`` at most at ``s · d / buffer`` (a ``ThreeZoneBraking``
-            profile does not use it).
+            distance ``d`` at most at ``s · min(1, d / buffer)`` (a ``ThreeZoneBraking``
+            profile does not use it: its own ``max_speed`` caps the approach).
         gain: mink's convention, in (0, 1]: one step approaches a facet by at most
             ``gain · d``; ``1`` (the default) is the SafetyFilter's own discrete-time bound, a
             smaller value leaves a margin for the linearisation.
@@ -209,24 +211,21 @@ class PolytopeLimit(mink.Limit):
         p = getattr(data, self._pos)[self._id]
         dist = self._normals @ p - self._offsets
         NJ = self._normals @ self._jacp
-        if not (np.all(np.isfinite(dist)) and np.all(np.isfinite(NJ))):
+        if not (np.isfinite(dist).all() and np.isfinite(NJ).all()):
             raise InvalidInput(
                 "configuration: expected a pose with finite kinematics, got a non-finite "
                 f"position or Jacobian of {self.frame_type} {self.frame_name!r} "
                 f"(q={np.asarray(configuration.q).tolist()[:12]})"
             )
         bnd = workspace_bounds(self.profile, dist, self.speed, step)
-        if self._linear or self.gain < 1.0:
-            inside = dist >= 0.0
-            b_in = bnd[inside]
-            if self._linear:
-                # Beyond the buffer the approach is at most ``speed`` (the cap s·min(1, d/buffer)
-                # stays continuous at the buffer's edge): what the SafetyFilter's command meets
-                # by itself, its cap speed being the command's own speed.
-                b_in = np.maximum(b_in, -self.speed)
-            if self.gain < 1.0:
-                b_in = np.maximum(b_in, -self.gain * dist[inside] / step)
-            bnd[inside] = b_in
+        if self._linear:
+            # Beyond the buffer the approach is at most ``speed`` (the cap s·min(1, d/buffer) stays
+            # continuous at the buffer's edge): what the SafetyFilter's command meets by itself,
+            # its cap speed being the command's own speed. (A violated facet's bound is > 0.)
+            np.maximum(bnd, -self.speed, out=bnd)
+        if self.gain < 1.0:
+            reach = np.where(dist >= 0.0, dist * (-self.gain / step), -math.inf)
+            np.maximum(bnd, reach, out=bnd)
         kept = np.flatnonzero(bnd != -math.inf)
         G: FloatArray = -NJ[kept]
         h: FloatArray = -step * bnd[kept]
