@@ -269,6 +269,14 @@ def test_refuses_bad_arguments_naming_them() -> None:
     other = mink.Configuration(mujoco.MjModel.from_xml_string(_two_joint_xml()))
     with pytest.raises(InvalidInput, match="configuration: expected a configuration of this"):
         lim.compute_qp_inequalities(other, DT)
+    # A copy of the model is the same model (same sizes, the frame at the same index).
+    import copy
+
+    twin = mink.Configuration(copy.deepcopy(MODEL))
+    twin.update(Q0)
+    np.testing.assert_array_equal(
+        lim.compute_qp_inequalities(twin, DT).h, lim.compute_qp_inequalities(conf, DT).h
+    )
     conf.data.qpos[0] = np.nan
     conf.update()
     with pytest.raises(InvalidInput, match="configuration: expected a pose with finite"):

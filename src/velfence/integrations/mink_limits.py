@@ -60,6 +60,12 @@ def _mujoco_model(model: Any) -> Any:
     return mujoco
 
 
+def _frame_enum(mujoco: Any, kind: FrameType) -> Any:
+    """MuJoCo's object type of a frame kind (``mjtObj``)."""
+    obj = mujoco.mjtObj
+    return {"body": obj.mjOBJ_BODY, "geom": obj.mjOBJ_GEOM, "site": obj.mjOBJ_SITE}[kind]
+
+
 class PolytopeLimit(mink.Limit):
     r"""Keeps a frame's origin in a convex polytope, as a limit of ``mink.solve_ik``.
 
@@ -117,11 +123,7 @@ class PolytopeLimit(mink.Limit):
         mujoco = _mujoco_model(model)
         kind = check_choice("frame_type", frame_type, _FRAME_TYPES)
         name = check_text("frame_name", frame_name, max_length=1000)
-        enum = {
-            "body": mujoco.mjtObj.mjOBJ_BODY,
-            "geom": mujoco.mjtObj.mjOBJ_GEOM,
-            "site": mujoco.mjtObj.mjOBJ_SITE,
-        }[kind]
+        enum = _frame_enum(mujoco, kind)
         fid = int(mujoco.mj_name2id(model, enum, name)) if name else -1
         if fid < 0:
             count = {"body": model.nbody, "geom": model.ngeom, "site": model.nsite}[kind]
@@ -176,14 +178,24 @@ class PolytopeLimit(mink.Limit):
             raise InvalidInput(
                 f"configuration: expected a mink.Configuration, got {describe(configuration)}"
             )
-        nv = int(configuration.model.nv)
-        if configuration.model is not self.model and (
-            nv != self.model.nv or configuration.model.nq != self.model.nq
-        ):
-            raise InvalidInput(
-                f"configuration: expected a configuration of this limit's model (nq="
-                f"{self.model.nq}, nv={self.model.nv}), got nq={configuration.model.nq}, nv={nv}"
+        other = configuration.model
+        if other is not self.model:
+            # Another MjModel (a copy, say): it must have the same sizes and the frame at the
+            # same index, or the rows would read another frame's (or no) data.
+            import mujoco
+
+            enum = _frame_enum(mujoco, self.frame_type)
+            same = (
+                isinstance(other, mujoco.MjModel)
+                and (other.nq, other.nv) == (self.model.nq, self.model.nv)
+                and int(mujoco.mj_name2id(other, enum, self.frame_name)) == self._id
             )
+            if not same:
+                raise InvalidInput(
+                    f"configuration: expected a configuration of this limit's model (nq="
+                    f"{self.model.nq}, nv={self.model.nv}, {self.frame_type} "
+                    f"{self.frame_name!r} at index {self._id}), got another model"
+                )
         return float(dt)
 
     def compute_qp_inequalities(self, configuration: Any, dt: float) -> mink.Constraint:
