@@ -238,7 +238,7 @@ class PolytopeLimit(mink.Limit):
         if self.gain < 1.0:
             reach = np.where(dist >= 0.0, dist * (-self.gain / step), -math.inf)
             np.maximum(bnd, reach, out=bnd)
-        kept = np.flatnonzero(bnd != -math.inf)
-        G: FloatArray = -NJ[kept]
-        h: FloatArray = -step * bnd[kept]
+        # With a period every bound is finite (at worst -d/dt): every facet keeps its row.
+        G: FloatArray = -NJ
+        h: FloatArray = -step * bnd
         return mink.Constraint(G=G, h=h)
