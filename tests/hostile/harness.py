@@ -611,6 +611,7 @@ SPEC_MODULES = (
     "specs_cobot",
     "specs_teleop",
     "specs_io",
+    "specs_integrations",
     "specs_viz",
     "specs_reproduce",
     "specs_tools",

@@ -235,6 +235,23 @@ def _bounds(
     return bnd
 
 
+def workspace_bounds(
+    profile: Profile, distances: FloatArray, speed: float, dt: float | None
+) -> FloatArray:
+    """The filter's workspace-facet bounds: lower bounds on ``n_i·ṗ`` [m/s], shape (k,).
+
+    What :class:`SafetyFilter` puts on the right of its workspace rows ``(n_iᵀ J_p) x >= b_i``
+    (:func:`_bounds` with the plain kernels), exposed for the other formulations of the same
+    rows (``velfence.integrations.mink_limits.PolytopeLimit``) so that they share the law rather
+    than a copy of it. Inputs are trusted (validated by the caller): ``profile`` a
+    :data:`Profile`, ``distances`` the facets' signed distances [m] (positive inside, finite,
+    float64, shape (k,)), ``speed`` the cap speed ``s`` >= 0 [m/s] (the filter passes the
+    command's speed of the point, ``‖J u‖``), ``dt`` the control period [s] or ``None``.
+    ``-inf`` marks a facet without a bound (continuous time, beyond the profile's reach).
+    """
+    return _bounds(profile, distances, speed, 0.0 if dt is None else 1.0 / dt)
+
+
 def _bound1(prm: Profile, d: float, speed: float, idt: float) -> float:
     """:func:`_bounds` of one row, the plain kernels on Python floats (cheaper for one row)."""
     kind, params = prm.kernel_profile
