@@ -153,7 +153,9 @@ def wrist_mjcf(
     for i in range(2):
         lines.append(f'        <site name="hand_pin{i + 1}" pos="{_fmt(B[i])}" size="0.003"/>')
     lines += ["      </body>", "    </body>"]
-    stroke = f' range="{geo.stroke_min!r} {geo.stroke_max!r}"' if stops else ""
+    stroke = (
+        f' range="{geo.stroke_min!r} {geo.stroke_max!r}" solreflimit="0.001 1"' if stops else ""
+    )
     for i in range(2):
         k = i + 1
         R = frames[i]
