@@ -57,3 +57,27 @@ SPECS: dict[str, F | C] = {
     "robots.seven_dof": F(lambda: call(tool=[0.0, 0.0, 0.1], radius=0.02), types=_MAKER),
     "robots.puma560": F(lambda: call(tool=[0.0, 0.0, 0.1], radius=0.02), types=_MAKER),
 }
+
+# --- the closed-chain wrist (velfence.robots.wrist_model) ---
+from velfence.mechanisms import WristGeometry  # noqa: E402
+
+_WRIST_OPTS = {
+    "gravity_compensation": "flag",
+    "actuator_armature": "positive",
+    "hard_stops": "flag",
+}
+SPECS.update(
+    {
+        "robots.wrist_mjcf": F(
+            lambda: call(WristGeometry(), gravity_compensation=False, actuator_armature=1.0),
+            types={"geometry": "object", **_WRIST_OPTS},
+        ),
+        "robots.wrist_robot": F(
+            lambda: call(WristGeometry(), hard_stops=False),
+            types={"geometry": "object", **_WRIST_OPTS},
+        ),
+        "robots.wrist_qpos": F(
+            lambda: call([0.2, -0.1], WristGeometry()), types={"q": "vector", "geometry": "object"}
+        ),
+    }
+)

@@ -12,5 +12,17 @@ from __future__ import annotations
 from velfence.robots.mjcf import dh_mjcf, mdh_mjcf
 from velfence.robots.model import MujocoRobot
 from velfence.robots.models import panda, puma560, seven_dof, ur5e
+from velfence.robots.wrist_model import wrist_mjcf, wrist_qpos, wrist_robot
 
-__all__ = ["MujocoRobot", "dh_mjcf", "mdh_mjcf", "panda", "puma560", "seven_dof", "ur5e"]
+__all__ = [
+    "MujocoRobot",
+    "dh_mjcf",
+    "mdh_mjcf",
+    "panda",
+    "puma560",
+    "seven_dof",
+    "ur5e",
+    "wrist_mjcf",
+    "wrist_qpos",
+    "wrist_robot",
+]
