@@ -234,12 +234,13 @@ def sim(
     else:
         console = Console()
         table = Table(title=f"sim {scenario} (MuJoCo)")
-        table.add_column("metric [unit]")
+        table.add_column(escape("metric [unit]"))
         for name in result.metrics:
             table.add_column(name)
         for key, unit in result.units.items():
             table.add_row(
-                f"{key} [{unit}]", *(_short(result.metrics[m][key]) for m in result.metrics)
+                escape(f"{key} [{unit}]"),
+                *(_short(result.metrics[m][key]) for m in result.metrics),
             )
         console.print(table)
         for c in report.checks:

@@ -49,12 +49,14 @@ def plot_margins(result: ScenarioResult, path: Path) -> Path:
     import matplotlib.pyplot as plt
 
     label, unit, lines = result.scene["margin"]
+    # Millimetres and milliradians read better than 0.00x m or rad.
+    scale, shown = (1e3, f"m{unit}") if unit in ("m", "rad") else (1.0, unit)
     fig, (ax, ax2) = plt.subplots(
         2, 1, figsize=(10, 7), sharex=True, gridspec_kw={"height_ratios": [3, 1]}
     )
     for i, (name, run) in enumerate(result.runs.items()):
         t = run.trajectory.t
-        ax.plot(t, 1e3 * run.extra["margin"], color=COLORS.get(name, f"C{i}"), lw=1.6, label=name)
+        ax.plot(t, scale * run.extra["margin"], color=COLORS.get(name, f"C{i}"), lw=1.6, label=name)
         ax2.step(
             t,
             run.record.contacts,
@@ -64,12 +66,12 @@ def plot_margins(result: ScenarioResult, path: Path) -> Path:
             label=name,
         )
     for j, (what, value) in enumerate(lines.items()):
-        ax.axhline(1e3 * value, color="k", ls=("--", ":", "-.")[j % 3], lw=1.0, label=what)
+        ax.axhline(scale * value, color="k", ls=("--", ":", "-.")[j % 3], lw=1.0, label=what)
     if "push" in result.scene:
         t0, t1 = result.scene["push"]
         ax.axvspan(t0, t1, color="#d62728", alpha=0.12, label="external push")
         ax2.axvspan(t0, t1, color="#d62728", alpha=0.12)
-    ax.set_ylabel(f"{label} [m{unit}]" if unit == "m" else f"{label} [{unit}]")
+    ax.set_ylabel(f"{label} [{shown}]")
     ax.set_title(f"{result.name} in MuJoCo: {label} (below the wall line = outside)")
     ax.legend(loc="lower left", fontsize=9, ncol=2)
     ax.grid(alpha=0.3)
