@@ -51,7 +51,9 @@ class ScenarioResult:
         units: Metric name -> unit.
         report: The named checks (``velfence reproduce``'s JSON format).
         scene: What the figures and videos draw: ``"polytope"`` (a ConvexPolytope),
-            ``"spheres"`` (list of (centre, radius)), ``"polygon"`` (a ConvexPolygon) as present.
+            ``"spheres"`` (list of (centre, radius)), ``"polygon"`` (a ConvexPolygon) as present;
+            ``"camera"``: keyword arguments of :func:`velfence.viz.video.render_frames`
+            (``lookat``, ``distance``, ``azimuth``, ``elevation``) for the video.
     """
 
     name: str

@@ -192,6 +192,12 @@ def run(
         "spheres": [(np.array(SPHERE_CENTER), SPHERE_RADIUS)],
         "push": (push_t0, push_t0 + PUSH_DURATION),
         "point": "TCP",
+        "camera": {
+            "lookat": (0.42, 0.0, 0.38),
+            "distance": 1.9,
+            "azimuth": 150.0,
+            "elevation": -22.0,
+        },
         "margin": ("TCP distance inside the box", "m", {"buffer": BUFFER, "wall": 0.0}),
     }
     return ScenarioResult("fence-box", runs, metrics, UNITS, report, scene)

@@ -126,6 +126,13 @@ def write_video(
     for j, (c, r) in enumerate(result.scene.get("spheres", [])):
         alpha = 0.35 if j == 0 else 0.12
         overlays_common.append(SphereOverlay(c, radius=r, rgba=(0.9, 0.2, 0.2, alpha)))
+    camera: dict[str, Any] = dict(result.scene.get("camera", {}))
+    if not camera and "polytope" in result.scene:  # frame the workspace
+        v = result.scene["polytope"].vertices
+        camera = {
+            "lookat": v.mean(axis=0),
+            "distance": 2.5 * float(np.linalg.norm(v.max(axis=0) - v.min(axis=0))),
+        }
     panels: dict[str, Any] = {}
     for k, name in enumerate(names):
         run = result.runs[name]
@@ -149,6 +156,7 @@ def write_video(
             overlays=overlays,
             captions=captions,
             progress=sub,
+            **camera,
         )
     frames = side_by_side(panels)
     out = []
