@@ -131,7 +131,7 @@ def plot_lag(rows: Sequence[LagRow], path: Path) -> Path:
         [1e3 * r.penetration_lookahead for r in rows],
         "s",
         color="#17becf",
-        label="with LagCompensation (look-ahead)",
+        label="with LagCompensation (look-ahead + guard)",
     )
     ax.axvline(0.25, color="k", ls="--", lw=1, label="uT/b = 1/4 (linear overshoot threshold)")
     ax.set_xscale("log")
