@@ -643,3 +643,31 @@ def check_output_path(name: str, value: Any, *, error: type[Exception] | None = 
     if not out.parent.is_dir():
         raise err(f"{name}: the directory {str(out.parent)!r} does not exist; create it first")
     return out
+
+
+def require_package(name: str, package: str, *, extra: str, what: str) -> Any:
+    """Import an optional dependency, or refuse the public argument ``name`` that needs it.
+
+    Args:
+        name: The public argument whose use needs the package (named in the message).
+        package: The module to import (e.g. ``"mujoco"``).
+        extra: The velfence extra that installs it (e.g. ``"physics"``).
+        what: What needs it, for the message (e.g. ``"a physics plant"``).
+
+    Returns:
+        The imported module.
+
+    Raises:
+        InvalidParameter: the package is not installed.
+    """
+    import importlib
+
+    from velfence.errors import InvalidParameter
+
+    try:
+        return importlib.import_module(package)
+    except ImportError as exc:
+        raise InvalidParameter(
+            f"{name}: {what} needs the {package!r} package, got ImportError; "
+            f"install velfence[{extra}]"
+        ) from exc

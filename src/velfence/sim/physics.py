@@ -51,6 +51,7 @@ from velfence._validate import (
     finite_scalar,
     readonly,
     real_array,
+    require_package,
 )
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.shaping.limits import SphereObstacle
@@ -67,14 +68,7 @@ _MAX_SUBSTEPS = 10_000
 
 
 def _mujoco() -> Any:
-    try:
-        import mujoco
-    except ImportError as exc:  # pragma: no cover - the physics extra is missing
-        raise InvalidParameter(
-            "robot: a physics plant needs the 'mujoco' package, got ImportError; "
-            "install velfence[physics]"
-        ) from exc
-    return mujoco
+    return require_package("robot", "mujoco", extra="physics", what="a physics plant")
 
 
 @dataclass(frozen=True)

@@ -30,6 +30,7 @@ from velfence._validate import (
     check_positive_int,
     finite_scalar,
     real_array,
+    require_package,
 )
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.geometry.polytope import ConvexPolytope
@@ -58,14 +59,7 @@ def _rgba(rgba: ArrayLike) -> NDArray[np.float32]:
 
 
 def _mujoco() -> Any:
-    try:
-        import mujoco
-    except ImportError as exc:  # pragma: no cover - the physics extra is missing
-        raise InvalidParameter(
-            "model: rendering needs the 'mujoco' package, got ImportError; "
-            "install velfence[physics]"
-        ) from exc
-    return mujoco
+    return require_package("model", "mujoco", extra="physics", what="rendering")
 
 
 def _drawing(scene: Any, frame: Any) -> tuple[Any, int]:
