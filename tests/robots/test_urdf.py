@@ -12,7 +12,7 @@ import pytest
 pytest.importorskip("mujoco")
 
 from velfence.errors import InvalidGeometry, InvalidParameter
-from velfence.robots import MujocoRobot
+from velfence.robots import MujocoRobot, dh_mjcf, panda
 
 # A 3-link arm on a base: revolute joints about z, z (after a +90° roll) and y, a fixed joint to
 # a tool frame, a package:// mesh in a visual and in a collision, limits with effort/velocity
@@ -270,14 +270,56 @@ def test_validation(urdf: Path, tmp_path: Path) -> None:
         MujocoRobot.from_urdf(bad)
 
 
-def test_example_robot_data_panda_matches_the_shipped_panda() -> None:
-    erd = pytest.importorskip("example_robot_data")
-    from velfence.robots import panda
+def _example_robot_data() -> Path:
+    """The URDF tree of the ``example-robot-data`` wheel (data only, no download), or skip."""
+    from importlib import metadata
 
-    path = Path(erd.getModelPath("panda_description/urdf/panda.urdf")) / (
-        "panda_description/urdf/panda.urdf"
-    )
-    robot = MujocoRobot.from_urdf(path, tcp_link="panda_link8")
+    try:
+        dist = metadata.distribution("example-robot-data")
+    except metadata.PackageNotFoundError:
+        pytest.skip("example-robot-data is not installed")
+    root = Path(str(dist.locate_file("cmeel.prefix/share/example-robot-data/robots")))
+    if not root.is_dir():
+        pytest.skip(f"example-robot-data has no robots/ tree at {root}")
+    return root
+
+
+def test_example_robot_data_panda_matches_the_shipped_panda() -> None:
+    # franka_description's link frames are the modified-DH frames: link i+1 is our joint<i>
+    # site, panda_link8 the flange. Its meshes are .dae (MuJoCo reads none): meshes=False.
+    root = _example_robot_data()
+    robot = MujocoRobot.from_urdf(root / "panda_description" / "urdf" / "panda.urdf")
     ref = panda()
-    for q in _random_q(ref, 10, seed=4):
-        np.testing.assert_allclose(robot.fk(q[: robot.dof])[:3], ref.fk(q, "flange"), atol=1e-6)
+    assert robot.joint_names[:7] == ref.joint_names
+    np.testing.assert_allclose(robot.joint_limits[:7], ref.joint_limits, atol=1e-12)
+    np.testing.assert_array_equal(robot.velocity_limits[:7], ref.velocity_limits)
+    np.testing.assert_array_equal(robot.effort_limits[:7], ref.effort_limits)
+    for q in _random_q(ref, 30, seed=4):
+        qq = np.zeros(robot.dof)
+        qq[:7] = q
+        np.testing.assert_allclose(robot.fk(qq, "panda_link8"), ref.fk(q, "flange"), atol=1e-12)
+        for i in range(7):
+            np.testing.assert_allclose(
+                robot.fk(qq, f"panda_link{i + 1}"), ref.fk(q, f"joint{i}"), atol=1e-12
+            )
+
+
+def test_example_robot_data_ur5_matches_its_dh_table() -> None:
+    # UR5 (CB3; the package has no UR5e): ur_description's "tool0" is the DH flange, expressed
+    # here in its "base" frame (base_link turned by π about z).
+    root = _example_robot_data()
+    robot = MujocoRobot.from_urdf(root / "ur_description" / "urdf" / "ur5_robot.urdf")
+    h = math.pi / 2
+    rows = [
+        [0.0, h, 0.089159, 0.0],
+        [-0.425, 0.0, 0.0, 0.0],
+        [-0.39225, 0.0, 0.0, 0.0],
+        [0.0, h, 0.10915, 0.0],
+        [0.0, -h, 0.09465, 0.0],
+        [0.0, 0.0, 0.0823, 0.0],
+    ]
+    ref = MujocoRobot.from_xml(dh_mjcf(rows, [[-7.0, 7.0]] * 6))
+    flip = np.array([-1.0, -1.0, 1.0])
+    for q in np.random.default_rng(5).uniform(-3.0, 3.0, size=(30, 6)):
+        # the URDF's rpy are rounded to 1e-11 rad (1.57079632679)
+        np.testing.assert_allclose(flip * robot.fk(q, "tool0"), ref.fk(q), atol=1e-10)
