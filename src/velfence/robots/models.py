@@ -3,7 +3,9 @@
 The standard DH tables and joint limits of :func:`seven_dof`, :func:`ur5e` and :func:`puma560`
 are read from ``velfence.mechanisms.DHChain``'s factories of the same names (one table each), so
 both give the same kinematics. :func:`panda` is a
-Franka-Emika-Panda-like arm from Franka's published modified-DH parameters.
+Franka-Emika-Panda-like arm from Franka's published modified-DH parameters. Masses, centres of
+mass, inertias and effort/velocity limits are the published ones where they exist; the
+approximations and their sources are listed in ``docs/robots.md``.
 """
 
 from __future__ import annotations
@@ -148,8 +150,10 @@ def seven_dof(*, tool: ArrayLike | None = None, radius: float = 0.0) -> MujocoRo
 
     Standard DH: d = 0.36, 0, 0.42, 0, 0.40, 0, 0.126 m, a = 0, alpha alternating -π/2, +π/2
     (last 0); straight up at ``q = 0``. Limits ±170°, ±120°, ±170°, ±120°, ±170°, ±120°,
-    ±175°. Sites ``"tcp"``, ``"flange"``, ``"elbow"`` (joint 3), ``"wrist"`` (joint 5),
-    ``"joint0"`` … ``"joint6"``.
+    ±175°. Effort and speed limits of the iiwa 14 datasheet; link masses are the ROS
+    ``iiwa_stack`` placeholders (KUKA publishes none), inertias cylinder approximations
+    (docs/robots.md). Sites ``"tcp"``, ``"flange"``, ``"elbow"`` (joint 3), ``"wrist"``
+    (joint 5), ``"joint0"`` … ``"joint6"``.
 
     Args:
         tool: Tool point in the flange frame [m], shape (3,); the flange when ``None``.
@@ -179,8 +183,10 @@ def ur5e(*, tool: ArrayLike | None = None, radius: float = 0.0) -> MujocoRobot:
     Source: Universal Robots, "DH parameters for calculations of kinematics and dynamics"
     (UR5e: d1 = 0.1625, a2 = -0.425, a3 = -0.3922, d4 = 0.1333, d5 = 0.0997, d6 = 0.0996 m).
     Joints named as in ``ur_robot_driver`` (``shoulder_pan_joint`` … ``wrist_3_joint``),
-    limits ±2π. Sites ``"tcp"``, ``"flange"``, ``"elbow"`` (joint 2), ``"wrist"`` (joint 3),
-    ``"joint0"`` … ``"joint5"``.
+    limits ±2π. Link masses and centres of mass from the same article (inertias: cylinder
+    approximations), effort limits 150/28 N·m and speeds π rad/s from the datasheet. Sites
+    ``"tcp"``, ``"flange"``, ``"elbow"`` (joint 2), ``"wrist"`` (joint 3), ``"joint0"`` …
+    ``"joint5"``.
 
     Args:
         tool: Tool point in the flange frame [m], shape (3,); the flange when ``None``.
@@ -210,7 +216,9 @@ def puma560(*, tool: ArrayLike | None = None, radius: float = 0.0) -> MujocoRobo
 
     a2 = 0.4318, d2 = 0.15, a3 = -0.0203, d4 = 0.4331 m; tool point the wrist centre unless
     ``tool`` is given. Limits [deg] (-160, 160), (-225, 45), (-45, 225), (-110, 170),
-    (-100, 100), (-266, 266). Sites ``"tcp"``, ``"flange"``, ``"elbow"`` (joint 2), ``"wrist"``
+    (-100, 100), (-266, 266). Masses, centres of mass and inertias of Armstrong, Khatib &
+    Burdick (1986), moved to these frames (docs/robots.md); no effort or speed limits. Sites
+    ``"tcp"``, ``"flange"``, ``"elbow"`` (joint 2), ``"wrist"``
     (joint 4), ``"joint0"`` … ``"joint5"``.
 
     Args:
