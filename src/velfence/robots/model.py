@@ -187,15 +187,16 @@ class MujocoRobot(CapsuleLinks):
         tool: ArrayLike | None = None,
         meshes: bool = False,
     ) -> MujocoRobot:
-        """Load a URDF file; MuJoCo compiles it (:mod:`velfence.robots.urdf` for the details).
+        """Load a URDF file; MuJoCo compiles it (``velfence.robots.urdf`` for the details).
 
         Links behind fixed joints stay frames of their own (``fusestatic="false"``), and every
         link gets a site of its name, so :meth:`fk` and :meth:`jacobian` reach any link frame.
         Joint names and ranges, :attr:`effort_limits` and :attr:`velocity_limits` come from the
         URDF's ``<joint>`` and ``<limit lower= upper= effort= velocity=>``. ``continuous``
-        joints get the limits ``(-π, π)`` (see :attr:`joint_limits`); ``floating`` and
-        ``planar`` joints are refused. :attr:`xml` is the MJCF MuJoCo made of it (numbers at
-        full precision), for a physics scene.
+        joints get the limits ``(-π, π)`` (see :attr:`joint_limits`); a ``planar`` joint
+        becomes MuJoCo's two slides and a hinge (``<name>_TX``, ``_TY``, ``_RZ``, no effort or
+        velocity limits); ``floating`` joints are refused. :attr:`xml` is the MJCF MuJoCo made
+        of it (numbers at full precision), for a physics scene.
 
         Args:
             path: Path of the ``.urdf`` file.
