@@ -31,6 +31,11 @@ _ROBOT_METHODS = {
     "fk": F(lambda: call(_Q2, "joint1"), types={"point": "choice"}),
     "jacobian": F(lambda: call(_Q2, "joint1"), types={"point": "choice"}),
     "angular_jacobian": lambda: call(_Q2),
+    "joint_positions": lambda: call(_Q2),
+    "link_segments": lambda: call(_Q2),
+    "end_effector": lambda: call(_Q2),
+    "ee_jacobian": lambda: call(_Q2),
+    "point_jacobian": F(lambda: call(_Q2, 1, 0.5), types={"t": "scalar", "link": "seed"}),
     "from_xml": F(lambda: call(_XML), types={"text": "path"}),
     "from_file": F(lambda: call(_FILE), types={"path": "path"}),
     "from_urdf": F(

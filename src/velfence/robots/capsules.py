@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from velfence._typing import FloatArray
-from velfence._validate import finite_scalar, readonly
+from velfence._validate import describe, finite_scalar, readonly
 from velfence.errors import InvalidGeometry, InvalidInput
 
 __all__ = ["CapsuleLinks"]
@@ -128,11 +128,11 @@ class CapsuleLinks:
         ids = self._link_sites()
         nl = len(ids) - 1
         if (
-            isinstance(link, bool)
+            isinstance(link, (bool, np.bool_, np.timedelta64))
             or not isinstance(link, (int, np.integer))
             or not (0 <= int(link) < nl)
         ):
-            raise InvalidInput(f"link: expected an int in [0, {nl - 1}], got {link!r}"[:200])
+            raise InvalidInput(f"link: expected an int in [0, {nl - 1}], got {describe(link)}")
         tt = finite_scalar("t", t, what="fraction along the link")
         if not 0.0 <= tt <= 1.0:
             raise InvalidInput(f"t: expected a fraction in [0, 1], got {tt}")
