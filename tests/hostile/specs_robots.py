@@ -13,6 +13,15 @@ from velfence.robots import dh_mjcf
 _XML = dh_mjcf([[0.0, 0.0, 0.5, 0.0], [0.3, 0.0, 0.0, 0.0]], [[-1.0, 1.0], [-2.0, 2.0]])
 _FILE = Path(tempfile.mkdtemp(prefix="velfence-robots-")) / "arm.xml"
 _FILE.write_text(_XML, encoding="utf-8")
+_URDF = _FILE.with_name("arm.urdf")
+_URDF.write_text(
+    '<robot name="r"><link name="base"/><link name="tip"><inertial><mass value="1"/>'
+    '<inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial></link>'
+    '<joint name="j" type="revolute"><parent link="base"/><child link="tip"/>'
+    '<origin xyz="0 0 0.3"/><axis xyz="0 0 1"/>'
+    '<limit lower="-1" upper="1" effort="5" velocity="2"/></joint></robot>',
+    encoding="utf-8",
+)
 _Q2 = np.array([0.3, -0.4])
 _ROWS = [[0.0, 0.0, 0.5, 0.0], [0.3, 0.5, 0.1, 0.0]]
 _LIM = [[-1.0, 1.0], [-2.0, 2.0]]
@@ -22,13 +31,41 @@ _ROBOT_METHODS = {
     "fk": F(lambda: call(_Q2, "joint1"), types={"point": "choice"}),
     "jacobian": F(lambda: call(_Q2, "joint1"), types={"point": "choice"}),
     "angular_jacobian": lambda: call(_Q2),
-    "from_xml": F(lambda: call(_XML), types={"text": "path"}),
-    "from_file": F(lambda: call(_FILE), types={"path": "path"}),
     "joint_positions": lambda: call(_Q2),
     "link_segments": lambda: call(_Q2),
-    "point_jacobian": F(lambda: call(_Q2, 1, 0.5), types={"link": "count", "t": "nonneg"}),
     "end_effector": lambda: call(_Q2),
     "ee_jacobian": lambda: call(_Q2),
+    "point_jacobian": F(lambda: call(_Q2, 1, 0.5), types={"t": "scalar", "link": "seed"}),
+    "from_xml": F(lambda: call(_XML), types={"text": "path"}),
+    "from_file": F(lambda: call(_FILE), types={"path": "path"}),
+    "from_urdf": F(
+        lambda: call(
+            _URDF,
+            package_paths=[str(_FILE.parent)],
+            tcp_link="tip",
+            tool=[0.0, 0.0, 0.1],
+            meshes=False,
+        ),
+        types={"path": "path", "tcp_link": "choice"},
+        skip={
+            "package_paths": "a sequence of directories (() is valid); "
+            "tests/robots/test_urdf.py checks it"
+        },
+    ),
+}
+_PHYSICS = {
+    "masses": [2.0, 1.0],
+    "centers_of_mass": [[0.0, 0.0, -0.2], [-0.1, 0.0, 0.0]],
+    "inertias": [[0.02, 0.02, 0.01], [0.01, 0.02, 0.02]],
+    "velocity_limits": [2.0, 3.0],
+    "effort_limits": [50.0, 20.0],
+}
+_PHYSICS_TYPES = {
+    "masses": "vector",
+    "centers_of_mass": "rows",
+    "inertias": "rows",
+    "velocity_limits": "vector",
+    "effort_limits": "vector",
 }
 
 SPECS: dict[str, F | C] = {
@@ -37,20 +74,29 @@ SPECS: dict[str, F | C] = {
         _ROBOT_METHODS,
     ),
     "robots.dh_mjcf": F(
-        lambda: call(_ROWS, _LIM, [0.0, 0.0, 0.1], "arm", radius=0.02),
-        types={"dh_rows": "rows", "joint_limits": "rows", "name": "text", **_MAKER},
+        lambda: call(_ROWS, _LIM, [0.0, 0.0, 0.1], "arm", radius=0.02, **_PHYSICS),
+        types={
+            "dh_rows": "rows",
+            "joint_limits": "rows",
+            "name": "text",
+            **_MAKER,
+            **_PHYSICS_TYPES,
+        },
         skip=_SKIP,
+        required=frozenset({"masses"}),
     ),
     "robots.mdh_mjcf": F(
-        lambda: call(_ROWS, _LIM, [0.0, 0.0, 0.1], "arm", flange_d=0.1, radius=0.02),
+        lambda: call(_ROWS, _LIM, [0.0, 0.0, 0.1], "arm", flange_d=0.1, radius=0.02, **_PHYSICS),
         types={
             "mdh_rows": "rows",
             "joint_limits": "rows",
             "name": "text",
             "flange_d": "scalar",
             **_MAKER,
+            **_PHYSICS_TYPES,
         },
         skip=_SKIP,
+        required=frozenset({"masses"}),
     ),
     "robots.panda": F(lambda: call(tool=[0.0, 0.0, 0.1], radius=0.02), types=_MAKER),
     "robots.ur5e": F(lambda: call(tool=[0.0, 0.0, 0.1], radius=0.02), types=_MAKER),

@@ -13,6 +13,19 @@ the joint's DH frame:
 
 Sites: ``"tcp"`` (the flange plus ``tool`` in the flange frame), ``"flange"``, ``"joint0"`` …
 ``"joint{n-1}"`` (each joint's body origin, on its axis) and the ``named_points``.
+
+Physical parameters (all optional, keyword-only): ``masses`` [kg], ``centers_of_mass`` [m] and
+``inertias`` [kg·m²] of the links, each in the *link frame* (standard DH: DH frame ``i``, at the
+link's distal joint, as Universal Robots and Corke publish them; modified DH: frame ``i``, the
+body itself, as Franka publishes them); without ``centers_of_mass`` a link's centre of mass is
+the middle of its segment, without ``inertias`` the link is a solid cylinder of radius
+``LINK_CYLINDER_RADIUS`` (0.05 m) along its segment (an approximation, say so where you use it).
+Without ``masses`` every link is a unit point mass (a kinematic placeholder).
+``effort_limits`` [N·m] become each joint's ``actuatorfrcrange`` (MuJoCo's
+``jnt_actfrcrange``); ``velocity_limits`` [rad/s], which MJCF has no attribute for, a
+``<custom><numeric name="velocity_limits">``; :class:`MujocoRobot` reads both back
+(``+inf`` where a model has none). No ``<option>`` is written:
+gravity and time step belong to whoever simulates the arm.
 """
 
 from __future__ import annotations
@@ -27,9 +40,14 @@ from numpy.typing import ArrayLike
 
 from velfence._typing import FloatArray
 from velfence._validate import check_positive, check_text, real_array
-from velfence.errors import InvalidGeometry
+from velfence.errors import InvalidGeometry, InvalidParameter
 
 __all__ = ["dh_mjcf", "mdh_mjcf"]
+
+#: Radius [m] of the solid cylinder a link's inertia is approximated by when none is given.
+LINK_CYLINDER_RADIUS = 0.05
+#: Name of the ``<custom><numeric>`` element that holds the joint velocity limits [rad/s].
+VELOCITY_LIMITS_NUMERIC = "velocity_limits"
 
 
 def _quat_mul(p: FloatArray, q: FloatArray) -> FloatArray:
@@ -56,6 +74,143 @@ def _qz(a: float) -> FloatArray:
 
 def _fmt(v: Any) -> str:
     return " ".join(repr(float(x)) for x in np.asarray(v, dtype=float).ravel())
+
+
+def _quat_matrix(q: FloatArray) -> FloatArray:
+    """Rotation matrix of a unit quaternion ``(w, x, y, z)``."""
+    w, x, y, z = q
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+
+
+def _limit_vector(arg: str, value: ArrayLike | None, n: int, unit: str) -> FloatArray | None:
+    """Per-joint limits, shape (n,), each finite and > 0 (``None``: none at all)."""
+    if value is None:
+        return None
+    a = real_array(arg, value, (n,), error=InvalidParameter, what=f"limits {unit}")
+    if np.any(a <= 0.0):
+        raise InvalidParameter(f"{arg}: expected one limit > 0 {unit} per joint, got {a.tolist()}")
+    return a
+
+
+def _inertia_matrices(value: ArrayLike, n: int) -> FloatArray:
+    """Link inertias (n, 3) principal or (n, 6) ``Ixx Iyy Izz Ixy Ixz Iyz`` as (n, 3, 3)."""
+    a = real_array("inertias", value, None, error=InvalidParameter, what="inertias [kg·m²]")
+    if a.ndim != 2 or a.shape[0] != n or a.shape[1] not in (3, 6):
+        raise InvalidParameter(
+            f"inertias: expected shape ({n}, 3) (principal moments) or ({n}, 6) "
+            f"(Ixx, Iyy, Izz, Ixy, Ixz, Iyz) [kg·m²], got shape {a.shape}"
+        )
+    full = np.zeros((n, 6))
+    full[:, : a.shape[1]] = a
+    out = np.empty((n, 3, 3))
+    for i, (xx, yy, zz, xy, xz, yz) in enumerate(full.tolist()):
+        out[i] = [[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]]
+        ev = np.linalg.eigvalsh(out[i])
+        tol = 1e-9 * max(float(ev.max()), 1e-12)
+        if ev.min() < -tol or ev[0] + ev[1] < ev[2] - tol:
+            raise InvalidParameter(
+                f"inertias: expected physical inertia tensors (principal moments >= 0, "
+                f"A + B >= C), got principal moments {ev.tolist()} on link {i}"
+            )
+    return out
+
+
+def _cylinder(mass: float, segment: FloatArray) -> FloatArray:
+    """Inertia [kg·m²] about the centre of a solid cylinder along ``segment`` (body frame)."""
+    length = float(np.linalg.norm(segment))
+    e = segment / length if length > 1e-9 else np.array([0.0, 0.0, 1.0])
+    r2 = LINK_CYLINDER_RADIUS**2
+    axial = mass * r2 / 2.0
+    across = mass * (3.0 * r2 + length**2) / 12.0
+    out: FloatArray = across * (np.eye(3) - np.outer(e, e)) + axial * np.outer(e, e)
+    return out
+
+
+class _Physics:
+    """Validated physical parameters of an ``n``-link arm (module docs)."""
+
+    def __init__(
+        self,
+        n: int,
+        masses: ArrayLike | None,
+        centers_of_mass: ArrayLike | None,
+        inertias: ArrayLike | None,
+        velocity_limits: ArrayLike | None,
+        effort_limits: ArrayLike | None,
+    ) -> None:
+        self.masses: FloatArray | None = None
+        self.coms: FloatArray | None = None
+        self.inertias: FloatArray | None = None
+        if masses is None:
+            for arg, val in (("centers_of_mass", centers_of_mass), ("inertias", inertias)):
+                if val is not None:
+                    raise InvalidParameter(
+                        f"{arg}: expected None when masses is None (unit placeholder masses), "
+                        f"got a value; give masses [kg] too"
+                    )
+        else:
+            m = real_array("masses", masses, (n,), error=InvalidParameter, what="masses [kg]")
+            if np.any(m <= 0.0):
+                raise InvalidParameter(
+                    f"masses: expected one mass > 0 [kg] per link (MuJoCo needs moving bodies "
+                    f"to have mass), got {m.tolist()}"
+                )
+            self.masses = m
+            if centers_of_mass is not None:
+                self.coms = real_array(
+                    "centers_of_mass",
+                    centers_of_mass,
+                    (n, 3),
+                    error=InvalidParameter,
+                    what="centres of mass [m]",
+                )
+            if inertias is not None:
+                self.inertias = _inertia_matrices(inertias, n)
+        self.velocity = _limit_vector("velocity_limits", velocity_limits, n, "[rad/s]")
+        self.effort = _limit_vector("effort_limits", effort_limits, n, "[N·m]")
+
+    def inertial(self, i: int, link: tuple[FloatArray, FloatArray], segment: FloatArray) -> str:
+        """The ``<inertial>`` element of body ``i``.
+
+        ``link`` is (pos, quat) of the link frame in the body frame; ``segment`` the vector from
+        the body origin to the next body (or flange), in the body frame.
+        """
+        if self.masses is None:
+            return '<inertial pos="0 0 0" mass="1" diaginertia="0.01 0.01 0.01"/>'
+        mass = float(self.masses[i])
+        rot = _quat_matrix(link[1])
+        com = segment / 2.0 if self.coms is None else link[0] + rot @ self.coms[i]
+        if self.inertias is None:
+            inertia = _cylinder(mass, segment)
+        else:
+            inertia = rot @ self.inertias[i] @ rot.T
+        full = [inertia[0, 0], inertia[1, 1], inertia[2, 2]]
+        full += [inertia[0, 1], inertia[0, 2], inertia[1, 2]]
+        return f'<inertial pos="{_fmt(com)}" mass="{mass!r}" fullinertia="{_fmt(full)}"/>'
+
+    def joint_extra(self, i: int) -> str:
+        """Attributes of joint ``i`` beyond name, type, axis and range."""
+        if self.effort is None:
+            return ""
+        e = float(self.effort[i])
+        return f' actuatorfrcrange="{_fmt([-e, e])}"'
+
+    def custom(self) -> list[str]:
+        """The ``<custom>`` lines (the velocity limits), or none."""
+        if self.velocity is None:
+            return []
+        data = " ".join(repr(v) for v in self.velocity.tolist())
+        return [
+            "  <custom>",
+            f'    <numeric name="{VELOCITY_LIMITS_NUMERIC}" data="{data}"/>',
+            "  </custom>",
+        ]
 
 
 def _inputs(
@@ -120,22 +275,29 @@ def _document(
     tool: FloatArray,
     radius: float,
     named: dict[str, int],
+    physics: _Physics,
+    links: list[tuple[FloatArray, FloatArray]],
 ) -> str:
-    """Nest the bodies: ``frames[i]`` = (pos, quat) of body ``i`` in its parent."""
+    """Nest the bodies: ``frames[i]`` = (pos, quat) of body ``i`` in its parent.
+
+    ``links[i]`` = (pos, quat) of link ``i``'s frame (where its physical parameters are given)
+    in body ``i``.
+    """
     n = len(frames)
     lines = [
         f"<mujoco model={quoteattr(name)}>",
         '  <compiler angle="radian" autolimits="true"/>',
-        '  <option gravity="0 0 0"/>',
+        *physics.custom(),
         "  <worldbody>",
     ]
     children = [*frames[1:], flange]
     for i, (pos, quat) in enumerate(frames):
         ind = "  " * (i + 2)
         lines.append(f'{ind}<body name="link{i}" pos="{_fmt(pos)}" quat="{_fmt(quat)}">')
-        lines.append(f'{ind}  <inertial pos="0 0 0" mass="1" diaginertia="0.01 0.01 0.01"/>')
+        lines.append(f"{ind}  {physics.inertial(i, links[i], children[i][0])}")
         lines.append(
-            f'{ind}  <joint name="joint{i}" type="hinge" axis="0 0 1" range="{_fmt(lim[i])}"/>'
+            f'{ind}  <joint name="joint{i}" type="hinge" axis="0 0 1" range="{_fmt(lim[i])}"'
+            f"{physics.joint_extra(i)}/>"
         )
         lines.append(f'{ind}  <site name="joint{i}" pos="0 0 0"/>')
         for key, idx in named.items():
@@ -166,6 +328,11 @@ def dh_mjcf(
     *,
     radius: float = 0.0,
     named_points: Mapping[str, int] | None = None,
+    masses: ArrayLike | None = None,
+    centers_of_mass: ArrayLike | None = None,
+    inertias: ArrayLike | None = None,
+    velocity_limits: ArrayLike | None = None,
+    effort_limits: ArrayLike | None = None,
 ) -> str:
     """MJCF of a revolute arm from standard DH rows (module docs for the frames).
 
@@ -179,24 +346,34 @@ def dh_mjcf(
         radius: Capsule radius of the link geoms [m], ``>= 0``; ``0``: no geoms.
         named_points: Extra site names mapped to a joint index ``j`` (a site at joint ``j``'s
             body origin), e.g. ``{"elbow": 2}``.
+        masses: Link masses [kg], shape (n,), each > 0; ``None``: unit placeholder masses.
+        centers_of_mass: Link centres of mass in the link frame [m], shape (n, 3) (module
+            docs; needs ``masses``); ``None``: the middle of each link's segment.
+        inertias: Link inertias about the centre of mass in the link frame [kg·m²], shape
+            (n, 3) principal moments or (n, 6) ``Ixx, Iyy, Izz, Ixy, Ixz, Iyz`` (needs
+            ``masses``); ``None``: a solid cylinder along the link (module docs).
+        velocity_limits: Joint speed limits [rad/s], shape (n,), finite, > 0; ``None``: none.
+        effort_limits: Joint torque limits [N·m], shape (n,), finite, > 0; ``None``: none.
 
     Returns:
         The MJCF document (str), to pass to :meth:`MujocoRobot.from_xml`.
 
     Raises:
         InvalidGeometry: bad rows, limits, tool, name or named points.
-        InvalidParameter: a negative radius.
+        InvalidParameter: a negative radius, or bad physical parameters.
     """
     r, lim, t, nm, rad, pts = _inputs(
         "dh_rows", dh_rows, joint_limits, tool, name, radius, named_points
     )
+    n = r.shape[0]
     frames: list[tuple[FloatArray, FloatArray]] = [(np.zeros(3), np.array([1.0, 0, 0, 0]))]
     statics: list[tuple[FloatArray, FloatArray]] = []
     for a, alpha, d, off in r.tolist():
         pos = np.array([a * math.cos(off), a * math.sin(off), d])
         statics.append((pos, _quat_mul(_qz(off), _qx(alpha))))
     frames += statics[:-1]
-    return _document(nm, frames, statics[-1], lim, t, rad, pts)
+    phys = _Physics(n, masses, centers_of_mass, inertias, velocity_limits, effort_limits)
+    return _document(nm, frames, statics[-1], lim, t, rad, pts, phys, statics)
 
 
 def mdh_mjcf(
@@ -208,6 +385,11 @@ def mdh_mjcf(
     flange_d: float = 0.0,
     radius: float = 0.0,
     named_points: Mapping[str, int] | None = None,
+    masses: ArrayLike | None = None,
+    centers_of_mass: ArrayLike | None = None,
+    inertias: ArrayLike | None = None,
+    velocity_limits: ArrayLike | None = None,
+    effort_limits: ArrayLike | None = None,
 ) -> str:
     """MJCF of a revolute arm from modified (Craig) DH rows (module docs for the frames).
 
@@ -220,17 +402,25 @@ def mdh_mjcf(
         flange_d: Distance of the flange along the last joint's ``z`` axis [m].
         radius: Capsule radius of the link geoms [m], ``>= 0``; ``0``: no geoms.
         named_points: Extra site names mapped to a joint index (see :func:`dh_mjcf`).
+        masses: Link masses [kg], shape (n,), each > 0; ``None``: unit placeholder masses.
+        centers_of_mass: Link centres of mass in frame ``i`` (the body) [m], shape (n, 3)
+            (needs ``masses``); ``None``: the middle of each link's segment.
+        inertias: Link inertias about the centre of mass in frame ``i`` [kg·m²], shape (n, 3)
+            or (n, 6), as in :func:`dh_mjcf` (needs ``masses``); ``None``: a solid cylinder.
+        velocity_limits: Joint speed limits [rad/s], shape (n,), finite, > 0; ``None``: none.
+        effort_limits: Joint torque limits [N·m], shape (n,), finite, > 0; ``None``: none.
 
     Returns:
         The MJCF document (str).
 
     Raises:
         InvalidGeometry: bad rows, limits, tool, name, flange_d or named points.
-        InvalidParameter: a negative radius.
+        InvalidParameter: a negative radius, or bad physical parameters.
     """
     r, lim, t, nm, rad, pts = _inputs(
         "mdh_rows", mdh_rows, joint_limits, tool, name, radius, named_points
     )
+    n = r.shape[0]
     fd = real_array("flange_d", flange_d, (), error=InvalidGeometry, what="a distance [m]")
     frames: list[tuple[FloatArray, FloatArray]] = []
     for a, alpha, d, off in r.tolist():
@@ -238,4 +428,6 @@ def mdh_mjcf(
         pos = np.array([a, -d * math.sin(alpha), d * math.cos(alpha)])
         frames.append((pos, _quat_mul(_qx(alpha), _qz(off))))
     flange = (np.array([0.0, 0.0, float(fd)]), np.array([1.0, 0.0, 0.0, 0.0]))
-    return _document(nm, frames, flange, lim, t, rad, pts)
+    phys = _Physics(n, masses, centers_of_mass, inertias, velocity_limits, effort_limits)
+    identity = [(np.zeros(3), np.array([1.0, 0.0, 0.0, 0.0]))] * n
+    return _document(nm, frames, flange, lim, t, rad, pts, phys, identity)

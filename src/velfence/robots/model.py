@@ -10,6 +10,7 @@ Jacobians from ``mj_jacSite``. MuJoCo is imported when a model is loaded, not wi
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -20,6 +21,7 @@ from velfence._typing import FloatArray
 from velfence._validate import check_text, finite_rows, readonly
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 from velfence.robots.capsules import CapsuleLinks
+from velfence.robots.mjcf import VELOCITY_LIMITS_NUMERIC
 
 __all__ = ["MujocoRobot"]
 
@@ -104,8 +106,30 @@ class MujocoRobot(CapsuleLinks):
             else:
                 lim[i] = (-1.0, 1.0)
         self._limits = readonly(lim)
+        effort = np.full(model.njnt, np.inf)
+        for i in range(model.njnt):
+            if bool(model.jnt_actfrclimited[i]):
+                lo, hi = (float(x) for x in model.jnt_actfrcrange[i])
+                bound = max(-lo, hi)
+                if bound > 0.0:
+                    effort[i] = bound
+        self._effort = readonly(effort)
+        self._velocity = readonly(self._numeric_limits(model))
         self._jacp = np.zeros((3, model.nv))
         self._jacr = np.zeros((3, model.nv))
+
+    @staticmethod
+    def _numeric_limits(model: Any) -> FloatArray:
+        """The ``velocity_limits`` custom numeric, one per joint (``inf`` where absent/<= 0)."""
+        out = np.full(model.njnt, np.inf)
+        for k in range(model.nnumeric):
+            if model.numeric(k).name != VELOCITY_LIMITS_NUMERIC:
+                continue
+            adr, size = int(model.numeric_adr[k]), int(model.numeric_size[k])
+            data = np.array(model.numeric_data[adr : adr + min(size, model.njnt)], dtype=float)
+            good = np.isfinite(data) & (data > 0.0)
+            out[: data.size][good] = data[good]
+        return out
 
     @classmethod
     def from_xml(cls, text: str) -> MujocoRobot:
@@ -153,6 +177,61 @@ class MujocoRobot(CapsuleLinks):
         robot._load("path", text)
         return robot
 
+    @classmethod
+    def from_urdf(
+        cls,
+        path: str | Path,
+        *,
+        package_paths: Sequence[str | Path] = (),
+        tcp_link: str | None = None,
+        tool: ArrayLike | None = None,
+        meshes: bool = False,
+    ) -> MujocoRobot:
+        """Load a URDF file; MuJoCo compiles it (``velfence.robots.urdf`` for the details).
+
+        Links behind fixed joints stay frames of their own (``fusestatic="false"``), and every
+        link gets a site of its name, so :meth:`fk` and :meth:`jacobian` reach any link frame.
+        Joint names and ranges, :attr:`effort_limits` and :attr:`velocity_limits` come from the
+        URDF's ``<joint>`` and ``<limit lower= upper= effort= velocity=>``. ``continuous``
+        joints get the limits ``(-π, π)`` (see :attr:`joint_limits`); a ``planar`` joint
+        becomes MuJoCo's two slides and a hinge (``<name>_TX``, ``_TY``, ``_RZ``, no effort or
+        velocity limits); ``floating`` joints are refused. :attr:`xml` is the MJCF MuJoCo made
+        of it (numbers at full precision), for a physics scene.
+
+        Args:
+            path: Path of the ``.urdf`` file.
+            package_paths: Directories that contain the packages ``package://pkg/...`` URIs
+                name (each a directory holding ``pkg/``, as ROS's package search path); the
+                first one holding ``pkg`` wins.
+            tcp_link: Name of the link that carries the ``"tcp"`` site; default the last link
+                of the chain (the leaf with the most joints between it and the root, the
+                first in file order on ties).
+            tool: Position of the ``"tcp"`` site in ``tcp_link``'s frame [m], shape (3,);
+                the link origin when ``None``.
+            meshes: ``False`` (default): visual and collision meshes are removed, so the
+                kinematics loads without mesh files; ``True``: they are kept and every mesh
+                file must exist (package URIs resolved from ``package_paths``).
+
+        Returns:
+            The robot (its joints the URDF's hinge and slide joints, in tree order).
+
+        Raises:
+            InvalidParameter: ``path`` is not a readable file, a directory of
+                ``package_paths`` does not exist, a bad ``tool``, ``tcp_link`` or ``meshes``.
+            InvalidGeometry: the file is not a URDF MuJoCo compiles, ``tcp_link`` is not one
+                of its links (the message lists them), a mesh package or file is missing
+                (``meshes=True``; the message names it), or the model has a joint that is not
+                a hinge or slide.
+        """
+        from velfence.robots.urdf import urdf_document
+
+        xml = urdf_document(
+            path, package_paths=package_paths, tcp_link=tcp_link, tool=tool, meshes=meshes
+        )
+        robot = cls.__new__(cls)
+        robot._load("path", xml)
+        return robot
+
     @property
     def xml(self) -> str:
         """The MJCF document this robot was compiled from (to build a physics scene on it)."""
@@ -185,6 +264,24 @@ class MujocoRobot(CapsuleLinks):
     def joint_limits(self) -> FloatArray:
         """Lower/upper joint limits [rad] (slides [m]), shape (n, 2), read-only."""
         return self._limits
+
+    @property
+    def velocity_limits(self) -> FloatArray:
+        """Joint speed limits [rad/s] (slides [m/s]), shape (n,), read-only.
+
+        From the model's ``<custom><numeric name="velocity_limits">`` (one value per joint, in
+        model order; MJCF has no velocity attribute); ``+inf`` where the model does not say.
+        """
+        return self._velocity
+
+    @property
+    def effort_limits(self) -> FloatArray:
+        """Joint effort limits [N·m] (slides [N]), shape (n,), read-only.
+
+        ``max(-lower, upper)`` of each joint's ``actuatorfrcrange`` (MuJoCo's
+        ``jnt_actfrcrange``); ``+inf`` where the joint has none.
+        """
+        return self._effort
 
     def _q(self, q: ArrayLike) -> FloatArray:
         n = self.dof
