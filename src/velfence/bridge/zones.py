@@ -259,8 +259,8 @@ def _check_order(
     if bad.size:
         j = int(bad[0])
         raise InvalidGeometry(
-            f"{name}: expected {b} > {a} on every axis, got {b}[{j}]={hi[j]!r} <= "
-            f"{a}[{j}]={lo[j]!r}"
+            f"{name}: expected {b} > {a} on every axis, got {b}[{j}]={float(hi[j])!r} <= "
+            f"{a}[{j}]={float(lo[j])!r}"
         )
 
 
@@ -332,7 +332,7 @@ def _plane(i: int, entry: Any) -> SafetyPlane:
         raise InvalidParameter(
             f"{where}.restrict: expected one of {list(_RESTRICT)}, got {_show(restrict, 40)}"
         )
-    mode = entry.get("mode", "normal")
+    mode = entry.get("mode", "both")
     if mode not in _PLANE_MODES:
         raise InvalidParameter(
             f"{where}.mode: expected one of {list(_PLANE_MODES)}, got {_show(mode, 40)}"
@@ -393,8 +393,8 @@ def ur_safety_planes(
         planes: One mapping per plane (at most :data:`MAX_PLANES`): ``normal`` (3 numbers, unit
             length within 1e-6), ``offset`` [m] or ``point`` [m] (+ optional ``displacement``
             [m]), optional ``name``, ``restrict`` (``"tool"`` default, ``"elbow"``, ``"both"``)
-            and ``mode`` (``"normal"`` default, ``"reduced"``, ``"both"``,
-            ``"trigger_reduced"``, ``"disabled"``).
+            and ``mode`` (``"both"`` default: a limit in normal and reduced mode; ``"normal"``,
+            ``"reduced"``, ``"trigger_reduced"``, ``"disabled"``).
         bounds: A box closing the sets: ``(lower, upper)`` corners [m] or a mapping with
             ``lower``/``upper``; ``None`` (default) for none.
         safety_mode: Which planes are limits: ``"normal"`` (planes of mode normal or both) or
