@@ -236,8 +236,10 @@ class FoxgloveView:
                 "it listens on 127.0.0.1 unless allow_remote=True is given"
             )
         if port is not None:
-            if isinstance(port, bool) or not isinstance(port, (int, np.integer)):
-                raise InvalidParameter(f"port: expected an int in [0, 65535] or None, got {port!r}")
+            if isinstance(port, (bool, np.timedelta64)) or not isinstance(port, (int, np.integer)):
+                raise InvalidParameter(
+                    f"port: expected an int in [0, 65535] or None, got {_show(port, 40)}"
+                )
             if not 0 <= int(port) <= 65535:
                 raise InvalidParameter(f"port: expected an int in [0, 65535], got {int(port)}")
         path = None if record is None else check_output_path("record", record)
