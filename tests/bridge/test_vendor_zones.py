@@ -272,6 +272,20 @@ def test_file_errors_name_the_file_and_the_field(tmp_path: Path) -> None:
     assert closed.tcp.volume == pytest.approx(2.95 * 2.35 * 1.2, rel=1e-9)
 
 
+@needs_yaml
+def test_the_docs_cell_example_gives_what_the_page_says(tmp_path: Path) -> None:
+    page = (Path(__file__).resolve().parents[2] / "docs" / "zones.md").read_text()
+    block = "#" + page.split("```yaml\n#")[1].split("```")[0]
+    zones = load_ur_safety_planes(_write(tmp_path, block, "cell.yaml"))
+    assert zones.ignored == ("conveyor trigger",)
+    assert zones.tcp is not None
+    assert zones.elbow is not None
+    lo, hi = zones.tcp.largest_inscribed_box()  # the set is a box: its own largest box
+    np.testing.assert_allclose(lo, [-1.0, -0.35, 0.0], atol=1e-7)
+    np.testing.assert_allclose(hi, [0.95, 1.0, 1.2], atol=1e-7)
+    assert zones.elbow.volume == pytest.approx(2.0 * 2.0 * 1.2, rel=1e-9)
+
+
 # ------------------------------------------------------------------ boxes
 
 

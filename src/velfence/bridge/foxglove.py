@@ -205,6 +205,9 @@ class FoxgloveView:
             reaches the port sees the robot).
         name: Server name shown by Foxglove.
 
+    Attributes:
+        record: The MCAP file being written, or ``None``.
+
     Raises:
         InvalidParameter: a non-loopback host without ``allow_remote``, a bad port, no server
             and no recording, an existing ``record`` file or a server that cannot start (the
