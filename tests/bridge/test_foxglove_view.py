@@ -13,6 +13,7 @@ import json
 import math
 import struct
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -80,8 +81,9 @@ def _step(k: int) -> dict[str, Any]:
 # ------------------------------------------------------------------ the live view
 
 
-def test_websocket_client_sees_channels_and_decodes_what_was_published() -> None:
-    with FoxgloveView(port=0, fence=SQUARE, arrow_time=0.5) as view:
+def test_websocket_client_sees_channels_and_decodes_what_was_published(tmp_path: Path) -> None:
+    record = tmp_path / "live.mcap"
+    with FoxgloveView(port=0, fence=SQUARE, arrow_time=0.5, record=record) as view:
         assert view.port is not None
         assert view.port > 0
         assert view.url == f"ws://127.0.0.1:{view.port}"
@@ -135,6 +137,11 @@ def test_websocket_client_sees_channels_and_decodes_what_was_published() -> None
                 if done is not None:
                     break
             assert done is not None, "no step's three messages arrived after 200 steps"
+    # The recording holds the same bytes the client received, and every published step.
+    _, recorded = _read_mcap(record)
+    assert len(recorded[STATUS_TOPIC]) == k + 1
+    for topic in (STATUS_TOPIC, VELOCITY_TOPIC, SCENE_TOPIC):
+        assert dict(recorded[topic])[done] == got[done][topic]
     status = json.loads(got[done][STATUS_TOPIC])
     step = _step(round(status["t"] / 0.01))
     assert status == {
@@ -352,7 +359,9 @@ def test_publish_refuses_malformed_steps(tmp_path: Path) -> None:
 def test_joint_vectors_go_to_the_json_channels_only(tmp_path: Path) -> None:
     path = tmp_path / "joints.mcap"
     with FoxgloveView(port=None, record=path, fence=SQUARE) as view:
-        view.publish({"t": 0.0, "state": np.zeros(6), "command": np.ones(6), "shaped": np.ones(6)})
+        # an object with attributes works as well as a mapping
+        step = SimpleNamespace(t=0.0, state=np.zeros(6), command=np.ones(6), shaped=np.ones(6))
+        view.publish(step)
     channels, msgs = _read_mcap(path)
     types = descriptors(channels[SCENE_TOPIC][1].data)
     last = decode(msgs[SCENE_TOPIC][-1][1], "foxglove.SceneUpdate", types)
