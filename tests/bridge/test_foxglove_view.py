@@ -25,7 +25,7 @@ pytest.importorskip("mcap", reason="the MCAP reader of these tests ([ros] extra)
 
 from _protowire import decode, descriptors
 from mcap.reader import make_reader
-from websockets.exceptions import InvalidStatus
+from websockets.exceptions import InvalidStatus, WebSocketException
 from websockets.sync.client import connect
 
 from velfence.bridge.foxglove import (
@@ -196,7 +196,9 @@ def test_closing_stops_the_server() -> None:
     view.close()  # idempotent
     assert view.closed
     assert view.port is None
-    with pytest.raises(ConnectionRefusedError):
+    # No session can be opened any more: the port refuses, or (while the server's tasks wind
+    # down) the connection is reset before the handshake completes.
+    with pytest.raises((OSError, WebSocketException)):
         connect(url, subprotocols=[PROTOCOL], open_timeout=5)
     with pytest.raises(InvalidInput, match="closed"):
         view.publish(_step(0))
