@@ -615,6 +615,7 @@ SPEC_MODULES = (
     "specs_viz",
     "specs_reproduce",
     "specs_tools",
+    "specs_bridge_zones",
 )
 
 
