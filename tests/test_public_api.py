@@ -255,7 +255,7 @@ def test_core_import_is_light() -> None:
     code = (
         "import sys, velfence; "
         "heavy = [m for m in ('matplotlib', 'mujoco', 'numba', 'qpsolvers', 'pydantic', 'typer', "
-        "'yaml') "
+        "'yaml', 'mink', 'imageio_ffmpeg', 'cyclonedds', 'rosbags', 'mcap', 'foxglove') "
         "if m in sys.modules]; print(','.join(heavy))"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
