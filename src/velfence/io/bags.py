@@ -31,7 +31,7 @@ import shutil
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Any, Literal
+from typing import TYPE_CHECKING, Annotated, Any
 
 import numpy as np
 from pydantic import Field, StringConstraints, ValidationError, model_validator
@@ -228,7 +228,7 @@ def _config(config: Any) -> tuple[ConfiguredShaper, ReplaySettings]:
     if isinstance(config, Mapping):
         doc, name = dict(config), "config"
     elif isinstance(config, (str, os.PathLike)) and not isinstance(config, bytes):
-        doc, name = load_yaml(config), f"{os.fspath(config)}:"
+        doc, name = load_yaml(Path(os.fspath(config))), f"{os.fspath(config)}:"
     else:
         raise InvalidParameter(
             "config: expected a YAML file path or a mapping with 'shaper' and 'replay', got "
@@ -455,7 +455,7 @@ def replay(
     config: str | Path | Mapping[str, Any],
     out: str | Path,
     *,
-    storage: Literal["mcap", "sqlite3"] | None = None,
+    storage: str | None = None,
 ) -> ReplaySummary:
     """Shape a bag's recorded commands with a configured shaper and write a new bag.
 
@@ -482,8 +482,7 @@ def replay(
     p = _bag_path(bag)
     cs, settings = _config(config)
     target = _out_path(out)
-    if storage is not None:
-        storage = check_choice("storage", storage, STORAGES)
+    chosen = None if storage is None else check_choice("storage", storage, STORAGES)
     try:
         from rosbags.highlevel import AnyReader
         from rosbags.rosbag2 import StoragePlugin, Writer
@@ -497,7 +496,7 @@ def replay(
     except Exception as exc:  # rosbags' errors, OSError, sqlite3/mcap errors: a malformed bag
         raise InvalidParameter(f"bag {p}: cannot read it ({type(exc).__name__}: {exc})") from None
     try:
-        fmt = storage or _storage_of(p)
+        fmt = chosen or _storage_of(p)
         conns = {c.topic: c for c in reader.connections}
         for name, topic in (
             ("command_topic", settings.command_topic),
@@ -856,7 +855,7 @@ def _arm_jog_messages(ts: Any) -> list[tuple[str, str, int, Any]]:
     return out
 
 
-def make_example_bag(name: Literal["mobile_base", "arm_jog"], folder: str | Path) -> Path:
+def make_example_bag(name: str, folder: str | Path) -> Path:
     """Write one of the example bags and its replay config (the shipped ``examples/bags``).
 
     ``mobile_base``: a base driven at 10 Hz toward the walls of a 4 m x 3 m room
@@ -878,7 +877,7 @@ def make_example_bag(name: Literal["mobile_base", "arm_jog"], folder: str | Path
         InvalidParameter: an unknown name, a missing parent folder, an existing bag or config,
             the ``ros`` extra not installed.
     """
-    name = check_choice("name", name, EXAMPLE_BAGS)
+    which = check_choice("name", name, EXAMPLE_BAGS)
     root = _path(folder)
     if not root.parent.is_dir():
         raise InvalidParameter(f"folder: the parent {root.parent} does not exist")
@@ -895,7 +894,7 @@ def make_example_bag(name: Literal["mobile_base", "arm_jog"], folder: str | Path
             "make_example_bag needs rosbags: pip install 'velfence[ros]'"
         ) from None
     ts = _typestore(None)
-    if name == "mobile_base":
+    if which == "mobile_base":
         msgs, plugin, text = _mobile_base_messages(ts), StoragePlugin.MCAP, _MOBILE_BASE_YAML
     else:
         msgs, plugin, text = _arm_jog_messages(ts), StoragePlugin.SQLITE3, _ARM_JOG_YAML
