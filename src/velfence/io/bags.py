@@ -27,6 +27,7 @@ The configuration is one YAML file with a ``shaper:`` section
 from __future__ import annotations
 
 import os
+import re
 import shutil
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
@@ -34,11 +35,11 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
 import numpy as np
-from pydantic import Field, StringConstraints, ValidationError, model_validator
+from pydantic import Field, Strict, ValidationError, field_validator, model_validator
 
-from velfence._validate import _show, check_choice
+from velfence._validate import MAX_PATH_LENGTH, _show, check_choice
 from velfence.errors import InvalidParameter, VelfenceError
-from velfence.io.config import Positive, _describe, _path, _Strict
+from velfence.io.config import Positive, _describe, _Strict
 from velfence.io.shaper_config import MAX_JOINTS, ConfiguredShaper, load_yaml, parse_shaper
 
 if TYPE_CHECKING:
@@ -84,11 +85,9 @@ float64[] velocities
 float64 duration
 """
 
-Topic = Annotated[
-    str,
-    StringConstraints(strict=True, min_length=2, max_length=256, pattern=r"^/[A-Za-z0-9_/~]+$"),
-]
-JointName = Annotated[str, StringConstraints(strict=True, min_length=1, max_length=256)]
+_TOPIC = re.compile(r"/[A-Za-z0-9_/~]{1,255}")
+Topic = Annotated[str, Strict()]
+JointName = Annotated[str, Strict(), Field(min_length=1, max_length=256)]
 
 
 class ReplaySettings(_Strict):
@@ -116,6 +115,27 @@ class ReplaySettings(_Strict):
         None
     )
     max_state_age: Positive | None = None
+
+    def __init__(self, **data: Any) -> None:
+        """Build the section directly (the fields are documented in ``docs/replay.md``).
+
+        Raises:
+            InvalidParameter: a field is invalid; the message names it (``section replay.x``).
+        """
+        try:
+            super().__init__(**data)
+        except ValidationError as err:
+            raise InvalidParameter(_section_error(err, "replay")) from None
+
+    @field_validator("command_topic", "state_topic", "output_topic")
+    @classmethod
+    def _topic_name(cls, value: str | None) -> str | None:
+        if value is not None and not _TOPIC.fullmatch(value):
+            raise ValueError(
+                f"expected a ROS topic name (/name, letters, digits, _ ~ /, at most 256 "
+                f"characters), got {_show(value, 60)}"
+            )
+        return value
 
     @model_validator(mode="after")
     def _distinct(self) -> ReplaySettings:
@@ -217,18 +237,49 @@ def _settings(section: Any, where: str) -> ReplaySettings:
     try:
         return ReplaySettings.model_validate(dict(section))
     except ValidationError as err:
-        text = _describe(err)
-        top = "(top level): "
-        if text.startswith(top):
-            raise InvalidParameter(f"section {where}: {text.removeprefix(top)}") from None
-        raise InvalidParameter(f"section {where}.{text}") from None
+        raise InvalidParameter(_section_error(err, where)) from None
+
+
+def _section_error(err: ValidationError, where: str) -> str:
+    text = _describe(err)
+    top = "(top level): "
+    if text.startswith(top):
+        return f"section {where}: {text.removeprefix(top)}"
+    return f"section {where}.{text}"
+
+
+def _fs_path(name: str, value: Any) -> Path:
+    """A file-system path argument: str or PathLike, non-empty, no NUL, not absurdly long."""
+    if isinstance(value, (bytes, bytearray)) or not isinstance(value, (str, os.PathLike)):
+        raise InvalidParameter(f"{name}: expected a path (str or pathlib.Path), got {_show(value)}")
+    try:
+        text = os.fspath(value)
+    except Exception:  # a hostile __fspath__ is refused, not propagated
+        raise InvalidParameter(f"{name}: expected a path, got {_show(value)}") from None
+    if not isinstance(text, str) or not text or "\x00" in text or len(text) > MAX_PATH_LENGTH:
+        raise InvalidParameter(
+            f"{name}: expected a non-empty path of at most {MAX_PATH_LENGTH} characters "
+            f"without NUL, got {_show(text)}"
+        )
+    return Path(text)
+
+
+def _probe(path: Path, test: Callable[[Path], bool]) -> bool:
+    try:
+        return test(path)
+    except (OSError, ValueError):  # a name too long for the file system, ...
+        return False
 
 
 def _config(config: Any) -> tuple[ConfiguredShaper, ReplaySettings]:
     if isinstance(config, Mapping):
-        doc, name = dict(config), "config"
+        try:
+            doc, name = dict(config), "config"
+        except Exception:  # a hostile mapping is refused, not propagated
+            raise InvalidParameter("config: expected a plain mapping of sections") from None
     elif isinstance(config, (str, os.PathLike)) and not isinstance(config, bytes):
-        doc, name = load_yaml(Path(os.fspath(config))), f"{os.fspath(config)}:"
+        path = _fs_path("config", config)
+        doc, name = load_yaml(path), f"{path}:"
     else:
         raise InvalidParameter(
             "config: expected a YAML file path or a mapping with 'shaper' and 'replay', got "
@@ -418,8 +469,8 @@ def _typestore(distro: str | None) -> Any:
 
 
 def _bag_path(bag: Any) -> Path:
-    p = _path(bag)
-    if not p.is_dir() or not (p / "metadata.yaml").is_file():
+    p = _fs_path("bag", bag)
+    if not _probe(p, Path.is_dir) or not _probe(p / "metadata.yaml", Path.is_file):
         raise InvalidParameter(
             f"bag: expected a rosbag2 directory with a metadata.yaml, got {_show(str(p), 200)}"
         )
@@ -440,12 +491,12 @@ def _storage_of(p: Path) -> str:
 
 
 def _out_path(out: Any) -> Path:
-    p = _path(out)
-    if p.exists():
+    p = _fs_path("out", out)
+    if _probe(p, lambda q: os.path.lexists(q)):
         raise InvalidParameter(
             f"out: {p} exists already; a replay writes a new bag directory (remove it first)"
         )
-    if not p.parent.is_dir():
+    if not _probe(p.parent, Path.is_dir):
         raise InvalidParameter(f"out: the folder {p.parent} does not exist")
     return p
 
@@ -479,10 +530,13 @@ def replay(
             wrong type, a message with the wrong joints (the topic is named), an existing
             ``out``, the ``ros`` extra not installed.
     """
-    p = _bag_path(bag)
-    cs, settings = _config(config)
-    target = _out_path(out)
+    # Every argument's form first, then the file system (a message names the bad argument).
+    _fs_path("bag", bag)
+    _fs_path("out", out)
     chosen = None if storage is None else check_choice("storage", storage, STORAGES)
+    cs, settings = _config(config)
+    p = _bag_path(bag)
+    target = _out_path(out)
     try:
         from rosbags.highlevel import AnyReader
         from rosbags.rosbag2 import StoragePlugin, Writer
@@ -867,26 +921,23 @@ def make_example_bag(name: str, folder: str | Path) -> Path:
 
     Args:
         name: One of :data:`EXAMPLE_BAGS`.
-        folder: Where to write ``bag/`` (the rosbag2 directory) and ``replay.yaml``; created if
-            missing (its parent must exist); neither file may exist yet.
+        folder: A new folder (it must not exist, its parent must) for ``bag/`` (the rosbag2
+            directory) and ``replay.yaml``.
 
     Returns:
         ``folder``.
 
     Raises:
-        InvalidParameter: an unknown name, a missing parent folder, an existing bag or config,
-            the ``ros`` extra not installed.
+        InvalidParameter: an unknown name, an existing folder or a missing parent, the ``ros``
+            extra not installed.
     """
     which = check_choice("name", name, EXAMPLE_BAGS)
-    root = _path(folder)
-    if not root.parent.is_dir():
+    root = _fs_path("folder", folder)
+    if _probe(root, lambda q: os.path.lexists(q)):
+        raise InvalidParameter(f"folder: {root} exists already; remove it first")
+    if not _probe(root.parent, Path.is_dir):
         raise InvalidParameter(f"folder: the parent {root.parent} does not exist")
-    if root.exists() and not root.is_dir():
-        raise InvalidParameter(f"folder: {root} exists and is not a directory")
     bag, cfg = root / "bag", root / "replay.yaml"
-    for f in (bag, cfg):
-        if f.exists():
-            raise InvalidParameter(f"folder: {f} exists already; remove it first")
     try:
         from rosbags.rosbag2 import StoragePlugin, Writer
     except ImportError:
@@ -898,7 +949,7 @@ def make_example_bag(name: str, folder: str | Path) -> Path:
         msgs, plugin, text = _mobile_base_messages(ts), StoragePlugin.MCAP, _MOBILE_BASE_YAML
     else:
         msgs, plugin, text = _arm_jog_messages(ts), StoragePlugin.SQLITE3, _ARM_JOG_YAML
-    root.mkdir(exist_ok=True)
+    root.mkdir()
     with Writer(bag, version=9, storage_plugin=plugin) as writer:
         conns: dict[str, Any] = {}
         for topic, msgtype, _, _ in msgs:
