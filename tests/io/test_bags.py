@@ -474,3 +474,41 @@ def test_plot_and_cli(examples: Path, tmp_path: Path) -> None:
     with pytest.raises(InvalidInput, match="summary"):
         plot_replay("not a summary", tmp_path / "x.png")  # type: ignore[arg-type]
     assert isinstance(replay(src / "bag", src / "replay.yaml", tmp_path / "o2"), ReplaySummary)
+
+
+def test_twist_mode_safety_filter_writes_the_tcp_twist(tmp_path: Path) -> None:
+    pytest.importorskip("mujoco")
+    section = {
+        "kind": "safety_filter",
+        "robot": "panda",
+        "mode": "twist",
+        "max_velocity": 2.0,
+        "workspace": {"lower": [0.3, -0.3, 0.2], "upper": [0.5, 0.3, 0.6], "buffer": 0.05},
+        "dt": 0.002,
+    }
+    cs = parse_shaper(section)
+    assert cs.joint_names is not None
+    q = [0.0, -0.3, 0.0, -2.2, 0.0, 2.0, 0.8]  # TCP at x = 0.474 m, in the buffer of x_max
+    T = _types()
+    H, Time = T["std_msgs/msg/Header"], T["builtin_interfaces/msg/Time"]
+    stamped = T["geometry_msgs/msg/TwistStamped"](
+        header=H(stamp=Time(sec=0, nanosec=1), frame_id="world"), twist=_twist([0.1, 0.05, 0.0])
+    )
+    bag = _write_bag(
+        tmp_path / "in",
+        {
+            "/js": ("sensor_msgs/msg/JointState", [(0.0, _joint_state(list(cs.joint_names), q))]),
+            "/servo": ("geometry_msgs/msg/TwistStamped", [(0.1, stamped)]),
+        },
+    )
+    cfg = {"shaper": section, "replay": {"command_topic": "/servo", "state_topic": "/js"}}
+    s = replay(bag, cfg, tmp_path / "out")
+    ((_, out, _),) = _mcap_messages(tmp_path / "out")["/servo_shaped"]
+    qdot = cs.shaper.shape(q, [0.1, 0.05, 0.0])
+    robot = cs.shaper.filter.robot
+    lin = np.array([out.twist.linear.x, out.twist.linear.y, out.twist.linear.z])
+    ang = np.array([out.twist.angular.x, out.twist.angular.y, out.twist.angular.z])
+    np.testing.assert_array_equal(lin, robot.jacobian(q) @ qdot)
+    np.testing.assert_array_equal(ang, robot.angular_jacobian(q) @ qdot)
+    assert (s.command_space, s.components) == ("twist", ("vx", "vy", "vz"))
+    assert lin[0] < 0.1  # the approach to the x_max face is braked
