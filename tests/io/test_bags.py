@@ -471,6 +471,13 @@ def test_plot_and_cli(examples: Path, tmp_path: Path) -> None:
     again = CliRunner().invoke(app, [*args, str(tmp_path / "o")])
     assert again.exit_code == 2
     assert "exists already" in again.output
+    helped = CliRunner().invoke(app, ["replay", "--help"])
+    assert helped.exit_code == 0
+    assert all(w in helped.stdout for w in ("--config", "--out", "--plot", "--storage"))
+    bad = CliRunner().invoke(app, [*args, str(tmp_path / "o3"), "--storage", "rosbag1"])
+    assert bad.exit_code == 2
+    assert "storage" in bad.output
+    assert not (tmp_path / "o3").exists()
     with pytest.raises(InvalidInput, match="summary"):
         plot_replay("not a summary", tmp_path / "x.png")  # type: ignore[arg-type]
     assert isinstance(replay(src / "bag", src / "replay.yaml", tmp_path / "o2"), ReplaySummary)
@@ -512,3 +519,20 @@ def test_twist_mode_safety_filter_writes_the_tcp_twist(tmp_path: Path) -> None:
     np.testing.assert_array_equal(ang, robot.angular_jacobian(q) @ qdot)
     assert (s.command_space, s.components) == ("twist", ("vx", "vy", "vz"))
     assert lin[0] < 0.1  # the approach to the x_max face is braked
+
+
+def test_bag_without_message_definitions(examples: Path, tmp_path: Path) -> None:
+    """An older bag carries no definitions: the distro's (plus JointJog's) are used."""
+    import sqlite3
+
+    src = examples / "arm_jog"
+    bag = tmp_path / "old"
+    shutil.copytree(src / "bag", bag)
+    with sqlite3.connect(bag / "bag.db3") as db:
+        db.execute("DELETE FROM message_definitions")
+    db.close()
+    a = replay(src / "bag", src / "replay.yaml", tmp_path / "a")
+    b = replay(bag, src / "replay.yaml", tmp_path / "b", storage="mcap")
+    np.testing.assert_array_equal(a.shaped, b.shaped)
+    got = _mcap_messages(tmp_path / "b")  # the output carries definitions again (mcap decodes)
+    assert len(got["/servo/delta_joint_cmds_shaped"]) == 160

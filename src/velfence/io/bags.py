@@ -460,6 +460,7 @@ def _codecs(
 
 
 def _typestore(distro: str | None) -> Any:
+    """The message definitions of ``distro`` (Humble if unknown), plus control_msgs/JointJog."""
     from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
     store = {s.value: s for s in Stores}.get(f"ros2_{distro}", Stores.ROS2_HUMBLE)
@@ -477,12 +478,26 @@ def _bag_path(bag: Any) -> Path:
     return p
 
 
-def _storage_of(p: Path) -> str:
+def _metadata(p: Path) -> Any:
     import yaml
 
+    return yaml.safe_load((p / "metadata.yaml").read_text(encoding="utf-8"))[
+        "rosbag2_bagfile_information"
+    ]
+
+
+def _distro_of(p: Path) -> str | None:
+    """The bag's ``ros_distro`` (rosbag2 format 8+), or None (then Humble's definitions)."""
     try:
-        info = yaml.safe_load((p / "metadata.yaml").read_text(encoding="utf-8"))
-        ident = info["rosbag2_bagfile_information"]["storage_identifier"]
+        distro = _metadata(p).get("ros_distro")
+    except Exception:  # rosbags judges the file next and names what is wrong with it
+        return None
+    return distro if isinstance(distro, str) else None
+
+
+def _storage_of(p: Path) -> str:
+    try:
+        ident = _metadata(p)["storage_identifier"]
     except Exception as exc:  # rosbags read it already; anything odd is a malformed bag
         raise InvalidParameter(f"bag {p}: unreadable metadata.yaml ({exc})") from None
     if ident not in STORAGES:
@@ -545,7 +560,7 @@ def replay(
     if hasattr(cs.shaper, "reset"):
         cs.shaper.reset()
     try:
-        reader = AnyReader([p], default_typestore=_typestore(None))
+        reader = AnyReader([p], default_typestore=_typestore(_distro_of(p)))
         reader.open()
     except Exception as exc:  # rosbags' errors, OSError, sqlite3/mcap errors: a malformed bag
         raise InvalidParameter(f"bag {p}: cannot read it ({type(exc).__name__}: {exc})") from None
