@@ -19,8 +19,9 @@ import yaml
 pytest.importorskip("rosbags")
 
 from velfence.errors import InvalidInput, InvalidParameter
-from velfence.io import load_yaml, parse_shaper
-from velfence.io.bags import EXAMPLE_BAGS, ReplaySummary, make_example_bag, replay
+from velfence.io import load_yaml, make_example_bag, parse_shaper
+from velfence.io.bag_examples import EXAMPLE_BAGS
+from velfence.io.bags import ReplaySummary, replay
 
 EXAMPLES = Path(__file__).parent.parent.parent / "examples" / "bags"
 NS = 10**9

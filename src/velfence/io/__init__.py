@@ -6,7 +6,8 @@ Math contract: none; every configuration is validated on load, and a bad file ra
 :class:`~velfence.errors.InvalidParameter` naming the offending field before any work starts.
 """
 
-from velfence.io.bags import ReplaySettings, ReplaySummary, make_example_bag, replay
+from velfence.io.bag_examples import make_example_bag
+from velfence.io.bags import ReplaySettings, ReplaySummary, replay
 from velfence.io.config import (
     DEFAULT_MAX_STEPS,
     DemoConfig,
