@@ -98,6 +98,7 @@ SPECS.update(
                     "output_topic": "object",
                     "joint_names": "object",
                     "max_state_age": "positive",
+                    "command_frame": "choice",
                 },
             )
         ),

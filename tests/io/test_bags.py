@@ -537,3 +537,56 @@ def test_bag_without_message_definitions(examples: Path, tmp_path: Path) -> None
     np.testing.assert_array_equal(a.shaped, b.shaped)
     got = _mcap_messages(tmp_path / "b")  # the output carries definitions again (mcap decodes)
     assert len(got["/servo/delta_joint_cmds_shaped"]) == 160
+
+
+def _odom(x: float, y: float, yaw: float) -> Any:
+    T = _types()
+    H, Time = T["std_msgs/msg/Header"], T["builtin_interfaces/msg/Time"]
+    pose = T["geometry_msgs/msg/Pose"](
+        position=T["geometry_msgs/msg/Point"](x=x, y=y, z=0.0),
+        orientation=T["geometry_msgs/msg/Quaternion"](
+            x=0.0, y=0.0, z=float(np.sin(yaw / 2)), w=float(np.cos(yaw / 2))
+        ),
+    )
+    return T["nav_msgs/msg/Odometry"](
+        header=H(stamp=Time(sec=0, nanosec=0), frame_id="odom"),
+        child_frame_id="base_link",
+        pose=T["geometry_msgs/msg/PoseWithCovariance"](pose=pose, covariance=np.zeros(36)),
+        twist=T["geometry_msgs/msg/TwistWithCovariance"](
+            twist=_twist([0.0, 0.0, 0.0]), covariance=np.zeros(36)
+        ),
+    )
+
+
+def test_body_frame_command_is_turned_by_the_heading(tmp_path: Path) -> None:
+    """A base facing +y (yaw 90°) near the north wall, driving forward (body vx) into it."""
+    room = {"kind": "polygon", "corners": [[0, 0], [4, 0], [4, 3], [0, 3]], "buffer": 0.5}
+    yaw = 1.2  # [rad]
+    bag = _write_bag(
+        tmp_path / "in",
+        {
+            "/odom": ("nav_msgs/msg/Odometry", [(0.0, _odom(2.0, 2.8, yaw))]),
+            "/cmd_vel": ("geometry_msgs/msg/Twist", [(0.1, _twist([0.5, 0.1, 0.0]))]),
+        },
+    )
+    section = {"command_topic": "/cmd_vel", "state_topic": "/odom"}
+    body = replay(
+        bag, {"shaper": room, "replay": {**section, "command_frame": "body"}}, tmp_path / "b"
+    )
+    world = replay(bag, {"shaper": room, "replay": section}, tmp_path / "w")
+    ((_, out, _),) = _mcap_messages(tmp_path / "b")["/cmd_vel_shaped"]
+    c, s = np.cos(yaw), np.sin(yaw)
+    R = np.array([[c, -s], [s, c]])  # body -> odom
+    v_world = R @ np.array([0.5, 0.1])
+    expected = R.T @ parse_shaper(room).shaper.shape([2.0, 2.8], v_world)
+    np.testing.assert_allclose([out.linear.x, out.linear.y], expected, rtol=0, atol=1e-15)
+    # In the room's frame: the motion along the wall is kept, the approach to it (0.2 m into
+    # the 0.5 m buffer) is braked to well under half.
+    shaped_world = R @ np.array([out.linear.x, out.linear.y])
+    assert shaped_world[0] == pytest.approx(v_world[0], rel=1e-12)
+    assert 0 < shaped_world[1] < 0.5 * v_world[1]
+    assert not np.allclose(body.shaped, world.shaped)
+    with pytest.raises(InvalidParameter, match=r"section replay.command_frame: 'body' applies"):
+        replay(
+            bag, {"shaper": BOX3, "replay": {**section, "command_frame": "body"}}, tmp_path / "x"
+        )

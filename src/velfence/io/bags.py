@@ -32,7 +32,7 @@ import shutil
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 import numpy as np
 from pydantic import Field, Strict, ValidationError, field_validator, model_validator
@@ -102,6 +102,10 @@ class ReplaySettings(_Strict):
             the shaper's own ``joint_names``); matched by name in ``JointState`` and ``JointJog``.
         max_state_age: Oldest state [s] a command is shaped with; an older one zeroes the
             command (default: any age).
+        command_frame: ``"state"`` (default): a planar command is in the frame of the state's
+            pose (odometry frame); ``"body"``: in the robot's body frame, turned by the pose's
+            heading (yaw) into the state's frame for shaping and back for writing (polygon
+            shapers only).
     """
 
     command_topic: Topic
@@ -111,6 +115,7 @@ class ReplaySettings(_Strict):
         None
     )
     max_state_age: Positive | None = None
+    command_frame: Literal["state", "body"] = "state"
 
     def __init__(self, **data: Any) -> None:
         """Build the section directly (the fields are documented in ``docs/replay.md``).
@@ -386,7 +391,7 @@ def _joint_codec(cs: ConfiguredShaper, msgtype: str, joints: tuple[str, ...], to
 
 
 def _state_reader(
-    cs: ConfiguredShaper, msgtype: str, joints: tuple[str, ...], topic: str
+    cs: ConfiguredShaper, msgtype: str, joints: tuple[str, ...], topic: str, heading: bool
 ) -> Callable[[Any], NDArray[np.float64]]:
     n = cs.state_dim
     if msgtype == JOINT_STATE:
@@ -406,8 +411,13 @@ def _state_reader(
     odom = msgtype == ODOMETRY
 
     def read_pose(msg: Any) -> NDArray[np.float64]:
-        p = msg.pose.pose.position if odom else msg.pose.position
-        return _vec3(p)[:n]
+        pose = msg.pose.pose if odom else msg.pose
+        xyz = _vec3(pose.position)[:n]
+        if not heading:
+            return xyz
+        o = pose.orientation  # yaw of the unit quaternion (x, y, z, w)
+        yaw = np.arctan2(2.0 * (o.w * o.z + o.x * o.y), 1.0 - 2.0 * (o.y * o.y + o.z * o.z))
+        return np.append(xyz, yaw)
 
     return read_pose
 
@@ -449,7 +459,13 @@ def _codecs(
         codec = _joint_codec(cs, command_type, joints, settings.command_topic)
     else:
         codec = _twist_codec(cs, command_type)
-    return codec, _state_reader(cs, state_type, joints, settings.state_topic)
+    heading = settings.command_frame == "body"
+    if heading and space != "plane":
+        raise InvalidParameter(
+            f"section replay.command_frame: 'body' applies to a polygon shaper (a planar base), "
+            f"not to a {cs.kind} one; leave it out"
+        )
+    return codec, _state_reader(cs, state_type, joints, settings.state_topic, heading)
 
 
 # ------------------------------------------------------------------------------ replay
@@ -638,6 +654,7 @@ def _shape_all(
     raw_out: list[bytes] = []
     max_age_ns = None if settings.max_state_age is None else settings.max_state_age * 1e9
     twist_mode = cs.command_space == "twist"
+    heading = settings.command_frame == "body"
     for i, (t, msg) in enumerate(cmds):
         v = codec.read(msg)
         commanded[i] = np.where(np.isfinite(v), v, 0.0)
@@ -650,15 +667,20 @@ def _shape_all(
         elif not (np.all(np.isfinite(v)) and np.all(np.isfinite(sv[j]))):
             reason = "invalid"
         if j >= 0 and np.all(np.isfinite(sv[j])):
-            positions[i] = sv[j]
+            positions[i] = sv[j][:n]
         if reason is not None:
             zeroed[reason] += 1
             out_msg = codec.write(msg, None, None)
         else:
             has_state[i] = True
-            q = sv[j]
+            q = sv[j][:n]
+            if heading:  # body frame -> the pose's frame: turn by the heading
+                c, si = np.cos(sv[j][n]), np.sin(sv[j][n])
+                v = np.array([c * v[0] - si * v[1], si * v[0] + c * v[1]])
             try:
                 y = np.asarray(cs.shaper.shape(q, v), dtype=float)
+                if heading:  # and back
+                    y = np.array([c * y[0] + si * y[1], -si * y[0] + c * y[1]])
             except VelfenceError:
                 zeroed["invalid"] += 1
                 has_state[i] = False
