@@ -20,6 +20,7 @@ The configuration is one YAML file with a ``shaper:`` section
       output_topic: /cmd_vel_shaped    # default: <command_topic>_shaped
       joint_names: null                # bag names of the shaper's joints (JointState, JointJog)
       max_state_age: 0.5               # [s]; default: any age
+      command_frame: state             # or body: a planar cmd_vel in the base frame (yaw applied)
 
 ``rosbags`` (extra ``ros``) is imported inside the functions only.
 """
