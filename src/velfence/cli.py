@@ -404,6 +404,46 @@ def study(
         console.print(f"  wrote {a}")
 
 
+@app.command()
+def replay(
+    bag: Annotated[Path, typer.Argument(help="A rosbag2 directory (MCAP or sqlite3).")],
+    config: Annotated[Path, typer.Option(help="YAML with shaper: and replay: (docs/replay.md).")],
+    out: Annotated[Path, typer.Option(help="The bag directory to write (must not exist).")],
+    plot: Annotated[Path | None, typer.Option(help="Also write this figure (.png).")] = None,
+    storage: Annotated[
+        str | None, typer.Option(help="mcap or sqlite3 (default: the input's storage).")
+    ] = None,
+) -> None:
+    """Shape a bag's recorded commands with a configured shaper; write a new bag (+ figure)."""
+    from velfence.io.bags import replay as run_replay
+
+    try:
+        s = run_replay(bag, config, out, storage=storage)
+        if plot is not None:
+            from velfence.viz.replay import plot_replay
+
+            plot_replay(s, plot)
+    except VelfenceError as exc:
+        raise _fail(str(exc)) from None
+    console = Console(highlight=False)
+    console.print(
+        f"{s.commands} commands on {escape(s.command_topic)} ({s.command_type}) shaped by a "
+        f"{s.kind} shaper with {s.states} states of {escape(s.state_topic)}: {s.changed} changed "
+        f"({100 * s.changed_fraction:.1f} %), max |command - shaped| = {s.max_abs_change:.4g} "
+        f"{s.unit}"
+    )
+    console.print(
+        f"written as zero: {s.zeroed} ({s.zeroed_no_state} before any state, {s.zeroed_stale} "
+        f"with a stale state, {s.zeroed_invalid} non-finite)"
+    )
+    console.print(
+        f"  wrote {escape(str(s.out))} ({s.storage}, {s.messages} messages, "
+        f"shaped on {escape(s.output_topic)})"
+    )
+    if plot is not None:
+        console.print(f"  wrote {escape(str(plot))}")
+
+
 def _short(x: object) -> str:
     if isinstance(x, float):
         return f"{x:.6g}"

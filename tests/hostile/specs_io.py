@@ -66,3 +66,42 @@ SPECS.update(
         "io.ConfiguredShaper": C(record="a record parse_shaper builds"),
     }
 )
+
+# --- rosbag2 replay (velfence.io.bags): every call reads or writes a bag directory, so the
+# valid call names a bag that does not exist and only refusals are tried (nothing is written).
+_NO_BAG = "/nonexistent-velfence-hostile/bag"
+_REPLAY = {
+    "shaper": dict(_POLYGON),
+    "replay": {"command_topic": "/cmd_vel", "state_topic": "/odom"},
+}
+_BAG_IO = "reads and writes rosbag2 directories; only refusals are tried (tests/io/test_bags.py)"
+
+SPECS.update(
+    {
+        "io.replay": F(
+            lambda: call(_NO_BAG, dict(_REPLAY), "/nonexistent-velfence-hostile/out"),
+            types={"bag": "path", "config": "object", "out": "path", "storage": "choice"},
+            heavy=_BAG_IO,
+        ),
+        "io.make_example_bag": F(
+            lambda: call("arm_jog", "/nonexistent-velfence-hostile/example"),
+            types={"name": "choice", "folder": "path"},
+            heavy=_BAG_IO,
+        ),
+        "io.ReplaySettings": C(
+            F(
+                lambda: call(command_topic="/cmd_vel", state_topic="/odom", max_state_age=0.5),
+                types={
+                    # ROS topic names (/a/b_c): any other string or value is refused.
+                    "command_topic": "object",
+                    "state_topic": "object",
+                    "output_topic": "object",
+                    "joint_names": "object",
+                    "max_state_age": "positive",
+                    "command_frame": "choice",
+                },
+            )
+        ),
+        "io.ReplaySummary": C(record="a record replay builds"),
+    }
+)
