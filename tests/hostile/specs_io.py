@@ -43,3 +43,26 @@ SPECS: dict[str, F | C] = {
     ),
     "io.check_run_length": F(lambda: call(1.0, 0.001), types={"duration_name": "text"}),
 }
+
+
+def _shaper_file() -> Path:
+    p = Path(tempfile.mkdtemp()) / "shaper.yaml"
+    p.write_text(
+        "shaper:\n  kind: polygon\n  corners: [[0, 0], [4, 0], [4, 3]]\n  buffer: 0.5\n",
+        encoding="utf-8",
+    )
+    return p
+
+
+_POLYGON = {"kind": "polygon", "corners": [[0.0, 0.0], [4.0, 0.0], [4.0, 3.0]], "buffer": 0.5}
+
+SPECS.update(
+    {
+        "io.load_yaml": F(lambda: call(_shaper_file()), types={"path": "path"}),
+        "io.parse_shaper": F(
+            lambda: call(dict(_POLYGON), where="shaper"),
+            types={"section": "object", "where": "text"},
+        ),
+        "io.ConfiguredShaper": C(record="a record parse_shaper builds"),
+    }
+)

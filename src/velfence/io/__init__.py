@@ -1,4 +1,4 @@
-"""Input/output: validated configuration files (format: ``docs/config.md``).
+"""Input/output: validated configuration files and configured shapers (``docs/config.md``).
 
 Math contract: none; every configuration is validated on load, and a bad file raises
 :class:`~velfence.errors.InvalidParameter` naming the offending field before any work starts.
@@ -11,11 +11,15 @@ from velfence.io.config import (
     load_config,
     load_joint_limits,
 )
+from velfence.io.shaper_config import ConfiguredShaper, load_yaml, parse_shaper
 
 __all__ = [
     "DEFAULT_MAX_STEPS",
+    "ConfiguredShaper",
     "DemoConfig",
     "check_run_length",
     "load_config",
     "load_joint_limits",
+    "load_yaml",
+    "parse_shaper",
 ]

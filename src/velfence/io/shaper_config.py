@@ -1,0 +1,349 @@
+"""A shaper from a validated ``shaper:`` section of a YAML file (the bridge and bag replay use it).
+
+One section builds one of four shapers; every field has a type, a unit and a range, unknown keys
+are refused, and a bad value raises :class:`~velfence.errors.InvalidParameter` naming the field
+(``shaper.corners: ...``), before anything runs. The file is read by the same narrow YAML reader as
+:func:`velfence.io.config.load_config` (:func:`load_yaml`). Format (``docs/config.md``)::
+
+    shaper:
+      kind: polygon              # 2-D fence: state (x, y) [m], command (vx, vy) [m/s]
+      corners: [[0, 0], [4, 0], [4, 3], [0, 3]]
+      buffer: 0.5                # [m]
+      spring_gain: 1.0           # [1/s]
+      method: exact              # or patent (US 8,676,382 as written)
+
+    shaper:
+      kind: polytope             # n-D point: lower/upper box, or half-spaces n·x >= offset
+      lower: [0, 0, 0]
+      upper: [1, 1, 1]
+      buffer: 0.1
+
+    shaper:
+      kind: joint_limits         # joint positions [rad], joint velocity commands [rad/s]
+      joint_names: [j1, j2]
+      lower: [-1.0, -2.0]
+      upper: [1.0, 2.0]
+      buffer: 0.1
+
+    shaper:
+      kind: safety_filter        # a shipped arm (velfence[physics]) with its joint limits
+      robot: panda               # panda | ur5e | puma560 | seven_dof
+      mode: twist                # twist: TCP velocity in [m/s] -> joint velocities; joint: joints
+      max_velocity: 2.0          # [rad/s], scalar or one per joint
+      workspace: {lower: [0.3, -0.3, 0.2], upper: [0.7, 0.3, 0.6], buffer: 0.05}
+      dt: 0.002                  # control period [s]
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+from pydantic import Field, Strict, ValidationError, model_validator
+
+from velfence.errors import InvalidParameter, VelfenceError
+from velfence.io.config import (
+    MAX_CORNERS,
+    MIN_BUFFER,
+    MIN_DT,
+    NonNegative,
+    Number,
+    Positive,
+    _describe,
+    _parse,
+    _path,
+    _read_text,
+    _Strict,
+)
+
+__all__ = [
+    "COMMAND_SPACES",
+    "MAX_JOINTS",
+    "ROBOTS",
+    "SHAPER_KINDS",
+    "ConfiguredShaper",
+    "load_yaml",
+    "parse_shaper",
+]
+
+#: The ``kind`` values of a ``shaper:`` section.
+SHAPER_KINDS: tuple[str, ...] = ("polygon", "polytope", "joint_limits", "safety_filter")
+#: What a configured shaper's command means (:attr:`ConfiguredShaper.command_space`).
+COMMAND_SPACES: tuple[str, ...] = ("plane", "workspace", "joint", "twist")
+#: The shipped arms a ``safety_filter`` section may name (``velfence.robots``).
+ROBOTS: tuple[str, ...] = ("panda", "ur5e", "puma560", "seven_dof")
+#: Most joints (or dimensions) a section may have.
+MAX_JOINTS = 64
+
+Buffer = Annotated[float, Strict(), Field(ge=MIN_BUFFER, le=1e6, description="buffer width")]
+Vector = Annotated[list[Number], Field(min_length=1, max_length=MAX_JOINTS)]
+
+
+class _Polygon(_Strict):
+    kind: Literal["polygon"]
+    corners: Annotated[list[tuple[Number, Number]], Field(min_length=3, max_length=MAX_CORNERS)]
+    buffer: Buffer
+    spring_gain: NonNegative = 1.0
+    method: Literal["exact", "patent"] = "exact"
+    max_recovery_speed: Positive | None = None
+
+
+class _Polytope(_Strict):
+    kind: Literal["polytope"]
+    lower: Vector | None = None
+    upper: Vector | None = None
+    halfspaces: (
+        Annotated[
+            list[Annotated[list[Number], Field(min_length=2, max_length=MAX_JOINTS + 1)]],
+            Field(min_length=1, max_length=MAX_CORNERS),
+        ]
+        | None
+    ) = None
+    buffer: Buffer
+    spring_gain: NonNegative = 1.0
+
+    @model_validator(mode="after")
+    def _one_form(self) -> _Polytope:
+        box = self.lower is not None or self.upper is not None
+        if box == (self.halfspaces is not None):
+            raise ValueError("give either lower and upper (a box) or halfspaces, not both")
+        if box and (self.lower is None or self.upper is None):
+            raise ValueError("a box needs both lower and upper")
+        if box and len(self.lower or ()) != len(self.upper or ()):
+            raise ValueError(
+                f"lower and upper must have one length, got {len(self.lower or ())} and "
+                f"{len(self.upper or ())}"
+            )
+        if self.halfspaces is not None and len({len(r) for r in self.halfspaces}) != 1:
+            raise ValueError("every halfspaces row must have the same length (n normals + offset)")
+        return self
+
+
+class _JointLimits(_Strict):
+    kind: Literal["joint_limits"]
+    joint_names: Annotated[list[str], Field(min_length=1, max_length=MAX_JOINTS)]
+    lower: Vector
+    upper: Vector
+    buffer: Buffer
+    spring_gain: NonNegative = 1.0
+
+    @model_validator(mode="after")
+    def _lengths(self) -> _JointLimits:
+        n = len(self.joint_names)
+        if len(set(self.joint_names)) != n:
+            raise ValueError(f"joint_names must be distinct, got {self.joint_names}")
+        if len(self.lower) != n or len(self.upper) != n:
+            raise ValueError(
+                f"lower and upper need one value per joint ({n}), got {len(self.lower)} and "
+                f"{len(self.upper)}"
+            )
+        return self
+
+
+class _Workspace(_Strict):
+    lower: Annotated[list[Number], Field(min_length=3, max_length=3)]
+    upper: Annotated[list[Number], Field(min_length=3, max_length=3)]
+    buffer: Buffer
+    point: str = "tcp"
+
+
+class _SafetyFilter(_Strict):
+    kind: Literal["safety_filter"]
+    robot: Literal["panda", "ur5e", "puma560", "seven_dof"]
+    mode: Literal["joint", "twist"] = "twist"
+    max_velocity: Positive | Annotated[list[Positive], Field(min_length=1, max_length=MAX_JOINTS)]
+    workspace: _Workspace | None = None
+    dt: Annotated[float, Strict(), Field(ge=MIN_DT, le=1.0, description="control period [s]")]
+    joint_buffer: Buffer = 0.1
+    spring_gain: NonNegative = 1.0
+
+
+_MODELS: dict[str, type[_Strict]] = {
+    "polygon": _Polygon,
+    "polytope": _Polytope,
+    "joint_limits": _JointLimits,
+    "safety_filter": _SafetyFilter,
+}
+
+
+@dataclass(frozen=True, eq=False)
+class ConfiguredShaper:
+    """A shaper built from a ``shaper:`` section, with what a transport needs to know about it.
+
+    Attributes:
+        kind: One of :data:`SHAPER_KINDS`.
+        shaper: The shaper (``shape(p, v)``, ``explain(p, v)`` with ``.output`` and ``.zone``).
+        state_dim: Length of the state ``p`` it reads (a point, or joint positions).
+        command_dim: Length of the command ``v``.
+        output_dim: Length of the shaped output (joint velocities in twist mode).
+        command_space: One of :data:`COMMAND_SPACES`: ``"plane"`` (x, y [m/s]), ``"workspace"``
+            (an n-D point's velocity), ``"joint"`` (joint velocities [rad/s]) or ``"twist"``
+            (the TCP's linear velocity [m/s], output joint velocities).
+        joint_names: The joints, in the order of the state, for joint-space shapers; else None.
+    """
+
+    kind: str
+    shaper: Any
+    state_dim: int
+    command_dim: int
+    output_dim: int
+    command_space: str
+    joint_names: tuple[str, ...] | None
+
+
+def load_yaml(path: str | Path) -> dict[str, Any]:
+    """A YAML file as a mapping, read by :func:`~velfence.io.config.load_config`'s narrow reader.
+
+    Anchors, aliases, merge keys, duplicate keys, date/binary/set tags, ``.nan``/``.inf`` are
+    refused with their line; the file is at most ``MAX_FILE_BYTES`` of UTF-8.
+
+    Args:
+        path: The file.
+
+    Returns:
+        The top-level mapping (an empty file gives ``{}``).
+
+    Raises:
+        InvalidParameter: a missing, oversized, non-UTF-8 or non-plain-YAML file, or one whose
+            top level is not a mapping with string keys.
+    """
+    p = _path(path)
+    loaded = _parse(p, _read_text(p))
+    if loaded is None:
+        return {}
+    if not isinstance(loaded, dict):
+        raise InvalidParameter(
+            f"config file {p} must hold a mapping of fields, got {type(loaded).__name__}"
+        )
+    odd = [k for k in loaded if not isinstance(k, str)]
+    if odd:
+        raise InvalidParameter(f"config file {p}: expected string keys, got {odd[0]!r}")
+    return loaded
+
+
+def parse_shaper(section: Mapping[str, Any], *, where: str = "shaper") -> ConfiguredShaper:
+    """Validate a ``shaper:`` section and build its shaper (module docs for the format).
+
+    Args:
+        section: The section's mapping (e.g. ``load_yaml(path)["shaper"]``).
+        where: How the section is named in messages (``"shaper"``, ``"bridge.yaml: shaper"``).
+
+    Returns:
+        The shaper and what it reads and writes.
+
+    Raises:
+        InvalidParameter: a missing or unknown ``kind``, an unknown key, a field of the wrong type
+            or range (named ``<where>.<field>``), geometry that does not close (named), a robot
+            whose extra is not installed.
+    """
+    if not isinstance(where, str) or not where or len(where) > 200 or "\n" in where:
+        got = f"{len(where)} characters" if isinstance(where, str) else type(where).__name__
+        raise InvalidParameter(f"where: expected a short one-line name, got {got}")
+    if not isinstance(section, Mapping):
+        raise InvalidParameter(
+            f"section {where}: expected a mapping with a 'kind' ({', '.join(SHAPER_KINDS)}), "
+            f"got {type(section).__name__}"
+        )
+    odd = [k for k in section if not isinstance(k, str)]
+    if odd:
+        raise InvalidParameter(
+            f"section {where}: expected string keys, got a {type(odd[0]).__name__} key"
+        )
+    kind = section.get("kind")
+    if not isinstance(kind, str) or kind not in SHAPER_KINDS:
+        got = repr(kind)[:60] if isinstance(kind, str) else type(kind).__name__
+        raise InvalidParameter(
+            f"section {where}.kind: expected one of {list(SHAPER_KINDS)}, got {got}"
+        )
+    try:
+        spec = _MODELS[kind].model_validate(dict(section))
+    except ValidationError as err:
+        text = _describe(err)
+        top = "(top level): "
+        if text.startswith(top):
+            raise InvalidParameter(f"section {where}: {text.removeprefix(top)}") from None
+        raise InvalidParameter(f"section {where}.{text}") from None
+    try:
+        return _build(spec)
+    except VelfenceError as exc:  # e.g. InvalidGeometry of corners that do not close
+        raise InvalidParameter(f"section {where}: {exc}") from None
+
+
+def _build(spec: Any) -> ConfiguredShaper:
+    import numpy as np
+
+    from velfence.geometry.polygon import ConvexPolygon
+    from velfence.geometry.polytope import ConvexPolytope
+    from velfence.shaping.polygon import PolygonShaper
+    from velfence.shaping.polytope import PolytopeShaper
+
+    if isinstance(spec, _Polygon):
+        polygon_shaper = PolygonShaper(
+            ConvexPolygon(np.array(spec.corners, dtype=float)),
+            buffer=spec.buffer,
+            spring_gain=spec.spring_gain,
+            method=spec.method,
+            max_recovery_speed=spec.max_recovery_speed,
+        )
+        return ConfiguredShaper("polygon", polygon_shaper, 2, 2, 2, "plane", None)
+    if isinstance(spec, _Polytope):
+        if spec.halfspaces is not None:
+            rows = np.array(spec.halfspaces, dtype=float)
+            poly = ConvexPolytope(rows[:, :-1], rows[:, -1])
+        else:
+            poly = ConvexPolytope.box(np.array(spec.lower), np.array(spec.upper))
+        shaper = PolytopeShaper(poly, buffer=spec.buffer, spring_gain=spec.spring_gain)
+        n = poly.dim
+        return ConfiguredShaper("polytope", shaper, n, n, n, "workspace", None)
+    if isinstance(spec, _JointLimits):
+        names = tuple(spec.joint_names)
+        facets = [f"{j}_{side}" for j in names for side in ("min", "max")]
+        poly = ConvexPolytope.box(np.array(spec.lower), np.array(spec.upper), names=facets)
+        shaper = PolytopeShaper(poly, buffer=spec.buffer, spring_gain=spec.spring_gain)
+        n = len(names)
+        return ConfiguredShaper("joint_limits", shaper, n, n, n, "joint", names)
+    return _safety_filter(spec)
+
+
+def _safety_filter(spec: _SafetyFilter) -> ConfiguredShaper:
+    import numpy as np
+
+    from velfence import robots
+    from velfence.geometry.polytope import ConvexPolytope
+    from velfence.shaping.filter import SafetyFilter
+    from velfence.shaping.limits import JointLimits, WorkspaceLimit
+    from velfence.sim.arm import TwistMode
+
+    robot = getattr(robots, spec.robot)()
+    n = int(robot.dof)
+    if isinstance(spec.max_velocity, list) and len(spec.max_velocity) not in (1, n):
+        raise InvalidParameter(
+            f"max_velocity: expected a scalar or {n} values (robot {spec.robot!r}), got "
+            f"{len(spec.max_velocity)}"
+        )
+    vmax = np.broadcast_to(np.asarray(spec.max_velocity, dtype=float), (n,)).copy()
+    lim = robot.joint_limits
+    names = tuple(robot.joint_names)
+    workspace: tuple[WorkspaceLimit, ...] = ()
+    if spec.workspace is not None:
+        w = spec.workspace
+        workspace = (
+            WorkspaceLimit(
+                ConvexPolytope.box(np.array(w.lower), np.array(w.upper)),
+                point=w.point,
+                buffer=w.buffer,
+            ),
+        )
+    f = SafetyFilter(
+        robot,
+        limits=JointLimits(lim[:, 0], lim[:, 1], vmax, names=names),
+        workspace=workspace,
+        dt=spec.dt,
+        joint_buffer=spec.joint_buffer,
+        spring_gain=spec.spring_gain,
+    )
+    if spec.mode == "joint":
+        return ConfiguredShaper("safety_filter", f, n, n, n, "joint", names)
+    return ConfiguredShaper("safety_filter", TwistMode(f), n, 3, n, "twist", names)
