@@ -13,9 +13,19 @@ reads the field annotations at class creation (cyclonedds-python#305).
 """
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 from cyclonedds.idl import IdlStruct
 from cyclonedds.idl import types as t
+
+if TYPE_CHECKING:  # what a sequence or array field holds, for the type checker
+    from collections.abc import Sequence as sequence  # noqa: N813
+
+    Covariance = sequence[float]
+else:
+    sequence = t.sequence
+    #: A row-major 6×6 covariance (``float64[36]``).
+    Covariance = t.array[t.float64, 36]
 
 __all__ = [
     "ALL_TYPES",
@@ -95,7 +105,7 @@ class MultiArrayDimension(IdlStruct, typename="std_msgs.msg.dds_.MultiArrayDimen
 class MultiArrayLayout(IdlStruct, typename="std_msgs.msg.dds_.MultiArrayLayout_"):
     """std_msgs/msg/MultiArrayLayout."""
 
-    dim: t.sequence[MultiArrayDimension] = field(default_factory=list)
+    dim: sequence[MultiArrayDimension] = field(default_factory=list)
     data_offset: t.uint32 = 0
 
 
@@ -104,7 +114,7 @@ class Float64MultiArray(IdlStruct, typename="std_msgs.msg.dds_.Float64MultiArray
     """std_msgs/msg/Float64MultiArray (the forward command controllers' input)."""
 
     layout: MultiArrayLayout = field(default_factory=MultiArrayLayout)
-    data: t.sequence[t.float64] = field(default_factory=list)
+    data: sequence[t.float64] = field(default_factory=list)
 
 
 @dataclass
@@ -172,7 +182,7 @@ class PoseWithCovariance(IdlStruct, typename="geometry_msgs.msg.dds_.PoseWithCov
     """geometry_msgs/msg/PoseWithCovariance (row-major 6×6 covariance)."""
 
     pose: Pose = field(default_factory=Pose)
-    covariance: t.array[t.float64, 36] = field(default_factory=_zeros36)
+    covariance: Covariance = field(default_factory=_zeros36)
 
 
 @dataclass
@@ -180,7 +190,7 @@ class TwistWithCovariance(IdlStruct, typename="geometry_msgs.msg.dds_.TwistWithC
     """geometry_msgs/msg/TwistWithCovariance (row-major 6×6 covariance)."""
 
     twist: Twist = field(default_factory=Twist)
-    covariance: t.array[t.float64, 36] = field(default_factory=_zeros36)
+    covariance: Covariance = field(default_factory=_zeros36)
 
 
 @dataclass
@@ -198,10 +208,10 @@ class JointState(IdlStruct, typename="sensor_msgs.msg.dds_.JointState_"):
     """sensor_msgs/msg/JointState: ``position`` [rad or m], ``velocity``, ``effort``."""
 
     header: Header = field(default_factory=Header)
-    name: t.sequence[str] = field(default_factory=list)
-    position: t.sequence[t.float64] = field(default_factory=list)
-    velocity: t.sequence[t.float64] = field(default_factory=list)
-    effort: t.sequence[t.float64] = field(default_factory=list)
+    name: sequence[str] = field(default_factory=list)
+    position: sequence[t.float64] = field(default_factory=list)
+    velocity: sequence[t.float64] = field(default_factory=list)
+    effort: sequence[t.float64] = field(default_factory=list)
 
 
 @dataclass
@@ -209,9 +219,9 @@ class JointJog(IdlStruct, typename="control_msgs.msg.dds_.JointJog_"):
     """control_msgs/msg/JointJog (MoveIt Servo's joint command): ``velocities`` [rad/s]."""
 
     header: Header = field(default_factory=Header)
-    joint_names: t.sequence[str] = field(default_factory=list)
-    displacements: t.sequence[t.float64] = field(default_factory=list)
-    velocities: t.sequence[t.float64] = field(default_factory=list)
+    joint_names: sequence[str] = field(default_factory=list)
+    displacements: sequence[t.float64] = field(default_factory=list)
+    velocities: sequence[t.float64] = field(default_factory=list)
     duration: t.float64 = 0.0
 
 
@@ -219,10 +229,10 @@ class JointJog(IdlStruct, typename="control_msgs.msg.dds_.JointJog_"):
 class JointTrajectoryPoint(IdlStruct, typename="trajectory_msgs.msg.dds_.JointTrajectoryPoint_"):
     """trajectory_msgs/msg/JointTrajectoryPoint."""
 
-    positions: t.sequence[t.float64] = field(default_factory=list)
-    velocities: t.sequence[t.float64] = field(default_factory=list)
-    accelerations: t.sequence[t.float64] = field(default_factory=list)
-    effort: t.sequence[t.float64] = field(default_factory=list)
+    positions: sequence[t.float64] = field(default_factory=list)
+    velocities: sequence[t.float64] = field(default_factory=list)
+    accelerations: sequence[t.float64] = field(default_factory=list)
+    effort: sequence[t.float64] = field(default_factory=list)
     time_from_start: Duration = field(default_factory=Duration)
 
 
@@ -231,8 +241,8 @@ class JointTrajectory(IdlStruct, typename="trajectory_msgs.msg.dds_.JointTraject
     """trajectory_msgs/msg/JointTrajectory."""
 
     header: Header = field(default_factory=Header)
-    joint_names: t.sequence[str] = field(default_factory=list)
-    points: t.sequence[JointTrajectoryPoint] = field(default_factory=list)
+    joint_names: sequence[str] = field(default_factory=list)
+    points: sequence[JointTrajectoryPoint] = field(default_factory=list)
 
 
 @dataclass
@@ -251,7 +261,7 @@ class DiagnosticStatus(IdlStruct, typename="diagnostic_msgs.msg.dds_.DiagnosticS
     name: str = ""
     message: str = ""
     hardware_id: str = ""
-    values: t.sequence[KeyValue] = field(default_factory=list)
+    values: sequence[KeyValue] = field(default_factory=list)
 
 
 @dataclass
@@ -259,7 +269,7 @@ class DiagnosticArray(IdlStruct, typename="diagnostic_msgs.msg.dds_.DiagnosticAr
     """diagnostic_msgs/msg/DiagnosticArray (the ``/diagnostics`` topic)."""
 
     header: Header = field(default_factory=Header)
-    status: t.sequence[DiagnosticStatus] = field(default_factory=list)
+    status: sequence[DiagnosticStatus] = field(default_factory=list)
 
 
 #: Every message type of this module.
@@ -301,5 +311,5 @@ def ros_name(cls: type[IdlStruct]) -> str:
         ``package/msg/Type``, derived from the DDS type name ``package::msg::dds_::Type_``.
     """
     dds = cls.__idl_typename__.replace("::", ".")
-    pkg, kind, dds_, name = dds.split(".")
+    pkg, kind, _dds, name = dds.split(".")
     return f"{pkg}/{kind}/{name.removesuffix('_')}"
