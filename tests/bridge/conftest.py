@@ -57,7 +57,7 @@ class RunningBridge:
     def _run(self) -> None:
         try:
             self.node.run()
-        except BaseException as exc:  # noqa: BLE001  reported by the test
+        except BaseException as exc:
             self.error = exc
 
     def topic(self, name: str) -> str:

@@ -78,7 +78,7 @@ def make_command(typ: str, item: dict[str, Any], index: int) -> Any:
     values = [float(x) for x in item["values"]]
     stamp = msgs.Time(sec=index, nanosec=0)
     if typ in ("twist", "twist_stamped"):
-        lin = (values + [0.0, 0.0, 0.0])[:3]
+        lin = ([*values, 0.0, 0.0, 0.0])[:3]
         ang = [float(x) for x in item.get("angular", [0.0, 0.0, 0.0])]
         tw = msgs.Twist(
             linear=msgs.Vector3(x=lin[0], y=lin[1], z=lin[2]),
@@ -98,7 +98,7 @@ def make_state(spec: dict[str, Any]) -> Any:
     typ, values = spec["type"], [float(x) for x in spec["values"]]
     if typ == "joint_state":
         return msgs.JointState(name=list(spec["names"]), position=values)
-    xyz = (values + [0.0, 0.0, 0.0])[:3]
+    xyz = ([*values, 0.0, 0.0, 0.0])[:3]
     yaw = float(spec.get("yaw", 0.0))
     q = msgs.Quaternion(z=math.sin(yaw / 2), w=math.cos(yaw / 2))
     pose = msgs.Pose(position=msgs.Point(x=xyz[0], y=xyz[1], z=xyz[2]), orientation=q)
@@ -230,7 +230,7 @@ def endpoints(spec: dict[str, Any], dp: DomainParticipant) -> dict[str, Any]:
         for kind, rd in (("publication", pubs), ("subscription", subs)):
             for e in rd.take(N=200):
                 if e.topic_name in wanted:
-                    ud = e.qos[Policy.Userdata] if Policy.Userdata in e.qos else None
+                    ud = e.qos.get(Policy.Userdata, None)
                     seen[f"{kind}:{e.topic_name}"] = {
                         "type": e.type_name,
                         "user_data": None if ud is None else ud.data.decode("ascii"),
@@ -242,7 +242,8 @@ def endpoints(spec: dict[str, Any], dp: DomainParticipant) -> dict[str, Any]:
 
 
 def main() -> None:
-    spec = json.loads(open(sys.argv[1], encoding="utf-8").read())
+    with open(sys.argv[1], encoding="utf-8") as fh:
+        spec = json.load(fh)
     dp = DomainParticipant(int(spec["domain"]))
     fn = {"stream": stream, "qos": qos_scenario, "endpoints": endpoints}[spec["scenario"]]
     result = fn(spec, dp)

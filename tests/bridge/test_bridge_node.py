@@ -13,8 +13,8 @@ import math
 
 import numpy as np
 import pytest
-from conftest import run_client
 
+from conftest import run_client
 from velfence.bridge import msgs
 from velfence.bridge.typehash import rihs01
 from velfence.io.shaper_config import parse_shaper

@@ -27,6 +27,7 @@ from velfence.bridge.node import (
     CycleInfo,
     DDSFailure,
     ros_qos,
+    serve,
 )
 from velfence.bridge.typehash import rihs01, type_description, user_data
 
@@ -45,6 +46,7 @@ __all__ = [
     "parse_bridge_config",
     "rihs01",
     "ros_qos",
+    "serve",
     "type_description",
     "user_data",
 ]

@@ -23,10 +23,12 @@ from __future__ import annotations
 import contextlib
 import logging
 import math
+import signal
 import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -46,6 +48,7 @@ __all__ = [
     "CycleInfo",
     "DDSFailure",
     "ros_qos",
+    "serve",
 ]
 
 #: Exit code of ``velfence bridge``: a clean stop (SIGINT, SIGTERM or ``--duration``).
@@ -789,3 +792,58 @@ class BridgeNode:
             raise DDSFailure(f"writing diagnostics failed: {exc}") from None
         with self._lock:
             self._counters["diagnostics_published"] += 1
+
+
+def serve(
+    config_path: str | Path,
+    *,
+    duration: float | None = None,
+    on_cycle: Callable[[CycleInfo], None] | None = None,
+) -> int:
+    """Load a bridge file and run the node until SIGINT/SIGTERM (``velfence bridge``).
+
+    Logs to stderr (one line per state change) unless the ``velfence.bridge`` logger already
+    has handlers. SIGINT and SIGTERM stop the node cleanly when called from the main thread.
+
+    Args:
+        config_path: The bridge YAML file (``docs/bridge.md``).
+        duration: Stop by itself after this many seconds; None runs until a signal.
+        on_cycle: Passed to :class:`BridgeNode` (a live view).
+
+    Returns:
+        The exit code: :data:`EXIT_OK` (clean stop), :data:`EXIT_CONFIG` (bad file or
+        argument), :data:`EXIT_DDS` (DDS failed) or :data:`EXIT_INTERNAL` (a bug).
+    """
+    log = logging.getLogger("velfence.bridge")
+    if not log.handlers:
+        handler = logging.StreamHandler()
+        handler.setFormatter(logging.Formatter("%(asctime)s velfence bridge: %(message)s"))
+        log.addHandler(handler)
+        log.setLevel(logging.INFO)
+        log.propagate = False
+    from velfence.bridge.config import load_bridge_config
+
+    try:
+        config = load_bridge_config(config_path)
+        node = BridgeNode(config, on_cycle=on_cycle)
+    except InvalidParameter as exc:
+        log.error("bad configuration: %s", exc)
+        return EXIT_CONFIG
+    previous: dict[signal.Signals, Any] = {}
+    if threading.current_thread() is threading.main_thread():
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            previous[sig] = signal.signal(sig, lambda _s, _f: node.stop())
+    try:
+        return node.run(duration=duration)
+    except InvalidParameter as exc:
+        log.error("bad argument: %s", exc)
+        return EXIT_CONFIG
+    except DDSFailure as exc:
+        log.error("%s", exc)
+        return EXIT_DDS
+    except Exception:
+        log.exception("internal error (please report it)")
+        return EXIT_INTERNAL
+    finally:
+        for signum, old in previous.items():
+            signal.signal(signum, old)
