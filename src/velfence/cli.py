@@ -353,7 +353,11 @@ def bridge(
     """Run the ROS 2 DDS filter node (extra ros). Exit 0 stopped, 2 bad config, 3 DDS failed."""
     from velfence.bridge import serve
 
-    raise typer.Exit(code=serve(config, duration=duration))
+    try:
+        code = serve(config, duration=duration)
+    except VelfenceError as exc:
+        raise _fail(str(exc)) from None
+    raise typer.Exit(code=code)
 
 
 @app.command()

@@ -36,6 +36,7 @@ pytest.importorskip("cyclonedds", reason="the ros extra (cyclonedds) is not inst
 
 import velfence  # noqa: E402
 from velfence.bridge import BridgeNode, parse_bridge_config  # noqa: E402
+from velfence.bridge.config import dds_topic  # noqa: E402
 
 CLIENT = Path(__file__).with_name("ros_client.py")
 SRC = Path(velfence.__file__).resolve().parents[1]
@@ -61,7 +62,7 @@ class RunningBridge:
             self.error = exc
 
     def topic(self, name: str) -> str:
-        return self.config.topic(name)
+        return dds_topic(self.config.settings, name)
 
     def close(self) -> None:
         self.node.stop()

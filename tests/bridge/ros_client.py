@@ -230,7 +230,7 @@ def endpoints(spec: dict[str, Any], dp: DomainParticipant) -> dict[str, Any]:
         for kind, rd in (("publication", pubs), ("subscription", subs)):
             for e in rd.take(N=200):
                 if e.topic_name in wanted:
-                    ud = e.qos.get(Policy.Userdata, None)
+                    ud = e.qos[Policy.Userdata] if Policy.Userdata in e.qos else None  # noqa: SIM401
                     seen[f"{kind}:{e.topic_name}"] = {
                         "type": e.type_name,
                         "user_data": None if ud is None else ud.data.decode("ascii"),

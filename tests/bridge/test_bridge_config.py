@@ -54,11 +54,15 @@ def test_defaults_and_resolution() -> None:
     assert s.state.qos.profile == "sensor_data"
     assert s.command_in.qos.profile == "default"
     assert cfg.joint_names is None
-    assert cfg.topic("cmd_vel_in") == "rt/cmd_vel_in"
-    assert cfg.topic("/odom") == "rt/odom"
+    assert cfg.dds_topics == {
+        "command_in": "rt/cmd_vel_in",
+        "command_out": "rt/cmd_vel_out",
+        "state": "rt/odom",
+        "diagnostics": "rt/diagnostics",
+    }
     ns = _parse({**PLANE, "namespace": "/robot1"})
-    assert ns.topic("cmd_vel_in") == "rt/robot1/cmd_vel_in"
-    assert ns.topic("/diagnostics") == "rt/diagnostics"
+    assert ns.dds_topics["command_in"] == "rt/robot1/cmd_vel_in"
+    assert ns.dds_topics["state"] == "rt/odom"  # absolute names keep theirs
     j = _parse(
         {"command_in": {"type": "joint_jog"}, "command_out": {"type": "joint_trajectory"}}, JOINTS
     )

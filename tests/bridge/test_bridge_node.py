@@ -318,3 +318,52 @@ def test_endpoints_carry_the_type_hash(bridge, tmp_path) -> None:
         assert key in ep, sorted(ep)
         assert ep[key]["type"] == typ.__idl_typename__.replace(".", "::")
         assert ep[key]["user_data"] == f"typehash={rihs01(typ)};"
+
+
+def test_body_frame_twist_rotated_by_the_odometry_yaw_and_on_cycle(bridge, tmp_path) -> None:
+    seen = []
+    b = bridge(
+        {
+            "command_in": {"topic": "cmd_vel", "type": "twist", "qos": RELIABLE_DEEP},
+            "command_out": {"topic": "cmd_vel_safe", "qos": RELIABLE_DEEP},
+            "state": {"topic": "odom", "type": "odometry", "qos": "default"},
+            "command_frame": "body",
+        },
+        POLYGON,
+        on_cycle=seen.append,
+    )
+    p, yaw = np.array([2.0, 2.8]), math.pi / 2  # facing +y, 0.2 m from the top edge
+    cmds = [[1.0, 0.0], [0.0, 1.0], [-1.0, 0.3]]  # forward (toward the edge), left, back
+    res = run_client(
+        {
+            "scenario": "stream",
+            "topics": {
+                "cmd_in": b.topic("cmd_vel"),
+                "cmd_out": b.topic("cmd_vel_safe"),
+                "state": b.topic("odom"),
+            },
+            "cmd_type": "twist",
+            "out_type": "twist",
+            "state": {"type": "odometry", "values": [*p, 0.0], "yaw": yaw},
+            "commands": [{"values": c} for c in cmds],
+            "rate_hz": 50.0,
+            "expect": 3,
+        },
+        tmp_path,
+    )
+    got = np.array([o["v"][:2] for o in res["outputs"][:3]])
+    ref = parse_shaper(POLYGON).shaper
+    rot = np.array([[math.cos(yaw), -math.sin(yaw)], [math.sin(yaw), math.cos(yaw)]])
+    want = np.array([rot.T @ ref.shape(p, rot @ np.array(c)) for c in cmds])
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
+    assert got[0, 0] < 0.5  # forward, toward the edge: braked
+    assert got[1] == pytest.approx([0.0, 1.0])  # sideways along the edge: unchanged
+    assert got[2] == pytest.approx([-1.0, 0.3])  # away from the edge: unchanged
+    shaped = [c for c in seen if c.command is not None]
+    assert len(shaped) == 3
+    assert shaped[0].zone == "buffer"
+    assert shaped[0].active  # the top edge, by name
+    assert shaped[0].changed
+    assert not shaped[1].changed
+    assert np.array_equal(shaped[0].state, p)
+    assert np.array_equal(shaped[0].shaped, got[0])

@@ -13,7 +13,6 @@ state (bit-identical), or zero when a fail-safe holds; nothing non-finite is eve
 
 from velfence.bridge.config import (
     BridgeConfig,
-    BridgeSettings,
     load_bridge_config,
     parse_bridge_config,
 )
@@ -39,7 +38,6 @@ __all__ = [
     "NODE_STATES",
     "BridgeConfig",
     "BridgeNode",
-    "BridgeSettings",
     "CycleInfo",
     "DDSFailure",
     "load_bridge_config",

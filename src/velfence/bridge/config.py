@@ -38,6 +38,7 @@ __all__ = [
     "STATE_TYPES",
     "BridgeConfig",
     "BridgeSettings",
+    "dds_topic",
     "load_bridge_config",
     "parse_bridge_config",
 ]
@@ -169,6 +170,8 @@ class BridgeConfig:
         joint_names: The joints of the command and the state (the shaper's, or
             ``state.joint_names``), or None for a point state.
         domain_id: The DDS domain the bridge joins.
+        dds_topics: The DDS topic names (``rt/...``) of ``command_in``, ``command_out``,
+            ``state`` and ``diagnostics``.
         source: Where the configuration came from (file name, or ``"config"``).
     """
 
@@ -177,30 +180,24 @@ class BridgeConfig:
     output_type: str
     joint_names: tuple[str, ...] | None
     domain_id: int
+    dds_topics: dict[str, str]
     source: str = "config"
 
-    def topic(self, name: str) -> str:
-        """The DDS topic of a ROS 2 topic name: ``rt/`` + namespace + name.
 
-        Args:
-            name: A ROS 2 topic name; absolute (``/cmd_vel``) or relative to ``namespace``.
+def dds_topic(settings: BridgeSettings, name: str) -> str:
+    """The DDS topic of a ROS 2 topic name: ``rt/`` + namespace + name (absolute names keep theirs).
 
-        Returns:
-            The DDS topic name (``"rt/ns/cmd_vel"``).
+    Args:
+        settings: The ``bridge:`` section (its ``namespace``).
+        name: A ROS 2 topic name; absolute (``/cmd_vel``) or relative to the namespace.
 
-        Raises:
-            InvalidParameter: ``name`` is not a ROS 2 topic name.
-        """
-        if not isinstance(name, str):
-            raise InvalidParameter(f"name: expected a topic name, got {type(name).__name__}")
-        try:
-            _check_topic(name)
-        except ValueError as exc:
-            raise InvalidParameter(f"name: {exc}") from None
-        if name.startswith("/"):
-            return "rt" + name
-        ns = self.settings.namespace.strip("/")
-        return f"rt/{ns}/{name}" if ns else f"rt/{name}"
+    Returns:
+        The DDS topic name (``"rt/ns/cmd_vel"``).
+    """
+    if name.startswith("/"):
+        return "rt" + name
+    ns = settings.namespace.strip("/")
+    return f"rt/{ns}/{name}" if ns else f"rt/{name}"
 
 
 def _domain_from_env() -> int:
@@ -332,7 +329,11 @@ def parse_bridge_config(document: Any, *, source: str = "config") -> BridgeConfi
     cs = parse_shaper(document["shaper"], where=f"{source}: shaper")
     out, names = _check_fit(settings, cs, where)
     domain = settings.domain_id if settings.domain_id is not None else _domain_from_env()
-    return BridgeConfig(settings, cs, out, names, domain, source)
+    topics = {
+        key: dds_topic(settings, getattr(settings, key).topic)
+        for key in ("command_in", "command_out", "state", "diagnostics")
+    }
+    return BridgeConfig(settings, cs, out, names, domain, topics, source)
 
 
 def load_bridge_config(path: str | Path) -> BridgeConfig:

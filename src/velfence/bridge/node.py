@@ -346,15 +346,7 @@ class BridgeNode:
             InvalidParameter: a bad ``duration``, or a node that has already run.
             DDSFailure: a DDS entity could not be created (a bad domain, no network interface).
         """
-        if duration is not None:
-            if isinstance(duration, bool) or not isinstance(duration, (int, float)):
-                raise InvalidParameter(
-                    f"duration: expected a number of seconds or None, got {type(duration).__name__}"
-                )
-            if not (0.0 < float(duration) <= 1e6):
-                raise InvalidParameter(
-                    f"duration: expected 0 < duration <= 1e6 [s], got {duration}"
-                )
+        _check_duration(duration)
         if self._node_state != "starting":
             raise InvalidParameter("run: a BridgeNode runs once; create a new one")
         try:
@@ -397,8 +389,8 @@ class BridgeNode:
         dp = DomainParticipant(c.domain_id)
         self._participant = dp
 
-        def reader(topic: str, typ: type, qos: QosSettings) -> Any:
-            name = c.topic(topic)
+        def reader(key: str, typ: type, qos: QosSettings) -> Any:
+            name = c.dds_topics[key]
             lis = Listener(  # type: ignore[no-untyped-call]
                 on_requested_incompatible_qos=lambda _r, st: self._qos_event(
                     name, "reader", typ, st
@@ -406,19 +398,19 @@ class BridgeNode:
             )
             return DataReader(dp, Topic(dp, name, typ), qos=ros_qos(qos, typ), listener=lis)
 
-        def writer(topic: str, typ: type, qos: QosSettings) -> Any:
-            name = c.topic(topic)
+        def writer(key: str, typ: type, qos: QosSettings) -> Any:
+            name = c.dds_topics[key]
             lis = Listener(  # type: ignore[no-untyped-call]
                 on_offered_incompatible_qos=lambda _w, st: self._qos_event(name, "writer", typ, st)
             )
             return DataWriter(dp, Topic(dp, name, typ), qos=ros_qos(qos, typ), listener=lis)
 
-        self._cmd_reader = reader(s.command_in.topic, _TYPES[self._in_type], s.command_in.qos)
-        self._state_reader = reader(s.state.topic, _TYPES[self._state_type], s.state.qos)
-        self._out_writer = writer(s.command_out.topic, _TYPES[self._out_type], s.command_out.qos)
+        self._cmd_reader = reader("command_in", _TYPES[self._in_type], s.command_in.qos)
+        self._state_reader = reader("state", _TYPES[self._state_type], s.state.qos)
+        self._out_writer = writer("command_out", _TYPES[self._out_type], s.command_out.qos)
         self._diag_writer = None
         if s.diagnostics.enabled:
-            self._diag_writer = writer(s.diagnostics.topic, msgs.DiagnosticArray, s.diagnostics.qos)
+            self._diag_writer = writer("diagnostics", msgs.DiagnosticArray, s.diagnostics.qos)
         mask = SampleState.Any | ViewState.Any | InstanceState.Any
         self._ws = WaitSet(dp)
         self._guard = GuardCondition(dp)
@@ -429,11 +421,11 @@ class BridgeNode:
         self._log.info(
             "bridge up on DDS domain %d: %s (%s) -> %s (%s), state %s (%s), shaper %s",
             c.domain_id,
-            c.topic(s.command_in.topic),
+            c.dds_topics["command_in"],
             self._in_type,
-            c.topic(s.command_out.topic),
+            c.dds_topics["command_out"],
             self._out_type,
-            c.topic(s.state.topic),
+            c.dds_topics["state"],
             self._state_type,
             self._cs.kind,
         )
@@ -807,13 +799,32 @@ def serve(
 
     Args:
         config_path: The bridge YAML file (``docs/bridge.md``).
-        duration: Stop by itself after this many seconds; None runs until a signal.
+        duration: Stop by itself after this many seconds (``0 < duration <= 10⁶``); None runs
+            until a signal.
         on_cycle: Passed to :class:`BridgeNode` (a live view).
 
     Returns:
-        The exit code: :data:`EXIT_OK` (clean stop), :data:`EXIT_CONFIG` (bad file or
-        argument), :data:`EXIT_DDS` (DDS failed) or :data:`EXIT_INTERNAL` (a bug).
+        The exit code: :data:`EXIT_OK` (clean stop), :data:`EXIT_DDS` (DDS failed) or
+        :data:`EXIT_INTERNAL` (a bug; the traceback is logged).
+
+    Raises:
+        InvalidParameter: a bad argument, or a configuration file that is missing or invalid
+            (the message names the file and the field; ``velfence bridge`` exits with
+            :data:`EXIT_CONFIG`).
     """
+    from velfence.bridge.config import load_bridge_config
+
+    if not isinstance(config_path, (str, Path)):
+        raise InvalidParameter(
+            f"config_path: expected a file path, got {type(config_path).__name__}"
+        )
+    _check_duration(duration)
+    if on_cycle is not None and not callable(on_cycle):
+        raise InvalidParameter(
+            f"on_cycle: expected a callable or None, got {type(on_cycle).__name__}"
+        )
+    config = load_bridge_config(config_path)
+    node = BridgeNode(config, on_cycle=on_cycle)
     log = logging.getLogger("velfence.bridge")
     if not log.handlers:
         handler = logging.StreamHandler()
@@ -821,23 +832,12 @@ def serve(
         log.addHandler(handler)
         log.setLevel(logging.INFO)
         log.propagate = False
-    from velfence.bridge.config import load_bridge_config
-
-    try:
-        config = load_bridge_config(config_path)
-        node = BridgeNode(config, on_cycle=on_cycle)
-    except InvalidParameter as exc:
-        log.error("bad configuration: %s", exc)
-        return EXIT_CONFIG
     previous: dict[signal.Signals, Any] = {}
     if threading.current_thread() is threading.main_thread():
         for sig in (signal.SIGINT, signal.SIGTERM):
             previous[sig] = signal.signal(sig, lambda _s, _f: node.stop())
     try:
         return node.run(duration=duration)
-    except InvalidParameter as exc:
-        log.error("bad argument: %s", exc)
-        return EXIT_CONFIG
     except DDSFailure as exc:
         log.error("%s", exc)
         return EXIT_DDS
@@ -847,3 +847,14 @@ def serve(
     finally:
         for signum, old in previous.items():
             signal.signal(signum, old)
+
+
+def _check_duration(duration: Any) -> None:
+    if duration is None:
+        return
+    if isinstance(duration, bool) or not isinstance(duration, (int, float)):
+        raise InvalidParameter(
+            f"duration: expected a number of seconds or None, got {type(duration).__name__}"
+        )
+    if not (0.0 < float(duration) <= 1e6):
+        raise InvalidParameter(f"duration: expected 0 < duration <= 1e6 [s], got {duration}")
