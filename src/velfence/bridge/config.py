@@ -302,16 +302,17 @@ def parse_bridge_config(document: Any, *, source: str = "config") -> BridgeConfi
     where = f"{source}: "
     if not isinstance(document, dict):
         raise InvalidParameter(
-            f"{where}expected a mapping with 'bridge' and 'shaper' sections, got "
+            f"document: {where}expected a mapping with 'bridge' and 'shaper' sections, got "
             f"{type(document).__name__}"
         )
     extra = sorted(str(k) for k in document if k not in ("bridge", "shaper"))
     if extra:
         raise InvalidParameter(
-            f"{where}unknown section(s) {extra}; a bridge file holds 'bridge' and 'shaper'"
+            f"{where}unknown section(s) {extra} in the document; a bridge file holds 'bridge' "
+            "and 'shaper'"
         )
     if "shaper" not in document:
-        raise InvalidParameter(f"{where}the 'shaper' section is missing")
+        raise InvalidParameter(f"{where}the 'shaper' section is missing from the document")
     bridge = document.get("bridge")
     if bridge is None:
         bridge = {}

@@ -33,6 +33,7 @@ from typing import Any
 
 import numpy as np
 
+from velfence._validate import check_range
 from velfence.bridge import msgs
 from velfence.bridge.config import BridgeConfig, QosSettings
 from velfence.bridge.typehash import user_data
@@ -234,10 +235,7 @@ class BridgeNode:
                 f"config: expected a BridgeConfig (velfence.bridge.load_bridge_config), got "
                 f"{type(config).__name__}"
             )
-        if on_cycle is not None and not callable(on_cycle):
-            raise InvalidParameter(
-                f"on_cycle: expected a callable or None, got {type(on_cycle).__name__}"
-            )
+        _check_on_cycle(on_cycle)
         if logger is not None and not isinstance(logger, logging.Logger):
             raise InvalidParameter(
                 f"logger: expected a logging.Logger or None, got {type(logger).__name__}"
@@ -318,11 +316,8 @@ class BridgeNode:
         Raises:
             InvalidParameter: ``timeout`` is not a finite number in range.
         """
-        if isinstance(timeout, bool) or not isinstance(timeout, (int, float)):
-            raise InvalidParameter(f"timeout: expected a number [s], got {type(timeout).__name__}")
-        if not (0.0 <= float(timeout) <= 3600.0):
-            raise InvalidParameter(f"timeout: expected 0 <= timeout <= 3600 [s], got {timeout}")
-        return self._ready.wait(float(timeout))
+        t = check_range("timeout", timeout, low=0.0, high=3600.0, unit="s")
+        return self._ready.wait(t)
 
     def stop(self) -> None:
         """Ask :meth:`run` to return (safe from another thread or a signal handler)."""
@@ -357,7 +352,7 @@ class BridgeNode:
         except Exception as exc:  # cyclonedds raises DDSException (and ctypes errors)
             self._close()
             raise DDSFailure(f"DDS could not be started: {exc}") from None
-        end = None if duration is None else time.monotonic() + float(duration)
+        end = None if duration is None else time.monotonic() + float(duration)  # checked above
         try:
             self._set_state("waiting_for_state")
             self._loop(end)
@@ -819,10 +814,7 @@ def serve(
             f"config_path: expected a file path, got {type(config_path).__name__}"
         )
     _check_duration(duration)
-    if on_cycle is not None and not callable(on_cycle):
-        raise InvalidParameter(
-            f"on_cycle: expected a callable or None, got {type(on_cycle).__name__}"
-        )
+    _check_on_cycle(on_cycle)
     config = load_bridge_config(config_path)
     node = BridgeNode(config, on_cycle=on_cycle)
     log = logging.getLogger("velfence.bridge")
@@ -849,12 +841,14 @@ def serve(
             signal.signal(signum, old)
 
 
-def _check_duration(duration: Any) -> None:
-    if duration is None:
-        return
-    if isinstance(duration, bool) or not isinstance(duration, (int, float)):
+def _check_on_cycle(on_cycle: Any) -> None:
+    if on_cycle is not None and (not callable(on_cycle) or isinstance(on_cycle, type)):
         raise InvalidParameter(
-            f"duration: expected a number of seconds or None, got {type(duration).__name__}"
+            f"on_cycle: expected a function taking a CycleInfo, or None, got "
+            f"{type(on_cycle).__name__}"
         )
-    if not (0.0 < float(duration) <= 1e6):
-        raise InvalidParameter(f"duration: expected 0 < duration <= 1e6 [s], got {duration}")
+
+
+def _check_duration(duration: Any) -> None:
+    if duration is not None:
+        check_range("duration", duration, low=0.0, high=1e6, low_open=True, unit="s")
