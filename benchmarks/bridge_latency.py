@@ -1,19 +1,19 @@
 """Round-trip latency of ``velfence bridge`` on loopback DDS: command in -> shaped command out.
 
-Warm-up: 0.5 s of commands before each measurement are not counted.
 The bridge runs as its own process (``python -m velfence.cli bridge --config ...``, a polygon
 fence, TwistStamped in and out, ROS 2 default QoS: reliable, keep-last 10, or ``--depth``); this
-script is the
-ROS 2 peer: it keeps a PoseStamped state fresh, sends TwistStamped commands at a fixed rate
+script is the ROS 2 peer: it keeps a PoseStamped state fresh, sends TwistStamped commands at a
+fixed rate
 (each stamped with its index) and timestamps every answer. Latency = answer received - command
-written, on one machine's monotonic clock.
+written, on one machine's monotonic clock. 0.5 s of commands before each measurement (warm-up)
+are not counted.
 
 Usage::
 
     python benchmarks/bridge_latency.py [--seconds 3] [--rates 100,1000] [--search] [--depth 10]
 
 ``--search`` then tries 2, 3, 4, 5, 7, 10 kHz and reports the highest rate *held*: every command
-answered (nothing lost with keep-last 10), the sender within 5 % of the rate, p99 < 20 ms.
+answered (nothing lost) and the sender within 5 % of the rate.
 DDS is confined to loopback (CYCLONEDDS_URI) on a random domain.
 """
 
@@ -161,11 +161,12 @@ def measure(rate: float, seconds: float, domain: int, depth: int) -> dict[str, f
         "p50_ms": q(0.50),
         "p99_ms": q(0.99),
         "max_ms": lat[-1] if lat else math.nan,
+        "over_10ms": sum(1 for x in lat if x > 10.0),
     }
 
 
 def held(r: dict[str, float]) -> bool:
-    return r["lost"] == 0 and r["send_rate_hz"] >= 0.95 * r["rate_hz"] and r["p99_ms"] < 20.0
+    return r["lost"] == 0 and r["send_rate_hz"] >= 0.95 * r["rate_hz"]
 
 
 def main() -> None:
