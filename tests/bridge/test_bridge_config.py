@@ -255,3 +255,46 @@ def test_cli_runs_and_stops_cleanly_on_sigterm(tmp_path: Path) -> None:
     _, err = proc.communicate(timeout=30)
     assert proc.returncode == EXIT_OK, err
     assert "-> stopped" in err
+
+
+class _NanShaper:
+    """A broken shaper: NaN out (the bridge must never write it)."""
+
+    def explain(self, p, v):  # type: ignore[no-untyped-def]
+        import numpy as np
+
+        class R:
+            output = np.array([np.nan, 0.0])
+            zone = "free"
+            active = ()
+
+        return R()
+
+
+class _Writer:
+    def __init__(self) -> None:
+        self.written: list[Any] = []
+
+    def write(self, m: Any) -> None:
+        self.written.append(m)
+
+
+def test_a_non_finite_shaper_output_is_never_written(bridge_log: Any) -> None:
+    """Without DDS: the node's command path with a shaper that returns NaN."""
+    import dataclasses
+
+    import numpy as np
+
+    cfg = _parse({**PLANE, "command_frame": "world"})
+    broken = dataclasses.replace(cfg.shaper, shaper=_NanShaper())
+    node = BridgeNode(dataclasses.replace(cfg, shaper=broken))
+    w = _Writer()
+    node._out_writer = w
+    node._state, node._state_time = np.array([1.0, 1.0]), time.monotonic()
+    cmd = msgs.Twist(linear=msgs.Vector3(x=0.5, y=0.1), angular=msgs.Vector3(z=0.3))
+    node._on_command(cmd)
+    assert len(w.written) == 1
+    out = w.written[0]
+    assert (out.linear.x, out.linear.y, out.linear.z, out.angular.z) == (0.0, 0.0, 0.0, 0.0)
+    assert node.counters["dropped:output_nonfinite"] == 1
+    assert any("non-finite" in r.getMessage() for r in bridge_log.records)

@@ -272,6 +272,7 @@ class BridgeNode:
                 "states_received",
                 "dropped_commands",
                 "dropped_states",
+                "dropped_outputs",
                 "qos_incompatible",
                 "on_cycle_errors",
                 "diagnostics_published",
@@ -504,10 +505,19 @@ class BridgeNode:
         return out
 
     def _drop(self, what: str, reason: str) -> None:
+        key = f"{what}_{reason}"
         with self._lock:
             self._counters[f"dropped_{what}s"] += 1
-            key = f"{what}_{reason}"
+            first = key not in self._drops
             self._drops[key] = self._drops.get(key, 0) + 1
+        if first:  # one line per reason; the diagnostics count every drop
+            self._log.warning(
+                "dropped a %s message: %s (not applied; further drops of this kind are only "
+                "counted, as dropped:%s in the diagnostics)",
+                what,
+                reason.replace("_", " "),
+                key,
+            )
 
     def _classify(self, now: float) -> str:
         if self._state_time is None:
