@@ -298,3 +298,21 @@ def test_a_non_finite_shaper_output_is_never_written(bridge_log: Any) -> None:
     assert (out.linear.x, out.linear.y, out.linear.z, out.angular.z) == (0.0, 0.0, 0.0, 0.0)
     assert node.counters["dropped:output_nonfinite"] == 1
     assert any("non-finite" in r.getMessage() for r in bridge_log.records)
+
+
+def test_documented_files_load() -> None:
+    """The YAML of docs/bridge.md and examples/bridge.yaml is valid as written."""
+    import re
+
+    import yaml
+
+    root = SRC.parent
+    text = (root / "docs" / "bridge.md").read_text(encoding="utf-8")
+    blocks = re.findall(r"^```yaml\n(.*?)^```", text, re.M | re.S)
+    assert len(blocks) == 2
+    for block in blocks:
+        cfg = parse_bridge_config(yaml.safe_load(block), source="docs/bridge.md")
+        assert cfg.settings.command_in.topic.startswith("/")
+    example = load_bridge_config(root / "examples" / "bridge.yaml")
+    assert example.settings.command_frame == "body"
+    assert example.dds_topics["command_out"] == "rt/cmd_vel"
