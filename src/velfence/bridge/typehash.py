@@ -74,18 +74,14 @@ def _scalar(tp: Any) -> tuple[int, str, type | None]:
 def _field(name: str, tp: Any) -> tuple[dict[str, Any], type | None]:
     increment = capacity = 0
     if typing.get_origin(tp) is typing.Annotated:
-        base, meta = typing.get_args(tp)[:2]
-        kind = type(meta).__name__
-        if kind in ("array", "sequence"):
-            sub = meta.subtype
-            if kind == "array":
-                increment, capacity = _ARRAY, int(meta.length)
-            elif meta.max_length:
-                increment, capacity = _BOUNDED_SEQUENCE, int(meta.max_length)
-            else:
-                increment = _SEQUENCE
-            tp = sub
-        del base
+        meta = typing.get_args(tp)[1]
+        kind = type(meta).__name__  # cyclonedds.idl.types.array / sequence
+        if kind == "array":
+            increment, capacity, tp = _ARRAY, int(meta.length), meta.subtype
+        elif kind == "sequence" and meta.max_length:
+            increment, capacity, tp = _BOUNDED_SEQUENCE, int(meta.max_length), meta.subtype
+        elif kind == "sequence":
+            increment, tp = _SEQUENCE, meta.subtype
     type_id, nested, cls = _scalar(tp)
     return {
         "name": name,
