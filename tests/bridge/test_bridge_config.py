@@ -16,6 +16,7 @@ import pytest
 from conftest import DOMAIN, LOOPBACK, SRC
 from velfence.bridge import (
     EXIT_CONFIG,
+    EXIT_DDS,
     EXIT_OK,
     BridgeNode,
     load_bridge_config,
@@ -316,3 +317,28 @@ def test_documented_files_load() -> None:
     example = load_bridge_config(root / "examples" / "bridge.yaml")
     assert example.settings.command_frame == "body"
     assert example.dds_topics["command_out"] == "rt/cmd_vel"
+
+
+def test_cli_dds_failure_exits_3(tmp_path: Path) -> None:
+    """A Cyclone DDS configuration naming an interface that does not exist: no participant."""
+    (tmp_path / "b.yaml").write_text(
+        f"bridge:\n  domain_id: {DOMAIN}\n  command_in: {{type: twist}}\n"
+        "  state: {type: odometry}\n  command_frame: body\n"
+        "shaper:\n  kind: polygon\n  corners: [[0, 0], [4, 0], [4, 3], [0, 3]]\n  buffer: 0.5\n"
+    )
+    bad = (
+        '<CycloneDDS><Domain id="any"><General><Interfaces><NetworkInterface '
+        'name="velfence_no_such_if0"/></Interfaces></General></Domain></CycloneDDS>'
+    )
+    env = {**os.environ, "PYTHONPATH": str(SRC), "CYCLONEDDS_URI": bad}
+    done = subprocess.run(
+        [sys.executable, "-m", "velfence.cli", "bridge", "--config", "b.yaml", "--duration", "1"],
+        cwd=tmp_path,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+    )
+    assert done.returncode == EXIT_DDS, done.stderr
+    assert "DDS could not be started" in done.stderr
