@@ -26,6 +26,7 @@ EXTRA_OF: dict[str, str] = {
     "PIL": "app",
     "qpsolvers": "qp",
     "daqp": "qp",
+    "cyclonedds": "ros",
 }
 
 

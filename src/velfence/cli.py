@@ -342,6 +342,25 @@ def teleop(
 
 
 @app.command()
+def bridge(
+    config: Annotated[
+        Path, typer.Option(help="Bridge YAML file: bridge: + shaper: sections (docs/bridge.md).")
+    ],
+    duration: Annotated[
+        float | None, typer.Option(help="Stop after this many seconds (default: SIGINT/SIGTERM).")
+    ] = None,
+) -> None:
+    """Run the ROS 2 DDS filter node (extra ros). Exit 0 stopped, 2 bad config, 3 DDS failed."""
+    from velfence.bridge import serve
+
+    try:
+        code = serve(config, duration=duration)
+    except VelfenceError as exc:
+        raise _fail(str(exc)) from None
+    raise typer.Exit(code=code)
+
+
+@app.command()
 def study(
     subjects: Annotated[int, typer.Option(min=1, help="Simulated subjects (thesis: 10).")] = 10,
     runs: Annotated[int, typer.Option(min=1, help="Runs per mode per subject (thesis: 3).")] = 3,

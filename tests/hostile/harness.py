@@ -612,6 +612,7 @@ SPEC_MODULES = (
     "specs_teleop",
     "specs_io",
     "specs_integrations",
+    "specs_bridge",
     "specs_viz",
     "specs_reproduce",
     "specs_tools",

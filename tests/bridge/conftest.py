@@ -1,0 +1,119 @@
+"""Bridge tests: DDS on loopback only, one random domain per test session, a bridge per test.
+
+``CYCLONEDDS_URI`` confines Cyclone DDS to ``lo`` without multicast (peers found by unicast on
+127.0.0.1), before cyclonedds is imported anywhere, and the client processes inherit it. Each
+test gets its own ROS namespace, so endpoints of one test never meet another's.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import itertools
+import json
+import logging
+import os
+import random
+import subprocess
+import sys
+import threading
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+LOOPBACK = (
+    '<CycloneDDS><Domain id="any"><General><Interfaces><NetworkInterface name="lo" '
+    'multicast="false"/></Interfaces><AllowMulticast>false</AllowMulticast></General>'
+    '<Discovery><ParticipantIndex>auto</ParticipantIndex><Peers><Peer address="127.0.0.1"/>'
+    "</Peers></Discovery></Domain></CycloneDDS>"
+)
+os.environ["CYCLONEDDS_URI"] = LOOPBACK
+#: The DDS domain of this test session (random: parallel sessions do not see each other).
+DOMAIN = random.SystemRandom().randint(1, 230)
+os.environ["ROS_DOMAIN_ID"] = str(DOMAIN)
+
+if importlib.util.find_spec("cyclonedds") is None:  # the ros extra is not installed
+    collect_ignore_glob = ["test_*.py"]
+
+import velfence  # noqa: E402
+
+CLIENT = Path(__file__).with_name("ros_client.py")
+SRC = Path(velfence.__file__).resolve().parents[1]
+_NAMESPACES = itertools.count()
+
+
+class RunningBridge:
+    """A bridge node running in a thread of the test process."""
+
+    def __init__(self, doc: dict[str, Any], **kwargs: Any) -> None:
+        from velfence.bridge import BridgeNode, parse_bridge_config
+
+        self.config = parse_bridge_config(doc, source="test")
+        self.node = BridgeNode(self.config, **kwargs)
+        self.error: BaseException | None = None
+        self.thread = threading.Thread(target=self._run, daemon=True)
+        self.thread.start()
+        if not self.node.wait_ready(30.0):
+            raise RuntimeError(f"bridge did not start: {self.error!r}")
+
+    def _run(self) -> None:
+        try:
+            self.node.run()
+        except BaseException as exc:
+            self.error = exc
+
+    def topic(self, name: str) -> str:
+        from velfence.bridge.config import dds_topic
+
+        return dds_topic(self.config.settings, name)
+
+    def close(self) -> None:
+        self.node.stop()
+        self.thread.join(30.0)
+        assert not self.thread.is_alive(), "the bridge did not stop"
+        assert self.error is None, repr(self.error)
+
+
+@pytest.fixture
+def bridge() -> Iterator[Callable[..., RunningBridge]]:
+    """Factory: ``bridge(bridge_section, shaper_section, **node_kwargs)``; stopped afterwards."""
+    started: list[RunningBridge] = []
+
+    def start(section: dict[str, Any], shaper: dict[str, Any], **kwargs: Any) -> RunningBridge:
+        doc = {
+            "bridge": {"domain_id": DOMAIN, "namespace": f"/t{next(_NAMESPACES)}", **section},
+            "shaper": shaper,
+        }
+        b = RunningBridge(doc, **kwargs)
+        started.append(b)
+        return b
+
+    yield start
+    for b in started:
+        b.close()
+
+
+def run_client(spec: dict[str, Any], tmp_path: Path, *, timeout: float = 60.0) -> dict[str, Any]:
+    """Run ros_client.py in its own process with ``spec``; its JSON result."""
+    path = tmp_path / f"client-{next(_NAMESPACES)}.json"
+    path.write_text(json.dumps({"domain": DOMAIN, **spec}), encoding="utf-8")
+    env = {**os.environ, "PYTHONPATH": str(SRC), "CYCLONEDDS_URI": LOOPBACK}
+    done = subprocess.run(
+        [sys.executable, str(CLIENT), str(path)],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        env=env,
+        check=False,
+    )
+    if done.returncode != 0:
+        raise AssertionError(f"client failed ({done.returncode}): {done.stderr[-2000:]}")
+    result: dict[str, Any] = json.loads(done.stdout)
+    return result
+
+
+@pytest.fixture
+def bridge_log(caplog: pytest.LogCaptureFixture) -> pytest.LogCaptureFixture:
+    caplog.set_level(logging.INFO, logger="velfence.bridge")
+    return caplog

@@ -1,0 +1,255 @@
+"""A ROS 2 peer for the bridge tests, run in its own process: ``python ros_client.py SPEC.json``.
+
+It joins the DDS domain with its own participant, publishes and subscribes with the ROS 2 type
+names (``rt/<topic>``, ``pkg::msg::dds_::Type_``) and prints one JSON object with what it saw.
+Scenarios (``spec["scenario"]``):
+
+* ``stream``: keep a state fresh, send ``commands`` at ``rate_hz`` (optionally pausing), collect
+  every output with its receive time;
+* ``qos``: open a best-effort writer against the bridge's reliable command reader and a
+  transient-local reader against its volatile writer (both mismatches), then read diagnostics;
+* ``endpoints``: read the builtin DCPSPublication/DCPSSubscription topics and report the type
+  name and USER_DATA of every endpoint on the given topics.
+
+Sleeps here only pace the publishing; every wait for the bridge is a condition with a deadline.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+import time
+from typing import Any
+
+from cyclonedds.builtin import (
+    BuiltinDataReader,
+    BuiltinTopicDcpsPublication,
+    BuiltinTopicDcpsSubscription,
+)
+from cyclonedds.core import Policy, Qos
+from cyclonedds.domain import DomainParticipant
+from cyclonedds.pub import DataWriter
+from cyclonedds.sub import DataReader
+from cyclonedds.topic import Topic
+from cyclonedds.util import duration
+
+from velfence.bridge import msgs
+from velfence.bridge.typehash import user_data
+
+TYPES = {
+    "twist": msgs.Twist,
+    "twist_stamped": msgs.TwistStamped,
+    "joint_jog": msgs.JointJog,
+    "float64_multi_array": msgs.Float64MultiArray,
+    "joint_trajectory": msgs.JointTrajectory,
+    "joint_state": msgs.JointState,
+    "pose_stamped": msgs.PoseStamped,
+    "odometry": msgs.Odometry,
+}
+DISCOVERY_S = 15.0
+
+
+def qos(typ: type, *, reliable: bool = True, depth: int = 10, transient: bool = False) -> Qos:
+    rel = (
+        Policy.Reliability.Reliable(max_blocking_time=duration(seconds=1))
+        if reliable
+        else Policy.Reliability.BestEffort
+    )
+    dur = Policy.Durability.TransientLocal if transient else Policy.Durability.Volatile
+    return Qos(
+        rel,
+        dur,
+        Policy.History.KeepLast(depth),
+        Policy.Userdata(user_data(typ)),
+        Policy.DataRepresentation(use_cdrv0_representation=True),
+    )
+
+
+def wait_for(cond: Any, what: str, timeout: float = DISCOVERY_S) -> None:
+    end = time.monotonic() + timeout
+    while not cond():
+        if time.monotonic() > end:
+            raise SystemExit(f"timed out waiting for {what}")
+        time.sleep(0.005)
+
+
+def make_command(typ: str, item: dict[str, Any], index: int) -> Any:
+    values = [float(x) for x in item["values"]]
+    stamp = msgs.Time(sec=index, nanosec=0)
+    if typ in ("twist", "twist_stamped"):
+        lin = ([*values, 0.0, 0.0, 0.0])[:3]
+        ang = [float(x) for x in item.get("angular", [0.0, 0.0, 0.0])]
+        tw = msgs.Twist(
+            linear=msgs.Vector3(x=lin[0], y=lin[1], z=lin[2]),
+            angular=msgs.Vector3(x=ang[0], y=ang[1], z=ang[2]),
+        )
+        if typ == "twist":
+            return tw
+        return msgs.TwistStamped(header=msgs.Header(stamp=stamp, frame_id="cmd"), twist=tw)
+    if typ == "float64_multi_array":
+        return msgs.Float64MultiArray(data=values)
+    return msgs.JointJog(
+        header=msgs.Header(stamp=stamp), joint_names=list(item["names"]), velocities=values
+    )
+
+
+def make_state(spec: dict[str, Any]) -> Any:
+    typ, values = spec["type"], [float(x) for x in spec["values"]]
+    if typ == "joint_state":
+        return msgs.JointState(name=list(spec["names"]), position=values)
+    xyz = ([*values, 0.0, 0.0, 0.0])[:3]
+    yaw = float(spec.get("yaw", 0.0))
+    q = msgs.Quaternion(z=math.sin(yaw / 2), w=math.cos(yaw / 2))
+    pose = msgs.Pose(position=msgs.Point(x=xyz[0], y=xyz[1], z=xyz[2]), orientation=q)
+    if typ == "pose_stamped":
+        return msgs.PoseStamped(pose=pose)
+    return msgs.Odometry(pose=msgs.PoseWithCovariance(pose=pose))
+
+
+def output_values(typ: str, m: Any) -> tuple[int | None, list[float]]:
+    if typ in ("twist", "twist_stamped"):
+        tw = m.twist if typ == "twist_stamped" else m
+        idx = m.header.stamp.sec if typ == "twist_stamped" else None
+        return idx, [
+            tw.linear.x,
+            tw.linear.y,
+            tw.linear.z,
+            tw.angular.x,
+            tw.angular.y,
+            tw.angular.z,
+        ]
+    if typ == "float64_multi_array":
+        return None, list(m.data)
+    if typ == "joint_jog":
+        return m.header.stamp.sec, list(m.velocities)
+    return m.header.stamp.sec, list(m.points[0].velocities)
+
+
+def stream(spec: dict[str, Any], dp: DomainParticipant) -> dict[str, Any]:
+    t = spec["topics"]
+    depth = int(spec.get("depth", 10))
+    in_t, out_t = spec["cmd_type"], spec["out_type"]
+    st = spec["state"]
+    state_w = DataWriter(dp, Topic(dp, t["state"], TYPES[st["type"]]), qos=qos(TYPES[st["type"]]))
+    cmd_w = DataWriter(dp, Topic(dp, t["cmd_in"], TYPES[in_t]), qos=qos(TYPES[in_t], depth=depth))
+    out_r = DataReader(
+        dp, Topic(dp, t["cmd_out"], TYPES[out_t]), qos=qos(TYPES[out_t], depth=depth)
+    )
+    wait_for(lambda: len(cmd_w.get_matched_subscriptions()) > 0, "the command reader")
+    wait_for(lambda: len(state_w.get_matched_subscriptions()) > 0, "the state reader")
+    wait_for(lambda: len(out_r.get_matched_publications()) > 0, "the output writer")
+    state = make_state(st)
+    commands = spec["commands"]
+    rate = float(spec["rate_hz"])
+    pause_after = spec.get("pause_after")  # [index, seconds]
+    state_period = float(spec.get("state_period", 0.05))
+    outputs: list[dict[str, Any]] = []
+    sent: list[float] = []
+    t0 = time.monotonic()
+
+    def collect() -> None:
+        for m in out_r.take(N=1000):
+            if getattr(m, "sample_info", None) is not None and not m.sample_info.valid_data:
+                continue
+            idx, vals = output_values(out_t, m)
+            outputs.append({"t": time.monotonic() - t0, "i": idx, "v": vals})
+
+    state_w.write(state)
+    next_state = time.monotonic() + state_period
+    # A first state must be there before the first command is shaped: the bridge's diagnostics
+    # are not needed for that; the state writer is reliable and matched, so one short settle of
+    # the state (acknowledged by the reader) suffices.
+    state_w.wait_for_acks(duration(seconds=5))
+    next_cmd = time.monotonic()
+    i = 0
+    end_pause = None
+    while i < len(commands):
+        now = time.monotonic()
+        if now >= next_state:
+            state_w.write(state)
+            next_state = now + state_period
+        if end_pause is not None and now < end_pause:
+            collect()
+            time.sleep(0.0005)
+            continue
+        if now >= next_cmd:
+            cmd_w.write(make_command(in_t, commands[i], i))
+            sent.append(now - t0)
+            i += 1
+            next_cmd += 1.0 / rate
+            if pause_after is not None and i == int(pause_after[0]):
+                end_pause = time.monotonic() + float(pause_after[1])
+                next_cmd = end_pause
+            continue
+        collect()
+        time.sleep(min(0.0005, max(0.0, next_cmd - time.monotonic())))
+    expected = int(spec.get("expect", len(commands)))
+    tail = float(spec.get("tail", 0.0))
+    end = time.monotonic() + 10.0
+    tail_end = time.monotonic() + tail
+    while (len(outputs) < expected and time.monotonic() < end) or time.monotonic() < tail_end:
+        if time.monotonic() >= next_state:
+            state_w.write(state)
+            next_state = time.monotonic() + state_period
+        collect()
+        time.sleep(0.001)
+    collect()
+    return {"sent": sent, "outputs": outputs}
+
+
+def qos_scenario(spec: dict[str, Any], dp: DomainParticipant) -> dict[str, Any]:
+    t = spec["topics"]
+    in_t, out_t = spec["cmd_type"], spec["out_type"]
+    # Best effort offered to a reliable request: the bridge's reader reports the mismatch.
+    w = DataWriter(dp, Topic(dp, t["cmd_in"], TYPES[in_t]), qos=qos(TYPES[in_t], reliable=False))
+    # Transient-local requested from a volatile writer: the bridge's writer reports it.
+    r = DataReader(dp, Topic(dp, t["cmd_out"], TYPES[out_t]), qos=qos(TYPES[out_t], transient=True))
+    diag = DataReader(dp, Topic(dp, t["diag"], msgs.DiagnosticArray), qos=qos(msgs.DiagnosticArray))
+    found: list[dict[str, str]] = []
+
+    def mismatch_reported() -> bool:
+        for m in diag.take(N=100):
+            for s in m.status:
+                kv = {v.key: v.value for v in s.values}
+                found.append(kv)
+        return any(int(kv.get("qos_incompatible", "0")) >= 2 for kv in found)
+
+    wait_for(mismatch_reported, "a diagnostics message reporting two QoS mismatches")
+    del w, r
+    return {"diagnostics": found[-1]}
+
+
+def endpoints(spec: dict[str, Any], dp: DomainParticipant) -> dict[str, Any]:
+    wanted = set(spec["topics"])
+    pubs = BuiltinDataReader(dp, BuiltinTopicDcpsPublication)
+    subs = BuiltinDataReader(dp, BuiltinTopicDcpsSubscription)
+    seen: dict[str, dict[str, Any]] = {}
+
+    def read() -> bool:
+        for kind, rd in (("publication", pubs), ("subscription", subs)):
+            for e in rd.take(N=200):
+                if e.topic_name in wanted:
+                    ud = e.qos[Policy.Userdata] if Policy.Userdata in e.qos else None  # noqa: SIM401
+                    seen[f"{kind}:{e.topic_name}"] = {
+                        "type": e.type_name,
+                        "user_data": None if ud is None else ud.data.decode("ascii"),
+                    }
+        return len(seen) >= int(spec["expect"])
+
+    wait_for(read, f"{spec['expect']} endpoints on {sorted(wanted)}")
+    return {"endpoints": seen}
+
+
+def main() -> None:
+    with open(sys.argv[1], encoding="utf-8") as fh:
+        spec = json.load(fh)
+    dp = DomainParticipant(int(spec["domain"]))
+    fn = {"stream": stream, "qos": qos_scenario, "endpoints": endpoints}[spec["scenario"]]
+    result = fn(spec, dp)
+    sys.stdout.write(json.dumps(result))
+    sys.stdout.flush()
+
+
+if __name__ == "__main__":
+    main()
