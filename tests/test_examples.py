@@ -255,3 +255,24 @@ def test_ur5e_safety_planes(capsys: pytest.CaptureFixture[str]) -> None:
     d_end = normals @ vector(final) - offsets
     assert np.all(d_end >= -1e-6)
     assert np.all(d_end < 5e-3)
+
+
+@pytest.mark.slow
+def test_physics_lag(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    pytest.importorskip("mujoco")
+    figure = tmp_path / "lag.png"
+    monkeypatch.setattr("sys.argv", ["physics_lag.py", str(figure)])
+    lines = run_example("physics_lag", capsys)
+    rows = [numbers(line) for line in lines[1:] if line.count("|") == 4]
+    assert len(rows) == 12
+    for bandwidth, speed, ratio, plain, ahead in rows:
+        # The lag ratio u T / b with T = 1 / bandwidth and the 50 mm buffer of the study.
+        assert ratio == pytest.approx(speed / (bandwidth * 0.05), abs=0.005)
+        # The linear analysis: an overshoot exactly when u T / b > 1/4 ...
+        assert (plain > 0.0) == (ratio > 0.25), (bandwidth, speed, plain)
+        # ... and none with the look-ahead and its guard.
+        assert ahead == 0.0
+    assert figure.stat().st_size > 10_000
+    assert lines[-1] == f"wrote {figure}"
