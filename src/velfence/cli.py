@@ -11,14 +11,14 @@ import importlib.util
 import json
 import sys
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
-from velfence.errors import VelfenceError
+from velfence.errors import InvalidParameter, VelfenceError
 from velfence.io.config import DEFAULT_MAX_STEPS
 
 __all__ = ["REPRODUCTIONS", "SIM_SCENARIOS", "app", "main", "reproduction_dir"]
@@ -349,15 +349,47 @@ def bridge(
     duration: Annotated[
         float | None, typer.Option(help="Stop after this many seconds (default: SIGINT/SIGTERM).")
     ] = None,
+    foxglove: Annotated[
+        bool, typer.Option(help="Serve a live Foxglove view on 127.0.0.1 (docs/foxglove.md).")
+    ] = False,
+    foxglove_port: Annotated[
+        int, typer.Option(min=0, max=65535, help="Port of the Foxglove view (0: any free one).")
+    ] = 8765,
+    record: Annotated[
+        Path | None, typer.Option(help="Also record the view to this new MCAP file.")
+    ] = None,
 ) -> None:
     """Run the ROS 2 DDS filter node (extra ros). Exit 0 stopped, 2 bad config, 3 DDS failed."""
     from velfence.bridge import serve
 
+    view = None
     try:
-        code = serve(config, duration=duration)
+        if foxglove or record is not None:
+            view = _bridge_view(config, foxglove_port if foxglove else None, record)
+        code = serve(config, duration=duration, on_cycle=None if view is None else view[1])
     except VelfenceError as exc:
         raise _fail(str(exc)) from None
+    finally:
+        if view is not None:
+            view[0].close()
     raise typer.Exit(code=code)
+
+
+def _bridge_view(config: Path, port: int | None, record: Path | None) -> tuple[Any, Any]:
+    """The Foxglove view of ``velfence bridge --foxglove/--record`` and its on_cycle hook."""
+    from velfence.bridge import FoxgloveView, load_bridge_config, view_hook
+
+    shaped = load_bridge_config(config).shaper
+    if shaped.command_space == "twist":
+        raise InvalidParameter(
+            "--foxglove/--record: a twist-mode safety filter is not drawn (its command is a TCP "
+            "velocity, its output joint velocities); use mode: joint, or leave the view off"
+        )
+    fence = getattr(shaped.shaper, "polygon", None) or getattr(shaped.shaper, "polytope", None)
+    if fence is not None and getattr(fence, "dim", 2) > 3:
+        fence = None  # a joint-space box of more than 3 joints: status and velocities only
+    view = FoxgloveView(port=port, record=record, fence=fence)
+    return view, view_hook(view)
 
 
 @app.command()

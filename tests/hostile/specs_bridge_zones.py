@@ -117,6 +117,7 @@ _ALL: dict[str, F | C] = {
         },
         instance=_view,
     ),
+    "bridge.view_hook": F(lambda: call(_view())),
     "bridge.record_trajectory": F(
         lambda: call(_traj(), _mcap(), fence=square(), every=2),
         types={"trajectory": "object", "fence": "object", "every": "count"},

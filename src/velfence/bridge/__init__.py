@@ -20,7 +20,7 @@ from velfence.bridge.config import (
     load_bridge_config,
     parse_bridge_config,
 )
-from velfence.bridge.foxglove import FoxgloveView, record_trajectory
+from velfence.bridge.foxglove import FoxgloveView, record_trajectory, view_hook
 from velfence.bridge.node import (
     EXIT_CONFIG,
     EXIT_DDS,
@@ -74,4 +74,5 @@ __all__ = [
     "type_description",
     "ur_safety_planes",
     "user_data",
+    "view_hook",
 ]

@@ -45,7 +45,14 @@ from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon
 from velfence.geometry.polytope import ConvexPolytope
 
-__all__ = ["SCENE_TOPIC", "STATUS_TOPIC", "VELOCITY_TOPIC", "FoxgloveView", "record_trajectory"]
+__all__ = [
+    "SCENE_TOPIC",
+    "STATUS_TOPIC",
+    "VELOCITY_TOPIC",
+    "FoxgloveView",
+    "record_trajectory",
+    "view_hook",
+]
 
 #: Topic of the 3-D scene (``foxglove.SceneUpdate``, protobuf).
 SCENE_TOPIC = "/velfence/scene"
@@ -572,3 +579,61 @@ def record_trajectory(
                 }
             )
     return out
+
+
+def view_hook(view: FoxgloveView) -> Any:
+    """An ``on_cycle`` callback that shows a bridge's every published command in ``view``.
+
+    Time is counted from the first shown cycle. A cycle without a state (a fail-safe zero before
+    any state arrived) is not shown; a watchdog zero (no command) is shown with a zero command.
+    The view never stops the node: a step it cannot draw is skipped, and the first such refusal
+    is logged on the ``velfence.bridge`` logger.
+
+    Args:
+        view: An open :class:`FoxgloveView` (server and/or MCAP recording).
+
+    Returns:
+        ``on_cycle(info)`` for :class:`~velfence.bridge.node.BridgeNode` and
+        :func:`~velfence.bridge.node.serve`.
+
+    Raises:
+        InvalidParameter: ``view`` is not an open :class:`FoxgloveView`.
+    """
+    import logging
+
+    from velfence.errors import VelfenceError
+
+    if not isinstance(view, FoxgloveView) or view.closed:
+        what = "a closed view" if isinstance(view, FoxgloveView) else type(view).__name__
+        raise InvalidParameter(f"view: expected an open FoxgloveView, got {what}")
+    start: list[float] = []
+    warned: list[bool] = []
+
+    def on_cycle(info: Any) -> None:
+        state = getattr(info, "state", None)
+        shaped = getattr(info, "shaped", None)
+        if state is None or shaped is None:
+            return
+        t = float(getattr(info, "t", 0.0))
+        if not start:
+            start.append(t)
+        command = getattr(info, "command", None)
+        step = {
+            "t": max(0.0, t - start[0]),
+            "state": state,
+            "command": np.zeros_like(shaped) if command is None else command,
+            "shaped": shaped,
+            "zone": getattr(info, "zone", ""),
+            "active": getattr(info, "active", ()),
+        }
+        try:
+            view.publish(step)
+        except VelfenceError as exc:
+            if not warned:
+                warned.append(True)
+                logging.getLogger("velfence.bridge").warning(
+                    "foxglove view: a step was not shown (%s); further ones are skipped silently",
+                    exc,
+                )
+
+    return on_cycle
