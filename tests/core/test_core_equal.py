@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 from strategies import convex_polygons, positions, vectors
 from velfence.shaping import _kernels as kern
 
-from _helpers import LAWS, bits, law_kwargs, pair
+from core_helpers import LAWS, bits, law_kwargs, pair
 
 core = pytest.importorskip(
     "velfence_core._core", reason="the compiled core is not installed (pip install ./core)"

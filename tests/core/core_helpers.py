@@ -22,7 +22,7 @@ def law_kwargs(poly: ConvexPolygon, law: str, frac: float, gain: float, dt: floa
     if law == "exact":
         return {"buffer": width, "spring_gain": gain, "dt": dt}
     if law == "exact-rmax":
-        return {"buffer": width, "spring_gain": gain, "max_recovery_speed": 0.5 * gain, "dt": dt}
+        return {"buffer": width, "spring_gain": gain, "max_recovery_speed": 0.5 * gain + 0.01, "dt": dt}
     if law == "patent":
         return {"buffer": width, "spring_gain": gain, "method": "edge-scaling", "dt": dt}
     if law == "linear-profile":
