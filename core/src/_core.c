@@ -7,6 +7,10 @@
  * with methods
  *   law(px, py, vx, vy)   -> the reference kernel's 10-tuple (unchecked, as the Python kernel)
  *   shape(px, py, vx, vy) -> (rc, 10-tuple) through the checked C API (vf_*_shape)
+ *   shape_array(position, command) -> the shaped velocity as a new float64 array (2,), or None
+ *                         when the fast path does not apply (not two float64 ndarrays of shape (2,),
+ *                         non-finite input, overflowed output): the caller then runs its generic
+ *                         path, which owns the on_invalid policy.
  *   batch(P, V, out, zones) -> None: the unchecked kernel over rows (buffers: P, V float64 (N, 2)
  *                         C-contiguous, out float64 (N, 2) writable, zones int64 (N,) writable);
  *                         releases the GIL, its scratch is per call.
@@ -14,6 +18,10 @@
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
 
+#define NPY_NO_DEPRECATED_API NPY_1_7_API_VERSION
+#include <numpy/arrayobject.h>
+
+#include <math.h>
 #include <string.h>
 
 #include "velfence_core.h"
@@ -70,6 +78,43 @@ static int four_doubles(PyObject *const *args, Py_ssize_t nargs, double *v)
         }
     }
     return 0;
+}
+
+/* Two float64 ndarrays of shape (2,) read into v[0..3]; 0 if they are not that. */
+static int two_pairs(PyObject *const *args, Py_ssize_t nargs, double *v)
+{
+    int i;
+    if (nargs != 2) {
+        return 0;
+    }
+    for (i = 0; i < 2; i++) {
+        PyArrayObject *a = (PyArrayObject *)args[i];
+        if (!PyArray_CheckExact(args[i]) || PyArray_NDIM(a) != 1 || PyArray_DIM(a, 0) != 2
+            || PyArray_TYPE(a) != NPY_DOUBLE || !PyArray_ISNOTSWAPPED(a)) {
+            return 0;
+        }
+        v[2 * i] = *(const double *)PyArray_GETPTR1(a, 0);
+        v[2 * i + 1] = *(const double *)PyArray_GETPTR1(a, 1);
+    }
+    return isfinite(v[0]) && isfinite(v[1]) && isfinite(v[2]) && isfinite(v[3]);
+}
+
+static PyObject *pair_array(double x, double y)
+{
+    npy_intp dim = 2;
+    PyObject *o;
+    double *d;
+    if (!isfinite(x) || !isfinite(y)) {
+        Py_RETURN_NONE;
+    }
+    o = PyArray_SimpleNew(1, &dim, NPY_DOUBLE);
+    if (o == NULL) {
+        return NULL;
+    }
+    d = (double *)PyArray_DATA((PyArrayObject *)o);
+    d[0] = x;
+    d[1] = y;
+    return o;
 }
 
 typedef struct {
@@ -230,6 +275,17 @@ static PyObject *ExactLaw_shape(ExactLaw *self, PyObject *const *args, Py_ssize_
     return res;
 }
 
+static PyObject *ExactLaw_shape_array(ExactLaw *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    double v[4];
+    vf_result r;
+    if (self->mem == NULL || !two_pairs(args, nargs, v)) {
+        Py_RETURN_NONE;
+    }
+    vf_exact_kernel(&self->poly, &self->law, v[0], v[1], v[2], v[3], &self->scratch, &r);
+    return pair_array(r.ox, r.oy);
+}
+
 static PyObject *ExactLaw_batch(ExactLaw *self, PyObject *const *args, Py_ssize_t nargs)
 {
     batch_views b;
@@ -285,6 +341,8 @@ static PyMethodDef ExactLaw_methods[] = {
      "law(px, py, vx, vy) -> the reference kernel's 10-tuple (unchecked)."},
     {"shape", (PyCFunction)(void (*)(void))ExactLaw_shape, METH_FASTCALL,
      "shape(px, py, vx, vy) -> (rc, 10-tuple) through the checked C API."},
+    {"shape_array", (PyCFunction)(void (*)(void))ExactLaw_shape_array, METH_FASTCALL,
+     "shape_array(position, command) -> new float64 (2,) array, or None (use the generic path)."},
     {"batch", (PyCFunction)(void (*)(void))ExactLaw_batch, METH_FASTCALL,
      "batch(P, V, out, zones): the unchecked kernel over rows."},
     {NULL, NULL, 0, NULL}};
@@ -396,6 +454,18 @@ static PyObject *PatentLaw_shape(PatentLaw *self, PyObject *const *args, Py_ssiz
     return Py_BuildValue("(iN)", rc, t);
 }
 
+static PyObject *PatentLaw_shape_array(PatentLaw *self, PyObject *const *args,
+                                       Py_ssize_t nargs)
+{
+    double v[4];
+    vf_result r;
+    if (self->mem == NULL || !two_pairs(args, nargs, v)) {
+        Py_RETURN_NONE;
+    }
+    vf_patent_kernel(&self->poly, &self->law, v[0], v[1], v[2], v[3], &r);
+    return pair_array(r.ox, r.oy);
+}
+
 static PyObject *PatentLaw_batch(PatentLaw *self, PyObject *const *args, Py_ssize_t nargs)
 {
     batch_views b;
@@ -433,6 +503,8 @@ static PyMethodDef PatentLaw_methods[] = {
      "law(px, py, vx, vy) -> the reference kernel's 10-tuple (unchecked)."},
     {"shape", (PyCFunction)(void (*)(void))PatentLaw_shape, METH_FASTCALL,
      "shape(px, py, vx, vy) -> (rc, 10-tuple) through the checked C API."},
+    {"shape_array", (PyCFunction)(void (*)(void))PatentLaw_shape_array, METH_FASTCALL,
+     "shape_array(position, command) -> new float64 (2,) array, or None (use the generic path)."},
     {"batch", (PyCFunction)(void (*)(void))PatentLaw_batch, METH_FASTCALL,
      "batch(P, V, out, zones): the unchecked kernel over rows."},
     {NULL, NULL, 0, NULL}};
@@ -458,6 +530,7 @@ static struct PyModuleDef core_module = {
 PyMODINIT_FUNC PyInit__core(void)
 {
     PyObject *m;
+    import_array();
     if (PyType_Ready(&ExactLawType) < 0 || PyType_Ready(&PatentLawType) < 0) {
         return NULL;
     }

@@ -15,6 +15,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from strategies import convex_polygons, positions, vectors
+from velfence.shaping import PolygonShaper
 from velfence.shaping import _kernels as kern
 
 from core_helpers import LAWS, bits, law_kwargs, pair
@@ -150,3 +151,42 @@ def test_binding_refuses_bad_data() -> None:
                   np.zeros(2, dtype=np.int64))  # fmt: skip
     with pytest.raises(ValueError, match=r"\(N, 2\)"):
         law.batch(np.zeros((3, 2)), np.zeros((2, 2)), np.zeros((2, 2)), np.zeros(2, dtype=np.int64))
+
+
+@given(cases())
+def test_shape_fast_path_bit_identical(case: tuple[object, ...]) -> None:
+    """``shape`` with the core (float64 arrays: straight to C; lists: the generic path) returns
+    the reference's output bit for bit, as a fresh float64 array of shape (2,)."""
+    poly, kwargs, states = case
+    py, c = pair(poly, **kwargs)  # type: ignore[arg-type]
+    for p, v in states:  # type: ignore[attr-defined]
+        ref = py.shape(p, v)
+        fast = c.shape(p, v)
+        assert fast.dtype == np.float64 and fast.shape == (2,)
+        assert fast.tobytes() == ref.tobytes()
+        assert c.shape(p.tolist(), v.tolist()).tobytes() == ref.tobytes()
+        assert c.shape(p[::1].astype(np.float32), v).tobytes() == py.shape(
+            p.astype(np.float32), v
+        ).tobytes()
+    fast[0] = 123.0  # a fresh array each call
+    p, v = states[0]  # type: ignore[index]
+    assert c.shape(p, v).tobytes() == py.shape(p, v).tobytes()
+
+
+def test_shape_fast_path_keeps_the_invalid_policy() -> None:
+    """Non-finite input and overflow leave the fast path: the on_invalid policy answers."""
+    from velfence.errors import InvalidInput
+    from velfence.geometry.polygon import ConvexPolygon
+
+    box = ConvexPolygon(np.array([[-1.0, -0.5], [1.0, -0.5], [1.0, 0.5], [-1.0, 0.5]]))
+    for method in ("exact", "edge-scaling"):
+        raising = PolygonShaper(box, buffer=0.2, method=method, backend="c")
+        stopping = PolygonShaper(box, buffer=0.2, method=method, backend="c", on_invalid="stop")
+        bad = np.array([math.nan, 0.0])
+        with pytest.raises(InvalidInput, match="non-finite input"):
+            raising.shape(bad, np.array([1.0, 0.0]))
+        assert stopping.shape(np.array([0.0, 0.0]), bad).tolist() == [0.0, 0.0]
+    patent = PolygonShaper(box, buffer=0.2, method="edge-scaling", backend="c")
+    huge = (np.array([-1.7e308, 0.0]), np.array([1.7e308, 0.0]))
+    with pytest.raises(InvalidInput, match="overflowed"):
+        patent.shape(*huge)

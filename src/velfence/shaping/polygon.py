@@ -146,6 +146,7 @@ class PolygonShaper(ShaperBase):
     __slots__ = (
         "_batch_args",
         "_core",
+        "_core_shape",
         "_fast",
         "_generic",
         "_idt",
@@ -284,6 +285,7 @@ class PolygonShaper(ShaperBase):
             np.asarray(a, dtype=float) if any(a is x for x in per_edge) else a for a in fast
         )
         self._core, self.backend = self._pick_backend(check_choice("backend", backend, _BACKENDS))
+        self._core_shape = None if self._core is None else self._core.__self__.shape_array
         self._ready = True
 
     def _pick_backend(self, backend: str) -> tuple[Any, Literal["python", "c"]]:
@@ -319,6 +321,31 @@ class PolygonShaper(ShaperBase):
                 f"of setting {name!r}"
             )
         object.__setattr__(self, name, value)
+
+    def shape(self, position: ArrayLike, command: ArrayLike) -> FloatArray:
+        """Shaped velocity.
+
+        With the compiled core, two float64 arrays of shape (2,) with finite entries go straight
+        to it (one call, no intermediate objects); anything else takes the generic path of
+        :meth:`ShaperBase.shape <velfence.shaping.base.ShaperBase.shape>` (validation and the
+        ``on_invalid`` policy), with the same result.
+
+        Args:
+            position: Position of the reference point, shape (2,), workspace units.
+            command: Commanded velocity, shape (2,), workspace units per second.
+
+        Returns:
+            The admissible velocity, shape (2,), never non-finite.
+
+        Raises:
+            InvalidInput: wrong shape, or non-finite input with ``on_invalid="raise"``.
+        """
+        fast = self._core_shape
+        if fast is not None:
+            out: FloatArray | None = fast(position, command)
+            if out is not None:
+                return out
+        return super().shape(position, command)
 
     # ------------------------------------------------------------------ the law
     def _law(
