@@ -16,21 +16,26 @@ def bits(r: tuple[Any, ...]) -> tuple[Any, ...]:
     return tuple(struct.pack("<d", x) if isinstance(x, float) else x for x in r)
 
 
-def law_kwargs(poly: ConvexPolygon, law: str, frac: float, gain: float, dt: float | None) -> dict[str, Any]:
+def law_kwargs(
+    poly: ConvexPolygon, law: str, frac: float, gain: float, dt: float | None
+) -> dict[str, Any]:
     """Keyword arguments of one PolygonShaper law on ``poly`` (``frac`` of the inradius)."""
     width = frac * poly.inradius
     if law == "exact":
         return {"buffer": width, "spring_gain": gain, "dt": dt}
     if law == "exact-rmax":
-        return {"buffer": width, "spring_gain": gain, "max_recovery_speed": 0.5 * gain + 0.01, "dt": dt}
+        return {
+            "buffer": width,
+            "spring_gain": gain,
+            "max_recovery_speed": 0.5 * gain + 0.01,
+            "dt": dt,
+        }
     if law == "patent":
         return {"buffer": width, "spring_gain": gain, "method": "edge-scaling", "dt": dt}
     if law == "linear-profile":
         return {"profile": LinearBuffer(buffer=width, spring_gain=gain)}
     if law == "three-zone":
-        return {
-            "profile": ThreeZoneBraking(gain=gain + 2.5, max_speed=1.0, max_acceleration=2.0)
-        }
+        return {"profile": ThreeZoneBraking(gain=gain + 2.5, max_speed=1.0, max_acceleration=2.0)}
     raise ValueError(law)
 
 

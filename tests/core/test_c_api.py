@@ -41,8 +41,14 @@ def build(source: str, exe: Path) -> Path:
 
 
 def run(exe: Path) -> str:
-    env = {**os.environ, "ASAN_OPTIONS": "detect_leaks=1:abort_on_error=0", "UBSAN_OPTIONS": "print_stacktrace=1"}
-    done = subprocess.run([str(exe)], capture_output=True, text=True, timeout=120, env=env, check=False)
+    env = {
+        **os.environ,
+        "ASAN_OPTIONS": "detect_leaks=1:abort_on_error=0",
+        "UBSAN_OPTIONS": "print_stacktrace=1",
+    }
+    done = subprocess.run(
+        [str(exe)], capture_output=True, text=True, timeout=120, env=env, check=False
+    )
     assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-4000:]
     assert "runtime error" not in done.stderr, done.stderr  # UBSan report
     assert "AddressSanitizer" not in done.stderr, done.stderr
@@ -56,7 +62,7 @@ def test_c_unit_tests_under_sanitizers(tmp_path: Path) -> None:
 
 
 def test_sanitizers_are_live(tmp_path: Path) -> None:
-    """The same build flags do catch an out-of-bounds read (the checks above cannot pass vacuously)."""
+    """The sanitizers catch an out-of-bounds read: the checks above cannot pass vacuously."""
     src = tmp_path / "oob.c"
     src.write_text(
         "#include <stdlib.h>\nint main(int argc, char **argv){(void)argv;"
@@ -64,8 +70,11 @@ def test_sanitizers_are_live(tmp_path: Path) -> None:
     )
     cmd = [GCC, "-std=c99", "-g", "-O0", *SANITIZE, str(src), "-o", str(tmp_path / "oob")]
     assert subprocess.run(cmd, capture_output=True, timeout=120, check=False).returncode == 0
-    done = subprocess.run([str(tmp_path / "oob")], capture_output=True, text=True, timeout=60, check=False)
-    assert done.returncode != 0 and "heap-buffer-overflow" in done.stderr
+    done = subprocess.run(
+        [str(tmp_path / "oob")], capture_output=True, text=True, timeout=60, check=False
+    )
+    assert done.returncode != 0
+    assert "heap-buffer-overflow" in done.stderr
 
 
 def _mask(stages: tuple[str, ...]) -> int:
@@ -77,7 +86,12 @@ def test_example_matches_python(tmp_path: Path) -> None:
     out = run(build("examples/shape_example.c", tmp_path / "shape_example"))
     box = ConvexPolygon([[-1.0, -0.5], [1.0, -0.5], [1.0, 0.5], [-1.0, 0.5]])
     nx, ny, off, cx, cy, a0, beta, n = box.kernel_data
-    assert (nx, ny, off, n) == ((-0.0, -1.0, -0.0, 1.0), (1.0, 0.0, -1.0, 0.0), (-0.5, -1.0, -0.5, -1.0), 4)
+    assert (nx, ny, off, n) == (
+        (-0.0, -1.0, -0.0, 1.0),
+        (1.0, 0.0, -1.0, 0.0),
+        (-0.5, -1.0, -0.5, -1.0),
+        4,
+    )
     assert (cx, cy, a0) == (0.0, 0.0, -2.677945044588987)
     assert beta == (0.0, 2.214297435588181, 3.141592653589793, 5.355890089177974, 6.283185307179586)
     shapers = {
@@ -100,8 +114,8 @@ def test_example_matches_python(tmp_path: Path) -> None:
         if rc == 0:
             assert (ox, oy) == tuple(res.output.tolist()), line
             assert math.copysign(1.0, ox) == math.copysign(1.0, res.output[0]), line
-            assert ZONE_NAMES[zone] == res.zone and stages == _mask(res.stages), line
+            assert (ZONE_NAMES[zone], stages) == (res.zone, _mask(res.stages)), line
         else:  # the stop result; Python with on_invalid="stop" answers the same
             assert (ox, oy, zone, stages) == (0.0, 0.0, ZONE_INVALID, 128), line
-            assert res.zone == "invalid" and res.output.tolist() == [0.0, 0.0], line
+            assert (res.zone, res.output.tolist()) == ("invalid", [0.0, 0.0]), line
     assert codes == {0, -3, -4}  # a normal answer, non-finite input, overflow

@@ -11,14 +11,13 @@ import math
 
 import numpy as np
 import pytest
+from core_helpers import LAWS, bits, law_kwargs, pair
 from hypothesis import given
 from hypothesis import strategies as st
 
 from strategies import convex_polygons, positions, vectors
 from velfence.shaping import PolygonShaper
 from velfence.shaping import _kernels as kern
-
-from core_helpers import LAWS, bits, law_kwargs, pair
 
 core = pytest.importorskip(
     "velfence_core._core", reason="the compiled core is not installed (pip install ./core)"
@@ -34,9 +33,7 @@ def cases(draw: st.DrawFn, *, bound: float = 3.0) -> tuple[object, ...]:
     poly = draw(convex_polygons(max_n=12))
     law = draw(st.sampled_from(LAWS))
     kwargs = law_kwargs(poly, law, draw(_FRAC), draw(_GAIN), draw(_DT))
-    states = [
-        (draw(positions(poly, spread=2.0)), draw(vectors(bound))) for _ in range(8)
-    ]
+    states = [(draw(positions(poly, spread=2.0)), draw(vectors(bound))) for _ in range(8)]
     return poly, kwargs, states
 
 
@@ -123,7 +120,8 @@ def test_checked_api_never_non_finite() -> None:
                 args[k] = bad
                 assert law.shape(*args) == (-3, stop)
         rc, res = law.shape(0.95, 0.4, 1.0, 1.0)
-        assert rc == 0 and bits(res) == bits(law.law(0.95, 0.4, 1.0, 1.0))
+        assert rc == 0
+        assert bits(res) == bits(law.law(0.95, 0.4, 1.0, 1.0))
     # patent outside the left edge: spring + command overflow; the raw kernel says inf
     assert not math.isfinite(patent.law(-1.7e308, 0.0, 1.7e308, 0.0)[0])
     assert patent.shape(-1.7e308, 0.0, 1.7e308, 0.0) == (-4, stop)
@@ -162,12 +160,13 @@ def test_shape_fast_path_bit_identical(case: tuple[object, ...]) -> None:
     for p, v in states:  # type: ignore[attr-defined]
         ref = py.shape(p, v)
         fast = c.shape(p, v)
-        assert fast.dtype == np.float64 and fast.shape == (2,)
+        assert (fast.dtype, fast.shape) == (np.float64, (2,))
         assert fast.tobytes() == ref.tobytes()
         assert c.shape(p.tolist(), v.tolist()).tobytes() == ref.tobytes()
-        assert c.shape(p[::1].astype(np.float32), v).tobytes() == py.shape(
-            p.astype(np.float32), v
-        ).tobytes()
+        assert (
+            c.shape(p[::1].astype(np.float32), v).tobytes()
+            == py.shape(p.astype(np.float32), v).tobytes()
+        )
     fast[0] = 123.0  # a fresh array each call
     p, v = states[0]  # type: ignore[index]
     assert c.shape(p, v).tobytes() == py.shape(p, v).tobytes()

@@ -19,8 +19,8 @@ from velfence.shaping import _kernels, _nd_kernels
 
 __all__ = [
     "compiled_batch",
-    "compiled_core",
     "compiled_bounds",
+    "compiled_core",
     "compiled_loop",
     "compiled_polytope",
     "compiled_project",
