@@ -63,8 +63,9 @@ def c_direct(poly_data: tuple[object, ...], prm: tuple[float, ...], pools: dict)
         for pool in pools.values():
             lines.append(str(len(pool)))
             lines += [" ".join(map(repr, (*p.tolist(), *v.tolist()))) for p, v in pool]
+        rep, samples = ("64", "20000") if n <= 64 else ("4", "2000")
         done = subprocess.run(
-            [str(exe)], input="\n".join(lines) + "\n", capture_output=True, text=True, check=True
+            [str(exe), rep, samples], input="\n".join(lines) + "\n", capture_output=True, text=True, check=True
         )
         return done.stdout.strip().splitlines()
 
@@ -77,8 +78,11 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="few calls (a smoke run)")
     ap.add_argument("--edges", type=int, default=8)
+    ap.add_argument("--calls", type=int, default=0, help="timed calls per route (0: settings)")
     args = ap.parse_args()
     s = dataclasses.replace(BenchSettings.make(quick=args.quick), latency_edges=(args.edges,))
+    if args.calls:
+        s = dataclasses.replace(s, calls=args.calls)
     notes: list[str] = []
     pools = {z: p for z, p in zone_pools(s, notes)[args.edges, "exact"].items() if p}
     poly = regular_polygon(args.edges)

@@ -1,6 +1,7 @@
 /*
  * bench_core_c.c -- the C timing loop of benchmarks/bench_core.py: vf_exact_shape called directly.
  *
+ * Arguments: [REP SAMPLES] (default 64 20000).
  * stdin: n, then nx[n], ny[n], off[n], cx, cy, prm[6], relax, idt; then blocks "count" followed by
  * count states (px py vx vy), until EOF. For each block prints one line
  *   median_ns p99_ns max_ns checksum
@@ -16,8 +17,8 @@
 
 #include "velfence_core.h"
 
-#define REP 64
-#define SAMPLES 20000
+static int REP = 64;       /* calls per timed block (argv[1]) */
+static int SAMPLES = 20000; /* timed blocks per state pool (argv[2]) */
 
 static double now_ns(void)
 {
@@ -32,7 +33,7 @@ static int cmp(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-int main(void)
+int main(int argc, char **argv)
 {
     int n, i, k, count, relax;
     double *nx, *ny, *off, *dist, *bnd, *times, *all = NULL, *out;
@@ -42,6 +43,11 @@ int main(void)
     vf_exact_law law;
     vf_scratch s;
     vf_result r;
+    if (argc > 2) {
+        REP = atoi(argv[1]);
+        SAMPLES = atoi(argv[2]);
+        if (REP < 1 || SAMPLES < 100) return 1;
+    }
     if (scanf("%d", &n) != 1 || n < 3) return 1;
     nx = malloc(sizeof(double) * (size_t)n * 5);
     ny = nx + n; off = nx + 2 * n; dist = nx + 3 * n; bnd = nx + 4 * n;
