@@ -63,9 +63,14 @@ def c_direct(poly_data: tuple[object, ...], prm: tuple[float, ...], pools: dict)
         for pool in pools.values():
             lines.append(str(len(pool)))
             lines += [" ".join(map(repr, (*p.tolist(), *v.tolist()))) for p, v in pool]
-        rep, samples = ("64", "20000") if n <= 64 else ("4", "2000")
+        # 8-gon: blocks of 64 calls (one call is shorter than the clock); large polygons: per call
+        rep, samples = ("64", "20000") if n <= 64 else ("1", "3000")
         done = subprocess.run(
-            [str(exe), rep, samples], input="\n".join(lines) + "\n", capture_output=True, text=True, check=True
+            [str(exe), rep, samples],
+            input="\n".join(lines) + "\n",
+            capture_output=True,
+            text=True,
+            check=True,
         )
         return done.stdout.strip().splitlines()
 
