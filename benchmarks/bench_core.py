@@ -84,7 +84,13 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true", help="few calls (a smoke run)")
     ap.add_argument("--edges", type=int, default=8)
     ap.add_argument("--calls", type=int, default=0, help="timed calls per route (0: settings)")
+    ap.add_argument(
+        "--scaling", action="store_true", help="C only, 8 / 128 / 1024 edges (states by the core)"
+    )
     args = ap.parse_args()
+    if args.scaling:
+        scaling()
+        return
     s = dataclasses.replace(BenchSettings.make(quick=args.quick), latency_edges=(args.edges,))
     if args.calls:
         s = dataclasses.replace(s, calls=args.calls)
@@ -172,6 +178,44 @@ def main() -> None:
     out += [f"| {name} | {v:.1f} |" for name, v in res.items()]
     if direct:
         out.append(f"| C direct `vf_exact_batch` (N = 10^6) | {float(direct[-1].split()[1]):.1f} |")
+    print("\n".join(out))
+
+
+def scaling() -> None:
+    """The core alone on 8-, 128- and 1024-gons: states drawn as ``velfence bench`` draws them
+    but classified by the core (the Python kernels take seconds per state outside a 1024-gon),
+    C via ``shape`` (20 000 calls) and C direct per call (3 000 calls, no blocks)."""
+    from velfence.bench.settings import ZONES
+
+    s = BenchSettings.make(quick=False)
+    rng = np.random.default_rng(s.seed)
+    out = ["| edges | zone | C via `shape` median / p99 µs | C direct median / p99 µs |"]
+    out.append("| ---: | --- | ---: | ---: |")
+    for edges in (8, 128, 1024):
+        poly = regular_polygon(edges)
+        c = PolygonShaper(poly, backend="c", buffer=s.buffer, spring_gain=s.spring_gain)
+        k = 4000
+        e = rng.integers(0, edges, k)
+        a, b = poly.corners[e], poly.corners[(e + 1) % edges]
+        P = a + rng.uniform(0, 1, k)[:, None] * (b - a)
+        P += rng.uniform(-1.5 * s.buffer, 1.5 * s.buffer, k)[:, None] * poly.normals[e]
+        V = rng.standard_normal(P.shape)
+        nn = poly.normals[np.argmin(poly.signed_distances(P), axis=1)]
+        V -= 2.0 * np.maximum(np.einsum("ij,ij->i", V, nn), 0.0)[:, None] * nn
+        _, zones = c.zones_batch(P, V)
+        pools = {}
+        for code, name in enumerate(ZONES):
+            rows = np.flatnonzero(zones == code)[:64]
+            if len(rows):
+                pools[name] = [(P[r].copy(), V[r].copy()) for r in rows]
+        direct = c_direct(poly.kernel_data, c._fast[7], pools)
+        for j, (zone, pool) in enumerate(pools.items()):
+            lat = time_calls(c.shape, pool, calls=20_000, warmup=3)
+            med, p99 = (float(x) / 1e3 for x in direct[j].split()[:2]) if direct else (0.0, 0.0)
+            out.append(
+                f"| {edges} | {zone} | {lat.median_us:.3f} / {lat.p99_us:.3f} | "
+                f"{med:.3f} / {p99:.3f} |"
+            )
     print("\n".join(out))
 
 
