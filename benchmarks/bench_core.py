@@ -87,7 +87,11 @@ def main() -> None:
     ap.add_argument(
         "--scaling", action="store_true", help="C only, 8 / 128 / 1024 edges (states by the core)"
     )
+    ap.add_argument("--batch", action="store_true", help="shape_batch: core vs numba, N = 1e3..1e6")
     args = ap.parse_args()
+    if args.batch:
+        batches()
+        return
     if args.scaling:
         scaling()
         return
@@ -178,6 +182,38 @@ def main() -> None:
     out += [f"| {name} | {v:.1f} |" for name, v in res.items()]
     if direct:
         out.append(f"| C direct `vf_exact_batch` (N = 10^6) | {float(direct[-1].split()[1]):.1f} |")
+    print("\n".join(out))
+
+
+def batches() -> None:
+    """``shape_batch`` per state on the 8-gon (uniform states in the circumscribed square):
+    the core (one thread) vs numba (``backend="python"``, its thread pool) vs the binding's loop
+    alone (``ExactLaw.batch``: no validation, no copies), best and median of 7 (3 at 10^6)."""
+    poly = regular_polygon(8)
+    c = PolygonShaper(poly, buffer=0.1, backend="c")
+    nb = PolygonShaper(poly, buffer=0.1, backend="python", accelerate=True)
+    loop = c._core.__self__.batch
+    rng = np.random.default_rng(0)
+    nb.shape_batch(np.zeros((10, 2)), np.ones((10, 2)))  # compile
+    out = ["| N | core `shape_batch` | numba `shape_batch` | core loop alone |"]
+    out.append("| ---: | ---: | ---: | ---: |")
+    for n in (1_000, 10_000, 100_000, 1_000_000):
+        P = rng.uniform(-1.0, 1.0, (n, 2))
+        V = rng.standard_normal((n, 2))
+        assert np.array_equal(c.shape_batch(P, V), nb.shape_batch(P, V))
+        o = np.empty_like(P)
+        z = np.empty(n, dtype=np.int64)
+        cells = []
+        routes = ((c.shape_batch, (P, V)), (nb.shape_batch, (P, V)), (loop, (P, V, o, z)))
+        for fn, fargs in routes:
+            ts = []
+            for _ in range(7 if n < 1_000_000 else 3):
+                t0 = time.perf_counter()
+                fn(*fargs)
+                ts.append(time.perf_counter() - t0)
+            cells.append(f"{1e9 * min(ts) / n:.1f} / {1e9 * float(np.median(ts)) / n:.1f}")
+        out.append(f"| {n} | " + " | ".join(cells) + " |")
+    print("ns per state, best / median:\n")
     print("\n".join(out))
 
 
