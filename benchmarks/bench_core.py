@@ -1,6 +1,7 @@
 """The compiled core beside the Python reference and the QP peers: ``PolygonShaper.shape``.
 
-Usage (from the repository root, with ``velfence_core`` installed: ``pip install ./core``)::
+Usage (from the repository root, with ``velfence_core`` installed: ``pip install ./core``;
+``--scaling``, ``--batch`` and ``--instructions`` (callgrind) are the other tables of docs/core.md)::
 
     python benchmarks/bench_core.py [--quick] [--edges 8]
 
@@ -44,8 +45,18 @@ HERE = Path(__file__).resolve().parent
 CORE = HERE.parent / "core"
 
 
-def c_direct(poly_data: tuple[object, ...], prm: tuple[float, ...], pools: dict) -> list[str]:
-    """Run the C timing loop; one output line per zone, then the batch line."""
+def c_direct(
+    poly_data: tuple[object, ...],
+    prm: tuple[float, ...],
+    pools: dict,
+    *,
+    wrap: tuple[str, ...] = (),
+    argv: tuple[str, ...] = (),
+) -> list[str]:
+    """Run the C timing loop; one output line per zone, then the batch line.
+
+    ``wrap`` prefixes the command (valgrind), ``argv`` replaces the REP / SAMPLES arguments.
+    """
     gcc = shutil.which("gcc")
     if gcc is None:
         return []
@@ -66,7 +77,7 @@ def c_direct(poly_data: tuple[object, ...], prm: tuple[float, ...], pools: dict)
         # 8-gon: blocks of 64 calls (one call is shorter than the clock); large polygons: per call
         rep, samples = ("64", "20000") if n <= 64 else ("1", "3000")
         done = subprocess.run(
-            [str(exe), rep, samples],
+            [*wrap, str(exe), *(argv or (rep, samples))],
             input="\n".join(lines) + "\n",
             capture_output=True,
             text=True,
@@ -88,7 +99,11 @@ def main() -> None:
         "--scaling", action="store_true", help="C only, 8 / 128 / 1024 edges (states by the core)"
     )
     ap.add_argument("--batch", action="store_true", help="shape_batch: core vs numba, N = 1e3..1e6")
+    ap.add_argument("--instructions", action="store_true", help="callgrind: per call, 8-gon")
     args = ap.parse_args()
+    if args.instructions:
+        instructions()
+        return
     if args.batch:
         batches()
         return
@@ -215,6 +230,28 @@ def batches() -> None:
         out.append(f"| {n} | " + " | ".join(cells) + " |")
     print("ns per state, best / median:\n")
     print("\n".join(out))
+
+
+def instructions() -> None:
+    """Instructions per ``vf_exact_shape`` call, per zone of the 8-gon (callgrind: repeatable
+    where the clock is not). One run per zone: 200 warm-up + 1000 timed calls, counted inside
+    ``vf_exact_shape`` only (``--toggle-collect``)."""
+    import re
+
+    s = dataclasses.replace(BenchSettings.make(quick=False), latency_edges=(8,))
+    pools = {z: p for z, p in zone_pools(s, [])[8, "exact"].items() if p}
+    poly = regular_polygon(8)
+    c = PolygonShaper(poly, backend="c", buffer=s.buffer, spring_gain=s.spring_gain)
+    print("| zone | instructions per call |\n| --- | ---: |")
+    with tempfile.TemporaryDirectory() as tmp:
+        for zone, pool in pools.items():
+            out = Path(tmp) / f"cg.{zone}"
+            wrap = ("valgrind", "--tool=callgrind", "--toggle-collect=vf_exact_shape",
+                    f"--callgrind-out-file={out}")  # fmt: skip
+            c_direct(poly.kernel_data, c._fast[7], {zone: pool}, wrap=wrap,
+                     argv=("1", "1000", "nobatch"))  # fmt: skip
+            total = int(re.search(r"^summary: (\d+)", out.read_text(), re.M).group(1))
+            print(f"| {zone} | {total / 1200:.0f} |")
 
 
 def scaling() -> None:

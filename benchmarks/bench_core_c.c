@@ -1,7 +1,7 @@
 /*
  * bench_core_c.c -- the C timing loop of benchmarks/bench_core.py: vf_exact_shape called directly.
  *
- * Arguments: [REP SAMPLES] (default 64 20000).
+ * Arguments: [REP SAMPLES [nobatch]] (default 64 20000).
  * stdin: n, then nx[n], ny[n], off[n], cx, cy, prm[6], relax, idt; then blocks "count" followed by
  * count states (px py vx vy), until EOF. For each block prints one line
  *   median_ns p99_ns max_ns checksum
@@ -86,7 +86,7 @@ int main(int argc, char **argv)
                times[SAMPLES - 1], sum);
         free(st);
     }
-    if (n_all > 0) {
+    if (n_all > 0 && !(argc > 3 && argv[3][0] == 'n')) { /* argv[3] "nobatch": skip */
         size_t N = 1000000, j;
         double *P = malloc(sizeof(double) * 4 * N), t0;
         out = malloc(sizeof(double) * 2 * N);
