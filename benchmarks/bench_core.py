@@ -1,7 +1,8 @@
 """The compiled core beside the Python reference and the QP peers: ``PolygonShaper.shape``.
 
 Usage (from the repository root, with ``velfence_core`` installed: ``pip install ./core``;
-``--scaling``, ``--batch`` and ``--instructions`` (callgrind) are the other tables of docs/core.md)::
+``--scaling``, ``--batch`` and ``--instructions`` (callgrind) give the other tables of
+docs/core.md)::
 
     python benchmarks/bench_core.py [--quick] [--edges 8]
 
