@@ -14,8 +14,10 @@
  *
  * Real-time use: every function here is reentrant and allocation-free. The caller owns every buffer
  * (polygon data, law parameters, scratch, results); nothing is allocated, no global state is read or
- * written, nothing longjmps or throws, and the work per call is bounded by O(n^3) in the number of
- * bounded edges (in practice a few hundred ns for an 8-gon). One vf_scratch per thread.
+ * written, nothing longjmps or throws. The work per call is bounded: the exact law enumerates the
+ * candidate active sets of its m bounded edges (O(m^3)) and adds far edges in at most n rounds;
+ * measured 20-50 ns per call for an 8-gon, up to 0.6 ms at the p99 of a 1024-gon's outside corner
+ * (docs/core.md). One vf_scratch per thread; polygon and law data are read-only and shareable.
  *
  * Units: positions and distances in workspace units (m, rad, ...), velocities in workspace units
  * per second, idt = 1/dt in 1/s, angles in rad. Shapes: every per-edge array has n entries
