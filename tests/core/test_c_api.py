@@ -119,3 +119,53 @@ def test_example_matches_python(tmp_path: Path) -> None:
             assert (ox, oy, zone, stages) == (0.0, 0.0, ZONE_INVALID, 128), line
             assert (res.zone, res.output.tolist()) == ("invalid", [0.0, 0.0]), line
     assert codes == {0, -3, -4}  # a normal answer, non-finite input, overflow
+
+
+GXX = shutil.which("g++")
+
+_CPP_MAIN = """
+#include <cmath>
+#include <cstdio>
+int main() {
+  FenceLaw f;
+  std::array<double, 8> nx{}, ny{}, off{};
+  for (int i = 0; i < 8; i++) { nx[i] = NX[i]; ny[i] = NY[i]; off[i] = OFF[i]; }
+  if (!f.configure(nx, ny, off, CX, CY, 0.2, 1.0, 0.0)) return 3;
+  double p[2] = {0.85, 0.1}, v[2] = {1.0, 0.2}, o[2];
+  f.update(p, v, o);
+  std::printf("%.17g %.17g\\n", o[0], o[1]);
+  return 0;
+}
+"""
+
+
+@pytest.mark.skipif(GXX is None, reason="g++ is not on PATH: the C++ snippet needs it")
+def test_cpp_snippet_of_the_docs(tmp_path: Path) -> None:
+    """docs/core.md's C++ real-time class compiles (g++, sanitizers) and answers as Python."""
+    import re
+
+    page = (CORE.parent / "docs" / "core.md").read_text()
+    snippet = re.search(r"```cpp\n(.*?)```", page, re.S)
+    assert snippet is not None
+    ang = [2.0 * math.pi * k / 8 for k in range(8)]
+    poly = ConvexPolygon([[math.cos(a), math.sin(a)] for a in ang])
+    nx, ny, off, cx, cy, _, _, _ = poly.kernel_data
+    consts = "".join(
+        f"static const double {name}[8] = {{{', '.join(map(repr, vals))}}};\n"
+        for name, vals in (("NX", nx), ("NY", ny), ("OFF", off))
+    )
+    consts += f"static const double CX = {cx!r}, CY = {cy!r};\n"
+    src = tmp_path / "fence.cpp"
+    src.write_text(snippet.group(1) + consts + _CPP_MAIN)
+    obj = tmp_path / "core.o"
+    inc = f"-I{CORE / 'include'}"
+    lib = [GCC, *FLAGS, *SANITIZE, inc, "-c", str(CORE / "src" / "velfence_core.c"), "-o", str(obj)]
+    assert subprocess.run(lib, capture_output=True, timeout=120, check=False).returncode == 0
+    exe = tmp_path / "fence"
+    cxx = ["-std=c++17", "-g", "-O1", "-Wall", "-Wextra", "-Werror", *SANITIZE, inc]
+    cmd = [GXX, *cxx, str(src), str(obj), "-lm", "-o", str(exe)]
+    done = subprocess.run(cmd, capture_output=True, text=True, timeout=120, check=False)
+    assert done.returncode == 0, done.stderr
+    ox, oy = map(float, run(exe).split())
+    ref = PolygonShaper(poly, buffer=0.2, backend="python").shape([0.85, 0.1], [1.0, 0.2])
+    assert (ox, oy) == tuple(ref.tolist())
