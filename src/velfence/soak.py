@@ -571,6 +571,7 @@ acceleration limit had to yield to a stop (position first), counted by
 
 The hostile-input side of reliability (every public callable against a catalogue of bad inputs)
 is described in [reliability-inputs.md](reliability-inputs.md).
+
 ## The compiled core: sanitizers and a bounded random run
 
 The C core of the 2-D laws (`core/`, [core.md](core.md)) is checked in the test suite
