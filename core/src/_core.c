@@ -210,12 +210,12 @@ static int ExactLaw_init(ExactLaw *self, PyObject *args, PyObject *kwds)
     self->work = PyMem_Calloc((size_t)n, sizeof(int32_t));
     if (self->mem == NULL || self->work == NULL) {
         PyErr_NoMemory();
-        return -1;
+        goto fail;
     }
     if (read_doubles(nx, "nx", self->mem, n) < 0 || read_doubles(ny, "ny", self->mem + n, n) < 0
         || read_doubles(off, "off", self->mem + 2 * n, n) < 0
         || read_doubles(prm, "prm", self->law.prm, VF_PROFILE_PARAMS) < 0) {
-        return -1;
+        goto fail;
     }
     self->poly.nx = self->mem;
     self->poly.ny = self->mem + n;
@@ -233,9 +233,15 @@ static int ExactLaw_init(ExactLaw *self, PyObject *args, PyObject *kwds)
     self->scratch.work = self->work;
     if (vf_exact_check(&self->poly, &self->law) != VF_OK) {
         PyErr_SetString(PyExc_ValueError, "invalid polygon or exact-law data (vf_exact_check)");
-        return -1;
+        goto fail;
     }
     return 0;
+fail: /* a half-built object must not be usable: the methods check mem */
+    PyMem_Free(self->mem);
+    PyMem_Free(self->work);
+    self->mem = NULL;
+    self->work = NULL;
+    return -1;
 }
 
 static PyObject *ExactLaw_law(ExactLaw *self, PyObject *const *args, Py_ssize_t nargs)
@@ -397,7 +403,7 @@ static int PatentLaw_init(PatentLaw *self, PyObject *args, PyObject *kwds)
     if (read_doubles(nx, "nx", self->mem, n) < 0 || read_doubles(ny, "ny", self->mem + n, n) < 0
         || read_doubles(off, "off", self->mem + 2 * n, n) < 0
         || read_doubles(beta, "beta", self->mem + 3 * n, n + 1) < 0) {
-        return -1;
+        goto fail;
     }
     self->poly.nx = self->mem;
     self->poly.ny = self->mem + n;
@@ -413,9 +419,13 @@ static int PatentLaw_init(PatentLaw *self, PyObject *args, PyObject *kwds)
     self->law.idt = idt;
     if (vf_patent_check(&self->poly, &self->law) != VF_OK) {
         PyErr_SetString(PyExc_ValueError, "invalid polygon or patent-law data (vf_patent_check)");
-        return -1;
+        goto fail;
     }
     return 0;
+fail: /* a half-built object must not be usable: the methods check mem */
+    PyMem_Free(self->mem);
+    self->mem = NULL;
+    return -1;
 }
 
 static PyObject *PatentLaw_law(PatentLaw *self, PyObject *const *args, Py_ssize_t nargs)

@@ -189,3 +189,21 @@ def test_shape_fast_path_keeps_the_invalid_policy() -> None:
     huge = (np.array([-1.7e308, 0.0]), np.array([1.7e308, 0.0]))
     with pytest.raises(InvalidInput, match="overflowed"):
         patent.shape(*huge)
+
+
+def test_half_built_objects_refuse_calls() -> None:
+    """An object whose __init__ failed (or never ran) raises instead of reading freed memory."""
+    nx, ny, off = (1.0, 0.0, -1.0), (0.0, 1.0, math.nan), (0.0, 0.0, -1.0)  # a NaN normal
+    bad = {
+        core.ExactLaw: (nx, ny, off, 0.0, 0.0, 3, 0, (0.1, 1, 1, 0, 0, 0), True, 0.0),
+        core.PatentLaw: (nx, ny, off, 0.0, 0.0, 0.0, (0.0, 2.0, 4.0, 6.2), 3, 0.1, 1, 0.3, 0.0),
+    }
+    for cls, args in bad.items():
+        obj = cls.__new__(cls)
+        with pytest.raises(RuntimeError, match="not initialised"):
+            obj.law(0.0, 0.0, 1.0, 0.0)
+        with pytest.raises(ValueError, match="check"):  # refused after the allocation
+            obj.__init__(*args)
+        with pytest.raises(RuntimeError, match="not initialised"):
+            obj.law(0.0, 0.0, 1.0, 0.0)
+        assert obj.shape_array(np.zeros(2), np.ones(2)) is None
