@@ -7,10 +7,13 @@ export MPLBACKEND := Agg
 
 .PHONY: demo test check lint typecheck docs pytest pytest-fast bench bench-docs soak clean
 
-$(STAMP): pyproject.toml
+# The compiled core (core/: C99 + CPython binding, scikit-build-core) is a separate distribution
+# built with the machine's C compiler; velfence itself stays pure Python (hatchling).
+$(STAMP): pyproject.toml core/pyproject.toml core/CMakeLists.txt core/src/*.c core/include/*.h
 	$(PY) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e '.[all,dev]'
+	$(BIN)/python -m pip install --quiet ./core
 	touch $(STAMP)
 
 demo: $(STAMP)

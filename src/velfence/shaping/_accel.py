@@ -7,6 +7,7 @@ globals table in which every callee is replaced by its compiled twin, then compi
 
 from __future__ import annotations
 
+import importlib
 import types
 from collections.abc import Callable
 from functools import cache
@@ -19,6 +20,7 @@ from velfence.shaping import _kernels, _nd_kernels
 __all__ = [
     "compiled_batch",
     "compiled_bounds",
+    "compiled_core",
     "compiled_loop",
     "compiled_polytope",
     "compiled_project",
@@ -72,6 +74,20 @@ def _compiled() -> dict[str, Callable[..., Any]] | None:
     ):
         table[name] = jit(fn)
     return {"patent": table["patent_batch"], "exact": table["exact_batch"]}
+
+
+@cache
+def compiled_core() -> Any:
+    """The compiled C core's binding (``velfence_core._core``), or None when not installed.
+
+    A separate distribution (``core/`` in velfence's source, ``pip install ./core``), so that
+    velfence itself installs and imports without a compiler. Its ``ExactLaw`` / ``PatentLaw``
+    take a shaper's kernel data and compute the reference kernels bit for bit.
+    """
+    try:
+        return importlib.import_module("velfence_core._core")
+    except ImportError:
+        return None
 
 
 def compiled_batch(method: str) -> Callable[..., Any] | None:

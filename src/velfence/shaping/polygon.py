@@ -38,7 +38,7 @@ from velfence._validate import as_pair, check_choice, check_flag, check_positive
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon, as_polygon
 from velfence.shaping import _kernels as kern
-from velfence.shaping._accel import compiled_batch
+from velfence.shaping._accel import compiled_batch, compiled_core
 from velfence.shaping.base import OnInvalid, ShaperBase
 from velfence.shaping.profiles import (
     ApproachProfile,
@@ -47,7 +47,7 @@ from velfence.shaping.profiles import (
     min_change_under_caps,
 )
 
-__all__ = ["BoundRows", "PolygonMethod", "PolygonShaper"]
+__all__ = ["BoundRows", "PolygonBackend", "PolygonMethod", "PolygonShaper"]
 
 #: The laws of :class:`PolygonShaper`. ``"edge-scaling"`` is US 8,676,382's law (the normal
 #: component scaled by d/d_max, two-stage projection at corners); ``"patent"`` is its alias
@@ -55,6 +55,14 @@ __all__ = ["BoundRows", "PolygonMethod", "PolygonShaper"]
 PolygonMethod = Literal["edge-scaling", "patent", "exact"]
 
 _METHODS = ("edge-scaling", "patent", "exact")
+
+#: Which implementation of the law :class:`PolygonShaper` runs: ``"auto"`` (the compiled core,
+#: ``velfence_core``, when it is importable, else Python), ``"python"`` (the reference kernels of
+#: ``velfence.shaping._kernels``; numba for batches when ``accelerate``) or ``"c"`` (the compiled
+#: core, required).
+PolygonBackend = Literal["auto", "python", "c"]
+
+_BACKENDS = ("auto", "python", "c")
 _ALIASES = {"patent": "edge-scaling"}
 
 
@@ -121,7 +129,15 @@ class PolygonShaper(ShaperBase):
         on_invalid: ``"raise"`` (default): non-finite inputs raise
             :class:`~velfence.errors.InvalidInput`; ``"stop"``: return zero velocity, zone
             ``"invalid"``. Type errors (strings, complex, wrong shapes) always raise.
-        accelerate: Use numba for :meth:`shape_batch` when it is installed (default True).
+        accelerate: Use numba for :meth:`shape_batch` when it is installed (default True) and
+            the Python backend runs.
+        backend: Implementation of the law (:data:`PolygonBackend`): ``"auto"`` (default) runs
+            the compiled C core (the separate ``velfence_core`` distribution, ``pip install
+            ./core``) for :meth:`shape`, :meth:`explain` and the batches when it is importable,
+            and the Python reference kernels otherwise; ``"python"`` always runs the reference
+            (numba for batches with ``accelerate``); ``"c"`` requires the core. Both give
+            bit-identical results (tests/core). A profile other than ``LinearBuffer`` /
+            ``ThreeZoneBraking`` always runs in Python. :attr:`backend` reports the one in use.
 
     Raises:
         InvalidParameter: for any parameter out of range, naming it and the value got.
@@ -129,11 +145,14 @@ class PolygonShaper(ShaperBase):
 
     __slots__ = (
         "_batch_args",
+        "_core",
+        "_core_shape",
         "_fast",
         "_generic",
         "_idt",
         "_ready",
         "accelerate",
+        "backend",
         "buffer",
         "corner_blend_angle",
         "dt",
@@ -157,6 +176,7 @@ class PolygonShaper(ShaperBase):
         dt: float | None = None,
         on_invalid: OnInvalid = "raise",
         accelerate: bool = True,
+        backend: PolygonBackend = "auto",
     ) -> None:
         self.polygon = as_polygon(polygon)
         chosen = check_choice("method", method, _METHODS)
@@ -264,7 +284,33 @@ class PolygonShaper(ShaperBase):
         self._batch_args = tuple(
             np.asarray(a, dtype=float) if any(a is x for x in per_edge) else a for a in fast
         )
+        self._core, self.backend = self._pick_backend(check_choice("backend", backend, _BACKENDS))
+        self._core_shape = None if self._core is None else self._core.__self__.shape_array
         self._ready = True
+
+    def _pick_backend(self, backend: str) -> tuple[Any, Literal["python", "c"]]:
+        """The compiled law object (or None) and the name of the backend in use."""
+        if backend == "python":
+            return None, "python"
+        if self._generic is not None:
+            if backend == "c":
+                raise InvalidParameter(
+                    "backend='c' runs the kernels' own profiles (LinearBuffer, "
+                    f"ThreeZoneBraking), got profile={self._generic!r}; use backend='auto' or "
+                    "'python'"
+                )
+            return None, "python"
+        core = compiled_core()
+        if core is None:
+            if backend == "c":
+                raise InvalidParameter(
+                    "backend='c' needs the compiled core (the velfence_core distribution: "
+                    "`pip install ./core` from velfence's source), which is not importable; "
+                    "use backend='auto' or 'python'"
+                )
+            return None, "python"
+        law = core.ExactLaw if self.method == "exact" else core.PatentLaw
+        return law(*self._fast).law, "c"
 
     def __setattr__(self, name: str, value: Any) -> None:
         # The kernels' arguments are precomputed from the parameters: a later change would be
@@ -276,10 +322,39 @@ class PolygonShaper(ShaperBase):
             )
         object.__setattr__(self, name, value)
 
+    def shape(self, position: ArrayLike, command: ArrayLike) -> FloatArray:
+        """Shaped velocity.
+
+        With the compiled core, two float64 arrays of shape (2,) with finite entries go straight
+        to it (one call, no intermediate objects); anything else takes the generic path of
+        :meth:`ShaperBase.shape <velfence.shaping.base.ShaperBase.shape>` (validation and the
+        ``on_invalid`` policy), with the same result.
+
+        Args:
+            position: Position of the reference point, shape (2,), workspace units.
+            command: Commanded velocity, shape (2,), workspace units per second.
+
+        Returns:
+            The admissible velocity, shape (2,), never non-finite.
+
+        Raises:
+            InvalidInput: wrong shape, or non-finite input with ``on_invalid="raise"``.
+        """
+        fast = self._core_shape
+        if fast is not None:
+            out: FloatArray | None = fast(position, command)
+            if out is not None:
+                return out
+        return super().shape(position, command)
+
     # ------------------------------------------------------------------ the law
     def _law(
         self, px: float, py: float, vx: float, vy: float
     ) -> tuple[float, float, int, int, int, float, float, float, float, int]:
+        if self._core is not None:
+            out: tuple[float, float, int, int, int, float, float, float, float, int]
+            out = self._core(px, py, vx, vy)
+            return out
         if self.method == "edge-scaling":
             return kern.patent_kernel(px, py, vx, vy, *self._fast)
         if self._generic is not None:
@@ -318,6 +393,9 @@ class PolygonShaper(ShaperBase):
         out = np.empty_like(P)
         zones = np.empty(P.shape[0], dtype=np.int64)
         if P.shape[0] == 0:  # nothing to shape (a (0,) list would not broadcast into (0, 2))
+            return out, zones
+        if self._core is not None:
+            self._core.__self__.batch(P, V, out, zones)
             return out, zones
         exact = self.method == "exact"
         fn = compiled_batch("exact" if exact else "patent") if self.accelerate else None

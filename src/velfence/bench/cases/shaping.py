@@ -71,13 +71,19 @@ def regular_polygon(edges: int, *, radius: float = 1.0) -> ConvexPolygon:
 def shaper(
     poly: ConvexPolygon, method: str, s: BenchSettings, *, accelerate: bool = True
 ) -> PolygonShaper:
-    """The benchmark's :class:`PolygonShaper` of ``poly`` (buffer and gain from ``s``)."""
+    """The benchmark's :class:`PolygonShaper` of ``poly`` (buffer and gain from ``s``).
+
+    The Python backend (numba for batches with ``accelerate``): these rows keep measuring the
+    reference implementation whether or not the compiled core is installed; the core is timed
+    beside it by ``benchmarks/bench_core.py`` (docs/core.md).
+    """
     return PolygonShaper(
         poly,
         buffer=s.buffer,
         spring_gain=s.spring_gain,
         method=cast("PolygonMethod", method),  # checked by the constructor
         accelerate=accelerate,
+        backend="python",
     )
 
 
