@@ -41,6 +41,8 @@ import velfence  # noqa: E402
 CLIENT = Path(__file__).with_name("ros_client.py")
 SRC = Path(velfence.__file__).resolve().parents[1]
 _NAMESPACES = itertools.count()
+#: Unique to this session: two sessions that drew the same domain still never share a topic.
+_SESSION = f"s{os.getpid()}x{random.SystemRandom().randrange(16**6):06x}"
 
 
 class RunningBridge:
@@ -82,7 +84,7 @@ def bridge() -> Iterator[Callable[..., RunningBridge]]:
 
     def start(section: dict[str, Any], shaper: dict[str, Any], **kwargs: Any) -> RunningBridge:
         doc = {
-            "bridge": {"domain_id": DOMAIN, "namespace": f"/t{next(_NAMESPACES)}", **section},
+            "bridge": {"domain_id": DOMAIN, "namespace": f"/{_SESSION}/t{next(_NAMESPACES)}", **section},
             "shaper": shaper,
         }
         b = RunningBridge(doc, **kwargs)
