@@ -84,7 +84,11 @@ def bridge() -> Iterator[Callable[..., RunningBridge]]:
 
     def start(section: dict[str, Any], shaper: dict[str, Any], **kwargs: Any) -> RunningBridge:
         doc = {
-            "bridge": {"domain_id": DOMAIN, "namespace": f"/{_SESSION}/t{next(_NAMESPACES)}", **section},
+            "bridge": {
+                "domain_id": DOMAIN,
+                "namespace": f"/{_SESSION}/t{next(_NAMESPACES)}",
+                **section,
+            },
             "shaper": shaper,
         }
         b = RunningBridge(doc, **kwargs)
