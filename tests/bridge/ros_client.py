@@ -188,7 +188,13 @@ def stream(spec: dict[str, Any], dp: DomainParticipant) -> dict[str, Any]:
     tail = float(spec.get("tail", 0.0))
     end = time.monotonic() + 10.0
     tail_end = time.monotonic() + tail
-    while (len(outputs) < expected and time.monotonic() < end) or time.monotonic() < tail_end:
+    # With "expect_nonzero", only non-zero answers count (a watchdog's zeros do not).
+    nonzero = bool(spec.get("expect_nonzero", False))
+
+    def answered() -> int:
+        return sum(1 for o in outputs if any(o["v"])) if nonzero else len(outputs)
+
+    while (answered() < expected and time.monotonic() < end) or time.monotonic() < tail_end:
         if time.monotonic() >= next_state:
             state_w.write(state)
             next_state = time.monotonic() + state_period

@@ -10,6 +10,7 @@ type hash in its USER_DATA (read back through the builtin DCPSPublication/DCPSSu
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 import pytest
@@ -181,10 +182,16 @@ def test_malformed_commands_dropped_and_counted(bridge, tmp_path) -> None:
             "commands": [{"values": v} for v in items],
             "rate_hz": 200.0,
             "expect": 3,
+            "expect_nonzero": True,
             "tail": 0.2,
         },
         tmp_path,
     )
+    # The node may still be taking the last samples when the peer leaves: wait (with a deadline)
+    # until it has counted every command the peer sent.
+    deadline = time.monotonic() + 10.0
+    while b.node.counters["commands_received"] < len(items) and time.monotonic() < deadline:
+        time.sleep(0.01)
     # A Float64MultiArray has no stamp to echo: the answers are the non-zero outputs (the
     # watchdog's zeros follow once the commands stop).
     outs = [o for o in res["outputs"] if any(o["v"])]
