@@ -84,12 +84,15 @@ def problems(name: str, fig: Figure) -> list[str]:
         if not _has_data(ax):
             found.append(f"{where}: empty")
             continue
-        getters = [("x", ax.get_xlabel), ("y", ax.get_ylabel)]
+        # A twin axes (twinx) shares its x axis and label with the axes it was made from.
+        twins = [o for o in ax.get_shared_x_axes().get_siblings(ax) if o is not ax]
+        xlabel = ax.get_xlabel() or next((o.get_xlabel() for o in twins if o.get_xlabel()), "")
+        labels = [("x", xlabel), ("y", ax.get_ylabel())]
         if hasattr(ax, "get_zlabel"):
-            getters.append(("z", ax.get_zlabel))
-        for axis, get in getters:
-            if not UNIT.search(get()):
-                found.append(f"{where}: {axis} label {get()!r} has no unit in brackets")
+            labels.append(("z", ax.get_zlabel()))
+        for axis, text in labels:
+            if not UNIT.search(text):
+                found.append(f"{where}: {axis} label {text!r} has no unit in brackets")
         for art in _colour_mapped(ax):
             if not any(b.mappable is art or b.mappable.norm is art.norm for b in bars):
                 found.append(f"{where}: colour-mapped {type(art).__name__} without a colour bar")
@@ -209,3 +212,13 @@ def test_study_figures(tmp_path: Path, recorded: dict[str, Figure]) -> None:
     _check_all(recorded, {"study_paths.png", "study_times.png"})
     for ax in recorded["study_paths.png"].axes:
         assert len(ax.get_xticks()) <= 5  # no overlapping tick labels on the small 3-D panels
+
+
+@pytest.mark.slow  # about 10 s: the whole CoSPM reproduction
+def test_cospm_reproduction_figures(tmp_path: Path, recorded: dict[str, Figure]) -> None:
+    from velfence.reproduce.cospm import run
+
+    report = run(tmp_path)
+    names = {Path(a).name for a in report.artifacts if a.endswith(".png")}
+    assert names
+    _check_all(recorded, names)
