@@ -232,7 +232,7 @@ def plot_workspace(
     xlabel, ylabel = _check_labels(labels)
     heading = check_text("title", title)
     out = check_output_path("path", path)
-    fig, ax = plt.subplots(figsize=(9.5, 6.2), layout="constrained")
+    fig, ax = plt.subplots(figsize=(9.5, 6.2))
     _draw_polygon(ax, polygon, buffer=width, rectangle=rectangle)
     for i, (name, tr) in enumerate(trs.items()):
         ax.plot(tr.p[:, 0], tr.p[:, 1], color=_color(name, i), lw=1.2, label=name, alpha=0.9)
@@ -241,7 +241,7 @@ def plot_workspace(
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
     ax.set_title(heading)
-    fig.legend(loc="outside right upper", fontsize=FONT - 1)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=FONT - 1)
     return _write(fig, out, DPI)
 
 
