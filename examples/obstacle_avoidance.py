@@ -12,6 +12,12 @@ from velfence.reproduce.obstacles import cosine_line
 
 
 def main() -> None:
+    """Print every second: zone, clearance to the sphere of influence [mm], EE error [mm].
+
+    A clearance of a few tenths of a millimetre below zero is the discrete-time overshoot of the
+    1 kHz loop (``velfence reproduce obstacles`` bounds it); the line then says how far inside
+    the sphere of influence that is and how far the link still is from the obstacle's body.
+    """
     arm = PlanarArm.three_r()
     obstacle = Obstacle(center=np.array([1.5, -1.4]), radius=0.05, influence=0.2)
     ctrl = ConfigurationController(arm, [obstacle])
@@ -22,9 +28,16 @@ def main() -> None:
         y_d, v_d = line(k * dt)
         r = ctrl.control(q, v_d + 10.0 * (y_d - arm.end_effector(q)))
         if k % 1000 == 0:
+            clear = r.distances[0] - obstacle.influence  # [m], < 0: inside the sphere
+            where = (
+                f"  ({-clear * 1e3:.1f} mm inside the sphere of influence, "
+                f"{(r.distances[0] - obstacle.radius) * 1e3:.0f} mm from the body)"
+                if clear < 0
+                else ""
+            )
             print(
-                f"t={k * dt:4.1f} s  {r.zone:6s}  clearance d-rho {r.distances[0] - 0.2:+.4f} m"
-                f"  ee error {np.linalg.norm(y_d - arm.end_effector(q)) * 1e3:.2f} mm"
+                f"t={k * dt:4.1f} s  {r.zone:<10s}  clearance d-rho {clear * 1e3:+7.1f} mm"
+                f"  ee error {np.linalg.norm(y_d - arm.end_effector(q)) * 1e3:.2f} mm{where}"
             )
         q = q + dt * r.q_dot
 

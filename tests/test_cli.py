@@ -6,6 +6,7 @@ import importlib
 import json
 import math
 import os
+import re
 import subprocess
 import sys
 import tomllib
@@ -173,6 +174,60 @@ def test_reproduce_table_marks_source_defects(
     assert "fake.png" in out
     with pytest.raises(json.JSONDecodeError):
         json.loads(result.stdout)
+
+
+@pytest.mark.parametrize(
+    ("checks", "counts", "code", "meaning"),
+    [
+        ((OK,), (1, 1, 0, 0), 0, "exit 0: every check passed"),
+        ((OK, DEFECT), (1, 2, 1, 0), 0, "exit 0: every failure is a documented defect"),
+        ((OK, BAD, DEFECT), (1, 3, 1, 1), 1, "exit 1: a genuine miss"),
+    ],
+)
+@pytest.mark.parametrize("as_json", [True, False])
+def test_reproduce_ends_with_a_summary_line(
+    runner: CliRunner,
+    monkeypatch: pytest.MonkeyPatch,
+    tmp_path: Path,
+    checks: tuple[Check, ...],
+    counts: tuple[int, int, int, int],
+    code: int,
+    meaning: str,
+    as_json: bool,
+) -> None:
+    """One line: passed / documented source defects / genuine misses, and the exit code's meaning.
+
+    With --json the line goes to stderr, so stdout stays one JSON object.
+    """
+    _fake(monkeypatch, checks)
+    args = ["reproduce", "fake", "--out", str(tmp_path)] + (["--json"] if as_json else [])
+    result = _invoke(runner, *args)
+    assert result.exit_code == code
+    passed, total, defects, misses = counts
+    where = result.stderr if as_json else result.stdout
+    lines = [ln for ln in where.splitlines() if ln.startswith("summary:")]
+    assert len(lines) == 1, where
+    line = lines[0]
+    assert f"{passed} of {total} checks passed" in line
+    assert f"{defects} documented source defect" in line
+    assert f"{misses} genuine miss" in line
+    assert meaning in line
+    assert cli.reproduction_summary(Report("fake", checks))[1] == code
+    if as_json:
+        json.loads(result.stdout)  # still exactly one JSON object
+
+
+@pytest.mark.slow  # about 14 s: one simulated subject
+def test_study_table_has_units(runner: CliRunner, tmp_path: Path) -> None:
+    result = _invoke(
+        runner, "study", "--subjects", "1", "--runs", "1", "--no-animation", "--out", str(tmp_path)
+    )
+    assert result.exit_code == 0, result.output
+    rows = [ln for ln in result.stdout.splitlines() if ln.startswith("│")]
+    assert len(rows) == 7
+    for row in rows:
+        first = row.split("│")[1].strip()
+        assert re.search(r"\[[^\]]+\]$", first), row
 
 
 # -------------------------------------------------------------------------------------------- demo

@@ -110,13 +110,21 @@ def test_obstacle_avoidance(capsys: pytest.CaptureFixture[str]) -> None:
     zones, clearance, error = [], [], []
     for k, line in enumerate(lines):
         m = re.fullmatch(
-            rf"t=\s*({NUMBER}) s  (\w+)\s+clearance d-rho ({NUMBER}) m  ee error ({NUMBER}) mm",
+            rf"t=\s*({NUMBER}) s  (\w+)\s+clearance d-rho\s+({NUMBER}) mm  ee error ({NUMBER}) mm"
+            rf"(?:  \(({NUMBER}) mm inside the sphere of influence, "
+            rf"({NUMBER}) mm from the body\))?",
             line,
         )
         assert m, line
         assert float(m[1]) == pytest.approx(k)
+        assert line.index("clearance") == lines[0].index("clearance")  # the zone column aligns
+        if float(m[3]) < 0:  # inside the sphere: the line says by how much, and the body distance
+            assert float(m[5]) == pytest.approx(-float(m[3]), abs=0.051)
+            assert float(m[6]) == pytest.approx(150.0 + float(m[3]), abs=0.51)
+        else:
+            assert m[5] is None
         zones.append(m[2])
-        clearance.append(float(m[3]))
+        clearance.append(float(m[3]) / 1e3)
         error.append(float(m[4]))
     # The docstring: without the controller the link would pass 0.07 m from the obstacle, inside
     # its 0.2 m sphere (d - ρ = 0.07 - 0.2 < 0). With it the link is held at the sphere...

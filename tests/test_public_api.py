@@ -46,8 +46,6 @@ UNDOCUMENTED = {
     "velfence.demo.DemoResult: parameters not under Args: artifacts, metrics, table, trajectories",
     "velfence.demo.build_shapers: no Returns section",
     "velfence.demo.build_shapers: parameters not under Args: cfg, polygon",
-    "velfence.io.DemoConfig: parameters not under Args: dt, duration, gif, methods, noise_std, "
-    "polygon, pushes, saturate, seed, shaper, start, waypoints",
     "velfence.io.load_config: no Returns section",
     "velfence.reproduce.Report: parameters not under Args: artifacts, checks, name",
     "velfence.sim.area_gain: no Returns section",
@@ -56,11 +54,6 @@ UNDOCUMENTED = {
     "velfence.sim.time_outside: no Returns section",
     "velfence.teleop.rotation_vector: no Returns section",
     "velfence.teleop.rotation_vector: parameters not under Args: R",
-    "velfence.viz.animate_trajectories: parameters not under Args: buffer, fps, frames, path, "
-    "polygon, trajectories",
-    "velfence.viz.plot_quiver: parameters not under Args: buffer, command, grid, path, polygon, "
-    "shapers",
-    "velfence.viz.plot_velocity_profiles: parameters not under Args: path, polygon, trajectories",
     "velfence.viz.plot_workspace: parameters not under Args: buffer, labels, path, polygon, "
     "rectangle, title, trajectories",
     "velfence.viz.save_figure: no Returns section",

@@ -21,7 +21,14 @@ from rich.table import Table
 from velfence.errors import InvalidParameter, VelfenceError
 from velfence.io.config import DEFAULT_MAX_STEPS
 
-__all__ = ["REPRODUCTIONS", "SIM_SCENARIOS", "app", "main", "reproduction_dir"]
+__all__ = [
+    "REPRODUCTIONS",
+    "SIM_SCENARIOS",
+    "app",
+    "main",
+    "reproduction_dir",
+    "reproduction_summary",
+]
 
 app = typer.Typer(
     help="Keep velocity-controlled robots inside their safe sets by shaping commanded velocity.",
@@ -123,9 +130,13 @@ def reproduce(
         raise _fail(f"--out {folder} exists and is not a folder")
     module, func = REPRODUCTIONS[name].split(":")
     run = getattr(importlib.import_module(module), func)
-    report = run(folder)
+    err = Console(stderr=True)
+    with _Working(err, f"reproduce {name}: running the source's experiment"):
+        report = run(folder)
+    line, code = reproduction_summary(report)
     if json_out:
         sys.stdout.write(report.to_json() + "\n")
+        err.print(escape(line), soft_wrap=True)
     else:
         table = Table(title=f"reproduce {name}", show_lines=True)
         table.add_column("check (source)", ratio=3)
@@ -145,8 +156,66 @@ def reproduce(
         console.print(table)
         for a in report.artifacts:
             console.print(f"  wrote {a}")
-    if not report.passed:
-        raise typer.Exit(code=1)
+        console.print(escape(line), soft_wrap=True)
+    if code:
+        raise typer.Exit(code=code)
+
+
+class _Working:
+    """A transient spinner with the elapsed time on stderr while a long step runs (rich)."""
+
+    def __init__(self, console: Console, what: str) -> None:
+        from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+
+        self._progress = Progress(
+            SpinnerColumn(),
+            TextColumn("{task.description}"),
+            TimeElapsedColumn(),
+            console=console,
+            transient=True,
+        )
+        self._what = what
+
+    def __enter__(self) -> _Working:
+        self._progress.start()
+        self._progress.add_task(escape(self._what), total=None)
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self._progress.stop()
+
+
+def reproduction_summary(report: Any) -> tuple[str, int]:
+    """The one-line summary of a reproduction and its exit code.
+
+    Counts the checks that passed, the failures that document a defect of the source (its own
+    law does not meet its claim; measured and explained in the check's note) and the genuine
+    misses (a check the reproduction should meet and does not), and says what the exit code
+    means: 0 when there is no genuine miss, 1 otherwise.
+
+    Args:
+        report: A :class:`velfence.reproduce.Report`.
+
+    Returns:
+        The summary line and the exit code.
+    """
+    checks = report.checks
+    passed = sum(1 for c in checks if c.passed)
+    defects = sum(1 for c in checks if not c.passed and c.source_defect)
+    misses = len(checks) - passed - defects
+    if misses:
+        meaning = "exit 1: a genuine miss, a check this reproduction should meet failed"
+    elif defects:
+        meaning = (
+            "exit 0: every failure is a documented defect of the source, not of the reproduction"
+        )
+    else:
+        meaning = "exit 0: every check passed"
+    line = (
+        f"summary: {passed} of {len(checks)} checks passed, {defects} documented source "
+        f"defect{'s' * (defects != 1)}, {misses} genuine miss{'es' * (misses != 1)} — {meaning}"
+    )
+    return line, 1 if misses else 0
 
 
 #: ``velfence sim --scenario NAME`` -> (module, the robots it runs on).
@@ -433,15 +502,15 @@ def study(
     for key, unit in (
         ("time", "s"),
         ("path_length", "m"),
-        ("straightness", ""),
-        ("segments", ""),
-        ("clutch_presses", ""),
-        ("index_events", ""),
-        ("collisions", ""),
+        ("straightness", "1"),
+        ("segments", "count"),
+        ("clutch_presses", "count"),
+        ("index_events", "count"),
+        ("collisions", "count"),
     ):
         row = summary[key]
         table.add_row(
-            key + (f" [{unit}]" if unit else ""),
+            escape(f"{key} [{unit}]"),  # unescaped, rich would read "[s]" as markup
             f"{row['unassisted']['mean']:.3g}",
             f"{row['assisted']['mean']:.3g}",
         )

@@ -304,7 +304,42 @@ def run_demo(
     mpath = out / "metrics.json"
     mpath.write_text(json.dumps(jsonable(meta), indent=2, default=str, allow_nan=False))
     artifacts.append(mpath)
-    return DemoResult(metrics, _table(metrics), tuple(artifacts), trajs)
+    return DemoResult(
+        metrics, _table(metrics, _scenario_title(cfg), _unit(cfg)), tuple(artifacts), trajs
+    )
+
+
+def _unit(cfg: DemoConfig) -> str:
+    """The workspace length unit of ``cfg`` (the bracket of its axis labels)."""
+    label = cfg.axis_labels()[0]
+    return label[label.rfind("[") + 1 : -1]
+
+
+def _scenario_title(cfg: DemoConfig) -> str:
+    """The demo's title from its config: name, control rate, saturation, push.
+
+    ``"wrist scenario (1 kHz, actuator saturation, push)"`` for the built-in scenario;
+    ``"custom scenario (50 Hz)"`` for a polygon of your own at dt = 0.02 s without pushes.
+
+    Args:
+        cfg: The validated demo config.
+
+    Returns:
+        The title text.
+
+    Raises:
+        InvalidParameter: ``cfg`` is not a DemoConfig.
+    """
+    if not isinstance(cfg, DemoConfig):
+        raise InvalidParameter(f"cfg: expected a DemoConfig, got {type(cfg).__name__}")
+    name = cfg.name or ("wrist scenario" if cfg.polygon is None else "custom scenario")
+    rate = 1.0 / cfg.dt
+    parts = [f"{rate / 1000:g} kHz" if rate >= 1000 else f"{rate:.4g} Hz"]
+    if cfg.saturate:
+        parts.append("actuator saturation")
+    if cfg.pushes is None or cfg.pushes:  # null = the built-in push
+        parts.append("push")
+    return f"{name} ({', '.join(parts)})"
 
 
 def _write_plots(
@@ -323,27 +358,38 @@ def _write_plots(
 
     rect = polygon.inscribed_rectangle()
     b = cfg.shaper.buffer
+    labels = cfg.axis_labels()
+    title = f"Workspace and trajectories\n{_scenario_title(cfg)}"
     paths = [
-        plot_workspace(polygon, trajs, out / "workspace.png", buffer=b, rectangle=rect),
-        plot_velocity_profiles(polygon, trajs, out / "velocity.png"),
-        plot_quiver(polygon, shapers, out / "quiver.png", buffer=b),
-    ]
+        plot_workspace(
+            polygon, trajs, out / "workspace.png", buffer=b, rectangle=rect, labels=labels,
+            title=title,
+        ),
+        plot_velocity_profiles(polygon, trajs, out / "velocity.png", unit=_unit(cfg)),
+        plot_quiver(polygon, shapers, out / "quiver.png", buffer=b, labels=labels),
+    ]  # fmt: skip
     if cfg.gif:
-        paths.append(animate_trajectories(polygon, trajs, out / "demo.gif", buffer=b))
+        paths.append(
+            animate_trajectories(polygon, trajs, out / "demo.gif", buffer=b, labels=labels)
+        )
     return paths
 
 
-def _table(metrics: dict[str, dict[str, float]]) -> Table:
-    table = Table(title="velfence demo — wrist scenario (1 kHz, actuator saturation, push)")
+def _table(
+    metrics: dict[str, dict[str, float]],
+    title: str = "wrist scenario (1 kHz, actuator saturation, push)",
+    unit: str = "rad",
+) -> Table:
+    table = Table(title=escape(f"velfence demo — {title}"))
     cols = (
         ("method", None),
         ("start:\ntime to get in [s]", "start.time_outside"),
-        ("sweep:\nsliding ratio", "sweep.sliding_ratio"),
-        ("acute corner:\nmax out [rad]", "acute.max_penetration"),
-        ("fast move:\nmax out [rad]", "fast.max_penetration"),
-        ("push:\nmax out [rad]", "push.max_penetration"),
+        ("sweep:\nsliding ratio [1]", "sweep.sliding_ratio"),
+        (f"acute corner:\nmax out [{unit}]", "acute.max_penetration"),
+        (f"fast move:\nmax out [{unit}]", "fast.max_penetration"),
+        (f"push:\nmax out [{unit}]", "push.max_penetration"),
         ("chatter\n[1/s]", "chatter_rate"),
-        ("max output\njump [rad/s]", "max_output_jump"),
+        (f"max output\njump [{unit}/s]", "max_output_jump"),
     )
     for title, key in cols:
         table.add_column(escape(title), justify="right" if key else "left")

@@ -32,6 +32,8 @@ SPECS: dict[str, F | C] = {
                 "duration": "positive",
                 "noise_std": "nonneg",
                 "seed": "seed",
+                "name": "text",
+                "unit": "text",
                 "saturate": "flag",
                 "gif": "flag",
             },

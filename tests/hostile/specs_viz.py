@@ -18,7 +18,9 @@ SPECS: dict[str, F | C] = {
     "viz.plot_velocity_patterns": F(
         lambda: call(square(), {"exact": shaper()}, [[0.5, 0.5]], _OUT), heavy=_HEAVY
     ),
-    "viz.plot_velocity_profiles": F(lambda: call(square(), {"a": traj()}, _OUT), heavy=_HEAVY),
+    "viz.plot_velocity_profiles": F(
+        lambda: call(square(), {"a": traj()}, _OUT), types={"unit": "text"}, heavy=_HEAVY
+    ),
     "viz.plot_workspace": F(lambda: call(square(), {"a": traj()}, _OUT), heavy=_HEAVY),
     # A Figure outside pyplot's registry: nothing to release when a refusal closes it.
     "viz.save_figure": F(lambda: call(Figure(), _OUT), heavy=_HEAVY),

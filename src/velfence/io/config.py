@@ -98,6 +98,8 @@ Number = Annotated[float, Strict(), Field(allow_inf_nan=False, ge=-MAX_VALUE, le
 Positive = Annotated[float, Strict(), Field(allow_inf_nan=False, gt=0, le=MAX_VALUE)]
 NonNegative = Annotated[float, Strict(), Field(allow_inf_nan=False, ge=0, le=MAX_VALUE)]
 Pair = tuple[Number, Number]
+#: A short label (scenario name, axis name, unit): 1 to 40 characters, no line breaks.
+Label = Annotated[str, Strict(), Field(min_length=1, max_length=40, pattern=r"^[^\n\r\t\[\]]+$")]
 
 
 #: How a config is named in the messages of DemoConfig(...): load_config sets the file's name.
@@ -199,6 +201,24 @@ class DemoConfig(_Strict):
     ``polygon: null`` means the wrist's default polygon; ``start``, ``waypoints`` and ``pushes``
     left null are generated from the polygon's features (longest edge, most acute and most obtuse
     corner) by :func:`velfence.sim.scenarios.default_script`.
+
+    Attributes:
+        polygon: Corners of the convex workspace polygon [unit], or None for the wrist's.
+        shaper: Tuning shared by the shapers (:class:`ShaperSettings`).
+        methods: Shaping laws and baselines to run, in order.
+        dt: Control period [s].
+        duration: Simulated time [s], or None for the script's own length.
+        start: Start position [unit], or None (just outside the longest edge).
+        waypoints: The operator's script, or None for the built-in one.
+        pushes: External velocity disturbances, or None for the built-in push.
+        noise_std: Standard deviation of the position noise [unit].
+        seed: Seed of the noise generator.
+        saturate: Whether the wrist's actuator saturation applies.
+        gif: Whether ``demo.gif`` is written.
+        name: The scenario's name in titles, or None ("wrist scenario" / "custom scenario").
+        axis_names: The two workspace axis names, or None ((pitch, yaw) / (x, y)).
+        unit: The workspace length unit of labels and table columns, or None (rad /
+            "workspace units").
     """
 
     polygon: list[Pair] | None = None
@@ -217,6 +237,23 @@ class DemoConfig(_Strict):
     seed: Annotated[int, Strict(), Field(ge=0, le=MAX_SEED)] = 0
     saturate: Annotated[bool, Strict()] = True
     gif: Annotated[bool, Strict()] = True
+    name: Annotated[Label | None, Field(description="scenario name for titles")] = None
+    axis_names: tuple[Label, Label] | None = None
+    unit: Annotated[Label | None, Field(description="workspace length unit")] = None
+
+    def axis_labels(self) -> tuple[str, str]:
+        """The workspace axis labels with their unit, ``("pitch [rad]", "yaw [rad]")``.
+
+        ``axis_names`` and ``unit`` when given; else the wrist's (pitch, yaw) in rad when
+        ``polygon`` is null, and (x, y) in "workspace units" for a polygon of your own.
+
+        Returns:
+            The x and y axis labels.
+        """
+        wrist = self.polygon is None
+        names = self.axis_names or (("pitch", "yaw") if wrist else ("x", "y"))
+        unit = self.unit or ("rad" if wrist else "workspace units")
+        return f"{names[0]} [{unit}]", f"{names[1]} [{unit}]"
 
     def __init__(self, **data: Any) -> None:
         """Build a configuration directly (the fields are documented in ``docs/config.md``).

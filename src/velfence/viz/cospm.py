@@ -88,7 +88,7 @@ def plot_fig8(
     b2 = b.twinx()
     b2.step(t, run.column("profile_zone"), color="k", lw=0.8, where="post", label="zone")
     b2.step(t, run.column("stop") + 1, color="C3", lw=0.8, where="post", label="stop k")
-    b2.set_ylabel("zone (3 nominal, 2 braking, 1 linear) / stop k")
+    b2.set_ylabel("zone (3 nominal, 2 braking, 1 linear) / stop k [index]")
     b.set_title("(b) normal / tangential velocity w.r.t. the nearest stop", fontsize=9)
     b.set_xlabel("t [s]")
     b.set_ylabel("[rad/s]")

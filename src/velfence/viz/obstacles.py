@@ -7,6 +7,8 @@ a GIF of scenario (i).
 
 from __future__ import annotations
 
+import math
+import textwrap
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, Protocol
@@ -161,18 +163,28 @@ def plot_clearance(runs: Sequence[ArmRun], path: str | Path) -> Path:
     Returns:
         The path written.
     """
-    fig, axs = plt.subplots(2, len(runs), figsize=(3.6 * len(runs), 6.0), squeeze=False)
+    # At most three runs a row, so titles and ticks stay readable at 100 % (one wide strip of six
+    # panels was 1944 px wide with 8-pt titles).
+    cols = min(len(runs), 3)
+    rows = math.ceil(len(runs) / cols)
+    fig, grid = plt.subplots(
+        2 * rows, cols, figsize=(4.6 * cols, 5.4 * rows), squeeze=False, layout="constrained"
+    )
+    for j in range(len(runs), rows * cols):  # no empty panels
+        grid[2 * (j // cols), j % cols].remove()
+        grid[2 * (j // cols) + 1, j % cols].remove()
     for col, r in enumerate(runs):
-        top, low = axs[0, col], axs[1, col]
+        top, low = grid[2 * (col // cols), col % cols], grid[2 * (col // cols) + 1, col % cols]
         d = r.distances - r.rho
         for o in range(d.shape[1]):
             top.plot(r.t, d[:, o], color=f"C{o + 3}", lw=1.0, label=f"obstacle {o}")
         top.axhline(0.0, color="k", lw=0.8)
         # Never clip a penetration: the lower limit follows the deepest point.
         top.set_ylim(min(-0.01, 1.1 * float(np.min(d))), max(0.1, float(np.percentile(d, 5))))
-        top.set_title(r.name, fontsize=8)
-        top.set_ylabel("d − ρ [m]")
-        top.legend(fontsize=6)
+        top.set_title(textwrap.fill(r.name, 34), fontsize=10)
+        top.set_ylabel("clearance d − ρ [m]")
+        top.set_xlabel("t [s]")
+        top.legend(fontsize=8)
         low.semilogy(r.t, np.maximum(r.ee_error, 1e-9), color="C1", lw=1.0)
         low.set_ylabel("EE error [m]")
         low.set_xlabel("t [s]")

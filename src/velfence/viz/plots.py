@@ -12,6 +12,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.animation import FuncAnimation, PillowWriter
+from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
 
 from velfence._validate import (
@@ -26,6 +27,7 @@ from velfence.errors import InvalidInput, InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon, Rectangle
 from velfence.shaping.base import Shaper
 from velfence.sim.runner import Trajectory
+from velfence.viz.style import DPI, FONT, GIF_DPI, add_colorbar, drop_unused, styled
 
 __all__ = [
     "animate_trajectories",
@@ -100,6 +102,21 @@ def _check_trajectories(name: str, trajectories: Any) -> dict[str, Trajectory]:
     return trs
 
 
+def _check_labels(labels: Any) -> tuple[str, str]:
+    """Two axis labels ``("pitch [rad]", "yaw [rad]")``, each naming its unit in brackets."""
+    if not isinstance(labels, (list, tuple)) or len(labels) != 2:
+        raise InvalidParameter(
+            f"labels: expected two axis labels (x, y) as a tuple of strings, got {describe(labels)}"
+        )
+    return check_text("labels", labels[0]), check_text("labels", labels[1])
+
+
+def _unit_of(label: str) -> str:
+    """The unit in a label's last brackets (``"pitch [rad]"`` -> ``"rad"``), else ``"units"``."""
+    lo, hi = label.rfind("["), label.rfind("]")
+    return (label[lo + 1 : hi].strip() or "units") if 0 <= lo < hi else "units"
+
+
 def _check_buffer(buffer: Any) -> float | None:
     if buffer is None:
         return None
@@ -133,7 +150,8 @@ def save_figure(fig: Any, path: str | Path, *, dpi: int = 130) -> Path:
 
 def _write(fig: Figure, out: Path, dpi: int) -> Path:
     """Lay out, write and close ``fig`` (arguments already validated)."""
-    fig.tight_layout()
+    if fig.get_layout_engine() is None:
+        fig.tight_layout()
     try:
         fig.savefig(out, dpi=dpi)
     except (OSError, ValueError) as exc:  # unwritable file, unknown suffix
@@ -173,6 +191,11 @@ def _draw_polygon(
             X, Y, D.reshape(X.shape), levels=[buffer], colors=["#e0a030"], linewidths=0.8,
             linestyles="--",
         )  # fmt: skip
+        # The band in the legend (contour sets have no legend entry of their own).
+        ax.fill(
+            [], [], facecolor="#fde9c9", edgecolor="#e0a030", linestyle="--", lw=0.8,
+            label=f"buffer band ({buffer:g} wide)",
+        )  # fmt: skip
     if rectangle is not None:
         r = np.vstack([rectangle.corners, rectangle.corners[:1]])
         ax.plot(r[:, 0], r[:, 1], color="#7b3294", lw=1.0, ls=":", label="inscribed rectangle")
@@ -181,6 +204,7 @@ def _draw_polygon(
     ax.set_aspect("equal")
 
 
+@styled
 def plot_workspace(
     polygon: ConvexPolygon,
     trajectories: Mapping[str, Trajectory],
@@ -205,35 +229,41 @@ def plot_workspace(
     width = _check_buffer(buffer)
     if rectangle is not None and not isinstance(rectangle, Rectangle):
         raise InvalidInput(f"rectangle: expected a velfence Rectangle, got {describe(rectangle)}")
-    if not isinstance(labels, (list, tuple)) or len(labels) != 2:
-        raise InvalidParameter(
-            f"labels: expected two axis labels (x, y) as a tuple of strings, got {describe(labels)}"
-        )
-    xlabel = check_text("labels", labels[0])
-    ylabel = check_text("labels", labels[1])
+    xlabel, ylabel = _check_labels(labels)
     heading = check_text("title", title)
     out = check_output_path("path", path)
-    fig, ax = plt.subplots(figsize=(7.5, 6.5))
+    fig, ax = plt.subplots(figsize=(9.5, 6.2))
     _draw_polygon(ax, polygon, buffer=width, rectangle=rectangle)
     for i, (name, tr) in enumerate(trs.items()):
         ax.plot(tr.p[:, 0], tr.p[:, 1], color=_color(name, i), lw=1.2, label=name, alpha=0.9)
         ax.plot(tr.p[0, 0], tr.p[0, 1], "o", color=_color(name, i), ms=4)
+    ax.plot([], [], "o", color="0.35", ms=4, label="start point")
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
     ax.set_title(heading)
-    ax.legend(loc="upper right", fontsize=8)
-    return _write(fig, out, 130)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=FONT - 1)
+    return _write(fig, out, DPI)
 
 
+@styled
 def plot_velocity_profiles(
     polygon: ConvexPolygon,
     trajectories: Mapping[str, Trajectory],
     path: str | Path,
+    *,
+    unit: str = "rad",
 ) -> Path:
     """Speed, normal speed and boundary distance of every method against time.
 
     Panels: commanded vs shaped speed; inward normal speed towards the nearest edge; the
     smallest signed distance to the boundary (negative = outside).
+
+    Args:
+        polygon: The workspace.
+        trajectories: Name -> trajectory, one line each.
+        path: Output file.
+        unit: The workspace's length unit (``"rad"`` for the wrist, ``"m"`` ...); speeds are
+            labelled in ``unit/s``.
 
     Returns:
         The path written.
@@ -244,6 +274,7 @@ def plot_velocity_profiles(
     """
     _check_polygon("polygon", polygon)
     trs = _check_trajectories("trajectories", trajectories)
+    u = check_text("unit", unit, max_length=40)
     out = check_output_path("path", path)
     fig, axes = plt.subplots(3, 1, figsize=(9, 8), sharex=True)
     for i, (name, tr) in enumerate(trs.items()):
@@ -259,15 +290,17 @@ def plot_velocity_profiles(
     axes[0].plot(
         first.t, np.linalg.norm(first.v_cmd, axis=1), color="k", lw=0.8, ls=":", label="commanded"
     )
-    axes[0].set_ylabel("speed [rad/s]")
-    axes[1].set_ylabel("inward normal speed\n(nearest edge) [rad/s]")
-    axes[2].set_ylabel("min signed distance [rad]")
-    axes[2].axhline(0.0, color="k", lw=0.8)
-    axes[2].set_xlabel("time [s]")
-    axes[0].legend(fontsize=7, ncol=3)
-    return _write(fig, out, 120)
+    axes[0].set_ylabel(f"speed [{u}/s]")
+    axes[1].set_ylabel(f"inward normal speed\n(nearest edge) [{u}/s]")
+    axes[2].set_ylabel(f"min signed distance [{u}]")
+    axes[2].axhline(0.0, color="k", lw=0.8, label="boundary (0)")
+    for ax in axes:
+        ax.set_xlabel("time [s]")
+    axes[0].legend(fontsize=FONT - 1, ncol=3)
+    return _write(fig, out, DPI)
 
 
+@styled
 def plot_quiver(
     polygon: ConvexPolygon,
     shapers: Mapping[str, Shaper],
@@ -276,8 +309,22 @@ def plot_quiver(
     command: Sequence[float] = (1.0, 0.35),
     buffer: float | None = None,
     grid: int = 23,
+    labels: Sequence[str] = ("pitch [rad]", "yaw [rad]"),
 ) -> Path:
     """The velocity field of each shaper for one constant command, over the workspace.
+
+    One panel per shaper (no empty panels); arrows show the shaped velocity's direction, their
+    colour its speed (one colour bar for all panels, in the workspace unit per second).
+
+    Args:
+        polygon: The workspace.
+        shapers: Name -> shaper, one panel each.
+        path: Output file.
+        command: The constant command velocity [workspace units/s].
+        buffer: Buffer width to shade, workspace units.
+        grid: Arrows per side.
+        labels: The x and y axis labels with their unit in brackets; the unit also names the
+            speed unit of the colour bar.
 
     Returns:
         The path written.
@@ -294,11 +341,14 @@ def plot_quiver(
         raise InvalidInput("command: expected a nonzero 2-D command velocity, got (0, 0)")
     width = _check_buffer(buffer)
     n = check_positive_int("grid", grid, minimum=2, maximum=MAX_GRID, example=23)
+    xlabel, ylabel = _check_labels(labels)
     out_path = check_output_path("path", path)
     k = len(shs)
     cols = min(k, 3)
     rows = (k + cols - 1) // cols
-    fig, axes = plt.subplots(rows, cols, figsize=(4.6 * cols, 4.3 * rows), squeeze=False)
+    fig, axes = plt.subplots(
+        rows, cols, figsize=(4.4 * cols + 1.2, 4.3 * rows), squeeze=False, layout="constrained"
+    )
     c = polygon.corners
     lo, hi = c.min(axis=0), c.max(axis=0)
     span = hi - lo
@@ -307,21 +357,31 @@ def plot_quiver(
     X, Y = np.meshgrid(xs, ys)
     P = np.stack([X.ravel(), Y.ravel()], axis=1)
     V = np.tile(cmd, (P.shape[0], 1))
-    for ax, (name, shaper) in zip(axes.ravel(), shs.items(), strict=False):
+    fields = {name: shaper.shape_batch(P, V) for name, shaper in shs.items()}
+    top = max(float(np.max(np.linalg.norm(f, axis=1))) for f in fields.values())
+    colour = Normalize(vmin=0.0, vmax=max(top, norm))
+    arrows = None
+    for ax, (name, out) in zip(axes.ravel(), fields.items(), strict=False):
         _draw_polygon(ax, polygon, buffer=width, margin=0.18)
-        out = shaper.shape_batch(P, V)
         mag = np.linalg.norm(out, axis=1)
-        ax.quiver(
-            P[:, 0], P[:, 1], out[:, 0], out[:, 1], mag, cmap="viridis", angles="xy",
-            scale_units="xy", scale=norm / (0.8 * (xs[1] - xs[0])),
+        arrows = ax.quiver(
+            P[:, 0], P[:, 1], out[:, 0], out[:, 1], mag, cmap="viridis", norm=colour,
+            angles="xy", scale_units="xy", scale=norm / (0.8 * (xs[1] - xs[0])),
             width=0.004,
         )  # fmt: skip
-        ax.set_title(f"{name}: command {tuple(round(x, 2) for x in cmd.tolist())}", fontsize=9)
-    for ax in axes.ravel()[k:]:
-        ax.axis("off")
-    return _write(fig, out_path, 110)
+        ax.set_title(name, fontsize=FONT + 1)
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel(ylabel)
+    drop_unused(axes.ravel(), k)
+    shown = tuple(round(x, 2) for x in cmd.tolist())
+    fig.suptitle(f"Shaped velocity field for the constant command {shown} [{_unit_of(xlabel)}/s]")
+    add_colorbar(fig, arrows, list(axes.ravel()[:k]), f"shaped speed [{_unit_of(xlabel)}/s]")
+    handles, names = axes.ravel()[0].get_legend_handles_labels()
+    fig.legend(handles, names, loc="outside lower center", ncol=len(names))
+    return _write(fig, out_path, DPI)
 
 
+@styled
 def animate_trajectories(
     polygon: ConvexPolygon,
     trajectories: Mapping[str, Trajectory],
@@ -330,8 +390,20 @@ def animate_trajectories(
     buffer: float | None = None,
     frames: int = 60,
     fps: int = 12,
+    labels: Sequence[str] = ("pitch [rad]", "yaw [rad]"),
 ) -> Path:
     """A GIF of every trajectory's point moving through the workspace, with a fading trail.
+
+    At least 600 px wide; labelled axes; the legend sits beside the workspace.
+
+    Args:
+        polygon: The workspace.
+        trajectories: Name -> trajectory.
+        path: Output file (``.gif``).
+        buffer: Buffer width to shade, workspace units.
+        frames: Number of frames.
+        fps: Frames per second.
+        labels: The x and y axis labels with their unit in brackets.
 
     Returns:
         The path written.
@@ -345,9 +417,12 @@ def animate_trajectories(
     width = _check_buffer(buffer)
     n_frames = check_positive_int("frames", frames, maximum=MAX_FRAMES, example=60)
     rate = check_positive_int("fps", fps, maximum=MAX_FPS, example=12)
+    xlabel, ylabel = _check_labels(labels)
     out = check_output_path("path", path)
-    fig, ax = plt.subplots(figsize=(4.8, 4.4))
+    fig, ax = plt.subplots(figsize=(7.6, 5.6), layout="constrained")
     _draw_polygon(ax, polygon, buffer=width)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
     first = next(iter(trs.values()))
     n = len(first.t)
     idx = np.linspace(0, n - 1, n_frames).astype(int)
@@ -357,7 +432,8 @@ def animate_trajectories(
         col = _color(name, i)
         (trails[name],) = ax.plot([], [], color=col, lw=1.0, alpha=0.6)
         (dots[name],) = ax.plot([], [], "o", color=col, ms=5, label=name)
-    ax.legend(loc="upper right", fontsize=7)
+    # Outside the axes: the legend never covers a corner of the workspace.
+    fig.legend(loc="outside right upper", fontsize=FONT - 1)
     stamp = ax.set_title("")
 
     def update(f: int) -> list[Any]:
@@ -371,7 +447,7 @@ def animate_trajectories(
 
     anim = FuncAnimation(fig, update, frames=n_frames, blit=False)
     try:
-        anim.save(out, writer=PillowWriter(fps=rate), dpi=70)
+        anim.save(out, writer=PillowWriter(fps=rate), dpi=GIF_DPI)
     except (OSError, ValueError) as exc:  # unwritable file, unknown suffix
         raise InvalidParameter(f"path: cannot write {str(out)!r}: {exc}") from None
     finally:
@@ -379,6 +455,7 @@ def animate_trajectories(
     return out
 
 
+@styled
 def plot_velocity_patterns(
     polygon: ConvexPolygon,
     shapers: Mapping[str, Shaper],
@@ -389,6 +466,7 @@ def plot_velocity_patterns(
     speed: float = 1.0,
     radius: float | None = None,
     rays: int = 48,
+    labels: Sequence[str] = ("pitch [rad]", "yaw [rad]"),
 ) -> Path:
     """The patent's FIG. 7: at sample points, the shaped output of a ring of commands.
 
@@ -407,6 +485,7 @@ def plot_velocity_patterns(
         radius: Drawn radius of the command circle [workspace units]; default 3 % of the
             polygon's span.
         rays: Commands per circle.
+        labels: The x and y axis labels with their unit in brackets.
 
     Returns:
         The path written.
@@ -424,9 +503,10 @@ def plot_velocity_patterns(
     v = check_positive("speed", speed, unit="units/s")
     r = None if radius is None else check_positive("radius", radius, unit="workspace units")
     n_rays = check_positive_int("rays", rays, minimum=3, maximum=MAX_RAYS, example=48)
+    xlabel, ylabel = _check_labels(labels)
     out_path = check_output_path("path", path)
     k = len(shs)
-    fig, axes = plt.subplots(1, k, figsize=(5.2 * k, 4.8), squeeze=False)
+    fig, axes = plt.subplots(1, k, figsize=(5.4 * k, 5.6), squeeze=False, layout="constrained")
     ang = np.linspace(0.0, 2.0 * np.pi, n_rays, endpoint=False)
     U = v * np.stack([np.cos(ang), np.sin(ang)], axis=1)
     span = float(np.max(polygon.corners.max(axis=0) - polygon.corners.min(axis=0)))
@@ -441,5 +521,12 @@ def plot_velocity_patterns(
             cmd = np.vstack([P + draw * U, P[:1] + draw * U[:1]])
             ax.plot(cmd[:, 0], cmd[:, 1], color="k", lw=0.5, ls=":")
             ax.plot(P[0, 0], P[0, 1], "k.", ms=3)
-        ax.set_title(f"{name}: allowed velocities (FIG. 7)", fontsize=9)
-    return _write(fig, out_path, 120)
+        ax.set_title(f"{name}: allowed velocities (FIG. 7)", fontsize=FONT + 1)
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel(ylabel)
+        # What the rings mean: proxies (one entry per kind, not one per sample point).
+        ax.plot([], [], color="k", lw=0.8, ls=":", label="commands (all directions)")
+        ax.plot([], [], color=_color(name, i), lw=1.2, label=f"shaped output ({name})")
+        ax.plot([], [], "k.", ms=4, label="sample point")
+        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=2, fontsize=FONT - 1)
+    return _write(fig, out_path, DPI)

@@ -53,7 +53,7 @@ def plot_times(result: StudyResult, path: str | Path) -> Path:
         for k in range(vals.shape[1]):
             ax.plot(xs, vals[:, k], "k.", ms=3)
     ax.set_xticks(x, [str(s + 1) for s in range(n)])
-    ax.set_xlabel("subject (simulated)")
+    ax.set_xlabel("simulated subject [index]")
     ax.set_ylabel("task time [s] (mean of runs; dots: runs)")
     faster = result.summary()["subjects_faster_assisted"]
     ax.set_title(
@@ -82,6 +82,7 @@ def plot_paths(
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import MaxNLocator
 
     from velfence.viz.plots import save_figure
 
@@ -90,7 +91,7 @@ def plot_paths(
     n = min(result.n_subjects, max_subjects)
     cols = min(n, 5)
     rows = math.ceil(n / cols)
-    fig = plt.figure(figsize=(3.2 * cols, 3.0 * rows))
+    fig = plt.figure(figsize=(3.8 * cols, 3.6 * rows))
     for s in range(n):
         ax = fig.add_subplot(rows, cols, s + 1, projection="3d")
         for cond in CONDITIONS:
@@ -99,10 +100,13 @@ def plot_paths(
                 continue
             ax.plot(tr[:, 1], tr[:, 2], tr[:, 3], color=_COLORS[cond], lw=1.0, label=_LABELS[cond])
         ax.set_title(f"subject {s + 1}", fontsize=9)
-        ax.tick_params(labelsize=6)
-        ax.set_xlabel("x [m]", fontsize=7)
-        ax.set_ylabel("y [m]", fontsize=7)
-        ax.set_zlabel("z [m]", fontsize=7)
+        ax.tick_params(labelsize=7)
+        # Three ticks per axis: more overlap on a 3-D panel this small.
+        for axis in (ax.xaxis, ax.yaxis, ax.zaxis):
+            axis.set_major_locator(MaxNLocator(3))
+        ax.set_xlabel("x [m]", fontsize=8)
+        ax.set_ylabel("y [m]", fontsize=8)
+        ax.set_zlabel("z [m]", fontsize=8)
         if s == 0:
             ax.legend(fontsize=6, loc="upper left")
     fig.suptitle(

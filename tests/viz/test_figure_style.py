@@ -1,0 +1,224 @@
+"""Figures that explain themselves, checked on the matplotlib objects (not on pixels).
+
+Every figure the demo writes (built-in scenario and a user's own config in metres), the wrist
+reproduction's two figures, the obstacles reproduction's clearance figure (short runs) and the
+study's figures are rendered while ``Figure.savefig`` is recorded; then, for each figure:
+
+* no axes is empty (it holds lines, collections, patches or images);
+* every data axes has an x and a y label (and a z label in 3-D) with a unit in brackets;
+* every colour-mapped artist (a ScalarMappable with an array, not a fixed-colour contour band)
+  has a colour bar on its norm;
+* the user's config in metres never shows "rad" or the wrist's title.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+matplotlib = pytest.importorskip("matplotlib", reason="velfence.viz needs the [app] extra")
+matplotlib.use("Agg")
+from matplotlib.cm import ScalarMappable  # noqa: E402
+from matplotlib.contour import ContourSet  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
+
+from velfence.demo import run_demo  # noqa: E402
+from velfence.io.config import DemoConfig  # noqa: E402
+
+UNIT = re.compile(r"\[[^\[\]]+\]")
+
+#: A user's own scenario: a fence in metres at dt = 0.02 s, short.
+USER = {
+    "polygon": [[0.0, 0.0], [2.0, 0.0], [2.5, 1.5], [0.5, 2.0]],
+    "dt": 0.02,
+    "unit": "m",
+    "duration": 4.0,
+    "shaper": {"buffer": 0.2},
+}
+
+
+@pytest.fixture
+def recorded(monkeypatch: pytest.MonkeyPatch) -> dict[str, Figure]:
+    """Figures written while the test runs, keyed by the file name they were saved to."""
+    figures: dict[str, Figure] = {}
+    original = Figure.savefig
+
+    def savefig(self: Figure, fname: Any, *args: Any, **kwargs: Any) -> Any:
+        name = Path(fname).name if isinstance(fname, (str, Path)) else f"frame-of-{id(self)}"
+        figures.setdefault(name, self)
+        return original(self, fname, *args, **kwargs)
+
+    monkeypatch.setattr(Figure, "savefig", savefig)
+    return figures
+
+
+def _is_colorbar(ax: Any) -> bool:
+    return hasattr(ax, "_colorbar")
+
+
+def _has_data(ax: Any) -> bool:
+    return bool(ax.lines or ax.collections or ax.patches or ax.images)
+
+
+def _colour_mapped(ax: Any) -> list[ScalarMappable]:
+    out = []
+    for art in [*ax.collections, *ax.images]:
+        if not isinstance(art, ScalarMappable) or art.get_array() is None:
+            continue
+        if isinstance(art, ContourSet) and art.colors is not None:
+            continue  # a band of one fixed colour (the buffer), not a colour scale
+        out.append(art)
+    return out
+
+
+def problems(name: str, fig: Figure) -> list[str]:
+    """Everything that makes ``fig`` fail to explain itself (empty when it is fine)."""
+    found: list[str] = []
+    bars = [ax._colorbar for ax in fig.axes if _is_colorbar(ax)]
+    for i, ax in enumerate(ax for ax in fig.axes if not _is_colorbar(ax)):
+        where = f"{name} axes {i} ({ax.get_title()!r})"
+        if not _has_data(ax):
+            found.append(f"{where}: empty")
+            continue
+        # A twin axes (twinx) shares its x axis and label with the axes it was made from.
+        twins = [o for o in ax.get_shared_x_axes().get_siblings(ax) if o is not ax]
+        xlabel = ax.get_xlabel() or next((o.get_xlabel() for o in twins if o.get_xlabel()), "")
+        labels = [("x", xlabel), ("y", ax.get_ylabel())]
+        if hasattr(ax, "get_zlabel"):
+            labels.append(("z", ax.get_zlabel()))
+        for axis, text in labels:
+            if not UNIT.search(text):
+                found.append(f"{where}: {axis} label {text!r} has no unit in brackets")
+        for art in _colour_mapped(ax):
+            if not any(b.mappable is art or b.mappable.norm is art.norm for b in bars):
+                found.append(f"{where}: colour-mapped {type(art).__name__} without a colour bar")
+    return found
+
+
+def _check_all(figures: dict[str, Figure], expected: set[str]) -> None:
+    assert expected <= set(figures), f"not rendered: {sorted(expected - set(figures))}"
+    found = [p for name in sorted(expected) for p in problems(name, figures[name])]
+    assert not found, "\n".join(found)
+
+
+def test_the_checker_catches_what_it_should() -> None:
+    """An unlabelled, uncoloured-barred, half-empty figure fails on every rule."""
+    fig = Figure()
+    ax1, _ax2 = fig.subplots(1, 2)
+    ax1.quiver([0, 1], [0, 1], [1, 1], [1, 0], [0.5, 2.0])
+    ax1.set_xlabel("pitch")
+    found = problems("bad", fig)
+    assert any("x label 'pitch' has no unit" in p for p in found)
+    assert any("y label" in p for p in found)
+    assert any("without a colour bar" in p for p in found)
+    assert any("axes 1" in p and "empty" in p for p in found)
+    fig2 = Figure()
+    ax = fig2.subplots()
+    q = ax.quiver([0, 1], [0, 1], [1, 1], [1, 0], [0.5, 2.0])
+    fig2.colorbar(q, ax=ax, label="speed [m/s]")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    assert problems("good", fig2) == []
+
+
+def test_demo_figures_explain_themselves(tmp_path: Path, recorded: dict[str, Figure]) -> None:
+    run_demo(config=DemoConfig(duration=3.0, dt=0.005), out_dir=tmp_path / "wrist")
+    _check_all(recorded, {"workspace.png", "velocity.png", "quiver.png"})
+    gif = [f for n, f in recorded.items() if n.startswith("frame-of-")]
+    assert gif, "demo.gif's frames were not rendered"
+    assert problems("demo.gif", gif[0]) == []
+    width = gif[0].get_size_inches()[0] * 84  # GIF_DPI
+    assert width >= 600
+    ws = recorded["workspace.png"]
+    legend = ws.legends[0] if ws.legends else ws.axes[0].get_legend()
+    entries = [t.get_text() for t in legend.get_texts()]
+    assert any(e.startswith("buffer band") for e in entries), entries
+    assert ws.axes[0].get_xlabel() == "pitch [rad]"
+    quiver = recorded["quiver.png"]
+    assert len([a for a in quiver.axes if not _is_colorbar(a)]) == 5  # five methods, 5 panels
+    bar = next(a for a in quiver.axes if _is_colorbar(a))
+    assert bar.get_ylabel() == "shaped speed [rad/s]"
+
+
+def test_a_users_config_in_metres_is_labelled_from_the_config(
+    tmp_path: Path, recorded: dict[str, Figure]
+) -> None:
+    result = run_demo(config=DemoConfig(**USER, gif=False), out_dir=tmp_path / "user")
+    _check_all(recorded, {"workspace.png", "velocity.png", "quiver.png"})
+    texts: list[str] = []
+    for fig in recorded.values():
+        if fig._suptitle is not None:
+            texts.append(fig._suptitle.get_text())
+        for ax in fig.axes:
+            texts += [ax.get_xlabel(), ax.get_ylabel(), ax.get_title()]
+    joined = " | ".join(texts)
+    for wanted in ("[m]", "[m/s]", "custom scenario (50 Hz"):
+        assert wanted in joined
+    for unwanted in ("rad", "pitch", "1 kHz"):
+        assert unwanted not in joined
+    assert "50 Hz" in str(result.table.title)
+    assert "wrist" not in str(result.table.title)
+
+
+def test_wrist_reproduction_figures(tmp_path: Path, recorded: dict[str, Figure]) -> None:
+    from velfence.mechanisms.wrist import Wrist, WristGeometry
+    from velfence.reproduce import wrist
+
+    poly = Wrist(geometry=WristGeometry()).default_polygon()
+    wrist._figures(poly, wrist._shapers(poly), tmp_path)
+    _check_all(recorded, {"velocity_patterns.png", "quiver.png"})
+    for ax in recorded["velocity_patterns.png"].axes:
+        entries = [t.get_text() for t in ax.get_legend().get_texts()]
+        assert entries[-3:] == [
+            "commands (all directions)",
+            f"shaped output ({ax.get_title().split(':')[0]})",
+            "sample point",
+        ]
+    quiver = recorded["quiver.png"]
+    assert len([a for a in quiver.axes if not _is_colorbar(a)]) == 2  # no empty third panel
+
+
+def test_obstacle_clearance_figure(tmp_path: Path, recorded: dict[str, Figure]) -> None:
+    from velfence.mechanisms.chain import PlanarArm
+    from velfence.redundancy.configuration_control import ConfigurationController, Obstacle
+    from velfence.reproduce import obstacles as ob
+    from velfence.viz.obstacles import plot_clearance
+
+    arm = PlanarArm.three_r()
+    q0 = ob._ik(arm, (2.0, 1.0), (-0.4, 0.8, 1.0))
+    line = ob.cosine_line((2.0, 1.0), (0.0, -1.0), 2.0, 5.0, back=True)
+    obs = [Obstacle(center=np.array([1.5, -1.4]), radius=ob.BODY, influence=ob.RHO)]
+    runs = [
+        ob.run_scenario(f"run {k}", ConfigurationController(arm, obs), line, q0, 0.05)
+        for k in range(4)
+    ]
+    plot_clearance(runs, tmp_path / "clearance.png")
+    _check_all(recorded, {"clearance.png"})
+    fig = recorded["clearance.png"]
+    assert len(fig.axes) == 8  # 4 runs x (clearance, EE error): the 2 unused panels removed
+    assert fig.get_size_inches()[0] * 90 <= 1300  # readable at 100 %: at most 3 columns
+
+
+@pytest.mark.slow  # about 25 s: the simulated study itself
+def test_study_figures(tmp_path: Path, recorded: dict[str, Figure]) -> None:
+    from velfence.teleop.study import run_study
+    from velfence.viz.study import write_study
+
+    write_study(run_study(2, 1, 0), tmp_path)
+    _check_all(recorded, {"study_paths.png", "study_times.png"})
+    for ax in recorded["study_paths.png"].axes:
+        assert len(ax.get_xticks()) <= 5  # no overlapping tick labels on the small 3-D panels
+
+
+@pytest.mark.slow  # about 10 s: the whole CoSPM reproduction
+def test_cospm_reproduction_figures(tmp_path: Path, recorded: dict[str, Figure]) -> None:
+    from velfence.reproduce.cospm import run
+
+    report = run(tmp_path)
+    names = {Path(a).name for a in report.artifacts if a.endswith(".png")}
+    assert names
+    _check_all(recorded, names)
