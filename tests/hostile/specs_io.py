@@ -37,7 +37,8 @@ SPECS: dict[str, F | C] = {
                 "saturate": "flag",
                 "gif": "flag",
             },
-        )
+        ),
+        methods={"axis_labels": lambda: call()},
     ),
     "io.load_config": F(lambda: call(None), types={"path": "path"}),
     "io.load_joint_limits": F(
