@@ -16,6 +16,7 @@ import random
 import subprocess
 import sys
 import threading
+import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
@@ -100,23 +101,64 @@ def bridge() -> Iterator[Callable[..., RunningBridge]]:
         b.close()
 
 
-def run_client(spec: dict[str, Any], tmp_path: Path, *, timeout: float = 60.0) -> dict[str, Any]:
-    """Run ros_client.py in its own process with ``spec``; its JSON result."""
-    path = tmp_path / f"client-{next(_NAMESPACES)}.json"
+def run_client(
+    spec: dict[str, Any],
+    tmp_path: Path,
+    *,
+    bridge: RunningBridge | None = None,
+    timeout: float = 60.0,
+) -> dict[str, Any]:
+    """Run ros_client.py in its own process with ``spec``; its JSON result.
+
+    With ``bridge`` (a stream scenario), the client sends nothing until this process has seen the
+    bridge's command and state readers match the client's writers: the client's own matches only
+    say that *it* found the bridge, and a volatile reader matching late loses what came before.
+    """
+    n = next(_NAMESPACES)
+    path = tmp_path / f"client-{n}.json"
+    sync = None if bridge is None else tmp_path / f"sync-{n}"
+    if sync is not None:
+        spec = {**spec, "sync": str(sync)}
     path.write_text(json.dumps({"domain": DOMAIN, **spec}), encoding="utf-8")
     env = {**os.environ, "PYTHONPATH": str(SRC), "CYCLONEDDS_URI": LOOPBACK}
-    done = subprocess.run(
+    with subprocess.Popen(
         [sys.executable, str(CLIENT), str(path)],
-        capture_output=True,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
         text=True,
-        timeout=timeout,
         env=env,
-        check=False,
-    )
-    if done.returncode != 0:
-        raise AssertionError(f"client failed ({done.returncode}): {done.stderr[-2000:]}")
-    result: dict[str, Any] = json.loads(done.stdout)
+    ) as proc:
+        if bridge is not None and sync is not None:
+            _release_when_matched(proc, bridge, sync, deadline=time.monotonic() + timeout)
+        try:
+            out, err = proc.communicate(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            out, err = proc.communicate()
+            raise AssertionError(f"client timed out after {timeout} s: {err[-2000:]}") from None
+    if proc.returncode != 0:
+        raise AssertionError(f"client failed ({proc.returncode}): {err[-2000:]}")
+    result: dict[str, Any] = json.loads(out)
     return result
+
+
+def _release_when_matched(
+    proc: subprocess.Popen[str], bridge: RunningBridge, sync: Path, *, deadline: float
+) -> None:
+    """Write the client's go-ahead once both sides of the command and state topics matched."""
+    node: Any = bridge.node
+    ready = Path(str(sync) + ".ready")
+
+    def matched() -> bool:
+        return ready.exists() and all(
+            len(r.get_matched_publications()) > 0 for r in (node._cmd_reader, node._state_reader)
+        )
+
+    while not matched():
+        if proc.poll() is not None or time.monotonic() > deadline:
+            return  # the client's own error (or its timeout) reports it
+        time.sleep(0.005)
+    Path(str(sync) + ".go").touch()
 
 
 @pytest.fixture

@@ -20,6 +20,7 @@ import json
 import math
 import sys
 import time
+from pathlib import Path
 from typing import Any
 
 from cyclonedds.builtin import (
@@ -139,6 +140,13 @@ def stream(spec: dict[str, Any], dp: DomainParticipant) -> dict[str, Any]:
     wait_for(lambda: len(cmd_w.get_matched_subscriptions()) > 0, "the command reader")
     wait_for(lambda: len(state_w.get_matched_subscriptions()) > 0, "the state reader")
     wait_for(lambda: len(out_r.get_matched_publications()) > 0, "the output writer")
+    # The matches above are this side's. The bridge's readers discover these writers on their
+    # own schedule, and a volatile reader that matches late never sees what was written before:
+    # with a "sync" file the test process confirms the bridge's side before anything is sent.
+    sync = spec.get("sync")
+    if sync is not None:
+        Path(sync + ".ready").touch()
+        wait_for(lambda: Path(sync + ".go").exists(), "the test's go-ahead (bridge side matched)")
     state = make_state(st)
     commands = spec["commands"]
     rate = float(spec["rate_hz"])

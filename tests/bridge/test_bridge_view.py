@@ -105,6 +105,7 @@ def test_a_bridge_records_every_command_it_publishes(bridge, tmp_path: Path) -> 
             "depth": 1000,
         },
         tmp_path,
+        bridge=b,
     )
     b.close()
     view.close()
