@@ -240,9 +240,13 @@ def sim(
         typer.Option(help="Folder for video, figures and metrics.json (default out/sim/NAME)."),
     ] = None,
     video: Annotated[bool, typer.Option(help="Render the side-by-side MP4 and GIF.")] = True,
-    width: Annotated[int, typer.Option(min=64, max=1920, help="Video panel width [px].")] = 480,
-    height: Annotated[int, typer.Option(min=48, max=1080, help="Video panel height [px].")] = 360,
+    width: Annotated[int, typer.Option(min=64, max=1920, help="Video panel width (px).")] = 480,
+    height: Annotated[int, typer.Option(min=48, max=1080, help="Video panel height (px).")] = 360,
     fps: Annotated[int, typer.Option(min=1, max=60, help="Video frames per second.")] = 25,
+    columns: Annotated[
+        int | None,
+        typer.Option(min=1, max=8, help="Video panels per row (default: all in one row)."),
+    ] = None,
     json_out: Annotated[
         bool, typer.Option("--json", help="Print one JSON object (checks + artifacts).")
     ] = False,
@@ -289,6 +293,7 @@ def sim(
                 width=width,
                 height=height,
                 fps=fps,
+                columns=columns,
                 progress=lambda f: progress.update(task, completed=0.6 + 0.4 * f),
             )
     except VelfenceError as exc:

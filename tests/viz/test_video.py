@@ -96,6 +96,24 @@ def test_side_by_side_holds_the_last_frame_of_a_short_panel() -> None:
         side_by_side({"a": a, "b": np.zeros((1, 4, 6, 3), dtype=np.uint8)})
 
 
+def test_side_by_side_on_a_grid_fills_rows_and_pads_narrow_panels() -> None:
+    panels = {
+        k: np.full((2, 4, w, 3), v, dtype=np.uint8)
+        for k, w, v in (("a", 6, 10), ("b", 5, 20), ("c", 6, 30))
+    }
+    out = side_by_side(panels, gap=1, columns=2)
+    # 2 rows of 4 px + 1 gap; 2 cells as wide as the widest panel (6 px) + 1 gap
+    assert out.shape == (2, 9, 13, 3)
+    assert np.all(out[:, :4, :6] == 10)
+    assert np.all(out[:, :4, 7:12] == 20) and np.all(out[:, :4, 12] == 255)  # b padded white
+    assert np.all(out[:, 4] == 255)  # the gap between the rows
+    assert np.all(out[:, 5:, :6] == 30) and np.all(out[:, 5:, 6:] == 255)  # empty last cell
+    # As many columns as panels (or more) is the single row.
+    assert np.array_equal(side_by_side(panels, gap=1, columns=3), side_by_side(panels, gap=1))
+    with pytest.raises(InvalidParameter, match="columns"):
+        side_by_side(panels, columns=0)
+
+
 def test_mp4_decodes_to_what_was_written(tmp_path) -> None:
     ffmpeg = pytest.importorskip("imageio_ffmpeg")
     colours = [(200, 30, 30), (30, 200, 30), (30, 30, 200), (128, 128, 128)]

@@ -193,10 +193,10 @@ def run(
         "push": (push_t0, push_t0 + PUSH_DURATION),
         "point": "TCP",
         "camera": {
-            "lookat": (0.42, 0.0, 0.38),
-            "distance": 1.9,
-            "azimuth": 150.0,
-            "elevation": -22.0,
+            "lookat": (0.3, 0.0, 0.42),
+            "distance": 1.75,
+            "azimuth": 145.0,
+            "elevation": -24.0,
         },
         "margin": ("TCP distance inside the box", "m", {"buffer": BUFFER, "wall": 0.0}),
     }

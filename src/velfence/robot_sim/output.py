@@ -93,6 +93,7 @@ def write_video(
     height: int = 360,
     fps: int = 25,
     formats: Sequence[str] = ("mp4", "gif"),
+    columns: int | None = None,
     progress: Callable[[float], None] | None = None,
 ) -> list[Path]:
     """A side-by-side video of the runs (each method's own MuJoCo model and qpos).
@@ -105,6 +106,7 @@ def write_video(
         height: Panel height [px].
         fps: Frames per second of the video (the runs are subsampled to it).
         formats: ``"mp4"`` and/or ``"gif"``.
+        columns: Panels per row (default all in one row).
         progress: Called with the completed fraction of the rendering.
 
     Returns:
@@ -158,7 +160,7 @@ def write_video(
             progress=sub,
             **camera,
         )
-    frames = side_by_side(panels)
+    frames = side_by_side(panels, columns=columns)
     out = []
     for fmt in formats:
         path = folder / f"{result.name}.{fmt}"
@@ -175,6 +177,7 @@ def write_outputs(
     width: int = 480,
     height: int = 360,
     fps: int = 25,
+    columns: int | None = None,
     progress: Callable[[float], None] | None = None,
 ) -> list[Path]:
     """metrics.json, the margin figure and (``video``) the side-by-side MP4 and GIF.
@@ -192,6 +195,7 @@ def write_outputs(
             width=width,
             height=height,
             fps=fps,
+            columns=columns,
             progress=progress,
         )
     files.append(write_metrics(result, folder / "metrics.json", files))

@@ -217,13 +217,17 @@ class TrailOverlay:
 
 
 def _caption(frame: Frames, text: str) -> Frames:
-    from PIL import Image, ImageDraw
+    from PIL import Image, ImageDraw, ImageFont
 
     img = Image.fromarray(frame)
     draw = ImageDraw.Draw(img)
-    h = max(12, frame.shape[0] // 24)
-    draw.rectangle((0, 0, frame.shape[1], h + 8), fill=(255, 255, 255))
-    draw.text((6, 4), text, fill=(0, 0, 0))
+    h = max(12, frame.shape[0] // 22)
+    try:  # Pillow >= 10.1: its bundled scalable font, readable at any frame size
+        font: Any = ImageFont.load_default(size=h)
+    except TypeError:  # an older Pillow: the fixed bitmap font
+        font = ImageFont.load_default()
+    draw.rectangle((0, 0, frame.shape[1], h + 10), fill=(255, 255, 255))
+    draw.text((8, 4), text, fill=(0, 0, 0), font=font)
     return np.asarray(img, dtype=np.uint8)
 
 
@@ -367,21 +371,29 @@ def render_frames(
     return out
 
 
-def side_by_side(panels: Mapping[str, ArrayLike], *, gap: int = 4) -> Frames:
+def side_by_side(
+    panels: Mapping[str, ArrayLike], *, gap: int = 4, columns: int | None = None
+) -> Frames:
     """Panels next to each other, in the mapping's order (shorter ones hold their last frame).
 
     Args:
         panels: Name -> frames of shape (N_i, H, W_i, 3) ``uint8``, all of one height H.
         gap: White pixels between panels, 0..64.
+        columns: Panels per row, 1..64 (default all in one row); with fewer, the panels fill a grid
+            row by row, each cell as wide as the widest panel.
 
     Returns:
-        Frames of shape (max N_i, H, sum W_i + gaps, 3).
+        Frames of shape (max N_i, H, sum W_i + gaps, 3) in one row; on a grid
+        (max N_i, rows H + gaps, columns max W_i + gaps, 3).
 
     Raises:
         InvalidInput: no panel, or panels that are not uint8 frames of one height.
-        InvalidParameter: a bad gap.
+        InvalidParameter: a bad gap or column count.
     """
     px = check_positive_int("gap", gap, minimum=0, maximum=64, example=4)
+    cols = (
+        None if columns is None else check_positive_int("columns", columns, maximum=64, example=2)
+    )
     if not isinstance(panels, Mapping) or not panels:
         what = "an empty mapping" if isinstance(panels, Mapping) else type(panels).__name__
         raise InvalidInput(f"panels: expected a non-empty mapping name -> frames, got {what}")
@@ -399,13 +411,18 @@ def side_by_side(panels: Mapping[str, ArrayLike], *, gap: int = 4) -> Frames:
         raise InvalidInput(f"panels: expected one frame height, got {sorted(heights)}")
     n = max(len(a) for a in arrays)
     h = arrays[0].shape[1]
-    width = sum(a.shape[2] for a in arrays) + px * (len(arrays) - 1)
-    out = np.full((n, h, width, 3), 255, dtype=np.uint8)
-    x = 0
-    for a in arrays:
+    if cols is None or cols >= len(arrays):
+        cells = [(0, sum(a.shape[2] for a in arrays[:k]) + px * k) for k in range(len(arrays))]
+        height, width = h, sum(a.shape[2] for a in arrays) + px * (len(arrays) - 1)
+    else:
+        cw = max(a.shape[2] for a in arrays)
+        rows = -(-len(arrays) // cols)
+        cells = [((k // cols) * (h + px), (k % cols) * (cw + px)) for k in range(len(arrays))]
+        height, width = rows * h + px * (rows - 1), cols * cw + px * (cols - 1)
+    out = np.full((n, height, width, 3), 255, dtype=np.uint8)
+    for a, (y, x) in zip(arrays, cells, strict=True):
         idx = np.minimum(np.arange(n), len(a) - 1)
-        out[:, :, x : x + a.shape[2]] = a[idx]
-        x += a.shape[2] + px
+        out[:, y : y + h, x : x + a.shape[2]] = a[idx]
     return out
 
 
