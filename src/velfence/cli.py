@@ -540,10 +540,20 @@ def replay(
     ] = None,
 ) -> None:
     """Shape a bag's recorded commands with a configured shaper; write a new bag (+ figure)."""
+    from rich.progress import Progress
+
     from velfence.io.bags import replay as run_replay
 
     try:
-        s = run_replay(bag, config, out, storage=storage)
+        with Progress(transient=True, console=Console(stderr=True)) as progress:
+            task = progress.add_task(f"replay {bag.name}", total=1.0)
+            s = run_replay(
+                bag,
+                config,
+                out,
+                storage=storage,
+                progress=lambda f: progress.update(task, completed=f),
+            )
         if plot is not None:
             from velfence.viz.replay import plot_replay
 

@@ -131,6 +131,20 @@ def test_every_original_message_is_copied(examples: Path, tmp_path: Path) -> Non
         assert [(t, raw) for t, _, raw in msgs] == [(t, raw) for t, _, raw in after[topic]]
 
 
+def test_progress_rises_to_one_and_is_validated(examples: Path, tmp_path: Path) -> None:
+    src = examples / "mobile_base"
+    seen: list[float] = []
+    s = replay(src / "bag", src / "replay.yaml", tmp_path / "out", progress=seen.append)
+    assert seen[-1] == 1.0 and seen[0] < 0.5
+    assert all(0.0 <= f <= 1.0 for f in seen)
+    assert seen == sorted(seen)  # never goes back
+    # Through shaping and through writing, not only at the end: a bar that moves.
+    assert any(0.0 < f < 0.5 for f in seen) and any(0.5 < f < 1.0 for f in seen)
+    assert s.commands > 0
+    with pytest.raises(InvalidParameter, match="progress"):
+        replay(src / "bag", src / "replay.yaml", tmp_path / "out2", progress=3)  # type: ignore[arg-type]
+
+
 def test_metadata_lists_every_topic_with_its_count(examples: Path, tmp_path: Path) -> None:
     src = examples / "mobile_base"
     s = replay(src / "bag", src / "replay.yaml", tmp_path / "out")

@@ -535,6 +535,7 @@ def replay(
     out: str | Path,
     *,
     storage: str | None = None,
+    progress: Callable[[float], None] | None = None,
 ) -> ReplaySummary:
     """Shape a bag's recorded commands with a configured shaper and write a new bag.
 
@@ -549,6 +550,8 @@ def replay(
         config: A YAML file with ``shaper:`` and ``replay:`` sections, or that mapping.
         out: The bag directory to write; it must not exist (its parent must).
         storage: ``"mcap"`` or ``"sqlite3"`` for the written bag (default: the input's).
+        progress: Called now and then with the fraction done, 0..1 (reading and shaping the
+            commands, then writing every message); for a progress bar.
 
     Returns:
         Counts, changes and the time series (:class:`ReplaySummary`).
@@ -562,6 +565,9 @@ def replay(
     _fs_path("bag", bag)
     _fs_path("out", out)
     chosen = None if storage is None else check_choice("storage", storage, STORAGES)
+    if progress is not None and not callable(progress):
+        raise InvalidParameter(f"progress: expected a callable, got {type(progress).__name__}")
+    report = _Progress(progress)
     cs, settings = _config(config)
     p = _bag_path(bag)
     target = _out_path(out)
@@ -595,8 +601,15 @@ def replay(
             )
         cmd_conn, state_conn = conns[settings.command_topic], conns[settings.state_topic]
         codec, read_state = _codecs(cs, settings, cmd_conn.msgtype, state_conn.msgtype)
-        result = _shape_all(reader, cs, settings, codec, read_state, cmd_conn, state_conn)
-        messages = _write(reader, target, fmt, settings, cmd_conn, result, Writer, StoragePlugin)
+        total = int(getattr(reader, "message_count", 0) or 0)
+        result = _shape_all(
+            reader, cs, settings, codec, read_state, cmd_conn, state_conn, report.part(0.0, 0.5)
+        )
+        messages = _write(
+            reader, target, fmt, settings, cmd_conn, result, Writer, StoragePlugin,
+            report.part(0.5, 1.0), total,
+        )  # fmt: skip
+        report(1.0)
     except VelfenceError:
         raise
     except Exception as exc:
@@ -606,6 +619,22 @@ def replay(
     finally:
         reader.close()
     return _summary(p, target, fmt, cs, settings, cmd_conn, state_conn, codec, result, messages)
+
+
+class _Progress:
+    """Forwards a phase's fraction to the caller's callback, at most every 1 % (cheap in loops)."""
+
+    def __init__(self, fn: Callable[[float], None] | None, lo: float = 0.0, hi: float = 1.0):
+        self.fn, self.lo, self.hi, self.last = fn, lo, hi, -1.0
+
+    def __call__(self, f: float) -> None:
+        if self.fn is not None and (f >= 1.0 or f - self.last >= 0.01):
+            self.last = f
+            self.fn(self.lo + (self.hi - self.lo) * min(max(f, 0.0), 1.0))
+
+    def part(self, lo: float, hi: float) -> _Progress:
+        span = self.hi - self.lo
+        return _Progress(self.fn, self.lo + span * lo, self.lo + span * hi)
 
 
 @dataclass
@@ -629,6 +658,7 @@ def _shape_all(
     read_state: Callable[[Any], NDArray[np.float64]],
     cmd_conn: Any,
     state_conn: Any,
+    report: _Progress,
 ) -> _Result:
     ts = reader.typestore
     s_times: list[int] = []
@@ -657,6 +687,7 @@ def _shape_all(
     twist_mode = cs.command_space == "twist"
     heading = settings.command_frame == "body"
     for i, (t, msg) in enumerate(cmds):
+        report(i / max(N, 1))
         v = codec.read(msg)
         commanded[i] = np.where(np.isfinite(v), v, 0.0)
         j = int(np.searchsorted(st, t, side="right")) - 1
@@ -731,6 +762,8 @@ def _write(
     result: _Result,
     Writer: Any,
     StoragePlugin: Any,
+    report: _Progress,
+    total: int,
 ) -> int:
     plugin = StoragePlugin.MCAP if fmt == "mcap" else StoragePlugin.SQLITE3
     ts = reader.typestore
@@ -748,6 +781,8 @@ def _write(
                     i, written = i + 1, written + 1
                 writer.write(out_conns[conn.id], t, raw)
                 written += 1
+                if total:
+                    report(written / (total + len(pending)))
             for t_cmd, raw in pending[i:]:
                 writer.write(shaped_conn, t_cmd, raw)
                 written += 1
