@@ -135,11 +135,13 @@ def test_progress_rises_to_one_and_is_validated(examples: Path, tmp_path: Path) 
     src = examples / "mobile_base"
     seen: list[float] = []
     s = replay(src / "bag", src / "replay.yaml", tmp_path / "out", progress=seen.append)
-    assert seen[-1] == 1.0 and seen[0] < 0.5
+    assert seen[-1] == 1.0
+    assert seen[0] < 0.5
     assert all(0.0 <= f <= 1.0 for f in seen)
     assert seen == sorted(seen)  # never goes back
     # Through shaping and through writing, not only at the end: a bar that moves.
-    assert any(0.0 < f < 0.5 for f in seen) and any(0.5 < f < 1.0 for f in seen)
+    assert any(0.0 < f < 0.5 for f in seen)
+    assert any(0.5 < f < 1.0 for f in seen)
     assert s.commands > 0
     with pytest.raises(InvalidParameter, match="progress"):
         replay(src / "bag", src / "replay.yaml", tmp_path / "out2", progress=3)  # type: ignore[arg-type]

@@ -105,9 +105,11 @@ def test_side_by_side_on_a_grid_fills_rows_and_pads_narrow_panels() -> None:
     # 2 rows of 4 px + 1 gap; 2 cells as wide as the widest panel (6 px) + 1 gap
     assert out.shape == (2, 9, 13, 3)
     assert np.all(out[:, :4, :6] == 10)
-    assert np.all(out[:, :4, 7:12] == 20) and np.all(out[:, :4, 12] == 255)  # b padded white
+    assert np.all(out[:, :4, 7:12] == 20)
+    assert np.all(out[:, :4, 12] == 255)
     assert np.all(out[:, 4] == 255)  # the gap between the rows
-    assert np.all(out[:, 5:, :6] == 30) and np.all(out[:, 5:, 6:] == 255)  # empty last cell
+    assert np.all(out[:, 5:, :6] == 30)
+    assert np.all(out[:, 5:, 6:] == 255)
     # As many columns as panels (or more) is the single row.
     assert np.array_equal(side_by_side(panels, gap=1, columns=3), side_by_side(panels, gap=1))
     with pytest.raises(InvalidParameter, match="columns"):
