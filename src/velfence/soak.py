@@ -520,6 +520,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         args.out.write_text(_page(results, cmd))
     required = [r for r in results if "faithful" not in r.name and "no dt" not in r.name]
     ok = all(r.escapes == 0 and r.nonfinite == 0 for r in required)
+    failed = [r.name for r in required if r.escapes or r.nonfinite]
+    documented = [r.name for r in results if r not in required and (r.escapes or r.nonfinite)]
+    print(
+        f"soak: {len(required) - len(failed)}/{len(required)} required cases contained "
+        f"(no escape, no non-finite output); escapes in {len(documented)} not-required "
+        "case(s), documented (the faithful patent law's corner leak, the law run without its "
+        "dt); " + (f"FAILED: {', '.join(failed)}; exit 1" if failed else "exit 0: containment held")
+    )
     return 0 if ok else 1
 
 
