@@ -157,6 +157,7 @@ def test_state_round_trip(server: ViewerServer, fake: FakeSession) -> None:
         "realtime": False,
         "jog": {"linear": [0.0, 0.0, 0.0], "angular": [0.0, 0.0, 0.0]},
         "error": None,
+        "started": True,
     }
 
 
