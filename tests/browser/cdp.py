@@ -39,7 +39,7 @@ FLAGS = (
     "--use-angle=swiftshader",
     "--disable-default-apps",
     "--disable-extensions",
-    "--window-size=1280,800",
+    "--window-size=1000,640",
 )
 
 
@@ -146,15 +146,15 @@ class Browser:
         """A PNG of the page as shown."""
         return base64.b64decode(self.send("Page.captureScreenshot", format="png")["data"])
 
-    def requested_urls(self) -> list[str]:
-        """Every URL the page asked for (``Network.enable`` must have been sent)."""
+    def requested_urls(self) -> list[tuple[str, str]]:
+        """``(document URL, URL)`` of every request seen (``Network.enable`` must be on)."""
         self.send("Runtime.evaluate", expression="1")  # drain pending events
         out = []
         for e in self.events:
             if e.get("method") == "Network.requestWillBeSent":
-                out.append(e["params"]["request"]["url"])
+                out.append((e["params"].get("documentURL", ""), e["params"]["request"]["url"]))
             elif e.get("method") == "Network.webSocketCreated":
-                out.append(e["params"]["url"])
+                out.append(("", e["params"]["url"]))
         return out
 
     def close(self) -> None:

@@ -505,6 +505,9 @@ class _Handler(BaseHTTPRequestHandler):
         self._dispatch(self._get)
 
     def _upgrade(self) -> None:
+        # A refusal is an HTTP/1.1 reply (websocket clients reject HTTP/1.0 status lines); it
+        # always closes the connection.
+        self.protocol_version = "HTTP/1.1"
         # A browser sends Origin on every websocket handshake: the POST rule applies.
         self._check_origin()
         if not self._viewer._upgrade(self):

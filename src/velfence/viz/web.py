@@ -49,6 +49,7 @@ The simulation holds still until a client fetches the page (or posts a key); ``s
 
 from __future__ import annotations
 
+import json
 import logging
 import math
 import secrets
@@ -513,7 +514,10 @@ class WebView(ViewerServer):
         self._security_headers = _WEB_HEADERS
         self._token = secrets.token_urlsafe(24)
         self._viser_port = 0
+        self._forwarded = 0
         self._frame_stop = threading.Event()
+        self._handles: dict[str, Any] = {}
+        self._last_frame = ""
         self._frame_thread: threading.Thread | None = None
         self._viser = viser.ViserServer(host=HOST, port=0, verbose=False)
         try:
@@ -543,6 +547,11 @@ class WebView(ViewerServer):
     def viser_port(self) -> int:
         """The internal loopback port of viser's own server (it refuses direct websockets)."""
         return self._viser_port
+
+    @property
+    def forwarded_websockets(self) -> int:
+        """How many websocket handshakes passed the checks and were forwarded to viser."""
+        return self._forwarded
 
     def stop(self) -> None:
         """Stop drawing, stepping and serving, and viser's server (idempotent)."""
@@ -578,6 +587,7 @@ class WebView(ViewerServer):
         if self._viser_port == 0 or not self.running:
             return False
         self._client_seen()
+        self._forwarded += 1
         upstream = socket.create_connection((HOST, self._viser_port), timeout=5.0)
         lines = [handler.requestline]
         lines += [f"{k}: {v}" for k, v in handler.headers.items() if k.lower() != "x-velfence-proxy"]
@@ -610,14 +620,19 @@ class WebView(ViewerServer):
     def _draw_static(self) -> None:
         scene = self._viser.scene
         scene.set_up_direction("+z")
+        # No shadow maps and no environment-map prefiltering: both cost seconds per frame in a
+        # browser without a GPU (software WebGL), and the view needs neither.
+        scene.configure_default_lights(cast_shadow=False)
+        scene.configure_environment_map(hdri=None)
         scene.add_grid("/grid", width=3.0, height=3.0, cell_size=0.1, position=(0.0, 0.0, -0.001))
         self._dynamic: dict[str, Any] = {}
         for i, prim in enumerate(self.scene()):
             self._draw_primitive(f"/scene/{i}_{prim.get('name', '')}", prim)
         state = self.state()
         tcp = np.asarray(state.get("tcp", (0.0, 0.0, 0.0)), float)
-        self._viser.initial_camera.position = tuple(tcp + np.array([1.4, -1.6, 0.9]))
-        self._viser.initial_camera.look_at = tuple(tcp * np.array([0.5, 0.5, 0.7]))
+        look = tcp * np.array([0.6, 0.6, 0.6])
+        self._viser.initial_camera.look_at = tuple(look)
+        self._viser.initial_camera.position = tuple(look + np.array([1.4, -0.9, 0.6]))
         keys = (
             "**Keys** (click the scene first): arrows, PgUp/PgDn jog the TCP; `C` clutch; "
             + (
@@ -685,41 +700,35 @@ class WebView(ViewerServer):
                 _log.debug("web view frame failed", exc_info=True)
 
     def _draw_frame(self, s: dict[str, Any]) -> None:
-        scene = self._viser.scene
+        # Only what changed is sent, and by updating a node's props, not re-creating it: a
+        # browser without a GPU (software WebGL) otherwise spends its time rebuilding meshes.
+        key = json.dumps(
+            [s.get(k) for k in ("joints", "tcp", "commanded", "shaped", "laser", "fixture", "task")]
+        )
+        if key == self._last_frame:
+            return
+        self._last_frame = key
         joints = np.asarray(s.get("joints") or [], float).reshape(-1, 3)
         if len(joints) >= 2:
-            segs = np.stack([joints[:-1], joints[1:]], axis=1)
-            scene.add_line_segments("/arm/links", segs, _ARM_COLOR, thickness=0.06)
-            scene.add_point_cloud(
-                "/arm/joints", joints, (40, 40, 50), point_size=0.07, point_shape="circle"
-            )
+            self._segments("/arm/links", np.stack([joints[:-1], joints[1:]], axis=1), _ARM_COLOR, 0.06)
+            self._points("/arm/joints", joints)
         tcp = np.asarray(s.get("tcp") or (0.0, 0.0, 0.0), float)
-        for key, color in (("commanded", _COMMANDED_COLOR), ("shaped", _SHAPED_COLOR)):
-            v = np.asarray(s.get(key) or (0.0, 0.0, 0.0), float)
+        for name, color in (("commanded", _COMMANDED_COLOR), ("shaped", _SHAPED_COLOR)):
+            v = np.asarray(s.get(name) or (0.0, 0.0, 0.0), float)
             tip = tcp + ARROW_SCALE * v
             show = bool(np.all(np.isfinite(tip))) and float(np.linalg.norm(v)) > 1e-4
-            pts = np.array([[tcp, tip if show else tcp + 1e-6]])
-            scene.add_arrows(
-                f"/velocity/{key}",
-                pts,
-                color,
-                shaft_radius=0.008,
-                head_radius=0.02,
-                head_length=0.04,
-                visible=show,
-            )
+            self._arrow(f"/velocity/{name}", tcp, tip if show else tcp + 1e-6, color, show)
         laser = s.get("laser") or {}
+        beam = None
         if laser.get("origin") is not None and laser.get("point") is not None:
             beam = np.array([[laser["origin"], laser["point"]]], float)
-            scene.add_line_segments("/teleop/laser", beam, (230, 0, 0), thickness=0.004)
+        self._segments("/teleop/laser", beam, (230, 0, 0), 0.004)
         fixture = s.get("fixture")
-        if fixture:
-            line = np.array([[fixture["start"], fixture["end"]]], float)
-            scene.add_line_segments("/teleop/fixture", line, (200, 0, 200), thickness=0.006)
+        line = None if not fixture else np.array([[fixture["start"], fixture["end"]]], float)
+        self._segments("/teleop/fixture", line, (200, 0, 200), 0.006)
         grip = s.get("gripper")
-        if grip:
-            g = np.array([[grip["start"], grip["end"]]], float)
-            scene.add_line_segments("/teleop/gripper", g, (60, 60, 60), thickness=0.03)
+        g = None if not grip else np.array([[grip["start"], grip["end"]]], float)
+        self._segments("/teleop/gripper", g, (60, 60, 60), 0.03)
         task = s.get("task") or {}
         for name, (handle, kind) in self._dynamic.items():
             where = task.get(name)
@@ -735,6 +744,54 @@ class WebView(ViewerServer):
         )
         if text != self._status.content:
             self._status.content = text
+
+    def _segments(
+        self, name: str, pts: FloatArray | None, color: tuple[int, int, int], width: float
+    ) -> None:
+        handle = self._handles.get(name)
+        if pts is None:
+            if handle is not None:
+                handle.visible = False
+            return
+        if handle is None or handle.points.shape != pts.shape:
+            if handle is not None:
+                handle.remove()
+            self._handles[name] = self._viser.scene.add_line_segments(
+                name, pts, color, thickness=width
+            )
+        else:
+            handle.points = pts.astype(np.float32)
+            handle.visible = True
+
+    def _points(self, name: str, pts: FloatArray) -> None:
+        handle = self._handles.get(name)
+        if handle is None or handle.points.shape != pts.shape:
+            if handle is not None:
+                handle.remove()
+            self._handles[name] = self._viser.scene.add_point_cloud(
+                name, pts, (40, 40, 50), point_size=0.04, point_shape="circle"
+            )
+        else:
+            handle.points = pts.astype(np.float32)
+
+    def _arrow(
+        self, name: str, a: FloatArray, b: FloatArray, color: tuple[int, int, int], show: bool
+    ) -> None:
+        pts = np.array([[a, b]], dtype=np.float32)
+        handle = self._handles.get(name)
+        if handle is None:
+            self._handles[name] = self._viser.scene.add_arrows(
+                name,
+                pts,
+                color,
+                shaft_radius=0.012,
+                head_radius=0.03,
+                head_length=0.05,
+                visible=show,
+            )
+        else:
+            handle.points = pts
+            handle.visible = show
 
 
 def _rotation_to(n: FloatArray) -> tuple[float, float, float, float]:
