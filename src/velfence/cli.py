@@ -431,10 +431,10 @@ def view(
     """Show a scene as a 3-D web view (viser, extra web) and drive it with the teleop keys."""
     import webbrowser
 
-    from velfence.viz.web import serve_web
+    from velfence.view import serve_scene
 
     try:
-        server = serve_web(scene, port=port, start=start)
+        server = serve_scene(scene, port=port, start=start)
     except VelfenceError as exc:
         raise _fail(str(exc)) from None
     except OSError as exc:

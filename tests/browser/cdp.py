@@ -140,7 +140,9 @@ class Browser:
             self.key_up(code, key, vk)
 
     def key_up(self, code: str, key: str, vk: int) -> None:
-        self.send("Input.dispatchKeyEvent", type="keyUp", code=code, key=key, windowsVirtualKeyCode=vk)
+        self.send(
+            "Input.dispatchKeyEvent", type="keyUp", code=code, key=key, windowsVirtualKeyCode=vk
+        )
 
     def screenshot(self) -> bytes:
         """A PNG of the page as shown."""

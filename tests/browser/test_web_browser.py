@@ -21,9 +21,10 @@ import pytest
 
 pytest.importorskip("viser", reason="viser not installed (extra web)")
 
-from cdp import Browser, find_chromium, poll  # noqa: E402
+from cdp import Browser, find_chromium, poll
 
-from velfence.viz.web import WebView, serve_web  # noqa: E402
+from velfence.view import serve_scene
+from velfence.viz.web import WebView
 
 CHROMIUM = find_chromium()
 pytestmark = pytest.mark.skipif(CHROMIUM is None, reason="no Chromium binary on this machine")
@@ -65,9 +66,9 @@ def _drawn_pixels(png: bytes) -> int:
     return int(np.count_nonzero(area.min(axis=2) < 150))
 
 
-HIDE_NOTICE = """[...document.querySelectorAll('div')]
-  .filter((d) => d.childElementCount && d.textContent.startsWith('Software WebGL rendering'))
-  .slice(0, 1).forEach((d) => { d.style.display = 'none'; })"""
+HIDE_NOTICE = """[...document.querySelectorAll('[role="alert"]')]
+  .filter((d) => d.textContent.includes('Software WebGL'))
+  .forEach((d) => { d.style.display = 'none'; })"""
 
 
 def _screenshot(browser: Browser, scene: str) -> bytes:
@@ -75,9 +76,9 @@ def _screenshot(browser: Browser, scene: str) -> bytes:
 
     browser.evaluate(HIDE_NOTICE)  # viser's "no GPU" notice: true here, noise in the pictures
     png: bytes = poll(
-        "the scene drawn", lambda: (lambda p: p if _drawn_pixels(p) > 1500 else None)(
-            browser.screenshot()
-        ), 20.0,
+        "the scene drawn",
+        lambda: (lambda p: p if _drawn_pixels(p) > 1500 else None)(browser.screenshot()),
+        20.0,
     )
     img = np.asarray(Image.open(io.BytesIO(png)).convert("RGB"))
     colours = len(np.unique(img.reshape(-1, 3), axis=0))
@@ -93,7 +94,8 @@ def _only_local(browser: Browser, view: WebView) -> None:
     base = view.url.rstrip("/")
     # Requests of this page (a page left behind may still have had a poll in flight).
     urls = [u for doc, u in browser.requested_urls() if doc.startswith(base) or u == view.url]
-    assert view.url in urls and len(urls) > 2, f"the page's requests were not seen: {urls[:5]}"
+    assert view.url in urls, f"the page's requests were not seen: {urls[:5]}"
+    assert len(urls) > 2, f"the page's requests were not seen: {urls[:5]}"
     foreign = [u[:80] for u in urls if not u.startswith((base, "data:", "blob:"))]
     assert not foreign, f"the page fetched from elsewhere: {foreign}"
     # viser's client opens its websocket in a worker: it must have come through the front port.
@@ -109,12 +111,15 @@ def _hold_right(browser: Browser, view: WebView) -> None:
 
 
 def test_teleop_page(browser: Browser) -> None:
-    with serve_web("teleop") as view:
+    with serve_scene("teleop") as view:
         status = _open(browser, view)
         assert "teleop" in status["text"]
         clutch = _state(view)["clutch"]
         browser.key("KeyC", "c", 67)
-        poll("the clutch in the page", lambda: browser.evaluate(STATUS)["clutch"] == str(not clutch).lower())
+        poll(
+            "the clutch in the page",
+            lambda: browser.evaluate(STATUS)["clutch"] == str(not clutch).lower(),
+        )
         assert _state(view)["clutch"] is (not clutch)
         _hold_right(browser, view)
         t1 = float(browser.evaluate(STATUS)["t"])
@@ -127,9 +132,10 @@ def test_teleop_page(browser: Browser) -> None:
 def test_arm_pages(browser: Browser, scene: str) -> None:
     if scene == "fence-box":
         pytest.importorskip("mujoco", reason="mujoco not installed (extra physics)")
-    with serve_web(scene) as view:
+    with serve_scene(scene) as view:
         status = _open(browser, view)
-        assert scene in status["text"] and status["mode"] == "jog"
+        assert scene in status["text"]
+        assert status["mode"] == "jog"
         _hold_right(browser, view)
         browser.key("KeyA", "a", 65)
         poll("the autopilot in the page", lambda: browser.evaluate(STATUS)["mode"] == "autopilot")

@@ -20,18 +20,19 @@ import pytest
 
 pytest.importorskip("viser", reason="viser not installed (extra web)")
 
-from websockets.exceptions import ConnectionClosed, InvalidStatus  # noqa: E402
-from websockets.sync.client import connect  # noqa: E402
+from websockets.exceptions import ConnectionClosed, InvalidStatus
+from websockets.sync.client import connect
 
-from velfence.errors import InvalidInput, InvalidParameter  # noqa: E402
-from velfence.viz.web import SCENES, WebView, scene_session, serve_web  # noqa: E402
+from velfence.errors import InvalidInput, InvalidParameter
+from velfence.view import SCENES, scene_session, serve_scene
+from velfence.viz.web import WebView
 
 VISER_PROTOCOL = "viser-v" + __import__("viser").__version__
 
 
 @pytest.fixture(scope="module")
 def view() -> Iterator[WebView]:
-    with serve_web("arm-box", realtime=False) as v:
+    with serve_scene("arm-box", realtime=False) as v:
         yield v
 
 
@@ -69,7 +70,8 @@ def test_page_is_viser_client_with_key_script_and_no_framing(view: WebView) -> N
     host = f"127.0.0.1:{view.port}"
     status, headers, body = _request(view.port, "GET", "/", {"Host": host})
     assert status == 200
-    assert b'id="velfence-status"' in body and b'"/key"' in body  # the key script
+    assert b'id="velfence-status"' in body
+    assert b'"/key"' in body
     assert b"<title>Viser</title>" in body  # viser's built client
     assert headers["x-frame-options"] == "DENY"
     assert "frame-ancestors 'none'" in headers["content-security-policy"]
@@ -89,7 +91,8 @@ def test_foreign_origin_post_refused_and_own_origin_accepted(view: WebView) -> N
     status, _, body = _request(
         view.port, "POST", "/key", {"Host": host, "Origin": "http://evil.example"}, {"key": "C"}
     )
-    assert status == 403 and "Origin" in json.loads(body)["error"]
+    assert status == 403
+    assert "Origin" in json.loads(body)["error"]
     before = view.state()["clutch"]
     status, _, _ = _request(
         view.port, "POST", "/key", {"Host": host, "Origin": f"http://{host}"}, {"key": "C"}
@@ -104,7 +107,8 @@ def test_websocket_through_the_front_port_reaches_viser(view: WebView) -> None:
     with _ws(view, Origin=f"http://127.0.0.1:{view.port}") as ws:
         assert ws.subprotocol == VISER_PROTOCOL
         first = ws.recv(timeout=10)  # the scene's persistent messages are replayed at once
-        assert isinstance(first, bytes) and len(first) > 0
+        assert isinstance(first, bytes)
+        assert len(first) > 0
 
 
 @pytest.mark.parametrize("origin", ["http://evil.example", "null", "http://127.0.0.1:1"])
@@ -132,11 +136,15 @@ def test_websocket_with_wrong_host_refused(view: WebView) -> None:
 def test_websocket_straight_to_viser_port_is_closed(view: WebView) -> None:
     # The internal port accepts the handshake (viser has no hook there) but its connect
     # callback closes a connection without the front server's secret: policy violation.
-    with _ws(view, port=view.viser_port, **{"X-Velfence-Proxy": "guess"}) as ws:
-        with pytest.raises(ConnectionClosed) as info:
+    def drain() -> None:
+        with _ws(view, port=view.viser_port, **{"X-Velfence-Proxy": "guess"}) as ws:
             while True:
                 ws.recv(timeout=10)
-    assert info.value.rcvd is not None and info.value.rcvd.code == 1008
+
+    with pytest.raises(ConnectionClosed) as info:
+        drain()
+    assert info.value.rcvd is not None
+    assert info.value.rcvd.code == 1008
 
 
 # ---------------------------------------------------------------------------------- API + clock
@@ -144,23 +152,26 @@ def test_json_api_and_step(view: WebView) -> None:
     host = {"Host": f"localhost:{view.port}"}
     status, _, body = _request(view.port, "GET", "/scene", host)
     scene = json.loads(body)
-    assert status == 200 and [p["type"] for p in scene] == ["box", "sphere"]
+    assert status == 200
+    assert [p["type"] for p in scene] == ["box", "sphere"]
     t0 = view.state()["t"]
     status, _, body = _request(view.port, "POST", "/step", host, {"dt": 0.05})
     assert status == 200
     assert json.loads(body)["t"] == pytest.approx(t0 + 0.05, abs=1e-9)
     status, _, body = _request(view.port, "POST", "/key", host, {"key": "G"})
-    assert status == 400 and "not used in the arm-box scene" in json.loads(body)["error"]
+    assert status == 400
+    assert "not used in the arm-box scene" in json.loads(body)["error"]
 
 
 def test_clock_waits_for_a_client_then_runs() -> None:
-    with serve_web("arm-box") as v:
+    with serve_scene("arm-box") as v:
         deadline = time.monotonic() + 0.3
         while time.monotonic() < deadline:  # no client: the clock must stay at 0
             assert v.state()["t"] == 0.0
         assert not v.started
         status, _, _ = _request(v.port, "GET", "/", {"Host": f"127.0.0.1:{v.port}"})
-        assert status == 200 and v.started
+        assert status == 200
+        assert v.started
         deadline = time.monotonic() + 10.0
         while v.state()["t"] == 0.0:
             assert time.monotonic() < deadline, "the clock did not start after the page was fetched"
@@ -168,7 +179,7 @@ def test_clock_waits_for_a_client_then_runs() -> None:
 
 
 def test_start_true_runs_at_once() -> None:
-    with serve_web("arm-box", start=True) as v:
+    with serve_scene("arm-box", start=True) as v:
         deadline = time.monotonic() + 10.0
         while v.state()["t"] == 0.0:
             assert time.monotonic() < deadline
@@ -200,7 +211,8 @@ def test_arm_box_autopilot_and_clutch() -> None:
     s.press("A")
     s.advance(0.5)
     snap = s.snapshot()
-    assert snap["mode"] == "autopilot" and np.linalg.norm(snap["commanded"]) > 0.1
+    assert snap["mode"] == "autopilot"
+    assert np.linalg.norm(snap["commanded"]) > 0.1
     with pytest.raises(InvalidInput, match="not used in the arm-box scene"):
         s.press("T")
 
@@ -226,7 +238,8 @@ def test_fence_box_scene_in_mujoco() -> None:
     s.press("A")
     s.advance(1.0)
     snap = s.snapshot()
-    assert snap["min_margin"] >= -0.01 and len(snap["joints"]) == 8
+    assert snap["min_margin"] >= -0.01
+    assert len(snap["joints"]) == 8
 
 
 def test_import_velfence_does_not_import_viser() -> None:

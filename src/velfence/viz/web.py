@@ -1,10 +1,11 @@
 r"""One 3-D web view for every scene, drawn by viser (a three.js viewer driven from Python).
 
-:func:`serve_web` (CLI: ``velfence view --scene teleop|arm-box|fence-box``) shows a scene in the
+:func:`serve_web` (CLI: ``velfence view --scene teleop|arm-box|fence-box``) shows a session in the
 browser and lets a person drive it with the keys of the teleop page
 (:mod:`velfence.teleop.viewer`): the thesis's mode keys ``A S F D G P T``, ``C`` (clutch),
 ``H`` (hand), the arrows and PgUp/PgDn to jog, ``U O I K J L`` to turn, ``[`` ``]`` for the jog
-speed, Space to stop. Scenes (:data:`SCENES`, built by :func:`scene_session`):
+speed, Space to stop. Scenes (:data:`velfence.view.SCENES`, built by
+:func:`velfence.view.scene_session`):
 
 * ``"teleop"`` — the PUMA 560 of :class:`velfence.teleop.session.Session` (laser-assisted traded
   control) with its table, shelf and cup, the laser beam and the fixture line;
@@ -49,6 +50,7 @@ The simulation holds still until a client fetches the page (or posts a key); ``s
 
 from __future__ import annotations
 
+import contextlib
 import json
 import logging
 import math
@@ -74,12 +76,10 @@ from velfence.teleop.viewer import (
     ViewerServer,
 )
 
-__all__ = ["ARROW_SCALE", "AUTOPILOT_KEY", "SCENES", "WebView", "scene_session", "serve_web"]
+__all__ = ["ARROW_SCALE", "AUTOPILOT_KEY", "WebView", "serve_web"]
 
 _log = logging.getLogger(__name__)
 
-#: The scenes :func:`scene_session` builds.
-SCENES: tuple[str, ...] = ("teleop", "arm-box", "fence-box")
 #: In the arm scenes, toggles the scenario's scripted jog.
 AUTOPILOT_KEY = "A"
 #: Arrow length per speed [m per m/s].
@@ -219,8 +219,8 @@ class _ArmSession:
         ]
 
 
-def _arm_box() -> _ArmSession:
-    from velfence.sim.arm import TcpJog, arm_script, arm_box_scene, build_arm_controllers
+def _arm_box_session() -> _ArmSession:
+    from velfence.sim.arm import TcpJog, arm_box_scene, arm_script, build_arm_controllers
 
     scene = arm_box_scene(dt=_ARM_BOX_DT)
     shaper = build_arm_controllers(scene, methods=("velfence",))["velfence"]
@@ -240,48 +240,6 @@ def _arm_box() -> _ArmSession:
         np.asarray(scene.box_upper, float),
         (np.asarray(scene.sphere_center, float), float(scene.sphere_radius)),
         jog,
-    )
-
-
-def _fence_box() -> _ArmSession:
-    from velfence.geometry.polytope import ConvexPolytope
-    from velfence.robot_sim import fence_box as fb
-    from velfence.robot_sim.common import TcpJog
-    from velfence.robots import panda
-    from velfence.shaping.limits import SphereObstacle
-    from velfence.sim.physics import MujocoPlant
-
-    robot = panda(radius=0.05)
-    box = ConvexPolytope.box(np.array(fb.BOX_LOWER), np.array(fb.BOX_UPPER))
-    lim = np.array(robot.joint_limits)
-    lim[0] = fb.CELL_JOINT1
-    shaper = fb._controllers(robot, box, lim, ("velfence",))["velfence"]
-    sphere = SphereObstacle(np.array(fb.SPHERE_CENTER), radius=fb.SPHERE_RADIUS, name="sphere")
-    physics = MujocoPlant(
-        robot, bandwidth=fb.BANDWIDTH, physics_dt=fb.PHYSICS_DT, obstacles=[sphere]
-    )
-    q0 = np.array(fb.Q0)
-    physics.reset(q0, fb.DT)
-    speed = 0.25
-    phases = fb._phases(robot.fk(q0), speed, dwell=0.4)
-    jog = TcpJog(robot.fk, [(p[2], p[3][0]) for p in phases], speed=speed)
-
-    def plant(q: FloatArray, qdot: FloatArray, t: float) -> FloatArray:
-        if len(physics._rows) > 20_000:  # a live view runs for hours: keep the record short
-            physics.reset(q, fb.DT)
-        return np.asarray(physics.advance(qdot, t), dtype=float)
-
-    return _ArmSession(
-        "fence-box",
-        robot,
-        shaper,
-        plant,
-        q0,
-        fb.DT,
-        np.array(fb.BOX_LOWER),
-        np.array(fb.BOX_UPPER),
-        (np.array(fb.SPHERE_CENTER), fb.SPHERE_RADIUS),
-        lambda t, q: jog(t, q),
     )
 
 
@@ -318,31 +276,6 @@ class _TeleopSession:
 
     def scene_primitives(self) -> list[dict[str, Any]]:
         return self.session.scene_primitives()
-
-
-def scene_session(scene: str) -> SessionLike:
-    """A fresh simulated scene for :func:`serve_web` (or the teleop viewer).
-
-    Args:
-        scene: One of :data:`SCENES`: ``"teleop"``, ``"arm-box"`` or ``"fence-box"`` (MuJoCo;
-            the ``physics`` extra).
-
-    Returns:
-        A :class:`~velfence.teleop.viewer.SessionLike`; its snapshot adds ``scene``, ``tcp``
-        [m] (3,), ``commanded`` and ``shaped`` TCP velocities [m/s] (3,) to the session's keys
-        (the arm scenes also ``margin`` and ``min_margin``: the TCP's distance inside the box
-        now and at worst so far [m]).
-
-    Raises:
-        InvalidParameter: an unknown scene name.
-    """
-    if not isinstance(scene, str) or scene not in SCENES:
-        raise InvalidParameter(f"scene: expected one of {list(SCENES)}, got {scene!r:.80}")
-    if scene == "teleop":
-        return _TeleopSession()
-    if scene == "arm-box":
-        return _arm_box()
-    return _fence_box()
 
 
 # ---------------------------------------------------------------------------------- page
@@ -430,7 +363,7 @@ _KEYS_SCRIPT = r"""
 
 
 def _viser_page() -> bytes:
-    """viser's built client (one ``index.html`` in its wheel) with the key script appended."""
+    """Viser's built client (one ``index.html`` in its wheel) with the key script appended."""
     from importlib.resources import files
 
     page = files("viser").joinpath("client/build/index.html").read_text(encoding="utf-8")
@@ -458,10 +391,8 @@ def _pump(src: socket.socket, dst: socket.socket) -> None:
         pass
     finally:
         for s in (src, dst):
-            try:
+            with contextlib.suppress(OSError):
                 s.shutdown(socket.SHUT_RDWR)
-            except OSError:
-                pass
 
 
 # ---------------------------------------------------------------------------------- server
@@ -472,7 +403,7 @@ class WebView(ViewerServer):
     :class:`~velfence.teleop.viewer.ViewerServer`; this adds the viser page and its websocket.
 
     Args:
-        session: The scene (:func:`scene_session`, or any SessionLike).
+        session: The scene (:func:`velfence.view.scene_session`, or any SessionLike).
         port: Public TCP port on ``127.0.0.1``; 0 picks a free one.
         realtime: Advance with wall-clock time (default); ``False`` only on ``POST /step``.
         start: Start the clock at once; ``False`` (default) waits for a client.
@@ -590,7 +521,9 @@ class WebView(ViewerServer):
         self._forwarded += 1
         upstream = socket.create_connection((HOST, self._viser_port), timeout=5.0)
         lines = [handler.requestline]
-        lines += [f"{k}: {v}" for k, v in handler.headers.items() if k.lower() != "x-velfence-proxy"]
+        lines += [
+            f"{k}: {v}" for k, v in handler.headers.items() if k.lower() != "x-velfence-proxy"
+        ]
         lines.append(f"{_PROXY_HEADER}: {self._token}")
         client = handler.connection
         handler.close_connection = True
@@ -601,16 +534,14 @@ class WebView(ViewerServer):
             back = threading.Thread(target=_pump, args=(upstream, client), daemon=True)
             back.start()
             try:  # the handler's buffered reader may already hold the first frames
-                while data := handler.rfile.read1(65536):  # type: ignore[attr-defined]
+                while data := handler.rfile.read1(65536):
                     upstream.sendall(data)
             except OSError:
                 pass
             finally:
                 for s in (upstream, client):
-                    try:
+                    with contextlib.suppress(OSError):
                         s.shutdown(socket.SHUT_RDWR)
-                    except OSError:
-                        pass
                 back.join(5.0)
         finally:
             upstream.close()
@@ -650,13 +581,14 @@ class WebView(ViewerServer):
 
         scene = self._viser.scene
         kind = p.get("type")
+        handle: Any
         color = _FENCE_COLOR if p.get("fence") else (150, 140, 120)
         if kind == "box":
-            wxyz = transforms.SO3.from_matrix(np.asarray(p["rotation"], float)).wxyz
+            rot = transforms.SO3.from_matrix(np.asarray(p["rotation"], float)).wxyz
             dims = tuple(2.0 * np.asarray(p["half_extents"], float))
             opacity = 0.15 if p.get("fence") else 0.6
             handle = scene.add_box(
-                name, color, dims, opacity=opacity, position=tuple(p["center"]), wxyz=wxyz
+                name, color, dims, opacity=opacity, position=tuple(p["center"]), wxyz=rot
             )
             if p.get("fence"):
                 c = np.asarray(p["corners"], float)
@@ -710,7 +642,9 @@ class WebView(ViewerServer):
         self._last_frame = key
         joints = np.asarray(s.get("joints") or [], float).reshape(-1, 3)
         if len(joints) >= 2:
-            self._segments("/arm/links", np.stack([joints[:-1], joints[1:]], axis=1), _ARM_COLOR, 0.06)
+            self._segments(
+                "/arm/links", np.stack([joints[:-1], joints[1:]], axis=1), _ARM_COLOR, 0.06
+            )
             self._points("/arm/joints", joints)
         tcp = np.asarray(s.get("tcp") or (0.0, 0.0, 0.0), float)
         for name, color in (("commanded", _COMMANDED_COLOR), ("shaped", _SHAPED_COLOR)):
@@ -808,17 +742,18 @@ def _rotation_to(n: FloatArray) -> tuple[float, float, float, float]:
 
 
 def serve_web(
-    scene: str | SessionLike = "teleop",
+    session: SessionLike,
     *,
     port: int = 0,
     realtime: bool = True,
     start: bool = False,
     jog_timeout: float = 0.5,
 ) -> WebView:
-    """Serve a scene as a 3-D web view on ``http://127.0.0.1:port/`` (module docstring).
+    """Serve a session as a 3-D web view on ``http://127.0.0.1:port/`` (module docstring).
 
     Args:
-        scene: A name from :data:`SCENES` (built by :func:`scene_session`) or a SessionLike.
+        session: The scene: :func:`velfence.view.scene_session` builds the named ones, or any
+            :class:`~velfence.teleop.viewer.SessionLike`.
         port: TCP port on ``127.0.0.1``; 0 picks a free one (read it back from ``.port``).
         realtime: Advance with wall-clock time (default); ``False`` only on ``POST /step``.
         start: Start the clock at once; ``False`` (default) waits for the first client.
@@ -828,9 +763,7 @@ def serve_web(
         The running :class:`WebView`; :meth:`WebView.stop` it (or use ``with``).
 
     Raises:
-        InvalidParameter: an unknown scene, a bad argument, or viser missing.
+        InvalidParameter: a bad session or argument, or viser missing.
         OSError: the port is in use.
     """
-    session = scene_session(scene) if isinstance(scene, str) else scene
     return WebView(session, port=port, realtime=realtime, start=start, jog_timeout=jog_timeout)
-
