@@ -9,11 +9,13 @@ the :class:`~velfence.teleop.viewer.SessionLike` protocol.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from velfence._typing import FloatArray
-from velfence.errors import InvalidParameter
-from velfence.teleop.viewer import SessionLike
+from velfence._validate import check_choice, check_flag, check_positive_int, check_range
+from velfence.teleop.viewer import MAX_JOG_TIMEOUT, SessionLike
 from velfence.viz.web import WebView, _arm_box_session, _ArmSession, _TeleopSession, serve_web
 
 __all__ = ["SCENES", "scene_session", "serve_scene"]
@@ -84,8 +86,7 @@ def scene_session(scene: str) -> SessionLike:
     Raises:
         InvalidParameter: an unknown scene name.
     """
-    if not isinstance(scene, str) or scene not in SCENES:
-        raise InvalidParameter(f"scene: expected one of {list(SCENES)}, got {scene!r:.80}")
+    check_choice("scene", scene, SCENES)
     if scene == "teleop":
         return _TeleopSession()
     if scene == "arm-box":
@@ -117,5 +118,13 @@ def serve_scene(
         InvalidParameter: an unknown scene, a bad argument, or viser missing.
         OSError: the port is in use.
     """
+    # The cheap checks first: a bad port must not cost a scene build and a viser start.
+    check_positive_int("port", port, minimum=0, maximum=65535, example=8765)
+    check_flag("realtime", realtime)
+    check_flag("start", start)
+    if not (isinstance(jog_timeout, float) and jog_timeout == math.inf):
+        check_range(
+            "jog_timeout", jog_timeout, low=0.0, low_open=True, high=MAX_JOG_TIMEOUT, unit="s"
+        )
     session = scene_session(scene)
     return serve_web(session, port=port, realtime=realtime, start=start, jog_timeout=jog_timeout)

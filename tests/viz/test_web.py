@@ -226,7 +226,7 @@ def test_teleop_scene_adds_velocities() -> None:
 
 def test_scene_names() -> None:
     assert SCENES == ("teleop", "arm-box", "fence-box")
-    with pytest.raises(InvalidParameter, match="scene: expected one of"):
+    with pytest.raises(InvalidParameter, match="scene must be one of"):
         scene_session("box")
     with pytest.raises(InvalidParameter, match="frame_rate"):
         WebView(scene_session("arm-box"), frame_rate=0.0)

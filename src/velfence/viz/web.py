@@ -65,8 +65,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from velfence._typing import FloatArray
-from velfence._validate import check_range, real_array
-from velfence.errors import InvalidInput, InvalidParameter
+from velfence._validate import check_range, real_array, require_package
+from velfence.errors import InvalidInput
 from velfence.teleop.viewer import (
     CLUTCH_KEY,
     DEFAULT_CONNECTION_TIMEOUT,
@@ -435,12 +435,7 @@ class WebView(ViewerServer):
         frame_rate: float = 20.0,
     ) -> None:
         self._period = 1.0 / check_range("frame_rate", frame_rate, low=1.0, high=60.0, unit="Hz")
-        try:
-            import viser
-        except ImportError:
-            raise InvalidParameter(
-                "serve_web: expected viser installed, got none; pip install 'velfence[web]'"
-            ) from None
+        viser = require_package("session", "viser", extra="web", what="the 3-D web view")
         self._page_bytes = _viser_page()
         self._security_headers = _WEB_HEADERS
         self._token = secrets.token_urlsafe(24)
