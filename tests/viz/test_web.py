@@ -242,6 +242,42 @@ def test_fence_box_scene_in_mujoco() -> None:
     assert len(snap["joints"]) == 8
 
 
+def test_cli_view(monkeypatch: pytest.MonkeyPatch) -> None:
+    from typer.testing import CliRunner
+
+    import velfence.view
+    from velfence import cli
+
+    bad = CliRunner().invoke(cli.app, ["view", "--scene", "box", "--no-browser"])
+    assert bad.exit_code != 0
+    assert "scene must be one of" in bad.output
+
+    calls: dict[str, Any] = {}
+
+    class Server:
+        url = "http://127.0.0.1:9/"
+        stopped = False
+
+        def wait(self, timeout: float) -> bool:
+            raise KeyboardInterrupt
+
+        def stop(self) -> None:
+            Server.stopped = True
+
+    def fake(scene: str, **kwargs: Any) -> Server:
+        calls.update(kwargs, scene=scene)
+        return Server()
+
+    monkeypatch.setattr(velfence.view, "serve_scene", fake)
+    ok = CliRunner().invoke(
+        cli.app, ["view", "--scene", "fence-box", "--port", "0", "--start", "--no-browser"]
+    )
+    assert ok.exit_code == 0, ok.output
+    assert calls == {"scene": "fence-box", "port": 0, "start": True}
+    assert Server.stopped
+    assert "http://127.0.0.1:9/" in ok.output
+
+
 def test_import_velfence_does_not_import_viser() -> None:
     code = "import sys, velfence, velfence.viz; print('viser' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)

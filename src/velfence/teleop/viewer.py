@@ -15,6 +15,7 @@ and an Omni-PC keyboard (the thesis, §3.5). Here a person drives the simulated
   along ∓z, and ``U O`` / ``I K`` / ``J L`` turn about ±x / ±y / ±z;
 * a background thread advances the session in real time (``realtime=True``), or, for tests and
   recordings, the session only advances on ``POST /step`` (``realtime=False``, deterministic);
+  with ``start=False`` the real-time clock holds until a client fetches the page or posts;
 * :class:`ScriptedDriver` is the test double of the person: it plays a timed script of key
   presses and jogs by sending the same HTTP requests the page sends (or, with
   :meth:`ScriptedDriver.replay`, the same calls in-process) and records the snapshots.
