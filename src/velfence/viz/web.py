@@ -51,6 +51,8 @@ The simulation holds still until a client fetches the page (or posts a key); ``s
 from __future__ import annotations
 
 import contextlib
+import contextlib
+import io
 import json
 import logging
 import math
@@ -445,7 +447,12 @@ class WebView(ViewerServer):
         self._handles: dict[str, Any] = {}
         self._last_frame = ""
         self._frame_thread: threading.Thread | None = None
-        self._viser = viser.ViserServer(host=HOST, port=0, verbose=False)
+        # viser prints a banner with its own (internal) URL whatever ``verbose`` says; a person
+        # must open the front port instead, so the banner goes to the debug log.
+        banner = io.StringIO()
+        with contextlib.redirect_stdout(banner):
+            self._viser = viser.ViserServer(host=HOST, port=0, verbose=False)
+        _log.debug("viser: %s", banner.getvalue())
         try:
             self._guard_viser()
             self._viser_port = int(self._viser.get_port())
