@@ -51,7 +51,6 @@ The simulation holds still until a client fetches the page (or posts a key); ``s
 from __future__ import annotations
 
 import contextlib
-import contextlib
 import io
 import json
 import logging
