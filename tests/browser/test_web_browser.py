@@ -2,8 +2,8 @@
 state changes (seen in the page and through the JSON API), and a screenshot shows the scene.
 
 Chromium is driven over the DevTools Protocol (``chromium_cdp.py``); nothing is downloaded. The
-tests skip only when no Chromium binary exists. ``VELFENCE_WEB_SCREENSHOTS=1`` also writes the screenshots
-to ``docs/img/web/<scene>.png`` (the pictures of docs/web_view.md).
+tests skip only when no Chromium binary exists. ``VELFENCE_WEB_SCREENSHOTS=1`` also writes the
+screenshots to ``docs/img/web/<scene>.png`` (the pictures of docs/web_view.md).
 """
 
 from __future__ import annotations
