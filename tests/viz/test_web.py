@@ -136,13 +136,16 @@ def test_websocket_with_wrong_host_refused(view: WebView) -> None:
 def test_websocket_straight_to_viser_port_is_closed(view: WebView) -> None:
     # The internal port accepts the handshake (viser has no hook there) but its connect
     # callback closes a connection without the front server's secret: policy violation.
+    got: list[Any] = []
+
     def drain() -> None:
         with _ws(view, port=view.viser_port, **{"X-Velfence-Proxy": "guess"}) as ws:
             while True:
-                ws.recv(timeout=10)
+                got.append(ws.recv(timeout=10))
 
     with pytest.raises(ConnectionClosed) as info:
         drain()
+    assert got == []  # closed before viser sent any of the scene
     assert info.value.rcvd is not None
     assert info.value.rcvd.code == 1008
 
@@ -240,6 +243,26 @@ def test_fence_box_scene_in_mujoco() -> None:
     snap = s.snapshot()
     assert snap["min_margin"] >= -0.01
     assert len(snap["joints"]) == 8
+
+
+def test_failed_start_stops_both_servers() -> None:
+    import threading
+
+    class Broken:
+        def __getattr__(self, name: str) -> Any:
+            return getattr(inner, name)
+
+        def scene_primitives(self) -> list[dict[str, Any]]:
+            raise RuntimeError("no scene")
+
+    inner = scene_session("arm-box")
+    before = {t.name for t in threading.enumerate()}
+    with pytest.raises(RuntimeError, match="no scene"):
+        WebView(Broken())  # type: ignore[arg-type]
+    deadline = time.monotonic() + 10.0
+    while {t.name for t in threading.enumerate() if t.is_alive()} - before:
+        assert time.monotonic() < deadline, "a server thread outlived the failed start"
+        time.sleep(0.01)
 
 
 def test_cli_view(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -468,6 +468,8 @@ class WebView(ViewerServer):
             )
             self._draw_static()
         except BaseException:
+            if hasattr(self, "_httpd"):  # the front server started: stop it too
+                ViewerServer.stop(self)
             self._viser.stop()
             raise
         self._frame_thread = threading.Thread(
@@ -513,6 +515,9 @@ class WebView(ViewerServer):
                 await raw.close(1008, "connect through the velfence web view's own port")
 
         ws.on_client_connect(guard)
+        # viser starts serving inside its constructor, before the guard could be registered:
+        # drop whatever connected in that window (a client reconnects and is checked then).
+        ws.disconnect_all_clients()
 
     def _upgrade(self, handler: BaseHTTPRequestHandler) -> bool:
         """Forward a checked websocket handshake to viser and pipe both ways until closed."""
