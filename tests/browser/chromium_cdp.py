@@ -17,6 +17,7 @@ import shutil
 import subprocess
 import tempfile
 import time
+import urllib.error
 import urllib.request
 from collections.abc import Callable
 from pathlib import Path
@@ -65,6 +66,25 @@ def poll(what: str, check: Callable[[], T | None], timeout: float = 10.0) -> T:
         time.sleep(0.02)  # the polling step of a deadline loop, not a fixed wait
 
 
+def _port(active: Path) -> str | None:
+    """The port in ``DevToolsActivePort`` once it is written completely."""
+    try:
+        first = active.read_text().split("\n")[0]
+    except OSError:
+        return None
+    return first if first.isdigit() else None
+
+
+def _new_target(port: str) -> dict[str, Any] | None:
+    """Open a blank page target; ``None`` while the endpoint does not answer yet."""
+    req = urllib.request.Request(f"http://127.0.0.1:{port}/json/new?about:blank", method="PUT")
+    try:
+        with urllib.request.urlopen(req, timeout=10) as r:
+            return dict(json.load(r))
+    except (urllib.error.URLError, ConnectionError):
+        return None
+
+
 class Browser:
     """A headless Chromium with one page; use as a context manager."""
 
@@ -86,15 +106,9 @@ class Browser:
         self.events: list[dict[str, Any]] = []
         try:
             active = Path(self._profile.name) / "DevToolsActivePort"
-            port = poll(
-                "DevToolsActivePort",
-                lambda: active.read_text().split("\n")[0] if active.exists() else None,
-                timeout=30.0,
-            )
-            base = f"http://127.0.0.1:{port}"
-            req = urllib.request.Request(f"{base}/json/new?about:blank", method="PUT")
-            with urllib.request.urlopen(req, timeout=10) as r:
-                target = json.load(r)
+            port = poll("DevToolsActivePort", lambda: _port(active), timeout=30.0)
+            # The file can appear a moment before the endpoint answers: retry until the deadline.
+            target = poll("the DevTools endpoint", lambda: _new_target(port), timeout=30.0)
             self._ws = connect(target["webSocketDebuggerUrl"], max_size=None, open_timeout=10)
         except BaseException:
             self.close()

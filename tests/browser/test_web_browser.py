@@ -144,4 +144,6 @@ def test_arm_pages(browser: Browser, scene: str) -> None:
         poll("a commanded velocity", lambda: np.linalg.norm(_state(view)["commanded"]) > 0.05)
         _screenshot(browser, scene)
         _only_local(browser, view)
-        assert _state(view)["min_margin"] >= -1e-6  # the fence held while we watched
+        # The fence held while we watched: exactly for the kinematic arm; within 1 mm in MuJoCo,
+        # where the servo lags the command (docs/physics.md: 0.17 mm without the look-ahead).
+        assert _state(view)["min_margin"] >= (-1e-9 if scene == "arm-box" else -1e-3)

@@ -569,7 +569,7 @@ class WebView(ViewerServer):
         tcp = np.asarray(state.get("tcp", (0.0, 0.0, 0.0)), float)
         look = tcp * np.array([0.6, 0.6, 0.6])
         self._viser.initial_camera.look_at = tuple(look)
-        self._viser.initial_camera.position = tuple(look + np.array([1.4, -0.9, 0.6]))
+        self._viser.initial_camera.position = tuple(look + np.array([1.05, -0.7, 0.45]))
         keys = (
             "**Keys** (click the scene first): arrows, PgUp/PgDn jog the TCP; `C` clutch; "
             + (
