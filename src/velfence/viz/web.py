@@ -567,9 +567,11 @@ class WebView(ViewerServer):
             self._draw_primitive(f"/scene/{i}_{prim.get('name', '')}", prim)
         state = self.state()
         tcp = np.asarray(state.get("tcp", (0.0, 0.0, 0.0)), float)
-        look = tcp * np.array([0.6, 0.6, 0.6])
+        # Looking at a point between the base and the TCP, from the front right and above.
+        look = tcp * 0.85
         self._viser.initial_camera.look_at = tuple(look)
-        self._viser.initial_camera.position = tuple(look + np.array([1.05, -0.7, 0.45]))
+        self._viser.initial_camera.position = tuple(look + np.array([1.1, -0.8, 0.5]))
+        self._viser.gui.configure_theme(control_width="small", show_logo=False)
         keys = (
             "**Keys** (click the scene first): arrows, PgUp/PgDn jog the TCP; `C` clutch; "
             + (
