@@ -388,6 +388,9 @@ def teleop(
     no_browser: Annotated[
         bool, typer.Option("--no-browser", help="Print the URL only; do not open a browser.")
     ] = False,
+    start: Annotated[
+        bool, typer.Option("--start", help="Start the clock now, not when the page is opened.")
+    ] = False,
 ) -> None:
     """Drive the simulated PUMA 560 (laser-assisted traded control) from a local web page."""
     import webbrowser
@@ -396,13 +399,53 @@ def teleop(
     from velfence.teleop.session import Session
 
     try:
-        server = viewer.serve(Session(), port=port)
+        server = viewer.serve(Session(), port=port, start=start)
     except VelfenceError as exc:
         raise _fail(str(exc)) from None
     except OSError as exc:
         raise _fail(f"cannot listen on 127.0.0.1:{port} ({exc}); try another --port") from None
     console = Console()
     console.print(f"velfence teleop: open {server.url}  (Ctrl-C to stop)", highlight=False)
+    if not no_browser:
+        webbrowser.open(server.url)
+    try:
+        while not server.wait(0.5):
+            pass
+    except KeyboardInterrupt:
+        pass
+    finally:
+        server.stop()
+    console.print("stopped")
+
+
+@app.command()
+def view(
+    scene: Annotated[
+        str, typer.Option(help="Scene: teleop, arm-box or fence-box (MuJoCo, extra physics).")
+    ] = "teleop",
+    port: Annotated[
+        int, typer.Option(min=0, max=65535, help="TCP port on 127.0.0.1 (0 picks a free one).")
+    ] = 8765,
+    start: Annotated[
+        bool, typer.Option("--start", help="Start the clock now, not when the page is opened.")
+    ] = False,
+    no_browser: Annotated[
+        bool, typer.Option("--no-browser", help="Print the URL only; do not open a browser.")
+    ] = False,
+) -> None:
+    """Show a scene as a 3-D web view (viser, extra web) and drive it with the teleop keys."""
+    import webbrowser
+
+    from velfence.view import serve_scene
+
+    try:
+        server = serve_scene(scene, port=port, start=start)
+    except VelfenceError as exc:
+        raise _fail(str(exc)) from None
+    except OSError as exc:
+        raise _fail(f"cannot listen on 127.0.0.1:{port} ({exc}); try another --port") from None
+    console = Console()
+    console.print(f"velfence view ({scene}): open {server.url}  (Ctrl-C to stop)", highlight=False)
     if not no_browser:
         webbrowser.open(server.url)
     try:

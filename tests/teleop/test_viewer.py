@@ -157,6 +157,7 @@ def test_state_round_trip(server: ViewerServer, fake: FakeSession) -> None:
         "realtime": False,
         "jog": {"linear": [0.0, 0.0, 0.0], "angular": [0.0, 0.0, 0.0]},
         "error": None,
+        "started": True,
     }
 
 
@@ -677,6 +678,7 @@ def test_cli_teleop_serves_until_interrupted(monkeypatch: pytest.MonkeyPatch) ->
     assert result.exit_code == 0, result.output
     assert "http://127.0.0.1:9/" in result.output
     assert calls["port"] == 0
+    assert calls["start"] is False  # the clock waits for the page
     assert isinstance(calls["session"], FakeSession)
     assert fake_server.stopped
 

@@ -15,6 +15,7 @@ and an Omni-PC keyboard (the thesis, §3.5). Here a person drives the simulated
   along ∓z, and ``U O`` / ``I K`` / ``J L`` turn about ±x / ±y / ±z;
 * a background thread advances the session in real time (``realtime=True``), or, for tests and
   recordings, the session only advances on ``POST /step`` (``realtime=False``, deterministic);
+  with ``start=False`` the real-time clock holds until a client fetches the page or posts;
 * :class:`ScriptedDriver` is the test double of the person: it plays a timed script of key
   presses and jogs by sending the same HTTP requests the page sends (or, with
   :meth:`ScriptedDriver.replay`, the same calls in-process) and records the snapshots.
@@ -324,7 +325,7 @@ class _Handler(BaseHTTPRequestHandler):
 
     def end_headers(self) -> None:
         """Every response, error replies of the stdlib included, carries the security headers."""
-        for name, value in _SECURITY_HEADERS:
+        for name, value in self._viewer._security_headers:
             self.send_header(name, value)
         super().end_headers()
 
@@ -390,8 +391,12 @@ class _Handler(BaseHTTPRequestHandler):
                 HTTPStatus.FORBIDDEN,
                 f"Host: expected {expected[0]} or {expected[1]}, got {host!r:.80}",
             )
-        if self.command != "POST":
-            return
+        if self.command == "POST":
+            self._check_origin()
+
+    def _check_origin(self) -> None:
+        port = self._viewer.port
+        expected = (f"{HOST}:{port}", f"localhost:{port}")
         # A browser sends Origin on every POST a page makes; another site's page (or a sandboxed
         # frame, "null") must not drive the arm. No Origin at all is a non-browser client (curl,
         # ScriptedDriver), already bound to loopback and to this Host: allowed.
@@ -494,8 +499,20 @@ class _Handler(BaseHTTPRequestHandler):
 
     # -------------------------------------------------------------------------- routes
     def do_GET(self) -> None:
-        """``/``, ``/state``, ``/scene``."""
+        """``/``, ``/state``, ``/scene`` (and a websocket upgrade where the server has one)."""
+        if self.headers.get("Upgrade", "").lower() == "websocket":
+            self._dispatch(self._upgrade)
+            return
         self._dispatch(self._get)
+
+    def _upgrade(self) -> None:
+        # A refusal is an HTTP/1.1 reply (websocket clients reject HTTP/1.0 status lines); it
+        # always closes the connection.
+        self.protocol_version = "HTTP/1.1"
+        # A browser sends Origin on every websocket handshake: the POST rule applies.
+        self._check_origin()
+        if not self._viewer._upgrade(self):
+            raise _HTTPError(HTTPStatus.NOT_FOUND, "no websocket endpoint here")
 
     def do_HEAD(self) -> None:
         """Headers of a ``GET``."""
@@ -510,7 +527,8 @@ class _Handler(BaseHTTPRequestHandler):
         path = urlsplit(self.path).path
         viewer = self._viewer
         if path in ("/", "/index.html"):
-            self._send(HTTPStatus.OK, _PAGE_BYTES, "text/html; charset=utf-8")
+            viewer._client_seen()
+            self._send(HTTPStatus.OK, viewer._page_bytes, "text/html; charset=utf-8")
         elif path == "/state":
             self._json(HTTPStatus.OK, viewer.state())
         elif path == "/scene":
@@ -532,6 +550,7 @@ class _Handler(BaseHTTPRequestHandler):
                 f"no such endpoint {path!r:.80}; expected /key, /jog or /step",
             )
         body = self._body()
+        viewer._client_seen()
         if path == "/key":
             if "key" not in body:
                 raise InvalidInput(f"body: expected {{'key': ...}}, got keys {_keys(body)}")
@@ -589,6 +608,9 @@ class ViewerServer:
             ``MAX_CONNECTION_TIMEOUT``]: a client idle or stalled this long is disconnected.
         max_connections: Connections served at once (one thread each), in [1,
             ``MAX_CONNECTIONS``]; more are answered 503 at once.
+        start: In real time, start the clock at once (default); ``False`` holds the session at
+            its start until a client shows up (the page is fetched, or a ``POST`` arrives), so
+            the person opening the page does not find it already minutes into the run.
 
     Raises:
         InvalidParameter: a ``session`` without the :class:`SessionLike` methods, a
@@ -608,6 +630,7 @@ class ViewerServer:
         jog_timeout: float = 0.5,
         connection_timeout: float = DEFAULT_CONNECTION_TIMEOUT,
         max_connections: int = DEFAULT_MAX_CONNECTIONS,
+        start: bool = True,
     ) -> None:
         missing = [m for m in _SESSION_METHODS if not callable(getattr(session, m, None))]
         if missing:
@@ -638,6 +661,9 @@ class ViewerServer:
         n_connections = check_positive_int(
             "max_connections", max_connections, maximum=MAX_CONNECTIONS, example=128
         )
+        self._started = threading.Event()
+        if check_flag("start", start):
+            self._started.set()
         self._session = session
         self._lock = threading.RLock()
         self._jog_linear = np.zeros(3)
@@ -689,6 +715,11 @@ class ViewerServer:
         return self._connection_timeout
 
     @property
+    def started(self) -> bool:
+        """Whether the real-time clock runs (``start=True``, or a client has shown up)."""
+        return self._started.is_set()
+
+    @property
     def running(self) -> bool:
         """Whether the server still answers (False after :meth:`stop`)."""
         return not self._stopped
@@ -705,6 +736,7 @@ class ViewerServer:
                     "angular": self._jog_angular.tolist(),
                 },
                 "error": self._error,
+                "started": self._started.is_set(),
             }
         return snap
 
@@ -814,11 +846,28 @@ class ViewerServer:
         state = "running" if self.running else "stopped"
         return f"ViewerServer({self.url}, {mode}, {state})"
 
+    # -------------------------------------------------------------------------- front-end hooks
+    # A subclass (velfence.viz.web.WebView) serves another page with its own headers and
+    # forwards websocket upgrades; the checks of _Handler stay in front of all of it.
+    _page_bytes: bytes = b""
+    _security_headers: tuple[tuple[str, str], ...] = ()
+
+    def _upgrade(self, handler: BaseHTTPRequestHandler) -> bool:
+        """Take over a checked websocket handshake; ``False``: none served here (404)."""
+        return False
+
+    def _client_seen(self) -> None:
+        """A client fetched the page or posted: the real-time clock may start."""
+        self._started.set()
+
     # -------------------------------------------------------------------------- real time
     def _run_realtime(self) -> None:
         # Whatever stops this thread is recorded: a stepping thread that dies silently would
         # leave the page showing a frozen arm as if all were well.
         try:
+            while not self._started.is_set():  # start=False: hold until a client shows up
+                if self._stopping.wait(self._tick):
+                    return
             last = time.monotonic()
             while not self._stopping.wait(self._tick):
                 now = time.monotonic()
@@ -847,6 +896,7 @@ def serve(
     jog_timeout: float = 0.5,
     connection_timeout: float = DEFAULT_CONNECTION_TIMEOUT,
     max_connections: int = DEFAULT_MAX_CONNECTIONS,
+    start: bool = True,
 ) -> ViewerServer:
     """Serve ``session`` on ``http://127.0.0.1:port/`` and return the running server.
 
@@ -861,6 +911,7 @@ def serve(
             ``math.inf`` disables it.
         connection_timeout: Per-connection socket timeout [s].
         max_connections: Connections served at once; more are answered 503.
+        start: Start the real-time clock at once (default); ``False`` waits for a client.
 
     Returns:
         The running :class:`ViewerServer`; call :meth:`ViewerServer.stop` (or use ``with``).
@@ -878,6 +929,7 @@ def serve(
         jog_timeout=jog_timeout,
         connection_timeout=connection_timeout,
         max_connections=max_connections,
+        start=start,
     )
 
 
@@ -1170,3 +1222,5 @@ _SECURITY_HEADERS: tuple[tuple[str, str], ...] = (
     ("X-Content-Type-Options", "nosniff"),
     ("Referrer-Policy", "same-origin"),
 )
+ViewerServer._page_bytes = _PAGE_BYTES
+ViewerServer._security_headers = _SECURITY_HEADERS
