@@ -153,12 +153,47 @@ int vf_nd_shape(const vf_nd_polytope *poly, const vf_nd_law *law, const double *
 void vf_nd_bounded(const vf_nd_polytope *poly, vf_nd_scratch *scratch, const double **dist,
                    const double **bnd, const int32_t **work);
 
-/* Rows r = 0..rows-1 of P, V (rows x dim) -> out (rows x dim), zones (rows,) (may be NULL). A row
+/* Rows r = 0..rows-1 of P, V (rows x dim) -> out (rows x dim), zones (rows,) (may be NULL); dim
+ * <= 63 (VF_ND_ERR_ARGUMENT otherwise: use vf_nd_shape, whose active array the caller sizes). A row
  * with non-finite input or an overflowed output gets zero velocity and zone VF_ND_ZONE_INVALID.
  * Returns the number of such rows, or a negative VF_ND_ERR_* code (then nothing is written). */
 int64_t vf_nd_batch(const vf_nd_polytope *poly, const vf_nd_law *law, const double *P,
                     const double *V, size_t rows, double *out, int64_t *zones,
                     vf_nd_scratch *scratch);
+
+
+/* ------------------------------------------------------------------ safety-filter helpers */
+
+/* The safety filter's bounds on the approach rates of k constraints at signed distances dist
+ * (velfence.shaping.filter._bounds): the exact law's bound definition with cap speed `speed`, no
+ * relaxation, unit scale; every row gets a bound (-inf: no cap). work: 2 k int32_t. */
+void vf_nd_rate_bounds(int32_t kind, const double *prm, const double *dist, int32_t k,
+                       double speed, double idt, double *bnd, int32_t *work);
+
+/* A serial chain's capsule links and sphere obstacles (SafetyFilter's obstacle rows). */
+typedef struct vf_nd_capsules {
+    const double *P;    /* joint points P_0 .. P_nl, (nl + 1) x 3 [m]; link l runs P_l -> P_l+1 */
+    const double *axes; /* joint axes z_0 .. z_nj-1, nj x 3 (unit; joint j moves links >= j) */
+    const double *lrad; /* capsule radius of every link (nl,) [m] */
+    const double *C;    /* sphere centres, k x 3 [m] */
+    const double *srad; /* sphere radii (k,) [m] */
+    const double *vmax; /* joint speed limits (nj,) [rad/s] for the discrete-time reach; or NULL */
+    double vsum;        /* sum of vmax */
+    double buf;         /* obstacle buffer [m] */
+    double dt, idt;     /* control period [s] and 1/dt, or 0 and 0 */
+    int32_t nl, nj, ncols, k; /* links, axes, columns of a row (>= nj), spheres */
+    int32_t kind;                     /* the obstacles' profile (VF_ND_PROFILE_*) */
+    double prm[VF_ND_PROFILE_PARAMS]; /* and its parameters */
+} vf_nd_capsules;
+
+/* The obstacle rows G x >= b of every (sphere, link) pair within the buffer (or, in discrete
+ * time, within one period's reach at full joint speed), sphere-major: row r is the clearance
+ * normal's Jacobian row n . (z_j x (x_c - P_j)) (j <= link) at the link's critical point x_c, its
+ * bound from vf_nd_rate_bounds at the speed |J_c u| of that point, d[r] the clearance, obs[r] /
+ * link[r] the pair. Rows without a bound (-inf) are left out. Outputs hold k * nl rows (G: k nl
+ * ncols doubles); work: k nl + nl doubles. Returns the number of rows. No input check. */
+int32_t vf_nd_capsule_rows(const vf_nd_capsules *cap, const double *u, double *G, double *b,
+                           double *d, int32_t *obs, int32_t *link, double *work);
 
 #ifdef __cplusplus
 }

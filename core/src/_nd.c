@@ -4,14 +4,20 @@
  *   project(u, G, b) -> (status, x)          vf_nd_project_kernel on float64 buffers u (n,),
  *                                             G (m, n) C-contiguous, b (m,); x a new array (n,).
  *   project_full(u, G, b) -> (status, q, iters, x, act, lam)   the same with the active set.
- *   PolytopeLaw(N, off, cen, nf, dim, kind, prm, relax, idt)   (PolytopeShaper's kernel data)
+ *   PolytopeLaw(N, off, cen, nf, dim, kind, prm, relax, idt, max_abs=1e150)
+ *                       (PolytopeShaper's kernel data)
  *     law(p, v)         -> (out, res, active, dist, bnd, work): polytope_kernel's outputs
  *                          (out a new float64 array (dim,), res the 8-tuple, the rest lists)
  *     shape_array(p, v) -> the shaped velocity as a new array (dim,), or None when p, v are not
- *                          float64 ndarrays of shape (dim,), not finite, or the output overflowed
+ *                          float64 ndarrays of shape (dim,), not finite or beyond max_abs, or the
+ *                          output overflowed
  *                          (the caller's generic path then owns the on_invalid policy).
  *     batch(P, V, out, zones) -> None: the unchecked kernel over rows (P, V float64 (N, dim)
  *                          C-contiguous, out float64 (N, dim), zones int64 (N,)); releases the GIL.
+ *   rate_bounds(kind, prm, dist, speed, idt) -> bounds (k,)   vf_nd_rate_bounds (filter._bounds)
+ *   CapsuleRows(lrad, C, srad, vmax, nl, nj, ncols, k, buf, dt, kind, prm)
+ *     rows(P, axes, u, idt) -> (G (r, ncols), b (r,), d (r,), obstacles, links): the safety
+ *                          filter's obstacle rows (vf_nd_capsule_rows) from one kinematics pass.
  * The kernels are the unchecked ones: Python keeps its own checks and policies, as with _core.
  */
 #define PY_SSIZE_T_CLEAN
@@ -227,6 +233,7 @@ typedef struct {
     int32_t *active;
     vf_nd_scratch scratch;
     double *p, *v, *out;
+    double max_abs; /* shape_array: larger inputs take the caller's generic path */
 } PolytopeLaw;
 
 static void PolytopeLaw_dealloc(PolytopeLaw *self)
@@ -240,11 +247,13 @@ static int PolytopeLaw_init(PolytopeLaw *self, PyObject *args, PyObject *kwds)
 {
     PyObject *N, *off, *cen, *prm;
     double idt;
+    double max_abs = 1e150;
     int nf, dim, kind, relax;
     size_t f, d, nd, ni;
-    static char *kwlist[] = {"N", "off", "cen", "nf", "dim", "kind", "prm", "relax", "idt", NULL};
-    if (!PyArg_ParseTupleAndKeywords(args, kwds, "OOOiiiOpd", kwlist, &N, &off, &cen, &nf, &dim,
-                                     &kind, &prm, &relax, &idt)) {
+    static char *kwlist[] = {"N",    "off",  "cen", "nf",      "dim", "kind",
+                             "prm",  "relax", "idt", "max_abs", NULL};
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "OOOiiiOpd|d", kwlist, &N, &off, &cen, &nf,
+                                     &dim, &kind, &prm, &relax, &idt, &max_abs)) {
         return -1;
     }
     if (nf < 1 || dim < 1 || nf > (1 << 20) || dim > (1 << 12)) {
@@ -287,6 +296,7 @@ static int PolytopeLaw_init(PolytopeLaw *self, PyObject *args, PyObject *kwds)
         self->poly.nf = nf;
         self->poly.dim = dim;
     }
+    self->max_abs = max_abs;
     self->law.kind = kind;
     self->law.relax = relax;
     self->law.idt = idt;
@@ -362,7 +372,7 @@ static PyObject *PolytopeLaw_shape_array(PolytopeLaw *self, PyObject *const *arg
         }
         for (k = 0; k < dim; k++) {
             dst[k] = *(const double *)PyArray_GETPTR1(a, k);
-            if (!isfinite(dst[k])) {
+            if (!(fabs(dst[k]) <= self->max_abs)) {
                 Py_RETURN_NONE;
             }
         }
@@ -459,7 +469,219 @@ static PyTypeObject PolytopeLawType = {
     .tp_methods = PolytopeLaw_methods,
 };
 
+
+/* ------------------------------------------------------------------ filter helpers */
+
+static PyObject *nd_rate_bounds(PyObject *mod, PyObject *const *args, Py_ssize_t nargs)
+{
+    int kind;
+    double prm[VF_ND_PROFILE_PARAMS], speed, idt;
+    Py_buffer dist = {0};
+    Py_ssize_t k;
+    int32_t *work = NULL;
+    PyObject *out = NULL;
+    npy_intp dims;
+    (void)mod;
+    if (nargs != 5) {
+        PyErr_Format(PyExc_TypeError, "expected 5 arguments (kind, prm, dist, speed, idt), got %zd",
+                     nargs);
+        return NULL;
+    }
+    kind = (int)PyLong_AsLong(args[0]);
+    if (kind == -1 && PyErr_Occurred()) {
+        return NULL;
+    }
+    speed = PyFloat_AsDouble(args[3]);
+    idt = PyFloat_AsDouble(args[4]);
+    if (PyErr_Occurred() || read_doubles(args[1], "prm", prm, VF_ND_PROFILE_PARAMS) < 0) {
+        return NULL;
+    }
+    if (get_view(args[2], &dist, 0, "d", "dist") < 0) {
+        return NULL;
+    }
+    k = dist.len / 8;
+    dims = k;
+    work = PyMem_Malloc((2 * (size_t)k + 1) * sizeof(int32_t));
+    if (work == NULL) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    out = PyArray_SimpleNew(1, &dims, NPY_DOUBLE);
+    if (out == NULL) {
+        goto done;
+    }
+    vf_nd_rate_bounds(kind, prm, (const double *)dist.buf, (int32_t)k, speed, idt,
+                      (double *)PyArray_DATA((PyArrayObject *)out), work);
+done:
+    release(&dist);
+    PyMem_Free(work);
+    return out;
+}
+
+typedef struct {
+    PyObject_HEAD
+    vf_nd_capsules cap;
+    double *mem; /* lrad, C, srad, vmax, then the outputs: G, b, d, work */
+    int32_t *ints; /* obs, link */
+    double *G, *b, *d, *work;
+} CapsuleRows;
+
+static void CapsuleRows_dealloc(CapsuleRows *self)
+{
+    PyMem_Free(self->mem);
+    PyMem_Free(self->ints);
+    Py_TYPE(self)->tp_free((PyObject *)self);
+}
+
+static int CapsuleRows_init(CapsuleRows *self, PyObject *args, PyObject *kwds)
+{
+    PyObject *lrad, *C, *srad, *vmax, *prm;
+    int nl, nj, ncols, k, kind;
+    double buf, dt;
+    size_t pairs;
+    static char *kwlist[] = {"lrad", "C", "srad", "vmax", "nl", "nj", "ncols", "k", "buf", "dt",
+                             "kind", "prm", NULL};
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "OOOOiiiiddiO", kwlist, &lrad, &C, &srad, &vmax,
+                                     &nl, &nj, &ncols, &k, &buf, &dt, &kind, &prm)) {
+        return -1;
+    }
+    if (nl < 1 || nj < 0 || nj > nl || ncols < nj || k < 0 || nl > 4096 || ncols > 4096
+        || k > (1 << 16) || !(dt >= 0.0)) {
+        PyErr_SetString(PyExc_ValueError, "CapsuleRows: bad sizes");
+        return -1;
+    }
+    PyMem_Free(self->mem);
+    PyMem_Free(self->ints);
+    pairs = (size_t)k * (size_t)nl;
+    self->mem = PyMem_Calloc((size_t)nl + 4 * (size_t)k + (size_t)nj + pairs * (size_t)ncols
+                                 + 3 * pairs + (size_t)nl + 1,
+                             sizeof(double));
+    self->ints = PyMem_Calloc(2 * pairs + 1, sizeof(int32_t));
+    if (self->mem == NULL || self->ints == NULL) {
+        PyErr_NoMemory();
+        return -1;
+    }
+    {
+        double *lr = self->mem;
+        double *cc = lr + nl;
+        double *sr = cc + 3 * (size_t)k;
+        double *vm = sr + k;
+        int32_t j;
+        self->G = vm + nj;
+        self->b = self->G + pairs * (size_t)ncols;
+        self->d = self->b + pairs;
+        self->work = self->d + pairs;
+        if (read_doubles(lrad, "lrad", lr, nl) < 0 || read_doubles(C, "C", cc, 3 * (Py_ssize_t)k) < 0
+            || read_doubles(srad, "srad", sr, k) < 0 || read_doubles(vmax, "vmax", vm, nj) < 0
+            || read_doubles(prm, "prm", self->cap.prm, VF_ND_PROFILE_PARAMS) < 0) {
+            return -1;
+        }
+        self->cap.lrad = lr;
+        self->cap.C = cc;
+        self->cap.srad = sr;
+        self->cap.vmax = vm;
+        self->cap.vsum = 0.0;
+        for (j = 0; j < nj; j++) {
+            self->cap.vsum += vm[j];
+        }
+    }
+    self->cap.nl = nl;
+    self->cap.nj = nj;
+    self->cap.ncols = ncols;
+    self->cap.k = k;
+    self->cap.buf = buf;
+    self->cap.dt = dt;
+    self->cap.idt = dt > 0.0 ? 1.0 / dt : 0.0;
+    self->cap.kind = kind;
+    return 0;
+}
+
+/* rows(P, axes, u, idt) -> (G (r, ncols), b (r,), d (r,), obs list, link list) */
+static PyObject *CapsuleRows_rows(CapsuleRows *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    Py_buffer P = {0}, A = {0}, u = {0};
+    PyObject *ret = NULL, *G = NULL, *b = NULL, *d = NULL, *ol = NULL, *ll = NULL;
+    vf_nd_capsules cap;
+    int32_t r;
+    npy_intp dims[2];
+    size_t pairs;
+    if (self->mem == NULL) {
+        PyErr_SetString(PyExc_RuntimeError, "CapsuleRows not initialised");
+        return NULL;
+    }
+    if (nargs != 4) {
+        PyErr_Format(PyExc_TypeError, "expected 4 arguments (P, axes, u, idt), got %zd", nargs);
+        return NULL;
+    }
+    cap = self->cap;
+    cap.idt = PyFloat_AsDouble(args[3]);
+    if (cap.idt == -1.0 && PyErr_Occurred()) {
+        return NULL;
+    }
+    if (!(cap.idt > 0.0)) {
+        cap.dt = 0.0;
+        cap.idt = 0.0;
+    }
+    if (get_view(args[0], &P, 0, "d", "P") < 0 || get_view(args[1], &A, 0, "d", "axes") < 0
+        || get_view(args[2], &u, 0, "d", "u") < 0) {
+        goto done;
+    }
+    if (P.len != 8 * 3 * ((Py_ssize_t)cap.nl + 1) || A.len < 8 * 3 * (Py_ssize_t)cap.nj
+        || u.len != 8 * (Py_ssize_t)cap.ncols) {
+        PyErr_SetString(PyExc_ValueError, "P must be (nl + 1, 3), axes (>= nj, 3), u (ncols,)");
+        goto done;
+    }
+    cap.P = (const double *)P.buf;
+    cap.axes = (const double *)A.buf;
+    pairs = (size_t)cap.k * (size_t)cap.nl;
+    r = vf_nd_capsule_rows(&cap, (const double *)u.buf, self->G, self->b, self->d, self->ints,
+                           self->ints + pairs, self->work);
+    dims[0] = r;
+    dims[1] = cap.ncols;
+    G = PyArray_SimpleNew(2, dims, NPY_DOUBLE);
+    b = PyArray_SimpleNew(1, dims, NPY_DOUBLE);
+    d = PyArray_SimpleNew(1, dims, NPY_DOUBLE);
+    ol = int_list(self->ints, r);
+    ll = int_list(self->ints + pairs, r);
+    if (G == NULL || b == NULL || d == NULL || ol == NULL || ll == NULL) {
+        Py_XDECREF(G);
+        Py_XDECREF(b);
+        Py_XDECREF(d);
+        Py_XDECREF(ol);
+        Py_XDECREF(ll);
+        goto done;
+    }
+    memcpy(PyArray_DATA((PyArrayObject *)G), self->G, (size_t)r * cap.ncols * sizeof(double));
+    memcpy(PyArray_DATA((PyArrayObject *)b), self->b, (size_t)r * sizeof(double));
+    memcpy(PyArray_DATA((PyArrayObject *)d), self->d, (size_t)r * sizeof(double));
+    ret = Py_BuildValue("(NNNNN)", G, b, d, ol, ll);
+done:
+    release(&P);
+    release(&A);
+    release(&u);
+    return ret;
+}
+
+static PyMethodDef CapsuleRows_methods[] = {
+    {"rows", (PyCFunction)(void (*)(void))CapsuleRows_rows, METH_FASTCALL,
+     "rows(P, axes, u, idt) -> (G, b, d, obstacles, links): vf_nd_capsule_rows."},
+    {NULL, NULL, 0, NULL},
+};
+
+static PyTypeObject CapsuleRowsType = {
+    PyVarObject_HEAD_INIT(NULL, 0).tp_name = "velfence_core._nd.CapsuleRows",
+    .tp_basicsize = sizeof(CapsuleRows),
+    .tp_flags = Py_TPFLAGS_DEFAULT,
+    .tp_doc = "A chain's capsule links and sphere obstacles: the safety filter's obstacle rows.",
+    .tp_new = PyType_GenericNew,
+    .tp_init = (initproc)CapsuleRows_init,
+    .tp_dealloc = (destructor)CapsuleRows_dealloc,
+    .tp_methods = CapsuleRows_methods,
+};
+
 static PyMethodDef nd_methods[] = {
+    {"rate_bounds", (PyCFunction)(void (*)(void))nd_rate_bounds, METH_FASTCALL,
+     "rate_bounds(kind, prm, dist, speed, idt) -> bounds (k,): vf_nd_rate_bounds."},
     {"project", (PyCFunction)(void (*)(void))nd_project, METH_FASTCALL,
      "project(u, G, b) -> (status, x): vf_nd_project_kernel."},
     {"project_full", (PyCFunction)(void (*)(void))nd_project_full, METH_FASTCALL,
@@ -476,7 +698,7 @@ PyMODINIT_FUNC PyInit__nd(void)
 {
     PyObject *m;
     import_array();
-    if (PyType_Ready(&PolytopeLawType) < 0) {
+    if (PyType_Ready(&PolytopeLawType) < 0 || PyType_Ready(&CapsuleRowsType) < 0) {
         return NULL;
     }
     m = PyModule_Create(&nd_module);
@@ -484,7 +706,9 @@ PyMODINIT_FUNC PyInit__nd(void)
         return NULL;
     }
     Py_INCREF(&PolytopeLawType);
+    Py_INCREF(&CapsuleRowsType);
     if (PyModule_AddObject(m, "PolytopeLaw", (PyObject *)&PolytopeLawType) < 0
+        || PyModule_AddObject(m, "CapsuleRows", (PyObject *)&CapsuleRowsType) < 0
         || PyModule_AddStringConstant(m, "VERSION", VF_ND_VERSION) < 0) {
         Py_DECREF(&PolytopeLawType);
         Py_DECREF(m);

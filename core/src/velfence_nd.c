@@ -1000,3 +1000,176 @@ int64_t vf_nd_batch(const vf_nd_polytope *poly, const vf_nd_law *law, const doub
     }
     return bad;
 }
+
+/* ------------------------------------------------------------------ safety-filter helpers */
+
+/* velfence.shaping.filter._bounds: bounds_from_distances (relax off, unit scale) and fill_bounds
+ * for the rows it leaves out. */
+void vf_nd_rate_bounds(int32_t kind, const double *prm, const double *dist, int32_t k,
+                       double speed, double idt, double *bnd, int32_t *work)
+{
+    bounds_out o;
+    int32_t *rest = work + k;
+    int32_t e, a, r;
+    for (e = 0; e < k; e++) {
+        bnd[e] = 0.0;
+    }
+    bounds_from_distances(dist, k, speed, kind, prm, 0, idt, 0, bnd, work, &o);
+    if (o.m < k) {
+        for (e = 0; e < k; e++) {
+            rest[e] = 1;
+        }
+        for (a = 0; a < o.m; a++) {
+            rest[work[a]] = 0;
+        }
+        r = 0;
+        for (e = 0; e < k; e++) {
+            if (rest[e]) {
+                rest[r] = e;
+                r += 1;
+            }
+        }
+        fill_bounds(kind, prm, 0, dist, rest, 0, r, speed, 1.0, idt, bnd);
+    }
+}
+
+/* geometry.primitives._point_segment_t, _lerp (clearance with sqrt instead of math.hypot) */
+static double seg_t(const double *p, const double *a, const double *b)
+{
+    double dx = b[0] - a[0], dy = b[1] - a[1], dz = b[2] - a[2];
+    double dd = dx * dx + dy * dy + dz * dz;
+    double t;
+    if (dd == 0.0) {
+        return 0.0;
+    }
+    t = ((p[0] - a[0]) * dx + (p[1] - a[1]) * dy + (p[2] - a[2]) * dz) / dd;
+    return t <= 0.0 ? 0.0 : (t >= 1.0 ? 1.0 : t);
+}
+
+int32_t vf_nd_capsule_rows(const vf_nd_capsules *cap, const double *u, double *G, double *b,
+                           double *d, int32_t *obs, int32_t *link, double *work)
+{
+    const int32_t nl = cap->nl;
+    const int32_t nj = cap->nj;
+    const int32_t nc = cap->ncols;
+    const int32_t k = cap->k;
+    const double *P = cap->P;
+    double *clear = work;          /* k * nl */
+    double *reach = work + (size_t)k * nl; /* nl */
+    int use_reach = 0;
+    int32_t i, l, j, c, rows = 0;
+    for (i = 0; i < k; i++) {
+        const double *cc = cap->C + 3 * (size_t)i;
+        for (l = 0; l < nl; l++) {
+            const double *a = P + 3 * (size_t)l;
+            const double *e = a + 3;
+            double t = seg_t(cc, a, e);
+            double x0, x1, x2, dx, dy, dz;
+            if (t <= 0.5) {
+                x0 = a[0] + t * (e[0] - a[0]);
+                x1 = a[1] + t * (e[1] - a[1]);
+                x2 = a[2] + t * (e[2] - a[2]);
+            } else {
+                double w = 1.0 - t;
+                x0 = e[0] - w * (e[0] - a[0]);
+                x1 = e[1] - w * (e[1] - a[1]);
+                x2 = e[2] - w * (e[2] - a[2]);
+            }
+            dx = x0 - cc[0];
+            dy = x1 - cc[1];
+            dz = x2 - cc[2];
+            clear[(size_t)i * nl + l] = sqrt(dx * dx + dy * dy + dz * dz) - cap->srad[i]
+                                        - cap->lrad[l];
+        }
+    }
+    if (cap->dt > 0.0 && cap->idt > 0.0 && cap->vmax != NULL) {
+        double far = INFINITY;
+        double big = 0.0;
+        for (c = 0; c < k * nl; c++) {
+            if (clear[c] >= cap->buf && clear[c] < far) {
+                far = clear[c];
+            }
+        }
+        for (l = 0; l <= nl; l++) {
+            double ex = P[3 * l] - P[0], ey = P[3 * l + 1] - P[1], ez = P[3 * l + 2] - P[2];
+            double h = sqrt(ex * ex + ey * ey + ez * ez);
+            if (h > big) {
+                big = h;
+            }
+        }
+        if (far < INFINITY && !(far > 1.5 * cap->dt * (2.0 * big * cap->vsum) * (1.0 + 1e-9))) {
+            use_reach = 1;
+            for (l = 0; l < nl; l++) {
+                double s = 0.0;
+                for (j = 0; j <= l && j < nj; j++) {
+                    const double *pj = P + 3 * (size_t)j;
+                    const double *pa = P + 3 * (size_t)l;
+                    const double *pb = pa + 3;
+                    double ax = pa[0] - pj[0], ay = pa[1] - pj[1], az = pa[2] - pj[2];
+                    double bx = pb[0] - pj[0], by = pb[1] - pj[1], bz = pb[2] - pj[2];
+                    double ma = sqrt(ax * ax + ay * ay + az * az);
+                    double mb = sqrt(bx * bx + by * by + bz * bz);
+                    s += (ma > mb ? ma : mb) * cap->vmax[j];
+                }
+                reach[l] = 1.5 * cap->dt * s;
+            }
+        }
+    }
+    for (i = 0; i < k; i++) {
+        const double *cc = cap->C + 3 * (size_t)i;
+        for (l = 0; l < nl; l++) {
+            double cl = clear[(size_t)i * nl + l];
+            const double *a = P + 3 * (size_t)l;
+            const double *e = a + 3;
+            double t, x[3], n[3], dist, vx = 0.0, vy = 0.0, vz = 0.0, bound;
+            double *g = G + (size_t)rows * nc;
+            int32_t wk[2];
+            if (!(cl < cap->buf || (use_reach && cl <= reach[l]))) {
+                continue;
+            }
+            t = seg_t(cc, a, e);
+            for (c = 0; c < 3; c++) {
+                x[c] = t <= 0.5 ? a[c] + t * (e[c] - a[c]) : e[c] - (1.0 - t) * (e[c] - a[c]);
+                n[c] = x[c] - cc[c];
+            }
+            dist = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+            if (dist > 0.0) {
+                n[0] /= dist;
+                n[1] /= dist;
+                n[2] /= dist;
+            } else {
+                double hx = e[0] - a[0], hy = e[1] - a[1];
+                double h = sqrt(hx * hx + hy * hy);
+                n[0] = h == 0.0 ? 1.0 : -hy / h;
+                n[1] = h == 0.0 ? 0.0 : hx / h;
+                n[2] = 0.0;
+            }
+            for (j = 0; j < nc; j++) {
+                g[j] = 0.0;
+            }
+            for (j = 0; j <= l && j < nj; j++) {
+                const double *z = cap->axes + 3 * (size_t)j;
+                const double *pj = P + 3 * (size_t)j;
+                double ddx = x[0] - pj[0], ddy = x[1] - pj[1], ddz = x[2] - pj[2];
+                double jx = z[1] * ddz - z[2] * ddy;
+                double jy = z[2] * ddx - z[0] * ddz;
+                double jz = z[0] * ddy - z[1] * ddx;
+                g[j] = n[0] * jx + n[1] * jy + n[2] * jz;
+                vx += jx * u[j];
+                vy += jy * u[j];
+                vz += jz * u[j];
+            }
+            vf_nd_rate_bounds(cap->kind, cap->prm, &cl, 1, sqrt(vx * vx + vy * vy + vz * vz),
+                              cap->idt, &bound, wk);
+            if (bound == -INFINITY) {
+                continue;
+            }
+            b[rows] = bound;
+            d[rows] = cl;
+            obs[rows] = i;
+            link[rows] = l;
+            rows += 1;
+        }
+    }
+    return rows;
+}
