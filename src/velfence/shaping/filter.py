@@ -1122,7 +1122,7 @@ class SafetyFilter(InvalidPolicy):
         # max |a| is NaN when a holds a NaN, and NaN <= MAX_MAGNITUDE is False
         return not all(a.size == 0 or bool(np.abs(a).max() <= MAX_MAGNITUDE) for a in arrays)
 
-    def _run(
+    def _cycle(
         self,
         q: FloatArray,
         u: FloatArray,
@@ -1132,7 +1132,9 @@ class SafetyFilter(InvalidPolicy):
         remember: bool,
         kin: Any = None,
         known: tuple[str, FloatArray] | None = None,
-    ) -> FilterResult:
+    ) -> FilterResult | tuple[_Rows, FloatArray, FloatArray, list[str], list[str], bool, bool]:
+        """One cycle's rows and solve: ``(rows, x, u, dropped, stages, override, scaled)``, or
+        the stop result (a :class:`FilterResult`) for bad input. Remembers ``x`` when asked."""
         prev: FloatArray | None = None
         if previous is not None:
             prev = self._state("previous", previous, self.dof, "rad/s")
@@ -1156,6 +1158,25 @@ class SafetyFilter(InvalidPolicy):
         if not np.all(np.isfinite(x)):
             self._invalid("input too large: the filtered velocity overflowed")
             return self._stopped(q, cmd)
+        if remember and self._has_accel:
+            self._previous = readonly(x.copy())
+        return rows, x, u, dropped, stages, override, scaled
+
+    def _run(
+        self,
+        q: FloatArray,
+        u: FloatArray,
+        cmd: FloatArray,
+        L: _Metric,
+        previous: Any,
+        remember: bool,
+        kin: Any = None,
+        known: tuple[str, FloatArray] | None = None,
+    ) -> FilterResult:
+        c = self._cycle(q, u, cmd, L, previous, remember, kin, known)
+        if isinstance(c, FilterResult):
+            return c
+        rows, x, u, dropped, stages, override, scaled = c
         G = rows.G
         b0 = rows.b
         fin = np.isfinite(b0)
@@ -1175,8 +1196,6 @@ class SafetyFilter(InvalidPolicy):
             pre.append("projection")
         if n_out:
             pre.append("recovery")
-        if remember and self._has_accel:
-            self._previous = readonly(x.copy())
         return FilterResult(
             output=x, command=cmd, position=q, zone=zone, active=act,
             active_names=tuple(rows.names[i] for i in act), slack=readonly(slack),
@@ -1214,8 +1233,17 @@ class SafetyFilter(InvalidPolicy):
     def filter(
         self, q: ArrayLike, qd_cmd: ArrayLike, *, previous: ArrayLike | None = None
     ) -> FloatArray:
-        """The filtered joint velocity [rad/s], shape (dof,) (:meth:`explain`'s output)."""
-        return self.explain(q, qd_cmd, previous=previous).output
+        """The filtered joint velocity [rad/s], shape (dof,) (:meth:`explain`'s output).
+
+        The same cycle as :meth:`explain` without the diagnostics (zone, slack, names).
+        """
+        qa = self._state("q", q, self.dof, "rad")
+        ua = self._state("qd_cmd", qd_cmd, self.dof, "rad/s")
+        if self._bad(qa, ua):
+            self._invalid(f"non-finite input: q={qa.tolist()}, qd_cmd={ua.tolist()}")
+            return np.zeros(self.dof)
+        c = self._cycle(qa, ua, ua, self._metric, previous, True)
+        return c.output if isinstance(c, FilterResult) else c[1]
 
     def explain_twist(
         self,
