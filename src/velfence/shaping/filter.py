@@ -162,7 +162,7 @@ class _Rows:
     def __init__(self) -> None:
         self._G: list[FloatArray] = []
         self._b: list[FloatArray] = []
-        self._level: list[FloatArray] = []
+        self._level: list[tuple[int, int]] = []
         self._viol: list[Any] = []
         self.names: list[str] = []
         self.m = 0
@@ -182,7 +182,7 @@ class _Rows:
         if k:
             self._G.append(G)
             self._b.append(b)
-            self._level.append(np.full(k, level, dtype=np.int64))
+            self._level.append((level, k))
             self._viol.append(viol)
             self.names.extend(names)
             self.m += k
@@ -193,7 +193,12 @@ class _Rows:
         if self._b:
             self.G = np.concatenate(self._G).reshape(self.m, n)
             self.b = np.concatenate(self._b).astype(np.float64, copy=False)
-            self.level = np.concatenate(self._level)
+            lv = self._level
+            self.level = (
+                np.full(self.m, lv[0][0], dtype=np.int64)
+                if len(lv) == 1
+                else np.repeat(np.array([x[0] for x in lv], dtype=np.int64), [x[1] for x in lv])
+            )
             self.violated = np.concatenate(self._viol).astype(bool, copy=False)
         else:
             self.G = np.zeros((0, n))
@@ -409,6 +414,7 @@ class SafetyFilter(InvalidPolicy):
         "_vsum",
         "_workspace",
         "_ws_names",
+        "_ws_prof",
         "accelerate",
         "backend",
         "damping",
@@ -591,6 +597,10 @@ class SafetyFilter(InvalidPolicy):
                 okind, list(oprm),
             )  # fmt: skip
         self._rate_rows = self._rate_layout()
+        self._ws_prof: tuple[Profile, ...] = tuple(
+            w.profile if w.profile is not None else LinearBuffer(buffer=w.buffer)
+            for w in self._workspace
+        )
         self._ws_names = tuple(
             [
                 f"{f'workspace {w_i}: ' if len(self._workspace) > 1 else ''}"
@@ -770,9 +780,9 @@ class SafetyFilter(InvalidPolicy):
             )
             poly = w.polytope
             dist = poly.normals @ p - poly.offsets
-            s = float(np.linalg.norm(J @ u))
-            prof = w.profile if w.profile is not None else LinearBuffer(buffer=w.buffer)
-            bnd = _bounds(prof, dist, s, idt, self._kern)
+            ju = J @ u
+            s = math.sqrt(float(ju @ ju))
+            bnd = _bounds(self._ws_prof[w_i], dist, s, idt, self._kern)
             kept = np.flatnonzero(bnd != -math.inf)
             names = self._ws_names[w_i]
             first = rows.block(
@@ -1019,13 +1029,14 @@ class SafetyFilter(InvalidPolicy):
     @staticmethod
     def _steps(rows: _Rows) -> Any:
         """The ladder's steps, made as they are needed: (keep mask, bounds, dropped, stage)."""
+        # first: every row as built (mask None: no copy of G)
+        yield None, rows.b.copy(), None, None
         m = rows.m
         level = rows.level
         viol = rows.violated
         present = set(level.tolist())
         keep = np.ones(m, dtype=bool)
         b = rows.b.copy()
-        yield keep.copy(), b.copy(), None, None
         if LEVEL_RATE in present:
             keep &= level != LEVEL_RATE
             yield keep.copy(), b.copy(), "acceleration", "dropped acceleration"
@@ -1061,9 +1072,14 @@ class SafetyFilter(InvalidPolicy):
                 dropped.append(drop)
             if stage is not None:
                 stages.append(stage)
-            bb = bb.copy()
-            ok, x = self._project(u, G[mask], bb[mask], L)
+            if mask is None:
+                ok, x = self._project(u, G, bb, L)
+            else:
+                bb = bb.copy()
+                ok, x = self._project(u, G[mask], bb[mask], L)
             if ok and rows.check:
+                if mask is None:
+                    mask = np.ones(rows.m, dtype=bool)
                 ok, x, tightened = self._model_check(q, u, G, bb, mask, rows, x, L)
                 if tightened:
                     stages.append("model-check")
@@ -1119,8 +1135,15 @@ class SafetyFilter(InvalidPolicy):
         )  # fmt: skip
 
     def _bad(self, *arrays: FloatArray) -> bool:
-        # max |a| is NaN when a holds a NaN, and NaN <= MAX_MAGNITUDE is False
-        return not all(a.size == 0 or bool(np.abs(a).max() <= MAX_MAGNITUDE) for a in arrays)
+        # On Python floats (cheaper than numpy for a few entries): a NaN or inf makes the sum's
+        # s - s NaN; finite entries up to MAX_MAGNITUDE cannot overflow the sum of a state.
+        for a in arrays:
+            if a.size:
+                vals = a.ravel().tolist()
+                s = sum(vals)
+                if not (s - s == 0.0 and max(map(abs, vals)) <= MAX_MAGNITUDE):
+                    return True
+        return False
 
     def _cycle(
         self,

@@ -577,7 +577,7 @@ class PolytopeShaper(InvalidPolicy):
             self._invalid(f"non-finite {which} in row(s) {np.flatnonzero(~good)[:10].tolist()}")
             P = np.where(good[:, None], P, 0.0)
             V = np.where(good[:, None], V, 0.0)
-        out = np.zeros_like(P)
+        out = np.zeros(P.shape)  # C order (the core writes rows in place)
         zones = np.zeros(P.shape[0], dtype=np.int64)
         fn = compiled_polytope()[1] if self.accelerate and self._generic is None else None
         if P.shape[0] == 0:
