@@ -1,4 +1,4 @@
-"""The n-D exact law and the safety filter: Python, numba and the compiled core, beside daqp and mink.
+"""The n-D exact law and the safety filter: Python, numba and the C core, beside daqp and mink.
 
 Usage::
 
@@ -58,7 +58,7 @@ def time_routes(routes: Sequence[Route], n_states: int, rounds: int) -> dict[str
     """Interleaved timing: each round runs every route once over all states (µs per call)."""
     clock = time.perf_counter_ns
     samples: dict[str, list[int]] = {name: [] for name, _ in routes}
-    for name, fn in routes:  # warm-up
+    for _, fn in routes:  # warm-up
         for k in range(n_states):
             fn(k)
     for _ in range(rounds):
@@ -107,7 +107,7 @@ def shaper_routes(poly: ConvexPolytope, n_states: int) -> list[Route]:
     ]
     if compiled_nd() is not None:
         c = PolytopeShaper(poly, buffer=0.2, backend="c")
-        routes.append(("**C core** (`backend=\"c\"`)", lambda k: c.shape(P[k], V[k])))
+        routes.append(('**C core** (`backend="c"`)', lambda k: c.shape(P[k], V[k])))
     rows = [py.bound_rows(P[k], V[k]) for k in range(n_states)]
     eye = np.eye(3)
     qp = [(-rows[k][0], -rows[k][1]) for k in range(n_states)]
@@ -323,7 +323,7 @@ def main() -> None:
         f"\n{platform.python_version()}, numpy {np.__version__}, {os.cpu_count()} CPUs, load "
         f"average {os.getloadavg()[0]:.2f} at start; {rounds} interleaved rounds\n"
     )
-    ref = "**C core** (`backend=\"c\"`)"
+    ref = '**C core** (`backend="c"`)'
     for name, poly in (("3-D box, 6 facets", ConvexPolytope.box([-1.0] * 3, [1.0] * 3)),
                        ("20 facets in 3-D", polytope20())):  # fmt: skip
         res = time_routes(shaper_routes(poly, n_shape), n_shape, rounds)

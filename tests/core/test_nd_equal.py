@@ -26,7 +26,8 @@ from velfence.shaping.filter import _PLAIN_BOUNDS, _bounds
 from velfence.shaping.profiles import LinearBuffer, ThreeZoneBraking
 
 nd = pytest.importorskip(
-    "velfence_core._nd", reason="the compiled core's n-D module is not installed (pip install ./core)"
+    "velfence_core._nd",
+    reason="the compiled core's n-D module is not installed (pip install ./core)",
 )
 
 
@@ -198,7 +199,8 @@ def test_projection_bit_identical(prob: tuple[np.ndarray, np.ndarray, np.ndarray
         assert fbits(ref.x) == fbits(x)
         assert ref.feasible == (status == 0)
     s2, x2 = nd.project(u, np.ascontiguousarray(G), b)
-    assert s2 == status and fbits(x2) == fbits(x)
+    assert s2 == status
+    assert fbits(x2) == fbits(x)
 
 
 @given(

@@ -30,7 +30,9 @@ def _filter(**kw: Any) -> SafetyFilter:
     lim = ARM.joint_limits
     return SafetyFilter(
         ARM,
-        limits=JointLimits(lim[:, 0], lim[:, 1], np.full(7, 1.5), max_acceleration=np.full(7, 10.0)),
+        limits=JointLimits(
+            lim[:, 0], lim[:, 1], np.full(7, 1.5), max_acceleration=np.full(7, 10.0)
+        ),
         workspace=WorkspaceLimit(
             ConvexPolytope.box(ARM.fk(Q0) - 0.3, ARM.fk(Q0) + 0.05), buffer=0.1
         ),
@@ -50,8 +52,10 @@ def _obstacles(k: int) -> list[SphereObstacle]:
             continue
         d = rng.normal(size=3)
         d -= d @ (b - a) / ((b - a) @ (b - a)) * (b - a)
-        c = a + rng.uniform(0.1, 0.9) * (b - a) + (0.06 + 0.05 + rng.uniform(0.04, 0.3)) * d / (
-            np.linalg.norm(d)
+        c = (
+            a
+            + rng.uniform(0.1, 0.9) * (b - a)
+            + (0.06 + 0.05 + rng.uniform(0.04, 0.3)) * d / (np.linalg.norm(d))
         )
         s = np.clip(((c - segs[:, 0]) * (segs[:, 1] - segs[:, 0])).sum(1) / np.maximum(
             ((segs[:, 1] - segs[:, 0]) ** 2).sum(1), 1e-12), 0.0, 1.0)  # fmt: skip
@@ -140,7 +144,12 @@ def test_filter_c_backend_bit_identical_without_obstacles(seed: int, dt: float |
     c = _filter(backend="c", dt=dt)
     r1, r2 = py.explain(q, u, previous=prev), c.explain(q, u, previous=prev)
     assert _bits(r2.output) == _bits(r1.output)
-    assert (r2.active, r2.stages, r2.dropped, r2.zone) == (r1.active, r1.stages, r1.dropped, r1.zone)
+    assert (r2.active, r2.stages, r2.dropped, r2.zone) == (
+        r1.active,
+        r1.stages,
+        r1.dropped,
+        r1.zone,
+    )
     assert _bits(r2.rows[1]) == _bits(r1.rows[1])
     v = u[:3] * 0.2
     assert _bits(c.filter_twist(q, v)) == _bits(py.filter_twist(q, v))

@@ -310,9 +310,13 @@ def _projection(
     return status == PROJECT_OPTIMAL and bool(np.all(np.isfinite(xa))), xa
 
 
-def _projection_c(core: Any, u: FloatArray, G: FloatArray, b: FloatArray) -> tuple[bool, FloatArray]:
-    """:func:`_projection` through the compiled core (``velfence_core._nd.project``, the same
-    kernel in C, bit for bit): C-contiguous float64 arrays, finite."""
+def _projection_c(
+    core: Any, u: FloatArray, G: FloatArray, b: FloatArray
+) -> tuple[bool, FloatArray]:
+    """:func:`_projection` through the compiled core (``velfence_core._nd.project``).
+
+    The same kernel in C, bit for bit; C-contiguous float64 arrays, finite.
+    """
     status, x = core.project(
         np.ascontiguousarray(u, dtype=np.float64),
         np.ascontiguousarray(G, dtype=np.float64),
@@ -397,8 +401,8 @@ class SafetyFilter(InvalidPolicy):
     """
 
     __slots__ = (
-        "_caps",
         "_cached",
+        "_caps",
         "_core",
         "_has_accel",
         "_joint_prof",
@@ -585,11 +589,12 @@ class SafetyFilter(InvalidPolicy):
             kin0: Any = self._kinematics(q0)
             nl = int(kin0[0].shape[0]) - 1
             nj = int(kin0[1].shape[0])
-            centres, srad, radii, oprof, _ = self._obstacle_geometry
+            geo: Any = self._obstacle_geometry
+            centres, srad, radii, oprof, _ = geo
             okind, oprm = oprof.kernel_profile
+            lrad = np.broadcast_to(radii, (nl,)) if radii.shape[0] == 1 else radii[:nl]
             self._caps = self._core.CapsuleRows(
-                np.ascontiguousarray(np.broadcast_to(radii, (nl,)) if radii.shape[0] == 1
-                                     else radii[:nl], dtype=np.float64),
+                np.ascontiguousarray(lrad, dtype=np.float64),
                 np.ascontiguousarray(centres, dtype=np.float64).ravel(),
                 np.ascontiguousarray(srad, dtype=np.float64),
                 np.ascontiguousarray(limits.max_velocity[:nj], dtype=np.float64),
@@ -1156,8 +1161,11 @@ class SafetyFilter(InvalidPolicy):
         kin: Any = None,
         known: tuple[str, FloatArray] | None = None,
     ) -> FilterResult | tuple[_Rows, FloatArray, FloatArray, list[str], list[str], bool, bool]:
-        """One cycle's rows and solve: ``(rows, x, u, dropped, stages, override, scaled)``, or
-        the stop result (a :class:`FilterResult`) for bad input. Remembers ``x`` when asked."""
+        """One cycle's rows and solve, without the diagnostics.
+
+        Returns ``(rows, x, u, dropped, stages, override, scaled)``, or the stop result (a
+        :class:`FilterResult`) for bad input; remembers ``x`` when asked.
+        """
         prev: FloatArray | None = None
         if previous is not None:
             prev = self._state("previous", previous, self.dof, "rad/s")
