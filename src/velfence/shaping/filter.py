@@ -278,6 +278,11 @@ _COMMAND_CAP = 1e3  # commands are shortened beyond this multiple of the fastest
 _RECOVERY_FRACTIONS = (*(0.25**k for k in range(1, 9)), 0.0)
 
 
+def _finite(x: FloatArray) -> bool:
+    """Whether every entry of the vector ``x`` is finite (Python floats: cheaper than numpy)."""
+    return all(map(math.isfinite, x.tolist()))
+
+
 def _projection(
     u: FloatArray, G: FloatArray, b: FloatArray, kernel: Any = None
 ) -> tuple[bool, FloatArray]:
@@ -300,14 +305,14 @@ def _projection(
             m, n, xa, np.zeros(n + 1), np.zeros(n + 1, dtype=np.int64),
             np.zeros(scratch_length(m, n)),
         )[0]  # fmt: skip
-        return status == PROJECT_OPTIMAL and bool(np.all(np.isfinite(xa))), xa
+        return status == PROJECT_OPTIMAL and _finite(xa), xa
     x = [0.0] * n
     lam = [0.0] * (n + 1)
     act = [0] * (n + 1)
     wsf = [0.0] * scratch_length(m, n)
     status = project_kernel(u.tolist(), G.ravel().tolist(), b.tolist(), m, n, x, lam, act, wsf)[0]
     xa = np.array(x, dtype=np.float64)
-    return status == PROJECT_OPTIMAL and bool(np.all(np.isfinite(xa))), xa
+    return status == PROJECT_OPTIMAL and _finite(xa), xa
 
 
 def _projection_c(
@@ -322,7 +327,7 @@ def _projection_c(
         np.ascontiguousarray(G, dtype=np.float64),
         np.ascontiguousarray(b, dtype=np.float64),
     )
-    return status == 0 and bool(np.all(np.isfinite(x))), x
+    return status == 0 and _finite(x), x
 
 
 def _factor(H: FloatArray) -> FloatArray:
@@ -1088,7 +1093,7 @@ class SafetyFilter(InvalidPolicy):
                 ok, x, tightened = self._model_check(q, u, G, bb, mask, rows, x, L)
                 if tightened:
                     stages.append("model-check")
-            if ok and np.all(np.isfinite(x)):
+            if ok and _finite(x):
                 return x, bb, dropped, stages, "acceleration" in dropped
             b = bb
         stages.append("stop")
@@ -1186,7 +1191,7 @@ class SafetyFilter(InvalidPolicy):
         with np.errstate(all="ignore"):
             rows = self._rows(q, u, prev, self._kinematics(q) if kin is None else kin, known)
             x, _, dropped, stages, override = self._solve_ladder(q, u, rows, L)
-        if not np.all(np.isfinite(x)):
+        if not _finite(x):
             self._invalid("input too large: the filtered velocity overflowed")
             return self._stopped(q, cmd)
         if remember and self._has_accel:
