@@ -409,6 +409,7 @@ class SafetyFilter(InvalidPolicy):
         "_cached",
         "_caps",
         "_core",
+        "_dpos",
         "_has_accel",
         "_joint_prof",
         "_joint_rows",
@@ -575,6 +576,12 @@ class SafetyFilter(InvalidPolicy):
             self._solver = compiled_project()
             self._kern = compiled_bounds() or _PLAIN_BOUNDS
         self._joint_rows = self._joint_layout()
+        self._dpos = (
+            np.tile([1.0, -1.0], n),
+            np.stack(
+                [-np.asarray(limits.lower, float), np.asarray(limits.upper, float)], 1
+            ).ravel(),
+        )
         self._vsum = float(np.sum(limits.max_velocity))  # Σ_j v_j [rad/s]
         # Obstacles' fixed parts: centres (k, 3), radii (k,), the links' capsule radii, profile,
         # (centre, radius) as floats.
@@ -745,12 +752,11 @@ class SafetyFilter(InvalidPolicy):
         n = self.dof
         idt = 0.0 if self.dt is None else 1.0 / self.dt
         rows = _Rows()
-        lim = self.limits
         # Joint position and velocity rows (the fixed layout, bounds per profile group).
         G4, names4, finite, groups, vside, pos, b4 = self._joint_rows
-        dpos = np.empty(2 * n)
-        dpos[0::2] = q - lim.lower
-        dpos[1::2] = lim.upper - q
+        # per joint: q − lower, upper − q (as q·(±1) + (−lower | upper): the same bits)
+        sgn, lohi = self._dpos
+        dpos = np.repeat(q, 2) * sgn + lohi
         if len(groups) == 1 and groups[0][2].shape[0] == 2 * n:
             bpos = _bounds(groups[0][0], dpos, groups[0][1], idt, self._kern)
         else:
@@ -1181,7 +1187,8 @@ class SafetyFilter(InvalidPolicy):
             prev = self._previous
         scaled = False
         cap = _COMMAND_CAP * self._speed_scale
-        big = float(np.abs(u).max()) if u.size else 0.0
+        # (u is finite here: validated, or the twist's solve checked)
+        big = max(map(abs, u.tolist())) if u.size else 0.0
         if big > cap:
             # A command far beyond what the joints can do (1e3 times their fastest limit) is
             # shortened in its own direction first, so the solve stays well inside floating
