@@ -105,6 +105,7 @@ def same_run(py: PolytopeShaper, c: PolytopeShaper, p: np.ndarray, v: np.ndarray
     assert fbits(b2[e] for e in list(w1)[:m]) == fbits(b1[e] for e in list(w1)[:m]), where
 
 
+@settings(max_examples=60)
 @given(cases())
 def test_law_bit_identical(case: tuple[Any, ...]) -> None:
     poly, kwargs, states = case
@@ -114,6 +115,7 @@ def test_law_bit_identical(case: tuple[Any, ...]) -> None:
         assert fbits(c.shape(p, v)) == fbits(py.shape(p, v))
 
 
+@settings(max_examples=40)
 @given(cases(bound=1e150))
 def test_huge_commands_bit_identical(case: tuple[Any, ...]) -> None:
     """Commands up to 1e150 (the kernel's rescaling and its second, shortened solve)."""
@@ -123,7 +125,7 @@ def test_huge_commands_bit_identical(case: tuple[Any, ...]) -> None:
         same_run(py, c, p, v)
 
 
-@settings(max_examples=40)
+@settings(max_examples=30)
 @given(cases())
 def test_explain_and_batches_identical(case: tuple[Any, ...]) -> None:
     poly, kwargs, states = case
