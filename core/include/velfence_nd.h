@@ -195,6 +195,11 @@ typedef struct vf_nd_capsules {
 int32_t vf_nd_capsule_rows(const vf_nd_capsules *cap, const double *u, double *G, double *b,
                            double *d, int32_t *obs, int32_t *link, double *work);
 
+/* The clearance of every (sphere, link) pair, sphere-major: clear[i nl + l] = |x_c - C_i| - srad_i
+ * - lrad_l (k nl doubles) [m]; what vf_nd_capsule_rows selects from (and the discrete-time model
+ * check reads at the next pose). */
+void vf_nd_capsule_clearances(const vf_nd_capsules *cap, double *clear);
+
 #ifdef __cplusplus
 }
 #endif

@@ -18,6 +18,7 @@
  *   CapsuleRows(lrad, C, srad, vmax, nl, nj, ncols, k, buf, dt, kind, prm)
  *     rows(P, axes, u, idt) -> (G (r, ncols), b (r,), d (r,), obstacles, links): the safety
  *                          filter's obstacle rows (vf_nd_capsule_rows) from one kinematics pass.
+ *     clearances(P) -> list of every pair's clearance (vf_nd_capsule_clearances).
  * The kernels are the unchecked ones: Python keeps its own checks and policies, as with _core.
  */
 #define PY_SSIZE_T_CLEAN
@@ -662,7 +663,39 @@ done:
     return ret;
 }
 
+/* clearances(P) -> list of the k * nl clearances (sphere-major) at the joint points P */
+static PyObject *CapsuleRows_clearances(CapsuleRows *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    Py_buffer P = {0};
+    vf_nd_capsules cap;
+    PyObject *ret = NULL;
+    if (self->mem == NULL) {
+        PyErr_SetString(PyExc_RuntimeError, "CapsuleRows not initialised");
+        return NULL;
+    }
+    if (nargs != 1) {
+        PyErr_Format(PyExc_TypeError, "expected 1 argument (P), got %zd", nargs);
+        return NULL;
+    }
+    if (get_view(args[0], &P, 0, "d", "P") < 0) {
+        return NULL;
+    }
+    if (P.len != 8 * 3 * ((Py_ssize_t)self->cap.nl + 1)) {
+        PyErr_SetString(PyExc_ValueError, "P must be (nl + 1, 3)");
+        release(&P);
+        return NULL;
+    }
+    cap = self->cap;
+    cap.P = (const double *)P.buf;
+    vf_nd_capsule_clearances(&cap, self->work);
+    ret = float_list(self->work, (Py_ssize_t)cap.k * cap.nl);
+    release(&P);
+    return ret;
+}
+
 static PyMethodDef CapsuleRows_methods[] = {
+    {"clearances", (PyCFunction)(void (*)(void))CapsuleRows_clearances, METH_FASTCALL,
+     "clearances(P) -> the k * nl pair clearances (sphere-major): vf_nd_capsule_clearances."},
     {"rows", (PyCFunction)(void (*)(void))CapsuleRows_rows, METH_FASTCALL,
      "rows(P, axes, u, idt) -> (G, b, d, obstacles, links): vf_nd_capsule_rows."},
     {NULL, NULL, 0, NULL},

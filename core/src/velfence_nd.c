@@ -1046,22 +1046,13 @@ static double seg_t(const double *p, const double *a, const double *b)
     return t <= 0.0 ? 0.0 : (t >= 1.0 ? 1.0 : t);
 }
 
-int32_t vf_nd_capsule_rows(const vf_nd_capsules *cap, const double *u, double *G, double *b,
-                           double *d, int32_t *obs, int32_t *link, double *work)
+void vf_nd_capsule_clearances(const vf_nd_capsules *cap, double *clear)
 {
-    const int32_t nl = cap->nl;
-    const int32_t nj = cap->nj;
-    const int32_t nc = cap->ncols;
-    const int32_t k = cap->k;
-    const double *P = cap->P;
-    double *clear = work;          /* k * nl */
-    double *reach = work + (size_t)k * nl; /* nl */
-    int use_reach = 0;
-    int32_t i, l, j, c, rows = 0;
-    for (i = 0; i < k; i++) {
+    int32_t i, l;
+    for (i = 0; i < cap->k; i++) {
         const double *cc = cap->C + 3 * (size_t)i;
-        for (l = 0; l < nl; l++) {
-            const double *a = P + 3 * (size_t)l;
+        for (l = 0; l < cap->nl; l++) {
+            const double *a = cap->P + 3 * (size_t)l;
             const double *e = a + 3;
             double t = seg_t(cc, a, e);
             double x0, x1, x2, dx, dy, dz;
@@ -1078,10 +1069,25 @@ int32_t vf_nd_capsule_rows(const vf_nd_capsules *cap, const double *u, double *G
             dx = x0 - cc[0];
             dy = x1 - cc[1];
             dz = x2 - cc[2];
-            clear[(size_t)i * nl + l] = sqrt(dx * dx + dy * dy + dz * dz) - cap->srad[i]
-                                        - cap->lrad[l];
+            clear[(size_t)i * cap->nl + l] = sqrt(dx * dx + dy * dy + dz * dz) - cap->srad[i]
+                                             - cap->lrad[l];
         }
     }
+}
+
+int32_t vf_nd_capsule_rows(const vf_nd_capsules *cap, const double *u, double *G, double *b,
+                           double *d, int32_t *obs, int32_t *link, double *work)
+{
+    const int32_t nl = cap->nl;
+    const int32_t nj = cap->nj;
+    const int32_t nc = cap->ncols;
+    const int32_t k = cap->k;
+    const double *P = cap->P;
+    double *clear = work;          /* k * nl */
+    double *reach = work + (size_t)k * nl; /* nl */
+    int use_reach = 0;
+    int32_t i, l, j, c, rows = 0;
+    vf_nd_capsule_clearances(cap, clear);
     if (cap->dt > 0.0 && cap->idt > 0.0 && cap->vmax != NULL) {
         double far = INFINITY;
         double big = 0.0;

@@ -1021,6 +1021,7 @@ class SafetyFilter(InvalidPolicy):
         dists: dict[int, list[float]] = {}
         segs: Any = None
         rl: list[float] = []
+        clear: Any = None
         for r, kind, (a, i) in rows.check:
             if kind == "ws":
                 if a not in dists:
@@ -1028,6 +1029,10 @@ class SafetyFilter(InvalidPolicy):
                     p1 = self._fk(q1, kin, self._workspace[a].point)
                     dists[a] = (poly.normals @ p1 - poly.offsets).tolist()
                 out[r] = dists[a][i]
+            elif kin is not None and self._caps is not None:
+                if clear is None:  # every pair at once, in C
+                    clear = self._caps.clearances(kin[0])
+                out[r] = clear[a * (kin[0].shape[0] - 1) + i]
             else:
                 if segs is None:
                     robot: Any = self.robot
