@@ -476,6 +476,16 @@ static void test_capsule_rows(void)
         double sp = fabs(2.5 * 0.3 + 1.5 * -0.2 + 0.5 * 0.1);
         CHECK(fabs(b[1] - (-sp * (0.02 / 0.1))) < 1e-15, "row 1 bound %g", b[1]);
     }
+    /* every pair's clearance: the rows' d, and the far sphere's true clearance */
+    {
+        double *cl = dalloc(9);
+        vf_nd_capsule_clearances(&cap, cl);
+        CHECK(cl[0] == d[0], "clearance of row 0: %g vs %g", cl[0], d[0]);
+        CHECK(cl[1 * 3 + 2] == d[1], "clearance of row 1: %g vs %g", cl[5], d[1]);
+        CHECK(fabs(cl[2 * 3 + 1] - (3.0 - 0.1 - 0.05)) < 1e-15, "far sphere over link 1: %g",
+              cl[7]);
+        free(cl);
+    }
     /* discrete time: a far sphere within one period's reach at full speed gets a row */
     cap.dt = 1.0;
     cap.idt = 1.0;
