@@ -103,7 +103,7 @@ def test_compiled_solve_equals_the_plain_python_one(
     state: tuple[np.ndarray, np.ndarray, np.ndarray],
 ) -> None:
     q, u, prev = state
-    fast, plain = scene(ARM), scene(ARM, accelerate=False)
+    fast, plain = scene(ARM, backend="python"), scene(ARM, accelerate=False, backend="python")
     assert fast._solver is not None
     assert plain._solver is None
     same(fast.explain(q, u, previous=prev), plain.explain(q, u, previous=prev))

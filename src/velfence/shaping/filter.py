@@ -70,6 +70,7 @@ from velfence.shaping._kernels import (
 from velfence.shaping.base import InvalidPolicy, OnInvalid, Zone
 from velfence.shaping.kinematics import Kinematics
 from velfence.shaping.limits import JointLimits, Profile, SphereObstacle, WorkspaceLimit
+from velfence.shaping.polytope import PolytopeBackend, pick_backend
 from velfence.shaping.profiles import LinearBuffer, ThreeZoneBraking
 
 __all__ = [
@@ -161,7 +162,7 @@ class _Rows:
     def __init__(self) -> None:
         self._G: list[FloatArray] = []
         self._b: list[FloatArray] = []
-        self._level: list[FloatArray] = []
+        self._level: list[tuple[int, int]] = []
         self._viol: list[Any] = []
         self.names: list[str] = []
         self.m = 0
@@ -181,7 +182,7 @@ class _Rows:
         if k:
             self._G.append(G)
             self._b.append(b)
-            self._level.append(np.full(k, level, dtype=np.int64))
+            self._level.append((level, k))
             self._viol.append(viol)
             self.names.extend(names)
             self.m += k
@@ -192,7 +193,12 @@ class _Rows:
         if self._b:
             self.G = np.concatenate(self._G).reshape(self.m, n)
             self.b = np.concatenate(self._b).astype(np.float64, copy=False)
-            self.level = np.concatenate(self._level)
+            lv = self._level
+            self.level = (
+                np.full(self.m, lv[0][0], dtype=np.int64)
+                if len(lv) == 1
+                else np.repeat(np.array([x[0] for x in lv], dtype=np.int64), [x[1] for x in lv])
+            )
             self.violated = np.concatenate(self._viol).astype(bool, copy=False)
         else:
             self.G = np.zeros((0, n))
@@ -218,9 +224,13 @@ def _bounds(
     get the same definition from :func:`~velfence.shaping._kernels.fill_bounds` (``-inf`` where
     the profile sets no cap and there is no period). Each row's bound depends on its own
     distance only (both kernels run with unit scale and the cap speed ``speed``), so rows of
-    one profile and speed may share a call. ``kern``: the kernels, plain or compiled.
+    one profile and speed may share a call. ``kern``: the kernels, plain or compiled (numba), or
+    ``(None, velfence_core._nd)``: the same definition in C (``rate_bounds``, bit for bit).
     """
     kind, params = prm.kernel_profile
+    if kern[0] is None:
+        out: FloatArray = kern[1].rate_bounds(kind, params, dist, speed, idt)
+        return out
     k = dist.shape[0]
     bnd = np.zeros(k)
     work = np.zeros(k, dtype=np.int64)
@@ -268,6 +278,11 @@ _COMMAND_CAP = 1e3  # commands are shortened beyond this multiple of the fastest
 _RECOVERY_FRACTIONS = (*(0.25**k for k in range(1, 9)), 0.0)
 
 
+def _finite(x: FloatArray) -> bool:
+    """Whether every entry of the vector ``x`` is finite (Python floats: cheaper than numpy)."""
+    return all(map(math.isfinite, x.tolist()))
+
+
 def _projection(
     u: FloatArray, G: FloatArray, b: FloatArray, kernel: Any = None
 ) -> tuple[bool, FloatArray]:
@@ -290,14 +305,29 @@ def _projection(
             m, n, xa, np.zeros(n + 1), np.zeros(n + 1, dtype=np.int64),
             np.zeros(scratch_length(m, n)),
         )[0]  # fmt: skip
-        return status == PROJECT_OPTIMAL and bool(np.all(np.isfinite(xa))), xa
+        return status == PROJECT_OPTIMAL and _finite(xa), xa
     x = [0.0] * n
     lam = [0.0] * (n + 1)
     act = [0] * (n + 1)
     wsf = [0.0] * scratch_length(m, n)
     status = project_kernel(u.tolist(), G.ravel().tolist(), b.tolist(), m, n, x, lam, act, wsf)[0]
     xa = np.array(x, dtype=np.float64)
-    return status == PROJECT_OPTIMAL and bool(np.all(np.isfinite(xa))), xa
+    return status == PROJECT_OPTIMAL and _finite(xa), xa
+
+
+def _projection_c(
+    core: Any, u: FloatArray, G: FloatArray, b: FloatArray
+) -> tuple[bool, FloatArray]:
+    """:func:`_projection` through the compiled core (``velfence_core._nd.project``).
+
+    The same kernel in C, bit for bit; C-contiguous float64 arrays, finite.
+    """
+    status, x = core.project(
+        np.ascontiguousarray(u, dtype=np.float64),
+        np.ascontiguousarray(G, dtype=np.float64),
+        np.ascontiguousarray(b, dtype=np.float64),
+    )
+    return status == 0 and _finite(x), x
 
 
 def _factor(H: FloatArray) -> FloatArray:
@@ -357,8 +387,16 @@ class SafetyFilter(InvalidPolicy):
         weights: Joint-mode metric ``W``: ``None`` (identity), per-joint weights (n,) > 0, or a
             symmetric positive definite (n, n) matrix.
         damping: :math:`\lambda` of the twist mode's damped least squares [m/rad], > 0.
-        accelerate: Solve with the numba-compiled projection and bound kernels when numba is
-            installed (default True; the same results to round-off); plain Python otherwise.
+        accelerate: With the Python backend, solve with the numba-compiled projection and
+            bound kernels when numba is installed (default True; the same results to
+            round-off); plain Python otherwise.
+        backend: Implementation of the solve, the bounds and (for a ``DHChain`` / ``PlanarArm``)
+            the obstacle rows (:data:`~velfence.shaping.polytope.PolytopeBackend`): ``"auto"``
+            (default) runs the compiled C core (the separate ``velfence_core`` distribution)
+            when it is importable, the Python reference otherwise; ``"python"`` always runs
+            the reference (numba with ``accelerate``); ``"c"`` requires the core. The solve and
+            the bounds are the reference's bit for bit; the obstacle geometry agrees to
+            round-off. :attr:`backend` reports the one in use.
         on_invalid: ``"raise"`` or ``"stop"`` (zero velocity, zone ``"invalid"``).
 
     Raises:
@@ -369,6 +407,9 @@ class SafetyFilter(InvalidPolicy):
 
     __slots__ = (
         "_cached",
+        "_caps",
+        "_core",
+        "_dpos",
         "_has_accel",
         "_joint_prof",
         "_joint_rows",
@@ -383,7 +424,9 @@ class SafetyFilter(InvalidPolicy):
         "_vsum",
         "_workspace",
         "_ws_names",
+        "_ws_prof",
         "accelerate",
+        "backend",
         "damping",
         "dof",
         "dt",
@@ -412,6 +455,7 @@ class SafetyFilter(InvalidPolicy):
         damping: float = 1e-2,
         accelerate: bool = True,
         on_invalid: OnInvalid = "raise",
+        backend: PolytopeBackend = "auto",
     ) -> None:
         super().__init__(on_invalid=on_invalid)
         for attr in ("dof", "joint_names", "points", "fk", "jacobian"):
@@ -521,14 +565,23 @@ class SafetyFilter(InvalidPolicy):
             )
         )
         self.accelerate = check_flag("accelerate", accelerate)
+        self._core, self.backend = pick_backend(backend)
         self._solver: Any = None
         self._kern: _BoundKernels = _PLAIN_BOUNDS
-        if self.accelerate:
+        if self._core is not None:
+            self._kern = (None, self._core)
+        elif self.accelerate:
             from velfence.shaping._accel import compiled_bounds, compiled_project
 
             self._solver = compiled_project()
             self._kern = compiled_bounds() or _PLAIN_BOUNDS
         self._joint_rows = self._joint_layout()
+        self._dpos = (
+            np.tile([1.0, -1.0], n),
+            np.stack(
+                [-np.asarray(limits.lower, float), np.asarray(limits.upper, float)], 1
+            ).ravel(),
+        )
         self._vsum = float(np.sum(limits.max_velocity))  # Σ_j v_j [rad/s]
         # Obstacles' fixed parts: centres (k, 3), radii (k,), the links' capsule radii, profile,
         # (centre, radius) as floats.
@@ -542,7 +595,29 @@ class SafetyFilter(InvalidPolicy):
                 LinearBuffer(buffer=self.obstacle_buffer, spring_gain=self.spring_gain),
                 tuple((tuple(o.center.tolist()), o.radius) for o in self._obstacles),
             )
+        # The compiled obstacle rows (a serial chain with the core): the fixed parts once.
+        self._caps: Any = None
+        if self._obstacles and self._cached and self._core is not None:
+            kin0: Any = self._kinematics(q0)
+            nl = int(kin0[0].shape[0]) - 1
+            nj = int(kin0[1].shape[0])
+            geo: Any = self._obstacle_geometry
+            centres, srad, radii, oprof, _ = geo
+            okind, oprm = oprof.kernel_profile
+            lrad = np.broadcast_to(radii, (nl,)) if radii.shape[0] == 1 else radii[:nl]
+            self._caps = self._core.CapsuleRows(
+                np.ascontiguousarray(lrad, dtype=np.float64),
+                np.ascontiguousarray(centres, dtype=np.float64).ravel(),
+                np.ascontiguousarray(srad, dtype=np.float64),
+                np.ascontiguousarray(limits.max_velocity[:nj], dtype=np.float64),
+                nl, nj, n, len(self._obstacles), self.obstacle_buffer, self.dt or 0.0,
+                okind, list(oprm),
+            )  # fmt: skip
         self._rate_rows = self._rate_layout()
+        self._ws_prof: tuple[Profile, ...] = tuple(
+            w.profile if w.profile is not None else LinearBuffer(buffer=w.buffer)
+            for w in self._workspace
+        )
         self._ws_names = tuple(
             [
                 f"{f'workspace {w_i}: ' if len(self._workspace) > 1 else ''}"
@@ -677,12 +752,11 @@ class SafetyFilter(InvalidPolicy):
         n = self.dof
         idt = 0.0 if self.dt is None else 1.0 / self.dt
         rows = _Rows()
-        lim = self.limits
         # Joint position and velocity rows (the fixed layout, bounds per profile group).
         G4, names4, finite, groups, vside, pos, b4 = self._joint_rows
-        dpos = np.empty(2 * n)
-        dpos[0::2] = q - lim.lower
-        dpos[1::2] = lim.upper - q
+        # per joint: q − lower, upper − q (as q·(±1) + (−lower | upper): the same bits)
+        sgn, lohi = self._dpos
+        dpos = np.repeat(q, 2) * sgn + lohi
         if len(groups) == 1 and groups[0][2].shape[0] == 2 * n:
             bpos = _bounds(groups[0][0], dpos, groups[0][1], idt, self._kern)
         else:
@@ -722,9 +796,9 @@ class SafetyFilter(InvalidPolicy):
             )
             poly = w.polytope
             dist = poly.normals @ p - poly.offsets
-            s = float(np.linalg.norm(J @ u))
-            prof = w.profile if w.profile is not None else LinearBuffer(buffer=w.buffer)
-            bnd = _bounds(prof, dist, s, idt, self._kern)
+            ju = J @ u
+            s = math.sqrt(float(ju @ ju))
+            bnd = _bounds(self._ws_prof[w_i], dist, s, idt, self._kern)
             kept = np.flatnonzero(bnd != -math.inf)
             names = self._ws_names[w_i]
             first = rows.block(
@@ -742,23 +816,127 @@ class SafetyFilter(InvalidPolicy):
     def _obstacle_rows(
         self, q: FloatArray, u: FloatArray, idt: float, rows: _Rows, kin: Any = None
     ) -> None:
+        if kin is not None and self._caps is not None:
+            G, b, d, oi, lk = self._caps.rows(kin[0], kin[1], np.ascontiguousarray(u), idt)
+            if d.shape[0]:
+                first = rows.block(
+                    G, b, LEVEL_OBSTACLE, d < 0.0,
+                    [f"obstacle {i} on link {k}" for i, k in zip(oi, lk, strict=True)],
+                )  # fmt: skip
+                if idt > 0.0:
+                    dl = d.tolist()
+                    rows.check.extend(
+                        (first + r, "ob", (oi[r], lk[r])) for r in range(len(dl)) if dl[r] >= 0.0
+                    )
+            return
+        if kin is not None:
+            self._obstacle_rows_chain(u, idt, rows, kin)
+            return
+        self._obstacle_rows_generic(q, u, idt, rows)
+
+    def _obstacle_rows_chain(self, u: FloatArray, idt: float, rows: _Rows, kin: Any) -> None:
+        r"""The obstacle rows of a serial chain from its one kinematics pass, in numpy at once.
+
+        Every (obstacle, link) pair's closest point, clearance and normal as (k, links) arrays
+        (the arithmetic of :func:`velfence.geometry.primitives.sphere_capsule_distance`), then
+        the rows of the pairs within reach: the normal's Jacobian row
+        :math:`n\cdot(z_j \times (x_c - P_j))` for the joints moving the link, and the bound
+        from the exact law's definition at the speed :math:`\|J_c u\|` of the critical point.
+        """
+        from velfence.geometry.primitives import _fallback_normal
+
+        centres, srad, radii, prof, _ = self._obstacle_geometry
+        P, axes = kin[0], kin[1]
+        nl = P.shape[0] - 1
+        A = P[:-1]
+        B = P[1:]
+        D = B - A
+        dd = (D * D).sum(axis=1)
+        W = centres[:, None, :] - A[None, :, :]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = np.clip((W * D[None, :, :]).sum(axis=2) / dd[None, :], 0.0, 1.0)
+        t[:, dd == 0.0] = 0.0
+        # a + t (b - a), exact at both ends (as _lerp)
+        tt = t[:, :, None]
+        X = np.where(tt <= 0.5, A[None] + tt * D[None], B[None] - (1.0 - tt) * D[None])
+        R = X - centres[:, None, :]
+        dist = np.sqrt((R * R).sum(axis=2))
+        clear = dist - srad[:, None] - radii[None, :nl]
+        buf = self.obstacle_buffer
+        near = clear < buf
+        reach: Any = None
+        beyond = ~near
+        if beyond.any() and self.dt is not None and idt > 0.0:
+            far = float(clear[beyond].min())
+            # Σ_j v_j |p − P_j| <= Σ_j v_j · 2 max_a |P_a − P_0| (triangle inequality): when
+            # every pair beyond the buffer is farther than that (with margin), none is in reach.
+            bound = 2.0 * float(np.linalg.norm(P - P[0], axis=1).max()) * self._vsum
+            if not far > 1.5 * self.dt * bound * (1.0 + 1e-9):
+                # |ṗ| <= Σ_{j <= k} v_j max(|a_k − P_j|, |b_k − P_j|) for every point of link k
+                M = np.linalg.norm(P[:, None, :] - P[None, :nl], axis=2)
+                lever = np.maximum(M[:-1], M[1:])
+                reach = 1.5 * self.dt * (np.tril(lever) @ self.limits.max_velocity[:nl])
+                near = near | (clear <= reach[None, :])
+        obs_i, link = np.nonzero(near)
+        if obs_i.shape[0] == 0:
+            return
+        d_sel = clear[obs_i, link]
+        x_sel = X[obs_i, link]
+        r_sel = R[obs_i, link]
+        n_sel = dist[obs_i, link]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            nrm = r_sel / n_sel[:, None]
+        zero = np.flatnonzero(n_sel == 0.0)
+        for z in zero.tolist():
+            ln = int(link[z])
+            nrm[z] = _fallback_normal(tuple(A[ln].tolist()), tuple(B[ln].tolist()))
+        # Jacobian of each critical point: columns z_j × (x_c − P_j) for the joints j <= link.
+        nj = axes.shape[0]
+        Dp = x_sel[:, None, :] - P[None, :nj, :]
+        ax = axes[None, :, :]
+        cx = ax[..., 1] * Dp[..., 2] - ax[..., 2] * Dp[..., 1]
+        cy = ax[..., 2] * Dp[..., 0] - ax[..., 0] * Dp[..., 2]
+        cz = ax[..., 0] * Dp[..., 1] - ax[..., 1] * Dp[..., 0]
+        moving = np.arange(nj)[None, :] <= link[:, None]
+        cx = np.where(moving, cx, 0.0)
+        cy = np.where(moving, cy, 0.0)
+        cz = np.where(moving, cz, 0.0)
+        if nj < self.dof:
+            pad = ((0, 0), (0, self.dof - nj))
+            cx, cy, cz = np.pad(cx, pad), np.pad(cy, pad), np.pad(cz, pad)
+        G = nrm[:, 0:1] * cx + nrm[:, 1:2] * cy + nrm[:, 2:3] * cz
+        speed = np.sqrt((cx @ u) ** 2 + (cy @ u) ** 2 + (cz @ u) ** 2).tolist()
+        ds = d_sel.tolist()
+        bs = [_bound1(prof, ds[r], speed[r], idt) for r in range(len(ds))]
+        keep = [r for r in range(len(ds)) if bs[r] != -math.inf]
+        if not keep:
+            return
+        oi = obs_i.tolist()
+        lk = link.tolist()
+        if len(keep) < len(ds):
+            G = G[keep]
+        first = rows.block(
+            G, np.array([bs[r] for r in keep]), LEVEL_OBSTACLE,
+            np.array([ds[r] < 0.0 for r in keep]),
+            [f"obstacle {oi[r]} on link {lk[r]}" for r in keep],
+        )  # fmt: skip
+        if idt > 0.0:
+            rows.check.extend(
+                (first + c, "ob", (oi[r], lk[r])) for c, r in enumerate(keep) if ds[r] >= 0.0
+            )
+
+    def _obstacle_rows_generic(self, q: FloatArray, u: FloatArray, idt: float, rows: _Rows) -> None:
+        """The obstacle rows through the robot's public capsule protocol (any robot)."""
         from velfence.geometry.primitives import _sphere_capsule
 
         robot: Any = self.robot
-        segs: Any = None
-        if kin is None:
-            segs = np.asarray(robot.link_segments(q), dtype=float)
-            P = np.asarray(robot.joint_positions(q), dtype=float)
-            S = segs.tolist()
-        else:  # a SerialChain: link k runs from P_k to P_{k+1}
-            P = kin[0]
-            pts = P.tolist()
-            S = [(pts[k], pts[k + 1]) for k in range(len(pts) - 1)]
+        segs = np.asarray(robot.link_segments(q), dtype=float)
+        P = np.asarray(robot.joint_positions(q), dtype=float)
+        S = segs.tolist()
         _, _, radii, prof, spheres = self._obstacle_geometry
         rl = radii.tolist()
         nl = len(S)
-        # Every (obstacle, link) pair's clearance, critical point and normal, in plain floats
-        # (under a microsecond a pair, below the batch form's fixed cost at these sizes).
+        # Every (obstacle, link) pair's clearance, critical point and normal, in plain floats.
         pairs = [
             _sphere_capsule(c, rs, (a[0], a[1], a[2]), (e[0], e[1], e[2]), rl[k])
             for c, rs in spheres
@@ -767,37 +945,23 @@ class SafetyFilter(InvalidPolicy):
         buf = self.obstacle_buffer
         reach: Any = None
         far = [p[0] for p in pairs if p[0] >= buf]
-        if far and kin is not None and self.dt is not None:
-            # Σ_j v_j |p − P_j| <= Σ_j v_j · 2 max_a |P_a − P_0| (triangle inequality): when
-            # every pair beyond the buffer is farther than that (with margin), none is in reach
-            # and the exact per-link reach below is not needed.
-            bound = 2.0 * float(np.linalg.norm(P - P[0], axis=1).max()) * self._vsum
-            if min(far) > 1.5 * self.dt * bound * (1.0 + 1e-9):
-                far = []
         if idt > 0.0 and self.dt is not None and far:
             # |ṗ| <= Σ_j v_j |p − P_j| for every point of link k (j <= k): beyond one period's
             # reach at full joint speed (with margin), no bound needed. Per link (all at once):
             # Σ_{j <= k} v_j max(|a_k − P_j|, |b_k − P_j|).
-            if kin is not None:  # a SerialChain: a_k = P_k, b_k = P_{k+1}
-                M = np.linalg.norm(P[:, None, :] - P[None, :nl], axis=2)
-                lever = np.maximum(M[:-1], M[1:])
-            else:
-                D = segs[:, :, None, :] - P[None, None, :nl]
-                lever = np.linalg.norm(D, axis=3).max(axis=1)
+            D = segs[:, :, None, :] - P[None, None, :nl]
+            lever = np.linalg.norm(D, axis=3).max(axis=1)
             reach = (1.5 * self.dt * (np.tril(lever) @ self.limits.max_velocity[:nl])).tolist()
         G: list[FloatArray] = []
         bs: list[float] = []
         viol: list[bool] = []
         names: list[str] = []
         checks: list[tuple[int, tuple[int, int]]] = []
-        for ip, (d, x_c, t, nrm) in enumerate(pairs):
+        for ip, (d, _x_c, t, nrm) in enumerate(pairs):
             if d >= buf and (reach is None or d > reach[ip % nl]):
                 continue  # beyond the buffer: no cap; in discrete time also out of reach
             i, link = divmod(ip, nl)
-            if kin is not None:
-                Jc = robot._jacobian_at(kin, link + 1, np.array(x_c))
-            else:
-                Jc = np.asarray(robot.point_jacobian(q, link, t), dtype=float)
+            Jc = np.asarray(robot.point_jacobian(q, link, t), dtype=float)
             s = float(np.linalg.norm(Jc @ u))
             b = _bound1(prof, d, s, idt)
             if b == -math.inf:
@@ -814,6 +978,12 @@ class SafetyFilter(InvalidPolicy):
         rows.check.extend((first + r, "ob", key) for r, key in checks)
 
     # ------------------------------------------------------------------ solve
+    def _solve(self, u: FloatArray, G: FloatArray, b: FloatArray) -> tuple[bool, FloatArray]:
+        """The projection by the backend in use: ``(feasible, x)``."""
+        if self._core is not None:
+            return _projection_c(self._core, u, G, b)
+        return _projection(u, G, b, self._solver)
+
     def _project(
         self, u: FloatArray, G: FloatArray, b: FloatArray, L: _Metric
     ) -> tuple[bool, FloatArray]:
@@ -822,13 +992,13 @@ class SafetyFilter(InvalidPolicy):
             # metric's round trip L⁻ᵀ Lᵀ u would move it by round-off).
             return True, u.copy()
         if L is None:
-            return _projection(u, G, b, self._solver)
+            return self._solve(u, G, b)
         if L.ndim == 1:  # diagonal metric: L = diag(lv), y = lv * x
-            ok, y = _projection(u * L, G / L[None, :], b, self._solver)
+            ok, y = self._solve(u * L, G / L[None, :], b)
             x: FloatArray = y / L
         else:  # y = Lᵀ x: G x = G L⁻ᵀ y
             GL = np.asarray(np.linalg.solve(L, G.T).T, dtype=np.float64)
-            ok, y = _projection(L.T @ u, GL, b, self._solver)
+            ok, y = self._solve(L.T @ u, GL, b)
             x = np.asarray(np.linalg.solve(L.T, y), dtype=np.float64)
         if ok:
             # Round-off of the back-substitution: repair along the violated rows (a few ulps).
@@ -851,6 +1021,7 @@ class SafetyFilter(InvalidPolicy):
         dists: dict[int, list[float]] = {}
         segs: Any = None
         rl: list[float] = []
+        clear: Any = None
         for r, kind, (a, i) in rows.check:
             if kind == "ws":
                 if a not in dists:
@@ -858,6 +1029,10 @@ class SafetyFilter(InvalidPolicy):
                     p1 = self._fk(q1, kin, self._workspace[a].point)
                     dists[a] = (poly.normals @ p1 - poly.offsets).tolist()
                 out[r] = dists[a][i]
+            elif kin is not None and self._caps is not None:
+                if clear is None:  # every pair at once, in C
+                    clear = self._caps.clearances(kin[0])
+                out[r] = clear[a * (kin[0].shape[0] - 1) + i]
             else:
                 if segs is None:
                     robot: Any = self.robot
@@ -875,13 +1050,14 @@ class SafetyFilter(InvalidPolicy):
     @staticmethod
     def _steps(rows: _Rows) -> Any:
         """The ladder's steps, made as they are needed: (keep mask, bounds, dropped, stage)."""
+        # first: every row as built (mask None: no copy of G)
+        yield None, rows.b.copy(), None, None
         m = rows.m
         level = rows.level
         viol = rows.violated
         present = set(level.tolist())
         keep = np.ones(m, dtype=bool)
         b = rows.b.copy()
-        yield keep.copy(), b.copy(), None, None
         if LEVEL_RATE in present:
             keep &= level != LEVEL_RATE
             yield keep.copy(), b.copy(), "acceleration", "dropped acceleration"
@@ -917,13 +1093,18 @@ class SafetyFilter(InvalidPolicy):
                 dropped.append(drop)
             if stage is not None:
                 stages.append(stage)
-            bb = bb.copy()
-            ok, x = self._project(u, G[mask], bb[mask], L)
+            if mask is None:
+                ok, x = self._project(u, G, bb, L)
+            else:
+                bb = bb.copy()
+                ok, x = self._project(u, G[mask], bb[mask], L)
             if ok and rows.check:
+                if mask is None:
+                    mask = np.ones(rows.m, dtype=bool)
                 ok, x, tightened = self._model_check(q, u, G, bb, mask, rows, x, L)
                 if tightened:
                     stages.append("model-check")
-            if ok and np.all(np.isfinite(x)):
+            if ok and _finite(x):
                 return x, bb, dropped, stages, "acceleration" in dropped
             b = bb
         stages.append("stop")
@@ -975,8 +1156,59 @@ class SafetyFilter(InvalidPolicy):
         )  # fmt: skip
 
     def _bad(self, *arrays: FloatArray) -> bool:
-        # max |a| is NaN when a holds a NaN, and NaN <= MAX_MAGNITUDE is False
-        return not all(a.size == 0 or bool(np.abs(a).max() <= MAX_MAGNITUDE) for a in arrays)
+        # On Python floats (cheaper than numpy for a few entries): a NaN or inf makes the sum's
+        # s - s NaN; finite entries up to MAX_MAGNITUDE cannot overflow the sum of a state.
+        for a in arrays:
+            if a.size:
+                vals = a.ravel().tolist()
+                s = sum(vals)
+                if not (s - s == 0.0 and max(map(abs, vals)) <= MAX_MAGNITUDE):
+                    return True
+        return False
+
+    def _cycle(
+        self,
+        q: FloatArray,
+        u: FloatArray,
+        cmd: FloatArray,
+        L: _Metric,
+        previous: Any,
+        remember: bool,
+        kin: Any = None,
+        known: tuple[str, FloatArray] | None = None,
+    ) -> FilterResult | tuple[_Rows, FloatArray, FloatArray, list[str], list[str], bool, bool]:
+        """One cycle's rows and solve, without the diagnostics.
+
+        Returns ``(rows, x, u, dropped, stages, override, scaled)``, or the stop result (a
+        :class:`FilterResult`) for bad input; remembers ``x`` when asked.
+        """
+        prev: FloatArray | None = None
+        if previous is not None:
+            prev = self._state("previous", previous, self.dof, "rad/s")
+            if self._bad(prev):
+                self._invalid(f"non-finite previous={prev.tolist()}")
+                return self._stopped(q, cmd)
+        elif remember:
+            prev = self._previous
+        scaled = False
+        cap = _COMMAND_CAP * self._speed_scale
+        # (u is finite here: validated, or the twist's solve checked)
+        big = max(map(abs, u.tolist())) if u.size else 0.0
+        if big > cap:
+            # A command far beyond what the joints can do (1e3 times their fastest limit) is
+            # shortened in its own direction first, so the solve stays well inside floating
+            # point; its answer meets every row as the full command's would.
+            u = u * (cap / big)
+            scaled = True
+        with np.errstate(all="ignore"):
+            rows = self._rows(q, u, prev, self._kinematics(q) if kin is None else kin, known)
+            x, _, dropped, stages, override = self._solve_ladder(q, u, rows, L)
+        if not _finite(x):
+            self._invalid("input too large: the filtered velocity overflowed")
+            return self._stopped(q, cmd)
+        if remember and self._has_accel:
+            self._previous = readonly(x.copy())
+        return rows, x, u, dropped, stages, override, scaled
 
     def _run(
         self,
@@ -989,29 +1221,10 @@ class SafetyFilter(InvalidPolicy):
         kin: Any = None,
         known: tuple[str, FloatArray] | None = None,
     ) -> FilterResult:
-        prev: FloatArray | None = None
-        if previous is not None:
-            prev = self._state("previous", previous, self.dof, "rad/s")
-            if self._bad(prev):
-                self._invalid(f"non-finite previous={prev.tolist()}")
-                return self._stopped(q, cmd)
-        elif remember:
-            prev = self._previous
-        scaled = False
-        cap = _COMMAND_CAP * self._speed_scale
-        big = float(np.abs(u).max()) if u.size else 0.0
-        if big > cap:
-            # A command far beyond what the joints can do (1e3 times their fastest limit) is
-            # shortened in its own direction first, so the solve stays well inside floating
-            # point; its answer meets every row as the full command's would.
-            u = u * (cap / big)
-            scaled = True
-        with np.errstate(all="ignore"):
-            rows = self._rows(q, u, prev, self._kinematics(q) if kin is None else kin, known)
-            x, _, dropped, stages, override = self._solve_ladder(q, u, rows, L)
-        if not np.all(np.isfinite(x)):
-            self._invalid("input too large: the filtered velocity overflowed")
-            return self._stopped(q, cmd)
+        c = self._cycle(q, u, cmd, L, previous, remember, kin, known)
+        if isinstance(c, FilterResult):
+            return c
+        rows, x, u, dropped, stages, override, scaled = c
         G = rows.G
         b0 = rows.b
         fin = np.isfinite(b0)
@@ -1031,8 +1244,6 @@ class SafetyFilter(InvalidPolicy):
             pre.append("projection")
         if n_out:
             pre.append("recovery")
-        if remember and self._has_accel:
-            self._previous = readonly(x.copy())
         return FilterResult(
             output=x, command=cmd, position=q, zone=zone, active=act,
             active_names=tuple(rows.names[i] for i in act), slack=readonly(slack),
@@ -1070,8 +1281,17 @@ class SafetyFilter(InvalidPolicy):
     def filter(
         self, q: ArrayLike, qd_cmd: ArrayLike, *, previous: ArrayLike | None = None
     ) -> FloatArray:
-        """The filtered joint velocity [rad/s], shape (dof,) (:meth:`explain`'s output)."""
-        return self.explain(q, qd_cmd, previous=previous).output
+        """The filtered joint velocity [rad/s], shape (dof,) (:meth:`explain`'s output).
+
+        The same cycle as :meth:`explain` without the diagnostics (zone, slack, names).
+        """
+        qa = self._state("q", q, self.dof, "rad")
+        ua = self._state("qd_cmd", qd_cmd, self.dof, "rad/s")
+        if self._bad(qa, ua):
+            self._invalid(f"non-finite input: q={qa.tolist()}, qd_cmd={ua.tolist()}")
+            return np.zeros(self.dof)
+        c = self._cycle(qa, ua, ua, self._metric, previous, True)
+        return c.output if isinstance(c, FilterResult) else c[1]
 
     def explain_twist(
         self,

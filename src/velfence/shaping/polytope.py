@@ -17,15 +17,23 @@ result equals ``PolygonShaper(method="exact")`` to round-off.
 
 from __future__ import annotations
 
+import importlib
 import math
 from dataclasses import dataclass
-from typing import Any
+from functools import cache
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from velfence._typing import BoolArray, FloatArray, IntArray
-from velfence._validate import MAX_MAGNITUDE, check_flag, check_positive, real_array
+from velfence._validate import (
+    MAX_MAGNITUDE,
+    check_choice,
+    check_flag,
+    check_positive,
+    real_array,
+)
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.geometry.polytope import ConvexPolytope
 from velfence.geometry.projection import PROJECT_OPTIMAL, project_kernel, scratch_length
@@ -35,7 +43,55 @@ from velfence.shaping._accel import compiled_polytope
 from velfence.shaping.base import InvalidPolicy, OnInvalid, Zone
 from velfence.shaping.profiles import ApproachProfile, LinearBuffer, ThreeZoneBraking
 
-__all__ = ["PolytopeResult", "PolytopeShaper"]
+__all__ = ["PolytopeBackend", "PolytopeResult", "PolytopeShaper"]
+
+#: Implementations of the n-D law (and of the safety filter's solve): ``"auto"`` (the compiled
+#: core when importable, else Python), ``"python"`` (the reference kernels, numba with
+#: ``accelerate``) or ``"c"`` (the core, required).
+PolytopeBackend = Literal["auto", "python", "c"]
+_BACKENDS = ("auto", "python", "c")
+
+
+@cache
+def compiled_nd() -> Any:
+    """The compiled core's n-D binding (``velfence_core._nd``), or None when not installed.
+
+    ``project(u, G, b)`` and ``PolytopeLaw``: :func:`~velfence.geometry.projection.project_kernel`
+    and :func:`~velfence.shaping._nd_kernels.polytope_kernel` in C99, bit for bit (tests/core).
+    """
+    try:
+        return importlib.import_module("velfence_core._nd")
+    except ImportError:
+        return None
+
+
+def pick_backend(backend: object, usable: bool = True) -> tuple[Any, Literal["python", "c"]]:
+    """``(velfence_core._nd or None, backend in use)`` for a ``backend`` argument.
+
+    ``usable``: whether the caller's configuration can run in C at all (a profile the kernels
+    do not know cannot); ``backend="c"`` without the core or with ``usable`` False raises
+    :class:`~velfence.errors.InvalidParameter` naming ``backend``.
+    """
+    choice = check_choice("backend", backend, _BACKENDS)
+    if choice == "python":
+        return None, "python"
+    if not usable:
+        if choice == "c":
+            raise InvalidParameter(
+                "backend='c' runs the kernels' own profiles (LinearBuffer, ThreeZoneBraking), "
+                "got another profile; use backend='auto' or 'python'"
+            )
+        return None, "python"
+    core = compiled_nd()
+    if core is None:
+        if choice == "c":
+            raise InvalidParameter(
+                "backend='c' needs the compiled core's n-D module velfence_core._nd (the "
+                "velfence_core distribution: `pip install ./core` from velfence's source), which "
+                "is not importable; use backend='auto' or 'python'"
+            )
+        return None, "python"
+    return core, "c"
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -110,8 +166,16 @@ class PolytopeShaper(InvalidPolicy):
             explicit-Euler step from inside never leaves (to round-off).
         on_invalid: ``"raise"`` (default) or ``"stop"`` (zero velocity, zone ``"invalid"``)
             for non-finite inputs.
-        accelerate: Run the compiled (numba) kernels when numba is installed (default True);
-            results are identical to the plain-Python kernels (tested).
+        accelerate: Run the compiled (numba) kernels when numba is installed and the Python
+            backend runs (default True); results are identical to the plain-Python kernels
+            (tested).
+        backend: Implementation of the law (:data:`PolytopeBackend`): ``"auto"`` (default) runs
+            the compiled C core (the separate ``velfence_core`` distribution, ``pip install
+            ./core``) for :meth:`shape`, :meth:`explain` and the batches when it is importable,
+            the Python reference kernels otherwise; ``"python"`` always runs the reference
+            (numba with ``accelerate``); ``"c"`` requires the core. Both give bit-identical
+            results (tests/core). A profile other than ``LinearBuffer`` / ``ThreeZoneBraking``
+            always runs in Python. :attr:`backend` reports the one in use.
 
     Raises:
         InvalidParameter: for any parameter out of range, naming it and the value got.
@@ -119,10 +183,13 @@ class PolytopeShaper(InvalidPolicy):
 
     __slots__ = (
         "_args",
+        "_core",
+        "_core_shape",
         "_generic",
         "_lists",
         "_ready",
         "accelerate",
+        "backend",
         "buffer",
         "dt",
         "max_recovery_speed",
@@ -144,6 +211,7 @@ class PolytopeShaper(InvalidPolicy):
         dt: float | None = None,
         on_invalid: OnInvalid = "raise",
         accelerate: bool = True,
+        backend: PolytopeBackend = "auto",
     ) -> None:
         if not isinstance(polytope, ConvexPolytope):
             raise InvalidParameter(
@@ -229,6 +297,14 @@ class PolytopeShaper(InvalidPolicy):
         self._lists: tuple[Any, ...] = (
             N.tolist(), off.tolist(), nf, dim, cen.tolist(), kind, prm, relax, idt
         )  # fmt: skip
+        nd_core, self.backend = pick_backend(backend, self._generic is None)
+        self._core: Any = None
+        self._core_shape: Any = None
+        if nd_core is not None:
+            self._core = nd_core.PolytopeLaw(
+                N, off, cen, nf, dim, kind, list(prm), relax, idt, MAX_MAGNITUDE
+            )
+            self._core_shape = self._core.shape_array
         self._ready = True
 
     def __setattr__(self, name: str, value: Any) -> None:
@@ -275,6 +351,9 @@ class PolytopeShaper(InvalidPolicy):
         nf, dim = self._args[2], self._args[3]
         if self._generic is not None:
             return self._run_generic(p, v, self._generic)
+        if self._core is not None:
+            out_c, res_c, active_c, dist_c, bnd_c, work_c = self._core.law(p, v)
+            return out_c, res_c, active_c, dist_c, (bnd_c, work_c)
         fn = compiled_polytope()[0] if compiled and self.accelerate else None
         if fn is not None:
             out = np.zeros(dim)
@@ -387,6 +466,13 @@ class PolytopeShaper(InvalidPolicy):
         Raises:
             InvalidInput: wrong shape or type, or non-finite input with ``on_invalid="raise"``.
         """
+        fast = self._core_shape
+        if fast is not None:
+            # Two finite float64 vectors of shape (n,) go straight to C; anything else (and an
+            # overflowed answer) takes the generic path below, with the same result.
+            res: FloatArray | None = fast(position, command)
+            if res is not None:
+                return res
         p, v, finite = self._vectors(position, command)
         if not finite:
             self._invalid(f"non-finite input: position={p.tolist()}, command={v.tolist()}")
@@ -491,11 +577,13 @@ class PolytopeShaper(InvalidPolicy):
             self._invalid(f"non-finite {which} in row(s) {np.flatnonzero(~good)[:10].tolist()}")
             P = np.where(good[:, None], P, 0.0)
             V = np.where(good[:, None], V, 0.0)
-        out = np.zeros_like(P)
+        out = np.zeros(P.shape)  # C order (the core writes rows in place)
         zones = np.zeros(P.shape[0], dtype=np.int64)
         fn = compiled_polytope()[1] if self.accelerate and self._generic is None else None
         if P.shape[0] == 0:
             pass
+        elif self._core is not None:
+            self._core.batch(np.ascontiguousarray(P), np.ascontiguousarray(V), out, zones)
         elif fn is not None:
             fn(np.ascontiguousarray(P), np.ascontiguousarray(V), out, zones, *self._args)
         else:
@@ -539,5 +627,6 @@ class PolytopeShaper(InvalidPolicy):
     def __repr__(self) -> str:
         return (
             f"PolytopeShaper({self.polytope.n_facets} facets in {self.dim}-D, "
-            f"buffer={self.buffer}, spring_gain={self.spring_gain}, dt={self.dt})"
+            f"buffer={self.buffer}, spring_gain={self.spring_gain}, dt={self.dt}, "
+            f"backend={self.backend!r})"
         )

@@ -104,8 +104,14 @@ def polytope_case(case: str) -> ConvexPolytope:
 
 
 def nd_shaper(poly: ConvexPolytope, s: BenchSettings, *, accelerate: bool = True) -> PolytopeShaper:
-    """The benchmark's :class:`PolytopeShaper` of ``poly`` (buffer and gain from ``s``)."""
-    return PolytopeShaper(poly, buffer=s.buffer, spring_gain=s.spring_gain, accelerate=accelerate)
+    """The benchmark's :class:`PolytopeShaper` of ``poly`` (buffer and gain from ``s``).
+
+    The Python backend (its rows are labelled numba / python); the compiled core is timed by
+    ``benchmarks/bench_nd.py``.
+    """
+    return PolytopeShaper(
+        poly, buffer=s.buffer, spring_gain=s.spring_gain, accelerate=accelerate, backend="python"
+    )
 
 
 def _exit_distance(poly: ConvexPolytope, c: FloatArray, U: FloatArray) -> FloatArray:

@@ -1,0 +1,751 @@
+/*
+ * velfence_core._nd -- CPython binding of the n-D projection and exact law (velfence_nd.h).
+ *
+ *   project(u, G, b) -> (status, x)          vf_nd_project_kernel on float64 buffers u (n,),
+ *                                             G (m, n) C-contiguous, b (m,); x a new array (n,).
+ *   project_full(u, G, b) -> (status, q, iters, x, act, lam)   the same with the active set.
+ *   PolytopeLaw(N, off, cen, nf, dim, kind, prm, relax, idt, max_abs=1e150)
+ *                       (PolytopeShaper's kernel data)
+ *     law(p, v)         -> (out, res, active, dist, bnd, work): polytope_kernel's outputs
+ *                          (out a new float64 array (dim,), res the 8-tuple, the rest lists)
+ *     shape_array(p, v) -> the shaped velocity as a new array (dim,), or None when p, v are not
+ *                          float64 ndarrays of shape (dim,), not finite or beyond max_abs, or the
+ *                          output overflowed
+ *                          (the caller's generic path then owns the on_invalid policy).
+ *     batch(P, V, out, zones) -> None: the unchecked kernel over rows (P, V float64 (N, dim)
+ *                          C-contiguous, out float64 (N, dim), zones int64 (N,)); releases the GIL.
+ *   rate_bounds(kind, prm, dist, speed, idt) -> bounds (k,)   vf_nd_rate_bounds (filter._bounds)
+ *   CapsuleRows(lrad, C, srad, vmax, nl, nj, ncols, k, buf, dt, kind, prm)
+ *     rows(P, axes, u, idt) -> (G (r, ncols), b (r,), d (r,), obstacles, links): the safety
+ *                          filter's obstacle rows (vf_nd_capsule_rows) from one kinematics pass.
+ *     clearances(P) -> list of every pair's clearance (vf_nd_capsule_clearances).
+ * The kernels are the unchecked ones: Python keeps its own checks and policies, as with _core.
+ */
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+
+#define NPY_NO_DEPRECATED_API NPY_1_7_API_VERSION
+#include <numpy/arrayobject.h>
+
+#include <math.h>
+#include <string.h>
+
+#include "velfence_nd.h"
+
+/* ------------------------------------------------------------------ helpers */
+
+static int read_doubles(PyObject *seq, const char *name, double *dst, Py_ssize_t count)
+{
+    PyObject *fast;
+    Py_ssize_t i;
+    if (PyArray_CheckExact(seq)) {
+        PyArrayObject *a = (PyArrayObject *)seq;
+        if (PyArray_NDIM(a) == 1 && PyArray_TYPE(a) == NPY_DOUBLE && PyArray_ISCARRAY_RO(a)
+            && PyArray_ISNOTSWAPPED(a)) {
+            if (PyArray_DIM(a, 0) != count) {
+                PyErr_Format(PyExc_ValueError, "%s: expected %zd floats, got %zd", name, count,
+                             (Py_ssize_t)PyArray_DIM(a, 0));
+                return -1;
+            }
+            memcpy(dst, PyArray_DATA(a), (size_t)count * sizeof(double));
+            return 0;
+        }
+    }
+    fast = PySequence_Fast(seq, name);
+    if (fast == NULL) {
+        return -1;
+    }
+    if (PySequence_Fast_GET_SIZE(fast) != count) {
+        PyErr_Format(PyExc_ValueError, "%s: expected %zd floats, got %zd", name, count,
+                     PySequence_Fast_GET_SIZE(fast));
+        Py_DECREF(fast);
+        return -1;
+    }
+    for (i = 0; i < count; i++) {
+        double v = PyFloat_AsDouble(PySequence_Fast_GET_ITEM(fast, i));
+        if (v == -1.0 && PyErr_Occurred()) {
+            Py_DECREF(fast);
+            return -1;
+        }
+        dst[i] = v;
+    }
+    Py_DECREF(fast);
+    return 0;
+}
+
+static int get_view(PyObject *o, Py_buffer *view, int writable, const char *fmt, const char *name)
+{
+    int flags = PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | (writable ? PyBUF_WRITABLE : 0);
+    if (PyObject_GetBuffer(o, view, flags) < 0) {
+        return -1;
+    }
+    if (view->itemsize != 8 || view->format == NULL
+        || !(strcmp(view->format, fmt) == 0 || (fmt[0] == 'q' && strcmp(view->format, "l") == 0
+                                                && sizeof(long) == 8))) {
+        PyErr_Format(PyExc_TypeError, "%s: expected a C-contiguous buffer of format '%s', got '%s'",
+                     name, fmt, view->format ? view->format : "?");
+        PyBuffer_Release(view);
+        view->obj = NULL;
+        return -1;
+    }
+    return 0;
+}
+
+static void release(Py_buffer *v)
+{
+    if (v->obj) {
+        PyBuffer_Release(v);
+        v->obj = NULL;
+    }
+}
+
+static PyObject *new_vector(const double *x, npy_intp n)
+{
+    PyObject *o = PyArray_SimpleNew(1, &n, NPY_DOUBLE);
+    if (o == NULL) {
+        return NULL;
+    }
+    memcpy(PyArray_DATA((PyArrayObject *)o), x, (size_t)n * sizeof(double));
+    return o;
+}
+
+static PyObject *int_list(const int32_t *a, Py_ssize_t n)
+{
+    PyObject *l = PyList_New(n);
+    Py_ssize_t i;
+    if (l == NULL) {
+        return NULL;
+    }
+    for (i = 0; i < n; i++) {
+        PyObject *v = PyLong_FromLong((long)a[i]);
+        if (v == NULL) {
+            Py_DECREF(l);
+            return NULL;
+        }
+        PyList_SET_ITEM(l, i, v);
+    }
+    return l;
+}
+
+static PyObject *float_list(const double *a, Py_ssize_t n)
+{
+    PyObject *l = PyList_New(n);
+    Py_ssize_t i;
+    if (l == NULL) {
+        return NULL;
+    }
+    for (i = 0; i < n; i++) {
+        PyObject *v = PyFloat_FromDouble(a[i]);
+        if (v == NULL) {
+            Py_DECREF(l);
+            return NULL;
+        }
+        PyList_SET_ITEM(l, i, v);
+    }
+    return l;
+}
+
+/* ------------------------------------------------------------------ project */
+
+/* Runs the kernel on (u, G, b); returns (status, x) or, with full, (status, q, iterations, x,
+ * active, multipliers). */
+static PyObject *run_project(PyObject *const *args, Py_ssize_t nargs, int full)
+{
+    Py_buffer u = {0}, G = {0}, b = {0};
+    Py_ssize_t n, m;
+    double *mem = NULL;
+    int32_t *act = NULL;
+    PyObject *ret = NULL;
+    if (nargs != 3) {
+        PyErr_Format(PyExc_TypeError, "expected 3 arguments (u, G, b), got %zd", nargs);
+        return NULL;
+    }
+    if (get_view(args[0], &u, 0, "d", "u") < 0 || get_view(args[1], &G, 0, "d", "G") < 0
+        || get_view(args[2], &b, 0, "d", "b") < 0) {
+        goto done;
+    }
+    n = u.len / 8;
+    m = b.len / 8;
+    if (n < 1 || n > (1 << 12) || m > (1 << 24) || G.len != 8 * n * m) {
+        PyErr_SetString(PyExc_ValueError, "u must be (n,) with n >= 1, G (m, n) and b (m,)");
+        goto done;
+    }
+    {
+        size_t nw = vf_nd_project_doubles((int32_t)m, (int32_t)n);
+        int status;
+        int32_t q = 0, iters = 0;
+        PyObject *x;
+        mem = PyMem_Malloc((nw + 2 * (size_t)n + 1) * sizeof(double));
+        act = PyMem_Malloc(((size_t)n + 1) * sizeof(int32_t));
+        if (mem == NULL || act == NULL) {
+            PyErr_NoMemory();
+            goto done;
+        }
+        status = vf_nd_project_kernel((const double *)u.buf, (const double *)G.buf,
+                                      (const double *)b.buf, (int32_t)m, (int32_t)n, mem + nw,
+                                      mem + nw + n, act, mem, &q, &iters);
+        x = new_vector(mem + nw, (npy_intp)n);
+        if (x == NULL) {
+            goto done;
+        }
+        if (!full) {
+            ret = Py_BuildValue("(iN)", status, x);
+        } else {
+            PyObject *a = int_list(act, q);
+            PyObject *l = float_list(mem + nw + n, q);
+            if (a == NULL || l == NULL) {
+                Py_XDECREF(a);
+                Py_XDECREF(l);
+                Py_DECREF(x);
+                goto done;
+            }
+            ret = Py_BuildValue("(iiiNNN)", status, (int)q, (int)iters, x, a, l);
+        }
+    }
+done:
+    release(&u);
+    release(&G);
+    release(&b);
+    PyMem_Free(mem);
+    PyMem_Free(act);
+    return ret;
+}
+
+static PyObject *nd_project(PyObject *mod, PyObject *const *args, Py_ssize_t nargs)
+{
+    (void)mod;
+    return run_project(args, nargs, 0);
+}
+
+static PyObject *nd_project_full(PyObject *mod, PyObject *const *args, Py_ssize_t nargs)
+{
+    (void)mod;
+    return run_project(args, nargs, 1);
+}
+
+/* ------------------------------------------------------------------ PolytopeLaw */
+
+typedef struct {
+    PyObject_HEAD
+    vf_nd_polytope poly;
+    vf_nd_law law;
+    double *mem; /* N, off, cen, p, v, out, then the law's scratch */
+    int32_t *ints;
+    int32_t *active;
+    vf_nd_scratch scratch;
+    double *p, *v, *out;
+    double max_abs; /* shape_array: larger inputs take the caller's generic path */
+} PolytopeLaw;
+
+static void PolytopeLaw_dealloc(PolytopeLaw *self)
+{
+    PyMem_Free(self->mem);
+    PyMem_Free(self->ints);
+    Py_TYPE(self)->tp_free((PyObject *)self);
+}
+
+static int PolytopeLaw_init(PolytopeLaw *self, PyObject *args, PyObject *kwds)
+{
+    PyObject *N, *off, *cen, *prm;
+    double idt;
+    double max_abs = 1e150;
+    int nf, dim, kind, relax;
+    size_t f, d, nd, ni;
+    static char *kwlist[] = {"N",    "off",  "cen", "nf",      "dim", "kind",
+                             "prm",  "relax", "idt", "max_abs", NULL};
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "OOOiiiOpd|d", kwlist, &N, &off, &cen, &nf,
+                                     &dim, &kind, &prm, &relax, &idt, &max_abs)) {
+        return -1;
+    }
+    if (nf < 1 || dim < 1 || nf > (1 << 20) || dim > (1 << 12)) {
+        PyErr_Format(PyExc_ValueError, "nf, dim: expected 1..2^20 facets in 1..4096 dimensions, "
+                     "got %d, %d", nf, dim);
+        return -1;
+    }
+    PyMem_Free(self->mem);
+    PyMem_Free(self->ints);
+    self->mem = NULL;
+    self->ints = NULL;
+    f = (size_t)nf;
+    d = (size_t)dim;
+    nd = vf_nd_law_doubles(nf, dim);
+    ni = vf_nd_law_ints(nf, dim);
+    self->mem = PyMem_Calloc(f * d + f + 4 * d + nd, sizeof(double));
+    self->ints = PyMem_Calloc(ni + d + 1, sizeof(int32_t));
+    if (self->mem == NULL || self->ints == NULL) {
+        PyErr_NoMemory();
+        return -1;
+    }
+    {
+        double *Nd = self->mem;
+        double *offd = Nd + f * d;
+        double *cend = offd + f;
+        self->p = cend + d;
+        self->v = self->p + d;
+        self->out = self->v + d;
+        self->scratch.dbl = self->out + d;
+        self->scratch.ints = self->ints;
+        self->active = self->ints + ni;
+        if (read_doubles(N, "N", Nd, (Py_ssize_t)(f * d)) < 0
+            || read_doubles(off, "off", offd, nf) < 0 || read_doubles(cen, "cen", cend, dim) < 0
+            || read_doubles(prm, "prm", self->law.prm, VF_ND_PROFILE_PARAMS) < 0) {
+            return -1;
+        }
+        self->poly.N = Nd;
+        self->poly.off = offd;
+        self->poly.cen = cend;
+        self->poly.nf = nf;
+        self->poly.dim = dim;
+    }
+    self->max_abs = max_abs;
+    self->law.kind = kind;
+    self->law.relax = relax;
+    self->law.idt = idt;
+    if (vf_nd_check(&self->poly, &self->law) != VF_ND_OK) {
+        PyErr_SetString(PyExc_ValueError, "invalid polytope or law data (vf_nd_check)");
+        return -1;
+    }
+    return 0;
+}
+
+static int read_state(PolytopeLaw *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (self->mem == NULL) {
+        PyErr_SetString(PyExc_RuntimeError, "PolytopeLaw not initialised");
+        return -1;
+    }
+    if (nargs != 2) {
+        PyErr_Format(PyExc_TypeError, "expected 2 arguments (p, v), got %zd", nargs);
+        return -1;
+    }
+    if (read_doubles(args[0], "p", self->p, self->poly.dim) < 0
+        || read_doubles(args[1], "v", self->v, self->poly.dim) < 0) {
+        return -1;
+    }
+    return 0;
+}
+
+static PyObject *PolytopeLaw_law(PolytopeLaw *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    vf_nd_result r;
+    const double *dist, *bnd;
+    const int32_t *work;
+    PyObject *out, *act, *dl, *bl, *wl;
+    if (read_state(self, args, nargs) < 0) {
+        return NULL;
+    }
+    vf_nd_kernel(&self->poly, &self->law, self->p, self->v, self->out, self->active,
+                 &self->scratch, &r);
+    vf_nd_bounded(&self->poly, &self->scratch, &dist, &bnd, &work);
+    out = new_vector(self->out, self->poly.dim);
+    act = int_list(self->active, r.q);
+    dl = float_list(dist, self->poly.nf);
+    bl = float_list(bnd, self->poly.nf);
+    wl = int_list(work, self->poly.nf);
+    if (out == NULL || act == NULL || dl == NULL || bl == NULL || wl == NULL) {
+        Py_XDECREF(out);
+        Py_XDECREF(act);
+        Py_XDECREF(dl);
+        Py_XDECREF(bl);
+        Py_XDECREF(wl);
+        return NULL;
+    }
+    return Py_BuildValue("(N(iiiiiddi)NNNN)", out, (int)r.zone, (int)r.stages, (int)r.q,
+                         (int)r.p1, (int)r.p2, r.d1, r.d2, (int)r.m, act, dl, bl, wl);
+}
+
+static PyObject *PolytopeLaw_shape_array(PolytopeLaw *self, PyObject *const *args,
+                                         Py_ssize_t nargs)
+{
+    vf_nd_result r;
+    int i, k;
+    int32_t dim = self->poly.dim;
+    double s = 0.0;
+    if (self->mem == NULL || nargs != 2) {
+        Py_RETURN_NONE;
+    }
+    for (i = 0; i < 2; i++) {
+        PyArrayObject *a = (PyArrayObject *)args[i];
+        double *dst = i == 0 ? self->p : self->v;
+        if (!PyArray_CheckExact(args[i]) || PyArray_NDIM(a) != 1 || PyArray_DIM(a, 0) != dim
+            || PyArray_TYPE(a) != NPY_DOUBLE || !PyArray_ISNOTSWAPPED(a)) {
+            Py_RETURN_NONE;
+        }
+        for (k = 0; k < dim; k++) {
+            dst[k] = *(const double *)PyArray_GETPTR1(a, k);
+            if (!(fabs(dst[k]) <= self->max_abs)) {
+                Py_RETURN_NONE;
+            }
+        }
+    }
+    vf_nd_kernel(&self->poly, &self->law, self->p, self->v, self->out, self->active,
+                 &self->scratch, &r);
+    /* PolytopeShaper.shape's overflow test: the sum of the output, in order, is finite */
+    for (k = 0; k < dim; k++) {
+        s += self->out[k];
+    }
+    if (!(s - s == 0.0)) {
+        Py_RETURN_NONE;
+    }
+    return new_vector(self->out, dim);
+}
+
+static PyObject *PolytopeLaw_batch(PolytopeLaw *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    Py_buffer P = {0}, V = {0}, out = {0}, zones = {0};
+    Py_ssize_t rows, r;
+    int32_t dim = self->poly.dim;
+    double *dbl = NULL;
+    int32_t *ints = NULL;
+    PyObject *ret = NULL;
+    if (self->mem == NULL) {
+        PyErr_SetString(PyExc_RuntimeError, "PolytopeLaw not initialised");
+        return NULL;
+    }
+    if (nargs != 4) {
+        PyErr_Format(PyExc_TypeError, "expected 4 arguments (P, V, out, zones), got %zd", nargs);
+        return NULL;
+    }
+    if (get_view(args[0], &P, 0, "d", "P") < 0 || get_view(args[1], &V, 0, "d", "V") < 0
+        || get_view(args[2], &out, 1, "d", "out") < 0
+        || get_view(args[3], &zones, 1, "q", "zones") < 0) {
+        goto done;
+    }
+    rows = zones.len / 8;
+    if (P.len != 8 * rows * dim || V.len != 8 * rows * dim || out.len != 8 * rows * dim) {
+        PyErr_SetString(PyExc_ValueError, "P, V, out must be (N, dim) and zones (N,)");
+        goto done;
+    }
+    dbl = PyMem_Malloc(vf_nd_law_doubles(self->poly.nf, dim) * sizeof(double));
+    ints = PyMem_Malloc((vf_nd_law_ints(self->poly.nf, dim) + (size_t)dim + 1) * sizeof(int32_t));
+    if (dbl == NULL || ints == NULL) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    Py_BEGIN_ALLOW_THREADS
+    {
+        vf_nd_scratch s;
+        vf_nd_result res;
+        int32_t *active = ints + vf_nd_law_ints(self->poly.nf, dim);
+        s.dbl = dbl;
+        s.ints = ints;
+        for (r = 0; r < rows; r++) {
+            size_t o = (size_t)r * (size_t)dim;
+            vf_nd_kernel(&self->poly, &self->law, (const double *)P.buf + o,
+                         (const double *)V.buf + o, (double *)out.buf + o, active, &s, &res);
+            ((int64_t *)zones.buf)[r] = res.zone;
+        }
+    }
+    Py_END_ALLOW_THREADS
+    ret = Py_None;
+    Py_INCREF(ret);
+done:
+    release(&P);
+    release(&V);
+    release(&out);
+    release(&zones);
+    PyMem_Free(dbl);
+    PyMem_Free(ints);
+    return ret;
+}
+
+static PyMethodDef PolytopeLaw_methods[] = {
+    {"law", (PyCFunction)(void (*)(void))PolytopeLaw_law, METH_FASTCALL,
+     "law(p, v) -> (out, res, active, dist, bnd, work): polytope_kernel's outputs."},
+    {"shape_array", (PyCFunction)(void (*)(void))PolytopeLaw_shape_array, METH_FASTCALL,
+     "shape_array(p, v) -> the shaped velocity (dim,), or None (not the fast path)."},
+    {"batch", (PyCFunction)(void (*)(void))PolytopeLaw_batch, METH_FASTCALL,
+     "batch(P, V, out, zones) -> None: the kernel over rows."},
+    {NULL, NULL, 0, NULL},
+};
+
+static PyTypeObject PolytopeLawType = {
+    PyVarObject_HEAD_INIT(NULL, 0).tp_name = "velfence_core._nd.PolytopeLaw",
+    .tp_basicsize = sizeof(PolytopeLaw),
+    .tp_flags = Py_TPFLAGS_DEFAULT,
+    .tp_doc = "The n-D exact law on one polytope (vf_nd_*).",
+    .tp_new = PyType_GenericNew,
+    .tp_init = (initproc)PolytopeLaw_init,
+    .tp_dealloc = (destructor)PolytopeLaw_dealloc,
+    .tp_methods = PolytopeLaw_methods,
+};
+
+
+/* ------------------------------------------------------------------ filter helpers */
+
+static PyObject *nd_rate_bounds(PyObject *mod, PyObject *const *args, Py_ssize_t nargs)
+{
+    int kind;
+    double prm[VF_ND_PROFILE_PARAMS], speed, idt;
+    Py_buffer dist = {0};
+    Py_ssize_t k;
+    int32_t *work = NULL;
+    PyObject *out = NULL;
+    npy_intp dims;
+    (void)mod;
+    if (nargs != 5) {
+        PyErr_Format(PyExc_TypeError, "expected 5 arguments (kind, prm, dist, speed, idt), got %zd",
+                     nargs);
+        return NULL;
+    }
+    kind = (int)PyLong_AsLong(args[0]);
+    if (kind == -1 && PyErr_Occurred()) {
+        return NULL;
+    }
+    speed = PyFloat_AsDouble(args[3]);
+    idt = PyFloat_AsDouble(args[4]);
+    if (PyErr_Occurred() || read_doubles(args[1], "prm", prm, VF_ND_PROFILE_PARAMS) < 0) {
+        return NULL;
+    }
+    if (get_view(args[2], &dist, 0, "d", "dist") < 0) {
+        return NULL;
+    }
+    k = dist.len / 8;
+    dims = k;
+    work = PyMem_Malloc((2 * (size_t)k + 1) * sizeof(int32_t));
+    if (work == NULL) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    out = PyArray_SimpleNew(1, &dims, NPY_DOUBLE);
+    if (out == NULL) {
+        goto done;
+    }
+    vf_nd_rate_bounds(kind, prm, (const double *)dist.buf, (int32_t)k, speed, idt,
+                      (double *)PyArray_DATA((PyArrayObject *)out), work);
+done:
+    release(&dist);
+    PyMem_Free(work);
+    return out;
+}
+
+typedef struct {
+    PyObject_HEAD
+    vf_nd_capsules cap;
+    double *mem; /* lrad, C, srad, vmax, then the outputs: G, b, d, work */
+    int32_t *ints; /* obs, link */
+    double *G, *b, *d, *work;
+} CapsuleRows;
+
+static void CapsuleRows_dealloc(CapsuleRows *self)
+{
+    PyMem_Free(self->mem);
+    PyMem_Free(self->ints);
+    Py_TYPE(self)->tp_free((PyObject *)self);
+}
+
+static int CapsuleRows_init(CapsuleRows *self, PyObject *args, PyObject *kwds)
+{
+    PyObject *lrad, *C, *srad, *vmax, *prm;
+    int nl, nj, ncols, k, kind;
+    double buf, dt;
+    size_t pairs;
+    static char *kwlist[] = {"lrad", "C", "srad", "vmax", "nl", "nj", "ncols", "k", "buf", "dt",
+                             "kind", "prm", NULL};
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "OOOOiiiiddiO", kwlist, &lrad, &C, &srad, &vmax,
+                                     &nl, &nj, &ncols, &k, &buf, &dt, &kind, &prm)) {
+        return -1;
+    }
+    if (nl < 1 || nj < 0 || nj > nl || ncols < nj || k < 0 || nl > 4096 || ncols > 4096
+        || k > (1 << 16) || !(dt >= 0.0)) {
+        PyErr_SetString(PyExc_ValueError, "CapsuleRows: bad sizes");
+        return -1;
+    }
+    PyMem_Free(self->mem);
+    PyMem_Free(self->ints);
+    pairs = (size_t)k * (size_t)nl;
+    self->mem = PyMem_Calloc((size_t)nl + 4 * (size_t)k + (size_t)nj + pairs * (size_t)ncols
+                                 + 3 * pairs + (size_t)nl + 1,
+                             sizeof(double));
+    self->ints = PyMem_Calloc(2 * pairs + 1, sizeof(int32_t));
+    if (self->mem == NULL || self->ints == NULL) {
+        PyErr_NoMemory();
+        return -1;
+    }
+    {
+        double *lr = self->mem;
+        double *cc = lr + nl;
+        double *sr = cc + 3 * (size_t)k;
+        double *vm = sr + k;
+        int32_t j;
+        self->G = vm + nj;
+        self->b = self->G + pairs * (size_t)ncols;
+        self->d = self->b + pairs;
+        self->work = self->d + pairs;
+        if (read_doubles(lrad, "lrad", lr, nl) < 0 || read_doubles(C, "C", cc, 3 * (Py_ssize_t)k) < 0
+            || read_doubles(srad, "srad", sr, k) < 0 || read_doubles(vmax, "vmax", vm, nj) < 0
+            || read_doubles(prm, "prm", self->cap.prm, VF_ND_PROFILE_PARAMS) < 0) {
+            return -1;
+        }
+        self->cap.lrad = lr;
+        self->cap.C = cc;
+        self->cap.srad = sr;
+        self->cap.vmax = vm;
+        self->cap.vsum = 0.0;
+        for (j = 0; j < nj; j++) {
+            self->cap.vsum += vm[j];
+        }
+    }
+    self->cap.nl = nl;
+    self->cap.nj = nj;
+    self->cap.ncols = ncols;
+    self->cap.k = k;
+    self->cap.buf = buf;
+    self->cap.dt = dt;
+    self->cap.idt = dt > 0.0 ? 1.0 / dt : 0.0;
+    self->cap.kind = kind;
+    return 0;
+}
+
+/* rows(P, axes, u, idt) -> (G (r, ncols), b (r,), d (r,), obs list, link list) */
+static PyObject *CapsuleRows_rows(CapsuleRows *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    Py_buffer P = {0}, A = {0}, u = {0};
+    PyObject *ret = NULL, *G = NULL, *b = NULL, *d = NULL, *ol = NULL, *ll = NULL;
+    vf_nd_capsules cap;
+    int32_t r;
+    npy_intp dims[2];
+    size_t pairs;
+    if (self->mem == NULL) {
+        PyErr_SetString(PyExc_RuntimeError, "CapsuleRows not initialised");
+        return NULL;
+    }
+    if (nargs != 4) {
+        PyErr_Format(PyExc_TypeError, "expected 4 arguments (P, axes, u, idt), got %zd", nargs);
+        return NULL;
+    }
+    cap = self->cap;
+    cap.idt = PyFloat_AsDouble(args[3]);
+    if (cap.idt == -1.0 && PyErr_Occurred()) {
+        return NULL;
+    }
+    if (!(cap.idt > 0.0)) {
+        cap.dt = 0.0;
+        cap.idt = 0.0;
+    }
+    if (get_view(args[0], &P, 0, "d", "P") < 0 || get_view(args[1], &A, 0, "d", "axes") < 0
+        || get_view(args[2], &u, 0, "d", "u") < 0) {
+        goto done;
+    }
+    if (P.len != 8 * 3 * ((Py_ssize_t)cap.nl + 1) || A.len < 8 * 3 * (Py_ssize_t)cap.nj
+        || u.len != 8 * (Py_ssize_t)cap.ncols) {
+        PyErr_SetString(PyExc_ValueError, "P must be (nl + 1, 3), axes (>= nj, 3), u (ncols,)");
+        goto done;
+    }
+    cap.P = (const double *)P.buf;
+    cap.axes = (const double *)A.buf;
+    pairs = (size_t)cap.k * (size_t)cap.nl;
+    r = vf_nd_capsule_rows(&cap, (const double *)u.buf, self->G, self->b, self->d, self->ints,
+                           self->ints + pairs, self->work);
+    dims[0] = r;
+    dims[1] = cap.ncols;
+    G = PyArray_SimpleNew(2, dims, NPY_DOUBLE);
+    b = PyArray_SimpleNew(1, dims, NPY_DOUBLE);
+    d = PyArray_SimpleNew(1, dims, NPY_DOUBLE);
+    ol = int_list(self->ints, r);
+    ll = int_list(self->ints + pairs, r);
+    if (G == NULL || b == NULL || d == NULL || ol == NULL || ll == NULL) {
+        Py_XDECREF(G);
+        Py_XDECREF(b);
+        Py_XDECREF(d);
+        Py_XDECREF(ol);
+        Py_XDECREF(ll);
+        goto done;
+    }
+    memcpy(PyArray_DATA((PyArrayObject *)G), self->G, (size_t)r * cap.ncols * sizeof(double));
+    memcpy(PyArray_DATA((PyArrayObject *)b), self->b, (size_t)r * sizeof(double));
+    memcpy(PyArray_DATA((PyArrayObject *)d), self->d, (size_t)r * sizeof(double));
+    ret = Py_BuildValue("(NNNNN)", G, b, d, ol, ll);
+done:
+    release(&P);
+    release(&A);
+    release(&u);
+    return ret;
+}
+
+/* clearances(P) -> list of the k * nl clearances (sphere-major) at the joint points P */
+static PyObject *CapsuleRows_clearances(CapsuleRows *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    Py_buffer P = {0};
+    vf_nd_capsules cap;
+    PyObject *ret = NULL;
+    if (self->mem == NULL) {
+        PyErr_SetString(PyExc_RuntimeError, "CapsuleRows not initialised");
+        return NULL;
+    }
+    if (nargs != 1) {
+        PyErr_Format(PyExc_TypeError, "expected 1 argument (P), got %zd", nargs);
+        return NULL;
+    }
+    if (get_view(args[0], &P, 0, "d", "P") < 0) {
+        return NULL;
+    }
+    if (P.len != 8 * 3 * ((Py_ssize_t)self->cap.nl + 1)) {
+        PyErr_SetString(PyExc_ValueError, "P must be (nl + 1, 3)");
+        release(&P);
+        return NULL;
+    }
+    cap = self->cap;
+    cap.P = (const double *)P.buf;
+    vf_nd_capsule_clearances(&cap, self->work);
+    ret = float_list(self->work, (Py_ssize_t)cap.k * cap.nl);
+    release(&P);
+    return ret;
+}
+
+static PyMethodDef CapsuleRows_methods[] = {
+    {"clearances", (PyCFunction)(void (*)(void))CapsuleRows_clearances, METH_FASTCALL,
+     "clearances(P) -> the k * nl pair clearances (sphere-major): vf_nd_capsule_clearances."},
+    {"rows", (PyCFunction)(void (*)(void))CapsuleRows_rows, METH_FASTCALL,
+     "rows(P, axes, u, idt) -> (G, b, d, obstacles, links): vf_nd_capsule_rows."},
+    {NULL, NULL, 0, NULL},
+};
+
+static PyTypeObject CapsuleRowsType = {
+    PyVarObject_HEAD_INIT(NULL, 0).tp_name = "velfence_core._nd.CapsuleRows",
+    .tp_basicsize = sizeof(CapsuleRows),
+    .tp_flags = Py_TPFLAGS_DEFAULT,
+    .tp_doc = "A chain's capsule links and sphere obstacles: the safety filter's obstacle rows.",
+    .tp_new = PyType_GenericNew,
+    .tp_init = (initproc)CapsuleRows_init,
+    .tp_dealloc = (destructor)CapsuleRows_dealloc,
+    .tp_methods = CapsuleRows_methods,
+};
+
+static PyMethodDef nd_methods[] = {
+    {"rate_bounds", (PyCFunction)(void (*)(void))nd_rate_bounds, METH_FASTCALL,
+     "rate_bounds(kind, prm, dist, speed, idt) -> bounds (k,): vf_nd_rate_bounds."},
+    {"project", (PyCFunction)(void (*)(void))nd_project, METH_FASTCALL,
+     "project(u, G, b) -> (status, x): vf_nd_project_kernel."},
+    {"project_full", (PyCFunction)(void (*)(void))nd_project_full, METH_FASTCALL,
+     "project_full(u, G, b) -> (status, q, iterations, x, active, multipliers)."},
+    {NULL, NULL, 0, NULL},
+};
+
+static struct PyModuleDef nd_module = {
+    PyModuleDef_HEAD_INIT, "_nd",
+    "velfence's n-D projection and exact law compiled (velfence_nd.h).", -1, nd_methods,
+};
+
+PyMODINIT_FUNC PyInit__nd(void)
+{
+    PyObject *m;
+    import_array();
+    if (PyType_Ready(&PolytopeLawType) < 0 || PyType_Ready(&CapsuleRowsType) < 0) {
+        return NULL;
+    }
+    m = PyModule_Create(&nd_module);
+    if (m == NULL) {
+        return NULL;
+    }
+    Py_INCREF(&PolytopeLawType);
+    Py_INCREF(&CapsuleRowsType);
+    if (PyModule_AddObject(m, "PolytopeLaw", (PyObject *)&PolytopeLawType) < 0
+        || PyModule_AddObject(m, "CapsuleRows", (PyObject *)&CapsuleRowsType) < 0
+        || PyModule_AddStringConstant(m, "VERSION", VF_ND_VERSION) < 0) {
+        Py_DECREF(&PolytopeLawType);
+        Py_DECREF(m);
+        return NULL;
+    }
+    return m;
+}

@@ -1,0 +1,1181 @@
+/*
+ * velfence_nd.c -- the n-D projection and exact law (see include/velfence_nd.h).
+ *
+ * A line-by-line port of velfence.geometry.projection.project_kernel and
+ * velfence.shaping._nd_kernels.polytope_kernel (with the bound definition of
+ * velfence.shaping._kernels it calls): the same operations in the same order, so that the results
+ * are bit-identical to the Python reference when compiled with -ffp-contract=off. Each function
+ * names the Python function it ports; keep them in step.
+ */
+#include "velfence_nd.h"
+
+#include <math.h>
+
+/* projection.py's tolerances */
+#define DEP_TOL 1e-13
+#define VIOL_TOL 1e-13
+#define REPAIR_ULPS (8.0 * 2.220446049250313e-16)
+#define ROUND_OFF 1e-12
+
+/* ------------------------------------------------------------------ the projection */
+
+size_t vf_nd_project_doubles(int32_t m, int32_t n)
+{
+    size_t mm = m > 0 ? (size_t)m : 0;
+    size_t nn = n > 0 ? (size_t)n : 0;
+    return 2 * nn * nn + 4 * nn + mm + 2;
+}
+
+/* projection._rebuild: Gram-Schmidt (twice) of the active normals into Q (n x q), R (q x q). */
+static void rebuild(const double *G, const int32_t *act, int32_t q, int32_t n, double *wsf,
+                    size_t oq, size_t orr)
+{
+    int32_t c, r, i, pass;
+    for (c = 0; c < q; c++) {
+        int32_t g = act[c];
+        double rho;
+        for (i = 0; i < n; i++) {
+            wsf[oq + (size_t)i * n + c] = G[(size_t)g * n + i];
+        }
+        for (r = 0; r <= c; r++) {
+            wsf[orr + (size_t)r * n + c] = 0.0;
+        }
+        for (pass = 0; pass < 2; pass++) {
+            for (r = 0; r < c; r++) {
+                double h = 0.0;
+                for (i = 0; i < n; i++) {
+                    h += wsf[oq + (size_t)i * n + r] * wsf[oq + (size_t)i * n + c];
+                }
+                wsf[orr + (size_t)r * n + c] += h;
+                for (i = 0; i < n; i++) {
+                    wsf[oq + (size_t)i * n + c] -= h * wsf[oq + (size_t)i * n + r];
+                }
+            }
+        }
+        rho = 0.0;
+        for (i = 0; i < n; i++) {
+            rho += wsf[oq + (size_t)i * n + c] * wsf[oq + (size_t)i * n + c];
+        }
+        rho = sqrt(rho);
+        wsf[orr + (size_t)c * n + c] = rho;
+        if (rho > 0.0) {
+            for (i = 0; i < n; i++) {
+                wsf[oq + (size_t)i * n + c] /= rho;
+            }
+        }
+    }
+}
+
+/* projection._row_norm */
+static double row_norm(const double *G, int32_t i, int32_t n)
+{
+    double s = 0.0;
+    int32_t k;
+    for (k = 0; k < n; k++) {
+        s += G[(size_t)i * n + k] * G[(size_t)i * n + k];
+    }
+    return sqrt(s);
+}
+
+/* projection._slack */
+static double slack(const double *G, const double *b, int32_t i, const double *x, int32_t n)
+{
+    double s = 0.0;
+    int32_t k;
+    for (k = 0; k < n; k++) {
+        s += G[(size_t)i * n + k] * x[k];
+    }
+    return s - b[i];
+}
+
+/* projection.project_kernel */
+int vf_nd_project_kernel(const double *u, const double *G, const double *b, int32_t m, int32_t n,
+                         double *x, double *lam, int32_t *act, double *wsf, int32_t *q_out,
+                         int32_t *iters_out)
+{
+    const size_t oq = 0;
+    const size_t orr = (size_t)n * n;
+    const size_t oz = 2 * (size_t)n * n;
+    const size_t oh = oz + n;
+    const size_t orv = oh + n;
+    const size_t ogn = orv + n;
+    int32_t q = 0;
+    int32_t iters = 0;
+    int64_t limit = 4 * ((int64_t)m + n) + 16;
+    int32_t i, k, c, j, r;
+    int status = VF_ND_PROJECT_OPTIMAL;
+    double big;
+    for (k = 0; k < n; k++) {
+        x[k] = u[k];
+    }
+    for (i = 0; i < m; i++) {
+        wsf[ogn + i] = row_norm(G, i, n);
+    }
+    for (;;) {
+        double scale = 0.0;
+        double worst = 0.0;
+        double lp;
+        int32_t p = -1;
+        for (k = 0; k < n; k++) {
+            if (fabs(x[k]) > scale) {
+                scale = fabs(x[k]);
+            }
+        }
+        for (i = 0; i < m; i++) {
+            int in_act = 0;
+            double s, gn, tol;
+            if (b[i] == -INFINITY) {
+                continue;
+            }
+            for (c = 0; c < q; c++) {
+                if (act[c] == i) {
+                    in_act = 1;
+                    break;
+                }
+            }
+            if (in_act) {
+                continue;
+            }
+            s = slack(G, b, i, x, n);
+            gn = wsf[ogn + i];
+            tol = VIOL_TOL * (fabs(b[i]) + gn * (scale + 1e-300) + 1e-300);
+            if (s < -tol) {
+                double v = gn > 0.0 ? s / gn : -INFINITY;
+                if (p < 0 || v < worst) {
+                    worst = v;
+                    p = i;
+                }
+            }
+        }
+        if (p < 0) {
+            break;
+        }
+        if (wsf[ogn + p] == 0.0) {
+            *q_out = q;
+            *iters_out = iters;
+            return VF_ND_PROJECT_INFEASIBLE;
+        }
+        lp = 0.0;
+        for (;;) {
+            double zz, t1, t2, t, sp;
+            int32_t kd, pass;
+            iters += 1;
+            if (iters > limit) {
+                *q_out = q;
+                *iters_out = iters;
+                return VF_ND_PROJECT_ITERATION_LIMIT;
+            }
+            for (c = 0; c < q; c++) {
+                wsf[oh + c] = 0.0;
+            }
+            for (k = 0; k < n; k++) {
+                wsf[oz + k] = G[(size_t)p * n + k];
+            }
+            for (pass = 0; pass < 2; pass++) {
+                for (c = 0; c < q; c++) {
+                    double h = 0.0;
+                    for (k = 0; k < n; k++) {
+                        h += wsf[oq + (size_t)k * n + c] * wsf[oz + k];
+                    }
+                    wsf[oh + c] += h;
+                    for (k = 0; k < n; k++) {
+                        wsf[oz + k] -= h * wsf[oq + (size_t)k * n + c];
+                    }
+                }
+            }
+            for (c = q - 1; c >= 0; c--) {
+                double s = wsf[oh + c];
+                for (j = c + 1; j < q; j++) {
+                    s -= wsf[orr + (size_t)c * n + j] * wsf[orv + j];
+                }
+                wsf[orv + c] = s / wsf[orr + (size_t)c * n + c];
+            }
+            zz = 0.0;
+            for (k = 0; k < n; k++) {
+                zz += wsf[oz + k] * wsf[oz + k];
+            }
+            t1 = INFINITY;
+            kd = -1;
+            for (c = 0; c < q; c++) {
+                double rr = wsf[orv + c];
+                if (rr > 0.0) {
+                    double tt = lam[c] / rr;
+                    if (tt < t1) {
+                        t1 = tt;
+                        kd = c;
+                    }
+                }
+            }
+            t2 = INFINITY;
+            sp = slack(G, b, p, x, n);
+            /* Python's (tol * gn) ** 2 is pow(., 2.0) */
+            if (zz > pow(DEP_TOL * wsf[ogn + p], 2.0)) {
+                t2 = -sp / zz;
+            }
+            t = t1 < t2 ? t1 : t2;
+            if (t == INFINITY) {
+                *q_out = q;
+                *iters_out = iters;
+                return VF_ND_PROJECT_INFEASIBLE;
+            }
+            if (t2 < INFINITY) {
+                for (k = 0; k < n; k++) {
+                    x[k] += t * wsf[oz + k];
+                }
+            }
+            for (c = 0; c < q; c++) {
+                lam[c] -= t * wsf[orv + c];
+            }
+            lp += t;
+            if (t2 <= t1) {
+                act[q] = p;
+                lam[q] = lp;
+                q += 1;
+                rebuild(G, act, q, n, wsf, oq, orr);
+                break;
+            }
+            for (c = kd; c < q - 1; c++) {
+                act[c] = act[c + 1];
+                lam[c] = lam[c + 1];
+            }
+            q -= 1;
+            rebuild(G, act, q, n, wsf, oq, orr);
+        }
+    }
+    /* Polish: x = (I - Q Q^T) u + Q R^-T b_A. */
+    if (q > 0) {
+        for (c = 0; c < q; c++) {
+            double h = 0.0;
+            for (k = 0; k < n; k++) {
+                h += wsf[oq + (size_t)k * n + c] * u[k];
+            }
+            wsf[oh + c] = h;
+        }
+        for (c = 0; c < q; c++) {
+            double y = b[act[c]];
+            for (r = 0; r < c; r++) {
+                y -= wsf[orr + (size_t)r * n + c] * wsf[oz + r];
+            }
+            wsf[oz + c] = y / wsf[orr + (size_t)c * n + c];
+        }
+        for (k = 0; k < n; k++) {
+            double t = u[k];
+            for (c = 0; c < q; c++) {
+                t -= wsf[oq + (size_t)k * n + c] * wsf[oh + c];
+            }
+            for (c = 0; c < q; c++) {
+                t += wsf[oq + (size_t)k * n + c] * wsf[oz + c];
+            }
+            x[k] = t;
+        }
+    }
+    *q_out = q;
+    *iters_out = iters;
+    /* Repair: every bound as evaluated in floating point. */
+    for (r = 0; r < 8; r++) {
+        int32_t wi = -1;
+        double wg = 0.0;
+        double gn, step;
+        for (i = 0; i < m; i++) {
+            double g;
+            if (b[i] == -INFINITY) {
+                continue;
+            }
+            g = -slack(G, b, i, x, n);
+            if (g > 0.0) {
+                double gni = wsf[ogn + i];
+                g = gni > 0.0 ? g / gni : INFINITY;
+                if (g > wg) {
+                    wg = g;
+                    wi = i;
+                }
+            }
+        }
+        if (wi < 0) {
+            return VF_ND_PROJECT_OPTIMAL;
+        }
+        gn = wsf[ogn + wi];
+        if (gn == 0.0) {
+            return VF_ND_PROJECT_INFEASIBLE;
+        }
+        big = 0.0;
+        for (k = 0; k < n; k++) {
+            if (fabs(x[k]) > big) {
+                big = fabs(x[k]);
+            }
+        }
+        step = wg + REPAIR_ULPS * (fabs(b[wi]) / gn + big) + 1e-300;
+        for (k = 0; k < n; k++) {
+            x[k] += step * G[(size_t)wi * n + k] / gn;
+        }
+    }
+    big = 0.0;
+    for (k = 0; k < n; k++) {
+        if (fabs(x[k]) > big) {
+            big = fabs(x[k]);
+        }
+    }
+    for (i = 0; i < m; i++) {
+        if (b[i] == -INFINITY) {
+            continue;
+        }
+        if (-slack(G, b, i, x, n) > ROUND_OFF * (fabs(b[i]) + wsf[ogn + i] * big)) {
+            status = VF_ND_PROJECT_ITERATION_LIMIT;
+            break;
+        }
+    }
+    return status;
+}
+
+int vf_nd_project(const double *u, const double *G, const double *b, int32_t m, int32_t n,
+                  double *x, double *lam, int32_t *act, double *wsf, int32_t *q, int32_t *iters,
+                  int32_t *status)
+{
+    int32_t i, k;
+    size_t a;
+    int rc = VF_ND_OK;
+    int st;
+    if (x == NULL || q == NULL || iters == NULL || status == NULL) {
+        if (x != NULL && n > 0) {
+            for (k = 0; k < n; k++) {
+                x[k] = 0.0;
+            }
+        }
+        if (q != NULL) *q = 0;
+        if (iters != NULL) *iters = 0;
+        if (status != NULL) *status = VF_ND_PROJECT_INFEASIBLE;
+        return VF_ND_ERR_NULL;
+    }
+    *q = 0;
+    *iters = 0;
+    *status = VF_ND_PROJECT_INFEASIBLE;
+    if (n < 1 || m < 0) {
+        return VF_ND_ERR_ARGUMENT;
+    }
+    for (k = 0; k < n; k++) {
+        x[k] = 0.0;
+    }
+    if (u == NULL || lam == NULL || act == NULL || wsf == NULL
+        || (m > 0 && (G == NULL || b == NULL))) {
+        return VF_ND_ERR_NULL;
+    }
+    for (a = 0; a < (size_t)m * (size_t)n; a++) {
+        if (!isfinite(G[a])) {
+            return VF_ND_ERR_ARGUMENT;
+        }
+    }
+    for (k = 0; k < n; k++) {
+        if (!isfinite(u[k])) {
+            rc = VF_ND_ERR_NONFINITE;
+        }
+    }
+    for (i = 0; i < m; i++) {
+        if (isnan(b[i]) || b[i] == INFINITY) {
+            rc = VF_ND_ERR_NONFINITE;
+        }
+    }
+    if (rc != VF_ND_OK) {
+        return rc;
+    }
+    st = vf_nd_project_kernel(u, G, b, m, n, x, lam, act, wsf, q, iters);
+    for (k = 0; k < n; k++) {
+        if (!isfinite(x[k])) {
+            for (k = 0; k < n; k++) {
+                x[k] = 0.0;
+            }
+            *q = 0;
+            *iters = 0;
+            return VF_ND_ERR_OVERFLOW;
+        }
+    }
+    *status = st;
+    return VF_ND_OK;
+}
+
+/* ------------------------------------------------------------------ the bound definition */
+
+/* _kernels.zone_code */
+static int32_t zone_code(int32_t n_out, int32_t n_near)
+{
+    if (n_out > 0) {
+        return n_near <= 1 ? VF_ND_ZONE_OUTSIDE : VF_ND_ZONE_OUTSIDE_CORNER;
+    }
+    if (n_near == 0) {
+        return VF_ND_ZONE_FREE;
+    }
+    return n_near == 1 ? VF_ND_ZONE_BUFFER : VF_ND_ZONE_CORNER;
+}
+
+/* _kernels.profile_cap */
+static double profile_cap(int32_t kind, const double *prm, int extend, double d, double s)
+{
+    double a;
+    if (kind == VF_ND_PROFILE_LINEAR) {
+        double r;
+        if (d >= 0.0) {
+            if (d >= prm[0] && !extend) {
+                return INFINITY;
+            }
+            return s * (d / prm[0]);
+        }
+        r = -prm[1] * d;
+        if (r > prm[2]) {
+            r = prm[2];
+        }
+        return -r;
+    }
+    a = fabs(d);
+    if (a > prm[5]) {
+        return copysign(prm[1], d);
+    }
+    if (a > prm[3]) {
+        return copysign(sqrt(2.0 * prm[2] * fabs(a - prm[4])), d);
+    }
+    return prm[0] * d;
+}
+
+/* _kernels.fill_bounds */
+static void fill_bounds(int32_t kind, const double *prm, int extend, const double *dist,
+                        const int32_t *work, int32_t lo, int32_t hi, double cs, double scale,
+                        double idt, double *bnd)
+{
+    double rate = idt / scale;
+    int lin = kind == VF_ND_PROFILE_LINEAR;
+    int32_t a;
+    for (a = lo; a < hi; a++) {
+        int32_t e = work[a];
+        double d = dist[e];
+        double b;
+        if (d < 0.0) {
+            bnd[e] = bnd[e] / scale;
+            continue;
+        }
+        if (lin) {
+            b = -profile_cap(kind, prm, extend, d, cs);
+        } else {
+            b = -(profile_cap(kind, prm, extend, d, cs * scale) / scale);
+        }
+        if (idt > 0.0 && -rate * d > b) {
+            b = -rate * d;
+        }
+        bnd[e] = b;
+    }
+}
+
+typedef struct bounds_out {
+    int32_t m, n_out, n_near;
+    double rec, cs, scale;
+    int32_t p1, p2;
+    double d1, d2;
+} bounds_out;
+
+/* _kernels.bounds_from_distances */
+static void bounds_from_distances(const double *dist, int32_t n, double vnorm, int32_t kind,
+                                  const double *prm, int relax, double idt, int normalise,
+                                  double *bnd, int32_t *work, bounds_out *o)
+{
+    int lin = kind == VF_ND_PROFILE_LINEAR;
+    double dmax = prm[0];
+    double gate = lin ? dmax : INFINITY;
+    double rec = 0.0;
+    int32_t p1 = -1;
+    int32_t p2 = -1;
+    double d1 = INFINITY;
+    double d2 = INFINITY;
+    int32_t m = 0;
+    int32_t n_out = 0;
+    int32_t n_near, e, a;
+    double speed, scale, cs;
+    for (e = 0; e < n; e++) {
+        double d = dist[e];
+        if (d < gate) {
+            if (d < 0.0) {
+                double r;
+                work[m] = e;
+                m += 1;
+                n_out += 1;
+                r = -profile_cap(kind, prm, 0, d, 0.0);
+                if (idt > 0.0 && r > -d * idt) {
+                    r = -d * idt;
+                }
+                bnd[e] = r;
+                if (r > rec) {
+                    rec = r;
+                }
+            } else {
+                work[m] = e;
+                m += 1;
+            }
+        }
+        if (d < d1) {
+            d2 = d1;
+            p2 = p1;
+            d1 = d;
+            p1 = e;
+        } else if (d < d2) {
+            d2 = d;
+            p2 = e;
+        }
+    }
+    o->p1 = p1;
+    o->p2 = p2;
+    o->d1 = d1;
+    o->d2 = d2;
+    o->n_out = 0;
+    o->n_near = 0;
+    o->rec = 0.0;
+    o->cs = 0.0;
+    o->scale = 1.0;
+    o->m = 0;
+    if (m == 0 && idt == 0.0) {
+        return;
+    }
+    if (!lin) {
+        int32_t c = 0;
+        for (a = 0; a < m; a++) {
+            double d;
+            e = work[a];
+            d = dist[e];
+            if (d < 0.0 || profile_cap(kind, prm, relax, d, vnorm) < vnorm) {
+                work[c] = e;
+                c += 1;
+            }
+        }
+        m = c;
+        if (m == 0 && idt == 0.0) {
+            return;
+        }
+    }
+    speed = vnorm + rec;
+    if (idt > 0.0 && (speed > dmax * idt || !lin)) {
+        double reach = speed / idt;
+        m = 0;
+        for (e = 0; e < n; e++) {
+            double d = dist[e];
+            if (d < reach
+                || (!lin && (d < 0.0 || profile_cap(kind, prm, relax, d, vnorm) < vnorm))) {
+                work[m] = e;
+                m += 1;
+            }
+        }
+    }
+    if (m == 0) {
+        o->rec = rec;
+        return;
+    }
+    scale = (normalise && speed > 0.0) ? speed : 1.0;
+    cs = (relax ? speed : vnorm) / scale;
+    if (relax) {
+        n_near = m;
+    } else {
+        n_near = 0;
+        for (a = 0; a < m; a++) {
+            if (profile_cap(kind, prm, relax, dist[work[a]], vnorm) < vnorm) {
+                n_near += 1;
+            }
+        }
+    }
+    fill_bounds(kind, prm, relax, dist, work, 0, m, cs, scale, idt, bnd);
+    o->m = m;
+    o->n_out = n_out;
+    o->n_near = n_near;
+    o->rec = rec;
+    o->cs = cs;
+    o->scale = scale;
+}
+
+/* _kernels.unbounded_candidates */
+static int32_t unbounded_candidates(const double *dist, int32_t *work, int32_t m, int32_t n)
+{
+    int32_t c = m;
+    int32_t e, a;
+    for (e = 0; e < n; e++) {
+        int in_work = 0;
+        if (dist[e] < 0.0) {
+            continue;
+        }
+        for (a = 0; a < m; a++) {
+            if (work[a] == e) {
+                in_work = 1;
+                break;
+            }
+        }
+        if (!in_work) {
+            work[c] = e;
+            c += 1;
+        }
+    }
+    return c;
+}
+
+/* ------------------------------------------------------------------ the n-D exact law */
+
+/* Scratch layout (doubles): dist nf, bnd nf, G nf*dim, b nf, u dim, x dim, lam dim+1, wsf.
+ * (ints): work nf, act dim+1. */
+size_t vf_nd_law_doubles(int32_t nf, int32_t dim)
+{
+    size_t f = nf > 0 ? (size_t)nf : 0;
+    size_t d = dim > 0 ? (size_t)dim : 0;
+    return 3 * f + f * d + 3 * d + 1 + vf_nd_project_doubles(nf, dim);
+}
+
+size_t vf_nd_law_ints(int32_t nf, int32_t dim)
+{
+    size_t f = nf > 0 ? (size_t)nf : 0;
+    size_t d = dim > 0 ? (size_t)dim : 0;
+    return f + d + 1;
+}
+
+typedef struct nd_views {
+    double *dist, *bnd, *G, *b, *u, *x, *lam, *wsf;
+    int32_t *work, *act;
+} nd_views;
+
+static void views(int32_t nf, int32_t dim, vf_nd_scratch *s, nd_views *v)
+{
+    size_t f = (size_t)nf;
+    size_t d = (size_t)dim;
+    v->dist = s->dbl;
+    v->bnd = v->dist + f;
+    v->G = v->bnd + f;
+    v->b = v->G + f * d;
+    v->u = v->b + f;
+    v->x = v->u + d;
+    v->lam = v->x + d;
+    v->wsf = v->lam + d + 1;
+    v->work = s->ints;
+    v->act = v->work + f;
+}
+
+void vf_nd_bounded(const vf_nd_polytope *poly, vf_nd_scratch *scratch, const double **dist,
+                   const double **bnd, const int32_t **work)
+{
+    nd_views v;
+    views(poly->nf, poly->dim, scratch, &v);
+    *dist = v.dist;
+    *bnd = v.bnd;
+    *work = v.work;
+}
+
+/* _nd_kernels.vector_norm */
+static double vector_norm(const double *v, int32_t n)
+{
+    double big = 0.0;
+    double s = 0.0;
+    int32_t k;
+    for (k = 0; k < n; k++) {
+        if (fabs(v[k]) > big) {
+            big = fabs(v[k]);
+        }
+    }
+    if (big == 0.0) {
+        return 0.0;
+    }
+    for (k = 0; k < n; k++) {
+        double t = v[k] / big;
+        s += t * t;
+    }
+    return big * sqrt(s);
+}
+
+/* _nd_kernels._solve_rows */
+static int solve_rows(const double *N, int32_t m, int32_t dim, nd_views *w, int32_t *q)
+{
+    int32_t a, k, iters;
+    for (a = 0; a < m; a++) {
+        int32_t e = w->work[a];
+        for (k = 0; k < dim; k++) {
+            w->G[(size_t)a * dim + k] = N[(size_t)e * dim + k];
+        }
+        w->b[a] = w->bnd[e];
+    }
+    return vf_nd_project_kernel(w->u, w->G, w->b, m, dim, w->x, w->lam, w->act, w->wsf, q,
+                                &iters);
+}
+
+static void set_res(vf_nd_result *r, int32_t zone, int32_t stages, int32_t q, int32_t p1,
+                    int32_t p2, double d1, double d2, int32_t m)
+{
+    r->zone = zone;
+    r->stages = stages;
+    r->q = q;
+    r->p1 = p1;
+    r->p2 = p2;
+    r->d1 = d1;
+    r->d2 = d2;
+    r->m = m;
+}
+
+/* _nd_kernels.polytope_kernel */
+void vf_nd_kernel(const vf_nd_polytope *poly, const vf_nd_law *law, const double *p,
+                  const double *v, double *out, int32_t *active, vf_nd_scratch *scratch,
+                  vf_nd_result *res)
+{
+    const double *N = poly->N;
+    const double *off = poly->off;
+    const int32_t nf = poly->nf;
+    const int32_t dim = poly->dim;
+    const int32_t kind = law->kind;
+    const double *prm = law->prm;
+    const int relax = law->relax != 0;
+    const double idt = law->idt;
+    nd_views w;
+    bounds_out bo;
+    double vnorm, rec, unit, scale, hn;
+    int32_t e, k, a, c, m, n_out, zone, stages, attempt, q, r;
+    int status;
+    views(nf, dim, scratch, &w);
+    for (e = 0; e < nf; e++) {
+        double s = 0.0;
+        for (k = 0; k < dim; k++) {
+            s += N[(size_t)e * dim + k] * p[k];
+        }
+        w.dist[e] = s - off[e];
+    }
+    vnorm = vector_norm(v, dim);
+    bounds_from_distances(w.dist, nf, vnorm, kind, prm, relax, idt, 1, w.bnd, w.work, &bo);
+    m = bo.m;
+    n_out = bo.n_out;
+    rec = bo.rec;
+    unit = bo.cs;
+    scale = bo.scale;
+    if (m == 0) {
+        for (k = 0; k < dim; k++) {
+            out[k] = v[k];
+        }
+        set_res(res, VF_ND_ZONE_FREE, 0, 0, bo.p1, bo.p2, bo.d1, bo.d2, 0);
+        return;
+    }
+    zone = zone_code(n_out, bo.n_near);
+    stages = bo.n_near > 0 ? VF_ND_STAGE_PROJECT : 0;
+    if (n_out > 0) {
+        stages |= VF_ND_STAGE_SPRING;
+    }
+    for (k = 0; k < dim; k++) {
+        w.u[k] = v[k] / scale;
+    }
+    for (attempt = 0; attempt < 2; attempt++) {
+        if (attempt == 1) {
+            double bmax = 0.0;
+            double un, f;
+            for (a = 0; a < m; a++) {
+                if (fabs(w.bnd[w.work[a]]) > bmax) {
+                    bmax = fabs(w.bnd[w.work[a]]);
+                }
+            }
+            un = vector_norm(w.u, dim);
+            if (!(un > 1e3 * bmax)) {
+                break;
+            }
+            f = 1e3 * bmax / un;
+            for (k = 0; k < dim; k++) {
+                w.u[k] *= f;
+            }
+            stages |= VF_ND_STAGE_SCALED;
+        }
+        for (;;) {
+            int done;
+            status = solve_rows(N, m, dim, &w, &q);
+            if (status != VF_ND_PROJECT_OPTIMAL) {
+                break;
+            }
+            done = n_out == 0;
+            if (!done) {
+                double xx = 0.0;
+                for (k = 0; k < dim; k++) {
+                    xx += w.x[k] * w.x[k];
+                }
+                done = xx <= unit * unit;
+            }
+            if (!done) {
+                int added = 0;
+                int32_t m0 = m;
+                c = unbounded_candidates(w.dist, w.work, m, nf);
+                fill_bounds(kind, prm, relax, w.dist, w.work, m, c, unit, scale, idt, w.bnd);
+                for (a = m0; a < c; a++) {
+                    e = w.work[a];
+                    if (w.bnd[e] > -INFINITY) {
+                        double s = 0.0;
+                        for (k = 0; k < dim; k++) {
+                            s += N[(size_t)e * dim + k] * w.x[k];
+                        }
+                        if (s < w.bnd[e]) {
+                            w.work[m] = e;
+                            m += 1;
+                            added = 1;
+                        }
+                    }
+                }
+                done = !added;
+            }
+            if (done) {
+                for (k = 0; k < dim; k++) {
+                    out[k] = w.x[k] * scale;
+                }
+                for (c = 0; c < q; c++) {
+                    active[c] = w.work[w.act[c]];
+                }
+                for (a = 0; a < m; a++) {
+                    w.bnd[w.work[a]] *= scale;
+                }
+                set_res(res, zone, stages, q, bo.p1, bo.p2, bo.d1, bo.d2, m);
+                return;
+            }
+        }
+    }
+    if (n_out == 0) {
+        for (k = 0; k < dim; k++) {
+            out[k] = 0.0;
+        }
+        for (a = 0; a < m; a++) {
+            w.bnd[w.work[a]] *= scale;
+        }
+        set_res(res, zone, stages | VF_ND_STAGE_STOP, 0, bo.p1, bo.p2, bo.d1, bo.d2, m);
+        return;
+    }
+    r = 0;
+    for (e = 0; e < nf; e++) {
+        if (w.dist[e] < 0.0) {
+            w.work[r] = e;
+            r += 1;
+        }
+    }
+    m = r;
+    status = solve_rows(N, m, dim, &w, &q);
+    if (status == VF_ND_PROJECT_OPTIMAL) {
+        for (k = 0; k < dim; k++) {
+            out[k] = w.x[k] * scale;
+        }
+        for (c = 0; c < q; c++) {
+            active[c] = w.work[w.act[c]];
+        }
+        for (a = 0; a < m; a++) {
+            w.bnd[w.work[a]] *= scale;
+        }
+        set_res(res, zone, stages | VF_ND_STAGE_RELAXED, q, bo.p1, bo.p2, bo.d1, bo.d2, m);
+        return;
+    }
+    for (k = 0; k < dim; k++) {
+        w.u[k] = poly->cen[k] - p[k];
+    }
+    hn = vector_norm(w.u, dim);
+    for (k = 0; k < dim; k++) {
+        out[k] = hn > 0.0 ? rec * w.u[k] / hn : 0.0;
+    }
+    for (a = 0; a < m; a++) {
+        w.bnd[w.work[a]] *= scale;
+    }
+    set_res(res, zone, stages | VF_ND_STAGE_RELAXED, 0, bo.p1, bo.p2, bo.d1, bo.d2, m);
+}
+
+/* ------------------------------------------------------------------ checked API */
+
+int vf_nd_check(const vf_nd_polytope *poly, const vf_nd_law *law)
+{
+    size_t a;
+    int32_t i;
+    if (poly == NULL || law == NULL) {
+        return VF_ND_ERR_NULL;
+    }
+    if (poly->N == NULL || poly->off == NULL || poly->cen == NULL) {
+        return VF_ND_ERR_NULL;
+    }
+    if (poly->nf < 1 || poly->dim < 1) {
+        return VF_ND_ERR_ARGUMENT;
+    }
+    for (a = 0; a < (size_t)poly->nf * (size_t)poly->dim; a++) {
+        if (!isfinite(poly->N[a])) {
+            return VF_ND_ERR_ARGUMENT;
+        }
+    }
+    for (i = 0; i < poly->nf; i++) {
+        if (!isfinite(poly->off[i])) {
+            return VF_ND_ERR_ARGUMENT;
+        }
+    }
+    for (i = 0; i < poly->dim; i++) {
+        if (!isfinite(poly->cen[i])) {
+            return VF_ND_ERR_ARGUMENT;
+        }
+    }
+    if (!(law->idt >= 0.0) || !isfinite(law->idt)) {
+        return VF_ND_ERR_ARGUMENT;
+    }
+    for (i = 0; i < VF_ND_PROFILE_PARAMS; i++) {
+        if (isnan(law->prm[i])) {
+            return VF_ND_ERR_ARGUMENT;
+        }
+    }
+    if (law->kind == VF_ND_PROFILE_LINEAR) {
+        if (!(law->prm[0] > 0.0) || !(law->prm[1] >= 0.0) || !(law->prm[2] >= 0.0)) {
+            return VF_ND_ERR_ARGUMENT;
+        }
+    } else if (law->kind == VF_ND_PROFILE_THREE_ZONE) {
+        for (i = 0; i < VF_ND_PROFILE_PARAMS; i++) {
+            if (!isfinite(law->prm[i]) || law->prm[i] < 0.0) {
+                return VF_ND_ERR_ARGUMENT;
+            }
+        }
+    } else {
+        return VF_ND_ERR_ARGUMENT;
+    }
+    return VF_ND_OK;
+}
+
+static void set_stop(vf_nd_result *res, double *out, int32_t dim)
+{
+    int32_t k;
+    if (out != NULL) {
+        for (k = 0; k < dim; k++) {
+            out[k] = 0.0;
+        }
+    }
+    set_res(res, VF_ND_ZONE_INVALID, VF_ND_STAGE_STOP, 0, -1, -1, 0.0, 0.0, 0);
+}
+
+int vf_nd_shape(const vf_nd_polytope *poly, const vf_nd_law *law, const double *p,
+                const double *v, double *out, int32_t *active, vf_nd_scratch *scratch,
+                vf_nd_result *res)
+{
+    int32_t k, dim;
+    if (res == NULL) {
+        return VF_ND_ERR_NULL;
+    }
+    if (poly == NULL) {
+        set_stop(res, NULL, 0);
+        return VF_ND_ERR_NULL;
+    }
+    dim = poly->dim;
+    if (law == NULL || p == NULL || v == NULL || out == NULL || active == NULL || scratch == NULL
+        || scratch->dbl == NULL || scratch->ints == NULL || poly->N == NULL
+        || poly->off == NULL || poly->cen == NULL) {
+        set_stop(res, out, dim);
+        return VF_ND_ERR_NULL;
+    }
+    for (k = 0; k < dim; k++) {
+        if (!isfinite(p[k]) || !isfinite(v[k])) {
+            set_stop(res, out, dim);
+            return VF_ND_ERR_NONFINITE;
+        }
+    }
+    vf_nd_kernel(poly, law, p, v, out, active, scratch, res);
+    for (k = 0; k < dim; k++) {
+        if (!isfinite(out[k])) {
+            set_stop(res, out, dim);
+            return VF_ND_ERR_OVERFLOW;
+        }
+    }
+    return VF_ND_OK;
+}
+
+int64_t vf_nd_batch(const vf_nd_polytope *poly, const vf_nd_law *law, const double *P,
+                    const double *V, size_t rows, double *out, int64_t *zones,
+                    vf_nd_scratch *scratch)
+{
+    size_t r;
+    int64_t bad = 0;
+    vf_nd_result res;
+    int32_t active[64];
+    int32_t *act = active;
+    if (poly == NULL || law == NULL || scratch == NULL
+        || (rows > 0 && (P == NULL || V == NULL || out == NULL))) {
+        return VF_ND_ERR_NULL;
+    }
+    if (poly->dim < 1 || poly->dim > 63) {
+        /* the binding facets are not returned by the batch; a larger dim needs vf_nd_shape */
+        return VF_ND_ERR_ARGUMENT;
+    }
+    for (r = 0; r < rows; r++) {
+        size_t o = r * (size_t)poly->dim;
+        int rc = vf_nd_shape(poly, law, P + o, V + o, out + o, act, scratch, &res);
+        if (rc == VF_ND_ERR_NULL) {
+            return rc;
+        }
+        if (rc != VF_ND_OK) {
+            bad += 1;
+        }
+        if (zones != NULL) {
+            zones[r] = res.zone;
+        }
+    }
+    return bad;
+}
+
+/* ------------------------------------------------------------------ safety-filter helpers */
+
+/* velfence.shaping.filter._bounds: bounds_from_distances (relax off, unit scale) and fill_bounds
+ * for the rows it leaves out. */
+void vf_nd_rate_bounds(int32_t kind, const double *prm, const double *dist, int32_t k,
+                       double speed, double idt, double *bnd, int32_t *work)
+{
+    bounds_out o;
+    int32_t *rest = work + k;
+    int32_t e, a, r;
+    for (e = 0; e < k; e++) {
+        bnd[e] = 0.0;
+    }
+    bounds_from_distances(dist, k, speed, kind, prm, 0, idt, 0, bnd, work, &o);
+    if (o.m < k) {
+        for (e = 0; e < k; e++) {
+            rest[e] = 1;
+        }
+        for (a = 0; a < o.m; a++) {
+            rest[work[a]] = 0;
+        }
+        r = 0;
+        for (e = 0; e < k; e++) {
+            if (rest[e]) {
+                rest[r] = e;
+                r += 1;
+            }
+        }
+        fill_bounds(kind, prm, 0, dist, rest, 0, r, speed, 1.0, idt, bnd);
+    }
+}
+
+/* geometry.primitives._point_segment_t, _lerp (clearance with sqrt instead of math.hypot) */
+static double seg_t(const double *p, const double *a, const double *b)
+{
+    double dx = b[0] - a[0], dy = b[1] - a[1], dz = b[2] - a[2];
+    double dd = dx * dx + dy * dy + dz * dz;
+    double t;
+    if (dd == 0.0) {
+        return 0.0;
+    }
+    t = ((p[0] - a[0]) * dx + (p[1] - a[1]) * dy + (p[2] - a[2]) * dz) / dd;
+    return t <= 0.0 ? 0.0 : (t >= 1.0 ? 1.0 : t);
+}
+
+void vf_nd_capsule_clearances(const vf_nd_capsules *cap, double *clear)
+{
+    int32_t i, l;
+    for (i = 0; i < cap->k; i++) {
+        const double *cc = cap->C + 3 * (size_t)i;
+        for (l = 0; l < cap->nl; l++) {
+            const double *a = cap->P + 3 * (size_t)l;
+            const double *e = a + 3;
+            double t = seg_t(cc, a, e);
+            double x0, x1, x2, dx, dy, dz;
+            if (t <= 0.5) {
+                x0 = a[0] + t * (e[0] - a[0]);
+                x1 = a[1] + t * (e[1] - a[1]);
+                x2 = a[2] + t * (e[2] - a[2]);
+            } else {
+                double w = 1.0 - t;
+                x0 = e[0] - w * (e[0] - a[0]);
+                x1 = e[1] - w * (e[1] - a[1]);
+                x2 = e[2] - w * (e[2] - a[2]);
+            }
+            dx = x0 - cc[0];
+            dy = x1 - cc[1];
+            dz = x2 - cc[2];
+            clear[(size_t)i * cap->nl + l] = sqrt(dx * dx + dy * dy + dz * dz) - cap->srad[i]
+                                             - cap->lrad[l];
+        }
+    }
+}
+
+int32_t vf_nd_capsule_rows(const vf_nd_capsules *cap, const double *u, double *G, double *b,
+                           double *d, int32_t *obs, int32_t *link, double *work)
+{
+    const int32_t nl = cap->nl;
+    const int32_t nj = cap->nj;
+    const int32_t nc = cap->ncols;
+    const int32_t k = cap->k;
+    const double *P = cap->P;
+    double *clear = work;          /* k * nl */
+    double *reach = work + (size_t)k * nl; /* nl */
+    int use_reach = 0;
+    int32_t i, l, j, c, rows = 0;
+    vf_nd_capsule_clearances(cap, clear);
+    if (cap->dt > 0.0 && cap->idt > 0.0 && cap->vmax != NULL) {
+        double far = INFINITY;
+        double big = 0.0;
+        for (c = 0; c < k * nl; c++) {
+            if (clear[c] >= cap->buf && clear[c] < far) {
+                far = clear[c];
+            }
+        }
+        for (l = 0; l <= nl; l++) {
+            double ex = P[3 * l] - P[0], ey = P[3 * l + 1] - P[1], ez = P[3 * l + 2] - P[2];
+            double h = sqrt(ex * ex + ey * ey + ez * ez);
+            if (h > big) {
+                big = h;
+            }
+        }
+        if (far < INFINITY && !(far > 1.5 * cap->dt * (2.0 * big * cap->vsum) * (1.0 + 1e-9))) {
+            use_reach = 1;
+            for (l = 0; l < nl; l++) {
+                double s = 0.0;
+                for (j = 0; j <= l && j < nj; j++) {
+                    const double *pj = P + 3 * (size_t)j;
+                    const double *pa = P + 3 * (size_t)l;
+                    const double *pb = pa + 3;
+                    double ax = pa[0] - pj[0], ay = pa[1] - pj[1], az = pa[2] - pj[2];
+                    double bx = pb[0] - pj[0], by = pb[1] - pj[1], bz = pb[2] - pj[2];
+                    double ma = sqrt(ax * ax + ay * ay + az * az);
+                    double mb = sqrt(bx * bx + by * by + bz * bz);
+                    s += (ma > mb ? ma : mb) * cap->vmax[j];
+                }
+                reach[l] = 1.5 * cap->dt * s;
+            }
+        }
+    }
+    for (i = 0; i < k; i++) {
+        const double *cc = cap->C + 3 * (size_t)i;
+        for (l = 0; l < nl; l++) {
+            double cl = clear[(size_t)i * nl + l];
+            const double *a = P + 3 * (size_t)l;
+            const double *e = a + 3;
+            double t, x[3], n[3], dist, vx = 0.0, vy = 0.0, vz = 0.0, bound;
+            double *g = G + (size_t)rows * nc;
+            int32_t wk[2];
+            if (!(cl < cap->buf || (use_reach && cl <= reach[l]))) {
+                continue;
+            }
+            t = seg_t(cc, a, e);
+            for (c = 0; c < 3; c++) {
+                x[c] = t <= 0.5 ? a[c] + t * (e[c] - a[c]) : e[c] - (1.0 - t) * (e[c] - a[c]);
+                n[c] = x[c] - cc[c];
+            }
+            dist = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+            if (dist > 0.0) {
+                n[0] /= dist;
+                n[1] /= dist;
+                n[2] /= dist;
+            } else {
+                double hx = e[0] - a[0], hy = e[1] - a[1];
+                double h = sqrt(hx * hx + hy * hy);
+                n[0] = h == 0.0 ? 1.0 : -hy / h;
+                n[1] = h == 0.0 ? 0.0 : hx / h;
+                n[2] = 0.0;
+            }
+            for (j = 0; j < nc; j++) {
+                g[j] = 0.0;
+            }
+            for (j = 0; j <= l && j < nj; j++) {
+                const double *z = cap->axes + 3 * (size_t)j;
+                const double *pj = P + 3 * (size_t)j;
+                double ddx = x[0] - pj[0], ddy = x[1] - pj[1], ddz = x[2] - pj[2];
+                double jx = z[1] * ddz - z[2] * ddy;
+                double jy = z[2] * ddx - z[0] * ddz;
+                double jz = z[0] * ddy - z[1] * ddx;
+                g[j] = n[0] * jx + n[1] * jy + n[2] * jz;
+                vx += jx * u[j];
+                vy += jy * u[j];
+                vz += jz * u[j];
+            }
+            vf_nd_rate_bounds(cap->kind, cap->prm, &cl, 1, sqrt(vx * vx + vy * vy + vz * vz),
+                              cap->idt, &bound, wk);
+            if (bound == -INFINITY) {
+                continue;
+            }
+            b[rows] = bound;
+            d[rows] = cl;
+            obs[rows] = i;
+            link[rows] = l;
+            rows += 1;
+        }
+    }
+    return rows;
+}

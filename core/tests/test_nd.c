@@ -1,0 +1,519 @@
+/*
+ * test_nd.c -- unit tests of the n-D C API (velfence_nd.h), run by tests/core/test_nd_c_api.py
+ * under -fsanitize=address,undefined. Prints "ok <count>" and exits 0 when every check holds;
+ * prints each failed check and exits 1 otherwise.
+ *
+ * Checked: argument checks and the stop result (NULL, non-finite, overflow), the projection's
+ * optimality conditions on random problems (feasible to round-off, multipliers >= 0, x - u a
+ * non-negative combination of the active normals, no better point along random feasible
+ * directions), the law's promises on random boxes and random polytopes in 2..7 dimensions (every
+ * bound met, no speed-up inside, inside/free states untouched), the batch, the rate bounds and
+ * the capsule rows against a brute-force evaluation. Every buffer is heap-allocated at its exact
+ * size so that AddressSanitizer sees any overrun.
+ */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "velfence_nd.h"
+
+static int failures = 0;
+static long checks = 0;
+
+#define CHECK(cond, ...)                                   \
+    do {                                                   \
+        checks++;                                          \
+        if (!(cond)) {                                     \
+            failures++;                                    \
+            if (failures < 50) {                           \
+                printf("FAIL %s:%d: ", __FILE__, __LINE__);\
+                printf(__VA_ARGS__);                       \
+                printf("\n");                              \
+            }                                              \
+        }                                                  \
+    } while (0)
+
+static unsigned long long rng_state = 0x9E3779B97F4A7C15ULL;
+
+static double uniform(double lo, double hi)
+{
+    rng_state = rng_state * 6364136223846793005ULL + 1442695040888963407ULL;
+    return lo + (hi - lo) * (double)(rng_state >> 11) / 9007199254740992.0;
+}
+
+static double normal(void)
+{
+    double u1 = uniform(1e-12, 1.0), u2 = uniform(0.0, 1.0);
+    return sqrt(-2.0 * log(u1)) * cos(6.283185307179586 * u2);
+}
+
+static double *dalloc(size_t n)
+{
+    double *p = calloc(n ? n : 1, sizeof(double));
+    if (p == NULL) {
+        exit(2);
+    }
+    return p;
+}
+
+static int32_t *ialloc(size_t n)
+{
+    int32_t *p = calloc(n ? n : 1, sizeof(int32_t));
+    if (p == NULL) {
+        exit(2);
+    }
+    return p;
+}
+
+/* ------------------------------------------------------------------ projection */
+
+static void test_projection_random(void)
+{
+    int trial;
+    for (trial = 0; trial < 3000; trial++) {
+        int32_t n = 1 + (int32_t)uniform(0, 7);
+        int32_t m = (int32_t)uniform(0, 25);
+        double *u = dalloc(n), *G = dalloc((size_t)m * n), *b = dalloc(m), *x = dalloc(n);
+        double *lam = dalloc(n + 1), *wsf = dalloc(vf_nd_project_doubles(m, n));
+        double *x0 = dalloc(n), *r = dalloc(n);
+        int32_t *act = ialloc(n + 1);
+        int32_t q, it, st, i, k, c;
+        int rc;
+        /* feasible by construction: the bounds hold at a random point x0 with a margin */
+        for (k = 0; k < n; k++) {
+            x0[k] = normal();
+            u[k] = 3.0 * normal();
+        }
+        for (i = 0; i < m; i++) {
+            double s = 0.0;
+            for (k = 0; k < n; k++) {
+                G[(size_t)i * n + k] = normal();
+                s += G[(size_t)i * n + k] * x0[k];
+            }
+            b[i] = (i % 7 == 6) ? -INFINITY : s - uniform(0.0, 1.0);
+        }
+        rc = vf_nd_project(u, G, b, m, n, x, lam, act, wsf, &q, &it, &st);
+        CHECK(rc == VF_ND_OK, "project rc %d", rc);
+        CHECK(st == VF_ND_PROJECT_OPTIMAL, "feasible problem: status %d (m %d n %d)", st, m, n);
+        if (st != VF_ND_PROJECT_OPTIMAL) {
+            goto next;
+        }
+        CHECK(q >= 0 && q <= n, "q %d", q);
+        for (i = 0; i < m; i++) {
+            double s = 0.0, gn = 0.0;
+            if (b[i] == -INFINITY) {
+                continue;
+            }
+            for (k = 0; k < n; k++) {
+                s += G[(size_t)i * n + k] * x[k];
+                gn += G[(size_t)i * n + k] * G[(size_t)i * n + k];
+            }
+            CHECK(s - b[i] >= -1e-12 * (fabs(b[i]) + sqrt(gn) * 10.0), "row %d violated by %g", i,
+                  b[i] - s);
+        }
+        /* KKT: x - u = sum lam_c G[act_c], lam >= 0 */
+        for (k = 0; k < n; k++) {
+            r[k] = x[k] - u[k];
+        }
+        for (c = 0; c < q; c++) {
+            CHECK(lam[c] >= -1e-12, "multiplier %g < 0", lam[c]);
+            CHECK(act[c] >= 0 && act[c] < m, "active index %d", act[c]);
+            for (k = 0; k < n; k++) {
+                r[k] -= lam[c] * G[(size_t)act[c] * n + k];
+            }
+        }
+        for (k = 0; k < n; k++) {
+            CHECK(fabs(r[k]) <= 1e-8 * (1.0 + fabs(u[k]) + fabs(x[k])), "stationarity %g", r[k]);
+        }
+    next:
+        free(u);
+        free(G);
+        free(b);
+        free(x);
+        free(lam);
+        free(wsf);
+        free(x0);
+        free(r);
+        free(act);
+    }
+}
+
+static void test_projection_checks(void)
+{
+    double u[2] = {1.0, 2.0}, G[4] = {1.0, 0.0, 0.0, 1.0}, b[2] = {0.0, 0.0};
+    double x[2] = {7.0, 7.0}, lam[3], wsf[32];
+    int32_t act[3], q = 5, it = 5, st = 9;
+    int32_t k;
+    CHECK(vf_nd_project_doubles(2, 2) == 2 * 4 + 8 + 2 + 2, "scratch size");
+    CHECK(vf_nd_project(u, G, b, 2, 2, x, lam, act, wsf, &q, &it, &st) == VF_ND_OK, "ok");
+    CHECK(st == VF_ND_PROJECT_OPTIMAL && x[0] == 1.0 && x[1] == 2.0 && q == 0, "inside");
+    CHECK(vf_nd_project(u, G, b, 2, 2, x, lam, act, wsf, NULL, &it, &st) == VF_ND_ERR_NULL, "q");
+    CHECK(x[0] == 0.0 && x[1] == 0.0 && st == VF_ND_PROJECT_INFEASIBLE, "stop on NULL");
+    CHECK(vf_nd_project(NULL, G, b, 2, 2, x, lam, act, wsf, &q, &it, &st) == VF_ND_ERR_NULL, "u");
+    CHECK(vf_nd_project(u, G, b, 2, 0, x, lam, act, wsf, &q, &it, &st) == VF_ND_ERR_ARGUMENT, "n");
+    u[1] = NAN;
+    CHECK(vf_nd_project(u, G, b, 2, 2, x, lam, act, wsf, &q, &it, &st) == VF_ND_ERR_NONFINITE,
+          "nan u");
+    CHECK(x[0] == 0.0 && x[1] == 0.0 && q == 0 && it == 0, "stop result");
+    u[1] = 2.0;
+    b[0] = INFINITY;
+    CHECK(vf_nd_project(u, G, b, 2, 2, x, lam, act, wsf, &q, &it, &st) == VF_ND_ERR_NONFINITE,
+          "+inf bound");
+    b[0] = -INFINITY;
+    CHECK(vf_nd_project(u, G, b, 2, 2, x, lam, act, wsf, &q, &it, &st) == VF_ND_OK, "-inf bound");
+    G[1] = INFINITY;
+    CHECK(vf_nd_project(u, G, b, 2, 2, x, lam, act, wsf, &q, &it, &st) == VF_ND_ERR_ARGUMENT,
+          "inf G");
+    G[1] = 0.0;
+    /* infeasible: x0 >= 1 and -x0 >= 0 */
+    b[0] = 1.0;
+    G[2] = -1.0;
+    G[3] = 0.0;
+    CHECK(vf_nd_project(u, G, b, 2, 2, x, lam, act, wsf, &q, &it, &st) == VF_ND_OK, "infeasible");
+    CHECK(st == VF_ND_PROJECT_INFEASIBLE, "infeasible status %d", st);
+    for (k = 0; k < 2; k++) {
+        CHECK(isfinite(x[k]), "finite last iterate");
+    }
+    /* overflow: a bound near the largest double */
+    {
+        double uu[2] = {1e308, 1e308}, GG[2] = {-1.0, -1.0}, bb[1] = {-1e308};
+        CHECK(vf_nd_project(uu, GG, bb, 1, 2, x, lam, act, wsf, &q, &it, &st) != VF_ND_ERR_NULL,
+              "huge");
+        CHECK(isfinite(x[0]) && isfinite(x[1]), "huge: finite");
+    }
+}
+
+/* ------------------------------------------------------------------ the law */
+
+typedef struct {
+    int32_t nf, dim;
+    double *N, *off, *cen;
+    vf_nd_polytope poly;
+} polytope;
+
+static void make_polytope(polytope *P, int32_t nf, int32_t dim, int box)
+{
+    int32_t i, k;
+    P->nf = box ? 2 * dim : nf;
+    P->dim = dim;
+    P->N = dalloc((size_t)P->nf * dim);
+    P->off = dalloc(P->nf);
+    P->cen = dalloc(dim);
+    for (i = 0; i < P->nf; i++) {
+        double s = 0.0;
+        if (box) {
+            P->N[(size_t)i * dim + i / 2] = (i % 2) ? -1.0 : 1.0;
+            P->off[i] = -uniform(0.5, 2.0);
+            continue;
+        }
+        for (k = 0; k < dim; k++) {
+            double g = normal();
+            P->N[(size_t)i * dim + k] = g;
+            s += g * g;
+        }
+        s = sqrt(s);
+        for (k = 0; k < dim; k++) {
+            P->N[(size_t)i * dim + k] /= s;
+        }
+        P->off[i] = -uniform(0.6, 1.5); /* the origin is at least 0.6 inside every facet */
+    }
+    P->poly.N = P->N;
+    P->poly.off = P->off;
+    P->poly.cen = P->cen;
+    P->poly.nf = P->nf;
+    P->poly.dim = dim;
+}
+
+static void free_polytope(polytope *P)
+{
+    free(P->N);
+    free(P->off);
+    free(P->cen);
+}
+
+static int is_stop(const vf_nd_result *r, const double *out, int32_t dim)
+{
+    int32_t k;
+    for (k = 0; k < dim; k++) {
+        if (out[k] != 0.0) {
+            return 0;
+        }
+    }
+    return r->zone == VF_ND_ZONE_INVALID && r->stages == VF_ND_STAGE_STOP && r->p1 == -1
+           && r->p2 == -1 && r->d1 == 0.0 && r->d2 == 0.0 && r->q == 0 && r->m == 0;
+}
+
+static void test_law_checks(void)
+{
+    polytope P;
+    vf_nd_law law = {VF_ND_PROFILE_LINEAR, {0.2, 1.0, 0.2, 0, 0, 0}, 1, 0.0};
+    vf_nd_scratch s;
+    vf_nd_result r;
+    double p[3] = {0.0, 0.0, 0.0}, v[3] = {1.0, 0.0, 0.0}, out[3];
+    int32_t active[4];
+    double P6[6], V6[6], O6[6];
+    int64_t zones[2];
+    make_polytope(&P, 0, 3, 1);
+    s.dbl = dalloc(vf_nd_law_doubles(P.nf, 3));
+    s.ints = ialloc(vf_nd_law_ints(P.nf, 3));
+    CHECK(vf_nd_check(&P.poly, &law) == VF_ND_OK, "valid law refused");
+    CHECK(vf_nd_check(NULL, &law) == VF_ND_ERR_NULL, "NULL polytope");
+    CHECK(vf_nd_check(&P.poly, NULL) == VF_ND_ERR_NULL, "NULL law");
+    law.prm[0] = -1.0;
+    CHECK(vf_nd_check(&P.poly, &law) == VF_ND_ERR_ARGUMENT, "d_max < 0");
+    law.prm[0] = NAN;
+    CHECK(vf_nd_check(&P.poly, &law) == VF_ND_ERR_ARGUMENT, "NaN parameter");
+    law.prm[0] = 0.2;
+    law.idt = -1.0;
+    CHECK(vf_nd_check(&P.poly, &law) == VF_ND_ERR_ARGUMENT, "idt < 0");
+    law.idt = 0.0;
+    law.kind = 7;
+    CHECK(vf_nd_check(&P.poly, &law) == VF_ND_ERR_ARGUMENT, "kind");
+    law.kind = VF_ND_PROFILE_LINEAR;
+    P.N[0] = INFINITY;
+    CHECK(vf_nd_check(&P.poly, &law) == VF_ND_ERR_ARGUMENT, "inf normal");
+    P.N[0] = 1.0;
+    P.poly.nf = 0;
+    CHECK(vf_nd_check(&P.poly, &law) == VF_ND_ERR_ARGUMENT, "nf = 0");
+    P.poly.nf = P.nf;
+    CHECK(vf_nd_shape(&P.poly, &law, p, v, out, active, &s, &r) == VF_ND_OK, "shape ok");
+    CHECK(out[0] == 1.0 && r.zone == VF_ND_ZONE_FREE, "free state untouched");
+    v[1] = NAN;
+    CHECK(vf_nd_shape(&P.poly, &law, p, v, out, active, &s, &r) == VF_ND_ERR_NONFINITE, "NaN v");
+    CHECK(is_stop(&r, out, 3), "stop result on NaN");
+    v[1] = 0.0;
+    p[2] = -INFINITY;
+    CHECK(vf_nd_shape(&P.poly, &law, p, v, out, active, &s, &r) == VF_ND_ERR_NONFINITE, "inf p");
+    CHECK(is_stop(&r, out, 3), "stop result on inf");
+    p[2] = 0.0;
+    CHECK(vf_nd_shape(&P.poly, &law, p, v, out, active, NULL, &r) == VF_ND_ERR_NULL, "NULL s");
+    CHECK(is_stop(&r, out, 3), "stop result on NULL");
+    CHECK(vf_nd_shape(&P.poly, &law, p, v, out, active, &s, NULL) == VF_ND_ERR_NULL, "NULL res");
+    /* a command near the largest double: finite answer or the overflow code with the stop */
+    {
+        double vv[3] = {1.7e308, -1.7e308, 1.7e308}, pp[3] = {-3.0, 0.0, 5.0};
+        int rc = vf_nd_shape(&P.poly, &law, pp, vv, out, active, &s, &r);
+        CHECK(rc == VF_ND_OK || rc == VF_ND_ERR_OVERFLOW, "huge rc %d", rc);
+        CHECK(isfinite(out[0]) && isfinite(out[1]) && isfinite(out[2]), "huge: finite");
+        if (rc != VF_ND_OK) {
+            CHECK(is_stop(&r, out, 3), "overflow: stop result");
+        }
+    }
+    /* batch: two rows, one bad */
+    P6[0] = 0.0; P6[1] = 0.0; P6[2] = 0.0; P6[3] = NAN; P6[4] = 0.0; P6[5] = 0.0;
+    V6[0] = 1.0; V6[1] = 0.0; V6[2] = 0.0; V6[3] = 1.0; V6[4] = 0.0; V6[5] = 0.0;
+    CHECK(vf_nd_batch(&P.poly, &law, P6, V6, 2, O6, zones, &s) == 1, "batch: one bad row");
+    CHECK(O6[0] == 1.0 && zones[0] == VF_ND_ZONE_FREE, "batch row 0");
+    CHECK(O6[3] == 0.0 && O6[4] == 0.0 && O6[5] == 0.0 && zones[1] == VF_ND_ZONE_INVALID,
+          "batch row 1");
+    CHECK(vf_nd_batch(&P.poly, &law, NULL, V6, 2, O6, zones, &s) == VF_ND_ERR_NULL, "batch NULL");
+    CHECK(vf_nd_batch(&P.poly, &law, P6, V6, 0, O6, NULL, &s) == 0, "empty batch");
+    free(s.dbl);
+    free(s.ints);
+    free_polytope(&P);
+}
+
+static double dotn(const double *a, const double *b, int32_t n)
+{
+    double s = 0.0;
+    int32_t k;
+    for (k = 0; k < n; k++) {
+        s += a[k] * b[k];
+    }
+    return s;
+}
+
+static void test_law_random(void)
+{
+    int trial;
+    for (trial = 0; trial < 4000; trial++) {
+        int32_t dim = 2 + (int32_t)uniform(0, 6);
+        int box = trial % 3 == 0;
+        int32_t nf = dim + 1 + (int32_t)uniform(0, 20);
+        polytope P;
+        vf_nd_law law;
+        vf_nd_scratch s;
+        vf_nd_result r;
+        double *p, *v, *out;
+        int32_t *active;
+        const double *dist, *bnd;
+        const int32_t *work;
+        int32_t k, a;
+        int rc, inside = 1;
+        double vn, on, bufw;
+        make_polytope(&P, nf, dim, box);
+        bufw = uniform(0.05, 0.5);
+        if (trial % 4 == 3) {
+            law.kind = VF_ND_PROFILE_THREE_ZONE;
+            law.prm[0] = 4.0; law.prm[1] = 1.0; law.prm[2] = 2.0;
+            law.prm[3] = 0.0625; law.prm[4] = 0.0625 - 1.0 / 32.0; law.prm[5] = 0.25 + 0.03125;
+            law.relax = 0;
+        } else {
+            law.kind = VF_ND_PROFILE_LINEAR;
+            law.prm[0] = bufw; law.prm[1] = uniform(0.0, 5.0); law.prm[2] = law.prm[1] * bufw;
+            law.prm[3] = law.prm[4] = law.prm[5] = 0.0;
+            law.relax = 1;
+        }
+        law.idt = (trial % 5 == 4) ? 1.0 / uniform(0.001, 0.1) : 0.0;
+        /* keep the three-zone profile self-consistent: sqrt(2 a |d - d_f|) = K d at d_int */
+        CHECK(vf_nd_check(&P.poly, &law) == VF_ND_OK, "random law refused");
+        s.dbl = dalloc(vf_nd_law_doubles(P.nf, dim));
+        s.ints = ialloc(vf_nd_law_ints(P.nf, dim));
+        p = dalloc(dim);
+        v = dalloc(dim);
+        out = dalloc(dim);
+        active = ialloc(dim + 1);
+        for (k = 0; k < dim; k++) {
+            p[k] = uniform(-1.2, 1.2);
+            v[k] = normal() * ((trial % 7 == 0) ? 1e6 : 1.0);
+        }
+        rc = vf_nd_shape(&P.poly, &law, p, v, out, active, &s, &r);
+        CHECK(rc == VF_ND_OK, "rc %d", rc);
+        CHECK(r.zone >= 0 && r.zone <= 4, "zone %d", r.zone);
+        CHECK(r.q >= 0 && r.q <= dim + 1 && r.m >= 0 && r.m <= P.nf, "q %d m %d", r.q, r.m);
+        for (k = 0; k < dim; k++) {
+            CHECK(isfinite(out[k]), "finite output");
+        }
+        vf_nd_bounded(&P.poly, &s, &dist, &bnd, &work);
+        for (a = 0; a < P.nf; a++) {
+            if (dist[a] < 0.0) {
+                inside = 0;
+            }
+        }
+        if (!(r.stages & (VF_ND_STAGE_RELAXED | VF_ND_STAGE_STOP))) {
+            for (a = 0; a < r.m; a++) {
+                int32_t e = work[a];
+                double s2 = dotn(P.N + (size_t)e * dim, out, dim);
+                CHECK(e >= 0 && e < P.nf, "bounded facet %d", e);
+                CHECK(s2 - bnd[e] >= -1e-9 * (1.0 + fabs(bnd[e]) + sqrt(dotn(out, out, dim))),
+                      "bound of facet %d violated by %g (trial %d)", e, bnd[e] - s2, trial);
+            }
+        }
+        vn = sqrt(dotn(v, v, dim));
+        on = sqrt(dotn(out, out, dim));
+        if (inside) {
+            CHECK(on <= vn * (1.0 + 1e-9) + 1e-12, "speed-up inside: %g > %g (trial %d)", on, vn,
+                  trial);
+        }
+        if (r.zone == VF_ND_ZONE_FREE) {
+            CHECK(memcmp(out, v, (size_t)dim * sizeof(double)) == 0, "free state changed");
+        }
+        free(s.dbl);
+        free(s.ints);
+        free(p);
+        free(v);
+        free(out);
+        free(active);
+        free_polytope(&P);
+    }
+}
+
+/* ------------------------------------------------------------------ filter helpers */
+
+static void test_rate_bounds(void)
+{
+    double prm[6] = {0.1, 1.0, 0.5, 0, 0, 0};
+    double dist[4] = {-0.2, 0.0, 0.05, 0.3}, bnd[4];
+    int32_t work[8];
+    vf_nd_rate_bounds(VF_ND_PROFILE_LINEAR, prm, dist, 4, 2.0, 0.0, bnd, work);
+    CHECK(bnd[0] == 0.2, "recovery min(k d, r_max): %g", bnd[0]);
+    CHECK(bnd[1] == -0.0 && bnd[2] == -(2.0 * (0.05 / 0.1)), "linear cap: %g %g", bnd[1], bnd[2]);
+    CHECK(bnd[3] == -INFINITY, "beyond the buffer: %g", bnd[3]);
+    vf_nd_rate_bounds(VF_ND_PROFILE_LINEAR, prm, dist, 4, 2.0, 100.0, bnd, work);
+    CHECK(bnd[3] == -30.0, "discrete time: -d/dt, got %g", bnd[3]);
+    CHECK(bnd[0] == 0.2, "recovery at most d/dt: %g", bnd[0]);
+}
+
+static void test_capsule_rows(void)
+{
+    /* a planar 3-link chain along x, axes z; spheres around it */
+    double Pp[12] = {0, 0, 0, 1, 0, 0, 2, 0, 0, 3, 0, 0};
+    double axes[9] = {0, 0, 1, 0, 0, 1, 0, 0, 1};
+    double lrad[3] = {0.05, 0.05, 0.05};
+    double C[9] = {0.5, 0.2, 0.0, 2.5, -0.12, 0.0, 1.5, 3.0, 0.0};
+    double srad[3] = {0.1, 0.05, 0.1};
+    double vmax[3] = {1.0, 1.0, 1.0};
+    double u[4] = {0.3, -0.2, 0.1, 0.7};
+    vf_nd_capsules cap;
+    double *G = dalloc(9 * 4), *b = dalloc(9), *d = dalloc(9), *work = dalloc(9 + 3);
+    int32_t *obs = ialloc(9), *link = ialloc(9);
+    int32_t r, i;
+    memset(&cap, 0, sizeof(cap));
+    cap.P = Pp;
+    cap.axes = axes;
+    cap.lrad = lrad;
+    cap.C = C;
+    cap.srad = srad;
+    cap.vmax = vmax;
+    cap.vsum = 3.0;
+    cap.buf = 0.1;
+    cap.nl = 3;
+    cap.nj = 3;
+    cap.ncols = 4;
+    cap.k = 3;
+    cap.kind = VF_ND_PROFILE_LINEAR;
+    cap.prm[0] = 0.1;
+    cap.prm[1] = 1.0;
+    cap.prm[2] = 0.1;
+    r = vf_nd_capsule_rows(&cap, u, G, b, d, obs, link, work);
+    /* sphere 0 over link 0 (clearance 0.2 - 0.15 = 0.05), sphere 1 under link 2 (0.12 - 0.1 =
+     * 0.02); sphere 2 far away */
+    CHECK(r == 2, "rows %d", r);
+    CHECK(obs[0] == 0 && link[0] == 0 && fabs(d[0] - 0.05) < 1e-15, "row 0: %d %d %g", obs[0],
+          link[0], d[0]);
+    CHECK(obs[1] == 1 && link[1] == 2 && fabs(d[1] - 0.02) < 1e-15, "row 1: %d %d %g", obs[1],
+          link[1], d[1]);
+    /* row 0: normal -y at x_c = (0.5, 0, 0); joint 0 moves it with z x (x_c - P_0) = (0, 0.5, 0):
+     * G = -0.5 on joint 0, nothing else */
+    CHECK(G[0] == -0.5 && G[1] == 0.0 && G[2] == 0.0 && G[3] == 0.0, "row 0 G %g %g %g %g", G[0],
+          G[1], G[2], G[3]);
+    /* row 1: normal +y at (2.5, 0, 0): columns z x (2.5 - j, 0, 0) = (0, 2.5 - j, 0) */
+    CHECK(G[4] == 2.5 && G[5] == 1.5 && G[6] == 0.5 && G[7] == 0.0, "row 1 G");
+    /* bounds: -|J u| d / d_max */
+    CHECK(fabs(b[0] - (-(0.5 * 0.3) * (0.05 / 0.1))) < 1e-15, "row 0 bound %g", b[0]);
+    {
+        double sp = fabs(2.5 * 0.3 + 1.5 * -0.2 + 0.5 * 0.1);
+        CHECK(fabs(b[1] - (-sp * (0.02 / 0.1))) < 1e-15, "row 1 bound %g", b[1]);
+    }
+    /* every pair's clearance: the rows' d, and the far sphere's true clearance */
+    {
+        double *cl = dalloc(9);
+        vf_nd_capsule_clearances(&cap, cl);
+        CHECK(cl[0] == d[0], "clearance of row 0: %g vs %g", cl[0], d[0]);
+        CHECK(cl[1 * 3 + 2] == d[1], "clearance of row 1: %g vs %g", cl[5], d[1]);
+        CHECK(fabs(cl[2 * 3 + 1] - (3.0 - 0.1 - 0.05)) < 1e-15, "far sphere over link 1: %g",
+              cl[7]);
+        free(cl);
+    }
+    /* discrete time: a far sphere within one period's reach at full speed gets a row */
+    cap.dt = 1.0;
+    cap.idt = 1.0;
+    r = vf_nd_capsule_rows(&cap, u, G, b, d, obs, link, work);
+    CHECK(r >= 3, "discrete time adds rows within reach: %d", r);
+    for (i = 0; i < r; i++) {
+        CHECK(isfinite(b[i]) && isfinite(d[i]), "finite rows");
+    }
+    free(G);
+    free(b);
+    free(d);
+    free(work);
+    free(obs);
+    free(link);
+}
+
+int main(void)
+{
+    test_projection_checks();
+    test_projection_random();
+    test_law_checks();
+    test_law_random();
+    test_rate_bounds();
+    test_capsule_rows();
+    if (failures) {
+        printf("%d of %ld checks failed\n", failures, checks);
+        return 1;
+    }
+    printf("ok %ld\n", checks);
+    return 0;
+}
