@@ -3,6 +3,7 @@
 #
 #   core/fuzz/build.sh [OUT_DIR] [--strict-aux]      (default OUT_DIR: core/fuzz/build)
 #
+# TARGETS="exact" builds only that one (default: "exact patent").
 # clang with libFuzzer, AddressSanitizer and UBSan (Debian: clang, libclang-rt-14-dev); CC
 # overrides the compiler. Every sanitizer finding aborts (-fno-sanitize-recover=all). The core is
 # compiled as the library is (-ffp-contract=off). --strict-aux turns on the assertion that is
@@ -23,8 +24,8 @@ cc="${CC:-clang}"
 mkdir -p "$out"
 flags=(-std=c99 -g -O1 -fno-omit-frame-pointer -ffp-contract=off -Wall -Wextra -Werror
        -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all "-I$core/include")
-for target in exact patent; do
+for target in ${TARGETS:-exact patent}; do
     "$cc" "${flags[@]}" ${extra[@]+"${extra[@]}"} "$here/fuzz_$target.c" "$core/src/velfence_core.c" \
         -lm -o "$out/fuzz_$target"
 done
-echo "built: $out/fuzz_exact $out/fuzz_patent"
+echo "built in $out: ${TARGETS:-exact patent}"

@@ -23,8 +23,9 @@
  * give VF_OK with a finite velocity but -inf auxiliary distances d1/d2". With 0, a non-finite d1 or
  * d2 under VF_OK is accepted only when one of the polygon's signed distances itself overflows
  * (nx*px + ny*py - off not finite, computed as the core computes it) -- exactly that defect, and
- * nothing else. With 1 (build.sh --strict-aux), d1 and d2 must always be finite, as the header says
- * ("every double in it is finite").
+ * nothing else. With 1, d1 and d2 must always be finite, as the header says ("every double in it
+ * is finite"). Set at build time (build.sh --strict-aux, -DVF_FUZZ_STRICT_AUX_DISTANCES=1) or at
+ * run time by the environment variable of the same name (=1 or =0, read once at start-up).
  */
 #ifndef VF_FUZZ_COMMON_H
 #define VF_FUZZ_COMMON_H
@@ -41,6 +42,23 @@
 #ifndef VF_FUZZ_STRICT_AUX_DISTANCES
 #define VF_FUZZ_STRICT_AUX_DISTANCES 0
 #endif
+
+static int fz_strict_aux = VF_FUZZ_STRICT_AUX_DISTANCES;
+
+int LLVMFuzzerInitialize(int *argc, char ***argv);
+int LLVMFuzzerInitialize(int *argc, char ***argv)
+{
+    const char *v = getenv("VF_FUZZ_STRICT_AUX_DISTANCES");
+    (void)argc;
+    (void)argv;
+    if (v != NULL && (v[0] == '0' || v[0] == '1') && v[1] == '\0') {
+        fz_strict_aux = v[0] == '1';
+    }
+    if (fz_strict_aux) {
+        fprintf(stderr, "VF_FUZZ_STRICT_AUX_DISTANCES=1: d1/d2 must be finite under VF_OK\n");
+    }
+    return 0;
+}
 
 #define FZ_MAX_N 24      /* structured polygons: 3..24 edges (raw: n in -23..23) */
 #define FZ_MAX_STATES 32 /* states per input */
@@ -367,7 +385,7 @@ static int fz_common_contract(const char *law, const vf_polygon *poly, double px
         report("VF_OK with a non-finite velocity or spring term", px, py, vx, vy, rc, r);
     }
     if (!isfinite(r->d1) || !isfinite(r->d2)) {
-        if (VF_FUZZ_STRICT_AUX_DISTANCES || dfin) {
+        if (fz_strict_aux || dfin) {
             report("VF_OK with non-finite auxiliary distances d1/d2", px, py, vx, vy, rc, r);
         }
         return 0; /* the known defect: an edge's signed distance itself overflowed */
