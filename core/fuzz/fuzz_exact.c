@@ -5,7 +5,7 @@
  *   flags byte | polygon (fuzz_common.h) | law | states (px, py, vx, vy), the rest of the bytes
  *   law: kind selector byte (0, 1: LINEAR; 2: THREE_ZONE; 3: a raw int32), 6 doubles prm,
  *        relax byte, idt selector byte (even: 0, odd: a double follows)
- *   flags bit 7: instead of states, one NULL-pointer case (selector byte follows the law)
+ *   flags bit 7: instead of states, one NULL-pointer case (a selector byte follows the law)
  *
  * Asserted (abort() on a violation, after printing the decoded input):
  *   vf_exact_check returns VF_OK, VF_ERR_NULL or VF_ERR_ARGUMENT, and VF_OK exactly when the
@@ -24,8 +24,10 @@
  *     every edge, with L_i the documented bound; three-zone kind, states inside; inside (every
  *     d_i >= 0) also |v_o| <= |v| (never faster inside); tol = 1e-12 (|v| + R) + 1e-12 |L_i|;
  *   vf_exact_batch returns the number of non-VF_OK states and writes the single calls' ox, oy and
- *     zones; with zones NULL the same velocities; NULL P/V/out with N > 0 gives VF_ERR_NULL and
- *     writes nothing.
+ *     zones; with zones NULL the same velocities;
+ *   NULL pointers (flags bit 7; any one of poly, law, nx, ny, off, scratch and its three arrays,
+ *     out, P, V): VF_ERR_NULL from the entry points that read it, with the stop result from
+ *     vf_exact_shape and nothing written by vf_exact_batch.
  */
 #include "fuzz_common.h"
 
@@ -269,50 +271,66 @@ static void check_state(const vf_polygon *p, const vf_exact_law *l, int structur
     *rc_out = rc;
 }
 
+/* One NULL-pointer case: the selector names which pointer is NULL and which entry point sees it.
+ * Checks: VF_ERR_NULL; shape writes the stop result (out non-NULL); batch writes nothing. */
 static void null_cases(fz_reader *rd, const vf_polygon *p, const vf_exact_law *l)
 {
     uint8_t sel = fz_byte(rd);
-    const int32_t n = p->n > 0 ? p->n : 1;
+    const int32_t n = p->n;
     double *dist = fz_alloc(n), *bnd = fz_alloc(n);
     int32_t *work = (int32_t *)malloc((size_t)n * sizeof(int32_t));
     vf_scratch s = {dist, bnd, work};
     vf_polygon q = *p;
-    vf_result r;
+    const vf_polygon *pp = &q;
+    const vf_exact_law *ll = l;
+    vf_scratch *ss = &s;
+    vf_result r, *rr = &r;
     double P[2] = {0.0, 0.0}, V[2] = {1.0, 0.0}, out[2] = {7.0, 7.0};
+    const double *PP = P, *VV = V;
+    double *OO = out;
     int64_t zones[1] = {7};
     int rc;
     int64_t rb;
-    switch (sel % 7) {
+    switch ((sel >> 3) % 10) { /* the NULL pointer */
+    case 0: pp = NULL; break;
+    case 1: ll = NULL; break;
+    case 2: q.nx = NULL; break;
+    case 3: q.ny = NULL; break;
+    case 4: q.off = NULL; break;
+    case 5: ss = NULL; break;
+    case 6: s.dist = NULL; break;
+    case 7: s.bnd = NULL; break;
+    case 8: s.work = NULL; break;
+    default: rr = NULL; break; /* out (shape), P, V or out (batch) */
+    }
+    switch (sel % 3) { /* the entry point */
     case 0:
-        if (vf_exact_check(NULL, l) != VF_ERR_NULL) fail_simple("check(NULL poly) != VF_ERR_NULL");
+        if ((sel >> 3) % 10 > 4) {
+            break; /* the check reads neither scratch nor result */
+        }
+        if (vf_exact_check(pp, ll) != VF_ERR_NULL) {
+            fail_simple("vf_exact_check with a NULL pointer: not VF_ERR_NULL");
+        }
         break;
     case 1:
-        if (vf_exact_check(p, NULL) != VF_ERR_NULL) fail_simple("check(NULL law) != VF_ERR_NULL");
-        break;
-    case 2:
-        q.nx = NULL;
-        if (vf_exact_check(&q, l) != VF_ERR_NULL) fail_simple("check(nx NULL) != VF_ERR_NULL");
-        break;
-    case 3:
-        if (vf_exact_shape(p, l, 0.0, 0.0, 1.0, 0.0, &s, NULL) != VF_ERR_NULL)
-            fail_simple("shape(out NULL) != VF_ERR_NULL");
-        break;
-    case 4:
-        s.bnd = NULL;
-        rc = vf_exact_shape(p, l, 0.0, 0.0, 1.0, 0.0, &s, &r);
-        if (rc != VF_ERR_NULL || !fz_is_stop(&r))
-            fail_simple("shape(scratch.bnd NULL): not VF_ERR_NULL with the stop result");
-        break;
-    case 5:
-        rb = vf_exact_batch(p, l, NULL, V, 1, out, zones, &s);
-        if (rb != VF_ERR_NULL || out[0] != 7.0 || out[1] != 7.0 || zones[0] != 7)
-            fail_simple("batch(P NULL, N = 1): not VF_ERR_NULL, or something was written");
+        memset(&r, 0xa5, sizeof r);
+        rc = vf_exact_shape(pp, ll, 0.25, 0.0, 1.0, 0.0, ss, rr);
+        if (rc != VF_ERR_NULL || (rr != NULL && !fz_is_stop(rr))) {
+            fail_simple("vf_exact_shape with a NULL pointer: not VF_ERR_NULL with the stop result");
+        }
         break;
     default:
-        s.dist = NULL;
-        rb = vf_exact_batch(p, l, P, V, 1, out, zones, &s);
-        if (rb != VF_ERR_NULL || out[0] != 7.0 || out[1] != 7.0 || zones[0] != 7)
-            fail_simple("batch(scratch.dist NULL): not VF_ERR_NULL, or something was written");
+        if (rr == NULL) {
+            switch (sel % 7) {
+            case 0: PP = NULL; break;
+            case 1: VV = NULL; break;
+            default: OO = NULL; break;
+            }
+        }
+        rb = vf_exact_batch(pp, ll, PP, VV, 1, OO, zones, ss);
+        if (rb != VF_ERR_NULL || out[0] != 7.0 || out[1] != 7.0 || zones[0] != 7) {
+            fail_simple("vf_exact_batch with a NULL pointer: not VF_ERR_NULL, or it wrote");
+        }
         break;
     }
     free(dist);

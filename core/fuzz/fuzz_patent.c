@@ -5,7 +5,7 @@
  *
  *   flags byte | polygon (fuzz_common.h) | law: dmax, k, theta_max doubles, idt selector byte
  *   (even: 0, odd: a double follows) | states (px, py, vx, vy), the rest of the bytes
- *   flags bit 7: instead of states, one NULL-pointer case (selector byte follows the law)
+ *   flags bit 7: instead of states, one NULL-pointer case (a selector byte follows the law)
  *
  * Asserted (abort() on a violation, after printing the decoded input):
  *   vf_patent_check returns VF_OK, VF_ERR_NULL or VF_ERR_ARGUMENT, and VF_OK only for data that
@@ -21,8 +21,10 @@
  *   on polygons built from corners (unit normals), states inside (every d_i >= 0): |v_o| <= |v|
  *     (the patent law only removes approaching normal components, derivations section 2);
  *   vf_patent_batch returns the number of non-VF_OK states and writes the single calls' ox, oy
- *     and zones; with zones NULL the same velocities; NULL P with N > 0 gives VF_ERR_NULL and
- *     writes nothing.
+ *     and zones; with zones NULL the same velocities;
+ *   NULL pointers (flags bit 7; any one of poly, law, nx, ny, off, beta, out, P, V): VF_ERR_NULL
+ *     from the entry points that read it, with the stop result from vf_patent_shape and nothing
+ *     written by vf_patent_batch.
  */
 #include "fuzz_common.h"
 
@@ -131,40 +133,58 @@ static void check_state(const vf_polygon *p, const vf_patent_law *l, int structu
     *rc_out = rc;
 }
 
+/* One NULL-pointer case: the selector names which pointer is NULL and which entry point sees it.
+ * Checks: VF_ERR_NULL; shape writes the stop result (out non-NULL); batch writes nothing. */
 static void null_cases(fz_reader *rd, const vf_polygon *p, const vf_patent_law *l)
 {
     uint8_t sel = fz_byte(rd);
     vf_polygon q = *p;
-    vf_result r;
-    double V[2] = {1.0, 0.0}, out[2] = {7.0, 7.0};
+    const vf_polygon *pp = &q;
+    const vf_patent_law *ll = l;
+    vf_result r, *rr = &r;
+    double P[2] = {0.0, 0.0}, V[2] = {1.0, 0.0}, out[2] = {7.0, 7.0};
+    const double *PP = P, *VV = V;
+    double *OO = out;
     int64_t zones[1] = {7};
     int rc;
     int64_t rb;
-    switch (sel % 6) {
+    switch ((sel >> 3) % 7) { /* the NULL pointer */
+    case 0: pp = NULL; break;
+    case 1: ll = NULL; break;
+    case 2: q.nx = NULL; break;
+    case 3: q.ny = NULL; break;
+    case 4: q.off = NULL; break;
+    case 5: q.beta = NULL; break;
+    default: rr = NULL; break; /* out (shape), P, V or out (batch) */
+    }
+    switch (sel % 3) { /* the entry point */
     case 0:
-        if (vf_patent_check(NULL, l) != VF_ERR_NULL) fail_simple("check(NULL poly) != VF_ERR_NULL");
+        if (rr == NULL) {
+            break; /* the check has no result */
+        }
+        if (vf_patent_check(pp, ll) != VF_ERR_NULL) {
+            fail_simple("vf_patent_check with a NULL pointer: not VF_ERR_NULL");
+        }
         break;
     case 1:
-        if (vf_patent_check(p, NULL) != VF_ERR_NULL) fail_simple("check(NULL law) != VF_ERR_NULL");
-        break;
-    case 2:
-        q.beta = NULL;
-        if (vf_patent_check(&q, l) != VF_ERR_NULL) fail_simple("check(beta NULL) != VF_ERR_NULL");
-        break;
-    case 3:
-        if (vf_patent_shape(p, l, 0.0, 0.0, 1.0, 0.0, NULL) != VF_ERR_NULL)
-            fail_simple("shape(out NULL) != VF_ERR_NULL");
-        break;
-    case 4:
-        q.beta = NULL;
-        rc = vf_patent_shape(&q, l, 0.0, 0.0, 1.0, 0.0, &r);
-        if (rc != VF_ERR_NULL || !fz_is_stop(&r))
-            fail_simple("shape(beta NULL): not VF_ERR_NULL with the stop result");
+        memset(&r, 0xa5, sizeof r);
+        rc = vf_patent_shape(pp, ll, 0.25, 0.0, 1.0, 0.0, rr);
+        if (rc != VF_ERR_NULL || (rr != NULL && !fz_is_stop(rr))) {
+            fail_simple("vf_patent_shape with a NULL pointer: not VF_ERR_NULL with the stop result");
+        }
         break;
     default:
-        rb = vf_patent_batch(p, l, NULL, V, 1, out, zones);
-        if (rb != VF_ERR_NULL || out[0] != 7.0 || out[1] != 7.0 || zones[0] != 7)
-            fail_simple("batch(P NULL, N = 1): not VF_ERR_NULL, or something was written");
+        if (rr == NULL) {
+            switch (sel % 7) {
+            case 0: PP = NULL; break;
+            case 1: VV = NULL; break;
+            default: OO = NULL; break;
+            }
+        }
+        rb = vf_patent_batch(pp, ll, PP, VV, 1, OO, zones);
+        if (rb != VF_ERR_NULL || out[0] != 7.0 || out[1] != 7.0 || zones[0] != 7) {
+            fail_simple("vf_patent_batch with a NULL pointer: not VF_ERR_NULL, or it wrote");
+        }
         break;
     }
 }

@@ -26,7 +26,7 @@ import pytest
 
 CORE = Path(__file__).resolve().parents[2] / "core"
 FUZZ = CORE / "fuzz"
-CLANG = shutil.which(os.environ.get("CC", "clang")) or shutil.which("clang")
+CLANG = shutil.which("clang")
 SECONDS_PER_TARGET = 10
 ENV = {
     **os.environ,
