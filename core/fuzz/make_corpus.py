@@ -39,7 +39,7 @@ def structured(n: int, centre: tuple[float, float], radius: float, aspect_byte: 
 
 def raw_box(with_beta: bool) -> bytes:
     """The box [-1, 1] x [-0.5, 0.5] as raw kernel data (mode 1): ConvexPolygon.kernel_data."""
-    nx, ny = (-0.0, 1.0, -0.0, -1.0), (1.0, 0.0, -1.0, 0.0)
+    nx, ny = (-0.0, -1.0, -0.0, 1.0), (1.0, 0.0, -1.0, 0.0)
     off = (-0.5, -1.0, -0.5, -1.0)
     beta = (0.0, 2.214297435588181, 3.141592653589793, 5.355890089177974, 6.283185307179586)
     out = bytes([1, 4])
