@@ -28,8 +28,8 @@ CORE = Path(__file__).resolve().parents[2] / "core"
 FUZZ = CORE / "fuzz"
 CLANG = shutil.which("clang")
 SECONDS_PER_TARGET = 10
-ENV = {
-    **os.environ,
+ENV = {  # the strict switch is set per test, never inherited
+    **{k: v for k, v in os.environ.items() if k != "VF_FUZZ_STRICT_AUX_DISTANCES"},
     "ASAN_OPTIONS": "detect_leaks=1:abort_on_error=0",
     "UBSAN_OPTIONS": "print_stacktrace=1",
 }
@@ -144,13 +144,17 @@ def test_control_strict_switch_reports_the_known_defect(libfuzzer: None, tmp_pat
     unit.write_bytes(_known_defect_input())
     _build(tmp_path / "build", targets="exact")
     exe = str(tmp_path / "build" / "fuzz_exact")
+    found = sorted(str(f) for f in (FUZZ / "crashes").glob("exact-*"))
     runs = {}
     for strict in ("0", "1"):
         env = {**ENV, "VF_FUZZ_STRICT_AUX_DISTANCES": strict}
+        units = [str(unit), *found] if strict == "0" else [str(unit)]
         runs[strict] = subprocess.run(
-            [exe, str(unit)], capture_output=True, text=True, timeout=60, env=env, check=False
+            [exe, *units], capture_output=True, text=True, timeout=60, env=env, check=False
         )
+    # by default: the defect's inputs (this one, core/fuzz/crashes/exact-*) run clean
     assert runs["0"].returncode == 0, runs["0"].stderr[-4000:]
+    assert f"Running: {found[0]}" in runs["0"].stderr
     bad = runs["1"]
     assert bad.returncode != 0
     assert "contract violated (exact law): VF_OK with non-finite auxiliary distances" in bad.stderr
