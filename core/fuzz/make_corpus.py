@@ -18,8 +18,11 @@ SPECIAL = [0.0, -0.0, 1.0, -1.0, 0.5, 2.0, 1.7976931348623157e308, -1.7976931348
 
 
 def dbl(x: float) -> bytes:
-    """One double: a moderate value when exactly representable in 1/8192 steps in [-4, 4), a
-    special value from the table, else its 8 raw bytes."""
+    """Encode one double as fz_double reads it.
+
+    A moderate value when exactly representable in 1/8192 steps in [-4, 4), a special value from
+    the table, else its 8 raw bytes.
+    """
     if -4.0 <= x < 4.0 and (x * 8192.0).is_integer() and not (x == 0.0 and math.copysign(1, x) < 0):
         return bytes([128]) + struct.pack("<h", int(x * 8192.0))
     for i, s in enumerate(SPECIAL):
@@ -51,6 +54,7 @@ def raw_box(with_beta: bool) -> bytes:
 
 
 def states(rows: list[tuple[float, float, float, float]]) -> bytes:
+    """The states (px, py, vx, vy), four doubles each."""
     return b"".join(dbl(a) + dbl(b) + dbl(c) + dbl(d) for a, b, c, d in rows)
 
 
@@ -68,16 +72,19 @@ STATES = [
 
 
 def exact_law(kind: int, prm: tuple[float, ...], relax: int, idt: float | None) -> bytes:
+    """fuzz_exact's law bytes: kind selector, six parameters, relax, idt (None: continuous)."""
     tail = bytes([0]) if idt is None else bytes([1]) + dbl(idt)
     return bytes([kind]) + b"".join(dbl(p) for p in prm) + bytes([relax]) + tail
 
 
 def patent_law(dmax: float, k: float, theta: float, idt: float | None) -> bytes:
+    """fuzz_patent's law bytes: d_max, k, theta_max, idt (None: continuous)."""
     tail = bytes([0]) if idt is None else bytes([1]) + dbl(idt)
     return dbl(dmax) + dbl(k) + dbl(theta) + tail
 
 
 def main() -> None:
+    """Write every seed file."""
     lin = (0.25, 1.0, 0.25, 0.0, 0.0, 0.0)
     tz = (4.0, 1.0, 2.0, 0.0625, 0.03125, 0.28125)
     exact = {
