@@ -1,0 +1,31 @@
+#!/usr/bin/env bash
+# Builds the libFuzzer targets of the compiled core (fuzz_exact, fuzz_patent).
+#
+#   core/fuzz/build.sh [OUT_DIR] [--strict-aux]      (default OUT_DIR: core/fuzz/build)
+#
+# TARGETS="exact" builds only that one (default: "exact patent").
+# clang with libFuzzer, AddressSanitizer and UBSan (Debian: clang, libclang-rt-14-dev); CC
+# overrides the compiler. Every sanitizer finding aborts (-fno-sanitize-recover=all). The core is
+# compiled as the library is (-ffp-contract=off). --strict-aux turns on the assertion that is
+# switched off for the known open defect (VF_FUZZ_STRICT_AUX_DISTANCES, see fuzz_common.h).
+# Run one:  OUT_DIR/fuzz_exact -seed=1 -max_total_time=60 OUT_DIR/corpus-exact core/fuzz/corpus/exact
+set -euo pipefail
+here="$(cd "$(dirname "$0")" && pwd)"
+core="$(dirname "$here")"
+out="${1:-$here/build}"
+extra=()
+for arg in "${@:2}"; do
+    case "$arg" in
+        --strict-aux) extra+=(-DVF_FUZZ_STRICT_AUX_DISTANCES=1) ;;
+        *) echo "build.sh: unknown option $arg" >&2; exit 2 ;;
+    esac
+done
+cc="${CC:-clang}"
+mkdir -p "$out"
+flags=(-std=c99 -g -O1 -fno-omit-frame-pointer -ffp-contract=off -Wall -Wextra -Werror
+       -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all "-I$core/include")
+for target in ${TARGETS:-exact patent}; do
+    "$cc" "${flags[@]}" ${extra[@]+"${extra[@]}"} "$here/fuzz_$target.c" "$core/src/velfence_core.c" \
+        -lm -o "$out/fuzz_$target"
+done
+echo "built in $out: ${TARGETS:-exact patent}"

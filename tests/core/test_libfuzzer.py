@@ -1,0 +1,162 @@
+"""Coverage-guided fuzzing of the compiled core's checked C API with libFuzzer (clang).
+
+``core/fuzz/build.sh`` builds the targets ``fuzz_exact`` and ``fuzz_patent`` with
+``-fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all``; each decodes its bytes into a
+polygon (structured or raw: degenerate, huge, tiny, NaN/inf/subnormal entries), law parameters and
+states, calls ``vf_*_check`` and then ``vf_*_shape`` / ``vf_*_batch`` and aborts when the
+documented contract does not hold (codes, the stop result, finite output, the law's bounds; see the
+targets' header comments). Here each target runs for a bounded time from the seed corpus
+``core/fuzz/corpus/`` with a fixed seed and must exit cleanly. A control proves the assertions are
+live: the known open defect (VF_OK with -inf auxiliary distances for positions near DBL_MAX),
+which the default build tolerates behind ``VF_FUZZ_STRICT_AUX_DISTANCES``, aborts the strict build.
+
+Skipped, saying why, without clang or without its libFuzzer runtime (Debian: libclang-rt-14-dev).
+Longer runs and their coverage numbers: docs/reliability.md.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+
+CORE = Path(__file__).resolve().parents[2] / "core"
+FUZZ = CORE / "fuzz"
+CLANG = shutil.which("clang")
+SECONDS_PER_TARGET = 10
+ENV = {  # the strict switch is set per test, never inherited
+    **{k: v for k, v in os.environ.items() if k != "VF_FUZZ_STRICT_AUX_DISTANCES"},
+    "ASAN_OPTIONS": "detect_leaks=1:abort_on_error=0",
+    "UBSAN_OPTIONS": "print_stacktrace=1",
+}
+
+
+def _probe(tmp: Path) -> str | None:
+    """Why libFuzzer cannot be used here (None when a trivial fuzz target compiles and runs)."""
+    if CLANG is None:
+        return "clang is not on PATH: the libFuzzer targets need it (Debian: clang)"
+    src = tmp / "probe.c"
+    src.write_text(
+        "#include <stddef.h>\n#include <stdint.h>\n"
+        "int LLVMFuzzerTestOneInput(const uint8_t *d, size_t n) { (void)d; (void)n; return 0; }\n"
+    )
+    exe = tmp / "probe"
+    cmd = [CLANG, "-fsanitize=fuzzer,address,undefined", str(src), "-o", str(exe)]
+    done = subprocess.run(cmd, capture_output=True, text=True, timeout=120, check=False)
+    if done.returncode != 0:
+        return (
+            "clang cannot build a libFuzzer target (-fsanitize=fuzzer,address,undefined; "
+            f"Debian: libclang-rt-14-dev): {done.stderr.strip()[-300:]}"
+        )
+    run = subprocess.run(
+        [str(exe), "-runs=1"], capture_output=True, text=True, timeout=60, check=False
+    )
+    if run.returncode != 0:
+        return f"a trivial libFuzzer target does not run: {run.stderr.strip()[-300:]}"
+    return None
+
+
+def _build(out: Path, targets: str = "exact patent") -> None:
+    env = {**ENV, "CC": str(CLANG), "TARGETS": targets}
+    cmd = ["bash", str(FUZZ / "build.sh"), str(out)]
+    done = subprocess.run(cmd, capture_output=True, text=True, timeout=300, env=env, check=False)
+    assert done.returncode == 0, done.stdout + done.stderr
+
+
+@pytest.fixture(scope="module")
+def libfuzzer(tmp_path_factory: pytest.TempPathFactory) -> None:
+    """Skips the module's tests, saying why, when clang or libFuzzer is missing."""
+    reason = _probe(tmp_path_factory.mktemp("probe"))
+    if reason is not None:
+        pytest.skip(reason)
+
+
+@pytest.fixture(scope="module")
+def targets(libfuzzer: None, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("libfuzzer") / "build"
+    _build(out)
+    return out
+
+
+def _stat(log: str, name: str) -> int:
+    m = re.search(rf"stat::{name}:\s+(\d+)", log)
+    assert m is not None, f"no stat::{name} in libFuzzer's output:\n{log[-3000:]}"
+    return int(m.group(1))
+
+
+def _cov(log: str, event: str) -> tuple[int, int]:
+    m = re.search(rf"#\d+\s+{event}\s+cov: (\d+) ft: (\d+)", log)
+    assert m is not None, f"no {event} line in libFuzzer's output:\n{log[-3000:]}"
+    return int(m.group(1)), int(m.group(2))
+
+
+@pytest.mark.slow  # two builds and 2 x 10 s of fuzzing
+@pytest.mark.parametrize("law", ["exact", "patent"])
+def test_bounded_libfuzzer_run(targets: Path, tmp_path: Path, law: str) -> None:
+    """A fixed-seed run from the seed corpus: no sanitizer finding, no contract violation."""
+    seeds = FUZZ / "corpus" / law
+    assert len(list(seeds.iterdir())) >= 4
+    work = tmp_path / "corpus"
+    work.mkdir()
+    cmd = [
+        str(targets / f"fuzz_{law}"), "-seed=1", f"-max_total_time={SECONDS_PER_TARGET}",
+        "-runs=3000000", "-timeout=20", "-rss_limit_mb=2048", "-print_final_stats=1",
+        f"-artifact_prefix={tmp_path}/", str(work), str(seeds),
+    ]  # fmt: skip
+    done = subprocess.run(
+        cmd, capture_output=True, text=True, timeout=SECONDS_PER_TARGET + 120, env=ENV, check=False
+    )
+    log = done.stderr
+    assert done.returncode == 0, log[-6000:]
+    for bad in ("contract violated", "runtime error", "ERROR: AddressSanitizer", "deadly signal"):
+        assert bad not in log, log[-6000:]
+    assert not list(tmp_path.glob("crash-*"))
+    assert not list(tmp_path.glob("timeout-*"))
+    seeded, _ = _cov(log, "INITED")
+    cov, ft = _cov(log, "DONE")
+    runs = _stat(log, "number_of_executed_units")
+    assert runs > 100  # the fuzzer ran past the seeds
+    assert seeded > 100  # the seeds reach the core (coverage counters of the C code)
+    assert cov >= seeded
+    print(f"fuzz_{law}: {runs} runs, cov {cov} ft {ft}, {_stat(log, 'average_exec_per_sec')}/s")
+
+
+def _known_defect_input() -> bytes:
+    """fuzz_exact's bytes for a regular octagon of circumradius 1, the built-in exact law
+    (buffer 0.25, gain 1) and the state p = (-DBL_MAX, -DBL_MAX), v = (1, 0): edge distances
+    overflow to -inf (layout: fuzz_common.h, fuzz_exact.c)."""
+    moderate = lambda x: bytes([128]) + int(x * 8192).to_bytes(2, "little", signed=True)  # noqa: E731
+    zero, one, minus_max = bytes([64]), bytes([66]), bytes([71])
+    polygon = bytes([0, 5, 0]) + bytes(8) + zero + zero + one + bytes([31])
+    law = bytes([0]) + moderate(0.25) + one + moderate(0.25) + zero * 3 + bytes([1, 0])
+    return bytes([0]) + polygon + law + minus_max + minus_max + one + zero
+
+
+def test_control_strict_switch_reports_the_known_defect(libfuzzer: None, tmp_path: Path) -> None:
+    """The assertions are live: with VF_FUZZ_STRICT_AUX_DISTANCES=1 the target aborts on the
+    known open defect (-inf d1/d2 under VF_OK), printing the decoded input; by default it accepts
+    exactly that case."""
+    unit = tmp_path / "known-defect"
+    unit.write_bytes(_known_defect_input())
+    _build(tmp_path / "build", targets="exact")
+    exe = str(tmp_path / "build" / "fuzz_exact")
+    found = sorted(str(f) for f in (FUZZ / "crashes").glob("exact-*"))
+    runs = {}
+    for strict in ("0", "1"):
+        env = {**ENV, "VF_FUZZ_STRICT_AUX_DISTANCES": strict}
+        units = [str(unit), *found] if strict == "0" else [str(unit)]
+        runs[strict] = subprocess.run(
+            [exe, *units], capture_output=True, text=True, timeout=60, env=env, check=False
+        )
+    # by default: the defect's inputs (this one, core/fuzz/crashes/exact-*) run clean
+    assert runs["0"].returncode == 0, runs["0"].stderr[-4000:]
+    assert f"Running: {found[0]}" in runs["0"].stderr
+    bad = runs["1"]
+    assert bad.returncode != 0
+    assert "contract violated (exact law): VF_OK with non-finite auxiliary distances" in bad.stderr
+    assert "state px=-1.7976931348623157e+308 py=-1.7976931348623157e+308" in bad.stderr
+    assert re.search(r"result: rc=0 ox=\S+ .* d1=-inf", bad.stderr), bad.stderr[-3000:]
