@@ -301,6 +301,40 @@ def test_a_non_finite_shaper_output_is_never_written(bridge_log: Any) -> None:
     assert any("non-finite" in r.getMessage() for r in bridge_log.records)
 
 
+class _SlowFirstCall:
+    """A shaper whose first call is slow (an import, a numba compile) and that keeps state."""
+
+    def __init__(self, inner: Any) -> None:
+        self.inner, self.calls, self.resets = inner, 0, 0
+
+    def explain(self, p: Any, v: Any) -> Any:
+        self.calls += 1
+        return self.inner.explain(p, v)
+
+    def reset(self) -> None:
+        self.resets += 1
+
+
+def test_the_shaper_is_warmed_up_before_the_readers_exist() -> None:
+    """A cold first call (numba compiling for seconds) once starved a node's first commands:
+    the node now calls its shaper once, and resets it, before it opens any reader."""
+    import dataclasses
+
+    cfg = _parse({**PLANE, "command_frame": "world"})
+    slow = _SlowFirstCall(cfg.shaper.shaper)
+    node = BridgeNode(dataclasses.replace(cfg, shaper=dataclasses.replace(cfg.shaper, shaper=slow)))
+    seen: list[tuple[int, int, bool]] = []
+    opened = node._open
+
+    def spy_open() -> None:
+        seen.append((slow.calls, slow.resets, hasattr(node, "_cmd_reader")))
+        opened()
+
+    node._open = spy_open  # type: ignore[method-assign]
+    node.run(duration=0.05)
+    assert seen == [(1, 1, False)]
+
+
 def test_documented_files_load() -> None:
     """The YAML of docs/bridge.md and examples/bridge.yaml is valid as written."""
     import re

@@ -345,6 +345,9 @@ class BridgeNode:
         _check_duration(duration)
         if self._node_state != "starting":
             raise InvalidParameter("run: a BridgeNode runs once; create a new one")
+        # The first call of a shaper may import or compile (numba) for seconds: do it now, before
+        # the readers exist, never in the first control cycle with commands queueing behind it.
+        self._warm_up()
         try:
             self._open()
         except VelfenceError:
@@ -363,6 +366,16 @@ class BridgeNode:
             self._set_state("stopped")
             self._close()
         return EXIT_OK
+
+    def _warm_up(self) -> None:
+        """One throw-away call of the shaper (then reset: a stateful shaper forgets it)."""
+        cs = self._cs
+        # A state the shaper refuses (VelfenceError) is fine: its code paths were still loaded.
+        with contextlib.suppress(VelfenceError):
+            cs.shaper.explain(np.zeros(cs.state_dim), np.zeros(cs.command_dim))
+        reset = getattr(cs.shaper, "reset", None)
+        if callable(reset):
+            reset()
 
     # ---------------------------------------------------------------- DDS set-up
     def _open(self) -> None:
