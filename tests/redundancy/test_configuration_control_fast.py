@@ -200,7 +200,9 @@ def test_foreign_and_overriding_chains_take_the_protocol_route():
     foreign = ConfigurationController(_Foreign(arm), obs)
     own = ConfigurationController(arm, obs)
     over = ConfigurationController(_Overriding((1.0, 1.0, 1.0, 1.0)), obs)
-    assert own._fast and not foreign._fast and not over._fast
+    assert own._fast
+    assert not foreign._fast
+    assert not over._fast
     rng = np.random.default_rng(5)
     seen = 0
     for _ in range(200):
