@@ -504,8 +504,8 @@ def _policy_vector(name: str, x: ArrayLike, width: int, unit: str) -> FloatArray
 
 
 def _active_set(
-    G: list[list[float]],
-    rx0: list[float],
+    G_a: FloatArray,
+    rx0_a: FloatArray,
     zr: list[float],
     d: list[float],
     rho: list[float],
@@ -516,10 +516,11 @@ def _active_set(
 ) -> list[int] | None:
     r"""Steps D–F of :class:`ConfigurationController` in obstacle space (see ``_law``).
 
-    ``G`` (N, N) is :math:`R M_0^{-1} R^\top`, ``rx0`` the rates under the free solve, the rest
+    ``G_a`` (N, N) is :math:`R M_0^{-1} R^\top`, ``rx0_a`` the rates under the free solve, the rest
     per obstacle as in the law; indices are positions in these lists. Returns the active set in
     order of activation, or ``None`` when a rate is not finite.
     """
+    G, rx0 = G_a.tolist(), rx0_a.tolist()
     nn = len(rx0)
     thr = [z - _RATE_EPS for z in zr]
     clear = [di - ri for di, ri in zip(d, rho, strict=True)]
@@ -575,10 +576,7 @@ def _active_set(
                 in_set[a] = False
             else:
                 k += 1
-        dd = [
-            x + sum(gi[a] * ya for a, ya in zip(A, y, strict=True))
-            for x, gi in zip(rx0, G, strict=True)
-        ]
+        dd = (rx0_a + G_a[:, A] @ np.array(y)).tolist()
     return A
 
 
@@ -586,7 +584,11 @@ def _cross(a: FloatArray, b: FloatArray) -> FloatArray:
     """Row-wise cross product of (N, 3) arrays (or one (3,) operand), without np.cross' overhead."""
     a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
     b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
-    return np.stack((a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0), axis=-1)
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out[..., 0] = a1 * b2 - a2 * b1
+    out[..., 1] = a2 * b0 - a0 * b2
+    out[..., 2] = a0 * b1 - a1 * b0
+    return out
 
 
 def _is_library_chain(chain: object) -> bool:
@@ -614,9 +616,9 @@ def _solve_stacked(
 ) -> tuple[FloatArray, float]:
     """Weighted damped least squares (step E) as a stacked problem; returns (q_dot, cond(N))."""
     n = je.shape[1]
-    A = np.vstack((math.sqrt(w_e) * je, math.sqrt(w_z) * rows, math.sqrt(lam) * np.eye(n)))
+    A = np.concatenate((math.sqrt(w_e) * je, math.sqrt(w_z) * rows, math.sqrt(lam) * np.eye(n)))
     b = np.concatenate((math.sqrt(w_e) * yr, math.sqrt(w_z) * zr, np.zeros(n)))
-    if not (np.all(np.isfinite(A)) and np.all(np.isfinite(b))):
+    if not (np.isfinite(A).all() and np.isfinite(b).all()):
         return np.full(n, math.nan), math.inf
     x, _, _, s = np.linalg.lstsq(A, b, rcond=None)
     cond = float((s[0] / s[-1]) ** 2) if s[-1] > 0 else math.inf
@@ -698,6 +700,7 @@ class ConfigurationController(ChainObstacleBase):
         )
         self.task_tolerance = check_positive("task_tolerance", task_tolerance, unit="m/s")
         self._rho = readonly(np.array([o.influence for o in self.obstacles], dtype=float))
+        self._rho_list: list[float] = self._rho.tolist()
 
     def _law(self, q: FloatArray, v: FloatArray, target: FloatArray | None) -> ControlResult:
         if not self._fast:
@@ -723,7 +726,7 @@ class ConfigurationController(ChainObstacleBase):
         # bordering and shrinks by a rank-one downdate. Plain floats: the sets are small.
         rn = rows[near]
         M0 = w_e * (je.T @ je)
-        M0[np.diag_indices(self.dof)] += lam
+        M0.flat[:: self.dof + 1] += lam
         X = np.linalg.solve(M0, np.column_stack((w_e * (je.T @ yr), rn.T)))
         x0 = X[:, 0]
         Gn = rn @ X[:, 1:]
@@ -731,8 +734,8 @@ class ConfigurationController(ChainObstacleBase):
         if not (np.all(np.isfinite(Gn)) and np.all(np.isfinite(x0))):
             return self._law_reference(q, v, target)
         found = _active_set(
-            Gn.tolist(),
-            rx0n.tolist(),
+            Gn,
+            rx0n,
             zr[near].tolist(),
             d[near].tolist(),
             rho[near].tolist(),
@@ -818,15 +821,19 @@ class ConfigurationController(ChainObstacleBase):
             if peak > self.max_speed:
                 q_dot = q_dot * (self.max_speed / peak)
         d_dot = rows @ q_dot
-        ee_rate_error = float(np.linalg.norm(je @ q_dot - yr))
+        e = je @ q_dot - yr
+        ee_rate_error = math.sqrt(float(e @ e))  # = np.linalg.norm(e)
         # Yielding is measured against the unconstrained solve, whose error is the damping's.
-        ee_rate_error_free = float(np.linalg.norm(je @ q_free - yr))
+        e = je @ q_free - yr
+        ee_rate_error_free = math.sqrt(float(e @ e))
         tol = self.task_tolerance
-        violated = tuple(o for o in active if d_dot[o] < zr[o] - tol)
+        dl, zl, rl = (d_dot.tolist(), zr.tolist(), d.tolist()) if active else ([], [], [])
+        violated = tuple(o for o in active if dl[o] < zl[o] - tol)
         exhausted = len(active) > self.redundancy
+        rhol = self._rho_list
         if exhausted:
             zone = "exhausted"
-        elif any(d[o] < rho[o] for o in active):
+        elif any(rl[o] < rhol[o] for o in active):
             zone = "recovering"
         elif active:
             zone = "active"
