@@ -38,11 +38,11 @@ from velfence._validate import (
     check_positive_int,
     finite_scalar,
     readonly,
-    real_array,
 )
+from velfence.cobot._arrays import real_array
 from velfence.cobot.cvt import CVT, SteeredWheel, TetrahedralCVT
 from velfence.cobot.transforms import (
-    coupling_from_ee,
+    _map_checked,
     coupling_from_joint,
     joint_from_ee,
     signed_curvature,
@@ -155,6 +155,14 @@ class RThetaKinematics:
         H1 = np.array([[s * s, -c * s], [-c * s, c * c]]) / r
         H2 = np.array([[2 * c * s, s * s - c * c], [s * s - c * c, -2 * c * s]]) / (r * r)
         return np.stack([H1, H2])
+
+    def _jacobian_hessian(self, R: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """:meth:`jacobian` and :meth:`hessian` from one check of R (same arithmetic)."""
+        c, s, r = self._r(R)
+        J = np.array([[c, s], [-s / r, c / r]])
+        H1 = np.array([[s * s, -c * s], [-c * s, c * c]]) / r
+        H2 = np.array([[2 * c * s, s * s - c * c], [s * s - c * c, -2 * c * s]]) / (r * r)
+        return J, np.stack([H1, H2])
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -441,8 +449,11 @@ class Cobot:
     def _jacobians(self, R: FloatArray, arg: str) -> tuple[FloatArray, FloatArray]:
         """The kinematics' J and H at R, validated; its refusals name ``arg`` (the public input)."""
         try:
-            J = self._kin.jacobian(R)
-            H = self._kin.hessian(R)
+            if type(self._kin) is RThetaKinematics:  # one pivot check for both
+                J, H = self._kin._jacobian_hessian(R)
+            else:
+                J = self._kin.jacobian(R)
+                H = self._kin.hessian(R)
         except InvalidInput as e:
             text = str(e)
             raise InvalidInput(text if text.startswith(f"{arg}:") else f"{arg}: {text}") from None
@@ -588,7 +599,8 @@ class Cobot:
                 gi *= gJ
             else:
                 J_i, H_i = c._maps(Ra, J, H)
-                ti, kni, gi = coupling_from_ee(J_i, H_i, Ta, kNa)
+                # J_i (2, n), H_i (2, n, n) validated by _maps; Ta, kNa above.
+                ti, kni, gi = _map_checked(J_i, Ta, kNa, H_i, ("J_i", "T", "kN", "H_i"))
             t[i], kn[i] = ti, kni
             curv[i] = signed_curvature(ti, kni)
             spd[i] = gi * u

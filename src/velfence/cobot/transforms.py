@@ -28,7 +28,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from velfence._typing import FloatArray
-from velfence._validate import real_array
+from velfence.cobot._arrays import real_array
 from velfence.errors import InvalidInput
 
 __all__ = [
@@ -166,9 +166,7 @@ def _map(
             f"{nk}: expected shape ({n},), the length of {nT}, got shape {kNa.shape} ({nk} and "
             f"{nT} must agree)"
         )
-    with np.errstate(over="ignore", invalid="ignore"):
-        X = Aa @ Ta
-        Xp = Aa @ kNa
+    Ha = None
     if H is not None:
         Ha = real_array(nH, H)
         if Ha.shape != (m, n, n):
@@ -176,7 +174,22 @@ def _map(
                 f"{nH}: expected shape ({m}, {n}, {n}) to match {nA} of shape {Aa.shape} and "
                 f"{nT} of shape ({n},), got shape {Ha.shape}"
             )
-        with np.errstate(over="ignore", invalid="ignore"):
+    return _map_checked(Aa, Ta, kNa, Ha, names)
+
+
+def _map_checked(
+    Aa: FloatArray,
+    Ta: FloatArray,
+    kNa: FloatArray,
+    Ha: FloatArray | None,
+    names: tuple[str, str, str, str],
+) -> tuple[FloatArray, FloatArray, float]:
+    """:func:`_map` on validated arrays of agreeing shapes (the cobot's own calls)."""
+    nA, nT, nk, _ = names
+    with np.errstate(over="ignore", invalid="ignore"):
+        X = Aa @ Ta
+        Xp = Aa @ kNa
+        if Ha is not None:
             Xp = Xp + np.einsum("ikj,k,j->i", Ha, Ta, Ta)
     if not (np.all(np.isfinite(X)) and np.all(np.isfinite(Xp))):
         raise InvalidInput(

@@ -917,6 +917,19 @@ class DHChain(_ChainBase):
         return points, axes
 
     def _kinematics_cache(self, q: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+        pts, axes, flange = self._kinematics_lists(q.tolist())
+        return np.array(pts), np.array(axes), np.array(flange)
+
+    def _kinematics_lists(
+        self, qs: list[float]
+    ) -> tuple[
+        list[tuple[float, float, float]], list[tuple[float, float, float]], tuple[float, ...]
+    ]:
+        """:meth:`_kinematics_cache` as plain floats: ``(points (n+1), axes (n), flange)``.
+
+        For a validated joint list ``qs`` (n finite floats [rad]); callers that assemble small
+        matrices in floats (the PUMA 560 Jacobian) skip the array round trip.
+        """
         # The frames' rotation columns x, y, z and origin o composed in plain floats (a 7-joint
         # chain in ~7 µs, a third of the 4 x 4 matrix products of :meth:`_frames`), with
         # u = c y - s x: x' = c x + s y, o' = o + a x' + d z, y' = cα u + sα z, z' = cα z - sα u.
@@ -926,7 +939,6 @@ class DHChain(_ChainBase):
         ox = oy = oz = 0.0
         pts = [(0.0, 0.0, 0.0)]
         axes = [(0.0, 0.0, 1.0)]
-        qs = q.tolist()
         for i, (a, ca, sa, d, off) in enumerate(self._dh_rows):
             th = qs[i] + off
             ct = math.cos(th)
@@ -950,4 +962,4 @@ class DHChain(_ChainBase):
             oy + tx * xy + ty * yy + tz * zy,
             oz + tx * xz + ty * yz + tz * zz,
         )
-        return np.array(pts), np.array(axes[:-1]), np.array((ox, oy, oz))
+        return pts, axes[:-1], (ox, oy, oz)

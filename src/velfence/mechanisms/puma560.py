@@ -298,6 +298,27 @@ class Puma560:
         """
         if point is not None:
             return self._chain.jacobian(q, point)
+        return self._jacobian_validated(self._chain._q(q))
+
+    def _jacobian_validated(self, q: FloatArray) -> FloatArray:
+        r""":meth:`jacobian` of the tool for a validated ``q`` (finite float64, shape (6,)).
+
+        From the chain's one-pass kinematics (floats, no 4 x 4 products): joint axes
+        :math:`z_j`, origins :math:`o_j` and the tool point ``p`` (the chain's tool is the
+        flange offset), columns :math:`[z_j \times (p - o_j);\ z_j]`.
+        """
+        pts, axes, _ = self._chain._kinematics_lists(q.tolist())
+        px, py, pz = pts[6]
+        J = np.empty((6, 6))
+        cols = []
+        for (ox, oy, oz), (zx, zy, zz) in zip(pts, axes, strict=False):
+            dx, dy, dz = px - ox, py - oy, pz - oz
+            cols.append((zy * dz - zz * dy, zz * dx - zx * dz, zx * dy - zy * dx, zx, zy, zz))
+        J[:] = cols
+        return J.T.copy()
+
+    def _jacobian_frames(self, q: ArrayLike) -> FloatArray:
+        """The former route of :meth:`jacobian` (4 x 4 DH frames), kept as the test oracle."""
         F = self._chain.frames(q)
         p = F[6, :3, :3] @ self._flange[:3, 3] + F[6, :3, 3]
         z = F[:6, :3, 2]

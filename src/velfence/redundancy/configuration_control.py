@@ -49,6 +49,7 @@ along z or has zero length.
 from __future__ import annotations
 
 import math
+import operator
 from collections.abc import Sequence
 from dataclasses import KW_ONLY, dataclass
 from typing import TYPE_CHECKING, Literal, get_args
@@ -248,6 +249,8 @@ class ChainObstacleBase(InvalidPolicy):
         self.redundancy = self.dof - self.task_dim
         radii = np.array(chain.link_radius, dtype=float).reshape(-1)
         self._link_radius = readonly(radii)
+        self._centers = readonly(np.array([ob.center for ob in obs], dtype=float).reshape(-1, 3))
+        self._fast = _is_library_chain(chain)
 
     @property
     def obstacles(self) -> tuple[Obstacle, ...]:
@@ -280,11 +283,26 @@ class ChainObstacleBase(InvalidPolicy):
 
         Returns:
             A :class:`Critical` with one row per obstacle.
+
+        Raises:
+            InvalidInput: ``q`` has the wrong shape or is not finite.
+        """
+        if not self._fast:
+            return self._critical_protocol(q)
+        qa = self.chain._q(q)  # type: ignore[attr-defined]
+        return self._pose(qa)[0]
+
+    def _critical_protocol(self, q: FloatArray) -> Critical:
+        """Steps A–C through the public :class:`SerialChain` protocol, one obstacle at a time.
+
+        The route for chains that are not the library's own (and the test oracle of the
+        one-pass route :meth:`_pose`): one ``point_jacobian`` (a forward-kinematics pass) per
+        obstacle.
         """
         from velfence.geometry.primitives import points_segments_distances, sphere_capsule_distance
 
         segs = np.asarray(self.chain.link_segments(q), dtype=float)
-        centers = np.array([ob.center for ob in self.obstacles]).reshape(-1, 3)
+        centers = self._centers
         _, clear = points_segments_distances(centers, segs[:, 0], segs[:, 1], self._link_radius)
         n_o = len(self.obstacles)
         points = np.zeros((n_o, 3))
@@ -305,6 +323,58 @@ class ChainObstacleBase(InvalidPolicy):
             )
             rows[i] = normals[i] @ jc
         return Critical(points, links, fractions, distances, normals, rows)
+
+    def _pose(self, q: FloatArray) -> tuple[Critical, FloatArray, FloatArray]:
+        r"""Steps A–C, the end-effector Jacobian and position from ONE forward-kinematics pass.
+
+        For the library's chains (``_fast``) and a validated ``q``: the chain's
+        ``_kinematics_cache`` once, then every obstacle at once — the all-pairs search of
+        :func:`~velfence.geometry.primitives.points_segments_distances` (same arithmetic, so the
+        same link), the closest point of :func:`sphere_capsule_distance` on the chosen link
+        (same float operations element-wise) and the constraint rows
+        :math:`u_o^\top J_{c,o}` from the columns :math:`z_j \times (p_o - P_j)`, masked to
+        the joints carrying the link. Returns ``(critical, J_e (m, n), Y (m,))``.
+        """
+        chain = self.chain
+        m, n = self.task_dim, self.dof
+        points, axes, _ = chain._kinematics_cache(q)  # type: ignore[attr-defined]
+        # z_j x P_j once per pose: every Jacobian column z_j x (p - P_j) is z_j x p - z_j x P_j.
+        zxp = _cross(axes, points[:n])
+        je = np.array((_cross(axes, points[n]) - zxp).T[:m])
+        y = np.array(points[n, :m])
+        A = points[:-1]
+        C, R = self._centers, self._link_radius
+        n_o = C.shape[0]
+        if n_o == 0:
+            e3, e1 = np.zeros((0, 3)), np.zeros(0)
+            crit = Critical(e3, np.zeros(0, dtype=np.int64), e1, e1, e3, np.zeros((0, n)))
+            return crit, je, y
+        # Step A, all pairs: the arithmetic of points_segments_distances (hence the same link).
+        E = points[1:] - A
+        ee = np.einsum("ij,ij->i", E, E)
+        rel = C[:, None, :] - A[None, :, :]
+        t_all = np.where(ee > 0.0, np.einsum("psk,sk->ps", rel, E) / np.where(ee > 0, ee, 1.0), 0.0)
+        t_all = np.minimum(np.maximum(t_all, 0.0), 1.0)
+        diff = rel - t_all[:, :, None] * E[None, :, :]
+        clear = np.sqrt(np.einsum("psk,psk->ps", diff, diff)) - R
+        links = np.argmin(clear, axis=1)  # first minimum: ties keep the more proximal link
+        # Step B on the chosen link (sphere_capsule_distance's quantities, to rounding).
+        t = t_all[np.arange(n_o), links]
+        x = A[links] + t[:, None] * E[links]
+        r = x - C
+        dist = np.sqrt(np.einsum("ij,ij->i", r, r))
+        normals = r / np.where(dist > 0.0, dist, 1.0)[:, None]
+        for i in np.flatnonzero(dist == 0.0).tolist():  # centre on the axis: the fallback
+            hx, hy = float(E[links[i], 0]), float(E[links[i], 1])
+            h = math.hypot(hx, hy)
+            normals[i] = (1.0, 0.0, 0.0) if h == 0.0 else (-hy / h, hx / h, 0.0)
+        distances = dist - R[links]
+        # Step C: u . (z_j x (x - P_j)) = z_j . (x x u) - u . (z_j x P_j) for the joints j <= link
+        # that carry the link (chain module docs), zero for the others.
+        rows = _cross(x, normals) @ axes.T - normals @ zxp.T
+        rows = np.where(np.arange(n)[None, :] <= links[:, None], rows, 0.0)
+        crit = Critical(x, links.astype(np.int64), t, distances, normals, rows)
+        return crit, je, y
 
     def _ee_reference(
         self, q: FloatArray, v: FloatArray, target: FloatArray | None, gain: float
@@ -433,6 +503,108 @@ def _policy_vector(name: str, x: ArrayLike, width: int, unit: str) -> FloatArray
     )
 
 
+def _active_set(
+    G_a: FloatArray,
+    rx0_a: FloatArray,
+    zr: list[float],
+    d: list[float],
+    rho: list[float],
+    h: float,
+    inv_wz: float,
+    recheck: bool,
+    rounds: int,
+) -> list[int] | None:
+    r"""Steps D–F of :class:`ConfigurationController` in obstacle space (see ``_law``).
+
+    ``G_a`` (N, N) is :math:`R M_0^{-1} R^\top`, ``rx0_a`` the rates under the free solve, the rest
+    per obstacle as in the law; indices are positions in these lists. Returns the active set in
+    order of activation, or ``None`` when a rate is not finite.
+    """
+    G, rx0 = G_a.tolist(), rx0_a.tolist()
+    nn = len(rx0)
+    thr = [z - _RATE_EPS for z in zr]
+    clear = [di - ri for di, ri in zip(d, rho, strict=True)]
+    in_set = [False] * nn
+    A: list[int] = []
+    H: list[list[float]] = []
+    y: list[float] = []
+    dd = list(rx0)
+    for _ in range(rounds):  # bounded: add/release cannot cycle long
+        if not all(map(math.isfinite, dd)):
+            return None
+        best, key = -1, math.inf
+        for i in range(nn):
+            di = dd[i]
+            if (
+                not in_set[i]
+                and di < thr[i]
+                and d[i] <= rho[i] + h * max(0.0, -di)
+                and clear[i] < key
+            ):
+                best, key = i, clear[i]  # strict: ties keep the lower index
+        if best < 0:
+            break
+        # Border H = (G_SS + I/w_z)^-1 with the new row.
+        g = [G[best][a] for a in A]
+        p = G[best][best] + inv_wz
+        if A:
+            Hg = [sum(map(operator.mul, row, g)) for row in H]
+            inv_s = 1.0 / (p - sum(map(operator.mul, g, Hg)))
+            w = [-v * inv_s for v in Hg]
+            H = [[hij - hi * wj for hij, wj in zip(row, w, strict=True)] + [wi]
+                 for row, hi, wi in zip(H, Hg, w, strict=True)] + [[*w, inv_s]]  # fmt: skip
+        else:
+            H = [[1.0 / p]]
+        A.append(best)
+        in_set[best] = True
+        r = [zr[a] - rx0[a] for a in A]
+        y = [sum(map(operator.mul, row, r)) for row in H]
+        k = 0
+        while recheck and k < len(A) - 1:
+            a = A[k]
+            hkk = H[k][k]
+            if zr[a] - y[k] / hkk >= thr[a]:  # without it, its point would not approach
+                col = [row[k] for row in H]
+                f = y[k] / hkk
+                y = [yi - ci * f for i, (yi, ci) in enumerate(zip(y, col, strict=True)) if i != k]
+                H = [
+                    [hij - ci * cj / hkk for j, (hij, cj) in enumerate(zip(row, col, strict=True))
+                     if j != k]
+                    for i, (row, ci) in enumerate(zip(H, col, strict=True)) if i != k
+                ]  # fmt: skip
+                A.pop(k)
+                in_set[a] = False
+            else:
+                k += 1
+        dd = (rx0_a + G_a[:, A] @ np.array(y)).tolist()
+    return A
+
+
+def _cross(a: FloatArray, b: FloatArray) -> FloatArray:
+    """Row-wise cross product of (N, 3) arrays (or one (3,) operand), without np.cross' overhead."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out[..., 0] = a1 * b2 - a2 * b1
+    out[..., 1] = a2 * b0 - a0 * b2
+    out[..., 2] = a0 * b1 - a1 * b0
+    return out
+
+
+def _is_library_chain(chain: object) -> bool:
+    """Whether ``chain`` is one of the library's chains with its kinematics unchanged.
+
+    Only those answer the one-pass route (their ``_kinematics_cache``); a subclass that
+    overrides a protocol method, or a foreign :class:`SerialChain`, goes through the protocol.
+    """
+    from velfence.mechanisms.chain import _ChainBase
+
+    if not isinstance(chain, _ChainBase):
+        return False
+    names = ("point_jacobian", "ee_jacobian", "link_segments", "end_effector")
+    return all(getattr(type(chain), a) is getattr(_ChainBase, a) for a in names)
+
+
 def _solve_stacked(
     je: FloatArray,
     yr: FloatArray,
@@ -444,9 +616,9 @@ def _solve_stacked(
 ) -> tuple[FloatArray, float]:
     """Weighted damped least squares (step E) as a stacked problem; returns (q_dot, cond(N))."""
     n = je.shape[1]
-    A = np.vstack((math.sqrt(w_e) * je, math.sqrt(w_z) * rows, math.sqrt(lam) * np.eye(n)))
+    A = np.concatenate((math.sqrt(w_e) * je, math.sqrt(w_z) * rows, math.sqrt(lam) * np.eye(n)))
     b = np.concatenate((math.sqrt(w_e) * yr, math.sqrt(w_z) * zr, np.zeros(n)))
-    if not (np.all(np.isfinite(A)) and np.all(np.isfinite(b))):
+    if not (np.isfinite(A).all() and np.isfinite(b).all()):
         return np.full(n, math.nan), math.inf
     x, _, _, s = np.linalg.lstsq(A, b, rcond=None)
     cond = float((s[0] / s[-1]) ** 2) if s[-1] > 0 else math.inf
@@ -528,17 +700,76 @@ class ConfigurationController(ChainObstacleBase):
         )
         self.task_tolerance = check_positive("task_tolerance", task_tolerance, unit="m/s")
         self._rho = readonly(np.array([o.influence for o in self.obstacles], dtype=float))
+        self._rho_list: list[float] = self._rho.tolist()
 
     def _law(self, q: FloatArray, v: FloatArray, target: FloatArray | None) -> ControlResult:
+        if not self._fast:
+            return self._law_reference(q, v, target)
+        crit, je, y = self._pose(q)
+        if target is None:
+            yr, ee_err = v.copy(), math.nan
+        else:
+            err = target - y
+            yr, ee_err = v + self.ee_gain * err, float(np.linalg.norm(err))
+        d, rho, rows = crit.distances, self._rho, crit.rows
+        zr = self.spring_gain * np.maximum(0.0, rho - d)
+        w_e, w_z, lam = self.ee_weight, self.constraint_weight, self.damping
+        h = self.activation_margin
+        # Only an obstacle with d <= rho + h max(0, -ḋ) can join; with h = 0 that is d <= rho
+        # whatever the motion, so the active-set search runs over those alone.
+        near = np.flatnonzero(d <= rho) if h == 0.0 else np.arange(len(self.obstacles))
+        # Steps D-F in obstacle space (Woodbury): with M0 = w_e Je'Je + lam I, x0 = M0^-1 w_e Je'yr
+        # (the free solve), K = M0^-1 R' and G = R K, the solve over an active set S is
+        # x_S = x0 + K_S y with y = H (zr_S - (R x0)_S), H = (G_SS + I/w_z)^-1, and every row's
+        # rate under it is R x_S = R x0 + G_{:,S} y. Leaving o out of S changes o's own rate to
+        # zr_o - y_o / H_oo (block inversion), so a release check costs no solve; H grows by
+        # bordering and shrinks by a rank-one downdate. Plain floats: the sets are small.
+        rn = rows[near]
+        M0 = w_e * (je.T @ je)
+        M0.flat[:: self.dof + 1] += lam
+        X = np.linalg.solve(M0, np.column_stack((w_e * (je.T @ yr), rn.T)))
+        x0 = X[:, 0]
+        Gn = rn @ X[:, 1:]
+        rx0n = rn @ x0
+        if not (np.all(np.isfinite(Gn)) and np.all(np.isfinite(x0))):
+            return self._law_reference(q, v, target)
+        found = _active_set(
+            Gn,
+            rx0n,
+            zr[near].tolist(),
+            d[near].tolist(),
+            rho[near].tolist(),
+            h,
+            1.0 / w_z,
+            self.release == "recheck",
+            4 * len(self.obstacles) + 1,
+        )
+        if found is None:  # an obstacle-space rate overflowed
+            return self._law_reference(q, v, target)
+        active = [int(near[k]) for k in found]
+        # The final solve exactly as the reference: the stacked lstsq over the active rows.
+        idx = np.array(active, dtype=np.int64)
+        q_dot, cond = _solve_stacked(je, yr, rows[idx], zr[idx], w_e, w_z, lam)
+        q_free: FloatArray = q_dot if not active else np.asarray(x0, dtype=float)
+        return self._result(v, yr, ee_err, crit, q_dot, q_free, cond, active, je)
+
+    def _law_reference(
+        self, q: FloatArray, v: FloatArray, target: FloatArray | None
+    ) -> ControlResult:
+        """The law re-solved from scratch for every add/release check (one stacked lstsq each).
+
+        The straightforward transcription of steps D–F, kept as the oracle of :meth:`_law`
+        (tests compare them) and as its route when the obstacle-space quantities of the fast
+        route overflow (huge commands), where the lstsq-only route keeps the old behaviour.
+        """
         je = np.asarray(self.chain.ee_jacobian(q), dtype=float)
         yr, ee_err = self._ee_reference(q, v, target, self.ee_gain)
-        crit = self.critical(q)
+        crit = self._critical_protocol(q)
         d, rho, rows = crit.distances, self._rho, crit.rows
         zr = self.spring_gain * np.maximum(0.0, rho - d)
         solve_args = (self.ee_weight, self.constraint_weight, self.damping)
         q_dot, cond = _solve_stacked(je, yr, rows[:0], zr[:0], *solve_args)
         q_free = q_dot
-        d_dot_free = rows @ q_dot
         active: list[int] = []
         h = self.activation_margin
         for _ in range(4 * len(self.obstacles) + 1):  # bounded: add/release cannot cycle long
@@ -565,6 +796,24 @@ class ConfigurationController(ChainObstacleBase):
                 if float(rows[o] @ trial) >= zr[o] - _RATE_EPS:
                     active.remove(o)
                     q_dot, cond = trial, trial_cond
+        return self._result(v, yr, ee_err, crit, q_dot, q_free, cond, active, je)
+
+    def _result(
+        self,
+        v: FloatArray,
+        yr: FloatArray,
+        ee_err: float,
+        crit: Critical,
+        q_dot: FloatArray,
+        q_free: FloatArray,
+        cond: float,
+        active: list[int],
+        je: FloatArray,
+    ) -> ControlResult:
+        """The speed cap and the diagnostics of one cycle (shared by both routes)."""
+        d, rho, rows = crit.distances, self._rho, crit.rows
+        zr = self.spring_gain * np.maximum(0.0, rho - d)
+        d_dot_free = rows @ q_free
         if self.max_speed is not None:
             # One factor for every joint keeps the direction, hence the sign of every ḋ: a
             # stopped approach stays stopped; the end-effector task is what slows down.
@@ -572,15 +821,19 @@ class ConfigurationController(ChainObstacleBase):
             if peak > self.max_speed:
                 q_dot = q_dot * (self.max_speed / peak)
         d_dot = rows @ q_dot
-        ee_rate_error = float(np.linalg.norm(je @ q_dot - yr))
+        e = je @ q_dot - yr
+        ee_rate_error = math.sqrt(float(e @ e))  # = np.linalg.norm(e)
         # Yielding is measured against the unconstrained solve, whose error is the damping's.
-        ee_rate_error_free = float(np.linalg.norm(je @ q_free - yr))
+        e = je @ q_free - yr
+        ee_rate_error_free = math.sqrt(float(e @ e))
         tol = self.task_tolerance
-        violated = tuple(o for o in active if d_dot[o] < zr[o] - tol)
+        dl, zl, rl = (d_dot.tolist(), zr.tolist(), d.tolist()) if active else ([], [], [])
+        violated = tuple(o for o in active if dl[o] < zl[o] - tol)
         exhausted = len(active) > self.redundancy
+        rhol = self._rho_list
         if exhausted:
             zone = "exhausted"
-        elif any(d[o] < rho[o] for o in active):
+        elif any(rl[o] < rhol[o] for o in active):
             zone = "recovering"
         elif active:
             zone = "active"

@@ -293,7 +293,7 @@ class ResolvedRate(InvalidPolicy):
         InvalidParameter: an out-of-range parameter or a robot without ``jacobian``.
     """
 
-    __slots__ = ("inverse", "k0", "max_speed", "robot", "singular_tol", "w0")
+    __slots__ = ("_own_jacobian", "inverse", "k0", "max_speed", "robot", "singular_tol", "w0")
 
     def __init__(
         self,
@@ -313,6 +313,10 @@ class ResolvedRate(InvalidPolicy):
                 f"{type(robot).__name__}"
             )
         self.robot = robot
+        from velfence.mechanisms.puma560 import Puma560
+
+        # The library's PUMA 560 answers from its validated route (q is checked here once).
+        self._own_jacobian = isinstance(robot, Puma560) and type(robot).jacobian is Puma560.jacobian
         self.inverse = check_choice("inverse", inverse, INVERSES)
         self.k0 = check_positive("k0", k0)
         self.w0 = check_positive("w0", w0)
@@ -355,10 +359,13 @@ class ResolvedRate(InvalidPolicy):
         qa = _flat("q", q)
         xa = _flat("xdot", xdot)
         n = qa.shape[0]
-        if not (np.all(np.isfinite(qa)) and np.all(np.isfinite(xa))):
+        if not (np.isfinite(qa).all() and np.isfinite(xa).all()):
             self._invalid(f"non-finite input: q={qa.tolist()}, xdot={xa.tolist()}")
             return self._stopped(n, math.nan, math.nan, 0.0, False)
-        J = np.asarray(self.robot.jacobian(qa), dtype=float)
+        if self._own_jacobian and n == 6:  # the library's PUMA 560, q validated above
+            J = self.robot._jacobian_validated(qa)  # type: ignore[attr-defined]
+        else:
+            J = np.asarray(self.robot.jacobian(qa), dtype=float)
         m = J.shape[0]
         if J.ndim != 2 or J.shape[1] != n:
             raise InvalidInput(
@@ -386,12 +393,16 @@ class ResolvedRate(InvalidPolicy):
             with np.errstate(over="ignore", invalid="ignore"):
                 qdot = np.linalg.solve(J, xa)
         else:
-            k = damping(w, k0=self.k0, w0=self.w0)
+            # eq. 37 on validated numbers (w = |det J| >= 0 is finite here: J is).
+            k = 0.0 if w >= self.w0 else self.k0 * (1.0 - w / self.w0) ** 2
             if k == 0.0 and singular:  # only reachable with singular_tol >= w0
                 return self._singular(n, w, det, qa)
             with np.errstate(over="ignore", invalid="ignore"):
-                qdot = J.T @ np.linalg.solve(J @ J.T + k * np.eye(m), xa)
-        if not np.all(np.isfinite(qdot)):
+                JJt = J @ J.T
+                if k != 0.0:  # (adding 0 I changes nothing)
+                    JJt += k * np.eye(m)
+                qdot = J.T @ np.linalg.solve(JJt, xa)
+        if not np.isfinite(qdot).all():
             self._invalid(
                 f"the joint rates overflowed (manipulability w = {w:.3g}, max|xdot| = "
                 f"{float(np.max(np.abs(xa))):.3g}); expected a bounded twist"
@@ -422,6 +433,9 @@ class ResolvedRate(InvalidPolicy):
 
 def _flat(name: str, x: Any) -> FloatArray:
     # Non-finite entries pass: the on_invalid policy decides about them.
+    if type(x) is np.ndarray and x.dtype == np.float64 and x.ndim == 1 and x.shape[0] > 0:
+        # What real_array returns for a float64 vector (a copy), without its generic checks.
+        return x.copy()
     a = real_array(name, x, allow_nonfinite=True, max_abs=None, what="a 1-D array of numbers")
     if a.ndim != 1 or a.shape[0] == 0:
         raise InvalidInput(f"{name}: expected a non-empty 1-D array, got shape {a.shape}")
