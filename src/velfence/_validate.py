@@ -133,6 +133,24 @@ def real_array(
         InvalidInput: (or ``error``) not real numbers, wrong shape, non-finite or too large
             entries; the message names ``name``, what was expected and what was got.
     """
+    if (
+        # The common case in a control loop, answered with one reduction: a non-empty float64
+        # ndarray of the right shape whose entries are all finite and within max_abs (the
+        # comparison is False for NaN and inf). Everything else takes the full checks below.
+        type(x) is np.ndarray
+        and x.dtype == np.float64
+        and x.size
+        and not allow_nonfinite
+        and (
+            shape is None
+            or (
+                x.ndim == len(shape)
+                and all(s is None or s == k for s, k in zip(shape, x.shape, strict=True))
+            )
+        )
+        and (np.abs(x).max() <= max_abs if max_abs is not None else bool(np.isfinite(x).all()))
+    ):
+        return x.copy()
     err = _error(error)
     want = "" if shape is None else f" of shape {_shape_text(shape)}"
     if isinstance(x, _NOT_NUMBERS) or x is None or isinstance(x, (bool, np.bool_)):

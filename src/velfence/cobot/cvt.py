@@ -30,8 +30,7 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 
 from velfence._typing import FloatArray
-from velfence._validate import finite_scalar
-from velfence.cobot._arrays import real_array
+from velfence._validate import finite_scalar, real_array
 from velfence.errors import InvalidInput, InvalidParameter
 
 __all__ = ["CVT", "SteeredWheel", "TetrahedralCVT"]

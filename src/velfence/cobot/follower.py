@@ -51,8 +51,8 @@ from velfence._validate import (
     check_choice,
     check_positive,
     finite_scalar,
+    real_array,
 )
-from velfence.cobot._arrays import real_array
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.geometry.paths import Path
 

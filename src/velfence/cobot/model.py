@@ -38,8 +38,8 @@ from velfence._validate import (
     check_positive_int,
     finite_scalar,
     readonly,
+    real_array,
 )
-from velfence.cobot._arrays import real_array
 from velfence.cobot.cvt import CVT, SteeredWheel, TetrahedralCVT
 from velfence.cobot.transforms import (
     _map_checked,

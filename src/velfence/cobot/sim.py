@@ -36,9 +36,9 @@ from velfence._validate import (
     check_choice,
     check_positive,
     finite_scalar,
+    real_array,
     step_count,
 )
-from velfence.cobot._arrays import real_array
 from velfence.cobot.model import Cobot, Route
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.sim.runner import Trajectory

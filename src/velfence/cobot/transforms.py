@@ -28,7 +28,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from velfence._typing import FloatArray
-from velfence.cobot._arrays import real_array
+from velfence._validate import real_array
 from velfence.errors import InvalidInput
 
 __all__ = [
