@@ -289,6 +289,9 @@ static PyObject *ExactLaw_shape_array(ExactLaw *self, PyObject *const *args, Py_
         Py_RETURN_NONE;
     }
     vf_exact_kernel(&self->poly, &self->law, v[0], v[1], v[2], v[3], &self->scratch, &r);
+    if (!isfinite(r.d1) || !isfinite(r.d2)) {
+        Py_RETURN_NONE; /* overflowed distances: the generic path refuses the state */
+    }
     return pair_array(r.ox, r.oy);
 }
 
@@ -331,6 +334,10 @@ static PyObject *ExactLaw_batch(ExactLaw *self, PyObject *const *args, Py_ssize_
         vf_result res;
         vf_exact_kernel(&self->poly, &self->law, P[2 * r], P[2 * r + 1], V[2 * r], V[2 * r + 1],
                         &s, &res);
+        if (!isfinite(res.d1) || !isfinite(res.d2)) {
+            res.ox = NAN; /* overflowed distances: flagged like an overflowed velocity */
+            res.oy = NAN;
+        }
         out[2 * r] = res.ox;
         out[2 * r + 1] = res.oy;
         zones[r] = res.zone;
@@ -473,6 +480,9 @@ static PyObject *PatentLaw_shape_array(PatentLaw *self, PyObject *const *args,
         Py_RETURN_NONE;
     }
     vf_patent_kernel(&self->poly, &self->law, v[0], v[1], v[2], v[3], &r);
+    if (!isfinite(r.d1) || !isfinite(r.d2) || !isfinite(r.sx) || !isfinite(r.sy)) {
+        Py_RETURN_NONE;
+    }
     return pair_array(r.ox, r.oy);
 }
 
@@ -499,6 +509,10 @@ static PyObject *PatentLaw_batch(PatentLaw *self, PyObject *const *args, Py_ssiz
         vf_result res;
         vf_patent_kernel(&self->poly, &self->law, P[2 * r], P[2 * r + 1], V[2 * r], V[2 * r + 1],
                          &res);
+        if (!isfinite(res.d1) || !isfinite(res.d2)) {
+            res.ox = NAN;
+            res.oy = NAN;
+        }
         out[2 * r] = res.ox;
         out[2 * r + 1] = res.oy;
         zones[r] = res.zone;

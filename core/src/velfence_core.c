@@ -702,6 +702,15 @@ void vf_exact_kernel(const vf_polygon *poly, const vf_exact_law *law, double px,
 
 /* ------------------------------------------------------------------ checked API */
 
+/* Every double of a result finite. A position beyond ~1e300 makes the signed distances
+ * n.p - off overflow to +-inf while the velocity (recovery at a capped speed) stays finite: the
+ * answer overflowed all the same, and is refused (VF_ERR_OVERFLOW, the stop result). */
+static int result_finite(const vf_result *r)
+{
+    return isfinite(r->ox) && isfinite(r->oy) && isfinite(r->d1) && isfinite(r->d2)
+           && isfinite(r->sx) && isfinite(r->sy);
+}
+
 static int finite4(double a, double b, double c, double d)
 {
     return isfinite(a) && isfinite(b) && isfinite(c) && isfinite(d);
@@ -808,7 +817,7 @@ int vf_exact_shape(const vf_polygon *poly, const vf_exact_law *law, double px, d
         return VF_ERR_NONFINITE;
     }
     vf_exact_kernel(poly, law, px, py, vx, vy, scratch, out);
-    if (!isfinite(out->ox) || !isfinite(out->oy)) {
+    if (!result_finite(out)) {
         set_stop(out);
         return VF_ERR_OVERFLOW;
     }
@@ -831,7 +840,7 @@ int vf_patent_shape(const vf_polygon *poly, const vf_patent_law *law, double px,
         return VF_ERR_NONFINITE;
     }
     vf_patent_kernel(poly, law, px, py, vx, vy, out);
-    if (!isfinite(out->ox) || !isfinite(out->oy) || !isfinite(out->sx) || !isfinite(out->sy)) {
+    if (!result_finite(out)) {
         set_stop(out);
         return VF_ERR_OVERFLOW;
     }

@@ -817,8 +817,14 @@ def patent_batch(
                 P[r][0], P[r][1], V[r][0], V[r][1], nx, ny, off, cx, cy, a0, beta, n, dmax, k,
                 theta_max, idt,
             )  # fmt: skip
-            out[r][0] = res[0]
-            out[r][1] = res[1]
+            if res[5] - res[5] != 0.0 or res[6] - res[6] != 0.0:
+                # distances overflowed (a position beyond ~1e300): flagged as an overflowed
+                # velocity, which the caller refuses (on_invalid)
+                out[r][0] = math.nan
+                out[r][1] = math.nan
+            else:
+                out[r][0] = res[0]
+                out[r][1] = res[1]
             zones[r] = res[2]
 
 
@@ -849,6 +855,12 @@ def exact_batch(
                 P[r][0], P[r][1], V[r][0], V[r][1], nx, ny, off, cx, cy, n, kind, prm, relax,
                 idt, dist, bnd, work,
             )  # fmt: skip
-            out[r][0] = res[0]
-            out[r][1] = res[1]
+            if res[5] - res[5] != 0.0 or res[6] - res[6] != 0.0:
+                # distances overflowed (a position beyond ~1e300): flagged as an overflowed
+                # velocity, which the caller refuses (on_invalid)
+                out[r][0] = math.nan
+                out[r][1] = math.nan
+            else:
+                out[r][0] = res[0]
+                out[r][1] = res[1]
             zones[r] = res[2]

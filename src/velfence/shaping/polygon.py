@@ -39,7 +39,7 @@ from velfence.errors import InvalidInput, InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon, as_polygon
 from velfence.shaping import _kernels as kern
 from velfence.shaping._accel import compiled_batch, compiled_core
-from velfence.shaping.base import OnInvalid, ShaperBase
+from velfence.shaping.base import KernelOut, OnInvalid, ShaperBase
 from velfence.shaping.profiles import (
     ApproachProfile,
     LinearBuffer,
@@ -348,6 +348,19 @@ class PolygonShaper(ShaperBase):
         return super().shape(position, command)
 
     # ------------------------------------------------------------------ the law
+    def _checked(self, px: float, py: float, vx: float, vy: float) -> KernelOut | None:
+        """The base class's check, also refusing overflowed distances (a position beyond
+        ~1e300: ``d1``/``d2`` infinite while the recovery velocity stays finite), as the C
+        core's checked entry does (``VF_ERR_OVERFLOW``)."""
+        r = super()._checked(px, py, vx, vy)
+        if r is not None and (r[5] - r[5] != 0.0 or r[6] - r[6] != 0.0):
+            self._invalid(
+                f"position too large, the distances to the edges overflowed: position=({px}, "
+                f"{py}), command=({vx}, {vy})"
+            )
+            return None
+        return r
+
     def _law(
         self, px: float, py: float, vx: float, vy: float
     ) -> tuple[float, float, int, int, int, float, float, float, float, int]:
