@@ -52,12 +52,15 @@ def test_far_positions_are_refused_everywhere(poly: vf.ConvexPolygon, method: st
                 sh.explain(p, (0.3, -0.2))
             assert stop.shape(np.array(p), np.array((0.3, -0.2))).tolist() == [0.0, 0.0]
             r = stop.explain(p, (0.3, -0.2))
-            assert r.zone == "invalid" and r.stages == ("stop",)
+            assert r.zone == "invalid"
+            assert r.stages == ("stop",)
             P = np.array([p, (0.0, 0.0)])
             V = np.array([(0.3, -0.2), (0.3, -0.2)])
             out, zones = stop.zones_batch(P, V)
-            assert out[0].tolist() == [0.0, 0.0] and zones[0] == 5
-            assert np.isfinite(out).all() and zones[1] != 5
+            assert out[0].tolist() == [0.0, 0.0]
+            assert zones[0] == 5
+            assert np.isfinite(out).all()
+            assert zones[1] != 5
             with pytest.raises(vf.InvalidInput, match="overflowed"):
                 sh.shape_batch(P, V)
 

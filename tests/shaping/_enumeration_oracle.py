@@ -142,7 +142,6 @@ def _enum_solve(
     return False, 0.0, 0.0
 
 
-
 def oracle_kernel(
     px: float,
     py: float,

@@ -35,7 +35,7 @@ from velfence.shaping import _kernels as kern
 from velfence.shaping.profiles import LinearBuffer, ThreeZoneBraking
 
 sys.path.insert(0, str(Path(__file__).parent))
-from _enumeration_oracle import oracle_kernel  # noqa: E402
+from _enumeration_oracle import oracle_kernel
 
 TOL = 1e-12
 COUNT = {"states": 0, "bitwise": 0, "degenerate": 0}
@@ -87,10 +87,7 @@ def _strip(sh: vf.PolygonShaper, p: tuple[float, float]) -> bool:
         return False
     normals = sh.polygon.normals
     d = sh.polygon.signed_distances(np.array(p))
-    for i in np.flatnonzero(d < 0.0):
-        if (normals @ normals[i] < -1.0 + 1e-9).any():
-            return True
-    return False
+    return any((normals @ normals[i] < -1.0 + 1e-09).any() for i in np.flatnonzero(d < 0.0))
 
 
 def _meets_bounds(sh: vf.PolygonShaper, p: tuple[float, ...], out: tuple[float, float]) -> bool:

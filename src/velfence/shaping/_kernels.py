@@ -251,7 +251,7 @@ def _solve_tol(
         worst = 0.0
         for a in range(m):
             w = work[a]
-            if w == a1 or w == a2:
+            if w == a1 or w == a2:  # noqa: SIM109 (two comparisons, as in C)
                 continue
             if _violates(x, y, nx[w], ny[w], bnd[w], tol):
                 g = bnd[w] - (nx[w] * x + ny[w] * y)

@@ -349,9 +349,11 @@ class PolygonShaper(ShaperBase):
 
     # ------------------------------------------------------------------ the law
     def _checked(self, px: float, py: float, vx: float, vy: float) -> KernelOut | None:
-        """The base class's check, also refusing overflowed distances (a position beyond
-        ~1e300: ``d1``/``d2`` infinite while the recovery velocity stays finite), as the C
-        core's checked entry does (``VF_ERR_OVERFLOW``)."""
+        """The base class's check, also refusing overflowed distances.
+
+        A position beyond ~1e300 makes ``d1``/``d2`` infinite while the recovery velocity stays
+        finite; refused as the C core's checked entry refuses it (``VF_ERR_OVERFLOW``).
+        """
         r = super()._checked(px, py, vx, vy)
         if r is not None and (r[5] - r[5] != 0.0 or r[6] - r[6] != 0.0):
             self._invalid(
