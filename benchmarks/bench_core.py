@@ -204,31 +204,55 @@ def main() -> None:
 def batches() -> None:
     """``shape_batch`` per state on the 8-gon (uniform states in the circumscribed square):
     the core (one thread) vs numba (``backend="python"``, its thread pool) vs the binding's loop
-    alone (``ExactLaw.batch``: no validation, no copies), best and median of 7 (3 at 10^6)."""
+    alone (``ExactLaw.batch``: no validation, no copies), best and median of 7 (3 at 10^6), and
+    in the same run the C floor (``vf_exact_batch`` in a C loop over 10^6 of the same states,
+    best of 5) and the memory ``shape_batch`` allocates per state (tracemalloc peak / N)."""
+    import tracemalloc
+
     poly = regular_polygon(8)
     c = PolygonShaper(poly, buffer=0.1, backend="c")
     nb = PolygonShaper(poly, buffer=0.1, backend="python", accelerate=True)
     loop = c._core.__self__.batch
     rng = np.random.default_rng(0)
     nb.shape_batch(np.zeros((10, 2)), np.ones((10, 2)))  # compile
-    out = ["| N | core `shape_batch` | numba `shape_batch` | core loop alone |"]
-    out.append("| ---: | ---: | ---: | ---: |")
+    P0 = rng.uniform(-1.0, 1.0, (4096, 2))
+    V0 = rng.standard_normal((4096, 2))
+    direct = c_direct(poly.kernel_data, c._fast[7], {"all": list(zip(P0, V0, strict=True))})
+    floor = float(direct[-1].split()[1]) if direct else float("nan")
+    print(
+        f"load average {os.getloadavg()[0]:.2f}; C floor `vf_exact_batch`: {floor:.1f} ns/state\n"
+    )
+    out = [
+        "| N | core `shape_batch` | numba `shape_batch` | core loop alone | core / C floor "
+        "| bytes/state core · numba |"
+    ]
+    out.append("| ---: | ---: | ---: | ---: | ---: | ---: |")
     for n in (1_000, 10_000, 100_000, 1_000_000):
-        P = rng.uniform(-1.0, 1.0, (n, 2))
-        V = rng.standard_normal((n, 2))
+        P = P0[np.arange(n) % 4096] if n > 4096 else P0[:n].copy()
+        V = V0[np.arange(n) % 4096] if n > 4096 else V0[:n].copy()
         assert np.array_equal(c.shape_batch(P, V), nb.shape_batch(P, V))
         o = np.empty_like(P)
-        z = np.empty(n, dtype=np.int64)
         cells = []
-        routes = ((c.shape_batch, (P, V)), (nb.shape_batch, (P, V)), (loop, (P, V, o, z)))
+        best = []
+        routes = ((c.shape_batch, (P, V)), (nb.shape_batch, (P, V)), (loop, (P, V, o, None)))
         for fn, fargs in routes:
             ts = []
             for _ in range(7 if n < 1_000_000 else 3):
                 t0 = time.perf_counter()
                 fn(*fargs)
                 ts.append(time.perf_counter() - t0)
+            best.append(1e9 * min(ts) / n)
             cells.append(f"{1e9 * min(ts) / n:.1f} / {1e9 * float(np.median(ts)) / n:.1f}")
-        out.append(f"| {n} | " + " | ".join(cells) + " |")
+        mem = []
+        for sh in (c, nb):
+            tracemalloc.start()
+            sh.shape_batch(P, V)
+            mem.append(tracemalloc.get_traced_memory()[1] / n)
+            tracemalloc.stop()
+        out.append(
+            f"| {n} | " + " | ".join(cells) + f" | {best[0] / floor:.2f}x | "
+            f"{mem[0]:.1f} · {mem[1]:.1f} |"
+        )
     print("ns per state, best / median:\n")
     print("\n".join(out))
 

@@ -51,3 +51,26 @@ def test_many_edges_bit_identical(n: int, kwargs: dict[str, object]) -> None:
         assert bits(c._law(*p, *v)) == bits(ref), (p, v)
         zones.add(ref[2])
     assert {2, 4} <= zones  # several bounded edges, inside and outside
+
+
+def test_shape_batch_writes_no_zone_array_and_equals_the_generic_path() -> None:
+    """``shape_batch`` with the core passes ``zones=None`` to the loop (nothing thrown away) and
+    returns what ``zones_batch`` (the generic path, zones included) returns, bit for bit."""
+    poly = _ngon(8, 1.0)
+    py, c = pair(poly, buffer=0.2, spring_gain=2.0, dt=0.01)
+    rng = np.random.default_rng(3)
+    P = rng.uniform(-1.3, 1.3, (5000, 2))
+    V = rng.normal(size=P.shape)
+    out = c.shape_batch(P, V)
+    assert out.tobytes() == c.zones_batch(P, V)[0].tobytes()
+    assert out.tobytes() == py.zones_batch(P, V)[0].tobytes()
+    loop = np.full_like(P, 7.0)
+    c._core.__self__.batch(P, V, loop, None)
+    assert loop.tobytes() == out.tobytes()
+    # lists and a non-finite row take the generic path (its policy, the same answers elsewhere)
+    stop = vf.PolygonShaper(poly, backend="c", on_invalid="stop", buffer=0.2, spring_gain=2.0)
+    Pn = P[:4].copy()
+    Pn[1, 0] = math.nan
+    got = stop.shape_batch(Pn.tolist(), V[:4].tolist())
+    assert got[1].tolist() == [0.0, 0.0]
+    assert got[[0, 2, 3]].tobytes() == stop.shape_batch(P[[0, 2, 3]], V[[0, 2, 3]]).tobytes()
