@@ -97,7 +97,7 @@ def main() -> None:
     ap.add_argument("--edges", type=int, default=8)
     ap.add_argument("--calls", type=int, default=0, help="timed calls per route (0: settings)")
     ap.add_argument(
-        "--scaling", action="store_true", help="C only, 8 / 128 / 1024 edges (states by the core)"
+        "--scaling", action="store_true", help="8 / 128 / 1024 edges: Python, C, QP peers"
     )
     ap.add_argument("--batch", action="store_true", help="shape_batch: core vs numba, N = 1e3..1e6")
     ap.add_argument("--instructions", action="store_true", help="callgrind: per call, 8-gon")
@@ -204,31 +204,55 @@ def main() -> None:
 def batches() -> None:
     """``shape_batch`` per state on the 8-gon (uniform states in the circumscribed square):
     the core (one thread) vs numba (``backend="python"``, its thread pool) vs the binding's loop
-    alone (``ExactLaw.batch``: no validation, no copies), best and median of 7 (3 at 10^6)."""
+    alone (``ExactLaw.batch``: no validation, no copies), best and median of 7 (3 at 10^6), and
+    in the same run the C floor (``vf_exact_batch`` in a C loop over 10^6 of the same states,
+    best of 5) and the memory ``shape_batch`` allocates per state (tracemalloc peak / N)."""
+    import tracemalloc
+
     poly = regular_polygon(8)
     c = PolygonShaper(poly, buffer=0.1, backend="c")
     nb = PolygonShaper(poly, buffer=0.1, backend="python", accelerate=True)
     loop = c._core.__self__.batch
     rng = np.random.default_rng(0)
     nb.shape_batch(np.zeros((10, 2)), np.ones((10, 2)))  # compile
-    out = ["| N | core `shape_batch` | numba `shape_batch` | core loop alone |"]
-    out.append("| ---: | ---: | ---: | ---: |")
+    P0 = rng.uniform(-1.0, 1.0, (4096, 2))
+    V0 = rng.standard_normal((4096, 2))
+    direct = c_direct(poly.kernel_data, c._fast[7], {"all": list(zip(P0, V0, strict=True))})
+    floor = float(direct[-1].split()[1]) if direct else float("nan")
+    print(
+        f"load average {os.getloadavg()[0]:.2f}; C floor `vf_exact_batch`: {floor:.1f} ns/state\n"
+    )
+    out = [
+        "| N | core `shape_batch` | numba `shape_batch` | core loop alone | core / C floor "
+        "| bytes/state core · numba |"
+    ]
+    out.append("| ---: | ---: | ---: | ---: | ---: | ---: |")
     for n in (1_000, 10_000, 100_000, 1_000_000):
-        P = rng.uniform(-1.0, 1.0, (n, 2))
-        V = rng.standard_normal((n, 2))
+        P = P0[np.arange(n) % 4096] if n > 4096 else P0[:n].copy()
+        V = V0[np.arange(n) % 4096] if n > 4096 else V0[:n].copy()
         assert np.array_equal(c.shape_batch(P, V), nb.shape_batch(P, V))
         o = np.empty_like(P)
-        z = np.empty(n, dtype=np.int64)
         cells = []
-        routes = ((c.shape_batch, (P, V)), (nb.shape_batch, (P, V)), (loop, (P, V, o, z)))
+        best = []
+        routes = ((c.shape_batch, (P, V)), (nb.shape_batch, (P, V)), (loop, (P, V, o, None)))
         for fn, fargs in routes:
             ts = []
             for _ in range(7 if n < 1_000_000 else 3):
                 t0 = time.perf_counter()
                 fn(*fargs)
                 ts.append(time.perf_counter() - t0)
+            best.append(1e9 * min(ts) / n)
             cells.append(f"{1e9 * min(ts) / n:.1f} / {1e9 * float(np.median(ts)) / n:.1f}")
-        out.append(f"| {n} | " + " | ".join(cells) + " |")
+        mem = []
+        for sh in (c, nb):
+            tracemalloc.start()
+            sh.shape_batch(P, V)
+            mem.append(tracemalloc.get_traced_memory()[1] / n)
+            tracemalloc.stop()
+        out.append(
+            f"| {n} | " + " | ".join(cells) + f" | {best[0] / floor:.2f}x | "
+            f"{mem[0]:.1f} · {mem[1]:.1f} |"
+        )
     print("ns per state, best / median:\n")
     print("\n".join(out))
 
@@ -256,18 +280,34 @@ def instructions() -> None:
 
 
 def scaling() -> None:
-    """The core alone on 8-, 128- and 1024-gons: states drawn as ``velfence bench`` draws them
-    but classified by the core (the Python kernels take seconds per state outside a 1024-gon),
-    C via ``shape`` (20 000 calls) and C direct per call (3 000 calls, no blocks)."""
+    """8-, 128- and 1024-gons, every zone, in one run: the Python reference ``shape`` (fewer
+    calls on 1024 edges), C via ``shape``, qpsolvers + daqp and ``daqp.solve`` on the same
+    bounds, and C direct (per call, no blocks, for 128 / 1024 edges). States drawn as
+    ``velfence bench`` draws them (near an edge, commands turned inward or outward),
+    classified by the core. Median / p99 / max in µs."""
+    import ctypes
+
+    import daqp
+    import qpsolvers
+
     from velfence.bench.settings import ZONES
 
     s = BenchSettings.make(quick=False)
     rng = np.random.default_rng(s.seed)
-    out = ["| edges | zone | C via `shape` median / p99 µs | C direct median / p99 µs |"]
-    out.append("| ---: | --- | ---: | ---: |")
+    kw = {"buffer": s.buffer, "spring_gain": s.spring_gain}
+    solve_qp = functools.partial(qpsolvers.solve_qp, solver="daqp")
+    print(
+        f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores; µs median / p99 / max\n"
+    )
+    out = [
+        "| edges | zone | Python `shape` | C via `shape` | C direct | qpsolvers + daqp "
+        "| daqp direct | max |C − QP| |",
+        "| ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: |",
+    ]
     for edges in (8, 128, 1024):
         poly = regular_polygon(edges)
-        c = PolygonShaper(poly, backend="c", buffer=s.buffer, spring_gain=s.spring_gain)
+        c = PolygonShaper(poly, backend="c", **kw)
+        py = PolygonShaper(poly, backend="python", **kw)
         k = 4000
         e = rng.integers(0, edges, k)
         a, b = poly.corners[e], poly.corners[(e + 1) % edges]
@@ -283,13 +323,39 @@ def scaling() -> None:
             if len(rows):
                 pools[name] = [(P[r].copy(), V[r].copy()) for r in rows]
         direct = c_direct(poly.kernel_data, c._fast[7], pools)
+        G = np.array(-poly.normals)
+        A = np.array(poly.normals)
+        upper = np.full(edges, 1e30)
+        sense = np.zeros(edges, dtype=ctypes.c_int)
+        H = np.eye(2)
+        py_calls = 3000 if edges < 1024 else 600
+        qp_calls = 5000 if edges < 1024 else 1000
         for j, (zone, pool) in enumerate(pools.items()):
-            lat = time_calls(c.shape, pool, calls=20_000, warmup=3)
-            med, p99 = (float(x) / 1e3 for x in direct[j].split()[:2]) if direct else (0.0, 0.0)
-            out.append(
-                f"| {edges} | {zone} | {lat.median_us:.3f} / {lat.p99_us:.3f} | "
-                f"{med:.3f} / {p99:.3f} |"
+            bounds = [qp_bounds(poly, p, v, **kw) for p, v in pool]
+            qs = [(H, -v, G, -bb) for (_, v), bb in zip(pool, bounds, strict=True)]
+            ds = [(H, -v, A, upper, bb, sense) for (_, v), bb in zip(pool, bounds, strict=True)]
+            dev = max(
+                float(np.abs(c.shape(p, v) - x).max())
+                for (p, v), x in zip(pool, [solve_qp(*q) for q in qs], strict=True)
             )
+            cells = []
+            for fn, args, calls in (
+                (py.shape, pool, py_calls),
+                (c.shape, pool, 20_000),
+                (None, None, 0),
+                (solve_qp, qs, qp_calls),
+                (daqp.solve, ds, qp_calls),
+            ):
+                if fn is None:
+                    if direct:
+                        med, p99, mx = (float(x) / 1e3 for x in direct[j].split()[:3])
+                        cells.append(f"{med:.3f} / {p99:.3f} / {mx:.1f}")
+                    else:
+                        cells.append("–")
+                    continue
+                lat = time_calls(fn, args, calls=calls, warmup=2)
+                cells.append(f"{lat.median_us:.3f} / {lat.p99_us:.3f} / {lat.max_us:.1f}")
+            out.append(f"| {edges} | {zone} | " + " | ".join(cells) + f" | {dev:.1e} |")
     print("\n".join(out))
 
 

@@ -14,9 +14,11 @@
  *
  * Real-time use: every function here is reentrant and allocation-free. The caller owns every buffer
  * (polygon data, law parameters, scratch, results); nothing is allocated, no global state is read or
- * written, nothing longjmps or throws. The work per call is bounded: the exact law enumerates the
- * candidate active sets of its m bounded edges (O(m^3)) and adds far edges in at most n rounds;
- * measured 20-50 ns per call for an 8-gon, up to 0.6 ms at the p99 of a 1024-gon's outside corner
+ * written, nothing longjmps or throws. The work per call is bounded: the exact law solves its
+ * minimum-change problem by a dual active-set method (Goldfarb-Idnani in the plane, at most two
+ * active bounds), one pass over its m bounded edges per step and a handful of steps, plus one
+ * O(n) pass over the far edges when recovery makes the answer fast (issue 15 section 2);
+ * measured 20-50 ns per call for an 8-gon and a p99 of about 5 us at a 1024-gon's outside corner
  * (docs/core.md). One vf_scratch per thread; polygon and law data are read-only and shareable.
  *
  * Units: positions and distances in workspace units (m, rad, ...), velocities in workspace units
@@ -44,7 +46,7 @@ extern "C" {
 #define VF_ERR_NULL (-1)        /* a required pointer is NULL */
 #define VF_ERR_ARGUMENT (-2)    /* bad polygon or law data (n < 3, non-finite, out of range) */
 #define VF_ERR_NONFINITE (-3)   /* position or command not finite (NaN or +-inf) */
-#define VF_ERR_OVERFLOW (-4)    /* finite input so large that the shaped velocity overflowed */
+#define VF_ERR_OVERFLOW (-4)    /* finite input, overflowed result (velocity or distances) */
 
 /* Zones (ShapingResult.zone, same codes as velfence.shaping.ZONE_NAMES). */
 #define VF_ZONE_FREE 0
@@ -121,7 +123,14 @@ int vf_exact_check(const vf_polygon *poly, const vf_exact_law *law);
 int vf_patent_check(const vf_polygon *poly, const vf_patent_law *law);
 
 /* Shapes command (vx, vy) at position (px, py). Returns VF_OK, VF_ERR_NONFINITE (non-finite
- * input), VF_ERR_OVERFLOW (the output overflowed), VF_ERR_NULL; *out always written, finite.
+ * input), VF_ERR_OVERFLOW (some double of the result overflowed), VF_ERR_NULL; *out always
+ * written, every double in it finite. VF_ERR_OVERFLOW also covers a position so far away
+ * (beyond ~1e300) that the signed distances n.p - off overflow to +-inf while the velocity
+ * (recovery at a capped speed) would stay finite: such a state is refused with the stop result
+ * rather than answered with clamped distances, because a position of that size is a fault
+ * upstream (no workspace is 1e300 units wide), stopping is the safe answer to a fault, the
+ * distances d1/d2 would be fabricated (DBL_MAX is not the distance), and the velocity would
+ * depend only on which sums happened to overflow.
  * The polygon and law are NOT re-checked per call: validate them once with vf_*_check. */
 int vf_exact_shape(const vf_polygon *poly, const vf_exact_law *law, double px, double py,
                    double vx, double vy, vf_scratch *scratch, vf_result *out);
@@ -129,7 +138,8 @@ int vf_patent_shape(const vf_polygon *poly, const vf_patent_law *law, double px,
                     double vx, double vy, vf_result *out);
 
 /* Batches: rows r = 0..N-1 of P, V (N x 2 row-major) -> out (N x 2), zones (N,) (zones may be
- * NULL). A row with non-finite input or an overflowed output gets zero velocity and zone
+ * NULL). A row with non-finite input or an overflowed result (as in vf_*_shape) gets zero
+ * velocity and zone
  * VF_ZONE_INVALID. Returns the number of such rows (>= 0), or a negative VF_ERR_* code (then
  * nothing is written). */
 int64_t vf_exact_batch(const vf_polygon *poly, const vf_exact_law *law, const double *P,

@@ -12,7 +12,8 @@
  *                         non-finite input, overflowed output): the caller then runs its generic
  *                         path, which owns the on_invalid policy.
  *   batch(P, V, out, zones) -> None: the unchecked kernel over rows (buffers: P, V float64 (N, 2)
- *                         C-contiguous, out float64 (N, 2) writable, zones int64 (N,) writable);
+ *                         C-contiguous, out float64 (N, 2) writable, zones int64 (N,) writable or
+ *                         None; a row whose distances overflowed gets a NaN velocity);
  *                         releases the GIL, its scratch is per call.
  */
 #define PY_SSIZE_T_CLEAN
@@ -158,11 +159,12 @@ static int batch_parse(PyObject *const *args, Py_ssize_t nargs, batch_views *b)
     }
     if (get_view(args[0], &b->P, 0, "d", 8, "P") < 0 || get_view(args[1], &b->V, 0, "d", 8, "V") < 0
         || get_view(args[2], &b->out, 1, "d", 8, "out") < 0
-        || get_view(args[3], &b->zones, 1, "q", 8, "zones") < 0) {
+        || (args[3] != Py_None && get_view(args[3], &b->zones, 1, "q", 8, "zones") < 0)) {
         release_views(b);
         return -1;
     }
-    b->N = b->zones.len / 8;
+    /* zones may be None (shape_batch: no zone array allocated and thrown away) */
+    b->N = args[3] != Py_None ? b->zones.len / 8 : b->out.len / 16;
     if (b->P.len != 16 * b->N || b->V.len != 16 * b->N || b->out.len != 16 * b->N) {
         PyErr_SetString(PyExc_ValueError, "P, V, out must be (N, 2) and zones (N,)");
         release_views(b);
@@ -289,6 +291,9 @@ static PyObject *ExactLaw_shape_array(ExactLaw *self, PyObject *const *args, Py_
         Py_RETURN_NONE;
     }
     vf_exact_kernel(&self->poly, &self->law, v[0], v[1], v[2], v[3], &self->scratch, &r);
+    if (!isfinite(r.d1) || !isfinite(r.d2)) {
+        Py_RETURN_NONE; /* overflowed distances: the generic path refuses the state */
+    }
     return pair_array(r.ox, r.oy);
 }
 
@@ -325,15 +330,21 @@ static PyObject *ExactLaw_batch(ExactLaw *self, PyObject *const *args, Py_ssize_
     P = b.P.buf;
     V = b.V.buf;
     out = b.out.buf;
-    zones = b.zones.buf;
+    zones = b.zones.obj ? b.zones.buf : NULL;
     Py_BEGIN_ALLOW_THREADS
     for (r = 0; r < b.N; r++) {
         vf_result res;
         vf_exact_kernel(&self->poly, &self->law, P[2 * r], P[2 * r + 1], V[2 * r], V[2 * r + 1],
                         &s, &res);
+        if (!isfinite(res.d1) || !isfinite(res.d2)) {
+            res.ox = NAN; /* overflowed distances: flagged like an overflowed velocity */
+            res.oy = NAN;
+        }
         out[2 * r] = res.ox;
         out[2 * r + 1] = res.oy;
-        zones[r] = res.zone;
+        if (zones != NULL) {
+            zones[r] = res.zone;
+        }
     }
     Py_END_ALLOW_THREADS
     PyMem_RawFree(dist);
@@ -473,6 +484,9 @@ static PyObject *PatentLaw_shape_array(PatentLaw *self, PyObject *const *args,
         Py_RETURN_NONE;
     }
     vf_patent_kernel(&self->poly, &self->law, v[0], v[1], v[2], v[3], &r);
+    if (!isfinite(r.d1) || !isfinite(r.d2) || !isfinite(r.sx) || !isfinite(r.sy)) {
+        Py_RETURN_NONE;
+    }
     return pair_array(r.ox, r.oy);
 }
 
@@ -493,15 +507,21 @@ static PyObject *PatentLaw_batch(PatentLaw *self, PyObject *const *args, Py_ssiz
     P = b.P.buf;
     V = b.V.buf;
     out = b.out.buf;
-    zones = b.zones.buf;
+    zones = b.zones.obj ? b.zones.buf : NULL;
     Py_BEGIN_ALLOW_THREADS
     for (r = 0; r < b.N; r++) {
         vf_result res;
         vf_patent_kernel(&self->poly, &self->law, P[2 * r], P[2 * r + 1], V[2 * r], V[2 * r + 1],
                          &res);
+        if (!isfinite(res.d1) || !isfinite(res.d2)) {
+            res.ox = NAN;
+            res.oy = NAN;
+        }
         out[2 * r] = res.ox;
         out[2 * r + 1] = res.oy;
-        zones[r] = res.zone;
+        if (zones != NULL) {
+            zones[r] = res.zone;
+        }
     }
     Py_END_ALLOW_THREADS
     release_views(&b);

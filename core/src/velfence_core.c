@@ -218,108 +218,142 @@ void vf_patent_kernel(const vf_polygon *poly, const vf_patent_law *law, double p
 /* _kernels._violates */
 static int violates(double x, double y, double nxe, double nye, double b, double tol)
 {
-    return nxe * x + nye * y < b - tol * (1.0 + fabs(b));
+    return nxe * x + nye * y < b - tol * (fabs(b) + fabs(x) + fabs(y));
 }
 
-/* _kernels._solve_tol: returns 1 (feasible) with *rx, *ry, else 0. */
+/* _kernels._solve_tol: the dual active-set method (Goldfarb-Idnani in the plane, at most two
+ * active bounds). Returns 1 (feasible) with *rx, *ry, else 0 with zeros. */
 static int solve_tol(double vx, double vy, const int32_t *work, int32_t m, const double *nx,
                      const double *ny, const double *bnd, double tol, double *rx, double *ry)
 {
-    int32_t a, c, e;
-    int ok = 1;
-    double best = INFINITY;
-    double bx = 0.0;
-    double by = 0.0;
-    for (a = 0; a < m; a++) {
-        int32_t w = work[a];
-        if (violates(vx, vy, nx[w], ny[w], bnd[w], tol)) {
-            ok = 0;
-            break;
-        }
-    }
-    if (ok) {
-        *rx = vx;
-        *ry = vy;
-        return 1;
-    }
-    for (a = 0; a < m; a++) {
-        int32_t w = work[a];
-        double gap = bnd[w] - (nx[w] * vx + ny[w] * vy);
-        double vt, x, y;
-        int feas = 1;
-        if (gap <= 0.0) {
-            continue;
-        }
-        vt = ny[w] * vx - nx[w] * vy;
-        x = vt * ny[w] + bnd[w] * nx[w];
-        y = bnd[w] * ny[w] - vt * nx[w];
-        for (c = 0; c < m; c++) {
-            int32_t u = work[c];
-            if (u != w && violates(x, y, nx[u], ny[u], bnd[u], tol)) {
-                feas = 0;
-                break;
+    double x = vx;
+    double y = vy;
+    int q = 0;
+    int32_t a1 = -1;
+    int32_t a2 = -1;
+    double l1 = 0.0;
+    double l2 = 0.0;
+    int64_t steps = 0;
+    int64_t limit = 2 * (int64_t)m + 16;
+    int32_t a;
+    *rx = 0.0;
+    *ry = 0.0;
+    for (;;) {
+        int32_t p = -1;
+        double worst = 0.0;
+        double lp = 0.0;
+        for (a = 0; a < m; a++) {
+            int32_t w = work[a];
+            if (w == a1 || w == a2) {
+                continue;
+            }
+            if (violates(x, y, nx[w], ny[w], bnd[w], tol)) {
+                double g = bnd[w] - (nx[w] * x + ny[w] * y);
+                if (p < 0 || g > worst) {
+                    worst = g;
+                    p = w;
+                }
             }
         }
-        if (feas) {
+        if (p < 0) {
             *rx = x;
             *ry = y;
             return 1;
         }
-    }
-    for (a = 0; a < m; a++) {
-        int32_t w = work[a];
-        for (c = a + 1; c < m; c++) {
-            int32_t u = work[c];
-            double det = nx[w] * ny[u] - ny[w] * nx[u];
-            double x, y, dist;
-            int feas = 1;
-            if (fabs(det) < 1e-12) {
+        for (;;) {
+            double sp, c, t1, t2, t, zx, zy;
+            steps += 1;
+            if (steps > limit) {
+                return 0;
+            }
+            if (q == 2) {
+                double det = nx[a1] * ny[a2] - ny[a1] * nx[a2];
+                double r1 = (nx[p] * ny[a2] - ny[p] * nx[a2]) / det;
+                double r2 = (nx[a1] * ny[p] - ny[a1] * nx[p]) / det;
+                int kd = 0;
+                t = INFINITY;
+                if (r1 > 0.0) {
+                    t = l1 / r1;
+                    kd = 1;
+                }
+                if (r2 > 0.0 && l2 / r2 < t) {
+                    t = l2 / r2;
+                    kd = 2;
+                }
+                if (kd == 0) {
+                    return 0;
+                }
+                l1 -= t * r1;
+                l2 -= t * r2;
+                lp += t;
+                if (kd == 1) {
+                    a1 = a2;
+                    l1 = l2;
+                }
+                a2 = -1;
+                l2 = 0.0;
+                q = 1;
                 continue;
             }
-            x = (bnd[w] * ny[u] - ny[w] * bnd[u]) / det;
-            y = (nx[w] * bnd[u] - bnd[w] * nx[u]) / det;
-            dist = (x - vx) * (x - vx) + (y - vy) * (y - vy);
-            if (dist >= best) {
-                continue;
-            }
-            for (e = 0; e < m; e++) {
-                int32_t q = work[e];
-                if (q != w && q != u && violates(x, y, nx[q], ny[q], bnd[q], tol)) {
-                    feas = 0;
-                    break;
+            sp = nx[p] * x + ny[p] * y - bnd[p];
+            c = 0.0;
+            t1 = INFINITY;
+            t2 = INFINITY;
+            if (q == 1) {
+                c = nx[p] * nx[a1] + ny[p] * ny[a1];
+                zx = nx[p] - c * nx[a1];
+                zy = ny[p] - c * ny[a1];
+                if (c > 0.0) {
+                    t1 = l1 / c;
                 }
-            }
-            if (feas) {
-                double dx = x - vx;
-                double dy = y - vy;
-                double lw = (dx * ny[u] - dy * nx[u]) / det;
-                double lu = (nx[w] * dy - ny[w] * dx) / det;
-                if (lw >= -VF_FEAS_TOL && lu >= -VF_FEAS_TOL) {
-                    *rx = x;
-                    *ry = y;
-                    return 1;
+                if (fabs(nx[a1] * ny[p] - ny[a1] * nx[p]) >= 1e-12) {
+                    t2 = -sp / (zx * zx + zy * zy);
                 }
-                best = dist;
-                bx = x;
-                by = y;
+            } else {
+                zx = nx[p];
+                zy = ny[p];
+                t2 = -sp / (zx * zx + zy * zy);
             }
+            t = t1 < t2 ? t1 : t2;
+            if (t == INFINITY) {
+                return 0;
+            }
+            if (t2 < INFINITY) {
+                x += t * zx;
+                y += t * zy;
+            }
+            l1 -= t * c;
+            lp += t;
+            if (t2 <= t1) {
+                if (q == 0) {
+                    double vt = ny[p] * vx - nx[p] * vy;
+                    a1 = p;
+                    l1 = lp;
+                    q = 1;
+                    x = vt * ny[p] + bnd[p] * nx[p];
+                    y = bnd[p] * ny[p] - vt * nx[p];
+                } else {
+                    double det = nx[a1] * ny[p] - ny[a1] * nx[p];
+                    a2 = p;
+                    l2 = lp;
+                    q = 2;
+                    x = (bnd[a1] * ny[p] - ny[a1] * bnd[p]) / det;
+                    y = (nx[a1] * bnd[p] - bnd[a1] * nx[p]) / det;
+                }
+                break;
+            }
+            a1 = -1;
+            l1 = 0.0;
+            q = 0;
         }
     }
-    if (best == INFINITY) {
-        *rx = 0.0;
-        *ry = 0.0;
-        return 0;
-    }
-    *rx = bx;
-    *ry = by;
-    return 1;
 }
 
 /* _kernels._solve */
 static int solve(double vx, double vy, const int32_t *work, int32_t m, const double *nx,
                  const double *ny, const double *bnd, double *rx, double *ry)
 {
-    double x, y;
+    double x, y, x0, y0;
     int r;
     int32_t a;
     if (solve_tol(vx, vy, work, m, nx, ny, bnd, 0.0, &x, &y)) {
@@ -327,11 +361,13 @@ static int solve(double vx, double vy, const int32_t *work, int32_t m, const dou
         *ry = y;
         return 1;
     }
-    if (!solve_tol(vx, vy, work, m, nx, ny, bnd, VF_FEAS_TOL, &x, &y)) {
+    if (!solve_tol(vx, vy, work, m, nx, ny, bnd, VF_FEAS_TOL, &x0, &y0)) {
         *rx = 0.0;
         *ry = 0.0;
         return 0;
     }
+    x = x0;
+    y = y0;
     for (r = 0; r < 8; r++) {
         double worst = 0.0;
         double g;
@@ -353,9 +389,10 @@ static int solve(double vx, double vy, const int32_t *work, int32_t m, const dou
         x += g * nx[wi];
         y += g * ny[wi];
     }
-    *rx = 0.0;
-    *ry = 0.0;
-    return 0;
+    /* the repairs fight: the tolerant answer (misses no bound by more than VF_FEAS_TOL) */
+    *rx = x0;
+    *ry = y0;
+    return 1;
 }
 
 /* _kernels.zone_code */
@@ -548,30 +585,6 @@ static void bounds_from_distances(const double *dist, int32_t n, double vnorm, i
     o->scale = scale;
 }
 
-/* _kernels.unbounded_candidates */
-static int32_t unbounded_candidates(const double *dist, int32_t *work, int32_t m, int32_t n)
-{
-    int32_t c = m;
-    int32_t e, a;
-    for (e = 0; e < n; e++) {
-        int in_work = 0;
-        if (dist[e] < 0.0) {
-            continue;
-        }
-        for (a = 0; a < m; a++) {
-            if (work[a] == e) {
-                in_work = 1;
-                break;
-            }
-        }
-        if (!in_work) {
-            work[c] = e;
-            c += 1;
-        }
-    }
-    return c;
-}
-
 /* _kernels.exact_kernel (with exact_bounds inlined) */
 void vf_exact_kernel(const vf_polygon *poly, const vf_exact_law *law, double px, double py,
                      double vx, double vy, vf_scratch *scratch, vf_result *out)
@@ -617,7 +630,7 @@ void vf_exact_kernel(const vf_polygon *poly, const vf_exact_law *law, double px,
     ux = vx / scale;
     uy = vy / scale;
     for (;;) {
-        int32_t c, a;
+        int32_t a;
         int added;
         if (!solve(ux, uy, work, m, nx, ny, bnd, &ox, &oy)) {
             break;
@@ -627,17 +640,26 @@ void vf_exact_kernel(const vf_polygon *poly, const vf_exact_law *law, double px,
                        stages);
             return;
         }
-        c = unbounded_candidates(dist, work, m, n);
-        fill_bounds(kind, prm, relax, dist, work, m, c, unit, scale, idt, bnd);
         added = 0;
-        for (a = m; a < c; a++) {
-            double b;
-            e = work[a];
-            b = bnd[e];
-            if (b > -INFINITY && violates(ox, oy, nx[e], ny[e], b, 0.0)) {
+        for (e = 0; e < n && m < n; e++) {
+            if (dist[e] >= 0.0 && nx[e] * ox + ny[e] * oy < -0.5 * unit) {
+                double b;
                 work[m] = e;
-                m += 1;
-                added = 1;
+                fill_bounds(kind, prm, relax, dist, work, m, m + 1, unit, scale, idt, bnd);
+                b = bnd[e];
+                if (b > -INFINITY && violates(ox, oy, nx[e], ny[e], b, 0.0)) {
+                    int known = 0;
+                    for (a = 0; a < m; a++) {
+                        if (work[a] == e) {
+                            known = 1;
+                            break;
+                        }
+                    }
+                    if (!known) {
+                        m += 1;
+                        added = 1;
+                    }
+                }
             }
         }
         if (!added) {
@@ -679,6 +701,15 @@ void vf_exact_kernel(const vf_polygon *poly, const vf_exact_law *law, double px,
 }
 
 /* ------------------------------------------------------------------ checked API */
+
+/* Every double of a result finite. A position beyond ~1e300 makes the signed distances
+ * n.p - off overflow to +-inf while the velocity (recovery at a capped speed) stays finite: the
+ * answer overflowed all the same, and is refused (VF_ERR_OVERFLOW, the stop result). */
+static int result_finite(const vf_result *r)
+{
+    return isfinite(r->ox) && isfinite(r->oy) && isfinite(r->d1) && isfinite(r->d2)
+           && isfinite(r->sx) && isfinite(r->sy);
+}
 
 static int finite4(double a, double b, double c, double d)
 {
@@ -786,7 +817,7 @@ int vf_exact_shape(const vf_polygon *poly, const vf_exact_law *law, double px, d
         return VF_ERR_NONFINITE;
     }
     vf_exact_kernel(poly, law, px, py, vx, vy, scratch, out);
-    if (!isfinite(out->ox) || !isfinite(out->oy)) {
+    if (!result_finite(out)) {
         set_stop(out);
         return VF_ERR_OVERFLOW;
     }
@@ -809,7 +840,7 @@ int vf_patent_shape(const vf_polygon *poly, const vf_patent_law *law, double px,
         return VF_ERR_NONFINITE;
     }
     vf_patent_kernel(poly, law, px, py, vx, vy, out);
-    if (!isfinite(out->ox) || !isfinite(out->oy) || !isfinite(out->sx) || !isfinite(out->sy)) {
+    if (!result_finite(out)) {
         set_stop(out);
         return VF_ERR_OVERFLOW;
     }

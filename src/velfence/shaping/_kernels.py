@@ -204,86 +204,139 @@ def patent_kernel(
 
 
 def _violates(x: float, y: float, nxe: float, nye: float, b: float, tol: float) -> bool:
-    return nxe * x + nye * y < b - tol * (1.0 + abs(b))
+    """``n·x < b`` with slack ``tol`` relative to the numbers compared (``|b|`` and ``|x|``)."""
+    return nxe * x + nye * y < b - tol * (abs(b) + abs(x) + abs(y))
 
 
 def _solve_tol(
     vx: float, vy: float, work: Any, m: int, nx: Any, ny: Any, bnd: Any, tol: float
 ) -> tuple[bool, float, float]:
-    """Minimise ||x - v||² s.t. n_w · x >= b_w for w in work[:m], by enumeration.
+    """Minimise ||x - v||² s.t. n_w · x >= b_w for w in work[:m]: the dual active-set method.
 
-    In 2-D at most two bounds are active at the optimum, so the optimum is ``v`` itself, the
-    projection onto one bound line, or the intersection of two; the feasible candidate nearest to
-    ``v`` is the optimum. Two shortcuts end the search early: a projection onto one bound that
-    satisfies every other bound *is* the optimum (the feasible set lies in that half-plane), and so
-    is a feasible vertex whose two multipliers are non-negative (KKT). Feasibility is tested with
-    slack ``tol`` (relative, see :func:`_violates`); the caller runs it with ``tol = 0`` first so
-    that a candidate that is only *almost* feasible never hides the true optimum (at a near-flat
-    corner the two differ by ``tol / sin θ``). Returns (feasible, x, y).
+    Goldfarb and Idnani's method (the n-D :func:`~velfence.geometry.projection.project_kernel`)
+    specialised to the plane, where at most two bounds are active: start at the unconstrained
+    optimum ``v``; while some bound not in the active set is violated, add the most violated one
+    ``p``, moving along the part of ``n_p`` orthogonal to the active normals and dropping an
+    active bound whose multiplier reaches zero first (partial step) until ``p`` holds (full
+    step). Every iterate is dual feasible, so the first primal-feasible one is the optimum. The
+    work per added bound is one pass over the ``m`` bounds; a bound is added a handful of times
+    at most in practice, so the solve grows linearly with ``m`` (the enumeration it replaced,
+    kept as a test oracle in ``tests/shaping/_enumeration_oracle.py``, grew with ``m³``).
 
-    The projection onto one bound is built from the tangential part of ``v`` plus ``b_w n_w``
-    (not ``v + gap n_w``): when ``v`` is huge against ``b_w`` the sum would lose ``b_w`` (a
-    recovery bound of 1e-17 in units of a 1e15 command), the tangential form keeps it.
+    After each full step the iterate is recomputed in closed form from its active set (``v``,
+    the projection onto one bound line, the intersection of two): the candidates the enumeration
+    compared, with its formulas, so that both methods return the same bits when they end on the
+    same active set, and no round-off accumulates over the steps. The projection onto one bound
+    is built from the tangential part of ``v`` plus ``b_w n_w`` (not ``v + gap n_w``): when
+    ``v`` is huge against ``b_w`` the sum would lose ``b_w``; the tangential form keeps it.
+
+    A bound counts as violated with slack ``tol`` (relative, see :func:`_violates`); the caller
+    runs ``tol = 0`` first, so that the answer meets every inactive bound as evaluated. Round-off
+    can make three bound lines through one point trade places forever; the step limit ends that
+    (then the caller runs the tolerant pass). Returns (feasible, x, y); (False, 0, 0) when the
+    bounds have no common point (a step along no direction would be needed) or at the limit.
     """
-    ok = True
-    for a in range(m):
-        w = work[a]
-        if _violates(vx, vy, nx[w], ny[w], bnd[w], tol):
-            ok = False
-            break
-    if ok:
-        return True, vx, vy
-    best = math.inf
-    bx = 0.0
-    by = 0.0
-    for a in range(m):
-        w = work[a]
-        gap = bnd[w] - (nx[w] * vx + ny[w] * vy)
-        if gap <= 0.0:
-            continue
-        vt = ny[w] * vx - nx[w] * vy  # component of v along the tangent t = (ny, -nx)
-        x = vt * ny[w] + bnd[w] * nx[w]
-        y = bnd[w] * ny[w] - vt * nx[w]
-        feas = True
-        for c in range(m):
-            u = work[c]
-            if u != w and _violates(x, y, nx[u], ny[u], bnd[u], tol):
-                feas = False
-                break
-        if feas:
+    x = vx
+    y = vy
+    q = 0  # active bounds: a1 (q >= 1), a2 (q == 2), multipliers l1, l2
+    a1 = -1
+    a2 = -1
+    l1 = 0.0
+    l2 = 0.0
+    steps = 0
+    limit = 2 * m + 16
+    while True:
+        # The most violated bound (largest b - n·x) that is not active.
+        p = -1
+        worst = 0.0
+        for a in range(m):
+            w = work[a]
+            if w == a1 or w == a2:  # noqa: SIM109 (two comparisons, as in C)
+                continue
+            if _violates(x, y, nx[w], ny[w], bnd[w], tol):
+                g = bnd[w] - (nx[w] * x + ny[w] * y)
+                if p < 0 or g > worst:
+                    worst = g
+                    p = w
+        if p < 0:
             return True, x, y
-    for a in range(m):
-        w = work[a]
-        for c in range(a + 1, m):
-            u = work[c]
-            det = nx[w] * ny[u] - ny[w] * nx[u]
-            if abs(det) < 1e-12:
+        lp = 0.0  # multiplier of the bound being added
+        while True:
+            steps += 1
+            if steps > limit:
+                return False, 0.0, 0.0
+            if q == 2:
+                # No direction is left: n_p = r1 n_a1 + r2 n_a2; drop the active bound whose
+                # multiplier reaches zero first (only dual steps).
+                det = nx[a1] * ny[a2] - ny[a1] * nx[a2]
+                r1 = (nx[p] * ny[a2] - ny[p] * nx[a2]) / det
+                r2 = (nx[a1] * ny[p] - ny[a1] * nx[p]) / det
+                t = math.inf
+                kd = 0
+                if r1 > 0.0:
+                    t = l1 / r1
+                    kd = 1
+                if r2 > 0.0 and l2 / r2 < t:
+                    t = l2 / r2
+                    kd = 2
+                if kd == 0:
+                    return False, 0.0, 0.0
+                l1 -= t * r1
+                l2 -= t * r2
+                lp += t
+                if kd == 1:
+                    a1 = a2
+                    l1 = l2
+                a2 = -1
+                l2 = 0.0
+                q = 1
                 continue
-            x = (bnd[w] * ny[u] - ny[w] * bnd[u]) / det
-            y = (nx[w] * bnd[u] - bnd[w] * nx[u]) / det
-            dist = (x - vx) * (x - vx) + (y - vy) * (y - vy)
-            if dist >= best:
-                continue
-            feas = True
-            for e in range(m):
-                q = work[e]
-                if q != w and q != u and _violates(x, y, nx[q], ny[q], bnd[q], tol):
-                    feas = False
-                    break
-            if feas:
-                # x - v = lw n_w + lu n_u; both multipliers >= 0 makes x the optimum (KKT).
-                dx = x - vx
-                dy = y - vy
-                lw = (dx * ny[u] - dy * nx[u]) / det
-                lu = (nx[w] * dy - ny[w] * dx) / det
-                if lw >= -_FEAS_TOL and lu >= -_FEAS_TOL:
-                    return True, x, y
-                best = dist
-                bx = x
-                by = y
-    if best == math.inf:
-        return False, 0.0, 0.0
-    return True, bx, by
+            sp = nx[p] * x + ny[p] * y - bnd[p]
+            c = 0.0
+            t1 = math.inf
+            t2 = math.inf
+            if q == 1:
+                # Direction: n_p without its part along the active normal.
+                c = nx[p] * nx[a1] + ny[p] * ny[a1]
+                zx = nx[p] - c * nx[a1]
+                zy = ny[p] - c * ny[a1]
+                if c > 0.0:
+                    t1 = l1 / c
+                if abs(nx[a1] * ny[p] - ny[a1] * nx[p]) >= 1e-12:
+                    t2 = -sp / (zx * zx + zy * zy)
+            else:
+                zx = nx[p]
+                zy = ny[p]
+                t2 = -sp / (zx * zx + zy * zy)
+            t = t1 if t1 < t2 else t2
+            if t == math.inf:
+                return False, 0.0, 0.0
+            if t2 < math.inf:
+                x += t * zx
+                y += t * zy
+            l1 -= t * c
+            lp += t
+            if t2 <= t1:
+                # Full step: p becomes active; the iterate in closed form from the active set.
+                if q == 0:
+                    a1 = p
+                    l1 = lp
+                    q = 1
+                    vt = ny[p] * vx - nx[p] * vy  # component of v along the tangent (ny, -nx)
+                    x = vt * ny[p] + bnd[p] * nx[p]
+                    y = bnd[p] * ny[p] - vt * nx[p]
+                else:
+                    a2 = p
+                    l2 = lp
+                    q = 2
+                    det = nx[a1] * ny[p] - ny[a1] * nx[p]
+                    x = (bnd[a1] * ny[p] - ny[a1] * bnd[p]) / det
+                    y = (nx[a1] * bnd[p] - bnd[a1] * nx[p]) / det
+                break
+            # Partial step: the active bound's multiplier reached zero first, drop it.
+            a1 = -1
+            l1 = 0.0
+            q = 0
 
 
 def _solve(
@@ -291,19 +344,25 @@ def _solve(
 ) -> tuple[bool, float, float]:
     """:func:`_solve_tol` whose answer meets every bound in floating point, or (False, 0, 0).
 
-    Strict pass first (``tol = 0``): its answer already meets every bound as evaluated. Only when
-    round-off makes the strict pass find nothing (three bound lines through one point), the
+    Strict pass first (``tol = 0``): its answer meets every inactive bound as evaluated (the
+    active ones up to the closed form's round-off, as the enumeration's candidates did). Only
+    when round-off makes the strict pass fail (three bound lines through one point), the
     tolerant pass runs and its answer is repaired: each violated bound in turn is met by moving
     along its normal by the violation plus a few ulps (at most ``_FEAS_TOL`` relative, because
-    the tolerant pass accepted it). A few rounds settle any case in which the repaired bounds do
-    not fight each other; otherwise the caller falls back to an answer known to be feasible.
+    the tolerant pass accepted it). When the repairs fight each other (two opposite bounds with
+    no room between them, a third line through their common point), the tolerant pass's answer
+    is returned as it is: it misses no bound by more than ``_FEAS_TOL`` relative to the numbers
+    involved, and such a point exists only up to round-off. (False, 0, 0) when the bounds have no
+    common point.
     """
     ok, x, y = _solve_tol(vx, vy, work, m, nx, ny, bnd, 0.0)
     if ok:
         return True, x, y
-    ok, x, y = _solve_tol(vx, vy, work, m, nx, ny, bnd, _FEAS_TOL)
+    ok, x0, y0 = _solve_tol(vx, vy, work, m, nx, ny, bnd, _FEAS_TOL)
     if not ok:
         return False, 0.0, 0.0
+    x = x0
+    y = y0
     for _ in range(8):
         worst = 0.0
         wi = -1
@@ -318,7 +377,8 @@ def _solve(
         g = worst + _REPAIR_ULPS * (1.0 + abs(bnd[wi]) + abs(x) + abs(y))
         x += g * nx[wi]
         y += g * ny[wi]
-    return False, 0.0, 0.0
+    # The repairs fight: the tolerant answer, which misses no bound by more than _FEAS_TOL.
+    return True, x0, y0
 
 
 # Profile kinds the kernels evaluate; each has PROFILE_PARAMS float parameters (zero-padded), a
@@ -676,16 +736,28 @@ def exact_kernel(
         # faster than v); outside, recovery can cause it: add those edges.
         if n_out == 0 or ox * ox + oy * oy <= unit * unit:
             return ox * scale, oy * scale, zone, p1, p2, d1, d2, 0.0, 0.0, stages
-        c = unbounded_candidates(dist, work, m, n)
-        fill_bounds(kind, prm, relax, dist, work, m, c, unit, scale, idt, bnd)
+        # Add the unbounded edges the answer violates, in index order. Their bound is at most
+        # -unit (up to round-off), so only an edge with n·o < -unit/2 can be violated: only those
+        # get their bound evaluated (fill_bounds on the free slot work[m]), and only a violated
+        # one is looked up among the bounded edges (the solve meets those). One pass over the
+        # edges, not the enumeration's |bounded| x n membership test.
         added = False
-        for a in range(m, c):
-            e = work[a]
-            b = bnd[e]
-            if b > -math.inf and _violates(ox, oy, nx[e], ny[e], b, 0.0):
+        e = 0
+        while e < n and m < n:
+            if dist[e] >= 0.0 and nx[e] * ox + ny[e] * oy < -0.5 * unit:
                 work[m] = e
-                m += 1
-                added = True
+                fill_bounds(kind, prm, relax, dist, work, m, m + 1, unit, scale, idt, bnd)
+                b = bnd[e]
+                if b > -math.inf and _violates(ox, oy, nx[e], ny[e], b, 0.0):
+                    known = False
+                    for a in range(m):
+                        if work[a] == e:
+                            known = True
+                            break
+                    if not known:
+                        m += 1
+                        added = True
+            e += 1
         if not added:
             return ox * scale, oy * scale, zone, p1, p2, d1, d2, 0.0, 0.0, stages
     if n_out == 0:
@@ -745,8 +817,14 @@ def patent_batch(
                 P[r][0], P[r][1], V[r][0], V[r][1], nx, ny, off, cx, cy, a0, beta, n, dmax, k,
                 theta_max, idt,
             )  # fmt: skip
-            out[r][0] = res[0]
-            out[r][1] = res[1]
+            if res[5] - res[5] != 0.0 or res[6] - res[6] != 0.0:
+                # distances overflowed (a position beyond ~1e300): flagged as an overflowed
+                # velocity, which the caller refuses (on_invalid)
+                out[r][0] = math.nan
+                out[r][1] = math.nan
+            else:
+                out[r][0] = res[0]
+                out[r][1] = res[1]
             zones[r] = res[2]
 
 
@@ -777,6 +855,12 @@ def exact_batch(
                 P[r][0], P[r][1], V[r][0], V[r][1], nx, ny, off, cx, cy, n, kind, prm, relax,
                 idt, dist, bnd, work,
             )  # fmt: skip
-            out[r][0] = res[0]
-            out[r][1] = res[1]
+            if res[5] - res[5] != 0.0 or res[6] - res[6] != 0.0:
+                # distances overflowed (a position beyond ~1e300): flagged as an overflowed
+                # velocity, which the caller refuses (on_invalid)
+                out[r][0] = math.nan
+                out[r][1] = math.nan
+            else:
+                out[r][0] = res[0]
+                out[r][1] = res[1]
             zones[r] = res[2]

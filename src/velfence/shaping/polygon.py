@@ -34,12 +34,19 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from velfence._typing import FloatArray, IntArray
-from velfence._validate import as_pair, check_choice, check_flag, check_positive, real_array
+from velfence._validate import (
+    as_pair,
+    as_rows,
+    check_choice,
+    check_flag,
+    check_positive,
+    real_array,
+)
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon, as_polygon
 from velfence.shaping import _kernels as kern
 from velfence.shaping._accel import compiled_batch, compiled_core
-from velfence.shaping.base import OnInvalid, ShaperBase
+from velfence.shaping.base import KernelOut, OnInvalid, ShaperBase
 from velfence.shaping.profiles import (
     ApproachProfile,
     LinearBuffer,
@@ -347,7 +354,50 @@ class PolygonShaper(ShaperBase):
                 return out
         return super().shape(position, command)
 
+    def shape_batch(self, positions: ArrayLike, commands: ArrayLike) -> FloatArray:
+        """Shaped velocities for N states at once; equal to looping :meth:`shape`.
+
+        With the compiled core and finite input, the rows go straight to its loop, writing
+        only the output array (no zone array allocated and thrown away); anything else (a
+        profile the core does not know, non-finite rows, an overflowed answer) takes the
+        generic path of :meth:`zones_batch`, which owns the ``on_invalid`` policy.
+
+        Args:
+            positions: Positions, shape (N, 2), workspace units.
+            commands: Commands, shape (N, 2), workspace units per second.
+
+        Returns:
+            Shape (N, 2), never non-finite.
+        """
+        core = self._core
+        if core is None:
+            return super().shape_batch(positions, commands)
+        P = np.ascontiguousarray(as_rows("positions", positions))
+        V = np.ascontiguousarray(as_rows("commands", commands))
+        if P.shape != V.shape or not (np.isfinite(P).all() and np.isfinite(V).all()):
+            return super().shape_batch(positions, commands)
+        out = np.empty_like(P)
+        core.__self__.batch(P, V, out, None)
+        if not np.isfinite(out).all():
+            return super().shape_batch(positions, commands)
+        return out
+
     # ------------------------------------------------------------------ the law
+    def _checked(self, px: float, py: float, vx: float, vy: float) -> KernelOut | None:
+        """The base class's check, also refusing overflowed distances.
+
+        A position beyond ~1e300 makes ``d1``/``d2`` infinite while the recovery velocity stays
+        finite; refused as the C core's checked entry refuses it (``VF_ERR_OVERFLOW``).
+        """
+        r = super()._checked(px, py, vx, vy)
+        if r is not None and (r[5] - r[5] != 0.0 or r[6] - r[6] != 0.0):
+            self._invalid(
+                f"position too large, the distances to the edges overflowed: position=({px}, "
+                f"{py}), command=({vx}, {vy})"
+            )
+            return None
+        return r
+
     def _law(
         self, px: float, py: float, vx: float, vy: float
     ) -> tuple[float, float, int, int, int, float, float, float, float, int]:
