@@ -1,13 +1,13 @@
 #!/usr/bin/env bash
 # Builds the libFuzzer targets of the compiled core (fuzz_exact, fuzz_patent).
 #
-#   core/fuzz/build.sh [OUT_DIR] [--strict-aux]      (default OUT_DIR: core/fuzz/build)
+#   core/fuzz/build.sh [OUT_DIR] [--lenient-aux] [--control-tamper]   (default OUT_DIR: core/fuzz/build)
 #
 # TARGETS="exact" builds only that one (default: "exact patent").
 # clang with libFuzzer, AddressSanitizer and UBSan (Debian: clang, libclang-rt-14-dev); CC
 # overrides the compiler. Every sanitizer finding aborts (-fno-sanitize-recover=all). The core is
-# compiled as the library is (-ffp-contract=off). --strict-aux turns on the assertion that is
-# switched off for the known open defect (VF_FUZZ_STRICT_AUX_DISTANCES, see fuzz_common.h).
+# compiled as the library is (-ffp-contract=off). --lenient-aux and --control-tamper: see
+# VF_FUZZ_STRICT_AUX_DISTANCES and VF_FUZZ_CONTROL_TAMPER in fuzz_common.h.
 # Run one:  OUT_DIR/fuzz_exact -seed=1 -max_total_time=60 OUT_DIR/corpus-exact core/fuzz/corpus/exact
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
@@ -17,6 +17,8 @@ extra=()
 for arg in "${@:2}"; do
     case "$arg" in
         --strict-aux) extra+=(-DVF_FUZZ_STRICT_AUX_DISTANCES=1) ;;
+        --lenient-aux) extra+=(-DVF_FUZZ_STRICT_AUX_DISTANCES=0) ;;
+        --control-tamper) extra+=(-DVF_FUZZ_CONTROL_TAMPER=1) ;;
         *) echo "build.sh: unknown option $arg" >&2; exit 2 ;;
     esac
 done

@@ -19,13 +19,14 @@
  * A violated contract prints what was decoded and the result, then abort()s: libFuzzer saves the
  * input as a crash file. Running the target binary on that file reproduces the report.
  *
- * Switch VF_FUZZ_STRICT_AUX_DISTANCES (default 0): the known open defect "positions beyond ~1e300
- * give VF_OK with a finite velocity but -inf auxiliary distances d1/d2". With 0, a non-finite d1 or
- * d2 under VF_OK is accepted only when one of the polygon's signed distances itself overflows
- * (nx*px + ny*py - off not finite, computed as the core computes it) -- exactly that defect, and
- * nothing else. With 1, d1 and d2 must always be finite, as the header says ("every double in it
- * is finite"). Set at build time (build.sh --strict-aux, -DVF_FUZZ_STRICT_AUX_DISTANCES=1) or at
- * run time by the environment variable of the same name (=1 or =0, read once at start-up).
+ * Switch VF_FUZZ_STRICT_AUX_DISTANCES (default 1): d1 and d2 must be finite under VF_OK, as the
+ * header says ("every double in it is finite"). 0 restores the lenient check written while
+ * "positions beyond ~1e300 give VF_OK with -inf d1/d2" was open (it is fixed: such results are
+ * VF_ERR_OVERFLOW): a non-finite d1 or d2 under VF_OK is then accepted only when one of the
+ * polygon's signed distances itself overflows. Set at build time (build.sh --lenient-aux,
+ * -DVF_FUZZ_STRICT_AUX_DISTANCES=0) or at run time by the environment variable of that name
+ * (=1 or =0, read once at start-up). VF_FUZZ_CONTROL_TAMPER (build.sh --control-tamper) makes
+ * fuzz_exact spoil every VF_OK result, for the tests' proof that a violation aborts.
  */
 #ifndef VF_FUZZ_COMMON_H
 #define VF_FUZZ_COMMON_H
@@ -40,7 +41,7 @@
 #include "velfence_core.h"
 
 #ifndef VF_FUZZ_STRICT_AUX_DISTANCES
-#define VF_FUZZ_STRICT_AUX_DISTANCES 0
+#define VF_FUZZ_STRICT_AUX_DISTANCES 1
 #endif
 
 static int fz_strict_aux = VF_FUZZ_STRICT_AUX_DISTANCES;

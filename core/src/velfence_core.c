@@ -389,10 +389,10 @@ static int solve(double vx, double vy, const int32_t *work, int32_t m, const dou
         x += g * nx[wi];
         y += g * ny[wi];
     }
-    /* the repairs fight: the tolerant answer (misses no bound by more than VF_FEAS_TOL) */
-    *rx = x0;
-    *ry = y0;
-    return 1;
+    /* the repairs fight: no point meets every bound as evaluated; the caller relaxes and says so */
+    *rx = 0.0;
+    *ry = 0.0;
+    return 0;
 }
 
 /* _kernels.zone_code */

@@ -1,12 +1,11 @@
 """A bounded random run (~25 s, slow) against the compiled core's entry points through the binding.
 
-Neither libFuzzer (needs clang, absent on this machine) nor a coverage-guided atheris run of the
-C code (its native instrumentation needs clang too) is available, so this is the brief's fallback:
-a **hypothesis-driven random run** (not coverage-guided) over every law, with polygons of 3 to 16
-edges and any floats as state (NaN, ±inf, subnormals, ±1e308 included). Checks: the checked API
-(vf_*_shape) returns a documented code and never a non-finite number, ``-3`` exactly for
-non-finite input; the unchecked kernel equals the Python reference bit for bit on every finite
-input (NaN results compared as NaN), including overflowed answers.
+The coverage-guided run of the C API is libFuzzer's (core/fuzz/, tests/core/test_libfuzzer.py); this
+one goes through the Python binding: a **hypothesis-driven random run** (not coverage-guided) over
+every law, with polygons of 3 to 16 edges and any floats as state (NaN, ±inf, subnormals, ±1e308
+included). Checks: the checked API (vf_*_shape) returns a documented code and never a non-finite
+number, ``-3`` exactly for non-finite input; the unchecked kernel equals the Python reference bit
+for bit on every finite input (NaN results compared as NaN), including overflowed answers.
 """
 
 from __future__ import annotations
