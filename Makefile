@@ -9,7 +9,7 @@ export MPLBACKEND := Agg
 
 # The compiled core (core/: C99 + CPython binding, scikit-build-core) is a separate distribution
 # built with the machine's C compiler; velfence itself stays pure Python (hatchling).
-$(STAMP): pyproject.toml core/pyproject.toml core/CMakeLists.txt core/src/*.c core/include/*.h
+$(STAMP): pyproject.toml core/pyproject.toml core/CMakeLists.txt core/src/*.c core/src/*.h core/include/*.h
 	$(PY) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e '.[all,dev]'

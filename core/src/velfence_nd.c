@@ -11,6 +11,16 @@
 
 #include <math.h>
 
+#include "vf_bounds.h" /* the exact law's bounds, shared with the 2-D core */
+
+/* vf_bounds.h speaks the 2-D header's codes; the n-D header's must be the same numbers. */
+#if VF_ND_ZONE_FREE != VF_ZONE_FREE || VF_ND_ZONE_BUFFER != VF_ZONE_BUFFER ||                     \
+    VF_ND_ZONE_CORNER != VF_ZONE_CORNER || VF_ND_ZONE_OUTSIDE != VF_ZONE_OUTSIDE ||               \
+    VF_ND_ZONE_OUTSIDE_CORNER != VF_ZONE_OUTSIDE_CORNER ||                                        \
+    VF_ND_PROFILE_LINEAR != VF_PROFILE_LINEAR || VF_ND_PROFILE_THREE_ZONE != VF_PROFILE_THREE_ZONE
+#error "velfence_nd.h and velfence_core.h disagree on zone or profile codes"
+#endif
+
 /* projection.py's tolerances */
 #define DEP_TOL 1e-13
 #define VIOL_TOL 1e-13
@@ -393,220 +403,6 @@ int vf_nd_project(const double *u, const double *G, const double *b, int32_t m, 
 }
 
 /* ------------------------------------------------------------------ the bound definition */
-
-/* _kernels.zone_code */
-static int32_t zone_code(int32_t n_out, int32_t n_near)
-{
-    if (n_out > 0) {
-        return n_near <= 1 ? VF_ND_ZONE_OUTSIDE : VF_ND_ZONE_OUTSIDE_CORNER;
-    }
-    if (n_near == 0) {
-        return VF_ND_ZONE_FREE;
-    }
-    return n_near == 1 ? VF_ND_ZONE_BUFFER : VF_ND_ZONE_CORNER;
-}
-
-/* _kernels.profile_cap */
-static double profile_cap(int32_t kind, const double *prm, int extend, double d, double s)
-{
-    double a;
-    if (kind == VF_ND_PROFILE_LINEAR) {
-        double r;
-        if (d >= 0.0) {
-            if (d >= prm[0] && !extend) {
-                return INFINITY;
-            }
-            return s * (d / prm[0]);
-        }
-        r = -prm[1] * d;
-        if (r > prm[2]) {
-            r = prm[2];
-        }
-        return -r;
-    }
-    a = fabs(d);
-    if (a > prm[5]) {
-        return copysign(prm[1], d);
-    }
-    if (a > prm[3]) {
-        return copysign(sqrt(2.0 * prm[2] * fabs(a - prm[4])), d);
-    }
-    return prm[0] * d;
-}
-
-/* _kernels.fill_bounds */
-static void fill_bounds(int32_t kind, const double *prm, int extend, const double *dist,
-                        const int32_t *work, int32_t lo, int32_t hi, double cs, double scale,
-                        double idt, double *bnd)
-{
-    double rate = idt / scale;
-    int lin = kind == VF_ND_PROFILE_LINEAR;
-    int32_t a;
-    for (a = lo; a < hi; a++) {
-        int32_t e = work[a];
-        double d = dist[e];
-        double b;
-        if (d < 0.0) {
-            bnd[e] = bnd[e] / scale;
-            continue;
-        }
-        if (lin) {
-            b = -profile_cap(kind, prm, extend, d, cs);
-        } else {
-            b = -(profile_cap(kind, prm, extend, d, cs * scale) / scale);
-        }
-        if (idt > 0.0 && -rate * d > b) {
-            b = -rate * d;
-        }
-        bnd[e] = b;
-    }
-}
-
-typedef struct bounds_out {
-    int32_t m, n_out, n_near;
-    double rec, cs, scale;
-    int32_t p1, p2;
-    double d1, d2;
-} bounds_out;
-
-/* _kernels.bounds_from_distances */
-static void bounds_from_distances(const double *dist, int32_t n, double vnorm, int32_t kind,
-                                  const double *prm, int relax, double idt, int normalise,
-                                  double *bnd, int32_t *work, bounds_out *o)
-{
-    int lin = kind == VF_ND_PROFILE_LINEAR;
-    double dmax = prm[0];
-    double gate = lin ? dmax : INFINITY;
-    double rec = 0.0;
-    int32_t p1 = -1;
-    int32_t p2 = -1;
-    double d1 = INFINITY;
-    double d2 = INFINITY;
-    int32_t m = 0;
-    int32_t n_out = 0;
-    int32_t n_near, e, a;
-    double speed, scale, cs;
-    for (e = 0; e < n; e++) {
-        double d = dist[e];
-        if (d < gate) {
-            if (d < 0.0) {
-                double r;
-                work[m] = e;
-                m += 1;
-                n_out += 1;
-                r = -profile_cap(kind, prm, 0, d, 0.0);
-                if (idt > 0.0 && r > -d * idt) {
-                    r = -d * idt;
-                }
-                bnd[e] = r;
-                if (r > rec) {
-                    rec = r;
-                }
-            } else {
-                work[m] = e;
-                m += 1;
-            }
-        }
-        if (d < d1) {
-            d2 = d1;
-            p2 = p1;
-            d1 = d;
-            p1 = e;
-        } else if (d < d2) {
-            d2 = d;
-            p2 = e;
-        }
-    }
-    o->p1 = p1;
-    o->p2 = p2;
-    o->d1 = d1;
-    o->d2 = d2;
-    o->n_out = 0;
-    o->n_near = 0;
-    o->rec = 0.0;
-    o->cs = 0.0;
-    o->scale = 1.0;
-    o->m = 0;
-    if (m == 0 && idt == 0.0) {
-        return;
-    }
-    if (!lin) {
-        int32_t c = 0;
-        for (a = 0; a < m; a++) {
-            double d;
-            e = work[a];
-            d = dist[e];
-            if (d < 0.0 || profile_cap(kind, prm, relax, d, vnorm) < vnorm) {
-                work[c] = e;
-                c += 1;
-            }
-        }
-        m = c;
-        if (m == 0 && idt == 0.0) {
-            return;
-        }
-    }
-    speed = vnorm + rec;
-    if (idt > 0.0 && (speed > dmax * idt || !lin)) {
-        double reach = speed / idt;
-        m = 0;
-        for (e = 0; e < n; e++) {
-            double d = dist[e];
-            if (d < reach
-                || (!lin && (d < 0.0 || profile_cap(kind, prm, relax, d, vnorm) < vnorm))) {
-                work[m] = e;
-                m += 1;
-            }
-        }
-    }
-    if (m == 0) {
-        o->rec = rec;
-        return;
-    }
-    scale = (normalise && speed > 0.0) ? speed : 1.0;
-    cs = (relax ? speed : vnorm) / scale;
-    if (relax) {
-        n_near = m;
-    } else {
-        n_near = 0;
-        for (a = 0; a < m; a++) {
-            if (profile_cap(kind, prm, relax, dist[work[a]], vnorm) < vnorm) {
-                n_near += 1;
-            }
-        }
-    }
-    fill_bounds(kind, prm, relax, dist, work, 0, m, cs, scale, idt, bnd);
-    o->m = m;
-    o->n_out = n_out;
-    o->n_near = n_near;
-    o->rec = rec;
-    o->cs = cs;
-    o->scale = scale;
-}
-
-/* _kernels.unbounded_candidates */
-static int32_t unbounded_candidates(const double *dist, int32_t *work, int32_t m, int32_t n)
-{
-    int32_t c = m;
-    int32_t e, a;
-    for (e = 0; e < n; e++) {
-        int in_work = 0;
-        if (dist[e] < 0.0) {
-            continue;
-        }
-        for (a = 0; a < m; a++) {
-            if (work[a] == e) {
-                in_work = 1;
-                break;
-            }
-        }
-        if (!in_work) {
-            work[c] = e;
-            c += 1;
-        }
-    }
-    return c;
-}
 
 /* ------------------------------------------------------------------ the n-D exact law */
 

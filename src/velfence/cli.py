@@ -393,29 +393,12 @@ def teleop(
     ] = False,
 ) -> None:
     """Drive the simulated PUMA 560 (laser-assisted traded control) from a local web page."""
-    import webbrowser
-
     from velfence.teleop import viewer
     from velfence.teleop.session import Session
 
-    try:
-        server = viewer.serve(Session(), port=port, start=start)
-    except VelfenceError as exc:
-        raise _fail(str(exc)) from None
-    except OSError as exc:
-        raise _fail(f"cannot listen on 127.0.0.1:{port} ({exc}); try another --port") from None
-    console = Console()
-    console.print(f"velfence teleop: open {server.url}  (Ctrl-C to stop)", highlight=False)
-    if not no_browser:
-        webbrowser.open(server.url)
-    try:
-        while not server.wait(0.5):
-            pass
-    except KeyboardInterrupt:
-        pass
-    finally:
-        server.stop()
-    console.print("stopped")
+    _serve_page(
+        "velfence teleop", lambda: viewer.serve(Session(), port=port, start=start), port, no_browser
+    )
 
 
 @app.command()
@@ -434,18 +417,26 @@ def view(
     ] = False,
 ) -> None:
     """Show a scene as a 3-D web view (viser, extra web) and drive it with the teleop keys."""
-    import webbrowser
-
     from velfence.view import serve_scene
 
+    _serve_page(
+        f"velfence view ({scene})", lambda: serve_scene(scene, port=port, start=start), port,
+        no_browser,
+    )  # fmt: skip
+
+
+def _serve_page(title: str, serve: Any, port: int, no_browser: bool) -> None:
+    """Start a local web page's server, print (and open) its URL, serve until Ctrl-C."""
+    import webbrowser
+
     try:
-        server = serve_scene(scene, port=port, start=start)
+        server = serve()
     except VelfenceError as exc:
         raise _fail(str(exc)) from None
     except OSError as exc:
         raise _fail(f"cannot listen on 127.0.0.1:{port} ({exc}); try another --port") from None
     console = Console()
-    console.print(f"velfence view ({scene}): open {server.url}  (Ctrl-C to stop)", highlight=False)
+    console.print(f"{title}: open {server.url}  (Ctrl-C to stop)", highlight=False)
     if not no_browser:
         webbrowser.open(server.url)
     try:
