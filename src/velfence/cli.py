@@ -391,8 +391,27 @@ def teleop(
     start: Annotated[
         bool, typer.Option("--start", help="Start the clock now, not when the page is opened.")
     ] = False,
+    canvas: Annotated[
+        bool,
+        typer.Option(
+            "--canvas",
+            help="The light 2-D canvas page (no viser); the default when the web extra is absent.",
+        ),
+    ] = False,
 ) -> None:
-    """Drive the simulated PUMA 560 (laser-assisted traded control) from a local web page."""
+    """Drive the simulated PUMA 560 (laser-assisted traded control) from a local web page.
+
+    The 3-D view is viser's (``velfence view --scene teleop``) when the ``web`` extra is
+    installed; ``--canvas`` (or no viser) serves the dependency-free canvas page instead.
+    """
+    if not canvas and importlib.util.find_spec("viser") is not None:
+        from velfence.view import serve_scene
+
+        _serve_page(
+            "velfence teleop", lambda: serve_scene("teleop", port=port, start=start), port,
+            no_browser,
+        )  # fmt: skip
+        return
     from velfence.teleop import viewer
     from velfence.teleop.session import Session
 

@@ -673,7 +673,7 @@ def test_cli_teleop_serves_until_interrupted(monkeypatch: pytest.MonkeyPatch) ->
 
     monkeypatch.setattr(viewer, "serve", fake_serve)
     result = CliRunner().invoke(
-        cli.app, ["teleop", "--port", "0", "--no-browser"], env={"NO_COLOR": "1"}
+        cli.app, ["teleop", "--port", "0", "--no-browser", "--canvas"], env={"NO_COLOR": "1"}
     )
     assert result.exit_code == 0, result.output
     assert "http://127.0.0.1:9/" in result.output
@@ -698,3 +698,32 @@ def test_real_session_moves_when_clutched_and_jogged() -> None:
     p1 = np.asarray(snaps[-1]["tool"])[:3, 3]
     assert np.linalg.norm(p1 - p0) > 5e-3
     assert p1[0] - p0[0] > 0.0
+
+
+def test_cli_teleop_uses_the_3d_web_view_when_viser_is_installed(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    pytest.importorskip("viser")
+    from typer.testing import CliRunner
+
+    from velfence import cli, view
+    from velfence.teleop import viewer
+
+    calls: dict[str, Any] = {}
+    fake_server = _FakeServer()
+
+    def fake_scene(scene: str, **kwargs: Any) -> _FakeServer:
+        calls.update(kwargs, scene=scene)
+        return fake_server
+
+    def no_canvas(*args: Any, **kwargs: Any) -> None:
+        raise AssertionError("the canvas page was served although viser is installed")
+
+    monkeypatch.setattr(view, "serve_scene", fake_scene)
+    monkeypatch.setattr(viewer, "serve", no_canvas)
+    result = CliRunner().invoke(
+        cli.app, ["teleop", "--port", "0", "--no-browser", "--start"], env={"NO_COLOR": "1"}
+    )
+    assert result.exit_code == 0, result.output
+    assert calls == {"scene": "teleop", "port": 0, "start": True}
+    assert fake_server.stopped
