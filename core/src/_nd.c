@@ -19,6 +19,11 @@
  *     rows(P, axes, u, idt) -> (G (r, ncols), b (r,), d (r,), obstacles, links): the safety
  *                          filter's obstacle rows (vf_nd_capsule_rows) from one kinematics pass.
  *     clearances(P) -> list of every pair's clearance (vf_nd_capsule_clearances).
+ *   ConfigControl(C, rho, lrad, n, m, k, w_e, w_z, lam, kz, h, max_speed, recheck, rounds)
+ *     solve(P, axes, yr) -> (code, q_dot, q_free, points, links, fractions, distances, normals,
+ *                          rows, d_dot, d_dot_free, active, condition, ee_rate_error,
+ *                          ee_rate_error_free): one cycle of configuration control (velfence_cc.h)
+ *                          from one kinematics pass; code is VF_CC_OK or a VF_CC_ERR_* code.
  * The kernels are the unchecked ones: Python keeps its own checks and policies, as with _core.
  */
 #define PY_SSIZE_T_CLEAN
@@ -30,6 +35,7 @@
 #include <math.h>
 #include <string.h>
 
+#include "velfence_cc.h"
 #include "velfence_nd.h"
 
 /* ------------------------------------------------------------------ helpers */
@@ -712,6 +718,181 @@ static PyTypeObject CapsuleRowsType = {
     .tp_methods = CapsuleRows_methods,
 };
 
+/* ------------------------------------------------------------------ configuration control */
+
+typedef struct {
+    PyObject_HEAD
+    vf_cc_problem pb;
+    double *mem;   /* C, rho, lrad, then the outputs and the scratch */
+    int32_t *ints; /* links, active, then the scratch */
+    vf_cc_out out;
+    double *work;
+    int32_t *iwork;
+} ConfigControl;
+
+static void ConfigControl_dealloc(ConfigControl *self)
+{
+    PyMem_Free(self->mem);
+    PyMem_Free(self->ints);
+    Py_TYPE(self)->tp_free((PyObject *)self);
+}
+
+static int ConfigControl_init(ConfigControl *self, PyObject *args, PyObject *kwds)
+{
+    PyObject *C, *rho, *lrad;
+    int n, m, k, recheck, rounds;
+    double w_e, w_z, lam, kz, h, max_speed;
+    size_t nn, kk, total;
+    static char *kwlist[] = {"C",   "rho", "lrad", "n",  "m", "k",         "w_e",     "w_z",
+                             "lam", "kz",  "h",    "max_speed", "recheck", "rounds", NULL};
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "OOOiiiddddddpi", kwlist, &C, &rho, &lrad, &n,
+                                     &m, &k, &w_e, &w_z, &lam, &kz, &h, &max_speed, &recheck,
+                                     &rounds)) {
+        return -1;
+    }
+    if (n < 1 || n > 4096 || (m != 2 && m != 3) || k < 0 || k > (1 << 16) || rounds < 0) {
+        PyErr_SetString(PyExc_ValueError, "ConfigControl: bad sizes");
+        return -1;
+    }
+    PyMem_Free(self->mem);
+    PyMem_Free(self->ints);
+    self->mem = NULL;
+    self->ints = NULL;
+    nn = (size_t)n;
+    kk = (size_t)k;
+    /* C, rho, lrad | q_dot, q_free, points, fractions, distances, normals, rows, d_dot, d_dot_free */
+    total = 3 * kk + kk + nn + 2 * nn + 3 * kk + 2 * kk + 3 * kk + kk * nn + 2 * kk
+            + vf_cc_doubles(n, m, k);
+    self->mem = PyMem_Calloc(total + 1, sizeof(double));
+    self->ints = PyMem_Calloc(2 * kk + vf_cc_ints(k) + 1, sizeof(int32_t));
+    if (self->mem == NULL || self->ints == NULL) {
+        PyErr_NoMemory();
+        return -1;
+    }
+    {
+        double *cc = self->mem, *rh = cc + 3 * kk, *lr = rh + kk, *o = lr + nn;
+        if (read_doubles(C, "C", cc, 3 * (Py_ssize_t)k) < 0
+            || read_doubles(rho, "rho", rh, k) < 0 || read_doubles(lrad, "lrad", lr, n) < 0) {
+            return -1;
+        }
+        self->pb.C = cc;
+        self->pb.rho = rh;
+        self->pb.lrad = lr;
+        self->out.q_dot = o;
+        self->out.q_free = o + nn;
+        self->out.points = o + 2 * nn;
+        self->out.fractions = self->out.points + 3 * kk;
+        self->out.distances = self->out.fractions + kk;
+        self->out.normals = self->out.distances + kk;
+        self->out.rows = self->out.normals + 3 * kk;
+        self->out.d_dot = self->out.rows + kk * nn;
+        self->out.d_dot_free = self->out.d_dot + kk;
+        self->work = self->out.d_dot_free + kk;
+        self->out.links = self->ints;
+        self->out.active = self->ints + kk;
+        self->iwork = self->ints + 2 * kk;
+    }
+    self->pb.n = n;
+    self->pb.m = m;
+    self->pb.k = k;
+    self->pb.w_e = w_e;
+    self->pb.w_z = w_z;
+    self->pb.lam = lam;
+    self->pb.kz = kz;
+    self->pb.h = h;
+    self->pb.max_speed = max_speed;
+    self->pb.recheck = recheck;
+    self->pb.rounds = rounds;
+    if (vf_cc_check(&self->pb) != VF_CC_OK) {
+        PyErr_SetString(PyExc_ValueError, "ConfigControl: invalid parameters (vf_cc_check)");
+        return -1;
+    }
+    return 0;
+}
+
+static PyObject *new_matrix(const double *x, npy_intp r, npy_intp c)
+{
+    npy_intp dims[2];
+    PyObject *o;
+    dims[0] = r;
+    dims[1] = c;
+    o = PyArray_SimpleNew(2, dims, NPY_DOUBLE);
+    if (o != NULL && r * c > 0) {
+        memcpy(PyArray_DATA((PyArrayObject *)o), x, (size_t)(r * c) * sizeof(double));
+    }
+    return o;
+}
+
+/* solve(P, axes, yr) -> (code, q_dot, q_free, points, links, fractions, distances, normals, rows,
+ *                        d_dot, d_dot_free, active, condition, ee_rate_error, ee_rate_error_free) */
+static PyObject *ConfigControl_solve(ConfigControl *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    Py_buffer P = {0}, A = {0}, y = {0};
+    PyObject *ret = NULL, *links = NULL;
+    npy_intp kdim;
+    int code, i;
+    const vf_cc_problem *pb = &self->pb;
+    vf_cc_out *out = &self->out;
+    if (self->mem == NULL) {
+        PyErr_SetString(PyExc_RuntimeError, "ConfigControl not initialised");
+        return NULL;
+    }
+    if (nargs != 3) {
+        PyErr_Format(PyExc_TypeError, "expected 3 arguments (P, axes, yr), got %zd", nargs);
+        return NULL;
+    }
+    if (get_view(args[0], &P, 0, "d", "P") < 0 || get_view(args[1], &A, 0, "d", "axes") < 0
+        || get_view(args[2], &y, 0, "d", "yr") < 0) {
+        goto done;
+    }
+    if (P.len != 8 * 3 * ((Py_ssize_t)pb->n + 1) || A.len != 8 * 3 * (Py_ssize_t)pb->n
+        || y.len != 8 * (Py_ssize_t)pb->m) {
+        PyErr_SetString(PyExc_ValueError, "P must be (n + 1, 3), axes (n, 3), yr (m,)");
+        goto done;
+    }
+    code = vf_cc_solve(pb, (const double *)P.buf, (const double *)A.buf, (const double *)y.buf,
+                       out, self->work, self->iwork);
+    kdim = pb->k;
+    links = PyArray_SimpleNew(1, &kdim, NPY_INT64);
+    if (links == NULL) {
+        goto done;
+    }
+    for (i = 0; i < pb->k; i++) {
+        ((int64_t *)PyArray_DATA((PyArrayObject *)links))[i] = out->links[i];
+    }
+    ret = Py_BuildValue("(iNNNNNNNNNNNddd)", code, new_vector(out->q_dot, pb->n),
+                        new_vector(out->q_free, pb->n), new_matrix(out->points, pb->k, 3), links,
+                        new_vector(out->fractions, pb->k), new_vector(out->distances, pb->k),
+                        new_matrix(out->normals, pb->k, 3), new_matrix(out->rows, pb->k, pb->n),
+                        new_vector(out->d_dot, pb->k), new_vector(out->d_dot_free, pb->k),
+                        int_list(out->active, out->n_active), out->condition,
+                        out->ee_rate_error, out->ee_rate_error_free);
+done:
+    release(&P);
+    release(&A);
+    release(&y);
+    return ret;
+}
+
+static PyMethodDef ConfigControl_methods[] = {
+    {"solve", (PyCFunction)(void (*)(void))ConfigControl_solve, METH_FASTCALL,
+     "solve(P, axes, yr) -> (code, q_dot, q_free, points, links, fractions, distances, normals, "
+     "rows, d_dot, d_dot_free, active, condition, ee_rate_error, ee_rate_error_free): "
+     "vf_cc_solve."},
+    {NULL, NULL, 0, NULL},
+};
+
+static PyTypeObject ConfigControlType = {
+    PyVarObject_HEAD_INIT(NULL, 0).tp_name = "velfence_core._nd.ConfigControl",
+    .tp_basicsize = sizeof(ConfigControl),
+    .tp_flags = Py_TPFLAGS_DEFAULT,
+    .tp_doc = "Configuration control of a serial arm among sphere obstacles (velfence_cc.h).",
+    .tp_new = PyType_GenericNew,
+    .tp_init = (initproc)ConfigControl_init,
+    .tp_dealloc = (destructor)ConfigControl_dealloc,
+    .tp_methods = ConfigControl_methods,
+};
+
 static PyMethodDef nd_methods[] = {
     {"rate_bounds", (PyCFunction)(void (*)(void))nd_rate_bounds, METH_FASTCALL,
      "rate_bounds(kind, prm, dist, speed, idt) -> bounds (k,): vf_nd_rate_bounds."},
@@ -731,7 +912,8 @@ PyMODINIT_FUNC PyInit__nd(void)
 {
     PyObject *m;
     import_array();
-    if (PyType_Ready(&PolytopeLawType) < 0 || PyType_Ready(&CapsuleRowsType) < 0) {
+    if (PyType_Ready(&PolytopeLawType) < 0 || PyType_Ready(&CapsuleRowsType) < 0
+        || PyType_Ready(&ConfigControlType) < 0) {
         return NULL;
     }
     m = PyModule_Create(&nd_module);
@@ -740,8 +922,10 @@ PyMODINIT_FUNC PyInit__nd(void)
     }
     Py_INCREF(&PolytopeLawType);
     Py_INCREF(&CapsuleRowsType);
+    Py_INCREF(&ConfigControlType);
     if (PyModule_AddObject(m, "PolytopeLaw", (PyObject *)&PolytopeLawType) < 0
         || PyModule_AddObject(m, "CapsuleRows", (PyObject *)&CapsuleRowsType) < 0
+        || PyModule_AddObject(m, "ConfigControl", (PyObject *)&ConfigControlType) < 0
         || PyModule_AddStringConstant(m, "VERSION", VF_ND_VERSION) < 0) {
         Py_DECREF(&PolytopeLawType);
         Py_DECREF(m);

@@ -140,7 +140,6 @@ def real_array(
         type(x) is np.ndarray
         and x.dtype == np.float64
         and x.size
-        and not allow_nonfinite
         and (
             shape is None
             or (
@@ -148,7 +147,12 @@ def real_array(
                 and all(s is None or s == k for s, k in zip(shape, x.shape, strict=True))
             )
         )
-        and (np.abs(x).max() <= max_abs if max_abs is not None else bool(np.isfinite(x).all()))
+        and (
+            # allow_nonfinite without a magnitude cap accepts every float64 value (NaN and inf
+            # go to the caller's policy): nothing to reduce.
+            (allow_nonfinite and max_abs is None)
+            or (np.abs(x).max() <= max_abs if max_abs is not None else bool(np.isfinite(x).all()))
+        )
     ):
         return x.copy()
     err = _error(error)

@@ -52,7 +52,7 @@ import math
 import operator
 from collections.abc import Sequence
 from dataclasses import KW_ONLY, dataclass
-from typing import TYPE_CHECKING, Literal, get_args
+from typing import TYPE_CHECKING, Any, Literal, get_args
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -61,6 +61,7 @@ from velfence._typing import FloatArray, IntArray
 from velfence._validate import check_choice, check_positive, readonly, real_array
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.shaping.base import InvalidPolicy, OnInvalid
+from velfence.shaping.polytope import PolytopeBackend, pick_backend
 
 if TYPE_CHECKING:
     from velfence.mechanisms.chain import SerialChain
@@ -71,6 +72,10 @@ Release = Literal["recheck", "sequential"]
 
 
 _RATE_EPS = 1e-12  # [m/s] rounding deadband: a tangential motion (ḋ = 0 up to rounding) stays free
+_TUNING = frozenset(
+    ("release", "max_speed", "ee_weight", "constraint_weight", "damping", "spring_gain",
+     "activation_margin")
+)  # fmt: skip
 _CHAIN_ATTRS = (
     "dof",
     "n_links",
@@ -662,6 +667,14 @@ class ConfigurationController(ChainObstacleBase):
             end-effector task and the active rows the damped solve can be fast (the linearised
             ``ḋ = 0`` then no longer holds over one step); the cap, or more ``damping``, bounds it.
         on_invalid: ``"raise"`` or ``"stop"`` (zero joint rate, zone ``"invalid"``).
+        backend: ``"auto"`` (default): for the library's own chains (``DHChain``,
+            ``PlanarArm`` …) the whole cycle after the forward kinematics runs in the compiled
+            core (``velfence_core``, ``velfence_cc.h``) when it is installed, else in Python;
+            ``"python"``: the NumPy route; ``"c"``: the core, required (raises
+            :class:`~velfence.errors.InvalidParameter` when it is not installed or the chain is
+            not one of the library's). Both make the same decisions and agree to
+            :math:`\max(10^{-10}, 100\,\kappa\,\varepsilon)` relative (``docs/core.md``).
+            :attr:`backend` reports the one in use.
 
     Raises:
         InvalidParameter: for an out-of-range parameter, a non-chain or non-obstacles.
@@ -684,6 +697,7 @@ class ConfigurationController(ChainObstacleBase):
         release: Release = "recheck",
         max_speed: float | None = None,
         on_invalid: OnInvalid = "raise",
+        backend: PolytopeBackend = "auto",
     ) -> None:
         super().__init__(chain, obstacles, on_invalid=on_invalid)
         self.release = check_choice("release", release, get_args(Release))
@@ -701,8 +715,46 @@ class ConfigurationController(ChainObstacleBase):
         self.task_tolerance = check_positive("task_tolerance", task_tolerance, unit="m/s")
         self._rho = readonly(np.array([o.influence for o in self.obstacles], dtype=float))
         self._rho_list: list[float] = self._rho.tolist()
+        self._cc: Any = None
+        self.backend: Literal["python", "c"] = "python"
+        self._cc, self.backend = self._compiled(backend)
+
+    def __setattr__(self, name: str, value: object) -> None:
+        # The compiled route holds the tuning in C: a later change of one rebuilds it, so that
+        # both routes always run the parameters the attributes show.
+        super().__setattr__(name, value)
+        if name in _TUNING and getattr(self, "_cc", None) is not None:
+            self._cc, self.backend = self._compiled(self.backend)
+
+    def _compiled(self, backend: object) -> tuple[Any, Literal["python", "c"]]:
+        """``(velfence_core._nd.ConfigControl or None, backend in use)`` for ``backend``."""
+        usable = self._fast and self._link_radius.shape == (self.dof,)
+        core, name = pick_backend(backend, usable=True)
+        if core is None:
+            return None, name
+        if not usable:
+            if backend == "c":
+                raise InvalidParameter(
+                    "backend='c' runs the library's own chains (DHChain, PlanarArm, … with one "
+                    f"link per joint), got {type(self.chain).__name__}; use backend='auto' or "
+                    "'python'"
+                )
+            return None, "python"
+        cc = core.ConfigControl(
+            C=self._centers.ravel(), rho=self._rho, lrad=self._link_radius, n=self.dof,
+            m=self.task_dim, k=len(self.obstacles), w_e=self.ee_weight,
+            w_z=self.constraint_weight, lam=self.damping, kz=self.spring_gain,
+            h=self.activation_margin, max_speed=0.0 if self.max_speed is None else self.max_speed,
+            recheck=self.release == "recheck", rounds=4 * len(self.obstacles) + 1,
+        )  # fmt: skip
+        return cc, "c"
 
     def _law(self, q: FloatArray, v: FloatArray, target: FloatArray | None) -> ControlResult:
+        if self._cc is not None:
+            res = self._law_c(q, v, target)
+            if res is not None:
+                return res
+            return self._law_reference(q, v, target)
         if not self._fast:
             return self._law_reference(q, v, target)
         crit, je, y = self._pose(q)
@@ -752,6 +804,27 @@ class ConfigurationController(ChainObstacleBase):
         q_dot, cond = _solve_stacked(je, yr, rows[idx], zr[idx], w_e, w_z, lam)
         q_free: FloatArray = q_dot if not active else np.asarray(x0, dtype=float)
         return self._result(v, yr, ee_err, crit, q_dot, q_free, cond, active, je)
+
+    def _law_c(
+        self, q: FloatArray, v: FloatArray, target: FloatArray | None
+    ) -> ControlResult | None:
+        """The cycle after the forward kinematics in the compiled core (``vf_cc_solve``).
+
+        None when the core reports an overflow (huge commands): the caller then takes the
+        lstsq-only route :meth:`_law_reference`, as :meth:`_law` does.
+        """
+        points, axes, _ = self.chain._kinematics_cache(q)  # type: ignore[attr-defined]
+        if target is None:
+            yr, ee_err = v.copy(), math.nan
+        else:
+            err = target - points[self.dof, : self.task_dim]
+            yr, ee_err = v + self.ee_gain * err, float(np.linalg.norm(err))
+        (code, q_dot, _, x, links, t, d, normals, rows, d_dot, d_dot_free, active, cond, e,
+         e_free) = self._cc.solve(points, axes, yr)  # fmt: skip
+        if code != 0:
+            return None
+        crit = Critical(x, links, t, d, normals, rows)
+        return self._package(v, yr, ee_err, crit, q_dot, cond, active, d_dot, d_dot_free, e, e_free)
 
     def _law_reference(
         self, q: FloatArray, v: FloatArray, target: FloatArray | None
@@ -811,8 +884,7 @@ class ConfigurationController(ChainObstacleBase):
         je: FloatArray,
     ) -> ControlResult:
         """The speed cap and the diagnostics of one cycle (shared by both routes)."""
-        d, rho, rows = crit.distances, self._rho, crit.rows
-        zr = self.spring_gain * np.maximum(0.0, rho - d)
+        rows = crit.rows
         d_dot_free = rows @ q_free
         if self.max_speed is not None:
             # One factor for every joint keeps the direction, hence the sign of every ḋ: a
@@ -826,8 +898,32 @@ class ConfigurationController(ChainObstacleBase):
         # Yielding is measured against the unconstrained solve, whose error is the damping's.
         e = je @ q_free - yr
         ee_rate_error_free = math.sqrt(float(e @ e))
+        return self._package(
+            v, yr, ee_err, crit, q_dot, cond, active, d_dot, d_dot_free, ee_rate_error,
+            ee_rate_error_free,
+        )  # fmt: skip
+
+    def _package(
+        self,
+        v: FloatArray,
+        yr: FloatArray,
+        ee_err: float,
+        crit: Critical,
+        q_dot: FloatArray,
+        cond: float,
+        active: list[int],
+        d_dot: FloatArray,
+        d_dot_free: FloatArray,
+        ee_rate_error: float,
+        ee_rate_error_free: float,
+    ) -> ControlResult:
+        """The zone, the tasks that gave way and the result (shared by every route)."""
         tol = self.task_tolerance
-        dl, zl, rl = (d_dot.tolist(), zr.tolist(), d.tolist()) if active else ([], [], [])
+        d = crit.distances
+        zl: list[float] = []
+        if active:
+            zl = (self.spring_gain * np.maximum(0.0, self._rho - d)).tolist()
+        dl, rl = (d_dot.tolist(), d.tolist()) if active else ([], [])
         violated = tuple(o for o in active if dl[o] < zl[o] - tol)
         exhausted = len(active) > self.redundancy
         rhol = self._rho_list

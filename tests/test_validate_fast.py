@@ -1,0 +1,59 @@
+"""The validation layer's fast accept equals its full checks for every policy argument.
+
+``real_array`` answers a float64 ndarray of the right shape without the full checks when it can
+(one reduction, or none with ``allow_nonfinite`` and no magnitude cap). The same values seen as an
+ndarray subclass always take the full checks; both must accept, return and refuse alike, for every
+combination of ``allow_nonfinite`` and ``max_abs``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+from hypothesis.extra import numpy as hnp
+
+from velfence._validate import MAX_MAGNITUDE, real_array
+
+_SHAPES_OF_ARRAYS = hnp.array_shapes(min_dims=0, max_dims=2, min_side=0, max_side=3)
+_VALUES = st.one_of(
+    hnp.arrays(
+        np.float64,
+        _SHAPES_OF_ARRAYS,
+        elements=st.floats(allow_nan=True, allow_infinity=True) | st.sampled_from([1e300, 1e16]),
+    ),
+    hnp.arrays(st.sampled_from([np.float32, np.int64, np.bool_]), _SHAPES_OF_ARRAYS),
+    st.lists(st.floats(), max_size=3),
+)
+_SHAPES = st.sampled_from([None, (2,), (3,), (None,), (2, 2), (2, None)])
+_CAPS = st.sampled_from([MAX_MAGNITUDE, None, 1e20])
+
+
+class _Subclass(np.ndarray):  # type: ignore[type-arg]
+    """Not exactly ``np.ndarray``: the full checks, never the fast accept."""
+
+
+@given(_VALUES, _SHAPES, st.booleans(), _CAPS)
+def test_fast_accept_equals_the_full_checks(x, shape, allow_nonfinite, max_abs):
+    kw = {"what": "things", "allow_nonfinite": allow_nonfinite, "max_abs": max_abs}
+    full = x.view(_Subclass) if isinstance(x, np.ndarray) else x
+    try:
+        want, err = np.asarray(real_array("x", full, shape, **kw)), None
+    except Exception as exc:  # the full checks' refusal, compared below
+        want, err = None, exc
+    if err is not None:
+        with pytest.raises(type(err)) as got:
+            real_array("x", x, shape, **kw)
+
+        def norm(m: str) -> str:
+            return "".join(m.split()).replace("_Subclass(", "array(")
+
+        assert norm(str(got.value)) == norm(str(err))
+        return
+    got = real_array("x", x, shape, **kw)
+    assert type(got) is np.ndarray
+    assert got.dtype == want.dtype
+    np.testing.assert_array_equal(got, want)
+    if isinstance(x, np.ndarray):
+        assert not np.shares_memory(got, x)
