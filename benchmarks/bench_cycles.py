@@ -169,6 +169,7 @@ def control_cycles(calls: int, with_mink: bool) -> None:
         for n_obs in COUNTS:
             obstacles, pool = scene(chain, q0, n_obs, seed=n_obs)
             cc = ConfigurationController(chain, obstacles)
+            cpy = ConfigurationController(chain, obstacles, backend="python")
             qp = VelocityDamperQP(chain, obstacles)
             active = float(np.mean([len(cc.explain(q, v).active) for q, v in pool]))
             P = [(np.asarray(q), np.asarray(v)) for q, v in pool]
@@ -178,7 +179,14 @@ def control_cycles(calls: int, with_mink: bool) -> None:
                     return cc._law_reference(P[k][0], P[k][1], None)
 
             routes: list[tuple[str, Callable[[int], object]]] = [
-                ("ConfigurationController.shape", lambda k, cc=cc, P=P: cc.shape(*P[k])),
+                (
+                    f"ConfigurationController.shape (backend {cc.backend})",
+                    lambda k, cc=cc, P=P: cc.shape(*P[k]),
+                ),
+                (
+                    "ConfigurationController.shape (backend python)",
+                    lambda k, c=cpy, P=P: c.shape(*P[k]),
+                ),
                 ("former route (_law_reference)", ref),
                 ("VelocityDamperQP.shape (daqp)", lambda k, qp=qp, P=P: qp.shape(*P[k])),
             ]
