@@ -18,25 +18,31 @@
  * Obstacle space: with M0 = w_e J_e^T J_e + lambda I and x0 = M0^-1 w_e J_e^T y_r, the solve over S
  * is x0 + M0^-1 R_S^T y, y = (R_S M0^-1 R_S^T + I / w_z)^-1 (z_r,S - R_S x0), so adding a row
  * borders a small inverse and a release check is a rank-one downdate -- no solve per check.
- * The final joint rate is the stacked least-squares problem above solved by a one-sided Jacobi
- * SVD (also giving its condition number kappa = (s_max / s_min)^2 of the normal matrix).
+ * The final joint rate is the stacked least-squares problem above solved by a Householder QR
+ * factorisation (backward stable, as LAPACK's lstsq), its condition number kappa =
+ * (s_max / s_min)^2 of the normal matrix from the singular values of R (one-sided Jacobi on R^T);
+ * when kappa is so large that lstsq would drop a singular value, the minimum-norm solution of a
+ * full one-sided Jacobi SVD instead.
  *
  * Agreement with the Python reference (velfence.redundancy.configuration_control): the same
- * decisions (active set, links) and every float to within 100 kappa eps relative (1e-10 at
- * least): the SVD and the Cholesky factorisation here are not LAPACK's, so the last bits differ.
+ * decisions (active set, links; an exact tie between two links may be named either way) and every
+ * float to within 1000 kappa eps relative (1e-10 at least): the factorisations here are not
+ * LAPACK's, so the last bits differ.
  *
  * Real-time use: reentrant, allocation-free, no global state, nothing longjmps; the caller owns
  * every buffer, sized by vf_cc_doubles / vf_cc_ints. The work per call is bounded: O(k n_links)
  * for steps A-C, O(n^3 + n^2 k + n k^2) for the obstacle-space set-up, at most `rounds` add rounds
- * (each O(|S|^2 + k |S|)) and at most 64 Jacobi sweeps of O((m + k + n) n^2) for the final solve.
+ * (each O(|S|^2 + k |S|)), O((m + k + n) n^2) for the QR and at most 64 Jacobi sweeps of O(n^3)
+ * for the condition number (twice that, on (m + k + n) x n, in the rare minimum-norm case).
  *
  * Shapes: row-major contiguous doubles; P is (n + 1) x 3 (the joint points P_0 .. P_n-1, then the
  * end-effector point P_n; link l runs P_l -> P_l+1, so there are n links), axes n x 3 (joint j's
  * unit axis z_j; joint j moves every point beyond P_j), y_r (m,) with m = 2 (a planar task, the x
  * and y components) or 3. Units: metres, radians, seconds.
  *
- * Return codes: VF_CC_OK (0) or a negative VF_CC_ERR_* code. On an error every output is the stop
- * result: q_dot = q_free = 0, n_active = 0, every other double 0, links -1.
+ * Return codes: VF_CC_OK (0) or a negative VF_CC_ERR_* code. On VF_CC_OK every double of the
+ * answer is finite. On an error every output is the stop result: q_dot = q_free = 0,
+ * n_active = 0, every other double 0, links and active -1.
  */
 #ifndef VELFENCE_CC_H
 #define VELFENCE_CC_H

@@ -210,25 +210,23 @@ static void chol_solve(const double *L, int32_t n, double *x)
     }
 }
 
-/* The stacked damped least-squares solve (configuration_control._solve_stacked) by a one-sided
- * Jacobi SVD of A = [sqrt(w_e) J_e; sqrt(w_z) R_S; sqrt(lam) I] (r x n, stored column-major in
- * Acol), b likewise; V (n x n) scratch. Singular values below eps max(r, n) s_max are dropped, as
- * numpy's lstsq with rcond=None does. Writes x (n,) and returns (s_max / s_min)^2. */
-static double stacked_solve(double *Acol, const double *b, int32_t r, int32_t n, double *V,
-                            double *x)
+/* One-sided Jacobi (Hestenes): rotate pairs of columns of the r x n column-major matrix Acol until
+ * they are orthogonal to working precision; with V (n x n, column-major) the rotations are
+ * accumulated into it, V = I first. Afterwards the column norms are the singular values. */
+static void jacobi_columns(double *Acol, int32_t r, int32_t n, double *V)
 {
     int32_t p, q, i, sweep;
-    double smax = 0.0, smin = INFINITY, cut;
-    memset(V, 0, (size_t)n * (size_t)n * sizeof(double));
-    for (p = 0; p < n; p++) {
-        V[(size_t)p * n + p] = 1.0;
+    if (V != NULL) {
+        memset(V, 0, (size_t)n * (size_t)n * sizeof(double));
+        for (p = 0; p < n; p++) {
+            V[(size_t)p * n + p] = 1.0;
+        }
     }
     for (sweep = 0; sweep < MAX_SWEEPS; sweep++) {
         int rotated = 0;
         for (p = 0; p < n - 1; p++) {
             for (q = p + 1; q < n; q++) {
                 double *ap = Acol + (size_t)p * r, *aq = Acol + (size_t)q * r;
-                double *vp = V + (size_t)p * n, *vq = V + (size_t)q * n; /* columns of V */
                 double al = 0.0, be = 0.0, ga = 0.0, zeta, t, c, s;
                 for (i = 0; i < r; i++) {
                     al += ap[i] * ap[i];
@@ -252,10 +250,13 @@ static double stacked_solve(double *Acol, const double *b, int32_t r, int32_t n,
                     ap[i] = c * u - s * w;
                     aq[i] = s * u + c * w;
                 }
-                for (i = 0; i < n; i++) {
-                    double u = vp[i], w = vq[i];
-                    vp[i] = c * u - s * w;
-                    vq[i] = s * u + c * w;
+                if (V != NULL) {
+                    double *vp = V + (size_t)p * n, *vq = V + (size_t)q * n;
+                    for (i = 0; i < n; i++) {
+                        double u = vp[i], w = vq[i];
+                        vp[i] = c * u - s * w;
+                        vq[i] = s * u + c * w;
+                    }
                 }
             }
         }
@@ -263,17 +264,40 @@ static double stacked_solve(double *Acol, const double *b, int32_t r, int32_t n,
             break;
         }
     }
-    /* column norms are the singular values; x = sum_j V_j (a_j . b) / s_j^2 */
+}
+
+/* Largest and smallest column norm of the r x n column-major matrix Acol. */
+static void norm_range(const double *Acol, int32_t r, int32_t n, double *smax, double *smin)
+{
+    int32_t p, i;
+    *smax = 0.0;
+    *smin = INFINITY;
     for (p = 0; p < n; p++) {
-        double s2 = 0.0;
         const double *ap = Acol + (size_t)p * r;
+        double s2 = 0.0;
         for (i = 0; i < r; i++) {
             s2 += ap[i] * ap[i];
         }
         s2 = sqrt(s2);
-        smax = s2 > smax ? s2 : smax;
-        smin = s2 < smin ? s2 : smin;
+        *smax = s2 > *smax ? s2 : *smax;
+        *smin = s2 < *smin ? s2 : *smin;
     }
+}
+
+static double condition_of(double smax, double smin)
+{
+    return smin > 0.0 ? (smax / smin) * (smax / smin) : INFINITY;
+}
+
+/* The minimum-norm least-squares solution by the full one-sided Jacobi SVD of Acol (r x n), as
+ * numpy's lstsq with rcond=None: singular values at or below eps max(r, n) s_max are dropped.
+ * x = sum_j V_j (a_j . b) / s_j^2. Returns the condition number (s_max / s_min)^2. */
+static double svd_solve(double *Acol, const double *b, int32_t r, int32_t n, double *V, double *x)
+{
+    int32_t p, i;
+    double smax, smin, cut;
+    jacobi_columns(Acol, r, n, V);
+    norm_range(Acol, r, n, &smax, &smin);
     cut = DBL_EPSILON * (double)(r > n ? r : n) * smax;
     memset(x, 0, (size_t)n * sizeof(double));
     for (p = 0; p < n; p++) {
@@ -292,13 +316,63 @@ static double stacked_solve(double *Acol, const double *b, int32_t r, int32_t n,
             x[i] += vp[i] * f;
         }
     }
-    return smin > 0.0 ? (smax / smin) * (smax / smin) : INFINITY;
+    return condition_of(smax, smin);
 }
 
-/* The final solve over the active rows (in activation order); returns the condition number. */
-static double final_solve(const vf_cc_problem *pb, const double *je, const double *yr,
-                          const double *rows, const double *zr, const int32_t *act, int32_t na,
-                          double *Acol, double *b, double *V, double *x)
+/* Householder QR of Acol (r x n, r >= n, column-major) in place, applied to b as well: R in the
+ * upper triangle of the first n rows, Q^T b in b. */
+static void householder(double *Acol, double *b, int32_t r, int32_t n)
+{
+    int32_t j, c, i;
+    for (j = 0; j < n; j++) {
+        double *aj = Acol + (size_t)j * r;
+        double nrm = 0.0, alpha, v0, vv;
+        for (i = j; i < r; i++) {
+            nrm += aj[i] * aj[i];
+        }
+        nrm = sqrt(nrm);
+        if (nrm == 0.0) {
+            continue;
+        }
+        alpha = aj[j] > 0.0 ? -nrm : nrm; /* v = a - alpha e_j without cancellation */
+        v0 = aj[j] - alpha;
+        aj[j] = v0; /* the reflector v in aj[j..r-1] for now */
+        vv = v0 * v0;
+        for (i = j + 1; i < r; i++) {
+            vv += aj[i] * aj[i];
+        }
+        for (c = j + 1; c < n; c++) {
+            double *ac = Acol + (size_t)c * r, s = 0.0, f;
+            for (i = j; i < r; i++) {
+                s += aj[i] * ac[i];
+            }
+            f = 2.0 * s / vv;
+            for (i = j; i < r; i++) {
+                ac[i] -= f * aj[i];
+            }
+        }
+        {
+            double s = 0.0, f;
+            for (i = j; i < r; i++) {
+                s += aj[i] * b[i];
+            }
+            f = 2.0 * s / vv;
+            for (i = j; i < r; i++) {
+                b[i] -= f * aj[i];
+            }
+        }
+        aj[j] = alpha;
+        for (i = j + 1; i < r; i++) {
+            aj[i] = 0.0;
+        }
+    }
+}
+
+/* The stacked problem A = [sqrt(w_e) J_e; sqrt(w_z) R_S; sqrt(lam) I] (r x n, column-major in
+ * Acol) and its right-hand side b = [sqrt(w_e) y_r; sqrt(w_z) z_r,S; 0]. */
+static void assemble(const vf_cc_problem *pb, const double *je, const double *yr,
+                     const double *rows, const double *zr, const int32_t *act, int32_t na,
+                     double *Acol, double *b)
 {
     const int32_t n = pb->n, m = pb->m, r = pb->m + na + pb->n;
     const double se = sqrt(pb->w_e), sz = sqrt(pb->w_z), sl = sqrt(pb->lam);
@@ -324,7 +398,42 @@ static double final_solve(const vf_cc_problem *pb, const double *je, const doubl
     for (i = 0; i < n; i++) {
         b[m + na + i] = 0.0;
     }
-    return stacked_solve(Acol, b, r, n, V, x);
+}
+
+/* The final solve over the active rows (configuration_control._solve_stacked): the damped
+ * least-squares problem by Householder QR (R x = Q^T b), its condition number from the singular
+ * values of R by one-sided Jacobi on R^T (QR first makes Jacobi converge in a few sweeps). When
+ * the problem is so ill-conditioned that lstsq would drop a singular value (s_min <= eps max(r, n)
+ * s_max; only with a damping negligible against the rows), the minimum-norm solution of the full
+ * SVD instead. Returns the condition number (s_max / s_min)^2 of the normal matrix. */
+static double final_solve(const vf_cc_problem *pb, const double *je, const double *yr,
+                          const double *rows, const double *zr, const int32_t *act, int32_t na,
+                          double *Acol, double *b, double *V, double *x)
+{
+    const int32_t n = pb->n, r = pb->m + na + pb->n;
+    int32_t i, j;
+    double smax, smin;
+    assemble(pb, je, yr, rows, zr, act, na, Acol, b);
+    householder(Acol, b, r, n);
+    for (i = n - 1; i >= 0; i--) { /* back substitution R x = (Q^T b)[0:n] */
+        double s = b[i];
+        for (j = i + 1; j < n; j++) {
+            s -= Acol[(size_t)j * r + i] * x[j];
+        }
+        x[i] = s / Acol[(size_t)i * r + i];
+    }
+    for (i = 0; i < n; i++) { /* W = R^T, column i is row i of R */
+        for (j = 0; j < n; j++) {
+            V[(size_t)i * n + j] = j >= i ? Acol[(size_t)j * r + i] : 0.0;
+        }
+    }
+    jacobi_columns(V, n, n, NULL);
+    norm_range(V, n, n, &smax, &smin);
+    if (smin > DBL_EPSILON * (double)(r > n ? r : n) * smax && finite_all(x, (size_t)n)) {
+        return condition_of(smax, smin);
+    }
+    assemble(pb, je, yr, rows, zr, act, na, Acol, b);
+    return svd_solve(Acol, b, r, n, V, x);
 }
 
 static double dot(const double *a, const double *b, int32_t n)
@@ -616,7 +725,10 @@ int vf_cc_solve(const vf_cc_problem *pb, const double *P, const double *axes, co
     out->ee_rate_error = rate_error(je, out->q_dot, yr, m, n);
     out->ee_rate_error_free = rate_error(je, out->q_free, yr, m, n);
     if (!finite_all(out->d_dot, (size_t)k) || !finite_all(out->d_dot_free, (size_t)k)
-        || !isfinite(out->ee_rate_error) || !isfinite(out->ee_rate_error_free)) {
+        || !isfinite(out->ee_rate_error) || !isfinite(out->ee_rate_error_free)
+        || !isfinite(out->condition) || !finite_all(out->distances, (size_t)k)
+        || !finite_all(out->points, 3 * (size_t)k) || !finite_all(out->normals, 3 * (size_t)k)
+        || !finite_all(out->rows, (size_t)k * (size_t)n)) {
         stop(pb, out);
         return VF_CC_ERR_OVERFLOW;
     }

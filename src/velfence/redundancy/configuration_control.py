@@ -673,7 +673,7 @@ class ConfigurationController(ChainObstacleBase):
             ``"python"``: the NumPy route; ``"c"``: the core, required (raises
             :class:`~velfence.errors.InvalidParameter` when it is not installed or the chain is
             not one of the library's). Both make the same decisions and agree to
-            :math:`\max(10^{-10}, 100\,\kappa\,\varepsilon)` relative (``docs/core.md``).
+            :math:`\max(10^{-10}, 1000\,\kappa\,\varepsilon)` relative (``docs/core.md``).
             :attr:`backend` reports the one in use.
 
     Raises:
