@@ -210,10 +210,30 @@ static void chol_solve(const double *L, int32_t n, double *x)
     }
 }
 
+/* a . b with four partial sums: the additions of one sum wait on each other, so four
+ * independent chains run about four times faster on a pipelined FPU (the rounding differs from a
+ * single running sum; nothing here is bit-matched to Python). */
+static double dot4(const double *a, const double *b, int32_t n)
+{
+    double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
+    int32_t i = 0;
+    for (; i + 3 < n; i += 4) {
+        s0 += a[i] * b[i];
+        s1 += a[i + 1] * b[i + 1];
+        s2 += a[i + 2] * b[i + 2];
+        s3 += a[i + 3] * b[i + 3];
+    }
+    for (; i < n; i++) {
+        s0 += a[i] * b[i];
+    }
+    return (s0 + s1) + (s2 + s3);
+}
+
 /* One-sided Jacobi (Hestenes): rotate pairs of columns of the r x n column-major matrix Acol until
  * they are orthogonal to working precision; with V (n x n, column-major) the rotations are
- * accumulated into it, V = I first. Afterwards the column norms are the singular values. */
-static void jacobi_columns(double *Acol, int32_t r, int32_t n, double *V)
+ * accumulated into it, V = I first; nrm: n doubles of scratch. Afterwards the column norms are the
+ * singular values. */
+static void jacobi_columns(double *Acol, int32_t r, int32_t n, double *V, double *nrm)
 {
     int32_t p, q, i, sweep;
     if (V != NULL) {
@@ -224,15 +244,16 @@ static void jacobi_columns(double *Acol, int32_t r, int32_t n, double *V)
     }
     for (sweep = 0; sweep < MAX_SWEEPS; sweep++) {
         int rotated = 0;
+        /* squared column norms, exact at the start of every sweep and updated by each rotation
+         * (a' = a - t g, b' = b + t g): one dot product per pair instead of three */
+        for (p = 0; p < n; p++) {
+            const double *ap = Acol + (size_t)p * r;
+            nrm[p] = dot4(ap, ap, r);
+        }
         for (p = 0; p < n - 1; p++) {
             for (q = p + 1; q < n; q++) {
                 double *ap = Acol + (size_t)p * r, *aq = Acol + (size_t)q * r;
-                double al = 0.0, be = 0.0, ga = 0.0, zeta, t, c, s;
-                for (i = 0; i < r; i++) {
-                    al += ap[i] * ap[i];
-                    be += aq[i] * aq[i];
-                    ga += ap[i] * aq[i];
-                }
+                double al = nrm[p], be = nrm[q], ga = dot4(ap, aq, r), zeta, t, c, s;
                 if (!(fabs(ga) > DBL_EPSILON * sqrt(al * be)) || ga == 0.0) {
                     continue;
                 }
@@ -250,6 +271,8 @@ static void jacobi_columns(double *Acol, int32_t r, int32_t n, double *V)
                     ap[i] = c * u - s * w;
                     aq[i] = s * u + c * w;
                 }
+                nrm[p] = al - t * ga;
+                nrm[q] = be + t * ga;
                 if (V != NULL) {
                     double *vp = V + (size_t)p * n, *vq = V + (size_t)q * n;
                     for (i = 0; i < n; i++) {
@@ -292,11 +315,12 @@ static double condition_of(double smax, double smin)
 /* The minimum-norm least-squares solution by the full one-sided Jacobi SVD of Acol (r x n), as
  * numpy's lstsq with rcond=None: singular values at or below eps max(r, n) s_max are dropped.
  * x = sum_j V_j (a_j . b) / s_j^2. Returns the condition number (s_max / s_min)^2. */
-static double svd_solve(double *Acol, const double *b, int32_t r, int32_t n, double *V, double *x)
+static double svd_solve(double *Acol, const double *b, int32_t r, int32_t n, double *V, double *x,
+                        double *nrm)
 {
     int32_t p, i;
     double smax, smin, cut;
-    jacobi_columns(Acol, r, n, V);
+    jacobi_columns(Acol, r, n, V, nrm);
     norm_range(Acol, r, n, &smax, &smin);
     cut = DBL_EPSILON * (double)(r > n ? r : n) * smax;
     memset(x, 0, (size_t)n * sizeof(double));
@@ -408,7 +432,7 @@ static void assemble(const vf_cc_problem *pb, const double *je, const double *yr
  * SVD instead. Returns the condition number (s_max / s_min)^2 of the normal matrix. */
 static double final_solve(const vf_cc_problem *pb, const double *je, const double *yr,
                           const double *rows, const double *zr, const int32_t *act, int32_t na,
-                          double *Acol, double *b, double *V, double *x)
+                          double *Acol, double *b, double *V, double *x, double *nrm)
 {
     const int32_t n = pb->n, r = pb->m + na + pb->n;
     int32_t i, j;
@@ -427,13 +451,13 @@ static double final_solve(const vf_cc_problem *pb, const double *je, const doubl
             V[(size_t)i * n + j] = j >= i ? Acol[(size_t)j * r + i] : 0.0;
         }
     }
-    jacobi_columns(V, n, n, NULL);
+    jacobi_columns(V, n, n, NULL, nrm);
     norm_range(V, n, n, &smax, &smin);
     if (smin > DBL_EPSILON * (double)(r > n ? r : n) * smax && finite_all(x, (size_t)n)) {
         return condition_of(smax, smin);
     }
     assemble(pb, je, yr, rows, zr, act, na, Acol, b);
-    return svd_solve(Acol, b, r, n, V, x);
+    return svd_solve(Acol, b, r, n, V, x, nrm);
 }
 
 static double dot(const double *a, const double *b, int32_t n)
@@ -462,7 +486,7 @@ int vf_cc_solve(const vf_cc_problem *pb, const double *P, const double *axes, co
                 vf_cc_out *out, double *dwork, int32_t *iwork)
 {
     int32_t n, m, k, i, j, p, nn, na = 0, round;
-    double *je, *zxp, *M0, *K, *G, *H, *Acol, *b, *V, *x0, *zr, *rx0, *dd, *yv, *hg, *wv;
+    double *je, *zxp, *M0, *K, *G, *H, *Acol, *b, *V, *x0, *nrm, *zr, *rx0, *dd, *yv, *hg, *wv;
     double *thr, *clr;
     int32_t *near, *in_set, *act;
     int code;
@@ -499,7 +523,8 @@ int vf_cc_solve(const vf_cc_problem *pb, const double *P, const double *axes, co
     b = Acol + (size_t)(m + k + n) * n;
     V = b + (size_t)(m + k + n);
     x0 = V + (size_t)n * n;
-    zr = x0 + n;
+    nrm = x0 + n;
+    zr = nrm + n;
     rx0 = zr + k;
     dd = rx0 + k;
     yv = dd + k;
@@ -698,7 +723,7 @@ int vf_cc_solve(const vf_cc_problem *pb, const double *P, const double *axes, co
 
     /* the final stacked solve over the active rows */
     out->condition = final_solve(pb, je, yr, out->rows, zr, out->active, na, Acol, b, V,
-                                 out->q_dot);
+                                 out->q_dot, nrm);
     memcpy(out->q_free, na > 0 ? x0 : out->q_dot, (size_t)n * sizeof(double));
     if (!finite_all(out->q_dot, (size_t)n)) {
         stop(pb, out);
