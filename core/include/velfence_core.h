@@ -17,7 +17,7 @@
  * written, nothing longjmps or throws. The work per call is bounded: the exact law solves its
  * minimum-change problem by a dual active-set method (Goldfarb-Idnani in the plane, at most two
  * active bounds), one pass over its m bounded edges per step and a handful of steps, plus one
- * O(n) pass over the far edges when recovery makes the answer fast (issue 15 section 2);
+ * O(n) pass over the far edges when recovery makes the answer fast;
  * measured 20-50 ns per call for an 8-gon and a p99 of about 5 us at a 1024-gon's outside corner
  * (docs/core.md). One vf_scratch per thread; polygon and law data are read-only and shareable.
  *

@@ -1,4 +1,4 @@
-"""The 2-D exact law's former solve, kept only as a test oracle (issue 15 §2).
+"""The 2-D exact law's former solve, kept only as a test oracle.
 
 Before the dual active-set method (``_kernels._solve_tol``), the 2-D exact law ENUMERATED the
 candidate active sets of its bounded edges (cubic in them) and added far edges with

@@ -1,4 +1,4 @@
-"""The 2-D exact law's dual active-set solve gives the enumeration's answers (issue 15 §2).
+"""The 2-D exact law's dual active-set solve gives the enumeration's answers.
 
 ``_kernels._solve_tol`` replaced the enumeration of candidate active sets; the enumeration is kept
 as an oracle (``_enumeration_oracle.oracle_kernel``, the former kernel verbatim). On
