@@ -251,7 +251,7 @@ def _metrics(
 
 
 def _report(metrics: dict[str, dict[str, float]], speed: float) -> Report:
-    src = "issue: Panda-like TCP in a box, MuJoCo"
+    src = "scenario: Panda-like TCP in a box, MuJoCo"
     checks: list[Check] = []
     for m in ("velfence", "velfence + look-ahead"):
         if m not in metrics:
