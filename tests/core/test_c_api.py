@@ -10,49 +10,24 @@ printed output is compared with the Python reference bit for bit. Needs no Pytho
 from __future__ import annotations
 
 import math
-import os
 import shutil
 import subprocess
 from pathlib import Path
 
+import c_build
 import pytest
+from c_build import CORE, FLAGS, GCC, NEEDS_GCC, SANITIZE, run
 
 from velfence.geometry.polygon import ConvexPolygon
 from velfence.shaping import PolygonShaper
 from velfence.shaping._kernels import STAGE_NAMES, ZONE_INVALID, ZONE_NAMES
 
-CORE = Path(__file__).resolve().parents[2] / "core"
-GCC = shutil.which("gcc")
-pytestmark = pytest.mark.skipif(GCC is None, reason="gcc is not on PATH: the C tests need it")
-
-SANITIZE = ["-fsanitize=address,undefined", "-fno-sanitize-recover=all", "-fno-omit-frame-pointer"]
-FLAGS = ["-std=c99", "-g", "-O1", "-Wall", "-Wextra", "-Werror", "-ffp-contract=off"]
+pytestmark = NEEDS_GCC
 
 
 def build(source: str, exe: Path) -> Path:
-    """Compile ``source`` (relative to core/) with the library under the sanitizers."""
-    cmd = [
-        GCC, *FLAGS, *SANITIZE, f"-I{CORE / 'include'}", str(CORE / source),
-        str(CORE / "src" / "velfence_core.c"), "-lm", "-o", str(exe),
-    ]  # fmt: skip
-    done = subprocess.run(cmd, capture_output=True, text=True, timeout=120, check=False)
-    assert done.returncode == 0, done.stderr
-    return exe
-
-
-def run(exe: Path) -> str:
-    env = {
-        **os.environ,
-        "ASAN_OPTIONS": "detect_leaks=1:abort_on_error=0",
-        "UBSAN_OPTIONS": "print_stacktrace=1",
-    }
-    done = subprocess.run(
-        [str(exe)], capture_output=True, text=True, timeout=120, env=env, check=False
-    )
-    assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-4000:]
-    assert "runtime error" not in done.stderr, done.stderr  # UBSan report
-    assert "AddressSanitizer" not in done.stderr, done.stderr
-    return done.stdout
+    """Compile ``source`` (relative to core/) with the 2-D library under the sanitizers."""
+    return c_build.build(source, "velfence_core.c", exe)
 
 
 def test_c_unit_tests_under_sanitizers(tmp_path: Path) -> None:
