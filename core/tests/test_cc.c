@@ -21,47 +21,8 @@
 
 #include "velfence_cc.h"
 
-static int failures = 0;
-static long checks = 0;
-
-#define CHECK(cond, ...)                                    \
-    do {                                                    \
-        checks++;                                           \
-        if (!(cond)) {                                      \
-            failures++;                                     \
-            if (failures < 50) {                            \
-                printf("FAIL %s:%d: ", __FILE__, __LINE__); \
-                printf(__VA_ARGS__);                        \
-                printf("\n");                               \
-            }                                               \
-        }                                                   \
-    } while (0)
-
-static unsigned long long rng_state = 0x2545F4914F6CDD1DULL;
-
-static double uniform(double lo, double hi)
-{
-    rng_state = rng_state * 6364136223846793005ULL + 1442695040888963407ULL;
-    return lo + (hi - lo) * (double)(rng_state >> 11) / 9007199254740992.0;
-}
-
-static double *dalloc(size_t n)
-{
-    double *p = calloc(n ? n : 1, sizeof(double));
-    if (p == NULL) {
-        exit(2);
-    }
-    return p;
-}
-
-static int32_t *ialloc(size_t n)
-{
-    int32_t *p = calloc(n ? n : 1, sizeof(int32_t));
-    if (p == NULL) {
-        exit(2);
-    }
-    return p;
-}
+#define VF_TEST_SEED 0x2545F4914F6CDD1DULL
+#include "vf_test.h"
 
 /* A serial arm: joint points and axes of a chain of revolute joints (planar: every axis z). */
 typedef struct arm {
@@ -451,10 +412,5 @@ int main(void)
         double cap = uniform(0, 1) < 0.8 ? 0.0 : 0.5;
         random_scene(planar, n, k, recheck, h, kz, cap);
     }
-    if (failures) {
-        printf("%d of %ld checks failed\n", failures, checks);
-        return 1;
-    }
-    printf("ok %ld\n", checks);
-    return 0;
+    return finish();
 }

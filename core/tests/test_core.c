@@ -8,30 +8,9 @@
 #include <string.h>
 
 #include "velfence_core.h"
+#include "vf_test.h"
 
 #define MAXN 64
-
-static int failures = 0;
-static long checks = 0;
-
-#define CHECK(cond, ...)                                   \
-    do {                                                   \
-        checks++;                                          \
-        if (!(cond)) {                                     \
-            failures++;                                    \
-            printf("FAIL %s:%d: ", __FILE__, __LINE__);    \
-            printf(__VA_ARGS__);                           \
-            printf("\n");                                  \
-        }                                                  \
-    } while (0)
-
-static unsigned long long rng_state = 0x9E3779B97F4A7C15ULL;
-
-static double uniform(double lo, double hi)
-{
-    rng_state = rng_state * 6364136223846793005ULL + 1442695040888963407ULL;
-    return lo + (hi - lo) * (double)(rng_state >> 11) / 9007199254740992.0;
-}
 
 typedef struct {
     double nx[MAXN], ny[MAXN], off[MAXN], beta[MAXN + 1];
@@ -261,10 +240,5 @@ int main(void)
     test_exact_properties(64, 0);
     test_patent_and_profile();
     test_batch();
-    if (failures > 0) {
-        printf("FAILED %d of %ld checks\n", failures, checks);
-        return 1;
-    }
-    printf("ok %ld\n", checks);
-    return 0;
+    return finish();
 }

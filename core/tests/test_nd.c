@@ -17,54 +17,7 @@
 #include <string.h>
 
 #include "velfence_nd.h"
-
-static int failures = 0;
-static long checks = 0;
-
-#define CHECK(cond, ...)                                   \
-    do {                                                   \
-        checks++;                                          \
-        if (!(cond)) {                                     \
-            failures++;                                    \
-            if (failures < 50) {                           \
-                printf("FAIL %s:%d: ", __FILE__, __LINE__);\
-                printf(__VA_ARGS__);                       \
-                printf("\n");                              \
-            }                                              \
-        }                                                  \
-    } while (0)
-
-static unsigned long long rng_state = 0x9E3779B97F4A7C15ULL;
-
-static double uniform(double lo, double hi)
-{
-    rng_state = rng_state * 6364136223846793005ULL + 1442695040888963407ULL;
-    return lo + (hi - lo) * (double)(rng_state >> 11) / 9007199254740992.0;
-}
-
-static double normal(void)
-{
-    double u1 = uniform(1e-12, 1.0), u2 = uniform(0.0, 1.0);
-    return sqrt(-2.0 * log(u1)) * cos(6.283185307179586 * u2);
-}
-
-static double *dalloc(size_t n)
-{
-    double *p = calloc(n ? n : 1, sizeof(double));
-    if (p == NULL) {
-        exit(2);
-    }
-    return p;
-}
-
-static int32_t *ialloc(size_t n)
-{
-    int32_t *p = calloc(n ? n : 1, sizeof(int32_t));
-    if (p == NULL) {
-        exit(2);
-    }
-    return p;
-}
+#include "vf_test.h"
 
 /* ------------------------------------------------------------------ projection */
 
@@ -510,10 +463,5 @@ int main(void)
     test_law_random();
     test_rate_bounds();
     test_capsule_rows();
-    if (failures) {
-        printf("%d of %ld checks failed\n", failures, checks);
-        return 1;
-    }
-    printf("ok %ld\n", checks);
-    return 0;
+    return finish();
 }
