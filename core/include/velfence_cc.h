@@ -20,7 +20,9 @@
  * borders a small inverse and a release check is a rank-one downdate -- no solve per check.
  * The final joint rate is the stacked least-squares problem above solved by a Householder QR
  * factorisation (backward stable, as LAPACK's lstsq), its condition number kappa =
- * (s_max / s_min)^2 of the normal matrix from the singular values of R (one-sided Jacobi on R^T);
+ * (s_max / s_min)^2 of the normal matrix from one-sided Jacobi on the task rows
+ * B = [sqrt(w_e) J_e; sqrt(w_z) R_S] when they are fewer than the joints (the normal matrix is
+ * B^T B + lambda I), else on R^T;
  * when kappa is so large that lstsq would drop a singular value, the minimum-norm solution of a
  * full one-sided Jacobi SVD instead.
  *
@@ -32,8 +34,8 @@
  * Real-time use: reentrant, allocation-free, no global state, nothing longjmps; the caller owns
  * every buffer, sized by vf_cc_doubles / vf_cc_ints. The work per call is bounded: O(k n_links)
  * for steps A-C, O(n^3 + n^2 k + n k^2) for the obstacle-space set-up, at most `rounds` add rounds
- * (each O(|S|^2 + k |S|)), O((m + k + n) n^2) for the QR and at most 64 Jacobi sweeps of O(n^3)
- * for the condition number (twice that, on (m + k + n) x n, in the rare minimum-norm case).
+ * (each O(|S|^2 + k |S|)), O((m + k + n) n^2) for the QR and at most 64 Jacobi sweeps of
+ * O(min(p, n)^2 n), p = m + |S|, for the condition number (twice that, on (m + k + n) x n, in the rare minimum-norm case).
  *
  * Shapes: row-major contiguous doubles; P is (n + 1) x 3 (the joint points P_0 .. P_n-1, then the
  * end-effector point P_n; link l runs P_l -> P_l+1, so there are n links), axes n x 3 (joint j's

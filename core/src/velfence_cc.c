@@ -425,8 +425,9 @@ static void assemble(const vf_cc_problem *pb, const double *je, const double *yr
 }
 
 /* The final solve over the active rows (configuration_control._solve_stacked): the damped
- * least-squares problem by Householder QR (R x = Q^T b), its condition number from the singular
- * values of R by one-sided Jacobi on R^T (QR first makes Jacobi converge in a few sweeps). When
+ * least-squares problem by Householder QR (R x = Q^T b); its condition number from the singular
+ * values of B = [sqrt(w_e) J_e; sqrt(w_z) R_S] when B has fewer rows than columns (the common case:
+ * a few tasks on a redundant arm; Jacobi on p columns), else of R by one-sided Jacobi on R^T. When
  * the problem is so ill-conditioned that lstsq would drop a singular value (s_min <= eps max(r, n)
  * s_max; only with a damping negligible against the rows), the minimum-norm solution of the full
  * SVD instead. Returns the condition number (s_max / s_min)^2 of the normal matrix. */
@@ -437,7 +438,22 @@ static double final_solve(const vf_cc_problem *pb, const double *je, const doubl
     const int32_t n = pb->n, r = pb->m + na + pb->n;
     int32_t i, j;
     double smax, smin;
+    const int32_t p = pb->m + na; /* rows of B = [sqrt(w_e) J_e; sqrt(w_z) R_S] */
     assemble(pb, je, yr, rows, zr, act, na, Acol, b);
+    if (p < n) {
+        /* A^T A = B^T B + lam I: its eigenvalues are s_i(B)^2 + lam and, n - p times, lam. The
+         * singular values of B from Jacobi on the p columns of B^T (n x p, in V), before the QR
+         * overwrites A. */
+        for (i = 0; i < p; i++) {
+            for (j = 0; j < n; j++) {
+                V[(size_t)i * n + j] = Acol[(size_t)j * r + i];
+            }
+        }
+        jacobi_columns(V, n, p, NULL, nrm);
+        norm_range(V, n, p, &smax, &smin);
+        smax = sqrt(smax * smax + pb->lam);
+        smin = sqrt(pb->lam);
+    }
     householder(Acol, b, r, n);
     for (i = n - 1; i >= 0; i--) { /* back substitution R x = (Q^T b)[0:n] */
         double s = b[i];
@@ -446,13 +462,15 @@ static double final_solve(const vf_cc_problem *pb, const double *je, const doubl
         }
         x[i] = s / Acol[(size_t)i * r + i];
     }
-    for (i = 0; i < n; i++) { /* W = R^T, column i is row i of R */
-        for (j = 0; j < n; j++) {
-            V[(size_t)i * n + j] = j >= i ? Acol[(size_t)j * r + i] : 0.0;
+    if (p >= n) { /* the singular values of A are those of R: Jacobi on W = R^T */
+        for (i = 0; i < n; i++) { /* column i of W is row i of R */
+            for (j = 0; j < n; j++) {
+                V[(size_t)i * n + j] = j >= i ? Acol[(size_t)j * r + i] : 0.0;
+            }
         }
+        jacobi_columns(V, n, n, NULL, nrm);
+        norm_range(V, n, n, &smax, &smin);
     }
-    jacobi_columns(V, n, n, NULL, nrm);
-    norm_range(V, n, n, &smax, &smin);
     if (smin > DBL_EPSILON * (double)(r > n ? r : n) * smax && finite_all(x, (size_t)n)) {
         return condition_of(smax, smin);
     }
