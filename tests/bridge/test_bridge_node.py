@@ -72,11 +72,17 @@ def test_1khz_stream_answered_one_for_one_and_equal_to_shape(bridge, tmp_path) -
             ],
             "rate_hz": 1000.0,
             "depth": 5000,
+            "expect_nonzero": True,  # every answer carries linear.z = 0.25; a watchdog zero does not
         },
         tmp_path,
         bridge=b,
     )
-    outs = res["outputs"]
+    # A loaded machine can stall the sending process longer than the command timeout (0.1 s):
+    # the bridge then rightly publishes a watchdog zero, stamped with the time rather than an
+    # index. Those are checked to be zeros and set aside; every command must still be answered.
+    outs = [o for o in res["outputs"] if o["i"] < n]
+    zeros = [o for o in res["outputs"] if o["i"] >= n]
+    assert all(o["v"] == [0.0] * 6 for o in zeros)
     assert len(res["sent"]) == n
     assert len(outs) == n, f"{n} commands sent, {len(outs)} answered"
     assert [o["i"] for o in outs] == list(range(n)), "answers out of order or duplicated"
@@ -360,11 +366,12 @@ def test_body_frame_twist_rotated_by_the_odometry_yaw_and_on_cycle(bridge, tmp_p
             "commands": [{"values": c} for c in cmds],
             "rate_hz": 50.0,
             "expect": 3,
+            "expect_nonzero": True,  # a stalled machine may put a watchdog zero between them
         },
         tmp_path,
         bridge=b,
     )
-    got = np.array([o["v"][:2] for o in res["outputs"][:3]])
+    got = np.array([o["v"][:2] for o in res["outputs"] if any(o["v"])][:3])
     ref = parse_shaper(POLYGON).shaper
     rot = np.array([[math.cos(yaw), -math.sin(yaw)], [math.sin(yaw), math.cos(yaw)]])
     want = np.array([rot.T @ ref.shape(p, rot @ np.array(c)) for c in cmds])
