@@ -200,6 +200,68 @@ int32_t vf_nd_capsule_rows(const vf_nd_capsules *cap, const double *u, double *G
  * check reads at the next pose). */
 void vf_nd_capsule_clearances(const vf_nd_capsules *cap, double *clear);
 
+/* ------------------------------------------------------------------ a DH chain's filter rows */
+
+/* Forward kinematics of a serial chain of n revolute joints in Denavit-Hartenberg form
+ * (velfence.mechanisms.chain.DHChain._kinematics_lists, the same operations in the same order):
+ * dh (n x 5) holds per joint a [m], cos(alpha), sin(alpha), d [m] and the angle offset [rad];
+ * tool (3,) the tool point in the last frame [m]. Writes the joint points P_0 .. P_n ((n + 1) x 3,
+ * P_n the tool point), the joint axes z_0 .. z_n-1 (n x 3) and the last frame's origin flange (3,). */
+void vf_nd_chain_kinematics(int32_t n, const double *dh, const double *tool, const double *q,
+                            double *P, double *axes, double *flange);
+
+/* One workspace limit of the filter: a point of the chain kept in the polytope N p >= off. */
+typedef struct vf_nd_workspace {
+    const double *N;   /* unit inward normals, nf x 3 */
+    const double *off; /* offsets (nf,) [m] */
+    int32_t nf;        /* facets */
+    int32_t point;     /* the point: joint point P_point (0 .. n; n the tool point), -1 the flange */
+    int32_t kind;      /* approach profile (VF_ND_PROFILE_*) */
+    double prm[VF_ND_PROFILE_PARAMS];
+} vf_nd_workspace;
+
+/* The safety filter's problem on a DH chain (SafetyFilter on a DHChain, joint mode). */
+typedef struct vf_nd_filter {
+    int32_t n;                 /* joints */
+    const double *dh, *tool;   /* vf_nd_chain_kinematics's chain */
+    const double *lower;       /* joint position limits (n,) [rad]; -inf / +inf: none */
+    const double *upper;
+    const double *vmax;        /* joint speed limits (n,) [rad/s], > 0 */
+    const double *amax;        /* joint acceleration limits (n,) [rad/s^2] (inf: none), or NULL */
+    const int32_t *jkind;      /* the joints' approach profiles (n,) */
+    const double *jprm;        /* and their parameters, n x VF_ND_PROFILE_PARAMS */
+    int32_t nw;                /* workspace limits */
+    const vf_nd_workspace *ws; /* (nw,) */
+    vf_nd_capsules cap;        /* obstacles (cap.k = 0: none); P, axes, dt, idt set per call */
+} vf_nd_filter;
+
+/* Row levels of vf_nd_filter_rows (velfence.shaping.filter.LEVEL_*). */
+#define VF_ND_LEVEL_JOINT 0
+#define VF_ND_LEVEL_WORKSPACE 1
+#define VF_ND_LEVEL_OBSTACLE 2
+#define VF_ND_LEVEL_RATE 3
+
+/* Largest number of rows vf_nd_filter_rows writes: 4 n + 2 n + sum nf + k n. */
+size_t vf_nd_filter_rows_max(const vf_nd_filter *f);
+/* Doubles of scratch vf_nd_filter_rows needs: k n + n + 4 + 2 max(nf) (as int32 pairs). */
+size_t vf_nd_filter_doubles(const vf_nd_filter *f);
+
+/* Every row G x >= b of one cycle of the safety filter on a DH chain at joint position q (n,)
+ * with command u (n,), in SafetyFilter's order: per joint its position lower / upper rows (where
+ * the limit is finite and the profile bounds the approach) and velocity lower / upper rows; the
+ * acceleration rows (previous != NULL, dt > 0, amax given: x_j >= previous_j - amax_j dt and
+ * -x_j >= -(previous_j + amax_j dt)); every workspace limit's rows (the point's Jacobian row
+ * N_i J and the exact law's bound at the point's speed |J u|, facets without a bound left out);
+ * the obstacle rows of vf_nd_capsule_rows. dt = 0: continuous time. Outputs (rows_max rows):
+ * G (rows x n), b, level (VF_ND_LEVEL_*), tag_a / tag_b (joint rows: 4 j + side, 0; acceleration:
+ * j, side; workspace: limit, facet; obstacle: sphere, link), dist (the signed distance of
+ * position, workspace and obstacle rows, +inf for velocity and acceleration rows); P, axes,
+ * flange: the kinematics. Returns the number of rows. No input check (SafetyFilter validates). */
+int32_t vf_nd_filter_rows(const vf_nd_filter *f, const double *q, const double *u,
+                          const double *previous, double dt, double *P, double *axes,
+                          double *flange, double *G, double *b, int32_t *level, int32_t *tag_a,
+                          int32_t *tag_b, double *dist, double *work);
+
 #ifdef __cplusplus
 }
 #endif

@@ -718,6 +718,304 @@ static PyTypeObject CapsuleRowsType = {
     .tp_methods = CapsuleRows_methods,
 };
 
+/* ------------------------------------------------------------------ a DH chain's filter rows */
+
+typedef struct {
+    PyObject_HEAD
+    vf_nd_filter f;
+    PyObject *caps;        /* the CapsuleRows whose obstacle data f.cap points into, or NULL */
+    double *mem;           /* dh, tool, lower, upper, vmax, amax, jprm, the workspaces' N, off */
+    int32_t *jkind;
+    vf_nd_workspace *ws;
+    double *out;           /* P, axes, flange, G, b, dist, work */
+    int32_t *iout;         /* level, tag_a, tag_b */
+    size_t rmax;
+} FilterRows;
+
+static void FilterRows_dealloc(FilterRows *self)
+{
+    Py_XDECREF(self->caps);
+    PyMem_Free(self->mem);
+    PyMem_Free(self->jkind);
+    PyMem_Free(self->ws);
+    PyMem_Free(self->out);
+    PyMem_Free(self->iout);
+    Py_TYPE(self)->tp_free((PyObject *)self);
+}
+
+/* FilterRows(dh, tool, lower, upper, vmax, amax | None, jkind, jprm, workspaces, caps | None):
+ * workspaces a list of (N (nf * 3), off (nf,), point, kind, prm (6,)). */
+static int FilterRows_init(FilterRows *self, PyObject *args, PyObject *kwds)
+{
+    PyObject *dh, *tool, *lower, *upper, *vmax, *amax, *jkind, *jprm, *wsl, *caps, *fast = NULL;
+    Py_ssize_t n, nw, w, total = 0;
+    double *m;
+    int32_t j;
+    static char *kwlist[] = {"dh",    "tool", "lower", "upper",      "vmax", "amax",
+                             "jkind", "jprm", "workspaces", "caps", NULL};
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "OOOOOOOOOO", kwlist, &dh, &tool, &lower, &upper,
+                                     &vmax, &amax, &jkind, &jprm, &wsl, &caps)) {
+        return -1;
+    }
+    if (self->mem != NULL) {
+        PyErr_SetString(PyExc_RuntimeError, "FilterRows is initialised once");
+        return -1;
+    }
+    n = PySequence_Size(vmax);
+    if (n < 1 || n > 4096) {
+        PyErr_SetString(PyExc_ValueError, "FilterRows: 1 to 4096 joints");
+        return -1;
+    }
+    fast = PySequence_Fast(wsl, "workspaces");
+    if (fast == NULL) {
+        return -1;
+    }
+    nw = PySequence_Fast_GET_SIZE(fast);
+    for (w = 0; w < nw; w++) {
+        PyObject *item = PySequence_Fast_GET_ITEM(fast, w);
+        Py_ssize_t len = PyTuple_Check(item) && PyTuple_GET_SIZE(item) == 5
+                             ? PySequence_Size(PyTuple_GET_ITEM(item, 1))
+                             : -1;
+        if (len < 1 || len > (1 << 20)) {
+            PyErr_SetString(PyExc_ValueError, "workspaces: (N, off, point, kind, prm) tuples");
+            goto fail;
+        }
+        total += len;
+    }
+    self->mem = PyMem_Calloc(15 * (size_t)n + 3 + 4 * (size_t)total + 1, sizeof(double));
+    self->jkind = PyMem_Calloc((size_t)n, sizeof(int32_t));
+    self->ws = PyMem_Calloc((size_t)nw + 1, sizeof(vf_nd_workspace));
+    if (self->mem == NULL || self->jkind == NULL || self->ws == NULL) {
+        PyErr_NoMemory();
+        goto fail;
+    }
+    m = self->mem;
+    self->f.n = (int32_t)n;
+    self->f.dh = m;
+    self->f.tool = m + 5 * n;
+    self->f.lower = m + 5 * n + 3;
+    self->f.upper = self->f.lower + n;
+    self->f.vmax = self->f.upper + n;
+    self->f.jprm = self->f.vmax + n; /* n x 6 */
+    if (read_doubles(dh, "dh", m, 5 * n) < 0 || read_doubles(tool, "tool", m + 5 * n, 3) < 0
+        || read_doubles(lower, "lower", (double *)self->f.lower, n) < 0
+        || read_doubles(upper, "upper", (double *)self->f.upper, n) < 0
+        || read_doubles(vmax, "vmax", (double *)self->f.vmax, n) < 0
+        || read_doubles(jprm, "jprm", (double *)self->f.jprm, VF_ND_PROFILE_PARAMS * n) < 0) {
+        goto fail;
+    }
+    m = (double *)self->f.jprm + VF_ND_PROFILE_PARAMS * n; /* after 14 n + 3 doubles */
+    if (amax == Py_None) {
+        self->f.amax = NULL;
+    } else {
+        if (read_doubles(amax, "amax", m, n) < 0) {
+            goto fail;
+        }
+        self->f.amax = m;
+    }
+    m += n;
+    {
+        double tmp[4096];
+        if (read_doubles(jkind, "jkind", tmp, n) < 0) {
+            goto fail;
+        }
+        for (j = 0; j < n; j++) {
+            self->jkind[j] = (int32_t)tmp[j];
+        }
+    }
+    self->f.jkind = self->jkind;
+    for (w = 0; w < nw; w++) {
+        PyObject *item = PySequence_Fast_GET_ITEM(fast, w);
+        vf_nd_workspace *ws = self->ws + w;
+        Py_ssize_t nf = PySequence_Size(PyTuple_GET_ITEM(item, 1));
+        long pt = PyLong_AsLong(PyTuple_GET_ITEM(item, 2));
+        long kind = PyLong_AsLong(PyTuple_GET_ITEM(item, 3));
+        if (PyErr_Occurred()) {
+            goto fail;
+        }
+        if (pt < -1 || pt > n) {
+            PyErr_SetString(PyExc_ValueError, "workspaces: point out of range");
+            goto fail;
+        }
+        if (read_doubles(PyTuple_GET_ITEM(item, 0), "N", m, 3 * nf) < 0
+            || read_doubles(PyTuple_GET_ITEM(item, 1), "off", m + 3 * nf, nf) < 0
+            || read_doubles(PyTuple_GET_ITEM(item, 4), "prm", ws->prm, VF_ND_PROFILE_PARAMS) < 0) {
+            goto fail;
+        }
+        ws->N = m;
+        ws->off = m + 3 * nf;
+        ws->nf = (int32_t)nf;
+        ws->point = (int32_t)pt;
+        ws->kind = (int32_t)kind;
+        m += 4 * nf;
+    }
+    self->f.nw = (int32_t)nw;
+    self->f.ws = self->ws;
+    memset(&self->f.cap, 0, sizeof(self->f.cap));
+    if (caps != Py_None) {
+        if (!PyObject_TypeCheck(caps, &CapsuleRowsType)) {
+            PyErr_SetString(PyExc_TypeError, "caps: a CapsuleRows or None");
+            goto fail;
+        }
+        if (((CapsuleRows *)caps)->cap.nl != n || ((CapsuleRows *)caps)->cap.ncols != n
+            || ((CapsuleRows *)caps)->cap.nj != n) {
+            PyErr_SetString(PyExc_ValueError, "caps: a chain of the same n links and joints");
+            goto fail;
+        }
+        self->f.cap = ((CapsuleRows *)caps)->cap;
+        Py_INCREF(caps);
+        self->caps = caps;
+    }
+    self->rmax = vf_nd_filter_rows_max(&self->f);
+    self->out = PyMem_Calloc(3 * ((size_t)n + 1) + 3 * (size_t)n + 3 + self->rmax * ((size_t)n + 2)
+                                 + vf_nd_filter_doubles(&self->f),
+                             sizeof(double));
+    self->iout = PyMem_Calloc(3 * self->rmax + 1, sizeof(int32_t));
+    if (self->out == NULL || self->iout == NULL) {
+        PyErr_NoMemory();
+        goto fail;
+    }
+    Py_DECREF(fast);
+    return 0;
+fail:
+    Py_XDECREF(fast);
+    PyMem_Free(self->mem);
+    self->mem = NULL;
+    return -1;
+}
+
+static PyObject *new_array(int nd, npy_intp *dims, int type, const void *src, size_t bytes)
+{
+    PyObject *o = PyArray_SimpleNew(nd, dims, type);
+    if (o != NULL && bytes) {
+        memcpy(PyArray_DATA((PyArrayObject *)o), src, bytes);
+    }
+    return o;
+}
+
+/* rows(q, u, previous | None, dt) -> (G (r, n), b, level (int32), tag_a, tag_b, dist) */
+static PyObject *FilterRows_rows(FilterRows *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    Py_buffer q = {0}, u = {0}, pv = {0};
+    PyObject *o[6] = {NULL, NULL, NULL, NULL, NULL, NULL}, *ret = NULL;
+    const int32_t n = self->f.n;
+    double dt, *P, *axes, *flange, *G, *b, *dist, *work;
+    int32_t r, i, *level, *ta, *tb;
+    npy_intp dims[2];
+    if (self->mem == NULL) {
+        PyErr_SetString(PyExc_RuntimeError, "FilterRows not initialised");
+        return NULL;
+    }
+    if (nargs != 4) {
+        PyErr_Format(PyExc_TypeError, "expected 4 arguments (q, u, previous, dt), got %zd", nargs);
+        return NULL;
+    }
+    dt = PyFloat_AsDouble(args[3]);
+    if (dt == -1.0 && PyErr_Occurred()) {
+        return NULL;
+    }
+    if (get_view(args[0], &q, 0, "d", "q") < 0 || get_view(args[1], &u, 0, "d", "u") < 0
+        || (args[2] != Py_None && get_view(args[2], &pv, 0, "d", "previous") < 0)) {
+        goto done;
+    }
+    if (q.len != 8 * (Py_ssize_t)n || u.len != 8 * (Py_ssize_t)n
+        || (pv.obj != NULL && pv.len != 8 * (Py_ssize_t)n)) {
+        PyErr_SetString(PyExc_ValueError, "q, u and previous must hold n floats");
+        goto done;
+    }
+    P = self->out;
+    axes = P + 3 * ((size_t)n + 1);
+    flange = axes + 3 * (size_t)n;
+    G = flange + 3;
+    b = G + self->rmax * (size_t)n;
+    dist = b + self->rmax;
+    work = dist + self->rmax;
+    level = self->iout;
+    ta = level + self->rmax;
+    tb = ta + self->rmax;
+    r = vf_nd_filter_rows(&self->f, (const double *)q.buf, (const double *)u.buf,
+                          pv.obj != NULL ? (const double *)pv.buf : NULL, dt > 0.0 ? dt : 0.0, P,
+                          axes, flange, G, b, level, ta, tb, dist, work);
+    dims[0] = r;
+    dims[1] = n;
+    o[0] = new_array(2, dims, NPY_DOUBLE, G, (size_t)r * n * sizeof(double));
+    o[1] = new_array(1, dims, NPY_DOUBLE, b, (size_t)r * sizeof(double));
+    o[2] = new_array(1, dims, NPY_INT32, level, (size_t)r * sizeof(int32_t));
+    o[3] = new_array(1, dims, NPY_INT32, ta, (size_t)r * sizeof(int32_t));
+    o[4] = new_array(1, dims, NPY_INT32, tb, (size_t)r * sizeof(int32_t));
+    o[5] = new_array(1, dims, NPY_DOUBLE, dist, (size_t)r * sizeof(double));
+    for (i = 0; i < 6; i++) {
+        if (o[i] == NULL) {
+            for (i = 0; i < 6; i++) {
+                Py_XDECREF(o[i]);
+            }
+            goto done;
+        }
+    }
+    ret = Py_BuildValue("(NNNNNN)", o[0], o[1], o[2], o[3], o[4], o[5]);
+done:
+    release(&q);
+    release(&u);
+    release(&pv);
+    return ret;
+}
+
+/* kinematics(q) -> (P (n + 1, 3), axes (n, 3), flange (3,)): vf_nd_chain_kinematics */
+static PyObject *FilterRows_kinematics(FilterRows *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    Py_buffer q = {0};
+    PyObject *a = NULL, *x = NULL, *fl = NULL;
+    const int32_t n = self->f.n;
+    npy_intp dp[2] = {n + 1, 3}, da[2] = {n, 3}, df = 3;
+    if (self->mem == NULL || nargs != 1) {
+        PyErr_SetString(PyExc_TypeError, "kinematics(q) on an initialised FilterRows");
+        return NULL;
+    }
+    if (get_view(args[0], &q, 0, "d", "q") < 0) {
+        return NULL;
+    }
+    if (q.len != 8 * (Py_ssize_t)n) {
+        PyErr_SetString(PyExc_ValueError, "q must hold n floats");
+        release(&q);
+        return NULL;
+    }
+    a = PyArray_SimpleNew(2, dp, NPY_DOUBLE);
+    x = PyArray_SimpleNew(2, da, NPY_DOUBLE);
+    fl = PyArray_SimpleNew(1, &df, NPY_DOUBLE);
+    if (a == NULL || x == NULL || fl == NULL) {
+        release(&q);
+        Py_XDECREF(a);
+        Py_XDECREF(x);
+        Py_XDECREF(fl);
+        return NULL;
+    }
+    vf_nd_chain_kinematics(n, self->f.dh, self->f.tool, (const double *)q.buf,
+                           (double *)PyArray_DATA((PyArrayObject *)a),
+                           (double *)PyArray_DATA((PyArrayObject *)x),
+                           (double *)PyArray_DATA((PyArrayObject *)fl));
+    release(&q);
+    return Py_BuildValue("(NNN)", a, x, fl);
+}
+
+static PyMethodDef FilterRows_methods[] = {
+    {"rows", (PyCFunction)(void (*)(void))FilterRows_rows, METH_FASTCALL,
+     "rows(q, u, previous, dt) -> (G, b, level, tag_a, tag_b, dist): vf_nd_filter_rows."},
+    {"kinematics", (PyCFunction)(void (*)(void))FilterRows_kinematics, METH_FASTCALL,
+     "kinematics(q) -> (P, axes, flange): vf_nd_chain_kinematics."},
+    {NULL, NULL, 0, NULL},
+};
+
+static PyTypeObject FilterRowsType = {
+    PyVarObject_HEAD_INIT(NULL, 0).tp_name = "velfence_core._nd.FilterRows",
+    .tp_basicsize = sizeof(FilterRows),
+    .tp_flags = Py_TPFLAGS_DEFAULT,
+    .tp_doc = "The safety filter's rows on a DH chain (vf_nd_filter_rows).",
+    .tp_new = PyType_GenericNew,
+    .tp_init = (initproc)FilterRows_init,
+    .tp_dealloc = (destructor)FilterRows_dealloc,
+    .tp_methods = FilterRows_methods,
+};
+
 /* ------------------------------------------------------------------ configuration control */
 
 typedef struct {
@@ -913,7 +1211,7 @@ PyMODINIT_FUNC PyInit__nd(void)
     PyObject *m;
     import_array();
     if (PyType_Ready(&PolytopeLawType) < 0 || PyType_Ready(&CapsuleRowsType) < 0
-        || PyType_Ready(&ConfigControlType) < 0) {
+        || PyType_Ready(&ConfigControlType) < 0 || PyType_Ready(&FilterRowsType) < 0) {
         return NULL;
     }
     m = PyModule_Create(&nd_module);
@@ -923,9 +1221,11 @@ PyMODINIT_FUNC PyInit__nd(void)
     Py_INCREF(&PolytopeLawType);
     Py_INCREF(&CapsuleRowsType);
     Py_INCREF(&ConfigControlType);
+    Py_INCREF(&FilterRowsType);
     if (PyModule_AddObject(m, "PolytopeLaw", (PyObject *)&PolytopeLawType) < 0
         || PyModule_AddObject(m, "CapsuleRows", (PyObject *)&CapsuleRowsType) < 0
         || PyModule_AddObject(m, "ConfigControl", (PyObject *)&ConfigControlType) < 0
+        || PyModule_AddObject(m, "FilterRows", (PyObject *)&FilterRowsType) < 0
         || PyModule_AddStringConstant(m, "VERSION", VF_ND_VERSION) < 0) {
         Py_DECREF(&PolytopeLawType);
         Py_DECREF(m);

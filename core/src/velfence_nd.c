@@ -975,3 +975,221 @@ int32_t vf_nd_capsule_rows(const vf_nd_capsules *cap, const double *u, double *G
     }
     return rows;
 }
+
+/* ------------------------------------------------------------------ a DH chain's filter rows */
+
+void vf_nd_chain_kinematics(int32_t n, const double *dh, const double *tool, const double *q,
+                            double *P, double *axes, double *flange)
+{
+    /* The frames' rotation columns x, y, z and origin o, with u = c y - s x:
+     * x' = c x + s y, o' = o + a x' + d z, y' = ca u + sa z, z' = ca z - sa u. */
+    double xx = 1.0, xy = 0.0, xz = 0.0;
+    double yx = 0.0, yy = 1.0, yz = 0.0;
+    double zx = 0.0, zy = 0.0, zz = 1.0;
+    double ox = 0.0, oy = 0.0, oz = 0.0;
+    int32_t i;
+    P[0] = 0.0;
+    P[1] = 0.0;
+    P[2] = 0.0;
+    for (i = 0; i < n; i++) {
+        const double *r = dh + 5 * (size_t)i;
+        double a = r[0], ca = r[1], sa = r[2], d = r[3];
+        double th = q[i] + r[4];
+        double ct = cos(th), st = sin(th);
+        double ux = ct * yx - st * xx, uy = ct * yy - st * xy, uz = ct * yz - st * xz;
+        double nx = ct * xx + st * yx, ny = ct * xy + st * yy, nz = ct * xz + st * yz;
+        axes[3 * (size_t)i] = zx; /* z of the frame before joint i moves it */
+        axes[3 * (size_t)i + 1] = zy;
+        axes[3 * (size_t)i + 2] = zz;
+        xx = nx;
+        xy = ny;
+        xz = nz;
+        ox += a * xx + d * zx;
+        oy += a * xy + d * zy;
+        oz += a * xz + d * zz;
+        yx = ca * ux + sa * zx;
+        yy = ca * uy + sa * zy;
+        yz = ca * uz + sa * zz;
+        zx = ca * zx - sa * ux;
+        zy = ca * zy - sa * uy;
+        zz = ca * zz - sa * uz;
+        P[3 * (size_t)i + 3] = ox;
+        P[3 * (size_t)i + 4] = oy;
+        P[3 * (size_t)i + 5] = oz;
+    }
+    flange[0] = ox;
+    flange[1] = oy;
+    flange[2] = oz;
+    P[3 * (size_t)n] = ox + tool[0] * xx + tool[1] * yx + tool[2] * zx;
+    P[3 * (size_t)n + 1] = oy + tool[0] * xy + tool[1] * yy + tool[2] * zy;
+    P[3 * (size_t)n + 2] = oz + tool[0] * xz + tool[1] * yz + tool[2] * zz;
+}
+
+size_t vf_nd_filter_rows_max(const vf_nd_filter *f)
+{
+    size_t rows = 6 * (size_t)f->n + (size_t)f->cap.k * (size_t)f->n;
+    int32_t w;
+    for (w = 0; w < f->nw; w++) {
+        rows += (size_t)f->ws[w].nf;
+    }
+    return rows;
+}
+
+size_t vf_nd_filter_doubles(const vf_nd_filter *f)
+{
+    size_t nf = 1;
+    int32_t w;
+    for (w = 0; w < f->nw; w++) {
+        if ((size_t)f->ws[w].nf > nf) {
+            nf = (size_t)f->ws[w].nf;
+        }
+    }
+    return (size_t)f->cap.k * (size_t)f->n + (size_t)f->n + 3 * nf + 4;
+}
+
+/* One row: G row g (n), bound, level, tags and distance at index r. */
+static void filter_row(double *G, double *b, int32_t *level, int32_t *ta, int32_t *tb,
+                       double *dist, int32_t n, int32_t r, int32_t col, double sign, double bound,
+                       int32_t lv, int32_t a, int32_t t, double d)
+{
+    int32_t j;
+    double *g = G + (size_t)r * n;
+    for (j = 0; j < n; j++) {
+        g[j] = 0.0 * sign; /* -0.0 in a negated unit row, as -eye[j] */
+    }
+    g[col] = sign;
+    b[r] = bound;
+    level[r] = lv;
+    ta[r] = a;
+    tb[r] = t;
+    dist[r] = d;
+}
+
+int32_t vf_nd_filter_rows(const vf_nd_filter *f, const double *q, const double *u,
+                          const double *previous, double dt, double *P, double *axes,
+                          double *flange, double *G, double *b, int32_t *level, int32_t *tag_a,
+                          int32_t *tag_b, double *dist, double *work)
+{
+    const int32_t n = f->n;
+    const double idt = dt > 0.0 ? 1.0 / dt : 0.0;
+    int32_t r = 0, j, w, i, wk[2];
+    size_t nfmax = 1;
+    double *ws_d, *ws_b;
+    int32_t *ws_i;
+    for (w = 0; w < f->nw; w++) {
+        if ((size_t)f->ws[w].nf > nfmax) {
+            nfmax = (size_t)f->ws[w].nf;
+        }
+    }
+    ws_d = work + (size_t)f->cap.k * (size_t)n + (size_t)n;
+    ws_b = ws_d + nfmax;
+    ws_i = (int32_t *)(void *)(ws_b + nfmax);
+    vf_nd_chain_kinematics(n, f->dh, f->tool, q, P, axes, flange);
+    /* joint position and velocity rows */
+    for (j = 0; j < n; j++) {
+        const int32_t kind = f->jkind[j];
+        const double *prm = f->jprm + (size_t)VF_ND_PROFILE_PARAMS * j;
+        const double v = f->vmax[j];
+        double dl = q[j] * 1.0 + (-f->lower[j]);
+        double du = q[j] * -1.0 + f->upper[j];
+        double bl = -INFINITY, bu = -INFINITY;
+        if (isfinite(f->lower[j])) {
+            vf_nd_rate_bounds(kind, prm, &dl, 1, v, idt, &bl, wk);
+        }
+        if (isfinite(f->upper[j])) {
+            vf_nd_rate_bounds(kind, prm, &du, 1, v, idt, &bu, wk);
+        }
+        if (bl != -INFINITY) {
+            filter_row(G, b, level, tag_a, tag_b, dist, n, r++, j, 1.0, bl < v ? bl : v,
+                       VF_ND_LEVEL_JOINT, 4 * j, 0, dl);
+        }
+        if (bu != -INFINITY) {
+            filter_row(G, b, level, tag_a, tag_b, dist, n, r++, j, -1.0, bu < v ? bu : v,
+                       VF_ND_LEVEL_JOINT, 4 * j + 1, 0, du);
+        }
+        filter_row(G, b, level, tag_a, tag_b, dist, n, r++, j, 1.0, -v, VF_ND_LEVEL_JOINT,
+                   4 * j + 2, 0, INFINITY);
+        filter_row(G, b, level, tag_a, tag_b, dist, n, r++, j, -1.0, -v, VF_ND_LEVEL_JOINT,
+                   4 * j + 3, 0, INFINITY);
+    }
+    /* acceleration rows */
+    if (previous != NULL && dt > 0.0 && f->amax != NULL) {
+        for (j = 0; j < n; j++) {
+            double step;
+            if (!isfinite(f->amax[j])) {
+                continue;
+            }
+            step = f->amax[j] * dt;
+            filter_row(G, b, level, tag_a, tag_b, dist, n, r++, j, 1.0, previous[j] - step,
+                       VF_ND_LEVEL_RATE, j, 0, INFINITY);
+            filter_row(G, b, level, tag_a, tag_b, dist, n, r++, j, -1.0, -(previous[j] + step),
+                       VF_ND_LEVEL_RATE, j, 1, INFINITY);
+        }
+    }
+    /* workspace rows: the point's Jacobian J (3 x n, columns z_j x (p - P_j), j < k) */
+    for (w = 0; w < f->nw; w++) {
+        const vf_nd_workspace *ws = f->ws + w;
+        const double *p = ws->point < 0 ? flange : P + 3 * (size_t)ws->point;
+        const int32_t k = ws->point < 0 ? n : ws->point;
+        double jx, jy, jz, vx = 0.0, vy = 0.0, vz = 0.0;
+        for (j = 0; j < k; j++) {
+            const double *z = axes + 3 * (size_t)j;
+            const double *pj = P + 3 * (size_t)j;
+            double dx = p[0] - pj[0], dy = p[1] - pj[1], dz = p[2] - pj[2];
+            jx = z[1] * dz - z[2] * dy;
+            jy = z[2] * dx - z[0] * dz;
+            jz = z[0] * dy - z[1] * dx;
+            vx += jx * u[j];
+            vy += jy * u[j];
+            vz += jz * u[j];
+        }
+        for (i = 0; i < ws->nf; i++) {
+            const double *nn = ws->N + 3 * (size_t)i;
+            ws_d[i] = nn[0] * p[0] + nn[1] * p[1] + nn[2] * p[2] - ws->off[i];
+        }
+        vf_nd_rate_bounds(ws->kind, ws->prm, ws_d, ws->nf, sqrt(vx * vx + vy * vy + vz * vz),
+                          idt, ws_b, ws_i);
+        for (i = 0; i < ws->nf; i++) {
+            const double *nn = ws->N + 3 * (size_t)i;
+            double *g;
+            if (ws_b[i] == -INFINITY) {
+                continue;
+            }
+            g = G + (size_t)r * n;
+            for (j = 0; j < n; j++) {
+                g[j] = 0.0;
+            }
+            for (j = 0; j < k; j++) {
+                const double *z = axes + 3 * (size_t)j;
+                const double *pj = P + 3 * (size_t)j;
+                double dx = p[0] - pj[0], dy = p[1] - pj[1], dz = p[2] - pj[2];
+                jx = z[1] * dz - z[2] * dy;
+                jy = z[2] * dx - z[0] * dz;
+                jz = z[0] * dy - z[1] * dx;
+                g[j] = nn[0] * jx + nn[1] * jy + nn[2] * jz;
+            }
+            b[r] = ws_b[i];
+            level[r] = VF_ND_LEVEL_WORKSPACE;
+            tag_a[r] = w;
+            tag_b[r] = i;
+            dist[r] = ws_d[i];
+            r += 1;
+        }
+    }
+    /* obstacle rows */
+    if (f->cap.k > 0) {
+        vf_nd_capsules cap = f->cap;
+        int32_t c, k;
+        cap.P = P;
+        cap.axes = axes;
+        cap.dt = idt > 0.0 ? dt : 0.0;
+        cap.idt = idt;
+        k = vf_nd_capsule_rows(&cap, u, G + (size_t)r * n, b + r, dist + r, tag_a + r, tag_b + r,
+                               work);
+        for (c = 0; c < k; c++) {
+            level[r + c] = VF_ND_LEVEL_OBSTACLE;
+        }
+        r += k;
+    }
+    return r;
+}

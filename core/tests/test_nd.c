@@ -455,6 +455,241 @@ static void test_capsule_rows(void)
     free(link);
 }
 
+/* 4 x 4 DH transforms multiplied out: the reference for vf_nd_chain_kinematics. */
+static void dh_reference(int32_t n, const double *dh, const double *tool, const double *q,
+                         double *P, double *axes)
+{
+    double T[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1}, A[16], R[16];
+    int32_t i, r, c, k;
+    P[0] = P[1] = P[2] = 0.0;
+    for (i = 0; i < n; i++) {
+        const double *h = dh + 5 * i;
+        double th = q[i] + h[4], ct = cos(th), st = sin(th), ca = h[1], sa = h[2];
+        double a[16] = {ct, -st * ca, st * sa, h[0] * ct, st, ct * ca, -ct * sa, h[0] * st,
+                        0,  sa,       ca,      h[3],      0,  0,       0,        1};
+        memcpy(A, a, sizeof(a));
+        for (c = 0; c < 3; c++) {
+            axes[3 * i + c] = T[4 * c + 2];
+        }
+        for (r = 0; r < 4; r++) {
+            for (c = 0; c < 4; c++) {
+                R[4 * r + c] = 0.0;
+                for (k = 0; k < 4; k++) {
+                    R[4 * r + c] += T[4 * r + k] * A[4 * k + c];
+                }
+            }
+        }
+        memcpy(T, R, sizeof(T));
+        for (c = 0; c < 3; c++) {
+            P[3 * i + 3 + c] = T[4 * c + 3];
+        }
+    }
+    for (c = 0; c < 3; c++) {
+        P[3 * n + c] = T[4 * c + 3] + T[4 * c] * tool[0] + T[4 * c + 1] * tool[1]
+                       + T[4 * c + 2] * tool[2];
+    }
+}
+
+static void test_filter_rows(void)
+{
+    enum { N = 7, NF = 6, K = 4 };
+    double dh[5 * N], tool[3] = {0.0, 0.0, 0.1}, lower[N], upper[N], vmax[N], amax[N];
+    double jprm[6 * N], q[N], u[N], prev[N], Pr[3 * (N + 1)], Ar[3 * N];
+    double off[NF], Nrm[3 * NF] = {1, 0, 0, -1, 0, 0, 0, 1, 0, 0, -1, 0, 0, 0, 1, 0, 0, -1};
+    double lrad[N], C[3 * K], srad[K];
+    int32_t jkind[N], i, j, trial;
+    vf_nd_workspace ws;
+    vf_nd_filter f;
+    size_t rmax, nd;
+    double *P, *axes, *flange, *G, *b, *dist, *work;
+    int32_t *level, *ta, *tb;
+    for (j = 0; j < N; j++) {
+        double alpha = (j % 2 ? 1.0 : -1.0) * 1.5707963267948966;
+        dh[5 * j] = j == 3 || j == 4 ? 0.0825 * (j == 3 ? 1 : -1) : 0.0;
+        dh[5 * j + 1] = cos(alpha);
+        dh[5 * j + 2] = sin(alpha);
+        dh[5 * j + 3] = j == 0 ? 0.333 : (j == 2 ? 0.316 : (j == 4 ? 0.384 : 0.0));
+        dh[5 * j + 4] = 0.1 * j;
+        lower[j] = j == 6 ? -INFINITY : -2.5;
+        upper[j] = 2.5;
+        vmax[j] = 2.0 + 0.1 * j;
+        amax[j] = j == 3 ? INFINITY : 10.0;
+        jkind[j] = VF_ND_PROFILE_LINEAR;
+        jprm[6 * j] = 0.2;
+        jprm[6 * j + 1] = 1.0;
+        jprm[6 * j + 2] = 0.2;
+        jprm[6 * j + 3] = jprm[6 * j + 4] = jprm[6 * j + 5] = 0.0;
+        lrad[j] = 0.06;
+    }
+    for (i = 0; i < NF; i++) {
+        off[i] = -0.5;
+    }
+    memset(&ws, 0, sizeof(ws));
+    ws.N = Nrm;
+    ws.off = off;
+    ws.nf = NF;
+    ws.point = N; /* the tool point */
+    ws.kind = VF_ND_PROFILE_LINEAR;
+    ws.prm[0] = 0.1;
+    ws.prm[1] = 1.0;
+    ws.prm[2] = 0.1;
+    memset(&f, 0, sizeof(f));
+    f.n = N;
+    f.dh = dh;
+    f.tool = tool;
+    f.lower = lower;
+    f.upper = upper;
+    f.vmax = vmax;
+    f.amax = amax;
+    f.jkind = jkind;
+    f.jprm = jprm;
+    f.nw = 1;
+    f.ws = &ws;
+    for (i = 0; i < K; i++) {
+        C[3 * i] = uniform(-0.4, 0.4);
+        C[3 * i + 1] = uniform(-0.4, 0.4);
+        C[3 * i + 2] = uniform(0.2, 0.9);
+        srad[i] = 0.05;
+    }
+    f.cap.lrad = lrad;
+    f.cap.C = C;
+    f.cap.srad = srad;
+    f.cap.vmax = vmax;
+    f.cap.vsum = 0.0;
+    for (j = 0; j < N; j++) {
+        f.cap.vsum += vmax[j];
+    }
+    f.cap.buf = 0.1;
+    f.cap.nl = N;
+    f.cap.nj = N;
+    f.cap.ncols = N;
+    f.cap.k = K;
+    f.cap.kind = VF_ND_PROFILE_LINEAR;
+    f.cap.prm[0] = 0.1;
+    f.cap.prm[1] = 1.0;
+    f.cap.prm[2] = 0.1;
+    rmax = vf_nd_filter_rows_max(&f);
+    nd = vf_nd_filter_doubles(&f);
+    CHECK(rmax == 6 * N + NF + K * N, "rows_max %zu", rmax);
+    P = dalloc(3 * (N + 1));
+    axes = dalloc(3 * N);
+    flange = dalloc(3);
+    G = dalloc(rmax * N);
+    b = dalloc(rmax);
+    dist = dalloc(rmax);
+    work = dalloc(nd);
+    level = ialloc(rmax);
+    ta = ialloc(rmax);
+    tb = ialloc(rmax);
+    for (trial = 0; trial < 200; trial++) {
+        double dt = trial % 2 ? 0.004 : 0.0;
+        int32_t r, last = 0, nrate = 0, nws = 0;
+        for (j = 0; j < N; j++) {
+            q[j] = uniform(-2.8, 2.8);
+            u[j] = normal();
+            prev[j] = normal();
+        }
+        dh_reference(N, dh, tool, q, Pr, Ar);
+        r = vf_nd_filter_rows(&f, q, u, trial % 3 ? prev : NULL, dt, P, axes, flange, G, b, level,
+                              ta, tb, dist, work);
+        CHECK(r >= 2 * N && (size_t)r <= rmax, "rows %d", r);
+        for (i = 0; i < 3 * (N + 1); i++) {
+            CHECK(fabs(P[i] - Pr[i]) < 1e-12, "P[%d] %g vs %g", i, P[i], Pr[i]);
+        }
+        for (i = 0; i < 3 * N; i++) {
+            CHECK(fabs(axes[i] - Ar[i]) < 1e-12, "axes[%d] %g vs %g", i, axes[i], Ar[i]);
+        }
+        for (i = 0; i < r; i++) {
+            int32_t lv = level[i];
+            /* levels in SafetyFilter's order: joint, acceleration, workspace, obstacle */
+            int32_t rank = lv == VF_ND_LEVEL_JOINT ? 0 : (lv == VF_ND_LEVEL_RATE ? 1 : lv + 1);
+            CHECK(rank >= last, "row %d level %d after rank %d", i, lv, last);
+            last = rank;
+            CHECK(isfinite(b[i]) && !isnan(dist[i]), "row %d finite", i);
+            if (lv == VF_ND_LEVEL_JOINT) {
+                int32_t jj = ta[i] / 4, side = ta[i] % 4;
+                double sg = side % 2 ? -1.0 : 1.0;
+                CHECK(G[(size_t)i * N + jj] == sg, "joint row %d unit", i);
+                if (side < 2) {
+                    double dd = side ? upper[jj] - q[jj] : q[jj] - lower[jj];
+                    CHECK(dist[i] == dd && b[i] <= vmax[jj], "joint position row %d", i);
+                } else {
+                    CHECK(b[i] == -vmax[jj] && dist[i] == INFINITY, "velocity row %d", i);
+                }
+                CHECK(!(jj == N - 1 && side == 0), "no row for an infinite limit");
+            } else if (lv == VF_ND_LEVEL_RATE) {
+                int32_t jj = ta[i];
+                double want = tb[i] ? -(prev[jj] + amax[jj] * dt) : prev[jj] - amax[jj] * dt;
+                nrate++;
+                CHECK(jj != 3 && b[i] == want, "acceleration row %d", i);
+            } else if (lv == VF_ND_LEVEL_WORKSPACE) {
+                /* N_i J: against a central difference of the reference kinematics */
+                const double *nn = Nrm + 3 * tb[i];
+                nws++;
+                CHECK(fabs(dist[i] - (nn[0] * Pr[3 * N] + nn[1] * Pr[3 * N + 1]
+                                      + nn[2] * Pr[3 * N + 2] - off[tb[i]]))
+                          < 1e-12,
+                      "workspace distance %d", i);
+                for (j = 0; j < N; j++) {
+                    double qa[N], Pa[3 * (N + 1)], Pb[3 * (N + 1)], Ax[3 * N], fd = 0.0;
+                    int32_t c;
+                    memcpy(qa, q, sizeof(qa));
+                    qa[j] += 1e-6;
+                    dh_reference(N, dh, tool, qa, Pa, Ax);
+                    qa[j] -= 2e-6;
+                    dh_reference(N, dh, tool, qa, Pb, Ax);
+                    for (c = 0; c < 3; c++) {
+                        fd += nn[c] * (Pa[3 * N + c] - Pb[3 * N + c]) / 2e-6;
+                    }
+                    CHECK(fabs(G[(size_t)i * N + j] - fd) < 1e-7, "workspace row %d col %d", i,
+                          j);
+                }
+            }
+        }
+        CHECK(nrate == (trial % 3 && dt > 0.0 ? 2 * (N - 1) : 0), "acceleration rows %d", nrate);
+        CHECK(nws <= NF, "workspace rows %d", nws);
+        /* the obstacle rows are vf_nd_capsule_rows's at this pose */
+        {
+            vf_nd_capsules cap = f.cap;
+            double *G2 = dalloc((size_t)K * N * N), *b2 = dalloc(K * N), *d2 = dalloc(K * N);
+            double *w2 = dalloc(K * N + N);
+            int32_t *o2 = ialloc(K * N), *l2 = ialloc(K * N), k2, first = 0;
+            cap.P = P;
+            cap.axes = axes;
+            cap.dt = dt;
+            cap.idt = dt > 0.0 ? 1.0 / dt : 0.0;
+            k2 = vf_nd_capsule_rows(&cap, u, G2, b2, d2, o2, l2, w2);
+            while (first < r && level[first] != VF_ND_LEVEL_OBSTACLE) {
+                first++;
+            }
+            CHECK(r - first == k2, "obstacle rows %d vs %d", r - first, k2);
+            for (i = 0; i < k2 && first + i < r; i++) {
+                CHECK(b[first + i] == b2[i] && ta[first + i] == o2[i] && tb[first + i] == l2[i]
+                          && memcmp(G + (size_t)(first + i) * N, G2 + (size_t)i * N,
+                                    N * sizeof(double))
+                                 == 0,
+                      "obstacle row %d", i);
+            }
+            free(G2);
+            free(b2);
+            free(d2);
+            free(w2);
+            free(o2);
+            free(l2);
+        }
+    }
+    free(P);
+    free(axes);
+    free(flange);
+    free(G);
+    free(b);
+    free(dist);
+    free(work);
+    free(level);
+    free(ta);
+    free(tb);
+}
+
 int main(void)
 {
     test_projection_checks();
@@ -463,5 +698,6 @@ int main(void)
     test_law_random();
     test_rate_bounds();
     test_capsule_rows();
+    test_filter_rows();
     return finish();
 }

@@ -150,12 +150,13 @@ class _Rows:
         "_G",
         "_b",
         "_level",
+        "_namer",
+        "_names",
         "_viol",
         "b",
         "check",
         "level",
         "m",
-        "names",
         "violated",
     )
 
@@ -164,7 +165,8 @@ class _Rows:
         self._b: list[FloatArray] = []
         self._level: list[tuple[int, int]] = []
         self._viol: list[Any] = []
-        self.names: list[str] = []
+        self._names: list[str] = []
+        self._namer: Any = None  # rows from the compiled core: names made when first asked
         self.m = 0
         # discrete-time model checks: (row index, kind, key) with kind "ws" or "ob"
         self.check: list[tuple[int, str, tuple[int, int]]] = []
@@ -184,9 +186,17 @@ class _Rows:
             self._b.append(b)
             self._level.append((level, k))
             self._viol.append(viol)
-            self.names.extend(names)
+            self._names.extend(names)
             self.m += k
         return first
+
+    @property
+    def names(self) -> list[str]:
+        """Every row's name, in row order."""
+        if self._namer is not None:
+            self._names = self._namer()
+            self._namer = None
+        return self._names
 
     def done(self, n: int) -> _Rows:
         """Stack the blocks into ``G`` (m, n), ``b``, ``level`` and ``violated`` (m,)."""
@@ -410,6 +420,7 @@ class SafetyFilter(InvalidPolicy):
         "_caps",
         "_core",
         "_dpos",
+        "_fused",
         "_has_accel",
         "_joint_prof",
         "_joint_rows",
@@ -626,6 +637,10 @@ class SafetyFilter(InvalidPolicy):
             ]
             for w_i, w in enumerate(self._workspace)
         )
+        # A DH chain with the core: every row of a joint-mode cycle in one C call.
+        self._fused: Any = None
+        if self._core is not None and self._cached and hasattr(robot, "_dh_rows"):
+            self._fused = self._fused_rows_object(robot)
         # Metric of the joint mode: W = L Lᵀ.
         self._metric: _Metric = None
         if weights is not None:
@@ -668,6 +683,79 @@ class SafetyFilter(InvalidPolicy):
         self._previous = None
 
     # ------------------------------------------------------------------ rows
+    def _fused_rows_object(self, robot: Any) -> Any:
+        """The compiled rows (``velfence_core._nd.FilterRows``) of this filter on a DH chain."""
+        n = self.dof
+        lim = self.limits
+        jkind: list[int] = []
+        jprm: list[float] = []
+        for j in range(n):
+            kind, params = self._joint_prof[j].kernel_profile
+            jkind.append(int(kind))
+            jprm.extend(float(v) for v in params)
+        ws = []
+        for w_i, w in enumerate(self._workspace):
+            kind, params = self._ws_prof[w_i].kernel_profile
+            poly = w.polytope
+            ws.append(
+                (
+                    np.ascontiguousarray(poly.normals, dtype=np.float64).ravel(),
+                    np.ascontiguousarray(poly.offsets, dtype=np.float64),
+                    int(robot._point_index(w.point)),
+                    int(kind),
+                    [float(v) for v in params],
+                )
+            )
+        acc = lim.max_acceleration
+        return self._core.FilterRows(
+            [v for row in robot._dh_rows for v in row], list(robot._tool_xyz),
+            np.asarray(lim.lower, dtype=np.float64), np.asarray(lim.upper, dtype=np.float64),
+            np.asarray(lim.max_velocity, dtype=np.float64),
+            None if acc is None else np.asarray(acc, dtype=np.float64), jkind, jprm, ws,
+            self._caps,
+        )  # fmt: skip
+
+    def _rows_fused(self, q: FloatArray, u: FloatArray, previous: FloatArray | None) -> _Rows:
+        """:meth:`_rows` of a joint-mode cycle on a DH chain, built by the compiled core.
+
+        The same rows in the same order (joint, acceleration, workspace, obstacle); the
+        workspace rows' sums in C rather than numpy's matrix products (agree to round-off).
+        """
+        prev = previous if self._has_accel else None
+        G, b, level, ta, tb, dist = self._fused.rows(q, u, prev, self.dt or 0.0)
+        rows = _Rows()
+        rows.G, rows.b, rows.level = G, b, level
+        rows.violated = dist < 0.0
+        rows.m = int(b.shape[0])
+        if self.dt is not None:
+            lv = level.tolist()
+            a = ta.tolist()
+            t = tb.tolist()
+            dl = dist.tolist()
+            rows.check = [
+                (r, "ws" if lv[r] == LEVEL_WORKSPACE else "ob", (a[r], t[r]))
+                for r in range(rows.m)
+                if (lv[r] == LEVEL_WORKSPACE or lv[r] == LEVEL_OBSTACLE) and dl[r] >= 0.0
+            ]
+        rows._namer = lambda: self._fused_names(level, ta, tb)
+        return rows
+
+    def _fused_names(self, level: Any, ta: Any, tb: Any) -> list[str]:
+        names4 = self._joint_rows[1]
+        names_r = self._rate_rows[1]
+        rate_index = {j: i for i, j in enumerate(self._rate_rows[2].tolist())}
+        out: list[str] = []
+        for lv, a, t in zip(level.tolist(), ta.tolist(), tb.tolist(), strict=True):
+            if lv == LEVEL_JOINT:
+                out.append(names4[a])
+            elif lv == LEVEL_RATE:
+                out.append(names_r[2 * rate_index[a] + t])
+            elif lv == LEVEL_WORKSPACE:
+                out.append(self._ws_names[a][t])
+            else:
+                out.append(f"obstacle {a} on link {t}")
+        return out
+
     def _joint_layout(self) -> tuple[Any, ...]:
         """The joint rows' fixed parts, in row order (per joint: position lower, upper, velocity).
 
@@ -1016,7 +1104,8 @@ class SafetyFilter(InvalidPolicy):
         from velfence.geometry.primitives import _sphere_capsule
 
         q1 = q + x * (self.dt or 0.0)
-        kin = self._kinematics(q1)
+        # (the compiled chain's kinematics: the same operations as the Python pass)
+        kin = self._fused.kinematics(q1) if self._fused is not None else self._kinematics(q1)
         out: dict[int, float] = {}
         dists: dict[int, list[float]] = {}
         segs: Any = None
@@ -1201,7 +1290,10 @@ class SafetyFilter(InvalidPolicy):
             u = u * (cap / big)
             scaled = True
         with np.errstate(all="ignore"):
-            rows = self._rows(q, u, prev, self._kinematics(q) if kin is None else kin, known)
+            if self._fused is not None and kin is None and known is None:
+                rows = self._rows_fused(q, u, prev)
+            else:
+                rows = self._rows(q, u, prev, self._kinematics(q) if kin is None else kin, known)
             x, _, dropped, stages, override = self._solve_ladder(q, u, rows, L)
         if not _finite(x):
             self._invalid("input too large: the filtered velocity overflowed")
