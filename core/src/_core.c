@@ -11,10 +11,11 @@
  *                         when the fast path does not apply (not two float64 ndarrays of shape (2,),
  *                         non-finite input, overflowed output): the caller then runs its generic
  *                         path, which owns the on_invalid policy.
- *   batch(P, V, out, zones) -> None: the unchecked kernel over rows (buffers: P, V float64 (N, 2)
- *                         C-contiguous, out float64 (N, 2) writable, zones int64 (N,) writable or
- *                         None; a row whose distances overflowed gets a NaN velocity);
- *                         releases the GIL, its scratch is per call.
+ *   batch(P, V, out, zones) -> the number of rows whose input or answer is not finite: the
+ *                         unchecked kernel over rows (buffers: P, V float64 (N, 2) C-contiguous,
+ *                         out float64 (N, 2) writable, zones int64 (N,) writable or None; a row
+ *                         whose distances overflowed gets a NaN velocity); releases the GIL, its
+ *                         scratch is per call.
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
@@ -173,6 +174,13 @@ static int batch_parse(PyObject *const *args, Py_ssize_t nargs, batch_views *b)
     return 0;
 }
 
+/* A batch row whose input or answer is not finite (the caller's generic path decides). */
+static int row_bad(const double *P, const double *V, Py_ssize_t r, const vf_result *res)
+{
+    return !(isfinite(P[2 * r]) && isfinite(P[2 * r + 1]) && isfinite(V[2 * r])
+             && isfinite(V[2 * r + 1]) && isfinite(res->ox) && isfinite(res->oy));
+}
+
 /* ------------------------------------------------------------------ ExactLaw */
 
 typedef struct {
@@ -303,7 +311,7 @@ static PyObject *ExactLaw_batch(ExactLaw *self, PyObject *const *args, Py_ssize_
     double *dist, *bnd;
     int32_t *work;
     vf_scratch s;
-    Py_ssize_t r;
+    Py_ssize_t r, bad = 0;
     const double *P, *V;
     double *out;
     int64_t *zones;
@@ -345,12 +353,13 @@ static PyObject *ExactLaw_batch(ExactLaw *self, PyObject *const *args, Py_ssize_
         if (zones != NULL) {
             zones[r] = res.zone;
         }
+        bad += row_bad(P, V, r, &res);
     }
     Py_END_ALLOW_THREADS
     PyMem_RawFree(dist);
     PyMem_RawFree(work);
     release_views(&b);
-    Py_RETURN_NONE;
+    return PyLong_FromSsize_t(bad);
 }
 
 static PyMethodDef ExactLaw_methods[] = {
@@ -361,7 +370,8 @@ static PyMethodDef ExactLaw_methods[] = {
     {"shape_array", (PyCFunction)(void (*)(void))ExactLaw_shape_array, METH_FASTCALL,
      "shape_array(position, command) -> new float64 (2,) array, or None (use the generic path)."},
     {"batch", (PyCFunction)(void (*)(void))ExactLaw_batch, METH_FASTCALL,
-     "batch(P, V, out, zones): the unchecked kernel over rows."},
+     "batch(P, V, out, zones) -> the number of rows not finite in or out: the unchecked kernel "
+     "over rows."},
     {NULL, NULL, 0, NULL}};
 
 static PyTypeObject ExactLawType = {
@@ -493,7 +503,7 @@ static PyObject *PatentLaw_shape_array(PatentLaw *self, PyObject *const *args,
 static PyObject *PatentLaw_batch(PatentLaw *self, PyObject *const *args, Py_ssize_t nargs)
 {
     batch_views b;
-    Py_ssize_t r;
+    Py_ssize_t r, bad = 0;
     const double *P, *V;
     double *out;
     int64_t *zones;
@@ -522,10 +532,11 @@ static PyObject *PatentLaw_batch(PatentLaw *self, PyObject *const *args, Py_ssiz
         if (zones != NULL) {
             zones[r] = res.zone;
         }
+        bad += row_bad(P, V, r, &res);
     }
     Py_END_ALLOW_THREADS
     release_views(&b);
-    Py_RETURN_NONE;
+    return PyLong_FromSsize_t(bad);
 }
 
 static PyMethodDef PatentLaw_methods[] = {
@@ -536,7 +547,8 @@ static PyMethodDef PatentLaw_methods[] = {
     {"shape_array", (PyCFunction)(void (*)(void))PatentLaw_shape_array, METH_FASTCALL,
      "shape_array(position, command) -> new float64 (2,) array, or None (use the generic path)."},
     {"batch", (PyCFunction)(void (*)(void))PatentLaw_batch, METH_FASTCALL,
-     "batch(P, V, out, zones): the unchecked kernel over rows."},
+     "batch(P, V, out, zones) -> the number of rows not finite in or out: the unchecked kernel "
+     "over rows."},
     {NULL, NULL, 0, NULL}};
 
 static PyTypeObject PatentLawType = {

@@ -112,6 +112,7 @@ def real_array(
     what: str = "numbers",
     allow_nonfinite: bool = False,
     max_abs: float | None = MAX_MAGNITUDE,
+    copy: bool = True,
 ) -> NDArray[np.float64]:
     """``x`` as a new float64 array of real numbers, validated.
 
@@ -125,9 +126,11 @@ def real_array(
         allow_nonfinite: Let NaN and inf through (for callers that apply their own
             ``on_invalid`` policy); magnitudes of finite entries are still checked.
         max_abs: Largest accepted magnitude of a finite entry (``None``: no limit).
+        copy: ``False`` for callers that only read the result: a float64 ndarray that passes
+            as it is is returned itself rather than copied (large batches).
 
     Returns:
-        A float64 ndarray (a copy; the caller may modify it).
+        A float64 ndarray (a copy unless ``copy=False``; the caller may then modify it).
 
     Raises:
         InvalidInput: (or ``error``) not real numbers, wrong shape, non-finite or too large
@@ -154,7 +157,7 @@ def real_array(
             or (np.abs(x).max() <= max_abs if max_abs is not None else bool(np.isfinite(x).all()))
         )
     ):
-        return x.copy()
+        return x.copy() if copy else x
     err = _error(error)
     want = "" if shape is None else f" of shape {_shape_text(shape)}"
     if isinstance(x, _NOT_NUMBERS) or x is None or isinstance(x, (bool, np.bool_)):
@@ -515,10 +518,11 @@ def finite_rows(name: str, x: Any, width: int, what: str = "") -> tuple[NDArray[
     return a, single
 
 
-def as_rows(name: str, X: Any, n_cols: int = 2) -> NDArray[np.float64]:
+def as_rows(name: str, X: Any, n_cols: int = 2, *, copy: bool = True) -> NDArray[np.float64]:
     """An (N, n_cols) float array of real numbers; non-finite and huge entries pass.
 
-    The shapers' ``on_invalid`` policy decides about non-finite and huge entries.
+    The shapers' ``on_invalid`` policy decides about non-finite and huge entries. ``copy=False``:
+    a float64 ndarray input is returned itself (for callers that only read it).
 
     Raises:
         InvalidInput: not real numbers or wrong shape.
@@ -526,8 +530,9 @@ def as_rows(name: str, X: Any, n_cols: int = 2) -> NDArray[np.float64]:
     from velfence.errors import InvalidInput
 
     a = real_array(
-        name, X, allow_nonfinite=True, max_abs=None, what=f"numbers of shape (N, {n_cols})"
-    )
+        name, X, allow_nonfinite=True, max_abs=None, what=f"numbers of shape (N, {n_cols})",
+        copy=copy,
+    )  # fmt: skip
     if a.ndim != 2 or a.shape[1] != n_cols:
         raise InvalidInput(f"{name} must have shape (N, {n_cols}), got shape {a.shape}")
     return a

@@ -372,13 +372,13 @@ class PolygonShaper(ShaperBase):
         core = self._core
         if core is None:
             return super().shape_batch(positions, commands)
-        P = np.ascontiguousarray(as_rows("positions", positions))
-        V = np.ascontiguousarray(as_rows("commands", commands))
-        if P.shape != V.shape or not (np.isfinite(P).all() and np.isfinite(V).all()):
+        # (read only: the caller's arrays are not copied unless they are not C-contiguous)
+        P = np.ascontiguousarray(as_rows("positions", positions, copy=False))
+        V = np.ascontiguousarray(as_rows("commands", commands, copy=False))
+        if P.shape != V.shape:
             return super().shape_batch(positions, commands)
         out = np.empty_like(P)
-        core.__self__.batch(P, V, out, None)
-        if not np.isfinite(out).all():
+        if core.__self__.batch(P, V, out, None):  # rows not finite in or out: counted in C
             return super().shape_batch(positions, commands)
         return out
 
