@@ -326,7 +326,7 @@ class PathFollower:
         """:meth:`evaluate` for n = 2 on a velfence path, in Python floats.
 
         The operations of :meth:`_evaluate_nd` component by component (dot products summed left
-        to right), equal to it to rounding (tests/cobot/test_cobot_fast.py).
+        to right), equal to it to rounding (tests/cobot/test_cobot_floats.py).
         """
         x, y = real_floats("R", R, 2)
         tx, ty = real_floats("T", T, 2)

@@ -651,7 +651,7 @@ class Cobot:
     # ------------------------------------------------------------------ n = 2 in floats
     # One CVT, 2-vectors and 2 x 2 matrices: the same law as the array routes above written in
     # Python floats (a 2 x 2 solve in closed form, dot products summed left to right), equal to
-    # them to rounding (tests/cobot/test_cobot_fast.py). Inputs pass the same validation layer;
+    # them to rounding (tests/cobot/test_cobot_floats.py). Inputs pass the same validation layer;
     # where a check of an intermediate fails, the array route is run, so that its refusal (and
     # message) is the one raised.
 
