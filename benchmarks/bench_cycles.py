@@ -3,6 +3,7 @@
 Usage::
 
     PYTHONPATH=src python benchmarks/bench_cycles.py [--calls N] [--callgrind K] [--before SRC]
+        [--single]
 
 prints Markdown tables (the ones in ``docs/benchmarks.md``, section "Control cycles").
 
@@ -32,7 +33,9 @@ Routes (obstacles 0.12 m beside random points of random links, influence 0.1 m, 
 ``--callgrind K`` also counts instructions (valgrind's callgrind, deterministic: independent of
 the machine's load) of ``K`` calls of the single-cycle routes, minus a run with 0 calls (start-up
 and set-up), divided by ``K``; ``--before SRC`` repeats that count with ``PYTHONPATH=SRC`` (e.g.
-a checkout of the code before the change) for a before/after in instructions.
+a checkout of the code before the change) for a before/after in instructions. ``--single``
+skips the configuration-control table (and mink): the single-cycle routes only, ``4 * calls``
+calls each.
 """
 
 from __future__ import annotations
@@ -306,6 +309,11 @@ def main() -> None:
     ap.add_argument("--callgrind", type=int, default=0, metavar="K")
     ap.add_argument("--before", default="", metavar="SRC")
     ap.add_argument("--no-mink", action="store_true")
+    ap.add_argument(
+        "--single",
+        action="store_true",
+        help="only the single-cycle table (cobot tick, PUMA SR step) and --callgrind",
+    )
     ap.add_argument("--child", default="", help=argparse.SUPPRESS)
     ap.add_argument("--child-calls", type=int, default=0, help=argparse.SUPPRESS)
     args = ap.parse_args()
@@ -314,7 +322,7 @@ def main() -> None:
         return
     from importlib.metadata import version
 
-    with_mink = not args.no_mink
+    with_mink = not args.no_mink and not args.single
     print(
         f"{args.calls} calls per route (interleaved, {WARMUP} warm-up calls), times in µs; "
         f"Python {platform.python_version()}, numpy {np.__version__}"
@@ -323,8 +331,9 @@ def main() -> None:
         f"{', '.join(f'{x:.1f}' for x in os.getloadavg())} at the start"
     )
     print()
-    control_cycles(args.calls, with_mink)
-    print()
+    if not args.single:
+        control_cycles(args.calls, with_mink)
+        print()
     single_cycles(args.calls * 4)
     if args.callgrind:
         print()

@@ -1,9 +1,11 @@
 """The validation layer's fast accept equals its full checks for every policy argument.
 
 ``real_array`` answers a float64 ndarray of the right shape without the full checks when it can
-(one reduction, or none with ``allow_nonfinite`` and no magnitude cap). The same values seen as an
-ndarray subclass always take the full checks; both must accept, return and refuse alike, for every
-combination of ``allow_nonfinite`` and ``max_abs``.
+(a check in Python floats for small arrays, one reduction for larger ones, or none with
+``allow_nonfinite`` and no magnitude cap). The same values seen as an ndarray subclass always take
+the full checks; both must accept, return and refuse alike, for every combination of
+``allow_nonfinite`` and ``max_abs``. ``real_floats`` is ``real_array`` answered as Python floats,
+and ``finite_scalar``'s fast accept of a plain ``float`` equals its full checks (a float subclass).
 """
 
 from __future__ import annotations
@@ -14,7 +16,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
-from velfence._validate import MAX_MAGNITUDE, real_array
+from velfence._validate import MAX_MAGNITUDE, finite_scalar, real_array, real_floats
 
 _SHAPES_OF_ARRAYS = hnp.array_shapes(min_dims=0, max_dims=2, min_side=0, max_side=3)
 _VALUES = st.one_of(
@@ -57,3 +59,45 @@ def test_fast_accept_equals_the_full_checks(x, shape, allow_nonfinite, max_abs):
     np.testing.assert_array_equal(got, want)
     if isinstance(x, np.ndarray):
         assert not np.shares_memory(got, x)
+
+
+@given(_VALUES, st.sampled_from([1, 2, 3]))
+def test_real_floats_equals_real_array_as_floats(x, n):
+    # real_floats is real_array with shape (n,), answered as Python floats: same acceptance,
+    # same refusals and messages, the same values.
+    try:
+        want, err = real_array("x", x, (n,), what="things").tolist(), None
+    except Exception as exc:  # the refusal, compared below
+        want, err = None, exc
+    if err is not None:
+        with pytest.raises(type(err)) as got:
+            real_floats("x", x, n, what="things")
+        assert str(got.value) == str(err)
+        return
+    vals = real_floats("x", x, n, what="things")
+    assert type(vals) is list
+    assert all(type(v) is float for v in vals)
+    assert vals == want
+
+
+class _Float(float):
+    """Not exactly ``float``: the full checks of ``finite_scalar``, never its fast accept."""
+
+
+@given(
+    st.floats(allow_nan=True, allow_infinity=True) | st.sampled_from([1e300, -1e151, 1e150]),
+    st.sampled_from([MAX_MAGNITUDE, None, 1e20]),
+)
+def test_finite_scalar_fast_accept_equals_the_full_checks(x, max_abs):
+    try:
+        want, err = finite_scalar("x", _Float(x), max_abs=max_abs), None
+    except Exception as exc:  # the refusal, compared below
+        want, err = None, exc
+    if err is not None:
+        with pytest.raises(type(err)) as got:
+            finite_scalar("x", x, max_abs=max_abs)
+        assert str(got.value) == str(err)
+        return
+    got = finite_scalar("x", x, max_abs=max_abs)
+    assert type(got) is float
+    assert got == want

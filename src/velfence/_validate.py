@@ -48,6 +48,7 @@ __all__ = [
     "finite_scalar",
     "readonly",
     "real_array",
+    "real_floats",
     "rigid_transform",
     "step_count",
 ]
@@ -103,6 +104,62 @@ def readonly(a: A) -> A:
     return a
 
 
+#: Arrays up to this many entries are checked in Python floats (one ``tolist``): cheaper than a
+#: NumPy reduction for the 2- and 3-vectors of a control loop.
+_SMALL = 16
+
+
+def _fast_accept(
+    x: Any, shape: tuple[int | None, ...] | None, allow_nonfinite: bool, max_abs: float | None
+) -> bool:
+    """Whether ``x`` passes :func:`real_array`'s checks without the full route.
+
+    The common case in a control loop: a non-empty float64 ndarray of the right shape whose
+    entries are all finite and within ``max_abs`` (the comparison is False for NaN and inf).
+    False means "take the full checks", never "refuse".
+    """
+    if not (type(x) is np.ndarray and x.dtype == np.float64 and x.size):
+        return False
+    if not (
+        shape is None
+        or x.shape == shape
+        or (
+            x.ndim == len(shape)
+            and all(s is None or s == k for s, k in zip(shape, x.shape, strict=True))
+        )
+    ):
+        return False
+    if max_abs is None:
+        # allow_nonfinite without a magnitude cap accepts every float64 value (NaN and inf go
+        # to the caller's policy): nothing to reduce.
+        return allow_nonfinite or bool(np.isfinite(x).all())
+    if x.size <= _SMALL:
+        vals = x.tolist() if x.ndim == 1 else x.ravel().tolist()
+        return all(map(float(max_abs).__ge__, map(abs, vals)))
+    return bool(np.abs(x).max() <= max_abs)
+
+
+def real_floats(
+    name: str,
+    x: Any,
+    n: int,
+    *,
+    error: type[Exception] | None = None,
+    what: str = "numbers",
+) -> list[float]:
+    """``x`` as a list of ``n`` floats: :func:`real_array` with shape ``(n,)``, as Python floats.
+
+    The same acceptance, refusals and messages as ``real_array(name, x, (n,))`` (for the
+    callers that compute with 2- and 3-vectors in plain float arithmetic).
+    """
+    vals: list[float] = (
+        x
+        if _fast_accept(x, (n,), False, MAX_MAGNITUDE)
+        else real_array(name, x, (n,), error=error, what=what)
+    ).tolist()
+    return vals
+
+
 def real_array(
     name: str,
     x: Any,
@@ -136,28 +193,9 @@ def real_array(
         InvalidInput: (or ``error``) not real numbers, wrong shape, non-finite or too large
             entries; the message names ``name``, what was expected and what was got.
     """
-    if (
-        # The common case in a control loop, answered with one reduction: a non-empty float64
-        # ndarray of the right shape whose entries are all finite and within max_abs (the
-        # comparison is False for NaN and inf). Everything else takes the full checks below.
-        type(x) is np.ndarray
-        and x.dtype == np.float64
-        and x.size
-        and (
-            shape is None
-            or (
-                x.ndim == len(shape)
-                and all(s is None or s == k for s, k in zip(shape, x.shape, strict=True))
-            )
-        )
-        and (
-            # allow_nonfinite without a magnitude cap accepts every float64 value (NaN and inf
-            # go to the caller's policy): nothing to reduce.
-            (allow_nonfinite and max_abs is None)
-            or (np.abs(x).max() <= max_abs if max_abs is not None else bool(np.isfinite(x).all()))
-        )
-    ):
-        return x.copy() if copy else x
+    if _fast_accept(x, shape, allow_nonfinite, max_abs):
+        fast: NDArray[np.float64] = x.copy() if copy else x
+        return fast
     err = _error(error)
     want = "" if shape is None else f" of shape {_shape_text(shape)}"
     if isinstance(x, _NOT_NUMBERS) or x is None or isinstance(x, (bool, np.bool_)):
@@ -280,6 +318,8 @@ def finite_scalar(
         InvalidInput: (or ``error``) not a real number (booleans, strings, complex refused), not
             finite, or too large.
     """
+    if type(x) is float and (math.isfinite(x) if max_abs is None else abs(x) <= max_abs):
+        return x  # the common case: a finite float in range (False for NaN and inf)
     err = _error(error)
     u = f" [{unit}]" if unit else ""
     v = _real_float(x)

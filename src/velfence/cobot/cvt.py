@@ -97,8 +97,11 @@ class SteeredWheel:
 
     def direction(self, phi: float) -> FloatArray:
         """Unit rolling direction, shape (2,)."""
-        p = _angle("phi", phi)
-        return np.array([math.cos(p), math.sin(p)])
+        return np.array(self._direction_floats(_angle("phi", phi)))
+
+    def _direction_floats(self, p: float) -> tuple[float, float]:
+        """:meth:`direction` at a checked angle, as floats."""
+        return math.cos(p), math.sin(p)
 
     def angle_rate(self, phi: float) -> float:
         """Always 1: the wheel's direction angle is its steering angle."""
@@ -159,10 +162,13 @@ class TetrahedralCVT:
 
     def direction(self, phi: float) -> FloatArray:
         """Eq. (2.17): unit direction of (ω1, ω2), shape (2,)."""
-        p = _angle("phi", phi)
+        return np.array(self._direction_floats(_angle("phi", phi)))
+
+    def _direction_floats(self, p: float) -> tuple[float, float]:
+        """:meth:`direction` at a checked angle, as floats."""
         s, c = math.sin(p), self.convention * _SQRT2 * math.cos(p)
         n = math.sqrt(2.0 + 2.0 * math.cos(p) ** 2)
-        return np.array([(s + c) / n, (s - c) / n])
+        return (s + c) / n, (s - c) / n
 
     def ratio(self, phi: float) -> float:
         r"""Eq. (2.16): :math:`M = \omega_1/\omega_2` (``inf`` where :math:`\omega_2 = 0`)."""

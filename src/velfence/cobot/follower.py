@@ -33,12 +33,18 @@ hold over one step turned the heading by radians and left the run's fate to roun
 
 The reference state :math:`(s_p, s_p')` belongs to the controller and is integrated over the
 *measured* arc length: ``ds = 0`` (the human stopped) leaves it unchanged.
+
+On a velfence path in the plane (:class:`~velfence.geometry.paths.Line`, ``Circle``, ``Polyline``,
+``Spline``) :meth:`PathFollower.evaluate` computes in Python floats on the path's one-point frame;
+other paths and dimensions take the array route, which is the oracle the float route is tested
+against (equal to rounding).
 """
 
 from __future__ import annotations
 
 import math
 import numbers
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Literal, get_args
 
@@ -52,9 +58,10 @@ from velfence._validate import (
     check_positive,
     finite_scalar,
     real_array,
+    real_floats,
 )
 from velfence.errors import InvalidInput, InvalidParameter
-from velfence.geometry.paths import Path
+from velfence.geometry.paths import Path, _PathBase
 
 __all__ = ["FollowerOutput", "PathFollower", "critically_damped", "gains_from_poles"]
 
@@ -194,6 +201,8 @@ class PathFollower:
         )
         self._path = path
         self._n = int(path.dim)
+        # A velfence path in the plane: the law in Python floats on its one-point frame.
+        self._frame2 = path._frame_floats if self._n == 2 and isinstance(path, _PathBase) else None
         self._sp = 0.0
         self._spd = 1.0
         self._spdd = 0.0
@@ -255,6 +264,18 @@ class PathFollower:
             InvalidInput: Bad shapes, non-finite values, zero T; or M singular with
                 ``on_singular="raise"``.
         """
+        frame = self._frame2
+        if frame is not None:
+            try:
+                return self._evaluate2(frame, R, T, s_p, sp_d)
+            except ZeroDivisionError:  # where Python refuses a division NumPy answers (inf/nan)
+                pass
+        return self._evaluate_nd(R, T, s_p, sp_d)
+
+    def _evaluate_nd(
+        self, R: ArrayLike, T: ArrayLike, s_p: float | None, sp_d: float | None
+    ) -> FollowerOutput:
+        """:meth:`evaluate` in arrays, any n (the n = 2 float route's reference)."""
         Ra = self._vector("R", R)
         Ta = self._vector("T", T)
         nT = float(np.linalg.norm(Ta))
@@ -293,6 +314,67 @@ class PathFollower:
             if mag > self._kmax:
                 kN = kN * (self._kmax / mag)
         return FollowerOutput(kN, spdd, U, v, e, ed, sp, spd, Rp, float(Ta @ Tp), singular)
+
+    def _evaluate2(
+        self,
+        frame: Callable[[float], tuple[list[float], list[float], list[float]]],
+        R: ArrayLike,
+        T: ArrayLike,
+        s_p: float | None,
+        sp_d: float | None,
+    ) -> FollowerOutput:
+        """:meth:`evaluate` for n = 2 on a velfence path, in Python floats.
+
+        The operations of :meth:`_evaluate_nd` component by component (dot products summed left
+        to right), equal to it to rounding (tests/cobot/test_cobot_floats.py).
+        """
+        x, y = real_floats("R", R, 2)
+        tx, ty = real_floats("T", T, 2)
+        nT = math.sqrt(tx * tx + ty * ty)
+        if nT == 0.0:
+            raise InvalidInput("T: expected a non-zero heading, got the zero vector")
+        tx, ty = tx / nT, ty / nT
+        sp = self._sp if s_p is None else finite_scalar("s_p", s_p)
+        spd = self._spd if sp_d is None else finite_scalar("sp_d", sp_d)
+        (px, py), (ux, uy), (kx, ky) = frame(sp)
+        ex, ey = x - px, y - py  # (3.1)
+        dx, dy = tx - spd * ux, ty - spd * uy  # (3.2)
+        k1, k2 = self._k1, self._k2
+        vx, vy = -(k1 * ex + k2 * dx), -(k1 * ey + k2 * dy)  # (3.8)
+        b = spd * spd
+        wx, wy = vx + b * kx, vy + b * ky  # v + b
+        c = tx * ux + ty * uy  # -det M
+        singular = abs(c) < self._guard
+        if singular:
+            if self._on_singular == "raise":
+                return self._evaluate_nd(R, T, s_p, sp_d)  # raises, with its message
+            spdd = 0.0  # hold the reference, steer with (I - TTᵀ)w (see _evaluate_nd)
+            tw = tx * wx + ty * wy
+            Ux, Uy = wx - tx * tw, wy - ty * tw
+            nx, ny = Ux, Uy
+        else:
+            spdd = -(tx * wx + ty * wy) / c  # (3.4) via Sherman–Morrison
+            Ux, Uy = wx + (tx + ux) * spdd, wy + (ty + uy) * spdd
+            tU = tx * Ux + ty * Uy
+            nx, ny = Ux - tx * tU, Uy - ty * tU  # (3.5)
+        if self._kmax is not None:
+            mag = math.sqrt(nx * nx + ny * ny)
+            if mag > self._kmax:
+                f = self._kmax / mag
+                nx, ny = nx * f, ny * f
+        return FollowerOutput(
+            np.array([nx, ny]),
+            spdd,
+            np.array([Ux, Uy]),
+            np.array([vx, vy]),
+            np.array([ex, ey]),
+            np.array([dx, dy]),
+            sp,
+            spd,
+            np.array([px, py]),
+            c,
+            singular,
+        )
 
     def step(self, R: ArrayLike, T: ArrayLike, ds: float, t: float | None = None) -> FollowerOutput:
         r"""Advance the reference by the measured arc length ``ds``, then evaluate at (R, T).

@@ -18,6 +18,11 @@ Forward route (measured steering → allowed direction): :meth:`Cobot.heading` b
 :math:`T = J^{-1} T_J / |J^{-1} T_J|` (eq. 2.24). Singular configurations — :math:`\Lambda = 0`
 (the CVTs do not fix one direction) or :math:`J` singular — are detected and reported, never
 divided through (the paper defers them, footnote 1).
+
+Speed: for n = 2 (one CVT) :meth:`Cobot.heading` and :meth:`Cobot.steering_rates` (route
+``"direct"``) compute in Python floats — J and H of the r-θ cobot in closed form, the 2×2 solve by
+its inverse — after the same input checks; the array routes serve every n and are the oracle the
+n = 2 routes are tested against (equal to rounding; ``docs/benchmarks.md``, "cobot tick").
 """
 
 from __future__ import annotations
@@ -39,9 +44,11 @@ from velfence._validate import (
     finite_scalar,
     readonly,
     real_array,
+    real_floats,
 )
 from velfence.cobot.cvt import CVT, SteeredWheel, TetrahedralCVT
 from velfence.cobot.transforms import (
+    SINGULAR_TOL,
     _map_checked,
     coupling_from_joint,
     joint_from_ee,
@@ -124,17 +131,27 @@ class RThetaKinematics:
 
     def joints(self, R: FloatArray) -> FloatArray:
         """``(r, θ) = (|R|, atan2(y, x))`` [m, rad]."""
-        x, y = real_array("R", R, (2,)).tolist()
+        x, y = real_floats("R", R, 2)
         return np.array([math.hypot(x, y), math.atan2(y, x)])
 
     def position(self, q: FloatArray) -> FloatArray:
         """``(r cos θ, r sin θ)`` [m]."""
-        r, th = real_array("q", q, (2,)).tolist()
-        return np.array([r * math.cos(th), r * math.sin(th)])
+        r, th = real_floats("q", q, 2)
+        return np.array(self._position_floats(r, th))
+
+    @staticmethod
+    def _position_floats(r: float, th: float) -> tuple[float, float]:
+        """:meth:`position` at a checked q = (r, θ), as floats."""
+        return r * math.cos(th), r * math.sin(th)
 
     def _r(self, R: FloatArray) -> tuple[float, float, float]:
         """``(cos θ, sin θ, r)`` at R; refused within :data:`PIVOT_TOL` of the pivot."""
-        x, y = real_array("R", R, (2,)).tolist()
+        x, y = real_floats("R", R, 2)
+        return self._r_floats(x, y)
+
+    @staticmethod
+    def _r_floats(x: float, y: float) -> tuple[float, float, float]:
+        """:meth:`_r` at a checked R = (x, y)."""
         r = math.hypot(x, y)
         if not r > PIVOT_TOL:
             raise InvalidInput(
@@ -427,6 +444,10 @@ class Cobot:
         self._couplings = cs
         self._n = n
         self._all_selection = all(c.selection is not None for c in cs)
+        # n = 2 (one CVT) runs in Python floats (:meth:`_heading2`, :meth:`_steering2`); S_1 as
+        # floats (S00, S01, S10, S11) for it.
+        sel = cs[0].selection
+        self._S2: list[float] | None = sel.ravel().tolist() if n == 2 and sel is not None else None
         if not isinstance(name, str):
             raise InvalidParameter(f"name: expected a str label, got {type(name).__name__}")
         self.name = name
@@ -491,6 +512,15 @@ class Cobot:
         Returns:
             :class:`Heading`; ``singular`` names a singular configuration (then T = 0).
         """
+        if self._n == 2:
+            try:
+                return self._heading2(q, phi, reference)
+            except ZeroDivisionError:  # where Python refuses a division NumPy answers (inf/nan)
+                pass
+        return self._heading_nd(q, phi, reference)
+
+    def _heading_nd(self, q: ArrayLike, phi: ArrayLike, reference: ArrayLike | None) -> Heading:
+        """:meth:`heading` in arrays, any n (the reference the n = 2 float route is tested on)."""
         qa = _vec("q", q, self._n)
         t = self.directions(phi)
         try:
@@ -575,6 +605,17 @@ class Cobot:
             :class:`Steering`.
         """
         check_choice("route", route, get_args(Route))
+        if self._n == 2 and route == "direct":
+            try:
+                return self._steering2(R, phi, T, kN, speed)
+            except ZeroDivisionError:  # where Python refuses a division NumPy answers (inf/nan)
+                pass
+        return self._steering_nd(R, phi, T, kN, speed, route)
+
+    def _steering_nd(
+        self, R: ArrayLike, phi: ArrayLike, T: ArrayLike, kN: ArrayLike, speed: float, route: Route
+    ) -> Steering:
+        """:meth:`steering_rates` in arrays, any n (the n = 2 float route's reference)."""
         Ra = _vec("R", R, self._n)
         p = _vec("phi", phi, self._n - 1)
         Ta = _vec("T", T, self._n)
@@ -606,6 +647,162 @@ class Cobot:
             spd[i] = gi * u
             rate[i] = c.cvt.steering_rate(float(p[i]), float(curv[i]), float(spd[i]))
         return Steering(rate, t, kn, curv, spd, T_J=T_J, kJNJ=kJNJ)
+
+    # ------------------------------------------------------------------ n = 2 in floats
+    # One CVT, 2-vectors and 2 x 2 matrices: the same law as the array routes above written in
+    # Python floats (a 2 x 2 solve in closed form, dot products summed left to right), equal to
+    # them to rounding (tests/cobot/test_cobot_floats.py). Inputs pass the same validation layer;
+    # where a check of an intermediate fails, the array route is run, so that its refusal (and
+    # message) is the one raised.
+
+    def _direction2(self, p: float) -> tuple[float, float]:
+        """t_1(φ) (eq. 2.17) at a checked angle, as floats."""
+        cvt = self._couplings[0].cvt
+        if type(cvt) is TetrahedralCVT or type(cvt) is SteeredWheel:
+            return cvt._direction_floats(p)
+        t0, t1 = real_floats("cvt.direction(phi)", cvt.direction(p), 2)
+        return t0, t1
+
+    def _jh2(self, x: float, y: float, arg: str) -> tuple[list[float], list[float]]:
+        """J (4 floats, row-major) and H (8 floats, ``H[i, k, j]``) at R = (x, y), checked.
+
+        The checks and refusals of :meth:`_jacobians` (its refusals name ``arg``).
+        """
+        if type(self._kin) is RThetaKinematics:
+            try:
+                c, s, r = RThetaKinematics._r_floats(x, y)
+            except InvalidInput as e:  # named as _jacobians names it
+                text = str(e)
+                raise InvalidInput(
+                    text if text.startswith(f"{arg}:") else f"{arg}: {text}"
+                ) from None
+            # The arithmetic of RThetaKinematics._jacobian_hessian, entry by entry.
+            cs, ss, cc, rr = -c * s, s * s, c * c, r * r
+            J = [c, s, -s / r, c / r]
+            H = [ss / r, cs / r, cs / r, cc / r, 2 * c * s / rr, (ss - cc) / rr]
+            H += [(ss - cc) / rr, -2 * c * s / rr]
+            # J is bounded by 1/r <= 1e100; H by 2/r², which may exceed the magnitude cap.
+            if all(map(MAX_MAGNITUDE.__ge__, map(abs, H[4:]))):
+                return J, H
+        Ja, Ha = self._jacobians(np.array([x, y]), arg)
+        return Ja.ravel().tolist(), Ha.ravel().tolist()
+
+    def _coupling2(
+        self, x: float, y: float, J: list[float], H: list[float]
+    ) -> tuple[list[float], list[float]]:
+        """J_1 (4 floats) and H_1 (8 floats) of the one coupling (eq. 2.12), checked."""
+        S = self._S2
+        if S is not None:
+            s00, s01, s10, s11 = S
+            Ji = [s00 * J[j] + s01 * J[2 + j] for j in range(2)]
+            Ji += [s10 * J[j] + s11 * J[2 + j] for j in range(2)]
+            Hi = [s00 * H[m] + s01 * H[4 + m] for m in range(4)]
+            Hi += [s10 * H[m] + s11 * H[4 + m] for m in range(4)]
+            if all(map(math.isfinite, Ji)) and all(map(math.isfinite, Hi)):
+                return Ji, Hi
+        Ja, Ha = self._couplings[0]._maps(
+            np.array([x, y]), np.array(J).reshape(2, 2), np.array(H).reshape(2, 2, 2)
+        )
+        return Ja.ravel().tolist(), Ha.ravel().tolist()
+
+    def _heading2(self, q: ArrayLike, phi: ArrayLike, reference: ArrayLike | None) -> Heading:
+        """:meth:`heading` for n = 2 in floats."""
+        q0, q1 = real_floats("q", q, 2)
+        (p,) = real_floats("phi", phi, 1)
+        t0, t1 = self._direction2(p)
+        t = np.array([[t0, t1]])
+        if type(self._kin) is RThetaKinematics:
+            x, y = RThetaKinematics._position_floats(q0, q1)
+        else:
+            try:
+                x, y = real_floats(
+                    "kinematics.position(q)", self._kin.position(np.array([q0, q1])), 2
+                )
+            except InvalidInput as e:
+                raise InvalidInput(f"q: {e}") from None
+        J, H = self._jh2(x, y, "q")
+        S = self._S2
+        if S is not None:  # Ω in C_J (eq. 2.21): (W t)^T S
+            w0, w1 = S[2] * t0 - S[0] * t1, S[3] * t0 - S[1] * t1
+        else:  # a direct coupling: Ω in C_EE, (W t)^T J_1
+            Ji, _ = self._coupling2(x, y, J, H)
+            w0, w1 = Ji[2] * t0 - Ji[0] * t1, Ji[3] * t0 - Ji[1] * t1
+        if not (abs(w0) <= MAX_MAGNITUDE and abs(w1) <= MAX_MAGNITUDE):
+            return self._heading_nd(q, phi, reference)  # generalised_cross refuses Ω
+        L0, L1 = w1, -w0  # eq. (2.22), n = 2
+        Lam = np.array([L0, L1])
+        scale = math.sqrt(w0 * w0 + w1 * w1)
+        nL = math.sqrt(L0 * L0 + L1 * L1)
+        if nL <= LAMBDA_TOL * max(scale, 1e-300):
+            return Heading(np.zeros(2), np.zeros(2), Lam, t, singular="lambda")
+        a, b, c, d = J
+        nJ = math.sqrt(a * a + b * b + c * c + d * d)
+        det = a * d - b * c
+        if not nJ > 0.0 or abs(det) <= JACOBIAN_RCOND * nJ**2:
+            return Heading(np.zeros(2), np.zeros(2), Lam, t, singular="jacobian")
+        if S is not None:
+            u0, u1 = L0 / nL, L1 / nL  # T_J
+            x0, x1 = (d * u0 - b * u1) / det, (a * u1 - c * u0) / det  # J^-1 T_J
+            nx = math.sqrt(x0 * x0 + x1 * x1)
+            T0, T1 = x0 / nx, x1 / nx
+        else:
+            T0, T1 = L0 / nL, L1 / nL
+            y0, y1 = a * T0 + b * T1, c * T0 + d * T1  # J T
+            ny = math.sqrt(y0 * y0 + y1 * y1)
+            u0, u1 = y0 / ny, y1 / ny
+        ambiguous = reference is None
+        if reference is not None:
+            r0, r1 = real_floats("reference", reference, 2)
+            if T0 * r0 + T1 * r1 < 0.0:
+                T0, T1, u0, u1 = -T0, -T1, -u0, -u1
+            ambiguous = not (r0 or r1)
+        return Heading(np.array([T0, T1]), np.array([u0, u1]), Lam, t, ambiguous=ambiguous)
+
+    def _steering2(
+        self, R: ArrayLike, phi: ArrayLike, T: ArrayLike, kN: ArrayLike, speed: float
+    ) -> Steering:
+        """:meth:`steering_rates` for n = 2, route ``"direct"``, in floats."""
+        x, y = real_floats("R", R, 2)
+        (p,) = real_floats("phi", phi, 1)
+        tx, ty = real_floats("T", T, 2)
+        kx, ky = real_floats("kN", kN, 2)
+        u = finite_scalar("speed", speed, unit="unit/s", what="speed")
+        J, H = self._jh2(x, y, "R")
+        A, Hi = self._coupling2(x, y, J, H)
+        # transforms._map_checked with A = J_1 (eqs. 2.13, 2.14).
+        X0, X1 = A[0] * tx + A[1] * ty, A[2] * tx + A[3] * ty
+        h0 = Hi[0] * tx * tx + Hi[1] * tx * ty + Hi[2] * ty * tx + Hi[3] * ty * ty
+        h1 = Hi[4] * tx * tx + Hi[5] * tx * ty + Hi[6] * ty * tx + Hi[7] * ty * ty
+        P0, P1 = A[0] * kx + A[1] * ky + h0, A[2] * kx + A[3] * ky + h1
+        big = max(abs(X0), abs(X1))
+        ok = math.isfinite(X0) and math.isfinite(X1) and math.isfinite(P0) and math.isfinite(P1)
+        gain = 0.0
+        if ok and big > 0.0:
+            b0, b1 = X0 / big, X1 / big
+            gain = big * math.sqrt(b0 * b0 + b1 * b1)
+        scale = math.sqrt(sum(v * v for v in A)) or 1.0
+        if ok and gain > SINGULAR_TOL * scale:
+            a0, a1 = X0 / gain, X1 / gain  # the unit tangent t_1 (eq. 2.6)
+            dot = a0 * P0 + a1 * P1
+            n0, n1 = (P0 - a0 * dot) / gain / gain, (P1 - a1 * dot) / gain / gain
+            ok = math.isfinite(a0) and math.isfinite(a1) and math.isfinite(n0) and math.isfinite(n1)
+        else:
+            ok = False
+        if not ok:  # the array route raises (with its message) or answers
+            return self._steering_nd(R, phi, T, kN, speed, "direct")
+        curv = -a1 * n0 + a0 * n1  # signed_curvature
+        spd = gain * u
+        rate = self._couplings[0].cvt.steering_rate(p, curv, spd)
+        z = np.zeros(0)
+        return Steering(
+            np.array([rate]),
+            np.array([[a0, a1]]),
+            np.array([[n0, n1]]),
+            np.array([curv]),
+            np.array([spd]),
+            T_J=z,
+            kJNJ=z,
+        )
 
 
 def r_theta_cobot(*, r_o: float = 0.5, convention: int = 1) -> Cobot:

@@ -27,6 +27,7 @@ Conventions:
 
 from __future__ import annotations
 
+import bisect
 import math
 from typing import Any, Protocol, runtime_checkable
 
@@ -221,6 +222,11 @@ class _PathBase:
         P, T, K = self._frames(self._normalise(np.array([_arc("s", s)])))
         return P[0], T[0], K[0]
 
+    def _frame_floats(self, s: float) -> tuple[list[float], list[float], list[float]]:
+        """:meth:`frame` as lists of floats (``s`` validated here); for per-tick callers."""
+        P, T, K = self.frame(s)
+        return P.tolist(), T.tolist(), K.tolist()
+
     def point(self, s: float) -> FloatArray:
         """The point :math:`R_p(s)` (Gillespie et al. 1999, eq. 3.1).
 
@@ -345,7 +351,7 @@ class _PathBase:
 class _Piecewise(_PathBase):
     """A chain of straight segments and circular arcs, evaluated in closed form."""
 
-    __slots__ = ("_C", "_D", "_R", "_V", "_arc", "_lengths", "_starts")
+    __slots__ = ("_C", "_D", "_R", "_V", "_arc", "_lengths", "_pieces", "_starts", "_starts_list")
 
     def _build(
         self,
@@ -370,6 +376,19 @@ class _Piecewise(_PathBase):
         self._length = float(np.sum(lengths))
         self._closed = closed
         self._dim = int(self._C.shape[1])
+        # The same constants as Python floats, for the one-point frame (no NumPy per call).
+        self._starts_list: list[float] = self._starts.tolist()
+        self._pieces: list[tuple[bool, list[float], list[float], list[float], float]] = [
+            (bool(a), c, d, v, r)
+            for a, c, d, v, r in zip(
+                self._arc.tolist(),
+                self._C.tolist(),
+                self._D.tolist(),
+                self._V.tolist(),
+                self._R.tolist(),
+                strict=True,
+            )
+        ]
 
     @property
     def joins(self) -> FloatArray:
@@ -387,6 +406,41 @@ class _Piecewise(_PathBase):
         tangent = np.where(arc, -s * D + c * V, D)
         curv = np.where(arc, -(c * D + s * V) / R, 0.0)
         return point, tangent, curv
+
+    def frame(self, s: float) -> tuple[FloatArray, FloatArray, FloatArray]:
+        r"""Point, unit tangent and curvature vector at ``s`` in one evaluation.
+
+        The values of :meth:`point`, :meth:`tangent` and :meth:`curvature` (the same float
+        operations as the batch evaluation, in Python floats: no NumPy call for one point).
+
+        Args:
+            s: Arc length [m].
+
+        Returns:
+            ``(R_p, T_p, κ_p N_p)``, each shape (n,).
+        """
+        P, T, K = self._frame_floats(s)
+        return np.array(P), np.array(T), np.array(K)
+
+    def _frame_floats(self, s: float) -> tuple[list[float], list[float], list[float]]:
+        """:meth:`frame` as lists of floats: :meth:`_frames` for one arc length, unrolled."""
+        x = _arc("s", s)
+        L = self._length
+        # np.mod and Python's % are the same operation on floats (fmod, then the sign fix-up).
+        x = x % L if self._closed else min(max(x, 0.0), L)
+        k = min(max(bisect.bisect_right(self._starts_list, x) - 1, 0), len(self._pieces) - 1)
+        arc, C, D, V, R = self._pieces[k]
+        sig = x - self._starts_list[k]
+        if not arc:
+            return [c + sig * d for c, d in zip(C, D, strict=True)], list(D), [0.0] * len(D)
+        phi = sig / R
+        c, sn = math.cos(phi), math.sin(phi)
+        radial = [c * d + sn * v for d, v in zip(D, V, strict=True)]
+        return (
+            [c0 + R * w for c0, w in zip(C, radial, strict=True)],
+            [-sn * d + c * v for d, v in zip(D, V, strict=True)],
+            [-w / R for w in radial],
+        )
 
     def _candidates(
         self, p: FloatArray, intervals: list[tuple[float, float]], ref: float | None
