@@ -190,3 +190,20 @@ def test_a_changed_parameter_reaches_the_compiled_route():
     )
     a.inverse = "sr"
     assert a.backend == "c"
+
+
+def test_a_new_robot_reaches_the_compiled_route():
+    q = np.array([0.3, -1.0, 0.4, 0.2, -0.7, 0.1])
+    x = np.array([0.1, 0.0, 0.0, 0.0, 0.0, 0.3])
+    rr = ResolvedRate(ROBOTS["fu"])
+
+    class Other:
+        def jacobian(self, q):
+            return np.diag([1.0, 2.0, 3.0, 4.0, 5.0, 6.0])
+
+    rr.robot = Other()
+    assert rr.backend == "python"
+    np.testing.assert_allclose(rr.step(q, x), x / np.arange(1.0, 7.0), rtol=1e-15)
+    rr.robot = ROBOTS["tool"]
+    assert rr.backend == "c"
+    _agree(rr, ResolvedRate(ROBOTS["tool"], backend="python"), q, x)

@@ -320,6 +320,7 @@ class ResolvedRate(InvalidPolicy):
         "singular_tol",
         "w0",
     )
+    _own_jacobian: bool  # set with robot (__setattr__)
 
     def __init__(
         self,
@@ -340,11 +341,7 @@ class ResolvedRate(InvalidPolicy):
                 "robot: expected an object with a jacobian(q) -> (6, n) method, got "
                 f"{type(robot).__name__}"
             )
-        self.robot = robot
-        from velfence.mechanisms.puma560 import Puma560
-
-        # The library's PUMA 560 answers from its validated route (q is checked here once).
-        self._own_jacobian = isinstance(robot, Puma560) and type(robot).jacobian is Puma560.jacobian
+        self.robot = robot  # (sets _own_jacobian)
         self.inverse = check_choice("inverse", inverse, INVERSES)
         self.k0 = check_positive("k0", k0)
         self.w0 = check_positive("w0", w0)
@@ -363,6 +360,12 @@ class ResolvedRate(InvalidPolicy):
         # show. Should the rebuild refuse (backend="c" with inverse="jinv"), the Python route
         # stays in use.
         object.__setattr__(self, name, value)
+        if name == "robot":
+            from velfence.mechanisms.puma560 import Puma560
+
+            # The library's PUMA 560 answers from its validated route (q is checked here once).
+            own = isinstance(value, Puma560) and type(value).jacobian is Puma560.jacobian
+            object.__setattr__(self, "_own_jacobian", own)
         if name in _TUNING and getattr(self, "_backend_choice", None) is not None:
             object.__setattr__(self, "_rr", None)
             object.__setattr__(self, "backend", "python")
