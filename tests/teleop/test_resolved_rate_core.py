@@ -207,3 +207,14 @@ def test_a_new_robot_reaches_the_compiled_route():
     rr.robot = ROBOTS["tool"]
     assert rr.backend == "c"
     _agree(rr, ResolvedRate(ROBOTS["tool"], backend="python"), q, x)
+
+
+def test_without_the_core_auto_is_python_and_c_refuses(monkeypatch):
+    import velfence.shaping.polytope as polytope
+
+    monkeypatch.setattr(polytope, "compiled_nd", lambda: None)
+    rr = ResolvedRate(ROBOTS["fu"])
+    assert rr.backend == "python"
+    assert rr._rr is None
+    with pytest.raises(InvalidParameter, match="backend='c' needs the compiled core"):
+        ResolvedRate(ROBOTS["fu"], backend="c")
