@@ -24,6 +24,12 @@
  *                          rows, d_dot, d_dot_free, active, condition, ee_rate_error,
  *                          ee_rate_error_free): one cycle of configuration control (velfence_cc.h)
  *                          from one kinematics pass; code is VF_CC_OK or a VF_CC_ERR_* code.
+ *   rr_sr_step(arm, q, xdot) -> (q_dot, w, det, k, singular, scale) or an int VF_RR_ERR_* code:
+ *                          one resolved-rate SR step of a 6-joint DH arm (velfence_rr.h); arm a
+ *                          float64 array (37,): the DH rows (a, cos alpha, sin alpha, d, offset)
+ *                          x 6, the tool point (3), k0, w0, singular_tol, max_speed (0: none);
+ *                          q, xdot float64 ndarrays (6,) (anything else: TypeError).
+ *   rr_jacobian(arm, q) -> J, a new float64 array (6, 6) (vf_rr_jacobian), or an int code.
  * The kernels are the unchecked ones: Python keeps its own checks and policies, as with _core.
  */
 #define PY_SSIZE_T_CLEAN
@@ -37,6 +43,7 @@
 
 #include "velfence_cc.h"
 #include "velfence_nd.h"
+#include "velfence_rr.h"
 
 /* ------------------------------------------------------------------ helpers */
 
@@ -1191,6 +1198,86 @@ static PyTypeObject ConfigControlType = {
     .tp_methods = ConfigControl_methods,
 };
 
+/* ------------------------------------------------------------------ resolved rate */
+
+static const double *rr_vector(PyObject *obj, npy_intp n, const char *name)
+{
+    PyArrayObject *a = (PyArrayObject *)obj;
+    if (!PyArray_CheckExact(obj) || PyArray_NDIM(a) != 1 || PyArray_TYPE(a) != NPY_DOUBLE
+        || PyArray_DIM(a, 0) != n || !PyArray_ISCARRAY_RO(a) || !PyArray_ISNOTSWAPPED(a)) {
+        PyErr_Format(PyExc_TypeError, "%s: expected a C-contiguous float64 ndarray (%zd,)", name,
+                     (Py_ssize_t)n);
+        return NULL;
+    }
+    return (const double *)PyArray_DATA(a);
+}
+
+static PyObject *nd_rr_sr_step(PyObject *mod, PyObject *const *args, Py_ssize_t nargs)
+{
+    const double *prm, *q, *xd;
+    vf_rr_arm arm;
+    vf_rr_params par;
+    vf_rr_out out;
+    npy_intp dims = 6;
+    PyObject *qd;
+    int code;
+    (void)mod;
+    if (nargs != 3) {
+        PyErr_Format(PyExc_TypeError, "expected 3 arguments (arm, q, xdot), got %zd", nargs);
+        return NULL;
+    }
+    if ((prm = rr_vector(args[0], 37, "arm")) == NULL || (q = rr_vector(args[1], 6, "q")) == NULL
+        || (xd = rr_vector(args[2], 6, "xdot")) == NULL) {
+        return NULL;
+    }
+    memcpy(arm.dh, prm, 30 * sizeof(double));
+    memcpy(arm.tool, prm + 30, 3 * sizeof(double));
+    par.k0 = prm[33];
+    par.w0 = prm[34];
+    par.singular_tol = prm[35];
+    par.max_speed = prm[36];
+    code = vf_rr_sr_step(&arm, &par, q, xd, &out);
+    if (code != VF_RR_OK) {
+        return PyLong_FromLong(code);
+    }
+    qd = PyArray_SimpleNew(1, &dims, NPY_DOUBLE);
+    if (qd == NULL) {
+        return NULL;
+    }
+    memcpy(PyArray_DATA((PyArrayObject *)qd), out.q_dot, 6 * sizeof(double));
+    return Py_BuildValue("(NdddOd)", qd, out.w, out.det, out.k,
+                         out.singular ? Py_True : Py_False, out.scale);
+}
+
+static PyObject *nd_rr_jacobian(PyObject *mod, PyObject *const *args, Py_ssize_t nargs)
+{
+    const double *prm, *q;
+    vf_rr_arm arm;
+    npy_intp dims[2] = {6, 6};
+    PyObject *J;
+    int code;
+    (void)mod;
+    if (nargs != 2) {
+        PyErr_Format(PyExc_TypeError, "expected 2 arguments (arm, q), got %zd", nargs);
+        return NULL;
+    }
+    if ((prm = rr_vector(args[0], 37, "arm")) == NULL || (q = rr_vector(args[1], 6, "q")) == NULL) {
+        return NULL;
+    }
+    memcpy(arm.dh, prm, 30 * sizeof(double));
+    memcpy(arm.tool, prm + 30, 3 * sizeof(double));
+    J = PyArray_SimpleNew(2, dims, NPY_DOUBLE);
+    if (J == NULL) {
+        return NULL;
+    }
+    code = vf_rr_jacobian(&arm, q, (double *)PyArray_DATA((PyArrayObject *)J));
+    if (code != VF_RR_OK) {
+        Py_DECREF(J);
+        return PyLong_FromLong(code);
+    }
+    return J;
+}
+
 static PyMethodDef nd_methods[] = {
     {"rate_bounds", (PyCFunction)(void (*)(void))nd_rate_bounds, METH_FASTCALL,
      "rate_bounds(kind, prm, dist, speed, idt) -> bounds (k,): vf_nd_rate_bounds."},
@@ -1198,6 +1285,10 @@ static PyMethodDef nd_methods[] = {
      "project(u, G, b) -> (status, x): vf_nd_project_kernel."},
     {"project_full", (PyCFunction)(void (*)(void))nd_project_full, METH_FASTCALL,
      "project_full(u, G, b) -> (status, q, iterations, x, active, multipliers)."},
+    {"rr_sr_step", (PyCFunction)(void (*)(void))nd_rr_sr_step, METH_FASTCALL,
+     "rr_sr_step(arm, q, xdot) -> (q_dot, w, det, k, singular, scale) or a VF_RR_ERR_* code."},
+    {"rr_jacobian", (PyCFunction)(void (*)(void))nd_rr_jacobian, METH_FASTCALL,
+     "rr_jacobian(arm, q) -> J (6, 6): vf_rr_jacobian, or a VF_RR_ERR_* code."},
     {NULL, NULL, 0, NULL},
 };
 

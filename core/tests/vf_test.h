@@ -1,6 +1,6 @@
 /*
- * vf_test.h -- the small harness shared by the core's C tests (test_core.c, test_nd.c, test_cc.c):
- * a counting CHECK macro, a fixed-seed generator, exactly-sized heap buffers (so that
+ * vf_test.h -- the small harness shared by the core's C tests (test_core.c, test_nd.c, test_cc.c,
+ * test_rr.c): a counting CHECK macro, a fixed-seed generator, exactly-sized heap buffers (so that
  * AddressSanitizer sees any overrun) and the "ok <count>" summary the Python tests read.
  *
  * One test program per translation unit: the counters and the generator state are file statics.

@@ -54,6 +54,7 @@ from velfence.geometry.so3 import (
     rotation_vector,
 )
 from velfence.shaping.base import InvalidPolicy, OnInvalid
+from velfence.shaping.polytope import PolytopeBackend, pick_backend
 
 __all__ = [
     "K0",
@@ -288,12 +289,38 @@ class ResolvedRate(InvalidPolicy):
             under ``"jinv"``, or an overflowing result raises
             :class:`~velfence.errors.InvalidInput`; ``"stop"``: the step answers zero rates and
             flags ``stopped``.
+        backend: ``"auto"`` (default): the library's :class:`~velfence.mechanisms.puma560.Puma560`
+            under ``inverse="sr"`` steps in the compiled core (``velfence_core``,
+            ``velfence_rr.h``: kinematics, Jacobian, ``det J`` by LU, the SR solve by Cholesky)
+            when it is installed, else in Python; ``"python"``: the NumPy route (the reference);
+            ``"c"``: the core, required (raises :class:`~velfence.errors.InvalidParameter`
+            without it, for another robot or for ``"jinv"``). The Jacobian is the same bits;
+            ``det``, ``w`` and ``k`` agree to :math:`1000\,\kappa(J)\,\varepsilon` relative and
+            ``qdot`` to :math:`\max(10^{-10}, 1000\,\kappa^{3/2}\varepsilon)` relative,
+            :math:`\kappa = \operatorname{cond}(J J^\top + k I)` (LAPACK's ``det``/``solve``
+            against the core's own factorisations). Any step the core refuses (non-finite
+            input, a refused singular step, overflow) is answered by the Python route, so the
+            ``on_invalid`` policy and its messages are the same. :attr:`backend` reports the one
+            in use.
 
     Raises:
         InvalidParameter: an out-of-range parameter or a robot without ``jacobian``.
     """
 
-    __slots__ = ("_own_jacobian", "inverse", "k0", "max_speed", "robot", "singular_tol", "w0")
+    __slots__ = (
+        "_backend_choice",
+        "_own_jacobian",
+        "_rr",
+        "_rr_arm",
+        "backend",
+        "inverse",
+        "k0",
+        "max_speed",
+        "robot",
+        "singular_tol",
+        "w0",
+    )
+    _own_jacobian: bool  # set with robot (__setattr__)
 
     def __init__(
         self,
@@ -305,18 +332,16 @@ class ResolvedRate(InvalidPolicy):
         max_speed: float | None = None,
         singular_tol: float = 1e-10,
         on_invalid: OnInvalid = "raise",
+        backend: PolytopeBackend = "auto",
     ) -> None:
         super().__init__(on_invalid=on_invalid)
+        self._rr: Any = None
         if not callable(getattr(robot, "jacobian", None)):
             raise InvalidParameter(
                 "robot: expected an object with a jacobian(q) -> (6, n) method, got "
                 f"{type(robot).__name__}"
             )
-        self.robot = robot
-        from velfence.mechanisms.puma560 import Puma560
-
-        # The library's PUMA 560 answers from its validated route (q is checked here once).
-        self._own_jacobian = isinstance(robot, Puma560) and type(robot).jacobian is Puma560.jacobian
+        self.robot = robot  # (sets _own_jacobian)
         self.inverse = check_choice("inverse", inverse, INVERSES)
         self.k0 = check_positive("k0", k0)
         self.w0 = check_positive("w0", w0)
@@ -324,6 +349,49 @@ class ResolvedRate(InvalidPolicy):
             None if max_speed is None else check_positive("max_speed", max_speed, unit="rad/s")
         )
         self.singular_tol = check_positive("singular_tol", singular_tol, allow_zero=True)
+        self.backend: Literal["python", "c"] = "python"
+        self._rr_arm: FloatArray | None = None
+        self._backend_choice: object = backend
+        self._rr, self.backend = self._compiled()
+
+    def __setattr__(self, name: str, value: object) -> None:
+        # The compiled route holds the arm and the law's parameters in one array: a later change
+        # of one of them rebuilds it (or leaves C), so both routes always run what the attributes
+        # show. Should the rebuild refuse (backend="c" with inverse="jinv"), the Python route
+        # stays in use.
+        object.__setattr__(self, name, value)
+        if name == "robot":
+            from velfence.mechanisms.puma560 import Puma560
+
+            # The library's PUMA 560 answers from its validated route (q is checked here once).
+            own = isinstance(value, Puma560) and type(value).jacobian is Puma560.jacobian
+            object.__setattr__(self, "_own_jacobian", own)
+        if name in _TUNING and getattr(self, "_backend_choice", None) is not None:
+            object.__setattr__(self, "_rr", None)
+            object.__setattr__(self, "backend", "python")
+            self._rr, self.backend = self._compiled()
+
+    def _compiled(self) -> tuple[Any, Literal["python", "c"]]:
+        """``(velfence_core._nd.rr_sr_step or None, backend in use)``; sets ``_rr_arm``."""
+        backend = self._backend_choice
+        usable = self._own_jacobian and self.inverse == "sr"
+        core, name = pick_backend(backend, usable=True)
+        if core is None:
+            return None, name
+        if not usable:
+            if backend == "c":
+                raise InvalidParameter(
+                    "backend='c' runs the library's Puma560 under inverse='sr', got "
+                    f"{type(self.robot).__name__} with inverse={self.inverse!r}; use "
+                    "backend='auto' or 'python'"
+                )
+            return None, "python"
+        chain = self.robot._chain  # type: ignore[attr-defined]  # a Puma560 (usable)
+        arm = [v for row in chain._dh_rows for v in row]
+        arm += [*chain._tool_xyz, self.k0, self.w0, self.singular_tol]
+        arm.append(0.0 if self.max_speed is None else self.max_speed)
+        object.__setattr__(self, "_rr_arm", readonly(np.array(arm, dtype=float)))
+        return core.rr_sr_step, "c"
 
     def __repr__(self) -> str:
         return (
@@ -346,6 +414,15 @@ class ResolvedRate(InvalidPolicy):
             InvalidInput: wrong shapes; with ``on_invalid="raise"`` also non-finite input, a
                 singular Jacobian under ``"jinv"`` (message names ``w``) or overflow.
         """
+        if self._rr is not None:
+            qa = _flat("q", q)
+            xa = _flat("xdot", xdot)
+            if qa.shape[0] == 6 and xa.shape[0] == 6:
+                r = self._rr(self._rr_arm, qa, xa)
+                if type(r) is tuple:
+                    out: FloatArray = r[0]
+                    return out
+            return np.array(self._explain(qa, xa).qdot)
         return np.array(self.explain(q, xdot).qdot)
 
     def explain(self, q: ArrayLike, xdot: ArrayLike) -> RateResult:
@@ -358,6 +435,15 @@ class ResolvedRate(InvalidPolicy):
         """
         qa = _flat("q", q)
         xa = _flat("xdot", xdot)
+        if self._rr is not None and qa.shape[0] == 6 and xa.shape[0] == 6:
+            r = self._rr(self._rr_arm, qa, xa)
+            if type(r) is tuple:  # else a refusal: the Python route owns the policy
+                qdot, w, det, k, singular, scale = r
+                return RateResult(readonly(qdot), w, det, k, singular, scale, False)
+        return self._explain(qa, xa)
+
+    def _explain(self, qa: FloatArray, xa: FloatArray) -> RateResult:
+        """:meth:`explain` in Python (the reference route) for validated vectors."""
         n = qa.shape[0]
         if not (np.isfinite(qa).all() and np.isfinite(xa).all()):
             self._invalid(f"non-finite input: q={qa.tolist()}, xdot={xa.tolist()}")
@@ -429,6 +515,9 @@ class ResolvedRate(InvalidPolicy):
     @staticmethod
     def _stopped(n: int, w: float, det: float, k: float, singular: bool) -> RateResult:
         return RateResult(readonly(np.zeros(n)), w, det, k, singular, 1.0, True)
+
+
+_TUNING = frozenset(("robot", "inverse", "k0", "w0", "max_speed", "singular_tol"))
 
 
 def _flat(name: str, x: Any) -> FloatArray:

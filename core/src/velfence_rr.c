@@ -1,0 +1,261 @@
+/*
+ * velfence_rr.c -- resolved rate with the SR inverse for a 6-joint DH arm (see velfence_rr.h).
+ * Build with -ffp-contract=off: the kinematics must stay the Python reference's operations.
+ */
+#include "velfence_rr.h"
+
+#include <math.h>
+#include <stddef.h>
+
+static int all_finite(const double *v, int n)
+{
+    int i;
+    for (i = 0; i < n; i++) {
+        if (!isfinite(v[i])) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
+/* Joint origins o_j, axes z_j (j = 0..5) and the tool point p, in the order of operations of
+ * DHChain._kinematics_lists (u = c y - s x: x' = c x + s y, o' = o + a x' + d z,
+ * y' = ca u + sa z, z' = ca z - sa u). */
+static void kinematics(const vf_rr_arm *arm, const double *q, double o[6][3], double z[6][3],
+                       double p[3])
+{
+    double xx = 1.0, xy = 0.0, xz = 0.0;
+    double yx = 0.0, yy = 1.0, yz = 0.0;
+    double zx = 0.0, zy = 0.0, zz = 1.0;
+    double ox = 0.0, oy = 0.0, oz = 0.0;
+    int i;
+    for (i = 0; i < 6; i++) {
+        const double *r = arm->dh[i];
+        double a = r[0], ca = r[1], sa = r[2], d = r[3];
+        double th = q[i] + r[4];
+        double ct = cos(th), st = sin(th);
+        double ux, uy, uz, nxx, nxy, nxz, nyx, nyy, nyz;
+        o[i][0] = ox;
+        o[i][1] = oy;
+        o[i][2] = oz;
+        z[i][0] = zx;
+        z[i][1] = zy;
+        z[i][2] = zz;
+        ux = ct * yx - st * xx;
+        uy = ct * yy - st * xy;
+        uz = ct * yz - st * xz;
+        nxx = ct * xx + st * yx;
+        nxy = ct * xy + st * yy;
+        nxz = ct * xz + st * yz;
+        xx = nxx;
+        xy = nxy;
+        xz = nxz;
+        ox += a * xx + d * zx;
+        oy += a * xy + d * zy;
+        oz += a * xz + d * zz;
+        nyx = ca * ux + sa * zx;
+        nyy = ca * uy + sa * zy;
+        nyz = ca * uz + sa * zz;
+        zx = ca * zx - sa * ux;
+        zy = ca * zy - sa * uy;
+        zz = ca * zz - sa * uz;
+        yx = nyx;
+        yy = nyy;
+        yz = nyz;
+    }
+    p[0] = ox + arm->tool[0] * xx + arm->tool[1] * yx + arm->tool[2] * zx;
+    p[1] = oy + arm->tool[0] * xy + arm->tool[1] * yy + arm->tool[2] * zy;
+    p[2] = oz + arm->tool[0] * xz + arm->tool[1] * yz + arm->tool[2] * zz;
+}
+
+static void jacobian(const vf_rr_arm *arm, const double *q, double *J)
+{
+    double o[6][3], z[6][3], p[3];
+    int j;
+    kinematics(arm, q, o, z, p);
+    for (j = 0; j < 6; j++) {
+        double dx = p[0] - o[j][0], dy = p[1] - o[j][1], dz = p[2] - o[j][2];
+        double zx = z[j][0], zy = z[j][1], zz = z[j][2];
+        J[0 * 6 + j] = zy * dz - zz * dy;
+        J[1 * 6 + j] = zz * dx - zx * dz;
+        J[2 * 6 + j] = zx * dy - zy * dx;
+        J[3 * 6 + j] = zx;
+        J[4 * 6 + j] = zy;
+        J[5 * 6 + j] = zz;
+    }
+}
+
+int vf_rr_jacobian(const vf_rr_arm *arm, const double *q, double *J)
+{
+    int i;
+    if (arm == NULL || q == NULL || J == NULL) {
+        return VF_RR_ERR_NULL;
+    }
+    if (!all_finite(q, 6)) {
+        for (i = 0; i < 36; i++) {
+            J[i] = 0.0;
+        }
+        return VF_RR_ERR_NONFINITE;
+    }
+    jacobian(arm, q, J);
+    return VF_RR_OK;
+}
+
+/* det of the 6 x 6 row-major M by LU with partial pivoting (M is overwritten). */
+static double det6(double *M)
+{
+    double det = 1.0;
+    int c, r, j;
+    for (c = 0; c < 6; c++) {
+        int piv = c;
+        double best = fabs(M[c * 6 + c]);
+        for (r = c + 1; r < 6; r++) {
+            double v = fabs(M[r * 6 + c]);
+            if (v > best) {
+                best = v;
+                piv = r;
+            }
+        }
+        if (best == 0.0) {
+            return 0.0;
+        }
+        if (piv != c) {
+            for (j = 0; j < 6; j++) {
+                double t = M[c * 6 + j];
+                M[c * 6 + j] = M[piv * 6 + j];
+                M[piv * 6 + j] = t;
+            }
+            det = -det;
+        }
+        det *= M[c * 6 + c];
+        for (r = c + 1; r < 6; r++) {
+            double f = M[r * 6 + c] / M[c * 6 + c];
+            for (j = c + 1; j < 6; j++) {
+                M[r * 6 + j] -= f * M[c * 6 + j];
+            }
+        }
+    }
+    return det;
+}
+
+static void stop(vf_rr_out *out)
+{
+    int i;
+    for (i = 0; i < 6; i++) {
+        out->q_dot[i] = 0.0;
+    }
+    out->scale = 1.0;
+}
+
+int vf_rr_sr_step(const vf_rr_arm *arm, const vf_rr_params *prm, const double *q,
+                  const double *xdot, vf_rr_out *out)
+{
+    double J[36], M[36], A[36], y[6];
+    double w, det, k;
+    int i, j, l;
+    if (out == NULL) {
+        return VF_RR_ERR_NULL;
+    }
+    out->w = out->det = out->k = NAN;
+    out->singular = 0;
+    stop(out);
+    if (arm == NULL || prm == NULL || q == NULL || xdot == NULL) {
+        return VF_RR_ERR_NULL;
+    }
+    if (!(isfinite(prm->k0) && prm->k0 > 0.0 && isfinite(prm->w0) && prm->w0 > 0.0
+          && prm->singular_tol >= 0.0 && prm->max_speed >= 0.0 && !isnan(prm->singular_tol)
+          && !isnan(prm->max_speed))
+        || !all_finite(arm->dh[0], 30) || !all_finite(arm->tool, 3)) {
+        return VF_RR_ERR_ARGUMENT;
+    }
+    if (!all_finite(q, 6) || !all_finite(xdot, 6)) {
+        return VF_RR_ERR_NONFINITE;
+    }
+    jacobian(arm, q, J);
+    for (i = 0; i < 36; i++) {
+        M[i] = J[i];
+    }
+    det = det6(M);
+    w = fabs(det);
+    out->det = det;
+    out->w = w;
+    out->singular = w <= prm->singular_tol;
+    /* eq. 37, as ResolvedRate.explain writes it */
+    k = w >= prm->w0 ? 0.0 : prm->k0 * pow(1.0 - w / prm->w0, 2.0);
+    out->k = k;
+    if (k == 0.0 && out->singular) {
+        return VF_RR_ERR_SINGULAR;
+    }
+    /* A = J J^T + k I (lower triangle), then its Cholesky factor L in place. */
+    for (i = 0; i < 6; i++) {
+        for (j = 0; j <= i; j++) {
+            double s = 0.0;
+            for (l = 0; l < 6; l++) {
+                s += J[i * 6 + l] * J[j * 6 + l];
+            }
+            A[i * 6 + j] = s;
+        }
+        A[i * 6 + i] += k;
+    }
+    for (j = 0; j < 6; j++) {
+        double s = A[j * 6 + j];
+        for (l = 0; l < j; l++) {
+            s -= A[j * 6 + l] * A[j * 6 + l];
+        }
+        if (!(s > 0.0) || !isfinite(s)) {
+            return VF_RR_ERR_FACTOR;
+        }
+        s = sqrt(s);
+        A[j * 6 + j] = s;
+        for (i = j + 1; i < 6; i++) {
+            double t = A[i * 6 + j];
+            for (l = 0; l < j; l++) {
+                t -= A[i * 6 + l] * A[j * 6 + l];
+            }
+            A[i * 6 + j] = t / s;
+        }
+    }
+    /* L L^T y = x' */
+    for (i = 0; i < 6; i++) {
+        double t = xdot[i];
+        for (l = 0; l < i; l++) {
+            t -= A[i * 6 + l] * y[l];
+        }
+        y[i] = t / A[i * 6 + i];
+    }
+    for (i = 5; i >= 0; i--) {
+        double t = y[i];
+        for (l = i + 1; l < 6; l++) {
+            t -= A[l * 6 + i] * y[l];
+        }
+        y[i] = t / A[i * 6 + i];
+    }
+    /* q' = J^T y, the cap */
+    {
+        double qd[6], peak = 0.0, scale = 1.0;
+        for (j = 0; j < 6; j++) {
+            double s = 0.0;
+            for (i = 0; i < 6; i++) {
+                s += J[i * 6 + j] * y[i];
+            }
+            if (!isfinite(s)) {
+                return VF_RR_ERR_OVERFLOW;
+            }
+            qd[j] = s;
+            if (fabs(s) > peak) {
+                peak = fabs(s);
+            }
+        }
+        if (prm->max_speed > 0.0 && peak > prm->max_speed) {
+            scale = prm->max_speed / peak;
+            for (j = 0; j < 6; j++) {
+                qd[j] = qd[j] * scale;
+            }
+        }
+        for (j = 0; j < 6; j++) {
+            out->q_dot[j] = qd[j];
+        }
+        out->scale = scale;
+    }
+    return VF_RR_OK;
+}
