@@ -43,7 +43,7 @@ extern "C" {
 #define VF_RR_ERR_NONFINITE (-3) /* q or x' holds NaN or +-inf */
 #define VF_RR_ERR_SINGULAR (-4)  /* k = 0 and w <= singular_tol (only when singular_tol >= w0) */
 #define VF_RR_ERR_FACTOR (-5)    /* J J^T + k I not numerically positive definite */
-#define VF_RR_ERR_OVERFLOW (-6)  /* finite input so large that a joint rate overflowed */
+#define VF_RR_ERR_OVERFLOW (-6)  /* finite input so large that det J or a joint rate overflowed */
 
 /* The arm: 6 standard-DH rows and the tool point. Read-only, shareable. */
 typedef struct vf_rr_arm {
@@ -65,7 +65,8 @@ typedef struct vf_rr_out {
     double w;        /* manipulability |det J| */
     double det;      /* signed det J */
     double k;        /* damping used */
-    double scale;    /* cap factor in (0, 1] (1 when not limiting) */
+    double scale;    /* cap factor max_speed / peak in [0, 1] (1 when not limiting; 0 only when
+                        that quotient underflows) */
     int32_t singular; /* 1 when w <= singular_tol */
 } vf_rr_out;
 

@@ -179,6 +179,11 @@ int vf_rr_sr_step(const vf_rr_arm *arm, const vf_rr_params *prm, const double *q
     w = fabs(det);
     out->det = det;
     out->w = w;
+    if (!isfinite(det)) {
+        /* a finite arm so large that det J overflowed (found by core/fuzz/fuzz_rr.c: VF_RR_OK
+         * with w = det = inf) */
+        return VF_RR_ERR_OVERFLOW;
+    }
     out->singular = w <= prm->singular_tol;
     /* eq. 37, as ResolvedRate.explain writes it */
     k = w >= prm->w0 ? 0.0 : prm->k0 * pow(1.0 - w / prm->w0, 2.0);
@@ -247,9 +252,11 @@ int vf_rr_sr_step(const vf_rr_arm *arm, const vf_rr_params *prm, const double *q
             }
         }
         if (prm->max_speed > 0.0 && peak > prm->max_speed) {
+            /* (q / peak) max_speed: |q / peak| <= 1 meets the cap exactly; q (max_speed / peak)
+             * rounded 5 to 5.000000000000001 (found by core/fuzz/fuzz_rr.c) */
             scale = prm->max_speed / peak;
             for (j = 0; j < 6; j++) {
-                qd[j] = qd[j] * scale;
+                qd[j] = qd[j] / peak * prm->max_speed;
             }
         }
         for (j = 0; j < 6; j++) {

@@ -179,8 +179,8 @@ static void check_state(const vf_rr_arm *arm, const double *q, const double *x, 
         if (peak > max_speed) {
             CHECK(capped.scale == max_speed / peak, "scale");
             for (j = 0; j < 6; j++) {
-                CHECK(capped.q_dot[j] == out.q_dot[j] * capped.scale, "capped q'");
-                CHECK(fabs(capped.q_dot[j]) <= max_speed * (1.0 + 1e-15), "cap held");
+                CHECK(capped.q_dot[j] == out.q_dot[j] / peak * max_speed, "capped q'");
+                CHECK(fabs(capped.q_dot[j]) <= max_speed, "cap held exactly");
             }
         } else {
             CHECK(capped.scale == 1.0 && memcmp(capped.q_dot, out.q_dot, sizeof out.q_dot) == 0,
@@ -279,6 +279,41 @@ int main(void)
             x[i] = normal();
         }
         check_state(&arm, q, x, uniform(0.1, 3.0));
+    }
+    /* fuzz_rr's findings: the cap held exactly where q (max_speed / peak) rounded above it, and
+     * a finite arm whose det J overflows is VF_RR_ERR_OVERFLOW, not VF_RR_OK with w = inf */
+    {
+        vf_rr_arm big;
+        vf_rr_params p2 = {2.0, 2.0, 2.0, 0.0};
+        double q2[6] = {2, -1, 2, 2, 2, 2}, x2[6] = {2, 2, 2, 2, 2, 2};
+        int r;
+        for (i = 0; i < 6; i++) {
+            for (j = 0; j < 5; j++) {
+                big.dh[i][j] = 2.0;
+            }
+        }
+        big.dh[0][0] = 2.5411376953125;
+        big.dh[0][3] = -1.0000000000000001e+300;
+        big.dh[0][4] = -1.0000000000000001e+300;
+        big.dh[2][3] = 5.5255569660239963e+141;
+        big.tool[0] = big.tool[1] = big.tool[2] = 2.0;
+        r = vf_rr_sr_step(&big, &p2, q2, x2, &out);
+        CHECK(r == VF_RR_ERR_OVERFLOW && out.q_dot[0] == 0.0 && out.scale == 1.0,
+              "det J overflowed: %d", r);
+    }
+    for (t = 0; t < 2000; t++) {
+        double qq[6], xx[6], ms = uniform(0.01, 5.0);
+        vf_rr_params p3 = {0.025, 0.014, 1e-10, 0.0};
+        for (j = 0; j < 6; j++) {
+            qq[j] = uniform(-3.0, 3.0);
+            xx[j] = normal() * 10.0;
+        }
+        p3.max_speed = ms;
+        if (vf_rr_sr_step(&arm, &p3, qq, xx, &out) == VF_RR_OK) {
+            for (j = 0; j < 6; j++) {
+                CHECK(fabs(out.q_dot[j]) <= ms, "cap exact: %.17g > %.17g", out.q_dot[j], ms);
+            }
+        }
     }
     return finish();
 }

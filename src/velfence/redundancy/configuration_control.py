@@ -891,7 +891,9 @@ class ConfigurationController(ChainObstacleBase):
             # stopped approach stays stopped; the end-effector task is what slows down.
             peak = float(np.max(np.abs(q_dot)))
             if peak > self.max_speed:
-                q_dot = q_dot * (self.max_speed / peak)
+                # (q / peak) max_speed: |q / peak| <= 1, so the cap holds exactly; the factor
+                # max_speed / peak first could round |q̇| one ulp above it (or be subnormal).
+                q_dot = q_dot / peak * self.max_speed
         d_dot = rows @ q_dot
         e = je @ q_dot - yr
         ee_rate_error = math.sqrt(float(e @ e))  # = np.linalg.norm(e)

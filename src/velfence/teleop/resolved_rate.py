@@ -251,7 +251,8 @@ class RateResult:
             :math:`J^{-1}` runs), NaN for a non-square one.
         k: Damping used (0 for ``inverse="jinv"`` and outside the damped neighbourhood).
         singular: ``True`` when ``w <= singular_tol``: :math:`J^{-1}` is refused there.
-        scale: Factor in ``(0, 1]`` applied by ``max_speed`` (1 when not limiting).
+        scale: Factor ``max_speed / peak`` in ``[0, 1]`` applied by ``max_speed`` (1 when not
+            limiting; 0 only when that quotient underflows).
         stopped: ``True`` when ``on_invalid="stop"`` turned a refused step into zero rates.
     """
 
@@ -499,7 +500,9 @@ class ResolvedRate(InvalidPolicy):
             peak = float(np.max(np.abs(qdot)))
             if peak > self.max_speed:
                 scale = self.max_speed / peak
-                qdot = qdot * scale
+                # (q / peak) max_speed: |q / peak| <= 1, so the cap holds exactly; q scale
+                # could round one ulp above it.
+                qdot = qdot / peak * self.max_speed
         return RateResult(readonly(qdot), w, det, k, singular, scale, False)
 
     def _singular(self, n: int, w: float, det: float, q: FloatArray) -> RateResult:
