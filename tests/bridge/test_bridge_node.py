@@ -72,7 +72,8 @@ def test_1khz_stream_answered_one_for_one_and_equal_to_shape(bridge, tmp_path) -
             ],
             "rate_hz": 1000.0,
             "depth": 5000,
-            "expect_nonzero": True,  # every answer carries linear.z = 0.25; a watchdog zero does not
+            # every answer carries linear.z = 0.25; a watchdog zero does not
+            "expect_nonzero": True,
         },
         tmp_path,
         bridge=b,
