@@ -95,7 +95,7 @@ def _cov(log: str, event: str) -> tuple[int, int]:
     return int(m.group(1)), int(m.group(2))
 
 
-@pytest.mark.slow  # four builds and 4 x 10 s of fuzzing
+@pytest.mark.slow  # one build of the four targets and 4 x 10 s of fuzzing
 @pytest.mark.parametrize("law", ["exact", "patent", "nd", "cc"])
 def test_bounded_libfuzzer_run(targets: Path, tmp_path: Path, law: str) -> None:
     """A fixed-seed run from the seed corpus: no sanitizer finding, no contract violation."""
@@ -172,14 +172,17 @@ def test_former_findings_run_clean_and_a_spoiled_result_aborts(
 def test_nd_and_cc_findings_run_clean_and_a_spoiled_result_aborts(
     libfuzzer: None, tmp_path: Path
 ) -> None:
-    """The n-D findings (core/fuzz/crashes/nd-*: an error without the stop result, +inf distances
-    under VF_ND_OK, a batch that wrote before its NULL code, OPTIMAL at a NaN row; all fixed) run
-    clean through fuzz_nd; and the n-D and configuration-control assertions are live: built with
-    --control-tamper (every OK velocity or joint rate spoiled with a NaN) each target aborts on
-    its seeds, printing the decoded input."""
+    """The n-D and configuration-control findings (core/fuzz/crashes/nd-*: an error without the
+    stop result, +inf distances under VF_ND_OK, a batch that wrote before its NULL code, OPTIMAL
+    at a NaN row; cc-*: a speed cap missed through a subnormal factor; all fixed) run clean
+    through fuzz_nd and fuzz_cc; and the assertions are live: built with --control-tamper (every
+    OK velocity or joint rate spoiled with a NaN) each target aborts on its seeds, printing the
+    decoded input."""
     found = sorted(str(f) for f in (FUZZ / "crashes").glob("nd-*"))
+    found_cc = sorted(str(f) for f in (FUZZ / "crashes").glob("cc-*"))
     assert len(found) >= 4
-    _build(tmp_path / "build", "nd")
+    assert len(found_cc) >= 1
+    _build(tmp_path / "build", "nd cc")
     _build(tmp_path / "tamper", "nd cc", "--control-tamper")
     clean = subprocess.run(
         [str(tmp_path / "build" / "fuzz_nd"), *found],
@@ -188,6 +191,11 @@ def test_nd_and_cc_findings_run_clean_and_a_spoiled_result_aborts(
     assert clean.returncode == 0, clean.stderr[-4000:]
     for f in found:
         assert f"Running: {f}" in clean.stderr
+    clean = subprocess.run(
+        [str(tmp_path / "build" / "fuzz_cc"), *found_cc],
+        capture_output=True, text=True, timeout=60, env=ENV, check=False,
+    )  # fmt: skip
+    assert clean.returncode == 0, clean.stderr[-4000:]
     for target, banner, decoded in (
         ("nd", "contract violated (n-D law): VF_ND_OK with a non-finite velocity", "polytope nf="),
         ("cc", "velfence_cc contract violated: VF_CC_OK with a non-finite double", "problem n="),
