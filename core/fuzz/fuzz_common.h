@@ -1,5 +1,6 @@
 /*
- * fuzz_common.h -- shared by the libFuzzer targets of core/fuzz/ (fuzz_exact.c, fuzz_patent.c).
+ * fuzz_common.h -- shared by the libFuzzer targets of core/fuzz/ (fuzz_exact.c, fuzz_patent.c;
+ * the byte decoding also by fuzz_nd.c and fuzz_cc.c).
  *
  * The input bytes are read by a small cursor (fz_reader): every value a target needs is taken from
  * the bytes in order, and an exhausted input reads as zeros. Doubles come in four encodings chosen
@@ -27,6 +28,9 @@
  * -DVF_FUZZ_STRICT_AUX_DISTANCES=0) or at run time by the environment variable of that name
  * (=1 or =0, read once at start-up). VF_FUZZ_CONTROL_TAMPER (build.sh --control-tamper) makes
  * fuzz_exact spoil every VF_OK result, for the tests' proof that a violation aborts.
+ *
+ * VF_FUZZ_BYTES_ONLY (defined by fuzz_nd.c and fuzz_cc.c before the include): only the byte
+ * cursor, the double decoder, fz_alloc and fz_same_bits; no polygon, states or 2-D contract.
  */
 #ifndef VF_FUZZ_COMMON_H
 #define VF_FUZZ_COMMON_H
@@ -40,6 +44,7 @@
 
 #include "velfence_core.h"
 
+#ifndef VF_FUZZ_BYTES_ONLY
 #ifndef VF_FUZZ_STRICT_AUX_DISTANCES
 #define VF_FUZZ_STRICT_AUX_DISTANCES 1
 #endif
@@ -60,6 +65,7 @@ int LLVMFuzzerInitialize(int *argc, char ***argv)
     }
     return 0;
 }
+#endif /* VF_FUZZ_BYTES_ONLY */
 
 #define FZ_MAX_N 24      /* structured polygons: 3..24 edges (raw: n in -23..23) */
 #define FZ_MAX_STATES 32 /* states per input */
@@ -120,6 +126,19 @@ static double fz_double(fz_reader *r)
     }
 }
 
+static double *fz_alloc(int32_t count)
+{
+    /* exactly count doubles (at least one byte so that the pointer is not NULL) */
+    return (double *)malloc(count > 0 ? (size_t)count * sizeof(double) : 1);
+}
+
+static int fz_same_bits(double a, double b)
+{
+    return memcmp(&a, &b, sizeof a) == 0;
+}
+
+#ifndef VF_FUZZ_BYTES_ONLY /* the 2-D targets: polygons, states, their contract */
+
 /* A polygon with owned, exactly sized arrays. */
 typedef struct fz_polygon {
     vf_polygon poly;
@@ -133,12 +152,6 @@ static void fz_polygon_free(fz_polygon *g)
     free(g->ny);
     free(g->off);
     free(g->beta);
-}
-
-static double *fz_alloc(int32_t count)
-{
-    /* exactly count doubles (at least one byte so that the pointer is not NULL) */
-    return (double *)malloc(count > 0 ? (size_t)count * sizeof(double) : 1);
 }
 
 /* Python's float % for a positive divisor (as velfence_core.c's py_mod). */
@@ -272,11 +285,6 @@ static int fz_all_distances_finite(const vf_polygon *p, double px, double py)
     return 1;
 }
 
-static int fz_same_bits(double a, double b)
-{
-    return memcmp(&a, &b, sizeof a) == 0;
-}
-
 static int fz_same_result(const vf_result *a, const vf_result *b)
 {
     return fz_same_bits(a->ox, b->ox) && fz_same_bits(a->oy, b->oy) && a->zone == b->zone
@@ -321,8 +329,6 @@ static void fz_print_result(const char *what, int rc, const vf_result *r)
             what, rc, r->ox, r->oy, (int)r->zone, (int)r->primary, (int)r->secondary, r->d1, r->d2,
             r->sx, r->sy, (int)r->stages);
 }
-
-#endif /* VF_FUZZ_COMMON_H */
 
 /* The states (px, py, vx, vy) of an input: the rest of the bytes, at most FZ_MAX_STATES. */
 typedef struct fz_states {
@@ -412,3 +418,7 @@ static int fz_common_contract(const char *law, const vf_polygon *poly, double px
     }
     return 1;
 }
+
+#endif /* VF_FUZZ_BYTES_ONLY */
+
+#endif /* VF_FUZZ_COMMON_H */

@@ -1,6 +1,7 @@
-"""Writes the seed corpus of the libFuzzer targets (core/fuzz/corpus/{exact,patent}/).
+"""Writes the seed corpus of the libFuzzer targets (core/fuzz/corpus/{exact,patent,nd,cc}/).
 
-The byte layout is the one fuzz_common.h, fuzz_exact.c and fuzz_patent.c document. Run from any
+The byte layout is the one fuzz_common.h, fuzz_exact.c, fuzz_patent.c, fuzz_nd.c and fuzz_cc.c
+document. Run from any
 directory: ``python3 core/fuzz/make_corpus.py``. Deterministic (no randomness): the same files
 every time.
 """
@@ -9,6 +10,7 @@ from __future__ import annotations
 
 import math
 import struct
+from collections.abc import Iterator
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
@@ -83,6 +85,142 @@ def patent_law(dmax: float, k: float, theta: float, idt: float | None) -> bytes:
     return dbl(dmax) + dbl(k) + dbl(theta) + tail
 
 
+def i16(x: float, unit: float = 8192.0) -> bytes:
+    """An int16 value as fuzz_nd / fuzz_cc read it (x * unit, little-endian)."""
+    return struct.pack("<h", round(x * unit))
+
+
+def lcg(seed: int) -> Iterator[float]:
+    """A fixed pseudo-random sequence in [-1, 1) (no randomness: the same seeds every time)."""
+    state = seed
+    while True:
+        state = (state * 6364136223846793005 + 1442695040888963407) % 2**64
+        yield ((state >> 11) / 2**53) * 2.0 - 1.0
+
+
+def nd_polytope(normals: list[list[float]], centre: list[float], widths: list[int]) -> bytes:
+    """Encode fuzz_nd's structured polytope (mode 0).
+
+    Normals as int16 / 8192 (normalised by the target), the centre as doubles, the facet widths
+    (1 + byte) / 64.
+    """
+    dim, nf = len(centre), len(normals)
+    out = bytes([0, dim - 1, nf - 1]) + b"".join(dbl(c) for c in centre)
+    for row, w in zip(normals, widths, strict=True):
+        out += b"".join(i16(x) for x in row) + bytes([w])
+    return out
+
+
+def nd_states(rows: list[tuple[list[float], list[float]]]) -> bytes:
+    """fuzz_nd's states: p then v, dim doubles each."""
+    return b"".join(b"".join(dbl(x) for x in p) + b"".join(dbl(x) for x in v) for p, v in rows)
+
+
+def nd_seeds() -> dict[str, bytes]:
+    """Seeds of fuzz_nd: the law (box, simplex, random 5-D, interval, raw) and the projection."""
+    lin = (0.25, 1.0, 0.25, 0.0, 0.0, 0.0)
+    tz = (4.0, 1.0, 2.0, 0.0625, 0.03125, 0.28125)
+    box3 = [[1.0 if k == i // 2 else 0.0 for k in range(3)] for i in range(6)]
+    box3 = [[-x if i % 2 else x for x in row] for i, row in enumerate(box3)]
+    tri = [[0.0, 1.0], [-0.8660400390625, -0.5], [0.8660400390625, -0.5]]
+    rnd = lcg(5)
+    five = [[next(rnd) for _ in range(5)] for _ in range(12)]
+    box_states = nd_states([
+        ([0.0, 0.0, 0.0], [1.0, 0.5, -0.25]),  # free
+        ([0.875, 0.0, 0.0], [1.0, 0.0, 0.0]),  # buffer
+        ([0.875, 0.875, 0.0], [1.0, 1.0, 0.0]),  # corner
+        ([1.25, 0.0, 0.0], [0.0, 0.0, 0.0]),  # outside
+        ([1.25, 1.25, 1.25], [1.0, 1.0, 1.0]),  # outside corner
+        ([math.nan, 0.0, 0.0], [1.0, 0.0, 0.0]),  # non-finite
+        ([1.7976931348623157e308, 1.7976931348623157e308, 0.0], [1.0, 0.0, 0.0]),  # far
+        ([0.5, 0.0, 0.0], [1e150, -1e150, 1e150]),  # huge command
+    ])  # fmt: skip
+    two = nd_states([([0.0, 0.0], [1.0, 0.5]), ([0.0, 0.875], [0.0, 1.0]),
+                     ([0.0, 1.25], [0.5, 0.5]), ([0.0, 0.0], [math.inf, 0.0])])  # fmt: skip
+    five_states = nd_states([([0.0] * 5, [1.0, -1.0, 0.5, 0.25, 0.0]),
+                             ([0.5, 0.5, 0.5, 0.5, 0.5], [2.0, 2.0, 2.0, 2.0, 2.0])])  # fmt: skip
+    raw = bytes([1, 2, 4])  # raw: dim 2, nf 4 (the box [-1, 1] x [-0.5, 0.5])
+    for row, off in (([1.0, 0.0], -1.0), ([-1.0, 0.0], -1.0), ([0.0, 1.0], -0.5),
+                     ([0.0, -1.0], -0.5)):  # fmt: skip
+        raw += dbl(row[0]) + dbl(row[1]) + dbl(off)
+    raw += dbl(0.0) + dbl(0.0)
+    box_law = exact_law(0, lin, 1, None)
+    proj = bytes([0, 2, 5]) + i16(0.25) + i16(-0.5) + i16(1.0)  # n 3, m 5, x0
+    for r in range(5):
+        proj += b"".join(i16(x) for x in ([1.0, 0.5, -0.25], [0.0, 1.0, 0.0], [-1.0, 0.0, 1.0],
+                                          [0.5, 0.5, 0.5], [0.0, 0.0, 2.0])[r])  # fmt: skip
+        proj += bytes([255 if r == 4 else 16 * r])  # -inf on the last row
+    proj += dbl(3.0) + dbl(-2.0) + dbl(1.0)
+    proj_raw = bytes([1, 2, 2]) + dbl(1.0) + dbl(0.0) + dbl(-1.0) + dbl(1.0)
+    proj_raw += dbl(1.0) + dbl(-math.inf) + dbl(0.0) + dbl(0.0)
+    return {
+        "box-3d-buffer": b"\0" + nd_polytope(box3, [0.0] * 3, [63] * 6) + box_law + box_states,
+        "triangle-three-zone-dt": b"\0" + nd_polytope(tri, [0.5, -0.25], [63, 31, 95])
+        + exact_law(2, tz, 0, 100.0) + two,
+        "random-5d-profile-dt": b"\0" + nd_polytope(five, [0.0] * 5, list(range(40, 52)))
+        + exact_law(1, lin, 0, 20.0) + five_states,
+        "interval-1d": b"\0" + nd_polytope([[1.0], [-1.0]], [0.0], [63, 63]) + box_law
+        + nd_states([([0.9], [1.0]), ([1.5], [0.0]), ([-0.99], [-3.0])]),
+        "box-2d-raw": b"\0" + raw + box_law + two,
+        "null-cases": b"\x80" + nd_polytope(box3, [0.0] * 3, [63] * 6) + box_law + bytes([5]),
+        "project-feasible": b"\x40" + proj,
+        "project-raw": b"\x40" + proj_raw,
+        "project-null-cases": b"\xc0" + proj + bytes([4]),
+    }  # fmt: skip
+
+
+Obstacle = tuple[int, int, tuple[float, float, float], int]
+
+
+def cc_chain(planar: bool, joints: list[tuple[int, int, int]], lrad: list[int],
+             obstacles: list[Obstacle], params: tuple[int, ...],
+             yr: list[float]) -> bytes:  # fmt: skip
+    """Encode fuzz_cc's structured problem.
+
+    Joints (length, angle, twist bytes), capsule radius bytes, obstacles (link, place, offset [m],
+    radius byte), the parameter bytes (w_z, lambda, K_z, h, max_speed, recheck, rounds) and y_r.
+    """
+    out = bytes([1 if planar else 0, len(joints) - 1])
+    for j in joints:
+        out += bytes(j)
+    out += bytes([len(obstacles)]) + bytes(lrad)
+    for link, place, off, rho in obstacles:
+        out += bytes([link, place]) + b"".join(i16(x, 65536.0) for x in off) + bytes([rho])
+    return out + bytes(params) + b"".join(dbl(y) for y in yr)
+
+
+def cc_seeds() -> dict[str, bytes]:
+    """Seeds of fuzz_cc: planar and spatial chains among obstacles, raw data, the NULL cases."""
+    planar = cc_chain(True, [(76, 20, 0), (64, 40, 0), (50, 200, 0)], [4, 4, 2],
+                      [(1, 128, (0.0625, 0.03125, 0.0), 38), (2, 200, (-0.0625, 0.0, 0.0), 25)],
+                      (4, 2, 16, 1, 0, 1, 0), [0.25, -0.125])  # fmt: skip
+    spatial = cc_chain(False, [(60, 10, 1), (70, 30, 2), (50, 60, 0), (65, 90, 1), (40, 120, 2),
+                               (55, 150, 0), (30, 180, 1)], [3, 3, 3, 2, 2, 2, 1],
+                       [(0, 100, (0.03125, 0.0625, 0.0), 50), (3, 50, (0.0, -0.0625, 0.03125), 40),
+                        (5, 255, (0.09375, 0.0, 0.0), 60), (6, 0, (0.0, 0.0, 0.0625), 30)],
+                       (4, 2, 32, 26, 33, 1, 0), [0.125, 0.25, -0.125])  # fmt: skip
+    free = cc_chain(True, [(100, 0, 0), (100, 64, 0)], [0, 0], [], (0, 0, 0, 1, 0, 0, 0),
+                    [1.0, 0.5])  # fmt: skip
+    raw = bytes([1, 1, 1])  # raw: n 2, m 3, k 1
+    for x in (0, 0, 0, 0.25, 0, 0, 0.5, 0.125, 0):  # P
+        raw += dbl(x)
+    for x in (0, 0, 1, 0, 1, 0):  # axes
+        raw += dbl(x)
+    for x in (0.015625, 0.0, 0.25, 0.0625, 0.0, 0.25, 0.125, -0.25, 0.0):  # lrad, C, rho, y_r
+        raw += dbl(x)
+    for x in (1.0, 1e4, 0.01, 1.0, 0.0, 2.0):  # w_e, w_z, lambda, K_z, h, max_speed
+        raw += dbl(x)
+    raw += bytes([1]) + struct.pack("<h", 5)
+    return {
+        "planar-3-two-obstacles": b"\0" + planar,
+        "spatial-7-four-obstacles-capped": b"\0" + spatial,
+        "planar-2-free": b"\0" + free,
+        "spatial-raw": raw,
+        "overwrite-lambda-nan": b"\2" + planar + bytes([8, 0, 64 + 10]),
+        "null-cases": b"\x80" + planar + bytes([14]),
+    }
+
+
 def main() -> None:
     """Write every seed file."""
     lin = (0.25, 1.0, 0.25, 0.0, 0.0, 0.0)
@@ -111,6 +249,11 @@ def main() -> None:
         folder.mkdir(parents=True, exist_ok=True)
         for name, head in seeds.items():
             data = head if name == "null-cases" else head + states(STATES)
+            (folder / name).write_bytes(data)
+    for target, seeds in (("nd", nd_seeds()), ("cc", cc_seeds())):
+        folder = HERE / "corpus" / target
+        folder.mkdir(parents=True, exist_ok=True)
+        for name, data in seeds.items():
             (folder / name).write_bytes(data)
     print("seed corpus written to", HERE / "corpus")
 

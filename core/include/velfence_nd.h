@@ -84,7 +84,7 @@ int vf_nd_project_kernel(const double *u, const double *G, const double *b, int3
 
 /* The checked projection: VF_ND_OK (then *status is VF_ND_PROJECT_*), VF_ND_ERR_NULL,
  * VF_ND_ERR_ARGUMENT (m < 0, n < 1, non-finite G), VF_ND_ERR_NONFINITE (u non-finite, b NaN or
- * +inf), VF_ND_ERR_OVERFLOW (x overflowed). On an error x = 0, *q = 0, *iters = 0 and *status =
+ * +inf), VF_ND_ERR_OVERFLOW (x overflowed, or a row G_i . x with a bound did). On an error x = 0, *q = 0, *iters = 0 and *status =
  * VF_ND_PROJECT_INFEASIBLE (when status is not NULL). */
 int vf_nd_project(const double *u, const double *G, const double *b, int32_t m, int32_t n,
                   double *x, double *lam, int32_t *act, double *wsf, int32_t *q, int32_t *iters,
@@ -142,7 +142,8 @@ void vf_nd_kernel(const vf_nd_polytope *poly, const vf_nd_law *law, const double
                   vf_nd_result *res);
 
 /* The checked law: VF_ND_OK, VF_ND_ERR_NULL, VF_ND_ERR_NONFINITE (p or v non-finite),
- * VF_ND_ERR_OVERFLOW (the output overflowed). The polytope and law are NOT re-checked per call:
+ * VF_ND_ERR_OVERFLOW (the output overflowed, or d1/d2 did: a position so far away that the signed
+ * distances N.p - off are not finite; d2 = +inf only when absent, nf = 1). The polytope and law are NOT re-checked per call:
  * validate them once with vf_nd_check. On an error: out = 0, the stop result in *res. */
 int vf_nd_shape(const vf_nd_polytope *poly, const vf_nd_law *law, const double *p,
                 const double *v, double *out, int32_t *active, vf_nd_scratch *scratch,

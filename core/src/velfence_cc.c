@@ -755,9 +755,11 @@ int vf_cc_solve(const vf_cc_problem *pb, const double *P, const double *axes, co
             peak = a > peak ? a : peak;
         }
         if (peak > pb->max_speed) {
-            double f = pb->max_speed / peak;
+            /* (q / peak) max_speed, not q (max_speed / peak): the factor max_speed / peak can be
+             * subnormal (found by core/fuzz/fuzz_cc.c: max_speed 2.9e-188 over a peak of 1e127
+             * left |q_dot| 3.9e-10 above the cap); |q / peak| <= 1 meets the cap exactly */
             for (i = 0; i < n; i++) {
-                out->q_dot[i] = out->q_dot[i] * f;
+                out->q_dot[i] = out->q_dot[i] / peak * pb->max_speed;
             }
         }
     }

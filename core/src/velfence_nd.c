@@ -359,11 +359,14 @@ int vf_nd_project(const double *u, const double *G, const double *b, int32_t m, 
     *q = 0;
     *iters = 0;
     *status = VF_ND_PROJECT_INFEASIBLE;
-    if (n < 1 || m < 0) {
+    if (n < 1) {
         return VF_ND_ERR_ARGUMENT;
     }
     for (k = 0; k < n; k++) {
-        x[k] = 0.0;
+        x[k] = 0.0; /* the stop result, also for m < 0 (found by core/fuzz/fuzz_nd.c) */
+    }
+    if (m < 0) {
+        return VF_ND_ERR_ARGUMENT;
     }
     if (u == NULL || lam == NULL || act == NULL || wsf == NULL
         || (m > 0 && (G == NULL || b == NULL))) {
@@ -388,8 +391,23 @@ int vf_nd_project(const double *u, const double *G, const double *b, int32_t m, 
         return rc;
     }
     st = vf_nd_project_kernel(u, G, b, m, n, x, lam, act, wsf, q, iters);
+    /* a row G_i . x that overflows cannot be told met (NaN compares false: found by
+     * core/fuzz/fuzz_nd.c, u near DBL_MAX returned as OPTIMAL while violating a row): the answer
+     * overflowed */
+    for (i = 0; i < m && rc == VF_ND_OK; i++) {
+        double s = 0.0;
+        if (b[i] == -INFINITY) {
+            continue;
+        }
+        for (k = 0; k < n; k++) {
+            s += G[(size_t)i * n + k] * x[k];
+        }
+        if (!isfinite(s)) {
+            rc = VF_ND_ERR_OVERFLOW;
+        }
+    }
     for (k = 0; k < n; k++) {
-        if (!isfinite(x[k])) {
+        if (rc != VF_ND_OK || !isfinite(x[k])) {
             for (k = 0; k < n; k++) {
                 x[k] = 0.0;
             }
@@ -755,6 +773,13 @@ int vf_nd_shape(const vf_nd_polytope *poly, const vf_nd_law *law, const double *
         }
     }
     vf_nd_kernel(poly, law, p, v, out, active, scratch, res);
+    /* Every double of the answer finite, as in the 2-D core: a position so far away that the
+     * signed distances N.p - off overflow (found by core/fuzz/fuzz_nd.c: p1 = -1, d1 = +inf under
+     * VF_ND_OK) is refused. d2 is +inf only when absent (one facet). */
+    if (!isfinite(res->d1) || !(isfinite(res->d2) || (poly->nf < 2 && res->p2 == -1))) {
+        set_stop(res, out, dim);
+        return VF_ND_ERR_OVERFLOW;
+    }
     for (k = 0; k < dim; k++) {
         if (!isfinite(out[k])) {
             set_stop(res, out, dim);
@@ -773,8 +798,12 @@ int64_t vf_nd_batch(const vf_nd_polytope *poly, const vf_nd_law *law, const doub
     vf_nd_result res;
     int32_t active[64];
     int32_t *act = active;
+    /* every pointer vf_nd_shape reads, checked before the first row: then nothing is written
+     * (found by core/fuzz/fuzz_nd.c: a NULL cen or scratch array zeroed row 0 first) */
     if (poly == NULL || law == NULL || scratch == NULL
-        || (rows > 0 && (P == NULL || V == NULL || out == NULL))) {
+        || (rows > 0 && (P == NULL || V == NULL || out == NULL || poly->N == NULL
+                         || poly->off == NULL || poly->cen == NULL || scratch->dbl == NULL
+                         || scratch->ints == NULL))) {
         return VF_ND_ERR_NULL;
     }
     if (poly->dim < 1 || poly->dim > 63) {

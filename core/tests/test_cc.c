@@ -398,10 +398,42 @@ static void random_scene(int32_t planar, int32_t n, int32_t k, int32_t recheck, 
     free(lr);
 }
 
+/* The speed cap with a factor max_speed / peak below DBL_MIN: met exactly (fuzz_cc's finding:
+ * q (max_speed / peak) with a subnormal factor left |q_dot| up to 4e-10 relative above the cap). */
+static void test_tiny_cap(void)
+{
+    static const double caps[4] = {2.8728548032717271e-188, 1e-200, 3e-310, 1.390794793043109e-320};
+    static const double big[3] = {1.8096363075122029e+127, 3e150, 7e300};
+    double C[3] = {10, 10, 0}, rho[1] = {0.1}, lr[2] = {0.0, 0.0};
+    double P[9] = {0, 0, 0, 0.3, 0.1, 0, 0.5, -0.2, 0}, ax[6] = {0, 0, 1, 0, 0, 1};
+    vf_cc_problem pb = {2, 2, 1, C, rho, lr, 1.0, 1e3, 1e-3, 0.0, 0.0, 0.0, 1, 5};
+    vf_cc_out o;
+    bufs b;
+    int32_t c, g, j;
+    out_alloc(&o, &b, 2, 2, 1);
+    for (c = 0; c < 4; c++) {
+        for (g = 0; g < 3; g++) {
+            double yr[2] = {big[g], 1.0};
+            int code;
+            pb.max_speed = caps[c];
+            code = vf_cc_solve(&pb, P, ax, yr, &o, b.work, b.iwork);
+            if (code != VF_CC_OK) {
+                continue; /* an overflow refused is not the cap's case */
+            }
+            for (j = 0; j < 2; j++) {
+                CHECK(fabs(o.q_dot[j]) <= caps[c], "cap %.17g, y_r %g: |q_dot_%d| = %.17g",
+                      caps[c], big[g], (int)j, fabs(o.q_dot[j]));
+            }
+        }
+    }
+    out_free(&b);
+}
+
 int main(void)
 {
     int32_t s;
     test_arguments();
+    test_tiny_cap();
     for (s = 0; s < 600; s++) {
         int32_t planar = s % 2;
         int32_t n = 3 + (int32_t)uniform(0, 8);

@@ -11,6 +11,7 @@
  * the capsule rows against a brute-force evaluation. Every buffer is heap-allocated at its exact
  * size so that AddressSanitizer sees any overrun.
  */
+#include <float.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -105,6 +106,24 @@ static void test_projection_checks(void)
     CHECK(x[0] == 0.0 && x[1] == 0.0 && st == VF_ND_PROJECT_INFEASIBLE, "stop on NULL");
     CHECK(vf_nd_project(NULL, G, b, 2, 2, x, lam, act, wsf, &q, &it, &st) == VF_ND_ERR_NULL, "u");
     CHECK(vf_nd_project(u, G, b, 2, 0, x, lam, act, wsf, &q, &it, &st) == VF_ND_ERR_ARGUMENT, "n");
+    /* a row G_i . x that overflows to NaN (2 DBL_MAX - 2 DBL_MAX; truly 0 < b = 1, violated):
+     * VF_ND_ERR_OVERFLOW with the stop result, not OPTIMAL at x = u (fuzz_nd's fourth finding) */
+    {
+        double uu[2] = {DBL_MAX, -DBL_MAX}, GG[2] = {2.0, 2.0}, bb[1] = {1.0};
+        CHECK(vf_nd_project(uu, GG, bb, 1, 2, x, lam, act, wsf, &q, &it, &st)
+                  == VF_ND_ERR_OVERFLOW,
+              "a row overflowing to NaN: rc (status %d, x %g %g)", st, x[0], x[1]);
+        CHECK(x[0] == 0.0 && x[1] == 0.0 && q == 0 && it == 0 && st == VF_ND_PROJECT_INFEASIBLE,
+              "a row overflowing to NaN: the stop result");
+    }
+    /* m < 0: VF_ND_ERR_ARGUMENT with the stop result x = 0 (fuzz_nd's first finding) */
+    x[0] = x[1] = 7.0;
+    q = it = st = 5;
+    CHECK(vf_nd_project(u, G, b, -14, 2, x, lam, act, wsf, &q, &it, &st) == VF_ND_ERR_ARGUMENT,
+          "m < 0");
+    CHECK(memcmp(x, (double[2]){0.0, 0.0}, sizeof x) == 0 && q == 0 && it == 0
+              && st == VF_ND_PROJECT_INFEASIBLE,
+          "m < 0: stop result x = +0, q = iters = 0, INFEASIBLE");
     u[1] = NAN;
     CHECK(vf_nd_project(u, G, b, 2, 2, x, lam, act, wsf, &q, &it, &st) == VF_ND_ERR_NONFINITE,
           "nan u");
@@ -275,6 +294,66 @@ static double dotn(const double *a, const double *b, int32_t n)
         s += a[k] * b[k];
     }
     return s;
+}
+
+/* A position so far away that the signed distances N.p - off overflow: VF_ND_ERR_OVERFLOW with
+ * the stop result, as in the 2-D core (fuzz_nd's second finding: VF_ND_OK with p1 = -1 and
+ * d1 = +inf when every distance overflowed to +inf; d1 = -inf when one overflowed to -inf). */
+static void test_law_far_position(void)
+{
+    const double N1[4] = {0.6, 0.8, 0.8, 0.6};   /* both distances +inf at (DBL_MAX, DBL_MAX) */
+    const double N2[4] = {0.6, 0.8, -0.6, -0.8}; /* +inf and -inf */
+    const double *Ns[2] = {N1, N2};
+    double off[2] = {-1.0, -1.0}, cen[2] = {0.0, 0.0}, p[2] = {DBL_MAX, DBL_MAX};
+    double v[2] = {1.0, 0.0}, out[2];
+    int32_t active[3], c;
+    vf_nd_law law = {VF_ND_PROFILE_LINEAR, {0.25, 1.0, 0.25, 0.0, 0.0, 0.0}, 1, 0.0};
+    vf_nd_scratch s;
+    vf_nd_result r;
+    s.dbl = dalloc(vf_nd_law_doubles(2, 2));
+    s.ints = ialloc(vf_nd_law_ints(2, 2));
+    for (c = 0; c < 2; c++) {
+        vf_nd_polytope P = {Ns[c], off, cen, 2, 2};
+        int rc;
+        CHECK(vf_nd_check(&P, &law) == VF_ND_OK, "far position: polytope %d refused", c);
+        rc = vf_nd_shape(&P, &law, p, v, out, active, &s, &r);
+        CHECK(rc == VF_ND_ERR_OVERFLOW, "far position %d: rc %d (p1 %d d1 %g)", c, rc, r.p1, r.d1);
+        CHECK(is_stop(&r, out, 2), "far position %d: not the stop result", c);
+    }
+    free(s.dbl);
+    free(s.ints);
+}
+
+/* vf_nd_batch with a NULL array inside the polytope or the scratch: VF_ND_ERR_NULL and nothing
+ * written (fuzz_nd's third finding: row 0 got the stop result first). */
+static void test_batch_null_arrays(void)
+{
+    double N[2] = {1.0, -1.0}, off[2] = {-1.0, -1.0}, cen[1] = {0.0};
+    double P[1] = {0.0}, V[1] = {1.0}, out[1] = {7.0};
+    int64_t zones[1] = {7};
+    vf_nd_law law = {VF_ND_PROFILE_LINEAR, {0.25, 1.0, 0.25, 0.0, 0.0, 0.0}, 1, 0.0};
+    vf_nd_scratch s;
+    int c;
+    s.dbl = dalloc(vf_nd_law_doubles(2, 1));
+    s.ints = ialloc(vf_nd_law_ints(2, 1));
+    for (c = 0; c < 5; c++) {
+        vf_nd_polytope poly = {N, off, cen, 2, 1};
+        vf_nd_scratch t = s;
+        int64_t rb;
+        switch (c) {
+        case 0: poly.N = NULL; break;
+        case 1: poly.off = NULL; break;
+        case 2: poly.cen = NULL; break;
+        case 3: t.dbl = NULL; break;
+        default: t.ints = NULL; break;
+        }
+        rb = vf_nd_batch(&poly, &law, P, V, 1, out, zones, &t);
+        CHECK(rb == VF_ND_ERR_NULL && out[0] == 7.0 && zones[0] == 7,
+              "batch, NULL array %d: returned %lld, out %g, zone %lld", c, (long long)rb, out[0],
+              (long long)zones[0]);
+    }
+    free(s.dbl);
+    free(s.ints);
 }
 
 static void test_law_random(void)
@@ -696,6 +775,8 @@ int main(void)
     test_projection_random();
     test_law_checks();
     test_law_random();
+    test_law_far_position();
+    test_batch_null_arrays();
     test_rate_bounds();
     test_capsule_rows();
     test_filter_rows();

@@ -1,14 +1,15 @@
 """Coverage-guided fuzzing of the compiled core's checked C API with libFuzzer (clang).
 
-``core/fuzz/build.sh`` builds the targets ``fuzz_exact`` and ``fuzz_patent`` with
+``core/fuzz/build.sh`` builds the targets ``fuzz_exact`` and ``fuzz_patent`` (the 2-D laws),
+``fuzz_nd`` (the n-D law and projection) and ``fuzz_cc`` (configuration control) with
 ``-fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all``; each decodes its bytes into a
-polygon (structured or raw: degenerate, huge, tiny, NaN/inf/subnormal entries), law parameters and
-states, calls ``vf_*_check`` and then ``vf_*_shape`` / ``vf_*_batch`` and aborts when the
-documented contract does not hold (codes, the stop result, finite output, the law's bounds; see the
-targets' header comments). Here each target runs for a bounded time from the seed corpus
-``core/fuzz/corpus/`` with a fixed seed and must exit cleanly. A control proves the assertions are
-live: the known open defect (VF_OK with -inf auxiliary distances for positions near DBL_MAX),
-which the default build tolerates behind ``VF_FUZZ_STRICT_AUX_DISTANCES``, aborts the strict build.
+polygon, polytope, constraint rows or arm with obstacles (structured or raw: degenerate, huge,
+tiny, NaN/inf/subnormal entries), law parameters and states, calls the checks and then the solves
+and aborts when the documented contract does not hold (codes, the stop result, finite output, the
+law's bounds, the speed cap; see the targets' header comments). Here each target runs for a
+bounded time from the seed corpus ``core/fuzz/corpus/`` with a fixed seed and must exit cleanly.
+Fast controls: every former finding (``core/fuzz/crashes/``) runs clean, and the assertions are
+live (``fuzz_exact``, ``fuzz_nd`` and ``fuzz_cc`` built with ``--control-tamper`` abort).
 
 Skipped, saying why, without clang or without its libFuzzer runtime (Debian: libclang-rt-14-dev).
 Longer runs and their coverage numbers: docs/reliability.md.
@@ -60,7 +61,7 @@ def _probe(tmp: Path) -> str | None:
     return None
 
 
-def _build(out: Path, targets: str = "exact patent", *options: str) -> None:
+def _build(out: Path, targets: str = "exact patent nd cc", *options: str) -> None:
     env = {**ENV, "CC": str(CLANG), "TARGETS": targets}
     cmd = ["bash", str(FUZZ / "build.sh"), str(out), *options]
     done = subprocess.run(cmd, capture_output=True, text=True, timeout=300, env=env, check=False)
@@ -94,8 +95,8 @@ def _cov(log: str, event: str) -> tuple[int, int]:
     return int(m.group(1)), int(m.group(2))
 
 
-@pytest.mark.slow  # two builds and 2 x 10 s of fuzzing
-@pytest.mark.parametrize("law", ["exact", "patent"])
+@pytest.mark.slow  # one build of the four targets and 4 x 10 s of fuzzing
+@pytest.mark.parametrize("law", ["exact", "patent", "nd", "cc"])
 def test_bounded_libfuzzer_run(targets: Path, tmp_path: Path, law: str) -> None:
     """A fixed-seed run from the seed corpus: no sanitizer finding, no contract violation."""
     seeds = FUZZ / "corpus" / law
@@ -166,3 +167,44 @@ def test_former_findings_run_clean_and_a_spoiled_result_aborts(
     assert "contract violated (exact law)" in bad.stderr
     assert re.search(r"result: rc=0 ox=nan ", bad.stderr), bad.stderr[-3000:]
     assert "polygon n=" in bad.stderr  # the decoded input
+
+
+def test_nd_and_cc_findings_run_clean_and_a_spoiled_result_aborts(
+    libfuzzer: None, tmp_path: Path
+) -> None:
+    """The n-D and configuration-control findings (core/fuzz/crashes/nd-*: an error without the
+    stop result, +inf distances under VF_ND_OK, a batch that wrote before its NULL code, OPTIMAL
+    at a NaN row; cc-*: a speed cap missed through a subnormal factor; all fixed) run clean
+    through fuzz_nd and fuzz_cc; and the assertions are live: built with --control-tamper (every
+    OK velocity or joint rate spoiled with a NaN) each target aborts on its seeds, printing the
+    decoded input."""
+    found = sorted(str(f) for f in (FUZZ / "crashes").glob("nd-*"))
+    found_cc = sorted(str(f) for f in (FUZZ / "crashes").glob("cc-*"))
+    assert len(found) >= 4
+    assert len(found_cc) >= 1
+    _build(tmp_path / "build", "nd cc")
+    _build(tmp_path / "tamper", "nd cc", "--control-tamper")
+    clean = subprocess.run(
+        [str(tmp_path / "build" / "fuzz_nd"), *found],
+        capture_output=True, text=True, timeout=60, env=ENV, check=False,
+    )  # fmt: skip
+    assert clean.returncode == 0, clean.stderr[-4000:]
+    for f in found:
+        assert f"Running: {f}" in clean.stderr
+    clean = subprocess.run(
+        [str(tmp_path / "build" / "fuzz_cc"), *found_cc],
+        capture_output=True, text=True, timeout=60, env=ENV, check=False,
+    )  # fmt: skip
+    assert clean.returncode == 0, clean.stderr[-4000:]
+    for target, banner, decoded in (
+        ("nd", "contract violated (n-D law): VF_ND_OK with a non-finite velocity", "polytope nf="),
+        ("cc", "velfence_cc contract violated: VF_CC_OK with a non-finite double", "problem n="),
+    ):
+        seeds = sorted(str(f) for f in (FUZZ / "corpus" / target).iterdir())
+        bad = subprocess.run(
+            [str(tmp_path / "tamper" / f"fuzz_{target}"), *seeds],
+            capture_output=True, text=True, timeout=60, env=ENV, check=False,
+        )  # fmt: skip
+        assert bad.returncode != 0
+        assert banner in bad.stderr, bad.stderr[-3000:]
+        assert decoded in bad.stderr  # the decoded input
