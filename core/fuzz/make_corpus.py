@@ -1,7 +1,7 @@
-"""Writes the seed corpus of the libFuzzer targets (core/fuzz/corpus/{exact,patent,nd,cc}/).
+"""Writes the seed corpus of the libFuzzer targets (core/fuzz/corpus/{exact,patent,nd,cc,rr}/).
 
-The byte layout is the one fuzz_common.h, fuzz_exact.c, fuzz_patent.c, fuzz_nd.c and fuzz_cc.c
-document. Run from any
+The byte layout is the one fuzz_common.h, fuzz_exact.c, fuzz_patent.c, fuzz_nd.c, fuzz_cc.c and
+fuzz_rr.c document. Run from any
 directory: ``python3 core/fuzz/make_corpus.py``. Deterministic (no randomness): the same files
 every time.
 """
@@ -221,6 +221,45 @@ def cc_seeds() -> dict[str, bytes]:
     }
 
 
+def rr_arm(rows: list[tuple[int, int, int, int]], tool: tuple[int, int, int]) -> bytes:
+    """Encode fuzz_rr's structured arm.
+
+    Per joint the a byte, the alpha byte (% 3: 0, +pi/2, -pi/2), the d byte and the offset byte,
+    then the tool's three bytes.
+    """
+    return b"".join(bytes(r) for r in rows) + bytes(tool)
+
+
+def rr_seeds() -> dict[str, bytes]:
+    """Seeds of fuzz_rr: a PUMA-like arm free, capped and singular, raw data, the NULL cases."""
+    # a (byte / 256 m), alpha (0: 0, 1: +pi/2, 2: -pi/2), d ((byte - 128) / 256 m), offset
+    puma = rr_arm(
+        [(0, 1, 128, 0), (111, 0, 128, 0), (5, 2, 166, 0), (0, 1, 232, 0), (0, 2, 128, 0),
+         (0, 0, 128, 0)],
+        (128, 128, 148),
+    )  # fmt: skip
+    planar = rr_arm([(64, 0, 128, 0)] * 6, (128, 128, 128))  # every axis parallel: det J = 0
+    q = b"".join(struct.pack("<h", int(a / (2 * math.pi) * 65536)) for a in
+                 (-1.05628, -2.1085, 0.05893, 0.17227, -0.74605, 0.01345))  # fmt: skip
+    x = b"".join(dbl(v) for v in (0.125, -0.0625, 0.03125, 0.125, 0.0, -0.25))
+    big = b"".join(dbl(v) for v in (3.0, -2.0, 1.0, 2.0, 0.5, -3.0))
+    qd = b"".join(dbl(v) for v in (0.5, math.inf, 0.0, 1.0, 2.0, 3.0))  # q as doubles, one inf
+    # k0 byte, w0 byte, singular_tol selector (0: 0, 1: 1e-10, 2: w0), max_speed byte (odd: none)
+    free = bytes([25, 56, 1, 1])
+    capped = bytes([25, 56, 1, 16])
+    refuse = bytes([25, 56, 2, 1])
+    raw = b"".join(dbl(v) for v in [0.0, 1.0, 0.0, 0.5, 0.0] * 6 + [0.0, 0.0, 0.125]
+                   + [0.025, 0.014, 1e-10, 0.0] + [0.5, -1.0, 0.25, 0.0, 1.0, -0.5])  # fmt: skip
+    return {
+        "puma-free": b"\0" + puma + free + q + x,
+        "puma-capped": b"\0" + puma + capped + q + big,
+        "planar-singular-refused": b"\0" + planar + refuse + q + x,
+        "puma-q-doubles": b"\2" + puma + free + qd + x,
+        "raw": b"\1" + raw + x,
+        "null-cases": b"\x80" + puma + free + q + x + bytes([3]),
+    }
+
+
 def main() -> None:
     """Write every seed file."""
     lin = (0.25, 1.0, 0.25, 0.0, 0.0, 0.0)
@@ -250,7 +289,7 @@ def main() -> None:
         for name, head in seeds.items():
             data = head if name == "null-cases" else head + states(STATES)
             (folder / name).write_bytes(data)
-    for target, seeds in (("nd", nd_seeds()), ("cc", cc_seeds())):
+    for target, seeds in (("nd", nd_seeds()), ("cc", cc_seeds()), ("rr", rr_seeds())):
         folder = HERE / "corpus" / target
         folder.mkdir(parents=True, exist_ok=True)
         for name, data in seeds.items():

@@ -43,8 +43,10 @@
  * and y components) or 3. Units: metres, radians, seconds.
  *
  * Return codes: VF_CC_OK (0) or a negative VF_CC_ERR_* code. On VF_CC_OK every double of the
- * answer is finite. On an error every output is the stop result: q_dot = q_free = 0,
- * n_active = 0, every other double 0, links and active -1.
+ * answer is finite. On VF_CC_ERR_NONFINITE and VF_CC_ERR_OVERFLOW every output is the stop
+ * result: q_dot = q_free = 0, n_active = 0, every other double 0, links and active -1. On
+ * VF_CC_ERR_NULL and VF_CC_ERR_ARGUMENT nothing is written (the sizes the outputs would be
+ * written by are the refused ones); check the problem once with vf_cc_check outside the loop.
  */
 #ifndef VELFENCE_CC_H
 #define VELFENCE_CC_H
