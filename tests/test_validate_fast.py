@@ -16,7 +16,13 @@ from hypothesis import given
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
-from velfence._validate import MAX_MAGNITUDE, finite_scalar, real_array, real_floats
+from velfence._validate import (
+    MAX_MAGNITUDE,
+    _fast_accept,
+    finite_scalar,
+    real_array,
+    real_floats,
+)
 
 _SHAPES_OF_ARRAYS = hnp.array_shapes(min_dims=0, max_dims=3, min_side=0, max_side=3)
 _VALUES = st.one_of(
@@ -68,8 +74,10 @@ def test_fast_accept_equals_the_full_checks(x, shape, allow_nonfinite, max_abs):
     # it is (a float64 ndarray), never a different answer.
     kept = real_array("x", x, shape, copy=False, **kw)
     np.testing.assert_array_equal(kept, want)
-    if type(x) is np.ndarray and x.dtype == np.float64 and x.size:
+    if _fast_accept(x, shape, allow_nonfinite, max_abs):
         assert kept is x
+    elif isinstance(x, np.ndarray):
+        assert not np.shares_memory(kept, x)
 
 
 @given(_VALUES, st.sampled_from([1, 2, 3]))
