@@ -5,7 +5,8 @@
  * core/fuzz/build.sh. Input layout (doubles and the byte cursor: fuzz_common.h):
  *
  *   flags byte: bit 0 raw-ish (q, u and previous decoded doubles), bit 1 previous NULL, bit 2 amax
- *               NULL, bit 3 continuous time (dt = 0)
+ *               NULL, bit 3 continuous time (dt = 0), bit 4 (without bit 0) q, u and previous
+ *               decoded doubles of magnitude <= 1e150 (others read as 0)
  *   n = 1 + byte % 8 joints; per joint the DH row a = (byte - 128) / 256 [m], alpha = 2 pi byte /
  *     256 (cos and sin stored), d = (byte - 128) / 256 [m], offset 2 pi byte / 256; the tool
  *     point three (byte - 128) / 512 [m]
@@ -22,13 +23,14 @@
  *   k = byte % 5 spheres: the obstacle profile, buffer (1 + byte) / 64 [m], per link a capsule
  *     radius byte / 512 [m], per sphere a centre three (byte - 128) / 128 [m] and a radius byte /
  *     256 >= 0 [m]; cap.vmax = the joints' vmax (NULL with byte 1 of a further byte & 1)
- *   q n angles 4 int16 / 32768 [rad], u and previous n values int16 / 4096 each (raw-ish: n
- *     decoded doubles each)
+ *   per joint q_j = 4 int16 / 32768 [rad], u_j and previous_j int16 / 4096 (flags bit 4: three
+ *     decoded doubles, each of magnitude <= 1e150 or else 0; raw-ish: three decoded doubles)
  *
  * The helpers are documented "No input check" (SafetyFilter validates), so the filter data above
  * is always well-formed (finite DH rows with cos^2 + sin^2 = 1, unit normals, vmax > 0, valid
  * profile parameters, radii >= 0). In the structured mode the per-call input q, u, previous is
- * finite too, and asserted (abort() on a violation, after printing the decoded input) is:
+ * finite too and at most 1e150 in magnitude (what SafetyFilter accepts: it refuses larger finite
+ * input as it refuses NaN and inf), and asserted (abort() on a violation, after printing the decoded input) is:
  *   the row count r: 2 n <= r <= vf_nd_filter_rows_max;
  *   P, axes, flange equal vf_nd_chain_kinematics called directly (bit for bit) and the
  *     multiplied-out 4x4 DH transforms within 1e-12 (1 + the chain's size sum |a| + |d| + |tool|);
@@ -50,9 +52,11 @@
  *     continuous time;
  *   vf_nd_rate_bounds never gives NaN or +inf;
  *   a second call gives identical bits.
- * Raw-ish mode (flags bit 0): q, u and previous are any decoded doubles (NaN, inf, huge). A
- * non-finite per-call input is outside the documented contract (no input check), so only memory
- * safety (ASan/UBSan) and 0 <= r <= vf_nd_filter_rows_max are asserted.
+ * Raw-ish mode (flags bit 0): q, u and previous are any decoded doubles (NaN, inf, up to
+ * DBL_MAX). A non-finite per-call input is outside the documented contract (no input check), so
+ * only memory safety (ASan/UBSan) and 0 <= r <= vf_nd_filter_rows_max are asserted. (A finite u
+ * near DBL_MAX makes the point speed |J u| overflow and gives NaN bounds: not promised by the
+ * header, and refused by SafetyFilter above 1e150, so not asserted.)
  * Every output array is malloc'ed at exactly its documented size (rows_max rows,
  * vf_nd_filter_doubles doubles of work, k nl + nl doubles for vf_nd_capsule_rows), so
  * AddressSanitizer sees an overrun. VF_FUZZ_CONTROL_TAMPER (build.sh --control-tamper) spoils the
@@ -254,6 +258,14 @@ static void decode(fz_reader *rd)
             q[j] = fz_double(rd);
             u[j] = fz_double(rd);
             prev[j] = fz_double(rd);
+        } else if (flags & 16) {
+            /* decoded doubles within SafetyFilter's magnitude cap (1e150), else 0 */
+            q[j] = fz_double(rd);
+            u[j] = fz_double(rd);
+            prev[j] = fz_double(rd);
+            q[j] = fabs(q[j]) <= 1e150 ? q[j] : 0.0;
+            u[j] = fabs(u[j]) <= 1e150 ? u[j] : 0.0;
+            prev[j] = fabs(prev[j]) <= 1e150 ? prev[j] : 0.0;
         } else {
             q[j] = 4.0 * fz_i16(rd) / 32768.0;
             u[j] = fz_i16(rd) / 4096.0;

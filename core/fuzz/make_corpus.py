@@ -312,6 +312,8 @@ def filter_seeds() -> dict[str, bytes]:
         + state(7),
         "one-joint-three-zone": b"\0" + one + joints(1, tz) + bytes([9, 1]) + flange
         + bytes([1]) + tz + bytes([20, 16, 200, 128, 128, 8, 0]) + state(1),
+        "panda-large-doubles": b"\x10" + p7 + joints(7, lin) + bytes([3, 1]) + box + spheres
+        + b"".join(dbl(v) for v in (3.5, 1e15, -2.0) * 7),
         "panda-raw-ish": b"\x01" + p7 + joints(7, lin) + bytes([3, 1]) + box + spheres + raw,
     }  # fmt: skip
 
