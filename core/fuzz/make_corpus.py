@@ -1,8 +1,8 @@
-"""Writes the seed corpus of the libFuzzer targets (core/fuzz/corpus/{exact,patent,nd,cc,rr}/).
+"""Writes the seed corpus of the libFuzzer targets (core/fuzz/corpus/<target>/).
 
-The byte layout is the one fuzz_common.h, fuzz_exact.c, fuzz_patent.c, fuzz_nd.c, fuzz_cc.c and
-fuzz_rr.c document. Run from any
-directory: ``python3 core/fuzz/make_corpus.py``. Deterministic (no randomness): the same files
+The targets are exact, patent, nd, cc, rr and filter. The byte layout is the one fuzz_common.h,
+fuzz_exact.c, fuzz_patent.c, fuzz_nd.c, fuzz_cc.c, fuzz_rr.c and fuzz_filter.c document. Run from
+any directory: ``python3 core/fuzz/make_corpus.py``. Deterministic (no randomness): the same files
 every time.
 """
 
@@ -260,6 +260,64 @@ def rr_seeds() -> dict[str, bytes]:
     }
 
 
+def filter_profile(three_zone: bool, b: tuple[int, int, int]) -> bytes:
+    """Encode one fuzz_filter profile: the kind byte (even: linear, odd: three-zone), 3 bytes."""
+    return bytes([1 if three_zone else 0, *b])
+
+
+def filter_seeds() -> dict[str, bytes]:
+    """Seeds of fuzz_filter: chains with joint, workspace and obstacle rows.
+
+    A Panda-like 7-joint chain with workspace limits and spheres in discrete and continuous time,
+    a one-joint chain, three-zone profiles, NULL previous / amax, raw-ish q, u and previous.
+    """
+    # per joint: a byte ((b - 128) / 256), alpha byte (2 pi b / 256), d byte, offset byte
+    panda = [(128, 192, 213, 0), (128, 64, 128, 4), (128, 64, 209, 8), (149, 64, 128, 12),
+             (107, 192, 226, 16), (128, 64, 128, 20), (156, 64, 128, 24)]  # fmt: skip
+    lin = filter_profile(False, (12, 16, 12))  # d_max 13/64, k 1, r_max 13/64
+    tz = filter_profile(True, (15, 7, 15))  # K 4, a 2, max_speed a/K (1 + 1)
+
+    def chain(rows: list[tuple[int, int, int, int]], tool: tuple[int, int, int]) -> bytes:
+        return bytes([len(rows) - 1]) + b"".join(bytes(r) for r in rows) + bytes(tool)
+
+    def joints(n: int, prof: bytes, infinite: bool = False) -> bytes:
+        # lower byte (odd: -inf) -(b >> 1) / 32, upper (odd: +inf), vmax (1 + b) / 32, amax
+        lo, up = (1, 1) if infinite else (160, 160)
+        return b"".join(bytes([lo, up, 63, 39 if j != 3 else 255]) + prof for j in range(n))
+
+    # nf byte (1 + b % 6), point byte (b % (n + 2) - 1), profile, per facet two angles, offset
+    facets = [(0, 0, 64), (128, 0, 64), (64, 0, 64), (192, 0, 64), (0, 64, 0), (0, 192, 64)]
+    box = bytes([5, 8]) + lin + b"".join(bytes(t) for t in facets)
+    flange = bytes([2, 0]) + tz + bytes([0, 0, 32, 0, 64, 32, 64, 0, 32])
+    spheres = bytes([2]) + lin + bytes([6]) + bytes([30] * 7) + bytes([160, 160, 200, 12])
+    spheres += bytes([100, 128, 180, 20, 0])
+
+    def state(n: int) -> bytes:
+        out = b""
+        for j in range(n):
+            out += struct.pack("<hhh", 2000 * (j - 3), 1000 * ((j % 3) - 1), 500 * (j % 2))
+        return out
+
+    p7 = chain(panda, (128, 128, 179))
+    one = chain([(192, 0, 160, 0)], (128, 128, 128))
+    raw = b"".join(dbl(v) for v in (0.5, math.inf, 0.0, math.nan, 1.0, -2.0, 1e300, 0.25, 0.0))
+    raw += b"".join(dbl(v) for v in (0.25, -0.5, 1.0) * 4)
+    return {
+        "panda-discrete": b"\0" + p7 + joints(7, lin) + bytes([3, 2]) + box + flange + spheres
+        + state(7),
+        "panda-continuous": b"\x08" + p7 + joints(7, tz) + bytes([3, 1]) + box + spheres
+        + state(7),
+        "panda-no-previous-no-amax": b"\x06" + p7 + joints(7, lin, True) + bytes([3, 0])
+        + bytes([1]) + tz + bytes([40]) + bytes([30] * 7) + bytes([128, 128, 190, 20, 1])
+        + state(7),
+        "one-joint-three-zone": b"\0" + one + joints(1, tz) + bytes([9, 1]) + flange
+        + bytes([1]) + tz + bytes([20, 16, 200, 128, 128, 8, 0]) + state(1),
+        "panda-large-doubles": b"\x10" + p7 + joints(7, lin) + bytes([3, 1]) + box + spheres
+        + b"".join(dbl(v) for v in (3.5, 1e15, -2.0) * 7),
+        "panda-raw-ish": b"\x01" + p7 + joints(7, lin) + bytes([3, 1]) + box + spheres + raw,
+    }  # fmt: skip
+
+
 def main() -> None:
     """Write every seed file."""
     lin = (0.25, 1.0, 0.25, 0.0, 0.0, 0.0)
@@ -289,7 +347,12 @@ def main() -> None:
         for name, head in seeds.items():
             data = head if name == "null-cases" else head + states(STATES)
             (folder / name).write_bytes(data)
-    for target, seeds in (("nd", nd_seeds()), ("cc", cc_seeds()), ("rr", rr_seeds())):
+    for target, seeds in (
+        ("nd", nd_seeds()),
+        ("cc", cc_seeds()),
+        ("rr", rr_seeds()),
+        ("filter", filter_seeds()),
+    ):
         folder = HERE / "corpus" / target
         folder.mkdir(parents=True, exist_ok=True)
         for name, data in seeds.items():

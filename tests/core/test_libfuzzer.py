@@ -1,8 +1,8 @@
 """Coverage-guided fuzzing of the compiled core's checked C API with libFuzzer (clang).
 
 ``core/fuzz/build.sh`` builds the targets ``fuzz_exact`` and ``fuzz_patent`` (the 2-D laws),
-``fuzz_nd`` (the n-D law and projection), ``fuzz_cc`` (configuration control) and ``fuzz_rr`` (the
-resolved-rate SR step) with
+``fuzz_nd`` (the n-D law and projection), ``fuzz_cc`` (configuration control), ``fuzz_rr`` (the
+resolved-rate SR step) and ``fuzz_filter`` (the safety filter's row helpers) with
 ``-fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all``; each decodes its bytes into a
 polygon, polytope, constraint rows or arm with obstacles (structured or raw: degenerate, huge,
 tiny, NaN/inf/subnormal entries), law parameters and states, calls the checks and then the solves
@@ -10,8 +10,8 @@ and aborts when the documented contract does not hold (codes, the stop result, f
 law's bounds, the speed cap; see the targets' header comments). Here each target runs for a
 bounded time from the seed corpus ``core/fuzz/corpus/`` with a fixed seed and must exit cleanly.
 Fast controls: every former finding (``core/fuzz/crashes/``) runs clean, and the assertions are
-live (``fuzz_exact``, ``fuzz_nd``, ``fuzz_cc`` and ``fuzz_rr`` built with ``--control-tamper``
-abort).
+live (``fuzz_exact``, ``fuzz_nd``, ``fuzz_cc``, ``fuzz_rr`` and ``fuzz_filter`` built with
+``--control-tamper`` abort).
 
 Skipped, saying why, without clang or without its libFuzzer runtime (Debian: libclang-rt-14-dev).
 Longer runs and their coverage numbers: docs/reliability.md.
@@ -63,7 +63,7 @@ def _probe(tmp: Path) -> str | None:
     return None
 
 
-def _build(out: Path, targets: str = "exact patent nd cc rr", *options: str) -> None:
+def _build(out: Path, targets: str = "exact patent nd cc rr filter", *options: str) -> None:
     env = {**ENV, "CC": str(CLANG), "TARGETS": targets}
     cmd = ["bash", str(FUZZ / "build.sh"), str(out), *options]
     done = subprocess.run(cmd, capture_output=True, text=True, timeout=300, env=env, check=False)
@@ -97,8 +97,8 @@ def _cov(log: str, event: str) -> tuple[int, int]:
     return int(m.group(1)), int(m.group(2))
 
 
-@pytest.mark.slow  # one build of the five targets and 5 x 10 s of fuzzing
-@pytest.mark.parametrize("law", ["exact", "patent", "nd", "cc", "rr"])
+@pytest.mark.slow  # one build of the six targets and 6 x 10 s of fuzzing
+@pytest.mark.parametrize("law", ["exact", "patent", "nd", "cc", "rr", "filter"])
 def test_bounded_libfuzzer_run(targets: Path, tmp_path: Path, law: str) -> None:
     """A fixed-seed run from the seed corpus: no sanitizer finding, no contract violation."""
     seeds = FUZZ / "corpus" / law
@@ -237,3 +237,30 @@ def test_rr_findings_run_clean_and_a_spoiled_result_aborts(libfuzzer: None, tmp_
     assert bad.returncode != 0
     assert "velfence_rr contract violated: VF_RR_OK with a non-finite double" in bad.stderr
     assert "arm (a, cos alpha, sin alpha, d, offset):" in bad.stderr  # the decoded input
+
+
+def test_filter_seeds_run_clean_and_a_spoiled_result_aborts(
+    libfuzzer: None, tmp_path: Path
+) -> None:
+    """The safety filter's row helpers: fuzz_filter runs clean on its seeds (and on any former
+    finding, core/fuzz/crashes/filter-*); built with --control-tamper (the first bound of every
+    structured call spoiled with a NaN) it aborts on its seeds, printing the decoded input."""
+    found = sorted(str(f) for f in (FUZZ / "crashes").glob("filter-*"))
+    seeds = sorted(str(f) for f in (FUZZ / "corpus" / "filter").iterdir())
+    assert len(seeds) >= 4
+    _build(tmp_path / "build", "filter")
+    _build(tmp_path / "tamper", "filter", "--control-tamper")
+    clean = subprocess.run(
+        [str(tmp_path / "build" / "fuzz_filter"), *seeds, *found],
+        capture_output=True, text=True, timeout=60, env=ENV, check=False,
+    )  # fmt: skip
+    assert clean.returncode == 0, clean.stderr[-4000:]
+    for f in seeds + found:
+        assert f"Running: {f}" in clean.stderr
+    bad = subprocess.run(
+        [str(tmp_path / "tamper" / "fuzz_filter"), *seeds],
+        capture_output=True, text=True, timeout=60, env=ENV, check=False,
+    )  # fmt: skip
+    assert bad.returncode != 0
+    assert "velfence_nd filter contract violated: a bound that is not finite" in bad.stderr
+    assert "dh (a, cos alpha, sin alpha, d, offset):" in bad.stderr  # the decoded input
