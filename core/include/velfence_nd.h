@@ -258,7 +258,10 @@ size_t vf_nd_filter_doubles(const vf_nd_filter *f);
  * G (rows x n), b, level (VF_ND_LEVEL_*), tag_a / tag_b (joint rows: 4 j + side, 0; acceleration:
  * j, side; workspace: limit, facet; obstacle: sphere, link), dist (the signed distance of
  * position, workspace and obstacle rows, +inf for velocity and acceleration rows); P, axes,
- * flange: the kinematics. Returns the number of rows. No input check (SafetyFilter validates). */
+ * flange: the kinematics. Returns the number of rows. No input check: the caller passes finite
+ * q, u and previous of magnitude <= 1e150, as SafetyFilter does (it validates them and shortens
+ * larger commands first); beyond that |J u| can overflow and bounds come out NaN (the solve then
+ * refuses them, but the rows are meaningless). */
 int32_t vf_nd_filter_rows(const vf_nd_filter *f, const double *q, const double *u,
                           const double *previous, double dt, double *P, double *axes,
                           double *flange, double *G, double *b, int32_t *level, int32_t *tag_a,
