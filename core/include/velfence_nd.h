@@ -244,8 +244,9 @@ typedef struct vf_nd_filter {
 
 /* Largest number of rows vf_nd_filter_rows writes: 4 n + 2 n + sum nf + k n. */
 size_t vf_nd_filter_rows_max(const vf_nd_filter *f);
-/* Doubles of scratch vf_nd_filter_rows needs: k n + n + 3 max(nf) + 4 (the obstacle rows' k n + n,
- * a workspace's distances and bounds, 2 max(nf) int32 of work, 4 spare). */
+/* Doubles of scratch vf_nd_filter_rows needs: k n + n + 3 max(nf) + 3 n + 4 (the obstacle rows'
+ * k n + n, a workspace's distances and bounds, 2 max(nf) int32 of work, its point's Jacobian,
+ * 4 spare). */
 size_t vf_nd_filter_doubles(const vf_nd_filter *f);
 
 /* Every row G x >= b of one cycle of the safety filter on a DH chain at joint position q (n,)

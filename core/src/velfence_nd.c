@@ -1073,7 +1073,7 @@ size_t vf_nd_filter_doubles(const vf_nd_filter *f)
             nf = (size_t)f->ws[w].nf;
         }
     }
-    return (size_t)f->cap.k * (size_t)f->n + (size_t)f->n + 3 * nf + 4;
+    return (size_t)f->cap.k * (size_t)f->n + (size_t)f->n + 3 * nf + 3 * (size_t)f->n + 4;
 }
 
 /* One row: G row g (n), bound, level, tags and distance at index r. */
@@ -1103,7 +1103,7 @@ int32_t vf_nd_filter_rows(const vf_nd_filter *f, const double *q, const double *
     const double idt = dt > 0.0 ? 1.0 / dt : 0.0;
     int32_t r = 0, j, w, i, wk[2];
     size_t nfmax = 1;
-    double *ws_d, *ws_b;
+    double *ws_d, *ws_b, *ws_J;
     int32_t *ws_i;
     for (w = 0; w < f->nw; w++) {
         if ((size_t)f->ws[w].nf > nfmax) {
@@ -1113,6 +1113,7 @@ int32_t vf_nd_filter_rows(const vf_nd_filter *f, const double *q, const double *
     ws_d = work + (size_t)f->cap.k * (size_t)n + (size_t)n;
     ws_b = ws_d + nfmax;
     ws_i = (int32_t *)(void *)(ws_b + nfmax);
+    ws_J = ws_b + 2 * nfmax; /* (ws_i: nfmax doubles' worth of int32 pairs) */
     vf_nd_chain_kinematics(n, f->dh, f->tool, q, P, axes, flange);
     /* joint position and velocity rows */
     for (j = 0; j < n; j++) {
@@ -1155,22 +1156,24 @@ int32_t vf_nd_filter_rows(const vf_nd_filter *f, const double *q, const double *
                        VF_ND_LEVEL_RATE, j, 1, INFINITY);
         }
     }
-    /* workspace rows: the point's Jacobian J (3 x n, columns z_j x (p - P_j), j < k) */
+    /* workspace rows: the point's Jacobian J (columns z_j x (p - P_j), j < k; ws_J holds column
+     * j at 3 j), computed once per limit and shared by its speed and its facets' rows */
     for (w = 0; w < f->nw; w++) {
         const vf_nd_workspace *ws = f->ws + w;
         const double *p = ws->point < 0 ? flange : P + 3 * (size_t)ws->point;
         const int32_t k = ws->point < 0 ? n : ws->point;
-        double jx, jy, jz, vx = 0.0, vy = 0.0, vz = 0.0;
+        double vx = 0.0, vy = 0.0, vz = 0.0;
         for (j = 0; j < k; j++) {
             const double *z = axes + 3 * (size_t)j;
             const double *pj = P + 3 * (size_t)j;
+            double *c = ws_J + 3 * (size_t)j;
             double dx = p[0] - pj[0], dy = p[1] - pj[1], dz = p[2] - pj[2];
-            jx = z[1] * dz - z[2] * dy;
-            jy = z[2] * dx - z[0] * dz;
-            jz = z[0] * dy - z[1] * dx;
-            vx += jx * u[j];
-            vy += jy * u[j];
-            vz += jz * u[j];
+            c[0] = z[1] * dz - z[2] * dy;
+            c[1] = z[2] * dx - z[0] * dz;
+            c[2] = z[0] * dy - z[1] * dx;
+            vx += c[0] * u[j];
+            vy += c[1] * u[j];
+            vz += c[2] * u[j];
         }
         for (i = 0; i < ws->nf; i++) {
             const double *nn = ws->N + 3 * (size_t)i;
@@ -1189,13 +1192,8 @@ int32_t vf_nd_filter_rows(const vf_nd_filter *f, const double *q, const double *
                 g[j] = 0.0;
             }
             for (j = 0; j < k; j++) {
-                const double *z = axes + 3 * (size_t)j;
-                const double *pj = P + 3 * (size_t)j;
-                double dx = p[0] - pj[0], dy = p[1] - pj[1], dz = p[2] - pj[2];
-                jx = z[1] * dz - z[2] * dy;
-                jy = z[2] * dx - z[0] * dz;
-                jz = z[0] * dy - z[1] * dx;
-                g[j] = nn[0] * jx + nn[1] * jy + nn[2] * jz;
+                const double *c = ws_J + 3 * (size_t)j;
+                g[j] = nn[0] * c[0] + nn[1] * c[1] + nn[2] * c[2];
             }
             b[r] = ws_b[i];
             level[r] = VF_ND_LEVEL_WORKSPACE;
