@@ -35,7 +35,7 @@ for target in $targets; do
         exact | patent) src=("$core/src/velfence_core.c") ;;
         nd) src=("$core/src/velfence_nd.c" "$core/src/velfence_core.c") ;;
         cc) src=("$core/src/velfence_cc.c" "$core/src/velfence_core.c") ;;
-        rr) src=("$core/src/velfence_rr.c") ;;
+        rr) src=("$core/src/velfence_rr.c" "$core/src/velfence_nd.c") ;;
         filter) src=("$core/src/velfence_nd.c" "$core/src/velfence_core.c") ;;
         *) echo "build.sh: unknown target $target" >&2; exit 2 ;;
     esac

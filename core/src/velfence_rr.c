@@ -4,6 +4,8 @@
  */
 #include "velfence_rr.h"
 
+#include "velfence_nd.h" /* vf_nd_chain_kinematics: the DH chain's one kinematics pass */
+
 #include <math.h>
 #include <stddef.h>
 
@@ -18,63 +20,16 @@ static int all_finite(const double *v, int n)
     return 1;
 }
 
-/* Joint origins o_j, axes z_j (j = 0..5) and the tool point p, in the order of operations of
- * DHChain._kinematics_lists (u = c y - s x: x' = c x + s y, o' = o + a x' + d z,
- * y' = ca u + sa z, z' = ca z - sa u). */
-static void kinematics(const vf_rr_arm *arm, const double *q, double o[6][3], double z[6][3],
-                       double p[3])
-{
-    double xx = 1.0, xy = 0.0, xz = 0.0;
-    double yx = 0.0, yy = 1.0, yz = 0.0;
-    double zx = 0.0, zy = 0.0, zz = 1.0;
-    double ox = 0.0, oy = 0.0, oz = 0.0;
-    int i;
-    for (i = 0; i < 6; i++) {
-        const double *r = arm->dh[i];
-        double a = r[0], ca = r[1], sa = r[2], d = r[3];
-        double th = q[i] + r[4];
-        double ct = cos(th), st = sin(th);
-        double ux, uy, uz, nxx, nxy, nxz, nyx, nyy, nyz;
-        o[i][0] = ox;
-        o[i][1] = oy;
-        o[i][2] = oz;
-        z[i][0] = zx;
-        z[i][1] = zy;
-        z[i][2] = zz;
-        ux = ct * yx - st * xx;
-        uy = ct * yy - st * xy;
-        uz = ct * yz - st * xz;
-        nxx = ct * xx + st * yx;
-        nxy = ct * xy + st * yy;
-        nxz = ct * xz + st * yz;
-        xx = nxx;
-        xy = nxy;
-        xz = nxz;
-        ox += a * xx + d * zx;
-        oy += a * xy + d * zy;
-        oz += a * xz + d * zz;
-        nyx = ca * ux + sa * zx;
-        nyy = ca * uy + sa * zy;
-        nyz = ca * uz + sa * zz;
-        zx = ca * zx - sa * ux;
-        zy = ca * zy - sa * uy;
-        zz = ca * zz - sa * uz;
-        yx = nyx;
-        yy = nyy;
-        yz = nyz;
-    }
-    p[0] = ox + arm->tool[0] * xx + arm->tool[1] * yx + arm->tool[2] * zx;
-    p[1] = oy + arm->tool[0] * xy + arm->tool[1] * yy + arm->tool[2] * zy;
-    p[2] = oz + arm->tool[0] * xz + arm->tool[1] * yz + arm->tool[2] * zz;
-}
-
 static void jacobian(const vf_rr_arm *arm, const double *q, double *J)
 {
-    double o[6][3], z[6][3], p[3];
+    /* the chain's one kinematics pass (velfence_nd.h): joint points P_0 .. P_5, the tool point
+     * P_6, axes z_0 .. z_5 */
+    double P[7][3], z[6][3], flange[3];
+    const double *p = P[6];
     int j;
-    kinematics(arm, q, o, z, p);
+    vf_nd_chain_kinematics(6, &arm->dh[0][0], arm->tool, q, &P[0][0], &z[0][0], flange);
     for (j = 0; j < 6; j++) {
-        double dx = p[0] - o[j][0], dy = p[1] - o[j][1], dz = p[2] - o[j][2];
+        double dx = p[0] - P[j][0], dy = p[1] - P[j][1], dz = p[2] - P[j][2];
         double zx = z[j][0], zy = z[j][1], zz = z[j][2];
         J[0 * 6 + j] = zy * dz - zz * dy;
         J[1 * 6 + j] = zz * dx - zx * dz;

@@ -27,12 +27,19 @@ ENV = {
 }
 
 
-def build(source: str, library: str, exe: Path) -> Path:
-    """Compile ``source`` (relative to core/) with ``library`` (core/src/NAME) under the
-    sanitizers into ``exe``."""
+def _sources(library: str | tuple[str, ...]) -> list[str]:
+    """The paths of ``library``: one core/src/NAME, or several (a file that calls another's
+    functions, as velfence_rr.c calls velfence_nd.c's kinematics)."""
+    names = (library,) if isinstance(library, str) else library
+    return [str(CORE / "src" / name) for name in names]
+
+
+def build(source: str, library: str | tuple[str, ...], exe: Path) -> Path:
+    """Compile ``source`` (relative to core/) with ``library`` (core/src/NAME, or several) under
+    the sanitizers into ``exe``."""
     cmd = [
         str(GCC), *FLAGS, *SANITIZE, f"-I{CORE / 'include'}", str(CORE / source),
-        str(CORE / "src" / library), "-lm", "-o", str(exe),
+        *_sources(library), "-lm", "-o", str(exe),
     ]  # fmt: skip
     done = subprocess.run(cmd, capture_output=True, text=True, timeout=180, check=False)
     assert done.returncode == 0, done.stderr
@@ -56,25 +63,27 @@ def checks_passed(out: str) -> int:
     return int(out.split()[1])
 
 
-def run_cpp(tmp_path: Path, program: str, library: str) -> None:
-    """Compile the C++17 ``program`` against ``library`` (core/src/NAME, compiled as C) under the
-    sanitizers and run it: it must exit 0. Skips without g++."""
+def run_cpp(tmp_path: Path, program: str, library: str | tuple[str, ...]) -> None:
+    """Compile the C++17 ``program`` against ``library`` (core/src/NAME, or several, compiled as
+    C) under the sanitizers and run it: it must exit 0. Skips without g++."""
     gxx = shutil.which("g++")
     if gxx is None:
         pytest.skip("g++ is not on PATH")
     src = tmp_path / "use.cpp"
     src.write_text(program)
-    obj = tmp_path / "lib.o"
-    c = subprocess.run(
-        [str(GCC), *FLAGS, *SANITIZE, f"-I{CORE / 'include'}", "-c", str(CORE / "src" / library),
-         "-o", str(obj)],
-        capture_output=True, text=True, timeout=120, check=False,
-    )  # fmt: skip
-    assert c.returncode == 0, c.stderr
+    objs = []
+    for k, path in enumerate(_sources(library)):
+        obj = tmp_path / f"lib{k}.o"
+        c = subprocess.run(
+            [str(GCC), *FLAGS, *SANITIZE, f"-I{CORE / 'include'}", "-c", path, "-o", str(obj)],
+            capture_output=True, text=True, timeout=120, check=False,
+        )  # fmt: skip
+        assert c.returncode == 0, c.stderr
+        objs.append(str(obj))
     exe = tmp_path / "use"
     cc = subprocess.run(
         [gxx, "-std=c++17", "-Wall", "-Werror", *SANITIZE, f"-I{CORE / 'include'}", str(src),
-         str(obj), "-lm", "-o", str(exe)],
+         *objs, "-lm", "-o", str(exe)],
         capture_output=True, text=True, timeout=120, check=False,
     )  # fmt: skip
     assert cc.returncode == 0, cc.stderr
