@@ -728,18 +728,14 @@ class ConfigurationController(ChainObstacleBase):
 
     def _compiled(self, backend: object) -> tuple[Any, Literal["python", "c"]]:
         """``(velfence_core._nd.ConfigControl or None, backend in use)`` for ``backend``."""
-        usable = self._fast and self._link_radius.shape == (self.dof,)
-        core, name = pick_backend(backend, usable=True)
+        core, name = pick_backend(
+            backend,
+            usable=self._fast and self._link_radius.shape == (self.dof,),
+            refusal="runs the library's own chains (DHChain, PlanarArm, … with one link per "
+            f"joint), got {type(self.chain).__name__}",
+        )
         if core is None:
             return None, name
-        if not usable:
-            if backend == "c":
-                raise InvalidParameter(
-                    "backend='c' runs the library's own chains (DHChain, PlanarArm, … with one "
-                    f"link per joint), got {type(self.chain).__name__}; use backend='auto' or "
-                    "'python'"
-                )
-            return None, "python"
         cc = core.ConfigControl(
             C=self._centers.ravel(), rho=self._rho, lrad=self._link_radius, n=self.dof,
             m=self.task_dim, k=len(self.obstacles), w_e=self.ee_weight,

@@ -65,22 +65,27 @@ def compiled_nd() -> Any:
         return None
 
 
-def pick_backend(backend: object, usable: bool = True) -> tuple[Any, Literal["python", "c"]]:
+def pick_backend(
+    backend: object, usable: bool = True, refusal: str | None = None
+) -> tuple[Any, Literal["python", "c"]]:
     """``(velfence_core._nd or None, backend in use)`` for a ``backend`` argument.
 
     ``usable``: whether the caller's configuration can run in C at all (a profile the kernels
-    do not know cannot); ``backend="c"`` without the core or with ``usable`` False raises
-    :class:`~velfence.errors.InvalidParameter` naming ``backend``.
+    do not know cannot); ``refusal``: what ``backend='c'`` runs and what it got instead, for
+    the message when it cannot (default: the shapers' profiles). ``backend="c"`` without the
+    core or with ``usable`` False raises :class:`~velfence.errors.InvalidParameter` naming
+    ``backend``.
     """
     choice = check_choice("backend", backend, _BACKENDS)
     if choice == "python":
         return None, "python"
     if not usable:
         if choice == "c":
-            raise InvalidParameter(
-                "backend='c' runs the kernels' own profiles (LinearBuffer, ThreeZoneBraking), "
-                "got another profile; use backend='auto' or 'python'"
+            why = refusal or (
+                "runs the kernels' own profiles (LinearBuffer, ThreeZoneBraking), got another "
+                "profile"
             )
+            raise InvalidParameter(f"backend='c' {why}; use backend='auto' or 'python'")
         return None, "python"
     core = compiled_nd()
     if core is None:

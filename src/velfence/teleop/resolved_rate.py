@@ -375,18 +375,14 @@ class ResolvedRate(InvalidPolicy):
     def _compiled(self) -> tuple[Any, Literal["python", "c"]]:
         """``(velfence_core._nd.rr_sr_step or None, backend in use)``; sets ``_rr_arm``."""
         backend = self._backend_choice
-        usable = self._own_jacobian and self.inverse == "sr"
-        core, name = pick_backend(backend, usable=True)
+        core, name = pick_backend(
+            backend,
+            usable=self._own_jacobian and self.inverse == "sr",
+            refusal="runs the library's Puma560 under inverse='sr', got "
+            f"{type(self.robot).__name__} with inverse={self.inverse!r}",
+        )
         if core is None:
             return None, name
-        if not usable:
-            if backend == "c":
-                raise InvalidParameter(
-                    "backend='c' runs the library's Puma560 under inverse='sr', got "
-                    f"{type(self.robot).__name__} with inverse={self.inverse!r}; use "
-                    "backend='auto' or 'python'"
-                )
-            return None, "python"
         chain = self.robot._chain  # type: ignore[attr-defined]  # a Puma560 (usable)
         arm = [v for row in chain._dh_rows for v in row]
         arm += [*chain._tool_xyz, self.k0, self.w0, self.singular_tol]
