@@ -139,6 +139,27 @@ def _known_defect_input() -> bytes:
     return bytes([0]) + polygon + law + minus_max + minus_max + one + zero
 
 
+def _runs_clean(exe: Path, inputs: list[str]) -> None:
+    """``exe`` runs every one of ``inputs`` once and exits 0 (no contract violation, no
+    sanitizer report)."""
+    done = subprocess.run(
+        [str(exe), *inputs], capture_output=True, text=True, timeout=60, env=ENV, check=False
+    )
+    assert done.returncode == 0, done.stderr[-4000:]
+    for f in inputs:
+        assert f"Running: {f}" in done.stderr
+
+
+def _tampered_run(exe: Path, target: str) -> str:
+    """``exe``, a ``--control-tamper`` build, aborts on ``target``'s seed corpus; its stderr."""
+    seeds = sorted(str(f) for f in (FUZZ / "corpus" / target).iterdir())
+    bad = subprocess.run(
+        [str(exe), *seeds], capture_output=True, text=True, timeout=60, env=ENV, check=False
+    )
+    assert bad.returncode != 0
+    return bad.stderr
+
+
 def test_former_findings_run_clean_and_a_spoiled_result_aborts(
     libfuzzer: None, tmp_path: Path
 ) -> None:
@@ -153,22 +174,11 @@ def test_former_findings_run_clean_and_a_spoiled_result_aborts(
     assert len(found) >= 3
     _build(tmp_path / "build", "exact")
     _build(tmp_path / "tamper", "exact", "--control-tamper")
-    clean = subprocess.run(
-        [str(tmp_path / "build" / "fuzz_exact"), str(unit), *found],
-        capture_output=True, text=True, timeout=60, env=ENV, check=False,
-    )  # fmt: skip
-    assert clean.returncode == 0, clean.stderr[-4000:]
-    for f in found:
-        assert f"Running: {f}" in clean.stderr
-    seeds = sorted(str(f) for f in (FUZZ / "corpus" / "exact").iterdir())
-    bad = subprocess.run(
-        [str(tmp_path / "tamper" / "fuzz_exact"), *seeds],
-        capture_output=True, text=True, timeout=60, env=ENV, check=False,
-    )  # fmt: skip
-    assert bad.returncode != 0
-    assert "contract violated (exact law)" in bad.stderr
-    assert re.search(r"result: rc=0 ox=nan ", bad.stderr), bad.stderr[-3000:]
-    assert "polygon n=" in bad.stderr  # the decoded input
+    _runs_clean(tmp_path / "build" / "fuzz_exact", [str(unit), *found])
+    bad = _tampered_run(tmp_path / "tamper" / "fuzz_exact", "exact")
+    assert "contract violated (exact law)" in bad
+    assert re.search(r"result: rc=0 ox=nan ", bad), bad[-3000:]
+    assert "polygon n=" in bad  # the decoded input
 
 
 def test_nd_and_cc_findings_run_clean_and_a_spoiled_result_aborts(
@@ -186,30 +196,15 @@ def test_nd_and_cc_findings_run_clean_and_a_spoiled_result_aborts(
     assert len(found_cc) >= 1
     _build(tmp_path / "build", "nd cc")
     _build(tmp_path / "tamper", "nd cc", "--control-tamper")
-    clean = subprocess.run(
-        [str(tmp_path / "build" / "fuzz_nd"), *found],
-        capture_output=True, text=True, timeout=60, env=ENV, check=False,
-    )  # fmt: skip
-    assert clean.returncode == 0, clean.stderr[-4000:]
-    for f in found:
-        assert f"Running: {f}" in clean.stderr
-    clean = subprocess.run(
-        [str(tmp_path / "build" / "fuzz_cc"), *found_cc],
-        capture_output=True, text=True, timeout=60, env=ENV, check=False,
-    )  # fmt: skip
-    assert clean.returncode == 0, clean.stderr[-4000:]
+    _runs_clean(tmp_path / "build" / "fuzz_nd", found)
+    _runs_clean(tmp_path / "build" / "fuzz_cc", found_cc)
     for target, banner, decoded in (
         ("nd", "contract violated (n-D law): VF_ND_OK with a non-finite velocity", "polytope nf="),
         ("cc", "velfence_cc contract violated: VF_CC_OK with a non-finite double", "problem n="),
     ):
-        seeds = sorted(str(f) for f in (FUZZ / "corpus" / target).iterdir())
-        bad = subprocess.run(
-            [str(tmp_path / "tamper" / f"fuzz_{target}"), *seeds],
-            capture_output=True, text=True, timeout=60, env=ENV, check=False,
-        )  # fmt: skip
-        assert bad.returncode != 0
-        assert banner in bad.stderr, bad.stderr[-3000:]
-        assert decoded in bad.stderr  # the decoded input
+        bad = _tampered_run(tmp_path / "tamper" / f"fuzz_{target}", target)
+        assert banner in bad, bad[-3000:]
+        assert decoded in bad  # the decoded input
 
 
 def test_rr_findings_run_clean_and_a_spoiled_result_aborts(libfuzzer: None, tmp_path: Path) -> None:
@@ -222,21 +217,10 @@ def test_rr_findings_run_clean_and_a_spoiled_result_aborts(libfuzzer: None, tmp_
     assert len(found) >= 3
     _build(tmp_path / "build", "rr")
     _build(tmp_path / "tamper", "rr", "--control-tamper")
-    clean = subprocess.run(
-        [str(tmp_path / "build" / "fuzz_rr"), *found],
-        capture_output=True, text=True, timeout=60, env=ENV, check=False,
-    )  # fmt: skip
-    assert clean.returncode == 0, clean.stderr[-4000:]
-    for f in found:
-        assert f"Running: {f}" in clean.stderr
-    seeds = sorted(str(f) for f in (FUZZ / "corpus" / "rr").iterdir())
-    bad = subprocess.run(
-        [str(tmp_path / "tamper" / "fuzz_rr"), *seeds],
-        capture_output=True, text=True, timeout=60, env=ENV, check=False,
-    )  # fmt: skip
-    assert bad.returncode != 0
-    assert "velfence_rr contract violated: VF_RR_OK with a non-finite double" in bad.stderr
-    assert "arm (a, cos alpha, sin alpha, d, offset):" in bad.stderr  # the decoded input
+    _runs_clean(tmp_path / "build" / "fuzz_rr", found)
+    bad = _tampered_run(tmp_path / "tamper" / "fuzz_rr", "rr")
+    assert "velfence_rr contract violated: VF_RR_OK with a non-finite double" in bad
+    assert "arm (a, cos alpha, sin alpha, d, offset):" in bad  # the decoded input
 
 
 def test_filter_seeds_run_clean_and_a_spoiled_result_aborts(
@@ -250,17 +234,7 @@ def test_filter_seeds_run_clean_and_a_spoiled_result_aborts(
     assert len(seeds) >= 4
     _build(tmp_path / "build", "filter")
     _build(tmp_path / "tamper", "filter", "--control-tamper")
-    clean = subprocess.run(
-        [str(tmp_path / "build" / "fuzz_filter"), *seeds, *found],
-        capture_output=True, text=True, timeout=60, env=ENV, check=False,
-    )  # fmt: skip
-    assert clean.returncode == 0, clean.stderr[-4000:]
-    for f in seeds + found:
-        assert f"Running: {f}" in clean.stderr
-    bad = subprocess.run(
-        [str(tmp_path / "tamper" / "fuzz_filter"), *seeds],
-        capture_output=True, text=True, timeout=60, env=ENV, check=False,
-    )  # fmt: skip
-    assert bad.returncode != 0
-    assert "velfence_nd filter contract violated: a bound that is not finite" in bad.stderr
-    assert "dh (a, cos alpha, sin alpha, d, offset):" in bad.stderr  # the decoded input
+    _runs_clean(tmp_path / "build" / "fuzz_filter", seeds + found)
+    bad = _tampered_run(tmp_path / "tamper" / "fuzz_filter", "filter")
+    assert "velfence_nd filter contract violated: a bound that is not finite" in bad
+    assert "dh (a, cos alpha, sin alpha, d, offset):" in bad  # the decoded input
