@@ -69,16 +69,6 @@ typedef struct cc_out {
 
 static const fz_cc *cur;
 
-static void print_vec(const char *name, const double *x, int32_t n)
-{
-    int32_t k;
-    fprintf(stderr, "%s:", name);
-    for (k = 0; k < n; k++) {
-        fprintf(stderr, " %.17g", x[k]);
-    }
-    fprintf(stderr, "\n");
-}
-
 static void fail(const char *what, int rc, const vf_cc_out *o)
 {
     const vf_cc_problem *pb = &cur->pb;
@@ -89,18 +79,18 @@ static void fail(const char *what, int rc, const vf_cc_out *o)
             "max_speed=%.17g recheck=%d rounds=%d (structured %d)\n",
             (int)pb->n, (int)pb->m, (int)pb->k, pb->w_e, pb->w_z, pb->lam, pb->kz, pb->h,
             pb->max_speed, (int)pb->recheck, (int)pb->rounds, cur->structured);
-    print_vec("P", cur->P, 3 * (n + 1));
-    print_vec("axes", cur->axes, 3 * n);
-    print_vec("lrad", cur->lrad, n);
-    print_vec("y_r", cur->yr, cur->m);
-    print_vec("C", cur->C, 3 * k);
-    print_vec("rho", cur->rho, k);
+    fz_print_vec("P", cur->P, 3 * (n + 1));
+    fz_print_vec("axes", cur->axes, 3 * n);
+    fz_print_vec("lrad", cur->lrad, n);
+    fz_print_vec("y_r", cur->yr, cur->m);
+    fz_print_vec("C", cur->C, 3 * k);
+    fz_print_vec("rho", cur->rho, k);
     fprintf(stderr, "rc=%d\n", rc);
     if (o != NULL) {
         int32_t i;
-        print_vec("q_dot", o->q_dot, n);
-        print_vec("q_free", o->q_free, n);
-        print_vec("distances", o->distances, k);
+        fz_print_vec("q_dot", o->q_dot, n);
+        fz_print_vec("q_free", o->q_free, n);
+        fz_print_vec("distances", o->distances, k);
         fprintf(stderr, "n_active=%d active:", (int)o->n_active);
         for (i = 0; i < k; i++) {
             fprintf(stderr, " %d", (int)o->active[i]);

@@ -29,8 +29,9 @@
  * (=1 or =0, read once at start-up). VF_FUZZ_CONTROL_TAMPER (build.sh --control-tamper) makes
  * fuzz_exact spoil every VF_OK result, for the tests' proof that a violation aborts.
  *
- * VF_FUZZ_BYTES_ONLY (defined by fuzz_nd.c and fuzz_cc.c before the include): only the byte
- * cursor, the double decoder, fz_alloc and fz_same_bits; no polygon, states or 2-D contract.
+ * VF_FUZZ_BYTES_ONLY (defined by fuzz_nd.c, fuzz_cc.c, fuzz_rr.c and fuzz_filter.c before the
+ * include): only the byte cursor, the double decoder, fz_alloc, fz_same_bits and fz_print_vec;
+ * no polygon, states or 2-D contract.
  */
 #ifndef VF_FUZZ_COMMON_H
 #define VF_FUZZ_COMMON_H
@@ -135,6 +136,17 @@ static double *fz_alloc(int32_t count)
 static int fz_same_bits(double a, double b)
 {
     return memcmp(&a, &b, sizeof a) == 0;
+}
+
+/* "name: x_0 x_1 ..." on stderr, every double to 17 digits (the targets' reports). */
+static inline void fz_print_vec(const char *name, const double *x, int32_t n)
+{
+    int32_t k;
+    fprintf(stderr, "%s:", name);
+    for (k = 0; k < n; k++) {
+        fprintf(stderr, " %.17g", x[k]);
+    }
+    fprintf(stderr, "\n");
 }
 
 #ifndef VF_FUZZ_BYTES_ONLY /* the 2-D targets: polygons, states, their contract */

@@ -92,16 +92,6 @@ static void print_prm(int32_t kind, const double *prm)
     fprintf(stderr, "\n");
 }
 
-static void print_vec(const char *name, const double *x, int32_t m)
-{
-    int32_t i;
-    fprintf(stderr, "%s:", name);
-    for (i = 0; i < m; i++) {
-        fprintf(stderr, " %.17g", x[i]);
-    }
-    fprintf(stderr, "\n");
-}
-
 static void print_input(void)
 {
     int32_t i, j, w;
@@ -113,11 +103,11 @@ static void print_input(void)
         }
         fprintf(stderr, "\n");
     }
-    print_vec("tool", tool, 3);
-    print_vec("lower", lower, n);
-    print_vec("upper", upper, n);
-    print_vec("vmax", vmax, n);
-    print_vec("amax", amax, n);
+    fz_print_vec("tool", tool, 3);
+    fz_print_vec("lower", lower, n);
+    fz_print_vec("upper", upper, n);
+    fz_print_vec("vmax", vmax, n);
+    fz_print_vec("amax", amax, n);
     for (j = 0; j < n; j++) {
         fprintf(stderr, "joint %d", (int)j);
         print_prm(jkind[j], jprm + VF_ND_PROFILE_PARAMS * j);
@@ -125,18 +115,18 @@ static void print_input(void)
     for (w = 0; w < nw; w++) {
         fprintf(stderr, "workspace %d nf %d point %d", (int)w, (int)ws[w].nf, (int)ws[w].point);
         print_prm(ws[w].kind, ws[w].prm);
-        print_vec(" N", wN[w], 3 * ws[w].nf);
-        print_vec(" off", woff[w], ws[w].nf);
+        fz_print_vec(" N", wN[w], 3 * ws[w].nf);
+        fz_print_vec(" off", woff[w], ws[w].nf);
     }
     fprintf(stderr, "spheres k %d buf %.17g vmax %s", (int)f.cap.k, f.cap.buf,
             f.cap.vmax != NULL ? "given" : "NULL");
     print_prm(f.cap.kind, f.cap.prm);
-    print_vec(" lrad", lrad, n);
-    print_vec(" C", C, 3 * f.cap.k);
-    print_vec(" srad", srad, f.cap.k);
-    print_vec("q", q, n);
-    print_vec("u", u, n);
-    print_vec("previous", prev, n);
+    fz_print_vec(" lrad", lrad, n);
+    fz_print_vec(" C", C, 3 * f.cap.k);
+    fz_print_vec(" srad", srad, f.cap.k);
+    fz_print_vec("q", q, n);
+    fz_print_vec("u", u, n);
+    fz_print_vec("previous", prev, n);
 }
 
 static void fail(const char *what, int32_t row, int32_t r, const double *b, const double *dist,

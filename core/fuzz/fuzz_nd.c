@@ -93,16 +93,6 @@ static void print_polytope(const vf_nd_polytope *p)
     }
 }
 
-static void print_vec(const char *name, const double *x, int32_t n)
-{
-    int32_t k;
-    fprintf(stderr, "%s:", name);
-    for (k = 0; k < n; k++) {
-        fprintf(stderr, " %.17g", x[k]);
-    }
-    fprintf(stderr, "\n");
-}
-
 static void fail(const char *what, const double *p, const double *v, const double *out,
                  const vf_nd_result *r, int rc)
 {
@@ -113,8 +103,8 @@ static void fail(const char *what, const double *p, const double *v, const doubl
             l->prm[4], l->prm[5]);
     print_polytope(&cur_poly->poly);
     if (p != NULL) {
-        print_vec("state p", p, cur_poly->poly.dim);
-        print_vec("state v", v, cur_poly->poly.dim);
+        fz_print_vec("state p", p, cur_poly->poly.dim);
+        fz_print_vec("state v", v, cur_poly->poly.dim);
     }
     if (r != NULL) {
         fprintf(stderr, "result: rc=%d zone=%d stages=%d q=%d p1=%d p2=%d d1=%.17g d2=%.17g m=%d\n",
@@ -122,7 +112,7 @@ static void fail(const char *what, const double *p, const double *v, const doubl
                 (int)r->m);
     }
     if (out != NULL) {
-        print_vec("out", out, cur_poly->poly.dim);
+        fz_print_vec("out", out, cur_poly->poly.dim);
     }
     abort();
 }
@@ -661,15 +651,15 @@ static void fail_proj(const char *what, int rc, const double *x, int32_t q, int3
     fprintf(stderr, "\n*** velfence_nd contract violated (projection): %s\n", what);
     fprintf(stderr, "m=%d n=%d structured=%d\n", (int)pr->m, (int)pr->n, pr->structured);
     if (pr->n > 0) {
-        print_vec("u", pr->u, pr->n);
+        fz_print_vec("u", pr->u, pr->n);
         for (i = 0; i < pr->m; i++) {
             fprintf(stderr, "row %d: b=%.17g ", (int)i, pr->b[i]);
-            print_vec("G", pr->G + (size_t)i * pr->n, pr->n);
+            fz_print_vec("G", pr->G + (size_t)i * pr->n, pr->n);
         }
     }
     fprintf(stderr, "rc=%d q=%d iters=%d status=%d\n", rc, (int)q, (int)iters, (int)status);
     if (x != NULL && pr->n > 0) {
-        print_vec("x", x, pr->n);
+        fz_print_vec("x", x, pr->n);
     }
     abort();
 }
