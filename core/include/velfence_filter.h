@@ -1,0 +1,225 @@
+/*
+ * velfence_filter.h -- the safety filter's whole cycle in plain C99 (SafetyFilter, joint mode).
+ *
+ * One call, vf_filter_cycle, takes the joint position q and the commanded joint velocity u of a
+ * serial chain and returns the nearest joint velocity x (in the metric W = diag(weights)) that
+ * meets every safety row G x >= b at once:
+ *
+ *   1. kinematics of the chain given as data (below) at q;
+ *   2. the built-in rows, in this order (the row keys (level, a, b) in brackets):
+ *        joint position lower / upper rows where the limit is finite and the profile bounds the
+ *        approach                                      (VF_FILTER_LEVEL_JOINT, 4 j + 0 / 1, 0),
+ *        joint velocity lower / upper rows  x_j >= -v_j, -x_j >= -v_j  (JOINT, 4 j + 2 / 3, 0),
+ *        acceleration rows (previous != NULL, dt > 0, amax_j finite):
+ *          x_j >= prev_j - a_j dt, -x_j >= -(prev_j + a_j dt)      (VF_FILTER_LEVEL_RATE, j, 0 / 1),
+ *        workspace rows: facet i of polytope w on its point p: (N_i J_p) x >= b_i, the exact law's
+ *          bound at the point's speed |J_p u| (facets without a bound left out)
+ *                                                         (VF_FILTER_LEVEL_WORKSPACE, w, i),
+ *        obstacle rows: sphere s against the capsule of link l, (n J_c) x >= b at the link's
+ *          critical point (vf_nd_capsule_rows; pairs beyond the buffer and one period's reach
+ *          left out)                                       (VF_FILTER_LEVEL_OBSTACLE, s, l);
+ *      a row is *violated* when its signed distance is < 0; its bound is then a recovery bound;
+ *   3. the feasibility test (G u >= b as evaluated: then x = u exactly), the projection
+ *      (vf_nd_project_kernel, in the metric: y = sqrt(w) x), the discrete-time model check and the
+ *      priority ladder, exactly as velfence.filter (the Python oracle):
+ *        rung 1  every row as built;
+ *        rung 2  drop the acceleration rows                   (VF_FILTER_STAGE_DROPPED_RATE);
+ *        rung 3  violated obstacle rows with b > 0: b scaled by 1/4, 1/16, ..., 4^-8, then 0
+ *                                                             (VF_FILTER_STAGE_RELAXED_OBSTACLES);
+ *        rung 4  the same for the workspace rows              (VF_FILTER_STAGE_RELAXED_WORKSPACE);
+ *        rung 5  the same for the joint position rows         (VF_FILTER_STAGE_RELAXED_JOINT);
+ *        rung 6  zero velocity                                (VF_FILTER_STAGE_STOP).
+ *      Rows the point is inside are never relaxed; no workspace or obstacle row is dropped.
+ *      Model check (dt > 0): the true next distance d1 of every workspace and obstacle row at
+ *      q + x dt must be >= min(0, d0); a failing row's bound is raised by
+ *      (min(0, d0) - d1) / dt (1 + 1e-6) + 1e-12 and the rung solved again (4 rounds); if that does
+ *      not settle, x is scaled by the largest t in {1, 1/2, ..., 2^-10} with t x passing the model
+ *      check and every row with its bound relaxed to min(b, 0) (VF_FILTER_STAGE_SCALED), else 0.
+ *      Deadline: when a solve hits the iteration cap or the cycle its time budget, the output is
+ *      the safe fallback: the largest t in [0, 1] with t u meeting every joint, workspace and
+ *      obstacle row relaxed to min(b, 0), then the model check's halving as above; else zero
+ *      (VF_FILTER_STAGE_DEADLINE, info->deadline). Zero meets those rows, so it is always safe.
+ *
+ * Commands beyond 1e3 times the fastest joint limit are first shortened in their own direction
+ * (VF_FILTER_STAGE_COMMAND_SCALED), as SafetyFilter does.
+ *
+ * The chain as data. Joint j (0 .. n-1) has a fixed transform T_j (3 x 4 row-major [R | p]) from
+ * the previous joint's moving frame (the base for j = 0) to the joint frame, a unit axis a_j in
+ * the joint frame, a type (VF_FILTER_REVOLUTE: rotation by q_j + offset_j about a_j through the
+ * frame's origin; VF_FILTER_PRISMATIC: translation by q_j + offset_j along a_j) and an offset:
+ *
+ *     F_j = F_{j-1} T_j M_j(q_j + offset_j),      F_{-1} = I,      F_tool = F_{n-1} tool.
+ *
+ * Joint j's point P_j is the origin of F_{j-1} T_j (on its axis), its world axis z_j = R a_j;
+ * P_n is the tool point (origin of F_tool). Link l (0 .. n-1) is the capsule P_l -> P_{l+1}.
+ * A standard DH row (a, alpha, d, theta0) is the motion Rz(q + theta0) followed by the fixed
+ * Tz(d) Tx(a) Rx(alpha), which becomes the next joint's T (and the tool's for the last joint):
+ * T_0 = I, T_j = Tz(d_{j-1}) Tx(a_{j-1}) Rx(alpha_{j-1}), tool = Tz(d_n) Tx(a_n) Rx(alpha_n) Tt.
+ * A modified DH (Craig) row (a_{i-1}, alpha_{i-1}, d_i, theta0) is T_j = Rx(alpha) Tx(a) Tz(d) with
+ * motion Rz; a URDF / MJCF joint is its origin transform and axis directly.
+ * Named points (workspace polytopes) sit on a frame: link -1 the base, 0 .. n-1 the frame F_link
+ * (after joint `link`'s motion), n the tool frame, at `offset` in that frame.
+ *
+ * Obstacle rows need every joint revolute (VF_ERR_ARGUMENT otherwise): the capsule Jacobian of
+ * vf_nd_capsule_rows is the revolute one. Joint mode with diagonal weights only (no twist mode,
+ * no full metric matrix: use the Python route for those).
+ *
+ * Real-time use: reentrant, allocation-free, no global state. The caller owns every buffer: the
+ * scratch holds vf_filter_doubles(f) doubles and vf_filter_ints(f) int32_t (query once). The
+ * description is read-only and shareable between threads; one scratch per thread. Every input is
+ * validated on every call (the description too: it is cheap against a solve); on an error the
+ * output is zero, info->stages = VF_FILTER_STAGE_STOP and a negative status is returned.
+ *
+ * Units: metres, radians, seconds (speeds per second, dt in s, deadline in s of CLOCK_MONOTONIC).
+ */
+#ifndef VELFENCE_FILTER_H
+#define VELFENCE_FILTER_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "velfence_nd.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Status codes (spec: one enum in velfence_status.h; the same values here until it lands). */
+#ifndef VF_OK
+#define VF_OK 0
+#define VF_ERR_NULL (-1)
+#define VF_ERR_ARGUMENT (-2)
+#define VF_ERR_NONFINITE (-3)
+#define VF_ERR_OVERFLOW (-4)
+#define VF_ERR_SINGULAR (-5)
+#define VF_INFEASIBLE 1
+#define VF_STALLED 2
+#define VF_ITERATION_CAP 3
+#define VF_DEADLINE 4
+#endif
+
+#define VF_FILTER_REVOLUTE 0
+#define VF_FILTER_PRISMATIC 1
+
+#define VF_FILTER_LEVEL_JOINT 0
+#define VF_FILTER_LEVEL_WORKSPACE 1
+#define VF_FILTER_LEVEL_OBSTACLE 2
+#define VF_FILTER_LEVEL_RATE 3
+
+/* Stage bits of info->stages (FilterResult.stages). */
+#define VF_FILTER_STAGE_PROJECTION 1        /* the output differs from the (capped) command */
+#define VF_FILTER_STAGE_RECOVERY 2          /* some row is violated */
+#define VF_FILTER_STAGE_MODEL_CHECK 4       /* a bound was raised by the model check */
+#define VF_FILTER_STAGE_DROPPED_RATE 8      /* the acceleration rows were dropped */
+#define VF_FILTER_STAGE_RELAXED_OBSTACLES 16
+#define VF_FILTER_STAGE_RELAXED_WORKSPACE 32
+#define VF_FILTER_STAGE_RELAXED_JOINT 64
+#define VF_FILTER_STAGE_STOP 128            /* zero velocity */
+#define VF_FILTER_STAGE_DEADLINE 256        /* the safe fallback (iteration cap or time budget) */
+#define VF_FILTER_STAGE_COMMAND_SCALED 512  /* the command was shortened first */
+#define VF_FILTER_STAGE_SCALED 1024         /* the model check scaled the solve's answer */
+
+#define VF_FILTER_DEADLINE_NONE 0
+#define VF_FILTER_DEADLINE_ITERATIONS 1
+#define VF_FILTER_DEADLINE_TIME 2
+
+typedef struct vf_filter_joint {
+    double T[12];   /* fixed transform from the previous moving frame, [R | p] row-major */
+    double axis[3]; /* unit axis in the joint frame */
+    int32_t type;   /* VF_FILTER_REVOLUTE or VF_FILTER_PRISMATIC */
+    double offset;  /* joint coordinate = q_j + offset [rad or m] */
+} vf_filter_joint;
+
+typedef struct vf_filter_point {
+    int32_t link;     /* -1 base, 0 .. n-1 the frame after joint `link`, n the tool frame */
+    double offset[3]; /* position in that frame [m] */
+} vf_filter_point;
+
+typedef struct vf_filter_polytope {
+    int32_t point;    /* index into vf_filter.points */
+    int32_t nf;       /* facets, >= 1 */
+    const double *N;  /* unit inward normals, nf x 3 */
+    const double *off;/* offsets (nf,): signed distance N_i . p - off_i [m] */
+    int32_t kind;     /* approach profile VF_ND_PROFILE_* ... */
+    double prm[VF_ND_PROFILE_PARAMS]; /* ... and its parameters (velfence profiles' kernel_profile) */
+} vf_filter_polytope;
+
+typedef struct vf_filter {
+    int32_t n;                     /* joints, 1 .. 64 */
+    const vf_filter_joint *joints; /* (n,) */
+    double tool[12];               /* tool transform in F_{n-1}, [R | p] row-major */
+    const double *lower, *upper;   /* joint position limits (n,); -inf / +inf: none */
+    const double *vmax;            /* joint speed limits (n,), > 0 */
+    const double *amax;            /* joint acceleration limits (n,) (> 0, inf: none), or NULL */
+    const int32_t *jkind;          /* the joints' approach profiles (n,) (VF_ND_PROFILE_*) */
+    const double *jprm;            /* and their parameters, n x VF_ND_PROFILE_PARAMS */
+    int32_t npoints;               /* named points */
+    const vf_filter_point *points; /* (npoints,) */
+    int32_t nw;                    /* workspace polytopes */
+    const vf_filter_polytope *ws;  /* (nw,) */
+    int32_t k;                     /* sphere obstacles */
+    const double *centres;         /* k x 3 [m] */
+    const double *radii;           /* (k,) [m], >= 0 */
+    const double *link_radius;     /* capsule radius per link (n,) [m], >= 0; NULL: 0 */
+    double obstacle_buffer;        /* width of the obstacles' linear buffer [m], > 0 */
+    double spring_gain;            /* obstacles' recovery gain [1/s], >= 0 */
+    double dt;                     /* control period [s], > 0, or 0: continuous time */
+    const double *weights;         /* diagonal metric (n,), > 0, or NULL (identity) */
+} vf_filter;
+
+typedef struct vf_filter_opts {
+    int32_t max_iterations; /* per solve; <= 0: the default cap 4 (m + n) + 16 */
+    double time_budget;     /* s for the whole cycle, > 0; 0: none */
+    double deadline;        /* absolute CLOCK_MONOTONIC time [s]; 0 or inf: none */
+    const int32_t *warm;    /* row keys (level, a, b) x n_warm tried first (the last active set) */
+    int32_t n_warm;
+} vf_filter_opts;
+
+typedef struct vf_filter_info {
+    int32_t status;        /* the return value */
+    int32_t stages;        /* VF_FILTER_STAGE_* bits */
+    int32_t rung;          /* the rung that answered, 1 .. 6 (0: the feasibility test / error) */
+    int32_t deadline;      /* VF_FILTER_DEADLINE_* */
+    int32_t relaxed[4];    /* per level: 1 when its recovery bounds were relaxed */
+    int32_t dropped[4];    /* per level: 1 when its rows were dropped (only the rate level) */
+    double fraction;       /* the last relaxation fraction tried (1: none) */
+    int32_t m;             /* rows built */
+    int32_t n_active;      /* active rows: slack <= 1e-9 (1 + |b|) at the output, or violated */
+    int32_t n_violated;
+    int32_t iterations;    /* solver iterations, summed */
+    int32_t solves;
+    /* Views into the scratch, valid until its next use: the rows as built (G m x n row-major,
+     * b, signed distance (+inf for velocity / acceleration rows), keys level / a / b), the slack
+     * G x - b at the output and the active row indices (n_active,). */
+    const double *G, *b, *dist, *slack;
+    const int32_t *level, *key_a, *key_b, *active;
+} vf_filter_info;
+
+/* Checks the description: VF_OK or a negative VF_ERR_* code. */
+int vf_filter_check(const vf_filter *f);
+/* Largest number of rows: 6 n + sum nf + k n. */
+size_t vf_filter_rows_max(const vf_filter *f);
+/* Scratch sizes of vf_filter_cycle (0 for an invalid description). */
+size_t vf_filter_doubles(const vf_filter *f);
+size_t vf_filter_ints(const vf_filter *f);
+
+/* The obstacles' profile (a linear buffer of width obstacle_buffer): kind and params. */
+void vf_filter_obstacle_profile(const vf_filter *f, int32_t *kind, double *prm);
+
+/* One cycle: q (n,), u (n,), previous (n,) or NULL (no acceleration rows), opts or NULL
+ * (defaults) -> out (n,), info. Returns VF_OK, a positive outcome (VF_ITERATION_CAP or
+ * VF_DEADLINE: the safe fallback was used) or a negative VF_ERR_* code (out = 0). */
+int vf_filter_cycle(const vf_filter *f, const double *q, const double *u, const double *previous,
+                    const vf_filter_opts *opts, double *out, vf_filter_info *info,
+                    double *scratch, int32_t *iscratch);
+
+/* Forward kinematics of the chain: joint points P_0 .. P_n ((n + 1) x 3, P_n the tool point),
+ * world axes z_0 .. z_n-1 (n x 3), frames F_-1 .. F_n-1, F_tool ((n + 2) x 12). No check. */
+void vf_filter_kinematics(const vf_filter *f, const double *q, double *P, double *axes,
+                          double *frames);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* VELFENCE_FILTER_H */

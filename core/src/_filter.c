@@ -1,0 +1,580 @@
+/*
+ * velfence_core._filter -- CPython binding of the safety filter's whole cycle (velfence_filter.h).
+ *
+ *   FilterCycle(joints, tool, lower, upper, vmax, amax, jkind, jprm, points, ws, centres, radii,
+ *               link_radius, obstacle_buffer, spring_gain, dt, weights)
+ *       joints: float64 (n * 17,): per joint T (12, [R | p] row-major), axis (3), type, offset;
+ *       tool (12,); lower, upper, vmax (n,); amax (n,) or None; jkind: n ints; jprm (n * 6,);
+ *       points (npoints * 4,): link, offset x, y, z; ws: list of (point, N (nf * 3,), off (nf,),
+ *       kind, prm (6,)); centres (k * 3,), radii (k,); link_radius (n,) or None; weights (n,) or
+ *       None. Everything is copied and checked once (vf_filter_check): ValueError when invalid.
+ *     cycle(q, u, previous=None, out=None) -> out: one cycle on float64 arrays (n,) (out: a
+ *       caller array (n,) written in place, else a new one). ValueError on a negative status (the
+ *       output is then zero); the info of the cycle stays readable (info(), rows(), active()).
+ *     set_options(max_iterations=0, time_budget=0.0, warm=False): per-solve iteration cap (<= 0:
+ *       default), time budget [s] per cycle (0: none), warm start from the last active set.
+ *     info() -> dict (status, stages, rung, deadline, relaxed, dropped, fraction, m, n_active,
+ *       n_violated, iterations, solves); rows() -> (G, b, level, key_a, key_b, dist, slack) of the
+ *       last cycle (copies); active() -> the last active rows' keys, a list of (level, a, b).
+ *     deadline_misses: the number of cycles that used the deadline fallback.
+ *   STAGE_* / LEVEL_* / DEADLINE_* constants as in the header.
+ */
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+
+#define NPY_NO_DEPRECATED_API NPY_1_7_API_VERSION
+#include <numpy/arrayobject.h>
+
+#include <string.h>
+
+#include "velfence_filter.h"
+
+typedef struct {
+    PyObject_HEAD
+    vf_filter f;
+    vf_filter_joint *joints;
+    vf_filter_point *points;
+    vf_filter_polytope *ws;
+    double *mem;      /* every owned double: limits, profiles, polytopes, obstacles, scratch */
+    int32_t *imem;    /* jkind, then the scratch ints, then the warm keys */
+    double *scratch;
+    int32_t *iscratch;
+    int32_t *warm;    /* 3 x rows_max */
+    int32_t n_warm;
+    int use_warm;
+    vf_filter_opts opts;
+    vf_filter_info info;
+    int have_info;
+    long long misses;
+} FilterCycle;
+
+static int read_into(PyObject *obj, const char *name, double *dst, Py_ssize_t count)
+{
+    PyArrayObject *a = (PyArrayObject *)PyArray_FROMANY(obj, NPY_DOUBLE, 0, 0,
+                                                         NPY_ARRAY_CARRAY_RO);
+    if (a == NULL) {
+        return -1;
+    }
+    if (PyArray_SIZE(a) != count) {
+        PyErr_Format(PyExc_ValueError, "%s: expected %zd floats, got %zd", name, count,
+                     (Py_ssize_t)PyArray_SIZE(a));
+        Py_DECREF(a);
+        return -1;
+    }
+    if (count > 0) {
+        memcpy(dst, PyArray_DATA(a), (size_t)count * sizeof(double));
+    }
+    Py_DECREF(a);
+    return 0;
+}
+
+static Py_ssize_t size_of(PyObject *obj, const char *name)
+{
+    Py_ssize_t s;
+    PyArrayObject *a = (PyArrayObject *)PyArray_FROMANY(obj, NPY_DOUBLE, 0, 0,
+                                                         NPY_ARRAY_CARRAY_RO);
+    if (a == NULL) {
+        return -1;
+    }
+    s = (Py_ssize_t)PyArray_SIZE(a);
+    Py_DECREF(a);
+    (void)name;
+    return s;
+}
+
+static void FilterCycle_dealloc(FilterCycle *self)
+{
+    PyMem_Free(self->joints);
+    PyMem_Free(self->points);
+    PyMem_Free(self->ws);
+    PyMem_Free(self->mem);
+    PyMem_Free(self->imem);
+    Py_TYPE(self)->tp_free((PyObject *)self);
+}
+
+static int FilterCycle_init(FilterCycle *self, PyObject *args, PyObject *kwds)
+{
+    PyObject *joints, *tool, *lower, *upper, *vmax, *amax, *jkind, *jprm, *points, *ws, *centres,
+        *radii, *lrad, *weights, *fast = NULL;
+    double buf, gain, dt;
+    Py_ssize_t nj17, n, npt, nw, k, w, total = 0, o = 0, sumnf = 0, i;
+    size_t nd, ni;
+    int rc;
+    static char *kwlist[] = {"joints", "tool", "lower", "upper", "vmax", "amax", "jkind", "jprm",
+                             "points", "ws", "centres", "radii", "link_radius",
+                             "obstacle_buffer", "spring_gain", "dt", "weights", NULL};
+    if (self->mem != NULL) {
+        PyErr_SetString(PyExc_RuntimeError, "FilterCycle is already initialised");
+        return -1;
+    }
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "OOOOOOOOOOOOOdddO", kwlist, &joints, &tool,
+                                     &lower, &upper, &vmax, &amax, &jkind, &jprm, &points, &ws,
+                                     &centres, &radii, &lrad, &buf, &gain, &dt, &weights)) {
+        return -1;
+    }
+    nj17 = size_of(joints, "joints");
+    if (nj17 < 0) {
+        return -1;
+    }
+    if (nj17 % 17 != 0 || nj17 == 0 || nj17 / 17 > 64) {
+        PyErr_SetString(PyExc_ValueError, "joints: expected n * 17 floats, 1 <= n <= 64");
+        return -1;
+    }
+    n = nj17 / 17;
+    npt = size_of(points, "points");
+    k = size_of(radii, "radii");
+    if (npt < 0 || k < 0) {
+        return -1;
+    }
+    if (npt % 4 != 0) {
+        PyErr_SetString(PyExc_ValueError, "points: expected npoints * 4 floats");
+        return -1;
+    }
+    npt /= 4;
+    fast = PySequence_Fast(ws, "ws: expected a sequence of (point, N, off, kind, prm)");
+    if (fast == NULL) {
+        return -1;
+    }
+    nw = PySequence_Fast_GET_SIZE(fast);
+    for (w = 0; w < nw; w++) {
+        PyObject *t = PySequence_Fast_GET_ITEM(fast, w);
+        Py_ssize_t s;
+        if (!PyTuple_Check(t) || PyTuple_GET_SIZE(t) != 5) {
+            PyErr_SetString(PyExc_ValueError, "ws: expected tuples (point, N, off, kind, prm)");
+            goto fail;
+        }
+        s = size_of(PyTuple_GET_ITEM(t, 2), "ws off");
+        if (s < 1) {
+            if (s == 0) {
+                PyErr_SetString(PyExc_ValueError, "ws: a polytope needs >= 1 facet");
+            }
+            goto fail;
+        }
+        sumnf += s;
+    }
+    self->joints = PyMem_Calloc((size_t)n, sizeof(vf_filter_joint));
+    self->points = PyMem_Calloc((size_t)(npt > 0 ? npt : 1), sizeof(vf_filter_point));
+    self->ws = PyMem_Calloc((size_t)(nw > 0 ? nw : 1), sizeof(vf_filter_polytope));
+    total = 29 * n + 4 * npt + 4 * sumnf + 4 * k;
+    self->mem = PyMem_Calloc((size_t)total + 1, sizeof(double));
+    self->imem = PyMem_Calloc((size_t)n, sizeof(int32_t));
+    if (self->joints == NULL || self->points == NULL || self->ws == NULL || self->mem == NULL
+        || self->imem == NULL) {
+        PyErr_NoMemory();
+        goto fail;
+    }
+    {
+        double *jd = self->mem + o;
+        o += 17 * n;
+        if (read_into(joints, "joints", jd, 17 * n) < 0) {
+            goto fail;
+        }
+        for (i = 0; i < n; i++) {
+            const double *s = jd + 17 * i;
+            memcpy(self->joints[i].T, s, 12 * sizeof(double));
+            memcpy(self->joints[i].axis, s + 12, 3 * sizeof(double));
+            self->joints[i].type = s[15] == 1.0 ? VF_FILTER_PRISMATIC
+                                   : s[15] == 0.0 ? VF_FILTER_REVOLUTE
+                                                  : -1;
+            self->joints[i].offset = s[16];
+        }
+    }
+    if (read_into(tool, "tool", self->f.tool, 12) < 0) {
+        goto fail;
+    }
+#define ARR(obj, name, count, field)                                                           \
+    do {                                                                                       \
+        self->f.field = self->mem + o;                                                         \
+        if (read_into(obj, name, self->mem + o, count) < 0) {                                  \
+            goto fail;                                                                         \
+        }                                                                                      \
+        o += count;                                                                            \
+    } while (0)
+    ARR(lower, "lower", n, lower);
+    ARR(upper, "upper", n, upper);
+    ARR(vmax, "vmax", n, vmax);
+    if (amax != Py_None) {
+        ARR(amax, "amax", n, amax);
+    }
+    ARR(jprm, "jprm", 6 * n, jprm);
+    if (lrad != Py_None) {
+        ARR(lrad, "link_radius", n, link_radius);
+    }
+    if (weights != Py_None) {
+        ARR(weights, "weights", n, weights);
+    }
+    if (k > 0) {
+        ARR(centres, "centres", 3 * k, centres);
+        ARR(radii, "radii", k, radii);
+    }
+#undef ARR
+    {
+        double *pd = self->mem + o;
+        o += 4 * npt;
+        if (read_into(points, "points", pd, 4 * npt) < 0) {
+            goto fail;
+        }
+        for (i = 0; i < npt; i++) {
+            double l = pd[4 * i];
+            self->points[i].link = (l >= -1.0 && l <= 65.0 && l == (double)(int32_t)l)
+                                       ? (int32_t)l
+                                       : -2;
+            memcpy(self->points[i].offset, pd + 4 * i + 1, 3 * sizeof(double));
+        }
+    }
+    {
+        PyObject *jf = PySequence_Fast(jkind, "jkind: expected n ints");
+        if (jf == NULL) {
+            goto fail;
+        }
+        if (PySequence_Fast_GET_SIZE(jf) != n) {
+            Py_DECREF(jf);
+            PyErr_SetString(PyExc_ValueError, "jkind: expected n ints");
+            goto fail;
+        }
+        for (i = 0; i < n; i++) {
+            long v = PyLong_AsLong(PySequence_Fast_GET_ITEM(jf, i));
+            if (v == -1 && PyErr_Occurred()) {
+                Py_DECREF(jf);
+                goto fail;
+            }
+            self->imem[i] = (int32_t)v;
+        }
+        Py_DECREF(jf);
+        self->f.jkind = self->imem;
+    }
+    for (w = 0; w < nw; w++) {
+        PyObject *t = PySequence_Fast_GET_ITEM(fast, w);
+        vf_filter_polytope *p = self->ws + w;
+        Py_ssize_t nf = size_of(PyTuple_GET_ITEM(t, 2), "ws off");
+        long pt = PyLong_AsLong(PyTuple_GET_ITEM(t, 0));
+        long kind = PyLong_AsLong(PyTuple_GET_ITEM(t, 3));
+        if ((pt == -1 || kind == -1) && PyErr_Occurred()) {
+            goto fail;
+        }
+        p->point = (int32_t)pt;
+        p->kind = (int32_t)kind;
+        p->nf = (int32_t)nf;
+        if (read_into(PyTuple_GET_ITEM(t, 1), "ws N", self->mem + o, 3 * nf) < 0) {
+            goto fail;
+        }
+        p->N = self->mem + o;
+        o += 3 * nf;
+        if (read_into(PyTuple_GET_ITEM(t, 2), "ws off", self->mem + o, nf) < 0) {
+            goto fail;
+        }
+        p->off = self->mem + o;
+        o += nf;
+        if (read_into(PyTuple_GET_ITEM(t, 4), "ws prm", p->prm, 6) < 0) {
+            goto fail;
+        }
+    }
+    Py_CLEAR(fast);
+    self->f.n = (int32_t)n;
+    self->f.joints = self->joints;
+    self->f.npoints = (int32_t)npt;
+    self->f.points = self->points;
+    self->f.nw = (int32_t)nw;
+    self->f.ws = self->ws;
+    self->f.k = (int32_t)k;
+    self->f.obstacle_buffer = buf;
+    self->f.spring_gain = gain;
+    self->f.dt = dt;
+    rc = vf_filter_check(&self->f);
+    if (rc != VF_OK) {
+        PyErr_Format(PyExc_ValueError, "the filter description is invalid (vf_filter_check: %d)",
+                     rc);
+        goto fail;
+    }
+    nd = vf_filter_doubles(&self->f);
+    ni = vf_filter_ints(&self->f);
+    self->scratch = PyMem_Calloc(nd, sizeof(double));
+    {
+        int32_t *im = PyMem_Realloc(self->imem,
+                                    (n + ni + 3 * vf_filter_rows_max(&self->f) + 3) * sizeof(int32_t));
+        if (im == NULL || self->scratch == NULL) {
+            if (im != NULL) {
+                self->imem = im;
+            }
+            PyErr_NoMemory();
+            goto fail;
+        }
+        self->imem = im;
+        self->f.jkind = im;
+        self->iscratch = im + n;
+        self->warm = im + n + ni;
+    }
+    return 0;
+fail:
+    Py_XDECREF(fast);
+    PyMem_Free(self->joints);
+    PyMem_Free(self->points);
+    PyMem_Free(self->ws);
+    PyMem_Free(self->mem);
+    PyMem_Free(self->imem);
+    PyMem_Free(self->scratch);
+    self->joints = NULL;
+    self->points = NULL;
+    self->ws = NULL;
+    self->mem = NULL;
+    self->imem = NULL;
+    self->scratch = NULL;
+    return -1;
+}
+
+static const double *vec_arg(PyObject *o, int32_t n, const char *name)
+{
+    PyArrayObject *a = (PyArrayObject *)o;
+    if (!PyArray_Check(o) || PyArray_TYPE(a) != NPY_DOUBLE || PyArray_NDIM(a) != 1
+        || PyArray_DIM(a, 0) != n || !PyArray_ISCARRAY_RO(a) || !PyArray_ISNOTSWAPPED(a)) {
+        PyErr_Format(PyExc_TypeError, "%s: expected a contiguous float64 array of shape (%d,)",
+                     name, (int)n);
+        return NULL;
+    }
+    return (const double *)PyArray_DATA(a);
+}
+
+static PyObject *FilterCycle_cycle(FilterCycle *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    const int32_t n = self->f.n;
+    const double *q, *u, *prev = NULL;
+    PyObject *out;
+    int rc;
+    if (self->mem == NULL) {
+        PyErr_SetString(PyExc_RuntimeError, "FilterCycle not initialised");
+        return NULL;
+    }
+    if (nargs < 2 || nargs > 4) {
+        PyErr_SetString(PyExc_TypeError, "cycle(q, u, previous=None, out=None)");
+        return NULL;
+    }
+    if ((q = vec_arg(args[0], n, "q")) == NULL || (u = vec_arg(args[1], n, "u")) == NULL) {
+        return NULL;
+    }
+    if (nargs > 2 && args[2] != Py_None && (prev = vec_arg(args[2], n, "previous")) == NULL) {
+        return NULL;
+    }
+    if (nargs > 3 && args[3] != Py_None) {
+        PyArrayObject *a = (PyArrayObject *)args[3];
+        if (!PyArray_Check(args[3]) || PyArray_TYPE(a) != NPY_DOUBLE || PyArray_NDIM(a) != 1
+            || PyArray_DIM(a, 0) != n || !PyArray_ISCARRAY(a) || !PyArray_ISNOTSWAPPED(a)) {
+            PyErr_Format(PyExc_TypeError,
+                         "out: expected a writable contiguous float64 array of shape (%d,)",
+                         (int)n);
+            return NULL;
+        }
+        out = args[3];
+        Py_INCREF(out);
+    } else {
+        npy_intp dim = n;
+        out = PyArray_SimpleNew(1, &dim, NPY_DOUBLE);
+        if (out == NULL) {
+            return NULL;
+        }
+    }
+    self->opts.warm = self->warm;
+    self->opts.n_warm = self->use_warm ? self->n_warm : 0;
+    rc = vf_filter_cycle(&self->f, q, u, prev, &self->opts,
+                         (double *)PyArray_DATA((PyArrayObject *)out), &self->info, self->scratch,
+                         self->iscratch);
+    self->have_info = 1;
+    if (rc == VF_ITERATION_CAP || rc == VF_DEADLINE) {
+        self->misses += 1;
+    }
+    if (self->use_warm) {
+        int32_t a;
+        for (a = 0; a < self->info.n_active; a++) {
+            int32_t r = self->info.active[a];
+            self->warm[3 * a] = self->info.level[r];
+            self->warm[3 * a + 1] = self->info.key_a[r];
+            self->warm[3 * a + 2] = self->info.key_b[r];
+        }
+        self->n_warm = self->info.n_active;
+    }
+    if (rc < 0) {
+        Py_DECREF(out);
+        PyErr_Format(PyExc_ValueError, "vf_filter_cycle: status %d (%s)", rc,
+                     rc == VF_ERR_NONFINITE ? "non-finite or too large input"
+                     : rc == VF_ERR_OVERFLOW ? "overflow"
+                                             : "bad argument");
+        return NULL;
+    }
+    return out;
+}
+
+static PyObject *FilterCycle_set_options(FilterCycle *self, PyObject *args, PyObject *kwds)
+{
+    int maxit = 0, warm = 0;
+    double budget = 0.0;
+    static char *kwlist[] = {"max_iterations", "time_budget", "warm", NULL};
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "|idp", kwlist, &maxit, &budget, &warm)) {
+        return NULL;
+    }
+    if (!(budget >= 0.0)) {
+        PyErr_SetString(PyExc_ValueError, "time_budget: expected >= 0");
+        return NULL;
+    }
+    self->opts.max_iterations = maxit;
+    self->opts.time_budget = budget;
+    self->use_warm = warm;
+    self->n_warm = 0;
+    Py_RETURN_NONE;
+}
+
+static PyObject *FilterCycle_info(FilterCycle *self, PyObject *Py_UNUSED(ignored))
+{
+    const vf_filter_info *i = &self->info;
+    return Py_BuildValue(
+        "{s:i,s:i,s:i,s:i,s:(iiii),s:(iiii),s:d,s:i,s:i,s:i,s:i,s:i}", "status", i->status,
+        "stages", i->stages, "rung", i->rung, "deadline", i->deadline, "relaxed", i->relaxed[0],
+        i->relaxed[1], i->relaxed[2], i->relaxed[3], "dropped", i->dropped[0], i->dropped[1],
+        i->dropped[2], i->dropped[3], "fraction", i->fraction, "m", i->m, "n_active",
+        i->n_active, "n_violated", i->n_violated, "iterations", i->iterations, "solves",
+        i->solves);
+}
+
+static PyObject *copy_d(const double *src, npy_intp rows, npy_intp cols, int two)
+{
+    npy_intp dims[2] = {rows, cols};
+    PyObject *a = PyArray_SimpleNew(two ? 2 : 1, dims, NPY_DOUBLE);
+    if (a != NULL && rows * cols > 0) {
+        memcpy(PyArray_DATA((PyArrayObject *)a), src, (size_t)(rows * cols) * sizeof(double));
+    }
+    return a;
+}
+
+static PyObject *copy_i(const int32_t *src, npy_intp rows)
+{
+    PyObject *a = PyArray_SimpleNew(1, &rows, NPY_INT64);
+    npy_intp r;
+    if (a != NULL) {
+        int64_t *d = (int64_t *)PyArray_DATA((PyArrayObject *)a);
+        for (r = 0; r < rows; r++) {
+            d[r] = src[r];
+        }
+    }
+    return a;
+}
+
+static PyObject *FilterCycle_rows(FilterCycle *self, PyObject *Py_UNUSED(ignored))
+{
+    const vf_filter_info *i = &self->info;
+    npy_intp m = i->m;
+    if (!self->have_info || i->G == NULL) {
+        PyErr_SetString(PyExc_RuntimeError, "no successful cycle yet");
+        return NULL;
+    }
+    return Py_BuildValue("(NNNNNNN)", copy_d(i->G, m, self->f.n, 1), copy_d(i->b, m, 1, 0),
+                         copy_i(i->level, m), copy_i(i->key_a, m), copy_i(i->key_b, m),
+                         copy_d(i->dist, m, 1, 0), copy_d(i->slack, m, 1, 0));
+}
+
+static PyObject *FilterCycle_active(FilterCycle *self, PyObject *Py_UNUSED(ignored))
+{
+    const vf_filter_info *i = &self->info;
+    PyObject *lst;
+    int32_t a;
+    if (!self->have_info || i->active == NULL) {
+        return PyList_New(0);
+    }
+    lst = PyList_New(i->n_active);
+    if (lst == NULL) {
+        return NULL;
+    }
+    for (a = 0; a < i->n_active; a++) {
+        int32_t r = i->active[a];
+        PyObject *t = Py_BuildValue("(iii)", i->level[r], i->key_a[r], i->key_b[r]);
+        if (t == NULL) {
+            Py_DECREF(lst);
+            return NULL;
+        }
+        PyList_SET_ITEM(lst, a, t);
+    }
+    return lst;
+}
+
+static PyObject *FilterCycle_misses(FilterCycle *self, void *Py_UNUSED(closure))
+{
+    return PyLong_FromLongLong(self->misses);
+}
+
+static PyObject *FilterCycle_dof(FilterCycle *self, void *Py_UNUSED(closure))
+{
+    return PyLong_FromLong(self->f.n);
+}
+
+static PyMethodDef FilterCycle_methods[] = {
+    {"cycle", (PyCFunction)(void (*)(void))FilterCycle_cycle, METH_FASTCALL,
+     "cycle(q, u, previous=None, out=None) -> out: one cycle of the safety filter."},
+    {"set_options", (PyCFunction)(void (*)(void))FilterCycle_set_options,
+     METH_VARARGS | METH_KEYWORDS, "set_options(max_iterations=0, time_budget=0.0, warm=False)"},
+    {"info", (PyCFunction)FilterCycle_info, METH_NOARGS, "The last cycle's info, a dict."},
+    {"rows", (PyCFunction)FilterCycle_rows, METH_NOARGS,
+     "(G, b, level, key_a, key_b, dist, slack) of the last cycle."},
+    {"active", (PyCFunction)FilterCycle_active, METH_NOARGS,
+     "The last cycle's active row keys (level, a, b)."},
+    {NULL, NULL, 0, NULL},
+};
+
+static PyGetSetDef FilterCycle_getset[] = {
+    {"deadline_misses", (getter)FilterCycle_misses, NULL, "cycles that used the fallback", NULL},
+    {"dof", (getter)FilterCycle_dof, NULL, "joints", NULL},
+    {NULL, NULL, NULL, NULL, NULL},
+};
+
+static PyTypeObject FilterCycleType = {
+    PyVarObject_HEAD_INIT(NULL, 0).tp_name = "velfence_core._filter.FilterCycle",
+    .tp_basicsize = sizeof(FilterCycle),
+    .tp_flags = Py_TPFLAGS_DEFAULT,
+    .tp_new = PyType_GenericNew,
+    .tp_init = (initproc)FilterCycle_init,
+    .tp_dealloc = (destructor)FilterCycle_dealloc,
+    .tp_methods = FilterCycle_methods,
+    .tp_getset = FilterCycle_getset,
+    .tp_doc = "The safety filter's whole cycle in C (velfence_filter.h).",
+};
+
+static struct PyModuleDef filter_module = {
+    PyModuleDef_HEAD_INIT, "_filter", "The safety filter's whole cycle in C.", -1, NULL,
+    NULL, NULL, NULL, NULL,
+};
+
+PyMODINIT_FUNC PyInit__filter(void)
+{
+    PyObject *m;
+    import_array();
+    if (PyType_Ready(&FilterCycleType) < 0) {
+        return NULL;
+    }
+    m = PyModule_Create(&filter_module);
+    if (m == NULL) {
+        return NULL;
+    }
+    Py_INCREF(&FilterCycleType);
+    if (PyModule_AddObject(m, "FilterCycle", (PyObject *)&FilterCycleType) < 0) {
+        Py_DECREF(&FilterCycleType);
+        Py_DECREF(m);
+        return NULL;
+    }
+#define C(name) PyModule_AddIntConstant(m, #name, VF_FILTER_##name)
+    C(STAGE_PROJECTION);
+    C(STAGE_RECOVERY);
+    C(STAGE_MODEL_CHECK);
+    C(STAGE_DROPPED_RATE);
+    C(STAGE_RELAXED_OBSTACLES);
+    C(STAGE_RELAXED_WORKSPACE);
+    C(STAGE_RELAXED_JOINT);
+    C(STAGE_STOP);
+    C(STAGE_DEADLINE);
+    C(STAGE_COMMAND_SCALED);
+    C(STAGE_SCALED);
+    C(LEVEL_JOINT);
+    C(LEVEL_WORKSPACE);
+    C(LEVEL_OBSTACLE);
+    C(LEVEL_RATE);
+    C(DEADLINE_NONE);
+    C(DEADLINE_ITERATIONS);
+    C(DEADLINE_TIME);
+#undef C
+    return m;
+}

@@ -1,0 +1,1063 @@
+/*
+ * velfence_filter.c -- the safety filter's whole cycle (see include/velfence_filter.h).
+ *
+ * The rows' bounds come from vf_nd_rate_bounds (the exact law's one bound definition,
+ * vf_bounds.h), the obstacle rows from vf_nd_capsule_rows, the solve from vf_nd_project_kernel:
+ * this file adds the chain-as-data kinematics, the workspace rows of a named point, the ladder,
+ * the model check and the deadline fallback (velfence.filter's, spec-24 section 3).
+ */
+#define _POSIX_C_SOURCE 199309L
+
+#include "velfence_filter.h"
+
+#include <math.h>
+#include <string.h>
+#include <time.h>
+
+#define MAX_JOINTS 64
+#define MAX_MAG 1e150
+#define COMMAND_CAP 1e3
+#define BINDING 1e-9
+#define ROUNDS 4
+#define ORTHO_TOL 1e-9
+
+/* ------------------------------------------------------------------ kinematics */
+
+/* C = A B for 3 x 4 [R | p] transforms (C may not alias). */
+static void compose(const double *A, const double *B, double *C)
+{
+    int r, c;
+    for (r = 0; r < 3; r++) {
+        for (c = 0; c < 3; c++) {
+            C[4 * r + c] = A[4 * r] * B[c] + A[4 * r + 1] * B[4 + c] + A[4 * r + 2] * B[8 + c];
+        }
+        C[4 * r + 3] = A[4 * r] * B[3] + A[4 * r + 1] * B[7] + A[4 * r + 2] * B[11] + A[4 * r + 3];
+    }
+}
+
+void vf_filter_kinematics(const vf_filter *f, const double *q, double *P, double *axes,
+                          double *frames)
+{
+    const int32_t n = f->n;
+    double A[12];
+    int32_t j;
+    int r;
+    static const double I[12] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0};
+    memcpy(frames, I, sizeof I);
+    for (j = 0; j < n; j++) {
+        const vf_filter_joint *jt = f->joints + j;
+        const double *a = jt->axis;
+        double *F = frames + 12 * (size_t)(j + 1);
+        double th = q[j] + jt->offset;
+        double z[3];
+        compose(frames + 12 * (size_t)j, jt->T, A);
+        for (r = 0; r < 3; r++) {
+            z[r] = A[4 * r] * a[0] + A[4 * r + 1] * a[1] + A[4 * r + 2] * a[2];
+            P[3 * j + r] = A[4 * r + 3];
+            axes[3 * j + r] = z[r];
+        }
+        if (jt->type == VF_FILTER_PRISMATIC) {
+            memcpy(F, A, sizeof A);
+            for (r = 0; r < 3; r++) {
+                F[4 * r + 3] += z[r] * th;
+            }
+        } else {
+            double c = cos(th), s = sin(th), v = 1.0 - c;
+            double M[12];
+            M[0] = c + v * a[0] * a[0];
+            M[1] = v * a[0] * a[1] - s * a[2];
+            M[2] = v * a[0] * a[2] + s * a[1];
+            M[4] = v * a[1] * a[0] + s * a[2];
+            M[5] = c + v * a[1] * a[1];
+            M[6] = v * a[1] * a[2] - s * a[0];
+            M[8] = v * a[2] * a[0] - s * a[1];
+            M[9] = v * a[2] * a[1] + s * a[0];
+            M[10] = c + v * a[2] * a[2];
+            M[3] = M[7] = M[11] = 0.0;
+            compose(A, M, F);
+        }
+    }
+    compose(frames + 12 * (size_t)n, f->tool, frames + 12 * (size_t)(n + 1));
+    for (r = 0; r < 3; r++) {
+        P[3 * n + r] = frames[12 * (size_t)(n + 1) + 4 * r + 3];
+    }
+}
+
+/* A named point's position p (3,) and the number of joints moving it. */
+static int32_t point_at(const vf_filter *f, const vf_filter_point *pt, const double *frames,
+                        double *p)
+{
+    const double *F = frames + 12 * (size_t)(pt->link + 1);
+    int r;
+    for (r = 0; r < 3; r++) {
+        p[r] = F[4 * r] * pt->offset[0] + F[4 * r + 1] * pt->offset[1]
+               + F[4 * r + 2] * pt->offset[2] + F[4 * r + 3];
+    }
+    return pt->link >= f->n ? f->n : pt->link + 1;
+}
+
+/* ------------------------------------------------------------------ checks and sizes */
+
+static int finite_all(const double *v, size_t k)
+{
+    size_t i;
+    for (i = 0; i < k; i++) {
+        if (!isfinite(v[i])) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
+static int rigid(const double *T)
+{
+    int a, b, c;
+    if (!finite_all(T, 12)) {
+        return 0;
+    }
+    for (a = 0; a < 3; a++) {
+        for (b = 0; b < 3; b++) {
+            double s = 0.0;
+            for (c = 0; c < 3; c++) {
+                s += T[4 * c + a] * T[4 * c + b];
+            }
+            if (fabs(s - (a == b ? 1.0 : 0.0)) > ORTHO_TOL) {
+                return 0;
+            }
+        }
+    }
+    /* a rotation, not a reflection */
+    return T[0] * (T[5] * T[10] - T[6] * T[9]) - T[1] * (T[4] * T[10] - T[6] * T[8])
+               + T[2] * (T[4] * T[9] - T[5] * T[8])
+           > 0.0;
+}
+
+static int profile_ok(int32_t kind, const double *prm)
+{
+    if (!finite_all(prm, VF_ND_PROFILE_PARAMS)) {
+        return 0;
+    }
+    if (kind == VF_ND_PROFILE_LINEAR) {
+        return prm[0] > 0.0 && prm[1] >= 0.0 && prm[2] >= 0.0;
+    }
+    if (kind == VF_ND_PROFILE_THREE_ZONE) {
+        return prm[0] > 0.0 && prm[1] > 0.0 && prm[2] > 0.0 && prm[3] >= 0.0 && prm[4] >= 0.0
+               && prm[5] >= prm[3];
+    }
+    return 0;
+}
+
+int vf_filter_check(const vf_filter *f)
+{
+    int32_t j, i, w;
+    if (f == NULL) {
+        return VF_ERR_NULL;
+    }
+    if (f->n < 1 || f->n > MAX_JOINTS || f->npoints < 0 || f->nw < 0 || f->k < 0) {
+        return VF_ERR_ARGUMENT;
+    }
+    if (f->joints == NULL || f->lower == NULL || f->upper == NULL || f->vmax == NULL
+        || f->jkind == NULL || f->jprm == NULL || (f->npoints > 0 && f->points == NULL)
+        || (f->nw > 0 && f->ws == NULL)
+        || (f->k > 0 && (f->centres == NULL || f->radii == NULL))) {
+        return VF_ERR_NULL;
+    }
+    if (!rigid(f->tool)) {
+        return VF_ERR_ARGUMENT;
+    }
+    for (j = 0; j < f->n; j++) {
+        const vf_filter_joint *jt = f->joints + j;
+        double an;
+        if (!rigid(jt->T) || !finite_all(jt->axis, 3) || !isfinite(jt->offset)
+            || (jt->type != VF_FILTER_REVOLUTE && jt->type != VF_FILTER_PRISMATIC)) {
+            return VF_ERR_ARGUMENT;
+        }
+        an = sqrt(jt->axis[0] * jt->axis[0] + jt->axis[1] * jt->axis[1]
+                  + jt->axis[2] * jt->axis[2]);
+        if (fabs(an - 1.0) > ORTHO_TOL) {
+            return VF_ERR_ARGUMENT;
+        }
+        if (f->k > 0 && jt->type != VF_FILTER_REVOLUTE) {
+            return VF_ERR_ARGUMENT; /* capsule rows: revolute Jacobians only */
+        }
+        if (isnan(f->lower[j]) || isnan(f->upper[j]) || !(f->lower[j] <= f->upper[j])
+            || f->lower[j] == INFINITY || f->upper[j] == -INFINITY) {
+            return VF_ERR_ARGUMENT;
+        }
+        if (!(isfinite(f->vmax[j]) && f->vmax[j] > 0.0)) {
+            return VF_ERR_ARGUMENT;
+        }
+        if (f->amax != NULL && !(f->amax[j] > 0.0)) {
+            return VF_ERR_ARGUMENT; /* NaN, 0 or negative (inf: none) */
+        }
+        if (!profile_ok(f->jkind[j], f->jprm + (size_t)VF_ND_PROFILE_PARAMS * j)) {
+            return VF_ERR_ARGUMENT;
+        }
+        if (f->link_radius != NULL && !(isfinite(f->link_radius[j]) && f->link_radius[j] >= 0.0)) {
+            return VF_ERR_ARGUMENT;
+        }
+        if (f->weights != NULL && !(isfinite(f->weights[j]) && f->weights[j] > 0.0)) {
+            return VF_ERR_ARGUMENT;
+        }
+    }
+    for (i = 0; i < f->npoints; i++) {
+        if (f->points[i].link < -1 || f->points[i].link > f->n
+            || !finite_all(f->points[i].offset, 3)) {
+            return VF_ERR_ARGUMENT;
+        }
+    }
+    for (w = 0; w < f->nw; w++) {
+        const vf_filter_polytope *p = f->ws + w;
+        if (p->N == NULL || p->off == NULL) {
+            return VF_ERR_NULL;
+        }
+        if (p->point < 0 || p->point >= f->npoints || p->nf < 1 || p->nf > (1 << 20)
+            || !profile_ok(p->kind, p->prm) || !finite_all(p->N, 3 * (size_t)p->nf)
+            || !finite_all(p->off, (size_t)p->nf)) {
+            return VF_ERR_ARGUMENT;
+        }
+        for (i = 0; i < p->nf; i++) {
+            const double *nn = p->N + 3 * (size_t)i;
+            if (fabs(sqrt(nn[0] * nn[0] + nn[1] * nn[1] + nn[2] * nn[2]) - 1.0) > 1e-6) {
+                return VF_ERR_ARGUMENT;
+            }
+        }
+    }
+    if (f->k > (1 << 20)) {
+        return VF_ERR_ARGUMENT;
+    }
+    for (i = 0; i < f->k; i++) {
+        if (!finite_all(f->centres + 3 * (size_t)i, 3) || !isfinite(f->radii[i])
+            || f->radii[i] < 0.0) {
+            return VF_ERR_ARGUMENT;
+        }
+    }
+    if (!(isfinite(f->obstacle_buffer) && f->obstacle_buffer > 0.0)
+        || !(isfinite(f->spring_gain) && f->spring_gain >= 0.0)
+        || !(isfinite(f->dt) && f->dt >= 0.0) || (f->dt > 0.0 && !isfinite(1.0 / f->dt))) {
+        return VF_ERR_ARGUMENT;
+    }
+    return VF_OK;
+}
+
+static size_t max_nf(const vf_filter *f)
+{
+    size_t nf = 1;
+    int32_t w;
+    for (w = 0; w < f->nw; w++) {
+        if ((size_t)f->ws[w].nf > nf) {
+            nf = (size_t)f->ws[w].nf;
+        }
+    }
+    return nf;
+}
+
+size_t vf_filter_rows_max(const vf_filter *f)
+{
+    size_t rows;
+    int32_t w;
+    if (f == NULL || f->n < 1 || f->n > MAX_JOINTS || f->nw < 0 || f->k < 0
+        || (f->nw > 0 && f->ws == NULL)) {
+        return 0;
+    }
+    rows = 6 * (size_t)f->n + (size_t)f->k * (size_t)f->n;
+    for (w = 0; w < f->nw; w++) {
+        rows += f->ws[w].nf > 0 ? (size_t)f->ws[w].nf : 0;
+    }
+    return rows;
+}
+
+/* The scratch layout (doubles, then int32). */
+typedef struct layout {
+    size_t M, n;
+    /* doubles */
+    size_t frames, P, axes, frames1, P1, axes1, q1, G, Gs, b, dist, slack, cur, bb, bt, us, ys,
+        x, xc, xt, ucmd, zeros, lam, wsf, capw, clear, wsd, wsb, wsJ, total;
+    /* ints */
+    size_t level, ka, kb, active, act, warm, ri, itotal;
+} layout;
+
+static void make_layout(const vf_filter *f, layout *L)
+{
+    const size_t n = (size_t)f->n;
+    const size_t M = vf_filter_rows_max(f);
+    const size_t K = (size_t)f->k * n;
+    const size_t nf = max_nf(f);
+    size_t o = 0, io = 0;
+    L->M = M;
+    L->n = n;
+#define TAKE(field, count) (L->field = o, o += (count))
+#define ITAKE(field, count) (L->field = io, io += (count))
+    TAKE(frames, 12 * (n + 2));
+    TAKE(P, 3 * (n + 1));
+    TAKE(axes, 3 * n);
+    TAKE(frames1, 12 * (n + 2));
+    TAKE(P1, 3 * (n + 1));
+    TAKE(axes1, 3 * n);
+    TAKE(q1, n);
+    TAKE(G, M * n);
+    TAKE(Gs, f->weights != NULL ? M * n : 0);
+    TAKE(b, M);
+    TAKE(dist, M);
+    TAKE(slack, M);
+    TAKE(cur, M);
+    TAKE(bb, M);
+    TAKE(bt, M);
+    TAKE(us, n);
+    TAKE(ys, n);
+    TAKE(x, n);
+    TAKE(xc, n);
+    TAKE(xt, n);
+    TAKE(ucmd, n);
+    TAKE(zeros, n);
+    TAKE(lam, n + 1);
+    TAKE(wsf, vf_nd_project_doubles((int32_t)M, (int32_t)n));
+    TAKE(capw, K + n);
+    TAKE(clear, K + 1);
+    TAKE(wsd, nf);
+    TAKE(wsb, nf);
+    TAKE(wsJ, 3 * n);
+    L->total = o;
+    ITAKE(level, M);
+    ITAKE(ka, M);
+    ITAKE(kb, M);
+    ITAKE(active, M);
+    ITAKE(act, n + 1);
+    ITAKE(warm, M + 1);
+    ITAKE(ri, 2 * nf + 2);
+    L->itotal = io;
+#undef TAKE
+#undef ITAKE
+}
+
+size_t vf_filter_doubles(const vf_filter *f)
+{
+    layout L;
+    if (vf_filter_check(f) != VF_OK) {
+        return 0;
+    }
+    make_layout(f, &L);
+    return L.total;
+}
+
+size_t vf_filter_ints(const vf_filter *f)
+{
+    layout L;
+    if (vf_filter_check(f) != VF_OK) {
+        return 0;
+    }
+    make_layout(f, &L);
+    return L.itotal;
+}
+
+void vf_filter_obstacle_profile(const vf_filter *f, int32_t *kind, double *prm)
+{
+    int i;
+    *kind = VF_ND_PROFILE_LINEAR;
+    for (i = 0; i < VF_ND_PROFILE_PARAMS; i++) {
+        prm[i] = 0.0;
+    }
+    prm[0] = f->obstacle_buffer;
+    prm[1] = f->spring_gain;
+    prm[2] = f->spring_gain * f->obstacle_buffer; /* LinearBuffer's default recovery cap */
+}
+
+/* ------------------------------------------------------------------ the cycle's state */
+
+typedef struct ctx {
+    const vf_filter *f;
+    layout L;
+    double *d;
+    int32_t *i;
+    int32_t m, n;
+    double idt;
+    const double *q;
+    const double *u; /* the (capped) command */
+    double unorm;    /* |u|_inf */
+    double deadline; /* absolute, inf: none */
+    int32_t maxit;
+    int32_t n_warm;  /* warm rows mapped, for the first solve */
+    int first;
+    int has_check;   /* dt > 0 and some workspace / obstacle row */
+    vf_filter_info *info;
+} ctx;
+
+#define D(c, field) ((c)->d + (c)->L.field)
+#define IV(c, field) ((c)->i + (c)->L.field)
+
+static double now_s(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+static void put_row(ctx *c, int32_t r, int32_t col, double sign, double bound, int32_t lv,
+                    int32_t a, int32_t t, double dd)
+{
+    double *g = D(c, G) + (size_t)r * c->n;
+    int32_t j;
+    for (j = 0; j < c->n; j++) {
+        g[j] = 0.0 * sign;
+    }
+    g[col] = sign;
+    D(c, b)[r] = bound;
+    IV(c, level)[r] = lv;
+    IV(c, ka)[r] = a;
+    IV(c, kb)[r] = t;
+    D(c, dist)[r] = dd;
+}
+
+/* Every row of the cycle (the header's order); returns their number. */
+static int32_t build_rows(ctx *c, const double *previous)
+{
+    const vf_filter *f = c->f;
+    const int32_t n = c->n;
+    const double *q = c->q, *u = c->u;
+    const double idt = c->idt;
+    double *P = D(c, P), *axes = D(c, axes);
+    int32_t r = 0, j, w, i, wk[2];
+    vf_filter_kinematics(f, q, P, axes, D(c, frames));
+    for (j = 0; j < n; j++) {
+        const int32_t kind = f->jkind[j];
+        const double *prm = f->jprm + (size_t)VF_ND_PROFILE_PARAMS * j;
+        const double v = f->vmax[j];
+        double dl = q[j] * 1.0 + (-f->lower[j]);
+        double du = q[j] * -1.0 + f->upper[j];
+        double bl = -INFINITY, bu = -INFINITY;
+        if (isfinite(f->lower[j])) {
+            vf_nd_rate_bounds(kind, prm, &dl, 1, v, idt, &bl, wk);
+        }
+        if (isfinite(f->upper[j])) {
+            vf_nd_rate_bounds(kind, prm, &du, 1, v, idt, &bu, wk);
+        }
+        if (bl != -INFINITY) {
+            put_row(c, r++, j, 1.0, bl < v ? bl : v, VF_FILTER_LEVEL_JOINT, 4 * j, 0, dl);
+        }
+        if (bu != -INFINITY) {
+            put_row(c, r++, j, -1.0, bu < v ? bu : v, VF_FILTER_LEVEL_JOINT, 4 * j + 1, 0, du);
+        }
+        put_row(c, r++, j, 1.0, -v, VF_FILTER_LEVEL_JOINT, 4 * j + 2, 0, INFINITY);
+        put_row(c, r++, j, -1.0, -v, VF_FILTER_LEVEL_JOINT, 4 * j + 3, 0, INFINITY);
+    }
+    if (previous != NULL && f->dt > 0.0 && f->amax != NULL) {
+        for (j = 0; j < n; j++) {
+            double step;
+            if (!isfinite(f->amax[j])) {
+                continue;
+            }
+            step = f->amax[j] * f->dt;
+            put_row(c, r++, j, 1.0, previous[j] - step, VF_FILTER_LEVEL_RATE, j, 0, INFINITY);
+            put_row(c, r++, j, -1.0, -(previous[j] + step), VF_FILTER_LEVEL_RATE, j, 1,
+                    INFINITY);
+        }
+    }
+    for (w = 0; w < f->nw; w++) {
+        const vf_filter_polytope *ws = f->ws + w;
+        const vf_filter_point *pt = f->points + ws->point;
+        double p[3], vx = 0.0, vy = 0.0, vz = 0.0;
+        double *J = D(c, wsJ), *wsd = D(c, wsd), *wsb = D(c, wsb);
+        const int32_t k = point_at(f, pt, D(c, frames), p);
+        for (j = 0; j < k; j++) {
+            const double *z = axes + 3 * (size_t)j;
+            double *col = J + 3 * (size_t)j;
+            if (f->joints[j].type == VF_FILTER_PRISMATIC) {
+                col[0] = z[0];
+                col[1] = z[1];
+                col[2] = z[2];
+            } else {
+                const double *pj = P + 3 * (size_t)j;
+                double dx = p[0] - pj[0], dy = p[1] - pj[1], dz = p[2] - pj[2];
+                col[0] = z[1] * dz - z[2] * dy;
+                col[1] = z[2] * dx - z[0] * dz;
+                col[2] = z[0] * dy - z[1] * dx;
+            }
+            vx += col[0] * u[j];
+            vy += col[1] * u[j];
+            vz += col[2] * u[j];
+        }
+        for (i = 0; i < ws->nf; i++) {
+            const double *nn = ws->N + 3 * (size_t)i;
+            wsd[i] = nn[0] * p[0] + nn[1] * p[1] + nn[2] * p[2] - ws->off[i];
+        }
+        vf_nd_rate_bounds(ws->kind, ws->prm, wsd, ws->nf, sqrt(vx * vx + vy * vy + vz * vz), idt,
+                          wsb, IV(c, ri));
+        for (i = 0; i < ws->nf; i++) {
+            const double *nn = ws->N + 3 * (size_t)i;
+            double *g;
+            if (wsb[i] == -INFINITY) {
+                continue;
+            }
+            g = D(c, G) + (size_t)r * n;
+            for (j = 0; j < n; j++) {
+                g[j] = 0.0;
+            }
+            for (j = 0; j < k; j++) {
+                const double *col = J + 3 * (size_t)j;
+                g[j] = nn[0] * col[0] + nn[1] * col[1] + nn[2] * col[2];
+            }
+            D(c, b)[r] = wsb[i];
+            IV(c, level)[r] = VF_FILTER_LEVEL_WORKSPACE;
+            IV(c, ka)[r] = w;
+            IV(c, kb)[r] = i;
+            D(c, dist)[r] = wsd[i];
+            r += 1;
+        }
+    }
+    if (f->k > 0) {
+        vf_nd_capsules cap;
+        int32_t kk, cc;
+        double vsum = 0.0;
+        memset(&cap, 0, sizeof cap);
+        for (j = 0; j < n; j++) {
+            vsum += f->vmax[j];
+        }
+        cap.P = P;
+        cap.axes = axes;
+        cap.lrad = f->link_radius != NULL ? f->link_radius : D(c, zeros);
+        cap.C = f->centres;
+        cap.srad = f->radii;
+        cap.vmax = f->vmax;
+        cap.vsum = vsum;
+        cap.buf = f->obstacle_buffer;
+        cap.dt = idt > 0.0 ? f->dt : 0.0;
+        cap.idt = idt;
+        cap.nl = n;
+        cap.nj = n;
+        cap.ncols = n;
+        cap.k = f->k;
+        vf_filter_obstacle_profile(f, &cap.kind, cap.prm);
+        kk = vf_nd_capsule_rows(&cap, u, D(c, G) + (size_t)r * n, D(c, b) + r, D(c, dist) + r,
+                                IV(c, ka) + r, IV(c, kb) + r, D(c, capw));
+        for (cc = 0; cc < kk; cc++) {
+            IV(c, level)[r + cc] = VF_FILTER_LEVEL_OBSTACLE;
+        }
+        r += kk;
+    }
+    return r;
+}
+
+/* ------------------------------------------------------------------ solve, model check */
+
+static double dot(const double *a, const double *b, int32_t n)
+{
+    double s = 0.0;
+    int32_t k;
+    for (k = 0; k < n; k++) {
+        s += a[k] * b[k];
+    }
+    return s;
+}
+
+static double inf_norm(const double *v, int32_t n)
+{
+    double s = 0.0;
+    int32_t k;
+    for (k = 0; k < n; k++) {
+        if (fabs(v[k]) > s) {
+            s = fabs(v[k]);
+        }
+    }
+    return s;
+}
+
+/* Projection of c->u onto the rows with bound bnd (-inf: left out) into x: VF_OK, VF_INFEASIBLE,
+ * VF_STALLED, VF_ITERATION_CAP or VF_DEADLINE. */
+static int project(ctx *c, const double *bnd, double *x)
+{
+    const int32_t n = c->n, m = c->m;
+    const vf_filter *f = c->f;
+    const double *G = D(c, G);
+    const double *u = c->u;
+    int32_t i, k, q = 0, it = 0;
+    int st, feasible = 1;
+    for (i = 0; i < m && feasible; i++) {
+        if (bnd[i] != -INFINITY && !(dot(G + (size_t)i * n, u, n) >= bnd[i])) {
+            feasible = 0;
+        }
+    }
+    if (feasible) {
+        for (k = 0; k < n; k++) {
+            x[k] = u[k];
+        }
+        return VF_OK;
+    }
+    if (c->deadline < INFINITY && now_s() > c->deadline) {
+        return VF_DEADLINE;
+    }
+    if (f->weights == NULL) {
+        st = vf_nd_project_kernel(u, G, bnd, m, n, x, D(c, lam), IV(c, act), D(c, wsf), &q, &it);
+    } else {
+        double *us = D(c, us), *ys = D(c, ys);
+        for (k = 0; k < n; k++) {
+            us[k] = u[k] * sqrt(f->weights[k]);
+        }
+        st = vf_nd_project_kernel(us, D(c, Gs), bnd, m, n, ys, D(c, lam), IV(c, act), D(c, wsf),
+                                  &q, &it);
+        for (k = 0; k < n; k++) {
+            x[k] = ys[k] / sqrt(f->weights[k]);
+        }
+        if (st == VF_ND_PROJECT_OPTIMAL) {
+            int round;
+            /* round-off of the back-substitution: repair along the most violated row */
+            for (round = 0; round < 4; round++) {
+                double gap = 0.0, gg;
+                int32_t wi = -1;
+                for (i = 0; i < m; i++) {
+                    double g;
+                    if (bnd[i] == -INFINITY) {
+                        continue;
+                    }
+                    g = bnd[i] - dot(G + (size_t)i * n, x, n);
+                    if (wi < 0 || g > gap) {
+                        gap = g;
+                        wi = i;
+                    }
+                }
+                if (wi < 0 || !(gap > 0.0)) {
+                    break;
+                }
+                gg = dot(G + (size_t)wi * n, G + (size_t)wi * n, n);
+                for (k = 0; k < n; k++) {
+                    x[k] += (gap * (1.0 + 1e-12) + 1e-300) * G[(size_t)wi * n + k] / gg;
+                }
+            }
+        }
+    }
+    c->info->iterations += it;
+    c->info->solves += 1;
+    c->first = 0;
+    if (c->maxit > 0 && it > c->maxit) {
+        return VF_ITERATION_CAP;
+    }
+    if (st == VF_ND_PROJECT_OPTIMAL) {
+        return finite_all(x, (size_t)n) ? VF_OK : VF_STALLED;
+    }
+    return st == VF_ND_PROJECT_INFEASIBLE ? VF_INFEASIBLE : VF_STALLED;
+}
+
+/* The model check at q + x dt: raises (when raise_) the bound of every workspace / obstacle row
+ * in the rung (bnd != -inf) whose true next distance is below min(0, d0); returns how many. */
+static int32_t model_check(ctx *c, const double *x, double *bnd, int raise_)
+{
+    const vf_filter *f = c->f;
+    const int32_t n = c->n;
+    double *q1 = D(c, q1), *clear = D(c, clear);
+    const double *frames1 = D(c, frames1);
+    int32_t r, j, bad = 0, have_clear = 0, wlast = -1;
+    double p[3];
+    for (j = 0; j < n; j++) {
+        q1[j] = c->q[j] + x[j] * f->dt;
+    }
+    vf_filter_kinematics(f, q1, D(c, P1), D(c, axes1), D(c, frames1));
+    for (r = 0; r < c->m; r++) {
+        const int32_t lv = IV(c, level)[r];
+        double d1, target;
+        if ((lv != VF_FILTER_LEVEL_WORKSPACE && lv != VF_FILTER_LEVEL_OBSTACLE)
+            || bnd[r] == -INFINITY) {
+            continue;
+        }
+        if (lv == VF_FILTER_LEVEL_WORKSPACE) {
+            const vf_filter_polytope *ws = f->ws + IV(c, ka)[r];
+            const double *nn = ws->N + 3 * (size_t)IV(c, kb)[r];
+            if (IV(c, ka)[r] != wlast) {
+                point_at(f, f->points + ws->point, frames1, p);
+                wlast = IV(c, ka)[r];
+            }
+            d1 = nn[0] * p[0] + nn[1] * p[1] + nn[2] * p[2] - ws->off[IV(c, kb)[r]];
+        } else {
+            if (!have_clear) {
+                vf_nd_capsules cap;
+                memset(&cap, 0, sizeof cap);
+                cap.P = D(c, P1);
+                cap.lrad = f->link_radius != NULL ? f->link_radius : D(c, zeros);
+                cap.C = f->centres;
+                cap.srad = f->radii;
+                cap.nl = n;
+                cap.k = f->k;
+                vf_nd_capsule_clearances(&cap, clear);
+                have_clear = 1;
+            }
+            d1 = clear[(size_t)IV(c, ka)[r] * n + IV(c, kb)[r]];
+        }
+        target = D(c, dist)[r] < 0.0 ? D(c, dist)[r] : 0.0;
+        if (!(d1 >= target)) {
+            bad += 1;
+            if (raise_) {
+                bnd[r] += (target - d1) / f->dt * (1.0 + 1e-6) + 1e-12;
+            }
+        }
+    }
+    return bad;
+}
+
+/* Whether x meets every row of the rung (bnd != -inf, levels 0-2 unless rate_too) relaxed to
+ * min(b, 0), with the spec's acceptance tolerance. */
+static int meets_relaxed(ctx *c, const double *bnd, const double *x)
+{
+    const int32_t n = c->n;
+    const double big = inf_norm(x, n) + c->unorm;
+    int32_t r;
+    for (r = 0; r < c->m; r++) {
+        const double *g = D(c, G) + (size_t)r * n;
+        double bb = bnd[r];
+        if (bb == -INFINITY) {
+            continue;
+        }
+        if (bb > 0.0) {
+            bb = 0.0;
+        }
+        if (dot(g, x, n) - bb < -1e-12 * (fabs(bb) + sqrt(dot(g, g, n)) * big)) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
+/* The largest t in {t0, t0/2, ..., t0 2^-10} with t x0 meeting the relaxed rows and the model
+ * check, into x; zero (returns 0) when none does. */
+static int halve(ctx *c, const double *bnd, const double *x0, double t0, double *x)
+{
+    int s;
+    int32_t k;
+    double t = t0;
+    for (s = 0; s <= 10; s++, t *= 0.5) {
+        for (k = 0; k < c->n; k++) {
+            x[k] = t * x0[k];
+        }
+        if (meets_relaxed(c, bnd, x) && (!c->has_check || model_check(c, x, (double *)bnd, 0) == 0)) {
+            return 1;
+        }
+    }
+    for (k = 0; k < c->n; k++) {
+        x[k] = 0.0;
+    }
+    return 0;
+}
+
+/* One rung: solve with bounds bnd, then the model check. VF_OK with the answer in x, or the
+ * failing solve's status. */
+static int rung(ctx *c, const double *bnd, double *x)
+{
+    double *bt = D(c, bt);
+    int st, round;
+    memcpy(bt, bnd, sizeof(double) * (size_t)c->m);
+    st = project(c, bt, x);
+    if (st != VF_OK || !c->has_check) {
+        return st;
+    }
+    for (round = 0; round < ROUNDS; round++) {
+        if (model_check(c, x, bt, 1) == 0) {
+            return VF_OK;
+        }
+        c->info->stages |= VF_FILTER_STAGE_MODEL_CHECK;
+        st = project(c, bt, x);
+        if (st != VF_OK) {
+            return st;
+        }
+    }
+    if (model_check(c, x, bt, 0) == 0) {
+        return VF_OK;
+    }
+    /* not settled: the answer scaled until the model check and the relaxed rows pass */
+    memcpy(D(c, xt), x, sizeof(double) * (size_t)c->n);
+    c->info->stages |= VF_FILTER_STAGE_SCALED;
+    if (!halve(c, bnd, D(c, xt), 1.0, x)) {
+        c->info->stages |= VF_FILTER_STAGE_STOP;
+    }
+    return VF_OK;
+}
+
+/* The safe fallback: the largest t in [0, 1] with t u meeting every joint, workspace and
+ * obstacle row relaxed to min(b, 0), then the model check's halving. */
+static void fallback(ctx *c, double *x)
+{
+    const int32_t n = c->n;
+    double *bb = D(c, bb);
+    double t = 1.0;
+    int32_t r, tries;
+    for (r = 0; r < c->m; r++) {
+        const double b = D(c, b)[r];
+        double gx, lim;
+        if (IV(c, level)[r] == VF_FILTER_LEVEL_RATE) {
+            bb[r] = -INFINITY;
+            continue;
+        }
+        lim = b < 0.0 ? b : 0.0;
+        bb[r] = lim;
+        gx = dot(D(c, G) + (size_t)r * n, c->u, n);
+        if (gx < lim) { /* gx < lim <= 0: t gx >= lim iff t <= lim / gx */
+            double tr = lim / gx;
+            if (tr < t) {
+                t = tr;
+            }
+        }
+    }
+    if (!(t >= 0.0)) {
+        t = 0.0;
+    }
+    for (tries = 0; tries < 8 && t > 0.0; tries++) {
+        int32_t k;
+        for (k = 0; k < n; k++) {
+            D(c, xc)[k] = t * c->u[k];
+        }
+        if (meets_relaxed(c, bb, D(c, xc))) {
+            break;
+        }
+        t *= 1.0 - 1e-12 * (double)(1 << (2 * tries));
+    }
+    if (!halve(c, bb, c->u, t, x)) {
+        c->info->stages |= VF_FILTER_STAGE_STOP;
+    }
+}
+
+/* ------------------------------------------------------------------ the cycle */
+
+static void zero_info(vf_filter_info *info)
+{
+    memset(info, 0, sizeof *info);
+    info->fraction = 1.0;
+}
+
+static int fail(int code, const vf_filter *f, double *out, vf_filter_info *info)
+{
+    int32_t k;
+    if (out != NULL && f != NULL && f->n > 0 && f->n <= MAX_JOINTS) {
+        for (k = 0; k < f->n; k++) {
+            out[k] = 0.0;
+        }
+    }
+    if (info != NULL) {
+        zero_info(info);
+        info->status = code;
+        info->stages = VF_FILTER_STAGE_STOP;
+    }
+    return code;
+}
+
+static int state_ok(const double *v, int32_t n)
+{
+    int32_t k;
+    for (k = 0; k < n; k++) {
+        if (!(fabs(v[k]) <= MAX_MAG)) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
+int vf_filter_cycle(const vf_filter *f, const double *q, const double *u, const double *previous,
+                    const vf_filter_opts *opts, double *out, vf_filter_info *info,
+                    double *scratch, int32_t *iscratch)
+{
+    ctx cx;
+    ctx *c = &cx;
+    int32_t n, k, r, lv;
+    double cap, big;
+    double *x, *cur;
+    int st = VF_OK, rc;
+    static const double FRACTIONS[9] = {0.25, 0.0625, 0.015625, 0.00390625, 0.0009765625,
+                                        0.000244140625, 6.103515625e-05, 1.52587890625e-05, 0.0};
+    if (out == NULL || info == NULL || scratch == NULL || iscratch == NULL || q == NULL
+        || u == NULL) {
+        return fail(VF_ERR_NULL, f, out, info);
+    }
+    rc = vf_filter_check(f);
+    if (rc != VF_OK) {
+        return fail(rc, f, out, info);
+    }
+    n = f->n;
+    if (!state_ok(q, n) || !state_ok(u, n) || (previous != NULL && !state_ok(previous, n))) {
+        return fail(VF_ERR_NONFINITE, f, out, info);
+    }
+    zero_info(info);
+    memset(c, 0, sizeof *c);
+    c->f = f;
+    make_layout(f, &c->L);
+    c->d = scratch;
+    c->i = iscratch;
+    c->n = n;
+    c->idt = f->dt > 0.0 ? 1.0 / f->dt : 0.0;
+    c->q = q;
+    c->info = info;
+    c->deadline = INFINITY;
+    c->first = 1;
+    if (opts != NULL) {
+        if (isnan(opts->time_budget) || opts->time_budget < 0.0 || isnan(opts->deadline)
+            || opts->n_warm < 0 || (opts->n_warm > 0 && opts->warm == NULL)) {
+            return fail(VF_ERR_ARGUMENT, f, out, info);
+        }
+        c->maxit = opts->max_iterations;
+        if (opts->time_budget > 0.0 && isfinite(opts->time_budget)) {
+            c->deadline = now_s() + opts->time_budget;
+        }
+        if (opts->deadline > 0.0 && opts->deadline < c->deadline) {
+            c->deadline = opts->deadline;
+        }
+    }
+    /* the command, shortened beyond 1e3 times the fastest joint limit */
+    x = D(c, x);
+    cap = 0.0;
+    for (k = 0; k < n; k++) {
+        if (f->vmax[k] > cap) {
+            cap = f->vmax[k];
+        }
+    }
+    cap *= COMMAND_CAP;
+    big = inf_norm(u, n);
+    for (k = 0; k < n; k++) {
+        D(c, zeros)[k] = 0.0;
+        D(c, ucmd)[k] = big > cap ? u[k] * (cap / big) : u[k];
+    }
+    if (big > cap) {
+        info->stages |= VF_FILTER_STAGE_COMMAND_SCALED;
+    }
+    c->u = D(c, ucmd);
+    c->unorm = inf_norm(c->u, n);
+    c->m = build_rows(c, f->dt > 0.0 ? previous : NULL);
+    info->m = c->m;
+    for (r = 0; r < c->m; r++) {
+        if (!isfinite(D(c, b)[r]) || !finite_all(D(c, G) + (size_t)r * n, (size_t)n)) {
+            return fail(VF_ERR_OVERFLOW, f, out, info);
+        }
+        lv = IV(c, level)[r];
+        if (D(c, dist)[r] < 0.0) {
+            info->n_violated += 1;
+        }
+        if (f->dt > 0.0 && (lv == VF_FILTER_LEVEL_WORKSPACE || lv == VF_FILTER_LEVEL_OBSTACLE)) {
+            c->has_check = 1;
+        }
+    }
+    if (f->weights != NULL) {
+        double *Gs = D(c, Gs);
+        for (r = 0; r < c->m; r++) {
+            for (k = 0; k < n; k++) {
+                Gs[(size_t)r * n + k] = D(c, G)[(size_t)r * n + k] / sqrt(f->weights[k]);
+            }
+        }
+    }
+    if (opts != NULL && opts->n_warm > 0) {
+        /* the previous active set, by key, as row indices (the solver's warm start) */
+        int32_t w, cnt = 0;
+        for (w = 0; w < opts->n_warm; w++) {
+            const int32_t *key = opts->warm + 3 * (size_t)w;
+            for (r = 0; r < c->m; r++) {
+                if (IV(c, level)[r] == key[0] && IV(c, ka)[r] == key[1]
+                    && IV(c, kb)[r] == key[2]) {
+                    IV(c, warm)[cnt++] = r;
+                    break;
+                }
+            }
+        }
+        c->n_warm = cnt;
+    }
+    /* the ladder */
+    cur = D(c, cur);
+    memcpy(cur, D(c, b), sizeof(double) * (size_t)c->m);
+    info->rung = 1;
+    st = rung(c, cur, x);
+    if (st != VF_OK && st != VF_ITERATION_CAP && st != VF_DEADLINE) {
+        int any = 0;
+        for (r = 0; r < c->m; r++) {
+            if (IV(c, level)[r] == VF_FILTER_LEVEL_RATE) {
+                cur[r] = -INFINITY;
+                any = 1;
+            }
+        }
+        if (any) {
+            info->rung = 2;
+            info->dropped[VF_FILTER_LEVEL_RATE] = 1;
+            info->stages |= VF_FILTER_STAGE_DROPPED_RATE;
+            st = rung(c, cur, x);
+        }
+    }
+    {
+        static const int32_t LEVELS[3] = {VF_FILTER_LEVEL_OBSTACLE, VF_FILTER_LEVEL_WORKSPACE,
+                                          VF_FILTER_LEVEL_JOINT};
+        static const int32_t STAGE[3] = {VF_FILTER_STAGE_RELAXED_OBSTACLES,
+                                         VF_FILTER_STAGE_RELAXED_WORKSPACE,
+                                         VF_FILTER_STAGE_RELAXED_JOINT};
+        int li, fi;
+        double *bb = D(c, bb);
+        for (li = 0; li < 3 && st != VF_OK && st != VF_ITERATION_CAP && st != VF_DEADLINE; li++) {
+            int any = 0;
+            lv = LEVELS[li];
+            for (r = 0; r < c->m; r++) {
+                if (IV(c, level)[r] == lv && D(c, dist)[r] < 0.0 && cur[r] > 0.0) {
+                    any = 1;
+                }
+            }
+            if (!any) {
+                continue;
+            }
+            info->rung = 3 + li;
+            info->relaxed[lv] = 1;
+            info->stages |= STAGE[li];
+            for (fi = 0; fi < 9; fi++) {
+                memcpy(bb, cur, sizeof(double) * (size_t)c->m);
+                for (r = 0; r < c->m; r++) {
+                    if (IV(c, level)[r] == lv && D(c, dist)[r] < 0.0 && cur[r] > 0.0) {
+                        bb[r] = cur[r] * FRACTIONS[fi];
+                    }
+                }
+                info->fraction = FRACTIONS[fi];
+                st = rung(c, bb, x);
+                if (st == VF_OK || st == VF_ITERATION_CAP || st == VF_DEADLINE) {
+                    break;
+                }
+            }
+            if (st != VF_OK) {
+                memcpy(cur, bb, sizeof(double) * (size_t)c->m);
+            }
+        }
+    }
+    rc = VF_OK;
+    if (st == VF_ITERATION_CAP || st == VF_DEADLINE) {
+        info->deadline =
+            st == VF_DEADLINE ? VF_FILTER_DEADLINE_TIME : VF_FILTER_DEADLINE_ITERATIONS;
+        info->stages |= VF_FILTER_STAGE_DEADLINE;
+        fallback(c, x);
+        rc = st;
+    } else if (st != VF_OK) {
+        info->rung = 6;
+        info->stages |= VF_FILTER_STAGE_STOP;
+        for (k = 0; k < n; k++) {
+            x[k] = 0.0;
+        }
+    }
+    if (!finite_all(x, (size_t)n)) {
+        return fail(VF_ERR_OVERFLOW, f, out, info);
+    }
+    /* the output and what it did */
+    {
+        double *sl = D(c, slack);
+        int32_t na = 0;
+        for (k = 0; k < n; k++) {
+            out[k] = x[k];
+            if (x[k] != c->u[k]) {
+                info->stages |= VF_FILTER_STAGE_PROJECTION;
+            }
+        }
+        if (info->n_violated > 0) {
+            info->stages |= VF_FILTER_STAGE_RECOVERY;
+        }
+        for (r = 0; r < c->m; r++) {
+            double b = D(c, b)[r];
+            sl[r] = dot(D(c, G) + (size_t)r * n, x, n) - b;
+            if (sl[r] <= BINDING * (1.0 + fabs(b)) || D(c, dist)[r] < 0.0) {
+                IV(c, active)[na++] = r;
+            }
+        }
+        info->n_active = na;
+        info->G = D(c, G);
+        info->b = D(c, b);
+        info->dist = D(c, dist);
+        info->slack = sl;
+        info->level = IV(c, level);
+        info->key_a = IV(c, ka);
+        info->key_b = IV(c, kb);
+        info->active = IV(c, active);
+    }
+    info->status = rc;
+    return rc;
+}
