@@ -190,8 +190,11 @@ typedef struct vf_filter_info {
     int32_t solves;
     /* Views into the scratch, valid until its next use: the rows as built (G m x n row-major,
      * b, signed distance (+inf for velocity / acceleration rows), keys level / a / b), the slack
-     * G x - b at the output and the active row indices (n_active,). */
-    const double *G, *b, *dist, *slack;
+     * G x - b at the output, the active row indices (n_active,) and the bounds the output is
+     * claimed to meet (bound: the answering rung's bounds after relaxation and the model check's
+     * raises; min(b, 0) after a scaled answer, the fallback or the stop; -inf: a dropped row).
+     * Every row of levels 0-2 always meets min(b, 0) (up to the spec's round-off tau). */
+    const double *G, *b, *dist, *slack, *bound;
     const int32_t *level, *key_a, *key_b, *active;
 } vf_filter_info;
 

@@ -13,6 +13,9 @@
 #include <math.h>
 #include <string.h>
 #include <time.h>
+#ifdef VF_FILTER_DEBUG
+#include <stdio.h>
+#endif
 
 #define MAX_JOINTS 64
 #define MAX_MAG 1e150
@@ -271,7 +274,7 @@ size_t vf_filter_rows_max(const vf_filter *f)
 typedef struct layout {
     size_t M, n;
     /* doubles */
-    size_t frames, P, axes, frames1, P1, axes1, q1, G, Gs, b, dist, slack, cur, bb, bt, us, ys,
+    size_t frames, P, axes, frames1, P1, axes1, q1, G, Gs, b, dist, slack, cur, bb, bt, used, us, ys,
         x, xc, xt, ucmd, zeros, lam, wsf, capw, clear, wsd, wsb, wsJ, total;
     /* ints */
     size_t level, ka, kb, active, act, warm, ri, itotal;
@@ -303,6 +306,7 @@ static void make_layout(const vf_filter *f, layout *L)
     TAKE(cur, M);
     TAKE(bb, M);
     TAKE(bt, M);
+    TAKE(used, M);
     TAKE(us, n);
     TAKE(ys, n);
     TAKE(x, n);
@@ -624,6 +628,9 @@ static int project(ctx *c, const double *bnd, double *x)
             }
         }
     }
+#ifdef VF_FILTER_DEBUG
+    fprintf(stderr, "solve m=%d st=%d it=%d\n", (int)m, st, (int)it);
+#endif
     c->info->iterations += it;
     c->info->solves += 1;
     c->first = 0;
@@ -714,6 +721,15 @@ static int meets_relaxed(ctx *c, const double *bnd, const double *x)
     return 1;
 }
 
+/* The claimed bounds: bnd relaxed to min(b, 0) (-inf rows stay out). */
+static void claim_relaxed(ctx *c, const double *bnd)
+{
+    int32_t r;
+    for (r = 0; r < c->m; r++) {
+        D(c, used)[r] = bnd[r] < 0.0 ? bnd[r] : (bnd[r] == -INFINITY ? bnd[r] : 0.0);
+    }
+}
+
 /* The largest t in {t0, t0/2, ..., t0 2^-10} with t x0 meeting the relaxed rows and the model
  * check, into x; zero (returns 0) when none does. */
 static int halve(ctx *c, const double *bnd, const double *x0, double t0, double *x)
@@ -742,12 +758,14 @@ static int rung(ctx *c, const double *bnd, double *x)
     double *bt = D(c, bt);
     int st, round;
     memcpy(bt, bnd, sizeof(double) * (size_t)c->m);
+    memcpy(D(c, used), bt, sizeof(double) * (size_t)c->m);
     st = project(c, bt, x);
     if (st != VF_OK || !c->has_check) {
         return st;
     }
     for (round = 0; round < ROUNDS; round++) {
         if (model_check(c, x, bt, 1) == 0) {
+            memcpy(D(c, used), bt, sizeof(double) * (size_t)c->m);
             return VF_OK;
         }
         c->info->stages |= VF_FILTER_STAGE_MODEL_CHECK;
@@ -757,11 +775,13 @@ static int rung(ctx *c, const double *bnd, double *x)
         }
     }
     if (model_check(c, x, bt, 0) == 0) {
+        memcpy(D(c, used), bt, sizeof(double) * (size_t)c->m);
         return VF_OK;
     }
     /* not settled: the answer scaled until the model check and the relaxed rows pass */
     memcpy(D(c, xt), x, sizeof(double) * (size_t)c->n);
     c->info->stages |= VF_FILTER_STAGE_SCALED;
+    claim_relaxed(c, bnd);
     if (!halve(c, bnd, D(c, xt), 1.0, x)) {
         c->info->stages |= VF_FILTER_STAGE_STOP;
     }
@@ -806,6 +826,7 @@ static void fallback(ctx *c, double *x)
         }
         t *= 1.0 - 1e-12 * (double)(1 << (2 * tries));
     }
+    claim_relaxed(c, bb);
     if (!halve(c, bb, c->u, t, x)) {
         c->info->stages |= VF_FILTER_STAGE_STOP;
     }
@@ -1024,6 +1045,10 @@ int vf_filter_cycle(const vf_filter *f, const double *q, const double *u, const 
         for (k = 0; k < n; k++) {
             x[k] = 0.0;
         }
+        for (r = 0; r < c->m; r++) {
+            D(c, bb)[r] = IV(c, level)[r] == VF_FILTER_LEVEL_RATE ? -INFINITY : D(c, b)[r];
+        }
+        claim_relaxed(c, D(c, bb));
     }
     if (!finite_all(x, (size_t)n)) {
         return fail(VF_ERR_OVERFLOW, f, out, info);
@@ -1053,6 +1078,7 @@ int vf_filter_cycle(const vf_filter *f, const double *q, const double *u, const 
         info->b = D(c, b);
         info->dist = D(c, dist);
         info->slack = sl;
+        info->bound = D(c, used);
         info->level = IV(c, level);
         info->key_a = IV(c, ka);
         info->key_b = IV(c, kb);
