@@ -341,7 +341,7 @@ int main(int argc, char **argv)
     qsort(times, (size_t)cycles, sizeof(double), cmp);
     printf("mode %s%s cycles %ld median_us %.3f p99_us %.3f max_us %.3f fallbacks %ld stops %ld "
            "rows_mean %.1f binding_mean %.1f violated_mean %.1f violations %d\n",
-           dense ? "dense " : "", back ? "back-to-back" : "periodic-1kHz", cycles,
+           dense ? "dense-" : "", back ? "back-to-back" : "periodic-1kHz", cycles,
            times[cycles / 2], times[(size_t)((double)cycles * 0.99)], times[cycles - 1],
            fallbacks, stops, rows_sum / (double)cycles, binding_sum / (double)cycles,
            violated_sum / (double)cycles, bad);
