@@ -7,9 +7,10 @@
  *
  *   1. kinematics of the chain given as data (below) at q;
  *   2. the built-in rows, in this order (the row keys (level, a, b) in brackets):
- *        joint position lower / upper rows where the limit is finite and the profile bounds the
- *        approach                                      (VF_FILTER_LEVEL_JOINT, 4 j + 0 / 1, 0),
- *        joint velocity lower / upper rows  x_j >= -v_j, -x_j >= -v_j  (JOINT, 4 j + 2 / 3, 0),
+ *        joint position lower / upper rows of every joint where the limit is finite and the
+ *          profile bounds the approach: x_j >= b, -x_j >= b     (VF_FILTER_LEVEL_JOINT, j, 0 / 1),
+ *        joint velocity lower / upper rows of every joint  x_j >= -v_j, -x_j >= -v_j
+ *                                                              (VF_FILTER_LEVEL_JOINT, j, 2 / 3),
  *        acceleration rows (previous != NULL, dt > 0, amax_j finite):
  *          x_j >= prev_j - a_j dt, -x_j >= -(prev_j + a_j dt)      (VF_FILTER_LEVEL_RATE, j, 0 / 1),
  *        workspace rows: facet i of polytope w on its point p: (N_i J_p) x >= b_i, the exact law's
@@ -34,10 +35,12 @@
  *      q + x dt must be >= min(0, d0); a failing row's bound is raised by
  *      (min(0, d0) - d1) / dt (1 + 1e-6) + 1e-12 and the rung solved again (4 rounds); if that does
  *      not settle, x is scaled by the largest t in {1, 1/2, ..., 2^-10} with t x passing the model
- *      check and every row with its bound relaxed to min(b, 0) (VF_FILTER_STAGE_SCALED), else 0.
+ *      check and every row with its bound relaxed to min(b, 0) (VF_FILTER_STAGE_MODEL_SCALED),
+ *      else 0 (VF_FILTER_STAGE_STOP); a re-solve that fails ends the rounds the same way.
  *      Deadline: when a solve hits the iteration cap or the cycle its time budget, the output is
- *      the safe fallback: the largest t in [0, 1] with t u meeting every joint, workspace and
- *      obstacle row relaxed to min(b, 0), then the model check's halving as above; else zero
+ *      the safe fallback: the largest t in [0, 1] with t u meeting every row relaxed to
+ *      min(b, 0) (closed form, halved until met as evaluated), then the model check's scaling
+ *      as above; else zero
  *      (VF_FILTER_STAGE_DEADLINE, info->deadline). Zero meets those rows, so it is always safe.
  *
  * Commands beyond 1e3 times the fastest joint limit are first shortened in their own direction
@@ -117,7 +120,7 @@ extern "C" {
 #define VF_FILTER_STAGE_STOP 128            /* zero velocity */
 #define VF_FILTER_STAGE_DEADLINE 256        /* the safe fallback (iteration cap or time budget) */
 #define VF_FILTER_STAGE_COMMAND_SCALED 512  /* the command was shortened first */
-#define VF_FILTER_STAGE_SCALED 1024         /* the model check scaled the solve's answer */
+#define VF_FILTER_STAGE_MODEL_SCALED 1024   /* the model check scaled the solve's answer */
 
 #define VF_FILTER_DEADLINE_NONE 0
 #define VF_FILTER_DEADLINE_ITERATIONS 1
@@ -186,6 +189,7 @@ typedef struct vf_filter_info {
     int32_t m;             /* rows built */
     int32_t n_active;      /* active rows: slack <= 1e-9 (1 + |b|) at the output, or violated */
     int32_t n_violated;
+    int32_t n_relaxed;     /* rows whose bound was relaxed (FilterResult.relaxed) */
     int32_t iterations;    /* solver iterations, summed */
     int32_t solves;
     /* Views into the scratch, valid until its next use: the rows as built (G m x n row-major,
@@ -195,7 +199,7 @@ typedef struct vf_filter_info {
      * raises; min(b, 0) after a scaled answer, the fallback or the stop; -inf: a dropped row).
      * Every row of levels 0-2 always meets min(b, 0) (up to the spec's round-off tau). */
     const double *G, *b, *dist, *slack, *bound;
-    const int32_t *level, *key_a, *key_b, *active;
+    const int32_t *level, *key_a, *key_b, *active, *relaxed_rows;
 } vf_filter_info;
 
 /* Checks the description: VF_OK or a negative VF_ERR_* code. */

@@ -14,8 +14,9 @@
  *     set_options(max_iterations=0, time_budget=0.0, warm=False): per-solve iteration cap (<= 0:
  *       default), time budget [s] per cycle (0: none), warm start from the last active set.
  *     info() -> dict (status, stages, rung, deadline, relaxed, dropped, fraction, m, n_active,
- *       n_violated, iterations, solves); rows() -> (G, b, level, key_a, key_b, dist, slack) of the
- *       last cycle (copies); active() -> the last active rows' keys, a list of (level, a, b).
+ *       n_violated, n_relaxed, iterations, solves); rows() -> (G, b, level, key_a, key_b, dist,
+ *       slack, bound) of the last cycle (copies); active() / relaxed() -> the last active / relaxed
+ *       rows' keys, lists of (level, a, b).
  *     deadline_misses: the number of cycles that used the deadline fallback.
  *   STAGE_* / LEVEL_* / DEADLINE_* constants as in the header.
  */
@@ -425,11 +426,12 @@ static PyObject *FilterCycle_info(FilterCycle *self, PyObject *Py_UNUSED(ignored
 {
     const vf_filter_info *i = &self->info;
     return Py_BuildValue(
-        "{s:i,s:i,s:i,s:i,s:(iiii),s:(iiii),s:d,s:i,s:i,s:i,s:i,s:i}", "status", i->status,
+        "{s:i,s:i,s:i,s:i,s:(iiii),s:(iiii),s:d,s:i,s:i,s:i,s:i,s:i,s:i}", "status", i->status,
         "stages", i->stages, "rung", i->rung, "deadline", i->deadline, "relaxed", i->relaxed[0],
         i->relaxed[1], i->relaxed[2], i->relaxed[3], "dropped", i->dropped[0], i->dropped[1],
         i->dropped[2], i->dropped[3], "fraction", i->fraction, "m", i->m, "n_active",
-        i->n_active, "n_violated", i->n_violated, "iterations", i->iterations, "solves",
+        i->n_active, "n_violated", i->n_violated, "n_relaxed", i->n_relaxed, "iterations",
+        i->iterations, "solves",
         i->solves);
 }
 
@@ -464,25 +466,25 @@ static PyObject *FilterCycle_rows(FilterCycle *self, PyObject *Py_UNUSED(ignored
         PyErr_SetString(PyExc_RuntimeError, "no successful cycle yet");
         return NULL;
     }
-    return Py_BuildValue("(NNNNNNN)", copy_d(i->G, m, self->f.n, 1), copy_d(i->b, m, 1, 0),
+    return Py_BuildValue("(NNNNNNNN)", copy_d(i->G, m, self->f.n, 1), copy_d(i->b, m, 1, 0),
                          copy_i(i->level, m), copy_i(i->key_a, m), copy_i(i->key_b, m),
-                         copy_d(i->dist, m, 1, 0), copy_d(i->slack, m, 1, 0));
+                         copy_d(i->dist, m, 1, 0), copy_d(i->slack, m, 1, 0),
+                         copy_d(i->bound, m, 1, 0));
 }
 
-static PyObject *FilterCycle_active(FilterCycle *self, PyObject *Py_UNUSED(ignored))
+static PyObject *key_list(const vf_filter_info *i, const int32_t *rows, int32_t count)
 {
-    const vf_filter_info *i = &self->info;
     PyObject *lst;
     int32_t a;
-    if (!self->have_info || i->active == NULL) {
+    if (rows == NULL) {
         return PyList_New(0);
     }
-    lst = PyList_New(i->n_active);
+    lst = PyList_New(count);
     if (lst == NULL) {
         return NULL;
     }
-    for (a = 0; a < i->n_active; a++) {
-        int32_t r = i->active[a];
+    for (a = 0; a < count; a++) {
+        int32_t r = rows[a];
         PyObject *t = Py_BuildValue("(iii)", i->level[r], i->key_a[r], i->key_b[r]);
         if (t == NULL) {
             Py_DECREF(lst);
@@ -491,6 +493,22 @@ static PyObject *FilterCycle_active(FilterCycle *self, PyObject *Py_UNUSED(ignor
         PyList_SET_ITEM(lst, a, t);
     }
     return lst;
+}
+
+static PyObject *FilterCycle_active(FilterCycle *self, PyObject *Py_UNUSED(ignored))
+{
+    if (!self->have_info) {
+        return PyList_New(0);
+    }
+    return key_list(&self->info, self->info.active, self->info.n_active);
+}
+
+static PyObject *FilterCycle_relaxed(FilterCycle *self, PyObject *Py_UNUSED(ignored))
+{
+    if (!self->have_info) {
+        return PyList_New(0);
+    }
+    return key_list(&self->info, self->info.relaxed_rows, self->info.n_relaxed);
 }
 
 static PyObject *FilterCycle_misses(FilterCycle *self, void *Py_UNUSED(closure))
@@ -513,6 +531,8 @@ static PyMethodDef FilterCycle_methods[] = {
      "(G, b, level, key_a, key_b, dist, slack) of the last cycle."},
     {"active", (PyCFunction)FilterCycle_active, METH_NOARGS,
      "The last cycle's active row keys (level, a, b)."},
+    {"relaxed", (PyCFunction)FilterCycle_relaxed, METH_NOARGS,
+     "The last cycle's relaxed row keys (level, a, b)."},
     {NULL, NULL, 0, NULL},
 };
 
@@ -567,7 +587,7 @@ PyMODINIT_FUNC PyInit__filter(void)
     C(STAGE_STOP);
     C(STAGE_DEADLINE);
     C(STAGE_COMMAND_SCALED);
-    C(STAGE_SCALED);
+    C(STAGE_MODEL_SCALED);
     C(LEVEL_JOINT);
     C(LEVEL_WORKSPACE);
     C(LEVEL_OBSTACLE);

@@ -275,9 +275,9 @@ typedef struct layout {
     size_t M, n;
     /* doubles */
     size_t frames, P, axes, frames1, P1, axes1, q1, G, Gs, b, dist, slack, cur, bb, bt, used, us, ys,
-        x, xc, xt, ucmd, zeros, lam, wsf, capw, clear, wsd, wsb, wsJ, total;
+        x, x1, xc, xt, ucmd, zeros, lam, wsf, capw, clear, wsd, wsb, wsJ, total;
     /* ints */
-    size_t level, ka, kb, active, act, warm, ri, itotal;
+    size_t level, ka, kb, active, relaxed, act, warm, ri, itotal;
 } layout;
 
 static void make_layout(const vf_filter *f, layout *L)
@@ -310,6 +310,7 @@ static void make_layout(const vf_filter *f, layout *L)
     TAKE(us, n);
     TAKE(ys, n);
     TAKE(x, n);
+    TAKE(x1, n);
     TAKE(xc, n);
     TAKE(xt, n);
     TAKE(ucmd, n);
@@ -326,6 +327,7 @@ static void make_layout(const vf_filter *f, layout *L)
     ITAKE(ka, M);
     ITAKE(kb, M);
     ITAKE(active, M);
+    ITAKE(relaxed, M);
     ITAKE(act, n + 1);
     ITAKE(warm, M + 1);
     ITAKE(ri, 2 * nf + 2);
@@ -381,6 +383,7 @@ typedef struct ctx {
     double deadline; /* absolute, inf: none */
     int32_t maxit;
     int32_t n_warm;  /* warm rows mapped, for the first solve */
+    const double *answer; /* the answering rung's bounds (before the model check's raises) */
     int first;
     int has_check;   /* dt > 0 and some workspace / obstacle row */
     vf_filter_info *info;
@@ -436,13 +439,15 @@ static int32_t build_rows(ctx *c, const double *previous)
             vf_nd_rate_bounds(kind, prm, &du, 1, v, idt, &bu, wk);
         }
         if (bl != -INFINITY) {
-            put_row(c, r++, j, 1.0, bl < v ? bl : v, VF_FILTER_LEVEL_JOINT, 4 * j, 0, dl);
+            put_row(c, r++, j, 1.0, bl < v ? bl : v, VF_FILTER_LEVEL_JOINT, j, 0, dl);
         }
         if (bu != -INFINITY) {
-            put_row(c, r++, j, -1.0, bu < v ? bu : v, VF_FILTER_LEVEL_JOINT, 4 * j + 1, 0, du);
+            put_row(c, r++, j, -1.0, bu < v ? bu : v, VF_FILTER_LEVEL_JOINT, j, 1, du);
         }
-        put_row(c, r++, j, 1.0, -v, VF_FILTER_LEVEL_JOINT, 4 * j + 2, 0, INFINITY);
-        put_row(c, r++, j, -1.0, -v, VF_FILTER_LEVEL_JOINT, 4 * j + 3, 0, INFINITY);
+    }
+    for (j = 0; j < n; j++) {
+        put_row(c, r++, j, 1.0, -f->vmax[j], VF_FILTER_LEVEL_JOINT, j, 2, INFINITY);
+        put_row(c, r++, j, -1.0, -f->vmax[j], VF_FILTER_LEVEL_JOINT, j, 3, INFINITY);
     }
     if (previous != NULL && f->dt > 0.0 && f->amax != NULL) {
         for (j = 0; j < n; j++) {
@@ -643,9 +648,9 @@ static int project(ctx *c, const double *bnd, double *x)
     return st == VF_ND_PROJECT_INFEASIBLE ? VF_INFEASIBLE : VF_STALLED;
 }
 
-/* The model check at q + x dt: raises (when raise_) the bound of every workspace / obstacle row
- * in the rung (bnd != -inf) whose true next distance is below min(0, d0); returns how many. */
-static int32_t model_check(ctx *c, const double *x, double *bnd, int raise_)
+/* The model check at q + x dt: counts the workspace / obstacle rows whose true next distance is
+ * below min(0, d0) and (bnd not NULL) raises their bounds in bnd. */
+static int32_t model_check(ctx *c, const double *x, double *bnd)
 {
     const vf_filter *f = c->f;
     const int32_t n = c->n;
@@ -660,8 +665,7 @@ static int32_t model_check(ctx *c, const double *x, double *bnd, int raise_)
     for (r = 0; r < c->m; r++) {
         const int32_t lv = IV(c, level)[r];
         double d1, target;
-        if ((lv != VF_FILTER_LEVEL_WORKSPACE && lv != VF_FILTER_LEVEL_OBSTACLE)
-            || bnd[r] == -INFINITY) {
+        if (lv != VF_FILTER_LEVEL_WORKSPACE && lv != VF_FILTER_LEVEL_OBSTACLE) {
             continue;
         }
         if (lv == VF_FILTER_LEVEL_WORKSPACE) {
@@ -690,7 +694,7 @@ static int32_t model_check(ctx *c, const double *x, double *bnd, int raise_)
         target = D(c, dist)[r] < 0.0 ? D(c, dist)[r] : 0.0;
         if (!(d1 >= target)) {
             bad += 1;
-            if (raise_) {
+            if (bnd != NULL) {
                 bnd[r] += (target - d1) / f->dt * (1.0 + 1e-6) + 1e-12;
             }
         }
@@ -698,23 +702,26 @@ static int32_t model_check(ctx *c, const double *x, double *bnd, int raise_)
     return bad;
 }
 
-/* Whether x meets every row of the rung (bnd != -inf, levels 0-2 unless rate_too) relaxed to
- * min(b, 0), with the spec's acceptance tolerance. */
+/* Whether G x >= c for every row with c = min(bnd, 0) (bnd -inf: left out), to the round-off
+ * of forming G x: tolerance 1e-12 (|c| + |g|_1 |x|_inf) per row (velfence.filter.ladder.meets). */
 static int meets_relaxed(ctx *c, const double *bnd, const double *x)
 {
     const int32_t n = c->n;
-    const double big = inf_norm(x, n) + c->unorm;
-    int32_t r;
+    const double xi = inf_norm(x, n);
+    int32_t r, k;
     for (r = 0; r < c->m; r++) {
         const double *g = D(c, G) + (size_t)r * n;
-        double bb = bnd[r];
-        if (bb == -INFINITY) {
+        double cc = bnd[r], g1 = 0.0;
+        if (cc == -INFINITY) {
             continue;
         }
-        if (bb > 0.0) {
-            bb = 0.0;
+        if (cc > 0.0) {
+            cc = 0.0;
         }
-        if (dot(g, x, n) - bb < -1e-12 * (fabs(bb) + sqrt(dot(g, g, n)) * big)) {
+        for (k = 0; k < n; k++) {
+            g1 += fabs(g[k]);
+        }
+        if (!(dot(g, x, n) - cc >= -(1e-12 * (fabs(cc) + g1 * xi)))) {
             return 0;
         }
     }
@@ -726,109 +733,122 @@ static void claim_relaxed(ctx *c, const double *bnd)
 {
     int32_t r;
     for (r = 0; r < c->m; r++) {
-        D(c, used)[r] = bnd[r] < 0.0 ? bnd[r] : (bnd[r] == -INFINITY ? bnd[r] : 0.0);
+        D(c, used)[r] = bnd[r] < 0.0 ? bnd[r] : 0.0;
     }
 }
 
-/* The largest t in {t0, t0/2, ..., t0 2^-10} with t x0 meeting the relaxed rows and the model
- * check, into x; zero (returns 0) when none does. */
-static int halve(ctx *c, const double *bnd, const double *x0, double t0, double *x)
+/* ladder._scaled: the largest t x0, t in {1, 1/2, ..., 2^-10}, meeting the rows relaxed to
+ * min(bnd, 0) and the model check, into x (stage MODEL_SCALED); else zero (stage STOP). */
+static void scaled(ctx *c, const double *bnd, const double *x0, double *x)
 {
     int s;
     int32_t k;
-    double t = t0;
+    double t = 1.0;
+    claim_relaxed(c, bnd);
     for (s = 0; s <= 10; s++, t *= 0.5) {
         for (k = 0; k < c->n; k++) {
-            x[k] = t * x0[k];
+            x[k] = x0[k] * t;
         }
-        if (meets_relaxed(c, bnd, x) && (!c->has_check || model_check(c, x, (double *)bnd, 0) == 0)) {
-            return 1;
+        if (meets_relaxed(c, bnd, x) && model_check(c, x, NULL) == 0) {
+            c->info->stages |= VF_FILTER_STAGE_MODEL_SCALED;
+            return;
         }
     }
     for (k = 0; k < c->n; k++) {
         x[k] = 0.0;
     }
-    return 0;
+    c->info->stages |= VF_FILTER_STAGE_STOP;
 }
 
-/* One rung: solve with bounds bnd, then the model check. VF_OK with the answer in x, or the
- * failing solve's status. */
+/* One rung (ladder.run_ladder's body and _model_check): solve with the bounds bnd, then the
+ * model check. VF_OK with the answer in x, VF_ITERATION_CAP / VF_DEADLINE, or the failing
+ * solve's status (the next rung). */
 static int rung(ctx *c, const double *bnd, double *x)
 {
-    double *bt = D(c, bt);
-    int st, round;
-    memcpy(bt, bnd, sizeof(double) * (size_t)c->m);
-    memcpy(D(c, used), bt, sizeof(double) * (size_t)c->m);
-    st = project(c, bt, x);
-    if (st != VF_OK || !c->has_check) {
+    double *bt = D(c, bt), *x1 = D(c, x1);
+    int st, round, tightened = 0, settled = 0;
+    st = project(c, bnd, x);
+    if (st != VF_OK) {
         return st;
     }
-    for (round = 0; round < ROUNDS; round++) {
-        if (model_check(c, x, bt, 1) == 0) {
-            memcpy(D(c, used), bt, sizeof(double) * (size_t)c->m);
-            return VF_OK;
-        }
-        c->info->stages |= VF_FILTER_STAGE_MODEL_CHECK;
-        st = project(c, bt, x);
-        if (st != VF_OK) {
-            return st;
-        }
-    }
-    if (model_check(c, x, bt, 0) == 0) {
-        memcpy(D(c, used), bt, sizeof(double) * (size_t)c->m);
+    c->answer = bnd;
+    memcpy(D(c, used), bnd, sizeof(double) * (size_t)c->m);
+    if (!c->has_check) {
         return VF_OK;
     }
-    /* not settled: the answer scaled until the model check and the relaxed rows pass */
-    memcpy(D(c, xt), x, sizeof(double) * (size_t)c->n);
-    c->info->stages |= VF_FILTER_STAGE_SCALED;
-    claim_relaxed(c, bnd);
-    if (!halve(c, bnd, D(c, xt), 1.0, x)) {
-        c->info->stages |= VF_FILTER_STAGE_STOP;
+    memcpy(bt, bnd, sizeof(double) * (size_t)c->m);
+    for (round = 0; round <= ROUNDS; round++) {
+        if (model_check(c, x, round < ROUNDS ? bt : NULL) == 0) {
+            settled = 1;
+            break;
+        }
+        if (round == ROUNDS) {
+            break;
+        }
+        tightened = 1;
+        st = project(c, bt, x1);
+        if (st == VF_ITERATION_CAP || st == VF_DEADLINE) {
+            return st;
+        }
+        if (st != VF_OK) {
+            break;
+        }
+        memcpy(x, x1, sizeof(double) * (size_t)c->n);
     }
+    if (settled) {
+        memcpy(D(c, used), bt, sizeof(double) * (size_t)c->m);
+        if (tightened) {
+            c->info->stages |= VF_FILTER_STAGE_MODEL_CHECK;
+        }
+        return VF_OK;
+    }
+    memcpy(x1, x, sizeof(double) * (size_t)c->n);
+    scaled(c, bnd, x1, x);
     return VF_OK;
 }
 
-/* The safe fallback: the largest t in [0, 1] with t u meeting every joint, workspace and
- * obstacle row relaxed to min(b, 0), then the model check's halving. */
+/* ladder.safe_fallback: the largest t in [0, 1] with t u meeting every row relaxed to
+ * min(b, 0) (closed form, then halved until met as evaluated), then the model check's scaling. */
 static void fallback(ctx *c, double *x)
 {
     const int32_t n = c->n;
     double *bb = D(c, bb);
     double t = 1.0;
-    int32_t r, tries;
+    int32_t r, k;
+    int tries;
     for (r = 0; r < c->m; r++) {
         const double b = D(c, b)[r];
-        double gx, lim;
-        if (IV(c, level)[r] == VF_FILTER_LEVEL_RATE) {
-            bb[r] = -INFINITY;
-            continue;
-        }
-        lim = b < 0.0 ? b : 0.0;
+        const double lim = b < 0.0 ? b : 0.0;
+        const double s = dot(D(c, G) + (size_t)r * n, c->u, n);
         bb[r] = lim;
-        gx = dot(D(c, G) + (size_t)r * n, c->u, n);
-        if (gx < lim) { /* gx < lim <= 0: t gx >= lim iff t <= lim / gx */
-            double tr = lim / gx;
-            if (tr < t) {
-                t = tr;
-            }
+        if (s < 0.0 && lim / s < t) {
+            t = lim / s;
         }
     }
-    if (!(t >= 0.0)) {
+    if (!(t >= 0.0) || !isfinite(t)) {
         t = 0.0;
     }
-    for (tries = 0; tries < 8 && t > 0.0; tries++) {
-        int32_t k;
-        for (k = 0; k < n; k++) {
-            D(c, xc)[k] = t * c->u[k];
-        }
-        if (meets_relaxed(c, bb, D(c, xc))) {
+    for (k = 0; k < n; k++) {
+        x[k] = c->u[k] * t;
+    }
+    for (tries = 0; tries < 60; tries++) {
+        if (meets_relaxed(c, bb, x)) {
             break;
         }
-        t *= 1.0 - 1e-12 * (double)(1 << (2 * tries));
+        t *= t > 1e-300 ? 0.5 : 0.0;
+        for (k = 0; k < n; k++) {
+            x[k] = c->u[k] * t;
+        }
+    }
+    if (tries == 60) {
+        for (k = 0; k < n; k++) {
+            x[k] = 0.0;
+        }
     }
     claim_relaxed(c, bb);
-    if (!halve(c, bb, c->u, t, x)) {
-        c->info->stages |= VF_FILTER_STAGE_STOP;
+    if (c->has_check && model_check(c, x, NULL) != 0) {
+        memcpy(D(c, x1), x, sizeof(double) * (size_t)n);
+        scaled(c, bb, D(c, x1), x);
     }
 }
 
@@ -1045,10 +1065,7 @@ int vf_filter_cycle(const vf_filter *f, const double *q, const double *u, const 
         for (k = 0; k < n; k++) {
             x[k] = 0.0;
         }
-        for (r = 0; r < c->m; r++) {
-            D(c, bb)[r] = IV(c, level)[r] == VF_FILTER_LEVEL_RATE ? -INFINITY : D(c, b)[r];
-        }
-        claim_relaxed(c, D(c, bb));
+        claim_relaxed(c, D(c, b));
     }
     if (!finite_all(x, (size_t)n)) {
         return fail(VF_ERR_OVERFLOW, f, out, info);
@@ -1074,6 +1091,23 @@ int vf_filter_cycle(const vf_filter *f, const double *q, const double *u, const 
             }
         }
         info->n_active = na;
+        na = 0;
+        for (r = 0; r < c->m; r++) {
+            const double b = D(c, b)[r];
+            int rel;
+            if (rc != VF_OK) { /* the fallback relaxed every positive bound */
+                rel = b > 0.0;
+            } else if (c->answer == NULL) { /* the stop */
+                rel = D(c, dist)[r] < 0.0 && b > 0.0;
+            } else {
+                rel = c->answer[r] != -INFINITY && c->answer[r] < b;
+            }
+            if (rel) {
+                IV(c, relaxed)[na++] = r;
+            }
+        }
+        info->n_relaxed = na;
+        info->relaxed_rows = IV(c, relaxed);
         info->G = D(c, G);
         info->b = D(c, b);
         info->dist = D(c, dist);
