@@ -10,7 +10,7 @@ import numpy as np
 
 from velfence.geometry.polytope import ConvexPolytope
 from velfence.mechanisms.chain import DHChain
-from velfence.shaping.filter import JointLimits, SafetyFilter, WorkspaceLimit
+from velfence.filter import JointLimits, SafetyFilter, WorkspaceLimit
 
 DT = 2e-3  # control period [s]
 STEPS = 1500  # 3 s

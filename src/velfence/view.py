@@ -29,7 +29,7 @@ def _fence_box_session() -> _ArmSession:
     from velfence.robot_sim import fence_box as fb
     from velfence.robot_sim.common import TcpJog
     from velfence.robots import panda
-    from velfence.shaping.limits import SphereObstacle
+    from velfence.filter.limits import SphereObstacle
     from velfence.sim.physics import MujocoPlant
 
     robot = panda(radius=0.05)

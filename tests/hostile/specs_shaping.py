@@ -43,7 +43,7 @@ def _arm() -> object:
 
 
 def _limits() -> object:
-    from velfence.shaping import JointLimits
+    from velfence.filter import JointLimits
 
     lo = np.radians([-170.0, -120.0, -170.0, -120.0, -170.0, -120.0, -175.0])
     return JointLimits(lo, -lo, np.full(7, 1.5), max_acceleration=np.full(7, 10.0))
@@ -56,7 +56,7 @@ def _box() -> object:
 
 
 def safety_filter() -> object:
-    from velfence.shaping import SafetyFilter, SphereObstacle, WorkspaceLimit
+    from velfence.filter import SafetyFilter, SphereObstacle, WorkspaceLimit
 
     return SafetyFilter(
         _arm(),  # type: ignore[arg-type]

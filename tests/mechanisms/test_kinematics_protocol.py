@@ -12,7 +12,7 @@ import pytest
 from velfence.errors import InvalidInput
 from velfence.mechanisms.chain import DHChain, PlanarArm
 from velfence.mechanisms.puma560 import Puma560
-from velfence.shaping.filter import Kinematics
+from velfence.filter import Kinematics
 
 ROBOTS = {
     "seven_dof": DHChain.seven_dof(tool=(0.0, 0.02, 0.05)),

@@ -312,8 +312,8 @@ def _safety_filter(spec: _SafetyFilter) -> ConfiguredShaper:
 
     from velfence import robots
     from velfence.geometry.polytope import ConvexPolytope
-    from velfence.shaping.filter import SafetyFilter
-    from velfence.shaping.limits import JointLimits, WorkspaceLimit
+    from velfence.filter import SafetyFilter
+    from velfence.filter.limits import JointLimits, WorkspaceLimit
     from velfence.sim.arm import TwistMode
 
     robot = getattr(robots, spec.robot)()
