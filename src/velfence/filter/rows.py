@@ -179,13 +179,20 @@ def rate_bounds(
 def workspace_bounds(
     profile: Profile, distances: FloatArray, speed: float, dt: float | None
 ) -> FloatArray:
-    """The filter's workspace-facet bounds: lower bounds on ``n_i·ṗ`` [m/s], shape (k,).
+    """The filter's workspace-facet bounds: lower bounds on ``n_i·ṗ`` [m/s].
 
     What :class:`WorkspaceRows` puts on the right of its rows ``(n_iᵀ J_p) x >= b_i``, exposed
     for other formulations of the same rows (``velfence.integrations.mink_limits``). Inputs are
-    trusted: ``distances`` the facets' signed distances [m] (positive inside, finite, float64,
-    shape (k,)), ``speed`` the cap speed >= 0 [m/s], ``dt`` the period [s] or ``None``. ``-inf``
-    marks a facet without a bound.
+    trusted (validated by the caller).
+
+    Args:
+        profile: The approach profile (``LinearBuffer`` or ``ThreeZoneBraking``, in metres).
+        distances: The facets' signed distances [m] (positive inside), finite float64, (k,).
+        speed: The cap speed [m/s], >= 0 (the filter passes the point's commanded speed).
+        dt: The control period [s], or ``None`` (continuous time).
+
+    Returns:
+        The bounds [m/s], shape (k,); ``-inf`` marks a facet without a bound.
     """
     return rate_bounds(profile, distances, speed, 0.0 if dt is None else 1.0 / dt)
 
