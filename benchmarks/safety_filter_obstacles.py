@@ -21,9 +21,9 @@ import time
 
 import numpy as np
 
+from velfence.filter import JointLimits, SafetyFilter, SphereObstacle
 from velfence.geometry.primitives import points_segments_distances
 from velfence.reproduce.obstacles import DT, K_FB, MAX_JOINT_SPEED, ScenarioRun, scenarios
-from velfence.filter import JointLimits, SafetyFilter, SphereObstacle
 
 BUFFER = 0.05  # [m] the filter's obstacle buffer
 

@@ -144,8 +144,8 @@ def run(
     Returns:
         The runs, metrics and named checks.
     """
-    from velfence.robots import panda
     from velfence.filter.limits import SphereObstacle
+    from velfence.robots import panda
     from velfence.sim.physics import BodyPush, MujocoPlant
 
     robot = panda(radius=0.05)

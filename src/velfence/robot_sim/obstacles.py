@@ -83,6 +83,8 @@ def run(
     Returns:
         The runs, metrics and named checks.
     """
+    from velfence.filter import SafetyFilter
+    from velfence.filter.limits import JointLimits, SphereObstacle
     from velfence.redundancy.configuration_control import ConfigurationController, Obstacle
     from velfence.reproduce.obstacles import (
         DT,
@@ -94,8 +96,6 @@ def run(
         run_scenario,
     )
     from velfence.robots import seven_dof
-    from velfence.filter import SafetyFilter
-    from velfence.filter.limits import JointLimits, SphereObstacle
     from velfence.sim.arm import TwistMode
     from velfence.sim.physics import MujocoPlant
 

@@ -101,8 +101,8 @@ def scenario() -> Scenario:
     obstacles sit 4 cm and 6 cm from the surfaces of the upper arm and the forearm (inside the
     0.1 m obstacle buffer).
     """
-    from velfence.mechanisms.chain import DHChain
     from velfence.filter import JointLimits, SphereObstacle, WorkspaceLimit
+    from velfence.mechanisms.chain import DHChain
 
     radius = 0.06
     arm = DHChain.seven_dof(link_radius=radius)
