@@ -189,7 +189,6 @@ SPECS: dict[str, F | C] = {
     "filter.JointAccelerationLimit": C(abstract="built by SafetyFilter from validated limits"),
     "filter.WorkspaceRows": C(abstract="built by SafetyFilter from a validated WorkspaceLimit"),
     "filter.ObstacleRows": C(abstract="built by SafetyFilter from validated SphereObstacles"),
-    "filter.workspace_bounds": C(abstract="trusted kernel: inputs validated by its callers"),
     "filter.JointLimits": C(
         F(
             lambda: call([-1.0, -2.0], [1.0, 2.0], [1.0, 0.5], max_acceleration=[5.0, 4.0]),

@@ -44,7 +44,6 @@ from velfence.filter.rows import (
     RowContext,
     RowProvider,
     WorkspaceRows,
-    workspace_bounds,
 )
 
 __all__ = [
@@ -71,5 +70,4 @@ __all__ = [
     "SphereObstacle",
     "WorkspaceLimit",
     "WorkspaceRows",
-    "workspace_bounds",
 ]

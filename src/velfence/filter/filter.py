@@ -161,7 +161,11 @@ class _Cycle:
         self.d0 = np.concatenate(d0) if d0 else np.zeros(0)
 
     def names(self) -> list[str]:
-        return [s for _, _, blk in self.blocks for s in blk.row_names()]
+        out: list[str] = []
+        for _, _, blk in self.blocks:
+            names = blk.names() if callable(blk.names) else blk.names
+            out.extend(str(s) for s in names)
+        return out
 
     def keys(self, rows: Any) -> set[tuple[int, int]]:
         """``(provider index, key)`` of the given row indices."""

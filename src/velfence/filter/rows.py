@@ -118,11 +118,6 @@ class RowBlock:
         """Number of rows ``k``."""
         return int(self.b.shape[0])
 
-    def row_names(self) -> list[str]:
-        """The rows' names, made now."""
-        names = self.names() if callable(self.names) else self.names
-        return [str(s) for s in names]
-
 
 @runtime_checkable
 class RowProvider(Protocol):

@@ -12,7 +12,7 @@ distance :math:`d_i = n_i\cdot p - c_i` of the frame's origin :math:`p`, positiv
 that is :math:`n_i\cdot\dot p \ge b_i(d_i)`, with :math:`J_p` the world-frame Jacobian of the
 frame origin's linear velocity (MuJoCo's ``mj_jacSite``/``mj_jacBody``/``mj_jacGeom``) and
 :math:`b_i` **the** bound of a :class:`~velfence.filter.SafetyFilter` workspace row
-(:func:`velfence.filter.workspace_bounds`, the exact law's one bound definition): inside,
+(:func:`velfence.filter.rows.workspace_bounds`, the exact law's one bound definition): inside,
 an approach speed at most the profile's cap (linear buffer: :math:`s\,d/\text{buffer}` within the
 buffer), and in discrete time at most :math:`d/dt` (one step never crosses the linearised facet);
 outside, the profile's forced return (at most the penetration per step). With the linear buffer
@@ -40,8 +40,8 @@ from velfence._validate import (
     describe,
 )
 from velfence.errors import InvalidInput, InvalidParameter
-from velfence.filter import workspace_bounds
 from velfence.filter.limits import Profile, WorkspaceLimit
+from velfence.filter.rows import workspace_bounds
 from velfence.shaping.profiles import LinearBuffer
 
 __all__ = ["PolytopeLimit"]
