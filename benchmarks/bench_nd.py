@@ -144,7 +144,7 @@ def shaper_routes(poly: ConvexPolytope, n_states: int) -> list[Route]:
 # ---------------------------------------------------------------------------- 2. the filter
 def obstacles(sc: Any, k: int, seed: int = 3) -> tuple[Any, ...]:
     """``k`` spheres 4–50 cm from the links at ``sc.q0`` (at least 3.5 cm from every link)."""
-    from velfence.shaping.filter import SphereObstacle
+    from velfence.filter import SphereObstacle
 
     rng = np.random.default_rng(seed)
     segs = np.asarray(sc.arm.link_segments(sc.q0), dtype=float)
@@ -169,7 +169,7 @@ def obstacles(sc: Any, k: int, seed: int = 3) -> tuple[Any, ...]:
 
 def filter_routes(k: int, n_states: int, with_mink: bool) -> list[Route]:
     from velfence.bench.cases.filter import MINK_DT, Scenario, scenario, seven_dof_mjcf
-    from velfence.shaping.filter import SafetyFilter
+    from velfence.filter import SafetyFilter
 
     base = scenario()
     sc = Scenario(base.arm, base.limits, base.workspace, obstacles(base, k), base.q0)

@@ -20,9 +20,9 @@ import time
 
 import numpy as np
 
+from velfence.filter import JointLimits, SafetyFilter, SphereObstacle, WorkspaceLimit
 from velfence.geometry.polytope import ConvexPolytope
 from velfence.mechanisms.chain import DHChain
-from velfence.shaping.filter import JointLimits, SafetyFilter, SphereObstacle, WorkspaceLimit
 
 Q0 = np.array([0.1, 0.6, 0.0, -1.2, 0.0, 0.8, 0.0])
 STATES = 500
