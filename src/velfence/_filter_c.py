@@ -3,8 +3,8 @@
 :func:`chain_data` turns a standard Denavit-Hartenberg table into the C API's chain (per joint a
 fixed transform, an axis, a type and an offset, plus a tool transform; ``velfence_filter.h``),
 :func:`mdh_chain_data` a modified (Craig) one, and :func:`filter_cycle` builds the C object of a
-:class:`~velfence.shaping.filter.SafetyFilter` on a ``DHChain`` (joint mode, identity or diagonal
-weights). Private: the public route is ``SafetyFilter``.
+:class:`~velfence.filter.SafetyFilter` whose robot gives its chain as data (``chain_data()``;
+joint mode, identity or diagonal weights). Private: the public route is ``SafetyFilter``.
 """
 
 from __future__ import annotations
@@ -83,47 +83,67 @@ def mdh_chain_data(
     return joints.ravel(), _compose(_translation((0.0, 0.0, flange_d)), _translation(tool))
 
 
-def _dh_points(robot: Any) -> dict[str, tuple[float, float, float, float]]:
-    """Every named point of a ``DHChain`` as ``(link, x, y, z)`` in the C chain's frames."""
-    n = int(robot.dof)
-    dh = np.asarray(robot.dh, dtype=np.float64)
-    out: dict[str, tuple[float, float, float, float]] = {}
-    for name in robot.points:
-        idx = robot._point_index(name)
-        if idx == n:
+def _dh5_chain(dh5: FloatArray, tool: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """:func:`chain_data` from ``ChainData`` rows ``(a, cos alpha, sin alpha, d, offset)``."""
+    n = dh5.shape[0]
+    joints = np.zeros((n, 17))
+    prev = _translation((0.0, 0.0, 0.0))
+    for j, (a, c, s, d, off) in enumerate(dh5.tolist()):
+        joints[j, :12] = prev
+        joints[j, 12:15] = (0.0, 0.0, 1.0)
+        joints[j, 15] = _REVOLUTE
+        joints[j, 16] = off
+        prev = np.array([1.0, 0.0, 0.0, a, 0.0, c, -s, 0.0, 0.0, s, c, d])
+    return joints.ravel(), _compose(prev, _translation(tool))
+
+
+def _points(dh5: FloatArray, point_index: dict[str, int]) -> dict[str, tuple[float, ...]]:
+    """Every named point as ``(link, x, y, z)`` in the C chain's frames."""
+    n = dh5.shape[0]
+    out: dict[str, tuple[float, ...]] = {}
+    for name, idx in point_index.items():
+        if idx == n:  # the tool point
             out[name] = (float(n), 0.0, 0.0, 0.0)
-        elif idx < 0:
-            a, _, d, _ = dh[n - 1].tolist()
-            out[name] = (float(n - 1), a, 0.0, d)
+        elif idx < 0:  # the last DH frame's origin: the last row's fixed part
+            out[name] = (float(n - 1), float(dh5[n - 1, 0]), 0.0, float(dh5[n - 1, 3]))
         elif idx == 0:
             out[name] = (-1.0, 0.0, 0.0, 0.0)
-        else:
-            a, _, d, _ = dh[idx - 1].tolist()
-            out[name] = (float(idx - 1), a, 0.0, d)
+        else:  # joint point P_idx: the origin of DH frame idx
+            out[name] = (float(idx - 1), float(dh5[idx - 1, 0]), 0.0, float(dh5[idx - 1, 3]))
     return out
 
 
 def filter_cycle(sf: Any) -> Any:
-    """The C cycle (``velfence_core._filter.FilterCycle``) of a ``SafetyFilter`` on a ``DHChain``.
+    """The C cycle (``velfence_core._filter.FilterCycle``) of a ``SafetyFilter``.
+
+    The robot must give its chain as data (``chain_data()``, a DH chain), the filter must have
+    no custom row providers and identity or diagonal weights.
 
     Raises:
-        InvalidParameter: the robot is not a DH chain, the weights are a full matrix, or the
-            compiled core is not installed.
+        InvalidParameter: the robot has no chain data, a custom provider or full-matrix
+            weights, or the compiled core is not installed.
     """
     try:
         from velfence_core import _filter
     except ImportError:  # pragma: no cover - the core is an optional distribution
         raise InvalidParameter("the C filter cycle needs the compiled core (velfence_core)") from None
+    from velfence.filter.rows import WorkspaceRows
+
     robot = sf.robot
-    if not (hasattr(robot, "dh") and hasattr(robot, "tool") and hasattr(robot, "_point_index")):
+    data = robot.chain_data() if hasattr(robot, "chain_data") else None
+    if data is None:
         raise InvalidParameter(
-            f"robot: the C cycle takes a DHChain, got {type(robot).__name__}"
+            f"robot: the C cycle needs the chain as data (chain_data()), "
+            f"{type(robot).__name__} gives none"
         )
+    if len(sf._providers) != sf._n_builtin:
+        raise InvalidParameter("providers: the C cycle runs the built-in rows only")
     metric = sf._metric
     if metric is not None and metric.ndim != 1:
         raise InvalidParameter("weights: the C cycle takes diagonal weights only")
     n = int(robot.dof)
-    joints, tool = chain_data(robot.dh, robot.tool)
+    dh5 = np.asarray(data.dh, dtype=np.float64).reshape(n, 5)
+    joints, tool = _dh5_chain(dh5, np.asarray(data.tool, dtype=np.float64))
     lim = sf.limits
     jkind: list[int] = []
     jprm: list[float] = []
@@ -131,30 +151,33 @@ def filter_cycle(sf: Any) -> Any:
         kind, params = prof.kernel_profile
         jkind.append(int(kind))
         jprm.extend(float(v) for v in params)
-    pts = _dh_points(robot)
+    pts = _points(dh5, dict(data.point_index))
     names = list(pts)
     ws = []
-    for w_i, w in enumerate(sf.workspace):
-        kind, params = sf._ws_prof[w_i].kernel_profile
-        ws.append(
-            (
-                names.index(w.point),
-                np.ascontiguousarray(w.polytope.normals, dtype=np.float64).ravel(),
-                np.ascontiguousarray(w.polytope.offsets, dtype=np.float64),
-                int(kind),
-                np.array(params, dtype=np.float64),
+    for p in sf._providers:
+        if isinstance(p, WorkspaceRows):
+            kind, params = p._prof.kernel_profile
+            poly = p.limit.polytope
+            ws.append(
+                (
+                    names.index(p.limit.point),
+                    np.ascontiguousarray(poly.normals, dtype=np.float64).ravel(),
+                    np.ascontiguousarray(poly.offsets, dtype=np.float64),
+                    int(kind),
+                    np.array(params, dtype=np.float64),
+                )
             )
-        )
     obs = sf.obstacles
     centres = np.array([o.center for o in obs], dtype=np.float64).reshape(-1)
     radii = np.array([o.radius for o in obs], dtype=np.float64)
-    lrad = np.broadcast_to(np.asarray(robot.link_radius, dtype=np.float64).reshape(-1), (n,))
+    lr = np.asarray(getattr(robot, "link_radius", np.zeros(1)), dtype=np.float64).reshape(-1)
+    lrad = np.ascontiguousarray(np.broadcast_to(lr if lr.shape[0] > 1 else lr[:1], (n,)))
     acc = lim.max_acceleration
     return _filter.FilterCycle(
         joints, tool, np.asarray(lim.lower, dtype=np.float64),
         np.asarray(lim.upper, dtype=np.float64), np.asarray(lim.max_velocity, dtype=np.float64),
         None if acc is None else np.asarray(acc, dtype=np.float64), jkind,
         np.array(jprm), np.array([v for nm in names for v in pts[nm]]), ws, centres, radii,
-        np.ascontiguousarray(lrad), float(sf.obstacle_buffer), float(sf.spring_gain),
-        float(sf.dt or 0.0), None if metric is None else np.asarray(metric) ** 2,
+        lrad, float(sf.obstacle_buffer), float(sf.spring_gain), float(sf.dt or 0.0),
+        None if metric is None else np.asarray(metric) ** 2,
     )  # fmt: skip

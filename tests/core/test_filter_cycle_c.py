@@ -21,7 +21,7 @@ from c_build import ENV, SANITIZE
 
 from velfence.geometry.polytope import ConvexPolytope
 from velfence.mechanisms.chain import DHChain
-from velfence.shaping.filter import JointLimits, SafetyFilter, SphereObstacle, WorkspaceLimit
+from velfence.filter import JointLimits, SafetyFilter, SphereObstacle, WorkspaceLimit
 
 CORE = Path(__file__).resolve().parents[2] / "core"
 CC = shutil.which("cc") or shutil.which("gcc")
