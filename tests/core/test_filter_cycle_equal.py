@@ -102,7 +102,9 @@ def scenes(draw: Any) -> dict[str, Any]:
     shift = np.array([draw(st.floats(-1.0, 1.0)) for _ in range(3)]) * half * draw(
         st.sampled_from((0.5, 1.2))
     )
-    centre = tcp + shift
+    # (irrational jitter: no distance lands exactly on a buffer's edge, where the two routes'
+    # round-off would decide whether a row exists)
+    centre = tcp + shift + 1e-9 * np.sqrt([2.0, 3.0, 5.0])
     box = WorkspaceLimit(
         ConvexPolytope.box(centre - half, centre + half),
         point="tcp",
@@ -117,7 +119,8 @@ def scenes(draw: Any) -> dict[str, Any]:
         d /= np.linalg.norm(d)
         r = draw(st.floats(0.01, 0.1))
         gap = draw(st.floats(-0.02, 0.2))
-        obstacles.append(SphereObstacle(center=p + d * (lrad + r + gap), radius=r))
+        jitter = 1e-9 * np.sqrt([7.0, 11.0, 13.0])
+        obstacles.append(SphereObstacle(center=p + d * (lrad + r + gap) + jitter, radius=r))
     weights = None
     if draw(st.integers(0, 4)) == 0:
         weights = [draw(st.floats(0.2, 5.0)) for _ in range(n)]
@@ -168,7 +171,9 @@ def _check(scene: dict[str, Any]) -> None:
     keys = list(zip(level.tolist(), ka.tolist(), kb.tolist(), strict=True))
     names = [_name(k, scene["facets"]) for k in keys]
     # the same rows
-    assert names == list(ref.constraint_names)
+    assert names == list(ref.constraint_names), (
+        set(names) ^ set(ref.constraint_names), dist[[nm not in ref.constraint_names for nm in names]]
+    )
     G0, b0 = ref.rows
     scale_g = max(1.0, float(np.abs(G0).max(initial=0.0)))
     np.testing.assert_allclose(G, G0, rtol=1e-9, atol=1e-12 * scale_g)
@@ -180,7 +185,9 @@ def _check(scene: dict[str, Any]) -> None:
         _safe(x, G, b, level, bound)
         return
     # the same answer and report
-    big = max(float(np.abs(ref.output).max()), 1e-300)
+    # (relative to the output's and the command's size: an output of 1e-19 where the command is
+    # 1e-3 is zero to the solve's round-off)
+    big = max(float(np.abs(ref.output).max()), float(np.abs(u).max()), 1e-300)
     np.testing.assert_allclose(
         x, ref.output, rtol=1e-9, atol=1e-9 * big,
         err_msg=f"{ref.stages} {info} rows {len(b)} min dist {np.min(dist, initial=np.inf)}",
