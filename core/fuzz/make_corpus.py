@@ -1,8 +1,8 @@
 """Writes the seed corpus of the libFuzzer targets (core/fuzz/corpus/<target>/).
 
-The targets are exact, patent, nd, cc, rr and filter. The byte layout is the one fuzz_common.h,
-fuzz_exact.c, fuzz_patent.c, fuzz_nd.c, fuzz_cc.c, fuzz_rr.c and fuzz_filter.c document. Run from
-any directory: ``python3 core/fuzz/make_corpus.py``. Deterministic (no randomness): the same files
+The targets are exact, patent, nd, cc, rr, filter and filter_cycle. The byte layout is the one
+fuzz_common.h, fuzz_exact.c, fuzz_patent.c, fuzz_nd.c, fuzz_cc.c, fuzz_rr.c, fuzz_filter.c and
+fuzz_filter_cycle.c document. Run from any directory: ``python3 core/fuzz/make_corpus.py``. Deterministic (no randomness): the same files
 every time.
 """
 
@@ -318,6 +318,25 @@ def filter_seeds() -> dict[str, bytes]:
     }  # fmt: skip
 
 
+def filter_cycle_seeds() -> dict[str, bytes]:
+    """fuzz_filter_cycle's seeds: a flags byte, then fixed pseudo-random bytes (the layout reads
+    every value from bytes, so any bytes are a valid scene: joints, limits, points, polytopes,
+    spheres, options and the state)."""
+
+    def tail(seed: int, count: int = 600) -> bytes:
+        g = lcg(seed)
+        return bytes(int((next(g) + 1.0) * 128.0) % 256 for _ in range(count))
+
+    return {
+        "discrete-accel": bytes([0]) + tail(1),
+        "continuous-no-previous": bytes([2 | 8]) + tail(2),
+        "weights-no-radii": bytes([16 | 32]) + tail(3),
+        "tampered-field": bytes([64]) + tail(4),
+        "raw-state": bytes([1]) + tail(5),
+        "no-opts": bytes([128 | 4]) + tail(6),
+    }
+
+
 def main() -> None:
     """Write every seed file."""
     lin = (0.25, 1.0, 0.25, 0.0, 0.0, 0.0)
@@ -352,6 +371,7 @@ def main() -> None:
         ("cc", cc_seeds()),
         ("rr", rr_seeds()),
         ("filter", filter_seeds()),
+        ("filter_cycle", filter_cycle_seeds()),
     ):
         folder = HERE / "corpus" / target
         folder.mkdir(parents=True, exist_ok=True)

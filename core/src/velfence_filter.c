@@ -607,28 +607,42 @@ static int project(ctx *c, const double *bnd, double *x)
             x[k] = ys[k] / sqrt(f->weights[k]);
         }
         if (st == VF_ND_PROJECT_OPTIMAL) {
+            /* round-off of the back-substitution: repair along the most violated row (gap
+             * beyond the acceptance tolerance tau = 1e-12 (|b| + |g|_1 |x|_inf) only: a nearly
+             * zero row missed within tau would be "repaired" by gap / |g| -- a huge step; found
+             * by fuzz_filter_cycle); then every row must meet tau, else the solve stalled */
             int round;
-            /* round-off of the back-substitution: repair along the most violated row */
-            for (round = 0; round < 4; round++) {
-                double gap = 0.0, gg;
+            for (round = 0; round <= 4; round++) {
+                double worst = 0.0, gg, xi = inf_norm(x, n);
                 int32_t wi = -1;
                 for (i = 0; i < m; i++) {
-                    double g;
+                    const double *g = G + (size_t)i * n;
+                    double gap, g1 = 0.0;
                     if (bnd[i] == -INFINITY) {
                         continue;
                     }
-                    g = bnd[i] - dot(G + (size_t)i * n, x, n);
-                    if (wi < 0 || g > gap) {
-                        gap = g;
+                    gap = bnd[i] - dot(g, x, n);
+                    if (!(gap > 0.0)) {
+                        continue;
+                    }
+                    for (k = 0; k < n; k++) {
+                        g1 += fabs(g[k]);
+                    }
+                    if (gap > 1e-12 * (fabs(bnd[i]) + g1 * xi) && (wi < 0 || gap > worst)) {
+                        worst = gap;
                         wi = i;
                     }
                 }
-                if (wi < 0 || !(gap > 0.0)) {
+                if (wi < 0) {
+                    break;
+                }
+                if (round == 4) {
+                    st = VF_ND_PROJECT_ITERATION_LIMIT; /* not repaired: stalled */
                     break;
                 }
                 gg = dot(G + (size_t)wi * n, G + (size_t)wi * n, n);
                 for (k = 0; k < n; k++) {
-                    x[k] += (gap * (1.0 + 1e-12) + 1e-300) * G[(size_t)wi * n + k] / gg;
+                    x[k] += (worst * (1.0 + 1e-12) + 1e-300) * G[(size_t)wi * n + k] / gg;
                 }
             }
         }
@@ -643,7 +657,15 @@ static int project(ctx *c, const double *bnd, double *x)
         return VF_ITERATION_CAP;
     }
     if (st == VF_ND_PROJECT_OPTIMAL) {
-        return finite_all(x, (size_t)n) ? VF_OK : VF_STALLED;
+        /* Every rung keeps the velocity rows |x_j| <= v_j, so a true answer is within them; the
+         * kernel's acceptance is relative to |x|, and on nearly dependent rows it can accept a
+         * far-off point (|x| ~ 1e60; fuzz_filter_cycle): such an answer is a stalled solve. */
+        for (k = 0; k < n; k++) {
+            if (!(fabs(x[k]) <= f->vmax[k] * (1.0 + 1e-9))) {
+                return VF_STALLED;
+            }
+        }
+        return VF_OK;
     }
     return st == VF_ND_PROJECT_INFEASIBLE ? VF_INFEASIBLE : VF_STALLED;
 }
