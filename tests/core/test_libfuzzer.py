@@ -2,7 +2,8 @@
 
 ``core/fuzz/build.sh`` builds the targets ``fuzz_exact`` and ``fuzz_patent`` (the 2-D laws),
 ``fuzz_nd`` (the n-D law and projection), ``fuzz_cc`` (configuration control), ``fuzz_rr`` (the
-resolved-rate SR step) and ``fuzz_filter`` (the safety filter's row helpers) with
+resolved-rate SR step), ``fuzz_filter`` (the safety filter's row helpers) and
+``fuzz_filter_cycle`` (the filter's whole cycle: rows, ladder, model check, fallback) with
 ``-fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all``; each decodes its bytes into a
 polygon, polytope, constraint rows or arm with obstacles (structured or raw: degenerate, huge,
 tiny, NaN/inf/subnormal entries), law parameters and states, calls the checks and then the solves
@@ -10,7 +11,8 @@ and aborts when the documented contract does not hold (codes, the stop result, f
 law's bounds, the speed cap; see the targets' header comments). Here each target runs for a
 bounded time from the seed corpus ``core/fuzz/corpus/`` with a fixed seed and must exit cleanly.
 Fast controls: every former finding (``core/fuzz/crashes/``) runs clean, and the assertions are
-live (``fuzz_exact``, ``fuzz_nd``, ``fuzz_cc``, ``fuzz_rr`` and ``fuzz_filter`` built with
+live (``fuzz_exact``, ``fuzz_nd``, ``fuzz_cc``, ``fuzz_rr``, ``fuzz_filter`` and
+``fuzz_filter_cycle`` built with
 ``--control-tamper`` abort).
 
 Skipped, saying why, without clang or without its libFuzzer runtime (Debian: libclang-rt-14-dev).
@@ -63,7 +65,9 @@ def _probe(tmp: Path) -> str | None:
     return None
 
 
-def _build(out: Path, targets: str = "exact patent nd cc rr filter", *options: str) -> None:
+def _build(
+    out: Path, targets: str = "exact patent nd cc rr filter filter_cycle", *options: str
+) -> None:
     env = {**ENV, "CC": str(CLANG), "TARGETS": targets}
     cmd = ["bash", str(FUZZ / "build.sh"), str(out), *options]
     done = subprocess.run(cmd, capture_output=True, text=True, timeout=300, env=env, check=False)
@@ -97,8 +101,8 @@ def _cov(log: str, event: str) -> tuple[int, int]:
     return int(m.group(1)), int(m.group(2))
 
 
-@pytest.mark.slow  # one build of the six targets and 6 x 10 s of fuzzing
-@pytest.mark.parametrize("law", ["exact", "patent", "nd", "cc", "rr", "filter"])
+@pytest.mark.slow  # one build of the seven targets and 7 x 10 s of fuzzing
+@pytest.mark.parametrize("law", ["exact", "patent", "nd", "cc", "rr", "filter", "filter_cycle"])
 def test_bounded_libfuzzer_run(targets: Path, tmp_path: Path, law: str) -> None:
     """A fixed-seed run from the seed corpus: no sanitizer finding, no contract violation."""
     seeds = FUZZ / "corpus" / law
@@ -238,3 +242,22 @@ def test_filter_seeds_run_clean_and_a_spoiled_result_aborts(
     bad = _tampered_run(tmp_path / "tamper" / "fuzz_filter", "filter")
     assert "velfence_nd filter contract violated: a bound that is not finite" in bad
     assert "dh (a, cos alpha, sin alpha, d, offset):" in bad  # the decoded input
+
+
+def test_filter_cycle_findings_run_clean_and_a_spoiled_result_aborts(
+    libfuzzer: None, tmp_path: Path
+) -> None:
+    """The whole filter cycle: fuzz_filter_cycle runs clean on its seeds and on its findings
+    (core/fuzz/crashes/filter_cycle-*: a far-off kernel answer repaired into a 3e12 joint speed,
+    fixed); built with --control-tamper (every VF_OK output spoiled with a NaN) it aborts on its
+    seeds, printing the decoded input."""
+    found = sorted(str(f) for f in (FUZZ / "crashes").glob("filter_cycle-*"))
+    seeds = sorted(str(f) for f in (FUZZ / "corpus" / "filter_cycle").iterdir())
+    assert len(found) >= 1
+    assert len(seeds) >= 4
+    _build(tmp_path / "build", "filter_cycle")
+    _build(tmp_path / "tamper", "filter_cycle", "--control-tamper")
+    _runs_clean(tmp_path / "build" / "fuzz_filter_cycle", seeds + found)
+    bad = _tampered_run(tmp_path / "tamper" / "fuzz_filter_cycle", "filter_cycle")
+    assert "contract violated: non-finite output" in bad, bad[-3000:]
+    assert "previous:" in bad or "u:" in bad  # the decoded input

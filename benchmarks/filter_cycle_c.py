@@ -1,0 +1,176 @@
+"""The safety filter's whole cycle in C (``velfence_filter.h``): the issue-24 targets.
+
+Usage: ``PYTHONPATH=src python benchmarks/filter_cycle_c.py [--cycles N] [--dense-cycles N]``
+prints a Markdown table with the load average before and after.
+
+Workloads (every output checked against every row by the C example itself; it exits non-zero
+otherwise):
+
+* **7 joints + TCP box + 20 spheres**, the scene of ``core/examples/filter_cycle.c`` (a
+  Panda-like arm from Franka's modified DH table, joint limits, speeds and accelerations from the
+  datasheet, ``dt`` = 1 ms, a closed loop integrating ``q += x dt`` toward random targets):
+  in the C example's loop (periodic: ``clock_nanosleep`` to absolute 1 ms deadlines; and back to
+  back), and from Python through ``velfence_core._filter.FilterCycle.cycle`` (the same scene,
+  back to back, and periodic: sleep 1 ms, then one call);
+* **7 joints, >= 400 rows, >= 60 binding** (``--dense``: 80 spheres 1-10 cm from the links, a
+  0.3 m obstacle buffer, a command that pushes into them), 10^5 cycles back to back in C: median,
+  p99 and max. "Binding" counts the rows the command violates (``G u < b``).
+
+Cycle times are of ``vf_filter_cycle`` (C) or of the ``cycle`` call (Python) alone.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import shutil
+import subprocess
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+CORE = ROOT / "core"
+
+# the C example's arm (core/examples/filter_cycle.c)
+H = math.pi / 2
+MDH = ((0.0, 0.0, 0.333, 0.0), (0.0, -H, 0.0, 0.0), (0.0, H, 0.316, 0.0), (0.0825, H, 0.0, 0.0),
+       (-0.0825, -H, 0.384, 0.0), (0.0, H, 0.0, 0.0), (0.088, H, 0.0, 0.0))  # fmt: skip
+LOWER = np.array([-2.8973, -1.7628, -2.8973, -3.0718, -2.8973, -0.0175, -2.8973])
+UPPER = np.array([2.8973, 1.7628, 2.8973, -0.0698, 2.8973, 3.7525, 2.8973])
+VMAX = np.array([2.175, 2.175, 2.175, 2.175, 2.61, 2.61, 2.61])
+AMAX = np.array([15.0, 7.5, 10.0, 12.5, 15.0, 20.0, 20.0])
+Q0 = np.array([0.0, -0.3, 0.0, -2.2, 0.0, 2.0, 0.8])
+
+
+def _build() -> Path:
+    cc = shutil.which("cc") or shutil.which("gcc")
+    assert cc is not None, "no C compiler"
+    exe = Path(tempfile.mkdtemp()) / "filter_cycle"
+    subprocess.run(
+        [cc, "-std=c99", "-O2", "-ffp-contract=off", f"-I{CORE / 'include'}",
+         str(CORE / "examples" / "filter_cycle.c"), str(CORE / "src" / "velfence_filter.c"),
+         str(CORE / "src" / "velfence_nd.c"), "-lm", "-o", str(exe)],
+        check=True,
+    )  # fmt: skip
+    return exe
+
+
+def _run(exe: Path, *args: str) -> dict[str, str]:
+    done = subprocess.run([str(exe), *args], capture_output=True, text=True, check=False)
+    assert done.returncode == 0, done.stdout + done.stderr
+    words = done.stdout.split()
+    return dict(zip(words[0::2], words[1::2], strict=False))
+
+
+def _python_cycle() -> object:
+    """The C example's scene as a ``FilterCycle`` (same arm, box and 20 spheres' placement)."""
+    from velfence_core import _filter
+
+    from velfence._filter_c import _compose, _translation, mdh_chain_data
+
+    joints, tool = mdh_chain_data(MDH, 0.107, (0.0, 0.0, 0.1))
+    jprm = []
+    for v, a in zip(VMAX, AMAX, strict=True):
+        K = 2 * a / v
+        d_int = (a / K) / K
+        jprm += [K, v, a, d_int, 0.5 * d_int, 0.5 * d_int + (v / a) * (0.5 * v)]
+    rng = np.random.default_rng(7)
+    centres: list[float] = []
+    radii: list[float] = []
+    # the chain's joint points at Q0 (spheres at least 0.3 m from every link's midpoint)
+    frames = [_translation((0, 0, 0))]
+    pts = []
+    jt = joints.reshape(7, 17)
+    for j in range(7):
+        A = _compose(frames[-1], jt[j, :12])
+        pts.append(A.reshape(3, 4)[:, 3].copy())
+        c, s = math.cos(Q0[j]), math.sin(Q0[j])
+        frames.append(_compose(A, np.array([c, -s, 0, 0, s, c, 0, 0, 0, 0, 1, 0.0])))
+    pts.append(_compose(frames[-1], tool).reshape(3, 4)[:, 3])
+    P = np.array(pts)
+    while len(radii) < 20:
+        c = np.array([rng.uniform(-0.7, 0.7), rng.uniform(-0.7, 0.7), rng.uniform(0.1, 1.1)])
+        mids = 0.5 * (P[:-1] + P[1:])
+        if np.min(np.linalg.norm(mids - c, axis=1)) >= 0.3:
+            centres += c.tolist()
+            radii.append(rng.uniform(0.03, 0.08))
+    box = (0, np.array([1, 0, 0, -1, 0, 0, 0, 1, 0, 0, -1, 0, 0, 0, 1, 0, 0, -1.0]),
+           np.array([-0.7, -0.7, -0.7, -0.7, 0.05, -1.2]), 0, np.array([0.05, 0, 0, 0, 0, 0.0]))  # fmt: skip
+    return _filter.FilterCycle(
+        joints, tool, LOWER, UPPER, VMAX, AMAX, [1] * 7, np.array(jprm),
+        np.array([7.0, 0, 0, 0]), [box], np.array(centres), np.array(radii), np.full(7, 0.06),
+        0.05, 1.0, 0.001, None,
+    )  # fmt: skip
+
+
+def _python_loop(fc: object, cycles: int, periodic: bool) -> np.ndarray:
+    """The C example's closed loop from Python; returns the cycle times [us]."""
+    rng = np.random.default_rng(1)
+    q = Q0.copy()
+    prev = np.zeros(7)
+    x = np.zeros(7)
+    target = q.copy()
+    times = np.empty(cycles)
+    cycle = fc.cycle  # type: ignore[attr-defined]
+    clock = time.perf_counter
+    for c in range(cycles):
+        if c % 500 == 0:
+            target = rng.uniform(LOWER - 0.2, UPPER + 0.2)
+        u = 3.0 * (target - q) + rng.uniform(-0.2, 0.2, 7)
+        if periodic:
+            time.sleep(0.001)
+        t0 = clock()
+        cycle(q, u, prev, x)
+        times[c] = clock() - t0
+        q += x * 0.001
+        prev[:] = x
+    return times * 1e6
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--cycles", type=int, default=20000, help="back-to-back cycles")
+    ap.add_argument("--periodic-cycles", type=int, default=5000, help="1 kHz cycles")
+    ap.add_argument("--dense-cycles", type=int, default=100000, help=">= 400-row cycles")
+    a = ap.parse_args()
+    load0 = os.getloadavg()
+    exe = _build()
+    rows = []
+    out = _run(exe, "--cycles", str(a.periodic_cycles))
+    rows.append(("7 joints + box + 20 spheres, C example loop, periodic 1 kHz", out))
+    out = _run(exe, "--cycles", str(a.cycles), "--back-to-back")
+    rows.append(("same, C example loop, back to back", out))
+    fc = _python_cycle()
+    for periodic, label in ((False, "back to back"), (True, "periodic (sleep 1 ms, call)")):
+        n = a.periodic_cycles if periodic else a.cycles
+        t = np.sort(_python_loop(fc, n, periodic))
+        rows.append(
+            (
+                f"same, from Python (FilterCycle.cycle), {label}",
+                {"cycles": str(n), "median_us": f"{np.median(t):.3f}",
+                 "p99_us": f"{t[int(0.99 * n)]:.3f}", "max_us": f"{t[-1]:.3f}",
+                 "fallbacks": str(fc.deadline_misses), "rows_mean": "-"},  # type: ignore[attr-defined]
+            )
+        )  # fmt: skip
+    out = _run(exe, "--dense", "--back-to-back", "--cycles", str(a.dense_cycles))
+    rows.append(("7 joints, >= 400 rows (dense), C, back to back", out))
+    load1 = os.getloadavg()
+    print(f"load average before: {load0[0]:.2f} {load0[1]:.2f} {load0[2]:.2f}")
+    print()
+    print("| workload | cycles | median [µs] | p99 [µs] | max [µs] | fallbacks | rows | binding |")
+    print("| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
+    for label, r in rows:
+        print(
+            f"| {label} | {r['cycles']} | {r['median_us']} | {r['p99_us']} | {r['max_us']} | "
+            f"{r['fallbacks']} | {r.get('rows_mean', '-')} | {r.get('binding_mean', '-')} |"
+        )
+    print()
+    print(f"load average after: {load1[0]:.2f} {load1[1]:.2f} {load1[2]:.2f}")
+
+
+if __name__ == "__main__":
+    main()
