@@ -4,7 +4,7 @@
  * A Franka-Emika-Panda-like arm (Franka's published modified DH (Craig) table, flange 0.107 m, a
  * 0.1 m tool), joint limits, speeds and accelerations from the datasheet, its tool point kept in a
  * box and its links' capsules away from 20 spheres. The loop integrates q += x dt (a simulated
- * robot) and commands a joint velocity toward random targets; every cycle's output is checked
+ * robot) and commands a joint velocity toward random targets (a new one every 0.5 s); every cycle's output is checked
  * against every row (the claimed bounds and, for the joint, workspace and obstacle rows, at
  * least "no further out": min(b, 0)). Exit status 0 only when every output met every row.
  *
@@ -13,7 +13,11 @@
  * --cycles      number of cycles (default 2000);
  * --back-to-back no sleeping: cycles run one after another (default: clock_nanosleep to absolute
  *               1 ms deadlines, as a real-time thread does);
- * --dense       60 spheres close to the links and a 0.25 m obstacle buffer: >= 400 rows;
+ * --dense       80 spheres 1-10 cm from the links, a 0.3 m obstacle buffer and a command that
+ *               pushes into them: >= 400 rows, >= 60 of them violated by the command;
+ * --saturating  targets beyond the joint limits and a 3/s gain: the command exceeds the joint
+ *               speeds and runs into the limits most cycles (default: targets inside the limits,
+ *               a 1/s gain: the rows bind now and then);
  * --budget      the cycle's time budget [s] (default none); --iterations the solve's cap.
  * Prints the cycle time's median, p99 and max [us] (vf_filter_cycle alone), the deadline
  * fallbacks, stops, the mean number of rows and of rows the command violates ("binding").
@@ -113,7 +117,7 @@ static int verify(const vf_filter_info *info, const double *x)
 int main(int argc, char **argv)
 {
     long cycles = 2000, c;
-    int back = 0, dense = 0, a, j, i, bad = 0;
+    int back = 0, dense = 0, saturate = 0, a, j, i, bad = 0;
     double budget = 0.0;
     int maxit = 0;
     vf_filter_joint joints[NJ];
@@ -140,6 +144,8 @@ int main(int argc, char **argv)
             back = 1;
         } else if (!strcmp(argv[a], "--dense")) {
             dense = 1;
+        } else if (!strcmp(argv[a], "--saturating")) {
+            saturate = 1;
         } else if (!strcmp(argv[a], "--budget") && a + 1 < argc) {
             budget = atof(argv[++a]);
         } else if (!strcmp(argv[a], "--iterations") && a + 1 < argc) {
@@ -289,11 +295,14 @@ int main(int argc, char **argv)
         int rc;
         if (c % 500 == 0) {
             for (j = 0; j < NJ; j++) {
-                target[j] = uniform(LOWER[j] - 0.2, UPPER[j] + 0.2);
+                target[j] = saturate || dense ? uniform(LOWER[j] - 0.2, UPPER[j] + 0.2)
+                                              : uniform(LOWER[j] + 0.2, UPPER[j] - 0.2);
             }
         }
         for (j = 0; j < NJ; j++) {
-            u[j] = 3.0 * (target[j] - q[j]) + (dense ? uniform(-3.0, 3.0) : uniform(-0.2, 0.2));
+            u[j] = saturate || dense ? 3.0 * (target[j] - q[j])
+                                           + (dense ? uniform(-3.0, 3.0) : uniform(-0.2, 0.2))
+                                     : 1.0 * (target[j] - q[j]);
         }
         if (!back) {
             next.tv_nsec += 1000000L;

@@ -64,6 +64,16 @@ void vf_filter_kinematics(const vf_filter *f, const double *q, double *P, double
             for (r = 0; r < 3; r++) {
                 F[4 * r + 3] += z[r] * th;
             }
+        } else if (a[0] == 0.0 && a[1] == 0.0 && a[2] == 1.0) {
+            /* the common case (DH, most URDF / MJCF joints): F = A Rz(th) */
+            double c = cos(th), s = sin(th);
+            for (r = 0; r < 3; r++) {
+                const double x0 = A[4 * r], y0 = A[4 * r + 1];
+                F[4 * r] = c * x0 + s * y0;
+                F[4 * r + 1] = c * y0 - s * x0;
+                F[4 * r + 2] = A[4 * r + 2];
+                F[4 * r + 3] = A[4 * r + 3];
+            }
         } else {
             double c = cos(th), s = sin(th), v = 1.0 - c;
             double M[12];
@@ -670,15 +680,48 @@ static int project(ctx *c, const double *bnd, double *x)
     return st == VF_ND_PROJECT_INFEASIBLE ? VF_INFEASIBLE : VF_STALLED;
 }
 
+/* The clearance of sphere i and link l at joint points P: vf_nd_capsule_clearances's arithmetic
+ * for one pair (the same operations, so the same bits). */
+static double pair_clearance(const vf_filter *f, const double *P, int32_t i, int32_t l)
+{
+    const double *cc = f->centres + 3 * (size_t)i;
+    const double *a = P + 3 * (size_t)l;
+    const double *e = a + 3;
+    double dx = e[0] - a[0], dy = e[1] - a[1], dz = e[2] - a[2];
+    double dd = dx * dx + dy * dy + dz * dz;
+    double t, x0, x1, x2;
+    if (dd == 0.0) {
+        t = 0.0;
+    } else {
+        t = ((cc[0] - a[0]) * dx + (cc[1] - a[1]) * dy + (cc[2] - a[2]) * dz) / dd;
+        t = t <= 0.0 ? 0.0 : (t >= 1.0 ? 1.0 : t);
+    }
+    if (t <= 0.5) {
+        x0 = a[0] + t * (e[0] - a[0]);
+        x1 = a[1] + t * (e[1] - a[1]);
+        x2 = a[2] + t * (e[2] - a[2]);
+    } else {
+        double w = 1.0 - t;
+        x0 = e[0] - w * (e[0] - a[0]);
+        x1 = e[1] - w * (e[1] - a[1]);
+        x2 = e[2] - w * (e[2] - a[2]);
+    }
+    dx = x0 - cc[0];
+    dy = x1 - cc[1];
+    dz = x2 - cc[2];
+    return sqrt(dx * dx + dy * dy + dz * dz) - f->radii[i]
+           - (f->link_radius != NULL ? f->link_radius[l] : 0.0);
+}
+
 /* The model check at q + x dt: counts the workspace / obstacle rows whose true next distance is
  * below min(0, d0) and (bnd not NULL) raises their bounds in bnd. */
 static int32_t model_check(ctx *c, const double *x, double *bnd)
 {
     const vf_filter *f = c->f;
     const int32_t n = c->n;
-    double *q1 = D(c, q1), *clear = D(c, clear);
+    double *q1 = D(c, q1);
     const double *frames1 = D(c, frames1);
-    int32_t r, j, bad = 0, have_clear = 0, wlast = -1;
+    int32_t r, j, bad = 0, wlast = -1;
     double p[3];
     for (j = 0; j < n; j++) {
         q1[j] = c->q[j] + x[j] * f->dt;
@@ -699,19 +742,7 @@ static int32_t model_check(ctx *c, const double *x, double *bnd)
             }
             d1 = nn[0] * p[0] + nn[1] * p[1] + nn[2] * p[2] - ws->off[IV(c, kb)[r]];
         } else {
-            if (!have_clear) {
-                vf_nd_capsules cap;
-                memset(&cap, 0, sizeof cap);
-                cap.P = D(c, P1);
-                cap.lrad = f->link_radius != NULL ? f->link_radius : D(c, zeros);
-                cap.C = f->centres;
-                cap.srad = f->radii;
-                cap.nl = n;
-                cap.k = f->k;
-                vf_nd_capsule_clearances(&cap, clear);
-                have_clear = 1;
-            }
-            d1 = clear[(size_t)IV(c, ka)[r] * n + IV(c, kb)[r]];
+            d1 = pair_clearance(f, D(c, P1), IV(c, ka)[r], IV(c, kb)[r]);
         }
         target = D(c, dist)[r] < 0.0 ? D(c, dist)[r] : 0.0;
         if (!(d1 >= target)) {
