@@ -50,6 +50,8 @@ extern "C" {
 #define VF_ND_PROJECT_OPTIMAL 0
 #define VF_ND_PROJECT_INFEASIBLE 1
 #define VF_ND_PROJECT_ITERATION_LIMIT 2
+#define VF_ND_PROJECT_ITERATION_CAP 3 /* the caller's max_iterations was reached */
+#define VF_ND_PROJECT_DEADLINE 4      /* the caller's deadline passed */
 
 /* Zones and stage bits (velfence.shaping._kernels.ZONE_* / STAGE_*). */
 #define VF_ND_ZONE_FREE 0
@@ -81,6 +83,34 @@ size_t vf_nd_project_doubles(int32_t m, int32_t n);
 int vf_nd_project_kernel(const double *u, const double *G, const double *b, int32_t m, int32_t n,
                          double *x, double *lam, int32_t *act, double *wsf, int32_t *q,
                          int32_t *iters);
+
+/* Options of a solve. max_iterations <= 0: the default cap vf_nd_default_iteration_cap(m, n)
+ * (reaching it then means round-off stalled the method: VF_ND_PROJECT_ITERATION_LIMIT); > 0: the
+ * caller's cap (reaching it: VF_ND_PROJECT_ITERATION_CAP). deadline: an absolute time on
+ * CLOCK_MONOTONIC in seconds (vf_nd_monotonic_seconds()), checked once per inner iteration; 0 or
+ * INFINITY for none (passing it: VF_ND_PROJECT_DEADLINE). warm[:n_warm]: row indices tried first
+ * when the next violated row is picked (the previous cycle's active rows; out-of-range entries
+ * are ignored). On VF_ND_PROJECT_ITERATION_CAP or _DEADLINE, x is finite but NOT feasible: the
+ * caller needs a safe fallback. */
+typedef struct vf_nd_solve_opts {
+    int32_t max_iterations;
+    double deadline;
+    const int32_t *warm;
+    int32_t n_warm;
+} vf_nd_solve_opts;
+
+/* 4 (m + n) + 16: the default iteration cap (linear in the row count). */
+int32_t vf_nd_default_iteration_cap(int32_t m, int32_t n);
+
+/* Seconds on CLOCK_MONOTONIC, the clock of vf_nd_solve_opts.deadline. */
+double vf_nd_monotonic_seconds(void);
+
+/* vf_nd_project_kernel with options (opts may be NULL: the defaults). Accepts a row as met when
+ * G_i.x - b_i >= -1e-12 (|b_i| + |G_i| max(|x|_inf, |u|_inf)): the round-off of forming x from u.
+ * A point outside a facet by its own round-off never makes a problem infeasible. */
+int vf_nd_project_kernel_opt(const double *u, const double *G, const double *b, int32_t m,
+                             int32_t n, double *x, double *lam, int32_t *act, double *wsf,
+                             int32_t *q, int32_t *iters, const vf_nd_solve_opts *opts);
 
 /* The checked projection: VF_ND_OK (then *status is VF_ND_PROJECT_*), VF_ND_ERR_NULL,
  * VF_ND_ERR_ARGUMENT (m < 0, n < 1, non-finite G), VF_ND_ERR_NONFINITE (u non-finite, b NaN or

@@ -417,7 +417,7 @@ class PolytopeShaper(InvalidPolicy):
         q = 0
         if bounded:
             rows = list(bounded)
-            relaxed = False
+            steps = iter(nd.RECOVERY_FRACTIONS)
             while True:
                 G = N[rows].ravel().tolist()
                 b = [bnd[e] for e in rows]
@@ -433,7 +433,7 @@ class PolytopeShaper(InvalidPolicy):
                     extra = [
                         e for e in range(nf)
                         if e not in rows and dist[e] >= 0.0 and float(N[e] @ xa) < -caps[e]
-                    ] if n_out and not relaxed else []  # fmt: skip
+                    ] if n_out else []  # fmt: skip
                     if extra:
                         for e in extra:
                             bnd[e] = -caps[e]
@@ -445,10 +445,14 @@ class PolytopeShaper(InvalidPolicy):
                         active[c] = rows[act[c]]
                     break
                 q = 0
-                if not relaxed and n_out > 0:
-                    rows = [e for e in bounded if dist[e] < 0.0]
+                frac = next(steps, None) if n_out > 0 else None
+                if frac is not None:
+                    # As the kernels: slow the outside facets' recovery (1/4, 1/16, ..., then
+                    # "no further out"), every bound of a facet the point is inside kept.
+                    for e in rows:
+                        if dist[e] < 0.0 and bnd[e] > 0.0:
+                            bnd[e] = bnd[e] * 0.25 if frac > 0.0 else 0.0
                     stages |= kern.STAGE_RELAXED
-                    relaxed = True
                     continue
                 out = np.zeros(dim)
                 stages |= kern.STAGE_STOP
