@@ -271,6 +271,31 @@ int main(void)
         }
         prm.singular_tol = 1e-10;
     }
+    /* a J J^T + k I that is not numerically positive definite is VF_ERR_SINGULAR (before the
+     * shared enum: VF_RR_ERR_FACTOR): at the wrist singularity with w0 = 5e-324 the round-off
+     * det J > 0 leaves the step undamped (k = 0) and J J^T has a Cholesky pivot <= 0 */
+    {
+        vf_rr_params p4 = {0.025, 5e-324, 0.0, 0.0};
+        int refused = 0;
+        for (t = 0; t < 300; t++) {
+            for (i = 0; i < 6; i++) {
+                q[i] = uniform(-PI, PI);
+                x[i] = normal();
+            }
+            q[4] = 0.0;
+            i = vf_rr_sr_step(&arm, &p4, q, x, &out);
+            CHECK(i == VF_OK || i == VF_ERR_SINGULAR, "wrist, w0 = 5e-324: code %d", i);
+            if (i == VF_ERR_SINGULAR) {
+                refused++;
+                CHECK(out.k == 0.0 && out.w > 0.0 && !out.singular, "a pivot <= 0, undamped");
+                for (j = 0; j < 6; j++) {
+                    CHECK(out.q_dot[j] == 0.0, "singular factor: zero rates");
+                }
+                CHECK(out.scale == 1.0, "singular factor: scale 1");
+            }
+        }
+        CHECK(refused > 0, "no step reached a pivot <= 0 (%d)", refused);
+    }
     /* random arms */
     for (t = 0; t < 500; t++) {
         random_arm(&arm);
