@@ -144,7 +144,7 @@ int vf_nd_project_kernel_opt(const double *u, const double *G, const double *b, 
     int32_t iters = 0;
     const int32_t cap = opts != NULL ? opts->max_iterations : 0;
     const int64_t limit = cap > 0 ? (int64_t)cap : 4 * ((int64_t)m + n) + 16;
-    const int over = cap > 0 ? VF_ND_PROJECT_ITERATION_CAP : VF_ND_PROJECT_ITERATION_LIMIT;
+    const int over = cap > 0 ? VF_ITERATION_CAP : VF_ND_PROJECT_ITERATION_LIMIT;
     const int32_t n_warm = opts != NULL && opts->warm != NULL ? opts->n_warm : 0;
     const double deadline = opts != NULL ? opts->deadline : 0.0;
     const int timed = deadline > 0.0 && deadline < INFINITY;
@@ -255,7 +255,7 @@ int vf_nd_project_kernel_opt(const double *u, const double *G, const double *b, 
             if (timed && monotonic_seconds() > deadline) {
                 *q_out = q;
                 *iters_out = iters;
-                return VF_ND_PROJECT_DEADLINE;
+                return VF_DEADLINE;
             }
             for (c = 0; c < q; c++) {
                 wsf[oh + c] = 0.0;

@@ -790,14 +790,14 @@ static void test_projection_options(void)
     }
     o.max_iterations = 1;
     st = vf_nd_project_kernel_opt(u, G, b, M, N, x, lam, act, wsf, &q, &it, &o);
-    CHECK(st == VF_ND_PROJECT_ITERATION_CAP && it == 2, "cap 1 reported (status %d)", st);
+    CHECK(st == VF_ITERATION_CAP && it == 2, "cap 1 reported (status %d)", st);
     for (k = 0; k < N; k++) {
         CHECK(isfinite(x[k]), "finite x at the cap");
     }
     o.max_iterations = 0;
     o.deadline = vf_nd_monotonic_seconds() - 1.0; /* already past */
     st = vf_nd_project_kernel_opt(u, G, b, M, N, x, lam, act, wsf, &q, &it, &o);
-    CHECK(st == VF_ND_PROJECT_DEADLINE, "deadline past reported (status %d)", st);
+    CHECK(st == VF_DEADLINE, "deadline past reported (status %d)", st);
     o.deadline = INFINITY;
     o.warm = warm;
     o.n_warm = 3;
