@@ -81,16 +81,18 @@ static void rxtxtz(double a, double alpha, double d, double *T)
     memcpy(T, M, sizeof M);
 }
 
-/* Every row met to the round-off of forming G x (tolerance 1e-12 (|c| + |g|_1 |x|_inf), the
- * spec's acceptance): its claimed bound, and min(b, 0) for the joint, workspace and obstacle rows
+/* Every row met to the round-off of forming x from u (tolerance 1e-12 (|c| + |g|_1 (|x|_inf +
+ * |u|_inf)), the spec's acceptance): its claimed bound, and min(b, 0) for the joint, workspace and obstacle rows
  * (the safety property: inside stays inside, outside goes no further out). */
-static int verify(const vf_filter_info *info, const double *x)
+static int verify(const vf_filter_info *info, const double *x, const double *u)
 {
     int32_t r, j;
-    double xn = 0.0;
+    double xn = 0.0, un = 0.0;
     for (j = 0; j < NJ; j++) {
         xn = fabs(x[j]) > xn ? fabs(x[j]) : xn;
+        un = fabs(u[j]) > un ? fabs(u[j]) : un;
     }
+    xn += un;
     for (r = 0; r < info->m; r++) {
         const double *g = info->G + (size_t)r * NJ;
         double gx = 0.0, g1 = 0.0, b = info->b[r], lim, c;
@@ -132,7 +134,7 @@ int main(int argc, char **argv)
     vf_filter_opts opts;
     vf_filter_info info;
     double q[NJ], u[NJ], x[NJ], prev[NJ], target[NJ], *times, *scratch;
-    int32_t *iscratch;
+    int32_t *iscratch, *warm;
     double P[3 * (NJ + 1)], axes[3 * NJ], frames[12 * (NJ + 2)];
     long fallbacks = 0, stops = 0;
     double rows_sum = 0.0, binding_sum = 0.0, violated_sum = 0.0;
@@ -279,12 +281,15 @@ int main(int argc, char **argv)
     scratch = malloc(vf_filter_doubles(&f) * sizeof(double));
     iscratch = malloc(vf_filter_ints(&f) * sizeof(int32_t));
     times = malloc((size_t)cycles * sizeof(double));
-    if (scratch == NULL || iscratch == NULL || times == NULL) {
+    warm = malloc(3 * vf_filter_rows_max(&f) * sizeof(int32_t));
+    if (scratch == NULL || iscratch == NULL || times == NULL || warm == NULL) {
         return 1;
     }
     memset(&opts, 0, sizeof opts);
     opts.max_iterations = maxit;
     opts.time_budget = budget;
+    opts.warm = warm; /* the last cycle's active rows by key: the solve tries them first */
+    opts.n_warm = 0;
     memset(prev, 0, sizeof prev);
     for (j = 0; j < NJ; j++) {
         target[j] = q[j];
@@ -326,11 +331,18 @@ int main(int argc, char **argv)
         if (info.stages & VF_FILTER_STAGE_STOP) {
             stops += 1;
         }
-        if (!verify(&info, x)) {
+        if (!verify(&info, x, u)) {
             fprintf(stderr, "cycle %ld: an output missed a row (stages %d)\n", c, info.stages);
             bad += 1;
         }
         rows_sum += info.m;
+        for (i = 0; i < info.n_active; i++) {
+            int32_t r = info.active[i];
+            warm[3 * i] = info.level[r];
+            warm[3 * i + 1] = info.key_a[r];
+            warm[3 * i + 2] = info.key_b[r];
+        }
+        opts.n_warm = info.n_active;
         violated_sum += info.n_violated;
         for (i = 0; i < info.m; i++) {
             double gu = 0.0;
@@ -354,5 +366,6 @@ int main(int argc, char **argv)
     free(scratch);
     free(iscratch);
     free(times);
+    free(warm);
     return bad == 0 ? 0 : 1;
 }

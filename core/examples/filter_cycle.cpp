@@ -148,14 +148,17 @@ double now_s()
     return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
 }
 
-// Every row met to the round-off of forming G x (1e-12 (|c| + |g|_1 |x|_inf)): its claimed bound,
+// Every row met to the round-off of forming x from u (1e-12 (|c| + |g|_1 (|x|_inf + |u|_inf))):
+// its claimed bound,
 // and min(b, 0) for the joint, workspace and obstacle rows.
-bool verify(const vf_filter_info &info, const double *x)
+bool verify(const vf_filter_info &info, const double *x, const double *u)
 {
-    double xn = 0.0;
+    double xn = 0.0, un = 0.0;
     for (int j = 0; j < kJoints; ++j) {
         xn = std::max(xn, std::fabs(x[j]));
+        un = std::max(un, std::fabs(u[j]));
     }
+    xn += un;
     for (int r = 0; r < info.m; ++r) {
         const double *g = info.G + static_cast<size_t>(r) * kJoints;
         double gx = 0.0, g1 = 0.0;
@@ -261,7 +264,7 @@ int main(int argc, char **argv)
             return 1;
         }
         fallbacks += (rc == VF_ITERATION_CAP || rc == VF_DEADLINE) ? 1 : 0;
-        if (!verify(filter.info(), x.data())) {
+        if (!verify(filter.info(), x.data(), u.data())) {
             std::fprintf(stderr, "cycle %ld: an output missed a row\n", c);
             ++bad;
         }

@@ -30,8 +30,8 @@
  *   otherwise a status in {VF_OK, VF_ITERATION_CAP, VF_ERR_OVERFLOW} (no time budget: never
  *   VF_DEADLINE); a negative status has a zero output; else the output is finite, 0 <= m <=
  *   vf_filter_rows_max, rung in 1..6, every row of levels 0-2 meets min(b, 0) and every row its
- *   claimed bound (info.bound, unless -inf) to 1e-12 (|c| + |g|_1 |x|_inf) (the ladder's
- *   acceptance) and every joint speed |x_j| <= vmax_j (1 + 1e-9) (never relaxed: a tolerance
+ *   claimed bound (info.bound, unless -inf) to 1e-12 (|c| + |g|_1 (|x|_inf + |u|_inf)) (the
+ *   spec's acceptance) and every joint speed |x_j| <= vmax_j (1 + 1e-9) (never relaxed: a tolerance
  *   relative to |x| would accept any far-off answer); the fallback's output is t u with
  *   0 <= t <= 1; a second call gives the same bits.
  * The scratch is malloc'ed at exactly vf_filter_doubles / vf_filter_ints, so AddressSanitizer
@@ -293,7 +293,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             }
         }
     } else {
-        double xi = 0.0;
+        double xi = 0.0, ui = 0.0;
         int32_t rr;
         if (rc != VF_OK && rc != VF_ITERATION_CAP) {
             report("unexpected outcome (no time budget)", &f, q, u, pp, x, &info, rc);
@@ -303,11 +303,13 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                 report("non-finite output", &f, q, u, pp, x, &info, rc);
             }
             xi = fabs(x[j]) > xi ? fabs(x[j]) : xi;
+            ui = fabs(u[j]) > ui ? fabs(u[j]) : ui;
             if (!(fabs(x[j]) <= vmax[j] * (1.0 + 1e-9))) {
                 /* the velocity rows are in every rung: never relaxed, never dropped */
                 report("a joint speed limit exceeded", &f, q, u, pp, x, &info, rc);
             }
         }
+        xi += ui; /* the round-off of forming x from u */
         if (info.m < 0 || (size_t)info.m > vf_filter_rows_max(&f) || info.rung < 1
             || info.rung > 6 || info.n_active > info.m) {
             report("info out of range", &f, q, u, pp, x, &info, rc);

@@ -82,42 +82,13 @@
 #include <stdint.h>
 
 #include "velfence_nd.h"
+#include "velfence_status.h"
 
 #ifdef __cplusplus
 extern "C" {
 #endif
 
-/* Status codes (spec: one enum in velfence_status.h; the same values here until it lands). */
-#ifndef VF_OK
-#define VF_OK 0
-#endif
-#ifndef VF_ERR_NULL
-#define VF_ERR_NULL (-1)
-#endif
-#ifndef VF_ERR_ARGUMENT
-#define VF_ERR_ARGUMENT (-2)
-#endif
-#ifndef VF_ERR_NONFINITE
-#define VF_ERR_NONFINITE (-3)
-#endif
-#ifndef VF_ERR_OVERFLOW
-#define VF_ERR_OVERFLOW (-4)
-#endif
-#ifndef VF_ERR_SINGULAR
-#define VF_ERR_SINGULAR (-5)
-#endif
-#ifndef VF_INFEASIBLE
-#define VF_INFEASIBLE 1
-#endif
-#ifndef VF_STALLED
-#define VF_STALLED 2
-#endif
-#ifndef VF_ITERATION_CAP
-#define VF_ITERATION_CAP 3
-#endif
-#ifndef VF_DEADLINE
-#define VF_DEADLINE 4
-#endif
+/* Status codes: velfence_status.h (VF_OK, VF_ERR_*, VF_ITERATION_CAP, VF_DEADLINE, ...). */
 
 #define VF_FILTER_REVOLUTE 0
 #define VF_FILTER_PRISMATIC 1

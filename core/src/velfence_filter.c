@@ -6,13 +6,10 @@
  * this file adds the chain-as-data kinematics, the workspace rows of a named point, the ladder,
  * the model check and the deadline fallback (velfence.filter's, spec-24 section 3).
  */
-#define _POSIX_C_SOURCE 199309L
-
 #include "velfence_filter.h"
 
 #include <math.h>
 #include <string.h>
-#include <time.h>
 #ifdef VF_FILTER_DEBUG
 #include <stdio.h>
 #endif
@@ -402,12 +399,6 @@ typedef struct ctx {
 #define D(c, field) ((c)->d + (c)->L.field)
 #define IV(c, field) ((c)->i + (c)->L.field)
 
-static double now_s(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
 
 static void put_row(ctx *c, int32_t r, int32_t col, double sign, double bound, int32_t lv,
                     int32_t a, int32_t t, double dd)
@@ -590,6 +581,7 @@ static int project(ctx *c, const double *bnd, double *x)
     const double *u = c->u;
     int32_t i, k, q = 0, it = 0;
     int st, feasible = 1;
+    vf_nd_solve_opts so;
     for (i = 0; i < m && feasible; i++) {
         if (bnd[i] != -INFINITY && !(dot(G + (size_t)i * n, u, n) >= bnd[i])) {
             feasible = 0;
@@ -601,29 +593,35 @@ static int project(ctx *c, const double *bnd, double *x)
         }
         return VF_OK;
     }
-    if (c->deadline < INFINITY && now_s() > c->deadline) {
+    if (c->deadline < INFINITY && vf_nd_monotonic_seconds() > c->deadline) {
         return VF_DEADLINE;
     }
+    so.max_iterations = c->maxit;
+    so.deadline = c->deadline < INFINITY ? c->deadline : 0.0;
+    so.warm = c->first ? IV(c, warm) : NULL;
+    so.n_warm = c->first ? c->n_warm : 0;
+    c->first = 0;
     if (f->weights == NULL) {
-        st = vf_nd_project_kernel(u, G, bnd, m, n, x, D(c, lam), IV(c, act), D(c, wsf), &q, &it);
+        st = vf_nd_project_kernel_opt(u, G, bnd, m, n, x, D(c, lam), IV(c, act), D(c, wsf), &q,
+                                      &it, &so);
     } else {
         double *us = D(c, us), *ys = D(c, ys);
         for (k = 0; k < n; k++) {
             us[k] = u[k] * sqrt(f->weights[k]);
         }
-        st = vf_nd_project_kernel(us, D(c, Gs), bnd, m, n, ys, D(c, lam), IV(c, act), D(c, wsf),
-                                  &q, &it);
+        st = vf_nd_project_kernel_opt(us, D(c, Gs), bnd, m, n, ys, D(c, lam), IV(c, act),
+                                      D(c, wsf), &q, &it, &so);
         for (k = 0; k < n; k++) {
             x[k] = ys[k] / sqrt(f->weights[k]);
         }
-        if (st == VF_ND_PROJECT_OPTIMAL) {
+        if (st == VF_OK) {
             /* round-off of the back-substitution: repair along the most violated row (gap
-             * beyond the acceptance tolerance tau = 1e-12 (|b| + |g|_1 |x|_inf) only: a nearly
+             * beyond the acceptance tolerance tau = 1e-12 (|b| + |g|_1 (|x| + |u|)) only: a nearly
              * zero row missed within tau would be "repaired" by gap / |g| -- a huge step; found
              * by fuzz_filter_cycle); then every row must meet tau, else the solve stalled */
             int round;
             for (round = 0; round <= 4; round++) {
-                double worst = 0.0, gg, xi = inf_norm(x, n);
+                double worst = 0.0, gg, xi = inf_norm(x, n) + c->unorm;
                 int32_t wi = -1;
                 for (i = 0; i < m; i++) {
                     const double *g = G + (size_t)i * n;
@@ -647,7 +645,7 @@ static int project(ctx *c, const double *bnd, double *x)
                     break;
                 }
                 if (round == 4) {
-                    st = VF_ND_PROJECT_ITERATION_LIMIT; /* not repaired: stalled */
+                    st = VF_STALLED; /* not repaired */
                     break;
                 }
                 gg = dot(G + (size_t)wi * n, G + (size_t)wi * n, n);
@@ -662,11 +660,10 @@ static int project(ctx *c, const double *bnd, double *x)
 #endif
     c->info->iterations += it;
     c->info->solves += 1;
-    c->first = 0;
-    if (c->maxit > 0 && it > c->maxit) {
-        return VF_ITERATION_CAP;
+    if (st == VF_ITERATION_CAP || st == VF_DEADLINE) {
+        return st;
     }
-    if (st == VF_ND_PROJECT_OPTIMAL) {
+    if (st == VF_OK) {
         /* Every rung keeps the velocity rows |x_j| <= v_j, so a true answer is within them; the
          * kernel's acceptance is relative to |x|, and on nearly dependent rows it can accept a
          * far-off point (|x| ~ 1e60; fuzz_filter_cycle): such an answer is a stalled solve. */
@@ -677,7 +674,7 @@ static int project(ctx *c, const double *bnd, double *x)
         }
         return VF_OK;
     }
-    return st == VF_ND_PROJECT_INFEASIBLE ? VF_INFEASIBLE : VF_STALLED;
+    return st == VF_INFEASIBLE ? VF_INFEASIBLE : VF_STALLED;
 }
 
 /* The clearance of sphere i and link l at joint points P: vf_nd_capsule_clearances's arithmetic
@@ -983,7 +980,7 @@ int vf_filter_cycle(const vf_filter *f, const double *q, const double *u, const 
         }
         c->maxit = opts->max_iterations;
         if (opts->time_budget > 0.0 && isfinite(opts->time_budget)) {
-            c->deadline = now_s() + opts->time_budget;
+            c->deadline = vf_nd_monotonic_seconds() + opts->time_budget;
         }
         if (opts->deadline > 0.0 && opts->deadline < c->deadline) {
             c->deadline = opts->deadline;

@@ -149,10 +149,11 @@ def _model_borderline(sf: Any, q: Any, u: Any, prev: Any, xs: tuple[Any, ...]) -
     )
 
 
-def _safe(x: Any, G: Any, b: Any, level: Any, bound: Any) -> None:
-    """Every row met: "no further out" (min(b, 0)) for the safety levels, and every claim."""
+def _safe(x: Any, u: Any, G: Any, b: Any, level: Any, bound: Any) -> None:
+    """Every row met: "no further out" (min(b, 0)) for the safety levels, and every claim, to
+    the round-off of forming x from u: 1e-12 (|c| + |g|_1 (|x|_inf + |u|_inf)) (spec-24 2)."""
     gx = G @ x
-    xi = float(np.abs(x).max())
+    xi = float(np.abs(x).max()) + float(np.abs(u).max())
     g1 = np.abs(G).sum(axis=1)
     c = np.minimum(b, 0.0)
     safety = level != _filter.LEVEL_RATE
@@ -182,7 +183,7 @@ def _check(scene: dict[str, Any]) -> None:
     # round-off of its target (a row the motion cannot change, say) may pass for one route's
     # kinematics and fail for the other's (both safe); then only the safety checks below apply
     if _model_borderline(sf, q, u, prev, (x, ref.output)):
-        _safe(x, G, b, level, bound)
+        _safe(x, u, G, b, level, bound)
         return
     # the same answer and report
     # (relative to the output's and the command's size: an output of 1e-19 where the command is
@@ -209,7 +210,7 @@ def _check(scene: dict[str, Any]) -> None:
     theirs = set(ref.active_names)
     if not borderline:
         assert {nm for nm in mine ^ theirs if not unsure[names.index(nm)]} == set()
-    _safe(x, G, b, level, bound)
+    _safe(x, u, G, b, level, bound)
     # ... and a first-rung answer without a raise is the projection of u onto the rows
     if (
         info["rung"] == 1
