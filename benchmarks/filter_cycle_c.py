@@ -111,7 +111,7 @@ def _python_cycle() -> object:
 
 
 def _python_loop(fc: object, cycles: int, periodic: bool) -> np.ndarray:
-    """The C example's closed loop from Python; returns the cycle times [us]."""
+    """The C example's closed loop (its default command) from Python; the cycle times [us]."""
     rng = np.random.default_rng(1)
     q = Q0.copy()
     prev = np.zeros(7)
@@ -122,8 +122,8 @@ def _python_loop(fc: object, cycles: int, periodic: bool) -> np.ndarray:
     clock = time.perf_counter
     for c in range(cycles):
         if c % 500 == 0:
-            target = rng.uniform(LOWER - 0.2, UPPER + 0.2)
-        u = 3.0 * (target - q) + rng.uniform(-0.2, 0.2, 7)
+            target = rng.uniform(LOWER + 0.2, UPPER - 0.2)
+        u = 1.0 * (target - q)
         if periodic:
             time.sleep(0.001)
         t0 = clock()
