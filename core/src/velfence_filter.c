@@ -1106,7 +1106,10 @@ int vf_filter_cycle(const vf_filter *f, const double *q, const double *u, const 
     if (st == VF_ITERATION_CAP || st == VF_DEADLINE) {
         info->deadline =
             st == VF_DEADLINE ? VF_FILTER_DEADLINE_TIME : VF_FILTER_DEADLINE_ITERATIONS;
-        info->stages |= VF_FILTER_STAGE_DEADLINE;
+        /* (as velfence.filter: the fallback's report replaces the ladder's) */
+        info->stages = (info->stages & VF_FILTER_STAGE_COMMAND_SCALED) | VF_FILTER_STAGE_DEADLINE;
+        memset(info->relaxed, 0, sizeof info->relaxed);
+        memset(info->dropped, 0, sizeof info->dropped);
         fallback(c, x);
         rc = st;
     } else if (st != VF_OK) {

@@ -116,8 +116,10 @@ def test_cpp_example_under_sanitizers(tmp_path: Path) -> None:
 # ------------------------------------------------------------------ the binding
 
 
-def _filter_and_cycle(dt: float | None = 0.001, weights: object = None) -> tuple[object, object]:
-    from velfence._filter_c import filter_cycle
+def _filter_and_cycle(
+    dt: float | None = 0.001, weights: object = None, backend: str = "python"
+) -> tuple[object, object]:
+    from velfence.filter._ccycle import filter_cycle
 
     robot = DHChain.seven_dof(link_radius=0.05, tool=(0.0, 0.0, 0.1))
     lim = JointLimits(
@@ -126,7 +128,10 @@ def _filter_and_cycle(dt: float | None = 0.001, weights: object = None) -> tuple
     )  # fmt: skip
     box = WorkspaceLimit(ConvexPolytope.box([-0.6, -0.6, 0.1], [0.6, 0.6, 1.4]), point="tcp")
     obs = [SphereObstacle(center=(0.3, 0.0, 0.9), radius=0.05)]
-    sf = SafetyFilter(robot, limits=lim, workspace=box, obstacles=obs, dt=dt, weights=weights)
+    sf = SafetyFilter(
+        robot, limits=lim, workspace=box, obstacles=obs, dt=dt, weights=weights,
+        backend=backend,  # type: ignore[arg-type]
+    )  # fmt: skip
     return sf, filter_cycle(sf)
 
 
@@ -205,3 +210,52 @@ def test_diagonal_weights_match_the_python_route() -> None:
         x = fc.cycle(q, u)  # type: ignore[attr-defined]
         if fc.info()["n_violated"] == 0:  # type: ignore[attr-defined]
             np.testing.assert_allclose(x, ref.output, rtol=1e-9, atol=1e-12)
+
+
+# ------------------------------------------------------------------ SafetyFilter.filter in C
+
+
+def test_safety_filter_runs_the_c_cycle_and_equals_explain() -> None:
+    """With the core and a DH chain, ``filter`` (and ``shape_batch``) run the C cycle and equal
+    the Python route's ``explain`` output; the remembered previous output feeds the
+    acceleration rows of both."""
+    sf, _ = _filter_and_cycle(backend="auto")
+    assert sf._ccycle is not None  # type: ignore[attr-defined]
+    twin, _ = _filter_and_cycle()  # the Python route
+    rng = np.random.default_rng(9)
+    for _ in range(150):
+        q = rng.uniform(-2.5, 2.5, 7)
+        u = rng.normal(size=7) * 2.0
+        p = rng.normal(size=7)  # (explicit: filter() below would change the remembered one)
+        r = sf.explain(q, u, previous=p)  # type: ignore[attr-defined]
+        ref = twin.explain(q, u, previous=p)  # type: ignore[attr-defined]
+        np.testing.assert_allclose(r.output, ref.output, rtol=1e-9, atol=1e-9 * np.abs(u).max())
+        assert r.constraint_names == ref.constraint_names
+        assert (r.stages, r.dropped, r.relaxed, r.deadline, r.rate_override) == (
+            ref.stages, ref.dropped, ref.relaxed, ref.deadline, ref.rate_override,
+        )  # fmt: skip
+        np.testing.assert_array_equal(sf.filter(q, u, previous=p), r.output)  # type: ignore[attr-defined]
+    Q = rng.uniform(-2.0, 2.0, (20, 7))
+    V = rng.normal(size=(20, 7))
+    batch = sf.shape_batch(Q, V)  # type: ignore[attr-defined]
+    sf.reset()  # type: ignore[attr-defined]
+    loop = [sf._filter_c(q, v, None, False) for q, v in zip(Q, V, strict=True)]  # type: ignore[attr-defined]
+    np.testing.assert_array_equal(batch, loop)
+
+
+def test_safety_filter_c_route_counts_deadline_misses_and_refuses_bad_input() -> None:
+    from velfence.errors import InvalidInput
+
+    robot = DHChain.seven_dof(link_radius=0.05)
+    lim = JointLimits(robot.joint_limits[:, 0], robot.joint_limits[:, 1], np.full(7, 1.5))
+    box = WorkspaceLimit(ConvexPolytope.box([-0.5, -0.5, 0.2], [0.5, 0.5, 1.2]), point="tcp")
+    sf = SafetyFilter(robot, limits=lim, workspace=box, dt=0.001, max_iterations=1)
+    assert sf._ccycle is not None  # type: ignore[attr-defined]
+    rng = np.random.default_rng(2)
+    for _ in range(50):
+        sf.filter(rng.uniform(-2.5, 2.5, 7), rng.normal(size=7) * 3.0)
+    assert sf.deadline_misses > 0
+    with pytest.raises(InvalidInput, match="non-finite"):
+        sf.filter(np.full(7, math.nan), np.zeros(7))
+    stop = SafetyFilter(robot, limits=lim, workspace=box, on_invalid="stop")
+    assert np.array_equal(stop.filter(np.zeros(7), np.full(7, math.inf)), np.zeros(7))

@@ -5,7 +5,7 @@ with random tool, capsule radii, joint speed and acceleration limits, joints any
 range, exactly at a limit or beyond it, a box around the tool point (sometimes with the tool
 outside), sphere obstacles near the links (some penetrating), ``dt`` unset or 1 ms / 10 ms, with
 and without a previous output, commands from tiny to beyond the command cap. Per scene the C cycle
-(``velfence_core._filter.FilterCycle``, built by ``velfence._filter_c.filter_cycle``) and
+(``velfence_core._filter.FilterCycle``, built by ``velfence.filter._ccycle.filter_cycle``) and
 :meth:`velfence.filter.SafetyFilter.explain` must build the same rows (names, ``G`` and ``b`` to
 1e-9 relative) and return the same output (1e-9 relative), the same stages, relaxed rows,
 deadline and active rows. Independently of the oracle: every row of the safety levels is met at
@@ -32,7 +32,7 @@ from velfence.geometry.projection import project
 from velfence.mechanisms.chain import DHChain
 
 _filter = pytest.importorskip("velfence_core._filter")
-from velfence._filter_c import filter_cycle  # noqa: E402
+from velfence.filter._ccycle import filter_cycle  # noqa: E402
 
 _STAGE_BITS = {
     "projection": _filter.STAGE_PROJECTION,
@@ -128,6 +128,7 @@ def scenes(draw: Any) -> dict[str, Any]:
         robot, limits=JointLimits(lo, hi, vmax, max_acceleration=amax), workspace=box,
         obstacles=obstacles, dt=dt, weights=weights,
         obstacle_buffer=draw(st.floats(0.01, 0.3)), spring_gain=draw(st.floats(0.0, 5.0)),
+        backend="python",  # the oracle: the Python route (backend="auto" would run the C cycle)
     )  # fmt: skip
     return {"sf": sf, "q": q, "u": u, "prev": prev, "facets": box.polytope.facet_names}
 
@@ -244,7 +245,9 @@ def test_deadline_fallback_equals_the_oracle() -> None:
     rng = np.random.default_rng(11)
     seen = 0
     for _ in range(60):
-        sf = SafetyFilter(robot, limits=lim, workspace=box, dt=0.001, max_iterations=1)
+        sf = SafetyFilter(
+            robot, limits=lim, workspace=box, dt=0.001, max_iterations=1, backend="python"
+        )
         fc = filter_cycle(sf)
         fc.set_options(max_iterations=1)
         q = rng.uniform(-2.5, 2.5, 7)

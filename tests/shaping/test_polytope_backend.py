@@ -150,8 +150,11 @@ def test_filter_c_backend_agrees_without_obstacles(seed: int, dt: float | None) 
     assert r2.active_names == r1.active_names
     np.testing.assert_allclose(r2.rows[0], r1.rows[0], rtol=0, atol=1e-12)
     np.testing.assert_allclose(r2.rows[1], r1.rows[1], rtol=1e-12, atol=1e-12)
-    assert _bits(r2.rows[0]) == _bits(r1.rows[0])
-    assert _bits(r2.rows[1]) == _bits(r1.rows[1])
+    if c._ccycle is None:  # the Python route with C bounds and solve: the same operations
+        assert _bits(r2.rows[0]) == _bits(r1.rows[0])
+        assert _bits(r2.rows[1]) == _bits(r1.rows[1])
+    # (else the whole cycle ran in C, velfence_filter.h: its kinematics compose the chain's
+    # transforms, equal to round-off; tests/core/test_filter_cycle_equal.py)
     v = u[:3] * 0.2
     py.reset()  # (each remembered its own explain output, equal only to round-off)
     c.reset()

@@ -45,7 +45,11 @@ from velfence.filter.ladder import DeadlineHit, run_ladder, safe_fallback
 from velfence.filter.limits import JointLimits, Profile, SphereObstacle, WorkspaceLimit
 from velfence.filter.result import FilterResult
 from velfence.filter.rows import (
+    LEVEL_JOINT,
     LEVEL_NAMES,
+    LEVEL_OBSTACLE,
+    LEVEL_RATE,
+    LEVEL_WORKSPACE,
     PLAIN_BOUNDS,
     BoundKernels,
     JointAccelerationLimit,
@@ -65,6 +69,17 @@ from velfence.shaping.profiles import LinearBuffer, ThreeZoneBraking
 __all__ = ["SafetyFilter"]
 
 _BINDING = 1e-9  # relative slack under which a row counts as active
+#: The C cycle's stage bits (velfence_filter.h VF_FILTER_STAGE_*) and names, in report order.
+_C_STAGES = (
+    (512, "command-scaled"), (1, "projection"), (2, "recovery"), (8, "dropped acceleration"),
+    (16, "relaxed obstacles"), (32, "relaxed workspace"), (64, "relaxed joint limits"),
+    (256, "deadline"), (4, "model-check"), (1024, "model-scaled"), (128, "stop"),
+)  # fmt: skip
+#: The levels a report names as dropped or relaxed, in the ladder's order.
+_C_DROPPED = (
+    (LEVEL_RATE, "acceleration"), (LEVEL_OBSTACLE, "obstacles"), (LEVEL_WORKSPACE, "workspace"),
+    (LEVEL_JOINT, "joint limits"),
+)  # fmt: skip
 _COMMAND_CAP = 1e3  # commands are shortened beyond this multiple of the fastest joint limit
 
 # The metric's factor L (W = L Lᵀ): None (identity), a vector (diagonal) or a lower-triangular
@@ -243,6 +258,7 @@ class SafetyFilter(InvalidPolicy):
     """
 
     __slots__ = (
+        "_ccycle",
         "_clock",
         "_core",
         "_has_accel",
@@ -380,6 +396,14 @@ class SafetyFilter(InvalidPolicy):
         rows.extend(self._custom(providers))
         self._providers: tuple[Any, ...] = tuple(rows)
         self._metric: _Metric = self._weights(weights)
+        # The whole joint-mode cycle in C (velfence_filter.h) when the core is in use and the
+        # robot gives its chain as data: filter() and shape_batch() run it; explain() keeps the
+        # Python route (the oracle it is tested equal to) and builds the diagnostics.
+        self._ccycle: Any = None
+        if self._core is not None:
+            from velfence.filter._ccycle import c_cycle_or_none
+
+            self._ccycle = c_cycle_or_none(self)
 
     # ------------------------------------------------------------------ construction
     def _frame0(self, q0: FloatArray) -> Any:
@@ -542,6 +566,11 @@ class SafetyFilter(InvalidPolicy):
         """Forget the remembered last output and the warm start (a fresh start)."""
         self._previous = None
         self._warm = set()
+        if self._ccycle is not None:
+            self._ccycle.set_options(
+                max_iterations=self.max_iterations or 0, time_budget=self.time_budget or 0.0,
+                warm=False,
+            )  # fmt: skip
 
     # ------------------------------------------------------------------ rows
     def _blocks(self, ctx: RowContext) -> _Cycle:
@@ -819,7 +848,54 @@ class SafetyFilter(InvalidPolicy):
         if self._bad(qa, ua):
             self._invalid(f"non-finite input: q={qa.tolist()}, qd_cmd={ua.tolist()}")
             return self._stopped(qa, ua)
+        if self._ccycle is not None:
+            return self._explain_c(qa, ua, previous)
         return self._run(qa, ua, ua, self._metric, previous, True)
+
+    def _explain_c(self, qa: FloatArray, ua: FloatArray, previous: Any) -> FilterResult:
+        """:meth:`explain` by the C cycle: its output, and the report built from its info."""
+        x = self._filter_c(qa, ua, previous, True)
+        cyc = self._ccycle
+        info = cyc.info()
+        if info["status"] < 0:  # refused (on_invalid="stop"): the stop result
+            return self._stopped(qa, ua)
+        G, b, level, ka, kb, dist, slack, _ = cyc.rows()
+        names = self._c_names(level.tolist(), ka.tolist(), kb.tolist())
+        viol = dist < 0.0
+        act = tuple(np.flatnonzero((slack <= _BINDING * (1.0 + np.abs(b))) | viol).tolist())
+        zone: Zone = ZONE_NAMES[zone_code(int(np.count_nonzero(viol)), len(act))]  # type: ignore[assignment]
+        bits = info["stages"]
+        stages = [s for bit, s in _C_STAGES if bits & bit]
+        dropped = [nm for lv, nm in _C_DROPPED if info["relaxed"][lv] or info["dropped"][lv]]
+        relaxed_keys = set(cyc.relaxed())
+        relaxed = tuple(
+            names[r] for r, k in enumerate(zip(level.tolist(), ka.tolist(), kb.tolist(), strict=True))
+            if k in relaxed_keys
+        )  # fmt: skip
+        deadline = {0: None, 1: "iterations", 2: "time"}[info["deadline"]]
+        return FilterResult(
+            output=x, command=ua, position=qa, zone=zone, active=act,
+            active_names=tuple(names[i] for i in act), slack=readonly(slack),
+            constraint_names=tuple(names), stages=tuple(stages), dropped=tuple(dropped),
+            rate_override=bool(info["dropped"][LEVEL_RATE]), rows=(readonly(G), readonly(b)),
+            relaxed=relaxed, deadline=deadline,  # type: ignore[arg-type]
+        )  # fmt: skip
+
+    def _c_names(self, level: list[int], ka: list[int], kb: list[int]) -> list[str]:
+        """The row names of the C cycle's keys (the providers' names)."""
+        ws = [p for p in self._providers if isinstance(p, WorkspaceRows)]
+        out: list[str] = []
+        for lv, a, k in zip(level, ka, kb, strict=True):
+            if lv == LEVEL_JOINT:
+                what = "position" if k < 2 else "velocity"
+                out.append(f"joint {a} {what} ({'lower' if k % 2 == 0 else 'upper'})")
+            elif lv == LEVEL_RATE:
+                out.append(f"joint {a} acceleration ({'lower' if k == 0 else 'upper'})")
+            elif lv == LEVEL_WORKSPACE:
+                out.append(ws[a]._names[k])
+            else:
+                out.append(f"obstacle {a} on link {k}")
+        return out
 
     def filter(
         self, q: ArrayLike, qd_cmd: ArrayLike, *, previous: ArrayLike | None = None
@@ -833,8 +909,33 @@ class SafetyFilter(InvalidPolicy):
         if self._bad(qa, ua):
             self._invalid(f"non-finite input: q={qa.tolist()}, qd_cmd={ua.tolist()}")
             return np.zeros(self.dof)
+        if self._ccycle is not None:
+            return self._filter_c(qa, ua, previous, True)
         c = self._cycle(qa, ua, ua, self._metric, previous, True)
         return c.output if isinstance(c, FilterResult) else c[1]
+
+    def _filter_c(self, qa: FloatArray, ua: FloatArray, previous: Any, remember: bool) -> FloatArray:
+        """:meth:`filter` by the C cycle (validated ``qa``, ``ua``; the same rows and ladder)."""
+        prev: FloatArray | None = None
+        if previous is not None:
+            prev = self._state("previous", previous, self.dof, "rad/s")
+            if self._bad(prev):
+                self._invalid(f"non-finite previous={prev.tolist()}")
+                return np.zeros(self.dof)
+        elif remember:
+            prev = self._previous
+        cyc = self._ccycle
+        misses = cyc.deadline_misses
+        try:
+            x: FloatArray = cyc.cycle(qa, ua, prev if self._has_accel else None)
+        except ValueError:
+            self._invalid("input too large: the filtered velocity overflowed")
+            return np.zeros(self.dof)
+        if cyc.deadline_misses != misses:
+            self.deadline_misses += 1
+        if remember and self._has_accel:
+            self._previous = readonly(x.copy())
+        return x
 
     def explain_twist(
         self,
@@ -942,6 +1043,9 @@ class SafetyFilter(InvalidPolicy):
                         self._invalid(f"non-finite input in row {k}")
                     except InvalidInput as exc:
                         raise InvalidInput(f"Q, QD row {k}: {exc}") from None
+                    continue
+                if self._ccycle is not None:
+                    out[k] = self._filter_c(Qa[k].copy(), Va[k].copy(), None, False)
                     continue
                 c = self._cycle(Qa[k], Va[k], Va[k], self._metric, None, False)
                 out[k] = c.output if isinstance(c, FilterResult) else c[1]

@@ -17,7 +17,7 @@ import numpy as np
 from velfence._typing import FloatArray
 from velfence.errors import InvalidParameter
 
-__all__ = ["chain_data", "filter_cycle", "mdh_chain_data"]
+__all__ = ["c_cycle_or_none", "chain_data", "filter_cycle", "mdh_chain_data"]
 
 _REVOLUTE = 0.0
 
@@ -181,3 +181,21 @@ def filter_cycle(sf: Any) -> Any:
         lrad, float(sf.obstacle_buffer), float(sf.spring_gain), float(sf.dt or 0.0),
         None if metric is None else np.asarray(metric) ** 2,
     )  # fmt: skip
+
+
+def c_cycle_or_none(sf: Any) -> Any:
+    """:func:`filter_cycle` with the filter's options set, or ``None`` where C cannot run it.
+
+    ``None`` without the compiled ``_filter`` module, for a robot without chain data, with
+    custom row providers or a full weight matrix, or when the C check refuses the description
+    (then the Python route runs, as before). No warm start: a cycle's output depends on its
+    state only, so ``filter`` and ``explain`` of one state agree bit for bit.
+    """
+    try:
+        fc = filter_cycle(sf)
+    except (InvalidParameter, ValueError, TypeError):
+        return None
+    fc.set_options(
+        max_iterations=sf.max_iterations or 0, time_budget=sf.time_budget or 0.0, warm=False
+    )
+    return fc
