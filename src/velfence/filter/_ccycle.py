@@ -17,7 +17,7 @@ import numpy as np
 from velfence._typing import FloatArray
 from velfence.errors import InvalidParameter
 
-__all__ = ["c_cycle_or_none", "chain_data", "filter_cycle", "mdh_chain_data"]
+__all__ = ["c_cycle_or_none", "c_options", "chain_data", "filter_cycle", "mdh_chain_data"]
 
 _REVOLUTE = 0.0
 
@@ -195,7 +195,11 @@ def c_cycle_or_none(sf: Any) -> Any:
         fc = filter_cycle(sf)
     except (InvalidParameter, ValueError, TypeError):
         return None
-    fc.set_options(
-        max_iterations=sf.max_iterations or 0, time_budget=sf.time_budget or 0.0, warm=False
-    )
+    fc.set_options(**c_options(sf))
     return fc
+
+
+def c_options(sf: Any) -> dict[str, Any]:
+    """The filter's ``max_iterations`` (clamped to the C int32) and ``time_budget`` for C."""
+    cap = min(int(sf.max_iterations or 0), 2**31 - 1)
+    return {"max_iterations": cap, "time_budget": float(sf.time_budget or 0.0), "warm": False}

@@ -567,10 +567,9 @@ class SafetyFilter(InvalidPolicy):
         self._previous = None
         self._warm = set()
         if self._ccycle is not None:
-            self._ccycle.set_options(
-                max_iterations=self.max_iterations or 0, time_budget=self.time_budget or 0.0,
-                warm=False,
-            )  # fmt: skip
+            from velfence.filter._ccycle import c_options
+
+            self._ccycle.set_options(**c_options(self))
 
     # ------------------------------------------------------------------ rows
     def _blocks(self, ctx: RowContext) -> _Cycle:
