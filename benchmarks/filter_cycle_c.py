@@ -73,7 +73,7 @@ def _python_cycle() -> object:
     """The C example's scene as a ``FilterCycle`` (same arm, box and 20 spheres' placement)."""
     from velfence_core import _filter
 
-    from velfence._filter_c import _compose, _translation, mdh_chain_data
+    from velfence.filter._ccycle import _compose, _translation, mdh_chain_data
 
     joints, tool = mdh_chain_data(MDH, 0.107, (0.0, 0.0, 0.1))
     jprm = []
@@ -101,8 +101,9 @@ def _python_cycle() -> object:
         if np.min(np.linalg.norm(mids - c, axis=1)) >= 0.3:
             centres += c.tolist()
             radii.append(rng.uniform(0.03, 0.08))
-    box = (0, np.array([1, 0, 0, -1, 0, 0, 0, 1, 0, 0, -1, 0, 0, 0, 1, 0, 0, -1.0]),
-           np.array([-0.7, -0.7, -0.7, -0.7, 0.05, -1.2]), 0, np.array([0.05, 0, 0, 0, 0, 0.0]))  # fmt: skip
+    normals = np.array([1, 0, 0, -1, 0, 0, 0, 1, 0, 0, -1, 0, 0, 0, 1, 0, 0, -1.0])
+    offsets = np.array([-0.7, -0.7, -0.7, -0.7, 0.05, -1.2])
+    box = (0, normals, offsets, 0, np.array([0.05, 0, 0, 0, 0, 0.0]))
     return _filter.FilterCycle(
         joints, tool, LOWER, UPPER, VMAX, AMAX, [1] * 7, np.array(jprm),
         np.array([7.0, 0, 0, 0]), [box], np.array(centres), np.array(radii), np.full(7, 0.06),

@@ -2,8 +2,8 @@
 
 The targets are exact, patent, nd, cc, rr, filter and filter_cycle. The byte layout is the one
 fuzz_common.h, fuzz_exact.c, fuzz_patent.c, fuzz_nd.c, fuzz_cc.c, fuzz_rr.c, fuzz_filter.c and
-fuzz_filter_cycle.c document. Run from any directory: ``python3 core/fuzz/make_corpus.py``. Deterministic (no randomness): the same files
-every time.
+fuzz_filter_cycle.c document. Run from any directory: ``python3 core/fuzz/make_corpus.py``.
+Deterministic (no randomness): the same files every time.
 """
 
 from __future__ import annotations
@@ -319,9 +319,11 @@ def filter_seeds() -> dict[str, bytes]:
 
 
 def filter_cycle_seeds() -> dict[str, bytes]:
-    """fuzz_filter_cycle's seeds: a flags byte, then fixed pseudo-random bytes (the layout reads
-    every value from bytes, so any bytes are a valid scene: joints, limits, points, polytopes,
-    spheres, options and the state)."""
+    """fuzz_filter_cycle's seeds: a flags byte, then fixed pseudo-random bytes.
+
+    The layout reads every value from bytes, so any bytes are a valid scene: joints, limits,
+    points, polytopes, spheres, options and the state.
+    """
 
     def tail(seed: int, count: int = 600) -> bytes:
         g = lcg(seed)

@@ -19,9 +19,9 @@ import numpy as np
 import pytest
 from c_build import ENV, SANITIZE
 
+from velfence.filter import JointLimits, SafetyFilter, SphereObstacle, WorkspaceLimit
 from velfence.geometry.polytope import ConvexPolytope
 from velfence.mechanisms.chain import DHChain
-from velfence.filter import JointLimits, SafetyFilter, SphereObstacle, WorkspaceLimit
 
 CORE = Path(__file__).resolve().parents[2] / "core"
 CC = shutil.which("cc") or shutil.which("gcc")
@@ -48,7 +48,8 @@ def _build_c(tmp: Path, extra: list[str]) -> Path:
 
 
 def _build_cpp(tmp: Path, extra: list[str]) -> Path:
-    assert CC is not None and CXX is not None
+    assert CC is not None
+    assert CXX is not None
     objs = []
     for k, src in enumerate(LIBS):
         obj = tmp / f"lib{k}.o"
@@ -161,8 +162,9 @@ def test_binding_writes_into_out_and_reports() -> None:
     got = fc.cycle(q, u, None, out)  # type: ignore[attr-defined]
     assert got is out
     info = fc.info()  # type: ignore[attr-defined]
-    assert info["status"] == 0 and info["m"] > 0
-    G, b, level, ka, kb, dist, slack, bound = fc.rows()  # type: ignore[attr-defined]
+    assert info["status"] == 0
+    assert info["m"] > 0
+    G, b, _, _, _, _, slack, _ = fc.rows()  # type: ignore[attr-defined]
     assert G.shape == (info["m"], 7)
     np.testing.assert_allclose(slack, G @ out - b, rtol=0, atol=1e-12)
     assert len(fc.active()) == info["n_active"]  # type: ignore[attr-defined]
@@ -193,7 +195,8 @@ def test_deadline_fallback_is_counted_and_safe() -> None:
             t = float(x @ u) / float(u @ u)
             assert -1e-12 <= t <= 1.0 + 1e-12
             np.testing.assert_allclose(x, t * u, rtol=0, atol=1e-12 * np.abs(u).max())
-    assert misses > 0 and fc.deadline_misses == misses  # type: ignore[attr-defined]
+    assert misses > 0
+    assert fc.deadline_misses == misses  # type: ignore[attr-defined]
     fc.set_options(time_budget=1e-12)  # type: ignore[attr-defined]
     fc.cycle(np.full(7, 2.5), np.full(7, 3.0))  # type: ignore[attr-defined]
     info = fc.info()  # type: ignore[attr-defined]

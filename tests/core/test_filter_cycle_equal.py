@@ -70,8 +70,10 @@ def scenes(draw: Any) -> dict[str, Any]:
     u01 = st.floats(0.0, 1.0)
     tool = (0.0, 0.0, draw(st.floats(0.0, 0.2)))
     lrad = draw(st.floats(0.0, 0.06))
-    robot = DHChain.ur5e(link_radius=lrad, tool=tool) if ur else DHChain.seven_dof(
-        link_radius=lrad, tool=tool
+    robot = (
+        DHChain.ur5e(link_radius=lrad, tool=tool)
+        if ur
+        else DHChain.seven_dof(link_radius=lrad, tool=tool)
     )
     n = robot.dof
     lo, hi = robot.joint_limits[:, 0], robot.joint_limits[:, 1]
@@ -99,8 +101,10 @@ def scenes(draw: Any) -> dict[str, Any]:
         prev = np.array([draw(st.floats(-1.0, 1.0)) for _ in range(n)]) * vmax
     tcp = robot.fk(q, "tcp")
     half = np.array([draw(st.floats(0.05, 0.6)) for _ in range(3)])
-    shift = np.array([draw(st.floats(-1.0, 1.0)) for _ in range(3)]) * half * draw(
-        st.sampled_from((0.5, 1.2))
+    shift = (
+        np.array([draw(st.floats(-1.0, 1.0)) for _ in range(3)])
+        * half
+        * draw(st.sampled_from((0.5, 1.2)))
     )
     # (irrational jitter: no distance lands exactly on a buffer's edge, where the two routes'
     # round-off would decide whether a row exists)
@@ -145,9 +149,7 @@ def _model_borderline(sf: Any, q: Any, u: Any, prev: Any, xs: tuple[Any, ...]) -
         return False
     nxt = sf._next_distances(q, cyc)
     target = np.minimum(0.0, cyc.d0)
-    return any(
-        bool(np.any(np.abs(nxt(x) - target) <= 1e-12 * (1.0 + np.abs(cyc.d0)))) for x in xs
-    )
+    return any(bool(np.any(np.abs(nxt(x) - target) <= 1e-12 * (1.0 + np.abs(cyc.d0)))) for x in xs)
 
 
 def _safe(x: Any, u: Any, G: Any, b: Any, level: Any, bound: Any) -> None:
@@ -174,12 +176,15 @@ def _check(scene: dict[str, Any]) -> None:
     names = [_name(k, scene["facets"]) for k in keys]
     # the same rows
     assert names == list(ref.constraint_names), (
-        set(names) ^ set(ref.constraint_names), dist[[nm not in ref.constraint_names for nm in names]]
+        set(names) ^ set(ref.constraint_names),
+        dist[[nm not in ref.constraint_names for nm in names]],
     )
     G0, b0 = ref.rows
     scale_g = max(1.0, float(np.abs(G0).max(initial=0.0)))
     np.testing.assert_allclose(G, G0, rtol=1e-9, atol=1e-12 * scale_g)
-    np.testing.assert_allclose(b, b0, rtol=1e-9, atol=1e-12 * max(1.0, float(np.abs(b0).max(initial=0.0))))
+    np.testing.assert_allclose(
+        b, b0, rtol=1e-9, atol=1e-12 * max(1.0, float(np.abs(b0).max(initial=0.0)))
+    )
     # the model check's d1 >= min(0, d0) has no tolerance: a row whose next distance is within
     # round-off of its target (a row the motion cannot change, say) may pass for one route's
     # kinematics and fail for the other's (both safe); then only the safety checks below apply

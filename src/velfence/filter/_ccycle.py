@@ -9,6 +9,7 @@ joint mode, identity or diagonal weights). Private: the public route is ``Safety
 
 from __future__ import annotations
 
+import importlib
 import math
 from typing import Any
 
@@ -46,7 +47,9 @@ def _translation(p: Any) -> FloatArray:
 
 
 def chain_data(dh: Any, tool: Any = (0.0, 0.0, 0.0)) -> tuple[FloatArray, FloatArray]:
-    """A standard DH table ``(a, alpha, d, theta_offset)`` (n, 4) as ``(joints (n*17,), tool (12,))``.
+    """A standard DH table ``(a, alpha, d, theta_offset)`` (n, 4) as chain data.
+
+    Returns ``(joints (n * 17,), tool (12,))``.
 
     The motion ``Rz(q + theta_offset)`` comes first in a standard DH row and its fixed part
     ``Tz(d) Tx(a) Rx(alpha)`` becomes the next joint's transform (the tool's for the last joint).
@@ -124,9 +127,11 @@ def filter_cycle(sf: Any) -> Any:
             weights, or the compiled core is not installed.
     """
     try:
-        from velfence_core import _filter
+        _filter = importlib.import_module("velfence_core._filter")
     except ImportError:  # pragma: no cover - the core is an optional distribution
-        raise InvalidParameter("the C filter cycle needs the compiled core (velfence_core)") from None
+        raise InvalidParameter(
+            "the C filter cycle needs the compiled core (velfence_core)"
+        ) from None
     from velfence.filter.rows import WorkspaceRows
 
     robot = sf.robot

@@ -868,7 +868,8 @@ class SafetyFilter(InvalidPolicy):
         dropped = [nm for lv, nm in _C_DROPPED if info["relaxed"][lv] or info["dropped"][lv]]
         relaxed_keys = set(cyc.relaxed())
         relaxed = tuple(
-            names[r] for r, k in enumerate(zip(level.tolist(), ka.tolist(), kb.tolist(), strict=True))
+            names[r]
+            for r, k in enumerate(zip(level.tolist(), ka.tolist(), kb.tolist(), strict=True))
             if k in relaxed_keys
         )  # fmt: skip
         deadline = {0: None, 1: "iterations", 2: "time"}[info["deadline"]]
@@ -913,7 +914,9 @@ class SafetyFilter(InvalidPolicy):
         c = self._cycle(qa, ua, ua, self._metric, previous, True)
         return c.output if isinstance(c, FilterResult) else c[1]
 
-    def _filter_c(self, qa: FloatArray, ua: FloatArray, previous: Any, remember: bool) -> FloatArray:
+    def _filter_c(
+        self, qa: FloatArray, ua: FloatArray, previous: Any, remember: bool
+    ) -> FloatArray:
         """:meth:`filter` by the C cycle (validated ``qa``, ``ua``; the same rows and ladder)."""
         prev: FloatArray | None = None
         if previous is not None:
