@@ -12,6 +12,8 @@ otherwise):
   in the C example's loop (periodic: ``clock_nanosleep`` to absolute 1 ms deadlines; and back to
   back), and from Python through ``velfence_core._filter.FilterCycle.cycle`` (the same scene,
   back to back, and periodic: sleep 1 ms, then one call);
+* the same limits on ``DHChain.seven_dof`` through ``SafetyFilter.filter`` (which runs the C cycle
+  when the core is installed), back to back and periodic;
 * **7 joints, >= 400 rows, >= 60 binding** (``--dense``: 80 spheres 1-10 cm from the links, a
   0.3 m obstacle buffer, a command that pushes into them), 10^5 cycles back to back in C: median,
   p99 and max. "Binding" counts the rows the command violates (``G u < b``).
@@ -32,6 +34,7 @@ import subprocess
 import tempfile
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -47,6 +50,7 @@ UPPER = np.array([2.8973, 1.7628, 2.8973, -0.0698, 2.8973, 3.7525, 2.8973])
 VMAX = np.array([2.175, 2.175, 2.175, 2.175, 2.61, 2.61, 2.61])
 AMAX = np.array([15.0, 7.5, 10.0, 12.5, 15.0, 20.0, 20.0])
 Q0 = np.array([0.0, -0.3, 0.0, -2.2, 0.0, 2.0, 0.8])
+Q7 = np.array([0.1, 0.6, 0.0, -1.2, 0.0, 0.8, 0.0])  # DHChain.seven_dof, bent
 
 
 def _build() -> Path:
@@ -111,25 +115,61 @@ def _python_cycle() -> object:
     )  # fmt: skip
 
 
-def _python_loop(fc: object, cycles: int, periodic: bool) -> np.ndarray:
-    """The C example's closed loop (its default command) from Python; the cycle times [us]."""
+def _safety_filter() -> Any:
+    """``SafetyFilter`` on ``DHChain.seven_dof`` with a TCP box and 20 spheres, ``dt`` 1 ms."""
+    from velfence.filter import JointLimits, SafetyFilter, SphereObstacle, WorkspaceLimit
+    from velfence.geometry.polytope import ConvexPolytope
+    from velfence.mechanisms.chain import DHChain
+
+    arm = DHChain.seven_dof(link_radius=0.05)
+    lim = arm.joint_limits
+    P = arm.joint_positions(Q7)
+    rng = np.random.default_rng(7)
+    spheres = []
+    while len(spheres) < 20:
+        c = np.array([rng.uniform(-0.8, 0.8), rng.uniform(-0.8, 0.8), rng.uniform(0.1, 1.3)])
+        if np.min(np.linalg.norm(0.5 * (P[:-1] + P[1:]) - c, axis=1)) >= 0.3:
+            spheres.append(SphereObstacle(c, radius=rng.uniform(0.03, 0.08)))
+    box = WorkspaceLimit(ConvexPolytope.box([-0.8, -0.8, 0.05], [0.8, 0.8, 1.4]), buffer=0.05)
+    sf = SafetyFilter(
+        arm, limits=JointLimits(lim[:, 0], lim[:, 1], np.full(7, 1.5),
+                                max_acceleration=np.full(7, 15.0)),
+        workspace=box, obstacles=spheres, dt=1e-3,
+    )  # fmt: skip
+    assert sf._ccycle is not None, "the compiled core (velfence_core._filter) is not installed"
+    return sf
+
+
+def _python_loop(fc: Any, cycles: int, periodic: bool, seven: bool = False) -> np.ndarray:
+    """The C example's closed loop (its default command) from Python; the cycle times [us].
+
+    ``fc``: a ``FilterCycle`` (the example's arm) or, with ``seven``, a ``SafetyFilter`` on
+    ``DHChain.seven_dof`` (``filter(q, u)``, its output remembered for the acceleration rows).
+    """
     rng = np.random.default_rng(1)
-    q = Q0.copy()
+    lower, upper = (fc.limits.lower, fc.limits.upper) if seven else (LOWER, UPPER)
+    q = (Q7 if seven else Q0).copy()
     prev = np.zeros(7)
     x = np.zeros(7)
     target = q.copy()
     times = np.empty(cycles)
-    cycle = fc.cycle  # type: ignore[attr-defined]
+    cycle = None if seven else fc.cycle
+    filt = fc.filter if seven else None
     clock = time.perf_counter
     for c in range(cycles):
         if c % 500 == 0:
-            target = rng.uniform(LOWER + 0.2, UPPER - 0.2)
+            target = rng.uniform(lower + 0.2, upper - 0.2)
         u = 1.0 * (target - q)
         if periodic:
             time.sleep(0.001)
-        t0 = clock()
-        cycle(q, u, prev, x)
-        times[c] = clock() - t0
+        if seven:
+            t0 = clock()
+            x = filt(q, u)
+            times[c] = clock() - t0
+        else:
+            t0 = clock()
+            cycle(q, u, prev, x)
+            times[c] = clock() - t0
         q += x * 0.001
         prev[:] = x
     return times * 1e6
@@ -158,6 +198,18 @@ def main() -> None:
                 {"cycles": str(n), "median_us": f"{np.median(t):.3f}",
                  "p99_us": f"{t[int(0.99 * n)]:.3f}", "max_us": f"{t[-1]:.3f}",
                  "fallbacks": str(fc.deadline_misses), "rows_mean": "-"},  # type: ignore[attr-defined]
+            )
+        )  # fmt: skip
+    sf = _safety_filter()
+    for periodic, label in ((False, "back to back"), (True, "periodic (sleep 1 ms, call)")):
+        n = a.periodic_cycles if periodic else a.cycles
+        t = np.sort(_python_loop(sf, n, periodic, seven=True))
+        rows.append(
+            (
+                f"7 joints + box + 20 spheres, SafetyFilter.filter (C cycle), {label}",
+                {"cycles": str(n), "median_us": f"{np.median(t):.3f}",
+                 "p99_us": f"{t[int(0.99 * n)]:.3f}", "max_us": f"{t[-1]:.3f}",
+                 "fallbacks": str(sf.deadline_misses), "rows_mean": "-"},
             )
         )  # fmt: skip
     out = _run(exe, "--dense", "--back-to-back", "--cycles", str(a.dense_cycles))

@@ -904,6 +904,22 @@ class SafetyFilter(InvalidPolicy):
 
         The same cycle as :meth:`explain` without the diagnostics (zone, slack, names).
         """
+        cyc = self._ccycle
+        if cyc is not None and previous is None:
+            # The C cycle's fast path: float64 arrays of shape (dof,) go straight in (the
+            # binding checks their type, shape and finiteness); anything else, or an input C
+            # refuses, takes the validated route below (the same cycle, with the messages).
+            misses = cyc.deadline_misses
+            try:
+                x: FloatArray = cyc.cycle(q, qd_cmd, self._previous if self._has_accel else None)
+            except (TypeError, ValueError):
+                pass
+            else:
+                if cyc.deadline_misses != misses:
+                    self.deadline_misses += 1
+                if self._has_accel:
+                    self._previous = readonly(x.copy())
+                return x
         qa = self._state("q", q, self.dof, "rad")
         ua = self._state("qd_cmd", qd_cmd, self.dof, "rad/s")
         if self._bad(qa, ua):
