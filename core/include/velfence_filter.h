@@ -155,7 +155,7 @@ typedef struct vf_filter {
     const double *link_radius;     /* capsule radius per link (n,) [m], >= 0; NULL: 0 */
     double obstacle_buffer;        /* width of the obstacles' linear buffer [m], > 0 */
     double spring_gain;            /* obstacles' recovery gain [1/s], >= 0 */
-    double dt;                     /* control period [s], > 0, or 0: continuous time */
+    double dt;                     /* control period [s], 0 < dt <= 1e150, or 0: continuous */
     const double *weights;         /* diagonal metric (n,), > 0, or NULL (identity) */
 } vf_filter;
 

@@ -244,7 +244,7 @@ int vf_filter_check(const vf_filter *f)
     }
     if (!(isfinite(f->obstacle_buffer) && f->obstacle_buffer > 0.0)
         || !(isfinite(f->spring_gain) && f->spring_gain >= 0.0)
-        || !(isfinite(f->dt) && f->dt >= 0.0) || (f->dt > 0.0 && !isfinite(1.0 / f->dt))) {
+        || !(f->dt >= 0.0 && f->dt <= MAX_MAG)) {
         return VF_ERR_ARGUMENT;
     }
     return VF_OK;
@@ -744,8 +744,11 @@ static int32_t model_check(ctx *c, const double *x, double *bnd)
         target = D(c, dist)[r] < 0.0 ? D(c, dist)[r] : 0.0;
         if (!(d1 >= target)) {
             bad += 1;
-            if (bnd != NULL) {
-                bnd[r] += (target - d1) / f->dt * (1.0 + 1e-6) + 1e-12;
+            if (bnd != NULL) { /* (a non-finite next distance or raise: failed, no raise) */
+                const double nb = bnd[r] + ((target - d1) / f->dt * (1.0 + 1e-6) + 1e-12);
+                if (isfinite(nb)) {
+                    bnd[r] = nb;
+                }
             }
         }
     }
