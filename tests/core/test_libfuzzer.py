@@ -250,8 +250,9 @@ def test_filter_cycle_findings_run_clean_and_a_spoiled_result_aborts(
 ) -> None:
     """The whole filter cycle: fuzz_filter_cycle runs clean on its seeds and on its findings
     (core/fuzz/crashes/filter_cycle-*: a far-off kernel answer repaired into a 3e12 joint speed;
-    a NaN bound claimed after a model check at dt = DBL_MAX; both fixed); built with --control-tamper (every VF_OK output spoiled with a NaN) it aborts on its
-    seeds, printing the decoded input."""
+    a NaN bound claimed after a model check at dt = DBL_MAX; both fixed); built with
+    --control-tamper (every VF_OK output spoiled with a NaN) it aborts on its seeds, printing the
+    decoded input."""
     found = sorted(str(f) for f in (FUZZ / "crashes").glob("filter_cycle-*"))
     seeds = sorted(str(f) for f in (FUZZ / "corpus" / "filter_cycle").iterdir())
     assert len(found) >= 2
