@@ -284,7 +284,7 @@ typedef struct layout {
     size_t frames, P, axes, frames1, P1, axes1, q1, G, Gs, b, dist, slack, cur, bb, bt, used, us, ys,
         x, x1, xc, xt, ucmd, zeros, lam, wsf, capw, clear, wsd, wsb, wsJ, total;
     /* ints */
-    size_t level, ka, kb, active, relaxed, act, warm, ri, itotal;
+    size_t level, ka, kb, active, relaxed, slot, act, warm, ri, itotal;
 } layout;
 
 static void make_layout(const vf_filter *f, layout *L)
@@ -335,6 +335,7 @@ static void make_layout(const vf_filter *f, layout *L)
     ITAKE(kb, M);
     ITAKE(active, M);
     ITAKE(relaxed, M);
+    ITAKE(slot, M);
     ITAKE(act, n + 1);
     ITAKE(warm, M + 1);
     ITAKE(ri, 2 * nf + 2);
@@ -905,6 +906,40 @@ static void fallback(ctx *c, double *x)
     }
 }
 
+/* The slot of a row key in [0, rows_max): joint rows 4 a + b, acceleration 4 n + 2 a + b,
+ * workspace 6 n + (facets of the earlier polytopes) + b, obstacles 6 n + sum nf + n a + b;
+ * -1 for a key out of range. */
+static int32_t key_slot(const vf_filter *f, int32_t lv, int32_t a, int32_t b)
+{
+    const int32_t n = f->n;
+    int32_t off = 6 * n, w;
+    if (lv == VF_FILTER_LEVEL_JOINT) {
+        return a >= 0 && a < n && b >= 0 && b < 4 ? 4 * a + b : -1;
+    }
+    if (lv == VF_FILTER_LEVEL_RATE) {
+        return a >= 0 && a < n && b >= 0 && b < 2 ? 4 * n + 2 * a + b : -1;
+    }
+    if (lv == VF_FILTER_LEVEL_WORKSPACE) {
+        if (a < 0 || a >= f->nw || b < 0 || b >= f->ws[a].nf) {
+            return -1;
+        }
+        for (w = 0; w < a; w++) {
+            off += f->ws[w].nf;
+        }
+        return off + b;
+    }
+    if (lv == VF_FILTER_LEVEL_OBSTACLE) {
+        if (a < 0 || a >= f->k || b < 0 || b >= n) {
+            return -1;
+        }
+        for (w = 0; w < f->nw; w++) {
+            off += f->ws[w].nf;
+        }
+        return off + n * a + b;
+    }
+    return -1;
+}
+
 /* ------------------------------------------------------------------ the cycle */
 
 static void zero_info(vf_filter_info *info)
@@ -1031,16 +1066,26 @@ int vf_filter_cycle(const vf_filter *f, const double *q, const double *u, const 
         }
     }
     if (opts != NULL && opts->n_warm > 0) {
-        /* the previous active set, by key, as row indices (the solver's warm start) */
+        /* the previous active set, by key, as row indices (the solver's warm start): a table
+         * of every possible key's slot (rows_max of them) -> row, then one look-up per key */
+        int32_t *slot = IV(c, slot);
         int32_t w, cnt = 0;
+        const int32_t M = (int32_t)c->L.M;
+        for (r = 0; r < M; r++) {
+            slot[r] = -1;
+        }
+        for (r = 0; r < c->m; r++) {
+            k = key_slot(f, IV(c, level)[r], IV(c, ka)[r], IV(c, kb)[r]);
+            if (k >= 0) {
+                slot[k] = r;
+            }
+        }
         for (w = 0; w < opts->n_warm; w++) {
             const int32_t *key = opts->warm + 3 * (size_t)w;
-            for (r = 0; r < c->m; r++) {
-                if (IV(c, level)[r] == key[0] && IV(c, ka)[r] == key[1]
-                    && IV(c, kb)[r] == key[2]) {
-                    IV(c, warm)[cnt++] = r;
-                    break;
-                }
+            k = key_slot(f, key[0], key[1], key[2]);
+            if (k >= 0 && slot[k] >= 0) {
+                IV(c, warm)[cnt++] = slot[k];
+                slot[k] = -1; /* (once) */
             }
         }
         c->n_warm = cnt;
