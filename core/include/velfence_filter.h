@@ -21,8 +21,11 @@
  *          left out)                                       (VF_FILTER_LEVEL_OBSTACLE, s, l);
  *      a row is *violated* when its signed distance is < 0; its bound is then a recovery bound;
  *   3. the feasibility test (G u >= b as evaluated: then x = u exactly), the projection
- *      (vf_nd_project_kernel, in the metric: y = sqrt(w) x), the discrete-time model check and the
- *      priority ladder, exactly as velfence.filter (the Python oracle):
+ *      (vf_nd_project_kernel_opt with the caller's iteration cap, deadline and warm rows; in the
+ *      metric y = sqrt(w) x, then a repair along rows missed beyond the acceptance tolerance; an
+ *      answer beyond the joint speed limits -- rows of every rung -- counts as a stalled solve),
+ *      the discrete-time model check and the priority ladder, exactly as velfence.filter (the
+ *      Python oracle):
  *        rung 1  every row as built;
  *        rung 2  drop the acceleration rows                   (VF_FILTER_STAGE_DROPPED_RATE);
  *        rung 3  violated obstacle rows with b > 0: b scaled by 1/4, 1/16, ..., 4^-8, then 0
@@ -40,8 +43,15 @@
  *      Deadline: when a solve hits the iteration cap or the cycle its time budget, the output is
  *      the safe fallback: the largest t in [0, 1] with t u meeting every row relaxed to
  *      min(b, 0) (closed form, halved until met as evaluated), then the model check's scaling
- *      as above; else zero
- *      (VF_FILTER_STAGE_DEADLINE, info->deadline). Zero meets those rows, so it is always safe.
+ *      as above; else zero (VF_FILTER_STAGE_DEADLINE, info->deadline; the ladder's stages and
+ *      relaxed / dropped flags are replaced). Zero meets those rows, so it is always safe.
+ *   4. the report: info (stages, rung, relaxed / dropped levels, relaxed rows, active rows --
+ *      slack <= 1e-9 (1 + |b|) or violated --, the rows, the slack and the bounds the output
+ *      claims to meet). Every claimed bound and every joint, workspace and obstacle row's
+ *      min(b, 0) are met to 1e-12 (|c| + |g|_1 (|x|_inf + |u|_inf)) (the spec's acceptance).
+ *
+ * Warm start: pass the last cycle's active keys (level, key_a, key_b of info->active rows) in
+ * opts->warm; the first solve tries those rows first (same answer, usually fewer iterations).
  *
  * Commands beyond 1e3 times the fastest joint limit are first shortened in their own direction
  * (VF_FILTER_STAGE_COMMAND_SCALED), as SafetyFilter does.
@@ -57,7 +67,8 @@
  * P_n is the tool point (origin of F_tool). Link l (0 .. n-1) is the capsule P_l -> P_{l+1}.
  * A standard DH row (a, alpha, d, theta0) is the motion Rz(q + theta0) followed by the fixed
  * Tz(d) Tx(a) Rx(alpha), which becomes the next joint's T (and the tool's for the last joint):
- * T_0 = I, T_j = Tz(d_{j-1}) Tx(a_{j-1}) Rx(alpha_{j-1}), tool = Tz(d_n) Tx(a_n) Rx(alpha_n) Tt.
+ * T_0 = I, T_j = Tz(d_{j-1}) Tx(a_{j-1}) Rx(alpha_{j-1}), tool = Tz(d_{n-1}) Tx(a_{n-1})
+ * Rx(alpha_{n-1}) Tt (rows 0-based, Tt the tool offset).
  * A modified DH (Craig) row (a_{i-1}, alpha_{i-1}, d_i, theta0) is T_j = Rx(alpha) Tx(a) Tz(d) with
  * motion Rz; a URDF / MJCF joint is its origin transform and axis directly.
  * Named points (workspace polytopes) sit on a frame: link -1 the base, 0 .. n-1 the frame F_link
