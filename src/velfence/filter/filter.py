@@ -33,6 +33,7 @@ from numpy.typing import ArrayLike
 from velfence._typing import FloatArray
 from velfence._validate import (
     MAX_MAGNITUDE,
+    check_flag,
     check_positive,
     check_positive_int,
     describe,
@@ -300,6 +301,7 @@ class SafetyFilter(InvalidPolicy):
                     f"jacobian), got {type(robot).__name__} without {attr!r}"
                 )
         if accelerate is not None:
+            check_flag("accelerate", accelerate)
             warnings.warn(
                 "SafetyFilter(accelerate=...) is deprecated and ignored: the numba filter solve "
                 "is gone (backend= chooses the compiled core)",
@@ -330,7 +332,7 @@ class SafetyFilter(InvalidPolicy):
         self.max_iterations = (
             None
             if max_iterations is None
-            else check_positive_int("max_iterations", max_iterations, example=50)
+            else check_positive_int("max_iterations", max_iterations, example=50, maximum=2**31 - 1)
         )
         self.time_budget = (
             None if time_budget is None else check_positive("time_budget", time_budget, unit="s")
@@ -367,13 +369,16 @@ class SafetyFilter(InvalidPolicy):
         self._check_frame(frame0, q0)
         self._workspace = self._workspaces(workspace, frame0)
         self._obstacles = self._obstacle_list(obstacles)
-        rows: list[Any] = [JointPositionLimit(limits, profs, kern), JointVelocityLimit(limits)]
+        rows: list[Any] = [
+            JointPositionLimit(limits, profs, kernels=kern),
+            JointVelocityLimit(limits),
+        ]
         if self._has_accel:
             rows.append(JointAccelerationLimit(limits))
         multi = len(self._workspace) > 1
         for w_i, w in enumerate(self._workspace):
             pre = f"workspace {w_i}: " if multi else ""
-            rows.append(WorkspaceRows(w, self.task_dim, pre, kern))
+            rows.append(WorkspaceRows(w, dim=self.task_dim, prefix=pre, kernels=kern))
         if self._obstacles:
             rows.append(self._obstacle_rows(frame0))
         self._n_builtin = len(rows)

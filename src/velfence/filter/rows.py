@@ -225,7 +225,11 @@ class JointPositionLimit:
     label = "joint position"
 
     def __init__(
-        self, limits: JointLimits, profiles: Sequence[Profile], kernels: BoundKernels = PLAIN_BOUNDS
+        self,
+        limits: JointLimits,
+        profiles: Sequence[Profile],
+        *,
+        kernels: BoundKernels = PLAIN_BOUNDS,
     ) -> None:
         n = limits.dof
         self._n = n
@@ -369,6 +373,7 @@ class WorkspaceRows:
     def __init__(
         self,
         limit: WorkspaceLimit,
+        *,
         dim: int,
         prefix: str = "",
         kernels: BoundKernels = PLAIN_BOUNDS,
