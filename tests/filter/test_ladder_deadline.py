@@ -151,10 +151,10 @@ def test_zero_meets_every_safety_row_so_nothing_is_dropped() -> None:
     d = np.load(DATA / "project_filter_rows.npz")
     u, G, b = d["u"], d["G"], d["b"]
     level = np.full(b.shape[0], LEVEL_WORKSPACE)
-    from velfence.filter.filter import _python_solve
+    from velfence.filter.solve import python_solve
 
     out = run_ladder(G, b, level, np.zeros(b.shape[0], dtype=bool),
-                     lambda G, b, w: _python_solve(u, G, b, 0, w))  # fmt: skip
+                     lambda G, b, w: python_solve(u, G, b, 0, w))  # fmt: skip
     assert not any(s.startswith("dropped") for s in out.stages)
     assert out.relaxed == []
     assert meets(G, b, out.x)

@@ -116,7 +116,7 @@ def test_custom_profile_runs_in_python() -> None:
 
 def test_python_backend_runs_without_the_core() -> None:
     """backend='python' never touches the compiled core (the numba filter solve is gone)."""
-    assert _filter(backend="python")._core is None
+    assert _filter(backend="python")._projector._core is None
 
 
 def _bits(a: Any) -> list[bytes]:

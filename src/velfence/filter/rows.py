@@ -480,7 +480,8 @@ class ObstacleRows:
         r = self._radius
         return np.broadcast_to(r, (nl,)) if r.shape[0] == 1 else r[:nl]
 
-    def _segments(self, frame: KinematicsFrame) -> FloatArray:
+    def segments(self, frame: KinematicsFrame) -> FloatArray:
+        """The frame's link segments (L, 2, 3), checked against the link radii."""
         segs = np.asarray(frame.segments(), dtype=np.float64)
         nl = segs.shape[0] if segs.ndim == 3 else -1
         segs = checked("kinematics(q).segments()", segs, (max(nl, 0), 2, 3))
@@ -490,7 +491,7 @@ class ObstacleRows:
 
     def rows(self, ctx: RowContext) -> RowBlock | None:
         """The rows of the pairs within reach."""
-        segs = self._segments(ctx.frame)
+        segs = self.segments(ctx.frame)
         nl = segs.shape[0]
         n = ctx.q.shape[0]
         clear, t, _X, R, dist = _clearances(segs, self._centres, self._srad, self._radii(nl))
@@ -546,7 +547,7 @@ class ObstacleRows:
 
     def next_distances(self, frame: KinematicsFrame, block: RowBlock) -> FloatArray:
         """The block's pairs' clearances [m] at the pose of ``frame``, shape (k,)."""
-        segs = self._segments(frame)
+        segs = self.segments(frame)
         oi, lk = block.data
         clear = _clearances(segs, self._centres, self._srad, self._radii(segs.shape[0]))[0]
         out: FloatArray = clear[oi, lk]
