@@ -422,7 +422,7 @@ class SafetyFilter(InvalidPolicy):
             constraint_names=tuple(names), stages=tuple(pre + out.stages),
             dropped=tuple(out.dropped), rate_override=out.rate_override,
             rows=(readonly(G), readonly(b0)), relaxed=tuple(names[i] for i in out.relaxed),
-            deadline=deadline,  # type: ignore[arg-type]
+            deadline=deadline,
         )  # fmt: skip
 
     # ------------------------------------------------------------------ public
