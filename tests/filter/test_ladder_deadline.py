@@ -133,8 +133,12 @@ def test_time_budget_is_validated(bad: Any) -> None:
         crowded(time_budget=bad)
 
 
+@pytest.mark.skipif(
+    not hasattr(projection, "project_kernel_opts"),
+    reason="the projection's warm start (project_kernel_opts) has not landed on main yet",
+)
 def test_warm_start_from_the_previous_active_rows() -> None:
-    f = crowded()
+    f = crowded(backend="python")
     u = np.array([1.0, -1.0, 1.0, 1.0, -1.0, 1.0, 1.0])
     r1 = f.explain(Q0, u)
     assert f._warm, "the binding rows are remembered by key"

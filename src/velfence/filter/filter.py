@@ -42,6 +42,7 @@ from velfence._validate import (
 )
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.filter import parts
+from velfence.filter.compiled import compiled_rows
 from velfence.filter.kinematics import Kinematics, checked, frame_of
 from velfence.filter.ladder import DeadlineHit, LadderOutcome, run_ladder, safe_fallback
 from velfence.filter.limits import JointLimits, Profile, SphereObstacle, WorkspaceLimit
@@ -120,6 +121,7 @@ class SafetyFilter(InvalidPolicy):
 
     __slots__ = (
         "_clock",
+        "_compiled",
         "_has_accel",
         "_metric",
         "_n_builtin",
@@ -244,6 +246,7 @@ class SafetyFilter(InvalidPolicy):
         self._n_builtin = len(rows)
         rows.extend(parts.custom_providers(providers))
         self._providers: tuple[Any, ...] = tuple(rows)
+        self._compiled = None if providers else compiled_rows(core, self, profs)
         self._metric: Metric = parts.metric(weights, n)
 
     # ------------------------------------------------------------------ state
@@ -326,11 +329,14 @@ class SafetyFilter(InvalidPolicy):
             u = u * (cap / big)
             scaled = True
         with np.errstate(all="ignore"):
-            if frame is None:
-                frame = frame_of(self.robot, q)
-            cyc = collect(
-                self._providers, self._n_builtin, RowContext(q, u, prev, self.dt, frame), self.dof
-            )
+            cyc: RowStack
+            if self._compiled is not None and frame is None:
+                cyc = self._compiled.stack(q, u, prev if self._has_accel else None)
+            else:
+                if frame is None:
+                    frame = frame_of(self.robot, q)
+                ctx = RowContext(q, u, prev, self.dt, frame)
+                cyc = collect(self._providers, self._n_builtin, ctx, self.dof)
             budget = self.time_budget
 
             def solve(G: FloatArray, b: FloatArray, warm: Any) -> tuple[int, FloatArray]:
@@ -369,6 +375,8 @@ class SafetyFilter(InvalidPolicy):
 
     def _remember_active(self, cyc: RowStack, x: FloatArray) -> None:
         """The rows binding at ``x``, by key: the next cycle's warm start."""
+        if not self._projector.warm_starts:
+            return
         if cyc.G.shape[0] == 0:
             self._warm = set()
             return
@@ -382,7 +390,7 @@ class SafetyFilter(InvalidPolicy):
         dt = self.dt or 0.0
 
         def nxt(x: FloatArray) -> FloatArray:
-            return cyc.next_distances(frame_of(self.robot, q + x * dt))
+            return cyc.distances_at(self.robot, q + x * dt)
 
         return nxt
 

@@ -381,14 +381,15 @@ class WorkspaceRows:
         self.limit = limit
         self._dim = dim
         self._kern = kernels
-        self._prof: Profile = (
+        self.profile: Profile = (
             limit.profile if limit.profile is not None else LinearBuffer(buffer=limit.buffer)
         )
         poly = limit.polytope
         self._N = np.asarray(poly.normals, dtype=float)
         self._o = np.asarray(poly.offsets, dtype=float)
         point = "TCP" if limit.point == "tcp" else limit.point
-        self._names = tuple(f"{prefix}{point} face {nm}" for nm in poly.facet_names)
+        #: Row name of every facet (the rows keep those within the profile's reach).
+        self.facet_row_names = tuple(f"{prefix}{point} face {nm}" for nm in poly.facet_names)
         self.label = f"workspace on {limit.point!r}"
 
     def rows(self, ctx: RowContext) -> RowBlock | None:
@@ -400,9 +401,9 @@ class WorkspaceRows:
         dist = self._N @ p - self._o
         ju = J @ ctx.command
         s = math.sqrt(float(ju @ ju))
-        bnd = rate_bounds(self._prof, dist, s, _idt(ctx.dt), self._kern)
+        bnd = rate_bounds(self.profile, dist, s, _idt(ctx.dt), self._kern)
         kept = np.flatnonzero(bnd != -math.inf)
-        names = self._names
+        names = self.facet_row_names
         return RowBlock(
             (self._N @ J)[kept], bnd[kept], dist[kept] < 0.0, kept,
             lambda: [names[i] for i in kept.tolist()], distance=dist[kept], data=kept,

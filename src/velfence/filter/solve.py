@@ -99,15 +99,23 @@ class Projector:
         self._core = core
         self._cap = max_iterations or 0
 
+    @property
+    def warm_starts(self) -> bool:
+        """Whether the solves take a warm start (the Python kernel with the options)."""
+        from velfence.geometry import projection as pj
+
+        return (self._core is None or self._cap > 0) and hasattr(pj, "project_kernel_opts")
+
     def solve(
         self, u: FloatArray, G: FloatArray, b: FloatArray, warm: Any
     ) -> tuple[int, FloatArray]:
         """``(status, x)`` of the Euclidean projection (status 0 optimal; a non-finite x is 1).
 
-        The compiled core has no cap or warm start in its binding yet: a capped or warm solve
-        runs the Python kernel (the same arithmetic).
+        The compiled core's binding has no cap or warm start yet: a capped solve runs the Python
+        kernel (the same arithmetic); an uncapped one runs in C without the warm start (an
+        ordering hint only: the optimum is the same).
         """
-        if self._core is not None and self._cap == 0 and not warm:
+        if self._core is not None and self._cap == 0:
             status, x = self._core.project(
                 np.ascontiguousarray(u, dtype=np.float64),
                 np.ascontiguousarray(G, dtype=np.float64),

@@ -19,6 +19,7 @@ import numpy as np
 from velfence._typing import FloatArray
 from velfence._validate import describe
 from velfence.errors import InvalidInput, VelfenceError
+from velfence.filter.kinematics import frame_of
 from velfence.filter.rows import RowBlock, RowContext
 
 __all__ = ["RowStack", "collect"]
@@ -91,6 +92,10 @@ class RowStack:
                 out.extend((hit + first).tolist())
             first += blk.size
         return out
+
+    def distances_at(self, robot: Any, q1: FloatArray) -> FloatArray:
+        """The model-checked rows' distances at the joint position ``q1`` (a new frame)."""
+        return self.next_distances(frame_of(robot, q1))
 
     def next_distances(self, frame: Any) -> FloatArray:
         """The model-checked rows' distances at the pose of ``frame``, in ``checked`` order."""
