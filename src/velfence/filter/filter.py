@@ -329,14 +329,7 @@ class SafetyFilter(InvalidPolicy):
             u = u * (cap / big)
             scaled = True
         with np.errstate(all="ignore"):
-            cyc: RowStack
-            if self._compiled is not None and frame is None:
-                cyc = self._compiled.stack(q, u, prev if self._has_accel else None)
-            else:
-                if frame is None:
-                    frame = frame_of(self.robot, q)
-                ctx = RowContext(q, u, prev, self.dt, frame)
-                cyc = collect(self._providers, self._n_builtin, ctx, self.dof)
+            cyc = self._build_rows(q, u, prev, frame)
             budget = self.time_budget
 
             def solve(G: FloatArray, b: FloatArray, warm: Any) -> tuple[int, FloatArray]:
@@ -372,6 +365,17 @@ class SafetyFilter(InvalidPolicy):
                 self._previous = readonly(x.copy())
             self._remember_active(cyc, x)
         return cyc, x, u, out, scaled, deadline
+
+    def _build_rows(
+        self, q: FloatArray, u: FloatArray, prev: FloatArray | None, frame: Any = None
+    ) -> RowStack:
+        """This cycle's rows by the route in use (compiled for a DH chain in joint mode)."""
+        if self._compiled is not None and frame is None:
+            return self._compiled.stack(q, u, prev if self._has_accel else None)
+        if frame is None:
+            frame = frame_of(self.robot, q)
+        ctx = RowContext(q, u, prev, self.dt, frame)
+        return collect(self._providers, self._n_builtin, ctx, self.dof)
 
     def _remember_active(self, cyc: RowStack, x: FloatArray) -> None:
         """The rows binding at ``x``, by key: the next cycle's warm start."""

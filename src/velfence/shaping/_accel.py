@@ -149,6 +149,7 @@ def _compiled_polytope() -> tuple[Callable[..., Any], Callable[..., Any]] | None
         (_projection, "_row_norm"),
         (_projection, "_slack"),
         (_projection, "scratch_length"),
+        (_projection, "project_kernel_opts"),
         (_projection, "project_kernel"),
         (_kernels, "zone_code"),
         (_kernels, "profile_cap"),
