@@ -48,6 +48,7 @@ from velfence.filter.ladder import DeadlineHit, LadderOutcome, run_ladder, safe_
 from velfence.filter.limits import JointLimits, Profile, SphereObstacle, WorkspaceLimit
 from velfence.filter.result import FilterResult
 from velfence.filter.rows import (
+    LEVEL_RATE,
     PLAIN_BOUNDS,
     BoundKernels,
     JointAccelerationLimit,
@@ -356,7 +357,8 @@ class SafetyFilter(InvalidPolicy):
                     d0=cyc.d0, next_distances=nxt, dt=self.dt,
                 )  # fmt: skip
                 stages = ["deadline"] + ([how] if how else [])
-                out = LadderOutcome(x, relaxed, [], stages, False)
+                rate = bool(relaxed) and bool(np.any(cyc.level[relaxed] == LEVEL_RATE))
+                out = LadderOutcome(x, relaxed, ["acceleration"] if rate else [], stages, rate)
         if not finite(x):
             self._invalid("input too large: the filtered velocity overflowed")
             return self._stopped(q, cmd)
