@@ -28,8 +28,8 @@ load on this shared machine falls on all of them alike. Columns: median, p99 and
    ``q + u dt``, ``dt`` = 4 ms. mink solves a different (discrete-time, task-QP) problem with the
    same limits, so only its time is compared.
 3. (``--no-cost`` skips it) what numba costs for the n-D paths: a fresh process with an empty
-   numba cache compiles ``compiled_polytope`` (first call; the filter's numba solve is gone), and the
-   resident-set growth of ``import numba`` against ``import velfence_core._nd``.
+   numba cache compiles ``compiled_polytope`` (first call; the filter's numba solve is gone), and
+   the resident-set growth of ``import numba`` against ``import velfence_core._nd``.
 """
 
 from __future__ import annotations
