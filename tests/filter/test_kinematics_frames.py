@@ -91,3 +91,14 @@ def test_chain_data_is_the_dh_table(chain: DHChain) -> None:
 def test_other_robots_have_no_chain_data() -> None:
     assert PlanarArm.three_r().chain_data() is None
     assert Puma560().chain_data() is not None  # its chain is a DH table
+
+
+@pytest.mark.parametrize("chain", [DHChain.seven_dof(link_radius=0.05), PlanarArm.three_r()])
+def test_batched_point_jacobians_equal_one_at_a_time(chain: Any) -> None:
+    rng = np.random.default_rng(6)
+    frame = chain.kinematics(rng.uniform(-2.0, 2.0, chain.dof))
+    links = rng.integers(0, chain.dof, 12)
+    ts = rng.uniform(0.0, 1.0, 12)
+    batch = frame.point_jacobians(links, ts)
+    for k, (link, t) in enumerate(zip(links.tolist(), ts.tolist(), strict=True)):
+        np.testing.assert_allclose(batch[k], frame.point_jacobian(link, t), atol=1e-15, rtol=0)

@@ -512,25 +512,29 @@ class ObstacleRows:
             return None
         u = ctx.command
         idt = _idt(ctx.dt)
-        G: list[FloatArray] = []
-        bs: list[float] = []
-        keep: list[int] = []
-        for r, (i, k) in enumerate(zip(obs_i.tolist(), link.tolist(), strict=True)):
-            Jc = checked(
-                f"kinematics(q).point_jacobian({k}, t)",
-                ctx.frame.point_jacobian(k, float(t[i, k])),
-                (3, n),
-            )
-            b = _bound1(self._prof, float(clear[i, k]), float(np.linalg.norm(Jc @ u)), idt)
-            if b == -math.inf:
-                continue
-            d = float(dist[i, k])
-            nrm = R[i, k] / d if d > 0.0 else _fallback(segs[k])
-            G.append(nrm @ Jc)
-            bs.append(b)
-            keep.append(r)
+        ts = t[obs_i, link]
+        batch = getattr(ctx.frame, "point_jacobians", None)
+        if batch is not None:
+            Js = batch(link, ts)
+        else:
+            Js = [
+                ctx.frame.point_jacobian(k, tk)
+                for k, tk in zip(link.tolist(), ts.tolist(), strict=True)
+            ]
+        Jc = checked("kinematics(q).point_jacobian(link, t)", Js, (obs_i.shape[0], 3, n))
+        speed = np.sqrt(((Jc @ u) ** 2).sum(axis=1)).tolist()
+        d_sel = clear[obs_i, link].tolist()
+        r_sel = dist[obs_i, link]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            nrm = R[obs_i, link] / r_sel[:, None]
+        for z in np.flatnonzero(r_sel == 0.0).tolist():
+            nrm[z] = _fallback(segs[int(link[z])])
+        bs = [_bound1(self._prof, d_sel[r], speed[r], idt) for r in range(len(d_sel))]
+        keep = [r for r in range(len(bs)) if bs[r] != -math.inf]
         if not keep:
             return None
+        G = np.einsum("ki,kij->kj", nrm[keep], Jc[keep])
+        bs = [bs[r] for r in keep]
         oi = obs_i[keep]
         lk = link[keep]
         d0 = clear[oi, lk]
@@ -541,7 +545,7 @@ class ObstacleRows:
             ]
 
         return RowBlock(
-            np.array(G), np.array(bs), d0 < 0.0, oi * nl + lk,
+            G, np.array(bs), d0 < 0.0, oi * nl + lk,
             names,
             distance=d0, data=(oi, lk),
         )  # fmt: skip
