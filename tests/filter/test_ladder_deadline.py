@@ -1,7 +1,7 @@
-"""The spec §3 ladder, the deadline fallback, custom row providers and bad input.
+"""The priority ladder (docs/safety_filter.md), the deadline fallback, custom row providers and bad input.
 
 Scenes: a 7-joint arm (DHChain.seven_dof) with a TCP box and spheres near the links; the
-reproducer states of the escape campaign (/work/shared/repro, copied under tests/filter/data).
+reproducer states of an independent escape campaign (kept under tests/data).
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ from velfence.geometry import projection
 from velfence.geometry.polytope import ConvexPolytope
 from velfence.mechanisms.chain import DHChain
 
-DATA = Path(__file__).parent / "data"
+DATA = Path(__file__).resolve().parents[1] / "data"
 ARM = DHChain.seven_dof(link_radius=0.05)
 Q0 = np.array([0.1, 0.6, 0.0, -1.2, 0.0, 0.8, 0.0])
 
