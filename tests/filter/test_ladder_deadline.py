@@ -1,6 +1,6 @@
-"""The priority ladder (docs/safety_filter.md), the deadline fallback, custom row providers and bad input.
+"""The priority ladder, the deadline fallback, custom row providers and bad input.
 
-Scenes: a 7-joint arm (DHChain.seven_dof) with a TCP box and spheres near the links; the
+Ladder: docs/safety_filter.md. Scenes: a 7-joint arm (DHChain.seven_dof) with a TCP box and spheres near the links; the
 reproducer states of an independent escape campaign (kept under tests/data).
 """
 
