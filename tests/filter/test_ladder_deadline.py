@@ -1,7 +1,8 @@
 """The priority ladder, the deadline fallback, custom row providers and bad input.
 
-Ladder: docs/safety_filter.md. Scenes: a 7-joint arm (DHChain.seven_dof) with a TCP box and spheres near the links; the
-reproducer states of an independent escape campaign (kept under tests/data).
+The ladder is documented in docs/safety_filter.md. Scenes: a 7-joint arm (DHChain.seven_dof)
+with a TCP box and spheres near the links; the reproducer states of an independent escape
+campaign (kept under tests/data).
 """
 
 from __future__ import annotations
