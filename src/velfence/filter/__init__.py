@@ -17,8 +17,10 @@ always finite; bad input raises a :class:`~velfence.errors.VelfenceError` naming
 Modules: :mod:`~velfence.filter.kinematics` (protocol and per-cycle cache),
 :mod:`~velfence.filter.limits` (limit value objects), :mod:`~velfence.filter.rows` (row
 providers), :mod:`~velfence.filter.ladder` (priority ladder and fallbacks),
-:mod:`~velfence.filter.result` (:class:`FilterResult`), :mod:`~velfence.filter.filter`
-(:class:`SafetyFilter`).
+:mod:`~velfence.filter.result` (:class:`FilterResult`), :mod:`~velfence.filter.solve` (the
+projection under the metric, its backends, cap and warm start), :mod:`~velfence.filter.stack`
+(one cycle's stacked rows and their keys), :mod:`~velfence.filter.parts` (the validated parts,
+checked at construction), :mod:`~velfence.filter.filter` (:class:`SafetyFilter`).
 """
 
 from velfence.filter.filter import SafetyFilter

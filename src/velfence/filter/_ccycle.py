@@ -116,7 +116,22 @@ def _points(dh5: FloatArray, point_index: dict[str, int]) -> dict[str, tuple[flo
     return out
 
 
-def filter_cycle(sf: Any) -> Any:
+def _joint_profiles(sf: Any) -> list[Any]:
+    """Each joint's approach profile, read from the filter's joint position rows."""
+    from velfence.filter.rows import JointPositionLimit
+    from velfence.shaping.profiles import LinearBuffer
+
+    n = int(sf.dof)
+    out: list[Any] = [LinearBuffer(buffer=0.1)] * n  # (joints without a finite limit: unused)
+    for p in sf._providers:
+        if isinstance(p, JointPositionLimit):
+            for prof, _, sides in p._groups:
+                for side in sides.tolist():
+                    out[side // 2] = prof
+    return out
+
+
+def filter_cycle(sf: Any, profiles: Any = None) -> Any:
     """The C cycle (``velfence_core._filter.FilterCycle``) of a ``SafetyFilter``.
 
     The robot must give its chain as data (``chain_data()``, a DH chain), the filter must have
@@ -152,7 +167,7 @@ def filter_cycle(sf: Any) -> Any:
     lim = sf.limits
     jkind: list[int] = []
     jprm: list[float] = []
-    for prof in sf._joint_prof:
+    for prof in _joint_profiles(sf) if profiles is None else profiles:
         kind, params = prof.kernel_profile
         jkind.append(int(kind))
         jprm.extend(float(v) for v in params)
@@ -161,7 +176,7 @@ def filter_cycle(sf: Any) -> Any:
     ws = []
     for p in sf._providers:
         if isinstance(p, WorkspaceRows):
-            kind, params = p._prof.kernel_profile
+            kind, params = p.profile.kernel_profile
             poly = p.limit.polytope
             ws.append(
                 (
@@ -188,7 +203,7 @@ def filter_cycle(sf: Any) -> Any:
     )  # fmt: skip
 
 
-def c_cycle_or_none(sf: Any) -> Any:
+def c_cycle_or_none(sf: Any, profiles: Any = None) -> Any:
     """:func:`filter_cycle` with the filter's options set, or ``None`` where C cannot run it.
 
     ``None`` without the compiled ``_filter`` module, for a robot without chain data, with
@@ -197,7 +212,7 @@ def c_cycle_or_none(sf: Any) -> Any:
     state only, so ``filter`` and ``explain`` of one state agree bit for bit.
     """
     try:
-        fc = filter_cycle(sf)
+        fc = filter_cycle(sf, profiles)
     except (InvalidParameter, ValueError, TypeError):
         return None
     fc.set_options(**c_options(sf))

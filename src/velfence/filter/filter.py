@@ -33,20 +33,22 @@ from numpy.typing import ArrayLike
 from velfence._typing import FloatArray
 from velfence._validate import (
     MAX_MAGNITUDE,
+    check_flag,
     check_positive,
     check_positive_int,
     describe,
     readonly,
     real_array,
 )
-from velfence.errors import InvalidInput, InvalidParameter, VelfenceError
+from velfence.errors import InvalidInput, InvalidParameter
+from velfence.filter import parts
+from velfence.filter.compiled import compiled_rows
 from velfence.filter.kinematics import Kinematics, checked, frame_of
-from velfence.filter.ladder import DeadlineHit, run_ladder, safe_fallback
+from velfence.filter.ladder import DeadlineHit, LadderOutcome, run_ladder, safe_fallback
 from velfence.filter.limits import JointLimits, Profile, SphereObstacle, WorkspaceLimit
 from velfence.filter.result import FilterResult
 from velfence.filter.rows import (
     LEVEL_JOINT,
-    LEVEL_NAMES,
     LEVEL_OBSTACLE,
     LEVEL_RATE,
     LEVEL_WORKSPACE,
@@ -55,16 +57,15 @@ from velfence.filter.rows import (
     JointAccelerationLimit,
     JointPositionLimit,
     JointVelocityLimit,
-    ObstacleRows,
-    RowBlock,
     RowContext,
     RowProvider,
     WorkspaceRows,
 )
+from velfence.filter.solve import Metric, Projector, damped_factor, finite
+from velfence.filter.stack import RowStack, collect
 from velfence.shaping._kernels import ZONE_NAMES, zone_code
 from velfence.shaping.base import InvalidPolicy, OnInvalid, Zone
 from velfence.shaping.polytope import PolytopeBackend, pick_backend
-from velfence.shaping.profiles import LinearBuffer, ThreeZoneBraking
 
 __all__ = ["SafetyFilter"]
 
@@ -81,130 +82,6 @@ _C_DROPPED = (
     (LEVEL_JOINT, "joint limits"),
 )  # fmt: skip
 _COMMAND_CAP = 1e3  # commands are shortened beyond this multiple of the fastest joint limit
-
-# The metric's factor L (W = L Lᵀ): None (identity), a vector (diagonal) or a lower-triangular
-# matrix.
-_Metric = FloatArray | None
-
-
-def _finite(x: FloatArray) -> bool:
-    """Whether every entry of the vector ``x`` is finite (Python floats: cheaper than numpy)."""
-    return all(map(math.isfinite, x.tolist()))
-
-
-def _python_solve(
-    u: FloatArray, G: FloatArray, b: FloatArray, cap: int, warm: Any
-) -> tuple[int, FloatArray]:
-    """:func:`velfence.geometry.projection.project_kernel_opts` on Python lists: ``(status, x)``."""
-    from velfence.geometry import projection as pj
-
-    m, n = G.shape
-    x = [0.0] * n
-    lam = [0.0] * (n + 1)
-    act = [0] * (n + 1)
-    wsf = [0.0] * pj.scratch_length(m, n)
-    opts = getattr(pj, "project_kernel_opts", None)
-    args = (u.tolist(), G.ravel().tolist(), b.tolist(), m, n, x, lam, act, wsf)
-    if opts is not None:
-        w = [] if warm is None else [int(i) for i in warm]
-        status = opts(*args, cap, w, len(w))[0]
-    else:  # the projection before the deadline options (no cap, no warm start)
-        status = pj.project_kernel(*args)[0]
-    return int(status), np.array(x, dtype=np.float64)
-
-
-def _factor(H: FloatArray) -> FloatArray:
-    """Cholesky factor of the damped normal matrix; NaN when it has none (the caller stops).
-
-    With a damping far below the Jacobian's scale (1e-9 against entries of 1) round-off can make
-    ``JᵀJ + λ²I`` lose definiteness at a singular pose: a relative jitter of 1e-12 restores it.
-    """
-    if not np.all(np.isfinite(H)):
-        return np.full_like(H, np.nan)
-    n = H.shape[0]
-    for jitter in (0.0, 1e-12, 1e-9):
-        try:
-            shift = jitter * (float(np.trace(H)) / n + 1e-300)
-            L: FloatArray = np.linalg.cholesky(H + shift * np.eye(n))
-            return L
-        except np.linalg.LinAlgError:
-            continue
-    return np.full_like(H, np.nan)
-
-
-def _cholesky(name: str, W: FloatArray) -> FloatArray:
-    try:
-        L: FloatArray = np.asarray(np.linalg.cholesky(W), dtype=np.float64)
-        return L
-    except np.linalg.LinAlgError:
-        raise InvalidParameter(
-            f"{name}: expected a symmetric positive definite matrix, got eigenvalues "
-            f"{np.linalg.eigvalsh(0.5 * (W + W.T)).tolist()}"
-        ) from None
-
-
-class _Cycle:
-    """One cycle's stacked rows: ``G``, ``b``, levels, violated, keys, model-checked rows."""
-
-    __slots__ = ("G", "b", "blocks", "checked", "d0", "level", "violated")
-
-    def __init__(self, blocks: list[tuple[int, Any, RowBlock]], n: int) -> None:
-        self.blocks = blocks
-        if blocks:
-            self.G = np.concatenate([blk.G for _, _, blk in blocks]).reshape(-1, n)
-            self.b = np.concatenate([blk.b for _, _, blk in blocks]).astype(np.float64)
-            self.level = np.concatenate(
-                [np.full(blk.size, int(p.level), dtype=np.int64) for _, p, blk in blocks]
-            )
-            self.violated = np.concatenate(
-                [np.asarray(blk.violated, dtype=bool) for _, _, blk in blocks]
-            )
-        else:
-            self.G = np.zeros((0, n))
-            self.b = np.zeros(0)
-            self.level = np.zeros(0, dtype=np.int64)
-            self.violated = np.zeros(0, dtype=bool)
-        chk: list[Any] = []
-        d0: list[Any] = []
-        first = 0
-        for _, p, blk in blocks:
-            if blk.distance is not None and hasattr(p, "next_distances"):
-                chk.append(np.arange(first, first + blk.size))
-                d0.append(blk.distance)
-            first += blk.size
-        self.checked = np.concatenate(chk) if chk else np.zeros(0, dtype=np.int64)
-        self.d0 = np.concatenate(d0) if d0 else np.zeros(0)
-
-    def names(self) -> list[str]:
-        out: list[str] = []
-        for _, _, blk in self.blocks:
-            names = blk.names() if callable(blk.names) else blk.names
-            out.extend(str(s) for s in names)
-        return out
-
-    def keys(self, rows: Any) -> set[tuple[int, int]]:
-        """``(provider index, key)`` of the given row indices."""
-        out: set[tuple[int, int]] = set()
-        want = set(rows)
-        first = 0
-        for pi, _, blk in self.blocks:
-            k = blk.size
-            for r in [r for r in range(first, first + k) if r in want]:
-                out.add((pi, int(blk.keys[r - first])))
-            first += k
-        return out
-
-    def rows_of(self, keys: set[tuple[int, int]]) -> list[int]:
-        """Row indices of the given keys (those still present)."""
-        out: list[int] = []
-        first = 0
-        for pi, _, blk in self.blocks:
-            want = [k for p, k in keys if p == pi]
-            if want:
-                hit = np.flatnonzero(np.isin(np.asarray(blk.keys), want))
-                out.extend((hit + first).tolist())
-            first += blk.size
-        return out
 
 
 class SafetyFilter(InvalidPolicy):
@@ -260,13 +137,13 @@ class SafetyFilter(InvalidPolicy):
     __slots__ = (
         "_ccycle",
         "_clock",
-        "_core",
+        "_compiled",
         "_has_accel",
-        "_joint_prof",
         "_metric",
         "_n_builtin",
         "_obstacles",
         "_previous",
+        "_projector",
         "_providers",
         "_speed_scale",
         "_warm",
@@ -309,13 +186,9 @@ class SafetyFilter(InvalidPolicy):
         backend: PolytopeBackend = "auto",
     ) -> None:
         super().__init__(on_invalid=on_invalid)
-        for attr in ("dof", "joint_names", "points", "fk", "jacobian"):
-            if not hasattr(robot, attr):
-                raise InvalidParameter(
-                    f"robot: expected the Kinematics protocol (dof, joint_names, points, fk, "
-                    f"jacobian), got {type(robot).__name__} without {attr!r}"
-                )
+        parts.check_robot(robot)
         if accelerate is not None:
+            check_flag("accelerate", accelerate)
             warnings.warn(
                 "SafetyFilter(accelerate=...) is deprecated and ignored: the numba filter solve "
                 "is gone (backend= chooses the compiled core)",
@@ -346,7 +219,7 @@ class SafetyFilter(InvalidPolicy):
         self.max_iterations = (
             None
             if max_iterations is None
-            else check_positive_int("max_iterations", max_iterations, example=50)
+            else check_positive_int("max_iterations", max_iterations, example=50, maximum=2**31 - 1)
         )
         self.time_budget = (
             None if time_budget is None else check_positive("time_budget", time_budget, unit="s")
@@ -354,192 +227,52 @@ class SafetyFilter(InvalidPolicy):
         self.deadline_misses = 0
         self._clock: Callable[[], float] = time.perf_counter
         self._warm: set[tuple[int, int]] = set()
-        self._core, self.backend = pick_backend(backend)
-        kern: BoundKernels = PLAIN_BOUNDS if self._core is None else (None, self._core)
-        if profile is not None and not isinstance(profile, (LinearBuffer, ThreeZoneBraking)):
-            raise InvalidParameter(
-                f"profile: expected None, a LinearBuffer or a ThreeZoneBraking, got "
-                f"{describe(profile)}"
-            )
+        core, self.backend = pick_backend(backend)
+        self._projector = Projector(core, self.max_iterations)
+        kern: BoundKernels = PLAIN_BOUNDS if core is None else (None, core)
+        profs = parts.joint_profiles(limits, profile, joint_buffer=jb, spring_gain=self.spring_gain)
         acc = limits.max_acceleration
-        profs: list[Profile] = []
-        for j in range(n):
-            v = float(limits.max_velocity[j])
-            if profile is not None:
-                profs.append(profile)
-            elif acc is not None and math.isfinite(acc[j]):
-                a = float(acc[j])
-                profs.append(ThreeZoneBraking(gain=2.0 * a / v, max_speed=v, max_acceleration=a))
-            else:
-                profs.append(
-                    LinearBuffer(buffer=jb, spring_gain=self.spring_gain, max_recovery_speed=v)
-                )
-        self._joint_prof = tuple(profs)
         self._has_accel = acc is not None and self.dt is not None and bool(np.isfinite(acc).any())
         self._previous: FloatArray | None = None
-        q0 = np.zeros(n)
-        frame0 = self._frame0(q0)
-        self.task_dim = int(np.asarray(frame0.point("tcp")).shape[0])
-        self._check_frame(frame0, q0)
-        self._workspace = self._workspaces(workspace, frame0)
-        self._obstacles = self._obstacle_list(obstacles)
-        rows: list[Any] = [JointPositionLimit(limits, profs, kern), JointVelocityLimit(limits)]
+        frame0, self.task_dim = parts.robot_frame(robot, n)
+        self._workspace = parts.workspaces(robot, workspace, frame0)
+        self._obstacles = parts.obstacle_list(obstacles)
+        rows: list[Any] = [
+            JointPositionLimit(limits, profs, kernels=kern),
+            JointVelocityLimit(limits),
+        ]
         if self._has_accel:
             rows.append(JointAccelerationLimit(limits))
         multi = len(self._workspace) > 1
         for w_i, w in enumerate(self._workspace):
             pre = f"workspace {w_i}: " if multi else ""
-            rows.append(WorkspaceRows(w, self.task_dim, pre, kern))
+            rows.append(WorkspaceRows(w, dim=self.task_dim, prefix=pre, kernels=kern))
         if self._obstacles:
-            rows.append(self._obstacle_rows(frame0))
+            rows.append(
+                parts.obstacle_rows(
+                    robot,
+                    self._obstacles,
+                    frame0,
+                    n=n,
+                    buffer=self.obstacle_buffer,
+                    spring_gain=self.spring_gain,
+                    max_velocity=limits.max_velocity,
+                )
+            )
         self._n_builtin = len(rows)
-        rows.extend(self._custom(providers))
+        rows.extend(parts.custom_providers(providers))
         self._providers: tuple[Any, ...] = tuple(rows)
-        self._metric: _Metric = self._weights(weights)
-        # The whole joint-mode cycle in C (velfence_filter.h) when the core is in use and the
-        # robot gives its chain as data: filter() and shape_batch() run it; explain() keeps the
-        # Python route (the oracle it is tested equal to) and builds the diagnostics.
+        self._compiled = None if providers else compiled_rows(core, self, profs)
+        self._metric: Metric = parts.metric(weights, n)
+        # The whole joint-mode cycle in C (velfence_filter.h) when the core is in use, the robot
+        # gives its chain as data and no custom provider runs: filter(), shape() and
+        # shape_batch() call it and explain() builds its report from it; twist mode and every
+        # other case keep the Python route (backend="python": the oracle it is tested equal to).
         self._ccycle: Any = None
-        if self._core is not None:
+        if core is not None and not providers:
             from velfence.filter._ccycle import c_cycle_or_none
 
-            self._ccycle = c_cycle_or_none(self)
-
-    # ------------------------------------------------------------------ construction
-    def _frame0(self, q0: FloatArray) -> Any:
-        try:
-            return frame_of(self.robot, q0)
-        except VelfenceError as exc:
-            raise InvalidParameter(f"robot: kinematics(q) at q = 0 failed: {exc}") from None
-
-    def _check_frame(self, frame: Any, q0: FloatArray) -> None:
-        """The robot's kinematics and chain data agree with ``dof`` (else InvalidParameter)."""
-        n = self.dof
-        dim = self.task_dim
-        try:
-            if dim not in (2, 3):
-                raise InvalidInput(f"robot: kinematics(q).point('tcp') has {dim} coordinates")
-            checked("kinematics(q).point('tcp')", frame.point("tcp"), (dim,))
-            checked("kinematics(q).jacobian('tcp')", frame.jacobian("tcp"), (dim, n))
-        except InvalidInput as exc:
-            raise InvalidParameter(str(exc)) from None
-        data = getattr(self.robot, "chain_data", None)
-        cd = data() if callable(data) else None
-        if cd is not None:
-            dh = np.asarray(getattr(cd, "dh", None), dtype=object)
-            tool = np.asarray(getattr(cd, "tool", None), dtype=object)
-            ok = dh.shape == (n, 5) and tool.shape == (3,)
-            if ok:
-                ok = bool(
-                    np.isfinite(dh.astype(float)).all() and np.isfinite(tool.astype(float)).all()
-                )
-            if not ok:
-                raise InvalidParameter(
-                    f"robot: inconsistent chain data: chain_data() expected dh of shape ({n}, 5) "
-                    f"and tool of shape (3,), finite, got dh {dh.shape}, tool {tool.shape}"
-                )
-
-    def _workspaces(self, workspace: Any, frame0: Any) -> tuple[WorkspaceLimit, ...]:
-        ws: Any = (workspace,) if isinstance(workspace, WorkspaceLimit) else workspace
-        if isinstance(ws, (str, bytes)) or not isinstance(ws, Sequence):
-            raise InvalidParameter(
-                f"workspace: expected a WorkspaceLimit or a sequence of them, got "
-                f"{describe(workspace)}"
-            )
-        for w in ws:
-            if not isinstance(w, WorkspaceLimit):
-                raise InvalidParameter(
-                    f"workspace: expected WorkspaceLimit entries, got {describe(w)}"
-                )
-            if w.point not in self.robot.points:
-                raise InvalidParameter(
-                    f"workspace: point {w.point!r} is not one of the robot's points "
-                    f"{list(self.robot.points)}"
-                )
-            dim = np.asarray(frame0.point(w.point)).shape[0]
-            if w.polytope.dim != dim:
-                raise InvalidParameter(
-                    f"workspace: the polytope on {w.point!r} is {w.polytope.dim}-D, the robot's "
-                    f"task space is {dim}-D"
-                )
-        return tuple(ws)
-
-    def _obstacle_list(self, obstacles: Any) -> tuple[SphereObstacle, ...]:
-        if isinstance(obstacles, (str, bytes)) or not isinstance(obstacles, Sequence):
-            raise InvalidParameter(
-                f"obstacles: expected a sequence of SphereObstacle, got {describe(obstacles)}"
-            )
-        for o in obstacles:
-            if not isinstance(o, SphereObstacle):
-                raise InvalidParameter(
-                    f"obstacles: expected SphereObstacle entries, got {describe(o)}"
-                )
-        return tuple(obstacles)
-
-    def _obstacle_rows(self, frame0: Any) -> ObstacleRows:
-        robot: Any = self.robot
-        if not hasattr(robot, "link_radius"):
-            raise InvalidParameter(
-                f"obstacles: the robot {type(robot).__name__} has no capsule geometry "
-                "('link_radius'); use a DHChain, PlanarArm or MujocoRobot (Puma560.chain)"
-            )
-        radius = np.asarray(robot.link_radius, dtype=float).reshape(-1)
-        prov = ObstacleRows(
-            self._obstacles, radius, buffer=self.obstacle_buffer,
-            spring_gain=self.spring_gain, max_velocity=self.limits.max_velocity,
-        )  # fmt: skip
-        try:
-            segs = prov._segments(frame0)
-            checked("kinematics(q).point_jacobian(0, 0.5)", frame0.point_jacobian(0, 0.5),
-                    (3, self.dof))  # fmt: skip
-        except (InvalidInput, AttributeError, TypeError) as exc:
-            raise InvalidParameter(
-                f"obstacles: the robot's capsule geometry is unusable: {exc}"
-            ) from None
-        if segs.shape[0] == 0:
-            raise InvalidParameter("obstacles: the robot has no capsule links")
-        return prov
-
-    def _custom(self, providers: Any) -> list[Any]:
-        if isinstance(providers, (str, bytes)) or not isinstance(providers, Sequence):
-            raise InvalidParameter(
-                f"providers: expected a sequence of row providers, got {describe(providers)}"
-            )
-        out = []
-        for i, p in enumerate(providers):
-            level = getattr(p, "level", None)
-            if not callable(getattr(p, "rows", None)):
-                raise InvalidParameter(
-                    f"providers[{i}]: expected a RowProvider (level, label, rows(ctx)), got "
-                    f"{describe(p)} without rows()"
-                )
-            if isinstance(level, bool) or level not in range(len(LEVEL_NAMES)):
-                raise InvalidParameter(
-                    f"providers[{i}]: expected level 0-3 ({', '.join(LEVEL_NAMES)}), got {level!r}"
-                )
-            out.append(p)
-        return out
-
-    def _weights(self, weights: Any) -> _Metric:
-        if weights is None:
-            return None
-        n = self.dof
-        Wa = real_array("weights", weights, error=InvalidParameter, what="weights")
-        if Wa.shape == (n,):
-            if not np.all(Wa > 0.0):
-                raise InvalidParameter(f"weights: expected weights > 0, got {Wa.tolist()}")
-            return readonly(np.sqrt(Wa))
-        if Wa.shape == (n, n):
-            if not np.allclose(Wa, Wa.T, rtol=1e-12, atol=0.0):
-                asym = float(np.max(np.abs(Wa - Wa.T)))
-                raise InvalidParameter(
-                    f"weights: expected a symmetric ({n}, {n}) matrix, got one whose largest "
-                    f"|W - Wᵀ| entry is {asym:g}"
-                )
-            return readonly(_cholesky("weights", Wa))
-        raise InvalidParameter(
-            f"weights: expected shape ({n},) or ({n}, {n}), got shape {Wa.shape}"
-        )
+            self._ccycle = c_cycle_or_none(self, profs)
 
     # ------------------------------------------------------------------ state
     @property
@@ -571,98 +304,6 @@ class SafetyFilter(InvalidPolicy):
 
             self._ccycle.set_options(**c_options(self))
 
-    # ------------------------------------------------------------------ rows
-    def _blocks(self, ctx: RowContext) -> _Cycle:
-        n = self.dof
-        out: list[tuple[int, Any, RowBlock]] = []
-        for i, p in enumerate(self._providers):
-            builtin = i < self._n_builtin
-            try:
-                blk = p.rows(ctx)
-            except VelfenceError:
-                if builtin:
-                    raise
-                exc_v = _sys_exc()
-                raise InvalidInput(f"{self._who(i, p)}: raised {exc_v}") from exc_v
-            except Exception as exc:
-                who = f"robot (via the {p.label} rows)" if builtin else self._who(i, p)
-                raise InvalidInput(f"{who}: raised {type(exc).__name__}: {exc}") from exc
-            if blk is None or blk.size == 0:
-                continue
-            if not builtin:
-                self._check_block(i, p, blk, n)
-            out.append((i, p, blk))
-        return _Cycle(out, n)
-
-    def _who(self, i: int, p: Any) -> str:
-        return f"providers[{i - self._n_builtin}] ({getattr(p, 'label', type(p).__name__)})"
-
-    def _check_block(self, i: int, p: Any, blk: Any, n: int) -> None:
-        who = self._who(i, p)
-        if not isinstance(blk, RowBlock):
-            raise InvalidInput(f"{who}: rows() expected a RowBlock or None, got {describe(blk)}")
-        k = blk.size
-        G = np.asarray(blk.G)
-        ok = (
-            G.shape == (k, n)
-            and np.asarray(blk.b).shape == (k,)
-            and np.shape(blk.violated) == (k,)
-            and np.shape(blk.keys) == (k,)
-        )
-        if not ok:
-            raise InvalidInput(
-                f"{who}: rows() expected G ({k}, {n}), b, violated and keys ({k},), got G "
-                f"{G.shape}, b {np.shape(blk.b)}, violated {np.shape(blk.violated)}, keys "
-                f"{np.shape(blk.keys)}"
-            )
-        bb = np.asarray(blk.b, dtype=float)
-        if not np.isfinite(G).all() or np.isnan(bb).any() or (bb == math.inf).any():
-            raise InvalidInput(f"{who}: rows() expected finite G and b (or b = -inf), got NaN/inf")
-
-    # ------------------------------------------------------------------ solve
-    def _solve(
-        self, u: FloatArray, G: FloatArray, b: FloatArray, warm: Any
-    ) -> tuple[int, FloatArray]:
-        """The projection by the backend in use: ``(status, x)``."""
-        cap = self.max_iterations or 0
-        if self._core is not None and cap == 0 and not warm:
-            status, x = self._core.project(
-                np.ascontiguousarray(u, dtype=np.float64),
-                np.ascontiguousarray(G, dtype=np.float64),
-                np.ascontiguousarray(b, dtype=np.float64),
-            )
-        else:
-            status, x = _python_solve(u, G, b, cap, warm)
-        if status == 0 and not _finite(x):
-            status = 1
-        return int(status), x
-
-    def _project(
-        self, u: FloatArray, G: FloatArray, b: FloatArray, L: _Metric, warm: Any
-    ) -> tuple[int, FloatArray]:
-        if G.shape[0] == 0 or bool(np.all(G @ u >= b)):
-            # Nothing violated (as evaluated): the optimum is the command itself, exactly.
-            return 0, u.copy()
-        if L is None:
-            return self._solve(u, G, b, warm)
-        if L.ndim == 1:  # diagonal metric: L = diag(lv), y = lv * x
-            st, y = self._solve(u * L, G / L[None, :], b, warm)
-            x: FloatArray = y / L
-        else:  # y = Lᵀ x: G x = G L⁻ᵀ y
-            GL = np.asarray(np.linalg.solve(L, G.T).T, dtype=np.float64)
-            st, y = self._solve(L.T @ u, GL, b, warm)
-            x = np.asarray(np.linalg.solve(L.T, y), dtype=np.float64)
-        if st == 0:
-            # Round-off of the back-substitution: repair along the violated rows (a few ulps).
-            for _ in range(4):
-                gap = b - G @ x
-                k = int(np.argmax(gap))
-                if not gap[k] > 0.0:
-                    break
-                gk = G[k]
-                x = x + (gap[k] * (1.0 + 1e-12) + 1e-300) * gk / float(gk @ gk)
-        return st, x
-
     # ------------------------------------------------------------------ the cycle
     def _state(self, name: str, x: Any, width: int, unit: str) -> FloatArray:
         if type(x) is np.ndarray and x.dtype == np.float64 and x.shape == (width,):
@@ -693,7 +334,7 @@ class SafetyFilter(InvalidPolicy):
         q: FloatArray,
         u: FloatArray,
         cmd: FloatArray,
-        L: _Metric,
+        L: Metric,
         previous: Any,
         remember: bool,
         frame: Any = None,
@@ -717,16 +358,14 @@ class SafetyFilter(InvalidPolicy):
             u = u * (cap / big)
             scaled = True
         with np.errstate(all="ignore"):
-            if frame is None:
-                frame = frame_of(self.robot, q)
-            cyc = self._blocks(RowContext(q, u, prev, self.dt, frame))
+            cyc = self._build_rows(q, u, prev, frame)
             budget = self.time_budget
 
             def solve(G: FloatArray, b: FloatArray, warm: Any) -> tuple[int, FloatArray]:
                 over = budget is not None and self._clock() - t0 > budget
                 if over and G.shape[0] and not bool(np.all(G @ u >= b)):
                     raise DeadlineHit("time")
-                return self._project(u, G, b, L, warm)
+                return self._projector.project(u, G, b, L, warm)
 
             nxt = self._next_distances(q, cyc) if len(cyc.checked) and self.dt else None
             warm = cyc.rows_of(self._warm) if self._warm else None
@@ -746,8 +385,9 @@ class SafetyFilter(InvalidPolicy):
                     d0=cyc.d0, next_distances=nxt, dt=self.dt,
                 )  # fmt: skip
                 stages = ["deadline"] + ([how] if how else [])
-                out = _Outcome(x, relaxed, stages)
-        if not _finite(x):
+                rate = bool(relaxed) and bool(np.any(cyc.level[relaxed] == LEVEL_RATE))
+                out = LadderOutcome(x, relaxed, ["acceleration"] if rate else [], stages, rate)
+        if not finite(x):
             self._invalid("input too large: the filtered velocity overflowed")
             return self._stopped(q, cmd)
         if remember:
@@ -756,8 +396,21 @@ class SafetyFilter(InvalidPolicy):
             self._remember_active(cyc, x)
         return cyc, x, u, out, scaled, deadline
 
-    def _remember_active(self, cyc: _Cycle, x: FloatArray) -> None:
+    def _build_rows(
+        self, q: FloatArray, u: FloatArray, prev: FloatArray | None, frame: Any = None
+    ) -> RowStack:
+        """This cycle's rows by the route in use (compiled for a DH chain in joint mode)."""
+        if self._compiled is not None and frame is None:
+            return self._compiled.stack(q, u, prev if self._has_accel else None)
+        if frame is None:
+            frame = frame_of(self.robot, q)
+        ctx = RowContext(q, u, prev, self.dt, frame)
+        return collect(self._providers, self._n_builtin, ctx, self.dof)
+
+    def _remember_active(self, cyc: RowStack, x: FloatArray) -> None:
         """The rows binding at ``x``, by key: the next cycle's warm start."""
+        if not self._projector.warm_starts:
+            return
         if cyc.G.shape[0] == 0:
             self._warm = set()
             return
@@ -766,18 +419,12 @@ class SafetyFilter(InvalidPolicy):
         act = np.flatnonzero(slack <= _BINDING * (1.0 + np.abs(cyc.b)))
         self._warm = cyc.keys(act.tolist()) if act.shape[0] else set()
 
-    def _next_distances(self, q: FloatArray, cyc: _Cycle) -> Callable[[FloatArray], FloatArray]:
+    def _next_distances(self, q: FloatArray, cyc: RowStack) -> Callable[[FloatArray], FloatArray]:
+        """The model check's true next distances: ``x -> d1`` at ``q + x dt`` (a new frame)."""
         dt = self.dt or 0.0
-        parts = [
-            (p, blk) for _, p, blk in cyc.blocks
-            if blk.distance is not None and hasattr(p, "next_distances")
-        ]  # fmt: skip
 
         def nxt(x: FloatArray) -> FloatArray:
-            frame1 = frame_of(self.robot, q + x * dt)
-            return np.concatenate(
-                [np.asarray(p.next_distances(frame1, blk), dtype=float) for p, blk in parts]
-            )
+            return cyc.distances_at(self.robot, q + x * dt)
 
         return nxt
 
@@ -786,7 +433,7 @@ class SafetyFilter(InvalidPolicy):
         q: FloatArray,
         u: FloatArray,
         cmd: FloatArray,
-        L: _Metric,
+        L: Metric,
         previous: Any,
         remember: bool,
         frame: Any = None,
@@ -817,7 +464,7 @@ class SafetyFilter(InvalidPolicy):
             constraint_names=tuple(names), stages=tuple(pre + out.stages),
             dropped=tuple(out.dropped), rate_override=out.rate_override,
             rows=(readonly(G), readonly(b0)), relaxed=tuple(names[i] for i in out.relaxed),
-            deadline=deadline,  # type: ignore[arg-type]
+            deadline=deadline,
         )  # fmt: skip
 
     # ------------------------------------------------------------------ public
@@ -851,52 +498,6 @@ class SafetyFilter(InvalidPolicy):
             return self._explain_c(qa, ua, previous)
         return self._run(qa, ua, ua, self._metric, previous, True)
 
-    def _explain_c(self, qa: FloatArray, ua: FloatArray, previous: Any) -> FilterResult:
-        """:meth:`explain` by the C cycle: its output, and the report built from its info."""
-        x = self._filter_c(qa, ua, previous, True)
-        cyc = self._ccycle
-        info = cyc.info()
-        if info["status"] < 0:  # refused (on_invalid="stop"): the stop result
-            return self._stopped(qa, ua)
-        G, b, level, ka, kb, dist, slack, _ = cyc.rows()
-        names = self._c_names(level.tolist(), ka.tolist(), kb.tolist())
-        viol = dist < 0.0
-        act = tuple(np.flatnonzero((slack <= _BINDING * (1.0 + np.abs(b))) | viol).tolist())
-        zone: Zone = ZONE_NAMES[zone_code(int(np.count_nonzero(viol)), len(act))]  # type: ignore[assignment]
-        bits = info["stages"]
-        stages = [s for bit, s in _C_STAGES if bits & bit]
-        dropped = [nm for lv, nm in _C_DROPPED if info["relaxed"][lv] or info["dropped"][lv]]
-        relaxed_keys = set(cyc.relaxed())
-        relaxed = tuple(
-            names[r]
-            for r, k in enumerate(zip(level.tolist(), ka.tolist(), kb.tolist(), strict=True))
-            if k in relaxed_keys
-        )  # fmt: skip
-        deadline = {0: None, 1: "iterations", 2: "time"}[info["deadline"]]
-        return FilterResult(
-            output=x, command=ua, position=qa, zone=zone, active=act,
-            active_names=tuple(names[i] for i in act), slack=readonly(slack),
-            constraint_names=tuple(names), stages=tuple(stages), dropped=tuple(dropped),
-            rate_override=bool(info["dropped"][LEVEL_RATE]), rows=(readonly(G), readonly(b)),
-            relaxed=relaxed, deadline=deadline,  # type: ignore[arg-type]
-        )  # fmt: skip
-
-    def _c_names(self, level: list[int], ka: list[int], kb: list[int]) -> list[str]:
-        """The row names of the C cycle's keys (the providers' names)."""
-        ws = [p for p in self._providers if isinstance(p, WorkspaceRows)]
-        out: list[str] = []
-        for lv, a, k in zip(level, ka, kb, strict=True):
-            if lv == LEVEL_JOINT:
-                what = "position" if k < 2 else "velocity"
-                out.append(f"joint {a} {what} ({'lower' if k % 2 == 0 else 'upper'})")
-            elif lv == LEVEL_RATE:
-                out.append(f"joint {a} acceleration ({'lower' if k == 0 else 'upper'})")
-            elif lv == LEVEL_WORKSPACE:
-                out.append(ws[a]._names[k])
-            else:
-                out.append(f"obstacle {a} on link {k}")
-        return out
-
     def filter(
         self, q: ArrayLike, qd_cmd: ArrayLike, *, previous: ArrayLike | None = None
     ) -> FloatArray:
@@ -925,11 +526,12 @@ class SafetyFilter(InvalidPolicy):
         if self._bad(qa, ua):
             self._invalid(f"non-finite input: q={qa.tolist()}, qd_cmd={ua.tolist()}")
             return np.zeros(self.dof)
-        if self._ccycle is not None:
+        if cyc is not None:
             return self._filter_c(qa, ua, previous, True)
         c = self._cycle(qa, ua, ua, self._metric, previous, True)
         return c.output if isinstance(c, FilterResult) else c[1]
 
+    # ------------------------------------------------------------------ the C cycle
     def _filter_c(
         self, qa: FloatArray, ua: FloatArray, previous: Any, remember: bool
     ) -> FloatArray:
@@ -954,6 +556,50 @@ class SafetyFilter(InvalidPolicy):
         if remember and self._has_accel:
             self._previous = readonly(x.copy())
         return x
+
+    def _explain_c(self, qa: FloatArray, ua: FloatArray, previous: Any) -> FilterResult:
+        """:meth:`explain` by the C cycle: its output, and the report built from its info."""
+        x = self._filter_c(qa, ua, previous, True)
+        cyc = self._ccycle
+        info = cyc.info()
+        if info["status"] < 0:  # refused (on_invalid="stop"): the stop result
+            return self._stopped(qa, ua)
+        G, b, level, ka, kb, dist, slack, _ = cyc.rows()
+        keys = list(zip(level.tolist(), ka.tolist(), kb.tolist(), strict=True))
+        names = self._c_names(keys)
+        viol = dist < 0.0
+        act = tuple(np.flatnonzero((slack <= _BINDING * (1.0 + np.abs(b))) | viol).tolist())
+        n_out = int(np.count_nonzero(viol))
+        zone: Zone = ZONE_NAMES[zone_code(n_out, len(act))]  # type: ignore[assignment]
+        bits = info["stages"]
+        relaxed_keys = set(cyc.relaxed())
+        return FilterResult(
+            output=x, command=ua, position=qa, zone=zone, active=act,
+            active_names=tuple(names[i] for i in act), slack=readonly(slack),
+            constraint_names=tuple(names), stages=tuple(s for bit, s in _C_STAGES if bits & bit),
+            dropped=tuple(
+                nm for lv, nm in _C_DROPPED if info["relaxed"][lv] or info["dropped"][lv]
+            ),
+            rate_override=bool(info["dropped"][LEVEL_RATE]), rows=(readonly(G), readonly(b)),
+            relaxed=tuple(names[r] for r, k in enumerate(keys) if k in relaxed_keys),
+            deadline={0: None, 1: "iterations", 2: "time"}[info["deadline"]],  # type: ignore[arg-type]
+        )  # fmt: skip
+
+    def _c_names(self, keys: list[tuple[int, int, int]]) -> list[str]:
+        """The row names of the C cycle's keys (the providers' names)."""
+        ws = [p for p in self._providers if isinstance(p, WorkspaceRows)]
+        out: list[str] = []
+        for lv, a, k in keys:
+            if lv == LEVEL_JOINT:
+                what = "position" if k < 2 else "velocity"
+                out.append(f"joint {a} {what} ({'lower' if k % 2 == 0 else 'upper'})")
+            elif lv == LEVEL_RATE:
+                out.append(f"joint {a} acceleration ({'lower' if k == 0 else 'upper'})")
+            elif lv == LEVEL_WORKSPACE:
+                out.append(ws[a].facet_row_names[k])
+            else:
+                out.append(f"obstacle {a} on link {k}")
+        return out
 
     def explain_twist(
         self,
@@ -1007,7 +653,7 @@ class SafetyFilter(InvalidPolicy):
             J = np.vstack((J, checked("angular_jacobian(q)", Ja, (3, n))))
         with np.errstate(all="ignore"):
             H = J.T @ J + (self.damping**2) * np.eye(n)
-            L = _factor(H)
+            L = damped_factor(H)
             u: FloatArray = np.asarray(
                 np.linalg.solve(L.T, np.linalg.solve(L, J.T @ va)), dtype=np.float64
             )
@@ -1070,23 +716,3 @@ class SafetyFilter(InvalidPolicy):
         finally:
             self._warm = warm
         return out
-
-
-def _sys_exc() -> BaseException:
-    import sys
-
-    exc = sys.exc_info()[1]
-    return exc if exc is not None else RuntimeError("unknown")
-
-
-class _Outcome:
-    """The deadline fallback's outcome, as a ``LadderOutcome``."""
-
-    __slots__ = ("dropped", "rate_override", "relaxed", "stages", "x")
-
-    def __init__(self, x: FloatArray, relaxed: list[int], stages: list[str]) -> None:
-        self.x = x
-        self.relaxed = relaxed
-        self.stages = stages
-        self.dropped: list[str] = []
-        self.rate_override = False

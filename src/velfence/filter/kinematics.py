@@ -41,7 +41,9 @@ class KinematicsFrame(Protocol):
     """The kinematics of one pose, each quantity computed at most once.
 
     Shapes: ``task_dim`` is 3 for a spatial robot, 2 for a planar one; ``dof`` joints; ``L``
-    capsule links.
+    capsule links. Optional, looked up by name: ``point_jacobians(links, ts)`` (k, 3, dof), many
+    :meth:`point_jacobian` at once (the obstacle rows use it when present), and
+    ``angular_jacobian()`` (3, dof) (twists of shape (6,)).
     """
 
     def point(self, name: str) -> FloatArray:

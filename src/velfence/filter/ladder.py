@@ -110,10 +110,12 @@ class LadderOutcome:
     rate_override: bool
 
 
-def meets(G: FloatArray, c: FloatArray, x: FloatArray) -> bool:
-    """Whether ``G x >= c`` to the round-off of forming ``G x``.
+def meets(G: FloatArray, c: FloatArray, x: FloatArray, scale: float = 0.0) -> bool:
+    """Whether ``G x >= c`` to the round-off of forming ``x`` (from a vector of size ``scale``).
 
-    Tolerance per row ``1e-12 (|c| + ‖g‖₁ ‖x‖∞)`` (the spec's acceptance), ``-inf`` rows ignored.
+    Tolerance per row ``1e-12 (|c| + ‖g‖₁ (‖x‖∞ + scale))``: the projection's acceptance
+    (``scale`` = ‖u‖∞ for the output of a solve from ``u``; 0 for ``t u`` formed exactly),
+    ``-inf`` rows ignored.
     """
     if G.shape[0] == 0:
         return True
@@ -121,7 +123,7 @@ def meets(G: FloatArray, c: FloatArray, x: FloatArray) -> bool:
     xi = float(np.max(np.abs(x))) if x.size else 0.0
     with np.errstate(invalid="ignore"):
         fin = np.isfinite(c)
-        tau = 1e-12 * (np.abs(np.where(fin, c, 0.0)) + np.abs(G).sum(axis=1) * xi)
+        tau = 1e-12 * (np.abs(np.where(fin, c, 0.0)) + np.abs(G).sum(axis=1) * (xi + scale))
         ok = ~fin | (s - c >= -tau)
     return bool(ok.all())
 

@@ -225,7 +225,11 @@ class JointPositionLimit:
     label = "joint position"
 
     def __init__(
-        self, limits: JointLimits, profiles: Sequence[Profile], kernels: BoundKernels = PLAIN_BOUNDS
+        self,
+        limits: JointLimits,
+        profiles: Sequence[Profile],
+        *,
+        kernels: BoundKernels = PLAIN_BOUNDS,
     ) -> None:
         n = limits.dof
         self._n = n
@@ -369,6 +373,7 @@ class WorkspaceRows:
     def __init__(
         self,
         limit: WorkspaceLimit,
+        *,
         dim: int,
         prefix: str = "",
         kernels: BoundKernels = PLAIN_BOUNDS,
@@ -376,14 +381,15 @@ class WorkspaceRows:
         self.limit = limit
         self._dim = dim
         self._kern = kernels
-        self._prof: Profile = (
+        self.profile: Profile = (
             limit.profile if limit.profile is not None else LinearBuffer(buffer=limit.buffer)
         )
         poly = limit.polytope
         self._N = np.asarray(poly.normals, dtype=float)
         self._o = np.asarray(poly.offsets, dtype=float)
         point = "TCP" if limit.point == "tcp" else limit.point
-        self._names = tuple(f"{prefix}{point} face {nm}" for nm in poly.facet_names)
+        #: Row name of every facet (the rows keep those within the profile's reach).
+        self.facet_row_names = tuple(f"{prefix}{point} face {nm}" for nm in poly.facet_names)
         self.label = f"workspace on {limit.point!r}"
 
     def rows(self, ctx: RowContext) -> RowBlock | None:
@@ -395,9 +401,9 @@ class WorkspaceRows:
         dist = self._N @ p - self._o
         ju = J @ ctx.command
         s = math.sqrt(float(ju @ ju))
-        bnd = rate_bounds(self._prof, dist, s, _idt(ctx.dt), self._kern)
+        bnd = rate_bounds(self.profile, dist, s, _idt(ctx.dt), self._kern)
         kept = np.flatnonzero(bnd != -math.inf)
-        names = self._names
+        names = self.facet_row_names
         return RowBlock(
             (self._N @ J)[kept], bnd[kept], dist[kept] < 0.0, kept,
             lambda: [names[i] for i in kept.tolist()], distance=dist[kept], data=kept,
@@ -475,7 +481,8 @@ class ObstacleRows:
         r = self._radius
         return np.broadcast_to(r, (nl,)) if r.shape[0] == 1 else r[:nl]
 
-    def _segments(self, frame: KinematicsFrame) -> FloatArray:
+    def segments(self, frame: KinematicsFrame) -> FloatArray:
+        """The frame's link segments (L, 2, 3), checked against the link radii."""
         segs = np.asarray(frame.segments(), dtype=np.float64)
         nl = segs.shape[0] if segs.ndim == 3 else -1
         segs = checked("kinematics(q).segments()", segs, (max(nl, 0), 2, 3))
@@ -485,7 +492,7 @@ class ObstacleRows:
 
     def rows(self, ctx: RowContext) -> RowBlock | None:
         """The rows of the pairs within reach."""
-        segs = self._segments(ctx.frame)
+        segs = self.segments(ctx.frame)
         nl = segs.shape[0]
         n = ctx.q.shape[0]
         clear, t, _X, R, dist = _clearances(segs, self._centres, self._srad, self._radii(nl))
@@ -505,25 +512,29 @@ class ObstacleRows:
             return None
         u = ctx.command
         idt = _idt(ctx.dt)
-        G: list[FloatArray] = []
-        bs: list[float] = []
-        keep: list[int] = []
-        for r, (i, k) in enumerate(zip(obs_i.tolist(), link.tolist(), strict=True)):
-            Jc = checked(
-                f"kinematics(q).point_jacobian({k}, t)",
-                ctx.frame.point_jacobian(k, float(t[i, k])),
-                (3, n),
-            )
-            b = _bound1(self._prof, float(clear[i, k]), float(np.linalg.norm(Jc @ u)), idt)
-            if b == -math.inf:
-                continue
-            d = float(dist[i, k])
-            nrm = R[i, k] / d if d > 0.0 else _fallback(segs[k])
-            G.append(nrm @ Jc)
-            bs.append(b)
-            keep.append(r)
+        ts = t[obs_i, link]
+        batch = getattr(ctx.frame, "point_jacobians", None)
+        if batch is not None:
+            Js = batch(link, ts)
+        else:
+            Js = [
+                ctx.frame.point_jacobian(k, tk)
+                for k, tk in zip(link.tolist(), ts.tolist(), strict=True)
+            ]
+        Jc = checked("kinematics(q).point_jacobian(link, t)", Js, (obs_i.shape[0], 3, n))
+        speed = np.sqrt(((Jc @ u) ** 2).sum(axis=1)).tolist()
+        d_sel = clear[obs_i, link].tolist()
+        r_sel = dist[obs_i, link]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            nrm = R[obs_i, link] / r_sel[:, None]
+        for z in np.flatnonzero(r_sel == 0.0).tolist():
+            nrm[z] = _fallback(segs[int(link[z])])
+        bs = [_bound1(self._prof, d_sel[r], speed[r], idt) for r in range(len(d_sel))]
+        keep = [r for r in range(len(bs)) if bs[r] != -math.inf]
         if not keep:
             return None
+        G = np.einsum("ki,kij->kj", nrm[keep], Jc[keep])
+        bs = [bs[r] for r in keep]
         oi = obs_i[keep]
         lk = link[keep]
         d0 = clear[oi, lk]
@@ -534,14 +545,14 @@ class ObstacleRows:
             ]
 
         return RowBlock(
-            np.array(G), np.array(bs), d0 < 0.0, oi * nl + lk,
+            G, np.array(bs), d0 < 0.0, oi * nl + lk,
             names,
             distance=d0, data=(oi, lk),
         )  # fmt: skip
 
     def next_distances(self, frame: KinematicsFrame, block: RowBlock) -> FloatArray:
         """The block's pairs' clearances [m] at the pose of ``frame``, shape (k,)."""
-        segs = self._segments(frame)
+        segs = self.segments(frame)
         oi, lk = block.data
         clear = _clearances(segs, self._centres, self._srad, self._radii(segs.shape[0]))[0]
         out: FloatArray = clear[oi, lk]

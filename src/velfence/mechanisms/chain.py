@@ -242,6 +242,26 @@ class ChainFrame:
         """Jacobian of the point at fraction ``t`` along ``link`` [m/rad], shape (3, n)."""
         return self._chain._point_jacobian_cached(self._kin, int(link), float(t))
 
+    def point_jacobians(self, links: Any, ts: Any) -> FloatArray:
+        r""":meth:`point_jacobian` of many points at once, shape (k, 3, n).
+
+        Columns :math:`z_j \times (p - P_j)` for the joints ``j <= link`` moving each point.
+        """
+        points, axes, _ = self._kin
+        lk = np.asarray(links, dtype=np.int64)
+        tt = np.asarray(ts, dtype=np.float64)[:, None]
+        p = (1.0 - tt) * points[lk] + tt * points[lk + 1]
+        n = self._chain._n
+        nj = axes.shape[0]
+        d = p[:, None, :] - points[None, :nj, :]
+        ax = axes[None, :, :]
+        out = np.zeros((lk.shape[0], 3, n))
+        out[:, 0, :nj] = ax[..., 1] * d[..., 2] - ax[..., 2] * d[..., 1]
+        out[:, 1, :nj] = ax[..., 2] * d[..., 0] - ax[..., 0] * d[..., 2]
+        out[:, 2, :nj] = ax[..., 0] * d[..., 1] - ax[..., 1] * d[..., 0]
+        out[:, :, :nj] *= (np.arange(nj)[None, :] <= lk[:, None])[:, None, :]
+        return out
+
     def angular_jacobian(self) -> FloatArray:
         """Angular-velocity Jacobian of the last body (the joint axes), shape (3, n)."""
         return np.array(self._kin[1].T)

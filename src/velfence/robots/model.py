@@ -117,6 +117,7 @@ class MujocoRobot(CapsuleLinks):
         self._velocity = readonly(self._numeric_limits(model))
         self._jacp = np.zeros((3, model.nv))
         self._jacr = np.zeros((3, model.nv))
+        self._posed_by: object = None  # the MujocoFrame whose pose the data holds
 
     @staticmethod
     def _numeric_limits(model: Any) -> FloatArray:
@@ -304,6 +305,7 @@ class MujocoRobot(CapsuleLinks):
         return sid
 
     def _pose(self, q: FloatArray) -> None:
+        self._posed_by = None  # a frame re-poses before reading the data again
         self._data.qpos[:] = q
         self._mj.mj_kinematics(self._model, self._data)
         self._mj.mj_comPos(self._model, self._data)

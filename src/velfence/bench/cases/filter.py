@@ -395,7 +395,7 @@ def cycles(s: BenchSettings, step: Step, qp_ok: bool, notes: list[str]) -> list[
                 # The filter's own row building, timed alone, with the pose's kinematics as the
                 # filter computes them (once per cycle) included.
                 def build(q: Any, u: Any, f: Any = flt) -> Any:
-                    return f._rows(q, u, None, f._kinematics(q))
+                    return f._build_rows(q, u, None)
 
                 args = [(q, u) for q, u in pool]
                 t = time_calls(build, args, calls=calls, warmup=warm)
