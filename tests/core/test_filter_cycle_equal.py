@@ -25,8 +25,6 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from velfence.filter import JointLimits, SafetyFilter, SphereObstacle, WorkspaceLimit
-from velfence.filter.kinematics import frame_of
-from velfence.filter.rows import RowContext
 from velfence.geometry.polytope import ConvexPolytope
 from velfence.geometry.projection import project
 from velfence.mechanisms.chain import DHChain
@@ -144,7 +142,7 @@ def _model_borderline(sf: Any, q: Any, u: Any, prev: Any, xs: tuple[Any, ...]) -
     cap = 1e3 * float(np.max(sf.limits.max_velocity))
     big = float(np.abs(u).max())
     uc = u * (cap / big) if big > cap else u
-    cyc = sf._blocks(RowContext(q, uc, prev, sf.dt, frame_of(sf.robot, q)))
+    cyc = sf._build_rows(q, uc, prev if sf._has_accel else None)  # (the Python providers)
     if not len(cyc.checked):
         return False
     nxt = sf._next_distances(q, cyc)
