@@ -582,7 +582,7 @@ class SafetyFilter(InvalidPolicy):
             ),
             rate_override=bool(info["dropped"][LEVEL_RATE]), rows=(readonly(G), readonly(b)),
             relaxed=tuple(names[r] for r, k in enumerate(keys) if k in relaxed_keys),
-            deadline={0: None, 1: "iterations", 2: "time"}[info["deadline"]],  # type: ignore[arg-type]
+            deadline={0: None, 1: "iterations", 2: "time"}[info["deadline"]],
         )  # fmt: skip
 
     def _c_names(self, keys: list[tuple[int, int, int]]) -> list[str]:
