@@ -15,8 +15,10 @@ otherwise):
 * the same limits on ``DHChain.seven_dof`` through ``SafetyFilter.filter`` (which runs the C cycle
   when the core is installed), back to back and periodic;
 * **7 joints, >= 400 rows, >= 60 binding** (``--dense``: 80 spheres 1-10 cm from the links, a
-  0.3 m obstacle buffer, a command that pushes into them), 10^5 cycles back to back in C: median,
-  p99 and max. "Binding" counts the rows the command violates (``G u < b``).
+  0.3 m obstacle buffer, a command that pushes into them), 10^5 cycles back to back in C, and the
+  same kind of scene on ``DHChain.seven_dof`` through ``SafetyFilter.filter`` from Python (every
+  output checked against its cycle's rows there too): median, p99 and max. "Binding" counts
+  the rows the command violates (``G u < b``).
 
 Cycle times are of ``vf_filter_cycle`` (C) or of the ``cycle`` call (Python) alone. The C
 example is compiled with ``-O3 -ffp-contract=off`` (the flags of the library's CMake Release build).
@@ -115,8 +117,11 @@ def _python_cycle() -> object:
     )  # fmt: skip
 
 
-def _safety_filter() -> Any:
-    """``SafetyFilter`` on ``DHChain.seven_dof`` with a TCP box and 20 spheres, ``dt`` 1 ms."""
+def _safety_filter(dense: bool = False) -> Any:
+    """``SafetyFilter`` on ``DHChain.seven_dof`` with a TCP box and 20 spheres, ``dt`` 1 ms.
+
+    ``dense``: 90 spheres 1-10 cm from the links and a 0.3 m obstacle buffer (>= 400 rows).
+    """
     from velfence.filter import JointLimits, SafetyFilter, SphereObstacle, WorkspaceLimit
     from velfence.geometry.polytope import ConvexPolytope
     from velfence.mechanisms.chain import DHChain
@@ -126,15 +131,27 @@ def _safety_filter() -> Any:
     P = arm.joint_positions(Q7)
     rng = np.random.default_rng(7)
     spheres = []
-    while len(spheres) < 20:
+    while not dense and len(spheres) < 20:
         c = np.array([rng.uniform(-0.8, 0.8), rng.uniform(-0.8, 0.8), rng.uniform(0.1, 1.3)])
         if np.min(np.linalg.norm(0.5 * (P[:-1] + P[1:]) - c, axis=1)) >= 0.3:
             spheres.append(SphereObstacle(c, radius=rng.uniform(0.03, 0.08)))
+    while dense and len(spheres) < 90:
+        k = len(spheres) % 7
+        if np.linalg.norm(P[k + 1] - P[k]) < 1e-9:
+            k = (k + 1) % 7
+        p = P[k] + rng.uniform() * (P[k + 1] - P[k])
+        d = rng.normal(size=3)
+        c = p + d / np.linalg.norm(d) * (0.05 + 0.04 + rng.uniform(0.01, 0.1))
+        A, B = P[:-1], P[1:]
+        D = B - A
+        t = np.clip(((c - A) * D).sum(1) / np.maximum((D * D).sum(1), 1e-300), 0.0, 1.0)
+        if np.min(np.linalg.norm(A + t[:, None] * D - c, axis=1)) - 0.09 > 0.01:
+            spheres.append(SphereObstacle(c, radius=0.04))
     box = WorkspaceLimit(ConvexPolytope.box([-0.8, -0.8, 0.05], [0.8, 0.8, 1.4]), buffer=0.05)
     sf = SafetyFilter(
         arm, limits=JointLimits(lim[:, 0], lim[:, 1], np.full(7, 1.5),
                                 max_acceleration=np.full(7, 15.0)),
-        workspace=box, obstacles=spheres, dt=1e-3,
+        workspace=box, obstacles=spheres, dt=1e-3, obstacle_buffer=0.3 if dense else 0.05,
     )  # fmt: skip
     assert sf._ccycle is not None, "the compiled core (velfence_core._filter) is not installed"
     return sf
@@ -175,11 +192,50 @@ def _python_loop(fc: Any, cycles: int, periodic: bool, seven: bool = False) -> n
     return times * 1e6
 
 
+def _dense_python_loop(sf: Any, cycles: int) -> tuple[np.ndarray, float, float, int]:
+    """The >= 400-row loop from Python: ``(sorted times [us], mean rows, mean binding, misses)``.
+
+    A command pushing into the spheres (toward targets beyond the limits, 3/s, plus noise); every
+    output checked against every row of its cycle (``min(b, 0)`` for the safety levels, the
+    claimed bounds), outside the timing.
+    """
+    rng = np.random.default_rng(3)
+    q = Q7.copy()
+    lower, upper = sf.limits.lower, sf.limits.upper
+    target = q.copy()
+    times = np.empty(cycles)
+    rows = binding = 0.0
+    bad = 0
+    cyc = sf._ccycle
+    clock = time.perf_counter
+    for c in range(cycles):
+        if c % 500 == 0:
+            target = rng.uniform(lower - 0.2, upper + 0.2)
+        u = 3.0 * (target - q) + rng.uniform(-3.0, 3.0, 7)
+        t0 = clock()
+        x = sf.filter(q, u)
+        times[c] = clock() - t0
+        G, b, level, _, _, _, _, bound = cyc.rows()
+        gx = G @ x
+        tau = 1e-12 * (np.abs(G).sum(1) * (np.abs(x).max() + np.abs(u).max()))
+        c0 = np.minimum(b, 0.0)
+        safe = (level == 3) | (gx - c0 >= -(tau + 1e-12 * np.abs(c0)))
+        claim = (bound == -np.inf) | (gx - bound >= -(tau + 1e-12 * np.abs(bound)))
+        bad += int(not (safe.all() and claim.all()))
+        rows += len(b)
+        binding += int(np.count_nonzero(G @ np.clip(u, -1e3, 1e3) < b))
+        q += x * 0.001
+    return np.sort(times) * 1e6, rows / cycles, binding / cycles, bad
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--cycles", type=int, default=20000, help="back-to-back cycles")
     ap.add_argument("--periodic-cycles", type=int, default=5000, help="1 kHz cycles")
-    ap.add_argument("--dense-cycles", type=int, default=100000, help=">= 400-row cycles")
+    ap.add_argument("--dense-cycles", type=int, default=100000, help=">= 400-row cycles (C)")
+    ap.add_argument(
+        "--dense-python-cycles", type=int, default=20000, help=">= 400-row cycles (Python)"
+    )
     a = ap.parse_args()
     load0 = os.getloadavg()
     exe = _build()
@@ -212,6 +268,18 @@ def main() -> None:
                  "fallbacks": str(sf.deadline_misses), "rows_mean": "-"},
             )
         )  # fmt: skip
+    sfd = _safety_filter(dense=True)
+    t, m, bind, bad = _dense_python_loop(sfd, a.dense_python_cycles)
+    rows.append(
+        (
+            "7 joints, >= 400 rows (dense), SafetyFilter.filter (C cycle), back to back",
+            {"cycles": str(len(t)), "median_us": f"{np.median(t):.3f}",
+             "p99_us": f"{t[int(0.99 * len(t))]:.3f}", "max_us": f"{t[-1]:.3f}",
+             "fallbacks": str(sfd.deadline_misses), "rows_mean": f"{m:.1f}",
+             "binding_mean": f"{bind:.1f}"},
+        )
+    )  # fmt: skip
+    assert bad == 0, f"{bad} outputs missed a row"
     out = _run(exe, "--dense", "--back-to-back", "--cycles", str(a.dense_cycles))
     rows.append(("7 joints, >= 400 rows (dense), C, back to back", out))
     load1 = os.getloadavg()
