@@ -1,0 +1,970 @@
+r"""Evidence campaigns for the n-D shaper and the safety filter ("does it ever let the robot out?").
+
+Two campaigns, reusable on a user's own configuration and run by ``make soak-filter``
+(``python -m velfence.soak_filter``), which writes its section of ``docs/reliability.md``:
+
+**Vertex and edge campaign** (:func:`run_vertex_campaign`). Random H-representation polytopes of
+3 to 7 dimensions (:func:`random_polytope`); states exactly at a vertex (the vertex re-solved from
+its tight facets, so it sits on or a round-off outside each of them), on an edge or on a higher
+face (a point of the segment between two vertices sharing facets), then, for half of them,
+pushed outward by 1-8 ulps on some of their tight facets or by exactly 2e-16 (the issue's case);
+commands of random direction, along the outward normal of one tight facet (into the facet the
+point is inside or on) or into the corner. One step ``x1 = x0 + dt · y`` of ``dt = 1 ms`` per
+state. An *escape* is a step whose depth outside grows by more than the round-off tolerance
+``tol = 1e-12 (scale + |x0|_inf)`` (``scale``: the polytope's largest vertex coordinate about its
+Chebyshev centre): ``depth(x1) - depth(x0) > tol`` with ``depth(x) = max(0, max_i -d_i(x))``.
+Measured for :class:`~velfence.shaping.polytope.PolytopeShaper` (``method="exact"``, three
+buffers, ``dt`` set; :meth:`~velfence.shaping.polytope.PolytopeShaper.shape_batch`) and for the
+workspace rows of :class:`~velfence.shaping.filter.SafetyFilter` on :class:`CartesianPoint`, a
+robot whose point is its joint vector (so a d-D workspace polytope is the filter's safe set).
+
+**Closed-loop filter soak** (:func:`run_loop_campaign`). Episodes of a ``SafetyFilter`` on the
+shipped UR5e and Panda models (:func:`velfence.robots.ur5e`, :func:`velfence.robots.panda`,
+capsule links of 5 cm, a 5 cm tool) with random joint-limit ranges (some episodes with
+acceleration limits), a random box on the tool, one or two tilted planes, or both, and up to
+four sphere obstacles near the links, at a given rate with ``dt`` set; joint or twist commands
+held for 20-200 ms, some pushing at the nearest workspace facet. A quarter of the episodes start
+**resting**: the tool exactly on two tilted planes while two or three joints sit exactly at a
+limit (the issue's UR5e case). The plant is kinematic: ``q ← q + x dt``. Per step it counts
+workspace escapes (a step beginning inside, by the forward kinematics, ending outside by more
+than ``1e-12 (1 + |p|_inf)`` m), joint-limit crossings, sphere penetrations (capsule clearance
+below ``-tol``, a step that began clear), non-finite outputs, exceptions, deadline fallbacks
+(``result.deadline`` when the filter reports it) and the stages seen.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections import Counter
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from velfence._typing import FloatArray
+from velfence._validate import check_positive, check_positive_int, check_seed, check_text
+from velfence.errors import InvalidGeometry, InvalidParameter
+
+__all__ = [
+    "CartesianPoint",
+    "LoopResult",
+    "VertexResult",
+    "random_polytope",
+    "render_markdown",
+    "run_loop_campaign",
+    "run_vertex_campaign",
+    "vertex_states",
+]
+
+Rng = np.random.Generator
+Progress = Callable[[str], None]
+
+#: Relative round-off tolerance of every check (times a length scale).
+ROUND_OFF = 1e-12
+
+SECTION_BEGIN = "<!-- soak_filter: begin (python -m velfence.soak_filter --out) -->"
+SECTION_END = "<!-- soak_filter: end -->"
+
+
+def _quiet(_: str) -> None:
+    """Progress sink that prints nothing."""
+
+
+# ------------------------------------------------------------------------ vertex campaign
+@dataclass(frozen=True)
+class VertexResult:
+    """What a vertex and edge campaign measured for one implementation.
+
+    Attributes:
+        name: The implementation and its settings.
+        states: States stepped.
+        polytopes: Random polytopes they were drawn from.
+        dims: The polytopes' dimensions (distinct, sorted).
+        escapes: Steps whose depth outside grew by more than the round-off tolerance.
+        max_escape: Largest growth of the depth outside over all steps [units]; 0 if none grew.
+        max_escape_relative: The same divided by the polytope's scale.
+        nonfinite: Outputs with a non-finite entry.
+        exceptions: States whose call raised (counted; the campaign goes on).
+        kinds: Escapes per state kind (``"vertex"``, ``"edge"``, ``"face"``).
+        seconds: Wall time [s].
+        example: One escaping state (``dim``, ``x``, ``u``, ``y``, ``escape``), or ``None``.
+    """
+
+    name: str
+    states: int
+    polytopes: int
+    dims: tuple[int, ...]
+    escapes: int
+    max_escape: float
+    max_escape_relative: float
+    nonfinite: int
+    exceptions: int
+    kinds: dict[str, int]
+    seconds: float
+    example: dict[str, Any] | None = None
+
+
+def random_polytope(rng: Rng, dim: int, *, scale: float = 1.0) -> Any:
+    """A random bounded polytope in ``dim`` dimensions (a ``ConvexPolytope``).
+
+    ``dim + 1`` to ``2 dim + 4`` random unit inward normals at random distances
+    (``scale`` x 0.3-1) from a random centre (within ``scale`` of the origin); redrawn until
+    bounded. Redundant facets are removed by the constructor.
+
+    Args:
+        rng: Random generator.
+        dim: Dimension, >= 2.
+        scale: Size [units], > 0.
+
+    Returns:
+        The :class:`~velfence.geometry.polytope.ConvexPolytope`.
+    """
+    from velfence.geometry.polytope import ConvexPolytope
+
+    while True:
+        m = int(rng.integers(dim + 1, 2 * dim + 5))
+        N = rng.normal(size=(m, dim))
+        N /= np.linalg.norm(N, axis=1)[:, None]
+        centre = rng.uniform(-scale, scale, dim)
+        off = N @ centre - scale * rng.uniform(0.3, 1.0, m)
+        try:
+            P = ConvexPolytope(N, off)
+            V = P.vertices
+        except InvalidGeometry:
+            continue
+        if V.shape[0] >= dim + 1:
+            return P
+
+
+@dataclass
+class _States:
+    """A batch of vertex/edge/face states of one polytope (rows aligned)."""
+
+    X: FloatArray
+    U: FloatArray
+    kind: NDArray[np.int8]  # 0 vertex, 1 edge, 2 face
+
+
+_KINDS = ("vertex", "edge", "face")
+
+
+def vertex_states(rng: Rng, P: Any, n: int, *, max_speed: float) -> tuple[FloatArray, FloatArray]:
+    """States on vertices, edges and faces of ``P``, some a few ulps outside, with commands.
+
+    Args:
+        rng: Random generator.
+        P: A bounded ``ConvexPolytope``.
+        n: Number of states.
+        max_speed: Largest command speed [units/s].
+
+    Returns:
+        ``(X, U)``, both shape (n, dim): the states and the commands (module docstring).
+    """
+    s = _vertex_states(rng, P, n, max_speed)
+    return s.X, s.U
+
+
+def _vertex_states(rng: Rng, P: Any, n: int, max_speed: float) -> _States:
+    N: FloatArray = np.asarray(P.normals)
+    off: FloatArray = np.asarray(P.offsets)
+    dim = N.shape[1]
+    V0: FloatArray = np.asarray(P.vertices)
+    scale = float(np.max(np.abs(V0 - P.chebyshev_center)))
+    tight = np.abs(V0 @ N.T - off) <= 1e-9 * (1.0 + scale)
+    # Re-solve each vertex from its tight facets: it then sits on them to round-off.
+    V = np.empty_like(V0)
+    for k in range(V0.shape[0]):
+        rows = np.flatnonzero(tight[k])
+        sol = np.linalg.lstsq(N[rows], off[rows], rcond=None)[0] if rows.size >= dim else V0[k]
+        V[k] = sol if np.all(np.isfinite(sol)) else V0[k]
+    nv = V.shape[0]
+    Ti = tight.astype(np.int32)
+    shared = Ti @ Ti.T
+    np.fill_diagonal(shared, 0)
+    edges = np.argwhere(np.triu(shared >= dim - 1, 1))
+    faces = np.argwhere(np.triu((shared >= 1) & (shared < dim - 1), 1))
+    kind = rng.choice(3, size=n, p=(0.4, 0.35, 0.25)).astype(np.int8)
+    kind[(kind == 1) & (edges.shape[0] == 0)] = 0
+    kind[(kind == 2) & (faces.shape[0] == 0)] = 1 if edges.shape[0] else 0
+    X = np.empty((n, dim))
+    on = np.zeros((n, N.shape[0]), dtype=bool)  # the facets each state lies on
+    iv = np.flatnonzero(kind == 0)
+    k0 = rng.integers(0, nv, iv.size)
+    X[iv] = V[k0]
+    on[iv] = tight[k0]
+    for code, pairs in ((1, edges), (2, faces)):
+        idx = np.flatnonzero(kind == code)
+        if idx.size == 0:
+            continue
+        pr = pairs[rng.integers(0, pairs.shape[0], idx.size)]
+        t = rng.uniform(0.0, 1.0, (idx.size, 1))
+        X[idx] = V[pr[:, 0]] + t * (V[pr[:, 1]] - V[pr[:, 0]])
+        on[idx] = tight[pr[:, 0]] & tight[pr[:, 1]]
+    # Outward perturbations on a random subset of each state's facets.
+    pert = rng.random(n) < 0.5
+    pick = on & (rng.random(on.shape) < 0.5) & pert[:, None]
+    exact = rng.random(n) < 0.3  # the issue's -2e-16 case, else 1-8 ulps
+    ulp = np.spacing(np.maximum(np.max(np.abs(X), axis=1), 1.0))
+    amount = np.where(exact, 2e-16, ulp * rng.choice([1.0, 2.0, 4.0, 8.0], n))
+    X = X - amount[:, None] * (pick.astype(np.float64) @ N)
+    # Commands: random, outward through one facet the state is on, or into the corner.
+    D = rng.normal(size=(n, dim))
+    D /= np.linalg.norm(D, axis=1)[:, None]
+    mode = rng.choice(3, size=n, p=(0.3, 0.4, 0.3))
+    for i in np.flatnonzero(mode > 0):
+        rows = np.flatnonzero(on[i])
+        if rows.size == 0:
+            continue
+        out = -N[rng.choice(rows)] if mode[i] == 1 else -N[rows].sum(axis=0)
+        nrm = float(np.linalg.norm(out))
+        if nrm == 0.0:
+            continue
+        out = out / nrm
+        tang = D[i] - float(D[i] @ out) * out
+        d = out + rng.uniform(0.0, 0.5) * tang
+        D[i] = d / np.linalg.norm(d)
+    U = D * rng.uniform(0.05, 1.0, (n, 1)) * max_speed
+    return _States(X, U, kind)
+
+
+class CartesianPoint:
+    """A robot whose only point is its joint vector: ``fk(q) = q``, ``J = I``.
+
+    Makes a d-D workspace polytope the :class:`~velfence.shaping.filter.SafetyFilter`'s safe set
+    (the filter's workspace rows, alone, in any dimension).
+
+    Args:
+        dim: Number of joints and task dimensions, >= 1.
+    """
+
+    def __init__(self, dim: int) -> None:
+        self.dof = check_positive_int("dim", dim, maximum=64)
+        self.joint_names = tuple(f"x{i}" for i in range(self.dof))
+        self.points = ("tcp",)
+
+    def fk(self, q: ArrayLike, point: str = "tcp") -> FloatArray:
+        """The point: ``q`` itself [units], shape (dim,)."""
+        return np.array(q, dtype=np.float64).reshape(self.dof)
+
+    def jacobian(self, q: ArrayLike, point: str = "tcp") -> FloatArray:
+        """The identity, shape (dim, dim)."""
+        return np.eye(self.dof)
+
+
+def _depth(P: Any, X: FloatArray) -> FloatArray:
+    """Depth outside ``P`` of each row of ``X``: ``max(0, max_i -(n_i·x - o_i))``."""
+    d = X @ np.asarray(P.normals).T - np.asarray(P.offsets)
+    return np.asarray(np.maximum(0.0, -d.min(axis=1)), dtype=np.float64)
+
+
+@dataclass
+class _Tally:
+    """Running counts of one vertex-campaign implementation."""
+
+    name: str
+    states: int = 0
+    escapes: int = 0
+    max_escape: float = 0.0
+    max_rel: float = 0.0
+    nonfinite: int = 0
+    exceptions: int = 0
+    kinds: Counter[str] = field(default_factory=Counter)
+    seconds: float = 0.0
+    example: dict[str, Any] | None = None
+
+    def add(
+        self,
+        P: Any,
+        scale: float,
+        st: _States,
+        Y: FloatArray,
+        dt: float,
+        failed: NDArray[np.bool_] | None = None,
+    ) -> None:
+        bad: NDArray[np.bool_] = np.asarray(~np.isfinite(Y).all(axis=1), dtype=np.bool_)
+        self.nonfinite += int(bad.sum())
+        Y = np.where(bad[:, None], 0.0, Y)
+        X1 = st.X + dt * Y
+        grow = _depth(P, X1) - _depth(P, st.X)
+        tol = ROUND_OFF * (scale + np.max(np.abs(st.X), axis=1))
+        esc = grow > tol
+        if failed is not None:
+            esc &= ~failed
+            self.exceptions += int(failed.sum())
+        self.states += st.X.shape[0]
+        self.escapes += int(esc.sum())
+        for k in st.kind[esc]:
+            self.kinds[_KINDS[int(k)]] += 1
+        top = float(grow.max(initial=0.0))
+        self.max_escape = max(self.max_escape, top)
+        self.max_rel = max(self.max_rel, top / scale)
+        if esc.any() and self.example is None:
+            i = int(np.argmax(np.where(esc, grow, -np.inf)))
+            self.example = {
+                "dim": int(st.X.shape[1]),
+                "x": st.X[i].tolist(),
+                "u": st.U[i].tolist(),
+                "y": Y[i].tolist(),
+                "escape": float(grow[i]),
+            }
+
+    def result(self, polytopes: int, dims: Sequence[int]) -> VertexResult:
+        return VertexResult(
+            name=self.name,
+            states=self.states,
+            polytopes=polytopes,
+            dims=tuple(sorted(set(dims))),
+            escapes=self.escapes,
+            max_escape=self.max_escape,
+            max_escape_relative=self.max_rel,
+            nonfinite=self.nonfinite,
+            exceptions=self.exceptions,
+            kinds=dict(self.kinds),
+            seconds=self.seconds,
+            example=self.example,
+        )
+
+
+ShaperFactory = Callable[[Any, float, float], Any]
+"""``factory(polytope, buffer, dt)`` → the shaper under test (has ``shape_batch(X, U)``)."""
+
+
+def _exact_shaper(P: Any, buffer: float, dt: float) -> Any:
+    from velfence.shaping.polytope import PolytopeShaper
+
+    return PolytopeShaper(P, buffer=buffer, dt=dt)
+
+
+def run_vertex_campaign(
+    *,
+    states: int = 1_000_000,
+    filter_states: int = 100_000,
+    dims: Sequence[int] = (3, 4, 5, 6, 7),
+    per_polytope: int = 5000,
+    dt: float = 1e-3,
+    shaper: ShaperFactory | None = None,
+    seed: int = 0,
+    progress: Progress = _quiet,
+) -> list[VertexResult]:
+    """Run the vertex and edge campaign (module docstring) on the shaper and the filter.
+
+    Args:
+        states: States stepped by the shaper (``PolytopeShaper`` exact with ``dt``), >= 1.
+        filter_states: States stepped by the filter's workspace rows, >= 0 (0: no filter run).
+        dims: Dimensions of the random polytopes (cycled), each 2-10.
+        per_polytope: States per polytope, >= 1 (the filter gets the same share of polytopes).
+        dt: Step [s], > 0.
+        shaper: ``factory(polytope, buffer, dt)`` building the shaper under test (default: the
+            exact ``PolytopeShaper`` with ``dt``); the tests plant a broken one.
+        seed: Seed of the random generator.
+        progress: Called with a line of progress now and then.
+
+    Returns:
+        One :class:`VertexResult` for the shaper and, with ``filter_states``, one for the filter.
+
+    Raises:
+        InvalidParameter: a count or ``dt`` out of range, an empty or bad ``dims``.
+    """
+    total = check_positive_int("states", states, maximum=10**9)
+    nf = 0 if filter_states == 0 else check_positive_int("filter_states", filter_states)
+    per = check_positive_int("per_polytope", per_polytope, maximum=10**7)
+    dt = check_positive("dt", dt, unit="s")
+    dl = [int(d) for d in dims]
+    if not dl or any(d < 2 or d > 10 for d in dl):
+        raise InvalidParameter(f"dims: expected dimensions in [2, 10], got {list(dims)}")
+    make = shaper if shaper is not None else _exact_shaper
+    rng = np.random.default_rng(check_seed("seed", seed))
+    sh = _Tally(f"PolytopeShaper exact, dt = {dt:g} s" if shaper is None else "shaper under test")
+    fl = _Tally(f"SafetyFilter workspace rows (CartesianPoint), dt = {dt:g} s")
+    polys = 0
+    seen: list[int] = []
+    done_f = 0
+    next_report = time.perf_counter() + 10.0
+    while sh.states < total or done_f < nf:
+        dim = dl[polys % len(dl)]
+        scale = float(10.0 ** rng.uniform(-1.0, 1.0))
+        P = random_polytope(rng, dim, scale=scale)
+        polys += 1
+        seen.append(dim)
+        size = float(np.max(np.abs(np.asarray(P.vertices) - P.chebyshev_center)))
+        speed = size * float(10.0 ** rng.uniform(-1.0, 1.5))
+        r = float(P.chebyshev_radius)
+        buffers = (0.02 * r, 0.2 * r, 0.9 * r)
+        if sh.states < total:
+            k = min(per, total - sh.states)
+            st = _vertex_states(rng, P, k, speed)
+            t0 = time.perf_counter()
+            Y = np.empty_like(st.X)
+            for j, part in enumerate(np.array_split(np.arange(k), len(buffers))):
+                Y[part] = make(P, buffers[j], dt).shape_batch(st.X[part], st.U[part])
+            sh.seconds += time.perf_counter() - t0
+            sh.add(P, size, st, Y, dt)
+        if done_f < nf:
+            k = min(max(1, per * nf // max(total, 1)), nf - done_f)
+            st = _vertex_states(rng, P, k, speed)
+            t0 = time.perf_counter()
+            Y, failed = _filter_steps(P, st, buffers, speed, dt)
+            fl.seconds += time.perf_counter() - t0
+            fl.add(P, size, st, Y, dt, failed)
+            done_f += k
+        now = time.perf_counter()
+        if now >= next_report:
+            next_report = now + 10.0
+            progress(
+                f"vertex campaign: shaper {sh.states:,}/{total:,} (escapes {sh.escapes}), "
+                f"filter {done_f:,}/{nf:,} (escapes {fl.escapes}), {polys} polytopes"
+            )
+    out = [sh.result(polys, seen)]
+    if nf:
+        out.append(fl.result(polys, seen))
+    return out
+
+
+def _filter_steps(
+    P: Any, st: _States, buffers: Sequence[float], speed: float, dt: float
+) -> tuple[FloatArray, NDArray[np.bool_]]:
+    """One filter cycle per state (joint mode on a CartesianPoint): outputs and failures."""
+    from velfence.shaping.filter import JointLimits, SafetyFilter, WorkspaceLimit
+
+    n, dim = st.X.shape
+    robot = CartesianPoint(dim)
+    lim = JointLimits(np.full(dim, -np.inf), np.full(dim, np.inf), np.full(dim, 10.0 * speed))
+    Y = np.zeros((n, dim))
+    failed = np.zeros(n, dtype=bool)
+    for j, part in enumerate(np.array_split(np.arange(n), len(buffers))):
+        ws = WorkspaceLimit(P, buffer=buffers[j], spring_gain=1.0)
+        flt = SafetyFilter(robot, limits=lim, workspace=ws, dt=dt)
+        for i in part:
+            try:
+                Y[i] = flt.filter(st.X[i], st.U[i])
+            except Exception:
+                failed[i] = True
+    return Y, failed
+
+
+# ------------------------------------------------------------------------ closed-loop soak
+RobotName = Literal["ur5e", "panda"]
+_ROBOTS: tuple[RobotName, ...] = ("ur5e", "panda")
+
+
+@dataclass(frozen=True)
+class LoopResult:
+    """What a closed-loop filter campaign measured.
+
+    Attributes:
+        name: Robot and rate.
+        robot: ``"ur5e"`` or ``"panda"``.
+        rate: Control rate [Hz] (``dt = 1 / rate`` set on the filter).
+        episodes: Episodes run.
+        resting: Of those, episodes starting with the tool on two planes and joints at limits.
+        steps: Closed-loop steps in total.
+        workspace_escapes: Steps that began inside every workspace limit and ended outside one
+            by more than the tolerance.
+        max_workspace_escape: Largest depth outside after such a step [m].
+        deepened: Steps that began outside and went further out by more than the tolerance.
+        joint_crossings: Steps that began within the joint limits and ended beyond one by more
+            than the tolerance.
+        max_joint_crossing: Largest such excess [rad].
+        sphere_penetrations: Steps that began clear of every sphere and ended inside one.
+        max_sphere_penetration: Largest depth inside after such a step [m].
+        nonfinite: Non-finite outputs.
+        exceptions: Cycles that raised.
+        exception_kinds: Exception type name → count.
+        deadline_fallbacks: Cycles flagged by ``result.deadline`` (0 where not reported).
+        max_rows: Largest number of rows of a cycle.
+        stages: Stage → number of cycles that reported it.
+        escape_stages: Stages of the cycles that let the tool out (stage tuple → count).
+        seconds: Wall time [s].
+    """
+
+    name: str
+    robot: str
+    rate: float
+    episodes: int
+    resting: int
+    steps: int
+    workspace_escapes: int
+    max_workspace_escape: float
+    deepened: int
+    joint_crossings: int
+    max_joint_crossing: float
+    sphere_penetrations: int
+    max_sphere_penetration: float
+    nonfinite: int
+    exceptions: int
+    exception_kinds: dict[str, int]
+    deadline_fallbacks: int
+    max_rows: int
+    stages: dict[str, int]
+    escape_stages: dict[str, int]
+    seconds: float
+
+    @property
+    def contained(self) -> bool:
+        """No escape, crossing, penetration, non-finite output or exception."""
+        return not (
+            self.workspace_escapes
+            or self.joint_crossings
+            or self.sphere_penetrations
+            or self.nonfinite
+            or self.exceptions
+        )
+
+
+def _robot(name: RobotName) -> Any:
+    from velfence.robots import panda, ur5e
+
+    build = ur5e if name == "ur5e" else panda
+    return build(radius=0.05, tool=(0.0, 0.0, 0.05))
+
+
+@dataclass
+class _Episode:
+    """One randomised episode: the filter and what the measurement needs."""
+
+    flt: Any
+    q: FloatArray
+    lo: FloatArray
+    hi: FloatArray
+    N: FloatArray  # all workspace facets stacked (m, 3); n·p >= o inside
+    o: FloatArray
+    centres: FloatArray  # (k, 3)
+    radii: FloatArray  # (k,)
+    twist: bool
+    resting: bool
+
+
+def _unit(rng: Rng, k: int = 3) -> FloatArray:
+    v = rng.normal(size=k)
+    return np.asarray(v / np.linalg.norm(v), dtype=np.float64)
+
+
+FilterFactory = Callable[..., Any]
+"""Builds the filter under test with ``SafetyFilter``'s arguments (robot, limits=, workspace=,
+obstacles=, dt=); its ``explain(q, u)`` and ``explain_twist(q, v)`` return a result with
+``output``, ``stages`` and ``constraint_names``."""
+
+
+def _episode(
+    rng: Rng, robot: Any, dt: float, *, resting: bool, make: FilterFactory | None = None
+) -> _Episode:
+    """A random scene around a random start (module docstring)."""
+    from velfence.geometry.polytope import ConvexPolytope
+    from velfence.shaping.filter import JointLimits, SafetyFilter, SphereObstacle, WorkspaceLimit
+
+    n = int(robot.dof)
+    lim0 = np.asarray(robot.joint_limits, dtype=np.float64)  # (n, 2)
+    vmax = np.asarray(robot.velocity_limits, dtype=np.float64)
+    span = np.minimum(lim0[:, 1] - lim0[:, 0], 2.0 * math.pi)
+    q = lim0[:, 0] + (lim0[:, 1] - lim0[:, 0] - span) / 2 + span * rng.uniform(0.1, 0.9, n)
+    lo = np.maximum(lim0[:, 0], q - rng.uniform(0.1, 2.0, n))
+    hi = np.minimum(lim0[:, 1], q + rng.uniform(0.1, 2.0, n))
+    if resting or rng.random() < 0.2:
+        for j in rng.choice(n, size=int(rng.integers(2, 4)), replace=False):
+            if rng.random() < 0.5:
+                lo[j] = q[j]
+            else:
+                hi[j] = q[j]
+    acc = None
+    if rng.random() < 0.3:
+        acc = np.full(n, float(rng.uniform(5.0, 30.0)))
+    limits = JointLimits(lo, hi, vmax, max_acceleration=acc)
+    p = np.asarray(robot.fk(q), dtype=np.float64)
+    rows_n: list[FloatArray] = []
+    rows_o: list[float] = []
+    ws: list[Any] = []
+    shape = "planes" if resting else str(rng.choice(["box", "planes", "both"]))
+    if shape in ("box", "both"):
+        lower = p - rng.uniform(0.0 if rng.random() < 0.3 else 0.01, 0.3, 3)
+        upper = p + rng.uniform(0.01, 0.3, 3)
+        box = ConvexPolytope.box(lower, upper)
+        ws.append(WorkspaceLimit(box, buffer=float(rng.uniform(0.01, 0.05))))
+    if shape in ("planes", "both"):
+        k = 2 if resting else int(rng.integers(1, 3))
+        N = np.empty((k, 3))
+        o = np.empty(k)
+        for i in range(k):
+            axis = np.zeros(3)
+            axis[int(rng.integers(0, 3))] = 1.0 if rng.random() < 0.5 else -1.0
+            nrm = axis + 0.8 * rng.uniform(0.0, 1.0) * _unit(rng)
+            N[i] = nrm / np.linalg.norm(nrm)
+            o[i] = float(N[i] @ p) - (0.0 if resting else float(rng.uniform(0.0, 0.1)))
+        try:
+            planes = ConvexPolytope(N, o)
+        except InvalidGeometry:
+            planes = ConvexPolytope(N[:1], o[:1])
+        ws.append(WorkspaceLimit(planes, buffer=float(rng.uniform(0.01, 0.05))))
+    for w in ws:
+        rows_n.append(np.asarray(w.polytope.normals))
+        rows_o.extend(np.asarray(w.polytope.offsets).tolist())
+    # Spheres near the links, clear of them at the start.
+    seg = np.asarray(robot.link_segments(q), dtype=np.float64)
+    lrad = np.asarray(robot.link_radius, dtype=np.float64)
+    centres: list[FloatArray] = []
+    radii: list[float] = []
+    for _ in range(int(rng.integers(0, 5))):
+        for _try in range(20):
+            L = int(rng.integers(1, seg.shape[0]))
+            a = seg[L, 0] + rng.uniform(0.0, 1.0) * (seg[L, 1] - seg[L, 0])
+            R = float(rng.uniform(0.02, 0.1))
+            c = a + (R + float(lrad[L]) + float(rng.uniform(0.02, 0.25))) * _unit(rng)
+            if _clearance(seg, lrad, c[None, :], np.array([R])) > 0.01:
+                centres.append(c)
+                radii.append(R)
+                break
+    obstacles = [SphereObstacle(c, radius=r) for c, r in zip(centres, radii, strict=True)]
+    build = SafetyFilter if make is None else make
+    flt = build(robot, limits=limits, workspace=ws, obstacles=obstacles, dt=dt)
+    return _Episode(
+        flt=flt,
+        q=q,
+        lo=lo,
+        hi=hi,
+        N=np.vstack(rows_n) if rows_n else np.zeros((0, 3)),
+        o=np.asarray(rows_o, dtype=np.float64),
+        centres=np.asarray(centres, dtype=np.float64).reshape(-1, 3),
+        radii=np.asarray(radii, dtype=np.float64),
+        twist=resting or bool(rng.random() < 0.5),
+        resting=resting,
+    )
+
+
+def _clearance(seg: FloatArray, lrad: FloatArray, C: FloatArray, R: FloatArray) -> float:
+    """Smallest clearance between the capsule links and the spheres [m] (inf: no sphere)."""
+    if C.shape[0] == 0:
+        return math.inf
+    A = seg[:, 0]
+    E = seg[:, 1] - A
+    ee = np.einsum("ij,ij->i", E, E)
+    rel = C[:, None, :] - A[None, :, :]
+    t = np.clip(np.einsum("psk,sk->ps", rel, E) / np.where(ee > 0.0, ee, 1.0), 0.0, 1.0)
+    t = np.where(ee > 0.0, t, 0.0)
+    diff = rel - t[:, :, None] * E[None, :, :]
+    dist = np.sqrt(np.einsum("psk,psk->ps", diff, diff)) - lrad[None, :] - R[:, None]
+    return float(dist.min())
+
+
+def run_loop_campaign(
+    robot: RobotName,
+    rate: float,
+    *,
+    steps: int = 100_000,
+    episode_steps: int = 500,
+    resting_fraction: float = 0.25,
+    make_filter: FilterFactory | None = None,
+    seed: int = 0,
+    progress: Progress = _quiet,
+) -> LoopResult:
+    """Run the closed-loop filter soak (module docstring) on one robot at one rate.
+
+    Args:
+        robot: ``"ur5e"`` or ``"panda"``.
+        rate: Control rate [Hz], > 0 (``dt = 1 / rate``).
+        steps: Closed-loop steps in total (rounded up to whole episodes), >= 1.
+        episode_steps: Steps per episode, >= 1.
+        resting_fraction: Share of episodes starting with the tool on two planes and joints at
+            their limits, in [0, 1].
+        make_filter: Builds the filter under test (default ``SafetyFilter``); the tests plant
+            broken ones.
+        seed: Seed of the random generator.
+        progress: Called with a line of progress now and then.
+
+    Returns:
+        The campaign's :class:`LoopResult`.
+
+    Raises:
+        InvalidParameter: an unknown robot, a rate, count or fraction out of range.
+    """
+    if robot not in _ROBOTS:
+        raise InvalidParameter(f"robot: expected one of {list(_ROBOTS)}, got {robot!r}")
+    rate = check_positive("rate", rate, unit="Hz")
+    total = check_positive_int("steps", steps, maximum=10**9)
+    per = check_positive_int("episode_steps", episode_steps, maximum=10**7)
+    frac = check_positive("resting_fraction", resting_fraction, allow_zero=True)
+    if frac > 1.0:
+        raise InvalidParameter(f"resting_fraction must be in [0, 1], got {frac}")
+    rng = np.random.default_rng(check_seed("seed", seed))
+    model = _robot(robot)
+    dt = 1.0 / rate
+    vmax = np.asarray(model.velocity_limits, dtype=np.float64)
+    lrad = np.asarray(model.link_radius, dtype=np.float64)
+    episodes = -(-total // per)
+    ws_esc = deep = jc = sp = nonfinite = exc = deadline = resting_n = max_rows = 0
+    ws_max = j_max = s_max = 0.0
+    kinds: Counter[str] = Counter()
+    stages: Counter[str] = Counter()
+    esc_stages: Counter[str] = Counter()
+    t0 = time.perf_counter()
+    next_report = t0 + 10.0
+    done = 0
+    for e in range(episodes):
+        ep = _episode(rng, model, dt, resting=bool(rng.random() < frac), make=make_filter)
+        resting_n += ep.resting
+        q = ep.q
+        p = np.asarray(model.fk(q), dtype=np.float64)
+        d_ws = float(np.min(ep.N @ p - ep.o, initial=math.inf))
+        clear = _clearance(np.asarray(model.link_segments(q)), lrad, ep.centres, ep.radii)
+        cmd = np.zeros(3)
+        change = 0
+        for _k in range(per):
+            change -= 1
+            if change <= 0:  # a new command, held for 20-200 ms
+                change = max(1, round(float(rng.uniform(0.02, 0.2)) * rate))
+                push = ep.N.shape[0] > 0 and rng.random() < 0.4
+                if ep.twist:
+                    if push:
+                        i = int(np.argmin(ep.N @ p - ep.o))
+                        cmd = -ep.N[i] + 0.5 * rng.uniform(0.0, 1.0) * _unit(rng)
+                        cmd *= float(rng.uniform(0.05, 1.0)) / np.linalg.norm(cmd)
+                    else:
+                        cmd = _unit(rng) * float(rng.uniform(0.0, 1.0))
+                else:
+                    cmd = rng.uniform(-1.0, 1.0, q.shape[0]) * vmax * float(rng.uniform(0.1, 1))
+            try:
+                res = ep.flt.explain_twist(q, cmd) if ep.twist else ep.flt.explain(q, cmd)
+                x = np.asarray(res.output, dtype=np.float64)
+                stg = tuple(res.stages)
+                if getattr(res, "deadline", None) is not None:
+                    deadline += 1
+                max_rows = max(max_rows, len(res.constraint_names))
+            except Exception as err:
+                exc += 1
+                kinds[type(err).__name__] += 1
+                x = np.zeros(q.shape[0])
+                stg = ("exception",)
+            for s in stg:
+                stages[s] += 1
+            if not np.all(np.isfinite(x)):
+                nonfinite += 1
+                x = np.zeros(q.shape[0])
+            q1 = q + x * dt
+            p1 = np.asarray(model.fk(q1), dtype=np.float64)
+            tol = ROUND_OFF * (1.0 + float(np.max(np.abs(p1))))
+            d1 = float(np.min(ep.N @ p1 - ep.o, initial=math.inf))
+            if d_ws >= -tol and d1 < -tol:
+                ws_esc += 1
+                ws_max = max(ws_max, -d1)
+                esc_stages[", ".join(stg)] += 1
+            elif d_ws < -tol and d1 < d_ws - tol:
+                deep += 1
+            tq = ROUND_OFF * (1.0 + np.abs(q1))
+            inside = (q >= ep.lo - tq) & (q <= ep.hi + tq)
+            over = np.maximum(ep.lo - q1, q1 - ep.hi)
+            cross = inside & (over > tq)
+            if cross.any():
+                jc += 1
+                j_max = max(j_max, float(over[cross].max()))
+            c1 = _clearance(np.asarray(model.link_segments(q1)), lrad, ep.centres, ep.radii)
+            if clear >= -tol and c1 < -tol:
+                sp += 1
+                s_max = max(s_max, -c1)
+            q, p, d_ws, clear = q1, p1, d1, c1
+            done += 1
+            now = time.perf_counter()
+            if now >= next_report:
+                next_report = now + 10.0
+                progress(
+                    f"{robot} {rate:g} Hz: {done:,}/{episodes * per:,} steps, episode {e + 1}, "
+                    f"escapes {ws_esc}, crossings {jc}, penetrations {sp}, exceptions {exc}"
+                )
+    return LoopResult(
+        name=f"{'UR5e' if robot == 'ur5e' else 'Panda'}, {rate:g} Hz",
+        robot=robot,
+        rate=rate,
+        episodes=episodes,
+        resting=resting_n,
+        steps=done,
+        workspace_escapes=ws_esc,
+        max_workspace_escape=ws_max,
+        deepened=deep,
+        joint_crossings=jc,
+        max_joint_crossing=j_max,
+        sphere_penetrations=sp,
+        max_sphere_penetration=s_max,
+        nonfinite=nonfinite,
+        exceptions=exc,
+        exception_kinds=dict(kinds),
+        deadline_fallbacks=deadline,
+        max_rows=max_rows,
+        stages=dict(stages),
+        escape_stages=dict(esc_stages),
+        seconds=time.perf_counter() - t0,
+    )
+
+
+# ------------------------------------------------------------------------------- report
+def render_markdown(
+    vertex: Sequence[VertexResult],
+    loops: Sequence[LoopResult],
+    *,
+    command: str,
+    notes: str = "",
+) -> str:
+    """The campaigns' tables as a Markdown section (between the section markers).
+
+    Args:
+        vertex: Vertex-campaign results (may be empty).
+        loops: Closed-loop results (may be empty).
+        command: The command that produced them.
+        notes: Markdown appended after the tables.
+
+    Returns:
+        The section, starting with :data:`SECTION_BEGIN` and ending with :data:`SECTION_END`.
+
+    Raises:
+        InvalidParameter: wrong result types, ``command`` or ``notes`` not text.
+    """
+    if not all(isinstance(r, VertexResult) for r in vertex) or not all(
+        isinstance(r, LoopResult) for r in loops
+    ):
+        raise InvalidParameter("vertex, loops: expected VertexResult and LoopResult sequences")
+    command = check_text("command", command)
+    notes = check_text("notes", notes, max_length=100_000)
+    out = [SECTION_BEGIN, f"\nProduced by `{command}`.\n"]
+    if vertex:
+        out.append(
+            "| implementation | states | dims | escapes | max escape (abs / rel. to scale) "
+            "| non-finite | exceptions | escapes by kind | states/s |\n"
+            "| --- | ---: | --- | ---: | ---: | ---: | ---: | --- | ---: |"
+        )
+        for v in vertex:
+            kinds = ", ".join(f"{k} {c}" for k, c in sorted(v.kinds.items())) or "—"
+            rate = v.states / v.seconds if v.seconds > 0 else math.inf
+            out.append(
+                f"| {v.name} | {v.states:,} | {min(v.dims)}–{max(v.dims)} | {v.escapes:,} | "
+                f"{v.max_escape:.3g} / {v.max_escape_relative:.3g} | {v.nonfinite:,} | "
+                f"{v.exceptions:,} | {kinds} | {rate:,.0f} |"
+            )
+        out.append("")
+    if loops:
+        out.append(
+            "| robot, rate | steps | episodes (resting) | ws escapes | max escape [m] | "
+            "deepened | joint crossings | sphere penetrations (max [m]) | non-finite | "
+            "exceptions | deadline | max rows | steps/s |\n"
+            "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: "
+            "| ---: |"
+        )
+        for r in loops:
+            rate = r.steps / r.seconds if r.seconds > 0 else math.inf
+            out.append(
+                f"| {r.name} | {r.steps:,} | {r.episodes} ({r.resting}) | "
+                f"{r.workspace_escapes:,} | {r.max_workspace_escape:.3g} | {r.deepened:,} | "
+                f"{r.joint_crossings:,} | {r.sphere_penetrations:,} "
+                f"({r.max_sphere_penetration:.3g}) | {r.nonfinite:,} | {r.exceptions:,} | "
+                f"{r.deadline_fallbacks:,} | {r.max_rows} | {rate:,.0f} |"
+            )
+        out.append("")
+        seen: Counter[str] = Counter()
+        esc: Counter[str] = Counter()
+        for r in loops:
+            seen.update(r.stages)
+            esc.update(r.escape_stages)
+        out.append(
+            "Stages seen (cycles): "
+            + ", ".join(f"`{s}` {c:,}" for s, c in seen.most_common())
+            + "."
+        )
+        if esc:
+            out.append(
+                "\nStages of the escaping cycles: "
+                + "; ".join(f"`{s}` ×{c}" for s, c in esc.most_common())
+                + "."
+            )
+        out.append("")
+    out.append(notes)
+    out.append(SECTION_END)
+    return "\n".join(out) + "\n"
+
+
+def write_section(path: Any, section: str) -> None:
+    """Replace the marked section of a Markdown file with ``section`` (append it if absent)."""
+    from pathlib import Path
+
+    p = Path(path)
+    text = p.read_text() if p.exists() else ""
+    a, b = text.find(SECTION_BEGIN), text.find(SECTION_END)
+    if a >= 0 and b > a:
+        text = text[:a] + section.rstrip("\n") + text[b + len(SECTION_END) :]
+    else:
+        text = text.rstrip("\n") + ("\n\n" if text else "") + section
+    p.write_text(text if text.endswith("\n") else text + "\n")
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``python -m velfence.soak_filter``: run both campaigns, print and write the section."""
+    import argparse
+    import os
+    import sys
+
+    ap = argparse.ArgumentParser(prog="python -m velfence.soak_filter", description=__doc__)
+    ap.add_argument("--vertex-states", type=int, default=1_000_000, help="shaper states")
+    ap.add_argument("--filter-states", type=int, default=100_000, help="filter vertex states")
+    ap.add_argument("--steps", type=int, default=1_000_000, help="closed-loop steps in total")
+    ap.add_argument("--episode-steps", type=int, default=500)
+    ap.add_argument("--rates", type=str, default="1000,500,100", help="control rates [Hz]")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--out", type=str, default=None, help="Markdown file whose section to write")
+    args = ap.parse_args(argv)
+
+    def say(line: str) -> None:
+        print(line, file=sys.stderr, flush=True)
+
+    vertex: list[VertexResult] = []
+    if args.vertex_states > 0:
+        vertex = run_vertex_campaign(
+            states=args.vertex_states,
+            filter_states=args.filter_states,
+            seed=args.seed,
+            progress=say,
+        )
+        for v in vertex:
+            print(
+                f"{v.name}: {v.states:,} states, escapes {v.escapes}, max escape "
+                f"{v.max_escape:.3g} ({v.max_escape_relative:.3g} of scale), non-finite "
+                f"{v.nonfinite}, exceptions {v.exceptions}, by kind {v.kinds}"
+            )
+    loops: list[LoopResult] = []
+    rates = [float(r) for r in args.rates.split(",") if r.strip()]
+    cases = [(rb, rt) for rb in _ROBOTS for rt in rates]
+    if args.steps > 0 and cases:
+        each = max(args.episode_steps, args.steps // len(cases))
+        for i, (rb, rt) in enumerate(cases):
+            r = run_loop_campaign(
+                rb,
+                rt,
+                steps=each,
+                episode_steps=args.episode_steps,
+                seed=args.seed + i,
+                progress=say,
+            )
+            print(
+                f"{r.name}: {r.steps:,} steps, {r.episodes} episodes ({r.resting} resting), "
+                f"ws escapes {r.workspace_escapes} (max {r.max_workspace_escape:.3g} m), "
+                f"deepened {r.deepened}, joint crossings {r.joint_crossings}, penetrations "
+                f"{r.sphere_penetrations} (max {r.max_sphere_penetration:.3g} m), non-finite "
+                f"{r.nonfinite}, exceptions {r.exceptions} {r.exception_kinds}, deadline "
+                f"{r.deadline_fallbacks}, escape stages {r.escape_stages}"
+            )
+            loops.append(r)
+    if args.out is not None:
+        cmd = (
+            f"python -m velfence.soak_filter --vertex-states {args.vertex_states} "
+            f"--filter-states {args.filter_states} --steps {args.steps} "
+            f"--episode-steps {args.episode_steps} --rates {args.rates} --seed {args.seed}"
+        )
+        load = os.getloadavg()
+        stamp = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
+        notes = f"Run {stamp}, load average {load[0]:.2f} / {load[1]:.2f} / {load[2]:.2f}.\n"
+        write_section(args.out, render_markdown(vertex, loops, command=cmd, notes=notes))
+    ok = all(v.escapes == 0 and v.nonfinite == 0 and v.exceptions == 0 for v in vertex) and all(
+        r.contained for r in loops
+    )
+    print("soak_filter: " + ("contained, exit 0" if ok else "NOT contained, exit 1"))
+    return 0 if ok else 1
+
+
+if __name__ == "__main__":  # pragma: no cover
+    raise SystemExit(main())
