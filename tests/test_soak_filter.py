@@ -255,7 +255,8 @@ def _loop_result(**kw: Any) -> LoopResult:
     base: dict[str, Any] = {
         "name": "UR5e, 500 Hz", "robot": "ur5e", "rate": 500.0, "episodes": 2, "resting": 1,
         "steps": 10, "workspace_escapes": 1, "max_workspace_escape": 1e-3, "deepened": 0,
-        "joint_crossings": 0, "max_joint_crossing": 0.0, "sphere_penetrations": 0,
+        "max_deepened": 0.0, "joint_crossings": 0, "max_joint_crossing": 0.0,
+        "sphere_penetrations": 0,
         "max_sphere_penetration": 0.0, "nonfinite": 0, "exceptions": 0, "exception_kinds": {},
         "deadline_fallbacks": 0, "max_rows": 40, "stages": {"projection": 3},
         "escape_stages": {"projection, dropped workspace": 1}, "seconds": 1.0,

@@ -465,6 +465,7 @@ class LoopResult:
             by more than the tolerance.
         max_workspace_escape: Largest depth outside after such a step [m].
         deepened: Steps that began outside and went further out by more than the tolerance.
+        max_deepened: Largest such growth of the depth outside in one step [m].
         joint_crossings: Steps that began within the joint limits and ended beyond one by more
             than the tolerance.
         max_joint_crossing: Largest such excess [rad].
@@ -489,6 +490,7 @@ class LoopResult:
     workspace_escapes: int
     max_workspace_escape: float
     deepened: int
+    max_deepened: float
     joint_crossings: int
     max_joint_crossing: float
     sphere_penetrations: int
@@ -693,7 +695,7 @@ def run_loop_campaign(
     lrad = np.asarray(model.link_radius, dtype=np.float64)
     episodes = -(-total // per)
     ws_esc = deep = jc = sp = nonfinite = exc = deadline = resting_n = max_rows = 0
-    ws_max = j_max = s_max = 0.0
+    ws_max = j_max = s_max = deep_max = 0.0
     kinds: Counter[str] = Counter()
     stages: Counter[str] = Counter()
     esc_stages: Counter[str] = Counter()
@@ -750,6 +752,7 @@ def run_loop_campaign(
                 esc_stages[", ".join(stg)] += 1
             elif d_ws < -tol and d1 < d_ws - tol:
                 deep += 1
+                deep_max = max(deep_max, d_ws - d1)
             tq = ROUND_OFF * (1.0 + np.abs(q1))
             inside = (q >= ep.lo - tq) & (q <= ep.hi + tq)
             over = np.maximum(ep.lo - q1, q1 - ep.hi)
@@ -780,6 +783,7 @@ def run_loop_campaign(
         workspace_escapes=ws_esc,
         max_workspace_escape=ws_max,
         deepened=deep,
+        max_deepened=deep_max,
         joint_crossings=jc,
         max_joint_crossing=j_max,
         sphere_penetrations=sp,
@@ -842,7 +846,7 @@ def render_markdown(
     if loops:
         out.append(
             "| robot, rate | steps | episodes (resting) | ws escapes | max escape [m] | "
-            "deepened | joint crossings | sphere penetrations (max [m]) | non-finite | "
+            "deepened (max [m]) | joint crossings | sphere penetrations (max [m]) | non-finite | "
             "exceptions | deadline | max rows | steps/s |\n"
             "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: "
             "| ---: |"
@@ -851,7 +855,8 @@ def render_markdown(
             rate = r.steps / r.seconds if r.seconds > 0 else math.inf
             out.append(
                 f"| {r.name} | {r.steps:,} | {r.episodes} ({r.resting}) | "
-                f"{r.workspace_escapes:,} | {r.max_workspace_escape:.3g} | {r.deepened:,} | "
+                f"{r.workspace_escapes:,} | {r.max_workspace_escape:.3g} | "
+                f"{r.deepened:,} ({r.max_deepened:.3g}) | "
                 f"{r.joint_crossings:,} | {r.sphere_penetrations:,} "
                 f"({r.max_sphere_penetration:.3g}) | {r.nonfinite:,} | {r.exceptions:,} | "
                 f"{r.deadline_fallbacks:,} | {r.max_rows} | {rate:,.0f} |"
@@ -943,7 +948,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             print(
                 f"{r.name}: {r.steps:,} steps, {r.episodes} episodes ({r.resting} resting), "
                 f"ws escapes {r.workspace_escapes} (max {r.max_workspace_escape:.3g} m), "
-                f"deepened {r.deepened}, joint crossings {r.joint_crossings}, penetrations "
+                f"deepened {r.deepened} (max {r.max_deepened:.3g} m), joint crossings "
+                f"{r.joint_crossings}, penetrations "
                 f"{r.sphere_penetrations} (max {r.max_sphere_penetration:.3g} m), non-finite "
                 f"{r.nonfinite}, exceptions {r.exceptions} {r.exception_kinds}, deadline "
                 f"{r.deadline_fallbacks}, escape stages {r.escape_stages}"
