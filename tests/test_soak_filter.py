@@ -19,6 +19,7 @@ from tests.optional import requires
 from velfence.errors import InvalidParameter
 from velfence.geometry.projection import project
 from velfence.soak_filter import (
+    HISTORY,
     ROUND_OFF,
     SECTION_BEGIN,
     SECTION_END,
@@ -279,6 +280,20 @@ def test_markdown_section_is_replaced_in_place(tmp_path: Path) -> None:
     assert "cmd two" in text
     assert "cmd one" not in text
     assert "`projection, dropped workspace` ×1" in text
+
+
+def test_earlier_runs_survive_a_rewrite(tmp_path: Path) -> None:
+    page = tmp_path / "reliability.md"
+    first = render_markdown([], [_loop_result()], command="first")
+    record = f"{HISTORY}\n\nthe run before the fix: 36 escapes\n"
+    write_section(page, first.replace(SECTION_END, record + SECTION_END))
+    write_section(page, render_markdown([], [_loop_result()], command="second"))
+    text = page.read_text()
+    assert "second" in text
+    assert "first" not in text
+    assert "the run before the fix: 36 escapes" in text
+    assert text.index(HISTORY) < text.index(SECTION_END)
+    assert text.count(HISTORY) == 1
 
 
 def test_the_polygon_soak_keeps_the_section(tmp_path: Path) -> None:

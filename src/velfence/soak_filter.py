@@ -67,6 +67,38 @@ ROUND_OFF = 1e-12
 
 SECTION_BEGIN = "<!-- soak_filter: begin (python -m velfence.soak_filter --out) -->"
 SECTION_END = "<!-- soak_filter: end -->"
+#: Text of a section from this marker to :data:`SECTION_END` (earlier runs kept for the record)
+#: survives :func:`write_section`.
+HISTORY = "<!-- soak_filter: earlier runs (kept on rewrite) -->"
+
+INTRO = """## The n-D shaper and the safety filter: vertex campaign and closed-loop soak
+
+Module `velfence.soak_filter` (`make soak-filter`, reusable: `run_vertex_campaign`,
+`run_loop_campaign`) gathers the evidence issue 24 asks for.
+
+**Vertex and edge campaign.** Random H-representation polytopes of 3 to 7 dimensions (`d + 1` to
+`2 d + 4` random facets, scales 0.1-10). States exactly at a vertex (re-solved from its tight
+facets), on an edge, or on a higher face (a point between two vertices sharing facets); half of
+them then pushed outward by 1-8 ulps on some of their tight facets or by exactly 2e-16. Commands
+of random direction, along the outward normal of one tight facet, or into the corner, at 0.1-30
+scales per second. One step of `dt = 1 ms`. An **escape** is a step whose depth outside grows by
+more than `1e-12 (scale + |x|)`. Run on `PolytopeShaper` (exact law, `dt` set, buffers of 2 %,
+20 % and 90 % of the Chebyshev radius, `shape_batch`) and on `SafetyFilter`'s workspace rows
+(joint mode on `CartesianPoint`, a robot whose point is its joint vector, same buffers).
+
+**Closed-loop filter soak.** `SafetyFilter` on the shipped UR5e and Panda models
+(`velfence.robots.ur5e` / `panda`, capsule links of 5 cm, a 5 cm tool), `dt` set, a kinematic
+plant `q ← q + x dt`. Every 500-step episode draws joint-limit ranges around a random start (some
+joints exactly at a limit in a fifth of the episodes; acceleration limits in 30 %), a box on the
+tool, one or two tilted planes, or both (buffers 1-5 cm), up to four spheres near the links,
+and joint-velocity or twist commands held for 20-200 ms (40 % push at the nearest facet). A
+quarter of the episodes are **resting**: the tool exactly on two tilted planes, two or three
+joints exactly at a limit, twist commands (the issue's UR5e case). Counted with the forward
+kinematics: *ws escapes* (a step that began inside every workspace limit ends outside by more
+than `1e-12 (1 + |p|)` m), *deepened* (a step that began outside goes further out by more than
+that), *joint crossings*, *sphere penetrations* (capsule clearance < 0 after a step that began
+clear), non-finite outputs, exceptions, deadline fallbacks (`result.deadline`) and the stages.
+"""
 
 
 def _quiet(_: str) -> None:
@@ -806,6 +838,7 @@ def render_markdown(
     *,
     command: str,
     notes: str = "",
+    intro: str = INTRO,
 ) -> str:
     """The campaigns' tables as a Markdown section (between the section markers).
 
@@ -814,6 +847,7 @@ def render_markdown(
         loops: Closed-loop results (may be empty).
         command: The command that produced them.
         notes: Markdown appended after the tables.
+        intro: Markdown before the tables (default: the campaigns' description).
 
     Returns:
         The section, starting with :data:`SECTION_BEGIN` and ending with :data:`SECTION_END`.
@@ -827,7 +861,8 @@ def render_markdown(
         raise InvalidParameter("vertex, loops: expected VertexResult and LoopResult sequences")
     command = check_text("command", command)
     notes = check_text("notes", notes, max_length=100_000)
-    out = [SECTION_BEGIN, f"\nProduced by `{command}`.\n"]
+    intro = check_text("intro", intro, max_length=100_000)
+    out = [SECTION_BEGIN, intro, f"Produced by `{command}`.\n"]
     if vertex:
         out.append(
             "| implementation | states | dims | escapes | max escape (abs / rel. to scale) "
@@ -885,13 +920,21 @@ def render_markdown(
 
 
 def write_section(path: Any, section: str) -> None:
-    """Replace the marked section of a Markdown file with ``section`` (append it if absent)."""
+    """Replace the marked section of a Markdown file with ``section`` (append it if absent).
+
+    The old section's text from :data:`HISTORY` to its end (a record of earlier runs) is kept,
+    placed at the end of the new section.
+    """
     from pathlib import Path
 
     p = Path(path)
     text = p.read_text() if p.exists() else ""
     a, b = text.find(SECTION_BEGIN), text.find(SECTION_END)
     if a >= 0 and b > a:
+        h = text.find(HISTORY, a, b)
+        body = section.rstrip("\n")
+        if h >= 0 and HISTORY not in section and body.endswith(SECTION_END):
+            section = body[: -len(SECTION_END)] + text[h:b] + SECTION_END
         text = text[:a] + section.rstrip("\n") + text[b + len(SECTION_END) :]
     else:
         text = text.rstrip("\n") + ("\n\n" if text else "") + section
