@@ -230,7 +230,9 @@ def test_loop_campaign_counts_exceptions_and_stops() -> None:
 
 
 @pytestmark_mujoco
-@pytest.mark.parametrize(("robot", "rate"), [("ur5e", 500.0), ("panda", 1000.0)])
+@pytest.mark.parametrize(
+    ("robot", "rate"), [("ur5e", 500.0), ("panda", 1000.0), ("ur5e-dh", 100.0)]
+)
 def test_loop_campaign_smoke(robot: Any, rate: float) -> None:
     r = run_loop_campaign(robot, rate, steps=1000, episode_steps=250, seed=3)
     assert r.steps == 1000

@@ -478,8 +478,10 @@ def _filter_steps(
 
 
 # ------------------------------------------------------------------------ closed-loop soak
-RobotName = Literal["ur5e", "panda"]
-_ROBOTS: tuple[RobotName, ...] = ("ur5e", "panda")
+RobotName = Literal["ur5e", "panda", "ur5e-dh"]
+_ROBOTS: tuple[RobotName, ...] = ("ur5e", "panda", "ur5e-dh")
+_DEFAULT_ROBOTS: tuple[RobotName, ...] = ("ur5e", "panda")
+_LABELS = {"ur5e": "UR5e", "panda": "Panda", "ur5e-dh": "UR5e (DHChain)"}
 
 
 @dataclass(frozen=True)
@@ -488,7 +490,8 @@ class LoopResult:
 
     Attributes:
         name: Robot and rate.
-        robot: ``"ur5e"`` or ``"panda"``.
+        robot: ``"ur5e"`` or ``"panda"`` (the MuJoCo models of :mod:`velfence.robots`), or
+            ``"ur5e-dh"`` (``DHChain.ur5e``: the filter's fused compiled route).
         rate: Control rate [Hz] (``dt = 1 / rate`` set on the filter).
         episodes: Episodes run.
         resting: Of those, episodes starting with the tool on two planes and joints at limits.
@@ -548,11 +551,18 @@ class LoopResult:
         )
 
 
-def _robot(name: RobotName) -> Any:
+def _robot(name: RobotName) -> tuple[Any, FloatArray]:
+    """The model (capsule links of 5 cm, a 5 cm tool) and its joint speed limits [rad/s]."""
     from velfence.robots import panda, ur5e
 
+    if name == "ur5e-dh":
+        from velfence.mechanisms.chain import DHChain
+
+        chain = DHChain.ur5e(link_radius=0.05, tool=(0.0, 0.0, 0.05))
+        return chain, np.full(6, math.pi)
     build = ur5e if name == "ur5e" else panda
-    return build(radius=0.05, tool=(0.0, 0.0, 0.05))
+    model = build(radius=0.05, tool=(0.0, 0.0, 0.05))
+    return model, np.asarray(model.velocity_limits, dtype=np.float64)
 
 
 @dataclass
@@ -583,7 +593,13 @@ obstacles=, dt=); its ``explain(q, u)`` and ``explain_twist(q, v)`` return a res
 
 
 def _episode(
-    rng: Rng, robot: Any, dt: float, *, resting: bool, make: FilterFactory | None = None
+    rng: Rng,
+    robot: Any,
+    vmax: FloatArray,
+    dt: float,
+    *,
+    resting: bool,
+    make: FilterFactory | None = None,
 ) -> _Episode:
     """A random scene around a random start (module docstring)."""
     from velfence.geometry.polytope import ConvexPolytope
@@ -591,7 +607,6 @@ def _episode(
 
     n = int(robot.dof)
     lim0 = np.asarray(robot.joint_limits, dtype=np.float64)  # (n, 2)
-    vmax = np.asarray(robot.velocity_limits, dtype=np.float64)
     span = np.minimum(lim0[:, 1] - lim0[:, 0], 2.0 * math.pi)
     q = lim0[:, 0] + (lim0[:, 1] - lim0[:, 0] - span) / 2 + span * rng.uniform(0.1, 0.9, n)
     lo = np.maximum(lim0[:, 0], q - rng.uniform(0.1, 2.0, n))
@@ -695,7 +710,8 @@ def run_loop_campaign(
     """Run the closed-loop filter soak (module docstring) on one robot at one rate.
 
     Args:
-        robot: ``"ur5e"`` or ``"panda"``.
+        robot: ``"ur5e"`` or ``"panda"`` (the MuJoCo models of :mod:`velfence.robots`), or
+            ``"ur5e-dh"`` (``DHChain.ur5e``: the filter's fused compiled route).
         rate: Control rate [Hz], > 0 (``dt = 1 / rate``).
         steps: Closed-loop steps in total (rounded up to whole episodes), >= 1.
         episode_steps: Steps per episode, >= 1.
@@ -721,9 +737,8 @@ def run_loop_campaign(
     if frac > 1.0:
         raise InvalidParameter(f"resting_fraction must be in [0, 1], got {frac}")
     rng = np.random.default_rng(check_seed("seed", seed))
-    model = _robot(robot)
+    model, vmax = _robot(robot)
     dt = 1.0 / rate
-    vmax = np.asarray(model.velocity_limits, dtype=np.float64)
     lrad = np.asarray(model.link_radius, dtype=np.float64)
     episodes = -(-total // per)
     ws_esc = deep = jc = sp = nonfinite = exc = deadline = resting_n = max_rows = 0
@@ -735,7 +750,7 @@ def run_loop_campaign(
     next_report = t0 + 10.0
     done = 0
     for e in range(episodes):
-        ep = _episode(rng, model, dt, resting=bool(rng.random() < frac), make=make_filter)
+        ep = _episode(rng, model, vmax, dt, resting=bool(rng.random() < frac), make=make_filter)
         resting_n += ep.resting
         q = ep.q
         p = np.asarray(model.fk(q), dtype=np.float64)
@@ -806,7 +821,7 @@ def run_loop_campaign(
                     f"escapes {ws_esc}, crossings {jc}, penetrations {sp}, exceptions {exc}"
                 )
     return LoopResult(
-        name=f"{'UR5e' if robot == 'ur5e' else 'Panda'}, {rate:g} Hz",
+        name=f"{_LABELS[robot]}, {rate:g} Hz",
         robot=robot,
         rate=rate,
         episodes=episodes,
@@ -953,6 +968,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--steps", type=int, default=1_000_000, help="closed-loop steps in total")
     ap.add_argument("--episode-steps", type=int, default=500)
     ap.add_argument("--rates", type=str, default="1000,500,100", help="control rates [Hz]")
+    ap.add_argument(
+        "--robots", type=str, default=",".join(_DEFAULT_ROBOTS), help=f"from {list(_ROBOTS)}"
+    )
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--out", type=str, default=None, help="Markdown file whose section to write")
     args = ap.parse_args(argv)
@@ -976,7 +994,11 @@ def main(argv: Sequence[str] | None = None) -> int:
             )
     loops: list[LoopResult] = []
     rates = [float(r) for r in args.rates.split(",") if r.strip()]
-    cases = [(rb, rt) for rb in _ROBOTS for rt in rates]
+    robots = [r.strip() for r in args.robots.split(",") if r.strip()]
+    bad = [r for r in robots if r not in _ROBOTS]
+    if bad:
+        ap.error(f"--robots: expected names from {list(_ROBOTS)}, got {bad}")
+    cases = [(rb, rt) for rb in robots for rt in rates]
     if args.steps > 0 and cases:
         each = max(args.episode_steps, args.steps // len(cases))
         for i, (rb, rt) in enumerate(cases):
@@ -1002,7 +1024,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         cmd = (
             f"python -m velfence.soak_filter --vertex-states {args.vertex_states} "
             f"--filter-states {args.filter_states} --steps {args.steps} "
-            f"--episode-steps {args.episode_steps} --rates {args.rates} --seed {args.seed}"
+            f"--episode-steps {args.episode_steps} --rates {args.rates} --robots {args.robots} "
+            f"--seed {args.seed}"
         )
         load = os.getloadavg()
         stamp = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
