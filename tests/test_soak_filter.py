@@ -162,7 +162,7 @@ def test_vertex_campaign_rejects_bad_arguments() -> None:
 
 
 def test_cartesian_point_is_the_identity() -> None:
-    robot = CartesianPoint(4)
+    robot = CartesianPoint(dim=4)
     q = np.array([0.5, -1.0, 2.0, 3.0])
     assert np.array_equal(robot.fk(q), q)
     assert np.array_equal(robot.jacobian(q), np.eye(4))
@@ -271,9 +271,9 @@ def _loop_result(**kw: Any) -> LoopResult:
 def test_markdown_section_is_replaced_in_place(tmp_path: Path) -> None:
     page = tmp_path / "reliability.md"
     page.write_text("# Reliability\n\nbefore\n")
-    one = render_markdown([], [_loop_result()], command="cmd one")
+    one = render_markdown([_loop_result()], command="cmd one")
     write_section(page, one)
-    two = render_markdown([], [_loop_result(workspace_escapes=0)], command="cmd two")
+    two = render_markdown([_loop_result(workspace_escapes=0)], command="cmd two")
     write_section(page, two + "")
     text = page.read_text()
     assert text.startswith("# Reliability\n\nbefore\n")
@@ -286,10 +286,10 @@ def test_markdown_section_is_replaced_in_place(tmp_path: Path) -> None:
 
 def test_earlier_runs_survive_a_rewrite(tmp_path: Path) -> None:
     page = tmp_path / "reliability.md"
-    first = render_markdown([], [_loop_result()], command="first")
+    first = render_markdown([_loop_result()], command="first")
     record = f"{HISTORY}\n\nthe run before the fix: 36 escapes\n"
     write_section(page, first.replace(SECTION_END, record + SECTION_END))
-    write_section(page, render_markdown([], [_loop_result()], command="second"))
+    write_section(page, render_markdown([_loop_result()], command="second"))
     text = page.read_text()
     assert "second" in text
     assert "first" not in text
@@ -301,7 +301,7 @@ def test_earlier_runs_survive_a_rewrite(tmp_path: Path) -> None:
 def test_the_polygon_soak_keeps_the_section(tmp_path: Path) -> None:
     from velfence import soak
 
-    old = "# old page\n\n" + render_markdown([], [_loop_result()], command="kept") + "tail\n"
+    old = "# old page\n\n" + render_markdown([_loop_result()], command="kept") + "tail\n"
     kept = soak._kept_section(old)
     assert "kept" in kept
     assert kept.strip().startswith(SECTION_BEGIN)

@@ -45,18 +45,23 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from velfence._typing import FloatArray
-from velfence._validate import check_positive, check_positive_int, check_seed, check_text
-from velfence.errors import InvalidGeometry, InvalidParameter
+from velfence._validate import (
+    check_positive,
+    check_positive_int,
+    check_seed,
+    check_text,
+    describe,
+    real_array,
+)
+from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 
 __all__ = [
     "CartesianPoint",
     "LoopResult",
     "VertexResult",
-    "random_polytope",
     "render_markdown",
     "run_loop_campaign",
     "run_vertex_campaign",
-    "vertex_states",
 ]
 
 Rng = np.random.Generator
@@ -103,6 +108,15 @@ clear), non-finite outputs, exceptions, deadline fallbacks (`result.deadline`) a
 
 def _quiet(_: str) -> None:
     """Progress sink that prints nothing."""
+
+
+def _check_callable(name: str, f: Any, *, optional: bool = False) -> None:
+    """Refuse a non-callable (``None`` allowed with ``optional``)."""
+    if (f is None and optional) or callable(f):
+        return
+    raise InvalidParameter(
+        f"{name}: expected a callable{' or None' if optional else ''}, got {describe(f)}"
+    )
 
 
 # ------------------------------------------------------------------------ vertex campaign
@@ -270,19 +284,51 @@ class CartesianPoint:
 
     Args:
         dim: Number of joints and task dimensions, >= 1.
+
+    Raises:
+        InvalidParameter: ``dim`` not an int in [1, 64].
     """
 
-    def __init__(self, dim: int) -> None:
+    def __init__(self, *, dim: int) -> None:
         self.dof = check_positive_int("dim", dim, maximum=64)
         self.joint_names = tuple(f"x{i}" for i in range(self.dof))
         self.points = ("tcp",)
 
+    def _check(self, q: ArrayLike, point: str) -> FloatArray:
+        qa = real_array("q", q, (self.dof,), what="joint values")
+        if not isinstance(point, str) or point != "tcp":
+            raise InvalidInput(f"point: expected 'tcp', got {describe(point)}")
+        return qa
+
     def fk(self, q: ArrayLike, point: str = "tcp") -> FloatArray:
-        """The point: ``q`` itself [units], shape (dim,)."""
-        return np.array(q, dtype=np.float64).reshape(self.dof)
+        """The point: ``q`` itself [units], shape (dim,).
+
+        Args:
+            q: Joint values, shape (dim,), finite.
+            point: ``"tcp"`` (the only point).
+
+        Returns:
+            A copy of ``q``.
+
+        Raises:
+            InvalidInput: a bad ``q`` or ``point``.
+        """
+        return np.array(self._check(q, point), dtype=np.float64)
 
     def jacobian(self, q: ArrayLike, point: str = "tcp") -> FloatArray:
-        """The identity, shape (dim, dim)."""
+        """The identity, shape (dim, dim).
+
+        Args:
+            q: Joint values, shape (dim,), finite.
+            point: ``"tcp"`` (the only point).
+
+        Returns:
+            The identity matrix.
+
+        Raises:
+            InvalidInput: a bad ``q`` or ``point``.
+        """
+        self._check(q, point)
         return np.eye(self.dof)
 
 
@@ -401,12 +447,24 @@ def run_vertex_campaign(
         InvalidParameter: a count or ``dt`` out of range, an empty or bad ``dims``.
     """
     total = check_positive_int("states", states, maximum=10**9)
-    nf = 0 if filter_states == 0 else check_positive_int("filter_states", filter_states)
+    zero = type(filter_states) is int and filter_states == 0
+    nf = 0 if zero else check_positive_int("filter_states", filter_states, maximum=10**9)
     per = check_positive_int("per_polytope", per_polytope, maximum=10**7)
     dt = check_positive("dt", dt, unit="s")
+    if (
+        not isinstance(dims, list | tuple)
+        or not all(
+            isinstance(d, int | np.integer) and not isinstance(d, bool) and 2 <= d <= 10
+            for d in dims
+        )
+        or not dims
+    ):
+        raise InvalidParameter(
+            f"dims: expected a non-empty list or tuple of ints in [2, 10], got {describe(dims)}"
+        )
     dl = [int(d) for d in dims]
-    if not dl or any(d < 2 or d > 10 for d in dl):
-        raise InvalidParameter(f"dims: expected dimensions in [2, 10], got {list(dims)}")
+    _check_callable("shaper", shaper, optional=True)
+    _check_callable("progress", progress)
     make = shaper if shaper is not None else _exact_shaper
     rng = np.random.default_rng(check_seed("seed", seed))
     sh = _Tally(f"PolytopeShaper exact, dt = {dt:g} s" if shaper is None else "shaper under test")
@@ -462,7 +520,7 @@ def _filter_steps(
     from velfence.shaping.filter import JointLimits, SafetyFilter, WorkspaceLimit
 
     n, dim = st.X.shape
-    robot = CartesianPoint(dim)
+    robot = CartesianPoint(dim=dim)
     lim = JointLimits(np.full(dim, -np.inf), np.full(dim, np.inf), np.full(dim, 10.0 * speed))
     Y = np.zeros((n, dim))
     failed = np.zeros(n, dtype=bool)
@@ -736,6 +794,8 @@ def run_loop_campaign(
     frac = check_positive("resting_fraction", resting_fraction, allow_zero=True)
     if frac > 1.0:
         raise InvalidParameter(f"resting_fraction must be in [0, 1], got {frac}")
+    _check_callable("make_filter", make_filter, optional=True)
+    _check_callable("progress", progress)
     rng = np.random.default_rng(check_seed("seed", seed))
     model, vmax = _robot(robot)
     dt = 1.0 / rate
@@ -848,8 +908,7 @@ def run_loop_campaign(
 
 # ------------------------------------------------------------------------------- report
 def render_markdown(
-    vertex: Sequence[VertexResult],
-    loops: Sequence[LoopResult],
+    results: Sequence[VertexResult | LoopResult],
     *,
     command: str,
     notes: str = "",
@@ -858,8 +917,8 @@ def render_markdown(
     """The campaigns' tables as a Markdown section (between the section markers).
 
     Args:
-        vertex: Vertex-campaign results (may be empty).
-        loops: Closed-loop results (may be empty).
+        results: The campaigns' results (:class:`VertexResult` and :class:`LoopResult`, in
+            display order; at least one).
         command: The command that produced them.
         notes: Markdown appended after the tables.
         intro: Markdown before the tables (default: the campaigns' description).
@@ -870,10 +929,17 @@ def render_markdown(
     Raises:
         InvalidParameter: wrong result types, ``command`` or ``notes`` not text.
     """
-    if not all(isinstance(r, VertexResult) for r in vertex) or not all(
-        isinstance(r, LoopResult) for r in loops
+    if (
+        not isinstance(results, list | tuple)
+        or not results
+        or not all(isinstance(r, VertexResult | LoopResult) for r in results)
     ):
-        raise InvalidParameter("vertex, loops: expected VertexResult and LoopResult sequences")
+        raise InvalidParameter(
+            "results: expected a non-empty list or tuple of VertexResult and LoopResult, got "
+            f"{describe(results)}"
+        )
+    vertex = [r for r in results if isinstance(r, VertexResult)]
+    loops = [r for r in results if isinstance(r, LoopResult)]
     command = check_text("command", command)
     notes = check_text("notes", notes, max_length=100_000)
     intro = check_text("intro", intro, max_length=100_000)
@@ -1020,7 +1086,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 f"{r.deadline_fallbacks}, escape stages {r.escape_stages}"
             )
             loops.append(r)
-    if args.out is not None:
+    if args.out is not None and (vertex or loops):
         cmd = (
             f"python -m velfence.soak_filter --vertex-states {args.vertex_states} "
             f"--filter-states {args.filter_states} --steps {args.steps} "
@@ -1030,7 +1096,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         load = os.getloadavg()
         stamp = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
         notes = f"Run {stamp}, load average {load[0]:.2f} / {load[1]:.2f} / {load[2]:.2f}.\n"
-        write_section(args.out, render_markdown(vertex, loops, command=cmd, notes=notes))
+        write_section(args.out, render_markdown([*vertex, *loops], command=cmd, notes=notes))
     ok = all(v.escapes == 0 and v.nonfinite == 0 and v.exceptions == 0 for v in vertex) and all(
         r.contained for r in loops
     )
