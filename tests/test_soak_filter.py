@@ -358,3 +358,26 @@ def test_reproducer_state_does_not_leave(name: str) -> None:
     tol = ROUND_OFF * 2.0
     assert d1 >= min(0.0, d0) - tol, (d0, d1, stages)
     assert not any(s.startswith("dropped workspace") for s in stages)
+
+
+@requires("mujoco")
+def test_command_line_writes_its_section(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from velfence.soak_filter import main
+
+    page = tmp_path / "reliability.md"
+    page.write_text("# Reliability\n")
+    code = main(
+        ["--vertex-states", "300", "--filter-states", "30", "--steps", "100",
+         "--episode-steps", "50", "--rates", "100", "--robots", "ur5e", "--out", str(page)]
+    )  # fmt: skip
+    out = capsys.readouterr().out
+    text = page.read_text()
+    assert code in (0, 1)
+    assert ("NOT contained" in out) == (code == 1)
+    assert text.startswith("# Reliability\n")
+    assert text.count(SECTION_BEGIN) == 1
+    assert "| PolytopeShaper exact" in text
+    assert "| UR5e, 100 Hz | 100 |" in text
+    assert "load average" in text
