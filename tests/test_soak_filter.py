@@ -211,6 +211,7 @@ def test_loop_campaign_reports_planted_escapes() -> None:
     # resting on two planes with twists pushing at them: the tool leaves
     assert r.workspace_escapes > 0
     assert r.max_workspace_escape > 1e-6
+    assert r.max_depth >= r.max_workspace_escape
     assert sum(r.escape_stages.values()) == r.workspace_escapes
     assert r.joint_crossings > 0  # joints start at their limits
     assert r.stages.get("passthrough", 0) == r.steps
@@ -258,7 +259,7 @@ def _loop_result(**kw: Any) -> LoopResult:
     base: dict[str, Any] = {
         "name": "UR5e, 500 Hz", "robot": "ur5e", "rate": 500.0, "episodes": 2, "resting": 1,
         "steps": 10, "workspace_escapes": 1, "max_workspace_escape": 1e-3, "deepened": 0,
-        "max_deepened": 0.0, "joint_crossings": 0, "max_joint_crossing": 0.0,
+        "max_deepened": 0.0, "max_depth": 1e-3, "joint_crossings": 0, "max_joint_crossing": 0.0,
         "sphere_penetrations": 0,
         "max_sphere_penetration": 0.0, "nonfinite": 0, "exceptions": 0, "exception_kinds": {},
         "deadline_fallbacks": 0, "max_rows": 40, "stages": {"projection": 3},

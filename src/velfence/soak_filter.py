@@ -559,6 +559,8 @@ class LoopResult:
         max_workspace_escape: Largest depth outside after such a step [m].
         deepened: Steps that began outside and went further out by more than the tolerance.
         max_deepened: Largest such growth of the depth outside in one step [m].
+        max_depth: Largest depth outside any workspace limit reached at any step of an episode
+            that started inside [m] (an escape followed by a drift shows here).
         joint_crossings: Steps that began within the joint limits and ended beyond one by more
             than the tolerance.
         max_joint_crossing: Largest such excess [rad].
@@ -584,6 +586,7 @@ class LoopResult:
     max_workspace_escape: float
     deepened: int
     max_deepened: float
+    max_depth: float
     joint_crossings: int
     max_joint_crossing: float
     sphere_penetrations: int
@@ -802,7 +805,7 @@ def run_loop_campaign(
     lrad = np.asarray(model.link_radius, dtype=np.float64)
     episodes = -(-total // per)
     ws_esc = deep = jc = sp = nonfinite = exc = deadline = resting_n = max_rows = 0
-    ws_max = j_max = s_max = deep_max = 0.0
+    ws_max = j_max = s_max = deep_max = depth_max = 0.0
     kinds: Counter[str] = Counter()
     stages: Counter[str] = Counter()
     esc_stages: Counter[str] = Counter()
@@ -816,6 +819,7 @@ def run_loop_campaign(
         p = np.asarray(model.fk(q), dtype=np.float64)
         d_ws = float(np.min(ep.N @ p - ep.o, initial=math.inf))
         clear = _clearance(np.asarray(model.link_segments(q)), lrad, ep.centres, ep.radii)
+        began_inside = d_ws >= -ROUND_OFF * (1.0 + float(np.max(np.abs(p))))
         cmd = np.zeros(3)
         change = 0
         for _k in range(per):
@@ -860,6 +864,8 @@ def run_loop_campaign(
             elif d_ws < -tol and d1 < d_ws - tol:
                 deep += 1
                 deep_max = max(deep_max, d_ws - d1)
+            if began_inside:
+                depth_max = max(depth_max, -d1)
             tq = ROUND_OFF * (1.0 + np.abs(q1))
             inside = (q >= ep.lo - tq) & (q <= ep.hi + tq)
             over = np.maximum(ep.lo - q1, q1 - ep.hi)
@@ -891,6 +897,7 @@ def run_loop_campaign(
         max_workspace_escape=ws_max,
         deepened=deep,
         max_deepened=deep_max,
+        max_depth=depth_max,
         joint_crossings=jc,
         max_joint_crossing=j_max,
         sphere_penetrations=sp,
@@ -962,16 +969,18 @@ def render_markdown(
     if loops:
         out.append(
             "| robot, rate | steps | episodes (resting) | ws escapes | max escape [m] | "
+            "max depth [m] | "
             "deepened (max [m]) | joint crossings | sphere penetrations (max [m]) | non-finite | "
             "exceptions | deadline | max rows | steps/s |\n"
             "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: "
-            "| ---: |"
+            "| ---: | ---: |"
         )
         for r in loops:
             rate = r.steps / r.seconds if r.seconds > 0 else math.inf
             out.append(
                 f"| {r.name} | {r.steps:,} | {r.episodes} ({r.resting}) | "
                 f"{r.workspace_escapes:,} | {r.max_workspace_escape:.3g} | "
+                f"{max(r.max_depth, 0.0):.3g} | "
                 f"{r.deepened:,} ({r.max_deepened:.3g}) | "
                 f"{r.joint_crossings:,} | {r.sphere_penetrations:,} "
                 f"({r.max_sphere_penetration:.3g}) | {r.nonfinite:,} | {r.exceptions:,} | "
@@ -1078,7 +1087,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             )
             print(
                 f"{r.name}: {r.steps:,} steps, {r.episodes} episodes ({r.resting} resting), "
-                f"ws escapes {r.workspace_escapes} (max {r.max_workspace_escape:.3g} m), "
+                f"ws escapes {r.workspace_escapes} (max {r.max_workspace_escape:.3g} m, depth "
+                f"{max(r.max_depth, 0.0):.3g} m), "
                 f"deepened {r.deepened} (max {r.max_deepened:.3g} m), joint crossings "
                 f"{r.joint_crossings}, penetrations "
                 f"{r.sphere_penetrations} (max {r.max_sphere_penetration:.3g} m), non-finite "
