@@ -1031,6 +1031,25 @@ def write_section(path: Any, section: str) -> None:
     p.write_text(text if text.endswith("\n") else text + "\n")
 
 
+def _revision() -> str:
+    """`` on <commit>`` of the source tree velfence runs from, or ``""`` outside a git checkout."""
+    import subprocess
+    from pathlib import Path
+
+    try:
+        out = subprocess.run(
+            ["git", "rev-parse", "--short", "HEAD"],
+            cwd=Path(__file__).resolve().parent,
+            capture_output=True,
+            text=True,
+            timeout=10,
+            check=True,
+        ).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return ""
+    return f" on {out}" if out else ""
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """``python -m velfence.soak_filter``: run both campaigns, print and write the section."""
     import argparse
@@ -1105,7 +1124,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         )
         load = os.getloadavg()
         stamp = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
-        notes = f"Run {stamp}, load average {load[0]:.2f} / {load[1]:.2f} / {load[2]:.2f}.\n"
+        notes = (
+            f"Run {stamp}{_revision()}, load average {load[0]:.2f} / {load[1]:.2f} / "
+            f"{load[2]:.2f}.\n"
+        )
         write_section(args.out, render_markdown([*vertex, *loops], command=cmd, notes=notes))
     ok = all(v.escapes == 0 and v.nonfinite == 0 and v.exceptions == 0 for v in vertex) and all(
         r.contained for r in loops
