@@ -382,3 +382,54 @@ def test_command_line_writes_its_section(
     assert "| PolytopeShaper exact" in text
     assert "| UR5e, 100 Hz | 100 |" in text
     assert "load average" in text
+
+
+def _vertex_case() -> tuple[Any, Any, Any, float, float]:
+    """The campaign's first escape (seed 0): a 3-D vertex outside one facet by 3.1e-15 and on
+    two others, a command of 25 units/s out through them (tests/data/vertex_polytope_shaper.npz)."""
+    from velfence.geometry.polytope import ConvexPolytope
+
+    d = np.load(DATA / "vertex_polytope_shaper.npz")
+    P = ConvexPolytope(d["normals"], d["offsets"])
+    return P, d["x"], d["u"], float(d["buffer"]), float(d["dt"])
+
+
+def _growth(P: Any, x: Any, y: Any, dt: float) -> tuple[float, float]:
+    """Growth of the depth outside over one step, and the round-off tolerance."""
+    d0 = float(np.min(P.signed_distances(x)))
+    d1 = float(np.min(P.signed_distances(x + dt * np.asarray(y))))
+    scale = float(np.max(np.abs(np.asarray(P.vertices) - P.chebyshev_center)))
+    return max(0.0, -d1) - max(0.0, -d0), ROUND_OFF * (scale + float(np.max(np.abs(x))))
+
+
+def test_vertex_case_is_at_a_vertex_just_outside() -> None:
+    P, x, _u, _b, _dt = _vertex_case()
+    d = np.sort(P.signed_distances(x))
+    assert -1e-14 < d[0] < 0.0  # outside one facet by round-off
+    assert np.all(np.abs(d[1:3]) < 1e-14)  # on two more: a vertex of the 3-D polytope
+
+
+@UNFIXED
+@pytest.mark.parametrize("backend", ["python", "c"])
+def test_vertex_case_polytope_shaper_does_not_leave(backend: str) -> None:
+    from velfence.shaping.polytope import PolytopeShaper
+
+    P, x, u, buffer, dt = _vertex_case()
+    if backend == "c":
+        pytest.importorskip("velfence_core", reason="the compiled core is not installed")
+    shaper = PolytopeShaper(P, buffer=buffer, dt=dt, backend=backend)  # type: ignore[arg-type]
+    grow, tol = _growth(P, x, shaper.shape(x, u), dt)
+    assert grow <= tol
+
+
+@UNFIXED
+def test_vertex_case_filter_workspace_rows_do_not_leave() -> None:
+    from velfence.shaping.filter import JointLimits, SafetyFilter, WorkspaceLimit
+
+    P, x, u, buffer, dt = _vertex_case()
+    lim = JointLimits(np.full(3, -np.inf), np.full(3, np.inf), np.full(3, 1e3))
+    flt = SafetyFilter(
+        CartesianPoint(dim=3), limits=lim, workspace=WorkspaceLimit(P, buffer=buffer), dt=dt
+    )
+    grow, tol = _growth(P, x, flt.filter(x, u), dt)
+    assert grow <= tol
