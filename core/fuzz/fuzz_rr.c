@@ -14,21 +14,22 @@
  *               q and x' decoded doubles
  *
  * Asserted (abort() on a violation, after printing the decoded input):
- *   vf_rr_jacobian returns VF_RR_OK, or VF_RR_ERR_NONFINITE exactly when q holds a NaN or +-inf
+ *   vf_rr_jacobian returns VF_OK, or VF_ERR_NONFINITE exactly when q holds a NaN or +-inf
  *     (J then all +0);
- *   vf_rr_sr_step returns VF_RR_ERR_ARGUMENT exactly when the parameters or the arm break the
+ *   vf_rr_sr_step returns VF_ERR_ARGUMENT exactly when the parameters or the arm break the
  *     header's rules (k0 and w0 finite > 0, singular_tol and max_speed >= 0 and not NaN, every DH
- *     and tool entry finite), else VF_RR_ERR_NONFINITE exactly when q or x' is not finite, else
- *     VF_RR_OK, VF_RR_ERR_SINGULAR (only when singular_tol >= w0 and w <= singular_tol),
- *     VF_RR_ERR_FACTOR or VF_RR_ERR_OVERFLOW;
+ *     and tool entry finite), else VF_ERR_NONFINITE exactly when q or x' is not finite, else
+ *     VF_OK, VF_ERR_SINGULAR (only once w and the damping k are computed: the undamped
+ *     k = 0, w <= singular_tol, or a Cholesky pivot <= 0) or VF_ERR_OVERFLOW;
  *   on an error q' = +0 and scale = 1;
- *   on VF_RR_OK every double of the answer is finite, w = |det|, k = 0 when w >= w0 and
- *     0 <= k <= k0, singular exactly when w <= singular_tol, scale in [0, 1] (1 without a cap),
- *     with max_speed > 0 every |q'_j| <= max_speed;
+ *   on VF_OK every double of the answer is finite, w = |det|, k = 0 when w >= w0 and
+ *     0 <= k <= k0, singular exactly when w <= singular_tol, never k = 0 with singular (that
+ *     step is VF_ERR_SINGULAR), scale in [0, 1] (1 without a cap), with max_speed > 0 every
+ *     |q'_j| <= max_speed;
  *   a second call gives identical bits;
  *   NULL pointers (flags bit 7): arm, prm, q, xdot or out of vf_rr_sr_step, arm, q or J of
- *     vf_rr_jacobian: VF_RR_ERR_NULL.
- * VF_FUZZ_CONTROL_TAMPER (build.sh --control-tamper) spoils every VF_RR_OK joint rate with a NaN,
+ *     vf_rr_jacobian: VF_ERR_NULL.
+ * VF_FUZZ_CONTROL_TAMPER (build.sh --control-tamper) spoils every VF_OK joint rate with a NaN,
  * for the tests' proof that a violation aborts.
  */
 #define VF_FUZZ_BYTES_ONLY
@@ -175,8 +176,8 @@ static void null_cases(uint8_t sel)
     default: rc = vf_rr_jacobian(&arm, q, NULL); break;
     }
     free(J);
-    if (rc != VF_RR_ERR_NULL) {
-        fail("a NULL pointer without VF_RR_ERR_NULL", rc, NULL);
+    if (rc != VF_ERR_NULL) {
+        fail("a NULL pointer without VF_ERR_NULL", rc, NULL);
     }
 }
 
@@ -193,39 +194,41 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     memcpy(xa, xd, sizeof xd);
     /* the Jacobian */
     rc = vf_rr_jacobian(&arm, qa, J);
-    if (finite_all(q, 6) ? rc != VF_RR_OK : rc != VF_RR_ERR_NONFINITE) {
+    if (finite_all(q, 6) ? rc != VF_OK : rc != VF_ERR_NONFINITE) {
         fail("vf_rr_jacobian's code", rc, NULL);
     }
-    if (rc == VF_RR_ERR_NONFINITE) {
+    if (rc == VF_ERR_NONFINITE) {
         for (i = 0; i < 36; i++) {
             if (!fz_same_bits(J[i], 0.0)) {
-                fail("VF_RR_ERR_NONFINITE without a zero J", rc, NULL);
+                fail("VF_ERR_NONFINITE without a zero J", rc, NULL);
             }
         }
     }
     /* the step */
     rc = vf_rr_sr_step(&arm, &prm, qa, xa, &o1);
 #ifdef VF_FUZZ_CONTROL_TAMPER
-    if (rc == VF_RR_OK) {
+    if (rc == VF_OK) {
         o1.q_dot[0] = NAN;
     }
 #endif
     if (!args_valid()) {
-        if (rc != VF_RR_ERR_ARGUMENT) {
-            fail("invalid parameters or arm without VF_RR_ERR_ARGUMENT", rc, &o1);
+        if (rc != VF_ERR_ARGUMENT) {
+            fail("invalid parameters or arm without VF_ERR_ARGUMENT", rc, &o1);
         }
     } else if (!(finite_all(q, 6) && finite_all(xd, 6))) {
-        if (rc != VF_RR_ERR_NONFINITE) {
-            fail("non-finite q or xdot without VF_RR_ERR_NONFINITE", rc, &o1);
+        if (rc != VF_ERR_NONFINITE) {
+            fail("non-finite q or xdot without VF_ERR_NONFINITE", rc, &o1);
         }
-    } else if (!(rc == VF_RR_OK || rc == VF_RR_ERR_SINGULAR || rc == VF_RR_ERR_FACTOR
-                 || rc == VF_RR_ERR_OVERFLOW)) {
+    } else if (!(rc == VF_OK || rc == VF_ERR_SINGULAR || rc == VF_ERR_OVERFLOW)) {
         fail("an undocumented code", rc, &o1);
     }
-    if (rc == VF_RR_ERR_SINGULAR && !(prm.singular_tol >= prm.w0 && o1.w <= prm.singular_tol)) {
-        fail("VF_RR_ERR_SINGULAR outside its rule", rc, &o1);
+    if (rc == VF_ERR_SINGULAR && !(isfinite(o1.w) && o1.k >= 0.0 && o1.k <= prm.k0)) {
+        fail("VF_ERR_SINGULAR before w and k were computed", rc, &o1);
     }
-    if (rc != VF_RR_OK) {
+    if (rc == VF_OK && o1.k == 0.0 && o1.singular) {
+        fail("VF_OK for an undamped step at w <= singular_tol (VF_ERR_SINGULAR)", rc, &o1);
+    }
+    if (rc != VF_OK) {
         for (i = 0; i < 6; i++) {
             if (!fz_same_bits(o1.q_dot[i], 0.0)) {
                 fail("an error without q_dot = +0", rc, &o1);
@@ -237,7 +240,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     } else {
         if (!(finite_all(o1.q_dot, 6) && isfinite(o1.w) && isfinite(o1.det) && isfinite(o1.k)
               && isfinite(o1.scale))) {
-            fail("VF_RR_OK with a non-finite double", rc, &o1);
+            fail("VF_OK with a non-finite double", rc, &o1);
         }
         if (o1.w != fabs(o1.det) || !(o1.k >= 0.0 && o1.k <= prm.k0)
             || (o1.w >= prm.w0 && o1.k != 0.0)) {
@@ -259,7 +262,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     }
     rc2 = vf_rr_sr_step(&arm, &prm, qa, xa, &o2);
 #ifdef VF_FUZZ_CONTROL_TAMPER
-    if (rc2 == VF_RR_OK) {
+    if (rc2 == VF_OK) {
         o2.q_dot[0] = NAN;
     }
 #endif

@@ -42,10 +42,10 @@
  * unit axis z_j; joint j moves every point beyond P_j), y_r (m,) with m = 2 (a planar task, the x
  * and y components) or 3. Units: metres, radians, seconds.
  *
- * Return codes: VF_CC_OK (0) or a negative VF_CC_ERR_* code. On VF_CC_OK every double of the
- * answer is finite. On VF_CC_ERR_NONFINITE and VF_CC_ERR_OVERFLOW every output is the stop
+ * Return codes (velfence_status.h): VF_OK (0) or a negative VF_ERR_* code. On VF_OK every double
+ * of the answer is finite. On VF_ERR_NONFINITE and VF_ERR_OVERFLOW every output is the stop
  * result: q_dot = q_free = 0, n_active = 0, every other double 0, links and active -1. On
- * VF_CC_ERR_NULL and VF_CC_ERR_ARGUMENT nothing is written (the sizes the outputs would be
+ * VF_ERR_NULL and VF_ERR_ARGUMENT nothing is written (the sizes the outputs would be
  * written by are the refused ones); check the problem once with vf_cc_check outside the loop.
  */
 #ifndef VELFENCE_CC_H
@@ -54,15 +54,21 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "velfence_status.h" /* the return codes */
+
 #ifdef __cplusplus
 extern "C" {
 #endif
 
-#define VF_CC_OK 0
-#define VF_CC_ERR_NULL (-1)      /* a required pointer is NULL */
-#define VF_CC_ERR_ARGUMENT (-2)  /* bad sizes or data (n < 1, m not 2 or 3, weights <= 0, ...) */
-#define VF_CC_ERR_NONFINITE (-3) /* a per-call input (P, axes, y_r) is NaN or +-inf */
-#define VF_CC_ERR_OVERFLOW (-4)  /* finite input so large that a rate overflowed */
+/* Return codes (velfence_status.h): VF_OK; VF_ERR_NULL (a required pointer is NULL);
+ * VF_ERR_ARGUMENT (bad sizes or data: n < 1, m not 2 or 3, weights <= 0, ...); VF_ERR_NONFINITE
+ * (a per-call input, P, axes or y_r, is NaN or +-inf); VF_ERR_OVERFLOW (finite input so large
+ * that a rate overflowed). The VF_CC_* names are deprecated aliases, removed in 0.3. */
+#define VF_CC_OK VF_OK                       /* deprecated alias, removed in 0.3 */
+#define VF_CC_ERR_NULL VF_ERR_NULL           /* deprecated alias, removed in 0.3 */
+#define VF_CC_ERR_ARGUMENT VF_ERR_ARGUMENT   /* deprecated alias, removed in 0.3 */
+#define VF_CC_ERR_NONFINITE VF_ERR_NONFINITE /* deprecated alias, removed in 0.3 */
+#define VF_CC_ERR_OVERFLOW VF_ERR_OVERFLOW   /* deprecated alias, removed in 0.3 */
 
 /* The arm's links and the obstacles, and the law's parameters: read-only, shareable. */
 typedef struct vf_cc_problem {

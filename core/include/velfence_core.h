@@ -35,42 +35,14 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "velfence_constants.h" /* VF_ZONE_*, VF_STAGE_*, VF_PROFILE_*, VF_VERSION */
+#include "velfence_status.h"    /* the return codes: VF_OK and the negative VF_ERR_* */
+
 #ifdef __cplusplus
 extern "C" {
 #endif
 
-#define VF_CORE_VERSION "0.1.0"
-
-/* Return codes. */
-#define VF_OK 0
-#define VF_ERR_NULL (-1)        /* a required pointer is NULL */
-#define VF_ERR_ARGUMENT (-2)    /* bad polygon or law data (n < 3, non-finite, out of range) */
-#define VF_ERR_NONFINITE (-3)   /* position or command not finite (NaN or +-inf) */
-#define VF_ERR_OVERFLOW (-4)    /* finite input, overflowed result (velocity or distances) */
-
-/* Zones (ShapingResult.zone, same codes as velfence.shaping.ZONE_NAMES). */
-#define VF_ZONE_FREE 0
-#define VF_ZONE_BUFFER 1
-#define VF_ZONE_CORNER 2
-#define VF_ZONE_OUTSIDE 3
-#define VF_ZONE_OUTSIDE_CORNER 4
-#define VF_ZONE_INVALID 5
-
-/* Stage bits (velfence.shaping._kernels.STAGE_*). */
-#define VF_STAGE_SECONDARY 1
-#define VF_STAGE_PRIMARY 2
-#define VF_STAGE_ZERO_OUTWARD 4
-#define VF_STAGE_SPRING 8
-#define VF_STAGE_BLEND 16
-#define VF_STAGE_PROJECT 32
-#define VF_STAGE_RELAXED 64
-#define VF_STAGE_STOP 128
-#define VF_STAGE_PERIOD 256
-
-/* Approach-profile kinds of the exact law (velfence.shaping._kernels.PROFILE_*). */
-#define VF_PROFILE_LINEAR 0     /* prm = (d_max, k, r_max, 0, 0, 0) */
-#define VF_PROFILE_THREE_ZONE 1 /* prm = (K, max_speed, max_acceleration, d_int, d_f, d_phi) */
-#define VF_PROFILE_PARAMS 6
+#define VF_CORE_VERSION VF_VERSION /* deprecated alias, removed in 0.3 */
 
 /* A convex polygon as the laws read it (velfence ConvexPolygon.kernel_data). Borrowed pointers. */
 typedef struct vf_polygon {

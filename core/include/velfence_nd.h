@@ -33,41 +33,47 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "velfence_constants.h" /* zones, stage bits, profiles, levels, VF_VERSION */
+#include "velfence_status.h"    /* vf_status: VF_OK, VF_ERR_*, VF_INFEASIBLE, VF_STALLED, ... */
+
 #ifdef __cplusplus
 extern "C" {
 #endif
 
-#define VF_ND_VERSION "0.1.0"
+#define VF_ND_VERSION VF_VERSION /* deprecated alias, removed in 0.3 */
 
-/* Return codes. */
-#define VF_ND_OK 0
-#define VF_ND_ERR_NULL (-1)      /* a required pointer is NULL */
-#define VF_ND_ERR_ARGUMENT (-2)  /* bad sizes or data (nf < 1, dim < 1, non-finite normals, ...) */
-#define VF_ND_ERR_NONFINITE (-3) /* a per-call input is NaN or +-inf (b: +inf or NaN) */
-#define VF_ND_ERR_OVERFLOW (-4)  /* finite input so large that the answer overflowed */
+/* Return codes: deprecated aliases, removed in 0.3. */
+#define VF_ND_OK VF_OK                        /* deprecated alias, removed in 0.3 */
+#define VF_ND_ERR_NULL VF_ERR_NULL            /* deprecated alias, removed in 0.3 */
+#define VF_ND_ERR_ARGUMENT VF_ERR_ARGUMENT    /* deprecated alias, removed in 0.3 */
+#define VF_ND_ERR_NONFINITE VF_ERR_NONFINITE  /* deprecated alias, removed in 0.3 */
+#define VF_ND_ERR_OVERFLOW VF_ERR_OVERFLOW    /* deprecated alias, removed in 0.3 */
 
-/* Status of the projection (velfence.geometry.projection.PROJECT_*). */
-#define VF_ND_PROJECT_OPTIMAL 0
-#define VF_ND_PROJECT_INFEASIBLE 1
-#define VF_ND_PROJECT_ITERATION_LIMIT 2
+/* Status of the projection (velfence.geometry.projection.PROJECT_*): deprecated aliases of the
+ * vf_status outcomes, removed in 0.3. */
+#define VF_ND_PROJECT_OPTIMAL VF_OK                 /* deprecated alias, removed in 0.3 */
+#define VF_ND_PROJECT_INFEASIBLE VF_INFEASIBLE      /* deprecated alias, removed in 0.3 */
+#define VF_ND_PROJECT_ITERATION_LIMIT VF_STALLED    /* deprecated alias, removed in 0.3 */
 
-/* Zones and stage bits (velfence.shaping._kernels.ZONE_* / STAGE_*). */
-#define VF_ND_ZONE_FREE 0
-#define VF_ND_ZONE_BUFFER 1
-#define VF_ND_ZONE_CORNER 2
-#define VF_ND_ZONE_OUTSIDE 3
-#define VF_ND_ZONE_OUTSIDE_CORNER 4
-#define VF_ND_ZONE_INVALID 5
-#define VF_ND_STAGE_SPRING 8
-#define VF_ND_STAGE_PROJECT 32
-#define VF_ND_STAGE_RELAXED 64
-#define VF_ND_STAGE_STOP 128
-#define VF_ND_STAGE_SCALED 512
+/* Zones and stage bits (velfence.shaping._kernels.ZONE_* / STAGE_*): deprecated aliases of
+ * VF_ZONE_* / VF_STAGE_*, removed in 0.3. */
+#define VF_ND_ZONE_FREE VF_ZONE_FREE                     /* deprecated alias, removed in 0.3 */
+#define VF_ND_ZONE_BUFFER VF_ZONE_BUFFER                 /* deprecated alias, removed in 0.3 */
+#define VF_ND_ZONE_CORNER VF_ZONE_CORNER                 /* deprecated alias, removed in 0.3 */
+#define VF_ND_ZONE_OUTSIDE VF_ZONE_OUTSIDE               /* deprecated alias, removed in 0.3 */
+#define VF_ND_ZONE_OUTSIDE_CORNER VF_ZONE_OUTSIDE_CORNER /* deprecated alias, removed in 0.3 */
+#define VF_ND_ZONE_INVALID VF_ZONE_INVALID               /* deprecated alias, removed in 0.3 */
+#define VF_ND_STAGE_SPRING VF_STAGE_SPRING               /* deprecated alias, removed in 0.3 */
+#define VF_ND_STAGE_PROJECT VF_STAGE_PROJECT             /* deprecated alias, removed in 0.3 */
+#define VF_ND_STAGE_RELAXED VF_STAGE_RELAXED             /* deprecated alias, removed in 0.3 */
+#define VF_ND_STAGE_STOP VF_STAGE_STOP                   /* deprecated alias, removed in 0.3 */
+#define VF_ND_STAGE_SCALED VF_STAGE_SCALED               /* deprecated alias, removed in 0.3 */
 
-/* Approach-profile kinds (velfence.shaping._kernels.PROFILE_*). */
-#define VF_ND_PROFILE_LINEAR 0     /* prm = (d_max, k, r_max, 0, 0, 0) */
-#define VF_ND_PROFILE_THREE_ZONE 1 /* prm = (K, max_speed, max_acceleration, d_int, d_f, d_phi) */
-#define VF_ND_PROFILE_PARAMS 6
+/* Approach-profile kinds (velfence.shaping._kernels.PROFILE_*): deprecated aliases of
+ * VF_PROFILE_*, removed in 0.3. */
+#define VF_ND_PROFILE_LINEAR VF_PROFILE_LINEAR         /* deprecated alias, removed in 0.3 */
+#define VF_ND_PROFILE_THREE_ZONE VF_PROFILE_THREE_ZONE /* deprecated alias, removed in 0.3 */
+#define VF_ND_PROFILE_PARAMS VF_PROFILE_PARAMS         /* deprecated alias, removed in 0.3 */
 
 /* ------------------------------------------------------------------ the projection */
 
@@ -81,6 +87,34 @@ size_t vf_nd_project_doubles(int32_t m, int32_t n);
 int vf_nd_project_kernel(const double *u, const double *G, const double *b, int32_t m, int32_t n,
                          double *x, double *lam, int32_t *act, double *wsf, int32_t *q,
                          int32_t *iters);
+
+/* Options of a solve. max_iterations <= 0: the default cap vf_nd_default_iteration_cap(m, n)
+ * (reaching it then means round-off stalled the method: VF_STALLED); > 0: the
+ * caller's cap (reaching it: VF_ITERATION_CAP). deadline: an absolute time on
+ * CLOCK_MONOTONIC in seconds (vf_nd_monotonic_seconds()), checked once per inner iteration; 0 or
+ * INFINITY for none (passing it: VF_DEADLINE). warm[:n_warm]: row indices tried first
+ * when the next violated row is picked (the previous cycle's active rows; out-of-range entries
+ * are ignored). On VF_ITERATION_CAP or VF_DEADLINE, x is finite but NOT feasible: the
+ * caller needs a safe fallback. */
+typedef struct vf_nd_solve_opts {
+    int32_t max_iterations;
+    double deadline;
+    const int32_t *warm;
+    int32_t n_warm;
+} vf_nd_solve_opts;
+
+/* 4 (m + n) + 16: the default iteration cap (linear in the row count). */
+int32_t vf_nd_default_iteration_cap(int32_t m, int32_t n);
+
+/* Seconds on CLOCK_MONOTONIC, the clock of vf_nd_solve_opts.deadline. */
+double vf_nd_monotonic_seconds(void);
+
+/* vf_nd_project_kernel with options (opts may be NULL: the defaults). Accepts a row as met when
+ * G_i.x - b_i >= -1e-12 (|b_i| + |G_i| max(|x|_inf, |u|_inf)): the round-off of forming x from u.
+ * A point outside a facet by its own round-off never makes a problem infeasible. */
+int vf_nd_project_kernel_opt(const double *u, const double *G, const double *b, int32_t m,
+                             int32_t n, double *x, double *lam, int32_t *act, double *wsf,
+                             int32_t *q, int32_t *iters, const vf_nd_solve_opts *opts);
 
 /* The checked projection: VF_ND_OK (then *status is VF_ND_PROJECT_*), VF_ND_ERR_NULL,
  * VF_ND_ERR_ARGUMENT (m < 0, n < 1, non-finite G), VF_ND_ERR_NONFINITE (u non-finite, b NaN or
@@ -236,11 +270,12 @@ typedef struct vf_nd_filter {
     vf_nd_capsules cap;        /* obstacles (cap.k = 0: none); P, axes, dt, idt set per call */
 } vf_nd_filter;
 
-/* Row levels of vf_nd_filter_rows (velfence.shaping.filter.LEVEL_*). */
-#define VF_ND_LEVEL_JOINT 0
-#define VF_ND_LEVEL_WORKSPACE 1
-#define VF_ND_LEVEL_OBSTACLE 2
-#define VF_ND_LEVEL_RATE 3
+/* Row levels of vf_nd_filter_rows (velfence.shaping.filter.LEVEL_*): deprecated aliases of
+ * VF_LEVEL_*, removed in 0.3. */
+#define VF_ND_LEVEL_JOINT VF_LEVEL_JOINT         /* deprecated alias, removed in 0.3 */
+#define VF_ND_LEVEL_WORKSPACE VF_LEVEL_WORKSPACE /* deprecated alias, removed in 0.3 */
+#define VF_ND_LEVEL_OBSTACLE VF_LEVEL_OBSTACLE   /* deprecated alias, removed in 0.3 */
+#define VF_ND_LEVEL_RATE VF_LEVEL_RATE           /* deprecated alias, removed in 0.3 */
 
 /* Largest number of rows vf_nd_filter_rows writes: 4 n + 2 n + sum nf + k n. */
 size_t vf_nd_filter_rows_max(const vf_nd_filter *f);

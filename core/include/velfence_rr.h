@@ -23,27 +23,37 @@
  *
  * Arrays: row-major doubles. Units: metres, radians, seconds.
  *
- * Return codes: VF_RR_OK (0) or a negative VF_RR_ERR_* code. On VF_RR_OK every double of the
- * answer is finite. On an error q_dot = 0, scale = 1 and w, det, k, singular are those computed
- * before the error (NaN when not reached); the caller applies its own policy (velfence's Python
- * layer re-runs its reference route, which raises or stops as configured).
+ * Return codes (velfence_status.h): VF_OK (0) or a negative VF_ERR_* code. On VF_OK every double
+ * of the answer is finite. On an error q_dot = 0, scale = 1 and w, det, k, singular are those
+ * computed before the error (NaN when not reached); the caller applies its own policy (velfence's
+ * Python layer re-runs its reference route, which raises or stops as configured).
  */
 #ifndef VELFENCE_RR_H
 #define VELFENCE_RR_H
 
 #include <stdint.h>
 
+#include "velfence_status.h" /* the return codes */
+
 #ifdef __cplusplus
 extern "C" {
 #endif
 
-#define VF_RR_OK 0
-#define VF_RR_ERR_NULL (-1)      /* a pointer is NULL */
-#define VF_RR_ERR_ARGUMENT (-2)  /* k0 or w0 not finite > 0, singular_tol or max_speed < 0, ... */
-#define VF_RR_ERR_NONFINITE (-3) /* q or x' holds NaN or +-inf */
-#define VF_RR_ERR_SINGULAR (-4)  /* k = 0 and w <= singular_tol (only when singular_tol >= w0) */
-#define VF_RR_ERR_FACTOR (-5)    /* J J^T + k I not numerically positive definite */
-#define VF_RR_ERR_OVERFLOW (-6)  /* finite input so large that det J or a joint rate overflowed */
+/* Return codes (velfence_status.h): VF_OK; VF_ERR_NULL (a pointer is NULL); VF_ERR_ARGUMENT (k0
+ * or w0 not finite > 0, singular_tol or max_speed < 0, ...); VF_ERR_NONFINITE (q or x' holds NaN
+ * or +-inf); VF_ERR_SINGULAR (k = 0 and w <= singular_tol, only when singular_tol >= w0; or
+ * J J^T + k I has a Cholesky pivot <= 0, not numerically positive definite); VF_ERR_OVERFLOW
+ * (finite input so large that det J, J J^T + k I or a joint rate overflowed).
+ * The VF_RR_* names are deprecated aliases, removed in 0.3. Their values changed with the shared
+ * enum: SINGULAR -4 -> -5, OVERFLOW -6 -> -4, and FACTOR (was -5) is now VF_ERR_SINGULAR (a
+ * non-finite pivot, J J^T + k I overflowed, is VF_ERR_OVERFLOW). */
+#define VF_RR_OK VF_OK                       /* deprecated alias, removed in 0.3 */
+#define VF_RR_ERR_NULL VF_ERR_NULL           /* deprecated alias, removed in 0.3 */
+#define VF_RR_ERR_ARGUMENT VF_ERR_ARGUMENT   /* deprecated alias, removed in 0.3 */
+#define VF_RR_ERR_NONFINITE VF_ERR_NONFINITE /* deprecated alias, removed in 0.3 */
+#define VF_RR_ERR_SINGULAR VF_ERR_SINGULAR   /* deprecated alias, removed in 0.3 (was -4) */
+#define VF_RR_ERR_FACTOR VF_ERR_SINGULAR     /* deprecated alias, removed in 0.3 (was -5) */
+#define VF_RR_ERR_OVERFLOW VF_ERR_OVERFLOW   /* deprecated alias, removed in 0.3 (was -6) */
 
 /* The arm: 6 standard-DH rows and the tool point. Read-only, shareable. */
 typedef struct vf_rr_arm {
@@ -70,8 +80,8 @@ typedef struct vf_rr_out {
     int32_t singular; /* 1 when w <= singular_tol */
 } vf_rr_out;
 
-/* J (6 x 6, row-major) of the tool point at q (6,). VF_RR_OK, or VF_RR_ERR_NULL /
- * VF_RR_ERR_NONFINITE (J then all zero). */
+/* J (6 x 6, row-major) of the tool point at q (6,). VF_OK, or VF_ERR_NULL / VF_ERR_NONFINITE
+ * (J then all zero). */
 int vf_rr_jacobian(const vf_rr_arm *arm, const double *q, double *J);
 
 /* One SR step for the commanded twist xdot = [v; w] (6,) [m/s; rad/s] at q (6,) [rad]. */

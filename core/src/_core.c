@@ -16,6 +16,11 @@
  *                         out float64 (N, 2) writable, zones int64 (N,) writable or None; a row
  *                         whose distances overflowed gets a NaN velocity); releases the GIL, its
  *                         scratch is per call.
+ * and
+ *   ShapeCall(fast, fallback) -> a callable: fast(position, command) (a law's shape_array, its C
+ *                         function called directly), else fallback(position, command) (the
+ *                         shaper's Python route); PolygonShaper / PolytopeShaper install it as
+ *                         their instance attribute `shape` (no Python frame on the common path).
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
@@ -562,6 +567,157 @@ static PyTypeObject PatentLawType = {
     .tp_methods = PatentLaw_methods,
 };
 
+/* ------------------------------------------------------------------ ShapeCall */
+
+/*
+ * ShapeCall(fast, fallback): a shaper's `shape` with no Python frame on the common path.
+ *
+ * `fast` is a bound METH_FASTCALL method of a law object (ExactLaw.shape_array,
+ * PatentLaw.shape_array, velfence_core._nd.PolytopeLaw.shape_array) that answers None when its
+ * fast path does not apply; `fallback` is the shaper's Python route (any callable taking
+ * (position, command)). A call with two positional arguments runs `fast`'s C function directly
+ * (no bound-method dispatch, no Python frame); None from it, or any other call (keywords, another
+ * number of arguments), goes to `fallback` with the arguments unchanged, so every message, the
+ * on_invalid policy and every refusal are the Python route's own. The shaper installs it as its
+ * instance attribute `shape` (velfence.shaping.polygon / polytope).
+ */
+typedef struct {
+    PyObject_HEAD
+    PyObject *fast;     /* the bound builtin method (kept alive: it owns fself) */
+    PyObject *fself;    /* its __self__ (borrowed from fast) */
+    _PyCFunctionFast fn;
+    PyObject *fallback;
+    vectorcallfunc vectorcall;
+} ShapeCall;
+
+static PyObject *ShapeCall_vectorcall(PyObject *callable, PyObject *const *args, size_t nargsf,
+                                      PyObject *kwnames)
+{
+    ShapeCall *self = (ShapeCall *)callable;
+    Py_ssize_t nargs = PyVectorcall_NARGS(nargsf);
+    if (kwnames == NULL && nargs == 2) {
+        PyObject *r = self->fn(self->fself, args, nargs);
+        if (r != Py_None) {
+            return r; /* the shaped velocity, or NULL with an exception set (out of memory) */
+        }
+        Py_DECREF(r);
+    }
+    if (self->fallback == NULL) { /* cleared by the garbage collector (unreachable) */
+        PyErr_SetString(PyExc_RuntimeError, "ShapeCall: its shaper is gone");
+        return NULL;
+    }
+    return PyObject_Vectorcall(self->fallback, args, nargsf, kwnames);
+}
+
+static PyObject *ShapeCall_new(PyTypeObject *type, PyObject *args, PyObject *kwds)
+{
+    PyObject *fast, *fallback;
+    ShapeCall *self;
+    static char *kwlist[] = {"fast", "fallback", NULL};
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "OO:ShapeCall", kwlist, &fast, &fallback)) {
+        return NULL;
+    }
+    if (!PyCFunction_Check(fast) || PyCFunction_GET_SELF(fast) == NULL
+        || PyCFunction_GET_FLAGS(fast) != METH_FASTCALL) {
+        PyErr_SetString(PyExc_TypeError,
+                        "fast: expected a bound METH_FASTCALL builtin method (a law's shape_array)");
+        return NULL;
+    }
+    if (!PyCallable_Check(fallback)) {
+        PyErr_SetString(PyExc_TypeError, "fallback: expected a callable (position, command)");
+        return NULL;
+    }
+    self = (ShapeCall *)type->tp_alloc(type, 0);
+    if (self == NULL) {
+        return NULL;
+    }
+    Py_INCREF(fast);
+    Py_INCREF(fallback);
+    self->fast = fast;
+    self->fself = PyCFunction_GET_SELF(fast);
+    self->fn = (_PyCFunctionFast)(void (*)(void))PyCFunction_GET_FUNCTION(fast);
+    self->fallback = fallback;
+    self->vectorcall = ShapeCall_vectorcall;
+    return (PyObject *)self;
+}
+
+static int ShapeCall_traverse(ShapeCall *self, visitproc visit, void *arg)
+{
+    Py_VISIT(self->fast);
+    Py_VISIT(self->fallback);
+    return 0;
+}
+
+static int ShapeCall_clear(ShapeCall *self)
+{
+    /* the fallback (the shaper's bound method) closes the cycle shaper -> shape -> shaper */
+    Py_CLEAR(self->fallback);
+    return 0;
+}
+
+static void ShapeCall_dealloc(ShapeCall *self)
+{
+    PyObject_GC_UnTrack(self);
+    Py_CLEAR(self->fallback);
+    Py_CLEAR(self->fast);
+    Py_TYPE(self)->tp_free((PyObject *)self);
+}
+
+static PyObject *ShapeCall_get_wrapped(ShapeCall *self, void *closure)
+{
+    (void)closure;
+    if (self->fallback == NULL) {
+        Py_RETURN_NONE;
+    }
+    Py_INCREF(self->fallback);
+    return self->fallback;
+}
+
+static PyObject *ShapeCall_get_doc(ShapeCall *self, void *closure)
+{
+    (void)closure;
+    if (self->fallback == NULL) {
+        Py_RETURN_NONE;
+    }
+    return PyObject_GetAttrString(self->fallback, "__doc__");
+}
+
+static PyObject *ShapeCall_get_fast(ShapeCall *self, void *closure)
+{
+    (void)closure;
+    Py_INCREF(self->fast);
+    return self->fast;
+}
+
+static PyObject *ShapeCall_repr(ShapeCall *self)
+{
+    if (self->fallback == NULL) {
+        return PyUnicode_FromString("<ShapeCall (cleared)>");
+    }
+    return PyUnicode_FromFormat("<ShapeCall: %R in C, else %R>", self->fast, self->fallback);
+}
+
+static PyGetSetDef ShapeCall_getset[] = {
+    {"__wrapped__", (getter)ShapeCall_get_wrapped, NULL,
+     "The Python route (its signature is the call's: inspect.signature follows it).", NULL},
+    {"__doc__", (getter)ShapeCall_get_doc, NULL, "The Python route's docstring.", NULL},
+    {"fast", (getter)ShapeCall_get_fast, NULL, "The law's fast-path method.", NULL},
+    {NULL, NULL, NULL, NULL, NULL}};
+
+static PyTypeObject ShapeCallType = {
+    PyVarObject_HEAD_INIT(NULL, 0).tp_name = "velfence_core._core.ShapeCall",
+    .tp_basicsize = sizeof(ShapeCall),
+    .tp_flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_HAVE_GC | Py_TPFLAGS_HAVE_VECTORCALL,
+    .tp_new = ShapeCall_new,
+    .tp_dealloc = (destructor)ShapeCall_dealloc,
+    .tp_traverse = (traverseproc)ShapeCall_traverse,
+    .tp_clear = (inquiry)ShapeCall_clear,
+    .tp_call = PyVectorcall_Call,
+    .tp_vectorcall_offset = offsetof(ShapeCall, vectorcall),
+    .tp_repr = (reprfunc)ShapeCall_repr,
+    .tp_getset = ShapeCall_getset,
+};
+
 /* ------------------------------------------------------------------ module */
 
 static struct PyModuleDef core_module = {
@@ -573,7 +729,8 @@ PyMODINIT_FUNC PyInit__core(void)
 {
     PyObject *m;
     import_array();
-    if (PyType_Ready(&ExactLawType) < 0 || PyType_Ready(&PatentLawType) < 0) {
+    if (PyType_Ready(&ExactLawType) < 0 || PyType_Ready(&PatentLawType) < 0
+        || PyType_Ready(&ShapeCallType) < 0) {
         return NULL;
     }
     m = PyModule_Create(&core_module);
@@ -582,8 +739,10 @@ PyMODINIT_FUNC PyInit__core(void)
     }
     Py_INCREF(&ExactLawType);
     Py_INCREF(&PatentLawType);
+    Py_INCREF(&ShapeCallType);
     if (PyModule_AddObject(m, "ExactLaw", (PyObject *)&ExactLawType) < 0
         || PyModule_AddObject(m, "PatentLaw", (PyObject *)&PatentLawType) < 0
+        || PyModule_AddObject(m, "ShapeCall", (PyObject *)&ShapeCallType) < 0
         || PyModule_AddStringConstant(m, "VERSION", VF_CORE_VERSION) < 0) {
         Py_DECREF(m);
         return NULL;

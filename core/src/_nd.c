@@ -14,6 +14,9 @@
  *                          (the caller's generic path then owns the on_invalid policy).
  *     batch(P, V, out, zones) -> None: the unchecked kernel over rows (P, V float64 (N, dim)
  *                          C-contiguous, out float64 (N, dim), zones int64 (N,)); releases the GIL.
+ *     batch_velocity(P, V, out) -> the number of rows not finite in or out: shape_batch's loop,
+ *                          writing only the velocities (rows with non-finite input are not run;
+ *                          the caller then takes its generic path); releases the GIL.
  *   rate_bounds(kind, prm, dist, speed, idt) -> bounds (k,)   vf_nd_rate_bounds (filter._bounds)
  *   CapsuleRows(lrad, C, srad, vmax, nl, nj, ncols, k, buf, dt, kind, prm)
  *     rows(P, axes, u, idt) -> (G (r, ncols), b (r,), d (r,), obstacles, links): the safety
@@ -462,6 +465,82 @@ done:
     return ret;
 }
 
+/* shape_batch's velocity-only loop: the unchecked kernel over the rows of P, V into out, nothing
+ * else written (no zones, no active set kept). A row whose input is not finite is not run (its
+ * output is set to 0); returns the number of rows not finite in or out, for which the caller
+ * takes its generic path (zones_batch, which owns the on_invalid policy). */
+static PyObject *PolytopeLaw_batch_velocity(PolytopeLaw *self, PyObject *const *args,
+                                            Py_ssize_t nargs)
+{
+    Py_buffer P = {0}, V = {0}, out = {0};
+    Py_ssize_t rows, r, bad = 0;
+    int32_t dim = self->poly.dim;
+    double *dbl = NULL;
+    int32_t *ints = NULL;
+    PyObject *ret = NULL;
+    if (self->mem == NULL) {
+        PyErr_SetString(PyExc_RuntimeError, "PolytopeLaw not initialised");
+        return NULL;
+    }
+    if (nargs != 3) {
+        PyErr_Format(PyExc_TypeError, "expected 3 arguments (P, V, out), got %zd", nargs);
+        return NULL;
+    }
+    if (get_view(args[0], &P, 0, "d", "P") < 0 || get_view(args[1], &V, 0, "d", "V") < 0
+        || get_view(args[2], &out, 1, "d", "out") < 0) {
+        goto done;
+    }
+    rows = out.len / (8 * (Py_ssize_t)dim);
+    if (P.len != 8 * rows * dim || V.len != 8 * rows * dim || out.len != 8 * rows * dim) {
+        PyErr_SetString(PyExc_ValueError, "P, V, out must be (N, dim)");
+        goto done;
+    }
+    dbl = PyMem_Malloc(vf_nd_law_doubles(self->poly.nf, dim) * sizeof(double));
+    ints = PyMem_Malloc((vf_nd_law_ints(self->poly.nf, dim) + (size_t)dim + 1) * sizeof(int32_t));
+    if (dbl == NULL || ints == NULL) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    Py_BEGIN_ALLOW_THREADS
+    {
+        vf_nd_scratch s;
+        vf_nd_result res;
+        int32_t *active = ints + vf_nd_law_ints(self->poly.nf, dim);
+        s.dbl = dbl;
+        s.ints = ints;
+        for (r = 0; r < rows; r++) {
+            size_t o = (size_t)r * (size_t)dim;
+            const double *p = (const double *)P.buf + o, *v = (const double *)V.buf + o;
+            double *x = (double *)out.buf + o;
+            int32_t k, ok = 1;
+            for (k = 0; k < dim; k++) {
+                ok &= isfinite(p[k]) && isfinite(v[k]);
+            }
+            if (!ok) {
+                for (k = 0; k < dim; k++) {
+                    x[k] = 0.0;
+                }
+                bad += 1;
+                continue;
+            }
+            vf_nd_kernel(&self->poly, &self->law, p, v, x, active, &s, &res);
+            for (k = 0; k < dim; k++) {
+                ok &= isfinite(x[k]);
+            }
+            bad += !ok;
+        }
+    }
+    Py_END_ALLOW_THREADS
+    ret = PyLong_FromSsize_t(bad);
+done:
+    release(&P);
+    release(&V);
+    release(&out);
+    PyMem_Free(dbl);
+    PyMem_Free(ints);
+    return ret;
+}
+
 static PyMethodDef PolytopeLaw_methods[] = {
     {"law", (PyCFunction)(void (*)(void))PolytopeLaw_law, METH_FASTCALL,
      "law(p, v) -> (out, res, active, dist, bnd, work): polytope_kernel's outputs."},
@@ -469,6 +548,9 @@ static PyMethodDef PolytopeLaw_methods[] = {
      "shape_array(p, v) -> the shaped velocity (dim,), or None (not the fast path)."},
     {"batch", (PyCFunction)(void (*)(void))PolytopeLaw_batch, METH_FASTCALL,
      "batch(P, V, out, zones) -> None: the kernel over rows."},
+    {"batch_velocity", (PyCFunction)(void (*)(void))PolytopeLaw_batch_velocity, METH_FASTCALL,
+     "batch_velocity(P, V, out) -> rows not finite in or out: the kernel over rows, velocities "
+     "only."},
     {NULL, NULL, 0, NULL},
 };
 

@@ -14,6 +14,7 @@
 #define VF_TWO_PI 6.283185307179586 /* 2.0 * math.pi */
 #define VF_FEAS_TOL 1e-12
 #define VF_REPAIR_ULPS (4.0 * 2.220446049250313e-16)
+#define VF_RELAX_STEPS 9 /* _kernels.RELAX_STEPS */
 
 /* Python's float % (result takes the sign of the divisor). */
 static double py_mod(double x, double w)
@@ -413,8 +414,8 @@ void vf_exact_kernel(const vf_polygon *poly, const vf_exact_law *law, double px,
     double *bnd = scratch->bnd;
     int32_t *work = scratch->work;
     bounds_out bo;
-    double big, vnorm, ux, uy, ox, oy, unit, scale, hx, hy, hn;
-    int32_t e, m, zone, stages;
+    double big, vnorm, ux, uy, ox, oy, unit, scale;
+    int32_t e, m, zone, stages, r, a;
     /* _kernels.exact_bounds */
     for (e = 0; e < n; e++) {
         dist[e] = nx[e] * px + ny[e] * py - off[e];
@@ -480,36 +481,25 @@ void vf_exact_kernel(const vf_polygon *poly, const vf_exact_law *law, double px,
             return;
         }
     }
-    if (bo.n_out == 0) {
-        set_result(out, 0.0, 0.0, zone, bo.p1, bo.p2, bo.d1, bo.d2, 0.0, 0.0,
-                   stages | VF_STAGE_STOP);
-        return;
-    }
-    m = 0;
-    for (e = 0; e < n; e++) {
-        if (dist[e] < 0.0) {
-            work[m] = e;
-            m += 1;
+    if (bo.n_out > 0) {
+        /* _kernels.RELAX_STEPS: the outside edges' recovery bounds times 1/4, ..., 4^-8, then 0;
+         * every bound of an edge the point is inside kept. */
+        for (r = 0; r < VF_RELAX_STEPS; r++) {
+            for (a = 0; a < m; a++) {
+                e = work[a];
+                if (dist[e] < 0.0 && bnd[e] > 0.0) {
+                    bnd[e] = r + 1 < VF_RELAX_STEPS ? bnd[e] * 0.25 : 0.0;
+                }
+            }
+            if (solve(ux, uy, work, m, nx, ny, bnd, &ox, &oy)) {
+                set_result(out, ox * scale, oy * scale, zone, bo.p1, bo.p2, bo.d1, bo.d2, 0.0,
+                           0.0, stages | VF_STAGE_RELAXED);
+                return;
+            }
         }
     }
-    if (solve(ux, uy, work, m, nx, ny, bnd, &ox, &oy)) {
-        set_result(out, ox * scale, oy * scale, zone, bo.p1, bo.p2, bo.d1, bo.d2, 0.0, 0.0,
-                   stages | VF_STAGE_RELAXED);
-        return;
-    }
-    hx = poly->cx - px;
-    hy = poly->cy - py;
-    big = fabs(hx) > fabs(hy) ? fabs(hx) : fabs(hy);
-    if (!(big > 0.0)) { /* Python would divide by zero here (unreachable): stop instead */
-        set_result(out, 0.0, 0.0, zone, bo.p1, bo.p2, bo.d1, bo.d2, 0.0, 0.0,
-                   stages | VF_STAGE_RELAXED);
-        return;
-    }
-    hx /= big;
-    hy /= big;
-    hn = sqrt(hx * hx + hy * hy);
-    set_result(out, bo.rec * hx / hn, bo.rec * hy / hn, zone, bo.p1, bo.p2, bo.d1, bo.d2, 0.0,
-               0.0, stages | VF_STAGE_RELAXED);
+    set_result(out, 0.0, 0.0, zone, bo.p1, bo.p2, bo.d1, bo.d2, 0.0, 0.0,
+               stages | VF_STAGE_STOP | (bo.n_out > 0 ? VF_STAGE_RELAXED : 0));
 }
 
 /* ------------------------------------------------------------------ checked API */

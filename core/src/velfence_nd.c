@@ -7,9 +7,12 @@
  * are bit-identical to the Python reference when compiled with -ffp-contract=off. Each function
  * names the Python function it ports; keep them in step.
  */
+#define _POSIX_C_SOURCE 199309L /* clock_gettime for the deadline */
 #include "velfence_nd.h"
 
 #include <math.h>
+#include <stdint.h>
+#include <time.h>
 
 #include "vf_bounds.h" /* the exact law's bounds, shared with the 2-D core */
 
@@ -26,6 +29,7 @@
 #define VIOL_TOL 1e-13
 #define REPAIR_ULPS (8.0 * 2.220446049250313e-16)
 #define ROUND_OFF 1e-12
+#define VF_ND_RELAX_STEPS 9 /* len(_nd_kernels.RECOVERY_FRACTIONS) */
 
 /* ------------------------------------------------------------------ the projection */
 
@@ -98,10 +102,37 @@ static double slack(const double *G, const double *b, int32_t i, const double *x
     return s - b[i];
 }
 
+/* Seconds on CLOCK_MONOTONIC (the deadline's clock). */
+static double monotonic_seconds(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+double vf_nd_monotonic_seconds(void)
+{
+    return monotonic_seconds();
+}
+
+int32_t vf_nd_default_iteration_cap(int32_t m, int32_t n)
+{
+    int64_t c = 4 * ((int64_t)(m > 0 ? m : 0) + (n > 0 ? n : 0)) + 16;
+    return c > INT32_MAX ? INT32_MAX : (int32_t)c;
+}
+
 /* projection.project_kernel */
 int vf_nd_project_kernel(const double *u, const double *G, const double *b, int32_t m, int32_t n,
                          double *x, double *lam, int32_t *act, double *wsf, int32_t *q_out,
                          int32_t *iters_out)
+{
+    return vf_nd_project_kernel_opt(u, G, b, m, n, x, lam, act, wsf, q_out, iters_out, NULL);
+}
+
+/* projection.project_kernel_opts (+ the deadline, which only C checks) */
+int vf_nd_project_kernel_opt(const double *u, const double *G, const double *b, int32_t m,
+                             int32_t n, double *x, double *lam, int32_t *act, double *wsf,
+                             int32_t *q_out, int32_t *iters_out, const vf_nd_solve_opts *opts)
 {
     const size_t oq = 0;
     const size_t orr = (size_t)n * n;
@@ -111,12 +142,23 @@ int vf_nd_project_kernel(const double *u, const double *G, const double *b, int3
     const size_t ogn = orv + n;
     int32_t q = 0;
     int32_t iters = 0;
-    int64_t limit = 4 * ((int64_t)m + n) + 16;
-    int32_t i, k, c, j, r;
+    const int32_t cap = opts != NULL ? opts->max_iterations : 0;
+    const int64_t limit = cap > 0 ? (int64_t)cap : 4 * ((int64_t)m + n) + 16;
+    const int over = cap > 0 ? VF_ITERATION_CAP : VF_ND_PROJECT_ITERATION_LIMIT;
+    const int32_t n_warm = opts != NULL && opts->warm != NULL ? opts->n_warm : 0;
+    const double deadline = opts != NULL ? opts->deadline : 0.0;
+    const int timed = deadline > 0.0 && deadline < INFINITY;
+    int32_t i, k, c, j, r, w, scan;
     int status = VF_ND_PROJECT_OPTIMAL;
     double big;
+    double ubig = 0.0;
     for (k = 0; k < n; k++) {
         x[k] = u[k];
+    }
+    for (k = 0; k < n; k++) {
+        if (fabs(u[k]) > ubig) {
+            ubig = fabs(u[k]);
+        }
     }
     for (i = 0; i < m; i++) {
         wsf[ogn + i] = row_norm(G, i, n);
@@ -131,7 +173,39 @@ int vf_nd_project_kernel(const double *u, const double *G, const double *b, int3
                 scale = fabs(x[k]);
             }
         }
-        for (i = 0; i < m; i++) {
+        /* Warm start: a violated row of the previous active set first. */
+        for (w = 0; w < n_warm; w++) {
+            int in_act = 0;
+            double s, gn, tol;
+            i = opts->warm[w];
+            if (i < 0 || i >= m || b[i] == -INFINITY) {
+                continue;
+            }
+            for (c = 0; c < q; c++) {
+                if (act[c] == i) {
+                    in_act = 1;
+                    break;
+                }
+            }
+            if (in_act) {
+                continue;
+            }
+            gn = wsf[ogn + i];
+            if (gn < 0.0) {
+                continue;
+            }
+            s = slack(G, b, i, x, n);
+            tol = VIOL_TOL * (fabs(b[i]) + gn * (scale + 1e-300) + 1e-300);
+            if (s < -tol) {
+                double v = gn > 0.0 ? s / gn : -INFINITY;
+                if (p < 0 || v < worst) {
+                    worst = v;
+                    p = i;
+                }
+            }
+        }
+        scan = p < 0 ? m : 0; /* the whole scan only when no warm row is violated */
+        for (i = 0; i < scan; i++) {
             int in_act = 0;
             double s, gn, tol;
             if (b[i] == -INFINITY) {
@@ -146,8 +220,11 @@ int vf_nd_project_kernel(const double *u, const double *G, const double *b, int3
             if (in_act) {
                 continue;
             }
-            s = slack(G, b, i, x, n);
             gn = wsf[ogn + i];
+            if (gn < 0.0) { /* accepted as met to round-off (below) */
+                continue;
+            }
+            s = slack(G, b, i, x, n);
             tol = VIOL_TOL * (fabs(b[i]) + gn * (scale + 1e-300) + 1e-300);
             if (s < -tol) {
                 double v = gn > 0.0 ? s / gn : -INFINITY;
@@ -173,7 +250,12 @@ int vf_nd_project_kernel(const double *u, const double *G, const double *b, int3
             if (iters > limit) {
                 *q_out = q;
                 *iters_out = iters;
-                return VF_ND_PROJECT_ITERATION_LIMIT;
+                return over;
+            }
+            if (timed && monotonic_seconds() > deadline) {
+                *q_out = q;
+                *iters_out = iters;
+                return VF_DEADLINE;
             }
             for (c = 0; c < q; c++) {
                 wsf[oh + c] = 0.0;
@@ -224,6 +306,11 @@ int vf_nd_project_kernel(const double *u, const double *G, const double *b, int3
             }
             t = t1 < t2 ? t1 : t2;
             if (t == INFINITY) {
+                /* violated by the round-off of forming x from u only: accepted as met */
+                if (-sp <= ROUND_OFF * (fabs(b[p]) + wsf[ogn + p] * (scale + ubig))) {
+                    wsf[ogn + p] = -wsf[ogn + p];
+                    break;
+                }
                 *q_out = q;
                 *iters_out = iters;
                 return VF_ND_PROJECT_INFEASIBLE;
@@ -293,7 +380,7 @@ int vf_nd_project_kernel(const double *u, const double *G, const double *b, int3
             }
             g = -slack(G, b, i, x, n);
             if (g > 0.0) {
-                double gni = wsf[ogn + i];
+                double gni = fabs(wsf[ogn + i]);
                 g = gni > 0.0 ? g / gni : INFINITY;
                 if (g > wg) {
                     wg = g;
@@ -304,7 +391,7 @@ int vf_nd_project_kernel(const double *u, const double *G, const double *b, int3
         if (wi < 0) {
             return VF_ND_PROJECT_OPTIMAL;
         }
-        gn = wsf[ogn + wi];
+        gn = fabs(wsf[ogn + wi]);
         if (gn == 0.0) {
             return VF_ND_PROJECT_INFEASIBLE;
         }
@@ -319,7 +406,7 @@ int vf_nd_project_kernel(const double *u, const double *G, const double *b, int3
             x[k] += step * G[(size_t)wi * n + k] / gn;
         }
     }
-    big = 0.0;
+    big = ubig;
     for (k = 0; k < n; k++) {
         if (fabs(x[k]) > big) {
             big = fabs(x[k]);
@@ -329,7 +416,7 @@ int vf_nd_project_kernel(const double *u, const double *G, const double *b, int3
         if (b[i] == -INFINITY) {
             continue;
         }
-        if (-slack(G, b, i, x, n) > ROUND_OFF * (fabs(b[i]) + wsf[ogn + i] * big)) {
+        if (-slack(G, b, i, x, n) > ROUND_OFF * (fabs(b[i]) + fabs(wsf[ogn + i]) * big)) {
             status = VF_ND_PROJECT_ITERATION_LIMIT;
             break;
         }
@@ -535,7 +622,7 @@ void vf_nd_kernel(const vf_nd_polytope *poly, const vf_nd_law *law, const double
     const double idt = law->idt;
     nd_views w;
     bounds_out bo;
-    double vnorm, rec, unit, scale, hn;
+    double vnorm, unit, scale;
     int32_t e, k, a, c, m, n_out, zone, stages, attempt, q, r;
     int status;
     views(nf, dim, scratch, &w);
@@ -550,7 +637,6 @@ void vf_nd_kernel(const vf_nd_polytope *poly, const vf_nd_law *law, const double
     bounds_from_distances(w.dist, nf, vnorm, kind, prm, relax, idt, 1, w.bnd, w.work, &bo);
     m = bo.m;
     n_out = bo.n_out;
-    rec = bo.rec;
     unit = bo.cs;
     scale = bo.scale;
     if (m == 0) {
@@ -637,49 +723,42 @@ void vf_nd_kernel(const vf_nd_polytope *poly, const vf_nd_law *law, const double
             }
         }
     }
-    if (n_out == 0) {
-        for (k = 0; k < dim; k++) {
-            out[k] = 0.0;
+    if (n_out > 0) {
+        /* _nd_kernels.RECOVERY_FRACTIONS: the outside facets' recovery bounds times 1/4, ...,
+         * 4^-8, then 0; every other facet's bound kept (the point is inside those). */
+        for (r = 0; r < VF_ND_RELAX_STEPS; r++) {
+            for (a = 0; a < m; a++) {
+                e = w.work[a];
+                if (w.dist[e] < 0.0 && w.bnd[e] > 0.0) {
+                    w.bnd[e] = r + 1 < VF_ND_RELAX_STEPS ? w.bnd[e] * 0.25 : 0.0;
+                }
+            }
+            status = solve_rows(N, m, dim, &w, &q);
+            if (status == VF_ND_PROJECT_OPTIMAL) {
+                for (k = 0; k < dim; k++) {
+                    out[k] = w.x[k] * scale;
+                }
+                for (c = 0; c < q; c++) {
+                    active[c] = w.work[w.act[c]];
+                }
+                for (a = 0; a < m; a++) {
+                    w.bnd[w.work[a]] *= scale;
+                }
+                set_res(res, zone, stages | VF_ND_STAGE_RELAXED, q, bo.p1, bo.p2, bo.d1, bo.d2,
+                        m);
+                return;
+            }
         }
-        for (a = 0; a < m; a++) {
-            w.bnd[w.work[a]] *= scale;
-        }
-        set_res(res, zone, stages | VF_ND_STAGE_STOP, 0, bo.p1, bo.p2, bo.d1, bo.d2, m);
-        return;
     }
-    r = 0;
-    for (e = 0; e < nf; e++) {
-        if (w.dist[e] < 0.0) {
-            w.work[r] = e;
-            r += 1;
-        }
-    }
-    m = r;
-    status = solve_rows(N, m, dim, &w, &q);
-    if (status == VF_ND_PROJECT_OPTIMAL) {
-        for (k = 0; k < dim; k++) {
-            out[k] = w.x[k] * scale;
-        }
-        for (c = 0; c < q; c++) {
-            active[c] = w.work[w.act[c]];
-        }
-        for (a = 0; a < m; a++) {
-            w.bnd[w.work[a]] *= scale;
-        }
-        set_res(res, zone, stages | VF_ND_STAGE_RELAXED, q, bo.p1, bo.p2, bo.d1, bo.d2, m);
-        return;
-    }
+    /* round-off defeated a problem zero velocity solves (never observed): stop */
     for (k = 0; k < dim; k++) {
-        w.u[k] = poly->cen[k] - p[k];
-    }
-    hn = vector_norm(w.u, dim);
-    for (k = 0; k < dim; k++) {
-        out[k] = hn > 0.0 ? rec * w.u[k] / hn : 0.0;
+        out[k] = 0.0;
     }
     for (a = 0; a < m; a++) {
         w.bnd[w.work[a]] *= scale;
     }
-    set_res(res, zone, stages | VF_ND_STAGE_RELAXED, 0, bo.p1, bo.p2, bo.d1, bo.d2, m);
+    set_res(res, zone, stages | VF_ND_STAGE_STOP | (n_out > 0 ? VF_ND_STAGE_RELAXED : 0), 0,
+            bo.p1, bo.p2, bo.d1, bo.d2, m);
 }
 
 /* ------------------------------------------------------------------ checked API */

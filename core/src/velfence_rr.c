@@ -44,16 +44,16 @@ int vf_rr_jacobian(const vf_rr_arm *arm, const double *q, double *J)
 {
     int i;
     if (arm == NULL || q == NULL || J == NULL) {
-        return VF_RR_ERR_NULL;
+        return VF_ERR_NULL;
     }
     if (!all_finite(q, 6)) {
         for (i = 0; i < 36; i++) {
             J[i] = 0.0;
         }
-        return VF_RR_ERR_NONFINITE;
+        return VF_ERR_NONFINITE;
     }
     jacobian(arm, q, J);
-    return VF_RR_OK;
+    return VF_OK;
 }
 
 /* det of the 6 x 6 row-major M by LU with partial pivoting (M is overwritten). */
@@ -109,22 +109,22 @@ int vf_rr_sr_step(const vf_rr_arm *arm, const vf_rr_params *prm, const double *q
     double w, det, k;
     int i, j, l;
     if (out == NULL) {
-        return VF_RR_ERR_NULL;
+        return VF_ERR_NULL;
     }
     out->w = out->det = out->k = NAN;
     out->singular = 0;
     stop(out);
     if (arm == NULL || prm == NULL || q == NULL || xdot == NULL) {
-        return VF_RR_ERR_NULL;
+        return VF_ERR_NULL;
     }
     if (!(isfinite(prm->k0) && prm->k0 > 0.0 && isfinite(prm->w0) && prm->w0 > 0.0
           && prm->singular_tol >= 0.0 && prm->max_speed >= 0.0 && !isnan(prm->singular_tol)
           && !isnan(prm->max_speed))
         || !all_finite(arm->dh[0], 30) || !all_finite(arm->tool, 3)) {
-        return VF_RR_ERR_ARGUMENT;
+        return VF_ERR_ARGUMENT;
     }
     if (!all_finite(q, 6) || !all_finite(xdot, 6)) {
-        return VF_RR_ERR_NONFINITE;
+        return VF_ERR_NONFINITE;
     }
     jacobian(arm, q, J);
     for (i = 0; i < 36; i++) {
@@ -135,16 +135,16 @@ int vf_rr_sr_step(const vf_rr_arm *arm, const vf_rr_params *prm, const double *q
     out->det = det;
     out->w = w;
     if (!isfinite(det)) {
-        /* a finite arm so large that det J overflowed (found by core/fuzz/fuzz_rr.c: VF_RR_OK
+        /* a finite arm so large that det J overflowed (found by core/fuzz/fuzz_rr.c: VF_OK
          * with w = det = inf) */
-        return VF_RR_ERR_OVERFLOW;
+        return VF_ERR_OVERFLOW;
     }
     out->singular = w <= prm->singular_tol;
     /* eq. 37, as ResolvedRate.explain writes it */
     k = w >= prm->w0 ? 0.0 : prm->k0 * pow(1.0 - w / prm->w0, 2.0);
     out->k = k;
     if (k == 0.0 && out->singular) {
-        return VF_RR_ERR_SINGULAR;
+        return VF_ERR_SINGULAR;
     }
     /* A = J J^T + k I (lower triangle), then its Cholesky factor L in place. */
     for (i = 0; i < 6; i++) {
@@ -162,8 +162,11 @@ int vf_rr_sr_step(const vf_rr_arm *arm, const vf_rr_params *prm, const double *q
         for (l = 0; l < j; l++) {
             s -= A[j * 6 + l] * A[j * 6 + l];
         }
-        if (!(s > 0.0) || !isfinite(s)) {
-            return VF_RR_ERR_FACTOR;
+        if (!isfinite(s)) {
+            return VF_ERR_OVERFLOW; /* J J^T + k I (or its factor) overflowed */
+        }
+        if (!(s > 0.0)) {
+            return VF_ERR_SINGULAR; /* not numerically positive definite */
         }
         s = sqrt(s);
         A[j * 6 + j] = s;
@@ -199,7 +202,7 @@ int vf_rr_sr_step(const vf_rr_arm *arm, const vf_rr_params *prm, const double *q
                 s += J[i * 6 + j] * y[i];
             }
             if (!isfinite(s)) {
-                return VF_RR_ERR_OVERFLOW;
+                return VF_ERR_OVERFLOW;
             }
             qd[j] = s;
             if (fabs(s) > peak) {
@@ -219,5 +222,5 @@ int vf_rr_sr_step(const vf_rr_arm *arm, const vf_rr_params *prm, const double *q
         }
         out->scale = scale;
     }
-    return VF_RR_OK;
+    return VF_OK;
 }

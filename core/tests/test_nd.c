@@ -769,9 +769,57 @@ static void test_filter_rows(void)
     free(tb);
 }
 
+/* vf_nd_project_kernel_opt: the caller's cap and deadline are reported (finite x), the warm
+ * start reaches the same optimum, a vertex outside two rows by round-off is not infeasible. */
+static void test_projection_options(void)
+{
+    enum { M = 3, N = 3 };
+    /* the unit cube's corner at the origin: x >= 0, y >= 0, z >= 0 */
+    double G[M * N] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+    double b[M] = {0.0, 0.0, 0.0};
+    double u[N] = {-1.0, -2.0, -3.0};
+    double x[N], lam[N + 1], wsf[64], x0[N];
+    int32_t act[N + 1], q, it, it0, k, warm[M];
+    vf_nd_solve_opts o = {0, 0.0, NULL, 0};
+    int st = vf_nd_project_kernel_opt(u, G, b, M, N, x, lam, act, wsf, &q, &it0, &o);
+    CHECK(st == VF_ND_PROJECT_OPTIMAL && x[0] == 0.0 && x[1] == 0.0 && x[2] == 0.0 && q == 3,
+          "defaults: the corner (status %d, q %d)", st, q);
+    memcpy(x0, x, sizeof x);
+    for (k = 0; k < q; k++) {
+        warm[k] = act[k];
+    }
+    o.max_iterations = 1;
+    st = vf_nd_project_kernel_opt(u, G, b, M, N, x, lam, act, wsf, &q, &it, &o);
+    CHECK(st == VF_ITERATION_CAP && it == 2, "cap 1 reported (status %d)", st);
+    for (k = 0; k < N; k++) {
+        CHECK(isfinite(x[k]), "finite x at the cap");
+    }
+    o.max_iterations = 0;
+    o.deadline = vf_nd_monotonic_seconds() - 1.0; /* already past */
+    st = vf_nd_project_kernel_opt(u, G, b, M, N, x, lam, act, wsf, &q, &it, &o);
+    CHECK(st == VF_DEADLINE, "deadline past reported (status %d)", st);
+    o.deadline = INFINITY;
+    o.warm = warm;
+    o.n_warm = 3;
+    st = vf_nd_project_kernel_opt(u, G, b, M, N, x, lam, act, wsf, &q, &it, &o);
+    CHECK(st == VF_ND_PROJECT_OPTIMAL && memcmp(x, x0, sizeof x) == 0 && it <= it0,
+          "warm start: same optimum (status %d, iters %d vs %d)", st, it, it0);
+    CHECK(vf_nd_default_iteration_cap(10, 3) == 4 * 13 + 16, "default cap");
+    /* outside two facets by round-off at the vertex, a command into the third */
+    b[0] = 2e-16;
+    b[1] = 2e-16;
+    u[0] = 0.0;
+    u[1] = 0.0;
+    u[2] = -1.0;
+    st = vf_nd_project_kernel(u, G, b, M, N, x, lam, act, wsf, &q, &it);
+    CHECK(st == VF_ND_PROJECT_OPTIMAL && x[2] >= 0.0, "round-off vertex (status %d, z %g)", st,
+          x[2]);
+}
+
 int main(void)
 {
     test_projection_checks();
+    test_projection_options();
     test_projection_random();
     test_law_checks();
     test_law_random();

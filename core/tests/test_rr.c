@@ -118,7 +118,7 @@ static void check_state(const vf_rr_arm *arm, const double *q, const double *x, 
     double J[36], T[7][16], p[3], h = 1e-6, jn = 0.0;
     double lhs[6], rhs[6], res = 0.0, scale = 0.0, det;
     int i, j, l, code;
-    CHECK(vf_rr_jacobian(arm, q, J) == VF_RR_OK, "jacobian");
+    CHECK(vf_rr_jacobian(arm, q, J) == VF_OK, "jacobian");
     frames(arm, q, T, p);
     for (i = 0; i < 36; i++) {
         jn = fmax(jn, fabs(J[i]));
@@ -139,7 +139,7 @@ static void check_state(const vf_rr_arm *arm, const double *q, const double *x, 
         }
     }
     code = vf_rr_sr_step(arm, &prm, q, x, &out);
-    CHECK(code == VF_RR_OK, "step code %d", code);
+    CHECK(code == VF_OK, "step code %d", code);
     det = laplace(J, 0, 0u);
     CHECK(fabs(out.det - det) <= 1e-12 * (1.0 + jn * jn * jn * jn * jn * jn), "det %g vs %g",
           out.det, det);
@@ -172,7 +172,7 @@ static void check_state(const vf_rr_arm *arm, const double *q, const double *x, 
     if (max_speed > 0.0) {
         double peak = 0.0;
         prm.max_speed = max_speed;
-        CHECK(vf_rr_sr_step(arm, &prm, q, x, &capped) == VF_RR_OK, "capped code");
+        CHECK(vf_rr_sr_step(arm, &prm, q, x, &capped) == VF_OK, "capped code");
         for (j = 0; j < 6; j++) {
             peak = fmax(peak, fabs(out.q_dot[j]));
         }
@@ -201,31 +201,31 @@ int main(void)
 
     puma(&arm);
     /* argument checks and the stop result */
-    CHECK(vf_rr_sr_step(NULL, &prm, q, x, &out) == VF_RR_ERR_NULL, "NULL arm");
+    CHECK(vf_rr_sr_step(NULL, &prm, q, x, &out) == VF_ERR_NULL, "NULL arm");
     CHECK(out.q_dot[0] == 0.0 && out.scale == 1.0 && isnan(out.w), "stop result");
-    CHECK(vf_rr_sr_step(&arm, &prm, q, x, NULL) == VF_RR_ERR_NULL, "NULL out");
-    CHECK(vf_rr_jacobian(&arm, NULL, J) == VF_RR_ERR_NULL, "NULL q");
+    CHECK(vf_rr_sr_step(&arm, &prm, q, x, NULL) == VF_ERR_NULL, "NULL out");
+    CHECK(vf_rr_jacobian(&arm, NULL, J) == VF_ERR_NULL, "NULL q");
     prm.k0 = 0.0;
-    CHECK(vf_rr_sr_step(&arm, &prm, q, x, &out) == VF_RR_ERR_ARGUMENT, "k0 = 0");
+    CHECK(vf_rr_sr_step(&arm, &prm, q, x, &out) == VF_ERR_ARGUMENT, "k0 = 0");
     prm.k0 = 0.025;
     prm.w0 = NAN;
-    CHECK(vf_rr_sr_step(&arm, &prm, q, x, &out) == VF_RR_ERR_ARGUMENT, "w0 NaN");
+    CHECK(vf_rr_sr_step(&arm, &prm, q, x, &out) == VF_ERR_ARGUMENT, "w0 NaN");
     prm.w0 = 0.014;
     prm.max_speed = -1.0;
-    CHECK(vf_rr_sr_step(&arm, &prm, q, x, &out) == VF_RR_ERR_ARGUMENT, "max_speed < 0");
+    CHECK(vf_rr_sr_step(&arm, &prm, q, x, &out) == VF_ERR_ARGUMENT, "max_speed < 0");
     prm.max_speed = 0.0;
     q[3] = NAN;
-    CHECK(vf_rr_sr_step(&arm, &prm, q, x, &out) == VF_RR_ERR_NONFINITE, "q NaN");
-    CHECK(vf_rr_jacobian(&arm, q, J) == VF_RR_ERR_NONFINITE && J[7] == 0.0, "J of NaN");
+    CHECK(vf_rr_sr_step(&arm, &prm, q, x, &out) == VF_ERR_NONFINITE, "q NaN");
+    CHECK(vf_rr_jacobian(&arm, q, J) == VF_ERR_NONFINITE && J[7] == 0.0, "J of NaN");
     for (i = 0; i < 6; i++) {
         CHECK(out.q_dot[i] == 0.0, "zero rates");
     }
     q[3] = 0.17227;
     x[2] = INFINITY;
-    CHECK(vf_rr_sr_step(&arm, &prm, q, x, &out) == VF_RR_ERR_NONFINITE, "x' inf");
+    CHECK(vf_rr_sr_step(&arm, &prm, q, x, &out) == VF_ERR_NONFINITE, "x' inf");
     x[2] = 1e308;
     x[0] = -1e308;
-    CHECK(vf_rr_sr_step(&arm, &prm, q, x, &out) == VF_RR_ERR_OVERFLOW, "overflow");
+    CHECK(vf_rr_sr_step(&arm, &prm, q, x, &out) == VF_ERR_OVERFLOW, "overflow");
     CHECK(out.q_dot[0] == 0.0 && isfinite(out.w), "overflow: zero rates, w kept");
     x[0] = 0.1;
     x[2] = 0.02;
@@ -238,7 +238,7 @@ int main(void)
             x[i] = normal();
         }
         check_state(&arm, q, x, uniform(0.1, 3.0));
-        CHECK(vf_rr_sr_step(&arm, &prm, q, x, &out) == VF_RR_OK, "puma step");
+        CHECK(vf_rr_sr_step(&arm, &prm, q, x, &out) == VF_OK, "puma step");
         c2 = cos(q[1]);
         c3 = cos(q[2]);
         s3 = sin(q[2]);
@@ -256,20 +256,45 @@ int main(void)
         }
         q[4] = 0.0;
         check_state(&arm, q, x, 0.0);
-        CHECK(vf_rr_sr_step(&arm, &prm, q, x, &out) == VF_RR_OK, "through the singularity");
+        CHECK(vf_rr_sr_step(&arm, &prm, q, x, &out) == VF_OK, "through the singularity");
         CHECK(out.w < 1e-15 && fabs(out.k - prm.k0) < 1e-15 && out.singular, "k = k0 at w = 0");
         /* singular_tol >= w0: every undamped step (w >= w0) is refused, a damped one answers */
         prm.singular_tol = 1e9;
         q[4] = uniform(-PI, PI);
         i = vf_rr_sr_step(&arm, &prm, q, x, &out);
         CHECK(out.singular, "singular under a huge singular_tol");
-        CHECK(i == (out.w >= prm.w0 ? VF_RR_ERR_SINGULAR : VF_RR_OK), "refused iff k = 0");
-        if (i == VF_RR_ERR_SINGULAR) {
+        CHECK(i == (out.w >= prm.w0 ? VF_ERR_SINGULAR : VF_OK), "refused iff k = 0");
+        if (i == VF_ERR_SINGULAR) {
             for (j = 0; j < 6; j++) {
                 CHECK(out.q_dot[j] == 0.0, "refused: zero rates");
             }
         }
         prm.singular_tol = 1e-10;
+    }
+    /* a J J^T + k I that is not numerically positive definite is VF_ERR_SINGULAR (before the
+     * shared enum: VF_RR_ERR_FACTOR): at the wrist singularity with w0 = 5e-324 the round-off
+     * det J > 0 leaves the step undamped (k = 0) and J J^T has a Cholesky pivot <= 0 */
+    {
+        vf_rr_params p4 = {0.025, 5e-324, 0.0, 0.0};
+        int refused = 0;
+        for (t = 0; t < 300; t++) {
+            for (i = 0; i < 6; i++) {
+                q[i] = uniform(-PI, PI);
+                x[i] = normal();
+            }
+            q[4] = 0.0;
+            i = vf_rr_sr_step(&arm, &p4, q, x, &out);
+            CHECK(i == VF_OK || i == VF_ERR_SINGULAR, "wrist, w0 = 5e-324: code %d", i);
+            if (i == VF_ERR_SINGULAR) {
+                refused++;
+                CHECK(out.k == 0.0 && out.w > 0.0 && !out.singular, "a pivot <= 0, undamped");
+                for (j = 0; j < 6; j++) {
+                    CHECK(out.q_dot[j] == 0.0, "singular factor: zero rates");
+                }
+                CHECK(out.scale == 1.0, "singular factor: scale 1");
+            }
+        }
+        CHECK(refused > 0, "no step reached a pivot <= 0 (%d)", refused);
     }
     /* random arms */
     for (t = 0; t < 500; t++) {
@@ -281,7 +306,7 @@ int main(void)
         check_state(&arm, q, x, uniform(0.1, 3.0));
     }
     /* fuzz_rr's findings: the cap held exactly where q (max_speed / peak) rounded above it, and
-     * a finite arm whose det J overflows is VF_RR_ERR_OVERFLOW, not VF_RR_OK with w = inf */
+     * a finite arm whose det J overflows is VF_ERR_OVERFLOW, not VF_OK with w = inf */
     {
         vf_rr_arm big;
         vf_rr_params p2 = {2.0, 2.0, 2.0, 0.0};
@@ -298,7 +323,7 @@ int main(void)
         big.dh[2][3] = 5.5255569660239963e+141;
         big.tool[0] = big.tool[1] = big.tool[2] = 2.0;
         r = vf_rr_sr_step(&big, &p2, q2, x2, &out);
-        CHECK(r == VF_RR_ERR_OVERFLOW && out.q_dot[0] == 0.0 && out.scale == 1.0,
+        CHECK(r == VF_ERR_OVERFLOW && out.q_dot[0] == 0.0 && out.scale == 1.0,
               "det J overflowed: %d", r);
     }
     for (t = 0; t < 2000; t++) {
@@ -309,7 +334,7 @@ int main(void)
             xx[j] = normal() * 10.0;
         }
         p3.max_speed = ms;
-        if (vf_rr_sr_step(&arm, &p3, qq, xx, &out) == VF_RR_OK) {
+        if (vf_rr_sr_step(&arm, &p3, qq, xx, &out) == VF_OK) {
             for (j = 0; j < 6; j++) {
                 CHECK(fabs(out.q_dot[j]) <= ms, "cap exact: %.17g > %.17g", out.q_dot[j], ms);
             }

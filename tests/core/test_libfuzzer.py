@@ -209,8 +209,9 @@ def test_nd_and_cc_findings_run_clean_and_a_spoiled_result_aborts(
 
 def test_rr_findings_run_clean_and_a_spoiled_result_aborts(libfuzzer: None, tmp_path: Path) -> None:
     """The resolved-rate findings (core/fuzz/crashes/rr-*: a capped joint rate one ulp above
-    max_speed, VF_RR_OK with det J = inf, a cap factor that underflows to 0 where the header
-    promised (0, 1]; fixed in the kernel, the kernel and the header) run clean through fuzz_rr;
+    max_speed, VF_OK (then VF_RR_OK) with det J = inf, a cap factor that underflows to 0 where the
+    header promised (0, 1]; fixed in the kernel, the kernel and the header) run clean through
+    fuzz_rr;
     built with --control-tamper (every OK joint rate spoiled with a NaN) it aborts on its seeds,
     printing the decoded input."""
     found = sorted(str(f) for f in (FUZZ / "crashes").glob("rr-*"))
@@ -219,7 +220,7 @@ def test_rr_findings_run_clean_and_a_spoiled_result_aborts(libfuzzer: None, tmp_
     _build(tmp_path / "tamper", "rr", "--control-tamper")
     _runs_clean(tmp_path / "build" / "fuzz_rr", found)
     bad = _tampered_run(tmp_path / "tamper" / "fuzz_rr", "rr")
-    assert "velfence_rr contract violated: VF_RR_OK with a non-finite double" in bad
+    assert "velfence_rr contract violated: VF_OK with a non-finite double" in bad
     assert "arm (a, cos alpha, sin alpha, d, offset):" in bad  # the decoded input
 
 

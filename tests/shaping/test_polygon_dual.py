@@ -16,6 +16,10 @@ and without ``max_recovery_speed``, continuous and discrete time, ``LinearBuffer
   answer is checked on its own: it meets every bound to 1e-12 relative, and it is at least as
   near the command as the enumeration's (which was not always the projection), or the
   enumeration gave up (``relaxed``) where the new solve did not.
+
+Where the bounds conflict (the enumeration's ``relaxed``: it kept the violated edges' recovery
+bounds alone), the law now slows those recovery bounds (1/4, 1/16, ..., then 0) and keeps every
+bound of an edge the point is inside; those answers are checked against that on their own.
 """
 
 from __future__ import annotations
@@ -38,7 +42,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 from _enumeration_oracle import oracle_kernel
 
 TOL = 1e-12
-COUNT = {"states": 0, "bitwise": 0, "degenerate": 0}
+COUNT = {"states": 0, "bitwise": 0, "degenerate": 0, "relaxed": 0}
 
 
 def _regular(n: int, r: float = 1.0) -> vf.ConvexPolygon:
@@ -90,8 +94,11 @@ def _strip(sh: vf.PolygonShaper, p: tuple[float, float]) -> bool:
     return any((normals @ normals[i] < -1.0 + 1e-09).any() for i in np.flatnonzero(d < 0.0))
 
 
-def _meets_bounds(sh: vf.PolygonShaper, p: tuple[float, ...], out: tuple[float, float]) -> bool:
-    """Every edge's bound of the law (all edges, bounded or not) holds at ``out`` to 1e-12."""
+def _meets_bounds(
+    sh: vf.PolygonShaper, p: tuple[float, ...], out: tuple[float, float], relaxed: bool = False
+) -> bool:
+    """Every edge's bound of the law (all edges, bounded or not) holds at ``out`` to 1e-12;
+    ``relaxed``: the violated edges' recovery bounds as "no further out" (0)."""
     nx, ny, off, _, _, n, kind, prm, relax, idt = sh._fast
     dist, bnd, work = [0.0] * n, [0.0] * n, [0] * n
     px, py, vx, vy = p
@@ -101,7 +108,7 @@ def _meets_bounds(sh: vf.PolygonShaper, p: tuple[float, ...], out: tuple[float, 
     work = list(range(n))
     bnd2 = [0.0] * n
     for e in range(n):  # violated edges: the recovery bound exact_bounds stored (caller units)
-        bnd2[e] = bnd[e] * scale if dist[e] < 0.0 else 0.0
+        bnd2[e] = (min(bnd[e], 0.0) if relaxed else bnd[e]) * scale if dist[e] < 0.0 else 0.0
     kern.fill_bounds(kind, prm, relax, dist, work, 0, n, cs, scale, idt, bnd2)
     x, y = out[0] / scale, out[1] / scale
     return all(
@@ -145,6 +152,14 @@ def test_dual_solve_equals_the_enumeration(
         if close and new[9] == old[9]:
             COUNT["bitwise"] += new == old
             continue
+        if old[9] & kern.STAGE_RELAXED:
+            # Where the bounds conflict, the enumeration kept the recovery bounds alone (and so
+            # could leave through an edge the point is inside); the law now slows the recovery
+            # and keeps every other bound: check that on its own.
+            COUNT["relaxed"] += 1
+            assert new[9] & kern.STAGE_RELAXED, (s, new, old)
+            assert _meets_bounds(sh, s, new[:2], relaxed=True), (s, new, old)
+            continue
         # The degenerate family only, and there the new answer is the better one.
         assert _strip(sh, s[:2]), (s, new, old)
         COUNT["degenerate"] += 1
@@ -163,4 +178,4 @@ def test_the_comparison_ran_and_was_mostly_bitwise() -> None:
     print(f"dual vs enumeration: {COUNT}")
     assert COUNT["states"] > 1000
     assert COUNT["bitwise"] >= 0.98 * COUNT["states"], COUNT
-    assert COUNT["degenerate"] <= 0.02 * COUNT["states"], COUNT
+    assert COUNT["degenerate"] + COUNT["relaxed"] <= 0.02 * COUNT["states"], COUNT

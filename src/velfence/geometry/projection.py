@@ -39,24 +39,41 @@ from velfence._validate import real_array
 from velfence.errors import InvalidInput
 
 __all__ = [
+    "PROJECT_DEADLINE",
     "PROJECT_INFEASIBLE",
+    "PROJECT_ITERATION_CAP",
     "PROJECT_ITERATION_LIMIT",
     "PROJECT_OPTIMAL",
     "Projection",
+    "default_iteration_cap",
     "project",
     "project_kernel",
+    "project_kernel_opts",
     "projection_scratch",
     "scratch_length",
 ]
 
 PROJECT_OPTIMAL = 0
 PROJECT_INFEASIBLE = 1
-PROJECT_ITERATION_LIMIT = 2
+PROJECT_ITERATION_LIMIT = 2  # round-off stalled the method ("stalled"; C: VF_STALLED)
+PROJECT_ITERATION_CAP = 3  # the caller's iteration cap was reached (C: VF_ITERATION_CAP)
+PROJECT_DEADLINE = 4  # the caller's deadline passed (C only: VF_DEADLINE)
 
 _DEP_TOL = 1e-13  # |z| below this (relative to |g_p|): g_p lies in the span of the active normals
 _VIOL_TOL = 1e-13  # violations below this (relative) end the dual iteration; repaired afterwards
 _REPAIR_ULPS = 8.0 * 2.220446049250313e-16
 _ROUND_OFF = 1e-12  # accepted residual violation (relative) when repairs cannot settle
+_NO_WARM = np.zeros(1, dtype=np.int64)
+
+
+def default_iteration_cap(m: int, n: int) -> int:
+    """The iteration cap used when the caller gives none: ``4 (m + n) + 16`` inner iterations.
+
+    Every inner iteration adds or drops one constraint and the method never repeats an active
+    set, so a cap linear in the row count bounds the work of a solve (``O(cap · (m n + n³))``)
+    without cutting off the solves seen in practice (docs/derivations.md §7).
+    """
+    return 4 * (m + n) + 16
 
 
 def scratch_length(m: int, n: int) -> int:
@@ -123,6 +140,24 @@ def _slack(G: Any, b: Any, i: int, x: Any, n: int) -> float:
 def project_kernel(
     u: Any, G: Any, b: Any, m: int, n: int, x: Any, lam: Any, act: Any, wsf: Any
 ) -> tuple[int, int, int]:
+    """:func:`project_kernel_opts` with the default iteration cap and no warm start."""
+    return project_kernel_opts(u, G, b, m, n, x, lam, act, wsf, 0, act, 0)
+
+
+def project_kernel_opts(
+    u: Any,
+    G: Any,
+    b: Any,
+    m: int,
+    n: int,
+    x: Any,
+    lam: Any,
+    act: Any,
+    wsf: Any,
+    cap: int,
+    warm: Any,
+    n_warm: int,
+) -> tuple[int, int, int]:
     r"""Minimise :math:`\|x - u\|^2` s.t. ``G[i] · x >= b[i]`` for ``i < m`` (module docstring).
 
     Args:
@@ -136,13 +171,21 @@ def project_kernel(
         lam: Output multipliers of the active constraints, (n + 1,).
         act: Output active constraint indices, (n + 1,), int.
         wsf: Float scratch from :func:`projection_scratch`.
+        cap: Iteration cap: inner iterations allowed; ``<= 0`` for
+            :func:`default_iteration_cap` (then reaching it means round-off stalled the method).
+        warm: Row indices tried first when the next violated row is picked (e.g. the previous
+            cycle's active rows), int array; only ``warm[:n_warm]`` is read.
+        n_warm: Number of warm-start rows (0: none).
 
     Returns:
         ``(status, q, iterations)``: ``PROJECT_OPTIMAL`` (``x`` is the projection, its ``q``
         active constraints in ``act[:q]`` with multipliers ``lam[:q]`` >= 0, every bound met as
-        evaluated, or to ``1e-12`` relative where several bounds through one point make that
-        impossible), ``PROJECT_INFEASIBLE`` (the bounds have no common point; ``x`` finite, the last
-        iterate) or ``PROJECT_ITERATION_LIMIT`` (round-off stalled the method; ``x`` finite).
+        evaluated, or to the round-off of forming ``x`` from ``u``,
+        ``1e-12 (|b_i| + |g_i| (|x|_inf + |u|_inf))``, where several bounds through one point
+        make exact satisfaction impossible), ``PROJECT_INFEASIBLE`` (the bounds have no common
+        point; ``x`` finite, the last iterate), ``PROJECT_ITERATION_LIMIT`` (round-off stalled the
+        method at the default cap; ``x`` finite) or ``PROJECT_ITERATION_CAP`` (the caller's
+        ``cap`` was reached; ``x`` finite, **not** feasible: the caller needs a safe fallback).
     """
     oq = 0  # Q, n x n, row-major with stride n
     orr = n * n  # R, n x n, upper triangular, stride n
@@ -156,7 +199,12 @@ def project_kernel(
         wsf[ogn + i] = _row_norm(G, i, n)
     q = 0
     iters = 0
-    limit = 4 * (m + n) + 16
+    limit = cap if cap > 0 else 4 * (m + n) + 16
+    over = PROJECT_ITERATION_CAP if cap > 0 else PROJECT_ITERATION_LIMIT
+    ubig = 0.0
+    for k in range(n):
+        if abs(u[k]) > ubig:
+            ubig = abs(u[k])
     while True:
         # Most violated constraint (relative to its normal's length), not active. The tolerance
         # is relative to the bound and to the current iterate (not to u): bounds far smaller
@@ -167,7 +215,30 @@ def project_kernel(
                 scale = abs(x[k])
         p = -1
         worst = 0.0
-        for i in range(m):
+        # Warm start: a violated row of the previous active set first (any violated row may
+        # enter the dual method; picking likely-active ones first saves iterations).
+        for w in range(n_warm):
+            i = warm[w]
+            if i < 0 or i >= m or b[i] == -math.inf:
+                continue
+            in_act = False
+            for c in range(q):
+                if act[c] == i:
+                    in_act = True
+                    break
+            if in_act:
+                continue
+            gn = wsf[ogn + i]
+            if gn < 0.0:  # accepted as met to round-off (below)
+                continue
+            s = _slack(G, b, i, x, n)
+            tol = _VIOL_TOL * (abs(b[i]) + gn * (scale + 1e-300) + 1e-300)
+            if s < -tol:
+                v = s / gn if gn > 0.0 else -math.inf
+                if p < 0 or v < worst:
+                    worst = v
+                    p = i
+        for i in range(m if p < 0 else 0):
             if b[i] == -math.inf:
                 continue
             in_act = False
@@ -177,8 +248,10 @@ def project_kernel(
                     break
             if in_act:
                 continue
-            s = _slack(G, b, i, x, n)
             gn = wsf[ogn + i]
+            if gn < 0.0:  # accepted as met to round-off (below)
+                continue
+            s = _slack(G, b, i, x, n)
             tol = _VIOL_TOL * (abs(b[i]) + gn * (scale + 1e-300) + 1e-300)
             if s < -tol:
                 v = s / gn if gn > 0.0 else -math.inf
@@ -193,7 +266,7 @@ def project_kernel(
         while True:
             iters += 1
             if iters > limit:
-                return PROJECT_ITERATION_LIMIT, q, iters
+                return over, q, iters
             # h = Q^T g_p, z = g_p - Q h (twice, for orthogonality), r = R^-1 h.
             for c in range(q):
                 wsf[oh + c] = 0.0
@@ -231,6 +304,12 @@ def project_kernel(
                 t2 = -sp / zz
             t = t1 if t1 < t2 else t2
             if t == math.inf:
+                # No step meets row p. When it is violated only by the round-off of forming x
+                # from u (a point outside a facet by -2e-16 at a vertex), that is no proof of
+                # infeasibility: accept the row as met (marked by a negative norm) and go on.
+                if -sp <= _ROUND_OFF * (abs(b[p]) + wsf[ogn + p] * (scale + ubig)):
+                    wsf[ogn + p] = -wsf[ogn + p]
+                    break
                 return PROJECT_INFEASIBLE, q, iters
             if t2 < math.inf:
                 for k in range(n):
@@ -284,14 +363,14 @@ def project_kernel(
                 continue
             g = -_slack(G, b, i, x, n)
             if g > 0.0:
-                gn = wsf[ogn + i]
+                gn = abs(wsf[ogn + i])
                 g = g / gn if gn > 0.0 else math.inf
                 if g > wg:
                     wg = g
                     wi = i
         if wi < 0:
             return PROJECT_OPTIMAL, q, iters
-        gn = wsf[ogn + wi]
+        gn = abs(wsf[ogn + wi])
         if gn == 0.0:
             return PROJECT_INFEASIBLE, q, iters
         big = 0.0
@@ -301,15 +380,18 @@ def project_kernel(
         step = wg + _REPAIR_ULPS * (abs(b[wi]) / gn + big) + 1e-300
         for k in range(n):
             x[k] += step * G[wi * n + k] / gn
-    # Repairs that fight each other (many bounds through one point): accept round-off.
-    big = 0.0
+    # Repairs that fight each other (many bounds through one point): accept round-off. The
+    # polish forms x from u, so x carries an absolute error of a few ulps of |u| (and of the
+    # bounds): a residual below 1e-12 of that scale is the arithmetic's, not infeasibility (a
+    # point outside a facet by its own round-off is no reason to give up; derivations §7).
+    big = ubig
     for k in range(n):
         if abs(x[k]) > big:
             big = abs(x[k])
     for i in range(m):
         if b[i] == -math.inf:
             continue
-        if -_slack(G, b, i, x, n) > _ROUND_OFF * (abs(b[i]) + wsf[ogn + i] * big):
+        if -_slack(G, b, i, x, n) > _ROUND_OFF * (abs(b[i]) + abs(wsf[ogn + i]) * big):
             return PROJECT_ITERATION_LIMIT, q, iters
     return PROJECT_OPTIMAL, q, iters
 

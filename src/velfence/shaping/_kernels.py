@@ -38,7 +38,7 @@ STAGE_ZERO_OUTWARD = 4  # outward normal component removed (outside)
 STAGE_SPRING = 8  # virtual spring / recovery bound applied
 STAGE_BLEND = 16  # patent: spring blended between two normals near a corner
 STAGE_PROJECT = 32  # exact: minimum-change projection onto the active bounds
-STAGE_RELAXED = 64  # exact: bounds infeasible together, recovery bounds kept, others dropped
+STAGE_RELAXED = 64  # exact: bounds infeasible together, outside recovery bounds slowed (1/4^k, 0)
 STAGE_STOP = 128  # invalid input answered with zero velocity
 STAGE_PERIOD = 256  # patent, discrete time: output scaled so one period reaches no edge
 STAGE_SCALED = 512  # n-D exact: command shortened (direction kept) for a solve in floating point
@@ -383,6 +383,10 @@ def _solve(
     return False, 0.0, 0.0
 
 
+#: Relaxation steps of the outside constraints' recovery bounds when the bounds conflict: eight
+#: times 1/4 (1/4, ..., 4**-8), then 0 ("no further out"); shared by the 2-D and n-D exact laws.
+RELAX_STEPS = 9
+
 # Profile kinds the kernels evaluate; each has PROFILE_PARAMS float parameters (zero-padded), a
 # fixed-length tuple so that compiled code keeps them in registers.
 PROFILE_LINEAR = 0  # (d_max, k, r_max, 0, 0, 0): cap s·d/d_max inside, -min(k·(-d), r_max) out
@@ -717,7 +721,7 @@ def exact_kernel(
     ``dist``, ``bnd`` (floats) and ``work`` (ints) are caller-provided scratch of length >= n, so
     the kernel itself allocates nothing.
     """
-    m, n_out, n_near, rec, unit, scale, p1, p2, d1, d2 = exact_bounds(
+    m, n_out, n_near, _rec, unit, scale, p1, p2, d1, d2 = exact_bounds(
         px, py, vx, vy, nx, ny, off, n, kind, prm, relax, idt, True, dist, bnd, work
     )
     if m == 0:
@@ -762,29 +766,25 @@ def exact_kernel(
             e += 1
         if not added:
             return ox * scale, oy * scale, zone, p1, p2, d1, d2, 0.0, 0.0, stages
-    if n_out == 0:
-        # Inside every bound is <= 0, so zero velocity meets them all exactly. Reached only if
-        # round-off defeats both solves (never observed); stopping is the safe answer.
-        return 0.0, 0.0, zone, p1, p2, d1, d2, 0.0, 0.0, stages | STAGE_STOP
-    # Infeasible together (the buffer is refused wider than the inradius, so only by round-off
-    # or a far edge; a profile steeper than the polygon is thin): recovery first.
-    m = 0
-    for e in range(n):
-        if dist[e] < 0.0:
-            work[m] = e
-            m += 1
-    ok, ox, oy = _solve(ux, uy, work, m, nx, ny, bnd)
-    if ok:
-        return ox * scale, oy * scale, zone, p1, p2, d1, d2, 0.0, 0.0, stages | STAGE_RELAXED
-    # Unreachable for a valid convex polygon (violated inward normals always admit a common
-    # direction); kept so that no input can produce a non-finite or outward answer: head home.
-    hx = cx - px
-    hy = cy - py
-    big = abs(hx) if abs(hx) > abs(hy) else abs(hy)
-    hx /= big
-    hy /= big
-    hn = math.sqrt(hx * hx + hy * hy)
-    return rec * hx / hn, rec * hy / hn, zone, p1, p2, d1, d2, 0.0, 0.0, stages | STAGE_RELAXED
+    if n_out > 0:
+        # Infeasible together (a profile steeper than the polygon is thin, or round-off at a
+        # corner): slow the recovery of the edges the point is outside (a quarter, a sixteenth,
+        # ..., 4**-8, then "no further out"); every bound of an edge the point is inside is kept,
+        # so the answer never leaves through it. With the recovery bounds at 0, zero velocity
+        # meets every bound (derivations §7).
+        for r in range(RELAX_STEPS):
+            for a in range(m):
+                e = work[a]
+                if dist[e] < 0.0 and bnd[e] > 0.0:
+                    bnd[e] = bnd[e] * 0.25 if r + 1 < RELAX_STEPS else 0.0
+            ok, ox, oy = _solve(ux, uy, work, m, nx, ny, bnd)
+            if ok:
+                stages |= STAGE_RELAXED
+                return ox * scale, oy * scale, zone, p1, p2, d1, d2, 0.0, 0.0, stages
+    # Zero velocity meets every bound; reached only if round-off defeats the solves (never
+    # observed): stopping is the safe answer, inside and out.
+    relaxed = STAGE_RELAXED if n_out > 0 else 0
+    return 0.0, 0.0, zone, p1, p2, d1, d2, 0.0, 0.0, stages | STAGE_STOP | relaxed
 
 
 # Replaced by numba.prange in the compiled twins (see _accel); plain range in pure Python.

@@ -40,6 +40,10 @@ from velfence.shaping._kernels import (
 # Replaced by numba.prange in the compiled twins (see _accel); plain range in pure Python.
 prange = range
 
+#: The relaxation of outside facets' recovery bounds when the bounds conflict: each step
+#: multiplies them by 1/4 (1/4, 1/16, ..., 4**-8), the last sets them to 0 ("no further out").
+RECOVERY_FRACTIONS = (*(0.25**k for k in range(1, 9)), 0.0)
+
 BATCH_CHUNK = 1024  # rows per parallel work item; each item owns its scratch
 
 
@@ -150,7 +154,7 @@ def polytope_kernel(
             s += N[e * dim + k] * p[k]
         dist[e] = s - off[e]
     vnorm = vector_norm(v, dim)
-    m, n_out, n_near, rec, unit, scale, p1, p2, d1, d2 = bounds_from_distances(
+    m, n_out, n_near, _rec, unit, scale, p1, p2, d1, d2 = bounds_from_distances(
         dist, nf, vnorm, kind, prm, relax, idt, True, bnd, work
     )
     if m == 0:
@@ -215,40 +219,33 @@ def polytope_kernel(
                 for a in range(m):
                     bnd[work[a]] *= scale
                 return zone, stages, q, p1, p2, d1, d2, m
-    if n_out == 0:
-        # Inside every bound is <= 0, so zero meets them all; reached only if round-off
-        # defeats the projection (never observed): stopping is the safe answer.
-        for k in range(dim):
-            out[k] = 0.0
-        for a in range(m):
-            bnd[work[a]] *= scale
-        return zone, stages | STAGE_STOP, 0, p1, p2, d1, d2, m
-    # Infeasible together: the recovery bounds alone (priority to getting back in).
-    r = 0
-    for e in range(nf):
-        if dist[e] < 0.0:
-            work[r] = e
-            r += 1
-    m = r
-    status, q = _solve_rows(u, N, bnd, work, m, dim, G, b, x, lam, act, wsf)
-    if status == PROJECT_OPTIMAL:
-        for k in range(dim):
-            out[k] = x[k] * scale
-        for c in range(q):
-            active[c] = work[act[c]]
-        for a in range(m):
-            bnd[work[a]] *= scale
-        return zone, stages | STAGE_RELAXED, q, p1, p2, d1, d2, m
-    # Unreachable for a valid polytope (violated inward normals always admit a common
-    # direction); kept so that no input yields a non-finite or outward answer: head home.
+    if n_out > 0:
+        # Infeasible together (a polytope thinner than the profile's reach, or round-off at a
+        # vertex): slow the recovery of the facets the point is outside (a quarter, a sixteenth,
+        # ..., then "no further out"), every other facet's bound kept. The point is inside those
+        # facets, so relaxing them would let it out (derivations §7); once the recovery bounds are
+        # 0, zero velocity meets every bound, so the projection exists.
+        for r in range(len(RECOVERY_FRACTIONS)):
+            for a in range(m):
+                e = work[a]
+                if dist[e] < 0.0 and bnd[e] > 0.0:
+                    bnd[e] = bnd[e] * 0.25 if r + 1 < len(RECOVERY_FRACTIONS) else 0.0
+            status, q = _solve_rows(u, N, bnd, work, m, dim, G, b, x, lam, act, wsf)
+            if status == PROJECT_OPTIMAL:
+                for k in range(dim):
+                    out[k] = x[k] * scale
+                for c in range(q):
+                    active[c] = work[act[c]]
+                for a in range(m):
+                    bnd[work[a]] *= scale
+                return zone, stages | STAGE_RELAXED, q, p1, p2, d1, d2, m
+    # Reached only if round-off defeats the projection of a problem zero velocity solves (never
+    # observed): stopping is the safe answer, inside and out.
     for k in range(dim):
-        u[k] = cen[k] - p[k]
-    hn = vector_norm(u, dim)
-    for k in range(dim):
-        out[k] = rec * u[k] / hn if hn > 0.0 else 0.0
+        out[k] = 0.0
     for a in range(m):
         bnd[work[a]] *= scale
-    return zone, stages | STAGE_RELAXED, 0, p1, p2, d1, d2, m
+    return zone, stages | STAGE_STOP | (STAGE_RELAXED if n_out > 0 else 0), 0, p1, p2, d1, d2, m
 
 
 def polytope_scratch(nf: int, dim: int) -> tuple[Any, ...]:

@@ -150,7 +150,9 @@ class PolygonShaper(ShaperBase):
         InvalidParameter: for any parameter out of range, naming it and the value got.
     """
 
+    # __dict__: room for the instance attribute ``shape`` (the frameless C call, see __init__)
     __slots__ = (
+        "__dict__",
         "_batch_args",
         "_core",
         "_core_shape",
@@ -293,6 +295,14 @@ class PolygonShaper(ShaperBase):
         )
         self._core, self.backend = self._pick_backend(check_choice("backend", backend, _BACKENDS))
         self._core_shape = None if self._core is None else self._core.__self__.shape_array
+        if self._core_shape is not None and type(self).shape is PolygonShaper.shape:
+            # No Python frame on the common path: ``self.shape`` becomes a C callable that runs
+            # the core's fast path (two finite float64 (2,) arrays) and hands every other call
+            # to the Python route (ShaperBase.shape: validation, on_invalid, refusals), which
+            # gives the same answer bit for bit. A subclass overriding ``shape`` keeps its own.
+            call = getattr(compiled_core(), "ShapeCall", None)
+            if call is not None:
+                object.__setattr__(self, "shape", call(self._core_shape, super().shape))
         self._ready = True
 
     def _pick_backend(self, backend: str) -> tuple[Any, Literal["python", "c"]]:
@@ -335,7 +345,10 @@ class PolygonShaper(ShaperBase):
         With the compiled core, two float64 arrays of shape (2,) with finite entries go straight
         to it (one call, no intermediate objects); anything else takes the generic path of
         :meth:`ShaperBase.shape <velfence.shaping.base.ShaperBase.shape>` (validation and the
-        ``on_invalid`` policy), with the same result.
+        ``on_invalid`` policy), with the same result. With the C backend an instance's
+        ``shape`` is a C callable (``velfence_core._core.ShapeCall``) doing exactly this with
+        no Python frame on the common path: a call costs the core's own call from Python plus
+        an attribute lookup.
 
         Args:
             position: Position of the reference point, shape (2,), workspace units.

@@ -39,7 +39,7 @@ from velfence.geometry.polytope import ConvexPolytope
 from velfence.geometry.projection import PROJECT_OPTIMAL, project_kernel, scratch_length
 from velfence.shaping import _kernels as kern
 from velfence.shaping import _nd_kernels as nd
-from velfence.shaping._accel import compiled_polytope
+from velfence.shaping._accel import compiled_core, compiled_polytope
 from velfence.shaping.base import InvalidPolicy, OnInvalid, Zone
 from velfence.shaping.profiles import ApproachProfile, LinearBuffer, ThreeZoneBraking
 
@@ -186,7 +186,9 @@ class PolytopeShaper(InvalidPolicy):
         InvalidParameter: for any parameter out of range, naming it and the value got.
     """
 
+    # __dict__: room for the instance attribute ``shape`` (the frameless C call, see __init__)
     __slots__ = (
+        "__dict__",
         "_args",
         "_core",
         "_core_shape",
@@ -310,6 +312,15 @@ class PolytopeShaper(InvalidPolicy):
                 N, off, cen, nf, dim, kind, list(prm), relax, idt, MAX_MAGNITUDE
             )
             self._core_shape = self._core.shape_array
+            if type(self).shape is PolytopeShaper.shape:
+                # No Python frame on the common path: ``self.shape`` becomes a C callable that
+                # runs the core's fast path (two finite float64 (n,) arrays within MAX_MAGNITUDE)
+                # and hands every other call to the Python route (validation, on_invalid,
+                # refusals), which gives the same answer bit for bit. A subclass overriding
+                # ``shape`` keeps its own.
+                call = getattr(compiled_core(), "ShapeCall", None)
+                if call is not None:
+                    object.__setattr__(self, "shape", call(self._core_shape, self._shape_generic))
         self._ready = True
 
     def __setattr__(self, name: str, value: Any) -> None:
@@ -417,7 +428,7 @@ class PolytopeShaper(InvalidPolicy):
         q = 0
         if bounded:
             rows = list(bounded)
-            relaxed = False
+            steps = iter(nd.RECOVERY_FRACTIONS)
             while True:
                 G = N[rows].ravel().tolist()
                 b = [bnd[e] for e in rows]
@@ -433,7 +444,7 @@ class PolytopeShaper(InvalidPolicy):
                     extra = [
                         e for e in range(nf)
                         if e not in rows and dist[e] >= 0.0 and float(N[e] @ xa) < -caps[e]
-                    ] if n_out and not relaxed else []  # fmt: skip
+                    ] if n_out else []  # fmt: skip
                     if extra:
                         for e in extra:
                             bnd[e] = -caps[e]
@@ -445,10 +456,14 @@ class PolytopeShaper(InvalidPolicy):
                         active[c] = rows[act[c]]
                     break
                 q = 0
-                if not relaxed and n_out > 0:
-                    rows = [e for e in bounded if dist[e] < 0.0]
+                frac = next(steps, None) if n_out > 0 else None
+                if frac is not None:
+                    # As the kernels: slow the outside facets' recovery (1/4, 1/16, ..., then
+                    # "no further out"), every bound of a facet the point is inside kept.
+                    for e in rows:
+                        if dist[e] < 0.0 and bnd[e] > 0.0:
+                            bnd[e] = bnd[e] * 0.25 if frac > 0.0 else 0.0
                     stages |= kern.STAGE_RELAXED
-                    relaxed = True
                     continue
                 out = np.zeros(dim)
                 stages |= kern.STAGE_STOP
@@ -460,6 +475,11 @@ class PolytopeShaper(InvalidPolicy):
     # ------------------------------------------------------------------ the contract
     def shape(self, position: ArrayLike, command: ArrayLike) -> FloatArray:
         """Shaped velocity.
+
+        With the C backend an instance's ``shape`` is a C callable
+        (``velfence_core._core.ShapeCall``): two finite float64 vectors of shape (n,) within
+        ``MAX_MAGNITUDE`` run the core with no Python frame; every other call takes this
+        method's Python route, with the same result.
 
         Args:
             position: Position of the shaped point, shape (n,) [workspace units].
@@ -478,6 +498,21 @@ class PolytopeShaper(InvalidPolicy):
             res: FloatArray | None = fast(position, command)
             if res is not None:
                 return res
+        return self._shape_generic(position, command)
+
+    def _shape_generic(self, position: ArrayLike, command: ArrayLike) -> FloatArray:
+        """:meth:`shape`'s Python route: validation, the ``on_invalid`` policy, the kernel.
+
+        Args:
+            position: Position of the shaped point, shape (n,) [workspace units].
+            command: Commanded velocity, shape (n,) [workspace units/s].
+
+        Returns:
+            The admissible velocity, shape (n,), never non-finite.
+
+        Raises:
+            InvalidInput: wrong shape or type, or non-finite input with ``on_invalid="raise"``.
+        """
         p, v, finite = self._vectors(position, command)
         if not finite:
             self._invalid(f"non-finite input: position={p.tolist()}, command={v.tolist()}")
@@ -545,6 +580,11 @@ class PolytopeShaper(InvalidPolicy):
     def shape_batch(self, positions: ArrayLike, commands: ArrayLike) -> FloatArray:
         """Shaped velocities for N states at once; equal to looping :meth:`shape`.
 
+        With the compiled core, validated rows that are all finite go to its velocity-only loop
+        (``PolytopeLaw.batch_velocity``: only the output array is written, no zones); anything
+        else (non-finite rows, an overflowed answer, mismatched shapes) takes
+        :meth:`zones_batch`, which owns the ``on_invalid`` policy and the messages.
+
         Args:
             positions: Positions, shape (N, n) [workspace units].
             commands: Commands, shape (N, n) [workspace units/s].
@@ -552,7 +592,24 @@ class PolytopeShaper(InvalidPolicy):
         Returns:
             Shape (N, n); rows with non-finite input are zero under ``on_invalid="stop"``.
         """
-        return self.zones_batch(positions, commands)[0]
+        core = self._core
+        if core is None:
+            return self.zones_batch(positions, commands)[0]
+        n = self.dim
+        # The same validation as zones_batch (same messages); read only, so not copied.
+        P = real_array(
+            "positions", positions, (None, n), what=f"rows of {n}", allow_nonfinite=True,
+            copy=False,
+        )  # fmt: skip
+        V = real_array(
+            "commands", commands, (None, n), what=f"rows of {n}", allow_nonfinite=True, copy=False
+        )
+        if P.shape != V.shape:
+            return self.zones_batch(positions, commands)[0]
+        out = np.empty(P.shape)  # C order (the core writes rows in place)
+        if core.batch_velocity(np.ascontiguousarray(P), np.ascontiguousarray(V), out):
+            return self.zones_batch(positions, commands)[0]  # rows not finite in or out
+        return out
 
     def zones_batch(self, positions: ArrayLike, commands: ArrayLike) -> tuple[FloatArray, IntArray]:
         """Like :meth:`shape_batch`, also returning every row's zone code (``ZONE_NAMES`` index).

@@ -287,8 +287,9 @@ def min_change_under_caps(
 
     for every constraint with a finite cap (inward unit normals ``n_k``; outside, ``-cap > 0``
     forces the return). Solved in closed form by the 2-D projection of the exact polygon law. If
-    the caps cannot all hold (a region thinner than the braking distance), only the violated
-    constraints' return bounds are kept: recovery first.
+    the caps cannot all hold (a region thinner than the braking distance), the violated
+    constraints' return bounds are slowed (1/4, 1/16, ..., 4**-8, then "no further out") while
+    every cap of a constraint the point is inside is kept, as in the kernels.
 
     Args:
         vx: Command, x component [units/s].
@@ -300,9 +301,9 @@ def min_change_under_caps(
 
     Returns:
         ``(x, y, relaxed)``: the shaped velocity, and whether the caps were infeasible together
-        so that only the violated constraints' return bounds were kept.
+        so that the violated constraints' return bounds were slowed.
     """
-    from velfence.shaping._kernels import _solve
+    from velfence.shaping._kernels import RELAX_STEPS, _solve
 
     speed = math.hypot(vx, vy)
     caps = [profile.cap(d, speed) for d in deltas]
@@ -311,8 +312,13 @@ def min_change_under_caps(
     ok, ox, oy = _solve(vx, vy, work, len(work), nx, ny, bnd)
     if ok:
         return ox, oy, False
-    work = [k for k in work if deltas[k] < 0.0]
-    ok, ox, oy = _solve(vx, vy, work, len(work), nx, ny, bnd)
-    if not ok:  # pragma: no cover - violated half-planes of a bounded polygon are compatible
-        return 0.0, 0.0, True
-    return ox, oy, True
+    if not any(deltas[k] < 0.0 for k in work):
+        return 0.0, 0.0, False  # inside, zero meets every cap: reached only by round-off
+    for r in range(RELAX_STEPS):
+        for k in work:
+            if deltas[k] < 0.0 and bnd[k] > 0.0:
+                bnd[k] = bnd[k] * 0.25 if r + 1 < RELAX_STEPS else 0.0
+        ok, ox, oy = _solve(vx, vy, work, len(work), nx, ny, bnd)
+        if ok:
+            return ox, oy, True
+    return 0.0, 0.0, True  # pragma: no cover - zero meets every bound once they are relaxed

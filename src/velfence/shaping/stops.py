@@ -111,8 +111,9 @@ class StopResult:
             is ``"invalid"``, ``stop`` is -1 and the distances and speeds are NaN).
         active: The stops whose cap is below the limited-plane speed (input order).
         stages: Names of the stages applied, in order: ``"pre-rate-limit"``, ``"stop-cap"``
-            (the stop bounds changed the limited-plane velocity), ``"post-rate-limit"``,
-            ``"rate-override"``; ``("stop",)`` when invalid.
+            (the stop bounds changed the limited-plane velocity), ``"relaxed"`` (exact method,
+            outside: the forced returns conflicted with the other stops' caps and were slowed),
+            ``"post-rate-limit"``, ``"rate-override"``; ``("stop",)`` when invalid.
     """
 
     output: FloatArray
@@ -616,9 +617,17 @@ class StopLimiter(InvalidPolicy):
         zone: Zone = ZONE_NAMES[  # type: ignore[assignment]
             zone_code(sum(1 for d in deltas if d < 0.0), len(active))
         ]
+        # Outside, the caps can conflict (a return along two normals faster than the others'
+        # caps allow): the exact method then slows the return and says so (stage "relaxed").
+        relaxed = (
+            self.method == "exact"
+            and min(deltas) < 0.0
+            and min_change_under_caps(w1, w2, deltas, self._nx, self._ny, self._caps)[2]
+        )
         stages = (
             ("pre-rate-limit",) * (self.pre is not None)
             + ("stop-cap",) * ((wl1, wl2) != (w1, w2))
+            + ("relaxed",) * relaxed
             + ("post-rate-limit",) * (self.post is not None)
             + ("rate-override",) * bool(override)
         )
