@@ -136,7 +136,9 @@ class VertexResult:
         exceptions: States whose call raised (counted; the campaign goes on).
         kinds: Escapes per state kind (``"vertex"``, ``"edge"``, ``"face"``).
         seconds: Wall time [s].
-        example: One escaping state (``dim``, ``x``, ``u``, ``y``, ``escape``), or ``None``.
+        example: The largest escape of the first batch that had one (``dim``, the polytope's
+            ``normals`` and ``offsets``, ``buffer``, ``x``, ``u``, output ``y``, ``escape``), or
+            ``None``.
     """
 
     name: str
@@ -360,6 +362,7 @@ class _Tally:
         st: _States,
         Y: FloatArray,
         dt: float,
+        buffers: Sequence[float],
         failed: NDArray[np.bool_] | None = None,
     ) -> None:
         bad: NDArray[np.bool_] = np.asarray(~np.isfinite(Y).all(axis=1), dtype=np.bool_)
@@ -381,8 +384,13 @@ class _Tally:
         self.max_rel = max(self.max_rel, top / scale)
         if esc.any() and self.example is None:
             i = int(np.argmax(np.where(esc, grow, -np.inf)))
+            parts = np.array_split(np.arange(st.X.shape[0]), len(buffers))
+            j = next(k for k, part in enumerate(parts) if i in part)
             self.example = {
                 "dim": int(st.X.shape[1]),
+                "normals": np.asarray(P.normals).tolist(),
+                "offsets": np.asarray(P.offsets).tolist(),
+                "buffer": float(buffers[j]),
                 "x": st.X[i].tolist(),
                 "u": st.U[i].tolist(),
                 "y": Y[i].tolist(),
@@ -491,14 +499,14 @@ def run_vertex_campaign(
             for j, part in enumerate(np.array_split(np.arange(k), len(buffers))):
                 Y[part] = make(P, buffers[j], dt).shape_batch(st.X[part], st.U[part])
             sh.seconds += time.perf_counter() - t0
-            sh.add(P, size, st, Y, dt)
+            sh.add(P, size, st, Y, dt, buffers)
         if done_f < nf:
             k = min(max(1, per * nf // max(total, 1)), nf - done_f)
             st = _vertex_states(rng, P, k, speed)
             t0 = time.perf_counter()
             Y, failed = _filter_steps(P, st, buffers, speed, dt)
             fl.seconds += time.perf_counter() - t0
-            fl.add(P, size, st, Y, dt, failed)
+            fl.add(P, size, st, Y, dt, buffers, failed)
             done_f += k
         now = time.perf_counter()
         if now >= next_report:
