@@ -582,6 +582,11 @@ class LoopResult:
         stages: Stage → number of cycles that reported it.
         escape_stages: Stages of the cycles that let the tool out (stage tuple → count).
         seconds: Wall time [s].
+        example: The first workspace escape as plain data (robot, rate, ``q``, command ``v``,
+            ``mode``, joint limits ``lo``/``hi``/``vmax``/``amax``, facets ``N``, ``o`` with
+            their limit ``W`` and the limits' buffers ``B``, spheres ``C``, ``R``, the previous
+            output, the output ``x``, ``stages``, distances ``d0``, ``d1``), or ``None``; saved
+            by ``--examples`` and replayed by ``replay_loop_example``.
     """
 
     name: str
@@ -607,6 +612,7 @@ class LoopResult:
     stages: dict[str, int]
     escape_stages: dict[str, int]
     seconds: float
+    example: dict[str, Any] | None = None
 
     @property
     def contained(self) -> bool:
@@ -620,7 +626,7 @@ class LoopResult:
         )
 
 
-def _robot(name: RobotName) -> tuple[Any, FloatArray]:
+def _robot(name: str) -> tuple[Any, FloatArray]:
     """The model (capsule links of 5 cm, a 5 cm tool) and its joint speed limits [rad/s]."""
     from velfence.robots import panda, ur5e
 
@@ -648,6 +654,9 @@ class _Episode:
     radii: FloatArray  # (k,)
     twist: bool
     resting: bool
+    limit_of_row: NDArray[np.int64]  # workspace limit index of each row of N
+    buffers: FloatArray  # buffer of each workspace limit [m]
+    acc: FloatArray | None  # joint acceleration limits [rad/s²]
 
 
 def _unit(rng: Rng, k: int = 3) -> FloatArray:
@@ -715,9 +724,11 @@ def _episode(
         except InvalidGeometry:
             planes = ConvexPolytope(N[:1], o[:1])
         ws.append(WorkspaceLimit(planes, buffer=float(rng.uniform(0.01, 0.05))))
-    for w in ws:
+    owner: list[int] = []
+    for k, w in enumerate(ws):
         rows_n.append(np.asarray(w.polytope.normals))
         rows_o.extend(np.asarray(w.polytope.offsets).tolist())
+        owner.extend([k] * w.polytope.n_facets)
     # Spheres near the links, clear of them at the start.
     seg = np.asarray(robot.link_segments(q), dtype=np.float64)
     lrad = np.asarray(robot.link_radius, dtype=np.float64)
@@ -747,6 +758,9 @@ def _episode(
         radii=np.asarray(radii, dtype=np.float64),
         twist=resting or bool(rng.random() < 0.5),
         resting=resting,
+        limit_of_row=np.asarray(owner, dtype=np.int64),
+        buffers=np.array([w.buffer for w in ws], dtype=np.float64),
+        acc=acc,
     )
 
 
@@ -817,6 +831,7 @@ def run_loop_campaign(
     kinds: Counter[str] = Counter()
     stages: Counter[str] = Counter()
     esc_stages: Counter[str] = Counter()
+    example: dict[str, Any] | None = None
     t0 = time.perf_counter()
     next_report = t0 + 10.0
     done = 0
@@ -830,6 +845,7 @@ def run_loop_campaign(
         began_inside = d_ws >= -ROUND_OFF * (1.0 + float(np.max(np.abs(p))))
         cmd = np.zeros(3)
         change = 0
+        previous: FloatArray | None = None
         for _k in range(per):
             change -= 1
             if change <= 0:  # a new command, held for 20-200 ms
@@ -869,6 +885,8 @@ def run_loop_campaign(
                 ws_esc += 1
                 ws_max = max(ws_max, -d1)
                 esc_stages[", ".join(stg)] += 1
+                if example is None:
+                    example = _example(robot, rate, ep, vmax, q, cmd, previous, x, stg, d_ws, d1)
             elif d_ws < -tol and d1 < d_ws - tol:
                 deep += 1
                 deep_max = max(deep_max, d_ws - d1)
@@ -885,7 +903,7 @@ def run_loop_campaign(
             if clear >= -tol and c1 < -tol:
                 sp += 1
                 s_max = max(s_max, -c1)
-            q, p, d_ws, clear = q1, p1, d1, c1
+            q, p, d_ws, clear, previous = q1, p1, d1, c1, x
             done += 1
             now = time.perf_counter()
             if now >= next_report:
@@ -918,7 +936,97 @@ def run_loop_campaign(
         stages=dict(stages),
         escape_stages=dict(esc_stages),
         seconds=time.perf_counter() - t0,
+        example=example,
     )
+
+
+def _example(
+    robot: str,
+    rate: float,
+    ep: _Episode,
+    vmax: FloatArray,
+    q: FloatArray,
+    cmd: FloatArray,
+    previous: FloatArray | None,
+    x: FloatArray,
+    stages: tuple[str, ...],
+    d0: float,
+    d1: float,
+) -> dict[str, Any]:
+    """One cycle's state and scene as plain data (see :attr:`LoopResult.example`)."""
+    return {
+        "robot": robot,
+        "rate": float(rate),
+        "q": q.copy(),
+        "v": np.array(cmd, dtype=np.float64),
+        "mode": "twist" if ep.twist else "joint",
+        "lo": ep.lo.copy(),
+        "hi": ep.hi.copy(),
+        "vmax": vmax.copy(),
+        "amax": np.zeros(0) if ep.acc is None else ep.acc.copy(),
+        "N": ep.N.copy(),
+        "o": ep.o.copy(),
+        "W": ep.limit_of_row.copy(),
+        "B": ep.buffers.copy(),
+        "C": ep.centres.copy(),
+        "R": ep.radii.copy(),
+        "previous": np.zeros(0) if previous is None else previous.copy(),
+        "x": x.copy(),
+        "stages": ", ".join(stages),
+        "d0": float(d0),
+        "d1": float(d1),
+    }
+
+
+def replay_loop_example(example: Any) -> tuple[FloatArray, float, float, tuple[str, ...]]:
+    """Run the cycle of a saved closed-loop example again (:attr:`LoopResult.example`).
+
+    Args:
+        example: The example dict, or a mapping loaded from its ``.npz`` (``np.load``).
+
+    Returns:
+        ``(x, d0, d1, stages)``: the output, the workspace distance before and after one step
+        [m], and the cycle's stages.
+
+    Raises:
+        InvalidParameter: an unknown robot name.
+    """
+    from velfence.geometry.polytope import ConvexPolytope
+    from velfence.shaping.filter import JointLimits, SafetyFilter, SphereObstacle, WorkspaceLimit
+
+    ex = {k: example[k] for k in example}
+    name = str(ex["robot"])
+    if name not in _ROBOTS:
+        raise InvalidParameter(f"example: robot {name!r} is not one of {list(_ROBOTS)}")
+    model, _ = _robot(name)
+    amax = np.asarray(ex["amax"], dtype=np.float64)
+    limits = JointLimits(
+        ex["lo"], ex["hi"], ex["vmax"], max_acceleration=amax if amax.size else None
+    )
+    N = np.asarray(ex["N"], dtype=np.float64)
+    o = np.asarray(ex["o"], dtype=np.float64)
+    W = np.asarray(ex["W"], dtype=np.int64)
+    ws = [
+        WorkspaceLimit(ConvexPolytope(N[np.equal(W, k)], o[np.equal(W, k)]), buffer=float(b))
+        for k, b in enumerate(np.asarray(ex["B"], dtype=np.float64))
+    ]
+    obstacles = [
+        SphereObstacle(c, radius=float(r))
+        for c, r in zip(np.asarray(ex["C"]).reshape(-1, 3), np.asarray(ex["R"]), strict=True)
+    ]
+    dt = 1.0 / float(ex["rate"])
+    flt = SafetyFilter(model, limits=limits, workspace=ws, obstacles=obstacles, dt=dt)
+    q = np.asarray(ex["q"], dtype=np.float64)
+    prev = np.asarray(ex["previous"], dtype=np.float64)
+    previous = prev if prev.size else None
+    if str(ex["mode"]) == "twist":
+        res = flt.explain_twist(q, ex["v"], previous=previous)
+    else:
+        res = flt.explain(q, ex["v"], previous=previous)
+    x = np.asarray(res.output, dtype=np.float64)
+    d0 = float(np.min(N @ np.asarray(model.fk(q)) - o))
+    d1 = float(np.min(N @ np.asarray(model.fk(q + x * dt)) - o))
+    return x, d0, d1, tuple(res.stages)
 
 
 # ------------------------------------------------------------------------------- report
@@ -1075,6 +1183,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--out", type=str, default=None, help="Markdown file whose section to write")
+    ap.add_argument(
+        "--examples",
+        type=str,
+        default=None,
+        help="directory to save each closed-loop case's first escape in (.npz)",
+    )
     args = ap.parse_args(argv)
 
     def say(line: str) -> None:
@@ -1123,6 +1237,14 @@ def main(argv: Sequence[str] | None = None) -> int:
                 f"{r.deadline_fallbacks}, escape stages {r.escape_stages}"
             )
             loops.append(r)
+            if args.examples is not None and r.example is not None:
+                from pathlib import Path
+
+                folder = Path(args.examples)
+                folder.mkdir(parents=True, exist_ok=True)
+                path = folder / f"loop_{rb}_{rt:g}hz_seed{args.seed + i}.npz"
+                np.savez(path, **r.example)
+                print(f"  first escape saved to {path}")
     if args.out is not None and (vertex or loops):
         cmd = (
             f"python -m velfence.soak_filter --vertex-states {args.vertex_states} "
