@@ -103,6 +103,13 @@ kinematics: *ws escapes* (a step that began inside every workspace limit ends ou
 than `1e-12 (1 + |p|)` m), *deepened* (a step that began outside goes further out by more than
 that), *joint crossings*, *sphere penetrations* (capsule clearance < 0 after a step that began
 clear), non-finite outputs, exceptions, deadline fallbacks (`result.deadline`) and the stages.
+
+**Reproducing a finding.** `VertexResult.example` holds an escaping vertex state with its
+polytope and buffer; with `--examples DIR` every closed-loop case saves its first escape as an
+`.npz` (scene, state, command, previous output, output, stages) that
+`velfence.soak_filter.replay_loop_example` runs again bit for bit. The regression cases in
+`tests/data/` (`vertex_polytope_shaper.npz`, `vertex_filter_6d.npz`,
+`loop_ur5e_100hz_projection_recovery.npz` and the issue's `state_*.npz`) came from these runs.
 """
 
 
