@@ -108,8 +108,9 @@ clear), non-finite outputs, exceptions, deadline fallbacks (`result.deadline`) a
 polytope and buffer; with `--examples DIR` every closed-loop case saves its first escape as an
 `.npz` (scene, state, command, previous output, output, stages) that
 `velfence.soak_filter.replay_loop_example` runs again bit for bit. The regression cases in
-`tests/data/` (`vertex_polytope_shaper.npz`, `vertex_filter_6d.npz`,
-`loop_ur5e_100hz_projection_recovery.npz` and the issue's `state_*.npz`) came from these runs.
+`tests/data/` `vertex_polytope_shaper.npz`, `vertex_filter_6d.npz` and
+`loop_ur5e_100hz_projection_recovery.npz` came from these runs (the issue's `state_*.npz` and
+`project_filter_rows.npz` from an independent campaign).
 """
 
 
