@@ -28,8 +28,8 @@ load on this shared machine falls on all of them alike. Columns: median, p99 and
    ``q + u dt``, ``dt`` = 4 ms. mink solves a different (discrete-time, task-QP) problem with the
    same limits, so only its time is compared.
 3. (``--no-cost`` skips it) what numba costs for the n-D paths: a fresh process with an empty
-   numba cache compiles ``compiled_polytope`` and ``compiled_project`` (first calls), and the
-   resident-set growth of ``import numba`` against ``import velfence_core._nd``.
+   numba cache compiles ``compiled_polytope`` (first call; the filter's numba solve is gone), and
+   the resident-set growth of ``import numba`` against ``import velfence_core._nd``.
 """
 
 from __future__ import annotations
@@ -144,7 +144,7 @@ def shaper_routes(poly: ConvexPolytope, n_states: int) -> list[Route]:
 # ---------------------------------------------------------------------------- 2. the filter
 def obstacles(sc: Any, k: int, seed: int = 3) -> tuple[Any, ...]:
     """``k`` spheres 4–50 cm from the links at ``sc.q0`` (at least 3.5 cm from every link)."""
-    from velfence.shaping.filter import SphereObstacle
+    from velfence.filter import SphereObstacle
 
     rng = np.random.default_rng(seed)
     segs = np.asarray(sc.arm.link_segments(sc.q0), dtype=float)
@@ -169,7 +169,7 @@ def obstacles(sc: Any, k: int, seed: int = 3) -> tuple[Any, ...]:
 
 def filter_routes(k: int, n_states: int, with_mink: bool) -> list[Route]:
     from velfence.bench.cases.filter import MINK_DT, Scenario, scenario, seven_dof_mjcf
-    from velfence.shaping.filter import SafetyFilter
+    from velfence.filter import SafetyFilter
 
     base = scenario()
     sc = Scenario(base.arm, base.limits, base.workspace, obstacles(base, k), base.q0)
@@ -256,18 +256,10 @@ if what.startswith("numba"):
     import numba
     out["import s"] = time.perf_counter() - t
     r2 = rss()
-    from velfence.shaping._accel import compiled_project
     t = time.perf_counter()
-    if what == "numba-law":
-        s = PolytopeShaper(box, buffer=0.2, backend="python")
-        s.shape(np.array([0.9, 0.0, 0.0]), np.array([1.0, 0.0, 0.0]))
+    s = PolytopeShaper(box, buffer=0.2, backend="python")
+    s.shape(np.array([0.9, 0.0, 0.0]), np.array([1.0, 0.0, 0.0]))
     out["polytope first call s"] = time.perf_counter() - t
-    t = time.perf_counter()
-    f = compiled_project()
-    from velfence.geometry.projection import projection_scratch
-    wsf, lam, act = projection_scratch(2, 3)
-    f(np.zeros(3), np.ones(6), np.ones(2), 2, 3, np.zeros(3), lam, act, wsf)
-    out["project first call s"] = time.perf_counter() - t
 else:
     t = time.perf_counter()
     import velfence_core._nd
@@ -287,7 +279,7 @@ def numba_cost() -> str:
     rows = ["| | import [s] | RSS after import [MB] | first n-D law call [s] | "
             "first projection call [s] | RSS growth in all [MB] |",
             "| --- | ---: | ---: | ---: | ---: | ---: |"]  # fmt: skip
-    for what in ("numba-law", "numba-project", "c"):
+    for what in ("numba-law", "c"):
         with tempfile.TemporaryDirectory() as cache:
             env = {**os.environ, "NUMBA_CACHE_DIR": cache}
             done = subprocess.run(
@@ -296,14 +288,13 @@ def numba_cost() -> str:
             )  # fmt: skip
         r = json.loads(done.stdout.strip().splitlines()[-1])
         label = {
-            "numba-law": "numba, empty cache: the law, then the projection (cache shared)",
-            "numba-project": "numba, empty cache: the projection alone",
+            "numba-law": "numba, empty cache: the n-D law (its projection compiled with it)",
             "c": "`velfence_core._nd`",
         }[what]
-        law = f"{r['polytope first call s']:.3f}" if what != "numba-project" else "–"
+        law = f"{r['polytope first call s']:.3f}"
         rows.append(
             f"| {label} | {r['import s']:.3f} | {r['import RSS MB']:.1f} | {law} | "
-            f"{r.get('project first call s', 0.0):.3f} | {r['total RSS MB']:.1f} |"
+            f"– | {r['total RSS MB']:.1f} |"
         )
     return "\n".join(rows)
 

@@ -37,10 +37,10 @@ from importlib.metadata import version
 import mink
 import numpy as np
 
+from velfence.filter import JointLimits, SafetyFilter, WorkspaceLimit
 from velfence.geometry.polytope import ConvexPolytope
 from velfence.integrations import PolytopeLimit
 from velfence.robots import panda
-from velfence.shaping.filter import JointLimits, SafetyFilter, WorkspaceLimit
 
 Q0 = np.array([0.0, -0.3, 0.0, -2.2, 0.0, 2.0, 0.8])
 DT = 0.01

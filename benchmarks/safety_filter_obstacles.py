@@ -7,7 +7,7 @@ reference lines, operator command ``Ẏ_d + K_fb (Y_d - Y)`` and 1 ms period; sc
 critical point moving from link 1 to link 2) happens inside run (i).
 
 The configuration controller keeps each link's surface outside the sphere of influence
-``ρ``; the filter gets the same sphere as a :class:`~velfence.shaping.filter.SphereObstacle` of
+``ρ``; the filter gets the same sphere as a :class:`~velfence.filter.SphereObstacle` of
 radius ``ρ`` with a 5 cm linear buffer, the same damping (``λ²`` = the controller's ``λ`` =
 1e-2) and, for (iv), the same 2 rad/s joint-speed cap. Columns: the smallest clearance of any
 link surface to ``ρ`` (negative: inside the sphere of influence) and to the obstacle body, the
@@ -21,9 +21,9 @@ import time
 
 import numpy as np
 
+from velfence.filter import JointLimits, SafetyFilter, SphereObstacle
 from velfence.geometry.primitives import points_segments_distances
 from velfence.reproduce.obstacles import DT, K_FB, MAX_JOINT_SPEED, ScenarioRun, scenarios
-from velfence.shaping.filter import JointLimits, SafetyFilter, SphereObstacle
 
 BUFFER = 0.05  # [m] the filter's obstacle buffer
 

@@ -1,6 +1,6 @@
 """Wall time of one ``SafetyFilter`` cycle on the 7-DoF arm (the "Speed" table of the docs).
 
-Usage: ``PYTHONPATH=src python benchmarks/safety_filter_speed.py [--calls N] [--no-accelerate]``
+Usage: ``PYTHONPATH=src python benchmarks/safety_filter_speed.py [--calls N] [--python]``
 prints a Markdown table (the one in ``docs/safety_filter.md``, section "Speed").
 
 The case: ``DHChain.seven_dof(link_radius=0.05)``, 14 position and 14 velocity rows (every joint
@@ -20,16 +20,16 @@ import time
 
 import numpy as np
 
+from velfence.filter import JointLimits, SafetyFilter, SphereObstacle, WorkspaceLimit
 from velfence.geometry.polytope import ConvexPolytope
 from velfence.mechanisms.chain import DHChain
-from velfence.shaping.filter import JointLimits, SafetyFilter, SphereObstacle, WorkspaceLimit
 
 Q0 = np.array([0.1, 0.6, 0.0, -1.2, 0.0, 0.8, 0.0])
 STATES = 500
 WARMUP = 300
 
 
-def make_filter(accelerate: bool) -> SafetyFilter:
+def make_filter(backend: str = "auto") -> SafetyFilter:
     """The benchmark's filter (module docstring)."""
     arm = DHChain.seven_dof(link_radius=0.05)
     lim = arm.joint_limits
@@ -44,14 +44,13 @@ def make_filter(accelerate: bool) -> SafetyFilter:
         side /= np.linalg.norm(side)
         # surface-to-surface gap of 3 cm (inside the 5 cm obstacle buffer)
         obstacles.append(SphereObstacle(mid + side * (0.05 + radius + 0.03), radius=radius))
-    kw = {"accelerate": accelerate} if not accelerate else {}
     return SafetyFilter(
         arm,
         limits=JointLimits(lim[:, 0], lim[:, 1], np.full(7, 1.5)),
         workspace=WorkspaceLimit(box, buffer=0.05),
         obstacles=obstacles,
         dt=1e-3,
-        **kw,  # type: ignore[arg-type]
+        backend=backend,  # type: ignore[arg-type]
     )
 
 
@@ -86,9 +85,9 @@ def main() -> None:
     """Print the Markdown table."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--calls", type=int, default=3000)
-    ap.add_argument("--no-accelerate", action="store_true", help="plain-Python projection")
+    ap.add_argument("--python", action="store_true", help="the Python reference (no core)")
     args = ap.parse_args()
-    f = make_filter(not args.no_accelerate)
+    f = make_filter("python" if args.python else "auto")
     print("| mode | calls | median [µs] | p99 [µs] | mean rows |")
     print("|---|---|---|---|---|")
     Q, QD, V = states()

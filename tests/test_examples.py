@@ -284,3 +284,13 @@ def test_physics_lag(
         assert ahead == 0.0
     assert figure.stat().st_size > 10_000
     assert lines[-1] == f"wrote {figure}"
+
+
+def test_custom_row_provider(capsys: pytest.CaptureFixture[str]) -> None:
+    height, speed = run_example("custom_row_provider", capsys)
+    z, table = numbers(height)[1], numbers(height)[2]
+    assert height.startswith("elbow height after")
+    # the user's row holds: the elbow came down to the table top and no further
+    assert table - 1e-9 <= z <= table + 2e-3
+    assert abs(numbers(speed)[0]) <= 1e-6  # resting on the table: no further approach
+    assert "elbow z" in speed

@@ -20,7 +20,8 @@
  *     bit-identical with a scratch full of NaN garbage and with a zeroed one (no read of stale
  *     scratch) and to vf_exact_kernel's;
  *   the law's bounds (docs/derivations.md section 3, 3.1, 3.3), on polygons built from corners
- *     (unit normals): linear kind, every state the law does not relax: n_i . v_o >= L_i - tol for
+ *     (unit normals): linear kind, every state (relaxed: the violated edges' L_i read as 0, the
+ *     recovery slowed but never outward; the bounds of edges the point is inside kept): n_i . v_o >= L_i - tol for
  *     every edge, with L_i the documented bound; three-zone kind, states inside; inside (every
  *     d_i >= 0) also |v_o| <= |v| (never faster inside); tol = 1e-12 (|v| + R) + 1e-12 |L_i|;
  *   vf_exact_batch returns the number of non-VF_OK states and writes the single calls' ox, oy and
@@ -139,8 +140,9 @@ static void check_bounds(const vf_polygon *p, const vf_exact_law *l, double px, 
     double vn = hypot(vx, vy), R = 0.0, dmin = INFINITY, tol, on;
     int32_t e;
     int lin = l->kind == VF_PROFILE_LINEAR;
-    if (r->stages & VF_STAGE_RELAXED) {
-        return; /* infeasible bounds: only recovery is kept (documented) */
+    const int relaxed = (r->stages & VF_STAGE_RELAXED) != 0;
+    if (r->stages & VF_STAGE_STOP) {
+        return; /* zero velocity */
     }
     for (e = 0; e < p->n; e++) {
         double d = fz_dist(p, e, px, py);
@@ -193,6 +195,9 @@ static void check_bounds(const vf_polygon *p, const vf_exact_law *l, double px, 
         }
         if (!isfinite(L)) {
             continue; /* -inf: no bound; NaN (inf * 0): not a bound the law can state */
+        }
+        if (relaxed && d < 0.0) {
+            L = 0.0; /* infeasible together: the recovery was slowed, never outward (documented) */
         }
         tol = 1e-12 * (vn + R) + 1e-12 * fabs(L) + 1e-300;
         if (!(p->nx[e] * r->ox + p->ny[e] * r->oy >= L - tol)) {

@@ -33,7 +33,8 @@
  *     active[:q] facets, 0 <= m <= nf, p1 a facet, p2 a facet other than p1 or -1, d1 finite, d2
  *     finite (+inf only when absent: nf = 1, p2 = -1); in continuous time (idt = 0) zone
  *     FREE leaves v unchanged (bits; with idt > 0 the one-period bound -d idt may still bind);
- *   the law's bounds on structured polytopes (unit normals), unless the result is RELAXED or STOP
+ *   the law's bounds on structured polytopes (unit normals), unless the result is STOP (RELAXED:
+ *   the slowed recovery bounds vf_nd_bounded reports, every other bound as stated)
  *     (documented: then only recovery is kept): every bounded facet e = work[a], a < m, of
  *     vf_nd_bounded has N_e . out >= bnd_e - tol, tol = 1e-9 (1 + |bnd_e| + |out| + |v|) (a NaN
  *     or -inf bnd_e, from inf - inf of huge parameters, states no bound and is skipped); inside
@@ -424,7 +425,8 @@ static void check_state(const fz_nd_polytope *g, const vf_nd_law *l, const doubl
                 inside = 0;
             }
         }
-        if (g->structured && !(res->stages & (VF_ND_STAGE_RELAXED | VF_ND_STAGE_STOP))) {
+        /* relaxed: bnd holds the slowed recovery bounds, every other bound as stated */
+        if (g->structured && !(res->stages & VF_ND_STAGE_STOP)) {
             for (a = 0; a < res->m; a++) {
                 int32_t e = work[a];
                 double s = 0.0, tol;

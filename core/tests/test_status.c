@@ -1,7 +1,7 @@
 /*
  * test_status.c -- the one status enum (velfence_status.h) and constants header
  * (velfence_constants.h): every vf_status value, its name from vf_status_name (distinct, never
- * NULL, "VF_UNKNOWN" for any other int), the spec's numbers, and every deprecated per-header
+ * NULL, "VF_UNKNOWN" for any other int), the documented numbers (docs/core.md), and every deprecated per-header
  * alias equal to its shared name (velfence_core.h, velfence_nd.h, velfence_cc.h, velfence_rr.h).
  * Prints "ok <count>".
  */

@@ -5,6 +5,14 @@
 
 from velfence.cobot import CasterWall, Cobot, PathFollower
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter, VelfenceError
+from velfence.filter import (
+    FilterResult,
+    JointLimits,
+    Kinematics,
+    SafetyFilter,
+    SphereObstacle,
+    WorkspaceLimit,
+)
 from velfence.geometry import (
     ConvexPolygon,
     ConvexPolytope,
@@ -26,9 +34,6 @@ from velfence.shaping import (
     STAGE_NAMES,
     ZONE_NAMES,
     ApproachProfile,
-    FilterResult,
-    JointLimits,
-    Kinematics,
     LagCompensation,
     LinearBuffer,
     LineFixture,
@@ -37,14 +42,11 @@ from velfence.shaping import (
     PolytopeResult,
     PolytopeShaper,
     RateLimiter,
-    SafetyFilter,
     Shaper,
     ShaperResult,
     ShapingResult,
-    SphereObstacle,
     StopLimiter,
     ThreeZoneBraking,
-    WorkspaceLimit,
 )
 from velfence.sim import (
     AxisLimits,

@@ -25,11 +25,11 @@ SCENES: tuple[str, ...] = ("teleop", "arm-box", "fence-box")
 
 
 def _fence_box_session() -> _ArmSession:
+    from velfence.filter.limits import SphereObstacle
     from velfence.geometry.polytope import ConvexPolytope
     from velfence.robot_sim import fence_box as fb
     from velfence.robot_sim.common import TcpJog
     from velfence.robots import panda
-    from velfence.shaping.limits import SphereObstacle
     from velfence.sim.physics import MujocoPlant
 
     robot = panda(radius=0.05)

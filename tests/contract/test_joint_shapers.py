@@ -59,9 +59,9 @@ def _line_fixture(kind: str, **overrides):
 
 
 def _safety_filter(**overrides):
+    from velfence.filter import JointLimits, SafetyFilter, SphereObstacle, WorkspaceLimit
     from velfence.geometry.polytope import ConvexPolytope
     from velfence.mechanisms.chain import DHChain
-    from velfence.shaping.filter import JointLimits, SafetyFilter, SphereObstacle, WorkspaceLimit
 
     arm = DHChain.seven_dof(link_radius=0.04)
     lim = arm.joint_limits

@@ -19,10 +19,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from velfence.errors import InvalidInput
+from velfence.filter.rows import PLAIN_BOUNDS, rate_bounds
 from velfence.geometry.polytope import ConvexPolytope
 from velfence.geometry.projection import project
 from velfence.shaping import PolytopeShaper
-from velfence.shaping.filter import _PLAIN_BOUNDS, _bounds
 from velfence.shaping.profiles import LinearBuffer, ThreeZoneBraking
 
 nd = pytest.importorskip(
@@ -219,6 +219,6 @@ def test_filter_bounds_bit_identical(seed: int, kind: str, idt: float) -> None:
     )
     dist = rng.uniform(-0.3, 0.6, 14)
     speed = float(rng.uniform(0.0, 3.0))
-    ref = _bounds(prof, dist, speed, idt, _PLAIN_BOUNDS)
-    got = _bounds(prof, dist, speed, idt, (None, nd))
+    ref = rate_bounds(prof, dist, speed, idt, PLAIN_BOUNDS)
+    got = rate_bounds(prof, dist, speed, idt, (None, nd))
     assert fbits(got) == fbits(ref)

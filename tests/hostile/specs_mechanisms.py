@@ -30,6 +30,8 @@ def _chain(q: np.ndarray) -> dict[str, F]:
     out["fk"] = F(lambda q=q: call(q, "joint1"), types={"point": "choice"})
     out["jacobian"] = F(lambda q=q: call(q, "joint1"), types={"point": "choice"})
     out["angular_jacobian"] = F(lambda q=q: call(q))
+    out["kinematics"] = F(lambda q=q: call(q))
+    out["chain_data"] = lambda: call()
     return out
 
 
@@ -57,6 +59,8 @@ SPECS: dict[str, F | C] = {
         {
             "configuration": lambda: call(_Q6),
             "angular_jacobian": lambda: call(_Q6),
+            "kinematics": lambda: call(_Q6),
+            "chain_data": lambda: call(),
             "fk": F(lambda: call(_Q6, "elbow"), types={"point": "choice"}),
             "ik": lambda: call(pose()),
             "ik_all": lambda: call(pose()),

@@ -31,6 +31,8 @@ _ROBOT_METHODS = {
     "fk": F(lambda: call(_Q2, "joint1"), types={"point": "choice"}),
     "jacobian": F(lambda: call(_Q2, "joint1"), types={"point": "choice"}),
     "angular_jacobian": lambda: call(_Q2),
+    "kinematics": lambda: call(_Q2),
+    "chain_data": lambda: call(),
     "joint_positions": lambda: call(_Q2),
     "link_segments": lambda: call(_Q2),
     "end_effector": lambda: call(_Q2),

@@ -87,7 +87,7 @@ def test_has_position_limits_false_means_no_position_limit(tmp_path: Path) -> No
     assert np.all(lim.lower == -math.inf)
     assert np.all(lim.upper == math.inf)
     # and the filter then has no position row for those joints, only the velocity rows
-    from velfence.shaping.filter import SafetyFilter
+    from velfence.filter import SafetyFilter
 
     r = SafetyFilter(UR5E, limits=lim).explain(np.zeros(6), np.full(6, 10.0))
     assert not any("position" in n for n in r.constraint_names)

@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from velfence.errors import InvalidInput
+from velfence.filter import Kinematics
 from velfence.mechanisms.chain import DHChain, PlanarArm
 from velfence.mechanisms.puma560 import Puma560
-from velfence.shaping.filter import Kinematics
 
 ROBOTS = {
     "seven_dof": DHChain.seven_dof(tool=(0.0, 0.02, 0.05)),

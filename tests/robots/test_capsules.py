@@ -69,9 +69,9 @@ def test_bad_link_arguments_and_missing_sites() -> None:
 
 
 def test_the_serial_chain_interface_runs_the_arm_baselines_and_configuration_control() -> None:
+    from velfence.filter.limits import JointLimits
     from velfence.redundancy import ConfigurationController, Obstacle
     from velfence.robots import seven_dof
-    from velfence.shaping.limits import JointLimits
     from velfence.sim.arm_baselines import JointClamp
 
     robot, chain = seven_dof(radius=0.05), DHChain.seven_dof(link_radius=0.05)

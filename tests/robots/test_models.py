@@ -11,12 +11,12 @@ import pytest
 pytest.importorskip("mujoco")
 
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
+from velfence.filter import SafetyFilter
+from velfence.filter.kinematics import Kinematics
+from velfence.filter.limits import JointLimits, WorkspaceLimit
 from velfence.geometry.polytope import ConvexPolytope
 from velfence.mechanisms.chain import DHChain
 from velfence.robots import MujocoRobot, dh_mjcf, mdh_mjcf, panda, puma560, seven_dof, ur5e
-from velfence.shaping.filter import SafetyFilter
-from velfence.shaping.kinematics import Kinematics
-from velfence.shaping.limits import JointLimits, WorkspaceLimit
 
 PAIRS = [
     ("seven_dof", seven_dof, DHChain.seven_dof),

@@ -9,9 +9,9 @@ import pytest
 
 from optional import requires
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
+from velfence.filter import SafetyFilter
+from velfence.filter.limits import JointLimits, SphereObstacle, WorkspaceLimit
 from velfence.geometry.polytope import ConvexPolytope
-from velfence.shaping.filter import SafetyFilter
-from velfence.shaping.limits import JointLimits, SphereObstacle, WorkspaceLimit
 from velfence.shaping.lookahead import LagCompensation
 from velfence.sim import simulate
 from velfence.sim.arm import TwistMode

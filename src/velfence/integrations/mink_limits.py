@@ -11,8 +11,8 @@ distance :math:`d_i = n_i\cdot p - c_i` of the frame's origin :math:`p`, positiv
 
 that is :math:`n_i\cdot\dot p \ge b_i(d_i)`, with :math:`J_p` the world-frame Jacobian of the
 frame origin's linear velocity (MuJoCo's ``mj_jacSite``/``mj_jacBody``/``mj_jacGeom``) and
-:math:`b_i` **the** bound of a :class:`~velfence.shaping.filter.SafetyFilter` workspace row
-(:func:`velfence.shaping.filter.workspace_bounds`, the exact law's one bound definition): inside,
+:math:`b_i` **the** bound of a :class:`~velfence.filter.SafetyFilter` workspace row
+(:func:`velfence.filter.rows.workspace_bounds`, the exact law's one bound definition): inside,
 an approach speed at most the profile's cap (linear buffer: :math:`s\,d/\text{buffer}` within the
 buffer), and in discrete time at most :math:`d/dt` (one step never crosses the linearised facet);
 outside, the profile's forced return (at most the penetration per step). With the linear buffer
@@ -40,8 +40,8 @@ from velfence._validate import (
     describe,
 )
 from velfence.errors import InvalidInput, InvalidParameter
-from velfence.shaping.filter import workspace_bounds
-from velfence.shaping.limits import Profile, WorkspaceLimit
+from velfence.filter.limits import Profile, WorkspaceLimit
+from velfence.filter.rows import workspace_bounds
 from velfence.shaping.profiles import LinearBuffer
 
 __all__ = ["PolytopeLimit"]
@@ -77,7 +77,7 @@ class PolytopeLimit(mink.Limit):
     facets (a box: 6), and a far facet's row is slack in the QP.
 
     ``buffer``, ``spring_gain``, ``max_recovery_speed`` and ``profile`` mean what they mean in a
-    :class:`~velfence.shaping.limits.WorkspaceLimit` (and are validated by it). ``speed`` stands
+    :class:`~velfence.filter.limits.WorkspaceLimit` (and are validated by it). ``speed`` stands
     for the command's speed of the point, which the SafetyFilter reads from its command and a mink
     limit cannot see: the linear buffer caps the approach at ``speed · d / buffer``.
 

@@ -45,7 +45,7 @@ if TYPE_CHECKING:
 
     import yaml
 
-    from velfence.shaping.limits import JointLimits
+    from velfence.filter.limits import JointLimits
 
 __all__ = [
     "DEFAULT_MAX_STEPS",
@@ -639,7 +639,7 @@ def load_joint_limits(path: str | Path, joint_names: Sequence[str]) -> JointLimi
             has_acceleration_limits: false
             max_acceleration: 0.0
 
-    one entry per joint; see :meth:`velfence.shaping.limits.JointLimits.from_ros2_control` for
+    one entry per joint; see :meth:`velfence.filter.limits.JointLimits.from_ros2_control` for
     the fields. The joints must be exactly ``joint_names`` (typically ``robot.joint_names``): a
     file for another robot (a 7-joint default on a 6-joint arm) is refused, naming the missing
     and the extra joints.
@@ -649,13 +649,13 @@ def load_joint_limits(path: str | Path, joint_names: Sequence[str]) -> JointLimi
         joint_names: The robot's joint names, in order.
 
     Returns:
-        The :class:`~velfence.shaping.limits.JointLimits`, in the order of ``joint_names``.
+        The :class:`~velfence.filter.limits.JointLimits`, in the order of ``joint_names``.
 
     Raises:
         InvalidParameter: the file is missing, too large, not UTF-8 or not plain YAML, or its
             joints or fields are wrong (the message names the file, the joint and the field).
     """
-    from velfence.shaping.limits import JointLimits
+    from velfence.filter.limits import JointLimits
 
     p = _path(path)
     loaded = _parse(p, _read_text(p))

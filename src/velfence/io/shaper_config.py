@@ -311,9 +311,9 @@ def _safety_filter(spec: _SafetyFilter) -> ConfiguredShaper:
     import numpy as np
 
     from velfence import robots
+    from velfence.filter import SafetyFilter
+    from velfence.filter.limits import JointLimits, WorkspaceLimit
     from velfence.geometry.polytope import ConvexPolytope
-    from velfence.shaping.filter import SafetyFilter
-    from velfence.shaping.limits import JointLimits, WorkspaceLimit
     from velfence.sim.arm import TwistMode
 
     robot = getattr(robots, spec.robot)()

@@ -42,7 +42,7 @@ from velfence._validate import (
 )
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 
-__all__ = ["DHChain", "PlanarArm", "SerialChain"]
+__all__ = ["ChainFrame", "DHChain", "PlanarArm", "SerialChain"]
 
 _REAL = (int, float, np.integer, np.floating)
 
@@ -199,6 +199,72 @@ def _named_points(value: Any, n: int) -> dict[str, int]:
             )
         out[name] = int(idx)
     return out
+
+
+class ChainFrame:
+    """The kinematics of one pose of a chain (``velfence.filter.KinematicsFrame``), cached.
+
+    Made by :meth:`_ChainBase.kinematics`: one pass computes the joint points and axes; each
+    point's position and Jacobian, the link segments and the critical points' Jacobians are
+    derived from it at most once.
+    """
+
+    __slots__ = ("_chain", "_jac", "_kin", "_pts", "_segs")
+
+    def __init__(self, chain: _ChainBase, q: FloatArray) -> None:
+        self._chain = chain
+        self._kin = chain._kinematics_cache(q)
+        self._pts: dict[str, FloatArray] = {}
+        self._jac: dict[str, FloatArray] = {}
+        self._segs: FloatArray | None = None
+
+    def point(self, name: str) -> FloatArray:
+        """Position of a named point [m], shape (task_dim,)."""
+        p = self._pts.get(name)
+        if p is None:
+            p = self._pts[name] = self._chain._fk_cached(self._kin, name)
+        return p
+
+    def jacobian(self, name: str) -> FloatArray:
+        """Linear-velocity Jacobian of a named point [m/rad], shape (task_dim, n)."""
+        J = self._jac.get(name)
+        if J is None:
+            J = self._jac[name] = self._chain._jacobian_cached(self._kin, name)
+        return J
+
+    def segments(self) -> FloatArray:
+        """Every link's segment ``P_k -> P_{k+1}`` [m], shape (n_links, 2, 3)."""
+        if self._segs is None:
+            self._segs = self._chain._segments_cached(self._kin)
+        return self._segs
+
+    def point_jacobian(self, link: int, t: float) -> FloatArray:
+        """Jacobian of the point at fraction ``t`` along ``link`` [m/rad], shape (3, n)."""
+        return self._chain._point_jacobian_cached(self._kin, int(link), float(t))
+
+    def point_jacobians(self, links: Any, ts: Any) -> FloatArray:
+        r""":meth:`point_jacobian` of many points at once, shape (k, 3, n).
+
+        Columns :math:`z_j \times (p - P_j)` for the joints ``j <= link`` moving each point.
+        """
+        points, axes, _ = self._kin
+        lk = np.asarray(links, dtype=np.int64)
+        tt = np.asarray(ts, dtype=np.float64)[:, None]
+        p = (1.0 - tt) * points[lk] + tt * points[lk + 1]
+        n = self._chain._n
+        nj = axes.shape[0]
+        d = p[:, None, :] - points[None, :nj, :]
+        ax = axes[None, :, :]
+        out = np.zeros((lk.shape[0], 3, n))
+        out[:, 0, :nj] = ax[..., 1] * d[..., 2] - ax[..., 2] * d[..., 1]
+        out[:, 1, :nj] = ax[..., 2] * d[..., 0] - ax[..., 0] * d[..., 2]
+        out[:, 2, :nj] = ax[..., 0] * d[..., 1] - ax[..., 1] * d[..., 0]
+        out[:, :, :nj] *= (np.arange(nj)[None, :] <= lk[:, None])[:, None, :]
+        return out
+
+    def angular_jacobian(self) -> FloatArray:
+        """Angular-velocity Jacobian of the last body (the joint axes), shape (3, n)."""
+        return np.array(self._kin[1].T)
 
 
 class _ChainBase:
@@ -432,7 +498,7 @@ class _ChainBase:
         return np.clip(qa, self._limits[:, 0], self._limits[:, 1])
 
     # ------------------------------------------------------------------ Kinematics protocol
-    # (velfence.shaping.filter.Kinematics): named points, their positions and Jacobians.
+    # (velfence.filter.Kinematics): named points, their positions and Jacobians.
     @property
     def joint_names(self) -> tuple[str, ...]:
         """Name of each joint, shape (n,) (``"joint0"`` … unless given)."""
@@ -505,6 +571,27 @@ class _ChainBase:
             InvalidInput: bad ``q`` or an unknown ``point``.
         """
         return self._jacobian_cached(self._kinematics_cache(self._q(q)), point)
+
+    def kinematics(self, q: ArrayLike) -> ChainFrame:
+        """The pose's kinematics, computed once (``velfence.filter.KinematicsFrame``).
+
+        Args:
+            q: Joint position [rad], shape (n,).
+
+        Returns:
+            A :class:`ChainFrame` answering positions, Jacobians and link segments of ``q``.
+
+        Raises:
+            InvalidInput: bad ``q``.
+        """
+        return ChainFrame(self, self._q(q))
+
+    def chain_data(self) -> Any:
+        """The chain as DH data for compiled routes (``velfence.filter.ChainData``); ``None``.
+
+        Only a :class:`DHChain` is a DH table; other chains return ``None``.
+        """
+        return None
 
     def angular_jacobian(self, q: ArrayLike) -> FloatArray:
         """Angular-velocity Jacobian of the last body: its columns are the joint axes.
@@ -871,6 +958,21 @@ class DHChain(_ChainBase):
             tool=tool,
             joint_names=_UR5E_JOINTS,
             named_points={"elbow": 2, "wrist": 3},
+        )
+
+    def chain_data(self) -> Any:
+        """The chain as data: ``ChainData(dh (n, 5), tool (3,), point_index)``.
+
+        ``dh`` rows are ``(a [m], cos α, sin α, d [m], θ offset [rad])`` (the floats of the one
+        kinematics pass); ``point_index`` maps every name of :attr:`points` to its joint-point
+        index (``n`` the tool point, ``-1`` the flange). For compiled routes of the filter.
+        """
+        from velfence.filter.kinematics import ChainData
+
+        return ChainData(
+            dh=readonly(np.array(self._dh_rows, dtype=np.float64).reshape(self._n, 5)),
+            tool=readonly(np.array(self._tool_xyz, dtype=np.float64)),
+            point_index={name: self._point_index(name) for name in self.points},
         )
 
     @property

@@ -244,7 +244,7 @@ class Puma560:
 
         Without ``point`` this is the pose (the teleoperation code's use); with a point name it
         is that point's position, as the ``Kinematics`` protocol of
-        :mod:`velfence.shaping.filter` asks (the safety filter always names the point).
+        :mod:`velfence.filter` asks (the safety filter always names the point).
 
         Args:
             q: Joint angles [rad], shape (6,), in this convention.
@@ -261,6 +261,20 @@ class Puma560:
             return self._chain.fk(q, point)
         T6: FloatArray = self._chain.frames(q)[6] @ self._flange
         return T6
+
+    def kinematics(self, q: ArrayLike) -> Any:
+        """The pose's kinematics computed once (``velfence.filter.KinematicsFrame``).
+
+        The chain's :meth:`DHChain.kinematics` (named points, their Jacobians, link segments).
+
+        Args:
+            q: Joint angles [rad], shape (6,), in this convention.
+        """
+        return self._chain.kinematics(q)
+
+    def chain_data(self) -> Any:
+        """The chain as DH data (:meth:`DHChain.chain_data`), for compiled routes."""
+        return self._chain.chain_data()
 
     def angular_jacobian(self, q: ArrayLike) -> FloatArray:
         """Angular-velocity rows of :meth:`jacobian`: the joint axes, shape (3, 6)."""

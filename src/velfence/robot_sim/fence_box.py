@@ -11,7 +11,7 @@ limited to the cell's range :data:`CELL_JOINT1` (the corner targets need more), 
 clamp has something to clamp.
 
 Controllers: ``"no limit"`` (damped resolved rate), ``"per-joint clamp"`` (resolved rate, joint
-velocity and position limits), ``"velfence"`` (:class:`~velfence.shaping.filter.SafetyFilter`
+velocity and position limits), ``"velfence"`` (:class:`~velfence.filter.SafetyFilter`
 in twist mode: box, joint limits, sphere) and ``"velfence + look-ahead"``
 (:class:`~velfence.shaping.lookahead.LagCompensation` around it). The plant is the
 computed-torque servo of :class:`~velfence.sim.physics.MujocoPlant` (bandwidth 25 rad/s, the
@@ -92,8 +92,8 @@ def _phases(x0: FloatArray, speed: float, dwell: float) -> list[tuple[str, float
 def _controllers(
     robot: Any, box: ConvexPolytope, lim: FloatArray, methods: Sequence[str]
 ) -> dict[str, Any]:
-    from velfence.shaping.filter import SafetyFilter
-    from velfence.shaping.limits import JointLimits, SphereObstacle, WorkspaceLimit
+    from velfence.filter import SafetyFilter
+    from velfence.filter.limits import JointLimits, SphereObstacle, WorkspaceLimit
     from velfence.shaping.lookahead import LagCompensation
     from velfence.sim.arm import TwistMode
     from velfence.sim.arm_baselines import JointClamp, ResolvedRate
@@ -144,8 +144,8 @@ def run(
     Returns:
         The runs, metrics and named checks.
     """
+    from velfence.filter.limits import SphereObstacle
     from velfence.robots import panda
-    from velfence.shaping.limits import SphereObstacle
     from velfence.sim.physics import BodyPush, MujocoPlant
 
     robot = panda(radius=0.05)

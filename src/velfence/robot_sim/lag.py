@@ -2,7 +2,7 @@ r"""How much of the buffer a lagging servo eats, with and without the look-ahead
 
 The Panda-like arm (:func:`velfence.robots.panda`) in MuJoCo behind the computed-torque servo of
 bandwidth :math:`\omega_c` (lag :math:`T = 1/\omega_c`) jogs its TCP straight down at speed
-:math:`u` into the floor of a box (buffer :math:`b`, :class:`~velfence.shaping.filter.SafetyFilter`
+:math:`u` into the floor of a box (buffer :math:`b`, :class:`~velfence.filter.SafetyFilter`
 in twist mode, 500 Hz control, 2 kHz physics). For each :math:`(\omega_c, u)` the largest
 penetration below the floor is measured twice: the filter shaping at the measured position, and
 wrapped in :class:`~velfence.shaping.lookahead.LagCompensation` (shaping at the predicted
@@ -49,10 +49,10 @@ class LagRow:
 
 
 def _depth(bandwidth: float, speed: float, buffer: float, lookahead: bool) -> float:
+    from velfence.filter import SafetyFilter
+    from velfence.filter.limits import JointLimits, WorkspaceLimit
     from velfence.geometry.polytope import ConvexPolytope
     from velfence.robots import panda
-    from velfence.shaping.filter import SafetyFilter
-    from velfence.shaping.limits import JointLimits, WorkspaceLimit
     from velfence.shaping.lookahead import LagCompensation
     from velfence.sim.arm import TwistMode
     from velfence.sim.physics import MujocoPlant

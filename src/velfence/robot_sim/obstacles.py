@@ -6,7 +6,7 @@ line along +y in 4 s (cosine profile, feedback 10 1/s) from q0 = (0, 0.4, 0, 1.8
 a sphere of radius 0.03 m with a 0.1 m sphere of influence sits where the elbow passes without
 obstacle avoidance, here a MuJoCo geom the links touch. Controllers: ``"no avoidance"`` (the
 configuration controller without obstacles), ``"configuration control"`` (the patent's law,
-faithful) and ``"velfence"`` (the :class:`~velfence.shaping.filter.SafetyFilter` in twist mode,
+faithful) and ``"velfence"`` (the :class:`~velfence.filter.SafetyFilter` in twist mode,
 the sphere's clearance row with a 0.07 m buffer, its surface distance at :math:`\rho`).
 Plant: :class:`~velfence.sim.physics.MujocoPlant`, computed-torque servo (bandwidth 40 rad/s),
 2 kHz physics, 1 kHz control. Contacts are MuJoCo's; the clearance is recomputed from the true
@@ -83,6 +83,8 @@ def run(
     Returns:
         The runs, metrics and named checks.
     """
+    from velfence.filter import SafetyFilter
+    from velfence.filter.limits import JointLimits, SphereObstacle
     from velfence.redundancy.configuration_control import ConfigurationController, Obstacle
     from velfence.reproduce.obstacles import (
         DT,
@@ -94,8 +96,6 @@ def run(
         run_scenario,
     )
     from velfence.robots import seven_dof
-    from velfence.shaping.filter import SafetyFilter
-    from velfence.shaping.limits import JointLimits, SphereObstacle
     from velfence.sim.arm import TwistMode
     from velfence.sim.physics import MujocoPlant
 

@@ -1,7 +1,7 @@
 """Robot models whose kinematics MuJoCo computes (the ``physics`` extra).
 
 :class:`MujocoRobot` loads an MJCF arm and implements the ``Kinematics`` protocol of the
-:class:`~velfence.shaping.filter.SafetyFilter` (or a URDF: :meth:`MujocoRobot.from_urdf`);
+:class:`~velfence.filter.SafetyFilter` (or a URDF: :meth:`MujocoRobot.from_urdf`);
 :func:`dh_mjcf` and :func:`mdh_mjcf` write the MJCF of a revolute arm from a standard or
 modified DH table, with link masses and inertias and joint effort/velocity limits;
 :func:`panda`, :func:`ur5e`, :func:`seven_dof` and :func:`puma560` are the shipped arms. MuJoCo

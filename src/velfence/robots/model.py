@@ -1,7 +1,7 @@
 """A robot whose kinematics MuJoCo computes from an MJCF model.
 
 :class:`MujocoRobot` implements the ``Kinematics`` protocol of
-:mod:`velfence.shaping.kinematics` (``dof``, ``joint_names``, ``points``, ``fk``, ``jacobian``,
+:mod:`velfence.filter.kinematics` (``dof``, ``joint_names``, ``points``, ``fk``, ``jacobian``,
 ``angular_jacobian``) for any MJCF arm of hinge and slide joints with a site named ``"tcp"``:
 the points are the model's sites, their positions come from ``mj_kinematics`` and their
 Jacobians from ``mj_jacSite``. MuJoCo is imported when a model is loaded, not with
@@ -23,7 +23,7 @@ from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 from velfence.robots.capsules import CapsuleLinks
 from velfence.robots.mjcf import VELOCITY_LIMITS_NUMERIC
 
-__all__ = ["MujocoRobot"]
+__all__ = ["MujocoFrame", "MujocoRobot"]
 
 
 def _mujoco() -> Any:
@@ -117,6 +117,7 @@ class MujocoRobot(CapsuleLinks):
         self._velocity = readonly(self._numeric_limits(model))
         self._jacp = np.zeros((3, model.nv))
         self._jacr = np.zeros((3, model.nv))
+        self._posed_by: object = None  # the MujocoFrame whose pose the data holds
 
     @staticmethod
     def _numeric_limits(model: Any) -> FloatArray:
@@ -304,6 +305,7 @@ class MujocoRobot(CapsuleLinks):
         return sid
 
     def _pose(self, q: FloatArray) -> None:
+        self._posed_by = None  # a frame re-poses before reading the data again
         self._data.qpos[:] = q
         self._mj.mj_kinematics(self._model, self._data)
         self._mj.mj_comPos(self._model, self._data)
@@ -355,6 +357,24 @@ class MujocoRobot(CapsuleLinks):
         self._mj.mj_jacSite(self._model, self._data, self._jacp, self._jacr, sid)
         return self._finite(np.array(self._jacp, dtype=float))
 
+    def kinematics(self, q: ArrayLike) -> MujocoFrame:
+        """The pose's kinematics, posed once (``velfence.filter.KinematicsFrame``).
+
+        Args:
+            q: Joint position [rad] (slides [m]), shape (n,).
+
+        Returns:
+            A :class:`MujocoFrame`: site positions and Jacobians of ``q``, each computed once.
+
+        Raises:
+            InvalidInput: bad ``q``.
+        """
+        return MujocoFrame(self, self._q(q))
+
+    def chain_data(self) -> None:
+        """``None``: an MJCF arm is not given as a DH table (``velfence.filter.ChainData``)."""
+        return None
+
     def angular_jacobian(self, q: ArrayLike) -> FloatArray:
         """Angular-velocity Jacobian of the ``"tcp"`` site's body in the world frame.
 
@@ -371,3 +391,58 @@ class MujocoRobot(CapsuleLinks):
         self._pose(qa)
         self._mj.mj_jacSite(self._model, self._data, self._jacp, self._jacr, self._site["tcp"])
         return self._finite(np.array(self._jacr, dtype=float))
+
+
+class MujocoFrame:
+    """One pose of a :class:`MujocoRobot` (``velfence.filter.KinematicsFrame``), cached.
+
+    MuJoCo poses the robot's one ``MjData`` once; the site positions are copied at once and each
+    Jacobian is computed at most once (the data re-posed first if another frame used it since).
+    """
+
+    __slots__ = ("_jac", "_pos", "_q", "_robot", "_segs")
+
+    def __init__(self, robot: MujocoRobot, q: FloatArray) -> None:
+        self._robot = robot
+        self._q = q
+        robot._pose(q)
+        robot._posed_by = self
+        self._pos = np.array(robot._data.site_xpos, dtype=float)
+        self._jac: dict[int, FloatArray] = {}
+        self._segs: FloatArray | None = None
+
+    def _site_jac(self, sid: int, angular: bool = False) -> FloatArray:
+        J = self._jac.get(sid)
+        if J is None:
+            r = self._robot
+            if getattr(r, "_posed_by", None) is not self:
+                r._pose(self._q)
+                r._posed_by = self
+            r._mj.mj_jacSite(r._model, r._data, r._jacp, r._jacr, sid)
+            J = self._jac[sid] = r._finite(np.vstack((r._jacp, r._jacr)))
+        return J[3:] if angular else J[:3]
+
+    def point(self, name: str) -> FloatArray:
+        """Position of a named site [m], shape (3,)."""
+        return self._robot._finite(np.array(self._pos[self._robot._site_id(name)]))
+
+    def jacobian(self, name: str) -> FloatArray:
+        """Linear-velocity Jacobian of a named site [m/rad], shape (3, n)."""
+        return self._site_jac(self._robot._site_id(name))
+
+    def segments(self) -> FloatArray:
+        """Capsule links ``P_k -> P_{k+1}`` [m], shape (n_links, 2, 3)."""
+        if self._segs is None:
+            P = self._robot._finite(np.array(self._pos[self._robot._link_sites()]))
+            self._segs = np.stack([P[:-1], P[1:]], axis=1)
+        return self._segs
+
+    def point_jacobian(self, link: int, t: float) -> FloatArray:
+        """Jacobian of the point at fraction ``t`` along ``link`` [m/rad], shape (3, n)."""
+        ids = self._robot._link_sites()
+        k = int(link)
+        return (1.0 - t) * self._site_jac(ids[k]) + t * self._site_jac(ids[k + 1])
+
+    def angular_jacobian(self) -> FloatArray:
+        """Angular-velocity Jacobian of the ``"tcp"`` site's body, shape (3, n)."""
+        return self._site_jac(self._robot._site["tcp"], angular=True)

@@ -13,7 +13,6 @@ joint-stop limiter and the n-D polytope shaper do the same on n-vectors.
 
 from velfence.shaping._kernels import STAGE_NAMES, ZONE_NAMES
 from velfence.shaping.base import Shaper, ShaperResult, ShapingResult
-from velfence.shaping.filter import FilterResult, Kinematics, SafetyFilter
 from velfence.shaping.fixtures import (
     OMNI_CONTINUOUS_FORCE,
     OMNI_MAX_FORCE,
@@ -22,7 +21,6 @@ from velfence.shaping.fixtures import (
     LineScaling,
     ScalingResult,
 )
-from velfence.shaping.limits import JointLimits, SphereObstacle, WorkspaceLimit
 from velfence.shaping.lookahead import LagCompensation
 from velfence.shaping.polygon import PolygonShaper
 from velfence.shaping.polytope import PolytopeResult, PolytopeShaper
@@ -36,10 +34,7 @@ __all__ = [
     "STAGE_NAMES",
     "ZONE_NAMES",
     "ApproachProfile",
-    "FilterResult",
     "FixtureResult",
-    "JointLimits",
-    "Kinematics",
     "LagCompensation",
     "LineFixture",
     "LineScaling",
@@ -48,14 +43,11 @@ __all__ = [
     "PolytopeResult",
     "PolytopeShaper",
     "RateLimiter",
-    "SafetyFilter",
     "ScalingResult",
     "Shaper",
     "ShaperResult",
     "ShapingResult",
-    "SphereObstacle",
     "StopLimiter",
     "StopResult",
     "ThreeZoneBraking",
-    "WorkspaceLimit",
 ]

@@ -19,11 +19,9 @@ from velfence.shaping import _kernels, _nd_kernels
 
 __all__ = [
     "compiled_batch",
-    "compiled_bounds",
     "compiled_core",
     "compiled_loop",
     "compiled_polytope",
-    "compiled_project",
 ]
 
 
@@ -173,52 +171,3 @@ def compiled_polytope() -> tuple[Callable[..., Any] | None, Callable[..., Any] |
     """The numba-compiled n-D exact law: ``(one state, batch loop)``, or Nones without numba."""
     pair = _compiled_polytope()
     return (None, None) if pair is None else pair
-
-
-@cache
-def _compiled_filter() -> dict[str, Callable[..., Any]] | None:
-    try:
-        import numba
-    except ImportError:
-        return None
-    # One globals table for the projection and the bound definition (their constants and callees).
-    table: dict[str, Any] = {**vars(_projection), **vars(_kernels)}
-    for module, name in (
-        (_projection, "_rebuild"),
-        (_projection, "_row_norm"),
-        (_projection, "_slack"),
-        (_projection, "scratch_length"),
-        (_projection, "project_kernel_opts"),
-        (_projection, "project_kernel"),
-        (_kernels, "profile_cap"),
-        (_kernels, "fill_bounds"),
-        (_kernels, "unbounded_candidates"),
-        (_kernels, "bounds_from_distances"),
-    ):
-        f = getattr(module, name)
-        clone = types.FunctionType(f.__code__, table, f.__name__, f.__defaults__, f.__closure__)
-        table[name] = numba.njit(cache=True)(clone)
-    return {k: table[k] for k in ("project_kernel", "bounds_from_distances", "fill_bounds")}
-
-
-def compiled_project() -> Callable[..., Any] | None:
-    """The numba-compiled :func:`~velfence.geometry.projection.project_kernel`, or None.
-
-    Same arguments and results as the plain-Python kernel (``u`` (n,), ``G`` flat (m·n,),
-    ``b`` (m,), ``x`` (n,), ``lam`` (n + 1,) float64, ``act`` (n + 1,) int64, ``wsf`` from
-    :func:`~velfence.geometry.projection.projection_scratch`; every array contiguous); None when
-    numba is not installed. Compiled (cached on disk) on its first call.
-    """
-    table = _compiled_filter()
-    return None if table is None else table["project_kernel"]
-
-
-def compiled_bounds() -> tuple[Callable[..., Any], Callable[..., Any]] | None:
-    """The compiled bound definition: ``(bounds_from_distances, fill_bounds)``, or None.
-
-    The numba twins of :func:`velfence.shaping._kernels.bounds_from_distances` and
-    :func:`~velfence.shaping._kernels.fill_bounds` (contiguous float64 / int64 arrays, the
-    profile's parameters as a tuple of floats); None when numba is not installed.
-    """
-    table = _compiled_filter()
-    return None if table is None else (table["bounds_from_distances"], table["fill_bounds"])

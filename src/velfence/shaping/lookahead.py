@@ -24,7 +24,7 @@ The predicted point alone is not enough: passing an obstacle, the arm now is clo
 where it would stop, and a filter that only looks ahead lets it touch (seen in MuJoCo). So the
 result of the look-ahead stage is shaped once more at the measured position by ``guard`` (the
 wrapped shaper itself when its command and output live in one space; for a twist-mode filter the
-same :class:`~velfence.shaping.filter.SafetyFilter` in joint mode): the output keeps every
+same :class:`~velfence.filter.SafetyFilter` in joint mode): the output keeps every
 guarantee the guard gives at the measured state, and the look-ahead only adds braking.
 ``docs/physics.md`` has the penetration measured in MuJoCo with and without it.
 """

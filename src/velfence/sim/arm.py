@@ -15,7 +15,7 @@ dwell, so the script scales with the speed.
 The loop is :func:`velfence.sim.simulate` on the joint state (kinematic plant
 :math:`q_{k+1} = q_k + \Delta t\,\dot q_k`, :math:`\Delta t` = 1 ms) with the command in task
 space: every controller maps ``(q, v)`` to :math:`\dot q` (:mod:`velfence.sim.arm_baselines`;
-velfence's :class:`~velfence.shaping.filter.SafetyFilter` through :class:`TwistMode`).
+velfence's :class:`~velfence.filter.SafetyFilter` through :class:`TwistMode`).
 """
 
 from __future__ import annotations
@@ -247,7 +247,7 @@ class TcpJog:
 
 
 class TwistMode:
-    """A :class:`~velfence.shaping.filter.SafetyFilter` in twist mode, as a Shaper on ``(q, v)``.
+    """A :class:`~velfence.filter.SafetyFilter` in twist mode, as a Shaper on ``(q, v)``.
 
     ``explain(q, v)`` is ``safety_filter.explain_twist(q, v, point=point)``.
 
@@ -272,7 +272,7 @@ class TwistMode:
         self.filter.reset()
 
     def explain(self, q: ArrayLike, twist: ArrayLike, /) -> Any:
-        """The filter's :class:`~velfence.shaping.filter.FilterResult` for TCP command ``twist``."""
+        """The filter's :class:`~velfence.filter.FilterResult` for TCP command ``twist``."""
         return self.filter.explain_twist(q, twist, point=self.point)
 
     def shape(self, q: ArrayLike, twist: ArrayLike, /) -> FloatArray:
@@ -287,7 +287,7 @@ class TwistMode:
 
 
 def _limits(scene: ArmScene) -> Any:
-    from velfence.shaping.filter import JointLimits
+    from velfence.filter import JointLimits
 
     return JointLimits(
         scene.lower, scene.upper, scene.max_velocity, max_acceleration=scene.max_acceleration
@@ -308,7 +308,7 @@ def build_arm_controllers(
     unknown = [m for m in methods if m not in ARM_METHODS]
     if unknown or not methods:
         raise InvalidParameter(f"methods: expected names from {list(ARM_METHODS)}, got {unknown}")
-    from velfence.shaping.filter import SafetyFilter, SphereObstacle, WorkspaceLimit
+    from velfence.filter import SafetyFilter, SphereObstacle, WorkspaceLimit
 
     limits = _limits(scene)
     sphere = SphereObstacle(scene.sphere_center, radius=scene.sphere_radius, name="sphere")

@@ -75,7 +75,7 @@ __all__ = [
 
 
 class _Limits(Protocol):
-    """What the baselines read of a joint-limit set (``velfence.shaping.filter.JointLimits``)."""
+    """What the baselines read of a joint-limit set (``velfence.filter.JointLimits``)."""
 
     @property
     def lower(self) -> FloatArray: ...
@@ -88,7 +88,7 @@ class _Limits(Protocol):
 
 
 class _Sphere(Protocol):
-    """What the baselines read of a sphere (``velfence.shaping.filter.SphereObstacle``)."""
+    """What the baselines read of a sphere (``velfence.filter.SphereObstacle``)."""
 
     @property
     def center(self) -> FloatArray: ...

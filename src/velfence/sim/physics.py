@@ -25,7 +25,7 @@ Two servos (``servo=``), both common on real velocity-controlled arms:
   wrist's actuator Jacobian). Its lag depends on the pose (:math:`M/k_v`) and gravity is not
   compensated.
 
-Obstacles (:class:`~velfence.shaping.limits.SphereObstacle`) become sphere geoms with
+Obstacles (:class:`~velfence.filter.limits.SphereObstacle`) become sphere geoms with
 ``contype=0, conaffinity=2``: they touch the shipped arms' link capsules (``contype=2``) and
 nothing else. Contacts are counted by MuJoCo's collision detection, the ground truth, not by the
 filter's own geometry. The record (:attr:`MujocoPlant.record`) holds, per control step, the
@@ -54,7 +54,7 @@ from velfence._validate import (
     require_package,
 )
 from velfence.errors import InvalidInput, InvalidParameter
-from velfence.shaping.limits import SphereObstacle
+from velfence.filter.limits import SphereObstacle
 
 __all__ = ["SERVOS", "BodyPush", "MujocoPlant", "PhysicsRecord", "Servo"]
 

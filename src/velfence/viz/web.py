@@ -11,7 +11,7 @@ speed, Space to stop. Scenes (:data:`velfence.view.SCENES`, built by
   control) with its table, shelf and cup, the laser beam and the fixture line;
 * ``"arm-box"`` — the 7-DoF arm of ``docs/arm_box.md`` (:func:`velfence.sim.arm.arm_box_scene`),
   its TCP kept in the box and its links off the sphere by the
-  :class:`~velfence.shaping.filter.SafetyFilter` (kinematic plant, 5 ms period);
+  :class:`~velfence.filter.SafetyFilter` (kinematic plant, 5 ms period);
 * ``"fence-box"`` — the Panda-like arm of :mod:`velfence.robot_sim.fence_box` in MuJoCo
   (computed-torque servo, 2 ms period; needs the ``physics`` extra).
 

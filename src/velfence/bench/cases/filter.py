@@ -3,7 +3,7 @@ r"""Benchmark cases of the joint-space safety filter (``SafetyFilter``).
 The problem: the 7-DoF arm
 :meth:`DHChain.seven_dof() <velfence.mechanisms.chain.DHChain.seven_dof>` (capsule links of
 radius 0.06 m) with its 14 joint-position bounds, 7 joint-velocity bounds (1.5 rad/s), a 6-facet
-box for the TCP (:class:`~velfence.shaping.filter.WorkspaceLimit`) and two sphere obstacles near
+box for the TCP (:class:`~velfence.filter.WorkspaceLimit`) and two sphere obstacles near
 the upper arm and the forearm; every cycle builds the rows from the forward kinematics and the
 Jacobians of the TCP and of the links' critical points. Timed per zone (the filter's
 classification), in joint mode (a joint-velocity command, continuous time and with ``dt`` =
@@ -101,8 +101,8 @@ def scenario() -> Scenario:
     obstacles sit 4 cm and 6 cm from the surfaces of the upper arm and the forearm (inside the
     0.1 m obstacle buffer).
     """
+    from velfence.filter import JointLimits, SphereObstacle, WorkspaceLimit
     from velfence.mechanisms.chain import DHChain
-    from velfence.shaping.filter import JointLimits, SphereObstacle, WorkspaceLimit
 
     radius = 0.06
     arm = DHChain.seven_dof(link_radius=radius)
@@ -131,7 +131,7 @@ def scenario() -> Scenario:
 
 def make_filter(sc: Scenario, *, dt: float | None = None) -> Any:
     """The benchmark's :class:`SafetyFilter` of ``sc`` (obstacle buffer 0.1 m)."""
-    from velfence.shaping.filter import SafetyFilter
+    from velfence.filter import SafetyFilter
 
     return SafetyFilter(
         sc.arm,
@@ -207,7 +207,7 @@ def seven_dof_mjcf(arm: Any, obstacles: Sequence[Any]) -> str:
     Args:
         arm: A :class:`~velfence.mechanisms.chain.DHChain` (``dh``, ``tool``, ``joint_limits``,
             ``link_radius``, ``joint_names``).
-        obstacles: :class:`~velfence.shaping.filter.SphereObstacle` entries.
+        obstacles: :class:`~velfence.filter.SphereObstacle` entries.
 
     Returns:
         The MJCF text (geoms ``link0`` …, ``obstacle0`` …).
@@ -395,7 +395,7 @@ def cycles(s: BenchSettings, step: Step, qp_ok: bool, notes: list[str]) -> list[
                 # The filter's own row building, timed alone, with the pose's kinematics as the
                 # filter computes them (once per cycle) included.
                 def build(q: Any, u: Any, f: Any = flt) -> Any:
-                    return f._rows(q, u, None, f._kinematics(q))
+                    return f._build_rows(q, u, None)
 
                 args = [(q, u) for q, u in pool]
                 t = time_calls(build, args, calls=calls, warmup=warm)

@@ -17,10 +17,7 @@ from hypothesis import strategies as st
 
 from optional import requires
 from velfence.errors import InvalidInput, InvalidParameter
-from velfence.geometry.polytope import ConvexPolytope
-from velfence.geometry.primitives import points_segments_distances
-from velfence.mechanisms.chain import DHChain, PlanarArm
-from velfence.shaping.filter import (
+from velfence.filter import (
     FilterResult,
     JointLimits,
     Kinematics,
@@ -28,6 +25,9 @@ from velfence.shaping.filter import (
     SphereObstacle,
     WorkspaceLimit,
 )
+from velfence.geometry.polytope import ConvexPolytope
+from velfence.geometry.primitives import points_segments_distances
+from velfence.mechanisms.chain import DHChain, PlanarArm
 from velfence.shaping.profiles import LinearBuffer, ThreeZoneBraking
 
 ARM = DHChain.seven_dof(link_radius=0.04)

@@ -1,4 +1,4 @@
-"""Limits a :class:`~velfence.shaping.filter.SafetyFilter` enforces: joints, workspace, obstacles.
+"""Limits a :class:`~velfence.filter.SafetyFilter` enforces: joints, workspace, obstacles.
 
 Frozen, validated value objects (their units and shapes in each class); the filter turns them into
 rows of its minimum-change problem every cycle.

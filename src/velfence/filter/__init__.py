@@ -1,0 +1,75 @@
+r"""The joint-space safety filter: row providers, the priority ladder, the kinematics protocol.
+
+Math contract: every cycle, for a joint position ``q`` and a command (joint velocity ``u`` or a
+twist), :class:`SafetyFilter` returns the joint velocity ``x`` nearest the command (in the
+joint metric ``W``, or the twist's damped least squares) subject to ``G x >= b``, the rows of
+every :class:`~velfence.filter.rows.RowProvider` built from one
+:class:`~velfence.filter.kinematics.KinematicsFrame` of ``q``: joint position (braking profile)
+and velocity, acceleration, workspace polytopes on named points, sphere obstacles against capsule
+links, and the user's own. When the rows have no common point the ladder
+(:mod:`velfence.filter.ladder`) drops the acceleration rows, then relaxes only violated rows'
+recovery bounds (obstacles, workspace, joints) toward "no further out", else stops: zero meets
+every row of the safety levels once relaxed, so no workspace or obstacle row is ever dropped.
+With ``dt`` the next pose is checked on the kinematics (``d1 >= min(0, d0)``). With
+``max_iterations``/``time_budget`` a cycle that runs out answers a safe fallback. The output is
+always finite; bad input raises a :class:`~velfence.errors.VelfenceError` naming the argument.
+
+Modules: :mod:`~velfence.filter.kinematics` (protocol and per-cycle cache),
+:mod:`~velfence.filter.limits` (limit value objects), :mod:`~velfence.filter.rows` (row
+providers), :mod:`~velfence.filter.ladder` (priority ladder and fallbacks),
+:mod:`~velfence.filter.result` (:class:`FilterResult`), :mod:`~velfence.filter.solve` (the
+projection under the metric, its backends, cap and warm start), :mod:`~velfence.filter.stack`
+(one cycle's stacked rows and their keys), :mod:`~velfence.filter.parts` (the validated parts,
+checked at construction), :mod:`~velfence.filter.filter` (:class:`SafetyFilter`).
+"""
+
+from velfence.filter.filter import SafetyFilter
+from velfence.filter.kinematics import (
+    CachedFrame,
+    ChainData,
+    Kinematics,
+    KinematicsFrame,
+)
+from velfence.filter.limits import JointLimits, Profile, SphereObstacle, WorkspaceLimit
+from velfence.filter.result import FilterResult
+from velfence.filter.rows import (
+    LEVEL_JOINT,
+    LEVEL_NAMES,
+    LEVEL_OBSTACLE,
+    LEVEL_RATE,
+    LEVEL_WORKSPACE,
+    JointAccelerationLimit,
+    JointPositionLimit,
+    JointVelocityLimit,
+    ObstacleRows,
+    RowBlock,
+    RowContext,
+    RowProvider,
+    WorkspaceRows,
+)
+
+__all__ = [
+    "LEVEL_JOINT",
+    "LEVEL_NAMES",
+    "LEVEL_OBSTACLE",
+    "LEVEL_RATE",
+    "LEVEL_WORKSPACE",
+    "CachedFrame",
+    "ChainData",
+    "FilterResult",
+    "JointAccelerationLimit",
+    "JointLimits",
+    "JointPositionLimit",
+    "JointVelocityLimit",
+    "Kinematics",
+    "KinematicsFrame",
+    "ObstacleRows",
+    "Profile",
+    "RowBlock",
+    "RowContext",
+    "RowProvider",
+    "SafetyFilter",
+    "SphereObstacle",
+    "WorkspaceLimit",
+    "WorkspaceRows",
+]

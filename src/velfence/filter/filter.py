@@ -1,0 +1,597 @@
+r"""The joint-space safety filter: one minimum-change problem per control cycle.
+
+Every cycle the commanded joint velocity ``u`` (or the joint velocity a task-space twist asks
+for) is replaced by the nearest joint velocity ``x`` that meets every safety row at once::
+
+    minimise ½ (x - u)ᵀ W (x - u)                  joint mode (W = diag(weights), default I)
+    or       ½ ‖J x - v‖² + ½ λ² ‖x‖²              twist mode (damped least squares, λ = damping)
+    subject to  G x >= b                           (the rows of every provider)
+
+Both objectives are ``½ (x - u)ᵀ H (x - u) + const`` (twist mode: ``H = JᵀJ + λ²I``,
+``u = H⁻¹ Jᵀ v``); with ``H = L Lᵀ`` and ``y = Lᵀ x`` the problem is the Euclidean projection of
+``Lᵀ u`` onto ``{y : G L⁻ᵀ y >= b}``, solved exactly by :mod:`velfence.geometry.projection`.
+
+The rows come from row providers (:mod:`velfence.filter.rows`: joint position with its braking
+profile, joint velocity, joint acceleration, a workspace polytope per :class:`WorkspaceLimit`,
+sphere obstacles against capsule links, and the user's own), all from one kinematics frame per
+cycle (:mod:`velfence.filter.kinematics`). When they have no common point the priority ladder
+(:mod:`velfence.filter.ladder`) decides what gives way; with ``max_iterations`` or
+``time_budget`` a cycle that runs out answers the ladder's safe fallback.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+import warnings
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from velfence._typing import FloatArray
+from velfence._validate import (
+    MAX_MAGNITUDE,
+    check_flag,
+    check_positive,
+    check_positive_int,
+    describe,
+    readonly,
+    real_array,
+)
+from velfence.errors import InvalidInput, InvalidParameter
+from velfence.filter import parts
+from velfence.filter.compiled import compiled_rows
+from velfence.filter.kinematics import Kinematics, checked, frame_of
+from velfence.filter.ladder import DeadlineHit, LadderOutcome, run_ladder, safe_fallback
+from velfence.filter.limits import JointLimits, Profile, SphereObstacle, WorkspaceLimit
+from velfence.filter.result import FilterResult
+from velfence.filter.rows import (
+    LEVEL_RATE,
+    PLAIN_BOUNDS,
+    BoundKernels,
+    JointAccelerationLimit,
+    JointPositionLimit,
+    JointVelocityLimit,
+    RowContext,
+    RowProvider,
+    WorkspaceRows,
+)
+from velfence.filter.solve import Metric, Projector, damped_factor, finite
+from velfence.filter.stack import RowStack, collect
+from velfence.shaping._kernels import ZONE_NAMES, zone_code
+from velfence.shaping.base import InvalidPolicy, OnInvalid, Zone
+from velfence.shaping.polytope import PolytopeBackend, pick_backend
+
+__all__ = ["SafetyFilter"]
+
+_BINDING = 1e-9  # relative slack under which a row counts as active
+_COMMAND_CAP = 1e3  # commands are shortened beyond this multiple of the fastest joint limit
+
+
+class SafetyFilter(InvalidPolicy):
+    r"""Minimum-change joint velocity under joint, workspace, obstacle and rate limits.
+
+    See :mod:`velfence.filter` and ``docs/safety_filter.md`` for the problem, the rows and the
+    priority ladder.
+
+    Args:
+        robot: The kinematics (:class:`~velfence.filter.kinematics.Kinematics`: ``DHChain``,
+            ``PlanarArm``, ``Puma560``, ``MujocoRobot``, or any object with that protocol).
+        limits: The joint limits (:class:`JointLimits`, ``dof`` joints; names checked against
+            ``robot.joint_names`` when given).
+        workspace: Workspace limits (:class:`WorkspaceLimit`, one or a sequence).
+        obstacles: Sphere obstacles (:class:`SphereObstacle`); need the robot's capsule
+            geometry (``link_radius`` and the frame's ``segments``/``point_jacobian``).
+        providers: Further row providers (:class:`~velfence.filter.rows.RowProvider`), each at
+            its declared level of the ladder.
+        dt: Control period [s] (``None``: continuous-time bounds). With ``dt`` every row also
+            keeps one period's motion inside, the rows are checked on the model, and the
+            acceleration rows apply.
+        profile: One approach profile for every joint limit (radians); by default a
+            three-zone braking profile for each joint with an acceleration limit
+            (``ThreeZoneBraking(gain=2 a/v, max_speed=v, max_acceleration=a)``), else a linear
+            buffer of width ``joint_buffer`` whose cap speed is the joint's ``max_velocity``.
+        joint_buffer: Width of the default linear buffer at joint limits [rad], > 0.
+        spring_gain: Recovery gain of the default joint buffers and the obstacles [1/s], >= 0.
+        obstacle_buffer: Width of the obstacles' linear buffer [m], > 0.
+        weights: Joint-mode metric ``W``: ``None`` (identity), per-joint weights (n,) > 0, or a
+            symmetric positive definite (n, n) matrix.
+        damping: :math:`\lambda` of the twist mode's damped least squares [m/rad], > 0.
+        max_iterations: Iteration cap of every solve, an int >= 1; ``None`` (default): the
+            projection's own cap ``4 (m + n) + 16``. A solve that hits it ends the cycle on the
+            safe fallback (``deadline="iterations"``).
+        time_budget: Time budget of one cycle [s], > 0; ``None`` (default): none. A cycle past
+            it starts no further solve and answers the safe fallback (``deadline="time"``).
+        accelerate: Deprecated and ignored (the numba filter solve is gone); a
+            ``DeprecationWarning`` when given.
+        on_invalid: ``"raise"`` or ``"stop"`` (zero velocity, zone ``"invalid"``).
+        backend: Implementation of the solve and the bounds
+            (:data:`~velfence.shaping.polytope.PolytopeBackend`): ``"auto"`` (default) the
+            compiled C core when importable, else the Python reference; ``"python"``; ``"c"``
+            requires the core. The same arithmetic bit for bit. A solve with ``max_iterations``
+            or a warm start runs the Python kernel until the core exposes those options.
+
+    Raises:
+        InvalidParameter: a bad parameter, limits of the wrong size or names, a workspace point
+            the robot does not have or whose dimension differs from its polytope's, obstacles
+            on a robot without capsule geometry, a provider without ``level``/``rows``, or
+            kinematics or chain data of the wrong shape.
+    """
+
+    __slots__ = (
+        "_clock",
+        "_compiled",
+        "_has_accel",
+        "_metric",
+        "_n_builtin",
+        "_obstacles",
+        "_previous",
+        "_projector",
+        "_providers",
+        "_speed_scale",
+        "_warm",
+        "_workspace",
+        "backend",
+        "damping",
+        "deadline_misses",
+        "dof",
+        "dt",
+        "limits",
+        "max_iterations",
+        "obstacle_buffer",
+        "robot",
+        "spring_gain",
+        "task_dim",
+        "time_budget",
+    )
+
+    method = "safety-filter"
+
+    def __init__(
+        self,
+        robot: Kinematics,
+        *,
+        limits: JointLimits,
+        workspace: WorkspaceLimit | Sequence[WorkspaceLimit] = (),
+        obstacles: Sequence[SphereObstacle] = (),
+        providers: Sequence[RowProvider] = (),
+        dt: float | None = None,
+        profile: Profile | None = None,
+        joint_buffer: float = 0.1,
+        spring_gain: float = 1.0,
+        obstacle_buffer: float = 0.05,
+        weights: ArrayLike | None = None,
+        damping: float = 1e-2,
+        max_iterations: int | None = None,
+        time_budget: float | None = None,
+        accelerate: bool | None = None,
+        on_invalid: OnInvalid = "raise",
+        backend: PolytopeBackend = "auto",
+    ) -> None:
+        super().__init__(on_invalid=on_invalid)
+        parts.check_robot(robot)
+        if accelerate is not None:
+            check_flag("accelerate", accelerate)
+            warnings.warn(
+                "SafetyFilter(accelerate=...) is deprecated and ignored: the numba filter solve "
+                "is gone (backend= chooses the compiled core)",
+                DeprecationWarning,
+                stacklevel=2,
+            )
+        self.robot = robot
+        n = int(robot.dof)
+        self.dof = n
+        if not isinstance(limits, JointLimits):
+            raise InvalidParameter(f"limits: expected a JointLimits, got {describe(limits)}")
+        if limits.dof != n:
+            raise InvalidParameter(
+                f"limits: expected limits of the robot's {n} joints, got {limits.dof}"
+            )
+        if limits.names is not None and tuple(limits.names) != tuple(robot.joint_names):
+            raise InvalidParameter(
+                f"limits: joint names {list(limits.names)} differ from the robot's "
+                f"{list(robot.joint_names)}"
+            )
+        self.limits = limits
+        self._speed_scale = float(np.max(limits.max_velocity))
+        self.dt = None if dt is None else check_positive("dt", dt, unit="s")
+        self.spring_gain = check_positive("spring_gain", spring_gain, allow_zero=True, unit="1/s")
+        jb = check_positive("joint_buffer", joint_buffer, unit="rad")
+        self.obstacle_buffer = check_positive("obstacle_buffer", obstacle_buffer, unit="m")
+        self.damping = check_positive("damping", damping, unit="m/rad")
+        self.max_iterations = (
+            None
+            if max_iterations is None
+            else check_positive_int("max_iterations", max_iterations, example=50, maximum=2**31 - 1)
+        )
+        self.time_budget = (
+            None if time_budget is None else check_positive("time_budget", time_budget, unit="s")
+        )
+        self.deadline_misses = 0
+        self._clock: Callable[[], float] = time.perf_counter
+        self._warm: set[tuple[int, int]] = set()
+        core, self.backend = pick_backend(backend)
+        self._projector = Projector(core, self.max_iterations)
+        kern: BoundKernels = PLAIN_BOUNDS if core is None else (None, core)
+        profs = parts.joint_profiles(limits, profile, joint_buffer=jb, spring_gain=self.spring_gain)
+        acc = limits.max_acceleration
+        self._has_accel = acc is not None and self.dt is not None and bool(np.isfinite(acc).any())
+        self._previous: FloatArray | None = None
+        frame0, self.task_dim = parts.robot_frame(robot, n)
+        self._workspace = parts.workspaces(robot, workspace, frame0)
+        self._obstacles = parts.obstacle_list(obstacles)
+        rows: list[Any] = [
+            JointPositionLimit(limits, profs, kernels=kern),
+            JointVelocityLimit(limits),
+        ]
+        if self._has_accel:
+            rows.append(JointAccelerationLimit(limits))
+        multi = len(self._workspace) > 1
+        for w_i, w in enumerate(self._workspace):
+            pre = f"workspace {w_i}: " if multi else ""
+            rows.append(WorkspaceRows(w, dim=self.task_dim, prefix=pre, kernels=kern))
+        if self._obstacles:
+            rows.append(
+                parts.obstacle_rows(
+                    robot,
+                    self._obstacles,
+                    frame0,
+                    n=n,
+                    buffer=self.obstacle_buffer,
+                    spring_gain=self.spring_gain,
+                    max_velocity=limits.max_velocity,
+                )
+            )
+        self._n_builtin = len(rows)
+        rows.extend(parts.custom_providers(providers))
+        self._providers: tuple[Any, ...] = tuple(rows)
+        self._compiled = None if providers else compiled_rows(core, self, profs)
+        self._metric: Metric = parts.metric(weights, n)
+
+    # ------------------------------------------------------------------ state
+    @property
+    def workspace(self) -> tuple[WorkspaceLimit, ...]:
+        """The workspace limits."""
+        return self._workspace
+
+    @property
+    def obstacles(self) -> tuple[SphereObstacle, ...]:
+        """The obstacles."""
+        return self._obstacles
+
+    @property
+    def providers(self) -> tuple[RowProvider, ...]:
+        """Every row provider in row order: the built-in ones, then the user's."""
+        return self._providers
+
+    @property
+    def stateful(self) -> bool:
+        """True when acceleration rows apply and the filter remembers its last output."""
+        return self._has_accel
+
+    def reset(self) -> None:
+        """Forget the remembered last output and the warm start (a fresh start)."""
+        self._previous = None
+        self._warm = set()
+
+    # ------------------------------------------------------------------ the cycle
+    def _state(self, name: str, x: Any, width: int, unit: str) -> FloatArray:
+        if type(x) is np.ndarray and x.dtype == np.float64 and x.shape == (width,):
+            return x.copy()
+        return real_array(
+            name, x, (width,), what=f"{width} numbers [{unit}]", allow_nonfinite=True,
+            max_abs=None,
+        )  # fmt: skip
+
+    def _stopped(self, q: FloatArray, cmd: FloatArray) -> FilterResult:
+        return FilterResult(
+            output=np.zeros(self.dof), command=cmd, position=q, zone="invalid", active=(),
+            active_names=(), slack=np.zeros(0), constraint_names=(), stages=("stop",),
+            dropped=(), rate_override=False, rows=(np.zeros((0, self.dof)), np.zeros(0)),
+        )  # fmt: skip
+
+    def _bad(self, *arrays: FloatArray) -> bool:
+        for a in arrays:
+            if a.size:
+                vals = a.ravel().tolist()
+                s = sum(vals)
+                if not (s - s == 0.0 and max(map(abs, vals)) <= MAX_MAGNITUDE):
+                    return True
+        return False
+
+    def _cycle(
+        self,
+        q: FloatArray,
+        u: FloatArray,
+        cmd: FloatArray,
+        L: Metric,
+        previous: Any,
+        remember: bool,
+        frame: Any = None,
+    ) -> FilterResult | tuple[Any, ...]:
+        """One cycle's rows and solve: ``(cycle, x, u, outcome, scaled, deadline)`` or a stop."""
+        t0 = self._clock() if self.time_budget is not None else 0.0
+        prev: FloatArray | None = None
+        if previous is not None:
+            prev = self._state("previous", previous, self.dof, "rad/s")
+            if self._bad(prev):
+                self._invalid(f"non-finite previous={prev.tolist()}")
+                return self._stopped(q, cmd)
+        elif remember:
+            prev = self._previous
+        scaled = False
+        cap = _COMMAND_CAP * self._speed_scale
+        big = max(map(abs, u.tolist())) if u.size else 0.0
+        if big > cap:
+            # A command far beyond what the joints can do is shortened in its own direction, so
+            # the solve stays well inside floating point.
+            u = u * (cap / big)
+            scaled = True
+        with np.errstate(all="ignore"):
+            cyc = self._build_rows(q, u, prev, frame)
+            budget = self.time_budget
+
+            def solve(G: FloatArray, b: FloatArray, warm: Any) -> tuple[int, FloatArray]:
+                over = budget is not None and self._clock() - t0 > budget
+                if over and G.shape[0] and not bool(np.all(G @ u >= b)):
+                    raise DeadlineHit("time")
+                return self._projector.project(u, G, b, L, warm)
+
+            nxt = self._next_distances(q, cyc) if len(cyc.checked) and self.dt else None
+            warm = cyc.rows_of(self._warm) if self._warm else None
+            deadline: str | None = None
+            try:
+                out = run_ladder(
+                    cyc.G, cyc.b, cyc.level, cyc.violated, solve, warm=warm,
+                    checked=cyc.checked if nxt is not None else None, d0=cyc.d0,
+                    next_distances=nxt, dt=self.dt,
+                )  # fmt: skip
+                x = out.x
+            except DeadlineHit as hit:
+                deadline = hit.kind
+                self.deadline_misses += 1
+                x, relaxed, how = safe_fallback(
+                    u, cyc.G, cyc.b, checked=cyc.checked if nxt is not None else None,
+                    d0=cyc.d0, next_distances=nxt, dt=self.dt,
+                )  # fmt: skip
+                stages = ["deadline"] + ([how] if how else [])
+                rate = bool(relaxed) and bool(np.any(cyc.level[relaxed] == LEVEL_RATE))
+                out = LadderOutcome(x, relaxed, ["acceleration"] if rate else [], stages, rate)
+        if not finite(x):
+            self._invalid("input too large: the filtered velocity overflowed")
+            return self._stopped(q, cmd)
+        if remember:
+            if self._has_accel:
+                self._previous = readonly(x.copy())
+            self._remember_active(cyc, x)
+        return cyc, x, u, out, scaled, deadline
+
+    def _build_rows(
+        self, q: FloatArray, u: FloatArray, prev: FloatArray | None, frame: Any = None
+    ) -> RowStack:
+        """This cycle's rows by the route in use (compiled for a DH chain in joint mode)."""
+        if self._compiled is not None and frame is None:
+            return self._compiled.stack(q, u, prev if self._has_accel else None)
+        if frame is None:
+            frame = frame_of(self.robot, q)
+        ctx = RowContext(q, u, prev, self.dt, frame)
+        return collect(self._providers, self._n_builtin, ctx, self.dof)
+
+    def _remember_active(self, cyc: RowStack, x: FloatArray) -> None:
+        """The rows binding at ``x``, by key: the next cycle's warm start."""
+        if not self._projector.warm_starts:
+            return
+        if cyc.G.shape[0] == 0:
+            self._warm = set()
+            return
+        with np.errstate(invalid="ignore"):
+            slack = cyc.G @ x - cyc.b
+        act = np.flatnonzero(slack <= _BINDING * (1.0 + np.abs(cyc.b)))
+        self._warm = cyc.keys(act.tolist()) if act.shape[0] else set()
+
+    def _next_distances(self, q: FloatArray, cyc: RowStack) -> Callable[[FloatArray], FloatArray]:
+        """The model check's true next distances: ``x -> d1`` at ``q + x dt`` (a new frame)."""
+        dt = self.dt or 0.0
+
+        def nxt(x: FloatArray) -> FloatArray:
+            return cyc.distances_at(self.robot, q + x * dt)
+
+        return nxt
+
+    def _run(
+        self,
+        q: FloatArray,
+        u: FloatArray,
+        cmd: FloatArray,
+        L: Metric,
+        previous: Any,
+        remember: bool,
+        frame: Any = None,
+    ) -> FilterResult:
+        c = self._cycle(q, u, cmd, L, previous, remember, frame)
+        if isinstance(c, FilterResult):
+            return c
+        cyc, x, u, out, scaled, deadline = c
+        G = cyc.G
+        b0 = cyc.b
+        fin = np.isfinite(b0)
+        with np.errstate(invalid="ignore"):
+            slack = np.where(fin, G @ x - b0, math.inf)
+        tol = _BINDING * (1.0 + np.abs(np.where(fin, b0, 0.0)))
+        viol = cyc.violated
+        act = tuple(np.flatnonzero((slack <= tol) | viol).tolist())
+        n_out = int(np.count_nonzero(viol))
+        zone: Zone = ZONE_NAMES[zone_code(n_out, len(act))]  # type: ignore[assignment]
+        pre: list[str] = ["command-scaled"] if scaled else []
+        if not np.array_equal(x, u):
+            pre.append("projection")
+        if n_out:
+            pre.append("recovery")
+        names = cyc.names()
+        return FilterResult(
+            output=x, command=cmd, position=q, zone=zone, active=act,
+            active_names=tuple(names[i] for i in act), slack=readonly(slack),
+            constraint_names=tuple(names), stages=tuple(pre + out.stages),
+            dropped=tuple(out.dropped), rate_override=out.rate_override,
+            rows=(readonly(G), readonly(b0)), relaxed=tuple(names[i] for i in out.relaxed),
+            deadline=deadline,
+        )  # fmt: skip
+
+    # ------------------------------------------------------------------ public
+    def explain(
+        self, q: ArrayLike, qd_cmd: ArrayLike, *, previous: ArrayLike | None = None
+    ) -> FilterResult:
+        """Filter a joint-velocity command, with diagnostics.
+
+        Args:
+            q: Joint position [rad], shape (dof,).
+            qd_cmd: Commanded joint velocity [rad/s], shape (dof,).
+            previous: The last output [rad/s], shape (dof,), for the acceleration rows; when
+                ``None`` and acceleration rows apply (``dt`` and ``max_acceleration``) the
+                filter uses the output it remembered from its last call (none after
+                :meth:`reset`).
+
+        Returns:
+            A :class:`~velfence.filter.result.FilterResult`.
+
+        Raises:
+            InvalidInput: wrong shapes, non-finite values with ``on_invalid="raise"``, a
+                kinematics answer of the wrong shape or not finite (naming ``robot``), a row
+                provider that raises or returns bad rows (naming it).
+        """
+        qa = self._state("q", q, self.dof, "rad")
+        ua = self._state("qd_cmd", qd_cmd, self.dof, "rad/s")
+        if self._bad(qa, ua):
+            self._invalid(f"non-finite input: q={qa.tolist()}, qd_cmd={ua.tolist()}")
+            return self._stopped(qa, ua)
+        return self._run(qa, ua, ua, self._metric, previous, True)
+
+    def filter(
+        self, q: ArrayLike, qd_cmd: ArrayLike, *, previous: ArrayLike | None = None
+    ) -> FloatArray:
+        """The filtered joint velocity [rad/s], shape (dof,) (:meth:`explain`'s output).
+
+        The same cycle as :meth:`explain` without the diagnostics (zone, slack, names).
+        """
+        qa = self._state("q", q, self.dof, "rad")
+        ua = self._state("qd_cmd", qd_cmd, self.dof, "rad/s")
+        if self._bad(qa, ua):
+            self._invalid(f"non-finite input: q={qa.tolist()}, qd_cmd={ua.tolist()}")
+            return np.zeros(self.dof)
+        c = self._cycle(qa, ua, ua, self._metric, previous, True)
+        return c.output if isinstance(c, FilterResult) else c[1]
+
+    def explain_twist(
+        self,
+        q: ArrayLike,
+        twist: ArrayLike,
+        *,
+        point: str = "tcp",
+        previous: ArrayLike | None = None,
+    ) -> FilterResult:
+        r"""Filter a task-space command: damped least squares under the same rows.
+
+        Minimises :math:`\tfrac12\|J x - v\|^2 + \tfrac12\lambda^2\|x\|^2` (``λ = damping``)
+        subject to every row; ``J`` is the point's linear Jacobian (twist of shape
+        (task_dim,)) or, for a spatial robot with ``angular_jacobian``, stacked with the angular
+        one (twist (6,): linear [m/s] then angular [rad/s]).
+
+        Args:
+            q: Joint position [rad], shape (dof,).
+            twist: Desired velocity of ``point``, shape (task_dim,) or (6,).
+            point: The point the twist is for (a name of the robot's ``points``).
+            previous: As in :meth:`explain`.
+
+        Raises:
+            InvalidInput: wrong shapes or an unknown point; non-finite values with
+                ``on_invalid="raise"``.
+        """
+        qa = self._state("q", q, self.dof, "rad")
+        va = real_array("twist", twist, (None,), allow_nonfinite=True, max_abs=None)
+        has_ang = hasattr(self.robot, "angular_jacobian")
+        sizes = (self.task_dim, 6) if has_ang and self.task_dim == 3 else (self.task_dim,)
+        if va.shape[0] not in sizes:
+            raise InvalidInput(
+                f"twist: expected shape {' or '.join(f'({s},)' for s in sizes)}, got shape "
+                f"{va.shape}"
+            )
+        if not isinstance(point, str) or point not in self.robot.points:
+            raise InvalidInput(
+                f"point: expected one of {list(self.robot.points)}, got {describe(point)}"
+            )
+        if self._bad(qa, va):
+            self._invalid(f"non-finite input: q={qa.tolist()}, twist={va.tolist()}")
+            return self._stopped(qa, va)
+        frame = frame_of(self.robot, qa)
+        n = self.dof
+        J: Any = checked(f"kinematics(q).jacobian({point!r})", frame.jacobian(point),
+                         (self.task_dim, n))  # fmt: skip
+        if va.shape[0] == 6 and self.task_dim == 3:
+            ang = getattr(frame, "angular_jacobian", None)
+            robot: Any = self.robot
+            Ja = ang() if ang is not None else robot.angular_jacobian(qa)
+            J = np.vstack((J, checked("angular_jacobian(q)", Ja, (3, n))))
+        with np.errstate(all="ignore"):
+            H = J.T @ J + (self.damping**2) * np.eye(n)
+            L = damped_factor(H)
+            u: FloatArray = np.asarray(
+                np.linalg.solve(L.T, np.linalg.solve(L, J.T @ va)), dtype=np.float64
+            )
+        if self._bad(u):
+            self._invalid("input too large: the twist's joint velocity overflowed")
+            return self._stopped(qa, va)
+        return self._run(qa, u, va, L, previous, True, frame)
+
+    def filter_twist(
+        self,
+        q: ArrayLike,
+        twist: ArrayLike,
+        *,
+        point: str = "tcp",
+        previous: ArrayLike | None = None,
+    ) -> FloatArray:
+        """The filtered joint velocity for a twist [rad/s], shape (dof,) (:meth:`explain_twist`)."""
+        return self.explain_twist(q, twist, point=point, previous=previous).output
+
+    def shape(self, q: ArrayLike, qd_cmd: ArrayLike) -> FloatArray:
+        """Contract alias of :meth:`filter` (joint position, joint-velocity command)."""
+        return self.filter(q, qd_cmd)
+
+    def shape_batch(self, Q: ArrayLike, QD: ArrayLike) -> FloatArray:
+        """:meth:`filter` on N independent states (no remembered output or warm start).
+
+        Args:
+            Q: Joint positions [rad], shape (N, dof).
+            QD: Commanded joint velocities [rad/s], shape (N, dof).
+
+        Returns:
+            Shape (N, dof).
+
+        Raises:
+            InvalidInput: wrong shapes, or non-finite rows with ``on_invalid="raise"``.
+        """
+        n = self.dof
+        Qa = real_array("Q", Q, (None, n), allow_nonfinite=True, max_abs=None)
+        Va = real_array("QD", QD, (None, n), allow_nonfinite=True, max_abs=None)
+        if Qa.shape != Va.shape:
+            raise InvalidInput(
+                f"Q and QD: expected the same shape (N, {n}), got {Qa.shape} and {Va.shape}"
+            )
+        out = np.zeros((Qa.shape[0], n))
+        warm = self._warm
+        self._warm = set()
+        try:
+            for k in range(Qa.shape[0]):
+                if self._bad(Qa[k], Va[k]):
+                    try:
+                        self._invalid(f"non-finite input in row {k}")
+                    except InvalidInput as exc:
+                        raise InvalidInput(f"Q, QD row {k}: {exc}") from None
+                    continue
+                c = self._cycle(Qa[k], Va[k], Va[k], self._metric, None, False)
+                out[k] = c.output if isinstance(c, FilterResult) else c[1]
+        finally:
+            self._warm = warm
+        return out
