@@ -15,8 +15,8 @@ state. An *escape* is a step whose depth outside grows by more than the round-of
 Chebyshev centre): ``depth(x1) - depth(x0) > tol`` with ``depth(x) = max(0, max_i -d_i(x))``.
 Measured for :class:`~velfence.shaping.polytope.PolytopeShaper` (``method="exact"``, three
 buffers, ``dt`` set; :meth:`~velfence.shaping.polytope.PolytopeShaper.shape_batch`) and for the
-workspace rows of :class:`~velfence.shaping.filter.SafetyFilter` on :class:`CartesianPoint`, a
-robot whose point is its joint vector (so a d-D workspace polytope is the filter's safe set).
+workspace rows of :class:`~velfence.filter.SafetyFilter` on :class:`CartesianPoint`, a
+robot whose point is its joint vector (so a 3-D workspace polytope is the filter's safe set).
 
 **Closed-loop filter soak** (:func:`run_loop_campaign`). Episodes of a ``SafetyFilter`` on the
 shipped UR5e and Panda models (:func:`velfence.robots.ur5e`, :func:`velfence.robots.panda`,
@@ -89,7 +89,8 @@ of random direction, along the outward normal of one tight facet, or into the co
 scales per second. One step of `dt = 1 ms`. An **escape** is a step whose depth outside grows by
 more than `1e-12 (scale + |x|)`. Run on `PolytopeShaper` (exact law, `dt` set, buffers of 2 %,
 20 % and 90 % of the Chebyshev radius, `shape_batch`) and on `SafetyFilter`'s workspace rows
-(joint mode on `CartesianPoint`, a robot whose point is its joint vector, same buffers).
+(joint mode on `CartesianPoint`, a robot whose point is its joint vector, same buffers; 3-D
+polytopes only, the filter's task space being 2-D or 3-D).
 
 **Closed-loop filter soak.** `SafetyFilter` on the shipped UR5e and Panda models
 (`velfence.robots.ur5e` / `panda`, capsule links of 5 cm, a 5 cm tool), `dt` set, a kinematic
@@ -289,8 +290,8 @@ def _vertex_states(rng: Rng, P: Any, n: int, max_speed: float) -> _States:
 class CartesianPoint:
     """A robot whose only point is its joint vector: ``fk(q) = q``, ``J = I``.
 
-    Makes a d-D workspace polytope the :class:`~velfence.shaping.filter.SafetyFilter`'s safe set
-    (the filter's workspace rows, alone, in any dimension).
+    Makes a workspace polytope the :class:`~velfence.filter.SafetyFilter`'s safe set (the
+    filter's workspace rows, alone; the filter accepts task spaces of 2 or 3 dimensions).
 
     Args:
         dim: Number of joints and task dimensions, >= 1.
@@ -422,6 +423,9 @@ class _Tally:
         )
 
 
+#: Largest polytope dimension the filter campaign uses: the filter's task space is 2-D or 3-D.
+_FILTER_MAX_DIM = 3
+
 ShaperFactory = Callable[[Any, float, float], Any]
 """``factory(polytope, buffer, dt)`` → the shaper under test (has ``shape_batch(X, U)``)."""
 
@@ -447,7 +451,8 @@ def run_vertex_campaign(
 
     Args:
         states: States stepped by the shaper (``PolytopeShaper`` exact with ``dt``), >= 1.
-        filter_states: States stepped by the filter's workspace rows, >= 0 (0: no filter run).
+        filter_states: States stepped by the filter's workspace rows, >= 0 (0: no filter run);
+            drawn from the polytopes of dimension <= 3 (the filter's task space is 2-D or 3-D).
         dims: Dimensions of the random polytopes (cycled), each 2-10.
         per_polytope: States per polytope, >= 1 (the filter gets the same share of polytopes).
         dt: Step [s], > 0.
@@ -479,6 +484,12 @@ def run_vertex_campaign(
             f"dims: expected a non-empty list or tuple of ints in [2, 10], got {describe(dims)}"
         )
     dl = [int(d) for d in dims]
+    eligible = sum(d <= _FILTER_MAX_DIM for d in dl)  # the filter's task space is 2-D or 3-D
+    if nf and not eligible:
+        raise InvalidParameter(
+            f"dims: the filter's workspace rows need a dimension <= {_FILTER_MAX_DIM} in dims "
+            f"(its task space is 2-D or 3-D), got {dl}; or pass filter_states=0"
+        )
     _check_callable("shaper", shaper, optional=True)
     _check_callable("progress", progress)
     make = shaper if shaper is not None else _exact_shaper
@@ -508,8 +519,9 @@ def run_vertex_campaign(
                 Y[part] = make(P, buffers[j], dt).shape_batch(st.X[part], st.U[part])
             sh.seconds += time.perf_counter() - t0
             sh.add(P, size, st, Y, dt, buffers)
-        if done_f < nf:
-            k = min(max(1, per * nf // max(total, 1)), nf - done_f)
+        if done_f < nf and dim <= _FILTER_MAX_DIM:
+            share = -(-per * nf * len(dl) // (max(total, 1) * eligible))
+            k = min(max(1, share), nf - done_f)
             st = _vertex_states(rng, P, k, speed)
             t0 = time.perf_counter()
             Y, failed = _filter_steps(P, st, buffers, speed, dt)
@@ -533,7 +545,7 @@ def _filter_steps(
     P: Any, st: _States, buffers: Sequence[float], speed: float, dt: float
 ) -> tuple[FloatArray, NDArray[np.bool_]]:
     """One filter cycle per state (joint mode on a CartesianPoint): outputs and failures."""
-    from velfence.shaping.filter import JointLimits, SafetyFilter, WorkspaceLimit
+    from velfence.filter import JointLimits, SafetyFilter, WorkspaceLimit
 
     n, dim = st.X.shape
     robot = CartesianPoint(dim=dim)
@@ -688,8 +700,8 @@ def _episode(
     make: FilterFactory | None = None,
 ) -> _Episode:
     """A random scene around a random start (module docstring)."""
+    from velfence.filter import JointLimits, SafetyFilter, SphereObstacle, WorkspaceLimit
     from velfence.geometry.polytope import ConvexPolytope
-    from velfence.shaping.filter import JointLimits, SafetyFilter, SphereObstacle, WorkspaceLimit
 
     n = int(robot.dof)
     lim0 = np.asarray(robot.joint_limits, dtype=np.float64)  # (n, 2)
@@ -999,8 +1011,8 @@ def replay_loop_example(example: Any) -> tuple[FloatArray, float, float, tuple[s
     Raises:
         InvalidParameter: an unknown robot name.
     """
+    from velfence.filter import JointLimits, SafetyFilter, SphereObstacle, WorkspaceLimit
     from velfence.geometry.polytope import ConvexPolytope
-    from velfence.shaping.filter import JointLimits, SafetyFilter, SphereObstacle, WorkspaceLimit
 
     ex = {k: example[k] for k in example}
     name = str(ex["robot"])
