@@ -35,16 +35,8 @@ from velfence.soak_filter import (
 
 DATA = Path(__file__).resolve().parent / "data"
 
-# The filter's ladder is being rewritten on main (issue 24, spec §3: workspace rows are never
-# dropped; a model check that does not settle scales the candidate instead). Until that lands, the
-# "the filter never leaves" assertions fail on some states: they are xfail(strict=False); flip
-# them to plain tests once main's filter is fixed. (The projection and the exact n-D law were
-# fixed on main in 81a95dc; their tests below are plain.)
-UNFIXED = pytest.mark.xfail(
-    reason="issue 24: the filter's ladder and discrete-time model check still let the tool out "
-    "(spec §3 rework pending on main)",
-    strict=False,
-)
+# The regression tests below were xfail(strict=False) while main was unfixed; they are plain
+# since main 81a95dc (projection, exact n-D law) and 641b063 (velfence.filter's ladder).
 
 
 # ------------------------------------------------------------------------------ vertex states
@@ -133,6 +125,8 @@ def test_vertex_campaign_runs_the_shaper_and_the_filter() -> None:
     shaper, flt = run_vertex_campaign(states=5000, filter_states=500, per_polytope=1000, seed=4)
     assert shaper.states == 5000
     assert flt.states == 500
+    assert shaper.dims == (3, 4, 5, 6, 7)
+    assert flt.dims == (3,)  # the filter's task space is 2-D or 3-D
     for r in (shaper, flt):
         assert r.nonfinite == 0
         assert r.exceptions == 0
@@ -146,7 +140,6 @@ def test_exact_polytope_shaper_never_leaves_a_vertex() -> None:
     assert r.max_escape_relative <= 1e-11
 
 
-@UNFIXED
 def test_filter_workspace_rows_never_leave_a_vertex() -> None:
     _, r = run_vertex_campaign(states=1, filter_states=1000, per_polytope=1, seed=6)
     assert r.states == 1000

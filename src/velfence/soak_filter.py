@@ -498,6 +498,7 @@ def run_vertex_campaign(
     fl = _Tally(f"SafetyFilter workspace rows (CartesianPoint), dt = {dt:g} s")
     polys = 0
     seen: list[int] = []
+    seen_f: list[int] = []
     done_f = 0
     next_report = time.perf_counter() + 10.0
     while sh.states < total or done_f < nf:
@@ -527,6 +528,7 @@ def run_vertex_campaign(
             Y, failed = _filter_steps(P, st, buffers, speed, dt)
             fl.seconds += time.perf_counter() - t0
             fl.add(P, size, st, Y, dt, buffers, failed)
+            seen_f.append(dim)
             done_f += k
         now = time.perf_counter()
         if now >= next_report:
@@ -537,7 +539,7 @@ def run_vertex_campaign(
             )
     out = [sh.result(polys, seen)]
     if nf:
-        out.append(fl.result(polys, seen))
+        out.append(fl.result(len(seen_f), seen_f))
     return out
 
 
@@ -1097,7 +1099,7 @@ def render_markdown(
             kinds = ", ".join(f"{k} {c}" for k, c in sorted(v.kinds.items())) or "—"
             rate = v.states / v.seconds if v.seconds > 0 else math.inf
             out.append(
-                f"| {v.name} | {v.states:,} | {min(v.dims)}–{max(v.dims)} | {v.escapes:,} | "
+                f"| {v.name} | {v.states:,} | {_span(v.dims)} | {v.escapes:,} | "
                 f"{v.max_escape:.3g} / {v.max_escape_relative:.3g} | {v.nonfinite:,} | "
                 f"{v.exceptions:,} | {kinds} | {rate:,.0f} |"
             )
@@ -1143,6 +1145,12 @@ def render_markdown(
     out.append(notes)
     out.append(SECTION_END)
     return "\n".join(out) + "\n"
+
+
+def _span(dims: Sequence[int]) -> str:
+    """``"3"`` or ``"3–7"``."""
+    lo, hi = min(dims, default=0), max(dims, default=0)
+    return f"{lo}" if lo == hi else f"{lo}–{hi}"
 
 
 def write_section(path: Any, section: str) -> None:
