@@ -517,7 +517,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         results.append(r)
     if args.out is not None:
         cmd = f"python -m velfence.soak --steps {args.steps} --episode-steps {per}"
-        args.out.write_text(_page(results, cmd))
+        old = args.out.read_text() if args.out.exists() else ""
+        args.out.write_text(_page(results, cmd) + _kept_section(old))
     required = [r for r in results if "faithful" not in r.name and "no dt" not in r.name]
     ok = all(r.escapes == 0 and r.nonfinite == 0 for r in required)
     failed = [r.name for r in required if r.escapes or r.nonfinite]
@@ -529,6 +530,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         "dt); " + (f"FAILED: {', '.join(failed)}; exit 1" if failed else "exit 0: containment held")
     )
     return 0 if ok else 1
+
+
+def _kept_section(old: str) -> str:
+    """The section ``python -m velfence.soak_filter`` wrote into the page, to keep on rewrite."""
+    a = old.find("<!-- soak_filter: begin")
+    end = "<!-- soak_filter: end -->"
+    b = old.find(end, a)
+    return "\n" + old[a : b + len(end)] + "\n" if a >= 0 and b > a else ""
 
 
 def _page(results: Sequence[SoakResult], command: str) -> str:

@@ -1,4 +1,4 @@
-"""Specs of the public tool modules velfence.bench, velfence.demo and velfence.soak."""
+"""Specs of the public tool modules velfence.bench, velfence.demo, velfence.soak and soak_filter."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ from common import square
 from harness import C, F, call
 
 from velfence import bench as bm
-from velfence import soak
+from velfence import soak, soak_filter
 
 _ROW = "output record of run_benchmarks() (one table row)"
 
@@ -31,6 +31,10 @@ def _soak_case() -> soak.SoakCase:
 
 def _soak_result() -> soak.SoakResult:
     return soak.run_case(_soak_case(), episodes=2, steps_per_episode=5)
+
+
+def _vertex_result() -> soak_filter.VertexResult:
+    return soak_filter.run_vertex_campaign(states=20, filter_states=0, per_polytope=20)[0]
 
 
 def _cfg():  # type: ignore[no-untyped-def]
@@ -92,4 +96,26 @@ SPECS: dict[str, F | C] = {
         types={"command": "text", "notes": "text"},
     ),
     "soak.run_case": F(lambda: call(_soak_case(), episodes=2, steps_per_episode=5)),
+    "soak_filter.CartesianPoint": C(
+        new=F(lambda: call(dim=3)),
+        instance=lambda: soak_filter.CartesianPoint(dim=3),
+        methods={
+            "fk": lambda: call(np.zeros(3)),
+            "jacobian": lambda: call(np.zeros(3)),
+        },
+    ),
+    "soak_filter.VertexResult": C(record="output record of run_vertex_campaign()"),
+    "soak_filter.LoopResult": C(record="output record of run_loop_campaign()"),
+    "soak_filter.render_markdown": F(
+        lambda: call([_vertex_result()], command="make soak-filter"),
+        types={"command": "text", "notes": "text", "intro": "text"},
+    ),
+    "soak_filter.run_vertex_campaign": F(
+        lambda: call(states=20, filter_states=0, per_polytope=20),
+        heavy="builds random polytopes and runs the shaper (a campaign); only refusals are tried",
+    ),
+    "soak_filter.run_loop_campaign": F(
+        lambda: call("ur5e", 100.0, steps=10, episode_steps=10),
+        heavy="builds MuJoCo models and runs a closed loop (a campaign); only refusals are tried",
+    ),
 }
