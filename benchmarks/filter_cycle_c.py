@@ -157,12 +157,28 @@ def _safety_filter(dense: bool = False) -> Any:
     return sf
 
 
-def _python_loop(fc: Any, cycles: int, periodic: bool, seven: bool = False) -> np.ndarray:
+def _mink(sf: Any) -> Any:
+    """mink's ``solve_ik`` on the same arm and spheres (configuration, velocity and collision
+    avoidance limits; ``velfence.bench.cases.filter.MinkIK``), or None without mink."""
+    from velfence.bench.cases.filter import MinkIK, Scenario, mink_ok
+
+    if not mink_ok():
+        return None
+    sc = Scenario(sf.robot, sf.limits, sf.workspace, sf.obstacles, Q7.copy())
+    return MinkIK(sc, "joint")
+
+
+def _python_loop(
+    fc: Any, cycles: int, periodic: bool, seven: bool = False, peer: Any = None
+) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
     """The C example's closed loop (its default command) from Python; the cycle times [us].
 
     ``fc``: a ``FilterCycle`` (the example's arm) or, with ``seven``, a ``SafetyFilter`` on
     ``DHChain.seven_dof`` (``filter(q, u)``, its output remembered for the acceleration rows).
+    ``peer``: a second solver called on the same state in the same loop (its own period: sleep,
+    call), whose times are returned too.
     """
+    peer_times = np.empty(cycles)
     rng = np.random.default_rng(1)
     lower, upper = (fc.limits.lower, fc.limits.upper) if seven else (LOWER, UPPER)
     q = (Q7 if seven else Q0).copy()
@@ -183,12 +199,20 @@ def _python_loop(fc: Any, cycles: int, periodic: bool, seven: bool = False) -> n
             t0 = clock()
             x = filt(q, u)
             times[c] = clock() - t0
+            if peer is not None:
+                if periodic:
+                    time.sleep(0.001)
+                t0 = clock()
+                peer(q, u)
+                peer_times[c] = clock() - t0
         else:
             t0 = clock()
             cycle(q, u, prev, x)
             times[c] = clock() - t0
         q += x * 0.001
         prev[:] = x
+    if peer is not None:
+        return times * 1e6, peer_times * 1e6
     return times * 1e6
 
 
@@ -247,7 +271,7 @@ def main() -> None:
     fc = _python_cycle()
     for periodic, label in ((False, "back to back"), (True, "periodic (sleep 1 ms, call)")):
         n = a.periodic_cycles if periodic else a.cycles
-        t = np.sort(_python_loop(fc, n, periodic))
+        t = np.sort(np.asarray(_python_loop(fc, n, periodic)))
         rows.append(
             (
                 f"same, from Python (FilterCycle.cycle), {label}",
@@ -257,9 +281,23 @@ def main() -> None:
             )
         )  # fmt: skip
     sf = _safety_filter()
+    mink = _mink(sf)
     for periodic, label in ((False, "back to back"), (True, "periodic (sleep 1 ms, call)")):
         n = a.periodic_cycles if periodic else a.cycles
-        t = np.sort(_python_loop(sf, n, periodic, seven=True))
+        res = _python_loop(sf, n, periodic, seven=True, peer=mink if periodic else None)
+        if isinstance(res, tuple):
+            t, tm = np.sort(res[0]), np.sort(res[1])
+            rows.append(
+                (
+                    f"same arm and spheres, mink solve_ik (configuration, velocity, collision "
+                    f"limits), {label}, ratio to SafetyFilter {np.median(tm) / np.median(t):.1f}x",
+                    {"cycles": str(n), "median_us": f"{np.median(tm):.3f}",
+                     "p99_us": f"{tm[int(0.99 * n)]:.3f}", "max_us": f"{tm[-1]:.3f}",
+                     "fallbacks": "-", "rows_mean": "-"},
+                )
+            )  # fmt: skip
+        else:
+            t = np.sort(res)
         rows.append(
             (
                 f"7 joints + box + 20 spheres, SafetyFilter.filter (C cycle), {label}",

@@ -226,7 +226,7 @@ def _pose(pos: str, quat: str) -> np.ndarray:
 def test_mink_model_matches_the_chain_when_installed() -> None:
     pytest.importorskip("mink")
     sc = fc.scenario()
-    solver = fc._Mink(sc, "joint")
+    solver = fc.MinkIK(sc, "joint")
     rng = np.random.default_rng(3)
     qs = [sc.q0 + rng.normal(scale=0.3, size=7) for _ in range(5)]
     assert solver.tcp_error(sc, qs) <= 1e-12

@@ -228,7 +228,9 @@ class SafetyFilter(InvalidPolicy):
         self._clock: Callable[[], float] = time.perf_counter
         self._warm: set[tuple[int, int]] = set()
         core, self.backend = pick_backend(backend)
-        self._projector = Projector(core, self.max_iterations)
+        self._projector = Projector(
+            core, self.max_iterations, np.asarray(self.limits.max_velocity, dtype=np.float64)
+        )
         kern: BoundKernels = PLAIN_BOUNDS if core is None else (None, core)
         profs = parts.joint_profiles(limits, profile, joint_buffer=jb, spring_gain=self.spring_gain)
         acc = limits.max_acceleration

@@ -93,11 +93,18 @@ class Projector:
         max_iterations: The iteration cap per solve, or ``None`` (the kernel's default).
     """
 
-    __slots__ = ("_cap", "_core")
+    __slots__ = ("_cap", "_core", "_max_speed")
 
-    def __init__(self, core: Any, max_iterations: int | None) -> None:
+    def __init__(
+        self, core: Any, max_iterations: int | None, max_speed: FloatArray | None = None
+    ) -> None:
         self._core = core
         self._cap = max_iterations or 0
+        # Every rung keeps the joint-velocity rows |x_j| <= v_j, so a true answer lies within
+        # them (to round-off); an "optimal" answer beyond is a stalled solve (on nearly dependent
+        # rows the acceptance, relative to |x|, can take a far-off point: found by fuzzing the C
+        # cycle, which applies the same guard).
+        self._max_speed = None if max_speed is None else max_speed * (1.0 + 1e-9)
 
     @property
     def warm_starts(self) -> bool:
@@ -145,12 +152,26 @@ class Projector:
             st, y = self.solve(L.T @ u, GL, b, warm)
             x = np.asarray(np.linalg.solve(L.T, y), dtype=np.float64)
         if st == 0:
-            # Round-off of the back-substitution: repair along the violated rows (a few ulps).
-            for _ in range(4):
+            # Round-off of the back-substitution: repair along the most violated row, beyond the
+            # projection's acceptance tolerance tau = 1e-12 (|b| + |g|_1 (|x| + |u|)) only (a
+            # nearly zero row missed within tau would be "repaired" by a huge step gap / |g|²);
+            # a gap left after four repairs is a stalled solve.
+            g1 = np.abs(G).sum(axis=1)
+            ub = float(np.abs(u).max())
+            for rnd in range(5):
                 gap = b - G @ x
-                k = int(np.argmax(gap))
-                if not gap[k] > 0.0:
+                tau = 1e-12 * (np.abs(b) + g1 * (float(np.abs(x).max()) + ub))
+                over = np.where(gap > tau, gap, 0.0)
+                k = int(np.argmax(over))
+                if not over[k] > 0.0:
+                    break
+                if rnd == 4:
+                    st = 2
                     break
                 gk = G[k]
                 x = x + (gap[k] * (1.0 + 1e-12) + 1e-300) * gk / float(gk @ gk)
+        if st == 0 and self._max_speed is not None and not bool(
+            np.all(np.abs(x) <= self._max_speed)
+        ):
+            st = 2
         return st, x

@@ -47,6 +47,7 @@ from velfence.geometry.polytope import ConvexPolytope
 __all__ = [
     "MINK_DT",
     "MODES",
+    "MinkIK",
     "ROUTE_VF",
     "Scenario",
     "cycles",
@@ -260,8 +261,15 @@ def seven_dof_mjcf(arm: Any, obstacles: Sequence[Any]) -> str:
     return "\n".join(lines)
 
 
-class _Mink:
-    """mink's ``solve_ik`` on the MJCF model of the scenario, one call per cycle."""
+class MinkIK:
+    """mink's ``solve_ik`` on the MJCF model of the scenario, one call per cycle.
+
+    Args:
+        sc: The scenario (arm, limits, obstacles): mink gets a ``ConfigurationLimit``, a
+            ``VelocityLimit`` and a ``CollisionAvoidanceLimit`` (links vs spheres, detection
+            distance 0.1 m) on the same arm and obstacles.
+        mode: ``"joint"`` (a posture task on ``q + u dt``) or ``"twist"`` (the TCP position).
+    """
 
     def __init__(self, sc: Scenario, mode: str) -> None:
         import mink
@@ -431,7 +439,7 @@ def cycles(s: BenchSettings, step: Step, qp_ok: bool, notes: list[str]) -> list[
             out += _qp_rows(flt, sc, mode, pools, base, calls, warm)
         if with_mink:
             step(f"safety filter: 7-DoF, {mode} mode, mink")
-            solver = _Mink(sc, mode)
+            solver = MinkIK(sc, mode)
             if mode == "joint":
                 qs = [q for p in pools.values() for q, _ in p]
                 notes.append(
