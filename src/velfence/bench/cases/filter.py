@@ -47,8 +47,8 @@ from velfence.geometry.polytope import ConvexPolytope
 __all__ = [
     "MINK_DT",
     "MODES",
-    "MinkIK",
     "ROUTE_VF",
+    "MinkIK",
     "Scenario",
     "cycles",
     "make_filter",
@@ -315,6 +315,7 @@ class MinkIK:
         return err
 
     def __call__(self, q: FloatArray, cmd: FloatArray) -> Any:
+        """One ``solve_ik`` at joints ``q`` [rad] for the command ``cmd`` (joint or TCP)."""
         mink = self.mink
         self.config.update(q)
         if self.mode == "joint":
