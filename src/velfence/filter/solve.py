@@ -170,8 +170,10 @@ class Projector:
                     break
                 gk = G[k]
                 x = x + (gap[k] * (1.0 + 1e-12) + 1e-300) * gk / float(gk @ gk)
-        if st == 0 and self._max_speed is not None and not bool(
-            np.all(np.abs(x) <= self._max_speed)
+        if (
+            st == 0
+            and self._max_speed is not None
+            and not bool(np.all(np.abs(x) <= self._max_speed))
         ):
             st = 2
         return st, x
