@@ -121,6 +121,18 @@ int32_t vf_nd_default_iteration_cap(int32_t m, int32_t n)
     return c > INT32_MAX ? INT32_MAX : (int32_t)c;
 }
 
+/* projection._is_active */
+static int is_active(const int32_t *act, int32_t q, int32_t i)
+{
+    int32_t c;
+    for (c = 0; c < q; c++) {
+        if (act[c] == i) {
+            return 1;
+        }
+    }
+    return 0;
+}
+
 /* projection.project_kernel */
 int vf_nd_project_kernel(const double *u, const double *G, const double *b, int32_t m, int32_t n,
                          double *x, double *lam, int32_t *act, double *wsf, int32_t *q_out,
@@ -175,19 +187,9 @@ int vf_nd_project_kernel_opt(const double *u, const double *G, const double *b, 
         }
         /* Warm start: a violated row of the previous active set first. */
         for (w = 0; w < n_warm; w++) {
-            int in_act = 0;
             double s, gn, tol;
             i = opts->warm[w];
             if (i < 0 || i >= m || b[i] == -INFINITY) {
-                continue;
-            }
-            for (c = 0; c < q; c++) {
-                if (act[c] == i) {
-                    in_act = 1;
-                    break;
-                }
-            }
-            if (in_act) {
                 continue;
             }
             gn = wsf[ogn + i];
@@ -198,7 +200,7 @@ int vf_nd_project_kernel_opt(const double *u, const double *G, const double *b, 
             tol = VIOL_TOL * (fabs(b[i]) + gn * (scale + 1e-300) + 1e-300);
             if (s < -tol) {
                 double v = gn > 0.0 ? s / gn : -INFINITY;
-                if (p < 0 || v < worst) {
+                if ((p < 0 || v < worst) && !is_active(act, q, i)) {
                     worst = v;
                     p = i;
                 }
@@ -206,18 +208,8 @@ int vf_nd_project_kernel_opt(const double *u, const double *G, const double *b, 
         }
         scan = p < 0 ? m : 0; /* the whole scan only when no warm row is violated */
         for (i = 0; i < scan; i++) {
-            int in_act = 0;
             double s, gn, tol;
             if (b[i] == -INFINITY) {
-                continue;
-            }
-            for (c = 0; c < q; c++) {
-                if (act[c] == i) {
-                    in_act = 1;
-                    break;
-                }
-            }
-            if (in_act) {
                 continue;
             }
             gn = wsf[ogn + i];
@@ -228,7 +220,8 @@ int vf_nd_project_kernel_opt(const double *u, const double *G, const double *b, 
             tol = VIOL_TOL * (fabs(b[i]) + gn * (scale + 1e-300) + 1e-300);
             if (s < -tol) {
                 double v = gn > 0.0 ? s / gn : -INFINITY;
-                if (p < 0 || v < worst) {
+                /* the active set is looked up only for a row that would be picked */
+                if ((p < 0 || v < worst) && !is_active(act, q, i)) {
                     worst = v;
                     p = i;
                 }

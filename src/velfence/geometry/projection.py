@@ -122,6 +122,14 @@ def _rebuild(G: Any, act: Any, q: int, n: int, wsf: Any, oq: int, orr: int) -> i
     return q
 
 
+def _is_active(act: Any, q: int, i: int) -> bool:
+    """Whether row ``i`` is among the ``q`` active rows (a loop: numba compiles no generators)."""
+    for c in range(q):  # noqa: SIM110
+        if act[c] == i:
+            return True
+    return False
+
+
 def _row_norm(G: Any, i: int, n: int) -> float:
     s = 0.0
     for k in range(n):
@@ -221,13 +229,6 @@ def project_kernel_opts(
             i = warm[w]
             if i < 0 or i >= m or b[i] == -math.inf:
                 continue
-            in_act = False
-            for c in range(q):
-                if act[c] == i:
-                    in_act = True
-                    break
-            if in_act:
-                continue
             gn = wsf[ogn + i]
             if gn < 0.0:  # accepted as met to round-off (below)
                 continue
@@ -235,19 +236,13 @@ def project_kernel_opts(
             tol = _VIOL_TOL * (abs(b[i]) + gn * (scale + 1e-300) + 1e-300)
             if s < -tol:
                 v = s / gn if gn > 0.0 else -math.inf
-                if p < 0 or v < worst:
+                # the active set is looked up only for a row that would be picked
+                if (p < 0 or v < worst) and not _is_active(act, q, i):
                     worst = v
                     p = i
         for i in range(m if p < 0 else 0):
             if b[i] == -math.inf:
                 continue
-            in_act = False
-            for c in range(q):
-                if act[c] == i:
-                    in_act = True
-                    break
-            if in_act:
-                continue
             gn = wsf[ogn + i]
             if gn < 0.0:  # accepted as met to round-off (below)
                 continue
@@ -255,7 +250,8 @@ def project_kernel_opts(
             tol = _VIOL_TOL * (abs(b[i]) + gn * (scale + 1e-300) + 1e-300)
             if s < -tol:
                 v = s / gn if gn > 0.0 else -math.inf
-                if p < 0 or v < worst:
+                # the active set is looked up only for a row that would be picked
+                if (p < 0 or v < worst) and not _is_active(act, q, i):
                     worst = v
                     p = i
         if p < 0:

@@ -146,6 +146,7 @@ def _compiled_polytope() -> tuple[Callable[..., Any], Callable[..., Any]] | None
 
     for module, name in (
         (_projection, "_rebuild"),
+        (_projection, "_is_active"),
         (_projection, "_row_norm"),
         (_projection, "_slack"),
         (_projection, "scratch_length"),
