@@ -133,6 +133,29 @@ static int is_active(const int32_t *act, int32_t q, int32_t i)
     return 0;
 }
 
+/* projection._consider: row i as the next row to add (violated more than the best so far, not
+ * active; a negative stored norm marks a row accepted as met to round-off) */
+static void consider(const double *G, const double *b, int32_t i, const double *x, int32_t n,
+                     const double *wsf, size_t ogn, double scale, const int32_t *act, int32_t q,
+                     int32_t *p, double *worst)
+{
+    const double gn = wsf[ogn + i];
+    double s, tol;
+    if (gn < 0.0) {
+        return;
+    }
+    s = slack(G, b, i, x, n);
+    tol = VIOL_TOL * (fabs(b[i]) + gn * (scale + 1e-300) + 1e-300);
+    if (s < -tol) {
+        double v = gn > 0.0 ? s / gn : -INFINITY;
+        /* the active set is looked up only for a row that would be picked */
+        if ((*p < 0 || v < *worst) && !is_active(act, q, i)) {
+            *worst = v;
+            *p = i;
+        }
+    }
+}
+
 /* projection.project_kernel */
 int vf_nd_project_kernel(const double *u, const double *G, const double *b, int32_t m, int32_t n,
                          double *x, double *lam, int32_t *act, double *wsf, int32_t *q_out,
@@ -187,44 +210,15 @@ int vf_nd_project_kernel_opt(const double *u, const double *G, const double *b, 
         }
         /* Warm start: a violated row of the previous active set first. */
         for (w = 0; w < n_warm; w++) {
-            double s, gn, tol;
             i = opts->warm[w];
-            if (i < 0 || i >= m || b[i] == -INFINITY) {
-                continue;
-            }
-            gn = wsf[ogn + i];
-            if (gn < 0.0) {
-                continue;
-            }
-            s = slack(G, b, i, x, n);
-            tol = VIOL_TOL * (fabs(b[i]) + gn * (scale + 1e-300) + 1e-300);
-            if (s < -tol) {
-                double v = gn > 0.0 ? s / gn : -INFINITY;
-                if ((p < 0 || v < worst) && !is_active(act, q, i)) {
-                    worst = v;
-                    p = i;
-                }
+            if (i >= 0 && i < m && b[i] != -INFINITY) {
+                consider(G, b, i, x, n, wsf, ogn, scale, act, q, &p, &worst);
             }
         }
         scan = p < 0 ? m : 0; /* the whole scan only when no warm row is violated */
         for (i = 0; i < scan; i++) {
-            double s, gn, tol;
-            if (b[i] == -INFINITY) {
-                continue;
-            }
-            gn = wsf[ogn + i];
-            if (gn < 0.0) { /* accepted as met to round-off (below) */
-                continue;
-            }
-            s = slack(G, b, i, x, n);
-            tol = VIOL_TOL * (fabs(b[i]) + gn * (scale + 1e-300) + 1e-300);
-            if (s < -tol) {
-                double v = gn > 0.0 ? s / gn : -INFINITY;
-                /* the active set is looked up only for a row that would be picked */
-                if ((p < 0 || v < worst) && !is_active(act, q, i)) {
-                    worst = v;
-                    p = i;
-                }
+            if (b[i] != -INFINITY) {
+                consider(G, b, i, x, n, wsf, ogn, scale, act, q, &p, &worst);
             }
         }
         if (p < 0) {
@@ -525,6 +519,22 @@ typedef struct nd_views {
     int32_t *work, *act;
 } nd_views;
 
+/* _nd_kernels._answer: out = x scale, the binding facets, the bounds in caller units */
+static void answer(const nd_views *w, double scale, int32_t dim, double *out, int32_t *active,
+                   int32_t q, int32_t m)
+{
+    int32_t k, c, a;
+    for (k = 0; k < dim; k++) {
+        out[k] = w->x[k] * scale;
+    }
+    for (c = 0; c < q; c++) {
+        active[c] = w->work[w->act[c]];
+    }
+    for (a = 0; a < m; a++) {
+        w->bnd[w->work[a]] *= scale;
+    }
+}
+
 static void views(int32_t nf, int32_t dim, vf_nd_scratch *s, nd_views *v)
 {
     size_t f = (size_t)nf;
@@ -702,15 +712,7 @@ void vf_nd_kernel(const vf_nd_polytope *poly, const vf_nd_law *law, const double
                 done = !added;
             }
             if (done) {
-                for (k = 0; k < dim; k++) {
-                    out[k] = w.x[k] * scale;
-                }
-                for (c = 0; c < q; c++) {
-                    active[c] = w.work[w.act[c]];
-                }
-                for (a = 0; a < m; a++) {
-                    w.bnd[w.work[a]] *= scale;
-                }
+                answer(&w, scale, dim, out, active, q, m);
                 set_res(res, zone, stages, q, bo.p1, bo.p2, bo.d1, bo.d2, m);
                 return;
             }
@@ -728,15 +730,7 @@ void vf_nd_kernel(const vf_nd_polytope *poly, const vf_nd_law *law, const double
             }
             status = solve_rows(N, m, dim, &w, &q);
             if (status == VF_ND_PROJECT_OPTIMAL) {
-                for (k = 0; k < dim; k++) {
-                    out[k] = w.x[k] * scale;
-                }
-                for (c = 0; c < q; c++) {
-                    active[c] = w.work[w.act[c]];
-                }
-                for (a = 0; a < m; a++) {
-                    w.bnd[w.work[a]] *= scale;
-                }
+                answer(&w, scale, dim, out, active, q, m);
                 set_res(res, zone, stages | VF_ND_STAGE_RELAXED, q, bo.p1, bo.p2, bo.d1, bo.d2,
                         m);
                 return;

@@ -130,6 +130,40 @@ def _is_active(act: Any, q: int, i: int) -> bool:
     return False
 
 
+def _consider(
+    G: Any,
+    b: Any,
+    i: int,
+    x: Any,
+    n: int,
+    wsf: Any,
+    ogn: int,
+    scale: float,
+    act: Any,
+    q: int,
+    p: int,
+    worst: float,
+) -> tuple[int, float]:
+    """Row ``i`` as the next row to add: ``(p, worst)``, updated when it is the most violated yet.
+
+    Violation is relative to the normal's length; active rows are skipped. The tolerance is
+    relative to the bound and to the current iterate (not to u): bounds far smaller than the
+    target must still be met to their own precision. A negative stored norm marks a row accepted
+    as met to round-off.
+    """
+    gn = wsf[ogn + i]
+    if gn < 0.0:
+        return p, worst
+    s = _slack(G, b, i, x, n)
+    tol = _VIOL_TOL * (abs(b[i]) + gn * (scale + 1e-300) + 1e-300)
+    if s < -tol:
+        v = s / gn if gn > 0.0 else -math.inf
+        # the active set is looked up only for a row that would be picked
+        if (p < 0 or v < worst) and not _is_active(act, q, i):
+            return i, v
+    return p, worst
+
+
 def _row_norm(G: Any, i: int, n: int) -> float:
     s = 0.0
     for k in range(n):
@@ -227,33 +261,11 @@ def project_kernel_opts(
         # enter the dual method; picking likely-active ones first saves iterations).
         for w in range(n_warm):
             i = warm[w]
-            if i < 0 or i >= m or b[i] == -math.inf:
-                continue
-            gn = wsf[ogn + i]
-            if gn < 0.0:  # accepted as met to round-off (below)
-                continue
-            s = _slack(G, b, i, x, n)
-            tol = _VIOL_TOL * (abs(b[i]) + gn * (scale + 1e-300) + 1e-300)
-            if s < -tol:
-                v = s / gn if gn > 0.0 else -math.inf
-                # the active set is looked up only for a row that would be picked
-                if (p < 0 or v < worst) and not _is_active(act, q, i):
-                    worst = v
-                    p = i
+            if 0 <= i < m and b[i] != -math.inf:
+                p, worst = _consider(G, b, i, x, n, wsf, ogn, scale, act, q, p, worst)
         for i in range(m if p < 0 else 0):
-            if b[i] == -math.inf:
-                continue
-            gn = wsf[ogn + i]
-            if gn < 0.0:  # accepted as met to round-off (below)
-                continue
-            s = _slack(G, b, i, x, n)
-            tol = _VIOL_TOL * (abs(b[i]) + gn * (scale + 1e-300) + 1e-300)
-            if s < -tol:
-                v = s / gn if gn > 0.0 else -math.inf
-                # the active set is looked up only for a row that would be picked
-                if (p < 0 or v < worst) and not _is_active(act, q, i):
-                    worst = v
-                    p = i
+            if b[i] != -math.inf:
+                p, worst = _consider(G, b, i, x, n, wsf, ogn, scale, act, q, p, worst)
         if p < 0:
             break
         if wsf[ogn + p] == 0.0:

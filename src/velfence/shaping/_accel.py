@@ -147,6 +147,7 @@ def _compiled_polytope() -> tuple[Callable[..., Any], Callable[..., Any]] | None
     for module, name in (
         (_projection, "_rebuild"),
         (_projection, "_is_active"),
+        (_projection, "_consider"),
         (_projection, "_row_norm"),
         (_projection, "_slack"),
         (_projection, "scratch_length"),
@@ -159,6 +160,7 @@ def _compiled_polytope() -> tuple[Callable[..., Any], Callable[..., Any]] | None
         (_kernels, "bounds_from_distances"),
         (_nd_kernels, "vector_norm"),
         (_nd_kernels, "_solve_rows"),
+        (_nd_kernels, "_answer"),
         (_nd_kernels, "polytope_kernel"),
         (_nd_kernels, "polytope_scratch"),
         (_nd_kernels, "polytope_one"),

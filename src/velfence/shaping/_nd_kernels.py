@@ -86,6 +86,27 @@ def _solve_rows(
     return status, q
 
 
+def _answer(
+    x: Any,
+    scale: float,
+    dim: int,
+    out: Any,
+    active: Any,
+    work: Any,
+    act: Any,
+    q: int,
+    bnd: Any,
+    m: int,
+) -> None:
+    """Write a solve's answer: ``out = x · scale``, binding facets, bounds in caller units."""
+    for k in range(dim):
+        out[k] = x[k] * scale
+    for c in range(q):
+        active[c] = work[act[c]]
+    for a in range(m):
+        bnd[work[a]] *= scale
+
+
 def polytope_kernel(
     p: Any,
     v: Any,
@@ -212,12 +233,7 @@ def polytope_kernel(
                             added = True
                 done = not added
             if done:
-                for k in range(dim):
-                    out[k] = x[k] * scale
-                for c in range(q):
-                    active[c] = work[act[c]]
-                for a in range(m):
-                    bnd[work[a]] *= scale
+                _answer(x, scale, dim, out, active, work, act, q, bnd, m)
                 return zone, stages, q, p1, p2, d1, d2, m
     if n_out > 0:
         # Infeasible together (a polytope thinner than the profile's reach, or round-off at a
@@ -232,12 +248,7 @@ def polytope_kernel(
                     bnd[e] = bnd[e] * 0.25 if r + 1 < len(RECOVERY_FRACTIONS) else 0.0
             status, q = _solve_rows(u, N, bnd, work, m, dim, G, b, x, lam, act, wsf)
             if status == PROJECT_OPTIMAL:
-                for k in range(dim):
-                    out[k] = x[k] * scale
-                for c in range(q):
-                    active[c] = work[act[c]]
-                for a in range(m):
-                    bnd[work[a]] *= scale
+                _answer(x, scale, dim, out, active, work, act, q, bnd, m)
                 return zone, stages | STAGE_RELAXED, q, p1, p2, d1, d2, m
     # Reached only if round-off defeats the projection of a problem zero velocity solves (never
     # observed): stopping is the safe answer, inside and out.
