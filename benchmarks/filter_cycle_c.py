@@ -75,6 +75,16 @@ def _run(exe: Path, *args: str) -> dict[str, str]:
     return dict(zip(words[0::2], words[1::2], strict=False))
 
 
+def _cpu(out: dict[str, str]) -> dict[str, str]:
+    """The C example's thread-CPU-time columns as a row (the cycle's own cost, no preemption)."""
+    return {
+        **out,
+        "median_us": out["cpu_median_us"],
+        "p99_us": out["cpu_p99_us"],
+        "max_us": out["cpu_max_us"],
+    }
+
+
 def _python_cycle() -> object:
     """The C example's scene as a ``FilterCycle`` (same arm, box and 20 spheres' placement)."""
     from velfence_core import _filter
@@ -320,6 +330,12 @@ def main() -> None:
     assert bad == 0, f"{bad} outputs missed a row"
     out = _run(exe, "--dense", "--back-to-back", "--cycles", str(a.dense_cycles))
     rows.append(("7 joints, >= 400 rows (dense), C, back to back", out))
+    rows.append(("same, thread CPU time (no preemption)", _cpu(out)))
+    out = _run(
+        exe, "--dense", "--back-to-back", "--cycles", str(a.dense_cycles), "--budget", "1e-4"
+    )
+    rows.append(("same, time_budget 100 µs (fallbacks counted, every output checked)", out))
+    rows.append(("same, time_budget 100 µs, thread CPU time", _cpu(out)))
     load1 = os.getloadavg()
     print(f"load average before: {load0[0]:.2f} {load0[1]:.2f} {load0[2]:.2f}")
     print()
