@@ -1,4 +1,4 @@
-"""The code in README.md, docs/choosing.md and docs/physics.md runs, and prints what the page says.
+"""The code in README.md and docs pages (choosing, physics, safety_filter) runs as printed.
 
 Every fenced ``python`` block is run in a fresh interpreter from the repository root. When the
 next fenced block after it (with only prose or blank lines in between) is a ``text`` block, the
@@ -18,7 +18,12 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-PAGES = (ROOT / "README.md", ROOT / "docs" / "choosing.md", ROOT / "docs" / "physics.md")
+PAGES = (
+    ROOT / "README.md",
+    ROOT / "docs" / "choosing.md",
+    ROOT / "docs" / "physics.md",
+    ROOT / "docs" / "safety_filter.md",
+)
 FENCE = re.compile(r"^```([A-Za-z0-9_-]*)[ \t]*\n(.*?)^```[ \t]*$", re.M | re.S)
 TIMEOUT_S = 120.0
 
