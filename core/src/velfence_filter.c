@@ -14,6 +14,8 @@
 #include <stdio.h>
 #endif
 
+#include "vf_rows.h" /* the row arithmetic shared with vf_nd_filter_rows */
+
 #define MAX_JOINTS 64
 #define MAX_MAG 1e150
 #define COMMAND_CAP 1e3
@@ -401,22 +403,6 @@ typedef struct ctx {
 #define IV(c, field) ((c)->i + (c)->L.field)
 
 
-static void put_row(ctx *c, int32_t r, int32_t col, double sign, double bound, int32_t lv,
-                    int32_t a, int32_t t, double dd)
-{
-    double *g = D(c, G) + (size_t)r * c->n;
-    int32_t j;
-    for (j = 0; j < c->n; j++) {
-        g[j] = 0.0 * sign;
-    }
-    g[col] = sign;
-    D(c, b)[r] = bound;
-    IV(c, level)[r] = lv;
-    IV(c, ka)[r] = a;
-    IV(c, kb)[r] = t;
-    D(c, dist)[r] = dd;
-}
-
 /* Every row of the cycle (the header's order); returns their number. */
 static int32_t build_rows(ctx *c, const double *previous)
 {
@@ -425,49 +411,23 @@ static int32_t build_rows(ctx *c, const double *previous)
     const double *q = c->q, *u = c->u;
     const double idt = c->idt;
     double *P = D(c, P), *axes = D(c, axes);
-    int32_t r = 0, j, w, i, wk[2];
+    int32_t r = 0, j, w;
+    const vf_rows o = {D(c, G), D(c, b), D(c, dist), IV(c, level), IV(c, ka), IV(c, kb), n};
     vf_filter_kinematics(f, q, P, axes, D(c, frames));
     for (j = 0; j < n; j++) {
-        const int32_t kind = f->jkind[j];
-        const double *prm = f->jprm + (size_t)VF_ND_PROFILE_PARAMS * j;
-        const double v = f->vmax[j];
-        double dl = q[j] * 1.0 + (-f->lower[j]);
-        double du = q[j] * -1.0 + f->upper[j];
-        double bl = -INFINITY, bu = -INFINITY;
-        if (isfinite(f->lower[j])) {
-            vf_nd_rate_bounds(kind, prm, &dl, 1, v, idt, &bl, wk);
-        }
-        if (isfinite(f->upper[j])) {
-            vf_nd_rate_bounds(kind, prm, &du, 1, v, idt, &bu, wk);
-        }
-        if (bl != -INFINITY) {
-            put_row(c, r++, j, 1.0, bl < v ? bl : v, VF_FILTER_LEVEL_JOINT, j, 0, dl);
-        }
-        if (bu != -INFINITY) {
-            put_row(c, r++, j, -1.0, bu < v ? bu : v, VF_FILTER_LEVEL_JOINT, j, 1, du);
-        }
+        r = vf_joint_position_rows(&o, r, j, f->jkind[j],
+                                   f->jprm + (size_t)VF_ND_PROFILE_PARAMS * j, q[j], f->lower[j],
+                                   f->upper[j], f->vmax[j], idt, VF_FILTER_LEVEL_JOINT, j, 0, j, 1);
     }
     for (j = 0; j < n; j++) {
-        put_row(c, r++, j, 1.0, -f->vmax[j], VF_FILTER_LEVEL_JOINT, j, 2, INFINITY);
-        put_row(c, r++, j, -1.0, -f->vmax[j], VF_FILTER_LEVEL_JOINT, j, 3, INFINITY);
+        r = vf_joint_speed_rows(&o, r, j, f->vmax[j], VF_FILTER_LEVEL_JOINT, j, 2, j, 3);
     }
-    if (previous != NULL && f->dt > 0.0 && f->amax != NULL) {
-        for (j = 0; j < n; j++) {
-            double step;
-            if (!isfinite(f->amax[j])) {
-                continue;
-            }
-            step = f->amax[j] * f->dt;
-            put_row(c, r++, j, 1.0, previous[j] - step, VF_FILTER_LEVEL_RATE, j, 0, INFINITY);
-            put_row(c, r++, j, -1.0, -(previous[j] + step), VF_FILTER_LEVEL_RATE, j, 1,
-                    INFINITY);
-        }
-    }
+    r = vf_rate_rows(&o, r, previous, f->dt, f->amax, VF_FILTER_LEVEL_RATE);
     for (w = 0; w < f->nw; w++) {
         const vf_filter_polytope *ws = f->ws + w;
         const vf_filter_point *pt = f->points + ws->point;
         double p[3], vx = 0.0, vy = 0.0, vz = 0.0;
-        double *J = D(c, wsJ), *wsd = D(c, wsd), *wsb = D(c, wsb);
+        double *J = D(c, wsJ);
         const int32_t k = point_at(f, pt, D(c, frames), p);
         for (j = 0; j < k; j++) {
             const double *z = axes + 3 * (size_t)j;
@@ -487,33 +447,9 @@ static int32_t build_rows(ctx *c, const double *previous)
             vy += col[1] * u[j];
             vz += col[2] * u[j];
         }
-        for (i = 0; i < ws->nf; i++) {
-            const double *nn = ws->N + 3 * (size_t)i;
-            wsd[i] = nn[0] * p[0] + nn[1] * p[1] + nn[2] * p[2] - ws->off[i];
-        }
-        vf_nd_rate_bounds(ws->kind, ws->prm, wsd, ws->nf, sqrt(vx * vx + vy * vy + vz * vz), idt,
-                          wsb, IV(c, ri));
-        for (i = 0; i < ws->nf; i++) {
-            const double *nn = ws->N + 3 * (size_t)i;
-            double *g;
-            if (wsb[i] == -INFINITY) {
-                continue;
-            }
-            g = D(c, G) + (size_t)r * n;
-            for (j = 0; j < n; j++) {
-                g[j] = 0.0;
-            }
-            for (j = 0; j < k; j++) {
-                const double *col = J + 3 * (size_t)j;
-                g[j] = nn[0] * col[0] + nn[1] * col[1] + nn[2] * col[2];
-            }
-            D(c, b)[r] = wsb[i];
-            IV(c, level)[r] = VF_FILTER_LEVEL_WORKSPACE;
-            IV(c, ka)[r] = w;
-            IV(c, kb)[r] = i;
-            D(c, dist)[r] = wsd[i];
-            r += 1;
-        }
+        r = vf_workspace_rows(&o, r, w, ws->N, ws->off, ws->nf, ws->kind, ws->prm, p, J, k,
+                              sqrt(vx * vx + vy * vy + vz * vz), idt, VF_FILTER_LEVEL_WORKSPACE,
+                              D(c, wsd), D(c, wsb), IV(c, ri));
     }
     if (f->k > 0) {
         vf_nd_capsules cap;
