@@ -614,37 +614,13 @@ static int project(ctx *c, const double *bnd, double *x)
     return st == VF_INFEASIBLE ? VF_INFEASIBLE : VF_STALLED;
 }
 
-/* The clearance of sphere i and link l at joint points P: vf_nd_capsule_clearances's arithmetic
- * for one pair (the same operations, so the same bits). */
+/* The clearance of sphere i and link l at joint points P: vf_nd_capsule_clearances's for one
+ * pair (vf_capsule_clearance, so the same bits). */
 static double pair_clearance(const vf_filter *f, const double *P, int32_t i, int32_t l)
 {
-    const double *cc = f->centres + 3 * (size_t)i;
     const double *a = P + 3 * (size_t)l;
-    const double *e = a + 3;
-    double dx = e[0] - a[0], dy = e[1] - a[1], dz = e[2] - a[2];
-    double dd = dx * dx + dy * dy + dz * dz;
-    double t, x0, x1, x2;
-    if (dd == 0.0) {
-        t = 0.0;
-    } else {
-        t = ((cc[0] - a[0]) * dx + (cc[1] - a[1]) * dy + (cc[2] - a[2]) * dz) / dd;
-        t = t <= 0.0 ? 0.0 : (t >= 1.0 ? 1.0 : t);
-    }
-    if (t <= 0.5) {
-        x0 = a[0] + t * (e[0] - a[0]);
-        x1 = a[1] + t * (e[1] - a[1]);
-        x2 = a[2] + t * (e[2] - a[2]);
-    } else {
-        double w = 1.0 - t;
-        x0 = e[0] - w * (e[0] - a[0]);
-        x1 = e[1] - w * (e[1] - a[1]);
-        x2 = e[2] - w * (e[2] - a[2]);
-    }
-    dx = x0 - cc[0];
-    dy = x1 - cc[1];
-    dz = x2 - cc[2];
-    return sqrt(dx * dx + dy * dy + dz * dz) - f->radii[i]
-           - (f->link_radius != NULL ? f->link_radius[l] : 0.0);
+    return vf_capsule_clearance(f->centres + 3 * (size_t)i, a, a + 3, f->radii[i],
+                                f->link_radius != NULL ? f->link_radius[l] : 0.0);
 }
 
 /* The model check at q + x dt: counts the workspace / obstacle rows whose true next distance is

@@ -931,19 +931,6 @@ void vf_nd_rate_bounds(int32_t kind, const double *prm, const double *dist, int3
     }
 }
 
-/* geometry.primitives._point_segment_t, _lerp (clearance with sqrt instead of math.hypot) */
-static double seg_t(const double *p, const double *a, const double *b)
-{
-    double dx = b[0] - a[0], dy = b[1] - a[1], dz = b[2] - a[2];
-    double dd = dx * dx + dy * dy + dz * dz;
-    double t;
-    if (dd == 0.0) {
-        return 0.0;
-    }
-    t = ((p[0] - a[0]) * dx + (p[1] - a[1]) * dy + (p[2] - a[2]) * dz) / dd;
-    return t <= 0.0 ? 0.0 : (t >= 1.0 ? 1.0 : t);
-}
-
 void vf_nd_capsule_clearances(const vf_nd_capsules *cap, double *clear)
 {
     int32_t i, l;
@@ -951,24 +938,8 @@ void vf_nd_capsule_clearances(const vf_nd_capsules *cap, double *clear)
         const double *cc = cap->C + 3 * (size_t)i;
         for (l = 0; l < cap->nl; l++) {
             const double *a = cap->P + 3 * (size_t)l;
-            const double *e = a + 3;
-            double t = seg_t(cc, a, e);
-            double x0, x1, x2, dx, dy, dz;
-            if (t <= 0.5) {
-                x0 = a[0] + t * (e[0] - a[0]);
-                x1 = a[1] + t * (e[1] - a[1]);
-                x2 = a[2] + t * (e[2] - a[2]);
-            } else {
-                double w = 1.0 - t;
-                x0 = e[0] - w * (e[0] - a[0]);
-                x1 = e[1] - w * (e[1] - a[1]);
-                x2 = e[2] - w * (e[2] - a[2]);
-            }
-            dx = x0 - cc[0];
-            dy = x1 - cc[1];
-            dz = x2 - cc[2];
-            clear[(size_t)i * cap->nl + l] = sqrt(dx * dx + dy * dy + dz * dz) - cap->srad[i]
-                                             - cap->lrad[l];
+            clear[(size_t)i * cap->nl + l] = vf_capsule_clearance(cc, a, a + 3, cap->srad[i],
+                                                                  cap->lrad[l]);
         }
     }
 }
@@ -1031,7 +1002,7 @@ int32_t vf_nd_capsule_rows(const vf_nd_capsules *cap, const double *u, double *G
             if (!(cl < cap->buf || (use_reach && cl <= reach[l]))) {
                 continue;
             }
-            t = seg_t(cc, a, e);
+            t = vf_seg_t(cc, a, e);
             for (c = 0; c < 3; c++) {
                 x[c] = t <= 0.5 ? a[c] + t * (e[c] - a[c]) : e[c] - (1.0 - t) * (e[c] - a[c]);
                 n[c] = x[c] - cc[c];

@@ -1,9 +1,10 @@
 /*
  * The safety filter's row arithmetic shared by the whole C cycle (velfence_filter.c) and
- * vf_nd_filter_rows (velfence_nd.c): the joint position, joint velocity and acceleration rows and
- * a workspace polytope's facet rows. Private to the library: not installed, not part of the C API.
- * Each caller passes its own levels and tags; the operations are the ones both files had, in the
- * same order, so both stay bit-identical to velfence's filter.
+ * vf_nd_filter_rows (velfence_nd.c): the joint position, joint velocity and acceleration rows, a
+ * workspace polytope's facet rows and a sphere's clearance to a link capsule. Private to the
+ * library: not installed, not part of the C API. Each caller passes its own levels and tags; the
+ * operations are the ones both files had, in the same order, so both stay bit-identical to
+ * velfence's filter.
  */
 #ifndef VF_ROWS_H
 #define VF_ROWS_H
@@ -136,6 +137,44 @@ static inline int32_t vf_workspace_rows(const vf_rows *o, int32_t r, int32_t w, 
         r += 1;
     }
     return r;
+}
+
+/* geometry.primitives._point_segment_t: the parameter in [0, 1] of the point of segment a -> b
+ * nearest p. */
+static inline double vf_seg_t(const double *p, const double *a, const double *b)
+{
+    double dx = b[0] - a[0], dy = b[1] - a[1], dz = b[2] - a[2];
+    double dd = dx * dx + dy * dy + dz * dz;
+    double t;
+    if (dd == 0.0) {
+        return 0.0;
+    }
+    t = ((p[0] - a[0]) * dx + (p[1] - a[1]) * dy + (p[2] - a[2]) * dz) / dd;
+    return t <= 0.0 ? 0.0 : (t >= 1.0 ? 1.0 : t);
+}
+
+/* The clearance of the sphere at cc (radius srad) and the capsule a -> e (radius lrad): the
+ * segment's nearest point by _lerp, its distance with sqrt instead of math.hypot, minus srad, then
+ * lrad (the obstacle rows' and the model check's one definition). */
+static inline double vf_capsule_clearance(const double *cc, const double *a, const double *e,
+                                          double srad, double lrad)
+{
+    double t = vf_seg_t(cc, a, e);
+    double x0, x1, x2, dx, dy, dz;
+    if (t <= 0.5) {
+        x0 = a[0] + t * (e[0] - a[0]);
+        x1 = a[1] + t * (e[1] - a[1]);
+        x2 = a[2] + t * (e[2] - a[2]);
+    } else {
+        double w = 1.0 - t;
+        x0 = e[0] - w * (e[0] - a[0]);
+        x1 = e[1] - w * (e[1] - a[1]);
+        x2 = e[2] - w * (e[2] - a[2]);
+    }
+    dx = x0 - cc[0];
+    dy = x1 - cc[1];
+    dz = x2 - cc[2];
+    return sqrt(dx * dx + dy * dy + dz * dz) - srad - lrad;
 }
 
 #endif /* VF_ROWS_H */
