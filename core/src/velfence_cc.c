@@ -10,6 +10,8 @@
 #include <math.h>
 #include <string.h>
 
+#include "vf_util.h" /* vf_finite_all */
+
 #define RATE_EPS 1e-12 /* configuration_control._RATE_EPS */
 #define MAX_SWEEPS 64
 
@@ -25,17 +27,6 @@ size_t vf_cc_doubles(int32_t n, int32_t m, int32_t k)
 size_t vf_cc_ints(int32_t k)
 {
     return 3 * (size_t)(k > 0 ? k : 0) + 1;
-}
-
-static int finite_all(const double *x, size_t count)
-{
-    size_t i;
-    for (i = 0; i < count; i++) {
-        if (!isfinite(x[i])) {
-            return 0;
-        }
-    }
-    return 1;
 }
 
 int vf_cc_check(const vf_cc_problem *pb)
@@ -62,7 +53,8 @@ int vf_cc_check(const vf_cc_problem *pb)
         }
     }
     for (i = 0; i < pb->k; i++) {
-        if (!(pb->rho[i] > 0.0 && isfinite(pb->rho[i])) || !finite_all(pb->C + 3 * (size_t)i, 3)) {
+        if (!(pb->rho[i] > 0.0 && isfinite(pb->rho[i]))
+            || !vf_finite_all(pb->C + 3 * (size_t)i, 3)) {
             return VF_CC_ERR_ARGUMENT;
         }
     }
@@ -471,7 +463,7 @@ static double final_solve(const vf_cc_problem *pb, const double *je, const doubl
         jacobi_columns(V, n, n, NULL, nrm);
         norm_range(V, n, n, &smax, &smin);
     }
-    if (smin > DBL_EPSILON * (double)(r > n ? r : n) * smax && finite_all(x, (size_t)n)) {
+    if (smin > DBL_EPSILON * (double)(r > n ? r : n) * smax && vf_finite_all(x, (size_t)n)) {
         return condition_of(smax, smin);
     }
     assemble(pb, je, yr, rows, zr, act, na, Acol, b);
@@ -525,8 +517,8 @@ int vf_cc_solve(const vf_cc_problem *pb, const double *P, const double *axes, co
     n = pb->n;
     m = pb->m;
     k = pb->k;
-    if (!finite_all(P, 3 * (size_t)(n + 1)) || !finite_all(axes, 3 * (size_t)n)
-        || !finite_all(yr, (size_t)m)) {
+    if (!vf_finite_all(P, 3 * (size_t)(n + 1)) || !vf_finite_all(axes, 3 * (size_t)n)
+        || !vf_finite_all(yr, (size_t)m)) {
         stop(pb, out);
         return VF_CC_ERR_NONFINITE;
     }
@@ -619,7 +611,7 @@ int vf_cc_solve(const vf_cc_problem *pb, const double *P, const double *axes, co
             return VF_CC_ERR_OVERFLOW;
         }
     }
-    if (!finite_all(x0, (size_t)n) || !finite_all(G, (size_t)nn * nn)) {
+    if (!vf_finite_all(x0, (size_t)n) || !vf_finite_all(G, (size_t)nn * nn)) {
         stop(pb, out);
         return VF_CC_ERR_OVERFLOW;
     }
@@ -743,7 +735,7 @@ int vf_cc_solve(const vf_cc_problem *pb, const double *P, const double *axes, co
     out->condition = final_solve(pb, je, yr, out->rows, zr, out->active, na, Acol, b, V,
                                  out->q_dot, nrm);
     memcpy(out->q_free, na > 0 ? x0 : out->q_dot, (size_t)n * sizeof(double));
-    if (!finite_all(out->q_dot, (size_t)n)) {
+    if (!vf_finite_all(out->q_dot, (size_t)n)) {
         stop(pb, out);
         return VF_CC_ERR_OVERFLOW;
     }
@@ -769,11 +761,11 @@ int vf_cc_solve(const vf_cc_problem *pb, const double *P, const double *axes, co
     }
     out->ee_rate_error = rate_error(je, out->q_dot, yr, m, n);
     out->ee_rate_error_free = rate_error(je, out->q_free, yr, m, n);
-    if (!finite_all(out->d_dot, (size_t)k) || !finite_all(out->d_dot_free, (size_t)k)
+    if (!vf_finite_all(out->d_dot, (size_t)k) || !vf_finite_all(out->d_dot_free, (size_t)k)
         || !isfinite(out->ee_rate_error) || !isfinite(out->ee_rate_error_free)
-        || !isfinite(out->condition) || !finite_all(out->distances, (size_t)k)
-        || !finite_all(out->points, 3 * (size_t)k) || !finite_all(out->normals, 3 * (size_t)k)
-        || !finite_all(out->rows, (size_t)k * (size_t)n)) {
+        || !isfinite(out->condition) || !vf_finite_all(out->distances, (size_t)k)
+        || !vf_finite_all(out->points, 3 * (size_t)k) || !vf_finite_all(out->normals, 3 * (size_t)k)
+        || !vf_finite_all(out->rows, (size_t)k * (size_t)n)) {
         stop(pb, out);
         return VF_CC_ERR_OVERFLOW;
     }

@@ -15,6 +15,7 @@
 #endif
 
 #include "vf_rows.h" /* the row arithmetic shared with vf_nd_filter_rows */
+#include "vf_util.h" /* vf_finite_all */
 
 #define MAX_JOINTS 64
 #define MAX_MAG 1e150
@@ -110,21 +111,10 @@ static int32_t point_at(const vf_filter *f, const vf_filter_point *pt, const dou
 
 /* ------------------------------------------------------------------ checks and sizes */
 
-static int finite_all(const double *v, size_t k)
-{
-    size_t i;
-    for (i = 0; i < k; i++) {
-        if (!isfinite(v[i])) {
-            return 0;
-        }
-    }
-    return 1;
-}
-
 static int rigid(const double *T)
 {
     int a, b, c;
-    if (!finite_all(T, 12)) {
+    if (!vf_finite_all(T, 12)) {
         return 0;
     }
     for (a = 0; a < 3; a++) {
@@ -146,7 +136,7 @@ static int rigid(const double *T)
 
 static int profile_ok(int32_t kind, const double *prm)
 {
-    if (!finite_all(prm, VF_ND_PROFILE_PARAMS)) {
+    if (!vf_finite_all(prm, VF_ND_PROFILE_PARAMS)) {
         return 0;
     }
     if (kind == VF_ND_PROFILE_LINEAR) {
@@ -180,7 +170,7 @@ int vf_filter_check(const vf_filter *f)
     for (j = 0; j < f->n; j++) {
         const vf_filter_joint *jt = f->joints + j;
         double an;
-        if (!rigid(jt->T) || !finite_all(jt->axis, 3) || !isfinite(jt->offset)
+        if (!rigid(jt->T) || !vf_finite_all(jt->axis, 3) || !isfinite(jt->offset)
             || (jt->type != VF_FILTER_REVOLUTE && jt->type != VF_FILTER_PRISMATIC)) {
             return VF_ERR_ARGUMENT;
         }
@@ -214,7 +204,7 @@ int vf_filter_check(const vf_filter *f)
     }
     for (i = 0; i < f->npoints; i++) {
         if (f->points[i].link < -1 || f->points[i].link > f->n
-            || !finite_all(f->points[i].offset, 3)) {
+            || !vf_finite_all(f->points[i].offset, 3)) {
             return VF_ERR_ARGUMENT;
         }
     }
@@ -224,8 +214,8 @@ int vf_filter_check(const vf_filter *f)
             return VF_ERR_NULL;
         }
         if (p->point < 0 || p->point >= f->npoints || p->nf < 1 || p->nf > (1 << 20)
-            || !profile_ok(p->kind, p->prm) || !finite_all(p->N, 3 * (size_t)p->nf)
-            || !finite_all(p->off, (size_t)p->nf)) {
+            || !profile_ok(p->kind, p->prm) || !vf_finite_all(p->N, 3 * (size_t)p->nf)
+            || !vf_finite_all(p->off, (size_t)p->nf)) {
             return VF_ERR_ARGUMENT;
         }
         for (i = 0; i < p->nf; i++) {
@@ -239,7 +229,7 @@ int vf_filter_check(const vf_filter *f)
         return VF_ERR_ARGUMENT;
     }
     for (i = 0; i < f->k; i++) {
-        if (!finite_all(f->centres + 3 * (size_t)i, 3) || !isfinite(f->radii[i])
+        if (!vf_finite_all(f->centres + 3 * (size_t)i, 3) || !isfinite(f->radii[i])
             || f->radii[i] < 0.0) {
             return VF_ERR_ARGUMENT;
         }
@@ -958,7 +948,7 @@ int vf_filter_cycle(const vf_filter *f, const double *q, const double *u, const 
     c->m = build_rows(c, f->dt > 0.0 ? previous : NULL);
     info->m = c->m;
     for (r = 0; r < c->m; r++) {
-        if (!isfinite(D(c, b)[r]) || !finite_all(D(c, G) + (size_t)r * n, (size_t)n)) {
+        if (!isfinite(D(c, b)[r]) || !vf_finite_all(D(c, G) + (size_t)r * n, (size_t)n)) {
             return fail(VF_ERR_OVERFLOW, f, out, info);
         }
         lv = IV(c, level)[r];
@@ -1080,7 +1070,7 @@ int vf_filter_cycle(const vf_filter *f, const double *q, const double *u, const 
         }
         claim_relaxed(c, D(c, b));
     }
-    if (!finite_all(x, (size_t)n)) {
+    if (!vf_finite_all(x, (size_t)n)) {
         return fail(VF_ERR_OVERFLOW, f, out, info);
     }
     /* the output and what it did */
