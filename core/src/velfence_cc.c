@@ -10,7 +10,7 @@
 #include <math.h>
 #include <string.h>
 
-#include "vf_util.h" /* vf_finite_all */
+#include "vf_util.h" /* vf_finite_all, vf_dot */
 
 #define RATE_EPS 1e-12 /* configuration_control._RATE_EPS */
 #define MAX_SWEEPS 64
@@ -470,23 +470,13 @@ static double final_solve(const vf_cc_problem *pb, const double *je, const doubl
     return svd_solve(Acol, b, r, n, V, x, nrm);
 }
 
-static double dot(const double *a, const double *b, int32_t n)
-{
-    double s = 0.0;
-    int32_t i;
-    for (i = 0; i < n; i++) {
-        s += a[i] * b[i];
-    }
-    return s;
-}
-
 /* |J_e x - y_r| */
 static double rate_error(const double *je, const double *x, const double *yr, int32_t m, int32_t n)
 {
     double s = 0.0;
     int32_t i;
     for (i = 0; i < m; i++) {
-        double e = dot(je + (size_t)i * n, x, n) - yr[i];
+        double e = vf_dot(je + (size_t)i * n, x, n) - yr[i];
         s += e * e;
     }
     return sqrt(s);
@@ -603,9 +593,9 @@ int vf_cc_solve(const vf_cc_problem *pb, const double *P, const double *axes, co
     for (i = 0; i < nn; i++) {
         const double *ri = out->rows + (size_t)near[i] * n;
         for (j = 0; j < nn; j++) {
-            G[(size_t)i * nn + j] = dot(ri, K + (size_t)j * n, n);
+            G[(size_t)i * nn + j] = vf_dot(ri, K + (size_t)j * n, n);
         }
-        rx0[i] = dot(ri, x0, n);
+        rx0[i] = vf_dot(ri, x0, n);
         if (!isfinite(rx0[i])) {
             stop(pb, out);
             return VF_CC_ERR_OVERFLOW;
@@ -756,8 +746,8 @@ int vf_cc_solve(const vf_cc_problem *pb, const double *P, const double *axes, co
         }
     }
     for (i = 0; i < k; i++) {
-        out->d_dot[i] = dot(out->rows + (size_t)i * n, out->q_dot, n);
-        out->d_dot_free[i] = dot(out->rows + (size_t)i * n, out->q_free, n);
+        out->d_dot[i] = vf_dot(out->rows + (size_t)i * n, out->q_dot, n);
+        out->d_dot_free[i] = vf_dot(out->rows + (size_t)i * n, out->q_free, n);
     }
     out->ee_rate_error = rate_error(je, out->q_dot, yr, m, n);
     out->ee_rate_error_free = rate_error(je, out->q_free, yr, m, n);

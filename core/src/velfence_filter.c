@@ -15,7 +15,7 @@
 #endif
 
 #include "vf_rows.h" /* the row arithmetic shared with vf_nd_filter_rows */
-#include "vf_util.h" /* vf_finite_all */
+#include "vf_util.h" /* vf_finite_all, vf_dot */
 
 #define MAX_JOINTS 64
 #define MAX_MAG 1e150
@@ -476,16 +476,6 @@ static int32_t build_rows(ctx *c, const double *previous)
 
 /* ------------------------------------------------------------------ solve, model check */
 
-static double dot(const double *a, const double *b, int32_t n)
-{
-    double s = 0.0;
-    int32_t k;
-    for (k = 0; k < n; k++) {
-        s += a[k] * b[k];
-    }
-    return s;
-}
-
 static double inf_norm(const double *v, int32_t n)
 {
     double s = 0.0;
@@ -510,7 +500,7 @@ static int project(ctx *c, const double *bnd, double *x)
     int st, feasible = 1;
     vf_nd_solve_opts so;
     for (i = 0; i < m && feasible; i++) {
-        if (bnd[i] != -INFINITY && !(dot(G + (size_t)i * n, u, n) >= bnd[i])) {
+        if (bnd[i] != -INFINITY && !(vf_dot(G + (size_t)i * n, u, n) >= bnd[i])) {
             feasible = 0;
         }
     }
@@ -556,7 +546,7 @@ static int project(ctx *c, const double *bnd, double *x)
                     if (bnd[i] == -INFINITY) {
                         continue;
                     }
-                    gap = bnd[i] - dot(g, x, n);
+                    gap = bnd[i] - vf_dot(g, x, n);
                     if (!(gap > 0.0)) {
                         continue;
                     }
@@ -575,7 +565,7 @@ static int project(ctx *c, const double *bnd, double *x)
                     st = VF_STALLED; /* not repaired */
                     break;
                 }
-                gg = dot(G + (size_t)wi * n, G + (size_t)wi * n, n);
+                gg = vf_dot(G + (size_t)wi * n, G + (size_t)wi * n, n);
                 for (k = 0; k < n; k++) {
                     x[k] += (worst * (1.0 + 1e-12) + 1e-300) * G[(size_t)wi * n + k] / gg;
                 }
@@ -677,7 +667,7 @@ static int meets_relaxed(ctx *c, const double *bnd, const double *x)
         for (k = 0; k < n; k++) {
             g1 += fabs(g[k]);
         }
-        if (!(dot(g, x, n) - cc >= -(1e-12 * (fabs(cc) + g1 * xi)))) {
+        if (!(vf_dot(g, x, n) - cc >= -(1e-12 * (fabs(cc) + g1 * xi)))) {
             return 0;
         }
     }
@@ -775,7 +765,7 @@ static void fallback(ctx *c, double *x)
     for (r = 0; r < c->m; r++) {
         const double b = D(c, b)[r];
         const double lim = b < 0.0 ? b : 0.0;
-        const double s = dot(D(c, G) + (size_t)r * n, c->u, n);
+        const double s = vf_dot(D(c, G) + (size_t)r * n, c->u, n);
         bb[r] = lim;
         if (s < 0.0 && lim / s < t) {
             t = lim / s;
@@ -1088,7 +1078,7 @@ int vf_filter_cycle(const vf_filter *f, const double *q, const double *u, const 
         }
         for (r = 0; r < c->m; r++) {
             double b = D(c, b)[r];
-            sl[r] = dot(D(c, G) + (size_t)r * n, x, n) - b;
+            sl[r] = vf_dot(D(c, G) + (size_t)r * n, x, n) - b;
             if (sl[r] <= BINDING * (1.0 + fabs(b)) || D(c, dist)[r] < 0.0) {
                 IV(c, active)[na++] = r;
             }
