@@ -30,8 +30,8 @@
  * fuzz_exact spoil every VF_OK result, for the tests' proof that a violation aborts.
  *
  * VF_FUZZ_BYTES_ONLY (defined by fuzz_nd.c, fuzz_cc.c, fuzz_rr.c and fuzz_filter.c before the
- * include): only the byte cursor, the double decoder, fz_alloc, fz_same_bits and fz_print_vec;
- * no polygon, states or 2-D contract.
+ * include): only the byte cursor, the double decoder, fz_alloc, fz_same_bits, fz_print_vec and
+ * fz_profile; no polygon, states or 2-D contract.
  */
 #ifndef VF_FUZZ_COMMON_H
 #define VF_FUZZ_COMMON_H
@@ -147,6 +147,32 @@ static inline void fz_print_vec(const char *name, const double *x, int32_t n)
         fprintf(stderr, " %.17g", x[k]);
     }
     fprintf(stderr, "\n");
+}
+
+/* A profile (kind, prm[VF_PROFILE_PARAMS]) from the bytes: linear (dmax, gain, cap) for an even
+ * first byte, else three-zone (K, v, a and the zone distances as ThreeZoneProfile derives them);
+ * every value positive and finite (fuzz_filter.c, fuzz_filter_cycle.c). */
+static inline void fz_profile(fz_reader *r, int32_t *kind, double *prm)
+{
+    uint8_t kb = fz_byte(r);
+    memset(prm, 0, VF_PROFILE_PARAMS * sizeof(double));
+    if (kb % 2 == 0) {
+        *kind = VF_PROFILE_LINEAR;
+        prm[0] = (1 + fz_byte(r)) / 64.0;
+        prm[1] = fz_byte(r) / 16.0;
+        prm[2] = (1 + fz_byte(r)) / 64.0;
+    } else {
+        double K = (1 + fz_byte(r)) / 4.0, a = (1 + fz_byte(r)) / 4.0;
+        double v = a / K * (1.0 + (1 + fz_byte(r)) / 16.0);
+        double d_int = (a / K) / K;
+        *kind = VF_PROFILE_THREE_ZONE;
+        prm[0] = K;
+        prm[1] = v;
+        prm[2] = a;
+        prm[3] = d_int;
+        prm[4] = 0.5 * d_int;
+        prm[5] = 0.5 * d_int + (v / a) * (0.5 * v);
+    }
 }
 
 #ifndef VF_FUZZ_BYTES_ONLY /* the 2-D targets: polygons, states, their contract */

@@ -150,29 +150,6 @@ static double ubyte(fz_reader *rd, double base, double scale)
     return (fz_byte(rd) - base) / scale;
 }
 
-static void read_profile(fz_reader *rd, int32_t *kind, double *prm)
-{
-    uint8_t k = fz_byte(rd);
-    memset(prm, 0, VF_ND_PROFILE_PARAMS * sizeof(double));
-    if (k % 2 == 0) {
-        *kind = VF_ND_PROFILE_LINEAR;
-        prm[0] = (1 + fz_byte(rd)) / 64.0;
-        prm[1] = fz_byte(rd) / 16.0;
-        prm[2] = (1 + fz_byte(rd)) / 64.0;
-    } else {
-        double K = (1 + fz_byte(rd)) / 4.0, a = (1 + fz_byte(rd)) / 4.0;
-        double v = a / K * (1.0 + (1 + fz_byte(rd)) / 16.0);
-        double d_int = (a / K) / K;
-        *kind = VF_ND_PROFILE_THREE_ZONE;
-        prm[0] = K;
-        prm[1] = v;
-        prm[2] = a;
-        prm[3] = d_int;
-        prm[4] = 0.5 * d_int;
-        prm[5] = 0.5 * d_int + (v / a) * (0.5 * v);
-    }
-}
-
 static void decode(fz_reader *rd)
 {
     int32_t i, j, w;
@@ -199,7 +176,7 @@ static void decode(fz_reader *rd)
         vmax[j] = (1 + fz_byte(rd)) / 32.0;
         bt = fz_byte(rd);
         amax[j] = bt == 255 ? INFINITY : (1 + bt) / 4.0;
-        read_profile(rd, &jkind[j], jprm + VF_ND_PROFILE_PARAMS * j);
+        fz_profile(rd, &jkind[j], jprm + VF_ND_PROFILE_PARAMS * j);
     }
     dt = (1 + fz_byte(rd)) / 1024.0;
     if (flags & 8) {
@@ -211,7 +188,7 @@ static void decode(fz_reader *rd)
         memset(s, 0, sizeof *s);
         s->nf = 1 + fz_byte(rd) % MAXF;
         s->point = fz_byte(rd) % (n + 2) - 1;
-        read_profile(rd, &s->kind, s->prm);
+        fz_profile(rd, &s->kind, s->prm);
         for (i = 0; i < s->nf; i++) {
             double th = TWO_PI * fz_byte(rd) / 256.0, ph = TWO_PI * fz_byte(rd) / 256.0;
             wN[w][3 * i] = cos(ph) * cos(th);
@@ -223,7 +200,7 @@ static void decode(fz_reader *rd)
         s->off = woff[w];
     }
     f.cap.k = fz_byte(rd) % (MAXK + 1);
-    read_profile(rd, &f.cap.kind, f.cap.prm);
+    fz_profile(rd, &f.cap.kind, f.cap.prm);
     f.cap.buf = (1 + fz_byte(rd)) / 64.0;
     for (j = 0; j < n; j++) {
         lrad[j] = fz_byte(rd) / 512.0;

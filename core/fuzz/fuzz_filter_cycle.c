@@ -77,32 +77,6 @@ static void unit(fz_reader *r, double *v)
     v[2] = sin(ph);
 }
 
-static void profile(fz_reader *r, int32_t *kind, double *prm)
-{
-    uint8_t kb = fz_byte(r);
-    int i;
-    for (i = 0; i < VF_ND_PROFILE_PARAMS; i++) {
-        prm[i] = 0.0;
-    }
-    if (kb % 2 == 0) {
-        *kind = VF_ND_PROFILE_LINEAR;
-        prm[0] = (1 + fz_byte(r)) / 64.0;
-        prm[1] = fz_byte(r) / 16.0;
-        prm[2] = (1 + fz_byte(r)) / 64.0;
-    } else {
-        double K = (1 + fz_byte(r)) / 4.0, a = (1 + fz_byte(r)) / 4.0;
-        double v = a / K * (1.0 + (1 + fz_byte(r)) / 16.0);
-        double d_int = (a / K) / K;
-        *kind = VF_ND_PROFILE_THREE_ZONE;
-        prm[0] = K;
-        prm[1] = v;
-        prm[2] = a;
-        prm[3] = d_int;
-        prm[4] = 0.5 * d_int;
-        prm[5] = 0.5 * d_int + (v / a) * (0.5 * v);
-    }
-}
-
 static void report(const char *what, const vf_filter *f, const double *q, const double *u,
                    const double *prev, const double *x, const vf_filter_info *info, int rc)
 {
@@ -160,7 +134,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             uint8_t b = fz_byte(r);
             amax[j] = b == 255 ? INFINITY : (1 + b) / 4.0;
         }
-        profile(r, jkind + j, jprm + 6 * j);
+        fz_profile(r, jkind + j, jprm + 6 * j);
         lrad[j] = fz_byte(r) / 512.0;
         wts[j] = (1 + fz_byte(r)) / 32.0;
     }
@@ -185,7 +159,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     for (w = 0; w < f.nw; w++) {
         ws[w].point = fz_byte(r) % f.npoints;
         ws[w].nf = 1 + fz_byte(r) % MAXF;
-        profile(r, &ws[w].kind, ws[w].prm);
+        fz_profile(r, &ws[w].kind, ws[w].prm);
         for (i = 0; i < ws[w].nf; i++) {
             unit(r, N[w] + 3 * i);
             off[w][i] = (fz_byte(r) - 128) / 128.0;

@@ -406,49 +406,88 @@ static PyObject *PolytopeLaw_shape_array(PolytopeLaw *self, PyObject *const *arg
     return new_vector(self->out, dim);
 }
 
-static PyObject *PolytopeLaw_batch(PolytopeLaw *self, PyObject *const *args, Py_ssize_t nargs)
+/* What batch and batch_velocity share: the views P, V (read) and out (written), and the kernel's
+ * scratch with the active set after it. nd_batch_close releases whatever was taken. */
+typedef struct {
+    Py_buffer P, V, out;
+    vf_nd_scratch s;
+    int32_t *active;
+} nd_batch;
+
+/* The law initialised, nargs == want (names lists them for the message), then the views P, V, out
+ * in that order. Returns -1 with an exception set on failure. */
+static int nd_batch_open(PolytopeLaw *self, PyObject *const *args, Py_ssize_t nargs,
+                         Py_ssize_t want, const char *names, nd_batch *b)
 {
-    Py_buffer P = {0}, V = {0}, out = {0}, zones = {0};
-    Py_ssize_t rows, r;
-    int32_t dim = self->poly.dim;
-    double *dbl = NULL;
-    int32_t *ints = NULL;
-    PyObject *ret = NULL;
+    memset(b, 0, sizeof(*b));
     if (self->mem == NULL) {
         PyErr_SetString(PyExc_RuntimeError, "PolytopeLaw not initialised");
-        return NULL;
+        return -1;
     }
-    if (nargs != 4) {
-        PyErr_Format(PyExc_TypeError, "expected 4 arguments (P, V, out, zones), got %zd", nargs);
-        return NULL;
+    if (nargs != want) {
+        PyErr_Format(PyExc_TypeError, "expected %zd arguments (%s), got %zd", want, names, nargs);
+        return -1;
     }
-    if (get_view(args[0], &P, 0, "d", "P") < 0 || get_view(args[1], &V, 0, "d", "V") < 0
-        || get_view(args[2], &out, 1, "d", "out") < 0
+    if (get_view(args[0], &b->P, 0, "d", "P") < 0 || get_view(args[1], &b->V, 0, "d", "V") < 0
+        || get_view(args[2], &b->out, 1, "d", "out") < 0) {
+        return -1;
+    }
+    return 0;
+}
+
+/* P, V and out each hold rows x dim doubles (else ValueError with msg, -1); then the scratch for
+ * one kernel call and the active set (else MemoryError, -1). */
+static int nd_batch_prepare(PolytopeLaw *self, nd_batch *b, Py_ssize_t rows, const char *msg)
+{
+    int32_t dim = self->poly.dim;
+    size_t nints = vf_nd_law_ints(self->poly.nf, dim);
+    if (b->P.len != 8 * rows * dim || b->V.len != 8 * rows * dim
+        || b->out.len != 8 * rows * dim) {
+        PyErr_SetString(PyExc_ValueError, msg);
+        return -1;
+    }
+    b->s.dbl = PyMem_Malloc(vf_nd_law_doubles(self->poly.nf, dim) * sizeof(double));
+    b->s.ints = PyMem_Malloc((nints + (size_t)dim + 1) * sizeof(int32_t));
+    if (b->s.dbl == NULL || b->s.ints == NULL) {
+        PyErr_NoMemory();
+        return -1;
+    }
+    b->active = b->s.ints + nints;
+    return 0;
+}
+
+static void nd_batch_close(nd_batch *b)
+{
+    release(&b->P);
+    release(&b->V);
+    release(&b->out);
+    PyMem_Free(b->s.dbl);
+    PyMem_Free(b->s.ints);
+}
+
+static PyObject *PolytopeLaw_batch(PolytopeLaw *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    nd_batch b;
+    Py_buffer zones = {0};
+    Py_ssize_t rows, r;
+    int32_t dim = self->poly.dim;
+    PyObject *ret = NULL;
+    if (nd_batch_open(self, args, nargs, 4, "P, V, out, zones", &b) < 0
         || get_view(args[3], &zones, 1, "q", "zones") < 0) {
         goto done;
     }
     rows = zones.len / 8;
-    if (P.len != 8 * rows * dim || V.len != 8 * rows * dim || out.len != 8 * rows * dim) {
-        PyErr_SetString(PyExc_ValueError, "P, V, out must be (N, dim) and zones (N,)");
-        goto done;
-    }
-    dbl = PyMem_Malloc(vf_nd_law_doubles(self->poly.nf, dim) * sizeof(double));
-    ints = PyMem_Malloc((vf_nd_law_ints(self->poly.nf, dim) + (size_t)dim + 1) * sizeof(int32_t));
-    if (dbl == NULL || ints == NULL) {
-        PyErr_NoMemory();
+    if (nd_batch_prepare(self, &b, rows, "P, V, out must be (N, dim) and zones (N,)") < 0) {
         goto done;
     }
     Py_BEGIN_ALLOW_THREADS
     {
-        vf_nd_scratch s;
         vf_nd_result res;
-        int32_t *active = ints + vf_nd_law_ints(self->poly.nf, dim);
-        s.dbl = dbl;
-        s.ints = ints;
         for (r = 0; r < rows; r++) {
             size_t o = (size_t)r * (size_t)dim;
-            vf_nd_kernel(&self->poly, &self->law, (const double *)P.buf + o,
-                         (const double *)V.buf + o, (double *)out.buf + o, active, &s, &res);
+            vf_nd_kernel(&self->poly, &self->law, (const double *)b.P.buf + o,
+                         (const double *)b.V.buf + o, (double *)b.out.buf + o, b.active, &b.s,
+                         &res);
             ((int64_t *)zones.buf)[r] = res.zone;
         }
     }
@@ -456,12 +495,8 @@ static PyObject *PolytopeLaw_batch(PolytopeLaw *self, PyObject *const *args, Py_
     ret = Py_None;
     Py_INCREF(ret);
 done:
-    release(&P);
-    release(&V);
-    release(&out);
+    nd_batch_close(&b);
     release(&zones);
-    PyMem_Free(dbl);
-    PyMem_Free(ints);
     return ret;
 }
 
@@ -472,46 +507,24 @@ done:
 static PyObject *PolytopeLaw_batch_velocity(PolytopeLaw *self, PyObject *const *args,
                                             Py_ssize_t nargs)
 {
-    Py_buffer P = {0}, V = {0}, out = {0};
+    nd_batch b;
     Py_ssize_t rows, r, bad = 0;
     int32_t dim = self->poly.dim;
-    double *dbl = NULL;
-    int32_t *ints = NULL;
     PyObject *ret = NULL;
-    if (self->mem == NULL) {
-        PyErr_SetString(PyExc_RuntimeError, "PolytopeLaw not initialised");
-        return NULL;
-    }
-    if (nargs != 3) {
-        PyErr_Format(PyExc_TypeError, "expected 3 arguments (P, V, out), got %zd", nargs);
-        return NULL;
-    }
-    if (get_view(args[0], &P, 0, "d", "P") < 0 || get_view(args[1], &V, 0, "d", "V") < 0
-        || get_view(args[2], &out, 1, "d", "out") < 0) {
+    if (nd_batch_open(self, args, nargs, 3, "P, V, out", &b) < 0) {
         goto done;
     }
-    rows = out.len / (8 * (Py_ssize_t)dim);
-    if (P.len != 8 * rows * dim || V.len != 8 * rows * dim || out.len != 8 * rows * dim) {
-        PyErr_SetString(PyExc_ValueError, "P, V, out must be (N, dim)");
-        goto done;
-    }
-    dbl = PyMem_Malloc(vf_nd_law_doubles(self->poly.nf, dim) * sizeof(double));
-    ints = PyMem_Malloc((vf_nd_law_ints(self->poly.nf, dim) + (size_t)dim + 1) * sizeof(int32_t));
-    if (dbl == NULL || ints == NULL) {
-        PyErr_NoMemory();
+    rows = b.out.len / (8 * (Py_ssize_t)dim);
+    if (nd_batch_prepare(self, &b, rows, "P, V, out must be (N, dim)") < 0) {
         goto done;
     }
     Py_BEGIN_ALLOW_THREADS
     {
-        vf_nd_scratch s;
         vf_nd_result res;
-        int32_t *active = ints + vf_nd_law_ints(self->poly.nf, dim);
-        s.dbl = dbl;
-        s.ints = ints;
         for (r = 0; r < rows; r++) {
             size_t o = (size_t)r * (size_t)dim;
-            const double *p = (const double *)P.buf + o, *v = (const double *)V.buf + o;
-            double *x = (double *)out.buf + o;
+            const double *p = (const double *)b.P.buf + o, *v = (const double *)b.V.buf + o;
+            double *x = (double *)b.out.buf + o;
             int32_t k, ok = 1;
             for (k = 0; k < dim; k++) {
                 ok &= isfinite(p[k]) && isfinite(v[k]);
@@ -523,7 +536,7 @@ static PyObject *PolytopeLaw_batch_velocity(PolytopeLaw *self, PyObject *const *
                 bad += 1;
                 continue;
             }
-            vf_nd_kernel(&self->poly, &self->law, p, v, x, active, &s, &res);
+            vf_nd_kernel(&self->poly, &self->law, p, v, x, b.active, &b.s, &res);
             for (k = 0; k < dim; k++) {
                 ok &= isfinite(x[k]);
             }
@@ -533,11 +546,7 @@ static PyObject *PolytopeLaw_batch_velocity(PolytopeLaw *self, PyObject *const *
     Py_END_ALLOW_THREADS
     ret = PyLong_FromSsize_t(bad);
 done:
-    release(&P);
-    release(&V);
-    release(&out);
-    PyMem_Free(dbl);
-    PyMem_Free(ints);
+    nd_batch_close(&b);
     return ret;
 }
 

@@ -10,6 +10,8 @@
 #include <math.h>
 #include <string.h>
 
+#include "vf_util.h" /* vf_finite_all, vf_dot */
+
 #define RATE_EPS 1e-12 /* configuration_control._RATE_EPS */
 #define MAX_SWEEPS 64
 
@@ -25,17 +27,6 @@ size_t vf_cc_doubles(int32_t n, int32_t m, int32_t k)
 size_t vf_cc_ints(int32_t k)
 {
     return 3 * (size_t)(k > 0 ? k : 0) + 1;
-}
-
-static int finite_all(const double *x, size_t count)
-{
-    size_t i;
-    for (i = 0; i < count; i++) {
-        if (!isfinite(x[i])) {
-            return 0;
-        }
-    }
-    return 1;
 }
 
 int vf_cc_check(const vf_cc_problem *pb)
@@ -62,7 +53,8 @@ int vf_cc_check(const vf_cc_problem *pb)
         }
     }
     for (i = 0; i < pb->k; i++) {
-        if (!(pb->rho[i] > 0.0 && isfinite(pb->rho[i])) || !finite_all(pb->C + 3 * (size_t)i, 3)) {
+        if (!(pb->rho[i] > 0.0 && isfinite(pb->rho[i]))
+            || !vf_finite_all(pb->C + 3 * (size_t)i, 3)) {
             return VF_CC_ERR_ARGUMENT;
         }
     }
@@ -471,21 +463,11 @@ static double final_solve(const vf_cc_problem *pb, const double *je, const doubl
         jacobi_columns(V, n, n, NULL, nrm);
         norm_range(V, n, n, &smax, &smin);
     }
-    if (smin > DBL_EPSILON * (double)(r > n ? r : n) * smax && finite_all(x, (size_t)n)) {
+    if (smin > DBL_EPSILON * (double)(r > n ? r : n) * smax && vf_finite_all(x, (size_t)n)) {
         return condition_of(smax, smin);
     }
     assemble(pb, je, yr, rows, zr, act, na, Acol, b);
     return svd_solve(Acol, b, r, n, V, x, nrm);
-}
-
-static double dot(const double *a, const double *b, int32_t n)
-{
-    double s = 0.0;
-    int32_t i;
-    for (i = 0; i < n; i++) {
-        s += a[i] * b[i];
-    }
-    return s;
 }
 
 /* |J_e x - y_r| */
@@ -494,7 +476,7 @@ static double rate_error(const double *je, const double *x, const double *yr, in
     double s = 0.0;
     int32_t i;
     for (i = 0; i < m; i++) {
-        double e = dot(je + (size_t)i * n, x, n) - yr[i];
+        double e = vf_dot(je + (size_t)i * n, x, n) - yr[i];
         s += e * e;
     }
     return sqrt(s);
@@ -525,8 +507,8 @@ int vf_cc_solve(const vf_cc_problem *pb, const double *P, const double *axes, co
     n = pb->n;
     m = pb->m;
     k = pb->k;
-    if (!finite_all(P, 3 * (size_t)(n + 1)) || !finite_all(axes, 3 * (size_t)n)
-        || !finite_all(yr, (size_t)m)) {
+    if (!vf_finite_all(P, 3 * (size_t)(n + 1)) || !vf_finite_all(axes, 3 * (size_t)n)
+        || !vf_finite_all(yr, (size_t)m)) {
         stop(pb, out);
         return VF_CC_ERR_NONFINITE;
     }
@@ -611,15 +593,15 @@ int vf_cc_solve(const vf_cc_problem *pb, const double *P, const double *axes, co
     for (i = 0; i < nn; i++) {
         const double *ri = out->rows + (size_t)near[i] * n;
         for (j = 0; j < nn; j++) {
-            G[(size_t)i * nn + j] = dot(ri, K + (size_t)j * n, n);
+            G[(size_t)i * nn + j] = vf_dot(ri, K + (size_t)j * n, n);
         }
-        rx0[i] = dot(ri, x0, n);
+        rx0[i] = vf_dot(ri, x0, n);
         if (!isfinite(rx0[i])) {
             stop(pb, out);
             return VF_CC_ERR_OVERFLOW;
         }
     }
-    if (!finite_all(x0, (size_t)n) || !finite_all(G, (size_t)nn * nn)) {
+    if (!vf_finite_all(x0, (size_t)n) || !vf_finite_all(G, (size_t)nn * nn)) {
         stop(pb, out);
         return VF_CC_ERR_OVERFLOW;
     }
@@ -743,7 +725,7 @@ int vf_cc_solve(const vf_cc_problem *pb, const double *P, const double *axes, co
     out->condition = final_solve(pb, je, yr, out->rows, zr, out->active, na, Acol, b, V,
                                  out->q_dot, nrm);
     memcpy(out->q_free, na > 0 ? x0 : out->q_dot, (size_t)n * sizeof(double));
-    if (!finite_all(out->q_dot, (size_t)n)) {
+    if (!vf_finite_all(out->q_dot, (size_t)n)) {
         stop(pb, out);
         return VF_CC_ERR_OVERFLOW;
     }
@@ -764,16 +746,16 @@ int vf_cc_solve(const vf_cc_problem *pb, const double *P, const double *axes, co
         }
     }
     for (i = 0; i < k; i++) {
-        out->d_dot[i] = dot(out->rows + (size_t)i * n, out->q_dot, n);
-        out->d_dot_free[i] = dot(out->rows + (size_t)i * n, out->q_free, n);
+        out->d_dot[i] = vf_dot(out->rows + (size_t)i * n, out->q_dot, n);
+        out->d_dot_free[i] = vf_dot(out->rows + (size_t)i * n, out->q_free, n);
     }
     out->ee_rate_error = rate_error(je, out->q_dot, yr, m, n);
     out->ee_rate_error_free = rate_error(je, out->q_free, yr, m, n);
-    if (!finite_all(out->d_dot, (size_t)k) || !finite_all(out->d_dot_free, (size_t)k)
+    if (!vf_finite_all(out->d_dot, (size_t)k) || !vf_finite_all(out->d_dot_free, (size_t)k)
         || !isfinite(out->ee_rate_error) || !isfinite(out->ee_rate_error_free)
-        || !isfinite(out->condition) || !finite_all(out->distances, (size_t)k)
-        || !finite_all(out->points, 3 * (size_t)k) || !finite_all(out->normals, 3 * (size_t)k)
-        || !finite_all(out->rows, (size_t)k * (size_t)n)) {
+        || !isfinite(out->condition) || !vf_finite_all(out->distances, (size_t)k)
+        || !vf_finite_all(out->points, 3 * (size_t)k) || !vf_finite_all(out->normals, 3 * (size_t)k)
+        || !vf_finite_all(out->rows, (size_t)k * (size_t)n)) {
         stop(pb, out);
         return VF_CC_ERR_OVERFLOW;
     }

@@ -14,6 +14,9 @@
 #include <stdio.h>
 #endif
 
+#include "vf_rows.h" /* the row arithmetic shared with vf_nd_filter_rows */
+#include "vf_util.h" /* vf_finite_all, vf_dot */
+
 #define MAX_JOINTS 64
 #define MAX_MAG 1e150
 #define COMMAND_CAP 1e3
@@ -108,21 +111,10 @@ static int32_t point_at(const vf_filter *f, const vf_filter_point *pt, const dou
 
 /* ------------------------------------------------------------------ checks and sizes */
 
-static int finite_all(const double *v, size_t k)
-{
-    size_t i;
-    for (i = 0; i < k; i++) {
-        if (!isfinite(v[i])) {
-            return 0;
-        }
-    }
-    return 1;
-}
-
 static int rigid(const double *T)
 {
     int a, b, c;
-    if (!finite_all(T, 12)) {
+    if (!vf_finite_all(T, 12)) {
         return 0;
     }
     for (a = 0; a < 3; a++) {
@@ -144,7 +136,7 @@ static int rigid(const double *T)
 
 static int profile_ok(int32_t kind, const double *prm)
 {
-    if (!finite_all(prm, VF_ND_PROFILE_PARAMS)) {
+    if (!vf_finite_all(prm, VF_ND_PROFILE_PARAMS)) {
         return 0;
     }
     if (kind == VF_ND_PROFILE_LINEAR) {
@@ -178,7 +170,7 @@ int vf_filter_check(const vf_filter *f)
     for (j = 0; j < f->n; j++) {
         const vf_filter_joint *jt = f->joints + j;
         double an;
-        if (!rigid(jt->T) || !finite_all(jt->axis, 3) || !isfinite(jt->offset)
+        if (!rigid(jt->T) || !vf_finite_all(jt->axis, 3) || !isfinite(jt->offset)
             || (jt->type != VF_FILTER_REVOLUTE && jt->type != VF_FILTER_PRISMATIC)) {
             return VF_ERR_ARGUMENT;
         }
@@ -212,7 +204,7 @@ int vf_filter_check(const vf_filter *f)
     }
     for (i = 0; i < f->npoints; i++) {
         if (f->points[i].link < -1 || f->points[i].link > f->n
-            || !finite_all(f->points[i].offset, 3)) {
+            || !vf_finite_all(f->points[i].offset, 3)) {
             return VF_ERR_ARGUMENT;
         }
     }
@@ -222,8 +214,8 @@ int vf_filter_check(const vf_filter *f)
             return VF_ERR_NULL;
         }
         if (p->point < 0 || p->point >= f->npoints || p->nf < 1 || p->nf > (1 << 20)
-            || !profile_ok(p->kind, p->prm) || !finite_all(p->N, 3 * (size_t)p->nf)
-            || !finite_all(p->off, (size_t)p->nf)) {
+            || !profile_ok(p->kind, p->prm) || !vf_finite_all(p->N, 3 * (size_t)p->nf)
+            || !vf_finite_all(p->off, (size_t)p->nf)) {
             return VF_ERR_ARGUMENT;
         }
         for (i = 0; i < p->nf; i++) {
@@ -237,7 +229,7 @@ int vf_filter_check(const vf_filter *f)
         return VF_ERR_ARGUMENT;
     }
     for (i = 0; i < f->k; i++) {
-        if (!finite_all(f->centres + 3 * (size_t)i, 3) || !isfinite(f->radii[i])
+        if (!vf_finite_all(f->centres + 3 * (size_t)i, 3) || !isfinite(f->radii[i])
             || f->radii[i] < 0.0) {
             return VF_ERR_ARGUMENT;
         }
@@ -401,22 +393,6 @@ typedef struct ctx {
 #define IV(c, field) ((c)->i + (c)->L.field)
 
 
-static void put_row(ctx *c, int32_t r, int32_t col, double sign, double bound, int32_t lv,
-                    int32_t a, int32_t t, double dd)
-{
-    double *g = D(c, G) + (size_t)r * c->n;
-    int32_t j;
-    for (j = 0; j < c->n; j++) {
-        g[j] = 0.0 * sign;
-    }
-    g[col] = sign;
-    D(c, b)[r] = bound;
-    IV(c, level)[r] = lv;
-    IV(c, ka)[r] = a;
-    IV(c, kb)[r] = t;
-    D(c, dist)[r] = dd;
-}
-
 /* Every row of the cycle (the header's order); returns their number. */
 static int32_t build_rows(ctx *c, const double *previous)
 {
@@ -425,49 +401,23 @@ static int32_t build_rows(ctx *c, const double *previous)
     const double *q = c->q, *u = c->u;
     const double idt = c->idt;
     double *P = D(c, P), *axes = D(c, axes);
-    int32_t r = 0, j, w, i, wk[2];
+    int32_t r = 0, j, w;
+    const vf_rows o = {D(c, G), D(c, b), D(c, dist), IV(c, level), IV(c, ka), IV(c, kb), n};
     vf_filter_kinematics(f, q, P, axes, D(c, frames));
     for (j = 0; j < n; j++) {
-        const int32_t kind = f->jkind[j];
-        const double *prm = f->jprm + (size_t)VF_ND_PROFILE_PARAMS * j;
-        const double v = f->vmax[j];
-        double dl = q[j] * 1.0 + (-f->lower[j]);
-        double du = q[j] * -1.0 + f->upper[j];
-        double bl = -INFINITY, bu = -INFINITY;
-        if (isfinite(f->lower[j])) {
-            vf_nd_rate_bounds(kind, prm, &dl, 1, v, idt, &bl, wk);
-        }
-        if (isfinite(f->upper[j])) {
-            vf_nd_rate_bounds(kind, prm, &du, 1, v, idt, &bu, wk);
-        }
-        if (bl != -INFINITY) {
-            put_row(c, r++, j, 1.0, bl < v ? bl : v, VF_FILTER_LEVEL_JOINT, j, 0, dl);
-        }
-        if (bu != -INFINITY) {
-            put_row(c, r++, j, -1.0, bu < v ? bu : v, VF_FILTER_LEVEL_JOINT, j, 1, du);
-        }
+        r = vf_joint_position_rows(&o, r, j, f->jkind[j],
+                                   f->jprm + (size_t)VF_ND_PROFILE_PARAMS * j, q[j], f->lower[j],
+                                   f->upper[j], f->vmax[j], idt, VF_FILTER_LEVEL_JOINT, j, 0, j, 1);
     }
     for (j = 0; j < n; j++) {
-        put_row(c, r++, j, 1.0, -f->vmax[j], VF_FILTER_LEVEL_JOINT, j, 2, INFINITY);
-        put_row(c, r++, j, -1.0, -f->vmax[j], VF_FILTER_LEVEL_JOINT, j, 3, INFINITY);
+        r = vf_joint_speed_rows(&o, r, j, f->vmax[j], VF_FILTER_LEVEL_JOINT, j, 2, j, 3);
     }
-    if (previous != NULL && f->dt > 0.0 && f->amax != NULL) {
-        for (j = 0; j < n; j++) {
-            double step;
-            if (!isfinite(f->amax[j])) {
-                continue;
-            }
-            step = f->amax[j] * f->dt;
-            put_row(c, r++, j, 1.0, previous[j] - step, VF_FILTER_LEVEL_RATE, j, 0, INFINITY);
-            put_row(c, r++, j, -1.0, -(previous[j] + step), VF_FILTER_LEVEL_RATE, j, 1,
-                    INFINITY);
-        }
-    }
+    r = vf_rate_rows(&o, r, previous, f->dt, f->amax, VF_FILTER_LEVEL_RATE);
     for (w = 0; w < f->nw; w++) {
         const vf_filter_polytope *ws = f->ws + w;
         const vf_filter_point *pt = f->points + ws->point;
         double p[3], vx = 0.0, vy = 0.0, vz = 0.0;
-        double *J = D(c, wsJ), *wsd = D(c, wsd), *wsb = D(c, wsb);
+        double *J = D(c, wsJ);
         const int32_t k = point_at(f, pt, D(c, frames), p);
         for (j = 0; j < k; j++) {
             const double *z = axes + 3 * (size_t)j;
@@ -487,33 +437,9 @@ static int32_t build_rows(ctx *c, const double *previous)
             vy += col[1] * u[j];
             vz += col[2] * u[j];
         }
-        for (i = 0; i < ws->nf; i++) {
-            const double *nn = ws->N + 3 * (size_t)i;
-            wsd[i] = nn[0] * p[0] + nn[1] * p[1] + nn[2] * p[2] - ws->off[i];
-        }
-        vf_nd_rate_bounds(ws->kind, ws->prm, wsd, ws->nf, sqrt(vx * vx + vy * vy + vz * vz), idt,
-                          wsb, IV(c, ri));
-        for (i = 0; i < ws->nf; i++) {
-            const double *nn = ws->N + 3 * (size_t)i;
-            double *g;
-            if (wsb[i] == -INFINITY) {
-                continue;
-            }
-            g = D(c, G) + (size_t)r * n;
-            for (j = 0; j < n; j++) {
-                g[j] = 0.0;
-            }
-            for (j = 0; j < k; j++) {
-                const double *col = J + 3 * (size_t)j;
-                g[j] = nn[0] * col[0] + nn[1] * col[1] + nn[2] * col[2];
-            }
-            D(c, b)[r] = wsb[i];
-            IV(c, level)[r] = VF_FILTER_LEVEL_WORKSPACE;
-            IV(c, ka)[r] = w;
-            IV(c, kb)[r] = i;
-            D(c, dist)[r] = wsd[i];
-            r += 1;
-        }
+        r = vf_workspace_rows(&o, r, w, ws->N, ws->off, ws->nf, ws->kind, ws->prm, p, J, k,
+                              sqrt(vx * vx + vy * vy + vz * vz), idt, VF_FILTER_LEVEL_WORKSPACE,
+                              D(c, wsd), D(c, wsb), IV(c, ri));
     }
     if (f->k > 0) {
         vf_nd_capsules cap;
@@ -550,16 +476,6 @@ static int32_t build_rows(ctx *c, const double *previous)
 
 /* ------------------------------------------------------------------ solve, model check */
 
-static double dot(const double *a, const double *b, int32_t n)
-{
-    double s = 0.0;
-    int32_t k;
-    for (k = 0; k < n; k++) {
-        s += a[k] * b[k];
-    }
-    return s;
-}
-
 static double inf_norm(const double *v, int32_t n)
 {
     double s = 0.0;
@@ -584,7 +500,7 @@ static int project(ctx *c, const double *bnd, double *x)
     int st, feasible = 1;
     vf_nd_solve_opts so;
     for (i = 0; i < m && feasible; i++) {
-        if (bnd[i] != -INFINITY && !(dot(G + (size_t)i * n, u, n) >= bnd[i])) {
+        if (bnd[i] != -INFINITY && !(vf_dot(G + (size_t)i * n, u, n) >= bnd[i])) {
             feasible = 0;
         }
     }
@@ -630,7 +546,7 @@ static int project(ctx *c, const double *bnd, double *x)
                     if (bnd[i] == -INFINITY) {
                         continue;
                     }
-                    gap = bnd[i] - dot(g, x, n);
+                    gap = bnd[i] - vf_dot(g, x, n);
                     if (!(gap > 0.0)) {
                         continue;
                     }
@@ -649,7 +565,7 @@ static int project(ctx *c, const double *bnd, double *x)
                     st = VF_STALLED; /* not repaired */
                     break;
                 }
-                gg = dot(G + (size_t)wi * n, G + (size_t)wi * n, n);
+                gg = vf_dot(G + (size_t)wi * n, G + (size_t)wi * n, n);
                 for (k = 0; k < n; k++) {
                     x[k] += (worst * (1.0 + 1e-12) + 1e-300) * G[(size_t)wi * n + k] / gg;
                 }
@@ -678,37 +594,13 @@ static int project(ctx *c, const double *bnd, double *x)
     return st == VF_INFEASIBLE ? VF_INFEASIBLE : VF_STALLED;
 }
 
-/* The clearance of sphere i and link l at joint points P: vf_nd_capsule_clearances's arithmetic
- * for one pair (the same operations, so the same bits). */
+/* The clearance of sphere i and link l at joint points P: vf_nd_capsule_clearances's for one
+ * pair (vf_capsule_clearance, so the same bits). */
 static double pair_clearance(const vf_filter *f, const double *P, int32_t i, int32_t l)
 {
-    const double *cc = f->centres + 3 * (size_t)i;
     const double *a = P + 3 * (size_t)l;
-    const double *e = a + 3;
-    double dx = e[0] - a[0], dy = e[1] - a[1], dz = e[2] - a[2];
-    double dd = dx * dx + dy * dy + dz * dz;
-    double t, x0, x1, x2;
-    if (dd == 0.0) {
-        t = 0.0;
-    } else {
-        t = ((cc[0] - a[0]) * dx + (cc[1] - a[1]) * dy + (cc[2] - a[2]) * dz) / dd;
-        t = t <= 0.0 ? 0.0 : (t >= 1.0 ? 1.0 : t);
-    }
-    if (t <= 0.5) {
-        x0 = a[0] + t * (e[0] - a[0]);
-        x1 = a[1] + t * (e[1] - a[1]);
-        x2 = a[2] + t * (e[2] - a[2]);
-    } else {
-        double w = 1.0 - t;
-        x0 = e[0] - w * (e[0] - a[0]);
-        x1 = e[1] - w * (e[1] - a[1]);
-        x2 = e[2] - w * (e[2] - a[2]);
-    }
-    dx = x0 - cc[0];
-    dy = x1 - cc[1];
-    dz = x2 - cc[2];
-    return sqrt(dx * dx + dy * dy + dz * dz) - f->radii[i]
-           - (f->link_radius != NULL ? f->link_radius[l] : 0.0);
+    return vf_capsule_clearance(f->centres + 3 * (size_t)i, a, a + 3, f->radii[i],
+                                f->link_radius != NULL ? f->link_radius[l] : 0.0);
 }
 
 /* The model check at q + x dt: counts the workspace / obstacle rows whose true next distance is
@@ -775,7 +667,7 @@ static int meets_relaxed(ctx *c, const double *bnd, const double *x)
         for (k = 0; k < n; k++) {
             g1 += fabs(g[k]);
         }
-        if (!(dot(g, x, n) - cc >= -(1e-12 * (fabs(cc) + g1 * xi)))) {
+        if (!(vf_dot(g, x, n) - cc >= -(1e-12 * (fabs(cc) + g1 * xi)))) {
             return 0;
         }
     }
@@ -873,7 +765,7 @@ static void fallback(ctx *c, double *x)
     for (r = 0; r < c->m; r++) {
         const double b = D(c, b)[r];
         const double lim = b < 0.0 ? b : 0.0;
-        const double s = dot(D(c, G) + (size_t)r * n, c->u, n);
+        const double s = vf_dot(D(c, G) + (size_t)r * n, c->u, n);
         bb[r] = lim;
         if (s < 0.0 && lim / s < t) {
             t = lim / s;
@@ -1046,7 +938,7 @@ int vf_filter_cycle(const vf_filter *f, const double *q, const double *u, const 
     c->m = build_rows(c, f->dt > 0.0 ? previous : NULL);
     info->m = c->m;
     for (r = 0; r < c->m; r++) {
-        if (!isfinite(D(c, b)[r]) || !finite_all(D(c, G) + (size_t)r * n, (size_t)n)) {
+        if (!isfinite(D(c, b)[r]) || !vf_finite_all(D(c, G) + (size_t)r * n, (size_t)n)) {
             return fail(VF_ERR_OVERFLOW, f, out, info);
         }
         lv = IV(c, level)[r];
@@ -1168,7 +1060,7 @@ int vf_filter_cycle(const vf_filter *f, const double *q, const double *u, const 
         }
         claim_relaxed(c, D(c, b));
     }
-    if (!finite_all(x, (size_t)n)) {
+    if (!vf_finite_all(x, (size_t)n)) {
         return fail(VF_ERR_OVERFLOW, f, out, info);
     }
     /* the output and what it did */
@@ -1186,7 +1078,7 @@ int vf_filter_cycle(const vf_filter *f, const double *q, const double *u, const 
         }
         for (r = 0; r < c->m; r++) {
             double b = D(c, b)[r];
-            sl[r] = dot(D(c, G) + (size_t)r * n, x, n) - b;
+            sl[r] = vf_dot(D(c, G) + (size_t)r * n, x, n) - b;
             if (sl[r] <= BINDING * (1.0 + fabs(b)) || D(c, dist)[r] < 0.0) {
                 IV(c, active)[na++] = r;
             }

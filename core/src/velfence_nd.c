@@ -15,6 +15,7 @@
 #include <time.h>
 
 #include "vf_bounds.h" /* the exact law's bounds, shared with the 2-D core */
+#include "vf_rows.h"   /* the filter's row arithmetic, shared with velfence_filter.c */
 
 /* vf_bounds.h speaks the 2-D header's codes; the n-D header's must be the same numbers. */
 #if VF_ND_ZONE_FREE != VF_ZONE_FREE || VF_ND_ZONE_BUFFER != VF_ZONE_BUFFER ||                     \
@@ -924,19 +925,6 @@ void vf_nd_rate_bounds(int32_t kind, const double *prm, const double *dist, int3
     }
 }
 
-/* geometry.primitives._point_segment_t, _lerp (clearance with sqrt instead of math.hypot) */
-static double seg_t(const double *p, const double *a, const double *b)
-{
-    double dx = b[0] - a[0], dy = b[1] - a[1], dz = b[2] - a[2];
-    double dd = dx * dx + dy * dy + dz * dz;
-    double t;
-    if (dd == 0.0) {
-        return 0.0;
-    }
-    t = ((p[0] - a[0]) * dx + (p[1] - a[1]) * dy + (p[2] - a[2]) * dz) / dd;
-    return t <= 0.0 ? 0.0 : (t >= 1.0 ? 1.0 : t);
-}
-
 void vf_nd_capsule_clearances(const vf_nd_capsules *cap, double *clear)
 {
     int32_t i, l;
@@ -944,24 +932,8 @@ void vf_nd_capsule_clearances(const vf_nd_capsules *cap, double *clear)
         const double *cc = cap->C + 3 * (size_t)i;
         for (l = 0; l < cap->nl; l++) {
             const double *a = cap->P + 3 * (size_t)l;
-            const double *e = a + 3;
-            double t = seg_t(cc, a, e);
-            double x0, x1, x2, dx, dy, dz;
-            if (t <= 0.5) {
-                x0 = a[0] + t * (e[0] - a[0]);
-                x1 = a[1] + t * (e[1] - a[1]);
-                x2 = a[2] + t * (e[2] - a[2]);
-            } else {
-                double w = 1.0 - t;
-                x0 = e[0] - w * (e[0] - a[0]);
-                x1 = e[1] - w * (e[1] - a[1]);
-                x2 = e[2] - w * (e[2] - a[2]);
-            }
-            dx = x0 - cc[0];
-            dy = x1 - cc[1];
-            dz = x2 - cc[2];
-            clear[(size_t)i * cap->nl + l] = sqrt(dx * dx + dy * dy + dz * dz) - cap->srad[i]
-                                             - cap->lrad[l];
+            clear[(size_t)i * cap->nl + l] = vf_capsule_clearance(cc, a, a + 3, cap->srad[i],
+                                                                  cap->lrad[l]);
         }
     }
 }
@@ -1024,7 +996,7 @@ int32_t vf_nd_capsule_rows(const vf_nd_capsules *cap, const double *u, double *G
             if (!(cl < cap->buf || (use_reach && cl <= reach[l]))) {
                 continue;
             }
-            t = seg_t(cc, a, e);
+            t = vf_seg_t(cc, a, e);
             for (c = 0; c < 3; c++) {
                 x[c] = t <= 0.5 ? a[c] + t * (e[c] - a[c]) : e[c] - (1.0 - t) * (e[c] - a[c]);
                 n[c] = x[c] - cc[c];
@@ -1142,24 +1114,6 @@ size_t vf_nd_filter_doubles(const vf_nd_filter *f)
     return (size_t)f->cap.k * (size_t)f->n + (size_t)f->n + 3 * nf + 3 * (size_t)f->n + 4;
 }
 
-/* One row: G row g (n), bound, level, tags and distance at index r. */
-static void filter_row(double *G, double *b, int32_t *level, int32_t *ta, int32_t *tb,
-                       double *dist, int32_t n, int32_t r, int32_t col, double sign, double bound,
-                       int32_t lv, int32_t a, int32_t t, double d)
-{
-    int32_t j;
-    double *g = G + (size_t)r * n;
-    for (j = 0; j < n; j++) {
-        g[j] = 0.0 * sign; /* -0.0 in a negated unit row, as -eye[j] */
-    }
-    g[col] = sign;
-    b[r] = bound;
-    level[r] = lv;
-    ta[r] = a;
-    tb[r] = t;
-    dist[r] = d;
-}
-
 int32_t vf_nd_filter_rows(const vf_nd_filter *f, const double *q, const double *u,
                           const double *previous, double dt, double *P, double *axes,
                           double *flange, double *G, double *b, int32_t *level, int32_t *tag_a,
@@ -1167,10 +1121,11 @@ int32_t vf_nd_filter_rows(const vf_nd_filter *f, const double *q, const double *
 {
     const int32_t n = f->n;
     const double idt = dt > 0.0 ? 1.0 / dt : 0.0;
-    int32_t r = 0, j, w, i, wk[2];
+    int32_t r = 0, j, w;
     size_t nfmax = 1;
     double *ws_d, *ws_b, *ws_J;
     int32_t *ws_i;
+    const vf_rows o = {G, b, dist, level, tag_a, tag_b, n};
     for (w = 0; w < f->nw; w++) {
         if ((size_t)f->ws[w].nf > nfmax) {
             nfmax = (size_t)f->ws[w].nf;
@@ -1183,45 +1138,15 @@ int32_t vf_nd_filter_rows(const vf_nd_filter *f, const double *q, const double *
     vf_nd_chain_kinematics(n, f->dh, f->tool, q, P, axes, flange);
     /* joint position and velocity rows */
     for (j = 0; j < n; j++) {
-        const int32_t kind = f->jkind[j];
-        const double *prm = f->jprm + (size_t)VF_ND_PROFILE_PARAMS * j;
-        const double v = f->vmax[j];
-        double dl = q[j] * 1.0 + (-f->lower[j]);
-        double du = q[j] * -1.0 + f->upper[j];
-        double bl = -INFINITY, bu = -INFINITY;
-        if (isfinite(f->lower[j])) {
-            vf_nd_rate_bounds(kind, prm, &dl, 1, v, idt, &bl, wk);
-        }
-        if (isfinite(f->upper[j])) {
-            vf_nd_rate_bounds(kind, prm, &du, 1, v, idt, &bu, wk);
-        }
-        if (bl != -INFINITY) {
-            filter_row(G, b, level, tag_a, tag_b, dist, n, r++, j, 1.0, bl < v ? bl : v,
-                       VF_ND_LEVEL_JOINT, 4 * j, 0, dl);
-        }
-        if (bu != -INFINITY) {
-            filter_row(G, b, level, tag_a, tag_b, dist, n, r++, j, -1.0, bu < v ? bu : v,
-                       VF_ND_LEVEL_JOINT, 4 * j + 1, 0, du);
-        }
-        filter_row(G, b, level, tag_a, tag_b, dist, n, r++, j, 1.0, -v, VF_ND_LEVEL_JOINT,
-                   4 * j + 2, 0, INFINITY);
-        filter_row(G, b, level, tag_a, tag_b, dist, n, r++, j, -1.0, -v, VF_ND_LEVEL_JOINT,
-                   4 * j + 3, 0, INFINITY);
+        r = vf_joint_position_rows(&o, r, j, f->jkind[j],
+                                   f->jprm + (size_t)VF_ND_PROFILE_PARAMS * j, q[j], f->lower[j],
+                                   f->upper[j], f->vmax[j], idt, VF_ND_LEVEL_JOINT, 4 * j, 0,
+                                   4 * j + 1, 0);
+        r = vf_joint_speed_rows(&o, r, j, f->vmax[j], VF_ND_LEVEL_JOINT, 4 * j + 2, 0, 4 * j + 3,
+                                0);
     }
     /* acceleration rows */
-    if (previous != NULL && dt > 0.0 && f->amax != NULL) {
-        for (j = 0; j < n; j++) {
-            double step;
-            if (!isfinite(f->amax[j])) {
-                continue;
-            }
-            step = f->amax[j] * dt;
-            filter_row(G, b, level, tag_a, tag_b, dist, n, r++, j, 1.0, previous[j] - step,
-                       VF_ND_LEVEL_RATE, j, 0, INFINITY);
-            filter_row(G, b, level, tag_a, tag_b, dist, n, r++, j, -1.0, -(previous[j] + step),
-                       VF_ND_LEVEL_RATE, j, 1, INFINITY);
-        }
-    }
+    r = vf_rate_rows(&o, r, previous, dt, f->amax, VF_ND_LEVEL_RATE);
     /* workspace rows: the point's Jacobian J (columns z_j x (p - P_j), j < k; ws_J holds column
      * j at 3 j), computed once per limit and shared by its speed and its facets' rows */
     for (w = 0; w < f->nw; w++) {
@@ -1241,33 +1166,9 @@ int32_t vf_nd_filter_rows(const vf_nd_filter *f, const double *q, const double *
             vy += c[1] * u[j];
             vz += c[2] * u[j];
         }
-        for (i = 0; i < ws->nf; i++) {
-            const double *nn = ws->N + 3 * (size_t)i;
-            ws_d[i] = nn[0] * p[0] + nn[1] * p[1] + nn[2] * p[2] - ws->off[i];
-        }
-        vf_nd_rate_bounds(ws->kind, ws->prm, ws_d, ws->nf, sqrt(vx * vx + vy * vy + vz * vz),
-                          idt, ws_b, ws_i);
-        for (i = 0; i < ws->nf; i++) {
-            const double *nn = ws->N + 3 * (size_t)i;
-            double *g;
-            if (ws_b[i] == -INFINITY) {
-                continue;
-            }
-            g = G + (size_t)r * n;
-            for (j = 0; j < n; j++) {
-                g[j] = 0.0;
-            }
-            for (j = 0; j < k; j++) {
-                const double *c = ws_J + 3 * (size_t)j;
-                g[j] = nn[0] * c[0] + nn[1] * c[1] + nn[2] * c[2];
-            }
-            b[r] = ws_b[i];
-            level[r] = VF_ND_LEVEL_WORKSPACE;
-            tag_a[r] = w;
-            tag_b[r] = i;
-            dist[r] = ws_d[i];
-            r += 1;
-        }
+        r = vf_workspace_rows(&o, r, w, ws->N, ws->off, ws->nf, ws->kind, ws->prm, p, ws_J, k,
+                              sqrt(vx * vx + vy * vy + vz * vz), idt, VF_ND_LEVEL_WORKSPACE, ws_d,
+                              ws_b, ws_i);
     }
     /* obstacle rows */
     if (f->cap.k > 0) {
