@@ -138,7 +138,9 @@ def test_installed_package_is_found_and_linked_by_a_consumer(
     _run([CMAKE, "--install", str(cmake_build), "--prefix", str(prefix)])
     headers = sorted(p.name for p in (prefix / "include").glob("*.h"))
     assert headers == sorted(p.name for p in (CORE / "include").glob("*.h"))
-    assert "vf_bounds.h" not in headers  # private to the library
+    private = sorted(p.name for p in (CORE / "src").glob("vf_*.h"))
+    assert {"vf_bounds.h", "vf_rows.h", "vf_util.h"} <= set(private)
+    assert not set(private) & set(headers)  # private to the library
     configs = {p.name for p in prefix.rglob("velfence*.cmake")}
     assert {"velfenceConfig.cmake", "velfenceConfigVersion.cmake", "velfenceTargets.cmake"} <= (
         configs
