@@ -649,8 +649,9 @@ static int32_t model_check(ctx *c, const double *x, double *bnd)
 }
 
 /* Whether G x >= c for every row with c = min(bnd, 0) (bnd -inf: left out), to the round-off
- * of forming G x: tolerance 1e-12 (|c| + |g|_1 |x|_inf) per row (velfence.filter.ladder.meets). */
-static int meets_relaxed(ctx *c, const double *bnd, const double *x)
+ * of forming x: tolerance 1e-12 (|c| + |g|_1 (|x|_inf + scale)) per row, scale = |u|_inf for a
+ * solve's answer (and its multiples), 0 for t u formed exactly (velfence.filter.ladder.meets). */
+static int meets_relaxed(ctx *c, const double *bnd, const double *x, double scale)
 {
     const int32_t n = c->n;
     const double xi = inf_norm(x, n);
@@ -667,7 +668,7 @@ static int meets_relaxed(ctx *c, const double *bnd, const double *x)
         for (k = 0; k < n; k++) {
             g1 += fabs(g[k]);
         }
-        if (!(vf_dot(g, x, n) - cc >= -(1e-12 * (fabs(cc) + g1 * xi)))) {
+        if (!(vf_dot(g, x, n) - cc >= -(1e-12 * (fabs(cc) + g1 * (xi + scale))))) {
             return 0;
         }
     }
@@ -684,8 +685,9 @@ static void claim_relaxed(ctx *c, const double *bnd)
 }
 
 /* ladder._scaled: the largest t x0, t in {1, 1/2, ..., 2^-10}, meeting the rows relaxed to
- * min(bnd, 0) and the model check, into x (stage MODEL_SCALED); else zero (stage STOP). */
-static void scaled(ctx *c, const double *bnd, const double *x0, double *x)
+ * min(bnd, 0) (to the round-off of forming x0 from a vector of size scale) and the model check,
+ * into x (stage MODEL_SCALED); else zero (stage STOP). */
+static void scaled(ctx *c, const double *bnd, const double *x0, double *x, double scale)
 {
     int s;
     int32_t k;
@@ -695,7 +697,7 @@ static void scaled(ctx *c, const double *bnd, const double *x0, double *x)
         for (k = 0; k < c->n; k++) {
             x[k] = x0[k] * t;
         }
-        if (meets_relaxed(c, bnd, x) && model_check(c, x, NULL) == 0) {
+        if (meets_relaxed(c, bnd, x, scale) && model_check(c, x, NULL) == 0) {
             c->info->stages |= VF_FILTER_STAGE_MODEL_SCALED;
             return;
         }
@@ -749,7 +751,7 @@ static int rung(ctx *c, const double *bnd, double *x)
         return VF_OK;
     }
     memcpy(x1, x, sizeof(double) * (size_t)c->n);
-    scaled(c, bnd, x1, x);
+    scaled(c, bnd, x1, x, c->unorm); /* x1: a solve's answer from u */
     return VF_OK;
 }
 
@@ -778,7 +780,7 @@ static void fallback(ctx *c, double *x)
         x[k] = c->u[k] * t;
     }
     for (tries = 0; tries < 60; tries++) {
-        if (meets_relaxed(c, bb, x)) {
+        if (meets_relaxed(c, bb, x, 0.0)) {
             break;
         }
         t *= t > 1e-300 ? 0.5 : 0.0;
@@ -794,7 +796,7 @@ static void fallback(ctx *c, double *x)
     claim_relaxed(c, bb);
     if (c->has_check && model_check(c, x, NULL) != 0) {
         memcpy(D(c, x1), x, sizeof(double) * (size_t)n);
-        scaled(c, bb, D(c, x1), x);
+        scaled(c, bb, D(c, x1), x, 0.0);
     }
 }
 

@@ -111,7 +111,8 @@ class SafetyFilter(InvalidPolicy):
         spring_gain: Recovery gain of the default joint buffers and the obstacles [1/s], >= 0.
         obstacle_buffer: Width of the obstacles' linear buffer [m], > 0.
         weights: Joint-mode metric ``W``: ``None`` (identity), per-joint weights (n,) > 0, or a
-            symmetric positive definite (n, n) matrix.
+            symmetric positive definite (n, n) matrix; the largest weight (eigenvalue) at most
+            1e12 times the smallest.
         damping: :math:`\lambda` of the twist mode's damped least squares [m/rad], > 0.
         max_iterations: Iteration cap of every solve, an int >= 1; ``None`` (default): the
             projection's own cap ``4 (m + n) + 16``. A solve that hits it ends the cycle on the
@@ -377,6 +378,7 @@ class SafetyFilter(InvalidPolicy):
                     cyc.G, cyc.b, cyc.level, cyc.violated, solve, warm=warm,
                     checked=cyc.checked if nxt is not None else None, d0=cyc.d0,
                     next_distances=nxt, dt=self.dt,
+                    scale=float(np.max(np.abs(u))) if u.size else 0.0,
                 )  # fmt: skip
                 x = out.x
             except DeadlineHit as hit:

@@ -169,6 +169,7 @@ def _model_check(
     solve: Solve,
     nxt: NextDistances,
     dt: float,
+    scale: float = 0.0,
 ) -> tuple[FloatArray, str | None]:
     """Discrete time (module docstring): ``(x, None | "model-check" | "model-scaled" | "stop")``."""
     target = np.minimum(0.0, d0)
@@ -194,16 +195,25 @@ def _model_check(
         x = x1
     if settled:
         return x, "model-check" if tightened else None
-    return _scaled(x, _sub(G, keep), np.minimum(_sub(bb, keep), 0.0), target, nxt)
+    return _scaled(x, _sub(G, keep), np.minimum(_sub(bb, keep), 0.0), target, nxt, scale)
 
 
 def _scaled(
-    x: FloatArray, G: FloatArray, c: FloatArray, target: FloatArray, nxt: NextDistances
+    x: FloatArray,
+    G: FloatArray,
+    c: FloatArray,
+    target: FloatArray,
+    nxt: NextDistances,
+    scale: float = 0.0,
 ) -> tuple[FloatArray, str]:
-    """The largest ``t x``, ``t`` in {1, 1/2, …, 2⁻¹⁰}, meeting ``G t x >= c`` and the model."""
+    """The largest ``t x``, ``t`` in {1, 1/2, …, 2⁻¹⁰}, meeting ``G t x >= c`` and the model.
+
+    ``scale``: ``‖u‖∞`` when ``x`` is a solve's answer from ``u`` (its round-off is relative to
+    ``u`` and does not shrink with ``t``), 0 for ``x = t u`` formed exactly.
+    """
     for t in SCALINGS:
         xt = x * t
-        if meets(G, c, xt) and bool(np.all(nxt(xt) >= target)):
+        if meets(G, c, xt, scale) and bool(np.all(nxt(xt) >= target)):
             return xt, "model-scaled"
     return np.zeros_like(x), "stop"
 
@@ -220,6 +230,7 @@ def run_ladder(
     d0: FloatArray | None = None,
     next_distances: NextDistances | None = None,
     dt: float | None = None,
+    scale: float = 0.0,
 ) -> LadderOutcome:
     """Run the ladder (module docstring) on the rows ``G x >= b``.
 
@@ -235,6 +246,7 @@ def run_ladder(
         d0: Current distances of the ``checked`` rows, shape (len(checked),).
         next_distances: Their distances at ``q + x dt``.
         dt: Control period [s]; ``None``: no model check.
+        scale: ``‖u‖∞`` of the command the solves project (the round-off their answers carry).
 
     Returns:
         A :class:`LadderOutcome`.
@@ -259,7 +271,7 @@ def run_ladder(
         if status != _OPTIMAL:
             continue
         if model and d0 is not None and next_distances is not None and dt is not None:
-            x, how = _model_check(x, G, bb, keep, checked, d0, solve, next_distances, dt)
+            x, how = _model_check(x, G, bb, keep, checked, d0, solve, next_distances, dt, scale)
             if how is not None:
                 stages.append(how)
         relaxed = np.flatnonzero(bb < b).tolist()

@@ -115,8 +115,9 @@ class RowBlock:
 
     @property
     def size(self) -> int:
-        """Number of rows ``k``."""
-        return int(self.b.shape[0])
+        """Number of rows ``k`` (0 for a ``b`` that is not a vector: refused when checked)."""
+        shape = np.shape(self.b)
+        return int(shape[0]) if len(shape) == 1 else 0
 
 
 @runtime_checkable

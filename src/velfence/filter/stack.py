@@ -62,11 +62,19 @@ class RowStack:
         self.d0: FloatArray = np.concatenate(d0) if d0 else np.zeros(0)
 
     def names(self) -> list[str]:
-        """Every row's name, made now."""
+        """Every row's name, made now (a provider's bad names: :class:`InvalidInput`)."""
         out: list[str] = []
-        for _, _, blk in self.blocks:
-            names = blk.names() if callable(blk.names) else blk.names
-            out.extend(str(s) for s in names)
+        for _, p, blk in self.blocks:
+            try:
+                names = blk.names() if callable(blk.names) else blk.names
+                made = [str(s) for s in names]
+            except Exception as exc:
+                raise InvalidInput(
+                    f"{_label(p)}: its RowBlock names raised {type(exc).__name__}: {exc}"
+                ) from exc
+            if len(made) != blk.size:
+                raise InvalidInput(f"{_label(p)}: expected {blk.size} row names, got {len(made)}")
+            out.extend(made)
         return out
 
     def keys(self, rows: Sequence[int]) -> set[tuple[int, int]]:
@@ -98,13 +106,34 @@ class RowStack:
         return self.next_distances(frame_of(robot, q1))
 
     def next_distances(self, frame: Any) -> FloatArray:
-        """The model-checked rows' distances at the pose of ``frame``, in ``checked`` order."""
-        parts = [
-            np.asarray(p.next_distances(frame, blk), dtype=float)
-            for _, p, blk in self.blocks
-            if blk.distance is not None and hasattr(p, "next_distances")
-        ]
+        """The model-checked rows' distances at the pose of ``frame``, in ``checked`` order.
+
+        A provider whose ``next_distances`` raises or answers other than ``size`` finite numbers
+        gets an :class:`InvalidInput` naming it.
+        """
+        parts = []
+        for _, p, blk in self.blocks:
+            if blk.distance is None or not hasattr(p, "next_distances"):
+                continue
+            try:
+                d = np.asarray(p.next_distances(frame, blk), dtype=float)
+            except VelfenceError:
+                raise
+            except Exception as exc:
+                raise InvalidInput(
+                    f"{_label(p)}: next_distances raised {type(exc).__name__}: {exc}"
+                ) from exc
+            if d.shape != (blk.size,) or not np.isfinite(d).all():
+                got = d.tolist() if d.size <= 8 else f"shape {d.shape}"
+                raise InvalidInput(
+                    f"{_label(p)}: next_distances expected {blk.size} finite distances, got {got}"
+                )
+            parts.append(d)
         return np.concatenate(parts) if parts else np.zeros(0)
+
+
+def _label(p: Any) -> str:
+    return f"row provider {getattr(p, 'label', type(p).__name__)!r}"
 
 
 def _who(i: int, n_builtin: int, p: Any) -> str:
@@ -128,9 +157,31 @@ def _check_block(who: str, blk: Any, n: int) -> None:
             f"{G.shape}, b {np.shape(blk.b)}, violated {np.shape(blk.violated)}, keys "
             f"{np.shape(blk.keys)}"
         )
-    bb = np.asarray(blk.b, dtype=float)
+    try:
+        bb = np.asarray(blk.b, dtype=float)
+        G = np.asarray(G, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise InvalidInput(f"{who}: rows() expected real G and b, got {exc}") from exc
     if not np.isfinite(G).all() or np.isnan(bb).any() or (bb == math.inf).any():
         raise InvalidInput(f"{who}: rows() expected finite G and b (or b = -inf), got NaN/inf")
+    if np.asarray(blk.keys).dtype.kind not in "iu":
+        raise InvalidInput(
+            f"{who}: rows() expected integer keys, got {np.asarray(blk.keys).dtype} keys"
+        )
+    if not callable(blk.names) and (
+        isinstance(blk.names, (str, bytes)) or np.shape(blk.names) != (k,)
+    ):
+        raise InvalidInput(
+            f"{who}: rows() expected {k} row names (or a callable making them), got "
+            f"{describe(blk.names)}"
+        )
+    if blk.distance is not None:
+        d = np.asarray(blk.distance)
+        if d.shape != (k,) or d.dtype.kind not in "fiu" or not np.isfinite(d).all():
+            raise InvalidInput(
+                f"{who}: rows() expected distance None or {k} finite numbers, got "
+                f"{describe(blk.distance)}"
+            )
 
 
 def collect(providers: Sequence[Any], n_builtin: int, ctx: RowContext, n: int) -> RowStack:
