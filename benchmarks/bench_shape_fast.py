@@ -4,7 +4,7 @@ Usage (from the repository root, with ``velfence_core`` installed: ``pip install
 
     nice python benchmarks/bench_shape_fast.py [--quick]
 
-Prints a Markdown report with the load average before and after. Two targets of issue 24:
+Prints a Markdown report with the load average before and after. Two targets of docs/benchmarks.md:
 
 1. ``PolygonShaper.shape``, regular 8-gon, exact law (``velfence bench``'s buffer, gain and
    zone states), worst zone, against **the bare C call from Python**: the binding's own entry

@@ -1,4 +1,4 @@
-"""The safety filter's whole cycle in C (``velfence_filter.h``): the issue-24 targets.
+"""The safety filter's whole cycle in C (``velfence_filter.h``): the targets of docs/benchmarks.md.
 
 Usage: ``PYTHONPATH=src python benchmarks/filter_cycle_c.py [--cycles N] [--dense-cycles N]``
 prints a Markdown table with the load average before and after.

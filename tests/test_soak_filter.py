@@ -3,7 +3,7 @@
 The smoke runs are 10^3-10^4 states or steps (the full campaigns run by ``make soak-filter``).
 The harness must report a planted escape (a "shaper" that passes commands through), must report
 none for zero velocity, and its counts must add up. The regression tests replay the saved states
-of ``tests/data/`` (copied from the campaign that found the escapes of issue 24).
+of ``tests/data/`` (copied from the campaign that found the filter's escapes).
 """
 
 from __future__ import annotations
@@ -314,7 +314,8 @@ def test_reproducer_projection_is_feasible_after_the_fix() -> None:
         np.abs(b) + np.linalg.norm(G, axis=1) * (np.abs(res.x).max() + np.abs(u).max())
     )
     assert np.all(G @ res.x - b >= -tau)  # the answer is right to round-off ...
-    assert res.feasible  # ... and must not be reported "infeasible" (the issue's mechanism)
+    # ... and must not be reported "infeasible" (the mechanism of those escapes)
+    assert res.feasible
 
 
 def _replay(name: str) -> tuple[float, float, tuple[str, ...]]:

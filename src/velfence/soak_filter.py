@@ -7,7 +7,8 @@ Two campaigns, reusable on a user's own configuration and run by ``make soak-fil
 3 to 7 dimensions (:func:`random_polytope`); states exactly at a vertex (the vertex re-solved from
 its tight facets, so it sits on or a round-off outside each of them), on an edge or on a higher
 face (a point of the segment between two vertices sharing facets), then, for half of them,
-pushed outward by 1-8 ulps on some of their tight facets or by exactly 2e-16 (the issue's case);
+pushed outward by 1-8 ulps on some of their tight facets or by exactly 2e-16 (the round-off of
+the first vertex escape found, 0.025 out in one 1 ms step);
 commands of random direction, along the outward normal of one tight facet (into the facet the
 point is inside or on) or into the corner. One step ``x1 = x0 + dt · y`` of ``dt = 1 ms`` per
 state. An *escape* is a step whose depth outside grows by more than the round-off tolerance
@@ -25,7 +26,8 @@ acceleration limits), a random box on the tool, one or two tilted planes, or bot
 four sphere obstacles near the links, at a given rate with ``dt`` set; joint or twist commands
 held for 20-200 ms, some pushing at the nearest workspace facet. A quarter of the episodes start
 **resting**: the tool exactly on two tilted planes while two or three joints sit exactly at a
-limit (the issue's UR5e case). The plant is kinematic: ``q ← q + x dt``. Per step it counts
+limit (where a UR5e tool once drifted through a tilted plane at 500 Hz). The plant is kinematic:
+``q ← q + x dt``. Per step it counts
 workspace escapes (a step beginning inside, by the forward kinematics, ending outside by more
 than ``1e-12 (1 + |p|_inf)`` m), joint-limit crossings, sphere penetrations (capsule clearance
 below ``-tol``, a step that began clear), non-finite outputs, exceptions, deadline fallbacks
@@ -79,7 +81,8 @@ HISTORY = "<!-- soak_filter: earlier runs (kept on rewrite) -->"
 INTRO = """## The n-D shaper and the safety filter: vertex campaign and closed-loop soak
 
 Module `velfence.soak_filter` (`make soak-filter`, reusable: `run_vertex_campaign`,
-`run_loop_campaign`) gathers the evidence issue 24 asks for.
+`run_loop_campaign`) gathers the evidence that neither lets the robot out (the fixes:
+docs/derivations.md §7.2-7.3, docs/safety_filter.md).
 
 **Vertex and edge campaign.** Random H-representation polytopes of 3 to 7 dimensions (`d + 1` to
 `2 d + 4` random facets, scales 0.1-10). States exactly at a vertex (re-solved from its tight
@@ -99,7 +102,8 @@ joints exactly at a limit in a fifth of the episodes; acceleration limits in 30 
 tool, one or two tilted planes, or both (buffers 1-5 cm), up to four spheres near the links,
 and joint-velocity or twist commands held for 20-200 ms (40 % push at the nearest facet). A
 quarter of the episodes are **resting**: the tool exactly on two tilted planes, two or three
-joints exactly at a limit, twist commands (the issue's UR5e case). Counted with the forward
+joints exactly at a limit, twist commands (where a UR5e tool once drifted through a tilted plane at
+500 Hz). Counted with the forward
 kinematics: *ws escapes* (a step that began inside every workspace limit ends outside by more
 than `1e-12 (1 + |p|)` m), *deepened* (a step that began outside goes further out by more than
 that), *joint crossings*, *sphere penetrations* (capsule clearance < 0 after a step that began
@@ -110,8 +114,10 @@ polytope and buffer; with `--examples DIR` every closed-loop case saves its firs
 `.npz` (scene, state, command, previous output, output, stages) that
 `velfence.soak_filter.replay_loop_example` runs again bit for bit. The regression cases in
 `tests/data/` `vertex_polytope_shaper.npz`, `vertex_filter_6d.npz` and
-`loop_ur5e_100hz_projection_recovery.npz` came from these runs (the issue's `state_*.npz` and
-`project_filter_rows.npz` from an independent campaign).
+`loop_ur5e_100hz_projection_recovery.npz` came from these runs (`state_*.npz`, a UR5e and a
+Panda filter state whose next 1 ms step left
+the box by 3.56 mm / 0.52 mm, and `project_filter_rows.npz`, rows the projection once called
+infeasible, from an independent campaign).
 """
 
 
@@ -263,7 +269,7 @@ def _vertex_states(rng: Rng, P: Any, n: int, max_speed: float) -> _States:
     # Outward perturbations on a random subset of each state's facets.
     pert = rng.random(n) < 0.5
     pick = on & (rng.random(on.shape) < 0.5) & pert[:, None]
-    exact = rng.random(n) < 0.3  # the issue's -2e-16 case, else 1-8 ulps
+    exact = rng.random(n) < 0.3  # the first vertex escape's -2e-16, else 1-8 ulps
     ulp = np.spacing(np.maximum(np.max(np.abs(X), axis=1), 1.0))
     amount = np.where(exact, 2e-16, ulp * rng.choice([1.0, 2.0, 4.0, 8.0], n))
     X = X - amount[:, None] * (pick.astype(np.float64) @ N)
