@@ -36,10 +36,10 @@ from pathlib import Path
 
 import numpy as np
 
-from velfence.bench.cases.peers import qp_bounds
-from velfence.bench.cases.shaping import regular_polygon, zone_pools
-from velfence.bench.settings import BenchSettings
-from velfence.bench.timing import Latency, time_calls
+from velfence.apps.bench.cases.peers import qp_bounds
+from velfence.apps.bench.cases.shaping import regular_polygon, zone_pools
+from velfence.apps.bench.settings import BenchSettings
+from velfence.apps.bench.timing import Latency, time_calls
 from velfence.shaping import PolygonShaper
 
 HERE = Path(__file__).resolve().parent
@@ -290,7 +290,7 @@ def scaling() -> None:
     import daqp
     import qpsolvers
 
-    from velfence.bench.settings import ZONES
+    from velfence.apps.bench.settings import ZONES
 
     s = BenchSettings.make(quick=False)
     rng = np.random.default_rng(s.seed)

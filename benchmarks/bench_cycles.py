@@ -25,7 +25,7 @@ Routes (obstacles 0.12 m beside random points of random links, influence 0.1 m, 
 * mink's ``solve_ik`` with a position ``FrameTask`` on the tool point (target: the tool point
   moved by the command over 4 ms), ``ConfigurationLimit`` and a ``CollisionAvoidanceLimit``
   between every link capsule and every obstacle sphere (detection distance 0.1 m), on the MJCF
-  twin of the chain (``velfence.bench.cases.filter.seven_dof_mjcf``; the 20R as a DH chain
+  twin of the chain (``velfence.apps.bench.cases.filter.seven_dof_mjcf``; the 20R as a DH chain
   with ``a = 0.1`` m, ``α = 0``);
 * the cobot tick (r-θ cobot: ``heading`` + ``kinematics.position`` + ``PathFollower.evaluate``
   + ``steering_rates``) and the PUMA 560 resolved-rate SR step (``ResolvedRate.step``).
@@ -102,7 +102,7 @@ class MinkRoute:
         import mink
         import mujoco
 
-        from velfence.bench.cases.filter import seven_dof_mjcf
+        from velfence.apps.bench.cases.filter import seven_dof_mjcf
 
         self.mink = mink
         self.planar = planar
@@ -207,11 +207,11 @@ def control_cycles(calls: int, with_mink: bool) -> None:
 
 def _single_routes() -> dict[str, Callable[[int], object]]:
     """The single-cycle routes (public API only, so that ``--before`` can run them too)."""
+    from velfence.apps.teleop.resolved_rate import ResolvedRate
     from velfence.cobot import PathFollower, r_theta_cobot
     from velfence.geometry.paths import Circle
     from velfence.mechanisms.puma560 import Puma560
     from velfence.redundancy import ConfigurationController
-    from velfence.teleop.resolved_rate import ResolvedRate
 
     rng = np.random.default_rng(3)
     cob = r_theta_cobot()

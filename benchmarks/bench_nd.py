@@ -18,7 +18,8 @@ load on this shared machine falls on all of them alike. Columns: median, p99 and
    ``daqp.solve`` on prebuilt matrices.
 2. ``SafetyFilter.filter``: the 7-joint ``DHChain.seven_dof`` (capsule radius 0.06 m), its joint
    position limits, 1.5 rad/s, 10 rad/s² (three-zone braking at the limits), a 6-facet TCP box
-   (``velfence.bench.cases.filter.scenario``), 0 / 5 / 20 sphere obstacles (seeded, 4–50 cm from
+   (``velfence.apps.bench.cases.filter.scenario``), 0 / 5 / 20 sphere obstacles (seeded, 4–50 cm
+   from
    the links at the nominal pose, obstacle buffer 0.1 m), 200 states (nominal pose scattered by
    0.05 rad, commands 0.5 rad/s standard normal): the C backend in continuous time and with
    ``dt`` = 4 ms, the Python backend (numba) in continuous time; beside mink's ``solve_ik`` (daqp)
@@ -168,7 +169,7 @@ def obstacles(sc: Any, k: int, seed: int = 3) -> tuple[Any, ...]:
 
 
 def filter_routes(k: int, n_states: int, with_mink: bool) -> list[Route]:
-    from velfence.bench.cases.filter import MINK_DT, Scenario, scenario, seven_dof_mjcf
+    from velfence.apps.bench.cases.filter import MINK_DT, Scenario, scenario, seven_dof_mjcf
     from velfence.filter import SafetyFilter
 
     base = scenario()

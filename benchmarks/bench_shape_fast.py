@@ -42,9 +42,9 @@ from typing import Any
 
 import numpy as np
 
-from velfence.bench.cases.shaping import regular_polygon, zone_pools
-from velfence.bench.settings import BenchSettings
-from velfence.bench.timing import gc_paused
+from velfence.apps.bench.cases.shaping import regular_polygon, zone_pools
+from velfence.apps.bench.settings import BenchSettings
+from velfence.apps.bench.timing import gc_paused
 from velfence.geometry.polytope import ConvexPolytope
 from velfence.shaping import PolygonShaper, PolytopeShaper
 

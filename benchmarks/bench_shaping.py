@@ -2,14 +2,14 @@
 
 Usage: ``python benchmarks/bench_shaping.py [--quick] [--out PATH] [--json PATH]``. Without
 ``--out`` the report is printed; ``make bench`` writes ``out/benchmarks.md`` and ``make bench-docs``
-updates ``docs/benchmarks.md``. The measurements live in :mod:`velfence.bench`.
+updates ``docs/benchmarks.md``. The measurements live in :mod:`velfence.apps.bench`.
 """
 
 from __future__ import annotations
 
 import sys
 
-from velfence.cli import app
+from velfence.apps.cli import app
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -1,6 +1,6 @@
 """Round-trip latency of ``velfence bridge`` on loopback DDS: command in -> shaped command out.
 
-The bridge runs as its own process (``python -m velfence.cli bridge --config ...``, a polygon
+The bridge runs as its own process (``python -m velfence.apps.cli bridge --config ...``, a polygon
 fence, TwistStamped in and out, ROS 2 default QoS: reliable, keep-last 10, or ``--depth``); this
 script is the ROS 2 peer: it keeps a PoseStamped state fresh, sends TwistStamped commands at a
 fixed rate
@@ -184,7 +184,7 @@ def main() -> None:
         cfg = Path(tmp) / "bridge.yaml"
         cfg.write_text(CONFIG.format(domain=domain, depth=args.depth), encoding="utf-8")
         bridge = subprocess.Popen(
-            [sys.executable, "-m", "velfence.cli", "bridge", "--config", str(cfg)],
+            [sys.executable, "-m", "velfence.apps.cli", "bridge", "--config", str(cfg)],
             stderr=subprocess.DEVNULL,
         )
         try:

@@ -169,8 +169,8 @@ def _safety_filter(dense: bool = False) -> Any:
 
 def _mink(sf: Any) -> Any:
     """mink's ``solve_ik`` on the same arm and spheres (configuration, velocity and collision
-    avoidance limits; ``velfence.bench.cases.filter.MinkIK``), or None without mink."""
-    from velfence.bench.cases.filter import MinkIK, Scenario, mink_ok
+    avoidance limits; ``velfence.apps.bench.cases.filter.MinkIK``), or None without mink."""
+    from velfence.apps.bench.cases.filter import MinkIK, Scenario, mink_ok
 
     if not mink_ok():
         return None

@@ -2,7 +2,7 @@
 
 Usage: ``PYTHONPATH=src python benchmarks/safety_filter_obstacles.py`` prints a Markdown table
 (the one in ``docs/safety_filter.md``). The scenarios are those of
-:mod:`velfence.reproduce.obstacles` (US 5,150,026 claim 1): the same chains, start poses,
+:mod:`velfence.apps.reproduce.obstacles` (US 5,150,026 claim 1): the same chains, start poses,
 reference lines, operator command ``Ẏ_d + K_fb (Y_d - Y)`` and 1 ms period; scenario (iii) (the
 critical point moving from link 1 to link 2) happens inside run (i).
 
@@ -21,16 +21,16 @@ import time
 
 import numpy as np
 
+from velfence.apps.reproduce.obstacles import DT, K_FB, MAX_JOINT_SPEED, ScenarioRun, scenarios
 from velfence.filter import JointLimits, SafetyFilter, SphereObstacle
 from velfence.geometry.primitives import points_segments_distances
-from velfence.reproduce.obstacles import DT, K_FB, MAX_JOINT_SPEED, ScenarioRun, scenarios
 
 BUFFER = 0.05  # [m] the filter's obstacle buffer
 
 
 def _lines() -> dict[str, object]:
-    """The reference lines of the scenarios (rebuilt as in velfence.reproduce.obstacles)."""
-    from velfence.reproduce.obstacles import SEVEN_PERIOD, SEVEN_REACH, cosine_line
+    """The reference lines of the scenarios (rebuilt as in velfence.apps.reproduce.obstacles)."""
+    from velfence.apps.reproduce.obstacles import SEVEN_PERIOD, SEVEN_REACH, cosine_line
 
     return {
         "i": (cosine_line((2.0, 1.0), (0.0, -1.0), 2.0, 5.0, back=True), 10.0),
@@ -103,7 +103,7 @@ def summarise_cc(ref: ScenarioRun) -> dict[str, float]:
 
 
 def main() -> None:
-    from velfence.reproduce.obstacles import cosine_line
+    from velfence.apps.reproduce.obstacles import cosine_line
 
     runs = scenarios(baseline=False)
     lines = _lines()

@@ -8,7 +8,7 @@ from the obstacle, inside its 0.2 m sphere of influence.
 import numpy as np
 
 from velfence import ConfigurationController, Obstacle, PlanarArm
-from velfence.reproduce.obstacles import cosine_line
+from velfence.apps.reproduce.obstacles import cosine_line
 
 
 def main() -> None:

@@ -13,7 +13,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from velfence.robot_sim.lag import lag_table, plot_lag
+from velfence.apps.scenarios.lag import lag_table, plot_lag
 
 
 def main(out: str = "physics_lag.png") -> None:

@@ -7,7 +7,7 @@ autonomously along the laser beam to 20 cm short of the spot, and hands control 
 
 import numpy as np
 
-from velfence.teleop import Session
+from velfence.apps.teleop import Session
 
 
 def main() -> None:

@@ -15,11 +15,11 @@ import xml.etree.ElementTree as ET
 import numpy as np
 import pytest
 
-from velfence import bench as bm
-from velfence.bench import run
-from velfence.bench.cases import filter as fc
-from velfence.bench.cases import polytope as pc
-from velfence.bench.rows import FilterRow, PolytopeLatencyRow, PolytopeQPRow
+from velfence.apps import bench as bm
+from velfence.apps.bench import run
+from velfence.apps.bench.cases import filter as fc
+from velfence.apps.bench.cases import polytope as pc
+from velfence.apps.bench.rows import FilterRow, PolytopeLatencyRow, PolytopeQPRow
 
 HAVE_QP = all(importlib.util.find_spec(m) is not None for m in ("qpsolvers", "daqp"))
 HAVE_NUMBA = importlib.util.find_spec("numba") is not None

@@ -3,7 +3,7 @@
 Timing targets are reported by the benchmarks (docs/benchmarks.md), never asserted in tests: a
 loaded machine must not fail the suite. The quick configuration runs once (as ``velfence bench
 --quick`` does); a tiny one (a few calls per row) runs every case family again, directly and
-through :func:`velfence.bench.run.run_settings`, and its rows and Markdown are checked.
+through :func:`velfence.apps.bench.run.run_settings`, and its rows and Markdown are checked.
 """
 
 from __future__ import annotations
@@ -19,11 +19,11 @@ from typing import Any
 import numpy as np
 import pytest
 
-from velfence import bench as bm
-from velfence.bench import run
-from velfence.bench.cases import controllers, peers, redundancy, shaping
-from velfence.bench.cases.shaping import METHODS
-from velfence.bench.timing import Latency, latency_of, time_calls
+from velfence.apps import bench as bm
+from velfence.apps.bench import run
+from velfence.apps.bench.cases import controllers, peers, redundancy, shaping
+from velfence.apps.bench.cases.shaping import METHODS
+from velfence.apps.bench.timing import Latency, latency_of, time_calls
 
 
 @pytest.fixture(scope="module")
@@ -139,7 +139,7 @@ def test_qp_bounds_match_the_law() -> None:
 
 
 def test_qp_bounds_and_regular_polygon_refuse_bad_inputs_by_name() -> None:
-    from velfence.bench import qp_bounds, regular_polygon
+    from velfence.apps.bench import qp_bounds, regular_polygon
     from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 
     poly = regular_polygon(6)
@@ -164,7 +164,7 @@ def test_qp_bounds_and_regular_polygon_refuse_bad_inputs_by_name() -> None:
 
 
 def test_bench_settings_and_write_report_refuse_bad_inputs_by_name() -> None:
-    from velfence.bench import BenchSettings, write_report
+    from velfence.apps.bench import BenchSettings, write_report
     from velfence.errors import InvalidParameter
 
     with pytest.raises(InvalidParameter, match="quick: expected True or False"):
@@ -246,7 +246,7 @@ def test_tiny_run_has_rows_of_every_family(
 def test_tiny_run_has_the_nd_and_filter_families(
     tiny: tuple[bm.BenchReport, list[tuple[str, float]]],
 ) -> None:
-    from velfence.bench.cases import polytope
+    from velfence.apps.bench.cases import polytope
 
     rep, _ = tiny
     assert {r.case for r in rep.polytope} == set(polytope.CASES)

@@ -21,9 +21,9 @@ pytest.importorskip("rich", reason="the command line needs the [app] extra")
 from typer.testing import CliRunner
 
 import velfence
-from velfence import _entry, cli
-from velfence.cli import app
-from velfence.reproduce.base import Check, Report
+from velfence.apps import _entry, cli
+from velfence.apps.cli import app
+from velfence.apps.reproduce.base import Check, Report
 
 ENV = {"COLUMNS": "200", "NO_COLOR": "1"}
 CHECK_KEYS = {"name", "source", "expected", "measured", "tolerance", "passed"}
@@ -276,7 +276,7 @@ def test_demo_with_short_config(runner: CliRunner, tmp_path: Path) -> None:
 
 
 def test_bench_quick_writes_markdown(runner: CliRunner, tmp_path: Path) -> None:
-    from velfence.bench import GENERATED_MARKER
+    from velfence.apps.bench import GENERATED_MARKER
 
     out = tmp_path / "bench.md"
     js = tmp_path / "raw" / "bench.json"
@@ -301,7 +301,7 @@ def test_bench_quick_writes_markdown(runner: CliRunner, tmp_path: Path) -> None:
 def test_bench_without_out_prints_only_the_markdown(
     runner: CliRunner, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    import velfence.bench as bm
+    import velfence.apps.bench as bm
 
     report = bm.BenchReport(
         settings=bm.BenchSettings.make(quick=True),
@@ -333,12 +333,12 @@ def test_bench_without_out_prints_only_the_markdown(
 def test_bench_refuses_a_folder_before_timing(
     runner: CliRunner, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, option: str
 ) -> None:
-    import velfence.bench
+    import velfence.apps.bench
 
     def boom(**kwargs: Any) -> None:
         raise AssertionError("the benchmarks ran")
 
-    monkeypatch.setattr(velfence.bench, "run_benchmarks", boom)
+    monkeypatch.setattr(velfence.apps.bench, "run_benchmarks", boom)
     result = _invoke(runner, "bench", "--quick", option, str(tmp_path))
     assert result.exit_code == 2
     assert f"{option} {tmp_path} is a folder" in _flat(result.stderr)
@@ -504,7 +504,7 @@ def _run_entry(blocked: str | None, *args: str, cwd: Path | None = None) -> Any:
         "import sys\n"
         + (f"sys.modules[{blocked!r}] = None\n" if blocked else "")
         + f"sys.argv = ['velfence', *{list(args)!r}]\n"
-        + "from velfence._entry import main\n"
+        + "from velfence.apps._entry import main\n"
         + "main()\n"
     )
     env = {**os.environ, "PYTHONPATH": SRC, "COLUMNS": "200", "NO_COLOR": "1"}
@@ -522,7 +522,7 @@ def _run_entry(blocked: str | None, *args: str, cwd: Path | None = None) -> Any:
 def test_script_entry_is_the_guarded_one() -> None:
     pyproject = Path(SRC).parent / "pyproject.toml"
     scripts = tomllib.loads(pyproject.read_text())["project"]["scripts"]
-    assert scripts == {"velfence": "velfence._entry:main"}
+    assert scripts == {"velfence": "velfence.apps._entry:main"}
 
 
 @pytest.mark.parametrize("blocked", ["typer", "rich", "pydantic"])
@@ -556,8 +556,8 @@ def test_entry_runs_the_cli_when_installed() -> None:
 
 def test_missing_module_inside_velfence_is_not_masked(monkeypatch: pytest.MonkeyPatch) -> None:
     # A bug (a velfence module that cannot be imported) must surface, not read as a missing extra.
-    monkeypatch.setitem(sys.modules, "velfence.cli", None)
-    with pytest.raises(ModuleNotFoundError, match=r"velfence\.cli"):
+    monkeypatch.setitem(sys.modules, "velfence.apps.cli", None)
+    with pytest.raises(ModuleNotFoundError, match=r"velfence\.apps\.cli"):
         _entry.main()
 
 

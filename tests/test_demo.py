@@ -1,4 +1,5 @@
-"""velfence.demo: a short run of the demo scenario, its artifacts and a few documented facts."""
+"""velfence.apps.demo: a short run of the demo scenario, its artifacts and a few documented
+facts."""
 
 from __future__ import annotations
 
@@ -14,7 +15,7 @@ import pytest
 for _extra in ("rich", "matplotlib", "pydantic", "yaml"):
     pytest.importorskip(_extra, reason="the demo needs the [app] extra")
 
-from velfence.demo import DemoResult, build_shapers, run_demo  # noqa: E402
+from velfence.apps.demo import DemoResult, build_shapers, run_demo  # noqa: E402
 from velfence.errors import InvalidParameter  # noqa: E402
 from velfence.geometry.polygon import ConvexPolygon  # noqa: E402
 from velfence.io.config import DemoConfig, ShaperSettings, load_config  # noqa: E402

@@ -179,7 +179,7 @@ def test_cobot_path_following(capsys: pytest.CaptureFixture[str]) -> None:
 def test_teleop_session(
     capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from velfence import teleop
+    from velfence.apps import teleop
 
     sessions: list[Any] = []
 

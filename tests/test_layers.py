@@ -54,12 +54,16 @@ def _project_config() -> dict[str, Any]:
 
 def test_velfence_keeps_its_layers():
     config = _project_config()
-    (contract,) = config["contracts"]
-    assert contract["type"] == "layers"
-    assert "exclude_type_checking_imports" not in contract  # TYPE_CHECKING imports count
+    library, apps = config["contracts"]
+    assert [c["type"] for c in (library, apps)] == ["layers", "layers"]
+    assert library["containers"] == ["velfence"]
+    assert library["layers"][0] == "apps"
+    assert apps["containers"] == ["velfence.apps"]
+    for contract in (library, apps):
+        assert "exclude_type_checking_imports" not in contract  # TYPE_CHECKING imports count
     res = _lint_imports(ROOT / "pyproject.toml", ROOT, SRC)
     assert res.returncode == 0, res.stdout + res.stderr
-    assert "Contracts: 1 kept, 0 broken." in res.stdout
+    assert "Contracts: 2 kept, 0 broken." in res.stdout
 
 
 def _layer_modules(layers: list[str]) -> list[str]:
@@ -67,27 +71,42 @@ def _layer_modules(layers: list[str]) -> list[str]:
 
 
 def _toy_package(tmp_path: Path, extra: dict[str, str]) -> Path:
-    """Package ``toypkg`` with one empty module per layer entry, plus ``extra`` sources."""
+    """Package ``toypkg`` shaped as velfence's contracts say, plus ``extra`` sources.
+
+    Each contract's container (``velfence``, ``velfence.apps``) becomes ``toypkg``,
+    ``toypkg.apps``; each layer entry an empty module, or a package where it is itself a
+    container. ``extra`` maps a dotted name below ``toypkg`` (``"apps.viz"``) to its source.
+    """
     config = _project_config()
-    (contract,) = config["contracts"]
-    pkg = tmp_path / "toypkg"
-    pkg.mkdir()
-    (pkg / "__init__.py").write_text("")
-    for name in _layer_modules(contract["layers"]):
-        (pkg / f"{name}.py").write_text(extra.get(name, ""))
-    toy = {**contract, "containers": ["toypkg"], "name": "toy layers"}
-    toy.pop("ignore_imports", None)  # names velfence modules
-    layers = ", ".join(f'"{layer}"' for layer in toy.pop("layers"))
     lines = ["[tool.importlinter]", 'root_package = "toypkg"', ""]
-    lines.append("[[tool.importlinter.contracts]]")
-    for key, value in toy.items():
-        if isinstance(value, bool):
-            lines.append(f"{key} = {'true' if value else 'false'}")
-        elif isinstance(value, list):
-            lines.append(f"{key} = [{', '.join(repr(v) for v in value)}]")
-        else:
-            lines.append(f"{key} = {value!r}")
-    lines.append(f"layers = [{layers}]")
+    (tmp_path / "toypkg").mkdir()
+    (tmp_path / "toypkg" / "__init__.py").write_text("")
+    for contract in config["contracts"]:
+        (container,) = contract["containers"]
+        toy_container = "toypkg" + container.removeprefix("velfence")
+        base = tmp_path.joinpath(*toy_container.split("."))
+        base.mkdir(exist_ok=True)
+        (base / "__init__.py").touch()
+        for name in _layer_modules(contract["layers"]):
+            dotted = f"{toy_container}.{name}".removeprefix("toypkg.")
+            if any(c["containers"] == [f"{container}.{name}"] for c in config["contracts"]):
+                (base / name).mkdir(exist_ok=True)
+                (base / name / "__init__.py").write_text(extra.get(dotted, ""))
+            else:
+                (base / f"{name}.py").write_text(extra.get(dotted, ""))
+        toy = {**contract, "containers": [toy_container], "name": f"toy {toy_container}"}
+        toy.pop("ignore_imports", None)  # names velfence modules
+        layers = ", ".join(f'"{layer}"' for layer in toy.pop("layers"))
+        lines.append("[[tool.importlinter.contracts]]")
+        for key, value in toy.items():
+            if isinstance(value, bool):
+                lines.append(f"{key} = {'true' if value else 'false'}")
+            elif isinstance(value, list):
+                lines.append(f"{key} = [{', '.join(repr(v) for v in value)}]")
+            else:
+                lines.append(f"{key} = {value!r}")
+        lines.append(f"layers = [{layers}]")
+        lines.append("")
     cfg = tmp_path / "pyproject.toml"
     cfg.write_text("\n".join(lines).replace("'", '"') + "\n")
     return cfg
@@ -95,9 +114,9 @@ def _toy_package(tmp_path: Path, extra: dict[str, str]) -> Path:
 
 _DOWNWARD = {
     "geometry": "from toypkg import errors, _validate\n",
-    "viz": "from toypkg import sim, teleop, mechanisms\n",
-    "reproduce": "from toypkg import viz\n",
-    "cli": "from toypkg import demo, benchmarking, reproduce\n",
+    "apps.viz": "from toypkg import sim, mechanisms\nfrom toypkg.apps import teleop\n",
+    "apps.reproduce": "from toypkg.apps import viz\n",
+    "apps.cli": "from toypkg.apps import demo, bench, reproduce\nfrom toypkg import bridge\n",
 }
 
 
@@ -105,7 +124,7 @@ def test_downward_imports_keep_the_contract(tmp_path):
     cfg = _toy_package(tmp_path, _DOWNWARD)
     res = _lint_imports(cfg, tmp_path, tmp_path)
     assert res.returncode == 0, res.stdout + res.stderr
-    assert "Contracts: 1 kept, 0 broken." in res.stdout
+    assert "Contracts: 2 kept, 0 broken." in res.stdout
 
 
 @pytest.mark.parametrize(
@@ -113,23 +132,28 @@ def test_downward_imports_keep_the_contract(tmp_path):
     [
         ("geometry", "from toypkg import shaping\n", "toypkg.geometry is not allowed to import"),
         (
-            "viz",
+            "apps.viz",
             "from typing import TYPE_CHECKING\n\n"
-            "if TYPE_CHECKING:\n    from toypkg import reproduce\n",
-            "toypkg.viz is not allowed to import toypkg.reproduce",
+            "if TYPE_CHECKING:\n    from toypkg.apps import reproduce\n",
+            "toypkg.apps.viz is not allowed to import toypkg.apps.reproduce",
         ),
         (
             "sim",
-            "def f():\n    from toypkg import viz\n\n    return viz\n",
-            "toypkg.sim is not allowed to import toypkg.viz",
+            "def f():\n    from toypkg.apps import viz\n\n    return viz\n",
+            "toypkg.sim is not allowed to import toypkg.apps",
         ),
-        ("teleop", "from toypkg import cobot\n", "toypkg.teleop is not allowed to import"),
+        ("cobot", "from toypkg import redundancy\n", "toypkg.cobot is not allowed to import"),
+        (
+            "filter",
+            "import toypkg.apps.demo\n",
+            "toypkg.filter is not allowed to import toypkg.apps",
+        ),
     ],
-    ids=["upward", "type-checking", "lazy", "sibling"],
+    ids=["upward", "type-checking", "lazy", "sibling", "library-imports-an-application"],
 )
 def test_a_forbidden_import_breaks_the_contract(tmp_path, module, source, message):
     cfg = _toy_package(tmp_path, {**_DOWNWARD, module: source})
     res = _lint_imports(cfg, tmp_path, tmp_path)
     assert res.returncode == 1, res.stdout + res.stderr
-    assert "toy layers BROKEN" in res.stdout
+    assert "BROKEN" in res.stdout
     assert message in res.stdout

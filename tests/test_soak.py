@@ -7,11 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from velfence.errors import InvalidParameter
-from velfence.geometry import ConvexPolygon
-from velfence.shaping import PolygonShaper
-from velfence.sim.baselines import NoLimit
-from velfence.soak import (
+from velfence.apps.soak import (
     SoakCase,
     _PlanarSets,
     polygon_cases,
@@ -19,6 +15,10 @@ from velfence.soak import (
     run_case,
     stop_cases,
 )
+from velfence.errors import InvalidParameter
+from velfence.geometry import ConvexPolygon
+from velfence.shaping import PolygonShaper
+from velfence.sim.baselines import NoLimit
 
 #: Slow, left out of `make check` (`make test` runs them): 10^4-step closed-loop campaigns.
 pytestmark = pytest.mark.slow

@@ -1,4 +1,5 @@
-"""The evidence campaigns of velfence.soak_filter: smoke runs, planted escapes, the reproducers.
+"""The evidence campaigns of velfence.apps.soak_filter: smoke runs, planted escapes, the
+reproducers.
 
 The smoke runs are 10^3-10^4 states or steps (the full campaigns run by ``make soak-filter``).
 The harness must report a planted escape (a "shaper" that passes commands through), must report
@@ -16,9 +17,7 @@ import numpy as np
 import pytest
 from tests.optional import requires
 
-from velfence.errors import InvalidParameter
-from velfence.geometry.projection import project
-from velfence.soak_filter import (
+from velfence.apps.soak_filter import (
     HISTORY,
     ROUND_OFF,
     SECTION_BEGIN,
@@ -32,6 +31,8 @@ from velfence.soak_filter import (
     vertex_states,
     write_section,
 )
+from velfence.errors import InvalidParameter
+from velfence.geometry.projection import project
 
 DATA = Path(__file__).resolve().parent / "data"
 
@@ -294,7 +295,7 @@ def test_earlier_runs_survive_a_rewrite(tmp_path: Path) -> None:
 
 
 def test_the_polygon_soak_keeps_the_section(tmp_path: Path) -> None:
-    from velfence import soak
+    from velfence.apps import soak
 
     old = "# old page\n\n" + render_markdown([_loop_result()], command="kept") + "tail\n"
     kept = soak._kept_section(old)
@@ -358,7 +359,7 @@ def test_reproducer_state_does_not_leave(name: str) -> None:
 def test_command_line_writes_its_section(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    from velfence.soak_filter import main
+    from velfence.apps.soak_filter import main
 
     page = tmp_path / "reliability.md"
     page.write_text("# Reliability\n")
@@ -428,7 +429,7 @@ def test_vertex_case_filter_workspace_rows_do_not_leave() -> None:
 
 @requires("mujoco")
 def test_loop_example_replays_the_escaping_cycle(tmp_path: Path) -> None:
-    from velfence.soak_filter import replay_loop_example
+    from velfence.apps.soak_filter import replay_loop_example
 
     r = run_loop_campaign(
         "ur5e", 500, steps=400, episode_steps=200, resting_fraction=1.0,
@@ -448,7 +449,7 @@ def test_loop_example_replays_the_escaping_cycle(tmp_path: Path) -> None:
 
 @requires("mujoco")
 def test_loop_example_replays_the_real_filter_bit_for_bit() -> None:
-    from velfence.soak_filter import replay_loop_example
+    from velfence.apps.soak_filter import replay_loop_example
 
     # UR5e at 100 Hz escapes within a few episodes on the code before the ladder rework; when it
     # no longer does, there is no example to replay and the test has nothing to check.
@@ -468,7 +469,7 @@ def test_loop_example_projection_recovery_does_not_leave() -> None:
     """A UR5e at 100 Hz (seed 2 of the campaign) resting on two planes with joints at limits
     left its workspace by 8.2 µm in one step with only ``projection, recovery`` reported, before
     main's filter rework (641b063): tests/data/loop_ur5e_100hz_projection_recovery.npz."""
-    from velfence.soak_filter import replay_loop_example
+    from velfence.apps.soak_filter import replay_loop_example
 
     ex = np.load(DATA / "loop_ur5e_100hz_projection_recovery.npz")
     _x, d0, d1, stages = replay_loop_example(ex)

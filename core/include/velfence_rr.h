@@ -10,7 +10,7 @@
  *                   and q' = J^T (J J^T + k I)^-1 x' (eq. 36; Cholesky factorisation of the
  *                   symmetric positive definite J J^T + k I), then the optional speed cap (q'
  *                   scaled by one factor so that max |q'_i| <= max_speed).
- *                   velfence.teleop.resolved_rate.ResolvedRate(Puma560(), inverse="sr")'s step.
+ *                   velfence.apps.teleop.resolved_rate.ResolvedRate(Puma560(), inverse="sr")'s step.
  *
  * Agreement with the Python reference (ResolvedRate(..., backend="python")): the kinematics and J
  * are the same floating-point operations in the same order as DHChain._kinematics_lists and

@@ -3,6 +3,7 @@
 ``v_out = shape(state, v_cmd)`` every control cycle. See ``docs/`` for the derivations of every law.
 """
 
+from velfence import _moved
 from velfence.cobot import CasterWall, Cobot, PathFollower
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter, VelfenceError
 from velfence.filter import (
@@ -59,6 +60,8 @@ from velfence.sim import (
 )
 
 __version__ = "0.1.0"
+
+_moved.install()
 
 __all__ = [
     "STAGE_NAMES",

@@ -219,7 +219,7 @@ def test_node_arguments_checked_before_dds() -> None:
 def _cli(args: list[str], cwd: Path) -> subprocess.Popen[str]:
     env = {**os.environ, "PYTHONPATH": str(SRC), "CYCLONEDDS_URI": LOOPBACK}
     return subprocess.Popen(
-        [sys.executable, "-m", "velfence.cli", "bridge", *args],
+        [sys.executable, "-m", "velfence.apps.cli", "bridge", *args],
         cwd=cwd,
         env=env,
         stdout=subprocess.PIPE,
@@ -366,7 +366,16 @@ def test_cli_dds_failure_exits_3(tmp_path: Path) -> None:
     )
     env = {**os.environ, "PYTHONPATH": str(SRC), "CYCLONEDDS_URI": bad}
     done = subprocess.run(
-        [sys.executable, "-m", "velfence.cli", "bridge", "--config", "b.yaml", "--duration", "1"],
+        [
+            sys.executable,
+            "-m",
+            "velfence.apps.cli",
+            "bridge",
+            "--config",
+            "b.yaml",
+            "--duration",
+            "1",
+        ],
         cwd=tmp_path,
         env=env,
         capture_output=True,

@@ -119,7 +119,7 @@ def test_a_bridge_records_every_command_it_publishes(bridge, tmp_path: Path) -> 
 def _cli(args: list[str], cwd: Path) -> subprocess.CompletedProcess[str]:
     env = {"PYTHONPATH": str(SRC), "CYCLONEDDS_URI": LOOPBACK, "PATH": "/usr/bin:/bin"}
     return subprocess.run(
-        [sys.executable, "-m", "velfence.cli", "bridge", *args],
+        [sys.executable, "-m", "velfence.apps.cli", "bridge", *args],
         cwd=cwd,
         env=env,
         capture_output=True,

@@ -23,8 +23,8 @@ pytest.importorskip("viser", reason="viser not installed (extra web)")
 
 from chromium_cdp import Browser, find_chromium, poll
 
-from velfence.view import serve_scene
-from velfence.viz.web import WebView
+from velfence.apps.viewer.view import serve_scene
+from velfence.apps.viewer.web import WebView
 
 CHROMIUM = find_chromium()
 pytestmark = pytest.mark.skipif(CHROMIUM is None, reason="no Chromium binary on this machine")

@@ -14,18 +14,10 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from velfence.cobot import (
-    CobotTrace,
-    PathFollower,
-    constant_speed,
-    follow_in_ee,
-    pushing,
-    r_theta_cobot,
-    simulate_cobot,
-    unicycle,
-)
+from velfence.cobot import PathFollower, r_theta_cobot, unicycle
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.geometry.paths import Circle
+from velfence.sim.cobot import CobotTrace, constant_speed, follow_in_ee, pushing, simulate_cobot
 
 W = np.array([[0.0, -1.0], [1.0, 0.0]])
 UNIT_CIRCLE = Circle([0.0, 0.0], radius=1.0)
@@ -373,16 +365,17 @@ def test_simulate_cobot_validation() -> None:
 
 
 def test_constant_speed_refuses_a_negative_speed() -> None:
-    from velfence.cobot import constant_speed
     from velfence.errors import InvalidParameter
+    from velfence.sim.cobot import constant_speed
 
     with pytest.raises(InvalidParameter, match=r"u must be finite and >= 0 .*-0.5"):
         constant_speed(-0.5)
 
 
 def test_backward_push_moves_backward_and_blind_negative_speed_is_refused() -> None:
-    from velfence.cobot import pushing, simulate_cobot, unicycle
+    from velfence.cobot import unicycle
     from velfence.errors import InvalidInput
+    from velfence.sim.cobot import pushing, simulate_cobot
 
     cob = unicycle()
 

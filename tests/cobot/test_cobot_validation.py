@@ -19,17 +19,14 @@ from velfence.cobot import (
     RThetaKinematics,
     SteeredWheel,
     TetrahedralCVT,
-    constant_speed,
-    follow_in_ee,
     gains_from_poles,
     generalised_cross,
-    pushing,
     r_theta_cobot,
-    simulate_cobot,
     unicycle,
 )
 from velfence.errors import InvalidInput, InvalidParameter, VelfenceError
 from velfence.geometry.paths import Line
+from velfence.sim.cobot import constant_speed, follow_in_ee, pushing, simulate_cobot
 
 BAD_VECTORS: list[Any] = [
     "12",

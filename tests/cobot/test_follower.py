@@ -14,9 +14,10 @@ import math
 import numpy as np
 import pytest
 
-from velfence.cobot import PathFollower, critically_damped, follow_in_ee, gains_from_poles
+from velfence.cobot import PathFollower, critically_damped, gains_from_poles
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.geometry.paths import Circle, Line, Path, Polyline, Spline
+from velfence.sim.cobot import follow_in_ee
 
 W = np.array([[0.0, -1.0], [1.0, 0.0]])
 
@@ -324,8 +325,8 @@ def test_perpendicular_start_converges_and_does_not_hinge_on_rounding() -> None:
     With the divisor clamped to ±guard the first step turned the heading by 5.8 rad and a 1e-15
     rad change of the start heading decided between convergence and overflow.
     """
-    from velfence.cobot import constant_speed
-    from velfence.reproduce.cobot import LENGTH, fig5_cobot
+    from velfence.apps.reproduce.cobot import LENGTH, fig5_cobot
+    from velfence.sim.cobot import constant_speed
 
     runs = [
         fig5_cobot(

@@ -13,17 +13,11 @@ import math
 import numpy as np
 import pytest
 
-from velfence.cobot import (
-    CasterWall,
-    WallSteering,
-    WallSteeringOutput,
-    pushing,
-    r_theta_cobot,
-    simulate_cobot,
-)
+from velfence.cobot import CasterWall, WallSteering, WallSteeringOutput, r_theta_cobot
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon
 from velfence.shaping.polygon import PolygonShaper
+from velfence.sim.cobot import pushing, simulate_cobot
 
 RECT = ConvexPolygon([[0.6, -0.5], [1.6, -0.5], [1.6, 0.5], [0.6, 0.5]])
 PENTAGON = ConvexPolygon([[0, 0], [2, 0], [2.5, 1], [1, 2], [-0.5, 1]])

@@ -26,6 +26,7 @@ import numpy as np
 from kinds import KINDS, NotApplicable, expectation
 
 import velfence
+import velfence.apps
 from velfence.errors import VelfenceError
 
 #: Seconds one call may take before it counts as a hang (a kind may allow more, e.g. 10⁶ entries).
@@ -43,7 +44,7 @@ HEAVY_KINDS = ("str_int", "nan", "true", "dict_xy", "int_minus_1", "float_1e308"
 #: that tries to allocate more gets MemoryError (reported as an escape) instead of swapping.
 MEMORY_HEADROOM = 2 * 1024**3
 #: Skipped modules: the command-line front end (tested by tests/test_cli.py).
-SKIP_MODULES = ("velfence.cli",)
+SKIP_MODULES = ("velfence.apps.cli",)
 
 
 # --- the registry's vocabulary ----------------------------------------------------------------
@@ -123,9 +124,11 @@ def _optional(exc: ModuleNotFoundError) -> bool:
 def public_modules() -> list[str]:
     """``velfence`` and every public sub-module or sub-package that declares ``__all__``."""
     names = ["velfence"]
-    for info in pkgutil.iter_modules(velfence.__path__):
-        full = f"velfence.{info.name}"
-        if info.name.startswith("_") or full in SKIP_MODULES:
+    infos = [("velfence", info) for info in pkgutil.iter_modules(velfence.__path__)]
+    infos += [("velfence.apps", info) for info in pkgutil.iter_modules(velfence.apps.__path__)]
+    for package, info in infos:
+        full = f"{package}.{info.name}"
+        if info.name.startswith("_") or info.name == "apps" or full in SKIP_MODULES:
             continue
         try:
             importlib.import_module(full)
@@ -140,7 +143,13 @@ def public_modules() -> list[str]:
 
 def available(key: str) -> bool:
     """Whether the module of a canonical name (``"viz.plot_quiver"``) could be imported."""
-    return f"velfence.{key.split('.')[0]}" not in UNAVAILABLE
+    return _full(key.split(".")[0]) not in UNAVAILABLE
+
+
+def _full(short: str) -> str:
+    """The module path of a canonical name's module (the applications under velfence.apps)."""
+    apps = {info.name for info in pkgutil.iter_modules(velfence.apps.__path__)}
+    return f"velfence.apps.{short}" if short.split(".")[0] in apps else f"velfence.{short}"
 
 
 def _skipped_by_type(obj: Any) -> bool:
@@ -162,7 +171,7 @@ def public_callables() -> dict[str, Any]:
             obj = getattr(mod, name)
             if _skipped_by_type(obj):
                 continue
-            short = modname.removeprefix("velfence").lstrip(".")
+            short = modname.removeprefix("velfence").removeprefix(".apps").lstrip(".")
             key = f"{short}.{name}" if short else name
             old = found.get(id(obj))
             if old is None or old[0].count(".") < key.count("."):

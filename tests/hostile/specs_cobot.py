@@ -49,7 +49,7 @@ def intent(t: float, R: np.ndarray) -> np.ndarray:
 
 
 def _trace():  # type: ignore[no-untyped-def]
-    from velfence.cobot import follow_in_ee
+    from velfence.sim.cobot import follow_in_ee
 
     return follow_in_ee(follower(), _R, _T, length=0.05, ds=0.01)
 
@@ -61,7 +61,7 @@ _H = np.zeros((2, 2, 2))
 SPECS: dict[str, F | C] = {
     "cobot.CVT": C(abstract="Protocol: exercised through SteeredWheel and TetrahedralCVT"),
     "cobot.CobotKinematics": C(abstract="Protocol: exercised through its implementations"),
-    "cobot.HeadingController": C(abstract="Protocol: exercised through PathFollower"),
+    "sim.HeadingController": C(abstract="Protocol: exercised through PathFollower"),
     "cobot.SteeredWheel": C(lambda: call(), _CVT),
     "cobot.TetrahedralCVT": C(
         # convention is a sign (+1 or -1, any real type): -1 is valid, so not a count or choice
@@ -117,7 +117,7 @@ SPECS: dict[str, F | C] = {
         },
         instance=follower,
     ),
-    "cobot.CobotTrace": C(
+    "sim.CobotTrace": C(
         record="output record of follow_in_ee() and simulate_cobot()",
         instance=_trace,
         methods={
@@ -130,8 +130,8 @@ SPECS: dict[str, F | C] = {
     "cobot.Heading": C(record="output record of Cobot.heading()"),
     "cobot.Steering": C(record="output record of Cobot.steering_rates()"),
     "cobot.WallSteeringOutput": C(record="output record of WallSteering.step()"),
-    "cobot.constant_speed": F(lambda: call(0.5), types={"u": "nonneg"}),
-    "cobot.pushing": F(lambda: call(intent)),
+    "sim.constant_speed": F(lambda: call(0.5), types={"u": "nonneg"}),
+    "sim.pushing": F(lambda: call(intent)),
     "cobot.critically_damped": F(lambda: call(2.0)),
     "cobot.gains_from_poles": F(lambda: call(-2.0, -3.0)),
     "cobot.generalised_cross": F(lambda: call([[3.0, 4.0]])),
@@ -143,8 +143,8 @@ SPECS: dict[str, F | C] = {
     # convention is a sign (+1 or -1, any real type): -1 is valid, so not a count or choice
     "cobot.r_theta_cobot": F(lambda: call(r_o=0.5), types={"convention": "scalar"}),
     "cobot.unicycle": F(lambda: call()),
-    "cobot.follow_in_ee": F(lambda: call(follower(), _R, _T, length=0.05, ds=0.01)),
-    "cobot.simulate_cobot": F(
+    "sim.follow_in_ee": F(lambda: call(follower(), _R, _T, length=0.05, ds=0.01)),
+    "sim.simulate_cobot": F(
         lambda: call(
             r_theta_cobot(),
             follower(),

@@ -1,12 +1,12 @@
-"""Specs of velfence.reproduce."""
+"""Specs of velfence.apps.reproduce."""
 
 from __future__ import annotations
 
 from harness import C, call
 
-from velfence.reproduce import Check, Report
+from velfence.apps.reproduce import Check, Report
 
-_RECORD = "output record of the reproductions (velfence.reproduce.run_* build and return it)"
+_RECORD = "output record of the reproductions (velfence.apps.reproduce.run_* build and return it)"
 
 
 def _check() -> Check:
@@ -24,8 +24,8 @@ SPECS: dict[str, C] = {
 
 SPECS.update(
     {
-        "robot_sim.PhysicsRun": C(record="a record a physics scenario builds (robot_sim.*.run)"),
-        "robot_sim.ScenarioResult": C(
+        "scenarios.PhysicsRun": C(record="a record a physics scenario builds (robot_sim.*.run)"),
+        "scenarios.ScenarioResult": C(
             record="a record a physics scenario builds (robot_sim.*.run)"
         ),
     }

@@ -1,4 +1,4 @@
-"""Specs of velfence.teleop."""
+"""Specs of velfence.apps.teleop."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import numpy as np
 from common import Q6, pose, puma
 from harness import C, F, call
 
-from velfence.teleop import (
+from velfence.apps.teleop import (
     Box,
     LaserRangeSensor,
     ModeManager,
@@ -261,7 +261,7 @@ SPECS: dict[str, F | C] = {
 
 
 def _reset_servo(pd: bool = False):  # type: ignore[no-untyped-def]
-    from velfence.teleop import FirstOrderServo, PDGravityServo
+    from velfence.apps.teleop import FirstOrderServo, PDGravityServo
 
     s = PDGravityServo(kp=100.0, inertia=1.0) if pd else FirstOrderServo(time_constant=0.01)
     s.reset(Q6)
@@ -269,7 +269,7 @@ def _reset_servo(pd: bool = False):  # type: ignore[no-untyped-def]
 
 
 def _task_record():  # type: ignore[no-untyped-def]
-    from velfence.teleop import TaskRecord
+    from velfence.apps.teleop import TaskRecord
 
     fields = dict.fromkeys(TaskRecord.__dataclass_fields__, 0)
     fields.update(condition="assisted", done=True)

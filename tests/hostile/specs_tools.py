@@ -1,4 +1,5 @@
-"""Specs of the public tool modules velfence.bench, velfence.demo, velfence.soak and soak_filter."""
+"""Specs of the public tool modules velfence.apps.bench, velfence.apps.demo, velfence.apps.soak and
+soak_filter."""
 
 from __future__ import annotations
 
@@ -6,8 +7,8 @@ import numpy as np
 from common import square
 from harness import C, F, call
 
-from velfence import bench as bm
-from velfence import soak, soak_filter
+from velfence.apps import bench as bm
+from velfence.apps import soak, soak_filter
 
 _ROW = "output record of run_benchmarks() (one table row)"
 

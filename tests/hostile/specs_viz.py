@@ -1,4 +1,5 @@
-"""Specs of velfence.viz: every function writes a file (matplotlib), so only refusals are tried."""
+"""Specs of velfence.apps.viz: every function writes a file (matplotlib), so only refusals are
+tried."""
 
 from __future__ import annotations
 

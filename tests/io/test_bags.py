@@ -473,8 +473,8 @@ def test_plot_and_cli(examples: Path, tmp_path: Path) -> None:
     pytest.importorskip("matplotlib")
     from typer.testing import CliRunner
 
-    from velfence.cli import app
-    from velfence.viz.replay import plot_replay
+    from velfence.apps.cli import app
+    from velfence.apps.viz.replay import plot_replay
 
     src = examples / "mobile_base"
     args = ["replay", str(src / "bag"), "--config", str(src / "replay.yaml"), "--out"]

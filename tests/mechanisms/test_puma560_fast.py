@@ -16,9 +16,9 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from velfence.apps.teleop.resolved_rate import ResolvedRate, damping
 from velfence.errors import InvalidInput
 from velfence.mechanisms.puma560 import Puma560
-from velfence.teleop.resolved_rate import ResolvedRate, damping
 
 ANGLE = st.floats(-2 * np.pi, 2 * np.pi, allow_nan=False)
 Q = st.lists(ANGLE, min_size=6, max_size=6).map(np.array)

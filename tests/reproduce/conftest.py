@@ -1,7 +1,8 @@
 """Whole reproductions run once per test session and shared by every test file that inspects them.
 
 ``velfence reproduce telerobotics`` is four parts (kinematics, laser, motion, study). The assembled
-run is made once, through :func:`velfence.reproduce.telerobotics.run` itself, and each part's own
+run is made once, through :func:`velfence.apps.reproduce.telerobotics.run` itself, and each part's
+own
 return value is recorded on the way, so the per-part test files inspect the very checks and
 figures of that run instead of running the part a second time.
 """
@@ -14,8 +15,8 @@ from typing import Any, NamedTuple
 
 import pytest
 
-from velfence.reproduce import telerobotics
-from velfence.reproduce.base import Check, Report
+from velfence.apps.reproduce import telerobotics
+from velfence.apps.reproduce.base import Check, Report
 
 PARTS = ("kinematics_checks", "laser_checks", "motion_checks", "study_checks")
 #: The study size of the shared run (``velfence reproduce telerobotics`` runs 10 subjects x 3).

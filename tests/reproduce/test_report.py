@@ -1,4 +1,4 @@
-"""velfence.reproduce.base: check helpers at their edges, Report.passed and the JSON form."""
+"""velfence.apps.reproduce.base: check helpers at their edges, Report.passed and the JSON form."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from velfence.reproduce.base import Check, Report, check_at_least, check_at_most, check_close
+from velfence.apps.reproduce.base import Check, Report, check_at_least, check_at_most, check_close
 
 NAN, INF = math.nan, math.inf
 

@@ -6,8 +6,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from velfence.cobot import constant_speed
-from velfence.reproduce.cobot import GAINS, fig5_cobot, fig5_ee, run
+from velfence.apps.reproduce.cobot import GAINS, fig5_cobot, fig5_ee, run
+from velfence.sim.cobot import constant_speed
 
 #: Slow, left out of `make check` (`make test` runs them): the whole reproduction (a minute).
 pytestmark = pytest.mark.slow

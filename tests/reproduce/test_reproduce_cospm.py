@@ -4,7 +4,7 @@ import math
 import numpy as np
 import pytest
 
-from velfence.reproduce.cospm import limiter, run, run_paper
+from velfence.apps.reproduce.cospm import limiter, run, run_paper
 
 #: Slow, left out of `make check` (`make test` runs them): the reproduction, the paper's runs.
 pytestmark = pytest.mark.slow

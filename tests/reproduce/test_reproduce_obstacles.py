@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from velfence.reproduce.obstacles import run
+from velfence.apps.reproduce.obstacles import run
 
 pytest.importorskip("qpsolvers")
 pytest.importorskip("daqp")

@@ -9,8 +9,8 @@ from typing import Any
 
 import pytest
 
-from velfence.reproduce.base import Report
-from velfence.reproduce.wrist import BUFFER, GAIN, run
+from velfence.apps.reproduce.base import Report
+from velfence.apps.reproduce.wrist import BUFFER, GAIN, run
 
 #: Slow, left out of `make check` (`make test` runs them): the whole reproduction.
 pytestmark = pytest.mark.slow

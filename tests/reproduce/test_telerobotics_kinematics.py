@@ -1,4 +1,5 @@
-"""Kinematics checks of Khokar 2009 (velfence.reproduce._telerobotics_kinematics) and its tables.
+"""Kinematics checks of Khokar 2009 (velfence.apps.reproduce._telerobotics_kinematics) and its
+tables.
 
 Expected values are the thesis's own statements (text, eq. 1, Table 9 summary) or the numbers
 it implies (docs/telerobotics.md §8), recomputed here by independent numpy code, not read back from
@@ -14,12 +15,12 @@ from typing import Any
 import numpy as np
 import pytest
 
-from velfence.reproduce._telerobotics_kinematics import (
+from velfence.apps.reproduce._telerobotics_kinematics import (
     FK_TOL_MM,
     recorded_fk_errors_mm,
 )
-from velfence.reproduce.base import Check
-from velfence.teleop import thesis_data as data
+from velfence.apps.reproduce.base import Check
+from velfence.apps.teleop import thesis_data as data
 
 PNG = b"\x89PNG\r\n\x1a\n"
 A3 = 0.0203  # [m], |a3| of the PUMA 560 (Khokar 2009 Table 2, eq. 7)

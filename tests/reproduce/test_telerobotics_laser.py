@@ -11,9 +11,9 @@ import json
 import numpy as np
 import pytest
 
-from velfence.reproduce._telerobotics_laser import laser_checks, spread_run
-from velfence.reproduce.base import Report
-from velfence.teleop.thesis_data import TABLE1_DISTANCE_CM, TABLE1_VOLTAGE_V
+from velfence.apps.reproduce._telerobotics_laser import laser_checks, spread_run
+from velfence.apps.reproduce.base import Report
+from velfence.apps.teleop.thesis_data import TABLE1_DISTANCE_CM, TABLE1_VOLTAGE_V
 
 MUST_PASS = {
     "eq. (1) slope re-fitted from Table 1 [cm/V]",

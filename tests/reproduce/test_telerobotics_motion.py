@@ -4,13 +4,13 @@ import math
 import numpy as np
 import pytest
 
-from velfence.reproduce._telerobotics_motion import (
+from velfence.apps.reproduce._telerobotics_motion import (
     SIM_RATE,
     SPEED,
     singularity_run,
     singularity_time,
 )
-from velfence.reproduce.base import Report
+from velfence.apps.reproduce.base import Report
 
 # Our reading of the self-correcting SR law does not keep w away from 0: a failure of ours,
 # not a contradiction inside the thesis (docs/reproductions.md).

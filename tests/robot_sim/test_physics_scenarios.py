@@ -18,14 +18,14 @@ pytestmark = [requires("mujoco"), pytest.mark.slow]
 
 @pytest.fixture(scope="session")
 def fence_box():
-    from velfence.robot_sim import fence_box
+    from velfence.apps.scenarios import fence_box
 
     return fence_box.run()
 
 
 @pytest.fixture(scope="session")
 def obstacle():
-    from velfence.robot_sim import obstacles
+    from velfence.apps.scenarios import obstacles
 
     return obstacles.run()
 
@@ -36,7 +36,7 @@ def test_fence_box_named_checks_pass(fence_box) -> None:
 
 
 def test_fence_box_penetration_from_the_recorded_path(fence_box) -> None:
-    from velfence.robot_sim.fence_box import BOX_LOWER, BOX_UPPER
+    from velfence.apps.scenarios.fence_box import BOX_LOWER, BOX_UPPER
     from velfence.robots import panda
 
     robot = panda()
@@ -61,7 +61,7 @@ def test_fence_box_penetration_from_the_recorded_path(fence_box) -> None:
 
 
 def test_fence_box_joint_range_from_the_recorded_path(fence_box) -> None:
-    from velfence.robot_sim.fence_box import CELL_JOINT1
+    from velfence.apps.scenarios.fence_box import CELL_JOINT1
 
     lo, hi = CELL_JOINT1
     over = {
@@ -93,7 +93,7 @@ def test_redundant_obstacle_named_checks_pass(obstacle) -> None:
 def test_outputs_metrics_figure_and_video(obstacle, tmp_path) -> None:
     from PIL import Image
 
-    from velfence.robot_sim.output import write_outputs
+    from velfence.apps.scenarios.output import write_outputs
 
     files = write_outputs(obstacle, tmp_path, width=128, height=96, fps=4)
     names = {f.name for f in files}

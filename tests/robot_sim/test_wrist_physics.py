@@ -167,7 +167,7 @@ def test_robot_and_bad_inputs() -> None:
 
 @pytest.fixture(scope="module")
 def scenario():
-    from velfence.robot_sim import wrist
+    from velfence.apps.scenarios import wrist
 
     return wrist.run()
 
@@ -181,7 +181,7 @@ def test_named_checks_pass(scenario) -> None:
 
 @pytest.mark.slow
 def test_penetrations_recomputed_from_the_recorded_qpos(scenario) -> None:
-    from velfence.robot_sim.wrist import CORNER_TIME, PUSH_START
+    from velfence.apps.scenarios.wrist import CORNER_TIME, PUSH_START
 
     poly = Wrist().default_polygon()
     for name, run in scenario.runs.items():
@@ -198,7 +198,7 @@ def test_penetrations_recomputed_from_the_recorded_qpos(scenario) -> None:
 
 @pytest.mark.slow
 def test_corner_leak_physics_against_kinematics(scenario) -> None:
-    from velfence.robot_sim.wrist import CORNER_TIME
+    from velfence.apps.scenarios.wrist import CORNER_TIME
 
     geo = WristGeometry()
     patent, exact = scenario.metrics["patent"], scenario.metrics["exact"]
@@ -229,8 +229,8 @@ def test_push_penetration_against_the_servo_compliance(scenario) -> None:
     the P-law alone, its recovery floor k·pen being below it) the normal penetration follows
     a first-order law; the patent reaches its steady state, the exact law is 95 % there.
     """
-    from velfence.reproduce.wrist import BUFFER, GAIN
-    from velfence.robot_sim.wrist import HOLD_GAIN, KV, PUSH_DURATION, PUSH_TORQUE
+    from velfence.apps.reproduce.wrist import BUFFER, GAIN
+    from velfence.apps.scenarios.wrist import HOLD_GAIN, KV, PUSH_DURATION, PUSH_TORQUE
 
     wrist = Wrist()
     poly = wrist.default_polygon()

@@ -19,7 +19,7 @@ import pytest
 for _extra in ("rich", "matplotlib", "qpsolvers"):
     pytest.importorskip(_extra, reason="the arm demo needs the [app] and [qp] extras")
 
-from velfence.demo import DemoResult, run_arm_demo  # noqa: E402
+from velfence.apps.demo import DemoResult, run_arm_demo  # noqa: E402
 from velfence.errors import InvalidParameter  # noqa: E402
 from velfence.sim.arm import (  # noqa: E402
     ARM_METHODS,

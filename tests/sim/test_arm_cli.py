@@ -13,8 +13,8 @@ for _extra in ("typer", "rich", "matplotlib", "yaml", "qpsolvers"):
 
 from typer.testing import CliRunner  # noqa: E402
 
-import velfence.demo  # noqa: E402
-from velfence.cli import app  # noqa: E402
+import velfence.apps.demo  # noqa: E402
+from velfence.apps.cli import app  # noqa: E402
 
 ENV = {"COLUMNS": "200", "NO_COLOR": "1", "TERM": "dumb"}
 
@@ -42,12 +42,12 @@ def test_config_is_for_the_wrist_only(tmp_path: Path) -> None:
 
 @pytest.mark.slow
 def test_arm_box_through_the_cli(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    full = velfence.demo.run_arm_demo
+    full = velfence.apps.demo.run_arm_demo
 
     def short(**kwargs: Any) -> Any:  # one fast speed, two controllers, no GIF
         return full(speeds=(0.5,), methods=("no limit", "velfence"), gif=False, **kwargs)
 
-    monkeypatch.setattr(velfence.demo, "run_arm_demo", short)
+    monkeypatch.setattr(velfence.apps.demo, "run_arm_demo", short)
     out = tmp_path / "arm"
     result = CliRunner().invoke(app, ["demo", "--scenario", "arm-box", "--out", str(out)], env=ENV)
     assert result.exit_code == 0, result.output

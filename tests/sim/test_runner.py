@@ -189,7 +189,7 @@ def test_trajectory_is_read_only_and_validated():
 
 
 def test_stateful_shapers_are_reset_between_runs():
-    from velfence.reproduce.cospm import limiter, paper_command
+    from velfence.apps.reproduce.cospm import limiter, paper_command
 
     lim = limiter()
     th0 = np.full(3, np.pi / 2)

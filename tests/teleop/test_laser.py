@@ -14,8 +14,7 @@ import math
 import numpy as np
 import pytest
 
-from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
-from velfence.teleop.laser import (
+from velfence.apps.teleop.laser import (
     ADC_STEP_V,
     EXPECTED_RANGE_1000,
     NOISE_SIGMA_V,
@@ -27,7 +26,8 @@ from velfence.teleop.laser import (
     moving_average,
     plane_from_points,
 )
-from velfence.teleop.scene import Plane, Scene, pick_and_place_scene
+from velfence.apps.teleop.scene import Plane, Scene, pick_and_place_scene
+from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 
 EXACT = 1e-12
 

@@ -7,11 +7,11 @@ import math
 import numpy as np
 import pytest
 
+from velfence.apps.teleop.laser import LaserRangeSensor
+from velfence.apps.teleop.modes import ModeManager, aligned_rotation
+from velfence.apps.teleop.resolved_rate import angle_axis, rotation_from_angle_axis
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.shaping.fixtures import LineFixture
-from velfence.teleop.laser import LaserRangeSensor
-from velfence.teleop.modes import ModeManager, aligned_rotation
-from velfence.teleop.resolved_rate import angle_axis, rotation_from_angle_axis
 
 RATE = 200.0
 LASER = LaserRangeSensor()

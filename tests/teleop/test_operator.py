@@ -7,15 +7,15 @@ import math
 import numpy as np
 import pytest
 
-from velfence.errors import InvalidParameter
-from velfence.teleop.modes import ModeManager
-from velfence.teleop.operator import (
+from velfence.apps.teleop.modes import ModeManager
+from velfence.apps.teleop.operator import (
     OMNI_WORKSPACE,
     PROFILE_RANGES,
     OperatorProfile,
     SyntheticOperator,
 )
-from velfence.teleop.session import OMNI_TO_PUMA, Session
+from velfence.apps.teleop.session import OMNI_TO_PUMA, Session
+from velfence.errors import InvalidParameter
 
 RATE = 50.0
 

@@ -5,9 +5,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from velfence.errors import InvalidInput, InvalidParameter
-from velfence.mechanisms.puma560 import Puma560
-from velfence.teleop.resolved_rate import (
+from velfence.apps.teleop.resolved_rate import (
     K0,
     W0,
     ResolvedRate,
@@ -19,6 +17,8 @@ from velfence.teleop.resolved_rate import (
     rotation_vector,
     sr_inverse,
 )
+from velfence.errors import InvalidInput, InvalidParameter
+from velfence.mechanisms.puma560 import Puma560
 
 TOL = 1e-10
 # §7.1 trajectory 1 start (thesis), well away from any singularity (w ≈ 0.07 > w0).

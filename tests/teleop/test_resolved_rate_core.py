@@ -13,10 +13,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from velfence.apps.teleop.resolved_rate import ResolvedRate
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.mechanisms.puma560 import Puma560
 from velfence.shaping.polytope import compiled_nd
-from velfence.teleop.resolved_rate import ResolvedRate
 
 pytestmark = pytest.mark.skipif(compiled_nd() is None, reason="the compiled core is not installed")
 

@@ -16,9 +16,7 @@ from collections.abc import Callable
 import numpy as np
 import pytest
 
-from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
-from velfence.geometry.primitives import orthonormal_complement
-from velfence.teleop.scene import (
+from velfence.apps.teleop.scene import (
     Box,
     Cylinder,
     Disk,
@@ -28,6 +26,8 @@ from velfence.teleop.scene import (
     pick_and_place_scene,
     scene_to_dicts,
 )
+from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
+from velfence.geometry.primitives import orthonormal_complement
 
 MARCH_TOL = 1e-9  # bisection-refined crossing vs closed form [m]
 EXACT = 1e-12  # hand-built cases [m]
@@ -528,7 +528,7 @@ def test_scene_to_dicts_infinite_plane_and_bad_input() -> None:
     (d,) = scene_to_dicts(Scene({"floor": Plane((0, 0, -1), (0, 0, 1))}))
     assert d["half_extents"] is None
     assert d["corners"] is None
-    with pytest.raises(InvalidInput, match=r"expected a velfence\.teleop\.scene\.Scene"):
+    with pytest.raises(InvalidInput, match=r"expected a velfence\.apps\.teleop\.scene\.Scene"):
         scene_to_dicts([{"type": "plane"}])  # type: ignore[arg-type]
     with pytest.raises(InvalidInput, match=r"dynamic: expected names from \['floor'\]"):
         scene_to_dicts(Scene({"floor": Plane((0, 0, -1), (0, 0, 1))}), dynamic=("cup",))

@@ -3,8 +3,8 @@ import math
 import numpy as np
 import pytest
 
+from velfence.apps.teleop.servo import FirstOrderServo, JointServo, PDGravityServo
 from velfence.errors import InvalidInput, InvalidParameter
-from velfence.teleop.servo import FirstOrderServo, JointServo, PDGravityServo
 
 Q0 = np.array([0.1, -0.2, 0.3])
 CMD = np.array([0.4, 0.0, -0.1])

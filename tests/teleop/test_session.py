@@ -8,13 +8,11 @@ import math
 import numpy as np
 import pytest
 
-from velfence.errors import InvalidInput, InvalidParameter
-from velfence.mechanisms.puma560 import Puma560
-from velfence.teleop.laser import LaserRangeSensor
-from velfence.teleop.modes import ModeManager
-from velfence.teleop.scene import Plane, Scene, scene_to_dicts
-from velfence.teleop.servo import FirstOrderServo
-from velfence.teleop.session import (
+from velfence.apps.teleop.laser import LaserRangeSensor
+from velfence.apps.teleop.modes import ModeManager
+from velfence.apps.teleop.scene import Plane, Scene, scene_to_dicts
+from velfence.apps.teleop.servo import FirstOrderServo
+from velfence.apps.teleop.session import (
     GRIPPER_LENGTH,
     OMNI_TO_PUMA,
     Session,
@@ -22,6 +20,8 @@ from velfence.teleop.session import (
     omni_to_puma,
     ready_pose,
 )
+from velfence.errors import InvalidInput, InvalidParameter
+from velfence.mechanisms.puma560 import Puma560
 
 RATE = 100.0  # a coarser control rate keeps these tests quick
 
@@ -254,7 +254,7 @@ def test_omni_map_is_self_inverse():
 
 
 def test_a_scene_without_a_cup_has_no_task_object():
-    from velfence.teleop.scene import door_scene
+    from velfence.apps.teleop.scene import door_scene
 
     s = Session(scene=door_scene(), rate=RATE, modes=ModeManager(rate=RATE))
     s.advance(0.5)

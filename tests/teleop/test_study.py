@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 
 from optional import requires
+from velfence.apps.teleop.operator import OperatorProfile
+from velfence.apps.teleop.study import assisted_run, run_study
+from velfence.apps.teleop.task import run_task
+from velfence.apps.viz.study import animate_run, write_study
 from velfence.errors import InvalidParameter
-from velfence.teleop.operator import OperatorProfile
-from velfence.teleop.study import assisted_run, run_study
-from velfence.teleop.task import run_task
-from velfence.viz.study import animate_run, write_study
 
 RATE = 50.0  # coarse control rate: these tests check the plumbing, the study uses 100 Hz
 
@@ -72,7 +72,7 @@ def test_animate_run_writes_a_gif_or_falls_back_to_json(runs, tmp_path, monkeypa
     gif = animate_run(run, tmp_path / "a" / "run.gif", fps=5, max_frames=3)
     assert gif == tmp_path / "a" / "run.gif"
     assert gif.read_bytes()[:6] in (b"GIF87a", b"GIF89a")
-    monkeypatch.setitem(sys.modules, "velfence.viz.telerobotics", None)  # renderer unavailable
+    monkeypatch.setitem(sys.modules, "velfence.apps.viz.telerobotics", None)  # renderer unavailable
     fallback = animate_run(run, tmp_path / "b" / "run.gif")
     assert fallback == tmp_path / "b" / "run.json"
     data = json.loads(fallback.read_text())
@@ -117,7 +117,7 @@ def test_tiny_study_summary_and_files(tmp_path):
 def test_cli_study_json(tmp_path):
     from typer.testing import CliRunner
 
-    from velfence.cli import app
+    from velfence.apps.cli import app
 
     res = CliRunner().invoke(
         app,

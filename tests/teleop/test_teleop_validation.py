@@ -12,8 +12,7 @@ import numpy as np
 import pytest
 
 from bad_inputs import HugeLen, RaisingArray
-from velfence.errors import InvalidInput, InvalidParameter, VelfenceError
-from velfence.teleop import (
+from velfence.apps.teleop import (
     Cylinder,
     Disk,
     FirstOrderServo,
@@ -37,7 +36,8 @@ from velfence.teleop import (
     scene_to_dicts,
     straight_line,
 )
-from velfence.teleop.session import omni_to_puma, ready_pose
+from velfence.apps.teleop.session import omni_to_puma, ready_pose
+from velfence.errors import InvalidInput, InvalidParameter, VelfenceError
 
 BAD_SCALARS: list[Any] = [
     "12",

@@ -4,11 +4,11 @@ import math
 import numpy as np
 import pytest
 
+from velfence.apps.teleop.resolved_rate import ResolvedRate, angle_axis, rotation_from_angle_axis
+from velfence.apps.teleop.servo import FirstOrderServo, PDGravityServo
+from velfence.apps.teleop.trajectory import CartesianTrajectory, execute, straight_line
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.mechanisms.puma560 import Puma560
-from velfence.teleop.resolved_rate import ResolvedRate, angle_axis, rotation_from_angle_axis
-from velfence.teleop.servo import FirstOrderServo, PDGravityServo
-from velfence.teleop.trajectory import CartesianTrajectory, execute, straight_line
 
 Q_START = np.array([-1.05628, -2.1085, 0.05893, 0.17227, -0.74605, 0.01345])  # §7.1 traj. 1
 

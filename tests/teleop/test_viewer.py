@@ -26,16 +26,16 @@ from typing import Any
 import numpy as np
 import pytest
 
-from velfence.errors import InvalidInput, InvalidParameter, VelfenceError
-from velfence.teleop.scene import pick_and_place_scene, scene_to_dicts
-from velfence.teleop.session import Session
-from velfence.teleop.viewer import (
+from velfence.apps.teleop.scene import pick_and_place_scene, scene_to_dicts
+from velfence.apps.teleop.session import Session
+from velfence.apps.viewer.server import (
     ALLOWED_KEYS,
     HOST,
     ScriptedDriver,
     ViewerServer,
     serve,
 )
+from velfence.errors import InvalidInput, InvalidParameter, VelfenceError
 
 EVENT_TIMEOUT = 10.0  # [s] upper bound when waiting on the real-time thread; never reached
 
@@ -218,8 +218,8 @@ class _PageParser(HTMLParser):
 
 
 def _page_file_text() -> str:
-    resource = importlib.resources.files("velfence.teleop").joinpath(PAGE_FILE)
-    assert resource.is_file(), f"velfence/teleop/{PAGE_FILE} is not in the installed package"
+    resource = importlib.resources.files("velfence.apps.teleop").joinpath(PAGE_FILE)
+    assert resource.is_file(), f"velfence/apps/teleop/{PAGE_FILE} is not in the installed package"
     return resource.read_text(encoding="utf-8")
 
 
@@ -658,12 +658,12 @@ class _FakeServer:
 def test_cli_teleop_serves_until_interrupted(monkeypatch: pytest.MonkeyPatch) -> None:
     from typer.testing import CliRunner
 
-    from velfence import cli
-    from velfence.teleop import viewer
+    from velfence.apps import cli
+    from velfence.apps.viewer import server as viewer
 
-    module = types.ModuleType("velfence.teleop.session")
+    module = types.ModuleType("velfence.apps.teleop.session")
     module.Session = FakeSession  # type: ignore[attr-defined]
-    monkeypatch.setitem(sys.modules, "velfence.teleop.session", module)
+    monkeypatch.setitem(sys.modules, "velfence.apps.teleop.session", module)
     calls: dict[str, Any] = {}
     fake_server = _FakeServer()
 
@@ -706,8 +706,9 @@ def test_cli_teleop_uses_the_3d_web_view_when_viser_is_installed(
     pytest.importorskip("viser")
     from typer.testing import CliRunner
 
-    from velfence import cli, view
-    from velfence.teleop import viewer
+    from velfence.apps import cli
+    from velfence.apps.viewer import server as viewer
+    from velfence.apps.viewer import view
 
     calls: dict[str, Any] = {}
     fake_server = _FakeServer()

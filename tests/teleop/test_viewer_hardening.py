@@ -23,14 +23,14 @@ from typing import Any
 import numpy as np
 import pytest
 
-from velfence.errors import InvalidParameter
-from velfence.teleop.viewer import (
+from velfence.apps.viewer.server import (
     HOST,
     MAX_BODY,
     ScriptedDriver,
     ViewerServer,
     serve,
 )
+from velfence.errors import InvalidParameter
 
 WAIT = 10.0  # [s] upper bound of every wait; never reached when the code is right
 
@@ -483,9 +483,9 @@ def test_client_closing_mid_response_prints_nothing(
             # far larger than the socket buffers: the write fails even if the reset is late
             return {"t": 0.0, "blob": "x" * 8_000_000}
 
-    caplog.set_level(logging.DEBUG, logger="velfence.teleop.viewer")
+    caplog.set_level(logging.DEBUG, logger="velfence.apps.viewer.server")
     flag = _Flag("went away")
-    log = logging.getLogger("velfence.teleop.viewer")
+    log = logging.getLogger("velfence.apps.viewer.server")
     log.addHandler(flag)
     try:
         with serve(Slow(), realtime=False) as srv:

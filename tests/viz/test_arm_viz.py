@@ -1,4 +1,4 @@
-"""velfence.viz.arm: every figure is written, sized and labelled; bad arguments are named."""
+"""velfence.apps.viz.arm: every figure is written, sized and labelled; bad arguments are named."""
 
 from __future__ import annotations
 
@@ -11,15 +11,15 @@ pytest.importorskip("matplotlib")
 
 from PIL import Image
 
-from velfence.errors import InvalidInput
-from velfence.sim.arm import ArmRun, arm_box_scene
-from velfence.sim.runner import Trajectory
-from velfence.viz.arm import (
+from velfence.apps.viz.arm import (
     animate_arm,
     plot_arm_activity,
     plot_arm_joints,
     plot_arm_paths,
 )
+from velfence.errors import InvalidInput
+from velfence.sim.arm import ArmRun, arm_box_scene
+from velfence.sim.runner import Trajectory
 
 SCENE = arm_box_scene()
 

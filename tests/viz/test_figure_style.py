@@ -20,13 +20,13 @@ from typing import Any
 import numpy as np
 import pytest
 
-matplotlib = pytest.importorskip("matplotlib", reason="velfence.viz needs the [app] extra")
+matplotlib = pytest.importorskip("matplotlib", reason="velfence.apps.viz needs the [app] extra")
 matplotlib.use("Agg")
 from matplotlib.cm import ScalarMappable  # noqa: E402
 from matplotlib.contour import ContourSet  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
-from velfence.demo import run_demo  # noqa: E402
+from velfence.apps.demo import run_demo  # noqa: E402
 from velfence.io.config import DemoConfig  # noqa: E402
 
 UNIT = re.compile(r"\[[^\[\]]+\]")
@@ -165,8 +165,8 @@ def test_a_users_config_in_metres_is_labelled_from_the_config(
 
 
 def test_wrist_reproduction_figures(tmp_path: Path, recorded: dict[str, Figure]) -> None:
+    from velfence.apps.reproduce import wrist
     from velfence.mechanisms.wrist import Wrist, WristGeometry
-    from velfence.reproduce import wrist
 
     poly = Wrist(geometry=WristGeometry()).default_polygon()
     wrist._figures(poly, wrist._shapers(poly), tmp_path)
@@ -183,10 +183,10 @@ def test_wrist_reproduction_figures(tmp_path: Path, recorded: dict[str, Figure])
 
 
 def test_obstacle_clearance_figure(tmp_path: Path, recorded: dict[str, Figure]) -> None:
+    from velfence.apps.reproduce import obstacles as ob
+    from velfence.apps.viz.obstacles import plot_clearance
     from velfence.mechanisms.chain import PlanarArm
     from velfence.redundancy.configuration_control import ConfigurationController, Obstacle
-    from velfence.reproduce import obstacles as ob
-    from velfence.viz.obstacles import plot_clearance
 
     arm = PlanarArm.three_r()
     q0 = ob._ik(arm, (2.0, 1.0), (-0.4, 0.8, 1.0))
@@ -205,8 +205,8 @@ def test_obstacle_clearance_figure(tmp_path: Path, recorded: dict[str, Figure]) 
 
 @pytest.mark.slow  # about 25 s: the simulated study itself
 def test_study_figures(tmp_path: Path, recorded: dict[str, Figure]) -> None:
-    from velfence.teleop.study import run_study
-    from velfence.viz.study import write_study
+    from velfence.apps.teleop.study import run_study
+    from velfence.apps.viz.study import write_study
 
     write_study(run_study(2, 1, 0), tmp_path)
     _check_all(recorded, {"study_paths.png", "study_times.png"})
@@ -216,7 +216,7 @@ def test_study_figures(tmp_path: Path, recorded: dict[str, Figure]) -> None:
 
 @pytest.mark.slow  # about 10 s: the whole CoSPM reproduction
 def test_cospm_reproduction_figures(tmp_path: Path, recorded: dict[str, Figure]) -> None:
-    from velfence.reproduce.cospm import run
+    from velfence.apps.reproduce.cospm import run
 
     report = run(tmp_path)
     names = {Path(a).name for a in report.artifacts if a.endswith(".png")}

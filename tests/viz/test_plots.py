@@ -1,4 +1,5 @@
-"""Workspace, velocity and animation plots (velfence.viz.plots): files written, inputs refused."""
+"""Workspace, velocity and animation plots (velfence.apps.viz.plots): files written, inputs
+refused."""
 
 from __future__ import annotations
 
@@ -8,15 +9,15 @@ from typing import Any
 import numpy as np
 import pytest
 
-matplotlib = pytest.importorskip("matplotlib", reason="velfence.viz needs the [app] extra")
+matplotlib = pytest.importorskip("matplotlib", reason="velfence.apps.viz needs the [app] extra")
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
 import velfence as vf  # noqa: E402
+from velfence.apps.viz import plots  # noqa: E402
 from velfence.errors import InvalidInput, InvalidParameter  # noqa: E402
 from velfence.geometry.polygon import ConvexPolygon  # noqa: E402
-from velfence.viz import plots  # noqa: E402
 
 SQUARE = ConvexPolygon([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]])
 

@@ -1,4 +1,4 @@
-"""3-D pictures and animations of a traded-control session (velfence.viz.telerobotics)."""
+"""3-D pictures and animations of a traded-control session (velfence.apps.viz.telerobotics)."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-matplotlib = pytest.importorskip("matplotlib", reason="velfence.viz needs the [app] extra")
+matplotlib = pytest.importorskip("matplotlib", reason="velfence.apps.viz needs the [app] extra")
 matplotlib.use("Agg")
 import matplotlib.animation  # noqa: E402
 import matplotlib.figure  # noqa: E402
@@ -18,12 +18,12 @@ import matplotlib.pyplot as plt  # noqa: E402
 from mpl_toolkits.mplot3d import art3d  # noqa: E402
 from PIL import Image  # noqa: E402
 
+from velfence.apps.teleop.scene import Plane, Scene, pick_and_place_scene, scene_to_dicts  # noqa: E402
+from velfence.apps.teleop.session import Session  # noqa: E402
+from velfence.apps.viewer.server import ScriptedDriver  # noqa: E402
+from velfence.apps.viz import telerobotics as tv  # noqa: E402
 from velfence.errors import InvalidInput, InvalidParameter  # noqa: E402
 from velfence.mechanisms.puma560 import Puma560  # noqa: E402
-from velfence.teleop.scene import Plane, Scene, pick_and_place_scene, scene_to_dicts  # noqa: E402
-from velfence.teleop.session import Session  # noqa: E402
-from velfence.teleop.viewer import ScriptedDriver  # noqa: E402
-from velfence.viz import telerobotics as tv  # noqa: E402
 
 LASER_OFFSET = np.array([-0.026, -0.115, 0.115])  # [m] in frame 6 (thesis eq. 40)
 
@@ -449,8 +449,8 @@ def test_infinite_plane_is_a_2_m_square_about_its_point(drawn: Drawn) -> None:
 
 def test_viz_does_not_import_the_http_viewer() -> None:
     code = (
-        "import sys, velfence.viz.telerobotics; "
-        "sys.exit(int('velfence.teleop.viewer' in sys.modules))"
+        "import sys, velfence.apps.viz.telerobotics; "
+        "sys.exit(int('velfence.apps.viewer.server' in sys.modules))"
     )
     assert subprocess.run([sys.executable, "-c", code], check=False).returncode == 0
 

@@ -1,4 +1,5 @@
-"""Offscreen rendering, overlays, side-by-side panels and MP4/GIF encoding (velfence.viz.video)."""
+"""Offscreen rendering, overlays, side-by-side panels and MP4/GIF encoding
+(velfence.apps.viz.video)."""
 
 from __future__ import annotations
 
@@ -7,9 +8,7 @@ import itertools
 import numpy as np
 import pytest
 
-from velfence.errors import InvalidInput, InvalidParameter
-from velfence.geometry.polytope import ConvexPolytope
-from velfence.viz.video import (
+from velfence.apps.viz.video import (
     PolytopeOverlay,
     SphereOverlay,
     TrailOverlay,
@@ -17,6 +16,8 @@ from velfence.viz.video import (
     side_by_side,
     write_video,
 )
+from velfence.errors import InvalidInput, InvalidParameter
+from velfence.geometry.polytope import ConvexPolytope
 
 mujoco = pytest.importorskip("mujoco")
 

@@ -1,4 +1,4 @@
-"""velfence.viz.web: the viser web view, its checks in front of viser, and its scenes.
+"""velfence.apps.viewer.web: the viser web view, its checks in front of viser, and its scenes.
 
 The refusals are tested with plain clients (http.client, a raw socket, the ``websockets``
 client), as a hostile page or a rebinding DNS name would send them.
@@ -23,9 +23,9 @@ pytest.importorskip("viser", reason="viser not installed (extra web)")
 from websockets.exceptions import ConnectionClosed, InvalidStatus
 from websockets.sync.client import connect
 
+from velfence.apps.viewer.view import SCENES, scene_session, serve_scene
+from velfence.apps.viewer.web import WebView
 from velfence.errors import InvalidInput, InvalidParameter
-from velfence.view import SCENES, scene_session, serve_scene
-from velfence.viz.web import WebView
 
 VISER_PROTOCOL = "viser-v" + __import__("viser").__version__
 
@@ -268,8 +268,8 @@ def test_failed_start_stops_both_servers() -> None:
 def test_cli_view(monkeypatch: pytest.MonkeyPatch) -> None:
     from typer.testing import CliRunner
 
-    import velfence.view
-    from velfence import cli
+    import velfence.apps.viewer.view
+    from velfence.apps import cli
 
     bad = CliRunner().invoke(cli.app, ["view", "--scene", "box", "--no-browser"])
     assert bad.exit_code != 0
@@ -291,7 +291,7 @@ def test_cli_view(monkeypatch: pytest.MonkeyPatch) -> None:
         calls.update(kwargs, scene=scene)
         return Server()
 
-    monkeypatch.setattr(velfence.view, "serve_scene", fake)
+    monkeypatch.setattr(velfence.apps.viewer.view, "serve_scene", fake)
     ok = CliRunner().invoke(
         cli.app, ["view", "--scene", "fence-box", "--port", "0", "--start", "--no-browser"]
     )
@@ -302,6 +302,6 @@ def test_cli_view(monkeypatch: pytest.MonkeyPatch) -> None:
 
 
 def test_import_velfence_does_not_import_viser() -> None:
-    code = "import sys, velfence, velfence.viz; print('viser' in sys.modules)"
+    code = "import sys, velfence, velfence.apps.viz; print('viser' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"

@@ -36,14 +36,6 @@ from velfence.cobot.model import (
     r_theta_cobot,
     unicycle,
 )
-from velfence.cobot.sim import (
-    CobotTrace,
-    HeadingController,
-    constant_speed,
-    follow_in_ee,
-    pushing,
-    simulate_cobot,
-)
 from velfence.cobot.transforms import (
     coupling_from_ee,
     coupling_from_joint,
@@ -58,11 +50,9 @@ __all__ = [
     "CasterWall",
     "Cobot",
     "CobotKinematics",
-    "CobotTrace",
     "Coupling",
     "FollowerOutput",
     "Heading",
-    "HeadingController",
     "IdentityKinematics",
     "PathFollower",
     "RThetaKinematics",
@@ -71,18 +61,39 @@ __all__ = [
     "TetrahedralCVT",
     "WallSteering",
     "WallSteeringOutput",
-    "constant_speed",
     "coupling_from_ee",
     "coupling_from_joint",
     "critically_damped",
-    "follow_in_ee",
     "gains_from_poles",
     "generalised_cross",
     "joint_from_ee",
     "map_tangent_curvature",
     "normalised_derivative",
-    "pushing",
     "r_theta_cobot",
-    "simulate_cobot",
     "unicycle",
 ]
+
+#: Names that moved to :mod:`velfence.sim.cobot` in 0.2 (the simulators are in one place).
+_MOVED_TO_SIM = (
+    "CobotTrace",
+    "HeadingController",
+    "constant_speed",
+    "follow_in_ee",
+    "pushing",
+    "simulate_cobot",
+)
+
+
+def __getattr__(name: str) -> object:
+    if name in _MOVED_TO_SIM:
+        import warnings
+
+        warnings.warn(
+            f"velfence.cobot.{name} moved to velfence.sim.cobot.{name}; the old name goes in 0.3",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        from velfence.sim import cobot
+
+        return getattr(cobot, name)
+    raise AttributeError(f"module 'velfence.cobot' has no attribute {name!r}")

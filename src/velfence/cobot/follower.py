@@ -388,7 +388,7 @@ class PathFollower:
             T: Measured unit heading, shape (n,).
             ds: Arc length travelled since the previous call [m], >= 0.
             t: Time [s]; unused (the law is spatial), accepted for the
-                :class:`~velfence.cobot.sim.HeadingController` protocol.
+                :class:`~velfence.sim.cobot.HeadingController` protocol.
         """
         d = finite_scalar("ds", ds, unit="m")
         if t is not None and finite_scalar("t", t, unit="s", what="time") < 0.0:

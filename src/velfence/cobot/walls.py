@@ -273,7 +273,7 @@ class WallSteering:
             R: Cobot position, shape (2,) [m].
             T: Current heading, shape (2,) (unit).
             ds: Arc length travelled since the previous call [m], >= 0 (unused: the law is
-                spatial; accepted for the :class:`~velfence.cobot.sim.HeadingController`
+                spatial; accepted for the :class:`~velfence.sim.cobot.HeadingController`
                 protocol).
             t: Time [s], >= 0, passed to ``intent`` (0 when ``None``).
 

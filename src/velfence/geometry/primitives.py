@@ -5,7 +5,7 @@ spheres against link capsules, and the gradient of a point–segment distance fo
 Jacobian. Everything is 3-D; 2-D callers pass ``z = 0``. The ray helpers (:func:`unit_ray`,
 :func:`ray_plane`, :func:`ray_point`) and the float kernels on 3-tuples (:func:`dot3`,
 :func:`sub3`, :func:`norm3`, :func:`as_vec3`) are shared with the ray casts of the simulated laser
-(:mod:`velfence.teleop.scene`).
+(:mod:`velfence.apps.teleop.scene`).
 
 Conventions (see ``docs/derivations.md``):
 

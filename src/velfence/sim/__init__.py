@@ -20,6 +20,14 @@ over each control period.
 """
 
 from velfence.sim.baselines import AxisLimits, HardStop, NoLimit
+from velfence.sim.cobot import (
+    CobotTrace,
+    HeadingController,
+    constant_speed,
+    follow_in_ee,
+    pushing,
+    simulate_cobot,
+)
 from velfence.sim.disturbances import Disturbance, push
 from velfence.sim.metrics import (
     area_gain,
@@ -37,20 +45,26 @@ from velfence.sim.runner import DynamicPlant, Trajectory, simulate, simulate_man
 __all__ = [
     "AxisLimits",
     "BodyPush",
+    "CobotTrace",
     "Disturbance",
     "DynamicPlant",
     "HardStop",
+    "HeadingController",
     "MujocoPlant",
     "NoLimit",
     "PhysicsRecord",
     "Trajectory",
     "area_gain",
     "chatter_rate",
+    "constant_speed",
     "corner_escape_time",
+    "follow_in_ee",
     "max_output_jump",
     "max_penetration",
     "push",
+    "pushing",
     "simulate",
+    "simulate_cobot",
     "simulate_many",
     "sliding_ratio",
     "summarize",

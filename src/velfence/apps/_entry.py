@@ -1,0 +1,61 @@
+"""The ``velfence`` console script: the CLI, or one clear line when an extra is not installed.
+
+``pip install velfence`` installs the library only (NumPy); the command line lives in the
+``[app]`` extra (typer, rich, pydantic, PyYAML, matplotlib, pillow). This module imports nothing
+beyond the standard library until it has imported the CLI, so a core-only install gets
+``pip install 'velfence[app]'`` instead of a ``ModuleNotFoundError`` traceback. Only the
+extras' own modules are translated; a missing module inside velfence is a bug and is re-raised.
+"""
+
+from __future__ import annotations
+
+import sys
+
+__all__ = ["EXTRA_OF", "main", "missing_extra"]
+
+#: Top-level module -> the velfence extra that installs it.
+EXTRA_OF: dict[str, str] = {
+    "typer": "app",
+    "click": "app",
+    "rich": "app",
+    "shellingham": "app",
+    "pydantic": "app",
+    "pydantic_core": "app",
+    "yaml": "app",
+    "matplotlib": "app",
+    "PIL": "app",
+    "qpsolvers": "qp",
+    "daqp": "qp",
+    "cyclonedds": "ros",
+}
+
+
+def _top(exc: ModuleNotFoundError) -> str:
+    return (exc.name or "").partition(".")[0]
+
+
+def missing_extra(exc: ModuleNotFoundError) -> str | None:
+    """The extra that provides the module ``exc`` failed to import, or None if it is not ours."""
+    return EXTRA_OF.get(_top(exc))
+
+
+def main() -> None:
+    """Entry point of the ``velfence`` script (exit code 2 when an extra is missing)."""
+    try:
+        from velfence.apps.cli import main as cli_main
+
+        cli_main()
+    except ModuleNotFoundError as exc:
+        extra = missing_extra(exc)
+        if extra is None:
+            raise
+        what = "the velfence command" if extra == "app" else "this command"
+        sys.stderr.write(
+            f"velfence: {what} needs the optional '{extra}' dependencies ({_top(exc)} is not "
+            f"installed); install them with: pip install 'velfence[{extra}]'\n"
+        )
+        raise SystemExit(2) from None
+
+
+if __name__ == "__main__":
+    main()

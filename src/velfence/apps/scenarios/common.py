@@ -1,0 +1,106 @@
+"""What every physics scenario returns: its runs, metrics and named checks."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from velfence._typing import FloatArray
+from velfence.apps.reproduce.base import Report
+from velfence.sim.physics import PhysicsRecord
+from velfence.sim.runner import Trajectory
+
+__all__ = ["SCENARIOS", "PhysicsRun", "ScenarioResult", "TcpJog"]
+
+#: The scenarios of ``velfence sim --scenario NAME``.
+SCENARIOS: tuple[str, ...] = ("fence-box", "wrist-push", "redundant-obstacle")
+
+
+@dataclass(frozen=True, eq=False)
+class PhysicsRun:
+    """One controller's run in MuJoCo.
+
+    Attributes:
+        method: The controller's name (``"velfence"``, ``"no limit"``, ...).
+        trajectory: The runner's record (``p`` = state joints, ``v_out`` = references).
+        record: What the physics did (qpos for rendering, contacts, efforts).
+        model: The plant's ``mujoco.MjModel`` (obstacle geoms included), for rendering.
+        point: The tracked point (TCP, or the wrist's (pitch, yaw)), shape (N, k).
+        extra: Scenario-specific series (e.g. ``"y_d"``, the reference path, shape (N, 3)).
+    """
+
+    method: str
+    trajectory: Trajectory
+    record: PhysicsRecord
+    model: Any
+    point: FloatArray
+    extra: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass(frozen=True, eq=False)
+class ScenarioResult:
+    """A scenario's runs, metrics and named checks.
+
+    Attributes:
+        name: Scenario name (one of :data:`SCENARIOS`).
+        runs: Method -> run, in table order.
+        metrics: Method -> metric name -> value (units in ``units``).
+        units: Metric name -> unit.
+        report: The named checks (``velfence reproduce``'s JSON format).
+        scene: What the figures and videos draw: ``"polytope"`` (a ConvexPolytope),
+            ``"spheres"`` (list of (centre, radius)), ``"polygon"`` (a ConvexPolygon) as present;
+            ``"camera"``: keyword arguments of :func:`velfence.apps.viz.video.render_frames`
+            (``lookat``, ``distance``, ``azimuth``, ``elevation``) for the video.
+    """
+
+    name: str
+    runs: Mapping[str, PhysicsRun]
+    metrics: Mapping[str, Mapping[str, float]]
+    units: Mapping[str, str]
+    report: Report
+    scene: Mapping[str, Any]
+
+
+class TcpJog:
+    r"""A scripted Cartesian jog: towards the target of the phase in force.
+
+    :math:`v = \min(s, g\,\|e\|)\,e/\|e\|`, :math:`e = x^\star(t) - x(q)` (the arm-box
+    operator's law on any forward kinematics).
+
+    Args:
+        fk: ``q -> x`` [m], shape (3,).
+        phases: ``(t_end [s], target (3,) [m])`` in time order; the last target holds after.
+        speed: Jog speed [m/s].
+        gain: Approach gain near a target [1/s].
+    """
+
+    def __init__(
+        self,
+        fk: Callable[[FloatArray], FloatArray],
+        phases: list[tuple[float, FloatArray]],
+        *,
+        speed: float,
+        gain: float = 8.0,
+    ) -> None:
+        self.fk = fk
+        self.phases = phases
+        self.speed = speed
+        self.gain = gain
+
+    def target(self, t: float) -> FloatArray:
+        """The target in force at ``t`` [s], shape (3,), [m]."""
+        for t_end, x in self.phases:
+            if t < t_end:
+                return x
+        return self.phases[-1][1]
+
+    def __call__(self, t: float, q: FloatArray) -> FloatArray:
+        """TCP velocity command [m/s], shape (3,)."""
+        e = self.target(t) - np.asarray(self.fk(q), dtype=float)
+        dist = float(np.linalg.norm(e))
+        if dist == 0.0:
+            return np.zeros(3)
+        return np.asarray(e * (min(self.speed, self.gain * dist) / dist), dtype=float)

@@ -1,0 +1,207 @@
+"""What ``velfence sim`` writes: metrics.json, figures and a side-by-side video of the runs."""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from velfence.apps.reproduce.base import jsonable
+from velfence.apps.scenarios.common import ScenarioResult
+
+__all__ = ["COLORS", "plot_margins", "write_metrics", "write_outputs", "write_video"]
+
+#: Line colour of each compared controller (the arm-box demo's, plus the physics variants).
+COLORS = {
+    "no limit": "#9e9e9e",
+    "no avoidance": "#9e9e9e",
+    "per-joint clamp": "#ff7f0e",
+    "patent": "#1f77b4",
+    "configuration control": "#1f77b4",
+    "velfence": "#2ca02c",
+    "exact": "#2ca02c",
+    "velfence + look-ahead": "#17becf",
+}
+
+
+def write_metrics(result: ScenarioResult, path: Path, artifacts: Sequence[Path] = ()) -> Path:
+    """``metrics.json``: per-method metrics with units, and the named checks."""
+    doc = {
+        "scenario": result.name,
+        "units": dict(result.units),
+        "metrics": {m: dict(v) for m, v in result.metrics.items()},
+        "report": result.report.to_dict(),
+        "artifacts": [str(a) for a in artifacts],
+    }
+    path.write_text(json.dumps(jsonable(doc), indent=2) + "\n", encoding="utf-8")
+    return path
+
+
+def plot_margins(result: ScenarioResult, path: Path) -> Path:
+    """The scenario's safety margin over time, one line per method, with its thresholds."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    label, unit, lines = result.scene["margin"]
+    # Millimetres and milliradians read better than 0.00x m or rad.
+    scale, shown = (1e3, f"m{unit}") if unit in ("m", "rad") else (1.0, unit)
+    fig, (ax, ax2) = plt.subplots(
+        2, 1, figsize=(10, 7), sharex=True, gridspec_kw={"height_ratios": [3, 1]}
+    )
+    for i, (name, run) in enumerate(result.runs.items()):
+        t = run.trajectory.t
+        ax.plot(t, scale * run.extra["margin"], color=COLORS.get(name, f"C{i}"), lw=1.6, label=name)
+        ax2.step(
+            t,
+            run.record.contacts,
+            where="post",
+            color=COLORS.get(name, f"C{i}"),
+            lw=1.2,
+            label=name,
+        )
+    for j, (what, value) in enumerate(lines.items()):
+        ax.axhline(scale * value, color="k", ls=("--", ":", "-.")[j % 3], lw=1.0, label=what)
+    if "push" in result.scene:
+        t0, t1 = result.scene["push"]
+        ax.axvspan(t0, t1, color="#d62728", alpha=0.12, label="external push")
+        ax2.axvspan(t0, t1, color="#d62728", alpha=0.12)
+    ax.set_ylabel(f"{label} [{shown}]")
+    ax.set_title(f"{result.name} in MuJoCo: {label} (below the wall line = outside)")
+    ax.legend(loc="lower left", fontsize=9, ncol=2)
+    ax.grid(alpha=0.3)
+    ax2.set_ylabel("contacts with\nobstacles [count]")
+    ax2.set_xlabel("time [s]")
+    ax2.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def write_video(
+    result: ScenarioResult,
+    folder: Path,
+    *,
+    methods: Sequence[str] | None = None,
+    width: int = 480,
+    height: int = 360,
+    fps: int = 25,
+    formats: Sequence[str] = ("mp4", "gif"),
+    columns: int | None = None,
+    progress: Callable[[float], None] | None = None,
+) -> list[Path]:
+    """A side-by-side video of the runs (each method's own MuJoCo model and qpos).
+
+    Args:
+        result: The scenario's runs.
+        folder: Output folder.
+        methods: The panels, in order (default every run).
+        width: Panel width [px].
+        height: Panel height [px].
+        fps: Frames per second of the video (the runs are subsampled to it).
+        formats: ``"mp4"`` and/or ``"gif"``.
+        columns: Panels per row (default all in one row).
+        progress: Called with the completed fraction of the rendering.
+
+    Returns:
+        The written files.
+    """
+    from velfence.apps.viz.video import (
+        PolytopeOverlay,
+        SphereOverlay,
+        TrailOverlay,
+        render_frames,
+        side_by_side,
+    )
+    from velfence.apps.viz.video import write_video as write
+
+    names = list(result.runs) if methods is None else list(methods)
+    overlays_common: list[Any] = []
+    if "polytope" in result.scene:
+        overlays_common.append(PolytopeOverlay(result.scene["polytope"], rgba=(0.1, 0.5, 1.0, 1.0)))
+    for j, (c, r) in enumerate(result.scene.get("spheres", [])):
+        alpha = 0.35 if j == 0 else 0.12
+        overlays_common.append(SphereOverlay(c, radius=r, rgba=(0.9, 0.2, 0.2, alpha)))
+    camera: dict[str, Any] = dict(result.scene.get("camera", {}))
+    if not camera and "polytope" in result.scene:  # frame the workspace
+        v = result.scene["polytope"].vertices
+        camera = {
+            "lookat": v.mean(axis=0),
+            "distance": 2.5 * float(np.linalg.norm(v.max(axis=0) - v.min(axis=0))),
+        }
+    panels: dict[str, Any] = {}
+    for k, name in enumerate(names):
+        run = result.runs[name]
+        t = run.record.t
+        step = max(1, round(1.0 / (fps * float(t[1] - t[0])))) if len(t) > 1 else 1
+        idx = np.arange(0, len(t), step)
+        overlays = [*overlays_common]
+        if run.point.shape[1] == 3:
+            overlays.append(TrailOverlay(run.point[idx], rgba=(0.1, 0.7, 0.2, 1.0)))
+        captions = [f"{name}   t = {t[i]:.2f} s" for i in idx]
+
+        def sub(f: float, k: int = k) -> None:
+            if progress is not None:
+                progress((k + f) / len(names))
+
+        panels[name] = render_frames(
+            run.model,
+            run.record.qpos[idx],
+            width=width,
+            height=height,
+            overlays=overlays,
+            captions=captions,
+            progress=sub,
+            **camera,
+        )
+    frames = side_by_side(panels, columns=columns)
+    out = []
+    for fmt in formats:
+        path = folder / f"{result.name}.{fmt}"
+        out.append(write(frames, path, fps=fps if fmt == "mp4" else min(fps, 12)))
+    return out
+
+
+def write_outputs(
+    result: ScenarioResult,
+    folder: Path,
+    *,
+    video: bool = True,
+    video_methods: Sequence[str] | None = None,
+    width: int = 480,
+    height: int = 360,
+    fps: int = 25,
+    columns: int | None = None,
+    progress: Callable[[float], None] | None = None,
+) -> list[Path]:
+    """metrics.json, the margin figure and (``video``) the side-by-side MP4 and GIF.
+
+    Returns:
+        The written files, metrics.json last.
+    """
+    folder.mkdir(parents=True, exist_ok=True)
+    files = [plot_margins(result, folder / f"{result.name}_margins.png")]
+    if video:
+        files += write_video(
+            result,
+            folder,
+            methods=video_methods,
+            width=width,
+            height=height,
+            fps=fps,
+            columns=columns,
+            progress=progress,
+        )
+    files.append(write_metrics(result, folder / "metrics.json", files))
+    return files
+
+
+def finite_or_text(x: float) -> str:
+    """A metric for a table: 4 significant digits, or ``inf``/``nan`` spelled out."""
+    return f"{x:.4g}" if math.isfinite(x) else str(x)

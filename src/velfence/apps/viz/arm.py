@@ -1,0 +1,277 @@
+"""Figures of the arm-in-a-box scenario: TCP paths in 3-D, joints and limits, active rows, a GIF."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from itertools import product
+from pathlib import Path
+from typing import Any
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.animation import FuncAnimation, PillowWriter
+from matplotlib.collections import LineCollection
+from matplotlib.colors import Normalize
+
+from velfence._validate import check_output_path, check_positive_int
+from velfence.apps.viz.plots import MAX_FPS, MAX_FRAMES, save_figure
+from velfence.errors import InvalidInput, InvalidParameter
+from velfence.sim.arm import ArmRun, ArmScene
+
+__all__ = [
+    "ARM_COLORS",
+    "animate_arm",
+    "plot_arm_activity",
+    "plot_arm_joints",
+    "plot_arm_paths",
+]
+
+#: Line colour of each compared controller.
+ARM_COLORS = {
+    "no limit": "#9e9e9e",
+    "per-joint clamp": "#ff7f0e",
+    "scalar scale": "#9467bd",
+    "damper QP": "#d62728",
+    "velfence": "#2ca02c",
+}
+
+
+def _runs(runs: Any) -> dict[str, ArmRun]:
+    if not isinstance(runs, Mapping) or not runs:
+        raise InvalidInput(
+            f"runs: expected a non-empty mapping name -> ArmRun, got {type(runs).__name__}"
+        )
+    bad = sorted({type(r).__name__ for r in runs.values() if not isinstance(r, ArmRun)})
+    if bad:
+        raise InvalidInput(f"runs: expected ArmRun values (velfence.sim.arm.run_arm), got {bad}")
+    return {str(k): v for k, v in runs.items()}
+
+
+def _scene(scene: Any) -> ArmScene:
+    if not isinstance(scene, ArmScene):
+        raise InvalidInput(f"scene: expected an ArmScene, got {type(scene).__name__}")
+    return scene
+
+
+def _color(name: str, i: int) -> str:
+    return ARM_COLORS.get(name, f"C{i % 10}")
+
+
+def _box_edges(scene: ArmScene) -> list[tuple[np.ndarray, np.ndarray]]:
+    lo, hi = scene.box_lower, scene.box_upper
+    corners = np.array(
+        [np.where(np.array(bits) == 1, hi, lo) for bits in product((0, 1), repeat=3)]
+    )
+    return [
+        (corners[i], corners[j])
+        for i, j in product(range(8), range(8))
+        if i < j and np.count_nonzero(corners[i] != corners[j]) == 1
+    ]
+
+
+def _draw_scene(ax: Any, scene: ArmScene) -> None:
+    for a, b in _box_edges(scene):
+        ax.plot(*np.stack([a, b]).T, color="k", lw=0.8, alpha=0.7)
+    u, v = np.mgrid[0 : 2 * np.pi : 24j, 0 : np.pi : 12j]
+    c, r = scene.sphere_center, scene.sphere_radius
+    ax.plot_surface(
+        c[0] + r * np.cos(u) * np.sin(v),
+        c[1] + r * np.sin(u) * np.sin(v),
+        c[2] + r * np.cos(v),
+        color="#8c564b",
+        alpha=0.35,
+        linewidth=0,
+    )
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_zlabel("z [m]")
+
+
+def plot_arm_paths(scene: ArmScene, runs: Mapping[str, ArmRun], path: str | Path) -> Path:
+    """One 3-D panel per controller: the TCP path coloured by time, the box and the sphere.
+
+    Args:
+        scene: The scene (box, sphere).
+        runs: Controller name -> run (same speed).
+        path: Output image file.
+
+    Returns:
+        The path written.
+    """
+    sc, rs = _scene(scene), _runs(runs)
+    out = check_output_path("path", path)
+    k = len(rs)
+    cols = min(3, k)
+    rows_n = -(-k // cols)
+    fig = plt.figure(figsize=(5.0 * cols + 1.0, 4.6 * rows_n))
+    t_max = max(float(r.trajectory.t[-1]) for r in rs.values())
+    norm = Normalize(0.0, t_max)
+    mappable = None
+    for i, (name, run) in enumerate(rs.items()):
+        ax = fig.add_subplot(rows_n, cols, i + 1, projection="3d")
+        _draw_scene(ax, sc)
+        p = run.tcp[:: max(1, len(run.tcp) // 1500)]
+        t = run.trajectory.t[:: max(1, len(run.tcp) // 1500)]
+        pts = np.stack([p[:-1], p[1:]], axis=1)
+        from mpl_toolkits.mplot3d.art3d import Line3DCollection  # type: ignore[import-untyped]
+
+        lc = Line3DCollection(pts, cmap="viridis", norm=norm, linewidths=1.6)
+        lc.set_array(t[:-1])
+        ax.add_collection3d(lc)
+        mappable = lc
+        ax.scatter(*run.tcp[0], color="k", s=12, label="start")
+        ax.set_title(f"{name} (v = {run.speed:g} m/s)", fontsize=9)
+        ax.view_init(elev=22, azim=-60)
+        ax.set_xlim(0.4, 0.9)
+        ax.set_ylim(-0.35, 0.35)
+        ax.set_zlim(0.3, 0.8)
+        ax.legend(loc="upper left", fontsize=7)
+    if mappable is not None:
+        fig.colorbar(mappable, ax=fig.axes, shrink=0.5, pad=0.03, label="time [s]")
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+    return out
+
+
+def plot_arm_joints(scene: ArmScene, runs: Mapping[str, ArmRun], path: str | Path) -> Path:
+    """Joint positions over time for every controller, with the joint limits (dashed).
+
+    Args:
+        scene: The scene (limits).
+        runs: Controller name -> run.
+        path: Output image file.
+
+    Returns:
+        The path written.
+    """
+    sc, rs = _scene(scene), _runs(runs)
+    check_output_path("path", path)
+    n = sc.lower.shape[0]
+    fig, axs = plt.subplots(n, 1, figsize=(9, 1.5 * n + 0.8), sharex=True, squeeze=False)
+    axes = list(axs[:, 0])
+    for j, ax in enumerate(axes):
+        for i, (name, run) in enumerate(rs.items()):
+            ax.plot(
+                run.trajectory.t, run.trajectory.p[:, j], color=_color(name, i), lw=1.1, label=name
+            )
+        lo_q = min(float(r.trajectory.p[:, j].min()) for r in rs.values())
+        hi_q = max(float(r.trajectory.p[:, j].max()) for r in rs.values())
+        for lim in (sc.lower[j], sc.upper[j]):
+            if lo_q - 0.3 <= lim <= hi_q + 0.3:
+                ax.axhline(lim, color="k", ls="--", lw=0.9)
+        ax.set_ylabel(f"q{j} [rad]")
+        ax.grid(alpha=0.3)
+    axes[0].legend(loc="upper right", fontsize=7, ncol=len(rs))
+    axes[0].set_title("joint positions; dashed: joint limits")
+    axes[-1].set_xlabel("time [s]")
+    return save_figure(fig, path)
+
+
+def plot_arm_activity(runs: Mapping[str, ArmRun], path: str | Path) -> Path:
+    """Which constraint rows bind over time, one panel per controller (a bar where active).
+
+    Args:
+        runs: Controller name -> run.
+        path: Output image file.
+
+    Returns:
+        The path written.
+    """
+    rs = _runs(runs)
+    check_output_path("path", path)
+    k = len(rs)
+    names_per = {
+        n: sorted(
+            {a for row in r.active for a in row}
+            | {f"dropped: {d}" for row in r.dropped for d in row}
+        )
+        for n, r in rs.items()
+    }
+    heights = [max(1, len(v)) for v in names_per.values()]
+    fig, axes = plt.subplots(
+        k, 1, figsize=(9, 0.9 + 0.32 * sum(heights) + 0.5 * k), sharex=True,
+        gridspec_kw={"height_ratios": heights}, squeeze=False,
+    )  # fmt: skip
+    for ax, (name, run), i in zip(axes[:, 0], rs.items(), range(k), strict=True):
+        t = run.trajectory.t
+        rows = names_per[name]
+        segs = []
+        for r, label in enumerate(rows):
+            if label.startswith("dropped: "):
+                on = np.array([label.removeprefix("dropped: ") in d for d in run.dropped])
+            else:
+                on = np.array([label in a for a in run.active])
+            edges = np.flatnonzero(np.diff(np.concatenate([[0], on.astype(int), [0]])))
+            for a, b in zip(edges[::2], edges[1::2], strict=True):
+                segs.append([(t[a], r), (t[min(b, len(t) - 1)], r)])
+        ax.add_collection(LineCollection(segs, colors=_color(name, i), linewidths=6))
+        ax.set_yticks(range(len(rows)), rows, fontsize=7)
+        ax.set_ylim(-0.7, max(0.7, len(rows) - 0.3))
+        ax.set_xlim(float(t[0]), float(t[-1]))
+        ax.set_title(f"{name}: active rows" if rows else f"{name}: no row ever active", fontsize=9)
+        ax.grid(alpha=0.3, axis="x")
+    axes[-1, 0].set_xlabel("time [s]")
+    return save_figure(fig, path)
+
+
+def animate_arm(
+    scene: ArmScene, run: ArmRun, path: str | Path, *, frames: int = 60, fps: int = 12
+) -> Path:
+    """A GIF of the arm (links as thick lines), its TCP trail, the box and the sphere.
+
+    The figure is 7.5 in x 6 in at 96 dpi (720 x 576 px).
+
+    Args:
+        scene: The scene.
+        run: The run to animate.
+        path: Output ``.gif`` file.
+        frames: Number of frames, 1 to :data:`~velfence.apps.viz.plots.MAX_FRAMES`.
+        fps: Frames per second, 1 to :data:`~velfence.apps.viz.plots.MAX_FPS`.
+
+    Returns:
+        The path written.
+    """
+    sc = _scene(scene)
+    if not isinstance(run, ArmRun):
+        raise InvalidInput(f"run: expected an ArmRun, got {type(run).__name__}")
+    n_frames = check_positive_int("frames", frames, maximum=MAX_FRAMES, example=60)
+    rate = check_positive_int("fps", fps, maximum=MAX_FPS, example=12)
+    out = check_output_path("path", path)
+    fig = plt.figure(figsize=(7.5, 6.0))
+    ax = fig.add_subplot(projection="3d")
+    _draw_scene(ax, sc)
+    ax.set_xlim(-0.1, 0.9)
+    ax.set_ylim(-0.5, 0.5)
+    ax.set_zlim(0.0, 1.0)
+    ax.view_init(elev=20, azim=-50)
+    n = len(run.tcp)
+    idx = np.linspace(0, n - 1, n_frames).astype(int)
+    (links,) = ax.plot([], [], [], "-o", color="#1f77b4", lw=5, ms=3, label="links")
+    (trail,) = ax.plot([], [], [], color="#2ca02c", lw=1.2, label="TCP path")
+    ax.legend(loc="upper left", fontsize=8)
+    stamp = ax.set_title("", fontsize=9)
+
+    def update(f: int) -> list[Any]:
+        j = int(idx[f])
+        seg = run.segments[j]
+        pts = np.vstack([seg[:, 0], seg[-1:, 1]])
+        links.set_data(pts[:, 0], pts[:, 1])
+        links.set_3d_properties(pts[:, 2])
+        trail.set_data(run.tcp[: j + 1, 0], run.tcp[: j + 1, 1])
+        trail.set_3d_properties(run.tcp[: j + 1, 2])
+        rows = sorted(run.active[j], key=lambda a: "acceleration" in a)  # limits first
+        act = ", ".join(rows[:2]) + (f" (+{len(rows) - 2})" if len(rows) > 2 else "") or "none"
+        stamp.set_text(f"{run.trajectory.name}, t = {run.trajectory.t[j]:.2f} s\nactive: {act}")
+        return [links, trail, stamp]
+
+    anim = FuncAnimation(fig, update, frames=n_frames, blit=False)
+    try:
+        anim.save(out, writer=PillowWriter(fps=rate), dpi=96)
+    except (OSError, ValueError) as exc:
+        raise InvalidParameter(f"path: cannot write {str(out)!r}: {exc}") from None
+    finally:
+        plt.close(fig)
+    return out
