@@ -218,8 +218,8 @@ class _PageParser(HTMLParser):
 
 
 def _page_file_text() -> str:
-    resource = importlib.resources.files("velfence.apps.teleop").joinpath(PAGE_FILE)
-    assert resource.is_file(), f"velfence/apps/teleop/{PAGE_FILE} is not in the installed package"
+    resource = importlib.resources.files("velfence.apps.viewer").joinpath(PAGE_FILE)
+    assert resource.is_file(), f"velfence/apps/viewer/{PAGE_FILE} is not in the installed package"
     return resource.read_text(encoding="utf-8")
 
 
