@@ -7,8 +7,9 @@ from the obstacle, inside its 0.2 m sphere of influence.
 
 import numpy as np
 
-from velfence import ConfigurationController, Obstacle, PlanarArm
+from velfence import PlanarArm
 from velfence.apps.reproduce.obstacles import cosine_line
+from velfence.redundancy import ConfigurationController, Obstacle
 
 
 def main() -> None:

@@ -12,11 +12,13 @@ below imports the module under its new path, registers it under the old one too,
 from __future__ import annotations
 
 import importlib
-import importlib.abc
 import importlib.machinery
 import sys
 import warnings
-from types import ModuleType
+
+TYPE_CHECKING = False  # typing.TYPE_CHECKING without importing typing (start-up time)
+if TYPE_CHECKING:
+    from types import ModuleType
 
 __all__ = ["MOVED", "install", "new_name"]
 
@@ -53,7 +55,9 @@ def new_name(old: str) -> str | None:
     return None
 
 
-class _AliasLoader(importlib.abc.Loader):
+class _AliasLoader:
+    """Loads an old path as the module of its new path (importlib's Loader protocol)."""
+
     def __init__(self, new: str) -> None:
         self._new = new
 
@@ -69,14 +73,16 @@ class _AliasLoader(importlib.abc.Loader):
         """The module is the new one, already executed."""
 
 
-class _MovedFinder(importlib.abc.MetaPathFinder):
+class _MovedFinder:
+    """Finds the old paths of :data:`MOVED` (importlib's MetaPathFinder protocol)."""
+
     def find_spec(
         self, fullname: str, path: object = None, target: object = None
     ) -> importlib.machinery.ModuleSpec | None:
         new = new_name(fullname)
         if new is None:
             return None
-        return importlib.machinery.ModuleSpec(fullname, _AliasLoader(new))
+        return importlib.machinery.ModuleSpec(fullname, _AliasLoader(new))  # type: ignore[arg-type]
 
 
 _FINDER = _MovedFinder()

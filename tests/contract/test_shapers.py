@@ -24,20 +24,18 @@ import pytest
 
 from bad_inputs import bad_tuning_values
 from velfence import (
-    ZONE_NAMES,
-    AxisLimits,
     ConvexPolygon,
-    HardStop,
     InvalidInput,
     InvalidParameter,
     LinearBuffer,
-    NoLimit,
     PolygonShaper,
     Shaper,
     ShapingResult,
     ThreeZoneBraking,
 )
+from velfence.shaping import ZONE_NAMES
 from velfence.shaping.base import ZONES, ShaperResult
+from velfence.sim import AxisLimits, HardStop, NoLimit
 
 POLYGON = ConvexPolygon([[0, 0], [2, 0], [2.5, 1], [1, 2], [-0.5, 1]])  # the README's pentagon
 

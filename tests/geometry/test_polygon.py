@@ -18,14 +18,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from strategies import convex_corners, convex_polygons, random_points
-from velfence import (
-    ConvexPolygon,
-    InvalidGeometry,
-    InvalidInput,
-    InvalidParameter,
-    Rectangle,
-    decompose,
-)
+from velfence import ConvexPolygon, InvalidGeometry, InvalidInput, InvalidParameter, Rectangle
+from velfence.geometry import decompose
 from velfence.geometry.polygon import inscribed_rectangle, wedge_angle, wedge_index
 
 RTOL = 1e-12  # closed forms against independent closed forms

@@ -6,6 +6,7 @@ import numpy as np
 
 import velfence as vf
 from velfence.geometry import Circle, ConvexPolygon
+from velfence.mechanisms import Puma560
 
 SQUARE_CORNERS = [[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]]
 
@@ -23,8 +24,8 @@ def circle() -> Circle:
     return Circle([0.0, 0.0], radius=1.0)
 
 
-def puma() -> vf.Puma560:
-    return vf.Puma560()
+def puma() -> Puma560:
+    return Puma560()
 
 
 def planar3() -> vf.PlanarArm:
@@ -33,7 +34,7 @@ def planar3() -> vf.PlanarArm:
 
 def pose() -> np.ndarray:
     """A reachable PUMA 560 flange pose (forward kinematics of a comfortable configuration)."""
-    return vf.Puma560().fk(Q6)
+    return Puma560().fk(Q6)
 
 
 Q6 = np.array([0.1, -0.6, 0.3, 0.2, 0.5, 0.1])

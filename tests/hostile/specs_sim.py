@@ -9,23 +9,24 @@ from specs_shaping import SHAPER_2D
 
 import velfence as vf
 from velfence.geometry import Rectangle
+from velfence.sim import Trajectory
 
 
-def traj() -> vf.Trajectory:
+def traj() -> Trajectory:
     """A short valid trajectory (50 steps inside the square, then out)."""
     t = np.linspace(0.0, 0.49, 50)
     p = np.column_stack([np.linspace(0.0, 1.2, 50), np.zeros(50)])
     v = np.tile([2.4, 0.0], (50, 1))
-    return vf.Trajectory(t, p, v, v)
+    return Trajectory(t, p, v, v)
 
 
-def pressing_traj() -> vf.Trajectory:
+def pressing_traj() -> Trajectory:
     """A valid trajectory sliding along the top edge while pushing up into it (a defined ratio)."""
     t = np.linspace(0.0, 0.49, 50)
     p = np.column_stack([np.linspace(-0.5, 0.5, 50), np.full(50, 0.98)])
     v_cmd = np.tile([2.0, 1.0], (50, 1))
     v_out = np.tile([2.0, 0.0], (50, 1))
-    return vf.Trajectory(t, p, v_cmd, v_out)
+    return Trajectory(t, p, v_cmd, v_out)
 
 
 def shaper() -> vf.PolygonShaper:

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 import velfence as vf
+from velfence.shaping import ZONE_NAMES
 from velfence.shaping import _kernels as kern
 from velfence.shaping._accel import compiled_batch
 from velfence.shaping.profiles import LinearBuffer, ThreeZoneBraking
@@ -164,7 +165,7 @@ def test_profiles_cap_is_the_kernels_cap() -> None:
     ],
 )
 def test_one_zone_rule(n_out: int, n_near: int, zone: str) -> None:
-    assert vf.ZONE_NAMES[kern.zone_code(n_out, n_near)] == zone
+    assert ZONE_NAMES[kern.zone_code(n_out, n_near)] == zone
 
 
 def test_patent_is_an_alias_of_edge_scaling() -> None:

@@ -19,7 +19,8 @@ from hypothesis import strategies as st
 
 from optional import requires_qp
 from strategies import convex_polygons, min_interior_width, positions, random_points, vectors
-from velfence import ZONE_NAMES, ConvexPolygon, InvalidInput, PolygonShaper
+from velfence import ConvexPolygon, InvalidInput, PolygonShaper
+from velfence.shaping import ZONE_NAMES
 
 QP_TOL = 1e-9  # target: exact == QP to 1e-9 (relative to the speed scale |v| + R) ...
 # ... plus an absolute floor [velocity units] for positions within round-off of an edge, where the

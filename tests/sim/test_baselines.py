@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 import velfence as vf
+from velfence.shaping import STAGE_NAMES, ZONE_NAMES
 from velfence.sim import AxisLimits, HardStop, NoLimit, simulate
 
 SQUARE = vf.ConvexPolygon([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
@@ -51,8 +52,8 @@ def test_batch_equals_loop_and_explain(make):
         r = shaper.explain(P[k], V[k])
         np.testing.assert_array_equal(shaper.shape(P[k], V[k]), out[k])
         np.testing.assert_array_equal(r.output, out[k])
-        assert vf.ZONE_NAMES[zones[k]] == r.zone
-        assert set(r.stages) <= set(vf.STAGE_NAMES)
+        assert ZONE_NAMES[zones[k]] == r.zone
+        assert set(r.stages) <= set(STAGE_NAMES)
     np.testing.assert_array_equal(shaper.shape_batch(P, V), out)
 
 
@@ -72,7 +73,7 @@ def test_non_finite_stop_gives_zero(make):
     assert r.stages == ("stop",)
     out, zones = shaper.zones_batch([[0.5, 0.5], [math.nan, 0.0]], [[1.0, 0.0], [1.0, 0.0]])
     np.testing.assert_array_equal(out[1], [0.0, 0.0])
-    assert vf.ZONE_NAMES[zones[1]] == "invalid"
+    assert ZONE_NAMES[zones[1]] == "invalid"
 
 
 def test_wrong_shapes(make):

@@ -193,8 +193,8 @@ def test_stateful_shapers_are_reset_between_runs():
 
     lim = limiter()
     th0 = np.full(3, np.pi / 2)
-    a = vf.simulate(lim, paper_command, th0, duration=0.05)
-    b = vf.simulate(lim, paper_command, th0, duration=0.05)
+    a = simulate(lim, paper_command, th0, duration=0.05)
+    b = simulate(lim, paper_command, th0, duration=0.05)
     np.testing.assert_array_equal(a.v_out, b.v_out)
     assert abs(b.v_out[1, 1] - b.v_out[0, 1]) <= 20.0 * 1e-3 + 1e-12  # the ramp, not a step
 

@@ -18,15 +18,16 @@ import velfence as vf  # noqa: E402
 from velfence.apps.viz import plots  # noqa: E402
 from velfence.errors import InvalidInput, InvalidParameter  # noqa: E402
 from velfence.geometry.polygon import ConvexPolygon  # noqa: E402
+from velfence.sim import Trajectory  # noqa: E402
 
 SQUARE = ConvexPolygon([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]])
 
 
-def _traj() -> vf.Trajectory:
+def _traj() -> Trajectory:
     t = np.linspace(0.0, 0.49, 50)
     p = np.column_stack([np.linspace(0.0, 1.2, 50), np.zeros(50)])
     v = np.tile([2.4, 0.0], (50, 1))
-    return vf.Trajectory(t, p, v, v)
+    return Trajectory(t, p, v, v)
 
 
 def _shaper() -> vf.PolygonShaper:

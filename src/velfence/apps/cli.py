@@ -20,7 +20,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from velfence.errors import InvalidParameter, VelfenceError
-from velfence.io.config import DEFAULT_MAX_STEPS
+from velfence.io.defaults import DEFAULT_MAX_STEPS
 
 __all__ = [
     "REPRODUCTIONS",

@@ -6,16 +6,41 @@ Math contract: none; every configuration is validated on load, and a bad file ra
 :class:`~velfence.errors.InvalidParameter` naming the offending field before any work starts.
 """
 
-from velfence.io.bag_examples import make_example_bag
-from velfence.io.bags import ReplaySettings, ReplaySummary, replay
-from velfence.io.config import (
-    DEFAULT_MAX_STEPS,
-    DemoConfig,
-    check_run_length,
-    load_config,
-    load_joint_limits,
-)
-from velfence.io.shaper_config import ConfiguredShaper, load_yaml, parse_shaper
+from __future__ import annotations
+
+from velfence import _lazy
+
+#: Public name -> defining module; loaded on first use (the bags need rosbags, the configs
+#: pydantic and PyYAML), so ``import velfence.io`` is cheap and a CLI's ``--help`` stays fast.
+_EXPORTS: dict[str, str] = {
+    "make_example_bag": "velfence.io.bag_examples",
+    "ReplaySettings": "velfence.io.bags",
+    "ReplaySummary": "velfence.io.bags",
+    "replay": "velfence.io.bags",
+    "DEFAULT_MAX_STEPS": "velfence.io.defaults",
+    "DemoConfig": "velfence.io.config",
+    "check_run_length": "velfence.io.config",
+    "load_config": "velfence.io.config",
+    "load_joint_limits": "velfence.io.config",
+    "ConfiguredShaper": "velfence.io.shaper_config",
+    "load_yaml": "velfence.io.shaper_config",
+    "parse_shaper": "velfence.io.shaper_config",
+}
+
+__getattr__, __dir__ = _lazy.attach("velfence.io", _EXPORTS, globals())
+
+TYPE_CHECKING = False
+if TYPE_CHECKING:  # the same names, eagerly, for type checkers and IDEs
+    from velfence.io.bag_examples import make_example_bag
+    from velfence.io.bags import ReplaySettings, ReplaySummary, replay
+    from velfence.io.config import (
+        DEFAULT_MAX_STEPS,
+        DemoConfig,
+        check_run_length,
+        load_config,
+        load_joint_limits,
+    )
+    from velfence.io.shaper_config import ConfiguredShaper, load_yaml, parse_shaper
 
 __all__ = [
     "DEFAULT_MAX_STEPS",

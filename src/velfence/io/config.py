@@ -39,6 +39,7 @@ from pydantic import (
 
 from velfence._validate import MAX_STEPS, _show, check_positive_int, check_text, step_count
 from velfence.errors import InvalidParameter
+from velfence.io.defaults import DEFAULT_MAX_STEPS
 
 if TYPE_CHECKING:
     from collections.abc import Sequence
@@ -83,10 +84,6 @@ MAX_VALUE = 1e6
 MIN_BUFFER = 1e-6
 #: Smallest accepted ``dt`` [s] (a 1 MHz control loop; no velocity loop runs faster).
 MIN_DT = 1e-6
-#: Default cap on the steps of one simulated run (``duration / dt``): 100 s at 1 kHz, about ten
-#: times the built-in scenario. Every method runs that many steps; raise it with ``max_steps``
-#: (``velfence demo --max-steps N``) when a longer run is really wanted.
-DEFAULT_MAX_STEPS = 100_000
 #: Largest accepted ``seed`` (NumPy seeds are non-negative; 64 bits is plenty).
 MAX_SEED = 2**64 - 1
 
