@@ -10,7 +10,7 @@ import numpy as np
 
 from velfence import ConvexPolygon
 from velfence.cobot import CasterWall, PathFollower, r_theta_cobot
-from velfence.geometry.paths import Polyline
+from velfence.geometry import Polyline
 
 
 def main() -> None:

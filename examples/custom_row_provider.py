@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from velfence.filter import LEVEL_WORKSPACE, JointLimits, RowBlock, RowContext, SafetyFilter
-from velfence.mechanisms.chain import DHChain
+from velfence.mechanisms import DHChain
 
 TABLE_Z = 0.30  # [m]
 BUFFER = 0.05  # [m]

@@ -8,8 +8,7 @@ from the obstacle, inside its 0.2 m sphere of influence.
 import numpy as np
 
 from velfence import PlanarArm
-from velfence.apps.reproduce.obstacles import cosine_line
-from velfence.redundancy import ConfigurationController, Obstacle
+from velfence.redundancy import ConfigurationController, Obstacle, cosine_line
 
 
 def main() -> None:

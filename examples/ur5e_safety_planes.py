@@ -9,8 +9,8 @@ into joint velocities that slow the TCP to rest on the planes (2 ms period, kine
 import numpy as np
 
 from velfence.filter import JointLimits, SafetyFilter, WorkspaceLimit
-from velfence.geometry.polytope import ConvexPolytope
-from velfence.mechanisms.chain import DHChain
+from velfence.geometry import ConvexPolytope
+from velfence.mechanisms import DHChain
 
 DT = 2e-3  # control period [s]
 STEPS = 1500  # 3 s

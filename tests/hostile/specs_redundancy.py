@@ -51,4 +51,8 @@ SPECS: dict[str, F | C] = {
         _methods({"clearances": F(lambda: call(_distances()))}),
     ),
     "redundancy.ControlResult": C(record="output record of ConfigurationController.control()"),
+    "redundancy.cosine_line": F(
+        lambda: call([2.0, 1.0], [0.0, -1.0], 2.0, 5.0, back=True),
+        types={"length": "positive", "period": "positive"},
+    ),
 }

@@ -28,6 +28,13 @@ from velfence.redundancy.configuration_control import (
     ControlResult,
     Obstacle,
 )
+from velfence.redundancy.paths import cosine_line
 from velfence.redundancy.qp_baseline import VelocityDamperQP
 
-__all__ = ["ConfigurationController", "ControlResult", "Obstacle", "VelocityDamperQP"]
+__all__ = [
+    "ConfigurationController",
+    "ControlResult",
+    "Obstacle",
+    "VelocityDamperQP",
+    "cosine_line",
+]

@@ -42,7 +42,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -58,6 +58,7 @@ from velfence.redundancy.configuration_control import (
     ControlResult,
     Obstacle,
 )
+from velfence.redundancy.paths import Line, cosine_line
 from velfence.sim.runner import simulate
 
 __all__ = ["ScenarioRun", "run", "run_scenario", "scenarios"]
@@ -78,30 +79,6 @@ SEVEN_PERIOD = 4.0  # [s]
 SEVEN_RHO = 0.1  # [m] sphere of influence, scenario (v)
 SEVEN_START_CLEAR = 0.16  # [m] obstacle centre to the initial arm, scenario (v)
 QP_BAND = 0.15  # [m] d_influence - d_safe
-
-Line = Callable[[float], tuple[FloatArray, FloatArray]]
-
-
-def cosine_line(
-    y0: ArrayLike, direction: ArrayLike, length: float, period: float, *, back: bool
-) -> Line:
-    """Straight EE line with a cosine profile: ``(Y_d(t), Ẏ_d(t))``.
-
-    Goes ``length`` [m] along ``direction`` in ``period`` [s] and, with ``back``, returns in
-    another ``period``; holds the end point afterwards.
-    """
-    start = np.asarray(y0, dtype=float)
-    e = np.asarray(direction, dtype=float)
-    e = e / np.linalg.norm(e)
-    end = 2.0 * period if back else period
-
-    def line(t: float) -> tuple[FloatArray, FloatArray]:
-        tt = min(max(t, 0.0), end)
-        s = 0.5 * length * (1.0 - math.cos(math.pi * tt / period))
-        ds = 0.5 * length * math.pi / period * math.sin(math.pi * tt / period) if t < end else 0.0
-        return start + s * e, ds * e
-
-    return line  # fmt: skip
 
 
 class _Timed:

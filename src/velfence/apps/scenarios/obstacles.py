@@ -89,11 +89,11 @@ def run(
         SEVEN_REACH,
         SEVEN_RHO,
         SEVEN_START_CLEAR,
-        cosine_line,
         run_scenario,
     )
     from velfence.filter import SafetyFilter
     from velfence.filter.limits import JointLimits, SphereObstacle
+    from velfence.redundancy import cosine_line
     from velfence.redundancy.configuration_control import ConfigurationController, Obstacle
     from velfence.robots import seven_dof
     from velfence.sim.arm import TwistMode
