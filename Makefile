@@ -31,16 +31,21 @@ typecheck: $(STAMP)
 docs: $(STAMP)
 	$(BIN)/sphinx-build -W --keep-going -q -b html docs out/docs
 
+# Tests run on every core (pytest-xdist); tests that share one expensive session fixture are
+# kept on one worker by their xdist_group mark (--dist loadgroup). JOBS=1 runs them in-process.
+JOBS ?= auto
+PYTEST := $(BIN)/python -m pytest $(if $(filter 1,$(JOBS)),,-n $(JOBS) --dist loadgroup)
+
 pytest: $(STAMP)
-	$(BIN)/python -m pytest
+	$(PYTEST)
 
 test: lint typecheck docs pytest
 
-# The quick loop (under 2 minutes here): lint, types and every test not marked `slow` (the whole
-# reproductions, the soak smoke runs, the hostile-input catalogue, the benchmarks). `make test`
-# runs everything.
+# The quick loop: lint, types and every test not marked `slow` (the whole reproductions, the soak
+# smoke runs, the hostile-input catalogue, the sanitizer builds). `make test` runs everything;
+# the measured durations are in CONTRIBUTING.md.
 pytest-fast: $(STAMP)
-	$(BIN)/python -m pytest -m "not slow"
+	$(PYTEST) -m "not slow"
 
 check: lint typecheck pytest-fast
 

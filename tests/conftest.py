@@ -1,4 +1,5 @@
-"""Shared test configuration: one seeded, deterministic hypothesis profile, and the slow marks.
+"""Shared test configuration: one seeded, deterministic hypothesis profile, the slow marks, and
+the grouping of tests on pytest-xdist workers.
 
 Every property test is reproducible: examples are derandomized and no example database is kept.
 ``HYPOTHESIS_PROFILE=thorough`` runs ten times more examples (still derandomized).
@@ -27,14 +28,39 @@ settings.register_profile("velfence", max_examples=100, **_COMMON)
 settings.register_profile("thorough", max_examples=1000, **_COMMON)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "velfence"))
 
-#: Slow tests marked here rather than in their files (node-id prefixes): the benchmark runs.
+#: Slow tests marked here rather than in their files (node-id prefixes): the benchmark runs; the
+#: C and C++ programs built with the compiler (unit tests under sanitizers, the examples, the
+#: CMake package); the longest figure, stream and convergence runs. `make test` runs them all.
 SLOW_NODES = (
     "tests/test_benchmarking.py::",
     "tests/test_cli.py::test_bench_",
+    "tests/core/test_c_api.py::",
+    "tests/core/test_cc_c_api.py::",
+    "tests/core/test_nd_c_api.py::",
+    "tests/core/test_rr_c_api.py::",
+    "tests/core/test_filter_cycle_c.py::",
+    "tests/core/test_cmake.py::",
+    "tests/viz/test_figure_style.py::test_demo_figures_explain_themselves",
+    "tests/cobot/test_follower.py::test_perpendicular_start_converges",
+    "tests/bridge/test_bridge_node.py::test_1khz_stream",
+    "tests/teleop/test_study.py::test_animate_run",
 )
 
 
+#: Session fixtures shared by tests in several files: their tests run on one pytest-xdist worker,
+#: so the fixture is built once (``make test`` runs ``--dist loadgroup``).
+SHARED_SESSION_FIXTURES = ("telerobotics_run",)
+
+
+@pytest.hookimpl(tryfirst=True)  # before pytest-xdist reads the groups
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     for item in items:
         if item.nodeid.startswith(SLOW_NODES):
             item.add_marker(pytest.mark.slow)
+        if item.get_closest_marker("xdist_group") is not None:
+            continue
+        shared = [f for f in SHARED_SESSION_FIXTURES if f in getattr(item, "fixturenames", ())]
+        # A file's tests stay on one worker (their module- and session-scoped fixtures are built
+        # once); the files are spread over the workers.
+        group = shared[0] if shared else item.nodeid.split("::")[0]
+        item.add_marker(pytest.mark.xdist_group(group))
