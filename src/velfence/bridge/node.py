@@ -836,15 +836,12 @@ def serve(
 
     if not isinstance(config_path, (str, Path, BridgeConfig)):
         raise InvalidParameter(
-            "config_path: expected a file path or a BridgeConfig, got "
-            f"{type(config_path).__name__}"
+            f"config_path: expected a file path or a BridgeConfig, got {type(config_path).__name__}"
         )
     _check_duration(duration)
     _check_on_cycle(on_cycle)
     config = (
-        config_path
-        if isinstance(config_path, BridgeConfig)
-        else load_bridge_config(config_path)
+        config_path if isinstance(config_path, BridgeConfig) else load_bridge_config(config_path)
     )
     node = BridgeNode(config, on_cycle=on_cycle)
     log = logging.getLogger("velfence.bridge")
