@@ -177,3 +177,10 @@ def test_both_routes_give_the_same_results() -> None:
         np.testing.assert_allclose(
             cc.control(q, v).output, cp.control(q, v).output, rtol=1e-9, atol=1e-12
         )
+
+
+def test_the_old_homes_still_hold_the_picker() -> None:
+    from velfence.shaping import polytope
+
+    assert polytope.pick_backend is pick_backend
+    assert polytope.compiled_nd is backend_module.compiled_nd

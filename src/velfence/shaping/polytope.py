@@ -38,6 +38,7 @@ from velfence.shaping import _kernels as kern
 from velfence.shaping import _nd_kernels as nd
 from velfence.shaping._accel import compiled_polytope
 from velfence.shaping.backend import Backend, compiled_core, pick_backend
+from velfence.shaping.backend import compiled_nd as compiled_nd  # its old home: still importable
 from velfence.shaping.base import InvalidPolicy, OnInvalid, Zone
 from velfence.shaping.profiles import ApproachProfile, LinearBuffer, ThreeZoneBraking
 
