@@ -50,7 +50,7 @@ import numpy as np
 
 from velfence.geometry.polytope import ConvexPolytope
 from velfence.shaping import PolytopeShaper
-from velfence.shaping.polytope import compiled_nd
+from velfence.shaping.backend import compiled_nd
 
 Route = tuple[str, Callable[[int], object]]
 

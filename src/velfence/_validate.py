@@ -50,6 +50,7 @@ __all__ = [
     "real_array",
     "real_floats",
     "rigid_transform",
+    "show",
     "step_count",
 ]
 
@@ -78,8 +79,18 @@ def _error(error: type[Exception] | None) -> type[Exception]:
     return error or InvalidInput
 
 
-def _show(x: Any, limit: int = 80) -> str:
-    """``repr(x)``, cut to ``limit`` characters (huge inputs must not make huge messages)."""
+def show(x: Any, limit: int = 80) -> str:
+    """``repr(x)``, cut to ``limit`` characters (huge inputs must not make huge messages).
+
+    The one way velfence quotes a received value in an error message, in every package.
+
+    Args:
+        x: The value (any object; a ``__repr__`` that raises gives ``<TypeName>``).
+        limit: Longest text returned [characters]; a longer ``repr`` ends in ``...``.
+
+    Returns:
+        The (possibly cut) ``repr``.
+    """
     try:
         text = repr(x)
     except Exception:  # a hostile __repr__ must not escape as its own exception
@@ -90,7 +101,7 @@ def _show(x: Any, limit: int = 80) -> str:
 def _type_text(x: Any) -> str:
     if isinstance(x, np.ndarray):
         return f"an array of dtype {x.dtype}"
-    return f"{type(x).__name__} {_show(x)}"
+    return f"{type(x).__name__} {show(x)}"
 
 
 def _shape_text(shape: tuple[int | None, ...]) -> str:
@@ -213,7 +224,7 @@ def real_array(
         try:
             n = len(x)
         except Exception:  # a hostile __len__ is refused, not propagated
-            raise err(f"{name}: expected {what}{want}, got {_show(x)}") from None
+            raise err(f"{name}: expected {what}{want}, got {show(x)}") from None
         if n > MAX_SEQUENCE_LENGTH:
             raise err(
                 f"{name}: expected {what}{want} with at most {MAX_SEQUENCE_LENGTH} entries, got "
@@ -222,9 +233,9 @@ def real_array(
     try:
         raw = np.asarray(x)
     except Exception:  # whatever a hostile __array__/__getitem__/__float__ raises is refused
-        raise err(f"{name}: expected {what}{want}, got {_show(x)}") from None
+        raise err(f"{name}: expected {what}{want}, got {show(x)}") from None
     if isinstance(x, (list, tuple)) and raw.dtype.kind in _REAL_KINDS and _has_bool(x):
-        raise err(f"{name}: expected {what}{want}, got booleans among the numbers: {_show(x)}")
+        raise err(f"{name}: expected {what}{want}, got booleans among the numbers: {show(x)}")
     if raw.dtype.kind not in _REAL_KINDS:
         if raw.dtype.kind == "O" and raw.size and _all_real(raw):
             try:
@@ -235,7 +246,7 @@ def real_array(
             kind = {"b": "booleans", "c": "complex numbers", "U": "strings", "S": "bytes"}.get(
                 raw.dtype.kind, f"values of dtype {raw.dtype}"
             )
-            raise err(f"{name}: expected {what}{want}, got {kind}: {_show(x)}")
+            raise err(f"{name}: expected {what}{want}, got {kind}: {show(x)}")
     if shape is not None and (
         raw.ndim != len(shape)
         or any(s is not None and s != n for s, n in zip(shape, raw.shape, strict=True))
@@ -250,9 +261,9 @@ def real_array(
     # A long double beyond the float64 range became inf in the cast: too large, not NaN/inf.
     if raw.dtype.kind == "f" and raw.dtype.itemsize > 8 and not finite.all():  # noqa: SIM102
         if np.isfinite(raw[~finite]).any():
-            raise err(f"{name}: expected {what} of magnitude <= {MAX_MAGNITUDE:g}, got {_show(x)}")
+            raise err(f"{name}: expected {what} of magnitude <= {MAX_MAGNITUDE:g}, got {show(x)}")
     if not allow_nonfinite and not finite.all():
-        got = _show(a.tolist(), 200)
+        got = show(a.tolist(), 200)
         raise err(f"{name}: expected finite values, got {got}; filter NaN/inf before calling")
     if max_abs is not None and a.size:
         with np.errstate(invalid="ignore"):
@@ -435,7 +446,7 @@ def check_positive_int(
     if value < minimum:
         raise err(f"{name}: expected an int >= {minimum}, got {value!r}")
     if maximum is not None and value > maximum:
-        raise err(f"{name}: expected an int <= {maximum:,}, got {_show(value)}")
+        raise err(f"{name}: expected an int <= {maximum:,}, got {show(value)}")
     return int(value)
 
 
@@ -491,7 +502,7 @@ def check_choice(name: str, value: Any, choices: tuple[_Choice, ...]) -> _Choice
     from velfence.errors import InvalidParameter
 
     if not isinstance(value, str) or value not in choices:
-        raise InvalidParameter(f"{name} must be one of {list(choices)}, got {_show(value)}")
+        raise InvalidParameter(f"{name} must be one of {list(choices)}, got {show(value)}")
     return value
 
 
@@ -518,7 +529,7 @@ def as_pair(name: str, x: Any) -> tuple[float, float]:
         raise InvalidInput(f"{name} must be a 2-vector of real numbers, got {_type_text(x)}")
     fa, fb = _real_float(a), _real_float(b)
     if fa is None or fb is None:
-        raise InvalidInput(f"{name} must be a 2-vector of real numbers, got {_show(x)}")
+        raise InvalidInput(f"{name} must be a 2-vector of real numbers, got {show(x)}")
     return fa, fb
 
 
@@ -697,12 +708,12 @@ def check_output_path(name: str, value: Any, *, error: type[Exception] | None = 
         text = os.fspath(value)
     except Exception:  # a hostile __fspath__ is refused, not propagated
         raise err(
-            f"{name}: expected a file path (str or pathlib.Path), got {_show(value)}"
+            f"{name}: expected a file path (str or pathlib.Path), got {show(value)}"
         ) from None
     if not isinstance(text, str) or not text or "\x00" in text or len(text) > MAX_PATH_LENGTH:
         raise err(
             f"{name}: expected a non-empty file path of at most {MAX_PATH_LENGTH} characters "
-            f"without NUL, got {_show(text)}"
+            f"without NUL, got {show(text)}"
         )
     out = Path(text)
     if out.is_dir():

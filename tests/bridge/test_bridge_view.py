@@ -151,3 +151,45 @@ def test_cli_records_the_view_and_refuses_twist_mode(tmp_path: Path) -> None:
     bad = _cli(["--config", "t.yaml", "--record", "w.mcap"], tmp_path)
     assert bad.returncode == EXIT_CONFIG
     assert "twist-mode" in bad.stderr
+
+
+def test_cli_reads_the_bridge_file_once_for_the_node_and_the_view(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The node and the view run on one loaded configuration: one read of the YAML file."""
+    from typer.testing import CliRunner
+
+    import velfence.bridge
+    from velfence.apps.cli import app
+    from velfence.bridge import BridgeConfig
+    from velfence.io import yaml_reader
+
+    (tmp_path / "b.yaml").write_text(
+        f"bridge:\n  domain_id: {DOMAIN}\n  command_in: {{type: twist}}\n"
+        "  state: {type: odometry}\n  command_frame: body\n"
+        "shaper:\n  kind: polygon\n  corners: [[0, 0], [4, 0], [4, 3], [0, 3]]\n  buffer: 0.5\n"
+    )
+    reads: list[Path] = []
+    real_read = yaml_reader._read_text  # every YAML file velfence reads passes here
+
+    def counting_read(path, what):
+        reads.append(Path(path))
+        return real_read(path, what)
+
+    served: list[object] = []
+
+    def fake_serve(config, *, duration=None, on_cycle=None):
+        served.append(config)
+        assert on_cycle is not None  # the view's hook reaches the node
+        return EXIT_OK
+
+    monkeypatch.setattr(yaml_reader, "_read_text", counting_read)
+    monkeypatch.setattr(velfence.bridge, "serve", fake_serve)
+    res = CliRunner().invoke(
+        app,
+        ["bridge", "--config", str(tmp_path / "b.yaml"), "--record", str(tmp_path / "v.mcap")],
+    )
+    assert res.exit_code == EXIT_OK, res.output
+    assert reads == [tmp_path / "b.yaml"]
+    assert len(served) == 1
+    assert isinstance(served[0], BridgeConfig)

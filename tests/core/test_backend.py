@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import velfence.shaping.polygon as polygon_module
+import velfence.shaping.backend as backend_module
 from velfence.errors import InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon
 from velfence.shaping import PolygonShaper
-from velfence.shaping._accel import compiled_core
+from velfence.shaping.backend import compiled_core
 from velfence.shaping.profiles import ApproachProfile, LinearBuffer
 
 SQUARE = ConvexPolygon(np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]))
@@ -23,7 +23,7 @@ def test_auto_picks_the_core_when_importable() -> None:
 
 def test_without_the_core(monkeypatch: pytest.MonkeyPatch) -> None:
     """'auto' falls back to Python; 'c' is refused naming the argument."""
-    monkeypatch.setattr(polygon_module, "compiled_core", lambda: None)
+    monkeypatch.setattr(backend_module, "compiled_core", lambda: None)
     shaper = PolygonShaper(SQUARE, buffer=0.2, backend="auto")
     assert shaper.backend == "python"
     assert shaper.shape([0.95, 0.5], [1.0, 0.0])[0] == pytest.approx(0.25)

@@ -37,7 +37,7 @@ from hypothesis import strategies as st
 from velfence.geometry.primitives import points_segments_distances
 from velfence.mechanisms.chain import DHChain, PlanarArm
 from velfence.redundancy import ConfigurationController, ControlResult, Obstacle
-from velfence.shaping.polytope import compiled_nd
+from velfence.shaping.backend import compiled_nd
 
 _BACKENDS = [
     "python",

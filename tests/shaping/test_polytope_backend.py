@@ -11,13 +11,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-import velfence.shaping.polytope as polytope_module
+import velfence.shaping.backend as backend_module
 from velfence.errors import InvalidParameter
 from velfence.filter import JointLimits, SafetyFilter, SphereObstacle, WorkspaceLimit
 from velfence.geometry.polytope import ConvexPolytope
 from velfence.mechanisms.chain import DHChain
 from velfence.shaping import PolytopeShaper
-from velfence.shaping.polytope import compiled_nd
+from velfence.shaping.backend import compiled_nd
 from velfence.shaping.profiles import ApproachProfile, LinearBuffer
 
 BOX = ConvexPolytope.box([-1.0, -1.0, -1.0], [1.0, 1.0, 1.0])
@@ -75,7 +75,7 @@ def test_auto_picks_the_core_when_importable() -> None:
 
 def test_without_the_core(monkeypatch: pytest.MonkeyPatch) -> None:
     """'auto' falls back to Python; 'c' is refused naming the argument."""
-    monkeypatch.setattr(polytope_module, "compiled_nd", lambda: None)
+    monkeypatch.setattr(backend_module, "compiled_nd", lambda: None)
     shaper = PolytopeShaper(BOX, buffer=0.2, backend="auto", accelerate=False)
     assert shaper.backend == "python"
     assert shaper.shape([0.9, 0.0, 0.0], [1.0, 0.0, 0.0])[0] == pytest.approx(0.5)

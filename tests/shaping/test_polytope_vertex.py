@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 
 import velfence as vf
 from velfence.geometry.polytope import ConvexPolytope
-from velfence.shaping.polytope import compiled_nd
+from velfence.shaping.backend import compiled_nd
 
 DT = 1e-3
 BACKENDS = [

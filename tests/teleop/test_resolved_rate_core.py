@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 from velfence.apps.teleop.resolved_rate import ResolvedRate
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.mechanisms.puma560 import Puma560
-from velfence.shaping.polytope import compiled_nd
+from velfence.shaping.backend import compiled_nd
 
 pytestmark = pytest.mark.skipif(compiled_nd() is None, reason="the compiled core is not installed")
 
@@ -210,9 +210,9 @@ def test_a_new_robot_reaches_the_compiled_route():
 
 
 def test_without_the_core_auto_is_python_and_c_refuses(monkeypatch):
-    import velfence.shaping.polytope as polytope
+    import velfence.shaping.backend as backend_module
 
-    monkeypatch.setattr(polytope, "compiled_nd", lambda: None)
+    monkeypatch.setattr(backend_module, "compiled_nd", lambda: None)
     rr = ResolvedRate(ROBOTS["fu"])
     assert rr.backend == "python"
     assert rr._rr is None

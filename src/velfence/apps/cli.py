@@ -488,13 +488,14 @@ def bridge(
     ] = None,
 ) -> None:
     """Run the ROS 2 DDS filter node (extra ros). Exit 0 stopped, 2 bad config, 3 DDS failed."""
-    from velfence.bridge import serve
+    from velfence.bridge import load_bridge_config, serve
 
     view = None
     try:
+        loaded = load_bridge_config(config)  # read once: the node and the view share it
         if foxglove or record is not None:
-            view = _bridge_view(config, foxglove_port if foxglove else None, record)
-        code = serve(config, duration=duration, on_cycle=None if view is None else view[1])
+            view = _bridge_view(loaded, foxglove_port if foxglove else None, record)
+        code = serve(loaded, duration=duration, on_cycle=None if view is None else view[1])
     except VelfenceError as exc:
         raise _fail(str(exc)) from None
     finally:
@@ -503,11 +504,14 @@ def bridge(
     raise typer.Exit(code=code)
 
 
-def _bridge_view(config: Path, port: int | None, record: Path | None) -> tuple[Any, Any]:
-    """The Foxglove view of ``velfence bridge --foxglove/--record`` and its on_cycle hook."""
-    from velfence.bridge import FoxgloveView, load_bridge_config, view_hook
+def _bridge_view(config: Any, port: int | None, record: Path | None) -> tuple[Any, Any]:
+    """The Foxglove view of ``velfence bridge --foxglove/--record`` and its on_cycle hook.
 
-    shaped = load_bridge_config(config).shaper
+    ``config`` is the loaded :class:`~velfence.bridge.BridgeConfig` the node runs.
+    """
+    from velfence.bridge import FoxgloveView, view_hook
+
+    shaped = config.shaper
     if shaped.command_space == "twist":
         raise InvalidParameter(
             "--foxglove/--record: a twist-mode safety filter is not drawn (its command is a TCP "

@@ -28,7 +28,7 @@ from typing import Annotated, Any, Literal
 from pydantic import Field, Strict, ValidationError, field_validator
 
 from velfence.errors import InvalidParameter
-from velfence.io.config import _describe, _Strict
+from velfence.io.config import StrictModel, describe_validation_error
 from velfence.io.shaper_config import ConfiguredShaper, load_yaml, parse_shaper
 
 __all__ = [
@@ -76,7 +76,7 @@ def _check_topic(name: str) -> str:
     return name
 
 
-class QosSettings(_Strict):
+class QosSettings(StrictModel):
     """A topic's QoS: a ROS 2 profile, optionally with its depth, reliability or durability."""
 
     profile: Literal["default", "sensor_data", "system_default"] = "default"
@@ -85,7 +85,7 @@ class QosSettings(_Strict):
     durability: Literal["volatile", "transient_local"] | None = None
 
 
-class _Topic(_Strict):
+class _Topic(StrictModel):
     @field_validator("topic", check_fields=False)
     @classmethod
     def _topic_name(cls, value: str) -> str:
@@ -136,7 +136,7 @@ class DiagnosticsOut(_Topic):
     qos: QosSettings = QosSettings()
 
 
-class BridgeSettings(_Strict):
+class BridgeSettings(StrictModel):
     """The ``bridge:`` section (every field documented in ``docs/bridge.md``).
 
     Times are in seconds; ``domain_id`` null means ``ROS_DOMAIN_ID`` from the environment (or 0).
@@ -326,7 +326,7 @@ def parse_bridge_config(document: Any, *, source: str = "config") -> BridgeConfi
     try:
         settings = BridgeSettings.model_validate(bridge)
     except ValidationError as err:
-        raise InvalidParameter(f"{where}bridge.{_describe(err)}") from None
+        raise InvalidParameter(f"{where}bridge.{describe_validation_error(err)}") from None
     cs = parse_shaper(document["shaper"], where=f"{source}: shaper")
     out, names = _check_fit(settings, cs, where)
     domain = settings.domain_id if settings.domain_id is not None else _domain_from_env()

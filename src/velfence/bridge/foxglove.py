@@ -32,7 +32,6 @@ import numpy as np
 
 from velfence._typing import FloatArray
 from velfence._validate import (
-    _show,
     check_flag,
     check_output_path,
     check_positive,
@@ -40,6 +39,7 @@ from velfence._validate import (
     check_text,
     finite_scalar,
     real_array,
+    show,
 )
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon
@@ -135,7 +135,7 @@ def _check_fence(name: str, fence: Any) -> ConvexPolygon | ConvexPolytope | None
     if not isinstance(fence, ConvexPolytope):
         raise InvalidGeometry(
             f"{name}: expected a ConvexPolygon, a ConvexPolytope or None, got "
-            f"{type(fence).__name__} {_show(fence, 40)}"
+            f"{type(fence).__name__} {show(fence, 40)}"
         )
     if fence.dim not in (2, 3):
         raise InvalidGeometry(
@@ -167,13 +167,13 @@ def _vector(name: str, x: Any) -> FloatArray:
 
 def _names(name: str, x: Any) -> list[str]:
     if isinstance(x, (str, bytes, Mapping)) or not isinstance(x, (Sequence, np.ndarray)):
-        raise InvalidInput(f"{name}: expected a list of constraint names, got {_show(x, 40)}")
+        raise InvalidInput(f"{name}: expected a list of constraint names, got {show(x, 40)}")
     if len(x) > _MAX_NAMES:
         raise InvalidInput(f"{name}: expected at most {_MAX_NAMES} names, got {len(x)}")
     out = []
     for i, s in enumerate(x):
         if not isinstance(s, str) or len(s) > 200:
-            raise InvalidInput(f"{name}[{i}]: expected a name (a string), got {_show(s, 40)}")
+            raise InvalidInput(f"{name}[{i}]: expected a name (a string), got {show(s, 40)}")
         out.append(str(s))
     return out
 
@@ -248,7 +248,7 @@ class FoxgloveView:
         if port is not None:
             if isinstance(port, (bool, np.timedelta64)) or not isinstance(port, (int, np.integer)):
                 raise InvalidParameter(
-                    f"port: expected an int in [0, 65535] or None, got {_show(port, 40)}"
+                    f"port: expected an int in [0, 65535] or None, got {show(port, 40)}"
                 )
             if not 0 <= int(port) <= 65535:
                 raise InvalidParameter(f"port: expected an int in [0, 65535], got {int(port)}")
@@ -356,7 +356,7 @@ class FoxgloveView:
             )
         zone = _field(info, "zone", "")
         if not isinstance(zone, str) or len(zone) > 200:
-            raise InvalidInput(f"info.zone: expected a zone name (a string), got {_show(zone, 40)}")
+            raise InvalidInput(f"info.zone: expected a zone name (a string), got {show(zone, 40)}")
         active = _names("info.active", _field(info, "active", ()))
         stamp = self._log_time(t)
         changed_by = float(np.linalg.norm(command - shaped))

@@ -805,7 +805,7 @@ class BridgeNode:
 
 
 def serve(
-    config_path: str | Path,
+    config_path: str | Path | BridgeConfig,
     *,
     duration: float | None = None,
     on_cycle: Callable[[CycleInfo], None] | None = None,
@@ -816,7 +816,9 @@ def serve(
     has handlers. SIGINT and SIGTERM stop the node cleanly when called from the main thread.
 
     Args:
-        config_path: The bridge YAML file (``docs/bridge.md``).
+        config_path: The bridge YAML file (``docs/bridge.md``), or a configuration already
+            loaded from one (:func:`~velfence.bridge.load_bridge_config`), so that a caller
+            that needs it too reads the file once.
         duration: Stop by itself after this many seconds (``0 < duration <= 10⁶``); None runs
             until a signal.
         on_cycle: Passed to :class:`BridgeNode` (a live view).
@@ -832,13 +834,15 @@ def serve(
     """
     from velfence.bridge.config import load_bridge_config
 
-    if not isinstance(config_path, (str, Path)):
+    if not isinstance(config_path, (str, Path, BridgeConfig)):
         raise InvalidParameter(
-            f"config_path: expected a file path, got {type(config_path).__name__}"
+            f"config_path: expected a file path or a BridgeConfig, got {type(config_path).__name__}"
         )
     _check_duration(duration)
     _check_on_cycle(on_cycle)
-    config = load_bridge_config(config_path)
+    config = (
+        config_path if isinstance(config_path, BridgeConfig) else load_bridge_config(config_path)
+    )
     node = BridgeNode(config, on_cycle=on_cycle)
     log = logging.getLogger("velfence.bridge")
     if not log.handlers:

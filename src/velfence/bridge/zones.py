@@ -40,7 +40,7 @@ from typing import Any, Literal
 import numpy as np
 
 from velfence._typing import FloatArray
-from velfence._validate import _show, check_choice, check_positive_int, readonly, real_array
+from velfence._validate import check_choice, check_positive_int, readonly, real_array, show
 from velfence.errors import InvalidGeometry, InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon
 from velfence.geometry.polytope import ConvexPolytope
@@ -165,7 +165,7 @@ def _mapping(name: str, value: Any) -> Mapping[Any, Any]:
 
 
 def _type(value: Any) -> str:
-    return f"{type(value).__name__} {_show(value, 60)}"
+    return f"{type(value).__name__} {show(value, 60)}"
 
 
 def _text(name: str, value: Any) -> str:
@@ -205,11 +205,11 @@ def _vector3(name: str, value: Any, unit: str) -> FloatArray:
 
 
 def _read_yaml(path: Any) -> tuple[Path, Any]:
-    """The parsed content of a YAML file, through velfence.io.config's narrow reader."""
-    from velfence.io.config import _parse, _path, _read_text
+    """The path and the document of a YAML file, through velfence's one YAML reader."""
+    from velfence.io.yaml_reader import file_path, read_yaml
 
-    p = _path(path)
-    return p, _parse(p, _read_text(p))
+    p = file_path(path)
+    return p, read_yaml(p)
 
 
 def _bounds(name: str, bounds: Any) -> tuple[FloatArray, FloatArray] | None:
@@ -330,12 +330,12 @@ def _plane(i: int, entry: Any) -> SafetyPlane:
     restrict = entry.get("restrict", "tool")
     if restrict not in _RESTRICT:
         raise InvalidParameter(
-            f"{where}.restrict: expected one of {list(_RESTRICT)}, got {_show(restrict, 40)}"
+            f"{where}.restrict: expected one of {list(_RESTRICT)}, got {show(restrict, 40)}"
         )
     mode = entry.get("mode", "both")
     if mode not in _PLANE_MODES:
         raise InvalidParameter(
-            f"{where}.mode: expected one of {list(_PLANE_MODES)}, got {_show(mode, 40)}"
+            f"{where}.mode: expected one of {list(_PLANE_MODES)}, got {show(mode, 40)}"
         )
     return SafetyPlane(name, readonly(n + 0.0), offset + 0.0, restrict, mode)
 
@@ -499,7 +499,7 @@ def _nav2_corners(where: str, value: Any) -> FloatArray:
         if not _POINTS_TEXT.fullmatch(value):
             raise InvalidParameter(
                 f'{where}: expected a string of [x, y] pairs like "[[0.3, 0.3], [0.3, -0.3], '
-                f'[0.0, 0.0]]", got {_show(value, 60)}'
+                f'[0.0, 0.0]]", got {show(value, 60)}'
             )
         pairs = [(float(a), float(b)) for a, b in _PAIR_RE.findall(value)]
         c = np.array(pairs, dtype=float).reshape(-1, 2)
@@ -547,12 +547,12 @@ def _nav_zone(name: str, entry: Any, circle_sides: int | None) -> NavZone:
         if kind == "velocity_polygon":
             more = " (a velocity polygon switches shapes with the speed: import its sub-polygons)"
         raise InvalidParameter(
-            f"{where}.type: expected 'polygon' or 'circle', got {_show(kind, 40)}{more}"
+            f"{where}.type: expected 'polygon' or 'circle', got {show(kind, 40)}{more}"
         )
     action = entry.get("action_type")
     if action not in _ACTIONS:
         raise InvalidParameter(
-            f"{where}.action_type: expected one of {list(_ACTIONS)}, got {_show(action, 40)}"
+            f"{where}.action_type: expected one of {list(_ACTIONS)}, got {show(action, 40)}"
         )
     enabled = entry.get("enabled", True)
     if not isinstance(enabled, bool):

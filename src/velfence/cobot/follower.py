@@ -61,7 +61,7 @@ from velfence._validate import (
     real_floats,
 )
 from velfence.errors import InvalidInput, InvalidParameter
-from velfence.geometry.paths import Path, _PathBase
+from velfence.geometry.paths import Path, frame_floats
 
 __all__ = ["FollowerOutput", "PathFollower", "critically_damped", "gains_from_poles"]
 
@@ -202,7 +202,7 @@ class PathFollower:
         self._path = path
         self._n = int(path.dim)
         # A velfence path in the plane: the law in Python floats on its one-point frame.
-        self._frame2 = path._frame_floats if self._n == 2 and isinstance(path, _PathBase) else None
+        self._frame2 = frame_floats(path) if self._n == 2 else None
         self._sp = 0.0
         self._spd = 1.0
         self._spdd = 0.0

@@ -166,7 +166,7 @@ class CasterWall(ShaperBase):
         self, px: float, py: float, vx: float, vy: float
     ) -> tuple[KernelOut, tuple[float, float]]:
         """The law's output and the allowed line's direction (pure: no state)."""
-        from velfence.shaping._kernels import STAGE_PROJECT, STAGE_RELAXED, zone_code
+        from velfence.shaping.shared_kernels import STAGE_PROJECT, STAGE_RELAXED, zone_code
 
         b = self._inner.bound_rows((px, py), (vx, vy))
         rows, p1, p2, d1, d2 = b.rows, b.primary, b.secondary, b.d1, b.d2

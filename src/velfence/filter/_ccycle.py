@@ -9,7 +9,6 @@ joint mode, identity or diagonal weights). Private: the public route is ``Safety
 
 from __future__ import annotations
 
-import importlib
 import math
 from typing import Any
 
@@ -17,6 +16,7 @@ import numpy as np
 
 from velfence._typing import FloatArray
 from velfence.errors import InvalidParameter
+from velfence.shaping.backend import compiled_filter
 
 __all__ = ["c_cycle_or_none", "c_options", "chain_data", "filter_cycle", "mdh_chain_data"]
 
@@ -141,12 +141,9 @@ def filter_cycle(sf: Any, profiles: Any = None) -> Any:
         InvalidParameter: the robot has no chain data, a custom provider or full-matrix
             weights, or the compiled core is not installed.
     """
-    try:
-        _filter = importlib.import_module("velfence_core._filter")
-    except ImportError:  # pragma: no cover - the core is an optional distribution
-        raise InvalidParameter(
-            "the C filter cycle needs the compiled core (velfence_core)"
-        ) from None
+    _filter = compiled_filter()
+    if _filter is None:  # pragma: no cover - the core is an optional distribution
+        raise InvalidParameter("the C filter cycle needs the compiled core (velfence_core)")
     from velfence.filter.rows import WorkspaceRows
 
     robot = sf.robot

@@ -63,9 +63,10 @@ from velfence.filter.rows import (
 )
 from velfence.filter.solve import Metric, Projector, damped_factor, finite
 from velfence.filter.stack import RowStack, collect
-from velfence.shaping._kernels import ZONE_NAMES, zone_code
+from velfence.shaping.backend import pick_backend
 from velfence.shaping.base import InvalidPolicy, OnInvalid, Zone
-from velfence.shaping.polytope import PolytopeBackend, pick_backend
+from velfence.shaping.polytope import PolytopeBackend
+from velfence.shaping.shared_kernels import ZONE_NAMES, zone_code
 
 __all__ = ["SafetyFilter"]
 

@@ -39,8 +39,8 @@ import numpy as np
 from velfence._typing import FloatArray
 from velfence.filter.kinematics import KinematicsFrame, checked
 from velfence.filter.limits import JointLimits, Profile, SphereObstacle, WorkspaceLimit
-from velfence.shaping._kernels import bounds_from_distances, fill_bounds
 from velfence.shaping.profiles import LinearBuffer
+from velfence.shaping.shared_kernels import bounds_from_distances, fill_bounds
 
 __all__ = [
     "LEVEL_JOINT",

@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import bisect
 import math
+from collections.abc import Callable
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
@@ -160,6 +161,26 @@ def _readonly(a: FloatArray) -> FloatArray:
 
 def _unit(v: FloatArray) -> FloatArray:
     return np.asarray(v / np.linalg.norm(v), dtype=float)
+
+
+def frame_floats(
+    path: object,
+) -> Callable[[float], tuple[list[float], list[float], list[float]]] | None:
+    """The per-tick frame function of one of the library's paths, or None for any other path.
+
+    Internal API (for :class:`velfence.cobot.PathFollower`, not for users): for a
+    :class:`Line`, :class:`Circle`, :class:`Polyline` or :class:`Spline` (or a subclass), the
+    function ``s -> (R_p, T_p, κ_p N_p)`` that :meth:`Path.frame` computes, as lists of floats
+    (``s`` validated as by ``frame``); None for a path of another kind, which is only reached
+    through the :class:`Path` protocol.
+
+    Args:
+        path: Any object.
+
+    Returns:
+        The bound frame function, or None.
+    """
+    return path._frame_floats if isinstance(path, _PathBase) else None
 
 
 # ---------------------------------------------------------------------------- shared base

@@ -38,10 +38,11 @@ from typing import TYPE_CHECKING, Annotated, Any, Literal
 import numpy as np
 from pydantic import Field, Strict, ValidationError, field_validator, model_validator
 
-from velfence._validate import MAX_PATH_LENGTH, _show, check_choice
+from velfence._validate import MAX_PATH_LENGTH, check_choice, show
 from velfence.errors import InvalidParameter, VelfenceError
-from velfence.io.config import Positive, _describe, _Strict
+from velfence.io.config import Positive, StrictModel, describe_validation_error
 from velfence.io.shaper_config import MAX_JOINTS, ConfiguredShaper, load_yaml, parse_shaper
+from velfence.io.yaml_reader import read_yaml
 
 if TYPE_CHECKING:
     from numpy.typing import NDArray
@@ -87,7 +88,7 @@ Topic = Annotated[str, Strict()]
 JointName = Annotated[str, Strict(), Field(min_length=1, max_length=256)]
 
 
-class ReplaySettings(_Strict):
+class ReplaySettings(StrictModel):
     """The ``replay:`` section: which topics a replay reads and writes.
 
     Attributes:
@@ -135,7 +136,7 @@ class ReplaySettings(_Strict):
         if value is not None and not _TOPIC.fullmatch(value):
             raise ValueError(
                 f"expected a ROS topic name (/name, letters, digits, _ ~ /, at most 256 "
-                f"characters), got {_show(value, 60)}"
+                f"characters), got {show(value, 60)}"
             )
         return value
 
@@ -243,7 +244,7 @@ def _settings(section: Any, where: str) -> ReplaySettings:
 
 
 def _section_error(err: ValidationError, where: str) -> str:
-    text = _describe(err)
+    text = describe_validation_error(err)
     top = "(top level): "
     if text.startswith(top):
         return f"section {where}: {text.removeprefix(top)}"
@@ -253,15 +254,15 @@ def _section_error(err: ValidationError, where: str) -> str:
 def _fs_path(name: str, value: Any) -> Path:
     """A file-system path argument: str or PathLike, non-empty, no NUL, not absurdly long."""
     if isinstance(value, (bytes, bytearray)) or not isinstance(value, (str, os.PathLike)):
-        raise InvalidParameter(f"{name}: expected a path (str or pathlib.Path), got {_show(value)}")
+        raise InvalidParameter(f"{name}: expected a path (str or pathlib.Path), got {show(value)}")
     try:
         text = os.fspath(value)
     except Exception:  # a hostile __fspath__ is refused, not propagated
-        raise InvalidParameter(f"{name}: expected a path, got {_show(value)}") from None
+        raise InvalidParameter(f"{name}: expected a path, got {show(value)}") from None
     if not isinstance(text, str) or not text or "\x00" in text or len(text) > MAX_PATH_LENGTH:
         raise InvalidParameter(
             f"{name}: expected a non-empty path of at most {MAX_PATH_LENGTH} characters "
-            f"without NUL, got {_show(text)}"
+            f"without NUL, got {show(text)}"
         )
     return Path(text)
 
@@ -369,7 +370,7 @@ def _joint_codec(cs: ConfiguredShaper, msgtype: str, joints: tuple[str, ...], to
         if sorted(names) != sorted(joints) or len(msg.velocities) != len(names):
             raise InvalidParameter(
                 f"topic {topic}: expected a JointJog with velocities for the joints "
-                f"{list(joints)}, got joint_names {_show(names, 120)} with "
+                f"{list(joints)}, got joint_names {show(names, 120)} with "
                 f"{len(msg.velocities)} velocities"
             )
         if len(msg.displacements):
@@ -404,7 +405,7 @@ def _state_reader(
             if absent or pos.shape != (len(names),):
                 raise InvalidParameter(
                     f"topic {topic}: expected a JointState with positions of the joints "
-                    f"{list(joints)}, got names {_show(names, 120)} with {pos.size} positions"
+                    f"{list(joints)}, got names {show(names, 120)} with {pos.size} positions"
                 )
             return pos[[names.index(j) for j in joints]]
 
@@ -486,17 +487,13 @@ def _bag_path(bag: Any) -> Path:
     p = _fs_path("bag", bag)
     if not _probe(p, Path.is_dir) or not _probe(p / "metadata.yaml", Path.is_file):
         raise InvalidParameter(
-            f"bag: expected a rosbag2 directory with a metadata.yaml, got {_show(str(p), 200)}"
+            f"bag: expected a rosbag2 directory with a metadata.yaml, got {show(str(p), 200)}"
         )
     return p
 
 
 def _metadata(p: Path) -> Any:
-    import yaml
-
-    return yaml.safe_load((p / "metadata.yaml").read_text(encoding="utf-8"))[
-        "rosbag2_bagfile_information"
-    ]
+    return read_yaml(p / "metadata.yaml", what="bag metadata file")["rosbag2_bagfile_information"]
 
 
 def _distro_of(p: Path) -> str | None:
@@ -614,7 +611,7 @@ def replay(
         raise
     except Exception as exc:
         raise InvalidParameter(
-            f"bag {p}: cannot replay it ({type(exc).__name__}: {_show(str(exc), 200)})"
+            f"bag {p}: cannot replay it ({type(exc).__name__}: {show(str(exc), 200)})"
         ) from None
     finally:
         reader.close()

@@ -19,12 +19,9 @@ The reader is deliberately narrow (the format is documented in ``docs/config.md`
 from __future__ import annotations
 
 import math
-import os
-import re
-import stat
 from contextvars import ContextVar
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Any, Literal, NoReturn
+from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 import numpy as np
 from pydantic import (
@@ -37,14 +34,13 @@ from pydantic import (
     model_validator,
 )
 
-from velfence._validate import MAX_STEPS, _show, check_positive_int, check_text, step_count
+from velfence._validate import MAX_STEPS, check_positive_int, check_text, show, step_count
 from velfence.errors import InvalidParameter
 from velfence.io.defaults import DEFAULT_MAX_STEPS
+from velfence.io.yaml_reader import MAX_DEPTH, MAX_FILE_BYTES, file_path, read_yaml
 
 if TYPE_CHECKING:
     from collections.abc import Sequence
-
-    import yaml
 
     from velfence.filter.limits import JointLimits
 
@@ -67,10 +63,6 @@ __all__ = [
     "load_joint_limits",
 ]
 
-#: Largest accepted config file [bytes] (a full scenario with 1000 corners is about 50 KiB).
-MAX_FILE_BYTES = 1024 * 1024
-#: Deepest accepted nesting of the YAML document (the schema itself needs 4 levels).
-MAX_DEPTH = 16
 #: Most corners accepted in ``polygon``.
 MAX_CORNERS = 1000
 #: Most entries accepted in ``waypoints``.
@@ -144,7 +136,13 @@ def _plain(value: Any, depth: int = 0) -> Any:
     )
 
 
-class _Strict(BaseModel):
+class StrictModel(BaseModel):
+    """Base of the validated settings models of :mod:`velfence.io` and :mod:`velfence.bridge`.
+
+    Internal API (not for users): unknown keys refused, frozen, values that are no config value
+    (sets, complex numbers, ...) refused before pydantic converts them.
+    """
+
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
     @field_validator("*", mode="before")
@@ -153,7 +151,7 @@ class _Strict(BaseModel):
         return _plain(value)
 
 
-class ShaperSettings(_Strict):
+class ShaperSettings(StrictModel):
     """Tuning shared by the shapers of the demo (workspace units are [rad] on the wrist)."""
 
     buffer: Annotated[
@@ -170,7 +168,7 @@ class ShaperSettings(_Strict):
     ] = None
 
 
-class WaypointSpec(_Strict):
+class WaypointSpec(StrictModel):
     """From time ``t`` [s] the operator heads for ``target`` [rad] at up to ``speed`` [rad/s]."""
 
     t: NonNegative
@@ -178,7 +176,7 @@ class WaypointSpec(_Strict):
     speed: Positive
 
 
-class PushSpec(_Strict):
+class PushSpec(StrictModel):
     """An external velocity disturbance ``velocity`` [rad/s] during ``[t0, t1)`` [s]."""
 
     t0: NonNegative
@@ -192,7 +190,7 @@ class PushSpec(_Strict):
         return self
 
 
-class DemoConfig(_Strict):
+class DemoConfig(StrictModel):
     """The demo scenario. Fields left out take the built-in defaults (see ``docs/config.md``).
 
     ``polygon: null`` means the wrist's default polygon; ``start``, ``waypoints`` and ``pushes``
@@ -261,7 +259,9 @@ class DemoConfig(_Strict):
         try:
             super().__init__(**data)
         except ValidationError as err:
-            raise InvalidParameter(f"invalid {_WHERE.get()}: {_describe(err)}") from None
+            raise InvalidParameter(
+                f"invalid {_WHERE.get()}: {describe_validation_error(err)}"
+            ) from None
 
     @field_validator("shaper", mode="before")
     @classmethod
@@ -336,7 +336,17 @@ def check_run_length(
         ) from None
 
 
-def _describe(err: ValidationError) -> str:
+def describe_validation_error(err: ValidationError) -> str:
+    """One line per error, ``field.path: message``, joined by ``"; "``.
+
+    Internal API of :mod:`velfence.io` and :mod:`velfence.bridge` (their config messages).
+
+    Args:
+        err: What pydantic raised on a model of this package.
+
+    Returns:
+        The message text.
+    """
     lines = []
     for e in err.errors():
         loc = ".".join(str(x) for x in e["loc"]) or "(top level)"
@@ -345,7 +355,7 @@ def _describe(err: ValidationError) -> str:
             msg = str(e.get("ctx", {}).get("error", msg.removeprefix("Value error, ")))
         elif e["type"].endswith("_type") and "input" in e:  # wrong type: say what was got
             got = e["input"]
-            msg += f", got {type(got).__name__} {_show(got, 40)}"
+            msg += f", got {type(got).__name__} {show(got, 40)}"
             if isinstance(got, str) and _numeric_text(got):
                 msg += "; write numbers without quotes"
         lines.append(f"{loc}: {msg}")
@@ -358,204 +368,6 @@ def _numeric_text(text: str) -> bool:
     except ValueError:
         return False
     return True
-
-
-def _path(path: Any) -> Path:
-    if isinstance(path, Path):
-        return path
-    if isinstance(path, str) or (isinstance(path, os.PathLike) and not isinstance(path, bytes)):
-        return Path(path)
-    raise InvalidParameter(f"path: expected a file path (str or Path), got {type(path).__name__}")
-
-
-def _read_text(p: Path) -> str:
-    """The file's text: a regular file of at most MAX_FILE_BYTES, UTF-8 (BOM allowed)."""
-    try:
-        st = p.stat()
-    except OSError as exc:
-        raise InvalidParameter(
-            f"cannot read config file {p}: {exc.strerror}; check the path"
-        ) from None
-    if stat.S_ISDIR(st.st_mode):
-        raise InvalidParameter(
-            f"cannot read config file {p}: it is a directory; give the path of a file"
-        )
-    if not stat.S_ISREG(st.st_mode):
-        # A FIFO or device (/dev/zero) could block or never end.
-        raise InvalidParameter(
-            f"cannot read config file {p}: not a regular file; give the path of a file"
-        )
-    if st.st_size > MAX_FILE_BYTES:
-        raise InvalidParameter(
-            f"config file {p} is {st.st_size:,} bytes; at most {MAX_FILE_BYTES:,} are accepted"
-        )
-    try:
-        with p.open("rb") as fh:
-            raw = fh.read(MAX_FILE_BYTES + 1)  # the file may have grown since stat()
-    except OSError as exc:
-        raise InvalidParameter(
-            f"cannot read config file {p}: {exc.strerror}; check the path"
-        ) from None
-    if len(raw) > MAX_FILE_BYTES:
-        raise InvalidParameter(f"config file {p} is larger than {MAX_FILE_BYTES:,} bytes")
-    try:
-        return raw.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        line = raw.count(b"\n", 0, exc.start) + 1
-        column = exc.start - (raw.rfind(b"\n", 0, exc.start) + 1) + 1
-        bad = raw[exc.start : exc.end].hex(" ")
-        raise InvalidParameter(
-            f"config file {p} is not UTF-8 text: byte(s) {bad} at line {line}, column {column}; "
-            "save the file as UTF-8"
-        ) from None
-
-
-def _yaml_error_text(exc: Exception) -> str:
-    """One line: 'line L, column C: problem (context)' for a marked YAML error."""
-    import yaml
-
-    if isinstance(exc, yaml.MarkedYAMLError) and exc.problem_mark is not None:
-        mark = exc.problem_mark
-        text = f"line {mark.line + 1}, column {mark.column + 1}: {exc.problem}"
-        if exc.context:
-            text += f" ({exc.context}"
-            if exc.context_mark is not None and exc.context_mark.line != mark.line:
-                text += f" at line {exc.context_mark.line + 1}"
-            text += ")"
-        return " ".join(text.split())
-    return " ".join(str(exc).split())
-
-
-_LOADER: type[yaml.SafeLoader] | None = None
-_REFUSED: type[yaml.MarkedYAMLError] | None = None
-
-
-def _refused_error() -> type[yaml.MarkedYAMLError]:
-    """The error of well-formed YAML that the config reader does not accept (aliases, ...)."""
-    global _REFUSED
-    if _REFUSED is None:
-        import yaml
-
-        class Refused(yaml.MarkedYAMLError):
-            pass
-
-        _REFUSED = Refused
-    return _REFUSED
-
-
-def _loader() -> type[yaml.SafeLoader]:
-    """The SafeLoader subclass of the config reader (built once, on first use)."""
-    global _LOADER
-    if _LOADER is not None:
-        return _LOADER
-    import yaml
-
-    refused = _refused_error()
-
-    def stop(problem: str, mark: Any) -> NoReturn:
-        raise refused(None, None, problem, mark)
-
-    def _refuse(what: str) -> Any:
-        def construct(loader: yaml.SafeLoader, node: yaml.Node) -> Any:
-            stop(f"{what} ({node.tag}) are not accepted in a config file", node.start_mark)
-
-        return construct
-
-    class Loader(yaml.SafeLoader):
-        """Plain YAML: no aliases or anchors, no duplicate or merge keys, bounded nesting."""
-
-        def __init__(self, stream: str) -> None:
-            super().__init__(stream)
-            self._depth = 0
-
-        def compose_node(self, parent: yaml.Node | None, index: Any) -> yaml.Node | None:
-            event = self.peek_event()  # type: ignore[no-untyped-call]
-            if isinstance(event, yaml.AliasEvent):
-                stop(
-                    f"aliases (*{event.anchor}) are not accepted in a config file; write the "
-                    "value out",
-                    event.start_mark,
-                )
-            anchor = getattr(event, "anchor", None)
-            if anchor is not None:
-                stop(
-                    f"anchors (&{anchor}) are not accepted in a config file; write the value out",
-                    event.start_mark,
-                )
-            if self._depth >= MAX_DEPTH:
-                stop(
-                    f"nesting deeper than {MAX_DEPTH} levels is not accepted in a config file",
-                    event.start_mark,
-                )
-            self._depth += 1
-            try:
-                return super().compose_node(parent, index)
-            finally:
-                self._depth -= 1
-
-        def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict[Any, Any]:
-            first: dict[Any, int] = {}
-            for key_node, _ in node.value:
-                if key_node.tag == "tag:yaml.org,2002:merge":
-                    stop(
-                        "merge keys (<<) are not accepted in a config file; write the keys out",
-                        key_node.start_mark,
-                    )
-                key = self.construct_object(key_node, deep=True)
-                try:
-                    seen = key in first
-                except TypeError:
-                    stop("a key must be a plain value", key_node.start_mark)
-                if seen:
-                    stop(
-                        f"duplicate key {key!r} (first at line {first[key]}); each key may "
-                        "appear once",
-                        key_node.start_mark,
-                    )
-                first[key] = key_node.start_mark.line + 1
-            return super().construct_mapping(node, deep)
-
-        def construct_yaml_int(self, node: yaml.ScalarNode) -> int:
-            try:
-                return super().construct_yaml_int(node)
-            except ValueError:  # more digits than Python converts (sys.get_int_max_str_digits)
-                stop("integer with too many digits", node.start_mark)
-
-    Loader.add_constructor("tag:yaml.org,2002:int", Loader.construct_yaml_int)
-    # YAML 1.1 (PyYAML) reads 1e-3 and 1.0e308 as strings (it wants a dot and a signed
-    # exponent); numbers in exponent notation are numbers here, as in YAML 1.2 and JSON.
-    Loader.add_implicit_resolver(
-        "tag:yaml.org,2002:float",
-        re.compile(r"^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?|\.[0-9_]+)[eE][-+]?[0-9]+$"),
-        list("-+0123456789."),
-    )
-    for tag, what in (
-        ("timestamp", "dates and times"),
-        ("binary", "binary values"),
-        ("set", "sets"),
-        ("omap", "ordered maps"),
-        ("pairs", "pair lists"),
-    ):
-        Loader.add_constructor(f"tag:yaml.org,2002:{tag}", _refuse(what))
-    _LOADER = Loader
-    return Loader
-
-
-def _parse(p: Path, text: str) -> Any:
-    import yaml
-
-    try:
-        return yaml.load(text, Loader=_loader())
-    except _refused_error() as exc:
-        raise InvalidParameter(f"config file {p}, {_yaml_error_text(exc)}") from None
-    except yaml.YAMLError as exc:
-        raise InvalidParameter(
-            f"config file {p} is not valid YAML: {_yaml_error_text(exc)}"
-        ) from None
-    except RecursionError:  # belt and braces: nesting is capped in compose_node
-        raise InvalidParameter(
-            f"config file {p} is nested too deeply (at most {MAX_DEPTH} levels)"
-        ) from None
 
 
 def load_config(
@@ -578,8 +390,8 @@ def load_config(
     data: dict[Any, Any] = {}
     p: Path | None = None
     if path is not None:
-        p = _path(path)
-        loaded = _parse(p, _read_text(p))
+        p = file_path(path)
+        loaded = read_yaml(p)
         if loaded is None:
             loaded = {}
         if not isinstance(loaded, dict):
@@ -601,7 +413,7 @@ def load_config(
         inner = [e.get("ctx", {}).get("error") for e in err.errors()]
         if len(inner) == 1 and isinstance(inner[0], InvalidParameter):
             raise inner[0] from None
-        raise InvalidParameter(f"invalid {where}: {_describe(err)}") from None
+        raise InvalidParameter(f"invalid {where}: {describe_validation_error(err)}") from None
     finally:
         _WHERE.reset(token)
     # The run length is known here unless it comes from the default script; then run_demo
@@ -654,8 +466,8 @@ def load_joint_limits(path: str | Path, joint_names: Sequence[str]) -> JointLimi
     """
     from velfence.filter.limits import JointLimits
 
-    p = _path(path)
-    loaded = _parse(p, _read_text(p))
+    p = file_path(path)
+    loaded = read_yaml(p)
     if not isinstance(loaded, dict) or "joint_limits" not in loaded:
         got = type(loaded).__name__ if not isinstance(loaded, dict) else f"keys {list(loaded)}"
         raise InvalidParameter(

@@ -51,12 +51,10 @@ from velfence.io.config import (
     NonNegative,
     Number,
     Positive,
-    _describe,
-    _parse,
-    _path,
-    _read_text,
-    _Strict,
+    StrictModel,
+    describe_validation_error,
 )
+from velfence.io.yaml_reader import file_path, read_yaml
 
 __all__ = [
     "COMMAND_SPACES",
@@ -81,7 +79,7 @@ Buffer = Annotated[float, Strict(), Field(ge=MIN_BUFFER, le=1e6, description="bu
 Vector = Annotated[list[Number], Field(min_length=1, max_length=MAX_JOINTS)]
 
 
-class _Polygon(_Strict):
+class _Polygon(StrictModel):
     kind: Literal["polygon"]
     corners: Annotated[list[tuple[Number, Number]], Field(min_length=3, max_length=MAX_CORNERS)]
     buffer: Buffer
@@ -90,7 +88,7 @@ class _Polygon(_Strict):
     max_recovery_speed: Positive | None = None
 
 
-class _Polytope(_Strict):
+class _Polytope(StrictModel):
     kind: Literal["polytope"]
     lower: Vector | None = None
     upper: Vector | None = None
@@ -121,7 +119,7 @@ class _Polytope(_Strict):
         return self
 
 
-class _JointLimits(_Strict):
+class _JointLimits(StrictModel):
     kind: Literal["joint_limits"]
     joint_names: Annotated[list[str], Field(min_length=1, max_length=MAX_JOINTS)]
     lower: Vector
@@ -142,14 +140,14 @@ class _JointLimits(_Strict):
         return self
 
 
-class _Workspace(_Strict):
+class _Workspace(StrictModel):
     lower: Annotated[list[Number], Field(min_length=3, max_length=3)]
     upper: Annotated[list[Number], Field(min_length=3, max_length=3)]
     buffer: Buffer
     point: str = "tcp"
 
 
-class _SafetyFilter(_Strict):
+class _SafetyFilter(StrictModel):
     kind: Literal["safety_filter"]
     robot: Literal["panda", "ur5e", "puma560", "seven_dof"]
     mode: Literal["joint", "twist"] = "twist"
@@ -160,7 +158,7 @@ class _SafetyFilter(_Strict):
     spring_gain: NonNegative = 1.0
 
 
-_MODELS: dict[str, type[_Strict]] = {
+_MODELS: dict[str, type[StrictModel]] = {
     "polygon": _Polygon,
     "polytope": _Polytope,
     "joint_limits": _JointLimits,
@@ -209,8 +207,8 @@ def load_yaml(path: str | Path) -> dict[str, Any]:
         InvalidParameter: a missing, oversized, non-UTF-8 or non-plain-YAML file, or one whose
             top level is not a mapping with string keys.
     """
-    p = _path(path)
-    loaded = _parse(p, _read_text(p))
+    p = file_path(path)
+    loaded = read_yaml(p)
     if loaded is None:
         return {}
     if not isinstance(loaded, dict):
@@ -260,7 +258,7 @@ def parse_shaper(section: Mapping[str, Any], *, where: str = "shaper") -> Config
     try:
         spec = _MODELS[kind].model_validate(dict(section))
     except ValidationError as err:
-        text = _describe(err)
+        text = describe_validation_error(err)
         top = "(top level): "
         if text.startswith(top):
             raise InvalidParameter(f"section {where}: {text.removeprefix(top)}") from None

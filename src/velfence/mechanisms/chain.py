@@ -267,6 +267,27 @@ class ChainFrame:
         return np.array(self._kin[1].T)
 
 
+def is_library_chain(chain: object) -> bool:
+    """Whether ``chain`` is one of the library's chains with its kinematics unchanged.
+
+    Internal API (for :mod:`velfence.redundancy`, not for users): only those answer the one-pass
+    route of their private kinematics cache; a subclass that overrides a protocol method, or a
+    foreign :class:`SerialChain`, goes through the protocol.
+
+    Args:
+        chain: Any object.
+
+    Returns:
+        True for a :class:`PlanarArm` or :class:`DHChain` (or a subclass) whose
+        ``point_jacobian``, ``ee_jacobian``, ``link_segments`` and ``end_effector`` are the
+        library's own.
+    """
+    if not isinstance(chain, _ChainBase):
+        return False
+    names = ("point_jacobian", "ee_jacobian", "link_segments", "end_effector")
+    return all(getattr(type(chain), a) is getattr(_ChainBase, a) for a in names)
+
+
 class _ChainBase:
     """Shared validation, joint-limit helpers and the geometric point Jacobian."""
 

@@ -60,8 +60,10 @@ from numpy.typing import ArrayLike
 from velfence._typing import FloatArray, IntArray
 from velfence._validate import check_choice, check_positive, readonly, real_array
 from velfence.errors import InvalidInput, InvalidParameter
+from velfence.mechanisms.chain import is_library_chain
+from velfence.shaping.backend import pick_backend
 from velfence.shaping.base import InvalidPolicy, OnInvalid
-from velfence.shaping.polytope import PolytopeBackend, pick_backend
+from velfence.shaping.polytope import PolytopeBackend
 
 if TYPE_CHECKING:
     from velfence.mechanisms.chain import SerialChain
@@ -255,7 +257,7 @@ class ChainObstacleBase(InvalidPolicy):
         radii = np.array(chain.link_radius, dtype=float).reshape(-1)
         self._link_radius = readonly(radii)
         self._centers = readonly(np.array([ob.center for ob in obs], dtype=float).reshape(-1, 3))
-        self._fast = _is_library_chain(chain)
+        self._fast = is_library_chain(chain)
 
     @property
     def obstacles(self) -> tuple[Obstacle, ...]:
@@ -594,20 +596,6 @@ def _cross(a: FloatArray, b: FloatArray) -> FloatArray:
     out[..., 1] = a2 * b0 - a0 * b2
     out[..., 2] = a0 * b1 - a1 * b0
     return out
-
-
-def _is_library_chain(chain: object) -> bool:
-    """Whether ``chain`` is one of the library's chains with its kinematics unchanged.
-
-    Only those answer the one-pass route (their ``_kinematics_cache``); a subclass that
-    overrides a protocol method, or a foreign :class:`SerialChain`, goes through the protocol.
-    """
-    from velfence.mechanisms.chain import _ChainBase
-
-    if not isinstance(chain, _ChainBase):
-        return False
-    names = ("point_jacobian", "ee_jacobian", "link_segments", "end_effector")
-    return all(getattr(type(chain), a) is getattr(_ChainBase, a) for a in names)
 
 
 def _solve_stacked(

@@ -50,6 +50,18 @@ LINK_CYLINDER_RADIUS = 0.05
 VELOCITY_LIMITS_NUMERIC = "velocity_limits"
 
 
+def _mujoco() -> Any:
+    """The mujoco module (imported on first use), for robots.model and robots.urdf."""
+    try:
+        import mujoco
+    except ImportError as exc:  # pragma: no cover - the physics extra is missing
+        raise InvalidParameter(
+            "xml: loading an MJCF model needs the 'mujoco' package, got ImportError; "
+            "install velfence[physics]"
+        ) from exc
+    return mujoco
+
+
 def _quat_mul(p: FloatArray, q: FloatArray) -> FloatArray:
     """Hamilton product of two quaternions ``(w, x, y, z)``."""
     w1, x1, y1, z1 = p

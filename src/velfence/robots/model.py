@@ -21,20 +21,9 @@ from velfence._typing import FloatArray
 from velfence._validate import check_text, finite_rows, readonly
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 from velfence.robots.capsules import CapsuleLinks
-from velfence.robots.mjcf import VELOCITY_LIMITS_NUMERIC
+from velfence.robots.mjcf import VELOCITY_LIMITS_NUMERIC, _mujoco
 
 __all__ = ["MujocoFrame", "MujocoRobot"]
-
-
-def _mujoco() -> Any:
-    try:
-        import mujoco
-    except ImportError as exc:  # pragma: no cover - the physics extra is missing
-        raise InvalidParameter(
-            "xml: loading an MJCF model needs the 'mujoco' package, got ImportError; "
-            "install velfence[physics]"
-        ) from exc
-    return mujoco
 
 
 class MujocoRobot(CapsuleLinks):

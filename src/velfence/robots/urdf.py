@@ -36,7 +36,7 @@ from numpy.typing import ArrayLike
 from velfence._typing import FloatArray
 from velfence._validate import check_flag, real_array
 from velfence.errors import InvalidGeometry, InvalidParameter
-from velfence.robots.mjcf import VELOCITY_LIMITS_NUMERIC
+from velfence.robots.mjcf import VELOCITY_LIMITS_NUMERIC, _mujoco
 
 __all__: list[str] = []
 
@@ -317,8 +317,6 @@ def urdf_document(
     elif tcp_link not in links:
         shown = tcp_link if len(tcp_link) <= 40 else tcp_link[:37] + "..."
         raise InvalidGeometry(f"tcp_link: expected one of the links {links[:50]}, got {shown!r}")
-
-    from velfence.robots.model import _mujoco
 
     mujoco = _mujoco()
     try:

@@ -7,7 +7,6 @@ globals table in which every callee is replaced by its compiled twin, then compi
 
 from __future__ import annotations
 
-import importlib
 import types
 from collections.abc import Callable
 from functools import cache
@@ -16,6 +15,7 @@ from typing import Any
 from velfence.geometry import polygon as _polygon
 from velfence.geometry import projection as _projection
 from velfence.shaping import _kernels, _nd_kernels
+from velfence.shaping.backend import compiled_core
 
 __all__ = [
     "compiled_batch",
@@ -72,20 +72,6 @@ def _compiled() -> dict[str, Callable[..., Any]] | None:
     ):
         table[name] = jit(fn)
     return {"patent": table["patent_batch"], "exact": table["exact_batch"]}
-
-
-@cache
-def compiled_core() -> Any:
-    """The compiled C core's binding (``velfence_core._core``), or None when not installed.
-
-    A separate distribution (``core/`` in velfence's source, ``pip install ./core``), so that
-    velfence itself installs and imports without a compiler. Its ``ExactLaw`` / ``PatentLaw``
-    take a shaper's kernel data and compute the reference kernels bit for bit.
-    """
-    try:
-        return importlib.import_module("velfence_core._core")
-    except ImportError:
-        return None
 
 
 def compiled_batch(method: str) -> Callable[..., Any] | None:

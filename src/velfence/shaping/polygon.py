@@ -45,7 +45,8 @@ from velfence._validate import (
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon, as_polygon
 from velfence.shaping import _kernels as kern
-from velfence.shaping._accel import compiled_batch, compiled_core
+from velfence.shaping._accel import compiled_batch
+from velfence.shaping.backend import BACKENDS, Backend, compiled_core, pick_backend
 from velfence.shaping.base import KernelOut, OnInvalid, ShaperBase
 from velfence.shaping.profiles import (
     ApproachProfile,
@@ -67,9 +68,8 @@ _METHODS = ("edge-scaling", "patent", "exact")
 #: ``velfence_core``, when it is importable, else Python), ``"python"`` (the reference kernels of
 #: ``velfence.shaping._kernels``; numba for batches when ``accelerate``) or ``"c"`` (the compiled
 #: core, required).
-PolygonBackend = Literal["auto", "python", "c"]
+PolygonBackend = Backend
 
-_BACKENDS = ("auto", "python", "c")
 _ALIASES = {"patent": "edge-scaling"}
 
 
@@ -293,7 +293,7 @@ class PolygonShaper(ShaperBase):
         self._batch_args = tuple(
             np.asarray(a, dtype=float) if any(a is x for x in per_edge) else a for a in fast
         )
-        self._core, self.backend = self._pick_backend(check_choice("backend", backend, _BACKENDS))
+        self._core, self.backend = self._pick_backend(check_choice("backend", backend, BACKENDS))
         self._core_shape = None if self._core is None else self._core.__self__.shape_array
         if self._core_shape is not None and type(self).shape is PolygonShaper.shape:
             # No Python frame on the common path: ``self.shape`` becomes a C callable that runs
@@ -307,25 +307,15 @@ class PolygonShaper(ShaperBase):
 
     def _pick_backend(self, backend: str) -> tuple[Any, Literal["python", "c"]]:
         """The compiled law object (or None) and the name of the backend in use."""
-        if backend == "python":
-            return None, "python"
-        if self._generic is not None:
-            if backend == "c":
-                raise InvalidParameter(
-                    "backend='c' runs the kernels' own profiles (LinearBuffer, "
-                    f"ThreeZoneBraking), got profile={self._generic!r}; use backend='auto' or "
-                    "'python'"
-                )
-            return None, "python"
-        core = compiled_core()
+        core, name = pick_backend(
+            backend,
+            usable=self._generic is None,
+            refusal="runs the kernels' own profiles (LinearBuffer, ThreeZoneBraking), got "
+            f"profile={self._generic!r}",
+            binding="core",
+        )
         if core is None:
-            if backend == "c":
-                raise InvalidParameter(
-                    "backend='c' needs the compiled core (the velfence_core distribution: "
-                    "`pip install ./core` from velfence's source), which is not importable; "
-                    "use backend='auto' or 'python'"
-                )
-            return None, "python"
+            return None, name
         law = core.ExactLaw if self.method == "exact" else core.PatentLaw
         return law(*self._fast).law, "c"
 

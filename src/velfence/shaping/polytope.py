@@ -17,11 +17,9 @@ result equals ``PolygonShaper(method="exact")`` to round-off.
 
 from __future__ import annotations
 
-import importlib
 import math
 from dataclasses import dataclass
-from functools import cache
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -29,7 +27,6 @@ from numpy.typing import ArrayLike
 from velfence._typing import BoolArray, FloatArray, IntArray
 from velfence._validate import (
     MAX_MAGNITUDE,
-    check_choice,
     check_flag,
     check_positive,
     real_array,
@@ -39,7 +36,9 @@ from velfence.geometry.polytope import ConvexPolytope
 from velfence.geometry.projection import PROJECT_OPTIMAL, project_kernel, scratch_length
 from velfence.shaping import _kernels as kern
 from velfence.shaping import _nd_kernels as nd
-from velfence.shaping._accel import compiled_core, compiled_polytope
+from velfence.shaping._accel import compiled_polytope
+from velfence.shaping.backend import Backend, compiled_core, pick_backend
+from velfence.shaping.backend import compiled_nd as compiled_nd  # its old home: still importable
 from velfence.shaping.base import InvalidPolicy, OnInvalid, Zone
 from velfence.shaping.profiles import ApproachProfile, LinearBuffer, ThreeZoneBraking
 
@@ -48,55 +47,7 @@ __all__ = ["PolytopeBackend", "PolytopeResult", "PolytopeShaper"]
 #: Implementations of the n-D law (and of the safety filter's solve): ``"auto"`` (the compiled
 #: core when importable, else Python), ``"python"`` (the reference kernels, numba with
 #: ``accelerate``) or ``"c"`` (the core, required).
-PolytopeBackend = Literal["auto", "python", "c"]
-_BACKENDS = ("auto", "python", "c")
-
-
-@cache
-def compiled_nd() -> Any:
-    """The compiled core's n-D binding (``velfence_core._nd``), or None when not installed.
-
-    ``project(u, G, b)`` and ``PolytopeLaw``: :func:`~velfence.geometry.projection.project_kernel`
-    and :func:`~velfence.shaping._nd_kernels.polytope_kernel` in C99, bit for bit (tests/core).
-    """
-    try:
-        return importlib.import_module("velfence_core._nd")
-    except ImportError:
-        return None
-
-
-def pick_backend(
-    backend: object, usable: bool = True, refusal: str | None = None
-) -> tuple[Any, Literal["python", "c"]]:
-    """``(velfence_core._nd or None, backend in use)`` for a ``backend`` argument.
-
-    ``usable``: whether the caller's configuration can run in C at all (a profile the kernels
-    do not know cannot); ``refusal``: what ``backend='c'`` runs and what it got instead, for
-    the message when it cannot (default: the shapers' profiles). ``backend="c"`` without the
-    core or with ``usable`` False raises :class:`~velfence.errors.InvalidParameter` naming
-    ``backend``.
-    """
-    choice = check_choice("backend", backend, _BACKENDS)
-    if choice == "python":
-        return None, "python"
-    if not usable:
-        if choice == "c":
-            why = refusal or (
-                "runs the kernels' own profiles (LinearBuffer, ThreeZoneBraking), got another "
-                "profile"
-            )
-            raise InvalidParameter(f"backend='c' {why}; use backend='auto' or 'python'")
-        return None, "python"
-    core = compiled_nd()
-    if core is None:
-        if choice == "c":
-            raise InvalidParameter(
-                "backend='c' needs the compiled core's n-D module velfence_core._nd (the "
-                "velfence_core distribution: `pip install ./core` from velfence's source), which "
-                "is not importable; use backend='auto' or 'python'"
-            )
-        return None, "python"
-    return core, "c"
+PolytopeBackend = Backend
 
 
 @dataclass(frozen=True, kw_only=True)

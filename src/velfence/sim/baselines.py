@@ -25,9 +25,8 @@ from velfence._validate import MAX_MAGNITUDE, check_positive
 from velfence.errors import InvalidGeometry, InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon, Rectangle, as_polygon
 from velfence.shaping import ZONE_NAMES
-from velfence.shaping._accel import compiled_loop
-from velfence.shaping._kernels import zone_code
 from velfence.shaping.base import OnInvalid, ShaperBase
+from velfence.shaping.shared_kernels import compiled_loop, zone_code
 
 __all__ = ["AxisLimits", "HardStop", "NoLimit"]
 

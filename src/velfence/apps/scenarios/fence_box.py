@@ -73,7 +73,19 @@ UNITS = {
 }
 
 
-def _phases(x0: FloatArray, speed: float, dwell: float) -> list[tuple[str, float, float, Any]]:
+def script_phases(
+    x0: FloatArray, speed: float, dwell: float
+) -> list[tuple[str, float, float, Any]]:
+    """The scenario's phases from the start point ``x0`` (internal API, shared with the viewer).
+
+    Args:
+        x0: Start TCP position [m], shape (3,).
+        speed: TCP speed of each move [m/s].
+        dwell: Pause after each move [s].
+
+    Returns:
+        ``(label, start [s], end [s], (target, face, pushed))`` for each phase, in time order.
+    """
     out = []
     t, prev = 0.0, x0
     for k, (label, target, face, pushed) in enumerate(_SCRIPT):
@@ -89,9 +101,20 @@ def _phases(x0: FloatArray, speed: float, dwell: float) -> list[tuple[str, float
     return out
 
 
-def _controllers(
+def build_controllers(
     robot: Any, box: ConvexPolytope, lim: FloatArray, methods: Sequence[str]
 ) -> dict[str, Any]:
+    """The scenario's controller of each method (internal API, shared with the viewer).
+
+    Args:
+        robot: The arm (a :class:`~velfence.robots.MujocoRobot`).
+        box: The TCP's workspace box.
+        lim: Joint position limits [rad], shape (n, 2).
+        methods: Names of the methods to build.
+
+    Returns:
+        The controller of each method, by name.
+    """
     from velfence.filter import SafetyFilter
     from velfence.filter.limits import JointLimits, SphereObstacle, WorkspaceLimit
     from velfence.shaping.lookahead import LagCompensation
@@ -152,7 +175,7 @@ def run(
     box = ConvexPolytope.box(np.array(BOX_LOWER), np.array(BOX_UPPER))
     q0 = np.array(Q0)
     x0 = robot.fk(q0)
-    phases = _phases(x0, speed, dwell=0.4)
+    phases = script_phases(x0, speed, dwell=0.4)
     duration = phases[-1][2]
     push_phase = next(p for p in phases if p[3][2])
     push_t0 = push_phase[1] + 0.3
@@ -160,7 +183,7 @@ def run(
     sphere = SphereObstacle(np.array(SPHERE_CENTER), radius=SPHERE_RADIUS, name="sphere")
     lim = np.array(robot.joint_limits)
     lim[0] = CELL_JOINT1
-    ctrl = _controllers(robot, box, lim, methods)
+    ctrl = build_controllers(robot, box, lim, methods)
     runs: dict[str, PhysicsRun] = {}
     for name in methods:
         plant = MujocoPlant(

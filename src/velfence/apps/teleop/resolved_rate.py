@@ -53,8 +53,9 @@ from velfence.geometry.so3 import (
     rotation_from_angle_axis,
     rotation_vector,
 )
+from velfence.shaping.backend import pick_backend
 from velfence.shaping.base import InvalidPolicy, OnInvalid
-from velfence.shaping.polytope import PolytopeBackend, pick_backend
+from velfence.shaping.polytope import PolytopeBackend
 
 __all__ = [
     "K0",

@@ -46,7 +46,7 @@ def _fence_box_session() -> _ArmSession:
     # The look-ahead variant: servo lag lets the plain filter graze the wall by 0.17 mm
     # (docs/physics.md); with the look-ahead the scenario stays inside.
     method = "velfence + look-ahead"
-    shaper = fb._controllers(robot, box, lim, (method,))[method]
+    shaper = fb.build_controllers(robot, box, lim, (method,))[method]
     sphere = SphereObstacle(np.array(fb.SPHERE_CENTER), radius=fb.SPHERE_RADIUS, name="sphere")
     physics = MujocoPlant(
         robot, bandwidth=fb.BANDWIDTH, physics_dt=fb.PHYSICS_DT, obstacles=[sphere]
@@ -54,7 +54,7 @@ def _fence_box_session() -> _ArmSession:
     q0 = np.array(fb.Q0)
     physics.reset(q0, fb.DT)
     speed = 0.25
-    phases = fb._phases(robot.fk(q0), speed, dwell=0.4)
+    phases = fb.script_phases(robot.fk(q0), speed, dwell=0.4)
     jog = TcpJog(robot.fk, [(p[2], p[3][0]) for p in phases], speed=speed)
 
     def plant(q: FloatArray, qdot: FloatArray, t: float) -> FloatArray:
