@@ -2,9 +2,10 @@
 
 * ``python`` blocks run, each in a fresh interpreter in its own temporary folder (``src/`` on
   the path, ``MPLBACKEND=Agg``, ``MUJOCO_GL=egl``; the folder links to the checkout's
-  ``examples``, ``benchmarks``, ``core`` and ``tests``, so paths read as from the repository root). When the fenced block right after one (blank
-  lines only in between) is a ``text`` block, the block's standard output must equal that text
-  exactly, up to trailing whitespace on each line and blank lines at the end; otherwise the block
+  ``examples``, ``benchmarks``, ``core`` and ``tests``, so paths read as from the repository
+  root). When the fenced block right after one (blank lines only in between) is a ``text``
+  block, the block's standard output must equal that text exactly, up to trailing whitespace on
+  each line and blank lines at the end; otherwise the block
   must still exit cleanly. A ``yaml`` block of the same page whose first line is a comment naming
   a file (``# bridge.yaml: ...``) is written to that folder first, so a block can load it.
   A ``python`` block may carry ``<!-- no-run: reason -->`` on the line right before it;
@@ -119,7 +120,9 @@ def named_files(page: str) -> dict[str, str]:
     return files
 
 
-def run_block(code: str, folder: Path, files: dict[str, str] | None = None) -> subprocess.CompletedProcess[str]:
+def run_block(
+    code: str, folder: Path, files: dict[str, str] | None = None
+) -> subprocess.CompletedProcess[str]:
     """Run ``code`` as a script in a fresh interpreter, in ``folder`` holding ``files``."""
     for name in CHECKOUT:
         if not (folder / name).exists():
@@ -347,9 +350,13 @@ def test_shell_check_finds_what_does_not_exist() -> None:
     pytest.importorskip("typer")
     cli, targets = _cli_options(), _make_targets()
     assert shell_problems("velfence demo --out x\nmake docs", cli, targets) == []
-    assert shell_problems("velfence demo --outt x", cli, targets) == ["velfence demo: no option --outt"]
+    assert shell_problems("velfence demo --outt x", cli, targets) == [
+        "velfence demo: no option --outt"
+    ]
     assert shell_problems("make dogs", cli, targets) == ["no make target dogs"]
-    assert shell_problems("python examples/nothing.py", cli, targets) == ["no file examples/nothing.py"]
+    assert shell_problems("python examples/nothing.py", cli, targets) == [
+        "no file examples/nothing.py"
+    ]
     assert shell_problems("velfence frobnicate", cli, targets) == ["no command velfence frobnicate"]
     assert shell_problems("python benchmarks/bench_core.py --batch", cli, targets) == []
     assert shell_problems("python benchmarks/bench_core.py --fast", cli, targets) == [
