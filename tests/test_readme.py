@@ -1,15 +1,37 @@
-"""The code in README.md and docs pages (choosing, physics, safety_filter) runs as printed.
+"""Every code block of README.md and of every page under docs/ (tutorials included) is checked.
 
-Every fenced ``python`` block is run in a fresh interpreter from the repository root. When the
-next fenced block after it (with only prose or blank lines in between) is a ``text`` block, the
-block's standard output must equal that text exactly, up to trailing whitespace on each line and
-blank lines at the end. A block without a ``text`` block after it must still exit cleanly.
+* ``python`` blocks run, each in a fresh interpreter in its own temporary folder (``src/`` on
+  the path, ``MPLBACKEND=Agg``, ``MUJOCO_GL=egl``; the folder links to the checkout's
+  ``examples``, ``benchmarks``, ``core`` and ``tests``, so paths read as from the repository
+  root). When the fenced block right after one (blank lines only in between) is a ``text``
+  block, the block's standard output must equal that text exactly, up to trailing whitespace on
+  each line and blank lines at the end; otherwise the block
+  must still exit cleanly. A ``yaml`` block of the same page whose first line is a comment naming
+  a file (``# bridge.yaml: ...``) is written to that folder first, so a block can load it.
+  A ``python`` block may carry ``<!-- no-run: reason -->`` on the line right before it;
+  :data:`NO_RUN_REASONS` lists every such block with its reason, and a block marked so that is not
+  listed (or listed and not marked) fails :func:`test_no_run_blocks_are_the_listed_ones`.
+  Blocks whose run takes more than a few seconds are listed in :data:`SLOW` and marked ``slow``.
+* ``yaml`` blocks are velfence configuration files and are loaded through velfence's own loaders
+  (the demo's :func:`~velfence.io.load_config`, the bridge's
+  :func:`~velfence.bridge.load_bridge_config`, the replay's ``shaper:`` + ``replay:`` file,
+  :func:`~velfence.io.parse_shaper`, the UR safety planes and the Nav2 collision-monitor file).
+* ``c`` and ``cpp`` blocks are reading material (fragments of a controller, not complete
+  programs; the complete C and C++ examples are ``core/examples/`` and are compiled by
+  ``tests/core``): every ``vf_*`` / ``VF_*`` name they use must be declared in
+  ``core/include/``.
+* ``bash`` and ``console`` blocks are not run (they build, install, serve or run for minutes);
+  every ``velfence COMMAND --option`` in them must be an option of that command of the CLI,
+  every ``make TARGET`` a target of the Makefile, every repository file they name must exist,
+  and every ``--option`` given to a script of the repository must be one its text defines.
+* Every fenced block names its language (one of :data:`LANGUAGES`).
 """
 
 from __future__ import annotations
 
 import os
 import re
+import shlex
 import subprocess
 import sys
 from dataclasses import dataclass
@@ -18,22 +40,39 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-PAGES = (
-    ROOT / "README.md",
-    ROOT / "docs" / "choosing.md",
-    ROOT / "docs" / "physics.md",
-    ROOT / "docs" / "safety_filter.md",
-)
-FENCE = re.compile(r"^```([A-Za-z0-9_-]*)[ \t]*\n(.*?)^```[ \t]*$", re.M | re.S)
+PAGES = (ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md")))
+FENCE = re.compile(r"^```([A-Za-z0-9_{}-]*)[ \t]*\n(.*?)^```[ \t]*$", re.M | re.S)
+NO_RUN = re.compile(r"<!--\s*no-run:\s*(.+?)\s*-->")
+NAMED_FILE = re.compile(r"\A#\s*([\w.-]+\.ya?ml)\b")
+LANGUAGES = {"python", "text", "bash", "console", "yaml", "c", "cpp", "cmake", "xml"}
 TIMEOUT_S = 120.0
+#: Folders of the checkout a block's folder links to, so that a block reads ``examples/...`` as
+#: it would from the repository root (blocks write only into their own folder).
+CHECKOUT = ("examples", "benchmarks", "core", "tests")
+
+#: Blocks that do not run, and why ("page:line" of the fence is not stable, so the key is the
+#: page and the block's first line).
+NO_RUN_REASONS = {
+    ("bridge.md", "from velfence.bridge import BridgeNode, load_bridge_config"): (
+        "runs a DDS node until it is stopped; tutorials/ros2.md runs the same node on loopback"
+    ),
+    ("robots.md", "import numpy as np"): (  # the block of MujocoRobot.from_urdf
+        "needs a URDF of a UR5 and its meshes from a ROS installation (/opt/ros/...)"
+    ),
+}
+
+#: Blocks whose run takes seconds (MuJoCo, long closed loops): marked ``slow``.
+SLOW: set[tuple[str, int]] = set()
 
 
 @dataclass(frozen=True)
 class Block:
     page: str
     line: int
+    language: str
     code: str
     expected: str | None
+    no_run: str | None
 
 
 def normalise(text: str) -> str:
@@ -42,33 +81,63 @@ def normalise(text: str) -> str:
 
 
 def extract(markdown: str, page: str) -> list[Block]:
-    """The python blocks of a page, each with the text block that follows it (or None)."""
+    """Every fenced block of a page; a python block with the text block right after it (or None)."""
     fences = list(FENCE.finditer(markdown))
     blocks = []
     for i, m in enumerate(fences):
-        if m.group(1) != "python":
-            continue
         expected = None
-        if i + 1 < len(fences) and fences[i + 1].group(1) == "text":
+        if (
+            m.group(1) == "python"
+            and i + 1 < len(fences)
+            and fences[i + 1].group(1) == "text"
+            and not markdown[m.end() : fences[i + 1].start()].strip()
+        ):
             expected = fences[i + 1].group(2)
+        before = markdown[: m.start()].rstrip("\n").rsplit("\n", 1)[-1]
+        marked = NO_RUN.fullmatch(before.strip())
         line = markdown.count("\n", 0, m.start()) + 1
-        blocks.append(Block(page, line, m.group(2), expected))
+        blocks.append(
+            Block(page, line, m.group(1), m.group(2), expected, marked[1] if marked else None)
+        )
     return blocks
 
 
-BLOCKS = [b for page in PAGES for b in extract(page.read_text(encoding="utf-8"), page.name)]
+def _page_name(page: Path) -> str:
+    return page.relative_to(ROOT / "docs").as_posix() if page.parent != ROOT else page.name
 
 
-def run_block(code: str, folder: Path) -> subprocess.CompletedProcess[str]:
-    """Run ``code`` as a script in a fresh interpreter, from the repository root."""
-    script = folder / "block.py"
+ALL = [b for page in PAGES for b in extract(page.read_text(encoding="utf-8"), _page_name(page))]
+PYTHON = [b for b in ALL if b.language == "python" and b.no_run is None]
+
+
+def named_files(page: str) -> dict[str, str]:
+    """The yaml blocks of ``page`` that name their file in their first line."""
+    files = {}
+    for b in ALL:
+        m = NAMED_FILE.match(b.code)
+        if b.page == page and b.language == "yaml" and m:
+            files[m[1]] = b.code
+    return files
+
+
+def run_block(
+    code: str, folder: Path, files: dict[str, str] | None = None
+) -> subprocess.CompletedProcess[str]:
+    """Run ``code`` as a script in a fresh interpreter, in ``folder`` holding ``files``."""
+    for name in CHECKOUT:
+        if not (folder / name).exists():
+            (folder / name).symlink_to(ROOT / name, target_is_directory=True)
+    for name, text in (files or {}).items():
+        (folder / name).write_text(text, encoding="utf-8")
+    script = folder / "_block.py"
     script.write_text(code, encoding="utf-8")
     env = dict(os.environ, MPLBACKEND="Agg", PYTHONHASHSEED="0", PYTHONIOENCODING="utf-8")
+    env.setdefault("MUJOCO_GL", "egl")
     src = str(ROOT / "src")
     env["PYTHONPATH"] = src + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
     return subprocess.run(
         [sys.executable, str(script)],
-        cwd=ROOT,
+        cwd=folder,
         env=env,
         capture_output=True,
         text=True,
@@ -78,9 +147,14 @@ def run_block(code: str, folder: Path) -> subprocess.CompletedProcess[str]:
     )
 
 
-@pytest.mark.parametrize("block", BLOCKS, ids=[f"{b.page}:{b.line}" for b in BLOCKS])
+def _param(b: Block) -> pytest.param:  # type: ignore[valid-type]
+    marks = [pytest.mark.slow] if (b.page, b.line) in SLOW else []
+    return pytest.param(b, id=f"{b.page}:{b.line}", marks=marks)
+
+
+@pytest.mark.parametrize("block", [_param(b) for b in PYTHON])
 def test_block_runs_and_prints_what_the_page_shows(block: Block, tmp_path: Path) -> None:
-    proc = run_block(block.code, tmp_path)
+    proc = run_block(block.code, tmp_path, named_files(block.page))
     assert proc.returncode == 0, f"{block.page}:{block.line} failed:\n{proc.stderr}"
     if block.expected is not None:
         assert normalise(proc.stdout) == normalise(block.expected), (
@@ -88,31 +162,229 @@ def test_block_runs_and_prints_what_the_page_shows(block: Block, tmp_path: Path)
         )
 
 
-def test_every_page_has_checked_examples() -> None:
-    for page in PAGES:
-        blocks = [b for b in BLOCKS if b.page == page.name]
+def test_no_run_blocks_are_the_listed_ones() -> None:
+    marked = {
+        (b.page, b.code.splitlines()[0]): b.no_run
+        for b in ALL
+        if b.language == "python" and b.no_run is not None
+    }
+    assert set(marked) == set(NO_RUN_REASONS)
+    assert all(reason for reason in marked.values())
+
+
+def test_every_block_names_its_language() -> None:
+    bad = [
+        f"{b.page}:{b.line} ({b.language!r})"
+        for b in ALL
+        if b.language not in LANGUAGES and not b.language.startswith("{")
+    ]
+    assert not bad, bad
+
+
+def test_every_page_with_python_has_checked_examples() -> None:
+    for page in ("README.md", "choosing.md", "physics.md", "safety_filter.md", "quickstart.md"):
+        blocks = [b for b in PYTHON if b.page == page]
         assert blocks, page
         assert any(b.expected is not None for b in blocks), page
     # one example per problem on the choosing page, each with its output
-    choosing = [b for b in BLOCKS if b.page == "choosing.md"]
+    choosing = [b for b in PYTHON if b.page == "choosing.md"]
     assert len(choosing) >= 7
     assert all(b.expected is not None for b in choosing)
+    tutorials = {b.page for b in PYTHON if b.page.startswith("tutorials/")}
+    assert len(tutorials) >= 5, tutorials
+
+
+# ------------------------------------------------------------------------------ yaml blocks
+
+
+def _load_yaml_block(code: str, path: Path) -> object:
+    """Load a configuration file through the velfence loader its top-level keys call for."""
+    from velfence.io import load_config, load_yaml, parse_shaper
+
+    path.write_text(code, encoding="utf-8")
+    doc = load_yaml(path)
+    keys = set(doc)
+    if "bridge" in keys:
+        from velfence.bridge import load_bridge_config
+
+        return load_bridge_config(path)
+    if "safety_planes" in keys:
+        from velfence.bridge import load_ur_safety_planes
+
+        return load_ur_safety_planes(path)
+    if any(isinstance(v, dict) and "ros__parameters" in v for v in doc.values()):
+        from velfence.bridge import load_nav2_polygons
+
+        return load_nav2_polygons(path, circle_sides=18)  # the page's k = 18
+    if keys == {"shaper", "replay"}:
+        from velfence.io.bags import _config
+
+        return _config(path)
+    if keys == {"shaper"}:
+        return parse_shaper(doc["shaper"])
+    return load_config(path)
+
+
+YAML = [b for b in ALL if b.language == "yaml"]
+
+
+@pytest.mark.parametrize("block", YAML, ids=[f"{b.page}:{b.line}" for b in YAML])
+def test_yaml_block_is_a_valid_velfence_config(block: Block, tmp_path: Path) -> None:
+    loaded = _load_yaml_block(block.code, tmp_path / "block.yaml")
+    assert loaded is not None
+
+
+def test_yaml_loader_refuses_a_bad_config(tmp_path: Path) -> None:
+    from velfence.errors import InvalidParameter
+
+    with pytest.raises(InvalidParameter):
+        _load_yaml_block("shaper:\n  kind: polygon\n  bufer: 0.5\n", tmp_path / "a.yaml")
+    with pytest.raises(InvalidParameter):
+        _load_yaml_block("methods: [exact]\ndt: true\n", tmp_path / "b.yaml")
+
+
+# ------------------------------------------------------------------------------- C blocks
+
+
+def _core_names() -> set[str]:
+    text = "".join(p.read_text(encoding="utf-8") for p in (ROOT / "core" / "include").glob("*.h"))
+    return set(re.findall(r"\b(?:vf|VF)_\w+", text))
+
+
+C_BLOCKS = [b for b in ALL if b.language in ("c", "cpp")]
+
+
+@pytest.mark.parametrize("block", C_BLOCKS, ids=[f"{b.page}:{b.line}" for b in C_BLOCKS])
+def test_c_block_uses_only_names_of_the_core_headers(block: Block) -> None:
+    used = set(re.findall(r"\b(?:vf|VF)_\w+", block.code))
+    assert used, "a C block of these pages shows the core's API"
+    assert used <= _core_names(), sorted(used - _core_names())
+
+
+# ------------------------------------------------------------------------- shell blocks
+
+REPO_PATH = re.compile(r"^(?:examples|benchmarks|core|tests|docs|src)/[\w./-]*[\w]$")
+
+
+def _cli_options() -> dict[tuple[str, ...], set[str]]:
+    """Every command path of the ``velfence`` CLI and its options."""
+    import typer
+
+    from velfence.apps.cli import app
+
+    options: dict[tuple[str, ...], set[str]] = {}
+
+    def walk(cmd: object, path: tuple[str, ...]) -> None:
+        opts = {
+            o
+            for p in getattr(cmd, "params", [])
+            for o in (*getattr(p, "opts", []), *getattr(p, "secondary_opts", []))
+        }
+        options[path] = opts | {"--help"}
+        for name, sub in getattr(cmd, "commands", {}).items():
+            walk(sub, (*path, name))
+
+    walk(typer.main.get_command(app), ())
+    return options
+
+
+def _make_targets() -> set[str]:
+    text = (ROOT / "Makefile").read_text(encoding="utf-8")
+    return set(re.findall(r"^([\w.$()/-]+):", text, re.M)) | {".venv/.installed"}
+
+
+def shell_problems(code: str, cli: dict[tuple[str, ...], set[str]], targets: set[str]) -> list[str]:
+    """What a shell block names that does not exist: CLI options, make targets, repository files."""
+    problems = []
+    for raw in code.splitlines():
+        line = raw.strip().removeprefix("$ ").split(" #")[0]
+        if not line or line.startswith("#"):
+            continue
+        for part in re.split(r"&&|;|\|\|", line):
+            try:
+                words = shlex.split(part.replace("[", " ").replace("]", " "))
+            except ValueError:
+                words = part.split()
+            words = [w for w in words if "=" not in w or w.startswith("-")]  # drop VAR=value
+            for w in words:
+                if REPO_PATH.match(w) and "*" not in w and not (ROOT / w).exists():
+                    problems.append(f"no file {w}")
+            script = next((w for w in words if w.endswith(".py") and REPO_PATH.match(w)), None)
+            if script and (ROOT / script).exists():
+                text = (ROOT / script).read_text(encoding="utf-8")
+                after = words[words.index(script) + 1 :]
+                problems += [
+                    f"{script}: no option {w}"
+                    for w in after
+                    if w.startswith("--") and f'"{w.split("=")[0]}"' not in text
+                ]
+            if words[:1] == ["make"]:
+                problems += [f"no make target {t}" for t in words[1:] if t not in targets]
+            if words[:1] == ["velfence"]:
+                path: tuple[str, ...] = ()
+                for w in words[1:]:
+                    if (*path, w) in cli:
+                        path = (*path, w)
+                    elif not w.startswith("-"):
+                        break
+                if not path and len(words) > 1 and not words[1].startswith("-"):
+                    problems.append(f"no command velfence {words[1]}")
+                for w in words[1:]:
+                    opt = w.split("=")[0].split("|")[0]
+                    if opt.startswith("--") and opt not in cli[path]:
+                        problems.append(f"velfence {' '.join(path)}: no option {opt}")
+    return problems
+
+
+SHELL = [b for b in ALL if b.language in ("bash", "console")]
+
+
+def test_shell_blocks_name_real_commands_options_and_files() -> None:
+    pytest.importorskip("typer")
+    cli, targets = _cli_options(), _make_targets()
+    bad = [f"{b.page}:{b.line}: {p}" for b in SHELL for p in shell_problems(b.code, cli, targets)]
+    assert not bad, "\n".join(bad)
+
+
+def test_shell_check_finds_what_does_not_exist() -> None:
+    pytest.importorskip("typer")
+    cli, targets = _cli_options(), _make_targets()
+    assert shell_problems("velfence demo --out x\nmake docs", cli, targets) == []
+    assert shell_problems("velfence demo --outt x", cli, targets) == [
+        "velfence demo: no option --outt"
+    ]
+    assert shell_problems("make dogs", cli, targets) == ["no make target dogs"]
+    assert shell_problems("python examples/nothing.py", cli, targets) == [
+        "no file examples/nothing.py"
+    ]
+    assert shell_problems("velfence frobnicate", cli, targets) == ["no command velfence frobnicate"]
+    assert shell_problems("python benchmarks/bench_core.py --batch", cli, targets) == []
+    assert shell_problems("python benchmarks/bench_core.py --fast", cli, targets) == [
+        "benchmarks/bench_core.py: no option --fast"
+    ]
+
+
+# ----------------------------------------------------------------------- the test itself
 
 
 def test_extract_pairs_a_block_only_with_the_text_block_right_after_it() -> None:
     page = (
-        "```python\nprint(1)\n```\n\nprose\n\n```text\n1\n```\n"
+        "```python\nprint(1)\n```\n\n```text\n1\n```\n"
         "```python\nprint(2)\n```\n```bash\nls\n```\n```text\nnot mine\n```\n"
+        "```python\nprint(3)\n```\nprose\n```text\nnot mine either\n```\n"
+        "<!-- no-run: needs a robot -->\n```python\nprint(4)\n```\n"
     )
-    a, b = extract(page, "p")
-    assert (a.code, a.expected, a.line) == ("print(1)\n", "1\n", 1)
+    a, b, c, d = (x for x in extract(page, "p") if x.language == "python")
+    assert (a.code, a.expected, a.line, a.no_run) == ("print(1)\n", "1\n", 1, None)
     assert (b.code, b.expected) == ("print(2)\n", None)
+    assert (c.code, c.expected) == ("print(3)\n", None)
+    assert (d.code, d.no_run) == ("print(4)\n", "needs a robot")
 
 
 def test_comparison_is_exact_up_to_trailing_whitespace(tmp_path: Path) -> None:
     assert normalise("a  \nb\n\n") == normalise("a\nb")
     assert normalise(" a") != normalise("a")
     assert normalise("[0.1 0.2]") != normalise("[0.1  0.2]")
-    proc = run_block("print('x')", tmp_path)
-    assert normalise(proc.stdout) == "x"
+    proc = run_block("print(open('f.yaml').read())", tmp_path, {"f.yaml": "x: 1"})
+    assert normalise(proc.stdout) == "x: 1"
     assert normalise(proc.stdout) != normalise("y")
