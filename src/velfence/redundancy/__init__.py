@@ -23,11 +23,14 @@ The output is always finite; with more active rows than :math:`r` the result is 
 (velocity-damper inequalities, as in NEO / mink), solved with qpsolvers (optional dependency).
 """
 
+from velfence._deprecate import module_getattr
 from velfence.redundancy.configuration_control import (
     ConfigurationController,
     ControlResult,
-    Obstacle,
+    InfluenceObstacle,
 )
 from velfence.redundancy.qp_baseline import VelocityDamperQP
 
-__all__ = ["ConfigurationController", "ControlResult", "Obstacle", "VelocityDamperQP"]
+__all__ = ["ConfigurationController", "ControlResult", "InfluenceObstacle", "VelocityDamperQP"]
+
+__getattr__ = module_getattr(__name__, {"Obstacle": "InfluenceObstacle"}, globals())
