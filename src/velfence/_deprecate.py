@@ -21,7 +21,7 @@ import warnings
 from collections.abc import Callable, Mapping
 from typing import Any, TypeVar
 
-__all__ = ["REMOVED_IN", "module_getattr", "renamed_args", "warn_renamed"]
+__all__ = ["REMOVED_IN", "module_getattr", "renamed_args", "renamed_attribute", "warn_renamed"]
 
 #: The release that removes the old names.
 REMOVED_IN = "0.3"
@@ -118,3 +118,23 @@ def module_getattr(
         return namespace[new]
 
     return __getattr__
+
+
+def renamed_attribute(old: str, new: str) -> Any:
+    """A read-only property serving attribute ``new`` under its old name ``old``, with a warning.
+
+    Use in a class body: ``max_velocity = renamed_attribute("max_velocity", "max_speed")``.
+
+    Args:
+        old: The old attribute name.
+        new: The attribute to read.
+
+    Returns:
+        The property.
+    """
+
+    def get(self: Any) -> Any:
+        warn_renamed(f"attribute of {type(self).__name__}", old, new)
+        return getattr(self, new)
+
+    return property(get, doc=f"Deprecated name of :attr:`{new}` (goes in {REMOVED_IN}).")

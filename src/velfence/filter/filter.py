@@ -107,7 +107,7 @@ class SafetyFilter(InvalidPolicy):
         profile: One approach profile for every joint limit (radians); by default a
             three-zone braking profile for each joint with an acceleration limit
             (``ThreeZoneBraking(gain=2 a/v, max_speed=v, max_acceleration=a)``), else a linear
-            buffer of width ``joint_buffer`` whose cap speed is the joint's ``max_velocity``.
+            buffer of width ``joint_buffer`` whose cap speed is the joint's ``max_speed``.
         joint_buffer: Width of the default linear buffer at joint limits [rad], > 0.
         spring_gain: Recovery gain of the default joint buffers and the obstacles [1/s], >= 0.
         obstacle_buffer: Width of the obstacles' linear buffer [m], > 0.
@@ -212,7 +212,7 @@ class SafetyFilter(InvalidPolicy):
                 f"{list(robot.joint_names)}"
             )
         self.limits = limits
-        self._speed_scale = float(np.max(limits.max_velocity))
+        self._speed_scale = float(np.max(limits.max_speed))
         self.dt = None if dt is None else check_positive("dt", dt, unit="s")
         self.spring_gain = check_positive("spring_gain", spring_gain, allow_zero=True, unit="1/s")
         jb = check_positive("joint_buffer", joint_buffer, unit="rad")
@@ -231,7 +231,7 @@ class SafetyFilter(InvalidPolicy):
         self._warm: set[tuple[int, int]] = set()
         core, self.backend = pick_backend(backend)
         self._projector = Projector(
-            core, self.max_iterations, np.asarray(self.limits.max_velocity, dtype=np.float64)
+            core, self.max_iterations, np.asarray(self.limits.max_speed, dtype=np.float64)
         )
         kern: BoundKernels = PLAIN_BOUNDS if core is None else (None, core)
         profs = parts.joint_profiles(limits, profile, joint_buffer=jb, spring_gain=self.spring_gain)
@@ -260,7 +260,7 @@ class SafetyFilter(InvalidPolicy):
                     n=n,
                     buffer=self.obstacle_buffer,
                     spring_gain=self.spring_gain,
-                    max_velocity=limits.max_velocity,
+                    max_speed=limits.max_speed,
                 )
             )
         self._n_builtin = len(rows)

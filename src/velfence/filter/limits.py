@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from velfence._deprecate import renamed_attribute, warn_renamed
 from velfence._typing import FloatArray
 from velfence._validate import (
     MAX_MAGNITUDE,
@@ -52,14 +53,20 @@ def _vector(
     return a
 
 
-@dataclass(frozen=True)
+_UNSET: Any = object()
+
+
+@dataclass(frozen=True, init=False)
 class JointLimits:
     """Position, velocity and (optional) acceleration limits of every joint.
+
+    ``JointLimits(lower, upper, max_speed, *, max_acceleration=None, names=None)``. The speed
+    limit was called ``max_velocity`` before 0.2: that keyword and attribute warn until 0.3.
 
     Attributes:
         lower: Lower position limit of each joint [rad], shape (n,); ``-inf``: none.
         upper: Upper position limit [rad], shape (n,), ``> lower``; ``+inf``: none.
-        max_velocity: Largest joint speed [rad/s], shape (n,), finite and > 0 (a scalar is
+        max_speed: Largest joint speed [rad/s], shape (n,), finite and > 0 (a scalar is
             repeated).
         max_acceleration: Largest joint acceleration [rad/s²], shape (n,), > 0, ``inf`` for a
             joint without one; ``None`` (the default): none on any joint.
@@ -73,10 +80,52 @@ class JointLimits:
 
     lower: FloatArray
     upper: FloatArray
-    max_velocity: FloatArray
+    max_speed: FloatArray
     _: KW_ONLY
     max_acceleration: FloatArray | None = None
     names: tuple[str, ...] | None = None
+
+    def __init__(
+        self,
+        lower: Any,
+        upper: Any,
+        max_speed: Any = _UNSET,
+        *,
+        max_acceleration: Any = None,
+        names: Any = None,
+        max_velocity: Any = _UNSET,
+    ) -> None:
+        """Validate and store the limits (see the class docstring).
+
+        Args:
+            lower: Lower position limits [rad], shape (n,).
+            upper: Upper position limits [rad], shape (n,).
+            max_speed: Joint speed limits [rad/s], shape (n,) or a scalar.
+            max_acceleration: Joint acceleration limits [rad/s²], or None.
+            names: Joint names, or None.
+            max_velocity: Deprecated name of ``max_speed`` (warns; goes in 0.3).
+
+        Raises:
+            InvalidParameter: as the class docstring says, or both ``max_speed`` and
+                ``max_velocity`` (or neither) given.
+        """
+        if max_velocity is not _UNSET:
+            if max_speed is not _UNSET:
+                raise InvalidParameter(
+                    "max_speed, max_velocity: two names of one limit; pass max_speed only"
+                )
+            warn_renamed("keyword argument of JointLimits()", "max_velocity", "max_speed")
+            max_speed = max_velocity
+        if max_speed is _UNSET:
+            raise InvalidParameter("max_speed: missing (joint speed limits [rad/s])")
+        object.__setattr__(self, "lower", lower)
+        object.__setattr__(self, "upper", upper)
+        object.__setattr__(self, "max_speed", max_speed)
+        object.__setattr__(self, "max_acceleration", max_acceleration)
+        object.__setattr__(self, "names", names)
+        self.__post_init__()
+
+    max_velocity = renamed_attribute("max_velocity", "max_speed")
 
     def __post_init__(self) -> None:
         lo = _vector("lower", self.lower, None, "lower limits [rad] of shape (n,)", nonfinite=True)
@@ -97,11 +146,11 @@ class JointLimits:
                 f"lower[{j}]={lo[j]!r}"
             )
         v = _vector(
-            "max_velocity", self.max_velocity, n, f"joint speeds [rad/s] of shape ({n},)",
+            "max_speed", self.max_speed, n, f"joint speeds [rad/s] of shape ({n},)",
             scalar=True,
         )  # fmt: skip
         if not np.all(v > 0.0):
-            raise InvalidParameter(f"max_velocity: expected speeds > 0 [rad/s], got {v.tolist()}")
+            raise InvalidParameter(f"max_speed: expected speeds > 0 [rad/s], got {v.tolist()}")
         acc: FloatArray | None = None
         if self.max_acceleration is not None:
             acc = _vector(
@@ -128,7 +177,7 @@ class JointLimits:
                 )
         object.__setattr__(self, "lower", readonly(lo))
         object.__setattr__(self, "upper", readonly(hi))
-        object.__setattr__(self, "max_velocity", readonly(v))
+        object.__setattr__(self, "max_speed", readonly(v))
         object.__setattr__(self, "max_acceleration", acc)
         object.__setattr__(self, "names", names)
 
