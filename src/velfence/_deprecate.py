@@ -16,10 +16,13 @@ Every message contains "goes in 0.3".
 from __future__ import annotations
 
 import functools
+import inspect
 import sys
 import warnings
 from collections.abc import Callable, Mapping
 from typing import Any, TypeVar
+
+from velfence.errors import InvalidParameter
 
 __all__ = ["REMOVED_IN", "module_getattr", "renamed_args", "renamed_attribute", "warn_renamed"]
 
@@ -51,7 +54,7 @@ def renamed_args(**renames: str) -> Callable[[F], F]:
     ``@renamed_args(q="position", qd_cmd="command")`` lets ``f(q=..., qd_cmd=...)`` run as
     ``f(position=..., command=...)`` and warn; positional calls and the new keywords pass
     straight through. Giving both the old and the new name of one argument raises
-    :class:`TypeError`, as a duplicate argument does.
+    :class:`~velfence.errors.InvalidParameter`.
 
     Args:
         **renames: Old keyword name -> new keyword name.
@@ -62,14 +65,17 @@ def renamed_args(**renames: str) -> Callable[[F], F]:
 
     def decorate(func: F) -> F:
         qualname = func.__qualname__
+        params = list(inspect.signature(func).parameters)
+        # How many positional arguments reach each new name (it was given positionally then).
+        position = {new: params.index(new) for new in renames.values()}
 
         @functools.wraps(func)
         def wrapper(*args: Any, **kwargs: Any) -> Any:
             if kwargs:
                 for old in renames.keys() & kwargs.keys():
                     new = renames[old]
-                    if new in kwargs:
-                        raise TypeError(
+                    if new in kwargs or len(args) > position[new]:
+                        raise InvalidParameter(
                             f"{qualname}() got {old!r} and {new!r}, two names of one argument; "
                             f"pass {new!r} only"
                         )

@@ -431,7 +431,7 @@ def test_inputs_are_validated() -> None:
 def test_joint_limits_are_validated() -> None:
     with pytest.raises(InvalidParameter, match="upper"):
         JointLimits([0.0, 1.0], [1.0, 0.5], 1.0)
-    with pytest.raises(InvalidParameter, match="max_velocity"):
+    with pytest.raises(InvalidParameter, match="max_speed"):
         JointLimits([0.0], [1.0], 0.0)
     with pytest.raises(InvalidParameter, match="max_acceleration"):
         JointLimits([0.0], [1.0], 1.0, max_acceleration=[-1.0])

@@ -194,7 +194,7 @@ SPECS: dict[str, F | C] = {
     "filter.JointLimits": C(
         F(
             lambda: call([-1.0, -2.0], [1.0, 2.0], [1.0, 0.5], max_acceleration=[5.0, 4.0]),
-            types={"lower": "vector", "upper": "vector", "max_velocity": "vector"},
+            types={"lower": "vector", "upper": "vector", "max_speed": "vector"},
         ),
         {
             "from_ros2_control": F(

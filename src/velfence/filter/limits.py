@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from velfence._deprecate import renamed_attribute, warn_renamed
+from velfence._deprecate import renamed_args, renamed_attribute
 from velfence._typing import FloatArray
 from velfence._validate import (
     MAX_MAGNITUDE,
@@ -53,15 +53,12 @@ def _vector(
     return a
 
 
-_UNSET: Any = object()
-
-
-@dataclass(frozen=True, init=False)
+@dataclass(frozen=True)
 class JointLimits:
     """Position, velocity and (optional) acceleration limits of every joint.
 
-    ``JointLimits(lower, upper, max_speed, *, max_acceleration=None, names=None)``. The speed
-    limit was called ``max_velocity`` before 0.2: that keyword and attribute warn until 0.3.
+    The speed limit was called ``max_velocity`` before 0.2: that keyword and attribute warn until
+    0.3.
 
     Attributes:
         lower: Lower position limit of each joint [rad], shape (n,); ``-inf``: none.
@@ -84,46 +81,6 @@ class JointLimits:
     _: KW_ONLY
     max_acceleration: FloatArray | None = None
     names: tuple[str, ...] | None = None
-
-    def __init__(
-        self,
-        lower: Any,
-        upper: Any,
-        max_speed: Any = _UNSET,
-        *,
-        max_acceleration: Any = None,
-        names: Any = None,
-        max_velocity: Any = _UNSET,
-    ) -> None:
-        """Validate and store the limits (see the class docstring).
-
-        Args:
-            lower: Lower position limits [rad], shape (n,).
-            upper: Upper position limits [rad], shape (n,).
-            max_speed: Joint speed limits [rad/s], shape (n,) or a scalar.
-            max_acceleration: Joint acceleration limits [rad/s²], or None.
-            names: Joint names, or None.
-            max_velocity: Deprecated name of ``max_speed`` (warns; goes in 0.3).
-
-        Raises:
-            InvalidParameter: as the class docstring says, or both ``max_speed`` and
-                ``max_velocity`` (or neither) given.
-        """
-        if max_velocity is not _UNSET:
-            if max_speed is not _UNSET:
-                raise InvalidParameter(
-                    "max_speed, max_velocity: two names of one limit; pass max_speed only"
-                )
-            warn_renamed("keyword argument of JointLimits()", "max_velocity", "max_speed")
-            max_speed = max_velocity
-        if max_speed is _UNSET:
-            raise InvalidParameter("max_speed: missing (joint speed limits [rad/s])")
-        object.__setattr__(self, "lower", lower)
-        object.__setattr__(self, "upper", upper)
-        object.__setattr__(self, "max_speed", max_speed)
-        object.__setattr__(self, "max_acceleration", max_acceleration)
-        object.__setattr__(self, "names", names)
-        self.__post_init__()
 
     max_velocity = renamed_attribute("max_velocity", "max_speed")
 
@@ -276,6 +233,12 @@ class JointLimits:
             )
         except InvalidParameter as exc:
             raise InvalidParameter(f"joint_limits: {exc}") from None
+
+
+# The dataclass's own __init__, taking the old keyword max_velocity with a warning until 0.3.
+JointLimits.__init__ = renamed_args(max_velocity="max_speed")(  # type: ignore[method-assign]
+    JointLimits.__init__
+)
 
 
 #: The fields of a ros2_control joint_limits entry (joint_limits/joint_limits_rosparam.hpp);
