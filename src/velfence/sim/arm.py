@@ -275,18 +275,20 @@ class TwistMode:
         """Forget the filter's remembered output (:func:`velfence.sim.simulate` calls it)."""
         self.filter.reset()
 
-    def explain(self, q: ArrayLike, twist: ArrayLike, /) -> Any:
-        """The filter's :class:`~velfence.filter.FilterResult` for TCP command ``twist``."""
-        return self.filter.explain_twist(q, twist, point=self.point)
+    def explain(self, position: ArrayLike, command: ArrayLike, /) -> Any:
+        """The filter's :class:`~velfence.filter.FilterResult` for the TCP twist ``command``."""
+        return self.filter.explain_twist(position, command, point=self.point)
 
-    def shape(self, q: ArrayLike, twist: ArrayLike, /) -> FloatArray:
-        """Joint velocity [rad/s], shape (n,), for TCP command ``twist`` [m/s] at ``q`` [rad]."""
-        return np.asarray(self.filter.filter_twist(q, twist, point=self.point), dtype=float)
+    def shape(self, position: ArrayLike, command: ArrayLike, /) -> FloatArray:
+        """Joint velocity [rad/s], shape (n,), for TCP twist ``command`` [m/s] at ``position``."""
+        return np.asarray(
+            self.filter.filter_twist(position, command, point=self.point), dtype=float
+        )
 
-    def shape_batch(self, Q: ArrayLike, V: ArrayLike, /) -> FloatArray:
-        """:meth:`shape` row by row: ``Q`` (N, n), ``V`` (N, 3) -> (N, n)."""
-        Qa = real_array("Q", Q, (None, None), what="joint positions [rad]")
-        Va = real_array("V", V, (Qa.shape[0], 3), what="TCP velocities [m/s]")
+    def shape_batch(self, positions: ArrayLike, commands: ArrayLike, /) -> FloatArray:
+        """:meth:`shape` row by row: ``positions`` (N, n), ``commands`` (N, 3) -> (N, n)."""
+        Qa = real_array("positions", positions, (None, None), what="joint positions [rad]")
+        Va = real_array("commands", commands, (Qa.shape[0], 3), what="TCP velocities [m/s]")
         return np.array([self.shape(q, v) for q, v in zip(Qa, Va, strict=True)]).reshape(Qa.shape)
 
 
