@@ -197,3 +197,17 @@ def test_renamed_args_refuses_both_names_and_keeps_the_signature() -> None:
     import inspect
 
     assert list(inspect.signature(f).parameters) == ["new", "other"]
+
+
+def test_resolved_rate_old_keywords() -> None:
+    from velfence.apps.teleop.resolved_rate import ResolvedRate
+    from velfence.mechanisms.puma560 import Puma560
+
+    rr = ResolvedRate(Puma560())
+    q = np.array([0.1, -0.4, 0.3, 0.2, 0.5, -0.1])
+    xdot = np.array([0.05, 0.0, -0.02, 0.0, 0.1, 0.0])
+    for name in ("step", "explain"):
+        got, want = _old_and_new(
+            getattr(rr, name), {"q": q, "xdot": xdot}, {"position": q, "command": xdot}
+        )
+        np.testing.assert_array_equal(getattr(got, "qdot", got), getattr(want, "qdot", want))
