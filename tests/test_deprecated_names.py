@@ -211,3 +211,17 @@ def test_resolved_rate_old_keywords() -> None:
             getattr(rr, name), {"q": q, "xdot": xdot}, {"position": q, "command": xdot}
         )
         np.testing.assert_array_equal(getattr(got, "qdot", got), getattr(want, "qdot", want))
+
+
+def test_line_fixture_radius_of_influence() -> None:
+    from velfence.shaping import LineFixture
+
+    p0, u = np.zeros(3), np.array([1.0, 0.0, 0.0])
+    got, want = _old_and_new(
+        lambda **kw: LineFixture(p0, u, **kw), {"radius_of_influence": 0.03}, {"influence": 0.03}
+    )
+    assert got.influence == want.influence == 0.03
+    with pytest.warns(DeprecationWarning, match=WARNS):
+        assert want.radius_of_influence == 0.03
+    p, v = np.array([0.1, 0.02, 0.0]), np.array([0.05, 0.01, 0.0])
+    _equal(got.shape(p, v), want.shape(p, v))

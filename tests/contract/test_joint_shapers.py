@@ -53,7 +53,7 @@ def _line_fixture(kind: str, **overrides):
     point, direction = (1.5, 1.6, 1.4), (1.0, 0.5, -2.0)
     if kind == "scaling":
         return LineScaling(point, direction, **overrides)
-    kw = {"stiffness": 2.0, "radius_of_influence": 0.6, "max_force": 0.5}
+    kw = {"stiffness": 2.0, "influence": 0.6, "max_force": 0.5}
     kw["length"] = 0.6 if kind == "segment" else None
     return LineFixture(point, direction, **{**kw, **overrides})
 
