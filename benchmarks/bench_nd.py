@@ -200,9 +200,7 @@ def filter_routes(k: int, n_states: int, with_mink: bool) -> list[Route]:
 
         model = mujoco.MjModel.from_xml_string(seven_dof_mjcf(sc.arm, sc.obstacles))
         conf = mink.Configuration(model)
-        vmax = {
-            n: float(v) for n, v in zip(sc.arm.joint_names, sc.limits.max_velocity, strict=True)
-        }
+        vmax = {n: float(v) for n, v in zip(sc.arm.joint_names, sc.limits.max_speed, strict=True)}
         limits: list[Any] = [
             mink.ConfigurationLimit(model),
             mink.VelocityLimit(model, vmax),

@@ -108,7 +108,9 @@ def test_top_level_reexports_are_the_subpackage_objects() -> None:
         if not callable(obj) or not home.startswith("velfence."):
             continue
         defining = importlib.import_module(home)
-        assert getattr(defining, name, obj) is obj, name
+        # A name renamed in 0.2 (velfence.Obstacle, velfence.ShaperResult) is the object under
+        # its new name there; asking the module for the old name would warn.
+        assert getattr(defining, getattr(obj, "__name__", name), obj) is obj, name
 
 
 # ------------------------------------------------------------------------------- documentation

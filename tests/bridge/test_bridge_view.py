@@ -146,7 +146,7 @@ def test_cli_records_the_view_and_refuses_twist_mode(tmp_path: Path) -> None:
     (tmp_path / "t.yaml").write_text(
         f"bridge:\n  domain_id: {DOMAIN}\n  command_in: {{type: twist}}\n"
         "  command_out: {type: float64_multi_array}\n  state: {type: joint_state}\n"
-        "shaper:\n  kind: safety_filter\n  robot: panda\n  max_velocity: 2.0\n  dt: 0.002\n"
+        "shaper:\n  kind: safety_filter\n  robot: panda\n  max_speed: 2.0\n  dt: 0.002\n"
     )
     bad = _cli(["--config", "t.yaml", "--record", "w.mcap"], tmp_path)
     assert bad.returncode == EXIT_CONFIG

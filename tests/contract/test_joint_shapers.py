@@ -19,7 +19,7 @@ import pytest
 from bad_inputs import bad_tuning_values
 from velfence import InvalidInput, InvalidParameter, Shaper, StopLimiter, ThreeZoneBraking
 from velfence.mechanisms.cospm import PAPER_STOPS, Q_AUX
-from velfence.shaping.base import ZONES, ShaperResult
+from velfence.shaping.base import ZONES, ShapingResultProtocol
 
 
 def _stop_limiter(method: str):
@@ -34,10 +34,10 @@ def _stop_limiter(method: str):
 def _configuration_control(kind: str):
     def make(**overrides):
         from velfence.mechanisms.chain import PlanarArm
-        from velfence.redundancy import ConfigurationController, Obstacle, VelocityDamperQP
+        from velfence.redundancy import ConfigurationController, InfluenceObstacle, VelocityDamperQP
 
         arm = PlanarArm.three_r()
-        obs = [Obstacle(center=np.array([0.8, 1.2]), radius=0.05, influence=0.3)]
+        obs = [InfluenceObstacle(center=np.array([0.8, 1.2]), radius=0.05, influence=0.3)]
         if kind == "qp":
             return VelocityDamperQP(arm, obs, **overrides)
         return ConfigurationController(arm, obs, **overrides)
@@ -53,7 +53,7 @@ def _line_fixture(kind: str, **overrides):
     point, direction = (1.5, 1.6, 1.4), (1.0, 0.5, -2.0)
     if kind == "scaling":
         return LineScaling(point, direction, **overrides)
-    kw = {"stiffness": 2.0, "radius_of_influence": 0.6, "max_force": 0.5}
+    kw = {"stiffness": 2.0, "influence": 0.6, "max_force": 0.5}
     kw["length"] = 0.6 if kind == "segment" else None
     return LineFixture(point, direction, **{**kw, **overrides})
 
@@ -148,7 +148,7 @@ def test_explain_satisfies_the_typed_result_contract(name, make, dim, cdim):
     seen = set()
     for x, v in zip(X, V, strict=True):
         r = s.explain(x, v)
-        assert isinstance(r, ShaperResult)
+        assert isinstance(r, ShapingResultProtocol)
         assert r.zone in ZONES
         assert isinstance(r.active, tuple)
         assert all(isinstance(k, int) and k >= 0 for k in r.active)

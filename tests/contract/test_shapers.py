@@ -6,10 +6,10 @@ Adding a shaper means adding one entry to ``FACTORIES``: ``(name, make)`` where
 for the parameter checks, each keyword-only parameter). States are drawn around ``POLYGON``.
 
 Checks: finite float (2,) output; ``explain().output == shape()``; ``shape_batch`` equals a loop of
-``shape`` exactly; ``explain`` satisfies the typed result contract (``ShaperResult``: a ``Zone``
-name, the active constraints, the stage names); non-finite input raises ``InvalidInput`` naming
-"finite" or, with ``on_invalid="stop"``, gives zeros; wrong shapes raise ``InvalidInput``; all
-tuning parameters are keyword-only; a bad parameter raises ``InvalidParameter`` naming it.
+``shape`` exactly; ``explain`` satisfies the typed result contract (``ShapingResultProtocol``: a
+``Zone`` name, the active constraints, the stage names); non-finite input raises ``InvalidInput``
+naming "finite" or, with ``on_invalid="stop"``, gives zeros; wrong shapes raise ``InvalidInput``;
+all tuning parameters are keyword-only; a bad parameter raises ``InvalidParameter`` naming it.
 """
 
 from __future__ import annotations
@@ -34,7 +34,7 @@ from velfence import (
     ThreeZoneBraking,
 )
 from velfence.shaping import ZONE_NAMES
-from velfence.shaping.base import ZONES, ShaperResult
+from velfence.shaping.base import ZONES, ShapingResultProtocol
 from velfence.sim import AxisLimits, HardStop, NoLimit
 
 POLYGON = ConvexPolygon([[0, 0], [2, 0], [2.5, 1], [1, 2], [-0.5, 1]])  # the README's pentagon
@@ -159,7 +159,7 @@ def test_explain_satisfies_the_typed_result_contract(make: Factory) -> None:
     seen: set[str] = set()
     for p, v in zip(P, V, strict=True):
         r = sh.explain(p, v)
-        assert isinstance(r, ShaperResult)
+        assert isinstance(r, ShapingResultProtocol)
         assert r.zone in ZONES
         assert isinstance(r.stages, tuple)
         assert all(isinstance(x, str) for x in r.stages)

@@ -350,7 +350,7 @@ def test_headers_agree_with_the_python_mirrors(tmp_path: Path) -> None:
            ("LINEAR", "THREE_ZONE", "PARAMS")},
         "VF_OK": projection.PROJECT_OPTIMAL,
         "VF_INFEASIBLE": projection.PROJECT_INFEASIBLE,
-        "VF_STALLED": projection.PROJECT_ITERATION_LIMIT,
+        "VF_STALLED": projection.PROJECT_STALLED,
     }  # fmt: skip
     src = tmp_path / "consts.c"
     src.write_text(

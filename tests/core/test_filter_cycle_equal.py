@@ -139,7 +139,7 @@ def _model_borderline(sf: Any, q: Any, u: Any, prev: Any, xs: tuple[Any, ...]) -
     """Whether a model-checked row's next distance is within round-off of its target."""
     if sf.dt is None:
         return False
-    cap = 1e3 * float(np.max(sf.limits.max_velocity))
+    cap = 1e3 * float(np.max(sf.limits.max_speed))
     big = float(np.abs(u).max())
     uc = u * (cap / big) if big > cap else u
     cyc = sf._build_rows(q, uc, prev if sf._has_accel else None)  # (the Python providers)

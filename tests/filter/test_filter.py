@@ -407,9 +407,9 @@ def test_on_invalid_stop_answers_zero() -> None:
 
 def test_inputs_are_validated() -> None:
     f = box_filter()
-    with pytest.raises(InvalidInput, match="qd_cmd"):
+    with pytest.raises(InvalidInput, match="command"):
         f.filter(Q0, np.zeros(6))
-    with pytest.raises(InvalidInput, match="twist"):
+    with pytest.raises(InvalidInput, match="command: expected a twist"):
         f.filter_twist(Q0, np.zeros(4))
     with pytest.raises(InvalidInput, match="point"):
         f.filter_twist(Q0, np.zeros(3), point="knee")
@@ -431,7 +431,7 @@ def test_inputs_are_validated() -> None:
 def test_joint_limits_are_validated() -> None:
     with pytest.raises(InvalidParameter, match="upper"):
         JointLimits([0.0, 1.0], [1.0, 0.5], 1.0)
-    with pytest.raises(InvalidParameter, match="max_velocity"):
+    with pytest.raises(InvalidParameter, match="max_speed"):
         JointLimits([0.0], [1.0], 0.0)
     with pytest.raises(InvalidParameter, match="max_acceleration"):
         JointLimits([0.0], [1.0], 1.0, max_acceleration=[-1.0])

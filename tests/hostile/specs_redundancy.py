@@ -6,14 +6,14 @@ import numpy as np
 from common import planar3
 from harness import C, F, call
 
-from velfence.redundancy import ConfigurationController, Obstacle
+from velfence.redundancy import ConfigurationController, InfluenceObstacle
 
 _Q = np.array([0.3, 0.4, -0.2])
 _V = np.array([0.1, -0.2])
 
 
-def _obstacles() -> list[Obstacle]:
-    return [Obstacle(center=np.array([1.5, 1.2]), radius=0.1, influence=0.3)]
+def _obstacles() -> list[InfluenceObstacle]:
+    return [InfluenceObstacle(center=np.array([1.5, 1.2]), radius=0.1, influence=0.3)]
 
 
 def _methods(extra: dict[str, F] | None = None) -> dict[str, F]:
@@ -34,7 +34,7 @@ def _distances() -> np.ndarray:
 
 
 SPECS: dict[str, F | C] = {
-    "redundancy.Obstacle": C(
+    "redundancy.InfluenceObstacle": C(
         F(
             lambda: call(np.array([1.5, 1.2]), radius=0.1, influence=0.3),
             # radius 0 is documented (>= 0): a point obstacle.

@@ -109,7 +109,9 @@ def stop_limiter() -> vf.StopLimiter:
 SPECS: dict[str, F | C] = {
     "shaping.ApproachProfile": C(abstract="Protocol: exercised through its implementations"),
     "shaping.Shaper": C(abstract="Protocol: exercised through its implementations"),
-    "shaping.ShaperResult": C(abstract="Protocol: satisfied by every shaper's explain() record"),
+    "shaping.ShapingResultProtocol": C(
+        abstract="Protocol: satisfied by every shaper's explain() record"
+    ),
     "shaping.LinearBuffer": C(F(lambda: call(buffer=0.2, spring_gain=4.0)), _PROFILE_METHODS),
     "shaping.ThreeZoneBraking": C(
         lambda: call(gain=4.0, max_speed=1.0, max_acceleration=2.0),
@@ -192,7 +194,7 @@ SPECS: dict[str, F | C] = {
     "filter.JointLimits": C(
         F(
             lambda: call([-1.0, -2.0], [1.0, 2.0], [1.0, 0.5], max_acceleration=[5.0, 4.0]),
-            types={"lower": "vector", "upper": "vector", "max_velocity": "vector"},
+            types={"lower": "vector", "upper": "vector", "max_speed": "vector"},
         ),
         {
             "from_ros2_control": F(

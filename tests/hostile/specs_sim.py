@@ -105,7 +105,7 @@ SPECS.update(
                     "robot": "path",
                     "kv": "vector",
                     "max_effort": "vector",
-                    "max_velocity": "vector",
+                    "max_speed": "vector",
                     "servo": "choice",
                 },
                 skip={

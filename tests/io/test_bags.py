@@ -506,7 +506,7 @@ def test_twist_mode_safety_filter_writes_the_tcp_twist(tmp_path: Path) -> None:
         "kind": "safety_filter",
         "robot": "panda",
         "mode": "twist",
-        "max_velocity": 2.0,
+        "max_speed": 2.0,
         "workspace": {"lower": [0.3, -0.3, 0.2], "upper": [0.5, 0.3, 0.6], "buffer": 0.05},
         "dt": 0.002,
     }

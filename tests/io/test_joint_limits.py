@@ -44,7 +44,7 @@ def test_a_good_file_is_read_in_the_robot_order(tmp_path: Path) -> None:
     k = np.arange(6)[::-1]  # joint j of the robot was written at position 5 - j
     np.testing.assert_array_equal(lim.lower, -1.0 - k)
     np.testing.assert_array_equal(lim.upper, 1.0 + k)
-    np.testing.assert_array_equal(lim.max_velocity, 0.5 + k)
+    np.testing.assert_array_equal(lim.max_speed, 0.5 + k)
     assert lim.max_acceleration is not None
     np.testing.assert_array_equal(lim.max_acceleration, 2.0 + k)
     assert lim.names == UR5E.joint_names
@@ -91,7 +91,7 @@ def test_has_position_limits_false_means_no_position_limit(tmp_path: Path) -> No
 
     r = SafetyFilter(UR5E, limits=lim).explain(np.zeros(6), np.full(6, 10.0))
     assert not any("position" in n for n in r.constraint_names)
-    np.testing.assert_allclose(r.output, lim.max_velocity)
+    np.testing.assert_allclose(r.output, lim.max_speed)
 
 
 def test_wrong_values_are_refused(tmp_path: Path) -> None:

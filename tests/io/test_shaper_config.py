@@ -76,7 +76,7 @@ def test_safety_filter_section_in_twist_mode() -> None:
         {
             "kind": "safety_filter",
             "robot": "panda",
-            "max_velocity": 2.0,
+            "max_speed": 2.0,
             "dt": 0.002,
             "workspace": {"lower": [0.3, -0.3, 0.2], "upper": [0.7, 0.3, 0.7], "buffer": 0.05},
         }

@@ -9,7 +9,7 @@ import pytest
 from bad_inputs import BAD_VECTORS
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.mechanisms import PlanarArm
-from velfence.redundancy import ConfigurationController, ControlResult, Obstacle
+from velfence.redundancy import ConfigurationController, ControlResult, InfluenceObstacle
 
 BAD = {
     **BAD_VECTORS,
@@ -20,7 +20,7 @@ BAD = {
 @pytest.mark.parametrize("kind", sorted(BAD))
 def test_obstacle_center(kind: str):
     with pytest.raises(InvalidParameter, match=r"^center: "):
-        Obstacle(BAD[kind], radius=0.1, influence=0.3)
+        InfluenceObstacle(BAD[kind], radius=0.1, influence=0.3)
 
 
 @pytest.mark.parametrize("value", ["0.1", True, 1j, math.nan, 10**400, None])
@@ -28,23 +28,23 @@ def test_obstacle_center(kind: str):
 def test_obstacle_sizes(value: object, field: str):
     args: dict[str, object] = {"radius": 0.1, "influence": 0.3, field: value}
     with pytest.raises(InvalidParameter, match=rf"^{field}"):
-        Obstacle([0.0, 0.0], **args)  # type: ignore[arg-type]
+        InfluenceObstacle([0.0, 0.0], **args)  # type: ignore[arg-type]
 
 
 def test_obstacle_and_result_are_keyword_only():
     with pytest.raises(TypeError):
-        Obstacle([0.0, 0.0], 0.1, 0.3)  # type: ignore[misc]
-    for cls in (Obstacle, ControlResult):
+        InfluenceObstacle([0.0, 0.0], 0.1, 0.3)  # type: ignore[misc]
+    for cls in (InfluenceObstacle, ControlResult):
         params = list(inspect.signature(cls).parameters.values())
-        for p in params[1:] if cls is Obstacle else params:
+        for p in params[1:] if cls is InfluenceObstacle else params:
             assert p.kind is inspect.Parameter.KEYWORD_ONLY, (cls.__name__, p.name)
 
 
 @pytest.mark.parametrize("kind", sorted(BAD))
-@pytest.mark.parametrize("arg", ["q", "ee_velocity", "ee_target"])
+@pytest.mark.parametrize("arg", ["position", "command", "ee_target"])
 def test_control_names_the_argument(kind: str, arg: str):
     ctl = ConfigurationController(PlanarArm((1.0, 1.0, 1.0)), [])
-    args: dict[str, object] = {"q": np.zeros(3), "ee_velocity": np.zeros(2), arg: BAD[kind]}
+    args: dict[str, object] = {"position": np.zeros(3), "command": np.zeros(2), arg: BAD[kind]}
     if kind == "None" and arg == "ee_target":
         return  # ee_target=None is "no target"
     with pytest.raises(InvalidInput, match=rf"^{arg}: "):
@@ -52,17 +52,17 @@ def test_control_names_the_argument(kind: str, arg: str):
 
 
 @pytest.mark.parametrize("kind", ["str", "dict", "complex", "ragged", "huge-int"])
-def test_shape_batch_names_q_and_v(kind: str):
+def test_shape_batch_names_positions_and_commands(kind: str):
     ctl = ConfigurationController(PlanarArm((1.0, 1.0, 1.0)), [])
-    with pytest.raises(InvalidInput, match=r"^Q: "):
+    with pytest.raises(InvalidInput, match=r"^positions: "):
         ctl.shape_batch(BAD[kind], np.zeros((1, 2)))
-    with pytest.raises(InvalidInput, match=r"^V: "):
+    with pytest.raises(InvalidInput, match=r"^commands: "):
         ctl.shape_batch(np.zeros((1, 3)), BAD[kind])
 
 
 def test_obstacles_refuse_a_string_and_name_the_bad_entries():
     with pytest.raises(
-        InvalidParameter, match=r"obstacles must be a sequence of Obstacle, got str"
+        InvalidParameter, match=r"obstacles must be a sequence of InfluenceObstacle, got str"
     ):
         ConfigurationController(PlanarArm([1.0, 1.0, 1.0]), "")
     with pytest.raises(InvalidParameter, match=r"got list containing float"):
@@ -71,11 +71,11 @@ def test_obstacles_refuse_a_string_and_name_the_bad_entries():
 
 def test_obstacle_center_must_be_one_point():
     with pytest.raises(InvalidParameter, match=r"center: .*got shape \(1, 2\)"):
-        Obstacle(center=np.array([[1.0, 1.0]]), radius=0.1, influence=0.3)
+        InfluenceObstacle(center=np.array([[1.0, 1.0]]), radius=0.1, influence=0.3)
 
 
 def test_shape_batch_names_the_row():
     c = ConfigurationController(PlanarArm([1.0, 1.0, 1.0]), [])
     Q = np.array([[0.3, 0.4, -0.2], [np.nan, 0.4, -0.2]])
-    with pytest.raises(InvalidInput, match=r"Q, V row 1: "):
+    with pytest.raises(InvalidInput, match=r"positions, commands row 1: "):
         c.shape_batch(Q, np.zeros((2, 2)))

@@ -78,7 +78,7 @@ def test_scaling_non_finite_input():
 
 # ----------------------------------------------------------------------------- fixture
 def test_fixture_force_is_perpendicular_and_spring_like_inside():
-    f = LineFixture(P0, U, stiffness=200.0, radius_of_influence=0.02, max_force=3.3)
+    f = LineFixture(P0, U, stiffness=200.0, influence=0.02, max_force=3.3)
     rng = np.random.default_rng(1)
     for _ in range(100):
         along = rng.uniform(-0.5, 0.5)
@@ -93,7 +93,7 @@ def test_fixture_force_is_perpendicular_and_spring_like_inside():
 
 
 def test_fixture_force_is_zero_outside_influence():
-    f = LineFixture(P0, U, radius_of_influence=0.02)
+    f = LineFixture(P0, U, influence=0.02)
     n = _perp(UHAT)
     np.testing.assert_array_equal(f.force(P0 + 0.0201 * n), 0.0)
     r = f.explain(P0 + 0.05 * n, UHAT)
@@ -102,19 +102,19 @@ def test_fixture_force_is_zero_outside_influence():
 
 
 def test_fixture_force_saturates_at_device_limit():
-    f = LineFixture(P0, U, stiffness=1000.0, radius_of_influence=0.05)
+    f = LineFixture(P0, U, stiffness=1000.0, influence=0.05)
     assert f.max_force == OMNI_CONTINUOUS_FORCE
     n = _perp(UHAT)
     r = f.explain(P0 + 0.04 * n, np.zeros(3))
     assert r.saturated
     assert np.linalg.norm(r.force) == pytest.approx(OMNI_CONTINUOUS_FORCE)
-    peak = LineFixture(P0, U, stiffness=1000.0, radius_of_influence=0.05, max_force=OMNI_MAX_FORCE)
+    peak = LineFixture(P0, U, stiffness=1000.0, influence=0.05, max_force=OMNI_MAX_FORCE)
     assert np.linalg.norm(peak.force(P0 + 0.04 * n)) == pytest.approx(3.3)
     assert not peak.explain(P0 + 0.001 * n, np.zeros(3)).saturated
 
 
 def test_fixture_admittance_passes_along_and_pulls_back_across():
-    f = LineFixture(P0, U, stiffness=200.0, radius_of_influence=0.02, damping=20.0)
+    f = LineFixture(P0, U, stiffness=200.0, influence=0.02, damping=20.0)
     n = _perp(UHAT)
     p = P0 + 0.004 * n
     v = 0.05 * UHAT
@@ -126,7 +126,7 @@ def test_fixture_admittance_passes_along_and_pulls_back_across():
 def test_fixture_holds_the_hand_unless_pushed_harder_than_max_force():
     """Admittance model: a weak sideways push settles at b v / k; a strong one escapes."""
     k, b = 200.0, 20.0
-    f = LineFixture(P0, U, stiffness=k, radius_of_influence=0.02, damping=b)
+    f = LineFixture(P0, U, stiffness=k, influence=0.02, damping=b)
     n = _perp(UHAT)
     dt = 1e-3
     for push, escapes in ((0.02, False), (0.06, True)):  # b·v = 0.4 N < 0.88 N < 1.2 N
@@ -141,7 +141,7 @@ def test_fixture_holds_the_hand_unless_pushed_harder_than_max_force():
 
 
 def test_fixture_segment_pulls_toward_its_end():
-    f = LineFixture(P0, U, radius_of_influence=0.05, length=0.3)
+    f = LineFixture(P0, U, influence=0.05, length=0.3)
     beyond = P0 + 0.32 * UHAT
     F = f.force(beyond)
     np.testing.assert_allclose(F / np.linalg.norm(F), -UHAT, atol=1e-12)
@@ -152,8 +152,8 @@ def test_fixture_segment_pulls_toward_its_end():
 def test_fixture_validation_and_non_finite():
     with pytest.raises(InvalidParameter, match="stiffness"):
         LineFixture(P0, U, stiffness=0.0)
-    with pytest.raises(InvalidParameter, match="radius_of_influence"):
-        LineFixture(P0, U, radius_of_influence=-1.0)
+    with pytest.raises(InvalidParameter, match="influence"):
+        LineFixture(P0, U, influence=-1.0)
     with pytest.raises(InvalidParameter, match="max_force"):
         LineFixture(P0, U, max_force=float("nan"))
     with pytest.raises(InvalidGeometry, match=r"line_point \[m\]: expected finite values, got"):

@@ -330,21 +330,21 @@ BAD_VECTORS = [
 def test_joint_vectors_must_be_real_numbers(bad, what):
     lim = StopLimiter(PAPER_STOPS, profile=paper_profile(), transform=Q_AUX, on_invalid="stop")
     good = np.full(3, np.pi / 2)
-    with pytest.raises(vf.InvalidInput, match=f"theta: .*{what}"):
+    with pytest.raises(vf.InvalidInput, match=f"position: .*{what}"):
         lim.shape(bad, np.zeros(3))
-    with pytest.raises(vf.InvalidInput, match=f"theta_dot: .*{what}"):
+    with pytest.raises(vf.InvalidInput, match=f"command: .*{what}"):
         lim.explain(good, bad)
-    with pytest.raises(vf.InvalidInput, match="Theta"):
+    with pytest.raises(vf.InvalidInput, match="positions"):
         lim.shape_batch([bad], np.zeros((1, 3)))
 
 
 def test_joint_vectors_of_the_wrong_length_are_refused():
     lim = StopLimiter(PAPER_STOPS, profile=paper_profile(), transform=Q_AUX)
-    with pytest.raises(vf.InvalidInput, match=r"theta: expected shape \(3,\), got shape \(2,\)"):
+    with pytest.raises(vf.InvalidInput, match=r"position: expected shape \(3,\), got shape \(2,\)"):
         lim.shape([0.0, 0.0], np.zeros(3))
-    with pytest.raises(vf.InvalidInput, match=r"theta_dot: expected shape \(3,\)"):
+    with pytest.raises(vf.InvalidInput, match=r"command: expected shape \(3,\)"):
         lim.explain(np.zeros(3), np.zeros(4))
-    with pytest.raises(vf.InvalidInput, match=r"Theta_dot must have shape \(N, 3\)"):
+    with pytest.raises(vf.InvalidInput, match=r"commands must have shape \(N, 3\)"):
         lim.shape_batch(np.zeros((2, 3)), np.zeros((2, 2)))
     # lists and integer arrays are real numbers
     np.testing.assert_array_equal(

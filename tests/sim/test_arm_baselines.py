@@ -26,7 +26,7 @@ from velfence.sim.runner import Trajectory
 
 ROBOT = DHChain.seven_dof(link_radius=0.05)
 HI = np.radians([170.0, 120.0, 170.0, 120.0, 170.0, 120.0, 175.0])
-LIMITS = types.SimpleNamespace(lower=-HI, upper=HI, max_velocity=np.full(7, 1.5))
+LIMITS = types.SimpleNamespace(lower=-HI, upper=HI, max_speed=np.full(7, 1.5))
 Q0 = np.array([0.0, 0.5, 0.0, 1.6, 0.0, -1.0, 0.0])
 BOX = ConvexPolytope.box([0.45, -0.25, 0.35], [0.80, 0.25, 0.70])
 DT = 1e-3
@@ -68,8 +68,8 @@ def test_joint_clamp_is_the_per_joint_clip(q: np.ndarray, v: np.ndarray) -> None
     free = ResolvedRate(ROBOT, limits=LIMITS).shape(q, v)
     out = JointClamp(ROBOT, limits=LIMITS, dt=DT).shape(q, v)
     for i in range(7):
-        lo = max(-LIMITS.max_velocity[i], (LIMITS.lower[i] - q[i]) / DT)
-        hi = min(LIMITS.max_velocity[i], (LIMITS.upper[i] - q[i]) / DT)
+        lo = max(-LIMITS.max_speed[i], (LIMITS.lower[i] - q[i]) / DT)
+        hi = min(LIMITS.max_speed[i], (LIMITS.upper[i] - q[i]) / DT)
         assert lo - 1e-12 <= out[i] <= hi + 1e-12
         assert out[i] == pytest.approx(min(max(free[i], lo), hi), abs=1e-12)
 
@@ -92,7 +92,7 @@ def test_scalar_scale_is_the_largest_admissible_scalar(q: np.ndarray, v: np.ndar
 
     def admissible(x: float) -> bool:
         qd = x * free
-        if np.any(np.abs(qd) > LIMITS.max_velocity + 1e-12):
+        if np.any(np.abs(qd) > LIMITS.max_speed + 1e-12):
             return False
         g = ctrl.position_gain / DT
         if np.any(qd > g * (LIMITS.upper - q) + 1e-12) or np.any(

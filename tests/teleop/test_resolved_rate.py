@@ -209,7 +209,7 @@ def test_max_joint_speed_scales_the_whole_vector(puma):
 
 def test_shapes_and_parameters_are_validated(puma):
     rr = ResolvedRate(puma)
-    with pytest.raises(InvalidInput, match=r"xdot: expected shape \(6,\)"):
+    with pytest.raises(InvalidInput, match=r"command: expected shape \(6,\)"):
         rr.step(Q_GOOD, np.zeros(3))
     with pytest.raises(InvalidInput, match="expected a non-empty 1-D array"):
         rr.step(np.zeros((2, 6)), np.zeros(6))

@@ -90,9 +90,11 @@ def build_shapers(polygon: ConvexPolygon, cfg: DemoConfig) -> dict[str, Shaper]:
     }
     make: dict[str, Callable[[], Shaper]] = {
         "none": lambda: NoLimit(),
+        "no-limit": lambda: NoLimit(),
         "hard-stop": lambda: HardStop(polygon, dt=cfg.dt),
         "axis-limits": lambda: AxisLimits(polygon.inscribed_rectangle(), buffer=s.buffer),
         "patent": lambda: PolygonShaper(polygon, method="patent", **common),
+        "edge-scaling": lambda: PolygonShaper(polygon, method="edge-scaling", **common),
         "exact": lambda: PolygonShaper(polygon, method="exact", **common),
     }
     return {m: make[m]() for m in cfg.methods}

@@ -192,7 +192,7 @@ def filter_cycle(sf: Any, profiles: Any = None) -> Any:
     acc = lim.max_acceleration
     return _filter.FilterCycle(
         joints, tool, np.asarray(lim.lower, dtype=np.float64),
-        np.asarray(lim.upper, dtype=np.float64), np.asarray(lim.max_velocity, dtype=np.float64),
+        np.asarray(lim.upper, dtype=np.float64), np.asarray(lim.max_speed, dtype=np.float64),
         None if acc is None else np.asarray(acc, dtype=np.float64), jkind,
         np.array(jprm), np.array([v for nm in names for v in pts[nm]]), ws, centres, radii,
         lrad, float(sf.obstacle_buffer), float(sf.spring_gain), float(sf.dt or 0.0),

@@ -170,7 +170,7 @@ class CompiledRows:
                 np.ascontiguousarray(lrad, dtype=np.float64),
                 np.ascontiguousarray([o.center for o in obstacles], dtype=np.float64).ravel(),
                 np.ascontiguousarray([o.radius for o in obstacles], dtype=np.float64),
-                np.ascontiguousarray(limits.max_velocity, dtype=np.float64),
+                np.ascontiguousarray(limits.max_speed, dtype=np.float64),
                 n,
                 n,
                 n,
@@ -185,7 +185,7 @@ class CompiledRows:
             [float(v) for v in np.asarray(chain.dh, dtype=float).ravel()],
             [float(v) for v in np.asarray(chain.tool, dtype=float)],
             np.asarray(limits.lower, dtype=np.float64), np.asarray(limits.upper, dtype=np.float64),
-            np.asarray(limits.max_velocity, dtype=np.float64),
+            np.asarray(limits.max_speed, dtype=np.float64),
             None if acc is None else np.asarray(acc, dtype=np.float64), jkind, jprm, ws,
             self._caps,
         )  # fmt: skip

@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from velfence._deprecate import renamed_args
 from velfence._typing import FloatArray
 from velfence._validate import (
     MAX_MAGNITUDE,
@@ -107,7 +108,7 @@ class SafetyFilter(InvalidPolicy):
         profile: One approach profile for every joint limit (radians); by default a
             three-zone braking profile for each joint with an acceleration limit
             (``ThreeZoneBraking(gain=2 a/v, max_speed=v, max_acceleration=a)``), else a linear
-            buffer of width ``joint_buffer`` whose cap speed is the joint's ``max_velocity``.
+            buffer of width ``joint_buffer`` whose cap speed is the joint's ``max_speed``.
         joint_buffer: Width of the default linear buffer at joint limits [rad], > 0.
         spring_gain: Recovery gain of the default joint buffers and the obstacles [1/s], >= 0.
         obstacle_buffer: Width of the obstacles' linear buffer [m], > 0.
@@ -212,7 +213,7 @@ class SafetyFilter(InvalidPolicy):
                 f"{list(robot.joint_names)}"
             )
         self.limits = limits
-        self._speed_scale = float(np.max(limits.max_velocity))
+        self._speed_scale = float(np.max(limits.max_speed))
         self.dt = None if dt is None else check_positive("dt", dt, unit="s")
         self.spring_gain = check_positive("spring_gain", spring_gain, allow_zero=True, unit="1/s")
         jb = check_positive("joint_buffer", joint_buffer, unit="rad")
@@ -231,7 +232,7 @@ class SafetyFilter(InvalidPolicy):
         self._warm: set[tuple[int, int]] = set()
         core, self.backend = pick_backend(backend)
         self._projector = Projector(
-            core, self.max_iterations, np.asarray(self.limits.max_velocity, dtype=np.float64)
+            core, self.max_iterations, np.asarray(self.limits.max_speed, dtype=np.float64)
         )
         kern: BoundKernels = PLAIN_BOUNDS if core is None else (None, core)
         profs = parts.joint_profiles(limits, profile, joint_buffer=jb, spring_gain=self.spring_gain)
@@ -260,7 +261,7 @@ class SafetyFilter(InvalidPolicy):
                     n=n,
                     buffer=self.obstacle_buffer,
                     spring_gain=self.spring_gain,
-                    max_velocity=limits.max_velocity,
+                    max_speed=limits.max_speed,
                 )
             )
         self._n_builtin = len(rows)
@@ -473,14 +474,15 @@ class SafetyFilter(InvalidPolicy):
         )  # fmt: skip
 
     # ------------------------------------------------------------------ public
+    @renamed_args(q="position", qd_cmd="command")
     def explain(
-        self, q: ArrayLike, qd_cmd: ArrayLike, *, previous: ArrayLike | None = None
+        self, position: ArrayLike, command: ArrayLike, *, previous: ArrayLike | None = None
     ) -> FilterResult:
         """Filter a joint-velocity command, with diagnostics.
 
         Args:
-            q: Joint position [rad], shape (dof,).
-            qd_cmd: Commanded joint velocity [rad/s], shape (dof,).
+            position: Joint position [rad], shape (dof,).
+            command: Commanded joint velocity [rad/s], shape (dof,).
             previous: The last output [rad/s], shape (dof,), for the acceleration rows; when
                 ``None`` and acceleration rows apply (``dt`` and ``max_acceleration``) the
                 filter uses the output it remembered from its last call (none after
@@ -494,21 +496,30 @@ class SafetyFilter(InvalidPolicy):
                 kinematics answer of the wrong shape or not finite (naming ``robot``), a row
                 provider that raises or returns bad rows (naming it).
         """
-        qa = self._state("q", q, self.dof, "rad")
-        ua = self._state("qd_cmd", qd_cmd, self.dof, "rad/s")
+        qa = self._state("position", position, self.dof, "rad")
+        ua = self._state("command", command, self.dof, "rad/s")
         if self._bad(qa, ua):
-            self._invalid(f"non-finite input: q={qa.tolist()}, qd_cmd={ua.tolist()}")
+            self._invalid(f"non-finite input: position={qa.tolist()}, command={ua.tolist()}")
             return self._stopped(qa, ua)
         if self._ccycle is not None:
             return self._explain_c(qa, ua, previous)
         return self._run(qa, ua, ua, self._metric, previous, True)
 
+    @renamed_args(q="position", qd_cmd="command")
     def filter(
-        self, q: ArrayLike, qd_cmd: ArrayLike, *, previous: ArrayLike | None = None
+        self, position: ArrayLike, command: ArrayLike, *, previous: ArrayLike | None = None
     ) -> FloatArray:
         """The filtered joint velocity [rad/s], shape (dof,) (:meth:`explain`'s output).
 
         The same cycle as :meth:`explain` without the diagnostics (zone, slack, names).
+
+        Args:
+            position: Joint position [rad], shape (dof,).
+            command: Commanded joint velocity [rad/s], shape (dof,).
+            previous: As in :meth:`explain`.
+
+        Returns:
+            The joint velocity [rad/s], shape (dof,), always finite.
         """
         cyc = self._ccycle
         if cyc is not None and previous is None:
@@ -517,7 +528,9 @@ class SafetyFilter(InvalidPolicy):
             # refuses, takes the validated route below (the same cycle, with the messages).
             misses = cyc.deadline_misses
             try:
-                x: FloatArray = cyc.cycle(q, qd_cmd, self._previous if self._has_accel else None)
+                x: FloatArray = cyc.cycle(
+                    position, command, self._previous if self._has_accel else None
+                )
             except (TypeError, ValueError):
                 pass
             else:
@@ -526,10 +539,10 @@ class SafetyFilter(InvalidPolicy):
                 if self._has_accel:
                     self._previous = readonly(x.copy())
                 return x
-        qa = self._state("q", q, self.dof, "rad")
-        ua = self._state("qd_cmd", qd_cmd, self.dof, "rad/s")
+        qa = self._state("position", position, self.dof, "rad")
+        ua = self._state("command", command, self.dof, "rad/s")
         if self._bad(qa, ua):
-            self._invalid(f"non-finite input: q={qa.tolist()}, qd_cmd={ua.tolist()}")
+            self._invalid(f"non-finite input: position={qa.tolist()}, command={ua.tolist()}")
             return np.zeros(self.dof)
         if cyc is not None:
             return self._filter_c(qa, ua, previous, True)
@@ -606,10 +619,11 @@ class SafetyFilter(InvalidPolicy):
                 out.append(f"obstacle {a} on link {k}")
         return out
 
+    @renamed_args(q="position", twist="command")
     def explain_twist(
         self,
-        q: ArrayLike,
-        twist: ArrayLike,
+        position: ArrayLike,
+        command: ArrayLike,
         *,
         point: str = "tcp",
         previous: ArrayLike | None = None,
@@ -622,8 +636,8 @@ class SafetyFilter(InvalidPolicy):
         one (twist (6,): linear [m/s] then angular [rad/s]).
 
         Args:
-            q: Joint position [rad], shape (dof,).
-            twist: Desired velocity of ``point``, shape (task_dim,) or (6,).
+            position: Joint position [rad], shape (dof,).
+            command: The twist: desired velocity of ``point``, shape (task_dim,) or (6,).
             point: The point the twist is for (a name of the robot's ``points``).
             previous: As in :meth:`explain`.
 
@@ -631,21 +645,21 @@ class SafetyFilter(InvalidPolicy):
             InvalidInput: wrong shapes or an unknown point; non-finite values with
                 ``on_invalid="raise"``.
         """
-        qa = self._state("q", q, self.dof, "rad")
-        va = real_array("twist", twist, (None,), allow_nonfinite=True, max_abs=None)
+        qa = self._state("position", position, self.dof, "rad")
+        va = real_array("command", command, (None,), allow_nonfinite=True, max_abs=None)
         has_ang = hasattr(self.robot, "angular_jacobian")
         sizes = (self.task_dim, 6) if has_ang and self.task_dim == 3 else (self.task_dim,)
         if va.shape[0] not in sizes:
             raise InvalidInput(
-                f"twist: expected shape {' or '.join(f'({s},)' for s in sizes)}, got shape "
-                f"{va.shape}"
+                f"command: expected a twist of shape {' or '.join(f'({s},)' for s in sizes)}, "
+                f"got shape {va.shape}"
             )
         if not isinstance(point, str) or point not in self.robot.points:
             raise InvalidInput(
                 f"point: expected one of {list(self.robot.points)}, got {describe(point)}"
             )
         if self._bad(qa, va):
-            self._invalid(f"non-finite input: q={qa.tolist()}, twist={va.tolist()}")
+            self._invalid(f"non-finite input: position={qa.tolist()}, command={va.tolist()}")
             return self._stopped(qa, va)
         frame = frame_of(self.robot, qa)
         n = self.dof
@@ -667,27 +681,30 @@ class SafetyFilter(InvalidPolicy):
             return self._stopped(qa, va)
         return self._run(qa, u, va, L, previous, True, frame)
 
+    @renamed_args(q="position", twist="command")
     def filter_twist(
         self,
-        q: ArrayLike,
-        twist: ArrayLike,
+        position: ArrayLike,
+        command: ArrayLike,
         *,
         point: str = "tcp",
         previous: ArrayLike | None = None,
     ) -> FloatArray:
         """The filtered joint velocity for a twist [rad/s], shape (dof,) (:meth:`explain_twist`)."""
-        return self.explain_twist(q, twist, point=point, previous=previous).output
+        return self.explain_twist(position, command, point=point, previous=previous).output
 
-    def shape(self, q: ArrayLike, qd_cmd: ArrayLike) -> FloatArray:
+    @renamed_args(q="position", qd_cmd="command")
+    def shape(self, position: ArrayLike, command: ArrayLike) -> FloatArray:
         """Contract alias of :meth:`filter` (joint position, joint-velocity command)."""
-        return self.filter(q, qd_cmd)
+        return self.filter(position, command)
 
-    def shape_batch(self, Q: ArrayLike, QD: ArrayLike) -> FloatArray:
+    @renamed_args(Q="positions", QD="commands")
+    def shape_batch(self, positions: ArrayLike, commands: ArrayLike) -> FloatArray:
         """:meth:`filter` on N independent states (no remembered output or warm start).
 
         Args:
-            Q: Joint positions [rad], shape (N, dof).
-            QD: Commanded joint velocities [rad/s], shape (N, dof).
+            positions: Joint positions [rad], shape (N, dof).
+            commands: Commanded joint velocities [rad/s], shape (N, dof).
 
         Returns:
             Shape (N, dof).
@@ -696,11 +713,12 @@ class SafetyFilter(InvalidPolicy):
             InvalidInput: wrong shapes, or non-finite rows with ``on_invalid="raise"``.
         """
         n = self.dof
-        Qa = real_array("Q", Q, (None, n), allow_nonfinite=True, max_abs=None)
-        Va = real_array("QD", QD, (None, n), allow_nonfinite=True, max_abs=None)
+        Qa = real_array("positions", positions, (None, n), allow_nonfinite=True, max_abs=None)
+        Va = real_array("commands", commands, (None, n), allow_nonfinite=True, max_abs=None)
         if Qa.shape != Va.shape:
             raise InvalidInput(
-                f"Q and QD: expected the same shape (N, {n}), got {Qa.shape} and {Va.shape}"
+                f"positions and commands: expected the same shape (N, {n}), got {Qa.shape} and "
+                f"{Va.shape}"
             )
         out = np.zeros((Qa.shape[0], n))
         warm = self._warm
@@ -711,7 +729,7 @@ class SafetyFilter(InvalidPolicy):
                     try:
                         self._invalid(f"non-finite input in row {k}")
                     except InvalidInput as exc:
-                        raise InvalidInput(f"Q, QD row {k}: {exc}") from None
+                        raise InvalidInput(f"positions, commands row {k}: {exc}") from None
                     continue
                 if self._ccycle is not None:
                     out[k] = self._filter_c(Qa[k].copy(), Va[k].copy(), None, False)

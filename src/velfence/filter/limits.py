@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from velfence._deprecate import renamed_args, renamed_attribute
 from velfence._typing import FloatArray
 from velfence._validate import (
     MAX_MAGNITUDE,
@@ -56,10 +57,13 @@ def _vector(
 class JointLimits:
     """Position, velocity and (optional) acceleration limits of every joint.
 
+    The speed limit was called ``max_velocity`` before 0.2: that keyword and attribute warn until
+    0.3.
+
     Attributes:
         lower: Lower position limit of each joint [rad], shape (n,); ``-inf``: none.
         upper: Upper position limit [rad], shape (n,), ``> lower``; ``+inf``: none.
-        max_velocity: Largest joint speed [rad/s], shape (n,), finite and > 0 (a scalar is
+        max_speed: Largest joint speed [rad/s], shape (n,), finite and > 0 (a scalar is
             repeated).
         max_acceleration: Largest joint acceleration [rad/s²], shape (n,), > 0, ``inf`` for a
             joint without one; ``None`` (the default): none on any joint.
@@ -73,10 +77,12 @@ class JointLimits:
 
     lower: FloatArray
     upper: FloatArray
-    max_velocity: FloatArray
+    max_speed: FloatArray
     _: KW_ONLY
     max_acceleration: FloatArray | None = None
     names: tuple[str, ...] | None = None
+
+    max_velocity = renamed_attribute("max_velocity", "max_speed")
 
     def __post_init__(self) -> None:
         lo = _vector("lower", self.lower, None, "lower limits [rad] of shape (n,)", nonfinite=True)
@@ -97,11 +103,11 @@ class JointLimits:
                 f"lower[{j}]={lo[j]!r}"
             )
         v = _vector(
-            "max_velocity", self.max_velocity, n, f"joint speeds [rad/s] of shape ({n},)",
+            "max_speed", self.max_speed, n, f"joint speeds [rad/s] of shape ({n},)",
             scalar=True,
         )  # fmt: skip
         if not np.all(v > 0.0):
-            raise InvalidParameter(f"max_velocity: expected speeds > 0 [rad/s], got {v.tolist()}")
+            raise InvalidParameter(f"max_speed: expected speeds > 0 [rad/s], got {v.tolist()}")
         acc: FloatArray | None = None
         if self.max_acceleration is not None:
             acc = _vector(
@@ -128,7 +134,7 @@ class JointLimits:
                 )
         object.__setattr__(self, "lower", readonly(lo))
         object.__setattr__(self, "upper", readonly(hi))
-        object.__setattr__(self, "max_velocity", readonly(v))
+        object.__setattr__(self, "max_speed", readonly(v))
         object.__setattr__(self, "max_acceleration", acc)
         object.__setattr__(self, "names", names)
 
@@ -227,6 +233,12 @@ class JointLimits:
             )
         except InvalidParameter as exc:
             raise InvalidParameter(f"joint_limits: {exc}") from None
+
+
+# The dataclass's own __init__, taking the old keyword max_velocity with a warning until 0.3.
+JointLimits.__init__ = renamed_args(max_velocity="max_speed")(  # type: ignore[method-assign]
+    JointLimits.__init__
+)
 
 
 #: The fields of a ros2_control joint_limits entry (joint_limits/joint_limits_rosparam.hpp);

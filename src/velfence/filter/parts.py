@@ -97,7 +97,7 @@ def joint_profiles(
     acc = limits.max_acceleration
     profs: list[Profile] = []
     for j in range(limits.dof):
-        v = float(limits.max_velocity[j])
+        v = float(limits.max_speed[j])
         if profile is not None:
             profs.append(profile)
         elif acc is not None and math.isfinite(acc[j]):
@@ -154,7 +154,7 @@ def obstacle_rows(
     n: int,
     buffer: float,
     spring_gain: float,
-    max_velocity: Any,
+    max_speed: Any,
 ) -> ObstacleRows:
     """The obstacle provider, after checking the robot's capsule geometry once."""
     if not hasattr(robot, "link_radius"):
@@ -164,7 +164,7 @@ def obstacle_rows(
         )
     radius = np.asarray(robot.link_radius, dtype=float).reshape(-1)
     prov = ObstacleRows(
-        obstacles, radius, buffer=buffer, spring_gain=spring_gain, max_velocity=max_velocity
+        obstacles, radius, buffer=buffer, spring_gain=spring_gain, max_speed=max_speed
     )
     try:
         segs = prov.segments(frame0)

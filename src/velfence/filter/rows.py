@@ -36,6 +36,7 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
+from velfence._deprecate import renamed_args
 from velfence._typing import FloatArray
 from velfence.filter.kinematics import KinematicsFrame, checked
 from velfence.filter.limits import JointLimits, Profile, SphereObstacle, WorkspaceLimit
@@ -213,7 +214,7 @@ class JointPositionLimit:
 
     Toward each finite limit at distance ``d`` the approach speed is capped by the joint's
     profile (three-zone braking with an acceleration limit, else a linear buffer), never above
-    the joint's ``max_velocity``; beyond a limit the profile's forced return. Row ``e_j x >= b``
+    the joint's ``max_speed``; beyond a limit the profile's forced return. Row ``e_j x >= b``
     (lower side, key ``2 j``) or ``-e_j x >= b`` (upper side, key ``2 j + 1``).
 
     Args:
@@ -243,13 +244,13 @@ class JointPositionLimit:
         groups: dict[tuple[Any, ...], tuple[Profile, float, list[int]]] = {}
         for side in np.flatnonzero(self._finite).tolist():
             j = side // 2
-            v = float(limits.max_velocity[j])
+            v = float(limits.max_speed[j])
             key = (*profiles[j].kernel_profile, v)
             groups.setdefault(key, (profiles[j], v, []))[2].append(side)
         self._groups = tuple(
             (p, v, np.array(sides, dtype=np.int64)) for p, v, sides in groups.values()
         )
-        self._vside = np.repeat(np.asarray(limits.max_velocity, dtype=float), 2)
+        self._vside = np.repeat(np.asarray(limits.max_speed, dtype=float), 2)
         self._G = np.zeros((2 * n, n))
         self._G[0::2] = np.eye(n)
         self._G[1::2] = -np.eye(n)
@@ -288,7 +289,7 @@ def _joint_namer(keys: Any, what: str) -> Callable[[], list[str]]:
 
 
 class JointVelocityLimit:
-    """Joint speed rows ``|x_j| <= max_velocity_j`` (level :data:`LEVEL_JOINT`, never violated).
+    """Joint speed rows ``|x_j| <= max_speed_j`` (level :data:`LEVEL_JOINT`, never violated).
 
     Args:
         limits: The joint limits.
@@ -302,7 +303,7 @@ class JointVelocityLimit:
         self._G = np.zeros((2 * n, n))
         self._G[0::2] = np.eye(n)
         self._G[1::2] = -np.eye(n)
-        self._b = -np.repeat(np.asarray(limits.max_velocity, dtype=float), 2)
+        self._b = -np.repeat(np.asarray(limits.max_speed, dtype=float), 2)
         self._viol = np.zeros(2 * n, dtype=bool)
         self._keys = np.arange(2 * n, dtype=np.int64)
 
@@ -455,12 +456,14 @@ class ObstacleRows:
         link_radius: Capsule radius of every link [m], shape (L,) or (1,).
         buffer: Width of the linear buffer [m].
         spring_gain: Recovery gain outside [1/s].
-        max_velocity: Joint speed limits [rad/s], shape (n,) (the reach bound).
+        max_speed: Joint speed limits [rad/s], shape (n,) (the reach bound); ``max_velocity``
+            is its deprecated name (warns; goes in 0.3).
     """
 
     level = LEVEL_OBSTACLE
     label = "obstacles"
 
+    @renamed_args(max_velocity="max_speed")
     def __init__(
         self,
         obstacles: Sequence[SphereObstacle],
@@ -468,7 +471,7 @@ class ObstacleRows:
         *,
         buffer: float,
         spring_gain: float,
-        max_velocity: FloatArray,
+        max_speed: FloatArray,
     ) -> None:
         self.obstacles = tuple(obstacles)
         self._centres = np.array([o.center for o in self.obstacles], dtype=float).reshape(-1, 3)
@@ -476,7 +479,7 @@ class ObstacleRows:
         self._radius = np.asarray(link_radius, dtype=float).reshape(-1)
         self._buffer = buffer
         self._prof = LinearBuffer(buffer=buffer, spring_gain=spring_gain)
-        self._vmax = np.asarray(max_velocity, dtype=float)
+        self._vmax = np.asarray(max_speed, dtype=float)
 
     def _radii(self, nl: int) -> FloatArray:
         r = self._radius

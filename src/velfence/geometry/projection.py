@@ -34,6 +34,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from velfence._deprecate import module_getattr
 from velfence._typing import FloatArray
 from velfence._validate import real_array
 from velfence.errors import InvalidInput
@@ -42,8 +43,8 @@ __all__ = [
     "PROJECT_DEADLINE",
     "PROJECT_INFEASIBLE",
     "PROJECT_ITERATION_CAP",
-    "PROJECT_ITERATION_LIMIT",
     "PROJECT_OPTIMAL",
+    "PROJECT_STALLED",
     "Projection",
     "default_iteration_cap",
     "project",
@@ -55,7 +56,9 @@ __all__ = [
 
 PROJECT_OPTIMAL = 0
 PROJECT_INFEASIBLE = 1
-PROJECT_ITERATION_LIMIT = 2  # round-off stalled the method ("stalled"; C: VF_STALLED)
+#: Round-off stalled the method (C: VF_STALLED). Called PROJECT_ITERATION_LIMIT before 0.2, a
+#: name too close to PROJECT_ITERATION_CAP; that name warns until 0.3.
+PROJECT_STALLED = 2
 PROJECT_ITERATION_CAP = 3  # the caller's iteration cap was reached (C: VF_ITERATION_CAP)
 PROJECT_DEADLINE = 4  # the caller's deadline passed (C only: VF_DEADLINE)
 
@@ -225,7 +228,7 @@ def project_kernel_opts(
         evaluated, or to the round-off of forming ``x`` from ``u``,
         ``1e-12 (|b_i| + |g_i| (|x|_inf + |u|_inf))``, where several bounds through one point
         make exact satisfaction impossible), ``PROJECT_INFEASIBLE`` (the bounds have no common
-        point; ``x`` finite, the last iterate), ``PROJECT_ITERATION_LIMIT`` (round-off stalled the
+        point; ``x`` finite, the last iterate), ``PROJECT_STALLED`` (round-off stalled the
         method at the default cap; ``x`` finite) or ``PROJECT_ITERATION_CAP`` (the caller's
         ``cap`` was reached; ``x`` finite, **not** feasible: the caller needs a safe fallback).
     """
@@ -242,7 +245,7 @@ def project_kernel_opts(
     q = 0
     iters = 0
     limit = cap if cap > 0 else 4 * (m + n) + 16
-    over = PROJECT_ITERATION_CAP if cap > 0 else PROJECT_ITERATION_LIMIT
+    over = PROJECT_ITERATION_CAP if cap > 0 else PROJECT_STALLED
     ubig = 0.0
     for k in range(n):
         if abs(u[k]) > ubig:
@@ -400,7 +403,7 @@ def project_kernel_opts(
         if b[i] == -math.inf:
             continue
         if -_slack(G, b, i, x, n) > _ROUND_OFF * (abs(b[i]) + abs(wsf[ogn + i]) * big):
-            return PROJECT_ITERATION_LIMIT, q, iters
+            return PROJECT_STALLED, q, iters
     return PROJECT_OPTIMAL, q, iters
 
 
@@ -466,3 +469,6 @@ def project(u: ArrayLike, G: ArrayLike, b: ArrayLike) -> Projection:
         feasible=status == PROJECT_OPTIMAL,
         iterations=iters,
     )
+
+
+__getattr__ = module_getattr(__name__, {"PROJECT_ITERATION_LIMIT": "PROJECT_STALLED"}, globals())

@@ -79,8 +79,13 @@ MIN_DT = 1e-6
 #: Largest accepted ``seed`` (NumPy seeds are non-negative; 64 bits is plenty).
 MAX_SEED = 2**64 - 1
 
-Method = Literal["none", "hard-stop", "axis-limits", "patent", "exact"]
+#: The demo's run names. Each is the ``.method`` its shaper reports (``no-limit``, ``hard-stop``,
+#: ``axis-limits``, ``edge-scaling``, ``exact``) or a documented alias of one: ``none`` is
+#: ``no-limit`` and ``patent`` is ``edge-scaling`` (the names the demo's tables and figures use).
+Method = Literal["none", "no-limit", "hard-stop", "axis-limits", "patent", "edge-scaling", "exact"]
 ALL_METHODS: tuple[Method, ...] = ("none", "hard-stop", "axis-limits", "patent", "exact")
+#: Run name -> the one law it names (the aliases of :data:`Method` to the shaper's ``.method``).
+METHOD_OF: dict[str, str] = {"none": "no-limit", "patent": "edge-scaling"}
 
 # Numbers written as numbers only (Strict: no "0.2", no true), finite, bounded by MAX_VALUE.
 Number = Annotated[float, Strict(), Field(allow_inf_nan=False, ge=-MAX_VALUE, le=MAX_VALUE)]
@@ -284,9 +289,13 @@ class DemoConfig(StrictModel):
     @field_validator("methods")
     @classmethod
     def _distinct(cls, value: list[Method]) -> list[Method]:
-        twice = sorted({m for m in value if value.count(m) > 1})
+        laws = [METHOD_OF.get(m, m) for m in value]
+        twice = sorted({m for m, law in zip(value, laws, strict=True) if laws.count(law) > 1})
         if twice:
-            raise ValueError(f"each method may be listed once, got {twice} more than once")
+            raise ValueError(
+                f"each method may be listed once, got {twice} more than once (none is no-limit, "
+                "patent is edge-scaling)"
+            )
         return value
 
     @field_validator("waypoints")

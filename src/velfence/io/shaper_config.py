@@ -10,7 +10,7 @@ are refused, and a bad value raises :class:`~velfence.errors.InvalidParameter` n
       corners: [[0, 0], [4, 0], [4, 3], [0, 3]]
       buffer: 0.5                # [m]
       spring_gain: 1.0           # [1/s]
-      method: exact              # or patent (US 8,676,382 as written)
+      method: exact              # or edge-scaling (US 8,676,382 as written; alias patent)
 
     shaper:
       kind: polytope             # n-D point: lower/upper box, or half-spaces n·x >= offset
@@ -29,9 +29,12 @@ are refused, and a bad value raises :class:`~velfence.errors.InvalidParameter` n
       kind: safety_filter        # a shipped arm (velfence[physics]) with its joint limits
       robot: panda               # panda | ur5e | puma560 | seven_dof
       mode: twist                # twist: TCP velocity in [m/s] -> joint velocities; joint: joints
-      max_velocity: 2.0          # [rad/s], scalar or one per joint
+      max_speed: 2.0             # [rad/s], scalar or one per joint (max_velocity: deprecated)
       workspace: {lower: [0.3, -0.3, 0.2], upper: [0.7, 0.3, 0.6], buffer: 0.05}
       dt: 0.002                  # control period [s]
+
+``method`` is optional in every section and, when given, is the ``.method`` the built shaper
+reports (:data:`SHAPER_METHODS`), or ``patent``, the documented alias of ``edge-scaling``.
 """
 
 from __future__ import annotations
@@ -43,6 +46,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import Field, Strict, ValidationError, model_validator
 
+from velfence._deprecate import warn_renamed
 from velfence.errors import InvalidParameter, VelfenceError
 from velfence.io.config import (
     MAX_CORNERS,
@@ -61,6 +65,7 @@ __all__ = [
     "MAX_JOINTS",
     "ROBOTS",
     "SHAPER_KINDS",
+    "SHAPER_METHODS",
     "ConfiguredShaper",
     "load_yaml",
     "parse_shaper",
@@ -68,6 +73,16 @@ __all__ = [
 
 #: The ``kind`` values of a ``shaper:`` section.
 SHAPER_KINDS: tuple[str, ...] = ("polygon", "polytope", "joint_limits", "safety_filter")
+#: The ``method`` values of each kind: exactly the ``.method`` its shaper reports
+#: (``PolygonShaper``: ``exact`` or ``edge-scaling``, ``PolytopeShaper``: ``exact``,
+#: ``SafetyFilter``: ``safety-filter``); ``patent`` is also accepted for a polygon, as the alias
+#: ``PolygonShaper`` keeps of ``edge-scaling``.
+SHAPER_METHODS: dict[str, tuple[str, ...]] = {
+    "polygon": ("exact", "edge-scaling"),
+    "polytope": ("exact",),
+    "joint_limits": ("exact",),
+    "safety_filter": ("safety-filter",),
+}
 #: What a configured shaper's command means (:attr:`ConfiguredShaper.command_space`).
 COMMAND_SPACES: tuple[str, ...] = ("plane", "workspace", "joint", "twist")
 #: The shipped arms a ``safety_filter`` section may name (``velfence.robots``).
@@ -77,6 +92,7 @@ MAX_JOINTS = 64
 
 Buffer = Annotated[float, Strict(), Field(ge=MIN_BUFFER, le=1e6, description="buffer width")]
 Vector = Annotated[list[Number], Field(min_length=1, max_length=MAX_JOINTS)]
+Speeds = Positive | Annotated[list[Positive], Field(min_length=1, max_length=MAX_JOINTS)]
 
 
 class _Polygon(StrictModel):
@@ -84,7 +100,7 @@ class _Polygon(StrictModel):
     corners: Annotated[list[tuple[Number, Number]], Field(min_length=3, max_length=MAX_CORNERS)]
     buffer: Buffer
     spring_gain: NonNegative = 1.0
-    method: Literal["exact", "patent"] = "exact"
+    method: Literal["exact", "edge-scaling", "patent"] = "exact"
     max_recovery_speed: Positive | None = None
 
 
@@ -101,6 +117,7 @@ class _Polytope(StrictModel):
     ) = None
     buffer: Buffer
     spring_gain: NonNegative = 1.0
+    method: Literal["exact"] = "exact"
 
     @model_validator(mode="after")
     def _one_form(self) -> _Polytope:
@@ -126,6 +143,7 @@ class _JointLimits(StrictModel):
     upper: Vector
     buffer: Buffer
     spring_gain: NonNegative = 1.0
+    method: Literal["exact"] = "exact"
 
     @model_validator(mode="after")
     def _lengths(self) -> _JointLimits:
@@ -151,11 +169,27 @@ class _SafetyFilter(StrictModel):
     kind: Literal["safety_filter"]
     robot: Literal["panda", "ur5e", "puma560", "seven_dof"]
     mode: Literal["joint", "twist"] = "twist"
-    max_velocity: Positive | Annotated[list[Positive], Field(min_length=1, max_length=MAX_JOINTS)]
+    max_speed: Speeds | None = None
+    max_velocity: Speeds | None = None  # the old name of max_speed (warns until 0.3)
     workspace: _Workspace | None = None
     dt: Annotated[float, Strict(), Field(ge=MIN_DT, le=1.0, description="control period [s]")]
     joint_buffer: Buffer = 0.1
     spring_gain: NonNegative = 1.0
+    method: Literal["safety-filter"] = "safety-filter"
+
+    @model_validator(mode="after")
+    def _one_speed(self) -> _SafetyFilter:
+        if self.max_velocity is not None:
+            if self.max_speed is not None:
+                raise ValueError(
+                    "max_speed and max_velocity are two names of one limit; give max_speed only"
+                )
+            warn_renamed("shaper key", "max_velocity", "max_speed", stacklevel=2)
+            object.__setattr__(self, "max_speed", self.max_velocity)
+            object.__setattr__(self, "max_velocity", None)
+        if self.max_speed is None:
+            raise ValueError("max_speed: missing (joint speed limits [rad/s])")
+        return self
 
 
 _MODELS: dict[str, type[StrictModel]] = {
@@ -316,12 +350,12 @@ def _safety_filter(spec: _SafetyFilter) -> ConfiguredShaper:
 
     robot = getattr(robots, spec.robot)()
     n = int(robot.dof)
-    if isinstance(spec.max_velocity, list) and len(spec.max_velocity) not in (1, n):
+    if isinstance(spec.max_speed, list) and len(spec.max_speed) not in (1, n):
         raise InvalidParameter(
-            f"max_velocity: expected a scalar or {n} values (robot {spec.robot!r}), got "
-            f"{len(spec.max_velocity)}"
+            f"max_speed: expected a scalar or {n} values (robot {spec.robot!r}), got "
+            f"{len(spec.max_speed)}"
         )
-    vmax = np.broadcast_to(np.asarray(spec.max_velocity, dtype=float), (n,)).copy()
+    vmax = np.broadcast_to(np.asarray(spec.max_speed, dtype=float), (n,)).copy()
     lim = robot.joint_limits
     names = tuple(robot.joint_names)
     workspace: tuple[WorkspaceLimit, ...] = ()

@@ -23,10 +23,11 @@ The output is always finite; with more active rows than :math:`r` the result is 
 (velocity-damper inequalities, as in NEO / mink), solved with qpsolvers (optional dependency).
 """
 
+from velfence._deprecate import module_getattr
 from velfence.redundancy.configuration_control import (
     ConfigurationController,
     ControlResult,
-    Obstacle,
+    InfluenceObstacle,
 )
 from velfence.redundancy.paths import cosine_line
 from velfence.redundancy.qp_baseline import VelocityDamperQP
@@ -34,7 +35,9 @@ from velfence.redundancy.qp_baseline import VelocityDamperQP
 __all__ = [
     "ConfigurationController",
     "ControlResult",
-    "Obstacle",
+    "InfluenceObstacle",
     "VelocityDamperQP",
     "cosine_line",
 ]
+
+__getattr__ = module_getattr(__name__, {"Obstacle": "InfluenceObstacle"}, globals())

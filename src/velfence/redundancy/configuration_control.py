@@ -1,7 +1,8 @@
 r"""Configuration control with obstacle-avoidance inequality tasks (US 5,150,026 claim 1).
 
 The claim's steps A–F, formalised in ``docs/configuration_control.md``, for a serial chain
-(:class:`velfence.mechanisms.chain.SerialChain`) among spherical obstacles (:class:`Obstacle`):
+(:class:`velfence.mechanisms.chain.SerialChain`) among spherical obstacles
+(:class:`InfluenceObstacle`):
 
 A. *critical point* — for every obstacle :math:`o` and link :math:`l`, the closest point
    :math:`c_{o,l}` of the link axis (segment) to the obstacle centre :math:`x_o`; the critical
@@ -57,6 +58,7 @@ from typing import TYPE_CHECKING, Any, Literal, get_args
 import numpy as np
 from numpy.typing import ArrayLike
 
+from velfence._deprecate import module_getattr, renamed_args
 from velfence._typing import FloatArray, IntArray
 from velfence._validate import check_choice, check_positive, readonly, real_array
 from velfence.errors import InvalidInput, InvalidParameter
@@ -68,7 +70,7 @@ from velfence.shaping.polytope import PolytopeBackend
 if TYPE_CHECKING:
     from velfence.mechanisms.chain import SerialChain
 
-__all__ = ["ConfigurationController", "ControlResult", "Obstacle"]
+__all__ = ["ConfigurationController", "ControlResult", "InfluenceObstacle"]
 
 Release = Literal["recheck", "sequential"]
 
@@ -91,8 +93,13 @@ _CHAIN_ATTRS = (
 
 
 @dataclass(frozen=True, eq=False)
-class Obstacle:
-    r"""A spherical obstacle with its sphere of influence (US 5,150,026 claim 1).
+class InfluenceObstacle:
+    r"""A spherical obstacle with its own sphere of influence (US 5,150,026 claim 1).
+
+    Unlike :class:`velfence.filter.SphereObstacle` (a body only; the safety filter's
+    ``obstacle_buffer`` sets the margin for all), each obstacle here carries the radius of its
+    sphere of influence, which the configuration controller keeps the links out of. It was called
+    ``Obstacle`` before 0.2; that name warns until 0.3.
 
     The claim's "spheres of influence having fixed radii surrounding obstacles at known
     positions".
@@ -226,7 +233,11 @@ class ChainObstacleBase(InvalidPolicy):
     method = "chain-obstacles"
 
     def __init__(
-        self, chain: SerialChain, obstacles: Sequence[Obstacle], *, on_invalid: OnInvalid = "raise"
+        self,
+        chain: SerialChain,
+        obstacles: Sequence[InfluenceObstacle],
+        *,
+        on_invalid: OnInvalid = "raise",
     ) -> None:
         super().__init__(on_invalid=on_invalid)
         missing = [a for a in _CHAIN_ATTRS if not hasattr(chain, a)]
@@ -239,18 +250,18 @@ class ChainObstacleBase(InvalidPolicy):
         # value's __repr__ is user code.
         ok = isinstance(obstacles, Sequence) and not isinstance(obstacles, (str, bytes))
         obs = tuple(obstacles) if ok else None
-        if obs is None or not all(isinstance(o, Obstacle) for o in obs):
+        if obs is None or not all(isinstance(o, InfluenceObstacle) for o in obs):
             got = type(obstacles).__name__
             if obs is not None:
                 got += " containing " + ", ".join(
-                    sorted({type(o).__name__ for o in obs if not isinstance(o, Obstacle)})
+                    sorted({type(o).__name__ for o in obs if not isinstance(o, InfluenceObstacle)})
                 )
             raise InvalidParameter(
-                f"obstacles must be a sequence of Obstacle, got {got}; wrap centres and "
-                "radii in Obstacle(center=..., radius=..., influence=...)"
+                f"obstacles must be a sequence of InfluenceObstacle, got {got}; wrap centres and "
+                "radii in InfluenceObstacle(center=..., radius=..., influence=...)"
             )
         self.chain = chain
-        self._obstacles: tuple[Obstacle, ...] = obs
+        self._obstacles: tuple[InfluenceObstacle, ...] = obs
         self.dof = int(chain.dof)
         self.task_dim = int(chain.task_dim)
         self.redundancy = self.dof - self.task_dim
@@ -260,7 +271,7 @@ class ChainObstacleBase(InvalidPolicy):
         self._fast = is_library_chain(chain)
 
     @property
-    def obstacles(self) -> tuple[Obstacle, ...]:
+    def obstacles(self) -> tuple[InfluenceObstacle, ...]:
         """The obstacles (read-only: per-obstacle data is cached; build a new controller)."""
         return self._obstacles
 
@@ -269,14 +280,14 @@ class ChainObstacleBase(InvalidPolicy):
         self, q: ArrayLike, v: ArrayLike, target: ArrayLike | None
     ) -> tuple[FloatArray, FloatArray, FloatArray | None, bool]:
         # Non-finite and huge entries pass to the on_invalid policy (and the overflow guard).
-        qa = _policy_vector("q", q, self.dof, "rad")
-        va = _policy_vector("ee_velocity", v, self.task_dim, "m/s")
+        qa = _policy_vector("position", q, self.dof, "rad")
+        va = _policy_vector("command", v, self.task_dim, "m/s")
         ta = None if target is None else _policy_vector("ee_target", target, self.task_dim, "m")
         ok = bool(np.all(np.isfinite(qa)) and np.all(np.isfinite(va)))
         ok = ok and (ta is None or bool(np.all(np.isfinite(ta))))
         if not ok:
             self._invalid(
-                f"non-finite input: q={qa.tolist()}, ee_velocity={va.tolist()}, "
+                f"non-finite input: position={qa.tolist()}, command={va.tolist()}, "
                 f"ee_target={None if ta is None else ta.tolist()}"
             )
         return qa, va, ta, ok
@@ -407,14 +418,15 @@ class ChainObstacleBase(InvalidPolicy):
             redundancy=self.redundancy, method=self.method,
         )  # fmt: skip
 
+    @renamed_args(q="position", ee_velocity="command")
     def control(
-        self, q: ArrayLike, ee_velocity: ArrayLike, *, ee_target: ArrayLike | None = None
+        self, position: ArrayLike, command: ArrayLike, *, ee_target: ArrayLike | None = None
     ) -> ControlResult:
         r"""One control cycle: joint velocity and diagnostics.
 
         Args:
-            q: Joint positions, shape (n,) [rad].
-            ee_velocity: Desired end-effector velocity :math:`\dot Y_d`, shape (m,) [m/s].
+            position: Joint positions, shape (n,) [rad].
+            command: Desired end-effector velocity :math:`\dot Y_d`, shape (m,) [m/s].
             ee_target: Desired end-effector position :math:`Y_d`, shape (m,) [m]; when given
                 the reference gets the feedback term :math:`K_e(Y_d - Y)`.
 
@@ -424,43 +436,46 @@ class ChainObstacleBase(InvalidPolicy):
         Raises:
             InvalidInput: wrong shapes, or non-finite values with ``on_invalid="raise"``.
         """
-        qa, va, ta, ok = self._parse(q, ee_velocity, ee_target)
+        qa, va, ta, ok = self._parse(position, command, ee_target)
         if not ok:
             return self._stopped(va, len(self.obstacles))
         with np.errstate(all="ignore"):
             res = self._law(qa, va, ta)
         if not np.all(np.isfinite(res.q_dot)):
-            self._invalid(f"input too large, the joint velocity overflowed: ee_velocity={va}")
+            self._invalid(f"input too large, the joint velocity overflowed: command={va}")
             return self._stopped(va, len(self.obstacles))
         return res
 
-    def explain(self, q: ArrayLike, ee_velocity: ArrayLike) -> ControlResult:
+    @renamed_args(q="position", ee_velocity="command")
+    def explain(self, position: ArrayLike, command: ArrayLike) -> ControlResult:
         """Joint velocity with diagnostics (:meth:`control` without a target).
 
         Args:
-            q: Joint positions, shape (n,) [rad].
-            ee_velocity: Desired end-effector velocity, shape (m,) [m/s].
+            position: Joint positions, shape (n,) [rad].
+            command: Desired end-effector velocity, shape (m,) [m/s].
         """
-        return self.control(q, ee_velocity)
+        return self.control(position, command)
 
-    def shape(self, q: ArrayLike, ee_velocity: ArrayLike) -> FloatArray:
+    @renamed_args(q="position", ee_velocity="command")
+    def shape(self, position: ArrayLike, command: ArrayLike) -> FloatArray:
         """Joint velocity, shape (n,) [rad/s], for an end-effector velocity command.
 
         Args:
-            q: Joint positions, shape (n,) [rad].
-            ee_velocity: Desired end-effector velocity, shape (m,) [m/s].
+            position: Joint positions, shape (n,) [rad].
+            command: Desired end-effector velocity, shape (m,) [m/s].
 
         Raises:
             InvalidInput: wrong shapes, or non-finite values with ``on_invalid="raise"``.
         """
-        return self.control(q, ee_velocity).q_dot
+        return self.control(position, command).q_dot
 
-    def shape_batch(self, Q: ArrayLike, V: ArrayLike) -> FloatArray:
+    @renamed_args(Q="positions", V="commands")
+    def shape_batch(self, positions: ArrayLike, commands: ArrayLike) -> FloatArray:
         """Joint velocities for N independent states; equal to looping :meth:`shape`.
 
         Args:
-            Q: Joint positions, shape (N, n) [rad].
-            V: End-effector velocity commands, shape (N, m) [m/s].
+            positions: Joint positions, shape (N, n) [rad].
+            commands: End-effector velocity commands, shape (N, m) [m/s].
 
         Returns:
             Shape (N, n).
@@ -469,15 +484,15 @@ class ChainObstacleBase(InvalidPolicy):
             InvalidInput: wrong shapes, or non-finite rows with ``on_invalid="raise"``.
         """
         Qa = real_array(
-            "Q",
-            Q,
+            "positions",
+            positions,
             what=f"joint positions of shape (N, {self.dof}) [rad]",
             allow_nonfinite=True,
             max_abs=None,
         )
         Va = real_array(
-            "V",
-            V,
+            "commands",
+            commands,
             what=f"end-effector velocities of shape (N, {self.task_dim}) [m/s]",
             allow_nonfinite=True,
             max_abs=None,
@@ -490,7 +505,8 @@ class ChainObstacleBase(InvalidPolicy):
             or Qa.shape[0] != Va.shape[0]
         ):
             raise InvalidInput(
-                f"Q and V must have shapes (N, {self.dof}) and (N, {self.task_dim}), got "
+                f"positions and commands must have shapes (N, {self.dof}) and "
+                f"(N, {self.task_dim}), got "
                 f"{Qa.shape} and {Va.shape}"
             )
         out = np.zeros((Qa.shape[0], self.dof))
@@ -498,8 +514,8 @@ class ChainObstacleBase(InvalidPolicy):
             try:
                 out[k] = self.shape(Qa[k], Va[k])
             except InvalidInput as exc:
-                # shape() names its own q / ee_velocity; say which batch row of Q, V it was.
-                raise InvalidInput(f"Q, V row {k}: {exc}") from None
+                # shape() names its own position / command; say which batch row it was.
+                raise InvalidInput(f"positions, commands row {k}: {exc}") from None
         return out
 
 
@@ -673,7 +689,7 @@ class ConfigurationController(ChainObstacleBase):
     def __init__(
         self,
         chain: SerialChain,
-        obstacles: Sequence[Obstacle],
+        obstacles: Sequence[InfluenceObstacle],
         *,
         ee_gain: float = 1.0,
         damping: float = 1e-2,
@@ -943,3 +959,6 @@ class ConfigurationController(ChainObstacleBase):
             redundancy=self.redundancy,
             method=self.method,
         )
+
+
+__getattr__ = module_getattr(__name__, {"Obstacle": "InfluenceObstacle"}, globals())

@@ -34,7 +34,7 @@ from velfence.errors import InvalidParameter
 from velfence.redundancy.configuration_control import (
     ChainObstacleBase,
     ControlResult,
-    Obstacle,
+    InfluenceObstacle,
 )
 from velfence.shaping.base import OnInvalid
 
@@ -90,7 +90,7 @@ class VelocityDamperQP(ChainObstacleBase):
     def __init__(
         self,
         chain: SerialChain,
-        obstacles: Sequence[Obstacle],
+        obstacles: Sequence[InfluenceObstacle],
         *,
         gain_xi: float = 1.0,
         d_influence: float = 0.3,

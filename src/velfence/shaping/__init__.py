@@ -11,8 +11,9 @@ implements ``shape``, ``explain`` and ``shape_batch`` (see :mod:`velfence.shapin
 joint-stop limiter and the n-D polytope shaper do the same on n-vectors.
 """
 
+from velfence._deprecate import module_getattr
 from velfence.shaping._kernels import STAGE_NAMES, ZONE_NAMES
-from velfence.shaping.base import Shaper, ShaperResult, ShapingResult
+from velfence.shaping.base import Shaper, ShapingResult, ShapingResultProtocol
 from velfence.shaping.fixtures import (
     OMNI_CONTINUOUS_FORCE,
     OMNI_MAX_FORCE,
@@ -45,9 +46,11 @@ __all__ = [
     "RateLimiter",
     "ScalingResult",
     "Shaper",
-    "ShaperResult",
     "ShapingResult",
+    "ShapingResultProtocol",
     "StopLimiter",
     "StopResult",
     "ThreeZoneBraking",
 ]
+
+__getattr__ = module_getattr(__name__, {"ShaperResult": "ShapingResultProtocol"}, globals())

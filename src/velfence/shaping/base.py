@@ -20,6 +20,7 @@ from typing import Any, Literal, Protocol, get_args, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike
 
+from velfence._deprecate import module_getattr
 from velfence._typing import BoolArray, FloatArray, IntArray
 from velfence._validate import as_pair, as_rows, check_choice
 from velfence.errors import InvalidInput
@@ -32,8 +33,8 @@ __all__ = [
     "OnInvalid",
     "Shaper",
     "ShaperBase",
-    "ShaperResult",
     "ShapingResult",
+    "ShapingResultProtocol",
     "Zone",
 ]
 
@@ -109,8 +110,8 @@ def active_of(zone: Zone, primary: int, secondary: int) -> tuple[int, ...]:
 class Explained(Protocol):
     """What the :class:`Shaper` protocol asks of ``explain``: the output and a zone name.
 
-    Every velfence shaper's result satisfies the stricter :class:`ShaperResult`; this minimal
-    form admits shapers with zones of their own (the redundancy controllers).
+    Every velfence shaper's result satisfies the stricter :class:`ShapingResultProtocol`; this
+    minimal form admits shapers with zones of their own (the redundancy controllers).
     """
 
     @property
@@ -125,8 +126,12 @@ class Explained(Protocol):
 
 
 @runtime_checkable
-class ShaperResult(Explained, Protocol):
+class ShapingResultProtocol(Explained, Protocol):
     """The one typed result contract of the shapers in :mod:`velfence.shaping` and their users.
+
+    A protocol, not a class to build: :class:`ShapingResult` is the 2-D shapers' record; this
+    says what every shaper's ``explain()`` record has (it was called ``ShaperResult`` before
+    0.2; that name warns until 0.3).
 
     :class:`ShapingResult` (polygon laws, baselines, the caster wall),
     :class:`~velfence.shaping.stops.StopResult`, :class:`~velfence.shaping.fixtures.ScalingResult`
@@ -357,3 +362,6 @@ class ShaperBase(InvalidPolicy):
 
 def _finite_rows(a: FloatArray) -> BoolArray:
     return np.asarray(np.isfinite(a).all(axis=1), dtype=np.bool_)
+
+
+__getattr__ = module_getattr(__name__, {"ShaperResult": "ShapingResultProtocol"}, globals())

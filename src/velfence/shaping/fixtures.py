@@ -61,6 +61,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from velfence._deprecate import renamed_args, renamed_attribute
 from velfence._typing import FloatArray
 from velfence._validate import as_rows, check_positive, finite_array, real_array
 from velfence.errors import InvalidGeometry, InvalidInput
@@ -363,8 +364,10 @@ class LineFixture(InvalidPolicy):
         line_direction: Direction, shape (3,), non-zero (normalised).
         stiffness: Spring stiffness :math:`k` [N/m], ``> 0``. Default 204 N/m: the thesis's
             "0.2" as 0.2 × the Omni's 1.02 N/mm (repair T13 of ``docs/telerobotics.md`` §8).
-        radius_of_influence: Radius :math:`R` of the cylinder in which the spring acts [m],
-            ``> 0`` (the thesis's snap radius is not given; default 0.02 m).
+        influence: Radius :math:`R` of the cylinder of influence, in which the spring acts [m],
+            ``> 0`` (the thesis's snap radius is not given; default 0.02 m). The same word as
+            :class:`~velfence.redundancy.InfluenceObstacle`'s ``influence``; it was called
+            ``radius_of_influence`` before 0.2 (keyword and attribute warn until 0.3).
         max_force: Force limit :math:`F_{max}` [N], ``> 0``. Default
             :data:`OMNI_CONTINUOUS_FORCE` (0.88 N, the force the Omni sustains; its peak is
             :data:`OMNI_MAX_FORCE`, 3.3 N).
@@ -381,21 +384,24 @@ class LineFixture(InvalidPolicy):
 
     __slots__ = (
         "damping",
+        "influence",
         "length",
         "line_direction",
         "line_point",
         "max_force",
-        "radius_of_influence",
         "stiffness",
     )
 
+    radius_of_influence = renamed_attribute("radius_of_influence", "influence")
+
+    @renamed_args(radius_of_influence="influence")
     def __init__(
         self,
         line_point: ArrayLike,
         line_direction: ArrayLike,
         *,
         stiffness: float = DEFAULT_STIFFNESS,
-        radius_of_influence: float = DEFAULT_RADIUS,
+        influence: float = DEFAULT_RADIUS,
         max_force: float = OMNI_CONTINUOUS_FORCE,
         damping: float = DEFAULT_DAMPING,
         length: float | None = None,
@@ -404,9 +410,7 @@ class LineFixture(InvalidPolicy):
         super().__init__(on_invalid=on_invalid)
         self.line_point, self.line_direction = _line(line_point, line_direction)
         self.stiffness = check_positive("stiffness", stiffness, unit="N/m")
-        self.radius_of_influence = check_positive(
-            "radius_of_influence", radius_of_influence, unit="m"
-        )
+        self.influence = check_positive("influence", influence, unit="m")
         self.max_force = check_positive("max_force", max_force, unit="N")
         self.damping = check_positive("damping", damping, unit="N·s/m")
         self.length = None if length is None else check_positive("length", length, unit="m")
@@ -415,7 +419,7 @@ class LineFixture(InvalidPolicy):
         return (
             f"LineFixture(line_point={self.line_point.tolist()}, "
             f"line_direction={self.line_direction.tolist()}, stiffness={self.stiffness:g}, "
-            f"radius_of_influence={self.radius_of_influence:g}, max_force={self.max_force:g}, "
+            f"influence={self.influence:g}, max_force={self.max_force:g}, "
             f"damping={self.damping:g}, length={self.length})"
         )
 
@@ -436,7 +440,7 @@ class LineFixture(InvalidPolicy):
     def _force(self, r: FloatArray) -> tuple[FloatArray, float, bool, bool]:
         """Force, distance, inside, saturated for an offset ``r``."""
         d = float(np.linalg.norm(r))
-        if not d <= self.radius_of_influence:
+        if not d <= self.influence:
             return np.zeros(3), d, False, False
         magnitude = self.stiffness * d
         if magnitude > self.max_force:

@@ -46,6 +46,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike
 
+from velfence._deprecate import renamed_args
 from velfence._typing import FloatArray
 from velfence._validate import (
     MAX_MAGNITUDE,
@@ -394,16 +395,16 @@ class StopLimiter(InvalidPolicy):
         self, theta: ArrayLike, theta_dot: ArrayLike
     ) -> tuple[list[float], list[float], bool]:
         """Floats of the inputs and whether they are finite (raises under ``"raise"``)."""
-        xs = self._vector("theta", theta, "joint positions [rad]")
-        cs = self._vector("theta_dot", theta_dot, "joint velocities [rad/s]")
+        xs = self._vector("position", theta, "joint positions [rad]")
+        cs = self._vector("command", theta_dot, "joint velocities [rad/s]")
         total = sum(xs) + sum(cs)
         if total - total != 0.0 and not all(math.isfinite(a) for a in xs + cs):
-            self._invalid(f"non-finite input: theta={xs}, theta_dot={cs}")
+            self._invalid(f"non-finite input: position={xs}, command={cs}")
             return xs, cs, False
         if max(map(abs, xs + cs)) > MAX_MAGNITUDE:
             # Beyond MAX_MAGNITUDE distances and speeds overflow inside the law: same policy.
             self._invalid(
-                f"input too large (magnitude above {MAX_MAGNITUDE:g}): theta={xs}, theta_dot={cs}"
+                f"input too large (magnitude above {MAX_MAGNITUDE:g}): position={xs}, command={cs}"
             )
             return xs, cs, False
         return xs, cs, True
@@ -413,7 +414,7 @@ class StopLimiter(InvalidPolicy):
             return None
         r = self._core(x, c)
         if not all(math.isfinite(a) for a in r[0]):
-            self._invalid(f"input too large, the limited velocity overflowed: theta_dot={c}")
+            self._invalid(f"input too large, the limited velocity overflowed: command={c}")
             return None
         if r[5]:
             self.rate_overrides += 1
@@ -547,27 +548,29 @@ class StopLimiter(InvalidPolicy):
         out.sort()
         return out
 
-    def shape(self, theta: ArrayLike, theta_dot: ArrayLike) -> FloatArray:
+    @renamed_args(theta="position", theta_dot="command")
+    def shape(self, position: ArrayLike, command: ArrayLike) -> FloatArray:
         """Limited joint velocity, shape (n,) (see :meth:`explain`).
 
         Args:
-            theta: Joint positions, shape (n,) [rad] (unwrapped), real numbers.
-            theta_dot: Commanded joint velocity, shape (n,) [rad/s], real numbers.
+            position: Joint positions, shape (n,) [rad] (unwrapped), real numbers.
+            command: Commanded joint velocity, shape (n,) [rad/s], real numbers.
 
         Raises:
             InvalidInput: not real numbers (strings, bytes, dicts, booleans, complex refused),
                 wrong shapes, or non-finite values under ``on_invalid="raise"``.
         """
-        x, c, ok = self._parse(theta, theta_dot)
+        x, c, ok = self._parse(position, command)
         r = self._checked_core(x, c, ok)
         return np.zeros(self.size) if r is None else np.array(r[0])
 
-    def explain(self, theta: ArrayLike, theta_dot: ArrayLike) -> StopResult:
+    @renamed_args(theta="position", theta_dot="command")
+    def explain(self, position: ArrayLike, command: ArrayLike) -> StopResult:
         """Limit one command and report every intermediate quantity.
 
         Args:
-            theta: Joint positions, shape (n,) [rad] (unwrapped), real numbers.
-            theta_dot: Commanded joint velocity, shape (n,) [rad/s], real numbers.
+            position: Joint positions, shape (n,) [rad] (unwrapped), real numbers.
+            command: Commanded joint velocity, shape (n,) [rad/s], real numbers.
 
         Returns:
             The :class:`StopResult`; under ``on_invalid="stop"`` an invalid input gives zero
@@ -577,7 +580,7 @@ class StopLimiter(InvalidPolicy):
             InvalidInput: not real numbers, wrong shapes, or non-finite values under
                 ``on_invalid="raise"``.
         """
-        x, c, ok = self._parse(theta, theta_dot)
+        x, c, ok = self._parse(position, command)
         r = self._checked_core(x, c, ok)
         if r is None:
             n = self.size
@@ -654,12 +657,13 @@ class StopLimiter(InvalidPolicy):
             stages=stages,
         )
 
-    def shape_batch(self, Theta: ArrayLike, Theta_dot: ArrayLike) -> FloatArray:
+    @renamed_args(Theta="positions", Theta_dot="commands")
+    def shape_batch(self, positions: ArrayLike, commands: ArrayLike) -> FloatArray:
         """Limit N independent states, shape (N, n); only for a stateless limiter.
 
         Args:
-            Theta: Joint positions, shape (N, n) [rad].
-            Theta_dot: Commanded joint velocities, shape (N, n) [rad/s].
+            positions: Joint positions, shape (N, n) [rad].
+            commands: Commanded joint velocities, shape (N, n) [rad/s].
 
         Raises:
             InvalidParameter: when a pre- or post-stage keeps history (rows would not be
@@ -672,11 +676,11 @@ class StopLimiter(InvalidPolicy):
                 "shape_batch needs a stateless limiter (no pre/post rate limiter): the rows of a "
                 "batch are independent states; call shape() in time order instead"
             )
-        X = as_rows("Theta", Theta, self.size)
-        V = as_rows("Theta_dot", Theta_dot, self.size)
+        X = as_rows("positions", positions, self.size)
+        V = as_rows("commands", commands, self.size)
         if X.shape != V.shape:
             raise InvalidInput(
-                f"Theta and Theta_dot must both have shape (N, {self.size}), got {X.shape} and "
+                f"positions and commands must both have shape (N, {self.size}), got {X.shape} and "
                 f"{V.shape}"
             )
         out = np.zeros_like(X)
@@ -684,7 +688,7 @@ class StopLimiter(InvalidPolicy):
             try:
                 out[k] = self.shape(X[k], V[k])
             except InvalidInput as e:  # name the batch arguments, as the caller typed them
-                raise InvalidInput(f"Theta and Theta_dot, row {k}: {e}") from e
+                raise InvalidInput(f"positions and commands, row {k}: {e}") from e
         return out
 
 

@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from velfence._deprecate import renamed_attribute
 from velfence._typing import FloatArray
 from velfence._validate import check_positive, readonly, real_array
 from velfence.errors import InvalidParameter
@@ -86,7 +87,8 @@ class ArmScene:
         sphere_radius: Its radius [m].
         lower: Lower joint limits, shape (n,), [rad].
         upper: Upper joint limits, shape (n,), [rad].
-        max_velocity: Joint speed limits, shape (n,), [rad/s].
+        max_speed: Joint speed limits, shape (n,), [rad/s] (``max_velocity``: its deprecated
+            name, warns until 0.3).
         max_acceleration: Joint acceleration limits, shape (n,), [rad/s²].
         q0: Initial joint position, shape (n,), [rad] (TCP inside the box, at rest).
         dt: Control and integration period [s].
@@ -102,12 +104,14 @@ class ArmScene:
     sphere_radius: float
     lower: FloatArray
     upper: FloatArray
-    max_velocity: FloatArray
+    max_speed: FloatArray
     max_acceleration: FloatArray
     q0: FloatArray
     dt: float = 1e-3
     buffer: float = 0.03
     obstacle_buffer: float = 0.05
+
+    max_velocity = renamed_attribute("max_velocity", "max_speed")
 
     @property
     def tcp0(self) -> FloatArray:
@@ -137,7 +141,7 @@ def arm_box_scene(*, dt: float = 1e-3) -> ArmScene:
         sphere_radius=0.05,
         lower=readonly(lower),
         upper=readonly(upper),
-        max_velocity=readonly(np.radians([85.0, 85.0, 100.0, 75.0, 130.0, 135.0, 135.0])),
+        max_speed=readonly(np.radians([85.0, 85.0, 100.0, 75.0, 130.0, 135.0, 135.0])),
         max_acceleration=readonly(np.full(7, 20.0)),
         q0=readonly(np.array([0.0, 0.5, 0.0, 1.6, 0.0, -1.0, 0.0])),
         dt=dt,
@@ -256,7 +260,7 @@ class TwistMode:
         point: The robot point the twist commands (default ``"tcp"``).
     """
 
-    method = "velfence"
+    method = "safety-filter"
 
     def __init__(self, safety_filter: Any, *, point: str = "tcp") -> None:
         self.filter = safety_filter
@@ -271,18 +275,20 @@ class TwistMode:
         """Forget the filter's remembered output (:func:`velfence.sim.simulate` calls it)."""
         self.filter.reset()
 
-    def explain(self, q: ArrayLike, twist: ArrayLike, /) -> Any:
-        """The filter's :class:`~velfence.filter.FilterResult` for TCP command ``twist``."""
-        return self.filter.explain_twist(q, twist, point=self.point)
+    def explain(self, position: ArrayLike, command: ArrayLike, /) -> Any:
+        """The filter's :class:`~velfence.filter.FilterResult` for the TCP twist ``command``."""
+        return self.filter.explain_twist(position, command, point=self.point)
 
-    def shape(self, q: ArrayLike, twist: ArrayLike, /) -> FloatArray:
-        """Joint velocity [rad/s], shape (n,), for TCP command ``twist`` [m/s] at ``q`` [rad]."""
-        return np.asarray(self.filter.filter_twist(q, twist, point=self.point), dtype=float)
+    def shape(self, position: ArrayLike, command: ArrayLike, /) -> FloatArray:
+        """Joint velocity [rad/s], shape (n,), for TCP twist ``command`` [m/s] at ``position``."""
+        return np.asarray(
+            self.filter.filter_twist(position, command, point=self.point), dtype=float
+        )
 
-    def shape_batch(self, Q: ArrayLike, V: ArrayLike, /) -> FloatArray:
-        """:meth:`shape` row by row: ``Q`` (N, n), ``V`` (N, 3) -> (N, n)."""
-        Qa = real_array("Q", Q, (None, None), what="joint positions [rad]")
-        Va = real_array("V", V, (Qa.shape[0], 3), what="TCP velocities [m/s]")
+    def shape_batch(self, positions: ArrayLike, commands: ArrayLike, /) -> FloatArray:
+        """:meth:`shape` row by row: ``positions`` (N, n), ``commands`` (N, 3) -> (N, n)."""
+        Qa = real_array("positions", positions, (None, None), what="joint positions [rad]")
+        Va = real_array("commands", commands, (Qa.shape[0], 3), what="TCP velocities [m/s]")
         return np.array([self.shape(q, v) for q, v in zip(Qa, Va, strict=True)]).reshape(Qa.shape)
 
 
@@ -290,7 +296,7 @@ def _limits(scene: ArmScene) -> Any:
     from velfence.filter import JointLimits
 
     return JointLimits(
-        scene.lower, scene.upper, scene.max_velocity, max_acceleration=scene.max_acceleration
+        scene.lower, scene.upper, scene.max_speed, max_acceleration=scene.max_acceleration
     )
 
 

@@ -56,6 +56,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 import numpy as np
 from numpy.typing import ArrayLike
 
+from velfence._deprecate import renamed_attribute
 from velfence._typing import FloatArray
 from velfence._validate import check_positive, readonly, real_array
 from velfence.errors import InvalidInput, InvalidParameter
@@ -84,7 +85,7 @@ class _Limits(Protocol):
     def upper(self) -> FloatArray: ...
 
     @property
-    def max_velocity(self) -> FloatArray: ...
+    def max_speed(self) -> FloatArray: ...
 
 
 class _Sphere(Protocol):
@@ -132,6 +133,8 @@ def _zone(active: Sequence[str]) -> str:
 class _ArmController:
     """Shared validation, kinematics and rows of the baselines."""
 
+    max_velocity = renamed_attribute("max_velocity", "max_speed")
+
     method = "arm"
 
     def __init__(
@@ -160,13 +163,13 @@ class _ArmController:
         self.dof = n
         lo = real_array("limits.lower", limits.lower, (n,), error=InvalidParameter)
         hi = real_array("limits.upper", limits.upper, (n,), error=InvalidParameter)
-        vmax = real_array("limits.max_velocity", limits.max_velocity, (n,), error=InvalidParameter)
+        vmax = real_array("limits.max_speed", limits.max_speed, (n,), error=InvalidParameter)
         if not np.all(lo < hi) or not np.all(vmax > 0.0):
             raise InvalidParameter(
-                "limits: expected lower < upper and max_velocity > 0 on every joint, got lower "
-                f"{lo.tolist()}, upper {hi.tolist()}, max_velocity {vmax.tolist()}"
+                "limits: expected lower < upper and max_speed > 0 on every joint, got lower "
+                f"{lo.tolist()}, upper {hi.tolist()}, max_speed {vmax.tolist()}"
             )
-        self.lower, self.upper, self.max_velocity = readonly(lo), readonly(hi), readonly(vmax)
+        self.lower, self.upper, self.max_speed = readonly(lo), readonly(hi), readonly(vmax)
         if workspace is not None and getattr(workspace, "dim", None) != 3:
             raise InvalidParameter(
                 "workspace: expected a 3-D ConvexPolytope on the TCP or None, got "
@@ -206,8 +209,8 @@ class _ArmController:
     def _joint_bounds(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
         """Per-joint velocity box: velocity limits and the position dampers, [rad/s]."""
         g = self.position_gain / self.dt
-        lo = np.maximum(-self.max_velocity, g * (self.lower - q))
-        hi = np.minimum(self.max_velocity, g * (self.upper - q))
+        lo = np.maximum(-self.max_speed, g * (self.lower - q))
+        hi = np.minimum(self.max_speed, g * (self.upper - q))
         return lo, np.maximum(hi, lo)
 
     def _sphere_rows(self, q: FloatArray) -> tuple[FloatArray, FloatArray, list[str]]:
@@ -283,7 +286,7 @@ class ResolvedRate(_ArmController):
 
     Args:
         robot: The arm (:class:`~velfence.mechanisms.DHChain`).
-        limits: Joint limits (``lower``, ``upper``, ``max_velocity``, shape (n,) each); unused
+        limits: Joint limits (``lower``, ``upper``, ``max_speed``, shape (n,) each); unused
             here, kept so every baseline is built the same way.
         damping: DLS damping :math:`\lambda` [m²], > 0.
     """
@@ -300,7 +303,7 @@ class JointClamp(_ArmController):
 
     Args:
         robot: The arm.
-        limits: Joint limits (``lower``, ``upper``, ``max_velocity``, shape (n,) each).
+        limits: Joint limits (``lower``, ``upper``, ``max_speed``, shape (n,) each).
         dt: Control period [s], > 0 (the position-derived velocity lands on the limit in one).
         damping: DLS damping [m²], > 0.
     """
@@ -309,14 +312,14 @@ class JointClamp(_ArmController):
 
     def _step(self, q: FloatArray, v: FloatArray) -> ArmStep:
         qd = self._dls(np.asarray(self.robot.ee_jacobian(q), dtype=float), v)
-        lo = np.maximum(-self.max_velocity, (self.lower - q) / self.dt)
-        hi = np.maximum(np.minimum(self.max_velocity, (self.upper - q) / self.dt), lo)
+        lo = np.maximum(-self.max_speed, (self.lower - q) / self.dt)
+        hi = np.maximum(np.minimum(self.max_speed, (self.upper - q) / self.dt), lo)
         out = np.clip(qd, lo, hi)
         names = []
         for i in np.flatnonzero(out != qd):
             side = "upper" if qd[i] > 0 else "lower"
             pos = ((self.upper if qd[i] > 0 else self.lower)[i] - q[i]) / self.dt
-            kind = "position" if abs(pos) < self.max_velocity[i] else "velocity"
+            kind = "position" if abs(pos) < self.max_speed[i] else "velocity"
             names.append(f"joint {int(i)} {kind} ({side})")
         return ArmStep(out, v, q, _zone(names), tuple(names), ("dls", "clamp"), self.method)
 
@@ -326,7 +329,7 @@ class ScalarScale(_ArmController):
 
     Args:
         robot: The arm.
-        limits: Joint limits (``lower``, ``upper``, ``max_velocity``, shape (n,) each).
+        limits: Joint limits (``lower``, ``upper``, ``max_speed``, shape (n,) each).
         obstacles: Spheres (``center`` (3,) [m], ``radius`` [m]).
         dt: Control period [s], > 0.
         damping: DLS damping [m²], > 0.
@@ -370,7 +373,7 @@ class ScalarScale(_ArmController):
             for bound, x, side in ((hi[i], qd[i], "upper"), (-lo[i], -qd[i], "lower")):
                 if x > 0.0 and bound / x < s:
                     s = max(0.0, bound / x)
-                    at_v = abs(bound - self.max_velocity[i]) <= 1e-12
+                    at_v = abs(bound - self.max_speed[i]) <= 1e-12
                     why = f"joint {i} {'velocity' if at_v else 'position'} ({side})"
         rows, bounds, names = self._sphere_rows(q)
         for a, b, name in zip(rows, bounds, names, strict=True):
@@ -410,7 +413,7 @@ class DamperQP(_ArmController):
 
     Args:
         robot: The arm.
-        limits: Joint limits (``lower``, ``upper``, ``max_velocity``, shape (n,) each).
+        limits: Joint limits (``lower``, ``upper``, ``max_speed``, shape (n,) each).
         workspace: The TCP box (a 3-D :class:`~velfence.geometry.polytope.ConvexPolytope`).
         obstacles: Spheres (``center`` (3,) [m], ``radius`` [m]).
         dt: Control period [s], > 0.
@@ -461,7 +464,7 @@ class DamperQP(_ArmController):
         ]
         for i in range(n):
             if qd[i] >= hi[i] - tol or qd[i] <= lo[i] + tol:
-                at_v = min(abs(qd[i]) - self.max_velocity[i], 0.0) >= -tol
+                at_v = min(abs(qd[i]) - self.max_speed[i], 0.0) >= -tol
                 side = "upper" if qd[i] >= hi[i] - tol else "lower"
                 names.append(f"joint {i} {'velocity' if at_v else 'position'} ({side})")
         return ArmStep(qd, v, q, _zone(names), tuple(names), ("qp",), self.method)

@@ -43,6 +43,7 @@ from typing import Any, Literal, get_args
 import numpy as np
 from numpy.typing import ArrayLike
 
+from velfence._deprecate import renamed_args, renamed_attribute
 from velfence._typing import FloatArray
 from velfence._validate import (
     check_choice,
@@ -178,9 +179,10 @@ class MujocoPlant:
             or one per actuated joint.
         max_effort: Effort limits [N·m or N], a scalar or one per actuated joint (default: the
             model's ``actuatorfrcrange``; unlimited where it has none).
-        max_velocity: Joint velocity limits of the actuated joints [rad/s or m/s], a scalar or
+        max_speed: Joint speed limits of the actuated joints [rad/s or m/s], a scalar or
             one per joint, applied to the reference (default: the robot's ``velocity_limits``
-            when it has them; else none).
+            when it has them; else none). ``max_velocity`` is its deprecated name (warns; goes
+            in 0.3).
         physics_dt: MuJoCo's time step [s], > 0; the control period passed to the runner must
             be a whole multiple of it.
         obstacles: Spheres added as geoms (module docstring).
@@ -193,6 +195,9 @@ class MujocoPlant:
         InvalidGeometry: MuJoCo rejects the document.
     """
 
+    max_velocity = renamed_attribute("max_velocity", "max_speed")
+
+    @renamed_args(max_velocity="max_speed")
     def __init__(
         self,
         robot: Any,
@@ -205,7 +210,7 @@ class MujocoPlant:
         bandwidth: float = 40.0,
         kv: float | ArrayLike = 50.0,
         max_effort: float | ArrayLike | None = None,
-        max_velocity: float | ArrayLike | None = None,
+        max_speed: float | ArrayLike | None = None,
         physics_dt: float = 5e-4,
         obstacles: Sequence[SphereObstacle] = (),
         pushes: Sequence[BodyPush] = (),
@@ -268,8 +273,8 @@ class MujocoPlant:
         self.max_effort = self._per_joint(
             "max_effort", max_effort, m, np.maximum(-frc[:, 0], frc[:, 1]), "N·m or N"
         )
-        self.max_velocity = self._per_joint(
-            "max_velocity", max_velocity, m, self._default_vlim(robot_vlim, all_joints), "rad/s"
+        self.max_speed = self._per_joint(
+            "max_speed", max_speed, m, self._default_vlim(robot_vlim, all_joints), "rad/s"
         )
         if kv is None:
             raise InvalidParameter(
@@ -484,7 +489,7 @@ class MujocoPlant:
                 (len(self.actuated),),
                 what="actuated velocity references",
             )
-        ref = np.clip(ref, -self.max_velocity, self.max_velocity)
+        ref = np.clip(ref, -self.max_speed, self.max_speed)
         clipped = False
         ncon = 0
         depth = 0.0

@@ -56,7 +56,7 @@ from velfence.mechanisms.chain import DHChain, PlanarArm, SerialChain
 from velfence.redundancy.configuration_control import (
     ConfigurationController,
     ControlResult,
-    Obstacle,
+    InfluenceObstacle,
 )
 from velfence.redundancy.paths import Line, cosine_line
 from velfence.sim.runner import simulate
@@ -122,7 +122,7 @@ class ScenarioRun:
 
     name: str
     chain: SerialChain
-    obstacles: tuple[Obstacle, ...]
+    obstacles: tuple[InfluenceObstacle, ...]
     t: FloatArray
     q: FloatArray
     q_dot: FloatArray
@@ -228,7 +228,7 @@ def _ik(chain: SerialChain, target: ArrayLike, q: ArrayLike) -> FloatArray:
     return qa
 
 
-def _qp(chain: SerialChain, obstacles: Sequence[Obstacle]) -> Any:
+def _qp(chain: SerialChain, obstacles: Sequence[InfluenceObstacle]) -> Any:
     from velfence.redundancy.qp_baseline import VelocityDamperQP
 
     d_safe = obstacles[0].influence - obstacles[0].radius
@@ -244,7 +244,7 @@ def _qp(chain: SerialChain, obstacles: Sequence[Obstacle]) -> Any:
 
 def _in_front_of_links(
     chain: SerialChain, q: FloatArray, v: FloatArray, links: Sequence[int]
-) -> list[Obstacle]:
+) -> list[InfluenceObstacle]:
     """Obstacles 0.19 m (just inside ρ) from each link's midpoint, on the side it moves to.
 
     The offset is along the link's normal (the motion's component across the link), so the
@@ -260,8 +260,11 @@ def _in_front_of_links(
         vel = np.asarray(chain.point_jacobian(q, link, 0.5)) @ qd
         across = vel - float(vel @ e) * e
         obs.append(
-            Obstacle(center=mid + (RHO - 0.01) * across / np.linalg.norm(across), radius=BODY,
-                     influence=RHO)
+            InfluenceObstacle(
+                center=mid + (RHO - 0.01) * across / np.linalg.norm(across),
+                radius=BODY,
+                influence=RHO,
+            )
         )  # fmt: skip
     return obs
 
@@ -276,7 +279,7 @@ def scenarios(*, baseline: bool = True) -> dict[str, ScenarioRun]:
     arm3 = PlanarArm.three_r()
     q3 = _ik(arm3, (2.0, 1.0), (-0.4, 0.8, 1.0))
     line1 = cosine_line((2.0, 1.0), (0.0, -1.0), 2.0, 5.0, back=True)
-    ob1 = [Obstacle(center=np.array([1.5, -1.4]), radius=BODY, influence=RHO)]
+    ob1 = [InfluenceObstacle(center=np.array([1.5, -1.4]), radius=BODY, influence=RHO)]
     out["i"] = run_scenario("(i) 3R, configuration control", ConfigurationController(arm3, ob1),
                             line1, q3, 10.0)  # fmt: skip
     free = ConfigurationController(arm3, [])
@@ -285,8 +288,8 @@ def scenarios(*, baseline: bool = True) -> dict[str, ScenarioRun]:
     q4 = _ik(arm4, (2.5, 1.0), (0.3, 0.5, 0.5, 0.5))
     line2 = cosine_line((2.5, 1.0), (0.0, -1.0), 2.0, 10.0, back=False)
     ob2 = [
-        Obstacle(center=np.array([0.3, -0.8]), radius=BODY, influence=RHO),
-        Obstacle(center=np.array([1.1, -1.8]), radius=BODY, influence=RHO),
+        InfluenceObstacle(center=np.array([0.3, -0.8]), radius=BODY, influence=RHO),
+        InfluenceObstacle(center=np.array([1.1, -1.8]), radius=BODY, influence=RHO),
     ]
     out["ii"] = run_scenario(
         "(ii) 4R, two obstacles, configuration control",
@@ -326,11 +329,13 @@ def _seven_dof() -> ScenarioRun:
     centre = np.asarray(chain.joint_positions(free.q[-1]), dtype=float)[3]
     for q in free.q[::10]:
         elbow = np.asarray(chain.joint_positions(q), dtype=float)[3]
-        probe = ConfigurationController(chain, [Obstacle(center=elbow, radius=0.0, influence=1.0)])
+        probe = ConfigurationController(
+            chain, [InfluenceObstacle(center=elbow, radius=0.0, influence=1.0)]
+        )
         if float(probe.critical(q0).distances[0]) >= SEVEN_START_CLEAR:
             centre = elbow
             break
-    ob = [Obstacle(center=centre, radius=0.03, influence=SEVEN_RHO)]
+    ob = [InfluenceObstacle(center=centre, radius=0.03, influence=SEVEN_RHO)]
     return run_scenario(
         "(v) 7R, configuration control", ConfigurationController(chain, ob), line, q0, duration
     )

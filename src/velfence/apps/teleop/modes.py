@@ -223,7 +223,7 @@ class ModeManager:
         along: Scaling along the laser line ('S'), ``> 0`` (thesis 3.0).
         across: Scaling across it, ``>= 0`` (thesis 0.2).
         fixture_options: Keyword arguments for :class:`~velfence.shaping.fixtures.LineFixture`
-            ('F'), e.g. ``{"stiffness": 204.0, "radius_of_influence": 0.02}``; validated here.
+            ('F'), e.g. ``{"stiffness": 204.0, "influence": 0.02}``; validated here.
         presses_per_point: 'P' presses that record one plane point, int ``>= 1`` (thesis 2).
         toggle_off: Whether 'G'+'A' / 'T'+'A' after a completed segment only switches the mode
             off (thesis) or directly starts the next one.
@@ -286,7 +286,7 @@ class ModeManager:
         except (TypeError, AttributeError, OverflowError) as exc:
             raise InvalidParameter(
                 f"fixture_options: expected LineFixture keywords (stiffness, "
-                f"radius_of_influence, max_force, damping, length), got {sorted(options)}"
+                f"influence, max_force, damping, length), got {sorted(options)}"
             ) from exc
         self.fixture_options = options
         self.presses_per_point = check_positive_int(

@@ -36,6 +36,7 @@ from typing import Any, Literal, Protocol, get_args, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike
 
+from velfence._deprecate import renamed_args
 from velfence._typing import FloatArray
 from velfence._validate import (
     check_choice,
@@ -397,12 +398,13 @@ class ResolvedRate(InvalidPolicy):
             f"max_speed={self.max_speed}, on_invalid={self.on_invalid!r})"
         )
 
-    def step(self, q: ArrayLike, xdot: ArrayLike) -> FloatArray:
+    @renamed_args(q="position", xdot="command")
+    def step(self, position: ArrayLike, command: ArrayLike) -> FloatArray:
         """Joint rates for one commanded twist.
 
         Args:
-            q: Joint position [rad], shape (n,).
-            xdot: Commanded twist ``[v; ω]`` in the base frame [m/s; rad/s], shape (6,) (the
+            position: Joint position [rad], shape (n,).
+            command: Commanded twist ``[v; ω]`` in the base frame [m/s; rad/s], shape (6,) (the
                 Jacobian's row count).
 
         Returns:
@@ -413,26 +415,27 @@ class ResolvedRate(InvalidPolicy):
                 singular Jacobian under ``"jinv"`` (message names ``w``) or overflow.
         """
         if self._rr is not None:
-            qa = _flat("q", q)
-            xa = _flat("xdot", xdot)
+            qa = _flat("position", position)
+            xa = _flat("command", command)
             if qa.shape[0] == 6 and xa.shape[0] == 6:
                 r = self._rr(self._rr_arm, qa, xa)
                 if type(r) is tuple:
                     out: FloatArray = r[0]
                     return out
             return np.array(self._explain(qa, xa).qdot)
-        return np.array(self.explain(q, xdot).qdot)
+        return np.array(self.explain(position, command).qdot)
 
-    def explain(self, q: ArrayLike, xdot: ArrayLike) -> RateResult:
+    @renamed_args(q="position", xdot="command")
+    def explain(self, position: ArrayLike, command: ArrayLike) -> RateResult:
         """Like :meth:`step`, with the manipulability, damping and flags (:class:`RateResult`).
 
         Args:
-            q: Joint position [rad], shape (n,).
-            xdot: Commanded twist ``[v; ω]`` [m/s; rad/s], shape (m,) with m the Jacobian's
+            position: Joint position [rad], shape (n,).
+            command: Commanded twist ``[v; ω]`` [m/s; rad/s], shape (m,) with m the Jacobian's
                 row count (6).
         """
-        qa = _flat("q", q)
-        xa = _flat("xdot", xdot)
+        qa = _flat("position", position)
+        xa = _flat("command", command)
         if self._rr is not None and qa.shape[0] == 6 and xa.shape[0] == 6:
             r = self._rr(self._rr_arm, qa, xa)
             if type(r) is tuple:  # else a refusal: the Python route owns the policy
@@ -444,12 +447,15 @@ class ResolvedRate(InvalidPolicy):
         """:meth:`explain` in Python (the reference route) for validated vectors."""
         n = qa.shape[0]
         if not (np.isfinite(qa).all() and np.isfinite(xa).all()):
-            self._invalid(f"non-finite input: q={qa.tolist()}, xdot={xa.tolist()}")
+            self._invalid(f"non-finite input: position={qa.tolist()}, command={xa.tolist()}")
             return self._stopped(n, math.nan, math.nan, 0.0, False)
         if self._own_jacobian and n == 6:  # the library's PUMA 560, q validated above
             J = self.robot._jacobian_validated(qa)  # type: ignore[attr-defined]
         else:
-            J = np.asarray(self.robot.jacobian(qa), dtype=float)
+            try:
+                J = np.asarray(self.robot.jacobian(qa), dtype=float)
+            except InvalidInput as exc:  # the robot names its own argument; say which it was
+                raise InvalidInput(f"position: {exc}") from None
         m = J.shape[0]
         if J.ndim != 2 or J.shape[1] != n:
             raise InvalidInput(
@@ -457,7 +463,7 @@ class ResolvedRate(InvalidPolicy):
                 f"({n},)"
             )
         if xa.shape != (m,):
-            raise InvalidInput(f"xdot: expected shape ({m},) [m/s; rad/s], got shape {xa.shape}")
+            raise InvalidInput(f"command: expected shape ({m},) [m/s; rad/s], got shape {xa.shape}")
         square = m == n
         if square:
             det = float(np.linalg.det(J))

@@ -25,7 +25,7 @@ from numpy.typing import NDArray
 from velfence._typing import FloatArray
 from velfence.apps.viz.plots import save_figure
 from velfence.mechanisms.chain import SerialChain
-from velfence.redundancy.configuration_control import ControlResult, Obstacle
+from velfence.redundancy.configuration_control import ControlResult, InfluenceObstacle
 
 __all__ = ["ArmRun", "animate_arm", "plot_active_sets", "plot_clearance", "plot_snapshots"]
 
@@ -48,7 +48,7 @@ class ArmRun(Protocol):
         ...
 
     @property
-    def obstacles(self) -> Sequence[Obstacle]:
+    def obstacles(self) -> Sequence[InfluenceObstacle]:
         """The obstacles."""
         ...
 

@@ -57,9 +57,11 @@ MAX_DPI = 1200
 
 COLORS = {
     "none": "#9e9e9e",
+    "no-limit": "#9e9e9e",
     "hard-stop": "#d62728",
     "axis-limits": "#ff7f0e",
     "patent": "#1f77b4",
+    "edge-scaling": "#1f77b4",
     "exact": "#2ca02c",
 }
 

@@ -112,7 +112,7 @@ def scenario() -> Scenario:
     limits = JointLimits(
         lower=lim[:, 0],
         upper=lim[:, 1],
-        max_velocity=np.full(7, 1.5),
+        max_speed=np.full(7, 1.5),
         max_acceleration=np.full(7, 10.0),
         names=arm.joint_names,
     )
@@ -281,8 +281,7 @@ class MinkIK:
         self.config = mink.Configuration(self.model)
         n_links = int(sc.arm.n_links)
         vmax = {
-            name: float(v)
-            for name, v in zip(sc.arm.joint_names, sc.limits.max_velocity, strict=True)
+            name: float(v) for name, v in zip(sc.arm.joint_names, sc.limits.max_speed, strict=True)
         }
         self.limits = [
             mink.ConfigurationLimit(self.model),

@@ -40,7 +40,7 @@ def control_cycles(s: BenchSettings, step: Step, qp_ok: bool) -> list[ControlCyc
         One row per (arm, obstacle count, method).
     """
     from velfence.mechanisms.chain import DHChain, PlanarArm
-    from velfence.redundancy import ConfigurationController, Obstacle, VelocityDamperQP
+    from velfence.redundancy import ConfigurationController, InfluenceObstacle, VelocityDamperQP
 
     rng = np.random.default_rng(s.seed + 2)
     arms: list[tuple[str, Any, FloatArray]] = [
@@ -63,7 +63,9 @@ def control_cycles(s: BenchSettings, step: Step, qp_ok: bool) -> list[ControlCyc
                 if chain.task_dim == 2:
                     side[2] = 0.0
                 side /= np.linalg.norm(side)
-                obstacles.append(Obstacle(center=on_link + 0.12 * side, radius=0.02, influence=0.1))
+                obstacles.append(
+                    InfluenceObstacle(center=on_link + 0.12 * side, radius=0.02, influence=0.1)
+                )
             pool = [
                 (q0 + rng.normal(scale=0.02, size=q0.shape), rng.normal(size=chain.task_dim) * 0.2)
                 for _ in range(16)

@@ -1,0 +1,146 @@
+"""The one place for renamed names: old keywords, old attributes and old module-level names.
+
+Release 0.2 gave every idea of velfence one name (the table in docs/architecture.md,
+"Vocabulary"). A name that changed keeps working until 0.3 and warns with a
+:class:`DeprecationWarning` naming the new one:
+
+* :func:`renamed_args` — a callable's old keyword arguments (``SafetyFilter.filter(q=...,
+  qd_cmd=...)`` is ``filter(position=..., command=...)``); positional callers are unaffected;
+* :func:`module_getattr` — a module's old names (``velfence.shaping.ShaperResult`` is
+  ``ShapingResultProtocol``), for the module's ``__getattr__``;
+* :func:`warn_renamed` — anything else (an old YAML key or value, an old attribute).
+
+Every message contains "goes in 0.3".
+"""
+
+from __future__ import annotations
+
+import functools
+import inspect
+import sys
+import warnings
+from collections.abc import Callable, Mapping
+from typing import Any, TypeVar
+
+from velfence.errors import InvalidParameter
+
+__all__ = ["REMOVED_IN", "module_getattr", "renamed_args", "renamed_attribute", "warn_renamed"]
+
+#: The release that removes the old names.
+REMOVED_IN = "0.3"
+
+F = TypeVar("F", bound=Callable[..., Any])
+
+
+def warn_renamed(what: str, old: str, new: str, *, stacklevel: int = 3) -> None:
+    """Warn that ``old`` is now called ``new``.
+
+    Args:
+        what: What was renamed, for the message ("keyword argument of SafetyFilter.filter").
+        old: The old name.
+        new: The name to use.
+        stacklevel: Passed to :func:`warnings.warn` (3: the caller of the caller).
+    """
+    warnings.warn(
+        f"{what} {old!r} is now {new!r}; the old name goes in {REMOVED_IN}",
+        DeprecationWarning,
+        stacklevel=stacklevel,
+    )
+
+
+def renamed_args(**renames: str) -> Callable[[F], F]:
+    """Accept a callable's old keyword arguments, with a warning, under their new names.
+
+    ``@renamed_args(q="position", qd_cmd="command")`` lets ``f(q=..., qd_cmd=...)`` run as
+    ``f(position=..., command=...)`` and warn; positional calls and the new keywords pass
+    straight through. Giving both the old and the new name of one argument raises
+    :class:`~velfence.errors.InvalidParameter`.
+
+    Args:
+        **renames: Old keyword name -> new keyword name.
+
+    Returns:
+        The decorator.
+    """
+
+    def decorate(func: F) -> F:
+        qualname = func.__qualname__
+        params = list(inspect.signature(func).parameters)
+        # How many positional arguments reach each new name (it was given positionally then).
+        position = {new: params.index(new) for new in renames.values()}
+
+        @functools.wraps(func)
+        def wrapper(*args: Any, **kwargs: Any) -> Any:
+            if kwargs:
+                for old in renames.keys() & kwargs.keys():
+                    new = renames[old]
+                    if new in kwargs or len(args) > position[new]:
+                        raise InvalidParameter(
+                            f"{qualname}() got {old!r} and {new!r}, two names of one argument; "
+                            f"pass {new!r} only"
+                        )
+                    warn_renamed(f"keyword argument of {qualname}()", old, new)
+                    kwargs[new] = kwargs.pop(old)
+            return func(*args, **kwargs)
+
+        wrapper.__renamed_args__ = dict(renames)  # type: ignore[attr-defined]
+        return wrapper  # type: ignore[return-value]
+
+    return decorate
+
+
+#: Modules whose imports of an old name do not warn: the top-level facade re-exports some old
+#: names until it is rewritten, and importing velfence must not warn.
+_QUIET_IMPORTERS = frozenset({"velfence"})
+
+
+def module_getattr(
+    module: str, renames: Mapping[str, str], namespace: Mapping[str, Any]
+) -> Callable[[str], Any]:
+    """A module ``__getattr__`` that serves old names with a warning.
+
+    Use as ``__getattr__ = module_getattr(__name__, {"Old": "New"}, globals())``.
+
+    Args:
+        module: The module's name, for messages.
+        renames: Old name -> new name (the new one a global of the module).
+        namespace: The module's globals.
+
+    Returns:
+        The ``__getattr__`` function.
+    """
+
+    def __getattr__(name: str) -> Any:  # noqa: N807 (the module hook's own name)
+        new = renames.get(name)
+        if new is None:
+            raise AttributeError(f"module {module!r} has no attribute {name!r}")
+        frame = sys._getframe(1)
+        while frame.f_back is not None and frame.f_globals.get("__name__", "").startswith(
+            "importlib"
+        ):  # ``from module import name`` calls this from the import machinery
+            frame = frame.f_back
+        if frame.f_globals.get("__name__") not in _QUIET_IMPORTERS:
+            warn_renamed(f"name in {module}", name, new)
+        return namespace[new]
+
+    return __getattr__
+
+
+def renamed_attribute(old: str, new: str) -> Any:
+    """A read-only property serving attribute ``new`` under its old name ``old``, with a warning.
+
+    Use in a class body: ``max_velocity = renamed_attribute("max_velocity", "max_speed")``.
+
+    Args:
+        old: The old attribute name.
+        new: The attribute to read.
+
+    Returns:
+        The property.
+    """
+
+    def get(self: Any) -> Any:
+        warn_renamed(f"attribute of {type(self).__name__}", old, new)
+        return getattr(self, new)
+
+    return property(get, doc=f"Deprecated name of :attr:`{new}` (goes in {REMOVED_IN}).")
