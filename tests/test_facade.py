@@ -37,7 +37,13 @@ def test_import_velfence_loads_no_numpy_and_no_subpackage() -> None:
         "print(json.dumps(sorted(m for m in sys.modules if m.startswith(('velfence', 'numpy')))))"
     )
     loaded = json.loads(_fresh(code))
-    assert loaded == ["velfence", "velfence._lazy", "velfence._moved"]
+    assert loaded == [
+        "velfence",
+        "velfence._deprecate",
+        "velfence._lazy",
+        "velfence._moved",
+        "velfence.errors",
+    ]
 
 
 def test_first_use_loads_only_what_it_needs() -> None:
@@ -66,10 +72,11 @@ def test_every_facade_name_is_its_subpackage_s_object(name: str) -> None:
 
 @pytest.mark.parametrize("name", sorted(velfence._FORMER))
 def test_former_top_level_names_warn_and_still_work(name: str) -> None:
-    home = velfence._FORMER[name]
-    with pytest.warns(DeprecationWarning, match=rf"import it from {home}; .*goes in 0\.3"):
+    home, _, new = velfence._FORMER[name].partition(":")
+    new = new or name
+    with pytest.warns(DeprecationWarning, match=rf"'{name}' is now '{home}\.{new}'.*goes in 0\.3"):
         value = getattr(velfence, name)
-    assert value is getattr(importlib.import_module(home), name)
+    assert value is getattr(importlib.import_module(home), new)
     assert name not in velfence.__all__
 
 

@@ -68,12 +68,12 @@ _FACADE: dict[str, str] = {
     "ur5e": "velfence.robots",
 }
 
-#: Names the top level exported before 0.2 that now live only in their subpackage. They still
-#: resolve, with a DeprecationWarning naming the subpackage, until 0.3.
+#: Names the top level exported before 0.2 that now live only in their subpackage (``module`` or
+#: ``module:new_name``). They still resolve, with a DeprecationWarning naming it, until 0.3.
 _FORMER: dict[str, str] = {
     "STAGE_NAMES": "velfence.shaping",
     "ZONE_NAMES": "velfence.shaping",
-    "ShaperResult": "velfence.shaping",
+    "ShaperResult": "velfence.shaping:ShapingResultProtocol",
     "AxisLimits": "velfence.sim",
     "Disturbance": "velfence.sim",
     "HardStop": "velfence.sim",
@@ -90,7 +90,7 @@ _FORMER: dict[str, str] = {
     "Wrist": "velfence.mechanisms",
     "WristGeometry": "velfence.mechanisms",
     "ConfigurationController": "velfence.redundancy",
-    "Obstacle": "velfence.redundancy",
+    "Obstacle": "velfence.redundancy:InfluenceObstacle",
     "VelocityDamperQP": "velfence.redundancy",
     "decompose": "velfence.geometry",
     "inscribed_rectangle": "velfence.geometry",

@@ -16,20 +16,22 @@ Every message contains "goes in 0.3".
 from __future__ import annotations
 
 import functools
-import inspect
 import sys
 import warnings
-from collections.abc import Callable, Mapping
-from typing import Any, TypeVar
 
 from velfence.errors import InvalidParameter
+
+TYPE_CHECKING = False  # typing.TYPE_CHECKING without importing typing: `import velfence` uses
+if TYPE_CHECKING:  # warn_renamed through velfence._lazy and must stay cheap
+    from collections.abc import Callable, Mapping
+    from typing import Any, TypeVar
+
+    F = TypeVar("F", bound=Callable[..., Any])
 
 __all__ = ["REMOVED_IN", "module_getattr", "renamed_args", "renamed_attribute", "warn_renamed"]
 
 #: The release that removes the old names.
 REMOVED_IN = "0.3"
-
-F = TypeVar("F", bound=Callable[..., Any])
 
 
 def warn_renamed(what: str, old: str, new: str, *, stacklevel: int = 3) -> None:
@@ -64,6 +66,8 @@ def renamed_args(**renames: str) -> Callable[[F], F]:
     """
 
     def decorate(func: F) -> F:
+        import inspect  # only where a rename is declared (start-up time of `import velfence`)
+
         qualname = func.__qualname__
         params = list(inspect.signature(func).parameters)
         # How many positional arguments reach each new name (it was given positionally then).
@@ -89,9 +93,8 @@ def renamed_args(**renames: str) -> Callable[[F], F]:
     return decorate
 
 
-#: Modules whose imports of an old name do not warn: the top-level facade re-exports some old
-#: names until it is rewritten, and importing velfence must not warn.
-_QUIET_IMPORTERS = frozenset({"velfence"})
+#: Modules whose imports of an old name do not warn (none: velfence itself uses no old name).
+_QUIET_IMPORTERS: frozenset[str] = frozenset()
 
 
 def module_getattr(

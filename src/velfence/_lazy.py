@@ -11,7 +11,8 @@ checkers see the names through an ``if TYPE_CHECKING:`` block of ordinary import
 from __future__ import annotations
 
 import importlib
-import warnings
+
+from velfence._deprecate import warn_renamed
 
 TYPE_CHECKING = False  # typing.TYPE_CHECKING without importing typing (start-up time)
 if TYPE_CHECKING:
@@ -34,8 +35,9 @@ def attach(
         exports: Public name -> the module that defines it.
         namespace: The package's ``globals()``; a loaded name is stored there, so later lookups
             never reach ``__getattr__`` again.
-        former: Name the package no longer exports -> the module to import it from; each access
-            warns (``DeprecationWarning``; the name goes in 0.3).
+        former: Name the package no longer exports -> where it lives now, ``"module"`` or
+            ``"module:new_name"`` when it was renamed too; each access warns
+            (``DeprecationWarning``; the old name goes in 0.3).
 
     Returns:
         ``(__getattr__, __dir__)`` to bind at the package's top level.
@@ -48,15 +50,12 @@ def attach(
             value = getattr(importlib.import_module(module), name)
             namespace[name] = value
             return value
-        module = moved.get(name)
-        if module is not None:
-            warnings.warn(
-                f"{package}.{name} is no longer exported there: import it from {module}; the "
-                "old name goes in 0.3",
-                DeprecationWarning,
-                stacklevel=2,
-            )
-            return getattr(importlib.import_module(module), name)
+        home = moved.get(name)
+        if home is not None:
+            module, _, new = home.partition(":")
+            new = new or name
+            warn_renamed(f"name in {package}", name, f"{module}.{new}")
+            return getattr(importlib.import_module(module), new)
         if not name.startswith("_"):  # a subpackage, as ``import velfence as vf; vf.geometry``
             try:
                 return importlib.import_module(f"{package}.{name}")
