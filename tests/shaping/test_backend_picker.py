@@ -25,7 +25,7 @@ from velfence.filter import JointLimits, SafetyFilter, WorkspaceLimit
 from velfence.geometry.polygon import ConvexPolygon
 from velfence.geometry.polytope import ConvexPolytope
 from velfence.mechanisms.chain import DHChain
-from velfence.redundancy import ConfigurationController, Obstacle
+from velfence.redundancy import ConfigurationController, InfluenceObstacle
 from velfence.shaping import PolygonShaper, PolytopeShaper
 from velfence.shaping.backend import BACKENDS, pick_backend
 
@@ -56,7 +56,8 @@ def _filter(backend: str) -> SafetyFilter:
 
 
 def _controller(backend: str) -> ConfigurationController:
-    obstacle = Obstacle(center=ARM.fk(Q0) + np.array([0.0, 0.15, 0.0]), radius=0.02, influence=0.3)
+    center = ARM.fk(Q0) + np.array([0.0, 0.15, 0.0])
+    obstacle = InfluenceObstacle(center=center, radius=0.02, influence=0.3)
     return ConfigurationController(ARM, [obstacle], backend=backend)
 
 

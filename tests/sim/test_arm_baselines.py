@@ -113,7 +113,9 @@ def test_scalar_scale_is_the_largest_admissible_scalar(q: np.ndarray, v: np.ndar
 
     assert admissible(s)
     if s < 1.0:
-        assert not admissible(min(1.0, s * 1.001 + 1e-6))
+        # 1e-4 absolute: the finite-difference check above allows 1e-5 of slack on a rate, which
+        # a probe of s * 1.001 alone does not exceed when s is tiny.
+        assert not admissible(min(1.0, s * 1.001 + 1e-4))
 
 
 @pytest.mark.parametrize("seed", range(8))
