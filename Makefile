@@ -31,10 +31,10 @@ typecheck: $(STAMP)
 docs: $(STAMP)
 	$(BIN)/sphinx-build -W --keep-going -q -b html docs out/docs
 
-# Tests run on every core (pytest-xdist); tests that share one expensive session fixture are
-# kept on one worker by their xdist_group mark (--dist loadgroup). JOBS=1 runs them in-process.
+# Tests run on every core (pytest-xdist), one test file per worker at a time (--dist loadfile: a
+# file's module- and session-scoped fixtures are built once per worker). JOBS=1 runs in-process.
 JOBS ?= auto
-PYTEST := $(BIN)/python -m pytest $(if $(filter 1,$(JOBS)),,-n $(JOBS) --dist loadgroup)
+PYTEST := $(BIN)/python -m pytest $(if $(filter 1,$(JOBS)),,-n $(JOBS) --dist loadfile)
 
 pytest: $(STAMP)
 	$(PYTEST)

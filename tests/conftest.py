@@ -1,5 +1,4 @@
-"""Shared test configuration: one seeded, deterministic hypothesis profile, the slow marks, and
-the grouping of tests on pytest-xdist workers.
+"""Shared test configuration: one seeded, deterministic hypothesis profile, and the slow marks.
 
 Every property test is reproducible: examples are derandomized and no example database is kept.
 ``HYPOTHESIS_PROFILE=thorough`` runs ten times more examples (still derandomized).
@@ -47,20 +46,7 @@ SLOW_NODES = (
 )
 
 
-#: Session fixtures shared by tests in several files: their tests run on one pytest-xdist worker,
-#: so the fixture is built once (``make test`` runs ``--dist loadgroup``).
-SHARED_SESSION_FIXTURES = ("telerobotics_run",)
-
-
-@pytest.hookimpl(tryfirst=True)  # before pytest-xdist reads the groups
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     for item in items:
         if item.nodeid.startswith(SLOW_NODES):
             item.add_marker(pytest.mark.slow)
-        if item.get_closest_marker("xdist_group") is not None:
-            continue
-        shared = [f for f in SHARED_SESSION_FIXTURES if f in getattr(item, "fixturenames", ())]
-        # A file's tests stay on one worker (their module- and session-scoped fixtures are built
-        # once); the files are spread over the workers.
-        group = shared[0] if shared else item.nodeid.split("::")[0]
-        item.add_marker(pytest.mark.xdist_group(group))

@@ -15,7 +15,7 @@ from numpy.typing import ArrayLike
 
 from velfence._typing import FloatArray
 from velfence._validate import check_flag, check_positive, finite_array
-from velfence.errors import InvalidGeometry, InvalidParameter
+from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 
 __all__ = ["Line", "cosine_line"]
 
@@ -43,12 +43,19 @@ def cosine_line(
         The line as a function of time ``t`` [s] returning new arrays ``(Y_d, Ẏ_d)``.
 
     Raises:
-        InvalidInput: ``y0`` or ``direction`` not finite real vectors of one size.
+        InvalidInput: ``y0`` not a finite 2-D or 3-D point, ``direction`` not a finite vector of
+            its size.
         InvalidGeometry: ``direction`` of zero length.
         InvalidParameter: ``length`` or ``period`` not positive, ``back`` not a bool.
     """
     start = finite_array("y0", y0, (None,))
-    e = finite_array("direction", direction, (start.size,))
+    if start.size not in (2, 3):
+        raise InvalidInput(f"y0: expected a 2-D or 3-D point, got {start.size} numbers")
+    e = finite_array("direction", direction, (None,))
+    if e.size != start.size:
+        raise InvalidInput(
+            f"y0, direction: expected vectors of one size, got {start.size} and {e.size} numbers"
+        )
     norm = float(np.linalg.norm(e))
     if not norm > 0.0 or not math.isfinite(norm):
         raise InvalidGeometry(f"direction: expected a non-zero vector, got {e.tolist()}")

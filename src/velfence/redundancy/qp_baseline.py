@@ -29,8 +29,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from velfence._typing import FloatArray
-from velfence._validate import check_positive, real_array
-from velfence.errors import InvalidParameter
+from velfence._validate import MAX_MAGNITUDE, check_positive, real_array
+from velfence.errors import InvalidInput, InvalidParameter
 from velfence.redundancy.configuration_control import (
     ChainObstacleBase,
     ControlResult,
@@ -134,6 +134,11 @@ class VelocityDamperQP(ChainObstacleBase):
 
     def _law(self, q: FloatArray, v: FloatArray, target: FloatArray | None) -> ControlResult:
         qp = _qpsolvers(self.solver)
+        if np.max(np.abs(q), initial=0.0) > MAX_MAGNITUDE:  # the chain's own check says "q"
+            raise InvalidInput(
+                f"position: expected joint angles of magnitude <= {MAX_MAGNITUDE:g} [rad], "
+                f"got {q.tolist()}"
+            )
         je = np.asarray(self.chain.ee_jacobian(q), dtype=float)
         yr, ee_err = self._ee_reference(q, v, target, self.ee_gain)
         crit = self.critical(q)

@@ -494,7 +494,7 @@ class ResolvedRate(InvalidPolicy):
                 qdot = J.T @ np.linalg.solve(JJt, xa)
         if not np.isfinite(qdot).all():
             self._invalid(
-                f"the joint rates overflowed (manipulability w = {w:.3g}, max|xdot| = "
+                f"command: the joint rates overflowed (manipulability w = {w:.3g}, max|command| = "
                 f"{float(np.max(np.abs(xa))):.3g}); expected a bounded twist"
             )
             return self._stopped(n, w, det, k, singular)
