@@ -113,7 +113,7 @@ clear), non-finite outputs, exceptions, deadline fallbacks (`result.deadline`) a
 polytope and buffer; with `--examples DIR` every closed-loop case saves its first escape as an
 `.npz` (scene, state, command, previous output, output, stages) that
 `velfence.apps.soak_filter.replay_loop_example` runs again bit for bit. The regression cases in
-`tests/data/` `vertex_polytope_shaper.npz`, `vertex_filter_6d.npz` and
+`tests/data/` `vertex_polytope_shaper.npz` and
 `loop_ur5e_100hz_projection_recovery.npz` came from these runs (`state_*.npz`, a UR5e and a
 Panda filter state whose next 1 ms step left
 the box by 3.56 mm / 0.52 mm, and `project_filter_rows.npz`, rows the projection once called
