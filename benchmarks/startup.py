@@ -3,8 +3,9 @@
 Usage: ``python benchmarks/startup.py [RUNS]`` (default 30). Each command runs RUNS times as a
 fresh process, interleaved (bare, import, import + first SafetyFilter, --help, bare, …) so that
 the load of the machine falls on all of them alike; the table gives the median, p99 and max wall
-time of each and its median minus the bare interpreter's. The targets and the last run are in docs/benchmarks.md ("Start-up"):
-``import velfence`` ≤ 150 ms and ``velfence --help`` ≤ 400 ms on the development machine.
+time of each and its median minus the bare interpreter's. The targets and the last run are in
+docs/benchmarks.md ("Start-up"): ``import velfence`` ≤ 150 ms and ``velfence --help`` ≤ 400 ms
+on the development machine.
 """
 
 from __future__ import annotations

@@ -16,7 +16,6 @@ Every message contains "goes in 0.3".
 from __future__ import annotations
 
 import functools
-import sys
 import warnings
 
 from velfence.errors import InvalidParameter
@@ -93,10 +92,6 @@ def renamed_args(**renames: str) -> Callable[[F], F]:
     return decorate
 
 
-#: Modules whose imports of an old name do not warn (none: velfence itself uses no old name).
-_QUIET_IMPORTERS: frozenset[str] = frozenset()
-
-
 def module_getattr(
     module: str, renames: Mapping[str, str], namespace: Mapping[str, Any]
 ) -> Callable[[str], Any]:
@@ -117,13 +112,7 @@ def module_getattr(
         new = renames.get(name)
         if new is None:
             raise AttributeError(f"module {module!r} has no attribute {name!r}")
-        frame = sys._getframe(1)
-        while frame.f_back is not None and frame.f_globals.get("__name__", "").startswith(
-            "importlib"
-        ):  # ``from module import name`` calls this from the import machinery
-            frame = frame.f_back
-        if frame.f_globals.get("__name__") not in _QUIET_IMPORTERS:
-            warn_renamed(f"name in {module}", name, new)
+        warn_renamed(f"name in {module}", name, new)
         return namespace[new]
 
     return __getattr__
