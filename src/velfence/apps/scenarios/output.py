@@ -41,8 +41,26 @@ def write_metrics(result: ScenarioResult, path: Path, artifacts: Sequence[Path] 
     return path
 
 
+#: Dash styles of successive methods: a line drawn over an identical one leaves it visible.
+DASHES: tuple[Any, ...] = ("-", (0, (6, 3)), (0, (2, 2)), (0, (6, 2, 1, 2)), (0, (1, 3)))
+
+
+def _line_style(name: str, i: int) -> dict[str, Any]:
+    """Wide solid first, then narrower dashed lines on top (coinciding runs both stay visible)."""
+    return {
+        "color": COLORS.get(name, f"C{i}"),
+        "ls": DASHES[i % len(DASHES)],
+        "lw": max(1.0, 2.8 - 0.5 * i),
+        "zorder": 3 + i,
+    }
+
+
 def plot_margins(result: ScenarioResult, path: Path) -> Path:
-    """The scenario's safety margin over time, one line per method, with its thresholds."""
+    """The scenario's safety margin over time, one line per method, with its thresholds.
+
+    A second panel counts the contacts with obstacles when any run touched one; otherwise the
+    figure says that no run did (no empty panel). The legend sits outside the axes.
+    """
     import matplotlib
 
     matplotlib.use("Agg")
@@ -51,34 +69,48 @@ def plot_margins(result: ScenarioResult, path: Path) -> Path:
     label, unit, lines = result.scene["margin"]
     # Millimetres and milliradians read better than 0.00x m or rad.
     scale, shown = (1e3, f"m{unit}") if unit in ("m", "rad") else (1.0, unit)
-    fig, (ax, ax2) = plt.subplots(
-        2, 1, figsize=(10, 7), sharex=True, gridspec_kw={"height_ratios": [3, 1]}
-    )
+    touched = any(np.any(np.asarray(r.record.contacts) > 0) for r in result.runs.values())
+    if touched:
+        fig, (ax, ax2) = plt.subplots(
+            2, 1, figsize=(11, 7), sharex=True, gridspec_kw={"height_ratios": [3, 1]},
+            layout="constrained",
+        )  # fmt: skip
+    else:
+        fig, ax = plt.subplots(figsize=(11, 5.6), layout="constrained")
+        ax2 = None
     for i, (name, run) in enumerate(result.runs.items()):
         t = run.trajectory.t
-        ax.plot(t, scale * run.extra["margin"], color=COLORS.get(name, f"C{i}"), lw=1.6, label=name)
-        ax2.step(
-            t,
-            run.record.contacts,
-            where="post",
-            color=COLORS.get(name, f"C{i}"),
-            lw=1.2,
-            label=name,
-        )
+        style = _line_style(name, i)
+        ax.plot(t, scale * run.extra["margin"], label=name, **style)
+        if ax2 is not None:
+            ax2.step(t, run.record.contacts, where="post", **(style | {"lw": 1.2}))
     for j, (what, value) in enumerate(lines.items()):
-        ax.axhline(scale * value, color="k", ls=("--", ":", "-.")[j % 3], lw=1.0, label=what)
+        ax.axhline(
+            scale * value, color="k", ls=("--", ":", "-.")[j % 3], lw=1.0,
+            label=f"{what} ({value * scale:g} {shown})",
+        )  # fmt: skip
     if "push" in result.scene:
         t0, t1 = result.scene["push"]
         ax.axvspan(t0, t1, color="#d62728", alpha=0.12, label="external push")
-        ax2.axvspan(t0, t1, color="#d62728", alpha=0.12)
+        if ax2 is not None:
+            ax2.axvspan(t0, t1, color="#d62728", alpha=0.12)
+    lowest = min(lines, key=lambda k: lines[k]) if lines else None
+    below = f" (below the {lowest} line = outside)" if lowest is not None else ""
     ax.set_ylabel(f"{label} [{shown}]")
-    ax.set_title(f"{result.name} in MuJoCo: {label} (below the wall line = outside)")
-    ax.legend(loc="lower left", fontsize=9, ncol=2)
+    ax.set_title(f"{result.name} in MuJoCo: {label}{below}")
     ax.grid(alpha=0.3)
-    ax2.set_ylabel("contacts with\nobstacles [count]")
-    ax2.set_xlabel("time [s]")
-    ax2.grid(alpha=0.3)
-    fig.tight_layout()
+    if ax2 is None:
+        ax.set_xlabel("time [s]")
+        ax.text(
+            0.99, 0.02, "no contact with an obstacle in any run", transform=ax.transAxes,
+            ha="right", va="bottom", fontsize=9, color="0.3",
+        )  # fmt: skip
+    else:
+        ax2.set_ylabel("contacts with\nobstacles [count]")
+        ax2.set_xlabel("time [s]")
+        ax2.grid(alpha=0.3)
+    # Outside the axes: the legend never covers a line.
+    fig.legend(*ax.get_legend_handles_labels(), loc="outside right upper", fontsize=9)
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
@@ -123,11 +155,16 @@ def write_video(
 
     names = list(result.runs) if methods is None else list(methods)
     overlays_common: list[Any] = []
+    key: list[tuple[tuple[float, float, float], str]] = []
     if "polytope" in result.scene:
         overlays_common.append(PolytopeOverlay(result.scene["polytope"], rgba=(0.1, 0.5, 1.0, 1.0)))
+        key.append(((0.1, 0.5, 1.0), "blue edges: the fence (box)"))
     for j, (c, r) in enumerate(result.scene.get("spheres", [])):
         alpha = 0.35 if j == 0 else 0.12
         overlays_common.append(SphereOverlay(c, radius=r, rgba=(0.9, 0.2, 0.2, alpha)))
+        # Seen through the translucent sphere: the swatch mixes its colour with grey.
+        shade = (0.9, 0.45, 0.45) if j == 0 else (0.95, 0.8, 0.8)
+        key.append((shade, "red sphere: obstacle" if j == 0 else "pale sphere: its influence"))
     camera: dict[str, Any] = dict(result.scene.get("camera", {}))
     if not camera and "polytope" in result.scene:  # frame the workspace
         v = result.scene["polytope"].vertices
@@ -160,12 +197,50 @@ def write_video(
             progress=sub,
             **camera,
         )
-    frames = side_by_side(panels, columns=columns)
+    if any(r.point.shape[1] == 3 for r in result.runs.values()):
+        key.append(((0.1, 0.7, 0.2), f"green line: {result.scene.get('point', 'TCP')} path"))
+    frames = _with_key(side_by_side(panels, columns=columns), key)
     out = []
     for fmt in formats:
         path = folder / f"{result.name}.{fmt}"
         out.append(write(frames, path, fps=fps if fmt == "mp4" else min(fps, 12)))
     return out
+
+
+def _with_key(frames: Any, key: Sequence[tuple[tuple[float, float, float], str]]) -> Any:
+    """The frames with a white band below them naming each overlay (a colour swatch + text)."""
+    if not key:
+        return frames
+    from PIL import Image, ImageDraw, ImageFont
+
+    n, h, w, _ = frames.shape
+
+    def font_of(size: int) -> Any:
+        try:  # Pillow >= 10.1: its bundled scalable font
+            return ImageFont.load_default(size=size)
+        except TypeError:  # an older Pillow: the fixed bitmap font
+            return ImageFont.load_default()
+
+    def width_of(size: int) -> float:
+        probe = ImageDraw.Draw(Image.new("RGB", (1, 1)))
+        font = font_of(size)
+        return sum(size + 24 + probe.textlength(text, font=font) for _, text in key) + 8
+
+    size = max(14, h // 40)
+    while size > 8 and width_of(size) > w:  # one line across the frame, shrinking the font
+        size -= 1
+    font = font_of(size)
+    band = size + 14
+    img = Image.new("RGB", (w, band), (255, 255, 255))
+    draw = ImageDraw.Draw(img)
+    x = 8
+    for rgb, text in key:
+        colour = tuple(round(255 * c) for c in rgb)
+        draw.rectangle((x, 7, x + size, 7 + size), fill=colour, outline=(60, 60, 60))
+        draw.text((x + size + 6, 6), text, fill=(0, 0, 0), font=font)
+        x += size + 24 + int(draw.textlength(text, font=font))
+    strip = np.asarray(img, dtype=np.uint8)
+    return np.concatenate([frames, np.broadcast_to(strip, (n, band, w, 3))], axis=1)
 
 
 def write_outputs(

@@ -60,6 +60,23 @@ def _color(name: str, i: int) -> str:
     return ARM_COLORS.get(name, f"C{i % 10}")
 
 
+#: Dash styles of successive controllers: a line drawn over an identical one leaves it visible.
+_DASHES: tuple[Any, ...] = ("-", (0, (6, 3)), (0, (2, 2)), (0, (6, 2, 1, 2)), (0, (1, 3)))
+
+#: A joint whose range over all runs is below this is drawn as constant [rad].
+CONSTANT_JOINT = 1e-9
+
+
+def _line_style(name: str, i: int) -> dict[str, Any]:
+    """Wide solid first, then narrower dashed lines on top (coinciding runs both stay visible)."""
+    return {
+        "color": _color(name, i),
+        "ls": _DASHES[i % len(_DASHES)],
+        "lw": max(0.9, 2.4 - 0.4 * i),
+        "zorder": 3 + i,
+    }
+
+
 def _box_edges(scene: ArmScene) -> list[tuple[np.ndarray, np.ndarray]]:
     lo, hi = scene.box_lower, scene.box_upper
     corners = np.array(
@@ -73,8 +90,10 @@ def _box_edges(scene: ArmScene) -> list[tuple[np.ndarray, np.ndarray]]:
 
 
 def _draw_scene(ax: Any, scene: ArmScene) -> None:
-    for a, b in _box_edges(scene):
-        ax.plot(*np.stack([a, b]).T, color="k", lw=0.8, alpha=0.7)
+    """The box's edges and the sphere, each with one legend entry."""
+    for k, (a, b) in enumerate(_box_edges(scene)):
+        label = "box (TCP fence)" if k == 0 else None
+        ax.plot(*np.stack([a, b]).T, color="k", lw=0.8, alpha=0.7, label=label)
     u, v = np.mgrid[0 : 2 * np.pi : 24j, 0 : np.pi : 12j]
     c, r = scene.sphere_center, scene.sphere_radius
     ax.plot_surface(
@@ -88,6 +107,14 @@ def _draw_scene(ax: Any, scene: ArmScene) -> None:
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.set_zlabel("z [m]")
+
+
+def _legend_entries(ax: Any) -> tuple[list[Any], list[str]]:
+    """The axes' labelled artists plus a proxy patch for the sphere (a surface has no entry)."""
+    from matplotlib.patches import Patch
+
+    handles, names = ax.get_legend_handles_labels()
+    return [*handles, Patch(color="#8c564b", alpha=0.35)], [*names, "sphere (obstacle)"]
 
 
 def plot_arm_paths(scene: ArmScene, runs: Mapping[str, ArmRun], path: str | Path) -> Path:
@@ -106,7 +133,7 @@ def plot_arm_paths(scene: ArmScene, runs: Mapping[str, ArmRun], path: str | Path
     k = len(rs)
     cols = min(3, k)
     rows_n = -(-k // cols)
-    fig = plt.figure(figsize=(5.0 * cols + 1.0, 4.6 * rows_n))
+    fig = plt.figure(figsize=(5.0 * cols + 1.0, 4.6 * rows_n + 0.4))
     t_max = max(float(r.trajectory.t[-1]) for r in rs.values())
     norm = Normalize(0.0, t_max)
     mappable = None
@@ -123,12 +150,18 @@ def plot_arm_paths(scene: ArmScene, runs: Mapping[str, ArmRun], path: str | Path
         ax.add_collection3d(lc)
         mappable = lc
         ax.scatter(*run.tcp[0], color="k", s=12, label="start")
+        ax.plot([], [], color=plt.get_cmap("viridis")(0.6), lw=1.6, label="TCP path")
         ax.set_title(f"{name} (v = {run.speed:g} m/s)", fontsize=9)
         ax.view_init(elev=22, azim=-60)
-        ax.set_xlim(0.4, 0.9)
-        ax.set_ylim(-0.35, 0.35)
-        ax.set_zlim(0.3, 0.8)
-        ax.legend(loc="upper left", fontsize=7)
+        # The box and every TCP path framed (a path that leaves the box stays in view).
+        lo = np.minimum(np.minimum(sc.box_lower, run.tcp.min(axis=0)), (0.4, -0.35, 0.3))
+        hi = np.maximum(np.maximum(sc.box_upper, run.tcp.max(axis=0)), (0.9, 0.35, 0.8))
+        pad = 0.03 * (hi - lo)
+        ax.set_xlim(lo[0] - pad[0], hi[0] + pad[0])
+        ax.set_ylim(lo[1] - pad[1], hi[1] + pad[1])
+        ax.set_zlim(lo[2] - pad[2], hi[2] + pad[2])
+    handles, names = _legend_entries(fig.axes[0])
+    fig.legend(handles, names, loc="lower center", ncol=len(names), fontsize=9)
     if mappable is not None:
         fig.colorbar(mappable, ax=fig.axes, shrink=0.5, pad=0.03, label="time [s]")
     fig.savefig(out, dpi=110)
@@ -150,22 +183,31 @@ def plot_arm_joints(scene: ArmScene, runs: Mapping[str, ArmRun], path: str | Pat
     sc, rs = _scene(scene), _runs(runs)
     check_output_path("path", path)
     n = sc.lower.shape[0]
-    fig, axs = plt.subplots(n, 1, figsize=(9, 1.5 * n + 0.8), sharex=True, squeeze=False)
+    fig, axs = plt.subplots(
+        n, 1, figsize=(9, 1.5 * n + 1.2), sharex=True, squeeze=False, layout="constrained"
+    )
     axes = list(axs[:, 0])
     for j, ax in enumerate(axes):
         for i, (name, run) in enumerate(rs.items()):
-            ax.plot(
-                run.trajectory.t, run.trajectory.p[:, j], color=_color(name, i), lw=1.1, label=name
-            )
+            ax.plot(run.trajectory.t, run.trajectory.p[:, j], label=name, **_line_style(name, i))
         lo_q = min(float(r.trajectory.p[:, j].min()) for r in rs.values())
         hi_q = max(float(r.trajectory.p[:, j].max()) for r in rs.values())
         for lim in (sc.lower[j], sc.upper[j]):
             if lo_q - 0.3 <= lim <= hi_q + 0.3:
                 ax.axhline(lim, color="k", ls="--", lw=0.9)
+        if hi_q - lo_q < CONSTANT_JOINT:
+            # A joint that never moves: a fixed range around its value, not round-off at 1e-16.
+            mid = 0.5 * (lo_q + hi_q)
+            ax.set_ylim(mid - 0.1, mid + 0.1)
+            ax.text(
+                0.01, 0.9, f"constant: q{j} = {mid + 0.0:.3f} rad in every run (no motion)",
+                transform=ax.transAxes, fontsize=8, va="top",
+            )  # fmt: skip
         ax.set_ylabel(f"q{j} [rad]")
         ax.grid(alpha=0.3)
-    axes[0].legend(loc="upper right", fontsize=7, ncol=len(rs))
-    axes[0].set_title("joint positions; dashed: joint limits")
+    axes[0].plot([], [], color="k", ls="--", lw=0.9, label="joint limit")
+    fig.legend(*axes[0].get_legend_handles_labels(), loc="outside lower center", ncol=len(rs) + 1)
+    fig.suptitle("joint positions (coinciding runs overlap: wide solid under dashed)")
     axes[-1].set_xlabel("time [s]")
     return save_figure(fig, path)
 
@@ -251,7 +293,7 @@ def animate_arm(
     idx = np.linspace(0, n - 1, n_frames).astype(int)
     (links,) = ax.plot([], [], [], "-o", color="#1f77b4", lw=5, ms=3, label="links")
     (trail,) = ax.plot([], [], [], color="#2ca02c", lw=1.2, label="TCP path")
-    ax.legend(loc="upper left", fontsize=8)
+    ax.legend(*_legend_entries(ax), loc="upper left", bbox_to_anchor=(-0.12, 1.0), fontsize=8)
     stamp = ax.set_title("", fontsize=9)
 
     def update(f: int) -> list[Any]:

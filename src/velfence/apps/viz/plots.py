@@ -54,6 +54,8 @@ MAX_FRAMES = 2000
 MAX_FPS = 100
 #: Largest resolution of a written figure [dots per inch].
 MAX_DPI = 1200
+#: Percentile of all arrow speeds at which a quiver's colour range is clipped (robust range).
+CLIP_PERCENTILE = 98.0
 
 COLORS = {
     "none": "#9e9e9e",
@@ -167,6 +169,21 @@ def _color(name: str, i: int) -> str:
     return COLORS.get(name, f"C{i % 10}")
 
 
+#: Dash styles of successive paths: a path drawn over an identical one leaves it visible.
+DASHES: tuple[Any, ...] = ("-", (0, (6, 3)), (0, (2, 2)), (0, (6, 2, 1, 2)), (0, (1, 3)))
+
+
+def _path_style(name: str, i: int) -> dict[str, Any]:
+    """The ``i``-th path's style: wide solid first, narrower dashes on top (overlaps stay seen)."""
+    return {
+        "color": _color(name, i),
+        "ls": DASHES[i % len(DASHES)],
+        "lw": max(1.0, 2.8 - 0.5 * i),
+        "zorder": 4 + i,
+        "alpha": 0.95,
+    }
+
+
 def _draw_polygon(
     ax: Any,
     polygon: ConvexPolygon,
@@ -174,12 +191,21 @@ def _draw_polygon(
     buffer: float | None = None,
     rectangle: Rectangle | None = None,
     margin: float = 0.25,
+    unit: str = "",
+    extra: Any = None,
 ) -> None:
+    """The polygon, its buffer band and rectangle, framed with ``extra`` (points (N, 2)) in view."""
     c = polygon.corners
     closed = np.vstack([c, c[:1]])
     ax.plot(closed[:, 0], closed[:, 1], color="k", lw=1.8, label="workspace polygon", zorder=3)
     lo = c.min(axis=0)
     hi = c.max(axis=0)
+    if extra is not None and len(extra):
+        pts = np.asarray(extra, dtype=float)
+        pts = pts[np.all(np.isfinite(pts), axis=1)]
+        if len(pts):
+            lo = np.minimum(lo, pts.min(axis=0))
+            hi = np.maximum(hi, pts.max(axis=0))
     span = hi - lo
     lo = lo - margin * span
     hi = hi + margin * span
@@ -196,7 +222,7 @@ def _draw_polygon(
         # The band in the legend (contour sets have no legend entry of their own).
         ax.fill(
             [], [], facecolor="#fde9c9", edgecolor="#e0a030", linestyle="--", lw=0.8,
-            label=f"buffer band ({buffer:g} wide)",
+            label=f"buffer band ({buffer:g} {unit or 'units'} wide)",
         )  # fmt: skip
     if rectangle is not None:
         r = np.vstack([rectangle.corners, rectangle.corners[:1]])
@@ -234,16 +260,26 @@ def plot_workspace(
     xlabel, ylabel = _check_labels(labels)
     heading = check_text("title", title)
     out = check_output_path("path", path)
-    fig, ax = plt.subplots(figsize=(9.5, 6.2))
-    _draw_polygon(ax, polygon, buffer=width, rectangle=rectangle)
+    fig, ax = plt.subplots(figsize=(8.8, 6.2), layout="constrained")
+    every = np.vstack([tr.p for tr in trs.values()])
+    _draw_polygon(
+        ax, polygon, buffer=width, rectangle=rectangle, unit=_unit_of(xlabel), margin=0.08,
+        extra=every,
+    )  # fmt: skip
     for i, (name, tr) in enumerate(trs.items()):
-        ax.plot(tr.p[:, 0], tr.p[:, 1], color=_color(name, i), lw=1.2, label=name, alpha=0.9)
-        ax.plot(tr.p[0, 0], tr.p[0, 1], "o", color=_color(name, i), ms=4)
+        ax.plot(tr.p[:, 0], tr.p[:, 1], label=name, **_path_style(name, i))
+        ax.plot(tr.p[0, 0], tr.p[0, 1], "o", color=_color(name, i), ms=4, zorder=6 + i)
     ax.plot([], [], "o", color="0.35", ms=4, label="start point")
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
     ax.set_title(heading)
-    ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=FONT - 1)
+    # Outside the axes (the layout engine makes room): the legend never covers a path.
+    fig.legend(loc="outside right upper", fontsize=FONT - 1)
+    if len(trs) > 1:
+        ax.text(
+            0.01, 0.01, "paths drawn on top of each other in different dash styles",
+            transform=ax.transAxes, fontsize=FONT - 2, color="0.3", va="bottom",
+        )  # fmt: skip
     return _write(fig, out, DPI)
 
 
@@ -280,14 +316,14 @@ def plot_velocity_profiles(
     out = check_output_path("path", path)
     fig, axes = plt.subplots(3, 1, figsize=(9, 8), sharex=True)
     for i, (name, tr) in enumerate(trs.items()):
-        col = _color(name, i)
         d = polygon.signed_distances(tr.p)
         nearest = np.argmin(d, axis=1)
         normals = polygon.normals[nearest]
         vn = np.einsum("ij,ij->i", tr.v_out, normals)
-        axes[0].plot(tr.t, np.linalg.norm(tr.v_out, axis=1), color=col, lw=1, label=name)
-        axes[1].plot(tr.t, vn, color=col, lw=1, label=name)
-        axes[2].plot(tr.t, d.min(axis=1), color=col, lw=1, label=name)
+        style = _path_style(name, i) | {"lw": max(0.9, 2.2 - 0.4 * i)}
+        axes[0].plot(tr.t, np.linalg.norm(tr.v_out, axis=1), label=name, **style)
+        axes[1].plot(tr.t, vn, label=name, **style)
+        axes[2].plot(tr.t, d.min(axis=1), label=name, **style)
     first = next(iter(trs.values()))
     axes[0].plot(
         first.t, np.linalg.norm(first.v_cmd, axis=1), color="k", lw=0.8, ls=":", label="commanded"
@@ -299,6 +335,7 @@ def plot_velocity_profiles(
     for ax in axes:
         ax.set_xlabel("time [s]")
     axes[0].legend(fontsize=FONT - 1, ncol=3)
+    axes[2].legend(fontsize=FONT - 1, ncol=3)
     return _write(fig, out, DPI)
 
 
@@ -360,11 +397,16 @@ def plot_quiver(
     P = np.stack([X.ravel(), Y.ravel()], axis=1)
     V = np.tile(cmd, (P.shape[0], 1))
     fields = {name: shaper.shape_batch(P, V) for name, shaper in shs.items()}
-    top = max(float(np.max(np.linalg.norm(f, axis=1))) for f in fields.values())
-    colour = Normalize(vmin=0.0, vmax=max(top, norm))
+    speeds = np.concatenate([np.linalg.norm(f, axis=1) for f in fields.values()])
+    top = float(np.max(speeds))
+    # A robust colour range: one method's few fast arrows (a spring pulling back from far
+    # outside) must not leave every other panel one colour. Faster arrows get the top colour.
+    robust = max(float(np.percentile(speeds, CLIP_PERCENTILE)), norm)
+    clipped = top > robust * (1.0 + 1e-9)
+    colour = Normalize(vmin=0.0, vmax=robust if clipped else max(top, norm))
     arrows = None
     for ax, (name, out) in zip(axes.ravel(), fields.items(), strict=False):
-        _draw_polygon(ax, polygon, buffer=width, margin=0.18)
+        _draw_polygon(ax, polygon, buffer=width, margin=0.18, unit=_unit_of(xlabel))
         mag = np.linalg.norm(out, axis=1)
         arrows = ax.quiver(
             P[:, 0], P[:, 1], out[:, 0], out[:, 1], mag, cmap="viridis", norm=colour,
@@ -377,7 +419,15 @@ def plot_quiver(
     drop_unused(axes.ravel(), k)
     shown = tuple(round(x, 2) for x in cmd.tolist())
     fig.suptitle(f"Shaped velocity field for the constant command {shown} [{_unit_of(xlabel)}/s]")
-    add_colorbar(fig, arrows, list(axes.ravel()[:k]), f"shaped speed [{_unit_of(xlabel)}/s]")
+    bar_label = f"shaped speed [{_unit_of(xlabel)}/s]"
+    if clipped:
+        bar_label += (
+            f"\n(range clipped at the {CLIP_PERCENTILE:g}th percentile, {robust:.3g}; "
+            f"faster arrows, up to {top:.3g}, in the top colour)"
+        )
+    bar = add_colorbar(fig, arrows, list(axes.ravel()[:k]), bar_label)
+    if clipped:
+        bar.extend = "max"
     handles, names = axes.ravel()[0].get_legend_handles_labels()
     fig.legend(handles, names, loc="outside lower center", ncol=len(names))
     return _write(fig, out_path, DPI)
@@ -422,7 +472,8 @@ def animate_trajectories(
     xlabel, ylabel = _check_labels(labels)
     out = check_output_path("path", path)
     fig, ax = plt.subplots(figsize=(7.6, 5.6), layout="constrained")
-    _draw_polygon(ax, polygon, buffer=width)
+    every = np.vstack([tr.p for tr in trs.values()])
+    _draw_polygon(ax, polygon, buffer=width, unit=_unit_of(xlabel), margin=0.08, extra=every)
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
     first = next(iter(trs.values()))
@@ -431,9 +482,8 @@ def animate_trajectories(
     dots = {}
     trails = {}
     for i, name in enumerate(trs):
-        col = _color(name, i)
-        (trails[name],) = ax.plot([], [], color=col, lw=1.0, alpha=0.6)
-        (dots[name],) = ax.plot([], [], "o", color=col, ms=5, label=name)
+        (trails[name],) = ax.plot([], [], **(_path_style(name, i) | {"alpha": 0.7}))
+        (dots[name],) = ax.plot([], [], "o", color=_color(name, i), ms=5, label=name)
     # Outside the axes: the legend never covers a corner of the workspace.
     fig.legend(loc="outside right upper", fontsize=FONT - 1)
     stamp = ax.set_title("")
@@ -514,7 +564,7 @@ def plot_velocity_patterns(
     span = float(np.max(polygon.corners.max(axis=0) - polygon.corners.min(axis=0)))
     draw = (0.03 * span if r is None else r) / v
     for ax, (i, (name, shaper)) in zip(axes.ravel(), enumerate(shs.items()), strict=False):
-        _draw_polygon(ax, polygon, buffer=width, margin=0.12)
+        _draw_polygon(ax, polygon, buffer=width, margin=0.12, unit=_unit_of(xlabel))
         for p in pts:
             P = np.tile(p, (n_rays, 1))
             out = draw * shaper.shape_batch(P, U)

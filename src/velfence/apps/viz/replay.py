@@ -44,15 +44,20 @@ def plot_replay(summary: ReplaySummary, path: str | Path) -> Path:
     k = len(s.components)
     planar = s.fence is not None
     ncols = 2 if planar else 1
-    fig = plt.figure(figsize=(11 if planar else 7.5, max(2.2 * k, 4.5)))
+    fig = plt.figure(figsize=(12 if planar else 7.5, max(2.2 * k, 4.5)), layout="constrained")
     grid = fig.add_gridspec(k, ncols, width_ratios=[1.4, 1.0] if planar else [1.0])
     zeroed = ~s.has_state
     first = None
     for i, name in enumerate(s.components):
         ax = fig.add_subplot(grid[i, 0], sharex=first)
         first = first or ax
-        ax.plot(s.times, s.commanded[:, i], color="0.55", lw=1.4, label="commanded")
-        ax.plot(s.times, s.shaped[:, i], color="C2", lw=1.4, label="shaped (velfence)")
+        ax.plot(
+            s.times, s.commanded[:, i], color="0.55", lw=2.4, label="operator's command (recorded)"
+        )
+        ax.plot(
+            s.times, s.shaped[:, i], color="C2", lw=1.3, ls=(0, (5, 2)),
+            label="velfence's output (shaped)",
+        )  # fmt: skip
         if zeroed.any():
             ax.fill_between(
                 s.times,
@@ -74,9 +79,15 @@ def plot_replay(summary: ReplaySummary, path: str | Path) -> Path:
             ax.set_xlabel("time since the bag's start [s]")
     if planar and s.fence is not None:
         ax = fig.add_subplot(grid[:, 1])
-        _draw_polygon(ax, ConvexPolygon(s.fence), buffer=s.buffer)
         held = s.positions[s.has_state]
-        ax.plot(held[:, 0], held[:, 1], color="C0", lw=1.4, label="recorded path", zorder=4)
+        _draw_polygon(ax, ConvexPolygon(s.fence), buffer=s.buffer, unit="m", extra=held)
+        # The bag's own positions: the robot moved under the operator's raw commands, with no
+        # velfence in the loop, so this path may leave the fence; velfence's output is the
+        # shaped command on the left, not a path here.
+        ax.plot(
+            held[:, 0], held[:, 1], color="C0", lw=1.4, zorder=4,
+            label="recorded path (operator's raw commands,\nvelfence not in the loop)",
+        )  # fmt: skip
         if len(held):
             ax.plot(*held[0], "o", color="C0", ms=5, label="start", zorder=4)
             pts = np.vstack([s.fence, held])
@@ -88,5 +99,9 @@ def plot_replay(summary: ReplaySummary, path: str | Path) -> Path:
         ax.set_ylabel("y [m]")
         ax.grid(alpha=0.3)
         ax.legend(loc="best", fontsize=8)
-        ax.set_title(f"{s.state_topic} (open loop: as recorded)")
+        ax.set_title(
+            f"{s.state_topic}: as recorded, before velfence\n"
+            "(open-loop replay: velfence's output never drove this robot)",
+            fontsize=9,
+        )
     return save_figure(fig, out)
