@@ -10,7 +10,7 @@ with :func:`record_figures`) and names every problem:
   the label on its sibling. Exemptions: an axes switched off (``ax.axis("off")``: an image or a
   text panel), an image-only panel, and a categorical axis whose ticks name its categories;
 * **legend**: an axes with two or more labelled series or patches has each label in a legend (its
-  own or the figure's);
+  own, another panel's of the same figure, or the figure's);
 * **nothing drawn outside**: no line or scatter point lies far (more than :data:`OUTSIDE` of the
   axes' size) outside the axes limits;
 * **colour bars**: every colour-mapped artist has a colour bar on its norm, and that bar's range
@@ -90,6 +90,8 @@ def colour_mapped(ax: Any) -> list[ScalarMappable]:
             continue
         if isinstance(art, ContourSet) and art.colors is not None:
             continue  # a band of one fixed colour (the buffer), not a colour scale
+        if np.ndim(art.get_array()) == 3:
+            continue  # an RGB(A) picture, no colour scale
         out.append(art)
     return out
 
@@ -110,7 +112,18 @@ def _label(ax: Any, axis: str) -> str:
 def _categorical(ax: Any, axis: str) -> bool:
     """Whether the ``axis`` ticks name categories (fixed text ticks, not numbers)."""
     obj = ax.xaxis if axis == "x" else ax.yaxis
-    return isinstance(obj.get_major_formatter(), FixedFormatter)
+    if isinstance(obj.get_major_formatter(), FixedFormatter):
+        return True
+    texts = obj.get_major_formatter().format_ticks(obj.get_majorticklocs())
+    return bool(texts) and any(_not_number(t) for t in texts if t)
+
+
+def _not_number(text: str) -> bool:
+    try:
+        float(text.replace("\u2212", "-").replace(",", ""))
+    except ValueError:
+        return "$" not in text  # mathtext (10^k) is a number
+    return False
 
 
 def _labelled(ax: Any) -> list[str]:
@@ -124,7 +137,9 @@ def _labelled(ax: Any) -> list[str]:
 
 def _legend_texts(ax: Any) -> set[str]:
     texts: set[str] = set()
-    legends = [ax.get_legend(), *ax.figure.legends]
+    # Panels of one figure drawing the same series may share one legend (a panel's or the
+    # figure's).
+    legends = [*(a.get_legend() for a in ax.figure.axes), *ax.figure.legends]
     for legend in legends:
         if legend is not None:
             texts |= {t.get_text() for t in legend.get_texts()}
