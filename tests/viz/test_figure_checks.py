@@ -40,7 +40,7 @@ def recorded(monkeypatch: pytest.MonkeyPatch) -> Iterator[dict[str, Figure]]:
 
 def test_the_checker_reports_each_problem_of_a_bad_figure() -> None:
     fig = Figure()
-    a, b, c, d = fig.subplots(1, 4)
+    a, _b, c, d = fig.subplots(1, 4)
     # a: two labelled series, no legend; labels without units; a line far outside the limits.
     a.plot([0, 1], [0, 1], label="one")
     a.plot([0, 1], [1, 0], label="two")
@@ -64,7 +64,7 @@ def test_the_checker_reports_each_problem_of_a_bad_figure() -> None:
     assert "y label 'speed' has no unit" in found
     assert "no legend entry for ['one', 'two']" in found
     assert "drawn outside the axes limits" in found
-    assert "axes 1 ('')" in found and "empty" in found
+    assert "bad axes 1 (''): empty" in found
     assert "set by outliers" in found
     assert "holds only" in found
     assert "label 'density' has no unit" in found
@@ -128,8 +128,9 @@ def test_arm_box_figures_on_hand_made_runs(tmp_path: Path, recorded: dict[str, F
 
 
 def test_replay_figure_names_whose_path_it_is(tmp_path: Path, recorded: dict[str, Figure]) -> None:
-    from velfence.apps.cli import app
     from typer.testing import CliRunner
+
+    from velfence.apps.cli import app
 
     bag = ROOT / "examples" / "bags" / "mobile_base"
     result = CliRunner().invoke(
@@ -208,8 +209,9 @@ def test_arm_box_demo(tmp_path: Path, recorded: dict[str, Figure]) -> None:
 @pytest.mark.parametrize("scenario", ["fence-box", "wrist-push", "redundant-obstacle"])
 def test_sim_scenarios(tmp_path: Path, recorded: dict[str, Figure], scenario: str) -> None:
     pytest.importorskip("mujoco")
-    from velfence.apps.cli import app
     from typer.testing import CliRunner
+
+    from velfence.apps.cli import app
 
     out = tmp_path / scenario
     result = CliRunner().invoke(
