@@ -401,7 +401,8 @@ def plot_quiver(
     top = float(np.max(speeds))
     # A robust colour range: one method's few fast arrows (a spring pulling back from far
     # outside) must not leave every other panel one colour. Faster arrows get the top colour.
-    robust = max(float(np.percentile(speeds, CLIP_PERCENTILE)), norm)
+    # At most twice the command's speed: the arrows inside the fence keep distinct colours.
+    robust = min(max(float(np.percentile(speeds, CLIP_PERCENTILE)), norm), 2.0 * norm)
     clipped = top > robust * (1.0 + 1e-9)
     colour = Normalize(vmin=0.0, vmax=robust if clipped else max(top, norm))
     arrows = None
@@ -422,8 +423,8 @@ def plot_quiver(
     bar_label = f"shaped speed [{_unit_of(xlabel)}/s]"
     if clipped:
         bar_label += (
-            f"\n(range clipped at the {CLIP_PERCENTILE:g}th percentile, {robust:.3g}; "
-            f"faster arrows, up to {top:.3g}, in the top colour)"
+            f"\n(range clipped at {robust:.3g}: the {CLIP_PERCENTILE:g}th percentile, at most "
+            f"twice the command's speed;\nfaster arrows, up to {top:.3g}, in the top colour)"
         )
     bar = add_colorbar(fig, arrows, list(axes.ravel()[:k]), bar_label)
     if clipped:
