@@ -84,7 +84,7 @@ def _tracker(title: str, plan: Any, quiet: bool) -> Any:
     """The command's progress display on stderr (velfence.apps.progress)."""
     from velfence.apps.progress import Tracker
 
-    return Tracker(title, plan, console=Console(stderr=True, soft_wrap=True), quiet=quiet)
+    return Tracker(plan, title=title, console=Console(stderr=True, soft_wrap=True), quiet=quiet)
 
 
 def _summary(console: Console, folder: Path | None, files: Any, verdict: str) -> None:

@@ -82,7 +82,7 @@ def _tracking(console: Console, title: str, plan: tuple[tuple[str, float], ...])
 
     if progress.current() is not None:
         return contextlib.nullcontext()
-    return progress.Tracker(title, plan, console=console, quiet=console.quiet)
+    return progress.Tracker(plan, title=title, console=console, quiet=console.quiet)
 
 
 @dataclass(frozen=True)

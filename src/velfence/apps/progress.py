@@ -24,9 +24,10 @@ module; where a long library loop has to report, it accepts an optional callback
 
 from __future__ import annotations
 
+import os
 import time
 from collections.abc import Callable, Iterable, Iterator, Sequence
-from contextlib import contextmanager
+from contextlib import AbstractContextManager, contextmanager
 from contextvars import ContextVar
 from pathlib import Path
 from typing import Any
@@ -36,13 +37,47 @@ from rich.markup import escape
 from rich.progress import BarColumn, Progress, ProgressColumn, Task, TextColumn, TimeElapsedColumn
 from rich.text import Text
 
-__all__ = ["OnProgress", "Tracker", "current", "frames", "stage", "summary", "update"]
+from velfence._validate import check_flag, check_positive_int, check_text, describe, finite_scalar
+from velfence.errors import InvalidParameter
 
-#: ``on_progress(done, total, what)``: ``done`` of ``total`` units of the running step, ``what``
-#: a short description of it (e.g. ``"fence-box.mp4 frame 120/400"``).
+__all__ = ["Tracker", "current", "frames", "stage", "summary", "update"]
+
+#: The type of ``on_progress(done, total, what)``: ``done`` of ``total`` units of the running
+#: step, ``what`` a short description of it (e.g. ``"fence-box.mp4 frame 120/400"``).
 OnProgress = Callable[[float, float, str], None]
 
 _ACTIVE: ContextVar[Tracker | None] = ContextVar("velfence_progress_tracker", default=None)
+
+
+#: Most stages in a plan, and most files in a summary (a longer list is a mistake).
+MAX_ITEMS = 100_000
+
+
+def _count(name: str, x: Any, what: str) -> float:
+    """A finite, non-negative amount of work (``done``, ``total``, a weight)."""
+    v = finite_scalar(name, x, what=what, error=InvalidParameter)
+    if v < 0:
+        raise InvalidParameter(f"{name}: expected a {what} >= 0, got {v:g}")
+    return v
+
+
+def _items(name: str, x: Any) -> list[Any]:
+    """A list or tuple of at most :data:`MAX_ITEMS` items, as a list."""
+    if not isinstance(x, (list, tuple)):
+        raise InvalidParameter(f"{name}: expected a list or tuple, got {describe(x)}")
+    if len(x) > MAX_ITEMS:
+        raise InvalidParameter(f"{name}: expected at most {MAX_ITEMS:,} items, got {len(x):,}")
+    return list(x)
+
+
+def _path(name: str, x: Any) -> Path:
+    """A path given as ``str`` or ``os.PathLike`` (not bytes), non-empty."""
+    if isinstance(x, (bytes, bytearray)) or not isinstance(x, (str, os.PathLike)):
+        raise InvalidParameter(f"{name}: expected a path (str or Path), got {describe(x)}")
+    p = os.fspath(x)
+    if not isinstance(p, str) or not p or "\0" in p or len(p) > 4096:
+        raise InvalidParameter(f"{name}: expected a non-empty path, got {describe(x)}")
+    return Path(p)
 
 
 def _clock(seconds: float) -> str:
@@ -65,9 +100,9 @@ class Tracker:
     """One command's progress: a weighted plan of stages, shown live or as one line per stage.
 
     Args:
-        title: The command, e.g. ``"velfence reproduce telerobotics"``.
         plan: The stages in order as ``(name, weight)``; a weight is about the stage's seconds.
             A stage not in the plan counts with weight 0 (shown, but it does not move the bar).
+        title: The command, e.g. ``"velfence reproduce telerobotics"``.
         console: Where the display goes (default: a stderr console).
         quiet: Print nothing (neither the live display nor the per-stage lines).
         live: Force the live display on or off (default: on when ``console`` is a terminal).
@@ -75,20 +110,42 @@ class Tracker:
 
     def __init__(
         self,
-        title: str,
         plan: Iterable[tuple[str, float]],
         *,
+        title: str,
         console: Console | None = None,
         quiet: bool = False,
         live: bool | None = None,
     ) -> None:
-        self.title = title
-        self.plan = [(str(n), max(0.0, float(w))) for n, w in plan]
+        self.title = check_text("title", title)
+        steps = []
+        for k, item in enumerate(_items("plan", plan)):
+            if not isinstance(item, (list, tuple)) or len(item) != 2:
+                raise InvalidParameter(
+                    f"plan[{k}]: expected a (name, weight) pair, got {describe(item)}"
+                )
+            steps.append(
+                (
+                    check_text(f"plan[{k}] name", item[0]),
+                    _count(f"plan[{k}] weight", item[1], "weight"),
+                )
+            )
+        if not steps:
+            raise InvalidParameter("plan: expected at least one (name, weight) stage, got none")
+        self.plan = steps
+        if console is not None and not isinstance(console, Console):
+            raise InvalidParameter(
+                f"console: expected a rich Console or None, got {describe(console)}"
+            )
         self._weights = dict(self.plan)
         self._total = sum(self._weights.values()) or 1.0
         self.console = console if console is not None else Console(stderr=True, soft_wrap=True)
-        self.quiet = bool(quiet)
-        self.live = (not self.quiet and self.console.is_terminal) if live is None else bool(live)
+        self.quiet = check_flag("quiet", quiet)
+        self.live = (
+            (not self.quiet and self.console.is_terminal)
+            if live is None
+            else check_flag("live", live)
+        )
         self.finished: list[tuple[str, float]] = []
         self._done = 0.0
         self._stage: str | None = None
@@ -127,9 +184,8 @@ class Tracker:
             self._progress.stop()
             self._progress = None
 
-    @contextmanager
-    def stage(self, name: str) -> Iterator[OnProgress]:
-        """Run one stage of the plan; yields its ``on_progress(done, total, what)`` callback.
+    def stage(self, name: str) -> AbstractContextManager[OnProgress]:
+        """Run one stage of the plan (a context manager giving ``on_progress(done, total, what)``).
 
         A stage opened while another runs (a helper reporting inside its caller's stage) only
         changes the description; the outer stage keeps the bar and the per-stage line.
@@ -137,9 +193,16 @@ class Tracker:
         Args:
             name: The stage's name (from the plan).
 
-        Yields:
-            :meth:`update`.
+        Returns:
+            The context manager; it gives :meth:`update`.
+
+        Raises:
+            InvalidParameter: ``name`` is not a string.
         """
+        return self._stage_cm(check_text("name", name))
+
+    @contextmanager
+    def _stage_cm(self, name: str) -> Iterator[OnProgress]:
         if self._stage is not None:
             self.update(0, 0, name)
             yield self.update
@@ -173,11 +236,17 @@ class Tracker:
             done: Units done (frames rendered, runs finished, ...).
             total: Units in the stage; 0 when unknown (the bar stays at the stage's start).
             what: What is being done, e.g. ``"fence-box.mp4 frame 120/400"``.
+
+        Raises:
+            InvalidParameter: a count that is not a finite number >= 0, or ``what`` not a string.
         """
+        done = _count("done", done, "count")
+        total = _count("total", total, "count")
+        what = check_text("what", what)
         if self._progress is None:
             return
         name = self._stage or ""
-        frac = min(1.0, max(0.0, float(done) / float(total))) if total else 0.0
+        frac = min(1.0, done / total) if total else 0.0
         text = f"{name}: {what}" if what and name else (what or name)
         self._progress.update(
             self._task,
@@ -187,20 +256,32 @@ class Tracker:
 
 
 def current() -> Tracker | None:
-    """The active tracker, or None (then :func:`stage` and :func:`update` do nothing)."""
+    """The active tracker.
+
+    Returns:
+        The tracker of the running command, or None (then :func:`stage` and :func:`update` do
+        nothing).
+    """
     return _ACTIVE.get()
 
 
-@contextmanager
-def stage(name: str) -> Iterator[OnProgress]:
+def stage(name: str) -> AbstractContextManager[OnProgress]:
     """A stage of the active tracker (:meth:`Tracker.stage`); a no-op without one.
 
     Args:
         name: The stage's name (from the command's plan).
 
-    Yields:
-        The ``on_progress(done, total, what)`` callback of the stage.
+    Returns:
+        A context manager giving the ``on_progress(done, total, what)`` callback of the stage.
+
+    Raises:
+        InvalidParameter: ``name`` is not a string.
     """
+    return _stage_cm(check_text("name", name))
+
+
+@contextmanager
+def _stage_cm(name: str) -> Iterator[OnProgress]:
     tracker = _ACTIVE.get()
     if tracker is None:
         yield _nothing
@@ -216,10 +297,17 @@ def update(done: float, total: float, what: str = "") -> None:
         done: Units done.
         total: Units in the stage (0 when unknown).
         what: What is being done.
+
+    Raises:
+        InvalidParameter: a count that is not a finite number >= 0, or ``what`` not a string.
     """
     tracker = _ACTIVE.get()
     if tracker is not None:
         tracker.update(done, total, what)
+    else:
+        _count("done", done, "count")
+        _count("total", total, "count")
+        check_text("what", what)
 
 
 def frames(name: str) -> Callable[[int, int], None]:
@@ -232,7 +320,11 @@ def frames(name: str) -> Callable[[int, int], None]:
 
     Returns:
         The callback (a no-op without an active tracker).
+
+    Raises:
+        InvalidParameter: ``name`` is not a string.
     """
+    name = check_text("name", name)
 
     def on_frame(i: int, n: int) -> None:
         update(i + 1, n, f"rendering {name} frame {i + 1}/{n}")
@@ -259,12 +351,19 @@ def summary(
 
     Returns:
         The lines, plain text (no markup).
+
+    Raises:
+        InvalidParameter: a path that is not a str or Path, ``files`` not a list or tuple,
+            ``verdict`` not a string, ``main`` not an int >= 1.
     """
-    existing = [Path(f) for f in files if Path(f).exists()]
+    base = None if folder is None else _path("folder", folder)
+    paths = [_path(f"files[{k}]", f) for k, f in enumerate(_items("files", files))]
+    verdict = check_text("verdict", verdict)
+    main = check_positive_int("main", main, example=6, maximum=MAX_ITEMS)
+    existing = [p for p in paths if p.exists()]
     lines = []
     if existing:
-        if folder is not None:
-            base = Path(folder)
+        if base is not None:
             names = [
                 str(p.relative_to(base)) if p.is_relative_to(base) else str(p) for p in existing
             ]
