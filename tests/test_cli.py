@@ -124,7 +124,9 @@ def _fake(monkeypatch: pytest.MonkeyPatch, checks: tuple[Check, ...]) -> list[Pa
 
     def run(out_dir: Path) -> Report:
         seen.append(Path(out_dir))
-        return Report("fake", checks, ("fake.png",))
+        Path(out_dir).mkdir(parents=True, exist_ok=True)
+        (Path(out_dir) / "fake.png").write_bytes(b"")  # the summary names files that exist
+        return Report("fake", checks, (str(Path(out_dir) / "fake.png"),))
 
     module = types.ModuleType("_velfence_fake_reproduction")
     module.run = run  # type: ignore[attr-defined]
@@ -137,11 +139,20 @@ def _fake(monkeypatch: pytest.MonkeyPatch, checks: tuple[Check, ...]) -> list[Pa
 OK = Check("all good", "src A", 0.0, 0.0, 0.0, True)
 BAD = Check("really broken", "src B", "<= 0", 1.5, 0.0, False)
 DEFECT = Check("source is wrong", "src C", "<= 0", 0.25, 0.0, False, source_defect=True)
+MISS = Check("our known miss", "src D", ">= 7", 2, 7, False, note="why", expected_miss=True)
 
 
 @pytest.mark.parametrize(
     ("checks", "code"),
-    [((OK,), 0), ((OK, DEFECT), 0), ((OK, BAD), 1), ((BAD, DEFECT), 1)],
+    [
+        ((OK,), 0),
+        ((OK, DEFECT), 0),
+        ((OK, MISS), 0),
+        ((OK, MISS, DEFECT), 0),
+        ((OK, BAD), 1),
+        ((BAD, DEFECT), 1),
+        ((BAD, MISS), 1),
+    ],
 )
 @pytest.mark.parametrize("as_json", [True, False])
 def test_reproduce_exit_code(
@@ -158,7 +169,8 @@ def test_reproduce_exit_code(
     assert result.exit_code == code, result.output
     assert seen == [tmp_path]
     if as_json:
-        assert json.loads(result.stdout) == Report("fake", checks, ("fake.png",)).to_dict()
+        expected = Report("fake", checks, (str(tmp_path / "fake.png"),)).to_dict()
+        assert json.loads(result.stdout) == expected
 
 
 def test_reproduce_table_marks_source_defects(
@@ -180,8 +192,9 @@ def test_reproduce_table_marks_source_defects(
     ("checks", "counts", "code", "meaning"),
     [
         ((OK,), (1, 1, 0, 0), 0, "exit 0: every check passed"),
-        ((OK, DEFECT), (1, 2, 1, 0), 0, "exit 0: every failure is a documented defect"),
-        ((OK, BAD, DEFECT), (1, 3, 1, 1), 1, "exit 1: a genuine miss"),
+        ((OK, DEFECT), (1, 2, 1, 0), 0, "exit 0: every failure is a documented miss"),
+        ((OK, MISS, DEFECT), (1, 3, 2, 0), 0, "exit 0: every failure is a documented miss"),
+        ((OK, BAD, DEFECT), (1, 3, 1, 1), 1, "exit 1: a check that is not a documented miss"),
     ],
 )
 @pytest.mark.parametrize("as_json", [True, False])
@@ -195,7 +208,7 @@ def test_reproduce_ends_with_a_summary_line(
     meaning: str,
     as_json: bool,
 ) -> None:
-    """One line: passed / documented source defects / genuine misses, and the exit code's meaning.
+    """One line: passed / documented misses / undocumented failures, and the exit code's meaning.
 
     With --json the line goes to stderr, so stdout stays one JSON object.
     """
@@ -203,14 +216,14 @@ def test_reproduce_ends_with_a_summary_line(
     args = ["reproduce", "fake", "--out", str(tmp_path)] + (["--json"] if as_json else [])
     result = _invoke(runner, *args)
     assert result.exit_code == code
-    passed, total, defects, misses = counts
+    passed, total, documented, failures = counts
     where = result.stderr if as_json else result.stdout
     lines = [ln for ln in where.splitlines() if ln.startswith("summary:")]
     assert len(lines) == 1, where
     line = lines[0]
     assert f"{passed} of {total} checks passed" in line
-    assert f"{defects} documented source defect" in line
-    assert f"{misses} genuine miss" in line
+    assert f"{documented} documented miss" in line
+    assert f"{failures} undocumented failure" in line
     assert meaning in line
     assert cli.reproduction_summary(Report("fake", checks))[1] == code
     if as_json:

@@ -76,6 +76,25 @@ SPECS: dict[str, F | C] = {
         heavy="writes a report file; only refusals are tried",
     ),
     "demo.DemoResult": C(record="output record of run_demo()"),
+    "progress.Tracker": C(
+        new=F(
+            lambda: call([("a", 1.0)], title="velfence x", quiet=True),
+            types={"console": "object", "title": "text"},
+        ),
+        methods={
+            "stage": F(lambda: call("a"), types={"name": "text"}),
+            "update": F(lambda: call(1.0, 2.0, "x"), types={"what": "text"}),
+        },
+    ),
+    "progress.current": F(lambda: call()),
+    "progress.frames": F(lambda: call("demo.gif"), types={"name": "text"}),
+    "progress.stage": F(lambda: call("a"), types={"name": "text"}),
+    "progress.summary": F(
+        lambda: call("/nonexistent-velfence-hostile", [], "ok"),
+        types={"verdict": "text", "folder": "path"},
+        skip={"files": "an empty list is valid (a command that wrote nothing)"},
+    ),
+    "progress.update": F(lambda: call(1.0, 2.0, "x"), types={"what": "text"}),
     "demo.build_shapers": F(lambda: call(square(), _cfg())),
     "demo.run_demo": F(
         lambda: call(out_dir="/nonexistent-velfence-hostile/demo"),

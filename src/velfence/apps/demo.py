@@ -23,9 +23,9 @@ from typing import Any
 import numpy as np
 from rich.console import Console
 from rich.markup import escape
-from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
+from velfence.apps import progress
 from velfence.apps.reproduce.base import jsonable
 from velfence.errors import InvalidParameter, VelfenceError
 from velfence.geometry.polygon import ConvexPolygon
@@ -57,6 +57,33 @@ __all__ = [
 
 #: The scenarios of ``velfence demo --scenario``; the first is the default.
 SCENARIOS: tuple[str, ...] = ("wrist", "arm-box")
+
+#: The stages of :func:`run_demo` with their weights: their seconds as measured on one 2-core
+#: machine (total 29 s); only their ratios matter for the remaining-time estimate.
+WRIST_STAGES: tuple[tuple[str, float], ...] = (
+    ("simulating", 7.6),
+    ("metrics", 2.7),
+    ("plots", 2.8),
+    ("demo.gif", 15.5),
+    ("metrics.json", 0.1),
+)
+
+#: The stages of :func:`run_arm_demo` with their weights (about their seconds on a laptop).
+ARM_STAGES: tuple[tuple[str, float], ...] = (
+    ("simulating", 40.0),
+    ("plots", 15.0),
+    ("arm_velfence.gif", 50.0),
+    ("metrics.md, metrics.json", 0.5),
+)
+
+
+def _tracking(console: Console, title: str, plan: tuple[tuple[str, float], ...]) -> Any:
+    """The active progress tracker's no-op context, else a tracker drawing on ``console``."""
+    import contextlib
+
+    if progress.current() is not None:
+        return contextlib.nullcontext()
+    return progress.Tracker(plan, title=title, console=console, quiet=console.quiet)
 
 
 @dataclass(frozen=True)
@@ -233,31 +260,46 @@ def run_demo(
     def saturate(p: Any, v: Any) -> Any:
         return wrist.saturate(p, v)
 
-    with Progress(
-        TextColumn("[bold]{task.description:<12}"),
-        BarColumn(),
-        TextColumn("{task.percentage:>3.0f}%"),
-        TimeElapsedColumn(),
-        console=console,
-        transient=False,
-    ) as progress:
-        tasks = {name: progress.add_task(name, total=1.0) for name in shapers}
+    with _tracking(console, "velfence demo", WRIST_STAGES):
+        with progress.stage("simulating") as report:
+            fracs = dict.fromkeys(shapers, 0.0)
 
-        def on_step(name: str, frac: float) -> None:
-            progress.update(tasks[name], completed=frac)
+            def on_step(name: str, frac: float) -> None:
+                fracs[name] = frac
+                report(sum(fracs.values()), len(fracs), f"{name} {100 * frac:.0f} %")
 
-        trajs = simulate_many(
-            shapers,
-            operator,
-            np.asarray(script.start),
-            duration=script.duration,
-            dt=cfg.dt,
-            disturbance=disturbance,
-            saturate=saturate if cfg.saturate else None,
-            noise_std=cfg.noise_std,
-            seed=cfg.seed,
-            on_step=on_step,
-        )
+            trajs = simulate_many(
+                shapers,
+                operator,
+                np.asarray(script.start),
+                duration=script.duration,
+                dt=cfg.dt,
+                disturbance=disturbance,
+                saturate=saturate if cfg.saturate else None,
+                noise_std=cfg.noise_std,
+                seed=cfg.seed,
+                on_step=on_step,
+            )
+        metrics, windows_note = _wrist_metrics(trajs, shapers, polygon, cfg, script)
+        artifacts = list(_write_plots(polygon, trajs, shapers, cfg, out))
+        with progress.stage("metrics.json"):
+            meta = _wrist_meta(polygon, cfg, script, metrics, windows_note)
+            mpath = out / "metrics.json"
+            mpath.write_text(json.dumps(jsonable(meta), indent=2, default=str, allow_nan=False))
+    artifacts.append(mpath)
+    return DemoResult(
+        metrics, _table(metrics, _scenario_title(cfg), _unit(cfg)), tuple(artifacts), trajs
+    )
+
+
+def _wrist_metrics(
+    trajs: dict[str, Trajectory],
+    shapers: dict[str, Shaper],
+    polygon: ConvexPolygon,
+    cfg: DemoConfig,
+    script: Script,
+) -> tuple[dict[str, dict[str, float]], dict[str, str]]:
+    """The demo's metrics per method and the notes of the two derived ones."""
     band = cfg.shaper.buffer
     ang = polygon.interior_angles
     acute = int(np.argmin(ang))
@@ -268,22 +310,53 @@ def run_demo(
     spacing = max(band / 8.0, side / _GRID_SIDE)
     windows = _phase_windows(script)
     metrics: dict[str, dict[str, float]] = {}
-    for name, tr in trajs.items():
-        m = summarize(tr, polygon, band=band)
-        m["acute_corner_escape_time"] = float(
-            corner_escape_time(tr, polygon, acute, radius=2.0 * band)
-        )
-        m["max_output_jump"] = float(
-            max_output_jump(shapers[name], polygon, spacing=spacing, commands=probe)
-        )
-        for key, (t0, t1) in windows.items():
-            part = tr.window(t0, t1)
-            m[f"{key}.max_penetration"] = max_penetration(part, polygon)
-            m[f"{key}.time_outside"] = time_outside(part, polygon, tol=1e-6)
-            m[f"{key}.sliding_ratio"] = sliding_ratio(part, polygon, band=band)
-        metrics[name] = m
-    artifacts = list(_write_plots(polygon, trajs, shapers, cfg, out))
-    meta = {
+    with progress.stage("metrics") as report:
+        for k, (name, tr) in enumerate(trajs.items()):
+            report(k, len(trajs), name)
+            metrics[name] = _method_metrics(
+                tr, shapers[name], polygon, band, spacing, probe, acute, windows
+            )
+    notes = {
+        "max_output_jump": (
+            f"largest |Δ output| between grid neighbours {spacing:g} rad apart, over 3 "
+            "commands of unit-order speed (continuity; small = continuous)"
+        ),
+        "acute_corner_escape_time": f"time spent within {2 * band:g} rad of corner {acute}",
+    }
+    return metrics, notes
+
+
+def _method_metrics(
+    tr: Trajectory,
+    shaper: Shaper,
+    polygon: ConvexPolygon,
+    band: float,
+    spacing: float,
+    probe: Any,
+    acute: int,
+    windows: dict[str, tuple[float, float]],
+) -> dict[str, float]:
+    """One method's metrics (summary, corner escape, continuity, per phase)."""
+    m = summarize(tr, polygon, band=band)
+    m["acute_corner_escape_time"] = float(corner_escape_time(tr, polygon, acute, radius=2.0 * band))
+    m["max_output_jump"] = float(max_output_jump(shaper, polygon, spacing=spacing, commands=probe))
+    for key, (t0, t1) in windows.items():
+        part = tr.window(t0, t1)
+        m[f"{key}.max_penetration"] = max_penetration(part, polygon)
+        m[f"{key}.time_outside"] = time_outside(part, polygon, tol=1e-6)
+        m[f"{key}.sliding_ratio"] = sliding_ratio(part, polygon, band=band)
+    return m
+
+
+def _wrist_meta(
+    polygon: ConvexPolygon,
+    cfg: DemoConfig,
+    script: Script,
+    metrics: dict[str, dict[str, float]],
+    notes: dict[str, str],
+) -> dict[str, Any]:
+    """The content of the demo's metrics.json."""
+    return {
         "polygon": polygon.corners.tolist(),
         "inscribed_rectangle_area": polygon.inscribed_rectangle().area,
         "polygon_area": polygon.area,
@@ -295,20 +368,8 @@ def run_demo(
             )
         ],
         "metrics": metrics,
-        "metric_notes": {
-            "max_output_jump": (
-                f"largest |Δ output| between grid neighbours {spacing:g} rad apart, over 3 "
-                "commands of unit-order speed (continuity; small = continuous)"
-            ),
-            "acute_corner_escape_time": f"time spent within {2 * band:g} rad of corner {acute}",
-        },
+        "metric_notes": notes,
     }
-    mpath = out / "metrics.json"
-    mpath.write_text(json.dumps(jsonable(meta), indent=2, default=str, allow_nan=False))
-    artifacts.append(mpath)
-    return DemoResult(
-        metrics, _table(metrics, _scenario_title(cfg), _unit(cfg)), tuple(artifacts), trajs
-    )
 
 
 def _unit(cfg: DemoConfig) -> str:
@@ -362,18 +423,23 @@ def _write_plots(
     b = cfg.shaper.buffer
     labels = cfg.axis_labels()
     title = f"Workspace and trajectories\n{_scenario_title(cfg)}"
-    paths = [
-        plot_workspace(
-            polygon, trajs, out / "workspace.png", buffer=b, rectangle=rect, labels=labels,
-            title=title,
-        ),
-        plot_velocity_profiles(polygon, trajs, out / "velocity.png", unit=_unit(cfg)),
-        plot_quiver(polygon, shapers, out / "quiver.png", buffer=b, labels=labels),
-    ]  # fmt: skip
+    with progress.stage("plots") as report:
+        report(0, 3, "workspace.png")
+        paths = [
+            plot_workspace(
+                polygon, trajs, out / "workspace.png", buffer=b, rectangle=rect, labels=labels,
+                title=title,
+            )
+        ]  # fmt: skip
+        report(1, 3, "velocity.png")
+        paths.append(plot_velocity_profiles(polygon, trajs, out / "velocity.png", unit=_unit(cfg)))
+        report(2, 3, "quiver.png")
+        paths.append(plot_quiver(polygon, shapers, out / "quiver.png", buffer=b, labels=labels))
     if cfg.gif:
-        paths.append(
-            animate_trajectories(polygon, trajs, out / "demo.gif", buffer=b, labels=labels)
-        )
+        with progress.stage("demo.gif"):
+            paths.append(
+                animate_trajectories(polygon, trajs, out / "demo.gif", buffer=b, labels=labels)
+            )
     return paths
 
 
@@ -461,7 +527,6 @@ def run_arm_demo(
         ARM_SPEEDS,
         arm_box_scene,
         arm_metrics,
-        arm_script,
         build_arm_controllers,
         run_arm,
     )
@@ -509,24 +574,40 @@ def run_arm_demo(
     out.mkdir(parents=True, exist_ok=True)
     all_metrics: dict[str, dict[str, dict[str, float]]] = {}
     runs_at: dict[float, Any] = {}
-    with Progress(
-        TextColumn("[bold]{task.description:<26}"),
-        BarColumn(),
-        TextColumn("{task.percentage:>3.0f}%"),
-        TimeElapsedColumn(),
-        console=console,
-        transient=False,
-    ) as progress:
-        tasks = {(m, v): progress.add_task(f"{m} @ {v:g} m/s", total=1.0) for v in sp for m in ms}
-        for v in sp:
+    with _tracking(console, "velfence demo arm-box", ARM_STAGES):
+        with progress.stage("simulating") as report:
+            n_runs = len(sp) * len(ms)
+            fracs = {(m, v): 0.0 for v in sp for m in ms}
+            for v in sp:
 
-            def on_step(name: str, frac: float, v: float = v) -> None:
-                progress.update(tasks[(name, v)], completed=frac)
+                def on_step(name: str, frac: float, v: float = v) -> None:
+                    fracs[(name, v)] = frac
+                    report(sum(fracs.values()), n_runs, f"{name} @ {v:g} m/s {100 * frac:.0f} %")
 
-            runs = run_arm(scene, v, methods=ms, controllers=controllers, on_step=on_step)
-            runs_at[v] = runs
-            all_metrics[f"{v:g}"] = arm_metrics(scene, runs)
-    artifacts = _write_arm_plots(scene, runs_at[fig_speed], out, gif=gif)
+                runs = run_arm(scene, v, methods=ms, controllers=controllers, on_step=on_step)
+                runs_at[v] = runs
+                all_metrics[f"{v:g}"] = arm_metrics(scene, runs)
+        artifacts = _write_arm_plots(scene, runs_at[fig_speed], out, gif=gif)
+        with progress.stage("metrics.md, metrics.json"):
+            md, js = _write_arm_metrics(scene, sp, ms, all_metrics, out)
+    artifacts += [md, js]
+    flat = {f"{m} @ {s} m/s": vals for s, per in all_metrics.items() for m, vals in per.items()}
+    trajs = {
+        f"{m} @ {v:g} m/s": r.trajectory for v, runs in runs_at.items() for m, r in runs.items()
+    }
+    return DemoResult(flat, _arm_table(all_metrics), tuple(artifacts), trajs)
+
+
+def _write_arm_metrics(
+    scene: Any,
+    sp: tuple[float, ...],
+    ms: tuple[str, ...],
+    all_metrics: dict[str, dict[str, dict[str, float]]],
+    out: Path,
+) -> tuple[Path, Path]:
+    """Write the arm demo's metrics.md and metrics.json; return both paths."""
+    from velfence.sim.arm import arm_script
+
     md = out / "metrics.md"
     md.write_text(
         f"Arm in a box: {len(ms)} controllers at {', '.join(f'{v:g}' for v in sp)} m/s "
@@ -551,12 +632,7 @@ def run_arm_demo(
     }
     js = out / "metrics.json"
     js.write_text(json.dumps(jsonable(meta), indent=2, allow_nan=False))
-    artifacts += [md, js]
-    flat = {f"{m} @ {s} m/s": vals for s, per in all_metrics.items() for m, vals in per.items()}
-    trajs = {
-        f"{m} @ {v:g} m/s": r.trajectory for v, runs in runs_at.items() for m, r in runs.items()
-    }
-    return DemoResult(flat, _arm_table(all_metrics), tuple(artifacts), trajs)
+    return md, js
 
 
 def _write_arm_plots(scene: Any, runs: dict[str, Any], out: Path, *, gif: bool) -> list[Path]:
@@ -567,13 +643,16 @@ def _write_arm_plots(scene: Any, runs: dict[str, Any], out: Path, *, gif: bool) 
         plot_arm_paths,
     )
 
-    paths = [
-        plot_arm_paths(scene, runs, out / "arm_paths.png"),
-        plot_arm_joints(scene, runs, out / "arm_joints.png"),
-        plot_arm_activity(runs, out / "arm_activity.png"),
-    ]
+    with progress.stage("plots") as report:
+        report(0, 3, "arm_paths.png")
+        paths = [plot_arm_paths(scene, runs, out / "arm_paths.png")]
+        report(1, 3, "arm_joints.png")
+        paths.append(plot_arm_joints(scene, runs, out / "arm_joints.png"))
+        report(2, 3, "arm_activity.png")
+        paths.append(plot_arm_activity(runs, out / "arm_activity.png"))
     if gif and "velfence" in runs:
-        paths.append(animate_arm(scene, runs["velfence"], out / "arm_velfence.gif"))
+        with progress.stage("arm_velfence.gif"):
+            paths.append(animate_arm(scene, runs["velfence"], out / "arm_velfence.gif"))
     return paths
 
 

@@ -32,6 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
+from velfence.apps import progress
 from velfence.apps.reproduce.base import Check
 from velfence.apps.teleop.study import StudyResult, run_study
 from velfence.apps.teleop.task import CONDITIONS
@@ -78,8 +79,15 @@ def study_checks(
     """
     from velfence.apps.viz.study import write_study
 
-    result = run_study(subjects, runs, seed)
-    paths = write_study(result, out)
+    with progress.stage("study") as report:
+        result = run_study(
+            subjects,
+            runs,
+            seed,
+            progress=lambda done, n: report(done, n, f"pick-and-place run {done}/{n}"),
+        )
+        report(1, 1, "study.json, study_times.png, study_paths.png")
+        paths = write_study(result, out)
     summary = result.summary()
     total = subjects * runs
     times = result.subject_means("time")

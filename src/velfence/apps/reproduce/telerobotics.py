@@ -22,13 +22,23 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from velfence.apps import progress
 from velfence.apps.reproduce._telerobotics_kinematics import kinematics_checks
 from velfence.apps.reproduce._telerobotics_laser import laser_checks
 from velfence.apps.reproduce._telerobotics_motion import motion_checks
 from velfence.apps.reproduce._telerobotics_study import study_checks
 from velfence.apps.reproduce.base import Check, Report
 
-__all__ = ["run"]
+__all__ = ["STAGES", "run"]
+
+#: The parts of :func:`run` as progress stages, with their weights (about their seconds with the
+#: thesis's 10 subjects x 3 runs; the study dominates).
+STAGES: tuple[tuple[str, float], ...] = (
+    ("kinematics", 5.0),
+    ("laser", 30.0),
+    ("motion", 60.0),
+    ("study", 600.0),
+)
 
 
 def run(
@@ -48,11 +58,16 @@ def run(
     out.mkdir(parents=True, exist_ok=True)
     checks: list[Check] = []
     artifacts: list[Path] = []
-    for part in (kinematics_checks, laser_checks, motion_checks):
-        c, a = part(out)
+    for name, part in (
+        ("kinematics", kinematics_checks),
+        ("laser", laser_checks),
+        ("motion", motion_checks),
+    ):
+        with progress.stage(name):
+            c, a = part(out)
         checks.extend(c)
         artifacts.extend(a)
-    c, a = study_checks(out, subjects=subjects, runs=runs)
+    c, a = study_checks(out, subjects=subjects, runs=runs)  # its own stage: "study"
     checks.extend(c)
     artifacts.extend(a)
     return Report("telerobotics", tuple(checks), tuple(str(p) for p in artifacts))

@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 
+from velfence.apps.progress import update as report_progress
 from velfence.apps.reproduce.base import jsonable
 from velfence.apps.scenarios.common import ScenarioResult
 
@@ -183,9 +184,12 @@ def write_video(
             overlays.append(TrailOverlay(run.point[idx], rgba=(0.1, 0.7, 0.2, 1.0)))
         captions = [f"{name}   t = {t[i]:.2f} s" for i in idx]
 
-        def sub(f: float, k: int = k) -> None:
+        def sub(f: float, k: int = k, name: str = name, n: int = len(idx)) -> None:
             if progress is not None:
                 progress((k + f) / len(names))
+            report_progress(
+                k + f, len(names), f"{result.name} video, panel {name}: frame {round(f * n)}/{n}"
+            )
 
         panels[name] = render_frames(
             run.model,
@@ -203,6 +207,7 @@ def write_video(
     out = []
     for fmt in formats:
         path = folder / f"{result.name}.{fmt}"
+        report_progress(len(names), len(names), f"encoding {path.name}")
         out.append(write(frames, path, fps=fps if fmt == "mp4" else min(fps, 12)))
     return out
 

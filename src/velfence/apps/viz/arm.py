@@ -17,6 +17,7 @@ from matplotlib.collections import LineCollection
 from matplotlib.colors import Normalize
 
 from velfence._validate import check_output_path, check_positive_int
+from velfence.apps import progress
 from velfence.apps.viz.plots import MAX_FPS, MAX_FRAMES, save_figure
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.sim.arm import ArmRun, ArmScene
@@ -311,7 +312,9 @@ def animate_arm(
 
     anim = FuncAnimation(fig, update, frames=n_frames, blit=False)
     try:
-        anim.save(out, writer=PillowWriter(fps=rate), dpi=96)
+        anim.save(
+            out, writer=PillowWriter(fps=rate), dpi=96, progress_callback=progress.frames(out.name)
+        )
     except (OSError, ValueError) as exc:
         raise InvalidParameter(f"path: cannot write {str(out)!r}: {exc}") from None
     finally:

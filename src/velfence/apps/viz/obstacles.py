@@ -23,6 +23,7 @@ from matplotlib.patches import Circle
 from numpy.typing import NDArray
 
 from velfence._typing import FloatArray
+from velfence.apps import progress
 from velfence.apps.viz.plots import save_figure
 from velfence.mechanisms.chain import SerialChain
 from velfence.redundancy.configuration_control import ControlResult, InfluenceObstacle
@@ -227,7 +228,9 @@ def animate_arm(run: ArmRun, path: str | Path, *, frames: int = 40) -> Path:
     pts = np.array([np.asarray(run.chain.joint_positions(q))[:, :2] for q in run.q[ks]])
     lo, hi = pts.reshape(-1, 2).min(axis=0) - 0.3, pts.reshape(-1, 2).max(axis=0) + 0.3
     with writer.saving(fig, str(out), dpi=60):
-        for k in ks:
+        on_frame = progress.frames(out.name)
+        for j, k in enumerate(ks):
+            on_frame(j, len(ks))
             ax.clear()
             _obstacles(ax, run, (0, 1))
             _arm(ax, run, int(k), (0, 1), 1.0)

@@ -23,6 +23,7 @@ from velfence._validate import (
     describe,
     real_array,
 )
+from velfence.apps import progress
 from velfence.apps.viz.style import DPI, FONT, GIF_DPI, add_colorbar, drop_unused, styled
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon, Rectangle
@@ -500,7 +501,12 @@ def animate_trajectories(
 
     anim = FuncAnimation(fig, update, frames=n_frames, blit=False)
     try:
-        anim.save(out, writer=PillowWriter(fps=rate), dpi=GIF_DPI)
+        anim.save(
+            out,
+            writer=PillowWriter(fps=rate),
+            dpi=GIF_DPI,
+            progress_callback=progress.frames(out.name),
+        )
     except (OSError, ValueError) as exc:  # unwritable file, unknown suffix
         raise InvalidParameter(f"path: cannot write {str(out)!r}: {exc}") from None
     finally:

@@ -51,6 +51,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from velfence._typing import FloatArray
 from velfence._validate import finite_array
+from velfence.apps import progress
 from velfence.apps.teleop.scene import Scene, scene_to_dicts
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.geometry.primitives import orthonormal_complement
@@ -670,7 +671,9 @@ def animate_session(
         draw_scene(ax, static)
         stamp = fig.text(0.02, 0.98, "", fontsize=9, va="top", family="monospace")
         with writer.saving(fig, str(out), dpi):
-            for k in idx:
+            on_frame = progress.frames(out.name)
+            for j, k in enumerate(idx):
+                on_frame(j, len(idx))
                 snap = snapshots[int(k)]
                 artists = draw_snapshot(ax, _frame_objects(snap, dynamic) if dynamic else snap)
                 stamp.set_text(_overlay(snap, speedup))
