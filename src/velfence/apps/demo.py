@@ -21,10 +21,16 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from rich.console import Console
-from rich.markup import escape
-from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
-from rich.table import Table
+
+from velfence._extras import missing
+
+try:
+    from rich.console import Console
+    from rich.markup import escape
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+    from rich.table import Table
+except ModuleNotFoundError as exc:  # an optional dependency: name the extra
+    raise missing(exc, what=__name__) from exc
 
 from velfence.apps.reproduce.base import jsonable
 from velfence.errors import InvalidParameter, VelfenceError

@@ -24,15 +24,21 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 import numpy as np
-from pydantic import (
-    BaseModel,
-    ConfigDict,
-    Field,
-    Strict,
-    ValidationError,
-    field_validator,
-    model_validator,
-)
+
+from velfence._extras import missing
+
+try:
+    from pydantic import (
+        BaseModel,
+        ConfigDict,
+        Field,
+        Strict,
+        ValidationError,
+        field_validator,
+        model_validator,
+    )
+except ModuleNotFoundError as exc:  # an optional dependency: name the extra
+    raise missing(exc, what=__name__) from exc
 
 from velfence._validate import MAX_STEPS, check_positive_int, check_text, show, step_count
 from velfence.errors import InvalidParameter

@@ -94,8 +94,16 @@ def _read_text(p: Path, what: str) -> str:
         ) from None
 
 
+def _need_yaml() -> None:
+    """Raise :class:`~velfence.errors.MissingExtra` naming the ``app`` extra without PyYAML."""
+    from velfence._extras import require
+
+    require("yaml", what="reading a YAML file")
+
+
 def _yaml_error_text(exc: Exception) -> str:
     """One line: 'line L, column C: problem (context)' for a marked YAML error."""
+    _need_yaml()
     import yaml
 
     if isinstance(exc, yaml.MarkedYAMLError) and exc.problem_mark is not None:
@@ -118,6 +126,7 @@ def _refused_error() -> type[yaml.MarkedYAMLError]:
     """The error of well-formed YAML that the config reader does not accept (aliases, ...)."""
     global _REFUSED
     if _REFUSED is None:
+        _need_yaml()
         import yaml
 
         class Refused(yaml.MarkedYAMLError):
@@ -132,6 +141,7 @@ def _loader() -> type[yaml.SafeLoader]:
     global _LOADER
     if _LOADER is not None:
         return _LOADER
+    _need_yaml()
     import yaml
 
     refused = _refused_error()
@@ -226,6 +236,7 @@ def _loader() -> type[yaml.SafeLoader]:
 
 
 def _parse(p: Path, text: str, what: str) -> Any:
+    _need_yaml()
     import yaml
 
     try:
