@@ -13,6 +13,9 @@ from typing import Any
 
 import numpy as np
 import pytest
+
+from velfence.errors import InvalidGeometry, InvalidParameter, VelfenceError
+from velfence.geometry import ConvexPolygon
 from velfence.io.zones import (
     MAX_PLANES,
     box_workspace,
@@ -22,9 +25,6 @@ from velfence.io.zones import (
     nav2_polygons,
     ur_safety_planes,
 )
-
-from velfence.errors import InvalidGeometry, InvalidParameter, VelfenceError
-from velfence.geometry import ConvexPolygon
 
 try:
     import pydantic  # noqa: F401

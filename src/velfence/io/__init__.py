@@ -25,7 +25,7 @@ _EXPORTS: dict[str, str] = {
     "DemoConfig": "velfence.io.config",
     "check_run_length": "velfence.io.config",
     "load_config": "velfence.io.config",
-    "load_joint_limits": "velfence.io.config",
+    "load_joint_limits": "velfence.io.joint_limits",
     "ConfiguredShaper": "velfence.io.shaper_config",
     "load_yaml": "velfence.io.shaper_config",
     "parse_shaper": "velfence.io.shaper_config",
@@ -51,8 +51,8 @@ if TYPE_CHECKING:  # the same names, eagerly, for type checkers and IDEs
         DemoConfig,
         check_run_length,
         load_config,
-        load_joint_limits,
     )
+    from velfence.io.joint_limits import load_joint_limits
     from velfence.io.shaper_config import ConfiguredShaper, load_yaml, parse_shaper
     from velfence.io.zones import (
         NavZone,
