@@ -222,7 +222,9 @@ def _loader(angle_tags: bool = False) -> type[yaml.SafeLoader]:
 
     def construct_unknown(loader: yaml.SafeLoader, node: yaml.Node) -> Any:
         accepted = " (!degrees and !radians are)" if angle_tags else ""
-        stop(f"the tag {node.tag} is not accepted here{accepted}", node.start_mark)
+        raise yaml.constructor.ConstructorError(
+            None, None, f"the tag {node.tag} is not accepted here{accepted}", node.start_mark
+        )
 
     def construct_angle(loader: yaml.SafeLoader, node: yaml.Node) -> float:
         implicit = None
