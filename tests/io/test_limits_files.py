@@ -144,3 +144,15 @@ def test_unknown_tags_are_refused_with_their_line(tmp_path: Path) -> None:
     p.write_text("shaper: !degrees 3\n", encoding="utf-8")
     with pytest.raises(InvalidParameter, match=r"!degrees is not accepted here"):
         load_yaml(p)
+
+
+@requires("pydantic")
+def test_replay_command_frame_state_is_the_old_name_of_world() -> None:
+    from velfence.io.bags import ReplaySettings
+
+    topics = {"command_topic": "/cmd_vel", "state_topic": "/odom"}
+    assert ReplaySettings(**topics).command_frame == "world"
+    with pytest.warns(DeprecationWarning, match="goes in 0.3"):
+        old = ReplaySettings(**topics, command_frame="state")
+    assert old.command_frame == "world"
+    assert ReplaySettings(**topics, command_frame="body").command_frame == "body"
