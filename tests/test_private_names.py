@@ -2,8 +2,8 @@
 
 A package is a first-level subpackage of ``velfence`` (geometry, shaping, io, bridge, ...) or of
 ``velfence.apps`` (viz, teleop, ...); the top-level modules ``velfence._validate``,
-``velfence._typing`` and ``velfence._moved`` are the library's shared internals. An AST scan of
-every module reports, with file and line:
+``velfence._typing``, ``velfence._moved`` and ``velfence._extras`` are the library's shared
+internals. An AST scan of every module reports, with file and line:
 
 * ``from a.b import _x`` where ``a.b`` is in another package;
 * ``import a._b`` / ``from a import _b`` / ``from a._b import x`` of a private module of another
@@ -27,7 +27,7 @@ import pytest
 import velfence
 
 PACKAGE = Path(velfence.__file__).resolve().parent
-SHARED = frozenset({"_validate", "_typing", "_moved"})
+SHARED = frozenset({"_validate", "_typing", "_moved", "_extras"})
 CORE_LOADER = "shaping.backend"
 
 

@@ -209,11 +209,11 @@ def _load_yaml_block(code: str, path: Path) -> object:
 
         return load_bridge_config(path)
     if "safety_planes" in keys:
-        from velfence.bridge import load_ur_safety_planes
+        from velfence.io.zones import load_ur_safety_planes
 
         return load_ur_safety_planes(path)
     if any(isinstance(v, dict) and "ros__parameters" in v for v in doc.values()):
-        from velfence.bridge import load_nav2_polygons
+        from velfence.io.zones import load_nav2_polygons
 
         return load_nav2_polygons(path, circle_sides=18)  # the page's k = 18
     if keys == {"shaper", "replay"}:

@@ -37,6 +37,7 @@ MOVED: dict[str, str] = {
     "velfence.viz": "velfence.apps.viz",
     "velfence.view": "velfence.apps.viewer.view",
     "velfence.cobot.sim": "velfence.sim.cobot",
+    "velfence.bridge.zones": "velfence.io.zones",
 }
 
 

@@ -724,7 +724,9 @@ def check_output_path(name: str, value: Any, *, error: type[Exception] | None = 
 
 
 def require_package(name: str, package: str, *, extra: str, what: str) -> Any:
-    """Import an optional dependency, or refuse the public argument ``name`` that needs it.
+    """Import an optional dependency that the public argument ``name`` needs when it is used.
+
+    The message is :func:`velfence._extras.message`'s, prefixed with ``name``.
 
     Args:
         name: The public argument whose use needs the package (named in the message).
@@ -736,16 +738,12 @@ def require_package(name: str, package: str, *, extra: str, what: str) -> Any:
         The imported module.
 
     Raises:
-        InvalidParameter: the package is not installed.
+        MissingExtra: the package is not installed (an ``ImportError`` and a ``VelfenceError``).
     """
-    import importlib
-
-    from velfence.errors import InvalidParameter
+    from velfence._extras import require
+    from velfence.errors import MissingExtra
 
     try:
-        return importlib.import_module(package)
-    except ImportError as exc:
-        raise InvalidParameter(
-            f"{name}: {what} needs the {package!r} package, got ImportError; "
-            f"install velfence[{extra}]"
-        ) from exc
+        return require(package, what=what, extra=extra)
+    except MissingExtra as exc:
+        raise MissingExtra(f"{name}: {exc}", name=exc.name) from exc.__cause__

@@ -6,7 +6,7 @@ expected, what was got, and what to do about it.
 
 from __future__ import annotations
 
-__all__ = ["InvalidGeometry", "InvalidInput", "InvalidParameter", "VelfenceError"]
+__all__ = ["InvalidGeometry", "InvalidInput", "InvalidParameter", "MissingExtra", "VelfenceError"]
 
 
 class VelfenceError(Exception):
@@ -23,3 +23,12 @@ class InvalidParameter(VelfenceError, ValueError):
 
 class InvalidInput(VelfenceError, ValueError):
     """A run-time input (position, command, state) has the wrong shape or is not finite."""
+
+
+class MissingExtra(VelfenceError, ModuleNotFoundError):
+    """An optional dependency is not installed; the message names the extra that installs it.
+
+    Raised when a module of velfence that needs the package is imported, or when a call needs it
+    (``pip install 'velfence[app]'`` and the like; ``docs/install.md`` has the table). It is an
+    :class:`ImportError` too, so ``except ImportError`` around an optional import keeps working.
+    """

@@ -626,6 +626,7 @@ SPEC_MODULES = (
     "specs_reproduce",
     "specs_tools",
     "specs_bridge_zones",
+    "specs_io_zones",
 )
 
 

@@ -78,6 +78,12 @@ SPECS: dict[str, F | C] = {
     "geometry.polygon_from_halfplanes": F(
         lambda: call([[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]], [1.0, 1.0, 1.0, 1.0])
     ),
+    "geometry.body_to_world": F(
+        lambda: call([1.0, 0.5, 0.2], 0.3), types={"twist": "vector", "yaw": "scalar"}
+    ),
+    "geometry.world_to_body": F(
+        lambda: call([1.0, 0.5], -2.0), types={"twist": "vector", "yaw": "scalar"}
+    ),
     "geometry.closest_point_on_segment": F(
         lambda: call([0.5, 1.0, 0.0], [0.0, 0.0, 0.0], [1.0, 0.0, 0.0])
     ),

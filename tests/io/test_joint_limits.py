@@ -71,8 +71,16 @@ def test_missing_fields_are_named(tmp_path: Path) -> None:
     p.write_text("joint_limits:\n  a:\n    has_position_limits: true\n", encoding="utf-8")
     with pytest.raises(InvalidParameter, match=r"a\.min_position: missing"):
         load_joint_limits(p, ["a"])
-    p.write_text("joint_limits:\n  a:\n    max_velocity: 1.0\n", encoding="utf-8")
-    with pytest.raises(InvalidParameter, match=r"a\.has_position_limits: missing"):
+    p.write_text("joint_limits:\n  a:\n    min_position: -1.0\n    max_velocity: 1.0\n")
+    with pytest.raises(InvalidParameter, match=r"a\.max_position: missing \(min_position is given"):
+        load_joint_limits(p, ["a"])
+    p.write_text("joint_limits:\n  a:\n    has_velocity_limits: false\n    max_velocity: 1.0\n")
+    with pytest.raises(InvalidParameter, match=r"a: no usable velocity limit"):
+        load_joint_limits(p, ["a"])
+    p.write_text("joint_limits:\n  a:\n    has_position_limits: true\n    min_position: 0\n")
+    with pytest.raises(
+        InvalidParameter, match=r"a\.max_position: missing \(has_position_limits is"
+    ):
         load_joint_limits(p, ["a"])
     p.write_text("limits: {}\n", encoding="utf-8")
     with pytest.raises(InvalidParameter, match="joint_limits"):

@@ -99,7 +99,7 @@ def test_a_config_file_error_names_the_file_and_the_line(tmp_path: Path) -> None
 
 
 def test_a_zone_file_error_names_the_file_and_the_line(tmp_path: Path) -> None:
-    from velfence.bridge.zones import load_nav2_polygons, load_ur_safety_planes
+    from velfence.io.zones import load_nav2_polygons, load_ur_safety_planes
 
     p = tmp_path / "zones.yaml"
     p.write_text("safety_planes:\n  - {a: 1}\n  - {a: 1, a: 2}\n", encoding="utf-8")

@@ -11,23 +11,12 @@ from __future__ import annotations
 
 import sys
 
+from velfence import _extras
+
 __all__ = ["EXTRA_OF", "main", "missing_extra"]
 
-#: Top-level module -> the velfence extra that installs it.
-EXTRA_OF: dict[str, str] = {
-    "typer": "app",
-    "click": "app",
-    "rich": "app",
-    "shellingham": "app",
-    "pydantic": "app",
-    "pydantic_core": "app",
-    "yaml": "app",
-    "matplotlib": "app",
-    "PIL": "app",
-    "qpsolvers": "qp",
-    "daqp": "qp",
-    "cyclonedds": "ros",
-}
+#: Top-level module -> the velfence extra that installs it (the library's one table).
+EXTRA_OF = _extras.EXTRA_OF
 
 
 def _top(exc: ModuleNotFoundError) -> str:
@@ -36,7 +25,7 @@ def _top(exc: ModuleNotFoundError) -> str:
 
 def missing_extra(exc: ModuleNotFoundError) -> str | None:
     """The extra that provides the module ``exc`` failed to import, or None if it is not ours."""
-    return EXTRA_OF.get(_top(exc))
+    return _extras.extra_of(exc.name)
 
 
 def main() -> None:
@@ -50,10 +39,7 @@ def main() -> None:
         if extra is None:
             raise
         what = "the velfence command" if extra == "app" else "this command"
-        sys.stderr.write(
-            f"velfence: {what} needs the optional '{extra}' dependencies ({_top(exc)} is not "
-            f"installed); install them with: pip install 'velfence[{extra}]'\n"
-        )
+        sys.stderr.write(f"velfence: {_extras.message(_top(exc), what, extra)}\n")
         raise SystemExit(2) from None
 
 

@@ -25,7 +25,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-from pydantic import Field, Strict, ValidationError, field_validator
+from velfence._extras import missing
+
+try:
+    from pydantic import Field, Strict, ValidationError, field_validator
+except ModuleNotFoundError as exc:  # an optional dependency: name the extra
+    raise missing(exc, what=__name__) from exc
 
 from velfence.errors import InvalidParameter
 from velfence.io.config import StrictModel, describe_validation_error

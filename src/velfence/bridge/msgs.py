@@ -15,8 +15,13 @@ reads the field annotations at class creation (cyclonedds-python#305).
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
-from cyclonedds.idl import IdlStruct
-from cyclonedds.idl import types as t
+from velfence._extras import missing
+
+try:
+    from cyclonedds.idl import IdlStruct
+    from cyclonedds.idl import types as t
+except ModuleNotFoundError as exc:  # an optional dependency: name the extra
+    raise missing(exc, what=__name__) from exc
 
 if TYPE_CHECKING:  # what a sequence or array field holds, for the type checker
     from collections.abc import Sequence as sequence  # noqa: N813

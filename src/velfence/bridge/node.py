@@ -38,6 +38,7 @@ from velfence.bridge import msgs
 from velfence.bridge.config import BridgeConfig, QosSettings
 from velfence.bridge.typehash import user_data
 from velfence.errors import InvalidParameter, VelfenceError
+from velfence.geometry.frames import body_to_world, world_to_body
 
 __all__ = [
     "EXIT_CONFIG",
@@ -656,11 +657,8 @@ class BridgeNode:
                 self._counters["commands_held"] += 1
             return
         if self._body:
-            c, s = math.cos(self._state_yaw), math.sin(self._state_yaw)
-            vw = np.array([c * v[0] - s * v[1], s * v[0] + c * v[1]])
-            res = self._cs.shaper.explain(p, vw)
-            ow = np.asarray(res.output, dtype=float)
-            out = np.array([c * ow[0] + s * ow[1], -s * ow[0] + c * ow[1]])
+            res = self._cs.shaper.explain(p, body_to_world(v, self._state_yaw))
+            out = world_to_body(np.asarray(res.output, dtype=float), self._state_yaw)
         else:
             res = self._cs.shaper.explain(p, v)
             out = np.asarray(res.output, dtype=float)

@@ -152,10 +152,17 @@ class JointLimits:
         The mapping is ``{"joint_limits": {name: {...}}}`` (the YAML file's document) or the
         inner ``{name: {...}}``; each joint's entry has ``has_position_limits``,
         ``min_position``, ``max_position``, ``has_velocity_limits``, ``max_velocity``,
-        ``has_acceleration_limits``, ``max_acceleration`` (a limit's value is only read when its
-        ``has_…`` flag is true). The joints must be exactly ``joint_names``: a missing or an
-        extra joint is refused (a 7-joint file on a 6-joint arm, say), and so is a joint without
-        a velocity limit (the filter needs every joint's speed).
+        ``has_acceleration_limits``, ``max_acceleration`` (the other ros2_control fields are
+        accepted and not used), or is franka_description's ``{limit: {lower, upper, velocity,
+        effort}}``. A limit is used when its ``has_…`` flag is true (its values must then be
+        given) or when the flag is absent and its values are given (MoveIt files write only some
+        flags); a false flag ignores the values. ros2_control's own loader reads a value only
+        under a true flag and otherwise keeps the URDF's limit; velfence has no URDF here, so a
+        value given without a flag is that limit. The joints must be exactly ``joint_names``: a
+        missing or an extra joint is refused (a 7-joint file on a 6-joint arm, say), and so is a
+        joint without a usable velocity limit (the filter needs every joint's speed). A position
+        bound, position span or speed over :data:`SANE_LIMIT` (100 rad, rad/s) is refused: it
+        is degrees written without ``!degrees``.
 
         Args:
             mapping: The parsed document.
@@ -205,27 +212,23 @@ class JointLimits:
         lo, hi = np.full(n, -math.inf), np.full(n, math.inf)
         vel, acc = np.zeros(n), np.full(n, math.inf)
         for j, s in enumerate(names):
-            entry = inner[s]
-            if not isinstance(entry, Mapping):
-                raise InvalidParameter(
-                    f"joint_limits.{s}: expected a mapping of limit fields, got {describe(entry)}"
-                )
-            unknown = [str(k) for k in entry if k not in _ROS2_KEYS]
-            if unknown:
-                raise InvalidParameter(
-                    f"joint_limits.{s}: unknown field(s) {unknown}; expected ros2_control "
-                    f"joint_limits fields {list(_ROS2_KEYS)}"
-                )
-            if _flag(entry, s, "has_position_limits"):
+            entry = _entry(inner[s], s)
+            if _used(entry, s, "position", ("min_position", "max_position")):
                 lo[j] = _number(entry, s, "min_position", "rad")
                 hi[j] = _number(entry, s, "max_position", "rad")
-            if not _flag(entry, s, "has_velocity_limits"):
+                _sane(s, "min_position", abs(lo[j]), "rad")
+                _sane(s, "max_position", abs(hi[j]), "rad")
+                _sane(s, "max_position - min_position", hi[j] - lo[j], "rad")
+            if not _used(entry, s, "velocity", ("max_velocity",)):
                 raise InvalidParameter(
-                    f"joint_limits.{s}.has_velocity_limits: expected true (the safety filter "
-                    "needs every joint's max_velocity), got false"
+                    f"joint_limits.{s}: no usable velocity limit (has_velocity_limits "
+                    f"{entry.get('has_velocity_limits', 'absent')}, max_velocity "
+                    f"{'given' if 'max_velocity' in entry else 'absent'}); the safety filter "
+                    "needs every joint's max_velocity"
                 )
             vel[j] = _number(entry, s, "max_velocity", "rad/s")
-            if _flag(entry, s, "has_acceleration_limits"):
+            _sane(s, "max_velocity", vel[j], "rad/s")
+            if _used(entry, s, "acceleration", ("max_acceleration",)):
                 acc[j] = _number(entry, s, "max_acceleration", "rad/s²")
         try:
             return cls(
@@ -266,9 +269,77 @@ _ROS2_KEYS = (
 )
 
 
+#: Largest accepted position span [rad] and speed [rad/s] of one joint in a limits file: a
+#: rotary joint of a real arm turns at most a few turns and a few rad/s; beyond it the numbers are
+#: almost surely degrees written without their ``!degrees`` tag (360 "rad"), and are refused.
+SANE_LIMIT = 100.0
+
+
+def _entry(entry: Any, joint: str) -> Mapping[str, Any]:
+    """A joint's entry as ros2_control fields (franka_description's ``limit`` mapping too)."""
+    if (
+        isinstance(entry, Mapping)
+        and set(entry) == {"limit"}
+        and isinstance(entry["limit"], Mapping)
+    ):
+        inner = entry["limit"]
+        unknown = [str(k) for k in inner if k not in _FRANKA_KEYS]
+        if unknown:
+            raise InvalidParameter(
+                f"joint_limits.{joint}.limit: unknown field(s) {unknown}; expected "
+                f"{list(_FRANKA_KEYS)}"
+            )
+        return {_FRANKA_KEYS[k]: v for k, v in inner.items()}
+    if not isinstance(entry, Mapping):
+        raise InvalidParameter(
+            f"joint_limits.{joint}: expected a mapping of limit fields, got {describe(entry)}"
+        )
+    unknown = [str(k) for k in entry if k not in _ROS2_KEYS]
+    if unknown:
+        raise InvalidParameter(
+            f"joint_limits.{joint}: unknown field(s) {unknown}; expected ros2_control "
+            f"joint_limits fields {list(_ROS2_KEYS)}"
+        )
+    return entry
+
+
+#: franka_description's ``limit`` keys -> the ros2_control fields they are.
+_FRANKA_KEYS = {
+    "lower": "min_position",
+    "upper": "max_position",
+    "velocity": "max_velocity",
+    "effort": "max_effort",
+}
+
+
+def _used(entry: Mapping[str, Any], joint: str, kind: str, values: tuple[str, ...]) -> bool:
+    """Whether the entry sets the ``kind`` limit (the rule in ``from_ros2_control``)."""
+    flag = f"has_{kind}_limits"
+    if flag in entry:
+        if not _flag(entry, joint, flag):
+            return False
+        for key in values:  # _number names the missing one
+            _number(entry, joint, key, "")
+        return True
+    given = [key for key in values if key in entry]
+    if given and len(given) != len(values):
+        absent = [key for key in values if key not in entry]
+        raise InvalidParameter(
+            f"joint_limits.{joint}.{absent[0]}: missing ({given[0]} is given; a {kind} limit "
+            "needs both)"
+        )
+    return bool(given)
+
+
+def _sane(joint: str, what: str, value: float, unit: str) -> None:
+    if value > SANE_LIMIT:
+        raise InvalidParameter(
+            f"joint_limits.{joint}: |{what}| = {value:g} {unit} is beyond the sane {SANE_LIMIT:g} "
+            f"{unit}; if the file writes degrees, tag them (max_position: !degrees 360.0)"
+        )
+
+
 def _flag(entry: Mapping[str, Any], joint: str, key: str) -> bool:
-    if key not in entry:
-        raise InvalidParameter(f"joint_limits.{joint}.{key}: missing (expected true or false)")
     v = entry[key]
     if not isinstance(v, bool):
         raise InvalidParameter(f"joint_limits.{joint}.{key}: expected true or false, got {v!r}")
@@ -277,7 +348,10 @@ def _flag(entry: Mapping[str, Any], joint: str, key: str) -> bool:
 
 def _number(entry: Mapping[str, Any], joint: str, key: str, unit: str) -> float:
     if key not in entry:
-        raise InvalidParameter(f"joint_limits.{joint}.{key}: missing (expected a number [{unit}])")
+        flag = f"has_{key.split('_')[1]}_limits"
+        raise InvalidParameter(
+            f"joint_limits.{joint}.{key}: missing ({flag} is true; expected a number)"
+        )
     return finite_scalar(
         f"joint_limits.{joint}.{key}", entry[key], unit=unit, error=InvalidParameter
     )

@@ -7,6 +7,7 @@ Closest-point and facet-selection helpers return indices into the same facet arr
 normal/tangential decomposition (:func:`velfence.geometry.polygon.decompose`) serves all shapers.
 """
 
+from velfence.geometry.frames import body_to_world, world_to_body
 from velfence.geometry.paths import Circle, Line, Path, Polyline, Spline
 from velfence.geometry.polygon import (
     ConvexPolygon,
@@ -36,6 +37,7 @@ __all__ = [
     "Projection",
     "Rectangle",
     "Spline",
+    "body_to_world",
     "closest_point_on_segment",
     "closest_points_segments",
     "decompose",
@@ -46,4 +48,5 @@ __all__ = [
     "project",
     "segment_segment_distance",
     "sphere_capsule_distance",
+    "world_to_body",
 ]

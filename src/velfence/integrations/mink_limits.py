@@ -27,7 +27,12 @@ from __future__ import annotations
 import math
 from typing import Any, Literal
 
-import mink
+from velfence._extras import missing
+
+try:
+    import mink
+except ModuleNotFoundError as exc:  # an optional dependency: name the extra
+    raise missing(exc, what=__name__) from exc
 import numpy as np
 
 from velfence._typing import FloatArray

@@ -1,6 +1,9 @@
-"""Input/output: validated configuration files, configured shapers and bag replay.
+"""Input/output: validated configuration files, configured shapers, vendor zones and bag replay.
 
-``docs/config.md`` has the configuration files, ``docs/replay.md`` the rosbag2 replay.
+``docs/config.md`` has the configuration files, ``docs/zones.md`` the vendor zones (UR safety
+planes, boxes, Nav2 polygons), ``docs/replay.md`` the rosbag2 replay. The names load on first use;
+one whose module needs an extra that is not installed raises
+:class:`~velfence.errors.MissingExtra` naming it (``docs/install.md`` has the table).
 
 Math contract: none; every configuration is validated on load, and a bad file raises
 :class:`~velfence.errors.InvalidParameter` naming the offending field before any work starts.
@@ -11,7 +14,8 @@ from __future__ import annotations
 from velfence import _lazy
 
 #: Public name -> defining module; loaded on first use (the bags need rosbags, the configs
-#: pydantic and PyYAML), so ``import velfence.io`` is cheap and a CLI's ``--help`` stays fast.
+#: pydantic and PyYAML, the zones NumPy and SciPy only), so ``import velfence.io`` is cheap and
+#: a CLI's ``--help`` stays fast.
 _EXPORTS: dict[str, str] = {
     "make_example_bag": "velfence.io.bag_examples",
     "ReplaySettings": "velfence.io.bags",
@@ -21,10 +25,19 @@ _EXPORTS: dict[str, str] = {
     "DemoConfig": "velfence.io.config",
     "check_run_length": "velfence.io.config",
     "load_config": "velfence.io.config",
-    "load_joint_limits": "velfence.io.config",
+    "load_joint_limits": "velfence.io.joint_limits",
     "ConfiguredShaper": "velfence.io.shaper_config",
     "load_yaml": "velfence.io.shaper_config",
     "parse_shaper": "velfence.io.shaper_config",
+    "NavZone": "velfence.io.zones",
+    "PlaneZones": "velfence.io.zones",
+    "SafetyPlane": "velfence.io.zones",
+    "box_workspace": "velfence.io.zones",
+    "load_nav2_polygons": "velfence.io.zones",
+    "load_ur_safety_planes": "velfence.io.zones",
+    "nav2_points": "velfence.io.zones",
+    "nav2_polygons": "velfence.io.zones",
+    "ur_safety_planes": "velfence.io.zones",
 }
 
 __getattr__, __dir__ = _lazy.attach("velfence.io", _EXPORTS, globals())
@@ -38,21 +51,41 @@ if TYPE_CHECKING:  # the same names, eagerly, for type checkers and IDEs
         DemoConfig,
         check_run_length,
         load_config,
-        load_joint_limits,
     )
+    from velfence.io.joint_limits import load_joint_limits
     from velfence.io.shaper_config import ConfiguredShaper, load_yaml, parse_shaper
+    from velfence.io.zones import (
+        NavZone,
+        PlaneZones,
+        SafetyPlane,
+        box_workspace,
+        load_nav2_polygons,
+        load_ur_safety_planes,
+        nav2_points,
+        nav2_polygons,
+        ur_safety_planes,
+    )
 
 __all__ = [
     "DEFAULT_MAX_STEPS",
     "ConfiguredShaper",
     "DemoConfig",
+    "NavZone",
+    "PlaneZones",
     "ReplaySettings",
     "ReplaySummary",
+    "SafetyPlane",
+    "box_workspace",
     "check_run_length",
     "load_config",
     "load_joint_limits",
+    "load_nav2_polygons",
+    "load_ur_safety_planes",
     "load_yaml",
     "make_example_bag",
+    "nav2_points",
+    "nav2_polygons",
     "parse_shaper",
     "replay",
+    "ur_safety_planes",
 ]

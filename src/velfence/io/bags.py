@@ -20,7 +20,7 @@ The configuration is one YAML file with a ``shaper:`` section
       output_topic: /cmd_vel_shaped    # default: <command_topic>_shaped
       joint_names: null                # bag names of the shaper's joints (JointState, JointJog)
       max_state_age: 0.5               # [s]; default: any age
-      command_frame: state             # or body: a planar cmd_vel in the base frame (yaw applied)
+      command_frame: world             # or body: a planar cmd_vel in the base frame (yaw applied)
 
 ``rosbags`` (extra ``ros``) is imported inside the functions only.
 """
@@ -36,10 +36,18 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 import numpy as np
-from pydantic import Field, Strict, ValidationError, field_validator, model_validator
 
+from velfence._extras import missing
+
+try:
+    from pydantic import Field, Strict, ValidationError, field_validator, model_validator
+except ModuleNotFoundError as exc:  # an optional dependency: name the extra
+    raise missing(exc, what=__name__) from exc
+
+from velfence._deprecate import warn_renamed
 from velfence._validate import MAX_PATH_LENGTH, check_choice, show
 from velfence.errors import InvalidParameter, VelfenceError
+from velfence.geometry.frames import body_to_world, world_to_body
 from velfence.io.config import Positive, StrictModel, describe_validation_error
 from velfence.io.shaper_config import MAX_JOINTS, ConfiguredShaper, load_yaml, parse_shaper
 from velfence.io.yaml_reader import read_yaml
@@ -104,10 +112,11 @@ class ReplaySettings(StrictModel):
             the shaper's own ``joint_names``); matched by name in ``JointState`` and ``JointJog``.
         max_state_age: Oldest state [s] a command is shaped with; an older one zeroes the
             command (default: any age).
-        command_frame: ``"state"`` (default): a planar command is in the frame of the state's
-            pose (odometry frame); ``"body"``: in the robot's body frame, turned by the pose's
-            heading (yaw) into the state's frame for shaping and back for writing (polygon
-            shapers only).
+        command_frame: ``"world"`` (default): a planar command is in the frame of the state's
+            pose (odometry or map frame); ``"body"``: in the robot's body frame, turned by the
+            pose's heading (yaw) into the pose's frame for shaping and back for writing (polygon
+            shapers only; :func:`velfence.geometry.body_to_world`). The old value ``"state"``
+            means ``"world"`` and warns until 0.3.
     """
 
     command_topic: Topic
@@ -117,7 +126,7 @@ class ReplaySettings(StrictModel):
         None
     )
     max_state_age: Positive | None = None
-    command_frame: Literal["state", "body"] = "state"
+    command_frame: Literal["world", "body"] = "world"
 
     def __init__(self, **data: Any) -> None:
         """Build the section directly (the fields are documented in ``docs/replay.md``).
@@ -129,6 +138,14 @@ class ReplaySettings(StrictModel):
             super().__init__(**data)
         except ValidationError as err:
             raise InvalidParameter(_section_error(err, "replay")) from None
+
+    @field_validator("command_frame", mode="before")
+    @classmethod
+    def _old_frame(cls, value: Any) -> Any:
+        if value == "state":
+            warn_renamed("value of replay.command_frame", "state", "world", stacklevel=2)
+            return "world"
+        return value
 
     @field_validator("command_topic", "state_topic", "output_topic")
     @classmethod
@@ -703,13 +720,12 @@ def _shape_all(
         else:
             has_state[i] = True
             q = sv[j][:n]
-            if heading:  # body frame -> the pose's frame: turn by the heading
-                c, si = np.cos(sv[j][n]), np.sin(sv[j][n])
-                v = np.array([c * v[0] - si * v[1], si * v[0] + c * v[1]])
             try:
+                if heading:  # body frame -> the pose's frame: turn by the heading
+                    v = body_to_world(v, sv[j][n])
                 y = np.asarray(cs.shaper.shape(q, v), dtype=float)
                 if heading:  # and back
-                    y = np.array([c * y[0] + si * y[1], -si * y[0] + c * y[1]])
+                    y = world_to_body(y, sv[j][n])
             except VelfenceError:
                 zeroed["invalid"] += 1
                 has_state[i] = False

@@ -21,28 +21,30 @@ from __future__ import annotations
 import math
 from contextvars import ContextVar
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Any, Literal
+from typing import Annotated, Any, Literal
 
 import numpy as np
-from pydantic import (
-    BaseModel,
-    ConfigDict,
-    Field,
-    Strict,
-    ValidationError,
-    field_validator,
-    model_validator,
-)
+
+from velfence._extras import missing
+
+try:
+    from pydantic import (
+        BaseModel,
+        ConfigDict,
+        Field,
+        Strict,
+        ValidationError,
+        field_validator,
+        model_validator,
+    )
+except ModuleNotFoundError as exc:  # an optional dependency: name the extra
+    raise missing(exc, what=__name__) from exc
 
 from velfence._validate import MAX_STEPS, check_positive_int, check_text, show, step_count
 from velfence.errors import InvalidParameter
 from velfence.io.defaults import DEFAULT_MAX_STEPS
+from velfence.io.joint_limits import load_joint_limits
 from velfence.io.yaml_reader import MAX_DEPTH, MAX_FILE_BYTES, file_path, read_yaml
-
-if TYPE_CHECKING:
-    from collections.abc import Sequence
-
-    from velfence.filter.limits import JointLimits
 
 __all__ = [
     "DEFAULT_MAX_STEPS",
@@ -440,49 +442,3 @@ def load_config(
     except InvalidParameter as exc:
         raise InvalidParameter(f"invalid {where}: {exc}") from None
     return cfg
-
-
-def load_joint_limits(path: str | Path, joint_names: Sequence[str]) -> JointLimits:
-    """Joint limits from a ros2_control ``joint_limits`` YAML file, checked against a robot.
-
-    The file (read with the same narrow YAML reader as :func:`load_config`) holds::
-
-        joint_limits:
-          shoulder_pan_joint:
-            has_position_limits: true
-            min_position: -6.28
-            max_position: 6.28
-            has_velocity_limits: true
-            max_velocity: 3.14
-            has_acceleration_limits: false
-            max_acceleration: 0.0
-
-    one entry per joint; see :meth:`velfence.filter.limits.JointLimits.from_ros2_control` for
-    the fields. The joints must be exactly ``joint_names`` (typically ``robot.joint_names``): a
-    file for another robot (a 7-joint default on a 6-joint arm) is refused, naming the missing
-    and the extra joints.
-
-    Args:
-        path: The YAML file.
-        joint_names: The robot's joint names, in order.
-
-    Returns:
-        The :class:`~velfence.filter.limits.JointLimits`, in the order of ``joint_names``.
-
-    Raises:
-        InvalidParameter: the file is missing, too large, not UTF-8 or not plain YAML, or its
-            joints or fields are wrong (the message names the file, the joint and the field).
-    """
-    from velfence.filter.limits import JointLimits
-
-    p = file_path(path)
-    loaded = read_yaml(p)
-    if not isinstance(loaded, dict) or "joint_limits" not in loaded:
-        got = type(loaded).__name__ if not isinstance(loaded, dict) else f"keys {list(loaded)}"
-        raise InvalidParameter(
-            f"joint limits file {p}: expected a mapping with a 'joint_limits' key, got {got}"
-        )
-    try:
-        return JointLimits._from_ros2(loaded, joint_names)
-    except InvalidParameter as exc:
-        raise InvalidParameter(f"joint limits file {p}: {exc}") from None

@@ -44,7 +44,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-from pydantic import Field, Strict, ValidationError, model_validator
+from velfence._extras import missing
+
+try:
+    from pydantic import Field, Strict, ValidationError, model_validator
+except ModuleNotFoundError as exc:  # an optional dependency: name the extra
+    raise missing(exc, what=__name__) from exc
 
 from velfence._deprecate import warn_renamed
 from velfence.errors import InvalidParameter, VelfenceError

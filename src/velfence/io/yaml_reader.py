@@ -17,6 +17,7 @@ names the file and, for a YAML problem, the line and column. No other module of 
 
 from __future__ import annotations
 
+import math
 import os
 import re
 import stat
@@ -94,8 +95,16 @@ def _read_text(p: Path, what: str) -> str:
         ) from None
 
 
+def _need_yaml() -> None:
+    """Raise :class:`~velfence.errors.MissingExtra` naming the ``app`` extra without PyYAML."""
+    from velfence._extras import require
+
+    require("yaml", what="reading a YAML file")
+
+
 def _yaml_error_text(exc: Exception) -> str:
     """One line: 'line L, column C: problem (context)' for a marked YAML error."""
+    _need_yaml()
     import yaml
 
     if isinstance(exc, yaml.MarkedYAMLError) and exc.problem_mark is not None:
@@ -110,7 +119,7 @@ def _yaml_error_text(exc: Exception) -> str:
     return " ".join(str(exc).split())
 
 
-_LOADER: type[yaml.SafeLoader] | None = None
+_LOADERS: dict[bool, type[yaml.SafeLoader]] = {}
 _REFUSED: type[yaml.MarkedYAMLError] | None = None
 
 
@@ -118,6 +127,7 @@ def _refused_error() -> type[yaml.MarkedYAMLError]:
     """The error of well-formed YAML that the config reader does not accept (aliases, ...)."""
     global _REFUSED
     if _REFUSED is None:
+        _need_yaml()
         import yaml
 
         class Refused(yaml.MarkedYAMLError):
@@ -127,11 +137,16 @@ def _refused_error() -> type[yaml.MarkedYAMLError]:
     return _REFUSED
 
 
-def _loader() -> type[yaml.SafeLoader]:
-    """The SafeLoader subclass of the config reader (built once, on first use)."""
-    global _LOADER
-    if _LOADER is not None:
-        return _LOADER
+def _loader(angle_tags: bool = False) -> type[yaml.SafeLoader]:
+    """The SafeLoader subclass of the config reader (built once, on first use).
+
+    With ``angle_tags`` it reads ``!degrees x`` as ``x`` degrees in radians and ``!radians x``
+    as ``x``; every other local tag is refused either way.
+    """
+    cached = _LOADERS.get(angle_tags)
+    if cached is not None:
+        return cached
+    _need_yaml()
     import yaml
 
     refused = _refused_error()
@@ -205,6 +220,27 @@ def _loader() -> type[yaml.SafeLoader]:
             except ValueError:  # more digits than Python converts (sys.get_int_max_str_digits)
                 stop("integer with too many digits", node.start_mark)
 
+    def construct_unknown(loader: yaml.SafeLoader, node: yaml.Node) -> Any:
+        accepted = " (!degrees and !radians are)" if angle_tags else ""
+        raise yaml.constructor.ConstructorError(
+            None, None, f"the tag {node.tag} is not accepted here{accepted}", node.start_mark
+        )
+
+    def construct_angle(loader: yaml.SafeLoader, node: yaml.Node) -> float:
+        implicit = None
+        if isinstance(node, yaml.ScalarNode):
+            implicit = loader.resolve(yaml.ScalarNode, node.value, (True, False))  # type: ignore[no-untyped-call]
+        if implicit not in ("tag:yaml.org,2002:int", "tag:yaml.org,2002:float"):
+            stop(f"{node.tag} must tag a number, as in '{node.tag} 180.0'", node.start_mark)
+        value = float(
+            loader.construct_object(yaml.ScalarNode(implicit, node.value, node.start_mark))
+        )
+        return math.radians(value) if node.tag == "!degrees" else value
+
+    Loader.add_constructor(None, construct_unknown)
+    if angle_tags:
+        Loader.add_constructor("!degrees", construct_angle)
+        Loader.add_constructor("!radians", construct_angle)
     Loader.add_constructor("tag:yaml.org,2002:int", Loader.construct_yaml_int)
     # YAML 1.1 (PyYAML) reads 1e-3 and 1.0e308 as strings (it wants a dot and a signed
     # exponent); numbers in exponent notation are numbers here, as in YAML 1.2 and JSON.
@@ -221,15 +257,16 @@ def _loader() -> type[yaml.SafeLoader]:
         ("pairs", "pair lists"),
     ):
         Loader.add_constructor(f"tag:yaml.org,2002:{tag}", _refuse(what))
-    _LOADER = Loader
+    _LOADERS[angle_tags] = Loader
     return Loader
 
 
-def _parse(p: Path, text: str, what: str) -> Any:
+def _parse(p: Path, text: str, what: str, angle_tags: bool = False) -> Any:
+    _need_yaml()
     import yaml
 
     try:
-        return yaml.load(text, Loader=_loader())
+        return yaml.load(text, Loader=_loader(angle_tags))
     except _refused_error() as exc:
         raise InvalidParameter(f"{what} {p}, {_yaml_error_text(exc)}") from None
     except yaml.YAMLError as exc:
@@ -240,12 +277,17 @@ def _parse(p: Path, text: str, what: str) -> Any:
         ) from None
 
 
-def read_yaml(path: str | os.PathLike[str], *, what: str = "config file") -> Any:
+def read_yaml(
+    path: str | os.PathLike[str], *, what: str = "config file", angle_tags: bool = False
+) -> Any:
     """The document of one YAML file, read by velfence's narrow reader (module docs).
 
     Args:
         path: The file (``str`` or ``os.PathLike``).
         what: How messages name the file (``"config file"``, ``"bag metadata file"``, ...).
+        angle_tags: Read ``!degrees x`` as ``x`` degrees in radians and ``!radians x`` as ``x``
+            (joint-limit files, as Universal Robots writes them); default False refuses them as
+            every other tag.
 
     Returns:
         The parsed document: a mapping, list or scalar as the file holds it (``None`` for an
@@ -253,9 +295,10 @@ def read_yaml(path: str | os.PathLike[str], *, what: str = "config file") -> Any
 
     Raises:
         InvalidParameter: the path is no file path; the file is missing, not a regular file,
-            larger than :data:`MAX_FILE_BYTES` or not UTF-8; or it is not plain YAML (the
-            message names the file, the line and the column).
+            larger than :data:`MAX_FILE_BYTES` or not UTF-8; or it is not plain YAML or holds a
+            tag it does not accept (the message names the file, the line and the column).
+        MissingExtra: PyYAML is not installed.
     """
     what = check_text("what", what)
     p = file_path(path)
-    return _parse(p, _read_text(p, what), what)
+    return _parse(p, _read_text(p, what), what, angle_tags is True)

@@ -6,7 +6,12 @@ import math
 from pathlib import Path
 from typing import Any, Protocol
 
-import matplotlib
+from velfence._extras import missing
+
+try:
+    import matplotlib
+except ModuleNotFoundError as exc:  # an optional dependency: name the extra
+    raise missing(exc, what=__name__) from exc
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt

@@ -4,7 +4,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
+from velfence._extras import missing
+
+try:
+    import matplotlib
+except ModuleNotFoundError as exc:  # an optional dependency: name the extra
+    raise missing(exc, what=__name__) from exc
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt

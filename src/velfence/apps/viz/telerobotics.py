@@ -41,7 +41,12 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-import matplotlib
+from velfence._extras import missing
+
+try:
+    import matplotlib
+except ModuleNotFoundError as exc:  # an optional dependency: name the extra
+    raise missing(exc, what=__name__) from exc
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt

@@ -23,9 +23,12 @@ Formats and conventions (``docs/zones.md`` has the examples and the errors):
   polygon. Nav2 stops the robot when *obstacles* enter these zones; velfence keeps a *point
   inside* a set: the import gives the geometry, not Nav2's behaviour.
 
-Files are read with the narrow YAML reader of :mod:`velfence.io.config` (plain YAML, at most
-1 MiB, no aliases, tags or duplicate keys), which needs the ``app`` extra (PyYAML, pydantic);
-the functions that take already-parsed mappings need neither.
+Importing this module needs NumPy and SciPy only. Files are read with the one YAML reader
+(:mod:`velfence.io.yaml_reader`: plain YAML, at most 1 MiB, no aliases, tags or duplicate keys),
+which needs PyYAML (the ``app`` extra; without it a file load raises
+:class:`~velfence.errors.MissingExtra` naming the extra); the functions that take already-parsed
+mappings need nothing more. Until 0.3 the module is importable as ``velfence.bridge.zones`` too,
+with a :class:`DeprecationWarning`.
 """
 
 from __future__ import annotations

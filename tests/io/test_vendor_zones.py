@@ -1,4 +1,4 @@
-"""velfence.bridge.zones: UR-style safety planes, box workspaces and Nav2 polygons as sets.
+"""velfence.io.zones: UR-style safety planes, box workspaces and Nav2 polygons as sets.
 
 The example files are written here (a UR cell with a table, a back wall, a window guard and a
 ceiling; a Nav2 collision-monitor configuration in the spirit of Nav2's documented example), and
@@ -14,7 +14,9 @@ from typing import Any
 import numpy as np
 import pytest
 
-from velfence.bridge.zones import (
+from velfence.errors import InvalidGeometry, InvalidParameter, VelfenceError
+from velfence.geometry import ConvexPolygon
+from velfence.io.zones import (
     MAX_PLANES,
     box_workspace,
     load_nav2_polygons,
@@ -23,8 +25,6 @@ from velfence.bridge.zones import (
     nav2_polygons,
     ur_safety_planes,
 )
-from velfence.errors import InvalidGeometry, InvalidParameter, VelfenceError
-from velfence.geometry import ConvexPolygon
 
 try:
     import pydantic  # noqa: F401
