@@ -32,10 +32,22 @@ from contextvars import ContextVar
 from pathlib import Path
 from typing import Any
 
-from rich.console import Console
-from rich.markup import escape
-from rich.progress import BarColumn, Progress, ProgressColumn, Task, TextColumn, TimeElapsedColumn
-from rich.text import Text
+from velfence._extras import missing
+
+try:
+    from rich.console import Console
+    from rich.markup import escape
+    from rich.progress import (
+        BarColumn,
+        Progress,
+        ProgressColumn,
+        Task,
+        TextColumn,
+        TimeElapsedColumn,
+    )
+    from rich.text import Text
+except ModuleNotFoundError as exc:  # an optional dependency: name the extra
+    raise missing(exc, what=__name__) from exc
 
 from velfence._validate import check_flag, check_positive_int, check_text, describe, finite_scalar
 from velfence.errors import InvalidParameter
