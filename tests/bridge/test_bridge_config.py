@@ -122,6 +122,11 @@ def test_domain_from_ros_domain_id(monkeypatch: pytest.MonkeyPatch) -> None:
             "bridge.state.joint_names",
         ),
         (
+            {"command_in": {"type": "joint_jog"}, "state": {"joint_names": ["x", "x"]}},
+            JOINTS,
+            "bridge.state.joint_names",
+        ),
+        (
             {"command_in": {"type": "float64_multi_array"}, "state": {"joint_names": ["x", "y"]}},
             BOX3,
             "bridge.state.joint_names",
@@ -385,3 +390,17 @@ def test_cli_dds_failure_exits_3(tmp_path: Path) -> None:
     )
     assert done.returncode == EXIT_DDS, done.stderr
     assert "DDS could not be started" in done.stderr
+
+
+def test_robot_joint_names_remap_the_shaper_s_joints() -> None:
+    # An FR3 publishes fr3_joint1…; the shaper names its joints a, b: the topics use the robot's.
+    cfg = _parse(
+        {
+            "command_in": {"type": "joint_jog"},
+            "command_out": {"type": "joint_trajectory"},
+            "state": {"type": "joint_state", "joint_names": ["fr3_joint1", "fr3_joint2"]},
+        },
+        JOINTS,
+    )
+    assert cfg.joint_names == ("fr3_joint1", "fr3_joint2")
+    assert cfg.shaper.joint_names == ("a", "b")

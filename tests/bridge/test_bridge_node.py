@@ -261,6 +261,52 @@ def test_joint_jog_subset_and_missing_state_joint(bridge, tmp_path) -> None:
     assert c["dropped:command_duplicate_joints"] == 1
 
 
+def test_robot_joint_names_on_the_wire(bridge, tmp_path) -> None:
+    # The robot calls the shaper's j1, j2, j3 "fr3_joint1…3": state and jog in those names.
+    wire = ["fr3_joint1", "fr3_joint2", "fr3_joint3"]
+    b = bridge(
+        {
+            "command_in": {"topic": "jog", "type": "joint_jog", "qos": RELIABLE_DEEP},
+            "command_out": {"topic": "out", "type": "same", "qos": RELIABLE_DEEP},
+            "state": {
+                "topic": "joint_states",
+                "type": "joint_state",
+                "qos": "default",
+                "joint_names": wire,
+            },
+        },
+        JOINTS,
+    )
+    q = [0.0, 1.9, 0.0]
+    res = run_client(
+        {
+            "scenario": "stream",
+            "topics": {
+                "cmd_in": b.topic("jog"),
+                "cmd_out": b.topic("out"),
+                "state": b.topic("joint_states"),
+            },
+            "cmd_type": "joint_jog",
+            "out_type": "joint_jog",
+            "state": {"type": "joint_state", "names": wire[::-1], "values": q[::-1]},
+            "commands": [
+                {"names": ["fr3_joint2"], "values": [1.0]},
+                {"names": ["j2"], "values": [1.0]},  # the shaper's name is not the robot's
+            ],
+            "rate_hz": 100.0,
+            "expect": 1,
+            "tail": 0.2,
+        },
+        tmp_path,
+        bridge=b,
+    )
+    outs = [o for o in res["outputs"] if o["i"] < 2]
+    assert [o["i"] for o in outs] == [0]
+    ref = parse_shaper(JOINTS).shaper
+    assert np.array_equal(outs[0]["v"], ref.shape(np.array(q), np.array([0.0, 1.0, 0.0])))
+    assert b.node.counters["dropped:command_unknown_joints"] == 1
+
+
 def test_state_missing_a_joint_is_dropped_and_commands_held(bridge, tmp_path) -> None:
     b = bridge(
         {

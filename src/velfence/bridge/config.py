@@ -172,8 +172,9 @@ class BridgeConfig:
         settings: The ``bridge:`` section.
         shaper: The ``shaper:`` section's shaper and what it reads and writes.
         output_type: ``command_out.type`` with ``same`` resolved to the input's type.
-        joint_names: The joints of the command and the state (the shaper's, or
-            ``state.joint_names``), or None for a point state.
+        joint_names: The names of the joints on the topics, in the shaper's order:
+            ``state.joint_names`` when given (the robot's names, which may differ from the
+            shaper's, e.g. ``fr3_joint1``), else the shaper's own; None for a point state.
         domain_id: The DDS domain the bridge joins.
         dds_topics: The DDS topic names (``rt/...``) of ``command_in``, ``command_out``,
             ``state`` and ``diagnostics``.
@@ -230,9 +231,19 @@ def _check_fit(
                 f"{len(names)} names"
             )
     elif cs.joint_names is not None and s.state.joint_names is not None:
+        # The robot's names of the shaper's joints, in the shaper's order (an FR3's fr3_joint1…,
+        # a prefixed UR's left_shoulder_pan_joint…): the topics use these names.
+        names = tuple(s.state.joint_names)
+        if len(names) != len(cs.joint_names):
+            raise InvalidParameter(
+                f"{where}bridge.state.joint_names: the robot's names of the shaper's joints "
+                f"{list(cs.joint_names)}, in that order: expected {len(cs.joint_names)} names, "
+                f"got {len(names)}"
+            )
+    if names is not None and len(set(names)) != len(names):
+        repeated = sorted({n for n in names if names.count(n) > 1})
         raise InvalidParameter(
-            f"{where}bridge.state.joint_names: the shaper names its joints "
-            f"({list(cs.joint_names)}); leave this out"
+            f"{where}bridge.state.joint_names: expected distinct names, {repeated} repeated"
         )
 
     def bad(field: str, msg: str) -> InvalidParameter:
