@@ -20,7 +20,7 @@ from velfence._deprecate import renamed_args
 from velfence.filter import JointLimits, ObstacleRows, SafetyFilter, SphereObstacle, WorkspaceLimit
 from velfence.geometry.polytope import ConvexPolytope
 from velfence.mechanisms import PAPER_STOPS, Q_AUX, DHChain, PlanarArm
-from velfence.redundancy import ConfigurationController, InfluenceObstacle
+from velfence.redundancy import ConfigurationController
 from velfence.shaping import ShapingResultProtocol, StopLimiter, ThreeZoneBraking
 from velfence.sim.arm import arm_box_scene
 
@@ -62,8 +62,10 @@ def _equal(a: Any, b: Any) -> None:
     [
         ("velfence.shaping", "ShaperResult", ShapingResultProtocol),
         ("velfence.shaping.base", "ShaperResult", ShapingResultProtocol),
-        ("velfence.redundancy", "Obstacle", InfluenceObstacle),
-        ("velfence.redundancy.configuration_control", "Obstacle", InfluenceObstacle),
+        ("velfence.redundancy", "Obstacle", SphereObstacle),
+        ("velfence.redundancy", "InfluenceObstacle", SphereObstacle),
+        ("velfence.redundancy.configuration_control", "Obstacle", SphereObstacle),
+        ("velfence.redundancy.configuration_control", "InfluenceObstacle", SphereObstacle),
         ("velfence.geometry.projection", "PROJECT_ITERATION_LIMIT", None),
     ],
 )
@@ -168,7 +170,7 @@ def test_stop_limiter_old_keywords() -> None:
 def test_configuration_controller_old_keywords() -> None:
     ctl = ConfigurationController(
         PlanarArm((1.0, 1.0, 1.0)),
-        [InfluenceObstacle(center=[1.5, -1.4], radius=0.05, influence=0.2)],
+        [SphereObstacle([1.5, -1.4], radius=0.05, influence=0.2)],
     )
     q, v = np.array([0.3, -0.6, -0.4]), np.array([0.1, -0.2])
     for name in ("control", "explain", "shape"):

@@ -366,7 +366,7 @@ class LineFixture(InvalidPolicy):
             "0.2" as 0.2 × the Omni's 1.02 N/mm (repair T13 of ``docs/telerobotics.md`` §8).
         influence: Radius :math:`R` of the cylinder of influence, in which the spring acts [m],
             ``> 0`` (the thesis's snap radius is not given; default 0.02 m). The same word as
-            :class:`~velfence.redundancy.InfluenceObstacle`'s ``influence``; it was called
+            ``velfence.filter.SphereObstacle``'s ``influence``; it was called
             ``radius_of_influence`` before 0.2 (keyword and attribute warn until 0.3).
         max_force: Force limit :math:`F_{max}` [N], ``> 0``. Default
             :data:`OMNI_CONTINUOUS_FORCE` (0.88 N, the force the Omni sustains; its peak is
