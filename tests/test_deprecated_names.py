@@ -227,3 +227,21 @@ def test_line_fixture_radius_of_influence() -> None:
         assert want.radius_of_influence == 0.03
     p, v = np.array([0.1, 0.02, 0.0]), np.array([0.05, 0.01, 0.0])
     _equal(got.shape(p, v), want.shape(p, v))
+
+
+def test_polytope_names_keyword_is_facet_names() -> None:
+    normals, offsets = [[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0]], [0.0, -1.0, 0.0]
+    for call, args in (
+        (ConvexPolytope, (normals, offsets)),
+        (ConvexPolytope.box, ([0.0], [1.0])),
+    ):
+        n = len(args[1]) if call is ConvexPolytope else 2
+        labels = [f"side {i}" for i in range(n)]
+        with pytest.warns(DeprecationWarning, match=r"'names' is now 'facet_names'.*goes in 0\.3"):
+            old = call(*args, names=labels)
+        new = call(*args, facet_names=labels)
+        assert old.facet_names == new.facet_names == tuple(labels)
+    tri = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]
+    with pytest.warns(DeprecationWarning, match=r"'names' is now 'facet_names'"):
+        hull = ConvexPolytope.from_vertices(tri, names=["a", "b", "c"])
+    assert hull.facet_names == ("a", "b", "c")

@@ -360,7 +360,7 @@ def _point_set(
             names += [f"bounds {axis}_min", f"bounds {axis}_max"]
     listed = ", ".join(p.name for p in planes)
     try:
-        poly = ConvexPolytope(np.array(N), np.array(off), names=names)
+        poly = ConvexPolytope(np.array(N), np.array(off), facet_names=names)
     except InvalidGeometry as exc:
         closing = " and the bounds" if box is not None else ""
         raise InvalidGeometry(

@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from velfence._deprecate import renamed_args
 from velfence._typing import FloatArray
 from velfence._validate import (
     check_choice,
@@ -128,7 +129,9 @@ class ConvexPolytope:
         normals: Inward normals, shape (m, n), m >= 1 facets in n >= 1 dimensions, finite, none
             shorter than 1e-12 (any length: rows are normalised).
         offsets: Offsets, shape (m,), in the units of ``x`` times the normal's length.
-        names: One name per input row (strings); default ``"facet i"`` for input row ``i``.
+        facet_names: One name per input row (strings); default ``"facet i"`` for input row
+            ``i``. It was called ``names`` before 0.2 (that keyword warns until 0.3); the kept
+            facets' names are the attribute :attr:`facet_names`.
         redundant: ``"remove"`` (default) drops redundant rows, ``"keep"`` keeps them (duplicates
             are merged either way).
 
@@ -161,12 +164,13 @@ class ConvexPolytope:
     if TYPE_CHECKING:
         _radius: float
 
+    @renamed_args(names="facet_names")
     def __init__(
         self,
         normals: ArrayLike,
         offsets: ArrayLike,
         *,
-        names: Sequence[str] | None = None,
+        facet_names: Sequence[str] | None = None,
         redundant: Redundant = "remove",
     ) -> None:
         mode = check_choice("redundant", redundant, _REDUNDANT)
@@ -183,7 +187,7 @@ class ConvexPolytope:
                 f"offsets: expected shape ({m},), one offset per row of normals {N.shape}, got "
                 f"shape {off.shape}"
             )
-        labels = _names("names", names, m, [f"facet {i}" for i in range(m)])
+        labels = _names("facet_names", facet_names, m, [f"facet {i}" for i in range(m)])
         length = np.sqrt(np.einsum("ij,ij->i", N, N))
         short = np.flatnonzero(~(length >= _ZERO_NORMAL))
         if short.size:
@@ -233,8 +237,9 @@ class ConvexPolytope:
 
     # ------------------------------------------------------------------ other constructors
     @classmethod
+    @renamed_args(names="facet_names")
     def box(
-        cls, lower: ArrayLike, upper: ArrayLike, *, names: Sequence[str] | None = None
+        cls, lower: ArrayLike, upper: ArrayLike, *, facet_names: Sequence[str] | None = None
     ) -> ConvexPolytope:
         """The axis-aligned box ``lower <= x <= upper``.
 
@@ -244,7 +249,8 @@ class ConvexPolytope:
         Args:
             lower: Lower corner, shape (n,), n >= 1, finite.
             upper: Upper corner, shape (n,), ``upper > lower`` element-wise.
-            names: One name per facet (2 n strings) instead of the default names.
+            facet_names: One name per facet (2 n strings) instead of the default names (was
+                ``names`` before 0.2; that keyword warns until 0.3).
 
         Returns:
             The box (2 n facets, none removed).
@@ -277,9 +283,9 @@ class ConvexPolytope:
         off[0::2] = lo
         off[1::2] = -hi
         default = [f"{a}_{side}" for a in _axis_names(n) for side in ("min", "max")]
-        labels = _names("names", names, 2 * n, default)
+        labels = _names("facet_names", facet_names, 2 * n, default)
         try:
-            return cls(N, off, names=labels, redundant="keep")
+            return cls(N, off, facet_names=labels, redundant="keep")
         except InvalidGeometry as exc:  # a box too thin for the tolerance
             raise InvalidGeometry(f"lower, upper: the box is unusable: {exc}") from None
 
@@ -304,13 +310,14 @@ class ConvexPolytope:
         return cls(
             polygon.normals,
             polygon.offsets,
-            names=[f"edge {i}" for i in range(k)],
+            facet_names=[f"edge {i}" for i in range(k)],
             redundant="keep",
         )
 
     @classmethod
+    @renamed_args(names="facet_names")
     def from_vertices(
-        cls, points: ArrayLike, *, names: Sequence[str] | None = None
+        cls, points: ArrayLike, *, facet_names: Sequence[str] | None = None
     ) -> ConvexPolytope:
         """The convex hull of ``points`` (qhull through :class:`scipy.spatial.ConvexHull`).
 
@@ -319,7 +326,8 @@ class ConvexPolytope:
 
         Args:
             points: Points, shape (k, n), k >= n + 1, n >= 1, finite, not all in one hyperplane.
-            names: One name per resulting facet (check :attr:`n_facets` of an unnamed hull first).
+            facet_names: One name per resulting facet (check :attr:`n_facets` of an unnamed hull
+                first); was ``names`` before 0.2 (that keyword warns until 0.3).
 
         Returns:
             The hull as a polytope (for n = 1, the interval between the extreme points).
@@ -359,10 +367,10 @@ class ConvexPolytope:
             unnamed = cls(N, off, redundant="keep")
         except InvalidGeometry as exc:
             raise InvalidGeometry(f"points: the hull is unusable: {exc}") from None
-        if names is None:
+        if facet_names is None:
             return unnamed
-        labels = _names("names", names, unnamed.n_facets, [])
-        return cls(unnamed.normals, unnamed.offsets, names=labels, redundant="keep")
+        labels = _names("facet_names", facet_names, unnamed.n_facets, [])
+        return cls(unnamed.normals, unnamed.offsets, facet_names=labels, redundant="keep")
 
     # ------------------------------------------------------------------ sizes
     @property

@@ -332,7 +332,7 @@ def _build(spec: Any) -> ConfiguredShaper:
     if isinstance(spec, _JointLimits):
         names = tuple(spec.joint_names)
         facets = [f"{j}_{side}" for j in names for side in ("min", "max")]
-        poly = ConvexPolytope.box(np.array(spec.lower), np.array(spec.upper), names=facets)
+        poly = ConvexPolytope.box(np.array(spec.lower), np.array(spec.upper), facet_names=facets)
         shaper = PolytopeShaper(poly, buffer=spec.buffer, spring_gain=spec.spring_gain)
         n = len(names)
         return ConfiguredShaper("joint_limits", shaper, n, n, n, "joint", names)
