@@ -27,6 +27,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import Field, Strict, ValidationError, field_validator
 
+from velfence._docs import document_inits
 from velfence.errors import InvalidParameter
 from velfence.io.config import StrictModel, describe_validation_error
 from velfence.io.shaper_config import ConfiguredShaper, load_yaml, parse_shaper
@@ -352,3 +353,6 @@ def load_bridge_config(path: str | Path) -> BridgeConfig:
     """
     doc = load_yaml(path)
     return parse_bridge_config(doc, source=f"config file {path}")
+
+
+document_inits(globals())

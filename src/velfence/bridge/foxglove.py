@@ -30,6 +30,7 @@ from typing import Any
 
 import numpy as np
 
+from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence._validate import (
     check_flag,
@@ -637,3 +638,6 @@ def view_hook(view: FoxgloveView) -> Any:
                 )
 
     return on_cycle
+
+
+document_inits(globals())

@@ -18,6 +18,8 @@ from typing import TYPE_CHECKING
 from cyclonedds.idl import IdlStruct
 from cyclonedds.idl import types as t
 
+from velfence._docs import document_inits
+
 if TYPE_CHECKING:  # what a sequence or array field holds, for the type checker
     from collections.abc import Sequence as sequence  # noqa: N813
 
@@ -313,3 +315,6 @@ def ros_name(cls: type[IdlStruct]) -> str:
     dds = cls.__idl_typename__.replace("::", ".")
     pkg, kind, _dds, name = dds.split(".")
     return f"{pkg}/{kind}/{name.removesuffix('_')}"
+
+
+document_inits(globals())

@@ -33,6 +33,7 @@ from typing import Any
 
 import numpy as np
 
+from velfence._docs import document_inits
 from velfence._validate import check_range
 from velfence.bridge import msgs
 from velfence.bridge.config import BridgeConfig, QosSettings
@@ -879,3 +880,6 @@ def _check_on_cycle(on_cycle: Any) -> None:
 def _check_duration(duration: Any) -> None:
     if duration is not None:
         check_range("duration", duration, low=0.0, high=1e6, low_open=True, unit="s")
+
+
+document_inits(globals())

@@ -39,6 +39,7 @@ from typing import Any, Literal
 
 import numpy as np
 
+from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence._validate import check_choice, check_positive_int, readonly, real_array, show
 from velfence.errors import InvalidGeometry, InvalidParameter
@@ -722,3 +723,6 @@ def nav2_points(polygon: ConvexPolygon) -> str:
     if not isinstance(polygon, ConvexPolygon):
         raise InvalidGeometry(f"polygon: expected a ConvexPolygon, got {_type(polygon)}")
     return "[" + ", ".join(f"[{x!r}, {y!r}]" for x, y in polygon.corners.tolist()) + "]"
+
+
+document_inits(globals())

@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from velfence._deprecate import renamed_args, renamed_attribute
+from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence._validate import (
     MAX_MAGNITUDE,
@@ -394,3 +395,6 @@ class SphereObstacle:
             object.__setattr__(self, "influence", rho)
         if self.name is not None:
             object.__setattr__(self, "name", check_text("name", self.name, max_length=200))
+
+
+document_inits(globals())

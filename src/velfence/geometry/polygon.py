@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence._validate import (
     MAX_MAGNITUDE,
@@ -810,3 +811,6 @@ def _chebyshev(
 
     _golden_max(inner, xlo, xhi, 64)
     return best[0], best[1], best[2]
+
+
+document_inits(globals())

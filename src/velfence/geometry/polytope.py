@@ -28,6 +28,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from velfence._deprecate import renamed_args
+from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence._validate import (
     check_choice,
@@ -715,3 +716,6 @@ def _shrink_inside(
         half = half * factor
         lo, hi = mid - half, mid + half
     return readonly(lo), readonly(hi)
+
+
+document_inits(globals())

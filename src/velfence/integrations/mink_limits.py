@@ -30,6 +30,7 @@ from typing import Any, Literal
 import mink
 import numpy as np
 
+from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence._validate import (
     MAX_MAGNITUDE,
@@ -242,3 +243,6 @@ class PolytopeLimit(mink.Limit):
         G: FloatArray = -NJ
         h: FloatArray = -step * bnd
         return mink.Constraint(G=G, h=h)
+
+
+document_inits(globals())

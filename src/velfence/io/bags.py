@@ -38,6 +38,7 @@ from typing import TYPE_CHECKING, Annotated, Any, Literal
 import numpy as np
 from pydantic import Field, Strict, ValidationError, field_validator, model_validator
 
+from velfence._docs import document_inits
 from velfence._validate import MAX_PATH_LENGTH, check_choice, show
 from velfence.errors import InvalidParameter, VelfenceError
 from velfence.io.config import Positive, StrictModel, describe_validation_error
@@ -839,3 +840,6 @@ def _summary(
         fence=fence,
         buffer=buffer,
     )
+
+
+document_inits(globals())

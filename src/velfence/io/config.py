@@ -34,6 +34,7 @@ from pydantic import (
     model_validator,
 )
 
+from velfence._docs import document_inits
 from velfence._validate import MAX_STEPS, check_positive_int, check_text, show, step_count
 from velfence.errors import InvalidParameter
 from velfence.io.defaults import DEFAULT_MAX_STEPS
@@ -486,3 +487,6 @@ def load_joint_limits(path: str | Path, joint_names: Sequence[str]) -> JointLimi
         return JointLimits._from_ros2(loaded, joint_names)
     except InvalidParameter as exc:
         raise InvalidParameter(f"joint limits file {p}: {exc}") from None
+
+
+document_inits(globals())

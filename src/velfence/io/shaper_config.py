@@ -47,6 +47,7 @@ from typing import Annotated, Any, Literal
 from pydantic import Field, Strict, ValidationError, model_validator
 
 from velfence._deprecate import warn_renamed
+from velfence._docs import document_inits
 from velfence.errors import InvalidParameter, VelfenceError
 from velfence.io.config import (
     MAX_CORNERS,
@@ -379,3 +380,6 @@ def _safety_filter(spec: _SafetyFilter) -> ConfiguredShaper:
     if spec.mode == "joint":
         return ConfiguredShaper("safety_filter", f, n, n, n, "joint", names)
     return ConfiguredShaper("safety_filter", TwistMode(f), n, 3, n, "twist", names)
+
+
+document_inits(globals())

@@ -31,6 +31,7 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike
 
+from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence._validate import (
     check_positive,
@@ -207,6 +208,10 @@ class ChainFrame:
     Made by :meth:`_ChainBase.kinematics`: one pass computes the joint points and axes; each
     point's position and Jacobian, the link segments and the critical points' Jacobians are
     derived from it at most once.
+
+    Args:
+        chain: The chain.
+        q: The joint positions [rad], shape (n,), already validated.
     """
 
     __slots__ = ("_chain", "_jac", "_kin", "_pts", "_segs")
@@ -1086,3 +1091,6 @@ class DHChain(_ChainBase):
             oz + tx * xz + ty * yz + tz * zz,
         )
         return pts, axes[:-1], (ox, oy, oz)
+
+
+document_inits(globals())

@@ -54,6 +54,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from velfence._docs import document_inits
 from velfence._typing import BoolArray, FloatArray
 from velfence._validate import (
     check_flag,
@@ -835,3 +836,6 @@ def _modes(modes: Any) -> FloatArray:
             f"{modes!r}; (-1, -1, -1) is the home mode"
         )
     return m
+
+
+document_inits(globals())

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from velfence._docs import document_inits
 from velfence._typing import BoolArray, FloatArray
 from velfence._validate import (
     check_positive,
@@ -778,3 +779,6 @@ def workspace_map(
         type2=readonly(type2),
         stop_margin=readonly(margin),
     )
+
+
+document_inits(globals())

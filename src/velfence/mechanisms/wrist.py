@@ -35,6 +35,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 from numpy.typing import ArrayLike
 
+from velfence._docs import document_inits
 from velfence._typing import BoolArray, FloatArray
 from velfence._validate import (
     check_positive,
@@ -766,3 +767,6 @@ def _polygon_samples(corners: FloatArray, per_edge: int = 96) -> FloatArray:
     scales = np.array([1.0, 0.97, 0.9, 0.75, 0.5, 0.25, 0.0])
     out: FloatArray = (centre + scales[:, None, None] * (boundary - centre)[None]).reshape(-1, 2)
     return out
+
+
+document_inits(globals())

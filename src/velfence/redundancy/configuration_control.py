@@ -59,6 +59,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from velfence._deprecate import module_getattr, renamed_args
+from velfence._docs import document_inits
 from velfence._typing import FloatArray, IntArray
 from velfence._validate import check_choice, check_positive, readonly, real_array
 from velfence.errors import InvalidInput, InvalidParameter
@@ -928,3 +929,5 @@ class ConfigurationController(ChainObstacleBase):
 __getattr__ = module_getattr(
     __name__, {"Obstacle": "SphereObstacle", "InfluenceObstacle": "SphereObstacle"}, globals()
 )
+
+document_inits(globals())

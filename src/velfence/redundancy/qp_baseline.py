@@ -28,6 +28,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence._validate import MAX_MAGNITUDE, check_positive, real_array
 from velfence.errors import InvalidInput, InvalidParameter
@@ -195,3 +196,6 @@ class VelocityDamperQP(ChainObstacleBase):
             redundancy=self.redundancy,
             method=self.method,
         )
+
+
+document_inits(globals())

@@ -62,6 +62,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from velfence._deprecate import renamed_args, renamed_attribute
+from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence._validate import as_rows, check_positive, finite_array, real_array
 from velfence.errors import InvalidGeometry, InvalidInput
@@ -539,3 +540,6 @@ class LineFixture(InvalidPolicy):
             commands: Commands [m/s], shape (N, 3).
         """
         return _batch(self, positions, commands)
+
+
+document_inits(globals())

@@ -33,6 +33,7 @@ from typing import Any, Literal, NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike
 
+from velfence._docs import document_inits
 from velfence._typing import FloatArray, IntArray
 from velfence._validate import (
     as_pair,
@@ -550,3 +551,6 @@ class PolygonShaper(ShaperBase):
             f"PolygonShaper({self.polygon.n}-gon, method={self.method!r}, buffer={self.buffer}, "
             f"spring_gain={self.spring_gain}, dt={self.dt})"
         )
+
+
+document_inits(globals())

@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from velfence._docs import document_inits
 from velfence._typing import BoolArray, FloatArray, IntArray
 from velfence._validate import (
     MAX_MAGNITUDE,
@@ -643,3 +644,6 @@ class PolytopeShaper(InvalidPolicy):
             f"buffer={self.buffer}, spring_gain={self.spring_gain}, dt={self.dt}, "
             f"backend={self.backend!r})"
         )
+
+
+document_inits(globals())

@@ -28,6 +28,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike
 
+from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence._validate import check_choice, check_positive, check_positive_int, real_array
 from velfence.errors import InvalidParameter
@@ -180,3 +181,6 @@ class RateLimiter:
         out = self._prev + np.clip(v - self._prev, -step, step)
         self._prev = v
         return np.asarray(out, dtype=float)
+
+
+document_inits(globals())

@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from velfence._docs import document_inits
 from velfence._typing import FloatArray, IntArray
 from velfence._validate import MAX_MAGNITUDE, check_positive
 from velfence.errors import InvalidGeometry, InvalidParameter
@@ -399,3 +400,6 @@ class AxisLimits(_Baseline):
             f"AxisLimits(x=[{r.xmin:.4g}, {r.xmax:.4g}], y=[{r.ymin:.4g}, {r.ymax:.4g}], "
             f"buffer={self.buffer}, spring_gain={self.spring_gain})"
         )
+
+
+document_inits(globals())

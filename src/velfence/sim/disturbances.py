@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
+from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence._validate import check_positive, finite_scalar, real_array
 from velfence.errors import InvalidParameter
@@ -127,3 +128,5 @@ class Disturbance:
 
 
 push = Disturbance.push
+
+document_inits(globals())

@@ -24,6 +24,7 @@ from typing import Any, Literal, Protocol, get_args, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence._validate import (
     MAX_MAGNITUDE,
@@ -508,3 +509,6 @@ def simulate_many(
         )
         for name, shaper in shapers.items()
     }
+
+
+document_inits(globals())

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence._validate import check_positive, finite_scalar, real_array
 from velfence.errors import InvalidParameter
@@ -38,6 +39,11 @@ def _pair(name: str, x: object, what: str) -> tuple[float, float]:
 class Waypoint:
     """From time ``t`` [s] head for ``target`` (workspace units) at up to ``speed`` [units/s].
 
+    Attributes:
+        t: When the operator starts heading for this waypoint [s], >= 0.
+        target: The point ``(x, y)`` to head for, workspace units.
+        speed: The operator's speed towards it [units/s], > 0.
+
     Raises:
         InvalidParameter: ``t`` not a finite time >= 0, ``target`` not two finite numbers, or
             ``speed`` not finite and > 0.
@@ -56,6 +62,14 @@ class Waypoint:
 @dataclass(frozen=True, kw_only=True)
 class Script:
     """A scenario: start point, operator waypoints, disturbance pushes and duration.
+
+    Attributes:
+        start: The start point ``(x, y)``, workspace units.
+        waypoints: The operator's :class:`Waypoint` entries, in time order.
+        pushes: Disturbances ``(t0, t1, (vx, vy))``: from ``t0`` to ``t1`` [s] the point is
+            pushed at ``(vx, vy)`` [units/s].
+        duration: Length of the run [s], > 0.
+        labels: Optional text labels for plots (default none).
 
     Raises:
         InvalidParameter: a field of the wrong kind (``start`` not two finite numbers, a
@@ -246,3 +260,6 @@ def operator_from(script: Script) -> Callable[[float, FloatArray], FloatArray]:
     if not isinstance(script, Script):
         raise InvalidParameter(f"script: expected a Script, got {type(script).__name__}")
     return WaypointOperator(script.waypoints)
+
+
+document_inits(globals())
