@@ -15,7 +15,7 @@ from velfence.geometry.polygon import (
     inscribed_rectangle,
     polygon_from_halfplanes,
 )
-from velfence.geometry.polytope import ConvexPolytope
+from velfence.geometry.polytope import ConvexPolytope, clearance
 from velfence.geometry.primitives import (
     closest_point_on_segment,
     closest_points_segments,
@@ -36,6 +36,7 @@ __all__ = [
     "Projection",
     "Rectangle",
     "Spline",
+    "clearance",
     "closest_point_on_segment",
     "closest_points_segments",
     "decompose",

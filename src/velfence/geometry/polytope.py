@@ -38,12 +38,12 @@ from velfence._validate import (
     readonly,
     real_array,
 )
-from velfence.errors import InvalidGeometry
+from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 
 if TYPE_CHECKING:
     from velfence.geometry.polygon import ConvexPolygon
 
-__all__ = ["ConvexPolytope", "Redundant"]
+__all__ = ["ConvexPolytope", "Redundant", "clearance"]
 
 #: What the constructor does with redundant rows: drop them (reported in ``removed``) or keep them.
 Redundant = Literal["remove", "keep"]
@@ -716,6 +716,52 @@ def _shrink_inside(
         half = half * factor
         lo, hi = mid - half, mid + half
     return readonly(lo), readonly(hi)
+
+
+def clearance(region: ConvexPolygon | ConvexPolytope, points: ArrayLike) -> float | FloatArray:
+    """Signed distance of points (a trajectory) to the boundary of a convex region, for plots.
+
+    Positive inside (the distance to the nearest facet, the smallest of the region's
+    ``signed_distances``), zero on the boundary, negative outside (minus the Euclidean distance
+    to the region, measured to its :meth:`~ConvexPolytope.closest_point`). Outside, this is the
+    true distance, not the largest facet violation, which underestimates it near a corner.
+
+    Args:
+        region: A :class:`~velfence.geometry.ConvexPolygon` (2-D points) or
+            :class:`ConvexPolytope` (points of its ``dim``).
+        points: One point, shape (d,), or N points (a trajectory), shape (N, d), finite, in the
+            region's units.
+
+    Returns:
+        A float for one point, shape (N,) for N points; the region's units.
+
+    Raises:
+        InvalidParameter: ``region`` is neither a polygon nor a polytope.
+        InvalidInput: ``points`` not finite real numbers of shape (d,) or (N, d).
+    """
+    from velfence.geometry.polygon import ConvexPolygon
+
+    if isinstance(region, ConvexPolytope):
+        dim = region.dim
+    elif isinstance(region, ConvexPolygon):
+        dim = 2
+    else:
+        raise InvalidParameter(
+            f"region: expected a ConvexPolygon or ConvexPolytope, got {describe(region)}"
+        )
+    P = real_array("points", points, None, what=f"points of dimension {dim}")
+    if P.shape not in ((dim,),) and not (P.ndim == 2 and P.shape[1] == dim):
+        raise InvalidInput(f"points: expected shape ({dim},) or (N, {dim}), got shape {P.shape}")
+    X = P.reshape(-1, dim)
+    if isinstance(region, ConvexPolytope):
+        d = region._distances(X)
+        near = region._project(X)
+    else:
+        d = X @ region.normals.T - region.offsets
+        near = np.array([region.closest_point(x) for x in X]).reshape(-1, dim)
+    inside = np.min(d, axis=1)
+    out = np.where(inside >= 0.0, inside, -np.linalg.norm(X - near, axis=1)) + 0.0
+    return float(out[0]) if P.ndim == 1 else np.asarray(out, dtype=float)
 
 
 document_inits(globals())
