@@ -327,7 +327,8 @@ def parse_bridge_config(document: Any, *, source: str = "config") -> BridgeConfi
     try:
         settings = BridgeSettings.model_validate(bridge)
     except ValidationError as err:
-        raise InvalidParameter(f"{where}bridge.{describe_validation_error(err)}") from None
+        text = describe_validation_error(err, BridgeSettings)
+        raise InvalidParameter(f"{where}bridge.{text}") from None
     cs = parse_shaper(document["shaper"], where=f"{source}: shaper")
     out, names = _check_fit(settings, cs, where)
     domain = settings.domain_id if settings.domain_id is not None else _domain_from_env()

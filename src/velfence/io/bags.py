@@ -129,7 +129,7 @@ class ReplaySettings(StrictModel):
         try:
             super().__init__(**data)
         except ValidationError as err:
-            raise InvalidParameter(_section_error(err, "replay")) from None
+            raise InvalidParameter(_section_error(err, "replay", ReplaySettings)) from None
 
     @field_validator("command_topic", "state_topic", "output_topic")
     @classmethod
@@ -241,11 +241,11 @@ def _settings(section: Any, where: str) -> ReplaySettings:
     try:
         return ReplaySettings.model_validate(dict(section))
     except ValidationError as err:
-        raise InvalidParameter(_section_error(err, where)) from None
+        raise InvalidParameter(_section_error(err, where, ReplaySettings)) from None
 
 
-def _section_error(err: ValidationError, where: str) -> str:
-    text = describe_validation_error(err)
+def _section_error(err: ValidationError, where: str, model: type[StrictModel]) -> str:
+    text = describe_validation_error(err, model)
     top = "(top level): "
     if text.startswith(top):
         return f"section {where}: {text.removeprefix(top)}"

@@ -293,7 +293,7 @@ def parse_shaper(section: Mapping[str, Any], *, where: str = "shaper") -> Config
     try:
         spec = _MODELS[kind].model_validate(dict(section))
     except ValidationError as err:
-        text = describe_validation_error(err)
+        text = describe_validation_error(err, _MODELS[kind])
         top = "(top level): "
         if text.startswith(top):
             raise InvalidParameter(f"section {where}: {text.removeprefix(top)}") from None
