@@ -346,7 +346,7 @@ class FoxgloveView:
         self._require_open()
         t = finite_scalar("info.t", _field(info, "t"), unit="s", what="time")
         if t < 0:
-            raise InvalidInput(f"info.t: expected a time >= 0 [s], got {t!r}")
+            raise InvalidInput(f"info.t: expected a time >= 0 [s], got {show(t)}")
         state = _vector("info.state", _field(info, "state"))
         command = _vector("info.command", _field(info, "command"))
         shaped = _vector("info.shaped", _field(info, "shaped"))

@@ -24,6 +24,7 @@ from velfence._validate import (
     finite_scalar,
     readonly,
     real_array,
+    show,
 )
 from velfence.errors import InvalidParameter
 from velfence.shaping.profiles import LinearBuffer, ThreeZoneBraking
@@ -100,8 +101,8 @@ class JointLimits:
         if bad.size:
             j = int(bad[0])
             raise InvalidParameter(
-                f"upper: expected upper > lower on every joint, got upper[{j}]={hi[j]!r} <= "
-                f"lower[{j}]={lo[j]!r}"
+                f"upper: expected upper > lower on every joint, got upper[{j}]={show(hi[j])} <= "
+                f"lower[{j}]={show(lo[j])}"
             )
         v = _vector(
             "max_speed", self.max_speed, n, f"joint speeds [rad/s] of shape ({n},)",

@@ -29,6 +29,7 @@ from velfence._validate import (
     finite_scalar,
     readonly,
     real_array,
+    show,
 )
 from velfence.errors import InvalidGeometry, InvalidInput
 
@@ -115,8 +116,8 @@ class Rectangle:
         for lo, hi in (("xmin", "xmax"), ("ymin", "ymax")):
             if getattr(self, lo) > getattr(self, hi):
                 raise InvalidGeometry(
-                    f"Rectangle: expected {lo} <= {hi}, got {lo}={getattr(self, lo)!r}, "
-                    f"{hi}={getattr(self, hi)!r}; swap them"
+                    f"Rectangle: expected {lo} <= {hi}, got {lo}={show(getattr(self, lo))}, "
+                    f"{hi}={show(getattr(self, hi))}; swap them"
                 )
 
     @property

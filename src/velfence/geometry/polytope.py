@@ -37,6 +37,7 @@ from velfence._validate import (
     describe,
     readonly,
     real_array,
+    show,
 )
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 
@@ -273,8 +274,8 @@ class ConvexPolytope:
         if bad.size:
             j = int(bad[0])
             raise InvalidGeometry(
-                f"upper: expected upper > lower element-wise, got upper[{j}]={hi[j]!r} <= "
-                f"lower[{j}]={lo[j]!r}"
+                f"upper: expected upper > lower element-wise, got upper[{j}]={show(hi[j])} <= "
+                f"lower[{j}]={show(lo[j])}"
             )
         eye = np.eye(n)
         N = np.empty((2 * n, n))

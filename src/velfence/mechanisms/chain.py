@@ -40,6 +40,7 @@ from velfence._validate import (
     finite_scalar,
     readonly,
     real_array,
+    show,
 )
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 
@@ -470,7 +471,9 @@ class _ChainBase:
         k = self._link_index(link)
         tf = finite_scalar("t", t, what="fraction along the link", max_abs=None)
         if not 0.0 <= tf <= 1.0:
-            raise InvalidInput(f"t: expected a finite fraction in [0, 1] along the link, got {t!r}")
+            raise InvalidInput(
+                f"t: expected a finite fraction in [0, 1] along the link, got {show(t)}"
+            )
         return self._point_jacobian_cached(self._kinematics_cache(qa), k, tf)
 
     def end_effector(self, q: ArrayLike) -> FloatArray:

@@ -34,6 +34,7 @@ from velfence._validate import (
     finite_scalar,
     readonly,
     real_array,
+    show,
     step_count,
 )
 from velfence.errors import InvalidInput, InvalidParameter, VelfenceError
@@ -150,7 +151,7 @@ class Trajectory:
             k = int(np.flatnonzero(np.diff(ta) <= 0.0)[0])
             raise InvalidInput(
                 f"t: expected strictly increasing times [s], got t[{k}] = {ta[k]!r} >= "
-                f"t[{k + 1}] = {ta[k + 1]!r}"
+                f"t[{k + 1}] = {show(ta[k + 1])}"
             )
         ta = readonly(ta)
         n = ta.shape[0]

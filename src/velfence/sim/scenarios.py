@@ -16,7 +16,7 @@ import numpy as np
 
 from velfence._docs import document_inits
 from velfence._typing import FloatArray
-from velfence._validate import check_positive, finite_scalar, real_array
+from velfence._validate import check_positive, finite_scalar, real_array, show
 from velfence.errors import InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon, as_polygon
 
@@ -93,13 +93,17 @@ class Script:
         pushes = []
         for i, push in enumerate(self.pushes):
             if not isinstance(push, (tuple, list)) or len(push) != 3:
-                raise InvalidParameter(f"pushes[{i}]: expected (t0, t1, (vx, vy)), got {push!r}")
+                raise InvalidParameter(
+                    f"pushes[{i}]: expected (t0, t1, (vx, vy)), got {show(push)}"
+                )
             t0 = check_positive(f"pushes[{i}] t0", push[0], allow_zero=True, unit="s")
             t1 = real_array(
                 f"pushes[{i}] t1", push[1], (), error=InvalidParameter, allow_nonfinite=True
             )
             if not float(t1) > t0:
-                raise InvalidParameter(f"pushes[{i}]: expected t1 > t0 = {t0} s, got {push[1]!r}")
+                raise InvalidParameter(
+                    f"pushes[{i}]: expected t1 > t0 = {t0} s, got {show(push[1])}"
+                )
             v = _pair(f"pushes[{i}] velocity", push[2], "a push velocity (vx, vy)")
             pushes.append((t0, float(t1), v))
         object.__setattr__(self, "pushes", tuple(pushes))
