@@ -61,7 +61,7 @@ MINK_DT = 0.004
 
 def scene(chain: Any, q0: np.ndarray, n_obs: int, seed: int) -> tuple[list[Any], list[Any]]:
     """Obstacles beside the links at ``q0`` and a pool of 16 (q, command) states."""
-    from velfence.redundancy import InfluenceObstacle
+    from velfence.filter import SphereObstacle
 
     rng = np.random.default_rng(seed)
     segs = chain.link_segments(q0)
@@ -74,9 +74,7 @@ def scene(chain: Any, q0: np.ndarray, n_obs: int, seed: int) -> tuple[list[Any],
         if chain.task_dim == 2:
             side[2] = 0.0
         side /= np.linalg.norm(side)
-        obstacles.append(
-            InfluenceObstacle(center=on_link + 0.12 * side, radius=0.02, influence=0.1)
-        )
+        obstacles.append(SphereObstacle(center=on_link + 0.12 * side, radius=0.02, influence=0.1))
     pool = [
         (q0 + rng.normal(scale=0.02, size=q0.shape), rng.normal(size=chain.task_dim) * 0.2)
         for _ in range(16)

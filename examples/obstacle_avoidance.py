@@ -8,7 +8,8 @@ from the obstacle, inside its 0.2 m sphere of influence.
 import numpy as np
 
 from velfence import PlanarArm
-from velfence.redundancy import ConfigurationController, InfluenceObstacle, cosine_line
+from velfence.filter import SphereObstacle
+from velfence.redundancy import ConfigurationController, cosine_line
 
 
 def main() -> None:
@@ -19,7 +20,7 @@ def main() -> None:
     the sphere of influence that is and how far the link still is from the obstacle's body.
     """
     arm = PlanarArm.three_r()
-    obstacle = InfluenceObstacle(center=np.array([1.5, -1.4]), radius=0.05, influence=0.2)
+    obstacle = SphereObstacle(center=np.array([1.5, -1.4]), radius=0.05, influence=0.2)
     ctrl = ConfigurationController(arm, [obstacle])
     line = cosine_line((2.0, 1.0), (0.0, -1.0), 2.0, 5.0, back=True)  # Y_d(t), Ẏ_d(t)
     q = np.array([-0.395014, 0.803931, 1.001739])  # end effector at (2, 1)

@@ -30,7 +30,7 @@ def main() -> None:
     )
     # Both planes 8 cm (wall) and 10 cm (floor) from the start position.
     offsets = normals @ start - np.array([0.08, 0.10])
-    planes = ConvexPolytope(normals, offsets, names=("wall", "floor"))
+    planes = ConvexPolytope(normals, offsets, facet_names=("wall", "floor"))
     lo, hi = robot.joint_limits[:, 0], robot.joint_limits[:, 1]
     safety = SafetyFilter(
         robot,

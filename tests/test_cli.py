@@ -606,3 +606,39 @@ def test_missing_extra_mapping() -> None:
     assert _entry.missing_extra(ModuleNotFoundError("x", name="qpsolvers")) == "qp"
     assert _entry.missing_extra(ModuleNotFoundError("x", name="velfence.geometry")) is None
     assert _entry.missing_extra(ModuleNotFoundError("x")) is None
+
+
+# ------------------------------------------------------------------ plain help, full-width tables
+
+
+def _commands() -> list[tuple[str, ...]]:
+    return [(), *((c.name or c.callback.__name__,) for c in app.registered_commands)]
+
+
+@pytest.mark.parametrize("args", _commands(), ids=lambda a: " ".join(a) or "velfence")
+def test_help_has_no_rst_markup(runner: CliRunner, args: tuple[str, ...]) -> None:
+    result = _invoke(runner, *args, "--help")
+    assert result.exit_code == 0, result.output
+    assert "Usage:" in result.stdout
+    for markup in ("``", ":class:", ":func:", ":data:", ":meth:"):
+        assert markup not in result.stdout, markup
+
+
+def test_plain_help_strips_roles_and_literals() -> None:
+    text = "Use ``velfence view`` with :class:`~velfence.bridge.BridgeConfig` (:func:`a.b`)."
+    assert cli.plain_help(text) == "Use velfence view with BridgeConfig (a.b)."
+    assert cli.plain_help(None) is None
+
+
+def test_piped_tables_are_never_cut(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    long_name = "per-joint clamp against velfence on the seven-joint arm in the fence box"
+    check = Check(long_name, "velfence's own tests, scenario fence-box", "0 escapes", 0, 0, True)
+    _fake(monkeypatch, (check,))
+    # Narrow COLUMNS as a pipe would have by default; CliRunner's stdout is not a terminal.
+    result = CliRunner().invoke(
+        app, ["reproduce", "fake", "--out", str(tmp_path)], env={"COLUMNS": "60", "NO_COLOR": "1"}
+    )
+    assert result.exit_code == 0, result.output
+    assert "…" not in result.stdout
+    assert long_name in result.stdout
+    assert "velfence's own tests, scenario fence-box" in result.stdout

@@ -20,7 +20,7 @@ from velfence._deprecate import renamed_args
 from velfence.filter import JointLimits, ObstacleRows, SafetyFilter, SphereObstacle, WorkspaceLimit
 from velfence.geometry.polytope import ConvexPolytope
 from velfence.mechanisms import PAPER_STOPS, Q_AUX, DHChain, PlanarArm
-from velfence.redundancy import ConfigurationController, InfluenceObstacle
+from velfence.redundancy import ConfigurationController
 from velfence.shaping import ShapingResultProtocol, StopLimiter, ThreeZoneBraking
 from velfence.sim.arm import arm_box_scene
 
@@ -62,8 +62,10 @@ def _equal(a: Any, b: Any) -> None:
     [
         ("velfence.shaping", "ShaperResult", ShapingResultProtocol),
         ("velfence.shaping.base", "ShaperResult", ShapingResultProtocol),
-        ("velfence.redundancy", "Obstacle", InfluenceObstacle),
-        ("velfence.redundancy.configuration_control", "Obstacle", InfluenceObstacle),
+        ("velfence.redundancy", "Obstacle", SphereObstacle),
+        ("velfence.redundancy", "InfluenceObstacle", SphereObstacle),
+        ("velfence.redundancy.configuration_control", "Obstacle", SphereObstacle),
+        ("velfence.redundancy.configuration_control", "InfluenceObstacle", SphereObstacle),
         ("velfence.geometry.projection", "PROJECT_ITERATION_LIMIT", None),
     ],
 )
@@ -168,7 +170,7 @@ def test_stop_limiter_old_keywords() -> None:
 def test_configuration_controller_old_keywords() -> None:
     ctl = ConfigurationController(
         PlanarArm((1.0, 1.0, 1.0)),
-        [InfluenceObstacle(center=[1.5, -1.4], radius=0.05, influence=0.2)],
+        [SphereObstacle([1.5, -1.4], radius=0.05, influence=0.2)],
     )
     q, v = np.array([0.3, -0.6, -0.4]), np.array([0.1, -0.2])
     for name in ("control", "explain", "shape"):
@@ -225,3 +227,21 @@ def test_line_fixture_radius_of_influence() -> None:
         assert want.radius_of_influence == 0.03
     p, v = np.array([0.1, 0.02, 0.0]), np.array([0.05, 0.01, 0.0])
     _equal(got.shape(p, v), want.shape(p, v))
+
+
+def test_polytope_names_keyword_is_facet_names() -> None:
+    normals, offsets = [[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0]], [0.0, -1.0, 0.0]
+    for call, args in (
+        (ConvexPolytope, (normals, offsets)),
+        (ConvexPolytope.box, ([0.0], [1.0])),
+    ):
+        n = len(args[1]) if call is ConvexPolytope else 2
+        labels = [f"side {i}" for i in range(n)]
+        with pytest.warns(DeprecationWarning, match=r"'names' is now 'facet_names'.*goes in 0\.3"):
+            old = call(*args, names=labels)
+        new = call(*args, facet_names=labels)
+        assert old.facet_names == new.facet_names == tuple(labels)
+    tri = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]
+    with pytest.warns(DeprecationWarning, match=r"'names' is now 'facet_names'"):
+        hull = ConvexPolytope.from_vertices(tri, names=["a", "b", "c"])
+    assert hull.facet_names == ("a", "b", "c")

@@ -38,7 +38,6 @@ MODULES = ["velfence", *sorted(_SUBMODULES)]
 UNDOCUMENTED = {
     "velfence.apps.cli.reproduction_dir: no Returns section",
     "velfence.apps.cli.reproduction_dir: parameters not under Args: name, out",
-    "velfence.cobot.IdentityKinematics: parameters not under Args: n",
     "velfence.sim.constant_speed: no Returns section",
     "velfence.sim.constant_speed: parameters not under Args: u",
     "velfence.cobot.critically_damped: no Returns section",

@@ -90,7 +90,7 @@ _FORMER: dict[str, str] = {
     "Wrist": "velfence.mechanisms",
     "WristGeometry": "velfence.mechanisms",
     "ConfigurationController": "velfence.redundancy",
-    "Obstacle": "velfence.redundancy:InfluenceObstacle",
+    "Obstacle": "velfence.filter:SphereObstacle",
     "VelocityDamperQP": "velfence.redundancy",
     "decompose": "velfence.geometry",
     "inscribed_rectangle": "velfence.geometry",

@@ -89,13 +89,23 @@ def show(x: Any, limit: int = 80) -> str:
         limit: Longest text returned [characters]; a longer ``repr`` ends in ``...``.
 
     Returns:
-        The (possibly cut) ``repr``.
+        The (possibly cut) ``repr``; NumPy scalars (also inside a tuple or list) print as plain
+        numbers, ``-0.4`` rather than ``np.float64(-0.4)``.
     """
     try:
-        text = repr(x)
+        text = repr(_plain(x))
     except Exception:  # a hostile __repr__ must not escape as its own exception
         text = f"<{type(x).__name__}>"
     return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def _plain(x: Any, depth: int = 0) -> Any:
+    """``x`` with NumPy scalars as Python numbers (in tuples and lists up to 3 levels deep)."""
+    if isinstance(x, np.generic):
+        return x.item()
+    if type(x) in (tuple, list) and depth < 3 and len(x) <= 100:
+        return type(x)(_plain(e, depth + 1) for e in x)
+    return x
 
 
 def _type_text(x: Any) -> str:
@@ -414,7 +424,9 @@ def check_positive(
     ok = math.isfinite(x) and (x >= 0.0 if allow_zero else x > 0.0)
     if not ok:
         bound = ">= 0" if allow_zero else "> 0"
-        raise err(f"{name} must be finite and {bound}{unit and ' (' + unit + ')'}, got {value!r}")
+        raise err(
+            f"{name} must be finite and {bound}{unit and ' (' + unit + ')'}, got {show(value)}"
+        )
     if x > MAX_MAGNITUDE:
         raise err(f"{name} must be <= {MAX_MAGNITUDE:g}{unit and ' ' + unit}, got {x:g}")
     return x
@@ -444,7 +456,7 @@ def check_positive_int(
         want = "a positive int" if minimum == 1 else f"an int >= {minimum}"
         raise err(f"{name}: expected {want}, got {_type_text(value)}; e.g. {example}")
     if value < minimum:
-        raise err(f"{name}: expected an int >= {minimum}, got {value!r}")
+        raise err(f"{name}: expected an int >= {minimum}, got {show(value)}")
     if maximum is not None and value > maximum:
         raise err(f"{name}: expected an int <= {maximum:,}, got {show(value)}")
     return int(value)

@@ -33,11 +33,12 @@ def _stop_limiter(method: str):
 
 def _configuration_control(kind: str):
     def make(**overrides):
+        from velfence.filter import SphereObstacle
         from velfence.mechanisms.chain import PlanarArm
-        from velfence.redundancy import ConfigurationController, InfluenceObstacle, VelocityDamperQP
+        from velfence.redundancy import ConfigurationController, VelocityDamperQP
 
         arm = PlanarArm.three_r()
-        obs = [InfluenceObstacle(center=np.array([0.8, 1.2]), radius=0.05, influence=0.3)]
+        obs = [SphereObstacle(center=np.array([0.8, 1.2]), radius=0.05, influence=0.3)]
         if kind == "qp":
             return VelocityDamperQP(arm, obs, **overrides)
         return ConfigurationController(arm, obs, **overrides)

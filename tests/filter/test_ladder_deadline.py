@@ -353,7 +353,7 @@ def test_a_tool_resting_on_tilted_planes_with_joints_at_limits_stays_in(seed: in
     q = np.array([0.0, -1.2, 1.5, -1.9, -1.57, 0.0]) + rng.normal(scale=0.2, size=6)
     tw, tf = np.radians(rng.uniform(5, 40, 2))
     N = np.array([[np.cos(tw), 0.0, np.sin(tw)], [0.0, np.sin(tf), np.cos(tf)]])
-    planes = ConvexPolytope(N, N @ robot.fk(q), names=("wall", "floor"))
+    planes = ConvexPolytope(N, N @ robot.fk(q), facet_names=("wall", "floor"))
     lo, hi = q - rng.uniform(0.2, 1.0, 6), q + rng.uniform(0.2, 1.0, 6)
     for j in rng.choice(6, 3, replace=False):
         (lo if rng.random() < 0.5 else hi)[j] = q[j]

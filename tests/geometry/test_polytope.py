@@ -51,7 +51,7 @@ def test_arrays_are_read_only_and_the_object_frozen() -> None:
 def test_names_keyword_follows_the_kept_rows() -> None:
     N = [[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0], [1.0, 1.0]]
     off = [0.0, -1.0, 0.0, -1.0, -5.0]  # the last row is redundant
-    P = ConvexPolytope(N, off, names=["left", "right", "floor", "ceiling", "far"])
+    P = ConvexPolytope(N, off, facet_names=["left", "right", "floor", "ceiling", "far"])
     assert P.facet_names == ("left", "right", "floor", "ceiling")
     assert P.removed == (4,)
     assert P.source_rows == (0, 1, 2, 3, -1)
@@ -77,7 +77,7 @@ def test_constructor_messages(
     normals: object, offsets: object, names: object, message: str
 ) -> None:
     with pytest.raises(InvalidGeometry, match=message):
-        ConvexPolytope(normals, offsets, names=names)  # type: ignore[arg-type]
+        ConvexPolytope(normals, offsets, facet_names=names)  # type: ignore[arg-type]
 
 
 def test_redundant_choice_is_validated() -> None:
@@ -180,10 +180,10 @@ def test_box_messages() -> None:
     with pytest.raises(InvalidGeometry, match="lower: expected finite values"):
         ConvexPolytope.box([np.nan], [1.0])
     with pytest.raises(InvalidGeometry, match="names: expected 4 names"):
-        ConvexPolytope.box([0.0, 0.0], [1.0, 1.0], names=["a"])
+        ConvexPolytope.box([0.0, 0.0], [1.0, 1.0], facet_names=["a"])
     with pytest.raises(InvalidGeometry, match=r"lower, upper: the box is unusable: .*lower-dim"):
         ConvexPolytope.box([0.0, 0.0], [1.0, 1e-12])
-    P = ConvexPolytope.box([0.0], [1.0], names=["low", "high"])
+    P = ConvexPolytope.box([0.0], [1.0], facet_names=["low", "high"])
     assert P.facet_names == ("low", "high")
 
 
@@ -415,8 +415,10 @@ def test_from_vertices_messages() -> None:
     with pytest.raises(InvalidGeometry, match="points: expected finite values"):
         ConvexPolytope.from_vertices([[0.0, 0.0], [1.0, 0.0], [0.0, np.inf]])
     with pytest.raises(InvalidGeometry, match="names: expected 3 names"):
-        ConvexPolytope.from_vertices([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]], names=["a"])
-    T = ConvexPolytope.from_vertices([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]], names=["a", "b", "c"])
+        ConvexPolytope.from_vertices([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]], facet_names=["a"])
+    T = ConvexPolytope.from_vertices(
+        [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]], facet_names=["a", "b", "c"]
+    )
     assert T.facet_names == ("a", "b", "c")
     assert T.volume == pytest.approx(0.5, rel=1e-12)
     line = ConvexPolytope.from_vertices([[2.0], [-1.0], [0.5]])

@@ -71,6 +71,11 @@ SPECS: dict[str, F | C] = {
     "geometry.Rectangle": C(
         F(lambda: call(xmin=-1.0, xmax=1.0, ymin=-0.5, ymax=0.5)), {"contains": lambda: call(P2)}
     ),
+    # points: one point or a trajectory, documented (d,) or (N, d)
+    "geometry.clearance": F(
+        lambda: call(square(), [[0.5, 0.5], [2.0, 0.0]]),
+        types={"region": "object", "points": "rows"},
+    ),
     "geometry.decompose": F(lambda: call(V2, [0.0, 1.0])),
     "geometry.project": F(lambda: call([1.0, 2.0], [[1.0, 0.0], [0.0, -1.0]], [0.0, -1.0])),
     "geometry.Projection": C(record="output record of project()"),

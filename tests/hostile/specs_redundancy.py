@@ -6,14 +6,15 @@ import numpy as np
 from common import planar3
 from harness import C, F, call
 
-from velfence.redundancy import ConfigurationController, InfluenceObstacle
+from velfence.filter import SphereObstacle
+from velfence.redundancy import ConfigurationController
 
 _Q = np.array([0.3, 0.4, -0.2])
 _V = np.array([0.1, -0.2])
 
 
-def _obstacles() -> list[InfluenceObstacle]:
-    return [InfluenceObstacle(center=np.array([1.5, 1.2]), radius=0.1, influence=0.3)]
+def _obstacles() -> list[SphereObstacle]:
+    return [SphereObstacle(center=np.array([1.5, 1.2]), radius=0.1, influence=0.3)]
 
 
 def _methods(extra: dict[str, F] | None = None) -> dict[str, F]:
@@ -34,13 +35,6 @@ def _distances() -> np.ndarray:
 
 
 SPECS: dict[str, F | C] = {
-    "redundancy.InfluenceObstacle": C(
-        F(
-            lambda: call(np.array([1.5, 1.2]), radius=0.1, influence=0.3),
-            # radius 0 is documented (>= 0): a point obstacle.
-            types={"radius": "nonneg", "influence": "positive"},
-        )
-    ),
     # ee_gain 0 is documented (>= 0): no end-effector position feedback.
     "redundancy.ConfigurationController": C(
         F(lambda: call(planar3(), _obstacles()), types={"ee_gain": "nonneg"}), _methods()

@@ -203,8 +203,12 @@ SPECS: dict[str, F | C] = {
         },
     ),
     "filter.WorkspaceLimit": C(F(lambda: call(_box(), buffer=0.05), types={"point": "text"})),
+    # radius 0 is documented (>= 0): a point obstacle; influence None: no sphere of influence.
     "filter.SphereObstacle": C(
-        F(lambda: call([0.0, 0.3, 0.6], radius=0.05), types={"radius": "nonneg"})
+        F(
+            lambda: call([0.0, 0.3, 0.6], radius=0.05, influence=0.3),
+            types={"radius": "nonneg", "influence": "positive"},
+        )
     ),
     "filter.SafetyFilter": C(
         F(

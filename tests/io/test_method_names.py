@@ -84,7 +84,7 @@ def test_polytope_method_round_trips_through_yaml(tmp_path: Path, kind: str) -> 
     names = ["a", "b", "c"]
     facets = [f"{j}_{side}" for j in names for side in ("min", "max")]
     box = ConvexPolytope.box(
-        np.array(lower), np.array(upper), names=facets if kind == "joint_limits" else None
+        np.array(lower), np.array(upper), facet_names=facets if kind == "joint_limits" else None
     )
     built = PolytopeShaper(box, buffer=0.1)
     assert built.method in SHAPER_METHODS[kind]

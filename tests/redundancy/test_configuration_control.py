@@ -15,8 +15,9 @@ import numpy as np
 import pytest
 
 from velfence.errors import InvalidInput, InvalidParameter
+from velfence.filter import SphereObstacle
 from velfence.mechanisms.chain import PlanarArm
-from velfence.redundancy import ConfigurationController, ControlResult, InfluenceObstacle
+from velfence.redundancy import ConfigurationController, ControlResult
 from velfence.shaping.base import Shaper
 
 DT = 0.01  # [s] control period of the closed-loop scenarios
@@ -75,16 +76,16 @@ def _ctrl(chain, obstacles, **kw):
 
 # ---------------------------------------------------------------------------- obstacle
 def test_obstacle_validation_and_readonly():
-    ob = InfluenceObstacle(center=[1.0, 2.0], radius=0.1, influence=0.3)
+    ob = SphereObstacle(center=[1.0, 2.0], radius=0.1, influence=0.3)
     np.testing.assert_array_equal(ob.center, [1.0, 2.0, 0.0])
     with pytest.raises(ValueError, match="read-only"):
         ob.center[0] = 5.0
     with pytest.raises(InvalidParameter, match="influence must exceed radius"):
-        InfluenceObstacle(center=[0, 0, 0], radius=0.3, influence=0.3)
+        SphereObstacle(center=[0, 0, 0], radius=0.3, influence=0.3)
     with pytest.raises(InvalidParameter, match=r"center: expected finite values, got \[0.0, nan\]"):
-        InfluenceObstacle(center=[0, np.nan], radius=0.1, influence=0.3)
+        SphereObstacle(center=[0, np.nan], radius=0.1, influence=0.3)
     with pytest.raises(InvalidParameter, match="radius must be finite and >= 0"):
-        InfluenceObstacle(center=[0, 0], radius=-1, influence=0.3)
+        SphereObstacle(center=[0, 0], radius=-1, influence=0.3)
 
 
 def test_parameters_keyword_only_and_validated(arm3):
@@ -96,7 +97,7 @@ def test_parameters_keyword_only_and_validated(arm3):
         ConfigurationController(arm3, [], damping=0.0)
     with pytest.raises(InvalidParameter, match="activation_margin must be finite and >= 0"):
         ConfigurationController(arm3, [], activation_margin=-0.01)
-    with pytest.raises(InvalidParameter, match="sequence of InfluenceObstacle"):
+    with pytest.raises(InvalidParameter, match="sequence of SphereObstacle"):
         ConfigurationController(arm3, [(1.0, 0.0, 0.0)])
     with pytest.raises(InvalidParameter, match="SerialChain protocol"):
         ConfigurationController(object(), [])
@@ -106,7 +107,7 @@ def test_parameters_keyword_only_and_validated(arm3):
 @pytest.mark.parametrize("margin", [0.0, DT], ids=["faithful", "look-ahead"])
 def test_3r_line_past_obstacle(arm3, q0_3r, margin):
     """Clearance >= ρ - tol with tol derived from discrete time; EE tracks while r >= 1 row."""
-    ob = InfluenceObstacle(center=[1.5, -1.4], radius=0.05, influence=RHO)
+    ob = SphereObstacle(center=[1.5, -1.4], radius=0.05, influence=RHO)
     c = _ctrl(arm3, [ob], activation_margin=margin)
     res = _run(c, q0_3r, _down_then_up(2.0, 1.0, 8.0), 12.0)
     d = np.array([r.distances[0] for *_, r in res])
@@ -131,7 +132,7 @@ def test_3r_line_past_obstacle(arm3, q0_3r, margin):
 
 
 def test_deactivates_when_critical_point_moves_away(arm3, q0_3r):
-    ob = InfluenceObstacle(center=[1.5, -1.4], radius=0.05, influence=RHO)
+    ob = SphereObstacle(center=[1.5, -1.4], radius=0.05, influence=RHO)
     res = _run(_ctrl(arm3, [ob]), q0_3r, _down_then_up(2.0, 1.0, 8.0), 12.0)
     k_turn = round(8.0 / DT)
     assert res[k_turn - 1][2].active == (0,)
@@ -145,7 +146,7 @@ def test_deactivates_when_critical_point_moves_away(arm3, q0_3r):
 
 
 def _active_state(arm3, q0_3r):
-    ob = InfluenceObstacle(center=[1.5, -1.4], radius=0.05, influence=RHO)
+    ob = SphereObstacle(center=[1.5, -1.4], radius=0.05, influence=RHO)
     c = _ctrl(arm3, [ob])
     res = _run(c, q0_3r, _down_then_up(2.0, 1.0, 8.0), 7.5)
     _, q, r = res[-1]
@@ -176,7 +177,7 @@ def test_only_approach_is_stopped_tangential_and_retreat_free(arm3, q0_3r):
 
 
 def test_critical_point_switching_links_bounded_jumps(arm3, q0_3r):
-    ob = InfluenceObstacle(center=[1.5, -1.4], radius=0.05, influence=RHO)
+    ob = SphereObstacle(center=[1.5, -1.4], radius=0.05, influence=RHO)
     res = _run(_ctrl(arm3, [ob]), q0_3r, _down_then_up(2.0, 1.0, 8.0), 8.0)
     links = np.array([r.links[0] for *_, r in res])
     qd = np.array([r.q_dot for *_, r in res])
@@ -196,8 +197,8 @@ def test_4r_second_constraint_joins_while_first_stays():
     arm = PlanarArm.four_r()
     q0 = _ik(arm, np.array([2.5, 1.0]), np.array([0.3, 0.5, 0.5, 0.5]))
     obs = [
-        InfluenceObstacle(center=[0.3, -0.8], radius=0.05, influence=RHO),
-        InfluenceObstacle(center=[1.1, -1.8], radius=0.05, influence=RHO),
+        SphereObstacle(center=[0.3, -0.8], radius=0.05, influence=RHO),
+        SphereObstacle(center=[1.1, -1.8], radius=0.05, influence=RHO),
     ]
     c = _ctrl(arm, obs, activation_margin=DT, release="sequential")  # the claim's literal order
     res = _run(c, q0, _down_then_up(2.5, 1.0, 100.0), 10.0)
@@ -226,7 +227,7 @@ def _obstacles_in_front_of_links(arm, q, v, links, controller_free):
         mid = 0.5 * (segs[link, 0] + segs[link, 1])
         vel = arm.point_jacobian(q, link, 0.5) @ qd
         obs.append(
-            InfluenceObstacle(
+            SphereObstacle(
                 center=mid + (RHO - 0.01) * vel / np.linalg.norm(vel), radius=0.05, influence=RHO
             )
         )
@@ -261,7 +262,7 @@ def test_4r_redundancy_exhausted_flagged_bounded_no_nan():
 # ---------------------------------------------------------------------------- edge cases
 def test_centre_on_link_axis_uses_deterministic_fallback(arm3):
     q = np.array([0.0, 0.0, 0.0])  # links along +x
-    ob = InfluenceObstacle(center=[0.5, 0.0, 0.0], radius=0.05, influence=RHO)
+    ob = SphereObstacle(center=[0.5, 0.0, 0.0], radius=0.05, influence=RHO)
     c = _ctrl(arm3, [ob], spring_gain=1.0)
     r = c.control(q, np.array([0.0, 0.1]))
     np.testing.assert_allclose(r.normals[0], [0.0, 1.0, 0.0])  # ẑ × link direction
@@ -276,7 +277,7 @@ def test_recovery_gain_pushes_out_when_penetrated(arm3):
     mid = 0.5 * (segs[1, 0] + segs[1, 1])
     e = segs[1, 1] - segs[1, 0]
     nrm = np.array([-e[1], e[0], 0.0]) / np.linalg.norm(e)
-    ob = InfluenceObstacle(center=mid + 0.1 * nrm, radius=0.05, influence=RHO)
+    ob = SphereObstacle(center=mid + 0.1 * nrm, radius=0.05, influence=RHO)
     c = _ctrl(arm3, [ob], spring_gain=2.0)
     r = c.control(q, np.zeros(2))
     assert r.active == (0,)
@@ -288,7 +289,7 @@ def test_link_radius_counts_in_critical_distance():
     thick = PlanarArm.three_r(link_radius=0.05)
     thin = PlanarArm.three_r()
     q = np.array([0.2, 0.3, 0.4])
-    ob = InfluenceObstacle(center=[1.0, 1.0], radius=0.05, influence=RHO)
+    ob = SphereObstacle(center=[1.0, 1.0], radius=0.05, influence=RHO)
     d_thick = _ctrl(thick, [ob]).critical(q).distances[0]
     d_thin = _ctrl(thin, [ob]).critical(q).distances[0]
     assert d_thick == pytest.approx(d_thin - 0.05)
@@ -296,7 +297,7 @@ def test_link_radius_counts_in_critical_distance():
 
 # ---------------------------------------------------------------------------- contract
 def test_shaper_contract(arm3, q0_3r):
-    ob = InfluenceObstacle(center=[1.5, -1.4], radius=0.05, influence=RHO)
+    ob = SphereObstacle(center=[1.5, -1.4], radius=0.05, influence=RHO)
     c = _ctrl(arm3, [ob])
     assert isinstance(c, Shaper)
     rng = np.random.default_rng(0)
@@ -315,7 +316,7 @@ def test_shaper_contract(arm3, q0_3r):
 
 
 def test_invalid_input_policy(arm3, q0_3r):
-    ob = InfluenceObstacle(center=[1.5, -1.4], radius=0.05, influence=RHO)
+    ob = SphereObstacle(center=[1.5, -1.4], radius=0.05, influence=RHO)
     c = _ctrl(arm3, [ob])
     with pytest.raises(InvalidInput, match="expected finite values"):
         c.shape(q0_3r, np.array([np.nan, 0.0]))
@@ -342,7 +343,7 @@ def test_spatial_seven_dof_single_state():
     chain = DHChain.seven_dof()
     q = np.full(chain.dof, 0.3)
     mid = chain.link_segments(q)[3].mean(axis=0)
-    ob = InfluenceObstacle(center=mid + np.array([0.1, 0.0, 0.0]), radius=0.02, influence=0.15)
+    ob = SphereObstacle(center=mid + np.array([0.1, 0.0, 0.0]), radius=0.02, influence=0.15)
     c = _ctrl(chain, [ob])
     v = np.array([0.1, 0.0, 0.05])
     r = c.control(q, v)
@@ -364,8 +365,9 @@ def test_blocked_path_the_constraint_holds_and_the_end_effector_yields():
     ~28 rad/s and, over 1 ms steps, the second-order motion drove the link 0.24 m into the
     sphere although the linearised ḋ was 0. Default damping 1e-2 (or max_speed) fixes it.
     """
+    from velfence.filter import SphereObstacle
     from velfence.mechanisms.chain import PlanarArm
-    from velfence.redundancy import ConfigurationController, InfluenceObstacle
+    from velfence.redundancy import ConfigurationController
 
     arm = PlanarArm.three_r()
     q0 = np.array([0.4, 0.9, 0.9])
@@ -373,7 +375,7 @@ def test_blocked_path_the_constraint_holds_and_the_end_effector_yields():
     y1 = np.array([-0.9, 1.6])
     T = 5.0
     vel = (y1 - y0) / T
-    obs = [InfluenceObstacle(center=np.array([0.5, 1.0]), radius=0.05, influence=0.25)]
+    obs = [SphereObstacle(center=np.array([0.5, 1.0]), radius=0.05, influence=0.25)]
     for ctrl in (
         ConfigurationController(arm, obs, activation_margin=1e-3),
         ConfigurationController(arm, obs, activation_margin=1e-3, damping=1e-4, max_speed=2.0),
@@ -396,8 +398,8 @@ def test_recheck_release_never_holds_a_row_whose_point_would_retreat():
     """Review finding: with rows kept in order, an earlier row could block a retreat."""
     arm = PlanarArm.four_r()
     obs = [
-        InfluenceObstacle(center=[0.3, -0.8], radius=0.05, influence=RHO),
-        InfluenceObstacle(center=[1.1, -1.8], radius=0.05, influence=RHO),
+        SphereObstacle(center=[0.3, -0.8], radius=0.05, influence=RHO),
+        SphereObstacle(center=[1.1, -1.8], radius=0.05, influence=RHO),
     ]
     recheck = ConfigurationController(arm, obs)
     rng = np.random.default_rng(4)

@@ -34,9 +34,10 @@ import pytest
 from hypothesis import assume, given
 from hypothesis import strategies as st
 
+from velfence.filter import SphereObstacle
 from velfence.geometry.primitives import points_segments_distances
 from velfence.mechanisms.chain import DHChain, PlanarArm
-from velfence.redundancy import ConfigurationController, ControlResult, InfluenceObstacle
+from velfence.redundancy import ConfigurationController, ControlResult
 from velfence.shaping.backend import compiled_nd
 
 _BACKENDS = [
@@ -129,7 +130,7 @@ def _scene(draw):
         side /= np.linalg.norm(side)
         centre = a + rng.uniform(0.0, 1.0) * (b - a) + rng.uniform(0.0, 0.3) * side
         obstacles.append(
-            InfluenceObstacle(center=centre, radius=0.01, influence=float(rng.uniform(0.05, 0.25)))
+            SphereObstacle(center=centre, radius=0.01, influence=float(rng.uniform(0.05, 0.25)))
         )
     v = rng.normal(size=chain.task_dim) * rng.uniform(0.01, 1.0)
     target = None
@@ -172,9 +173,7 @@ def _bench_scene(chain, q0, n_obs, seed):
             side[2] = 0.0
         side /= np.linalg.norm(side)
         on_link = a + rng.uniform(0.2, 0.8) * (b - a)
-        obstacles.append(
-            InfluenceObstacle(center=on_link + 0.12 * side, radius=0.02, influence=0.1)
-        )
+        obstacles.append(SphereObstacle(center=on_link + 0.12 * side, radius=0.02, influence=0.1))
     pool = [
         (q0 + rng.normal(scale=0.02, size=q0.shape), rng.normal(size=chain.task_dim) * 0.2)
         for _ in range(12)
@@ -235,8 +234,8 @@ class _Overriding(PlanarArm):
 def test_foreign_and_overriding_chains_take_the_protocol_route():
     arm = PlanarArm.four_r()
     obs = [
-        InfluenceObstacle(center=[0.3, -0.8], radius=0.05, influence=0.2),
-        InfluenceObstacle(center=[1.1, -1.8], radius=0.05, influence=0.2),
+        SphereObstacle(center=[0.3, -0.8], radius=0.05, influence=0.2),
+        SphereObstacle(center=[1.1, -1.8], radius=0.05, influence=0.2),
     ]
     foreign = ConfigurationController(_Foreign(arm), obs)
     own = ConfigurationController(arm, obs)
@@ -264,7 +263,7 @@ def test_critical_validates_q_and_equals_the_protocol_route():
     chain = DHChain.seven_dof(link_radius=0.02)
     q = np.full(7, 0.3)
     segs = chain.link_segments(q)
-    obs = [InfluenceObstacle(center=s.mean(axis=0) + 0.05, radius=0.0, influence=0.1) for s in segs]
+    obs = [SphereObstacle(center=s.mean(axis=0) + 0.05, radius=0.0, influence=0.1) for s in segs]
     c = ConfigurationController(chain, obs)
     fast, ref = c.critical(q), c._critical_protocol(q)
     np.testing.assert_array_equal(fast.links, ref.links)
@@ -279,7 +278,7 @@ def test_critical_validates_q_and_equals_the_protocol_route():
 def test_centre_on_the_axis_fallback_matches():
     arm = PlanarArm.three_r()
     q = np.array([0.0, 0.0, 0.0])
-    obs = [InfluenceObstacle(center=[0.5, 0.0], radius=0.0, influence=0.1)]
+    obs = [SphereObstacle(center=[0.5, 0.0], radius=0.0, influence=0.1)]
     c = ConfigurationController(arm, obs)
     fast, ref = c.critical(q), c._critical_protocol(q)
     np.testing.assert_array_equal(fast.normals, ref.normals)
@@ -291,7 +290,7 @@ def test_backend_choice_is_validated_and_reported():
     from velfence.errors import InvalidParameter
 
     arm = PlanarArm.four_r()
-    obs = [InfluenceObstacle(center=[0.3, -0.8], radius=0.05, influence=0.2)]
+    obs = [SphereObstacle(center=[0.3, -0.8], radius=0.05, influence=0.2)]
     assert ConfigurationController(arm, obs, backend="python").backend == "python"
     with pytest.raises(InvalidParameter, match="backend"):
         ConfigurationController(arm, obs, backend="gpu")  # type: ignore[arg-type]
@@ -310,7 +309,7 @@ def test_backend_choice_is_validated_and_reported():
 def test_a_tuning_change_after_construction_is_honoured(backend):
     """The compiled route holds the parameters in C: changing one rebuilds it."""
     arm = PlanarArm.four_r()
-    obs = [InfluenceObstacle(center=[-0.57, 0.62], radius=0.05, influence=0.3)]
+    obs = [SphereObstacle(center=[-0.57, 0.62], radius=0.05, influence=0.3)]
     q, v = np.array([1.92, 1.93, 0.1, -1.35]), np.array([1.14, 0.11])
     c = ConfigurationController(arm, obs, backend=backend)
     before = c.control(q, v)

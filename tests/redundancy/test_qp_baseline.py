@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 
 from velfence.errors import InvalidInput, InvalidParameter
+from velfence.filter import SphereObstacle
 from velfence.mechanisms.chain import PlanarArm
 from velfence.redundancy import (
     ConfigurationController,
     ControlResult,
-    InfluenceObstacle,
     VelocityDamperQP,
 )
 from velfence.shaping.base import Shaper
@@ -67,7 +67,7 @@ def q0_3r(arm3):
 
 @pytest.fixture(scope="module")
 def obstacle():
-    return InfluenceObstacle(center=[1.5, -1.4], radius=BODY, influence=RHO)
+    return SphereObstacle(center=[1.5, -1.4], radius=BODY, influence=RHO)
 
 
 def _qp(chain, obstacles, **kw):
@@ -100,7 +100,7 @@ def test_same_scenario_clearance_and_comparison(arm3, q0_3r, obstacle):
 
 
 def test_far_from_obstacles_is_damped_least_squares(arm3, q0_3r):
-    far = InfluenceObstacle(center=[-3.0, -3.0], radius=BODY, influence=RHO)
+    far = SphereObstacle(center=[-3.0, -3.0], radius=BODY, influence=RHO)
     qp = _qp(arm3, [far], damping=1e-3)
     v = np.array([0.1, -0.2])
     r = qp.control(q0_3r, v)

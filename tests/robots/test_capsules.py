@@ -69,8 +69,9 @@ def test_bad_link_arguments_and_missing_sites() -> None:
 
 
 def test_the_serial_chain_interface_runs_the_arm_baselines_and_configuration_control() -> None:
+    from velfence.filter import SphereObstacle
     from velfence.filter.limits import JointLimits
-    from velfence.redundancy import ConfigurationController, InfluenceObstacle
+    from velfence.redundancy import ConfigurationController
     from velfence.robots import seven_dof
     from velfence.sim.arm_baselines import JointClamp
 
@@ -80,7 +81,7 @@ def test_the_serial_chain_interface_runs_the_arm_baselines_and_configuration_con
     assert robot.task_dim == 3
     np.testing.assert_allclose(robot.end_effector(q), chain.end_effector(q), atol=1e-12)
     np.testing.assert_allclose(robot.ee_jacobian(q), chain.ee_jacobian(q), atol=1e-12)
-    ob = [InfluenceObstacle(center=[0.3, 0.1, 0.6], radius=0.03, influence=0.1)]
+    ob = [SphereObstacle(center=[0.3, 0.1, 0.6], radius=0.03, influence=0.1)]
     v = np.array([0.0, 0.2, 0.0])
     np.testing.assert_allclose(
         ConfigurationController(robot, ob).shape(q, v),

@@ -21,11 +21,11 @@ import pytest
 
 import velfence.shaping.backend as backend_module
 from velfence.errors import InvalidParameter
-from velfence.filter import JointLimits, SafetyFilter, WorkspaceLimit
+from velfence.filter import JointLimits, SafetyFilter, SphereObstacle, WorkspaceLimit
 from velfence.geometry.polygon import ConvexPolygon
 from velfence.geometry.polytope import ConvexPolytope
 from velfence.mechanisms.chain import DHChain
-from velfence.redundancy import ConfigurationController, InfluenceObstacle
+from velfence.redundancy import ConfigurationController
 from velfence.shaping import PolygonShaper, PolytopeShaper
 from velfence.shaping.backend import BACKENDS, pick_backend
 
@@ -57,7 +57,7 @@ def _filter(backend: str) -> SafetyFilter:
 
 def _controller(backend: str) -> ConfigurationController:
     center = ARM.fk(Q0) + np.array([0.0, 0.15, 0.0])
-    obstacle = InfluenceObstacle(center=center, radius=0.02, influence=0.3)
+    obstacle = SphereObstacle(center=center, radius=0.02, influence=0.3)
     return ConfigurationController(ARM, [obstacle], backend=backend)
 
 

@@ -185,13 +185,14 @@ def test_wrist_reproduction_figures(tmp_path: Path, recorded: dict[str, Figure])
 def test_obstacle_clearance_figure(tmp_path: Path, recorded: dict[str, Figure]) -> None:
     from velfence.apps.reproduce import obstacles as ob
     from velfence.apps.viz.obstacles import plot_clearance
+    from velfence.filter import SphereObstacle
     from velfence.mechanisms.chain import PlanarArm
-    from velfence.redundancy import ConfigurationController, InfluenceObstacle, cosine_line
+    from velfence.redundancy import ConfigurationController, cosine_line
 
     arm = PlanarArm.three_r()
     q0 = ob._ik(arm, (2.0, 1.0), (-0.4, 0.8, 1.0))
     line = cosine_line((2.0, 1.0), (0.0, -1.0), 2.0, 5.0, back=True)
-    obs = [InfluenceObstacle(center=np.array([1.5, -1.4]), radius=ob.BODY, influence=ob.RHO)]
+    obs = [SphereObstacle(center=np.array([1.5, -1.4]), radius=ob.BODY, influence=ob.RHO)]
     runs = [
         ob.run_scenario(f"run {k}", ConfigurationController(arm, obs), line, q0, 0.05)
         for k in range(4)

@@ -59,6 +59,10 @@ app = typer.Typer(
     pretty_exceptions_enable=False,
 )
 
+#: Exit code of ``velfence bridge`` after Ctrl-C during start-up (velfence.bridge's
+#: ``EXIT_INTERRUPTED``; not imported from there: that loads the DDS binding).
+EXIT_INTERRUPTED_CODE = 130
+
 #: name -> "module:function" returning a velfence.apps.reproduce.Report given an output folder.
 REPRODUCTIONS: dict[str, str] = {
     "wrist": "velfence.apps.reproduce.wrist:run",
@@ -67,6 +71,16 @@ REPRODUCTIONS: dict[str, str] = {
     "cobot": "velfence.apps.reproduce.cobot:run",
     "telerobotics": "velfence.apps.reproduce.telerobotics:run",
 }
+
+
+#: Width of the output when stdout is not a terminal (a pipe, a file): wide enough that a table
+#: prints every cell in full instead of cutting it to "per-j…" at rich's default of 80 columns.
+PIPE_WIDTH = 10_000
+
+
+def _stdout_console(**kwargs: Any) -> Console:
+    """The console of a command's results: the terminal's width, or unlimited when piped."""
+    return Console(width=None if sys.stdout.isatty() else PIPE_WIDTH, **kwargs)
 
 
 def _fail(msg: str) -> typer.Exit:
@@ -144,7 +158,7 @@ def demo(
         raise _fail(f"--scenario: expected one of {list(SCENARIOS)}, got {scenario!r}")
     if scenario == "arm-box" and config is not None:
         raise _fail("--config applies to the wrist scenario only; drop it for --scenario arm-box")
-    console = Console()
+    console = _stdout_console()
     arm = scenario == "arm-box"
     try:
         if arm:
@@ -224,7 +238,7 @@ def reproduce(
                 if c.expected_miss
                 else "[red]FAIL[/]",
             )
-        console = Console()
+        console = _stdout_console()
         console.print(table)
         _summary(console, folder, report.artifacts, line)
     if code:
@@ -351,7 +365,7 @@ def sim(
         doc["artifacts"] = [str(f) for f in files]
         sys.stdout.write(json.dumps(doc, indent=2) + "\n")
     else:
-        console = Console()
+        console = _stdout_console()
         table = Table(title=f"sim {scenario} (MuJoCo)")
         table.add_column(escape("metric [unit]"))
         for name in result.metrics:
@@ -412,7 +426,7 @@ def bench(
             quick=quick, progress=lambda what, f: report_bench(f, 1.0, what)
         )
     # Status lines go to stderr when stdout carries the Markdown (so it can be redirected).
-    console = Console(stderr=out is None)
+    console = Console(stderr=True) if out is None else _stdout_console()
     if out is not None:
         try:
             bench_app.write_report(
@@ -523,7 +537,7 @@ def _serve_page(title: str, serve: Any, port: int, no_browser: bool) -> None:
         raise _fail(str(exc)) from None
     except OSError as exc:
         raise _fail(f"cannot listen on 127.0.0.1:{port} ({exc}); try another --port") from None
-    console = Console()
+    console = _stdout_console()
     console.print(f"{title}: open {server.url}  (Ctrl-C to stop)", highlight=False)
     if not no_browser:
         webbrowser.open(server.url)
@@ -555,17 +569,23 @@ def bridge(
         Path | None, typer.Option(help="Also record the view to this new MCAP file.")
     ] = None,
 ) -> None:
-    """Run the ROS 2 DDS filter node (extra ros). Exit 0 stopped, 2 bad config, 3 DDS failed."""
-    from velfence.bridge import load_bridge_config, serve
+    """Run the ROS 2 DDS filter node (extra ros).
 
+    Exit 0 stopped, 2 bad config, 3 DDS failed, 130 interrupted (Ctrl-C) during start-up.
+    """
     view = None
     try:
+        from velfence.bridge import load_bridge_config, serve
+
         loaded = load_bridge_config(config)  # read once: the node and the view share it
         if foxglove or record is not None:
             view = _bridge_view(loaded, foxglove_port if foxglove else None, record)
         code = serve(loaded, duration=duration, on_cycle=None if view is None else view[1])
     except VelfenceError as exc:
         raise _fail(str(exc)) from None
+    except KeyboardInterrupt:  # Ctrl-C before the node's own SIGINT handler is in place
+        Console(stderr=True, soft_wrap=True).print("velfence bridge: interrupted during start-up")
+        code = EXIT_INTERRUPTED_CODE
     finally:
         if view is not None:
             view[0].close()
@@ -663,7 +683,7 @@ def study(
             f"{row['unassisted']['mean']:.3g}",
             f"{row['assisted']['mean']:.3g}",
         )
-    console = Console()
+    console = _stdout_console()
     console.print(table)
     console.print(
         f"faster with assistance: {summary['subjects_faster_assisted']}/{subjects} subjects "
@@ -704,7 +724,7 @@ def replay(
                     plot_replay(s, plot)
     except VelfenceError as exc:
         raise _fail(str(exc)) from None
-    console = Console(highlight=False)
+    console = _stdout_console(highlight=False)
     console.print(
         f"{s.commands} commands on {escape(s.command_topic)} ({s.command_type}) shaped by a "
         f"{s.kind} shaper with {s.states} states of {escape(s.state_topic)}: {s.changed} changed "
@@ -727,6 +747,47 @@ def _short(x: object) -> str:
     if isinstance(x, float):
         return f"{x:.6g}"
     return str(x)
+
+
+def plain_help(text: str | None) -> str | None:
+    """Docstring text as plain terminal help: RST roles and inline literals without markup.
+
+    ``:class:`~velfence.bridge.BridgeConfig``` becomes ``BridgeConfig``, ````velfence view````
+    becomes ``velfence view``; typer shows a command's docstring as its ``--help`` text.
+
+    Args:
+        text: A docstring or help string (``None`` passes through).
+
+    Returns:
+        The plain text.
+    """
+    if text is None:
+        return None
+    import re
+
+    def role(m: re.Match[str]) -> str:
+        target = m.group(1)
+        return target.lstrip("~").rsplit(".", 1)[-1] if target.startswith("~") else target
+
+    text = re.sub(r":[a-z]+(?::[a-z]+)?:`([^`]+)`", role, text)
+    return re.sub(r"``([^`]+)``", r"\1", text)
+
+
+def _plain_command_help() -> None:
+    """Every command's help (its docstring unless given) and every option's help, plain."""
+    import inspect
+    import typing
+
+    for cmd in app.registered_commands:
+        cmd.help = plain_help(cmd.help or inspect.getdoc(cmd.callback))
+        hints = typing.get_type_hints(cmd.callback, include_extras=True)
+        for hint in hints.values():
+            for meta in getattr(hint, "__metadata__", ()):
+                if isinstance(getattr(meta, "help", None), str):
+                    meta.help = plain_help(meta.help)
+
+
+_plain_command_help()
 
 
 def main() -> None:

@@ -32,6 +32,7 @@ try:
 except ModuleNotFoundError as exc:  # an optional dependency: name the extra
     raise missing(exc, what=__name__) from exc
 
+from velfence._docs import document_inits
 from velfence.errors import InvalidParameter
 from velfence.io.config import StrictModel, describe_validation_error
 from velfence.io.shaper_config import ConfiguredShaper, load_yaml, parse_shaper
@@ -342,7 +343,8 @@ def parse_bridge_config(document: Any, *, source: str = "config") -> BridgeConfi
     try:
         settings = BridgeSettings.model_validate(bridge)
     except ValidationError as err:
-        raise InvalidParameter(f"{where}bridge.{describe_validation_error(err)}") from None
+        text = describe_validation_error(err, BridgeSettings)
+        raise InvalidParameter(f"{where}bridge.{text}") from None
     cs = parse_shaper(document["shaper"], where=f"{source}: shaper")
     out, names = _check_fit(settings, cs, where)
     domain = settings.domain_id if settings.domain_id is not None else _domain_from_env()
@@ -368,3 +370,6 @@ def load_bridge_config(path: str | Path) -> BridgeConfig:
     """
     doc = load_yaml(path)
     return parse_bridge_config(doc, source=f"config file {path}")
+
+
+document_inits(globals())

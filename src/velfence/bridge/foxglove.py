@@ -30,6 +30,7 @@ from typing import Any
 
 import numpy as np
 
+from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence._validate import (
     check_flag,
@@ -345,7 +346,7 @@ class FoxgloveView:
         self._require_open()
         t = finite_scalar("info.t", _field(info, "t"), unit="s", what="time")
         if t < 0:
-            raise InvalidInput(f"info.t: expected a time >= 0 [s], got {t!r}")
+            raise InvalidInput(f"info.t: expected a time >= 0 [s], got {show(t)}")
         state = _vector("info.state", _field(info, "state"))
         command = _vector("info.command", _field(info, "command"))
         shaped = _vector("info.shaped", _field(info, "shaped"))
@@ -637,3 +638,6 @@ def view_hook(view: FoxgloveView) -> Any:
                 )
 
     return on_cycle
+
+
+document_inits(globals())

@@ -23,6 +23,8 @@ try:
 except ModuleNotFoundError as exc:  # an optional dependency: name the extra
     raise missing(exc, what=__name__) from exc
 
+from velfence._docs import document_inits
+
 if TYPE_CHECKING:  # what a sequence or array field holds, for the type checker
     from collections.abc import Sequence as sequence  # noqa: N813
 
@@ -318,3 +320,6 @@ def ros_name(cls: type[IdlStruct]) -> str:
     dds = cls.__idl_typename__.replace("::", ".")
     pkg, kind, _dds, name = dds.split(".")
     return f"{pkg}/{kind}/{name.removesuffix('_')}"
+
+
+document_inits(globals())

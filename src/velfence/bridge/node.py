@@ -33,6 +33,7 @@ from typing import Any
 
 import numpy as np
 
+from velfence._docs import document_inits
 from velfence._validate import check_range
 from velfence.bridge import msgs
 from velfence.bridge.config import BridgeConfig, QosSettings
@@ -44,6 +45,7 @@ __all__ = [
     "EXIT_CONFIG",
     "EXIT_DDS",
     "EXIT_INTERNAL",
+    "EXIT_INTERRUPTED",
     "EXIT_OK",
     "NODE_STATES",
     "BridgeNode",
@@ -61,6 +63,9 @@ EXIT_CONFIG = 2
 EXIT_DDS = 3
 #: Exit code: an unexpected internal error (a bug; the traceback is logged).
 EXIT_INTERNAL = 4
+#: Exit code: Ctrl-C (SIGINT) before the node was running, during start-up (128 + SIGINT, the
+#: shell's convention); once the node runs, SIGINT is a clean stop (:data:`EXIT_OK`).
+EXIT_INTERRUPTED = 130
 
 #: The states of the node, in the order a normal start passes through them.
 NODE_STATES: tuple[str, ...] = (
@@ -822,8 +827,10 @@ def serve(
         on_cycle: Passed to :class:`BridgeNode` (a live view).
 
     Returns:
-        The exit code: :data:`EXIT_OK` (clean stop), :data:`EXIT_DDS` (DDS failed) or
-        :data:`EXIT_INTERNAL` (a bug; the traceback is logged).
+        The exit code: :data:`EXIT_OK` (clean stop), :data:`EXIT_DDS` (DDS failed),
+        :data:`EXIT_INTERRUPTED` (Ctrl-C during start-up, before the signal handlers are in
+        place; one log line, no traceback) or :data:`EXIT_INTERNAL` (a bug; the traceback is
+        logged).
 
     Raises:
         InvalidParameter: a bad argument, or a configuration file that is missing or invalid
@@ -838,10 +845,6 @@ def serve(
         )
     _check_duration(duration)
     _check_on_cycle(on_cycle)
-    config = (
-        config_path if isinstance(config_path, BridgeConfig) else load_bridge_config(config_path)
-    )
-    node = BridgeNode(config, on_cycle=on_cycle)
     log = logging.getLogger("velfence.bridge")
     if not log.handlers:
         handler = logging.StreamHandler()
@@ -850,9 +853,21 @@ def serve(
         log.setLevel(logging.INFO)
         log.propagate = False
     previous: dict[signal.Signals, Any] = {}
-    if threading.current_thread() is threading.main_thread():
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            previous[sig] = signal.signal(sig, lambda _s, _f: node.stop())
+    try:  # start-up: Ctrl-C here stops with one line, before the handlers below take over
+        config = (
+            config_path
+            if isinstance(config_path, BridgeConfig)
+            else load_bridge_config(config_path)
+        )
+        node = BridgeNode(config, on_cycle=on_cycle)
+        if threading.current_thread() is threading.main_thread():
+            for sig in (signal.SIGINT, signal.SIGTERM):
+                previous[sig] = signal.signal(sig, lambda _s, _f: node.stop())
+    except KeyboardInterrupt:
+        for signum, old in previous.items():
+            signal.signal(signum, old)
+        log.error("interrupted during start-up")
+        return EXIT_INTERRUPTED
     try:
         return node.run(duration=duration)
     except DDSFailure as exc:
@@ -877,3 +892,6 @@ def _check_on_cycle(on_cycle: Any) -> None:
 def _check_duration(duration: Any) -> None:
     if duration is not None:
         check_range("duration", duration, low=0.0, high=1e6, low_open=True, unit="s")
+
+
+document_inits(globals())

@@ -29,6 +29,7 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
+from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence._validate import finite_scalar, real_array
 from velfence.errors import InvalidInput, InvalidParameter
@@ -195,3 +196,6 @@ class TetrahedralCVT:
         """Eq. (2.18): ``curvature * speed * (1 + cos² φ) / (c √2)``."""
         k, u = _rate_args(curvature, speed)
         return k * u / self.angle_rate(phi)
+
+
+document_inits(globals())

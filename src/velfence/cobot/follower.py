@@ -51,6 +51,7 @@ from typing import Literal, get_args
 import numpy as np
 from numpy.typing import ArrayLike
 
+from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence._validate import (
     MAX_MAGNITUDE,
@@ -403,3 +404,6 @@ class PathFollower:
         out = self.evaluate(R, T)
         self._spdd = out.sp_dd
         return out
+
+
+document_inits(globals())

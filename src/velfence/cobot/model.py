@@ -35,6 +35,7 @@ from typing import Literal, Protocol, get_args, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike
 
+from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence._validate import (
     MAX_MAGNITUDE,
@@ -184,7 +185,11 @@ class RThetaKinematics:
 
 @dataclass(frozen=True, kw_only=True)
 class IdentityKinematics:
-    """Joint space = end-effector space (q = R, J = I): wheeled cobots on a plane, n = 2 or 3."""
+    """Joint space = end-effector space (q = R, J = I): wheeled cobots on a plane, n = 2 or 3.
+
+    Attributes:
+        n: The dimension, an integer in [2, 10000] (default 2).
+    """
 
     n: int = 2
 
@@ -838,3 +843,6 @@ def unicycle() -> Cobot:
         [Coupling(SteeredWheel(), jacobian=wheel, name="wheel")],
         name="unicycle",
     )
+
+
+document_inits(globals())

@@ -38,6 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
+from velfence._docs import document_inits
 from velfence._typing import FloatArray, IntArray
 from velfence._validate import as_pair, check_positive
 from velfence.errors import InvalidInput, InvalidParameter
@@ -311,3 +312,6 @@ class WallSteering:
                 f"T: the curvature command is not finite for T = {Ta.tolist()}; give a unit heading"
             )
         return WallSteeringOutput(kN, target, vh, zone)
+
+
+document_inits(globals())

@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence.filter.limits import JointLimits, Profile, SphereObstacle, WorkspaceLimit
 from velfence.filter.rows import (
@@ -231,3 +232,6 @@ def compiled_rows(core: Any, filt: Any, profiles: Sequence[Profile]) -> Compiled
         getattr(filt.robot, "link_radius", np.zeros(1)),
         obstacle_buffer=filt.obstacle_buffer, spring_gain=filt.spring_gain, dt=filt.dt,
     )  # fmt: skip
+
+
+document_inits(globals())

@@ -31,6 +31,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from velfence._deprecate import renamed_args
+from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence._validate import (
     MAX_MAGNITUDE,
@@ -739,3 +740,6 @@ class SafetyFilter(InvalidPolicy):
         finally:
             self._warm = warm
         return out
+
+
+document_inits(globals())

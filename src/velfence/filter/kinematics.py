@@ -23,6 +23,7 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike
 
+from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence.errors import InvalidInput
 
@@ -193,3 +194,6 @@ def checked(what: str, value: Any, shape: tuple[int, ...]) -> FloatArray:
             "provider returning NaN or inf)"
         )
     return a
+
+
+document_inits(globals())

@@ -47,6 +47,7 @@ from typing import Any
 
 import numpy as np
 
+from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence.filter.rows import (
     LEVEL_JOINT,
@@ -84,7 +85,11 @@ _CAP = 3
 
 
 class DeadlineHit(Exception):
-    """A solve hit its iteration cap (``"iterations"``) or the cycle its budget (``"time"``)."""
+    """A solve hit its iteration cap (``"iterations"``) or the cycle its budget (``"time"``).
+
+    Args:
+        kind: ``"iterations"`` or ``"time"``, which limit was hit.
+    """
 
     def __init__(self, kind: str) -> None:
         super().__init__(kind)
@@ -327,3 +332,6 @@ def safe_fallback(
             x, how = _scaled(x, G, c, target, next_distances)
             return x, relaxed, how
     return x, relaxed, None
+
+
+document_inits(globals())

@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from velfence._deprecate import renamed_args, renamed_attribute
+from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence._validate import (
     MAX_MAGNITUDE,
@@ -23,6 +24,7 @@ from velfence._validate import (
     finite_scalar,
     readonly,
     real_array,
+    show,
 )
 from velfence.errors import InvalidParameter
 from velfence.shaping.profiles import LinearBuffer, ThreeZoneBraking
@@ -99,8 +101,8 @@ class JointLimits:
         if bad.size:
             j = int(bad[0])
             raise InvalidParameter(
-                f"upper: expected upper > lower on every joint, got upper[{j}]={hi[j]!r} <= "
-                f"lower[{j}]={lo[j]!r}"
+                f"upper: expected upper > lower on every joint, got upper[{j}]={show(hi[j])} <= "
+                f"lower[{j}]={show(lo[j])}"
             )
         v = _vector(
             "max_speed", self.max_speed, n, f"joint speeds [rad/s] of shape ({n},)",
@@ -412,21 +414,41 @@ class WorkspaceLimit:
 
 @dataclass(frozen=True)
 class SphereObstacle:
-    """A spherical obstacle no capsule link may enter.
+    r"""A spherical obstacle, optionally with its own sphere of influence.
+
+    The one obstacle class of velfence, used by the safety filter
+    (:class:`~velfence.filter.SafetyFilter`, :class:`~velfence.filter.ObstacleRows`) and by the
+    obstacle-avoiding chain controllers of :mod:`velfence.redundancy`:
+
+    * the **safety filter** keeps every capsule link out of ``radius``; its own
+      ``obstacle_buffer`` sets the approach band for all obstacles, and ``influence`` is not used
+      (an obstacle built for configuration control can be handed to the filter unchanged);
+    * the **configuration controller** (:class:`~velfence.redundancy.ConfigurationController`)
+      keeps the link surfaces outside the sphere of influence ``influence`` (the claim's
+      "spheres of influence having fixed radii surrounding obstacles at known positions",
+      US 5,150,026 claim 1) and refuses an obstacle without one;
+    * the QP baseline (:class:`~velfence.redundancy.VelocityDamperQP`) reads ``radius`` only.
+
+    It replaces ``velfence.redundancy.Obstacle`` (called ``InfluenceObstacle`` for a while
+    before 0.2); both names construct this class, with a warning, until 0.3.
 
     Attributes:
-        center: Centre [m], shape (3,) (a (2,) centre of a planar scene gets z = 0).
-        radius: Radius [m], >= 0 (0: a point obstacle; the links' own capsule radius and the
-            filter's ``obstacle_buffer`` still keep them away from it).
+        center: Centre [m], shape (3,), read-only (a (2,) centre of a planar scene gets z = 0).
+        radius: Radius of the obstacle body [m], >= 0 (0: a point obstacle; the links' own
+            capsule radius and the filter's ``obstacle_buffer`` still keep them away from it).
+        influence: Radius :math:`\rho` of the sphere of influence [m], > ``radius``, or ``None``
+            (the default: none; the configuration controller needs one).
         name: Optional label for reports.
 
     Raises:
-        InvalidParameter: a bad centre or radius, or a non-string name.
+        InvalidParameter: a bad centre, radius or influence (``influence <= radius``), or a
+            non-string name.
     """
 
     center: FloatArray
     _: KW_ONLY
     radius: float
+    influence: float | None = None
     name: str | None = None
 
     def __post_init__(self) -> None:
@@ -438,5 +460,16 @@ class SphereObstacle:
         object.__setattr__(self, "center", readonly(c))
         r = check_positive("radius", self.radius, allow_zero=True, unit="m")
         object.__setattr__(self, "radius", r)
+        if self.influence is not None:
+            rho = check_positive("influence", self.influence, unit="m")
+            if not rho > r:
+                raise InvalidParameter(
+                    "influence must exceed radius (the sphere of influence surrounds the "
+                    f"obstacle), got influence={rho:g} m <= radius={r:g} m"
+                )
+            object.__setattr__(self, "influence", rho)
         if self.name is not None:
             object.__setattr__(self, "name", check_text("name", self.name, max_length=200))
+
+
+document_inits(globals())

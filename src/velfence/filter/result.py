@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal
 
+from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence.shaping.base import Zone
 
@@ -64,3 +65,6 @@ class FilterResult:
     relaxed: tuple[str, ...] = ()
     deadline: Deadline | None = None
     method: str = "safety-filter"
+
+
+document_inits(globals())

@@ -37,6 +37,7 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 
 from velfence._deprecate import renamed_args
+from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence.filter.kinematics import KinematicsFrame, checked
 from velfence.filter.limits import JointLimits, Profile, SphereObstacle, WorkspaceLimit
@@ -581,3 +582,6 @@ def raise_inconsistent(links: int, radii: int) -> None:
         f"robot: inconsistent chain data: kinematics(q).segments() has {links} links, "
         f"link_radius has {radii} radii (expected {links} or 1)"
     )
+
+
+document_inits(globals())

@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence.errors import InvalidParameter
 
@@ -91,6 +92,7 @@ class Projector:
     Args:
         core: ``velfence_core._nd`` or ``None`` (Python).
         max_iterations: The iteration cap per solve, or ``None`` (the kernel's default).
+        max_speed: Per-joint speed limits [rad/s], shape (n,), for the kernel's box, or ``None``.
     """
 
     __slots__ = ("_cap", "_core", "_max_speed")
@@ -177,3 +179,6 @@ class Projector:
         ):
             st = 2
         return st, x
+
+
+document_inits(globals())

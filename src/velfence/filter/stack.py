@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence._validate import describe
 from velfence.errors import InvalidInput, VelfenceError
@@ -30,6 +31,10 @@ class RowStack:
 
     ``checked`` (row indices) and ``d0`` (their distances) are the rows the discrete-time model
     check follows (blocks with a ``distance`` from providers with ``next_distances``).
+
+    Args:
+        blocks: ``(level, provider, block)`` of every provider's rows this cycle, in order.
+        n: The number of joints (columns of ``G``).
     """
 
     __slots__ = ("G", "b", "blocks", "checked", "d0", "level", "violated")
@@ -212,3 +217,6 @@ def collect(providers: Sequence[Any], n_builtin: int, ctx: RowContext, n: int) -
         if blk.size:
             out.append((i, p, blk))
     return RowStack(out, n)
+
+
+document_inits(globals())

@@ -16,7 +16,7 @@ from velfence.geometry.polygon import (
     inscribed_rectangle,
     polygon_from_halfplanes,
 )
-from velfence.geometry.polytope import ConvexPolytope
+from velfence.geometry.polytope import ConvexPolytope, clearance
 from velfence.geometry.primitives import (
     closest_point_on_segment,
     closest_points_segments,
@@ -38,6 +38,7 @@ __all__ = [
     "Rectangle",
     "Spline",
     "body_to_world",
+    "clearance",
     "closest_point_on_segment",
     "closest_points_segments",
     "decompose",

@@ -35,6 +35,7 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence._validate import check_positive, finite_scalar, readonly, real_array
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
@@ -961,3 +962,6 @@ class Spline(_PathBase):
     def points_through(self) -> FloatArray:
         """The interpolated points, shape (N, n) [m], read-only."""
         return self._points
+
+
+document_inits(globals())

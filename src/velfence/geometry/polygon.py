@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence._validate import (
     MAX_MAGNITUDE,
@@ -28,6 +29,7 @@ from velfence._validate import (
     finite_scalar,
     readonly,
     real_array,
+    show,
 )
 from velfence.errors import InvalidGeometry, InvalidInput
 
@@ -114,8 +116,8 @@ class Rectangle:
         for lo, hi in (("xmin", "xmax"), ("ymin", "ymax")):
             if getattr(self, lo) > getattr(self, hi):
                 raise InvalidGeometry(
-                    f"Rectangle: expected {lo} <= {hi}, got {lo}={getattr(self, lo)!r}, "
-                    f"{hi}={getattr(self, hi)!r}; swap them"
+                    f"Rectangle: expected {lo} <= {hi}, got {lo}={show(getattr(self, lo))}, "
+                    f"{hi}={show(getattr(self, hi))}; swap them"
                 )
 
     @property
@@ -810,3 +812,6 @@ def _chebyshev(
 
     _golden_max(inner, xlo, xhi, 64)
     return best[0], best[1], best[2]
+
+
+document_inits(globals())

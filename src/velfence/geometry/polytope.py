@@ -27,6 +27,8 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from velfence._deprecate import renamed_args
+from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence._validate import (
     check_choice,
@@ -35,13 +37,14 @@ from velfence._validate import (
     describe,
     readonly,
     real_array,
+    show,
 )
-from velfence.errors import InvalidGeometry
+from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 
 if TYPE_CHECKING:
     from velfence.geometry.polygon import ConvexPolygon
 
-__all__ = ["ConvexPolytope", "Redundant"]
+__all__ = ["ConvexPolytope", "Redundant", "clearance"]
 
 #: What the constructor does with redundant rows: drop them (reported in ``removed``) or keep them.
 Redundant = Literal["remove", "keep"]
@@ -128,7 +131,9 @@ class ConvexPolytope:
         normals: Inward normals, shape (m, n), m >= 1 facets in n >= 1 dimensions, finite, none
             shorter than 1e-12 (any length: rows are normalised).
         offsets: Offsets, shape (m,), in the units of ``x`` times the normal's length.
-        names: One name per input row (strings); default ``"facet i"`` for input row ``i``.
+        facet_names: One name per input row (strings); default ``"facet i"`` for input row
+            ``i``. It was called ``names`` before 0.2 (that keyword warns until 0.3); the kept
+            facets' names are the attribute :attr:`facet_names`.
         redundant: ``"remove"`` (default) drops redundant rows, ``"keep"`` keeps them (duplicates
             are merged either way).
 
@@ -161,12 +166,13 @@ class ConvexPolytope:
     if TYPE_CHECKING:
         _radius: float
 
+    @renamed_args(names="facet_names")
     def __init__(
         self,
         normals: ArrayLike,
         offsets: ArrayLike,
         *,
-        names: Sequence[str] | None = None,
+        facet_names: Sequence[str] | None = None,
         redundant: Redundant = "remove",
     ) -> None:
         mode = check_choice("redundant", redundant, _REDUNDANT)
@@ -183,7 +189,7 @@ class ConvexPolytope:
                 f"offsets: expected shape ({m},), one offset per row of normals {N.shape}, got "
                 f"shape {off.shape}"
             )
-        labels = _names("names", names, m, [f"facet {i}" for i in range(m)])
+        labels = _names("facet_names", facet_names, m, [f"facet {i}" for i in range(m)])
         length = np.sqrt(np.einsum("ij,ij->i", N, N))
         short = np.flatnonzero(~(length >= _ZERO_NORMAL))
         if short.size:
@@ -233,8 +239,9 @@ class ConvexPolytope:
 
     # ------------------------------------------------------------------ other constructors
     @classmethod
+    @renamed_args(names="facet_names")
     def box(
-        cls, lower: ArrayLike, upper: ArrayLike, *, names: Sequence[str] | None = None
+        cls, lower: ArrayLike, upper: ArrayLike, *, facet_names: Sequence[str] | None = None
     ) -> ConvexPolytope:
         """The axis-aligned box ``lower <= x <= upper``.
 
@@ -244,7 +251,8 @@ class ConvexPolytope:
         Args:
             lower: Lower corner, shape (n,), n >= 1, finite.
             upper: Upper corner, shape (n,), ``upper > lower`` element-wise.
-            names: One name per facet (2 n strings) instead of the default names.
+            facet_names: One name per facet (2 n strings) instead of the default names (was
+                ``names`` before 0.2; that keyword warns until 0.3).
 
         Returns:
             The box (2 n facets, none removed).
@@ -266,8 +274,8 @@ class ConvexPolytope:
         if bad.size:
             j = int(bad[0])
             raise InvalidGeometry(
-                f"upper: expected upper > lower element-wise, got upper[{j}]={hi[j]!r} <= "
-                f"lower[{j}]={lo[j]!r}"
+                f"upper: expected upper > lower element-wise, got upper[{j}]={show(hi[j])} <= "
+                f"lower[{j}]={show(lo[j])}"
             )
         eye = np.eye(n)
         N = np.empty((2 * n, n))
@@ -277,9 +285,9 @@ class ConvexPolytope:
         off[0::2] = lo
         off[1::2] = -hi
         default = [f"{a}_{side}" for a in _axis_names(n) for side in ("min", "max")]
-        labels = _names("names", names, 2 * n, default)
+        labels = _names("facet_names", facet_names, 2 * n, default)
         try:
-            return cls(N, off, names=labels, redundant="keep")
+            return cls(N, off, facet_names=labels, redundant="keep")
         except InvalidGeometry as exc:  # a box too thin for the tolerance
             raise InvalidGeometry(f"lower, upper: the box is unusable: {exc}") from None
 
@@ -304,13 +312,14 @@ class ConvexPolytope:
         return cls(
             polygon.normals,
             polygon.offsets,
-            names=[f"edge {i}" for i in range(k)],
+            facet_names=[f"edge {i}" for i in range(k)],
             redundant="keep",
         )
 
     @classmethod
+    @renamed_args(names="facet_names")
     def from_vertices(
-        cls, points: ArrayLike, *, names: Sequence[str] | None = None
+        cls, points: ArrayLike, *, facet_names: Sequence[str] | None = None
     ) -> ConvexPolytope:
         """The convex hull of ``points`` (qhull through :class:`scipy.spatial.ConvexHull`).
 
@@ -319,7 +328,8 @@ class ConvexPolytope:
 
         Args:
             points: Points, shape (k, n), k >= n + 1, n >= 1, finite, not all in one hyperplane.
-            names: One name per resulting facet (check :attr:`n_facets` of an unnamed hull first).
+            facet_names: One name per resulting facet (check :attr:`n_facets` of an unnamed hull
+                first); was ``names`` before 0.2 (that keyword warns until 0.3).
 
         Returns:
             The hull as a polytope (for n = 1, the interval between the extreme points).
@@ -359,10 +369,10 @@ class ConvexPolytope:
             unnamed = cls(N, off, redundant="keep")
         except InvalidGeometry as exc:
             raise InvalidGeometry(f"points: the hull is unusable: {exc}") from None
-        if names is None:
+        if facet_names is None:
             return unnamed
-        labels = _names("names", names, unnamed.n_facets, [])
-        return cls(unnamed.normals, unnamed.offsets, names=labels, redundant="keep")
+        labels = _names("facet_names", facet_names, unnamed.n_facets, [])
+        return cls(unnamed.normals, unnamed.offsets, facet_names=labels, redundant="keep")
 
     # ------------------------------------------------------------------ sizes
     @property
@@ -707,3 +717,52 @@ def _shrink_inside(
         half = half * factor
         lo, hi = mid - half, mid + half
     return readonly(lo), readonly(hi)
+
+
+def clearance(region: ConvexPolygon | ConvexPolytope, points: ArrayLike) -> float | FloatArray:
+    """Signed distance of points (a trajectory) to the boundary of a convex region, for plots.
+
+    Positive inside (the distance to the nearest facet, the smallest of the region's
+    ``signed_distances``), zero on the boundary, negative outside (minus the Euclidean distance
+    to the region, measured to its :meth:`~ConvexPolytope.closest_point`). Outside, this is the
+    true distance, not the largest facet violation, which underestimates it near a corner.
+
+    Args:
+        region: A :class:`~velfence.geometry.ConvexPolygon` (2-D points) or
+            :class:`ConvexPolytope` (points of its ``dim``).
+        points: One point, shape (d,), or N points (a trajectory), shape (N, d), finite, in the
+            region's units.
+
+    Returns:
+        A float for one point, shape (N,) for N points; the region's units.
+
+    Raises:
+        InvalidParameter: ``region`` is neither a polygon nor a polytope.
+        InvalidInput: ``points`` not finite real numbers of shape (d,) or (N, d).
+    """
+    from velfence.geometry.polygon import ConvexPolygon
+
+    if isinstance(region, ConvexPolytope):
+        dim = region.dim
+    elif isinstance(region, ConvexPolygon):
+        dim = 2
+    else:
+        raise InvalidParameter(
+            f"region: expected a ConvexPolygon or ConvexPolytope, got {describe(region)}"
+        )
+    P = real_array("points", points, None, what=f"points of dimension {dim}")
+    if P.shape not in ((dim,),) and not (P.ndim == 2 and P.shape[1] == dim):
+        raise InvalidInput(f"points: expected shape ({dim},) or (N, {dim}), got shape {P.shape}")
+    X = P.reshape(-1, dim)
+    if isinstance(region, ConvexPolytope):
+        d = region._distances(X)
+        near = region._project(X)
+    else:
+        d = X @ region.normals.T - region.offsets
+        near = np.array([region.closest_point(x) for x in X]).reshape(-1, dim)
+    inside = np.min(d, axis=1)
+    out = np.where(inside >= 0.0, inside, -np.linalg.norm(X - near, axis=1)) + 0.0
+    return float(out[0]) if P.ndim == 1 else np.asarray(out, dtype=float)
+
+
+document_inits(globals())

@@ -35,6 +35,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from velfence._deprecate import module_getattr
+from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence._validate import real_array
 from velfence.errors import InvalidInput
@@ -472,3 +473,5 @@ def project(u: ArrayLike, G: ArrayLike, b: ArrayLike) -> Projection:
 
 
 __getattr__ = module_getattr(__name__, {"PROJECT_ITERATION_LIMIT": "PROJECT_STALLED"}, globals())
+
+document_inits(globals())

@@ -35,6 +35,7 @@ except ModuleNotFoundError as exc:  # an optional dependency: name the extra
     raise missing(exc, what=__name__) from exc
 import numpy as np
 
+from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence._validate import (
     MAX_MAGNITUDE,
@@ -247,3 +248,6 @@ class PolytopeLimit(mink.Limit):
         G: FloatArray = -NJ
         h: FloatArray = -step * bnd
         return mink.Constraint(G=G, h=h)
+
+
+document_inits(globals())

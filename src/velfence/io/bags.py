@@ -45,6 +45,7 @@ except ModuleNotFoundError as exc:  # an optional dependency: name the extra
     raise missing(exc, what=__name__) from exc
 
 from velfence._deprecate import warn_renamed
+from velfence._docs import document_inits
 from velfence._validate import MAX_PATH_LENGTH, check_choice, show
 from velfence.errors import InvalidParameter, VelfenceError
 from velfence.geometry.frames import body_to_world, world_to_body
@@ -137,7 +138,7 @@ class ReplaySettings(StrictModel):
         try:
             super().__init__(**data)
         except ValidationError as err:
-            raise InvalidParameter(_section_error(err, "replay")) from None
+            raise InvalidParameter(_section_error(err, "replay", ReplaySettings)) from None
 
     @field_validator("command_frame", mode="before")
     @classmethod
@@ -257,11 +258,11 @@ def _settings(section: Any, where: str) -> ReplaySettings:
     try:
         return ReplaySettings.model_validate(dict(section))
     except ValidationError as err:
-        raise InvalidParameter(_section_error(err, where)) from None
+        raise InvalidParameter(_section_error(err, where, ReplaySettings)) from None
 
 
-def _section_error(err: ValidationError, where: str) -> str:
-    text = describe_validation_error(err)
+def _section_error(err: ValidationError, where: str, model: type[StrictModel]) -> str:
+    text = describe_validation_error(err, model)
     top = "(top level): "
     if text.startswith(top):
         return f"section {where}: {text.removeprefix(top)}"
@@ -855,3 +856,6 @@ def _summary(
         fence=fence,
         buffer=buffer,
     )
+
+
+document_inits(globals())

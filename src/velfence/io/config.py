@@ -40,11 +40,12 @@ try:
 except ModuleNotFoundError as exc:  # an optional dependency: name the extra
     raise missing(exc, what=__name__) from exc
 
+from velfence._docs import document_inits
 from velfence._validate import MAX_STEPS, check_positive_int, check_text, show, step_count
 from velfence.errors import InvalidParameter
 from velfence.io.defaults import DEFAULT_MAX_STEPS
 from velfence.io.joint_limits import load_joint_limits
-from velfence.io.yaml_reader import MAX_DEPTH, MAX_FILE_BYTES, file_path, read_yaml
+from velfence.io.yaml_reader import MAX_DEPTH, MAX_FILE_BYTES, did_you_mean, file_path, read_yaml
 
 __all__ = [
     "DEFAULT_MAX_STEPS",
@@ -267,7 +268,7 @@ class DemoConfig(StrictModel):
             super().__init__(**data)
         except ValidationError as err:
             raise InvalidParameter(
-                f"invalid {_WHERE.get()}: {describe_validation_error(err)}"
+                f"invalid {_WHERE.get()}: {describe_validation_error(err, DemoConfig)}"
             ) from None
 
     @field_validator("shaper", mode="before")
@@ -347,13 +348,17 @@ def check_run_length(
         ) from None
 
 
-def describe_validation_error(err: ValidationError) -> str:
+def describe_validation_error(err: ValidationError, model: type[BaseModel] | None = None) -> str:
     """One line per error, ``field.path: message``, joined by ``"; "``.
 
-    Internal API of :mod:`velfence.io` and :mod:`velfence.bridge` (their config messages).
+    Internal API of :mod:`velfence.io` and :mod:`velfence.bridge` (their config messages). An
+    unknown key ("Extra inputs are not permitted") gets "did you mean 'buffer'?" when one of the
+    fields allowed at that place is close to it
+    (:func:`velfence.io.yaml_reader.did_you_mean`).
 
     Args:
         err: What pydantic raised on a model of this package.
+        model: The model that was validated, for the suggestions (``None``: none).
 
     Returns:
         The message text.
@@ -369,8 +374,41 @@ def describe_validation_error(err: ValidationError) -> str:
             msg += f", got {type(got).__name__} {show(got, 40)}"
             if isinstance(got, str) and _numeric_text(got):
                 msg += "; write numbers without quotes"
+        elif e["type"] == "extra_forbidden" and model is not None and e["loc"]:
+            msg += did_you_mean(str(e["loc"][-1]), _fields_at(model, e["loc"][:-1]))
         lines.append(f"{loc}: {msg}")
     return "; ".join(lines)
+
+
+def _models_in(annotation: Any) -> list[type[BaseModel]]:
+    """The pydantic models an annotation holds (``X | None``, ``list[X]``, ``dict[str, X]``)."""
+    import typing
+
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        return [annotation]
+    return [m for arg in typing.get_args(annotation) for m in _models_in(arg)]
+
+
+def _fields_at(model: type[BaseModel], path: tuple[int | str, ...]) -> list[str]:
+    """The field names (and aliases) allowed at ``path`` inside ``model``."""
+    models = [model]
+    for step in path:
+        nxt = [
+            m
+            for cls in models
+            if isinstance(step, str) and step in cls.model_fields
+            for m in _models_in(cls.model_fields[step].annotation)
+        ]
+        if nxt:
+            models = nxt
+        else:  # a list index or a union member's tag: narrow to the tagged model if named
+            named = [m for m in models if m.__name__ == step]
+            models = named or models
+    names: list[str] = []
+    for cls in models:
+        for name, info in cls.model_fields.items():
+            names.append(info.alias or name)
+    return names
 
 
 def _numeric_text(text: str) -> bool:
@@ -424,7 +462,9 @@ def load_config(
         inner = [e.get("ctx", {}).get("error") for e in err.errors()]
         if len(inner) == 1 and isinstance(inner[0], InvalidParameter):
             raise inner[0] from None
-        raise InvalidParameter(f"invalid {where}: {describe_validation_error(err)}") from None
+        raise InvalidParameter(
+            f"invalid {where}: {describe_validation_error(err, DemoConfig)}"
+        ) from None
     finally:
         _WHERE.reset(token)
     # The run length is known here unless it comes from the default script; then run_demo
@@ -442,3 +482,6 @@ def load_config(
     except InvalidParameter as exc:
         raise InvalidParameter(f"invalid {where}: {exc}") from None
     return cfg
+
+
+document_inits(globals())

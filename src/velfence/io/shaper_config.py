@@ -52,6 +52,7 @@ except ModuleNotFoundError as exc:  # an optional dependency: name the extra
     raise missing(exc, what=__name__) from exc
 
 from velfence._deprecate import warn_renamed
+from velfence._docs import document_inits
 from velfence.errors import InvalidParameter, VelfenceError
 from velfence.io.config import (
     MAX_CORNERS,
@@ -297,7 +298,7 @@ def parse_shaper(section: Mapping[str, Any], *, where: str = "shaper") -> Config
     try:
         spec = _MODELS[kind].model_validate(dict(section))
     except ValidationError as err:
-        text = describe_validation_error(err)
+        text = describe_validation_error(err, _MODELS[kind])
         top = "(top level): "
         if text.startswith(top):
             raise InvalidParameter(f"section {where}: {text.removeprefix(top)}") from None
@@ -337,7 +338,7 @@ def _build(spec: Any) -> ConfiguredShaper:
     if isinstance(spec, _JointLimits):
         names = tuple(spec.joint_names)
         facets = [f"{j}_{side}" for j in names for side in ("min", "max")]
-        poly = ConvexPolytope.box(np.array(spec.lower), np.array(spec.upper), names=facets)
+        poly = ConvexPolytope.box(np.array(spec.lower), np.array(spec.upper), facet_names=facets)
         shaper = PolytopeShaper(poly, buffer=spec.buffer, spring_gain=spec.spring_gain)
         n = len(names)
         return ConfiguredShaper("joint_limits", shaper, n, n, n, "joint", names)
@@ -384,3 +385,6 @@ def _safety_filter(spec: _SafetyFilter) -> ConfiguredShaper:
     if spec.mode == "joint":
         return ConfiguredShaper("safety_filter", f, n, n, n, "joint", names)
     return ConfiguredShaper("safety_filter", TwistMode(f), n, 3, n, "twist", names)
+
+
+document_inits(globals())

@@ -28,6 +28,8 @@ from velfence._validate import check_text
 from velfence.errors import InvalidParameter
 
 if TYPE_CHECKING:
+    from collections.abc import Iterable
+
     import yaml
 
 __all__ = ["MAX_DEPTH", "MAX_FILE_BYTES", "file_path", "read_yaml"]
@@ -302,3 +304,24 @@ def read_yaml(
     what = check_text("what", what)
     p = file_path(path)
     return _parse(p, _read_text(p, what), what, angle_tags is True)
+
+
+def did_you_mean(word: str, choices: Iterable[str]) -> str:
+    """``"; did you mean 'x'?"`` for the choice closest to a mistyped ``word``, or ``""``.
+
+    Internal API of :mod:`velfence.io` and :mod:`velfence.bridge`: every config message about
+    an unknown key ends with it (the pydantic-validated files through
+    :func:`velfence.io.config.describe_validation_error`, the zone files directly). The closest
+    choice with difflib's similarity ratio >= 0.6 is named.
+
+    Args:
+        word: The unknown key.
+        choices: The keys allowed there.
+
+    Returns:
+        The suffix for the message.
+    """
+    import difflib
+
+    close = difflib.get_close_matches(word, sorted(set(choices)), n=1)
+    return f"; did you mean {close[0]!r}?" if close else ""

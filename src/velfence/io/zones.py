@@ -42,11 +42,13 @@ from typing import Any, Literal
 
 import numpy as np
 
+from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence._validate import check_choice, check_positive_int, readonly, real_array, show
 from velfence.errors import InvalidGeometry, InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon
 from velfence.geometry.polytope import ConvexPolytope
+from velfence.io.yaml_reader import did_you_mean
 
 __all__ = [
     "MAX_CIRCLE_SIDES",
@@ -241,7 +243,10 @@ def _corners(name: str, spec: Mapping[Any, Any]) -> tuple[FloatArray, FloatArray
         if a in spec or b in spec:
             extra = sorted(str(k) for k in spec if k not in (a, b, "header"))
             if extra:
-                raise InvalidParameter(f"{name}: unknown field(s) {extra}; expected {a}, {b}")
+                raise InvalidParameter(
+                    f"{name}: unknown field(s) {extra}; expected {a}, {b}"
+                    + did_you_mean(extra[0], (a, b))
+                )
             for k in (a, b):
                 if k not in spec:
                     raise InvalidParameter(f"{name}.{k}: missing (a box needs {a} and {b})")
@@ -300,6 +305,7 @@ def _plane(i: int, entry: Any) -> SafetyPlane:
     if unknown:
         raise InvalidParameter(
             f"{where}: unknown field(s) {unknown}; expected {sorted(_PLANE_KEYS)}"
+            + did_you_mean(unknown[0], _PLANE_KEYS)
         )
     name = _text(f"{where}.name", entry["name"]) if "name" in entry else f"plane {i}"
     where = f"planes[{i}] ({name})"
@@ -363,7 +369,7 @@ def _point_set(
             names += [f"bounds {axis}_min", f"bounds {axis}_max"]
     listed = ", ".join(p.name for p in planes)
     try:
-        poly = ConvexPolytope(np.array(N), np.array(off), names=names)
+        poly = ConvexPolytope(np.array(N), np.array(off), facet_names=names)
     except InvalidGeometry as exc:
         closing = " and the bounds" if box is not None else ""
         raise InvalidGeometry(
@@ -467,14 +473,18 @@ def load_ur_safety_planes(
     """
     p, data = _read_yaml(path)
     if not isinstance(data, Mapping) or "safety_planes" not in data:
-        got = f"keys {sorted(map(str, data))}" if isinstance(data, Mapping) else _type(data)
+        keys = sorted(map(str, data)) if isinstance(data, Mapping) else []
+        got = f"keys {keys}" if isinstance(data, Mapping) else _type(data)
+        hint = next((h for k in keys if (h := did_you_mean(k, ("safety_planes",)))), "")
         raise InvalidParameter(
             f"safety planes file {p}: expected a mapping with a 'safety_planes' list, got {got}"
+            + hint
         )
     unknown = sorted(str(k) for k in data if k not in ("safety_planes", "bounds"))
     if unknown:
         raise InvalidParameter(
             f"safety planes file {p}: unknown key(s) {unknown}; expected safety_planes, bounds"
+            + did_you_mean(unknown[0], ("safety_planes", "bounds"))
         )
     if bounds is None and "bounds" in data:
         bounds = _mapping(f"safety planes file {p}: bounds", data["bounds"])
@@ -725,3 +735,6 @@ def nav2_points(polygon: ConvexPolygon) -> str:
     if not isinstance(polygon, ConvexPolygon):
         raise InvalidGeometry(f"polygon: expected a ConvexPolygon, got {_type(polygon)}")
     return "[" + ", ".join(f"[{x!r}, {y!r}]" for x, y in polygon.corners.tolist()) + "]"
+
+
+document_inits(globals())

@@ -31,6 +31,7 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike
 
+from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence._validate import (
     check_positive,
@@ -39,6 +40,7 @@ from velfence._validate import (
     finite_scalar,
     readonly,
     real_array,
+    show,
 )
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 
@@ -207,6 +209,10 @@ class ChainFrame:
     Made by :meth:`_ChainBase.kinematics`: one pass computes the joint points and axes; each
     point's position and Jacobian, the link segments and the critical points' Jacobians are
     derived from it at most once.
+
+    Args:
+        chain: The chain.
+        q: The joint positions [rad], shape (n,), already validated.
     """
 
     __slots__ = ("_chain", "_jac", "_kin", "_pts", "_segs")
@@ -465,7 +471,9 @@ class _ChainBase:
         k = self._link_index(link)
         tf = finite_scalar("t", t, what="fraction along the link", max_abs=None)
         if not 0.0 <= tf <= 1.0:
-            raise InvalidInput(f"t: expected a finite fraction in [0, 1] along the link, got {t!r}")
+            raise InvalidInput(
+                f"t: expected a finite fraction in [0, 1] along the link, got {show(t)}"
+            )
         return self._point_jacobian_cached(self._kinematics_cache(qa), k, tf)
 
     def end_effector(self, q: ArrayLike) -> FloatArray:
@@ -1086,3 +1094,6 @@ class DHChain(_ChainBase):
             oz + tx * xz + ty * yz + tz * zz,
         )
         return pts, axes[:-1], (ox, oy, oz)
+
+
+document_inits(globals())

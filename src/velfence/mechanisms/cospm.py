@@ -54,6 +54,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from velfence._docs import document_inits
 from velfence._typing import BoolArray, FloatArray
 from velfence._validate import (
     check_flag,
@@ -63,6 +64,7 @@ from velfence._validate import (
     finite_scalar,
     readonly,
     real_array,
+    show,
 )
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 from velfence.geometry.so3 import rot_x, rot_y, rot_z, rotations_zyx, zyx_rate_map
@@ -179,17 +181,19 @@ class CoSPMDesign:
                 if min(gap, _TWO_PI - gap) < 1e-9:
                     raise InvalidGeometry(
                         f"CoSPMDesign.eta: expected pairwise distinct leg positions modulo 2π, "
-                        f"got eta[{i}] = {self.eta[i]!r} and eta[{j}] = {self.eta[j]!r} rad; "
+                        f"got eta[{i}] = {show(self.eta[i])} and eta[{j}] = "
+                        f"{show(self.eta[j])} rad; "
                         "two legs on the same meridian make the platform singular"
                     )
         if abs(math.sin(self.beta1)) > 1e-12:
             raise InvalidGeometry(
                 f"CoSPMDesign.beta1: expected 0 or π rad (coaxial input shafts), got "
-                f"{self.beta1!r}; other values describe a non-coaxial SPM, not a CoSPM"
+                f"{show(self.beta1)}; other values describe a non-coaxial SPM, not a CoSPM"
             )
         if abs(math.sin(self.beta2)) < 1e-9:
             raise InvalidGeometry(
-                f"CoSPMDesign.beta2: expected a tilt away from 0 and π rad, got {self.beta2!r}; "
+                "CoSPMDesign.beta2: expected a tilt away from 0 and π rad, got "
+                f"{show(self.beta2)}; "
                 "at 0 or π the three platform axes coincide (permanent Type-2 singularity)"
             )
 
@@ -300,7 +304,7 @@ class CoSPM:
         self._singular_tol = check_positive("singular_tol", singular_tol, unit="(fraction)")
         if self._singular_tol >= 1.0:
             raise InvalidParameter(
-                f"singular_tol: expected a fraction in (0, 1), got {singular_tol!r}; e.g. 1e-6"
+                f"singular_tol: expected a fraction in (0, 1), got {show(singular_tol)}; e.g. 1e-6"
             )
 
         sigma = -1.0 if self._mirror else 1.0
@@ -835,3 +839,6 @@ def _modes(modes: Any) -> FloatArray:
             f"{modes!r}; (-1, -1, -1) is the home mode"
         )
     return m
+
+
+document_inits(globals())

@@ -18,12 +18,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from velfence._docs import document_inits
 from velfence._typing import BoolArray, FloatArray
 from velfence._validate import (
     check_positive,
     finite_scalar,
     readonly,
     real_array,
+    show,
 )
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon, polygon_from_halfplanes
@@ -432,7 +434,7 @@ def validate_region(
     mask = inside.reshape(Q1.shape)
     if not mask.any():
         raise InvalidParameter(
-            f"step: expected a grid fine enough to sample Q*, got step = {step!r} rad with no "
+            f"step: expected a grid fine enough to sample Q*, got step = {show(step)} rad with no "
             "node inside; use a smaller step"
         )
     q3 = _q3_for(pts, theta3, q3_home)
@@ -719,7 +721,7 @@ def workspace_map(
     if not (elev_lo > -_HALF_PI and elev_hi < _HALF_PI):
         raise InvalidParameter(
             f"elevation: expected a range inside (-π/2, π/2) rad (gimbal lock at ±π/2), got "
-            f"{elevation!r}"
+            f"{show(elevation)}"
         )
     _grid_nodes("step", step, ranges[0][1] - ranges[0][0], ranges[1][1] - ranges[1][0])
     b = np.linspace(*ranges[0], max(2, math.ceil((ranges[0][1] - ranges[0][0]) / step) + 1))
@@ -778,3 +780,6 @@ def workspace_map(
         type2=readonly(type2),
         stop_margin=readonly(margin),
     )
+
+
+document_inits(globals())

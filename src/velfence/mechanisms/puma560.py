@@ -48,6 +48,7 @@ from typing import Any, Literal, get_args
 import numpy as np
 from numpy.typing import ArrayLike
 
+from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence._validate import check_choice, check_flag, readonly, real_array, rigid_transform
 from velfence.errors import InvalidGeometry, InvalidInput
@@ -652,3 +653,6 @@ def _tool_transform(tool: Any) -> FloatArray:
 def _pose(T: ArrayLike) -> FloatArray:
     """Validate a pose argument into a float (4, 4) rigid transform."""
     return rigid_transform("T", T, tol=_ROT_TOL)
+
+
+document_inits(globals())

@@ -35,6 +35,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 from numpy.typing import ArrayLike
 
+from velfence._docs import document_inits
 from velfence._typing import BoolArray, FloatArray
 from velfence._validate import (
     check_positive,
@@ -43,6 +44,7 @@ from velfence._validate import (
     finite_scalar,
     readonly,
     real_array,
+    show,
 )
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon, polygon_from_halfplanes
@@ -153,17 +155,17 @@ class WristGeometry:
         if not -math.pi <= self.wire_azimuth <= math.pi:
             raise InvalidParameter(
                 f"WristGeometry.wire_azimuth: expected an angle in [-π, π] rad, got "
-                f"{self.wire_azimuth!r}; wrap it into that range"
+                f"{show(self.wire_azimuth)}; wrap it into that range"
             )
         if self.wire_max_bend >= math.pi / 2.0:
             raise InvalidParameter(
                 f"WristGeometry.wire_max_bend: expected a value in (0, π/2) rad, got "
-                f"{self.wire_max_bend!r}; a bend of π/2 or more does not limit anything"
+                f"{show(self.wire_max_bend)}; a bend of π/2 or more does not limit anything"
             )
         if self.singularity_margin >= 1.0:
             raise InvalidParameter(
                 f"WristGeometry.singularity_margin: expected a fraction in (0, 1) of the home "
-                f"manipulability, got {self.singularity_margin!r}; typical values are 0.1-0.3"
+                f"manipulability, got {show(self.singularity_margin)}; typical values are 0.1-0.3"
             )
 
     @property
@@ -250,7 +252,7 @@ class Wrist:
         self._singular_tol = check_positive("singular_tol", singular_tol, unit="(fraction)")
         if self._singular_tol >= 1.0:
             raise InvalidParameter(
-                f"singular_tol: expected a fraction in (0, 1), got {singular_tol!r}; e.g. 1e-3"
+                f"singular_tol: expected a fraction in (0, 1), got {show(singular_tol)}; e.g. 1e-3"
             )
         self._A = geometry.anchors
         self._B = geometry.attachments
@@ -766,3 +768,6 @@ def _polygon_samples(corners: FloatArray, per_edge: int = 96) -> FloatArray:
     scales = np.array([1.0, 0.97, 0.9, 0.75, 0.5, 0.25, 0.0])
     out: FloatArray = (centre + scales[:, None, None] * (boundary - centre)[None]).reshape(-1, 2)
     return out
+
+
+document_inits(globals())

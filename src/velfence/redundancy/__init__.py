@@ -24,20 +24,19 @@ The output is always finite; with more active rows than :math:`r` the result is 
 """
 
 from velfence._deprecate import module_getattr
-from velfence.redundancy.configuration_control import (
-    ConfigurationController,
-    ControlResult,
-    InfluenceObstacle,
-)
+from velfence.filter.limits import SphereObstacle as SphereObstacle  # for the old names
+from velfence.redundancy.configuration_control import ConfigurationController, ControlResult
 from velfence.redundancy.paths import cosine_line
 from velfence.redundancy.qp_baseline import VelocityDamperQP
 
 __all__ = [
     "ConfigurationController",
     "ControlResult",
-    "InfluenceObstacle",
     "VelocityDamperQP",
     "cosine_line",
 ]
 
-__getattr__ = module_getattr(__name__, {"Obstacle": "InfluenceObstacle"}, globals())
+#: Former names of :class:`velfence.filter.SphereObstacle`; they construct it until 0.3.
+__getattr__ = module_getattr(
+    __name__, {"Obstacle": "SphereObstacle", "InfluenceObstacle": "SphereObstacle"}, globals()
+)

@@ -2,7 +2,7 @@ r"""Configuration control with obstacle-avoidance inequality tasks (US 5,150,026
 
 The claim's steps A–F, formalised in ``docs/configuration_control.md``, for a serial chain
 (:class:`velfence.mechanisms.chain.SerialChain`) among spherical obstacles
-(:class:`InfluenceObstacle`):
+(:class:`velfence.filter.SphereObstacle`, each with its sphere of influence):
 
 A. *critical point* — for every obstacle :math:`o` and link :math:`l`, the closest point
    :math:`c_{o,l}` of the link axis (segment) to the obstacle centre :math:`x_o`; the critical
@@ -52,16 +52,18 @@ from __future__ import annotations
 import math
 import operator
 from collections.abc import Sequence
-from dataclasses import KW_ONLY, dataclass
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Literal, get_args
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from velfence._deprecate import module_getattr, renamed_args
+from velfence._docs import document_inits
 from velfence._typing import FloatArray, IntArray
 from velfence._validate import check_choice, check_positive, readonly, real_array
 from velfence.errors import InvalidInput, InvalidParameter
+from velfence.filter.limits import SphereObstacle
 from velfence.mechanisms.chain import is_library_chain
 from velfence.shaping.backend import pick_backend
 from velfence.shaping.base import InvalidPolicy, OnInvalid
@@ -70,7 +72,7 @@ from velfence.shaping.polytope import PolytopeBackend
 if TYPE_CHECKING:
     from velfence.mechanisms.chain import SerialChain
 
-__all__ = ["ConfigurationController", "ControlResult", "InfluenceObstacle"]
+__all__ = ["ConfigurationController", "ControlResult"]
 
 Release = Literal["recheck", "sequential"]
 
@@ -90,53 +92,6 @@ _CHAIN_ATTRS = (
     "end_effector",
     "ee_jacobian",
 )
-
-
-@dataclass(frozen=True, eq=False)
-class InfluenceObstacle:
-    r"""A spherical obstacle with its own sphere of influence (US 5,150,026 claim 1).
-
-    Unlike :class:`velfence.filter.SphereObstacle` (a body only; the safety filter's
-    ``obstacle_buffer`` sets the margin for all), each obstacle here carries the radius of its
-    sphere of influence, which the configuration controller keeps the links out of. It was called
-    ``Obstacle`` before 0.2; that name warns until 0.3.
-
-    The claim's "spheres of influence having fixed radii surrounding obstacles at known
-    positions".
-
-    Attributes:
-        center: Centre of the obstacle, shape (3,) [m], read-only; a (2,) centre of a planar
-            scene is stored with z = 0.
-        radius: Radius of the obstacle body [m], >= 0. Used by the QP baseline's surface
-            clearance; the configuration controller keeps the link surface outside
-            ``influence``, which contains the body.
-        influence: Radius :math:`\rho` of the sphere of influence [m], > ``radius``.
-    """
-
-    center: FloatArray
-    _: KW_ONLY
-    radius: float
-    influence: float
-
-    def __post_init__(self) -> None:
-        c = real_array("center", self.center, error=InvalidParameter, what="2 or 3 numbers [m]")
-        if c.shape not in ((2,), (3,)):
-            raise InvalidParameter(
-                f"center: expected 2 or 3 finite numbers [m] of shape (2,) or (3,), got shape "
-                f"{c.shape}"
-            )
-        if c.shape == (2,):
-            c = np.append(c, 0.0)
-        radius = check_positive("radius", self.radius, allow_zero=True, unit="m")
-        influence = check_positive("influence", self.influence, unit="m")
-        if not influence > radius:
-            raise InvalidParameter(
-                f"influence must exceed radius (the sphere of influence surrounds the obstacle), "
-                f"got influence={influence} m <= radius={radius} m"
-            )
-        object.__setattr__(self, "center", readonly(c))
-        object.__setattr__(self, "radius", radius)
-        object.__setattr__(self, "influence", influence)
 
 
 @dataclass(frozen=True, eq=False, kw_only=True)
@@ -235,7 +190,7 @@ class ChainObstacleBase(InvalidPolicy):
     def __init__(
         self,
         chain: SerialChain,
-        obstacles: Sequence[InfluenceObstacle],
+        obstacles: Sequence[SphereObstacle],
         *,
         on_invalid: OnInvalid = "raise",
     ) -> None:
@@ -250,18 +205,18 @@ class ChainObstacleBase(InvalidPolicy):
         # value's __repr__ is user code.
         ok = isinstance(obstacles, Sequence) and not isinstance(obstacles, (str, bytes))
         obs = tuple(obstacles) if ok else None
-        if obs is None or not all(isinstance(o, InfluenceObstacle) for o in obs):
+        if obs is None or not all(isinstance(o, SphereObstacle) for o in obs):
             got = type(obstacles).__name__
             if obs is not None:
                 got += " containing " + ", ".join(
-                    sorted({type(o).__name__ for o in obs if not isinstance(o, InfluenceObstacle)})
+                    sorted({type(o).__name__ for o in obs if not isinstance(o, SphereObstacle)})
                 )
             raise InvalidParameter(
-                f"obstacles must be a sequence of InfluenceObstacle, got {got}; wrap centres and "
-                "radii in InfluenceObstacle(center=..., radius=..., influence=...)"
+                f"obstacles must be a sequence of SphereObstacle, got {got}; wrap centres and "
+                "radii in velfence.filter.SphereObstacle(center, radius=..., influence=...)"
             )
         self.chain = chain
-        self._obstacles: tuple[InfluenceObstacle, ...] = obs
+        self._obstacles: tuple[SphereObstacle, ...] = obs
         self.dof = int(chain.dof)
         self.task_dim = int(chain.task_dim)
         self.redundancy = self.dof - self.task_dim
@@ -271,7 +226,7 @@ class ChainObstacleBase(InvalidPolicy):
         self._fast = is_library_chain(chain)
 
     @property
-    def obstacles(self) -> tuple[InfluenceObstacle, ...]:
+    def obstacles(self) -> tuple[SphereObstacle, ...]:
         """The obstacles (read-only: per-obstacle data is cached; build a new controller)."""
         return self._obstacles
 
@@ -646,7 +601,8 @@ class ConfigurationController(ChainObstacleBase):
     Args:
         chain: The kinematics (:class:`~velfence.mechanisms.chain.SerialChain`: ``PlanarArm``,
             ``DHChain`` …).
-        obstacles: Spherical obstacles with their spheres of influence (may be empty).
+        obstacles: :class:`~velfence.filter.SphereObstacle` entries, each with its sphere of
+            influence ``influence`` (may be empty).
         ee_gain: :math:`K_e`, end-effector position feedback gain [1/s], >= 0 (only used with
             ``ee_target``).
         damping: :math:`\lambda` of :math:`W_v = \lambda I`, [m²/rad²], > 0; bounds the joint
@@ -681,7 +637,8 @@ class ConfigurationController(ChainObstacleBase):
             :attr:`backend` reports the one in use.
 
     Raises:
-        InvalidParameter: for an out-of-range parameter, a non-chain or non-obstacles.
+        InvalidParameter: for an out-of-range parameter, a non-chain, non-obstacles or an
+            obstacle without ``influence``.
     """
 
     method = "configuration-control"
@@ -689,7 +646,7 @@ class ConfigurationController(ChainObstacleBase):
     def __init__(
         self,
         chain: SerialChain,
-        obstacles: Sequence[InfluenceObstacle],
+        obstacles: Sequence[SphereObstacle],
         *,
         ee_gain: float = 1.0,
         damping: float = 1e-2,
@@ -704,6 +661,13 @@ class ConfigurationController(ChainObstacleBase):
         backend: PolytopeBackend = "auto",
     ) -> None:
         super().__init__(chain, obstacles, on_invalid=on_invalid)
+        bare = [i for i, o in enumerate(self.obstacles) if o.influence is None]
+        if bare:
+            raise InvalidParameter(
+                f"obstacles {bare[:5]}: configuration control needs each obstacle's sphere of "
+                "influence; give it as SphereObstacle(center, radius=..., influence=...) with "
+                "influence > radius [m]"
+            )
         self.release = check_choice("release", release, get_args(Release))
         self.max_speed = (
             None if max_speed is None else check_positive("max_speed", max_speed, unit="rad/s")
@@ -961,4 +925,9 @@ class ConfigurationController(ChainObstacleBase):
         )
 
 
-__getattr__ = module_getattr(__name__, {"Obstacle": "InfluenceObstacle"}, globals())
+#: Former names of :class:`velfence.filter.SphereObstacle`; they construct it until 0.3.
+__getattr__ = module_getattr(
+    __name__, {"Obstacle": "SphereObstacle", "InfluenceObstacle": "SphereObstacle"}, globals()
+)
+
+document_inits(globals())

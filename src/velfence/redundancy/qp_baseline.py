@@ -28,17 +28,15 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence._validate import MAX_MAGNITUDE, check_positive, real_array
 from velfence.errors import InvalidInput, InvalidParameter
-from velfence.redundancy.configuration_control import (
-    ChainObstacleBase,
-    ControlResult,
-    InfluenceObstacle,
-)
+from velfence.redundancy.configuration_control import ChainObstacleBase, ControlResult
 from velfence.shaping.base import OnInvalid
 
 if TYPE_CHECKING:
+    from velfence.filter.limits import SphereObstacle
     from velfence.mechanisms.chain import SerialChain
 
 __all__ = ["VelocityDamperQP"]
@@ -90,7 +88,7 @@ class VelocityDamperQP(ChainObstacleBase):
     def __init__(
         self,
         chain: SerialChain,
-        obstacles: Sequence[InfluenceObstacle],
+        obstacles: Sequence[SphereObstacle],
         *,
         gain_xi: float = 1.0,
         d_influence: float = 0.3,
@@ -198,3 +196,6 @@ class VelocityDamperQP(ChainObstacleBase):
             redundancy=self.redundancy,
             method=self.method,
         )
+
+
+document_inits(globals())

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence._validate import check_positive_int, finite_scalar, readonly
 from velfence.errors import InvalidGeometry, InvalidInput
@@ -181,3 +182,6 @@ class CapsuleLinks:
         if not np.all(np.isfinite(out)):
             raise InvalidInput("q: expected a pose with finite kinematics, got non-finite values")
         return out
+
+
+document_inits(globals())

@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence._validate import check_text, finite_rows, readonly
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
@@ -387,6 +388,10 @@ class MujocoFrame:
 
     MuJoCo poses the robot's one ``MjData`` once; the site positions are copied at once and each
     Jacobian is computed at most once (the data re-posed first if another frame used it since).
+
+    Args:
+        robot: The robot.
+        q: The joint positions [rad], shape (n,), already validated.
     """
 
     __slots__ = ("_jac", "_pos", "_q", "_robot", "_segs")
@@ -435,3 +440,6 @@ class MujocoFrame:
     def angular_jacobian(self) -> FloatArray:
         """Angular-velocity Jacobian of the ``"tcp"`` site's body, shape (3, n)."""
         return self._site_jac(self._robot._site["tcp"], angular=True)
+
+
+document_inits(globals())

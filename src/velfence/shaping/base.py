@@ -21,6 +21,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from velfence._deprecate import module_getattr
+from velfence._docs import document_inits
 from velfence._typing import BoolArray, FloatArray, IntArray
 from velfence._validate import as_pair, as_rows, check_choice
 from velfence.errors import InvalidInput
@@ -180,6 +181,9 @@ class InvalidPolicy:
 
     ``"raise"``: bad input raises :class:`~velfence.errors.InvalidInput`; ``"stop"``: the shaper
     answers zero velocity. Either way no non-finite value is ever emitted.
+
+    Args:
+        on_invalid: ``"raise"`` (default) or ``"stop"``.
     """
 
     __slots__ = ("on_invalid",)
@@ -365,3 +369,5 @@ def _finite_rows(a: FloatArray) -> BoolArray:
 
 
 __getattr__ = module_getattr(__name__, {"ShaperResult": "ShapingResultProtocol"}, globals())
+
+document_inits(globals())

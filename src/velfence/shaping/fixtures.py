@@ -62,6 +62,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from velfence._deprecate import renamed_args, renamed_attribute
+from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence._validate import as_rows, check_positive, finite_array, real_array
 from velfence.errors import InvalidGeometry, InvalidInput
@@ -366,7 +367,7 @@ class LineFixture(InvalidPolicy):
             "0.2" as 0.2 × the Omni's 1.02 N/mm (repair T13 of ``docs/telerobotics.md`` §8).
         influence: Radius :math:`R` of the cylinder of influence, in which the spring acts [m],
             ``> 0`` (the thesis's snap radius is not given; default 0.02 m). The same word as
-            :class:`~velfence.redundancy.InfluenceObstacle`'s ``influence``; it was called
+            ``velfence.filter.SphereObstacle``'s ``influence``; it was called
             ``radius_of_influence`` before 0.2 (keyword and attribute warn until 0.3).
         max_force: Force limit :math:`F_{max}` [N], ``> 0``. Default
             :data:`OMNI_CONTINUOUS_FORCE` (0.88 N, the force the Omni sustains; its peak is
@@ -539,3 +540,6 @@ class LineFixture(InvalidPolicy):
             commands: Commands [m/s], shape (N, 3).
         """
         return _batch(self, positions, commands)
+
+
+document_inits(globals())

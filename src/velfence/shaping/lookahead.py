@@ -37,6 +37,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence._validate import check_positive, real_array
 from velfence.errors import InvalidParameter
@@ -169,3 +170,6 @@ class LagCompensation:
             Shaped velocities, one per row.
         """
         return np.asarray(self.shaper.shape_batch(positions, commands), dtype=float)
+
+
+document_inits(globals())

@@ -33,6 +33,7 @@ from typing import Any, Literal, NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike
 
+from velfence._docs import document_inits
 from velfence._typing import FloatArray, IntArray
 from velfence._validate import (
     as_pair,
@@ -41,6 +42,7 @@ from velfence._validate import (
     check_flag,
     check_positive,
     real_array,
+    show,
 )
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon, as_polygon
@@ -203,13 +205,14 @@ class PolygonShaper(ShaperBase):
             if spring_gain is not None or max_recovery_speed is not None:
                 raise InvalidParameter(
                     "with a profile the recovery outside is the profile's (its negative cap): "
-                    f"drop spring_gain and max_recovery_speed, got spring_gain={spring_gain!r}, "
-                    f"max_recovery_speed={max_recovery_speed!r}"
+                    "drop spring_gain and max_recovery_speed, got "
+                    f"spring_gain={show(spring_gain)}, "
+                    f"max_recovery_speed={show(max_recovery_speed)}"
                 )
             if dt is not None:
                 raise InvalidParameter(
                     "dt is not supported with a profile: build the period into the profile "
-                    f"(its cap), or use buffer=; got dt={dt!r}"
+                    f"(its cap), or use buffer=; got dt={show(dt)}"
                 )
             buffer = math.inf
             spring_gain = 0.0
@@ -240,7 +243,7 @@ class PolygonShaper(ShaperBase):
         )
         if self.corner_blend_angle >= math.pi:
             raise InvalidParameter(
-                f"corner_blend_angle must be in (0, π) rad, got {corner_blend_angle!r}"
+                f"corner_blend_angle must be in (0, π) rad, got {show(corner_blend_angle)}"
             )
         if max_recovery_speed is None:
             rmax = self.spring_gain * self.buffer if profile is None else 0.0
@@ -253,7 +256,7 @@ class PolygonShaper(ShaperBase):
         idt = 0.0 if self.dt is None else 1.0 / self.dt
         if not math.isfinite(idt):
             raise InvalidParameter(
-                f"dt: expected a control period of at least 1e-300 s, got {dt!r}"
+                f"dt: expected a control period of at least 1e-300 s, got {show(dt)}"
             )
         self._idt = idt
         super().__init__(on_invalid=on_invalid)
@@ -550,3 +553,6 @@ class PolygonShaper(ShaperBase):
             f"PolygonShaper({self.polygon.n}-gon, method={self.method!r}, buffer={self.buffer}, "
             f"spring_gain={self.spring_gain}, dt={self.dt})"
         )
+
+
+document_inits(globals())

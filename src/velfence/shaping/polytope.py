@@ -24,12 +24,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from velfence._docs import document_inits
 from velfence._typing import BoolArray, FloatArray, IntArray
 from velfence._validate import (
     MAX_MAGNITUDE,
     check_flag,
     check_positive,
     real_array,
+    show,
 )
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.geometry.polytope import ConvexPolytope
@@ -185,13 +187,14 @@ class PolytopeShaper(InvalidPolicy):
             if buffer is not None or spring_gain is not None or max_recovery_speed is not None:
                 raise InvalidParameter(
                     "profile replaces the linear buffer and its recovery: drop buffer, "
-                    f"spring_gain and max_recovery_speed, got buffer={buffer!r}, "
-                    f"spring_gain={spring_gain!r}, max_recovery_speed={max_recovery_speed!r}"
+                    f"spring_gain and max_recovery_speed, got buffer={show(buffer)}, "
+                    f"spring_gain={show(spring_gain)}, "
+                    f"max_recovery_speed={show(max_recovery_speed)}"
                 )
             if dt is not None:
                 raise InvalidParameter(
                     "dt is not supported with a profile: build the period into the profile "
-                    f"(its cap), or use buffer=; got dt={dt!r}"
+                    f"(its cap), or use buffer=; got dt={show(dt)}"
                 )
             self.buffer = math.inf
             self.spring_gain = 0.0
@@ -229,7 +232,7 @@ class PolytopeShaper(InvalidPolicy):
         idt = 0.0 if self.dt is None else 1.0 / self.dt
         if not math.isfinite(idt):
             raise InvalidParameter(
-                f"dt: expected a control period of at least 1e-300 s, got {dt!r}"
+                f"dt: expected a control period of at least 1e-300 s, got {show(dt)}"
             )
         super().__init__(on_invalid=on_invalid)
         self.accelerate = check_flag("accelerate", accelerate)
@@ -643,3 +646,6 @@ class PolytopeShaper(InvalidPolicy):
             f"buffer={self.buffer}, spring_gain={self.spring_gain}, dt={self.dt}, "
             f"backend={self.backend!r})"
         )
+
+
+document_inits(globals())

@@ -16,6 +16,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
 
+from velfence._docs import document_inits
 from velfence._validate import MAX_MAGNITUDE, check_positive, finite_scalar
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.shaping._kernels import PROFILE_LINEAR, PROFILE_THREE_ZONE, profile_cap
@@ -322,3 +323,6 @@ def min_change_under_caps(
         if ok:
             return ox, oy, True
     return 0.0, 0.0, True  # pragma: no cover - zero meets every bound once they are relaxed
+
+
+document_inits(globals())

@@ -28,8 +28,9 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike
 
+from velfence._docs import document_inits
 from velfence._typing import FloatArray
-from velfence._validate import check_choice, check_positive, check_positive_int, real_array
+from velfence._validate import check_choice, check_positive, check_positive_int, real_array, show
 from velfence.errors import InvalidParameter
 
 __all__ = ["RateLimiter", "RateMode"]
@@ -50,7 +51,7 @@ def _limits(name: str, x: Any, n: int, unit: str) -> FloatArray:
         raise InvalidParameter(f"{name}: expected a scalar or shape ({n},), got shape {a.shape}")
     a = np.broadcast_to(a, (n,)).copy()
     if not np.all(a > 0.0):
-        raise InvalidParameter(f"{name} must be finite and > 0 ({unit}), got {x!r}")
+        raise InvalidParameter(f"{name} must be finite and > 0 ({unit}), got {show(x)}")
     a.setflags(write=False)
     return a
 
@@ -180,3 +181,6 @@ class RateLimiter:
         out = self._prev + np.clip(v - self._prev, -step, step)
         self._prev = v
         return np.asarray(out, dtype=float)
+
+
+document_inits(globals())

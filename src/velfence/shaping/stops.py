@@ -47,6 +47,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from velfence._deprecate import renamed_args
+from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence._validate import (
     MAX_MAGNITUDE,
@@ -702,3 +703,5 @@ _Core = tuple[
     bool,
     list[float],
 ]
+
+document_inits(globals())

@@ -29,6 +29,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from velfence._deprecate import renamed_attribute
+from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence._validate import check_positive, readonly, real_array
 from velfence.errors import InvalidParameter
@@ -461,3 +462,6 @@ def arm_metrics(
     for m in out.values():
         m["time_lost"] = m["time_to_final"] - ref if math.isfinite(ref) else math.nan
     return out
+
+
+document_inits(globals())

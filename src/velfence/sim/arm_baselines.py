@@ -57,6 +57,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from velfence._deprecate import renamed_attribute
+from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence._validate import check_positive, readonly, real_array
 from velfence.errors import InvalidInput, InvalidParameter
@@ -152,6 +153,24 @@ class _ArmController:
         influence: float = 0.1,
         safety: float = 0.0,
     ) -> None:
+        r"""Build a baseline; each subclass's docstring says which arguments its law uses.
+
+        Args:
+            robot: The arm (:class:`~velfence.mechanisms.DHChain`).
+            limits: Joint limits (``lower``, ``upper``, ``max_speed``, shape (n,) each).
+            workspace: The TCP's convex polytope (3-D), or ``None``.
+            obstacles: Spheres (``center``, ``radius``) the links keep away from.
+            dt: Control period [s], > 0.
+            damping: DLS damping :math:`\lambda` [m²], > 0.
+            position_gain: Gain of the joint-position rows, dimensionless, > 0.
+            workspace_gain: Gain of the workspace rows, > 0.
+            obstacle_gain: Gain of the obstacle rows [m/s], > 0.
+            influence: Clearance at which obstacle rows start [m], > ``safety``.
+            safety: Clearance kept from obstacles [m], >= 0.
+
+        Raises:
+            InvalidParameter: a non-chain robot or an out-of-range parameter.
+        """
         for attr in ("dof", "ee_jacobian", "end_effector", "link_segments", "point_jacobian"):
             if not hasattr(robot, attr):
                 raise InvalidParameter(
@@ -468,3 +487,6 @@ class DamperQP(_ArmController):
                 side = "upper" if qd[i] >= hi[i] - tol else "lower"
                 names.append(f"joint {i} {'velocity' if at_v else 'position'} ({side})")
         return ArmStep(qd, v, q, _zone(names), tuple(names), ("qp",), self.method)
+
+
+document_inits(globals())

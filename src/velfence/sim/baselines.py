@@ -20,8 +20,9 @@ from typing import Any
 
 import numpy as np
 
+from velfence._docs import document_inits
 from velfence._typing import FloatArray, IntArray
-from velfence._validate import MAX_MAGNITUDE, check_positive
+from velfence._validate import MAX_MAGNITUDE, check_positive, show
 from velfence.errors import InvalidGeometry, InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon, Rectangle, as_polygon
 from velfence.shaping import ZONE_NAMES
@@ -341,7 +342,7 @@ class AxisLimits(_Baseline):
         values = (r.xmin, r.xmax, r.ymin, r.ymax)
         if not all(math.isfinite(x) for x in values) or not (r.xmin < r.xmax and r.ymin < r.ymax):
             raise InvalidGeometry(
-                f"rectangle must be finite with xmin < xmax and ymin < ymax, got {r!r}"
+                f"rectangle must be finite with xmin < xmax and ymin < ymax, got {show(r)}"
             )
         self.rectangle = rectangle
         self.buffer = check_positive("buffer", buffer, unit="workspace units")
@@ -399,3 +400,6 @@ class AxisLimits(_Baseline):
             f"AxisLimits(x=[{r.xmin:.4g}, {r.xmax:.4g}], y=[{r.ymin:.4g}, {r.ymax:.4g}], "
             f"buffer={self.buffer}, spring_gain={self.spring_gain})"
         )
+
+
+document_inits(globals())

@@ -31,6 +31,7 @@ from typing import Any, Literal, Protocol, get_args
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence._validate import (
     check_choice,
@@ -452,3 +453,6 @@ def simulate_cobot(
         s += ds
         T = heading(q, phi, T_ref)
     return _trace(rec, label)
+
+
+document_inits(globals())

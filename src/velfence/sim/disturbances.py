@@ -18,8 +18,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
+from velfence._docs import document_inits
 from velfence._typing import FloatArray
-from velfence._validate import check_positive, finite_scalar, real_array
+from velfence._validate import check_positive, finite_scalar, real_array, show
 from velfence.errors import InvalidParameter
 
 __all__ = ["Disturbance", "push"]
@@ -39,7 +40,7 @@ def _t1(t1: object, t0: float) -> float:
         )
     )
     if math.isnan(b) or b <= t0:
-        raise InvalidParameter(f"t1 must be > t0 = {t0} s (math.inf allowed), got {t1!r}")
+        raise InvalidParameter(f"t1 must be > t0 = {t0} s (math.inf allowed), got {show(t1)}")
     return b
 
 
@@ -127,3 +128,5 @@ class Disturbance:
 
 
 push = Disturbance.push
+
+document_inits(globals())

@@ -44,6 +44,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from velfence._deprecate import renamed_args, renamed_attribute
+from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence._validate import (
     check_choice,
@@ -578,3 +579,6 @@ class MujocoPlant:
             contacts=readonly(np.array(r["nc"], dtype=np.int64)),
             contact_depth=readonly(np.array(r["depth"])),
         )
+
+
+document_inits(globals())

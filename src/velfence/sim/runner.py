@@ -24,6 +24,7 @@ from typing import Any, Literal, Protocol, get_args, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence._validate import (
     MAX_MAGNITUDE,
@@ -33,6 +34,7 @@ from velfence._validate import (
     finite_scalar,
     readonly,
     real_array,
+    show,
     step_count,
 )
 from velfence.errors import InvalidInput, InvalidParameter, VelfenceError
@@ -149,7 +151,7 @@ class Trajectory:
             k = int(np.flatnonzero(np.diff(ta) <= 0.0)[0])
             raise InvalidInput(
                 f"t: expected strictly increasing times [s], got t[{k}] = {ta[k]!r} >= "
-                f"t[{k + 1}] = {ta[k + 1]!r}"
+                f"t[{k + 1}] = {show(ta[k + 1])}"
             )
         ta = readonly(ta)
         n = ta.shape[0]
@@ -508,3 +510,6 @@ def simulate_many(
         )
         for name, shaper in shapers.items()
     }
+
+
+document_inits(globals())

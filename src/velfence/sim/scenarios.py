@@ -14,8 +14,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from velfence._docs import document_inits
 from velfence._typing import FloatArray
-from velfence._validate import check_positive, finite_scalar, real_array
+from velfence._validate import check_positive, finite_scalar, real_array, show
 from velfence.errors import InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon, as_polygon
 
@@ -38,6 +39,11 @@ def _pair(name: str, x: object, what: str) -> tuple[float, float]:
 class Waypoint:
     """From time ``t`` [s] head for ``target`` (workspace units) at up to ``speed`` [units/s].
 
+    Attributes:
+        t: When the operator starts heading for this waypoint [s], >= 0.
+        target: The point ``(x, y)`` to head for, workspace units.
+        speed: The operator's speed towards it [units/s], > 0.
+
     Raises:
         InvalidParameter: ``t`` not a finite time >= 0, ``target`` not two finite numbers, or
             ``speed`` not finite and > 0.
@@ -56,6 +62,14 @@ class Waypoint:
 @dataclass(frozen=True, kw_only=True)
 class Script:
     """A scenario: start point, operator waypoints, disturbance pushes and duration.
+
+    Attributes:
+        start: The start point ``(x, y)``, workspace units.
+        waypoints: The operator's :class:`Waypoint` entries, in time order.
+        pushes: Disturbances ``(t0, t1, (vx, vy))``: from ``t0`` to ``t1`` [s] the point is
+            pushed at ``(vx, vy)`` [units/s].
+        duration: Length of the run [s], > 0.
+        labels: Optional text labels for plots (default none).
 
     Raises:
         InvalidParameter: a field of the wrong kind (``start`` not two finite numbers, a
@@ -79,13 +93,17 @@ class Script:
         pushes = []
         for i, push in enumerate(self.pushes):
             if not isinstance(push, (tuple, list)) or len(push) != 3:
-                raise InvalidParameter(f"pushes[{i}]: expected (t0, t1, (vx, vy)), got {push!r}")
+                raise InvalidParameter(
+                    f"pushes[{i}]: expected (t0, t1, (vx, vy)), got {show(push)}"
+                )
             t0 = check_positive(f"pushes[{i}] t0", push[0], allow_zero=True, unit="s")
             t1 = real_array(
                 f"pushes[{i}] t1", push[1], (), error=InvalidParameter, allow_nonfinite=True
             )
             if not float(t1) > t0:
-                raise InvalidParameter(f"pushes[{i}]: expected t1 > t0 = {t0} s, got {push[1]!r}")
+                raise InvalidParameter(
+                    f"pushes[{i}]: expected t1 > t0 = {t0} s, got {show(push[1])}"
+                )
             v = _pair(f"pushes[{i}] velocity", push[2], "a push velocity (vx, vy)")
             pushes.append((t0, float(t1), v))
         object.__setattr__(self, "pushes", tuple(pushes))
@@ -246,3 +264,6 @@ def operator_from(script: Script) -> Callable[[float, FloatArray], FloatArray]:
     if not isinstance(script, Script):
         raise InvalidParameter(f"script: expected a Script, got {type(script).__name__}")
     return WaypointOperator(script.waypoints)
+
+
+document_inits(globals())

@@ -52,11 +52,11 @@ from numpy.typing import ArrayLike, NDArray
 
 from velfence._typing import FloatArray
 from velfence.apps.reproduce.base import Check, Report, check_at_least, check_at_most
+from velfence.filter import SphereObstacle
 from velfence.mechanisms.chain import DHChain, PlanarArm, SerialChain
 from velfence.redundancy.configuration_control import (
     ConfigurationController,
     ControlResult,
-    InfluenceObstacle,
 )
 from velfence.redundancy.paths import Line, cosine_line
 from velfence.sim.runner import simulate
@@ -122,7 +122,7 @@ class ScenarioRun:
 
     name: str
     chain: SerialChain
-    obstacles: tuple[InfluenceObstacle, ...]
+    obstacles: tuple[SphereObstacle, ...]
     t: FloatArray
     q: FloatArray
     q_dot: FloatArray
@@ -228,10 +228,12 @@ def _ik(chain: SerialChain, target: ArrayLike, q: ArrayLike) -> FloatArray:
     return qa
 
 
-def _qp(chain: SerialChain, obstacles: Sequence[InfluenceObstacle]) -> Any:
+def _qp(chain: SerialChain, obstacles: Sequence[SphereObstacle]) -> Any:
     from velfence.redundancy.qp_baseline import VelocityDamperQP
 
-    d_safe = obstacles[0].influence - obstacles[0].radius
+    rho = obstacles[0].influence
+    assert rho is not None  # the scenarios' obstacles all have a sphere of influence
+    d_safe = rho - obstacles[0].radius
     return VelocityDamperQP(
         chain,
         obstacles,
@@ -244,7 +246,7 @@ def _qp(chain: SerialChain, obstacles: Sequence[InfluenceObstacle]) -> Any:
 
 def _in_front_of_links(
     chain: SerialChain, q: FloatArray, v: FloatArray, links: Sequence[int]
-) -> list[InfluenceObstacle]:
+) -> list[SphereObstacle]:
     """Obstacles 0.19 m (just inside ρ) from each link's midpoint, on the side it moves to.
 
     The offset is along the link's normal (the motion's component across the link), so the
@@ -260,7 +262,7 @@ def _in_front_of_links(
         vel = np.asarray(chain.point_jacobian(q, link, 0.5)) @ qd
         across = vel - float(vel @ e) * e
         obs.append(
-            InfluenceObstacle(
+            SphereObstacle(
                 center=mid + (RHO - 0.01) * across / np.linalg.norm(across),
                 radius=BODY,
                 influence=RHO,
@@ -279,7 +281,7 @@ def scenarios(*, baseline: bool = True) -> dict[str, ScenarioRun]:
     arm3 = PlanarArm.three_r()
     q3 = _ik(arm3, (2.0, 1.0), (-0.4, 0.8, 1.0))
     line1 = cosine_line((2.0, 1.0), (0.0, -1.0), 2.0, 5.0, back=True)
-    ob1 = [InfluenceObstacle(center=np.array([1.5, -1.4]), radius=BODY, influence=RHO)]
+    ob1 = [SphereObstacle(center=np.array([1.5, -1.4]), radius=BODY, influence=RHO)]
     out["i"] = run_scenario("(i) 3R, configuration control", ConfigurationController(arm3, ob1),
                             line1, q3, 10.0)  # fmt: skip
     free = ConfigurationController(arm3, [])
@@ -288,8 +290,8 @@ def scenarios(*, baseline: bool = True) -> dict[str, ScenarioRun]:
     q4 = _ik(arm4, (2.5, 1.0), (0.3, 0.5, 0.5, 0.5))
     line2 = cosine_line((2.5, 1.0), (0.0, -1.0), 2.0, 10.0, back=False)
     ob2 = [
-        InfluenceObstacle(center=np.array([0.3, -0.8]), radius=BODY, influence=RHO),
-        InfluenceObstacle(center=np.array([1.1, -1.8]), radius=BODY, influence=RHO),
+        SphereObstacle(center=np.array([0.3, -0.8]), radius=BODY, influence=RHO),
+        SphereObstacle(center=np.array([1.1, -1.8]), radius=BODY, influence=RHO),
     ]
     out["ii"] = run_scenario(
         "(ii) 4R, two obstacles, configuration control",
@@ -330,12 +332,12 @@ def _seven_dof() -> ScenarioRun:
     for q in free.q[::10]:
         elbow = np.asarray(chain.joint_positions(q), dtype=float)[3]
         probe = ConfigurationController(
-            chain, [InfluenceObstacle(center=elbow, radius=0.0, influence=1.0)]
+            chain, [SphereObstacle(center=elbow, radius=0.0, influence=1.0)]
         )
         if float(probe.critical(q0).distances[0]) >= SEVEN_START_CLEAR:
             centre = elbow
             break
-    ob = [InfluenceObstacle(center=centre, radius=0.03, influence=SEVEN_RHO)]
+    ob = [SphereObstacle(center=centre, radius=0.03, influence=SEVEN_RHO)]
     return run_scenario(
         "(v) 7R, configuration control", ConfigurationController(chain, ob), line, q0, duration
     )

@@ -94,7 +94,7 @@ def run(
     from velfence.filter import SafetyFilter
     from velfence.filter.limits import JointLimits, SphereObstacle
     from velfence.redundancy import cosine_line
-    from velfence.redundancy.configuration_control import ConfigurationController, InfluenceObstacle
+    from velfence.redundancy.configuration_control import ConfigurationController
     from velfence.robots import seven_dof
     from velfence.sim.arm import TwistMode
     from velfence.sim.physics import MujocoPlant
@@ -113,7 +113,7 @@ def run(
         if _clearance(robot, q0, elbow) >= SEVEN_START_CLEAR:
             center = elbow
             break
-    ob = InfluenceObstacle(center=center, radius=RADIUS, influence=SEVEN_RHO)
+    ob = SphereObstacle(center=center, radius=RADIUS, influence=SEVEN_RHO)
     sphere = SphereObstacle(center, radius=RADIUS, name="obstacle")
     lim = robot.joint_limits
     limits = JointLimits(lim[:, 0], lim[:, 1], np.full(robot.dof, 2.0))

@@ -30,8 +30,9 @@ from numpy.typing import NDArray
 from velfence._typing import FloatArray
 from velfence.apps import progress
 from velfence.apps.viz.plots import save_figure
+from velfence.filter import SphereObstacle
 from velfence.mechanisms.chain import SerialChain
-from velfence.redundancy.configuration_control import ControlResult, InfluenceObstacle
+from velfence.redundancy.configuration_control import ControlResult
 
 __all__ = ["ArmRun", "animate_arm", "plot_active_sets", "plot_clearance", "plot_snapshots"]
 
@@ -54,7 +55,7 @@ class ArmRun(Protocol):
         ...
 
     @property
-    def obstacles(self) -> Sequence[InfluenceObstacle]:
+    def obstacles(self) -> Sequence[SphereObstacle]:
         """The obstacles."""
         ...
 
@@ -111,9 +112,10 @@ def _obstacles(ax: Any, run: ArmRun, axes: tuple[int, int]) -> None:
     for i, ob in enumerate(run.obstacles):
         c = ob.center[list(axes)]
         ax.add_patch(Circle(tuple(c), ob.radius, color="0.3", zorder=1))
-        ax.add_patch(
-            Circle(tuple(c), ob.influence, fill=False, ls="--", color=f"C{i + 3}", zorder=1)
-        )
+        if ob.influence is not None:
+            ax.add_patch(
+                Circle(tuple(c), ob.influence, fill=False, ls="--", color=f"C{i + 3}", zorder=1)
+            )
 
 
 def _arm(ax: Any, run: ArmRun, k: int, axes: tuple[int, int], alpha: float) -> None:

@@ -39,8 +39,9 @@ def control_cycles(s: BenchSettings, step: Step, qp_ok: bool) -> list[ControlCyc
     Returns:
         One row per (arm, obstacle count, method).
     """
+    from velfence.filter import SphereObstacle
     from velfence.mechanisms.chain import DHChain, PlanarArm
-    from velfence.redundancy import ConfigurationController, InfluenceObstacle, VelocityDamperQP
+    from velfence.redundancy import ConfigurationController, VelocityDamperQP
 
     rng = np.random.default_rng(s.seed + 2)
     arms: list[tuple[str, Any, FloatArray]] = [
@@ -64,7 +65,7 @@ def control_cycles(s: BenchSettings, step: Step, qp_ok: bool) -> list[ControlCyc
                     side[2] = 0.0
                 side /= np.linalg.norm(side)
                 obstacles.append(
-                    InfluenceObstacle(center=on_link + 0.12 * side, radius=0.02, influence=0.1)
+                    SphereObstacle(center=on_link + 0.12 * side, radius=0.02, influence=0.1)
                 )
             pool = [
                 (q0 + rng.normal(scale=0.02, size=q0.shape), rng.normal(size=chain.task_dim) * 0.2)
