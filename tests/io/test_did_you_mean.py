@@ -5,7 +5,6 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from velfence.bridge.zones import load_ur_safety_planes
 
 from velfence.bridge import parse_bridge_config
 from velfence.errors import InvalidParameter
@@ -13,6 +12,7 @@ from velfence.io.bags import ReplaySettings
 from velfence.io.config import load_config
 from velfence.io.shaper_config import parse_shaper
 from velfence.io.yaml_reader import did_you_mean
+from velfence.io.zones import load_ur_safety_planes
 
 POLYGON = {"kind": "polygon", "corners": [[0, 0], [4, 0], [4, 3], [0, 3]], "buffer": 0.5}
 PLANE = {"command_in": {"type": "twist"}, "state": {"topic": "/odom", "type": "odometry"}}
