@@ -437,6 +437,8 @@ def check_positive_int(
     from velfence.errors import InvalidParameter
 
     err = error or InvalidParameter
+    if isinstance(value, np.ndarray) and value.shape == () and value.dtype.kind in "iu":
+        value = value[()]  # a 0-d integer array is a scalar, as everywhere in this layer
     # np.timedelta64 subclasses np.signedinteger but is a duration, not a count.
     if isinstance(value, (bool, np.bool_, np.timedelta64)) or not isinstance(
         value, (int, np.integer)

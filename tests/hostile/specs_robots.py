@@ -10,7 +10,9 @@ from harness import C, F, call
 
 from velfence.robots import dh_mjcf
 
-_XML = dh_mjcf([[0.0, 0.0, 0.5, 0.0], [0.3, 0.0, 0.0, 0.0]], [[-1.0, 1.0], [-2.0, 2.0]])
+_XML = dh_mjcf(
+    [[0.0, 0.0, 0.5, 0.0], [0.3, 0.0, 0.0, 0.0]], joint_limits=[[-1.0, 1.0], [-2.0, 2.0]]
+)
 _FILE = Path(tempfile.mkdtemp(prefix="velfence-robots-")) / "arm.xml"
 _FILE.write_text(_XML, encoding="utf-8")
 _URDF = _FILE.with_name("arm.urdf")

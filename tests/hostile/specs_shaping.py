@@ -46,7 +46,7 @@ def _limits() -> object:
     from velfence.filter import JointLimits
 
     lo = np.radians([-170.0, -120.0, -170.0, -120.0, -170.0, -120.0, -175.0])
-    return JointLimits(lo, -lo, np.full(7, 1.5), max_acceleration=np.full(7, 10.0))
+    return JointLimits(lo, -lo, max_speed=np.full(7, 1.5), max_acceleration=np.full(7, 10.0))
 
 
 def _box() -> object:

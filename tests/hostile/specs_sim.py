@@ -78,7 +78,9 @@ SPECS: dict[str, F | C] = {
 def _robot() -> object:
     from velfence.robots import dh_mjcf
 
-    return dh_mjcf([[0.0, 0.0, 0.3, 0.0], [0.25, 0.0, 0.0, 0.0]], [[-2.0, 2.0], [-2.0, 2.0]])
+    return dh_mjcf(
+        [[0.0, 0.0, 0.3, 0.0], [0.25, 0.0, 0.0, 0.0]], joint_limits=[[-2.0, 2.0], [-2.0, 2.0]]
+    )
 
 
 def _plant() -> vf.sim.MujocoPlant:

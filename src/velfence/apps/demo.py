@@ -213,7 +213,7 @@ def run_demo(
     script = _script(polygon, cfg)
     check_run_length(
         script.duration,
-        cfg.dt,
+        dt=cfg.dt,
         max_steps=max_steps,
         duration_name="duration"
         if cfg.duration is not None

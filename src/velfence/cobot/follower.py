@@ -94,6 +94,8 @@ def gains_from_poles(p1: complex, p2: complex) -> tuple[float, float]:
 
 def _pole(name: str, p: object) -> complex:
     """A pole as a finite complex number with real part < 0 (strings and booleans refused)."""
+    if isinstance(p, np.ndarray) and p.shape == () and p.dtype.kind in "iufc":
+        p = p[()]  # a 0-d array is a scalar
     if isinstance(p, (bool, np.bool_)) or not isinstance(p, numbers.Number):
         raise InvalidParameter(
             f"{name}: expected a stable pole (a real or complex number) in 1/m, got "

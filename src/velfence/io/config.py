@@ -34,6 +34,7 @@ from pydantic import (
     model_validator,
 )
 
+from velfence._deprecate import positional_deprecated
 from velfence._validate import MAX_STEPS, check_positive_int, check_text, show, step_count
 from velfence.errors import InvalidParameter
 from velfence.io.defaults import DEFAULT_MAX_STEPS
@@ -313,10 +314,11 @@ class DemoConfig(StrictModel):
         return value
 
 
+@positional_deprecated(1, ("duration", "dt"))
 def check_run_length(
     duration: float,
-    dt: float,
     *,
+    dt: float,
     max_steps: int = DEFAULT_MAX_STEPS,
     duration_name: str = "duration",
 ) -> int:
@@ -429,11 +431,11 @@ def load_config(
     # checks it once the script is built, still before any step is simulated.
     try:
         if cfg.duration is not None:
-            check_run_length(cfg.duration, cfg.dt, max_steps=limit)
+            check_run_length(cfg.duration, dt=cfg.dt, max_steps=limit)
         elif cfg.waypoints is not None:
             check_run_length(
                 cfg.waypoints[-1].t + 1.5,
-                cfg.dt,
+                dt=cfg.dt,
                 max_steps=limit,
                 duration_name="duration (last waypoint t + 1.5 s)",
             )

@@ -296,7 +296,7 @@ def _limits(scene: ArmScene) -> Any:
     from velfence.filter import JointLimits
 
     return JointLimits(
-        scene.lower, scene.upper, scene.max_speed, max_acceleration=scene.max_acceleration
+        scene.lower, scene.upper, max_speed=scene.max_speed, max_acceleration=scene.max_acceleration
     )
 
 

@@ -442,7 +442,7 @@ def sphere_penetration(
     r = check_positive("radius", radius, allow_zero=True, unit="m")
     worst = 0.0
     for seg in S:
-        _, clear = points_segments_distances(c[None, :], seg[:, 0], seg[:, 1], link_radius)
+        _, clear = points_segments_distances(c[None, :], seg[:, 0], seg[:, 1], radii=link_radius)
         worst = max(worst, float(-(clear.min() - r)))
     return worst
 

@@ -66,7 +66,7 @@ def _depth(bandwidth: float, speed: float, buffer: float, lookahead: bool) -> fl
     lim = robot.joint_limits
     f = SafetyFilter(
         robot,
-        limits=JointLimits(lim[:, 0], lim[:, 1], np.full(7, 2.5)),
+        limits=JointLimits(lim[:, 0], lim[:, 1], max_speed=np.full(7, 2.5)),
         workspace=(WorkspaceLimit(box, point="tcp", buffer=buffer),),
         dt=DT,
     )

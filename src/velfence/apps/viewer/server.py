@@ -57,14 +57,16 @@ Only loopback is ever bound, and these checks keep other web pages from driving 
 Each connection has a socket timeout (``connection_timeout``) and at most ``max_connections``
 are served at once, so idle or slow clients cannot pin threads; a connection that has sent
 nothing yet waits outside those slots (at most :data:`MAX_IDLE` of them, the oldest dropped
-first, each for at most ``connection_timeout``), so idle sockets never lock the page out; a client that disconnects early
-is logged at debug level only. If the real-time stepping thread fails, :attr:`ViewerServer.error`
-records why, ``GET /state`` reports it and every ``POST`` answers 503.
+first, each for at most ``connection_timeout``), so idle sockets never lock the page out; a
+client that disconnects early is logged at debug level only. If the real-time stepping thread
+fails, :attr:`ViewerServer.error` records why, ``GET /state`` reports it and every ``POST``
+answers 503.
 """
 
 from __future__ import annotations
 
 import base64
+import contextlib
 import hashlib
 import json
 import logging
@@ -299,10 +301,9 @@ class _HTTPServer(ThreadingHTTPServer):
         self._wake()
 
     def _wake(self) -> None:
-        try:
+        # OSError: the buffer is full (the waiter is awake anyway) or the socket closed
+        with contextlib.suppress(OSError):
             self._wake_w.send(b"\0")
-        except OSError:  # buffer full (the waiter is awake anyway) or already closed
-            pass
 
     def _wait_for_first_bytes(self) -> None:
         """The waiting-room thread: dispatch connections that sent, close the silent ones."""
@@ -315,7 +316,9 @@ class _HTTPServer(ThreadingHTTPServer):
                     timeout = _IDLE_POLL
                     if waiting:
                         first = next(iter(waiting.values()))[0]
-                        timeout = max(0.0, min(timeout, first + self.viewer.connection_timeout - now))
+                        timeout = max(
+                            0.0, min(timeout, first + self.viewer.connection_timeout - now)
+                        )
                     for key, _ in sel.select(timeout):
                         if key.fileobj is self._wake_r:
                             try:
