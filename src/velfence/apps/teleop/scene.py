@@ -600,12 +600,13 @@ class Scene:
             InvalidInput: non-finite or wrong-shape vectors, or a direction that is not unit.
             InvalidParameter: ``max_range`` negative or NaN.
         """
-        if isinstance(max_range, np.ndarray) and max_range.shape == ():
-            max_range = max_range[()]  # a 0-d array is a scalar
-        if isinstance(max_range, float) and max_range == math.inf:
+        raw: Any = max_range
+        if isinstance(raw, np.ndarray) and raw.shape == ():
+            raw = raw[()]  # a 0-d array is a scalar
+        if isinstance(raw, float) and raw == math.inf:
             limit = math.inf
         else:
-            limit = check_positive("max_range", max_range, allow_zero=True, unit="m")
+            limit = check_positive("max_range", raw, allow_zero=True, unit="m")
         o, d = unit_ray(origin, direction)
         return self._cast(o, d, limit)
 
