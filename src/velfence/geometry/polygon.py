@@ -30,6 +30,7 @@ from velfence._validate import (
     real_array,
 )
 from velfence.errors import InvalidGeometry, InvalidInput
+from velfence.geometry.polytope import THIN
 
 __all__ = [
     "ConvexPolygon",
@@ -176,6 +177,18 @@ class ConvexPolygon:
         xn, yn = np.roll(x, -1), np.roll(y, -1)
         cross = x * yn - xn * y
         area = 0.5 * float(cross.sum())
+        # One degeneracy rule with ConvexPolytope (its Chebyshev-radius test): an inscribed circle
+        # of radius <= THIN * (1 + max |offset|) is refused. area / perimeter <= r <= 2 area /
+        # perimeter for a convex polygon, so the search runs only near that threshold.
+        thin = THIN * (1.0 + float(np.max(np.abs(offsets))))
+        perimeter = float(length.sum())
+        if area <= thin * perimeter:
+            r = _chebyshev(c, normals, offsets)[0]
+            if r <= thin:
+                raise InvalidGeometry(
+                    f"corners: the polygon is too thin: inscribed circle of radius {r:.3g}, "
+                    f"expected > {thin:.3g} (the same rule as ConvexPolytope's)"
+                )
         cx = float(((x + xn) * cross).sum()) / (6.0 * area)
         cy = float(((y + yn) * cross).sum()) / (6.0 * area)
         ang = np.arctan2(y - cy, x - cx)
