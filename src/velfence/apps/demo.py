@@ -61,7 +61,14 @@ SCENARIOS: tuple[str, ...] = ("wrist", "arm-box")
 
 @dataclass(frozen=True)
 class DemoResult:
-    """What the demo produced: per-method metrics, the summary table and the files written."""
+    """What the demo produced: per-method metrics, the summary table and the files written.
+
+    Args:
+        metrics: Method name -> metric name -> value (:func:`velfence.sim.summarize`).
+        table: The summary table of the methods.
+        artifacts: The files written.
+        trajectories: Method name -> its run.
+    """
 
     metrics: dict[str, dict[str, float]]
     table: Table
@@ -71,6 +78,13 @@ class DemoResult:
 
 def build_shapers(polygon: ConvexPolygon, cfg: DemoConfig) -> dict[str, Shaper]:
     """The shapers the config asks for, in the config's order.
+
+    Args:
+        polygon: The permitted workspace.
+        cfg: The demo configuration (:func:`velfence.io.load_config`).
+
+    Returns:
+        Method name -> shaper, in the config's order.
 
     Raises:
         InvalidParameter: ``polygon`` is not a ConvexPolygon or ``cfg`` not a DemoConfig.

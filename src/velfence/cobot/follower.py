@@ -116,7 +116,17 @@ def _pole(name: str, p: object) -> complex:
 
 
 def critically_damped(omega: float) -> tuple[float, float]:
-    r"""Gains for a double pole at :math:`-\omega` [1/m]: :math:`(\omega^2, 2\omega)`."""
+    r"""Gains for a double pole at :math:`-\omega` [1/m]: :math:`(\omega^2, 2\omega)`.
+
+    Args:
+        omega: The pole's magnitude [1/m], finite and > 0.
+
+    Returns:
+        ``(k1, k2) = (omega², 2 omega)`` in [1/m²] and [1/m].
+
+    Raises:
+        InvalidParameter: ``omega`` not a finite number > 0.
+    """
     w = check_positive("omega", omega, unit="1/m")
     return w * w, 2.0 * w
 

@@ -393,6 +393,9 @@ def load_config(
             :data:`DEFAULT_MAX_STEPS`, at most 10⁸.
         **overrides: Top-level fields that replace the file's.
 
+    Returns:
+        The validated configuration.
+
     Raises:
         InvalidParameter: the file is missing, too large, not UTF-8, not plain YAML, or a field
             is invalid (named); the run would be longer than ``max_steps``.
