@@ -304,3 +304,12 @@ def test_positional_deprecation_refuses_a_value_given_twice() -> None:
         points_segments_distances(
             np.zeros((1, 3)), np.ones((1, 3)), np.ones((1, 3)), 0.1, radii=0.1
         )
+
+
+def test_operator_and_sr_inverse_tolerances_warn_when_positional() -> None:
+    from velfence.apps.teleop import sr_inverse
+
+    J = np.diag([1.0, 2.0, 3.0, 1.0, 1.0, 1.0])
+    with pytest.warns(DeprecationWarning, match=POSITIONAL):
+        old = sr_inverse(J, 0.01)
+    np.testing.assert_array_equal(old, sr_inverse(J, k=0.01))

@@ -211,6 +211,9 @@ def real_array(
     want = "" if shape is None else f" of shape {_shape_text(shape)}"
     if isinstance(x, _NOT_NUMBERS) or x is None or isinstance(x, (bool, np.bool_)):
         raise err(f"{name}: expected {what}{want}, got {_type_text(x)}")
+    if isinstance(x, np.ma.MaskedArray) and np.ma.getmaskarray(x).any():
+        # NumPy would hand over the masked entries' stale data as if they were values.
+        raise err(f"{name}: expected {what}{want}, got a masked array with masked entries")
     if not isinstance(x, (np.ndarray, list, tuple, range, numbers.Real, np.generic)) and not (
         hasattr(x, "__array__") or hasattr(x, "__array_interface__")
     ):

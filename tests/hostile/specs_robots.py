@@ -78,7 +78,9 @@ SPECS: dict[str, F | C] = {
         _ROBOT_METHODS,
     ),
     "robots.dh_mjcf": F(
-        lambda: call(_ROWS, _LIM, [0.0, 0.0, 0.1], "arm", radius=0.02, **_PHYSICS),
+        lambda: call(
+            _ROWS, joint_limits=_LIM, tool=[0.0, 0.0, 0.1], name="arm", radius=0.02, **_PHYSICS
+        ),
         types={
             "dh_rows": "rows",
             "joint_limits": "rows",
@@ -90,7 +92,15 @@ SPECS: dict[str, F | C] = {
         required=frozenset({"masses"}),
     ),
     "robots.mdh_mjcf": F(
-        lambda: call(_ROWS, _LIM, [0.0, 0.0, 0.1], "arm", flange_d=0.1, radius=0.02, **_PHYSICS),
+        lambda: call(
+            _ROWS,
+            joint_limits=_LIM,
+            tool=[0.0, 0.0, 0.1],
+            name="arm",
+            flange_d=0.1,
+            radius=0.02,
+            **_PHYSICS,
+        ),
         types={
             "mdh_rows": "rows",
             "joint_limits": "rows",

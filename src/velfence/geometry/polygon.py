@@ -502,7 +502,7 @@ def polygon_from_halfplanes(
     gaps = np.diff(np.append(srt, srt[0] + 2 * np.pi))
     if np.any(gaps >= np.pi - 1e-12):
         raise InvalidGeometry(
-            "the half-planes do not bound a region: their normals leave a gap of π or more "
+            "A: the half-planes do not bound a region: their normals leave a gap of π or more "
             f"(normals' angles {np.degrees(ang).round(3).tolist()} deg)"
         )
     m = Aa.shape[0]
@@ -520,7 +520,7 @@ def polygon_from_halfplanes(
             if np.all(U @ x - o >= -tol):
                 pts.append(x)
     if len(pts) < 3:
-        raise InvalidGeometry("the half-planes have an empty (or degenerate) intersection")
+        raise InvalidGeometry("A, c: the half-planes have an empty (or degenerate) intersection")
     P = np.array(pts)
     center = P.mean(axis=0)
     P = P[np.argsort(np.arctan2(P[:, 1] - center[1], P[:, 0] - center[0]))]
@@ -536,12 +536,12 @@ def polygon_from_halfplanes(
     for k in range(len(corners)):
         both = np.flatnonzero(on_line[k] & on_line[(k + 1) % len(corners)])
         if both.size == 0:
-            raise InvalidGeometry("the half-planes' intersection is degenerate")
+            raise InvalidGeometry("A, c: the half-planes' intersection is degenerate")
         edges.append(int(both[0]))
     missing = sorted(set(range(m)) - set(edges))
     if missing and not allow_redundant:
         raise InvalidGeometry(
-            f"half-plane(s) {missing} contribute no edge (redundant, or touching only at a "
+            f"A, c: half-plane(s) {missing} contribute no edge (redundant, or touching only at a "
             "corner); remove them so that every stop is an edge"
         )
     if len(set(edges)) != len(edges):

@@ -33,10 +33,11 @@ from velfence._validate import (
     finite_scalar,
     readonly,
     real_array,
+    show,
     step_count,
 )
 from velfence.errors import InvalidInput, InvalidParameter, VelfenceError
-from velfence.shaping.base import Shaper
+from velfence.shaping.base import ZONES, Shaper
 
 __all__ = [
     "CommandFn",
@@ -172,6 +173,12 @@ class Trajectory:
                 raise InvalidInput(
                     f"zone: expected {n} zone names (str) of shape ({n},), got "
                     f"{'dtype ' + str(za.dtype) if za.shape == (n,) else 'shape ' + str(za.shape)}"
+                )
+            unknown = sorted(set(za.tolist()) - {*ZONES, "unknown"})
+            if unknown:
+                raise InvalidInput(
+                    f"zone: expected zone names of velfence.shaping.base.ZONES or 'unknown', got "
+                    f"{show(unknown)}"
                 )
         za.setflags(write=False)
         if not isinstance(name, str):
