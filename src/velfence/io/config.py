@@ -211,7 +211,8 @@ class DemoConfig(StrictModel):
         duration: Simulated time [s], or None for the script's own length.
         start: Start position [unit], or None (just outside the longest edge).
         waypoints: The operator's script, or None for the built-in one.
-        pushes: External velocity disturbances, or None for the built-in push.
+        pushes: External velocity disturbances (an empty list: none), or None for the built-in
+            push.
         noise_std: Standard deviation of the position noise [unit].
         seed: Seed of the noise generator.
         saturate: Whether the wrist's actuator saturation applies.
