@@ -622,7 +622,7 @@ def rigid_transform(name: str, T: Any, *, tol: float = 1e-6) -> NDArray[np.float
 
 
 def check_flag(name: str, value: Any, *, error: type[Exception] | None = None) -> bool:
-    """A boolean option, as ``bool``: ``True``/``False`` (or NumPy booleans) only.
+    """A boolean option, as ``bool``: ``True``/``False`` (or NumPy booleans, 0-d included) only.
 
     ``bool(x)`` would turn ``"no"``, ``"False"``, ``2`` and ``[]`` into flags silently.
 
@@ -631,6 +631,8 @@ def check_flag(name: str, value: Any, *, error: type[Exception] | None = None) -
     """
     from velfence.errors import InvalidParameter
 
+    if isinstance(value, np.ndarray) and value.shape == () and value.dtype.kind == "b":
+        value = value[()]  # a 0-d boolean array is a scalar, as everywhere in this layer
     if not isinstance(value, (bool, np.bool_)):
         raise (error or InvalidParameter)(
             f"{name}: expected True or False, got {_type_text(value)}"
