@@ -569,7 +569,7 @@ class TestInputHardening:
 def test_thin_polygon_follows_the_polytope_rule(height: float) -> None:
     # a sliver used to be a valid ConvexPolygon while ConvexPolytope.from_polygon refused it:
     # both now refuse an inscribed circle of radius <= THIN * (1 + max |offset|)
-    from velfence.geometry.polytope import THIN
+    from velfence.geometry.polygon import THIN
 
     corners = [[0.0, 0.0], [1.0, 0.0], [1.0, height], [0.0, height]]
     with pytest.raises(InvalidGeometry, match="too thin"):

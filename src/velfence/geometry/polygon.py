@@ -30,7 +30,6 @@ from velfence._validate import (
     real_array,
 )
 from velfence.errors import InvalidGeometry, InvalidInput
-from velfence.geometry.polytope import THIN
 
 __all__ = [
     "ConvexPolygon",
@@ -40,6 +39,11 @@ __all__ = [
     "inscribed_rectangle",
     "polygon_from_halfplanes",
 ]
+
+#: Degeneracy rule of polygons and polytopes (:class:`~velfence.geometry.polytope.ConvexPolytope`
+#: uses it too): an inscribed circle or ball (Chebyshev radius) at or below
+#: ``THIN * (1 + max |offset|)`` means an empty or lower-dimensional set, refused.
+THIN = 1e-9
 
 
 _TWO_PI = 2.0 * math.pi

@@ -37,6 +37,7 @@ from velfence._validate import (
     real_array,
 )
 from velfence.errors import InvalidGeometry
+from velfence.geometry.polygon import THIN
 
 if TYPE_CHECKING:
     from velfence.geometry.polygon import ConvexPolygon
@@ -49,9 +50,6 @@ _REDUNDANT: tuple[Redundant, ...] = ("remove", "keep")
 
 _ZERO_NORMAL = 1e-12  # rows with a shorter normal are refused
 _DUPLICATE = 1e-12  # unit normals closer than this (max-norm) are one facet
-#: Degeneracy rule of polytopes and polygons: a Chebyshev radius (inscribed ball) at or below
-#: ``THIN * (1 + max |offset|)`` means an empty or lower-dimensional set, refused.
-THIN = 1e-9
 _REDUNDANCY = 1e-9  # row i redundant: min n_i·x over the others >= o_i - _REDUNDANCY (1 + scale)
 _RADIUS_CAP = 1e9  # the Chebyshev LP caps r at _RADIUS_CAP (1 + scale): inf when it binds
 _LP_OPTIONS = {"primal_feasibility_tolerance": 1e-10, "dual_feasibility_tolerance": 1e-10}

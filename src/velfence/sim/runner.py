@@ -33,11 +33,10 @@ from velfence._validate import (
     finite_scalar,
     readonly,
     real_array,
-    show,
     step_count,
 )
 from velfence.errors import InvalidInput, InvalidParameter, VelfenceError
-from velfence.shaping.base import ZONES, Shaper
+from velfence.shaping.base import Shaper
 
 __all__ = [
     "CommandFn",
@@ -118,8 +117,9 @@ class Trajectory:
         v_cmd: Commanded velocities, shape (N, c) (c = d unless the shaper maps another space's
             command, e.g. end-effector velocities into joint rates), units per second.
         v_out: Velocities sent to the plant (shaped, then saturated), shape (N, 2).
-        zone: Shaper zone names (``velfence.shaping.ZONE_NAMES``), shape (N,); ``"unknown"``
-            when not given.
+        zone: Zone labels, shape (N,) of str: the shaper's zone names
+            (``velfence.shaping.ZONE_NAMES``) in a simulated run, any label (a bridge's zone,
+            ``"inside"``) in a recorded one; ``"unknown"`` when not given.
         name: Label of the run (the shaper's name in :func:`simulate_many`).
         p_measured: Positions the shaper saw (true + noise), shape (N, 2); defaults to ``p``.
     """
@@ -173,12 +173,6 @@ class Trajectory:
                 raise InvalidInput(
                     f"zone: expected {n} zone names (str) of shape ({n},), got "
                     f"{'dtype ' + str(za.dtype) if za.shape == (n,) else 'shape ' + str(za.shape)}"
-                )
-            unknown = sorted(set(za.tolist()) - {*ZONES, "unknown"})
-            if unknown:
-                raise InvalidInput(
-                    f"zone: expected zone names of velfence.shaping.base.ZONES or 'unknown', got "
-                    f"{show(unknown)}"
                 )
         za.setflags(write=False)
         if not isinstance(name, str):
