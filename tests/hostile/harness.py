@@ -45,6 +45,10 @@ HEAVY_KINDS = ("str_int", "nan", "true", "dict_xy", "int_minus_1", "float_1e308"
 MEMORY_HEADROOM = 2 * 1024**3
 #: Skipped modules: the command-line front end (tested by tests/test_cli.py).
 SKIP_MODULES = ("velfence.apps.cli",)
+#: Modules inside a sub-package whose own ``__all__`` users import from directly (shown in the
+#: documentation or the examples), attacked like the packages (docs/reliability-inputs.md,
+#: "What is enumerated"; every other module-level ``__all__`` serves its package only).
+EXTRA_MODULES = ("velfence.sim.arm", "velfence.apps.scenarios.lag")
 
 
 # --- the registry's vocabulary ----------------------------------------------------------------
@@ -139,6 +143,15 @@ def public_modules() -> list[str]:
         full = f"{package}.{info.name}"
         if info.name.startswith("_") or info.name == "apps" or full in SKIP_MODULES:
             continue
+        try:
+            importlib.import_module(full)
+        except ModuleNotFoundError as exc:
+            if not _optional(exc):
+                raise
+            UNAVAILABLE[full] = str(exc.name)
+            continue
+        names.append(full)
+    for full in EXTRA_MODULES:
         try:
             importlib.import_module(full)
         except ModuleNotFoundError as exc:
@@ -640,6 +653,7 @@ SPEC_MODULES = (
     "specs_reproduce",
     "specs_tools",
     "specs_bridge_zones",
+    "specs_arm",
 )
 
 
