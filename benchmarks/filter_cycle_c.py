@@ -159,7 +159,7 @@ def _safety_filter(dense: bool = False) -> Any:
             spheres.append(SphereObstacle(c, radius=0.04))
     box = WorkspaceLimit(ConvexPolytope.box([-0.8, -0.8, 0.05], [0.8, 0.8, 1.4]), buffer=0.05)
     sf = SafetyFilter(
-        arm, limits=JointLimits(lim[:, 0], lim[:, 1], np.full(7, 1.5),
+        arm, limits=JointLimits(lim[:, 0], lim[:, 1], max_speed=np.full(7, 1.5),
                                 max_acceleration=np.full(7, 15.0)),
         workspace=box, obstacles=spheres, dt=1e-3, obstacle_buffer=0.3 if dense else 0.05,
     )  # fmt: skip

@@ -97,7 +97,10 @@ def main() -> None:
     with_box = [mink.ConfigurationLimit(model), limit]
     without = [mink.ConfigurationLimit(model)]
     sf = SafetyFilter(
-        robot, limits=JointLimits(lo, hi, 2.5), workspace=WorkspaceLimit(box, buffer=0.05), dt=DT
+        robot,
+        limits=JointLimits(lo, hi, max_speed=2.5),
+        workspace=WorkspaceLimit(box, buffer=0.05),
+        dt=DT,
     )
 
     def solve(limits: list[mink.Limit]) -> Callable[[int], object]:

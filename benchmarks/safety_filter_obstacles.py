@@ -44,7 +44,7 @@ def _clearances(chain, obstacles, q: np.ndarray) -> tuple[float, float]:
     """(min over obstacles of surface distance − ρ, min of surface distance − body radius) [m]."""
     segs = np.asarray(chain.link_segments(q), dtype=float)
     centres = np.array([o.center for o in obstacles])
-    _, d = points_segments_distances(centres, segs[:, 0], segs[:, 1], chain.link_radius)
+    _, d = points_segments_distances(centres, segs[:, 0], segs[:, 1], radii=chain.link_radius)
     d = d.min(axis=1)
     rho = np.array([o.influence for o in obstacles])
     body = np.array([o.radius for o in obstacles])
@@ -57,7 +57,7 @@ def run_filter(key: str, ref: ScenarioRun, line, duration: float) -> dict[str, f
     vmax = MAX_JOINT_SPEED if key == "iv" else 100.0
     f = SafetyFilter(
         chain,
-        limits=JointLimits(lim[:, 0], lim[:, 1], np.full(chain.dof, vmax)),
+        limits=JointLimits(lim[:, 0], lim[:, 1], max_speed=np.full(chain.dof, vmax)),
         obstacles=[SphereObstacle(o.center, radius=o.influence) for o in ref.obstacles],
         obstacle_buffer=BUFFER,
         dt=DT,

@@ -46,7 +46,7 @@ def make_filter(backend: str = "auto") -> SafetyFilter:
         obstacles.append(SphereObstacle(mid + side * (0.05 + radius + 0.03), radius=radius))
     return SafetyFilter(
         arm,
-        limits=JointLimits(lim[:, 0], lim[:, 1], np.full(7, 1.5)),
+        limits=JointLimits(lim[:, 0], lim[:, 1], max_speed=np.full(7, 1.5)),
         workspace=WorkspaceLimit(box, buffer=0.05),
         obstacles=obstacles,
         dt=1e-3,

@@ -41,7 +41,7 @@ def main() -> None:
     lim = arm.joint_limits
     f = SafetyFilter(
         arm,
-        limits=JointLimits(lim[:, 0], lim[:, 1], np.full(7, 1.5)),
+        limits=JointLimits(lim[:, 0], lim[:, 1], max_speed=np.full(7, 1.5)),
         providers=[ElbowAboveTable()],
         dt=1e-3,
     )

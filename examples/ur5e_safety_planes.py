@@ -34,7 +34,7 @@ def main() -> None:
     lo, hi = robot.joint_limits[:, 0], robot.joint_limits[:, 1]
     safety = SafetyFilter(
         robot,
-        limits=JointLimits(lo, hi, np.full(6, np.pi)),
+        limits=JointLimits(lo, hi, max_speed=np.full(6, np.pi)),
         workspace=WorkspaceLimit(planes, point="tcp", buffer=0.04),
         dt=DT,
     )

@@ -36,7 +36,7 @@ def _filter() -> SafetyFilter:
     box = ConvexPolytope.box(P0 - 0.15, P0 + 0.15)
     return SafetyFilter(
         ARM,
-        limits=JointLimits(LIM[:, 0], LIM[:, 1], 1.5),
+        limits=JointLimits(LIM[:, 0], LIM[:, 1], max_speed=1.5),
         workspace=WorkspaceLimit(box, buffer=0.05),
     )
 
@@ -107,7 +107,7 @@ def test_joint_limits_max_velocity_keyword_and_attribute() -> None:
         old = want.max_velocity
     np.testing.assert_array_equal(old, [1.0, 2.0])
     with pytest.raises(vf.InvalidParameter, match="two names of one argument"):
-        JointLimits([-1.0], [1.0], 1.0, max_velocity=1.0)
+        JointLimits([-1.0], [1.0], max_speed=1.0, max_velocity=1.0)
 
 
 def test_obstacle_rows_max_velocity_keyword() -> None:
@@ -245,3 +245,91 @@ def test_polytope_names_keyword_is_facet_names() -> None:
     with pytest.warns(DeprecationWarning, match=r"'names' is now 'facet_names'"):
         hull = ConvexPolytope.from_vertices(tri, names=["a", "b", "c"])
     assert hull.facet_names == ("a", "b", "c")
+
+
+# Tuning parameters made keyword-only in 0.2: the old positional call still works until 0.3,
+# warns, and gives what the keyword call gives.
+POSITIONAL = r"positionally is deprecated; .*goes in 0\.3"
+
+
+def _positional_cases() -> list[tuple[str, Callable[[], Any], Callable[[], Any]]]:
+    from velfence.apps.teleop.scene import Box
+    from velfence.geometry import points_segments_distances, sphere_capsule_distance
+    from velfence.io import check_run_length
+    from velfence.robots import dh_mjcf, mdh_mjcf
+
+    rows = [[0.0, 0.0, 0.5, 0.0], [0.3, 0.0, 0.0, 0.0]]
+    lim = [[-1.0, 1.0], [-2.0, 2.0]]
+    c, a, b = (0.0, 0.0, 1.0), (1.0, 0.0, 0.0), (1.0, 1.0, 0.0)
+    P, A, B = np.zeros((2, 3)), np.ones((1, 3)), np.full((1, 3), 2.0)
+    return [
+        (
+            "JointLimits",
+            lambda: JointLimits(LIM[:, 0], LIM[:, 1], 1.5),
+            lambda: JointLimits(LIM[:, 0], LIM[:, 1], max_speed=1.5),
+        ),
+        (
+            "check_run_length",
+            lambda: check_run_length(2.0, 0.01),
+            lambda: check_run_length(2.0, dt=0.01),
+        ),
+        (
+            "dh_mjcf",
+            lambda: dh_mjcf(rows, lim, (0.0, 0.0, 0.1), "two"),
+            lambda: dh_mjcf(rows, joint_limits=lim, tool=(0.0, 0.0, 0.1), name="two"),
+        ),
+        ("mdh_mjcf", lambda: mdh_mjcf(rows, lim), lambda: mdh_mjcf(rows, joint_limits=lim)),
+        (
+            "sphere_capsule_distance",
+            lambda: sphere_capsule_distance(c, 0.1, a, b, 0.2),
+            lambda: sphere_capsule_distance(c, a, b, sphere_radius=0.1, capsule_radius=0.2),
+        ),
+        (
+            "points_segments_distances",
+            lambda: points_segments_distances(P, A, B, 0.1),
+            lambda: points_segments_distances(P, A, B, radii=0.1),
+        ),
+        (
+            "Box",
+            lambda: Box((0.0, 0.0, 0.0), (1.0, 2.0, 3.0)).half_extents,
+            lambda: Box((0.0, 0.0, 0.0), half_extents=(1.0, 2.0, 3.0)).half_extents,
+        ),
+    ]
+
+
+def _same(x: Any, y: Any) -> None:
+    if isinstance(x, tuple):
+        for u, v in zip(x, y, strict=True):
+            _same(u, v)
+    elif isinstance(x, JointLimits):
+        np.testing.assert_array_equal(x.max_speed, y.max_speed)
+    elif isinstance(x, str):
+        assert x == y
+    else:
+        np.testing.assert_array_equal(x, y)
+
+
+@pytest.mark.parametrize("case", _positional_cases(), ids=lambda c: c[0])
+def test_old_positional_tuning_parameters_warn_and_agree(case: Any) -> None:
+    _, old, new = case
+    with pytest.warns(DeprecationWarning, match=POSITIONAL):
+        got = old()
+    _same(got, new())
+
+
+def test_positional_deprecation_refuses_a_value_given_twice() -> None:
+    from velfence.geometry import points_segments_distances
+
+    with pytest.raises(vf.InvalidParameter, match="positionally and by keyword"):
+        points_segments_distances(
+            np.zeros((1, 3)), np.ones((1, 3)), np.ones((1, 3)), 0.1, radii=0.1
+        )
+
+
+def test_operator_and_sr_inverse_tolerances_warn_when_positional() -> None:
+    from velfence.apps.teleop import sr_inverse
+
+    J = np.diag([1.0, 2.0, 3.0, 1.0, 1.0, 1.0])
+    with pytest.warns(DeprecationWarning, match=POSITIONAL):
+        old = sr_inverse(J, 0.01)
+    np.testing.assert_array_equal(old, sr_inverse(J, k=0.01))

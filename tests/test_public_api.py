@@ -35,35 +35,7 @@ MODULES = ["velfence", *sorted(_SUBMODULES)]
 #: Exported names whose docstrings miss a section, as ``module.name: problem``. Open defects:
 #: a new one fails :func:`test_exported_callables_are_documented`, and so does a listed one that
 #: is fixed (remove it from here; the list may only shrink).
-UNDOCUMENTED = {
-    "velfence.apps.cli.reproduction_dir: no Returns section",
-    "velfence.apps.cli.reproduction_dir: parameters not under Args: name, out",
-    "velfence.sim.constant_speed: no Returns section",
-    "velfence.sim.constant_speed: parameters not under Args: u",
-    "velfence.cobot.critically_damped: no Returns section",
-    "velfence.cobot.critically_damped: parameters not under Args: omega",
-    "velfence.sim.follow_in_ee: no Returns section",
-    "velfence.sim.pushing: no Returns section",
-    "velfence.sim.pushing: parameters not under Args: intent",
-    "velfence.cobot.r_theta_cobot: no Returns section",
-    "velfence.sim.simulate_cobot: no Returns section",
-    "velfence.cobot.unicycle: no Returns section",
-    "velfence.apps.demo.DemoResult: parameters not under Args: "
-    "artifacts, metrics, table, trajectories",
-    "velfence.apps.demo.build_shapers: no Returns section",
-    "velfence.apps.demo.build_shapers: parameters not under Args: cfg, polygon",
-    "velfence.io.load_config: no Returns section",
-    "velfence.apps.reproduce.Report: parameters not under Args: artifacts, checks, name",
-    "velfence.sim.area_gain: no Returns section",
-    "velfence.sim.chatter_rate: no Returns section",
-    "velfence.sim.summarize: no Returns section",
-    "velfence.sim.time_outside: no Returns section",
-    "velfence.apps.teleop.rotation_vector: no Returns section",
-    "velfence.apps.teleop.rotation_vector: parameters not under Args: R",
-    "velfence.apps.viz.plot_workspace: parameters not under Args: buffer, labels, path, polygon, "
-    "rectangle, title, trajectories",
-    "velfence.apps.viz.save_figure: no Returns section",
-}
+UNDOCUMENTED: set[str] = set()
 
 
 def _import(name: str) -> ModuleType:

@@ -330,7 +330,7 @@ def _replay(name: str) -> tuple[float, float, tuple[str, ...]]:
     build = ur5e if "ur5e" in name else panda
     robot = build(radius=0.05, tool=(0.0, 0.0, 0.05))
     acc = None if d["amax"].size == 0 else d["amax"]
-    limits = JointLimits(d["lo"], d["hi"], d["vmax"], max_acceleration=acc)
+    limits = JointLimits(d["lo"], d["hi"], max_speed=d["vmax"], max_acceleration=acc)
     N, o = d["N"], d["o"]
     obstacles = [SphereObstacle(c, radius=float(r)) for c, r in zip(d["C"], d["R"], strict=True)]
     flt = SafetyFilter(
@@ -419,7 +419,7 @@ def test_vertex_case_filter_workspace_rows_do_not_leave() -> None:
     from velfence.filter import JointLimits, SafetyFilter, WorkspaceLimit
 
     P, x, u, buffer, dt = _vertex_case()
-    lim = JointLimits(np.full(3, -np.inf), np.full(3, np.inf), np.full(3, 1e3))
+    lim = JointLimits(np.full(3, -np.inf), np.full(3, np.inf), max_speed=np.full(3, 1e3))
     flt = SafetyFilter(
         CartesianPoint(dim=3), limits=lim, workspace=WorkspaceLimit(P, buffer=buffer), dt=dt
     )

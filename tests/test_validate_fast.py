@@ -120,3 +120,18 @@ def test_finite_scalar_fast_accept_equals_the_full_checks(x, max_abs):
     got = finite_scalar("x", x, max_abs=max_abs)
     assert type(got) is float
     assert got == want
+
+
+def test_zero_d_arrays_are_scalars_in_the_validation_layer() -> None:
+    # DHChain.puma560(link_radius=np.array(0.05)) and counts given as np.array(3) were refused
+    import numpy as np
+
+    from velfence._validate import check_flag, check_positive, check_positive_int, finite_scalar
+    from velfence.mechanisms import DHChain
+
+    assert check_positive_int("n", np.array(3)) == 3
+    assert check_positive("r", np.array(0.05)) == 0.05
+    assert finite_scalar("x", np.array(-1.5)) == -1.5
+    assert check_flag("f", np.array(True)) is True
+    chain = DHChain.puma560(link_radius=np.array(0.05))
+    np.testing.assert_array_equal(chain.link_radius, np.full(6, 0.05))

@@ -8,6 +8,8 @@ Release 0.2 gave every idea of velfence one name (the table in docs/architecture
   qd_cmd=...)`` is ``filter(position=..., command=...)``); positional callers are unaffected;
 * :func:`module_getattr` — a module's old names (``velfence.shaping.ShaperResult`` is
   ``ShapingResultProtocol``), for the module's ``__getattr__``;
+* :func:`positional_deprecated` — a tuning parameter made keyword-only: a positional call in
+  the old order still works and warns;
 * :func:`warn_renamed` — anything else (an old YAML key or value, an old attribute).
 
 Every message contains "goes in 0.3".
@@ -27,7 +29,14 @@ if TYPE_CHECKING:  # warn_renamed through velfence._lazy and must stay cheap
 
     F = TypeVar("F", bound=Callable[..., Any])
 
-__all__ = ["REMOVED_IN", "module_getattr", "renamed_args", "renamed_attribute", "warn_renamed"]
+__all__ = [
+    "REMOVED_IN",
+    "module_getattr",
+    "positional_deprecated",
+    "renamed_args",
+    "renamed_attribute",
+    "warn_renamed",
+]
 
 #: The release that removes the old names.
 REMOVED_IN = "0.3"
@@ -87,6 +96,57 @@ def renamed_args(**renames: str) -> Callable[[F], F]:
             return func(*args, **kwargs)
 
         wrapper.__renamed_args__ = dict(renames)  # type: ignore[attr-defined]
+        return wrapper  # type: ignore[return-value]
+
+    return decorate
+
+
+def positional_deprecated(n_positional: int, old_order: tuple[str, ...]) -> Callable[[F], F]:
+    """Accept, with a warning, positional calls of parameters that became keyword-only.
+
+    ``@positional_deprecated(1, ("center", "half_extents"))`` on ``f(center, *, half_extents)``
+    lets the old call ``f(c, h)`` run as ``f(c, half_extents=h)`` and warn. A call with more
+    than ``n_positional`` positional arguments is read in the old order ``old_order`` (the
+    parameters' old positional order, which may differ from the new one); calls within
+    ``n_positional`` pass straight through.
+
+    Args:
+        n_positional: How many positional arguments the new signature takes (counting ``self``
+            for a method).
+        old_order: The names the positional arguments had, in their old order (``self`` first
+            for a method).
+
+    Returns:
+        The decorator.
+    """
+
+    def decorate(func: F) -> F:
+        qualname = func.__qualname__
+        moved = ", ".join(old_order[n_positional:])
+
+        @functools.wraps(func)
+        def wrapper(*args: Any, **kwargs: Any) -> Any:
+            if len(args) <= n_positional:
+                return func(*args, **kwargs)
+            if len(args) > len(old_order):
+                raise InvalidParameter(
+                    f"{qualname}() takes at most {len(old_order)} positional arguments, got "
+                    f"{len(args)}; pass {moved} by keyword"
+                )
+            named = dict(zip(old_order, args, strict=False))
+            twice = sorted(named.keys() & kwargs.keys())
+            if twice:
+                raise InvalidParameter(f"{qualname}() got {twice} positionally and by keyword")
+            late = [n for n in old_order[: len(args)] if n in old_order[n_positional:]]
+            warnings.warn(
+                f"{qualname}(): passing {', '.join(late)} positionally is deprecated; pass "
+                f"{', '.join(f'{n}=...' for n in late)} (positional use goes in {REMOVED_IN})",
+                DeprecationWarning,
+                stacklevel=2,
+            )
+            return func(**named, **kwargs)  # every argument by name: the new order is moot
+
+        wrapper.__positional_deprecated__ = old_order[n_positional:]  # type: ignore[attr-defined]
         return wrapper  # type: ignore[return-value]
 
     return decorate

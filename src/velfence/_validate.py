@@ -221,6 +221,9 @@ def real_array(
     want = "" if shape is None else f" of shape {_shape_text(shape)}"
     if isinstance(x, _NOT_NUMBERS) or x is None or isinstance(x, (bool, np.bool_)):
         raise err(f"{name}: expected {what}{want}, got {_type_text(x)}")
+    if isinstance(x, np.ma.MaskedArray) and np.ma.getmaskarray(x).any():
+        # NumPy would hand over the masked entries' stale data as if they were values.
+        raise err(f"{name}: expected {what}{want}, got a masked array with masked entries")
     if not isinstance(x, (np.ndarray, list, tuple, range, numbers.Real, np.generic)) and not (
         hasattr(x, "__array__") or hasattr(x, "__array_interface__")
     ):
@@ -449,6 +452,8 @@ def check_positive_int(
     from velfence.errors import InvalidParameter
 
     err = error or InvalidParameter
+    if isinstance(value, np.ndarray) and value.shape == () and value.dtype.kind in "iu":
+        value = value[()]  # a 0-d integer array is a scalar, as everywhere in this layer
     # np.timedelta64 subclasses np.signedinteger but is a duration, not a count.
     if isinstance(value, (bool, np.bool_, np.timedelta64)) or not isinstance(
         value, (int, np.integer)
@@ -629,7 +634,7 @@ def rigid_transform(name: str, T: Any, *, tol: float = 1e-6) -> NDArray[np.float
 
 
 def check_flag(name: str, value: Any, *, error: type[Exception] | None = None) -> bool:
-    """A boolean option, as ``bool``: ``True``/``False`` (or NumPy booleans) only.
+    """A boolean option, as ``bool``: ``True``/``False`` (or NumPy booleans, 0-d included) only.
 
     ``bool(x)`` would turn ``"no"``, ``"False"``, ``2`` and ``[]`` into flags silently.
 
@@ -638,6 +643,8 @@ def check_flag(name: str, value: Any, *, error: type[Exception] | None = None) -
     """
     from velfence.errors import InvalidParameter
 
+    if isinstance(value, np.ndarray) and value.shape == () and value.dtype.kind == "b":
+        value = value[()]  # a 0-d boolean array is a scalar, as everywhere in this layer
     if not isinstance(value, (bool, np.bool_)):
         raise (error or InvalidParameter)(
             f"{name}: expected True or False, got {_type_text(value)}"

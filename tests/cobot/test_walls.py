@@ -245,3 +245,39 @@ def test_caster_wall_huge_commands_and_zero_command_zones() -> None:
     ell, w, _ = wall.line(inside_buffer, [0.0, -1.0])
     np.testing.assert_allclose(w, small)
     assert abs(float(np.linalg.norm(ell)) - 1.0) < 1e-12
+
+
+def test_relaxed_stage_never_points_outward_from_outside() -> None:
+    # Outside, a recovery the passive device cannot realise is relaxed to "not further out"; the
+    # arc end point it picks used to miss that bound by round-off (n·w ~ -1e-14 |v|), so a cart
+    # held against the wall crept outward step after step.
+    from velfence.shaping import STAGE_NAMES
+
+    relaxed_bit = 1 << STAGE_NAMES.index("relaxed")
+    rng = np.random.default_rng(7)
+    n_relaxed = 0
+    for _ in range(60):
+        m = int(rng.integers(3, 8))
+        ang = rng.uniform(0, 1) + np.arange(m) * 2 * np.pi / m + rng.uniform(-0.2, 0.2, m)
+        poly = ConvexPolygon(np.c_[np.cos(ang), np.sin(ang)])
+        wall = CasterWall(poly, buffer=0.1, spring_gain=float(rng.uniform(5.0, 50.0)))
+        th = rng.uniform(0, 2 * np.pi)
+        p = np.array([np.cos(th), np.sin(th)]) * rng.uniform(1.05, 1.5)
+        a = rng.uniform(0, 2 * np.pi)
+        v = np.array([np.cos(a), np.sin(a)]) * rng.uniform(0.01, 0.5)
+        depth = np.maximum(-poly.signed_distances(p), 0.0)
+        for _ in range(200):
+            _, w, stages = wall.line(p, v)
+            n_relaxed += bool(stages & relaxed_bit)
+            rows = wall.shaper.bound_rows(p, v).rows
+            for nx, ny, low, *_ in rows:
+                if low >= 0.0:  # an inward bound: never an outward component, not even round-off
+                    assert nx * w[0] + ny * w[1] >= 0.0
+            p = p + 1e-2 * w
+            new_depth = np.maximum(-poly.signed_distances(p), 0.0)
+            # each wall the cart is outside of: the penetration never grows (to the step's own
+            # round-off, 1 ulp of the position)
+            out = depth > 0.0
+            assert np.all(new_depth[out] <= depth[out] + 4 * np.spacing(np.abs(p).max()))
+            depth = new_depth
+    assert n_relaxed > 1000  # the relaxed stage was exercised

@@ -66,7 +66,9 @@ def _safety_filter(**overrides):
 
     arm = DHChain.seven_dof(link_radius=0.04)
     lim = arm.joint_limits
-    limits = JointLimits(lim[:, 0], lim[:, 1], np.full(7, 2.0), max_acceleration=np.full(7, 10.0))
+    limits = JointLimits(
+        lim[:, 0], lim[:, 1], max_speed=np.full(7, 2.0), max_acceleration=np.full(7, 10.0)
+    )
     # The contract's states (π/2 ± 0.9 on every joint) put the tool around this box and the
     # elbow near the sphere, some joints past their limits.
     box = ConvexPolytope.box([-0.6, -0.6, 0.0], [0.6, 0.6, 0.9])

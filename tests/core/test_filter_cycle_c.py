@@ -124,7 +124,7 @@ def _filter_and_cycle(
 
     robot = DHChain.seven_dof(link_radius=0.05, tool=(0.0, 0.0, 0.1))
     lim = JointLimits(
-        robot.joint_limits[:, 0], robot.joint_limits[:, 1], np.full(7, 1.5),
+        robot.joint_limits[:, 0], robot.joint_limits[:, 1], max_speed=np.full(7, 1.5),
         max_acceleration=np.full(7, 10.0),
     )  # fmt: skip
     box = WorkspaceLimit(ConvexPolytope.box([-0.6, -0.6, 0.1], [0.6, 0.6, 1.4]), point="tcp")
@@ -250,7 +250,7 @@ def test_safety_filter_c_route_counts_deadline_misses_and_refuses_bad_input() ->
     from velfence.errors import InvalidInput
 
     robot = DHChain.seven_dof(link_radius=0.05)
-    lim = JointLimits(robot.joint_limits[:, 0], robot.joint_limits[:, 1], np.full(7, 1.5))
+    lim = JointLimits(robot.joint_limits[:, 0], robot.joint_limits[:, 1], max_speed=np.full(7, 1.5))
     box = WorkspaceLimit(ConvexPolytope.box([-0.5, -0.5, 0.2], [0.5, 0.5, 1.2]), point="tcp")
     sf = SafetyFilter(robot, limits=lim, workspace=box, dt=0.001, max_iterations=1)
     assert sf._ccycle is not None  # type: ignore[attr-defined]

@@ -127,7 +127,7 @@ def scenes(draw: Any) -> dict[str, Any]:
     if draw(st.integers(0, 4)) == 0:
         weights = [draw(st.floats(0.2, 5.0)) for _ in range(n)]
     sf = SafetyFilter(
-        robot, limits=JointLimits(lo, hi, vmax, max_acceleration=amax), workspace=box,
+        robot, limits=JointLimits(lo, hi, max_speed=vmax, max_acceleration=amax), workspace=box,
         obstacles=obstacles, dt=dt, weights=weights,
         obstacle_buffer=draw(st.floats(0.01, 0.3)), spring_gain=draw(st.floats(0.0, 5.0)),
         backend="python",  # the oracle: the Python route (backend="auto" would run the C cycle)
@@ -243,7 +243,7 @@ def test_deadline_fallback_equals_the_oracle() -> None:
     if not hasattr(projection, "project_kernel_opts"):
         pytest.skip("the oracle's iteration cap needs project_kernel_opts (spec-24 section 2)")
     robot = DHChain.seven_dof(link_radius=0.05)
-    lim = JointLimits(robot.joint_limits[:, 0], robot.joint_limits[:, 1], np.full(7, 1.5))
+    lim = JointLimits(robot.joint_limits[:, 0], robot.joint_limits[:, 1], max_speed=np.full(7, 1.5))
     box = WorkspaceLimit(ConvexPolytope.box([-0.5, -0.5, 0.2], [0.5, 0.5, 1.2]), point="tcp")
     rng = np.random.default_rng(11)
     seen = 0

@@ -41,7 +41,7 @@ DAQP_PRIMAL_TOL = 1e-14
 
 
 def limits(acc: bool = False) -> JointLimits:
-    return JointLimits(LIM[:, 0], LIM[:, 1], VMAX, max_acceleration=AMAX if acc else None)
+    return JointLimits(LIM[:, 0], LIM[:, 1], max_speed=VMAX, max_acceleration=AMAX if acc else None)
 
 
 def box_filter(**kw: object) -> SafetyFilter:
@@ -277,7 +277,8 @@ def test_an_obstacle_is_never_penetrated() -> None:
         q = q + f.filter_twist(q, v, point="elbow") * dt
         qs.append(q)
     clear = [
-        points_segments_distances(centre[None], s[:, 0], s[:, 1], ARM.link_radius)[1].min() - 0.05
+        points_segments_distances(centre[None], s[:, 0], s[:, 1], radii=ARM.link_radius)[1].min()
+        - 0.05
         for s in (ARM.link_segments(q) for q in qs)
     ]
     assert min(clear) >= 0.0, min(clear)
@@ -313,7 +314,7 @@ def test_recovery_past_a_joint_limit() -> None:
 
 # ------------------------------------------------------------------------ priorities
 def test_workspace_conflicting_with_joint_limits_gives_way() -> None:
-    slow = JointLimits(LIM[:, 0], LIM[:, 1], np.full(7, 1e-4))
+    slow = JointLimits(LIM[:, 0], LIM[:, 1], max_speed=np.full(7, 1e-4))
     q = Q0.copy()
     q[1] += 0.3  # outside the box; recovery needs ~0.05 m/s, the joints allow ~1e-4 m/s
     f = SafetyFilter(ARM, limits=slow, workspace=WorkspaceLimit(BOX, buffer=0.05))
@@ -414,7 +415,7 @@ def test_inputs_are_validated() -> None:
     with pytest.raises(InvalidInput, match="point"):
         f.filter_twist(Q0, np.zeros(3), point="knee")
     with pytest.raises(InvalidParameter, match="limits"):
-        SafetyFilter(ARM, limits=JointLimits([-1.0] * 6, [1.0] * 6, 1.0))
+        SafetyFilter(ARM, limits=JointLimits([-1.0] * 6, [1.0] * 6, max_speed=1.0))
     with pytest.raises(InvalidParameter, match="point"):
         SafetyFilter(ARM, limits=limits(), workspace=WorkspaceLimit(BOX, point="knee"))
     square = ConvexPolytope.box([-1.0, -1.0], [1.0, 1.0])
@@ -430,21 +431,21 @@ def test_inputs_are_validated() -> None:
 
 def test_joint_limits_are_validated() -> None:
     with pytest.raises(InvalidParameter, match="upper"):
-        JointLimits([0.0, 1.0], [1.0, 0.5], 1.0)
+        JointLimits([0.0, 1.0], [1.0, 0.5], max_speed=1.0)
     with pytest.raises(InvalidParameter, match="max_speed"):
-        JointLimits([0.0], [1.0], 0.0)
+        JointLimits([0.0], [1.0], max_speed=0.0)
     with pytest.raises(InvalidParameter, match="max_acceleration"):
-        JointLimits([0.0], [1.0], 1.0, max_acceleration=[-1.0])
+        JointLimits([0.0], [1.0], max_speed=1.0, max_acceleration=[-1.0])
     with pytest.raises(InvalidParameter, match="names"):
-        JointLimits([0.0], [1.0], 1.0, names=("a", "b"))
-    lim = JointLimits([-math.inf], [1.0], [2.0])
+        JointLimits([0.0], [1.0], max_speed=1.0, names=("a", "b"))
+    lim = JointLimits([-math.inf], [1.0], max_speed=[2.0])
     assert lim.dof == 1
     assert not lim.lower.flags.writeable
 
 
 def test_planar_arm_in_the_plane() -> None:
     arm = PlanarArm.three_r(link_radius=0.02)
-    lim = JointLimits(arm.joint_limits[:, 0], arm.joint_limits[:, 1], 1.0)
+    lim = JointLimits(arm.joint_limits[:, 0], arm.joint_limits[:, 1], max_speed=1.0)
     square = ConvexPolytope.box([0.5, 0.5], [2.0, 2.0])
     f = SafetyFilter(
         arm,
@@ -501,7 +502,7 @@ def test_other_arms_keep_a_named_point_in_a_box(robot: str) -> None:
     dt = 0.002
     f = SafetyFilter(
         arm,
-        limits=JointLimits(lim[:, 0], lim[:, 1], np.full(6, 2.0)),
+        limits=JointLimits(lim[:, 0], lim[:, 1], max_speed=np.full(6, 2.0)),
         workspace=WorkspaceLimit(box, point=point, buffer=0.02),
         dt=dt,
     )

@@ -66,7 +66,9 @@ def scene(robot: Any, **kw: Any) -> SafetyFilter:
         centre = 0.5 * (a + b) + side * (0.05 + radius + 0.03)
         obstacles.append(SphereObstacle(centre, radius=radius))
     args: dict[str, Any] = {
-        "limits": JointLimits(lim[:, 0], lim[:, 1], np.full(7, 1.5), max_acceleration=AMAX),
+        "limits": JointLimits(
+            lim[:, 0], lim[:, 1], max_speed=np.full(7, 1.5), max_acceleration=AMAX
+        ),
         "workspace": WorkspaceLimit(ConvexPolytope.box(p0 - 0.15, p0 + 0.15), buffer=0.05),
         "obstacles": obstacles,
         "dt": 1e-3,

@@ -49,7 +49,7 @@ def crowded(**kw: Any) -> SafetyFilter:
             c = a + rng.uniform(0.2, 0.8) * (b - a) + (0.05 + 0.03 + 0.01) * d / np.linalg.norm(d)
             obstacles.append(SphereObstacle(c, radius=0.03))
     args: dict[str, Any] = {
-        "limits": JointLimits(lim[:, 0], lim[:, 1], np.full(7, 1.5)),
+        "limits": JointLimits(lim[:, 0], lim[:, 1], max_speed=np.full(7, 1.5)),
         "workspace": WorkspaceLimit(ConvexPolytope.box(p0 - 0.01, p0 + 0.01), buffer=0.05),
         "obstacles": obstacles,
         "obstacle_buffer": 0.1,
@@ -176,7 +176,7 @@ def test_campaign_states_stay_inside(name: str) -> None:
     robot = robots.ur5e() if "ur5e" in name else robots.panda()
     poly = ConvexPolytope(d["N"], d["o"])
     amax = d["amax"] if d["amax"].size else None
-    lim = JointLimits(d["lo"], d["hi"], d["vmax"], max_acceleration=amax)
+    lim = JointLimits(d["lo"], d["hi"], max_speed=d["vmax"], max_acceleration=amax)
     obs = [SphereObstacle(c, radius=float(r)) for c, r in zip(d["C"], d["R"], strict=True)]
     f = SafetyFilter(robot, limits=lim, workspace=WorkspaceLimit(poly), obstacles=obs, dt=1e-3)
     q = d["q"]
@@ -320,7 +320,7 @@ def test_bad_kinematics_are_named_never_passed_on(fault: str, match: str) -> Non
     lim = ARM.joint_limits
     p0 = ARM.fk(Q0)
     flt = SafetyFilter(
-        Faulty(fault), limits=JointLimits(lim[:, 0], lim[:, 1], np.full(7, 1.5)),
+        Faulty(fault), limits=JointLimits(lim[:, 0], lim[:, 1], max_speed=np.full(7, 1.5)),
         workspace=WorkspaceLimit(ConvexPolytope.box(p0 - 0.1, p0 + 0.1)),
         obstacles=[SphereObstacle(p0 + 0.3, radius=0.05)], dt=1e-3,
     )  # fmt: skip
@@ -335,7 +335,9 @@ def test_inconsistent_chain_data_is_refused_at_construction() -> None:
 
     lim = ARM.joint_limits
     with pytest.raises(InvalidParameter, match=r"robot: inconsistent chain data"):
-        SafetyFilter(BadData(""), limits=JointLimits(lim[:, 0], lim[:, 1], np.full(7, 1.5)))
+        SafetyFilter(
+            BadData(""), limits=JointLimits(lim[:, 0], lim[:, 1], max_speed=np.full(7, 1.5))
+        )
 
 
 def test_every_error_is_a_velfence_error() -> None:
@@ -358,7 +360,7 @@ def test_a_tool_resting_on_tilted_planes_with_joints_at_limits_stays_in(seed: in
     for j in rng.choice(6, 3, replace=False):
         (lo if rng.random() < 0.5 else hi)[j] = q[j]
     f = SafetyFilter(
-        robot, limits=JointLimits(lo, hi, np.full(6, np.pi)),
+        robot, limits=JointLimits(lo, hi, max_speed=np.full(6, np.pi)),
         workspace=WorkspaceLimit(planes, buffer=0.04), dt=dt,
     )  # fmt: skip
     for _ in range(250):

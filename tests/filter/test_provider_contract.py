@@ -76,7 +76,8 @@ CASES = {
 @pytest.mark.parametrize("case", sorted(CASES))
 def test_a_bad_provider_is_named_in_a_velfence_error(case: str, backend: str) -> None:
     f = SafetyFilter(
-        ARM, limits=JointLimits(LIM[:, 0], LIM[:, 1], np.full(7, 1.5)), providers=[CASES[case]],
+        ARM, limits=JointLimits(LIM[:, 0], LIM[:, 1], max_speed=np.full(7, 1.5)),
+        providers=[CASES[case]],
         dt=1e-3, backend=backend,
     )  # fmt: skip
     calls = (
@@ -99,11 +100,11 @@ def test_a_bad_provider_is_named_in_a_velfence_error(case: str, backend: str) ->
 
 def test_b_as_a_list_is_accepted_like_an_array() -> None:
     f = SafetyFilter(
-        ARM, limits=JointLimits(LIM[:, 0], LIM[:, 1], np.full(7, 1.5)),
+        ARM, limits=JointLimits(LIM[:, 0], LIM[:, 1], max_speed=np.full(7, 1.5)),
         providers=[_Provider(lambda: _block(b=[-0.1]))], backend="python",
     )  # fmt: skip
     ref = SafetyFilter(
-        ARM, limits=JointLimits(LIM[:, 0], LIM[:, 1], np.full(7, 1.5)),
+        ARM, limits=JointLimits(LIM[:, 0], LIM[:, 1], max_speed=np.full(7, 1.5)),
         providers=[_Provider(_block)], backend="python",
     )  # fmt: skip
     np.testing.assert_array_equal(f.filter(Q0, -np.ones(7)), ref.filter(Q0, -np.ones(7)))
@@ -118,10 +119,12 @@ def test_b_as_a_list_is_accepted_like_an_array() -> None:
 def test_weight_ratios_beyond_1e12_are_refused(weights: Any) -> None:
     with pytest.raises(InvalidParameter, match="weights: expected the largest weight at most"):
         SafetyFilter(
-            ARM, limits=JointLimits(LIM[:, 0], LIM[:, 1], np.full(7, 1.5)), weights=weights
+            ARM,
+            limits=JointLimits(LIM[:, 0], LIM[:, 1], max_speed=np.full(7, 1.5)),
+            weights=weights,
         )
     SafetyFilter(  # 1e12 itself is accepted
-        ARM, limits=JointLimits(LIM[:, 0], LIM[:, 1], np.full(7, 1.5)),
+        ARM, limits=JointLimits(LIM[:, 0], LIM[:, 1], max_speed=np.full(7, 1.5)),
         weights=np.r_[np.ones(6), 1e-12],
     )  # fmt: skip
 

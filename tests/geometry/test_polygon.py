@@ -19,7 +19,7 @@ from hypothesis import strategies as st
 
 from strategies import convex_corners, convex_polygons, random_points
 from velfence import ConvexPolygon, InvalidGeometry, InvalidInput, InvalidParameter, Rectangle
-from velfence.geometry import decompose
+from velfence.geometry import ConvexPolytope, decompose
 from velfence.geometry.polygon import inscribed_rectangle, wedge_angle, wedge_index
 
 RTOL = 1e-12  # closed forms against independent closed forms
@@ -563,3 +563,17 @@ class TestInputHardening:
             poly.contains([0.5, 0.5], tol="0.1")  # type: ignore[arg-type]
         with pytest.raises(InvalidGeometry, match="factor must be a number"):
             poly.scaled("2")  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("height", [1e-12, 1e-10, 3e-9])
+def test_thin_polygon_follows_the_polytope_rule(height: float) -> None:
+    # a sliver used to be a valid ConvexPolygon while ConvexPolytope.from_polygon refused it:
+    # both now refuse an inscribed circle of radius <= THIN * (1 + max |offset|)
+    from velfence.geometry.polygon import THIN
+
+    corners = [[0.0, 0.0], [1.0, 0.0], [1.0, height], [0.0, height]]
+    with pytest.raises(InvalidGeometry, match="too thin"):
+        ConvexPolygon(corners)
+    thick = [[0.0, 0.0], [1.0, 0.0], [1.0, 10 * THIN * 2], [0.0, 10 * THIN * 2]]
+    poly = ConvexPolygon(thick)
+    assert ConvexPolytope.from_polygon(poly).n_facets == 4  # accepted by both

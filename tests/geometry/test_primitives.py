@@ -300,7 +300,9 @@ class TestSphereCapsule:
         for _ in range(100):
             c, a, b = rng.normal(size=3), rng.normal(size=3), rng.normal(size=3)
             rs, rc = rng.uniform(0, 0.8), rng.uniform(0, 0.8)
-            clearance, x, t, _ = sphere_capsule_distance(c, rs, a, b, rc)
+            clearance, x, t, _ = sphere_capsule_distance(
+                c, a, b, sphere_radius=rs, capsule_radius=rc
+            )
             d_ref, t_ref = _brute_point_segment(c, a, b)
             assert clearance == pytest.approx(d_ref - rs - rc, abs=BRUTE_TOL)
             assert t == pytest.approx(t_ref, abs=BRUTE_TOL)
@@ -310,24 +312,32 @@ class TestSphereCapsule:
 
     def test_negative_when_penetrating_positive_when_apart(self) -> None:
         a, b = [0.0, 0.0, 0.0], [2.0, 0.0, 0.0]
-        clearance, *_ = sphere_capsule_distance([1.0, 0.5, 0.0], 0.3, a, b, 0.1)
+        clearance, *_ = sphere_capsule_distance(
+            [1.0, 0.5, 0.0], a, b, sphere_radius=0.3, capsule_radius=0.1
+        )
         assert clearance == pytest.approx(0.1)
-        clearance, *_ = sphere_capsule_distance([1.0, 0.3, 0.0], 0.3, a, b, 0.1)
+        clearance, *_ = sphere_capsule_distance(
+            [1.0, 0.3, 0.0], a, b, sphere_radius=0.3, capsule_radius=0.1
+        )
         assert clearance == pytest.approx(-0.1)
-        clearance, *_ = sphere_capsule_distance([3.0, 0.0, 0.0], 0.5, a, b, 0.5)
+        clearance, *_ = sphere_capsule_distance(
+            [3.0, 0.0, 0.0], a, b, sphere_radius=0.5, capsule_radius=0.5
+        )
         assert clearance == pytest.approx(0.0, abs=EXACT_TOL)  # touching the end cap
 
     def test_normal_is_unit_and_points_from_centre_to_axis(self) -> None:
         rng = np.random.default_rng(6)
         for _ in range(100):
             c, a, b = rng.normal(size=3), rng.normal(size=3), rng.normal(size=3)
-            _, x, _, n = sphere_capsule_distance(c, 0.1, a, b, 0.2)
+            _, x, _, n = sphere_capsule_distance(c, a, b, sphere_radius=0.1, capsule_radius=0.2)
             assert float(np.linalg.norm(n)) == pytest.approx(1.0, abs=EXACT_TOL)
             np.testing.assert_allclose(n * np.linalg.norm(x - c), x - c, atol=1e-12)
 
     def test_centre_on_axis_gives_fixed_perpendicular(self) -> None:
         a, b = np.array([0.0, 0.0, 0.0]), np.array([1.0, 1.0, 0.0])
-        clearance, x, t, n = sphere_capsule_distance([0.5, 0.5, 0.0], 0.1, a, b, 0.2)
+        clearance, x, t, n = sphere_capsule_distance(
+            [0.5, 0.5, 0.0], a, b, sphere_radius=0.1, capsule_radius=0.2
+        )
         assert clearance == pytest.approx(-0.3)
         assert t == pytest.approx(0.5)
         np.testing.assert_allclose(x, [0.5, 0.5, 0.0], atol=EXACT_TOL)
@@ -335,15 +345,21 @@ class TestSphereCapsule:
         assert float(n @ (b - a)) == pytest.approx(0.0, abs=EXACT_TOL)  # in-plane for 2-D use
 
     def test_centre_on_vertical_or_degenerate_axis(self) -> None:
-        _, _, _, n = sphere_capsule_distance([0, 0, 0.5], 0.1, [0, 0, 0], [0, 0, 1], 0.1)
+        _, _, _, n = sphere_capsule_distance(
+            [0, 0, 0.5], [0, 0, 0], [0, 0, 1], sphere_radius=0.1, capsule_radius=0.1
+        )
         np.testing.assert_array_equal(n, [1.0, 0.0, 0.0])
-        clearance, x, t, n = sphere_capsule_distance([1, 1, 1], 0.1, [1, 1, 1], [1, 1, 1], 0.1)
+        clearance, x, t, n = sphere_capsule_distance(
+            [1, 1, 1], [1, 1, 1], [1, 1, 1], sphere_radius=0.1, capsule_radius=0.1
+        )
         assert (clearance, t) == pytest.approx((-0.2, 0.0))
         np.testing.assert_array_equal(x, [1, 1, 1])
         np.testing.assert_array_equal(n, [1.0, 0.0, 0.0])
 
     def test_capsule_with_zero_radii_is_point_segment_distance(self) -> None:
-        clearance, *_ = sphere_capsule_distance([0, 3, 4], 0, [-1, 0, 0], [1, 0, 0], 0)
+        clearance, *_ = sphere_capsule_distance(
+            [0, 3, 4], [-1, 0, 0], [1, 0, 0], sphere_radius=0, capsule_radius=0
+        )
         assert clearance == pytest.approx(5.0)
 
 
@@ -402,7 +418,7 @@ class TestDistanceJacobian:
         J = np.eye(3)
         zero = np.zeros((3, 3))
         g = point_segment_distance_jacobian(c, a, b, J, zero, zero)
-        _, _, _, n = sphere_capsule_distance(c, 0.0, a, b, 0.0)
+        _, _, _, n = sphere_capsule_distance(c, a, b, sphere_radius=0.0, capsule_radius=0.0)
         np.testing.assert_allclose(g, -n, atol=EXACT_TOL)
 
     def test_zero_columns(self) -> None:
@@ -427,7 +443,9 @@ class TestInvalidInput:
 
     def test_not_numbers(self) -> None:
         with pytest.raises(InvalidInput, match="center: expected a point of 3 numbers"):
-            sphere_capsule_distance("abc", 0.1, [0, 0, 0], [1, 0, 0], 0.1)
+            sphere_capsule_distance(
+                "abc", [0, 0, 0], [1, 0, 0], sphere_radius=0.1, capsule_radius=0.1
+            )
         with pytest.raises(InvalidInput, match="a: expected a point of 3 numbers"):
             closest_point_on_segment([0, 0, 0], [[1, 2], [3]], [1, 0, 0])
 
@@ -438,15 +456,21 @@ class TestInvalidInput:
     @pytest.mark.parametrize("radius", [-0.1, math.nan, math.inf])
     def test_bad_radius(self, radius: float) -> None:
         with pytest.raises(InvalidInput, match="sphere_radius must be finite and >= 0"):
-            sphere_capsule_distance([0, 0, 0], radius, [0, 0, 1], [1, 0, 1], 0.1)
+            sphere_capsule_distance(
+                [0, 0, 0], [0, 0, 1], [1, 0, 1], sphere_radius=radius, capsule_radius=0.1
+            )
         with pytest.raises(InvalidInput, match="capsule_radius must be finite and >= 0"):
-            sphere_capsule_distance([0, 0, 0], 0.1, [0, 0, 1], [1, 0, 1], radius)
+            sphere_capsule_distance(
+                [0, 0, 0], [0, 0, 1], [1, 0, 1], sphere_radius=0.1, capsule_radius=radius
+            )
 
     def test_radius_not_a_number(self) -> None:
         with pytest.raises(
             InvalidInput, match="capsule_radius must be a number in length units, got"
         ):
-            sphere_capsule_distance([0, 0, 0], 0.1, [0, 0, 1], [1, 0, 1], "wide")
+            sphere_capsule_distance(
+                [0, 0, 0], [0, 0, 1], [1, 0, 1], sphere_radius=0.1, capsule_radius="wide"
+            )
 
     def test_jacobian_shapes(self) -> None:
         J = np.zeros((3, 2))
@@ -528,7 +552,7 @@ def test_points_segments_distances_equals_the_scalar_route():
     B = A + rng.normal(size=(5, 3))
     B[2] = A[2]  # a degenerate segment
     r = rng.uniform(0.0, 0.2, 5)
-    t, clear = points_segments_distances(P, A, B, r)
+    t, clear = points_segments_distances(P, A, B, radii=r)
     for i in range(7):
         for j in range(5):
             x, tj = closest_point_on_segment(P[i], A[j], B[j])

@@ -45,6 +45,10 @@ HEAVY_KINDS = ("str_int", "nan", "true", "dict_xy", "int_minus_1", "float_1e308"
 MEMORY_HEADROOM = 2 * 1024**3
 #: Skipped modules: the command-line front end (tested by tests/test_cli.py).
 SKIP_MODULES = ("velfence.apps.cli",)
+#: Modules inside a sub-package whose own ``__all__`` users import from directly (shown in the
+#: documentation or the examples), attacked like the packages (docs/reliability-inputs.md,
+#: "What is enumerated"; every other module-level ``__all__`` serves its package only).
+EXTRA_MODULES = ("velfence.sim.arm", "velfence.apps.scenarios.lag")
 
 
 # --- the registry's vocabulary ----------------------------------------------------------------
@@ -75,6 +79,13 @@ class F:
         skip: Parameter name -> reason it is not attacked (e.g. a numpy Generator).
         required: Parameters whose annotation allows ``None`` but whose valid call needs a
             value (``None`` is then tried as "either").
+        accepts: Parameter name -> {kind name: reason}: a kind the catalogue would refuse but
+            whose value the callable documents as valid (an empty list meaning "none", ``inf``
+            meaning "no limit"); it must then be accepted. Every entry is argued in
+            docs/reliability-inputs.md ("Documented exemptions").
+        nonfinite: Output path (``out``, ``out.distance``, ``out['key']``) -> reason: a
+            non-finite value there is a documented answer (``inf``: never; ``nan``: undefined),
+            argued in the same section.
     """
 
     valid: Callable[[], Call]
@@ -82,6 +93,8 @@ class F:
     heavy: str | None = None
     skip: dict[str, str] = field(default_factory=dict)
     required: frozenset[str] = frozenset()  # parameters typed Optional where None is refused here
+    accepts: dict[str, dict[str, str]] = field(default_factory=dict)
+    nonfinite: dict[str, str] = field(default_factory=dict)
 
 
 @dataclass
@@ -130,6 +143,15 @@ def public_modules() -> list[str]:
         full = f"{package}.{info.name}"
         if info.name.startswith("_") or info.name == "apps" or full in SKIP_MODULES:
             continue
+        try:
+            importlib.import_module(full)
+        except ModuleNotFoundError as exc:
+            if not _optional(exc):
+                raise
+            UNAVAILABLE[full] = str(exc.name)
+            continue
+        names.append(full)
+    for full in EXTRA_MODULES:
         try:
             importlib.import_module(full)
         except ModuleNotFoundError as exc:
@@ -354,6 +376,15 @@ def nonfinite_paths(obj: Any, path: str = "out", depth: int = 0) -> Iterator[str
             yield from nonfinite_paths(getattr(obj, f.name, None), f"{path}.{f.name}", depth + 1)
 
 
+def _base(path: str) -> str:
+    """The place of a non-finite value: ``out.x[2 non-finite of 5]`` -> ``out.x``,
+    ``out['ratio']=nan`` -> ``out['ratio']``."""
+    base = path.split("=")[0]
+    if base.endswith("]") and " non-finite of " in base:
+        base = base[: base.rindex("[")]
+    return base
+
+
 # --- attacking one callable -------------------------------------------------------------------
 
 
@@ -414,11 +445,7 @@ def _classify(
     elif code == "R":
         f = Failure(target, param, kind, "silently-accepted", f"returned {type(value).__name__}")
     elif walk:
-        bad = [
-            p
-            for p in nonfinite_paths(value)
-            if p.split("[")[0].split("=")[0] not in known_nonfinite
-        ]
+        bad = [p for p in nonfinite_paths(value) if _base(p) not in known_nonfinite]
         if bad:
             f = Failure(target, param, kind, "non-finite", ", ".join(bad[:3]))
     if warned:
@@ -491,22 +518,20 @@ def attack_uncapped(t: Target) -> tuple[list[Failure], int]:
     except Exception as exc:  # a registry entry out of date with the library is a failure
         return [Failure(t.key, "(valid)", "factory", "valid-failed", _short(exc))], 0
     walk_default = not t.constructor
-    known: frozenset[str] = frozenset()
+    known: frozenset[str] = frozenset(spec.nonfinite)
     if spec.heavy is None:
         fresh = spec.valid()
         outcome = guarded(lambda: t.get()(*fresh.args, **fresh.kwargs), WARMUP_TIMEOUT_S)
         calls += 1
         walk = walk_default or dataclasses.is_dataclass(outcome[1])
-        f = _classify(t.key, "(valid)", "valid", "A", outcome, walk)
+        f = _classify(t.key, "(valid)", "valid", "A", outcome, walk, known)
         if f is not None:
             if f.klass == "refused-valid" or f.klass.startswith("escape") or f.klass == "hang":
                 f.klass = "valid-failed"
                 return [f], calls
             fails.append(f)  # non-finite output of the valid call: reported once, then ignored
             if outcome[0] == "ok":
-                known = frozenset(
-                    p.split("[")[0].split("=")[0] for p in nonfinite_paths(outcome[1])
-                )
+                known = known | frozenset(_base(p) for p in nonfinite_paths(outcome[1]))
     try:
         bound = sig.bind_partial(*valid.args, **valid.kwargs)
     except TypeError as exc:
@@ -541,6 +566,8 @@ def attack_uncapped(t: Target) -> tuple[list[Failure], int]:
                 continue
             if kind.name == "none" and optional:
                 code = "E" if name in spec.required else "A"
+            if kind.name in spec.accepts.get(name, {}):
+                code = "A"  # documented as a valid value (see F.accepts)
             if (
                 kind.name in ("nan", "np_nan", "inf", "neg_inf")
                 and isinstance(vvalue, float)
@@ -627,6 +654,7 @@ SPEC_MODULES = (
     "specs_tools",
     "specs_bridge_zones",
     "specs_io_zones",
+    "specs_arm",
 )
 
 

@@ -576,7 +576,7 @@ KINDS: tuple[Kind, ...] = (
         derived=True,
     ),
     Kind("fraction_of_valid", _scalar_as(Fraction), {"scalar": "E", "positive": "E"}, derived=True),
-    Kind("zero_d_of_valid", _zero_d, {"scalar": "E", "positive": "E", "count": "E"}, derived=True),
+    Kind("zero_d_of_valid", _zero_d, {"scalar": "A", "positive": "A", "count": "A"}, derived=True),
 )
 
 BY_NAME = {k.name: k for k in KINDS}

@@ -18,6 +18,10 @@ _PATH_METHODS = {
 }
 _S = {"s": "scalar", "s0": "scalar", "start_angle": "scalar"}
 
+#: Documented exemption (docs/reliability-inputs.md, "Documented exemptions"): paths take
+#: points of any dimension n >= 2, so the transpose of N points in 2-D is 2 points in N-D.
+_ANY_DIM = "documented: shape (N, n) with any n >= 2; the transpose is another valid path"
+
 SPECS: dict[str, F | C] = {
     "geometry.Circle": C(
         F(lambda: call([0.0, 0.0], radius=1.0), types=_S),
@@ -27,11 +31,17 @@ SPECS: dict[str, F | C] = {
         lambda: call([0.0, 0.0], [1.0, 0.5]), {k: F(v, types=_S) for k, v in _PATH_METHODS.items()}
     ),
     "geometry.Polyline": C(
-        lambda: call([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]], corner_radius=0.2),
+        F(
+            lambda: call([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]], corner_radius=0.2),
+            accepts={"vertices": {"transposed": _ANY_DIM}},
+        ),
         {k: F(v, types=_S) for k, v in _PATH_METHODS.items()},
     ),
     "geometry.Spline": C(
-        lambda: call([[0.0, 0.0], [1.0, 0.2], [2.0, 0.0], [3.0, 0.5]]),
+        F(
+            lambda: call([[0.0, 0.0], [1.0, 0.2], [2.0, 0.0], [3.0, 0.5]]),
+            accepts={"points": {"transposed": _ANY_DIM}},
+        ),
         {k: F(v, types=_S) for k, v in _PATH_METHODS.items()},
     ),
     "geometry.Path": C(abstract="Protocol: exercised through Circle, Line, Polyline, Spline"),
@@ -106,14 +116,20 @@ SPECS: dict[str, F | C] = {
         )
     ),
     "geometry.points_segments_distances": F(
-        lambda: call([[0.5, 1.0, 0.0]], [[0.0, 0.0, 0.0]], [[1.0, 0.0, 0.0]], 0.1),
+        lambda: call([[0.5, 1.0, 0.0]], [[0.0, 0.0, 0.0]], [[1.0, 0.0, 0.0]], radii=0.1),
         types={"radii": "vector"},
     ),
     "geometry.segment_segment_distance": F(
         lambda: call([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.5, 1.0, 0.0], [0.5, 1.0, 1.0])
     ),
     "geometry.sphere_capsule_distance": F(
-        lambda: call([0.5, 1.0, 0.0], 0.1, [0.0, 0.0, 0.0], [1.0, 0.0, 0.0], 0.05),
+        lambda: call(
+            [0.5, 1.0, 0.0],
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            sphere_radius=0.1,
+            capsule_radius=0.05,
+        ),
         types={"sphere_radius": "nonneg", "capsule_radius": "nonneg"},
     ),
 }

@@ -37,6 +37,12 @@ SPECS: dict[str, F | C] = {
                 "saturate": "flag",
                 "gif": "flag",
             },
+            accepts={
+                "pushes": {
+                    k: "documented: an empty list means no pushes (None: the built-in push)"
+                    for k in ("empty_list", "empty_tuple", "empty_array", "empty_rows")
+                }
+            },
         ),
         methods={"axis_labels": lambda: call()},
     ),
@@ -44,7 +50,7 @@ SPECS: dict[str, F | C] = {
     "io.load_joint_limits": F(
         lambda: call(_joint_limits_file(), ["a"]), types={"path": "path", "joint_names": "object"}
     ),
-    "io.check_run_length": F(lambda: call(1.0, 0.001), types={"duration_name": "text"}),
+    "io.check_run_length": F(lambda: call(1.0, dt=0.001), types={"duration_name": "text"}),
 }
 
 

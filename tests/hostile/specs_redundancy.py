@@ -17,11 +17,17 @@ def _obstacles() -> list[SphereObstacle]:
     return [SphereObstacle(center=np.array([1.5, 1.2]), radius=0.1, influence=0.3)]
 
 
+#: Documented exemptions (docs/reliability-inputs.md, "Documented exemptions").
+_NO_TARGET = {"out.ee_error": "documented: NaN when no ee_target was given"}
+_NONE = "documented: an empty sequence means none"
+_NO_OBSTACLES = {"obstacles": {"empty_list": _NONE, "empty_tuple": _NONE}}
+
+
 def _methods(extra: dict[str, F] | None = None) -> dict[str, F]:
     out = {
-        "control": F(lambda: call(_Q, _V)),
+        "control": F(lambda: call(_Q, _V), nonfinite=_NO_TARGET),
         "critical": F(lambda: call(_Q.copy())),
-        "explain": F(lambda: call(_Q, _V)),
+        "explain": F(lambda: call(_Q, _V), nonfinite=_NO_TARGET),
         "shape": F(lambda: call(_Q, _V)),
         "shape_batch": F(lambda: call(np.array([_Q, _Q]), np.array([_V, -_V]))),
     }
@@ -37,11 +43,20 @@ def _distances() -> np.ndarray:
 SPECS: dict[str, F | C] = {
     # ee_gain 0 is documented (>= 0): no end-effector position feedback.
     "redundancy.ConfigurationController": C(
-        F(lambda: call(planar3(), _obstacles()), types={"ee_gain": "nonneg"}), _methods()
+        F(
+            lambda: call(planar3(), _obstacles()),
+            types={"ee_gain": "nonneg"},
+            accepts=_NO_OBSTACLES,
+        ),
+        _methods(),
     ),
     # ee_gain and d_safe 0 are documented (>= 0): no feedback; contact allowed.
     "redundancy.VelocityDamperQP": C(
-        F(lambda: call(planar3(), _obstacles()), types={"ee_gain": "nonneg", "d_safe": "nonneg"}),
+        F(
+            lambda: call(planar3(), _obstacles()),
+            types={"ee_gain": "nonneg", "d_safe": "nonneg"},
+            accepts=_NO_OBSTACLES,
+        ),
         _methods({"clearances": F(lambda: call(_distances()))}),
     ),
     "redundancy.ControlResult": C(record="output record of ConfigurationController.control()"),

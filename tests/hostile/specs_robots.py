@@ -10,7 +10,9 @@ from harness import C, F, call
 
 from velfence.robots import dh_mjcf
 
-_XML = dh_mjcf([[0.0, 0.0, 0.5, 0.0], [0.3, 0.0, 0.0, 0.0]], [[-1.0, 1.0], [-2.0, 2.0]])
+_XML = dh_mjcf(
+    [[0.0, 0.0, 0.5, 0.0], [0.3, 0.0, 0.0, 0.0]], joint_limits=[[-1.0, 1.0], [-2.0, 2.0]]
+)
 _FILE = Path(tempfile.mkdtemp(prefix="velfence-robots-")) / "arm.xml"
 _FILE.write_text(_XML, encoding="utf-8")
 _URDF = _FILE.with_name("arm.urdf")
@@ -76,7 +78,9 @@ SPECS: dict[str, F | C] = {
         _ROBOT_METHODS,
     ),
     "robots.dh_mjcf": F(
-        lambda: call(_ROWS, _LIM, [0.0, 0.0, 0.1], "arm", radius=0.02, **_PHYSICS),
+        lambda: call(
+            _ROWS, joint_limits=_LIM, tool=[0.0, 0.0, 0.1], name="arm", radius=0.02, **_PHYSICS
+        ),
         types={
             "dh_rows": "rows",
             "joint_limits": "rows",
@@ -88,7 +92,15 @@ SPECS: dict[str, F | C] = {
         required=frozenset({"masses"}),
     ),
     "robots.mdh_mjcf": F(
-        lambda: call(_ROWS, _LIM, [0.0, 0.0, 0.1], "arm", flange_d=0.1, radius=0.02, **_PHYSICS),
+        lambda: call(
+            _ROWS,
+            joint_limits=_LIM,
+            tool=[0.0, 0.0, 0.1],
+            name="arm",
+            flange_d=0.1,
+            radius=0.02,
+            **_PHYSICS,
+        ),
         types={
             "mdh_rows": "rows",
             "joint_limits": "rows",

@@ -17,8 +17,11 @@ SHAPER_2D = {
     "zones_batch": lambda: call(P_ROWS, V_ROWS),
 }
 _DELTA = {"delta": "scalar", "speed": "nonneg"}
+#: Documented exemptions (docs/reliability-inputs.md, "Documented exemptions").
+_NO_CAP = "documented: math.inf (no cap) beyond the buffer"
+_NONE = "documented: an empty sequence means none"
 _PROFILE_METHODS = {
-    "cap": F(lambda: call(0.1, 1.0), types=_DELTA),
+    "cap": F(lambda: call(0.1, 1.0), types=_DELTA, nonfinite={"out": _NO_CAP}),
     "zone": F(lambda: call(0.1), types=_DELTA),
 }
 _P3 = np.array([0.1, 0.02, 0.0])
@@ -46,7 +49,7 @@ def _limits() -> object:
     from velfence.filter import JointLimits
 
     lo = np.radians([-170.0, -120.0, -170.0, -120.0, -170.0, -120.0, -175.0])
-    return JointLimits(lo, -lo, np.full(7, 1.5), max_acceleration=np.full(7, 10.0))
+    return JointLimits(lo, -lo, max_speed=np.full(7, 1.5), max_acceleration=np.full(7, 10.0))
 
 
 def _box() -> object:
@@ -153,7 +156,11 @@ SPECS: dict[str, F | C] = {
         },
     ),
     "shaping.StopLimiter": C(
-        lambda: call(PAPER_STOPS, profile=profile(), transform=Q_AUX),
+        # limited is a pair of coordinate indices, not a real vector: float entries are refused
+        F(
+            lambda: call(PAPER_STOPS, profile=profile(), transform=Q_AUX),
+            types={"limited": "object"},
+        ),
         {
             "explain": lambda: call(_THETA, _THETA_DOT),
             "reset": lambda: call(),
@@ -193,8 +200,23 @@ SPECS: dict[str, F | C] = {
     "filter.ObstacleRows": C(abstract="built by SafetyFilter from validated SphereObstacles"),
     "filter.JointLimits": C(
         F(
-            lambda: call([-1.0, -2.0], [1.0, 2.0], [1.0, 0.5], max_acceleration=[5.0, 4.0]),
+            lambda: call(
+                [-1.0, -2.0], [1.0, 2.0], max_speed=[1.0, 0.5], max_acceleration=[5.0, 4.0]
+            ),
             types={"lower": "vector", "upper": "vector", "max_speed": "vector"},
+            accepts={
+                "lower": {"neg_inf_in_valid": "documented: -inf is no lower limit"},
+                "upper": {"inf_in_valid": "documented: +inf is no upper limit"},
+                "max_acceleration": {
+                    "inf": "documented: inf is no acceleration limit",
+                    "inf_in_valid": "documented: inf is no acceleration limit on that joint",
+                },
+            },
+            nonfinite={
+                "out.lower": "documented: -inf is no lower limit",
+                "out.upper": "documented: +inf is no upper limit",
+                "out.max_acceleration": "documented: inf is no acceleration limit",
+            },
         ),
         {
             "from_ros2_control": F(
@@ -215,6 +237,10 @@ SPECS: dict[str, F | C] = {
             lambda: call(_arm(), limits=_limits(), dt=0.002),
             types={"robot": "object", "limits": "object", "weights": "vector"},
             skip={"providers": "a RowProvider sequence, () valid: tests/filter"},
+            accepts={
+                "obstacles": {"empty_list": _NONE, "empty_tuple": _NONE},
+                "workspace": {"empty_list": _NONE, "empty_tuple": _NONE},
+            },
         ),
         {
             "explain": lambda: call(_Q7, _QD7),

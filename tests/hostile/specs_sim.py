@@ -36,6 +36,13 @@ def shaper() -> vf.PolygonShaper:
 _TRAJ_POLY = lambda: call(traj(), square())  # noqa: E731
 _CMDS = np.array([[1.0, 0.0], [0.0, 1.0]])
 
+#: Documented exemptions (docs/reliability-inputs.md, "Documented exemptions").
+_WINDOW = {"t0": "nonneg", "t1": "positive"}
+_ENDLESS = {"t1": {"inf": "documented: t1 = math.inf is a push that never ends"}}
+_ENDLESS_OUT = {"out.pushes[0][1]": "documented: t1 = math.inf is a push that never ends"}
+_NEVER = "documented: inf when the run never leaves the disc, nan when it never enters it"
+_NO_PRESS = "documented: nan when no row presses with a tangential component"
+
 SPECS: dict[str, F | C] = {
     "sim.NoLimit": C(lambda: call(), SHAPER_2D),
     "sim.HardStop": C(lambda: call(square(), dt=0.001), SHAPER_2D),
@@ -44,12 +51,33 @@ SPECS: dict[str, F | C] = {
         {**SHAPER_2D, "inscribed": lambda: call(square(), buffer=0.2)},
     ),
     "sim.Disturbance": C(
-        F(lambda: call(pushes=((0.1, 0.2, 0.5, 0.0),)), types={"pushes": "vector"}),
-        {"push": F(lambda: call(0.1, 0.2, [0.5, 0.0]), types={"t0": "nonneg", "t1": "positive"})},
+        F(
+            lambda: call(pushes=((0.1, 0.2, 0.5, 0.0),)),
+            types={"pushes": "vector"},
+            accepts={
+                "pushes": {
+                    k: "documented: empty means no disturbance"
+                    for k in ("empty_list", "empty_tuple", "empty_array", "empty_rows")
+                }
+            },
+        ),
+        {
+            "push": F(
+                lambda: call(0.1, 0.2, [0.5, 0.0]),
+                types=_WINDOW,
+                accepts=_ENDLESS,
+                nonfinite=_ENDLESS_OUT,
+            )
+        },
     ),
-    "sim.push": F(lambda: call(0.1, 0.2, [0.5, 0.0]), types={"t0": "nonneg", "t1": "positive"}),
+    "sim.push": F(
+        lambda: call(0.1, 0.2, [0.5, 0.0]), types=_WINDOW, accepts=_ENDLESS, nonfinite=_ENDLESS_OUT
+    ),
     "sim.Trajectory": C(
-        lambda: call([0.0, 0.1], [[0.0, 0.0], [0.1, 0.0]], [[1.0, 0.0]] * 2, [[1.0, 0.0]] * 2),
+        F(
+            lambda: call([0.0, 0.1], [[0.0, 0.0], [0.1, 0.0]], [[1.0, 0.0]] * 2, [[1.0, 0.0]] * 2),
+            accepts={"zone": {"str_array": "documented: zone labels are any strings"}},
+        ),
         {"window": F(lambda: call(0.0, 0.2), types={"t0": "scalar", "t1": "scalar"})},
         instance=traj,
     ),
@@ -59,17 +87,23 @@ SPECS: dict[str, F | C] = {
     # deadband 0 is documented (>= 0): signs are then exact.
     "sim.chatter_rate": F(lambda: call(traj(), square(), band=0.1), types={"deadband": "nonneg"}),
     "sim.corner_escape_time": F(
-        lambda: call(traj(), square(), 0, radius=0.2), types={"corner_index": "seed"}
+        lambda: call(traj(), square(), 0, radius=0.2),
+        types={"corner_index": "seed"},
+        nonfinite={"out": _NEVER},
     ),
     "sim.max_output_jump": F(lambda: call(shaper(), square(), spacing=0.25, commands=_CMDS)),
     "sim.max_penetration": F(_TRAJ_POLY),
     # A pressing run: the ratio of a run that never presses is the documented nan.
     # deadband 0 is documented (>= 0): signs are then exact.
     "sim.sliding_ratio": F(
-        lambda: call(pressing_traj(), square(), band=0.1), types={"deadband": "nonneg"}
+        lambda: call(pressing_traj(), square(), band=0.1),
+        types={"deadband": "nonneg"},
+        nonfinite={"out": _NO_PRESS},
     ),
     "sim.summarize": F(
-        lambda: call(pressing_traj(), square(), band=0.1), types={"corner_index": "count"}
+        lambda: call(pressing_traj(), square(), band=0.1),
+        types={"corner_index": "count"},
+        nonfinite={"out['sliding_ratio']": _NO_PRESS, "out['corner_escape_time']": _NEVER},
     ),
     "sim.time_outside": F(_TRAJ_POLY),
 }
@@ -78,7 +112,9 @@ SPECS: dict[str, F | C] = {
 def _robot() -> object:
     from velfence.robots import dh_mjcf
 
-    return dh_mjcf([[0.0, 0.0, 0.3, 0.0], [0.25, 0.0, 0.0, 0.0]], [[-2.0, 2.0], [-2.0, 2.0]])
+    return dh_mjcf(
+        [[0.0, 0.0, 0.3, 0.0], [0.25, 0.0, 0.0, 0.0]], joint_limits=[[-2.0, 2.0], [-2.0, 2.0]]
+    )
 
 
 def _plant() -> vf.sim.MujocoPlant:

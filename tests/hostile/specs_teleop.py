@@ -22,7 +22,18 @@ from velfence.apps.teleop import (
 _P3 = np.array([0.1, 0.2, 0.3])
 _D3 = np.array([0.0, 1.0, 0.0])
 _RAY = lambda: call([0.0, 0.0, 0.0], [0.0, 1.0, 0.0])  # noqa: E731
-_PRIM = {"distance": lambda: call(_P3), "intersect": _RAY}
+#: Documented exemptions (docs/reliability-inputs.md, "Documented exemptions").
+_MISS = {"out": "documented: math.inf on a miss"}
+_NONE = "documented: an empty sequence means none"
+_ANY_SHAPE = {
+    k: "documented: elementwise, an array of any shape (empty gives empty)"
+    for k in (
+        *("added_axis", "three_d", "nested_too_deep"),
+        *("empty_list", "empty_tuple", "empty_array", "empty_rows"),
+    )
+}
+_CASE = {"key": {"choice_upper": "documented: keys are case-insensitive"}}
+_PRIM = {"distance": lambda: call(_P3), "intersect": F(_RAY, nonfinite=_MISS)}
 
 
 def _line():  # type: ignore[no-untyped-def]
@@ -66,13 +77,14 @@ SPECS: dict[str, F | C] = {
         {**_PRIM, "contains": lambda: call(_P3)},
     ),
     "teleop.Box": C(
-        lambda: call([0.0, 1.0, 0.0], [0.1, 0.1, 0.1]), {**_PRIM, "contains": lambda: call(_P3)}
+        F(lambda: call([0.0, 1.0, 0.0], half_extents=[0.1, 0.1, 0.1])),
+        {**_PRIM, "contains": lambda: call(_P3)},
     ),
     "teleop.Scene": C(
         lambda: call(
             {
                 "wall": Plane([0.0, 1.0, 0.0], [0.0, -1.0, 0.0]),
-                "box": Box([0.5, 0.5, 0.0], [0.1, 0.1, 0.1]),
+                "box": Box([0.5, 0.5, 0.0], half_extents=[0.1, 0.1, 0.1]),
             }
         ),
         {
@@ -87,16 +99,20 @@ SPECS: dict[str, F | C] = {
     "teleop.Hit": C(record="output record of Scene.raycast()"),
     "teleop.door_scene": F(lambda: call()),
     "teleop.pick_and_place_scene": F(lambda: call()),
-    "teleop.scene_to_dicts": F(lambda: call(door_scene()), types={"dynamic": "object"}),
+    "teleop.scene_to_dicts": F(
+        lambda: call(door_scene()),
+        types={"dynamic": "object"},
+        accepts={"dynamic": {"empty_list": _NONE, "empty_tuple": _NONE}},
+    ),
     "teleop.VoltageModel": C(
         lambda: call(),
         {
             "distance_cm": F(lambda: call(1.0), types={"voltage_v": "scalar"}),
             "distance_m": F(lambda: call(1.0), types={"voltage_v": "scalar"}),
-            "distances_m": lambda: call([1.0, 1.2]),
+            "distances_m": F(lambda: call([1.0, 1.2]), accepts={"voltages_v": _ANY_SHAPE}),
             "from_calibration": lambda: call([10.0, 20.0, 30.0], [0.9, 0.99, 1.07]),
             "voltage_v": F(lambda: call(0.3), types={"distance_m": "scalar"}),
-            "voltages_v": lambda: call([0.3, 0.4]),
+            "voltages_v": F(lambda: call([0.3, 0.4]), accepts={"distances_m": _ANY_SHAPE}),
         },
     ),
     "teleop.TabulatedCharacteristic": C(
@@ -142,7 +158,15 @@ SPECS: dict[str, F | C] = {
     "teleop.LaserReading": C(record="output record of LaserStream.step()"),
     "teleop.calibrate": F(lambda: call(_SAMPLES), types={"samples": "object"}),
     "teleop.frequent_level_mean": F(lambda: call([0.9] * 20 + [0.91] * 5)),
-    "teleop.moving_average": F(lambda: call([1.0, 2.0, 3.0, 4.0], window=2)),
+    "teleop.moving_average": F(
+        lambda: call([1.0, 2.0, 3.0, 4.0], window=2),
+        accepts={
+            "samples": {
+                k: "documented: windows along the last axis of an array of any leading shape"
+                for k in ("added_axis", "three_d", "empty_rows")
+            }
+        },
+    ),
     "teleop.plane_from_points": F(lambda: call([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])),
     "teleop.ResolvedRate": C(
         lambda: call(puma()),
@@ -160,7 +184,7 @@ SPECS: dict[str, F | C] = {
     "teleop.damping": F(lambda: call(0.01), types={"w": "nonneg"}),
     "teleop.manipulability_of": F(lambda: call(np.eye(6))),
     "teleop.pose_error": F(lambda: call(pose(), pose())),
-    "teleop.sr_inverse": F(lambda: call(np.eye(6), 0.01), types={"k": "nonneg"}),
+    "teleop.sr_inverse": F(lambda: call(np.eye(6), k=0.01), types={"k": "nonneg"}),
     "teleop.aligned_rotation": F(lambda: call(np.eye(3), [0.0, 0.0, 1.0])),
     "teleop.CartesianTrajectory": C(
         record="output record of straight_line()",
@@ -184,7 +208,11 @@ SPECS: dict[str, F | C] = {
     ),
     "teleop.ModeManager": C(
         # documented >= 0: stopping at the spot, no scaling across, no settling wait are valid
-        F(lambda: call(), types={"standoff": "nonneg", "across": "nonneg", "max_settle": "nonneg"}),
+        F(
+            lambda: call(),
+            types={"standoff": "nonneg", "across": "nonneg", "max_settle": "nonneg"},
+            accepts={"fixture_options": {"dict_empty": "documented: no options, the defaults"}},
+        ),
         {
             "control": lambda: call(
                 t=0.0, pose=pose(), linear=[0.01, 0.0, 0.0], angular=[0.0, 0.0, 0.0]
@@ -193,6 +221,7 @@ SPECS: dict[str, F | C] = {
                 lambda: call("A", t=0.0, pose=pose(), distance=0.5),
                 # t: any finite time (event log clock); a reading of 0 m is documented valid (>= 0)
                 types={"t": "scalar", "distance": "nonneg"},
+                accepts=_CASE,
             ),
             "reset": lambda: call(),
         },
@@ -205,7 +234,7 @@ SPECS: dict[str, F | C] = {
             "advance": F(lambda: call(0.01), types={"dt": "nonneg"}),  # documented: 0 s is a no-op
             "jog": lambda: call([0.01, 0.0, 0.0], [0.0, 0.0, 0.0]),
             "observe": lambda: call(),
-            "press": lambda: call("C"),
+            "press": F(lambda: call("C"), accepts=_CASE),
             "reset": lambda: call(),
             "scene_primitives": lambda: call(),
             "snapshot": lambda: call(),
@@ -225,16 +254,16 @@ SPECS: dict[str, F | C] = {
         F(lambda: call(profile=OperatorProfile(), seed=0), types={"seed": "seed"}),
         {
             "act": lambda: call(_observation()),
-            "aim": lambda: call(np.array([0.0, 1.0, 0.0]), 0.01),
+            "aim": lambda: call(np.array([0.0, 1.0, 0.0]), tol=0.01),
             "disengage": lambda: call(),
             "engage": lambda: call(),
             "index": lambda: call(np.array([0.01, 0.0, 0.0])),
-            "orient": lambda: call(lambda o: np.eye(3), 0.05),
+            "orient": lambda: call(lambda o: np.eye(3), tol=0.05),
             "press": lambda: call("A"),
-            "reach": lambda: call(_OBS, 0.01),
+            "reach": lambda: call(_OBS, tol=0.01),
             "record": lambda: call("A"),
             "start": lambda: call(lambda op: op.wait(0.1)),
-            "stroke": lambda: call(np.array([0.01, 0.0, 0.0]), 0.001),
+            "stroke": lambda: call(np.array([0.01, 0.0, 0.0]), tol=0.001),
             # a and b are Fitts-law coefficients [s], [s/bit]: zero is a valid value
             "turn": F(
                 lambda: call(np.array([0.0, 0.0, 0.1]), peak=0.3, a=0.4, b=0.3, tol=0.01),

@@ -9,6 +9,8 @@ from __future__ import annotations
 import dataclasses
 import inspect
 import json
+import re
+from typing import Any
 
 import pytest
 from harness import (
@@ -18,6 +20,7 @@ from harness import (
     attack_many,
     available,
     public_callables,
+    public_methods,
     registry,
     targets,
 )
@@ -122,6 +125,58 @@ def test_constructor_keyword_only_rule(cls: type) -> None:
         if p.kind is not p.KEYWORD_ONLY and base in ("float", "int", "bool", "str"):
             bad.append(f"{p.name}: {base} is positional (scalar tuning values are keyword-only)")
     assert not bad, f"{cls.__name__}{sig}: " + "; ".join(bad)
+
+
+#: Names of tuning parameters (gains, radii, limits, tolerances, ...): beyond a callable's first
+#: (data) argument they must be keyword-only, so that a call reads ``f(x, radius=0.1)`` and an
+#: argument added later cannot shift them.
+TUNING = re.compile(
+    r"(radius|radii|extents|^max_|^min_|gain|limits$|^tol$|_tol$|buffer|margin|influence|"
+    r"stiffness|damping|weight|spring|threshold|window|timeout|^k[pd]?$|^eps$)"
+)
+
+#: Positional parameters whose names look like tuning but which are data (with the reason).
+POSITIONAL_DATA = {
+    "mechanisms.CoSPM.bearing_shift": {"eps": "the shift along the invariance axis itself"},
+}
+
+
+def _signed_callables() -> list[tuple[str, Any]]:
+    """Every public function, constructor (output records excepted) and public method."""
+    reg = registry()
+    out: list[tuple[str, Any]] = []
+    for key, obj in public_callables().items():
+        spec = reg.get(key)
+        if inspect.isclass(obj):
+            if not (isinstance(spec, C) and (spec.record or spec.abstract)):
+                out.append((key, obj))
+            out += [(f"{key}.{m}", getattr(obj, m)) for m in public_methods(obj)]
+        else:
+            out.append((key, obj))
+    return out
+
+
+def test_tuning_parameters_are_keyword_only_everywhere() -> None:
+    """Beyond the first (data) argument, no public callable takes a tuning value by position."""
+    bad = []
+    for key, obj in _signed_callables():
+        try:
+            sig = inspect.signature(obj)
+        except (TypeError, ValueError):
+            continue
+        positional = [
+            p
+            for p in sig.parameters.values()
+            if p.name not in ("self", "cls")
+            and p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD)
+        ]
+        allowed = POSITIONAL_DATA.get(key, {})
+        bad += [
+            f"{key}: {p.name}"
+            for p in positional[1:]
+            if TUNING.search(p.name) and p.name not in allowed
+        ]
+    assert not bad, "tuning parameters taken by position:\n  " + "\n  ".join(bad)
 
 
 _ = dataclasses

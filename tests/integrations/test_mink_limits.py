@@ -102,7 +102,10 @@ def test_h_is_the_safety_filter_workspace_bound_at_the_same_speed() -> None:
     # The SafetyFilter's rows at the same pose, for a joint command moving the TCP at SPEED.
     lo, hi = ROBOT.joint_limits.T
     sf = SafetyFilter(
-        ROBOT, limits=JointLimits(lo, hi, 10.0), workspace=WorkspaceLimit(box, buffer=BUFFER), dt=DT
+        ROBOT,
+        limits=JointLimits(lo, hi, max_speed=10.0),
+        workspace=WorkspaceLimit(box, buffer=BUFFER),
+        dt=DT,
     )
     J = ROBOT.jacobian(q)
     u = np.linalg.pinv(J) @ (SPEED * np.array([0.6, 0.0, 0.8]))
@@ -172,7 +175,7 @@ def _filter_run(steps: int = STEPS) -> np.ndarray:
     lo, hi = ROBOT.joint_limits.T
     sf = SafetyFilter(
         ROBOT,
-        limits=JointLimits(lo, hi, 2.5),
+        limits=JointLimits(lo, hi, max_speed=2.5),
         workspace=WorkspaceLimit(BOX, buffer=BUFFER),
         dt=DT,
         damping=1e-4,
@@ -286,7 +289,9 @@ def test_refuses_bad_arguments_naming_them() -> None:
 def _two_joint_xml() -> str:
     from velfence.robots import dh_mjcf
 
-    return dh_mjcf([[0.0, 0.0, 0.5, 0.0], [0.3, 0.0, 0.0, 0.0]], [[-1.0, 1.0], [-2.0, 2.0]])
+    return dh_mjcf(
+        [[0.0, 0.0, 0.5, 0.0], [0.3, 0.0, 0.0, 0.0]], joint_limits=[[-1.0, 1.0], [-2.0, 2.0]]
+    )
 
 
 def test_import_velfence_does_not_import_mink() -> None:

@@ -493,9 +493,9 @@ def test_max_steps_is_validated(bad: object) -> None:
 
 
 def test_check_run_length() -> None:
-    assert check_run_length(1.0, 1e-3) == 1000
+    assert check_run_length(1.0, dt=1e-3) == 1000
     with pytest.raises(InvalidParameter, match="needs 1e\\+05 steps; at most 99,999"):
-        check_run_length(100.0, 1e-3, max_steps=99_999)
+        check_run_length(100.0, dt=1e-3, max_steps=99_999)
 
 
 # ------------------------------------------------------------------------------ paths and fuzzing
@@ -579,4 +579,4 @@ def test_loader_keeps_its_wording_after_direct_construction_errors() -> None:
 
 def test_check_run_length_refuses_a_non_string_duration_name() -> None:
     with pytest.raises(InvalidParameter, match="duration_name: expected a string"):
-        check_run_length(1.0, 0.001, duration_name=3)  # type: ignore[arg-type]
+        check_run_length(1.0, dt=0.001, duration_name=3)  # type: ignore[arg-type]

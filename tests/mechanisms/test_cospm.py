@@ -318,7 +318,7 @@ def test_singularity_indicators_are_consistent(cospm: CoSPM) -> None:
 
 
 def test_jacobian_refuses_gimbal_lock(cospm: CoSPM) -> None:
-    with pytest.raises(InvalidInput, match=r"jacobian: A = df/dchi is singular .*gimbal lock"):
+    with pytest.raises(InvalidInput, match=r"theta, chi: A = df/dchi is singular .*gimbal lock"):
         cospm.jacobian(np.full(3, HALF_PI), np.array([0.0, HALF_PI, 0.0]))
 
 

@@ -70,7 +70,7 @@ def _link_tie(c: ConfigurationController, q) -> bool:
     if not c.obstacles:
         return False
     segs = np.asarray(c.chain.link_segments(q), dtype=float)
-    _, clear = points_segments_distances(c._centers, segs[:, 0], segs[:, 1], c._link_radius)
+    _, clear = points_segments_distances(c._centers, segs[:, 0], segs[:, 1], radii=c._link_radius)
     if clear.shape[1] < 2:
         return False
     two = np.sort(clear, axis=1)[:, :2]

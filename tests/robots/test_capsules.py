@@ -89,7 +89,7 @@ def test_the_serial_chain_interface_runs_the_arm_baselines_and_configuration_con
         atol=1e-9,
     )
     hi = np.full(7, 2.9)
-    lim = JointLimits(-hi, hi, np.full(7, 1.5))
+    lim = JointLimits(-hi, hi, max_speed=np.full(7, 1.5))
     np.testing.assert_allclose(
         JointClamp(robot, limits=lim).shape(q, v),
         JointClamp(chain, limits=lim).shape(q, v),

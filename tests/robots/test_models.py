@@ -131,7 +131,9 @@ def test_panda_names_and_limits() -> None:
 
 # ------------------------------------------------------------------------ loading and errors
 def test_from_file_and_capsules(tmp_path: Path) -> None:
-    xml = dh_mjcf([[0.0, 0.0, 0.5, 0.0], [0.3, 0.0, 0.0, 0.0]], [[-1, 1], [-2, 2]], radius=0.05)
+    xml = dh_mjcf(
+        [[0.0, 0.0, 0.5, 0.0], [0.3, 0.0, 0.0, 0.0]], joint_limits=[[-1, 1], [-2, 2]], radius=0.05
+    )
     assert xml.count('type="capsule"') == 2
     path = tmp_path / "arm.xml"
     path.write_text(xml, encoding="utf-8")
@@ -144,7 +146,7 @@ def test_from_file_and_capsules(tmp_path: Path) -> None:
 
 def test_theta_offsets_match_dhchain() -> None:
     rows = [[0.1, 0.3, 0.2, 0.5], [0.2, -0.4, 0.1, -1.0], [0.05, 1.0, 0.3, 2.0]]
-    robot = MujocoRobot.from_xml(dh_mjcf(rows, [[-3, 3]] * 3))
+    robot = MujocoRobot.from_xml(dh_mjcf(rows, joint_limits=[[-3, 3]] * 3))
     ref = DHChain(rows)
     for q in _random_q(np.array([[-3.0, 3.0]] * 3), 20, seed=3):
         np.testing.assert_allclose(robot.jacobian(q), ref.jacobian(q), atol=1e-9)
@@ -152,7 +154,7 @@ def test_theta_offsets_match_dhchain() -> None:
 
 def test_mdh_theta_offsets_match_the_independent_route() -> None:
     rows = [[0.0, 0.0, 0.3, 0.4], [0.1, 0.7, 0.2, -0.3]]
-    robot = MujocoRobot.from_xml(mdh_mjcf(rows, [[-3, 3]] * 2, flange_d=0.05))
+    robot = MujocoRobot.from_xml(mdh_mjcf(rows, joint_limits=[[-3, 3]] * 2, flange_d=0.05))
     q = np.array([0.2, -0.5])
     T = np.eye(4)
     for (a, al, d, off), qi in zip(rows, q, strict=True):
@@ -183,7 +185,7 @@ def test_validation_messages() -> None:
     with pytest.raises(InvalidGeometry, match="text: expected an MJCF document"):
         MujocoRobot.from_xml("<mujoco><worldbody><body></mujoco>")
     with pytest.raises(InvalidGeometry, match="xml: expected a site named 'tcp'"):
-        MujocoRobot(xml=dh_mjcf([[0, 0, 1, 0]], [[-1, 1]]).replace('"tcp"', '"tip"'))
+        MujocoRobot(xml=dh_mjcf([[0, 0, 1, 0]], joint_limits=[[-1, 1]]).replace('"tcp"', '"tip"'))
     with pytest.raises(InvalidGeometry, match=r"text: expected at least one joint.*hinge or slide"):
         MujocoRobot.from_xml(
             '<mujoco><worldbody><body><freejoint/><inertial pos="0 0 0" mass="1" '
@@ -196,11 +198,11 @@ def test_validation_messages() -> None:
     with pytest.raises(
         InvalidGeometry, match=r"joint_limits: expected one .* row per row of dh_rows"
     ):
-        dh_mjcf([[0, 0, 1, 0]], [[-1, 1], [-1, 1]])
+        dh_mjcf([[0, 0, 1, 0]], joint_limits=[[-1, 1], [-1, 1]])
     with pytest.raises(InvalidGeometry, match="joint_limits: expected lower < upper"):
-        dh_mjcf([[0, 0, 1, 0]], [[1, -1]])
+        dh_mjcf([[0, 0, 1, 0]], joint_limits=[[1, -1]])
     with pytest.raises(InvalidGeometry, match="dh_rows"):
-        dh_mjcf([[0, 0, 1]], [[-1, 1]])
+        dh_mjcf([[0, 0, 1]], joint_limits=[[-1, 1]])
     with pytest.raises(InvalidParameter, match="radius"):
         panda(radius=-0.1)
 
@@ -217,7 +219,7 @@ def test_safety_filter_keeps_the_panda_tcp_in_a_box(steps: int) -> None:
     dt = 0.002
     f = SafetyFilter(
         robot,
-        limits=JointLimits(lim[:, 0], lim[:, 1], np.full(7, 1.5)),
+        limits=JointLimits(lim[:, 0], lim[:, 1], max_speed=np.full(7, 1.5)),
         workspace=WorkspaceLimit(box, buffer=0.05),
         dt=dt,
     )

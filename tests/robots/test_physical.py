@@ -191,7 +191,7 @@ def test_generator_rotates_inertias_and_centres_into_the_body() -> None:
     mass = 2.5
     xml = dh_mjcf(
         [[a, alpha, d, off]],
-        [[-3.0, 3.0]],
+        joint_limits=[[-3.0, 3.0]],
         masses=[mass],
         centers_of_mass=[com],
         inertias=[[0.05, 0.04, 0.03, 0.002, -0.003, 0.001]],
@@ -215,7 +215,7 @@ def test_generator_rotates_inertias_and_centres_into_the_body() -> None:
 def test_generator_cylinder_approximation() -> None:
     # No centres or inertias: a solid cylinder (radius 0.05 m) along each link, centred on it.
     L, m, r = 0.4, 3.0, 0.05
-    xml = mdh_mjcf([[0.0, _H, 0.0, 0.0]], [[-3.0, 3.0]], flange_d=L, masses=[m])
+    xml = mdh_mjcf([[0.0, _H, 0.0, 0.0]], joint_limits=[[-3.0, 3.0]], flange_d=L, masses=[m])
     robot = MujocoRobot.from_xml(xml)
     model = robot.model
     b = model.body("link0").id
@@ -230,29 +230,31 @@ def test_generator_cylinder_approximation() -> None:
 def test_generator_validation() -> None:
     rows, lim = [[0.0, 0.0, 0.3, 0.0]], [[-1.0, 1.0]]
     with pytest.raises(InvalidParameter, match=r"masses: expected one mass > 0"):
-        dh_mjcf(rows, lim, masses=[0.0])
+        dh_mjcf(rows, joint_limits=lim, masses=[0.0])
     with pytest.raises(InvalidParameter, match=r"masses: expected shape \(1,\)"):
-        dh_mjcf(rows, lim, masses=[1.0, 2.0])
+        dh_mjcf(rows, joint_limits=lim, masses=[1.0, 2.0])
     with pytest.raises(InvalidParameter, match="centers_of_mass: expected None when masses"):
-        dh_mjcf(rows, lim, centers_of_mass=[[0, 0, 0]])
+        dh_mjcf(rows, joint_limits=lim, centers_of_mass=[[0, 0, 0]])
     with pytest.raises(InvalidParameter, match=r"inertias: expected shape \(1, 3\)"):
-        dh_mjcf(rows, lim, masses=[1.0], inertias=[[1.0, 1.0]])
+        dh_mjcf(rows, joint_limits=lim, masses=[1.0], inertias=[[1.0, 1.0]])
     with pytest.raises(InvalidParameter, match="inertias: expected physical inertia tensors"):
-        mdh_mjcf(rows, lim, masses=[1.0], inertias=[[0.01, 0.01, 0.05]])
+        mdh_mjcf(rows, joint_limits=lim, masses=[1.0], inertias=[[0.01, 0.01, 0.05]])
     with pytest.raises(InvalidParameter, match="velocity_limits: expected one limit > 0"):
-        dh_mjcf(rows, lim, velocity_limits=[-1.0])
+        dh_mjcf(rows, joint_limits=lim, velocity_limits=[-1.0])
     with pytest.raises(InvalidParameter, match="effort_limits: expected finite"):
-        dh_mjcf(rows, lim, effort_limits=[np.inf])
+        dh_mjcf(rows, joint_limits=lim, effort_limits=[np.inf])
     with pytest.raises(InvalidParameter, match=r"effort_limits: expected shape \(1,\)"):
-        dh_mjcf(rows, lim, effort_limits=[1.0, 2.0])
-    robot = MujocoRobot.from_xml(dh_mjcf(rows, lim, velocity_limits=[1.5], effort_limits=[7.0]))
+        dh_mjcf(rows, joint_limits=lim, effort_limits=[1.0, 2.0])
+    robot = MujocoRobot.from_xml(
+        dh_mjcf(rows, joint_limits=lim, velocity_limits=[1.5], effort_limits=[7.0])
+    )
     assert robot.velocity_limits.tolist() == [1.5]
     assert robot.effort_limits.tolist() == [7.0]
     np.testing.assert_array_equal(robot.model.jnt_actfrcrange[0], [-7.0, 7.0])
 
 
 def test_models_without_the_numeric_have_no_limits() -> None:
-    robot = MujocoRobot.from_xml(dh_mjcf([[0.0, 0.0, 0.3, 0.0]], [[-1.0, 1.0]]))
+    robot = MujocoRobot.from_xml(dh_mjcf([[0.0, 0.0, 0.3, 0.0]], joint_limits=[[-1.0, 1.0]]))
     assert robot.velocity_limits.tolist() == [np.inf]
     assert robot.effort_limits.tolist() == [np.inf]
     np.testing.assert_array_equal(robot.model.body_mass[1], 1.0)  # the unit placeholder

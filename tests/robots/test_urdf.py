@@ -318,7 +318,7 @@ def test_example_robot_data_ur5_matches_its_dh_table() -> None:
         [0.0, -h, 0.09465, 0.0],
         [0.0, 0.0, 0.0823, 0.0],
     ]
-    ref = MujocoRobot.from_xml(dh_mjcf(rows, [[-7.0, 7.0]] * 6))
+    ref = MujocoRobot.from_xml(dh_mjcf(rows, joint_limits=[[-7.0, 7.0]] * 6))
     flip = np.array([-1.0, -1.0, 1.0])
     for q in np.random.default_rng(5).uniform(-3.0, 3.0, size=(30, 6)):
         # the URDF's rpy are rounded to 1e-11 rad (1.57079632679)

@@ -47,7 +47,7 @@ def _filter(backend: str) -> SafetyFilter:
     lim = ARM.joint_limits
     return SafetyFilter(
         ARM,
-        limits=JointLimits(lim[:, 0], lim[:, 1], np.full(7, 1.5)),
+        limits=JointLimits(lim[:, 0], lim[:, 1], max_speed=np.full(7, 1.5)),
         workspace=WorkspaceLimit(
             ConvexPolytope.box(ARM.fk(Q0) - 0.3, ARM.fk(Q0) + 0.05), buffer=0.1
         ),

@@ -83,11 +83,15 @@ def test_rate_limiter_hold_checks_the_value() -> None:
 
 def test_points_segments_distances_names_radii_and_bounds_pairs() -> None:
     with pytest.raises(InvalidInput, match="radii: expected radii >= 0"):
-        points_segments_distances([[0.0, 0.0, 0.0]], [[1.0, 0.0, 0.0]], [[2.0, 0.0, 0.0]], -1.0)
+        points_segments_distances(
+            [[0.0, 0.0, 0.0]], [[1.0, 0.0, 0.0]], [[2.0, 0.0, 0.0]], radii=-1.0
+        )
     with pytest.raises(InvalidInput, match="radii: expected"):
-        points_segments_distances([[0.0, 0.0, 0.0]], [[1.0, 0.0, 0.0]], [[2.0, 0.0, 0.0]], "1")
+        points_segments_distances(
+            [[0.0, 0.0, 0.0]], [[1.0, 0.0, 0.0]], [[2.0, 0.0, 0.0]], radii="1"
+        )
     t, d = points_segments_distances(
-        [[0.0, 1.0, 0.0]], [[-1.0, 0.0, 0.0]], [[1.0, 0.0, 0.0]], np.float32(0.5)
+        [[0.0, 1.0, 0.0]], [[-1.0, 0.0, 0.0]], [[1.0, 0.0, 0.0]], radii=np.float32(0.5)
     )
     assert t[0, 0] == pytest.approx(0.5)
     assert d[0, 0] == pytest.approx(0.5)

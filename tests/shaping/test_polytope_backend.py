@@ -31,7 +31,7 @@ def _filter(**kw: Any) -> SafetyFilter:
     return SafetyFilter(
         ARM,
         limits=JointLimits(
-            lim[:, 0], lim[:, 1], np.full(7, 1.5), max_acceleration=np.full(7, 10.0)
+            lim[:, 0], lim[:, 1], max_speed=np.full(7, 1.5), max_acceleration=np.full(7, 10.0)
         ),
         workspace=WorkspaceLimit(
             ConvexPolytope.box(ARM.fk(Q0) - 0.3, ARM.fk(Q0) + 0.05), buffer=0.1

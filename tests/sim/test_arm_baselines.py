@@ -82,7 +82,10 @@ def test_scalar_scale_is_the_largest_admissible_scalar(q: np.ndarray, v: np.ndar
     ctrl = ScalarScale(ROBOT, limits=LIMITS, obstacles=(sphere,), dt=DT, singular_slow=1e6,
                        singular_stop=2e6)  # fmt: skip
     segs = ROBOT.link_segments(q)
-    clear = [sphere_capsule_distance(sphere.center, 0.05, a, b, 0.05)[0] for a, b in segs]
+    clear = [
+        sphere_capsule_distance(sphere.center, a, b, sphere_radius=0.05, capsule_radius=0.05)[0]
+        for a, b in segs
+    ]
     assume(min(clear) > 0.0)  # a scalar on the command cannot push a link out of the sphere
     free = ResolvedRate(ROBOT, limits=LIMITS).shape(q, v)
     res = ctrl.explain(q, v)
@@ -101,12 +104,16 @@ def test_scalar_scale_is_the_largest_admissible_scalar(q: np.ndarray, v: np.ndar
             return False
         # sphere damper by finite differences of the clearance of every link within influence
         for link in range(7):
-            d, *_ = sphere_capsule_distance(sphere.center, 0.05, segs[link, 0], segs[link, 1], 0.05)
+            d, *_ = sphere_capsule_distance(
+                sphere.center, segs[link, 0], segs[link, 1], sphere_radius=0.05, capsule_radius=0.05
+            )
             if d > ctrl.influence:
                 continue
             h = 1e-7
             s2 = ROBOT.link_segments(q + h * qd)
-            d2, *_ = sphere_capsule_distance(sphere.center, 0.05, s2[link, 0], s2[link, 1], 0.05)
+            d2, *_ = sphere_capsule_distance(
+                sphere.center, s2[link, 0], s2[link, 1], sphere_radius=0.05, capsule_radius=0.05
+            )
             if (d2 - d) / h < -ctrl.obstacle_gain * d / ctrl.influence - 1e-5:
                 return False
         return True
@@ -172,7 +179,9 @@ def test_sphere_penetration_against_the_pairwise_distance() -> None:
     worst = 0.0
     for row in segs:
         for seg in row:
-            d, *_ = sphere_capsule_distance(c, 0.04, seg[0], seg[1], 0.02)
+            d, *_ = sphere_capsule_distance(
+                c, seg[0], seg[1], sphere_radius=0.04, capsule_radius=0.02
+            )
             worst = max(worst, -d)
     assert sphere_penetration(segs, np.full(4, 0.02), c, 0.04) == pytest.approx(worst, abs=1e-12)
 

@@ -150,7 +150,7 @@ def _sphere_scene(robot):
 def test_contacts_are_counted_by_the_simulator(robot) -> None:
     ball = _sphere_scene(robot)
     lim = robot.joint_limits
-    limits = JointLimits(lim[:, 0], lim[:, 1], np.full(7, 2.0))
+    limits = JointLimits(lim[:, 0], lim[:, 1], max_speed=np.full(7, 2.0))
     down = np.array([0.0, 0.0, -0.3])
     free = _plant(robot, obstacles=[ball])
     simulate(
@@ -176,7 +176,7 @@ def _box_run(robot, bandwidth: float, lookahead: bool) -> float:
     box = ConvexPolytope.box(x0 - 0.15, x0 + 0.15)
     f = SafetyFilter(
         robot,
-        limits=JointLimits(lim[:, 0], lim[:, 1], np.full(7, 2.0)),
+        limits=JointLimits(lim[:, 0], lim[:, 1], max_speed=np.full(7, 2.0)),
         workspace=WorkspaceLimit(box, buffer=0.05),
         dt=DT,
     )
@@ -257,7 +257,9 @@ def test_velocity_actuators_track_on_a_two_link_arm() -> None:
     from velfence.robots import dh_mjcf
     from velfence.sim.physics import MujocoPlant
 
-    xml = dh_mjcf([[0.3, 0.0, 0.0, 0.0], [0.25, 0.0, 0.0, 0.0]], [[-3.0, 3.0], [-3.0, 3.0]])
+    xml = dh_mjcf(
+        [[0.3, 0.0, 0.0, 0.0], [0.25, 0.0, 0.0, 0.0]], joint_limits=[[-3.0, 3.0], [-3.0, 3.0]]
+    )
     plant = MujocoPlant(xml, servo="velocity", kv=20.0, gravity=False, physics_dt=5e-4)
     v = np.array([0.5, -0.3])
     tr = simulate(Hold(), lambda t, q: v, np.zeros(2), duration=0.4, dt=1e-3, plant=plant)

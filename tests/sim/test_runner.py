@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 import velfence as vf
+from velfence.errors import InvalidInput
 from velfence.sim import Disturbance, NoLimit, Trajectory, push, simulate, simulate_many
 
 SQUARE = vf.ConvexPolygon([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
@@ -259,3 +260,12 @@ def test_window_names_t1_before_t0():
     with pytest.raises(vf.InvalidInput, match=r"t1 must be later than t0"):
         traj.window(0.1, 0.0)
     assert len(traj.window(0.0, 0.05)) == 1
+
+
+@pytest.mark.parametrize(
+    "p", [[math.nan, 0.0], [math.inf, 0.0], [0.0, 0.0, 0.0], [0.0], [[0.0, 0.0]], "ab"]
+)
+def test_disturbance_refuses_a_bad_position(p: object) -> None:
+    # the position was checked only for being numbers: NaN, inf and any shape went through
+    with pytest.raises(InvalidInput, match=r"^p: "):
+        push(0.0, 1.0, [1.0, 0.0])(0.5, p)

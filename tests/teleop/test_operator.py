@@ -70,7 +70,7 @@ def _reach_plan(offset, tol=0.005):
     def plan(op):
         start = op.obs.tip.copy()
         goal = start + np.asarray(offset)
-        yield from op.reach(lambda o: goal, tol)
+        yield from op.reach(lambda o: goal, tol=tol)
 
     return plan
 
@@ -169,7 +169,7 @@ def test_aim_puts_the_laser_spot_on_the_target_and_keys_follow():
 
     def plan(oper):
         yield from oper.engage()
-        yield from oper.aim(target, 0.01)
+        yield from oper.aim(target, tol=0.01)
         yield from oper.record("D")
 
     _drive(s, op, plan)

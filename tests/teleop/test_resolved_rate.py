@@ -82,12 +82,12 @@ def test_sr_inverse_at_k0_equals_inverse():
     rng = np.random.default_rng(1)
     for _ in range(20):
         J = rng.normal(size=(6, 6)) + 3 * np.eye(6)
-        np.testing.assert_allclose(sr_inverse(J, 0.0), np.linalg.inv(J), atol=1e-9)
+        np.testing.assert_allclose(sr_inverse(J, k=0.0), np.linalg.inv(J), atol=1e-9)
 
 
 def test_sr_inverse_of_a_wide_matrix_at_k0_is_the_pseudo_inverse():
     J = np.random.default_rng(2).normal(size=(3, 5))
-    np.testing.assert_allclose(sr_inverse(J, 0.0), np.linalg.pinv(J), atol=1e-12)
+    np.testing.assert_allclose(sr_inverse(J, k=0.0), np.linalg.pinv(J), atol=1e-12)
 
 
 def test_sr_inverse_matches_the_svd_formula_and_is_bounded_near_a_singularity():
@@ -98,7 +98,7 @@ def test_sr_inverse_matches_the_svd_formula_and_is_bounded_near_a_singularity():
     J = U @ np.diag(sigma) @ V.T
     k = 0.025
     expected = V @ np.diag(sigma / (sigma**2 + k)) @ U.T  # independent route: SVD
-    got = sr_inverse(J, k)
+    got = sr_inverse(J, k=k)
     np.testing.assert_allclose(got, expected, atol=1e-12)
     assert np.linalg.norm(got, 2) <= 1 / (2 * math.sqrt(k)) + 1e-12
     assert np.linalg.norm(np.linalg.inv(J), 2) > 1e11  # what J⁻¹ would give
@@ -107,17 +107,17 @@ def test_sr_inverse_matches_the_svd_formula_and_is_bounded_near_a_singularity():
 def test_sr_inverse_refuses_a_singular_matrix_at_k0():
     J = np.diag([1.0, 1.0, 1.0, 1.0, 1.0, 0.0])
     with pytest.raises(InvalidInput, match=r"singular at k = 0 \(manipulability w = 0\)"):
-        sr_inverse(J, 0.0)
-    assert np.all(np.isfinite(sr_inverse(J, 1e-3)))
+        sr_inverse(J, k=0.0)
+    assert np.all(np.isfinite(sr_inverse(J, k=1e-3)))
 
 
 def test_sr_inverse_validates():
     with pytest.raises(InvalidParameter, match="k must be finite and >= 0"):
-        sr_inverse(np.eye(6), -1.0)
+        sr_inverse(np.eye(6), k=-1.0)
     with pytest.raises(InvalidInput, match="expected a non-empty 2-D array"):
-        sr_inverse(np.ones(6), 0.1)
+        sr_inverse(np.ones(6), k=0.1)
     with pytest.raises(InvalidInput, match="J: expected finite values"):
-        sr_inverse(np.full((6, 6), np.nan), 0.1)
+        sr_inverse(np.full((6, 6), np.nan), k=0.1)
 
 
 def test_manipulability_of_square_and_wide():

@@ -97,7 +97,7 @@ def test_rotated_box_matches_marching_for_random_rays():
     R = _rot((1, 2, 3), 0.7)
     c = np.array([0.2, 0.1, -0.1])
     h = np.array([0.3, 0.1, 0.2])
-    box = Box(c, h, rotation=R)
+    box = Box(c, half_extents=h, rotation=R)
 
     def inside(p):
         return np.all(np.abs((p - c) @ R) <= h, axis=1)
@@ -156,8 +156,8 @@ def test_rotated_box_equals_axis_aligned_box_in_rotated_coordinates():
     R = _rot((0, 0, 1), 0.4) @ _rot((1, 0, 0), -0.3)
     c = np.array([0.5, -0.1, 0.2])
     h = np.array([0.1, 0.2, 0.3])
-    rotated = Box(c, h, rotation=R)
-    aligned = Box((0, 0, 0), h)
+    rotated = Box(c, half_extents=h, rotation=R)
+    aligned = Box((0, 0, 0), half_extents=h)
     for _ in range(100):
         o = rng.uniform(-1, 1, 3)
         d = _unit(rng.normal(size=3))
@@ -213,7 +213,7 @@ def test_cylinder_special_rays():
 
 
 def test_box_edges_corners_and_inside():
-    box = Box((0, 0, 0), (1, 2, 3))
+    box = Box((0, 0, 0), half_extents=(1, 2, 3))
     assert box.intersect((-5, 0, 0), (1, 0, 0)) == pytest.approx(4.0, abs=EXACT)
     assert box.intersect((-5, 2, 3), (1, 0, 0)) == pytest.approx(4.0, abs=EXACT)  # along an edge
     assert math.isinf(box.intersect((-5, 2 + 1e-9, 0), (1, 0, 0)))
@@ -275,7 +275,7 @@ def test_raycast_returns_nearest_hit_with_facing_normal_and_respects_max_range()
     scene = Scene(
         {
             "floor": Plane((0, 0, 0), (0, 0, 1)),
-            "block": Box((0, 0, 0.1), (0.1, 0.1, 0.1)),
+            "block": Box((0, 0, 0.1), half_extents=(0.1, 0.1, 0.1)),
         }
     )
     hit = scene.raycast((0, 0, 1), (0, 0, -1))
@@ -308,7 +308,7 @@ def test_raycast_ties_go_to_the_earlier_primitive():
 
 
 def test_segment_hit_nearest_and_inside():
-    scene = Scene({"block": Box((0, 0, 0), (0.1, 0.1, 0.1))})
+    scene = Scene({"block": Box((0, 0, 0), half_extents=(0.1, 0.1, 0.1))})
     assert scene.segment_hit((-1, 0, 0.5), (1, 0, 0.5)) is None
     hit = scene.segment_hit((-1, 0, 0), (1, 0, 0))
     assert hit is not None
@@ -456,14 +456,14 @@ def test_door_scene_is_vertical_and_faces_the_robot():
             InvalidGeometry,
             "radius: expected a finite",
         ),
-        (lambda: Box((0, 0, 0), (1, 0, 1)), InvalidGeometry, "three numbers > 0"),
+        (lambda: Box((0, 0, 0), half_extents=(1, 0, 1)), InvalidGeometry, "three numbers > 0"),
         (
-            lambda: Box((0, 0, 0), (1, 1, 1), rotation=np.diag([1.0, 1.0, -1.0])),
+            lambda: Box((0, 0, 0), half_extents=(1, 1, 1), rotation=np.diag([1.0, 1.0, -1.0])),
             InvalidGeometry,
             "det \\+1",
         ),
         (
-            lambda: Box((0, 0, 0), (1, 1, 1), rotation=np.eye(3) * 1.01),
+            lambda: Box((0, 0, 0), half_extents=(1, 1, 1), rotation=np.eye(3) * 1.01),
             InvalidGeometry,
             "orthonormal",
         ),

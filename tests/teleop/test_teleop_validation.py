@@ -282,24 +282,33 @@ def test_tuning_parameters_are_keyword_only(make: Callable[[], object]) -> None:
         (lambda op: op.wait(1e100), r"duration=1e\+100 s with tick=0.02 s needs"),
         (lambda op: op.wait_until("yes"), r"predicate: expected a function, got str"),
         (lambda op: op.wait_until(lambda o: True, limit=0.0), r"limit must be finite and > 0"),
-        (lambda op: op.stroke([0.01, 0.0], 0.001), r"d: expected shape \(3,\), got shape \(2,\)"),
-        (lambda op: op.stroke([1e3, 0.0, 0.0], 0.001), r"d: expected a displacement .*<= 100"),
-        (lambda op: op.stroke([0.01, 0.0, 0.0], 0.0), r"tol must be finite and > 0"),
+        (
+            lambda op: op.stroke([0.01, 0.0], tol=0.001),
+            r"d: expected shape \(3,\), got shape \(2,\)",
+        ),
+        (lambda op: op.stroke([1e3, 0.0, 0.0], tol=0.001), r"d: expected a displacement .*<= 100"),
+        (lambda op: op.stroke([0.01, 0.0, 0.0], tol=0.0), r"tol must be finite and > 0"),
         (lambda op: op.index([0.0, 0.0, 0.0]), r"hand_d: expected a non-zero displacement"),
         (lambda op: op.turn([0.0, 0.0, 0.1], peak=0.3, a=-1.0, b=0.3, tol=0.01), r"a must be"),
         (
             lambda op: op.turn([0.0, 0.0, 0.1], peak=5e-324, a=0.4, b=0.3, tol=0.01),
             r"peak, a, b: a turn by 0.1 rad",
         ),
-        (lambda op: op.reach(np.zeros(3), 0.01), r"target: expected a function, got ndarray"),
-        (lambda op: op.reach(lambda o: np.zeros(3), 0.01, point="toe"), r"point: expected one of"),
+        (lambda op: op.reach(np.zeros(3), tol=0.01), r"target: expected a function, got ndarray"),
         (
-            lambda op: op.reach(lambda o: np.zeros(3), 0.01, max_strokes=10**9),
+            lambda op: op.reach(lambda o: np.zeros(3), tol=0.01, point="toe"),
+            r"point: expected one of",
+        ),
+        (
+            lambda op: op.reach(lambda o: np.zeros(3), tol=0.01, max_strokes=10**9),
             r"max_strokes: expected an int <= 10,000",
         ),
-        (lambda op: op.orient(lambda o: np.eye(3), 0.05, error=float), r"error: expected a func"),
         (
-            lambda op: op.aim(RaisingArray(), 0.01),
+            lambda op: op.orient(lambda o: np.eye(3), tol=0.05, error=float),
+            r"error: expected a func",
+        ),
+        (
+            lambda op: op.aim(RaisingArray(), tol=0.01),
             r"target: expected a point \[m\] of shape \(3,\), got <",
         ),
         (lambda op: op.vertical(float("nan")), r"tol must be finite"),
@@ -324,7 +333,7 @@ def test_operator_callbacks_are_checked_while_running() -> None:
     op.start(lambda o: o.wait_until(lambda obs: "yes"))  # type: ignore[arg-type, return-value]
     with pytest.raises(InvalidInput, match=r"predicate: expected a function returning True"):
         op.act(session.observe())
-    op.start(lambda o: o.reach(lambda obs: "here", 0.01))  # type: ignore[arg-type, return-value]
+    op.start(lambda o: o.reach(lambda obs: "here", tol=0.01))  # type: ignore[arg-type, return-value]
     obs = session.observe()
 
     def run() -> None:

@@ -17,6 +17,7 @@ import re
 import socket
 import struct
 import threading
+import time
 from collections.abc import Iterator
 from typing import Any
 
@@ -26,6 +27,7 @@ import pytest
 from velfence.apps.viewer.server import (
     HOST,
     MAX_BODY,
+    MAX_IDLE,
     ScriptedDriver,
     ViewerServer,
     serve,
@@ -438,12 +440,23 @@ def test_idle_or_stalled_connection_is_closed(session: Session, sent: bytes) -> 
     assert session.keys == []
 
 
+def _holds_a_slot(srv: ViewerServer, conn: socket.socket) -> None:
+    """Send a first line on ``conn`` and wait until its handler thread holds a slot."""
+    conn.sendall(b"GET /state HTTP/1.1\r\n")
+    deadline = time.monotonic() + WAIT
+    # Deliberately internal: which connection holds a slot shows outside only as a 503 race.
+    while srv._httpd._slots._value != 0:  # type: ignore[attr-defined]
+        assert time.monotonic() < deadline
+        time.sleep(0.005)
+
+
 def test_connections_beyond_the_cap_get_503(session: Session) -> None:
     with (
         serve(session, realtime=False, max_connections=1) as srv,
         socket.create_connection((HOST, srv.port), timeout=WAIT) as first,
     ):
-        # ``first`` was accepted before the next connect: it holds the only slot, idle
+        # ``first`` sent part of a request (stalled, not idle): it holds the only slot
+        _holds_a_slot(srv, first)
         reply = _exchange(
             srv.port, f"GET /state HTTP/1.1\r\nHost: {HOST}:{srv.port}\r\n\r\n".encode()
         )
@@ -451,11 +464,40 @@ def test_connections_beyond_the_cap_get_503(session: Session) -> None:
         assert "max_connections=1" in reply.json()["error"]
         _assert_security_headers(reply)
         # the connection holding the slot is still served normally
-        first.sendall(f"GET /state HTTP/1.1\r\nHost: {HOST}:{srv.port}\r\n\r\n".encode())
+        first.sendall(f"Host: {HOST}:{srv.port}\r\n\r\n".encode())
         raw = b""
         while chunk := first.recv(65536):
             raw += chunk
         assert Reply(raw).status == 200
+
+
+@pytest.mark.parametrize("max_connections", [1, 128])
+def test_idle_connections_do_not_lock_the_page_out(session: Session, max_connections: int) -> None:
+    # Sockets that connect and send nothing (a browser's pre-connects, or a hostile client)
+    # used to hold every slot, so each real request got 503 for up to connection_timeout.
+    with serve(session, realtime=False, max_connections=max_connections) as srv:
+        idle = [socket.create_connection((HOST, srv.port), timeout=WAIT) for _ in range(200)]
+        try:
+            time.sleep(0.2)  # every idle socket accepted by now
+            for _ in range(3):
+                reply = _request(srv.port, "GET", "/")
+                assert reply.status == 200, reply.body[:200]
+        finally:
+            for conn in idle:
+                conn.close()
+
+
+def test_idle_connections_beyond_the_waiting_room_drop_the_oldest(session: Session) -> None:
+    with serve(session, realtime=False, max_connections=1) as srv:
+        oldest = socket.create_connection((HOST, srv.port), timeout=WAIT)
+        rest = [socket.create_connection((HOST, srv.port), timeout=WAIT) for _ in range(MAX_IDLE)]
+        try:
+            assert oldest.recv(65536) == b""  # closed by the server to make room
+            assert _request(srv.port, "GET", "/state").status == 200
+        finally:
+            oldest.close()
+            for conn in rest:
+                conn.close()
 
 
 class _Flag(logging.Handler):

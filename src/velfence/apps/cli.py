@@ -115,7 +115,15 @@ def _summary(console: Console, folder: Path | None, files: Any, verdict: str) ->
 
 
 def reproduction_dir(name: str, out: Path | None) -> Path:
-    """Where ``velfence reproduce NAME [--out DIR]`` writes: DIR itself, else out/reproduce/NAME."""
+    """Where ``velfence reproduce NAME [--out DIR]`` writes: DIR itself, else out/reproduce/NAME.
+
+    Args:
+        name: The reproduction's name.
+        out: The ``--out`` folder, or ``None`` when not given.
+
+    Returns:
+        The output folder.
+    """
     return Path("out/reproduce") / name if out is None else out
 
 

@@ -94,7 +94,14 @@ def _tracking(console: Console, title: str, plan: tuple[tuple[str, float], ...])
 
 @dataclass(frozen=True)
 class DemoResult:
-    """What the demo produced: per-method metrics, the summary table and the files written."""
+    """What the demo produced: per-method metrics, the summary table and the files written.
+
+    Args:
+        metrics: Method name -> metric name -> value (:func:`velfence.sim.summarize`).
+        table: The summary table of the methods.
+        artifacts: The files written.
+        trajectories: Method name -> its run.
+    """
 
     metrics: dict[str, dict[str, float]]
     table: Table
@@ -104,6 +111,13 @@ class DemoResult:
 
 def build_shapers(polygon: ConvexPolygon, cfg: DemoConfig) -> dict[str, Shaper]:
     """The shapers the config asks for, in the config's order.
+
+    Args:
+        polygon: The permitted workspace.
+        cfg: The demo configuration (:func:`velfence.io.load_config`).
+
+    Returns:
+        Method name -> shaper, in the config's order.
 
     Raises:
         InvalidParameter: ``polygon`` is not a ConvexPolygon or ``cfg`` not a DemoConfig.
@@ -246,7 +260,7 @@ def run_demo(
     script = _script(polygon, cfg)
     check_run_length(
         script.duration,
-        cfg.dt,
+        dt=cfg.dt,
         max_steps=max_steps,
         duration_name="duration"
         if cfg.duration is not None

@@ -557,7 +557,9 @@ def _filter_steps(
 
     n, dim = st.X.shape
     robot = CartesianPoint(dim=dim)
-    lim = JointLimits(np.full(dim, -np.inf), np.full(dim, np.inf), np.full(dim, 10.0 * speed))
+    lim = JointLimits(
+        np.full(dim, -np.inf), np.full(dim, np.inf), max_speed=np.full(dim, 10.0 * speed)
+    )
     Y = np.zeros((n, dim))
     failed = np.zeros(n, dtype=bool)
     for j, part in enumerate(np.array_split(np.arange(n), len(buffers))):
@@ -726,7 +728,7 @@ def _episode(
     acc = None
     if rng.random() < 0.3:
         acc = np.full(n, float(rng.uniform(5.0, 30.0)))
-    limits = JointLimits(lo, hi, vmax, max_acceleration=acc)
+    limits = JointLimits(lo, hi, max_speed=vmax, max_acceleration=acc)
     p = np.asarray(robot.fk(q), dtype=np.float64)
     rows_n: list[FloatArray] = []
     rows_o: list[float] = []
@@ -1029,7 +1031,7 @@ def replay_loop_example(example: Any) -> tuple[FloatArray, float, float, tuple[s
     model, _ = _robot(name)
     amax = np.asarray(ex["amax"], dtype=np.float64)
     limits = JointLimits(
-        ex["lo"], ex["hi"], ex["vmax"], max_acceleration=amax if amax.size else None
+        ex["lo"], ex["hi"], max_speed=ex["vmax"], max_acceleration=amax if amax.size else None
     )
     N = np.asarray(ex["N"], dtype=np.float64)
     o = np.asarray(ex["o"], dtype=np.float64)

@@ -95,6 +95,8 @@ def gains_from_poles(p1: complex, p2: complex) -> tuple[float, float]:
 
 def _pole(name: str, p: object) -> complex:
     """A pole as a finite complex number with real part < 0 (strings and booleans refused)."""
+    if isinstance(p, np.ndarray) and p.shape == () and p.dtype.kind in "iufc":
+        p = p[()]  # a 0-d array is a scalar
     if isinstance(p, (bool, np.bool_)) or not isinstance(p, numbers.Number):
         raise InvalidParameter(
             f"{name}: expected a stable pole (a real or complex number) in 1/m, got "
@@ -115,7 +117,17 @@ def _pole(name: str, p: object) -> complex:
 
 
 def critically_damped(omega: float) -> tuple[float, float]:
-    r"""Gains for a double pole at :math:`-\omega` [1/m]: :math:`(\omega^2, 2\omega)`."""
+    r"""Gains for a double pole at :math:`-\omega` [1/m]: :math:`(\omega^2, 2\omega)`.
+
+    Args:
+        omega: The pole's magnitude [1/m], finite and > 0.
+
+    Returns:
+        ``(k1, k2) = (omega², 2 omega)`` in [1/m²] and [1/m].
+
+    Raises:
+        InvalidParameter: ``omega`` not a finite number > 0.
+    """
     w = check_positive("omega", omega, unit="1/m")
     return w * w, 2.0 * w
 

@@ -187,8 +187,11 @@ class RThetaKinematics:
 class IdentityKinematics:
     """Joint space = end-effector space (q = R, J = I): wheeled cobots on a plane, n = 2 or 3.
 
-    Attributes:
-        n: The dimension, an integer in [2, 10000] (default 2).
+    Args:
+        n: The dimension of the configuration (and of the joints), an int in [2, 10000].
+
+    Raises:
+        InvalidParameter: ``n`` not an int in that range.
     """
 
     n: int = 2
@@ -820,6 +823,13 @@ def r_theta_cobot(*, r_o: float = 0.5, convention: int = 1) -> Cobot:
     Args:
         r_o: Cable-drive radius [m], > 0.
         convention: Sign convention of the tetrahedral CVT (±1, :class:`TetrahedralCVT`).
+
+    Returns:
+        The cobot (r-θ kinematics, one tetrahedral coupling).
+
+    Raises:
+        InvalidParameter: ``r_o`` not a finite number > 0 (or so small that 1/r_o overflows), or
+            a ``convention`` other than ±1.
     """
     ro = check_positive("r_o", r_o, unit="m")
     if ro < 1.0 / MAX_MAGNITUDE:  # 1/r_o is the selection's entry: it must stay finite
@@ -833,7 +843,11 @@ def r_theta_cobot(*, r_o: float = 0.5, convention: int = 1) -> Cobot:
 
 
 def unicycle() -> Cobot:
-    """The Unicycle cobot: one steered wheel on a plane, :math:`J_1 = I` computed directly."""
+    """The Unicycle cobot: one steered wheel on a plane, :math:`J_1 = I` computed directly.
+
+    Returns:
+        The cobot (identity kinematics in 2-D, one steered-wheel coupling).
+    """
 
     def wheel(R: FloatArray) -> tuple[FloatArray, FloatArray]:
         return np.eye(2), np.zeros((2, 2, 2))

@@ -51,6 +51,9 @@ __all__ = ["CasterWall", "WallSteering", "WallSteeringOutput"]
 
 #: Angular slack [rad] when testing the bound arcs (round-off at arc end points).
 _FEAS_TOL = 1e-12
+#: Inward speed, relative to the intent's, demanded by bounds that point inward (a recovery or
+#: the relaxed "not further out"), so that round-off never turns the velocity outward.
+_INWARD = 1e-9
 
 
 def _nearest_feasible(
@@ -182,15 +185,37 @@ class CasterWall(ShaperBase):
         psi = math.atan2(vy, vx)
         stages = STAGE_PROJECT
         bounds = [(r[0], r[1], r[2]) for r in rows]
+
+        def realise(phi: float) -> tuple[float, float, float, float]:
+            lx, ly = math.cos(psi + phi), math.sin(psi + phi)
+            u = 0.0 if abs(phi) >= 0.5 * math.pi else speed * math.cos(phi)
+            return u * lx, u * ly, lx, ly
+
+        def outward(phi: float) -> bool:
+            """Whether round-off left the velocity pointing out through a wall (c >= 0)."""
+            wx, wy = realise(phi)[:2]
+            return any(a * wx + b * wy < 0.0 for a, b, c in bounds if c >= 0.0)
+
+        # The arcs' end points meet their bounds only to round-off; where a bound says "inward"
+        # (recovery, or the relaxed "not further out"), a sliver of inward speed absorbs it.
+        floor = _INWARD * speed
         phi = _nearest_feasible(bounds, psi, speed)
+        if phi is not None and outward(phi):
+            strict = [(a, b, max(c, floor) if c >= 0.0 else c) for a, b, c in bounds]
+            # no room for the sliver (a feasible set ~1e-9 rad wide): stand still
+            phi = _nearest_feasible(strict, psi, speed)
+            if phi is None:
+                phi = 0.5 * math.pi
         if phi is None:  # recovery not realisable: only forbid going further out
-            phi = _nearest_feasible([(a, b, min(c, 0.0)) for a, b, c in bounds], psi, speed)
+            relaxed = [(a, b, floor if c >= 0.0 else c) for a, b, c in bounds]
+            phi = _nearest_feasible(relaxed, psi, speed)
             stages |= STAGE_RELAXED
-        if phi is None:  # unreachable: 0 (phi = π/2) always meets bounds <= 0
+            if phi is not None and outward(phi):
+                phi = None
+        if phi is None:  # stand still (phi = π/2): w = 0 meets every bound <= 0 exactly
             phi = 0.5 * math.pi
-        lx, ly = math.cos(psi + phi), math.sin(psi + phi)
-        u = 0.0 if abs(phi) >= 0.5 * math.pi else speed * math.cos(phi)
-        return (u * lx, u * ly, zone, p1, p2, d1, d2, 0.0, 0.0, stages), (lx, ly)
+        wx, wy, lx, ly = realise(phi)
+        return (wx, wy, zone, p1, p2, d1, d2, 0.0, 0.0, stages), (lx, ly)
 
     def _law_batch(self, P: FloatArray, V: FloatArray) -> tuple[FloatArray, IntArray]:
         out = np.empty_like(P)

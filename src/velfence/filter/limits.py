@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from velfence._deprecate import renamed_args, renamed_attribute
+from velfence._deprecate import positional_deprecated, renamed_args, renamed_attribute
 from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence._validate import (
@@ -79,8 +79,8 @@ class JointLimits:
 
     lower: FloatArray
     upper: FloatArray
-    max_speed: FloatArray
     _: KW_ONLY
+    max_speed: FloatArray
     max_acceleration: FloatArray | None = None
     names: tuple[str, ...] | None = None
 
@@ -234,16 +234,21 @@ class JointLimits:
                 acc[j] = _number(entry, s, "max_acceleration", "rad/s²")
         try:
             return cls(
-                lo, hi, vel, max_acceleration=acc if np.isfinite(acc).any() else None, names=names
+                lo,
+                hi,
+                max_speed=vel,
+                max_acceleration=acc if np.isfinite(acc).any() else None,
+                names=names,
             )
         except InvalidParameter as exc:
             raise InvalidParameter(f"joint_limits: {exc}") from None
 
 
-# The dataclass's own __init__, taking the old keyword max_velocity with a warning until 0.3.
-JointLimits.__init__ = renamed_args(max_velocity="max_speed")(  # type: ignore[method-assign]
-    JointLimits.__init__
-)
+# The dataclass's own __init__, taking the old keyword max_velocity and the old positional
+# max_speed with a warning until 0.3.
+JointLimits.__init__ = positional_deprecated(  # type: ignore[method-assign]
+    3, ("self", "lower", "upper", "max_speed")
+)(renamed_args(max_velocity="max_speed")(JointLimits.__init__))
 
 
 #: The fields of a ros2_control joint_limits entry (joint_limits/joint_limits_rosparam.hpp);

@@ -42,6 +42,11 @@ __all__ = [
     "polygon_from_halfplanes",
 ]
 
+#: Degeneracy rule of polygons and polytopes (:class:`~velfence.geometry.polytope.ConvexPolytope`
+#: uses it too): an inscribed circle or ball (Chebyshev radius) at or below
+#: ``THIN * (1 + max |offset|)`` means an empty or lower-dimensional set, refused.
+THIN = 1e-9
+
 
 _TWO_PI = 2.0 * math.pi
 
@@ -178,6 +183,18 @@ class ConvexPolygon:
         xn, yn = np.roll(x, -1), np.roll(y, -1)
         cross = x * yn - xn * y
         area = 0.5 * float(cross.sum())
+        # One degeneracy rule with ConvexPolytope (its Chebyshev-radius test): an inscribed circle
+        # of radius <= THIN * (1 + max |offset|) is refused. area / perimeter <= r <= 2 area /
+        # perimeter for a convex polygon, so the search runs only near that threshold.
+        thin = THIN * (1.0 + float(np.max(np.abs(offsets))))
+        perimeter = float(length.sum())
+        if area <= thin * perimeter:
+            r = _chebyshev(c, normals, offsets)[0]
+            if r <= thin:
+                raise InvalidGeometry(
+                    f"corners: the polygon is too thin: inscribed circle of radius {r:.3g}, "
+                    f"expected > {thin:.3g} (the same rule as ConvexPolytope's)"
+                )
         cx = float(((x + xn) * cross).sum()) / (6.0 * area)
         cy = float(((y + yn) * cross).sum()) / (6.0 * area)
         ang = np.arctan2(y - cy, x - cx)
@@ -491,7 +508,7 @@ def polygon_from_halfplanes(
     gaps = np.diff(np.append(srt, srt[0] + 2 * np.pi))
     if np.any(gaps >= np.pi - 1e-12):
         raise InvalidGeometry(
-            "the half-planes do not bound a region: their normals leave a gap of π or more "
+            "A: the half-planes do not bound a region: their normals leave a gap of π or more "
             f"(normals' angles {np.degrees(ang).round(3).tolist()} deg)"
         )
     m = Aa.shape[0]
@@ -509,7 +526,7 @@ def polygon_from_halfplanes(
             if np.all(U @ x - o >= -tol):
                 pts.append(x)
     if len(pts) < 3:
-        raise InvalidGeometry("the half-planes have an empty (or degenerate) intersection")
+        raise InvalidGeometry("A, c: the half-planes have an empty (or degenerate) intersection")
     P = np.array(pts)
     center = P.mean(axis=0)
     P = P[np.argsort(np.arctan2(P[:, 1] - center[1], P[:, 0] - center[0]))]
@@ -525,12 +542,12 @@ def polygon_from_halfplanes(
     for k in range(len(corners)):
         both = np.flatnonzero(on_line[k] & on_line[(k + 1) % len(corners)])
         if both.size == 0:
-            raise InvalidGeometry("the half-planes' intersection is degenerate")
+            raise InvalidGeometry("A, c: the half-planes' intersection is degenerate")
         edges.append(int(both[0]))
     missing = sorted(set(range(m)) - set(edges))
     if missing and not allow_redundant:
         raise InvalidGeometry(
-            f"half-plane(s) {missing} contribute no edge (redundant, or touching only at a "
+            f"A, c: half-plane(s) {missing} contribute no edge (redundant, or touching only at a "
             "corner); remove them so that every stop is an edge"
         )
     if len(set(edges)) != len(edges):

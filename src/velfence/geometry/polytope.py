@@ -40,6 +40,7 @@ from velfence._validate import (
     show,
 )
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
+from velfence.geometry.polygon import THIN
 
 if TYPE_CHECKING:
     from velfence.geometry.polygon import ConvexPolygon
@@ -52,7 +53,6 @@ _REDUNDANT: tuple[Redundant, ...] = ("remove", "keep")
 
 _ZERO_NORMAL = 1e-12  # rows with a shorter normal are refused
 _DUPLICATE = 1e-12  # unit normals closer than this (max-norm) are one facet
-_THIN = 1e-9  # Chebyshev radius below _THIN * (1 + scale): empty or lower-dimensional
 _REDUNDANCY = 1e-9  # row i redundant: min n_i·x over the others >= o_i - _REDUNDANCY (1 + scale)
 _RADIUS_CAP = 1e9  # the Chebyshev LP caps r at _RADIUS_CAP (1 + scale): inf when it binds
 _LP_OPTIONS = {"primal_feasibility_tolerance": 1e-10, "dual_feasibility_tolerance": 1e-10}
@@ -214,12 +214,12 @@ class ConvexPolytope:
         unit = 1.0 + float(np.max(np.abs(off)))
         off_u = off / unit
         centre_u, radius_u = _chebyshev(N[kept], off_u[kept])
-        if radius_u <= _THIN:
+        if radius_u <= THIN:
             shown = radius_u * unit if radius_u > 0 else 0.0
             got = "no common point" if radius_u < 0 else f"Chebyshev radius {shown:.3g}"
             raise InvalidGeometry(
                 "normals, offsets: empty or lower-dimensional: expected a full-dimensional set "
-                f"(an inscribed ball of radius > {_THIN * unit:.3g}), got {got}; check "
+                f"(an inscribed ball of radius > {THIN * unit:.3g}), got {got}; check "
                 "the signs of the offsets (n_i·x >= offset_i inside)"
             )
         centre, radius = centre_u * unit, radius_u * unit

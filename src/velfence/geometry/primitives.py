@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from velfence._deprecate import positional_deprecated
 from velfence._typing import FloatArray
 from velfence._validate import MAX_MAGNITUDE, check_positive, real_array
 from velfence.errors import InvalidInput
@@ -366,16 +367,20 @@ def segment_segment_distance(a0: ArrayLike, a1: ArrayLike, b0: ArrayLike, b1: Ar
     return math.hypot(pa[0] - pb[0], pa[1] - pb[1], pa[2] - pb[2])
 
 
+@positional_deprecated(3, ("center", "sphere_radius", "a", "b", "capsule_radius"))
 def sphere_capsule_distance(
     center: ArrayLike,
-    sphere_radius: float,
     a: ArrayLike,
     b: ArrayLike,
+    *,
+    sphere_radius: float,
     capsule_radius: float,
 ) -> tuple[float, FloatArray, float, FloatArray]:
     """Signed surface clearance between a sphere and a capsule (US 5,150,026's obstacle vs link).
 
-    The capsule is the segment ``[a, b]`` swept by a ball of radius ``capsule_radius``.
+    The capsule is the segment ``[a, b]`` swept by a ball of radius ``capsule_radius``. The
+    radii are keyword-only; the old positional order ``(center, sphere_radius, a, b,
+    capsule_radius)`` still works and warns until 0.3.
 
     Args:
         center: Sphere centre ``c``, shape (3,), length units (e.g. [m]).
@@ -468,8 +473,9 @@ def point_segment_distance_jacobian(
     return np.asarray(u @ Jp - (1.0 - t) * (u @ Ja) - t * (u @ Jb), dtype=float)
 
 
+@positional_deprecated(3, ("points", "starts", "ends", "radii"))
 def points_segments_distances(
-    points: ArrayLike, starts: ArrayLike, ends: ArrayLike, radii: ArrayLike | float = 0.0
+    points: ArrayLike, starts: ArrayLike, ends: ArrayLike, *, radii: ArrayLike | float = 0.0
 ) -> tuple[FloatArray, FloatArray]:
     """All-pairs closest-point parameters and clearances of points to capsules, vectorised.
 

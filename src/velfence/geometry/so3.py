@@ -173,7 +173,17 @@ def rotation_from_angle_axis(axis: ArrayLike, angle: float) -> FloatArray:
 
 
 def rotation_vector(R: ArrayLike) -> FloatArray:
-    r"""Rotation vector :math:`\phi\,k` of ``R`` (see :func:`angle_axis`), shape (3,) [rad]."""
+    r"""Rotation vector :math:`\phi\,k` of ``R`` (see :func:`angle_axis`), shape (3,) [rad].
+
+    Args:
+        R: Rotation matrix, shape (3, 3).
+
+    Returns:
+        The rotation vector (axis times angle), shape (3,) [rad].
+
+    Raises:
+        InvalidInput: ``R`` is not a finite rotation matrix.
+    """
     k, phi = angle_axis(R)
     return phi * k
 

@@ -40,6 +40,7 @@ try:
 except ModuleNotFoundError as exc:  # an optional dependency: name the extra
     raise missing(exc, what=__name__) from exc
 
+from velfence._deprecate import positional_deprecated
 from velfence._docs import document_inits
 from velfence._validate import MAX_STEPS, check_positive_int, check_text, show, step_count
 from velfence.errors import InvalidParameter
@@ -213,7 +214,8 @@ class DemoConfig(StrictModel):
         duration: Simulated time [s], or None for the script's own length.
         start: Start position [unit], or None (just outside the longest edge).
         waypoints: The operator's script, or None for the built-in one.
-        pushes: External velocity disturbances, or None for the built-in push.
+        pushes: External velocity disturbances (an empty list: none), or None for the built-in
+            push.
         noise_std: Standard deviation of the position noise [unit].
         seed: Seed of the noise generator.
         saturate: Whether the wrist's actuator saturation applies.
@@ -316,10 +318,11 @@ class DemoConfig(StrictModel):
         return value
 
 
+@positional_deprecated(1, ("duration", "dt"))
 def check_run_length(
     duration: float,
-    dt: float,
     *,
+    dt: float,
     max_steps: int = DEFAULT_MAX_STEPS,
     duration_name: str = "duration",
 ) -> int:
@@ -431,6 +434,9 @@ def load_config(
             :data:`DEFAULT_MAX_STEPS`, at most 10⁸.
         **overrides: Top-level fields that replace the file's.
 
+    Returns:
+        The validated configuration.
+
     Raises:
         InvalidParameter: the file is missing, too large, not UTF-8, not plain YAML, or a field
             is invalid (named); the run would be longer than ``max_steps``.
@@ -471,11 +477,11 @@ def load_config(
     # checks it once the script is built, still before any step is simulated.
     try:
         if cfg.duration is not None:
-            check_run_length(cfg.duration, cfg.dt, max_steps=limit)
+            check_run_length(cfg.duration, dt=cfg.dt, max_steps=limit)
         elif cfg.waypoints is not None:
             check_run_length(
                 cfg.waypoints[-1].t + 1.5,
-                cfg.dt,
+                dt=cfg.dt,
                 max_steps=limit,
                 duration_name="duration (last waypoint t + 1.5 s)",
             )

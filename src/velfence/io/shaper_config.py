@@ -376,7 +376,7 @@ def _safety_filter(spec: _SafetyFilter) -> ConfiguredShaper:
         )
     f = SafetyFilter(
         robot,
-        limits=JointLimits(lim[:, 0], lim[:, 1], vmax, names=names),
+        limits=JointLimits(lim[:, 0], lim[:, 1], max_speed=vmax, names=names),
         workspace=workspace,
         dt=spec.dt,
         joint_buffer=spec.joint_buffer,

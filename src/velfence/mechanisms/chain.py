@@ -136,6 +136,8 @@ def _joint_limits(value: Any, n: int, default: tuple[float, float]) -> FloatArra
 
 def _link_radius(value: Any, n_links: int) -> FloatArray:
     """Validate a scalar or per-link capsule radius into a read-only (n_links,) array [m]."""
+    if isinstance(value, np.ndarray) and value.shape == ():
+        value = value[()]  # a 0-d array is a scalar
     if isinstance(value, _REAL) and not isinstance(value, bool):
         r = check_positive("link_radius", value, allow_zero=True, unit="[m]")
         return readonly(np.full(n_links, r))

@@ -529,7 +529,7 @@ class CoSPM:
         ta, ca, single = self._pair(theta, chi)
         _, v, w = self._vectors(ta, ca)
         A = self._a_matrix(v, w, ca)
-        self._check_regular(ca, A, "jacobian")
+        self._check_regular(ca, A, "theta, chi")
         J = np.asarray(-np.linalg.solve(A, self._b_matrix(v, w)), dtype=np.float64)
         return J[0] if single else J
 

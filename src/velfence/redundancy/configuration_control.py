@@ -276,7 +276,9 @@ class ChainObstacleBase(InvalidPolicy):
 
         segs = np.asarray(self.chain.link_segments(q), dtype=float)
         centers = self._centers
-        _, clear = points_segments_distances(centers, segs[:, 0], segs[:, 1], self._link_radius)
+        _, clear = points_segments_distances(
+            centers, segs[:, 0], segs[:, 1], radii=self._link_radius
+        )
         n_o = len(self.obstacles)
         points = np.zeros((n_o, 3))
         links = np.zeros(n_o, dtype=np.int64)
@@ -287,7 +289,11 @@ class ChainObstacleBase(InvalidPolicy):
         for i, ob in enumerate(self.obstacles):
             link = int(np.argmin(clear[i]))  # first minimum: ties keep the more proximal link
             d, x, t, n = sphere_capsule_distance(
-                ob.center, 0.0, segs[link, 0], segs[link, 1], float(self._link_radius[link])
+                ob.center,
+                segs[link, 0],
+                segs[link, 1],
+                sphere_radius=0.0,
+                capsule_radius=float(self._link_radius[link]),
             )
             points[i], links[i], fractions[i], distances[i] = x, link, t, d
             normals[i] = n

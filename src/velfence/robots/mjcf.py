@@ -38,6 +38,7 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 from numpy.typing import ArrayLike
 
+from velfence._deprecate import positional_deprecated
 from velfence._typing import FloatArray
 from velfence._validate import check_positive, check_text, real_array
 from velfence.errors import InvalidGeometry, InvalidParameter
@@ -332,12 +333,13 @@ def _document(
     return "\n".join(lines)
 
 
+@positional_deprecated(1, ("dh_rows", "joint_limits", "tool", "name"))
 def dh_mjcf(
     dh_rows: ArrayLike,
+    *,
     joint_limits: ArrayLike,
     tool: ArrayLike | None = None,
     name: str = "arm",
-    *,
     radius: float = 0.0,
     named_points: Mapping[str, int] | None = None,
     masses: ArrayLike | None = None,
@@ -388,12 +390,13 @@ def dh_mjcf(
     return _document(nm, frames, statics[-1], lim, t, rad, pts, phys, statics)
 
 
+@positional_deprecated(1, ("mdh_rows", "joint_limits", "tool", "name"))
 def mdh_mjcf(
     mdh_rows: ArrayLike,
+    *,
     joint_limits: ArrayLike,
     tool: ArrayLike | None = None,
     name: str = "arm",
-    *,
     flange_d: float = 0.0,
     radius: float = 0.0,
     named_points: Mapping[str, int] | None = None,

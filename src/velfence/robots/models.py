@@ -165,9 +165,9 @@ def seven_dof(*, tool: ArrayLike | None = None, radius: float = 0.0) -> MujocoRo
     rows, lim = _table(DHChain.seven_dof())
     xml = dh_mjcf(
         rows,
-        lim,
-        tool,
-        "seven_dof",
+        joint_limits=lim,
+        tool=tool,
+        name="seven_dof",
         radius=radius,
         named_points={"elbow": 3, "wrist": 5},
         masses=_IIWA_MASSES,
@@ -198,9 +198,9 @@ def ur5e(*, tool: ArrayLike | None = None, radius: float = 0.0) -> MujocoRobot:
     rows, lim = _table(DHChain.ur5e())
     xml = dh_mjcf(
         rows,
-        lim,
-        tool,
-        "ur5e",
+        joint_limits=lim,
+        tool=tool,
+        name="ur5e",
         radius=radius,
         named_points={"elbow": 2, "wrist": 3},
         masses=_UR5E_MASSES,
@@ -231,9 +231,9 @@ def puma560(*, tool: ArrayLike | None = None, radius: float = 0.0) -> MujocoRobo
     rows, lim = _table(DHChain.puma560())
     xml = dh_mjcf(
         rows,
-        lim,
-        tool,
-        "puma560",
+        joint_limits=lim,
+        tool=tool,
+        name="puma560",
         radius=radius,
         named_points={"elbow": 2, "wrist": 4},
         masses=_PUMA_MASSES,
@@ -263,9 +263,9 @@ def panda(*, tool: ArrayLike | None = None, radius: float = 0.0) -> MujocoRobot:
     """
     xml = mdh_mjcf(
         _PANDA_MDH,
-        _PANDA_LIMITS,
-        tool,
-        "panda",
+        joint_limits=_PANDA_LIMITS,
+        tool=tool,
+        name="panda",
         flange_d=_PANDA_FLANGE_D,
         radius=radius,
         named_points={"elbow": 3, "wrist": 5},

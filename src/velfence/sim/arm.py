@@ -31,8 +31,14 @@ from numpy.typing import ArrayLike
 from velfence._deprecate import renamed_attribute
 from velfence._docs import document_inits
 from velfence._typing import FloatArray
-from velfence._validate import check_positive, readonly, real_array
-from velfence.errors import InvalidParameter
+from velfence._validate import (
+    check_positive,
+    describe,
+    finite_scalar,
+    readonly,
+    real_array,
+)
+from velfence.errors import InvalidInput, InvalidParameter
 from velfence.geometry.polytope import ConvexPolytope
 from velfence.mechanisms.chain import DHChain
 from velfence.shaping.base import Shaper
@@ -194,6 +200,28 @@ _SCRIPT: tuple[tuple[str, tuple[float, float, float], str], ...] = (
 )
 
 
+def _scene(scene: object) -> ArmScene:
+    if not isinstance(scene, ArmScene):
+        raise InvalidParameter(
+            f"scene: expected an ArmScene (arm_box_scene()), got {describe(scene)}"
+        )
+    return scene
+
+
+def _methods(methods: object) -> tuple[str, ...]:
+    """Names from :data:`ARM_METHODS`, at least one."""
+    if isinstance(methods, (str, bytes)) or not isinstance(methods, (list, tuple)):
+        raise InvalidParameter(
+            f"methods: expected a list of names from {list(ARM_METHODS)}, got {describe(methods)}"
+        )
+    unknown = [m for m in methods if not isinstance(m, str) or m not in ARM_METHODS]
+    if unknown or not methods:
+        raise InvalidParameter(
+            f"methods: expected names from {list(ARM_METHODS)}, got {describe(unknown or methods)}"
+        )
+    return tuple(methods)
+
+
 def arm_script(scene: ArmScene, speed: float, *, dwell: float = 0.4) -> ArmScript:
     """The built-in jog script at ``speed``.
 
@@ -204,7 +232,14 @@ def arm_script(scene: ArmScene, speed: float, *, dwell: float = 0.4) -> ArmScrip
         scene: The scene (for the start position).
         speed: Jog speed [m/s], > 0.
         dwell: Extra time per phase [s], >= 0.
+
+    Returns:
+        The script (phases and total duration).
+
+    Raises:
+        InvalidParameter: not an :class:`ArmScene`, or a speed or dwell out of range.
     """
+    scene = _scene(scene)
     speed = check_positive("speed", speed, unit="m/s")
     dwell = check_positive("dwell", dwell, allow_zero=True, unit="s")
     prev = scene.tcp0
@@ -215,6 +250,11 @@ def arm_script(scene: ArmScene, speed: float, *, dwell: float = 0.4) -> ArmScrip
         dur = float(np.linalg.norm(tg - prev)) / speed + dwell * (
             2.0 if k == len(_SCRIPT) - 1 else 1.0
         )
+        if not math.isfinite(t + dur):
+            raise InvalidParameter(
+                f"speed: {speed:g} m/s is too slow for a finite script (phase {k} would last "
+                f"{dur:g} s)"
+            )
         phases.append(ArmPhase(label, t, t + dur, readonly(tg), face))
         t += dur
         prev = tg
@@ -231,12 +271,29 @@ class TcpJog:
     """
 
     def __init__(self, robot: DHChain, script: ArmScript, *, gain: float = 8.0) -> None:
+        if not isinstance(robot, DHChain):
+            raise InvalidParameter(f"robot: expected a DHChain, got {describe(robot)}")
+        if not isinstance(script, ArmScript):
+            raise InvalidParameter(
+                f"script: expected an ArmScript (arm_script()), got {describe(script)}"
+            )
         self.robot = robot
         self.script = script
         self.gain = check_positive("gain", gain, unit="1/s")
 
     def target(self, t: float) -> FloatArray:
-        """The target in force at time ``t`` [s], shape (3,), [m]."""
+        """The target in force at time ``t`` [s], shape (3,), [m].
+
+        Args:
+            t: Time [s], finite.
+
+        Returns:
+            The target, shape (3,) [m].
+
+        Raises:
+            InvalidInput: ``t`` not a finite number.
+        """
+        t = finite_scalar("t", t, unit="s", what="time")
         for ph in self.script.phases:
             if t < ph.t1:
                 return ph.target
@@ -264,6 +321,15 @@ class TwistMode:
     method = "safety-filter"
 
     def __init__(self, safety_filter: Any, *, point: str = "tcp") -> None:
+        from velfence.filter import SafetyFilter
+
+        if not isinstance(safety_filter, SafetyFilter):
+            raise InvalidParameter(
+                f"safety_filter: expected a SafetyFilter, got {describe(safety_filter)}"
+            )
+        points = list(safety_filter.robot.points)
+        if not isinstance(point, str) or point not in points:
+            raise InvalidParameter(f"point: expected one of {points}, got {describe(point)}")
         self.filter = safety_filter
         self.point = point
 
@@ -287,17 +353,38 @@ class TwistMode:
         )
 
     def shape_batch(self, positions: ArrayLike, commands: ArrayLike, /) -> FloatArray:
-        """:meth:`shape` row by row: ``positions`` (N, n), ``commands`` (N, 3) -> (N, n)."""
+        """:meth:`shape` on N independent states: positions (N, n), commands (N, 3) -> (N, n).
+
+        Like :meth:`SafetyFilter.shape_batch <velfence.filter.SafetyFilter.shape_batch>`, each row
+        starts from no remembered output (the filter is reset before each row, so it is left
+        reset).
+        """
         Qa = real_array("positions", positions, (None, None), what="joint positions [rad]")
-        Va = real_array("commands", commands, (Qa.shape[0], 3), what="TCP velocities [m/s]")
-        return np.array([self.shape(q, v) for q, v in zip(Qa, Va, strict=True)]).reshape(Qa.shape)
+        Va = real_array("commands", commands, (None, 3), what="TCP velocities [m/s]")
+        if Qa.shape[0] != Va.shape[0] or Qa.shape[0] == 0:
+            raise InvalidInput(
+                f"positions, commands: expected one command per position (N >= 1 rows each), "
+                f"got {Qa.shape[0]} positions and {Va.shape[0]} commands"
+            )
+        n = (
+            len(self.filter.robot.joint_names)
+            if hasattr(self.filter.robot, "joint_names")
+            else None
+        )
+        if n is not None and Qa.shape[1] != n:
+            raise InvalidInput(f"positions: expected shape (N, {n}), got shape {Qa.shape}")
+        out = np.zeros(Qa.shape)
+        for k in range(Qa.shape[0]):
+            self.filter.reset()
+            out[k] = self.filter.filter_twist(Qa[k], Va[k], point=self.point)
+        return out
 
 
 def _limits(scene: ArmScene) -> Any:
     from velfence.filter import JointLimits
 
     return JointLimits(
-        scene.lower, scene.upper, scene.max_speed, max_acceleration=scene.max_acceleration
+        scene.lower, scene.upper, max_speed=scene.max_speed, max_acceleration=scene.max_acceleration
     )
 
 
@@ -309,12 +396,18 @@ def build_arm_controllers(
     Damper settings shared by the scalar scale and the QP: position gain 0.95, workspace gain 0.5,
     obstacle gain :math:`\xi` = 0.5 m/s, influence 0.1 m, safety clearance 0.
 
+    Args:
+        scene: The scene.
+        methods: Names from :data:`ARM_METHODS`.
+
+    Returns:
+        Method -> controller.
+
     Raises:
-        InvalidParameter: an unknown method name.
+        InvalidParameter: not an :class:`ArmScene`, or an unknown method name.
     """
-    unknown = [m for m in methods if m not in ARM_METHODS]
-    if unknown or not methods:
-        raise InvalidParameter(f"methods: expected names from {list(ARM_METHODS)}, got {unknown}")
+    scene = _scene(scene)
+    methods = _methods(methods)
     from velfence.filter import SafetyFilter, SphereObstacle, WorkspaceLimit
 
     limits = _limits(scene)
@@ -383,8 +476,22 @@ def run_arm(
 
     Returns:
         Method -> :class:`ArmRun`.
+
+    Raises:
+        InvalidParameter: a bad scene, speed or method name, controllers that are not a mapping
+            covering ``methods``, or an ``on_step`` that is not callable.
     """
     script = arm_script(scene, speed)
+    methods = _methods(methods)
+    if controllers is not None and (
+        not isinstance(controllers, Mapping) or not set(methods) <= set(controllers)
+    ):
+        raise InvalidParameter(
+            f"controllers: expected a mapping with an entry per method {list(methods)}, got "
+            f"{describe(controllers)}"
+        )
+    if on_step is not None and (not callable(on_step) or isinstance(on_step, type)):
+        raise InvalidParameter(f"on_step: expected a function or None, got {describe(on_step)}")
     ctrl = (
         dict(controllers)
         if controllers is not None
@@ -434,7 +541,19 @@ def arm_metrics(
         scene: The scene.
         runs: Method -> run, all at the same speed.
         reach_tol: Distance to the final waypoint that counts as reached [m], > 0.
+
+    Returns:
+        Method -> metric name -> value.
+
+    Raises:
+        InvalidParameter: not an :class:`ArmScene`, ``runs`` not a mapping of :class:`ArmRun`,
+            or a bad ``reach_tol``.
     """
+    scene = _scene(scene)
+    if not isinstance(runs, Mapping) or not all(isinstance(r, ArmRun) for r in runs.values()):
+        raise InvalidParameter(
+            f"runs: expected a mapping of method -> ArmRun (run_arm()), got {describe(runs)}"
+        )
     reach_tol = check_positive("reach_tol", reach_tol, unit="m")
     out: dict[str, dict[str, float]] = {}
     for name, run in runs.items():

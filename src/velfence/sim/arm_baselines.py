@@ -238,7 +238,7 @@ class _ArmController:
             return np.zeros((0, self.dof)), np.zeros(0), []
         segs = np.asarray(self.robot.link_segments(q), dtype=float)
         _, clear = points_segments_distances(
-            self._centers, segs[:, 0], segs[:, 1], self._link_radius
+            self._centers, segs[:, 0], segs[:, 1], radii=self._link_radius
         )
         rows, bounds, names = [], [], []
         span = self.influence - self.safety
@@ -246,10 +246,10 @@ class _ArmController:
             for link in np.flatnonzero(clear[i] - self._radii[i] <= self.influence):
                 d, _, t, n = sphere_capsule_distance(
                     self._centers[i],
-                    float(self._radii[i]),
                     segs[link, 0],
                     segs[link, 1],
-                    float(self._link_radius[link]),
+                    sphere_radius=float(self._radii[i]),
+                    capsule_radius=float(self._link_radius[link]),
                 )
                 Jc = np.asarray(self.robot.point_jacobian(q, int(link), float(t)), dtype=float)
                 rows.append(n @ Jc)  # d_dot = n·(x_dot), n from the centre to the axis

@@ -79,6 +79,15 @@ def constant_speed(u: float) -> SpeedFn:
 
     A backward push is a direction, not a negative speed: use :func:`pushing` with the intended
     velocity (a negative constant speed would flip the heading every tick).
+
+    Args:
+        u: The speed [m/s], finite and >= 0.
+
+    Returns:
+        The speed function ``(t, R, T) -> u`` for :func:`simulate_cobot`.
+
+    Raises:
+        InvalidParameter: ``u`` not a finite number >= 0.
     """
     v = check_positive("u", u, allow_zero=True, unit="m/s")
 
@@ -90,6 +99,12 @@ def constant_speed(u: float) -> SpeedFn:
 
 def pushing(intent: Callable[[float, FloatArray], ArrayLike]) -> SpeedFn:
     r"""A human pushing with intended velocity ``intent(t, R)``: speed :math:`u = T^\top v_h`.
+
+    Args:
+        intent: The intended velocity ``(t, R) -> v_h`` [m/s], of the shape of ``R``.
+
+    Returns:
+        The speed function ``(t, R, T) -> T·v_h`` for :func:`simulate_cobot`.
 
     Raises:
         InvalidParameter: ``intent`` is not callable.
@@ -289,6 +304,14 @@ def follow_in_ee(
         ds: Step [m], > 0.
         integrator: ``"arc"`` (exact for curvature held over the step) or ``"euler"``.
         name: Trace label.
+
+    Returns:
+        The :class:`CobotTrace` of the run (one row per arc-length step).
+
+    Raises:
+        InvalidInput: bad initial configuration or heading, or a controller output that is not
+            a finite curvature of the right shape.
+        InvalidParameter: a length, step or integrator out of range.
     """
     _controller(controller)
     R = real_array("R0", R0, (None,), what="a configuration")
@@ -367,6 +390,9 @@ def simulate_cobot(
             :math:`\Lambda` when ``None``.
         route: ``"direct"`` or ``"joint"`` steering transform (same answer).
         name: Trace label (default: the cobot's name).
+
+    Returns:
+        The :class:`CobotTrace` of the run (one row per control period).
 
     Raises:
         InvalidInput: The cobot reaches a singular configuration (named) or bad input.

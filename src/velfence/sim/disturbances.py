@@ -113,11 +113,21 @@ class Disturbance:
     def __call__(self, t: float, p: ArrayLike) -> FloatArray:
         """Disturbance velocity at time ``t`` [s] and position ``p`` (unused), shape (2,).
 
+        Args:
+            t: Time [s], finite.
+            p: Position, shape (2,), finite (checked although a constant push does not use it:
+                a NaN or wrong-shape position is a caller's bug).
+
+        Returns:
+            The summed velocity of the pushes active at ``t``, shape (2,).
+
+
         Raises:
-            InvalidInput: ``t`` not a finite real number or ``p`` not real numbers.
+            InvalidInput: ``t`` not a finite real number, or ``p`` not a finite position of
+                shape (2,).
         """
         t = finite_scalar("t", t, unit="s", what="time")
-        real_array("p", p, (None,), what="a position", allow_nonfinite=True, max_abs=None)
+        real_array("p", p, (2,), what="a position (x, y) of finite numbers")
         wx = 0.0
         wy = 0.0
         for t0, t1, vx, vy in self.pushes:

@@ -89,6 +89,9 @@ def time_outside(traj: Trajectory, polygon: ConvexPolygon, *, tol: float = 0.0) 
         traj: The run.
         polygon: The permissible workspace.
         tol: Penetration below which a row counts as inside, workspace units (>= 0).
+
+    Returns:
+        The time outside [s], >= 0.
     """
     _check(traj, polygon)
     tol = check_positive("tol", tol, allow_zero=True, unit="workspace units")
@@ -122,6 +125,9 @@ def chatter_rate(
         band: Half-width of the band around the boundary, workspace units (> 0).
         deadband: Normal speeds with magnitude <= this count as zero, workspace units per second
             (>= 0).
+
+    Returns:
+        The chatter rate [1/s], >= 0 (0.0 when no time was spent near the boundary).
     """
     _check(traj, polygon)
     band = check_positive("band", band, unit="workspace units")
@@ -311,6 +317,9 @@ def area_gain(polygon: ConvexPolygon) -> float:
 
     Args:
         polygon: The permissible workspace.
+
+    Returns:
+        The area ratio, >= 1.
     """
     as_polygon(polygon)
     return float(polygon.area_ratio())
@@ -349,6 +358,9 @@ def summarize(
         spacing: Grid step for :func:`max_output_jump`, workspace units.
         commands: Commands for :func:`max_output_jump`, shape (M, 2).
         tol: Tolerance of :func:`time_outside`, workspace units.
+
+    Returns:
+        Metric name -> value (the keys above).
     """
     _check(traj, polygon)
     out = {
@@ -442,7 +454,7 @@ def sphere_penetration(
     r = check_positive("radius", radius, allow_zero=True, unit="m")
     worst = 0.0
     for seg in S:
-        _, clear = points_segments_distances(c[None, :], seg[:, 0], seg[:, 1], link_radius)
+        _, clear = points_segments_distances(c[None, :], seg[:, 0], seg[:, 1], radii=link_radius)
         worst = max(worst, float(-(clear.min() - r)))
     return worst
 

@@ -119,8 +119,9 @@ class Trajectory:
         v_cmd: Commanded velocities, shape (N, c) (c = d unless the shaper maps another space's
             command, e.g. end-effector velocities into joint rates), units per second.
         v_out: Velocities sent to the plant (shaped, then saturated), shape (N, 2).
-        zone: Shaper zone names (``velfence.shaping.ZONE_NAMES``), shape (N,); ``"unknown"``
-            when not given.
+        zone: Zone labels, shape (N,) of str: the shaper's zone names
+            (``velfence.shaping.ZONE_NAMES``) in a simulated run, any label (a bridge's zone,
+            ``"inside"``) in a recorded one; ``"unknown"`` when not given.
         name: Label of the run (the shaper's name in :func:`simulate_many`).
         p_measured: Positions the shaper saw (true + noise), shape (N, 2); defaults to ``p``.
     """

@@ -92,7 +92,13 @@ class Check:
 
 @dataclass(frozen=True)
 class Report:
-    """The outcome of one reproduction (an output record: each reproduction returns one)."""
+    """The outcome of one reproduction (an output record: each reproduction returns one).
+
+    Args:
+        name: The reproduction's name.
+        checks: Its checks, each expected value against the measured one.
+        artifacts: The files it wrote (paths as text).
+    """
 
     name: str
     checks: tuple[Check, ...]

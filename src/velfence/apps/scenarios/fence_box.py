@@ -122,7 +122,7 @@ def build_controllers(
     from velfence.sim.arm_baselines import JointClamp, ResolvedRate
 
     vmax = np.asarray(getattr(robot, "velocity_limits", np.full(robot.dof, np.inf)), dtype=float)
-    limits = JointLimits(lim[:, 0], lim[:, 1], np.where(np.isfinite(vmax), vmax, 2.0))
+    limits = JointLimits(lim[:, 0], lim[:, 1], max_speed=np.where(np.isfinite(vmax), vmax, 2.0))
     sphere = SphereObstacle(np.array(SPHERE_CENTER), radius=SPHERE_RADIUS, name="sphere")
 
     def joint_filter() -> Any:

@@ -18,6 +18,9 @@ from pathlib import Path
 
 import numpy as np
 
+from velfence._validate import check_output_path, check_positive, describe, real_array
+from velfence.errors import InvalidParameter
+
 __all__ = ["LagRow", "lag_table", "plot_lag"]
 
 Q0 = (0.0, -0.3, 0.0, -2.2, 0.0, 2.0, 0.8)
@@ -66,7 +69,7 @@ def _depth(bandwidth: float, speed: float, buffer: float, lookahead: bool) -> fl
     lim = robot.joint_limits
     f = SafetyFilter(
         robot,
-        limits=JointLimits(lim[:, 0], lim[:, 1], np.full(7, 2.5)),
+        limits=JointLimits(lim[:, 0], lim[:, 1], max_speed=np.full(7, 2.5)),
         workspace=(WorkspaceLimit(box, point="tcp", buffer=buffer),),
         dt=DT,
     )
@@ -97,7 +100,16 @@ def lag_table(
 
     Returns:
         One row per pair.
+
+    Raises:
+        InvalidParameter: a bandwidth, speed or buffer that is not a finite number > 0, or a
+            ``progress`` that is not callable.
     """
+    bandwidths = _positives("bandwidths", bandwidths, "servo bandwidths [rad/s]")
+    speeds = _positives("speeds", speeds, "jog speeds [m/s]")
+    buffer = check_positive("buffer", buffer, unit="m")
+    if progress is not None and (not callable(progress) or isinstance(progress, type)):
+        raise InvalidParameter(f"progress: expected a function or None, got {describe(progress)}")
     rows = []
     total = len(bandwidths) * len(speeds)
     for i, w in enumerate(bandwidths):
@@ -110,8 +122,35 @@ def lag_table(
     return rows
 
 
+def _positives(name: str, values: object, what: str) -> list[float]:
+    """A non-empty 1-D sequence of finite numbers > 0 (at most 1000 of them)."""
+    a = real_array(name, values, (None,), error=InvalidParameter, what=what)
+    if not 1 <= a.size <= 1000 or not np.all(a > 0.0):
+        raise InvalidParameter(
+            f"{name}: expected 1 to 1000 {what}, each > 0, got {a[:8].tolist()}"
+            + (" (empty)" if a.size == 0 else "")
+        )
+    return [float(x) for x in a]
+
+
 def plot_lag(rows: Sequence[LagRow], path: Path) -> Path:
-    """Penetration against :math:`uT/b`, plain and with look-ahead (log-log where positive)."""
+    """Penetration against :math:`uT/b`, plain and with look-ahead (log-log where positive).
+
+    Args:
+        rows: The rows of :func:`lag_table`.
+        path: Output file; its directory must exist.
+
+    Returns:
+        The path written.
+
+    Raises:
+        InvalidParameter: ``rows`` not a sequence of :class:`LagRow`, or an unusable ``path``.
+    """
+    if not isinstance(rows, (list, tuple)) or not all(isinstance(r, LagRow) for r in rows):
+        raise InvalidParameter(
+            f"rows: expected a list of LagRow (lag_table()), got {describe(rows)}"
+        )
+    path = check_output_path("path", path)
     import matplotlib
 
     matplotlib.use("Agg")

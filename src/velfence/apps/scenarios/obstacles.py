@@ -64,7 +64,7 @@ def _clearance(robot: Any, q: np.ndarray, center: np.ndarray) -> float:
 
     segs = np.asarray(robot.link_segments(q), dtype=float)
     _, clear = points_segments_distances(
-        center[None, :], segs[:, 0], segs[:, 1], np.asarray(robot.link_radius, dtype=float)
+        center[None, :], segs[:, 0], segs[:, 1], radii=np.asarray(robot.link_radius, dtype=float)
     )
     return float(np.min(clear))
 
@@ -116,7 +116,7 @@ def run(
     ob = SphereObstacle(center=center, radius=RADIUS, influence=SEVEN_RHO)
     sphere = SphereObstacle(center, radius=RADIUS, name="obstacle")
     lim = robot.joint_limits
-    limits = JointLimits(lim[:, 0], lim[:, 1], np.full(robot.dof, 2.0))
+    limits = JointLimits(lim[:, 0], lim[:, 1], max_speed=np.full(robot.dof, 2.0))
     make: dict[str, Callable[[], Any]] = {
         "no avoidance": lambda: ConfigurationController(robot, []),
         "configuration control": lambda: ConfigurationController(robot, [ob]),

@@ -51,6 +51,7 @@ from typing import Any
 
 import numpy as np
 
+from velfence._deprecate import positional_deprecated
 from velfence._typing import FloatArray
 from velfence._validate import (
     check_positive,
@@ -496,7 +497,8 @@ class SyntheticOperator:
                 yield Action(np.asarray(OMNI_TO_PUMA @ (move * rate), dtype=float), _IDLE_V)
         yield from self.engage()
 
-    def stroke(self, d: FloatArray, tol: float) -> Behaviour:
+    @positional_deprecated(2, ("self", "d", "tol"))
+    def stroke(self, d: FloatArray, *, tol: float) -> Behaviour:
         """One minimum-jerk translation of the robot by ``d`` [m] (base frame).
 
         Indexes first when the hand has no room left in that direction; otherwise the stroke is
@@ -584,11 +586,12 @@ class SyntheticOperator:
             yield Action(_IDLE_V, np.asarray(w, dtype=float))
 
     # ------------------------------------------------------------------------------ behaviours
+    @positional_deprecated(2, ("self", "target", "tol"))
     def reach(
         self,
         target: Callable[[Observation], FloatArray],
-        tol: float,
         *,
+        tol: float,
         point: str = "tip",
         max_strokes: int = 40,
     ) -> Behaviour:
@@ -629,11 +632,12 @@ class SyntheticOperator:
             d = _clip_norm(d, MAX_STROKE)
             yield from self._stroke(d, tol)
 
+    @positional_deprecated(2, ("self", "target", "tol"))
     def orient(
         self,
         target: Callable[[Observation], FloatArray],
-        tol: float,
         *,
+        tol: float,
         error: Callable[[Observation], float] | None = None,
         max_strokes: int = 20,
     ) -> Behaviour:
@@ -687,7 +691,8 @@ class SyntheticOperator:
             self.stats.orient_strokes += 1
             yield from self._turn(axis * angle, p.orient_peak, p.orient_a, p.orient_b, tol)
 
-    def aim(self, target: FloatArray, tol: float, *, max_strokes: int = 25) -> Behaviour:
+    @positional_deprecated(2, ("self", "target", "tol"))
+    def aim(self, target: FloatArray, *, tol: float, max_strokes: int = 25) -> Behaviour:
         """Point the laser spot within ``tol`` [m] of ``target`` by wrist rotations.
 
         The rotation is judged about the wrist centre, from the direction of the visible spot

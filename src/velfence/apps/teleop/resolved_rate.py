@@ -36,7 +36,7 @@ from typing import Any, Literal, Protocol, get_args, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike
 
-from velfence._deprecate import renamed_args
+from velfence._deprecate import positional_deprecated, renamed_args
 from velfence._typing import FloatArray
 from velfence._validate import (
     check_choice,
@@ -200,7 +200,8 @@ def damping(w: float, *, k0: float = K0, w0: float = W0) -> float:
     return k0f * (1.0 - wf / w0f) ** 2
 
 
-def sr_inverse(J: ArrayLike, k: float) -> FloatArray:
+@positional_deprecated(1, ("J", "k"))
+def sr_inverse(J: ArrayLike, *, k: float) -> FloatArray:
     r"""Singularity-robust inverse :math:`J^\top (J J^\top + k I)^{-1}` (Khokar 2009 eq. 36).
 
     At ``k = 0`` this is :math:`J^{-1}` for a square, non-singular ``J`` (the right

@@ -40,6 +40,7 @@ from typing import Any, TypeAlias
 import numpy as np
 from numpy.typing import ArrayLike
 
+from velfence._deprecate import positional_deprecated
 from velfence._typing import FloatArray
 from velfence._validate import check_positive, describe, finite_scalar, readonly, real_array
 from velfence.errors import InvalidGeometry, InvalidInput
@@ -402,8 +403,9 @@ class Box(_RayCast):
     rotation: FloatArray = field(init=False)
     _cols: tuple[Vec3, Vec3, Vec3] = field(init=False, repr=False)
 
+    @positional_deprecated(2, ("self", "center", "half_extents"))
     def __init__(
-        self, center: ArrayLike, half_extents: ArrayLike, *, rotation: ArrayLike | None = None
+        self, center: ArrayLike, *, half_extents: ArrayLike, rotation: ArrayLike | None = None
     ) -> None:
         c = _geom_point("center", center)
         h = _geom_point("half_extents", half_extents)
@@ -598,10 +600,13 @@ class Scene:
             InvalidInput: non-finite or wrong-shape vectors, or a direction that is not unit.
             InvalidParameter: ``max_range`` negative or NaN.
         """
-        if isinstance(max_range, float) and max_range == math.inf:
+        raw: Any = max_range
+        if isinstance(raw, np.ndarray) and raw.shape == ():
+            raw = raw[()]  # a 0-d array is a scalar
+        if isinstance(raw, float) and raw == math.inf:
             limit = math.inf
         else:
-            limit = check_positive("max_range", max_range, allow_zero=True, unit="m")
+            limit = check_positive("max_range", raw, allow_zero=True, unit="m")
         o, d = unit_ray(origin, direction)
         return self._cast(o, d, limit)
 
@@ -710,7 +715,7 @@ def pick_and_place_scene() -> Scene:
         {
             "table": Plane((0.0, 0.65, z), (0.0, 0.0, 1.0), half_extents=(0.50, 0.35)),
             "cup": Cylinder((0.20, 0.58, z), radius=0.04, height=0.10),
-            "folder": Box((0.02, 0.63, z + 0.12), (0.015, 0.16, 0.12)),
+            "folder": Box((0.02, 0.63, z + 0.12), half_extents=(0.015, 0.16, 0.12)),
             "destination": Disk((-0.18, 0.68, z + 1e-4), (0.0, 0.0, 1.0), radius=0.038),
         }
     )

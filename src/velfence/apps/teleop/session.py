@@ -425,7 +425,7 @@ class Session:
 
     # ------------------------------------------------------------------------------ protocol
     def press(self, key: str) -> None:
-        """Press a key: ``A S F D G P T`` (modes), ``C`` (clutch), ``H`` (hand).
+        """Press a key: ``A S F D G P T`` (modes), ``C`` (clutch), ``H`` (hand); case-insensitive.
 
         Raises:
             InvalidInput: an unknown key (the message lists the valid ones).

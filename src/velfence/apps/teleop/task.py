@@ -132,12 +132,12 @@ def _grasp(op: SyntheticOperator, lay: _Layout) -> Behaviour:
     def at(o: Observation) -> FloatArray:
         return np.array([o.cup[0], o.cup[1], o.cup[2] + height - GRASP_DEPTH_AIM])
 
-    yield from op.reach(above, 0.02)
+    yield from op.reach(above, tol=0.02)
     for _attempt in range(GRASP_ATTEMPTS):
         if _tilt(op.obs) > math.radians(5.0):
             yield from op.vertical(math.radians(5.0))
-        yield from op.reach(above, 0.01)
-        yield from op.reach(at, 0.007)
+        yield from op.reach(above, tol=0.01)
+        yield from op.reach(at, tol=0.007)
         yield from op.press("H")
         yield from op.wait_until(lambda o: o.hand in ("closed", "open"), limit=5.0)
         yield from op.wait(op.tick)
@@ -157,10 +157,10 @@ def _place(op: SyntheticOperator, lay: _Layout) -> Behaviour:
             if not _holding(op):
                 return
             yield from op.reach(
-                lambda o: np.array([o.cup[0], o.cup[1], z + 0.04]), 0.01, point="cup"
+                lambda o: np.array([o.cup[0], o.cup[1], z + 0.04]), tol=0.01, point="cup"
             )
-        yield from op.reach(lambda o: np.array([c[0], c[1], z + 0.04]), 0.012, point="cup")
-        yield from op.reach(lambda o: np.array([c[0], c[1], z + 0.008]), 0.006, point="cup")
+        yield from op.reach(lambda o: np.array([c[0], c[1], z + 0.04]), tol=0.012, point="cup")
+        yield from op.reach(lambda o: np.array([c[0], c[1], z + 0.008]), tol=0.006, point="cup")
         yield from op.press("H")
         yield from op.wait_until(lambda o: o.hand in ("open", "closed"), limit=5.0)
         yield from op.wait(op.tick)
@@ -185,7 +185,7 @@ def unassisted_plan(scene: Scene | None = None) -> Callable[[SyntheticOperator],
         via = [0.5 * (src + mid), 0.5 * (dst + mid)] if op.profile.rainbow else [src, dst]
         for xy in via:
             goal = np.array([xy[0], xy[1], clear])
-            yield from op.reach(_fixed(goal), 0.025, point="cup")
+            yield from op.reach(_fixed(goal), tol=0.025, point="cup")
         yield from _place(op, lay)
 
     return plan
@@ -204,16 +204,16 @@ def assisted_plan(scene: Scene | None = None) -> Callable[[SyntheticOperator], B
         yield from op.wait(op.profile.reaction)
         yield from op.engage()
         dest = np.array(lay.destination.center)
-        yield from op.aim(dest, 0.01)
+        yield from op.aim(dest, tol=0.01)
         yield from op.record("D")
         z = lay.table_z
         for x, y in TABLE_POINTS:
             jitter = op.rng.uniform(-0.02, 0.02, 2)
-            yield from op.aim(np.array([x + jitter[0], y + jitter[1], z]), 0.03)
+            yield from op.aim(np.array([x + jitter[0], y + jitter[1], z]), tol=0.03)
             yield from op.record("P", "P")
         top = np.array([lay.cup.base_center[0], lay.cup.base_center[1], z + lay.cup.height])
         for _attempt in range(3):
-            yield from op.aim(top, 0.015)
+            yield from op.aim(top, tol=0.015)
             yield from op.record("A")
             yield from op.wait(op.tick)
             if op.obs.busy:

@@ -55,19 +55,26 @@ Only loopback is ever bound, and these checks keep other web pages from driving 
   hashes of the page's own inline script and style, plus ``X-Content-Type-Options: nosniff``.
 
 Each connection has a socket timeout (``connection_timeout``) and at most ``max_connections``
-are served at once, so idle or slow clients cannot pin threads; a client that disconnects early
-is logged at debug level only. If the real-time stepping thread fails, :attr:`ViewerServer.error`
-records why, ``GET /state`` reports it and every ``POST`` answers 503.
+are served at once, so idle or slow clients cannot pin threads; a connection that has sent
+nothing yet waits outside those slots (at most :data:`MAX_IDLE` of them, the oldest dropped
+first, each for at most ``connection_timeout``), so idle sockets never lock the page out; a
+client that disconnects early is logged at debug level only. If the real-time stepping thread
+fails, :attr:`ViewerServer.error` records why, ``GET /state`` reports it and every ``POST``
+answers 503.
 """
 
 from __future__ import annotations
 
 import base64
+import contextlib
 import hashlib
 import json
 import logging
 import math
+import queue
 import re
+import selectors
+import socket
 import sys
 import threading
 import time
@@ -105,6 +112,7 @@ __all__ = [
     "MAX_BODY",
     "MAX_CONNECTIONS",
     "MAX_CONNECTION_TIMEOUT",
+    "MAX_IDLE",
     "MAX_JOG_ANGULAR",
     "MAX_JOG_LINEAR",
     "MAX_JOG_TIMEOUT",
@@ -153,6 +161,10 @@ MAX_CONNECTION_TIMEOUT = 3600.0
 #: Default and largest number of connections served at once (one thread each).
 DEFAULT_MAX_CONNECTIONS = 128
 MAX_CONNECTIONS = 4096
+#: Most connections that wait, silent, for their first byte (they hold no slot and no thread);
+#: beyond it the oldest is closed, so a legitimate client always gets in.
+MAX_IDLE = 512
+_IDLE_POLL = 0.25
 #: Most snapshots one :class:`ScriptedDriver` run may record (``until / sample_dt``).
 MAX_SAMPLES = 1_000_000
 _SESSION_METHODS = ("press", "jog", "advance", "snapshot", "scene_primitives")
@@ -253,6 +265,16 @@ def _refusal(status: HTTPStatus, message: str) -> bytes:
 
 
 class _HTTPServer(ThreadingHTTPServer):
+    """The threaded server, with a waiting room in front of the ``max_connections`` slots.
+
+    A new connection first waits, without a thread and without a slot, until its first byte
+    arrives; only then does it take a slot (or get 503). So idle connections (a browser's
+    speculative pre-connects, or a client that opens sockets and sends nothing) never lock the
+    page out. The waiting room holds at most :data:`MAX_IDLE` connections (the oldest is closed
+    to make room for a new one) and closes a connection still silent after
+    ``connection_timeout``.
+    """
+
     daemon_threads = True
     # The stdlib's backlog of 5 overflows under a few dozen concurrent clients: refused SYNs are
     # retried after 1 s, 2 s, ... (measured p99 above 1 s with 50 clients; 80 ms with 128).
@@ -263,12 +285,85 @@ class _HTTPServer(ThreadingHTTPServer):
         self._slots = threading.BoundedSemaphore(max_connections)
         self._max_connections = max_connections
         super().__init__((HOST, port), _Handler)
+        self._arrivals: queue.SimpleQueue[tuple[Any, Any]] = queue.SimpleQueue()
+        self._wake_r, self._wake_w = socket.socketpair()
+        self._wake_r.setblocking(False)
+        self._wake_w.setblocking(False)
+        self._closing = threading.Event()
+        self._waiter = threading.Thread(
+            target=self._wait_for_first_bytes, name="velfence-viewer-idle", daemon=True
+        )
+        self._waiter.start()
 
     def process_request(self, request: Any, client_address: Any) -> None:
-        """Serve in a new thread, or refuse with 503 when ``max_connections`` are open."""
+        """Hand a new connection to the waiting room (it takes a slot once it sends)."""
+        self._arrivals.put((request, client_address))
+        self._wake()
+
+    def _wake(self) -> None:
+        # OSError: the buffer is full (the waiter is awake anyway) or the socket closed
+        with contextlib.suppress(OSError):
+            self._wake_w.send(b"\0")
+
+    def _wait_for_first_bytes(self) -> None:
+        """The waiting-room thread: dispatch connections that sent, close the silent ones."""
+        waiting: dict[Any, tuple[float, Any]] = {}  # insertion order = age
+        with selectors.DefaultSelector() as sel:
+            sel.register(self._wake_r, selectors.EVENT_READ)
+            try:
+                while not self._closing.is_set():
+                    now = time.monotonic()
+                    timeout = _IDLE_POLL
+                    if waiting:
+                        first = next(iter(waiting.values()))[0]
+                        timeout = max(
+                            0.0, min(timeout, first + self.viewer.connection_timeout - now)
+                        )
+                    for key, _ in sel.select(timeout):
+                        if key.fileobj is self._wake_r:
+                            try:
+                                while self._wake_r.recv(4096):
+                                    pass
+                            except OSError:
+                                pass
+                            continue
+                        request = key.fileobj
+                        sel.unregister(request)
+                        _, address = waiting.pop(request)
+                        self._dispatch(request, address)
+                    while True:
+                        try:
+                            request, address = self._arrivals.get_nowait()
+                        except queue.Empty:
+                            break
+                        if len(waiting) >= MAX_IDLE:  # make room: the oldest silent one goes
+                            oldest = next(iter(waiting))
+                            sel.unregister(oldest)
+                            del waiting[oldest]
+                            self.shutdown_request(oldest)
+                        waiting[request] = (time.monotonic(), address)
+                        sel.register(request, selectors.EVENT_READ)
+                    deadline = time.monotonic() - self.viewer.connection_timeout
+                    for request, (since, _) in list(waiting.items()):
+                        if since > deadline:
+                            break  # the rest are younger
+                        sel.unregister(request)
+                        del waiting[request]
+                        self.shutdown_request(request)
+            finally:
+                for request in waiting:
+                    self.shutdown_request(request)
+                while True:
+                    try:
+                        self.shutdown_request(self._arrivals.get_nowait()[0])
+                    except queue.Empty:
+                        break
+
+    def _dispatch(self, request: Any, client_address: Any) -> None:
+        """Serve in a new thread, or refuse with 503 when ``max_connections`` are busy."""
         if not self._slots.acquire(blocking=False):
-            # Answered from the accept thread, so it must never block: a non-blocking send of
-            # a few hundred bytes to a fresh socket fits its buffer; if not, just close.
+            # Answered from the waiting-room thread, so it must never block: a non-blocking
+            # send of a few hundred bytes to a fresh socket fits its buffer; if not, just close.
             try:
                 request.setblocking(False)
                 request.send(
@@ -286,7 +381,16 @@ class _HTTPServer(ThreadingHTTPServer):
             super().process_request(request, client_address)
         except BaseException:  # the thread did not start: give the slot back
             self._slots.release()
-            raise
+            self.shutdown_request(request)
+
+    def server_close(self) -> None:
+        """Stop the waiting room (closing its connections), then the listening socket."""
+        self._closing.set()
+        self._wake()
+        self._waiter.join()
+        self._wake_r.close()
+        self._wake_w.close()
+        super().server_close()
 
     def process_request_thread(self, request: Any, client_address: Any) -> None:
         """The handler thread; frees its connection slot when done."""

@@ -143,6 +143,9 @@ def save_figure(fig: Any, path: str | Path, *, dpi: int = 130) -> Path:
         path: Output file; its directory must exist. The format follows the suffix.
         dpi: Resolution, 1 to :data:`MAX_DPI` dots per inch.
 
+    Returns:
+        The path written.
+
     Raises:
         InvalidInput: ``fig`` is not a matplotlib figure.
         InvalidParameter: ``path`` or ``dpi`` is unusable (the figure is closed all the same).
@@ -250,6 +253,15 @@ def plot_workspace(
     title: str = "Workspace and trajectories",
 ) -> Path:
     """The polygon, its buffer band, the inscribed rectangle and every trajectory.
+
+    Args:
+        polygon: The permitted workspace.
+        trajectories: Label -> run, each drawn as its path.
+        path: Output file; its directory must exist.
+        buffer: Width of the buffer band to shade inside the polygon; ``None``: none.
+        rectangle: An inscribed rectangle to draw; ``None``: none.
+        labels: The x and y axis labels.
+        title: The figure's title.
 
     Returns:
         The path written.
