@@ -520,3 +520,26 @@ def test_a_non_symmetric_weight_matrix_is_refused_saying_how_far_off() -> None:
     W[0, 1] = 0.5
     with pytest.raises(InvalidParameter, match=r"weights: expected a symmetric \(7, 7\).*0\.5"):
         SafetyFilter(ARM, limits=limits(), weights=W)
+
+
+def test_a_planar_obstacle_centre_is_refused_by_the_3d_filter() -> None:
+    # A (2,) centre becomes (x, y, 0) in SphereObstacle (for planar scenes); a spatial arm's
+    # filter refuses it instead of guessing its height (a planar arm's takes it:
+    # test_planar_arm_in_the_plane).
+    from velfence.errors import InvalidParameter
+    from velfence.filter import SafetyFilter, SphereObstacle
+    from velfence.filter.limits import JointLimits
+    from velfence.robots import ur5e
+
+    flat = SphereObstacle([0.4, 0.1], radius=0.05)
+    assert flat.dimension == 2
+    assert SphereObstacle([0.4, 0.1, 0.2], radius=0.05).dimension == 3
+    robot = ur5e()
+    n = len(robot.joint_names)
+    limits = JointLimits(-np.pi * np.ones(n), np.pi * np.ones(n), max_speed=np.ones(n))
+    with pytest.raises(InvalidParameter, match=r"obstacles\[0\].*3-D"):
+        SafetyFilter(robot, limits=limits, obstacles=[flat])
+    ok = SafetyFilter(
+        robot, limits=limits, obstacles=[SphereObstacle([0.4, 0.1, 0.2], radius=0.05)]
+    )
+    assert ok.task_dim == 3

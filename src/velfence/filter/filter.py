@@ -47,7 +47,13 @@ from velfence.filter import parts
 from velfence.filter.compiled import compiled_rows
 from velfence.filter.kinematics import Kinematics, checked, frame_of
 from velfence.filter.ladder import DeadlineHit, LadderOutcome, run_ladder, safe_fallback
-from velfence.filter.limits import JointLimits, Profile, SphereObstacle, WorkspaceLimit
+from velfence.filter.limits import (
+    JointLimits,
+    Profile,
+    SphereObstacle,
+    WorkspaceLimit,
+    spatial_obstacles,
+)
 from velfence.filter.result import FilterResult
 from velfence.filter.rows import (
     LEVEL_JOINT,
@@ -242,7 +248,7 @@ class SafetyFilter(InvalidPolicy):
         self._previous: FloatArray | None = None
         frame0, self.task_dim = parts.robot_frame(robot, n)
         self._workspace = parts.workspaces(robot, workspace, frame0)
-        self._obstacles = parts.obstacle_list(obstacles)
+        self._obstacles = spatial_obstacles(parts.obstacle_list(obstacles), self.task_dim)
         rows: list[Any] = [
             JointPositionLimit(limits, profs, kernels=kern),
             JointVelocityLimit(limits),

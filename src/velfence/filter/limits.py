@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import KW_ONLY, dataclass
+from dataclasses import KW_ONLY, dataclass, field
 from typing import Any
 
 import numpy as np
@@ -438,7 +438,9 @@ class SphereObstacle:
     before 0.2); both names construct this class, with a warning, until 0.3.
 
     Attributes:
-        center: Centre [m], shape (3,), read-only (a (2,) centre of a planar scene gets z = 0).
+        center: Centre [m], shape (3,), read-only (a (2,) centre of a planar scene gets z = 0;
+            ``dimension`` says which was given, and the safety filter, which works in 3-D,
+            refuses a planar one rather than guess its height).
         radius: Radius of the obstacle body [m], >= 0 (0: a point obstacle; the links' own
             capsule radius and the filter's ``obstacle_buffer`` still keep them away from it).
         influence: Radius :math:`\rho` of the sphere of influence [m], > ``radius``, or ``None``
@@ -455,11 +457,14 @@ class SphereObstacle:
     radius: float
     influence: float | None = None
     name: str | None = None
+    #: How many coordinates the centre was given with (2: a planar scene, z = 0 added).
+    dimension: int = field(default=3, init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         c = real_array("center", self.center, error=InvalidParameter, what="2 or 3 numbers [m]")
         if c.shape not in ((2,), (3,)):
             raise InvalidParameter(f"center: expected shape (2,) or (3,) [m], got shape {c.shape}")
+        object.__setattr__(self, "dimension", int(c.size))
         if c.shape == (2,):
             c = np.append(c, 0.0)
         object.__setattr__(self, "center", readonly(c))
@@ -478,3 +483,30 @@ class SphereObstacle:
 
 
 document_inits(globals())
+
+
+def spatial_obstacles(
+    obstacles: tuple[SphereObstacle, ...], dim: int
+) -> tuple[SphereObstacle, ...]:
+    """The obstacles of a robot that moves in ``dim`` dimensions, refusing planar centres in 3-D.
+
+    Internal API of :mod:`velfence.filter`: a (2,) centre would silently become (x, y, 0) for a
+    spatial arm.
+
+    Args:
+        obstacles: The obstacles.
+        dim: The robot's task dimension (2: planar, 3: spatial).
+
+    Returns:
+        ``obstacles``.
+
+    Raises:
+        InvalidParameter: a spatial robot and an obstacle whose centre has two coordinates.
+    """
+    for i, o in enumerate(obstacles):
+        if dim == 3 and o.dimension != 3:
+            raise InvalidParameter(
+                f"obstacles[{i}]: center {o.center[:2].tolist()} has {o.dimension} coordinates; "
+                "the arm moves in 3-D: give (x, y, z) [m]"
+            )
+    return obstacles
