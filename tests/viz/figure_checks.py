@@ -7,8 +7,11 @@ with :func:`record_figures`) and names every problem:
   and no text saying why (a text containing "no " or "none" counts as the reason);
 * **labels and units**: every data axes has an x and a y label (and a z label in 3-D), each with
   a unit in brackets, ``"[1]"`` for a dimensionless quantity. A twin or shared axes may carry
-  the label on its sibling. Exemptions: an axes switched off (``ax.axis("off")``: an image or a
-  text panel), an image-only panel, and a categorical axis whose ticks name its categories;
+  the label on its sibling; a panel with no x (y) label of its own nor on a sibling takes the
+  figure's ``supxlabel`` (``supylabel``), the one label of a grid whose panels all show the same
+  quantity (a 3-D panel's z label is always its own). Exemptions: an axes switched off
+  (``ax.axis("off")``: an image or a text panel), an image-only panel, and a categorical axis
+  whose ticks name its categories;
 * **legend**: an axes with two or more labelled series or patches has each label in a legend (its
   own, another panel's of the same figure, or the figure's);
 * **nothing drawn outside**: no line or scatter point lies far (more than :data:`OUTSIDE` of the
@@ -106,7 +109,13 @@ def _label(ax: Any, axis: str) -> str:
     if axis == "x":  # a twinx shares the x axis
         siblings += [o for o in ax.figure.axes if o is not ax and o.bbox.bounds == ax.bbox.bounds]
     return next((str(getattr(o, f"get_{axis}label")()) for o in siblings if o is not ax and
-                 getattr(o, f"get_{axis}label")()), "")  # fmt: skip
+                 getattr(o, f"get_{axis}label")()), _figure_label(ax.figure, axis))  # fmt: skip
+
+
+def _figure_label(fig: Any, axis: str) -> str:
+    """The figure's ``supxlabel`` or ``supylabel`` (empty when it has none)."""
+    text = getattr(fig, f"_sup{axis}label", None)  # public getters only from matplotlib 3.8
+    return str(text.get_text()) if text is not None else ""
 
 
 def _categorical(ax: Any, axis: str) -> bool:

@@ -87,6 +87,29 @@ def test_the_checker_passes_a_good_figure_and_its_exemptions() -> None:
     plt.close("all")
 
 
+def test_a_figure_level_label_stands_for_panels_without_their_own() -> None:
+    # A 2 x 2 grid, each panel its own y range: one supylabel and one supxlabel name them all.
+    fig = Figure()
+    axes = fig.subplots(2, 2)
+    for ax in axes.ravel():
+        ax.plot([0, 1], [0, 1])
+    fig.supxlabel("time [s]")
+    fig.supylabel("reading [cm]")
+    assert problems("grid", fig) == []
+    # The figure label must carry a unit too, and a panel's own label still counts first.
+    fig.supylabel("reading")
+    axes[0, 0].set_xlabel("time")
+    found = "\n".join(problems("grid", fig))
+    assert "grid axes 1 (''): y label 'reading' has no unit" in found
+    assert "grid axes 0 (''): x label 'time' has no unit" in found
+    assert "grid axes 1 (''): x label" not in found
+    # Without any figure label the panels are unlabelled.
+    bare = Figure()
+    bare.subplots(1, 2)[1].plot([0, 1], [0, 1])
+    assert "bare axes 1 (''): y label '' has no unit" in "\n".join(problems("bare", bare))
+    plt.close("all")
+
+
 # --- the CLI's figures ----------------------------------------------------------------------
 
 

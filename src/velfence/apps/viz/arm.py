@@ -255,7 +255,13 @@ def plot_arm_activity(runs: Mapping[str, ArmRun], path: str | Path) -> Path:
             edges = np.flatnonzero(np.diff(np.concatenate([[0], on.astype(int), [0]])))
             for a, b in zip(edges[::2], edges[1::2], strict=True):
                 segs.append([(t[a], r), (t[min(b, len(t) - 1)], r)])
-        ax.add_collection(LineCollection(segs, colors=_color(name, i), linewidths=6))
+        if segs:
+            ax.add_collection(LineCollection(segs, colors=_color(name, i), linewidths=6))
+        else:  # nothing to draw: the panel says so where the bars would be
+            ax.text(
+                0.5, 0.5, "no constraint row active in this run", transform=ax.transAxes,
+                ha="center", va="center", fontsize=8, color="0.35",
+            )  # fmt: skip
         ax.set_yticks(range(len(rows)), rows, fontsize=7)
         ax.set_ylim(-0.7, max(0.7, len(rows) - 0.3))
         ax.set_xlim(float(t[0]), float(t[-1]))

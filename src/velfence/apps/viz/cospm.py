@@ -140,9 +140,13 @@ def plot_vertex(
             md = np.asarray(row["min_delta_t"])
             low.plot(np.arange(len(md)) * 1e-3, md, lw=0.8, color=f"C{i}", label=f"vertex {i}")
         low.axhline(0.0, color="k", lw=0.8)
-        low.set_ylim(-0.02, 0.05)
+        # Linear where the stops act (|δ| < 0.05 rad), logarithmic above: the start, far from
+        # the stops, stays in view without flattening the part near 0.
+        top = max(0.05, 1.5 * max(float(np.max(r["min_delta_t"])) for r in rows))
+        low.set_yscale("symlog", linthresh=0.05, linscale=3.0)
+        low.set_ylim(min(-0.02, 1.2 * min(float(np.min(r["min_delta_t"])) for r in rows)), top)
         low.set_xlabel("t [s]")
-        low.set_ylabel("min signed distance to the stops [rad]")
+        low.set_ylabel("min signed distance to the stops [rad]\n(log above 0.05 rad)")
         low.legend(fontsize=7)
         worst = min(r["min_delta"] for r in rows)
         sw = max(r["switches"] for r in rows)
@@ -165,7 +169,7 @@ def plot_region(path: str | Path, *, step: float = 0.04) -> Path:
     Q1, Q2 = np.meshgrid(grid.q1, grid.q2)
     detb = np.where(grid.reached, grid.det_b, math.nan)
     cs = ax.contourf(Q1, Q2, detb, levels=20, cmap="RdBu", alpha=0.6)
-    fig.colorbar(cs, ax=ax, label="det B (Type 1 when 0)")
+    fig.colorbar(cs, ax=ax, label="det B [1] (Type 1 when 0)")
     if np.nanmin(detb) < 0.0 < np.nanmax(detb):
         ax.contour(Q1, Q2, detb, levels=[0.0], colors="r", linewidths=1.5)
     ax.contour(Q1, Q2, grid.reached.astype(float), levels=[0.5], colors="m", linewidths=1.0)

@@ -106,6 +106,8 @@ class ArmRun(Protocol):
 
 
 _PLANES = {"x-y": (0, 1), "x-z": (0, 2), "y-z": (1, 2)}
+#: Clearance [m] below which the clearance panels are linear (logarithmic above).
+_CLEARANCE_LINEAR = 0.1
 
 
 def _obstacles(ax: Any, run: ArmRun, axes: tuple[int, int]) -> None:
@@ -187,10 +189,13 @@ def plot_clearance(runs: Sequence[ArmRun], path: str | Path) -> Path:
         for o in range(d.shape[1]):
             top.plot(r.t, d[:, o], color=f"C{o + 3}", lw=1.0, label=f"obstacle {o}")
         top.axhline(0.0, color="k", lw=0.8)
-        # Never clip a penetration: the lower limit follows the deepest point.
-        top.set_ylim(min(-0.01, 1.1 * float(np.min(d))), max(0.1, float(np.percentile(d, 5))))
+        # Linear near contact (|d − ρ| < 0.1 m, where the fence acts), logarithmic above, so the
+        # approach from afar stays in view. Never clip a penetration: the lower limit follows
+        # the deepest point, the upper one the farthest.
+        top.set_yscale("symlog", linthresh=_CLEARANCE_LINEAR, linscale=3.0)
+        top.set_ylim(min(-0.01, 1.1 * float(np.min(d))), max(0.1, 1.5 * float(np.max(d))))
         top.set_title(textwrap.fill(r.name, 34), fontsize=10)
-        top.set_ylabel("clearance d − ρ [m]")
+        top.set_ylabel(f"clearance d − ρ [m]\n(log above {_CLEARANCE_LINEAR:g} m)")
         top.set_xlabel("t [s]")
         top.legend(fontsize=8)
         low.semilogy(r.t, np.maximum(r.ee_error, 1e-9), color="C1", lw=1.0)
@@ -205,7 +210,10 @@ def plot_active_sets(runs: Sequence[ArmRun], path: str | Path) -> Path:
     Returns:
         The path written.
     """
-    fig, axs = plt.subplots(len(runs), 1, figsize=(9.0, 1.8 * len(runs)), squeeze=False)
+    # Each run on its own time axis (their lengths differ by a factor of four), each labelled.
+    fig, axs = plt.subplots(
+        len(runs), 1, figsize=(9.0, 2.0 * len(runs)), squeeze=False, layout="constrained"
+    )
     for ax, r in zip(axs[:, 0], runs, strict=True):
         a = r.active
         for o in range(a.shape[1]):
@@ -216,9 +224,9 @@ def plot_active_sets(runs: Sequence[ArmRun], path: str | Path) -> Path:
         ax.axhline(r.results[0].redundancy, color="r", ls=":", lw=0.8, label="redundancy")
         ax.set_ylim(-0.1, max(a.shape[1], r.results[0].redundancy) + 0.2)
         ax.set_title(r.name, fontsize=8)
-        ax.set_ylabel("obstacle / rows")
+        ax.set_ylabel("obstacle bar /\nactive rows [1]")
+        ax.set_xlabel("t [s]", labelpad=1)
         ax.legend(fontsize=6, loc="upper left")
-    axs[-1, 0].set_xlabel("t [s]")
     return save_figure(fig, path, dpi=90)
 
 

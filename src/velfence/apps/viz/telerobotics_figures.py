@@ -82,7 +82,7 @@ def plot_fk_errors(
     )
     ax.axhline(tolerance_mm, color="k", ls=":", lw=1, label=f"tolerance {tolerance_mm:g} (means)")
     ax.set_xticks(idx)
-    ax.set_xlabel("recorded final point (trajectory of the repeatability set)")
+    ax.set_xlabel("recorded final point (trajectory of the repeatability set) [index]")
     ax.set_ylabel("distance to FK [mm]")
     ax.set_title("Khokar 2009: FK (eqs. 11-22) of the recorded joint angles vs Tables 4/5")
     ax.set_ylim(0.0, 1.6 * max(float(ea.max()), float(eb.max()), tolerance_mm))
@@ -212,8 +212,7 @@ def plot_readings(path: Path, runs: Sequence[ReadingSeries]) -> Path:
         ax.set_ylim(r.distance_cm - 2.5, r.distance_cm + 2.5)
     for ax in axes[1]:
         ax.set_xlabel("time [s]")
-    for ax in axes[:, 0]:
-        ax.set_ylabel("reading [cm]")
+    fig.supylabel("reading [cm]")  # each panel's own range, one quantity for all
     axes[0, 0].legend(fontsize=7, loc="lower right")
     fig.suptitle("Simulated DT60 readings at the Table 9 distances (Khokar 2009, §7.3)")
     return save_figure(fig, path, dpi=100)
@@ -295,10 +294,14 @@ def plot_manipulability(
         ax.axhline(w0, color="k", ls="--", lw=0.8, label=f"w0 = {w0:g}")
         ax.axhline(0.0, color="k", lw=0.5)
         ax.axvline(t_s, color="C3", ls=":", lw=0.8, label=f"J⁻¹: det J = 0 at {t_s:.3f} s")
+        # Linear up to the SR run's peak, logarithmic beyond: the plain inverse's det J swings
+        # far past it once the arm is singular, and those swings stay in view.
         top = 1.2 * float(np.max(run_.sr.w))
-        ax.set_ylim(-0.3 * top, top)
+        swing = float(np.max(np.abs(run_.jinv.det[np.isfinite(run_.jinv.det)])))
+        ax.set_yscale("symlog", linthresh=top, linscale=4.0)
+        ax.set_ylim(-max(0.3 * top, 1.3 * swing), max(top, 1.3 * swing))
         ax.set_xlabel("t [s]")
-        ax.set_ylabel("manipulability / det J")
+        ax.set_ylabel(f"manipulability w, det J [m³]\n(log beyond ±{top:.2g} m³)")
         ax.set_title(f"§7.4 {run_.name}", fontsize=10)
         ax.legend(fontsize=7)
     fig.suptitle(title, fontsize=10)
@@ -345,6 +348,7 @@ def plot_cartesian_errors(runs: Sequence[SingularityRuns], path: Path) -> Path:
             label="position error, via-to-via (open loop) [cm]",
         )
         ax.set_xlabel("t [s]")
+        ax.set_ylabel("position error [cm], orientation error [deg]")
         ax.set_title(f"§7.4 {run_.name}, SR inverse: Cartesian error", fontsize=10)
         ax.legend(fontsize=7)
     return save_figure(fig, path, dpi=120)
