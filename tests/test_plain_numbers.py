@@ -28,7 +28,7 @@ CASES: dict[str, Callable[[], Any]] = {
     "rate limits": lambda: RateLimiter(max_speed=NEG, max_acceleration=1.0, dt=0.01, size=1),
     "rectangle": lambda: Rectangle(xmin=np.float64(1.0), xmax=NEG, ymin=0.0, ymax=1.0),
     "box corners": lambda: vf.ConvexPolytope.box(np.array([1.0]), np.array([-0.4])),
-    "joint limits": lambda: vf.JointLimits(np.array([1.0]), np.array([-0.4]), 1.0),
+    "joint limits": lambda: vf.JointLimits(np.array([1.0]), np.array([-0.4]), max_speed=1.0),
     "shaper dt": lambda: vf.PolygonShaper(vf.ConvexPolygon(SQUARE), buffer=0.1, dt=NEG),
     "push times": lambda: Disturbance.push(np.float64(1.0), NEG, np.zeros(2)),
 }
