@@ -163,6 +163,17 @@ def _safe(x: Any, u: Any, G: Any, b: Any, level: Any, bound: Any) -> None:
     assert np.all((gx - bound >= -1e-12 * (np.abs(bound) + g1 * xi))[claimed])
 
 
+def _near_axis(sf: Any, level: Any, ka: Any, kb: Any, dist: Any) -> bool:
+    """Whether an obstacle row's centre lies within 1 µm of its link's axis."""
+    link_r = np.asarray(sf.robot.link_radius, dtype=float).reshape(-1)
+    for lv, a, b, d in zip(level.tolist(), ka.tolist(), kb.tolist(), dist.tolist(), strict=True):
+        if lv == _filter.LEVEL_OBSTACLE:
+            axis = d + link_r[b] + sf._obstacles[a].radius
+            if abs(axis) < 1e-6:
+                return True
+    return False
+
+
 def _check(scene: dict[str, Any]) -> None:
     sf, q, u, prev = scene["sf"], scene["q"], scene["u"], scene["prev"]
     fc = filter_cycle(sf)
@@ -178,6 +189,13 @@ def _check(scene: dict[str, Any]) -> None:
         dist[[nm not in ref.constraint_names for nm in names]],
     )
     G0, b0 = ref.rows
+    # an obstacle centre within a micrometre of a link's axis: the row's direction (from the
+    # axis to the centre) is round-off for both routes, and exactly on the axis any direction is
+    # right; then the rows and answers may differ and only the safety checks apply
+    if _near_axis(sf, level, ka, kb, dist):
+        _safe(x, u, G, b, level, bound)
+        _safe(ref.output, u, G0, b0, level, np.full_like(bound, -math.inf))
+        return
     scale_g = max(1.0, float(np.abs(G0).max(initial=0.0)))
     np.testing.assert_allclose(G, G0, rtol=1e-9, atol=1e-12 * scale_g)
     np.testing.assert_allclose(
