@@ -173,7 +173,10 @@ def test_cobot_path_following(capsys: pytest.CaptureFixture[str]) -> None:
         outs.append(vector(out))
     np.testing.assert_allclose(outs[0], [1.0, 0.2], atol=1e-12)
     assert 0.0 < outs[1][0] < 1.0
-    np.testing.assert_allclose(outs[2], [0.0, 0.2], atol=1e-12)
+    # at the wall the outward push is removed; the wall asks for an inward creep of 1e-9 of the
+    # push speed so that round-off never points out
+    np.testing.assert_allclose(outs[2], [0.0, 0.2], atol=1e-8)
+    assert outs[2][0] <= 0.0
 
 
 def test_teleop_session(

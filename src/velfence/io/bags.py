@@ -143,7 +143,7 @@ class ReplaySettings(StrictModel):
     @field_validator("command_frame", mode="before")
     @classmethod
     def _old_frame(cls, value: Any) -> Any:
-        if value == "state":
+        if isinstance(value, str) and value == "state":
             warn_renamed("value of replay.command_frame", "state", "world", stacklevel=2)
             return "world"
         return value
