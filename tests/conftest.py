@@ -43,6 +43,10 @@ SLOW_NODES = (
     "tests/cobot/test_follower.py::test_perpendicular_start_converges",
     "tests/bridge/test_bridge_node.py::test_1khz_stream",
     "tests/teleop/test_study.py::test_animate_run",
+    "tests/test_progress.py::test_sim_reports_progress",
+    "tests/teleop/test_viewer_hardening.py::test_idle_connections",
+    "tests/test_optional_imports.py::",
+    "tests/test_readme.py::test_block_runs_and_prints_what_the_page_shows[tutorials/",
 )
 
 
