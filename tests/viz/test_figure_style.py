@@ -14,16 +14,22 @@ study's figures are rendered while ``Figure.savefig`` is recorded; then, for eac
 from __future__ import annotations
 
 import re
+from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import pytest
 
 matplotlib = pytest.importorskip("matplotlib", reason="velfence.apps.viz needs the [app] extra")
 matplotlib.use("Agg")
-from matplotlib.cm import ScalarMappable  # noqa: E402
-from matplotlib.contour import ContourSet  # noqa: E402
+from figure_checks import (  # noqa: E402
+    check_all,
+    colour_mapped,
+    has_data,
+    is_colorbar,
+    problems,
+    record_figures,
+)
 from matplotlib.figure import Figure  # noqa: E402
 
 from velfence.apps.demo import run_demo  # noqa: E402
@@ -42,67 +48,17 @@ USER = {
 
 
 @pytest.fixture
-def recorded(monkeypatch: pytest.MonkeyPatch) -> dict[str, Figure]:
+def recorded(monkeypatch: pytest.MonkeyPatch) -> Iterator[dict[str, Figure]]:
     """Figures written while the test runs, keyed by the file name they were saved to."""
-    figures: dict[str, Figure] = {}
-    original = Figure.savefig
-
-    def savefig(self: Figure, fname: Any, *args: Any, **kwargs: Any) -> Any:
-        name = Path(fname).name if isinstance(fname, (str, Path)) else f"frame-of-{id(self)}"
-        figures.setdefault(name, self)
-        return original(self, fname, *args, **kwargs)
-
-    monkeypatch.setattr(Figure, "savefig", savefig)
-    return figures
+    with record_figures(monkeypatch) as figures:
+        yield figures
 
 
-def _is_colorbar(ax: Any) -> bool:
-    return hasattr(ax, "_colorbar")
-
-
-def _has_data(ax: Any) -> bool:
-    return bool(ax.lines or ax.collections or ax.patches or ax.images)
-
-
-def _colour_mapped(ax: Any) -> list[ScalarMappable]:
-    out = []
-    for art in [*ax.collections, *ax.images]:
-        if not isinstance(art, ScalarMappable) or art.get_array() is None:
-            continue
-        if isinstance(art, ContourSet) and art.colors is not None:
-            continue  # a band of one fixed colour (the buffer), not a colour scale
-        out.append(art)
-    return out
-
-
-def problems(name: str, fig: Figure) -> list[str]:
-    """Everything that makes ``fig`` fail to explain itself (empty when it is fine)."""
-    found: list[str] = []
-    bars = [ax._colorbar for ax in fig.axes if _is_colorbar(ax)]
-    for i, ax in enumerate(ax for ax in fig.axes if not _is_colorbar(ax)):
-        where = f"{name} axes {i} ({ax.get_title()!r})"
-        if not _has_data(ax):
-            found.append(f"{where}: empty")
-            continue
-        # A twin axes (twinx) shares its x axis and label with the axes it was made from.
-        twins = [o for o in ax.get_shared_x_axes().get_siblings(ax) if o is not ax]
-        xlabel = ax.get_xlabel() or next((o.get_xlabel() for o in twins if o.get_xlabel()), "")
-        labels = [("x", xlabel), ("y", ax.get_ylabel())]
-        if hasattr(ax, "get_zlabel"):
-            labels.append(("z", ax.get_zlabel()))
-        for axis, text in labels:
-            if not UNIT.search(text):
-                found.append(f"{where}: {axis} label {text!r} has no unit in brackets")
-        for art in _colour_mapped(ax):
-            if not any(b.mappable is art or b.mappable.norm is art.norm for b in bars):
-                found.append(f"{where}: colour-mapped {type(art).__name__} without a colour bar")
-    return found
-
-
-def _check_all(figures: dict[str, Figure], expected: set[str]) -> None:
-    assert expected <= set(figures), f"not rendered: {sorted(expected - set(figures))}"
-    found = [p for name in sorted(expected) for p in problems(name, figures[name])]
-    assert not found, "\n".join(found)
+# One figure checker (tests/viz/figure_checks.py): these tests use its rules.
+_is_colorbar = is_colorbar
+_has_data = has_data
+_colour_mapped = colour_mapped
+_check_all = check_all
 
 
 def test_the_checker_catches_what_it_should() -> None:
