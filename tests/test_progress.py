@@ -56,6 +56,30 @@ def test_off_a_terminal_one_line_per_finished_stage() -> None:
     assert [name for name, _ in t.finished] == ["a", "b"]
 
 
+def test_off_a_terminal_a_long_stage_prints_a_heartbeat() -> None:
+    # A CI log must show life during a long stage (a study, a video), not only when it ends.
+    buf = io.StringIO()
+    console = Console(file=buf, force_terminal=False, width=200)
+    tracker = progress.Tracker(
+        [("study", 1.0)], title="velfence x", console=console, heartbeat_period=1e-9
+    )
+    with tracker, progress.stage("study") as report:
+        report(3, 20, "subject 2 run 1")
+        report(4, 20, "subject 2 run 2")
+    lines = buf.getvalue().splitlines()
+    assert lines[0].startswith("velfence x: study: 3/20 subject 2 run 1 (elapsed ")
+    assert lines[1].startswith("velfence x: study: 4/20 subject 2 run 2 (elapsed ")
+    assert STAGE_LINE.match(lines[2])
+    # the default period keeps a quick stage to its one finished-stage line
+    buf2 = io.StringIO()
+    quick = Console(file=buf2, force_terminal=False, width=200)
+    t = progress.Tracker([("a", 1.0)], title="velfence x", console=quick)
+    with t, progress.stage("a") as report:
+        report(1, 2, "half")
+    assert len(buf2.getvalue().splitlines()) == 1
+    assert t.heartbeat_period == 30.0
+
+
 def test_quiet_prints_nothing() -> None:
     buf = io.StringIO()
     console = Console(file=buf, force_terminal=True, width=200)

@@ -118,6 +118,8 @@ class Tracker:
         console: Where the display goes (default: a stderr console).
         quiet: Print nothing (neither the live display nor the per-stage lines).
         live: Force the live display on or off (default: on when ``console`` is a terminal).
+        heartbeat_period: Off a terminal, the least time [s] between two progress lines of a
+            running stage (default 30); each finished stage prints its own line regardless.
     """
 
     def __init__(
@@ -128,8 +130,14 @@ class Tracker:
         console: Console | None = None,
         quiet: bool = False,
         live: bool | None = None,
+        heartbeat_period: float = 30.0,
     ) -> None:
         self.title = check_text("title", title)
+        self.heartbeat_period = finite_scalar("heartbeat_period", heartbeat_period)
+        if not self.heartbeat_period > 0.0:
+            raise InvalidParameter(
+                f"heartbeat_period: expected a positive number of seconds, got {heartbeat_period}"
+            )
         steps = []
         for k, item in enumerate(_items("plan", plan)):
             if not isinstance(item, (list, tuple)) or len(item) != 2:
@@ -166,6 +174,7 @@ class Tracker:
         self._progress: Progress | None = None
         self._task: Any = None
         self._token: Any = None
+        self._last_line = self._start
 
     @property
     def elapsed(self) -> float:
@@ -234,6 +243,7 @@ class Tracker:
             elif not self.quiet:
                 names = [n for n, _ in self.plan]
                 pos = f"[{names.index(name) + 1}/{len(names)}] " if name in names else ""
+                self._last_line = time.perf_counter()
                 self.console.print(
                     f"{escape(self.title)}: {pos}{escape(name)} done in {seconds:.1f} s "
                     f"(elapsed {self.elapsed:.1f} s)",
@@ -255,9 +265,24 @@ class Tracker:
         done = _count("done", done, "count")
         total = _count("total", total, "count")
         what = check_text("what", what)
-        if self._progress is None:
-            return
         name = self._stage or ""
+        if self._progress is None:
+            # Off a terminal: a line at most every heartbeat_period while a stage reports
+            # progress, so that a CI log shows life during a long stage (a study, a video).
+            now = time.perf_counter()
+            quiet = self.quiet or not name or not (total or what)  # a stage's start reports 0/0
+            if quiet or now - self._last_line < self.heartbeat_period:
+                return
+            self._last_line = now
+            part = f"{done:g}/{total:g}" if total else f"{done:g}"
+            detail = f" {what}" if what else ""
+            self.console.print(
+                f"{escape(self.title)}: {escape(name)}: {part}{escape(detail)} "
+                f"(elapsed {self.elapsed:.1f} s)",
+                highlight=False,
+                soft_wrap=True,
+            )
+            return
         frac = min(1.0, done / total) if total else 0.0
         text = f"{name}: {what}" if what and name else (what or name)
         self._progress.update(
