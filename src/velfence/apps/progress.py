@@ -49,7 +49,13 @@ try:
 except ModuleNotFoundError as exc:  # an optional dependency: name the extra
     raise missing(exc, what=__name__) from exc
 
-from velfence._validate import check_flag, check_positive_int, check_text, describe, finite_scalar
+from velfence._validate import (
+    check_flag,
+    check_positive,
+    check_positive_int,
+    check_text,
+    describe,
+)
 from velfence.errors import InvalidParameter
 
 __all__ = ["Tracker", "current", "frames", "stage", "summary", "update"]
@@ -65,12 +71,9 @@ _ACTIVE: ContextVar[Tracker | None] = ContextVar("velfence_progress_tracker", de
 MAX_ITEMS = 100_000
 
 
-def _count(name: str, x: Any, what: str) -> float:
+def _count(name: str, x: Any) -> float:
     """A finite, non-negative amount of work (``done``, ``total``, a weight)."""
-    v = finite_scalar(name, x, what=what, error=InvalidParameter)
-    if v < 0:
-        raise InvalidParameter(f"{name}: expected a {what} >= 0, got {v:g}")
-    return v
+    return check_positive(name, x, allow_zero=True)
 
 
 def _items(name: str, x: Any) -> list[Any]:
@@ -133,11 +136,7 @@ class Tracker:
         heartbeat_period: float = 30.0,
     ) -> None:
         self.title = check_text("title", title)
-        self.heartbeat_period = finite_scalar("heartbeat_period", heartbeat_period)
-        if not self.heartbeat_period > 0.0:
-            raise InvalidParameter(
-                f"heartbeat_period: expected a positive number of seconds, got {heartbeat_period}"
-            )
+        self.heartbeat_period = check_positive("heartbeat_period", heartbeat_period, unit="s")
         steps = []
         for k, item in enumerate(_items("plan", plan)):
             if not isinstance(item, (list, tuple)) or len(item) != 2:
@@ -147,7 +146,7 @@ class Tracker:
             steps.append(
                 (
                     check_text(f"plan[{k}] name", item[0]),
-                    _count(f"plan[{k}] weight", item[1], "weight"),
+                    _count(f"plan[{k}] weight", item[1]),
                 )
             )
         if not steps:
@@ -262,8 +261,8 @@ class Tracker:
         Raises:
             InvalidParameter: a count that is not a finite number >= 0, or ``what`` not a string.
         """
-        done = _count("done", done, "count")
-        total = _count("total", total, "count")
+        done = _count("done", done)
+        total = _count("total", total)
         what = check_text("what", what)
         name = self._stage or ""
         if self._progress is None:
@@ -342,8 +341,8 @@ def update(done: float, total: float, what: str = "") -> None:
     if tracker is not None:
         tracker.update(done, total, what)
     else:
-        _count("done", done, "count")
-        _count("total", total, "count")
+        _count("done", done)
+        _count("total", total)
         check_text("what", what)
 
 
