@@ -288,8 +288,11 @@ int vf_nd_project_kernel_opt(const double *u, const double *G, const double *b, 
             }
             t2 = INFINITY;
             sp = slack(G, b, p, x, n);
-            /* Python's (tol * gn) ** 2 is pow(., 2.0) */
-            if (zz > pow(DEP_TOL * wsf[ogn + p], 2.0)) {
+            /* Python's (tol * gn) ** 2 is pow(., 2.0). With n rows active their normals span
+             * R^n and row p lies in their span whatever z says: a basis built from rows of
+             * extreme scale (norms 1e-162 beside 1e117) leaves z far from zero, and a step there
+             * would make an (n+1)-th row active, past the end of act and lam. */
+            if (q < n && zz > pow(DEP_TOL * wsf[ogn + p], 2.0)) {
                 t2 = -sp / zz;
             }
             t = t1 < t2 ? t1 : t2;

@@ -156,6 +156,39 @@ static void test_projection_checks(void)
     }
 }
 
+/* Found by fuzz_nd (core/fuzz/crashes/nd-project-extreme-scale-overfull-active-set): 15 rows in
+ * 2-D with norms from 1e-162 to 1e117. The basis built from such rows is far from orthonormal and
+ * a third row was once taken as independent of two active ones: act[2] and lam[2] written, then
+ * act[3] past the end. act and lam are allocated at exactly n + 1 so that AddressSanitizer sees
+ * any write beyond them. */
+static void test_projection_extreme_scale(void)
+{
+    const double G[30] = {
+        0x1.021cp-837, -0x1.2c2c2c2008p+45, -0x1.fcf8p-1, 0x1.020008008008p-1015,
+        0x1.6464646464646p+101, -0x1.418p-191, -0x1.418p-191, -0x1.418p-191, -0x1.418p-191,
+        -0x1.768p-191, -0x1.418p-191, 0x1.1be8p+389, 0x1.fffffffffffffp+1023,
+        0x1.fffffffffffffp+1023, 0x1p-844, -0x0p+0, -0x0p+0, -0x0p+0, 0x1.68p-6,
+        0x0.051515151p-1022, -0x1.e9fp-537, -0x1.f1f8p-537, 0x1.82p-196, -0x1.f1fp-537,
+        -0x1.f1f8p-537, -0x1.f1f8p-537, -0x1.f1f8p-537, -0x1.f1f8p-537, -0x1.f1f8p-537,
+        -0x1.f1f8p-537};
+    const double b[15] = {-0x1.f1f8p-537, -0x1.f1f8p-537, -0x1.f1f8p-537, -0x1.f1f8p-537,
+                          -0x1.f1f8p-537, -0x0p+0, 0x1p-485, -0x1.e9fp-280, -0x0p+0, -0x0p+0,
+                          0x1p-286, 0x0.0c2c2464646c2p-1022, 0x0p+0, 0x0p+0, 0x0p+0};
+    const double u[2] = {0.0, 0.0};
+    double x[2];
+    double *lam = malloc(3 * sizeof(double));
+    int32_t *act = malloc(3 * sizeof(int32_t));
+    double *wsf = malloc((size_t)vf_nd_project_doubles(15, 2) * sizeof(double));
+    int32_t q = -1, it = -1, st = -1;
+    int rc = vf_nd_project(u, G, b, 15, 2, x, lam, act, wsf, &q, &it, &st);
+    CHECK(rc == VF_ND_OK || rc == VF_ND_ERR_OVERFLOW, "extreme scale: rc %d", rc);
+    CHECK(q >= 0 && q <= 2, "extreme scale: %d active rows in 2-D", q);
+    CHECK(isfinite(x[0]) && isfinite(x[1]), "extreme scale: finite x");
+    free(lam);
+    free(act);
+    free(wsf);
+}
+
 /* ------------------------------------------------------------------ the law */
 
 typedef struct {
@@ -819,6 +852,7 @@ static void test_projection_options(void)
 int main(void)
 {
     test_projection_checks();
+    test_projection_extreme_scale();
     test_projection_options();
     test_projection_random();
     test_law_checks();

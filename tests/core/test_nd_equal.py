@@ -181,18 +181,53 @@ def problems(draw: st.DrawFn) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 @given(problems())
 def test_projection_bit_identical(prob: tuple[np.ndarray, np.ndarray, np.ndarray]) -> None:
-    u, G, b = prob
-    ref = project(u, G, b) if np.isfinite(b).all() else None
+    same_projection(*prob)
+
+
+def _hexes(text: str) -> np.ndarray:
+    return np.array([float.fromhex(t) for t in text.split()])
+
+
+def test_projection_rows_of_extreme_scale_bit_identical() -> None:
+    """A problem fuzz_nd found (core/fuzz/crashes/nd-project-extreme-scale-overfull-active-set):
+    15 rows in 2-D with norms from 1e-162 to 1e117. Gram-Schmidt of such rows leaves the basis
+    far from orthonormal, and the third row was taken as independent of two active ones, a third
+    active row in 2-D written past the end of the active set. Both kernels now stop at n active
+    rows, and agree."""
+    u = np.zeros(2)
+    G = _hexes(
+        "0x1.021cp-837 -0x1.2c2c2c2008p+45 -0x1.fcf8p-1 0x1.020008008008p-1015 "
+        "0x1.6464646464646p+101 -0x1.418p-191 -0x1.418p-191 -0x1.418p-191 -0x1.418p-191 "
+        "-0x1.768p-191 -0x1.418p-191 0x1.1be8p+389 0x1.fffffffffffffp+1023 "
+        "0x1.fffffffffffffp+1023 0x1p-844 -0x0p+0 -0x0p+0 -0x0p+0 0x1.68p-6 0x0.051515151p-1022 "
+        "-0x1.e9fp-537 -0x1.f1f8p-537 0x1.82p-196 -0x1.f1fp-537 -0x1.f1f8p-537 -0x1.f1f8p-537 "
+        "-0x1.f1f8p-537 -0x1.f1f8p-537 -0x1.f1f8p-537 -0x1.f1f8p-537"
+    ).reshape(15, 2)
+    b = _hexes(
+        "-0x1.f1f8p-537 -0x1.f1f8p-537 -0x1.f1f8p-537 -0x1.f1f8p-537 -0x1.f1f8p-537 -0x0p+0 "
+        "0x1p-485 -0x1.e9fp-280 -0x0p+0 -0x0p+0 0x1p-286 0x0.0c2c2464646c2p-1022 0x0p+0 0x0p+0 "
+        "0x0p+0"
+    )
+    q = same_projection(u, G, b)
+    assert q <= 2
+
+
+def same_projection(u: np.ndarray, G: np.ndarray, b: np.ndarray) -> int:
+    """The C projection and the Python kernel agree bit for bit; returns the active count."""
+    # project() refuses -inf bounds and normals beyond 1e150 (the kernels take both)
+    checked = np.isfinite(b).all() and np.abs(G).max(initial=0.0) <= 1e150
+    ref = project(u, G, b) if checked else None
     status, q, iters, x, act, lam = nd.project_full(u, np.ascontiguousarray(G), b)
     # the plain kernel itself (project() refuses -inf bounds; the kernel ignores those rows)
     from velfence.geometry.projection import project_kernel, projection_scratch
 
     wsf, lam_r, act_r = projection_scratch(G.shape[0], u.shape[0])
     xr = np.zeros(u.shape[0])
-    s_r, q_r, it_r = project_kernel(
-        u.tolist(), G.ravel().tolist(), b.tolist(), G.shape[0], u.shape[0], xr, lam_r, act_r,
-        wsf.tolist(),
-    )  # fmt: skip
+    with np.errstate(all="ignore"):  # the kernel overflows to inf as C does, without a warning
+        s_r, q_r, it_r = project_kernel(
+            u.tolist(), G.ravel().tolist(), b.tolist(), G.shape[0], u.shape[0], xr, lam_r, act_r,
+            wsf.tolist(),
+        )  # fmt: skip
     assert (status, q, iters) == (s_r, q_r, it_r)
     assert fbits(x) == fbits(xr)
     assert act == act_r[:q].tolist()
@@ -203,6 +238,7 @@ def test_projection_bit_identical(prob: tuple[np.ndarray, np.ndarray, np.ndarray
     s2, x2 = nd.project(u, np.ascontiguousarray(G), b)
     assert s2 == status
     assert fbits(x2) == fbits(x)
+    return int(q)
 
 
 @given(

@@ -312,7 +312,10 @@ def project_kernel_opts(
                         kd = c
             t2 = math.inf
             sp = _slack(G, b, p, x, n)
-            if zz > (_DEP_TOL * wsf[ogn + p]) ** 2:
+            # With n rows active their normals span R^n: row p lies in their span whatever z
+            # says (a basis built from rows of extreme scale, norms 1e-162 beside 1e117, leaves
+            # z far from zero), and a step would make an (n+1)-th row active, past act and lam.
+            if q < n and zz > (_DEP_TOL * wsf[ogn + p]) ** 2:
                 t2 = -sp / zz
             t = t1 if t1 < t2 else t2
             if t == math.inf:
