@@ -15,6 +15,7 @@ import re
 import resource
 import signal
 import sys
+import tempfile
 import time
 import typing
 import warnings
@@ -735,7 +736,15 @@ def _attack_key(key: str) -> tuple[str, list[Failure], int]:
         _WORKER_TARGETS = targets()[0]
     for t in _WORKER_TARGETS:
         if t.key == key:
-            fails, calls = attack(t)
+            # in a scratch working directory: a hostile path ("12", "") given to a callable
+            # that writes a file lands there, never in the repository
+            here = os.getcwd()
+            with tempfile.TemporaryDirectory(prefix="hostile-") as scratch:
+                os.chdir(scratch)
+                try:
+                    fails, calls = attack(t)
+                finally:
+                    os.chdir(here)
             return key, fails, calls
     raise KeyError(key)
 

@@ -14,6 +14,14 @@ _TWIST = np.array([0.05, 0.0, -0.02])
 
 
 @functools.cache
+def _lag_row() -> object:
+    from velfence.apps.scenarios.lag import LagRow
+
+    return LagRow(
+        bandwidth=20.0, speed=0.1, buffer=0.05, penetration=0.0, penetration_lookahead=0.0
+    )
+
+
 def _scene() -> object:
     from velfence.sim.arm import arm_box_scene
 
@@ -66,6 +74,6 @@ SPECS: dict[str, F | C] = {
     "scenarios.lag.LagRow": C(record="output record of lag_table()"),
     "scenarios.lag.lag_table": F(lambda: call(), heavy="a sweep of closed-loop runs"),
     "scenarios.lag.plot_lag": F(
-        lambda: call([], "lag.png"), types={"path": "path"}, heavy="writes a figure"
+        lambda: call([_lag_row()], "lag.png"), types={"path": "path"}, heavy="writes a figure"
     ),
 }

@@ -144,11 +144,16 @@ def plot_lag(rows: Sequence[LagRow], path: Path) -> Path:
         The path written.
 
     Raises:
-        InvalidParameter: ``rows`` not a sequence of :class:`LagRow`, or an unusable ``path``.
+        InvalidParameter: ``rows`` empty or not a sequence of :class:`LagRow`, or an unusable
+            ``path``.
     """
-    if not isinstance(rows, (list, tuple)) or not all(isinstance(r, LagRow) for r in rows):
+    if (
+        not isinstance(rows, (list, tuple))
+        or not rows
+        or not all(isinstance(r, LagRow) for r in rows)
+    ):
         raise InvalidParameter(
-            f"rows: expected a list of LagRow (lag_table()), got {describe(rows)}"
+            f"rows: expected a non-empty list of LagRow (lag_table()), got {describe(rows)}"
         )
     path = check_output_path("path", path)
     import matplotlib
