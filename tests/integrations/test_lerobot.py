@@ -254,7 +254,8 @@ def test_closed_loop_keeps_the_gripper_sphere_in_the_box(arm: SoArm, mj: Any, se
     lo[2] = max(lo[2], 0.03 + r)
     hi = np.array(BOX[1]) - r
     pts = np.array(_loop(sh, mj, seed, 300, down=seed == 2))
-    assert np.all(pts >= lo - 1e-6) and np.all(pts <= hi + 1e-6), (pts.min(0), pts.max(0))
+    assert np.all(pts >= lo - 1e-6), pts.min(0)
+    assert np.all(pts <= hi + 1e-6), pts.max(0)
     # … and the loop did push against it (the bound is not vacuous).
     assert np.min(np.minimum(pts - lo, hi - pts)) < 0.01
 
