@@ -92,10 +92,9 @@ TICKS_PER_TURN = 4096
 _DEG = math.pi / 180.0
 _LEROBOT_DEG = _DEG * (TICKS_PER_TURN - 1) / TICKS_PER_TURN
 
-_URDF = {
-    "so101": "so_arm_description/urdf/so101.urdf",
-    "so100": "so_arm_description/urdf/so100.urdf",
-}
+#: The URDFs of example-robot-data the shield reads. Its so100.urdf has no gripper frame (no
+#: ``gripper_frame_link``), so the SO-100 needs ``path=`` to a model with one.
+_URDF = {"so101": "so_arm_description/urdf/so101.urdf"}
 _TCP_LINK = "gripper_frame_link"
 _PARALLEL = 1e-3  # |z_j × z_k| below this: the two joint axes are taken as parallel
 _FIT_TOLERANCE = 1e-4  # largest accepted |DH − MuJoCo| of the gripper point [m]
@@ -107,7 +106,7 @@ class SoArm:
     """An SO-100/SO-101 arm as the shield needs it: its chain, its base frame and its ranges.
 
     Attributes:
-        name: ``"so101"``, ``"so100"`` or the file's stem.
+        name: ``"so101"`` or the file's stem.
         source: Path of the URDF (or MJCF) the model was read from.
         chain: The five arm joints as a :class:`~velfence.mechanisms.DHChain` in its own
             frame 0 (on the shoulder-pan axis); named points ``"tcp"`` (the gripper frame's
@@ -225,7 +224,7 @@ def so_arm(
     path: str | Path | None = None,
     link_radius: float = 0.03,
 ) -> SoArm:
-    """The SO-101 (or SO-100) arm from the URDF that ``example-robot-data`` ships.
+    """The SO-101 arm from the URDF that ``example-robot-data`` ships (or another SO-ARM model).
 
     MuJoCo compiles the URDF (:meth:`velfence.robots.MujocoRobot.from_urdf`, no meshes; the
     ``"tcp"`` is the origin of ``gripper_frame_link``), and the five arm joints' axes at
@@ -233,7 +232,7 @@ def so_arm(
     forward kinematics on 64 seeded poses within the joint limits; it is refused beyond 0.1 mm.
 
     Args:
-        model: ``"so101"`` (default) or ``"so100"``; ignored when ``path`` is given.
+        model: ``"so101"`` (the one model shipped with a gripper frame); ignored with ``path``.
         path: A URDF (``.urdf``) or MJCF (``.xml``) of the arm instead: the joints
             ``shoulder_pan`` … ``wrist_roll`` and ``gripper`` (LeRobot's names), and a link or
             site ``gripper_frame_link`` (URDF) or a site ``"tcp"`` (MJCF).
