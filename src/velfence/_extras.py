@@ -40,6 +40,7 @@ EXTRA_OF: dict[str, str] = {
     "mujoco": "physics",
     "imageio_ffmpeg": "physics",
     "mink": "physics",
+    "example_robot_data": "lerobot",
     "cyclonedds": "ros",
     "rosbags": "ros",
     "mcap": "ros",
