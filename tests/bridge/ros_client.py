@@ -5,9 +5,13 @@ names (``rt/<topic>``, ``pkg::msg::dds_::Type_``) and prints one JSON object wit
 Scenarios (``spec["scenario"]``):
 
 * ``stream``: keep a state fresh, send ``commands`` at ``rate_hz`` (optionally pausing), collect
-  every output with its receive time;
+  every output with its receive time; a command item with ``raw_frame_id`` (hex) is a
+  TwistStamped this peer encodes byte by byte (:func:`cdr_twist_stamped`), e.g. with a frame
+  id that is not UTF-8;
 * ``qos``: open a best-effort writer against the bridge's reliable command reader and a
   transient-local reader against its volatile writer (both mismatches), then read diagnostics;
+* ``qos_one``: one command writer with one incompatible policy (``mismatch``:
+  ``data_representation``, XCDR2 only, or ``reliability``), then read diagnostics;
 * ``endpoints``: read the builtin DCPSPublication/DCPSSubscription topics and report the type
   name and USER_DATA of every endpoint on the given topics.
 
@@ -18,6 +22,7 @@ from __future__ import annotations
 
 import json
 import math
+import struct
 import sys
 import time
 from pathlib import Path
@@ -75,7 +80,36 @@ def wait_for(cond: Any, what: str, timeout: float = DISCOVERY_S) -> None:
         time.sleep(0.005)
 
 
+def cdr_twist_stamped(
+    sec: int, frame_id: bytes, linear: list[float], angular: list[float]
+) -> bytes:
+    """A TwistStamped in plain little-endian CDR, encoded here byte by byte (not by the binding).
+
+    The frame id is written as raw bytes (length with the NUL, the bytes, the NUL), so it can
+    hold what no encoder would write: bytes that are not UTF-8.
+    """
+    body = struct.pack("<iI", sec, 0)  # header.stamp
+    body += struct.pack("<I", len(frame_id) + 1) + frame_id + b"\0"
+    body += b"\0" * (-len(body) % 8)  # the float64s align to 8 (from the body's start)
+    body += struct.pack("<6d", *linear, *angular)
+    return b"\x00\x01\x00\x00" + body  # encapsulation: CDR_LE, no options
+
+
+class RawSample:
+    """Makes ``DataWriter.write`` send given bytes: it writes what ``serialize`` returns."""
+
+    @staticmethod
+    def of(typ: type, data: bytes) -> Any:
+        sample = typ()
+        sample.serialize = lambda use_version_2=None: data  # the writer pads to 4 bytes
+        return sample
+
+
 def make_command(typ: str, item: dict[str, Any], index: int) -> Any:
+    if "raw_frame_id" in item:  # a hostile TwistStamped: its frame id as hex bytes
+        lin = ([*(float(x) for x in item.get("values", [])), 0.0, 0.0, 0.0])[:3]
+        data = cdr_twist_stamped(index, bytes.fromhex(item["raw_frame_id"]), lin, [0.0] * 3)
+        return RawSample.of(TYPES[typ], data)
     values = [float(x) for x in item["values"]]
     stamp = msgs.Time(sec=index, nanosec=0)
     if typ in ("twist", "twist_stamped"):
@@ -149,6 +183,7 @@ def stream(spec: dict[str, Any], dp: DomainParticipant) -> dict[str, Any]:
         wait_for(lambda: Path(sync + ".go").exists(), "the test's go-ahead (bridge side matched)")
     state = make_state(st)
     commands = spec["commands"]
+    prepared = [make_command(in_t, c, i) for i, c in enumerate(commands)]  # fast sending
     rate = float(spec["rate_hz"])
     pause_after = spec.get("pause_after")  # [index, seconds]
     state_period = float(spec.get("state_period", 0.05))
@@ -182,7 +217,7 @@ def stream(spec: dict[str, Any], dp: DomainParticipant) -> dict[str, Any]:
             time.sleep(0.0005)
             continue
         if now >= next_cmd:
-            cmd_w.write(make_command(in_t, commands[i], i))
+            cmd_w.write(prepared[i])
             sent.append(now - t0)
             i += 1
             next_cmd += 1.0 / rate
@@ -199,14 +234,27 @@ def stream(spec: dict[str, Any], dp: DomainParticipant) -> dict[str, Any]:
     # With "expect_nonzero", only non-zero answers count (a watchdog's zeros do not).
     nonzero = bool(spec.get("expect_nonzero", False))
 
+    # With "give_up_after", the wait also ends once no answer came for that long (a flood the
+    # bridge could not take in full is never answered in full).
+    give_up = spec.get("give_up_after")
+
     def answered() -> int:
         return sum(1 for o in outputs if any(o["v"])) if nonzero else len(outputs)
 
+    last_count, last_change = -1, time.monotonic()
     while (answered() < expected and time.monotonic() < end) or time.monotonic() < tail_end:
         if time.monotonic() >= next_state:
             state_w.write(state)
             next_state = time.monotonic() + state_period
         collect()
+        if len(outputs) != last_count:
+            last_count, last_change = len(outputs), time.monotonic()
+        elif (
+            give_up is not None
+            and time.monotonic() - last_change > float(give_up)
+            and time.monotonic() >= tail_end
+        ):
+            break
         time.sleep(0.001)
     collect()
     return {"sent": sent, "outputs": outputs}
@@ -231,6 +279,33 @@ def qos_scenario(spec: dict[str, Any], dp: DomainParticipant) -> dict[str, Any]:
 
     wait_for(mismatch_reported, "a diagnostics message reporting two QoS mismatches")
     del w, r
+    return {"diagnostics": found[-1]}
+
+
+def qos_one(spec: dict[str, Any], dp: DomainParticipant) -> dict[str, Any]:
+    """One writer against the bridge's command reader with one incompatible policy."""
+    t = spec["topics"]
+    typ = TYPES[spec["cmd_type"]]
+    if spec["mismatch"] == "data_representation":  # XCDR2 only; the bridge reads XCDR1
+        q = Qos(
+            Policy.Reliability.Reliable(max_blocking_time=duration(seconds=1)),
+            Policy.Userdata(user_data(typ)),
+            Policy.DataRepresentation(use_xcdrv2_representation=True),
+        )
+    else:  # best effort offered, reliable requested
+        q = qos(typ, reliable=False)
+    w = DataWriter(dp, Topic(dp, t["cmd_in"], typ), qos=q)
+    diag = DataReader(dp, Topic(dp, t["diag"], msgs.DiagnosticArray), qos=qos(msgs.DiagnosticArray))
+    found: list[dict[str, str]] = []
+
+    def reported() -> bool:
+        for m in diag.take(N=100):
+            for s in m.status:
+                found.append({v.key: v.value for v in s.values})
+        return any(int(kv.get("qos_incompatible", "0")) >= 1 for kv in found)
+
+    wait_for(reported, "a diagnostics message reporting the QoS mismatch")
+    del w
     return {"diagnostics": found[-1]}
 
 
@@ -259,7 +334,9 @@ def main() -> None:
     with open(sys.argv[1], encoding="utf-8") as fh:
         spec = json.load(fh)
     dp = DomainParticipant(int(spec["domain"]))
-    fn = {"stream": stream, "qos": qos_scenario, "endpoints": endpoints}[spec["scenario"]]
+    fn = {"stream": stream, "qos": qos_scenario, "qos_one": qos_one, "endpoints": endpoints}[
+        spec["scenario"]
+    ]
     result = fn(spec, dp)
     sys.stdout.write(json.dumps(result))
     sys.stdout.flush()

@@ -78,8 +78,13 @@ NODE_STATES: tuple[str, ...] = (
     "stopped",
 )
 
-#: The DDS QoS policy ids a mismatch report names (DDS 1.4, Table 7.1 / dds_qos_policy_id_t).
+#: The QoS policy ids a mismatch report names: Cyclone DDS's ``dds_qos_policy_id_t``
+#: (``dds/ddsc/dds_public_qosdefs.h``, the same in 0.10 and 11.0), which is what the status's
+#: ``last_policy_id`` holds. They follow the DDS specification's ids up to 22 and differ from
+#: 23 on (Cyclone puts its PROPERTY policy at 23), so a DATA_REPRESENTATION mismatch is 25 here
+#: and 23 in the specification.
 _POLICY_NAMES = {
+    0: "INVALID",
     1: "USER_DATA",
     2: "DURABILITY",
     3: "PRESENTATION",
@@ -94,7 +99,17 @@ _POLICY_NAMES = {
     12: "DESTINATION_ORDER",
     13: "HISTORY",
     14: "RESOURCE_LIMITS",
-    23: "DATA_REPRESENTATION",
+    15: "ENTITY_FACTORY",
+    16: "WRITER_DATA_LIFECYCLE",
+    17: "READER_DATA_LIFECYCLE",
+    18: "TOPIC_DATA",
+    19: "GROUP_DATA",
+    20: "TRANSPORT_PRIORITY",
+    21: "LIFESPAN",
+    22: "DURABILITY_SERVICE",
+    23: "PROPERTY",
+    24: "TYPE_CONSISTENCY_ENFORCEMENT",
+    25: "DATA_REPRESENTATION",
 }
 
 _TYPES: dict[str, type[Any]] = {
@@ -195,6 +210,29 @@ def ros_qos(settings: QosSettings, msg_type: type) -> Any:
     return Qos(*by_scope.values())
 
 
+def _history_depth(settings: QosSettings) -> int | None:
+    """The KEEP_LAST depth :func:`ros_qos` gives a reader (None: the DDS default, keep-last 1)."""
+    if settings.depth is not None:
+        return settings.depth
+    return {"default": 10, "sensor_data": 5}.get(settings.profile, 1)
+
+
+def _take_serialized(reader: Any, n: int) -> list[tuple[bytes, Any]]:
+    """Up to ``n`` samples of ``reader`` as (CDR bytes, SampleInfo) pairs, not decoded.
+
+    The call ``DataReader.take`` makes before decoding (cyclonedds 0.10 and 11.0); a failed take
+    raises.
+    """
+    from cyclonedds._clayer import ddspy_take  # type: ignore[import-not-found]
+    from cyclonedds.core import InstanceState, SampleState, ViewState
+
+    mask = SampleState.Any | ViewState.Any | InstanceState.Any
+    ret = ddspy_take(reader._ref, mask, n)
+    if isinstance(ret, int):
+        raise RuntimeError(f"dds_take failed ({ret})")
+    return list(ret)
+
+
 def _finite(values: Any) -> bool:
     return all(math.isfinite(x) for x in values)
 
@@ -282,10 +320,23 @@ class BridgeNode:
                 "qos_incompatible",
                 "on_cycle_errors",
                 "diagnostics_published",
+                # Loss a reader can see (docs/bridge.md, "Lost samples"): Cyclone's SAMPLE_LOST
+                # and SAMPLE_REJECTED statuses, and takes that found the history full (samples
+                # may have been overwritten before them; how many, DDS does not say).
+                "command_samples_lost",
+                "command_samples_rejected",
+                "command_history_full",
+                "state_samples_lost",
+                "state_samples_rejected",
+                "state_history_full",
             ),
             0,
         )
         self._drops: dict[str, int] = {}
+        self._depths = {
+            "command": _history_depth(s.command_in.qos),
+            "state": _history_depth(s.state.qos),
+        }
         self._node_state = "starting"
         self._state: np.ndarray | None = None
         self._state_yaw = 0.0
@@ -404,12 +455,14 @@ class BridgeNode:
         dp = DomainParticipant(c.domain_id)
         self._participant = dp
 
-        def reader(key: str, typ: type, qos: QosSettings) -> Any:
+        def reader(key: str, typ: type, qos: QosSettings, what: str) -> Any:
             name = c.dds_topics[key]
             lis = Listener(  # type: ignore[no-untyped-call]
                 on_requested_incompatible_qos=lambda _r, st: self._qos_event(
                     name, "reader", typ, st
-                )
+                ),
+                on_sample_lost=lambda _r, st: self._loss_event(what, "samples_lost", st),
+                on_sample_rejected=lambda _r, st: self._loss_event(what, "samples_rejected", st),
             )
             return DataReader(dp, Topic(dp, name, typ), qos=ros_qos(qos, typ), listener=lis)
 
@@ -420,8 +473,8 @@ class BridgeNode:
             )
             return DataWriter(dp, Topic(dp, name, typ), qos=ros_qos(qos, typ), listener=lis)
 
-        self._cmd_reader = reader("command_in", _TYPES[self._in_type], s.command_in.qos)
-        self._state_reader = reader("state", _TYPES[self._state_type], s.state.qos)
+        self._cmd_reader = reader("command_in", _TYPES[self._in_type], s.command_in.qos, "command")
+        self._state_reader = reader("state", _TYPES[self._state_type], s.state.qos, "state")
         self._out_writer = writer("command_out", _TYPES[self._out_type], s.command_out.qos)
         self._diag_writer = None
         if s.diagnostics.enabled:
@@ -471,6 +524,11 @@ class BridgeNode:
         if guard is not None:
             guard.set(True)
 
+    def _loss_event(self, what: str, kind: str, status: Any) -> None:
+        # Called on a Cyclone DDS thread: only count (the change since the last report).
+        with self._lock:
+            self._counters[f"{what}_{kind}"] += max(0, int(status.total_count_change))
+
     # ---------------------------------------------------------------- the loop
     def _loop(self, end: float | None) -> None:
         from cyclonedds.util import duration as dds_duration
@@ -510,15 +568,32 @@ class BridgeNode:
         return bool(events)
 
     def _take(self, reader: Any, what: str) -> list[Any]:
+        """The valid samples waiting in ``reader``, each decoded on its own, in order.
+
+        The binding's ``DataReader.take`` decodes a batch in one loop after taking it: one
+        undecodable sample (a non-UTF-8 string) raises and loses the whole batch. Here the
+        serialized samples are taken and decoded one by one, so a bad one is dropped alone.
+        """
+        typ = _TYPES[self._in_type if what == "command" else self._state_type]
         try:
-            samples = reader.take(N=_TAKE)
-        except Exception:
-            self._drop(what, "undecodable")
+            raw = _take_serialized(reader, _TAKE)
+        except Exception:  # the reader failed (a deleted entity): nothing to take
+            self._drop(what, "take_failed")
             return []
+        depth = self._depths[what]
+        if depth is not None and len(raw) >= depth:
+            with self._lock:
+                self._counters[f"{what}_history_full"] += 1
         out = []
-        for sm in samples:
-            info = getattr(sm, "sample_info", None)
-            if info is not None and not info.valid_data:
+        for data, info in raw:
+            if not info.valid_data:
+                continue
+            try:
+                sm = typ.deserialize(data)
+            except Exception:  # UnicodeDecodeError, struct.error, ...: a malformed sample
+                with self._lock:
+                    self._counters[f"{what}s_received"] += 1
+                self._drop(what, "undecodable")
                 continue
             out.append(sm)
         return out
@@ -581,6 +656,8 @@ class BridgeNode:
             if len(pos) != len(names):
                 return None, 0.0, "length_mismatch"
             where = {nm: i for i, nm in enumerate(names)}
+            if len(where) != len(names):  # a joint named twice: which entry holds?
+                return None, 0.0, "duplicate_joints"
             wanted = self._names or ()  # the config check gives joint_state its names
             missing = [j for j in wanted if j not in where]
             if missing:
