@@ -4,7 +4,8 @@ It joins the DDS domain with its own participant, publishes and subscribes with 
 names (``rt/<topic>``, ``pkg::msg::dds_::Type_``) and prints one JSON object with what it saw.
 Scenarios (``spec["scenario"]``):
 
-* ``stream``: keep a state fresh, send ``commands`` at ``rate_hz`` (optionally pausing), collect
+* ``stream``: keep a state fresh (optionally switching it to other values after a command:
+  ``state_switch``), send ``commands`` at ``rate_hz`` (optionally pausing), collect
   every output with its receive time; a command item with ``raw_frame_id`` (hex) is a
   TwistStamped this peer encodes byte by byte (:func:`cdr_twist_stamped`), e.g. with a frame
   id that is not UTF-8;
@@ -186,6 +187,7 @@ def stream(spec: dict[str, Any], dp: DomainParticipant) -> dict[str, Any]:
     prepared = [make_command(in_t, c, i) for i, c in enumerate(commands)]  # fast sending
     rate = float(spec["rate_hz"])
     pause_after = spec.get("pause_after")  # [index, seconds]
+    switch = spec.get("state_switch")  # {"after": index, "values": [...]}
     state_period = float(spec.get("state_period", 0.05))
     outputs: list[dict[str, Any]] = []
     sent: list[float] = []
@@ -221,6 +223,10 @@ def stream(spec: dict[str, Any], dp: DomainParticipant) -> dict[str, Any]:
             sent.append(now - t0)
             i += 1
             next_cmd += 1.0 / rate
+            if switch is not None and i == int(switch["after"]):  # a new state from now on
+                state = make_state({**st, "values": switch["values"]})
+                state_w.write(state)
+                next_state = time.monotonic() + state_period
             if pause_after is not None and i == int(pause_after[0]):
                 end_pause = time.monotonic() + float(pause_after[1])
                 next_cmd = end_pause

@@ -106,7 +106,13 @@ def test_1khz_stream_answered_one_for_one_and_equal_to_shape(bridge, tmp_path) -
 
 
 def test_watchdog_zeros_after_timeout_then_recovers(bridge, tmp_path, bridge_log) -> None:
-    b = _plane_bridge(bridge, incoming_command_timeout=0.1, watchdog_period=0.05, state_timeout=0.5)
+    b = _plane_bridge(
+        bridge,
+        incoming_command_timeout=0.1,
+        watchdog_period=0.05,
+        state_timeout=0.5,
+        halt_messages=None,  # zeros for as long as commands are stale (the default halts)
+    )
     p = np.array([2.0, 1.5])  # the middle: commands pass unchanged
     cmds = [{"values": [0.3, -0.2, 0.0]} for _ in range(60)]
     res = run_client(

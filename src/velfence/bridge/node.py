@@ -344,6 +344,12 @@ class BridgeNode:
         self._cmd_time: float | None = None
         self._next_zero = 0.0
         self._published_any = False
+        # ROS conventions (docs/bridge.md): the own timer, halting, the last command.
+        self._period = None if s.publish_period is None else float(s.publish_period)
+        self._halt_n = s.halt_messages
+        self._halts_sent = 0
+        self._next_pub = 0.0
+        self._last_cmd: tuple[Any, np.ndarray] | None = None
         self._last: dict[str, Any] = {"zone": "none", "active": (), "changed": False, "delta": 0.0}
         self._guard: Any = None
         self._participant: Any = None
@@ -417,7 +423,7 @@ class BridgeNode:
         try:
             self._set_state("waiting_for_state")
             self._loop(end)
-            if self._published_any:
+            if self._published_any and not self._halted():
                 self._publish_zero(time.monotonic(), reason="stop")
         finally:
             self._set_state("stopped")
@@ -541,7 +547,10 @@ class BridgeNode:
             waits = [_MAX_WAIT, next_diag - now]
             if self._cmd_time is not None:
                 stale_at = self._cmd_time + self._cmd_timeout
-                waits.append((stale_at if now < stale_at else self._next_zero) - now)
+                if self._period is None:
+                    waits.append((stale_at if now < stale_at else self._next_zero) - now)
+                else:  # the timer's next period (zeros too go on the timer)
+                    waits.append(self._next_pub - now)
             if self._state_time is not None and now < self._state_time + self._state_timeout:
                 waits.append(self._state_time + self._state_timeout - now)
             if end is not None:
@@ -555,6 +564,8 @@ class BridgeNode:
             self._take_commands()
             now = time.monotonic()
             self._watchdog(now)
+            if self._period is not None:
+                self._tick(now)
             if self._diag_writer is not None and (urgent or now >= next_diag):
                 self._publish_diagnostics(now)
                 next_diag = now + self._diag_period
@@ -631,11 +642,39 @@ class BridgeNode:
 
     def _watchdog(self, now: float) -> None:
         self._set_state(self._classify(now))
+        if self._period is not None:  # on the timer, _tick publishes the zeros
+            return
         if self._cmd_time is None or now - self._cmd_time <= self._cmd_timeout:
             return
         if now >= self._next_zero:
-            self._publish_zero(now, reason="watchdog")
+            self._halt(now)
             self._next_zero = max(self._next_zero + self._zero_period, now)
+
+    def _halted(self) -> bool:
+        """Whether the halt is over: ``halt_messages`` zeros sent since the last command."""
+        return self._halt_n is not None and self._halts_sent >= self._halt_n
+
+    def _halt(self, now: float) -> None:
+        """One zero of a stale command's halt, unless all of them were sent (then silence)."""
+        if self._halted():
+            return
+        self._publish_zero(now, reason="watchdog")
+        self._halts_sent += 1
+
+    def _tick(self, now: float) -> None:
+        """On the timer: the last command shaped against the newest state, or the halt."""
+        if self._period is None or now < self._next_pub:
+            return
+        self._next_pub += self._period
+        if self._next_pub <= now:  # late (a stall): the next period starts now, none replayed
+            self._next_pub = now + self._period
+        if self._cmd_time is None or self._last_cmd is None:
+            return  # before the first command nothing is published
+        if now - self._cmd_time > self._cmd_timeout:
+            self._halt(now)
+            return
+        msg, v = self._last_cmd
+        self._answer(msg, v, now)
 
     # ---------------------------------------------------------------- state
     def _take_states(self) -> None:
@@ -729,9 +768,21 @@ class BridgeNode:
             self._drop("command", reason)
             return
         now = time.monotonic()
+        first = self._cmd_time is None
         self._cmd_time = now
         self._next_zero = now + self._cmd_timeout
+        self._halts_sent = 0
         self._set_state(self._classify(now))
+        if self._period is not None:
+            # On the timer: keep it; _tick shapes it against the state of each period.
+            self._last_cmd = (msg, v)
+            if first:
+                self._next_pub = now
+            return
+        self._answer(msg, v, now)
+
+    def _answer(self, msg: Any, v: np.ndarray, now: float) -> None:
+        """Shape command ``v`` (of message ``msg``) against the fresh state and publish it."""
         p = self._fresh_state(now)
         if p is None:
             self._publish(np.zeros(self._cs.output_dim), msg, now, None, v, "held", (), True)
@@ -845,6 +896,11 @@ class BridgeNode:
         )
         return msgs.JointTrajectory(header=self._header(msg_in), joint_names=names, points=[point])
 
+    def _watchdog_value(self, state: str) -> str:
+        if state != "stale_command":
+            return "ok"
+        return "halted" if self._halted() else "zero"
+
     def _publish_diagnostics(self, now: float) -> None:
         counters = self.counters
         last = self._last
@@ -860,7 +916,7 @@ class BridgeNode:
             ("active", ", ".join(last["active"]) or "none"),
             ("command_changed", "true" if last["changed"] else "false"),
             ("change_norm", f"{last['delta']:.6g}"),
-            ("watchdog", "zero" if state == "stale_command" else "ok"),
+            ("watchdog", self._watchdog_value(state)),
             ("shaper", self._cs.kind),
             *((k, str(v)) for k, v in sorted(counters.items())),
             *((f"qos_mismatch_{i}", r) for i, r in enumerate(self._qos_reports)),
