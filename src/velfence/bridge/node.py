@@ -823,8 +823,17 @@ class BridgeNode:
             self._log.error("non-finite shaped command %s replaced by zero", out)
             self._drop("output", "nonfinite")
             out, zone, zero = np.zeros(self._cs.output_dim), "held", True
+        measured = None
+        if self._out_type == "joint_trajectory":
+            # Positions are integrated from the measured joints: without a fresh state there is
+            # no trajectory a controller accepts. Nothing is written; the controller's last
+            # trajectory ends at rest within incoming_command_timeout by construction.
+            measured = self._fresh_state(now)
+            if measured is None or measured.shape != out.shape:
+                self._drop("output", "no_state")
+                return
         try:
-            self._out_writer.write(self._message(out, msg_in, zero))
+            self._out_writer.write(self._message(out, msg_in, zero, measured))
         except Exception as exc:
             raise DDSFailure(f"writing the shaped command failed: {exc}") from None
         changed = command is None or command.shape != out.shape or not np.array_equal(command, out)
@@ -869,7 +878,9 @@ class BridgeNode:
             )
         return msgs.Header(stamp=_stamp_now())
 
-    def _message(self, out: np.ndarray, msg_in: Any, zero: bool) -> Any:
+    def _message(
+        self, out: np.ndarray, msg_in: Any, zero: bool, measured: np.ndarray | None = None
+    ) -> Any:
         values = [float(x) for x in out]
         t = self._out_type
         if t in _TWISTS:
@@ -889,12 +900,21 @@ class BridgeNode:
         names = list(self._names or ())
         if t == "joint_jog":
             return msgs.JointJog(header=self._header(msg_in), joint_names=names, velocities=values)
-        ns = round(self._cmd_timeout * 1e9)
+        # joint_trajectory, as joint_trajectory_controller accepts with its default parameters
+        # (docs/bridge.md): every joint, one point reached after incoming_command_timeout at
+        # the measured position plus velocity x time, at rest there; stamp 0 = "start now".
+        horizon = self._cmd_timeout
+        assert measured is not None  # _publish wrote nothing without a fresh state
+        positions = [float(q + v * horizon) for q, v in zip(measured, out, strict=True)]
+        ns = round(horizon * 1e9)
         point = msgs.JointTrajectoryPoint(
-            velocities=values,
+            positions=positions,
+            velocities=[0.0] * len(positions),
             time_from_start=msgs.Duration(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000),
         )
-        return msgs.JointTrajectory(header=self._header(msg_in), joint_names=names, points=[point])
+        return msgs.JointTrajectory(
+            header=msgs.Header(stamp=msgs.Time(sec=0, nanosec=0)), joint_names=names, points=[point]
+        )
 
     def _watchdog_value(self, state: str) -> str:
         if state != "stale_command":
