@@ -123,7 +123,8 @@ def make_command(typ: str, item: dict[str, Any], index: int) -> Any:
         )
         if typ == "twist":
             return tw
-        return msgs.TwistStamped(header=msgs.Header(stamp=stamp, frame_id="cmd"), twist=tw)
+        frame = str(item.get("frame_id", "cmd"))
+        return msgs.TwistStamped(header=msgs.Header(stamp=stamp, frame_id=frame), twist=tw)
     if typ == "float64_multi_array":
         return msgs.Float64MultiArray(data=values)
     return msgs.JointJog(
@@ -163,6 +164,39 @@ def output_values(typ: str, m: Any) -> tuple[int | None, list[float]]:
     return m.header.stamp.sec, list(m.points[0].velocities)
 
 
+def tf_message(transforms: list[dict[str, Any]]) -> Any:
+    """A tf2_msgs/TFMessage encoded by rosbags' typestore, written as those bytes."""
+    store = typestore()
+    tm = store.types
+    msg = tm["tf2_msgs/msg/TFMessage"](
+        transforms=[
+            tm["geometry_msgs/msg/TransformStamped"](
+                header=tm["std_msgs/msg/Header"](
+                    stamp=tm["builtin_interfaces/msg/Time"](sec=0, nanosec=0),
+                    frame_id=t["parent"],
+                ),
+                child_frame_id=t["child"],
+                transform=tm["geometry_msgs/msg/Transform"](
+                    translation=tm["geometry_msgs/msg/Vector3"](*t.get("xyz", [0.0, 0.0, 0.0])),
+                    rotation=tm["geometry_msgs/msg/Quaternion"](*t["xyzw"]),
+                ),
+            )
+            for t in transforms
+        ]
+    )
+    data = bytes(store.serialize_cdr(msg, "tf2_msgs/msg/TFMessage"))
+    return RawSample.of(msgs.TFMessage, data)
+
+
+def typestore() -> Any:
+    global _STORE  # built once: a typestore takes a while
+    if _STORE is None:
+        from rosbags.typesys import Stores, get_typestore
+
+        _STORE = get_typestore(Stores.ROS2_JAZZY)
+    return _STORE
+
+
 def take_serialized(reader: DataReader, n: int) -> list[tuple[bytes, Any]]:
     """The samples of ``reader`` as CDR bytes (what ``DataReader.take`` decodes), with info."""
     from cyclonedds._clayer import ddspy_take
@@ -176,12 +210,7 @@ def take_serialized(reader: DataReader, n: int) -> list[tuple[bytes, Any]]:
 
 def trajectory_from_cdr(data: bytes) -> dict[str, Any]:
     """A trajectory_msgs/JointTrajectory decoded by rosbags' typestore (ROS 2 Jazzy)."""
-    global _STORE  # built once: a typestore takes a while
-    if _STORE is None:
-        from rosbags.typesys import Stores, get_typestore
-
-        _STORE = get_typestore(Stores.ROS2_JAZZY)
-    m = _STORE.deserialize_cdr(data, "trajectory_msgs/msg/JointTrajectory")
+    m = typestore().deserialize_cdr(data, "trajectory_msgs/msg/JointTrajectory")
     return {
         "stamp": [int(m.header.stamp.sec), int(m.header.stamp.nanosec)],
         "frame_id": m.header.frame_id,
@@ -209,6 +238,19 @@ def stream(spec: dict[str, Any], dp: DomainParticipant) -> dict[str, Any]:
     out_r = DataReader(
         dp, Topic(dp, t["cmd_out"], TYPES[out_t]), qos=qos(TYPES[out_t], depth=depth)
     )
+    # Transforms: /tf_static as ROS publishes it (reliable, transient-local, keep-last 1), once;
+    # /tf volatile, with every state.
+    tf_static_w = tf_w = None
+    if "tf_static" in spec:
+        tf_static_w = DataWriter(
+            dp,
+            Topic(dp, t["tf_static"], msgs.TFMessage),
+            qos=qos(msgs.TFMessage, depth=1, transient=True),
+        )
+        tf_static_w.write(tf_message(spec["tf_static"]))
+    if "tf" in spec:
+        tf_w = DataWriter(dp, Topic(dp, t["tf"], msgs.TFMessage), qos=qos(msgs.TFMessage))
+        wait_for(lambda: len(tf_w.get_matched_subscriptions()) > 0, "the tf reader")
     wait_for(lambda: len(cmd_w.get_matched_subscriptions()) > 0, "the command reader")
     wait_for(lambda: len(state_w.get_matched_subscriptions()) > 0, "the state reader")
     wait_for(lambda: len(out_r.get_matched_publications()) > 0, "the output writer")
@@ -243,7 +285,14 @@ def stream(spec: dict[str, Any], dp: DomainParticipant) -> dict[str, Any]:
             idx, vals = output_values(out_t, m)
             outputs.append({"t": time.monotonic() - t0, "i": idx, "v": vals})
 
-    state_w.write(state)
+    tf_msg = None if tf_w is None else tf_message(spec["tf"])
+
+    def write_state() -> None:  # the current state (and the transforms on /tf)
+        state_w.write(state)
+        if tf_w is not None:
+            tf_w.write(tf_msg)
+
+    write_state()
     next_state = time.monotonic() + state_period
     # A first state must be there before the first command is shaped: the bridge's diagnostics
     # are not needed for that; the state writer is reliable and matched, so one short settle of
@@ -255,7 +304,7 @@ def stream(spec: dict[str, Any], dp: DomainParticipant) -> dict[str, Any]:
     while i < len(commands):
         now = time.monotonic()
         if now >= next_state:
-            state_w.write(state)
+            write_state()
             next_state = now + state_period
         if end_pause is not None and now < end_pause:
             collect()
@@ -268,7 +317,7 @@ def stream(spec: dict[str, Any], dp: DomainParticipant) -> dict[str, Any]:
             next_cmd += 1.0 / rate
             if switch is not None and i == int(switch["after"]):  # a new state from now on
                 state = make_state({**st, "values": switch["values"]})
-                state_w.write(state)
+                write_state()
                 next_state = time.monotonic() + state_period
             if pause_after is not None and i == int(pause_after[0]):
                 end_pause = time.monotonic() + float(pause_after[1])
@@ -303,7 +352,7 @@ def stream(spec: dict[str, Any], dp: DomainParticipant) -> dict[str, Any]:
     last_count, last_change = -1, time.monotonic()
     while (answered() < expected and time.monotonic() < end) or time.monotonic() < tail_end:
         if time.monotonic() >= next_state:
-            state_w.write(state)
+            write_state()
             next_state = time.monotonic() + state_period
         collect()
         if len(outputs) != last_count:

@@ -323,3 +323,59 @@ def test_joint_trajectory_output_passes_the_controllers_rules(bridge, tmp_path) 
     for tr, w in zip(moving, want, strict=True):
         np.testing.assert_allclose(tr["points"][0]["positions"], q + 0.1 * w, rtol=0, atol=1e-15)
     assert trajs[-1] in holds  # the last: a hold
+
+
+# ---------------------------------------------------------------- command frames through /tf
+def test_command_frames_resolved_through_tf(bridge, tmp_path) -> None:
+    # The shaper works in odom; base_link is turned 90° (yaw) in odom by a static transform,
+    # and a camera frame hangs under base_link on /tf (turned 90° about its x axis).
+    b = _plane(
+        bridge,
+        command_frame_id="odom",
+        tf={"topic": "tf", "static_topic": "tf_static"},  # namespaced: this test's own
+    )
+    s2 = 0.5**0.5
+    p = np.array([2.0, 2.8])  # 0.2 m below the top edge y = 3: +y (odom) is braked
+    cmds = [
+        {"values": [1.0, 0.0, 0.0], "frame_id": "base_link"},  # base x = odom +y: braked
+        {"values": [0.0, 1.0, 0.0], "frame_id": "odom"},  # odom +y: braked
+        {"values": [1.0, 0.0, 0.0], "frame_id": ""},  # no frame: odom's, along the edge
+        {"values": [0.5, 0.0, 0.0], "frame_id": "nowhere"},  # no transform: refused
+        {"values": [0.0, 0.0, 1.0], "frame_id": "camera"},  # camera z = base -y = odom +x
+    ]
+    res = run_client(
+        {
+            "scenario": "stream",
+            "topics": {**_topics(b), "tf": b.topic("tf"), "tf_static": b.topic("tf_static")},
+            "cmd_type": "twist_stamped",
+            "out_type": "twist_stamped",
+            "state": {"type": "pose_stamped", "values": [*p, 0.0]},
+            "tf_static": [{"parent": "odom", "child": "base_link", "xyzw": [0, 0, s2, s2]}],
+            "tf": [{"parent": "base_link", "child": "camera", "xyzw": [s2, 0, 0, s2]}],
+            "commands": cmds,
+            "rate_hz": 20.0,
+            "expect": 4,
+            "tail": 0.1,
+        },
+        tmp_path,
+        bridge=b,
+    )
+    outs = {o["i"]: o["v"] for o in res["outputs"] if o["i"] < len(cmds)}
+    assert sorted(outs) == [0, 1, 2, 4]  # the command of unknown frame is not answered
+    ref = parse_shaper(POLYGON).shaper
+    # Rotations written out by hand: base_link -> odom is yaw +90°; camera -> base_link is
+    # +90° about x (camera z = base -y).
+    yaw = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    roll = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
+    for i, rot in ((0, yaw), (1, np.eye(3)), (2, np.eye(3)), (4, yaw @ roll)):
+        v_odom = rot @ np.array(cmds[i]["values"])
+        shaped = np.array([*ref.shape(p, v_odom[:2]), v_odom[2]])
+        want = rot.T @ shaped  # answered in the command's own frame
+        np.testing.assert_allclose(outs[i][:3], want, rtol=0, atol=1e-12, err_msg=str(i))
+    assert outs[0][0] < 0.5  # braked, though base x looks sideways to the edge
+    assert outs[2][:2] == [1.0, 0.0]  # along the edge: unchanged
+    np.testing.assert_allclose(outs[4][:3], [0.0, 0.0, 1.0], atol=1e-12)  # odom +x: free
+    c = b.node.counters
+    assert c["dropped:command_frame_unknown"] == 1
+    assert c["transforms_received"] >= 2
+    assert c["dropped_transforms"] == 0

@@ -36,7 +36,8 @@ import numpy as np
 from velfence._docs import document_inits
 from velfence._validate import check_range
 from velfence.bridge import msgs
-from velfence.bridge.config import BridgeConfig, QosSettings
+from velfence.bridge.config import BridgeConfig, QosSettings, dds_topic
+from velfence.bridge.transforms import TransformStore
 from velfence.bridge.typehash import user_data
 from velfence.errors import InvalidParameter, VelfenceError
 from velfence.geometry.frames import body_to_world, world_to_body
@@ -314,6 +315,8 @@ class BridgeNode:
                 "outputs_published",
                 "watchdog_zeros",
                 "states_received",
+                "transforms_received",
+                "dropped_transforms",
                 "dropped_commands",
                 "dropped_states",
                 "dropped_outputs",
@@ -350,6 +353,18 @@ class BridgeNode:
         self._halts_sent = 0
         self._next_pub = 0.0
         self._last_cmd: tuple[Any, np.ndarray] | None = None
+        # Command frames through /tf (None: the header's frame is not looked at).
+        self._frame_id = (
+            None if s.command_frame_id is None else s.command_frame_id.removeprefix("/")
+        )
+        self._tf = TransformStore()
+        self._tf_readers: dict[str, Any] = {}
+        self._cmd_rotation: tuple[Any, np.ndarray] | None = None  # (message, R into the frame)
+        self._reader_types: dict[str, type[Any]] = {
+            "command": _TYPES[self._in_type],
+            "state": _TYPES[self._state_type],
+            "transform": msgs.TFMessage,
+        }
         self._last: dict[str, Any] = {"zone": "none", "active": (), "changed": False, "delta": 0.0}
         self._guard: Any = None
         self._participant: Any = None
@@ -491,6 +506,25 @@ class BridgeNode:
         self._ws.attach(ReadCondition(self._cmd_reader, mask))
         self._ws.attach(ReadCondition(self._state_reader, mask))
         self._ws.attach(self._guard)
+        if self._frame_id is not None:  # command frames through /tf and /tf_static
+            for key, topic, qos in (
+                ("tf", s.tf.topic, s.tf.qos),
+                ("tf_static", s.tf.static_topic, s.tf.static_qos),
+            ):
+                name = dds_topic(s, topic)
+                lis = Listener(  # type: ignore[no-untyped-call]
+                    on_requested_incompatible_qos=lambda _r, st, name=name: self._qos_event(
+                        name, "reader", msgs.TFMessage, st
+                    )
+                )
+                rd = DataReader(
+                    dp,
+                    Topic(dp, name, msgs.TFMessage),
+                    qos=ros_qos(qos, msgs.TFMessage),
+                    listener=lis,
+                )
+                self._tf_readers[key] = rd
+                self._ws.attach(ReadCondition(rd, mask))
         self._ready.set()
         self._log.info(
             "bridge up on DDS domain %d: %s (%s) -> %s (%s), state %s (%s), shaper %s",
@@ -508,6 +542,7 @@ class BridgeNode:
         self._ready.clear()
         dp, self._participant = self._participant, None
         self._guard = None
+        self._tf_readers = {}
         for attr in ("_cmd_reader", "_state_reader", "_out_writer", "_diag_writer", "_ws"):
             self.__dict__.pop(attr, None)
         if dp is not None:
@@ -560,6 +595,7 @@ class BridgeNode:
                 self._ws.wait(dds_duration(seconds=wait))
             self._guard.set(False)
             urgent = self._drain_events()
+            self._take_transforms()
             self._take_states()
             self._take_commands()
             now = time.monotonic()
@@ -585,13 +621,13 @@ class BridgeNode:
         undecodable sample (a non-UTF-8 string) raises and loses the whole batch. Here the
         serialized samples are taken and decoded one by one, so a bad one is dropped alone.
         """
-        typ = _TYPES[self._in_type if what == "command" else self._state_type]
+        typ = self._reader_types[what]
         try:
             raw = _take_serialized(reader, _TAKE)
         except Exception:  # the reader failed (a deleted entity): nothing to take
             self._drop(what, "take_failed")
             return []
-        depth = self._depths[what]
+        depth = self._depths.get(what)
         if depth is not None and len(raw) >= depth:
             with self._lock:
                 self._counters[f"{what}_history_full"] += 1
@@ -725,6 +761,24 @@ class BridgeNode:
         return self._state
 
     # ---------------------------------------------------------------- commands
+    def _take_transforms(self) -> None:
+        for rd in self._tf_readers.values():
+            for msg in self._take(rd, "transform"):
+                for ts in msg.transforms:
+                    with self._lock:
+                        self._counters["transforms_received"] += 1
+                    tr = ts.transform
+                    r, x = tr.rotation, tr.translation
+                    try:
+                        self._tf.set(
+                            ts.header.frame_id,
+                            ts.child_frame_id,
+                            (r.x, r.y, r.z, r.w),
+                            (x.x, x.y, x.z),
+                        )
+                    except VelfenceError:
+                        self._drop("transform", "invalid")
+
     def _take_commands(self) -> None:
         for msg in self._take(self._cmd_reader, "command"):
             self._on_command(msg)
@@ -738,7 +792,19 @@ class BridgeNode:
             ang = (float(tw.angular.x), float(tw.angular.y), float(tw.angular.z))
             if not (_finite(lin) and _finite(ang)):
                 return None, "nonfinite"
-            return np.array(lin[:n]), ""
+            v3 = np.array(lin)
+            if self._frame_id is not None and t == "twist_stamped":
+                frame = str(msg.header.frame_id).removeprefix("/")
+                if frame and frame != self._frame_id:  # an empty frame means the shaper's
+                    try:
+                        rot = self._tf.rotation(self._frame_id, frame)
+                    except VelfenceError:  # a frame id no transform could name
+                        rot = None
+                    if rot is None:
+                        return None, "frame_unknown"
+                    v3 = rot @ v3
+                    self._cmd_rotation = (msg, rot)
+            return v3[:n], ""
         if t == "float64_multi_array":
             data = list(msg.data)
             if len(data) != n:
@@ -886,11 +952,17 @@ class BridgeNode:
         if t in _TWISTS:
             lin = [0.0, 0.0, 0.0]
             ang = msgs.Vector3()
+            rot = None
             if not zero and self._in_type in _TWISTS and msg_in is not None:
                 tw = msg_in.twist if self._in_type == "twist_stamped" else msg_in
                 lin = [float(tw.linear.x), float(tw.linear.y), float(tw.linear.z)]
                 ang = msgs.Vector3(x=tw.angular.x, y=tw.angular.y, z=tw.angular.z)
+                if self._cmd_rotation is not None and self._cmd_rotation[0] is msg_in:
+                    rot = self._cmd_rotation[1]  # shaped in command_frame_id: rotate back
+                    lin = [float(x) for x in rot @ np.array(lin)]
             lin[: len(values)] = values
+            if rot is not None:
+                lin = [float(x) for x in rot.T @ np.array(lin)]
             twist = msgs.Twist(linear=msgs.Vector3(x=lin[0], y=lin[1], z=lin[2]), angular=ang)
             if t == "twist":
                 return twist
