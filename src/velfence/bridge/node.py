@@ -1,13 +1,17 @@
 """The bridge node: a ROS 2 DDS participant that shapes every command it forwards.
 
 One loop thread waits on the command and state readers (a Cyclone DDS wait set) and answers
-each valid command sample with exactly one shaped command, in order. Fail-safes:
+each valid command sample with exactly one shaped command, in order; or, with
+``publish_period``, publishes on its own timer the last command shaped against the newest state.
+Fail-safes:
 
 * a command older than ``incoming_command_timeout`` → a zero command, repeated every
-  ``watchdog_period`` until a fresh command arrives;
+  ``watchdog_period`` (every ``publish_period`` on the timer), ``halt_messages`` times, then
+  silence until a fresh command arrives (``halt_messages`` None: zeros until then);
 * no state yet, or state older than ``state_timeout`` → every command is answered with zero;
-* a malformed message (wrong length, unknown or missing joint names, non-finite numbers, an
-  undecodable sample) is dropped and counted, never applied;
+* a malformed message (wrong length, unknown, duplicate or missing joint names, non-finite
+  numbers, an undecodable sample, a frame no transform reaches) is dropped alone and counted,
+  never applied; the valid samples taken with it are answered;
 * nothing non-finite is ever written: every outgoing vector is checked before the write;
 * on stop (SIGINT/SIGTERM in ``velfence bridge``) a last zero command is sent if any command
   was forwarded.
