@@ -4,10 +4,15 @@ It joins the DDS domain with its own participant, publishes and subscribes with 
 names (``rt/<topic>``, ``pkg::msg::dds_::Type_``) and prints one JSON object with what it saw.
 Scenarios (``spec["scenario"]``):
 
-* ``stream``: keep a state fresh, send ``commands`` at ``rate_hz`` (optionally pausing), collect
-  every output with its receive time;
+* ``stream``: keep a state fresh (optionally switching it to other values after a command:
+  ``state_switch``), send ``commands`` at ``rate_hz`` (optionally pausing), collect
+  every output with its receive time; a command item with ``raw_frame_id`` (hex) is a
+  TwistStamped this peer encodes byte by byte (:func:`cdr_twist_stamped`), e.g. with a frame
+  id that is not UTF-8;
 * ``qos``: open a best-effort writer against the bridge's reliable command reader and a
   transient-local reader against its volatile writer (both mismatches), then read diagnostics;
+* ``qos_one``: one command writer with one incompatible policy (``mismatch``:
+  ``data_representation``, XCDR2 only, or ``reliability``), then read diagnostics;
 * ``endpoints``: read the builtin DCPSPublication/DCPSSubscription topics and report the type
   name and USER_DATA of every endpoint on the given topics.
 
@@ -18,6 +23,7 @@ from __future__ import annotations
 
 import json
 import math
+import struct
 import sys
 import time
 from pathlib import Path
@@ -49,6 +55,7 @@ TYPES = {
     "odometry": msgs.Odometry,
 }
 DISCOVERY_S = 15.0
+_STORE: Any = None
 
 
 def qos(typ: type, *, reliable: bool = True, depth: int = 10, transient: bool = False) -> Qos:
@@ -75,7 +82,36 @@ def wait_for(cond: Any, what: str, timeout: float = DISCOVERY_S) -> None:
         time.sleep(0.005)
 
 
+def cdr_twist_stamped(
+    sec: int, frame_id: bytes, linear: list[float], angular: list[float]
+) -> bytes:
+    """A TwistStamped in plain little-endian CDR, encoded here byte by byte (not by the binding).
+
+    The frame id is written as raw bytes (length with the NUL, the bytes, the NUL), so it can
+    hold what no encoder would write: bytes that are not UTF-8.
+    """
+    body = struct.pack("<iI", sec, 0)  # header.stamp
+    body += struct.pack("<I", len(frame_id) + 1) + frame_id + b"\0"
+    body += b"\0" * (-len(body) % 8)  # the float64s align to 8 (from the body's start)
+    body += struct.pack("<6d", *linear, *angular)
+    return b"\x00\x01\x00\x00" + body  # encapsulation: CDR_LE, no options
+
+
+class RawSample:
+    """Makes ``DataWriter.write`` send given bytes: it writes what ``serialize`` returns."""
+
+    @staticmethod
+    def of(typ: type, data: bytes) -> Any:
+        sample = typ()
+        sample.serialize = lambda use_version_2=None: data  # the writer pads to 4 bytes
+        return sample
+
+
 def make_command(typ: str, item: dict[str, Any], index: int) -> Any:
+    if "raw_frame_id" in item:  # a hostile TwistStamped: its frame id as hex bytes
+        lin = ([*(float(x) for x in item.get("values", [])), 0.0, 0.0, 0.0])[:3]
+        data = cdr_twist_stamped(index, bytes.fromhex(item["raw_frame_id"]), lin, [0.0] * 3)
+        return RawSample.of(TYPES[typ], data)
     values = [float(x) for x in item["values"]]
     stamp = msgs.Time(sec=index, nanosec=0)
     if typ in ("twist", "twist_stamped"):
@@ -87,7 +123,8 @@ def make_command(typ: str, item: dict[str, Any], index: int) -> Any:
         )
         if typ == "twist":
             return tw
-        return msgs.TwistStamped(header=msgs.Header(stamp=stamp, frame_id="cmd"), twist=tw)
+        frame = str(item.get("frame_id", "cmd"))
+        return msgs.TwistStamped(header=msgs.Header(stamp=stamp, frame_id=frame), twist=tw)
     if typ == "float64_multi_array":
         return msgs.Float64MultiArray(data=values)
     return msgs.JointJog(
@@ -127,6 +164,70 @@ def output_values(typ: str, m: Any) -> tuple[int | None, list[float]]:
     return m.header.stamp.sec, list(m.points[0].velocities)
 
 
+def tf_message(transforms: list[dict[str, Any]]) -> Any:
+    """A tf2_msgs/TFMessage encoded by rosbags' typestore, written as those bytes."""
+    store = typestore()
+    tm = store.types
+    msg = tm["tf2_msgs/msg/TFMessage"](
+        transforms=[
+            tm["geometry_msgs/msg/TransformStamped"](
+                header=tm["std_msgs/msg/Header"](
+                    stamp=tm["builtin_interfaces/msg/Time"](sec=0, nanosec=0),
+                    frame_id=t["parent"],
+                ),
+                child_frame_id=t["child"],
+                transform=tm["geometry_msgs/msg/Transform"](
+                    translation=tm["geometry_msgs/msg/Vector3"](*t.get("xyz", [0.0, 0.0, 0.0])),
+                    rotation=tm["geometry_msgs/msg/Quaternion"](*t["xyzw"]),
+                ),
+            )
+            for t in transforms
+        ]
+    )
+    data = bytes(store.serialize_cdr(msg, "tf2_msgs/msg/TFMessage"))
+    return RawSample.of(msgs.TFMessage, data)
+
+
+def typestore() -> Any:
+    global _STORE  # built once: a typestore takes a while
+    if _STORE is None:
+        from rosbags.typesys import Stores, get_typestore
+
+        _STORE = get_typestore(Stores.ROS2_JAZZY)
+    return _STORE
+
+
+def take_serialized(reader: DataReader, n: int) -> list[tuple[bytes, Any]]:
+    """The samples of ``reader`` as CDR bytes (what ``DataReader.take`` decodes), with info."""
+    from cyclonedds._clayer import ddspy_take
+    from cyclonedds.core import InstanceState, SampleState, ViewState
+
+    ret = ddspy_take(reader._ref, SampleState.Any | ViewState.Any | InstanceState.Any, n)
+    if isinstance(ret, int):
+        raise SystemExit(f"take failed: {ret}")
+    return list(ret)
+
+
+def trajectory_from_cdr(data: bytes) -> dict[str, Any]:
+    """A trajectory_msgs/JointTrajectory decoded by rosbags' typestore (ROS 2 Jazzy)."""
+    m = typestore().deserialize_cdr(data, "trajectory_msgs/msg/JointTrajectory")
+    return {
+        "stamp": [int(m.header.stamp.sec), int(m.header.stamp.nanosec)],
+        "frame_id": m.header.frame_id,
+        "joint_names": list(m.joint_names),
+        "points": [
+            {
+                "positions": [float(x) for x in p.positions],
+                "velocities": [float(x) for x in p.velocities],
+                "accelerations": [float(x) for x in p.accelerations],
+                "effort": [float(x) for x in p.effort],
+                "time_from_start": [int(p.time_from_start.sec), int(p.time_from_start.nanosec)],
+            }
+            for p in m.points
+        ],
+    }
+
+
 def stream(spec: dict[str, Any], dp: DomainParticipant) -> dict[str, Any]:
     t = spec["topics"]
     depth = int(spec.get("depth", 10))
@@ -137,6 +238,19 @@ def stream(spec: dict[str, Any], dp: DomainParticipant) -> dict[str, Any]:
     out_r = DataReader(
         dp, Topic(dp, t["cmd_out"], TYPES[out_t]), qos=qos(TYPES[out_t], depth=depth)
     )
+    # Transforms: /tf_static as ROS publishes it (reliable, transient-local, keep-last 1), once;
+    # /tf volatile, with every state.
+    tf_static_w = tf_w = None
+    if "tf_static" in spec:
+        tf_static_w = DataWriter(
+            dp,
+            Topic(dp, t["tf_static"], msgs.TFMessage),
+            qos=qos(msgs.TFMessage, depth=1, transient=True),
+        )
+        tf_static_w.write(tf_message(spec["tf_static"]))
+    if "tf" in spec:
+        tf_w = DataWriter(dp, Topic(dp, t["tf"], msgs.TFMessage), qos=qos(msgs.TFMessage))
+        wait_for(lambda: len(tf_w.get_matched_subscriptions()) > 0, "the tf reader")
     wait_for(lambda: len(cmd_w.get_matched_subscriptions()) > 0, "the command reader")
     wait_for(lambda: len(state_w.get_matched_subscriptions()) > 0, "the state reader")
     wait_for(lambda: len(out_r.get_matched_publications()) > 0, "the output writer")
@@ -149,21 +263,36 @@ def stream(spec: dict[str, Any], dp: DomainParticipant) -> dict[str, Any]:
         wait_for(lambda: Path(sync + ".go").exists(), "the test's go-ahead (bridge side matched)")
     state = make_state(st)
     commands = spec["commands"]
+    prepared = [make_command(in_t, c, i) for i, c in enumerate(commands)]  # fast sending
     rate = float(spec["rate_hz"])
     pause_after = spec.get("pause_after")  # [index, seconds]
+    switch = spec.get("state_switch")  # {"after": index, "values": [...]}
     state_period = float(spec.get("state_period", 0.05))
     outputs: list[dict[str, Any]] = []
     sent: list[float] = []
     t0 = time.monotonic()
 
     def collect() -> None:
+        if out_t == "joint_trajectory":  # decoded by rosbags from the bytes on the wire
+            for data, info in take_serialized(out_r, 1000):
+                if info.valid_data:
+                    traj = trajectory_from_cdr(data)
+                    outputs.append({"t": time.monotonic() - t0, "i": None, "traj": traj})
+            return
         for m in out_r.take(N=1000):
             if getattr(m, "sample_info", None) is not None and not m.sample_info.valid_data:
                 continue
             idx, vals = output_values(out_t, m)
             outputs.append({"t": time.monotonic() - t0, "i": idx, "v": vals})
 
-    state_w.write(state)
+    tf_msg = None if tf_w is None else tf_message(spec["tf"])
+
+    def write_state() -> None:  # the current state (and the transforms on /tf)
+        state_w.write(state)
+        if tf_w is not None:
+            tf_w.write(tf_msg)
+
+    write_state()
     next_state = time.monotonic() + state_period
     # A first state must be there before the first command is shaped: the bridge's diagnostics
     # are not needed for that; the state writer is reliable and matched, so one short settle of
@@ -175,17 +304,21 @@ def stream(spec: dict[str, Any], dp: DomainParticipant) -> dict[str, Any]:
     while i < len(commands):
         now = time.monotonic()
         if now >= next_state:
-            state_w.write(state)
+            write_state()
             next_state = now + state_period
         if end_pause is not None and now < end_pause:
             collect()
             time.sleep(0.0005)
             continue
         if now >= next_cmd:
-            cmd_w.write(make_command(in_t, commands[i], i))
+            cmd_w.write(prepared[i])
             sent.append(now - t0)
             i += 1
             next_cmd += 1.0 / rate
+            if switch is not None and i == int(switch["after"]):  # a new state from now on
+                state = make_state({**st, "values": switch["values"]})
+                write_state()
+                next_state = time.monotonic() + state_period
             if pause_after is not None and i == int(pause_after[0]):
                 end_pause = time.monotonic() + float(pause_after[1])
                 next_cmd = end_pause
@@ -199,14 +332,37 @@ def stream(spec: dict[str, Any], dp: DomainParticipant) -> dict[str, Any]:
     # With "expect_nonzero", only non-zero answers count (a watchdog's zeros do not).
     nonzero = bool(spec.get("expect_nonzero", False))
 
-    def answered() -> int:
-        return sum(1 for o in outputs if any(o["v"])) if nonzero else len(outputs)
+    # With "give_up_after", the wait also ends once no answer came for that long (a flood the
+    # bridge could not take in full is never answered in full).
+    give_up = spec.get("give_up_after")
 
+    # A trajectory "moves" if its point leaves ``rest_positions`` (the state, in the output's
+    # joint order); any other output if it is not all zeros.
+    rest = spec.get("rest_positions")
+
+    def moving(o: dict[str, Any]) -> bool:
+        if "traj" in o:
+            pos = o["traj"]["points"][0]["positions"]
+            return rest is None or any(a != b for a, b in zip(pos, rest, strict=True))
+        return any(o["v"])
+
+    def answered() -> int:
+        return sum(1 for o in outputs if moving(o)) if nonzero else len(outputs)
+
+    last_count, last_change = -1, time.monotonic()
     while (answered() < expected and time.monotonic() < end) or time.monotonic() < tail_end:
         if time.monotonic() >= next_state:
-            state_w.write(state)
+            write_state()
             next_state = time.monotonic() + state_period
         collect()
+        if len(outputs) != last_count:
+            last_count, last_change = len(outputs), time.monotonic()
+        elif (
+            give_up is not None
+            and time.monotonic() - last_change > float(give_up)
+            and time.monotonic() >= tail_end
+        ):
+            break
         time.sleep(0.001)
     collect()
     return {"sent": sent, "outputs": outputs}
@@ -231,6 +387,33 @@ def qos_scenario(spec: dict[str, Any], dp: DomainParticipant) -> dict[str, Any]:
 
     wait_for(mismatch_reported, "a diagnostics message reporting two QoS mismatches")
     del w, r
+    return {"diagnostics": found[-1]}
+
+
+def qos_one(spec: dict[str, Any], dp: DomainParticipant) -> dict[str, Any]:
+    """One writer against the bridge's command reader with one incompatible policy."""
+    t = spec["topics"]
+    typ = TYPES[spec["cmd_type"]]
+    if spec["mismatch"] == "data_representation":  # XCDR2 only; the bridge reads XCDR1
+        q = Qos(
+            Policy.Reliability.Reliable(max_blocking_time=duration(seconds=1)),
+            Policy.Userdata(user_data(typ)),
+            Policy.DataRepresentation(use_xcdrv2_representation=True),
+        )
+    else:  # best effort offered, reliable requested
+        q = qos(typ, reliable=False)
+    w = DataWriter(dp, Topic(dp, t["cmd_in"], typ), qos=q)
+    diag = DataReader(dp, Topic(dp, t["diag"], msgs.DiagnosticArray), qos=qos(msgs.DiagnosticArray))
+    found: list[dict[str, str]] = []
+
+    def reported() -> bool:
+        for m in diag.take(N=100):
+            for s in m.status:
+                found.append({v.key: v.value for v in s.values})
+        return any(int(kv.get("qos_incompatible", "0")) >= 1 for kv in found)
+
+    wait_for(reported, "a diagnostics message reporting the QoS mismatch")
+    del w
     return {"diagnostics": found[-1]}
 
 
@@ -259,7 +442,9 @@ def main() -> None:
     with open(sys.argv[1], encoding="utf-8") as fh:
         spec = json.load(fh)
     dp = DomainParticipant(int(spec["domain"]))
-    fn = {"stream": stream, "qos": qos_scenario, "endpoints": endpoints}[spec["scenario"]]
+    fn = {"stream": stream, "qos": qos_scenario, "qos_one": qos_one, "endpoints": endpoints}[
+        spec["scenario"]
+    ]
     result = fn(spec, dp)
     sys.stdout.write(json.dumps(result))
     sys.stdout.flush()

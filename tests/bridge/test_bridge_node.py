@@ -106,7 +106,13 @@ def test_1khz_stream_answered_one_for_one_and_equal_to_shape(bridge, tmp_path) -
 
 
 def test_watchdog_zeros_after_timeout_then_recovers(bridge, tmp_path, bridge_log) -> None:
-    b = _plane_bridge(bridge, incoming_command_timeout=0.1, watchdog_period=0.05, state_timeout=0.5)
+    b = _plane_bridge(
+        bridge,
+        incoming_command_timeout=0.1,
+        watchdog_period=0.05,
+        state_timeout=0.5,
+        halt_messages=None,  # zeros for as long as commands are stale (the default halts)
+    )
     p = np.array([2.0, 1.5])  # the middle: commands pass unchanged
     cmds = [{"values": [0.3, -0.2, 0.0]} for _ in range(60)]
     res = run_client(
@@ -201,14 +207,15 @@ def test_malformed_commands_dropped_and_counted(bridge, tmp_path) -> None:
     deadline = time.monotonic() + 10.0
     while b.node.counters["commands_received"] < len(items) and time.monotonic() < deadline:
         time.sleep(0.01)
-    # A Float64MultiArray has no stamp to echo: the answers are the non-zero outputs (the
-    # watchdog's zeros follow once the commands stop).
-    outs = [o for o in res["outputs"] if any(o["v"])]
+    # The answers are the trajectories that move (the halt's hold the measured position). The
+    # trajectory's point is the measured position plus velocity x incoming_command_timeout.
+    outs = [o for o in res["outputs"] if o["traj"]["points"][0]["positions"] != q]
     assert len(outs) == 3, b.node.counters  # only the good ones answered
     want = parse_shaper(JOINTS).shaper.shape(np.array(q), np.array(good))
     for o in outs:
-        assert np.array_equal(np.array(o["v"]), want)
-        assert all(math.isfinite(x) for x in o["v"])
+        pos = np.array(o["traj"]["points"][0]["positions"])
+        np.testing.assert_allclose(pos, np.array(q) + 0.1 * want, rtol=0, atol=1e-15)
+        assert all(math.isfinite(x) for x in pos)
     c = b.node.counters
     assert c["dropped_commands"] == 4
     assert c["dropped:command_wrong_length"] == 2

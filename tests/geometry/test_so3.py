@@ -139,3 +139,24 @@ def test_check_rotation_refuses_non_rotations_by_name():
         check_rotation("R_in", np.eye(4))
     with pytest.raises(InvalidInput, match="axis"):
         rotation_from_angle_axis([0.0, 0.0, 0.0], 1.0)
+
+
+def test_rotation_from_quaternion_against_scipy() -> None:
+    from scipy.spatial.transform import Rotation
+
+    from velfence.geometry.so3 import rotation_from_quaternion
+
+    rng = np.random.default_rng(11)
+    for q in rng.normal(size=(50, 4)):  # not unit length: normalised first
+        want = Rotation.from_quat([q[1], q[2], q[3], q[0]]).as_matrix()  # scipy: (x, y, z, w)
+        np.testing.assert_allclose(rotation_from_quaternion(q), want, rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(rotation_from_quaternion([1.0, 0.0, 0.0, 0.0]), np.eye(3))
+
+
+@pytest.mark.parametrize("q", [[0.0, 0.0, 0.0, 0.0], [np.nan, 0, 0, 1], [1.0, 0.0, 0.0], "q"])
+def test_rotation_from_quaternion_refuses(q: object) -> None:
+    from velfence.errors import InvalidInput
+    from velfence.geometry.so3 import rotation_from_quaternion
+
+    with pytest.raises(InvalidInput, match="q"):
+        rotation_from_quaternion(q)

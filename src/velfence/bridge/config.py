@@ -142,6 +142,30 @@ class DiagnosticsOut(_Topic):
     qos: QosSettings = QosSettings()
 
 
+FrameId = Annotated[str, Strict(), Field(min_length=1, max_length=MAX_TOPIC_LENGTH)]
+
+
+class TfIn(StrictModel):
+    """The transform topics read when ``command_frame_id`` is set (``tf2_msgs/TFMessage``)."""
+
+    topic: TopicName = "/tf"
+    static_topic: TopicName = "/tf_static"
+    qos: QosSettings = QosSettings(profile="default", depth=100)
+    static_qos: QosSettings = QosSettings(
+        profile="default", depth=100, durability="transient_local"
+    )
+
+    @field_validator("topic", "static_topic")
+    @classmethod
+    def _topic_name(cls, value: str) -> str:
+        return _check_topic(value)
+
+    @field_validator("qos", "static_qos", mode="before")
+    @classmethod
+    def _qos_shorthand(cls, value: Any) -> Any:
+        return {"profile": value} if isinstance(value, str) else value
+
+
 class BridgeSettings(StrictModel):
     """The ``bridge:`` section (every field documented in ``docs/bridge.md``).
 
@@ -158,6 +182,20 @@ class BridgeSettings(StrictModel):
     incoming_command_timeout: Seconds = 0.1
     state_timeout: Seconds = 0.5
     watchdog_period: Seconds = 0.05
+    # ---- ROS conventions: output timing, halting, command frames (docs/bridge.md) ----
+    #: Publish on the node's own timer with this period [s] (MoveIt Servo's and Nav2 velocity
+    #: smoother's ``publish_period``): each period the last command is shaped against the
+    #: newest state. None: one answer per command.
+    publish_period: Seconds | None = None
+    #: Zero commands published once commands go stale, then silence until they resume (MoveIt
+    #: Servo's former ``num_outgoing_halt_msgs_to_publish``, default 4). None: zeros forever.
+    halt_messages: Annotated[int, Strict(), Field(ge=1, le=1_000_000)] | None = 4
+    #: The frame stamped commands are shaped in; a TwistStamped in another frame is rotated
+    #: into it through /tf and /tf_static (refused if no transform is known). None: the
+    #: header's frame is not looked at.
+    command_frame_id: FrameId | None = None
+    tf: TfIn = TfIn()
+    # ---- end of ROS conventions ----
 
     @field_validator("namespace")
     @classmethod
@@ -282,6 +320,17 @@ def _check_fit(
         )
     if out in ("joint_jog", "joint_trajectory") and names is None:
         raise bad("command_out.type", f"{out} needs joint names; give state.joint_names")
+    if out == "joint_trajectory" and (st != "joint_state" or cs.state_dim != cs.output_dim):
+        raise bad(
+            "command_out.type",
+            "joint_trajectory integrates positions from the measured joints: it needs a "
+            "joint_state state with one position per output velocity",
+        )
+    if s.command_frame_id is not None and cin != "twist_stamped":
+        raise bad(
+            "command_frame_id",
+            f"only a twist_stamped command carries a frame to resolve, not a {cin}; leave it out",
+        )
     # The frame of a twist.
     frame = s.command_frame
     if space == "plane" and cin in twists and frame is None:

@@ -55,7 +55,10 @@ __all__ = [
     "PoseWithCovariance",
     "Quaternion",
     "String",
+    "TFMessage",
     "Time",
+    "Transform",
+    "TransformStamped",
     "Twist",
     "TwistStamped",
     "TwistWithCovariance",
@@ -211,6 +214,30 @@ class Odometry(IdlStruct, typename="nav_msgs.msg.dds_.Odometry_"):
 
 
 @dataclass
+class Transform(IdlStruct, typename="geometry_msgs.msg.dds_.Transform_"):
+    """geometry_msgs/msg/Transform: ``translation`` [m] and ``rotation`` of a frame."""
+
+    translation: Vector3 = field(default_factory=Vector3)
+    rotation: Quaternion = field(default_factory=Quaternion)
+
+
+@dataclass
+class TransformStamped(IdlStruct, typename="geometry_msgs.msg.dds_.TransformStamped_"):
+    """geometry_msgs/msg/TransformStamped: ``child_frame_id``'s pose in ``header.frame_id``."""
+
+    header: Header = field(default_factory=Header)
+    child_frame_id: str = ""
+    transform: Transform = field(default_factory=Transform)
+
+
+@dataclass
+class TFMessage(IdlStruct, typename="tf2_msgs.msg.dds_.TFMessage_"):
+    """tf2_msgs/msg/TFMessage (the ``/tf`` and ``/tf_static`` topics)."""
+
+    transforms: sequence[TransformStamped] = field(default_factory=list)
+
+
+@dataclass
 class JointState(IdlStruct, typename="sensor_msgs.msg.dds_.JointState_"):
     """sensor_msgs/msg/JointState: ``position`` [rad or m], ``velocity``, ``effort``."""
 
@@ -298,6 +325,9 @@ ALL_TYPES: tuple[type[IdlStruct], ...] = (
     PoseWithCovariance,
     TwistWithCovariance,
     Odometry,
+    Transform,
+    TransformStamped,
+    TFMessage,
     JointState,
     JointJog,
     JointTrajectoryPoint,

@@ -1,13 +1,17 @@
 """The bridge node: a ROS 2 DDS participant that shapes every command it forwards.
 
 One loop thread waits on the command and state readers (a Cyclone DDS wait set) and answers
-each valid command sample with exactly one shaped command, in order. Fail-safes:
+each valid command sample with exactly one shaped command, in order; or, with
+``publish_period``, publishes on its own timer the last command shaped against the newest state.
+Fail-safes:
 
 * a command older than ``incoming_command_timeout`` → a zero command, repeated every
-  ``watchdog_period`` until a fresh command arrives;
+  ``watchdog_period`` (every ``publish_period`` on the timer), ``halt_messages`` times, then
+  silence until a fresh command arrives (``halt_messages`` None: zeros until then);
 * no state yet, or state older than ``state_timeout`` → every command is answered with zero;
-* a malformed message (wrong length, unknown or missing joint names, non-finite numbers, an
-  undecodable sample) is dropped and counted, never applied;
+* a malformed message (wrong length, unknown, duplicate or missing joint names, non-finite
+  numbers, an undecodable sample, a frame no transform reaches) is dropped alone and counted,
+  never applied; the valid samples taken with it are answered;
 * nothing non-finite is ever written: every outgoing vector is checked before the write;
 * on stop (SIGINT/SIGTERM in ``velfence bridge``) a last zero command is sent if any command
   was forwarded.
@@ -36,7 +40,8 @@ import numpy as np
 from velfence._docs import document_inits
 from velfence._validate import check_range
 from velfence.bridge import msgs
-from velfence.bridge.config import BridgeConfig, QosSettings
+from velfence.bridge.config import BridgeConfig, QosSettings, dds_topic
+from velfence.bridge.transforms import TransformStore
 from velfence.bridge.typehash import user_data
 from velfence.errors import InvalidParameter, VelfenceError
 from velfence.geometry.frames import body_to_world, world_to_body
@@ -78,8 +83,13 @@ NODE_STATES: tuple[str, ...] = (
     "stopped",
 )
 
-#: The DDS QoS policy ids a mismatch report names (DDS 1.4, Table 7.1 / dds_qos_policy_id_t).
+#: The QoS policy ids a mismatch report names: Cyclone DDS's ``dds_qos_policy_id_t``
+#: (``dds/ddsc/dds_public_qosdefs.h``, the same in 0.10 and 11.0), which is what the status's
+#: ``last_policy_id`` holds. They follow the DDS specification's ids up to 22 and differ from
+#: 23 on (Cyclone puts its PROPERTY policy at 23), so a DATA_REPRESENTATION mismatch is 25 here
+#: and 23 in the specification.
 _POLICY_NAMES = {
+    0: "INVALID",
     1: "USER_DATA",
     2: "DURABILITY",
     3: "PRESENTATION",
@@ -94,7 +104,17 @@ _POLICY_NAMES = {
     12: "DESTINATION_ORDER",
     13: "HISTORY",
     14: "RESOURCE_LIMITS",
-    23: "DATA_REPRESENTATION",
+    15: "ENTITY_FACTORY",
+    16: "WRITER_DATA_LIFECYCLE",
+    17: "READER_DATA_LIFECYCLE",
+    18: "TOPIC_DATA",
+    19: "GROUP_DATA",
+    20: "TRANSPORT_PRIORITY",
+    21: "LIFESPAN",
+    22: "DURABILITY_SERVICE",
+    23: "PROPERTY",
+    24: "TYPE_CONSISTENCY_ENFORCEMENT",
+    25: "DATA_REPRESENTATION",
 }
 
 _TYPES: dict[str, type[Any]] = {
@@ -195,6 +215,29 @@ def ros_qos(settings: QosSettings, msg_type: type) -> Any:
     return Qos(*by_scope.values())
 
 
+def _history_depth(settings: QosSettings) -> int | None:
+    """The KEEP_LAST depth :func:`ros_qos` gives a reader (None: the DDS default, keep-last 1)."""
+    if settings.depth is not None:
+        return settings.depth
+    return {"default": 10, "sensor_data": 5}.get(settings.profile, 1)
+
+
+def _take_serialized(reader: Any, n: int) -> list[tuple[bytes, Any]]:
+    """Up to ``n`` samples of ``reader`` as (CDR bytes, SampleInfo) pairs, not decoded.
+
+    The call ``DataReader.take`` makes before decoding (cyclonedds 0.10 and 11.0); a failed take
+    raises.
+    """
+    from cyclonedds._clayer import ddspy_take  # type: ignore[import-not-found]
+    from cyclonedds.core import InstanceState, SampleState, ViewState
+
+    mask = SampleState.Any | ViewState.Any | InstanceState.Any
+    ret = ddspy_take(reader._ref, mask, n)
+    if isinstance(ret, int):
+        raise RuntimeError(f"dds_take failed ({ret})")
+    return list(ret)
+
+
 def _finite(values: Any) -> bool:
     return all(math.isfinite(x) for x in values)
 
@@ -276,16 +319,31 @@ class BridgeNode:
                 "outputs_published",
                 "watchdog_zeros",
                 "states_received",
+                "transforms_received",
+                "dropped_transforms",
                 "dropped_commands",
                 "dropped_states",
                 "dropped_outputs",
                 "qos_incompatible",
                 "on_cycle_errors",
                 "diagnostics_published",
+                # Loss a reader can see (docs/bridge.md, "Lost samples"): Cyclone's SAMPLE_LOST
+                # and SAMPLE_REJECTED statuses, and takes that found the history full (samples
+                # may have been overwritten before them; how many, DDS does not say).
+                "command_samples_lost",
+                "command_samples_rejected",
+                "command_history_full",
+                "state_samples_lost",
+                "state_samples_rejected",
+                "state_history_full",
             ),
             0,
         )
         self._drops: dict[str, int] = {}
+        self._depths = {
+            "command": _history_depth(s.command_in.qos),
+            "state": _history_depth(s.state.qos),
+        }
         self._node_state = "starting"
         self._state: np.ndarray | None = None
         self._state_yaw = 0.0
@@ -293,6 +351,24 @@ class BridgeNode:
         self._cmd_time: float | None = None
         self._next_zero = 0.0
         self._published_any = False
+        # ROS conventions (docs/bridge.md): the own timer, halting, the last command.
+        self._period = None if s.publish_period is None else float(s.publish_period)
+        self._halt_n = s.halt_messages
+        self._halts_sent = 0
+        self._next_pub = 0.0
+        self._last_cmd: tuple[Any, np.ndarray] | None = None
+        # Command frames through /tf (None: the header's frame is not looked at).
+        self._frame_id = (
+            None if s.command_frame_id is None else s.command_frame_id.removeprefix("/")
+        )
+        self._tf = TransformStore()
+        self._tf_readers: dict[str, Any] = {}
+        self._cmd_rotation: tuple[Any, np.ndarray] | None = None  # (message, R into the frame)
+        self._reader_types: dict[str, type[Any]] = {
+            "command": _TYPES[self._in_type],
+            "state": _TYPES[self._state_type],
+            "transform": msgs.TFMessage,
+        }
         self._last: dict[str, Any] = {"zone": "none", "active": (), "changed": False, "delta": 0.0}
         self._guard: Any = None
         self._participant: Any = None
@@ -366,7 +442,7 @@ class BridgeNode:
         try:
             self._set_state("waiting_for_state")
             self._loop(end)
-            if self._published_any:
+            if self._published_any and not self._halted():
                 self._publish_zero(time.monotonic(), reason="stop")
         finally:
             self._set_state("stopped")
@@ -404,12 +480,14 @@ class BridgeNode:
         dp = DomainParticipant(c.domain_id)
         self._participant = dp
 
-        def reader(key: str, typ: type, qos: QosSettings) -> Any:
+        def reader(key: str, typ: type, qos: QosSettings, what: str) -> Any:
             name = c.dds_topics[key]
             lis = Listener(  # type: ignore[no-untyped-call]
                 on_requested_incompatible_qos=lambda _r, st: self._qos_event(
                     name, "reader", typ, st
-                )
+                ),
+                on_sample_lost=lambda _r, st: self._loss_event(what, "samples_lost", st),
+                on_sample_rejected=lambda _r, st: self._loss_event(what, "samples_rejected", st),
             )
             return DataReader(dp, Topic(dp, name, typ), qos=ros_qos(qos, typ), listener=lis)
 
@@ -420,8 +498,8 @@ class BridgeNode:
             )
             return DataWriter(dp, Topic(dp, name, typ), qos=ros_qos(qos, typ), listener=lis)
 
-        self._cmd_reader = reader("command_in", _TYPES[self._in_type], s.command_in.qos)
-        self._state_reader = reader("state", _TYPES[self._state_type], s.state.qos)
+        self._cmd_reader = reader("command_in", _TYPES[self._in_type], s.command_in.qos, "command")
+        self._state_reader = reader("state", _TYPES[self._state_type], s.state.qos, "state")
         self._out_writer = writer("command_out", _TYPES[self._out_type], s.command_out.qos)
         self._diag_writer = None
         if s.diagnostics.enabled:
@@ -432,6 +510,25 @@ class BridgeNode:
         self._ws.attach(ReadCondition(self._cmd_reader, mask))
         self._ws.attach(ReadCondition(self._state_reader, mask))
         self._ws.attach(self._guard)
+        if self._frame_id is not None:  # command frames through /tf and /tf_static
+            for key, topic, qos in (
+                ("tf", s.tf.topic, s.tf.qos),
+                ("tf_static", s.tf.static_topic, s.tf.static_qos),
+            ):
+                name = dds_topic(s, topic)
+                lis = Listener(  # type: ignore[no-untyped-call]
+                    on_requested_incompatible_qos=lambda _r, st, name=name: self._qos_event(
+                        name, "reader", msgs.TFMessage, st
+                    )
+                )
+                rd = DataReader(
+                    dp,
+                    Topic(dp, name, msgs.TFMessage),
+                    qos=ros_qos(qos, msgs.TFMessage),
+                    listener=lis,
+                )
+                self._tf_readers[key] = rd
+                self._ws.attach(ReadCondition(rd, mask))
         self._ready.set()
         self._log.info(
             "bridge up on DDS domain %d: %s (%s) -> %s (%s), state %s (%s), shaper %s",
@@ -449,6 +546,7 @@ class BridgeNode:
         self._ready.clear()
         dp, self._participant = self._participant, None
         self._guard = None
+        self._tf_readers = {}
         for attr in ("_cmd_reader", "_state_reader", "_out_writer", "_diag_writer", "_ws"):
             self.__dict__.pop(attr, None)
         if dp is not None:
@@ -471,6 +569,11 @@ class BridgeNode:
         if guard is not None:
             guard.set(True)
 
+    def _loss_event(self, what: str, kind: str, status: Any) -> None:
+        # Called on a Cyclone DDS thread: only count (the change since the last report).
+        with self._lock:
+            self._counters[f"{what}_{kind}"] += max(0, int(status.total_count_change))
+
     # ---------------------------------------------------------------- the loop
     def _loop(self, end: float | None) -> None:
         from cyclonedds.util import duration as dds_duration
@@ -483,7 +586,10 @@ class BridgeNode:
             waits = [_MAX_WAIT, next_diag - now]
             if self._cmd_time is not None:
                 stale_at = self._cmd_time + self._cmd_timeout
-                waits.append((stale_at if now < stale_at else self._next_zero) - now)
+                if self._period is None:
+                    waits.append((stale_at if now < stale_at else self._next_zero) - now)
+                else:  # the timer's next period (zeros too go on the timer)
+                    waits.append(self._next_pub - now)
             if self._state_time is not None and now < self._state_time + self._state_timeout:
                 waits.append(self._state_time + self._state_timeout - now)
             if end is not None:
@@ -493,10 +599,13 @@ class BridgeNode:
                 self._ws.wait(dds_duration(seconds=wait))
             self._guard.set(False)
             urgent = self._drain_events()
+            self._take_transforms()
             self._take_states()
             self._take_commands()
             now = time.monotonic()
             self._watchdog(now)
+            if self._period is not None:
+                self._tick(now)
             if self._diag_writer is not None and (urgent or now >= next_diag):
                 self._publish_diagnostics(now)
                 next_diag = now + self._diag_period
@@ -510,15 +619,32 @@ class BridgeNode:
         return bool(events)
 
     def _take(self, reader: Any, what: str) -> list[Any]:
+        """The valid samples waiting in ``reader``, each decoded on its own, in order.
+
+        The binding's ``DataReader.take`` decodes a batch in one loop after taking it: one
+        undecodable sample (a non-UTF-8 string) raises and loses the whole batch. Here the
+        serialized samples are taken and decoded one by one, so a bad one is dropped alone.
+        """
+        typ = self._reader_types[what]
         try:
-            samples = reader.take(N=_TAKE)
-        except Exception:
-            self._drop(what, "undecodable")
+            raw = _take_serialized(reader, _TAKE)
+        except Exception:  # the reader failed (a deleted entity): nothing to take
+            self._drop(what, "take_failed")
             return []
+        depth = self._depths.get(what)
+        if depth is not None and len(raw) >= depth:
+            with self._lock:
+                self._counters[f"{what}_history_full"] += 1
         out = []
-        for sm in samples:
-            info = getattr(sm, "sample_info", None)
-            if info is not None and not info.valid_data:
+        for data, info in raw:
+            if not info.valid_data:
+                continue
+            try:
+                sm = typ.deserialize(data)
+            except Exception:  # UnicodeDecodeError, struct.error, ...: a malformed sample
+                with self._lock:
+                    self._counters[f"{what}s_received"] += 1
+                self._drop(what, "undecodable")
                 continue
             out.append(sm)
         return out
@@ -556,11 +682,39 @@ class BridgeNode:
 
     def _watchdog(self, now: float) -> None:
         self._set_state(self._classify(now))
+        if self._period is not None:  # on the timer, _tick publishes the zeros
+            return
         if self._cmd_time is None or now - self._cmd_time <= self._cmd_timeout:
             return
         if now >= self._next_zero:
-            self._publish_zero(now, reason="watchdog")
+            self._halt(now)
             self._next_zero = max(self._next_zero + self._zero_period, now)
+
+    def _halted(self) -> bool:
+        """Whether the halt is over: ``halt_messages`` zeros sent since the last command."""
+        return self._halt_n is not None and self._halts_sent >= self._halt_n
+
+    def _halt(self, now: float) -> None:
+        """One zero of a stale command's halt, unless all of them were sent (then silence)."""
+        if self._halted():
+            return
+        self._publish_zero(now, reason="watchdog")
+        self._halts_sent += 1
+
+    def _tick(self, now: float) -> None:
+        """On the timer: the last command shaped against the newest state, or the halt."""
+        if self._period is None or now < self._next_pub:
+            return
+        self._next_pub += self._period
+        if self._next_pub <= now:  # late (a stall): the next period starts now, none replayed
+            self._next_pub = now + self._period
+        if self._cmd_time is None or self._last_cmd is None:
+            return  # before the first command nothing is published
+        if now - self._cmd_time > self._cmd_timeout:
+            self._halt(now)
+            return
+        msg, v = self._last_cmd
+        self._answer(msg, v, now)
 
     # ---------------------------------------------------------------- state
     def _take_states(self) -> None:
@@ -581,6 +735,8 @@ class BridgeNode:
             if len(pos) != len(names):
                 return None, 0.0, "length_mismatch"
             where = {nm: i for i, nm in enumerate(names)}
+            if len(where) != len(names):  # a joint named twice: which entry holds?
+                return None, 0.0, "duplicate_joints"
             wanted = self._names or ()  # the config check gives joint_state its names
             missing = [j for j in wanted if j not in where]
             if missing:
@@ -609,6 +765,24 @@ class BridgeNode:
         return self._state
 
     # ---------------------------------------------------------------- commands
+    def _take_transforms(self) -> None:
+        for rd in self._tf_readers.values():
+            for msg in self._take(rd, "transform"):
+                for ts in msg.transforms:
+                    with self._lock:
+                        self._counters["transforms_received"] += 1
+                    tr = ts.transform
+                    r, x = tr.rotation, tr.translation
+                    try:
+                        self._tf.set(
+                            ts.header.frame_id,
+                            ts.child_frame_id,
+                            (r.x, r.y, r.z, r.w),
+                            (x.x, x.y, x.z),
+                        )
+                    except VelfenceError:
+                        self._drop("transform", "invalid")
+
     def _take_commands(self) -> None:
         for msg in self._take(self._cmd_reader, "command"):
             self._on_command(msg)
@@ -622,7 +796,19 @@ class BridgeNode:
             ang = (float(tw.angular.x), float(tw.angular.y), float(tw.angular.z))
             if not (_finite(lin) and _finite(ang)):
                 return None, "nonfinite"
-            return np.array(lin[:n]), ""
+            v3 = np.array(lin)
+            if self._frame_id is not None and t == "twist_stamped":
+                frame = str(msg.header.frame_id).removeprefix("/")
+                if frame and frame != self._frame_id:  # an empty frame means the shaper's
+                    try:
+                        rot = self._tf.rotation(self._frame_id, frame)
+                    except VelfenceError:  # a frame id no transform could name
+                        rot = None
+                    if rot is None:
+                        return None, "frame_unknown"
+                    v3 = rot @ v3
+                    self._cmd_rotation = (msg, rot)
+            return v3[:n], ""
         if t == "float64_multi_array":
             data = list(msg.data)
             if len(data) != n:
@@ -652,9 +838,21 @@ class BridgeNode:
             self._drop("command", reason)
             return
         now = time.monotonic()
+        first = self._cmd_time is None
         self._cmd_time = now
         self._next_zero = now + self._cmd_timeout
+        self._halts_sent = 0
         self._set_state(self._classify(now))
+        if self._period is not None:
+            # On the timer: keep it; _tick shapes it against the state of each period.
+            self._last_cmd = (msg, v)
+            if first:
+                self._next_pub = now
+            return
+        self._answer(msg, v, now)
+
+    def _answer(self, msg: Any, v: np.ndarray, now: float) -> None:
+        """Shape command ``v`` (of message ``msg``) against the fresh state and publish it."""
         p = self._fresh_state(now)
         if p is None:
             self._publish(np.zeros(self._cs.output_dim), msg, now, None, v, "held", (), True)
@@ -695,8 +893,17 @@ class BridgeNode:
             self._log.error("non-finite shaped command %s replaced by zero", out)
             self._drop("output", "nonfinite")
             out, zone, zero = np.zeros(self._cs.output_dim), "held", True
+        measured = None
+        if self._out_type == "joint_trajectory":
+            # Positions are integrated from the measured joints: without a fresh state there is
+            # no trajectory a controller accepts. Nothing is written; the controller's last
+            # trajectory ends at rest within incoming_command_timeout by construction.
+            measured = self._fresh_state(now)
+            if measured is None or measured.shape != out.shape:
+                self._drop("output", "no_state")
+                return
         try:
-            self._out_writer.write(self._message(out, msg_in, zero))
+            self._out_writer.write(self._message(out, msg_in, zero, measured))
         except Exception as exc:
             raise DDSFailure(f"writing the shaped command failed: {exc}") from None
         changed = command is None or command.shape != out.shape or not np.array_equal(command, out)
@@ -741,17 +948,25 @@ class BridgeNode:
             )
         return msgs.Header(stamp=_stamp_now())
 
-    def _message(self, out: np.ndarray, msg_in: Any, zero: bool) -> Any:
+    def _message(
+        self, out: np.ndarray, msg_in: Any, zero: bool, measured: np.ndarray | None = None
+    ) -> Any:
         values = [float(x) for x in out]
         t = self._out_type
         if t in _TWISTS:
             lin = [0.0, 0.0, 0.0]
             ang = msgs.Vector3()
+            rot = None
             if not zero and self._in_type in _TWISTS and msg_in is not None:
                 tw = msg_in.twist if self._in_type == "twist_stamped" else msg_in
                 lin = [float(tw.linear.x), float(tw.linear.y), float(tw.linear.z)]
                 ang = msgs.Vector3(x=tw.angular.x, y=tw.angular.y, z=tw.angular.z)
+                if self._cmd_rotation is not None and self._cmd_rotation[0] is msg_in:
+                    rot = self._cmd_rotation[1]  # shaped in command_frame_id: rotate back
+                    lin = [float(x) for x in rot @ np.array(lin)]
             lin[: len(values)] = values
+            if rot is not None:
+                lin = [float(x) for x in rot.T @ np.array(lin)]
             twist = msgs.Twist(linear=msgs.Vector3(x=lin[0], y=lin[1], z=lin[2]), angular=ang)
             if t == "twist":
                 return twist
@@ -761,12 +976,26 @@ class BridgeNode:
         names = list(self._names or ())
         if t == "joint_jog":
             return msgs.JointJog(header=self._header(msg_in), joint_names=names, velocities=values)
-        ns = round(self._cmd_timeout * 1e9)
+        # joint_trajectory, as joint_trajectory_controller accepts with its default parameters
+        # (docs/bridge.md): every joint, one point reached after incoming_command_timeout at
+        # the measured position plus velocity x time, at rest there; stamp 0 = "start now".
+        horizon = self._cmd_timeout
+        assert measured is not None  # _publish wrote nothing without a fresh state
+        positions = [float(q + v * horizon) for q, v in zip(measured, out, strict=True)]
+        ns = round(horizon * 1e9)
         point = msgs.JointTrajectoryPoint(
-            velocities=values,
+            positions=positions,
+            velocities=[0.0] * len(positions),
             time_from_start=msgs.Duration(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000),
         )
-        return msgs.JointTrajectory(header=self._header(msg_in), joint_names=names, points=[point])
+        return msgs.JointTrajectory(
+            header=msgs.Header(stamp=msgs.Time(sec=0, nanosec=0)), joint_names=names, points=[point]
+        )
+
+    def _watchdog_value(self, state: str) -> str:
+        if state != "stale_command":
+            return "ok"
+        return "halted" if self._halted() else "zero"
 
     def _publish_diagnostics(self, now: float) -> None:
         counters = self.counters
@@ -783,7 +1012,7 @@ class BridgeNode:
             ("active", ", ".join(last["active"]) or "none"),
             ("command_changed", "true" if last["changed"] else "false"),
             ("change_norm", f"{last['delta']:.6g}"),
-            ("watchdog", "zero" if state == "stale_command" else "ok"),
+            ("watchdog", self._watchdog_value(state)),
             ("shaper", self._cs.kind),
             *((k, str(v)) for k, v in sorted(counters.items())),
             *((f"qos_mismatch_{i}", r) for i, r in enumerate(self._qos_reports)),

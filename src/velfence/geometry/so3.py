@@ -9,6 +9,8 @@ telerobotics stack:
   :math:`R = \exp(\theta [k]_\times)`), :func:`angle_axis` and :func:`rotation_vector` (its
   inverse, the logarithm :math:`\phi k` with :math:`\phi \in [0, \pi]`; Craig, *Introduction to
   Robotics*, §2.8);
+* :func:`rotation_from_quaternion`: the rotation of a quaternion :math:`(w, x, y, z)`
+  (normalised first);
 * :func:`rotations_zyx` and :func:`zyx_rate_map`: ZYX Tait-Bryan angles
   :math:`\chi = (\chi_1, \chi_2, \chi_3)`, :math:`R(\chi) = R_z(\chi_3) R_y(\chi_2) R_x(\chi_1)`,
   and the map :math:`E(\chi)` with base-frame angular velocity :math:`\omega = E(\chi)\dot\chi`,
@@ -36,6 +38,7 @@ __all__ = [
     "rot_y",
     "rot_z",
     "rotation_from_angle_axis",
+    "rotation_from_quaternion",
     "rotation_vector",
     "rotations_zyx",
     "skew",
@@ -170,6 +173,34 @@ def rotation_from_angle_axis(axis: ArrayLike, angle: float) -> FloatArray:
     K = skew(k)
     R: FloatArray = np.eye(3) + math.sin(th) * K + (1.0 - math.cos(th)) * (K @ K)
     return R
+
+
+def rotation_from_quaternion(q: ArrayLike) -> FloatArray:
+    """The rotation matrix of a quaternion ``(w, x, y, z)``, normalised first.
+
+    ROS messages order a quaternion ``(x, y, z, w)``: pass ``(w, x, y, z)`` of it.
+
+    Args:
+        q: Four finite numbers, scalar part first, of length > 1e-9.
+
+    Returns:
+        The rotation matrix, shape (3, 3).
+
+    Raises:
+        InvalidInput: ``q`` is not four finite numbers, or of (nearly) zero length.
+    """
+    a = real_array("q", q, (4,))
+    n = math.sqrt(float(a @ a))
+    if not n > 1e-9:
+        raise InvalidInput(f"q: expected a quaternion of length > 1e-9, got length {n:.3g}")
+    w, x, y, z = a / n
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+        ]
+    )
 
 
 def rotation_vector(R: ArrayLike) -> FloatArray:

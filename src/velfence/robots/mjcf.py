@@ -42,6 +42,7 @@ from velfence._deprecate import positional_deprecated
 from velfence._typing import FloatArray
 from velfence._validate import check_positive, check_text, real_array
 from velfence.errors import InvalidGeometry, InvalidParameter
+from velfence.geometry.so3 import rotation_from_quaternion
 
 __all__ = ["dh_mjcf", "mdh_mjcf"]
 
@@ -87,18 +88,6 @@ def _qz(a: float) -> FloatArray:
 
 def _fmt(v: Any) -> str:
     return " ".join(repr(float(x)) for x in np.asarray(v, dtype=float).ravel())
-
-
-def _quat_matrix(q: FloatArray) -> FloatArray:
-    """Rotation matrix of a unit quaternion ``(w, x, y, z)``."""
-    w, x, y, z = q
-    return np.array(
-        [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-        ]
-    )
 
 
 def _limit_vector(arg: str, value: ArrayLike | None, n: int, unit: str) -> FloatArray | None:
@@ -197,7 +186,7 @@ class _Physics:
         if self.masses is None:
             return '<inertial pos="0 0 0" mass="1" diaginertia="0.01 0.01 0.01"/>'
         mass = float(self.masses[i])
-        rot = _quat_matrix(link[1])
+        rot = rotation_from_quaternion(link[1])
         com = segment / 2.0 if self.coms is None else link[0] + rot @ self.coms[i]
         if self.inertias is None:
             inertia = _cylinder(mass, segment)
