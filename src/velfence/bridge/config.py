@@ -65,6 +65,10 @@ MAX_DEPTH = 100_000
 
 Seconds = Annotated[float, Strict(), Field(gt=0.0, le=3600.0, allow_inf_nan=False)]
 TopicName = Annotated[str, Strict(), Field(min_length=1, max_length=MAX_TOPIC_LENGTH)]
+#: A ROS 2 node name: letters, digits and _, not starting with a digit (rmw_validate_node_name).
+NodeName = Annotated[
+    str, Strict(), Field(min_length=1, max_length=200, pattern=r"^[A-Za-z_][A-Za-z0-9_]*$")
+]
 
 
 def _check_topic(name: str) -> str:
@@ -158,6 +162,12 @@ class BridgeSettings(StrictModel):
     incoming_command_timeout: Seconds = 0.1
     state_timeout: Seconds = 0.5
     watchdog_period: Seconds = 0.05
+    # --- The node in the ROS 2 graph (velfence.bridge.graph): its name in `ros2 node list`,
+    # the distro whose discovery layout it speaks, managed-node lifecycle, log lines on /rosout.
+    node_name: NodeName = "velfence_bridge"
+    ros_distro: Literal["jazzy", "humble"] = "jazzy"
+    lifecycle: Annotated[bool, Strict()] = False
+    rosout: Annotated[bool, Strict()] = True
 
     @field_validator("namespace")
     @classmethod

@@ -296,6 +296,9 @@ class BridgeNode:
         self._last: dict[str, Any] = {"zone": "none", "active": (), "changed": False, "delta": 0.0}
         self._guard: Any = None
         self._participant: Any = None
+        # --- ROS 2 graph hook (velfence.bridge.graph): discovery, parameters, lifecycle, /rosout
+        self._graph: Any = None
+        self._active = not s.lifecycle  # a managed node publishes nothing until activated
 
     # ---------------------------------------------------------------- public, thread-safe
     @property
@@ -401,7 +404,9 @@ class BridgeNode:
 
         c = self.config
         s = c.settings
-        dp = DomainParticipant(c.domain_id)
+        from velfence.bridge.graph import participant_qos
+
+        dp = DomainParticipant(c.domain_id, qos=participant_qos())
         self._participant = dp
 
         def reader(key: str, typ: type, qos: QosSettings) -> Any:
@@ -432,6 +437,22 @@ class BridgeNode:
         self._ws.attach(ReadCondition(self._cmd_reader, mask))
         self._ws.attach(ReadCondition(self._state_reader, mask))
         self._ws.attach(self._guard)
+        # --- ROS 2 graph hook: services, lifecycle, /rosout, then ros_discovery_info
+        from velfence.bridge.graph import RosGraph
+
+        self._graph = RosGraph(
+            c,
+            dp,
+            self._log,
+            apply_setting=self._apply_setting,
+            lifecycle_callbacks=self._lifecycle_callbacks(),
+            active=self._active,
+        )
+        for rd in self._graph.conditions():
+            self._ws.attach(ReadCondition(rd, mask))
+        self._graph.announce(
+            [self._cmd_reader, self._state_reader], [self._out_writer, self._diag_writer]
+        )
         self._ready.set()
         self._log.info(
             "bridge up on DDS domain %d: %s (%s) -> %s (%s), state %s (%s), shaper %s",
@@ -447,6 +468,9 @@ class BridgeNode:
 
     def _close(self) -> None:
         self._ready.clear()
+        graph, self._graph = self._graph, None  # --- ROS 2 graph hook
+        if graph is not None:
+            graph.close()
         dp, self._participant = self._participant, None
         self._guard = None
         for attr in ("_cmd_reader", "_state_reader", "_out_writer", "_diag_writer", "_ws"):
@@ -494,12 +518,47 @@ class BridgeNode:
             self._guard.set(False)
             urgent = self._drain_events()
             self._take_states()
-            self._take_commands()
+            if self._active:  # --- ROS 2 graph hook: an inactive managed node answers nothing
+                self._take_commands()
+            else:
+                self._take(self._cmd_reader, "command")
             now = time.monotonic()
             self._watchdog(now)
+            if self._graph is not None:  # --- ROS 2 graph hook: services and /rosout
+                self._graph.service(now)
             if self._diag_writer is not None and (urgent or now >= next_diag):
                 self._publish_diagnostics(now)
                 next_diag = now + self._diag_period
+
+    # ---------------------------------------------------------------- ROS 2 graph hooks
+    def _apply_setting(self, name: str, value: float) -> None:
+        """A live parameter set (``ros2 param set``), already validated; from the loop thread."""
+        attr = {
+            "incoming_command_timeout": "_cmd_timeout",
+            "state_timeout": "_state_timeout",
+            "watchdog_period": "_zero_period",
+            "diagnostics.period": "_diag_period",
+        }[name]
+        setattr(self, attr, float(value))
+        self._log.info("parameter %s set to %g s", name, value)
+
+    def _lifecycle_callbacks(self) -> dict[str, Callable[[], str]]:
+        def activate() -> str:
+            self._active = True
+            return "success"
+
+        def deactivate() -> str:
+            if self._active and self._published_any:
+                self._publish_zero(time.monotonic(), reason="stop")  # a last zero, as on stop
+            self._active = False
+            self._cmd_time = None  # no watchdog zeros while inactive
+            return "success"
+
+        def shutdown() -> str:
+            return deactivate()
+
+        return {"activate": activate, "deactivate": deactivate, "shutdown": shutdown,
+                "error": deactivate}  # fmt: skip
 
     def _drain_events(self) -> bool:
         with self._lock:
