@@ -1,4 +1,9 @@
-"""A ROS 2 tool's view of the bridge, in its own process: ``python ros_graph_client.py SPEC``.
+"""A ROS 2 tool's view of the bridge, in its own process.
+
+``python ros_graph_client.py SPEC`` runs one spec and prints its JSON result;
+``python ros_graph_client.py --serve DOMAIN`` keeps one participant and runs every spec read as a
+JSON line from stdin, answering each with a JSON line (``{"ready": true}`` first for a spec that
+asks for it, once its readers exist; then ``{"result": …}`` or ``{"error": …}``).
 
 Every request is encoded and every reply, discovery and log sample decoded with rosbags'
 typestore, from the published definitions in ros_graph_defs.py; velfence's message classes are
@@ -9,6 +14,9 @@ number) followed by the CDR body; a reply is kept only if it carries this client
 
 The spec's ``calls`` are run in order: ``[service suffix, srv type, request fields]``; the
 result is one JSON object with the decoded replies, the discovery info and the /rosout lines.
+A spec's ``script`` is a timeline instead: service calls, the manager's side of a Nav2 bond
+(bondcpp's protocol on ``<ns>/bond``), a command stream with a fresh odometry, and pauses; every
+step, bond status, output and parameter event is recorded with its time.
 """
 
 from __future__ import annotations
@@ -17,7 +25,9 @@ import json
 import random
 import struct
 import sys
+import threading
 import time
+import uuid
 from pathlib import Path
 from typing import Any
 
@@ -44,7 +54,7 @@ TIMEOUT = 15.0
 _BASE = {
     "bool": bool, "byte": t.byte, "char": t.uint8, "uint8": t.uint8, "int8": t.int8,
     "int32": t.int32, "uint32": t.uint32, "int64": t.int64, "uint64": t.uint64,
-    "float64": t.float64, "string": str,
+    "float32": t.float32, "float64": t.float64, "string": str,
 }  # fmt: skip
 
 
@@ -132,10 +142,14 @@ def plain(msg: Any) -> Any:
     return msg
 
 
+_CLIENT_IDS = iter(range(1, 1 << 30))
+
+
 class Client:
     """One service client: request writer + reply reader with a shared ``clientid``."""
 
-    def __init__(self, peer: Peer, service: str, srv: str, cid: int) -> None:
+    def __init__(self, peer: Peer, service: str, srv: str) -> None:
+        cid = next(_CLIENT_IDS)
         self.peer, self.srv = peer, srv
         body = service.lstrip("/")
         ud = f"clientid=ab.{cid:x};".encode()
@@ -179,7 +193,8 @@ class Client:
 
 
 _NP = {"uint8": "uint8", "byte": "uint8", "char": "uint8", "int64": "int64",
-       "uint64": "uint64", "float64": "float64", "bool": "bool", "int32": "int32"}  # fmt: skip
+       "uint64": "uint64", "float64": "float64", "float32": "float32", "bool": "bool",
+       "int32": "int32"}  # fmt: skip
 
 
 def make(store: Any, name: str, fields: dict[str, Any]) -> Any:
@@ -204,29 +219,267 @@ def convert(store: Any, desc: Any, value: Any) -> Any:
         value = dict(value or {})
         value.pop("__type__", None)
         return make(store, spec, value)
-    sub, _n = spec
+    sub, n = spec
     items = list(value or [])
+    if node == 3 and not items:  # a fixed-size array: n default elements
+        items = [convert(store, sub, None) for _ in range(n)]
     if int(sub[0]) == 1 and sub[1][0] != "string":
         return np.array(items, dtype=_NP[sub[1][0]])
     return [convert(store, sub, v) for v in items]
 
 
-def main() -> None:
-    spec = json.loads(Path(sys.argv[1]).read_text(encoding="utf-8"))
-    store = typestore(spec.get("distro", "jazzy"))
-    dp = DomainParticipant(int(spec["domain"]))
-    peer = Peer(store, dp)
+class Script:
+    """A timeline of steps against one bridge, with a background thread for the periodic work."""
+
+    def __init__(self, peer: Peer, spec: dict[str, Any], clients: dict[str, Client]) -> None:
+        self.peer, self.spec, self.clients = peer, spec, clients
+        self.t0 = time.monotonic()
+        self.events: list[dict[str, Any]] = []
+        self.lock = threading.Lock()
+        self.done = threading.Event()
+        ns = spec["namespace"].strip("/")
+        st = peer.store
+        self.bond_name = "bond/msg/Status"
+        bond_topic = peer.topic(f"rt/{ns}/bond", self.bond_name)
+        self.bond_w = DataWriter(peer.dp, bond_topic, qos=qos(depth=5))
+        self.bond_r = DataReader(peer.dp, bond_topic, qos=qos(depth=100))
+        self.bond: dict[str, Any] | None = None  # the manager's side
+        self.own: set[str] = set()  # the manager's instance ids (its own statuses come back)
+        twist, odom = "geometry_msgs/msg/Twist", "nav_msgs/msg/Odometry"
+        self.cmd_w = DataWriter(peer.dp, peer.topic(f"rt/{ns}/cmd_in", twist), qos=qos())
+        self.odom_w = DataWriter(peer.dp, peer.topic(f"rt/{ns}/odom", odom), qos=qos())
+        self.out_r = DataReader(peer.dp, peer.topic(f"rt/{ns}/cmd_out", twist), qos=qos(depth=100))
+        self.stream: dict[str, Any] | None = None
+        self.sent = 0
+        self.odom = bytes(
+            st.serialize_cdr(
+                make(st, odom, {"pose": {"pose": {"position": {"x": 2.0, "y": 1.5},
+                                                  "orientation": {"w": 1.0}}}}),
+                odom,
+            )
+        )  # fmt: skip
+        self.thread = threading.Thread(target=self._tick, daemon=True)
+        self.thread.start()
+
+    def now(self) -> float:
+        return time.monotonic() - self.t0
+
+    def record(self, kind: str, **data: Any) -> None:
+        with self.lock:
+            self.events.append({"t": self.now(), "kind": kind, **data})
+
+    # ---------------------------------------------------------------- periodic work
+    def _tick(self) -> None:
+        st = self.peer.store
+        while not self.done.is_set():
+            for s in self.bond_r.take(N=100):
+                if isinstance(s, Raw):
+                    m = st.deserialize_cdr(s.data, self.bond_name)
+                    self._on_status(m)
+            for s in self.out_r.take(N=100):
+                if isinstance(s, Raw):
+                    m = st.deserialize_cdr(s.data, "geometry_msgs/msg/Twist")
+                    self.record(
+                        "out",
+                        linear=[m.linear.x, m.linear.y, m.linear.z],
+                        angular=[m.angular.x, m.angular.y, m.angular.z],
+                    )
+            t = time.monotonic()
+            b = self.bond
+            if b is not None and b["state"] in ("waiting", "alive") and t >= b["next"]:
+                self._status(True)
+                b["next"] = t + b["period"]
+            sm = self.stream
+            if sm is not None and t >= sm["next"]:
+                self.odom_w.write(self.peer.sample(self.odom_w.topic.data_type, self.odom))
+                self.cmd_w.write(self.peer.sample(self.cmd_w.topic.data_type, sm["cmd"]))
+                self.sent += 1
+                self.record("cmd")
+                sm["next"] = t + 1.0 / sm["rate"]
+            time.sleep(0.002)
+
+    def _on_status(self, m: Any) -> None:
+        b = self.bond
+        if m.id != self.spec["node_name"] or m.instance_id in self.own:
+            return
+        self.record(
+            "bond",
+            instance_id=m.instance_id,
+            active=bool(m.active),
+            heartbeat_period=float(m.heartbeat_period),
+            heartbeat_timeout=float(m.heartbeat_timeout),
+        )
+        if b is None:
+            return
+        if m.active and b["state"] == "waiting":
+            b["state"] = "alive"
+            self.record("bond_formed")
+        elif not m.active and b["state"] == "dying":
+            b["state"] = "dead"
+            self.record("bond_ack")
+        elif not m.active and b["state"] in ("waiting", "alive"):
+            b["state"] = "dead"  # the sister died first: acknowledge it, as bondcpp does
+            self._status(False)
+            self.record("bond_broken_by_node")
+
+    def _status(self, active: bool) -> None:
+        b = self.bond
+        assert b is not None
+        st = self.peer.store
+        ns = time.time_ns()
+        msg = make(st, self.bond_name, {
+            "header": {"stamp": {"sec": ns // 10**9, "nanosec": ns % 10**9}},
+            "id": self.spec["node_name"], "instance_id": b["instance"], "active": active,
+            "heartbeat_timeout": b["timeout"], "heartbeat_period": b["period"],
+        })  # fmt: skip
+        self.bond_w.write(
+            self.peer.sample(
+                self.bond_w.topic.data_type, bytes(st.serialize_cdr(msg, self.bond_name))
+            )
+        )
+
+    # ---------------------------------------------------------------- steps
+    def run(self) -> dict[str, Any]:
+        try:
+            for step in self.spec["script"]:
+                self.step(step)
+        finally:
+            self.done.set()
+            self.thread.join(5.0)
+        return {"events": self.events, "sent": self.sent}
+
+    def step(self, step: list[Any]) -> None:
+        kind = step[0]
+        if kind == "call":
+            _, label, suffix, srv, fields = step
+            if suffix not in self.clients:
+                self.clients[suffix] = Client(self.peer, f"{self.spec['node']}/{suffix}", srv)
+            self.record("call", label=label)
+            reply = plain(self.clients[suffix].call(fields))
+            self.record("reply", label=label, reply=reply)
+        elif kind == "bond_start":  # the manager's createBondConnection
+            _, period, timeout = step
+            with self.lock:
+                self.own.add(instance := str(uuid.uuid4()))
+                self.bond = {"instance": instance, "state": "waiting", "next": 0.0,
+                             "period": float(period), "timeout": float(timeout)}  # fmt: skip
+            self.record("bond_start")
+        elif kind == "bond_break":  # the manager ends the bond first (breakBond)
+            with self.lock:
+                assert self.bond is not None
+                self.bond["state"] = "dying"
+            self._status(False)
+            self.record("bond_break")
+        elif kind == "wait_matched":  # the stream's writers and the output reader found the bridge
+            wait_for(
+                lambda: (
+                    self.cmd_w.get_matched_subscriptions()
+                    and self.odom_w.get_matched_subscriptions()
+                    and self.out_r.get_matched_publications()
+                ),
+                "the bridge's command, state and output topics",
+            )
+            self.record("matched")
+        elif kind == "bond_wait_formed":  # waitUntilFormed(bond_timeout / 2)
+            end = time.monotonic() + float(step[1])
+            while time.monotonic() < end and self.bond is not None:
+                if self.bond["state"] != "waiting":
+                    break
+                time.sleep(0.005)
+            self.record("formed", ok=self.bond is not None and self.bond["state"] == "alive")
+        elif kind == "stream":
+            _, rate, linear = step
+            if rate:
+                st = self.peer.store
+                twist = "geometry_msgs/msg/Twist"
+                cmd = make(st, twist, {"linear": {"x": linear[0], "y": linear[1], "z": 0.0}})
+                self.stream = {"rate": float(rate), "next": 0.0,
+                               "cmd": bytes(st.serialize_cdr(cmd, twist))}  # fmt: skip
+            else:
+                self.stream = None
+            self.record("stream", rate=rate)
+        elif kind == "wait_outputs":  # until n outputs came after the last mark
+            _, n, timeout = step
+            start = self.now()
+            end = time.monotonic() + float(timeout)
+
+            def count() -> int:
+                with self.lock:
+                    return sum(1 for e in self.events if e["kind"] == "out" and e["t"] >= start)
+
+            while count() < int(n) and time.monotonic() < end:
+                time.sleep(0.005)
+            self.record("outputs", n=count())
+        elif kind == "pause":  # an observation window: what arrives (or not) meanwhile
+            time.sleep(float(step[1]))
+            self.record("pause_end")
+        else:
+            raise SystemExit(f"unknown step {kind!r}")
+
+
+class Context:
+    """What one peer process keeps between specs: participant, peers per distro, shared readers."""
+
+    def __init__(self, domain: int) -> None:
+        self.dp = DomainParticipant(domain)
+        self.peers: dict[str, Peer] = {}
+        self.readers: dict[str, Any] = {}
+
+    def peer(self, distro: str) -> Peer:
+        if distro not in self.peers:
+            self.peers[distro] = Peer(typestore(distro), self.dp)
+        return self.peers[distro]
+
+    def reader(self, key: str, make_reader: Any) -> Any:
+        if key not in self.readers:
+            self.readers[key] = make_reader()
+        return self.readers[key]
+
+
+def run(spec: dict[str, Any], ctx: Context, ready: Any) -> dict[str, Any]:
+    distro = spec.get("distro", "jazzy")
+    peer = ctx.peer(distro)
+    store, dp = peer.store, ctx.dp
     out: dict[str, Any] = {"calls": []}
     fqn = spec["node"]
+    events: list[Any] = []
+    ev_reader = None
+    if spec.get("parameter_events") or spec.get("script") is not None:
+        ev_name = "rcl_interfaces/msg/ParameterEvent"
+        ev_reader = ctx.reader(
+            "parameter_events",
+            lambda: DataReader(dp, peer.topic("rt/parameter_events", ev_name), qos=qos(depth=1000)),
+        )
+
+        def take_events() -> None:
+            for s in ev_reader.take(N=1000):
+                if isinstance(s, Raw):
+                    e = plain(store.deserialize_cdr(s.data, ev_name))
+                    if e["node"] == fqn:
+                        events.append(e)
+
+    if spec.get("ready"):
+        ready()
     clients: dict[str, Client] = {}
-    for i, (suffix, srv, fields) in enumerate(spec.get("calls", [])):
+    for suffix, srv, fields in spec.get("calls", []):
         if suffix not in clients:
-            clients[suffix] = Client(peer, f"{fqn}/{suffix}", srv, i + 1)
+            clients[suffix] = Client(peer, f"{fqn}/{suffix}", srv)
         out["calls"].append(plain(clients[suffix].call(fields)))
+    if spec.get("script") is not None:
+        out["script"] = Script(peer, spec, clients).run()
+    if spec.get("parameter_events"):
+        want = int(spec["parameter_events"])
+        wait_for(lambda: take_events() or len(events) >= want, "parameter events")
+    if ev_reader is not None:
+        take_events()
+        out["parameter_events"] = events
     if spec.get("discovery"):
         info_name = "rmw_dds_common/msg/ParticipantEntitiesInfo"
-        rd = DataReader(
-            dp, peer.topic("ros_discovery_info", info_name), qos=qos(transient=True, depth=1)
+        rd = ctx.reader(
+            f"discovery-{distro}",
+            lambda: DataReader(
+                dp, peer.topic("ros_discovery_info", info_name), qos=qos(transient=True, depth=1)
+            ),
         )
         parts = BuiltinDataReader(dp, BuiltinTopicDcpsParticipant)
         pubs = BuiltinDataReader(dp, BuiltinTopicDcpsPublication)
@@ -258,22 +511,45 @@ def main() -> None:
         out["discovery"] = infos
         out["entities"] = ents
     if spec.get("rosout"):
-        rd = DataReader(
-            dp,
-            peer.topic("rt/rosout", "rcl_interfaces/msg/Log"),
-            qos=qos(transient=True, depth=1000),
+        log_name = "rcl_interfaces/msg/Log"
+        rd = ctx.reader(
+            "rosout",
+            lambda: DataReader(
+                dp, peer.topic("rt/rosout", log_name), qos=qos(transient=True, depth=1000)
+            ),
         )
         logs: list[Any] = []
 
         def logged() -> bool:
             for s in rd.take(N=1000):
                 if isinstance(s, Raw):
-                    logs.append(plain(store.deserialize_cdr(s.data, "rcl_interfaces/msg/Log")))
+                    logs.append(plain(store.deserialize_cdr(s.data, log_name)))
             return any(spec["rosout"] in str(x["msg"]) for x in logs)
 
         wait_for(logged, "a /rosout line")
         out["rosout"] = logs
-    sys.stdout.write(json.dumps(out))
+    return out
+
+
+def _line(obj: Any) -> None:
+    sys.stdout.write(json.dumps(obj) + "\n")
+    sys.stdout.flush()
+
+
+def main() -> None:
+    if sys.argv[1] == "--serve":
+        ctx = Context(int(sys.argv[2]))
+        for raw in sys.stdin:
+            if not raw.strip():
+                continue
+            try:
+                _line({"result": run(json.loads(raw), ctx, lambda: _line({"ready": True}))})
+            except (Exception, SystemExit) as exc:
+                _line({"error": f"{type(exc).__name__}: {exc}"})
+        return
+    spec = json.loads(Path(sys.argv[1]).read_text(encoding="utf-8"))
+    ctx = Context(int(spec["domain"]))
+    sys.stdout.write(json.dumps(run(spec, ctx, lambda: None)))
 
 
 if __name__ == "__main__":

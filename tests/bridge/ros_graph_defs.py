@@ -6,6 +6,11 @@ Provenance: the ``.msg`` / ``.srv`` files of ROS 2 Jazzy — ros2/rcl_interfaces
 and constants left out (neither is on the wire). A service's ``.srv`` text is split at ``---``
 into its ``_Request`` and ``_Response`` messages, as rosidl does. The peer registers these with
 rosbags' typestore and never uses velfence's own message classes.
+
+``bond/msg/Status`` is ros/bond_core's (branch ``ros2``, ``bond/msg/Status.msg``, the package
+Nav2's lifecycle manager and nodes use for their bonds); rosbags ships no definition of it.
+The command and state messages the peer streams (``geometry_msgs/msg/Twist``,
+``nav_msgs/msg/Odometry`` and what they contain) are taken from rosbags' own Jazzy typestore.
 """
 
 from __future__ import annotations
@@ -35,6 +40,15 @@ MSGS: dict[str, str] = {
     ),
     "rcl_interfaces/msg/SetParametersResult": "bool successful\nstring reason\n",
     "rcl_interfaces/msg/ListParametersResult": "string[] names\nstring[] prefixes\n",
+    "std_msgs/msg/Header": "builtin_interfaces/Time stamp\nstring frame_id\n",
+    "rcl_interfaces/msg/ParameterEvent": (
+        "builtin_interfaces/Time stamp\nstring node\nParameter[] new_parameters\n"
+        "Parameter[] changed_parameters\nParameter[] deleted_parameters\n"
+    ),
+    "bond/msg/Status": (
+        "std_msgs/Header header\nstring id\nstring instance_id\nbool active\n"
+        "float32 heartbeat_timeout\nfloat32 heartbeat_period\n"
+    ),
     "rcl_interfaces/msg/Log": (
         "builtin_interfaces/Time stamp\nuint8 level\nstring name\nstring msg\nstring file\n"
         "string function\nuint32 line\n"
@@ -88,12 +102,26 @@ GRAPH: dict[str, dict[str, str]] = {
 }
 
 
+#: The streamed messages, with everything they contain (from rosbags' Jazzy typestore).
+STREAMED = (
+    "geometry_msgs/msg/Vector3",
+    "geometry_msgs/msg/Twist",
+    "geometry_msgs/msg/Point",
+    "geometry_msgs/msg/Quaternion",
+    "geometry_msgs/msg/Pose",
+    "geometry_msgs/msg/PoseWithCovariance",
+    "geometry_msgs/msg/TwistWithCovariance",
+    "nav_msgs/msg/Odometry",
+)
+
+
 def typestore(distro: str = "jazzy") -> object:
     """A rosbags typestore with every definition above registered (services split at ``---``)."""
     from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
     store = get_typestore(Stores.EMPTY)
-    types: dict[str, object] = {}
+    jazzy = get_typestore(Stores.ROS2_JAZZY)
+    types: dict[str, object] = {name: jazzy.fielddefs[name] for name in STREAMED}
     for name, text in {**MSGS, **GRAPH[distro]}.items():
         types.update(get_types_from_msg(text, name))
     for name, text in SRVS.items():

@@ -168,6 +168,11 @@ class BridgeSettings(StrictModel):
     ros_distro: Literal["jazzy", "humble"] = "jazzy"
     lifecycle: Annotated[bool, Strict()] = False
     rosout: Annotated[bool, Strict()] = True
+    # Nav2 bond (velfence.bridge.bond): heartbeat period [s] of the node's side while active
+    # (Nav2's node parameter of the same name and default); 0 disables the bond.
+    bond_heartbeat_period: Annotated[
+        float, Strict(), Field(ge=0.0, le=3600.0, allow_inf_nan=False)
+    ] = 0.25
 
     @field_validator("namespace")
     @classmethod

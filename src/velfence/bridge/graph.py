@@ -8,28 +8,45 @@ zero bytes). The topic is reliable, transient local, keep-last 1 (a late tool ge
 sample), without the ``rt/`` prefix. The participant's USER_DATA says ``enclave=/;``.
 
 :class:`RosGraph` creates these entities next to the node's own, answers the parameter and
-lifecycle services from the node's loop thread and writes the queued log lines to ``/rosout``.
+lifecycle services from the node's loop thread, writes the queued log lines to ``/rosout``,
+announces parameters on ``/parameter_events`` and keeps the node's side of a Nav2 bond
+(:mod:`velfence.bridge.bond`) while a managed node is active.
 """
 
 from __future__ import annotations
 
 import contextlib
 import logging
+import time
 from collections.abc import Callable
 from typing import Any
 
 from velfence._docs import document_inits
 from velfence.bridge import ros_interfaces as ri
-from velfence.bridge.config import BridgeConfig
+from velfence.bridge.bond import BOND_TOPIC, Bond
+from velfence.bridge.config import BridgeConfig, dds_topic
 from velfence.bridge.lifecycle import LifecycleMachine
 from velfence.bridge.params import ParameterStore
 from velfence.bridge.rosout import RosoutHandler, logger_name, rosout_qos
 from velfence.bridge.services import ServiceServer, client_service_id, reliable_qos
 
-__all__ = ["DISCOVERY_TOPIC", "RosGraph", "fully_qualified_name", "gid", "participant_qos"]
+__all__ = [
+    "DISCOVERY_TOPIC",
+    "PARAMETER_EVENTS_TOPIC",
+    "RosGraph",
+    "fully_qualified_name",
+    "gid",
+    "participant_qos",
+]
 
 #: The DDS topic of the graph information (no ``rt/`` prefix).
 DISCOVERY_TOPIC = "ros_discovery_info"
+#: The DDS topic of ``/parameter_events``.
+PARAMETER_EVENTS_TOPIC = "rt/parameter_events"
+#: History depth of the ``/parameter_events`` writer (rclcpp's ParameterEventsQoS).
+PARAMETER_EVENTS_DEPTH = 1000
+#: Longest time [s] the start event (every parameter, as new) waits for a first subscriber.
+START_EVENT_WAIT = 2.0
 
 
 def gid(entity: Any, size: int) -> list[int]:
@@ -105,6 +122,7 @@ class RosGraph:
         self.fqn = fully_qualified_name(s.namespace, s.node_name)
         self._namespace = "/" + s.namespace.strip("/") if s.namespace.strip("/") else "/"
         self._node_name = s.node_name
+        self._settings = s
         size, self._gid_t, self._node_t, self._info_t = ri.GRAPH_TYPES[s.ros_distro]
         self._gid_size = size
         self._readers: list[Any] = []
@@ -132,9 +150,38 @@ class RosGraph:
             Topic(participant, DISCOVERY_TOPIC, self._info_t),
             qos=_discovery_qos(self._info_t),
         )
-        self.parameters = ParameterStore(config, apply_setting)
+        self._param_events: Any = DataWriter(
+            participant,
+            Topic(participant, PARAMETER_EVENTS_TOPIC, ri.ParameterEvent),
+            qos=reliable_qos(ri.ParameterEvent, depth=PARAMETER_EVENTS_DEPTH),
+        )
+        self._writers.append(self._param_events)
+        self.parameters = ParameterStore(
+            config, apply_setting, publish_event=self._param_events.write, node=self.fqn
+        )
         for h in self.parameters.handlers():
             serve(*h)
+        # rclcpp announces each parameter as it is declared; a subscriber not yet matched then
+        # misses it. The bridge holds this one event until a first subscriber has matched.
+        self._start_event: ri.ParameterEvent | None = self.parameters.event(
+            new=self.parameters.names()
+        )
+        self._start_deadline = time.monotonic() + START_EVENT_WAIT
+        self.bond: Bond | None = None
+        self._bond_writer: Any = None
+        self._bond_reader: Any = None
+        if s.lifecycle and s.bond_heartbeat_period > 0:
+            from cyclonedds.sub import DataReader
+
+            bond_topic = Topic(participant, dds_topic(s, BOND_TOPIC), ri.BondStatus)
+            self._bond_writer = DataWriter(
+                participant, bond_topic, qos=reliable_qos(ri.BondStatus, depth=5)
+            )
+            self._bond_reader = DataReader(
+                participant, bond_topic, qos=reliable_qos(ri.BondStatus, depth=100)
+            )
+            self._writers.append(self._bond_writer)
+            self._readers.append(self._bond_reader)
         self.lifecycle: LifecycleMachine | None = None
         self._events: Any = None
         if s.lifecycle:
@@ -145,7 +192,9 @@ class RosGraph:
             )
             self._writers.append(self._events)
             self.lifecycle = LifecycleMachine(
-                lifecycle_callbacks, self._events.write, initial=3 if active else 1
+                self._with_bond(lifecycle_callbacks),
+                self._events.write,
+                initial=3 if active else 1,
             )
             for h in self.lifecycle.handlers():
                 serve(*h)
@@ -159,9 +208,50 @@ class RosGraph:
             self._handler = RosoutHandler(logger_name(s.namespace, s.node_name))
             logger.addHandler(self._handler)
 
+    def _with_bond(self, callbacks: dict[str, Callable[[], str]]) -> dict[str, Callable[[], str]]:
+        """The node's lifecycle callbacks, with the bond formed on activate, broken on leaving."""
+        if self._bond_writer is None:
+            return callbacks
+        out = dict(callbacks)
+
+        def activate() -> str:
+            fn = callbacks.get("activate")
+            result = "success" if fn is None else fn()
+            if result == "success":
+                self._break_bond()
+                self.bond = Bond(
+                    self._node_name,
+                    self._bond_writer.write,
+                    heartbeat_period=self._settings.bond_heartbeat_period,
+                    now=time.monotonic(),
+                )
+                self._logger.info("bond %r to the lifecycle manager created", self._node_name)
+            return result
+
+        def leaving(name: str) -> Callable[[], str]:
+            def run() -> str:
+                fn = callbacks.get(name)
+                try:
+                    return "success" if fn is None else fn()
+                finally:
+                    self._break_bond()
+
+            return run
+
+        out["activate"] = activate
+        for name in ("deactivate", "shutdown", "error"):
+            out[name] = leaving(name)
+        return out
+
+    def _break_bond(self) -> None:
+        if self.bond is not None and not self.bond.gone:
+            self.bond.break_bond(time.monotonic())
+            self._logger.info("bond %r to the lifecycle manager broken", self._node_name)
+
     def conditions(self) -> list[Any]:
-        """The request readers (to wake the node's wait set when a request arrives)."""
-        return [srv.reader for srv in self.services]
+        """The readers that wake the node's wait set: service requests, the bond's statuses."""
+        extra = [] if self._bond_reader is None else [self._bond_reader]
+        return [*(srv.reader for srv in self.services), *extra]
 
     def announce(self, readers: list[Any], writers: list[Any]) -> None:
         """Publish ``ros_discovery_info`` with the node's own readers and writers added.
@@ -186,10 +276,30 @@ class RosGraph:
 
     def service(self, now: float) -> None:
         """Answer waiting requests and write queued log lines (from the node's loop thread)."""
+        if self._start_event is not None and (
+            self._param_events.get_matched_subscriptions() or now >= self._start_deadline
+        ):
+            event, self._start_event = self._start_event, None
+            self._param_events.write(event)
+        if self._bond_reader is not None:
+            for sample in self._bond_reader.take(N=100):
+                info = getattr(sample, "sample_info", None)
+                if self.bond is not None and (info is None or info.valid_data):
+                    self.bond.receive(sample)
         for srv in self.services:
             srv.poll(now)
+        if self.bond is not None:
+            self.bond.poll(time.monotonic())
         if self._handler is not None and self._rosout is not None:
             self._handler.flush_to(self._rosout)
+
+    def due(self) -> float | None:
+        """When :meth:`service` next has timed work (monotonic seconds), or None."""
+        times = [] if self.bond is None else [self.bond.due()]
+        if self._start_event is not None:
+            times.append(self._start_deadline)
+        known = [x for x in times if x is not None]
+        return min(known) if known else None
 
     @property
     def waiting(self) -> bool:
@@ -197,7 +307,9 @@ class RosGraph:
         return any(srv.waiting for srv in self.services)
 
     def close(self) -> None:
-        """Write the last log lines and detach the /rosout handler."""
+        """Break the bond, write the last log lines and detach the /rosout handler."""
+        with contextlib.suppress(Exception):
+            self._break_bond()
         if self._handler is not None:
             self._logger.removeHandler(self._handler)
             if self._rosout is not None:

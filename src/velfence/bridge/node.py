@@ -512,6 +512,9 @@ class BridgeNode:
                 waits.append(self._state_time + self._state_timeout - now)
             if end is not None:
                 waits.append(end - now)
+            due = None if self._graph is None else self._graph.due()  # --- ROS 2 graph hook
+            if due is not None:
+                waits.append(due - now)
             wait = max(0.0, min(waits))
             if wait > 0:
                 self._ws.wait(dds_duration(seconds=wait))

@@ -5,12 +5,14 @@ Every field of the ``bridge:`` section is a parameter, named as ROS 2 names nest
 a set is refused with that reason); the timing fields the node can change between two cycles
 are writable: :data:`LIVE` lists them. A set goes through :mod:`velfence._validate` with the
 bounds of the configuration file, and a refused value leaves the parameter as it was, with the
-reason in ``SetParametersResult.reason``.
+reason in ``SetParametersResult.reason``. Every accepted set is announced on
+``/parameter_events`` (``rcl_interfaces/msg/ParameterEvent``, ``changed_parameters``).
 """
 
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import Any
@@ -19,6 +21,7 @@ from velfence._docs import document_inits
 from velfence._validate import check_range
 from velfence.bridge import ros_interfaces as ri
 from velfence.bridge.config import BridgeConfig
+from velfence.bridge.msgs import Time
 from velfence.errors import VelfenceError
 
 __all__ = ["LIVE", "PARAMETER_TYPES", "ParameterStore"]
@@ -90,9 +93,20 @@ class ParameterStore:
             parameters; unset optional fields are left out).
         apply: Called with ``(name, value)`` for an accepted set of a :data:`LIVE` parameter,
             before the answer is written; it makes the node use the value.
+        publish_event: Called with the ``/parameter_events`` message of each accepted set
+            (one per parameter of ``set_parameters``, one for all of
+            ``set_parameters_atomically``, as rclcpp does).
+        node: The node's fully qualified name (``ParameterEvent.node``).
     """
 
-    def __init__(self, config: BridgeConfig, apply: Callable[[str, float], None]) -> None:
+    def __init__(
+        self,
+        config: BridgeConfig,
+        apply: Callable[[str, float], None],
+        *,
+        publish_event: Callable[[ri.ParameterEvent], None] | None = None,
+        node: str = "",
+    ) -> None:
         flat: dict[str, Any] = {}
         _flatten("", config.settings.model_dump(), flat)
         flat["domain_id"] = config.domain_id  # the resolved domain (ROS_DOMAIN_ID or 0)
@@ -106,6 +120,8 @@ class ParameterStore:
                 continue
             self._params[name] = _Param(value, typ, _DESCRIPTIONS.get(name, "bridge setting"))
         self._apply = apply
+        self._publish_event = publish_event
+        self._node = node
 
     def names(self) -> list[str]:
         """Every parameter's name, sorted."""
@@ -115,6 +131,23 @@ class ParameterStore:
         """A parameter's value (None for an unknown name)."""
         p = self._params.get(name)
         return None if p is None else p.value
+
+    def event(self, *, new: Iterable[str] = (), changed: Iterable[str] = ()) -> ri.ParameterEvent:
+        """The ``rcl_interfaces/msg/ParameterEvent`` for new and changed parameters, stamped now."""
+        ns = time.time_ns()
+        return ri.ParameterEvent(
+            stamp=Time(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000),
+            node=self._node,
+            new_parameters=[self._parameter(n) for n in new],
+            changed_parameters=[self._parameter(n) for n in changed],
+        )
+
+    def _parameter(self, name: str) -> ri.Parameter:
+        return ri.Parameter(name=name, value=self._value(name))
+
+    def _changed(self, names: list[str]) -> None:
+        if names and self._publish_event is not None:
+            self._publish_event(self.event(changed=names))
 
     # ---------------------------------------------------------------- values
     def _value(self, name: str) -> ri.ParameterValue:
@@ -228,6 +261,7 @@ class ParameterStore:
             reason, x = self._check(param)
             if x is not None:
                 self._set(str(param.name), x)
+                self._changed([str(param.name)])
             results.append(ri.SetParametersResult(successful=x is not None, reason=reason))
         return ri.SetParameters_Response(results=results)
 
@@ -243,6 +277,7 @@ class ParameterStore:
             checked.append((str(param.name), x))
         for name, x in checked:
             self._set(name, x)
+        self._changed([name for name, _ in checked])
         return ri.SetParametersAtomically_Response(result=ri.SetParametersResult(successful=True))
 
     def _set(self, name: str, x: float) -> None:

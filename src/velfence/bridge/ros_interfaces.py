@@ -32,7 +32,7 @@ except ModuleNotFoundError as exc:  # an optional dependency: name the extra
     raise missing(exc, what=__name__) from exc
 
 from velfence._docs import document_inits
-from velfence.bridge.msgs import Time
+from velfence.bridge.msgs import Header, Time
 
 if TYPE_CHECKING:  # what a sequence or array field holds, for the type checker
     from collections.abc import Sequence as sequence  # noqa: N813
@@ -57,6 +57,7 @@ else:
 
 __all__ = [
     "GRAPH_TYPES",
+    "BondStatus",
     "ChangeState_Request",
     "ChangeState_Response",
     "DescribeParameters_Request",
@@ -85,6 +86,7 @@ __all__ = [
     "NodeEntitiesInfo24",
     "Parameter",
     "ParameterDescriptor",
+    "ParameterEvent",
     "ParameterValue",
     "ParticipantEntitiesInfo16",
     "ParticipantEntitiesInfo24",
@@ -254,6 +256,17 @@ class ListParametersResult(IdlStruct, typename="rcl_interfaces.msg.dds_.ListPara
 
     names: sequence[str] = field(default_factory=list)
     prefixes: sequence[str] = field(default_factory=list)
+
+
+@dataclass
+class ParameterEvent(IdlStruct, typename="rcl_interfaces.msg.dds_.ParameterEvent_"):
+    """rcl_interfaces/msg/ParameterEvent (the ``/parameter_events`` topic)."""
+
+    stamp: Time = field(default_factory=Time)
+    node: str = ""
+    new_parameters: sequence[Parameter] = field(default_factory=list)
+    changed_parameters: sequence[Parameter] = field(default_factory=list)
+    deleted_parameters: sequence[Parameter] = field(default_factory=list)
 
 
 # ---------------------------------------------------------------- rcl_interfaces: services
@@ -512,6 +525,19 @@ class GetAvailableTransitions_Response(  # noqa: N801
     _rmw_guid: t.uint64 = 0
     _rmw_seq: t.int64 = 0
     available_transitions: sequence[TransitionDescription] = field(default_factory=list)
+
+
+# ---------------------------------------------------------------- bond (ros/bond_core, ros2)
+@dataclass
+class BondStatus(IdlStruct, typename="bond.msg.dds_.Status_"):
+    """bond/msg/Status (the ``bond`` topic of Nav2's lifecycle manager and its nodes)."""
+
+    header: Header = field(default_factory=Header)
+    id: str = ""
+    instance_id: str = ""
+    active: bool = False
+    heartbeat_timeout: t.float32 = 0.0
+    heartbeat_period: t.float32 = 0.0
 
 
 document_inits(globals())

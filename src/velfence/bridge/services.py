@@ -194,12 +194,13 @@ def _userdata(endpoint: Any) -> bytes | None:
     return bytes(qos[Policy.Userdata].data)
 
 
-def reliable_qos(typ: type, extra: bytes = b"") -> Any:
-    """Reliable, keep-last 10, volatile (ROS 2's default and services profile), typed USER_DATA.
+def reliable_qos(typ: type, extra: bytes = b"", *, depth: int = 10) -> Any:
+    """Reliable, keep-last, volatile (ROS 2's default and services profile), typed USER_DATA.
 
     Args:
         typ: The message class (its type hash goes into USER_DATA).
         extra: USER_DATA before the hash (``b"serviceid=…;"``).
+        depth: The history depth (10 as the default profile).
 
     Returns:
         A ``cyclonedds.core.Qos``.
@@ -209,7 +210,7 @@ def reliable_qos(typ: type, extra: bytes = b"") -> Any:
 
     return Qos(
         Policy.Reliability.Reliable(max_blocking_time=duration(milliseconds=100)),
-        Policy.History.KeepLast(10),
+        Policy.History.KeepLast(depth),
         Policy.Durability.Volatile,
         Policy.Userdata(extra + user_data(typ)),
         Policy.DataRepresentation(use_cdrv0_representation=True),
