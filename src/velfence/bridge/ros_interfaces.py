@@ -2,7 +2,8 @@
 
 Like :mod:`velfence.bridge.msgs`, each class carries the DDS type name ``rmw_cyclonedds_cpp``
 uses (``rcl_interfaces::msg::dds_::Log_``), with fields in the order of the ``.msg`` / ``.srv``
-definitions of ROS 2 Jazzy (rmw_dds_common, rcl_interfaces, lifecycle_msgs).
+definitions of ROS 2 Jazzy (rmw_dds_common, rcl_interfaces, lifecycle_msgs) and of
+ros/bond_core (``bond/msg/Status``, the bonds of Nav2).
 
 A service's request and reply travel on two topics, ``rq/<service>Request`` and
 ``rr/<service>Reply``, and rmw_cyclonedds writes a 16-byte header before the message's fields:
