@@ -9,7 +9,10 @@ from __future__ import annotations
 from types import SimpleNamespace
 from typing import Any
 
+import pytest
+
 from velfence.bridge.bond import CONNECT_TIMEOUT, DEAD_PUBLISH_PERIOD, DESTROY_WAIT, Bond
+from velfence.errors import InvalidParameter
 
 
 def _bond(now: float = 100.0) -> tuple[Bond, list[Any]]:
@@ -81,3 +84,15 @@ def test_no_sister_within_the_connect_timeout() -> None:
     assert b.gone
     b.poll(100.0 + CONNECT_TIMEOUT + 1.0)
     assert len(sent) == n
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [{"heartbeat_period": 0.0}, {"heartbeat_period": float("nan")}, {"heartbeat_period": "1"},
+     {"bond_id": 3}, {"now": float("inf")}],
+)  # fmt: skip
+def test_bad_arguments_refused(kwargs: dict[str, Any]) -> None:
+    args: dict[str, Any] = {"bond_id": "c", "heartbeat_period": 0.25, "now": 0.0, **kwargs}
+    bond_id = args.pop("bond_id")
+    with pytest.raises(InvalidParameter):
+        Bond(bond_id, lambda m: None, **args)

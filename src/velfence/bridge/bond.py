@@ -32,6 +32,7 @@ from collections.abc import Callable
 from typing import Any
 
 from velfence._docs import document_inits
+from velfence._validate import check_range, check_text
 from velfence.bridge import ros_interfaces as ri
 from velfence.bridge.msgs import Header, Time
 
@@ -55,6 +56,9 @@ class Bond:
         publish: Writes one :class:`~velfence.bridge.ros_interfaces.BondStatus`.
         heartbeat_period: Seconds between two heartbeats (> 0).
         now: ``time.monotonic()`` at the start [s]; the first heartbeat goes out at once.
+
+    Raises:
+        InvalidParameter: An id that is not a string, or a period not in (0, 3600] s.
     """
 
     def __init__(
@@ -65,13 +69,16 @@ class Bond:
         heartbeat_period: float,
         now: float,
     ) -> None:
-        self.id = bond_id
+        self.id = check_text("bond_id", bond_id)
         self.instance_id = str(uuid.uuid4())
         self.state = "waiting"
         self.sister: str | None = None
         self.sent = 0
         self._publish = publish
-        self._period = float(heartbeat_period)
+        self._period = check_range(
+            "heartbeat_period", heartbeat_period, low=0.0, high=3600.0, low_open=True, unit="s"
+        )
+        now = check_range("now", now, unit="s")
         self._connect_deadline = now + CONNECT_TIMEOUT
         self._next = now
         self._dying_until = 0.0
