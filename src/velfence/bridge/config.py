@@ -65,6 +65,10 @@ MAX_DEPTH = 100_000
 
 Seconds = Annotated[float, Strict(), Field(gt=0.0, le=3600.0, allow_inf_nan=False)]
 TopicName = Annotated[str, Strict(), Field(min_length=1, max_length=MAX_TOPIC_LENGTH)]
+#: A ROS 2 node name: letters, digits and _, not starting with a digit (rmw_validate_node_name).
+NodeName = Annotated[
+    str, Strict(), Field(min_length=1, max_length=200, pattern=r"^[A-Za-z_][A-Za-z0-9_]*$")
+]
 
 
 def _check_topic(name: str) -> str:
@@ -196,6 +200,17 @@ class BridgeSettings(StrictModel):
     command_frame_id: FrameId | None = None
     tf: TfIn = TfIn()
     # ---- end of ROS conventions ----
+    # --- The node in the ROS 2 graph (velfence.bridge.graph): its name in `ros2 node list`,
+    # the distro whose discovery layout it speaks, managed-node lifecycle, log lines on /rosout.
+    node_name: NodeName = "velfence_bridge"
+    ros_distro: Literal["jazzy", "humble"] = "jazzy"
+    lifecycle: Annotated[bool, Strict()] = False
+    rosout: Annotated[bool, Strict()] = True
+    # Nav2 bond (velfence.bridge.bond): heartbeat period [s] of the node's side while active
+    # (Nav2's node parameter of the same name and default); 0 disables the bond.
+    bond_heartbeat_period: Annotated[
+        float, Strict(), Field(ge=0.0, le=3600.0, allow_inf_nan=False)
+    ] = 0.25
 
     @field_validator("namespace")
     @classmethod

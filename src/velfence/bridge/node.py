@@ -372,6 +372,9 @@ class BridgeNode:
         self._last: dict[str, Any] = {"zone": "none", "active": (), "changed": False, "delta": 0.0}
         self._guard: Any = None
         self._participant: Any = None
+        # --- ROS 2 graph hook (velfence.bridge.graph): discovery, parameters, lifecycle, /rosout
+        self._graph: Any = None
+        self._active = not s.lifecycle  # a managed node publishes nothing until activated
 
     # ---------------------------------------------------------------- public, thread-safe
     @property
@@ -477,7 +480,9 @@ class BridgeNode:
 
         c = self.config
         s = c.settings
-        dp = DomainParticipant(c.domain_id)
+        from velfence.bridge.graph import participant_qos
+
+        dp = DomainParticipant(c.domain_id, qos=participant_qos())
         self._participant = dp
 
         def reader(key: str, typ: type, qos: QosSettings, what: str) -> Any:
@@ -529,6 +534,23 @@ class BridgeNode:
                 )
                 self._tf_readers[key] = rd
                 self._ws.attach(ReadCondition(rd, mask))
+        # --- ROS 2 graph hook: services, lifecycle, /rosout, then ros_discovery_info
+        from velfence.bridge.graph import RosGraph
+
+        self._graph = RosGraph(
+            c,
+            dp,
+            self._log,
+            apply_setting=self._apply_setting,
+            lifecycle_callbacks=self._lifecycle_callbacks(),
+            active=self._active,
+        )
+        for rd in self._graph.conditions():
+            self._ws.attach(ReadCondition(rd, mask))
+        self._graph.announce(
+            [self._cmd_reader, self._state_reader, *self._tf_readers.values()],
+            [self._out_writer, self._diag_writer],
+        )
         self._ready.set()
         self._log.info(
             "bridge up on DDS domain %d: %s (%s) -> %s (%s), state %s (%s), shaper %s",
@@ -544,6 +566,9 @@ class BridgeNode:
 
     def _close(self) -> None:
         self._ready.clear()
+        graph, self._graph = self._graph, None  # --- ROS 2 graph hook
+        if graph is not None:
+            graph.close()
         dp, self._participant = self._participant, None
         self._guard = None
         self._tf_readers = {}
@@ -594,6 +619,9 @@ class BridgeNode:
                 waits.append(self._state_time + self._state_timeout - now)
             if end is not None:
                 waits.append(end - now)
+            due = None if self._graph is None else self._graph.due()  # --- ROS 2 graph hook
+            if due is not None:
+                waits.append(due - now)
             wait = max(0.0, min(waits))
             if wait > 0:
                 self._ws.wait(dds_duration(seconds=wait))
@@ -601,14 +629,49 @@ class BridgeNode:
             urgent = self._drain_events()
             self._take_transforms()
             self._take_states()
-            self._take_commands()
+            if self._active:  # --- ROS 2 graph hook: an inactive managed node answers nothing
+                self._take_commands()
+            else:
+                self._take(self._cmd_reader, "command")
             now = time.monotonic()
             self._watchdog(now)
-            if self._period is not None:
+            if self._period is not None and self._active:
                 self._tick(now)
+            if self._graph is not None:  # --- ROS 2 graph hook: services and /rosout
+                self._graph.service(now)
             if self._diag_writer is not None and (urgent or now >= next_diag):
                 self._publish_diagnostics(now)
                 next_diag = now + self._diag_period
+
+    # ---------------------------------------------------------------- ROS 2 graph hooks
+    def _apply_setting(self, name: str, value: float) -> None:
+        """A live parameter set (``ros2 param set``), already validated; from the loop thread."""
+        attr = {
+            "incoming_command_timeout": "_cmd_timeout",
+            "state_timeout": "_state_timeout",
+            "watchdog_period": "_zero_period",
+            "diagnostics.period": "_diag_period",
+        }[name]
+        setattr(self, attr, float(value))
+        self._log.info("parameter %s set to %g s", name, value)
+
+    def _lifecycle_callbacks(self) -> dict[str, Callable[[], str]]:
+        def activate() -> str:
+            self._active = True
+            return "success"
+
+        def deactivate() -> str:
+            if self._active and self._published_any:
+                self._publish_zero(time.monotonic(), reason="stop")  # a last zero, as on stop
+            self._active = False
+            self._cmd_time = None  # no watchdog zeros while inactive
+            return "success"
+
+        def shutdown() -> str:
+            return deactivate()
+
+        return {"activate": activate, "deactivate": deactivate, "shutdown": shutdown,
+                "error": deactivate}  # fmt: skip
 
     def _drain_events(self) -> bool:
         with self._lock:

@@ -41,6 +41,7 @@ FIELD_TYPE_IDS: dict[str, int] = {
     "bool": 15,
     "byte": 16,
     "string": 17,
+    "bounded_string": 21,
 }
 _NESTED = 1
 _ARRAY, _BOUNDED_SEQUENCE, _SEQUENCE = 48, 96, 144
@@ -60,6 +61,10 @@ def _scalar(tp: Any) -> tuple[int, str, type | None]:
     """(type id, nested type name, nested class) of a non-collection annotation."""
     if tp is str:
         return FIELD_TYPE_IDS["string"], "", None
+    if typing.get_origin(tp) is typing.Annotated and type(typing.get_args(tp)[1]).__name__ == (
+        "bounded_str"
+    ):
+        return FIELD_TYPE_IDS["bounded_string"], "", None
     if tp is bool:
         return FIELD_TYPE_IDS["bool"], "", None
     if typing.get_origin(tp) is typing.Annotated:
@@ -71,8 +76,8 @@ def _scalar(tp: Any) -> tuple[int, str, type | None]:
     raise InvalidParameter(f"msg_type: a field type the type hash does not know: {tp!r}")
 
 
-def _field(name: str, tp: Any) -> tuple[dict[str, Any], type | None]:
-    increment = capacity = 0
+def _field(name: str, tp: Any, *, char: bool = False) -> tuple[dict[str, Any], type | None]:
+    increment = capacity = string_capacity = 0
     if typing.get_origin(tp) is typing.Annotated:
         meta = typing.get_args(tp)[1]
         kind = type(meta).__name__  # cyclonedds.idl.types.array / sequence
@@ -83,12 +88,16 @@ def _field(name: str, tp: Any) -> tuple[dict[str, Any], type | None]:
         elif kind == "sequence":
             increment, tp = _SEQUENCE, meta.subtype
     type_id, nested, cls = _scalar(tp)
+    if type_id == FIELD_TYPE_IDS["bounded_string"]:
+        string_capacity = int(typing.get_args(tp)[1].max_length)
+    if char and type_id == FIELD_TYPE_IDS["uint8"]:  # ROS char: one byte, its own type id
+        type_id = FIELD_TYPE_IDS["char"]
     return {
         "name": name,
         "type": {
             "type_id": type_id + increment,
             "capacity": capacity,
-            "string_capacity": 0,
+            "string_capacity": string_capacity,
             "nested_type_name": nested,
         },
     }, cls
@@ -101,10 +110,11 @@ def _individual(cls: type, seen: dict[str, dict[str, Any]]) -> dict[str, Any]:
     hints = typing.get_type_hints(cls, include_extras=True)
     fields = []
     nested: list[type] = []
+    chars = getattr(cls, "__ros_char_fields__", ())
     for fname, tp in hints.items():
-        if fname.startswith("_"):
+        if fname.startswith("_") or typing.get_origin(tp) is typing.ClassVar:
             continue
-        desc, sub = _field(fname, tp)
+        desc, sub = _field(fname, tp, char=fname in chars)
         fields.append(desc)
         if sub is not None:
             nested.append(sub)
