@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from setups import POLYGON
 
 from conftest import DOMAIN, LOOPBACK, SRC
 from velfence.bridge import (
@@ -27,7 +28,6 @@ from velfence.bridge import (
 from velfence.bridge.config import QosSettings
 from velfence.errors import InvalidParameter
 
-POLYGON = {"kind": "polygon", "corners": [[0, 0], [4, 0], [4, 3], [0, 3]], "buffer": 0.5}
 JOINTS = {
     "kind": "joint_limits",
     "joint_names": ["a", "b"],

@@ -9,31 +9,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from setups import POLYGON, RELIABLE_DEEP
+from setups import plane_bridge as _plane
+from setups import plane_topics as _topics
 
 from conftest import run_client
 from velfence.io.shaper_config import parse_shaper
-
-POLYGON = {"kind": "polygon", "corners": [[0, 0], [4, 0], [4, 3], [0, 3]], "buffer": 0.5}
-RELIABLE_DEEP = {"profile": "default", "depth": 5000}
-
-
-def _plane(bridge, **section):  # type: ignore[no-untyped-def]
-    base = {
-        "command_in": {"topic": "cmd_vel_in", "type": "twist_stamped", "qos": RELIABLE_DEEP},
-        "command_out": {"topic": "cmd_vel_out", "qos": RELIABLE_DEEP},
-        "state": {"topic": "pose", "type": "pose_stamped", "qos": "default"},
-        "command_frame": "world",
-    }
-    base.update(section)
-    return bridge(base, POLYGON)
-
-
-def _topics(b) -> dict[str, str]:  # type: ignore[no-untyped-def]
-    return {
-        "cmd_in": b.topic("cmd_vel_in"),
-        "cmd_out": b.topic("cmd_vel_out"),
-        "state": b.topic("pose"),
-    }
 
 
 def test_halt_publishes_exactly_n_zeros_then_nothing(bridge, tmp_path) -> None:

@@ -13,40 +13,12 @@ import time
 
 import numpy as np
 import pytest
+from setups import JOINTS, POLYGON, RELIABLE_DEEP
+from setups import plane_bridge as _plane
+from setups import plane_topics as _topics
 
 from conftest import run_client
 from velfence.io.shaper_config import parse_shaper
-
-POLYGON = {"kind": "polygon", "corners": [[0, 0], [4, 0], [4, 3], [0, 3]], "buffer": 0.5}
-JOINTS = {
-    "kind": "joint_limits",
-    "joint_names": ["j1", "j2", "j3"],
-    "lower": [-1.0, -2.0, -1.5],
-    "upper": [1.0, 2.0, 1.5],
-    "buffer": 0.2,
-}
-RELIABLE_DEEP = {"profile": "default", "depth": 5000}
-
-
-def _plane(bridge, **section):  # type: ignore[no-untyped-def]
-    base = {
-        "command_in": {"topic": "cmd_vel_in", "type": "twist_stamped", "qos": RELIABLE_DEEP},
-        "command_out": {"topic": "cmd_vel_out", "qos": RELIABLE_DEEP},
-        "state": {"topic": "pose", "type": "pose_stamped", "qos": "default"},
-        "command_frame": "world",
-        "diagnostics": {"topic": "diagnostics", "period": 0.2},
-    }
-    base.update(section)
-    return bridge(base, POLYGON)
-
-
-def _topics(b) -> dict[str, str]:  # type: ignore[no-untyped-def]
-    return {
-        "cmd_in": b.topic("cmd_vel_in"),
-        "cmd_out": b.topic("cmd_vel_out"),
-        "state": b.topic("pose"),
-        "diag": b.topic("diagnostics"),
-    }
 
 
 def _wait_received(b, n: int) -> None:  # type: ignore[no-untyped-def]

@@ -16,6 +16,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 from mcap.reader import make_reader
+from setups import POLYGON
 
 from conftest import DOMAIN, LOOPBACK, SRC, run_client
 from velfence.bridge import EXIT_CONFIG, EXIT_OK, FoxgloveView, view_hook
@@ -23,7 +24,6 @@ from velfence.bridge.foxglove import SCENE_TOPIC, STATUS_TOPIC, VELOCITY_TOPIC
 from velfence.errors import InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon
 
-POLYGON = {"kind": "polygon", "corners": [[0, 0], [4, 0], [4, 3], [0, 3]], "buffer": 0.5}
 DEEP = {"profile": "default", "depth": 1000}
 
 
