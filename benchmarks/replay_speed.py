@@ -66,9 +66,9 @@ def copy_with_rosbags(bag: Path, out: Path, plugin: Any) -> int:
     return n
 
 
-def _seconds(job: Callable[[], Any]) -> float:
+def _seconds(job: Callable[..., Any], *args: Any) -> float:
     t0 = time.perf_counter()
-    job()
+    job(*args)
     return time.perf_counter() - t0
 
 
@@ -91,8 +91,8 @@ def main(repeats: int = 50) -> None:
             base, rep = [], []
             for k in range(3):  # alternating, so a change of load hits both jobs
                 out_b, out_r = root / f"{name}_base{k}", root / f"{name}_replay{k}"
-                base.append(_seconds(lambda o=out_b: copy_with_rosbags(big, o, plugin)))
-                rep.append(_seconds(lambda o=out_r: replay(big, cfg, o)))
+                base.append(_seconds(copy_with_rosbags, big, out_b, plugin))
+                rep.append(_seconds(replay, big, cfg, out_r))
             b, r = statistics.median(base), statistics.median(rep)
             rows.append((name, s.storage, n, s.commands, b, r))
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")

@@ -25,16 +25,9 @@ from velfence._typing import FloatArray
 
 __all__ = ["CdrError", "CdrReader", "patch_doubles"]
 
-_LE = {
-    "I": struct.Struct("<I"),
-    "3d": struct.Struct("<3d"),
-    "7d": struct.Struct("<7d"),
-}
-_BE = {
-    "I": struct.Struct(">I"),
-    "3d": struct.Struct(">3d"),
-    "7d": struct.Struct(">7d"),
-}
+# uint32, three float64, seven float64: little- and big-endian
+_LE = (struct.Struct("<I"), struct.Struct("<3d"), struct.Struct("<7d"))
+_BE = (struct.Struct(">I"), struct.Struct(">3d"), struct.Struct(">7d"))
 
 
 class CdrError(ValueError):
@@ -75,16 +68,21 @@ class CdrReader:
 
     def u32(self) -> int:
         """A uint32 (a length or a count)."""
-        self.align(4)
-        self.need(4)
-        (v,) = self.st["I"].unpack_from(self.buf, self.pos)
-        self.pos += 4
+        pos = self.pos + (-self.pos & 3)  # the header is 4 bytes: alignment from 0 is the same
+        try:
+            (v,) = self.st[0].unpack_from(self.buf, pos)
+        except struct.error:
+            raise CdrError(
+                f"message of {len(self.buf)} bytes ends at a length (truncated?)"
+            ) from None
+        self.pos = pos + 4
         return int(v)
 
     def skip_u32s(self, k: int) -> None:
         """Skip ``k`` uint32 values."""
-        for _ in range(k):
-            self.u32()
+        self.pos += -self.pos & 3
+        self.need(4 * k)
+        self.pos += 4 * k
 
     def skip(self, n: int) -> None:
         """Skip ``n`` bytes."""
@@ -94,10 +92,19 @@ class CdrReader:
     def string(self) -> str:
         """A string (length with its NUL, bytes, NUL)."""
         n = self.u32()
-        self.need(n)
         start = self.pos
+        end = start + n
+        if end > len(self.buf):
+            raise CdrError(f"message of {len(self.buf)} bytes ends inside a string (truncated?)")
+        self.pos = end
+        return self.buf[start : max(end - 1, start)].decode("utf-8", "replace")
+
+    def skip_string(self) -> None:
+        """Skip a string."""
+        n = self.u32()
+        if self.pos + n > len(self.buf):
+            raise CdrError(f"message of {len(self.buf)} bytes ends inside a string (truncated?)")
         self.pos += n
-        return bytes(self.buf[start : start + max(n - 1, 0)]).decode("utf-8", "replace")
 
     def strings(self) -> list[str]:
         """A sequence of strings."""
@@ -107,9 +114,8 @@ class CdrReader:
 
     def header(self) -> None:
         """Skip a ``std_msgs/Header`` (stamp: int32, uint32; frame_id: string)."""
-        self.align(4)
-        self.skip(8)
-        self.string()
+        self.pos += (-self.pos & 3) + 8
+        self.skip_string()
 
     def doubles_at(self, count: int) -> tuple[int, FloatArray]:
         """``count`` float64 here: (their offset, a copy in native order)."""
@@ -129,19 +135,26 @@ class CdrReader:
 
     def vec3(self) -> tuple[int, tuple[float, float, float]]:
         """Three float64 (a ``Vector3`` or a ``Point``): (offset, values)."""
-        self.align(8)
-        self.need(24)
-        off = self.pos
-        v = self.st["3d"].unpack_from(self.buf, off)
-        self.pos += 24
+        off = self.pos + (-(self.pos - 4) & 7)
+        try:
+            v = self.st[1].unpack_from(self.buf, off)
+        except struct.error:
+            raise CdrError(
+                f"message of {len(self.buf)} bytes ends in a vector (truncated?)"
+            ) from None
+        self.pos = off + 24
         return off, v
 
     def pose(self) -> tuple[float, ...]:
         """A ``geometry_msgs/Pose``: position x, y, z and orientation x, y, z, w."""
-        self.align(8)
-        self.need(56)
-        v = self.st["7d"].unpack_from(self.buf, self.pos)
-        self.pos += 56
+        off = self.pos + (-(self.pos - 4) & 7)
+        try:
+            v = self.st[2].unpack_from(self.buf, off)
+        except struct.error:
+            raise CdrError(
+                f"message of {len(self.buf)} bytes ends in a pose (truncated?)"
+            ) from None
+        self.pos = off + 56
         return tuple(v)
 
 

@@ -374,7 +374,7 @@ def _joint_codec(cs: ConfiguredShaper, msgtype: str, joints: tuple[str, ...], to
         def read_array(raw: bytes) -> tuple[NDArray[np.float64], Any]:
             r = CdrReader(raw)
             for _ in range(r.u32()):  # layout.dim: label, size, stride
-                r.string()
+                r.skip_string()
                 r.skip_u32s(2)
             r.u32()  # layout.data_offset
             off, data = r.double_seq()
@@ -460,7 +460,7 @@ def _state_reader(
         r = CdrReader(raw)
         r.header()
         if odom:
-            r.string()  # child_frame_id
+            r.skip_string()  # child_frame_id
         px, py, pz, ox, oy, oz, ow = r.pose()
         xyz = np.array((px, py, pz)[:n], dtype=float)
         if not heading:
@@ -809,8 +809,9 @@ class _Job:
         read_cmd, read_state = self.codec.read, self.read_state
         max_age = None if self.settings.max_state_age is None else self.settings.max_state_age
         acc = _Accumulator(self, max_age)
-        counts: dict[str, int] = {c.topic: 0 for c in reader.connections}
-        first = True
+        step = max(total // 100, 1) if total else 2**62  # about every 1 %
+        per_conn: dict[int, int] = dict.fromkeys((c.id for c in reader.connections), 0)
+        topic = ""
         try:
             with writer:
                 ts = reader.typestore
@@ -818,38 +819,49 @@ class _Job:
                 cmd_conn = next(c for c in reader.connections if c.id in cmd_ids)
                 shaped_conn = _add(writer, ts, self.settings.output, cmd_conn)
                 window: list[tuple[Any, int, Any, int]] = []
-                nbytes, last_t, group = 0, None, []
+                nbytes, last_t = 0, -(2**63)
+                group: list[int] = []
                 held: tuple[int, NDArray[np.float64]] | None = None
-                for read, (conn, t, raw) in enumerate(reader.messages(), start=1):
-                    if first:
-                        acc.start_ns, first = int(t), False
-                    if last_t is not None and t != last_t:
-                        if t < last_t:
-                            raise InvalidParameter(
-                                f"bag: messages not in time order ({conn.topic} at {t} ns after "
-                                f"{last_t} ns)"
-                            )
-                        acc.hold(group, held)  # the commands of the last timestamp: their state
-                        group = []
-                        if len(window) >= _WINDOW_MESSAGES or nbytes >= _WINDOW_BYTES:
-                            acc.flush(window, writer, shaped_conn)
-                            window, nbytes = [], 0
-                    last_t = t
-                    cid = conn.id
-                    k = -1
-                    if cid in state_ids:
-                        held = (t, self._decode(read_state, raw, conn.topic))
-                        acc.states += 1
-                    elif cid in cmd_ids:
-                        v, token = self._decode(read_cmd, raw, conn.topic)
-                        k = acc.add(t, v, token)
-                        group.append(k)
-                    window.append((out[cid], t, raw, k))
-                    nbytes += len(raw)
-                    counts[conn.topic] += 1
-                    if total:
-                        report(read / total)
+                read = 0
+                try:
+                    for conn, t, raw in reader.messages():
+                        if t != last_t:
+                            if t < last_t:
+                                raise InvalidParameter(
+                                    f"bag: messages not in time order ({conn.topic} at {t} ns "
+                                    f"after {last_t} ns)"
+                                )
+                            if group:  # the commands of the last timestamp get their state
+                                acc.hold(group, held)
+                                group = []
+                            if len(window) >= _WINDOW_MESSAGES or nbytes >= _WINDOW_BYTES:
+                                acc.flush(window, writer, shaped_conn)
+                                window, nbytes = [], 0
+                            last_t = t
+                        cid = conn.id
+                        k = -1
+                        if cid in state_ids:
+                            topic = conn.topic
+                            held = (t, read_state(raw))
+                        elif cid in cmd_ids:
+                            topic = conn.topic
+                            v, token = read_cmd(raw)
+                            k = acc.add(t, v, token)
+                            group.append(k)
+                        window.append((out[cid], t, raw, k))
+                        nbytes += len(raw)
+                        per_conn[cid] += 1
+                        read += 1
+                        if read % step == 0:
+                            report(read / total)
+                except CdrError as exc:
+                    raise InvalidParameter(f"topic {topic}: malformed message ({exc})") from None
                 acc.hold(group, held)
+                counts: dict[str, int] = {}
+                for c in reader.connections:
+                    counts[c.topic] = counts.get(c.topic, 0) + per_conn[c.id]
+                acc.states = sum(per_conn[i] for i in state_ids)
+                acc.start_ns = int(reader.start_time) if read else 0
                 self._check(reader, acc, counts)
                 acc.flush(window, writer, shaped_conn)
         except BaseException:
@@ -857,13 +869,6 @@ class _Job:
                 shutil.rmtree(target, ignore_errors=True)
             raise
         return acc.result()
-
-    @staticmethod
-    def _decode(fn: Callable[[bytes], Any], raw: Any, topic: str) -> Any:
-        try:
-            return fn(raw)
-        except CdrError as exc:
-            raise InvalidParameter(f"topic {topic}: malformed message ({exc})") from None
 
     def _check(self, reader: Any, acc: _Accumulator, counts: Mapping[str, int]) -> None:
         s = self.settings
@@ -917,7 +922,7 @@ class _Accumulator:
         self.tokens: list[Any] = []
         self.held: list[tuple[int, NDArray[np.float64]] | None] = []
         self.done = 0  # commands shaped and written
-        self.parts: list[tuple[NDArray[np.float64], ...]] = []
+        self.parts: list[tuple[NDArray[Any], ...]] = []
 
     def add(self, t: int, v: NDArray[np.float64], token: Any) -> int:
         self.t.append(t)
@@ -966,8 +971,8 @@ class _Accumulator:
                 P[i] = h[1]
                 if self.max_age_ns is not None and times[i] - h[0] > self.max_age_ns:
                     age_ok[i] = False
-        finite_v = np.isfinite(V).all(axis=1)
-        finite_p = np.isfinite(P).all(axis=1)
+        finite_v = np.asarray(np.isfinite(V).all(axis=1), dtype=bool)
+        finite_p = np.asarray(np.isfinite(P).all(axis=1), dtype=bool)
         no_state = ~has
         stale = has & ~age_ok
         invalid = has & age_ok & ~(finite_v & finite_p)
@@ -989,11 +994,11 @@ class _Accumulator:
                 pass  # row by row below: the rows the shaper refuses are zeroed
             else:
                 shaped[rows] = Y
-                for j, i in enumerate(rows):
+                for j, i in enumerate(rows.tolist()):
                     out[i] = (Y[j], None)
                 done = True
         if not done:
-            for i in rows:
+            for i in rows.tolist():
                 q, v = P[i, :n], V[i]
                 try:
                     if self.heading:  # body frame -> the pose's frame: turn by the heading
