@@ -62,6 +62,7 @@ __all__ = [
     "STORAGES",
     "ReplaySettings",
     "ReplaySummary",
+    "load_replay_config",
     "replay",
 ]
 
@@ -316,6 +317,26 @@ def _config(config: Any) -> tuple[ConfiguredShaper, ReplaySettings]:
     if extra:
         raise InvalidParameter(f"config {name}: unknown section(s) {extra}")
     return parse_shaper(doc["shaper"]), _settings(doc["replay"], "replay")
+
+
+def load_replay_config(
+    config: str | Path | Mapping[str, Any],
+) -> tuple[ConfiguredShaper, ReplaySettings]:
+    """Read and check a replay configuration without a bag (what :func:`replay` reads first).
+
+    ``velfence replay`` with several bags calls it once, so a bad file is one error, not one per
+    bag.
+
+    Args:
+        config: A YAML file with ``shaper:`` and ``replay:`` sections, or that mapping.
+
+    Returns:
+        The configured shaper and the ``replay:`` section.
+
+    Raises:
+        InvalidParameter: a missing or unknown section, or a bad field (named).
+    """
+    return _config(config)
 
 
 # --------------------------------------------------------------------------- messages
