@@ -901,12 +901,16 @@ class _Job:
         elif not counts.get(s.state_topic):
             why = f"no message on {s.state_topic}"
         elif acc.paired == 0:
-            z = acc.zeroed
+            before = sum(1 for h in acc.held if h is None)
             why = (
-                f"no command paired with a state: of {acc.count} commands, {z['no_state']} came "
-                f"before the first state and {z['stale']} had a state older than "
-                f"max_state_age={s.max_state_age} s"
+                f"no command paired with a state: of {acc.count} commands, {before} came "
+                "before the first state"
             )
+            if s.max_state_age is not None:
+                why += (
+                    f" and {acc.count - before} had a state older than "
+                    f"max_state_age={s.max_state_age} s"
+                )
         if why is not None:
             raise NothingToReplay(
                 f"nothing to replay in bag {self.path}: "
