@@ -183,6 +183,25 @@ def test_joint_state_and_jog(little: bool) -> None:
         )
         with pytest.raises(InvalidParameter, match="topic /jog: expected a JointJog"):
             codec.read(_encode(with_displacements, JOINT_JOG, little))
+    # The readers remember each list of names they met: a new order is read anew.
+    for names in (["b", "c", "a"], ["c", "a", "b"], ["a", "b", "c", "gripper"]):
+        js = T[JOINT_STATE](
+            header=_header("x"),
+            name=names,
+            position=np.array([{"a": 0.1, "b": 0.2, "c": 0.3, "gripper": 9.0}[n] for n in names]),
+            velocity=np.zeros(0),
+            effort=np.zeros(0),
+        )
+        np.testing.assert_array_equal(read_state(_encode(js, JOINT_STATE, little)), [0.1, 0.2, 0.3])
+    short = T[JOINT_STATE](
+        header=_header("x"),
+        name=["a", "c"],
+        position=np.zeros(2),
+        velocity=np.zeros(0),
+        effort=np.zeros(0),
+    )
+    with pytest.raises(InvalidParameter, match=r"topic /js: expected a JointState.*\['a', 'c'\]"):
+        read_state(_encode(short, JOINT_STATE, little))
 
 
 @pytest.mark.parametrize("little", ENDIAN)

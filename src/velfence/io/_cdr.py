@@ -112,6 +112,30 @@ class CdrReader:
         self.need(4 * n)  # each string has at least its length
         return [self.string() for _ in range(n)]
 
+    def strings_key(self) -> tuple[bytes, int]:
+        """Skip a sequence of strings: (its bytes, from its count on, as a cache key; its offset).
+
+        The key is taken from a 4-aligned offset, so equal keys hold equal strings; a reader
+        caches what it derives from the names by key and decodes them (:meth:`strings` at the
+        offset) only for a key it has not seen.
+        """
+        start = self.pos + (-self.pos & 3)
+        n = self.u32()
+        self.need(4 * n)
+        buf, pos, unpack = self.buf, self.pos, self.st[0].unpack_from
+        try:
+            for _ in range(n):
+                pos += -pos & 3
+                pos += 4 + unpack(buf, pos)[0]
+        except struct.error:
+            raise CdrError(
+                f"message of {len(buf)} bytes ends inside a string (truncated?)"
+            ) from None
+        if pos > len(buf):
+            raise CdrError(f"message of {len(buf)} bytes ends inside a string (truncated?)")
+        self.pos = pos
+        return bytes(buf[start:pos]), start
+
     def header(self) -> None:
         """Skip a ``std_msgs/Header`` (stamp: int32, uint32; frame_id: string)."""
         self.pos += (-self.pos & 3) + 8

@@ -411,33 +411,38 @@ def _joint_codec(cs: ConfiguredShaper, msgtype: str, joints: tuple[str, ...], to
 
         return _Codec(joints, "rad/s", read_array, write_array)
 
-    orders: dict[tuple[str, ...], NDArray[np.intp]] = {}
+    orders: dict[bytes, tuple[tuple[str, ...], NDArray[np.intp] | None]] = {}
 
-    def order(names: tuple[str, ...], velocities: int, displacements: int) -> NDArray[np.intp]:
-        idx = orders.get(names)
-        if idx is None or velocities != len(names):
-            if sorted(names) != sorted(joints) or velocities != len(names):
-                raise InvalidParameter(
-                    f"topic {topic}: expected a JointJog with velocities for the joints "
-                    f"{list(joints)}, got joint_names {show(list(names), 120)} with "
-                    f"{velocities} velocities"
-                )
-            idx = orders[names] = np.array([names.index(j) for j in joints], dtype=np.intp)
+    def order(r: CdrReader, key: bytes, at: int) -> tuple[tuple[str, ...], NDArray[np.intp] | None]:
+        known = orders.get(key)
+        if known is None:
+            end, r.pos = r.pos, at
+            names = tuple(r.strings())
+            r.pos = end
+            idx = None
+            if sorted(names) == sorted(joints):
+                idx = np.array([names.index(j) for j in joints], dtype=np.intp)
+            known = orders[key] = (names, idx)
+        return known
+
+    def read_jog(raw: bytes) -> tuple[NDArray[np.float64], Any]:
+        r = CdrReader(raw)
+        r.header()
+        names, idx = order(r, *r.strings_key())
+        displacements = r.u32()
+        r.doubles_at(displacements)
+        off, vel = r.double_seq()
+        if idx is None or vel.size != len(names):
+            raise InvalidParameter(
+                f"topic {topic}: expected a JointJog with velocities for the joints "
+                f"{list(joints)}, got joint_names {show(list(names), 120)} with "
+                f"{vel.size} velocities"
+            )
         if displacements:
             raise InvalidParameter(
                 f"topic {topic}: a JointJog with displacements is a position command; only "
                 "velocity jogs are replayed"
             )
-        return idx
-
-    def read_jog(raw: bytes) -> tuple[NDArray[np.float64], Any]:
-        r = CdrReader(raw)
-        r.header()
-        names = tuple(r.strings())
-        displacements = r.u32()
-        r.doubles_at(displacements)
-        off, vel = r.double_seq()
-        idx = order(names, vel.size, displacements)
         return vel[idx], (off, idx)
 
     def write_jog(raw: bytes, token: Any, v: Any, _: Any) -> bytes:
@@ -455,23 +460,28 @@ def _state_reader(
 ) -> Callable[[bytes], NDArray[np.float64]]:
     n = cs.state_dim
     if msgtype == JOINT_STATE:
-        picks: dict[tuple[str, ...], NDArray[np.intp]] = {}
+        picks: dict[bytes, tuple[tuple[str, ...], NDArray[np.intp] | None]] = {}
 
         def read_joints(raw: bytes) -> NDArray[np.float64]:
             r = CdrReader(raw)
             r.header()
-            names = tuple(r.strings())
-            _, pos = r.double_seq()
-            idx = picks.get(names)
-            if idx is None or pos.shape != (len(names),):
+            key, at = r.strings_key()
+            known = picks.get(key)
+            if known is None:
+                end, r.pos = r.pos, at
+                names = tuple(r.strings())
+                r.pos = end
                 absent = [j for j in joints if j not in names]
-                if absent or pos.shape != (len(names),):
-                    raise InvalidParameter(
-                        f"topic {topic}: expected a JointState with positions of the joints "
-                        f"{list(joints)}, got names {show(list(names), 120)} with {pos.size} "
-                        "positions"
-                    )
-                idx = picks[names] = np.array([names.index(j) for j in joints], dtype=np.intp)
+                idx = None if absent else np.array([names.index(j) for j in joints], dtype=np.intp)
+                known = picks[key] = (names, idx)
+            names, idx = known
+            _, pos = r.double_seq()
+            if idx is None or pos.shape != (len(names),):
+                raise InvalidParameter(
+                    f"topic {topic}: expected a JointState with positions of the joints "
+                    f"{list(joints)}, got names {show(list(names), 120)} with {pos.size} "
+                    "positions"
+                )
             return pos[idx]
 
         return read_joints
