@@ -1,11 +1,16 @@
 """Replay a recorded rosbag2 through a configured shaper (``velfence replay``; ``docs/replay.md``).
 
-A bag (a rosbag2 directory with ``metadata.yaml``, MCAP or sqlite3 storage, read by ``rosbags``)
-holds a command topic and a state topic. Each recorded command, in time order, is shaped with the
-latest state recorded at or before it (zero-order hold, by the bag's receive time); the shaped
-command is written, as a message of the command's own type with the command's timestamp, to a new
-bag beside a copy of every original topic. The replay is open loop: the state is what was
-recorded, not what the shaped command would have produced.
+A bag (a rosbag2 directory with ``metadata.yaml`` and MCAP or sqlite3 storage, a folder holding
+one ``.mcap`` or ``.db3`` file, or such a file, as Foxglove's and the ``mcap`` library's writers
+leave them; read by ``rosbags``) holds a command topic and a state topic. Each recorded command,
+in time order, is shaped with the latest state recorded at or before it (zero-order hold, by the
+bag's receive time); the shaped command is written, as a message of the command's own type with
+the command's timestamp, to a new bag beside a copy of every original topic. The replay is open
+loop: the state is what was recorded, not what the shaped command would have produced.
+
+The bag is read once; the command's and the state's fields are read from the CDR bytes
+(:mod:`velfence.io._cdr`) and a shaped command is the command's bytes with the velocities
+patched in. A bag with nothing to replay raises :class:`~velfence.errors.NothingToReplay`.
 
 A command with no state before it, with a state older than ``max_state_age``, or with a non-finite
 value is written as zero and counted in :class:`ReplaySummary`.
@@ -611,7 +616,11 @@ def _bag_source(bag: Any) -> _Source:
         if compressed or not paths or not all(_probe(f, Path.is_file) for f in paths):
             paths = [p]  # rosbags' directory reader: decompression, and its own errors
         return _Source(p, paths, str(storage), info if isinstance(info, Mapping) else None)
-    found = sorted(f for f in p.iterdir() if f.suffix in _SUFFIXES and _probe(f, Path.is_file))
+    try:
+        entries = list(p.iterdir())
+    except OSError as exc:  # a folder we may not list
+        raise InvalidParameter(f"bag: cannot list the folder {show(str(p), 200)} ({exc})") from None
+    found = sorted(f for f in entries if f.suffix in _SUFFIXES and _probe(f, Path.is_file))
     if len(found) != 1:
         raise InvalidParameter(
             f"bag: expected {what}, got the folder {show(str(p), 200)} with no metadata.yaml "
