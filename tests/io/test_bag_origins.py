@@ -297,6 +297,7 @@ def test_every_origin_gives_the_same_shaped_commands(
     assert (s.commands, s.states, s.zeroed_no_state, s.zeroed) == (30, 30, zeroed, zeroed)
     np.testing.assert_array_equal(s.commanded, cmds)
     np.testing.assert_array_equal(s.shaped, shaped)  # bit for bit
+    np.testing.assert_allclose(s.times, 0.1 * np.arange(30), rtol=0, atol=1e-12)
     assert s.changed > 10  # the wall is in the way: the run is worth replaying
     got = _read_mcap(tmp_path / "out")
     assert len(got["/cmd_vel"]) == len(got["/odom"]) == len(got["/cmd_vel_shaped"]) == 30
