@@ -49,7 +49,10 @@ with --strict;
 
 2: bad input (an option, a config file, an unwritable --out) or a missing extra;
 
-3: velfence bridge only, the DDS layer failed."""
+3: velfence bridge only, the DDS layer failed;
+
+4: velfence replay only, a bag holds nothing to replay (no message, no command or state topic,
+no command with a usable state)."""
 
 app = typer.Typer(
     help="Keep velocity-controlled robots inside their safe sets by shaping commanded velocity.",
