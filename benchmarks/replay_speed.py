@@ -1,20 +1,32 @@
-"""Time ``velfence.io.replay`` per 1000 input messages (docs/replay.md, "How it is checked").
+"""Time ``velfence.io.replay`` beside a plain rosbags copy of the same bag (docs/replay.md).
 
 Usage: ``python benchmarks/replay_speed.py [REPEATS]``. Each example bag's messages are repeated
 REPEATS times (default 50) into a bigger bag of the same storage (MCAP for ``mobile_base``, sqlite3
-for ``arm_jog``) in a temporary folder; after one warm-up replay (imports), the median of three
-replays is printed. Needs the ``ros`` extra.
+for ``arm_jog``) in a temporary folder. Two jobs run on it, alternating, three times each after one
+warm-up of each (imports, caches):
+
+* **baseline**: rosbags reads every message, decodes it with the typestore, encodes it again and
+  writes it with rosbags' ``Writer`` (same storage, default settings) to a new bag;
+* **replay**: ``velfence.io.replay`` with the example's ``replay.yaml`` (reads, shapes, writes
+  every original message plus the shaped commands).
+
+The medians are printed as one Markdown table: messages, seconds, messages per second and the
+ratio ``baseline seconds / replay seconds`` (>= 1: the replay is at least as fast as the plain
+copy). Needs the ``ros`` extra.
 """
 
 from __future__ import annotations
 
+import os
 import statistics
 import sys
 import tempfile
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from rosbags.highlevel import AnyReader
 from rosbags.rosbag2 import StoragePlugin, Writer
 
 from velfence.io import make_example_bag, replay
@@ -37,8 +49,32 @@ def _big(path: Path, base: list[tuple[str, str, int, Any]], repeats: int, plugin
     return len(base) * repeats
 
 
+def copy_with_rosbags(bag: Path, out: Path, plugin: Any) -> int:
+    """The baseline: read, decode, re-encode and write every message with rosbags alone."""
+    n = 0
+    with AnyReader([bag], default_typestore=_typestore(None)) as reader:
+        ts = reader.typestore
+        with Writer(out, version=9, storage_plugin=plugin) as writer:
+            conns = {
+                c.id: writer.add_connection(c.topic, c.msgtype, typestore=ts)
+                for c in reader.connections
+            }
+            for conn, t, raw in reader.messages():
+                msg = ts.deserialize_cdr(raw, conn.msgtype)
+                writer.write(conns[conn.id], t, ts.serialize_cdr(msg, conn.msgtype))
+                n += 1
+    return n
+
+
+def _seconds(job: Callable[..., Any], *args: Any) -> float:
+    t0 = time.perf_counter()
+    job(*args)
+    return time.perf_counter() - t0
+
+
 def main(repeats: int = 50) -> None:
     ts = _typestore(None)
+    rows = []
     with tempfile.TemporaryDirectory() as tmp:
         root = Path(tmp)
         cases = [
@@ -47,19 +83,28 @@ def main(repeats: int = 50) -> None:
         ]
         for name, msgs, plugin in cases:
             ex = make_example_bag(name, root / name)
-            replay(ex / "bag", ex / "replay.yaml", root / f"{name}_warm")
-            n = _big(root / f"{name}_big", msgs, repeats, plugin)
-            runs = []
-            for k in range(3):
-                t0 = time.perf_counter()
-                s = replay(root / f"{name}_big", ex / "replay.yaml", root / f"{name}_out{k}")
-                runs.append(time.perf_counter() - t0)
-            med = statistics.median(runs)
-            print(
-                f"{name} ({s.storage}): {n} messages in, {s.commands} commands, {s.messages} "
-                f"written: median {med:.3f} s = {1e3 * med / n * 1000:.1f} ms per 1000 input "
-                "messages"
-            )
+            big = root / f"{name}_big"
+            n = _big(big, msgs, repeats, plugin)
+            cfg = ex / "replay.yaml"
+            copy_with_rosbags(big, root / f"{name}_base_warm", plugin)
+            s = replay(big, cfg, root / f"{name}_replay_warm")
+            base, rep = [], []
+            for k in range(3):  # alternating, so a change of load hits both jobs
+                out_b, out_r = root / f"{name}_base{k}", root / f"{name}_replay{k}"
+                base.append(_seconds(copy_with_rosbags, big, out_b, plugin))
+                rep.append(_seconds(replay, big, cfg, out_r))
+            b, r = statistics.median(base), statistics.median(rep)
+            rows.append((name, s.storage, n, s.commands, b, r))
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    print(f"{os.cpu_count()} CPUs, load average {load:.1f} (1 min) at the end\n")
+    print("| bag | storage | messages in | commands | job | seconds | msgs/s | ratio |")
+    print("|---|---|---:|---:|---|---:|---:|---:|")
+    for name, storage, n, cmds, b, r in rows:
+        print(f"| {name} | {storage} | {n} | {cmds} | rosbags copy | {b:.3f} | {n / b:,.0f} | |")
+        print(
+            f"| {name} | {storage} | {n} | {cmds} | velfence replay | {r:.3f} | {n / r:,.0f} "
+            f"| {b / r:.2f} |"
+        )
 
 
 if __name__ == "__main__":

@@ -6,7 +6,14 @@ expected, what was got, and what to do about it.
 
 from __future__ import annotations
 
-__all__ = ["InvalidGeometry", "InvalidInput", "InvalidParameter", "MissingExtra", "VelfenceError"]
+__all__ = [
+    "InvalidGeometry",
+    "InvalidInput",
+    "InvalidParameter",
+    "MissingExtra",
+    "NothingToReplay",
+    "VelfenceError",
+]
 
 
 class VelfenceError(Exception):
@@ -31,4 +38,14 @@ class MissingExtra(VelfenceError, ModuleNotFoundError):
     Raised when a module of velfence that needs the package is imported, or when a call needs it
     (``pip install 'velfence[app]'`` and the like; ``docs/install.md`` has the table). It is an
     :class:`ImportError` too, so ``except ImportError`` around an optional import keeps working.
+    """
+
+
+class NothingToReplay(InvalidParameter):
+    """A bag holds nothing a replay can shape.
+
+    No messages, no command or state messages, or no command with a usable state. The message
+    names what the bag holds (topics, types, counts) and what was looked for. It is
+    an :class:`InvalidParameter` too (the bag is the argument at fault), so code that caught the
+    missing-topic error before keeps catching it; ``velfence replay`` exits with code 4 on it.
     """

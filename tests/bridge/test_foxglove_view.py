@@ -1,7 +1,8 @@
 """velfence.bridge.foxglove: the live view seen by a real WebSocket client, and the MCAP file.
 
 The client is the ``websockets`` library speaking Foxglove's ``foxglove.sdk.v1`` subprotocol on
-127.0.0.1 (port 0: a free port). Protobuf messages are decoded with the schema the server
+127.0.0.1 (port 0: a free port), or offering only the legacy name ``foxglove.websocket.v1``, which
+the view's front admits. Protobuf messages are decoded with the schema the server
 advertises (``_protowire``, independent of foxglove-sdk); MCAP files are read with the ``mcap``
 package's reader.
 """
@@ -9,6 +10,7 @@ package's reader.
 from __future__ import annotations
 
 import base64
+import contextlib
 import json
 import math
 import struct
@@ -179,11 +181,74 @@ def test_websocket_client_sees_channels_and_decodes_what_was_published(tmp_path:
         np.testing.assert_allclose(tip, v / np.linalg.norm(v), atol=1e-12)
 
 
-def test_the_sdk_speaks_foxglove_sdk_v1_not_the_legacy_subprotocol() -> None:
+@pytest.mark.parametrize(
+    "offered",
+    [["foxglove.websocket.v1"], ["other.v9", "foxglove.websocket.v1"], [PROTOCOL, "x"]],
+)
+def test_a_legacy_client_gets_server_info_advertisements_and_data(offered: list[str]) -> None:
+    # A client of the Foxglove WebSocket protocol before the SDK offers only its legacy name:
+    # it is admitted with that name and speaks the same protocol (the server's own name
+    # when it is offered).
+    with FoxgloveView(port=0, fence=SQUARE) as view:
+        assert view.url is not None
+        with connect(view.url, subprotocols=offered, open_timeout=5) as ws:
+            assert ws.subprotocol == (PROTOCOL if PROTOCOL in offered else "foxglove.websocket.v1")
+            info = json.loads(ws.recv(timeout=5))
+            assert info["op"] == "serverInfo"
+            assert info["name"] == "velfence"
+            adv = json.loads(ws.recv(timeout=5))
+            assert adv["op"] == "advertise"
+            chans = {c["topic"]: c for c in adv["channels"]}
+            assert set(chans) == {SCENE_TOPIC, STATUS_TOPIC, VELOCITY_TOPIC}
+            assert chans[STATUS_TOPIC]["encoding"] == "json"
+            ws.send(
+                json.dumps(
+                    {
+                        "op": "subscribe",
+                        "subscriptions": [{"id": 7, "channelId": chans[STATUS_TOPIC]["id"]}],
+                    }
+                )
+            )
+            status = None
+            for k in range(200):  # the subscription reaches the server asynchronously
+                view.publish(_step(k))
+                with contextlib.suppress(TimeoutError):
+                    msg = ws.recv(timeout=0.05)
+                    assert isinstance(msg, bytes)
+                    assert msg[0] == 0x01
+                    assert struct.unpack_from("<I", msg, 1)[0] == 7
+                    status = json.loads(msg[13:])
+                    break
+            assert status is not None, "no message data after 200 steps"
+            assert status["zone"] == "edge"
+
+
+def test_a_client_offering_neither_name_is_refused_by_the_sdk() -> None:
     with FoxgloveView(port=0) as view:
         assert view.url is not None
-        with pytest.raises(InvalidStatus):
-            connect(view.url, subprotocols=["foxglove.websocket.v1"], open_timeout=5)
+        with pytest.raises(InvalidStatus) as err:
+            connect(view.url, subprotocols=["foxglove.websocket.v2"], open_timeout=5)
+        assert err.value.response.status_code == 400
+
+
+def test_the_front_renames_only_the_legacy_offer() -> None:
+    from velfence.bridge._foxglove_front import rename_request, rename_response
+
+    req = (
+        b"GET / HTTP/1.1\r\nHost: x\r\nSec-WebSocket-Key: k\r\n"
+        b"sec-websocket-protocol: a, foxglove.websocket.v1\r\n\r\n"
+    )
+    head, legacy = rename_request(req)
+    assert legacy
+    assert head.endswith(b"Sec-WebSocket-Protocol: foxglove.sdk.v1\r\n\r\n")
+    assert b"a, foxglove.websocket.v1" not in head
+    assert b"Sec-WebSocket-Key: k" in head
+    both = req.replace(b"a, ", b"foxglove.sdk.v1, ")
+    assert rename_request(both) == (both, False)
+    ok = b"HTTP/1.1 101 Switching Protocols\r\nSec-WebSocket-Protocol: foxglove.sdk.v1\r\n\r\n"
+    assert rename_response(ok).endswith(b"Sec-WebSocket-Protocol: foxglove.websocket.v1\r\n\r\n")
+    refused = b"HTTP/1.1 400 Bad Request\r\nContent-Length: 3\r\n\r\n"
+    assert rename_response(refused) == refused
 
 
 def test_closing_stops_the_server() -> None:

@@ -112,5 +112,6 @@ SPECS.update(
             )
         ),
         "io.ReplaySummary": C(record="a record replay builds"),
+        "io.load_replay_config": F(lambda: call(dict(_REPLAY)), types={"config": "object"}),
     }
 )

@@ -450,12 +450,15 @@ def test_config_file_needs_both_sections(joint_bag: Path, tmp_path: Path) -> Non
 def test_malformed_bags_are_refused(examples: Path, tmp_path: Path) -> None:
     src = examples / "mobile_base"
     cfg = src / "replay.yaml"
-    with pytest.raises(InvalidParameter, match=r"rosbag2 directory with a metadata\.yaml"):
+    with pytest.raises(InvalidParameter, match=r"no metadata\.yaml and 0 \.mcap/\.db3 files"):
         replay(tmp_path, cfg, tmp_path / "out")
+    (tmp_path / "notes.txt").write_text("not a bag\n")
+    with pytest.raises(InvalidParameter, match=r"got the file .*notes\.txt"):
+        replay(tmp_path / "notes.txt", cfg, tmp_path / "out")
     broken = tmp_path / "broken"
     shutil.copytree(src / "bag", broken)
     (broken / "metadata.yaml").write_text("rosbag2_bagfile_information: {version: 9}\n")
-    with pytest.raises(InvalidParameter, match=f"bag {broken}: cannot read it"):
+    with pytest.raises(InvalidParameter, match=f"bag {broken}: unreadable metadata.yaml"):
         replay(broken, cfg, tmp_path / "out")
     truncated = tmp_path / "truncated"
     shutil.copytree(src / "bag", truncated)

@@ -133,11 +133,11 @@ def test_bag_metadata_goes_through_the_reader(tmp_path: Path) -> None:
         encoding="utf-8",
     )
     with pytest.raises(InvalidParameter) as exc:
-        bags._storage_of(bag)
+        bags._bag_source(bag)
     _line_error(exc, meta, 3)
     assert "bag metadata file" in str(exc.value)
     meta.write_text("rosbag2_bagfile_information:\n  storage_identifier: mcap\n", encoding="utf-8")
-    assert bags._storage_of(bag) == "mcap"
+    assert bags._bag_source(bag).storage == "mcap"
 
 
 def test_the_reader_names_the_file_it_cannot_read(tmp_path: Path) -> None:

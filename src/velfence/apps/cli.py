@@ -49,7 +49,10 @@ with --strict;
 
 2: bad input (an option, a config file, an unwritable --out) or a missing extra;
 
-3: velfence bridge only, the DDS layer failed."""
+3: velfence bridge only, the DDS layer failed;
+
+4: velfence replay only, a bag holds nothing to replay (no message, no command or state topic,
+no command with a usable state)."""
 
 app = typer.Typer(
     help="Keep velocity-controlled robots inside their safe sets by shaping commanded velocity.",
@@ -83,10 +86,10 @@ def _stdout_console(**kwargs: Any) -> Console:
     return Console(width=None if sys.stdout.isatty() else PIPE_WIDTH, **kwargs)
 
 
-def _fail(msg: str) -> typer.Exit:
+def _fail(msg: str, code: int = 2) -> typer.Exit:
     # soft_wrap: the error stays on one line however narrow the terminal is.
     Console(stderr=True, soft_wrap=True).print(f"[bold red]error:[/] {escape(msg)}")
-    return typer.Exit(code=2)
+    return typer.Exit(code=code)
 
 
 QuietOption = Annotated[
@@ -700,39 +703,90 @@ def study(
     _summary(console, out, artifacts, verdict)
 
 
+#: ``velfence replay``'s exit code when a bag holds nothing to replay (docs/cli.md).
+NOTHING_TO_REPLAY = 4
+
+
+def _replay_names(bags: list[Path]) -> list[str]:
+    """One output name per bag: its own name (file stem), with its folder's when two clash."""
+    names = [b.stem if b.is_file() else b.name for b in bags]
+    if len(set(names)) == len(names):
+        return names
+    names = [
+        f"{b.parent.name}_{n}" if names.count(n) > 1 else n
+        for b, n in zip(bags, names, strict=True)
+    ]
+    if len(set(names)) == len(names):
+        return names
+    return [f"{k + 1:02d}_{n}" for k, n in enumerate(names)]
+
+
 @app.command()
 def replay(
-    bag: Annotated[Path, typer.Argument(help="A rosbag2 directory (MCAP or sqlite3).")],
+    bags: Annotated[
+        list[Path],
+        typer.Argument(
+            help="One or more bags: rosbag2 directories (MCAP or sqlite3), folders holding one "
+            ".mcap or .db3 file, or such files.",
+            show_default=False,
+        ),
+    ],
     config: Annotated[Path, typer.Option(help="YAML with shaper: and replay: (docs/replay.md).")],
-    out: Annotated[Path, typer.Option(help="The bag directory to write (must not exist).")],
-    plot: Annotated[Path | None, typer.Option(help="Also write this figure (.png).")] = None,
+    out: Annotated[
+        Path,
+        typer.Option(
+            help="The bag directory to write (must not exist); with several bags, the folder "
+            "that gets one output bag per input."
+        ),
+    ],
+    plot: Annotated[
+        Path | None,
+        typer.Option(help="Also write this figure (.png); with several bags, a folder of them."),
+    ] = None,
     storage: Annotated[
         str | None, typer.Option(help="mcap or sqlite3 (default: the input's storage).")
     ] = None,
 ) -> None:
-    """Shape a bag's recorded commands with a configured shaper; write a new bag (+ figure)."""
+    """Shape bags' recorded commands with a configured shaper; write new bags (+ figures).
+
+    Exit codes: 0 every bag replayed; 2 bad input (config, a malformed bag, an existing --out);
+    4 a bag holds nothing to replay (no messages, no command or state topic, no command paired
+    with a state). With several bags, the largest code of any bag.
+    """
     from velfence.apps import progress
+    from velfence.errors import NothingToReplay
     from velfence.io.bags import replay as run_replay
 
-    plan = [("shaping", 10.0)] + ([("figure", 2.0)] if plot is not None else [])
-    try:
-        with _tracker(f"velfence replay {bag.name}", plan, False):
-            with progress.stage("shaping") as report_shaping:
-                s = run_replay(
-                    bag,
-                    config,
-                    out,
-                    storage=storage,
-                    progress=lambda f: report_shaping(f, 1.0, "messages"),
-                )
-            if plot is not None:
-                from velfence.apps.viz.replay import plot_replay
+    if len(bags) == 1:
+        plan = [("shaping", 10.0)] + ([("figure", 2.0)] if plot is not None else [])
+        try:
+            with _tracker(f"velfence replay {bags[0].name}", plan, False):
+                with progress.stage("shaping") as report_shaping:
+                    s = run_replay(
+                        bags[0],
+                        config,
+                        out,
+                        storage=storage,
+                        progress=lambda f: report_shaping(f, 1.0, "messages"),
+                    )
+                if plot is not None:
+                    from velfence.apps.viz.replay import plot_replay
 
-                with progress.stage("figure"):
-                    plot_replay(s, plot)
-    except VelfenceError as exc:
-        raise _fail(str(exc)) from None
-    console = _stdout_console(highlight=False)
+                    with progress.stage("figure"):
+                        plot_replay(s, plot)
+        except NothingToReplay as exc:
+            raise _fail(str(exc), code=NOTHING_TO_REPLAY) from None
+        except VelfenceError as exc:
+            raise _fail(str(exc)) from None
+        console = _stdout_console(highlight=False)
+        _print_replay(console, s)
+        if plot is not None:
+            console.print(f"  wrote {escape(str(plot))}")
+        return
+    _replay_many(bags, config, out, plot, storage)
+
+
+def _print_replay(console: Console, s: Any) -> None:
     console.print(
         f"{s.commands} commands on {escape(s.command_topic)} ({s.command_type}) shaped by a "
         f"{s.kind} shaper with {s.states} states of {escape(s.state_topic)}: {s.changed} changed "
@@ -747,8 +801,104 @@ def replay(
         f"  wrote {escape(str(s.out))} ({s.storage}, {s.messages} messages, "
         f"shaped on {escape(s.output_topic)})"
     )
+
+
+def _fraction_of_messages(report: Any) -> Any:
+    """A replay's progress callback (a fraction) reported to a stage as messages done."""
+
+    def on_fraction(f: float) -> None:
+        report(f, 1.0, "messages")
+
+    return on_fraction
+
+
+def _bag_weight(bag: Path) -> float:
+    """A bag's share of the progress bar: its size in MB (at least a little)."""
+    try:
+        files = [bag] if bag.is_file() else [f for f in bag.iterdir() if f.is_file()]
+        return max(sum(f.stat().st_size for f in files) / 1e6, 0.01)
+    except OSError:
+        return 0.01
+
+
+def _replay_many(
+    bags: list[Path], config: Path, out: Path, plot: Path | None, storage: str | None
+) -> None:
+    """``velfence replay IN IN ...``: each bag to OUT/<name>, one table, the largest exit code."""
+    from rich.table import Table
+
+    from velfence.apps import progress
+    from velfence.errors import NothingToReplay
+    from velfence.io.bags import load_replay_config
+    from velfence.io.bags import replay as run_replay
+
+    if len(set(bags)) != len(bags):
+        raise _fail(f"bags: the same bag is given twice ({[str(b) for b in bags]})")
+    for folder, what in ((out, "--out"), (plot, "--plot")):
+        if folder is not None and folder.exists() and not folder.is_dir():
+            raise _fail(f"{what}: with several bags, expected a folder, got the file {folder}")
+    try:  # a bad config is one error for the command, not one per bag
+        load_replay_config(config)
+    except VelfenceError as exc:
+        raise _fail(str(exc)) from None
+    names = _replay_names(bags)
+    plan = [
+        (f"{k + 1}/{len(bags)} {n}", _bag_weight(b))
+        for k, (b, n) in enumerate(zip(bags, names, strict=True))
+    ]
+    rows: list[tuple[str, Any, str, int]] = []  # name, summary or None, status, code
+    out.mkdir(parents=True, exist_ok=True)
     if plot is not None:
-        console.print(f"  wrote {escape(str(plot))}")
+        plot.mkdir(parents=True, exist_ok=True)
+    with _tracker(f"velfence replay {len(bags)} bags", plan, False):
+        for (stage, _), bag, name in zip(plan, bags, names, strict=True):
+            with progress.stage(stage) as report:
+                try:
+                    s = run_replay(
+                        bag,
+                        config,
+                        out / name,
+                        storage=storage,
+                        progress=_fraction_of_messages(report),
+                    )
+                    if plot is not None:
+                        from velfence.apps.viz.replay import plot_replay
+
+                        plot_replay(s, plot / f"{name}.png")
+                except NothingToReplay as exc:
+                    rows.append((name, None, f"nothing to replay: {exc}", NOTHING_TO_REPLAY))
+                except VelfenceError as exc:
+                    rows.append((name, None, f"error: {exc}", 2))
+                else:
+                    rows.append((name, s, "ok", 0))
+    table = Table(title=f"velfence replay: {len(bags)} bags with {config.name}")
+    for col in ("bag", "commands", "changed", "max change", "written as zero", "status"):
+        table.add_column(col, justify="left" if col in ("bag", "status") else "right")
+    for (_, s, status, code), bag in zip(rows, bags, strict=True):
+        if s is None:
+            short = status.split(":", 1)[0]
+            table.add_row(escape(str(bag)), "-", "-", "-", "-", f"{short} (exit {code})")
+        else:
+            table.add_row(
+                escape(str(bag)),
+                str(s.commands),
+                f"{100 * s.changed_fraction:.1f} %",
+                f"{s.max_abs_change:.4g} {s.unit}",
+                str(s.zeroed),
+                "ok",
+            )
+    console = _stdout_console(highlight=False)
+    console.print(table)
+    for (_, s, status, _), bag in zip(rows, bags, strict=True):
+        if s is None:
+            console.print(f"{escape(str(bag))}: {escape(status)}", soft_wrap=True)
+    code = max(c for *_, c in rows)
+    ok = sum(1 for *_, c in rows if c == 0)
+    files = [out / n for (n, _, _, c) in rows if c == 0]
+    verdict = f"summary: {ok} of {len(bags)} bags replayed — exit {code}"
+    _summary(console, out, files, verdict)
+    if code:
+        raise typer.Exit(code=code)
 
 
 def _short(x: object) -> str:

@@ -1,7 +1,9 @@
 """A live view of a shaped robot in Foxglove, and the same recorded to MCAP.
 
-:class:`FoxgloveView` runs foxglove-sdk's WebSocket server (protocol ``foxglove.sdk.v1``) on the
-loopback interface and publishes, for every :meth:`FoxgloveView.publish`:
+:class:`FoxgloveView` runs foxglove-sdk's WebSocket server (protocol ``foxglove.sdk.v1``; clients
+offering its legacy name ``foxglove.websocket.v1`` are admitted too, through a small front that
+renames it in the handshake) on the loopback interface and publishes, for every
+:meth:`FoxgloveView.publish`:
 
 * ``/velfence/scene`` — ``foxglove.SceneUpdate`` (protobuf): the fence (a polygon's outline as a
   ``LinePrimitive`` loop, a 3-D polytope's edges as a line list), the robot point as a sphere,
@@ -42,6 +44,7 @@ from velfence._validate import (
     real_array,
     show,
 )
+from velfence.bridge._foxglove_front import SubprotocolFront
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon
 from velfence.geometry.polytope import ConvexPolytope
@@ -238,6 +241,7 @@ class FoxgloveView:
     ) -> None:
         self._closed = True  # until everything is open: close() and __del__ are safe
         self._server: Any = None
+        self._front: SubprotocolFront | None = None
         self._writer: Any = None
         host = check_text("host", host, max_length=255)
         remote = check_flag("allow_remote", allow_remote)
@@ -281,9 +285,12 @@ class FoxgloveView:
                 raise InvalidParameter(f"record: cannot write {path}: {exc}") from None
         if port is not None:
             try:
+                # The SDK's server on a free loopback port, behind a front on the view's
+                # address that also admits the legacy subprotocol name (_foxglove_front).
                 self._server = foxglove.start_server(
-                    name=label, host=host, port=int(port), context=self._ctx
+                    name=label, host="127.0.0.1", port=0, context=self._ctx
                 )
+                self._front = SubprotocolFront(host, int(port), int(self._server.port))
             except Exception as exc:  # the port in use, an unknown host name
                 self._close_sinks()
                 raise InvalidParameter(
@@ -299,12 +306,12 @@ class FoxgloveView:
     @property
     def port(self) -> int | None:
         """The server's TCP port (the one chosen for ``port=0``), or ``None`` without a server."""
-        return None if self._server is None else int(self._server.port)
+        return None if self._front is None else self._front.port
 
     @property
     def url(self) -> str | None:
         """The address to open in Foxglove (``ws://127.0.0.1:8765``), or ``None``."""
-        return None if self._server is None else f"ws://127.0.0.1:{self.port}"
+        return None if self._front is None else f"ws://127.0.0.1:{self.port}"
 
     @property
     def closed(self) -> bool:
@@ -411,6 +418,9 @@ class FoxgloveView:
 
     # ------------------------------------------------------------------ internals
     def _close_sinks(self) -> None:
+        if self._front is not None:
+            self._front.close()
+            self._front = None
         if self._server is not None:
             self._server.stop()
             self._server = None

@@ -20,6 +20,7 @@ _EXPORTS: dict[str, str] = {
     "make_example_bag": "velfence.io.bag_examples",
     "ReplaySettings": "velfence.io.bags",
     "ReplaySummary": "velfence.io.bags",
+    "load_replay_config": "velfence.io.bags",
     "replay": "velfence.io.bags",
     "DEFAULT_MAX_STEPS": "velfence.io.defaults",
     "DemoConfig": "velfence.io.config",
@@ -45,7 +46,7 @@ __getattr__, __dir__ = _lazy.attach("velfence.io", _EXPORTS, globals())
 TYPE_CHECKING = False
 if TYPE_CHECKING:  # the same names, eagerly, for type checkers and IDEs
     from velfence.io.bag_examples import make_example_bag
-    from velfence.io.bags import ReplaySettings, ReplaySummary, replay
+    from velfence.io.bags import ReplaySettings, ReplaySummary, load_replay_config, replay
     from velfence.io.config import (
         DEFAULT_MAX_STEPS,
         DemoConfig,
@@ -80,6 +81,7 @@ __all__ = [
     "load_config",
     "load_joint_limits",
     "load_nav2_polygons",
+    "load_replay_config",
     "load_ur_safety_planes",
     "load_yaml",
     "make_example_bag",

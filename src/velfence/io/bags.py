@@ -1,11 +1,16 @@
 """Replay a recorded rosbag2 through a configured shaper (``velfence replay``; ``docs/replay.md``).
 
-A bag (a rosbag2 directory with ``metadata.yaml``, MCAP or sqlite3 storage, read by ``rosbags``)
-holds a command topic and a state topic. Each recorded command, in time order, is shaped with the
-latest state recorded at or before it (zero-order hold, by the bag's receive time); the shaped
-command is written, as a message of the command's own type with the command's timestamp, to a new
-bag beside a copy of every original topic. The replay is open loop: the state is what was
-recorded, not what the shaped command would have produced.
+A bag (a rosbag2 directory with ``metadata.yaml`` and MCAP or sqlite3 storage, a folder holding
+one ``.mcap`` or ``.db3`` file, or such a file, as Foxglove's and the ``mcap`` library's writers
+leave them; read by ``rosbags``) holds a command topic and a state topic. Each recorded command,
+in time order, is shaped with the latest state recorded at or before it (zero-order hold, by the
+bag's receive time); the shaped command is written, as a message of the command's own type with
+the command's timestamp, to a new bag beside a copy of every original topic. The replay is open
+loop: the state is what was recorded, not what the shaped command would have produced.
+
+The bag is read once; the command's and the state's fields are read from the CDR bytes
+(:mod:`velfence.io._cdr`) and a shaped command is the command's bytes with the velocities
+patched in. A bag with nothing to replay raises :class:`~velfence.errors.NothingToReplay`.
 
 A command with no state before it, with a state older than ``max_state_age``, or with a non-finite
 value is written as zero and counted in :class:`ReplaySummary`.
@@ -31,7 +36,7 @@ import os
 import re
 import shutil
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any, Literal
 
@@ -47,8 +52,9 @@ except ModuleNotFoundError as exc:  # an optional dependency: name the extra
 from velfence._deprecate import warn_renamed
 from velfence._docs import document_inits
 from velfence._validate import MAX_PATH_LENGTH, check_choice, show
-from velfence.errors import InvalidParameter, VelfenceError
+from velfence.errors import InvalidParameter, NothingToReplay, VelfenceError
 from velfence.geometry.frames import body_to_world, world_to_body
+from velfence.io._cdr import CdrError, CdrReader, patch_doubles
 from velfence.io.config import Positive, StrictModel, describe_validation_error
 from velfence.io.shaper_config import MAX_JOINTS, ConfiguredShaper, load_yaml, parse_shaper
 from velfence.io.yaml_reader import read_yaml
@@ -61,6 +67,7 @@ __all__ = [
     "STORAGES",
     "ReplaySettings",
     "ReplaySummary",
+    "load_replay_config",
     "replay",
 ]
 
@@ -317,21 +324,45 @@ def _config(config: Any) -> tuple[ConfiguredShaper, ReplaySettings]:
     return parse_shaper(doc["shaper"]), _settings(doc["replay"], "replay")
 
 
+def load_replay_config(
+    config: str | Path | Mapping[str, Any],
+) -> tuple[ConfiguredShaper, ReplaySettings]:
+    """Read and check a replay configuration without a bag (what :func:`replay` reads first).
+
+    ``velfence replay`` with several bags calls it once, so a bad file is one error, not one per
+    bag.
+
+    Args:
+        config: A YAML file with ``shaper:`` and ``replay:`` sections, or that mapping.
+
+    Returns:
+        The configured shaper and the ``replay:`` section.
+
+    Raises:
+        InvalidParameter: a missing or unknown section, or a bad field (named).
+    """
+    return _config(config)
+
+
 # --------------------------------------------------------------------------- messages
+#
+# The codecs read the few fields a replay needs from each message's CDR bytes and write a shaped
+# command by patching its velocities into a copy of the command's bytes (velfence.io._cdr): no
+# typestore decode or encode per message.
 
 
 @dataclass(frozen=True)
 class _Codec:
-    """How a command is read from and written into its message."""
+    """How a command is read from and written into its message's bytes.
+
+    ``read(raw)`` gives the command's components and a token of where they are; ``write(raw,
+    token, values, angular)`` gives the bytes of the shaped message (``values=None``: zeroed).
+    """
 
     components: tuple[str, ...]
     unit: str
-    read: Callable[[Any], NDArray[np.float64]]
-    write: Callable[[Any, NDArray[np.float64] | None, NDArray[np.float64] | None], Any]
-
-
-def _vec3(v: Any) -> NDArray[np.float64]:
-    return np.array([v.x, v.y, v.z], dtype=float)
+    read: Callable[[bytes], tuple[NDArray[np.float64], Any]]
+    write: Callable[[bytes, Any, NDArray[np.float64] | None, NDArray[np.float64] | None], bytes]
 
 
 def _twist_codec(cs: ConfiguredShaper, msgtype: str) -> _Codec:
@@ -339,26 +370,24 @@ def _twist_codec(cs: ConfiguredShaper, msgtype: str) -> _Codec:
     names = ("vx", "vy", "vz")[:n]
     stamped = msgtype == TWIST_STAMPED
 
-    def inner(msg: Any) -> Any:
-        return msg.twist if stamped else msg
+    def read(raw: bytes) -> tuple[NDArray[np.float64], Any]:
+        r = CdrReader(raw)
+        if stamped:
+            r.header()
+        lin_off, lin = r.vec3()
+        ang_off, _ = r.vec3()
+        return np.array(lin[:n], dtype=float), (lin_off, ang_off, lin)
 
-    def read(msg: Any) -> NDArray[np.float64]:
-        return _vec3(inner(msg).linear)[:n]
-
-    def write(msg: Any, linear: NDArray[np.float64] | None, angular: Any) -> Any:
-        tw = inner(msg)
+    def write(raw: bytes, token: Any, linear: Any, angular: Any) -> bytes:
+        lin_off, ang_off, lin = token
         if linear is None:  # zeroed: the whole twist stops
-            zero = replace(tw.linear, x=0.0, y=0.0, z=0.0)
-            new = replace(tw, linear=zero, angular=replace(tw.angular, x=0.0, y=0.0, z=0.0))
-        else:
-            xyz = _vec3(tw.linear)
-            xyz[:n] = linear
-            lin = replace(tw.linear, x=float(xyz[0]), y=float(xyz[1]), z=float(xyz[2]))
-            ang = tw.angular
-            if angular is not None:
-                ang = replace(ang, x=float(angular[0]), y=float(angular[1]), z=float(angular[2]))
-            new = replace(tw, linear=lin, angular=ang)
-        return replace(msg, twist=new) if stamped else new
+            return patch_doubles(raw, [(lin_off, np.zeros(3)), (ang_off, np.zeros(3))])
+        xyz = np.array(lin, dtype=float)
+        xyz[:n] = linear
+        patches = [(lin_off, xyz)]
+        if angular is not None:
+            patches.append((ang_off, np.asarray(angular, dtype=float)))
+        return patch_doubles(raw, patches)
 
     return _Codec(names, "m/s", read, write)
 
@@ -368,75 +397,112 @@ def _joint_codec(cs: ConfiguredShaper, msgtype: str, joints: tuple[str, ...], to
 
     if msgtype == FLOAT_ARRAY:
 
-        def read_array(msg: Any) -> NDArray[np.float64]:
-            data = np.asarray(msg.data, dtype=float)
+        def read_array(raw: bytes) -> tuple[NDArray[np.float64], Any]:
+            r = CdrReader(raw)
+            for _ in range(r.u32()):  # layout.dim: label, size, stride
+                r.skip_string()
+                r.skip_u32s(2)
+            r.u32()  # layout.data_offset
+            off, data = r.double_seq()
             if data.shape != (n,):
                 raise InvalidParameter(
                     f"topic {topic}: expected {n} values in data (joints {list(joints)}), got "
                     f"{data.size}"
                 )
-            return data
+            return data, off
 
-        def write_array(msg: Any, v: NDArray[np.float64] | None, _: Any) -> Any:
-            out = np.zeros(n) if v is None else np.asarray(v, dtype=float)
-            return replace(msg, data=out.astype(np.float64))
+        def write_array(raw: bytes, off: Any, v: Any, _: Any) -> bytes:
+            return patch_doubles(raw, [(off, np.zeros(n) if v is None else v)])
 
         return _Codec(joints, "rad/s", read_array, write_array)
 
-    def order(msg: Any) -> list[int]:
-        names = list(msg.joint_names)
-        if sorted(names) != sorted(joints) or len(msg.velocities) != len(names):
+    orders: dict[bytes, tuple[tuple[str, ...], NDArray[np.intp] | None]] = {}
+
+    def order(r: CdrReader, key: bytes, at: int) -> tuple[tuple[str, ...], NDArray[np.intp] | None]:
+        known = orders.get(key)
+        if known is None:
+            end, r.pos = r.pos, at
+            names = tuple(r.strings())
+            r.pos = end
+            idx = None
+            if sorted(names) == sorted(joints):
+                idx = np.array([names.index(j) for j in joints], dtype=np.intp)
+            known = orders[key] = (names, idx)
+        return known
+
+    def read_jog(raw: bytes) -> tuple[NDArray[np.float64], Any]:
+        r = CdrReader(raw)
+        r.header()
+        names, idx = order(r, *r.strings_key())
+        displacements = r.u32()
+        r.doubles_at(displacements)
+        off, vel = r.double_seq()
+        if idx is None or vel.size != len(names):
             raise InvalidParameter(
                 f"topic {topic}: expected a JointJog with velocities for the joints "
-                f"{list(joints)}, got joint_names {show(names, 120)} with "
-                f"{len(msg.velocities)} velocities"
+                f"{list(joints)}, got joint_names {show(list(names), 120)} with "
+                f"{vel.size} velocities"
             )
-        if len(msg.displacements):
+        if displacements:
             raise InvalidParameter(
                 f"topic {topic}: a JointJog with displacements is a position command; only "
                 "velocity jogs are replayed"
             )
-        return [names.index(j) for j in joints]
+        return vel[idx], (off, idx)
 
-    def read_jog(msg: Any) -> NDArray[np.float64]:
-        return np.asarray(msg.velocities, dtype=float)[order(msg)]
-
-    def write_jog(msg: Any, v: NDArray[np.float64] | None, _: Any) -> Any:
-        vel = np.zeros(len(joints))
+    def write_jog(raw: bytes, token: Any, v: Any, _: Any) -> bytes:
+        off, idx = token
+        vel = np.zeros(len(idx))
         if v is not None:
-            vel[order(msg)] = v
-        return replace(msg, velocities=vel)
+            vel[idx] = v
+        return patch_doubles(raw, [(off, vel)])
 
     return _Codec(joints, "rad/s", read_jog, write_jog)
 
 
 def _state_reader(
     cs: ConfiguredShaper, msgtype: str, joints: tuple[str, ...], topic: str, heading: bool
-) -> Callable[[Any], NDArray[np.float64]]:
+) -> Callable[[bytes], NDArray[np.float64]]:
     n = cs.state_dim
     if msgtype == JOINT_STATE:
+        picks: dict[bytes, tuple[tuple[str, ...], NDArray[np.intp] | None]] = {}
 
-        def read_joints(msg: Any) -> NDArray[np.float64]:
-            names = list(msg.name)
-            pos = np.asarray(msg.position, dtype=float)
-            absent = [j for j in joints if j not in names]
-            if absent or pos.shape != (len(names),):
+        def read_joints(raw: bytes) -> NDArray[np.float64]:
+            r = CdrReader(raw)
+            r.header()
+            key, at = r.strings_key()
+            known = picks.get(key)
+            if known is None:
+                end, r.pos = r.pos, at
+                names = tuple(r.strings())
+                r.pos = end
+                absent = [j for j in joints if j not in names]
+                idx = None if absent else np.array([names.index(j) for j in joints], dtype=np.intp)
+                known = picks[key] = (names, idx)
+            names, idx = known
+            _, pos = r.double_seq()
+            if idx is None or pos.shape != (len(names),):
                 raise InvalidParameter(
                     f"topic {topic}: expected a JointState with positions of the joints "
-                    f"{list(joints)}, got names {show(names, 120)} with {pos.size} positions"
+                    f"{list(joints)}, got names {show(list(names), 120)} with {pos.size} "
+                    "positions"
                 )
-            return pos[[names.index(j) for j in joints]]
+            return pos[idx]
 
         return read_joints
     odom = msgtype == ODOMETRY
 
-    def read_pose(msg: Any) -> NDArray[np.float64]:
-        pose = msg.pose.pose if odom else msg.pose
-        xyz = _vec3(pose.position)[:n]
+    def read_pose(raw: bytes) -> NDArray[np.float64]:
+        r = CdrReader(raw)
+        r.header()
+        if odom:
+            r.skip_string()  # child_frame_id
+        px, py, pz, ox, oy, oz, ow = r.pose()
+        xyz = np.array((px, py, pz)[:n], dtype=float)
         if not heading:
             return xyz
-        o = pose.orientation  # yaw of the unit quaternion (x, y, z, w)
-        yaw = np.arctan2(2.0 * (o.w * o.z + o.x * o.y), 1.0 - 2.0 * (o.y * o.y + o.z * o.z))
+        # yaw of the unit quaternion (x, y, z, w)
+        yaw = np.arctan2(2.0 * (ow * oz + ox * oy), 1.0 - 2.0 * (oy * oy + oz * oz))
         return np.append(xyz, yaw)
 
     return read_pose
@@ -444,7 +510,7 @@ def _state_reader(
 
 def _codecs(
     cs: ConfiguredShaper, settings: ReplaySettings, command_type: str, state_type: str
-) -> tuple[_Codec, Callable[[Any], NDArray[np.float64]]]:
+) -> tuple[_Codec, Callable[[bytes], NDArray[np.float64]]]:
     space = cs.command_space
     joints: tuple[str, ...] = ()
     if cs.joint_names is not None:
@@ -501,36 +567,73 @@ def _typestore(distro: str | None) -> Any:
     return ts
 
 
-def _bag_path(bag: Any) -> Path:
+#: File suffix -> storage, for a bag given as one storage file or a folder without metadata.
+_SUFFIXES = {".mcap": "mcap", ".db3": "sqlite3"}
+
+
+@dataclass(frozen=True)
+class _Source:
+    """Where a bag's messages are: what rosbags opens, the storage, and the metadata if any."""
+
+    path: Path
+    paths: list[Path]
+    storage: str
+    metadata: Mapping[str, Any] | None
+
+
+def _bag_source(bag: Any) -> _Source:
+    """Resolve a bag argument: a rosbag2 directory, a folder with one storage file, or the file.
+
+    With a ``metadata.yaml`` and no compression, the storage files it lists are opened directly
+    (their own channels and topics, not the metadata's copy of them: a channel without QoS
+    metadata, as Foxglove's writers make, would otherwise match no topic of the metadata).
+    """
     p = _fs_path("bag", bag)
-    if not _probe(p, Path.is_dir) or not _probe(p / "metadata.yaml", Path.is_file):
+    what = "a rosbag2 directory, a folder with one .mcap or .db3 file, or such a file"
+    if _probe(p, Path.is_file):
+        storage = _SUFFIXES.get(p.suffix)
+        if storage is None:
+            raise InvalidParameter(f"bag: expected {what}, got the file {show(str(p), 200)}")
+        return _Source(p, [p], storage, None)
+    if not _probe(p, Path.is_dir):
+        raise InvalidParameter(f"bag: expected {what}, got {show(str(p), 200)} (not found)")
+    if _probe(p / "metadata.yaml", Path.is_file):
+        try:
+            meta = read_yaml(p / "metadata.yaml", what="bag metadata file")
+            info = meta["rosbag2_bagfile_information"]
+            storage = info["storage_identifier"]
+        except VelfenceError:
+            raise
+        except Exception as exc:  # a key missing, not a mapping: a malformed bag
+            raise InvalidParameter(
+                f"bag {p}: unreadable metadata.yaml ({type(exc).__name__}: {exc})"
+            ) from None
+        if storage not in STORAGES:
+            raise InvalidParameter(f"bag {p}: storage {storage!r} is not one of {list(STORAGES)}")
+        files = info.get("relative_file_paths") or []
+        paths = [p / str(f) for f in files] if isinstance(files, list) else []
+        compressed = bool(info.get("compression_mode")) and info.get("compression_mode") != "none"
+        if compressed or not paths or not all(_probe(f, Path.is_file) for f in paths):
+            paths = [p]  # rosbags' directory reader: decompression, and its own errors
+        return _Source(p, paths, str(storage), info if isinstance(info, Mapping) else None)
+    try:
+        entries = list(p.iterdir())
+    except OSError as exc:  # a folder we may not list
+        raise InvalidParameter(f"bag: cannot list the folder {show(str(p), 200)} ({exc})") from None
+    found = sorted(f for f in entries if f.suffix in _SUFFIXES and _probe(f, Path.is_file))
+    if len(found) != 1:
         raise InvalidParameter(
-            f"bag: expected a rosbag2 directory with a metadata.yaml, got {show(str(p), 200)}"
+            f"bag: expected {what}, got the folder {show(str(p), 200)} with no metadata.yaml "
+            f"and {len(found)} .mcap/.db3 files"
+            + (f" ({[f.name for f in found]}; give each as its own bag)" if found else "")
         )
-    return p
+    return _Source(p, found, _SUFFIXES[found[0].suffix], None)
 
 
-def _metadata(p: Path) -> Any:
-    return read_yaml(p / "metadata.yaml", what="bag metadata file")["rosbag2_bagfile_information"]
-
-
-def _distro_of(p: Path) -> str | None:
+def _distro_of(source: _Source) -> str | None:
     """The bag's ``ros_distro`` (rosbag2 format 8+), or None (then Humble's definitions)."""
-    try:
-        distro = _metadata(p).get("ros_distro")
-    except Exception:  # rosbags judges the file next and names what is wrong with it
-        return None
+    distro = (source.metadata or {}).get("ros_distro")
     return distro if isinstance(distro, str) else None
-
-
-def _storage_of(p: Path) -> str:
-    try:
-        ident = _metadata(p)["storage_identifier"]
-    except Exception as exc:  # rosbags read it already; anything odd is a malformed bag
-        raise InvalidParameter(f"bag {p}: unreadable metadata.yaml ({exc})") from None
-    if ident not in STORAGES:
-        raise InvalidParameter(f"bag {p}: storage {ident!r} is not one of {list(STORAGES)}")
-    return str(ident)
 
 
 def _out_path(out: Any) -> Path:
@@ -556,25 +659,31 @@ def replay(
 
     Every message of ``bag`` is copied to ``out``; each command of ``replay.command_topic`` is
     shaped with the latest ``replay.state_topic`` state at or before it and written to
-    ``replay.output_topic`` as a message of the command's type at the command's time. In twist
-    mode the shaped joint velocities are written as the TCP twist they give (``J q̇``, linear and
-    angular). The module docstring lists the message types.
+    ``replay.output_topic`` as a message of the command's type at the command's time, right
+    after the command. In twist mode the shaped joint velocities are written as the TCP twist
+    they give (``J q̇``, linear and angular). The module docstring lists the message types.
 
     Args:
-        bag: A rosbag2 directory (``metadata.yaml`` plus MCAP or sqlite3 storage).
+        bag: A rosbag2 directory (``metadata.yaml`` plus MCAP or sqlite3 storage), a folder
+            holding one ``.mcap`` or ``.db3`` file and no ``metadata.yaml`` (as Foxglove's and
+            the ``mcap`` library's writers leave them), or such a file.
         config: A YAML file with ``shaper:`` and ``replay:`` sections, or that mapping.
         out: The bag directory to write; it must not exist (its parent must).
         storage: ``"mcap"`` or ``"sqlite3"`` for the written bag (default: the input's).
-        progress: Called now and then with the fraction done, 0..1 (reading and shaping the
-            commands, then writing every message); for a progress bar.
+        progress: Called now and then with the fraction of the bag's messages done, 0..1; for a
+            progress bar.
 
     Returns:
         Counts, changes and the time series (:class:`ReplaySummary`).
 
     Raises:
-        InvalidParameter: a bad config, a missing or malformed bag, a missing topic or one of the
-            wrong type, a message with the wrong joints (the topic is named), an existing
-            ``out``, the ``ros`` extra not installed.
+        NothingToReplay: the bag has no message, lacks the command or the state topic (or has
+            no message on it), or no command has a usable state (all before the first state, or
+            every held state older than ``max_state_age``); the message names the bag's topics
+            with their types and counts and what was looked for. No output is left behind.
+        InvalidParameter: a bad config, a missing or malformed bag, a topic of the wrong type,
+            a message with the wrong joints (the topic is named), an existing ``out``, the
+            ``ros`` extra not installed.
     """
     # Every argument's form first, then the file system (a message names the bad argument).
     _fs_path("bag", bag)
@@ -584,7 +693,8 @@ def replay(
         raise InvalidParameter(f"progress: expected a callable, got {type(progress).__name__}")
     report = _Progress(progress)
     cs, settings = _config(config)
-    p = _bag_path(bag)
+    source = _bag_source(bag)
+    p = source.path
     target = _out_path(out)
     try:
         from rosbags.highlevel import AnyReader
@@ -594,36 +704,15 @@ def replay(
     if hasattr(cs.shaper, "reset"):
         cs.shaper.reset()
     try:
-        reader = AnyReader([p], default_typestore=_typestore(_distro_of(p)))
+        reader = AnyReader(source.paths, default_typestore=_typestore(_distro_of(source)))
         reader.open()
     except Exception as exc:  # rosbags' errors, OSError, sqlite3/mcap errors: a malformed bag
         raise InvalidParameter(f"bag {p}: cannot read it ({type(exc).__name__}: {exc})") from None
     try:
-        fmt = chosen or _storage_of(p)
-        conns = {c.topic: c for c in reader.connections}
-        for name, topic in (
-            ("command_topic", settings.command_topic),
-            ("state_topic", settings.state_topic),
-        ):
-            if topic not in conns:
-                raise InvalidParameter(
-                    f"replay.{name} {topic}: not in bag {p} (its topics: {sorted(conns)})"
-                )
-        if settings.output in conns:
-            raise InvalidParameter(
-                f"replay.output_topic {settings.output}: bag {p} has that topic already; choose "
-                "another output_topic"
-            )
-        cmd_conn, state_conn = conns[settings.command_topic], conns[settings.state_topic]
-        codec, read_state = _codecs(cs, settings, cmd_conn.msgtype, state_conn.msgtype)
-        total = int(getattr(reader, "message_count", 0) or 0)
-        result = _shape_all(
-            reader, cs, settings, codec, read_state, cmd_conn, state_conn, report.part(0.0, 0.5)
-        )
-        messages = _write(
-            reader, target, fmt, settings, cmd_conn, result, Writer, StoragePlugin,
-            report.part(0.5, 1.0), total,
-        )  # fmt: skip
+        fmt = chosen or source.storage
+        job = _Job.plan(reader, source, cs, settings)
+        plugin = StoragePlugin.MCAP if fmt == "mcap" else StoragePlugin.SQLITE3
+        result = job.run(reader, target, Writer(target, version=9, storage_plugin=plugin), report)
         report(1.0)
     except VelfenceError:
         raise
@@ -633,7 +722,7 @@ def replay(
         ) from None
     finally:
         reader.close()
-    return _summary(p, target, fmt, cs, settings, cmd_conn, state_conn, codec, result, messages)
+    return _summary(p, target, fmt, cs, settings, job, result)
 
 
 class _Progress:
@@ -662,94 +751,339 @@ class _Result:
     has_state: NDArray[np.bool_]
     zeroed: dict[str, int]
     states: int
-    raw: list[bytes]
+    messages: int
 
 
-def _shape_all(
-    reader: Any,
-    cs: ConfiguredShaper,
-    settings: ReplaySettings,
-    codec: _Codec,
-    read_state: Callable[[Any], NDArray[np.float64]],
-    cmd_conn: Any,
-    state_conn: Any,
-    report: _Progress,
-) -> _Result:
-    ts = reader.typestore
-    s_times: list[int] = []
-    s_vals: list[NDArray[np.float64]] = []
-    cmds: list[tuple[int, Any]] = []
-    for conn, t, raw in reader.messages(connections=[cmd_conn, state_conn]):
-        msg = ts.deserialize_cdr(raw, conn.msgtype)
-        if conn.topic == state_conn.topic:
-            s_times.append(int(t))
-            s_vals.append(read_state(msg))
-        else:
-            cmds.append((int(t), msg))
-    order = np.argsort(np.array(s_times, dtype=np.int64), kind="stable")
-    st = np.array(s_times, dtype=np.int64)[order]
-    sv = [s_vals[i] for i in order]
-    cmds.sort(key=lambda c: c[0])
-    k, n = len(codec.components), cs.state_dim
-    N = len(cmds)
-    commanded = np.zeros((N, k))
-    shaped = np.zeros((N, k))
-    positions = np.zeros((N, n))
-    has_state = np.zeros(N, dtype=bool)
-    zeroed = {"no_state": 0, "stale": 0, "invalid": 0}
-    raw_out: list[bytes] = []
-    max_age_ns = None if settings.max_state_age is None else settings.max_state_age * 1e9
-    twist_mode = cs.command_space == "twist"
-    heading = settings.command_frame == "body"
-    for i, (t, msg) in enumerate(cmds):
-        report(i / max(N, 1))
-        v = codec.read(msg)
-        commanded[i] = np.where(np.isfinite(v), v, 0.0)
-        j = int(np.searchsorted(st, t, side="right")) - 1
-        reason = None
-        if j < 0:
-            reason = "no_state"
-        elif max_age_ns is not None and t - int(st[j]) > max_age_ns:
-            reason = "stale"
-        elif not (np.all(np.isfinite(v)) and np.all(np.isfinite(sv[j]))):
-            reason = "invalid"
-        if j >= 0 and np.all(np.isfinite(sv[j])):
-            positions[i] = sv[j][:n]
-        if reason is not None:
-            zeroed[reason] += 1
-            out_msg = codec.write(msg, None, None)
-        else:
-            has_state[i] = True
-            q = sv[j][:n]
+#: Messages held before the shaped commands of a window are computed (one batch call) and the
+#: window is written: bounds the memory by count and by bytes, whatever the bag's size.
+_WINDOW_MESSAGES = 4096
+_WINDOW_BYTES = 32 * 2**20
+
+
+def _holdings(reader: Any, counts: Mapping[str, int] | None = None) -> str:
+    """What a bag holds: its topics with type and message count (read, or its index's)."""
+    topics: dict[str, list[Any]] = {}
+    for c in reader.connections:
+        topics.setdefault(c.topic, []).append(c)
+    if not topics:
+        return "the bag holds no topic"
+    parts = []
+    for topic in sorted(topics):
+        conns = topics[topic]
+        n = counts[topic] if counts is not None else sum(int(c.msgcount or 0) for c in conns)
+        types = "/".join(sorted({c.msgtype for c in conns}))
+        parts.append(f"{topic} ({types}, {n} messages)")
+    shown = parts[:20] + ([f"... {len(parts) - 20} more"] if len(parts) > 20 else [])
+    return f"the bag holds {len(topics)} topic(s): " + ", ".join(shown)
+
+
+@dataclass
+class _Job:
+    """One replay: the topics' connections, the codecs, and the shaping of a window."""
+
+    cs: ConfiguredShaper
+    settings: ReplaySettings
+    codec: _Codec
+    read_state: Callable[[bytes], NDArray[np.float64]]
+    command_type: str
+    state_type: str
+    cmd_ids: frozenset[int]
+    state_ids: frozenset[int]
+    wanted: str
+    listed: int | None
+    path: Path
+
+    @classmethod
+    def plan(cls, reader: Any, source: _Source, cs: ConfiguredShaper, s: ReplaySettings) -> _Job:
+        by_topic: dict[str, list[Any]] = {}
+        for c in reader.connections:
+            by_topic.setdefault(c.topic, []).append(c)
+        space = cs.command_space
+        cmd_ok = _JOINT_TYPES if space == "joint" else _TWIST_TYPES
+        state_ok = (JOINT_STATE,) if space in ("joint", "twist") else _POSE_TYPES
+        wanted = (
+            f"looked for commands on {s.command_topic} ({' or '.join(cmd_ok)}) and states on "
+            f"{s.state_topic} ({' or '.join(state_ok)})"
+        )
+        listed = None
+        if source.metadata is not None and isinstance(source.metadata.get("message_count"), int):
+            listed = int(source.metadata["message_count"])
+        for name, topic in (("command_topic", s.command_topic), ("state_topic", s.state_topic)):
+            if topic not in by_topic:
+                raise NothingToReplay(
+                    f"replay.{name} {topic}: not in bag {source.path}; {wanted}; "
+                    f"{_holdings(reader)}{_listed(listed)}"
+                )
+        if s.output in by_topic:
+            raise InvalidParameter(
+                f"replay.output_topic {s.output}: bag {source.path} has that topic already; "
+                "choose another output_topic"
+            )
+        types = {}
+        for topic in (s.command_topic, s.state_topic):
+            found = {c.msgtype for c in by_topic[topic]}
+            if len(found) != 1:
+                raise InvalidParameter(
+                    f"topic {topic}: bag {source.path} has it with several types {sorted(found)}"
+                )
+            types[topic] = found.pop()
+        codec, read_state = _codecs(cs, s, types[s.command_topic], types[s.state_topic])
+        return cls(
+            cs=cs,
+            settings=s,
+            codec=codec,
+            read_state=read_state,
+            command_type=types[s.command_topic],
+            state_type=types[s.state_topic],
+            cmd_ids=frozenset(c.id for c in by_topic[s.command_topic]),
+            state_ids=frozenset(c.id for c in by_topic[s.state_topic]),
+            wanted=wanted,
+            listed=listed,
+            path=source.path,
+        )
+
+    def run(self, reader: Any, target: Path, writer: Any, report: _Progress) -> _Result:
+        """Read every message once, in time order; shape and write window by window."""
+        total = int(getattr(reader, "message_count", 0) or 0)
+        cmd_ids, state_ids = self.cmd_ids, self.state_ids
+        read_cmd, read_state = self.codec.read, self.read_state
+        max_age = None if self.settings.max_state_age is None else self.settings.max_state_age
+        acc = _Accumulator(self, max_age)
+        step = max(total // 100, 1) if total else 2**62  # about every 1 %
+        per_conn: dict[int, int] = dict.fromkeys((c.id for c in reader.connections), 0)
+        topic = ""
+        try:
+            with writer:
+                ts = reader.typestore
+                out = {c.id: _add(writer, ts, c.topic, c) for c in reader.connections}
+                cmd_conn = next(c for c in reader.connections if c.id in cmd_ids)
+                shaped_conn = _add(writer, ts, self.settings.output, cmd_conn)
+                window: list[tuple[Any, int, Any, int]] = []
+                nbytes, last_t = 0, -(2**63)
+                group: list[int] = []
+                held: tuple[int, NDArray[np.float64]] | None = None
+                read = 0
+                try:
+                    for conn, t, raw in reader.messages():
+                        if t != last_t:
+                            if t < last_t:
+                                raise InvalidParameter(
+                                    f"bag: messages not in time order ({conn.topic} at {t} ns "
+                                    f"after {last_t} ns)"
+                                )
+                            if group:  # the commands of the last timestamp get their state
+                                acc.hold(group, held)
+                                group = []
+                            if len(window) >= _WINDOW_MESSAGES or nbytes >= _WINDOW_BYTES:
+                                acc.flush(window, writer, shaped_conn)
+                                window, nbytes = [], 0
+                            last_t = t
+                        cid = conn.id
+                        k = -1
+                        if cid in state_ids:
+                            topic = conn.topic
+                            held = (t, read_state(raw))
+                        elif cid in cmd_ids:
+                            topic = conn.topic
+                            v, token = read_cmd(raw)
+                            k = acc.add(t, v, token)
+                            group.append(k)
+                        window.append((out[cid], t, raw, k))
+                        nbytes += len(raw)
+                        per_conn[cid] += 1
+                        read += 1
+                        if read % step == 0:
+                            report(read / total)
+                except CdrError as exc:
+                    raise InvalidParameter(f"topic {topic}: malformed message ({exc})") from None
+                acc.hold(group, held)
+                counts: dict[str, int] = {}
+                for c in reader.connections:
+                    counts[c.topic] = counts.get(c.topic, 0) + per_conn[c.id]
+                acc.states = sum(per_conn[i] for i in state_ids)
+                acc.start_ns = int(reader.start_time) if read else 0
+                self._check(reader, acc, counts)
+                acc.flush(window, writer, shaped_conn)
+        except BaseException:
+            if target.is_dir():  # the directory this call created: no half-written bag left
+                shutil.rmtree(target, ignore_errors=True)
+            raise
+        return acc.result()
+
+    def _check(self, reader: Any, acc: _Accumulator, counts: Mapping[str, int]) -> None:
+        s = self.settings
+        why = None
+        if not any(counts.values()):
+            why = "no messages"
+        elif not counts.get(s.command_topic):
+            why = f"no message on {s.command_topic}"
+        elif not counts.get(s.state_topic):
+            why = f"no message on {s.state_topic}"
+        elif acc.paired == 0:
+            before = sum(1 for h in acc.held if h is None)
+            why = (
+                f"no command paired with a state: of {acc.count} commands, {before} came "
+                "before the first state"
+            )
+            if s.max_state_age is not None:
+                why += (
+                    f" and {acc.count - before} had a state older than "
+                    f"max_state_age={s.max_state_age} s"
+                )
+        if why is not None:
+            raise NothingToReplay(
+                f"nothing to replay in bag {self.path}: "
+                f"{why}; {self.wanted}; {_holdings(reader, counts)}{_listed(self.listed)}"
+            )
+
+
+def _listed(listed: int | None) -> str:
+    return "" if listed is None else f"; its metadata.yaml lists {listed} messages"
+
+
+class _Accumulator:
+    """The commands read so far, their held states, and the shaping of a window of them."""
+
+    def __init__(self, job: _Job, max_age: float | None) -> None:
+        cs = job.cs
+        self.job = job
+        self.max_age_ns = None if max_age is None else max_age * 1e9
+        self.k = len(job.codec.components)
+        self.n = cs.state_dim
+        self.twist = cs.command_space == "twist"
+        self.heading = job.settings.command_frame == "body"
+        # A stateless shaper's batch call equals looping its shape (the Shaper contract); a
+        # shaper with memory (rate limits, a filter's warm start) is called command by command.
+        self.batch = not (hasattr(cs.shaper, "reset") or self.twist or self.heading)
+        self.start_ns = 0
+        self.states = 0
+        self.messages = 0
+        self.count = 0
+        self.paired = 0
+        self.zeroed = {"no_state": 0, "stale": 0, "invalid": 0}
+        self.t: list[int] = []
+        self.v: list[NDArray[np.float64]] = []
+        self.tokens: list[Any] = []
+        self.held: list[tuple[int, NDArray[np.float64]] | None] = []
+        self.done = 0  # commands shaped and written
+        self.parts: list[tuple[NDArray[Any], ...]] = []
+
+    def add(self, t: int, v: NDArray[np.float64], token: Any) -> int:
+        self.t.append(t)
+        self.v.append(v)
+        self.tokens.append(token)
+        self.held.append(None)
+        self.count += 1
+        return self.count - 1
+
+    def hold(self, group: list[int], held: tuple[int, NDArray[np.float64]] | None) -> None:
+        """The commands of one timestamp get the latest state at or before it."""
+        for k in group:
+            self.held[k] = held
+            if held is not None and (
+                self.max_age_ns is None or self.t[k] - held[0] <= self.max_age_ns
+            ):
+                self.paired += 1
+
+    def flush(self, window: list[tuple[Any, int, Any, int]], writer: Any, shaped_conn: Any) -> None:
+        """Shape the window's commands and write the window, each shaped command after its own."""
+        lo, hi = self.done, self.count
+        out = self._shape(lo, hi)
+        codec = self.job.codec
+        for conn, t, raw, k in window:
+            writer.write(conn, t, raw)
+            self.messages += 1
+            if k >= 0:
+                y, ang = out[k - lo]
+                writer.write(shaped_conn, t, codec.write(raw, self.tokens[k], y, ang))
+                self.messages += 1
+        for k in range(lo, hi):  # done with their bytes
+            self.tokens[k] = None
+        self.done = hi
+
+    def _shape(self, lo: int, hi: int) -> list[tuple[Any, Any]]:
+        m, k, n = hi - lo, self.k, self.n
+        V = np.array(self.v[lo:hi], dtype=float).reshape(m, k)
+        width = n + 1 if self.heading else n
+        P = np.zeros((m, width))
+        has = np.zeros(m, dtype=bool)
+        age_ok = np.ones(m, dtype=bool)
+        times = np.array(self.t[lo:hi], dtype=np.int64)
+        for i, h in enumerate(self.held[lo:hi]):
+            if h is not None:
+                has[i] = True
+                P[i] = h[1]
+                if self.max_age_ns is not None and times[i] - h[0] > self.max_age_ns:
+                    age_ok[i] = False
+        finite_v = np.asarray(np.isfinite(V).all(axis=1), dtype=bool)
+        finite_p = np.asarray(np.isfinite(P).all(axis=1), dtype=bool)
+        no_state = ~has
+        stale = has & ~age_ok
+        invalid = has & age_ok & ~(finite_v & finite_p)
+        ok = has & age_ok & finite_v & finite_p
+        self.zeroed["no_state"] += int(no_state.sum())
+        self.zeroed["stale"] += int(stale.sum())
+        self.zeroed["invalid"] += int(invalid.sum())
+        commanded = np.where(np.isfinite(V), V, 0.0)
+        positions = np.where(has[:, None] & finite_p[:, None], P[:, :n], 0.0)
+        shaped = np.zeros((m, k))
+        out: list[tuple[Any, Any]] = [(None, None)] * m
+        rows = np.flatnonzero(ok)
+        shaper = self.job.cs.shaper
+        done = False
+        if self.batch and rows.size:
             try:
-                if heading:  # body frame -> the pose's frame: turn by the heading
-                    v = body_to_world(v, sv[j][n])
-                y = np.asarray(cs.shaper.shape(q, v), dtype=float)
-                if heading:  # and back
-                    y = world_to_body(y, sv[j][n])
+                Y = np.asarray(shaper.shape_batch(P[rows, :n], V[rows]), dtype=float)
             except VelfenceError:
-                zeroed["invalid"] += 1
-                has_state[i] = False
-                out_msg = codec.write(msg, None, None)
+                pass  # row by row below: the rows the shaper refuses are zeroed
             else:
+                shaped[rows] = Y
+                for j, i in enumerate(rows.tolist()):
+                    out[i] = (Y[j], None)
+                done = True
+        if not done:
+            for i in rows.tolist():
+                q, v = P[i, :n], V[i]
+                try:
+                    if self.heading:  # body frame -> the pose's frame: turn by the heading
+                        v = body_to_world(v, P[i, n])
+                    y = np.asarray(shaper.shape(q, v), dtype=float)
+                    if self.heading:  # and back
+                        y = world_to_body(y, P[i, n])
+                except VelfenceError:
+                    ok[i] = False
+                    self.zeroed["invalid"] += 1
+                    continue
                 angular = None
-                if twist_mode:  # the TCP twist the shaped joint velocities give
-                    robot = cs.shaper.filter.robot
+                if self.twist:  # the TCP twist the shaped joint velocities give
+                    robot = shaper.filter.robot
                     y, angular = robot.jacobian(q) @ y, robot.angular_jacobian(q) @ y
                 shaped[i] = y
-                out_msg = codec.write(msg, y, angular)
-        raw_out.append(bytes(ts.serialize_cdr(out_msg, cmd_conn.msgtype)))
-    return _Result(
-        times_ns=np.array([c[0] for c in cmds], dtype=np.int64),
-        start_ns=int(reader.start_time),
-        commanded=commanded,
-        shaped=shaped,
-        positions=positions,
-        has_state=has_state,
-        zeroed=zeroed,
-        states=len(s_times),
-        raw=raw_out,
-    )
+                out[i] = (y, angular)
+        self.parts.append((times, commanded, shaped, positions, ok))
+        return out
+
+    def result(self) -> _Result:
+        if self.parts:
+            times, commanded, shaped, positions, ok = (
+                np.concatenate(col) for col in zip(*self.parts, strict=True)
+            )
+        else:
+            times = np.zeros(0, dtype=np.int64)
+            commanded = shaped = np.zeros((0, self.k))
+            positions = np.zeros((0, self.n))
+            ok = np.zeros(0, dtype=bool)
+        return _Result(
+            times_ns=times,
+            start_ns=self.start_ns,
+            commanded=commanded,
+            shaped=shaped,
+            positions=positions,
+            has_state=ok,
+            zeroed=self.zeroed,
+            states=self.states,
+            messages=self.messages,
+        )
 
 
 def _add(writer: Any, ts: Any, topic: str, conn: Any) -> Any:
@@ -767,57 +1101,14 @@ def _add(writer: Any, ts: Any, topic: str, conn: Any) -> Any:
     return writer.add_connection(topic, conn.msgtype, typestore=ts, offered_qos_profiles=qos)
 
 
-def _write(
-    reader: Any,
-    target: Path,
-    fmt: str,
-    settings: ReplaySettings,
-    cmd_conn: Any,
-    result: _Result,
-    Writer: Any,
-    StoragePlugin: Any,
-    report: _Progress,
-    total: int,
-) -> int:
-    plugin = StoragePlugin.MCAP if fmt == "mcap" else StoragePlugin.SQLITE3
-    ts = reader.typestore
-    written = 0
-    try:
-        with Writer(target, version=9, storage_plugin=plugin) as writer:
-            out_conns = {c.id: _add(writer, ts, c.topic, c) for c in reader.connections}
-            shaped_conn = _add(writer, ts, settings.output, cmd_conn)
-            pending = list(zip(result.times_ns.tolist(), result.raw, strict=True))
-            i = 0
-            for conn, t, raw in reader.messages():
-                # Each shaped command goes in right after its command (same timestamp).
-                while i < len(pending) and pending[i][0] < t:
-                    writer.write(shaped_conn, pending[i][0], pending[i][1])
-                    i, written = i + 1, written + 1
-                writer.write(out_conns[conn.id], t, raw)
-                written += 1
-                if total:
-                    report(written / (total + len(pending)))
-            for t_cmd, raw in pending[i:]:
-                writer.write(shaped_conn, t_cmd, raw)
-                written += 1
-    except BaseException:
-        if target.is_dir():  # the directory this call created: no half-written bag left behind
-            shutil.rmtree(target, ignore_errors=True)
-        raise
-    return written
-
-
 def _summary(
     p: Path,
     target: Path,
     fmt: str,
     cs: ConfiguredShaper,
     settings: ReplaySettings,
-    cmd_conn: Any,
-    state_conn: Any,
-    codec: _Codec,
+    job: _Job,
     r: _Result,
-    messages: int,
 ) -> ReplaySummary:
     N = len(r.times_ns)
     diff = np.abs(r.commanded - r.shaped)
@@ -835,13 +1126,13 @@ def _summary(
         command_topic=settings.command_topic,
         state_topic=settings.state_topic,
         output_topic=settings.output,
-        command_type=cmd_conn.msgtype,
-        state_type=state_conn.msgtype,
-        components=codec.components,
-        unit=codec.unit,
+        command_type=job.command_type,
+        state_type=job.state_type,
+        components=job.codec.components,
+        unit=job.codec.unit,
         commands=N,
         states=r.states,
-        messages=messages,
+        messages=r.messages,
         changed=changed,
         changed_fraction=changed / N if N else 0.0,
         max_abs_change=float(diff.max()) if diff.size else 0.0,
