@@ -4,12 +4,26 @@ Math contract: an integration states velfence's rows in the other library's form
 nothing of the law: :class:`PolytopeLimit` gives ``mink.solve_ik`` (differential IK, one QP in
 ``Δq = v dt``) the rows ``n_iᵀ J_p Δq >= dt · b_i(d_i)`` of a workspace polytope, ``b_i`` the
 :class:`~velfence.filter.SafetyFilter`'s own workspace bound
-(:func:`velfence.filter.rows.workspace_bounds`). This package imports mink (the ``physics``
-extra); ``import velfence`` does not import this package.
+(:func:`velfence.filter.rows.workspace_bounds`); :mod:`velfence.integrations.gymnasium` puts the
+:class:`~velfence.filter.SafetyFilter` between a Gymnasium agent and its environment
+(``docs/policies.md``). The names load on first use, each with its own extra (mink: the
+``physics`` extra; Gymnasium: the ``gym`` extra); ``import velfence`` does not import this
+package.
 """
 
 from __future__ import annotations
 
-from velfence.integrations.mink_limits import PolytopeLimit
+from velfence import _lazy
+
+#: Public name -> defining module, loaded on first use (each module needs its own extra).
+_EXPORTS: dict[str, str] = {
+    "PolytopeLimit": "velfence.integrations.mink_limits",
+}
+
+__getattr__, __dir__ = _lazy.attach("velfence.integrations", _EXPORTS, globals())
+
+TYPE_CHECKING = False
+if TYPE_CHECKING:
+    from velfence.integrations.mink_limits import PolytopeLimit
 
 __all__ = ["PolytopeLimit"]
