@@ -318,3 +318,95 @@ def test_vector_wrapper_equals_single_wrappers() -> None:
         total += int(info["shield"]["changed"].sum())
     assert total > 0
     assert vw.action_space.shape == (n, 7)
+
+
+def _scripted_pusher(env: Any, robot: Any) -> Any:
+    """A reasonable Pusher policy in joint velocities: the finger point (``robot``'s tcp) to
+    behind the object, down to the table, then toward the goal (damped least squares at most
+    0.25 m/s, a bent-elbow posture in the null space, joint speeds clipped to 0.3 rad/s)."""
+    u = env.unwrapped
+    pushing = [False]
+    home = np.array([0.0, 0.6, 0.0, -1.3, 0.0, -0.6, 0.0])
+
+    def policy(q: np.ndarray) -> np.ndarray:
+        mujoco.mj_kinematics(u.model, u.data)
+        obj, goal = u.get_body_com("object")[:2], u.get_body_com("goal")[:2]
+        tip = robot.fk(q)
+        d = (goal - obj) / (np.linalg.norm(goal - obj) + 1e-9)
+        behind = obj - 0.09 * d
+        if not pushing[0]:
+            far = np.linalg.norm(tip[:2] - behind) > 0.03
+            target = np.array([*behind, -0.12 if far else -0.27])
+            pushing[0] = not far and tip[2] < -0.25
+        else:
+            target = np.array([*(goal - 0.03 * d), -0.27])
+        v = 2.0 * (target - tip)
+        v *= min(1.0, 0.25 / (np.linalg.norm(v) + 1e-12))
+        J = robot.jacobian(q)
+        Jp = J.T @ np.linalg.inv(J @ J.T + 1e-3 * np.eye(3))
+        return np.clip(Jp @ v + (np.eye(7) - Jp @ J) @ (home - q), -0.3, 0.3)
+
+    return policy
+
+
+def _pusher_return(shielded: bool, seed: int) -> tuple[float, int]:
+    env = _pusher(seed)
+    sh = mujoco_shield(env, joints=PUSHER, tip="tips_arm", tip_offset=[0.1, 0.0, 0.0],
+                       workspace=BOX, **BOUNDS)  # fmt: skip
+    w = ShieldWrapper(env, sh, detail=False)
+    w.reset(seed=seed)
+    qa, va = sh.state.addresses(env.unwrapped.model)
+    policy = _scripted_pusher(env, sh.filter.robot)
+    total, changed = 0.0, 0
+    d = env.unwrapped.data
+    for _ in range(100):  # one Pusher-v5 episode
+        q = d.qpos[qa].copy()
+        a = policy(q)
+        if shielded:
+            _, r, _, _, info = w.step(a)
+            changed += info["shield"]["changed"]
+        else:
+            w._core.forward(env)
+            _, r, _, _, _ = env.step(w._core.to_env(env, q, d.qvel[va].copy(), a))
+        total += float(r)
+    return total, changed
+
+
+def test_scripted_pusher_keeps_its_reward_with_the_shield() -> None:
+    for seed in (1, 3):
+        raw, _ = _pusher_return(False, seed)
+        safe, changed = _pusher_return(True, seed)
+        assert changed > 0  # the shield did act (acceleration and workspace rows)
+        assert safe >= raw - 0.05 * abs(raw)  # the task's return is kept (within 5 %)
+
+
+def test_twist_actions_on_pusher() -> None:
+    env = _pusher()
+    sh = mujoco_shield(env, joints=PUSHER, tip="tips_arm", action="twist", workspace=BOX,
+                       twist_speed=0.3, **BOUNDS)  # fmt: skip
+    w = ShieldWrapper(env, sh)
+    w.reset(seed=0)
+    assert w.action_space.shape == (3,)
+    worst = np.inf
+    for k in range(120):
+        v = np.array([0.0, 0.3, -0.3]) if k < 60 else np.array([0.3, -0.3, 0.3])
+        _, _, _, _, info = w.step(v)
+        assert np.isfinite(info["shield"]["output"]).all()
+        worst = min(worst, _tip_distance(env, BOX, "tips_arm"))
+    assert w.interventions > 0
+    assert worst > -5e-3
+    with pytest.raises(InvalidInput, match="action"):
+        w.step(np.zeros(7))
+
+
+@pytest.mark.slow
+def test_a_hundred_thousand_pusher_steps_of_wild_policies() -> None:
+    """10⁵ Pusher-v5 steps in all (four wild policies, 12,500 steps each, without and with the
+    shield), measured on MuJoCo's own state: the shield never lets a joint 1 mrad past its limit
+    and cuts the steps with the fingertip out of the box at least five-fold."""
+    for name in ("random", "saturated", "jitter", "biased-out"):
+        raw = _pusher_run(_wild(name), False, 12_500, seed=7)
+        safe = _pusher_run(_wild(name), True, 12_500, seed=7)
+        assert safe["joint_steps"] == 0, (name, safe)
+        assert safe["box_steps"] <= raw["box_steps"] / 5, (name, raw, safe)
+        assert safe["box_max"] < raw["box_max"], (name, raw, safe)

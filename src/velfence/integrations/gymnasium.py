@@ -601,7 +601,8 @@ class ShieldWrapper(gymnasium.Wrapper):
     * ``changed`` (bool): the filter changed the command; ``interventions``: steps changed so
       far in the episode; ``invalid`` (bool): a NaN state or action was replaced by the hold
       action (``on_invalid="stop"``);
-    * ``command``, ``output``: the joint velocity asked and sent [rad/s];
+    * ``command``, ``output``: the joint velocity asked and sent [rad/s] (``"twist"``: the
+      twist as given [m/s], and no penalty);
     * ``active``: the names of the rows binding at the output (``"joint 3 position
       (upper)"``, ``"TCP face x_max"``), ``stages`` (``"projection"``, ``"stop"``, …);
     * ``distance``: ``joint_lower``/``joint_upper`` [rad] per joint and, per workspace limit,
@@ -658,7 +659,7 @@ class ShieldWrapper(gymnasium.Wrapper):
             }  # fmt: skip
         if sh.action == "twist":
             r = f.explain_twist(q, a)
-            u = r.command if r.command.shape == (sh.dof,) else np.full(sh.dof, np.nan)
+            u = a  # the twist as given (the joint command is its damped least squares)
             x = r.output
             active, stages = r.active_names, r.stages
             changed = "projection" in stages or "stop" in stages
