@@ -26,7 +26,7 @@ def computed_torque(
     mujoco: Any,
     model: Any,
     data: Any,
-    dofs: IntArray,
+    dofs: IntArray | slice,
     reference: FloatArray,
     *,
     bandwidth: float,
@@ -44,7 +44,7 @@ def computed_torque(
         mujoco: The ``mujoco`` module.
         model: The ``MjModel``.
         data: The ``MjData``.
-        dofs: DoF addresses of the servoed joints, shape (k,).
+        dofs: DoF addresses of the servoed joints, shape (k,) (or a slice of them).
         reference: Joint velocity references [rad/s or m/s], shape (k,).
         bandwidth: :math:`\omega_c` [rad/s], > 0.
         max_effort: Effort limits [N·m or N], shape (k,) (``inf``: none).
