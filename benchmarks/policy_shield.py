@@ -114,6 +114,7 @@ def vector_bench(n: int, steps: int) -> list[str]:
     for k in range(steps + 20):
         a = 0.9 * a + 0.3 * rng.normal(size=(n, 7))
         actions[k] = np.clip(a, -1.2, 1.2)
+    loop_med = 0.0
     for threads in (1, 0):
         env = KinematicArms(n, q0)
         sh = Shield(filter=f, state=None, action="velocity", actuation="velocity", period=DT)
@@ -121,36 +122,41 @@ def vector_bench(n: int, steps: int) -> list[str]:
         vw.reset(seed=0)
         for k in range(20):  # warm-up, the arms spread out
             vw.step(actions[k])
-        step_t, batch_t, changed = [], [], 0
+        step_t, batch_t, loop_t, paired_b, changed = [], [], [], [], 0
         for k in range(20, steps + 20):
             Q = env.q.copy()
             U = actions[k]
             t0 = time.perf_counter()
-            f.filter_batch(Q, U, threads=threads)
+            r = f.filter_batch(Q, U, threads=threads)
             t1 = time.perf_counter()
             _, _, _, _, info = vw.step(actions[k])
             t2 = time.perf_counter()
             batch_t.append(t1 - t0)
             step_t.append(t2 - t1)
             changed += int(info["shield"]["changed"].sum())
+            if threads == 1 and k % 10 == 0:  # the Python loop on the very same states
+                t3 = time.perf_counter()
+                X = [f.filter(Q[i], U[i]) for i in range(n)]
+                loop_t.append(time.perf_counter() - t3)
+                paired_b.append(t1 - t0)
+                assert np.array_equal(np.array(X), r.output)  # bit for bit
         label = "1" if threads == 1 else f"{os.cpu_count()} (all)"
         for what, s in (("wrapper step", step_t), ("filter_batch alone", batch_t)):
             med, p99, mx = stats(s)
             lines.append(f"| {what} | {label} | {med:.0f} | {p99:.0f} | {mx:.0f} | "
                          f"{n / (med * 1e-6):,.0f} |")  # fmt: skip
+        if loop_t:
+            med, p99, mx = stats(loop_t)
+            lines.append(f"| Python loop of `filter`, same states | 1 | {med:.0f} | {p99:.0f} | "
+                         f"{mx:.0f} | {n / (med * 1e-6):,.0f} |")  # fmt: skip
+            ratio = np.median(np.asarray(loop_t) / np.asarray(paired_b))
+            lines.append(f"| (batch on 1 thread against that loop, median ratio) | | | | | "
+                         f"{ratio:.1f}x |")  # fmt: skip
+            loop_med = float(np.median(loop_t))
+        else:
+            lines.append(f"| (batch on every core against the loop, medians) | | | | | "
+                         f"{loop_med / float(np.median(batch_t)):.1f}x |")  # fmt: skip
         lines.append(f"\n(threads {label}: {changed / (steps * n):.0%} of the rows changed)\n")
-    # the Python loop over single calls, on the same states
-    Q = np.ascontiguousarray(env.q)  # the last states of the vector run
-    loop = []
-    for k in range(max(5, steps // 20)):
-        U = np.ascontiguousarray(actions[20 + k])
-        t0 = time.perf_counter()
-        X = [f.filter(Q[r], U[r]) for r in range(n)]
-        loop.append(time.perf_counter() - t0)
-        assert np.array_equal(np.array(X), f.filter_batch(Q, U).output)
-    med, p99, mx = stats(loop)
-    lines.append(f"| Python loop of `filter` | 1 | {med:.0f} | {p99:.0f} | {mx:.0f} | "
-                 f"{n / (med * 1e-6):,.0f} |")  # fmt: skip
     return lines
 
 
