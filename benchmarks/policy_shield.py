@@ -220,21 +220,16 @@ def pusher_run(name: str, shielded: bool, steps: int) -> dict[str, float]:
     env = gym.make("Pusher-v5")
     env.reset(seed=7)
     sh = mujoco_shield(env, joints=PUSHER, tip="tips_arm", workspace=BOX, **BOUNDS)
-    w = ShieldWrapper(env, sh, detail=False)
+    w = ShieldWrapper(env, sh, detail=False, bypass=not shielded)  # the same command and servo
     u = env.unwrapped
-    qa, va = sh.state.addresses(u.model)
+    qa, _ = sh.state.addresses(u.model)
     lo, hi = sh.filter.limits.lower, sh.filter.limits.upper
     N, o = np.asarray(BOX.normals), np.asarray(BOX.offsets)
     rng = np.random.default_rng(7)
     policy = wild(name)
     out = {"joint_steps": 0, "joint_max": 0.0, "box_steps": 0, "box_max": 0.0}
     for k in range(steps):
-        a = policy(rng, k)
-        if shielded:
-            w.step(a)
-        else:
-            w._core.forward(env)
-            env.step(w._core.to_env(env, u.data.qpos[qa].copy(), u.data.qvel[va].copy(), a))
+        w.step(policy(rng, k))
         q = u.data.qpos[qa]
         over = float(np.max(np.maximum(lo - q, q - hi)))
         out["joint_steps"] += over > 1e-3
@@ -251,10 +246,10 @@ def scripted_return(shielded: bool, seed: int) -> float:
     env.reset(seed=seed)
     sh = mujoco_shield(env, joints=PUSHER, tip="tips_arm", tip_offset=[0.1, 0.0, 0.0],
                        workspace=BOX, **BOUNDS)  # fmt: skip
-    w = ShieldWrapper(env, sh, detail=False)
+    w = ShieldWrapper(env, sh, detail=False, bypass=not shielded)
     w.reset(seed=seed)
     u = env.unwrapped
-    qa, va = sh.state.addresses(u.model)
+    qa, _ = sh.state.addresses(u.model)
     robot = sh.filter.robot
     home = np.array([0.0, 0.6, 0.0, -1.3, 0.0, -0.6, 0.0])
     pushing = False
@@ -277,11 +272,7 @@ def scripted_return(shielded: bool, seed: int) -> float:
         J = robot.jacobian(q)
         Jp = J.T @ np.linalg.inv(J @ J.T + 1e-3 * np.eye(3))
         a = np.clip(Jp @ v + (np.eye(7) - Jp @ J) @ (home - q), -0.3, 0.3)
-        if shielded:
-            _, r, _, _, _ = w.step(a)
-        else:
-            w._core.forward(env)
-            _, r, _, _, _ = env.step(w._core.to_env(env, q, u.data.qvel[va].copy(), a))
+        _, r, _, _, _ = w.step(a)
         total += float(r)
     return total
 

@@ -123,20 +123,17 @@ def _pusher_run(
     if strong:
         env.unwrapped.model.actuator_ctrlrange[:] = [-100.0, 100.0]
     sh = mujoco_shield(env, joints=PUSHER, tip="tips_arm", workspace=BOX, **(bounds or BOUNDS))
-    w = ShieldWrapper(env, sh, detail=False)
-    core = w._core  # the same servo; unshielded: the command goes to it unfiltered
+    w = ShieldWrapper(env, sh, detail=False, bypass=not shielded)  # the same command and servo
     u = env.unwrapped
-    qa, va = sh.state.addresses(u.model)
+    qa, _ = sh.state.addresses(u.model)
     lo, hi = sh.filter.limits.lower, sh.filter.limits.upper
     rng = np.random.default_rng(seed)
     out = {"joint_steps": 0, "joint_max": 0.0, "box_steps": 0, "box_max": 0.0}
     for k in range(steps):
-        a = policy(rng, k)
-        if shielded:
-            w.step(a)
-        else:
-            core.forward(env)
-            env.step(core.to_env(env, u.data.qpos[qa].copy(), u.data.qvel[va].copy(), a))
+        _, _, _, _, info = w.step(policy(rng, k))
+        if not shielded:
+            assert not info["shield"]["changed"]
+            np.testing.assert_array_equal(info["shield"]["output"], info["shield"]["command"])
         over = float(np.max(np.maximum(lo - u.data.qpos[qa], u.data.qpos[qa] - hi)))
         out["joint_steps"] += over > 1e-3
         out["joint_max"] = max(out["joint_max"], over)
@@ -353,21 +350,16 @@ def _pusher_return(shielded: bool, seed: int) -> tuple[float, int]:
     env = _pusher(seed)
     sh = mujoco_shield(env, joints=PUSHER, tip="tips_arm", tip_offset=[0.1, 0.0, 0.0],
                        workspace=BOX, **BOUNDS)  # fmt: skip
-    w = ShieldWrapper(env, sh, detail=False)
+    w = ShieldWrapper(env, sh, detail=False, bypass=not shielded)
     w.reset(seed=seed)
-    qa, va = sh.state.addresses(env.unwrapped.model)
+    qa, _ = sh.state.addresses(env.unwrapped.model)
     policy = _scripted_pusher(env, sh.filter.robot)
     total, changed = 0.0, 0
     d = env.unwrapped.data
     for _ in range(100):  # one Pusher-v5 episode
         q = d.qpos[qa].copy()
-        a = policy(q)
-        if shielded:
-            _, r, _, _, info = w.step(a)
-            changed += info["shield"]["changed"]
-        else:
-            w._core.forward(env)
-            _, r, _, _, _ = env.step(w._core.to_env(env, q, d.qvel[va].copy(), a))
+        _, r, _, _, info = w.step(policy(q))
+        changed += info["shield"]["changed"]
         total += float(r)
     return total, changed
 

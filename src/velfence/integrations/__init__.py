@@ -18,12 +18,40 @@ from velfence import _lazy
 #: Public name -> defining module, loaded on first use (each module needs its own extra).
 _EXPORTS: dict[str, str] = {
     "PolytopeLimit": "velfence.integrations.mink_limits",
+    "BatchJointState": "velfence.integrations.gymnasium",
+    "JointState": "velfence.integrations.gymnasium",
+    "MujocoJointState": "velfence.integrations.gymnasium",
+    "Shield": "velfence.integrations.gymnasium",
+    "ShieldWrapper": "velfence.integrations.gymnasium",
+    "VectorShieldWrapper": "velfence.integrations.gymnasium",
+    "mujoco_arm": "velfence.integrations.gymnasium",
+    "mujoco_shield": "velfence.integrations.gymnasium",
 }
 
 __getattr__, __dir__ = _lazy.attach("velfence.integrations", _EXPORTS, globals())
 
 TYPE_CHECKING = False
 if TYPE_CHECKING:
+    from velfence.integrations.gymnasium import (
+        BatchJointState,
+        JointState,
+        MujocoJointState,
+        Shield,
+        ShieldWrapper,
+        VectorShieldWrapper,
+        mujoco_arm,
+        mujoco_shield,
+    )
     from velfence.integrations.mink_limits import PolytopeLimit
 
-__all__ = ["PolytopeLimit"]
+__all__ = [
+    "BatchJointState",
+    "JointState",
+    "MujocoJointState",
+    "PolytopeLimit",
+    "Shield",
+    "ShieldWrapper",
+    "VectorShieldWrapper",
+    "mujoco_arm",
+    "mujoco_shield",
+]

@@ -173,6 +173,10 @@ def mujoco_arm(
         tip_offset: The tool point in the body's frame [m], shape (3,) (Pusher's finger
             spheres are at x = 0.1 m ahead of ``tips_arm``'s origin).
 
+    Returns:
+        The arm, with the sites ``"tcp"`` and ``"joint0"`` … (its ``chain_frames()`` lets the
+        filter run its whole cycle in C).
+
     Raises:
         InvalidParameter: the env has no MJCF file, a joint or the body is unknown, or the
             arm read back does not match the env's kinematics.
@@ -387,6 +391,9 @@ def mujoco_shield(
         on_invalid: ``"raise"`` (a NaN state or action raises
             :class:`~velfence.errors.InvalidInput`) or ``"stop"`` (a hold action and
             ``info["shield"]["invalid"]``).
+
+    Returns:
+        The :class:`Shield` for :class:`ShieldWrapper` or :class:`VectorShieldWrapper`.
 
     Raises:
         InvalidParameter: an unset bound (naming it and how to set it), a bad argument, or an
@@ -648,18 +655,30 @@ class ShieldWrapper(gymnasium.Wrapper):
         penalty: Reward penalty per (rad/s)² of change, >= 0 (0: the reward as is).
         detail: ``True``: ``explain`` every step (the row names); ``False``: ``filter`` only
             (``active`` and ``stages`` empty, faster).
+        bypass: ``True``: the same wrapper without the filter (the command goes to the env's
+            actuation, the servo included, as asked; ``changed`` always false): the twin to
+            compare a shielded run with. Not for the ``"twist"`` action.
 
     Raises:
-        InvalidParameter: a bad shield or penalty.
+        InvalidParameter: a bad shield or penalty, or ``bypass`` with twist actions.
     """
 
     def __init__(
-        self, env: Any, shield: Shield, *, penalty: float = 0.0, detail: bool = True
+        self,
+        env: Any,
+        shield: Shield,
+        *,
+        penalty: float = 0.0,
+        detail: bool = True,
+        bypass: bool = False,
     ) -> None:
         super().__init__(env)
         self._core = _Core(shield, penalty)
         self.shield = shield
         self.detail = bool(detail)
+        self.bypass = bool(bypass)
+        if self.bypass and shield.action == "twist":
+            raise InvalidParameter("bypass: expected joint velocity or position actions")
         self.action_space = _action_space(shield)
         self.interventions = 0
         self._last_q: FloatArray | None = None
@@ -699,6 +718,9 @@ class ShieldWrapper(gymnasium.Wrapper):
             x = r.output
             active, stages = r.active_names, r.stages
             changed = "projection" in stages or "stop" in stages
+        elif self.bypass:
+            u = core.command(q, a)
+            x, active, stages, changed = u, (), (), False
         else:
             u = core.command(q, a)
             if self.detail:
