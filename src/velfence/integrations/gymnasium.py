@@ -604,13 +604,15 @@ class _Core:
         return np.minimum(np.maximum(ctrl, self._ctrl_lo), self._ctrl_hi)
 
     def hold(self, env: Any, q: FloatArray, qd: FloatArray) -> FloatArray:
-        """The env's action that holds the arm (zero joint velocity)."""
+        """The env's action that holds the arm (zero joint velocity; MuJoCo brought forward)."""
         n = self.shield.dof
         ok = bool(np.all(np.isfinite(q)) and np.all(np.isfinite(qd)))
         if self.shield.actuation == "torque" and not ok:
             return np.zeros(env.unwrapped.model.nu)
         if self.shield.actuation == "position" and not ok:
             raise InvalidInput("the joint state is not finite: no position to hold")
+        if ok:
+            self.forward(env)
         return self.to_env(env, q, qd, np.zeros(n))
 
     def distances(self, env: Any, q: FloatArray) -> dict[str, Any]:
@@ -704,8 +706,6 @@ class ShieldWrapper(gymnasium.Wrapper):
                     f"non-finite input: joint state q={q.tolist()}, qd={qd.tolist()}, "
                     f"action={a.tolist()}"
                 )
-            if np.isfinite(q).all() and np.isfinite(qd).all():
-                core.forward(self.env)
             env_a = core.hold(self.env, q, qd)
             n = sh.dof
             return env_a, {
