@@ -297,3 +297,40 @@ def test_custom_row_provider(capsys: pytest.CaptureFixture[str]) -> None:
     assert table - 1e-9 <= z <= table + 2e-3
     assert abs(numbers(speed)[0]) <= 1e-6  # resting on the table: no further approach
     assert "elbow z" in speed
+
+
+@pytest.mark.slow  # about 20 s: two Pusher runs and their video
+def test_policy_shield(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    pytest.importorskip("gymnasium")
+    pytest.importorskip("mujoco")
+    pytest.importorskip("matplotlib")
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(
+        "figure_checks", Path(__file__).parent / "viz" / "figure_checks.py"
+    )
+    assert spec is not None
+    assert spec.loader is not None
+    checks = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(checks)
+    monkeypatch.setattr("sys.argv", ["policy_shield.py", str(tmp_path), "--steps", "60"])
+    with checks.record_figures(monkeypatch) as figures:
+        lines = run_example("policy_shield", capsys)
+    checks.check_all(figures, {"policy_shield.png"})
+    raw, safe = (numbers(line) for line in lines[:2])
+    assert lines[0].startswith("without shield")
+    assert lines[1].startswith("with shield")
+    # (outside steps, of steps, depth [mm], joint steps, joint depth [mrad], interventions)
+    assert raw[1] == safe[1] == 60
+    assert raw[0] >= 30  # the wild policy leaves the box ...
+    assert safe[0] <= raw[0] / 3  # ... the shielded one hardly (lag of the 2 N·m servo) ...
+    assert safe[2] < 5.0  # ... by less than 5 mm, where the unshielded one goes decimetres
+    assert raw[2] > 100.0
+    assert safe[3] == 0  # no joint 1 mrad past its limit
+    assert safe[5] > 0
+    assert raw[5] == 0
+    assert (tmp_path / "policy_shield.png").stat().st_size > 20_000
+    assert (tmp_path / "policy_shield.mp4").stat().st_size > 5_000
+    assert lines[-1] == f"wrote {tmp_path / 'policy_shield.mp4'}"

@@ -220,6 +220,42 @@ int vf_filter_cycle(const vf_filter *f, const double *q, const double *u, const 
                     const vf_filter_opts *opts, double *out, vf_filter_info *info,
                     double *scratch, int32_t *iscratch);
 
+/* ------------------------------------------------------------------ many states at once
+ *
+ * vf_filter_cycle_batch runs vf_filter_cycle on `count` independent states of one description
+ * (a vector of simulated arms, one per environment): row r reads q[r n .. r n + n), u[...] and
+ * previous[...] (previous NULL: no acceleration rows for any row), writes out[r n ...] and
+ * status[r] = that row's vf_filter_cycle return value (VF_OK, VF_ITERATION_CAP / VF_DEADLINE: the
+ * safe fallback, or a negative VF_ERR_* code: the row's output is zero, e.g. VF_ERR_NONFINITE for
+ * a NaN state; the other rows are unaffected), stages[r] its VF_FILTER_STAGE_* bits and
+ * n_active[r] its active rows (both optional: NULL). opts (or NULL) is shared by every row: its
+ * time budget is per row, its warm keys tried by every row. Each row equals vf_filter_cycle of
+ * that state bit for bit (the same code on the row's own scratch; no state crosses rows).
+ *
+ * Threads: `threads` workers (<= 0: the online cores, sysconf(_SC_NPROCESSORS_ONLN)), at most
+ * `count` and VF_FILTER_BATCH_MAX_THREADS; worker 0 is the calling thread, the others POSIX
+ * threads created for the call and joined before it returns (pthread_create allocates their
+ * stacks inside the C library: use threads = 1 in a real-time loop, which creates none). Rows
+ * are split into contiguous chunks, one per worker. A worker that cannot be created has its
+ * chunk run by the calling thread. Without POSIX threads (_WIN32) every row runs in the caller.
+ *
+ * The caller owns the scratch: vf_filter_batch_doubles(f, threads) doubles and
+ * vf_filter_batch_ints(f, threads) int32_t (one cycle's scratch per worker). Returns VF_OK when
+ * every row ran (each row's outcome is in status[]), or a negative code for the call itself
+ * (VF_ERR_NULL: a required pointer NULL; VF_ERR_ARGUMENT: count < 0 or an invalid description):
+ * then every row's output is zero and status[r] is that code (when status is not NULL). */
+#define VF_FILTER_BATCH_MAX_THREADS 64
+
+/* Workers vf_filter_cycle_batch uses for `count` rows and a `threads` request (>= 1 if count >= 1). */
+int32_t vf_filter_batch_workers(int32_t threads, int32_t count);
+size_t vf_filter_batch_doubles(const vf_filter *f, int32_t threads);
+size_t vf_filter_batch_ints(const vf_filter *f, int32_t threads);
+
+int vf_filter_cycle_batch(const vf_filter *f, int32_t count, const double *q, const double *u,
+                          const double *previous, const vf_filter_opts *opts, double *out,
+                          int32_t *status, int32_t *stages, int32_t *n_active, int32_t threads,
+                          double *scratch, int32_t *iscratch);
+
 /* Forward kinematics of the chain: joint points P_0 .. P_n ((n + 1) x 3, P_n the tool point),
  * world axes z_0 .. z_n-1 (n x 3), frames F_-1 .. F_n-1, F_tool ((n + 2) x 12). No check. */
 void vf_filter_kinematics(const vf_filter *f, const double *q, double *P, double *axes,

@@ -11,6 +11,12 @@
  *     cycle(q, u, previous=None, out=None) -> out: one cycle on float64 arrays (n,) (out: a
  *       caller array (n,) written in place, else a new one). ValueError on a negative status (the
  *       output is then zero); the info of the cycle stays readable (info(), rows(), active()).
+ *     cycle_batch(q, u, previous=None, out=None, threads=0) -> (out, status, stages, n_active):
+ *       vf_filter_cycle_batch on float64 C-contiguous arrays (count, n) (previous too, or None);
+ *       out a caller array (count, n) or None; status, stages, n_active new int32 arrays
+ *       (count,). Each row equals cycle() of that row bit for bit; a row C refuses has status < 0
+ *       and output zero (no exception). threads <= 0: the online cores. The GIL is released.
+ *       The options of set_options apply (no warm start across rows or calls).
  *     set_options(max_iterations=0, time_budget=0.0, warm=False): per-solve iteration cap (<= 0:
  *       default), time budget [s] per cycle (0: none), warm start from the last active set.
  *     info() -> dict (status, stages, rung, deadline, relaxed, dropped, fraction, m, n_active,
@@ -47,6 +53,9 @@ typedef struct {
     vf_filter_info info;
     int have_info;
     long long misses;
+    double *bscratch; /* the batch's scratch: one cycle scratch per worker */
+    int32_t *biscratch;
+    int32_t bslots;   /* workers the batch scratch holds */
 } FilterCycle;
 
 static int read_into(PyObject *obj, const char *name, double *dst, Py_ssize_t count)
@@ -90,6 +99,9 @@ static void FilterCycle_dealloc(FilterCycle *self)
     PyMem_Free(self->ws);
     PyMem_Free(self->mem);
     PyMem_Free(self->imem);
+    PyMem_Free(self->scratch);
+    PyMem_Free(self->bscratch);
+    PyMem_Free(self->biscratch);
     Py_TYPE(self)->tp_free((PyObject *)self);
 }
 
@@ -403,6 +415,119 @@ static PyObject *FilterCycle_cycle(FilterCycle *self, PyObject *const *args, Py_
     return out;
 }
 
+
+static int batch_arg(PyObject *o, Py_ssize_t *count, int32_t n, const char *name, int writable)
+{
+    PyArrayObject *a = (PyArrayObject *)o;
+    if (!PyArray_Check(o) || PyArray_TYPE(a) != NPY_DOUBLE || PyArray_NDIM(a) != 2
+        || PyArray_DIM(a, 1) != n || !PyArray_ISCARRAY_RO(a) || !PyArray_ISNOTSWAPPED(a)
+        || (writable && !PyArray_ISWRITEABLE(a))
+        || (*count >= 0 && PyArray_DIM(a, 0) != *count)) {
+        PyErr_Format(PyExc_TypeError,
+                     "%s: expected a %scontiguous float64 array of shape (count, %d)%s", name,
+                     writable ? "writable " : "", (int)n, *count >= 0 ? " like q" : "");
+        return -1;
+    }
+    *count = PyArray_DIM(a, 0);
+    return 0;
+}
+
+static PyObject *FilterCycle_cycle_batch(FilterCycle *self, PyObject *args, PyObject *kwds)
+{
+    PyObject *qo, *uo, *po = Py_None, *oo = Py_None, *out, *st, *sg, *na;
+    int threads = 0, rc;
+    int32_t slots;
+    Py_ssize_t count = -1;
+    const int32_t n = self->f.n;
+    npy_intp dim;
+    static char *kwlist[] = {"q", "u", "previous", "out", "threads", NULL};
+    if (self->mem == NULL) {
+        PyErr_SetString(PyExc_RuntimeError, "FilterCycle not initialised");
+        return NULL;
+    }
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "OO|OOi", kwlist, &qo, &uo, &po, &oo,
+                                     &threads)) {
+        return NULL;
+    }
+    if (batch_arg(qo, &count, n, "q", 0) < 0 || batch_arg(uo, &count, n, "u", 0) < 0
+        || (po != Py_None && batch_arg(po, &count, n, "previous", 0) < 0)
+        || (oo != Py_None && batch_arg(oo, &count, n, "out", 1) < 0)) {
+        return NULL;
+    }
+    if (count > INT32_MAX / 2) {
+        PyErr_SetString(PyExc_ValueError, "q: too many rows");
+        return NULL;
+    }
+    slots = vf_filter_batch_workers(threads, VF_FILTER_BATCH_MAX_THREADS);
+    if (slots > self->bslots) {
+        double *d = PyMem_Realloc(self->bscratch, vf_filter_batch_doubles(&self->f, threads)
+                                                      * sizeof(double));
+        int32_t *i;
+        if (d == NULL) {
+            return PyErr_NoMemory();
+        }
+        self->bscratch = d;
+        i = PyMem_Realloc(self->biscratch,
+                          vf_filter_batch_ints(&self->f, threads) * sizeof(int32_t));
+        if (i == NULL) {
+            return PyErr_NoMemory();
+        }
+        self->biscratch = i;
+        self->bslots = slots;
+    }
+    dim = (npy_intp)count;
+    if (oo != Py_None) {
+        out = oo;
+        Py_INCREF(out);
+    } else {
+        npy_intp dims[2] = {dim, n};
+        out = PyArray_SimpleNew(2, dims, NPY_DOUBLE);
+    }
+    st = PyArray_SimpleNew(1, &dim, NPY_INT32);
+    sg = PyArray_SimpleNew(1, &dim, NPY_INT32);
+    na = PyArray_SimpleNew(1, &dim, NPY_INT32);
+    if (out == NULL || st == NULL || sg == NULL || na == NULL) {
+        Py_XDECREF(out);
+        Py_XDECREF(st);
+        Py_XDECREF(sg);
+        Py_XDECREF(na);
+        return NULL;
+    }
+    {
+        const double *q = PyArray_DATA((PyArrayObject *)qo);
+        const double *u = PyArray_DATA((PyArrayObject *)uo);
+        const double *p = po == Py_None ? NULL : PyArray_DATA((PyArrayObject *)po);
+        double *x = PyArray_DATA((PyArrayObject *)out);
+        int32_t *s = PyArray_DATA((PyArrayObject *)st);
+        int32_t *g = PyArray_DATA((PyArrayObject *)sg);
+        int32_t *a = PyArray_DATA((PyArrayObject *)na);
+        vf_filter_opts opts = self->opts;
+        opts.warm = NULL;
+        opts.n_warm = 0;
+        Py_BEGIN_ALLOW_THREADS
+        rc = vf_filter_cycle_batch(&self->f, (int32_t)count, q, u, p, &opts, x, s, g, a,
+                                   slots, self->bscratch, self->biscratch);
+        Py_END_ALLOW_THREADS
+        if (rc == VF_OK) {
+            Py_ssize_t r;
+            for (r = 0; r < count; r++) {
+                if (s[r] == VF_ITERATION_CAP || s[r] == VF_DEADLINE) {
+                    self->misses += 1;
+                }
+            }
+        }
+    }
+    if (rc != VF_OK) {
+        Py_DECREF(out);
+        Py_DECREF(st);
+        Py_DECREF(sg);
+        Py_DECREF(na);
+        PyErr_Format(PyExc_ValueError, "vf_filter_cycle_batch: status %d", rc);
+        return NULL;
+    }
+    return Py_BuildValue("(NNNN)", out, st, sg, na);
+}
+
 static PyObject *FilterCycle_set_options(FilterCycle *self, PyObject *args, PyObject *kwds)
 {
     int maxit = 0, warm = 0;
@@ -524,6 +649,9 @@ static PyObject *FilterCycle_dof(FilterCycle *self, void *Py_UNUSED(closure))
 static PyMethodDef FilterCycle_methods[] = {
     {"cycle", (PyCFunction)(void (*)(void))FilterCycle_cycle, METH_FASTCALL,
      "cycle(q, u, previous=None, out=None) -> out: one cycle of the safety filter."},
+    {"cycle_batch", (PyCFunction)(void (*)(void))FilterCycle_cycle_batch,
+     METH_VARARGS | METH_KEYWORDS,
+     "cycle_batch(q, u, previous=None, out=None, threads=0) -> (out, status, stages, n_active)"},
     {"set_options", (PyCFunction)(void (*)(void))FilterCycle_set_options,
      METH_VARARGS | METH_KEYWORDS, "set_options(max_iterations=0, time_budget=0.0, warm=False)"},
     {"info", (PyCFunction)FilterCycle_info, METH_NOARGS, "The last cycle's info, a dict."},

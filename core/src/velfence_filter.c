@@ -6,10 +6,15 @@
  * this file adds the chain-as-data kinematics, the workspace rows of a named point, the ladder,
  * the model check and the deadline fallback (velfence.filter's, spec-24 section 3).
  */
+#define _POSIX_C_SOURCE 200809L /* sysconf, POSIX threads (the batch) */
 #include "velfence_filter.h"
 
 #include <math.h>
 #include <string.h>
+#ifndef _WIN32
+#include <pthread.h>
+#include <unistd.h>
+#endif
 #ifdef VF_FILTER_DEBUG
 #include <stdio.h>
 #endif
@@ -1115,4 +1120,155 @@ int vf_filter_cycle(const vf_filter *f, const double *q, const double *u, const 
     }
     info->status = rc;
     return rc;
+}
+
+/* ------------------------------------------------------------------ the batch */
+
+int32_t vf_filter_batch_workers(int32_t threads, int32_t count)
+{
+    int32_t w = threads;
+    if (count <= 0) {
+        return 0;
+    }
+    if (w <= 0) {
+#ifndef _WIN32
+        long cores = sysconf(_SC_NPROCESSORS_ONLN);
+        w = cores >= 1 ? (cores > VF_FILTER_BATCH_MAX_THREADS ? VF_FILTER_BATCH_MAX_THREADS
+                                                              : (int32_t)cores)
+                       : 1;
+#else
+        w = 1;
+#endif
+    }
+    if (w > VF_FILTER_BATCH_MAX_THREADS) {
+        w = VF_FILTER_BATCH_MAX_THREADS;
+    }
+    return w < count ? w : count;
+}
+
+static int32_t batch_slots(int32_t threads)
+{
+    int32_t w = vf_filter_batch_workers(threads, VF_FILTER_BATCH_MAX_THREADS);
+    return w < 1 ? 1 : w;
+}
+
+size_t vf_filter_batch_doubles(const vf_filter *f, int32_t threads)
+{
+    return vf_filter_doubles(f) * (size_t)batch_slots(threads);
+}
+
+size_t vf_filter_batch_ints(const vf_filter *f, int32_t threads)
+{
+    return vf_filter_ints(f) * (size_t)batch_slots(threads);
+}
+
+typedef struct batch_job {
+    const vf_filter *f;
+    const vf_filter_opts *opts;
+    const double *q, *u, *previous;
+    double *out;
+    int32_t *status, *stages, *n_active;
+    int32_t lo, hi;
+    double *scratch;
+    int32_t *iscratch;
+} batch_job;
+
+static void *batch_run(void *arg)
+{
+    const batch_job *j = (const batch_job *)arg;
+    const size_t n = (size_t)j->f->n;
+    vf_filter_info info;
+    int32_t r;
+    for (r = j->lo; r < j->hi; r++) {
+        const size_t o = (size_t)r * n;
+        int rc = vf_filter_cycle(j->f, j->q + o, j->u + o,
+                                 j->previous != NULL ? j->previous + o : NULL, j->opts,
+                                 j->out + o, &info, j->scratch, j->iscratch);
+        j->status[r] = rc;
+        if (j->stages != NULL) {
+            j->stages[r] = info.stages;
+        }
+        if (j->n_active != NULL) {
+            j->n_active[r] = rc < 0 ? 0 : info.n_active;
+        }
+    }
+    return NULL;
+}
+
+int vf_filter_cycle_batch(const vf_filter *f, int32_t count, const double *q, const double *u,
+                          const double *previous, const vf_filter_opts *opts, double *out,
+                          int32_t *status, int32_t *stages, int32_t *n_active, int32_t threads,
+                          double *scratch, int32_t *iscratch)
+{
+    batch_job jobs[VF_FILTER_BATCH_MAX_THREADS];
+    int32_t w, k, r;
+    int rc = VF_OK;
+    size_t nd, ni;
+    if (f == NULL || out == NULL || status == NULL || (count > 0 && (q == NULL || u == NULL))
+        || scratch == NULL || iscratch == NULL) {
+        rc = VF_ERR_NULL;
+    } else if (count < 0) {
+        rc = VF_ERR_ARGUMENT;
+    } else {
+        rc = vf_filter_check(f);
+    }
+    if (rc != VF_OK) {
+        if (f != NULL && out != NULL && count > 0 && f->n > 0 && f->n <= MAX_JOINTS) {
+            memset(out, 0, (size_t)count * (size_t)f->n * sizeof(double));
+        }
+        for (r = 0; status != NULL && r < count; r++) {
+            status[r] = rc;
+            if (stages != NULL) {
+                stages[r] = VF_FILTER_STAGE_STOP;
+            }
+            if (n_active != NULL) {
+                n_active[r] = 0;
+            }
+        }
+        return rc;
+    }
+    if (count == 0) {
+        return VF_OK;
+    }
+    w = vf_filter_batch_workers(threads, count);
+    nd = vf_filter_doubles(f);
+    ni = vf_filter_ints(f);
+    for (k = 0; k < w; k++) {
+        batch_job *j = jobs + k;
+        j->f = f;
+        j->opts = opts;
+        j->q = q;
+        j->u = u;
+        j->previous = previous;
+        j->out = out;
+        j->status = status;
+        j->stages = stages;
+        j->n_active = n_active;
+        j->lo = (int32_t)(((int64_t)count * k) / w);
+        j->hi = (int32_t)(((int64_t)count * (k + 1)) / w);
+        j->scratch = scratch + nd * (size_t)k;
+        j->iscratch = iscratch + ni * (size_t)k;
+    }
+#ifndef _WIN32
+    {
+        pthread_t tid[VF_FILTER_BATCH_MAX_THREADS];
+        int started[VF_FILTER_BATCH_MAX_THREADS];
+        for (k = 1; k < w; k++) {
+            started[k] = pthread_create(tid + k, NULL, batch_run, jobs + k) == 0;
+        }
+        batch_run(jobs);
+        for (k = 1; k < w; k++) {
+            if (started[k]) {
+                pthread_join(tid[k], NULL);
+            } else { /* not created: the caller runs its chunk */
+                batch_run(jobs + k);
+            }
+        }
+    }
+#else
+    for (k = 0; k < w; k++) {
+        batch_run(jobs + k);
+    }
+#endif
+    return VF_OK;
 }

@@ -47,6 +47,7 @@ EXTRA_OF: dict[str, str] = {
     "mcap_ros2": "ros",
     "foxglove": "ros",
     "viser": "web",
+    "gymnasium": "gym",
 }
 
 

@@ -39,7 +39,7 @@ def build(source: str, library: str | tuple[str, ...], exe: Path) -> Path:
     the sanitizers into ``exe``."""
     cmd = [
         str(GCC), *FLAGS, *SANITIZE, f"-I{CORE / 'include'}", str(CORE / source),
-        *_sources(library), "-lm", "-o", str(exe),
+        *_sources(library), "-lm", "-pthread", "-o", str(exe),
     ]  # fmt: skip
     done = subprocess.run(cmd, capture_output=True, text=True, timeout=180, check=False)
     assert done.returncode == 0, done.stderr

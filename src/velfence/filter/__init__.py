@@ -27,11 +27,12 @@ from velfence.filter.filter import SafetyFilter
 from velfence.filter.kinematics import (
     CachedFrame,
     ChainData,
+    ChainFrames,
     Kinematics,
     KinematicsFrame,
 )
 from velfence.filter.limits import JointLimits, Profile, SphereObstacle, WorkspaceLimit
-from velfence.filter.result import FilterResult
+from velfence.filter.result import FilterBatch, FilterResult
 from velfence.filter.rows import (
     LEVEL_JOINT,
     LEVEL_NAMES,
@@ -56,6 +57,8 @@ __all__ = [
     "LEVEL_WORKSPACE",
     "CachedFrame",
     "ChainData",
+    "ChainFrames",
+    "FilterBatch",
     "FilterResult",
     "JointAccelerationLimit",
     "JointLimits",

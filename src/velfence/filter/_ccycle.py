@@ -134,7 +134,8 @@ def _joint_profiles(sf: Any) -> list[Any]:
 def filter_cycle(sf: Any, profiles: Any = None) -> Any:
     """The C cycle (``velfence_core._filter.FilterCycle``) of a ``SafetyFilter``.
 
-    The robot must give its chain as data (``chain_data()``, a DH chain), the filter must have
+    The robot must give its chain as data (``chain_data()``, a DH chain, or ``chain_frames()``,
+    a :class:`~velfence.filter.kinematics.ChainFrames`), the filter must have
     no custom row providers and identity or diagonal weights.
 
     Raises:
@@ -148,9 +149,10 @@ def filter_cycle(sf: Any, profiles: Any = None) -> Any:
 
     robot = sf.robot
     data = robot.chain_data() if hasattr(robot, "chain_data") else None
-    if data is None:
+    frames = robot.chain_frames() if data is None and hasattr(robot, "chain_frames") else None
+    if data is None and frames is None:
         raise InvalidParameter(
-            f"robot: the C cycle needs the chain as data (chain_data()), "
+            f"robot: the C cycle needs the chain as data (chain_data() or chain_frames()), "
             f"{type(robot).__name__} gives none"
         )
     if len(sf._providers) != sf._n_builtin:
@@ -159,8 +161,15 @@ def filter_cycle(sf: Any, profiles: Any = None) -> Any:
     if metric is not None and metric.ndim != 1:
         raise InvalidParameter("weights: the C cycle takes diagonal weights only")
     n = int(robot.dof)
-    dh5 = np.asarray(data.dh, dtype=np.float64).reshape(n, 5)
-    joints, tool = _dh5_chain(dh5, np.asarray(data.tool, dtype=np.float64))
+    if data is not None:
+        dh5 = np.asarray(data.dh, dtype=np.float64).reshape(n, 5)
+        joints, tool = _dh5_chain(dh5, np.asarray(data.tool, dtype=np.float64))
+        pts = _points(dh5, dict(data.point_index))
+    else:
+        assert frames is not None  # (one of the two, checked above)
+        joints = np.asarray(frames.joints, dtype=np.float64).reshape(n * 17)
+        tool = np.asarray(frames.tool, dtype=np.float64).reshape(12)
+        pts = {k: tuple(float(v) for v in p) for k, p in frames.points.items()}
     lim = sf.limits
     jkind: list[int] = []
     jprm: list[float] = []
@@ -168,7 +177,6 @@ def filter_cycle(sf: Any, profiles: Any = None) -> Any:
         kind, params = prof.kernel_profile
         jkind.append(int(kind))
         jprm.extend(float(v) for v in params)
-    pts = _points(dh5, dict(data.point_index))
     names = list(pts)
     ws = []
     for p in sf._providers:
@@ -187,7 +195,11 @@ def filter_cycle(sf: Any, profiles: Any = None) -> Any:
     obs = sf.obstacles
     centres = np.array([o.center for o in obs], dtype=np.float64).reshape(-1)
     radii = np.array([o.radius for o in obs], dtype=np.float64)
-    lr = np.asarray(getattr(robot, "link_radius", np.zeros(1)), dtype=np.float64).reshape(-1)
+    lr = (
+        np.asarray(getattr(robot, "link_radius", np.zeros(1)), dtype=np.float64).reshape(-1)
+        if obs
+        else np.zeros(1)
+    )
     lrad = np.ascontiguousarray(np.broadcast_to(lr if lr.shape[0] > 1 else lr[:1], (n,)))
     acc = lim.max_acceleration
     return _filter.FilterCycle(

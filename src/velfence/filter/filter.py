@@ -54,7 +54,7 @@ from velfence.filter.limits import (
     WorkspaceLimit,
     spatial_obstacles,
 )
-from velfence.filter.result import FilterResult
+from velfence.filter.result import STAGE_BITS, FilterBatch, FilterResult
 from velfence.filter.rows import (
     LEVEL_JOINT,
     LEVEL_OBSTACLE,
@@ -80,11 +80,7 @@ __all__ = ["SafetyFilter"]
 
 _BINDING = 1e-9  # relative slack under which a row counts as active
 #: The C cycle's stage bits (velfence_filter.h VF_FILTER_STAGE_*) and names, in report order.
-_C_STAGES = (
-    (512, "command-scaled"), (1, "projection"), (2, "recovery"), (8, "dropped acceleration"),
-    (16, "relaxed obstacles"), (32, "relaxed workspace"), (64, "relaxed joint limits"),
-    (256, "deadline"), (4, "model-check"), (1024, "model-scaled"), (128, "stop"),
-)  # fmt: skip
+_C_STAGES = STAGE_BITS
 #: The levels a report names as dropped or relaxed, in the ladder's order.
 _C_DROPPED = (
     (LEVEL_RATE, "acceleration"), (LEVEL_OBSTACLE, "obstacles"), (LEVEL_WORKSPACE, "workspace"),
@@ -746,6 +742,96 @@ class SafetyFilter(InvalidPolicy):
         finally:
             self._warm = warm
         return out
+
+    def filter_batch(
+        self,
+        positions: ArrayLike,
+        commands: ArrayLike,
+        *,
+        previous: ArrayLike | None = None,
+        threads: int = 0,
+    ) -> FilterBatch:
+        """One cycle of N independent states in one call (a vector of environments).
+
+        With the compiled core and a robot that gives its chain as data, every row runs the C
+        cycle in one call of ``vf_filter_cycle_batch`` on ``threads`` POSIX threads (the GIL is
+        released); each row's output equals :meth:`filter` of that state with ``previous=`` its
+        row bit for bit. Otherwise the rows run one after the other on the Python route (same
+        results as :meth:`explain` of each). Nothing is remembered: neither the previous output
+        nor a warm start.
+
+        Args:
+            positions: Joint positions [rad], shape (N, dof).
+            commands: Commanded joint velocities [rad/s], shape (N, dof).
+            previous: Each row's previous output [rad/s], shape (N, dof), for the acceleration
+                rows; ``None``: no acceleration rows.
+            threads: Worker threads, an int >= 0 (0: one per online core).
+
+        Returns:
+            A :class:`~velfence.filter.result.FilterBatch`: outputs (N, dof), per-row status,
+            stage bits and active-row counts.
+
+        Raises:
+            InvalidInput: wrong shapes, or a non-finite row with ``on_invalid="raise"`` (naming
+                the first such row); with ``on_invalid="stop"`` such a row gives zero and a
+                negative status.
+            InvalidParameter: ``threads`` is not an int >= 0.
+        """
+        n = self.dof
+        th = check_positive_int("threads", threads, minimum=0, maximum=64, example=2)
+        Qa = self._batch_state("positions", positions, None)
+        N = Qa.shape[0]
+        Va = self._batch_state("commands", commands, N)
+        Pa = None if previous is None else self._batch_state("previous", previous, N)
+        if not self._has_accel:
+            Pa = None
+        arrays = (Qa, Va) if Pa is None else (Qa, Va, Pa)
+        bad = ~np.all(np.isfinite(np.hstack(arrays)), axis=1) if N else np.zeros(0, bool)
+        if bad.any():
+            k = int(np.flatnonzero(bad)[0])
+            try:
+                self._invalid(f"non-finite input in row {k}")
+            except InvalidInput as exc:
+                raise InvalidInput(f"positions, commands row {k}: {exc}") from None
+        cyc = self._ccycle
+        if cyc is not None:
+            misses = cyc.deadline_misses
+            try:
+                out, st, sg, na = cyc.cycle_batch(Qa, Va, Pa, None, th)
+            except (TypeError, ValueError) as exc:  # pragma: no cover - checked above
+                raise InvalidInput(f"positions, commands: {exc}") from None
+            self.deadline_misses += cyc.deadline_misses - misses
+            return FilterBatch(
+                output=out, status=st.astype(np.int64), stages=sg.astype(np.int64),
+                n_active=na.astype(np.int64),
+            )  # fmt: skip
+        out = np.zeros((N, n))
+        st = np.zeros(N, dtype=np.int64)
+        sg = np.zeros(N, dtype=np.int64)
+        na = np.zeros(N, dtype=np.int64)
+        bits = {name: bit for bit, name in STAGE_BITS}
+        warm = self._warm
+        self._warm = set()
+        try:
+            for k in range(N):
+                if bad[k]:
+                    st[k], sg[k] = -3, bits["stop"]  # VF_ERR_NONFINITE, as the C route
+                    continue
+                r = self._run(Qa[k], Va[k], Va[k], self._metric, None if Pa is None else Pa[k],
+                              False)  # fmt: skip
+                out[k] = r.output
+                st[k] = {None: 0, "iterations": 3, "time": 4}[r.deadline]
+                sg[k] = sum(bits[s] for s in set(r.stages))
+                na[k] = len(r.active)
+        finally:
+            self._warm = warm
+        return FilterBatch(output=out, status=st, stages=sg, n_active=na)
+
+    def _batch_state(self, name: str, x: Any, rows: int | None) -> FloatArray:
+        """A C-contiguous float64 (rows, dof) array (non-finite entries kept for the check)."""
+        n = self.dof
+        a = real_array(name, x, (rows, n), allow_nonfinite=True, max_abs=None)
+        return np.ascontiguousarray(a, dtype=np.float64)
 
 
 document_inits(globals())

@@ -30,6 +30,7 @@ from velfence.errors import InvalidInput
 __all__ = [
     "CachedFrame",
     "ChainData",
+    "ChainFrames",
     "Kinematics",
     "KinematicsFrame",
     "checked",
@@ -115,6 +116,30 @@ class ChainData:
     dh: FloatArray
     tool: FloatArray
     point_index: dict[str, int]
+
+
+@dataclass(frozen=True)
+class ChainFrames:
+    """A serial chain as fixed transforms and joint axes (URDF / MJCF style), for the C cycle.
+
+    The C cycle's chain description (``velfence_filter.h``): ``F_j = F_{j-1} T_j M_j(q_j +
+    offset_j)``, ``M_j`` a rotation about (revolute) or a translation along (prismatic) the unit
+    axis ``a_j`` through the joint frame's origin; ``F_tool = F_{n-1} tool``. Joint ``j``'s point
+    ``P_j`` is the origin of ``F_{j-1} T_j`` and link ``l`` the capsule ``P_l -> P_{l+1}``
+    (``P_n`` the tool origin). Robots that are not DH tables give it by ``chain_frames()``
+    (``MujocoRobot`` for a serial MJCF arm).
+
+    Attributes:
+        joints: Per joint ``T`` (12, ``[R | p]`` row-major), axis (3), type (0 revolute,
+            1 prismatic), offset: shape (n, 17).
+        tool: The tool transform in ``F_{n-1}``, ``[R | p]`` row-major, shape (12,).
+        points: Every named point as ``(link, x, y, z)``: ``link`` -1 the base, ``0 … n-1`` the
+            frame ``F_link``, ``n`` the tool frame; ``(x, y, z)`` [m] in that frame.
+    """
+
+    joints: FloatArray
+    tool: FloatArray
+    points: dict[str, tuple[float, float, float, float]]
 
 
 class CachedFrame:

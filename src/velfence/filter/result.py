@@ -5,11 +5,13 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal
 
+import numpy as np
+
 from velfence._docs import document_inits
-from velfence._typing import FloatArray
+from velfence._typing import BoolArray, FloatArray, IntArray
 from velfence.shaping.base import Zone
 
-__all__ = ["Deadline", "FilterResult"]
+__all__ = ["STAGE_BITS", "Deadline", "FilterBatch", "FilterResult"]
 
 #: Why a cycle ended on its safe fallback: the iteration cap of a solve, or the time budget.
 Deadline = Literal["iterations", "time"]
@@ -65,6 +67,69 @@ class FilterResult:
     relaxed: tuple[str, ...] = ()
     deadline: Deadline | None = None
     method: str = "safety-filter"
+
+
+#: The stage names of :attr:`FilterResult.stages` and their bits in :attr:`FilterBatch.stages`
+#: (the C cycle's ``VF_FILTER_STAGE_*``, ``velfence_filter.h``), in report order.
+STAGE_BITS: tuple[tuple[int, str], ...] = (
+    (512, "command-scaled"), (1, "projection"), (2, "recovery"), (8, "dropped acceleration"),
+    (16, "relaxed obstacles"), (32, "relaxed workspace"), (64, "relaxed joint limits"),
+    (256, "deadline"), (4, "model-check"), (1024, "model-scaled"), (128, "stop"),
+)  # fmt: skip
+
+
+@dataclass(frozen=True, eq=False)
+class FilterBatch:
+    """What the safety filter did on N independent states in one call (``filter_batch``).
+
+    Attributes:
+        output: The filtered joint velocities [rad/s], shape (N, n); always finite.
+        status: Each row's status, shape (N,), int32: the C status code (``velfence_status.h``):
+            0 (``VF_OK``), 3 / 4 (``VF_ITERATION_CAP`` / ``VF_DEADLINE``: the safe fallback
+            answered), or negative (the row was refused: a non-finite state with
+            ``on_invalid="stop"``; its output is zero).
+        stages: Each row's stages as bits, shape (N,), int32 (:data:`STAGE_BITS`; a refused row
+            has the ``"stop"`` bit).
+        n_active: Each row's active rows (binding at the output or violated), shape (N,).
+    """
+
+    output: FloatArray
+    status: IntArray
+    stages: IntArray
+    n_active: IntArray
+
+    @property
+    def changed(self) -> BoolArray:
+        """Rows whose output is not the command: projected, scaled, the fallback or a stop."""
+        return np.asarray((self.stages & (1 | 128 | 256 | 512 | 1024)) != 0, dtype=np.bool_)
+
+    @property
+    def stopped(self) -> BoolArray:
+        """Rows answered with zero velocity (the ladder's stop, or a refused row)."""
+        return np.asarray((self.stages & 128) != 0, dtype=np.bool_)
+
+    @property
+    def invalid(self) -> BoolArray:
+        """Rows refused for a non-finite state (``on_invalid="stop"``; output zero)."""
+        return np.asarray(self.status < 0, dtype=np.bool_)
+
+    def stage_names(self, row: int) -> tuple[str, ...]:
+        """The stages of one row by name, as :attr:`FilterResult.stages`.
+
+        Args:
+            row: The row index, 0 <= row < N.
+
+        Raises:
+            InvalidInput: ``row`` is not an index of the batch.
+        """
+        from velfence._validate import check_positive_int
+        from velfence.errors import InvalidInput
+
+        k = check_positive_int(
+            "row", row, minimum=0, maximum=int(self.stages.shape[0]) - 1, error=InvalidInput
+        )
+        bits = int(self.stages[k])
+        return tuple(name for bit, name in STAGE_BITS if bits & bit)
 
 
 document_inits(globals())

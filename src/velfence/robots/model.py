@@ -365,6 +365,26 @@ class MujocoRobot(CapsuleLinks):
         """``None``: an MJCF arm is not given as a DH table (``velfence.filter.ChainData``)."""
         return None
 
+    def chain_frames(self) -> Any:
+        """The arm as fixed transforms and joint axes for the C cycle, or ``None``.
+
+        A :class:`~velfence.filter.kinematics.ChainFrames` when the model is a serial chain:
+        joint ``j``'s body descends from joint ``j - 1``'s through bodies without joints, one
+        joint per body, every site on the chain (a body without joints hangs from the last joint
+        above it). Joint ``j``'s frame is its body's frame moved to the joint's anchor (the site
+        ``"joint{j}"`` when it lies on the axis, as on the shipped arms, else MuJoCo's joint
+        ``pos``), its motion the hinge's rotation (the slide's translation) by ``q_j`` minus the
+        joint's reference ``qpos0``; the tool is the ``"flange"`` site's frame, or ``"tcp"``'s
+        (the end of the last capsule link, as :attr:`link_segments`). ``None`` for anything
+        else (a branch, two joints on one body, a joint site off its axis): the filter then
+        keeps its Python route.
+        """
+        cached = getattr(self, "_frames", False)
+        if cached is not False:
+            return cached
+        self._frames = _serial_frames(self)
+        return self._frames
+
     def angular_jacobian(self, q: ArrayLike) -> FloatArray:
         """Angular-velocity Jacobian of the ``"tcp"`` site's body in the world frame.
 
@@ -381,6 +401,112 @@ class MujocoRobot(CapsuleLinks):
         self._pose(qa)
         self._mj.mj_jacSite(self._model, self._data, self._jacp, self._jacr, self._site["tcp"])
         return self._finite(np.array(self._jacr, dtype=float))
+
+
+def _transform(R: Any, p: Any) -> FloatArray:
+    """``[R | p]`` as a 4 x 4 matrix."""
+    T = np.eye(4)
+    T[:3, :3] = np.asarray(R, dtype=np.float64).reshape(3, 3)
+    T[:3, 3] = np.asarray(p, dtype=np.float64)
+    return T
+
+
+def _serial_frames(robot: MujocoRobot) -> Any:
+    """:meth:`MujocoRobot.chain_frames` (``None`` when the model is not a serial chain)."""
+    from velfence.filter.kinematics import ChainFrames
+
+    mj, m = robot._mj, robot._model
+    n = int(m.njnt)
+    if n > 64:
+        return None
+
+    def body_tf(b: int) -> FloatArray:
+        R = np.zeros(9)
+        mj.mju_quat2Mat(R, np.asarray(m.body_quat[b], dtype=np.float64))
+        return _transform(R, m.body_pos[b])
+
+    def path(lo: int, hi: int) -> FloatArray | None:
+        """The bodies' transforms from ``lo`` (exclusive) down to ``hi`` (inclusive).
+
+        ``None`` when ``hi`` does not descend from ``lo`` through bodies without joints.
+        """
+        T = np.eye(4)
+        b = hi
+        chain: list[int] = []
+        while b != lo:
+            if b == 0:
+                return None
+            chain.append(b)
+            b = int(m.body_parentid[b])
+        for k, c in enumerate(reversed(chain)):
+            if int(m.body_jntnum[c]) != (
+                1 if k == len(chain) - 1 and c == hi and is_joint_body(c) else 0
+            ):
+                return None
+            T = T @ body_tf(c)
+        return T
+
+    bodies = [int(m.jnt_bodyid[j]) for j in range(n)]
+
+    def is_joint_body(b: int) -> bool:
+        return b in bodies
+
+    if len(set(bodies)) != n:
+        return None
+    anchors = []
+    for j in range(n):
+        axis = np.asarray(m.jnt_axis[j], dtype=np.float64)
+        anchor = np.asarray(m.jnt_pos[j], dtype=np.float64)
+        sid = robot._site.get(f"joint{j}")
+        if sid is not None and int(m.site_bodyid[sid]) == bodies[j]:
+            sp = np.asarray(m.site_pos[sid], dtype=np.float64)
+            off = sp - anchor
+            if np.linalg.norm(off - axis * float(off @ axis)) > 1e-12:
+                return None  # a joint site off the axis: the capsule ends would not match
+            anchor = sp
+        anchors.append(anchor)
+    joints = np.zeros((n, 17))
+    for j in range(n):
+        lo = 0 if j == 0 else bodies[j - 1]
+        T = path(lo, bodies[j])
+        if T is None:
+            return None
+        if j > 0:
+            T = _transform(np.eye(3), -anchors[j - 1]) @ T
+        T = T @ _transform(np.eye(3), anchors[j])
+        joints[j, :12] = T[:3].ravel()
+        joints[j, 12:15] = m.jnt_axis[j]
+        slide = int(m.jnt_type[j]) == int(mj.mjtJoint.mjJNT_SLIDE)
+        joints[j, 15] = 1.0 if slide else 0.0
+        joints[j, 16] = -float(m.qpos0[int(m.jnt_qposadr[j])])
+
+    def site_frame(sid: int) -> tuple[int, FloatArray] | None:
+        """The site's frame as (link, 4 x 4 transform in F_link)."""
+        b = int(m.site_bodyid[sid])
+        R = np.zeros(9)
+        mj.mju_quat2Mat(R, np.asarray(m.site_quat[sid], dtype=np.float64))
+        S = _transform(R, m.site_pos[sid])
+        for j in range(n - 1, -1, -1):
+            T = path(bodies[j], b) if b != bodies[j] else np.eye(4)
+            if T is not None:
+                return j, _transform(np.eye(3), -anchors[j]) @ T @ S
+        T = path(0, b) if b != 0 else np.eye(4)
+        return None if T is None else (-1, T @ S)
+
+    end = robot._site.get("flange", robot._site["tcp"])
+    tool = site_frame(end)
+    if tool is None or tool[0] != n - 1:
+        return None
+    points: dict[str, tuple[float, float, float, float]] = {}
+    for name in robot._points:
+        sf = site_frame(robot._site[name])
+        if sf is None:
+            return None
+        link, T = sf
+        x, y, z = (float(v) for v in T[:3, 3])
+        points[name] = (float(link), x, y, z)
+    return ChainFrames(joints=readonly(joints), tool=readonly(tool[1][:3].ravel().copy()),
+                       points=points)  # fmt: skip
 
 
 class MujocoFrame:

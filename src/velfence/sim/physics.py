@@ -57,6 +57,7 @@ from velfence._validate import (
 )
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.filter.limits import SphereObstacle
+from velfence.robots.servo import computed_torque
 
 __all__ = ["SERVOS", "BodyPush", "MujocoPlant", "PhysicsRecord", "Servo"]
 
@@ -504,15 +505,11 @@ class MujocoPlant:
                     d.xfrc_applied[self._bodies[p.body], 3:] += p.torque
             mj.mj_step1(mdl, d)
             if self.servo == "computed-torque":
-                err = np.zeros(mdl.nv)
-                err[self._aadr] = self.bandwidth * (ref - d.qvel[self._aadr])
-                mj.mj_mulM(mdl, d, self._Mv, err)
-                tau = self._Mv[self._aadr] + d.qfrc_bias[self._aadr]
-                lim = self.max_effort
-                sat = np.abs(tau) > lim
-                if sat.any():
-                    clipped = True
-                    tau = np.clip(tau, -lim, lim)
+                tau, sat = computed_torque(
+                    mj, mdl, d, self._aadr, ref, bandwidth=self.bandwidth,
+                    max_effort=self.max_effort, scratch=self._Mv,
+                )  # fmt: skip
+                clipped = clipped or sat
                 d.qfrc_applied[:] = 0.0
                 d.qfrc_applied[self._aadr] = tau
                 effort = tau
