@@ -59,7 +59,7 @@ def test_the_walk_finds_the_library_classes() -> None:
 
 #: ROS 2 message structs: their fields are the ROS ``.msg`` definition's, named in the class
 #: docstring by the message's name, not described field by field.
-ROS_MESSAGES = "velfence.bridge.msgs."
+ROS_MESSAGES = ("velfence.bridge.msgs.", "velfence.bridge.ros_interfaces.")
 
 
 @pytest.mark.parametrize("qualname", sorted(CLASSES))
