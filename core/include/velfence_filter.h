@@ -18,7 +18,10 @@
  *                                                         (VF_FILTER_LEVEL_WORKSPACE, w, i),
  *        obstacle rows: sphere s against the capsule of link l, (n J_c) x >= b at the link's
  *          critical point (vf_nd_capsule_rows; pairs beyond the buffer and one period's reach
- *          left out)                                       (VF_FILTER_LEVEL_OBSTACLE, s, l);
+ *          left out)                                       (VF_FILTER_LEVEL_OBSTACLE, s, l),
+ *        self-collision rows: link capsule i against link capsule j, nrm^T (J_i(pa) - J_j(pb)) x
+ *          >= b at the closest axis points (vf_self_row; the obstacle profile, pairs beyond the
+ *          buffer and the two links' one-period reach left out) (VF_FILTER_LEVEL_OBSTACLE, k + i, j);
  *      a row is *violated* when its signed distance is < 0; its bound is then a recovery bound;
  *   3. the feasibility test (G u >= b as evaluated: then x = u exactly), the projection
  *      (vf_nd_project_kernel_opt with the caller's iteration cap, deadline and warm rows; in the
@@ -168,6 +171,12 @@ typedef struct vf_filter {
     double spring_gain;            /* obstacles' recovery gain [1/s], >= 0 */
     double dt;                     /* control period [s], 0 < dt <= 1e150, or 0: continuous */
     const double *weights;         /* diagonal metric (n,), > 0, or NULL (identity) */
+    /* Self-collision (after the obstacle rows, the same level, profile and reach test): link
+     * capsule i against link capsule j for each pair (i, j), 0 <= i < j < n, in `pairs`
+     * (2 x npairs ints); row key (VF_FILTER_LEVEL_OBSTACLE, k + i, j). 0 / NULL: none.
+     * (zero-initialise the struct: the fields default to none) */
+    int32_t npairs;
+    const int32_t *pairs;
 } vf_filter;
 
 typedef struct vf_filter_opts {
@@ -202,9 +211,25 @@ typedef struct vf_filter_info {
     const int32_t *level, *key_a, *key_b, *active, *relaxed_rows;
 } vf_filter_info;
 
+/* Closest points of segments [a0, a1] and [b0, b1] (3 doubles each): the parameters s, t in
+ * [0, 1] (velfence.geometry.primitives.segment_pair_params, the same arithmetic: skew pairs the
+ * clamped optimum (Ericsson 5.1.9), parallel pairs (sin^2 <= 1e-16) the middle of the overlap,
+ * a zero-length segment its start), the points pa, pb, the unit normal nrm = (pa - pb) / |pa - pb|
+ * (crossing axes: d_a x d_b normalised; parallel and touching: z x d_a normalised, else x) and
+ * the distance |pa - pb| (returned). pa, pb, nrm may be NULL. No check: finite inputs. */
+double vf_segment_pair(const double *a0, const double *a1, const double *b0, const double *b1,
+                       double *s, double *t, double *pa, double *pb, double *nrm);
+
+/* One self-collision row of links i, j of a chain whose joint points P ((n + 1) x 3) and axes
+ * ((n) x 3, revolute) are given: g (n,) = nrm^T (J_i(pa) - J_j(pb)) with the closest points
+ * held fixed, the relative speed |(J_i - J_j) u| into *speed; returns the clearance
+ * |pa - pb| - ri - rj. */
+double vf_self_row(int32_t n, const double *P, const double *axes, int32_t i, int32_t j,
+                   double ri, double rj, const double *u, double *g, double *speed);
+
 /* Checks the description: VF_OK or a negative VF_ERR_* code. */
 int vf_filter_check(const vf_filter *f);
-/* Largest number of rows: 6 n + sum nf + k n. */
+/* Largest number of rows: 6 n + sum nf + k n + npairs. */
 size_t vf_filter_rows_max(const vf_filter *f);
 /* Scratch sizes of vf_filter_cycle (0 for an invalid description). */
 size_t vf_filter_doubles(const vf_filter *f);

@@ -2,11 +2,12 @@
  * velfence_core._filter -- CPython binding of the safety filter's whole cycle (velfence_filter.h).
  *
  *   FilterCycle(joints, tool, lower, upper, vmax, amax, jkind, jprm, points, ws, centres, radii,
- *               link_radius, obstacle_buffer, spring_gain, dt, weights)
+ *               link_radius, obstacle_buffer, spring_gain, dt, weights, self_pairs=None)
  *       joints: float64 (n * 17,): per joint T (12, [R | p] row-major), axis (3), type, offset;
  *       tool (12,); lower, upper, vmax (n,); amax (n,) or None; jkind: n ints; jprm (n * 6,);
  *       points (npoints * 4,): link, offset x, y, z; ws: list of (point, N (nf * 3,), off (nf,),
  *       kind, prm (6,)); centres (k * 3,), radii (k,); link_radius (n,) or None; weights (n,) or
+ *       None; self_pairs: 2 * npairs ints (link i, link j of each self-collision pair, i < j) or
  *       None. Everything is copied and checked once (vf_filter_check): ValueError when invalid.
  *     cycle(q, u, previous=None, out=None) -> out: one cycle on float64 arrays (n,) (out: a
  *       caller array (n,) written in place, else a new one). ValueError on a negative status (the
@@ -44,6 +45,7 @@ typedef struct {
     vf_filter_polytope *ws;
     double *mem;      /* every owned double: limits, profiles, polytopes, obstacles, scratch */
     int32_t *imem;    /* jkind, then the scratch ints, then the warm keys */
+    int32_t *pairs;   /* self-collision pairs, 2 x npairs */
     double *scratch;
     int32_t *iscratch;
     int32_t *warm;    /* 3 x rows_max */
@@ -99,6 +101,7 @@ static void FilterCycle_dealloc(FilterCycle *self)
     PyMem_Free(self->ws);
     PyMem_Free(self->mem);
     PyMem_Free(self->imem);
+    PyMem_Free(self->pairs);
     PyMem_Free(self->scratch);
     PyMem_Free(self->bscratch);
     PyMem_Free(self->biscratch);
@@ -108,22 +111,54 @@ static void FilterCycle_dealloc(FilterCycle *self)
 static int FilterCycle_init(FilterCycle *self, PyObject *args, PyObject *kwds)
 {
     PyObject *joints, *tool, *lower, *upper, *vmax, *amax, *jkind, *jprm, *points, *ws, *centres,
-        *radii, *lrad, *weights, *fast = NULL;
+        *radii, *lrad, *weights, *fast = NULL, *spairs = Py_None;
     double buf, gain, dt;
     Py_ssize_t nj17, n, npt, nw, k, w, total = 0, o = 0, sumnf = 0, i;
     size_t nd, ni;
     int rc;
     static char *kwlist[] = {"joints", "tool", "lower", "upper", "vmax", "amax", "jkind", "jprm",
                              "points", "ws", "centres", "radii", "link_radius",
-                             "obstacle_buffer", "spring_gain", "dt", "weights", NULL};
+                             "obstacle_buffer", "spring_gain", "dt", "weights", "self_pairs",
+                             NULL};
     if (self->mem != NULL) {
         PyErr_SetString(PyExc_RuntimeError, "FilterCycle is already initialised");
         return -1;
     }
-    if (!PyArg_ParseTupleAndKeywords(args, kwds, "OOOOOOOOOOOOOdddO", kwlist, &joints, &tool,
-                                     &lower, &upper, &vmax, &amax, &jkind, &jprm, &points, &ws,
-                                     &centres, &radii, &lrad, &buf, &gain, &dt, &weights)) {
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "OOOOOOOOOOOOOdddO|O", kwlist, &joints,
+                                     &tool, &lower, &upper, &vmax, &amax, &jkind, &jprm, &points,
+                                     &ws, &centres, &radii, &lrad, &buf, &gain, &dt, &weights,
+                                     &spairs)) {
         return -1;
+    }
+    if (spairs != Py_None) {
+        PyObject *sp = PySequence_Fast(spairs, "self_pairs: expected 2 * npairs ints");
+        Py_ssize_t np2, q;
+        if (sp == NULL) {
+            return -1;
+        }
+        np2 = PySequence_Fast_GET_SIZE(sp);
+        if (np2 % 2 != 0 || np2 > 2 * 64 * 64) {
+            Py_DECREF(sp);
+            PyErr_SetString(PyExc_ValueError, "self_pairs: expected 2 * npairs ints");
+            return -1;
+        }
+        self->pairs = PyMem_Calloc((size_t)(np2 > 0 ? np2 : 1), sizeof(int32_t));
+        if (self->pairs == NULL) {
+            Py_DECREF(sp);
+            PyErr_NoMemory();
+            return -1;
+        }
+        for (q = 0; q < np2; q++) {
+            long v = PyLong_AsLong(PySequence_Fast_GET_ITEM(sp, q));
+            if (v == -1 && PyErr_Occurred()) {
+                Py_DECREF(sp);
+                return -1;
+            }
+            self->pairs[q] = (v >= -1 && v <= 64) ? (int32_t)v : -1;
+        }
+        Py_DECREF(sp);
+        self->f.npairs = (int32_t)(np2 / 2);
+        self->f.pairs = self->pairs;
     }
     nj17 = size_of(joints, "joints");
     if (nj17 < 0) {

@@ -114,6 +114,179 @@ static int32_t point_at(const vf_filter *f, const vf_filter_point *pt, const dou
     return pt->link >= f->n ? f->n : pt->link + 1;
 }
 
+/* ------------------------------------------------------------------ self-collision */
+
+static double clamp01(double x)
+{
+    return x <= 0.0 ? 0.0 : (x >= 1.0 ? 1.0 : x);
+}
+
+static double point_seg_t(const double *p, const double *a, const double *b)
+{
+    const double dx = b[0] - a[0], dy = b[1] - a[1], dz = b[2] - a[2];
+    const double dd = dx * dx + dy * dy + dz * dz;
+    if (dd == 0.0) {
+        return 0.0;
+    }
+    return clamp01(((p[0] - a[0]) * dx + (p[1] - a[1]) * dy + (p[2] - a[2]) * dz) / dd);
+}
+
+/* primitives._segments_st, operation for operation */
+static void seg_params(const double *a0, const double *a1, const double *b0, const double *b1,
+                       double *ps, double *pt)
+{
+    const double d1[3] = {a1[0] - a0[0], a1[1] - a0[1], a1[2] - a0[2]};
+    const double d2[3] = {b1[0] - b0[0], b1[1] - b0[1], b1[2] - b0[2]};
+    const double r[3] = {a0[0] - b0[0], a0[1] - b0[1], a0[2] - b0[2]};
+    const double a = d1[0] * d1[0] + d1[1] * d1[1] + d1[2] * d1[2];
+    const double e = d2[0] * d2[0] + d2[1] * d2[1] + d2[2] * d2[2];
+    double b, cc, f, cx, cy, cz, denom, s, t;
+    if (a == 0.0) {
+        *ps = 0.0;
+        *pt = point_seg_t(a0, b0, b1);
+        return;
+    }
+    if (e == 0.0) {
+        *ps = point_seg_t(b0, a0, a1);
+        *pt = 0.0;
+        return;
+    }
+    b = d1[0] * d2[0] + d1[1] * d2[1] + d1[2] * d2[2];
+    cc = d1[0] * r[0] + d1[1] * r[1] + d1[2] * r[2];
+    f = d2[0] * r[0] + d2[1] * r[1] + d2[2] * r[2];
+    cx = d1[1] * d2[2] - d1[2] * d2[1];
+    cy = d1[2] * d2[0] - d1[0] * d2[2];
+    cz = d1[0] * d2[1] - d1[1] * d2[0];
+    denom = cx * cx + cy * cy + cz * cz;
+    if (denom > 1e-16 * a * e) {
+        s = clamp01((b * f - cc * e) / denom);
+    } else {
+        /* parallel: the middle of the overlap of B's shadow on A, else A's end nearest B */
+        double u0 = -cc / a, u1 = (b - cc) / a, lo, hi;
+        lo = u0 <= u1 ? u0 : u1;
+        hi = u0 <= u1 ? u1 : u0;
+        lo = lo > 0.0 ? lo : 0.0;
+        hi = hi < 1.0 ? hi : 1.0;
+        if (lo <= hi) {
+            s = 0.5 * (lo + hi);
+            *ps = s;
+            *pt = clamp01((b * s + f) / e);
+            return;
+        }
+        s = hi < 0.0 ? 0.0 : 1.0;
+    }
+    t = (b * s + f) / e;
+    if (t < 0.0) {
+        *ps = clamp01(-cc / a);
+        *pt = 0.0;
+    } else if (t > 1.0) {
+        *ps = clamp01((b - cc) / a);
+        *pt = 1.0;
+    } else {
+        *ps = s;
+        *pt = t;
+    }
+}
+
+static void lerp3(const double *a, const double *b, double t, double *x)
+{
+    int c;
+    for (c = 0; c < 3; c++) {
+        x[c] = t <= 0.5 ? a[c] + t * (b[c] - a[c]) : b[c] - (1.0 - t) * (b[c] - a[c]);
+    }
+}
+
+double vf_segment_pair(const double *a0, const double *a1, const double *b0, const double *b1,
+                       double *s, double *t, double *pa, double *pb, double *nrm)
+{
+    double xa[3], xb[3], r[3], dist, ss, tt;
+    seg_params(a0, a1, b0, b1, &ss, &tt);
+    lerp3(a0, a1, ss, xa);
+    lerp3(b0, b1, tt, xb);
+    r[0] = xa[0] - xb[0];
+    r[1] = xa[1] - xb[1];
+    r[2] = xa[2] - xb[2];
+    dist = sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
+    if (s != NULL) {
+        *s = ss;
+    }
+    if (t != NULL) {
+        *t = tt;
+    }
+    if (pa != NULL) {
+        memcpy(pa, xa, sizeof xa);
+    }
+    if (pb != NULL) {
+        memcpy(pb, xb, sizeof xb);
+    }
+    if (nrm != NULL) {
+        if (dist > 0.0) {
+            nrm[0] = r[0] / dist;
+            nrm[1] = r[1] / dist;
+            nrm[2] = r[2] / dist;
+        } else {
+            const double da[3] = {a1[0] - a0[0], a1[1] - a0[1], a1[2] - a0[2]};
+            const double db[3] = {b1[0] - b0[0], b1[1] - b0[1], b1[2] - b0[2]};
+            const double cx = da[1] * db[2] - da[2] * db[1];
+            const double cy = da[2] * db[0] - da[0] * db[2];
+            const double cz = da[0] * db[1] - da[1] * db[0];
+            const double h = sqrt(cx * cx + cy * cy + cz * cz);
+            if (h > 0.0) {
+                nrm[0] = cx / h;
+                nrm[1] = cy / h;
+                nrm[2] = cz / h;
+            } else {
+                const double hh = hypot(da[0], da[1]);
+                nrm[0] = hh == 0.0 ? 1.0 : -da[1] / hh;
+                nrm[1] = hh == 0.0 ? 0.0 : da[0] / hh;
+                nrm[2] = 0.0;
+            }
+        }
+    }
+    return dist;
+}
+
+double vf_self_row(int32_t n, const double *P, const double *axes, int32_t i, int32_t j,
+                   double ri, double rj, const double *u, double *g, double *speed)
+{
+    const double *a = P + 3 * (size_t)i, *e = P + 3 * (size_t)j;
+    double xa[3], xb[3], nr[3], v[3] = {0.0, 0.0, 0.0}, dist;
+    int32_t k;
+    dist = vf_segment_pair(a, a + 3, e, e + 3, NULL, NULL, xa, xb, nr);
+    for (k = 0; k < n; k++) {
+        const double *z = axes + 3 * (size_t)k;
+        const double *pk = P + 3 * (size_t)k;
+        double jx = 0.0, jy = 0.0, jz = 0.0;
+        if (k <= i) {
+            const double dx = xa[0] - pk[0], dy = xa[1] - pk[1], dz = xa[2] - pk[2];
+            jx = z[1] * dz - z[2] * dy;
+            jy = z[2] * dx - z[0] * dz;
+            jz = z[0] * dy - z[1] * dx;
+        }
+        if (k <= j) {
+            const double dx = xb[0] - pk[0], dy = xb[1] - pk[1], dz = xb[2] - pk[2];
+            jx -= z[1] * dz - z[2] * dy;
+            jy -= z[2] * dx - z[0] * dz;
+            jz -= z[0] * dy - z[1] * dx;
+        }
+        g[k] = nr[0] * jx + nr[1] * jy + nr[2] * jz;
+        v[0] += jx * u[k];
+        v[1] += jy * u[k];
+        v[2] += jz * u[k];
+    }
+    *speed = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    return dist - ri - rj;
+}
+
+/* The pair's clearance only (the model check). */
+static double self_clearance(const vf_filter *f, const double *P, int32_t i, int32_t j)
+{
+    const double *a = P + 3 * (size_t)i, *e = P + 3 * (size_t)j;
+    const double ri = f->link_radius != NULL ? f->link_radius[i] : 0.0;
+    const double rj = f->link_radius != NULL ? f->link_radius[j] : 0.0;
+    return vf_segment_pair(a, a + 3, e, e + 3, NULL, NULL, NULL, NULL, NULL) - ri - rj;
+}
+
 /* ------------------------------------------------------------------ checks and sizes */
 
 static int rigid(const double *T)
@@ -233,6 +406,23 @@ int vf_filter_check(const vf_filter *f)
     if (f->k > (1 << 20)) {
         return VF_ERR_ARGUMENT;
     }
+    if (f->npairs < 0 || f->npairs > f->n * f->n) {
+        return VF_ERR_ARGUMENT;
+    }
+    if (f->npairs > 0 && f->pairs == NULL) {
+        return VF_ERR_NULL;
+    }
+    for (i = 0; i < f->npairs; i++) {
+        const int32_t a = f->pairs[2 * (size_t)i], b = f->pairs[2 * (size_t)i + 1];
+        if (a < 0 || b <= a || b >= f->n) {
+            return VF_ERR_ARGUMENT;
+        }
+    }
+    for (j = 0; j < f->n && f->npairs > 0; j++) {
+        if (f->joints[j].type != VF_FILTER_REVOLUTE) {
+            return VF_ERR_ARGUMENT; /* capsule rows: revolute Jacobians only */
+        }
+    }
     for (i = 0; i < f->k; i++) {
         if (!vf_finite_all(f->centres + 3 * (size_t)i, 3) || !isfinite(f->radii[i])
             || f->radii[i] < 0.0) {
@@ -267,7 +457,8 @@ size_t vf_filter_rows_max(const vf_filter *f)
         || (f->nw > 0 && f->ws == NULL)) {
         return 0;
     }
-    rows = 6 * (size_t)f->n + (size_t)f->k * (size_t)f->n;
+    rows = 6 * (size_t)f->n + (size_t)f->k * (size_t)f->n
+           + (f->npairs > 0 ? (size_t)f->npairs : 0);
     for (w = 0; w < f->nw; w++) {
         rows += f->ws[w].nf > 0 ? (size_t)f->ws[w].nf : 0;
     }
@@ -279,7 +470,7 @@ typedef struct layout {
     size_t M, n;
     /* doubles */
     size_t frames, P, axes, frames1, P1, axes1, q1, G, Gs, b, dist, slack, cur, bb, bt, used, us, ys,
-        x, x1, xc, xt, ucmd, zeros, lam, wsf, capw, clear, wsd, wsb, wsJ, total;
+        x, x1, xc, xt, ucmd, zeros, lam, wsf, capw, clear, wsd, wsb, wsJ, reach, total;
     /* ints */
     size_t level, ka, kb, active, relaxed, slot, act, warm, ri, itotal;
 } layout;
@@ -326,6 +517,7 @@ static void make_layout(const vf_filter *f, layout *L)
     TAKE(wsd, nf);
     TAKE(wsb, nf);
     TAKE(wsJ, 3 * n);
+    TAKE(reach, n);
     L->total = o;
     ITAKE(level, M);
     ITAKE(ka, M);
@@ -397,6 +589,56 @@ typedef struct ctx {
 #define D(c, field) ((c)->d + (c)->L.field)
 #define IV(c, field) ((c)->i + (c)->L.field)
 
+
+/* The self-collision rows from row r on (the header's order); returns the next row. */
+static int32_t self_rows(ctx *c, int32_t r)
+{
+    const vf_filter *f = c->f;
+    const int32_t n = c->n;
+    const double *P = D(c, P);
+    double *reach = D(c, reach);
+    int32_t p, l, j, kind;
+    double prm[VF_ND_PROFILE_PARAMS];
+    vf_filter_obstacle_profile(f, &kind, prm);
+    if (f->dt > 0.0) {
+        /* per link: 1.5 periods of its points' largest speed (SelfCollisionRows._reach) */
+        for (l = 0; l < n; l++) {
+            double s = 0.0;
+            for (j = 0; j <= l; j++) {
+                const double *pj = P + 3 * (size_t)j, *pa = P + 3 * (size_t)l, *pb = pa + 3;
+                const double ax = pa[0] - pj[0], ay = pa[1] - pj[1], az = pa[2] - pj[2];
+                const double bx = pb[0] - pj[0], by = pb[1] - pj[1], bz = pb[2] - pj[2];
+                const double ma = sqrt(ax * ax + ay * ay + az * az);
+                const double mb = sqrt(bx * bx + by * by + bz * bz);
+                s += (ma > mb ? ma : mb) * f->vmax[j];
+            }
+            reach[l] = 1.5 * f->dt * s;
+        }
+    }
+    for (p = 0; p < f->npairs; p++) {
+        const int32_t i = f->pairs[2 * (size_t)p], k = f->pairs[2 * (size_t)p + 1];
+        const double ri = f->link_radius != NULL ? f->link_radius[i] : 0.0;
+        const double rk = f->link_radius != NULL ? f->link_radius[k] : 0.0;
+        double *g = D(c, G) + (size_t)r * n;
+        double speed, bound, cl;
+        int32_t wk[2];
+        cl = vf_self_row(n, P, D(c, axes), i, k, ri, rk, c->u, g, &speed);
+        if (!(cl < f->obstacle_buffer || (f->dt > 0.0 && cl <= reach[i] + reach[k]))) {
+            continue;
+        }
+        vf_nd_rate_bounds(kind, prm, &cl, 1, speed, c->idt, &bound, wk);
+        if (bound == -INFINITY) {
+            continue;
+        }
+        D(c, b)[r] = bound;
+        D(c, dist)[r] = cl;
+        IV(c, level)[r] = VF_FILTER_LEVEL_OBSTACLE;
+        IV(c, ka)[r] = f->k + i;
+        IV(c, kb)[r] = k;
+        r += 1;
+    }
+    return r;
+}
 
 /* Every row of the cycle (the header's order); returns their number. */
 static int32_t build_rows(ctx *c, const double *previous)
@@ -475,6 +717,9 @@ static int32_t build_rows(ctx *c, const double *previous)
             IV(c, level)[r + cc] = VF_FILTER_LEVEL_OBSTACLE;
         }
         r += kk;
+    }
+    if (f->npairs > 0) {
+        r = self_rows(c, r);
     }
     return r;
 }
@@ -636,6 +881,8 @@ static int32_t model_check(ctx *c, const double *x, double *bnd)
                 wlast = IV(c, ka)[r];
             }
             d1 = nn[0] * p[0] + nn[1] * p[1] + nn[2] * p[2] - ws->off[IV(c, kb)[r]];
+        } else if (IV(c, ka)[r] >= f->k) {
+            d1 = self_clearance(f, D(c, P1), IV(c, ka)[r] - f->k, IV(c, kb)[r]);
         } else {
             d1 = pair_clearance(f, D(c, P1), IV(c, ka)[r], IV(c, kb)[r]);
         }
@@ -828,11 +1075,19 @@ static int32_t key_slot(const vf_filter *f, int32_t lv, int32_t a, int32_t b)
         return off + b;
     }
     if (lv == VF_FILTER_LEVEL_OBSTACLE) {
-        if (a < 0 || a >= f->k || b < 0 || b >= n) {
-            return -1;
-        }
         for (w = 0; w < f->nw; w++) {
             off += f->ws[w].nf;
+        }
+        if (a >= f->k && a < f->k + n) { /* self-collision pair (a - k, b) */
+            for (w = 0; w < f->npairs; w++) {
+                if (f->pairs[2 * (size_t)w] == a - f->k && f->pairs[2 * (size_t)w + 1] == b) {
+                    return off + n * f->k + w;
+                }
+            }
+            return -1;
+        }
+        if (a < 0 || a >= f->k || b < 0 || b >= n) {
+            return -1;
         }
         return off + n * a + b;
     }

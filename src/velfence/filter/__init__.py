@@ -31,7 +31,13 @@ from velfence.filter.kinematics import (
     Kinematics,
     KinematicsFrame,
 )
-from velfence.filter.limits import JointLimits, Profile, SphereObstacle, WorkspaceLimit
+from velfence.filter.limits import (
+    JointLimits,
+    Profile,
+    SelfCollision,
+    SphereObstacle,
+    WorkspaceLimit,
+)
 from velfence.filter.result import FilterBatch, FilterResult
 from velfence.filter.rows import (
     LEVEL_JOINT,
@@ -46,6 +52,7 @@ from velfence.filter.rows import (
     RowBlock,
     RowContext,
     RowProvider,
+    SelfCollisionRows,
     WorkspaceRows,
 )
 
@@ -72,6 +79,8 @@ __all__ = [
     "RowContext",
     "RowProvider",
     "SafetyFilter",
+    "SelfCollision",
+    "SelfCollisionRows",
     "SphereObstacle",
     "WorkspaceLimit",
     "WorkspaceRows",

@@ -197,7 +197,7 @@ def filter_cycle(sf: Any, profiles: Any = None) -> Any:
     radii = np.array([o.radius for o in obs], dtype=np.float64)
     lr = (
         np.asarray(getattr(robot, "link_radius", np.zeros(1)), dtype=np.float64).reshape(-1)
-        if obs
+        if obs or sf.self_collision_pairs
         else np.zeros(1)
     )
     lrad = np.ascontiguousarray(np.broadcast_to(lr if lr.shape[0] > 1 else lr[:1], (n,)))
@@ -209,6 +209,7 @@ def filter_cycle(sf: Any, profiles: Any = None) -> Any:
         np.array(jprm), np.array([v for nm in names for v in pts[nm]]), ws, centres, radii,
         lrad, float(sf.obstacle_buffer), float(sf.spring_gain), float(sf.dt or 0.0),
         None if metric is None else np.asarray(metric) ** 2,
+        self_pairs=[v for pr in sf.self_collision_pairs for v in pr] or None,
     )  # fmt: skip
 
 

@@ -50,6 +50,7 @@ from velfence.filter.ladder import DeadlineHit, LadderOutcome, run_ladder, safe_
 from velfence.filter.limits import (
     JointLimits,
     Profile,
+    SelfCollision,
     SphereObstacle,
     WorkspaceLimit,
     spatial_obstacles,
@@ -103,6 +104,10 @@ class SafetyFilter(InvalidPolicy):
         workspace: Workspace limits (:class:`WorkspaceLimit`, one or a sequence).
         obstacles: Sphere obstacles (:class:`SphereObstacle`); need the robot's capsule
             geometry (``link_radius`` and the frame's ``segments``/``point_jacobian``).
+        self_collision: Keep the robot's capsule links apart: ``True`` (every pair of
+            non-adjacent links), a :class:`~velfence.filter.limits.SelfCollision` (pairs left
+            out by ``exclude=``), or ``None``/``False`` (default: none). The pairs share the
+            obstacles' ``obstacle_buffer`` and ``spring_gain`` and their ladder level.
         providers: Further row providers (:class:`~velfence.filter.rows.RowProvider`), each at
             its declared level of the ladder.
         dt: Control period [s] (``None``: continuous-time bounds). With ``dt`` every row also
@@ -151,6 +156,7 @@ class SafetyFilter(InvalidPolicy):
         "_previous",
         "_projector",
         "_providers",
+        "_self_pairs",
         "_speed_scale",
         "_warm",
         "_workspace",
@@ -177,6 +183,7 @@ class SafetyFilter(InvalidPolicy):
         limits: JointLimits,
         workspace: WorkspaceLimit | Sequence[WorkspaceLimit] = (),
         obstacles: Sequence[SphereObstacle] = (),
+        self_collision: bool | SelfCollision | None = None,
         providers: Sequence[RowProvider] = (),
         dt: float | None = None,
         profile: Profile | None = None,
@@ -267,10 +274,21 @@ class SafetyFilter(InvalidPolicy):
                     max_speed=limits.max_speed,
                 )
             )
+        self._self_pairs: tuple[tuple[int, int], ...] = ()
+        sc = parts.self_collision(self_collision)
+        if sc is not None:
+            prov = parts.self_collision_rows(
+                robot, sc, frame0, n=n, buffer=self.obstacle_buffer,
+                spring_gain=self.spring_gain, max_speed=limits.max_speed,
+            )  # fmt: skip
+            self._self_pairs = prov.pairs
+            rows.append(prov)
         self._n_builtin = len(rows)
         rows.extend(parts.custom_providers(providers))
         self._providers: tuple[Any, ...] = tuple(rows)
-        self._compiled = None if providers else compiled_rows(core, self, profs)
+        # (the compiled rows of velfence_nd know no self-collision pairs: the Python providers
+        # build them on that route; the C cycle below has them)
+        self._compiled = None if providers or sc is not None else compiled_rows(core, self, profs)
         self._metric: Metric = parts.metric(weights, n)
         # The whole joint-mode cycle in C (velfence_filter.h) when the core is in use, the robot
         # gives its chain as data and no custom provider runs: filter(), shape() and
@@ -292,6 +310,11 @@ class SafetyFilter(InvalidPolicy):
     def obstacles(self) -> tuple[SphereObstacle, ...]:
         """The obstacles."""
         return self._obstacles
+
+    @property
+    def self_collision_pairs(self) -> tuple[tuple[int, int], ...]:
+        """The link pairs the self-collision rows guard (empty without ``self_collision``)."""
+        return self._self_pairs
 
     @property
     def providers(self) -> tuple[RowProvider, ...]:
@@ -618,6 +641,8 @@ class SafetyFilter(InvalidPolicy):
                 out.append(f"joint {a} acceleration ({'lower' if k == 0 else 'upper'})")
             elif lv == LEVEL_WORKSPACE:
                 out.append(ws[a].facet_row_names[k])
+            elif a >= len(self._obstacles):
+                out.append(f"link {a - len(self._obstacles)} and link {k}")
             else:
                 out.append(f"obstacle {a} on link {k}")
         return out

@@ -29,7 +29,7 @@ from velfence._validate import (
 from velfence.errors import InvalidParameter
 from velfence.shaping.profiles import LinearBuffer, ThreeZoneBraking
 
-__all__ = ["JointLimits", "Profile", "SphereObstacle", "WorkspaceLimit"]
+__all__ = ["JointLimits", "Profile", "SelfCollision", "SphereObstacle", "WorkspaceLimit"]
 
 #: The approach profiles the filter's rows understand (the exact law's kernel profiles).
 Profile = LinearBuffer | ThreeZoneBraking
@@ -480,6 +480,96 @@ class SphereObstacle:
             object.__setattr__(self, "influence", rho)
         if self.name is not None:
             object.__setattr__(self, "name", check_text("name", self.name, max_length=200))
+
+
+@dataclass(frozen=True)
+class SelfCollision:
+    """Which capsule links of the robot the safety filter keeps apart (self-collision rows).
+
+    Every pair of links ``(i, j)``, ``i < j``, is guarded except pairs closer in the chain than
+    ``min_gap`` (``j - i < min_gap``: by default adjacent links, which share a joint point and
+    always touch) and the pairs in ``exclude`` (links that cannot meet, or whose capsules overlap
+    by design). Each guarded pair gets the obstacle rows' approach profile (the filter's
+    ``obstacle_buffer`` and ``spring_gain``) on the clearance ``|p_i - p_j| - r_i - r_j`` of its
+    closest axis points.
+
+    Attributes:
+        exclude: Link pairs left out, each two distinct link indices (0-based, in any order).
+        min_gap: Pairs with ``j - i < min_gap`` are left out, an int >= 1 (1: adjacent links too
+            are guarded; 2, the default: adjacent links are not).
+
+    Raises:
+        InvalidParameter: a pair that is not two distinct non-negative ints, or a bad
+            ``min_gap``.
+    """
+
+    _: KW_ONLY
+    exclude: tuple[tuple[int, int], ...] = ()
+    min_gap: int = 2
+
+    def __post_init__(self) -> None:
+        ex: Any = self.exclude
+        if isinstance(ex, (str, bytes)) or not isinstance(ex, Sequence):
+            raise InvalidParameter(
+                f"self_collision.exclude: expected a sequence of link pairs, got {describe(ex)}"
+            )
+        pairs: list[tuple[int, int]] = []
+        for k, pr in enumerate(ex):
+            name = f"self_collision.exclude[{k}]"
+            if isinstance(pr, (str, bytes)) or not isinstance(pr, Sequence) or len(pr) != 2:
+                raise InvalidParameter(f"{name}: expected a pair of link indices, got {show(pr)}")
+            i, j = pr
+            for v in (i, j):
+                if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 0:
+                    raise InvalidParameter(
+                        f"{name}: expected two link indices (ints >= 0), got {show(pr)}"
+                    )
+            if int(i) == int(j):
+                raise InvalidParameter(
+                    f"{name}: names link {int(i)} twice; a pair is two different links"
+                )
+            pairs.append((min(int(i), int(j)), max(int(i), int(j))))
+        object.__setattr__(self, "exclude", tuple(pairs))
+        g = self.min_gap
+        if isinstance(g, bool) or not isinstance(g, (int, np.integer)) or g < 1:
+            raise InvalidParameter(f"self_collision.min_gap: expected an int >= 1, got {show(g)}")
+        object.__setattr__(self, "min_gap", int(g))
+
+    def pairs(
+        self, lengths: Sequence[float], radii: Sequence[float]
+    ) -> tuple[tuple[int, int], ...]:
+        """The guarded pairs ``(i, j)``, ``i < j``, of links of ``lengths`` and ``radii`` [m].
+
+        Left out: ``j - i < min_gap``, the excluded pairs, and pairs that touch in every pose:
+        the links between them are at most ``r_i + r_j`` long in all (plus
+        :data:`ZERO_LINK`). Link ``i``'s end and link ``j``'s start are joined by those links,
+        so their distance never exceeds that sum and the capsules always overlap (a spherical
+        wrist's links ``i`` and ``i + 2`` around a zero-length link, say): no motion can
+        separate them, and a row could only stop the arm.
+
+        Raises:
+            InvalidParameter: an excluded pair names a link the robot does not have.
+        """
+        links = len(lengths)
+        for k, (_, j) in enumerate(self.exclude):
+            if j >= links:
+                raise InvalidParameter(
+                    f"self_collision.exclude[{k}]: link {j} does not exist (the robot has "
+                    f"{links} links, 0 … {links - 1})"
+                )
+        ex = set(self.exclude)
+        ln = [float(v) for v in lengths]
+        rd = [float(v) for v in radii]
+        return tuple(
+            (i, j)
+            for i in range(links)
+            for j in range(i + self.min_gap, links)
+            if (i, j) not in ex and sum(ln[i + 1 : j]) > rd[i] + rd[j] + ZERO_LINK
+        )
+
+
+#: Slack of :meth:`SelfCollision.pairs`' test [m]: a link at most this long is a point.
+ZERO_LINK = 1e-9
 
 
 document_inits(globals())

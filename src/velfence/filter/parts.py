@@ -17,8 +17,14 @@ import numpy as np
 from velfence._validate import describe, readonly, real_array
 from velfence.errors import InvalidInput, InvalidParameter, VelfenceError
 from velfence.filter.kinematics import checked, frame_of
-from velfence.filter.limits import JointLimits, Profile, SphereObstacle, WorkspaceLimit
-from velfence.filter.rows import LEVEL_NAMES, ObstacleRows
+from velfence.filter.limits import (
+    JointLimits,
+    Profile,
+    SelfCollision,
+    SphereObstacle,
+    WorkspaceLimit,
+)
+from velfence.filter.rows import LEVEL_NAMES, ObstacleRows, SelfCollisionRows
 from velfence.filter.solve import Metric, cholesky
 from velfence.shaping.profiles import LinearBuffer, ThreeZoneBraking
 
@@ -238,3 +244,52 @@ def _check_ratio(ratio: float) -> None:
             f"smallest (for a matrix: its eigenvalues), got a ratio of {ratio:.3g}; scale the "
             "commands or drop the joint instead"
         )
+
+
+def self_collision(value: Any) -> SelfCollision | None:
+    """The ``self_collision`` option as a :class:`SelfCollision`, or ``None`` for none."""
+    if value is None or value is False:
+        return None
+    if value is True:
+        return SelfCollision()
+    if isinstance(value, SelfCollision):
+        return value
+    raise InvalidParameter(
+        f"self_collision: expected True, False, None or a SelfCollision, got {describe(value)}"
+    )
+
+
+def self_collision_rows(
+    robot: Any,
+    sc: SelfCollision,
+    frame0: Any,
+    *,
+    n: int,
+    buffer: float,
+    spring_gain: float,
+    max_speed: Any,
+) -> SelfCollisionRows:
+    """The self-collision provider, after checking the robot's capsule geometry once."""
+    if not hasattr(robot, "link_radius"):
+        raise InvalidParameter(
+            f"self_collision: the robot {type(robot).__name__} has no capsule geometry "
+            "('link_radius'); use a DHChain, PlanarArm or MujocoRobot"
+        )
+    radius = np.asarray(robot.link_radius, dtype=float).reshape(-1)
+    try:
+        segs = np.asarray(frame0.segments(), dtype=np.float64)
+        nl = segs.shape[0] if segs.ndim == 3 else 0
+        segs = checked("kinematics(q).segments()", segs, (nl, 2, 3))
+        if radius.shape[0] not in (1, nl):
+            raise InvalidInput(f"link_radius has {radius.shape[0]} radii for {nl} links")
+        if segs.shape[0]:
+            checked("kinematics(q).point_jacobian(0, 0.5)", frame0.point_jacobian(0, 0.5), (3, n))
+    except (InvalidInput, AttributeError, TypeError) as exc:
+        raise InvalidParameter(
+            f"self_collision: the robot's capsule geometry is unusable: {exc}"
+        ) from None
+    rad = np.broadcast_to(radius if radius.shape[0] > 1 else radius[:1], (segs.shape[0],))
+    pairs = sc.pairs(np.linalg.norm(segs[:, 1] - segs[:, 0], axis=1).tolist(), rad.tolist())
+    return SelfCollisionRows(
+        pairs, radius, buffer=buffer, spring_gain=spring_gain, max_speed=max_speed
+    )

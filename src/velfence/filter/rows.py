@@ -41,6 +41,7 @@ from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence.filter.kinematics import KinematicsFrame, checked
 from velfence.filter.limits import JointLimits, Profile, SphereObstacle, WorkspaceLimit
+from velfence.geometry.primitives import segment_pair_params
 from velfence.shaping.profiles import LinearBuffer
 from velfence.shaping.shared_kernels import bounds_from_distances, fill_bounds
 
@@ -57,6 +58,7 @@ __all__ = [
     "RowBlock",
     "RowContext",
     "RowProvider",
+    "SelfCollisionRows",
     "WorkspaceRows",
     "workspace_bounds",
 ]
@@ -562,6 +564,167 @@ class ObstacleRows:
         clear = _clearances(segs, self._centres, self._srad, self._radii(segs.shape[0]))[0]
         out: FloatArray = clear[oi, lk]
         return out
+
+
+# ------------------------------------------------------------------------------- self-collision
+def _pair_geometry(
+    sa: FloatArray, sb: FloatArray
+) -> tuple[float, float, float, tuple[float, float, float]]:
+    """Closest axis points of two link segments: ``(s, t, |pa - pb|, unit normal b -> a)``.
+
+    The normal of crossing axes (``pa == pb``) is ``d_a × d_b`` normalised, else that of
+    :func:`_fallback` on ``sa`` (the C core's ``vf_segment_pair`` makes the same choices).
+    """
+    a0 = (float(sa[0, 0]), float(sa[0, 1]), float(sa[0, 2]))
+    a1 = (float(sa[1, 0]), float(sa[1, 1]), float(sa[1, 2]))
+    b0 = (float(sb[0, 0]), float(sb[0, 1]), float(sb[0, 2]))
+    b1 = (float(sb[1, 0]), float(sb[1, 1]), float(sb[1, 2]))
+    s, t = segment_pair_params(a0, a1, b0, b1)
+    pa = [a0[c] + s * (a1[c] - a0[c]) if s <= 0.5 else a1[c] - (1.0 - s) * (a1[c] - a0[c])
+          for c in range(3)]  # fmt: skip
+    pb = [b0[c] + t * (b1[c] - b0[c]) if t <= 0.5 else b1[c] - (1.0 - t) * (b1[c] - b0[c])
+          for c in range(3)]  # fmt: skip
+    r = (pa[0] - pb[0], pa[1] - pb[1], pa[2] - pb[2])
+    dist = math.sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2])
+    if dist > 0.0:
+        return s, t, dist, (r[0] / dist, r[1] / dist, r[2] / dist)
+    da = (a1[0] - a0[0], a1[1] - a0[1], a1[2] - a0[2])
+    db = (b1[0] - b0[0], b1[1] - b0[1], b1[2] - b0[2])
+    cx = da[1] * db[2] - da[2] * db[1]
+    cy = da[2] * db[0] - da[0] * db[2]
+    cz = da[0] * db[1] - da[1] * db[0]
+    h = math.sqrt(cx * cx + cy * cy + cz * cz)
+    if h > 0.0:
+        return s, t, 0.0, (cx / h, cy / h, cz / h)
+    fb = _fallback(sa)
+    return s, t, 0.0, (float(fb[0]), float(fb[1]), float(fb[2]))
+
+
+class SelfCollisionRows:
+    r"""Link capsules against link capsules (level :data:`LEVEL_OBSTACLE`).
+
+    For every guarded pair ``(i, j)`` (key: its index in ``pairs``) within the linear buffer
+    (or, with ``dt``, within one period's reach of the two links at full joint speed): the
+    closest points ``p_a`` on link ``i``'s axis and ``p_b`` on link ``j``'s
+    (:func:`~velfence.geometry.primitives.segment_pair_params`), the unit normal
+    ``n = (p_a - p_b) / |p_a - p_b|``, the clearance ``d = |p_a - p_b| - r_i - r_j`` and the row
+    ``nᵀ (J_a(p_a) - J_b(p_b)) x >= b`` with the closest points held fixed (derivation:
+    ``docs/derivations.md``); ``b`` is the obstacle rows' linear buffer at the pair's relative
+    commanded speed ``|(J_a - J_b) u|``.
+
+    Args:
+        pairs: The guarded link pairs ``(i, j)``, ``i < j``
+            (:meth:`~velfence.filter.limits.SelfCollision.pairs`).
+        link_radius: Capsule radius of every link [m], shape (L,) or (1,).
+        buffer: Width of the linear buffer [m].
+        spring_gain: Recovery gain outside [1/s].
+        max_speed: Joint speed limits [rad/s], shape (n,) (the reach bound).
+    """
+
+    level = LEVEL_OBSTACLE
+    label = "self-collision"
+
+    def __init__(
+        self,
+        pairs: Sequence[tuple[int, int]],
+        link_radius: FloatArray,
+        *,
+        buffer: float,
+        spring_gain: float,
+        max_speed: FloatArray,
+    ) -> None:
+        self.pairs = tuple((int(i), int(j)) for i, j in pairs)
+        self._radius = np.asarray(link_radius, dtype=float).reshape(-1)
+        self._prof = LinearBuffer(buffer=buffer, spring_gain=spring_gain)
+        self._buffer = buffer
+        self._vmax = np.asarray(max_speed, dtype=float)
+
+    def _rad(self, link: int) -> float:
+        r = self._radius
+        return float(r[0] if r.shape[0] == 1 else r[link])
+
+    def _geometry(self, segs: FloatArray, which: Sequence[int]) -> list[Any]:
+        out = []
+        for p in which:
+            i, j = self.pairs[p]
+            s, t, dist, nrm = _pair_geometry(segs[i], segs[j])
+            out.append((s, t, dist - self._rad(i) - self._rad(j), nrm))
+        return out
+
+    def _reach(self, segs: FloatArray, dt: float) -> list[float]:
+        """Per link: 1.5 periods of its points' largest speed (as :class:`ObstacleRows`)."""
+        nl = segs.shape[0]
+        P = np.concatenate([segs[:, 0], segs[-1:, 1]])
+        nj = min(nl, self._vmax.shape[0])
+        M = np.linalg.norm(P[:, None, :] - P[None, :nj], axis=2)
+        lever = np.maximum(M[:-1], M[1:])
+        out: list[float] = (1.5 * dt * (np.tril(lever) @ self._vmax[:nj])).tolist()
+        return out
+
+    def rows(self, ctx: RowContext) -> RowBlock | None:
+        """The rows of the pairs within reach."""
+        if not self.pairs:
+            return None
+        segs = np.asarray(ctx.frame.segments(), dtype=np.float64)
+        nl = segs.shape[0] if segs.ndim == 3 else -1
+        segs = checked("kinematics(q).segments()", segs, (max(nl, 0), 2, 3))
+        if self._radius.shape[0] not in (1, nl):
+            raise_inconsistent(nl, self._radius.shape[0])
+        geo = self._geometry(segs, range(len(self.pairs)))
+        buf = self._buffer
+        reach = self._reach(segs, ctx.dt) if ctx.dt is not None else None
+        near = []
+        for p, g in enumerate(geo):
+            i, j = self.pairs[p]
+            if g[2] < buf or (reach is not None and g[2] <= reach[i] + reach[j]):
+                near.append(p)
+        if not near:
+            return None
+        n = ctx.q.shape[0]
+        links = np.array([self.pairs[p][k] for p in near for k in (0, 1)], dtype=np.int64)
+        ts = np.array([geo[p][k] for p in near for k in (0, 1)])
+        batch = getattr(ctx.frame, "point_jacobians", None)
+        if batch is not None:
+            Js = batch(links, ts)
+        else:
+            Js = [
+                ctx.frame.point_jacobian(k, tk)
+                for k, tk in zip(links.tolist(), ts.tolist(), strict=True)
+            ]
+        Jc = checked("kinematics(q).point_jacobian(link, t)", Js, (links.shape[0], 3, n))
+        Jrel = Jc[0::2] - Jc[1::2]
+        nrm = np.array([geo[p][3] for p in near])
+        G = np.einsum("ki,kij->kj", nrm, Jrel)
+        speed = np.sqrt(((Jrel @ ctx.command) ** 2).sum(axis=1)).tolist()
+        idt = _idt(ctx.dt)
+        keep = []
+        bs = []
+        for r, p in enumerate(near):
+            bnd = _bound1(self._prof, geo[p][2], speed[r], idt)
+            if bnd != -math.inf:
+                keep.append(r)
+                bs.append(bnd)
+        if not keep:
+            return None
+        keys = np.array([near[r] for r in keep], dtype=np.int64)
+        d0 = np.array([geo[near[r]][2] for r in keep])
+        pairs = self.pairs
+
+        def names() -> list[str]:
+            return [f"link {pairs[p][0]} and link {pairs[p][1]}" for p in keys.tolist()]
+
+        return RowBlock(
+            G[keep], np.array(bs), d0 < 0.0, keys, names, distance=d0, data=keys.tolist()
+        )
+
+    def next_distances(self, frame: KinematicsFrame, block: RowBlock) -> FloatArray:
+        """The block's pairs' clearances [m] at the pose of ``frame``, shape (k,)."""
+        segs = checked("kinematics(q).segments()", frame.segments(), (self._nl(frame), 2, 3))
+        return np.array([g[2] for g in self._geometry(segs, block.data)])
+
+    @staticmethod
+    def _nl(frame: KinematicsFrame) -> int:
+        return int(np.shape(frame.segments())[0])
 
 
 def _fallback(seg: FloatArray) -> FloatArray:

@@ -48,6 +48,7 @@ __all__ = [
     "points_segments_distances",
     "ray_plane",
     "ray_point",
+    "segment_pair_params",
     "segment_segment_distance",
     "sphere_capsule_distance",
     "sub3",
@@ -205,6 +206,17 @@ def _segments_st(a0: Vec3, a1: Vec3, b0: Vec3, b1: Vec3) -> tuple[float, float]:
     if t > 1.0:
         return _clamp01((b - c) / a), 1.0
     return s, t
+
+
+def segment_pair_params(a0: Vec3, a1: Vec3, b0: Vec3, b1: Vec3) -> tuple[float, float]:
+    """Parameters ``(s, t)`` of the closest points of two segments, on plain floats.
+
+    The float kernel of :func:`closest_points_segments` (the same ``(s, t)``, bit for bit) for
+    callers that validated their inputs (the safety filter's self-collision rows): 3-tuples of
+    finite floats, nothing checked. The C core's ``vf_segment_pair_params`` is the same
+    arithmetic.
+    """
+    return _segments_st(a0, a1, b0, b1)
 
 
 def _fallback_normal(a: Vec3, b: Vec3) -> Vec3:
