@@ -23,6 +23,11 @@ projection under the metric, its backends, cap and warm start), :mod:`~velfence.
 checked at construction), :mod:`~velfence.filter.filter` (:class:`SafetyFilter`).
 """
 
+from velfence.filter.attach import (
+    AttachmentObstacleRows,
+    AttachmentTable,
+    AttachmentWorkspaceRows,
+)
 from velfence.filter.filter import SafetyFilter
 from velfence.filter.kinematics import (
     CachedFrame,
@@ -32,9 +37,11 @@ from velfence.filter.kinematics import (
     KinematicsFrame,
 )
 from velfence.filter.limits import (
+    Capsule,
     JointLimits,
     Profile,
     SelfCollision,
+    Sphere,
     SphereObstacle,
     WorkspaceLimit,
 )
@@ -62,7 +69,11 @@ __all__ = [
     "LEVEL_OBSTACLE",
     "LEVEL_RATE",
     "LEVEL_WORKSPACE",
+    "AttachmentObstacleRows",
+    "AttachmentTable",
+    "AttachmentWorkspaceRows",
     "CachedFrame",
+    "Capsule",
     "ChainData",
     "ChainFrames",
     "FilterBatch",
@@ -81,6 +92,7 @@ __all__ = [
     "SafetyFilter",
     "SelfCollision",
     "SelfCollisionRows",
+    "Sphere",
     "SphereObstacle",
     "WorkspaceLimit",
     "WorkspaceRows",

@@ -44,6 +44,7 @@ from velfence._validate import (
 )
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.filter import parts
+from velfence.filter.attach import AttachmentObstacleRows, AttachmentWorkspaceRows
 from velfence.filter.compiled import compiled_rows
 from velfence.filter.kinematics import Kinematics, checked, frame_of
 from velfence.filter.ladder import DeadlineHit, LadderOutcome, run_ladder, safe_fallback
@@ -108,6 +109,12 @@ class SafetyFilter(InvalidPolicy):
             non-adjacent links), a :class:`~velfence.filter.limits.SelfCollision` (pairs left
             out by ``exclude=``), or ``None``/``False`` (default: none). The pairs share the
             obstacles' ``obstacle_buffer`` and ``spring_gain`` and their ladder level.
+        attachments: Tool and payload shapes (:class:`~velfence.filter.limits.Sphere`,
+            :class:`~velfence.filter.limits.Capsule`) on the robot's links, kept inside every
+            workspace polytope and outside every obstacle: a mapping name -> shape, or a
+            sequence (named ``"attachment 0"``, …); ``None`` (default): none, and no
+            :meth:`attach` later. Needs the robot's link frames (a ``DHChain``); a filter with
+            attachments runs the Python route.
         providers: Further row providers (:class:`~velfence.filter.rows.RowProvider`), each at
             its declared level of the ladder.
         dt: Control period [s] (``None``: continuous-time bounds). With ``dt`` every row also
@@ -146,6 +153,7 @@ class SafetyFilter(InvalidPolicy):
     """
 
     __slots__ = (
+        "_attach",
         "_ccycle",
         "_clock",
         "_compiled",
@@ -184,6 +192,7 @@ class SafetyFilter(InvalidPolicy):
         workspace: WorkspaceLimit | Sequence[WorkspaceLimit] = (),
         obstacles: Sequence[SphereObstacle] = (),
         self_collision: bool | SelfCollision | None = None,
+        attachments: Any = None,
         providers: Sequence[RowProvider] = (),
         dt: float | None = None,
         profile: Profile | None = None,
@@ -274,6 +283,19 @@ class SafetyFilter(InvalidPolicy):
                     max_speed=limits.max_speed,
                 )
             )
+        self._attach = None
+        if attachments is not None:
+            self._attach = parts.attachment_table(robot, attachments, frame0, n)
+            for w_i, w in enumerate(self._workspace):
+                pre = f"workspace {w_i}: " if multi else ""
+                rows.append(AttachmentWorkspaceRows(w, self._attach, prefix=pre, kernels=kern))
+            if self._obstacles:
+                rows.append(
+                    AttachmentObstacleRows(
+                        self._obstacles, self._attach, buffer=self.obstacle_buffer,
+                        spring_gain=self.spring_gain, max_speed=limits.max_speed,
+                    )
+                )  # fmt: skip
         self._self_pairs: tuple[tuple[int, int], ...] = ()
         sc = parts.self_collision(self_collision)
         if sc is not None:
@@ -295,7 +317,7 @@ class SafetyFilter(InvalidPolicy):
         # shape_batch() call it and explain() builds its report from it; twist mode and every
         # other case keep the Python route (backend="python": the oracle it is tested equal to).
         self._ccycle: Any = None
-        if core is not None and not providers:
+        if core is not None and not providers and attachments is None:
             from velfence.filter._ccycle import c_cycle_or_none
 
             self._ccycle = c_cycle_or_none(self, profs)
@@ -310,6 +332,42 @@ class SafetyFilter(InvalidPolicy):
     def obstacles(self) -> tuple[SphereObstacle, ...]:
         """The obstacles."""
         return self._obstacles
+
+    @property
+    def attachments(self) -> dict[str, Any]:
+        """The attached shapes, name -> shape (empty without ``attachments``)."""
+        return {} if self._attach is None else self._attach.shapes()
+
+    def attach(self, name: str, shape: Any) -> None:
+        """Attach a shape under ``name`` (a grasp), or replace the one of that name.
+
+        Takes effect from the next cycle; the filter is not rebuilt.
+
+        Args:
+            name: The shape's name (its rows' names start with it).
+            shape: A :class:`~velfence.filter.limits.Sphere` or
+                :class:`~velfence.filter.limits.Capsule` on a link the robot has.
+
+        Raises:
+            InvalidParameter: the filter was built without ``attachments``, a bad name, a
+                non-shape, or a link the robot does not have.
+        """
+        if self._attach is None:
+            raise InvalidParameter(
+                "attach: the filter was built without attachments= (pass attachments={} to "
+                "attach shapes later)"
+            )
+        parts.add_attachment(self._attach, name, shape, "shape")
+
+    def detach(self, name: str) -> None:
+        """Detach the shape ``name`` (a release); from the next cycle on it has no rows.
+
+        Raises:
+            InvalidParameter: no shape of that name is attached.
+        """
+        if self._attach is None or not self._attach.remove(name):
+            have = [] if self._attach is None else list(self._attach.names())
+            raise InvalidParameter(f"name: no shape {name!r} is attached (attached: {have})")
 
     @property
     def self_collision_pairs(self) -> tuple[tuple[int, int], ...]:

@@ -29,7 +29,15 @@ from velfence._validate import (
 from velfence.errors import InvalidParameter
 from velfence.shaping.profiles import LinearBuffer, ThreeZoneBraking
 
-__all__ = ["JointLimits", "Profile", "SelfCollision", "SphereObstacle", "WorkspaceLimit"]
+__all__ = [
+    "Capsule",
+    "JointLimits",
+    "Profile",
+    "SelfCollision",
+    "Sphere",
+    "SphereObstacle",
+    "WorkspaceLimit",
+]
 
 #: The approach profiles the filter's rows understand (the exact law's kernel profiles).
 Profile = LinearBuffer | ThreeZoneBraking
@@ -480,6 +488,86 @@ class SphereObstacle:
             object.__setattr__(self, "influence", rho)
         if self.name is not None:
             object.__setattr__(self, "name", check_text("name", self.name, max_length=200))
+
+
+def _attach_link(link: Any) -> str | int:
+    if link == "tcp" and isinstance(link, str):
+        return "tcp"
+    if isinstance(link, bool) or not isinstance(link, (int, np.integer)) or link < -1:
+        raise InvalidParameter(
+            f"link: expected 'tcp' or a link index (an int >= -1, -1 the base), got {show(link)}"
+        )
+    return int(link)
+
+
+def _point3(name: str, x: Any) -> FloatArray:
+    a = real_array(name, x, (3,), error=InvalidParameter, what="3 numbers [m]")
+    return readonly(a)
+
+
+@dataclass(frozen=True)
+class Sphere:
+    """A ball carried by a link (a tool, a gripper, a held object) for the safety filter.
+
+    Attributes:
+        link: The frame it rides on: ``"tcp"`` (the tool frame) or a link index ``l``
+            (``-1`` the base, ``0 … n-1`` the frame after joint ``l``'s motion, ``n`` the tool
+            frame; :meth:`velfence.mechanisms.chain.ChainFrame.link_frame`).
+        center: Centre in that frame [m], shape (3,).
+        radius: Radius [m], >= 0.
+
+    Raises:
+        InvalidParameter: a bad link, centre or radius (negative, say).
+    """
+
+    link: str | int
+    center: FloatArray
+    _: KW_ONLY
+    radius: float
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "link", _attach_link(self.link))
+        object.__setattr__(self, "center", _point3("center", self.center))
+        r = check_positive("radius", self.radius, allow_zero=True, unit="m")
+        object.__setattr__(self, "radius", r)
+
+    @property
+    def ends(self) -> tuple[FloatArray, FloatArray]:
+        """The shape's axis in its frame [m]: ``(center, center)``."""
+        return self.center, self.center
+
+
+@dataclass(frozen=True)
+class Capsule:
+    """A capsule carried by a link: the segment ``a -> b`` swept by a ball of ``radius``.
+
+    Attributes:
+        link: The frame it rides on (as :class:`Sphere`).
+        a: One end of the axis in that frame [m], shape (3,).
+        b: The other end [m], shape (3,).
+        radius: Radius [m], >= 0.
+
+    Raises:
+        InvalidParameter: a bad link, end or radius (negative, say).
+    """
+
+    link: str | int
+    a: FloatArray
+    b: FloatArray
+    _: KW_ONLY
+    radius: float
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "link", _attach_link(self.link))
+        object.__setattr__(self, "a", _point3("a", self.a))
+        object.__setattr__(self, "b", _point3("b", self.b))
+        r = check_positive("radius", self.radius, allow_zero=True, unit="m")
+        object.__setattr__(self, "radius", r)
+
+    @property
+    def ends(self) -> tuple[FloatArray, FloatArray]:
+        """The shape's axis in its frame [m]: ``(a, b)``."""
+        return self.a, self.b
 
 
 @dataclass(frozen=True)

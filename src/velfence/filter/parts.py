@@ -16,11 +16,14 @@ import numpy as np
 
 from velfence._validate import describe, readonly, real_array
 from velfence.errors import InvalidInput, InvalidParameter, VelfenceError
+from velfence.filter.attach import AttachmentTable
 from velfence.filter.kinematics import checked, frame_of
 from velfence.filter.limits import (
+    Capsule,
     JointLimits,
     Profile,
     SelfCollision,
+    Sphere,
     SphereObstacle,
     WorkspaceLimit,
 )
@@ -293,3 +296,46 @@ def self_collision_rows(
     return SelfCollisionRows(
         pairs, radius, buffer=buffer, spring_gain=spring_gain, max_speed=max_speed
     )
+
+
+def add_attachment(table: AttachmentTable, name: Any, shape: Any, what: str) -> None:
+    """Check one attachment against the robot's links and add it to ``table``."""
+    from velfence._validate import check_text
+
+    nm = check_text("name", name, max_length=200)
+    if not isinstance(shape, (Sphere, Capsule)):
+        raise InvalidParameter(f"{what}: expected a Sphere or a Capsule, got {describe(shape)}")
+    link = table.link_of(shape)
+    if not -1 <= link <= table.n:
+        raise InvalidParameter(
+            f"{what}.link: link {link} does not exist (the robot has links -1 (base) … "
+            f"{table.n - 1} and 'tcp' ({table.n}))"
+        )
+    table.add(nm, shape)
+
+
+def attachment_table(robot: Any, attachments: Any, frame0: Any, n: int) -> AttachmentTable:
+    """The filter's attachment table from ``attachments=`` (a mapping or a sequence)."""
+    from collections.abc import Mapping
+
+    try:
+        checked("kinematics(q).link_frame(-1)", frame0.link_frame(-1), (3, 4))
+        checked("kinematics(q).jacobian_at(0, p)", frame0.jacobian_at(0, np.zeros(3)), (3, n))
+    except (InvalidInput, AttributeError, TypeError) as exc:
+        raise InvalidParameter(
+            f"attachments: the robot {type(robot).__name__} gives no link frames "
+            f"(its kinematics frame needs link_frame and jacobian_at; a DHChain has them): {exc}"
+        ) from None
+    table = AttachmentTable(n)
+    if isinstance(attachments, Mapping):
+        items = [(k, v, f"attachments[{k!r}]") for k, v in attachments.items()]
+    elif isinstance(attachments, (str, bytes)) or not isinstance(attachments, Sequence):
+        raise InvalidParameter(
+            f"attachments: expected a mapping name -> shape or a sequence of shapes, got "
+            f"{describe(attachments)}"
+        )
+    else:
+        items = [(f"attachment {k}", v, f"attachments[{k}]") for k, v in enumerate(attachments)]
+    for name, shape, what in items:
+        add_attachment(table, name, shape, what)
+    return table

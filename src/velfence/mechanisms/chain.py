@@ -217,10 +217,11 @@ class ChainFrame:
         q: The joint positions [rad], shape (n,), already validated.
     """
 
-    __slots__ = ("_chain", "_jac", "_kin", "_pts", "_segs")
+    __slots__ = ("_chain", "_jac", "_kin", "_pts", "_q", "_segs")
 
     def __init__(self, chain: _ChainBase, q: FloatArray) -> None:
         self._chain = chain
+        self._q = q
         self._kin = chain._kinematics_cache(q)
         self._pts: dict[str, FloatArray] = {}
         self._jac: dict[str, FloatArray] = {}
@@ -273,6 +274,40 @@ class ChainFrame:
     def angular_jacobian(self) -> FloatArray:
         """Angular-velocity Jacobian of the last body (the joint axes), shape (3, n)."""
         return np.array(self._kin[1].T)
+
+    def jacobian_at(self, link: int, p: Any) -> FloatArray:
+        r"""Jacobian (3, n) of the world point ``p`` [m] carried by the frame of ``link``.
+
+        ``link`` as in :meth:`link_frame`: the point moves with joints ``0 … link`` (every joint
+        for ``link = n``): columns :math:`z_j \times (p - P_j)`, zero for the others.
+        """
+        n = self._chain._n
+        k = n if link >= n else link + 1
+        return self._chain._jacobian_at(self._kin, k, np.asarray(p, dtype=np.float64))
+
+    def link_frame(self, link: int) -> FloatArray:
+        """Pose of the frame a link's attachments ride on, ``[R | p]`` (3, 4) in the base frame.
+
+        The C cycle's chain convention (``velfence.filter.ChainFrames``): ``link`` -1 the base,
+        ``0 … n-1`` the frame after joint ``link``'s motion (a DH chain: DH frame ``link`` turned
+        by ``Rz(q_link + θ_link)``, on joint ``link``'s axis), ``n`` the tool frame (the TCP, the
+        last DH frame moved by the tool offset). Only a :class:`DHChain` has frames.
+        """
+        chain: Any = self._chain
+        if not isinstance(chain, DHChain):
+            raise AttributeError(f"{type(chain).__name__} gives no link frames")
+        n = chain._n
+        T = chain._frames(self._q)
+        if link < 0:
+            return np.array(T[0][:3])
+        if link >= n:
+            F = T[n].copy()
+            F[:3, 3] = F[:3, :3] @ chain._tool + F[:3, 3]
+            return np.array(F[:3])
+        th = float(self._q[link]) + float(chain._dh[link][3])
+        c, s = math.cos(th), math.sin(th)
+        Rz = np.array([[c, -s, 0.0, 0.0], [s, c, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0, 0, 0, 1.0]])
+        return np.array((T[link] @ Rz)[:3])
 
 
 def is_library_chain(chain: object) -> bool:
