@@ -25,6 +25,8 @@
  *       slack, bound) of the last cycle (copies); active() / relaxed() -> the last active / relaxed
  *       rows' keys, lists of (level, a, b).
  *     deadline_misses: the number of cycles that used the deadline fallback.
+ *   segment_pairs(a0, a1, b0, b1) -> (s, t, dist, nrm): vf_segment_pair on float64 (N, 3) arrays
+ *     (the closest points of N segment pairs; tests and benchmarks).
  *   STAGE_* / LEVEL_* / DEADLINE_* constants as in the header.
  */
 #define PY_SSIZE_T_CLEAN
@@ -717,9 +719,75 @@ static PyTypeObject FilterCycleType = {
     .tp_doc = "The safety filter's whole cycle in C (velfence_filter.h).",
 };
 
+/* segment_pairs(a0, a1, b0, b1) -> (s, t, dist, nrm): vf_segment_pair on N pairs (float64
+ * arrays (N, 3) each; nrm (N, 3)). For tests and benchmarks; the GIL is released. */
+static PyObject *segment_pairs(PyObject *mod, PyObject *args)
+{
+    PyObject *o[4];
+    PyArrayObject *a[4] = {NULL, NULL, NULL, NULL};
+    PyArrayObject *S = NULL, *T = NULL, *Dd = NULL, *Nn = NULL;
+    npy_intp N, k, dims[2];
+    int i;
+    (void)mod;
+    if (!PyArg_ParseTuple(args, "OOOO", o, o + 1, o + 2, o + 3)) {
+        return NULL;
+    }
+    for (i = 0; i < 4; i++) {
+        a[i] = (PyArrayObject *)PyArray_FROMANY(o[i], NPY_DOUBLE, 2, 2, NPY_ARRAY_CARRAY_RO);
+        if (a[i] == NULL) {
+            goto fail;
+        }
+        if (PyArray_DIM(a[i], 1) != 3 || PyArray_DIM(a[i], 0) != PyArray_DIM(a[0], 0)) {
+            PyErr_SetString(PyExc_ValueError, "segment_pairs: expected four arrays (N, 3)");
+            goto fail;
+        }
+    }
+    N = PyArray_DIM(a[0], 0);
+    dims[0] = N;
+    dims[1] = 3;
+    S = (PyArrayObject *)PyArray_SimpleNew(1, dims, NPY_DOUBLE);
+    T = (PyArrayObject *)PyArray_SimpleNew(1, dims, NPY_DOUBLE);
+    Dd = (PyArrayObject *)PyArray_SimpleNew(1, dims, NPY_DOUBLE);
+    Nn = (PyArrayObject *)PyArray_SimpleNew(2, dims, NPY_DOUBLE);
+    if (S == NULL || T == NULL || Dd == NULL || Nn == NULL) {
+        goto fail;
+    }
+    {
+        const double *A0 = PyArray_DATA(a[0]), *A1 = PyArray_DATA(a[1]);
+        const double *B0 = PyArray_DATA(a[2]), *B1 = PyArray_DATA(a[3]);
+        double *ss = PyArray_DATA(S), *tt = PyArray_DATA(T), *dd = PyArray_DATA(Dd);
+        double *nn = PyArray_DATA(Nn);
+        Py_BEGIN_ALLOW_THREADS
+        for (k = 0; k < N; k++) {
+            dd[k] = vf_segment_pair(A0 + 3 * k, A1 + 3 * k, B0 + 3 * k, B1 + 3 * k, ss + k, tt + k,
+                                    NULL, NULL, nn + 3 * k);
+        }
+        Py_END_ALLOW_THREADS
+    }
+    for (i = 0; i < 4; i++) {
+        Py_DECREF(a[i]);
+    }
+    return Py_BuildValue("NNNN", S, T, Dd, Nn);
+fail:
+    for (i = 0; i < 4; i++) {
+        Py_XDECREF(a[i]);
+    }
+    Py_XDECREF(S);
+    Py_XDECREF(T);
+    Py_XDECREF(Dd);
+    Py_XDECREF(Nn);
+    return NULL;
+}
+
+static PyMethodDef module_methods[] = {
+    {"segment_pairs", segment_pairs, METH_VARARGS,
+     "segment_pairs(a0, a1, b0, b1) -> (s, t, dist, nrm): vf_segment_pair on (N, 3) arrays."},
+    {NULL, NULL, 0, NULL},
+};
+
 static struct PyModuleDef filter_module = {
-    PyModuleDef_HEAD_INIT, "_filter", "The safety filter's whole cycle in C.", -1, NULL,
-    NULL, NULL, NULL, NULL,
+    PyModuleDef_HEAD_INIT, "_filter", "The safety filter's whole cycle in C.", -1,
+    module_methods, NULL, NULL, NULL, NULL,
 };
 
 PyMODINIT_FUNC PyInit__filter(void)

@@ -1,0 +1,182 @@
+"""Self-collision rows: the C cycle equals the Python oracle, and the rows are what they claim.
+
+Sibling of ``test_filter_cycle_equal.py`` (its safety checks are reused) with
+``self_collision=`` on: random UR5e / 7-joint arms with random capsule radii, joints anywhere in
+their range, at a limit or beyond it (so link pairs near, touching and penetrating), a box
+around the tool and sphere obstacles, ``dt`` unset / 1 ms / 10 ms, random excluded pairs. The
+C cycle (``vf_self_row`` rows, key ``(LEVEL_OBSTACLE, k + i, j)``) must build the rows of
+:class:`~velfence.filter.SelfCollisionRows` (names, ``G``, ``b``) and return the same output.
+Independently: each row's ``G`` is the clearance's derivative (central differences of the
+clearance along random joint directions, from the robot's own kinematics), and bad
+self-collision options are refused naming the argument.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+import pytest
+from test_filter_cycle_equal import _model_borderline, _safe
+
+from velfence.errors import InvalidParameter
+from velfence.filter import (
+    JointLimits,
+    SafetyFilter,
+    SelfCollision,
+    SphereObstacle,
+    WorkspaceLimit,
+)
+from velfence.geometry.polytope import ConvexPolytope
+from velfence.geometry.primitives import segment_segment_distance
+from velfence.mechanisms.chain import DHChain
+
+_filter = pytest.importorskip("velfence_core._filter")
+from velfence.filter._ccycle import filter_cycle  # noqa: E402
+
+
+def _scene(rng: np.random.Generator) -> dict[str, Any]:
+    ur = bool(rng.integers(2))
+    lrad = float(rng.uniform(0.0, 0.08))
+    tool = (0.0, 0.0, float(rng.uniform(0.0, 0.2)))
+    robot = (DHChain.ur5e if ur else DHChain.seven_dof)(link_radius=lrad, tool=tool)
+    n = robot.dof
+    lo, hi = robot.joint_limits[:, 0], robot.joint_limits[:, 1]
+    q = lo + rng.uniform(0, 1, n) * (hi - lo)
+    for j in range(n):
+        k = rng.integers(6)
+        if k == 0:
+            q[j] = lo[j]
+        elif k == 1:
+            q[j] = hi[j] + 0.02
+    vmax = rng.uniform(0.3, 3.0, n)
+    amax = rng.uniform(2.0, 40.0, n) if rng.integers(2) else None
+    dt = [None, 1e-3, 1e-2][int(rng.integers(3))]
+    prev = rng.uniform(-1, 1, n) * vmax if dt is not None and rng.integers(2) else None
+    u = rng.uniform(-1, 1, n) * float(rng.choice([1e-3, 0.3, 1.0, 3.0]))
+    tcp = robot.fk(q, "tcp")
+    half = rng.uniform(0.1, 0.6, 3)
+    c = tcp + rng.uniform(-0.6, 0.6, 3) * half + 1e-9 * np.sqrt([2.0, 3.0, 5.0])
+    box = WorkspaceLimit(
+        ConvexPolytope.box(c - half, c + half), buffer=float(rng.uniform(0.01, 0.2))
+    )
+    pts = robot.joint_positions(q)
+    obs = []
+    for _ in range(int(rng.integers(0, 4))):
+        k = int(rng.integers(n))
+        p = pts[k] + rng.uniform() * (pts[k + 1] - pts[k])
+        d = rng.normal(size=3)
+        d /= np.linalg.norm(d)
+        r = float(rng.uniform(0.01, 0.1))
+        obs.append(SphereObstacle(center=p + d * (lrad + r + rng.uniform(-0.02, 0.2)), radius=r))
+    pairs_all = [(i, j) for i in range(n) for j in range(i + 2, n)]
+    ex = [pairs_all[int(k)] for k in rng.choice(len(pairs_all), int(rng.integers(0, 3)))]
+    sf = SafetyFilter(
+        robot, limits=JointLimits(lo, hi, max_speed=vmax, max_acceleration=amax), workspace=box,
+        obstacles=obs, self_collision=SelfCollision(exclude=ex), dt=dt,
+        obstacle_buffer=float(rng.uniform(0.01, 0.3)), spring_gain=float(rng.uniform(0, 5)),
+        backend="python",
+    )  # fmt: skip
+    return {"sf": sf, "q": q, "u": u, "prev": prev}
+
+
+def _check(sc: dict[str, Any]) -> int:
+    sf, q, u, prev = sc["sf"], sc["q"], sc["u"], sc["prev"]
+    fc = filter_cycle(sf)
+    ref = sf.explain(q, u, previous=prev)
+    x = fc.cycle(q, u, prev)
+    G, b, level, ka, kb, dist, slack, bound = fc.rows()
+    keys = list(zip(level.tolist(), ka.tolist(), kb.tolist(), strict=True))
+    names = sf._c_names(keys)
+    assert names == list(ref.constraint_names)
+    G0, b0 = ref.rows
+    np.testing.assert_allclose(G, G0, rtol=1e-9, atol=1e-12 * max(1.0, float(np.abs(G0).max())))
+    np.testing.assert_allclose(b, b0, rtol=1e-9, atol=1e-12 * max(1.0, float(np.abs(b0).max())))
+    self_rows = [r for r, nm in enumerate(names) if " and link " in nm]
+    if _model_borderline(sf, q, u, prev, (x, ref.output)):
+        _safe(x, u, G, b, level, bound)
+        return len(self_rows)
+    # a pair whose row is round-off (a clearance no joint can change) makes the answer's
+    # direction round-off too: both routes are safe, not equal
+    tiny = any(float(np.abs(G[r]).sum()) < 1e-9 for r in self_rows)
+    if not tiny:
+        big = max(float(np.abs(ref.output).max()), float(np.abs(u).max()), 1e-300)
+        np.testing.assert_allclose(x, ref.output, rtol=1e-9, atol=1e-9 * big)
+    _safe(x, u, G, b, level, bound)
+    return len(self_rows)
+
+
+def test_c_cycle_self_collision_equals_the_python_oracle() -> None:
+    rng = np.random.default_rng(2029)
+    rows = 0
+    for _ in range(100):
+        rows += _check(_scene(rng))
+    assert rows > 100  # (the scenes do exercise the rows)
+
+
+@pytest.mark.slow
+def test_c_cycle_self_collision_equals_the_python_oracle_many() -> None:
+    rng = np.random.default_rng(11)
+    for _ in range(2000):
+        _check(_scene(rng))
+
+
+def test_self_row_is_the_clearance_derivative() -> None:
+    """G of each self row is d(clearance)/dq along any direction (central differences)."""
+    robot = DHChain.seven_dof(link_radius=0.04)
+    lim = JointLimits(robot.joint_limits[:, 0], robot.joint_limits[:, 1], max_speed=np.full(7, 1.0))
+    sf = SafetyFilter(robot, limits=lim, self_collision=True, obstacle_buffer=2.0, backend="python")
+    rng = np.random.default_rng(4)
+    checked = 0
+    for _ in range(20):
+        q = rng.uniform(-2, 2, 7)
+        res = sf.explain(q, np.zeros(7))
+        G, _ = res.rows
+        for r, nm in enumerate(res.constraint_names):
+            if " and link " not in nm:
+                continue
+            i, j = (int(w) for w in nm.replace("link ", "").split(" and "))
+            v = rng.normal(size=7)
+            h = 1e-6
+
+            def clear(qq: Any, i: int = i, j: int = j) -> float:
+                s = robot.link_segments(qq)
+                return segment_segment_distance(s[i, 0], s[i, 1], s[j, 0], s[j, 1])
+
+            fd = (clear(q + h * v) - clear(q - h * v)) / (2 * h)
+            if clear(q) > 1e-3:  # (away from a crossing, where the distance has no derivative)
+                assert math.isclose(float(G[r] @ v), fd, rel_tol=1e-5, abs_tol=1e-7)
+                checked += 1
+    assert checked > 50
+
+
+def test_bad_self_collision_options_name_the_argument() -> None:
+    robot = DHChain.ur5e(link_radius=0.03)
+    lim = JointLimits(robot.joint_limits[:, 0], robot.joint_limits[:, 1], max_speed=np.ones(6))
+    with pytest.raises(InvalidParameter, match=r"self_collision.exclude\[0\].*link 2 twice"):
+        SelfCollision(exclude=[(2, 2)])
+    with pytest.raises(InvalidParameter, match=r"self_collision.exclude\[1\]"):
+        SelfCollision(exclude=[(0, 3), (1, -1)])
+    with pytest.raises(InvalidParameter, match=r"self_collision.exclude\[0\].*link 9"):
+        SafetyFilter(robot, limits=lim, self_collision=SelfCollision(exclude=[(0, 9)]))
+    with pytest.raises(InvalidParameter, match="self_collision: expected"):
+        SafetyFilter(robot, limits=lim, self_collision="yes")  # type: ignore[arg-type]
+    with pytest.raises(InvalidParameter, match="self_collision.min_gap"):
+        SelfCollision(min_gap=0)
+
+
+def test_default_pairs_leave_out_links_that_always_touch() -> None:
+    """Adjacent links, and links joined through links shorter than their radii, are out."""
+    robot = DHChain.seven_dof(link_radius=0.05)  # links 1, 3, 5 have zero length
+    lim = JointLimits(robot.joint_limits[:, 0], robot.joint_limits[:, 1], max_speed=np.ones(7))
+    sf = SafetyFilter(robot, limits=lim, self_collision=True)
+    pairs = set(sf.self_collision_pairs)
+    assert (0, 2) not in pairs and (2, 4) not in pairs and (4, 6) not in pairs
+    assert (0, 3) in pairs and (2, 5) in pairs
+    assert all(j - i >= 2 for i, j in pairs)
+    sf2 = SafetyFilter(robot, limits=lim, self_collision=SelfCollision(exclude=[(3, 0)]))
+    assert set(sf2.self_collision_pairs) == pairs - {(0, 3)}
+    # the C cycle is built with the same pairs and runs them
+    sf3 = SafetyFilter(robot, limits=lim, self_collision=True, backend="c")
+    assert sf3._ccycle is not None
