@@ -136,7 +136,7 @@ def _check(A0, A1, B0, B1, rel=1e-12):  # type: ignore[no-untyped-def]
 def test_random_pairs_match_the_brute_force() -> None:
     rng = np.random.default_rng(2029)
     A0, A1, B0, B1 = _random(rng, 20_000)
-    s, t, d, ref, tol = _check(A0, A1, B0, B1)
+    s, t, _d, ref, tol = _check(A0, A1, B0, B1)
     # the Python oracle: the same parameters as C (one arithmetic), on a sample
     dp, st = _ours_py(A0[:3000], A1[:3000], B0[:3000], B1[:3000])
     np.testing.assert_allclose(st[:, 0], s[:3000], rtol=0, atol=1e-12)
@@ -148,7 +148,7 @@ def test_random_pairs_match_the_brute_force() -> None:
 def test_1e5_random_pairs_match_the_brute_force() -> None:
     rng = np.random.default_rng(7)
     A0, A1, B0, B1 = _random(rng, 100_000)
-    s, t, d, ref, tol = _check(A0, A1, B0, B1)
+    s, _t, _d, ref, tol = _check(A0, A1, B0, B1)
     dp, st = _ours_py(A0, A1, B0, B1)
     assert np.all(np.abs(dp - ref) <= tol)
     np.testing.assert_allclose(st[:, 0], s, rtol=0, atol=1e-12)
@@ -172,7 +172,7 @@ def test_degenerate_pairs_match_the_brute_force() -> None:
     assert np.all(d[cross] <= 1e-12 * (1 + np.abs(A0[cross]).max()) * 10)
     # the validated public function agrees with the kernel
     for k in range(0, 1500, 37):
-        pa, pb, s1, t1 = closest_points_segments(A0[k], A1[k], B0[k], B1[k])
+        _pa, _pb, s1, t1 = closest_points_segments(A0[k], A1[k], B0[k], B1[k])
         assert (s1, t1) == (st[k, 0], st[k, 1])
 
 
