@@ -150,6 +150,13 @@ typedef struct vf_filter_polytope {
     double prm[VF_ND_PROFILE_PARAMS]; /* ... and its parameters (velfence profiles' kernel_profile) */
 } vf_filter_polytope;
 
+typedef struct vf_filter_attachment {
+    int32_t link;   /* the frame it rides on: -1 base, 0 .. n-1 after joint `link`, n the tool */
+    double a[3];    /* axis ends in that frame [m] (a == b: a sphere) */
+    double b[3];
+    double radius;  /* [m], >= 0 */
+} vf_filter_attachment;
+
 typedef struct vf_filter {
     int32_t n;                     /* joints, 1 .. 64 */
     const vf_filter_joint *joints; /* (n,) */
@@ -177,6 +184,13 @@ typedef struct vf_filter {
      * (zero-initialise the struct: the fields default to none) */
     int32_t npairs;
     const int32_t *pairs;
+    /* Tool and payload shapes (velfence.filter.attach): each shape's axis ends (one for a
+     * sphere) keep radius from every facet of every polytope (after that polytope's rows of
+     * all polytopes: (VF_FILTER_LEVEL_WORKSPACE, w, nf_w + (2 s + e) nf_w + i)), and every
+     * sphere obstacle keeps off the shape (after the link obstacle rows:
+     * (VF_FILTER_LEVEL_OBSTACLE, i, n + s)). 0 / NULL: none. */
+    int32_t nattach;
+    const vf_filter_attachment *attach;
 } vf_filter;
 
 typedef struct vf_filter_opts {
@@ -229,7 +243,7 @@ double vf_self_row(int32_t n, const double *P, const double *axes, int32_t i, in
 
 /* Checks the description: VF_OK or a negative VF_ERR_* code. */
 int vf_filter_check(const vf_filter *f);
-/* Largest number of rows: 6 n + sum nf + k n + npairs. */
+/* Largest number of rows: 6 n + sum nf (1 + 2 nattach) + k (n + nattach) + npairs. */
 size_t vf_filter_rows_max(const vf_filter *f);
 /* Scratch sizes of vf_filter_cycle (0 for an invalid description). */
 size_t vf_filter_doubles(const vf_filter *f);

@@ -25,6 +25,8 @@
  *       slack, bound) of the last cycle (copies); active() / relaxed() -> the last active / relaxed
  *       rows' keys, lists of (level, a, b).
  *     deadline_misses: the number of cycles that used the deadline fallback.
+ *     set_attachments(flat): replace the attached shapes (8 floats each: link, a (3), b (3),
+ *       radius; the constructor's attachments= too) and resize the scratch (not per cycle).
  *   segment_pairs(a0, a1, b0, b1) -> (s, t, dist, nrm): vf_segment_pair on float64 (N, 3) arrays
  *     (the closest points of N segment pairs; tests and benchmarks).
  *   STAGE_* / LEVEL_* / DEADLINE_* constants as in the header.
@@ -48,6 +50,7 @@ typedef struct {
     double *mem;      /* every owned double: limits, profiles, polytopes, obstacles, scratch */
     int32_t *imem;    /* jkind, then the scratch ints, then the warm keys */
     int32_t *pairs;   /* self-collision pairs, 2 x npairs */
+    vf_filter_attachment *attach; /* the attached shapes (set_attachments) */
     double *scratch;
     int32_t *iscratch;
     int32_t *warm;    /* 3 x rows_max */
@@ -104,16 +107,58 @@ static void FilterCycle_dealloc(FilterCycle *self)
     PyMem_Free(self->mem);
     PyMem_Free(self->imem);
     PyMem_Free(self->pairs);
+    PyMem_Free(self->attach);
     PyMem_Free(self->scratch);
     PyMem_Free(self->bscratch);
     PyMem_Free(self->biscratch);
     Py_TYPE(self)->tp_free((PyObject *)self);
 }
 
+/* The attachments from a flat float sequence (8 per shape: link, a (3), b (3), radius) into
+ * self->attach / self->f (not checked here: vf_filter_check does). */
+static int read_attachments(FilterCycle *self, PyObject *obj)
+{
+    PyArrayObject *a = (PyArrayObject *)PyArray_FROMANY(obj, NPY_DOUBLE, 0, 0,
+                                                         NPY_ARRAY_CARRAY_RO);
+    vf_filter_attachment *at;
+    Py_ssize_t m, i;
+    const double *d;
+    if (a == NULL) {
+        return -1;
+    }
+    m = PyArray_SIZE(a);
+    if (m % 8 != 0 || m / 8 > 1024) {
+        Py_DECREF(a);
+        PyErr_SetString(PyExc_ValueError, "attachments: expected 8 floats per shape, <= 1024");
+        return -1;
+    }
+    m /= 8;
+    at = PyMem_Calloc((size_t)(m > 0 ? m : 1), sizeof(vf_filter_attachment));
+    if (at == NULL) {
+        Py_DECREF(a);
+        PyErr_NoMemory();
+        return -1;
+    }
+    d = PyArray_DATA(a);
+    for (i = 0; i < m; i++) {
+        const double l = d[8 * i];
+        at[i].link = (l >= -1.0 && l <= 65.0 && l == (double)(int32_t)l) ? (int32_t)l : -2;
+        memcpy(at[i].a, d + 8 * i + 1, 3 * sizeof(double));
+        memcpy(at[i].b, d + 8 * i + 4, 3 * sizeof(double));
+        at[i].radius = d[8 * i + 7];
+    }
+    Py_DECREF(a);
+    PyMem_Free(self->attach);
+    self->attach = at;
+    self->f.attach = at;
+    self->f.nattach = (int32_t)m;
+    return 0;
+}
+
 static int FilterCycle_init(FilterCycle *self, PyObject *args, PyObject *kwds)
 {
     PyObject *joints, *tool, *lower, *upper, *vmax, *amax, *jkind, *jprm, *points, *ws, *centres,
-        *radii, *lrad, *weights, *fast = NULL, *spairs = Py_None;
+        *radii, *lrad, *weights, *fast = NULL, *spairs = Py_None, *atts = Py_None;
     double buf, gain, dt;
     Py_ssize_t nj17, n, npt, nw, k, w, total = 0, o = 0, sumnf = 0, i;
     size_t nd, ni;
@@ -121,15 +166,18 @@ static int FilterCycle_init(FilterCycle *self, PyObject *args, PyObject *kwds)
     static char *kwlist[] = {"joints", "tool", "lower", "upper", "vmax", "amax", "jkind", "jprm",
                              "points", "ws", "centres", "radii", "link_radius",
                              "obstacle_buffer", "spring_gain", "dt", "weights", "self_pairs",
-                             NULL};
+                             "attachments", NULL};
     if (self->mem != NULL) {
         PyErr_SetString(PyExc_RuntimeError, "FilterCycle is already initialised");
         return -1;
     }
-    if (!PyArg_ParseTupleAndKeywords(args, kwds, "OOOOOOOOOOOOOdddO|O", kwlist, &joints,
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "OOOOOOOOOOOOOdddO|OO", kwlist, &joints,
                                      &tool, &lower, &upper, &vmax, &amax, &jkind, &jprm, &points,
                                      &ws, &centres, &radii, &lrad, &buf, &gain, &dt, &weights,
-                                     &spairs)) {
+                                     &spairs, &atts)) {
+        return -1;
+    }
+    if (atts != Py_None && read_attachments(self, atts) < 0) {
         return -1;
     }
     if (spairs != Py_None) {
@@ -683,7 +731,59 @@ static PyObject *FilterCycle_dof(FilterCycle *self, void *Py_UNUSED(closure))
     return PyLong_FromLong(self->f.n);
 }
 
+/* set_attachments(flat): replace the attached shapes (8 floats each) and resize the scratch. */
+static PyObject *FilterCycle_set_attachments(FilterCycle *self, PyObject *arg)
+{
+    const vf_filter_attachment *old = self->f.attach;
+    vf_filter_attachment *keep = self->attach;
+    int32_t nold = self->f.nattach;
+    size_t nd, ni;
+    double *sc;
+    int32_t *im;
+    const Py_ssize_t n = self->f.n;
+    if (self->mem == NULL) {
+        PyErr_SetString(PyExc_RuntimeError, "FilterCycle is not initialised");
+        return NULL;
+    }
+    self->attach = NULL; /* (read_attachments frees it: keep the old table until checked) */
+    if (read_attachments(self, arg) < 0) {
+        self->attach = keep;
+        return NULL;
+    }
+    if (vf_filter_check(&self->f) != VF_OK) {
+        PyMem_Free(self->attach);
+        self->attach = keep;
+        self->f.attach = old;
+        self->f.nattach = nold;
+        PyErr_SetString(PyExc_ValueError, "attachments: invalid (vf_filter_check)");
+        return NULL;
+    }
+    PyMem_Free(keep);
+    nd = vf_filter_doubles(&self->f);
+    ni = vf_filter_ints(&self->f);
+    sc = PyMem_Realloc(self->scratch, nd * sizeof(double));
+    if (sc == NULL) {
+        return PyErr_NoMemory();
+    }
+    self->scratch = sc;
+    im = PyMem_Realloc(self->imem,
+                       (n + ni + 3 * vf_filter_rows_max(&self->f) + 3) * sizeof(int32_t));
+    if (im == NULL) {
+        return PyErr_NoMemory();
+    }
+    self->imem = im;
+    self->f.jkind = im;
+    self->iscratch = im + n;
+    self->warm = im + n + ni;
+    self->n_warm = 0;
+    self->have_info = 0;
+    self->bslots = 0; /* (the batch scratch is resized on its next use) */
+    Py_RETURN_NONE;
+}
+
 static PyMethodDef FilterCycle_methods[] = {
+    {"set_attachments", (PyCFunction)FilterCycle_set_attachments, METH_O,
+     "set_attachments(flat): the attached shapes, 8 floats each (link, a, b, radius)."},
     {"cycle", (PyCFunction)(void (*)(void))FilterCycle_cycle, METH_FASTCALL,
      "cycle(q, u, previous=None, out=None) -> out: one cycle of the safety filter."},
     {"cycle_batch", (PyCFunction)(void (*)(void))FilterCycle_cycle_batch,

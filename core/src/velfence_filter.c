@@ -406,6 +406,16 @@ int vf_filter_check(const vf_filter *f)
     if (f->k > (1 << 20)) {
         return VF_ERR_ARGUMENT;
     }
+    if (f->nattach < 0 || f->nattach > 1024 || (f->nattach > 0 && f->attach == NULL)) {
+        return f->nattach > 0 && f->attach == NULL ? VF_ERR_NULL : VF_ERR_ARGUMENT;
+    }
+    for (i = 0; i < f->nattach; i++) {
+        const vf_filter_attachment *at = f->attach + i;
+        if (at->link < -1 || at->link > f->n || !vf_finite_all(at->a, 3)
+            || !vf_finite_all(at->b, 3) || !(isfinite(at->radius) && at->radius >= 0.0)) {
+            return VF_ERR_ARGUMENT;
+        }
+    }
     if (f->npairs < 0 || f->npairs > f->n * f->n) {
         return VF_ERR_ARGUMENT;
     }
@@ -451,16 +461,17 @@ static size_t max_nf(const vf_filter *f)
 
 size_t vf_filter_rows_max(const vf_filter *f)
 {
-    size_t rows;
+    size_t rows, na;
     int32_t w;
     if (f == NULL || f->n < 1 || f->n > MAX_JOINTS || f->nw < 0 || f->k < 0
         || (f->nw > 0 && f->ws == NULL)) {
         return 0;
     }
-    rows = 6 * (size_t)f->n + (size_t)f->k * (size_t)f->n
+    na = f->nattach > 0 ? (size_t)f->nattach : 0;
+    rows = 6 * (size_t)f->n + (size_t)f->k * ((size_t)f->n + na)
            + (f->npairs > 0 ? (size_t)f->npairs : 0);
     for (w = 0; w < f->nw; w++) {
-        rows += f->ws[w].nf > 0 ? (size_t)f->ws[w].nf : 0;
+        rows += f->ws[w].nf > 0 ? (size_t)f->ws[w].nf * (1 + 2 * na) : 0;
     }
     return rows;
 }
@@ -470,7 +481,7 @@ typedef struct layout {
     size_t M, n;
     /* doubles */
     size_t frames, P, axes, frames1, P1, axes1, q1, G, Gs, b, dist, slack, cur, bb, bt, used, us, ys,
-        x, x1, xc, xt, ucmd, zeros, lam, wsf, capw, clear, wsd, wsb, wsJ, reach, total;
+        x, x1, xc, xt, ucmd, zeros, lam, wsf, capw, clear, wsd, wsb, wsJ, reach, offr, attw, total;
     /* ints */
     size_t level, ka, kb, active, relaxed, slot, act, warm, ri, itotal;
 } layout;
@@ -479,7 +490,7 @@ static void make_layout(const vf_filter *f, layout *L)
 {
     const size_t n = (size_t)f->n;
     const size_t M = vf_filter_rows_max(f);
-    const size_t K = (size_t)f->k * n;
+    const size_t K = (size_t)f->k * (n + (f->nattach > 0 ? (size_t)f->nattach : 0));
     const size_t nf = max_nf(f);
     size_t o = 0, io = 0;
     L->M = M;
@@ -518,6 +529,8 @@ static void make_layout(const vf_filter *f, layout *L)
     TAKE(wsb, nf);
     TAKE(wsJ, 3 * n);
     TAKE(reach, n);
+    TAKE(offr, nf);
+    TAKE(attw, 6 * (f->nattach > 0 ? (size_t)f->nattach : 0) + 1);
     L->total = o;
     ITAKE(level, M);
     ITAKE(ka, M);
@@ -589,6 +602,152 @@ typedef struct ctx {
 #define D(c, field) ((c)->d + (c)->L.field)
 #define IV(c, field) ((c)->i + (c)->L.field)
 
+
+/* Attachment at's axis ends in the base frame (A, B) at the frames; the joints moving it. */
+static int32_t attach_axis(const vf_filter *f, const vf_filter_attachment *at,
+                           const double *frames, double *A, double *B)
+{
+    vf_filter_point pt;
+    pt.link = at->link;
+    memcpy(pt.offset, at->a, sizeof pt.offset);
+    point_at(f, &pt, frames, A);
+    memcpy(pt.offset, at->b, sizeof pt.offset);
+    return point_at(f, &pt, frames, B);
+}
+
+/* The Jacobian of the point p moved by joints 0 .. k-1 (column j at J + 3 j) and its speed
+ * under u. */
+static double point_jac(const vf_filter *f, const double *P, const double *axes, const double *p,
+                        int32_t k, const double *u, double *J)
+{
+    double vx = 0.0, vy = 0.0, vz = 0.0;
+    int32_t j;
+    for (j = 0; j < k; j++) {
+        const double *z = axes + 3 * (size_t)j;
+        double *col = J + 3 * (size_t)j;
+        if (f->joints[j].type == VF_FILTER_PRISMATIC) {
+            col[0] = z[0];
+            col[1] = z[1];
+            col[2] = z[2];
+        } else {
+            const double *pj = P + 3 * (size_t)j;
+            const double dx = p[0] - pj[0], dy = p[1] - pj[1], dz = p[2] - pj[2];
+            col[0] = z[1] * dz - z[2] * dy;
+            col[1] = z[2] * dx - z[0] * dz;
+            col[2] = z[0] * dy - z[1] * dx;
+        }
+        vx += col[0] * u[j];
+        vy += col[1] * u[j];
+        vz += col[2] * u[j];
+    }
+    return sqrt(vx * vx + vy * vy + vz * vz);
+}
+
+/* The attachments' workspace rows of every polytope, from row r on. */
+static int32_t attach_ws_rows(ctx *c, const vf_rows *o, int32_t r)
+{
+    const vf_filter *f = c->f;
+    int32_t w, s, e, i, r0, k;
+    double *A = D(c, attw);
+    for (s = 0; s < f->nattach; s++) {
+        attach_axis(f, f->attach + s, D(c, frames), A + 6 * (size_t)s, A + 6 * (size_t)s + 3);
+    }
+    for (w = 0; w < f->nw; w++) {
+        const vf_filter_polytope *ws = f->ws + w;
+        for (s = 0; s < f->nattach; s++) {
+            const vf_filter_attachment *at = f->attach + s;
+            const int32_t ends = memcmp(at->a, at->b, sizeof at->a) == 0 ? 1 : 2;
+            k = at->link >= f->n ? f->n : at->link + 1;
+            for (i = 0; i < ws->nf; i++) {
+                D(c, offr)[i] = ws->off[i] + at->radius;
+            }
+            for (e = 0; e < ends; e++) {
+                const double *p = A + 6 * (size_t)s + 3 * (size_t)e;
+                const double sp = point_jac(f, D(c, P), D(c, axes), p, k, c->u, D(c, wsJ));
+                r0 = r;
+                r = vf_workspace_rows(o, r, w, ws->N, D(c, offr), ws->nf, ws->kind, ws->prm, p,
+                                      D(c, wsJ), k, sp, c->idt, VF_FILTER_LEVEL_WORKSPACE,
+                                      D(c, wsd), D(c, wsb), IV(c, ri));
+                for (i = r0; i < r; i++) {
+                    IV(c, kb)[i] += ws->nf + (2 * s + e) * ws->nf;
+                }
+            }
+        }
+    }
+    return r;
+}
+
+/* Sphere obstacles against the attachments, from row r on (after the link rows). */
+static int32_t attach_obstacle_rows(ctx *c, int32_t r)
+{
+    const vf_filter *f = c->f;
+    const int32_t n = c->n;
+    const double *P = D(c, P);
+    const double *A = D(c, attw);
+    int32_t i, s, j, kind;
+    double prm[VF_ND_PROFILE_PARAMS], reach[1];
+    vf_filter_obstacle_profile(f, &kind, prm);
+    for (i = 0; i < f->k; i++) {
+        const double *cc = f->centres + 3 * (size_t)i;
+        for (s = 0; s < f->nattach; s++) {
+            const vf_filter_attachment *at = f->attach + s;
+            const double *a = A + 6 * (size_t)s, *e = a + 3;
+            const int32_t k = at->link >= n ? n : at->link + 1;
+            const double cl = vf_capsule_clearance(cc, a, e, f->radii[i], at->radius);
+            double t, x[3], nr[3], dist, speed, bound;
+            double *g = D(c, G) + (size_t)r * n;
+            int32_t wk[2], m;
+            reach[0] = 0.0;
+            if (f->dt > 0.0) {
+                for (j = 0; j < k; j++) {
+                    const double *pj = P + 3 * (size_t)j;
+                    const double ax = a[0] - pj[0], ay = a[1] - pj[1], az = a[2] - pj[2];
+                    const double bx = e[0] - pj[0], by = e[1] - pj[1], bz = e[2] - pj[2];
+                    const double ma = sqrt(ax * ax + ay * ay + az * az);
+                    const double mb = sqrt(bx * bx + by * by + bz * bz);
+                    reach[0] += (ma > mb ? ma : mb) * f->vmax[j];
+                }
+                reach[0] *= 1.5 * f->dt;
+            }
+            if (!(cl < f->obstacle_buffer || (f->dt > 0.0 && cl <= reach[0]))) {
+                continue;
+            }
+            t = vf_seg_t(cc, a, e);
+            for (m = 0; m < 3; m++) {
+                x[m] = t <= 0.5 ? a[m] + t * (e[m] - a[m]) : e[m] - (1.0 - t) * (e[m] - a[m]);
+                nr[m] = x[m] - cc[m];
+            }
+            dist = sqrt(nr[0] * nr[0] + nr[1] * nr[1] + nr[2] * nr[2]);
+            if (dist > 0.0) {
+                nr[0] /= dist;
+                nr[1] /= dist;
+                nr[2] /= dist;
+            } else {
+                const double hx = e[0] - a[0], hy = e[1] - a[1];
+                const double h = hypot(hx, hy);
+                nr[0] = h == 0.0 ? 1.0 : -hy / h;
+                nr[1] = h == 0.0 ? 0.0 : hx / h;
+                nr[2] = 0.0;
+            }
+            speed = point_jac(f, P, D(c, axes), x, k, c->u, D(c, wsJ));
+            for (j = 0; j < n; j++) {
+                const double *col = D(c, wsJ) + 3 * (size_t)j;
+                g[j] = j < k ? nr[0] * col[0] + nr[1] * col[1] + nr[2] * col[2] : 0.0;
+            }
+            vf_nd_rate_bounds(kind, prm, &cl, 1, speed, c->idt, &bound, wk);
+            if (bound == -INFINITY) {
+                continue;
+            }
+            D(c, b)[r] = bound;
+            D(c, dist)[r] = cl;
+            IV(c, level)[r] = VF_FILTER_LEVEL_OBSTACLE;
+            IV(c, ka)[r] = i;
+            IV(c, kb)[r] = n + s;
+            r += 1;
+        }
+    }
+    return r;
+}
 
 /* The self-collision rows from row r on (the header's order); returns the next row. */
 static int32_t self_rows(ctx *c, int32_t r)
@@ -688,6 +847,9 @@ static int32_t build_rows(ctx *c, const double *previous)
                               sqrt(vx * vx + vy * vy + vz * vz), idt, VF_FILTER_LEVEL_WORKSPACE,
                               D(c, wsd), D(c, wsb), IV(c, ri));
     }
+    if (f->nattach > 0) {
+        r = attach_ws_rows(c, &o, r);
+    }
     if (f->k > 0) {
         vf_nd_capsules cap;
         int32_t kk, cc;
@@ -717,6 +879,9 @@ static int32_t build_rows(ctx *c, const double *previous)
             IV(c, level)[r + cc] = VF_FILTER_LEVEL_OBSTACLE;
         }
         r += kk;
+        if (f->nattach > 0) {
+            r = attach_obstacle_rows(c, r);
+        }
     }
     if (f->npairs > 0) {
         r = self_rows(c, r);
@@ -873,7 +1038,19 @@ static int32_t model_check(ctx *c, const double *x, double *bnd)
         if (lv != VF_FILTER_LEVEL_WORKSPACE && lv != VF_FILTER_LEVEL_OBSTACLE) {
             continue;
         }
-        if (lv == VF_FILTER_LEVEL_WORKSPACE) {
+        if (lv == VF_FILTER_LEVEL_WORKSPACE && IV(c, kb)[r] >= f->ws[IV(c, ka)[r]].nf) {
+            /* an attachment's end: kb = nf + (2 s + e) nf + i */
+            const vf_filter_polytope *ws = f->ws + IV(c, ka)[r];
+            const int32_t rest = IV(c, kb)[r] - ws->nf, fi = rest % ws->nf, se = rest / ws->nf;
+            const vf_filter_attachment *at = f->attach + se / 2;
+            const double *nn = ws->N + 3 * (size_t)fi;
+            double A[3], B[3];
+            attach_axis(f, at, frames1, A, B);
+            {
+                const double *pe = se % 2 == 0 ? A : B;
+                d1 = nn[0] * pe[0] + nn[1] * pe[1] + nn[2] * pe[2] - (ws->off[fi] + at->radius);
+            }
+        } else if (lv == VF_FILTER_LEVEL_WORKSPACE) {
             const vf_filter_polytope *ws = f->ws + IV(c, ka)[r];
             const double *nn = ws->N + 3 * (size_t)IV(c, kb)[r];
             if (IV(c, ka)[r] != wlast) {
@@ -881,6 +1058,12 @@ static int32_t model_check(ctx *c, const double *x, double *bnd)
                 wlast = IV(c, ka)[r];
             }
             d1 = nn[0] * p[0] + nn[1] * p[1] + nn[2] * p[2] - ws->off[IV(c, kb)[r]];
+        } else if (IV(c, ka)[r] < f->k && IV(c, kb)[r] >= n) {
+            const vf_filter_attachment *at = f->attach + (IV(c, kb)[r] - n);
+            double A[3], B[3];
+            attach_axis(f, at, frames1, A, B);
+            d1 = vf_capsule_clearance(f->centres + 3 * (size_t)IV(c, ka)[r], A, B,
+                                      f->radii[IV(c, ka)[r]], at->radius);
         } else if (IV(c, ka)[r] >= f->k) {
             d1 = self_clearance(f, D(c, P1), IV(c, ka)[r] - f->k, IV(c, kb)[r]);
         } else {
@@ -1066,30 +1249,31 @@ static int32_t key_slot(const vf_filter *f, int32_t lv, int32_t a, int32_t b)
         return a >= 0 && a < n && b >= 0 && b < 2 ? 4 * n + 2 * a + b : -1;
     }
     if (lv == VF_FILTER_LEVEL_WORKSPACE) {
-        if (a < 0 || a >= f->nw || b < 0 || b >= f->ws[a].nf) {
+        if (a < 0 || a >= f->nw || b < 0 || b >= f->ws[a].nf * (1 + 2 * f->nattach)) {
             return -1;
         }
         for (w = 0; w < a; w++) {
-            off += f->ws[w].nf;
+            off += f->ws[w].nf * (1 + 2 * f->nattach);
         }
         return off + b;
     }
     if (lv == VF_FILTER_LEVEL_OBSTACLE) {
+        const int32_t per = n + f->nattach;
         for (w = 0; w < f->nw; w++) {
-            off += f->ws[w].nf;
+            off += f->ws[w].nf * (1 + 2 * f->nattach);
         }
         if (a >= f->k && a < f->k + n) { /* self-collision pair (a - k, b) */
             for (w = 0; w < f->npairs; w++) {
                 if (f->pairs[2 * (size_t)w] == a - f->k && f->pairs[2 * (size_t)w + 1] == b) {
-                    return off + n * f->k + w;
+                    return off + per * f->k + w;
                 }
             }
             return -1;
         }
-        if (a < 0 || a >= f->k || b < 0 || b >= n) {
+        if (a < 0 || a >= f->k || b < 0 || b >= per) {
             return -1;
         }
-        return off + n * a + b;
+        return off + per * a + b;
     }
     return -1;
 }

@@ -210,6 +210,7 @@ def filter_cycle(sf: Any, profiles: Any = None) -> Any:
         lrad, float(sf.obstacle_buffer), float(sf.spring_gain), float(sf.dt or 0.0),
         None if metric is None else np.asarray(metric) ** 2,
         self_pairs=[v for pr in sf.self_collision_pairs for v in pr] or None,
+        attachments=None if sf._attach is None else sf._attach.flat(),
     )  # fmt: skip
 
 

@@ -86,6 +86,14 @@ class AttachmentTable:
         """The link index of a shape's frame (``"tcp"``: ``n``)."""
         return self.n if shape.link == "tcp" else int(shape.link)
 
+    def flat(self) -> list[float]:
+        """Every shape as 8 floats ``(link, a (3), b (3), radius)`` (the C cycle's table)."""
+        out: list[float] = []
+        for _, shape in self._shapes.values():
+            a, b = shape.ends
+            out += [float(self.link_of(shape)), *a.tolist(), *b.tolist(), float(shape.radius)]
+        return out
+
     def world(self, frame: KinematicsFrame) -> list[tuple[str, int, int, FloatArray, float]]:
         """Every shape as ``(name, key, link, axis (2, 3) in the base frame [m], radius)``."""
         out = []
@@ -160,11 +168,13 @@ class AttachmentWorkspaceRows:
         ds: list[Any] = []
         ks: list[Any] = []
         nm: list[tuple[str, int, int]] = []
+        shapes = self.table.shapes()
         for name, key, link, axis, r in self.table.world(ctx.frame):
-            for e in (0,) if bool(np.array_equal(axis[0], axis[1])) else (0, 1):
+            a, b = shapes[name].ends
+            for e in (0,) if bool(np.array_equal(a, b)) else (0, 1):
                 p = axis[e]
                 J = _jac(ctx.frame, link, p, n)
-                dist = self._N @ p - self._o - r
+                dist = self._N @ p - (self._o + r)
                 ju = J @ ctx.command
                 bnd = rate_bounds(
                     self.profile, dist, math.sqrt(float(ju @ ju)), _idt(ctx.dt), self._kern
@@ -195,7 +205,7 @@ class AttachmentWorkspaceRows:
         out = []
         for s, e, i in block.data:
             _, _, _, axis, r = world[s]
-            out.append(float(self._N[i] @ axis[e] - self._o[i] - r))
+            out.append(float(self._N[i] @ axis[e] - (self._o[i] + r)))
         return np.array(out)
 
 

@@ -113,8 +113,8 @@ class SafetyFilter(InvalidPolicy):
             :class:`~velfence.filter.limits.Capsule`) on the robot's links, kept inside every
             workspace polytope and outside every obstacle: a mapping name -> shape, or a
             sequence (named ``"attachment 0"``, …); ``None`` (default): none, and no
-            :meth:`attach` later. Needs the robot's link frames (a ``DHChain``); a filter with
-            attachments runs the Python route.
+            :meth:`attach` later. Needs the robot's link frames (a ``DHChain``); the C cycle
+            runs them too.
         providers: Further row providers (:class:`~velfence.filter.rows.RowProvider`), each at
             its declared level of the ladder.
         dt: Control period [s] (``None``: continuous-time bounds). With ``dt`` every row also
@@ -271,6 +271,12 @@ class SafetyFilter(InvalidPolicy):
         for w_i, w in enumerate(self._workspace):
             pre = f"workspace {w_i}: " if multi else ""
             rows.append(WorkspaceRows(w, dim=self.task_dim, prefix=pre, kernels=kern))
+        self._attach = None
+        if attachments is not None:
+            self._attach = parts.attachment_table(robot, attachments, frame0, n)
+            for w_i, w in enumerate(self._workspace):
+                pre = f"workspace {w_i}: " if multi else ""
+                rows.append(AttachmentWorkspaceRows(w, self._attach, prefix=pre, kernels=kern))
         if self._obstacles:
             rows.append(
                 parts.obstacle_rows(
@@ -283,19 +289,13 @@ class SafetyFilter(InvalidPolicy):
                     max_speed=limits.max_speed,
                 )
             )
-        self._attach = None
-        if attachments is not None:
-            self._attach = parts.attachment_table(robot, attachments, frame0, n)
-            for w_i, w in enumerate(self._workspace):
-                pre = f"workspace {w_i}: " if multi else ""
-                rows.append(AttachmentWorkspaceRows(w, self._attach, prefix=pre, kernels=kern))
-            if self._obstacles:
-                rows.append(
-                    AttachmentObstacleRows(
-                        self._obstacles, self._attach, buffer=self.obstacle_buffer,
-                        spring_gain=self.spring_gain, max_speed=limits.max_speed,
-                    )
-                )  # fmt: skip
+        if self._attach is not None and self._obstacles:
+            rows.append(
+                AttachmentObstacleRows(
+                    self._obstacles, self._attach, buffer=self.obstacle_buffer,
+                    spring_gain=self.spring_gain, max_speed=limits.max_speed,
+                )
+            )  # fmt: skip
         self._self_pairs: tuple[tuple[int, int], ...] = ()
         sc = parts.self_collision(self_collision)
         if sc is not None:
@@ -317,7 +317,7 @@ class SafetyFilter(InvalidPolicy):
         # shape_batch() call it and explain() builds its report from it; twist mode and every
         # other case keep the Python route (backend="python": the oracle it is tested equal to).
         self._ccycle: Any = None
-        if core is not None and not providers and attachments is None:
+        if core is not None and not providers:
             from velfence.filter._ccycle import c_cycle_or_none
 
             self._ccycle = c_cycle_or_none(self, profs)
@@ -358,6 +358,13 @@ class SafetyFilter(InvalidPolicy):
                 "attach shapes later)"
             )
         parts.add_attachment(self._attach, name, shape, "shape")
+        self._attachments_changed()
+
+    def _attachments_changed(self) -> None:
+        """The C cycle takes the new table (and the warm start, keyed by row, restarts)."""
+        self._warm = set()
+        if self._ccycle is not None and self._attach is not None:
+            self._ccycle.set_attachments(self._attach.flat())
 
     def detach(self, name: str) -> None:
         """Detach the shape ``name`` (a release); from the next cycle on it has no rows.
@@ -368,6 +375,7 @@ class SafetyFilter(InvalidPolicy):
         if self._attach is None or not self._attach.remove(name):
             have = [] if self._attach is None else list(self._attach.names())
             raise InvalidParameter(f"name: no shape {name!r} is attached (attached: {have})")
+        self._attachments_changed()
 
     @property
     def self_collision_pairs(self) -> tuple[tuple[int, int], ...]:
@@ -690,6 +698,7 @@ class SafetyFilter(InvalidPolicy):
     def _c_names(self, keys: list[tuple[int, int, int]]) -> list[str]:
         """The row names of the C cycle's keys (the providers' names)."""
         ws = [p for p in self._providers if isinstance(p, WorkspaceRows)]
+        att = () if self._attach is None else self._attach.names()
         out: list[str] = []
         for lv, a, k in keys:
             if lv == LEVEL_JOINT:
@@ -697,8 +706,16 @@ class SafetyFilter(InvalidPolicy):
                 out.append(f"joint {a} {what} ({'lower' if k % 2 == 0 else 'upper'})")
             elif lv == LEVEL_RATE:
                 out.append(f"joint {a} acceleration ({'lower' if k == 0 else 'upper'})")
+            elif lv == LEVEL_WORKSPACE and k >= len(ws[a].facet_row_names):
+                nf = len(ws[a].facet_row_names)
+                se, fi = divmod(k - nf, nf)
+                pre = f"workspace {a}: " if len(ws) > 1 else ""
+                facet = ws[a].limit.polytope.facet_names[fi]
+                out.append(f"{pre}{att[se // 2]} end {se % 2} face {facet}")
             elif lv == LEVEL_WORKSPACE:
                 out.append(ws[a].facet_row_names[k])
+            elif k >= self.dof and a < len(self._obstacles):
+                out.append(f"obstacle {a} on {att[k - self.dof]}")
             elif a >= len(self._obstacles):
                 out.append(f"link {a - len(self._obstacles)} and link {k}")
             else:
