@@ -22,9 +22,11 @@ from test_filter_cycle_equal import _model_borderline, _safe
 
 from velfence.errors import InvalidParameter
 from velfence.filter import (
+    Capsule,
     JointLimits,
     SafetyFilter,
     SelfCollision,
+    Sphere,
     SphereObstacle,
     WorkspaceLimit,
 )
@@ -180,3 +182,88 @@ def test_default_pairs_leave_out_links_that_always_touch() -> None:
     # the C cycle is built with the same pairs and runs them
     sf3 = SafetyFilter(robot, limits=lim, self_collision=True, backend="c")
     assert sf3._ccycle is not None
+
+
+# ------------------------------------------------------------------------------- attachments
+def _with_shapes(sc: dict[str, Any], rng: np.random.Generator) -> dict[str, Any]:
+    """The scene's filter rebuilt with 1-3 random spheres / capsules on random links."""
+    sf = sc["sf"]
+    n = sf.dof
+    shapes: dict[str, Any] = {}
+    for k in range(int(rng.integers(1, 4))):
+        link: Any = "tcp" if rng.integers(2) else int(rng.integers(-1, n + 1))
+        r = float(rng.uniform(0.0, 0.08))
+        if rng.integers(2):
+            shapes[f"s{k}"] = Capsule(link, rng.normal(size=3) * 0.1, rng.normal(size=3) * 0.1,
+                                      radius=r)  # fmt: skip
+        else:
+            shapes[f"s{k}"] = Sphere(link, rng.normal(size=3) * 0.1, radius=r)
+    sf2 = SafetyFilter(
+        sf.robot, limits=sf.limits, workspace=sf.workspace, obstacles=sf.obstacles,
+        self_collision=bool(sf.self_collision_pairs), attachments=shapes, dt=sf.dt,
+        obstacle_buffer=sf.obstacle_buffer, spring_gain=sf.spring_gain, backend="python",
+    )  # fmt: skip
+    if rng.integers(2):  # a release and a grasp
+        sf2.detach("s0")
+        sf2.attach("held", Sphere("tcp", [0.0, 0.0, 0.05], radius=0.03))
+    return {**sc, "sf": sf2}
+
+
+def test_c_cycle_attachments_equal_the_python_oracle() -> None:
+    rng = np.random.default_rng(77)
+    for _ in range(80):
+        _check(_with_shapes(_scene(rng), rng))
+
+
+def test_attach_and_detach_reach_the_filters_own_c_cycle() -> None:
+    """Grasp / release on a filter running the C cycle: its output equals the oracle's."""
+    rng = np.random.default_rng(8)
+    robot = DHChain.seven_dof(link_radius=0.04, tool=(0.0, 0.0, 0.1))
+    lim = JointLimits(robot.joint_limits[:, 0], robot.joint_limits[:, 1], max_speed=np.full(7, 1.5))
+    box = WorkspaceLimit(ConvexPolytope.box([-0.7, -0.7, 0.0], [0.7, 0.7, 1.3]))
+    obs = [SphereObstacle(center=[0.4, 0.2, 0.8], radius=0.1)]
+    kw: dict[str, Any] = {"workspace": box, "obstacles": obs, "dt": 0.01, "self_collision": True}
+    tool = {"tool": Capsule("tcp", [0, 0, 0], [0, 0, 0.12], radius=0.03)}
+    c = SafetyFilter(robot, limits=lim, attachments=tool, backend="c", **kw)
+    p = SafetyFilter(robot, limits=lim, attachments=tool, backend="python", **kw)
+    assert c._ccycle is not None
+    held = Capsule(6, [0.05, 0, 0.1], [0.05, 0, 0.3], radius=0.05)
+    seen = {"box": 0, "tool": 0}
+    for step in range(40):
+        if step == 10:
+            c.attach("box", held)
+            p.attach("box", held)
+        if step == 25:
+            c.detach("tool")
+            p.detach("tool")
+        q = rng.uniform(-1.5, 1.5, 7)
+        u = rng.normal(size=7)
+        rc, rp = c.explain(q, u), p.explain(q, u)
+        assert rc.constraint_names == rp.constraint_names
+        np.testing.assert_allclose(rc.output, rp.output, rtol=1e-9, atol=1e-9)
+        for key in seen:
+            seen[key] += sum(nm.split(" ")[0] == key for nm in rc.constraint_names)
+        if step >= 25:
+            assert not any(nm.startswith("tool ") for nm in rc.constraint_names)
+    assert seen["box"] > 0
+    assert seen["tool"] > 0
+
+
+def test_bad_attachments_name_the_argument() -> None:
+    robot = DHChain.ur5e(link_radius=0.03)
+    lim = JointLimits(robot.joint_limits[:, 0], robot.joint_limits[:, 1], max_speed=np.ones(6))
+    with pytest.raises(InvalidParameter, match="radius"):
+        Capsule("tcp", [0, 0, 0], [0, 0, 0.1], radius=-0.01)
+    with pytest.raises(InvalidParameter, match="radius"):
+        Sphere(2, [0, 0, 0], radius=float("nan"))
+    with pytest.raises(InvalidParameter, match="link"):
+        Sphere("flange", [0, 0, 0], radius=0.1)
+    with pytest.raises(InvalidParameter, match=r"attachments\[0\]\.link: link 9 does not exist"):
+        SafetyFilter(robot, limits=lim, attachments=[Sphere(9, [0, 0, 0], radius=0.1)])
+    sf = SafetyFilter(robot, limits=lim, attachments={})
+    with pytest.raises(InvalidParameter, match=r"shape\.link: link 7 does not exist"):
+        sf.attach("x", Capsule(7, [0, 0, 0], [0, 0, 1], radius=0.1))
+    with pytest.raises(InvalidParameter, match="name: no shape 'x'"):
+        sf.detach("x")
+    with pytest.raises(InvalidParameter, match="without attachments"):
+        SafetyFilter(robot, limits=lim).attach("x", Sphere(0, [0, 0, 0], radius=0.1))
