@@ -249,30 +249,44 @@ double vf_segment_pair(const double *a0, const double *a1, const double *b0, con
 double vf_self_row(int32_t n, const double *P, const double *axes, int32_t i, int32_t j,
                    double ri, double rj, const double *u, double *g, double *speed)
 {
+    /* Joints 0 .. i move both closest points as one rigid body: their columns of J_a - J_b are
+     * z_k x (pa - pb), normal to nrm (parallel to pa - pb), so their g is 0 and their part of
+     * the relative velocity is (sum u_k z_k) x (pa - pb). Joints i < k <= j move pb only. */
     const double *a = P + 3 * (size_t)i, *e = P + 3 * (size_t)j;
-    double xa[3], xb[3], nr[3], v[3] = {0.0, 0.0, 0.0}, dist;
+    double xa[3], xb[3], nr[3], r[3], w[3] = {0.0, 0.0, 0.0}, v[3], dist;
     int32_t k;
     dist = vf_segment_pair(a, a + 3, e, e + 3, NULL, NULL, xa, xb, nr);
-    for (k = 0; k < n; k++) {
+    r[0] = xa[0] - xb[0];
+    r[1] = xa[1] - xb[1];
+    r[2] = xa[2] - xb[2];
+    for (k = 0; k <= i; k++) {
+        const double *z = axes + 3 * (size_t)k;
+        w[0] += u[k] * z[0];
+        w[1] += u[k] * z[1];
+        w[2] += u[k] * z[2];
+        g[k] = 0.0;
+    }
+    v[0] = w[1] * r[2] - w[2] * r[1];
+    v[1] = w[2] * r[0] - w[0] * r[2];
+    v[2] = w[0] * r[1] - w[1] * r[0];
+    for (k = i + 1; k < n; k++) {
         const double *z = axes + 3 * (size_t)k;
         const double *pk = P + 3 * (size_t)k;
-        double jx = 0.0, jy = 0.0, jz = 0.0;
-        if (k <= i) {
-            const double dx = xa[0] - pk[0], dy = xa[1] - pk[1], dz = xa[2] - pk[2];
-            jx = z[1] * dz - z[2] * dy;
-            jy = z[2] * dx - z[0] * dz;
-            jz = z[0] * dy - z[1] * dx;
+        double dx, dy, dz, jx, jy, jz;
+        if (k > j) {
+            g[k] = 0.0;
+            continue;
         }
-        if (k <= j) {
-            const double dx = xb[0] - pk[0], dy = xb[1] - pk[1], dz = xb[2] - pk[2];
-            jx -= z[1] * dz - z[2] * dy;
-            jy -= z[2] * dx - z[0] * dz;
-            jz -= z[0] * dy - z[1] * dx;
-        }
-        g[k] = nr[0] * jx + nr[1] * jy + nr[2] * jz;
-        v[0] += jx * u[k];
-        v[1] += jy * u[k];
-        v[2] += jz * u[k];
+        dx = xb[0] - pk[0];
+        dy = xb[1] - pk[1];
+        dz = xb[2] - pk[2];
+        jx = z[1] * dz - z[2] * dy;
+        jy = z[2] * dx - z[0] * dz;
+        jz = z[0] * dy - z[1] * dx;
+        g[k] = -(nr[0] * jx + nr[1] * jy + nr[2] * jz);
+        v[0] -= jx * u[k];
+        v[1] -= jy * u[k];
+        v[2] -= jz * u[k];
     }
     *speed = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
     return dist - ri - rj;
