@@ -334,3 +334,28 @@ def test_policy_shield(
     assert (tmp_path / "policy_shield.png").stat().st_size > 20_000
     assert (tmp_path / "policy_shield.mp4").stat().st_size > 5_000
     assert lines[-1] == f"wrote {tmp_path / 'policy_shield.mp4'}"
+
+
+def test_tool_and_self_collision(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    pytest.importorskip("matplotlib")
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(
+        "figure_checks", Path(__file__).parent / "viz" / "figure_checks.py"
+    )
+    assert spec is not None
+    assert spec.loader is not None
+    checks = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(checks)
+    monkeypatch.setattr("sys.argv", ["tool_and_self_collision.py", str(tmp_path)])
+    with checks.record_figures(monkeypatch) as figures:
+        lines = run_example("tool_and_self_collision", capsys)
+    checks.check_all(figures, {"tool_self_collision.png"})
+    assert numbers(lines[0])[0] == 0.0  # touching ...
+    assert lines[0].endswith("True)")  # ... never penetrating
+    assert numbers(lines[1])[0] > 0.0  # the tool stays in the box
+    assert "link 1 and link 3" in lines[2]
+    assert numbers(lines[2])[0] < 3.0  # the elbow stopped before its limit (pi)
+    assert (tmp_path / "tool_self_collision.png").stat().st_size > 10_000
