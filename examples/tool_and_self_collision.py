@@ -19,8 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from velfence.filter import Capsule, JointLimits, SafetyFilter, SphereObstacle, WorkspaceLimit
-from velfence.geometry.polytope import ConvexPolytope
-from velfence.geometry.primitives import closest_points_segments
+from velfence.geometry import ConvexPolytope, closest_points_segments
 from velfence.mechanisms import DHChain
 
 DT = 1e-3

@@ -22,6 +22,7 @@ from velfence.geometry.primitives import (
     closest_points_segments,
     point_segment_distance_jacobian,
     points_segments_distances,
+    segment_pair_params,
     segment_segment_distance,
     sphere_capsule_distance,
 )
@@ -47,6 +48,7 @@ __all__ = [
     "points_segments_distances",
     "polygon_from_halfplanes",
     "project",
+    "segment_pair_params",
     "segment_segment_distance",
     "sphere_capsule_distance",
     "world_to_body",
