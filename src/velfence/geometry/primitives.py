@@ -213,8 +213,17 @@ def segment_pair_params(a0: Vec3, a1: Vec3, b0: Vec3, b1: Vec3) -> tuple[float, 
 
     The float kernel of :func:`closest_points_segments` (the same ``(s, t)``, bit for bit) for
     callers that validated their inputs (the safety filter's self-collision rows): 3-tuples of
-    finite floats, nothing checked. The C core's ``vf_segment_pair_params`` is the same
-    arithmetic.
+    finite floats, nothing checked. The C core's ``vf_segment_pair`` is the same arithmetic.
+
+    Args:
+        a0: Start of segment A, three floats (length units).
+        a1: End of segment A.
+        b0: Start of segment B.
+        b1: End of segment B.
+
+    Returns:
+        ``(s, t)`` in ``[0, 1]``: the closest points are ``a0 + s (a1 - a0)`` and
+        ``b0 + t (b1 - b0)``.
     """
     return _segments_st(a0, a1, b0, b1)
 
