@@ -267,3 +267,69 @@ def test_bad_attachments_name_the_argument() -> None:
         sf.detach("x")
     with pytest.raises(InvalidParameter, match="without attachments"):
         SafetyFilter(robot, limits=lim).attach("x", Sphere(0, [0, 0, 0], radius=0.1))
+
+
+def test_the_c_check_refuses_bad_pairs_and_shapes() -> None:
+    """vf_filter_check: a pair naming one link twice or out of range, a shape of negative
+    radius or on a missing link; set_attachments keeps the old table when refused."""
+    robot = DHChain.ur5e(link_radius=0.03)
+    lim = JointLimits(robot.joint_limits[:, 0], robot.joint_limits[:, 1], max_speed=np.ones(6))
+    tcp = robot.fk(np.zeros(6), "tcp")
+    box = WorkspaceLimit(ConvexPolytope.box(tcp - 0.13, tcp + 0.13))  # the tool's rows in reach
+    tool = {"tool": Capsule("tcp", [0, 0, 0], [0, 0, 0.1], radius=0.02)}
+    sf = SafetyFilter(robot, limits=lim, workspace=box, self_collision=True, attachments=tool,
+                      backend="c")  # fmt: skip
+    fc = sf._ccycle
+    assert fc is not None
+    q, u = np.zeros(6), np.full(6, 0.5)
+    x0 = fc.cycle(q, u).copy()
+    for bad in (
+        [6.0, 0, 0, 0, 0, 0, 0.1, 0.02],  # link 6 of a 6-joint arm is the tool (ok) ...
+        [7.0, 0, 0, 0, 0, 0, 0.1, 0.02],  # ... link 7 does not exist
+        [6.0, 0, 0, 0, 0, 0, 0.1, -0.02],  # negative radius
+        [6.0, 0, 0, 0, 0, 0, float("nan"), 0.02],
+    )[1:]:
+        with pytest.raises(ValueError, match="attachments"):
+            fc.set_attachments(bad)
+        np.testing.assert_array_equal(fc.cycle(q, u), x0)  # the old table still in use
+    fc.set_attachments([6.0, 0, 0, 0, 0, 0, 0.1, 0.02])
+    np.testing.assert_array_equal(fc.cycle(q, u), x0)  # the same shape as built
+    assert any(k[0] == _filter.LEVEL_WORKSPACE and k[2] >= 6 for k in _keys(fc))
+    fc.set_attachments([])
+    fc.cycle(q, u)
+    assert not any(k[0] == _filter.LEVEL_WORKSPACE and k[2] >= 6 for k in _keys(fc))
+    args = _cycle_args(sf)
+    for pairs in ([2, 2], [3, 1], [0, 6], [-1, 2], [0]):
+        with pytest.raises(ValueError, match="self_pairs|invalid"):
+            _filter.FilterCycle(*args, self_pairs=pairs)
+
+
+def _keys(fc: Any) -> list[tuple[int, int, int]]:
+    _, _, level, ka, kb, *_ = fc.rows()
+    return list(zip(level.tolist(), ka.tolist(), kb.tolist(), strict=True))
+
+
+def _cycle_args(sf: Any) -> tuple[Any, ...]:
+    """The positional arguments filter_cycle passes for ``sf`` (captured from the binding)."""
+    seen: dict[str, Any] = {}
+
+    class Capture:
+        def __init__(self, *args: Any, **kwargs: Any) -> None:
+            seen["args"] = args
+
+        def set_options(self, **kwargs: Any) -> None:
+            pass
+
+    import velfence.filter._ccycle as cc
+
+    real = cc.compiled_filter
+
+    class Fake:
+        FilterCycle = Capture
+
+    cc.compiled_filter = lambda: Fake  # type: ignore[assignment]
+    try:
+        cc.filter_cycle(sf)
+    finally:
+        cc.compiled_filter = real  # type: ignore[assignment]
+    return tuple(seen["args"])
