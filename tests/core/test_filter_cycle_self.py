@@ -300,7 +300,7 @@ def test_the_c_check_refuses_bad_pairs_and_shapes() -> None:
     assert not any(k[0] == _filter.LEVEL_WORKSPACE and k[2] >= 6 for k in _keys(fc))
     args = _cycle_args(sf)
     for pairs in ([2, 2], [3, 1], [0, 6], [-1, 2], [0]):
-        with pytest.raises(ValueError, match="self_pairs|invalid"):
+        with pytest.raises(ValueError, match=r"self_pairs|invalid"):
             _filter.FilterCycle(*args, self_pairs=pairs)
 
 
