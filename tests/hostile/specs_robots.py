@@ -35,6 +35,7 @@ _ROBOT_METHODS = {
     "angular_jacobian": lambda: call(_Q2),
     "kinematics": lambda: call(_Q2),
     "chain_data": lambda: call(),
+    "chain_frames": lambda: call(),
     "joint_positions": lambda: call(_Q2),
     "link_segments": lambda: call(_Q2),
     "end_effector": lambda: call(_Q2),

@@ -250,8 +250,25 @@ SPECS: dict[str, F | C] = {
             "reset": lambda: call(),
             "shape": lambda: call(_Q7, _QD7),
             "shape_batch": lambda: call(np.array([_Q7, _Q7]), np.array([_QD7, -_QD7])),
+            "filter_batch": F(
+                lambda: call(
+                    np.array([_Q7, -_Q7]),
+                    np.array([_QD7, -_QD7]),
+                    previous=np.array([_QD7, 0.5 * _QD7]),
+                    threads=1,
+                ),
+                types={"threads": "seed"},  # 0 is valid: one thread per online core
+            ),
         },
         instance=safety_filter,
+    ),
+    "filter.ChainFrames": C(record="output record of MujocoRobot.chain_frames()"),
+    "filter.FilterBatch": C(
+        record="output record of SafetyFilter.filter_batch()",
+        methods={"stage_names": F(lambda: call(1), types={"row": "seed"})},
+        instance=lambda: safety_filter().filter_batch(  # type: ignore[attr-defined]
+            np.array([_Q7, -_Q7]), np.array([_QD7, -_QD7]), threads=1
+        ),
     ),
 }
 

@@ -40,7 +40,17 @@ from numpy.typing import ArrayLike
 
 from velfence._docs import document_inits
 from velfence._typing import FloatArray
-from velfence._validate import check_choice, check_positive, real_array, require_package
+from velfence._validate import (
+    check_choice,
+    check_flag,
+    check_positive,
+    check_positive_int,
+    describe,
+    readonly,
+    real_array,
+    require_package,
+    show,
+)
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.filter import JointLimits, SafetyFilter, SphereObstacle, WorkspaceLimit
 from velfence.geometry.polytope import ConvexPolytope
@@ -248,44 +258,159 @@ def _tip_point(data: Any, body: int, offset: FloatArray) -> FloatArray:
     return np.asarray(data.xpos[body], dtype=np.float64) + R @ offset
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, kw_only=True)
 class Shield:
     """Everything a shield wrapper needs: the filter and how actions map to the env.
 
+    Usually built by :func:`mujoco_shield` from a Gymnasium MuJoCo env; built directly (every
+    argument by keyword), each field is checked as :func:`mujoco_shield` would set it.
+
     Attributes:
-        filter: The :class:`~velfence.filter.SafetyFilter` (its ``dt`` the control period).
-        state: The :class:`JointState` adapter.
+        filter: The :class:`~velfence.filter.SafetyFilter` (its ``dt``, when set, the control
+            period).
+        state: The :class:`JointState` adapter (one joint name per filter joint), or ``None``:
+            no reader of one env, for a :class:`VectorShieldWrapper` given its own
+            :class:`BatchJointState` (velocity or position actuation only).
         action: :data:`ActionMode`, what the agent sends.
         actuation: :data:`Actuation`, what the env takes.
-        period: The env's control period ``T`` [s] (one ``step``).
-        bandwidth: The torque servo's bandwidth [rad/s] (``actuation="torque"``).
-        max_effort: The servo's torque limits per joint [N·m] (``actuation="torque"``).
-        gear: Per joint, the actuator's gear (control = torque / gear).
+        period: The env's control period ``T`` [s] (one ``step``), > 0.
+        bandwidth: The torque servo's bandwidth [rad/s], >= 0; > 0 with ``actuation="torque"``.
+        max_effort: The servo's torque limits per joint [N·m], shape (n,), > 0 (``inf``: none);
+            required with ``actuation="torque"``.
+        gear: Per joint, the actuator's gear (control = torque / gear), shape (n,), finite and
+            non-zero; required with ``actuation="torque"``.
         actuators: Per joint, the index of its actuator in the env's action (torque and
-            position actuation), or ``None``: the action is ordered as the joints.
-        twist_speed: The largest tool speed the ``"twist"`` action space allows [m/s].
-        tip_body: The MuJoCo body id that carries the ``"tcp"``, or ``None`` (other envs:
-            the robot's ``fk``).
-        tip_offset: The ``"tcp"`` in that body's frame [m].
+            position actuation): n distinct ints >= 0, or ``None``: the action is ordered as the
+            joints.
+        twist_speed: The largest tool speed the ``"twist"`` action space allows [m/s], > 0.
+        tip_body: The MuJoCo body id that carries the ``"tcp"`` (an int >= 0), or ``None``
+            (other envs: the robot's ``fk``).
+        tip_offset: The ``"tcp"`` in that body's frame [m], shape (3,) (``None`` with a
+            ``tip_body``: its origin).
+
+    Raises:
+        InvalidParameter: a field that is not what it says above (the message names it).
     """
 
     filter: SafetyFilter
-    state: Any
+    state: JointState | None
     action: ActionMode
     actuation: Actuation
     period: float
     bandwidth: float = 0.0
     max_effort: FloatArray | None = None
     gear: FloatArray | None = None
-    actuators: Any = None
+    actuators: tuple[int, ...] | None = None
     twist_speed: float = 1.0
     tip_body: int | None = None
     tip_offset: FloatArray | None = None
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.filter, SafetyFilter):
+            raise InvalidParameter(
+                f"filter: expected a velfence.filter.SafetyFilter, got {describe(self.filter)}"
+            )
+        n = int(self.filter.dof)
+        set_ = object.__setattr__
+        set_(self, "action", check_choice("action", self.action, _ACTIONS))
+        mode = check_choice("actuation", self.actuation, _ACTUATIONS)
+        set_(self, "actuation", mode)
+        T = check_positive("period", self.period, unit="s")
+        dt = self.filter.dt
+        if dt is not None and not math.isclose(T, dt, rel_tol=1e-9, abs_tol=0.0):
+            raise InvalidParameter(
+                f"period: expected the filter's dt ({dt:g} s), the control period it brakes "
+                f"over, got {T:g} s"
+            )
+        set_(self, "period", T)
+        if self.state is not None:
+            if not isinstance(self.state, JointState):
+                raise InvalidParameter(
+                    "state: expected a JointState (joint_names and read(env); "
+                    f"MujocoJointState for MuJoCo envs) or None, got {describe(self.state)}"
+                )
+            try:
+                k = len(tuple(self.state.joint_names))
+            except Exception:  # a hostile joint_names is refused, not propagated
+                k = -1
+            if k != n:
+                raise InvalidParameter(
+                    f"state: expected a JointState of the filter's {n} joints, got joint_names "
+                    f"{show(getattr(self.state, 'joint_names', None))}"
+                )
+        if mode == "torque" and not callable(getattr(self.state, "addresses", None)):
+            raise InvalidParameter(
+                "state: the torque servo reads MuJoCo's data at the joints' addresses; expected "
+                f"a MujocoJointState (or a JointState with addresses(model)), got "
+                f"{describe(self.state)}"
+            )
+        torque = mode == "torque"
+        bw = check_positive("bandwidth", self.bandwidth, allow_zero=not torque, unit="rad/s")
+        set_(self, "bandwidth", bw)
+        eff = _joint_values("max_effort", self.max_effort, n, torque, allow_inf=True)
+        set_(self, "max_effort", eff)
+        set_(self, "gear", _joint_values("gear", self.gear, n, torque, allow_inf=False))
+        set_(self, "actuators", _actuator_indices(self.actuators, n))
+        set_(self, "twist_speed", check_positive("twist_speed", self.twist_speed, unit="m/s"))
+        tip = self.tip_body
+        if tip is not None:
+            tip = check_positive_int("tip_body", tip, minimum=0, maximum=2**31 - 1, example=1)
+        set_(self, "tip_body", tip)
+        off = self.tip_offset
+        if off is not None:
+            off = readonly(real_array("tip_offset", off, (3,), what="a position [m]",
+                                      error=InvalidParameter))  # fmt: skip
+        elif tip is not None:
+            off = readonly(np.zeros(3))
+        set_(self, "tip_offset", off)
 
     @property
     def dof(self) -> int:
         """The arm's joints."""
         return int(self.filter.dof)
+
+
+def _joint_values(
+    name: str, value: Any, n: int, required: bool, *, allow_inf: bool
+) -> FloatArray | None:
+    """A per-joint array of ``Shield``, shape (n,), or ``None`` where not ``required``.
+
+    ``max_effort`` (``allow_inf``): > 0, inf allowed; ``gear``: finite and non-zero.
+    """
+    if value is None:
+        if required:
+            raise InvalidParameter(
+                f"{name}: required with actuation='torque': one value per joint ({n})"
+            )
+        return None
+    a = real_array(name, value, (n,), error=InvalidParameter, allow_nonfinite=allow_inf)
+    if np.isnan(a).any() or (allow_inf and not np.all(a > 0.0)):
+        raise InvalidParameter(f"{name}: expected values > 0 (inf: no limit), got {show(a)}")
+    if not allow_inf and not np.all(a != 0.0):
+        raise InvalidParameter(f"{name}: expected non-zero values, got {show(a)}")
+    return readonly(a)
+
+
+def _actuator_indices(value: Any, n: int) -> tuple[int, ...] | None:
+    """``Shield.actuators``: ``None`` or n distinct ints >= 0."""
+    if value is None:
+        return None
+    if isinstance(value, (str, bytes, bytearray, dict, set, frozenset)) or not isinstance(
+        value, (list, tuple, range, np.ndarray)
+    ):
+        raise InvalidParameter(
+            f"actuators: expected {n} actuator indices (ints >= 0) or None, got {describe(value)}"
+        )
+    items = value.tolist() if isinstance(value, np.ndarray) else list(value)
+    if len(items) != n or (isinstance(value, np.ndarray) and value.ndim != 1):
+        raise InvalidParameter(f"actuators: expected {n} actuator indices, got {show(value)}")
+    idx = tuple(
+        check_positive_int(f"actuators[{i}]", v, minimum=0, maximum=2**31 - 1, example=0)
+        for i, v in enumerate(items)
+    )
+    if len(set(idx)) != n:
+        raise InvalidParameter(f"actuators: expected distinct indices, got {list(idx)}")
+    return idx
 
 
 def _actuators(model: Any, joint_ids: list[int]) -> tuple[list[int], FloatArray, FloatArray]:
@@ -476,7 +601,7 @@ def mujoco_shield(
     bw = check_positive("bandwidth", 1.0 / T if bandwidth is None else bandwidth, unit="rad/s")
     return Shield(
         filter=filt, state=MujocoJointState(names), action=act, actuation=mode, period=T,
-        bandwidth=bw, max_effort=eff, gear=gear, actuators=idx,
+        bandwidth=bw, max_effort=eff, gear=gear, actuators=None if idx is None else tuple(idx),
         twist_speed=check_positive("twist_speed", twist_speed, unit="m/s"),
         tip_body=int(model.body(tip).id),
         tip_offset=real_array("tip_offset", tip_offset, (3,), error=InvalidParameter),
@@ -513,7 +638,9 @@ class _Core:
 
     def __init__(self, shield: Shield, penalty: float) -> None:
         if not isinstance(shield, Shield):
-            raise InvalidParameter(f"shield: expected a Shield (mujoco_shield), got {shield!r}")
+            raise InvalidParameter(
+                f"shield: expected a Shield (mujoco_shield), got {describe(shield)}"
+            )
         self.shield = shield
         self.penalty = check_positive("penalty", penalty, allow_zero=True)
         self.width = 3 if shield.action == "twist" else shield.dof
@@ -587,10 +714,16 @@ class _Core:
             rng = np.asarray(m.actuator_ctrlrange, dtype=np.float64)
             self._ctrl_lo = np.where(limited, rng[:, 0], -np.inf)
             self._ctrl_hi = np.where(limited, rng[:, 1], np.inf)
-            self._act = _as_slice(np.asarray(sh.actuators))
+            act = np.arange(sh.dof) if sh.actuators is None else np.asarray(sh.actuators)
+            if act.size and int(act.max()) >= m.nu:
+                raise InvalidParameter(
+                    f"shield: actuators {act.tolist()} are not all among the env's {m.nu} actuators"
+                )
+            self._act = _as_slice(act)
             self._all = self._act == slice(0, m.nu)
-            sel = sh.state.selectors(m) if hasattr(sh.state, "selectors") else None
-            self._dofs = sel[1] if sel is not None else sh.state.addresses(m)[1]
+            st: Any = sh.state  # a MuJoCo reader (Shield checks it has addresses)
+            sel = st.selectors(m) if hasattr(st, "selectors") else None
+            self._dofs = sel[1] if sel is not None else st.addresses(m)[1]
         assert sh.max_effort is not None
         assert sh.gear is not None
         tau, _ = computed_torque(self._mj, m, d, self._dofs, x, bandwidth=sh.bandwidth,
@@ -674,13 +807,23 @@ class ShieldWrapper(gymnasium.Wrapper):
         detail: bool = True,
         bypass: bool = False,
     ) -> None:
-        super().__init__(env)
-        self._core = _Core(shield, penalty)
-        self.shield = shield
-        self.detail = bool(detail)
-        self.bypass = bool(bypass)
-        if self.bypass and shield.action == "twist":
+        core = _Core(shield, penalty)
+        if shield.state is None:
+            raise InvalidParameter(
+                "shield: expected a Shield with a JointState (its state reads the env), got "
+                "state=None"
+            )
+        detail = check_flag("detail", detail)
+        bypass = check_flag("bypass", bypass)
+        if bypass and shield.action == "twist":
             raise InvalidParameter("bypass: expected joint velocity or position actions")
+        if not isinstance(env, gymnasium.Env):
+            raise InvalidParameter(f"env: expected a gymnasium.Env, got {describe(env)}")
+        super().__init__(env)
+        self._core = core
+        self.shield = shield
+        self.detail = detail
+        self.bypass = bypass
         self.action_space = _action_space(shield)
         self.interventions = 0
         self._last_q: FloatArray | None = None
@@ -695,6 +838,7 @@ class ShieldWrapper(gymnasium.Wrapper):
         core, sh = self._core, self.shield
         f = sh.filter
         a = core.check_action(action, None)
+        assert sh.state is not None  # checked by __init__
         q, qd = sh.state.read(self.env)
         total = float(a.sum()) + float(q.sum()) + float(qd.sum())  # finite: every entry is
         bad = not math.isfinite(total) and not (
@@ -804,22 +948,38 @@ class VectorShieldWrapper(gymnasium.vector.VectorWrapper):
         penalty: float = 0.0,
         threads: int = 0,
     ) -> None:
-        super().__init__(env)
-        self._core = _Core(shield, penalty)
+        core = _Core(shield, penalty)
         if shield.action == "twist":
             raise InvalidParameter(
                 "shield: the vector shield takes joint velocity or position actions (twist "
                 "mode has no batched C route)"
+            )
+        if not isinstance(env, gymnasium.vector.VectorEnv):
+            raise InvalidParameter(
+                f"env: expected a gymnasium.vector.VectorEnv, got {describe(env)}"
+            )
+        if state is not None and not isinstance(state, BatchJointState):
+            raise InvalidParameter(
+                "state: expected a BatchJointState (joint_names and read_batch(envs)) or None, "
+                f"got {describe(state)}"
             )
         if state is None and not hasattr(env, "envs"):
             raise InvalidParameter(
                 "state: expected a BatchJointState for a vector env without in-process "
                 f"sub-envs ({type(env).__name__}); pass state="
             )
+        if state is None and shield.state is None:
+            raise InvalidParameter(
+                "state: expected a BatchJointState, as the shield has no JointState of one "
+                "sub-env (shield.state is None)"
+            )
+        threads = check_positive_int("threads", threads, minimum=0, maximum=64, example=2)
+        n = check_positive_int("env.num_envs", getattr(env, "num_envs", None), example=4)
+        super().__init__(env)
+        self._core = core
         self.shield = shield
         self._state = state
-        self._threads = int(threads)
-        n = int(env.num_envs)
+        self._threads = threads
         self.single_action_space = _action_space(shield)
         self.action_space = gymnasium.vector.utils.batch_space(self.single_action_space, n)
         self.interventions = np.zeros(n, dtype=np.int64)
@@ -834,7 +994,9 @@ class VectorShieldWrapper(gymnasium.vector.VectorWrapper):
                     real_array("state velocities", QD, (N, n), allow_nonfinite=True,
                                max_abs=None))  # fmt: skip
         envs: Any = getattr(self.env, "envs", ())
-        rows = [self.shield.state.read(e) for e in envs]
+        one = self.shield.state
+        assert one is not None  # checked by __init__
+        rows = [one.read(e) for e in envs]
         return np.array([r[0] for r in rows]), np.array([r[1] for r in rows])
 
     def reset(self, *, seed: Any = None, options: dict[str, Any] | None = None) -> Any:
