@@ -786,13 +786,17 @@ class SafetyFilter(InvalidPolicy):
         if not self._has_accel:
             Pa = None
         arrays = (Qa, Va) if Pa is None else (Qa, Va, Pa)
-        bad = ~np.all(np.isfinite(np.hstack(arrays)), axis=1) if N else np.zeros(0, bool)
+        # A row is invalid as filter() sees it: a NaN, an inf or an entry beyond MAX_MAGNITUDE.
+        with np.errstate(invalid="ignore"):
+            ok = np.abs(np.hstack(arrays)) <= MAX_MAGNITUDE
+        bad = ~np.all(ok, axis=1) if N else np.zeros(0, bool)
         if bad.any():
             k = int(np.flatnonzero(bad)[0])
+            names = "positions, commands" if Pa is None else "positions, commands, previous"
             try:
                 self._invalid(f"non-finite input in row {k}")
             except InvalidInput as exc:
-                raise InvalidInput(f"positions, commands row {k}: {exc}") from None
+                raise InvalidInput(f"{names} row {k}: {exc}") from None
         cyc = self._ccycle
         if cyc is not None:
             misses = cyc.deadline_misses
@@ -801,6 +805,9 @@ class SafetyFilter(InvalidPolicy):
             except (TypeError, ValueError) as exc:  # pragma: no cover - checked above
                 raise InvalidInput(f"positions, commands: {exc}") from None
             self.deadline_misses += cyc.deadline_misses - misses
+            late = bad & (st >= 0)  # finite beyond MAX_MAGNITUDE: refused here, as filter() does
+            if late.any():
+                out[late], st[late], sg[late] = 0.0, -3, 128  # VF_ERR_NONFINITE, the stop bit
             return FilterBatch(
                 output=out, status=st.astype(np.int64), stages=sg.astype(np.int64),
                 n_active=na.astype(np.int64),
@@ -830,6 +837,8 @@ class SafetyFilter(InvalidPolicy):
     def _batch_state(self, name: str, x: Any, rows: int | None) -> FloatArray:
         """A C-contiguous float64 (rows, dof) array (non-finite entries kept for the check)."""
         n = self.dof
+        if rows is not None:  # the message names positions too: its rows set the batch's size
+            name = f"{name} (one row per row of positions)"
         a = real_array(name, x, (rows, n), allow_nonfinite=True, max_abs=None)
         return np.ascontiguousarray(a, dtype=np.float64)
 

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from velfence._validate import describe, readonly, real_array
+from velfence._validate import MAX_MAGNITUDE, describe, readonly, real_array
 from velfence.errors import InvalidInput, InvalidParameter, VelfenceError
 from velfence.filter.kinematics import checked, frame_of
 from velfence.filter.limits import JointLimits, Profile, SphereObstacle, WorkspaceLimit
@@ -102,7 +102,14 @@ def joint_profiles(
             profs.append(profile)
         elif acc is not None and math.isfinite(acc[j]):
             a = float(acc[j])
-            profs.append(ThreeZoneBraking(gain=2.0 * a / v, max_speed=v, max_acceleration=a))
+            gain = 2.0 * a / v
+            if not math.isfinite(gain) or gain > MAX_MAGNITUDE or gain <= 0.0:
+                raise InvalidParameter(
+                    f"limits: joint {j}'s max_acceleration {a:g} and max_speed {v:g} give no "
+                    f"usable braking gain: expected 2 a / v in (0, {MAX_MAGNITUDE:g}] 1/s, got "
+                    f"{gain:g}"
+                )
+            profs.append(ThreeZoneBraking(gain=gain, max_speed=v, max_acceleration=a))
         else:
             profs.append(
                 LinearBuffer(buffer=joint_buffer, spring_gain=spring_gain, max_recovery_speed=v)

@@ -25,7 +25,7 @@ extra (Gymnasium with MuJoCo).
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, Literal, Protocol, runtime_checkable
 
@@ -41,10 +41,14 @@ from numpy.typing import ArrayLike
 from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence._validate import (
+    MAX_MAGNITUDE,
     check_choice,
     check_flag,
+    check_names,
     check_positive,
     check_positive_int,
+    check_seed,
+    check_text,
     describe,
     readonly,
     real_array,
@@ -53,6 +57,7 @@ from velfence._validate import (
 )
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.filter import JointLimits, SafetyFilter, SphereObstacle, WorkspaceLimit
+from velfence.filter.parts import obstacle_list
 from velfence.geometry.polytope import ConvexPolytope
 from velfence.robots import MujocoRobot
 from velfence.robots.servo import computed_torque
@@ -107,30 +112,20 @@ class MujocoJointState:
     """
 
     def __init__(self, joint_names: Sequence[str]) -> None:
-        names = tuple(joint_names)
-        if not names or not all(isinstance(s, str) and s for s in names):
-            raise InvalidParameter(f"joint_names: expected joint names, got {names!r}")
-        self.joint_names = names
-        self._key: Any = None
+        self.joint_names = check_names("joint_names", joint_names)
+        self._key: Any = _UNSET
         self._qadr = np.zeros(0, dtype=np.int64)
         self._vadr = np.zeros(0, dtype=np.int64)
 
     def addresses(self, model: Any) -> tuple[Any, Any]:
-        """``(qpos addresses, dof addresses)`` of the joints in ``model``.
+        """``(qpos addresses, dof addresses)`` of the joints in ``model`` (a ``mujoco.MjModel``).
 
         Raises:
-            InvalidParameter: a joint is not in the model or is not a hinge or slide.
+            InvalidParameter: not a MuJoCo model, or a joint is not in the model or is not a
+                hinge or slide.
         """
         if self._key is not model:
-            known = [model.joint(i).name for i in range(model.njnt)]
-            bad = [s for s in self.joint_names if s not in known]
-            if bad:
-                raise InvalidParameter(
-                    f"joint_names: {bad} are not joints of the env's model; it has {known}"
-                )
-            ids = [known.index(s) for s in self.joint_names]
-            if any(int(model.jnt_type[i]) not in (2, 3) for i in ids):  # slide 2, hinge 3
-                raise InvalidParameter("joint_names: expected hinge or slide joints only")
+            ids = _joint_ids("joint_names", model, self.joint_names)
             self._qadr = np.array([int(model.jnt_qposadr[i]) for i in ids])
             self._vadr = np.array([int(model.jnt_dofadr[i]) for i in ids])
             self._qsel = _as_slice(self._qadr)
@@ -144,11 +139,61 @@ class MujocoJointState:
         return self._qsel, self._vsel
 
     def read(self, env: Any) -> tuple[FloatArray, FloatArray]:
-        """``(qpos, qvel)`` of the joints, copies, shape (n,) each."""
-        u = env.unwrapped
-        qa, va = self.selectors(u.model)
-        d = u.data
+        """``(qpos, qvel)`` of the joints, copies, shape (n,) each.
+
+        Raises:
+            InvalidParameter: ``env`` is not a Gymnasium MuJoCo env (``env.unwrapped.model`` and
+                ``.data``) or lacks a joint.
+        """
+        try:
+            u = env.unwrapped
+            m, d = u.model, u.data
+        except AttributeError:
+            raise InvalidParameter(
+                f"env: expected a Gymnasium MuJoCo env (env.unwrapped.model and .data), got "
+                f"{describe(env)}"
+            ) from None
+        qa, va = self.selectors(m)
+        if not isinstance(d, _mujoco().MjData):
+            raise InvalidParameter(f"env: expected MuJoCo data in env.unwrapped.data, got "
+                                   f"{describe(d)}")  # fmt: skip
         return np.array(d.qpos[qa], dtype=np.float64), np.array(d.qvel[va], dtype=np.float64)
+
+
+#: No model seen yet (``None`` is a model argument to refuse, not a cache key).
+_UNSET: Any = object()
+
+
+def _joint_ids(arg: str, model: Any, names: tuple[str, ...]) -> list[int]:
+    """The joint ids of ``names`` in a MuJoCo ``model``, every one a hinge or a slide."""
+    mj = _mujoco()
+    if not isinstance(model, mj.MjModel):
+        raise InvalidParameter(f"model: expected a mujoco.MjModel (env.unwrapped.model), got "
+                               f"{describe(model)}")  # fmt: skip
+    known = [model.joint(i).name for i in range(model.njnt)]
+    bad = [s for s in names if s not in known]
+    if bad:
+        raise InvalidParameter(f"{arg}: {bad} are not joints of the env's model; it has {known}")
+    ids = [known.index(s) for s in names]
+    if any(int(model.jnt_type[i]) not in (2, 3) for i in ids):  # slide 2, hinge 3
+        raise InvalidParameter(f"{arg}: expected hinge or slide joints only")
+    return ids
+
+
+def _unwrapped(env: Any) -> Any:
+    """``env.unwrapped`` of a Gymnasium MuJoCo env (its ``fullpath``, ``model`` and ``data``)."""
+    mj = _mujoco()
+    u = getattr(env, "unwrapped", None)
+    if (
+        not isinstance(getattr(u, "fullpath", None), str)
+        or not isinstance(getattr(u, "model", None), mj.MjModel)
+        or not isinstance(getattr(u, "data", None), mj.MjData)
+    ):
+        raise InvalidParameter(
+            "env: expected a Gymnasium MuJoCo env (env.unwrapped.fullpath, .model and .data), "
+            f"got {describe(env)}"
+        )
+    return u
 
 
 def _as_slice(idx: Any) -> Any:
@@ -192,17 +237,12 @@ def mujoco_arm(
             arm read back does not match the env's kinematics.
     """
     mj = _mujoco()
-    u = env.unwrapped
-    path = getattr(u, "fullpath", None)
-    model = getattr(u, "model", None)
-    if not isinstance(path, str) or model is None:
-        raise InvalidParameter(
-            "env: expected a Gymnasium MuJoCo env (env.unwrapped.fullpath and .model), got "
-            f"{type(u).__name__}"
-        )
-    state = MujocoJointState(joints)
-    state.addresses(model)
-    names = state.joint_names
+    u = _unwrapped(env)
+    path, model = u.fullpath, u.model
+    names = check_names("joints", joints)
+    _joint_ids("joints", model, names)
+    state = MujocoJointState(names)
+    tip = check_text("tip", tip, max_length=200)
     try:
         bid = model.body(tip).id
     except KeyError:
@@ -317,7 +357,7 @@ class Shield:
         set_(self, "actuation", mode)
         T = check_positive("period", self.period, unit="s")
         dt = self.filter.dt
-        if dt is not None and not math.isclose(T, dt, rel_tol=1e-9, abs_tol=0.0):
+        if dt is not None and not math.isclose(T, dt, rel_tol=1e-6, abs_tol=0.0):
             raise InvalidParameter(
                 f"period: expected the filter's dt ({dt:g} s), the control period it brakes "
                 f"over, got {T:g} s"
@@ -526,6 +566,19 @@ def mujoco_shield(
     """
     act = check_choice("action", action, _ACTIONS)
     pol = check_choice("on_invalid", on_invalid, _ON_INVALID)
+    if actuation is not None:
+        check_choice("actuation", actuation, _ACTUATIONS)
+    if joint_limits is not None and not isinstance(joint_limits, Mapping):
+        raise InvalidParameter(
+            "joint_limits: expected a mapping joint name -> (lower, upper) [rad] or None, got "
+            f"{describe(joint_limits)}"
+        )
+    if workspace is not None and not isinstance(workspace, (ConvexPolytope, WorkspaceLimit)):
+        raise InvalidParameter(
+            "workspace: expected a ConvexPolytope, a WorkspaceLimit or None, got "
+            f"{describe(workspace)}"
+        )
+    obs = obstacle_list(obstacles)
     robot = mujoco_arm(env, joints, tip=tip, tip_offset=tip_offset)
     u = env.unwrapped
     model = u.model
@@ -534,10 +587,10 @@ def mujoco_shield(
     T = check_positive("env.unwrapped.dt", getattr(u, "dt", None), unit="s")
     lo = np.empty(n)
     hi = np.empty(n)
-    given = dict(joint_limits or {})
-    unknown = sorted(set(given) - set(names))
+    given = {} if joint_limits is None else dict(joint_limits)
+    unknown = [k for k in given if k not in names]
     if unknown:
-        raise InvalidParameter(f"joint_limits: {unknown} are not among joints {list(names)}")
+        raise InvalidParameter(f"joint_limits: {show(unknown)} are not among joints {list(names)}")
     unset = []
     for k, jn in enumerate(names):
         jid = model.joint(jn).id
@@ -577,7 +630,7 @@ def mujoco_shield(
     elif workspace is not None:
         ws = workspace
     filt = SafetyFilter(
-        robot, limits=limits, workspace=ws, obstacles=list(obstacles), dt=T,
+        robot, limits=limits, workspace=ws, obstacles=obs, dt=T,
         on_invalid="stop" if pol == "stop" else "raise",
     )  # fmt: skip
     ids = [model.joint(s).id for s in names]
@@ -619,6 +672,17 @@ def _per_joint(name: str, value: Any, n: int, unit: str) -> FloatArray | None:
             f"{name}: expected a value > 0 [{unit}] or {n} of them, got {a.tolist()}"
         )
     return a
+
+
+def _reset_options(options: Any) -> dict[str, Any] | None:
+    """The ``options`` of a wrapper's ``reset``: ``None`` or a dict with string keys."""
+    if options is None:
+        return None
+    if not isinstance(options, dict) or not all(isinstance(k, str) for k in options):
+        raise InvalidParameter(
+            f"options: expected a dict of reset options (str keys) or None, got {describe(options)}"
+        )
+    return options
 
 
 def _action_space(shield: Shield) -> Any:
@@ -681,15 +745,12 @@ class _Core:
     def check_action(self, action: Any, rows: int | None) -> FloatArray:
         """The action as float64 of the action space's shape (rows x width for a vector env).
 
-        Non-finite entries are kept (the ``on_invalid`` policy decides).
+        Non-finite entries, and finite ones beyond :data:`~velfence._validate.MAX_MAGNITUDE`,
+        are kept (the ``on_invalid`` policy decides: :func:`_invalid_rows`).
         """
         shape = (self.width,) if rows is None else (rows, self.width)
-        a = np.asarray(action) if not isinstance(action, np.ndarray) else action
-        if a.dtype.kind not in "fiu" or a.dtype == np.bool_:
-            raise InvalidInput(
-                f"action: expected real numbers of shape {shape}, got dtype {a.dtype}"
-            )
-        return real_array("action", a, shape, allow_nonfinite=True, max_abs=None)
+        name = "action" if rows is None else "actions"
+        return real_array(name, action, shape, allow_nonfinite=True, max_abs=None)
 
     def command(self, q: FloatArray, a: FloatArray) -> FloatArray:
         """The joint-velocity command of an action (velocity and position modes)."""
@@ -829,10 +890,20 @@ class ShieldWrapper(gymnasium.Wrapper):
         self._last_q: FloatArray | None = None
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> Any:
-        """Reset the env and the episode's intervention count."""
+        """Reset the env and the episode's intervention count.
+
+        Args:
+            seed: The env's seed, an int in [0, 2**63 - 1], or ``None``.
+            options: The env's reset options, a dict, or ``None``.
+
+        Raises:
+            InvalidParameter: a bad seed or options.
+        """
+        sd = None if seed is None else check_seed("seed", seed)
+        opts = _reset_options(options)
         self.interventions = 0
         self.shield.filter.reset()
-        return self.env.reset(seed=seed, options=options)
+        return self.env.reset(seed=sd, options=opts)
 
     def _shielded(self, action: Any) -> tuple[FloatArray, dict[str, Any]]:
         core, sh = self._core, self.shield
@@ -840,15 +911,17 @@ class ShieldWrapper(gymnasium.Wrapper):
         a = core.check_action(action, None)
         assert sh.state is not None  # checked by __init__
         q, qd = sh.state.read(self.env)
-        total = float(a.sum()) + float(q.sum()) + float(qd.sum())  # finite: every entry is
-        bad = not math.isfinite(total) and not (
-            np.isfinite(a).all() and np.isfinite(q).all() and np.isfinite(qd).all()
-        )
+        # NaN fails both comparisons; an action beyond MAX_MAGNITUDE is as invalid as inf
+        # (the filter's own rule), so it meets the on_invalid policy too.
+        bad = not (float(a.min()) >= -MAX_MAGNITUDE and float(a.max()) <= MAX_MAGNITUDE)
+        total = float(q.sum()) + float(qd.sum())  # finite: every entry is
+        if not bad and not math.isfinite(total):
+            bad = not (np.isfinite(q).all() and np.isfinite(qd).all())
         if bad:
             if f.on_invalid == "raise":
                 raise InvalidInput(
-                    f"non-finite input: joint state q={q.tolist()}, qd={qd.tolist()}, "
-                    f"action={a.tolist()}"
+                    f"non-finite input (or beyond {MAX_MAGNITUDE:g}): joint state "
+                    f"q={q.tolist()}, qd={qd.tolist()}, action={a.tolist()}"
                 )
             env_a = core.hold(self.env, q, qd)
             n = sh.dof
@@ -1000,10 +1073,30 @@ class VectorShieldWrapper(gymnasium.vector.VectorWrapper):
         return np.array([r[0] for r in rows]), np.array([r[1] for r in rows])
 
     def reset(self, *, seed: Any = None, options: dict[str, Any] | None = None) -> Any:
-        """Reset the sub-envs and their intervention counts."""
+        """Reset the sub-envs and their intervention counts.
+
+        Args:
+            seed: ``None``, an int in [0, 2**63 - 1] (the vector env seeds its sub-envs from
+                it), or one such int (or ``None``) per sub-env.
+            options: The reset options, a dict, or ``None``.
+
+        Raises:
+            InvalidParameter: a bad seed or options.
+        """
+        sd: Any = seed
+        if seed is not None and isinstance(seed, (list, tuple)):
+            N = int(self.env.num_envs)
+            if len(seed) != N:
+                raise InvalidParameter(
+                    f"seed: expected one seed per sub-env ({N}), got {len(seed)}"
+                )
+            sd = [None if v is None else check_seed(f"seed[{k}]", v) for k, v in enumerate(seed)]
+        elif seed is not None:
+            sd = check_seed("seed", seed)
+        opts = _reset_options(options)
         self.interventions[:] = 0
         self._prev = None
-        return self.env.reset(seed=seed, options=options)
+        return self.env.reset(seed=sd, options=opts)
 
     def step(self, actions: Any) -> Any:
         """Filter every sub-env's action in one call, step the vector env, report."""

@@ -46,6 +46,7 @@ from velfence._validate import (
 )
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter, MissingExtra
 from velfence.filter import JointLimits, SafetyFilter, SphereObstacle, WorkspaceLimit
+from velfence.filter.parts import obstacle_list
 from velfence.filter.result import FilterResult
 from velfence.geometry.polytope import ConvexPolytope
 from velfence.mechanisms import DHChain
@@ -637,8 +638,8 @@ class LeRobotShield:
         box_names = ["box x_min", "box y_min", "box z_min", "box x_max", "box y_max", "box z_max"]
         if not np.all(lo + r < hi - r):
             raise InvalidGeometry(
-                f"workspace: the box {lo.tolist()} … {hi.tolist()} leaves no room for a gripper "
-                f"sphere of radius {r} m"
+                f"workspace, tool_radius: the box {lo.tolist()} … {hi.tolist()} leaves no room "
+                f"for a gripper sphere of radius {r:g} m"
             )
         up = np.array([[0.0, 0.0, 1.0]])
         link_r = float(np.max(arm.chain.link_radius))
@@ -660,14 +661,10 @@ class LeRobotShield:
                 buffer=wb,
             ),
         ]
-        obs = []
-        for i_ob, ob_k in enumerate(obstacles):
-            if not isinstance(ob_k, SphereObstacle):
-                raise InvalidParameter(
-                    f"obstacles[{i_ob}]: expected a SphereObstacle, got {describe(ob_k)}"
-                )
-            obs.append(SphereObstacle(R.T @ (np.asarray(ob_k.center) - o), radius=ob_k.radius))
-        self.obstacles = tuple(obstacles)
+        given = obstacle_list(obstacles)
+        obs = [SphereObstacle(R.T @ (np.asarray(ob_k.center) - o), radius=ob_k.radius)
+               for ob_k in given]  # fmt: skip
+        self.obstacles = given
         self.filter = SafetyFilter(
             arm.chain,
             limits=JointLimits(lim[:, 0], lim[:, 1], max_speed=vmax, names=ARM_JOINTS),
@@ -733,7 +730,7 @@ class LeRobotShield:
 
     def _values(self, action: Any, observation: Any) -> tuple[list[float], list[float]]:
         try:  # the common case: dicts of six finite numbers (one C call per dict)
-            if len(action) == 6 and type(action) is dict:
+            if type(action) is dict and type(observation) is dict and len(action) == 6:
                 get = self._get
                 qm = list(map(float, get(observation)))
                 tg = list(map(float, get(action)))
