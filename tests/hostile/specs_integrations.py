@@ -114,7 +114,16 @@ def _vector_wrapper() -> object:
 
 
 _OBJ = {"env": "object", "shield": "object"}
-_RESET = F(lambda: call(seed=1, options=None), types={"options": "object"})
+_RESET = F(
+    lambda: call(seed=1, options=None),
+    types={"seed": "seed", "options": "object"},
+    accepts={
+        "options": {
+            "dict_empty": "documented: Gymnasium's reset options, {} is none",
+            "dict_xy": "documented: forwarded to the env's reset, which reads its own keys",
+        }
+    },
+)
 
 SPECS.update(
     {
@@ -285,7 +294,10 @@ SPECS.update(
                 },
                 # documented: the shield does not start while these bounds are unset
                 required=frozenset({"max_speed", "table_height", "workspace", "tool_radius"}),
-                accepts={"obstacles": {"empty_list": _NONE, "empty_tuple": _NONE}},
+                accepts={
+                    "obstacles": {"empty_list": _NONE, "empty_tuple": _NONE},
+                    "rate_limit": {"dict_empty": "documented: a joint not named is 'clamp'"},
+                },
             ),
             {
                 "explain": F(lambda: call(_pose(_LR_STEP), _pose(_LR_HOME)), types=_LR_DICTS),

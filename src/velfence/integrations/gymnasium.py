@@ -1106,7 +1106,10 @@ class VectorShieldWrapper(gymnasium.vector.VectorWrapper):
         Q, QD = self._read()
         U = core.command(Q, A)
         prev = self._prev if sh.filter.limits.max_acceleration is not None else None
-        r = sh.filter.filter_batch(Q, U, previous=prev, threads=self._threads)
+        try:
+            r = sh.filter.filter_batch(Q, U, previous=prev, threads=self._threads)
+        except InvalidInput as exc:  # the filter's commands are the actions, its positions Q
+            raise InvalidInput(f"actions or joint state (on_invalid='raise'): {exc}") from None
         X = r.output
         bad = r.invalid | ~np.all(np.isfinite(QD), axis=1)
         if sh.actuation == "velocity":
