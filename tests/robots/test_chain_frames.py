@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from velfence.errors import InvalidInput, InvalidParameter
 from velfence.filter import ChainFrames, JointLimits, SafetyFilter, SphereObstacle, WorkspaceLimit
 from velfence.geometry.polytope import ConvexPolytope
 from velfence.robots import MujocoRobot, panda
@@ -108,3 +109,75 @@ def test_branching_model_gives_none() -> None:
         '<geom type="sphere" size="0.01"/></body>',
     )
     assert MujocoRobot.from_xml(xml).chain_frames() is None
+
+
+def test_frames_fk_is_mujocos_at_every_site() -> None:
+    robot = panda(tool=[0.0, 0.0, 0.1], radius=0.05)
+    frames = robot.chain_frames()
+    assert frames is not None
+    rng = np.random.default_rng(5)
+    lim = robot.joint_limits
+    for _ in range(20):
+        q = rng.uniform(lim[:, 0], lim[:, 1])
+        for name in robot.points:
+            np.testing.assert_allclose(frames.fk(q, name), robot.fk(q, name), atol=1e-12)
+    odd = MujocoRobot.from_xml(_ODD)  # a slide, a ref, an offset joint, a world site
+    f = odd.chain_frames()
+    assert f is not None
+    for q in ([0.4, 0.3, 0.05], [-1.0, 1.2, -0.1]):
+        for name in odd.points:
+            np.testing.assert_allclose(f.fk(q, name), odd.fk(q, name), atol=1e-12)
+    with pytest.raises(InvalidInput, match="point"):
+        f.fk([0.0, 0.0, 0.0], "nowhere")
+    with pytest.raises(InvalidInput, match="q"):
+        f.fk([0.0, np.nan, 0.0])
+
+
+_BRANCHED = _ODD.replace(
+    '<site name="origin" pos="0 0 0.5"/>',
+    '<site name="origin" pos="0 0 0.5"/><body name="side" pos="0.3 0 0">'
+    '<joint name="d" type="hinge" axis="1 0 0"/><geom type="sphere" size="0.01"/>'
+    '<site name="joint0" pos="0 0 0"/></body>',
+)
+
+
+def test_arm_fixes_the_other_joints_and_adds_sites_and_capsules() -> None:
+    full = MujocoRobot.from_xml(_BRANCHED)
+    assert full.chain_frames() is None  # a branch
+    arm = full.arm(["a", "b"], points={"elbow": 1}, link_radius=0.025)
+    assert arm.joint_names == ("a", "b")
+    f = arm.chain_frames()
+    assert f is not None  # "c" (the slide) and "d" are fixed: one chain again
+    np.testing.assert_array_equal(arm.link_radius, [0.04, 0.03])  # the model's own are larger
+    thin = full.arm(["a", "b"], link_radius=0.05)
+    np.testing.assert_array_equal(thin.link_radius, [0.05, 0.05])
+    rng = np.random.default_rng(2)
+    for _ in range(10):
+        q = rng.uniform([-2.0, -1.5], [2.0, 1.5])
+        qf = np.array([*q, 0.0, 0.0])  # the removed joints at zero
+        for name in ("tcp", "mid", "origin"):
+            np.testing.assert_allclose(arm.fk(q, name), full.fk(qf, name), atol=1e-12)
+            np.testing.assert_allclose(f.fk(q, name), full.fk(qf, name), atol=1e-12)
+        # The joint sites and the named point sit on the joints' anchors (MuJoCo's xanchor).
+        import mujoco
+
+        d = mujoco.MjData(full.model)
+        d.qpos[:] = qf
+        mujoco.mj_kinematics(full.model, d)
+        np.testing.assert_allclose(arm.fk(q, "joint0"), d.xanchor[0], atol=1e-12)
+        np.testing.assert_allclose(arm.fk(q, "joint1"), d.xanchor[1], atol=1e-12)
+        np.testing.assert_allclose(arm.fk(q, "elbow"), d.xanchor[1], atol=1e-12)
+        seg = arm.link_segments(q)
+        np.testing.assert_allclose(seg[1, 1], full.fk(qf, "tcp"), atol=1e-12)  # last link: tcp
+    assert arm.model.nu == 0
+    for bad, match in [
+        (dict(joints=["b", "a"]), "model order"),
+        (dict(joints=["a", "x"]), r"joints\[1\]"),
+        (dict(joints=[]), "model order"),
+        (dict(joints=["a"], points={"mid": 0}), "new site names"),
+        (dict(joints=["a"], points={"joint3": 0}), "new site names"),
+        (dict(joints=["a"], points={"p": 1}), r"points\['p'\]"),
+        (dict(joints=["a"], link_radius=-1.0), "link_radius"),
+    ]:
+        with pytest.raises(InvalidParameter, match=match):
+            full.arm(**bad)  # type: ignore[arg-type]

@@ -10,7 +10,7 @@ Jacobians from ``mj_jacSite``. MuJoCo is imported when a model is loaded, not wi
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -19,7 +19,14 @@ from numpy.typing import ArrayLike
 
 from velfence._docs import document_inits
 from velfence._typing import FloatArray
-from velfence._validate import check_text, finite_rows, readonly
+from velfence._validate import (
+    check_positive,
+    check_positive_int,
+    check_text,
+    finite_rows,
+    readonly,
+    show,
+)
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 from velfence.robots.capsules import CapsuleLinks
 from velfence.robots.mjcf import VELOCITY_LIMITS_NUMERIC, _mujoco
@@ -385,6 +392,72 @@ class MujocoRobot(CapsuleLinks):
         self._frames = _serial_frames(self)
         return self._frames
 
+    def arm(
+        self,
+        joints: Sequence[str],
+        *,
+        points: Mapping[str, int] | None = None,
+        link_radius: float | None = None,
+    ) -> MujocoRobot:
+        """This model as an arm of some of its joints, with joint sites and capsule links.
+
+        Every joint not in ``joints`` is removed (its body stays, fixed where the joint's zero
+        puts it, e.g. a gripper's jaw) and so is every actuator. Each kept joint ``i`` gets a site
+        ``"joint{i}"`` on its anchor (replacing a site of that name), so the arm has capsule links
+        (:attr:`link_radius`, :meth:`link_segments`) and, when serial, :meth:`chain_frames`
+        (the filter's C cycle). A URDF compiled by :meth:`from_urdf` has no capsule geoms:
+        ``link_radius`` gives every link one.
+
+        Args:
+            joints: The joints to keep, a non-empty subset of :attr:`joint_names` in model
+                order.
+            points: Named points to add, each a site on a kept joint's anchor: name -> index of
+                the joint in ``joints`` (``{"elbow": 2}``); names must be new site names.
+            link_radius: Radius of a capsule geom [m], > 0, added on each kept joint's body from
+                its anchor to the next joint's (the last to the ``"flange"`` site, else
+                ``"tcp"``; zero-length links get none), without mass or contacts; ``None``: the
+                model's own capsules.
+
+        Returns:
+            A new robot (this one is unchanged).
+
+        Raises:
+            InvalidParameter: a joint that is not one of the model's, not in model order or
+                twice, a bad ``points`` entry or ``link_radius``.
+            InvalidGeometry: MuJoCo does not compile the arm (an equality or tendon of a
+                removed joint).
+        """
+        if isinstance(joints, str) or not isinstance(joints, Sequence):
+            raise InvalidParameter(
+                f"joints: expected a sequence of joint names, got {show(joints)}"
+            )
+        names = list(self._names)
+        keep: list[int] = []
+        for k, j in enumerate(joints):
+            if not isinstance(j, str) or j not in names:
+                raise InvalidParameter(
+                    f"joints[{k}]: expected one of the model's joints {names}, got {show(j)}"
+                )
+            keep.append(names.index(j))
+        if not keep or keep != sorted(set(keep)):
+            raise InvalidParameter(
+                f"joints: expected distinct joints in model order {names}, got {show(joints)}"
+            )
+        given = {} if points is None else points
+        if not isinstance(given, Mapping):
+            raise InvalidParameter(f"points: expected a mapping name -> joint, got {show(points)}")
+        taken = {s for s in self._site if not _is_joint_site(s)}
+        for name, idx in given.items():
+            if not isinstance(name, str) or not name or name in taken or _is_joint_site(name):
+                raise InvalidParameter(
+                    f"points: expected new site names (the model has {sorted(taken)[:20]}, and "
+                    f"'joint<i>' are the joint sites), got {show(name)}"
+                )
+            check_positive_int(f"points[{name!r}]", idx, minimum=0, maximum=len(keep) - 1)
+        radius = None if link_radius is None else check_positive("link_radius", link_radius,
+                                                                   unit="m")  # fmt: skip
+        return _arm_of(self, keep, given, radius)
+
     def angular_jacobian(self, q: ArrayLike) -> FloatArray:
         """Angular-velocity Jacobian of the ``"tcp"`` site's body in the world frame.
 
@@ -401,6 +474,77 @@ class MujocoRobot(CapsuleLinks):
         self._pose(qa)
         self._mj.mj_jacSite(self._model, self._data, self._jacp, self._jacr, self._site["tcp"])
         return self._finite(np.array(self._jacr, dtype=float))
+
+
+def _arm_of(
+    robot: MujocoRobot, keep: list[int], points: Mapping[str, int], radius: float | None
+) -> MujocoRobot:
+    """:meth:`MujocoRobot.arm`, its arguments validated: the MJCF edited as text.
+
+    The document is edited rather than rebuilt by ``MjSpec.to_xml()``, which writes six
+    significant digits (0.1 µm off on the SO-101): every number the model had stays as it was.
+    """
+    import xml.etree.ElementTree as ET
+
+    mj, m = robot._mj, robot._model
+    root = ET.fromstring(robot._xml)
+    world = root.find("worldbody")
+    if world is None:  # pragma: no cover - MuJoCo compiled it
+        raise InvalidGeometry("robot: the MJCF has no <worldbody>")
+    parent = {c: p for p in root.iter() for c in p}
+    order: list[ET.Element] = []  # MuJoCo's joint order: bodies depth-first, a body's joints
+    stack = [world]
+    while stack:
+        body = stack.pop()
+        order.extend(e for e in body if e.tag == "joint")
+        stack.extend(reversed([e for e in body if e.tag == "body"]))
+    names = list(robot._names)
+    if [e.get("name") or f"joint{i}" for i, e in enumerate(order)] != names:
+        raise InvalidGeometry(
+            "joints: the MJCF's joints are not all <joint> elements of its bodies (an "
+            "<include>, <frame> or <replicate> of them); write the arm's own MJCF instead"
+        )
+    data = mj.MjData(m)
+    mj.mj_kinematics(m, data)
+    bodies = [parent[order[i]] for i in keep]
+    anchors = [np.asarray(m.jnt_pos[i], dtype=np.float64) for i in keep]
+    ends = [np.asarray(data.xanchor[i], dtype=np.float64) for i in keep[1:]]
+    ends.append(np.asarray(data.site_xpos[robot._site.get("flange", robot._site["tcp"])]))
+    for i, e in enumerate(order):
+        if i not in keep:
+            parent[e].remove(e)
+    for e in list(root.iter("site")):
+        if _is_joint_site(e.get("name") or ""):
+            parent[e].remove(e)
+    for e in list(root.findall("actuator")):
+        root.remove(e)
+
+    def vec(v: Any) -> str:
+        return " ".join(repr(float(x)) for x in v)
+
+    for i, body in enumerate(bodies):
+        ET.SubElement(body, "site", name=f"joint{i}", pos=vec(anchors[i]), size="0.005")
+    for name, idx in points.items():
+        ET.SubElement(bodies[idx], "site", name=name, pos=vec(anchors[idx]), size="0.005")
+    if radius is not None:
+        for i, body in enumerate(bodies):
+            b = int(m.jnt_bodyid[keep[i]])
+            R = np.asarray(data.xmat[b], dtype=np.float64).reshape(3, 3)
+            tip = R.T @ (ends[i] - data.xpos[b])
+            if float(np.linalg.norm(tip - anchors[i])) > 1e-9:
+                ET.SubElement(body, "geom", type="capsule", fromto=vec([*anchors[i], *tip]),
+                              size=repr(radius), contype="0", conaffinity="0", mass="0",
+                              group="5")  # fmt: skip
+    try:
+        arm = MujocoRobot.from_xml(ET.tostring(root, encoding="unicode"))
+    except InvalidGeometry as exc:
+        raise InvalidGeometry(f"joints: MuJoCo does not compile the arm ({exc})") from None
+    return arm
+
+
+def _is_joint_site(name: str) -> bool:
+    """``"joint<i>"``: a joint's anchor site (the ends of the capsule links)."""
+    return name.startswith("joint") and name[5:].isdigit()
 
 
 def _transform(R: Any, p: Any) -> FloatArray:
