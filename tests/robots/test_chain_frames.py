@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from velfence.errors import InvalidInput, InvalidParameter
+from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 from velfence.filter import ChainFrames, JointLimits, SafetyFilter, SphereObstacle, WorkspaceLimit
 from velfence.geometry.polytope import ConvexPolytope
 from velfence.robots import MujocoRobot, panda
@@ -181,3 +181,73 @@ def test_arm_fixes_the_other_joints_and_adds_sites_and_capsules() -> None:
     ]:
         with pytest.raises(InvalidParameter, match=match):
             full.arm(**bad)  # type: ignore[arg-type]
+
+
+#: _BRANCHED as a scene rather than a robot: no "tcp" site, a free box, a motor, a long number.
+_SCENE = (
+    _BRANCHED.replace('<site name="tcp" pos="0.02 0.01 0"/>', "")
+    .replace('pos="0.3 0 0">', 'pos="0.30000000123456789 0 0">', 1)
+    .replace(
+        "</worldbody>",
+        '<body name="box" pos="1 0.5 0.2"><freejoint name="float"/>'
+        '<geom type="box" size="0.05 0.05 0.05"/></body></worldbody>'
+        '<actuator><motor joint="a"/><motor joint="d"/></actuator>',
+    )
+)
+
+
+def test_arm_from_a_scene_puts_the_tcp_on_a_body() -> None:
+    import mujoco
+
+    scene = mujoco.MjModel.from_xml_string(_SCENE)  # MuJoCo's own reading of the scene
+    assert scene.nsite
+    assert scene.jnt_type[-1] == mujoco.mjtJoint.mjJNT_FREE
+    off = np.array([0.02, 0.01, 1e-3 / 3])
+    arm = MujocoRobot.arm_from_xml(_SCENE, ["a", "b"], tcp=("tip", off), link_radius=0.02)
+    assert arm.joint_names == ("a", "b")
+    assert arm.points[0] == "tcp"
+    assert arm.model.nu == 0
+    l3 = scene.body("l3").id
+    assert arm.model.body_pos[arm.model.body("l3").id][0] == scene.body_pos[l3][0]  # as written
+    assert arm.model.body_pos[arm.model.body("l3").id][0] != 0.3
+    f = arm.chain_frames()
+    assert f is not None
+    d = mujoco.MjData(scene)
+    tip = scene.body("tip").id
+    rng = np.random.default_rng(4)
+    for _ in range(10):
+        q = rng.uniform([-2.0, -1.5], [2.0, 1.5])
+        d.qpos[:] = scene.qpos0
+        d.qpos[:2] = q
+        mujoco.mj_kinematics(scene, d)
+        ref = d.xpos[tip] + d.xmat[tip].reshape(3, 3) @ off
+        np.testing.assert_allclose(arm.fk(q), ref, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(f.fk(q), ref, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(arm.link_segments(q)[1, 1], ref, rtol=0, atol=1e-12)
+    # tcp= through arm() of a robot: the site moves (to l3's point that is tip's origin).
+    full = MujocoRobot.from_xml(_BRANCHED)
+    moved = full.arm(["a", "b"], tcp=("l3", [0.1, 0.0, 0.05]))
+    assert moved.points.count("tcp") == 1
+    q = np.array([0.7, -0.4])
+    dd = mujoco.MjData(full.model)
+    dd.qpos[:] = [*q, 0.0, 0.0]
+    mujoco.mj_kinematics(full.model, dd)
+    np.testing.assert_allclose(moved.fk(q), dd.xpos[full.model.body("tip").id], atol=1e-12)
+    with pytest.raises(InvalidParameter, match="no 'tcp' site"):
+        MujocoRobot.arm_from_xml(_SCENE, ["a", "b"])
+    for bad, match in [
+        (dict(tcp=("nowhere", [0, 0, 0])), "tcp: expected a body"),
+        (dict(tcp=("tip", [0, 0])), "tcp offset"),
+        (dict(tcp=("tip", [0, np.nan, 0])), "tcp offset"),
+        (dict(tcp="tip"), r"tcp: expected \(body name"),
+        (dict(tcp=("tip", off), points={"tcp": 0}), "new site names"),
+        (dict(tcp=("tip", off), joints=["b", "a"]), "model order"),
+    ]:
+        with pytest.raises(InvalidParameter, match=match):
+            MujocoRobot.arm_from_xml(_SCENE, **{"joints": ["a", "b"], **bad})  # type: ignore[arg-type]
+    with pytest.raises(InvalidGeometry, match="hinge or slide"):
+        MujocoRobot.arm_from_xml(_SCENE, ["a", "float"], tcp=("tip", off))
+    with pytest.raises(InvalidGeometry, match="compiles"):
+        MujocoRobot.arm_from_xml("<mujoco><nonsense/></mujoco>", ["a"], tcp=("tip", off))
+    with pytest.raises(InvalidParameter, match="xml"):
+        MujocoRobot.arm_from_xml(b"<mujoco/>", ["a"])  # type: ignore[arg-type]
