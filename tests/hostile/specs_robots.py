@@ -29,6 +29,7 @@ _ROWS = [[0.0, 0.0, 0.5, 0.0], [0.3, 0.5, 0.1, 0.0]]
 _LIM = [[-1.0, 1.0], [-2.0, 2.0]]
 _MAKER = {"tool": "vector", "radius": "nonneg"}
 _SKIP = {"named_points": "a mapping name -> joint index ({} is valid); tests/robots checks it"}
+_ARM_SKIP = {"points": "a mapping name -> joint index ({} is valid); tests/robots checks it"}
 _ROBOT_METHODS = {
     "fk": F(lambda: call(_Q2, "joint1"), types={"point": "choice"}),
     "jacobian": F(lambda: call(_Q2, "joint1"), types={"point": "choice"}),
@@ -41,6 +42,22 @@ _ROBOT_METHODS = {
     "ee_jacobian": lambda: call(_Q2),
     "point_jacobian": F(lambda: call(_Q2, 1, 0.5), types={"t": "scalar", "link": "seed"}),
     "from_xml": F(lambda: call(_XML), types={"text": "path"}),
+    "arm": F(
+        lambda: call(["joint1"], points={"p": 0}, link_radius=0.02, tcp=("link1", [0.3, 0, 0])),
+        types={"tcp": "object"},
+        skip=_ARM_SKIP,
+    ),
+    "arm_from_xml": F(
+        lambda: call(
+            _XML,
+            ["joint0", "joint1"],
+            tcp=("flange", [0.0, 0.0, 0.1]),
+            points={"p": 1},
+            link_radius=0.02,
+        ),
+        types={"xml": "path", "tcp": "object"},
+        skip=_ARM_SKIP,
+    ),
     "from_file": F(lambda: call(_FILE), types={"path": "path"}),
     "from_urdf": F(
         lambda: call(
