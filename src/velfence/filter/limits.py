@@ -57,7 +57,7 @@ def _vector(
 
 @dataclass(frozen=True)
 class JointLimits:
-    """Position, velocity and (optional) acceleration limits of every joint.
+    """Position, velocity and (optional) acceleration and jerk limits of every joint.
 
     The speed limit was called ``max_velocity`` before 0.2: that keyword and attribute warn until
     0.3.
@@ -69,12 +69,16 @@ class JointLimits:
             repeated).
         max_acceleration: Largest joint acceleration [rad/s²], shape (n,), > 0, ``inf`` for a
             joint without one; ``None`` (the default): none on any joint.
+        max_jerk: Largest joint jerk [rad/s³], shape (n,) (a scalar is repeated), > 0, ``inf``
+            for a joint without one; ``None`` (the default): none on any joint. A
+            :class:`SafetyFilter` with ``dt`` bounds the change of the acceleration per period
+            by it (the jerk rows, ``docs/safety_filter.md``).
         names: One name per joint, or ``None``; when given, a :class:`SafetyFilter` checks it
             against the robot's ``joint_names``.
 
     Raises:
         InvalidParameter: wrong shapes, NaN, ``lower >= upper``, non-positive or infinite
-            speeds, non-positive accelerations, or names of the wrong number.
+            speeds, non-positive accelerations or jerks, or names of the wrong number.
     """
 
     lower: FloatArray
@@ -83,6 +87,7 @@ class JointLimits:
     max_speed: FloatArray
     max_acceleration: FloatArray | None = None
     names: tuple[str, ...] | None = None
+    max_jerk: FloatArray | None = None
 
     max_velocity = renamed_attribute("max_velocity", "max_speed")
 
@@ -122,6 +127,17 @@ class JointLimits:
                     f"{acc.tolist()}"
                 )
             acc = readonly(acc)
+        jerk: FloatArray | None = None
+        if self.max_jerk is not None:
+            jerk = _vector(
+                "max_jerk", self.max_jerk, n, f"jerks [rad/s³] of shape ({n},)",
+                nonfinite=True, scalar=True,
+            )  # fmt: skip
+            if not np.all(jerk > 0.0):
+                raise InvalidParameter(
+                    f"max_jerk: expected jerks > 0 [rad/s³] (inf: none), got {jerk.tolist()}"
+                )
+            jerk = readonly(jerk)
         names = None
         raw_names: Any = self.names
         if raw_names is not None:
@@ -138,6 +154,7 @@ class JointLimits:
         object.__setattr__(self, "upper", readonly(hi))
         object.__setattr__(self, "max_speed", readonly(v))
         object.__setattr__(self, "max_acceleration", acc)
+        object.__setattr__(self, "max_jerk", jerk)
         object.__setattr__(self, "names", names)
 
     @property
