@@ -217,3 +217,24 @@ def test_no_jerk_rows_without_dt_or_limits() -> None:
     r = f3.explain(Q0, np.ones(7))
     assert [n for n in r.constraint_names if "acceleration" in n] == []
     np.testing.assert_allclose(r.output, JMAX * DT * DT)
+
+
+def test_ros2_control_jerk_fields() -> None:
+    """``has_jerk_limits`` / ``max_jerk`` of a ros2_control joint_limits entry are read."""
+    names = [f"j{k}" for k in range(7)]
+    entry = {"has_velocity_limits": True, "max_velocity": 1.0}
+    doc: dict[str, Any] = {"joint_limits": {n: dict(entry) for n in names}}
+    doc["joint_limits"]["j2"] |= {"has_jerk_limits": True, "max_jerk": 300.0}
+    doc["joint_limits"]["j5"] |= {"max_jerk": 40.0}  # no flag: a value given is the limit
+    doc["joint_limits"]["j6"] |= {"has_jerk_limits": False, "max_jerk": 1.0}  # flag off: ignored
+    lim = JointLimits.from_ros2_control(doc, names)
+    assert lim.max_jerk is not None
+    assert lim.max_jerk.tolist() == [math.inf] * 2 + [300.0] + [math.inf] * 2 + [40.0, math.inf]
+    plain = {"joint_limits": {n: dict(entry) for n in names}}
+    assert JointLimits.from_ros2_control(plain, names).max_jerk is None
+    doc["joint_limits"]["j0"] |= {"has_jerk_limits": True, "max_jerk": -1.0}
+    with pytest.raises(InvalidParameter, match="max_jerk"):
+        JointLimits.from_ros2_control(doc, names)
+    doc["joint_limits"]["j0"] = dict(entry) | {"has_jerk_limits": True}
+    with pytest.raises(InvalidParameter, match=r"j0\.max_jerk: missing"):
+        JointLimits.from_ros2_control(doc, names)
