@@ -11,7 +11,10 @@ from harness import C, F, call
 from velfence.robots import dh_mjcf
 
 _XML = dh_mjcf(
-    [[0.0, 0.0, 0.5, 0.0], [0.3, 0.0, 0.0, 0.0]], joint_limits=[[-1.0, 1.0], [-2.0, 2.0]]
+    [[0.0, 0.0, 0.5, 0.0], [0.3, 0.0, 0.0, 0.0]],
+    joint_limits=[[-1.0, 1.0], [-2.0, 2.0]],
+    velocity_limits=[2.0, 3.0],
+    jerk_limits=[500.0, 600.0],
 )
 _FILE = Path(tempfile.mkdtemp(prefix="velfence-robots-")) / "arm.xml"
 _FILE.write_text(_XML, encoding="utf-8")
@@ -36,6 +39,7 @@ _ROBOT_METHODS = {
     "angular_jacobian": lambda: call(_Q2),
     "kinematics": lambda: call(_Q2),
     "chain_data": lambda: call(),
+    "limits": lambda: call(),
     "joint_positions": lambda: call(_Q2),
     "link_segments": lambda: call(_Q2),
     "end_effector": lambda: call(_Q2),
@@ -80,6 +84,8 @@ _PHYSICS = {
     "inertias": [[0.02, 0.02, 0.01], [0.01, 0.02, 0.02]],
     "velocity_limits": [2.0, 3.0],
     "effort_limits": [50.0, 20.0],
+    "acceleration_limits": [10.0, 12.0],
+    "jerk_limits": [500.0, 600.0],
 }
 _PHYSICS_TYPES = {
     "masses": "vector",
@@ -87,6 +93,8 @@ _PHYSICS_TYPES = {
     "inertias": "rows",
     "velocity_limits": "vector",
     "effort_limits": "vector",
+    "acceleration_limits": "vector",
+    "jerk_limits": "vector",
 }
 
 SPECS: dict[str, F | C] = {

@@ -30,7 +30,12 @@ from velfence._validate import (
 )
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 from velfence.robots.capsules import CapsuleLinks
-from velfence.robots.mjcf import VELOCITY_LIMITS_NUMERIC, _mujoco
+from velfence.robots.mjcf import (
+    ACCELERATION_LIMITS_NUMERIC,
+    JERK_LIMITS_NUMERIC,
+    VELOCITY_LIMITS_NUMERIC,
+    _mujoco,
+)
 
 __all__ = ["MujocoFrame", "MujocoRobot"]
 
@@ -106,16 +111,18 @@ class MujocoRobot(CapsuleLinks):
                     effort[i] = bound
         self._effort = readonly(effort)
         self._velocity = readonly(self._numeric_limits(model))
+        self._acceleration = readonly(self._numeric_limits(model, ACCELERATION_LIMITS_NUMERIC))
+        self._jerk = readonly(self._numeric_limits(model, JERK_LIMITS_NUMERIC))
         self._jacp = np.zeros((3, model.nv))
         self._jacr = np.zeros((3, model.nv))
         self._posed_by: object = None  # the MujocoFrame whose pose the data holds
 
     @staticmethod
-    def _numeric_limits(model: Any) -> FloatArray:
-        """The ``velocity_limits`` custom numeric, one per joint (``inf`` where absent/<= 0)."""
+    def _numeric_limits(model: Any, name: str = VELOCITY_LIMITS_NUMERIC) -> FloatArray:
+        """The custom numeric ``name``, one per joint (``inf`` where absent/<= 0)."""
         out = np.full(model.njnt, np.inf)
         for k in range(model.nnumeric):
-            if model.numeric(k).name != VELOCITY_LIMITS_NUMERIC:
+            if model.numeric(k).name != name:
                 continue
             adr, size = int(model.numeric_adr[k]), int(model.numeric_size[k])
             data = np.array(model.numeric_data[adr : adr + min(size, model.njnt)], dtype=float)
@@ -265,6 +272,52 @@ class MujocoRobot(CapsuleLinks):
         model order; MJCF has no velocity attribute); ``+inf`` where the model does not say.
         """
         return self._velocity
+
+    @property
+    def acceleration_limits(self) -> FloatArray:
+        """Joint acceleration limits [rad/s²], shape (n,), read-only.
+
+        From ``<custom><numeric name="acceleration_limits">``; ``+inf`` where the model does
+        not say.
+        """
+        return self._acceleration
+
+    @property
+    def jerk_limits(self) -> FloatArray:
+        """Joint jerk limits [rad/s³], shape (n,), read-only.
+
+        From ``<custom><numeric name="jerk_limits">``; ``+inf`` where the model does not say.
+        """
+        return self._jerk
+
+    def limits(self) -> Any:
+        """The model's joint limits for a :class:`~velfence.filter.SafetyFilter`.
+
+        Position limits from the joint ranges, ``max_speed`` from :attr:`velocity_limits`,
+        ``max_acceleration`` and ``max_jerk`` from :attr:`acceleration_limits` and
+        :attr:`jerk_limits` (``None`` when the model gives none), ``names`` the joint names.
+
+        Returns:
+            A :class:`~velfence.filter.JointLimits`.
+
+        Raises:
+            InvalidParameter: the model gives no speed limit for some joint (the filter needs
+                every joint's).
+        """
+        from velfence.filter.limits import JointLimits
+
+        if not np.all(np.isfinite(self._velocity)):
+            raise InvalidParameter(
+                "velocity_limits: the model gives no speed limit for joint(s) "
+                f"{np.flatnonzero(~np.isfinite(self._velocity)).tolist()}; build JointLimits "
+                "with max_speed= yourself"
+            )
+        acc = self._acceleration if np.isfinite(self._acceleration).any() else None
+        jerk = self._jerk if np.isfinite(self._jerk).any() else None
+        return JointLimits(
+            self._limits[:, 0], self._limits[:, 1], max_speed=self._velocity,
+            max_acceleration=acc, max_jerk=jerk, names=tuple(self.joint_names),
+        )  # fmt: skip
 
     @property
     def effort_limits(self) -> FloatArray:
