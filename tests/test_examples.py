@@ -334,3 +334,29 @@ def test_policy_shield(
     assert (tmp_path / "policy_shield.png").stat().st_size > 20_000
     assert (tmp_path / "policy_shield.mp4").stat().st_size > 5_000
     assert lines[-1] == f"wrote {tmp_path / 'policy_shield.mp4'}"
+
+
+def test_jerk_fence_box(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    pytest.importorskip("mujoco")
+    pytest.importorskip("matplotlib")
+    figure = tmp_path / "jerk.png"
+    # the start of the script (0.12 s): the operator's step in speed, where the runs differ
+    monkeypatch.setattr("sys.argv", ["jerk_fence_box.py", str(figure), "--duration", "0.12"])
+    lines = run_example("jerk_fence_box", capsys)
+    assert lines[0].startswith("method")
+    rows = {line.split("|")[0].strip(): numbers(line.split("|", 1)[1]) for line in lines[1:4]}
+    assert set(rows) == {"velfence + jerk rows", "velfence, no jerk rows", "per-joint clamp"}
+    # (max ratio, unflagged max, flagged, over, cycles, outside [mm], joint [mrad], contacts)
+    jr, raw, clamp = (
+        rows[m] for m in ("velfence + jerk rows", "velfence, no jerk rows", "per-joint clamp")
+    )
+    assert jr[4] == raw[4] == clamp[4] == 61  # 0.12 s at 500 Hz, both ends
+    assert jr[1] <= 1.0 + 1e-3  # every unflagged cycle within the limit (3 decimals printed)
+    assert jr[3] == 0
+    assert raw[0] > 1.5  # without jerk rows the acceleration rows allow twice the limit
+    assert raw[3] > 0
+    assert clamp[0] > 10.0  # the clamp steps the speed in one period
+    assert figure.stat().st_size > 10_000
+    assert lines[-1] == f"wrote {figure}"

@@ -11,7 +11,10 @@ from harness import C, F, call
 from velfence.robots import dh_mjcf
 
 _XML = dh_mjcf(
-    [[0.0, 0.0, 0.5, 0.0], [0.3, 0.0, 0.0, 0.0]], joint_limits=[[-1.0, 1.0], [-2.0, 2.0]]
+    [[0.0, 0.0, 0.5, 0.0], [0.3, 0.0, 0.0, 0.0]],
+    joint_limits=[[-1.0, 1.0], [-2.0, 2.0]],
+    velocity_limits=[2.0, 3.0],
+    jerk_limits=[500.0, 600.0],
 )
 _FILE = Path(tempfile.mkdtemp(prefix="velfence-robots-")) / "arm.xml"
 _FILE.write_text(_XML, encoding="utf-8")
@@ -29,6 +32,7 @@ _ROWS = [[0.0, 0.0, 0.5, 0.0], [0.3, 0.5, 0.1, 0.0]]
 _LIM = [[-1.0, 1.0], [-2.0, 2.0]]
 _MAKER = {"tool": "vector", "radius": "nonneg"}
 _SKIP = {"named_points": "a mapping name -> joint index ({} is valid); tests/robots checks it"}
+_ARM_SKIP = {"points": "a mapping name -> joint index ({} is valid); tests/robots checks it"}
 _ROBOT_METHODS = {
     "fk": F(lambda: call(_Q2, "joint1"), types={"point": "choice"}),
     "jacobian": F(lambda: call(_Q2, "joint1"), types={"point": "choice"}),
@@ -36,12 +40,29 @@ _ROBOT_METHODS = {
     "kinematics": lambda: call(_Q2),
     "chain_data": lambda: call(),
     "chain_frames": lambda: call(),
+    "limits": lambda: call(),
     "joint_positions": lambda: call(_Q2),
     "link_segments": lambda: call(_Q2),
     "end_effector": lambda: call(_Q2),
     "ee_jacobian": lambda: call(_Q2),
     "point_jacobian": F(lambda: call(_Q2, 1, 0.5), types={"t": "scalar", "link": "seed"}),
     "from_xml": F(lambda: call(_XML), types={"text": "path"}),
+    "arm": F(
+        lambda: call(["joint1"], points={"p": 0}, link_radius=0.02, tcp=("link1", [0.3, 0, 0])),
+        types={"tcp": "object"},
+        skip=_ARM_SKIP,
+    ),
+    "arm_from_xml": F(
+        lambda: call(
+            _XML,
+            ["joint0", "joint1"],
+            tcp=("flange", [0.0, 0.0, 0.1]),
+            points={"p": 1},
+            link_radius=0.02,
+        ),
+        types={"xml": "path", "tcp": "object"},
+        skip=_ARM_SKIP,
+    ),
     "from_file": F(lambda: call(_FILE), types={"path": "path"}),
     "from_urdf": F(
         lambda: call(
@@ -64,6 +85,8 @@ _PHYSICS = {
     "inertias": [[0.02, 0.02, 0.01], [0.01, 0.02, 0.02]],
     "velocity_limits": [2.0, 3.0],
     "effort_limits": [50.0, 20.0],
+    "acceleration_limits": [10.0, 12.0],
+    "jerk_limits": [500.0, 600.0],
 }
 _PHYSICS_TYPES = {
     "masses": "vector",
@@ -71,6 +94,8 @@ _PHYSICS_TYPES = {
     "inertias": "rows",
     "velocity_limits": "vector",
     "effort_limits": "vector",
+    "acceleration_limits": "vector",
+    "jerk_limits": "vector",
 }
 
 SPECS: dict[str, F | C] = {

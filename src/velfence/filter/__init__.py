@@ -34,12 +34,14 @@ from velfence.filter.kinematics import (
 from velfence.filter.limits import JointLimits, Profile, SphereObstacle, WorkspaceLimit
 from velfence.filter.result import FilterBatch, FilterResult
 from velfence.filter.rows import (
+    LEVEL_JERK,
     LEVEL_JOINT,
     LEVEL_NAMES,
     LEVEL_OBSTACLE,
     LEVEL_RATE,
     LEVEL_WORKSPACE,
     JointAccelerationLimit,
+    JointJerkLimit,
     JointPositionLimit,
     JointVelocityLimit,
     ObstacleRows,
@@ -50,6 +52,7 @@ from velfence.filter.rows import (
 )
 
 __all__ = [
+    "LEVEL_JERK",
     "LEVEL_JOINT",
     "LEVEL_NAMES",
     "LEVEL_OBSTACLE",
@@ -61,6 +64,7 @@ __all__ = [
     "FilterBatch",
     "FilterResult",
     "JointAccelerationLimit",
+    "JointJerkLimit",
     "JointLimits",
     "JointPositionLimit",
     "JointVelocityLimit",

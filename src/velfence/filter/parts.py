@@ -186,7 +186,7 @@ def obstacle_rows(
 
 
 def custom_providers(providers: Any) -> list[Any]:
-    """The user's row providers: each with ``rows`` and a level 0-3."""
+    """The user's row providers: each with ``rows`` and a level 0-4."""
     if isinstance(providers, (str, bytes)) or not isinstance(providers, Sequence):
         raise InvalidParameter(
             f"providers: expected a sequence of row providers, got {describe(providers)}"
@@ -201,7 +201,8 @@ def custom_providers(providers: Any) -> list[Any]:
             )
         if isinstance(level, bool) or level not in range(len(LEVEL_NAMES)):
             raise InvalidParameter(
-                f"providers[{i}]: expected level 0-3 ({', '.join(LEVEL_NAMES)}), got {level!r}"
+                f"providers[{i}]: expected level 0-{len(LEVEL_NAMES) - 1} "
+                f"({', '.join(LEVEL_NAMES)}), got {level!r}"
             )
         out.append(p)
     return out

@@ -212,17 +212,19 @@ def mujoco_arm(
 ) -> MujocoRobot:
     """The arm of a Gymnasium MuJoCo env as a :class:`~velfence.robots.MujocoRobot`.
 
-    Read from the env's own MJCF (``env.unwrapped.fullpath``, MuJoCo's ``MjSpec``): every joint
-    not in ``joints`` is removed (the object, the goal: their bodies stay, fixed), a site
-    ``"tcp"`` is put on the body ``tip`` at ``tip_offset`` (by default its origin, the point
-    Gymnasium's tasks measure: ``get_body_com`` is the body's ``xpos``) and a site
-    ``"joint{i}"`` on each joint's anchor (the capsule links of the obstacle rows). The result
-    is checked against the env: the tcp at the env's current ``qpos`` equals MuJoCo's own
-    point (``xpos + xmat · tip_offset`` of ``tip``) to 1e-9 m.
+    Read from the env's own MJCF file (``env.unwrapped.fullpath``) by
+    :meth:`MujocoRobot.arm_from_xml <velfence.robots.MujocoRobot.arm_from_xml>`, its numbers as
+    written: every joint not in ``joints`` is removed (the object, the goal: their bodies stay,
+    fixed), a site ``"tcp"`` is put on the body ``tip`` at ``tip_offset`` (by default its
+    origin, the point Gymnasium's tasks measure: ``get_body_com`` is the body's ``xpos``) and a
+    site ``"joint{i}"`` on each joint's anchor (the capsule links of the obstacle rows). The
+    result is checked against the env: the tcp at the env's current ``qpos`` equals MuJoCo's
+    own point (``xpos + xmat · tip_offset`` of ``tip``) to 1e-9 m.
 
     Args:
         env: A Gymnasium MuJoCo env (or a wrapper of one).
-        joints: The arm's joints, in the order of the filter (and of the action).
+        joints: The arm's joints, in the order of the filter (and of the action): the
+            model's order.
         tip: The body that carries the tool point (``"tips_arm"`` for Pusher,
             ``"fingertip"`` for Reacher).
         tip_offset: The tool point in the body's frame [m], shape (3,) (Pusher's finger
@@ -250,24 +252,15 @@ def mujoco_arm(
         raise InvalidParameter(f"tip: {tip!r} is not a body of the env; it has {bodies}") from None
     off = real_array("tip_offset", tip_offset, (3,), what="a position [m]",
                      error=InvalidParameter)  # fmt: skip
-    spec = mj.MjSpec.from_file(path)
-    for a in list(spec.actuators):  # the kinematics needs none (and they name removed joints)
-        spec.delete(a)
-    for j in list(spec.joints):
-        if j.name not in names:
-            spec.delete(j)
-    spec.body(tip).add_site(name="tcp", pos=off.tolist(), size=[0.005, 0, 0])
-    for i, jn in enumerate(names):
-        jid = model.joint(jn).id
-        body = spec.body(model.body(int(model.jnt_bodyid[jid])).name)
-        body.add_site(name=f"joint{i}", pos=list(map(float, model.jnt_pos[jid])),
-                      size=[0.005, 0, 0])  # fmt: skip
-    robot = MujocoRobot.from_xml(spec.to_xml())
-    if robot.joint_names != names:
+    try:
+        with open(path, encoding="utf-8") as fh:
+            text = fh.read()
+    except (OSError, UnicodeDecodeError, ValueError) as exc:
         raise InvalidParameter(
-            f"joints: the arm read back has joints {robot.joint_names}, expected {names} "
-            "(give them in the model's order)"
-        )
+            f"env: expected the env's MJCF file to be readable, got {path[:200]!r} "
+            f"({type(exc).__name__})"
+        ) from None
+    robot = MujocoRobot.arm_from_xml(text, names, tcp=(tip, off))
     q, _ = state.read(env)
     tcp = robot.fk(q)
     mj.mj_kinematics(model, u.data)

@@ -22,10 +22,10 @@ the middle of its segment, without ``inertias`` the link is a solid cylinder of 
 ``LINK_CYLINDER_RADIUS`` (0.05 m) along its segment (an approximation, say so where you use it).
 Without ``masses`` every link is a unit point mass (a kinematic placeholder).
 ``effort_limits`` [N·m] become each joint's ``actuatorfrcrange`` (MuJoCo's
-``jnt_actfrcrange``); ``velocity_limits`` [rad/s], which MJCF has no attribute for, a
-``<custom><numeric name="velocity_limits">``; :class:`MujocoRobot` reads both back
-(``+inf`` where a model has none). No ``<option>`` is written:
-gravity and time step belong to whoever simulates the arm.
+``jnt_actfrcrange``); ``velocity_limits`` [rad/s], ``acceleration_limits`` [rad/s²] and
+``jerk_limits`` [rad/s³], which MJCF has no attribute for, ``<custom><numeric>`` elements of
+those names; :class:`MujocoRobot` reads them back (``+inf`` where a model has none). No
+``<option>`` is written: gravity and time step belong to whoever simulates the arm.
 """
 
 from __future__ import annotations
@@ -50,6 +50,10 @@ __all__ = ["dh_mjcf", "mdh_mjcf"]
 LINK_CYLINDER_RADIUS = 0.05
 #: Name of the ``<custom><numeric>`` element that holds the joint velocity limits [rad/s].
 VELOCITY_LIMITS_NUMERIC = "velocity_limits"
+#: Names of the ``<custom><numeric>`` elements of the joint acceleration [rad/s²] and jerk
+#: [rad/s³] limits.
+ACCELERATION_LIMITS_NUMERIC = "acceleration_limits"
+JERK_LIMITS_NUMERIC = "jerk_limits"
 
 
 def _mujoco() -> Any:
@@ -145,6 +149,8 @@ class _Physics:
         inertias: ArrayLike | None,
         velocity_limits: ArrayLike | None,
         effort_limits: ArrayLike | None,
+        acceleration_limits: ArrayLike | None = None,
+        jerk_limits: ArrayLike | None = None,
     ) -> None:
         self.masses: FloatArray | None = None
         self.coms: FloatArray | None = None
@@ -176,6 +182,8 @@ class _Physics:
                 self.inertias = _inertia_matrices(inertias, n)
         self.velocity = _limit_vector("velocity_limits", velocity_limits, n, "[rad/s]")
         self.effort = _limit_vector("effort_limits", effort_limits, n, "[N·m]")
+        self.acceleration = _limit_vector("acceleration_limits", acceleration_limits, n, "[rad/s²]")
+        self.jerk = _limit_vector("jerk_limits", jerk_limits, n, "[rad/s³]")
 
     def inertial(self, i: int, link: tuple[FloatArray, FloatArray], segment: FloatArray) -> str:
         """The ``<inertial>`` element of body ``i``.
@@ -204,15 +212,17 @@ class _Physics:
         return f' actuatorfrcrange="{_fmt([-e, e])}"'
 
     def custom(self) -> list[str]:
-        """The ``<custom>`` lines (the velocity limits), or none."""
-        if self.velocity is None:
-            return []
-        data = " ".join(repr(v) for v in self.velocity.tolist())
-        return [
-            "  <custom>",
-            f'    <numeric name="{VELOCITY_LIMITS_NUMERIC}" data="{data}"/>',
-            "  </custom>",
-        ]
+        """The ``<custom>`` lines (the velocity, acceleration and jerk limits), or none."""
+        lines = []
+        for name, values in (
+            (VELOCITY_LIMITS_NUMERIC, self.velocity),
+            (ACCELERATION_LIMITS_NUMERIC, self.acceleration),
+            (JERK_LIMITS_NUMERIC, self.jerk),
+        ):
+            if values is not None:
+                data = " ".join(repr(v) for v in values.tolist())
+                lines.append(f'    <numeric name="{name}" data="{data}"/>')
+        return ["  <custom>", *lines, "  </custom>"] if lines else []
 
 
 def _inputs(
@@ -336,6 +346,8 @@ def dh_mjcf(
     inertias: ArrayLike | None = None,
     velocity_limits: ArrayLike | None = None,
     effort_limits: ArrayLike | None = None,
+    acceleration_limits: ArrayLike | None = None,
+    jerk_limits: ArrayLike | None = None,
 ) -> str:
     """MJCF of a revolute arm from standard DH rows (module docs for the frames).
 
@@ -357,6 +369,9 @@ def dh_mjcf(
             ``masses``); ``None``: a solid cylinder along the link (module docs).
         velocity_limits: Joint speed limits [rad/s], shape (n,), finite, > 0; ``None``: none.
         effort_limits: Joint torque limits [N·m], shape (n,), finite, > 0; ``None``: none.
+        acceleration_limits: Joint acceleration limits [rad/s²], shape (n,), finite, > 0;
+            ``None``: none.
+        jerk_limits: Joint jerk limits [rad/s³], shape (n,), finite, > 0; ``None``: none.
 
     Returns:
         The MJCF document (str), to pass to :meth:`MujocoRobot.from_xml`.
@@ -375,7 +390,10 @@ def dh_mjcf(
         pos = np.array([a * math.cos(off), a * math.sin(off), d])
         statics.append((pos, _quat_mul(_qz(off), _qx(alpha))))
     frames += statics[:-1]
-    phys = _Physics(n, masses, centers_of_mass, inertias, velocity_limits, effort_limits)
+    phys = _Physics(
+        n, masses, centers_of_mass, inertias, velocity_limits, effort_limits,
+        acceleration_limits, jerk_limits,
+    )  # fmt: skip
     return _document(nm, frames, statics[-1], lim, t, rad, pts, phys, statics)
 
 
@@ -394,6 +412,8 @@ def mdh_mjcf(
     inertias: ArrayLike | None = None,
     velocity_limits: ArrayLike | None = None,
     effort_limits: ArrayLike | None = None,
+    acceleration_limits: ArrayLike | None = None,
+    jerk_limits: ArrayLike | None = None,
 ) -> str:
     """MJCF of a revolute arm from modified (Craig) DH rows (module docs for the frames).
 
@@ -413,6 +433,9 @@ def mdh_mjcf(
             or (n, 6), as in :func:`dh_mjcf` (needs ``masses``); ``None``: a solid cylinder.
         velocity_limits: Joint speed limits [rad/s], shape (n,), finite, > 0; ``None``: none.
         effort_limits: Joint torque limits [N·m], shape (n,), finite, > 0; ``None``: none.
+        acceleration_limits: Joint acceleration limits [rad/s²], shape (n,), finite, > 0;
+            ``None``: none.
+        jerk_limits: Joint jerk limits [rad/s³], shape (n,), finite, > 0; ``None``: none.
 
     Returns:
         The MJCF document (str).
@@ -432,6 +455,9 @@ def mdh_mjcf(
         pos = np.array([a, -d * math.sin(alpha), d * math.cos(alpha)])
         frames.append((pos, _quat_mul(_qx(alpha), _qz(off))))
     flange = (np.array([0.0, 0.0, float(fd)]), np.array([1.0, 0.0, 0.0, 0.0]))
-    phys = _Physics(n, masses, centers_of_mass, inertias, velocity_limits, effort_limits)
+    phys = _Physics(
+        n, masses, centers_of_mass, inertias, velocity_limits, effort_limits,
+        acceleration_limits, jerk_limits,
+    )  # fmt: skip
     identity = [(np.zeros(3), np.array([1.0, 0.0, 0.0, 0.0]))] * n
     return _document(nm, frames, flange, lim, t, rad, pts, phys, identity)

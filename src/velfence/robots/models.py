@@ -85,9 +85,13 @@ _PANDA_INERTIAS = (
     (1.964e-3, 4.354e-3, 5.433e-3, 1.09e-4, -1.158e-3, 3.41e-4),
     (1.2516e-2, 1.0027e-2, 4.815e-3, -4.28e-4, -1.196e-3, -7.41e-4),
 )
-# Franka Emika, "Robot and interface specifications": joint torque [N·m] and speed [rad/s] limits.
+# Franka's FCI documentation, "Robot and interface specifications", the table "Limits for Panda"
+# (the Franka Emika Robot, FER; not the Franka Research 3, whose limits differ): joint torque
+# [N·m], speed [rad/s], acceleration [rad/s²] and jerk [rad/s³] limits.
 _PANDA_EFFORT = (87.0, 87.0, 87.0, 87.0, 12.0, 12.0, 12.0)
 _PANDA_VELOCITY = (2.175, 2.175, 2.175, 2.175, 2.61, 2.61, 2.61)
+_PANDA_ACCELERATION = (15.0, 7.5, 10.0, 12.5, 15.0, 20.0, 20.0)
+_PANDA_JERK = (7500.0, 3750.0, 5000.0, 6250.0, 7500.0, 10000.0, 10000.0)
 
 # Universal Robots, "DH parameters for calculations of kinematics and dynamics", UR5e column:
 # link masses [kg] and centres of mass [m] in the DH frames 1..6 (no inertias are published: the
@@ -252,7 +256,9 @@ def panda(*, tool: ArrayLike | None = None, radius: float = 0.0) -> MujocoRobot:
     ±1.7628, ±2.8973, (-3.0718, -0.0698), ±2.8973, (-0.0175, 3.7525), ±2.8973. Kinematics
     only (no masses, meshes or hand). Joints ``panda_joint1`` … ``panda_joint7``; sites
     ``"tcp"``, ``"flange"``, ``"elbow"`` (joint 3), ``"wrist"`` (joint 5), ``"joint0"`` …
-    ``"joint6"``.
+    ``"joint6"``. Joint speed, acceleration and jerk limits from Franka's FCI table "Limits for
+    Panda" (the Franka Emika Robot; ``velocity_limits``, ``acceleration_limits``,
+    ``jerk_limits``; :meth:`MujocoRobot.limits` gives them as a ``JointLimits``).
 
     Args:
         tool: Tool point in the flange frame [m], shape (3,); the flange when ``None``.
@@ -274,6 +280,8 @@ def panda(*, tool: ArrayLike | None = None, radius: float = 0.0) -> MujocoRobot:
         inertias=_PANDA_INERTIAS,
         velocity_limits=_PANDA_VELOCITY,
         effort_limits=_PANDA_EFFORT,
+        acceleration_limits=_PANDA_ACCELERATION,
+        jerk_limits=_PANDA_JERK,
     )
     names = tuple(f"panda_joint{i + 1}" for i in range(7))
     return MujocoRobot.from_xml(_with_names(xml, names))
