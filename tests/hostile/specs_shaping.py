@@ -70,6 +70,16 @@ def safety_filter() -> object:
     )
 
 
+def _chain_frames() -> object:
+    """The ChainFrames of a two-joint MJCF arm (MujocoRobot.chain_frames())."""
+    from velfence.robots import MujocoRobot, dh_mjcf
+
+    xml = dh_mjcf(
+        [[0.0, 0.0, 0.5, 0.0], [0.3, 0.0, 0.0, 0.0]], joint_limits=[[-1.0, 1.0], [-2.0, 2.0]]
+    )
+    return MujocoRobot(xml=xml).chain_frames()
+
+
 _ROS2 = {
     "joint_limits": {
         "a": {
@@ -272,7 +282,13 @@ SPECS: dict[str, F | C] = {
         },
         instance=safety_filter,
     ),
-    "filter.ChainFrames": C(record="output record of MujocoRobot.chain_frames()"),
+    "filter.ChainFrames": C(
+        record="output record of MujocoRobot.chain_frames()",
+        methods={
+            "fk": F(lambda: call(np.array([0.3, -0.4]), "tcp"), types={"point": "choice"}),
+        },
+        instance=_chain_frames,
+    ),
     "filter.FilterBatch": C(
         record="output record of SafetyFilter.filter_batch()",
         methods={"stage_names": F(lambda: call(1), types={"row": "seed"})},
