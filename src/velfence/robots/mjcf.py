@@ -362,7 +362,8 @@ def dh_mjcf(
         tool: Tool point in the last DH frame [m], shape (3,); the flange when ``None``.
         name: Model name (any string; XML-escaped).
         radius: Capsule radius of the link geoms [m], ``>= 0``, one for all links or one per
-            link, shape (n,); ``0``: no geom. With radii per link, a zero-length link gets a
+            link, shape (n,); ``0``: no geom (such a link reads back the largest radius, see
+            ``velfence.robots.capsules``). With radii per link, a zero-length link gets a
             sphere geom of its radius.
         named_points: Extra site names mapped to a joint index ``j`` (a site at joint ``j``'s
             body origin), e.g. ``{"elbow": 2}``.
