@@ -60,14 +60,15 @@ def test_bounding_capsule_of_a_cylinder_is_its_axis_and_radius() -> None:
     a, b, rad = bounding_capsule([[0, 0, -length / 2], [0, 0, length / 2]], radii=r)
     assert rad == pytest.approx(r, abs=1e-15)
     assert np.linalg.norm(b - a) == pytest.approx(length, abs=1e-12)
-    assert abs(a[2]) == pytest.approx(length / 2) and np.allclose(a[:2], 0.0)
+    assert abs(a[2]) == pytest.approx(length / 2)
+    assert np.allclose(a[:2], 0.0)
 
 
 def test_bounding_capsule_of_a_box_by_hand() -> None:
     # Half-sizes 0.3 > 0.1 > 0.05: axis x, radius sqrt(0.1² + 0.05²), segment ±0.3.
     hx, hy, hz = 0.3, 0.1, 0.05
     corners = [[i * hx, j * hy, k * hz] for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)]
-    a, b, rad = bounding_capsule(np.array(corners) + [1.0, 2.0, 3.0])
+    a, b, rad = bounding_capsule(np.array(corners) + np.array([1.0, 2.0, 3.0]))
     assert rad == pytest.approx(math.hypot(hy, hz), abs=1e-12)
     ends = sorted([a.tolist(), b.tolist()])
     np.testing.assert_allclose(ends, [[0.7, 2.0, 3.0], [1.3, 2.0, 3.0]], atol=1e-12)
@@ -153,13 +154,15 @@ def test_sphere_capsule_and_ellipsoid_geoms() -> None:
         _one_body('<geom type="capsule" size="0.03" fromto="0 0 0 0 .2 0"/>')
     )
     link = fit.links[0]
-    assert link.radius == pytest.approx(0.03) and link.length == pytest.approx(0.2)
+    assert link.radius == pytest.approx(0.03)
+    assert link.length == pytest.approx(0.2)
     assert link.volume_added == pytest.approx(0.0, abs=1e-15)
     assert link.largest_gap == pytest.approx(0.0, abs=1e-4)
     # ellipsoid a >= b >= c: radius b on ±(a - b) along a; its poles touch the capsule
     fit = fit_collision_capsules(_one_body('<geom type="ellipsoid" size="0.04 0.1 0.02"/>'))
     link = fit.links[0]
-    assert link.radius == pytest.approx(0.04) and link.length == pytest.approx(0.12)
+    assert link.radius == pytest.approx(0.04)
+    assert link.length == pytest.approx(0.12)
     assert link.source_volume == pytest.approx(4 / 3 * math.pi * 0.04 * 0.1 * 0.02)
 
 
@@ -174,13 +177,15 @@ def test_several_geoms_and_the_collision_rule() -> None:
     floor = '<geom type="plane" size="1 1 1"/>'
     fit = fit_collision_capsules(_one_body(geoms, floor))
     (link,) = fit.links
-    assert len(link.geoms) == 2 and all("box" in g for g in link.geoms)
+    assert len(link.geoms) == 2
+    assert all("box" in g for g in link.geoms)
     assert link.radius == pytest.approx(math.hypot(0.02, 0.02))
     assert link.length == pytest.approx(0.4)
     assert "contype" in fit.rule
     # by group: only the group-2 sphere
     fit = fit_collision_capsules(_one_body(geoms, floor), groups=[2])
-    assert fit.links[0].radius == pytest.approx(0.5) and "group" in fit.rule
+    assert fit.links[0].radius == pytest.approx(0.5)
+    assert "group" in fit.rule
     assert "| arm |" in fit.table()
 
 
@@ -193,7 +198,7 @@ def test_mesh_geom_bounds_every_vertex_and_its_volume() -> None:
     )
     link = fit_collision_capsules(robot).links[0]
     assert link.source_volume == pytest.approx(0.1**3 / 6, rel=1e-6)  # float32 vertices
-    verts = np.array([[0, 0, 0], [0.1, 0, 0], [0, 0.1, 0], [0, 0, 0.1]]) + [0.5, 0, 0]
+    verts = np.array([[0, 0, 0], [0.1, 0, 0], [0, 0.1, 0], [0, 0, 0.1]]) + np.array([0.5, 0.0, 0.0])
     assert np.all(_inside(verts, link.start, link.end, link.radius) <= 1e-7)
 
 
