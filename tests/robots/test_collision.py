@@ -272,7 +272,7 @@ def test_link_radii_arguments() -> None:
     fit = fit_collision_capsules(panda(radius=0.05))
     with pytest.raises(InvalidParameter, match=r"^bodies: expected a sequence of 7"):
         fit.link_radii(bodies=["link0"])
-    with pytest.raises(InvalidParameter, match=r"^bodies\[0\]: expected names"):
+    with pytest.raises(InvalidParameter, match=r"^bodies\[0\]: expected a name or a list of names"):
         fit.link_radii(bodies=["nope"] + [()] * 6)
     with pytest.raises(InvalidParameter, match=r"^base: expected a body"):
         fit.link_radii(base="nope")
@@ -436,3 +436,10 @@ def test_gymnasium_reacher_capsules_fit_back() -> None:
     assert fit["fingertip"].radius == pytest.approx(0.01)
     # walls and targets (world body, contype 0) are not links
     assert {k.body for k in fit.links} == {"body0", "body1", "fingertip"}
+
+
+def test_urdf_meshes_option_is_checked(tmp_path: Path) -> None:
+    urdf = tmp_path / "arm.urdf"
+    urdf.write_text('<robot name="a"><link name="l"/></robot>', encoding="utf-8")
+    with pytest.raises(InvalidParameter, match=r"^meshes: expected True, False or 'collision'"):
+        MujocoRobot.from_urdf(urdf, meshes="visual")  # type: ignore[arg-type]

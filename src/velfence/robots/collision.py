@@ -53,7 +53,7 @@ import numpy as np
 
 from velfence._docs import document_inits
 from velfence._typing import FloatArray
-from velfence._validate import check_positive_int, check_seed, readonly
+from velfence._validate import check_positive_int, check_seed, describe, readonly
 from velfence.errors import InvalidGeometry, InvalidParameter
 from velfence.geometry.capsule_fit import bounding_capsule
 from velfence.geometry.primitives import points_segments_distances
@@ -83,7 +83,7 @@ def capsule_volume(radius: float, length: float) -> float:
     return math.pi * radius**2 * length + 4.0 / 3.0 * math.pi * radius**3
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class LinkCapsule:
     """The capsule fitted to one body's collision geometry (module docs).
 
@@ -122,7 +122,7 @@ class LinkCapsule:
         return self.capsule_volume - self.source_volume
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class LinkRadii:
     """Radii of a robot's joint-to-joint capsule links that cover fitted geometry.
 
@@ -178,7 +178,7 @@ class CollisionFit:
         links: One :class:`LinkCapsule` per body with collision geometry, in body order.
     """
 
-    def __init__(self, robot: MujocoRobot, rule: str, links: tuple[LinkCapsule, ...]) -> None:
+    def __init__(self, *, robot: MujocoRobot, rule: str, links: tuple[LinkCapsule, ...]) -> None:
         self.robot = robot
         self.rule = rule
         self.links = links
@@ -246,6 +246,13 @@ class CollisionFit:
                 ``poses`` or ``seed``.
             InvalidGeometry: a robot without capsule links.
         """
+        from velfence.robots.model import MujocoRobot
+
+        if robot is not None and not isinstance(robot, MujocoRobot):
+            raise InvalidParameter(
+                f"robot: expected a MujocoRobot with capsule links or None, got "
+                f"{type(robot).__name__}"
+            )
         target = self.robot if robot is None else robot
         sites = target._link_sites()
         n = len(sites) - 1
@@ -259,7 +266,7 @@ class CollisionFit:
         names = [src_model.body(i).name for i in range(src_model.nbody)]
         if base is not None and (not isinstance(base, str) or base not in names):
             raise InvalidParameter(
-                f"base: expected a body of the fitted robot {names[:40]}, got {str(base)[:60]!r}"
+                f"base: expected a body of the fitted robot {names[:40]}, got {describe(base)}"
             )
         lim = target.joint_limits
         seg_local: list[list[FloatArray]] = [[] for _ in range(n)]
@@ -330,12 +337,17 @@ class CollisionFit:
             )
         groups = []
         for k, entry in enumerate(bodies):
-            names = (entry,) if isinstance(entry, str) else tuple(entry)
+            if isinstance(entry, str):
+                names: tuple[Any, ...] = (entry,)
+            elif isinstance(entry, (list, tuple)):
+                names = tuple(entry)
+            else:
+                names = (entry,)
             for name in names:
-                if name not in fitted:
+                if not isinstance(name, str) or name not in fitted:
                     raise InvalidParameter(
-                        f"bodies[{k}]: expected names of fitted bodies {sorted(fitted)[:40]}, "
-                        f"got {str(name)[:60]!r}"
+                        f"bodies[{k}]: expected a name or a list of names of fitted bodies "
+                        f"{sorted(fitted)[:40]}, got {describe(name)}"
                     )
             groups.append(names)
         return tuple(groups)
@@ -470,8 +482,9 @@ def fit_collision_capsules(
     Args:
         robot: The model (a :class:`MujocoRobot`; a URDF loaded with
             ``meshes="collision"`` keeps its collision meshes).
-        groups: MuJoCo geom groups that hold the collision geoms; ``None``: the geoms with a
-            non-zero ``contype`` or ``conaffinity`` (module docs).
+        groups: MuJoCo geom groups that hold the collision geoms (a list or tuple of ints
+            0…5); ``None``: the geoms with a non-zero ``contype`` or ``conaffinity`` (module
+            docs).
         samples: About how many points of each capsule's surface the largest gap is measured
             at, ``>= 16``.
 
@@ -499,14 +512,16 @@ def fit_collision_capsules(
             if (int(m.geom_contype[g]) or int(m.geom_conaffinity[g])) and int(m.geom_bodyid[g])
         ]
     else:
-        if isinstance(groups, (str, bytes)) or not isinstance(groups, Sequence):
+        given: Any = groups
+        if isinstance(given, np.ndarray) and given.ndim == 1:
+            given = given.tolist()
+        if not isinstance(given, (list, tuple)) or not given:
             raise InvalidParameter(
-                f"groups: expected a sequence of MuJoCo geom groups (int 0…5), got "
-                f"{type(groups).__name__}"
+                f"groups: expected a non-empty sequence of MuJoCo geom groups (int 0…5), got "
+                f"{describe(given)}"
             )
         gs = {
-            check_positive_int(f"groups[{i}]", v, minimum=0, maximum=5)
-            for i, v in enumerate(groups)
+            check_positive_int(f"groups[{i}]", v, minimum=0, maximum=5) for i, v in enumerate(given)
         }
         rule = f"geoms in group(s) {sorted(gs)}"
         chosen = [g for g in range(m.ngeom) if int(m.geom_group[g]) in gs and int(m.geom_bodyid[g])]
@@ -547,7 +562,7 @@ def fit_collision_capsules(
                 ball_radii=readonly(rr),
             )
         )
-    return CollisionFit(robot, rule, tuple(links))
+    return CollisionFit(robot=robot, rule=rule, links=tuple(links))
 
 
 document_inits(globals())

@@ -245,7 +245,10 @@ def _inputs(
     t = np.zeros(3) if tool is None else real_array("tool", tool, (3,), error=InvalidGeometry)
     nm = check_text("name", name, error=InvalidGeometry)
     n_rows = r.shape[0]
-    if np.ndim(radius) == 0:
+    per_link = isinstance(radius, (list, tuple)) or (
+        isinstance(radius, np.ndarray) and radius.ndim > 0
+    )
+    if not per_link:
         rad = np.full(n_rows, check_positive("radius", radius, allow_zero=True, unit="[m]"))
     else:
         rad = real_array("radius", radius, (n_rows,), error=InvalidParameter, what="radii [m]")

@@ -298,6 +298,10 @@ def urdf_document(
     text, base = _read(path)
     packages = _package_paths(package_paths)
     collision_only = isinstance(meshes, str) and meshes == "collision"
+    if isinstance(meshes, str) and not collision_only:
+        raise InvalidParameter(
+            f"meshes: expected True, False or 'collision', got {_show(meshes, 40)}"
+        )
     keep = True if collision_only else check_flag("meshes", meshes)
     offset: FloatArray = (
         np.zeros(3)
