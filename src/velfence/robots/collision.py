@@ -294,9 +294,9 @@ class CollisionFit:
         cap = np.zeros(n)
         srcv = np.zeros(n)
         fitv = np.zeros(n)
+        P0 = target.joint_positions(np.zeros(target.dof))
         for k in range(n):
-            P = target.joint_positions(np.zeros(target.dof))
-            length[k] = float(np.linalg.norm(P[k + 1] - P[k]))
+            length[k] = float(np.linalg.norm(P0[k + 1] - P0[k]))
             per_body = len(groups[k])
             for m, b in enumerate(groups[k]):
                 segs = np.stack(seg_local[k][m::per_body])  # (poses, 2, 3)
