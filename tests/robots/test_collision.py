@@ -340,7 +340,7 @@ def test_panda_collision_meshes_volumes_and_vertices_match_trimesh() -> None:
             root / "panda_description" / "meshes" / "collision" / f"link{k}.stl", force="mesh"
         )
         link = fit[f"panda_link{k}"]
-        assert link.source_volume == pytest.approx(abs(mesh.volume), rel=1e-3)
+        assert link.source_volume == pytest.approx(abs(mesh.volume), rel=1e-6)
         # every vertex of the file (URDF origin: identity) is inside the fitted capsule
         assert np.max(_inside(np.asarray(mesh.vertices), link.start, link.end, link.radius)) < 1e-6
         assert 0.0 < link.largest_gap < link.radius

@@ -424,7 +424,7 @@ def _capsule_surface(start: FloatArray, end: FloatArray, r: float, n: int) -> Fl
     u = np.cross(e, [1.0, 0.0, 0.0] if abs(e[0]) < 0.9 else [0.0, 1.0, 0.0])
     u /= np.linalg.norm(u)
     v = np.cross(e, u)
-    k = max(8, int(math.sqrt(n)))
+    k = max(8, int(math.sqrt(n / 2.0)))  # k² on the side, about k² on the two hemispheres
     phi = np.linspace(0.0, 2 * math.pi, k, endpoint=False)
     ring = np.cos(phi)[:, None] * u + np.sin(phi)[:, None] * v  # (k, 3)
     pts = [start + s * axis + r * ring for s in np.linspace(0.0, 1.0, k)]
