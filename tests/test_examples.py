@@ -360,3 +360,41 @@ def test_jerk_fence_box(
     assert clamp[0] > 10.0  # the clamp steps the speed in one period
     assert figure.stat().st_size > 10_000
     assert lines[-1] == f"wrote {figure}"
+
+
+@pytest.mark.slow
+def test_panda_collision_fit(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    pytest.importorskip("mujoco")
+    pytest.importorskip("matplotlib")
+    from importlib import metadata
+
+    try:
+        metadata.distribution("example-robot-data")
+    except metadata.PackageNotFoundError:
+        pytest.skip("example-robot-data is not installed")
+    figure = tmp_path / "fit.png"
+    monkeypatch.setattr("sys.argv", ["panda_collision_fit.py", str(figure)])
+    lines = run_example("panda_collision_fit", capsys)
+    bodies = [ln for ln in lines if ln.startswith("| panda_link")]
+    links = [ln for ln in lines if re.match(r"\| \d \| panda_link", ln)]
+    assert len(bodies) == 8  # panda_link0 … panda_link7
+    assert len(links) == 7
+    for row in bodies:
+        _length, radius, geometry, capsule, added, gap = numbers(row.split("|", 3)[3])
+        # a capsule contains its geometry: more volume, and a gap below its radius
+        assert capsule > geometry > 0.0
+        assert added == pytest.approx(capsule - geometry, abs=0.011)
+        assert 0.0 < gap < radius
+    shipped = vector(next(ln for ln in lines if ln.startswith("shipped radii")).split("[m]")[1])
+    for k, row in enumerate(links):
+        cells = row.split("|")
+        radius = float(cells[4])
+        assert 1e3 * shipped[k] >= radius - 0.05  # the shipped radius covers the fit (mm)
+        joint_capsule, added = float(cells[7]), float(cells[8])
+        assert joint_capsule >= float(cells[5])  # at least the geometry's volume
+        assert added == pytest.approx(joint_capsule - float(cells[5]), abs=0.011)
+    assert numbers(next(ln for ln in lines if ln.startswith("frame error")))[0] < 1e-9
+    assert figure.stat().st_size > 10_000
+    assert lines[-1] == f"wrote {figure}"

@@ -33,6 +33,8 @@ _LIM = [[-1.0, 1.0], [-2.0, 2.0]]
 _MAKER = {"tool": "vector", "radius": "nonneg"}
 _SKIP = {"named_points": "a mapping name -> joint index ({} is valid); tests/robots checks it"}
 _ARM_SKIP = {"points": "a mapping name -> joint index ({} is valid); tests/robots checks it"}
+#: radius= takes one radius per link too: [1.0, 2.0] is valid on the two-link arms below.
+_PER_LINK = {"radius": {"vector_for_scalar": "one radius per link (documented), two links here"}}
 _ROBOT_METHODS = {
     "fk": F(lambda: call(_Q2, "joint1"), types={"point": "choice"}),
     "jacobian": F(lambda: call(_Q2, "joint1"), types={"point": "choice"}),
@@ -72,7 +74,7 @@ _ROBOT_METHODS = {
             tool=[0.0, 0.0, 0.1],
             meshes=False,
         ),
-        types={"path": "path", "tcp_link": "choice"},
+        types={"path": "path", "tcp_link": "choice", "meshes": "flag"},
         skip={
             "package_paths": "a sequence of directories (() is valid); "
             "tests/robots/test_urdf.py checks it"
@@ -116,6 +118,7 @@ SPECS: dict[str, F | C] = {
         },
         skip=_SKIP,
         required=frozenset({"masses"}),
+        accepts=_PER_LINK,
     ),
     "robots.mdh_mjcf": F(
         lambda: call(
@@ -137,6 +140,7 @@ SPECS: dict[str, F | C] = {
         },
         skip=_SKIP,
         required=frozenset({"masses"}),
+        accepts=_PER_LINK,
     ),
     "robots.panda": F(lambda: call(tool=[0.0, 0.0, 0.1], radius=0.02), types=_MAKER),
     "robots.ur5e": F(lambda: call(tool=[0.0, 0.0, 0.1], radius=0.02), types=_MAKER),
@@ -164,6 +168,47 @@ SPECS.update(
         ),
         "robots.wrist_qpos": F(
             lambda: call([0.2, -0.1], WristGeometry()), types={"q": "vector", "geometry": "object"}
+        ),
+    }
+)
+
+# --- collision geometry from the model (velfence.robots.collision) ---
+from velfence.robots import MujocoRobot, fit_collision_capsules  # noqa: E402
+
+_FIT_XML = (
+    '<mujoco><worldbody><body name="arm"><joint name="j" type="hinge"/><site name="tcp"/>'
+    '<site name="joint0"/><site name="flange" pos="0 0 0.3"/>'
+    '<geom type="cylinder" size="0.05 0.15" pos="0 0 0.15"/></body></worldbody></mujoco>'
+)
+
+
+def _fit_robot() -> MujocoRobot:
+    return MujocoRobot.from_xml(_FIT_XML)
+
+
+_RECORD = "output record of fit_collision_capsules()"
+SPECS.update(
+    {
+        "robots.fit_collision_capsules": F(
+            lambda: call(_fit_robot(), groups=[0], samples=32),
+            types={"robot": "object", "groups": "object"},  # group numbers: integers
+        ),
+        "robots.CollisionFit": C(
+            record=_RECORD,
+            instance=lambda: fit_collision_capsules(_fit_robot(), samples=32),
+            methods={
+                "table": lambda: call(),
+                "link_radii": F(
+                    lambda: call(_fit_robot(), bodies=["arm"], base="arm", poses=2, seed=1),
+                    types={"robot": "object", "bodies": "object", "base": "choice"},
+                ),
+            },
+        ),
+        "robots.LinkCapsule": C(record=_RECORD),
+        "robots.LinkRadii": C(
+            record="output record of CollisionFit.link_radii()",
+            instance=lambda: fit_collision_capsules(_fit_robot(), samples=32).link_radii(),
+            methods={"table": lambda: call()},
         ),
     }
 )

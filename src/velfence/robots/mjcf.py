@@ -233,7 +233,7 @@ def _inputs(
     name: Any,
     radius: Any,
     named_points: Mapping[str, int] | None,
-) -> tuple[FloatArray, FloatArray, FloatArray, str, float, dict[str, int]]:
+) -> tuple[FloatArray, FloatArray, FloatArray, str, FloatArray, dict[str, int]]:
     r = real_array(rows_name, rows, (None, 4), error=InvalidGeometry, what="DH rows")
     n = r.shape[0]
     if n < 1:
@@ -254,7 +254,18 @@ def _inputs(
         )
     t = np.zeros(3) if tool is None else real_array("tool", tool, (3,), error=InvalidGeometry)
     nm = check_text("name", name, error=InvalidGeometry)
-    rad = check_positive("radius", radius, allow_zero=True, unit="[m]")
+    n_rows = r.shape[0]
+    per_link = isinstance(radius, (list, tuple)) or (
+        isinstance(radius, np.ndarray) and radius.ndim > 0
+    )
+    if not per_link:
+        rad = np.full(n_rows, check_positive("radius", radius, allow_zero=True, unit="[m]"))
+    else:
+        rad = real_array("radius", radius, (n_rows,), error=InvalidParameter, what="radii [m]")
+        if np.any(rad < 0.0):
+            raise InvalidParameter(
+                f"radius: expected radii >= 0 [m], one per link, got {rad.tolist()}"
+            )
     pts: dict[str, int] = {}
     if named_points is not None and not isinstance(named_points, Mapping):
         raise InvalidGeometry(
@@ -285,7 +296,7 @@ def _document(
     flange: tuple[FloatArray, FloatArray],
     lim: FloatArray,
     tool: FloatArray,
-    radius: float,
+    radius: FloatArray,
     named: dict[str, int],
     physics: _Physics,
     links: list[tuple[FloatArray, FloatArray]],
@@ -316,9 +327,16 @@ def _document(
             if idx == i:
                 lines.append(f'{ind}  <site name={quoteattr(key)} pos="0 0 0"/>')
         end = children[i][0]
-        if radius > 0.0 and float(np.linalg.norm(end)) > 1e-9:
+        ri = float(radius[i])
+        if ri > 0.0 and float(np.linalg.norm(end)) > 1e-9:
             lines.append(
-                f'{ind}  <geom type="capsule" size="{radius!r}" fromto="0 0 0 {_fmt(end)}" '
+                f'{ind}  <geom type="capsule" size="{ri!r}" fromto="0 0 0 {_fmt(end)}" '
+                'contype="2" conaffinity="0" mass="0"/>'
+            )
+        elif ri > 0.0 and radius.min() != radius.max():
+            # A zero-length link with its own radius: a sphere (robots.capsules reads it back).
+            lines.append(
+                f'{ind}  <geom type="sphere" size="{ri!r}" pos="0 0 0" '
                 'contype="2" conaffinity="0" mass="0"/>'
             )
     ind = "  " * (n + 2)
@@ -339,7 +357,7 @@ def dh_mjcf(
     joint_limits: ArrayLike,
     tool: ArrayLike | None = None,
     name: str = "arm",
-    radius: float = 0.0,
+    radius: float | ArrayLike = 0.0,
     named_points: Mapping[str, int] | None = None,
     masses: ArrayLike | None = None,
     centers_of_mass: ArrayLike | None = None,
@@ -358,7 +376,10 @@ def dh_mjcf(
         joint_limits: Lower/upper limit of each joint [rad], shape (n, 2), lower < upper.
         tool: Tool point in the last DH frame [m], shape (3,); the flange when ``None``.
         name: Model name (any string; XML-escaped).
-        radius: Capsule radius of the link geoms [m], ``>= 0``; ``0``: no geoms.
+        radius: Capsule radius of the link geoms [m], ``>= 0``, one for all links or one per
+            link, shape (n,); ``0``: no geom (such a link reads back the largest radius, see
+            ``velfence.robots.capsules``). With radii per link, a zero-length link gets a
+            sphere geom of its radius.
         named_points: Extra site names mapped to a joint index ``j`` (a site at joint ``j``'s
             body origin), e.g. ``{"elbow": 2}``.
         masses: Link masses [kg], shape (n,), each > 0; ``None``: unit placeholder masses.
@@ -405,7 +426,7 @@ def mdh_mjcf(
     tool: ArrayLike | None = None,
     name: str = "arm",
     flange_d: float = 0.0,
-    radius: float = 0.0,
+    radius: float | ArrayLike = 0.0,
     named_points: Mapping[str, int] | None = None,
     masses: ArrayLike | None = None,
     centers_of_mass: ArrayLike | None = None,
@@ -424,7 +445,8 @@ def mdh_mjcf(
         tool: Tool point in the flange frame [m], shape (3,); the flange when ``None``.
         name: Model name (any string; XML-escaped).
         flange_d: Distance of the flange along the last joint's ``z`` axis [m].
-        radius: Capsule radius of the link geoms [m], ``>= 0``; ``0``: no geoms.
+        radius: Capsule radius of the link geoms [m], ``>= 0``, a scalar or shape (n,) (see
+            :func:`dh_mjcf`); ``0``: no geom.
         named_points: Extra site names mapped to a joint index (see :func:`dh_mjcf`).
         masses: Link masses [kg], shape (n,), each > 0; ``None``: unit placeholder masses.
         centers_of_mass: Link centres of mass in frame ``i`` (the body) [m], shape (n, 3)

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import Any, Literal, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -184,7 +184,7 @@ class MujocoRobot(CapsuleLinks):
         package_paths: Sequence[str | Path] = (),
         tcp_link: str | None = None,
         tool: ArrayLike | None = None,
-        meshes: bool = False,
+        meshes: bool | Literal["collision"] = False,
     ) -> MujocoRobot:
         """Load a URDF file; MuJoCo compiles it (``velfence.robots.urdf`` for the details).
 
@@ -209,7 +209,10 @@ class MujocoRobot(CapsuleLinks):
                 the link origin when ``None``.
             meshes: ``False`` (default): visual and collision meshes are removed, so the
                 kinematics loads without mesh files; ``True``: they are kept and every mesh
-                file must exist (package URIs resolved from ``package_paths``).
+                file must exist (package URIs resolved from ``package_paths``);
+                ``"collision"``: every ``<visual>`` is removed and the collision meshes are
+                kept (what :func:`~velfence.robots.fit_collision_capsules` needs; visual
+                meshes are often COLLADA files MuJoCo cannot read).
 
         Returns:
             The robot (its joints the URDF's hinge and slide joints, in tree order).

@@ -18,7 +18,7 @@ from velfence.mechanisms.chain import DHChain
 from velfence.robots.mjcf import dh_mjcf, mdh_mjcf
 from velfence.robots.model import MujocoRobot
 
-__all__ = ["panda", "puma560", "seven_dof", "ur5e"]
+__all__ = ["PANDA_LINK_RADII", "panda", "puma560", "seven_dof", "ur5e"]
 
 _H = math.pi / 2.0
 _UR5E_JOINTS = (
@@ -60,6 +60,14 @@ _PANDA_LIMITS = (
     (-2.8973, 2.8973),
 )
 
+
+#: Capsule radius [m] of each of :func:`panda`'s seven joint-to-joint links that covers the
+#: Panda's collision meshes (franka_description's ``panda_link1`` … ``panda_link7`` STL files, as
+#: example-robot-data ships them), rounded up to the millimetre:
+#: ``fit_collision_capsules(...).link_radii(panda(), bodies=...)`` (docs/robots.md, "Collision
+#: geometry from the model"). Links 0 and 4 have zero length (a sphere at the shoulder, at the
+#: wrist), hence their large radii. ``panda(radius=PANDA_LINK_RADII)`` uses them.
+PANDA_LINK_RADII = (0.200, 0.130, 0.134, 0.117, 0.270, 0.084, 0.091)
 
 # Gaz, Cognetti, Oliva, Robuffo Giordano, De Luca, "Dynamic identification of the Franka Emika
 # Panda robot with retrieval of feasible parameters using penalty-based optimization", IEEE RA-L
@@ -149,7 +157,7 @@ def _with_names(xml: str, names: tuple[str, ...]) -> str:
     return xml
 
 
-def seven_dof(*, tool: ArrayLike | None = None, radius: float = 0.0) -> MujocoRobot:
+def seven_dof(*, tool: ArrayLike | None = None, radius: float | ArrayLike = 0.0) -> MujocoRobot:
     """A 7R S-R-S arm with the KUKA LBR iiwa 14 R820's dimensions (``DHChain.seven_dof``).
 
     Standard DH: d = 0.36, 0, 0.42, 0, 0.40, 0, 0.126 m, a = 0, alpha alternating -π/2, +π/2
@@ -161,7 +169,8 @@ def seven_dof(*, tool: ArrayLike | None = None, radius: float = 0.0) -> MujocoRo
 
     Args:
         tool: Tool point in the flange frame [m], shape (3,); the flange when ``None``.
-        radius: Capsule radius of the link geoms [m], ``>= 0`` (``0``: none).
+        radius: Capsule radius of the link geoms [m], ``>= 0``, one for all links or one per
+            link (``0``: none).
 
     Returns:
         The robot (7 joints ``joint0`` … ``joint6``).
@@ -181,7 +190,7 @@ def seven_dof(*, tool: ArrayLike | None = None, radius: float = 0.0) -> MujocoRo
     return MujocoRobot.from_xml(xml)
 
 
-def ur5e(*, tool: ArrayLike | None = None, radius: float = 0.0) -> MujocoRobot:
+def ur5e(*, tool: ArrayLike | None = None, radius: float | ArrayLike = 0.0) -> MujocoRobot:
     """The Universal Robots UR5e from Universal Robots' published standard DH (``DHChain.ur5e``).
 
     Source: Universal Robots, "DH parameters for calculations of kinematics and dynamics"
@@ -194,7 +203,8 @@ def ur5e(*, tool: ArrayLike | None = None, radius: float = 0.0) -> MujocoRobot:
 
     Args:
         tool: Tool point in the flange frame [m], shape (3,); the flange when ``None``.
-        radius: Capsule radius of the link geoms [m], ``>= 0`` (``0``: none).
+        radius: Capsule radius of the link geoms [m], ``>= 0``, one for all links or one per
+            link (``0``: none).
 
     Returns:
         The robot (6 joints).
@@ -215,7 +225,7 @@ def ur5e(*, tool: ArrayLike | None = None, radius: float = 0.0) -> MujocoRobot:
     return MujocoRobot.from_xml(_with_names(xml, _UR5E_JOINTS))
 
 
-def puma560(*, tool: ArrayLike | None = None, radius: float = 0.0) -> MujocoRobot:
+def puma560(*, tool: ArrayLike | None = None, radius: float | ArrayLike = 0.0) -> MujocoRobot:
     """The PUMA 560, standard DH of Fu, Gonzalez & Lee (``DHChain.puma560``).
 
     a2 = 0.4318, d2 = 0.15, a3 = -0.0203, d4 = 0.4331 m; tool point the wrist centre unless
@@ -227,7 +237,8 @@ def puma560(*, tool: ArrayLike | None = None, radius: float = 0.0) -> MujocoRobo
 
     Args:
         tool: Tool point in frame 6 [m], shape (3,); its origin when ``None``.
-        radius: Capsule radius of the link geoms [m], ``>= 0`` (``0``: none).
+        radius: Capsule radius of the link geoms [m], ``>= 0``, one for all links or one per
+            link (``0``: none).
 
     Returns:
         The robot (6 joints ``joint0`` … ``joint5``).
@@ -247,7 +258,7 @@ def puma560(*, tool: ArrayLike | None = None, radius: float = 0.0) -> MujocoRobo
     return MujocoRobot.from_xml(xml)
 
 
-def panda(*, tool: ArrayLike | None = None, radius: float = 0.0) -> MujocoRobot:
+def panda(*, tool: ArrayLike | None = None, radius: float | ArrayLike = 0.0) -> MujocoRobot:
     """A Franka-Emika-Panda-like 7-DoF arm from Franka's modified-DH (Craig) parameters.
 
     Source: Franka Emika, "Robot and interface specifications" (Panda): a = 0, 0, 0, 0.0825,
@@ -262,7 +273,8 @@ def panda(*, tool: ArrayLike | None = None, radius: float = 0.0) -> MujocoRobot:
 
     Args:
         tool: Tool point in the flange frame [m], shape (3,); the flange when ``None``.
-        radius: Capsule radius of the link geoms [m], ``>= 0`` (``0``: none).
+        radius: Capsule radius of the link geoms [m], ``>= 0``, one for all links or one per
+            link (``0``: none); :data:`PANDA_LINK_RADII` covers the Panda's collision meshes.
 
     Returns:
         The robot (7 joints).
