@@ -27,6 +27,19 @@ settings.register_profile("velfence", max_examples=100, **_COMMON)
 settings.register_profile("thorough", max_examples=1000, **_COMMON)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "velfence"))
 
+# Hypothesis (6.13x and later) mixes constants found in the local modules already imported
+# (``sys.modules``) into the values it draws. Under pytest-xdist each worker has imported a
+# different set of velfence modules by the time a property test runs, so a derandomized test drew
+# different examples in different runs. The pool is emptied here so that a test's examples depend
+# on the test alone (``derandomize`` then means the same examples in every run and worker).
+try:
+    from hypothesis.internal.conjecture import providers as _providers
+
+    if hasattr(_providers, "_get_local_constants"):
+        _providers._get_local_constants = lambda: _providers.Constants()
+except ImportError:  # another Hypothesis layout: nothing to pin
+    pass
+
 #: Slow tests marked here rather than in their files (node-id prefixes): the benchmark runs; the
 #: C and C++ programs built with the compiler (unit tests under sanitizers, the examples, the
 #: CMake package); the longest figure, stream and convergence runs. `make test` runs them all.

@@ -359,3 +359,67 @@ def test_tool_and_self_collision(
     assert "link 1 and link 3" in lines[2]
     assert numbers(lines[2])[0] < 3.0  # the elbow stopped before its limit (pi)
     assert (tmp_path / "tool_self_collision.png").stat().st_size > 10_000
+
+
+def test_jerk_fence_box(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    pytest.importorskip("mujoco")
+    pytest.importorskip("matplotlib")
+    figure = tmp_path / "jerk.png"
+    # the start of the script (0.12 s): the operator's step in speed, where the runs differ
+    monkeypatch.setattr("sys.argv", ["jerk_fence_box.py", str(figure), "--duration", "0.12"])
+    lines = run_example("jerk_fence_box", capsys)
+    assert lines[0].startswith("method")
+    rows = {line.split("|")[0].strip(): numbers(line.split("|", 1)[1]) for line in lines[1:4]}
+    assert set(rows) == {"velfence + jerk rows", "velfence, no jerk rows", "per-joint clamp"}
+    # (max ratio, unflagged max, flagged, over, cycles, outside [mm], joint [mrad], contacts)
+    jr, raw, clamp = (
+        rows[m] for m in ("velfence + jerk rows", "velfence, no jerk rows", "per-joint clamp")
+    )
+    assert jr[4] == raw[4] == clamp[4] == 61  # 0.12 s at 500 Hz, both ends
+    assert jr[1] <= 1.0 + 1e-3  # every unflagged cycle within the limit (3 decimals printed)
+    assert jr[3] == 0
+    assert raw[0] > 1.5  # without jerk rows the acceleration rows allow twice the limit
+    assert raw[3] > 0
+    assert clamp[0] > 10.0  # the clamp steps the speed in one period
+    assert figure.stat().st_size > 10_000
+    assert lines[-1] == f"wrote {figure}"
+
+
+@pytest.mark.slow
+def test_panda_collision_fit(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    pytest.importorskip("mujoco")
+    pytest.importorskip("matplotlib")
+    from importlib import metadata
+
+    try:
+        metadata.distribution("example-robot-data")
+    except metadata.PackageNotFoundError:
+        pytest.skip("example-robot-data is not installed")
+    figure = tmp_path / "fit.png"
+    monkeypatch.setattr("sys.argv", ["panda_collision_fit.py", str(figure)])
+    lines = run_example("panda_collision_fit", capsys)
+    bodies = [ln for ln in lines if ln.startswith("| panda_link")]
+    links = [ln for ln in lines if re.match(r"\| \d \| panda_link", ln)]
+    assert len(bodies) == 8  # panda_link0 … panda_link7
+    assert len(links) == 7
+    for row in bodies:
+        _length, radius, geometry, capsule, added, gap = numbers(row.split("|", 3)[3])
+        # a capsule contains its geometry: more volume, and a gap below its radius
+        assert capsule > geometry > 0.0
+        assert added == pytest.approx(capsule - geometry, abs=0.011)
+        assert 0.0 < gap < radius
+    shipped = vector(next(ln for ln in lines if ln.startswith("shipped radii")).split("[m]")[1])
+    for k, row in enumerate(links):
+        cells = row.split("|")
+        radius = float(cells[4])
+        assert 1e3 * shipped[k] >= radius - 0.05  # the shipped radius covers the fit (mm)
+        joint_capsule, added = float(cells[7]), float(cells[8])
+        assert joint_capsule >= float(cells[5])  # at least the geometry's volume
+        assert added == pytest.approx(joint_capsule - float(cells[5]), abs=0.011)
+    assert numbers(next(ln for ln in lines if ln.startswith("frame error")))[0] < 1e-9
+    assert figure.stat().st_size > 10_000
+    assert lines[-1] == f"wrote {figure}"

@@ -13,6 +13,9 @@
  *                                                              (VF_FILTER_LEVEL_JOINT, j, 2 / 3),
  *        acceleration rows (previous != NULL, dt > 0, amax_j finite):
  *          x_j >= prev_j - a_j dt, -x_j >= -(prev_j + a_j dt)      (VF_FILTER_LEVEL_RATE, j, 0 / 1),
+ *        jerk rows (previous and previous2 != NULL, dt > 0, jmax_j finite; c_j = 2 prev_j - prev2_j
+ *          as prev_j + (prev_j - prev2_j)):
+ *          x_j >= c_j - J_j dt^2, -x_j >= -(c_j + J_j dt^2)        (VF_FILTER_LEVEL_JERK, j, 0 / 1),
  *        workspace rows: facet i of polytope w on its point p: (N_i J_p) x >= b_i, the exact law's
  *          bound at the point's speed |J_p u| (facets without a bound left out)
  *                                                         (VF_FILTER_LEVEL_WORKSPACE, w, i),
@@ -30,7 +33,8 @@
  *      the discrete-time model check and the priority ladder, exactly as velfence.filter (the
  *      Python oracle):
  *        rung 1  every row as built;
- *        rung 2  drop the acceleration rows                   (VF_FILTER_STAGE_DROPPED_RATE);
+ *        rung 2  drop the jerk rows                           (VF_FILTER_STAGE_DROPPED_JERK),
+ *                then the acceleration rows too               (VF_FILTER_STAGE_DROPPED_RATE);
  *        rung 3  violated obstacle rows with b > 0: b scaled by 1/4, 1/16, ..., 4^-8, then 0
  *                                                             (VF_FILTER_STAGE_RELAXED_OBSTACLES);
  *        rung 4  the same for the workspace rows              (VF_FILTER_STAGE_RELAXED_WORKSPACE);
@@ -111,6 +115,8 @@ extern "C" {
 #define VF_FILTER_LEVEL_WORKSPACE 1
 #define VF_FILTER_LEVEL_OBSTACLE 2
 #define VF_FILTER_LEVEL_RATE 3
+#define VF_FILTER_LEVEL_JERK 4
+#define VF_FILTER_LEVELS 5
 
 /* Stage bits of info->stages (FilterResult.stages). */
 #define VF_FILTER_STAGE_PROJECTION 1        /* the output differs from the (capped) command */
@@ -124,6 +130,7 @@ extern "C" {
 #define VF_FILTER_STAGE_DEADLINE 256        /* the safe fallback (iteration cap or time budget) */
 #define VF_FILTER_STAGE_COMMAND_SCALED 512  /* the command was shortened first */
 #define VF_FILTER_STAGE_MODEL_SCALED 1024   /* the model check scaled the solve's answer */
+#define VF_FILTER_STAGE_DROPPED_JERK 2048   /* the jerk rows were dropped */
 
 #define VF_FILTER_DEADLINE_NONE 0
 #define VF_FILTER_DEADLINE_ITERATIONS 1
@@ -178,6 +185,7 @@ typedef struct vf_filter {
     double spring_gain;            /* obstacles' recovery gain [1/s], >= 0 */
     double dt;                     /* control period [s], 0 < dt <= 1e150, or 0: continuous */
     const double *weights;         /* diagonal metric (n,), > 0, or NULL (identity) */
+    const double *jmax;            /* joint jerk limits (n,) (> 0, inf: none), or NULL */
     /* Self-collision (after the obstacle rows, the same level, profile and reach test): link
      * capsule i against link capsule j for each pair (i, j), 0 <= i < j < n, in `pairs`
      * (2 x npairs ints); row key (VF_FILTER_LEVEL_OBSTACLE, k + i, j). 0 / NULL: none.
@@ -206,8 +214,8 @@ typedef struct vf_filter_info {
     int32_t stages;        /* VF_FILTER_STAGE_* bits */
     int32_t rung;          /* the rung that answered, 1 .. 6 (0: the feasibility test / error) */
     int32_t deadline;      /* VF_FILTER_DEADLINE_* */
-    int32_t relaxed[4];    /* per level: 1 when its recovery bounds were relaxed */
-    int32_t dropped[4];    /* per level: 1 when its rows were dropped (only the rate level) */
+    int32_t relaxed[VF_FILTER_LEVELS]; /* per level: 1 when its recovery bounds were relaxed */
+    int32_t dropped[VF_FILTER_LEVELS]; /* per level: 1 when its rows were dropped (rate, jerk) */
     double fraction;       /* the last relaxation fraction tried (1: none) */
     int32_t m;             /* rows built */
     int32_t n_active;      /* active rows: slack <= 1e-9 (1 + |b|) at the output, or violated */
@@ -243,7 +251,7 @@ double vf_self_row(int32_t n, const double *P, const double *axes, int32_t i, in
 
 /* Checks the description: VF_OK or a negative VF_ERR_* code. */
 int vf_filter_check(const vf_filter *f);
-/* Largest number of rows: 6 n + sum nf (1 + 2 nattach) + k (n + nattach) + npairs. */
+/* Largest number of rows: 8 n + sum nf (1 + 2 nattach) + k (n + nattach) + npairs. */
 size_t vf_filter_rows_max(const vf_filter *f);
 /* Scratch sizes of vf_filter_cycle (0 for an invalid description). */
 size_t vf_filter_doubles(const vf_filter *f);
@@ -258,6 +266,13 @@ void vf_filter_obstacle_profile(const vf_filter *f, int32_t *kind, double *prm);
 int vf_filter_cycle(const vf_filter *f, const double *q, const double *u, const double *previous,
                     const vf_filter_opts *opts, double *out, vf_filter_info *info,
                     double *scratch, int32_t *iscratch);
+
+/* vf_filter_cycle with the output before previous, previous2 (n,) or NULL: with both, dt > 0 and
+ * f->jmax, the jerk rows (vf_filter_cycle passes NULL: none). */
+int vf_filter_cycle_jerk(const vf_filter *f, const double *q, const double *u,
+                         const double *previous, const double *previous2,
+                         const vf_filter_opts *opts, double *out, vf_filter_info *info,
+                         double *scratch, int32_t *iscratch);
 
 /* ------------------------------------------------------------------ many states at once
  *

@@ -2,15 +2,18 @@
  * velfence_core._filter -- CPython binding of the safety filter's whole cycle (velfence_filter.h).
  *
  *   FilterCycle(joints, tool, lower, upper, vmax, amax, jkind, jprm, points, ws, centres, radii,
- *               link_radius, obstacle_buffer, spring_gain, dt, weights, self_pairs=None)
+ *               link_radius, obstacle_buffer, spring_gain, dt, weights, jmax=None, self_pairs=None,
+ *               attachments=None)
  *       joints: float64 (n * 17,): per joint T (12, [R | p] row-major), axis (3), type, offset;
  *       tool (12,); lower, upper, vmax (n,); amax (n,) or None; jkind: n ints; jprm (n * 6,);
  *       points (npoints * 4,): link, offset x, y, z; ws: list of (point, N (nf * 3,), off (nf,),
  *       kind, prm (6,)); centres (k * 3,), radii (k,); link_radius (n,) or None; weights (n,) or
- *       None; self_pairs: 2 * npairs ints (link i, link j of each self-collision pair, i < j) or
- *       None. Everything is copied and checked once (vf_filter_check): ValueError when invalid.
- *     cycle(q, u, previous=None, out=None) -> out: one cycle on float64 arrays (n,) (out: a
- *       caller array (n,) written in place, else a new one). ValueError on a negative status (the
+ *       None; jmax (n,) or None (the jerk limits); self_pairs: 2 * npairs ints (link i, link j
+ *       of each self-collision pair, i < j) or None. Everything is copied and checked once
+ *       (vf_filter_check): ValueError when invalid.
+ *     cycle(q, u, previous=None, out=None, previous2=None) -> out: one cycle on float64 arrays
+ *       (n,) (out: a caller array (n,) written in place, else a new one; previous2: the output
+ *       before previous, for the jerk rows: vf_filter_cycle_jerk). ValueError on a negative status (the
  *       output is then zero); the info of the cycle stays readable (info(), rows(), active()).
  *     cycle_batch(q, u, previous=None, out=None, threads=0) -> (out, status, stages, n_active):
  *       vf_filter_cycle_batch on float64 C-contiguous arrays (count, n) (previous too, or None);
@@ -24,7 +27,8 @@
  *       n_violated, n_relaxed, iterations, solves); rows() -> (G, b, level, key_a, key_b, dist,
  *       slack, bound) of the last cycle (copies); active() / relaxed() -> the last active / relaxed
  *       rows' keys, lists of (level, a, b).
- *     deadline_misses: the number of cycles that used the deadline fallback.
+ *     deadline_misses: the number of cycles that used the deadline fallback; stages: the last
+ *       cycle's VF_FILTER_STAGE_* bits (info()["stages"] without the dict).
  *     set_attachments(flat): replace the attached shapes (8 floats each: link, a (3), b (3),
  *       radius; the constructor's attachments= too) and resize the scratch (not per cycle).
  *   segment_pairs(a0, a1, b0, b1) -> (s, t, dist, nrm): vf_segment_pair on float64 (N, 3) arrays
@@ -158,23 +162,24 @@ static int read_attachments(FilterCycle *self, PyObject *obj)
 static int FilterCycle_init(FilterCycle *self, PyObject *args, PyObject *kwds)
 {
     PyObject *joints, *tool, *lower, *upper, *vmax, *amax, *jkind, *jprm, *points, *ws, *centres,
-        *radii, *lrad, *weights, *fast = NULL, *spairs = Py_None, *atts = Py_None;
+        *radii, *lrad, *weights, *jmax = Py_None, *fast = NULL, *spairs = Py_None,
+        *atts = Py_None;
     double buf, gain, dt;
     Py_ssize_t nj17, n, npt, nw, k, w, total = 0, o = 0, sumnf = 0, i;
     size_t nd, ni;
     int rc;
     static char *kwlist[] = {"joints", "tool", "lower", "upper", "vmax", "amax", "jkind", "jprm",
                              "points", "ws", "centres", "radii", "link_radius",
-                             "obstacle_buffer", "spring_gain", "dt", "weights", "self_pairs",
-                             "attachments", NULL};
+                             "obstacle_buffer", "spring_gain", "dt", "weights", "jmax",
+                             "self_pairs", "attachments", NULL};
     if (self->mem != NULL) {
         PyErr_SetString(PyExc_RuntimeError, "FilterCycle is already initialised");
         return -1;
     }
-    if (!PyArg_ParseTupleAndKeywords(args, kwds, "OOOOOOOOOOOOOdddO|OO", kwlist, &joints,
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "OOOOOOOOOOOOOdddO|OOO", kwlist, &joints,
                                      &tool, &lower, &upper, &vmax, &amax, &jkind, &jprm, &points,
                                      &ws, &centres, &radii, &lrad, &buf, &gain, &dt, &weights,
-                                     &spairs, &atts)) {
+                                     &jmax, &spairs, &atts)) {
         return -1;
     }
     if (atts != Py_None && read_attachments(self, atts) < 0) {
@@ -253,7 +258,7 @@ static int FilterCycle_init(FilterCycle *self, PyObject *args, PyObject *kwds)
     self->joints = PyMem_Calloc((size_t)n, sizeof(vf_filter_joint));
     self->points = PyMem_Calloc((size_t)(npt > 0 ? npt : 1), sizeof(vf_filter_point));
     self->ws = PyMem_Calloc((size_t)(nw > 0 ? nw : 1), sizeof(vf_filter_polytope));
-    total = 29 * n + 4 * npt + 4 * sumnf + 4 * k;
+    total = 30 * n + 4 * npt + 4 * sumnf + 4 * k;
     self->mem = PyMem_Calloc((size_t)total + 1, sizeof(double));
     self->imem = PyMem_Calloc((size_t)n, sizeof(int32_t));
     if (self->joints == NULL || self->points == NULL || self->ws == NULL || self->mem == NULL
@@ -293,6 +298,9 @@ static int FilterCycle_init(FilterCycle *self, PyObject *args, PyObject *kwds)
     ARR(vmax, "vmax", n, vmax);
     if (amax != Py_None) {
         ARR(amax, "amax", n, amax);
+    }
+    if (jmax != Py_None) {
+        ARR(jmax, "jmax", n, jmax);
     }
     ARR(jprm, "jprm", 6 * n, jprm);
     if (lrad != Py_None) {
@@ -435,21 +443,24 @@ static const double *vec_arg(PyObject *o, int32_t n, const char *name)
 static PyObject *FilterCycle_cycle(FilterCycle *self, PyObject *const *args, Py_ssize_t nargs)
 {
     const int32_t n = self->f.n;
-    const double *q, *u, *prev = NULL;
+    const double *q, *u, *prev = NULL, *prev2 = NULL;
     PyObject *out;
     int rc;
     if (self->mem == NULL) {
         PyErr_SetString(PyExc_RuntimeError, "FilterCycle not initialised");
         return NULL;
     }
-    if (nargs < 2 || nargs > 4) {
-        PyErr_SetString(PyExc_TypeError, "cycle(q, u, previous=None, out=None)");
+    if (nargs < 2 || nargs > 5) {
+        PyErr_SetString(PyExc_TypeError, "cycle(q, u, previous=None, out=None, previous2=None)");
         return NULL;
     }
     if ((q = vec_arg(args[0], n, "q")) == NULL || (u = vec_arg(args[1], n, "u")) == NULL) {
         return NULL;
     }
     if (nargs > 2 && args[2] != Py_None && (prev = vec_arg(args[2], n, "previous")) == NULL) {
+        return NULL;
+    }
+    if (nargs > 4 && args[4] != Py_None && (prev2 = vec_arg(args[4], n, "previous2")) == NULL) {
         return NULL;
     }
     if (nargs > 3 && args[3] != Py_None) {
@@ -472,9 +483,9 @@ static PyObject *FilterCycle_cycle(FilterCycle *self, PyObject *const *args, Py_
     }
     self->opts.warm = self->warm;
     self->opts.n_warm = self->use_warm ? self->n_warm : 0;
-    rc = vf_filter_cycle(&self->f, q, u, prev, &self->opts,
-                         (double *)PyArray_DATA((PyArrayObject *)out), &self->info, self->scratch,
-                         self->iscratch);
+    rc = vf_filter_cycle_jerk(&self->f, q, u, prev, prev2, &self->opts,
+                              (double *)PyArray_DATA((PyArrayObject *)out), &self->info,
+                              self->scratch, self->iscratch);
     self->have_info = 1;
     if (rc == VF_ITERATION_CAP || rc == VF_DEADLINE) {
         self->misses += 1;
@@ -636,10 +647,10 @@ static PyObject *FilterCycle_info(FilterCycle *self, PyObject *Py_UNUSED(ignored
 {
     const vf_filter_info *i = &self->info;
     return Py_BuildValue(
-        "{s:i,s:i,s:i,s:i,s:(iiii),s:(iiii),s:d,s:i,s:i,s:i,s:i,s:i,s:i}", "status", i->status,
-        "stages", i->stages, "rung", i->rung, "deadline", i->deadline, "relaxed", i->relaxed[0],
-        i->relaxed[1], i->relaxed[2], i->relaxed[3], "dropped", i->dropped[0], i->dropped[1],
-        i->dropped[2], i->dropped[3], "fraction", i->fraction, "m", i->m, "n_active",
+        "{s:i,s:i,s:i,s:i,s:(iiiii),s:(iiiii),s:d,s:i,s:i,s:i,s:i,s:i,s:i}", "status",
+        i->status, "stages", i->stages, "rung", i->rung, "deadline", i->deadline, "relaxed",
+        i->relaxed[0], i->relaxed[1], i->relaxed[2], i->relaxed[3], i->relaxed[4], "dropped",
+        i->dropped[0], i->dropped[1], i->dropped[2], i->dropped[3], i->dropped[4], "fraction", i->fraction, "m", i->m, "n_active",
         i->n_active, "n_violated", i->n_violated, "n_relaxed", i->n_relaxed, "iterations",
         i->iterations, "solves",
         i->solves);
@@ -726,6 +737,11 @@ static PyObject *FilterCycle_misses(FilterCycle *self, void *Py_UNUSED(closure))
     return PyLong_FromLongLong(self->misses);
 }
 
+static PyObject *FilterCycle_stages(FilterCycle *self, void *Py_UNUSED(closure))
+{
+    return PyLong_FromLong(self->have_info ? (long)self->info.stages : 0L);
+}
+
 static PyObject *FilterCycle_dof(FilterCycle *self, void *Py_UNUSED(closure))
 {
     return PyLong_FromLong(self->f.n);
@@ -785,7 +801,8 @@ static PyMethodDef FilterCycle_methods[] = {
     {"set_attachments", (PyCFunction)FilterCycle_set_attachments, METH_O,
      "set_attachments(flat): the attached shapes, 8 floats each (link, a, b, radius)."},
     {"cycle", (PyCFunction)(void (*)(void))FilterCycle_cycle, METH_FASTCALL,
-     "cycle(q, u, previous=None, out=None) -> out: one cycle of the safety filter."},
+     "cycle(q, u, previous=None, out=None, previous2=None) -> out: one cycle of the safety "
+     "filter."},
     {"cycle_batch", (PyCFunction)(void (*)(void))FilterCycle_cycle_batch,
      METH_VARARGS | METH_KEYWORDS,
      "cycle_batch(q, u, previous=None, out=None, threads=0) -> (out, status, stages, n_active)"},
@@ -804,6 +821,8 @@ static PyMethodDef FilterCycle_methods[] = {
 static PyGetSetDef FilterCycle_getset[] = {
     {"deadline_misses", (getter)FilterCycle_misses, NULL, "cycles that used the fallback", NULL},
     {"dof", (getter)FilterCycle_dof, NULL, "joints", NULL},
+    {"stages", (getter)FilterCycle_stages, NULL, "the last cycle's stage bits (0: none yet)",
+     NULL},
     {NULL, NULL, NULL, NULL, NULL},
 };
 
@@ -919,10 +938,12 @@ PyMODINIT_FUNC PyInit__filter(void)
     C(STAGE_DEADLINE);
     C(STAGE_COMMAND_SCALED);
     C(STAGE_MODEL_SCALED);
+    C(STAGE_DROPPED_JERK);
     C(LEVEL_JOINT);
     C(LEVEL_WORKSPACE);
     C(LEVEL_OBSTACLE);
     C(LEVEL_RATE);
+    C(LEVEL_JERK);
     C(DEADLINE_NONE);
     C(DEADLINE_ITERATIONS);
     C(DEADLINE_TIME);

@@ -381,6 +381,9 @@ int vf_filter_check(const vf_filter *f)
         if (!(isfinite(f->vmax[j]) && f->vmax[j] > 0.0)) {
             return VF_ERR_ARGUMENT;
         }
+        if (f->jmax != NULL && !(f->jmax[j] > 0.0)) {
+            return VF_ERR_ARGUMENT;
+        }
         if (f->amax != NULL && !(f->amax[j] > 0.0)) {
             return VF_ERR_ARGUMENT; /* NaN, 0 or negative (inf: none) */
         }
@@ -482,7 +485,7 @@ size_t vf_filter_rows_max(const vf_filter *f)
         return 0;
     }
     na = f->nattach > 0 ? (size_t)f->nattach : 0;
-    rows = 6 * (size_t)f->n + (size_t)f->k * ((size_t)f->n + na)
+    rows = 8 * (size_t)f->n + (size_t)f->k * ((size_t)f->n + na)
            + (f->npairs > 0 ? (size_t)f->npairs : 0);
     for (w = 0; w < f->nw; w++) {
         rows += f->ws[w].nf > 0 ? (size_t)f->ws[w].nf * (1 + 2 * na) : 0;
@@ -814,7 +817,7 @@ static int32_t self_rows(ctx *c, int32_t r)
 }
 
 /* Every row of the cycle (the header's order); returns their number. */
-static int32_t build_rows(ctx *c, const double *previous)
+static int32_t build_rows(ctx *c, const double *previous, const double *previous2)
 {
     const vf_filter *f = c->f;
     const int32_t n = c->n;
@@ -833,6 +836,7 @@ static int32_t build_rows(ctx *c, const double *previous)
         r = vf_joint_speed_rows(&o, r, j, f->vmax[j], VF_FILTER_LEVEL_JOINT, j, 2, j, 3);
     }
     r = vf_rate_rows(&o, r, previous, f->dt, f->amax, VF_FILTER_LEVEL_RATE);
+    r = vf_jerk_rows(&o, r, previous, previous2, f->dt, f->jmax, VF_FILTER_LEVEL_JERK);
     for (w = 0; w < f->nw; w++) {
         const vf_filter_polytope *ws = f->ws + w;
         const vf_filter_point *pt = f->points + ws->point;
@@ -1250,17 +1254,20 @@ static void fallback(ctx *c, double *x)
 }
 
 /* The slot of a row key in [0, rows_max): joint rows 4 a + b, acceleration 4 n + 2 a + b,
- * workspace 6 n + (facets of the earlier polytopes) + b, obstacles 6 n + sum nf + n a + b;
- * -1 for a key out of range. */
+ * jerk 6 n + 2 a + b, workspace 8 n + (facets of the earlier polytopes) + b, obstacles
+ * 8 n + sum nf + n a + b; -1 for a key out of range. */
 static int32_t key_slot(const vf_filter *f, int32_t lv, int32_t a, int32_t b)
 {
     const int32_t n = f->n;
-    int32_t off = 6 * n, w;
+    int32_t off = 8 * n, w;
     if (lv == VF_FILTER_LEVEL_JOINT) {
         return a >= 0 && a < n && b >= 0 && b < 4 ? 4 * a + b : -1;
     }
     if (lv == VF_FILTER_LEVEL_RATE) {
         return a >= 0 && a < n && b >= 0 && b < 2 ? 4 * n + 2 * a + b : -1;
+    }
+    if (lv == VF_FILTER_LEVEL_JERK) {
+        return a >= 0 && a < n && b >= 0 && b < 2 ? 6 * n + 2 * a + b : -1;
     }
     if (lv == VF_FILTER_LEVEL_WORKSPACE) {
         if (a < 0 || a >= f->nw || b < 0 || b >= f->ws[a].nf * (1 + 2 * f->nattach)) {
@@ -1331,6 +1338,14 @@ int vf_filter_cycle(const vf_filter *f, const double *q, const double *u, const 
                     const vf_filter_opts *opts, double *out, vf_filter_info *info,
                     double *scratch, int32_t *iscratch)
 {
+    return vf_filter_cycle_jerk(f, q, u, previous, NULL, opts, out, info, scratch, iscratch);
+}
+
+int vf_filter_cycle_jerk(const vf_filter *f, const double *q, const double *u,
+                         const double *previous, const double *previous2,
+                         const vf_filter_opts *opts, double *out, vf_filter_info *info,
+                         double *scratch, int32_t *iscratch)
+{
     ctx cx;
     ctx *c = &cx;
     int32_t n, k, r, lv;
@@ -1348,7 +1363,8 @@ int vf_filter_cycle(const vf_filter *f, const double *q, const double *u, const 
         return fail(rc, f, out, info);
     }
     n = f->n;
-    if (!state_ok(q, n) || !state_ok(u, n) || (previous != NULL && !state_ok(previous, n))) {
+    if (!state_ok(q, n) || !state_ok(u, n) || (previous != NULL && !state_ok(previous, n))
+        || (previous2 != NULL && !state_ok(previous2, n))) {
         return fail(VF_ERR_NONFINITE, f, out, info);
     }
     zero_info(info);
@@ -1395,7 +1411,7 @@ int vf_filter_cycle(const vf_filter *f, const double *q, const double *u, const 
     }
     c->u = D(c, ucmd);
     c->unorm = inf_norm(c->u, n);
-    c->m = build_rows(c, f->dt > 0.0 ? previous : NULL);
+    c->m = build_rows(c, f->dt > 0.0 ? previous : NULL, f->dt > 0.0 ? previous2 : NULL);
     info->m = c->m;
     for (r = 0; r < c->m; r++) {
         if (!isfinite(D(c, b)[r]) || !vf_finite_all(D(c, G) + (size_t)r * n, (size_t)n)) {
@@ -1447,6 +1463,21 @@ int vf_filter_cycle(const vf_filter *f, const double *q, const double *u, const 
     memcpy(cur, D(c, b), sizeof(double) * (size_t)c->m);
     info->rung = 1;
     st = rung(c, cur, x);
+    if (st != VF_OK && st != VF_ITERATION_CAP && st != VF_DEADLINE) {
+        int any = 0;
+        for (r = 0; r < c->m; r++) {
+            if (IV(c, level)[r] == VF_FILTER_LEVEL_JERK) {
+                cur[r] = -INFINITY;
+                any = 1;
+            }
+        }
+        if (any) {
+            info->rung = 2;
+            info->dropped[VF_FILTER_LEVEL_JERK] = 1;
+            info->stages |= VF_FILTER_STAGE_DROPPED_JERK;
+            st = rung(c, cur, x);
+        }
+    }
     if (st != VF_OK && st != VF_ITERATION_CAP && st != VF_DEADLINE) {
         int any = 0;
         for (r = 0; r < c->m; r++) {

@@ -99,6 +99,31 @@ static inline int32_t vf_rate_rows(const vf_rows *o, int32_t r, const double *pr
     return r;
 }
 
+/* The jerk rows from row r on (with the last two outputs previous, previous2, dt > 0 and jmax):
+ * for each joint j of finite jmax_j, around c_j = prev_j + (prev_j - prev2_j) (the velocity the
+ * last acceleration would reach), x_j >= c_j - jmax_j (dt dt) (tags j, 0) and
+ * -x_j >= -(c_j + jmax_j (dt dt)) (j, 1). Returns the next row. */
+static inline int32_t vf_jerk_rows(const vf_rows *o, int32_t r, const double *previous,
+                                   const double *previous2, double dt, const double *jmax,
+                                   int32_t lv)
+{
+    int32_t j;
+    if (previous == NULL || previous2 == NULL || !(dt > 0.0) || jmax == NULL) {
+        return r;
+    }
+    for (j = 0; j < o->n; j++) {
+        double step, c;
+        if (!isfinite(jmax[j])) {
+            continue;
+        }
+        step = jmax[j] * (dt * dt);
+        c = previous[j] + (previous[j] - previous2[j]);
+        vf_unit_row(o, r++, j, 1.0, c - step, lv, j, 0, INFINITY);
+        vf_unit_row(o, r++, j, -1.0, -(c + step), lv, j, 1, INFINITY);
+    }
+    return r;
+}
+
 /* Workspace polytope w's facet rows from row r on: the point p (speed: its speed under the
  * command) against the nf facets N (3 each, unit), off; J holds the point's Jacobian, column j
  * (j < k) at 3 j. wsd, wsb (nf doubles each) and wi (2 nf int32) are scratch. A facet whose bound

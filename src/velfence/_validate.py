@@ -38,6 +38,7 @@ __all__ = [
     "as_rows",
     "check_choice",
     "check_flag",
+    "check_names",
     "check_positive",
     "check_positive_int",
     "check_range",
@@ -678,6 +679,46 @@ def check_text(
             f"{name}: expected at most {max_length} characters, got {len(value):,}"
         )
     return str(value)
+
+
+def check_names(
+    name: str,
+    value: Any,
+    *,
+    count: int | None = None,
+    max_length: int = 200,
+    error: type[Exception] | None = None,
+) -> tuple[str, ...]:
+    """A list or tuple of distinct non-empty names (joints, points), as a tuple of ``str``.
+
+    A single string is refused (``tuple("ab")`` would be the names ``"a"`` and ``"b"``), and so
+    is any other container (sets have no order; an iterator's length is unknown).
+
+    Args:
+        name: The public argument's name, for messages.
+        value: The names.
+        count: Required number of names (``None``: at least one).
+        max_length: Longest accepted name [characters].
+        error: Exception class (default :class:`~velfence.errors.InvalidParameter`).
+
+    Raises:
+        InvalidParameter: (or ``error``) not a list or tuple of strings, an empty or repeated
+            name, or not ``count`` of them.
+    """
+    from velfence.errors import InvalidParameter
+
+    err = error or InvalidParameter
+    want = "names" if count is None else f"{count} names"
+    if not isinstance(value, (list, tuple)):
+        raise err(f"{name}: expected a list or tuple of {want}, got {_type_text(value)}")
+    if len(value) > 100_000:
+        raise err(f"{name}: expected at most 100,000 names, got {len(value):,}")
+    names = tuple(check_text(f"{name}[{i}]", v, max_length=max_length, error=err)
+                  for i, v in enumerate(value))  # fmt: skip
+    n = len(names) if count is None else count
+    if len(names) != n or n < 1 or len(set(names)) != n or not all(names):
+        raise err(f"{name}: expected {want} (distinct, non-empty), got {show(list(names))}")
+    return names
 
 
 def check_seed(

@@ -4,7 +4,9 @@ Random scenes drawn by hypothesis over whole joint ranges: a UR5e or a 7-joint a
 with random tool, capsule radii, joint speed and acceleration limits, joints anywhere in their
 range, exactly at a limit or beyond it, a box around the tool point (sometimes with the tool
 outside), sphere obstacles near the links (some penetrating), ``dt`` unset or 1 ms / 10 ms, with
-and without a previous output, commands from tiny to beyond the command cap. Per scene the C cycle
+and without a previous output (and with jerk limits, with and without the output before it, some
+far enough from it that the jerk rows conflict with the acceleration rows), commands from tiny to
+beyond the command cap. Per scene the C cycle
 (``velfence_core._filter.FilterCycle``, built by ``velfence.filter._ccycle.filter_cycle``) and
 :meth:`velfence.filter.SafetyFilter.explain` must build the same rows (names, ``G`` and ``b`` to
 1e-9 relative) and return the same output (1e-9 relative), the same stages, relaxed rows,
@@ -37,6 +39,7 @@ _STAGE_BITS = {
     "recovery": _filter.STAGE_RECOVERY,
     "model-check": _filter.STAGE_MODEL_CHECK,
     "dropped acceleration": _filter.STAGE_DROPPED_RATE,
+    "dropped jerk": _filter.STAGE_DROPPED_JERK,
     "relaxed obstacles": _filter.STAGE_RELAXED_OBSTACLES,
     "relaxed workspace": _filter.STAGE_RELAXED_WORKSPACE,
     "relaxed joint limits": _filter.STAGE_RELAXED_JOINT,
@@ -56,6 +59,8 @@ def _name(key: tuple[int, int, int], facets: tuple[str, ...]) -> str:
         return f"joint {a} {what} ({_SIDES[b % 2]})"
     if lv == _filter.LEVEL_RATE:
         return f"joint {a} acceleration ({_SIDES[b]})"
+    if lv == _filter.LEVEL_JERK:
+        return f"joint {a} jerk ({_SIDES[b]})"
     if lv == _filter.LEVEL_WORKSPACE:
         return f"TCP face {facets[b]}"
     return f"obstacle {a} on link {b}"
@@ -94,9 +99,17 @@ def scenes(draw: Any) -> dict[str, Any]:
     scale = draw(st.sampled_from((1e-3, 0.3, 1.0, 3.0, 1e4)))
     u = np.array([draw(st.floats(-1.0, 1.0)) for _ in range(n)]) * scale
     dt = draw(st.sampled_from((None, 1e-3, 1e-2)))
-    prev = None
+    prev = prev2 = None
     if dt is not None and draw(st.booleans()):
         prev = np.array([draw(st.floats(-1.0, 1.0)) for _ in range(n)]) * vmax
+        if draw(st.booleans()):
+            step = draw(st.sampled_from((0.01, 0.2)))
+            prev2 = prev + np.array([draw(st.floats(-1.0, 1.0)) for _ in range(n)]) * vmax * step
+    jmax = None
+    if draw(st.booleans()):
+        jmax = np.array([draw(st.floats(50.0, 5000.0)) for _ in range(n)])
+        if draw(st.booleans()):
+            jmax[draw(st.integers(0, n - 1))] = math.inf  # a joint without one
     tcp = robot.fk(q, "tcp")
     half = np.array([draw(st.floats(0.05, 0.6)) for _ in range(3)])
     shift = (
@@ -126,13 +139,20 @@ def scenes(draw: Any) -> dict[str, Any]:
     weights = None
     if draw(st.integers(0, 4)) == 0:
         weights = [draw(st.floats(0.2, 5.0)) for _ in range(n)]
+    limits = JointLimits(lo, hi, max_speed=vmax, max_acceleration=amax, max_jerk=jmax)
     sf = SafetyFilter(
-        robot, limits=JointLimits(lo, hi, max_speed=vmax, max_acceleration=amax), workspace=box,
+        robot, limits=limits, workspace=box,
         obstacles=obstacles, dt=dt, weights=weights,
         obstacle_buffer=draw(st.floats(0.01, 0.3)), spring_gain=draw(st.floats(0.0, 5.0)),
         backend="python",  # the oracle: the Python route (backend="auto" would run the C cycle)
     )  # fmt: skip
-    return {"sf": sf, "q": q, "u": u, "prev": prev, "facets": box.polytope.facet_names}
+    if prev is not None and sf.stateful:
+        # the oracle's remembered outputs (explain(previous=...) would build no jerk rows)
+        sf._previous, sf._previous2 = prev, prev2
+    return {
+        "sf": sf, "q": q, "u": u, "prev": prev, "prev2": prev2,
+        "facets": box.polytope.facet_names,
+    }  # fmt: skip
 
 
 def _model_borderline(sf: Any, q: Any, u: Any, prev: Any, xs: tuple[Any, ...]) -> bool:
@@ -142,7 +162,7 @@ def _model_borderline(sf: Any, q: Any, u: Any, prev: Any, xs: tuple[Any, ...]) -
     cap = 1e3 * float(np.max(sf.limits.max_speed))
     big = float(np.abs(u).max())
     uc = u * (cap / big) if big > cap else u
-    cyc = sf._build_rows(q, uc, prev if sf._has_accel else None)  # (the Python providers)
+    cyc = sf._build_rows(q, uc, prev if sf.stateful else None)  # (the Python providers)
     if not len(cyc.checked):
         return False
     nxt = sf._next_distances(q, cyc)
@@ -157,7 +177,7 @@ def _safe(x: Any, u: Any, G: Any, b: Any, level: Any, bound: Any) -> None:
     xi = float(np.abs(x).max()) + float(np.abs(u).max())
     g1 = np.abs(G).sum(axis=1)
     c = np.minimum(b, 0.0)
-    safety = level != _filter.LEVEL_RATE
+    safety = (level != _filter.LEVEL_RATE) & (level != _filter.LEVEL_JERK)
     assert np.all((gx - c >= -1e-12 * (np.abs(c) + g1 * xi))[safety])
     claimed = bound != -math.inf
     assert np.all((gx - bound >= -1e-12 * (np.abs(bound) + g1 * xi))[claimed])
@@ -175,10 +195,10 @@ def _near_axis(sf: Any, level: Any, ka: Any, kb: Any, dist: Any) -> bool:
 
 
 def _check(scene: dict[str, Any]) -> None:
-    sf, q, u, prev = scene["sf"], scene["q"], scene["u"], scene["prev"]
+    sf, q, u, prev, prev2 = scene["sf"], scene["q"], scene["u"], scene["prev"], scene["prev2"]
     fc = filter_cycle(sf)
-    ref = sf.explain(q, u, previous=prev)
-    x = fc.cycle(q, u, prev)
+    ref = sf.explain(q, u) if prev is not None and sf.stateful else sf.explain(q, u, previous=prev)
+    x = fc.cycle(q, u, prev, None, prev2 if sf._has_jerk else None)
     info = fc.info()
     G, b, level, ka, kb, dist, slack, bound = fc.rows()
     keys = list(zip(level.tolist(), ka.tolist(), kb.tolist(), strict=True))

@@ -257,11 +257,11 @@ def test_a_bad_provider_is_named(provider: Any, match: str) -> None:
         f.filter(Q0, np.zeros(7))
 
 
-@pytest.mark.parametrize("level", [4, -1, "1", None, True])
+@pytest.mark.parametrize("level", [5, -1, "1", None, True])
 def test_a_provider_level_is_validated(level: Any) -> None:
     p = KeepOutOfSlab()
     p.level = level  # type: ignore[assignment]
-    with pytest.raises(InvalidParameter, match=r"providers\[0\]: expected level 0-3"):
+    with pytest.raises(InvalidParameter, match=r"providers\[0\]: expected level 0-4"):
         crowded(providers=[p])
 
 

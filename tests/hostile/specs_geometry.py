@@ -132,4 +132,8 @@ SPECS: dict[str, F | C] = {
         ),
         types={"sphere_radius": "nonneg", "capsule_radius": "nonneg"},
     ),
+    "geometry.bounding_capsule": F(
+        lambda: call([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.5, 0.2]], radii=0.1),
+        types={"centers": "rows", "radii": "vector"},
+    ),
 }

@@ -70,6 +70,16 @@ def safety_filter() -> object:
     )
 
 
+def _chain_frames() -> object:
+    """The ChainFrames of a two-joint MJCF arm (MujocoRobot.chain_frames())."""
+    from velfence.robots import MujocoRobot, dh_mjcf
+
+    xml = dh_mjcf(
+        [[0.0, 0.0, 0.5, 0.0], [0.3, 0.0, 0.0, 0.0]], joint_limits=[[-1.0, 1.0], [-2.0, 2.0]]
+    )
+    return MujocoRobot(xml=xml).chain_frames()
+
+
 _ROS2 = {
     "joint_limits": {
         "a": {
@@ -196,12 +206,17 @@ SPECS: dict[str, F | C] = {
     "filter.JointPositionLimit": C(abstract="built by SafetyFilter from validated JointLimits"),
     "filter.JointVelocityLimit": C(abstract="built by SafetyFilter from validated JointLimits"),
     "filter.JointAccelerationLimit": C(abstract="built by SafetyFilter from validated limits"),
+    "filter.JointJerkLimit": C(abstract="built by SafetyFilter from validated limits"),
     "filter.WorkspaceRows": C(abstract="built by SafetyFilter from a validated WorkspaceLimit"),
     "filter.ObstacleRows": C(abstract="built by SafetyFilter from validated SphereObstacles"),
     "filter.JointLimits": C(
         F(
             lambda: call(
-                [-1.0, -2.0], [1.0, 2.0], max_speed=[1.0, 0.5], max_acceleration=[5.0, 4.0]
+                [-1.0, -2.0],
+                [1.0, 2.0],
+                max_speed=[1.0, 0.5],
+                max_acceleration=[5.0, 4.0],
+                max_jerk=[100.0, 200.0],
             ),
             types={"lower": "vector", "upper": "vector", "max_speed": "vector"},
             accepts={
@@ -211,11 +226,16 @@ SPECS: dict[str, F | C] = {
                     "inf": "documented: inf is no acceleration limit",
                     "inf_in_valid": "documented: inf is no acceleration limit on that joint",
                 },
+                "max_jerk": {
+                    "inf": "documented: inf is no jerk limit",
+                    "inf_in_valid": "documented: inf is no jerk limit on that joint",
+                },
             },
             nonfinite={
                 "out.lower": "documented: -inf is no lower limit",
                 "out.upper": "documented: +inf is no upper limit",
                 "out.max_acceleration": "documented: inf is no acceleration limit",
+                "out.max_jerk": "documented: inf is no jerk limit",
             },
         ),
         {
@@ -247,11 +267,34 @@ SPECS: dict[str, F | C] = {
             "filter": lambda: call(_Q7, _QD7),
             "explain_twist": F(lambda: call(_Q7, [0.1, 0.0, 0.2]), types={"point": "choice"}),
             "filter_twist": F(lambda: call(_Q7, [0.1, 0.0, 0.2]), types={"point": "choice"}),
-            "reset": lambda: call(),
+            "reset": F(lambda: call(velocity=np.zeros(7)), types={"velocity": "vector"}),
             "shape": lambda: call(_Q7, _QD7),
             "shape_batch": lambda: call(np.array([_Q7, _Q7]), np.array([_QD7, -_QD7])),
+            "filter_batch": F(
+                lambda: call(
+                    np.array([_Q7, -_Q7]),
+                    np.array([_QD7, -_QD7]),
+                    previous=np.array([_QD7, 0.5 * _QD7]),
+                    threads=1,
+                ),
+                types={"threads": "seed"},  # 0 is valid: one thread per online core
+            ),
         },
         instance=safety_filter,
+    ),
+    "filter.ChainFrames": C(
+        record="output record of MujocoRobot.chain_frames()",
+        methods={
+            "fk": F(lambda: call(np.array([0.3, -0.4]), "tcp"), types={"point": "choice"}),
+        },
+        instance=_chain_frames,
+    ),
+    "filter.FilterBatch": C(
+        record="output record of SafetyFilter.filter_batch()",
+        methods={"stage_names": F(lambda: call(1), types={"row": "seed"})},
+        instance=lambda: safety_filter().filter_batch(  # type: ignore[attr-defined]
+            np.array([_Q7, -_Q7]), np.array([_QD7, -_QD7]), threads=1
+        ),
     ),
 }
 

@@ -78,6 +78,26 @@ def test_arm_from_the_env_mjcf_matches_the_env_fingertip() -> None:
         mujoco_arm(env, ("elbow",), tip="tips_arm")
     with pytest.raises(InvalidParameter, match="not a body"):
         mujoco_arm(env, PUSHER, tip="hand")
+    with pytest.raises(InvalidParameter, match="model order"):
+        mujoco_arm(env, PUSHER[::-1], tip="tips_arm")
+    # The env's numbers as MuJoCo compiled them for the env (no six-digit rewrite).
+    for body in ("r_shoulder_pan_link", "r_wrist_flex_link", "tips_arm"):
+        np.testing.assert_array_equal(robot.model.body(body).pos, u.model.body(body).pos)
+        np.testing.assert_array_equal(robot.model.body(body).quat, u.model.body(body).quat)
+
+
+def test_reacher_arm_matches_the_env_fingertip() -> None:
+    env = gym.make("Reacher-v5")
+    env.reset(seed=3)
+    u = env.unwrapped
+    robot = mujoco_arm(env, ("joint0", "joint1"), tip="fingertip")
+    assert robot.joint_names == ("joint0", "joint1")
+    assert robot.chain_frames() is not None
+    qa = MujocoJointState(("joint0", "joint1")).addresses(u.model)[0]
+    for q in ([0.3, -1.2], [-2.5, 2.0], [3.0, 0.1]):
+        u.data.qpos[qa] = q
+        mujoco.mj_kinematics(u.model, u.data)
+        np.testing.assert_allclose(robot.fk(q), u.get_body_com("fingertip"), rtol=0, atol=1e-12)
 
 
 def test_unset_bounds_refuse_to_start_and_say_how() -> None:
@@ -253,7 +273,7 @@ def test_bad_actions_and_states() -> None:
     w.reset(seed=0)
     with pytest.raises(InvalidInput, match="action"):
         w.step(np.zeros(6))
-    with pytest.raises(InvalidInput, match="dtype bool"):
+    with pytest.raises(InvalidInput, match=r"action.*booleans"):
         w.step(np.zeros(7, dtype=bool))
     with pytest.raises(InvalidInput, match="action"):
         w.step(["a"] * 7)

@@ -73,17 +73,53 @@ HOME = [0.0, -20.0, 20.0, 60.0, 0.0]  # a pose inside the box (checked below)
 
 # ---------------------------------------------------------------------------------- model
 def test_the_chain_is_mujocos_kinematics_of_the_urdf(arm: SoArm, mj: Any) -> None:
+    import mujoco
+
     assert arm.chain.joint_names == ARM_JOINTS
     assert mj.joint_names[:5] == ARM_JOINTS
+    frames = arm.chain.chain_frames()  # what the compiled filter cycle runs on
+    assert frames is not None
+    np.testing.assert_array_equal(arm.rotation, np.eye(3))
+    np.testing.assert_array_equal(arm.origin, np.zeros(3))
+    m = mj.model
+    data = mujoco.MjData(m)
+    axes = [m.joint(j).id for j in ("elbow_flex", "wrist_flex")]
     rng = np.random.default_rng(7)
     lim = arm.joint_limits
     for _ in range(200):
         q = rng.uniform(lim[:, 0], lim[:, 1])
         qm = np.append(q, rng.uniform(*arm.gripper_range))  # the jaw does not move the tcp
         np.testing.assert_allclose(arm.gripper_position(q), mj.fk(qm, "tcp"), atol=1e-9)
+        np.testing.assert_allclose(frames.fk(q, "tcp"), mj.fk(qm, "tcp"), atol=1e-9)
         J = arm.rotation @ arm.chain.jacobian(q, "tcp")
         np.testing.assert_allclose(J, mj.jacobian(qm, "tcp")[:, :5], atol=1e-8)
+        # "elbow" and "wrist": MuJoCo's anchors of the elbow-flex and wrist-flex joints.
+        data.qpos[:] = qm
+        mujoco.mj_kinematics(m, data)
+        for name, jid in zip(("elbow", "wrist"), axes, strict=True):
+            np.testing.assert_allclose(frames.fk(q, name), data.xanchor[jid], atol=1e-9)
+            np.testing.assert_allclose(arm.chain.fk(q, name), data.xanchor[jid], atol=1e-9)
     assert arm.fit_error < 1e-9
+    np.testing.assert_array_equal(arm.chain.link_radius, np.full(5, 0.03))
+    assert make(arm).filter._ccycle is not None  # the compiled cycle runs the shield
+
+
+def test_a_joint_beside_the_arm_is_fixed(arm: SoArm, tmp_path: Path) -> None:
+    text = Path(arm.source).read_text("utf-8")
+    # A second jointed child of the base: removed with the gripper joint, the arm stays serial.
+    extra = (
+        '<link name="side_link"><inertial><mass value="0.1"/><inertia ixx="1e-4" ixy="0" '
+        'ixz="0" iyy="1e-4" iyz="0" izz="1e-4"/></inertial></link><joint name="side" '
+        'type="revolute"><parent link="base_link"/><child link="side_link"/><axis xyz="1 0 0"/>'
+        '<limit lower="-1" upper="1" effort="1" velocity="1"/></joint></robot>'
+    )
+    bad = tmp_path / "so101_side.urdf"
+    bad.write_text(text.replace("</robot>", extra), "utf-8")
+    side = so_arm(path=bad)
+    assert side.chain.joint_names == ARM_JOINTS
+    assert side.fit_error < 1e-9
+    q = np.array([0.3, -0.4, 0.5, 0.2, 1.0])
+    np.testing.assert_allclose(side.gripper_position(q), arm.gripper_position(q), atol=1e-12)
 
 
 def test_the_limits_are_the_models_and_fit_one_servo_turn(arm: SoArm, mj: Any) -> None:

@@ -170,6 +170,33 @@ def test_shipped_masses_and_limits(make, masses, velocity, effort) -> None:
     np.testing.assert_array_equal(robot.model.jnt_actfrclimited[jid], limited)
 
 
+def test_panda_ships_frankas_acceleration_and_jerk_limits() -> None:
+    """Franka's FCI table "Limits for Panda" (the FER), read back by MuJoCo and into limits()."""
+    acc = [15.0, 7.5, 10.0, 12.5, 15.0, 20.0, 20.0]
+    jerk = [7500.0, 3750.0, 5000.0, 6250.0, 7500.0, 10000.0, 10000.0]
+    robot = panda()
+    np.testing.assert_array_equal(robot.acceleration_limits, acc)
+    np.testing.assert_array_equal(robot.jerk_limits, jerk)
+    model = robot.model  # MuJoCo's own reading of the custom numerics
+    np.testing.assert_array_equal(model.numeric("jerk_limits").data, jerk)
+    np.testing.assert_array_equal(model.numeric("acceleration_limits").data, acc)
+    again = MujocoRobot.from_xml(robot.xml)
+    np.testing.assert_array_equal(again.jerk_limits, jerk)
+    lim = robot.limits()
+    np.testing.assert_array_equal(lim.max_speed, [2.175] * 4 + [2.61] * 3)
+    np.testing.assert_array_equal(lim.max_acceleration, acc)  # type: ignore[arg-type]
+    np.testing.assert_array_equal(lim.max_jerk, jerk)  # type: ignore[arg-type]
+    np.testing.assert_array_equal(lim.lower, robot.joint_limits[:, 0])
+    assert lim.names == robot.joint_names
+    # a model without them: +inf, and limits() leaves them out
+    assert np.all(np.isinf(ur5e().jerk_limits))
+    assert ur5e().limits().max_jerk is None
+    with pytest.raises(InvalidParameter, match="velocity_limits: the model gives no speed"):
+        puma560().limits()
+    with pytest.raises(InvalidParameter, match="jerk_limits: expected one limit > 0"):
+        mdh_mjcf([[0.0, 0.0, 0.3, 0.0]], joint_limits=[[-1.0, 1.0]], jerk_limits=[0.0])
+
+
 def test_puma_link_two_centre_of_mass_and_inertia() -> None:
     # Armstrong et al.: link 2's centre of mass 0.068 m from the shoulder axis along the arm,
     # 0.2275 m along the shoulder axis from the arm's plane (0.0775 m past the 0.15 m offset).

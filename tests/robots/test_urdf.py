@@ -249,7 +249,7 @@ def test_validation(urdf: Path, tmp_path: Path) -> None:
         MujocoRobot.from_urdf(urdf, tool=[0.0, 0.1])
     with pytest.raises(InvalidParameter, match="tool: expected finite"):
         MujocoRobot.from_urdf(urdf, tool=[0.0, np.nan, 0.0])
-    with pytest.raises(InvalidParameter, match="meshes: expected True or False"):
+    with pytest.raises(InvalidParameter, match="meshes: expected True, False or 'collision'"):
         MujocoRobot.from_urdf(urdf, meshes="yes")  # type: ignore[arg-type]
     with pytest.raises(InvalidParameter, match="tcp_link: expected a link name"):
         MujocoRobot.from_urdf(urdf, tcp_link=3)  # type: ignore[arg-type]

@@ -47,12 +47,14 @@ from velfence.filter.limits import (
 )
 from velfence.filter.result import FilterBatch, FilterResult
 from velfence.filter.rows import (
+    LEVEL_JERK,
     LEVEL_JOINT,
     LEVEL_NAMES,
     LEVEL_OBSTACLE,
     LEVEL_RATE,
     LEVEL_WORKSPACE,
     JointAccelerationLimit,
+    JointJerkLimit,
     JointPositionLimit,
     JointVelocityLimit,
     ObstacleRows,
@@ -64,6 +66,7 @@ from velfence.filter.rows import (
 )
 
 __all__ = [
+    "LEVEL_JERK",
     "LEVEL_JOINT",
     "LEVEL_NAMES",
     "LEVEL_OBSTACLE",
@@ -79,6 +82,7 @@ __all__ = [
     "FilterBatch",
     "FilterResult",
     "JointAccelerationLimit",
+    "JointJerkLimit",
     "JointLimits",
     "JointPositionLimit",
     "JointVelocityLimit",

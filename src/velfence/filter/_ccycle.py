@@ -209,6 +209,7 @@ def filter_cycle(sf: Any, profiles: Any = None) -> Any:
         np.array(jprm), np.array([v for nm in names for v in pts[nm]]), ws, centres, radii,
         lrad, float(sf.obstacle_buffer), float(sf.spring_gain), float(sf.dt or 0.0),
         None if metric is None else np.asarray(metric) ** 2,
+        None if lim.max_jerk is None else np.asarray(lim.max_jerk, dtype=np.float64),
         self_pairs=[v for pr in sf.self_collision_pairs for v in pr] or None,
         attachments=None if sf._attach is None else sf._attach.flat(),
     )  # fmt: skip

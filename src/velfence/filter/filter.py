@@ -12,11 +12,11 @@ Both objectives are ``½ (x - u)ᵀ H (x - u) + const`` (twist mode: ``H = JᵀJ
 ``Lᵀ u`` onto ``{y : G L⁻ᵀ y >= b}``, solved exactly by :mod:`velfence.geometry.projection`.
 
 The rows come from row providers (:mod:`velfence.filter.rows`: joint position with its braking
-profile, joint velocity, joint acceleration, a workspace polytope per :class:`WorkspaceLimit`,
-sphere obstacles against capsule links, and the user's own), all from one kinematics frame per
-cycle (:mod:`velfence.filter.kinematics`). When they have no common point the priority ladder
-(:mod:`velfence.filter.ladder`) decides what gives way; with ``max_iterations`` or
-``time_budget`` a cycle that runs out answers the ladder's safe fallback.
+profile, joint velocity, joint acceleration and jerk, a workspace polytope per
+:class:`WorkspaceLimit`, sphere obstacles against capsule links, and the user's own), all from
+one kinematics frame per cycle (:mod:`velfence.filter.kinematics`). When they have no common
+point the priority ladder (:mod:`velfence.filter.ladder`) decides what gives way; with
+``max_iterations`` or ``time_budget`` a cycle that runs out answers the ladder's safe fallback.
 """
 
 from __future__ import annotations
@@ -58,6 +58,7 @@ from velfence.filter.limits import (
 )
 from velfence.filter.result import STAGE_BITS, FilterBatch, FilterResult
 from velfence.filter.rows import (
+    LEVEL_JERK,
     LEVEL_JOINT,
     LEVEL_OBSTACLE,
     LEVEL_RATE,
@@ -65,6 +66,7 @@ from velfence.filter.rows import (
     PLAIN_BOUNDS,
     BoundKernels,
     JointAccelerationLimit,
+    JointJerkLimit,
     JointPositionLimit,
     JointVelocityLimit,
     RowContext,
@@ -85,9 +87,10 @@ _BINDING = 1e-9  # relative slack under which a row counts as active
 _C_STAGES = STAGE_BITS
 #: The levels a report names as dropped or relaxed, in the ladder's order.
 _C_DROPPED = (
-    (LEVEL_RATE, "acceleration"), (LEVEL_OBSTACLE, "obstacles"), (LEVEL_WORKSPACE, "workspace"),
-    (LEVEL_JOINT, "joint limits"),
+    (LEVEL_JERK, "jerk"), (LEVEL_RATE, "acceleration"), (LEVEL_OBSTACLE, "obstacles"),
+    (LEVEL_WORKSPACE, "workspace"), (LEVEL_JOINT, "joint limits"),
 )  # fmt: skip
+_STAGE_DROPPED_JERK = 2048  # VF_FILTER_STAGE_DROPPED_JERK
 _COMMAND_CAP = 1e3  # commands are shortened beyond this multiple of the fastest joint limit
 
 
@@ -119,7 +122,7 @@ class SafetyFilter(InvalidPolicy):
             its declared level of the ladder.
         dt: Control period [s] (``None``: continuous-time bounds). With ``dt`` every row also
             keeps one period's motion inside, the rows are checked on the model, and the
-            acceleration rows apply.
+            acceleration and jerk rows apply.
         profile: One approach profile for every joint limit (radians); by default a
             three-zone braking profile for each joint with an acceleration limit
             (``ThreeZoneBraking(gain=2 a/v, max_speed=v, max_acceleration=a)``), else a linear
@@ -158,12 +161,15 @@ class SafetyFilter(InvalidPolicy):
         "_clock",
         "_compiled",
         "_has_accel",
+        "_has_jerk",
         "_metric",
         "_n_builtin",
         "_obstacles",
         "_previous",
+        "_previous2",
         "_projector",
         "_providers",
+        "_remember",
         "_self_pairs",
         "_speed_scale",
         "_warm",
@@ -173,6 +179,7 @@ class SafetyFilter(InvalidPolicy):
         "deadline_misses",
         "dof",
         "dt",
+        "jerk_overrides",
         "limits",
         "max_iterations",
         "obstacle_buffer",
@@ -247,6 +254,8 @@ class SafetyFilter(InvalidPolicy):
             None if time_budget is None else check_positive("time_budget", time_budget, unit="s")
         )
         self.deadline_misses = 0
+        #: Cycles (of ``filter``, ``explain`` and their twist forms) whose jerk rows gave way.
+        self.jerk_overrides = 0
         self._clock: Callable[[], float] = time.perf_counter
         self._warm: set[tuple[int, int]] = set()
         core, self.backend = pick_backend(backend)
@@ -257,7 +266,11 @@ class SafetyFilter(InvalidPolicy):
         profs = parts.joint_profiles(limits, profile, joint_buffer=jb, spring_gain=self.spring_gain)
         acc = limits.max_acceleration
         self._has_accel = acc is not None and self.dt is not None and bool(np.isfinite(acc).any())
+        jerk = limits.max_jerk
+        self._has_jerk = jerk is not None and self.dt is not None and bool(np.isfinite(jerk).any())
+        self._remember = self._has_accel or self._has_jerk
         self._previous: FloatArray | None = None
+        self._previous2: FloatArray | None = None
         frame0, self.task_dim = parts.robot_frame(robot, n)
         self._workspace = parts.workspaces(robot, workspace, frame0)
         self._obstacles = spatial_obstacles(parts.obstacle_list(obstacles), self.task_dim)
@@ -267,6 +280,8 @@ class SafetyFilter(InvalidPolicy):
         ]
         if self._has_accel:
             rows.append(JointAccelerationLimit(limits))
+        if self._has_jerk:
+            rows.append(JointJerkLimit(limits))
         multi = len(self._workspace) > 1
         for w_i, w in enumerate(self._workspace):
             pre = f"workspace {w_i}: " if multi else ""
@@ -308,9 +323,13 @@ class SafetyFilter(InvalidPolicy):
         self._n_builtin = len(rows)
         rows.extend(parts.custom_providers(providers))
         self._providers: tuple[Any, ...] = tuple(rows)
-        # (the compiled rows of velfence_nd know no self-collision pairs: the Python providers
-        # build them on that route; the C cycle below has them)
-        self._compiled = None if providers or sc is not None else compiled_rows(core, self, profs)
+        # (the compiled rows of velfence_nd know no self-collision pairs or attachments: the
+        # Python providers build them on that route; the C cycle below has them)
+        self._compiled = (
+            None
+            if providers or self._has_jerk or sc is not None or attachments is not None
+            else compiled_rows(core, self, profs)
+        )
         self._metric: Metric = parts.metric(weights, n)
         # The whole joint-mode cycle in C (velfence_filter.h) when the core is in use, the robot
         # gives its chain as data and no custom provider runs: filter(), shape() and
@@ -389,12 +408,28 @@ class SafetyFilter(InvalidPolicy):
 
     @property
     def stateful(self) -> bool:
-        """True when acceleration rows apply and the filter remembers its last output."""
-        return self._has_accel
+        """True when acceleration or jerk rows apply and the filter remembers its last outputs."""
+        return self._remember
 
-    def reset(self) -> None:
-        """Forget the remembered last output and the warm start (a fresh start)."""
-        self._previous = None
+    def reset(self, *, velocity: ArrayLike | None = None) -> None:
+        """Forget the remembered outputs and the warm start (a fresh start).
+
+        Args:
+            velocity: ``None`` (default): nothing is remembered, so the next cycle has neither
+                acceleration nor jerk rows, the one after acceleration rows only, and the jerk
+                rows start on the third. A joint velocity [rad/s], shape (dof,) (zeros: a robot
+                at rest): remembered as the last two outputs, so the next cycle already has
+                both (the robot moved steadily at ``velocity``).
+
+        Raises:
+            InvalidInput: ``velocity`` of the wrong shape or not finite.
+        """
+        v: FloatArray | None = None
+        if velocity is not None:
+            v = real_array("velocity", velocity, (self.dof,), what=f"{self.dof} numbers [rad/s]")
+            v = readonly(v)
+        self._previous = v if self._remember else None
+        self._previous2 = v if self._has_jerk else None
         self._warm = set()
         if self._ccycle is not None:
             from velfence.filter._ccycle import c_options
@@ -439,6 +474,7 @@ class SafetyFilter(InvalidPolicy):
         """One cycle's rows and solve: ``(cycle, x, u, outcome, scaled, deadline)`` or a stop."""
         t0 = self._clock() if self.time_budget is not None else 0.0
         prev: FloatArray | None = None
+        prev2: FloatArray | None = None
         if previous is not None:
             prev = self._state("previous", previous, self.dof, "rad/s")
             if self._bad(prev):
@@ -446,6 +482,7 @@ class SafetyFilter(InvalidPolicy):
                 return self._stopped(q, cmd)
         elif remember:
             prev = self._previous
+            prev2 = self._previous2
         scaled = False
         cap = _COMMAND_CAP * self._speed_scale
         big = max(map(abs, u.tolist())) if u.size else 0.0
@@ -455,7 +492,7 @@ class SafetyFilter(InvalidPolicy):
             u = u * (cap / big)
             scaled = True
         with np.errstate(all="ignore"):
-            cyc = self._build_rows(q, u, prev, frame)
+            cyc = self._build_rows(q, u, prev, frame, prev2 if self._has_jerk else None)
             budget = self.time_budget
 
             def solve(G: FloatArray, b: FloatArray, warm: Any) -> tuple[int, FloatArray]:
@@ -484,25 +521,36 @@ class SafetyFilter(InvalidPolicy):
                 )  # fmt: skip
                 stages = ["deadline"] + ([how] if how else [])
                 rate = bool(relaxed) and bool(np.any(cyc.level[relaxed] == LEVEL_RATE))
-                out = LadderOutcome(x, relaxed, ["acceleration"] if rate else [], stages, rate)
+                jerk = bool(relaxed) and bool(np.any(cyc.level[relaxed] == LEVEL_JERK))
+                out = LadderOutcome(
+                    x, relaxed, ["jerk"] * jerk + ["acceleration"] * rate, stages, rate, jerk
+                )
         if not finite(x):
             self._invalid("input too large: the filtered velocity overflowed")
             return self._stopped(q, cmd)
         if remember:
-            if self._has_accel:
+            if self._remember:
+                if self._has_jerk:
+                    self._previous2 = None if prev is None else readonly(prev)
+                    self.jerk_overrides += out.jerk_override
                 self._previous = readonly(x.copy())
             self._remember_active(cyc, x)
         return cyc, x, u, out, scaled, deadline
 
     def _build_rows(
-        self, q: FloatArray, u: FloatArray, prev: FloatArray | None, frame: Any = None
+        self,
+        q: FloatArray,
+        u: FloatArray,
+        prev: FloatArray | None,
+        frame: Any = None,
+        prev2: FloatArray | None = None,
     ) -> RowStack:
         """This cycle's rows by the route in use (compiled for a DH chain in joint mode)."""
         if self._compiled is not None and frame is None:
             return self._compiled.stack(q, u, prev if self._has_accel else None)
         if frame is None:
             frame = frame_of(self.robot, q)
-        ctx = RowContext(q, u, prev, self.dt, frame)
+        ctx = RowContext(q, u, prev, self.dt, frame, prev2)
         return collect(self._providers, self._n_builtin, ctx, self.dof)
 
     def _remember_active(self, cyc: RowStack, x: FloatArray) -> None:
@@ -561,6 +609,7 @@ class SafetyFilter(InvalidPolicy):
             active_names=tuple(names[i] for i in act), slack=readonly(slack),
             constraint_names=tuple(names), stages=tuple(pre + out.stages),
             dropped=tuple(out.dropped), rate_override=out.rate_override,
+            jerk_override=out.jerk_override,
             rows=(readonly(G), readonly(b0)), relaxed=tuple(names[i] for i in out.relaxed),
             deadline=deadline,
         )  # fmt: skip
@@ -576,9 +625,11 @@ class SafetyFilter(InvalidPolicy):
             position: Joint position [rad], shape (dof,).
             command: Commanded joint velocity [rad/s], shape (dof,).
             previous: The last output [rad/s], shape (dof,), for the acceleration rows; when
-                ``None`` and acceleration rows apply (``dt`` and ``max_acceleration``) the
-                filter uses the output it remembered from its last call (none after
-                :meth:`reset`).
+                ``None`` and acceleration or jerk rows apply (``dt`` and ``max_acceleration``
+                or ``max_jerk``) the filter uses the outputs it remembered from its last calls
+                (none after :meth:`reset`). The jerk rows need the two last outputs: a cycle
+                given ``previous`` has none (it knows no output before it); the next cycle's
+                jerk rows then use ``previous`` and this cycle's output.
 
         Returns:
             A :class:`~velfence.filter.result.FilterResult`.
@@ -621,15 +672,16 @@ class SafetyFilter(InvalidPolicy):
             misses = cyc.deadline_misses
             try:
                 x: FloatArray = cyc.cycle(
-                    position, command, self._previous if self._has_accel else None
-                )
+                    position, command, self._previous if self._remember else None, None,
+                    self._previous2 if self._has_jerk else None,
+                )  # fmt: skip
             except (TypeError, ValueError):
                 pass
             else:
                 if cyc.deadline_misses != misses:
                     self.deadline_misses += 1
-                if self._has_accel:
-                    self._previous = readonly(x.copy())
+                if self._remember:
+                    self._remember_c(x, self._previous)
                 return x
         qa = self._state("position", position, self.dof, "rad")
         ua = self._state("command", command, self.dof, "rad/s")
@@ -647,6 +699,7 @@ class SafetyFilter(InvalidPolicy):
     ) -> FloatArray:
         """:meth:`filter` by the C cycle (validated ``qa``, ``ua``; the same rows and ladder)."""
         prev: FloatArray | None = None
+        prev2: FloatArray | None = None
         if previous is not None:
             prev = self._state("previous", previous, self.dof, "rad/s")
             if self._bad(prev):
@@ -654,18 +707,29 @@ class SafetyFilter(InvalidPolicy):
                 return np.zeros(self.dof)
         elif remember:
             prev = self._previous
+            prev2 = self._previous2
         cyc = self._ccycle
         misses = cyc.deadline_misses
         try:
-            x: FloatArray = cyc.cycle(qa, ua, prev if self._has_accel else None)
+            x: FloatArray = cyc.cycle(
+                qa, ua, prev if self._remember else None, None, prev2 if self._has_jerk else None
+            )
         except ValueError:
             self._invalid("input too large: the filtered velocity overflowed")
             return np.zeros(self.dof)
         if cyc.deadline_misses != misses:
             self.deadline_misses += 1
-        if remember and self._has_accel:
-            self._previous = readonly(x.copy())
+        if remember and self._remember:
+            self._remember_c(x, prev)
         return x
+
+    def _remember_c(self, x: FloatArray, prev: FloatArray | None) -> None:
+        """The C cycle's output as the last output (``prev`` the one before), jerk overrides."""
+        if self._has_jerk:
+            self._previous2 = None if prev is None else readonly(prev)
+            if self._ccycle.stages & _STAGE_DROPPED_JERK:
+                self.jerk_overrides += 1
+        self._previous = readonly(x.copy())
 
     def _explain_c(self, qa: FloatArray, ua: FloatArray, previous: Any) -> FilterResult:
         """:meth:`explain` by the C cycle: its output, and the report built from its info."""
@@ -691,6 +755,7 @@ class SafetyFilter(InvalidPolicy):
                 nm for lv, nm in _C_DROPPED if info["relaxed"][lv] or info["dropped"][lv]
             ),
             rate_override=bool(info["dropped"][LEVEL_RATE]), rows=(readonly(G), readonly(b)),
+            jerk_override=bool(info["dropped"][LEVEL_JERK]),
             relaxed=tuple(names[r] for r, k in enumerate(keys) if k in relaxed_keys),
             deadline={0: None, 1: "iterations", 2: "time"}[info["deadline"]],
         )  # fmt: skip
@@ -712,6 +777,8 @@ class SafetyFilter(InvalidPolicy):
                 pre = f"workspace {a}: " if len(ws) > 1 else ""
                 facet = ws[a].limit.polytope.facet_names[fi]
                 out.append(f"{pre}{att[se // 2]} end {se % 2} face {facet}")
+            elif lv == LEVEL_JERK:
+                out.append(f"joint {a} jerk ({'lower' if k == 0 else 'upper'})")
             elif lv == LEVEL_WORKSPACE:
                 out.append(ws[a].facet_row_names[k])
             elif k >= self.dof and a < len(self._obstacles):
@@ -864,7 +931,8 @@ class SafetyFilter(InvalidPolicy):
             positions: Joint positions [rad], shape (N, dof).
             commands: Commanded joint velocities [rad/s], shape (N, dof).
             previous: Each row's previous output [rad/s], shape (N, dof), for the acceleration
-                rows; ``None``: no acceleration rows.
+                rows; ``None``: no acceleration rows. A batch has no jerk rows (it remembers
+                no outputs).
             threads: Worker threads, an int >= 0 (0: one per online core).
 
         Returns:
@@ -883,16 +951,20 @@ class SafetyFilter(InvalidPolicy):
         N = Qa.shape[0]
         Va = self._batch_state("commands", commands, N)
         Pa = None if previous is None else self._batch_state("previous", previous, N)
-        if not self._has_accel:
+        if not self._remember:
             Pa = None
         arrays = (Qa, Va) if Pa is None else (Qa, Va, Pa)
-        bad = ~np.all(np.isfinite(np.hstack(arrays)), axis=1) if N else np.zeros(0, bool)
+        # A row is invalid as filter() sees it: a NaN, an inf or an entry beyond MAX_MAGNITUDE.
+        with np.errstate(invalid="ignore"):
+            ok = np.abs(np.hstack(arrays)) <= MAX_MAGNITUDE
+        bad = ~np.all(ok, axis=1) if N else np.zeros(0, bool)
         if bad.any():
             k = int(np.flatnonzero(bad)[0])
+            names = "positions, commands" if Pa is None else "positions, commands, previous"
             try:
                 self._invalid(f"non-finite input in row {k}")
             except InvalidInput as exc:
-                raise InvalidInput(f"positions, commands row {k}: {exc}") from None
+                raise InvalidInput(f"{names} row {k}: {exc}") from None
         cyc = self._ccycle
         if cyc is not None:
             misses = cyc.deadline_misses
@@ -901,6 +973,9 @@ class SafetyFilter(InvalidPolicy):
             except (TypeError, ValueError) as exc:  # pragma: no cover - checked above
                 raise InvalidInput(f"positions, commands: {exc}") from None
             self.deadline_misses += cyc.deadline_misses - misses
+            late = bad & (st >= 0)  # finite beyond MAX_MAGNITUDE: refused here, as filter() does
+            if late.any():
+                out[late], st[late], sg[late] = 0.0, -3, 128  # VF_ERR_NONFINITE, the stop bit
             return FilterBatch(
                 output=out, status=st.astype(np.int64), stages=sg.astype(np.int64),
                 n_active=na.astype(np.int64),
@@ -930,6 +1005,8 @@ class SafetyFilter(InvalidPolicy):
     def _batch_state(self, name: str, x: Any, rows: int | None) -> FloatArray:
         """A C-contiguous float64 (rows, dof) array (non-finite entries kept for the check)."""
         n = self.dof
+        if rows is not None:  # the message names positions too: its rows set the batch's size
+            name = f"{name} (one row per row of positions)"
         a = real_array(name, x, (rows, n), allow_nonfinite=True, max_abs=None)
         return np.ascontiguousarray(a, dtype=np.float64)
 

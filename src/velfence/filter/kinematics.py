@@ -25,7 +25,9 @@ from numpy.typing import ArrayLike
 
 from velfence._docs import document_inits
 from velfence._typing import FloatArray
+from velfence._validate import real_array, show
 from velfence.errors import InvalidInput
+from velfence.geometry.so3 import rotation_from_angle_axis
 
 __all__ = [
     "CachedFrame",
@@ -140,6 +142,47 @@ class ChainFrames:
     joints: FloatArray
     tool: FloatArray
     points: dict[str, tuple[float, float, float, float]]
+
+    def fk(self, q: ArrayLike, point: str = "tcp") -> FloatArray:
+        """Position of a named point in the base frame for joints ``q``, by these frames.
+
+        The C cycle's forward kinematics in Python (to check a description against the robot
+        it was made from: ``MujocoRobot.chain_frames()`` against MuJoCo).
+
+        Args:
+            q: Joint position [rad] (prismatic [m]), shape (n,).
+            point: A name of :attr:`points`.
+
+        Returns:
+            Position [m], shape (3,).
+
+        Raises:
+            InvalidInput: bad ``q`` or an unknown ``point``.
+        """
+        rows = np.asarray(self.joints, dtype=np.float64).reshape(-1, 17)
+        n = rows.shape[0]
+        qa = real_array("q", q, (n,), what=f"{n} joint positions [rad]")
+        if not isinstance(point, str) or point not in self.points:
+            raise InvalidInput(
+                f"point: expected one of {list(self.points)[:20]}, got {show(point)}"
+            )
+        link, *xyz = self.points[point]
+        F = np.eye(4)
+        for j in range(min(int(link) + 1, n)):  # F_link: joints 0 … link (none for the base)
+            T = np.eye(4)
+            T[:3] = rows[j, :12].reshape(3, 4)
+            M = np.eye(4)
+            angle = float(qa[j] + rows[j, 16])
+            if rows[j, 15] == 1.0:  # prismatic: a translation along the axis
+                M[:3, 3] = rows[j, 12:15] * angle
+            else:
+                M[:3, :3] = rotation_from_angle_axis(rows[j, 12:15], angle)
+            F = F @ T @ M
+        if int(link) == n:  # the tool frame
+            T = np.eye(4)
+            T[:3] = np.asarray(self.tool, dtype=np.float64).reshape(3, 4)
+            F = F @ T
+        return np.asarray(F[:3, :3] @ np.array(xyz) + F[:3, 3], dtype=np.float64)
 
 
 class CachedFrame:

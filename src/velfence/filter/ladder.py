@@ -1,8 +1,8 @@
 r"""The priority ladder: what gives way when the rows have no common point, and the fallbacks.
 
-Rows of levels joint (0), workspace (1), obstacle (2) and acceleration (3). A row is *violated*
-when its geometric distance is < 0; its bound is then a recovery bound (``b > 0`` possible).
-Every row of levels 0-2 the point is inside has ``b <= 0`` and the velocity rows have
+Rows of levels joint (0), workspace (1), obstacle (2), acceleration (3) and jerk (4). A row is
+*violated* when its geometric distance is < 0; its bound is then a recovery bound (``b > 0``
+possible). Every row of levels 0-2 the point is inside has ``b <= 0`` and the velocity rows have
 ``b = -max_speed < 0``, so **zero velocity meets every row of levels 0-2 once the recovery bounds
 are relaxed to min(b, 0)**: no workspace or obstacle row is ever dropped.
 
@@ -12,7 +12,8 @@ Rungs, tried in order until one solves (a projection that ends ``PROJECT_OPTIMAL
 rung  rows                                          stage                     reported
 ====  ============================================  ========================  ===============
 1     every row as built                            —                         —
-2     without the acceleration rows                 ``dropped acceleration``  rate_override
+2a    without the jerk rows                         ``dropped jerk``          jerk_override
+2     without the jerk and acceleration rows        ``dropped acceleration``  rate_override
 3     violated obstacle rows with ``b > 0``:        ``relaxed obstacles``     ``relaxed``
       ``b`` × 4⁻¹, 4⁻², …, 4⁻⁸, then 0
 4     the same for the workspace rows (obstacles    ``relaxed workspace``     ``relaxed``
@@ -21,7 +22,9 @@ rung  rows                                          stage                     re
 6     stop: zero velocity                           ``stop``                  —
 ====  ============================================  ========================  ===============
 
-Rows the point is inside are never relaxed; only acceleration rows are ever dropped.
+Rows the point is inside are never relaxed; only jerk and acceleration rows are ever dropped
+(jerk first: a cycle that drops the acceleration rows has dropped the jerk rows too, and reports
+both overrides).
 
 **Model check** (discrete time, ``dt`` set), after a rung solves: the true next distance ``d1``
 of every workspace and obstacle row at ``q + x dt`` (the kinematics, not the linearisation) must
@@ -50,6 +53,7 @@ import numpy as np
 from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence.filter.rows import (
+    LEVEL_JERK,
     LEVEL_JOINT,
     LEVEL_NAMES,
     LEVEL_OBSTACLE,
@@ -106,6 +110,7 @@ class LadderOutcome:
         dropped: Levels dropped (acceleration) or relaxed, by name, in order.
         stages: Stages applied, in order.
         rate_override: Whether the acceleration rows were dropped.
+        jerk_override: Whether the jerk rows were dropped.
     """
 
     x: FloatArray
@@ -113,6 +118,7 @@ class LadderOutcome:
     dropped: list[str]
     stages: list[str]
     rate_override: bool
+    jerk_override: bool = False
 
 
 def meets(G: FloatArray, c: FloatArray, x: FloatArray, scale: float = 0.0) -> bool:
@@ -140,8 +146,11 @@ def _rungs(
     yield None, b, None, None
     present = set(level.tolist())
     keep: Any = None
+    if LEVEL_JERK in present:
+        keep = level != LEVEL_JERK
+        yield keep, b, LEVEL_NAMES[LEVEL_JERK], "dropped jerk"
     if LEVEL_RATE in present:
-        keep = level != LEVEL_RATE
+        keep = (level != LEVEL_RATE) & (level != LEVEL_JERK)
         yield keep, b, LEVEL_NAMES[LEVEL_RATE], "dropped acceleration"
     cur = b
     for lv in (LEVEL_OBSTACLE, LEVEL_WORKSPACE, LEVEL_JOINT):
@@ -280,10 +289,14 @@ def run_ladder(
             if how is not None:
                 stages.append(how)
         relaxed = np.flatnonzero(bb < b).tolist()
-        return LadderOutcome(x, relaxed, dropped, stages, "acceleration" in dropped)
+        return LadderOutcome(
+            x, relaxed, dropped, stages, "acceleration" in dropped, "jerk" in dropped
+        )
     stages.append("stop")
     relaxed = np.flatnonzero(violated & (b > 0.0)).tolist()
-    return LadderOutcome(np.zeros(n), relaxed, dropped, stages, "acceleration" in dropped)
+    return LadderOutcome(
+        np.zeros(n), relaxed, dropped, stages, "acceleration" in dropped, "jerk" in dropped
+    )
 
 
 def safe_fallback(

@@ -65,7 +65,7 @@ def _vector(
 
 @dataclass(frozen=True)
 class JointLimits:
-    """Position, velocity and (optional) acceleration limits of every joint.
+    """Position, velocity and (optional) acceleration and jerk limits of every joint.
 
     The speed limit was called ``max_velocity`` before 0.2: that keyword and attribute warn until
     0.3.
@@ -77,12 +77,16 @@ class JointLimits:
             repeated).
         max_acceleration: Largest joint acceleration [rad/s²], shape (n,), > 0, ``inf`` for a
             joint without one; ``None`` (the default): none on any joint.
+        max_jerk: Largest joint jerk [rad/s³], shape (n,) (a scalar is repeated), > 0, ``inf``
+            for a joint without one; ``None`` (the default): none on any joint. A
+            :class:`SafetyFilter` with ``dt`` bounds the change of the acceleration per period
+            by it (the jerk rows, ``docs/safety_filter.md``).
         names: One name per joint, or ``None``; when given, a :class:`SafetyFilter` checks it
             against the robot's ``joint_names``.
 
     Raises:
         InvalidParameter: wrong shapes, NaN, ``lower >= upper``, non-positive or infinite
-            speeds, non-positive accelerations, or names of the wrong number.
+            speeds, non-positive accelerations or jerks, or names of the wrong number.
     """
 
     lower: FloatArray
@@ -91,6 +95,7 @@ class JointLimits:
     max_speed: FloatArray
     max_acceleration: FloatArray | None = None
     names: tuple[str, ...] | None = None
+    max_jerk: FloatArray | None = None
 
     max_velocity = renamed_attribute("max_velocity", "max_speed")
 
@@ -130,6 +135,17 @@ class JointLimits:
                     f"{acc.tolist()}"
                 )
             acc = readonly(acc)
+        jerk: FloatArray | None = None
+        if self.max_jerk is not None:
+            jerk = _vector(
+                "max_jerk", self.max_jerk, n, f"jerks [rad/s³] of shape ({n},)",
+                nonfinite=True, scalar=True,
+            )  # fmt: skip
+            if not np.all(jerk > 0.0):
+                raise InvalidParameter(
+                    f"max_jerk: expected jerks > 0 [rad/s³] (inf: none), got {jerk.tolist()}"
+                )
+            jerk = readonly(jerk)
         names = None
         raw_names: Any = self.names
         if raw_names is not None:
@@ -146,6 +162,7 @@ class JointLimits:
         object.__setattr__(self, "upper", readonly(hi))
         object.__setattr__(self, "max_speed", readonly(v))
         object.__setattr__(self, "max_acceleration", acc)
+        object.__setattr__(self, "max_jerk", jerk)
         object.__setattr__(self, "names", names)
 
     @property
@@ -159,20 +176,20 @@ class JointLimits:
     ) -> JointLimits:
         """Limits from a ros2_control ``joint_limits`` mapping, ordered as ``joint_names``.
 
-        The mapping is ``{"joint_limits": {name: {...}}}`` (the YAML file's document) or the
-        inner ``{name: {...}}``; each joint's entry has ``has_position_limits``,
-        ``min_position``, ``max_position``, ``has_velocity_limits``, ``max_velocity``,
-        ``has_acceleration_limits``, ``max_acceleration`` (the other ros2_control fields are
+        The mapping is ``{"joint_limits": {name: {...}}}`` (the YAML file's document) or the inner
+        ``{name: {...}}``; each joint's entry has ``has_position_limits``, ``min_position``,
+        ``max_position``, ``has_velocity_limits``, ``max_velocity``, ``has_acceleration_limits``,
+        ``max_acceleration``, ``has_jerk_limits``, ``max_jerk`` (the other ros2_control fields are
         accepted and not used), or is franka_description's ``{limit: {lower, upper, velocity,
-        effort}}``. A limit is used when its ``has_…`` flag is true (its values must then be
-        given) or when the flag is absent and its values are given (MoveIt files write only some
-        flags); a false flag ignores the values. ros2_control's own loader reads a value only
-        under a true flag and otherwise keeps the URDF's limit; velfence has no URDF here, so a
-        value given without a flag is that limit. The joints must be exactly ``joint_names``: a
-        missing or an extra joint is refused (a 7-joint file on a 6-joint arm, say), and so is a
-        joint without a usable velocity limit (the filter needs every joint's speed). A position
-        bound, position span or speed over :data:`SANE_LIMIT` (100 rad, rad/s) is refused: it
-        is degrees written without ``!degrees``.
+        effort}}``. A limit is used when its ``has_…`` flag is true (its values must then be given)
+        or when the flag is absent and its values are given (MoveIt files write only some flags); a
+        false flag ignores the values. ros2_control's own loader reads a value only under a true
+        flag and otherwise keeps the URDF's limit; velfence has no URDF here, so a value given
+        without a flag is that limit. The joints must be exactly ``joint_names``: a missing or an
+        extra joint is refused (a 7-joint file on a 6-joint arm, say), and so is a joint without a
+        usable velocity limit (the filter needs every joint's speed). A position bound, position
+        span or speed over :data:`SANE_LIMIT` (100 rad, rad/s) is refused: it is degrees written
+        without ``!degrees``.
 
         Args:
             mapping: The parsed document.
@@ -220,7 +237,7 @@ class JointLimits:
             )
         n = len(names)
         lo, hi = np.full(n, -math.inf), np.full(n, math.inf)
-        vel, acc = np.zeros(n), np.full(n, math.inf)
+        vel, acc, jerk = np.zeros(n), np.full(n, math.inf), np.full(n, math.inf)
         for j, s in enumerate(names):
             entry = _entry(inner[s], s)
             if _used(entry, s, "position", ("min_position", "max_position")):
@@ -240,6 +257,8 @@ class JointLimits:
             _sane(s, "max_velocity", vel[j], "rad/s")
             if _used(entry, s, "acceleration", ("max_acceleration",)):
                 acc[j] = _number(entry, s, "max_acceleration", "rad/s²")
+            if _used(entry, s, "jerk", ("max_jerk",)):
+                jerk[j] = _number(entry, s, "max_jerk", "rad/s³")
         try:
             return cls(
                 lo,
@@ -247,6 +266,7 @@ class JointLimits:
                 max_speed=vel,
                 max_acceleration=acc if np.isfinite(acc).any() else None,
                 names=names,
+                max_jerk=jerk if np.isfinite(jerk).any() else None,
             )
         except InvalidParameter as exc:
             raise InvalidParameter(f"joint_limits: {exc}") from None
@@ -260,7 +280,7 @@ JointLimits.__init__ = positional_deprecated(  # type: ignore[method-assign]
 
 
 #: The fields of a ros2_control joint_limits entry (joint_limits/joint_limits_rosparam.hpp);
-#: only the position, velocity and acceleration ones are read.
+#: only the position, velocity, acceleration and jerk ones are read.
 _ROS2_KEYS = (
     "has_position_limits",
     "min_position",

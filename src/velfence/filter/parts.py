@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from velfence._validate import describe, readonly, real_array
+from velfence._validate import MAX_MAGNITUDE, describe, readonly, real_array
 from velfence.errors import InvalidInput, InvalidParameter, VelfenceError
 from velfence.filter.attach import AttachmentTable
 from velfence.filter.kinematics import checked, frame_of
@@ -111,7 +111,14 @@ def joint_profiles(
             profs.append(profile)
         elif acc is not None and math.isfinite(acc[j]):
             a = float(acc[j])
-            profs.append(ThreeZoneBraking(gain=2.0 * a / v, max_speed=v, max_acceleration=a))
+            gain = 2.0 * a / v
+            if not math.isfinite(gain) or gain > MAX_MAGNITUDE or gain <= 0.0:
+                raise InvalidParameter(
+                    f"limits: joint {j}'s max_acceleration {a:g} and max_speed {v:g} give no "
+                    f"usable braking gain: expected 2 a / v in (0, {MAX_MAGNITUDE:g}] 1/s, got "
+                    f"{gain:g}"
+                )
+            profs.append(ThreeZoneBraking(gain=gain, max_speed=v, max_acceleration=a))
         else:
             profs.append(
                 LinearBuffer(buffer=joint_buffer, spring_gain=spring_gain, max_recovery_speed=v)
@@ -188,7 +195,7 @@ def obstacle_rows(
 
 
 def custom_providers(providers: Any) -> list[Any]:
-    """The user's row providers: each with ``rows`` and a level 0-3."""
+    """The user's row providers: each with ``rows`` and a level 0-4."""
     if isinstance(providers, (str, bytes)) or not isinstance(providers, Sequence):
         raise InvalidParameter(
             f"providers: expected a sequence of row providers, got {describe(providers)}"
@@ -203,7 +210,8 @@ def custom_providers(providers: Any) -> list[Any]:
             )
         if isinstance(level, bool) or level not in range(len(LEVEL_NAMES)):
             raise InvalidParameter(
-                f"providers[{i}]: expected level 0-3 ({', '.join(LEVEL_NAMES)}), got {level!r}"
+                f"providers[{i}]: expected level 0-{len(LEVEL_NAMES) - 1} "
+                f"({', '.join(LEVEL_NAMES)}), got {level!r}"
             )
         out.append(p)
     return out

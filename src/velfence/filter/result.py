@@ -36,12 +36,14 @@ class FilterResult:
             relaxed row's slack is still reported against its bound as built).
         constraint_names: Name of every row, in row order.
         stages: What was applied, in order: ``"command-scaled"``, ``"projection"`` (the output
-            differs from the unconstrained optimum), ``"recovery"``, ``"dropped acceleration"``,
+            differs from the unconstrained optimum), ``"recovery"``, ``"dropped jerk"``,
+            ``"dropped acceleration"``,
             ``"relaxed <level>"``, ``"model-check"`` (a discrete-time bound was tightened),
             ``"model-scaled"`` (the candidate was scaled until the model check passed),
             ``"deadline"`` (the safe fallback), ``"stop"``.
-        dropped: Levels dropped (``"acceleration"``, the only level ever dropped) or relaxed
-            (``"obstacles"``, ``"workspace"``, ``"joint limits"``) to reach feasibility.
+        dropped: Levels dropped (``"jerk"``, ``"acceleration"``, the only levels ever dropped)
+            or relaxed (``"obstacles"``, ``"workspace"``, ``"joint limits"``) to reach
+            feasibility.
         rate_override: Whether the acceleration rows were dropped (safety over smoothness).
         rows: ``(G (m, n), b (m,))``: the rows ``G x >= b`` as built this cycle, before any
             relaxation or discrete-time tightening (read-only).
@@ -50,6 +52,8 @@ class FilterResult:
         deadline: ``None``, or why the safe fallback answered: ``"iterations"`` (a solve hit
             ``max_iterations``) or ``"time"`` (the cycle hit ``time_budget``).
         method: ``"safety-filter"``.
+        jerk_override: Whether the jerk rows were dropped (safety, or the acceleration
+            limit, over smoothness); counted in ``SafetyFilter.jerk_overrides``.
     """
 
     output: FloatArray
@@ -67,12 +71,14 @@ class FilterResult:
     relaxed: tuple[str, ...] = ()
     deadline: Deadline | None = None
     method: str = "safety-filter"
+    jerk_override: bool = False
 
 
 #: The stage names of :attr:`FilterResult.stages` and their bits in :attr:`FilterBatch.stages`
 #: (the C cycle's ``VF_FILTER_STAGE_*``, ``velfence_filter.h``), in report order.
 STAGE_BITS: tuple[tuple[int, str], ...] = (
-    (512, "command-scaled"), (1, "projection"), (2, "recovery"), (8, "dropped acceleration"),
+    (512, "command-scaled"), (1, "projection"), (2, "recovery"), (2048, "dropped jerk"),
+    (8, "dropped acceleration"),
     (16, "relaxed obstacles"), (32, "relaxed workspace"), (64, "relaxed joint limits"),
     (256, "deadline"), (4, "model-check"), (1024, "model-scaled"), (128, "stop"),
 )  # fmt: skip

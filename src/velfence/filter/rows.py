@@ -2,9 +2,10 @@ r"""Row providers: each safety limit turns into rows ``G x >= b`` of the filter'
 
 In the style of mink's ``Limit`` -> ``Constraint(G, h)``: a provider declares its priority
 ``level`` (:data:`LEVEL_JOINT` 0, :data:`LEVEL_WORKSPACE` 1, :data:`LEVEL_OBSTACLE` 2,
-:data:`LEVEL_RATE` 3; the ladder of :mod:`velfence.filter.ladder` relaxes by level) and, every
-cycle, returns a :class:`RowBlock` from the cycle's :class:`RowContext` (``q``, the command, the
-previous output, ``dt`` and the one shared :class:`~velfence.filter.kinematics.KinematicsFrame`):
+:data:`LEVEL_RATE` 3, :data:`LEVEL_JERK` 4; the ladder of :mod:`velfence.filter.ladder` relaxes
+by level) and, every cycle, returns a :class:`RowBlock` from the cycle's :class:`RowContext`
+(``q``, the command, the previous outputs, ``dt`` and the one shared
+:class:`~velfence.filter.kinematics.KinematicsFrame`):
 
 * ``G`` (k, n), ``b`` (k,): the rows;
 * ``violated`` (k,): the row's constraint is violated now (geometric distance < 0): its bound is
@@ -46,12 +47,14 @@ from velfence.shaping.profiles import LinearBuffer
 from velfence.shaping.shared_kernels import bounds_from_distances, fill_bounds
 
 __all__ = [
+    "LEVEL_JERK",
     "LEVEL_JOINT",
     "LEVEL_NAMES",
     "LEVEL_OBSTACLE",
     "LEVEL_RATE",
     "LEVEL_WORKSPACE",
     "JointAccelerationLimit",
+    "JointJerkLimit",
     "JointPositionLimit",
     "JointVelocityLimit",
     "ObstacleRows",
@@ -68,7 +71,8 @@ LEVEL_JOINT = 0
 LEVEL_WORKSPACE = 1
 LEVEL_OBSTACLE = 2
 LEVEL_RATE = 3
-LEVEL_NAMES = ("joint limits", "workspace", "obstacles", "acceleration")
+LEVEL_JERK = 4
+LEVEL_NAMES = ("joint limits", "workspace", "obstacles", "acceleration", "jerk")
 
 _IntArray = Any
 
@@ -85,6 +89,8 @@ class RowContext:
         dt: Control period [s] or ``None`` (continuous time).
         frame: The cycle's kinematics (:class:`~velfence.filter.kinematics.KinematicsFrame`),
             shared by every provider: each quantity computed once.
+        previous2: The output before ``previous`` [rad/s], shape (n,), or ``None`` (the jerk
+            rows need both).
     """
 
     q: FloatArray
@@ -92,6 +98,7 @@ class RowContext:
     previous: FloatArray | None
     dt: float | None
     frame: KinematicsFrame
+    previous2: FloatArray | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -355,6 +362,58 @@ class JointAccelerationLimit:
         return RowBlock(
             self._G, b, np.zeros(b.shape[0], dtype=bool), self._keys,
             _joint_namer(self._keys, "acceleration"),
+        )  # fmt: skip
+
+
+class JointJerkLimit:
+    r"""Jerk rows ``|x - (2 previous - previous2)| <= J dt²`` (level :data:`LEVEL_JERK`).
+
+    With the last two outputs ``p = previous`` and ``p2 = previous2`` the last acceleration is
+    ``(p - p2)/dt``; the next one, ``(x - p)/dt``, may differ from it by at most ``J dt`` (the
+    jerk limit ``J`` times one period), so ``x`` lies in the interval of half-width ``J dt²``
+    around ``c = p + (p - p2)`` (computed so, in C too): rows ``x_j >= c_j - J_j dt²`` (key
+    ``2 j``) and ``-x_j >= -(c_j + J_j dt²)`` (key ``2 j + 1``). Only with ``dt`` and both
+    outputs; joints without a finite jerk limit have none. The ladder drops these rows first,
+    before the acceleration rows (``jerk_override``; ``docs/derivations.md``).
+
+    Args:
+        limits: The joint limits (``max_jerk`` [rad/s³]).
+    """
+
+    level = LEVEL_JERK
+    label = "joint jerk"
+
+    def __init__(self, limits: JointLimits) -> None:
+        jerk = limits.max_jerk
+        n = limits.dof
+        self._joints = (
+            np.zeros(0, dtype=np.int64) if jerk is None else np.flatnonzero(np.isfinite(jerk))
+        )
+        eye = np.eye(n)
+        self._G = np.zeros((2 * self._joints.shape[0], n))
+        self._G[0::2] = eye[self._joints]
+        self._G[1::2] = -eye[self._joints]
+        self._jerk = np.zeros(0) if jerk is None else np.asarray(jerk, dtype=float)[self._joints]
+        self._keys = np.stack([2 * self._joints, 2 * self._joints + 1], 1).ravel()
+
+    def rows(self, ctx: RowContext) -> RowBlock | None:
+        """The rows around ``2 previous - previous2``, or ``None`` without both or ``dt``."""
+        if (
+            ctx.previous is None
+            or ctx.previous2 is None
+            or ctx.dt is None
+            or self._joints.shape[0] == 0
+        ):
+            return None
+        step = self._jerk * (ctx.dt * ctx.dt)
+        pj = ctx.previous[self._joints]
+        c = pj + (pj - ctx.previous2[self._joints])
+        b = np.empty(2 * pj.shape[0])
+        b[0::2] = c - step
+        b[1::2] = -(c + step)
+        return RowBlock(
+            self._G, b, np.zeros(b.shape[0], dtype=bool), self._keys,
+            _joint_namer(self._keys, "jerk"),
         )  # fmt: skip
 
 

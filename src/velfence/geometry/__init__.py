@@ -7,6 +7,7 @@ Closest-point and facet-selection helpers return indices into the same facet arr
 normal/tangential decomposition (:func:`velfence.geometry.polygon.decompose`) serves all shapers.
 """
 
+from velfence.geometry.capsule_fit import bounding_capsule
 from velfence.geometry.frames import body_to_world, world_to_body
 from velfence.geometry.paths import Circle, Line, Path, Polyline, Spline
 from velfence.geometry.polygon import (
@@ -39,6 +40,7 @@ __all__ = [
     "Rectangle",
     "Spline",
     "body_to_world",
+    "bounding_capsule",
     "clearance",
     "closest_point_on_segment",
     "closest_points_segments",

@@ -25,7 +25,7 @@ extra (Gymnasium with MuJoCo).
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, Literal, Protocol, runtime_checkable
 
@@ -40,9 +40,24 @@ from numpy.typing import ArrayLike
 
 from velfence._docs import document_inits
 from velfence._typing import FloatArray
-from velfence._validate import check_choice, check_positive, real_array, require_package
+from velfence._validate import (
+    MAX_MAGNITUDE,
+    check_choice,
+    check_flag,
+    check_names,
+    check_positive,
+    check_positive_int,
+    check_seed,
+    check_text,
+    describe,
+    readonly,
+    real_array,
+    require_package,
+    show,
+)
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.filter import JointLimits, SafetyFilter, SphereObstacle, WorkspaceLimit
+from velfence.filter.parts import obstacle_list
 from velfence.geometry.polytope import ConvexPolytope
 from velfence.robots import MujocoRobot
 from velfence.robots.servo import computed_torque
@@ -97,30 +112,20 @@ class MujocoJointState:
     """
 
     def __init__(self, joint_names: Sequence[str]) -> None:
-        names = tuple(joint_names)
-        if not names or not all(isinstance(s, str) and s for s in names):
-            raise InvalidParameter(f"joint_names: expected joint names, got {names!r}")
-        self.joint_names = names
-        self._key: Any = None
+        self.joint_names = check_names("joint_names", joint_names)
+        self._key: Any = _UNSET
         self._qadr = np.zeros(0, dtype=np.int64)
         self._vadr = np.zeros(0, dtype=np.int64)
 
     def addresses(self, model: Any) -> tuple[Any, Any]:
-        """``(qpos addresses, dof addresses)`` of the joints in ``model``.
+        """``(qpos addresses, dof addresses)`` of the joints in ``model`` (a ``mujoco.MjModel``).
 
         Raises:
-            InvalidParameter: a joint is not in the model or is not a hinge or slide.
+            InvalidParameter: not a MuJoCo model, or a joint is not in the model or is not a
+                hinge or slide.
         """
         if self._key is not model:
-            known = [model.joint(i).name for i in range(model.njnt)]
-            bad = [s for s in self.joint_names if s not in known]
-            if bad:
-                raise InvalidParameter(
-                    f"joint_names: {bad} are not joints of the env's model; it has {known}"
-                )
-            ids = [known.index(s) for s in self.joint_names]
-            if any(int(model.jnt_type[i]) not in (2, 3) for i in ids):  # slide 2, hinge 3
-                raise InvalidParameter("joint_names: expected hinge or slide joints only")
+            ids = _joint_ids("joint_names", model, self.joint_names)
             self._qadr = np.array([int(model.jnt_qposadr[i]) for i in ids])
             self._vadr = np.array([int(model.jnt_dofadr[i]) for i in ids])
             self._qsel = _as_slice(self._qadr)
@@ -134,11 +139,61 @@ class MujocoJointState:
         return self._qsel, self._vsel
 
     def read(self, env: Any) -> tuple[FloatArray, FloatArray]:
-        """``(qpos, qvel)`` of the joints, copies, shape (n,) each."""
-        u = env.unwrapped
-        qa, va = self.selectors(u.model)
-        d = u.data
+        """``(qpos, qvel)`` of the joints, copies, shape (n,) each.
+
+        Raises:
+            InvalidParameter: ``env`` is not a Gymnasium MuJoCo env (``env.unwrapped.model`` and
+                ``.data``) or lacks a joint.
+        """
+        try:
+            u = env.unwrapped
+            m, d = u.model, u.data
+        except AttributeError:
+            raise InvalidParameter(
+                f"env: expected a Gymnasium MuJoCo env (env.unwrapped.model and .data), got "
+                f"{describe(env)}"
+            ) from None
+        qa, va = self.selectors(m)
+        if not isinstance(d, _mujoco().MjData):
+            raise InvalidParameter(f"env: expected MuJoCo data in env.unwrapped.data, got "
+                                   f"{describe(d)}")  # fmt: skip
         return np.array(d.qpos[qa], dtype=np.float64), np.array(d.qvel[va], dtype=np.float64)
+
+
+#: No model seen yet (``None`` is a model argument to refuse, not a cache key).
+_UNSET: Any = object()
+
+
+def _joint_ids(arg: str, model: Any, names: tuple[str, ...]) -> list[int]:
+    """The joint ids of ``names`` in a MuJoCo ``model``, every one a hinge or a slide."""
+    mj = _mujoco()
+    if not isinstance(model, mj.MjModel):
+        raise InvalidParameter(f"model: expected a mujoco.MjModel (env.unwrapped.model), got "
+                               f"{describe(model)}")  # fmt: skip
+    known = [model.joint(i).name for i in range(model.njnt)]
+    bad = [s for s in names if s not in known]
+    if bad:
+        raise InvalidParameter(f"{arg}: {bad} are not joints of the env's model; it has {known}")
+    ids = [known.index(s) for s in names]
+    if any(int(model.jnt_type[i]) not in (2, 3) for i in ids):  # slide 2, hinge 3
+        raise InvalidParameter(f"{arg}: expected hinge or slide joints only")
+    return ids
+
+
+def _unwrapped(env: Any) -> Any:
+    """``env.unwrapped`` of a Gymnasium MuJoCo env (its ``fullpath``, ``model`` and ``data``)."""
+    mj = _mujoco()
+    u = getattr(env, "unwrapped", None)
+    if (
+        not isinstance(getattr(u, "fullpath", None), str)
+        or not isinstance(getattr(u, "model", None), mj.MjModel)
+        or not isinstance(getattr(u, "data", None), mj.MjData)
+    ):
+        raise InvalidParameter(
+            "env: expected a Gymnasium MuJoCo env (env.unwrapped.fullpath, .model and .data), "
+            f"got {describe(env)}"
+        )
+    return u
 
 
 def _as_slice(idx: Any) -> Any:
@@ -157,17 +212,19 @@ def mujoco_arm(
 ) -> MujocoRobot:
     """The arm of a Gymnasium MuJoCo env as a :class:`~velfence.robots.MujocoRobot`.
 
-    Read from the env's own MJCF (``env.unwrapped.fullpath``, MuJoCo's ``MjSpec``): every joint
-    not in ``joints`` is removed (the object, the goal: their bodies stay, fixed), a site
-    ``"tcp"`` is put on the body ``tip`` at ``tip_offset`` (by default its origin, the point
-    Gymnasium's tasks measure: ``get_body_com`` is the body's ``xpos``) and a site
-    ``"joint{i}"`` on each joint's anchor (the capsule links of the obstacle rows). The result
-    is checked against the env: the tcp at the env's current ``qpos`` equals MuJoCo's own
-    point (``xpos + xmat · tip_offset`` of ``tip``) to 1e-9 m.
+    Read from the env's own MJCF file (``env.unwrapped.fullpath``) by
+    :meth:`MujocoRobot.arm_from_xml <velfence.robots.MujocoRobot.arm_from_xml>`, its numbers as
+    written: every joint not in ``joints`` is removed (the object, the goal: their bodies stay,
+    fixed), a site ``"tcp"`` is put on the body ``tip`` at ``tip_offset`` (by default its
+    origin, the point Gymnasium's tasks measure: ``get_body_com`` is the body's ``xpos``) and a
+    site ``"joint{i}"`` on each joint's anchor (the capsule links of the obstacle rows). The
+    result is checked against the env: the tcp at the env's current ``qpos`` equals MuJoCo's
+    own point (``xpos + xmat · tip_offset`` of ``tip``) to 1e-9 m.
 
     Args:
         env: A Gymnasium MuJoCo env (or a wrapper of one).
-        joints: The arm's joints, in the order of the filter (and of the action).
+        joints: The arm's joints, in the order of the filter (and of the action): the
+            model's order.
         tip: The body that carries the tool point (``"tips_arm"`` for Pusher,
             ``"fingertip"`` for Reacher).
         tip_offset: The tool point in the body's frame [m], shape (3,) (Pusher's finger
@@ -182,17 +239,12 @@ def mujoco_arm(
             arm read back does not match the env's kinematics.
     """
     mj = _mujoco()
-    u = env.unwrapped
-    path = getattr(u, "fullpath", None)
-    model = getattr(u, "model", None)
-    if not isinstance(path, str) or model is None:
-        raise InvalidParameter(
-            "env: expected a Gymnasium MuJoCo env (env.unwrapped.fullpath and .model), got "
-            f"{type(u).__name__}"
-        )
-    state = MujocoJointState(joints)
-    state.addresses(model)
-    names = state.joint_names
+    u = _unwrapped(env)
+    path, model = u.fullpath, u.model
+    names = check_names("joints", joints)
+    _joint_ids("joints", model, names)
+    state = MujocoJointState(names)
+    tip = check_text("tip", tip, max_length=200)
     try:
         bid = model.body(tip).id
     except KeyError:
@@ -200,24 +252,15 @@ def mujoco_arm(
         raise InvalidParameter(f"tip: {tip!r} is not a body of the env; it has {bodies}") from None
     off = real_array("tip_offset", tip_offset, (3,), what="a position [m]",
                      error=InvalidParameter)  # fmt: skip
-    spec = mj.MjSpec.from_file(path)
-    for a in list(spec.actuators):  # the kinematics needs none (and they name removed joints)
-        spec.delete(a)
-    for j in list(spec.joints):
-        if j.name not in names:
-            spec.delete(j)
-    spec.body(tip).add_site(name="tcp", pos=off.tolist(), size=[0.005, 0, 0])
-    for i, jn in enumerate(names):
-        jid = model.joint(jn).id
-        body = spec.body(model.body(int(model.jnt_bodyid[jid])).name)
-        body.add_site(name=f"joint{i}", pos=list(map(float, model.jnt_pos[jid])),
-                      size=[0.005, 0, 0])  # fmt: skip
-    robot = MujocoRobot.from_xml(spec.to_xml())
-    if robot.joint_names != names:
+    try:
+        with open(path, encoding="utf-8") as fh:
+            text = fh.read()
+    except (OSError, UnicodeDecodeError, ValueError) as exc:
         raise InvalidParameter(
-            f"joints: the arm read back has joints {robot.joint_names}, expected {names} "
-            "(give them in the model's order)"
-        )
+            f"env: expected the env's MJCF file to be readable, got {path[:200]!r} "
+            f"({type(exc).__name__})"
+        ) from None
+    robot = MujocoRobot.arm_from_xml(text, names, tcp=(tip, off))
     q, _ = state.read(env)
     tcp = robot.fk(q)
     mj.mj_kinematics(model, u.data)
@@ -248,44 +291,159 @@ def _tip_point(data: Any, body: int, offset: FloatArray) -> FloatArray:
     return np.asarray(data.xpos[body], dtype=np.float64) + R @ offset
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, kw_only=True)
 class Shield:
     """Everything a shield wrapper needs: the filter and how actions map to the env.
 
+    Usually built by :func:`mujoco_shield` from a Gymnasium MuJoCo env; built directly (every
+    argument by keyword), each field is checked as :func:`mujoco_shield` would set it.
+
     Attributes:
-        filter: The :class:`~velfence.filter.SafetyFilter` (its ``dt`` the control period).
-        state: The :class:`JointState` adapter.
+        filter: The :class:`~velfence.filter.SafetyFilter` (its ``dt``, when set, the control
+            period).
+        state: The :class:`JointState` adapter (one joint name per filter joint), or ``None``:
+            no reader of one env, for a :class:`VectorShieldWrapper` given its own
+            :class:`BatchJointState` (velocity or position actuation only).
         action: :data:`ActionMode`, what the agent sends.
         actuation: :data:`Actuation`, what the env takes.
-        period: The env's control period ``T`` [s] (one ``step``).
-        bandwidth: The torque servo's bandwidth [rad/s] (``actuation="torque"``).
-        max_effort: The servo's torque limits per joint [N·m] (``actuation="torque"``).
-        gear: Per joint, the actuator's gear (control = torque / gear).
+        period: The env's control period ``T`` [s] (one ``step``), > 0.
+        bandwidth: The torque servo's bandwidth [rad/s], >= 0; > 0 with ``actuation="torque"``.
+        max_effort: The servo's torque limits per joint [N·m], shape (n,), > 0 (``inf``: none);
+            required with ``actuation="torque"``.
+        gear: Per joint, the actuator's gear (control = torque / gear), shape (n,), finite and
+            non-zero; required with ``actuation="torque"``.
         actuators: Per joint, the index of its actuator in the env's action (torque and
-            position actuation), or ``None``: the action is ordered as the joints.
-        twist_speed: The largest tool speed the ``"twist"`` action space allows [m/s].
-        tip_body: The MuJoCo body id that carries the ``"tcp"``, or ``None`` (other envs:
-            the robot's ``fk``).
-        tip_offset: The ``"tcp"`` in that body's frame [m].
+            position actuation): n distinct ints >= 0, or ``None``: the action is ordered as the
+            joints.
+        twist_speed: The largest tool speed the ``"twist"`` action space allows [m/s], > 0.
+        tip_body: The MuJoCo body id that carries the ``"tcp"`` (an int >= 0), or ``None``
+            (other envs: the robot's ``fk``).
+        tip_offset: The ``"tcp"`` in that body's frame [m], shape (3,) (``None`` with a
+            ``tip_body``: its origin).
+
+    Raises:
+        InvalidParameter: a field that is not what it says above (the message names it).
     """
 
     filter: SafetyFilter
-    state: Any
+    state: JointState | None
     action: ActionMode
     actuation: Actuation
     period: float
     bandwidth: float = 0.0
     max_effort: FloatArray | None = None
     gear: FloatArray | None = None
-    actuators: Any = None
+    actuators: tuple[int, ...] | None = None
     twist_speed: float = 1.0
     tip_body: int | None = None
     tip_offset: FloatArray | None = None
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.filter, SafetyFilter):
+            raise InvalidParameter(
+                f"filter: expected a velfence.filter.SafetyFilter, got {describe(self.filter)}"
+            )
+        n = int(self.filter.dof)
+        set_ = object.__setattr__
+        set_(self, "action", check_choice("action", self.action, _ACTIONS))
+        mode = check_choice("actuation", self.actuation, _ACTUATIONS)
+        set_(self, "actuation", mode)
+        T = check_positive("period", self.period, unit="s")
+        dt = self.filter.dt
+        if dt is not None and not math.isclose(T, dt, rel_tol=1e-6, abs_tol=0.0):
+            raise InvalidParameter(
+                f"period: expected the filter's dt ({dt:g} s), the control period it brakes "
+                f"over, got {T:g} s"
+            )
+        set_(self, "period", T)
+        if self.state is not None:
+            if not isinstance(self.state, JointState):
+                raise InvalidParameter(
+                    "state: expected a JointState (joint_names and read(env); "
+                    f"MujocoJointState for MuJoCo envs) or None, got {describe(self.state)}"
+                )
+            try:
+                k = len(tuple(self.state.joint_names))
+            except Exception:  # a hostile joint_names is refused, not propagated
+                k = -1
+            if k != n:
+                raise InvalidParameter(
+                    f"state: expected a JointState of the filter's {n} joints, got joint_names "
+                    f"{show(getattr(self.state, 'joint_names', None))}"
+                )
+        if mode == "torque" and not callable(getattr(self.state, "addresses", None)):
+            raise InvalidParameter(
+                "state: the torque servo reads MuJoCo's data at the joints' addresses; expected "
+                f"a MujocoJointState (or a JointState with addresses(model)), got "
+                f"{describe(self.state)}"
+            )
+        torque = mode == "torque"
+        bw = check_positive("bandwidth", self.bandwidth, allow_zero=not torque, unit="rad/s")
+        set_(self, "bandwidth", bw)
+        eff = _joint_values("max_effort", self.max_effort, n, torque, allow_inf=True)
+        set_(self, "max_effort", eff)
+        set_(self, "gear", _joint_values("gear", self.gear, n, torque, allow_inf=False))
+        set_(self, "actuators", _actuator_indices(self.actuators, n))
+        set_(self, "twist_speed", check_positive("twist_speed", self.twist_speed, unit="m/s"))
+        tip = self.tip_body
+        if tip is not None:
+            tip = check_positive_int("tip_body", tip, minimum=0, maximum=2**31 - 1, example=1)
+        set_(self, "tip_body", tip)
+        off = self.tip_offset
+        if off is not None:
+            off = readonly(real_array("tip_offset", off, (3,), what="a position [m]",
+                                      error=InvalidParameter))  # fmt: skip
+        elif tip is not None:
+            off = readonly(np.zeros(3))
+        set_(self, "tip_offset", off)
 
     @property
     def dof(self) -> int:
         """The arm's joints."""
         return int(self.filter.dof)
+
+
+def _joint_values(
+    name: str, value: Any, n: int, required: bool, *, allow_inf: bool
+) -> FloatArray | None:
+    """A per-joint array of ``Shield``, shape (n,), or ``None`` where not ``required``.
+
+    ``max_effort`` (``allow_inf``): > 0, inf allowed; ``gear``: finite and non-zero.
+    """
+    if value is None:
+        if required:
+            raise InvalidParameter(
+                f"{name}: required with actuation='torque': one value per joint ({n})"
+            )
+        return None
+    a = real_array(name, value, (n,), error=InvalidParameter, allow_nonfinite=allow_inf)
+    if np.isnan(a).any() or (allow_inf and not np.all(a > 0.0)):
+        raise InvalidParameter(f"{name}: expected values > 0 (inf: no limit), got {show(a)}")
+    if not allow_inf and not np.all(a != 0.0):
+        raise InvalidParameter(f"{name}: expected non-zero values, got {show(a)}")
+    return readonly(a)
+
+
+def _actuator_indices(value: Any, n: int) -> tuple[int, ...] | None:
+    """``Shield.actuators``: ``None`` or n distinct ints >= 0."""
+    if value is None:
+        return None
+    if isinstance(value, (str, bytes, bytearray, dict, set, frozenset)) or not isinstance(
+        value, (list, tuple, range, np.ndarray)
+    ):
+        raise InvalidParameter(
+            f"actuators: expected {n} actuator indices (ints >= 0) or None, got {describe(value)}"
+        )
+    items = value.tolist() if isinstance(value, np.ndarray) else list(value)
+    if len(items) != n or (isinstance(value, np.ndarray) and value.ndim != 1):
+        raise InvalidParameter(f"actuators: expected {n} actuator indices, got {show(value)}")
+    idx = tuple(
+        check_positive_int(f"actuators[{i}]", v, minimum=0, maximum=2**31 - 1, example=0)
+        for i, v in enumerate(items)
+    )
+    if len(set(idx)) != n:
+        raise InvalidParameter(f"actuators: expected distinct indices, got {list(idx)}")
+    return idx
 
 
 def _actuators(model: Any, joint_ids: list[int]) -> tuple[list[int], FloatArray, FloatArray]:
@@ -401,6 +559,19 @@ def mujoco_shield(
     """
     act = check_choice("action", action, _ACTIONS)
     pol = check_choice("on_invalid", on_invalid, _ON_INVALID)
+    if actuation is not None:
+        check_choice("actuation", actuation, _ACTUATIONS)
+    if joint_limits is not None and not isinstance(joint_limits, Mapping):
+        raise InvalidParameter(
+            "joint_limits: expected a mapping joint name -> (lower, upper) [rad] or None, got "
+            f"{describe(joint_limits)}"
+        )
+    if workspace is not None and not isinstance(workspace, (ConvexPolytope, WorkspaceLimit)):
+        raise InvalidParameter(
+            "workspace: expected a ConvexPolytope, a WorkspaceLimit or None, got "
+            f"{describe(workspace)}"
+        )
+    obs = obstacle_list(obstacles)
     robot = mujoco_arm(env, joints, tip=tip, tip_offset=tip_offset)
     u = env.unwrapped
     model = u.model
@@ -409,10 +580,10 @@ def mujoco_shield(
     T = check_positive("env.unwrapped.dt", getattr(u, "dt", None), unit="s")
     lo = np.empty(n)
     hi = np.empty(n)
-    given = dict(joint_limits or {})
-    unknown = sorted(set(given) - set(names))
+    given = {} if joint_limits is None else dict(joint_limits)
+    unknown = [k for k in given if k not in names]
     if unknown:
-        raise InvalidParameter(f"joint_limits: {unknown} are not among joints {list(names)}")
+        raise InvalidParameter(f"joint_limits: {show(unknown)} are not among joints {list(names)}")
     unset = []
     for k, jn in enumerate(names):
         jid = model.joint(jn).id
@@ -452,7 +623,7 @@ def mujoco_shield(
     elif workspace is not None:
         ws = workspace
     filt = SafetyFilter(
-        robot, limits=limits, workspace=ws, obstacles=list(obstacles), dt=T,
+        robot, limits=limits, workspace=ws, obstacles=obs, dt=T,
         on_invalid="stop" if pol == "stop" else "raise",
     )  # fmt: skip
     ids = [model.joint(s).id for s in names]
@@ -476,7 +647,7 @@ def mujoco_shield(
     bw = check_positive("bandwidth", 1.0 / T if bandwidth is None else bandwidth, unit="rad/s")
     return Shield(
         filter=filt, state=MujocoJointState(names), action=act, actuation=mode, period=T,
-        bandwidth=bw, max_effort=eff, gear=gear, actuators=idx,
+        bandwidth=bw, max_effort=eff, gear=gear, actuators=None if idx is None else tuple(idx),
         twist_speed=check_positive("twist_speed", twist_speed, unit="m/s"),
         tip_body=int(model.body(tip).id),
         tip_offset=real_array("tip_offset", tip_offset, (3,), error=InvalidParameter),
@@ -496,6 +667,17 @@ def _per_joint(name: str, value: Any, n: int, unit: str) -> FloatArray | None:
     return a
 
 
+def _reset_options(options: Any) -> dict[str, Any] | None:
+    """The ``options`` of a wrapper's ``reset``: ``None`` or a dict with string keys."""
+    if options is None:
+        return None
+    if not isinstance(options, dict) or not all(isinstance(k, str) for k in options):
+        raise InvalidParameter(
+            f"options: expected a dict of reset options (str keys) or None, got {describe(options)}"
+        )
+    return options
+
+
 def _action_space(shield: Shield) -> Any:
     lim = shield.filter.limits
     if shield.action == "velocity":
@@ -513,7 +695,9 @@ class _Core:
 
     def __init__(self, shield: Shield, penalty: float) -> None:
         if not isinstance(shield, Shield):
-            raise InvalidParameter(f"shield: expected a Shield (mujoco_shield), got {shield!r}")
+            raise InvalidParameter(
+                f"shield: expected a Shield (mujoco_shield), got {describe(shield)}"
+            )
         self.shield = shield
         self.penalty = check_positive("penalty", penalty, allow_zero=True)
         self.width = 3 if shield.action == "twist" else shield.dof
@@ -554,15 +738,12 @@ class _Core:
     def check_action(self, action: Any, rows: int | None) -> FloatArray:
         """The action as float64 of the action space's shape (rows x width for a vector env).
 
-        Non-finite entries are kept (the ``on_invalid`` policy decides).
+        Non-finite entries, and finite ones beyond :data:`~velfence._validate.MAX_MAGNITUDE`,
+        are kept (the ``on_invalid`` policy decides: :func:`_invalid_rows`).
         """
         shape = (self.width,) if rows is None else (rows, self.width)
-        a = np.asarray(action) if not isinstance(action, np.ndarray) else action
-        if a.dtype.kind not in "fiu" or a.dtype == np.bool_:
-            raise InvalidInput(
-                f"action: expected real numbers of shape {shape}, got dtype {a.dtype}"
-            )
-        return real_array("action", a, shape, allow_nonfinite=True, max_abs=None)
+        name = "action" if rows is None else "actions"
+        return real_array(name, action, shape, allow_nonfinite=True, max_abs=None)
 
     def command(self, q: FloatArray, a: FloatArray) -> FloatArray:
         """The joint-velocity command of an action (velocity and position modes)."""
@@ -587,10 +768,16 @@ class _Core:
             rng = np.asarray(m.actuator_ctrlrange, dtype=np.float64)
             self._ctrl_lo = np.where(limited, rng[:, 0], -np.inf)
             self._ctrl_hi = np.where(limited, rng[:, 1], np.inf)
-            self._act = _as_slice(np.asarray(sh.actuators))
+            act = np.arange(sh.dof) if sh.actuators is None else np.asarray(sh.actuators)
+            if act.size and int(act.max()) >= m.nu:
+                raise InvalidParameter(
+                    f"shield: actuators {act.tolist()} are not all among the env's {m.nu} actuators"
+                )
+            self._act = _as_slice(act)
             self._all = self._act == slice(0, m.nu)
-            sel = sh.state.selectors(m) if hasattr(sh.state, "selectors") else None
-            self._dofs = sel[1] if sel is not None else sh.state.addresses(m)[1]
+            st: Any = sh.state  # a MuJoCo reader (Shield checks it has addresses)
+            sel = st.selectors(m) if hasattr(st, "selectors") else None
+            self._dofs = sel[1] if sel is not None else st.addresses(m)[1]
         assert sh.max_effort is not None
         assert sh.gear is not None
         tau, _ = computed_torque(self._mj, m, d, self._dofs, x, bandwidth=sh.bandwidth,
@@ -674,37 +861,60 @@ class ShieldWrapper(gymnasium.Wrapper):
         detail: bool = True,
         bypass: bool = False,
     ) -> None:
-        super().__init__(env)
-        self._core = _Core(shield, penalty)
-        self.shield = shield
-        self.detail = bool(detail)
-        self.bypass = bool(bypass)
-        if self.bypass and shield.action == "twist":
+        core = _Core(shield, penalty)
+        if shield.state is None:
+            raise InvalidParameter(
+                "shield: expected a Shield with a JointState (its state reads the env), got "
+                "state=None"
+            )
+        detail = check_flag("detail", detail)
+        bypass = check_flag("bypass", bypass)
+        if bypass and shield.action == "twist":
             raise InvalidParameter("bypass: expected joint velocity or position actions")
+        if not isinstance(env, gymnasium.Env):
+            raise InvalidParameter(f"env: expected a gymnasium.Env, got {describe(env)}")
+        super().__init__(env)
+        self._core = core
+        self.shield = shield
+        self.detail = detail
+        self.bypass = bypass
         self.action_space = _action_space(shield)
         self.interventions = 0
         self._last_q: FloatArray | None = None
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> Any:
-        """Reset the env and the episode's intervention count."""
+        """Reset the env and the episode's intervention count.
+
+        Args:
+            seed: The env's seed, an int in [0, 2**63 - 1], or ``None``.
+            options: The env's reset options, a dict, or ``None``.
+
+        Raises:
+            InvalidParameter: a bad seed or options.
+        """
+        sd = None if seed is None else check_seed("seed", seed)
+        opts = _reset_options(options)
         self.interventions = 0
         self.shield.filter.reset()
-        return self.env.reset(seed=seed, options=options)
+        return self.env.reset(seed=sd, options=opts)
 
     def _shielded(self, action: Any) -> tuple[FloatArray, dict[str, Any]]:
         core, sh = self._core, self.shield
         f = sh.filter
         a = core.check_action(action, None)
+        assert sh.state is not None  # checked by __init__
         q, qd = sh.state.read(self.env)
-        total = float(a.sum()) + float(q.sum()) + float(qd.sum())  # finite: every entry is
-        bad = not math.isfinite(total) and not (
-            np.isfinite(a).all() and np.isfinite(q).all() and np.isfinite(qd).all()
-        )
+        # NaN fails both comparisons; an action beyond MAX_MAGNITUDE is as invalid as inf
+        # (the filter's own rule), so it meets the on_invalid policy too.
+        bad = not (float(a.min()) >= -MAX_MAGNITUDE and float(a.max()) <= MAX_MAGNITUDE)
+        total = float(q.sum()) + float(qd.sum())  # finite: every entry is
+        if not bad and not math.isfinite(total):
+            bad = not (np.isfinite(q).all() and np.isfinite(qd).all())
         if bad:
             if f.on_invalid == "raise":
                 raise InvalidInput(
-                    f"non-finite input: joint state q={q.tolist()}, qd={qd.tolist()}, "
-                    f"action={a.tolist()}"
+                    f"non-finite input (or beyond {MAX_MAGNITUDE:g}): joint state "
+                    f"q={q.tolist()}, qd={qd.tolist()}, action={a.tolist()}"
                 )
             env_a = core.hold(self.env, q, qd)
             n = sh.dof
@@ -804,22 +1014,38 @@ class VectorShieldWrapper(gymnasium.vector.VectorWrapper):
         penalty: float = 0.0,
         threads: int = 0,
     ) -> None:
-        super().__init__(env)
-        self._core = _Core(shield, penalty)
+        core = _Core(shield, penalty)
         if shield.action == "twist":
             raise InvalidParameter(
                 "shield: the vector shield takes joint velocity or position actions (twist "
                 "mode has no batched C route)"
+            )
+        if not isinstance(env, gymnasium.vector.VectorEnv):
+            raise InvalidParameter(
+                f"env: expected a gymnasium.vector.VectorEnv, got {describe(env)}"
+            )
+        if state is not None and not isinstance(state, BatchJointState):
+            raise InvalidParameter(
+                "state: expected a BatchJointState (joint_names and read_batch(envs)) or None, "
+                f"got {describe(state)}"
             )
         if state is None and not hasattr(env, "envs"):
             raise InvalidParameter(
                 "state: expected a BatchJointState for a vector env without in-process "
                 f"sub-envs ({type(env).__name__}); pass state="
             )
+        if state is None and shield.state is None:
+            raise InvalidParameter(
+                "state: expected a BatchJointState, as the shield has no JointState of one "
+                "sub-env (shield.state is None)"
+            )
+        threads = check_positive_int("threads", threads, minimum=0, maximum=64, example=2)
+        n = check_positive_int("env.num_envs", getattr(env, "num_envs", None), example=4)
+        super().__init__(env)
+        self._core = core
         self.shield = shield
         self._state = state
-        self._threads = int(threads)
-        n = int(env.num_envs)
+        self._threads = threads
         self.single_action_space = _action_space(shield)
         self.action_space = gymnasium.vector.utils.batch_space(self.single_action_space, n)
         self.interventions = np.zeros(n, dtype=np.int64)
@@ -834,14 +1060,36 @@ class VectorShieldWrapper(gymnasium.vector.VectorWrapper):
                     real_array("state velocities", QD, (N, n), allow_nonfinite=True,
                                max_abs=None))  # fmt: skip
         envs: Any = getattr(self.env, "envs", ())
-        rows = [self.shield.state.read(e) for e in envs]
+        one = self.shield.state
+        assert one is not None  # checked by __init__
+        rows = [one.read(e) for e in envs]
         return np.array([r[0] for r in rows]), np.array([r[1] for r in rows])
 
     def reset(self, *, seed: Any = None, options: dict[str, Any] | None = None) -> Any:
-        """Reset the sub-envs and their intervention counts."""
+        """Reset the sub-envs and their intervention counts.
+
+        Args:
+            seed: ``None``, an int in [0, 2**63 - 1] (the vector env seeds its sub-envs from
+                it), or one such int (or ``None``) per sub-env.
+            options: The reset options, a dict, or ``None``.
+
+        Raises:
+            InvalidParameter: a bad seed or options.
+        """
+        sd: Any = seed
+        if seed is not None and isinstance(seed, (list, tuple)):
+            N = int(self.env.num_envs)
+            if len(seed) != N:
+                raise InvalidParameter(
+                    f"seed: expected one seed per sub-env ({N}), got {len(seed)}"
+                )
+            sd = [None if v is None else check_seed(f"seed[{k}]", v) for k, v in enumerate(seed)]
+        elif seed is not None:
+            sd = check_seed("seed", seed)
+        opts = _reset_options(options)
         self.interventions[:] = 0
         self._prev = None
-        return self.env.reset(seed=seed, options=options)
+        return self.env.reset(seed=sd, options=opts)
 
     def step(self, actions: Any) -> Any:
         """Filter every sub-env's action in one call, step the vector env, report."""
@@ -851,7 +1099,10 @@ class VectorShieldWrapper(gymnasium.vector.VectorWrapper):
         Q, QD = self._read()
         U = core.command(Q, A)
         prev = self._prev if sh.filter.limits.max_acceleration is not None else None
-        r = sh.filter.filter_batch(Q, U, previous=prev, threads=self._threads)
+        try:
+            r = sh.filter.filter_batch(Q, U, previous=prev, threads=self._threads)
+        except InvalidInput as exc:  # the filter's commands are the actions, its positions Q
+            raise InvalidInput(f"actions or joint state (on_invalid='raise'): {exc}") from None
         X = r.output
         bad = r.invalid | ~np.all(np.isfinite(QD), axis=1)
         if sh.actuation == "velocity":

@@ -13,9 +13,10 @@ rate-limited on its own.
 Units are LeRobot's (``units="degrees"`` or ``"range_m100_100"`` for the arm joints,
 ``range_0_100`` for the gripper) and are converted at the edge with LeRobot's own formulas (see
 ``docs/lerobot.md``). The arm's kinematics come from the SO-ARM URDF that the
-``example-robot-data`` package ships (:func:`so_arm`), compiled by MuJoCo once and turned into a
-Denavit-Hartenberg chain, so every cycle runs the compiled filter cycle. This module imports
-neither lerobot nor torch; MuJoCo and the URDF are needed only by :func:`so_arm`.
+``example-robot-data`` package ships (:func:`so_arm`), compiled by MuJoCo once; its five arm
+joints are a serial chain (:meth:`velfence.robots.MujocoRobot.chain_frames`), so every cycle runs
+the compiled filter cycle. This module imports neither lerobot nor torch; MuJoCo and the URDF are
+needed only by :func:`so_arm`.
 """
 
 from __future__ import annotations
@@ -46,9 +47,10 @@ from velfence._validate import (
 )
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter, MissingExtra
 from velfence.filter import JointLimits, SafetyFilter, SphereObstacle, WorkspaceLimit
+from velfence.filter.parts import obstacle_list
 from velfence.filter.result import FilterResult
 from velfence.geometry.polytope import ConvexPolytope
-from velfence.mechanisms import DHChain
+from velfence.robots import MujocoRobot
 
 __all__ = [
     "ARM_JOINTS",
@@ -96,8 +98,7 @@ _LEROBOT_DEG = _DEG * (TICKS_PER_TURN - 1) / TICKS_PER_TURN
 #: ``gripper_frame_link``), so the SO-100 needs ``path=`` to a model with one.
 _URDF = {"so101": "so_arm_description/urdf/so101.urdf"}
 _TCP_LINK = "gripper_frame_link"
-_PARALLEL = 1e-3  # |z_j × z_k| below this: the two joint axes are taken as parallel
-_FIT_TOLERANCE = 1e-4  # largest accepted |DH − MuJoCo| of the gripper point [m]
+_FIT_TOLERANCE = 1e-4  # largest accepted |chain frames − MuJoCo| of the gripper point [m]
 
 
 # ---------------------------------------------------------------------------------- the model
@@ -108,20 +109,25 @@ class SoArm:
     Attributes:
         name: ``"so101"`` or the file's stem.
         source: Path of the URDF (or MJCF) the model was read from.
-        chain: The five arm joints as a :class:`~velfence.mechanisms.DHChain` in its own
-            frame 0 (on the shoulder-pan axis); named points ``"tcp"`` (the gripper frame's
-            origin), ``"elbow"`` and ``"wrist"`` (on the elbow-flex and wrist-flex axes).
-        rotation: Rotation of the chain's frame 0 in the robot's base frame, shape (3, 3).
-        origin: Origin of the chain's frame 0 in the base frame [m], shape (3,).
+        chain: The five arm joints as a :class:`~velfence.robots.MujocoRobot` (the model with
+            the gripper joint fixed: :meth:`~velfence.robots.MujocoRobot.arm`), in the robot's
+            base frame; named points ``"tcp"`` (the gripper frame's origin), ``"elbow"`` and
+            ``"wrist"`` (the elbow-flex and wrist-flex joints' origins, on their axes), capsule
+            links of ``link_radius`` from joint to joint (the last to the ``"tcp"``).
+        rotation: Rotation of the chain's frame in the robot's base frame, shape (3, 3) (the
+            identity for :func:`so_arm`).
+        origin: Origin of the chain's frame in the base frame [m], shape (3,) (zero for
+            :func:`so_arm`).
         joint_limits: The model's limits of the arm joints [rad], shape (5, 2), read-only.
         gripper_range: The model's range of the gripper joint [rad] ``(lower, upper)``.
-        fit_error: Largest distance between the chain's gripper point and MuJoCo's on the
+        fit_error: Largest distance between the gripper point of the chain's frames (what the
+            compiled filter cycle computes, ``chain.chain_frames()``) and MuJoCo's on the
             model, over the poses checked when it was built [m].
     """
 
     name: str
     source: str
-    chain: DHChain
+    chain: MujocoRobot
     rotation: FloatArray
     origin: FloatArray
     joint_limits: FloatArray
@@ -129,12 +135,12 @@ class SoArm:
     fit_error: float
 
     def to_base(self, point: ArrayLike) -> FloatArray:
-        """A point of the chain's frame 0 in the robot's base frame [m], shape (3,)."""
+        """A point of the chain's frame in the robot's base frame [m], shape (3,)."""
         p = real_array("point", point, (3,), what="a point (x, y, z) [m]")
         return np.asarray(self.rotation @ p + self.origin, dtype=np.float64)
 
     def from_base(self, point: ArrayLike) -> FloatArray:
-        """A point of the robot's base frame in the chain's frame 0 [m], shape (3,)."""
+        """A point of the robot's base frame in the chain's frame [m], shape (3,)."""
         p = real_array("point", point, (3,), what="a point (x, y, z) [m]")
         return np.asarray(self.rotation.T @ (p - self.origin), dtype=np.float64)
 
@@ -161,63 +167,6 @@ def _urdf_path(model: str) -> Path:
     )
 
 
-def _unit(v: FloatArray) -> FloatArray:
-    return np.asarray(v / np.linalg.norm(v), dtype=np.float64)
-
-
-def _dh_from_axes(
-    points: FloatArray, axes: FloatArray, tool: FloatArray
-) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
-    """Standard DH rows of revolute axes given as lines at ``q = 0`` (base frame).
-
-    Returns ``(dh (n, 4), tool in frame n, R0 (3, 3), o0 (3,))``: frame 0 has ``z`` along axis
-    0 (its origin the point of axis 0 closest to the base origin); each ``z_j`` is the model's
-    axis direction, so the joint angles keep their sign; consecutive axes within ``_PARALLEL``
-    of parallel are made exactly parallel (the URDF writes its right angles as 1.5708).
-    """
-    n = axes.shape[0]
-    z = [_unit(axes[0])]
-    for j in range(1, n):
-        zj = _unit(axes[j])
-        if np.linalg.norm(np.cross(z[-1], zj)) < _PARALLEL:
-            zj = z[-1] * (1.0 if float(z[-1] @ zj) > 0.0 else -1.0)
-        z.append(zj)
-    o = points[0] - float(points[0] @ z[0]) * z[0]
-    ex = np.array([1.0, 0.0, 0.0])
-    x = ex - float(ex @ z[0]) * z[0]
-    if np.linalg.norm(x) < 1e-6:
-        ey = np.array([0.0, 1.0, 0.0])
-        x = ey - float(ey @ z[0]) * z[0]
-    x = _unit(x)
-    R0 = np.column_stack([x, np.cross(z[0], x), z[0]])
-    o0 = o.copy()
-    rows = np.zeros((n, 4))
-    for j in range(n - 1):
-        zj, zk, pk = z[j], z[j + 1], points[j + 1]
-        c = np.cross(zj, zk)
-        if np.linalg.norm(c) < 1e-12:  # parallel: the normal through o_j
-            cj = o
-            ck = pk + float((o - pk) @ zk) * zk
-        else:  # the closest points of the two lines
-            w = o - pk
-            b = float(zj @ zk)
-            d_, e_ = float(zj @ w), float(zk @ w)
-            den = 1.0 - b * b
-            s = (b * e_ - d_) / den
-            t = (e_ - b * d_) / den
-            cj, ck = o + s * zj, pk + t * zk
-        nx = ck - cj
-        if np.linalg.norm(nx) < 1e-9:
-            nx = c if np.linalg.norm(c) >= 1e-12 else x
-        nx = _unit(nx - float(nx @ zj) * zj)
-        theta = math.atan2(float(np.cross(x, nx) @ zj), float(x @ nx))
-        alpha = math.atan2(float(np.cross(zj, zk) @ nx), float(zj @ zk))
-        rows[j] = (float((ck - cj) @ nx), alpha, float((cj - o) @ zj), theta)
-        o, x = ck, nx
-    Rn = np.column_stack([x, np.cross(z[-1], x), z[-1]])
-    return rows, Rn.T @ (tool - o), R0, o0
-
-
 def so_arm(
     model: str = "so101",
     *,
@@ -227,9 +176,11 @@ def so_arm(
     """The SO-101 arm from the URDF that ``example-robot-data`` ships (or another SO-ARM model).
 
     MuJoCo compiles the URDF (:meth:`velfence.robots.MujocoRobot.from_urdf`, no meshes; the
-    ``"tcp"`` is the origin of ``gripper_frame_link``), and the five arm joints' axes at
-    ``q = 0`` become a DH chain (:class:`SoArm`). The chain is checked against MuJoCo's own
-    forward kinematics on 64 seeded poses within the joint limits; it is refused beyond 0.1 mm.
+    ``"tcp"`` is the origin of ``gripper_frame_link``), and the arm is that model with the
+    gripper joint fixed (:meth:`velfence.robots.MujocoRobot.arm`: its five joints, the named
+    points and the capsule links; :class:`SoArm`). Its chain frames (what the compiled filter
+    cycle runs on) are checked against MuJoCo's forward kinematics of the whole model on 64
+    seeded poses within the joint limits; the arm is refused beyond 0.1 mm.
 
     Args:
         model: ``"so101"`` (the one model shipped with a gripper frame); ignored with ``path``.
@@ -246,10 +197,8 @@ def so_arm(
         MissingExtra: ``example-robot-data`` or MuJoCo is not installed (the ``lerobot`` extra).
         InvalidParameter: an unknown ``model``, a bad ``path`` or ``link_radius``.
         InvalidGeometry: the file lacks a joint or the gripper frame, a joint has no range, or
-            the DH chain does not reproduce the model.
+            the five arm joints are not a serial chain that reproduces the model.
     """
-    from velfence.robots import MujocoRobot
-
     radius = check_positive("link_radius", link_radius, unit="m")
     if path is None:
         name = check_choice("model", model, tuple(_URDF))
@@ -271,8 +220,6 @@ def so_arm(
             f"path: expected the joints {list(JOINTS)} (LeRobot's SO-ARM names), the model "
             f"{str(src)[:200]!r} lacks {missing} (it has {list(names)})"
         )
-    import mujoco
-
     m = robot.model
     for j in JOINTS:
         if not bool(m.jnt_limited[m.joint(j).id]):
@@ -280,47 +227,36 @@ def so_arm(
                 f"path: joint {j!r} has no range in {str(src)[:200]!r}; the shield needs the "
                 "model's limits (a range of the joint, not a default)"
             )
-    data = mujoco.MjData(m)
-    mujoco.mj_kinematics(m, data)
-    ids = [m.joint(j).id for j in ARM_JOINTS]
-    tcp_site = m.site("tcp").id
-    dh, tool, R0, o0 = _dh_from_axes(
-        np.array([data.xanchor[i] for i in ids]),
-        np.array([data.xaxis[i] for i in ids]),
-        np.array(data.site_xpos[tcp_site]),
-    )
-    lim = np.array([m.jnt_range[i] for i in ids], dtype=np.float64)
-    chain = DHChain(
-        dh,
-        joint_limits=lim,
-        link_radius=radius,
-        tool=tool,
-        joint_names=ARM_JOINTS,
-        named_points={"elbow": 2, "wrist": 3},
-    )
-    # The chain against MuJoCo's kinematics of the model.
+    arm = robot.arm(ARM_JOINTS, points={"elbow": 2, "wrist": 3}, link_radius=radius)
+    frames = arm.chain_frames()
+    if frames is None:
+        raise InvalidGeometry(
+            f"path: the arm of {str(src)[:200]!r} is not a serial chain of its five arm joints "
+            "as expected: MujocoRobot.chain_frames() finds none (a branch, or two joints on one "
+            "body)"
+        )
+    # The frames the C cycle runs on against MuJoCo's kinematics of the whole model.
+    lim = np.array(arm.joint_limits, dtype=np.float64)
+    cols = [names.index(j) for j in ARM_JOINTS]
+    full = np.zeros(robot.dof)
     rng = np.random.default_rng(0)
-    qadr = [int(m.jnt_qposadr[i]) for i in ids]
     worst = 0.0
     for _ in range(64):
         q = rng.uniform(lim[:, 0], lim[:, 1])
-        data.qpos[:] = 0.0
-        data.qpos[qadr] = q
-        mujoco.mj_kinematics(m, data)
-        mine = R0 @ chain.fk(q, "tcp") + o0
-        worst = max(worst, float(np.linalg.norm(mine - data.site_xpos[tcp_site])))
+        full[cols] = q
+        worst = max(worst, float(np.linalg.norm(frames.fk(q) - robot.fk(full))))
     if not worst <= _FIT_TOLERANCE:
         raise InvalidGeometry(
             f"path: the arm of {str(src)[:200]!r} is not a serial chain of its five arm joints "
-            f"as expected: the DH chain's gripper point is {worst:.3g} m from MuJoCo's"
+            f"as expected: the chain's gripper point is {worst:.3g} m from MuJoCo's"
         )
     g = m.jnt_range[m.joint(GRIPPER).id]
     return SoArm(
         name=name,
         source=str(src),
-        chain=chain,
-        rotation=readonly(R0),
-        origin=readonly(o0),
+        chain=arm,
+        rotation=readonly(np.eye(3)),
+        origin=readonly(np.zeros(3)),
         joint_limits=readonly(lim),
         gripper_range=(float(g[0]), float(g[1])),
         fit_error=worst,
@@ -623,7 +559,7 @@ class LeRobotShield:
             else speeds[GRIPPER] * _DEG * self.dt * 100.0 / (g_hi - g_lo)
         )
 
-        # Geometry: base frame -> the chain's frame 0.
+        # Geometry: base frame -> the chain's frame (the same frame for so_arm()).
         R, o = arm.rotation, arm.origin
 
         def poly(normals: FloatArray, offsets: FloatArray, names: list[str]) -> ConvexPolytope:
@@ -637,8 +573,8 @@ class LeRobotShield:
         box_names = ["box x_min", "box y_min", "box z_min", "box x_max", "box y_max", "box z_max"]
         if not np.all(lo + r < hi - r):
             raise InvalidGeometry(
-                f"workspace: the box {lo.tolist()} … {hi.tolist()} leaves no room for a gripper "
-                f"sphere of radius {r} m"
+                f"workspace, tool_radius: the box {lo.tolist()} … {hi.tolist()} leaves no room "
+                f"for a gripper sphere of radius {r:g} m"
             )
         up = np.array([[0.0, 0.0, 1.0]])
         link_r = float(np.max(arm.chain.link_radius))
@@ -660,14 +596,10 @@ class LeRobotShield:
                 buffer=wb,
             ),
         ]
-        obs = []
-        for i_ob, ob_k in enumerate(obstacles):
-            if not isinstance(ob_k, SphereObstacle):
-                raise InvalidParameter(
-                    f"obstacles[{i_ob}]: expected a SphereObstacle, got {describe(ob_k)}"
-                )
-            obs.append(SphereObstacle(R.T @ (np.asarray(ob_k.center) - o), radius=ob_k.radius))
-        self.obstacles = tuple(obstacles)
+        given = obstacle_list(obstacles)
+        obs = [SphereObstacle(R.T @ (np.asarray(ob_k.center) - o), radius=ob_k.radius)
+               for ob_k in given]  # fmt: skip
+        self.obstacles = given
         self.filter = SafetyFilter(
             arm.chain,
             limits=JointLimits(lim[:, 0], lim[:, 1], max_speed=vmax, names=ARM_JOINTS),
@@ -733,7 +665,7 @@ class LeRobotShield:
 
     def _values(self, action: Any, observation: Any) -> tuple[list[float], list[float]]:
         try:  # the common case: dicts of six finite numbers (one C call per dict)
-            if len(action) == 6 and type(action) is dict:
+            if type(action) is dict and type(observation) is dict and len(action) == 6:
                 get = self._get
                 qm = list(map(float, get(observation)))
                 tg = list(map(float, get(action)))

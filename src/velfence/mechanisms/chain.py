@@ -34,6 +34,7 @@ from numpy.typing import ArrayLike
 from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence._validate import (
+    check_names,
     check_positive,
     check_text,
     finite_rows,
@@ -161,17 +162,7 @@ def _joint_names(value: Any, n: int) -> tuple[str, ...]:
     """Validate joint names: ``n`` distinct non-empty strings (``joint0`` … by default)."""
     if value is None:
         return tuple(f"joint{j}" for j in range(n))
-    if isinstance(value, (str, bytes)) or not isinstance(value, (list, tuple)):
-        raise InvalidParameter(
-            f"joint_names: expected a tuple of {n} strings, got {type(value).__name__}"
-        )
-    names = tuple(check_text("joint_names", v, max_length=200) for v in value)
-    if len(names) != n or len(set(names)) != n or not all(names):
-        raise InvalidParameter(
-            f"joint_names: expected {n} distinct non-empty names (one per joint), got "
-            f"{len(names)} name(s) with {len(set(names))} distinct"
-        )
-    return names
+    return check_names("joint_names", value, count=n)
 
 
 def _named_points(value: Any, n: int) -> dict[str, int]:

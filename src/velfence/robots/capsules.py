@@ -3,9 +3,10 @@
 Link ``k`` of an arm with sites ``"joint0"`` … ``"joint{n-1}"`` runs from joint ``k``'s site to
 joint ``k + 1``'s (the last link to the ``"flange"`` site, or ``"tcp"`` without one), as in
 ``DHChain`` (``P_k`` to ``P_{k+1}``); zero-length links are kept (a sphere), so link ``k`` is
-moved by joints ``0 … k`` exactly. Its radius is that of the capsule geom on joint ``k``'s body
-(a body without one, e.g. a zero-length link, gets the largest capsule radius of the model,
-which covers the joint between its neighbours). Both ends are rigidly attached to body ``k``
+moved by joints ``0 … k`` exactly. Its radius is the largest of the capsule and sphere geoms
+on joint ``k``'s body (a body without one, e.g. a zero-length link of a model given one radius
+for all links, gets the largest radius of the model, which covers the joint between its
+neighbours). Both ends are rigidly attached to body ``k``
 (joint ``k + 1`` turns about an axis through its own site), so the Jacobian of the point at
 fraction ``t`` is the exact interpolation ``(1 - t) J_k + t J_{k+1}`` of the two sites'
 Jacobians.
@@ -71,7 +72,7 @@ class CapsuleLinks:
         for k in range(len(r)):
             body = int(m.site_bodyid[ids[k]])
             for g in range(m.ngeom):
-                if int(m.geom_bodyid[g]) == body and int(m.geom_type[g]) == 3:  # capsule
+                if int(m.geom_bodyid[g]) == body and int(m.geom_type[g]) in (2, 3):  # ball, capsule
                     r[k] = max(r[k], float(m.geom_size[g][0]))
         r[r == 0.0] = float(r.max()) if r.size else 0.0
         self._radii = readonly(r)

@@ -22,10 +22,10 @@ the middle of its segment, without ``inertias`` the link is a solid cylinder of 
 ``LINK_CYLINDER_RADIUS`` (0.05 m) along its segment (an approximation, say so where you use it).
 Without ``masses`` every link is a unit point mass (a kinematic placeholder).
 ``effort_limits`` [N·m] become each joint's ``actuatorfrcrange`` (MuJoCo's
-``jnt_actfrcrange``); ``velocity_limits`` [rad/s], which MJCF has no attribute for, a
-``<custom><numeric name="velocity_limits">``; :class:`MujocoRobot` reads both back
-(``+inf`` where a model has none). No ``<option>`` is written:
-gravity and time step belong to whoever simulates the arm.
+``jnt_actfrcrange``); ``velocity_limits`` [rad/s], ``acceleration_limits`` [rad/s²] and
+``jerk_limits`` [rad/s³], which MJCF has no attribute for, ``<custom><numeric>`` elements of
+those names; :class:`MujocoRobot` reads them back (``+inf`` where a model has none). No
+``<option>`` is written: gravity and time step belong to whoever simulates the arm.
 """
 
 from __future__ import annotations
@@ -50,6 +50,10 @@ __all__ = ["dh_mjcf", "mdh_mjcf"]
 LINK_CYLINDER_RADIUS = 0.05
 #: Name of the ``<custom><numeric>`` element that holds the joint velocity limits [rad/s].
 VELOCITY_LIMITS_NUMERIC = "velocity_limits"
+#: Names of the ``<custom><numeric>`` elements of the joint acceleration [rad/s²] and jerk
+#: [rad/s³] limits.
+ACCELERATION_LIMITS_NUMERIC = "acceleration_limits"
+JERK_LIMITS_NUMERIC = "jerk_limits"
 
 
 def _mujoco() -> Any:
@@ -145,6 +149,8 @@ class _Physics:
         inertias: ArrayLike | None,
         velocity_limits: ArrayLike | None,
         effort_limits: ArrayLike | None,
+        acceleration_limits: ArrayLike | None = None,
+        jerk_limits: ArrayLike | None = None,
     ) -> None:
         self.masses: FloatArray | None = None
         self.coms: FloatArray | None = None
@@ -176,6 +182,8 @@ class _Physics:
                 self.inertias = _inertia_matrices(inertias, n)
         self.velocity = _limit_vector("velocity_limits", velocity_limits, n, "[rad/s]")
         self.effort = _limit_vector("effort_limits", effort_limits, n, "[N·m]")
+        self.acceleration = _limit_vector("acceleration_limits", acceleration_limits, n, "[rad/s²]")
+        self.jerk = _limit_vector("jerk_limits", jerk_limits, n, "[rad/s³]")
 
     def inertial(self, i: int, link: tuple[FloatArray, FloatArray], segment: FloatArray) -> str:
         """The ``<inertial>`` element of body ``i``.
@@ -204,15 +212,17 @@ class _Physics:
         return f' actuatorfrcrange="{_fmt([-e, e])}"'
 
     def custom(self) -> list[str]:
-        """The ``<custom>`` lines (the velocity limits), or none."""
-        if self.velocity is None:
-            return []
-        data = " ".join(repr(v) for v in self.velocity.tolist())
-        return [
-            "  <custom>",
-            f'    <numeric name="{VELOCITY_LIMITS_NUMERIC}" data="{data}"/>',
-            "  </custom>",
-        ]
+        """The ``<custom>`` lines (the velocity, acceleration and jerk limits), or none."""
+        lines = []
+        for name, values in (
+            (VELOCITY_LIMITS_NUMERIC, self.velocity),
+            (ACCELERATION_LIMITS_NUMERIC, self.acceleration),
+            (JERK_LIMITS_NUMERIC, self.jerk),
+        ):
+            if values is not None:
+                data = " ".join(repr(v) for v in values.tolist())
+                lines.append(f'    <numeric name="{name}" data="{data}"/>')
+        return ["  <custom>", *lines, "  </custom>"] if lines else []
 
 
 def _inputs(
@@ -223,7 +233,7 @@ def _inputs(
     name: Any,
     radius: Any,
     named_points: Mapping[str, int] | None,
-) -> tuple[FloatArray, FloatArray, FloatArray, str, float, dict[str, int]]:
+) -> tuple[FloatArray, FloatArray, FloatArray, str, FloatArray, dict[str, int]]:
     r = real_array(rows_name, rows, (None, 4), error=InvalidGeometry, what="DH rows")
     n = r.shape[0]
     if n < 1:
@@ -244,7 +254,18 @@ def _inputs(
         )
     t = np.zeros(3) if tool is None else real_array("tool", tool, (3,), error=InvalidGeometry)
     nm = check_text("name", name, error=InvalidGeometry)
-    rad = check_positive("radius", radius, allow_zero=True, unit="[m]")
+    n_rows = r.shape[0]
+    per_link = isinstance(radius, (list, tuple)) or (
+        isinstance(radius, np.ndarray) and radius.ndim > 0
+    )
+    if not per_link:
+        rad = np.full(n_rows, check_positive("radius", radius, allow_zero=True, unit="[m]"))
+    else:
+        rad = real_array("radius", radius, (n_rows,), error=InvalidParameter, what="radii [m]")
+        if np.any(rad < 0.0):
+            raise InvalidParameter(
+                f"radius: expected radii >= 0 [m], one per link, got {rad.tolist()}"
+            )
     pts: dict[str, int] = {}
     if named_points is not None and not isinstance(named_points, Mapping):
         raise InvalidGeometry(
@@ -275,7 +296,7 @@ def _document(
     flange: tuple[FloatArray, FloatArray],
     lim: FloatArray,
     tool: FloatArray,
-    radius: float,
+    radius: FloatArray,
     named: dict[str, int],
     physics: _Physics,
     links: list[tuple[FloatArray, FloatArray]],
@@ -306,9 +327,16 @@ def _document(
             if idx == i:
                 lines.append(f'{ind}  <site name={quoteattr(key)} pos="0 0 0"/>')
         end = children[i][0]
-        if radius > 0.0 and float(np.linalg.norm(end)) > 1e-9:
+        ri = float(radius[i])
+        if ri > 0.0 and float(np.linalg.norm(end)) > 1e-9:
             lines.append(
-                f'{ind}  <geom type="capsule" size="{radius!r}" fromto="0 0 0 {_fmt(end)}" '
+                f'{ind}  <geom type="capsule" size="{ri!r}" fromto="0 0 0 {_fmt(end)}" '
+                'contype="2" conaffinity="0" mass="0"/>'
+            )
+        elif ri > 0.0 and radius.min() != radius.max():
+            # A zero-length link with its own radius: a sphere (robots.capsules reads it back).
+            lines.append(
+                f'{ind}  <geom type="sphere" size="{ri!r}" pos="0 0 0" '
                 'contype="2" conaffinity="0" mass="0"/>'
             )
     ind = "  " * (n + 2)
@@ -329,13 +357,15 @@ def dh_mjcf(
     joint_limits: ArrayLike,
     tool: ArrayLike | None = None,
     name: str = "arm",
-    radius: float = 0.0,
+    radius: float | ArrayLike = 0.0,
     named_points: Mapping[str, int] | None = None,
     masses: ArrayLike | None = None,
     centers_of_mass: ArrayLike | None = None,
     inertias: ArrayLike | None = None,
     velocity_limits: ArrayLike | None = None,
     effort_limits: ArrayLike | None = None,
+    acceleration_limits: ArrayLike | None = None,
+    jerk_limits: ArrayLike | None = None,
 ) -> str:
     """MJCF of a revolute arm from standard DH rows (module docs for the frames).
 
@@ -346,7 +376,10 @@ def dh_mjcf(
         joint_limits: Lower/upper limit of each joint [rad], shape (n, 2), lower < upper.
         tool: Tool point in the last DH frame [m], shape (3,); the flange when ``None``.
         name: Model name (any string; XML-escaped).
-        radius: Capsule radius of the link geoms [m], ``>= 0``; ``0``: no geoms.
+        radius: Capsule radius of the link geoms [m], ``>= 0``, one for all links or one per
+            link, shape (n,); ``0``: no geom (such a link reads back the largest radius, see
+            ``velfence.robots.capsules``). With radii per link, a zero-length link gets a
+            sphere geom of its radius.
         named_points: Extra site names mapped to a joint index ``j`` (a site at joint ``j``'s
             body origin), e.g. ``{"elbow": 2}``.
         masses: Link masses [kg], shape (n,), each > 0; ``None``: unit placeholder masses.
@@ -357,6 +390,9 @@ def dh_mjcf(
             ``masses``); ``None``: a solid cylinder along the link (module docs).
         velocity_limits: Joint speed limits [rad/s], shape (n,), finite, > 0; ``None``: none.
         effort_limits: Joint torque limits [N·m], shape (n,), finite, > 0; ``None``: none.
+        acceleration_limits: Joint acceleration limits [rad/s²], shape (n,), finite, > 0;
+            ``None``: none.
+        jerk_limits: Joint jerk limits [rad/s³], shape (n,), finite, > 0; ``None``: none.
 
     Returns:
         The MJCF document (str), to pass to :meth:`MujocoRobot.from_xml`.
@@ -375,7 +411,10 @@ def dh_mjcf(
         pos = np.array([a * math.cos(off), a * math.sin(off), d])
         statics.append((pos, _quat_mul(_qz(off), _qx(alpha))))
     frames += statics[:-1]
-    phys = _Physics(n, masses, centers_of_mass, inertias, velocity_limits, effort_limits)
+    phys = _Physics(
+        n, masses, centers_of_mass, inertias, velocity_limits, effort_limits,
+        acceleration_limits, jerk_limits,
+    )  # fmt: skip
     return _document(nm, frames, statics[-1], lim, t, rad, pts, phys, statics)
 
 
@@ -387,13 +426,15 @@ def mdh_mjcf(
     tool: ArrayLike | None = None,
     name: str = "arm",
     flange_d: float = 0.0,
-    radius: float = 0.0,
+    radius: float | ArrayLike = 0.0,
     named_points: Mapping[str, int] | None = None,
     masses: ArrayLike | None = None,
     centers_of_mass: ArrayLike | None = None,
     inertias: ArrayLike | None = None,
     velocity_limits: ArrayLike | None = None,
     effort_limits: ArrayLike | None = None,
+    acceleration_limits: ArrayLike | None = None,
+    jerk_limits: ArrayLike | None = None,
 ) -> str:
     """MJCF of a revolute arm from modified (Craig) DH rows (module docs for the frames).
 
@@ -404,7 +445,8 @@ def mdh_mjcf(
         tool: Tool point in the flange frame [m], shape (3,); the flange when ``None``.
         name: Model name (any string; XML-escaped).
         flange_d: Distance of the flange along the last joint's ``z`` axis [m].
-        radius: Capsule radius of the link geoms [m], ``>= 0``; ``0``: no geoms.
+        radius: Capsule radius of the link geoms [m], ``>= 0``, a scalar or shape (n,) (see
+            :func:`dh_mjcf`); ``0``: no geom.
         named_points: Extra site names mapped to a joint index (see :func:`dh_mjcf`).
         masses: Link masses [kg], shape (n,), each > 0; ``None``: unit placeholder masses.
         centers_of_mass: Link centres of mass in frame ``i`` (the body) [m], shape (n, 3)
@@ -413,6 +455,9 @@ def mdh_mjcf(
             or (n, 6), as in :func:`dh_mjcf` (needs ``masses``); ``None``: a solid cylinder.
         velocity_limits: Joint speed limits [rad/s], shape (n,), finite, > 0; ``None``: none.
         effort_limits: Joint torque limits [N·m], shape (n,), finite, > 0; ``None``: none.
+        acceleration_limits: Joint acceleration limits [rad/s²], shape (n,), finite, > 0;
+            ``None``: none.
+        jerk_limits: Joint jerk limits [rad/s³], shape (n,), finite, > 0; ``None``: none.
 
     Returns:
         The MJCF document (str).
@@ -432,6 +477,9 @@ def mdh_mjcf(
         pos = np.array([a, -d * math.sin(alpha), d * math.cos(alpha)])
         frames.append((pos, _quat_mul(_qx(alpha), _qz(off))))
     flange = (np.array([0.0, 0.0, float(fd)]), np.array([1.0, 0.0, 0.0, 0.0]))
-    phys = _Physics(n, masses, centers_of_mass, inertias, velocity_limits, effort_limits)
+    phys = _Physics(
+        n, masses, centers_of_mass, inertias, velocity_limits, effort_limits,
+        acceleration_limits, jerk_limits,
+    )  # fmt: skip
     identity = [(np.zeros(3), np.array([1.0, 0.0, 0.0, 0.0]))] * n
     return _document(nm, frames, flange, lim, t, rad, pts, phys, identity)

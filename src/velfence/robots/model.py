@@ -10,19 +10,32 @@ Jacobians from ``mj_jacSite``. MuJoCo is imported when a model is loaded, not wi
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from velfence._docs import document_inits
 from velfence._typing import FloatArray
-from velfence._validate import check_text, finite_rows, readonly
+from velfence._validate import (
+    check_positive,
+    check_positive_int,
+    check_text,
+    finite_rows,
+    readonly,
+    real_array,
+    show,
+)
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
 from velfence.robots.capsules import CapsuleLinks
-from velfence.robots.mjcf import VELOCITY_LIMITS_NUMERIC, _mujoco
+from velfence.robots.mjcf import (
+    ACCELERATION_LIMITS_NUMERIC,
+    JERK_LIMITS_NUMERIC,
+    VELOCITY_LIMITS_NUMERIC,
+    _mujoco,
+)
 
 __all__ = ["MujocoFrame", "MujocoRobot"]
 
@@ -58,14 +71,7 @@ class MujocoRobot(CapsuleLinks):
         """Compile ``xml``; ``arg`` is the caller's public argument, for messages."""
         text = check_text(arg, xml, max_length=100_000_000)
         mujoco = _mujoco()
-        try:
-            model = mujoco.MjModel.from_xml_string(text)
-        except ValueError as exc:
-            msg = str(exc).strip().splitlines()
-            first = msg[0][:200] if msg else "no message"
-            raise InvalidGeometry(
-                f"{arg}: expected an MJCF document MuJoCo compiles, got the error: {first}"
-            ) from None
+        model = _compile(mujoco, arg, text)
         self._mj = mujoco
         self._xml = text
         self._model = model
@@ -105,16 +111,18 @@ class MujocoRobot(CapsuleLinks):
                     effort[i] = bound
         self._effort = readonly(effort)
         self._velocity = readonly(self._numeric_limits(model))
+        self._acceleration = readonly(self._numeric_limits(model, ACCELERATION_LIMITS_NUMERIC))
+        self._jerk = readonly(self._numeric_limits(model, JERK_LIMITS_NUMERIC))
         self._jacp = np.zeros((3, model.nv))
         self._jacr = np.zeros((3, model.nv))
         self._posed_by: object = None  # the MujocoFrame whose pose the data holds
 
     @staticmethod
-    def _numeric_limits(model: Any) -> FloatArray:
-        """The ``velocity_limits`` custom numeric, one per joint (``inf`` where absent/<= 0)."""
+    def _numeric_limits(model: Any, name: str = VELOCITY_LIMITS_NUMERIC) -> FloatArray:
+        """The custom numeric ``name``, one per joint (``inf`` where absent/<= 0)."""
         out = np.full(model.njnt, np.inf)
         for k in range(model.nnumeric):
-            if model.numeric(k).name != VELOCITY_LIMITS_NUMERIC:
+            if model.numeric(k).name != name:
                 continue
             adr, size = int(model.numeric_adr[k]), int(model.numeric_size[k])
             data = np.array(model.numeric_data[adr : adr + min(size, model.njnt)], dtype=float)
@@ -176,7 +184,7 @@ class MujocoRobot(CapsuleLinks):
         package_paths: Sequence[str | Path] = (),
         tcp_link: str | None = None,
         tool: ArrayLike | None = None,
-        meshes: bool = False,
+        meshes: bool | Literal["collision"] = False,
     ) -> MujocoRobot:
         """Load a URDF file; MuJoCo compiles it (``velfence.robots.urdf`` for the details).
 
@@ -201,7 +209,10 @@ class MujocoRobot(CapsuleLinks):
                 the link origin when ``None``.
             meshes: ``False`` (default): visual and collision meshes are removed, so the
                 kinematics loads without mesh files; ``True``: they are kept and every mesh
-                file must exist (package URIs resolved from ``package_paths``).
+                file must exist (package URIs resolved from ``package_paths``);
+                ``"collision"``: every ``<visual>`` is removed and the collision meshes are
+                kept (what :func:`~velfence.robots.fit_collision_capsules` needs; visual
+                meshes are often COLLADA files MuJoCo cannot read).
 
         Returns:
             The robot (its joints the URDF's hinge and slide joints, in tree order).
@@ -264,6 +275,52 @@ class MujocoRobot(CapsuleLinks):
         model order; MJCF has no velocity attribute); ``+inf`` where the model does not say.
         """
         return self._velocity
+
+    @property
+    def acceleration_limits(self) -> FloatArray:
+        """Joint acceleration limits [rad/s²], shape (n,), read-only.
+
+        From ``<custom><numeric name="acceleration_limits">``; ``+inf`` where the model does
+        not say.
+        """
+        return self._acceleration
+
+    @property
+    def jerk_limits(self) -> FloatArray:
+        """Joint jerk limits [rad/s³], shape (n,), read-only.
+
+        From ``<custom><numeric name="jerk_limits">``; ``+inf`` where the model does not say.
+        """
+        return self._jerk
+
+    def limits(self) -> Any:
+        """The model's joint limits for a :class:`~velfence.filter.SafetyFilter`.
+
+        Position limits from the joint ranges, ``max_speed`` from :attr:`velocity_limits`,
+        ``max_acceleration`` and ``max_jerk`` from :attr:`acceleration_limits` and
+        :attr:`jerk_limits` (``None`` when the model gives none), ``names`` the joint names.
+
+        Returns:
+            A :class:`~velfence.filter.JointLimits`.
+
+        Raises:
+            InvalidParameter: the model gives no speed limit for some joint (the filter needs
+                every joint's).
+        """
+        from velfence.filter.limits import JointLimits
+
+        if not np.all(np.isfinite(self._velocity)):
+            raise InvalidParameter(
+                "velocity_limits: the model gives no speed limit for joint(s) "
+                f"{np.flatnonzero(~np.isfinite(self._velocity)).tolist()}; build JointLimits "
+                "with max_speed= yourself"
+            )
+        acc = self._acceleration if np.isfinite(self._acceleration).any() else None
+        jerk = self._jerk if np.isfinite(self._jerk).any() else None
+        return JointLimits(
+            self._limits[:, 0], self._limits[:, 1], max_speed=self._velocity,
+            max_acceleration=acc, max_jerk=jerk, names=tuple(self.joint_names),
+        )  # fmt: skip
 
     @property
     def effort_limits(self) -> FloatArray:
@@ -385,6 +442,90 @@ class MujocoRobot(CapsuleLinks):
         self._frames = _serial_frames(self)
         return self._frames
 
+    def arm(
+        self,
+        joints: Sequence[str],
+        *,
+        points: Mapping[str, int] | None = None,
+        link_radius: float | None = None,
+        tcp: tuple[str, ArrayLike] | None = None,
+    ) -> MujocoRobot:
+        """This model as an arm of some of its joints, with joint sites and capsule links.
+
+        Every joint not in ``joints`` is removed (its body stays, fixed where the joint's zero
+        puts it, e.g. a gripper's jaw) and so is every actuator. Each kept joint ``i`` gets a site
+        ``"joint{i}"`` on its anchor (replacing a site of that name), so the arm has capsule links
+        (:attr:`link_radius`, :meth:`link_segments`) and, when serial, :meth:`chain_frames`
+        (the filter's C cycle). A URDF compiled by :meth:`from_urdf` has no capsule geoms:
+        ``link_radius`` gives every link one. The document is edited, not rebuilt, so every
+        number of the model stays as written. :meth:`arm_from_xml` does the same for an MJCF
+        document that is not a robot itself (no ``"tcp"`` site, free bodies).
+
+        Args:
+            joints: The joints to keep, a non-empty subset of :attr:`joint_names` in model
+                order.
+            points: Named points to add, each a site on a kept joint's anchor: name -> index of
+                the joint in ``joints`` (``{"elbow": 2}``); names must be new site names.
+            link_radius: Radius of a capsule geom [m], > 0, added on each kept joint's body from
+                its anchor to the next joint's (the last to the ``"flange"`` site, else
+                ``"tcp"``; zero-length links get none), without mass or contacts; ``None``: the
+                model's own capsules.
+            tcp: ``(body, offset)``: the ``"tcp"`` site is put on the model's body ``body`` at
+                ``offset`` in its frame [m], shape (3,) (replacing the model's ``"tcp"``);
+                ``None``: the model's own.
+
+        Returns:
+            A new robot (this one is unchanged).
+
+        Raises:
+            InvalidParameter: a joint that is not one of the model's, not in model order or
+                twice, a bad ``points`` entry, ``link_radius`` or ``tcp``.
+            InvalidGeometry: MuJoCo does not compile the arm (an equality or tendon of a
+                removed joint).
+        """
+        src = _Source(self._mj, self._xml, self._model, self._names, self._site)
+        return _arm(src, joints, points, link_radius, tcp)
+
+    @classmethod
+    def arm_from_xml(
+        cls,
+        xml: str,
+        joints: Sequence[str],
+        *,
+        tcp: tuple[str, ArrayLike] | None = None,
+        points: Mapping[str, int] | None = None,
+        link_radius: float | None = None,
+    ) -> MujocoRobot:
+        """:meth:`arm` of an MJCF document that need not be a robot itself.
+
+        The document may lack the ``"tcp"`` site (``tcp`` puts it on a body) and have joints of
+        any type that are not in ``joints`` (a scene's free objects, a task's goal), e.g. a
+        Gymnasium env's model (:func:`velfence.integrations.gymnasium.mujoco_arm`).
+
+        Args:
+            xml: The MJCF document (self-contained: no ``<include>`` or meshes relative to a
+                file).
+            joints: The joints to keep, in model order (:meth:`arm`); hinges and slides.
+            tcp: ``(body, offset)`` of the ``"tcp"`` site (:meth:`arm`); required when the
+                document has no ``"tcp"`` site.
+            points: Named points on the joints' anchors (:meth:`arm`).
+            link_radius: Capsule links' radius [m] (:meth:`arm`).
+
+        Returns:
+            The arm.
+
+        Raises:
+            InvalidParameter: ``xml`` is not a string, or a bad argument as in :meth:`arm`.
+            InvalidGeometry: MuJoCo does not compile the document or the arm (a kept joint that
+                is not a hinge or slide).
+        """
+        text = check_text("xml", xml, max_length=100_000_000)
+        mujoco = _mujoco()
+        model = _compile(mujoco, "xml", text)
+        names = tuple(model.joint(i).name or f"joint{i}" for i in range(model.njnt))
+        sites = {model.site(i).name: i for i in range(model.nsite) if model.site(i).name}
+        return _arm(_Source(mujoco, text, model, names, sites), joints, points, link_radius, tcp)
+
     def angular_jacobian(self, q: ArrayLike) -> FloatArray:
         """Angular-velocity Jacobian of the ``"tcp"`` site's body in the world frame.
 
@@ -401,6 +542,172 @@ class MujocoRobot(CapsuleLinks):
         self._pose(qa)
         self._mj.mj_jacSite(self._model, self._data, self._jacp, self._jacr, self._site["tcp"])
         return self._finite(np.array(self._jacr, dtype=float))
+
+
+def _compile(mujoco: Any, arg: str, text: str) -> Any:
+    """``text`` compiled by MuJoCo; ``arg`` is the caller's public argument, for messages."""
+    try:
+        return mujoco.MjModel.from_xml_string(text)
+    except ValueError as exc:
+        msg = str(exc).strip().splitlines()
+        first = msg[0][:200] if msg else "no message"
+        raise InvalidGeometry(
+            f"{arg}: expected an MJCF document MuJoCo compiles, got the error: {first}"
+        ) from None
+
+
+class _Source(NamedTuple):
+    """The model an arm is cut from: its document, compiled model, joint and site names."""
+
+    mj: Any
+    xml: str
+    model: Any
+    names: tuple[str, ...]
+    sites: Mapping[str, int]
+
+
+def _arm(src: _Source, joints: Any, points: Any, link_radius: Any, tcp: Any) -> MujocoRobot:
+    """:meth:`MujocoRobot.arm` of ``src``: the arguments validated, then :func:`_arm_of`."""
+    if isinstance(joints, str) or not isinstance(joints, Sequence):
+        raise InvalidParameter(f"joints: expected a sequence of joint names, got {show(joints)}")
+    names = list(src.names)
+    keep: list[int] = []
+    for k, j in enumerate(joints):
+        if not isinstance(j, str) or j not in names:
+            raise InvalidParameter(
+                f"joints[{k}]: expected one of the model's joints {names}, got {show(j)}"
+            )
+        keep.append(names.index(j))
+    if not keep or keep != sorted(set(keep)):
+        raise InvalidParameter(
+            f"joints: expected distinct joints in model order {names}, got {show(joints)}"
+        )
+    given = {} if points is None else points
+    if not isinstance(given, Mapping):
+        raise InvalidParameter(f"points: expected a mapping name -> joint, got {show(points)}")
+    taken = {s for s in src.sites if not _is_joint_site(s)} | {"tcp"}
+    for name, idx in given.items():
+        if not isinstance(name, str) or not name or name in taken or _is_joint_site(name):
+            raise InvalidParameter(
+                f"points: expected new site names (the model has {sorted(taken)[:20]}, and "
+                f"'joint<i>' are the joint sites), got {show(name)}"
+            )
+        check_positive_int(f"points[{name!r}]", idx, minimum=0, maximum=len(keep) - 1)
+    radius = None if link_radius is None else check_positive("link_radius", link_radius,
+                                                               unit="m")  # fmt: skip
+    tool: tuple[int, FloatArray] | None = None
+    if tcp is not None:
+        m = src.model
+        bodies = [m.body(i).name for i in range(m.nbody)]
+        if not isinstance(tcp, (tuple, list)) or len(tcp) != 2:
+            raise InvalidParameter(f"tcp: expected (body name, offset [m]), got {show(tcp)}")
+        if not isinstance(tcp[0], str) or tcp[0] not in bodies:
+            raise InvalidParameter(
+                f"tcp: expected a body of the model {bodies[:20]}, got {show(tcp[0])}"
+            )
+        off = real_array("tcp offset", tcp[1], (3,), what="a position [m]",
+                         error=InvalidParameter)  # fmt: skip
+        tool = (bodies.index(tcp[0]), off)
+    elif "tcp" not in src.sites:
+        raise InvalidParameter(
+            "tcp: the model has no 'tcp' site; give tcp=(body, offset) to put one on a body"
+        )
+    return _arm_of(src, keep, given, radius, tool)
+
+
+def _arm_of(
+    src: _Source,
+    keep: list[int],
+    points: Mapping[str, int],
+    radius: float | None,
+    tool: tuple[int, FloatArray] | None,
+) -> MujocoRobot:
+    """:meth:`MujocoRobot.arm`, its arguments validated: the MJCF edited as text.
+
+    ``tool``: the new ``"tcp"`` site's body and position in it, or ``None`` (the model's own).
+    The document is edited rather than rebuilt by ``MjSpec.to_xml()``, which writes six
+    significant digits (0.1 µm off on the SO-101): every number the model had stays as it was.
+    """
+    import xml.etree.ElementTree as ET
+
+    mj, m = src.mj, src.model
+    root = ET.fromstring(src.xml)
+    world = root.find("worldbody")
+    if world is None:  # pragma: no cover - MuJoCo compiled it
+        raise InvalidGeometry("xml: the MJCF has no <worldbody>")
+    parent = {c: p for p in root.iter() for c in p}
+    order: list[ET.Element] = []  # MuJoCo's joint order: bodies depth-first, a body's joints
+    stack = [world]
+    while stack:
+        body = stack.pop()
+        order.extend(e for e in body if e.tag in ("joint", "freejoint"))
+        stack.extend(reversed([e for e in body if e.tag == "body"]))
+    names = list(src.names)
+    if [e.get("name") or f"joint{i}" for i, e in enumerate(order)] != names:
+        raise InvalidGeometry(
+            "joints: the MJCF's joints are not all <joint> elements of its bodies (an "
+            "<include>, <frame> or <replicate> of them); write the arm's own MJCF instead"
+        )
+    tip: ET.Element | None = None
+    if tool is not None:
+        tip_name = m.body(tool[0]).name
+        tip = world if tool[0] == 0 else next(
+            (e for e in world.iter("body") if e.get("name") == tip_name), None)  # fmt: skip
+        if tip is None:
+            raise InvalidGeometry(
+                f"tcp: the body {tip_name!r} is not a <body> element of the MJCF (an <include> "
+                "or <frame> of it); write the arm's own MJCF instead"
+            )
+    data = mj.MjData(m)
+    mj.mj_kinematics(m, data)
+    bodies = [parent[order[i]] for i in keep]
+    anchors = [np.asarray(m.jnt_pos[i], dtype=np.float64) for i in keep]
+    ends = [np.asarray(data.xanchor[i], dtype=np.float64) for i in keep[1:]]
+    if "flange" in src.sites:
+        ends.append(np.asarray(data.site_xpos[src.sites["flange"]], dtype=np.float64))
+    elif tool is not None:
+        R = np.asarray(data.xmat[tool[0]], dtype=np.float64).reshape(3, 3)
+        ends.append(np.asarray(data.xpos[tool[0]], dtype=np.float64) + R @ tool[1])
+    else:
+        ends.append(np.asarray(data.site_xpos[src.sites["tcp"]], dtype=np.float64))
+    for i, e in enumerate(order):
+        if i not in keep:
+            parent[e].remove(e)
+    for e in list(root.iter("site")):
+        name = e.get("name") or ""
+        if _is_joint_site(name) or (tool is not None and name == "tcp"):
+            parent[e].remove(e)
+    for e in list(root.findall("actuator")):
+        root.remove(e)
+
+    def vec(v: Any) -> str:
+        return " ".join(repr(float(x)) for x in v)
+
+    if tip is not None and tool is not None:
+        ET.SubElement(tip, "site", name="tcp", pos=vec(tool[1]), size="0.005")
+    for i, body in enumerate(bodies):
+        ET.SubElement(body, "site", name=f"joint{i}", pos=vec(anchors[i]), size="0.005")
+    for name, idx in points.items():
+        ET.SubElement(bodies[idx], "site", name=name, pos=vec(anchors[idx]), size="0.005")
+    if radius is not None:
+        for i, body in enumerate(bodies):
+            b = int(m.jnt_bodyid[keep[i]])
+            R = np.asarray(data.xmat[b], dtype=np.float64).reshape(3, 3)
+            tip_end = R.T @ (ends[i] - data.xpos[b])
+            if float(np.linalg.norm(tip_end - anchors[i])) > 1e-9:
+                ET.SubElement(body, "geom", type="capsule", fromto=vec([*anchors[i], *tip_end]),
+                              size=repr(radius), contype="0", conaffinity="0", mass="0",
+                              group="5")  # fmt: skip
+    try:
+        arm = MujocoRobot.from_xml(ET.tostring(root, encoding="unicode"))
+    except InvalidGeometry as exc:
+        raise InvalidGeometry(f"joints: MuJoCo does not compile the arm ({exc})") from None
+    return arm
+
+
+def _is_joint_site(name: str) -> bool:
+    """``"joint<i>"``: a joint's anchor site (the ends of the capsule links)."""
+    return name.startswith("joint") and name[5:].isdigit()
 
 
 def _transform(R: Any, p: Any) -> FloatArray:

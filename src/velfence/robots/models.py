@@ -18,7 +18,7 @@ from velfence.mechanisms.chain import DHChain
 from velfence.robots.mjcf import dh_mjcf, mdh_mjcf
 from velfence.robots.model import MujocoRobot
 
-__all__ = ["panda", "puma560", "seven_dof", "ur5e"]
+__all__ = ["PANDA_LINK_RADII", "panda", "puma560", "seven_dof", "ur5e"]
 
 _H = math.pi / 2.0
 _UR5E_JOINTS = (
@@ -61,6 +61,14 @@ _PANDA_LIMITS = (
 )
 
 
+#: Capsule radius [m] of each of :func:`panda`'s seven joint-to-joint links that covers the
+#: Panda's collision meshes (franka_description's ``panda_link1`` … ``panda_link7`` STL files, as
+#: example-robot-data ships them), rounded up to the millimetre:
+#: ``fit_collision_capsules(...).link_radii(panda(), bodies=...)`` (docs/robots.md, "Collision
+#: geometry from the model"). Links 0 and 4 have zero length (a sphere at the shoulder, at the
+#: wrist), hence their large radii. ``panda(radius=PANDA_LINK_RADII)`` uses them.
+PANDA_LINK_RADII = (0.200, 0.130, 0.134, 0.117, 0.270, 0.084, 0.091)
+
 # Gaz, Cognetti, Oliva, Robuffo Giordano, De Luca, "Dynamic identification of the Franka Emika
 # Panda robot with retrieval of feasible parameters using penalty-based optimization", IEEE RA-L
 # 4(4), 2019: link masses [kg], centres of mass [m] and inertias about them [kg·m²]
@@ -85,9 +93,13 @@ _PANDA_INERTIAS = (
     (1.964e-3, 4.354e-3, 5.433e-3, 1.09e-4, -1.158e-3, 3.41e-4),
     (1.2516e-2, 1.0027e-2, 4.815e-3, -4.28e-4, -1.196e-3, -7.41e-4),
 )
-# Franka Emika, "Robot and interface specifications": joint torque [N·m] and speed [rad/s] limits.
+# Franka's FCI documentation, "Robot and interface specifications", the table "Limits for Panda"
+# (the Franka Emika Robot, FER; not the Franka Research 3, whose limits differ): joint torque
+# [N·m], speed [rad/s], acceleration [rad/s²] and jerk [rad/s³] limits.
 _PANDA_EFFORT = (87.0, 87.0, 87.0, 87.0, 12.0, 12.0, 12.0)
 _PANDA_VELOCITY = (2.175, 2.175, 2.175, 2.175, 2.61, 2.61, 2.61)
+_PANDA_ACCELERATION = (15.0, 7.5, 10.0, 12.5, 15.0, 20.0, 20.0)
+_PANDA_JERK = (7500.0, 3750.0, 5000.0, 6250.0, 7500.0, 10000.0, 10000.0)
 
 # Universal Robots, "DH parameters for calculations of kinematics and dynamics", UR5e column:
 # link masses [kg] and centres of mass [m] in the DH frames 1..6 (no inertias are published: the
@@ -145,7 +157,7 @@ def _with_names(xml: str, names: tuple[str, ...]) -> str:
     return xml
 
 
-def seven_dof(*, tool: ArrayLike | None = None, radius: float = 0.0) -> MujocoRobot:
+def seven_dof(*, tool: ArrayLike | None = None, radius: float | ArrayLike = 0.0) -> MujocoRobot:
     """A 7R S-R-S arm with the KUKA LBR iiwa 14 R820's dimensions (``DHChain.seven_dof``).
 
     Standard DH: d = 0.36, 0, 0.42, 0, 0.40, 0, 0.126 m, a = 0, alpha alternating -π/2, +π/2
@@ -157,7 +169,8 @@ def seven_dof(*, tool: ArrayLike | None = None, radius: float = 0.0) -> MujocoRo
 
     Args:
         tool: Tool point in the flange frame [m], shape (3,); the flange when ``None``.
-        radius: Capsule radius of the link geoms [m], ``>= 0`` (``0``: none).
+        radius: Capsule radius of the link geoms [m], ``>= 0``, one for all links or one per
+            link (``0``: none).
 
     Returns:
         The robot (7 joints ``joint0`` … ``joint6``).
@@ -177,7 +190,7 @@ def seven_dof(*, tool: ArrayLike | None = None, radius: float = 0.0) -> MujocoRo
     return MujocoRobot.from_xml(xml)
 
 
-def ur5e(*, tool: ArrayLike | None = None, radius: float = 0.0) -> MujocoRobot:
+def ur5e(*, tool: ArrayLike | None = None, radius: float | ArrayLike = 0.0) -> MujocoRobot:
     """The Universal Robots UR5e from Universal Robots' published standard DH (``DHChain.ur5e``).
 
     Source: Universal Robots, "DH parameters for calculations of kinematics and dynamics"
@@ -190,7 +203,8 @@ def ur5e(*, tool: ArrayLike | None = None, radius: float = 0.0) -> MujocoRobot:
 
     Args:
         tool: Tool point in the flange frame [m], shape (3,); the flange when ``None``.
-        radius: Capsule radius of the link geoms [m], ``>= 0`` (``0``: none).
+        radius: Capsule radius of the link geoms [m], ``>= 0``, one for all links or one per
+            link (``0``: none).
 
     Returns:
         The robot (6 joints).
@@ -211,7 +225,7 @@ def ur5e(*, tool: ArrayLike | None = None, radius: float = 0.0) -> MujocoRobot:
     return MujocoRobot.from_xml(_with_names(xml, _UR5E_JOINTS))
 
 
-def puma560(*, tool: ArrayLike | None = None, radius: float = 0.0) -> MujocoRobot:
+def puma560(*, tool: ArrayLike | None = None, radius: float | ArrayLike = 0.0) -> MujocoRobot:
     """The PUMA 560, standard DH of Fu, Gonzalez & Lee (``DHChain.puma560``).
 
     a2 = 0.4318, d2 = 0.15, a3 = -0.0203, d4 = 0.4331 m; tool point the wrist centre unless
@@ -223,7 +237,8 @@ def puma560(*, tool: ArrayLike | None = None, radius: float = 0.0) -> MujocoRobo
 
     Args:
         tool: Tool point in frame 6 [m], shape (3,); its origin when ``None``.
-        radius: Capsule radius of the link geoms [m], ``>= 0`` (``0``: none).
+        radius: Capsule radius of the link geoms [m], ``>= 0``, one for all links or one per
+            link (``0``: none).
 
     Returns:
         The robot (6 joints ``joint0`` … ``joint5``).
@@ -243,7 +258,7 @@ def puma560(*, tool: ArrayLike | None = None, radius: float = 0.0) -> MujocoRobo
     return MujocoRobot.from_xml(xml)
 
 
-def panda(*, tool: ArrayLike | None = None, radius: float = 0.0) -> MujocoRobot:
+def panda(*, tool: ArrayLike | None = None, radius: float | ArrayLike = 0.0) -> MujocoRobot:
     """A Franka-Emika-Panda-like 7-DoF arm from Franka's modified-DH (Craig) parameters.
 
     Source: Franka Emika, "Robot and interface specifications" (Panda): a = 0, 0, 0, 0.0825,
@@ -252,11 +267,14 @@ def panda(*, tool: ArrayLike | None = None, radius: float = 0.0) -> MujocoRobot:
     ±1.7628, ±2.8973, (-3.0718, -0.0698), ±2.8973, (-0.0175, 3.7525), ±2.8973. Kinematics
     only (no masses, meshes or hand). Joints ``panda_joint1`` … ``panda_joint7``; sites
     ``"tcp"``, ``"flange"``, ``"elbow"`` (joint 3), ``"wrist"`` (joint 5), ``"joint0"`` …
-    ``"joint6"``.
+    ``"joint6"``. Joint speed, acceleration and jerk limits from Franka's FCI table "Limits for
+    Panda" (the Franka Emika Robot; ``velocity_limits``, ``acceleration_limits``,
+    ``jerk_limits``; :meth:`MujocoRobot.limits` gives them as a ``JointLimits``).
 
     Args:
         tool: Tool point in the flange frame [m], shape (3,); the flange when ``None``.
-        radius: Capsule radius of the link geoms [m], ``>= 0`` (``0``: none).
+        radius: Capsule radius of the link geoms [m], ``>= 0``, one for all links or one per
+            link (``0``: none); :data:`PANDA_LINK_RADII` covers the Panda's collision meshes.
 
     Returns:
         The robot (7 joints).
@@ -274,6 +292,8 @@ def panda(*, tool: ArrayLike | None = None, radius: float = 0.0) -> MujocoRobot:
         inertias=_PANDA_INERTIAS,
         velocity_limits=_PANDA_VELOCITY,
         effort_limits=_PANDA_EFFORT,
+        acceleration_limits=_PANDA_ACCELERATION,
+        jerk_limits=_PANDA_JERK,
     )
     names = tuple(f"panda_joint{i + 1}" for i in range(7))
     return MujocoRobot.from_xml(_with_names(xml, names))

@@ -8,7 +8,9 @@ extension); this module prepares the text and finishes the model:
   the URDF's directory, all rewritten to absolute paths;
 * ``meshes=False`` removes every ``<visual>``/``<collision>`` whose geometry is a mesh, so the
   kinematics loads without any mesh file; ``meshes=True`` keeps them (``discardvisual="false"``)
-  and names the first missing file;
+  and names the first missing file; ``meshes="collision"`` removes every ``<visual>`` and keeps
+  the ``<collision>`` meshes (visual meshes are often COLLADA files MuJoCo cannot read, and
+  the collision fit of :mod:`velfence.robots.collision` needs only the collision geometry);
 * ``fusestatic="false"``: links behind fixed joints stay bodies, so every link frame stays
   reachable; each link gets a site of its own name, and the ``"tcp"`` site sits on ``tcp_link``
   at ``tool``;
@@ -152,13 +154,16 @@ def _last_link(links: list[str], joints: list[ET.Element]) -> str:
 
 
 def _prepare(
-    root: ET.Element, base: Path, packages: list[Path], meshes: bool
+    root: ET.Element, base: Path, packages: list[Path], meshes: bool, collision_only: bool = False
 ) -> tuple[list[str], dict[str, tuple[float, float]]]:
     """Rewrite mesh URIs (or drop mesh geometry) and the compiler extension, in place."""
     links = [str(link.get("name")) for link in root.findall("link")]
     if not links or any(not n or n == "None" for n in links):
         raise InvalidGeometry("path: expected a URDF <robot> with named <link> elements, got none")
     for link in root.findall("link"):
+        if collision_only:
+            for elem in link.findall("visual"):
+                link.remove(elem)
         for tag in ("visual", "collision"):
             for elem in link.findall(tag):
                 mesh = elem.find("geometry/mesh")
@@ -279,7 +284,8 @@ def urdf_document(
         package_paths: Directories that contain the ``package://`` packages.
         tcp_link: Link that carries the ``"tcp"`` site (default: the last link of the chain).
         tool: Offset of the ``"tcp"`` site in ``tcp_link``'s frame [m], shape (3,).
-        meshes: Keep mesh geometry (True) or strip it (False).
+        meshes: Keep mesh geometry (True), strip it (False), or drop every ``<visual>`` and
+            keep the collision meshes (``"collision"``).
 
     Returns:
         The MJCF document (str).
@@ -291,7 +297,12 @@ def urdf_document(
     """
     text, base = _read(path)
     packages = _package_paths(package_paths)
-    keep = check_flag("meshes", meshes)
+    collision_only = isinstance(meshes, str) and meshes == "collision"
+    if isinstance(meshes, str) and not collision_only:
+        raise InvalidParameter(
+            f"meshes: expected True, False or 'collision', got {_show(meshes, 40)}"
+        )
+    keep = True if collision_only else check_flag("meshes", meshes)
     offset: FloatArray = (
         np.zeros(3)
         if tool is None
@@ -311,7 +322,7 @@ def urdf_document(
         raise InvalidGeometry(
             f"path: expected a URDF document with a <robot> root, got <{str(root.tag)[:40]}>"
         )
-    links, limits = _prepare(root, base, packages, keep)
+    links, limits = _prepare(root, base, packages, keep, collision_only)
     if tcp_link is None:
         tcp_link = _last_link(links, root.findall("joint"))
     elif tcp_link not in links:

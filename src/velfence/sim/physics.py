@@ -48,6 +48,7 @@ from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence._validate import (
     check_choice,
+    check_names,
     check_positive,
     check_text,
     finite_scalar,
@@ -376,17 +377,11 @@ class MujocoPlant:
     def _names(arg: str, names: Any, known: list[str], *, default: list[str]) -> tuple[str, ...]:
         if names is None:
             return tuple(default)
-        if isinstance(names, (str, bytes)) or not isinstance(names, Sequence) or not names:
-            raise InvalidParameter(
-                f"{arg}: expected a non-empty sequence of joint names, got {type(names).__name__}"
-            )
-        out = tuple(check_text(arg, n, max_length=200) for n in names)
+        out = check_names(arg, names)
         unknown = [n for n in out if n not in known]
-        if unknown or len(set(out)) != len(out):
+        if unknown:
             raise InvalidParameter(
-                f"{arg}: expected distinct names from {known[:20]}, got unknown {unknown[:5]}"
-                if unknown
-                else f"{arg}: expected distinct joint names, got {list(out)}"
+                f"{arg}: expected names from {known[:20]}, got unknown {unknown[:5]}"
             )
         return out
 
