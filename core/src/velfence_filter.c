@@ -1161,6 +1161,33 @@ static void scaled(ctx *c, const double *bnd, const double *x0, double *x, doubl
     c->info->stages |= VF_FILTER_STAGE_STOP;
 }
 
+static int rung(ctx *c, const double *bnd, double *x);
+
+/* After a rung that failed with status st: the rows of ladder level lv dropped from the
+ * bounds cur (set to -inf), flagged with `stage`, and the rung run again; st unchanged when the
+ * rung had succeeded or no row has that level. */
+static int drop_level(ctx *c, double *cur, double *x, int st, int lv, int stage)
+{
+    int32_t r;
+    int any = 0;
+    if (st == VF_OK || st == VF_ITERATION_CAP || st == VF_DEADLINE) {
+        return st;
+    }
+    for (r = 0; r < c->m; r++) {
+        if (IV(c, level)[r] == lv) {
+            cur[r] = -INFINITY;
+            any = 1;
+        }
+    }
+    if (!any) {
+        return st;
+    }
+    c->info->rung = 2;
+    c->info->dropped[lv] = 1;
+    c->info->stages |= stage;
+    return rung(c, cur, x);
+}
+
 /* One rung (ladder.run_ladder's body and _model_check): solve with the bounds bnd, then the
  * model check. VF_OK with the answer in x, VF_ITERATION_CAP / VF_DEADLINE, or the failing
  * solve's status (the next rung). */
@@ -1463,36 +1490,9 @@ int vf_filter_cycle_jerk(const vf_filter *f, const double *q, const double *u,
     memcpy(cur, D(c, b), sizeof(double) * (size_t)c->m);
     info->rung = 1;
     st = rung(c, cur, x);
-    if (st != VF_OK && st != VF_ITERATION_CAP && st != VF_DEADLINE) {
-        int any = 0;
-        for (r = 0; r < c->m; r++) {
-            if (IV(c, level)[r] == VF_FILTER_LEVEL_JERK) {
-                cur[r] = -INFINITY;
-                any = 1;
-            }
-        }
-        if (any) {
-            info->rung = 2;
-            info->dropped[VF_FILTER_LEVEL_JERK] = 1;
-            info->stages |= VF_FILTER_STAGE_DROPPED_JERK;
-            st = rung(c, cur, x);
-        }
-    }
-    if (st != VF_OK && st != VF_ITERATION_CAP && st != VF_DEADLINE) {
-        int any = 0;
-        for (r = 0; r < c->m; r++) {
-            if (IV(c, level)[r] == VF_FILTER_LEVEL_RATE) {
-                cur[r] = -INFINITY;
-                any = 1;
-            }
-        }
-        if (any) {
-            info->rung = 2;
-            info->dropped[VF_FILTER_LEVEL_RATE] = 1;
-            info->stages |= VF_FILTER_STAGE_DROPPED_RATE;
-            st = rung(c, cur, x);
-        }
-    }
+    /* comfort gives way to safety: the jerk rows first, then the acceleration rows */
+    st = drop_level(c, cur, x, st, VF_FILTER_LEVEL_JERK, VF_FILTER_STAGE_DROPPED_JERK);
+    st = drop_level(c, cur, x, st, VF_FILTER_LEVEL_RATE, VF_FILTER_STAGE_DROPPED_RATE);
     {
         static const int32_t LEVELS[3] = {VF_FILTER_LEVEL_OBSTACLE, VF_FILTER_LEVEL_WORKSPACE,
                                           VF_FILTER_LEVEL_JOINT};

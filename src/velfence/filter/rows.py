@@ -324,7 +324,37 @@ class JointVelocityLimit:
         )
 
 
-class JointAccelerationLimit:
+class _JointIntervals:
+    """Per-joint interval rows ``|x_j - c_j| <= h_j`` for the joints with a finite limit.
+
+    Row ``2 j`` is ``x_j >= c_j - h_j``, row ``2 j + 1`` is ``-x_j >= -(c_j + h_j)``; the
+    providers below give the centre ``c`` and the half-width ``h`` (a limit times a power of
+    ``dt``).
+    """
+
+    def __init__(self, limit: FloatArray | None, n: int, what: str) -> None:
+        self._joints = (
+            np.zeros(0, dtype=np.int64) if limit is None else np.flatnonzero(np.isfinite(limit))
+        )
+        eye = np.eye(n)
+        self._G = np.zeros((2 * self._joints.shape[0], n))
+        self._G[0::2] = eye[self._joints]
+        self._G[1::2] = -eye[self._joints]
+        self._limit = np.zeros(0) if limit is None else np.asarray(limit, dtype=float)[self._joints]
+        self._keys = np.stack([2 * self._joints, 2 * self._joints + 1], 1).ravel()
+        self._what = what
+
+    def _block(self, c: FloatArray, step: FloatArray) -> RowBlock:
+        b = np.empty(2 * c.shape[0])
+        b[0::2] = c - step
+        b[1::2] = -(c + step)
+        return RowBlock(
+            self._G, b, np.zeros(b.shape[0], dtype=bool), self._keys,
+            _joint_namer(self._keys, self._what),
+        )  # fmt: skip
+
+
+class JointAccelerationLimit(_JointIntervals):
     """Acceleration rows ``|x - previous| <= a dt`` (level :data:`LEVEL_RATE`).
 
     Only with ``dt`` and a previous output; joints without a finite acceleration limit have none.
@@ -338,34 +368,16 @@ class JointAccelerationLimit:
     label = "joint acceleration"
 
     def __init__(self, limits: JointLimits) -> None:
-        acc = limits.max_acceleration
-        n = limits.dof
-        self._joints = (
-            np.zeros(0, dtype=np.int64) if acc is None else np.flatnonzero(np.isfinite(acc))
-        )
-        eye = np.eye(n)
-        self._G = np.zeros((2 * self._joints.shape[0], n))
-        self._G[0::2] = eye[self._joints]
-        self._G[1::2] = -eye[self._joints]
-        self._acc = np.zeros(0) if acc is None else np.asarray(acc, dtype=float)[self._joints]
-        self._keys = np.stack([2 * self._joints, 2 * self._joints + 1], 1).ravel()
+        super().__init__(limits.max_acceleration, limits.dof, "acceleration")
 
     def rows(self, ctx: RowContext) -> RowBlock | None:
         """The rows around the previous output, or ``None`` without one or without ``dt``."""
         if ctx.previous is None or ctx.dt is None or self._joints.shape[0] == 0:
             return None
-        step = self._acc * ctx.dt
-        pj = ctx.previous[self._joints]
-        b = np.empty(2 * pj.shape[0])
-        b[0::2] = pj - step
-        b[1::2] = -(pj + step)
-        return RowBlock(
-            self._G, b, np.zeros(b.shape[0], dtype=bool), self._keys,
-            _joint_namer(self._keys, "acceleration"),
-        )  # fmt: skip
+        return self._block(ctx.previous[self._joints], self._limit * ctx.dt)
 
 
-class JointJerkLimit:
+class JointJerkLimit(_JointIntervals):
     r"""Jerk rows ``|x - (2 previous - previous2)| <= J dt²`` (level :data:`LEVEL_JERK`).
 
     With the last two outputs ``p = previous`` and ``p2 = previous2`` the last acceleration is
@@ -384,17 +396,7 @@ class JointJerkLimit:
     label = "joint jerk"
 
     def __init__(self, limits: JointLimits) -> None:
-        jerk = limits.max_jerk
-        n = limits.dof
-        self._joints = (
-            np.zeros(0, dtype=np.int64) if jerk is None else np.flatnonzero(np.isfinite(jerk))
-        )
-        eye = np.eye(n)
-        self._G = np.zeros((2 * self._joints.shape[0], n))
-        self._G[0::2] = eye[self._joints]
-        self._G[1::2] = -eye[self._joints]
-        self._jerk = np.zeros(0) if jerk is None else np.asarray(jerk, dtype=float)[self._joints]
-        self._keys = np.stack([2 * self._joints, 2 * self._joints + 1], 1).ravel()
+        super().__init__(limits.max_jerk, limits.dof, "jerk")
 
     def rows(self, ctx: RowContext) -> RowBlock | None:
         """The rows around ``2 previous - previous2``, or ``None`` without both or ``dt``."""
@@ -405,16 +407,8 @@ class JointJerkLimit:
             or self._joints.shape[0] == 0
         ):
             return None
-        step = self._jerk * (ctx.dt * ctx.dt)
         pj = ctx.previous[self._joints]
-        c = pj + (pj - ctx.previous2[self._joints])
-        b = np.empty(2 * pj.shape[0])
-        b[0::2] = c - step
-        b[1::2] = -(c + step)
-        return RowBlock(
-            self._G, b, np.zeros(b.shape[0], dtype=bool), self._keys,
-            _joint_namer(self._keys, "jerk"),
-        )  # fmt: skip
+        return self._block(pj + (pj - ctx.previous2[self._joints]), self._limit * (ctx.dt * ctx.dt))
 
 
 # ------------------------------------------------------------------------------- workspace
