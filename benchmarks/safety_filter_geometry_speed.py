@@ -69,7 +69,7 @@ def panda_cycle(fc_mod: Any) -> tuple[Any, int]:
     args = _scene_args(fc_mod, joints, tool)
     P = _points(fc_mod, joints, tool)
     lengths = np.linalg.norm(P[1:] - P[:-1], axis=1).tolist()
-    pairs = SelfCollision().pairs(lengths, [0.06] * 7)
+    pairs = SelfCollision().pairs(lengths, radii=[0.06] * 7)
     flat = [v for p in pairs for v in p]
     shape = [7.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.1, 0.04]  # a capsule on the tool frame
     fc = _filter.FilterCycle(*args, self_pairs=flat, attachments=shape)

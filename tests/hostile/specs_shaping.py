@@ -45,6 +45,20 @@ def _arm() -> object:
     return DHChain.seven_dof(link_radius=0.04)
 
 
+#: A link index is "tcp" or an int >= -1 (-1 the base): these kinds are valid links.
+_LINK_INDEX = {
+    "int_minus_1": "documented: -1 is the base",
+    "int_zero": "documented: link 0",
+    "int_for_flag": "documented: an int link index",
+}
+
+
+def _sphere() -> object:
+    from velfence.filter import Sphere
+
+    return Sphere("tcp", [0.0, 0.0, 0.05], radius=0.02)
+
+
 def _limits() -> object:
     from velfence.filter import JointLimits
 
@@ -66,6 +80,7 @@ def safety_filter() -> object:
         limits=_limits(),  # type: ignore[arg-type]
         workspace=WorkspaceLimit(_box(), buffer=0.05),
         obstacles=[SphereObstacle([0.0, 0.3, 0.6], radius=0.05)],
+        attachments={"tool": _sphere()},  # detach("tool") has one to detach
         dt=0.002,
     )
 
@@ -209,6 +224,37 @@ SPECS: dict[str, F | C] = {
     "filter.JointJerkLimit": C(abstract="built by SafetyFilter from validated limits"),
     "filter.WorkspaceRows": C(abstract="built by SafetyFilter from a validated WorkspaceLimit"),
     "filter.ObstacleRows": C(abstract="built by SafetyFilter from validated SphereObstacles"),
+    "filter.SelfCollisionRows": C(abstract="built by SafetyFilter from a validated SelfCollision"),
+    "filter.AttachmentTable": C(abstract="built by SafetyFilter from validated Sphere/Capsule"),
+    "filter.AttachmentWorkspaceRows": C(abstract="built by SafetyFilter from its AttachmentTable"),
+    "filter.AttachmentObstacleRows": C(abstract="built by SafetyFilter from its AttachmentTable"),
+    "filter.Sphere": C(
+        F(
+            lambda: call("tcp", [0.0, 0.0, 0.05], radius=0.02),
+            types={"radius": "nonneg"},
+            accepts={"link": _LINK_INDEX},
+        )
+    ),
+    "filter.Capsule": C(
+        F(
+            lambda: call("tcp", [0.0, 0.0, 0.0], [0.0, 0.0, 0.1], radius=0.02),
+            types={"radius": "nonneg"},
+            accepts={"link": _LINK_INDEX},
+        )
+    ),
+    "filter.SelfCollision": C(
+        F(
+            lambda: call(exclude=[(0, 3)], min_gap=2),
+            accepts={
+                "exclude": {
+                    "empty_list": "documented: no pair excluded",
+                    "empty_tuple": _NONE,
+                    "empty_rows": "documented: an empty (0, 2) array excludes no pair",
+                },
+            },
+        ),
+        {"pairs": F(lambda: call([0.3, 0.3, 0.3, 0.3], radii=[0.05] * 4))},
+    ),
     "filter.JointLimits": C(
         F(
             lambda: call(
@@ -260,9 +306,20 @@ SPECS: dict[str, F | C] = {
             accepts={
                 "obstacles": {"empty_list": _NONE, "empty_tuple": _NONE},
                 "workspace": {"empty_list": _NONE, "empty_tuple": _NONE},
+                "attachments": {
+                    "dict_empty": "documented: no attachments",
+                    "empty_list": "documented: no attachments",
+                    "empty_tuple": "documented: no attachments",
+                },
+                "self_collision": {
+                    "true": "documented: True guards every default pair",
+                    "false": "documented: False (the default) guards none",
+                },
             },
         ),
         {
+            "attach": lambda: call("held", _sphere()),
+            "detach": F(lambda: call("tool"), types={"name": "choice"}),
             "explain": lambda: call(_Q7, _QD7),
             "filter": lambda: call(_Q7, _QD7),
             "explain_twist": F(lambda: call(_Q7, [0.1, 0.0, 0.2]), types={"point": "choice"}),

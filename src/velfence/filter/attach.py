@@ -59,7 +59,7 @@ class AttachmentTable:
         n: The robot's joints (``"tcp"`` is link ``n``).
     """
 
-    def __init__(self, n: int) -> None:
+    def __init__(self, *, n: int) -> None:
         self.n = n
         self._shapes: dict[str, tuple[int, Shape]] = {}
         self._next = 0

@@ -38,6 +38,7 @@ from velfence._validate import (
     check_flag,
     check_positive,
     check_positive_int,
+    check_text,
     describe,
     readonly,
     real_array,
@@ -391,6 +392,7 @@ class SafetyFilter(InvalidPolicy):
         Raises:
             InvalidParameter: no shape of that name is attached.
         """
+        name = check_text("name", name)
         if self._attach is None or not self._attach.remove(name):
             have = [] if self._attach is None else list(self._attach.names())
             raise InvalidParameter(f"name: no shape {name!r} is attached (attached: {have})")

@@ -510,10 +510,26 @@ class SphereObstacle:
             object.__setattr__(self, "name", check_text("name", self.name, max_length=200))
 
 
+def _link_index(name: str, v: Any, low: int) -> int:
+    """A link index: a Python or NumPy int (not a bool, not a timedelta) >= ``low``."""
+    if (
+        isinstance(v, (bool, np.bool_, np.timedelta64))
+        or not isinstance(v, (int, np.integer))
+        or v < low
+        or v > 1_000_000
+    ):
+        raise InvalidParameter(f"{name}: expected a link index (an int >= {low}), got {show(v)}")
+    return int(v)
+
+
 def _attach_link(link: Any) -> str | int:
-    if link == "tcp" and isinstance(link, str):
+    if isinstance(link, str) and link == "tcp":
         return "tcp"
-    if isinstance(link, bool) or not isinstance(link, (int, np.integer)) or link < -1:
+    if (
+        isinstance(link, (bool, np.bool_, np.timedelta64))
+        or not isinstance(link, (int, np.integer))
+        or link < -1
+    ):
         raise InvalidParameter(
             f"link: expected 'tcp' or a link index (an int >= -1, -1 the base), got {show(link)}"
         )
@@ -617,6 +633,18 @@ class SelfCollision:
 
     def __post_init__(self) -> None:
         ex: Any = self.exclude
+        if (
+            isinstance(ex, np.ndarray)
+            and ex.ndim == 2
+            and (
+                ex.dtype.kind in "iu"
+                or (
+                    ex.dtype.kind == "f"
+                    and bool(np.all(np.isfinite(ex) & (np.abs(ex) <= 1e6) & (ex == np.round(ex))))
+                )
+            )
+        ):
+            ex = ex.astype(np.int64).tolist()  # an array of pairs of whole numbers, shape (k, 2)
         if isinstance(ex, (str, bytes)) or not isinstance(ex, Sequence):
             raise InvalidParameter(
                 f"self_collision.exclude: expected a sequence of link pairs, got {describe(ex)}"
@@ -626,25 +654,20 @@ class SelfCollision:
             name = f"self_collision.exclude[{k}]"
             if isinstance(pr, (str, bytes)) or not isinstance(pr, Sequence) or len(pr) != 2:
                 raise InvalidParameter(f"{name}: expected a pair of link indices, got {show(pr)}")
-            i, j = pr
-            for v in (i, j):
-                if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 0:
-                    raise InvalidParameter(
-                        f"{name}: expected two link indices (ints >= 0), got {show(pr)}"
-                    )
+            i, j = (_link_index(name, v, 0) for v in pr)
             if int(i) == int(j):
                 raise InvalidParameter(
                     f"{name}: names link {int(i)} twice; a pair is two different links"
                 )
             pairs.append((min(int(i), int(j)), max(int(i), int(j))))
         object.__setattr__(self, "exclude", tuple(pairs))
-        g = self.min_gap
-        if isinstance(g, bool) or not isinstance(g, (int, np.integer)) or g < 1:
-            raise InvalidParameter(f"self_collision.min_gap: expected an int >= 1, got {show(g)}")
-        object.__setattr__(self, "min_gap", int(g))
+        g: Any = self.min_gap
+        if isinstance(g, np.ndarray) and g.ndim == 0:
+            g = g.item()
+        object.__setattr__(self, "min_gap", _link_index("self_collision.min_gap", g, 1))
 
     def pairs(
-        self, lengths: Sequence[float], radii: Sequence[float]
+        self, lengths: Sequence[float], *, radii: Sequence[float]
     ) -> tuple[tuple[int, int], ...]:
         """The guarded pairs ``(i, j)``, ``i < j``, of links of ``lengths`` and ``radii`` [m].
 
@@ -658,7 +681,16 @@ class SelfCollision:
         Raises:
             InvalidParameter: an excluded pair names a link the robot does not have.
         """
-        links = len(lengths)
+        ln_a = real_array("lengths", lengths, (None,), error=InvalidParameter, what="lengths [m]")
+        links = int(ln_a.shape[0])
+        rd_a = real_array("radii", radii, (None,), error=InvalidParameter, what="radii [m]")
+        if rd_a.shape[0] != links:
+            raise InvalidParameter(
+                f"lengths, radii: expected one radius per link length, got {links} lengths "
+                f"and {rd_a.shape[0]} radii"
+            )
+        if np.any(ln_a < 0.0) or np.any(rd_a < 0.0):
+            raise InvalidParameter("lengths, radii: expected values >= 0 [m]")
         for k, (_, j) in enumerate(self.exclude):
             if j >= links:
                 raise InvalidParameter(
@@ -666,8 +698,8 @@ class SelfCollision:
                     f"{links} links, 0 … {links - 1})"
                 )
         ex = set(self.exclude)
-        ln = [float(v) for v in lengths]
-        rd = [float(v) for v in radii]
+        ln = [float(v) for v in ln_a]
+        rd = [float(v) for v in rd_a]
         return tuple(
             (i, j)
             for i in range(links)

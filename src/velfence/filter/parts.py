@@ -300,9 +300,9 @@ def self_collision_rows(
             f"self_collision: the robot's capsule geometry is unusable: {exc}"
         ) from None
     rad = np.broadcast_to(radius if radius.shape[0] > 1 else radius[:1], (segs.shape[0],))
-    pairs = sc.pairs(np.linalg.norm(segs[:, 1] - segs[:, 0], axis=1).tolist(), rad.tolist())
+    pairs = sc.pairs(np.linalg.norm(segs[:, 1] - segs[:, 0], axis=1).tolist(), radii=rad.tolist())
     return SelfCollisionRows(
-        pairs, radius, buffer=buffer, spring_gain=spring_gain, max_speed=max_speed
+        pairs, link_radius=radius, buffer=buffer, spring_gain=spring_gain, max_speed=max_speed
     )
 
 
@@ -334,7 +334,7 @@ def attachment_table(robot: Any, attachments: Any, frame0: Any, n: int) -> Attac
             f"attachments: the robot {type(robot).__name__} gives no link frames "
             f"(its kinematics frame needs link_frame and jacobian_at; a DHChain has them): {exc}"
         ) from None
-    table = AttachmentTable(n)
+    table = AttachmentTable(n=n)
     if isinstance(attachments, Mapping):
         items = [(k, v, f"attachments[{k!r}]") for k, v in attachments.items()]
     elif isinstance(attachments, (str, bytes)) or not isinstance(attachments, Sequence):

@@ -680,8 +680,8 @@ class SelfCollisionRows:
     def __init__(
         self,
         pairs: Sequence[tuple[int, int]],
-        link_radius: FloatArray,
         *,
+        link_radius: FloatArray,
         buffer: float,
         spring_gain: float,
         max_speed: FloatArray,

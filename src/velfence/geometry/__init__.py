@@ -23,7 +23,6 @@ from velfence.geometry.primitives import (
     closest_points_segments,
     point_segment_distance_jacobian,
     points_segments_distances,
-    segment_pair_params,
     segment_segment_distance,
     sphere_capsule_distance,
 )
@@ -50,7 +49,6 @@ __all__ = [
     "points_segments_distances",
     "polygon_from_halfplanes",
     "project",
-    "segment_pair_params",
     "segment_segment_distance",
     "sphere_capsule_distance",
     "world_to_body",
