@@ -840,30 +840,12 @@ static int32_t build_rows(ctx *c, const double *previous, const double *previous
     for (w = 0; w < f->nw; w++) {
         const vf_filter_polytope *ws = f->ws + w;
         const vf_filter_point *pt = f->points + ws->point;
-        double p[3], vx = 0.0, vy = 0.0, vz = 0.0;
+        double p[3];
         double *J = D(c, wsJ);
         const int32_t k = point_at(f, pt, D(c, frames), p);
-        for (j = 0; j < k; j++) {
-            const double *z = axes + 3 * (size_t)j;
-            double *col = J + 3 * (size_t)j;
-            if (f->joints[j].type == VF_FILTER_PRISMATIC) {
-                col[0] = z[0];
-                col[1] = z[1];
-                col[2] = z[2];
-            } else {
-                const double *pj = P + 3 * (size_t)j;
-                double dx = p[0] - pj[0], dy = p[1] - pj[1], dz = p[2] - pj[2];
-                col[0] = z[1] * dz - z[2] * dy;
-                col[1] = z[2] * dx - z[0] * dz;
-                col[2] = z[0] * dy - z[1] * dx;
-            }
-            vx += col[0] * u[j];
-            vy += col[1] * u[j];
-            vz += col[2] * u[j];
-        }
-        r = vf_workspace_rows(&o, r, w, ws->N, ws->off, ws->nf, ws->kind, ws->prm, p, J, k,
-                              sqrt(vx * vx + vy * vy + vz * vz), idt, VF_FILTER_LEVEL_WORKSPACE,
-                              D(c, wsd), D(c, wsb), IV(c, ri));
+        const double speed = point_jac(f, P, axes, p, k, u, J);
+        r = vf_workspace_rows(&o, r, w, ws->N, ws->off, ws->nf, ws->kind, ws->prm, p, J, k, speed,
+                              idt, VF_FILTER_LEVEL_WORKSPACE, D(c, wsd), D(c, wsb), IV(c, ri));
     }
     if (f->nattach > 0) {
         r = attach_ws_rows(c, &o, r);
