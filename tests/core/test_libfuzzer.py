@@ -10,7 +10,8 @@ tiny, NaN/inf/subnormal entries), law parameters and states, calls the checks an
 and aborts when the documented contract does not hold (codes, the stop result, finite output, the
 law's bounds, the speed cap; see the targets' header comments). Here each target runs for a
 bounded time from the seed corpus ``core/fuzz/corpus/`` with a fixed seed and must exit cleanly.
-Fast controls: every former finding (``core/fuzz/crashes/``) runs clean, and the assertions are
+Fast controls: every former finding (``core/fuzz/crashes/``, each file replayed by the target its
+name's prefix maps to; a file of no known prefix fails) runs clean, and the assertions are
 live (``fuzz_exact``, ``fuzz_nd``, ``fuzz_cc``, ``fuzz_rr``, ``fuzz_filter`` and
 ``fuzz_filter_cycle`` built with
 ``--control-tamper`` abort).
@@ -130,6 +131,75 @@ def test_bounded_libfuzzer_run(targets: Path, tmp_path: Path, law: str) -> None:
     assert seeded > 100  # the seeds reach the core (coverage counters of the C code)
     assert cov >= seeded
     print(f"fuzz_{law}: {runs} runs, cov {cov} ft {ft}, {_stat(log, 'average_exec_per_sec')}/s")
+
+
+#: The target that replays a finding, by the prefix of its file name in ``core/fuzz/crashes/``
+#: (longest prefix first: ``filter_cycle-`` before ``filter-``).
+CRASH_TARGETS = {
+    "filter_cycle-": "filter_cycle",
+    "filter-": "filter",
+    "exact-": "exact",
+    "patent-": "patent",
+    "nd-": "nd",
+    "cc-": "cc",
+    "rr-": "rr",
+}
+#: Files of ``core/fuzz/crashes/`` that are not inputs.
+NOT_INPUTS = {"README.md"}
+
+
+def crash_target(name: str) -> str | None:
+    """The fuzz target that replays the finding ``name`` (None: no known prefix)."""
+    for prefix in sorted(CRASH_TARGETS, key=len, reverse=True):
+        if name.startswith(prefix):
+            return CRASH_TARGETS[prefix]
+    return None
+
+
+def findings_by_target(folder: Path) -> tuple[dict[str, list[str]], list[str]]:
+    """Every input of ``folder`` grouped by its target, and the files of no known prefix."""
+    grouped: dict[str, list[str]] = {}
+    unmapped = []
+    for f in sorted(folder.iterdir()):
+        if f.name in NOT_INPUTS:
+            continue
+        target = crash_target(f.name)
+        if target is None:
+            unmapped.append(f.name)
+        else:
+            grouped.setdefault(target, []).append(str(f))
+    return grouped, unmapped
+
+
+def test_every_finding_maps_to_a_target(tmp_path: Path) -> None:
+    """Each file of core/fuzz/crashes/ names its target by its prefix (a new file of an unknown
+    prefix fails here, so no finding goes unreplayed); the mapping is checked on a planted folder."""
+    grouped, unmapped = findings_by_target(FUZZ / "crashes")
+    assert unmapped == [], f"findings no target replays: {unmapped}"
+    assert set(grouped) <= set(CRASH_TARGETS.values())
+    assert "patent" in grouped  # the edge-scaling law's finding is replayed too
+    for name in ("filter_cycle-a", "filter-b", "patent-c", "fuzzy-d", "README.md"):
+        (tmp_path / name).write_bytes(b"x")
+    grouped, unmapped = findings_by_target(tmp_path)
+    assert {k: [Path(f).name for f in v] for k, v in grouped.items()} == {
+        "filter_cycle": ["filter_cycle-a"],
+        "filter": ["filter-b"],
+        "patent": ["patent-c"],
+    }
+    assert unmapped == ["fuzzy-d"]
+
+
+@pytest.mark.slow  # builds every target that has a finding
+def test_every_former_finding_runs_clean_through_its_target(
+    libfuzzer: None, tmp_path: Path
+) -> None:
+    """Every file of core/fuzz/crashes/ (exact-*, patent-*, nd-*, cc-*, rr-*, filter-*,
+    filter_cycle-*) runs once through the default build of its target and exits cleanly."""
+    grouped, unmapped = findings_by_target(FUZZ / "crashes")
+    assert unmapped == []
+    _build(tmp_path / "build", " ".join(sorted(grouped)))
+    for target, inputs in sorted(grouped.items()):
+        _runs_clean(tmp_path / "build" / f"fuzz_{target}", inputs)
 
 
 def _known_defect_input() -> bytes:
