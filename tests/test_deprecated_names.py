@@ -333,3 +333,26 @@ def test_operator_and_sr_inverse_tolerances_warn_when_positional() -> None:
     with pytest.warns(DeprecationWarning, match=POSITIONAL):
         old = sr_inverse(J, 0.01)
     np.testing.assert_array_equal(old, sr_inverse(J, k=0.01))
+
+
+def test_the_changelog_names_every_moved_path_and_every_moved_bridge_name() -> None:
+    """CHANGELOG.md lists each old module path with its new one, and each old ``velfence.bridge``
+    zone name individually with its new path (read from the code's own tables)."""
+    from pathlib import Path
+
+    import velfence.bridge
+    from velfence import _moved
+
+    text = (Path(__file__).resolve().parents[1] / "CHANGELOG.md").read_text(encoding="utf-8")
+    flat = " ".join(text.split())
+    missing = [
+        f"{old} → {new}" for old, new in _moved.MOVED.items() if f"`{old}` → `{new}`" not in flat
+    ]
+    former = velfence.bridge._FORMER
+    assert len(former) >= 9
+    missing += [
+        f"velfence.bridge.{name} → {home}.{name}"
+        for name, home in former.items()
+        if f"`velfence.bridge.{name}` → `{home}.{name}`" not in flat
+    ]
+    assert not missing, missing

@@ -25,6 +25,7 @@ __all__ = ["MOVED", "install", "new_name"]
 #: Old module path -> new module path (a package's submodules follow their package).
 MOVED: dict[str, str] = {
     "velfence.cli": "velfence.apps.cli",
+    "velfence._entry": "velfence.apps._entry",
     "velfence.bench": "velfence.apps.bench",
     "velfence.demo": "velfence.apps.demo",
     "velfence.soak": "velfence.apps.soak",

@@ -173,7 +173,8 @@ def findings_by_target(folder: Path) -> tuple[dict[str, list[str]], list[str]]:
 
 def test_every_finding_maps_to_a_target(tmp_path: Path) -> None:
     """Each file of core/fuzz/crashes/ names its target by its prefix (a new file of an unknown
-    prefix fails here, so no finding goes unreplayed); the mapping is checked on a planted folder."""
+    prefix fails here, so no finding goes unreplayed); the mapping is checked on a
+    planted folder."""
     grouped, unmapped = findings_by_target(FUZZ / "crashes")
     assert unmapped == [], f"findings no target replays: {unmapped}"
     assert set(grouped) <= set(CRASH_TARGETS.values())
