@@ -17,7 +17,7 @@
  *     batch_velocity(P, V, out) -> the number of rows not finite in or out: shape_batch's loop,
  *                          writing only the velocities (rows with non-finite input are not run;
  *                          the caller then takes its generic path); releases the GIL.
- *   rate_bounds(kind, prm, dist, speed, idt) -> bounds (k,)   vf_nd_rate_bounds (filter._bounds)
+ *   rate_bounds(kind, prm, dist, speed, idt) -> bounds (k,)   vf_nd_rate_bounds (velfence.filter.rows.rate_bounds)
  *   CapsuleRows(lrad, C, srad, vmax, nl, nj, ncols, k, buf, dt, kind, prm)
  *     rows(P, axes, u, idt) -> (G (r, ncols), b (r,), d (r,), obstacles, links): the safety
  *                          filter's obstacle rows (vf_nd_capsule_rows) from one kinematics pass.
