@@ -157,3 +157,45 @@ def test_a_forbidden_import_breaks_the_contract(tmp_path, module, source, messag
     assert res.returncode == 1, res.stdout + res.stderr
     assert "BROKEN" in res.stdout
     assert message in res.stdout
+
+
+def _doc_layers(doc: str) -> tuple[list[list[str]], list[list[str]]]:
+    """The layers docs/architecture.md's diagram shows and its two layer tables list, top first
+    (each a list of module names), library first then ``velfence.apps``."""
+    import re
+
+    diagram = doc.split("```text\n", 1)[1].split("```", 1)[0]
+    lib_part, apps_part = diagram.split("velfence.apps:", 1)
+    stacks = []
+    for part in (lib_part, apps_part):
+        rows = []
+        for line in part.splitlines():
+            if not line.startswith("  ") or line.strip() in ("", "│") or line.startswith("    "):
+                continue
+            head = re.match(r"\w+(?: │ \w+)*", line.strip())
+            assert head is not None, line
+            rows.append(head[0].split(" │ "))
+        stacks.append(rows)
+    tables = []
+    for header in (
+        "| Layer | Packages / modules | May import |",
+        "| Layer | Packages / modules | Why",
+    ):
+        body = doc.split(header, 1)[1].split("\n\n", 1)[0]
+        rows = []
+        for line in body.splitlines()[2:]:
+            cell = line.split("|")[2]
+            rows.append(re.findall(r"`([\w.]+)`", cell.split("(")[0] if "(" in cell else cell))
+        tables.append(rows)
+    return stacks[0] + stacks[1], tables[0] + tables[1]
+
+
+def test_the_architecture_page_shows_every_layer_of_the_contracts():
+    """docs/architecture.md's diagram and tables list exactly the layers of the two contracts in
+    pyproject.toml, in their order (so a layer added to a contract must be added to the page)."""
+    contracts = _project_config()["contracts"]
+    want = [[m.strip() for m in layer.split("|")] for c in contracts for layer in c["layers"]]
+    doc = (ROOT / "docs" / "architecture.md").read_text(encoding="utf-8")
+    diagram, tables = _doc_layers(doc)
+    assert diagram == want
+    assert tables == want
