@@ -89,7 +89,7 @@ def _python_cycle() -> object:
     """The C example's scene as a ``FilterCycle`` (same arm, box and 20 spheres' placement)."""
     from velfence_core import _filter
 
-    from velfence.filter._ccycle import _compose, _translation, mdh_chain_data
+    from velfence.filter.ccycle import compose, mdh_chain_data, translation
 
     joints, tool = mdh_chain_data(MDH, 0.107, (0.0, 0.0, 0.1))
     jprm = []
@@ -101,15 +101,15 @@ def _python_cycle() -> object:
     centres: list[float] = []
     radii: list[float] = []
     # the chain's joint points at Q0 (spheres at least 0.3 m from every link's midpoint)
-    frames = [_translation((0, 0, 0))]
+    frames = [translation((0, 0, 0))]
     pts = []
     jt = joints.reshape(7, 17)
     for j in range(7):
-        A = _compose(frames[-1], jt[j, :12])
+        A = compose(frames[-1], jt[j, :12])
         pts.append(A.reshape(3, 4)[:, 3].copy())
         c, s = math.cos(Q0[j]), math.sin(Q0[j])
-        frames.append(_compose(A, np.array([c, -s, 0, 0, s, c, 0, 0, 0, 0, 1, 0.0])))
-    pts.append(_compose(frames[-1], tool).reshape(3, 4)[:, 3])
+        frames.append(compose(A, np.array([c, -s, 0, 0, s, c, 0, 0, 0, 0, 1, 0.0])))
+    pts.append(compose(frames[-1], tool).reshape(3, 4)[:, 3])
     P = np.array(pts)
     while len(radii) < 20:
         c = np.array([rng.uniform(-0.7, 0.7), rng.uniform(-0.7, 0.7), rng.uniform(0.1, 1.1)])
@@ -163,7 +163,7 @@ def _safety_filter(dense: bool = False) -> Any:
                                 max_acceleration=np.full(7, 15.0)),
         workspace=box, obstacles=spheres, dt=1e-3, obstacle_buffer=0.3 if dense else 0.05,
     )  # fmt: skip
-    assert sf._ccycle is not None, "the compiled core (velfence_core._filter) is not installed"
+    assert sf.cycle_in_c, "the compiled core (velfence_core._filter) is not installed"
     return sf
 
 
@@ -240,7 +240,6 @@ def _dense_python_loop(sf: Any, cycles: int) -> tuple[np.ndarray, float, float, 
     times = np.empty(cycles)
     rows = binding = 0.0
     bad = 0
-    cyc = sf._ccycle
     clock = time.perf_counter
     for c in range(cycles):
         if c % 500 == 0:
@@ -249,7 +248,9 @@ def _dense_python_loop(sf: Any, cycles: int) -> tuple[np.ndarray, float, float, 
         t0 = clock()
         x = sf.filter(q, u)
         times[c] = clock() - t0
-        G, b, level, _, _, _, _, bound = cyc.rows()
+        last = sf.last_cycle_rows
+        assert last is not None
+        G, b, level, bound = last
         gx = G @ x
         tau = 1e-12 * (np.abs(G).sum(1) * (np.abs(x).max() + np.abs(u).max()))
         c0 = np.minimum(b, 0.0)

@@ -104,7 +104,7 @@ def vector_bench(n: int, steps: int) -> list[str]:
         obstacles=spheres, dt=DT,
     )  # fmt: skip
     assert f.backend == "c"
-    assert f._ccycle is not None
+    assert f.cycle_in_c
     lines = [f"### Vector env: {n} arms, TCP box + 5 spheres, {steps} steps\n",
              "| what | threads | median [µs] | p99 [µs] | max [µs] | env-steps/s (median) |",
              "|---|---:|---:|---:|---:|---:|"]  # fmt: skip

@@ -30,12 +30,12 @@ from rosbags.highlevel import AnyReader
 from rosbags.rosbag2 import StoragePlugin, Writer
 
 from velfence.io import make_example_bag, replay
-from velfence.io.bag_examples import _arm_jog_messages, _mobile_base_messages
-from velfence.io.bags import _typestore
+from velfence.io.bag_examples import arm_jog_messages, mobile_base_messages
+from velfence.io.bags import message_typestore
 
 
 def _big(path: Path, base: list[tuple[str, str, int, Any]], repeats: int, plugin: Any) -> int:
-    ts = _typestore(None)
+    ts = message_typestore(None)
     times = [t for _, _, t, _ in base]
     span = max(times) - min(times) + 10**8
     with Writer(path, version=9, storage_plugin=plugin) as writer:
@@ -52,7 +52,7 @@ def _big(path: Path, base: list[tuple[str, str, int, Any]], repeats: int, plugin
 def copy_with_rosbags(bag: Path, out: Path, plugin: Any) -> int:
     """The baseline: read, decode, re-encode and write every message with rosbags alone."""
     n = 0
-    with AnyReader([bag], default_typestore=_typestore(None)) as reader:
+    with AnyReader([bag], default_typestore=message_typestore(None)) as reader:
         ts = reader.typestore
         with Writer(out, version=9, storage_plugin=plugin) as writer:
             conns = {
@@ -73,13 +73,13 @@ def _seconds(job: Callable[..., Any], *args: Any) -> float:
 
 
 def main(repeats: int = 50) -> None:
-    ts = _typestore(None)
+    ts = message_typestore(None)
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         root = Path(tmp)
         cases = [
-            ("mobile_base", _mobile_base_messages(ts), StoragePlugin.MCAP),
-            ("arm_jog", _arm_jog_messages(ts), StoragePlugin.SQLITE3),
+            ("mobile_base", mobile_base_messages(ts), StoragePlugin.MCAP),
+            ("arm_jog", arm_jog_messages(ts), StoragePlugin.SQLITE3),
         ]
         for name, msgs, plugin in cases:
             ex = make_example_bag(name, root / name)

@@ -77,7 +77,7 @@ def panda_cycle(fc_mod: Any) -> tuple[Any, int]:
 
 
 def _mdh(fc_mod: Any) -> tuple[Any, Any]:
-    from velfence.filter._ccycle import mdh_chain_data
+    from velfence.filter.ccycle import mdh_chain_data
 
     return mdh_chain_data(fc_mod.MDH, 0.107, (0.0, 0.0, 0.1))
 
@@ -85,17 +85,17 @@ def _mdh(fc_mod: Any) -> tuple[Any, Any]:
 def _points(fc_mod: Any, joints: Any, tool: Any) -> Any:
     import math
 
-    from velfence.filter._ccycle import _compose, _translation
+    from velfence.filter.ccycle import compose, translation
 
-    frames = [_translation((0, 0, 0))]
+    frames = [translation((0, 0, 0))]
     pts = []
     jt = joints.reshape(7, 17)
     for j in range(7):
-        A = _compose(frames[-1], jt[j, :12])
+        A = compose(frames[-1], jt[j, :12])
         pts.append(A.reshape(3, 4)[:, 3].copy())
         c, s = math.cos(fc_mod.Q0[j]), math.sin(fc_mod.Q0[j])
-        frames.append(_compose(A, np.array([c, -s, 0, 0, s, c, 0, 0, 0, 0, 1, 0.0])))
-    pts.append(_compose(frames[-1], tool).reshape(3, 4)[:, 3])
+        frames.append(compose(A, np.array([c, -s, 0, 0, s, c, 0, 0, 0, 0, 1, 0.0])))
+    pts.append(compose(frames[-1], tool).reshape(3, 4)[:, 3])
     return np.array(pts)
 
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 import ast
 import importlib
 import json
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -132,12 +133,15 @@ def _package_of(module: str) -> bool:
     return parts[1] == "apps" or len(parts) == 2
 
 
-@pytest.mark.parametrize("path", sorted(EXAMPLES.glob("*.py")), ids=lambda p: p.name)
-def test_examples_import_only_public_paths(path: Path) -> None:
-    tree = ast.parse(path.read_text(encoding="utf-8"))
+def import_problems(tree: ast.AST, pending: frozenset[str] = frozenset()) -> list[str]:
+    """Imports of velfence in ``tree`` that name a module, not its package (a library module
+    path such as ``velfence.geometry.polytope``, or anything private), or a name the package
+    does not export (``__all__``). ``pending``: module paths tolerated for now."""
     bad = []
     for node in ast.walk(tree):
         if isinstance(node, ast.ImportFrom) and node.module and node.module.startswith("velfence"):
+            if node.module in pending:
+                continue
             if not _package_of(node.module):
                 bad.append(f"line {node.lineno}: from {node.module} (a module, not a package)")
                 continue
@@ -152,6 +156,70 @@ def test_examples_import_only_public_paths(path: Path) -> None:
             bad += [
                 f"line {node.lineno}: import {a.name}"
                 for a in node.names
-                if a.name.startswith("velfence") and not _package_of(a.name)
+                if a.name.startswith("velfence")
+                and not _package_of(a.name)
+                and a.name not in pending
             ]
+    return bad
+
+
+@pytest.mark.parametrize("path", sorted(EXAMPLES.glob("*.py")), ids=lambda p: p.name)
+def test_examples_import_only_public_paths(path: Path) -> None:
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    bad = import_problems(tree)
     assert not bad, f"{path.name}: " + "; ".join(bad)
+
+
+ROOT = EXAMPLES.parent
+FENCE = re.compile(r"^```python[ \t]*\n(.*?)^```[ \t]*$", re.M | re.S)
+#: Module paths of the docs another change moves (the arm scene's module is being renamed; its
+#: docs lines move with it). Tolerated until then; the list may only shrink.
+PENDING = frozenset({"velfence.sim.arm"})
+
+
+def _doc_blocks() -> list[tuple[str, int, str]]:
+    pages = [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]
+    blocks = []
+    for page in pages:
+        text = page.read_text(encoding="utf-8")
+        for m in FENCE.finditer(text):
+            line = text.count("\n", 0, m.start()) + 1
+            blocks.append((page.relative_to(ROOT).as_posix(), line, m.group(1)))
+    return blocks
+
+
+DOC_BLOCKS = _doc_blocks()
+
+
+def test_the_docs_have_python_blocks_to_check() -> None:
+    assert len(DOC_BLOCKS) >= 40
+    assert {p for p, _, _ in DOC_BLOCKS} >= {"README.md", "docs/safety_filter.md", "docs/zones.md"}
+
+
+@pytest.mark.parametrize(
+    ("page", "line", "code"), DOC_BLOCKS, ids=[f"{p}:{n}" for p, n, _ in DOC_BLOCKS]
+)
+def test_docs_import_only_public_paths(page: str, line: int, code: str) -> None:
+    """Every python block of README.md and docs/ imports velfence the way the examples must:
+    from a package (``velfence.geometry``, not ``velfence.geometry.polytope``), names in its
+    ``__all__``, nothing private."""
+    bad = import_problems(ast.parse(code), PENDING)
+    assert not bad, f"{page}:{line}: " + "; ".join(bad)
+
+
+def test_the_import_rule_refuses_deep_and_private_paths() -> None:
+    code = (
+        "from velfence.geometry.polytope import ConvexPolytope\n"
+        "from velfence.geometry import ConvexPolytope\n"
+        "from velfence.filter import _ccycle\n"
+        "import velfence.io.zones\n"
+        "from velfence.integrations import NoSuchName\n"
+        "from velfence.apps.bench import run_benchmarks\n"
+        "from velfence.sim.arm import TwistMode\n"
+    )
+    assert import_problems(ast.parse(code), PENDING) == [
+        "line 1: from velfence.geometry.polytope (a module, not a package)",
+        "line 3: velfence.filter._ccycle is not in its __all__",
+        "line 4: import velfence.io.zones",
+        "line 5: velfence.integrations.NoSuchName is not in its __all__",
+    ]

@@ -3,14 +3,23 @@
 A package is a first-level subpackage of ``velfence`` (geometry, shaping, io, bridge, ...) or of
 ``velfence.apps`` (viz, teleop, ...); the top-level modules ``velfence._validate``,
 ``velfence._typing``, ``velfence._moved`` and ``velfence._extras`` are the library's shared
-internals. An AST scan of every module reports, with file and line:
+internals (importable everywhere, but their private names are theirs alone). The scripts of
+``benchmarks/`` are scanned too, as code outside every package. An AST scan reports, with file
+and line:
 
 * ``from a.b import _x`` where ``a.b`` is in another package;
 * ``import a._b`` / ``from a import _b`` / ``from a._b import x`` of a private module of another
-  package;
-* ``m._x`` where ``m`` names a module of another package imported in the file;
-* a compiled-core binding module (``velfence_core._x``) named anywhere but in
+  package, and ``importlib.import_module("a._b")`` (any call whose first argument is such a
+  string);
+* ``m._x`` where ``m`` names a module of another package imported in the file, also through a
+  chain (``import a.b.c`` then ``a.b.c._x``), the shared internals included
+  (``_validate._x``);
+* a compiled-core binding module (``velfence_core._x``) named anywhere in the library but in
   ``velfence.shaping.backend``, the one loader (in an import or an ``import_module`` string).
+
+The compiled core's extension modules (``velfence_core._core``, ``._nd``, ``._filter``) are the
+binding's public surface, not velfence's private names: code outside the library (the
+benchmarks, which time the binding itself) may import them. That is the one exemption.
 
 The scanner itself is run on small packages in ``tmp_path``: one with each kind of violation
 planted (all reported) and a clean one (nothing reported).
@@ -19,6 +28,7 @@ planted (all reported) and a clean one (nothing reported).
 from __future__ import annotations
 
 import ast
+import re
 import textwrap
 from pathlib import Path
 
@@ -66,17 +76,38 @@ def _is_module(root: Path, dotted: str) -> bool:
     return base.with_suffix(".py").is_file() or (base / "__init__.py").is_file()
 
 
-def scan(root: Path, core: str = "velfence_core") -> list[str]:
-    """Every cross-package private name in the package at ``root``: ``file:line: what``."""
+def _dotted(node: ast.AST) -> str | None:
+    """``a.b.c`` of a chain of attribute lookups on a name, or None."""
+    parts = []
+    while isinstance(node, ast.Attribute):
+        parts.append(node.attr)
+        node = node.value
+    if not isinstance(node, ast.Name):
+        return None
+    return ".".join([node.id, *reversed(parts)])
+
+
+def _files(root: Path, outside: tuple[Path, ...]) -> list[tuple[Path, str, bool]]:
+    """``(path, module name, inside the package)`` of every file scanned."""
+    files = [(p, _module_name(root, p), True) for p in sorted(root.rglob("*.py"))]
+    for folder in outside:
+        files += [(p, f"{folder.name}.{p.stem}", False) for p in sorted(folder.glob("*.py"))]
+    return files
+
+
+def scan(root: Path, core: str = "velfence_core", outside: tuple[Path, ...] = ()) -> list[str]:
+    """Every cross-package private name in the package at ``root`` and in the scripts of the
+    folders ``outside`` (code of no package): ``file:line: what``."""
     top = root.name
     found: list[str] = []
-    for path in sorted(root.rglob("*.py")):
-        module = _module_name(root, path)
-        here = _package(module)
+    for path, module, inside in _files(root, outside):
+        here = _package(module) if inside else module
         is_pkg = path.name == "__init__.py"
         tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
-        where = f"{path.relative_to(root.parent)}"
+        where = f"{path.relative_to(root.parent if inside else path.parent.parent)}"
         modules: dict[str, str] = {}  # local name -> module of this package tree
+        # the compiled core's binding modules: only the loader in the library; outside, public
+        core_ok = module.endswith("." + CORE_LOADER) or not inside
 
         def report(node: ast.AST, what: str, where: str = where) -> None:
             found.append(f"{where}:{getattr(node, 'lineno', 0)}: {what}")
@@ -91,7 +122,7 @@ def scan(root: Path, core: str = "velfence_core") -> list[str]:
             if isinstance(node, ast.Import):
                 for alias in node.names:
                     if alias.name.split(".")[0] == core and _private_module_owner(alias.name, top):
-                        if not module.endswith("." + CORE_LOADER):
+                        if not core_ok:
                             report(node, f"imports the compiled core's {alias.name}")
                         continue
                     if alias.name.split(".")[0] != top:
@@ -99,6 +130,8 @@ def scan(root: Path, core: str = "velfence_core") -> list[str]:
                     foreign_private_module(alias.name, node)
                     if alias.asname:
                         modules[alias.asname] = alias.name
+                    else:  # ``import a.b.c`` binds ``a``: chains a.b.c._x are resolved below
+                        modules[top] = top
             elif isinstance(node, ast.ImportFrom):
                 if node.level:
                     base = module.split(".") if is_pkg else module.split(".")[:-1]
@@ -109,7 +142,7 @@ def scan(root: Path, core: str = "velfence_core") -> list[str]:
                 if target.split(".")[0] == core:
                     names = [f"{target}.{a.name}" for a in node.names]
                     if any(_private_module_owner(n, top) for n in [target, *names]) and (
-                        not module.endswith("." + CORE_LOADER)
+                        not core_ok
                     ):
                         report(node, f"imports from the compiled core's {target}")
                     continue
@@ -128,26 +161,36 @@ def scan(root: Path, core: str = "velfence_core") -> list[str]:
                 and node.args
                 and isinstance(node.args[0], ast.Constant)
                 and isinstance(node.args[0].value, str)
-                and node.args[0].value.split(".")[0] == core
-                and _private_module_owner(node.args[0].value, top)
-                and not module.endswith("." + CORE_LOADER)
             ):
-                report(node, f"names the compiled core's {node.args[0].value}")
+                named = node.args[0].value
+                if named.split(".")[0] == core and _private_module_owner(named, top):
+                    if not core_ok:
+                        report(node, f"names the compiled core's {named}")
+                elif named.split(".")[0] == top and re.fullmatch(r"[\w.]+", named):
+                    foreign_private_module(named, node)
         for node in ast.walk(tree):
-            if (
-                isinstance(node, ast.Attribute)
-                and _private(node.attr)
-                and isinstance(node.value, ast.Name)
-                and node.value.id in modules
-                and _package(modules[node.value.id]) != here
-                and modules[node.value.id] != f"{top}._validate"
-            ):
-                report(node, f"uses the private name {node.attr} of {modules[node.value.id]}")
+            if not (isinstance(node, ast.Attribute) and _private(node.attr)):
+                continue
+            dotted = _dotted(node.value)
+            if dotted is None:
+                continue
+            first, _, rest = dotted.partition(".")
+            if first not in modules:
+                continue
+            owner = ".".join(p for p in (modules[first], rest) if p)
+            if owner == top or not _is_module(root, owner):
+                continue
+            if _package(owner) != here:
+                report(node, f"uses the private name {node.attr} of {owner}")
     return found
 
 
+BENCHMARKS = PACKAGE.parents[1] / "benchmarks"
+
+
 def test_no_private_names_across_packages() -> None:
-    found = scan(PACKAGE)
+    assert BENCHMARKS.is_dir()
+    found = scan(PACKAGE, outside=(BENCHMARKS,))
     assert found == [], "private names used across packages:\n" + "\n".join(found)
 
 
@@ -208,6 +251,19 @@ def test_the_scanner_passes_a_clean_package(tmp_path: Path) -> None:
          "shaping/law.py:2: names the compiled core's velfence_core._nd"),
         ("shaping/law.py", "from velfence_core._core import ExactLaw\n",
          "shaping/law.py:1: imports from the compiled core's velfence_core._core"),
+        ("shaping/law.py", "from toypkg import _validate\n\n_validate._helper()\n",
+         "shaping/law.py:3: uses the private name _helper of toypkg._validate"),
+        ("shaping/law.py", "import toypkg._validate as v\nv._helper()\n",
+         "shaping/law.py:2: uses the private name _helper of toypkg._validate"),
+        ("shaping/law.py", "import toypkg.geometry.paths\n\ntoypkg.geometry.paths._Base\n",
+         "shaping/law.py:3: uses the private name _Base of toypkg.geometry.paths"),
+        ("shaping/law.py", "from toypkg import geometry\ngeometry.paths._Base\n",
+         "shaping/law.py:2: uses the private name _Base of toypkg.geometry.paths"),
+        ("shaping/law.py", "import importlib as il\nil.import_module('toypkg.geometry._kernels')\n",
+         "shaping/law.py:2: imports the private module toypkg.geometry._kernels"),
+        ("apps/teleop/run.py",
+         "import importlib\nimportlib.import_module('toypkg.apps.viz._draw')\n",
+         "apps/teleop/run.py:2: imports the private module toypkg.apps.viz._draw"),
     ],
 )  # fmt: skip
 def test_the_scanner_reports_a_planted_violation(
@@ -218,3 +274,34 @@ def test_the_scanner_reports_a_planted_violation(
     assert len(found) == 1, found
     assert what.split(":", 2)[2] in found[0], found
     assert found[0].startswith(f"toypkg/{what.split(':', 1)[0]}:{what.split(':')[1]}:"), found
+
+
+def test_the_scanner_reads_the_scripts_outside_the_package(tmp_path: Path) -> None:
+    """The folders ``outside`` (benchmarks/) are scanned as code of no package: a private name
+    of any package is reported there; the compiled core's binding modules are not (the one
+    exemption, for code outside the library)."""
+    root = _toy(tmp_path, CLEAN)
+    bench = tmp_path / "benchmarks"
+    bench.mkdir()
+    (bench / "fine.py").write_text(
+        "import velfence_core._nd\nfrom velfence_core import _filter\n"
+        "from toypkg.geometry.paths import Line\nfrom toypkg import _validate\n_validate.show()\n",
+        encoding="utf-8",
+    )
+    assert scan(root, outside=(bench,)) == []
+    (bench / "time_it.py").write_text(
+        "import importlib\nfrom toypkg.geometry.paths import _Base\n"
+        "from toypkg.geometry._kernels import run\nimport toypkg.geometry.paths\n"
+        "toypkg.geometry.paths._Base\nimportlib.import_module('toypkg.geometry._kernels')\n"
+        "from toypkg._validate import _helper\n",
+        encoding="utf-8",
+    )
+    assert sorted(scan(root, outside=(bench,))) == [
+        "benchmarks/time_it.py:2: imports the private name _Base from toypkg.geometry.paths",
+        "benchmarks/time_it.py:3: imports the private module toypkg.geometry._kernels of "
+        "toypkg.geometry",
+        "benchmarks/time_it.py:5: uses the private name _Base of toypkg.geometry.paths",
+        "benchmarks/time_it.py:6: imports the private module toypkg.geometry._kernels of "
+        "toypkg.geometry",
+        "benchmarks/time_it.py:7: imports the private name _helper from toypkg._validate",
+    ]

@@ -120,7 +120,7 @@ def test_cpp_example_under_sanitizers(tmp_path: Path) -> None:
 def _filter_and_cycle(
     dt: float | None = 0.001, weights: object = None, backend: str = "python"
 ) -> tuple[object, object]:
-    from velfence.filter._ccycle import filter_cycle
+    from velfence.filter.ccycle import filter_cycle
 
     robot = DHChain.seven_dof(link_radius=0.05, tool=(0.0, 0.0, 0.1))
     lim = JointLimits(
@@ -223,7 +223,7 @@ def test_safety_filter_runs_the_c_cycle_and_equals_explain() -> None:
     the Python route's ``explain`` output; the remembered previous output feeds the
     acceleration rows of both."""
     sf, _ = _filter_and_cycle(backend="auto")
-    assert sf._ccycle is not None  # type: ignore[attr-defined]
+    assert sf.cycle_in_c
     twin, _ = _filter_and_cycle()  # the Python route
     rng = np.random.default_rng(9)
     for _ in range(150):
@@ -253,7 +253,7 @@ def test_safety_filter_c_route_counts_deadline_misses_and_refuses_bad_input() ->
     lim = JointLimits(robot.joint_limits[:, 0], robot.joint_limits[:, 1], max_speed=np.full(7, 1.5))
     box = WorkspaceLimit(ConvexPolytope.box([-0.5, -0.5, 0.2], [0.5, 0.5, 1.2]), point="tcp")
     sf = SafetyFilter(robot, limits=lim, workspace=box, dt=0.001, max_iterations=1)
-    assert sf._ccycle is not None  # type: ignore[attr-defined]
+    assert sf.cycle_in_c
     rng = np.random.default_rng(2)
     for _ in range(50):
         sf.filter(rng.uniform(-2.5, 2.5, 7), rng.normal(size=7) * 3.0)

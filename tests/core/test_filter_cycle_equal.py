@@ -7,7 +7,7 @@ outside), sphere obstacles near the links (some penetrating), ``dt`` unset or 1 
 and without a previous output (and with jerk limits, with and without the output before it, some
 far enough from it that the jerk rows conflict with the acceleration rows), commands from tiny to
 beyond the command cap. Per scene the C cycle
-(``velfence_core._filter.FilterCycle``, built by ``velfence.filter._ccycle.filter_cycle``) and
+(``velfence_core._filter.FilterCycle``, built by ``velfence.filter.ccycle.filter_cycle``) and
 :meth:`velfence.filter.SafetyFilter.explain` must build the same rows (names, ``G`` and ``b`` to
 1e-9 relative) and return the same output (1e-9 relative), the same stages, relaxed rows,
 deadline and active rows. Independently of the oracle: every row of the safety levels is met at
@@ -32,7 +32,7 @@ from velfence.geometry.projection import project
 from velfence.mechanisms.chain import DHChain
 
 _filter = pytest.importorskip("velfence_core._filter")
-from velfence.filter._ccycle import filter_cycle  # noqa: E402
+from velfence.filter.ccycle import filter_cycle  # noqa: E402
 
 _STAGE_BITS = {
     "projection": _filter.STAGE_PROJECTION,

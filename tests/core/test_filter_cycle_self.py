@@ -35,7 +35,7 @@ from velfence.geometry.primitives import segment_segment_distance
 from velfence.mechanisms.chain import DHChain
 
 _filter = pytest.importorskip("velfence_core._filter")
-from velfence.filter._ccycle import filter_cycle  # noqa: E402
+from velfence.filter.ccycle import filter_cycle  # noqa: E402
 
 
 def _scene(rng: np.random.Generator) -> dict[str, Any]:
@@ -181,7 +181,7 @@ def test_default_pairs_leave_out_links_that_always_touch() -> None:
     assert set(sf2.self_collision_pairs) == pairs - {(0, 3)}
     # the C cycle is built with the same pairs and runs them
     sf3 = SafetyFilter(robot, limits=lim, self_collision=True, backend="c")
-    assert sf3._ccycle is not None
+    assert sf3.cycle_in_c
 
 
 # ------------------------------------------------------------------------------- attachments
@@ -226,7 +226,7 @@ def test_attach_and_detach_reach_the_filters_own_c_cycle() -> None:
     tool = {"tool": Capsule("tcp", [0, 0, 0], [0, 0, 0.12], radius=0.03)}
     c = SafetyFilter(robot, limits=lim, attachments=tool, backend="c", **kw)
     p = SafetyFilter(robot, limits=lim, attachments=tool, backend="python", **kw)
-    assert c._ccycle is not None
+    assert c.cycle_in_c
     held = Capsule(6, [0.05, 0, 0.1], [0.05, 0, 0.3], radius=0.05)
     seen = {"box": 0, "tool": 0}
     for step in range(40):
@@ -320,7 +320,7 @@ def _cycle_args(sf: Any) -> tuple[Any, ...]:
         def set_options(self, **kwargs: Any) -> None:
             pass
 
-    import velfence.filter._ccycle as cc
+    import velfence.filter.ccycle as cc
 
     real = cc.compiled_filter
 

@@ -156,7 +156,7 @@ def test_both_routes_run_the_same_loop() -> None:
     pytest.importorskip("velfence_core._filter")
     fp = SafetyFilter(ARM, limits=_limits(), dt=DT, workspace=_box(), backend="python")
     fc = SafetyFilter(ARM, limits=_limits(), dt=DT, workspace=_box(), backend="c")
-    assert fc._ccycle is not None
+    assert fc.cycle_in_c
     xp, rp, _ = _closed_loop(fp, 200, seed=5)
     xc, rc, _ = _closed_loop(fc, 200, seed=5)
     np.testing.assert_allclose(xc, xp, rtol=1e-9, atol=1e-9)

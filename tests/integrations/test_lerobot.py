@@ -101,7 +101,7 @@ def test_the_chain_is_mujocos_kinematics_of_the_urdf(arm: SoArm, mj: Any) -> Non
             np.testing.assert_allclose(arm.chain.fk(q, name), data.xanchor[jid], atol=1e-9)
     assert arm.fit_error < 1e-9
     np.testing.assert_array_equal(arm.chain.link_radius, np.full(5, 0.03))
-    assert make(arm).filter._ccycle is not None  # the compiled cycle runs the shield
+    assert make(arm).filter.cycle_in_c  # the compiled cycle runs the shield
 
 
 def test_a_joint_beside_the_arm_is_fixed(arm: SoArm, tmp_path: Path) -> None:

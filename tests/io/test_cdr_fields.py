@@ -30,10 +30,10 @@ from velfence.io.bags import (
     _joint_codec,
     _state_reader,
     _twist_codec,
-    _typestore,
+    message_typestore,
 )
 
-TS = _typestore(None)
+TS = message_typestore(None)
 T = TS.types
 POLYGON = parse_shaper(
     {"kind": "polygon", "corners": [[0, 0], [4, 0], [4, 3], [0, 3]], "buffer": 0.5}

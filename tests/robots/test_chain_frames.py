@@ -63,8 +63,8 @@ def _compare(robot: MujocoRobot, q0: np.ndarray, obstacles: list[SphereObstacle]
         )  # fmt: skip
 
     fc, fp = make("auto"), make("python")
-    assert fc._ccycle is not None  # the C cycle runs
-    assert fp._ccycle is None
+    assert fc.cycle_in_c  # the C cycle runs
+    assert not fp.cycle_in_c
     rng = np.random.default_rng(3)
     changed = 0
     for _ in range(150):

@@ -32,7 +32,7 @@ from numpy.typing import ArrayLike
 
 from velfence._deprecate import renamed_args
 from velfence._docs import document_inits
-from velfence._typing import FloatArray
+from velfence._typing import FloatArray, IntArray
 from velfence._validate import (
     MAX_MAGNITUDE,
     check_flag,
@@ -338,7 +338,7 @@ class SafetyFilter(InvalidPolicy):
         # other case keep the Python route (backend="python": the oracle it is tested equal to).
         self._ccycle: Any = None
         if core is not None and not providers:
-            from velfence.filter._ccycle import c_cycle_or_none
+            from velfence.filter.ccycle import c_cycle_or_none
 
             self._ccycle = c_cycle_or_none(self, profs)
 
@@ -409,6 +409,41 @@ class SafetyFilter(InvalidPolicy):
         return self._providers
 
     @property
+    def cycle_in_c(self) -> bool:
+        """True when each joint-mode cycle runs whole in the compiled core.
+
+        That is ``vf_filter_cycle`` of ``velfence_filter.h``: ``backend="c"`` (or ``"auto"`` with
+        the core installed), a robot with chain data (``DHChain``, ``Puma560``, a chain
+        ``MujocoRobot``) and no row provider of the user's. False on the other routes (the
+        compiled rows, or Python).
+        """
+        return self._ccycle is not None
+
+    @property
+    def last_cycle_rows(self) -> tuple[FloatArray, FloatArray, IntArray, FloatArray] | None:
+        """The rows of the last cycle run whole in the compiled core, or ``None``.
+
+        ``(G (m, n), b (m,), level (m,), bound (m,))`` (copies): the rows ``G x >= b`` as built,
+        each row's level (:data:`LEVEL_NAMES` index) and the bound the output claims to meet
+        (after relaxation and the discrete-time tightening; ``-inf``: none claimed). For checking
+        an output of :meth:`filter` against every row without a second cycle (``explain`` gives
+        the rows on every route). ``None`` when :attr:`cycle_in_c` is false or before the first
+        cycle the core completed.
+        """
+        if self._ccycle is None:
+            return None
+        try:
+            G, b, level, _, _, _, _, bound = self._ccycle.rows()
+        except RuntimeError:  # "no successful cycle yet"
+            return None
+        return (
+            np.asarray(G, dtype=np.float64),
+            np.asarray(b, dtype=np.float64),
+            np.asarray(level, dtype=np.int64),
+            np.asarray(bound, dtype=np.float64),
+        )
+
+    @property
     def stateful(self) -> bool:
         """True when acceleration or jerk rows apply and the filter remembers its last outputs."""
         return self._remember
@@ -434,7 +469,7 @@ class SafetyFilter(InvalidPolicy):
         self._previous2 = v if self._has_jerk else None
         self._warm = set()
         if self._ccycle is not None:
-            from velfence.filter._ccycle import c_options
+            from velfence.filter.ccycle import c_options
 
             self._ccycle.set_options(**c_options(self))
 

@@ -7,10 +7,11 @@ nothing of the law: :class:`PolytopeLimit` gives ``mink.solve_ik`` (differential
 (:func:`velfence.filter.rows.workspace_bounds`); :mod:`velfence.integrations.gymnasium` puts the
 :class:`~velfence.filter.SafetyFilter` between a Gymnasium agent and its environment
 (``docs/policies.md``); :class:`~velfence.integrations.lerobot.LeRobotShield` runs it on
-LeRobot's position targets (``docs/lerobot.md``). The names load on first use, each with its own
-extra (mink: the ``physics`` extra; Gymnasium: the ``gym`` extra; the SO-ARM model: the
-``lerobot`` extra, while the shield itself imports neither lerobot nor torch);
-``import velfence`` does not import this package.
+LeRobot's position targets (``docs/lerobot.md``; the SO-ARM's joint names of its action and
+observation dictionaries: ``JOINTS``, the arm's ``ARM_JOINTS`` and the ``GRIPPER``). The names
+load on first use, each with its own extra (mink: the ``physics`` extra; Gymnasium: the ``gym``
+extra; the SO-ARM model: the ``lerobot`` extra, while the shield itself imports neither lerobot
+nor torch); ``import velfence`` does not import this package.
 """
 
 from __future__ import annotations
@@ -28,6 +29,9 @@ _EXPORTS: dict[str, str] = {
     "VectorShieldWrapper": "velfence.integrations.gymnasium",
     "mujoco_arm": "velfence.integrations.gymnasium",
     "mujoco_shield": "velfence.integrations.gymnasium",
+    "ARM_JOINTS": "velfence.integrations.lerobot",
+    "GRIPPER": "velfence.integrations.lerobot",
+    "JOINTS": "velfence.integrations.lerobot",
     "LeRobotShield": "velfence.integrations.lerobot",
     "so_arm": "velfence.integrations.lerobot",
 }
@@ -46,10 +50,13 @@ if TYPE_CHECKING:
         mujoco_arm,
         mujoco_shield,
     )
-    from velfence.integrations.lerobot import LeRobotShield, so_arm
+    from velfence.integrations.lerobot import ARM_JOINTS, GRIPPER, JOINTS, LeRobotShield, so_arm
     from velfence.integrations.mink_limits import PolytopeLimit
 
 __all__ = [
+    "ARM_JOINTS",
+    "GRIPPER",
+    "JOINTS",
     "BatchJointState",
     "JointState",
     "LeRobotShield",

@@ -23,13 +23,13 @@ from velfence.io.bags import (
     TWIST_STAMPED,
     _fs_path,
     _probe,
-    _typestore,
+    message_typestore,
 )
 
 if TYPE_CHECKING:
     from numpy.typing import NDArray
 
-__all__ = ["EXAMPLE_BAGS", "make_example_bag"]
+__all__ = ["EXAMPLE_BAGS", "arm_jog_messages", "make_example_bag", "mobile_base_messages"]
 
 #: The example bags :func:`make_example_bag` writes (shipped under ``examples/bags/<name>/``).
 EXAMPLE_BAGS: tuple[str, ...] = ("mobile_base", "arm_jog")
@@ -71,7 +71,12 @@ replay:
 """
 
 
-def _mobile_base_messages(ts: Any) -> list[tuple[str, str, int, Any]]:
+def mobile_base_messages(ts: Any) -> list[tuple[str, str, int, Any]]:
+    """The messages of the ``mobile_base`` example bag: ``(topic, type, time [ns], message)``.
+
+    Internal API (``make_example_bag`` writes them; ``benchmarks/replay_speed.py`` repeats them).
+    ``ts``: the typestore (:func:`velfence.io.bags.message_typestore`).
+    """
     T = ts.types
     Time, Header, Vec = (
         T["builtin_interfaces/msg/Time"],
@@ -121,7 +126,12 @@ def _mobile_base_messages(ts: Any) -> list[tuple[str, str, int, Any]]:
     return out
 
 
-def _arm_jog_messages(ts: Any) -> list[tuple[str, str, int, Any]]:
+def arm_jog_messages(ts: Any) -> list[tuple[str, str, int, Any]]:
+    """The messages of the ``arm_jog`` example bag: ``(topic, type, time [ns], message)``.
+
+    Internal API (``make_example_bag`` writes them; ``benchmarks/replay_speed.py`` repeats them).
+    ``ts``: the typestore (:func:`velfence.io.bags.message_typestore`).
+    """
     T = ts.types
     Time, Header = T["builtin_interfaces/msg/Time"], T["std_msgs/msg/Header"]
     bag_names = ["arm_pan", "arm_lift", "arm_elbow"]
@@ -201,11 +211,11 @@ def make_example_bag(name: str, folder: str | Path) -> Path:
         raise InvalidParameter(
             "make_example_bag needs rosbags: pip install 'velfence[ros]'"
         ) from None
-    ts = _typestore(None)
+    ts = message_typestore(None)
     if which == "mobile_base":
-        msgs, plugin, text = _mobile_base_messages(ts), StoragePlugin.MCAP, _MOBILE_BASE_YAML
+        msgs, plugin, text = mobile_base_messages(ts), StoragePlugin.MCAP, _MOBILE_BASE_YAML
     else:
-        msgs, plugin, text = _arm_jog_messages(ts), StoragePlugin.SQLITE3, _ARM_JOG_YAML
+        msgs, plugin, text = arm_jog_messages(ts), StoragePlugin.SQLITE3, _ARM_JOG_YAML
     root.mkdir()
     with Writer(bag, version=9, storage_plugin=plugin) as writer:
         conns: dict[str, Any] = {}

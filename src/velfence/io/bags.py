@@ -68,6 +68,7 @@ __all__ = [
     "ReplaySettings",
     "ReplaySummary",
     "load_replay_config",
+    "message_typestore",
     "replay",
 ]
 
@@ -557,8 +558,18 @@ def _codecs(
 # ------------------------------------------------------------------------------ replay
 
 
-def _typestore(distro: str | None) -> Any:
-    """The message definitions of ``distro`` (Humble if unknown), plus control_msgs/JointJog."""
+def message_typestore(distro: str | None) -> Any:
+    """The message definitions of ``distro`` (Humble if unknown), plus control_msgs/JointJog.
+
+    Internal API (rosbags' typestore the replay reads and writes with; the example bags, the
+    tests and ``benchmarks/replay_speed.py`` use the same one).
+
+    Args:
+        distro: A ROS 2 distribution name (``"humble"``, ``"jazzy"``, ...) or ``None``.
+
+    Returns:
+        A ``rosbags.typesys`` typestore.
+    """
     from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
     store = {s.value: s for s in Stores}.get(f"ros2_{distro}", Stores.ROS2_HUMBLE)
@@ -704,7 +715,7 @@ def replay(
     if hasattr(cs.shaper, "reset"):
         cs.shaper.reset()
     try:
-        reader = AnyReader(source.paths, default_typestore=_typestore(_distro_of(source)))
+        reader = AnyReader(source.paths, default_typestore=message_typestore(_distro_of(source)))
         reader.open()
     except Exception as exc:  # rosbags' errors, OSError, sqlite3/mcap errors: a malformed bag
         raise InvalidParameter(f"bag {p}: cannot read it ({type(exc).__name__}: {exc})") from None

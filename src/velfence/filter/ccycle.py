@@ -4,7 +4,10 @@
 fixed transform, an axis, a type and an offset, plus a tool transform; ``velfence_filter.h``),
 :func:`mdh_chain_data` a modified (Craig) one, and :func:`filter_cycle` builds the C object of a
 :class:`~velfence.filter.SafetyFilter` whose robot gives its chain as data (``chain_data()``;
-joint mode, identity or diagonal weights). Private: the public route is ``SafetyFilter``.
+joint mode, identity or diagonal weights); :func:`compose` and :func:`translation` are the
+transforms of that layout. Internal API (the binding's description, for the C cycle's tests and
+benchmarks): users get the C cycle through ``SafetyFilter(backend="c")``
+(:attr:`~velfence.filter.SafetyFilter.cycle_in_c`).
 """
 
 from __future__ import annotations
@@ -18,7 +21,15 @@ from velfence._typing import FloatArray
 from velfence.errors import InvalidParameter
 from velfence.shaping.backend import compiled_filter
 
-__all__ = ["c_cycle_or_none", "c_options", "chain_data", "filter_cycle", "mdh_chain_data"]
+__all__ = [
+    "c_cycle_or_none",
+    "c_options",
+    "chain_data",
+    "compose",
+    "filter_cycle",
+    "mdh_chain_data",
+    "translation",
+]
 
 _REVOLUTE = 0.0
 
@@ -35,13 +46,18 @@ def _rxtxtz(a: float, alpha: float, d: float) -> FloatArray:
     return np.array([1.0, 0.0, 0.0, a, 0.0, c, -s, -s * d, 0.0, s, c, c * d])
 
 
-def _compose(A: FloatArray, B: FloatArray) -> FloatArray:
+def compose(A: FloatArray, B: FloatArray) -> FloatArray:
+    """The product ``A B`` of two rigid transforms given as their top 3 x 4 rows (12,).
+
+    The C API's transform layout (``[R | p]`` row-major); returns the same layout.
+    """
     Am = np.vstack([A.reshape(3, 4), [0.0, 0.0, 0.0, 1.0]])
     Bm = np.vstack([B.reshape(3, 4), [0.0, 0.0, 0.0, 1.0]])
     return np.asarray((Am @ Bm)[:3].ravel(), dtype=np.float64)
 
 
-def _translation(p: Any) -> FloatArray:
+def translation(p: Any) -> FloatArray:
+    """The pure translation by ``p = (x, y, z)`` in the C API's transform layout (12,)."""
     x, y, z = (float(v) for v in p)
     return np.array([1.0, 0.0, 0.0, x, 0.0, 1.0, 0.0, y, 0.0, 0.0, 1.0, z])
 
@@ -57,14 +73,14 @@ def chain_data(dh: Any, tool: Any = (0.0, 0.0, 0.0)) -> tuple[FloatArray, FloatA
     rows = np.asarray(dh, dtype=np.float64).reshape(-1, 4)
     n = rows.shape[0]
     joints = np.zeros((n, 17))
-    prev = _translation((0.0, 0.0, 0.0))
+    prev = translation((0.0, 0.0, 0.0))
     for j, (a, alpha, d, off) in enumerate(rows.tolist()):
         joints[j, :12] = prev
         joints[j, 12:15] = (0.0, 0.0, 1.0)
         joints[j, 15] = _REVOLUTE
         joints[j, 16] = off
         prev = _tzxrx(a, alpha, d)
-    return joints.ravel(), _compose(prev, _translation(tool))
+    return joints.ravel(), compose(prev, translation(tool))
 
 
 def mdh_chain_data(
@@ -83,21 +99,21 @@ def mdh_chain_data(
         joints[j, 12:15] = (0.0, 0.0, 1.0)
         joints[j, 15] = _REVOLUTE
         joints[j, 16] = off
-    return joints.ravel(), _compose(_translation((0.0, 0.0, flange_d)), _translation(tool))
+    return joints.ravel(), compose(translation((0.0, 0.0, flange_d)), translation(tool))
 
 
 def _dh5_chain(dh5: FloatArray, tool: FloatArray) -> tuple[FloatArray, FloatArray]:
     """:func:`chain_data` from ``ChainData`` rows ``(a, cos alpha, sin alpha, d, offset)``."""
     n = dh5.shape[0]
     joints = np.zeros((n, 17))
-    prev = _translation((0.0, 0.0, 0.0))
+    prev = translation((0.0, 0.0, 0.0))
     for j, (a, c, s, d, off) in enumerate(dh5.tolist()):
         joints[j, :12] = prev
         joints[j, 12:15] = (0.0, 0.0, 1.0)
         joints[j, 15] = _REVOLUTE
         joints[j, 16] = off
         prev = np.array([1.0, 0.0, 0.0, a, 0.0, c, -s, 0.0, 0.0, s, c, d])
-    return joints.ravel(), _compose(prev, _translation(tool))
+    return joints.ravel(), compose(prev, translation(tool))
 
 
 def _points(dh5: FloatArray, point_index: dict[str, int]) -> dict[str, tuple[float, ...]]:
