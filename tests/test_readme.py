@@ -24,7 +24,9 @@
   every ``velfence COMMAND --option`` in them must be an option of that command of the CLI,
   every ``make TARGET`` a target of the Makefile, every repository file they name must exist,
   and every ``--option`` given to a script of the repository must be one its text defines.
-* Every fenced block names its language (one of :data:`LANGUAGES`).
+* Every fenced block names its language (one of :data:`LANGUAGES`), and every code block is
+  fenced at the start of a line: an indented (four-space) code block or an indented fence would
+  be seen by no check here (:func:`unfenced_blocks`).
 """
 
 from __future__ import annotations
@@ -179,6 +181,52 @@ def test_every_block_names_its_language() -> None:
         if b.language not in LANGUAGES and not b.language.startswith("{")
     ]
     assert not bad, bad
+
+
+LIST_ITEM = re.compile(r"\s*(?:[*+-]|\d+[.)])\s")
+
+
+def unfenced_blocks(markdown: str) -> list[int]:
+    """Lines (1-based) where a code block starts that is not fenced at the start of a line: an
+    indented fence, or a four-space indented block after a blank line that does not continue a
+    list item."""
+    lines = markdown.split("\n")
+    found = []
+    in_fence = False
+    for i, line in enumerate(lines):
+        if line.lstrip().startswith("```"):
+            if line.startswith(" ") and not in_fence:
+                found.append(i + 1)
+            in_fence = not in_fence
+            continue
+        if in_fence or not line.startswith("    ") or not line.strip() or i == 0:
+            continue
+        if lines[i - 1].strip():
+            continue  # a continuation line of a paragraph
+        j = i - 1
+        while j >= 0 and not lines[j].strip():
+            j -= 1
+        if j >= 0 and (LIST_ITEM.match(lines[j]) or lines[j].startswith("  ")):
+            continue  # a list item's next paragraph
+        found.append(i + 1)
+    return found
+
+
+def test_every_code_block_is_fenced_at_the_start_of_a_line() -> None:
+    bad = [
+        f"{_page_name(page)}:{line}"
+        for page in PAGES
+        for line in unfenced_blocks(page.read_text(encoding="utf-8"))
+    ]
+    assert not bad, bad
+
+
+def test_unfenced_blocks_are_found() -> None:
+    page = (
+        "Prose\n\n    python x.py\n\n* item\n\n    more of the item\n\n"
+        "* item\n\n  ```xml\n  <a/>\n  ```\n\n```python\n    indented code in a fence\n```\n"
+    )
+    assert unfenced_blocks(page) == [3, 11]
 
 
 def test_every_page_with_python_has_checked_examples() -> None:
