@@ -642,3 +642,71 @@ def test_piped_tables_are_never_cut(monkeypatch: pytest.MonkeyPatch, tmp_path: P
     assert "…" not in result.stdout
     assert long_name in result.stdout
     assert "velfence's own tests, scenario fence-box" in result.stdout
+
+
+# ---------------------------------------------------------------------------------- exit codes
+
+
+def _docs_exit_table() -> list[tuple[int, str]]:
+    text = (Path(__file__).resolve().parents[1] / "docs" / "cli.md").read_text(encoding="utf-8")
+    body = text.split("| code | meaning | commands |", 1)[1].split("\n\n", 1)[0]
+    rows = []
+    for line in body.strip().splitlines()[1:]:
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        rows.append((int(cells[0]), cells[-1].replace("`", "")))
+    return rows
+
+
+def test_the_docs_exit_code_table_is_the_code_s() -> None:
+    """docs/cli.md's table has the rows of ``EXIT_CODE_TABLE`` (code and commands, in order),
+    ``velfence --help`` prints each of them, and every exit code the commands use is a row for
+    that command."""
+    code_rows = [(code, commands) for code, commands, _ in cli.EXIT_CODE_TABLE]
+    assert _docs_exit_table() == code_rows
+    result = _invoke_plain("--help")
+    text = " ".join(result.split())
+    for code, _, meaning in cli.EXIT_CODE_TABLE:
+        assert f"{code}: {' '.join(meaning.split())}" in text, meaning
+    assert (cli.NOTHING_TO_REPLAY, "replay") in code_rows
+    assert (cli.EXIT_INTERRUPTED_CODE, "all") in code_rows
+    import velfence.bridge as bridge
+
+    assert (bridge.EXIT_INTERNAL, "bridge") in code_rows
+    assert (bridge.EXIT_DDS, "bridge") in code_rows
+    assert (bridge.EXIT_INTERRUPTED, "all") in code_rows
+    assert (bridge.EXIT_CONFIG, "all") in code_rows  # bad input
+    assert bridge.EXIT_OK == 0
+
+
+def _invoke_plain(*args: str) -> str:
+    result = CliRunner().invoke(app, list(args), env={"COLUMNS": "200", "NO_COLOR": "1"})
+    assert result.exit_code == 0, result.output
+    return result.stdout
+
+
+@pytest.mark.parametrize("args", _commands(), ids=lambda a: " ".join(a) or "velfence")
+def test_help_paragraphs_are_not_broken_mid_sentence(args: tuple[str, ...]) -> None:
+    """A docstring's hard line breaks do not reach ``--help``: at 200 columns every paragraph of
+    the command's help is one line (typer then wraps at the terminal's width)."""
+    cmd = next(
+        (c for c in app.registered_commands if (c.name or c.callback.__name__,) == args), None
+    )
+    help_text = app.info.help if cmd is None else cmd.help
+    assert help_text
+    for para in help_text.split("\n\n"):
+        assert "\n" not in para or any(
+            ln.startswith((" ", "- ", "* ")) for ln in para.split("\n")[1:]
+        )
+    shown = " ".join(_invoke_plain(*args, "--help").split())
+    for para in help_text.split("\n\n")[1:]:
+        assert " ".join(para.split()) in shown, para
+
+
+def test_reflow_joins_paragraph_lines_and_keeps_lists() -> None:
+    text = (
+        "First line\n    goes on.\n\n    Second paragraph\n    continues here.\n\n    - a\n    - b"
+    )
+    assert cli.reflow(text) == (
+        "First line goes on.\n\nSecond paragraph continues here.\n\n- a\n- b"
+    )
+    assert cli.reflow("Exit 0 stopped, 2 bad\nconfig.") == "Exit 0 stopped, 2 bad config."

@@ -30,6 +30,7 @@ from velfence.io.defaults import DEFAULT_MAX_STEPS
 
 __all__ = [
     "EXIT_CODES",
+    "EXIT_CODE_TABLE",
     "REPRODUCTIONS",
     "SIM_SCENARIOS",
     "app",
@@ -38,21 +39,43 @@ __all__ = [
     "reproduction_summary",
 ]
 
-EXIT_CODES = """Exit codes (docs/cli.md):
+#: The exit codes of every ``velfence`` command: ``(code, commands, meaning)``, one row per case
+#: (the table of docs/cli.md, row for row; tests/test_cli.py compares them).
+EXIT_CODE_TABLE: tuple[tuple[int, str, str], ...] = (
+    (0, "all", "everything the command claims holds"),
+    (
+        0,
+        "reproduce",
+        "a reproduction whose only failing checks are documented misses (counted in its summary)",
+    ),
+    (0, "bench", "bench without --strict that missed a target (the summary counts them)"),
+    (1, "reproduce, sim", "a check failed that is not a documented miss"),
+    (1, "bench --strict", "a benchmark target was missed, with --strict"),
+    (
+        2,
+        "all",
+        "bad input (an option, a config file, an unwritable --out) or a missing extra",
+    ),
+    (3, "bridge", "the DDS layer failed"),
+    (
+        4,
+        "replay",
+        "a bag holds nothing to replay (no message, no command or state topic, no command with "
+        "a usable state)",
+    ),
+    (4, "bridge", "an unexpected internal error of the node (a bug; the traceback is logged)"),
+    (
+        130,
+        "all",
+        "interrupted (Ctrl-C); teleop and view serve until Ctrl-C, which stops them cleanly (0), "
+        "and bridge exits 130 only during start-up (once the node runs, SIGINT is a clean stop, 0)",
+    ),
+)
 
-0: everything the command claims holds (a reproduction whose only failing checks are documented
-misses also exits 0 and counts them in its summary; bench without --strict exits 0 and counts the
-missed targets);
-
-1: a check failed that is not a documented miss (reproduce, sim), or a benchmark target was missed
-with --strict;
-
-2: bad input (an option, a config file, an unwritable --out) or a missing extra;
-
-3: velfence bridge only, the DDS layer failed;
-
-4: velfence replay only, a bag holds nothing to replay (no message, no command or state topic,
-no command with a usable state)."""
+EXIT_CODES = "Exit codes (docs/cli.md):\n\n" + "\n\n".join(
+    f"{code}: {meaning} ({'every command' if commands == 'all' else 'velfence ' + commands})"
+    for code, commands, meaning in EXIT_CODE_TABLE
+)
 
 app = typer.Typer(
     help="Keep velocity-controlled robots inside their safe sets by shaping commanded velocity.",
@@ -582,7 +605,8 @@ def bridge(
 ) -> None:
     """Run the ROS 2 DDS filter node (extra ros).
 
-    Exit 0 stopped, 2 bad config, 3 DDS failed, 130 interrupted (Ctrl-C) during start-up.
+    Exit 0 stopped, 2 bad config, 3 DDS failed, 4 internal error (a bug), 130 interrupted
+    (Ctrl-C) during start-up.
     """
     view = None
     try:
@@ -928,7 +952,33 @@ def plain_help(text: str | None) -> str | None:
         return target.lstrip("~").rsplit(".", 1)[-1] if target.startswith("~") else target
 
     text = re.sub(r":[a-z]+(?::[a-z]+)?:`([^`]+)`", role, text)
-    return re.sub(r"``([^`]+)``", r"\1", text)
+    return reflow(re.sub(r"``([^`]+)``", r"\1", text))
+
+
+def reflow(text: str) -> str:
+    """Each paragraph of ``text`` on one line, so the terminal wraps it at its own width.
+
+    A docstring's hard line breaks would otherwise be kept inside a paragraph and break lines
+    mid-sentence in ``--help``. Paragraphs are separated by blank lines; a paragraph with an
+    indented line or a list item (``-``, ``*``) keeps its lines.
+
+    Args:
+        text: Help text, dedented or not.
+
+    Returns:
+        The text with its paragraphs joined and separated by one blank line.
+    """
+    import inspect
+    import re
+
+    out = []
+    for para in re.split(r"\n[ \t]*\n", inspect.cleandoc(text)):
+        lines = para.split("\n")
+        if any(ln.startswith((" ", "\t", "- ", "* ")) for ln in lines[1:]):
+            out.append(para)
+        else:
+            out.append(" ".join(ln.strip() for ln in lines))
+    return "\n\n".join(out)
 
 
 def _plain_command_help() -> None:
