@@ -101,6 +101,7 @@ def _public() -> dict[str, list[Any]]:
         m.name
         for m in pkgutil.walk_packages(velfence.__path__, "velfence.", onerror=lambda _: None)
         if not any(p.startswith("_") for p in m.name.split("."))
+        and (not m.name.startswith("velfence.apps.") or m.name.count(".") == 2)  # apps: packages
     ]
     for name in modules:
         try:
