@@ -242,3 +242,20 @@ def test_the_checks_report_a_planted_drift() -> None:
         "VF_NOPE_*: no such names in core/include",
         "NoLaw is no class of the compiled core's binding",
     ]
+
+
+def _listed(idea: str, after: str) -> list[str]:
+    """The names the Python cell of row ``idea`` lists after ``after`` (up to a parenthesis)."""
+    cell = next(r[1] for r in ROWS if r[0] == idea)
+    text = cell.split(after, 1)[1].split("(", 1)[0]
+    return [w.strip().strip("`") for w in text.split(",") if w.strip()]
+
+
+def test_the_listed_levels_stages_and_zones_are_the_code_s() -> None:
+    """The level, stage and zone names the table spells out are the code's, in order."""
+    from velfence.filter import LEVEL_NAMES
+    from velfence.shaping import STAGE_NAMES, ZONE_NAMES
+
+    assert _listed("the filter's rows", "`LEVEL_NAMES` =") == list(LEVEL_NAMES)
+    assert _listed("stages", "`STAGE_NAMES`:") == list(STAGE_NAMES)
+    assert _listed("zones", "`ZONE_NAMES` / `Zone`:") == list(ZONE_NAMES)
