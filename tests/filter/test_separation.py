@@ -413,3 +413,51 @@ def test_closed_loop_keeps_the_protective_distance(
     final = rows.rows(_ctx(q, dt))
     assert final is not None
     assert np.any(final.violated)
+
+
+def _crowd(seed: int, count: int) -> list[PersonCapsule]:
+    rng = np.random.default_rng(seed)
+    out = []
+    for i in range(count):
+        c = rng.uniform([-1.2, -1.2, 0.0], [1.2, 1.2, 1.2])
+        vel = rng.normal(size=3) if i % 2 else None
+        out.append(PersonCapsule(c, b=c + np.array([0.0, 0.3, 0.4]), radius=0.1, velocity=vel))
+    return out
+
+
+def test_next_distances_at_the_same_pose_are_the_block_distances_exactly() -> None:
+    # The model check compares them with >=: a last-bit difference at a pose that did not move
+    # would stop the arm for nothing.
+    rows = _rows(people=_crowd(1, 20))
+    for dt in (None, 0.004):
+        ctx = _ctx(Q0, dt)
+        blk = rows.rows(ctx)
+        assert blk is not None
+        assert blk.distance is not None
+        np.testing.assert_array_equal(rows.next_distances(ctx.frame, blk), blk.distance)
+
+
+@pytest.mark.skipif(
+    SeparationRows(P1, link_radius=[0.04], max_speed=[1.0]).backend != "c",
+    reason="the compiled core is not installed",
+)
+def test_python_and_c_closest_points_give_the_same_rows() -> None:
+    people = _crowd(2, 30)
+    blocks = []
+    for backend in ("python", "c"):
+        rows = SeparationRows(
+            P1,
+            link_radius=ARM.link_radius,
+            max_speed=LIMITS.max_speed,
+            people=people,
+            backend=backend,
+        )
+        assert rows.backend == backend
+        blk = rows.rows(_ctx(Q0, 0.004))
+        assert blk is not None
+        blocks.append(blk)
+    py, c = blocks
+    np.testing.assert_array_equal(py.keys, c.keys)
+    np.testing.assert_array_equal(py.G, c.G)
+    np.testing.assert_array_equal(py.b, c.b)
+    np.testing.assert_array_equal(py.distance, c.distance)

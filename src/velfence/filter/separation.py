@@ -51,6 +51,7 @@ from velfence.filter.rows import (
     link_speed_bounds,
     raise_inconsistent,
 )
+from velfence.shaping.backend import Backend, pick_backend
 
 __all__ = [
     "WALKING_SPEED",
@@ -326,6 +327,9 @@ class SeparationRows:
         max_speed: Joint speed limits [rad/s], shape (n,), > 0 (the ``JointLimits``'
             ``max_speed``): which pairs can be reached.
         people: The first body parts (:class:`PersonCapsule`), default none.
+        backend: The closest points of the pairs: ``"auto"`` (default) the compiled core's
+            ``vf_segment_pair`` in one call when the core is installed, else Python;
+            ``"python"``; ``"c"`` requires the core. The same arithmetic bit for bit.
     """
 
     level = LEVEL_OBSTACLE
@@ -338,8 +342,10 @@ class SeparationRows:
         link_radius: Any,
         max_speed: Any,
         people: Sequence[PersonCapsule] = (),
+        backend: Backend = "auto",
     ) -> None:
         self.parameters = _parameters(parameters)
+        self._core, self.backend = pick_backend(backend, binding="filter")
         r = real_array("link_radius", link_radius, None, error=InvalidParameter, what="radii [m]")
         r = r.reshape(-1) if r.ndim == 0 else r
         if r.ndim != 1 or r.shape[0] == 0 or bool(np.any(r < 0.0)):
@@ -434,19 +440,28 @@ class SeparationRows:
         return out
 
     def _pairs(
-        self, segs: FloatArray, pi: list[int], lk: list[int]
-    ) -> tuple[list[float], list[float], FloatArray]:
-        """``(s on the link, axis distance, unit normal person -> link)`` of each pair."""
-        s_out: list[float] = []
-        dist: list[float] = []
-        nrm = np.zeros((len(pi), 3))
-        seg_p = np.stack([self._A, self._B], axis=1)
-        for r, (i, k) in enumerate(zip(pi, lk, strict=True)):
-            s, _t, d, n = _pair_geometry(segs[k], seg_p[i])
-            s_out.append(s)
-            dist.append(d)
-            nrm[r] = n
-        return s_out, dist, nrm
+        self, link_segs: FloatArray, person_segs: FloatArray
+    ) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """``(s on the link, axis distance, unit normal person -> link)`` of each pair (k,).
+
+        ``link_segs`` and ``person_segs`` (k, 2, 3): :func:`~velfence.filter.rows._pair_geometry`
+        per pair, or the compiled core's ``segment_pairs`` (the same arithmetic) in one call.
+        """
+        k = link_segs.shape[0]
+        if self._core is not None:
+            s, _t, dist, nrm = self._core.segment_pairs(
+                np.ascontiguousarray(link_segs[:, 0]),
+                np.ascontiguousarray(link_segs[:, 1]),
+                np.ascontiguousarray(person_segs[:, 0]),
+                np.ascontiguousarray(person_segs[:, 1]),
+            )
+            return np.asarray(s), np.asarray(dist), np.asarray(nrm).reshape(k, 3)
+        s_out = np.zeros(k)
+        dist_out = np.zeros(k)
+        nrm_out = np.zeros((k, 3))
+        for r in range(k):
+            s_out[r], _t, dist_out[r], nrm_out[r] = _pair_geometry(link_segs[r], person_segs[r])
+        return s_out, dist_out, nrm_out
 
     def rows(self, ctx: RowContext) -> RowBlock | None:
         """The rows of the (body part, link) pairs within reach."""
@@ -479,10 +494,10 @@ class SeparationRows:
         pi_a, lk_a = np.nonzero(lower < need)
         if pi_a.shape[0] == 0:
             return None
-        pi = pi_a.tolist()
-        lk = lk_a.tolist()
-        s, dist, nrm = self._pairs(segs, pi, lk)
-        d = np.array(dist) - self._R[pi_a] - rl[lk_a]
+        seg_p = np.stack([self._A, self._B], axis=1)
+        s, dist, nrm = self._pairs(segs[lk_a], seg_p[pi_a])
+        rad = self._R[pi_a] + rl[lk_a]
+        d = dist - rad  # next_distances repeats these operations: equal at the same pose
         vh = np.where(
             self._known[pi_a],
             np.maximum((nrm * self._V[pi_a]).sum(axis=1), 0.0),
@@ -494,9 +509,14 @@ class SeparationRows:
         keep = np.flatnonzero(vm < vreach[lk_a])
         if keep.shape[0] == 0:
             return None
-        lk_k = lk_a[keep]
-        ts = np.array(s)[keep]
         n = ctx.q.shape[0]
+        if self._vmax.shape[0] != n:
+            raise InvalidInput(
+                f"max_speed: expected one joint speed per joint of the robot ({n}), got "
+                f"{self._vmax.shape[0]}"
+            )
+        lk_k = lk_a[keep]
+        ts = s[keep]
         batch = getattr(ctx.frame, "point_jacobians", None)
         if batch is not None:
             Js = batch(lk_k, ts)
@@ -507,6 +527,14 @@ class SeparationRows:
             ]
         J = checked("kinematics(q).point_jacobian(link, t)", Js, (keep.shape[0], 3, n))
         G = np.einsum("ki,kij->kj", nrm[keep], J)
+        # The fastest approach the joint speed rows allow, Σ_j |G_j| v_j: a row whose v_max is
+        # not below it can never bind.
+        bind = np.flatnonzero(vm[keep] < np.abs(G) @ self._vmax)
+        if bind.shape[0] == 0:
+            return None
+        keep = keep[bind]
+        G = G[bind]
+        lk_k = lk_k[bind]
         b = -vm[keep] + 0.0  # -0.0 -> 0.0
         pi_k = pi_a[keep]
         m0 = margin[keep]
@@ -518,16 +546,15 @@ class SeparationRows:
                 for i, k in zip(pi_k.tolist(), lk_k.tolist(), strict=True)
             ]
 
-        seg_p = np.stack([self._A[pi_k], self._B[pi_k]], axis=1)
-        data = (lk_k, seg_p, self._R[pi_k] + rl[lk_k], off[keep])
+        data = (lk_k, seg_p[pi_k], rad[keep], off[keep])
         return RowBlock(G, b, m0 < 0.0, pi_k * nl + lk_k, names, distance=m0, data=data)
 
     def next_distances(self, frame: KinematicsFrame, block: RowBlock) -> FloatArray:
         """The block's margins ``d - v_h dt - S_p(0)`` [m] at the pose of ``frame``, (k,)."""
         segs = self._segments(frame)
         lk, seg_p, radii, off = block.data
-        dist = [_pair_geometry(segs[k], seg_p[r])[2] for r, k in enumerate(lk.tolist())]
-        out: FloatArray = np.array(dist) - radii - off
+        d = self._pairs(segs[lk], seg_p)[1] - radii
+        out: FloatArray = d - off
         return out
 
 
