@@ -377,7 +377,6 @@ SPECS: dict[str, F | C] = {
             types={"parameters": "object", "link_radius": "vector", "max_speed": "vector"},
             accepts={
                 "people": {"empty_list": _NONE, "empty_tuple": _NONE},
-                "link_radius": {"zero": "documented: radius 0 is a bare axis (>= 0)"},
             },
         ),
         {

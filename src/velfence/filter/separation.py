@@ -139,10 +139,11 @@ class SeparationParameters:
         for name in ("intrusion", "human_uncertainty", "robot_uncertainty"):
             put(self, name, check_positive(name, getattr(self, name), allow_zero=True, unit="m"))
 
-    def _offset(self, human_speed: float) -> float:
+    def _offset(self, human_speed: Any) -> Any:
         """``S_h + C + Z_d + Z_r`` (plus a fixed ``S_s``) [m]: the part of ``S_p`` at ``v_r = 0``.
 
-        Internal API (trusted float ``human_speed`` [m/s] >= 0).
+        Trusted ``human_speed`` [m/s] >= 0, a float or an array (elementwise, the same
+        operations in the same order).
         """
         fixed = self.stopping_distance if self.stopping_distance is not None else 0.0
         return (
@@ -209,7 +210,7 @@ def separation_distance(
     vh = _human("human_speed", human_speed, p)
     v = max(finite_scalar("robot_speed", robot_speed, unit="m/s", error=InvalidInput), 0.0)
     stop = 0.0 if p.max_deceleration is None else v * v / (2.0 * p.max_deceleration)
-    return p._offset(vh) + v * p.reaction_time + stop
+    return float(p._offset(vh)) + v * p.reaction_time + stop
 
 
 def max_approach_speed(
@@ -247,7 +248,7 @@ def max_approach_speed(
     vh = _human("human_speed", human_speed, p)
     d = finite_scalar("distance", distance, unit="m", error=InvalidInput)
     h = 0.0 if dt is None else check_positive("dt", dt, unit="s")
-    rhs = d - p._offset(vh) - vh * h
+    rhs = d - (p._offset(vh) + vh * h)  # as SeparationRows forms it
     return float(_speeds(np.array([rhs]), p.reaction_time + h, p.max_deceleration)[0])
 
 
@@ -314,8 +315,9 @@ class SeparationRows:
     is not measured (the worst case: straight toward the link). Inside ``S_p`` at rest
     (``v_max = 0``) the row is "no further in" (bound 0, flagged violated). With ``dt`` the
     discrete-time ``v_max`` (one period of both moving) and the model check of the filter on the
-    margin ``d - v_h dt - S_p(0)``. A pair whose ``v_max`` exceeds the fastest the link can move
-    toward it (its points' speed bound at the joints' ``max_speed``) gets no row.
+    margin ``d - v_h dt - S_p(0)``. A pair whose ``v_max`` is not below the fastest approach the
+    joint speed limits allow, ``Σ_j |nᵀ J_j| max_speed_j``, gets no row (it could never bind);
+    pairs far beyond every link's reach are left out before any closest point is computed.
 
     The people come from :meth:`update`, once per cycle (or whenever the tracker has them);
     each cycle's rows use the last ones. ``SafetyFilter(..., providers=[rows])``.
@@ -487,10 +489,7 @@ class SeparationRows:
         lower = gap - half_p[:, None] - half_l[None, :] - self._R[:, None] - rl[None, :]
         a = prm.max_deceleration
         stop = 0.0 if a is None else vreach * vreach / (2.0 * a)
-        need = (
-            np.array([prm._offset(v) + v * h for v in vh_worst.tolist()])[:, None]
-            + (T * vreach + stop)[None, :]
-        )
+        need = (prm._offset(vh_worst) + vh_worst * h)[:, None] + (T * vreach + stop)[None, :]
         pi_a, lk_a = np.nonzero(lower < need)
         if pi_a.shape[0] == 0:
             return None
@@ -503,7 +502,7 @@ class SeparationRows:
             np.maximum((nrm * self._V[pi_a]).sum(axis=1), 0.0),
             prm.human_speed,
         )
-        off = np.array([prm._offset(v) + v * h for v in vh.tolist()])
+        off = prm._offset(vh) + vh * h
         margin = d - off
         vm = _speeds(margin, T, a)
         keep = np.flatnonzero(vm < vreach[lk_a])
