@@ -85,6 +85,49 @@ def safety_filter() -> object:
     )
 
 
+def _separation_parameters() -> object:
+    from velfence.filter import SeparationParameters
+
+    return SeparationParameters(
+        reaction_time=0.1, stopping_time=0.3, max_deceleration=2.0, intrusion=0.1
+    )
+
+
+def _person() -> object:
+    from velfence.filter import PersonCapsule
+
+    return PersonCapsule(
+        [0.9, 0.3, 0.2], b=[0.9, 0.3, 1.6], radius=0.15, velocity=[-1.0, 0.0, 0.0], name="torso"
+    )
+
+
+def _separation_rows() -> object:
+    from velfence.filter import SeparationRows
+
+    return SeparationRows(
+        _separation_parameters(),  # type: ignore[arg-type]
+        link_radius=np.full(7, 0.04),
+        max_speed=np.full(7, 1.5),
+        people=[_person()],  # type: ignore[list-item]
+    )
+
+
+_RC = "a RowContext (or frame and RowBlock) the SafetyFilter builds each cycle, trusted"
+
+
+def _row_context() -> object:
+    from velfence.filter import RowContext
+    from velfence.filter.kinematics import frame_of
+
+    return RowContext(_Q7, np.zeros(7), None, 0.004, frame_of(_arm(), _Q7))  # type: ignore[arg-type]
+
+
+def _next_distances_call() -> object:
+    ctx = _row_context()
+    block = _separation_rows().rows(ctx)  # type: ignore[attr-defined]
+    return call(ctx.frame, block)  # type: ignore[attr-defined]
+
+
 def _chain_frames() -> object:
     """The ChainFrames of a two-joint MJCF arm (MujocoRobot.chain_frames())."""
     from velfence.robots import MujocoRobot, dh_mjcf
@@ -291,6 +334,72 @@ SPECS: dict[str, F | C] = {
         },
     ),
     "filter.WorkspaceLimit": C(F(lambda: call(_box(), buffer=0.05), types={"point": "text"})),
+    "filter.SeparationParameters": C(
+        F(
+            lambda: call(
+                reaction_time=0.1,
+                stopping_time=0.3,
+                max_deceleration=2.0,
+                human_speed=1.6,
+                intrusion=0.1,
+                human_uncertainty=0.05,
+                robot_uncertainty=0.02,
+            ),
+            types={
+                "reaction_time": "positive",
+                "stopping_time": "nonneg",
+                "max_deceleration": "positive",
+                "human_speed": "nonneg",
+                "intrusion": "nonneg",
+                "human_uncertainty": "nonneg",
+                "robot_uncertainty": "nonneg",
+            },
+            # exactly one of max_deceleration and stopping_distance (None for the other)
+            required=frozenset({"max_deceleration"}),
+        )
+    ),
+    "filter.PersonCapsule": C(
+        F(
+            lambda: call(
+                [0.9, 0.3, 0.2], b=[0.9, 0.3, 1.6], radius=0.15, velocity=[-1.0, 0.0, 0.0]
+            ),
+            types={"radius": "nonneg", "name": "text"},
+        )
+    ),
+    "filter.SeparationRows": C(
+        F(
+            lambda: call(
+                _separation_parameters(),
+                link_radius=np.full(7, 0.04),
+                max_speed=np.full(7, 1.5),
+                people=[_person()],
+            ),
+            types={"parameters": "object", "link_radius": "vector", "max_speed": "vector"},
+            accepts={
+                "people": {"empty_list": _NONE, "empty_tuple": _NONE},
+            },
+        ),
+        {
+            "update": F(
+                lambda: call([_person()], stamp=1.0),
+                accepts={"people": {"empty_list": _NONE, "empty_tuple": _NONE}},
+            ),
+            "rows": F(lambda: call(_row_context()), skip={"ctx": _RC}),
+            "next_distances": F(
+                _next_distances_call,  # type: ignore[arg-type]
+                skip={"frame": _RC, "block": _RC},
+            ),
+        },
+        instance=_separation_rows,
+    ),
+    "filter.separation_distance": F(
+        lambda: call(1.0, parameters=_separation_parameters(), human_speed=1.2),
+        types={"robot_speed": "scalar", "parameters": "object", "human_speed": "nonneg"},
+    ),
+    "filter.max_approach_speed": F(
+        lambda: call(1.0, parameters=_separation_parameters(), human_speed=1.2, dt=0.01),
+        types={"distance": "scalar", "parameters": "object", "human_speed": "nonneg"},
+    ),
     # radius 0 is documented (>= 0): a point obstacle; influence None: no sphere of influence.
     "filter.SphereObstacle": C(
         F(

@@ -6,7 +6,8 @@ joint metric ``W``, or the twist's damped least squares) subject to ``G x >= b``
 every :class:`~velfence.filter.rows.RowProvider` built from one
 :class:`~velfence.filter.kinematics.KinematicsFrame` of ``q``: joint position (braking profile)
 and velocity, acceleration, workspace polytopes on named points, sphere obstacles against capsule
-links, and the user's own. When the rows have no common point the ladder
+links, speed and separation monitoring against tracked people (:mod:`~velfence.filter.separation`,
+advisory), and the user's own. When the rows have no common point the ladder
 (:mod:`velfence.filter.ladder`) drops the acceleration rows, then relaxes only violated rows'
 recovery bounds (obstacles, workspace, joints) toward "no further out", else stops: zero meets
 every row of the safety levels once relaxed, so no workspace or obstacle row is ever dropped.
@@ -64,6 +65,14 @@ from velfence.filter.rows import (
     SelfCollisionRows,
     WorkspaceRows,
 )
+from velfence.filter.separation import (
+    WALKING_SPEED,
+    PersonCapsule,
+    SeparationParameters,
+    SeparationRows,
+    max_approach_speed,
+    separation_distance,
+)
 
 __all__ = [
     "LEVEL_JERK",
@@ -72,6 +81,7 @@ __all__ = [
     "LEVEL_OBSTACLE",
     "LEVEL_RATE",
     "LEVEL_WORKSPACE",
+    "WALKING_SPEED",
     "AttachmentObstacleRows",
     "AttachmentTable",
     "AttachmentWorkspaceRows",
@@ -89,6 +99,7 @@ __all__ = [
     "Kinematics",
     "KinematicsFrame",
     "ObstacleRows",
+    "PersonCapsule",
     "Profile",
     "RowBlock",
     "RowContext",
@@ -96,8 +107,12 @@ __all__ = [
     "SafetyFilter",
     "SelfCollision",
     "SelfCollisionRows",
+    "SeparationParameters",
+    "SeparationRows",
     "Sphere",
     "SphereObstacle",
     "WorkspaceLimit",
     "WorkspaceRows",
+    "max_approach_speed",
+    "separation_distance",
 ]

@@ -476,6 +476,23 @@ class WorkspaceRows:
 
 
 # ------------------------------------------------------------------------------- obstacles
+def link_speed_bounds(segs: FloatArray, max_speed: FloatArray) -> FloatArray:
+    """A bound on the speed of every point of each capsule link [m/s], shape (L,).
+
+    ``|ṗ| <= Σ_{j <= k} v_j max(|a_k − P_j|, |b_k − P_j|)`` for every point of link ``k``
+    (``P_j`` the joint points, the links' starts and the last link's end, ``v_j`` the joints'
+    ``max_speed``): the reach of the obstacle, self-collision and separation rows. Internal API
+    of :mod:`velfence.filter` (trusted inputs: ``segs`` (L, 2, 3), ``max_speed`` (n,)).
+    """
+    nl = segs.shape[0]
+    P = np.concatenate([segs[:, 0], segs[-1:, 1]])
+    nj = min(nl, max_speed.shape[0])
+    M = np.linalg.norm(P[:, None, :] - P[None, :nj], axis=2)
+    lever = np.maximum(M[:-1], M[1:])
+    out: FloatArray = np.tril(lever) @ max_speed[:nj]
+    return out
+
+
 def _clearances(
     segs: FloatArray, centres: FloatArray, srad: FloatArray, radii: FloatArray
 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
@@ -559,13 +576,8 @@ class ObstacleRows:
         near = clear < self._buffer
         beyond = ~near
         if beyond.any() and ctx.dt is not None:
-            P = np.concatenate([segs[:, 0], segs[-1:, 1]])
-            # |ṗ| <= Σ_{j <= k} v_j max(|a_k − P_j|, |b_k − P_j|) for every point of link k:
-            # farther than 1.5 periods of that (with margin) is out of reach.
-            nj = min(nl, self._vmax.shape[0])
-            M = np.linalg.norm(P[:, None, :] - P[None, :nj], axis=2)
-            lever = np.maximum(M[:-1], M[1:])
-            reach = 1.5 * ctx.dt * (np.tril(lever) @ self._vmax[:nj])
+            # farther than 1.5 periods of the link's speed bound (with margin) is out of reach.
+            reach = 1.5 * ctx.dt * link_speed_bounds(segs, self._vmax)
             near = near | (clear <= reach[None, :])
         obs_i, link = np.nonzero(near)
         if obs_i.shape[0] == 0:
@@ -706,12 +718,7 @@ class SelfCollisionRows:
 
     def _reach(self, segs: FloatArray, dt: float) -> list[float]:
         """Per link: 1.5 periods of its points' largest speed (as :class:`ObstacleRows`)."""
-        nl = segs.shape[0]
-        P = np.concatenate([segs[:, 0], segs[-1:, 1]])
-        nj = min(nl, self._vmax.shape[0])
-        M = np.linalg.norm(P[:, None, :] - P[None, :nj], axis=2)
-        lever = np.maximum(M[:-1], M[1:])
-        out: list[float] = (1.5 * dt * (np.tril(lever) @ self._vmax[:nj])).tolist()
+        out: list[float] = (1.5 * dt * link_speed_bounds(segs, self._vmax)).tolist()
         return out
 
     def rows(self, ctx: RowContext) -> RowBlock | None:
