@@ -502,3 +502,32 @@ def test_largest_box_meets_the_kkt_conditions(n: int) -> None:
         grad = np.r_[1.0 / w, -1.0 / w]  # minus the gradient of Σ log w_j in (l, u)
         _, residual = nnls(A[active].T, grad)
         assert residual <= 1e-6 * float(np.linalg.norm(grad))
+
+
+def test_a_polytope_built_again_reuses_its_programs_and_equals_the_first(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The construction's linear programs are remembered by their input bytes: the same rows
+    built again run none and give the same polytope bit for bit; other rows still run them."""
+    import velfence.geometry.polytope as poly
+
+    rng = np.random.default_rng(11)
+    N = rng.normal(size=(9, 3))
+    off = -rng.uniform(0.5, 1.5, size=9)
+    first = ConvexPolytope(N, off)
+    calls: list[int] = []
+    real = poly._linprog
+
+    def counted(*args: object, **kwargs: object) -> object:
+        calls.append(1)
+        return real(*args, **kwargs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(poly, "_linprog", counted)
+    again = ConvexPolytope(N.copy(), off.copy())
+    assert calls == []
+    for name in ("normals", "offsets", "chebyshev_center", "removed", "source_rows", "bounded"):
+        a, b = getattr(first, name), getattr(again, name)
+        assert np.array_equal(a, b), name
+    assert first.chebyshev_radius == again.chebyshev_radius
+    ConvexPolytope(N, off - 0.25)  # other offsets: its own programs
+    assert calls

@@ -71,12 +71,22 @@ def _reacher_shield(env: object | None = None) -> object:
     )
 
 
+_FIELDS: list[dict[str, object]] = []
+
+
 def _shield_fields() -> dict[str, object]:
-    """The fields of a torque shield of Reacher, as ``Shield(**...)`` takes them."""
+    """The fields of a torque shield of Reacher, as ``Shield(**...)`` takes them.
+
+    Built once per worker process: ``Shield(...)`` only checks its fields and builds nothing
+    from them that it could change (a hostile value replaces one field of a copy whose arrays
+    are copies).
+    """
     from velfence.integrations import MujocoJointState
 
+    if _FIELDS:
+        return _fresh(_FIELDS[0])
     sh = _reacher_shield()
-    return {
+    fields: dict[str, object] = {
         "filter": sh.filter,  # type: ignore[attr-defined]
         "state": MujocoJointState(_REACHER),
         "action": "velocity",
@@ -90,6 +100,13 @@ def _shield_fields() -> dict[str, object]:
         "tip_body": sh.tip_body,  # type: ignore[attr-defined]
         "tip_offset": [0.0, 0.0, 0.0],
     }
+    _FIELDS.append(fields)
+    return _fresh(fields)
+
+
+def _fresh(fields: dict[str, object]) -> dict[str, object]:
+    """A copy of ``fields`` whose arrays and lists are copies too (a kind may write to them)."""
+    return {k: v.copy() if isinstance(v, (np.ndarray, list)) else v for k, v in fields.items()}
 
 
 def _wrapper() -> object:

@@ -251,3 +251,22 @@ def test_arm_from_a_scene_puts_the_tcp_on_a_body() -> None:
         MujocoRobot.arm_from_xml("<mujoco><nonsense/></mujoco>", ["a"], tcp=("tip", off))
     with pytest.raises(InvalidParameter, match="xml"):
         MujocoRobot.arm_from_xml(b"<mujoco/>", ["a"])  # type: ignore[arg-type]
+
+
+def test_an_arm_cut_again_is_a_model_of_its_own_equal_to_the_first() -> None:
+    """The same arm cut twice from the same document: the second is read back (no second edit
+    and no second compile), but each robot owns its model: a change to one leaves the other."""
+    off = np.array([0.02, 0.01, 0.0])
+    first = MujocoRobot.arm_from_xml(_SCENE, ["a", "b"], tcp=("tip", off), link_radius=0.02)
+    again = MujocoRobot.arm_from_xml(_SCENE, ["a", "b"], tcp=("tip", off), link_radius=0.02)
+    assert again.model is not first.model
+    q = np.array([0.3, -0.8])
+    assert np.array_equal(first.fk(q), again.fk(q))
+    assert np.array_equal(first.jacobian(q), again.jacobian(q))
+    other = MujocoRobot.arm_from_xml(_SCENE, ["a", "b"], tcp=("tip", off), link_radius=0.03)
+    assert other.model.ngeom == first.model.ngeom
+    assert not np.array_equal(other.model.geom_size, first.model.geom_size)  # its own radius
+    again.model.body_pos[again.model.body("l3").id] += 1.0
+    assert not np.array_equal(first.fk(q), again.fk(q))
+    third = MujocoRobot.arm_from_xml(_SCENE, ["a", "b"], tcp=("tip", off), link_radius=0.02)
+    assert np.array_equal(first.fk(q), third.fk(q))  # the remembered model was not touched

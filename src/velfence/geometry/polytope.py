@@ -19,7 +19,9 @@ imported inside the functions that need it, so ``import velfence`` stays light.
 
 from __future__ import annotations
 
+import contextlib
 import math
+from collections import OrderedDict
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Literal
@@ -213,7 +215,7 @@ class ConvexPolytope:
         # their tolerances are relative and no bound reaches HiGHS's infinity (1e20).
         unit = 1.0 + float(np.max(np.abs(off)))
         off_u = off / unit
-        centre_u, radius_u = _chebyshev(N[kept], off_u[kept])
+        centre_u, radius_u, kept_u, bounded = _programs(N, off_u, kept, mode)
         if radius_u <= THIN:
             shown = radius_u * unit if radius_u > 0 else 0.0
             got = "no common point" if radius_u < 0 else f"Chebyshev radius {shown:.3g}"
@@ -223,8 +225,7 @@ class ConvexPolytope:
                 "the signs of the offsets (n_i·x >= offset_i inside)"
             )
         centre, radius = centre_u * unit, radius_u * unit
-        if mode == "remove" and len(kept) > 1:
-            kept = _irredundant(N, off_u, kept, _REDUNDANCY)
+        kept = list(kept_u)
         index = {r: k for k, r in enumerate(kept)}
         source = tuple(index.get(int(rep[i]), -1) for i in range(m))
         object.__setattr__(self, "normals", readonly(np.ascontiguousarray(N[kept])))
@@ -234,7 +235,7 @@ class ConvexPolytope:
         object.__setattr__(self, "source_rows", source)
         object.__setattr__(self, "chebyshev_center", readonly(centre))
         object.__setattr__(self, "_radius", radius)  # not a field: see chebyshev_radius
-        object.__setattr__(self, "bounded", _is_bounded(self.normals))
+        object.__setattr__(self, "bounded", bounded)
         object.__setattr__(self, "_cache", {})
 
     # ------------------------------------------------------------------ other constructors
@@ -615,6 +616,50 @@ def _names(name: str, names: Sequence[str] | None, m: int, default: list[str]) -
     if len(names) != m:
         raise InvalidGeometry(f"{name}: expected {m} names, one per facet row, got {len(names)}")
     return [check_text(f"{name}[{i}]", s, error=InvalidGeometry) for i, s in enumerate(names)]
+
+
+#: The linear programs of recent constructions, keyed by their exact input bytes (a polytope
+#: built again from the same rows — a zone per env of a vector env, a shield rebuilt per
+#: episode — skips its programs); least recently used first out.
+_PROGRAMS: OrderedDict[tuple[Any, ...], tuple[FloatArray, float, tuple[int, ...], bool]] = (
+    OrderedDict()
+)
+_PROGRAMS_SIZE = 256
+
+
+def _programs(
+    N: FloatArray, off_u: FloatArray, kept: list[int], mode: str
+) -> tuple[FloatArray, float, tuple[int, ...], bool]:
+    """The construction's linear programs, memoised.
+
+    The Chebyshev ball of the ``kept`` rows, the rows left once the redundant ones are removed
+    (``mode == "remove"``), and boundedness.
+
+    A pure function of its inputs, memoised on their bytes (:data:`_PROGRAMS`): the same rows
+    give the same answer bit for bit, computed or remembered. When the ball is too thin the
+    remaining programs are not run (the caller refuses the set) and nothing is remembered.
+    """
+    key = (N.shape, N.tobytes(), off_u.tobytes(), tuple(kept), mode)
+    hit = _PROGRAMS.get(key)
+    if hit is not None:
+        with contextlib.suppress(KeyError):  # pushed out by another thread meanwhile
+            _PROGRAMS.move_to_end(key)
+        return hit[0].copy(), hit[1], hit[2], hit[3]
+    centre_u, radius_u = _chebyshev(N[kept], off_u[kept])
+    if radius_u <= THIN:
+        return centre_u, radius_u, tuple(kept), False
+    rows = kept
+    if mode == "remove" and len(kept) > 1:
+        rows = _irredundant(N, off_u, kept, _REDUNDANCY)
+    bounded = _is_bounded(np.ascontiguousarray(N[rows]))
+    out = (centre_u, radius_u, tuple(rows), bounded)
+    _PROGRAMS[key] = (centre_u.copy(), radius_u, out[2], bounded)
+    while len(_PROGRAMS) > _PROGRAMS_SIZE:
+        try:
+            _PROGRAMS.popitem(last=False)
+        except KeyError:  # emptied by another thread
+            break
+    return out
 
 
 def _irredundant(N: FloatArray, off: FloatArray, rows: list[int], tol: float) -> list[int]:

@@ -10,6 +10,9 @@ Jacobians from ``mj_jacSite``. MuJoCo is imported when a model is loaded, not wi
 
 from __future__ import annotations
 
+import contextlib
+import copy
+from collections import OrderedDict
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any, Literal, NamedTuple
@@ -544,16 +547,39 @@ class MujocoRobot(CapsuleLinks):
         return self._finite(np.array(self._jacr, dtype=float))
 
 
+#: Recently compiled documents (text -> MjModel), least recently used first out: a robot built
+#: again from the same document (an arm per env of a vector env, a shield per episode) copies
+#: the compiled model (``mj_copyModel``, a memory copy) instead of compiling it again.
+_COMPILED: OrderedDict[str, Any] = OrderedDict()
+_COMPILED_SIZE = 16
+
+
 def _compile(mujoco: Any, arg: str, text: str) -> Any:
-    """``text`` compiled by MuJoCo; ``arg`` is the caller's public argument, for messages."""
+    """``text`` compiled by MuJoCo: a model of the caller's own.
+
+    A copy of a remembered one when the same document was compiled recently; ``arg`` is the
+    caller's public argument, for messages.
+    """
+    hit = _COMPILED.get(text)
+    if hit is not None:
+        with contextlib.suppress(KeyError):  # pushed out by another thread meanwhile
+            _COMPILED.move_to_end(text)
+        return copy.copy(hit)
     try:
-        return mujoco.MjModel.from_xml_string(text)
+        model = mujoco.MjModel.from_xml_string(text)
     except ValueError as exc:
         msg = str(exc).strip().splitlines()
         first = msg[0][:200] if msg else "no message"
         raise InvalidGeometry(
             f"{arg}: expected an MJCF document MuJoCo compiles, got the error: {first}"
         ) from None
+    _COMPILED[text] = copy.copy(model)
+    while len(_COMPILED) > _COMPILED_SIZE:
+        try:
+            _COMPILED.popitem(last=False)
+        except KeyError:  # emptied by another thread
+            break
+    return model
 
 
 class _Source(NamedTuple):
@@ -630,6 +656,16 @@ def _arm_of(
     """
     import xml.etree.ElementTree as ET
 
+    key = (
+        src.xml,
+        tuple(keep),
+        tuple(points.items()),
+        radius,
+        None if tool is None else (tool[0], np.asarray(tool[1], dtype=np.float64).tobytes()),
+    )
+    text = _ARMS.get(key)
+    if text is not None:
+        return MujocoRobot.from_xml(text)
     mj, m = src.mj, src.model
     root = ET.fromstring(src.xml)
     world = root.find("worldbody")
@@ -698,11 +734,23 @@ def _arm_of(
                 ET.SubElement(body, "geom", type="capsule", fromto=vec([*anchors[i], *tip_end]),
                               size=repr(radius), contype="0", conaffinity="0", mass="0",
                               group="5")  # fmt: skip
+    text = ET.tostring(root, encoding="unicode")
     try:
-        arm = MujocoRobot.from_xml(ET.tostring(root, encoding="unicode"))
+        arm = MujocoRobot.from_xml(text)
     except InvalidGeometry as exc:
         raise InvalidGeometry(f"joints: MuJoCo does not compile the arm ({exc})") from None
+    _ARMS[key] = text
+    while len(_ARMS) > _COMPILED_SIZE:
+        try:
+            _ARMS.popitem(last=False)
+        except KeyError:  # emptied by another thread
+            break
     return arm
+
+
+#: The arm documents :func:`_arm_of` wrote recently, keyed by its inputs (the source document,
+#: the kept joints, points, radius and tool): the same arm cut again is read back, not edited.
+_ARMS: OrderedDict[tuple[Any, ...], str] = OrderedDict()
 
 
 def _is_joint_site(name: str) -> bool:
