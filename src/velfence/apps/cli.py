@@ -647,25 +647,32 @@ def study(
     from velfence.apps.teleop.study import assisted_run, run_study
     from velfence.apps.viz.study import animate_run, write_study
 
+    if out.exists() and not out.is_dir():  # refused before minutes of runs, not after
+        raise _fail(f"--out {out} exists and is not a folder")
     n_runs = subjects * runs * 2
     plan = [("pick-and-place runs", 5.0 * n_runs), ("study files", 3.0)]
     if animation:
         plan += [("assisted run", 6.0), ("assisted_run.gif", 10.0)]
-    with _tracker("velfence study", plan, quiet):
-        with progress.stage("pick-and-place runs") as report_runs:
-            result = run_study(
-                subjects,
-                runs,
-                seed,
-                progress=lambda done, n: report_runs(done, n, f"run {done}/{n}"),
-            )
-        with progress.stage("study files"):
-            artifacts = [str(p) for p in write_study(result, out)]
-        if animation:
-            with progress.stage("assisted run"):
-                run = assisted_run(seed=seed)
-            with progress.stage("assisted_run.gif"):
-                artifacts.append(str(animate_run(run, out / "assisted_run.gif")))
+    try:  # run_study checks the counts and the seed before any run: a bad one exits 2 at once
+        with _tracker("velfence study", plan, quiet):
+            with progress.stage("pick-and-place runs") as report_runs:
+                result = run_study(
+                    subjects,
+                    runs,
+                    seed,
+                    progress=lambda done, n: report_runs(done, n, f"run {done}/{n}"),
+                )
+            with progress.stage("study files"):
+                artifacts = [str(p) for p in write_study(result, out)]
+            if animation:
+                with progress.stage("assisted run"):
+                    run = assisted_run(seed=seed)
+                with progress.stage("assisted_run.gif"):
+                    artifacts.append(str(animate_run(run, out / "assisted_run.gif")))
+    except VelfenceError as exc:
+        raise _fail(str(exc)) from None
+    except OSError as exc:
+        raise _fail(f"cannot write to {out}: {exc.strerror or exc}") from None
     summary = result.summary()
     verdict = (
         f"study: {summary['subjects_faster_assisted']}/{subjects} subjects faster with "
