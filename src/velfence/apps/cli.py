@@ -753,6 +753,7 @@ def replay(
     storage: Annotated[
         str | None, typer.Option(help="mcap or sqlite3 (default: the input's storage).")
     ] = None,
+    quiet: QuietOption = False,
 ) -> None:
     """Shape bags' recorded commands with a configured shaper; write new bags (+ figures).
 
@@ -767,7 +768,7 @@ def replay(
     if len(bags) == 1:
         plan = [("shaping", 10.0)] + ([("figure", 2.0)] if plot is not None else [])
         try:
-            with _tracker(f"velfence replay {bags[0].name}", plan, False):
+            with _tracker(f"velfence replay {bags[0].name}", plan, quiet):
                 with progress.stage("shaping") as report_shaping:
                     s = run_replay(
                         bags[0],
@@ -787,10 +788,13 @@ def replay(
             raise _fail(str(exc)) from None
         console = _stdout_console(highlight=False)
         _print_replay(console, s)
-        if plot is not None:
-            console.print(f"  wrote {escape(str(plot))}")
+        verdict = (
+            f"summary: {s.commands} commands replayed, {s.changed} changed, {s.zeroed} written "
+            "as zero — exit 0"
+        )
+        _summary(console, None, [s.out, *([plot] if plot is not None else [])], verdict)
         return
-    _replay_many(bags, config, out, plot, storage)
+    _replay_many(bags, config, out, plot, storage, quiet)
 
 
 def _print_replay(console: Console, s: Any) -> None:
@@ -829,7 +833,12 @@ def _bag_weight(bag: Path) -> float:
 
 
 def _replay_many(
-    bags: list[Path], config: Path, out: Path, plot: Path | None, storage: str | None
+    bags: list[Path],
+    config: Path,
+    out: Path,
+    plot: Path | None,
+    storage: str | None,
+    quiet: bool,
 ) -> None:
     """``velfence replay IN IN ...``: each bag to OUT/<name>, one table, the largest exit code."""
     from rich.table import Table
@@ -857,7 +866,7 @@ def _replay_many(
     out.mkdir(parents=True, exist_ok=True)
     if plot is not None:
         plot.mkdir(parents=True, exist_ok=True)
-    with _tracker(f"velfence replay {len(bags)} bags", plan, False):
+    with _tracker(f"velfence replay {len(bags)} bags", plan, quiet):
         for (stage, _), bag, name in zip(plan, bags, names, strict=True):
             with progress.stage(stage) as report:
                 try:
