@@ -314,3 +314,148 @@ def test_help_documents_the_exit_codes() -> None:
         assert words in text, words
     assert "--strict" in _invoke("bench", "--help").stdout
     assert cli.EXIT_CODES.startswith("Exit codes")
+
+
+# ------------------------------------------------------------------- replay, soak, soak_filter
+
+BAG = Path(__file__).parents[1] / "examples" / "bags" / "mobile_base"
+
+
+def test_replay_one_bag_reports_progress_and_ends_with_a_summary(tmp_path: Path) -> None:
+    pytest.importorskip("rosbags", reason="velfence replay needs the [ros] extra")
+    out, fig = tmp_path / "out", tmp_path / "fig.png"
+    result = _invoke(
+        "replay", str(BAG / "bag"), "--config", str(BAG / "replay.yaml"), "--out", str(out),
+        "--plot", str(fig),
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output
+    assert _stages(result.stderr) == ["shaping", "figure"]
+    lines = result.stdout.splitlines()
+    assert lines[-2] == f"wrote 2 files: {out}, {fig}"
+    assert out.is_dir()
+    assert fig.is_file()
+    # the verdict: the counts of the first line, and the exit code
+    m = re.match(r"(\d+) commands on .*: (\d+) changed .*", lines[0])
+    assert m, lines[0]
+    zeroed = re.match(r"written as zero: (\d+) ", lines[1])
+    assert zeroed, lines[1]
+    assert lines[-1] == (
+        f"summary: {m.group(1)} commands replayed, {m.group(2)} changed, {zeroed.group(1)} "
+        "written as zero — exit 0"
+    )
+
+
+def test_replay_quiet(tmp_path: Path) -> None:
+    pytest.importorskip("rosbags", reason="velfence replay needs the [ros] extra")
+    out = tmp_path / "out"
+    result = _invoke(
+        "replay", str(BAG / "bag"), "--config", str(BAG / "replay.yaml"), "--out", str(out),
+        "--quiet",
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output
+    assert result.stderr == ""
+    assert result.stdout.splitlines()[-2] == f"wrote 1 file: {out}"
+
+
+def _one_soak_case(monkeypatch: pytest.MonkeyPatch) -> str:
+    """The soak's campaign cut to its first case, so that main() runs in a second."""
+    from velfence.apps import soak
+
+    first = soak.polygon_cases(episodes=2, polygons=1, seed=0)[0]
+    monkeypatch.setattr(soak, "polygon_cases", lambda **_: [first])
+    monkeypatch.setattr(soak, "stop_cases", lambda **_: [])
+    return first.name
+
+
+def test_soak_reports_progress_and_ends_with_a_summary(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from velfence.apps import soak
+
+    name = _one_soak_case(monkeypatch)
+    out = tmp_path / "soak.md"
+    assert soak.main(["--steps", "40", "--episode-steps", "20", "--out", str(out)]) == 0
+    cap = capsys.readouterr()
+    lines = [ln for ln in cap.err.splitlines() if ln.strip()]
+    assert len(lines) == 1
+    assert re.match(rf"^soak: \[1/1\] {re.escape(name)} done in [0-9.]+ s \(elapsed", lines[0])
+    stdout = cap.out.splitlines()
+    assert stdout[0].startswith(f"{name}: 40 steps, escapes 0")
+    assert stdout[-2] == f"wrote 1 file: {out}"
+    assert stdout[-1].startswith("soak: 1/1 required cases contained")
+    assert stdout[-1].endswith("exit 0: containment held")
+    assert out.is_file()
+
+
+def test_soak_reports_steps_within_a_case(monkeypatch: pytest.MonkeyPatch) -> None:
+    from velfence.apps import soak
+
+    case = soak.polygon_cases(episodes=2, polygons=1, seed=0)[0]
+    seen: list[tuple[float, float, str]] = []
+    soak.run_case(case, episodes=2, steps_per_episode=400, on_progress=lambda *a: seen.append(a))
+    assert seen[0] == (0, 400, f"{case.name}: step 0/400")
+    assert [s[0] for s in seen] == list(range(0, 400, 2))  # every 400 // 200 steps
+
+
+def test_soak_quiet(monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    from velfence.apps import soak
+
+    _one_soak_case(monkeypatch)
+    assert soak.main(["--steps", "40", "--episode-steps", "20", "--quiet"]) == 0
+    cap = capsys.readouterr()
+    assert cap.err == ""
+    assert cap.out.splitlines()[-1].endswith("exit 0: containment held")  # no file: no "wrote"
+    assert not any(ln.startswith("wrote") for ln in cap.out.splitlines())
+
+
+SOAK_FILTER_ARGS = [
+    "--vertex-states", "60", "--filter-states", "6", "--steps", "20", "--episode-steps", "10",
+    "--robots", "ur5e-dh", "--rates", "100",
+]  # fmt: skip
+
+
+def test_soak_filter_reports_progress_and_ends_with_a_summary(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from velfence.apps import soak_filter
+
+    out = tmp_path / "reliability.md"
+    assert soak_filter.main([*SOAK_FILTER_ARGS, "--out", str(out)]) == 0
+    cap = capsys.readouterr()
+    stages = [m.group(3) for ln in cap.err.splitlines()
+              if (m := re.match(r"^soak_filter: \[(\d)/(\d)\] (.+) done in", ln))]  # fmt: skip
+    assert stages == ["vertex campaign", "UR5e (DHChain), 100 Hz"]
+    stdout = cap.out.splitlines()
+    assert stdout[0].startswith("PolytopeShaper exact, dt = 0.001 s: 60 states, escapes 0")
+    assert stdout[2].startswith("UR5e (DHChain), 100 Hz: 20 steps")
+    assert stdout[-2] == f"wrote 1 file: {out}"
+    assert stdout[-1] == (
+        "soak_filter: 3 campaign result(s) (2 vertex, 1 closed-loop); contained, exit 0"
+    )
+    assert "soak_filter: begin" in out.read_text()
+
+
+def test_soak_filter_campaigns_report_done_of_total() -> None:
+    from velfence.apps import soak_filter
+
+    seen: list[tuple[float, float, str]] = []
+    soak_filter.run_vertex_campaign(
+        states=30, filter_states=0, per_polytope=10, on_progress=lambda *a: seen.append(a)
+    )
+    assert seen  # the first report is at once
+    assert all(total == 30 and 0 <= done <= 30 for done, total, _ in seen)
+    seen.clear()
+    soak_filter.run_loop_campaign(
+        "ur5e-dh", 100.0, steps=10, episode_steps=10, on_progress=lambda *a: seen.append(a)
+    )
+    assert seen
+    assert all(total == 10 and 0 <= done <= 10 for done, total, _ in seen)
+
+
+def test_soak_filter_quiet(capsys: pytest.CaptureFixture[str]) -> None:
+    from velfence.apps import soak_filter
+
+    assert soak_filter.main([*SOAK_FILTER_ARGS, "--quiet"]) == 0
+    cap = capsys.readouterr()
+    assert cap.err == ""
+    assert cap.out.splitlines()[-1].endswith("contained, exit 0")

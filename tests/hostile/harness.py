@@ -3,6 +3,7 @@ the checks (see ``docs/reliability-inputs.md``)."""
 
 from __future__ import annotations
 
+import ast
 import copy
 import dataclasses
 import importlib
@@ -10,6 +11,7 @@ import inspect
 import math
 import multiprocessing
 import os
+import pathlib
 import pkgutil
 import re
 import resource
@@ -50,6 +52,46 @@ SKIP_MODULES = ("velfence.apps.cli",)
 #: documentation or the examples), attacked like the packages (docs/reliability-inputs.md,
 #: "What is enumerated"; every other module-level ``__all__`` serves its package only).
 EXTRA_MODULES = ("velfence.sim.arm", "velfence.apps.scenarios.lag")
+#: The repository root (the documentation and the examples are scanned for imports).
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+_FENCE = re.compile(r"^```([A-Za-z0-9_{}-]*)[ \t]*\n(.*?)^```[ \t]*$", re.M | re.S)
+
+
+def documented_sources() -> list[tuple[str, str]]:
+    """``(where, code)`` of every ``python`` block of README.md and docs/**/*.md and of every
+    ``examples/*.py``: the code users copy."""
+    out: list[tuple[str, str]] = []
+    for page in (ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))):
+        for m in _FENCE.finditer(page.read_text(encoding="utf-8")):
+            if m.group(1) == "python":
+                out.append((str(page.relative_to(ROOT)), m.group(2)))
+    for ex in sorted((ROOT / "examples").glob("*.py")):
+        out.append((str(ex.relative_to(ROOT)), ex.read_text(encoding="utf-8")))
+    return out
+
+
+def documented_imports() -> dict[str, set[str]]:
+    """Module path -> the names the documentation and the examples import from it.
+
+    ``from velfence.x.y import A, B`` gives ``{"velfence.x.y": {"A", "B"}}``; ``import
+    velfence.x.y`` gives ``{"velfence.x.y": {"*"}}`` (the module's whole ``__all__``). A block
+    that does not parse is an error of the documentation (tests/test_readme.py runs it).
+    """
+    out: dict[str, set[str]] = {}
+    for where, code in documented_sources():
+        try:
+            tree = ast.parse(code, filename=where)
+        except SyntaxError as exc:
+            raise AssertionError(f"{where}: a python block does not parse: {exc}") from exc
+        for node in ast.walk(tree):
+            if isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+                if node.module.split(".")[0] == "velfence":
+                    out.setdefault(node.module, set()).update(a.name for a in node.names)
+            elif isinstance(node, ast.Import):
+                for alias in node.names:
+                    if alias.name.split(".")[0] == "velfence":
+                        out.setdefault(alias.name, set()).add("*")
+    return out
 
 
 # --- the registry's vocabulary ----------------------------------------------------------------
@@ -166,7 +208,8 @@ def public_modules() -> list[str]:
 
 def available(key: str) -> bool:
     """Whether the module of a canonical name (``"viz.plot_quiver"``) could be imported."""
-    return _full(key.split(".")[0]) not in UNAVAILABLE
+    parts = key.split(".")[:-1]
+    return all(_full(".".join(parts[: i + 1])) not in UNAVAILABLE for i in range(len(parts)))
 
 
 def _full(short: str) -> str:
@@ -194,12 +237,45 @@ def public_callables() -> dict[str, Any]:
             obj = getattr(mod, name)
             if _skipped_by_type(obj):
                 continue
-            short = modname.removeprefix("velfence").removeprefix(".apps").lstrip(".")
-            key = f"{short}.{name}" if short else name
+            key = _key(modname, name)
             old = found.get(id(obj))
             if old is None or old[0].count(".") < key.count("."):
                 found[id(obj)] = (key, obj)
+    for key, obj in documented_callables().items():
+        found.setdefault(id(obj), (key, obj))  # a name also exported by a package keeps its key
     return dict(sorted(found.values(), key=lambda kv: kv[0]))
+
+
+def _key(modname: str, name: str) -> str:
+    short = modname.removeprefix("velfence").removeprefix(".apps").lstrip(".")
+    return f"{short}.{name}" if short else name
+
+
+def documented_callables() -> dict[str, Any]:
+    """Canonical name -> object of every callable the documentation and the examples import
+    (:func:`documented_imports`), keyed by the module they import it from.
+
+    Modules whose optional dependency is missing are recorded in :data:`UNAVAILABLE`, the CLI
+    module (:data:`SKIP_MODULES`) is attacked through its command line (test_cli_hostile.py).
+    """
+    out: dict[str, Any] = {}
+    for modname, names in sorted(documented_imports().items()):
+        if modname in SKIP_MODULES:
+            continue
+        try:
+            mod = importlib.import_module(modname)
+        except ModuleNotFoundError as exc:
+            if not _optional(exc):
+                raise
+            UNAVAILABLE[modname] = str(exc.name)
+            continue
+        wanted = set(getattr(mod, "__all__", ())) if "*" in names else names - {"*"}
+        for name in sorted(wanted):
+            obj = getattr(mod, name)  # a documented name that does not exist: AttributeError
+            if inspect.ismodule(obj) or _skipped_by_type(obj):
+                continue
+            out[_key(modname, name)] = obj
+    return out
 
 
 def is_protocol(cls: type) -> bool:
@@ -656,6 +732,7 @@ SPEC_MODULES = (
     "specs_bridge_zones",
     "specs_io_zones",
     "specs_arm",
+    "specs_documented",
 )
 
 

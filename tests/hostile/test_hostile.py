@@ -12,6 +12,7 @@ import json
 import re
 from typing import Any
 
+import harness
 import pytest
 from harness import (
     UNAVAILABLE,
@@ -19,6 +20,8 @@ from harness import (
     attack,
     attack_many,
     available,
+    documented_callables,
+    documented_imports,
     public_callables,
     public_methods,
     registry,
@@ -39,8 +42,49 @@ def test_catalogue_has_at_least_80_kinds() -> None:
 
 
 def test_every_public_callable_has_a_spec() -> None:
-    """A new public name (function, class, public method) must be added to a specs_*.py file."""
+    """A new public name (function, class, public method) must be added to a specs_*.py file,
+    and so must a name that README.md, docs/ or examples/ import from a module path."""
     assert not MISSING, "public names without a hostile spec:\n  " + "\n  ".join(MISSING)
+    enumerated = {id(o) for o in public_callables().values()}
+    reg = registry()
+    unspecified = [
+        key
+        for key, obj in documented_callables().items()
+        if id(obj) not in enumerated or not any(public_callables().get(k) is obj for k in reg)
+    ]
+    assert not unspecified, "documented imports without a hostile spec: " + str(unspecified)
+
+
+def test_documented_imports_are_found() -> None:
+    """The scan of the documentation finds the module paths users import from (a scan that found
+    nothing would make the check above pass vacuously)."""
+    imports = documented_imports()
+    assert {"run", "jerk_table", "plot_jerk"} <= imports["velfence.apps.scenarios.jerk"]
+    assert "plot_collision_fit" in imports["velfence.apps.viz.collision"]
+    assert "serve_web" in imports["velfence.apps.viewer.web"]
+    assert "*" in imports["velfence"]  # ``import velfence``
+    keys = set(public_callables())
+    assert {
+        "scenarios.jerk.run",
+        "viz.collision.plot_collision_fit",
+        "viewer.web.serve_web",
+    } <= keys
+    # a name exported by its package keeps the package's key (and its spec)
+    assert "geometry.ConvexPolytope" in keys
+    assert "geometry.polytope.ConvexPolytope" not in keys
+
+
+def test_a_documented_import_without_spec_is_reported(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Planted: a page importing a name no spec covers makes the name missing."""
+    page = ("docs/planted.md", "from velfence.apps.scenarios.jerk import JerkRow, run\n")
+    monkeypatch.setattr(harness, "documented_sources", lambda: [page])
+    _, missing = targets()
+    assert "scenarios.jerk.JerkRow" in missing
+    assert "scenarios.jerk.run" not in missing
+    # without the page, jerk's names would not be public: the registry's entry is then unused
+    monkeypatch.setattr(harness, "documented_sources", lambda: [])
+    _, missing = targets()
+    assert "scenarios.jerk.run (registered but not public)" in missing
 
 
 @pytest.fixture(scope="session")

@@ -671,25 +671,32 @@ def study(
     from velfence.apps.teleop.study import assisted_run, run_study
     from velfence.apps.viz.study import animate_run, write_study
 
+    if out.exists() and not out.is_dir():  # refused before minutes of runs, not after
+        raise _fail(f"--out {out} exists and is not a folder")
     n_runs = subjects * runs * 2
     plan = [("pick-and-place runs", 5.0 * n_runs), ("study files", 3.0)]
     if animation:
         plan += [("assisted run", 6.0), ("assisted_run.gif", 10.0)]
-    with _tracker("velfence study", plan, quiet):
-        with progress.stage("pick-and-place runs") as report_runs:
-            result = run_study(
-                subjects,
-                runs,
-                seed,
-                progress=lambda done, n: report_runs(done, n, f"run {done}/{n}"),
-            )
-        with progress.stage("study files"):
-            artifacts = [str(p) for p in write_study(result, out)]
-        if animation:
-            with progress.stage("assisted run"):
-                run = assisted_run(seed=seed)
-            with progress.stage("assisted_run.gif"):
-                artifacts.append(str(animate_run(run, out / "assisted_run.gif")))
+    try:  # run_study checks the counts and the seed before any run: a bad one exits 2 at once
+        with _tracker("velfence study", plan, quiet):
+            with progress.stage("pick-and-place runs") as report_runs:
+                result = run_study(
+                    subjects,
+                    runs,
+                    seed,
+                    progress=lambda done, n: report_runs(done, n, f"run {done}/{n}"),
+                )
+            with progress.stage("study files"):
+                artifacts = [str(p) for p in write_study(result, out)]
+            if animation:
+                with progress.stage("assisted run"):
+                    run = assisted_run(seed=seed)
+                with progress.stage("assisted_run.gif"):
+                    artifacts.append(str(animate_run(run, out / "assisted_run.gif")))
+    except VelfenceError as exc:
+        raise _fail(str(exc)) from None
+    except OSError as exc:
+        raise _fail(f"cannot write to {out}: {exc.strerror or exc}") from None
     summary = result.summary()
     verdict = (
         f"study: {summary['subjects_faster_assisted']}/{subjects} subjects faster with "
@@ -770,6 +777,7 @@ def replay(
     storage: Annotated[
         str | None, typer.Option(help="mcap or sqlite3 (default: the input's storage).")
     ] = None,
+    quiet: QuietOption = False,
 ) -> None:
     """Shape bags' recorded commands with a configured shaper; write new bags (+ figures).
 
@@ -784,7 +792,7 @@ def replay(
     if len(bags) == 1:
         plan = [("shaping", 10.0)] + ([("figure", 2.0)] if plot is not None else [])
         try:
-            with _tracker(f"velfence replay {bags[0].name}", plan, False):
+            with _tracker(f"velfence replay {bags[0].name}", plan, quiet):
                 with progress.stage("shaping") as report_shaping:
                     s = run_replay(
                         bags[0],
@@ -804,10 +812,13 @@ def replay(
             raise _fail(str(exc)) from None
         console = _stdout_console(highlight=False)
         _print_replay(console, s)
-        if plot is not None:
-            console.print(f"  wrote {escape(str(plot))}")
+        verdict = (
+            f"summary: {s.commands} commands replayed, {s.changed} changed, {s.zeroed} written "
+            "as zero — exit 0"
+        )
+        _summary(console, None, [s.out, *([plot] if plot is not None else [])], verdict)
         return
-    _replay_many(bags, config, out, plot, storage)
+    _replay_many(bags, config, out, plot, storage, quiet)
 
 
 def _print_replay(console: Console, s: Any) -> None:
@@ -846,7 +857,12 @@ def _bag_weight(bag: Path) -> float:
 
 
 def _replay_many(
-    bags: list[Path], config: Path, out: Path, plot: Path | None, storage: str | None
+    bags: list[Path],
+    config: Path,
+    out: Path,
+    plot: Path | None,
+    storage: str | None,
+    quiet: bool,
 ) -> None:
     """``velfence replay IN IN ...``: each bag to OUT/<name>, one table, the largest exit code."""
     from rich.table import Table
@@ -874,7 +890,7 @@ def _replay_many(
     out.mkdir(parents=True, exist_ok=True)
     if plot is not None:
         plot.mkdir(parents=True, exist_ok=True)
-    with _tracker(f"velfence replay {len(bags)} bags", plan, False):
+    with _tracker(f"velfence replay {len(bags)} bags", plan, quiet):
         for (stage, _), bag, name in zip(plan, bags, names, strict=True):
             with progress.stage(stage) as report:
                 try:

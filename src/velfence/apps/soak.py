@@ -30,7 +30,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from velfence._typing import FloatArray
-from velfence._validate import check_positive, check_positive_int, check_seed, check_text
+from velfence._validate import (
+    check_positive,
+    check_positive_int,
+    check_seed,
+    check_text,
+    describe,
+)
 from velfence.errors import InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon
 
@@ -132,6 +138,7 @@ def run_case(
     hold_steps: int = 100,
     tol: float = 1e-9,
     seed: int = 0,
+    on_progress: Callable[[float, float, str], None] | None = None,
 ) -> SoakResult:
     """Run one containment campaign.
 
@@ -146,6 +153,8 @@ def run_case(
         hold_steps: Steps a wandering command is held before a new one is drawn.
         tol: Penetration below which a step does not count as an escape [state units].
         seed: Seed of the random generator (campaigns are reproducible).
+        on_progress: Called now and then as ``on_progress(steps_done, steps, what)`` (a
+            command passes :func:`velfence.apps.progress.update`); None: silent.
 
     Returns:
         The campaign's :class:`SoakResult`.
@@ -153,7 +162,7 @@ def run_case(
     Raises:
         InvalidParameter: ``case`` not a :class:`SoakCase`, ``seed`` not an int in [0, 2⁶³),
             counts not positive ints (or above 10⁸ steps in total), fractions
-            outside [0, 1], ``tol`` negative.
+            outside [0, 1], ``tol`` negative, ``on_progress`` not callable.
     """
     if not isinstance(case, SoakCase):
         raise InvalidParameter(
@@ -169,6 +178,11 @@ def run_case(
         f = check_positive(name, frac, allow_zero=True)
         if f > 1.0:
             raise InvalidParameter(f"{name} must be in [0, 1], got {f}")
+    if on_progress is not None and (not callable(on_progress) or isinstance(on_progress, type)):
+        raise InvalidParameter(
+            f"on_progress: expected a function (done, total, what) or None, got "
+            f"{describe(on_progress)}"
+        )
     rng = np.random.default_rng(check_seed("seed", seed))
     outside = rng.random(n) < outside_fraction
     X = case.sample(rng, n, outside)
@@ -188,8 +202,11 @@ def run_case(
     case.step(X, Vw)  # warm-up (compilation, caches) outside the timed loop
     if case.reset is not None:
         case.reset()
+    every = max(1, k // 200)  # about 200 progress reports per case
     t0 = time.perf_counter()
     for step in range(k):
+        if on_progress is not None and step % every == 0:
+            on_progress(step, k, f"{case.name}: step {step:,}/{k:,}")
         if step % hold == 0:
             Vw = _random_velocities(rng, n, case.dim, case.max_speed)
         V = Vw.copy()
@@ -491,9 +508,16 @@ def stop_cases(*, episodes: int) -> list[SoakCase]:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """``python -m velfence.apps.soak``: run the standard campaigns, print and write the table."""
+    """``python -m velfence.apps.soak``: run the standard campaigns, print and write the table.
+
+    Progress goes to stderr through :mod:`velfence.apps.progress` (a live line with the ETA on
+    a terminal, one line per finished case otherwise; ``--quiet``: neither); stdout gets one
+    result line per case, then the closing summary (the file written and the verdict).
+    """
     import argparse
     from pathlib import Path
+
+    from velfence.apps import progress
 
     ap = argparse.ArgumentParser(prog="python -m velfence.apps.soak", description=__doc__)
     ap.add_argument("--steps", type=int, default=1_000_000, help="closed-loop steps per case")
@@ -502,19 +526,28 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--out", type=Path, default=None, help="Markdown file to write")
+    ap.add_argument(
+        "--quiet", "-q", action="store_true", help="no progress on stderr (results only)"
+    )
     args = ap.parse_args(argv)
     per = max(1, min(args.episode_steps, args.steps))
     episodes = max(1, args.steps // per)
     cases = polygon_cases(episodes=episodes, seed=args.seed) + stop_cases(episodes=episodes)
     results = []
-    for c in cases:
-        r = run_case(c, episodes=episodes, steps_per_episode=per, seed=args.seed)
-        print(
-            f"{r.name}: {r.steps:,} steps, escapes {r.escapes}, max penetration "
-            f"{r.max_penetration:.3g}, recovered {r.recovered}/{r.outside_episodes}, "
-            f"accel. gave way {r.flagged}, {r.steps_per_second:,.0f} steps/s"
-        )
-        results.append(r)
+    # every case runs the same number of steps: equal weights
+    with progress.Tracker([(c.name, 1.0) for c in cases], title="soak", quiet=args.quiet):
+        for c in cases:
+            with progress.stage(c.name) as report:
+                r = run_case(
+                    c, episodes=episodes, steps_per_episode=per, seed=args.seed, on_progress=report
+                )
+            print(
+                f"{r.name}: {r.steps:,} steps, escapes {r.escapes}, max penetration "
+                f"{r.max_penetration:.3g}, recovered {r.recovered}/{r.outside_episodes}, "
+                f"accel. gave way {r.flagged}, {r.steps_per_second:,.0f} steps/s",
+                flush=True,
+            )
+            results.append(r)
     if args.out is not None:
         cmd = f"python -m velfence.apps.soak --steps {args.steps} --episode-steps {per}"
         old = args.out.read_text() if args.out.exists() else ""
@@ -523,12 +556,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     ok = all(r.escapes == 0 and r.nonfinite == 0 for r in required)
     failed = [r.name for r in required if r.escapes or r.nonfinite]
     documented = [r.name for r in results if r not in required and (r.escapes or r.nonfinite)]
-    print(
+    verdict = (
         f"soak: {len(required) - len(failed)}/{len(required)} required cases contained "
         f"(no escape, no non-finite output); escapes in {len(documented)} not-required "
         "case(s), documented (the faithful patent law's corner leak, the law run without its "
         "dt); " + (f"FAILED: {', '.join(failed)}; exit 1" if failed else "exit 0: containment held")
     )
+    files = [] if args.out is None else [args.out]
+    for line in progress.summary(None, files, verdict):
+        print(line)
     return 0 if ok else 1
 
 

@@ -68,6 +68,8 @@ __all__ = [
 
 Rng = np.random.Generator
 Progress = Callable[[str], None]
+#: ``on_progress(done, total, what)``: the type of :data:`velfence.apps.progress.OnProgress`.
+OnProgress = Callable[[float, float, str], None]
 
 #: Relative round-off tolerance of every check (times a length scale).
 ROUND_OFF = 1e-12
@@ -119,6 +121,10 @@ Panda filter state whose next 1 ms step left
 the box by 3.56 mm / 0.52 mm, and `project_filter_rows.npz`, rows the projection once called
 infeasible, from an independent campaign).
 """
+
+
+#: Least time [s] between two ``on_progress`` reports of a campaign.
+TICK = 0.25
 
 
 def _quiet(_: str) -> None:
@@ -452,6 +458,7 @@ def run_vertex_campaign(
     shaper: ShaperFactory | None = None,
     seed: int = 0,
     progress: Progress = _quiet,
+    on_progress: OnProgress | None = None,
 ) -> list[VertexResult]:
     """Run the vertex and edge campaign (module docstring) on the shaper and the filter.
 
@@ -465,7 +472,9 @@ def run_vertex_campaign(
         shaper: ``factory(polytope, buffer, dt)`` building the shaper under test (default: the
             exact ``PolytopeShaper`` with ``dt``); the tests plant a broken one.
         seed: Seed of the random generator.
-        progress: Called with a line of progress now and then.
+        progress: Called with a line of progress now and then (every 10 s).
+        on_progress: Called about four times a second as ``on_progress(done, total, what)``
+            (states stepped; a command passes :func:`velfence.apps.progress.update`).
 
     Returns:
         One :class:`VertexResult` for the shaper and, with ``filter_states``, one for the filter.
@@ -498,6 +507,9 @@ def run_vertex_campaign(
         )
     _check_callable("shaper", shaper, optional=True)
     _check_callable("progress", progress)
+    _check_callable("on_progress", on_progress, optional=True)
+    if isinstance(on_progress, type):  # a class is callable, but not with (done, total, what)
+        raise InvalidParameter(f"on_progress: expected a function, got the class {on_progress}")
     make = shaper if shaper is not None else _exact_shaper
     rng = np.random.default_rng(check_seed("seed", seed))
     sh = _Tally(f"PolytopeShaper exact, dt = {dt:g} s" if shaper is None else "shaper under test")
@@ -507,6 +519,7 @@ def run_vertex_campaign(
     seen_f: list[int] = []
     done_f = 0
     next_report = time.perf_counter() + 10.0
+    next_tick = 0.0
     while sh.states < total or done_f < nf:
         dim = dl[polys % len(dl)]
         scale = float(10.0 ** rng.uniform(-1.0, 1.0))
@@ -537,6 +550,12 @@ def run_vertex_campaign(
             seen_f.append(dim)
             done_f += k
         now = time.perf_counter()
+        if on_progress is not None and now >= next_tick:
+            next_tick = now + TICK
+            on_progress(
+                sh.states + done_f, total + nf, f"shaper {sh.states:,}/{total:,} states, "
+                f"filter {done_f:,}/{nf:,}, {polys} polytopes",
+            )  # fmt: skip
         if now >= next_report:
             next_report = now + 10.0
             progress(
@@ -819,6 +838,7 @@ def run_loop_campaign(
     make_filter: FilterFactory | None = None,
     seed: int = 0,
     progress: Progress = _quiet,
+    on_progress: OnProgress | None = None,
 ) -> LoopResult:
     """Run the closed-loop filter soak (module docstring) on one robot at one rate.
 
@@ -833,7 +853,9 @@ def run_loop_campaign(
         make_filter: Builds the filter under test (default ``SafetyFilter``); the tests plant
             broken ones.
         seed: Seed of the random generator.
-        progress: Called with a line of progress now and then.
+        progress: Called with a line of progress now and then (every 10 s).
+        on_progress: Called about four times a second as ``on_progress(done, total, what)``
+            (closed-loop steps; a command passes :func:`velfence.apps.progress.update`).
 
     Returns:
         The campaign's :class:`LoopResult`.
@@ -851,6 +873,9 @@ def run_loop_campaign(
         raise InvalidParameter(f"resting_fraction must be in [0, 1], got {frac}")
     _check_callable("make_filter", make_filter, optional=True)
     _check_callable("progress", progress)
+    _check_callable("on_progress", on_progress, optional=True)
+    if isinstance(on_progress, type):  # a class is callable, but not with (done, total, what)
+        raise InvalidParameter(f"on_progress: expected a function, got the class {on_progress}")
     rng = np.random.default_rng(check_seed("seed", seed))
     model, vmax = _robot(robot)
     dt = 1.0 / rate
@@ -864,6 +889,7 @@ def run_loop_campaign(
     example: dict[str, Any] | None = None
     t0 = time.perf_counter()
     next_report = t0 + 10.0
+    next_tick = 0.0
     done = 0
     for e in range(episodes):
         ep = _episode(rng, model, vmax, dt, resting=bool(rng.random() < frac), make=make_filter)
@@ -936,6 +962,9 @@ def run_loop_campaign(
             q, p, d_ws, clear, previous = q1, p1, d1, c1, x
             done += 1
             now = time.perf_counter()
+            if on_progress is not None and now >= next_tick:
+                next_tick = now + TICK
+                on_progress(done, episodes * per, f"{robot} {rate:g} Hz: step {done:,}")
             if now >= next_report:
                 next_report = now + 10.0
                 progress(
@@ -1203,10 +1232,18 @@ def _revision() -> str:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """``python -m velfence.apps.soak_filter``: run both campaigns, print and write the section."""
+    """``python -m velfence.apps.soak_filter``: run both campaigns, print and write the section.
+
+    Progress goes to stderr through :mod:`velfence.apps.progress` (a live line with the ETA on
+    a terminal, one line per finished campaign and a heartbeat otherwise; ``--quiet``: neither);
+    stdout gets one result line per campaign, then the closing summary (the files written, the
+    first escapes saved with ``--examples``, and the verdict).
+    """
     import argparse
     import os
-    import sys
+    from pathlib import Path
+
+    from velfence.apps import progress
 
     ap = argparse.ArgumentParser(prog="python -m velfence.apps.soak_filter", description=__doc__)
     ap.add_argument("--vertex-states", type=int, default=1_000_000, help="shaper states")
@@ -1225,43 +1262,50 @@ def main(argv: Sequence[str] | None = None) -> int:
         default=None,
         help="directory to save each closed-loop case's first escape in (.npz)",
     )
+    ap.add_argument(
+        "--quiet", "-q", action="store_true", help="no progress on stderr (results only)"
+    )
     args = ap.parse_args(argv)
-
-    def say(line: str) -> None:
-        print(line, file=sys.stderr, flush=True)
-
-    vertex: list[VertexResult] = []
-    if args.vertex_states > 0:
-        vertex = run_vertex_campaign(
-            states=args.vertex_states,
-            filter_states=args.filter_states,
-            seed=args.seed,
-            progress=say,
-        )
-        for v in vertex:
-            print(
-                f"{v.name}: {v.states:,} states, escapes {v.escapes}, max escape "
-                f"{v.max_escape:.3g} ({v.max_escape_relative:.3g} of scale), non-finite "
-                f"{v.nonfinite}, exceptions {v.exceptions}, by kind {v.kinds}"
-            )
-    loops: list[LoopResult] = []
     rates = [float(r) for r in args.rates.split(",") if r.strip()]
     robots = [r.strip() for r in args.robots.split(",") if r.strip()]
     bad = [r for r in robots if r not in _ROBOTS]
     if bad:
         ap.error(f"--robots: expected names from {list(_ROBOTS)}, got {bad}")
-    cases = [(rb, rt) for rb in robots for rt in rates]
-    if args.steps > 0 and cases:
-        each = max(args.episode_steps, args.steps // len(cases))
+    cases = [(rb, rt) for rb in robots for rt in rates] if args.steps > 0 else []
+    each = max(args.episode_steps, args.steps // len(cases)) if cases else 0
+    # Weights: about the seconds of each stage (a filter cycle costs ~20 shaper states).
+    plan = [("vertex campaign", (args.vertex_states + 20 * args.filter_states) / 2e5)] * (
+        args.vertex_states > 0
+    ) + [(f"{_LABELS[rb]}, {rt:g} Hz", each / 5e3) for rb, rt in cases]
+    vertex: list[VertexResult] = []
+    loops: list[LoopResult] = []
+    written: list[Path] = []
+    with progress.Tracker(plan or [("nothing", 0.0)], title="soak_filter", quiet=args.quiet):
+        if args.vertex_states > 0:
+            with progress.stage("vertex campaign") as report:
+                vertex = run_vertex_campaign(
+                    states=args.vertex_states,
+                    filter_states=args.filter_states,
+                    seed=args.seed,
+                    on_progress=report,
+                )
+            for v in vertex:
+                print(
+                    f"{v.name}: {v.states:,} states, escapes {v.escapes}, max escape "
+                    f"{v.max_escape:.3g} ({v.max_escape_relative:.3g} of scale), non-finite "
+                    f"{v.nonfinite}, exceptions {v.exceptions}, by kind {v.kinds}",
+                    flush=True,
+                )
         for i, (rb, rt) in enumerate(cases):
-            r = run_loop_campaign(
-                rb,
-                rt,
-                steps=each,
-                episode_steps=args.episode_steps,
-                seed=args.seed + i,
-                progress=say,
-            )
+            with progress.stage(f"{_LABELS[rb]}, {rt:g} Hz") as report:
+                r = run_loop_campaign(
+                    rb,
+                    rt,
+                    steps=each,
+                    episode_steps=args.episode_steps,
+                    seed=args.seed + i,
+                    on_progress=report,
+                )
             print(
                 f"{r.name}: {r.steps:,} steps, {r.episodes} episodes ({r.resting} resting), "
                 f"ws escapes {r.workspace_escapes} (max {r.max_workspace_escape:.3g} m, depth "
@@ -1270,17 +1314,16 @@ def main(argv: Sequence[str] | None = None) -> int:
                 f"{r.joint_crossings}, penetrations "
                 f"{r.sphere_penetrations} (max {r.max_sphere_penetration:.3g} m), non-finite "
                 f"{r.nonfinite}, exceptions {r.exceptions} {r.exception_kinds}, deadline "
-                f"{r.deadline_fallbacks}, escape stages {r.escape_stages}"
+                f"{r.deadline_fallbacks}, escape stages {r.escape_stages}",
+                flush=True,
             )
             loops.append(r)
             if args.examples is not None and r.example is not None:
-                from pathlib import Path
-
                 folder = Path(args.examples)
                 folder.mkdir(parents=True, exist_ok=True)
                 path = folder / f"loop_{rb}_{rt:g}hz_seed{args.seed + i}.npz"
                 np.savez(path, **r.example)
-                print(f"  first escape saved to {path}")
+                written.append(path)
     if args.out is not None and (vertex or loops):
         cmd = (
             f"python -m velfence.apps.soak_filter --vertex-states {args.vertex_states} "
@@ -1295,10 +1338,16 @@ def main(argv: Sequence[str] | None = None) -> int:
             f"{load[2]:.2f}.\n"
         )
         write_section(args.out, render_markdown([*vertex, *loops], command=cmd, notes=notes))
+        written.insert(0, Path(args.out))
     ok = all(v.escapes == 0 and v.nonfinite == 0 and v.exceptions == 0 for v in vertex) and all(
         r.contained for r in loops
     )
-    print("soak_filter: " + ("contained, exit 0" if ok else "NOT contained, exit 1"))
+    verdict = (
+        f"soak_filter: {len(vertex) + len(loops)} campaign result(s) ({len(vertex)} vertex, "
+        f"{len(loops)} closed-loop); " + ("contained, exit 0" if ok else "NOT contained, exit 1")
+    )
+    for line in progress.summary(None, written, verdict):
+        print(line)
     return 0 if ok else 1
 
 

@@ -246,6 +246,11 @@ class JointLimits:
                 _sane(s, "min_position", abs(lo[j]), "rad")
                 _sane(s, "max_position", abs(hi[j]), "rad")
                 _sane(s, "max_position - min_position", hi[j] - lo[j], "rad")
+                if not hi[j] > lo[j]:  # named by joint here; JointLimits would say "upper[j]"
+                    raise InvalidParameter(
+                        f"joint_limits.{s}: expected max_position > min_position [rad] (upper > "
+                        f"lower), got max_position {hi[j]:g} <= min_position {lo[j]:g}"
+                    )
             if not _used(entry, s, "velocity", ("max_velocity",)):
                 raise InvalidParameter(
                     f"joint_limits.{s}: no usable velocity limit (has_velocity_limits "

@@ -488,6 +488,12 @@ def load_ur_safety_planes(
         )
     if bounds is None and "bounds" in data:
         bounds = _mapping(f"safety planes file {p}: bounds", data["bounds"])
+    listed = data["safety_planes"]
+    if not isinstance(listed, list):  # named by the file's key, not ur_safety_planes' argument
+        raise InvalidParameter(
+            f"safety planes file {p}: safety_planes: expected a list of plane mappings, got "
+            f"{_type(listed)}"
+        )
     try:
         return ur_safety_planes(data["safety_planes"], bounds=bounds, safety_mode=safety_mode)
     except (InvalidParameter, InvalidGeometry) as exc:

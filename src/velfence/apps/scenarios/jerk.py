@@ -31,7 +31,13 @@ from typing import Any
 import numpy as np
 
 from velfence._typing import FloatArray
-from velfence._validate import check_output_path, check_positive
+from velfence._validate import (
+    check_choice,
+    check_flag,
+    check_output_path,
+    check_positive,
+    describe,
+)
 from velfence.errors import InvalidParameter
 
 __all__ = ["METHODS", "JerkRow", "JerkRun", "jerk_table", "plot_jerk", "run"]
@@ -142,8 +148,21 @@ def run(
         The runs, by method, in the order given.
 
     Raises:
-        InvalidParameter: a bad speed or duration, or an unknown method.
+        InvalidParameter: a bad speed, duration, ``push`` or ``on_step``, or ``methods`` not a
+            non-empty sequence of :data:`METHODS` names.
     """
+    sp = check_positive("speed", speed, unit="m/s")
+    if duration is not None:
+        check_positive("duration", duration, unit="s")
+    if isinstance(methods, (str, bytes)) or not isinstance(methods, Sequence) or not methods:
+        raise InvalidParameter(
+            f"methods: expected a non-empty sequence of names from {list(METHODS)}, got "
+            f"{describe(methods)}"
+        )
+    methods = [check_choice("methods", m, METHODS) for m in methods]
+    push = check_flag("push", push)
+    if on_step is not None and not callable(on_step):
+        raise InvalidParameter(f"on_step: expected a function or None, got {describe(on_step)}")
     from velfence.apps.scenarios.common import TcpJog
     from velfence.apps.scenarios.fence_box import (
         BANDWIDTH,
@@ -169,10 +188,6 @@ def run(
     from velfence.sim.physics import BodyPush, MujocoPlant
     from velfence.sim.runner import simulate
 
-    sp = check_positive("speed", speed, unit="m/s")
-    unknown = [m for m in methods if m not in METHODS]
-    if unknown or not methods:
-        raise InvalidParameter(f"methods: expected some of {list(METHODS)}, got {list(methods)}")
     robot = panda(radius=0.05)
     box = ConvexPolytope.box(np.array(BOX_LOWER), np.array(BOX_UPPER))
     q0 = np.array(Q0)
@@ -247,10 +262,30 @@ def run(
     return out
 
 
-def jerk_table(runs: dict[str, JerkRun]) -> list[JerkRow]:
-    """Max jerk, flagged cycles and containment of each run (:class:`JerkRow`)."""
-    rows = []
+def _check_runs(runs: Any) -> dict[str, JerkRun]:
+    """``runs`` as :func:`run` returns them: a non-empty dict of name -> :class:`JerkRun`."""
+    if not isinstance(runs, dict) or not runs:
+        raise InvalidParameter(
+            f"runs: expected a non-empty dict of method name -> JerkRun (jerk.run), got "
+            f"{describe(runs)}"
+        )
     for name, r in runs.items():
+        if not isinstance(name, str) or not isinstance(r, JerkRun):
+            raise InvalidParameter(
+                f"runs: expected method name -> JerkRun (jerk.run), got {describe(name)} -> "
+                f"{describe(r)}"
+            )
+    return runs
+
+
+def jerk_table(runs: dict[str, JerkRun]) -> list[JerkRow]:
+    """Max jerk, flagged cycles and containment of each run (:class:`JerkRow`).
+
+    Raises:
+        InvalidParameter: ``runs`` not a non-empty dict of name -> :class:`JerkRun`.
+    """
+    rows = []
+    for name, r in _check_runs(runs).items():
         worst = r.ratio.max(axis=1)
         free = worst[~r.flagged]
         row = JerkRow(
@@ -280,13 +315,17 @@ def plot_jerk(runs: dict[str, JerkRun], path: Path | str) -> Path:
 
     Returns:
         ``path``.
+
+    Raises:
+        InvalidParameter: bad ``runs`` (as :func:`jerk_table`) or ``path``.
     """
+    runs = _check_runs(runs)
+    out = check_output_path("path", path)
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    out = check_output_path("path", path)
     k = len(runs)
     fig, axes = plt.subplots(
         k, 1, figsize=(11, 2.6 * k + 1.0), sharex=True, squeeze=False, layout="constrained"

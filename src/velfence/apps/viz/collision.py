@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from velfence._typing import FloatArray
-from velfence._validate import check_output_path, real_array
+from velfence._validate import check_output_path, check_text, describe, real_array
 from velfence.apps.viz.plots import save_figure
 from velfence.errors import InvalidInput
 from velfence.robots import CollisionFit, LinkRadii, MujocoRobot
@@ -112,13 +112,23 @@ def plot_collision_fit(
     """
     if not isinstance(fit, CollisionFit):
         raise InvalidInput(f"fit: expected a CollisionFit, got {type(fit).__name__}")
-    out = check_output_path("path", path)
     src = fit.robot
     qq = (
         np.array(src.model.qpos0, dtype=float)
         if q is None
         else real_array("q", q, (src.dof,), what="joint positions [rad]")
     )
+    if links is not None and not (
+        isinstance(links, tuple)
+        and len(links) == 2
+        and isinstance(links[0], MujocoRobot)
+        and isinstance(links[1], LinkRadii)
+    ):
+        raise InvalidInput(
+            f"links: expected (MujocoRobot, LinkRadii) or None, got {describe(links)}"
+        )
+    title = check_text("title", title)
+    out = check_output_path("path", path)
     poses = _world(src, qq)
     fig = plt.figure(figsize=(7.0, 7.0))
     ax: Any = fig.add_subplot(projection="3d")
@@ -144,8 +154,6 @@ def plot_collision_fit(
         pts_all.append(pts)
     if links is not None:
         robot, radii = links
-        if not isinstance(robot, MujocoRobot) or not isinstance(radii, LinkRadii):
-            raise InvalidInput("links: expected (MujocoRobot, LinkRadii)")
         names = {n: j for j, n in enumerate(src.joint_names)}
         qt = np.array([qq[names[n]] if n in names else 0.0 for n in robot.joint_names])
         seg = robot.link_segments(qt)
