@@ -120,7 +120,7 @@ def test_c_cycle_self_collision_equals_the_python_oracle() -> None:
 @pytest.mark.slow
 def test_c_cycle_self_collision_equals_the_python_oracle_many() -> None:
     rng = np.random.default_rng(11)
-    for _ in range(2000):
+    for _ in range(600):
         _check(_scene(rng))
 
 

@@ -85,8 +85,17 @@ def libfuzzer(tmp_path_factory: pytest.TempPathFactory) -> None:
 
 @pytest.fixture(scope="module")
 def targets(libfuzzer: None, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The seven targets' default build, once for the module."""
     out = tmp_path_factory.mktemp("libfuzzer") / "build"
     _build(out)
+    return out
+
+
+@pytest.fixture(scope="module")
+def tampered(libfuzzer: None, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The seven targets built with ``--control-tamper`` (every OK result spoiled), once."""
+    out = tmp_path_factory.mktemp("libfuzzer") / "tamper"
+    _build(out, "exact patent nd cc rr filter filter_cycle", "--control-tamper")
     return out
 
 
@@ -190,17 +199,14 @@ def test_every_finding_maps_to_a_target(tmp_path: Path) -> None:
     assert unmapped == ["fuzzy-d"]
 
 
-@pytest.mark.slow  # builds every target that has a finding
-def test_every_former_finding_runs_clean_through_its_target(
-    libfuzzer: None, tmp_path: Path
-) -> None:
+@pytest.mark.slow  # every file of core/fuzz/crashes through the module's build
+def test_every_former_finding_runs_clean_through_its_target(targets: Path) -> None:
     """Every file of core/fuzz/crashes/ (exact-*, patent-*, nd-*, cc-*, rr-*, filter-*,
     filter_cycle-*) runs once through the default build of its target and exits cleanly."""
     grouped, unmapped = findings_by_target(FUZZ / "crashes")
     assert unmapped == []
-    _build(tmp_path / "build", " ".join(sorted(grouped)))
     for target, inputs in sorted(grouped.items()):
-        _runs_clean(tmp_path / "build" / f"fuzz_{target}", inputs)
+        _runs_clean(targets / f"fuzz_{target}", inputs)
 
 
 def _known_defect_input() -> bytes:
@@ -236,7 +242,7 @@ def _tampered_run(exe: Path, target: str) -> str:
 
 
 def test_former_findings_run_clean_and_a_spoiled_result_aborts(
-    libfuzzer: None, tmp_path: Path
+    targets: Path, tampered: Path, tmp_path: Path
 ) -> None:
     """Every input the fuzzers ever reported (core/fuzz/crashes/: -inf d1/d2 under VF_OK, fixed
     by refusing with VF_ERR_OVERFLOW; a bound missed by 5e-13 without the relaxed flag, fixed by
@@ -247,17 +253,15 @@ def test_former_findings_run_clean_and_a_spoiled_result_aborts(
     unit.write_bytes(_known_defect_input())
     found = sorted(str(f) for f in (FUZZ / "crashes").glob("exact-*"))
     assert len(found) >= 3
-    _build(tmp_path / "build", "exact")
-    _build(tmp_path / "tamper", "exact", "--control-tamper")
-    _runs_clean(tmp_path / "build" / "fuzz_exact", [str(unit), *found])
-    bad = _tampered_run(tmp_path / "tamper" / "fuzz_exact", "exact")
+    _runs_clean(targets / "fuzz_exact", [str(unit), *found])
+    bad = _tampered_run(tampered / "fuzz_exact", "exact")
     assert "contract violated (exact law)" in bad
     assert re.search(r"result: rc=0 ox=nan ", bad), bad[-3000:]
     assert "polygon n=" in bad  # the decoded input
 
 
 def test_nd_and_cc_findings_run_clean_and_a_spoiled_result_aborts(
-    libfuzzer: None, tmp_path: Path
+    targets: Path, tampered: Path
 ) -> None:
     """The n-D and configuration-control findings (core/fuzz/crashes/nd-*: an error without the
     stop result, +inf distances under VF_ND_OK, a batch that wrote before its NULL code, OPTIMAL
@@ -269,20 +273,18 @@ def test_nd_and_cc_findings_run_clean_and_a_spoiled_result_aborts(
     found_cc = sorted(str(f) for f in (FUZZ / "crashes").glob("cc-*"))
     assert len(found) >= 4
     assert len(found_cc) >= 1
-    _build(tmp_path / "build", "nd cc")
-    _build(tmp_path / "tamper", "nd cc", "--control-tamper")
-    _runs_clean(tmp_path / "build" / "fuzz_nd", found)
-    _runs_clean(tmp_path / "build" / "fuzz_cc", found_cc)
+    _runs_clean(targets / "fuzz_nd", found)
+    _runs_clean(targets / "fuzz_cc", found_cc)
     for target, banner, decoded in (
         ("nd", "contract violated (n-D law): VF_ND_OK with a non-finite velocity", "polytope nf="),
         ("cc", "velfence_cc contract violated: VF_CC_OK with a non-finite double", "problem n="),
     ):
-        bad = _tampered_run(tmp_path / "tamper" / f"fuzz_{target}", target)
+        bad = _tampered_run(tampered / f"fuzz_{target}", target)
         assert banner in bad, bad[-3000:]
         assert decoded in bad  # the decoded input
 
 
-def test_rr_findings_run_clean_and_a_spoiled_result_aborts(libfuzzer: None, tmp_path: Path) -> None:
+def test_rr_findings_run_clean_and_a_spoiled_result_aborts(targets: Path, tampered: Path) -> None:
     """The resolved-rate findings (core/fuzz/crashes/rr-*: a capped joint rate one ulp above
     max_speed, VF_OK (then VF_RR_OK) with det J = inf, a cap factor that underflows to 0 where the
     header promised (0, 1]; fixed in the kernel, the kernel and the header) run clean through
@@ -291,33 +293,27 @@ def test_rr_findings_run_clean_and_a_spoiled_result_aborts(libfuzzer: None, tmp_
     printing the decoded input."""
     found = sorted(str(f) for f in (FUZZ / "crashes").glob("rr-*"))
     assert len(found) >= 3
-    _build(tmp_path / "build", "rr")
-    _build(tmp_path / "tamper", "rr", "--control-tamper")
-    _runs_clean(tmp_path / "build" / "fuzz_rr", found)
-    bad = _tampered_run(tmp_path / "tamper" / "fuzz_rr", "rr")
+    _runs_clean(targets / "fuzz_rr", found)
+    bad = _tampered_run(tampered / "fuzz_rr", "rr")
     assert "velfence_rr contract violated: VF_OK with a non-finite double" in bad
     assert "arm (a, cos alpha, sin alpha, d, offset):" in bad  # the decoded input
 
 
-def test_filter_seeds_run_clean_and_a_spoiled_result_aborts(
-    libfuzzer: None, tmp_path: Path
-) -> None:
+def test_filter_seeds_run_clean_and_a_spoiled_result_aborts(targets: Path, tampered: Path) -> None:
     """The safety filter's row helpers: fuzz_filter runs clean on its seeds (and on any former
     finding, core/fuzz/crashes/filter-*); built with --control-tamper (the first bound of every
     structured call spoiled with a NaN) it aborts on its seeds, printing the decoded input."""
     found = sorted(str(f) for f in (FUZZ / "crashes").glob("filter-*"))
     seeds = sorted(str(f) for f in (FUZZ / "corpus" / "filter").iterdir())
     assert len(seeds) >= 4
-    _build(tmp_path / "build", "filter")
-    _build(tmp_path / "tamper", "filter", "--control-tamper")
-    _runs_clean(tmp_path / "build" / "fuzz_filter", seeds + found)
-    bad = _tampered_run(tmp_path / "tamper" / "fuzz_filter", "filter")
+    _runs_clean(targets / "fuzz_filter", seeds + found)
+    bad = _tampered_run(tampered / "fuzz_filter", "filter")
     assert "velfence_nd filter contract violated: a bound that is not finite" in bad
     assert "dh (a, cos alpha, sin alpha, d, offset):" in bad  # the decoded input
 
 
 def test_filter_cycle_findings_run_clean_and_a_spoiled_result_aborts(
-    libfuzzer: None, tmp_path: Path
+    targets: Path, tampered: Path
 ) -> None:
     """The whole filter cycle: fuzz_filter_cycle runs clean on its seeds and on its findings
     (core/fuzz/crashes/filter_cycle-*: a far-off kernel answer repaired into a 3e12 joint speed;
@@ -328,9 +324,7 @@ def test_filter_cycle_findings_run_clean_and_a_spoiled_result_aborts(
     seeds = sorted(str(f) for f in (FUZZ / "corpus" / "filter_cycle").iterdir())
     assert len(found) >= 2
     assert len(seeds) >= 4
-    _build(tmp_path / "build", "filter_cycle")
-    _build(tmp_path / "tamper", "filter_cycle", "--control-tamper")
-    _runs_clean(tmp_path / "build" / "fuzz_filter_cycle", seeds + found)
-    bad = _tampered_run(tmp_path / "tamper" / "fuzz_filter_cycle", "filter_cycle")
+    _runs_clean(targets / "fuzz_filter_cycle", seeds + found)
+    bad = _tampered_run(tampered / "fuzz_filter_cycle", "filter_cycle")
     assert "contract violated: non-finite output" in bad, bad[-3000:]
     assert "previous:" in bad or "u:" in bad  # the decoded input
