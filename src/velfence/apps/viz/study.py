@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import math
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -111,9 +112,9 @@ def plot_paths(
         ax.set_zlabel("z [m]", fontsize=8)
         if s == 0:
             ax.legend(fontsize=6, loc="upper left")
-    fig.suptitle(
-        "End-effector (wrist-centre) paths, pick-and-place (cf. thesis Fig. 74)", fontsize=10
-    )
+    # Wrapped to the figure's width (one column for a single subject).
+    heading = "End-effector (wrist-centre) paths, pick-and-place (cf. thesis Fig. 74)"
+    fig.suptitle(textwrap.fill(heading, int(12 * 3.8 * cols)), fontsize=10)
     return save_figure(fig, out, dpi=100)
 
 

@@ -510,7 +510,7 @@ def _legend(
     ]
     if any(s.get("gripper") for s in snapshots):
         entries.append(line("gripper", "#707070", lw=4))
-    lasers = [s.get("laser") for s in snapshots if s.get("laser")]
+    lasers: list[Mapping[str, Any]] = [s["laser"] for s in snapshots if s.get("laser")]
     if any(la.get("point") is not None for la in lasers):
         entries += [
             line("laser beam", _LASER, lw=1.6),
