@@ -87,7 +87,8 @@ def plot_fig5(
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.set_title("Following the unit circle from (1.2, 0), heading +y (cf. Fig. 5)")
-    ax.legend(loc="lower left", fontsize=8)
+    # Inside the circle, below its centre: the legend covers no part of the path.
+    ax.legend(loc="upper center", bbox_to_anchor=(0.45, 0.46), fontsize=8)
     return save_figure(fig, out)
 
 
