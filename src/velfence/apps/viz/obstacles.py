@@ -130,7 +130,7 @@ def _arm(
 ) -> None:
     """The arm at sample ``k`` and the critical points of its active rows (red).
 
-    ``label``: name both in the legend (once per panel).
+    ``label``: name the arm in the legend; the first critical point of a panel is named.
     """
     pts = np.asarray(run.chain.joint_positions(run.q[k]))[:, list(axes)]
     ax.plot(
@@ -140,7 +140,7 @@ def _arm(
     res = run.results[k]
     for o in res.active:
         c = res.critical_points[o][list(axes)]
-        named = label and not any(ln.get_label() == _CRITICAL for ln in ax.lines)
+        named = not any(ln.get_label() == _CRITICAL for ln in ax.lines)  # once per panel
         ax.plot(
             c[0], c[1], "o", color="r", ms=4, zorder=3, label=_CRITICAL if named else "_nolegend_"
         )
@@ -209,7 +209,7 @@ def plot_clearance(runs: Sequence[ArmRun], path: str | Path) -> Path:
         d = r.distances - r.rho
         for o in range(d.shape[1]):
             top.plot(r.t, d[:, o], color=f"C{o + 3}", lw=1.0, label=f"obstacle {o}")
-        top.axhline(0.0, color="k", lw=0.8, label="edge of the sphere (d = ρ)")
+        top.axhline(0.0, color="k", lw=0.8, label="edge of the sphere of influence (d = ρ)")
         # Linear near contact (|d − ρ| < 0.1 m, where the fence acts), logarithmic above, so the
         # approach from afar stays in view. Never clip a penetration: the lower limit follows
         # the deepest point, the upper one the farthest.
