@@ -87,6 +87,8 @@ def record_figures(monkeypatch: pytest.MonkeyPatch) -> Iterator[dict[str, Figure
     def savefig(self: Figure, fname: Any, *args: Any, **kwargs: Any) -> Any:
         if isinstance(fname, (str, Path)):
             figures.setdefault(Path(fname).name, self)
+            if isinstance(kwargs.get("dpi"), (int, float)):
+                figures.dpi.setdefault(Path(fname).name, float(kwargs["dpi"]))
             return original(self, fname, *args, **kwargs)
         figures.setdefault(f"frame-of-{id(self)}", self)
         out = original(self, fname, *args, **kwargs)
@@ -109,11 +111,14 @@ class Recorded(dict[str, Figure]):
 
     Attributes:
         animations: Animation file name -> the problems of each of its frames, in order.
+        dpi: File name -> the resolution it was written at (when given): the clipping check
+            draws the figure at it.
     """
 
     def __init__(self) -> None:
         super().__init__()
         self.animations: dict[str, list[list[str]]] = {}
+        self.dpi: dict[str, float] = {}
 
 
 def is_colorbar(ax: Any) -> bool:
@@ -370,7 +375,7 @@ def _texts(fig: Any) -> list[tuple[str, Text]]:
     return [(w, t) for w, t in out if t.get_visible() and t.get_text().strip()]
 
 
-def clipped(fig: Any, *, draw: bool = True) -> list[str]:
+def clipped(fig: Any, *, draw: bool = True, dpi: float | None = None) -> list[str]:
     """What the canvas cuts off, and which legend covers a title (empty when nothing).
 
     Draws the figure (``fig.canvas.draw()``) and compares the renderer's window extents of the
@@ -380,6 +385,13 @@ def clipped(fig: Any, *, draw: bool = True) -> list[str]:
     reads the layout of the last drawing (an animation frame just grabbed: the writer drew it).
     """
     canvas = _canvas(fig)
+    if dpi is not None and dpi != fig.dpi:  # as written: text and layout at the file's dpi
+        shown = fig.dpi
+        fig.set_dpi(dpi)
+        try:
+            return clipped(fig, draw=True)
+        finally:
+            fig.set_dpi(shown)
     if draw:
         canvas.draw()
     renderer = canvas.get_renderer()
@@ -482,13 +494,14 @@ def _bar_range(bar: Any, arts: list[ScalarMappable]) -> list[str]:
     return found
 
 
-def problems(name: str, fig: Figure, *, draw: bool = True) -> list[str]:
+def problems(name: str, fig: Figure, *, draw: bool = True, dpi: float | None = None) -> list[str]:
     """Everything that makes ``fig`` fail to explain itself (empty when it is fine).
 
     Args:
         name: How the messages name the figure (its file name).
         fig: The figure, before or after it is written.
         draw: Whether to draw it for the clipping check (``False``: it was just drawn).
+        dpi: The resolution to draw it at (the file's; default: the figure's own).
 
     Returns:
         One message per problem, naming the figure and the axes.
@@ -532,7 +545,7 @@ def problems(name: str, fig: Figure, *, draw: bool = True) -> list[str]:
         if not UNIT.search(label):
             found.append(f"{name} colour bar {k}: label {label!r} has no unit in brackets")
         found += [f"{name} colour bar {k}: {p}" for p in _bar_range(bar, on_bar.get(id(bar), []))]
-    found += [f"{name} {p}" for p in clipped(fig, draw=draw)]
+    found += [f"{name} {p}" for p in clipped(fig, draw=draw, dpi=dpi)]
     return found
 
 
@@ -549,8 +562,9 @@ def check_all(figures: dict[str, Figure], expected: set[str]) -> None:
     """Assert every ``expected`` figure was rendered, and that no recorded figure (all of them,
     not only the expected) nor a checked animation frame has a problem."""
     assert expected <= set(figures), f"not rendered: {sorted(expected - set(figures))}"
+    dpi = figures.dpi if isinstance(figures, Recorded) else {}
     found = [p for name in sorted(figures) if not name.startswith("frame-of-")
-             for p in problems(name, figures[name])]  # fmt: skip
+             for p in problems(name, figures[name], dpi=dpi.get(name))]  # fmt: skip
     if isinstance(figures, Recorded):
         found += frame_problems(figures)
     assert not found, "\n".join(found)
