@@ -94,7 +94,9 @@ def record_figures(monkeypatch: pytest.MonkeyPatch) -> Iterator[dict[str, Figure
         out = original(self, fname, *args, **kwargs)
         name = outfile.get(id(self), f"frame-of-{id(self)}")
         frames = figures.animations.setdefault(name, [])
-        frames.append(problems(f"{name} frame {len(frames)}", self, draw=False))
+        # The writer just drew the frame at its dpi: the layout is read at that dpi, not redrawn.
+        dpi = kwargs.get("dpi") if isinstance(kwargs.get("dpi"), (int, float)) else None
+        frames.append(problems(f"{name} frame {len(frames)}", self, draw=False, dpi=dpi))
         return out
 
     def setup_writer(self: Any, fig: Figure, path: Any, *args: Any, **kwargs: Any) -> Any:
@@ -382,14 +384,15 @@ def clipped(fig: Any, *, draw: bool = True, dpi: float | None = None) -> list[st
     suptitle, the figure-level axis labels, every axes' titles, x and y labels (a colour bar's
     label among them) and every legend with the figure's canvas, :data:`SLACK` pixels allowed.
     3-D axis labels are left out: their extents follow the view, not the layout. ``draw=False``
-    reads the layout of the last drawing (an animation frame just grabbed: the writer drew it).
+    reads the layout of the last drawing (an animation frame just grabbed: the writer drew it,
+    at ``dpi``: axis labels are placed in pixels).
     """
     canvas = _canvas(fig)
     if dpi is not None and dpi != fig.dpi:  # as written: text and layout at the file's dpi
         shown = fig.dpi
         fig.set_dpi(dpi)
         try:
-            return clipped(fig, draw=True)
+            return clipped(fig, draw=draw)
         finally:
             fig.set_dpi(shown)
     if draw:

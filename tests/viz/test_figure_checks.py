@@ -231,11 +231,12 @@ def test_demo_with_the_example_config(tmp_path: Path, recorded: Recorded) -> Non
     from velfence.io.config import load_config
 
     cfg = load_config(ROOT / "examples" / "demo-config.yaml")
-    cfg = cfg.model_copy(update={"duration": 5.0})
+    # No GIF here (it made this test take minutes): the built-in scenario's demo.gif is
+    # checked frame by frame in test_figure_style.py.
+    cfg = cfg.model_copy(update={"gif": False, "duration": 5.0})
     run_demo(config=cfg, out_dir=tmp_path)
     written = check_every(recorded, tmp_path)
-    assert {"workspace.png", "velocity.png", "quiver.png", "demo.gif"} <= written
-    assert len(recorded.animations["demo.gif"]) >= 3  # frames checked as they were grabbed
+    assert {"workspace.png", "velocity.png", "quiver.png"} <= written
     # Each path drawn in its own dash style, above the one before it: none hides another.
     ax = recorded["workspace.png"].axes[0]
     paths = [ln for ln in ax.lines if ln.get_label() in ("hard-stop", "patent", "exact")]

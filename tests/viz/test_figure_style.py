@@ -8,6 +8,9 @@ study's figures are rendered while ``Figure.savefig`` is recorded; then, for eac
 * every data axes has an x and a y label (and a z label in 3-D) with a unit in brackets;
 * every colour-mapped artist (a ScalarMappable with an array, not a fixed-colour contour band)
   has a colour bar on its norm;
+* every kind of artist an axes draws is explained by a legend, and nothing is cut off by the
+  canvas (the rules of ``figure_checks.py``; every figure in the output folder, and the first,
+  middle and last frame of each GIF);
 * the user's config in metres never shows "rad" or the wrist's title.
 """
 

@@ -183,7 +183,7 @@ def plot_calibration(path: Path, fit: VoltageModel, residual: FloatArray) -> Pat
     ax.set_title("DT60 calibration (Khokar 2009, §3.3.1)")
     ax.legend(loc="upper left")
     axr.axhline(0.0, color="0.6", lw=0.8, label="no error")
-    axr.plot(V, residual, "o-", ms=3, label="eq. (1) at the Table 1 voltages")
+    axr.plot(V, residual, "o-", ms=3, label="eq. (1) − Table 1, at its voltages")
     axr.legend(fontsize=7, loc="best")
     axr.set_xlabel("voltage [V]")
     axr.set_ylabel("eq. (1) − ref [cm]")
