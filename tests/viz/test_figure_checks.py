@@ -340,7 +340,7 @@ def test_wrist_reproduction(tmp_path: Path, recorded: Recorded) -> None:
 # --- heavy: the real runs ---------------------------------------------------------------------
 
 
-@pytest.mark.slow  # about 20 s: five controllers at one speed, and the GIF
+@pytest.mark.slow  # five controllers at one speed + the GIF (310 s on a busy shared machine)
 def test_arm_box_demo(tmp_path: Path, recorded: Recorded) -> None:
     from velfence.apps.demo import run_arm_demo
 
@@ -367,7 +367,7 @@ def _video_frames(path: Path) -> list[np.ndarray]:
     return [frames[0], frames[len(frames) // 2], frames[-1]]
 
 
-@pytest.mark.slow  # about 60 s: the three MuJoCo scenarios, each with its video at 64 x 48 px
+@pytest.mark.slow  # about a minute each: a MuJoCo scenario with its video at 64 x 48 px
 @pytest.mark.parametrize("scenario", ["fence-box", "wrist-push", "redundant-obstacle"])
 def test_sim_scenarios(tmp_path: Path, recorded: Recorded, scenario: str) -> None:
     pytest.importorskip("mujoco")
@@ -408,7 +408,7 @@ def test_reproductions(tmp_path: Path, recorded: Recorded, source: str) -> None:
     assert check_every(recorded, tmp_path), f"{source}: no figure written"
 
 
-@pytest.mark.slow  # about 30 s: one subject, one run per mode, and the assisted run's GIF
+@pytest.mark.slow  # one subject, one run per mode and the assisted run's GIF (minutes here)
 def test_study(tmp_path: Path, recorded: Recorded) -> None:
     result = _cli("study", "--subjects", "1", "--runs", "1", "--out", str(tmp_path), "--quiet")
     assert result.exit_code == 0, result.output
