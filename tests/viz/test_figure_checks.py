@@ -331,6 +331,7 @@ def test_sim_margin_figure(tmp_path: Path, recorded: Recorded, contacts: bool) -
     assert b.get_zorder() > a.get_zorder()
 
 
+@pytest.mark.slow  # the whole reproduction with its checks (its figures: test_figure_style.py)
 def test_wrist_reproduction(tmp_path: Path, recorded: Recorded) -> None:
     result = _cli("reproduce", "wrist", "--out", str(tmp_path), "--quiet")
     assert result.exit_code == 0, result.output
