@@ -393,7 +393,8 @@ def test_sim_scenarios(tmp_path: Path, recorded: Recorded, scenario: str) -> Non
             assert frame.shape[1] >= 64
             assert float(frame.std()) > 5.0, f"{name}: a blank frame"
         first, last = (f.astype(float) for f in (frames[0], frames[-1]))
-        assert float(np.abs(first - last).mean()) > 0.5, f"{name}: nothing moves"
+        moved = np.count_nonzero(np.abs(first - last).max(axis=2) > 30.0)  # not codec noise
+        assert moved >= 10, f"{name}: nothing moves ({moved} pixels changed)"
 
 
 @pytest.mark.slow  # the reproductions at their own (small) sizes: about a minute together
