@@ -80,15 +80,17 @@ def figure(out: Path) -> Path:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from matplotlib.patches import Circle
+    from matplotlib.patches import Circle, Patch
 
     fig, ax = plt.subplots(figsize=(6.4, 5.2))
+    swatches: dict[str, Patch] = {}  # a capsule's legend entry: its fill and its axis line
 
     def capsule(a: np.ndarray, b: np.ndarray, r: float, colour: str, label: str) -> None:
         for t in np.linspace(0.0, 1.0, 24):
             p = a + t * (b - a)
             ax.add_patch(Circle((p[0], p[2]), r, color=colour, alpha=0.35, lw=0))
         ax.plot([a[0], b[0]], [a[2], b[2]], color=colour, lw=1.5, label=label)
+        swatches[label] = Patch(facecolor=colour, edgecolor=colour, alpha=0.6, lw=1.5)
 
     segs = arm.link_segments(q)
     for k in range(segs.shape[0]):
@@ -111,7 +113,9 @@ def figure(out: Path) -> Path:
     ax.set_xlabel("x [m]")
     ax.set_ylabel("z [m]")
     ax.set_title("UR5e, elbow driven shut: stopped where the capsules touch")
-    ax.legend(loc="upper right", fontsize=8)
+    handles, labels = ax.get_legend_handles_labels()
+    ax.legend([swatches.get(t, h) for h, t in zip(handles, labels, strict=True)], labels,
+              loc="upper right", fontsize=8)  # fmt: skip
     path = out / "tool_self_collision.png"
     fig.savefig(path, dpi=100)
     plt.close(fig)

@@ -14,6 +14,15 @@ with :func:`record_figures`) and names every problem:
   whose ticks name its categories;
 * **legend**: an axes with two or more labelled series or patches has each label in a legend (its
   own, another panel's of the same figure, or the figure's);
+* **every kind explained**: an axes that draws two or more distinguishable kinds of artists
+  (lines, patches or collections that differ in colour, line style or marker; see :func:`kinds`)
+  explains each kind in a legend, labelled or not: a kind counts as explained when a legend of
+  the figure holds an artist of that kind by its label, or a handle of that kind (a proxy
+  artist). Exempt, with their reasons: a single kind (the axis labels say what it is), images
+  (a picture, not a series), colour-mapped artists (their colour bar explains them), and text;
+* **nothing cut off**: after ``fig.canvas.draw()`` the window extents of every title, axis
+  label, legend, colour-bar label and of the suptitle (and figure-level axis labels) lie inside
+  the figure's canvas, and no legend covers a title (:func:`clipped`);
 * **nothing drawn outside**: no line or scatter point lies far (more than :data:`OUTSIDE` of the
   axes' size) outside the axes limits;
 * **colour bars**: every colour-mapped artist has a colour bar on its norm, and that bar's range
@@ -32,11 +41,17 @@ from typing import Any
 
 import numpy as np
 import pytest
+from matplotlib.animation import AbstractMovieWriter
+from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.cm import ScalarMappable
-from matplotlib.collections import PathCollection
+from matplotlib.collections import Collection, LineCollection, PathCollection
+from matplotlib.colors import to_rgba
 from matplotlib.contour import ContourSet
 from matplotlib.figure import Figure
+from matplotlib.legend import Legend
 from matplotlib.lines import Line2D
+from matplotlib.patches import Patch
+from matplotlib.text import Text
 from matplotlib.ticker import FixedFormatter
 
 UNIT = re.compile(r"\[[^\[\]]+\]")
@@ -48,25 +63,64 @@ COVERED = 0.8
 SPREAD = 0.25
 #: Text that says why an axes holds nothing ("no contact", "none").
 REASON = re.compile(r"\bno\b|\bnone\b", re.IGNORECASE)
+#: How far (pixels) a text or legend may reach past the canvas edge or into a title.
+SLACK = 1.0
+#: The file types a command writes as figures or animations.
+PICTURES = (".png", ".gif", ".mp4")
 
 
 @contextmanager
 def record_figures(monkeypatch: pytest.MonkeyPatch) -> Iterator[dict[str, Figure]]:
     """Record every figure saved while the block runs, keyed by its file name.
 
-    Animation frames (saved to a buffer, not a path) are keyed ``frame-of-<id>``, first frame
-    only.
+    Animation frames (saved to a buffer, not a path, by a matplotlib movie writer) are keyed
+    ``frame-of-<id>`` (the first frame's figure), and every frame is checked with
+    :func:`problems` as it is grabbed: :attr:`Recorded.animations` maps the animation's file
+    name to the problems of each frame, in order (:func:`check_every` reads the first, a middle
+    and the last).
     """
-    figures: dict[str, Figure] = {}
+    figures = Recorded()
     original = Figure.savefig
+    setup = AbstractMovieWriter.setup
+    outfile: dict[int, str] = {}
 
     def savefig(self: Figure, fname: Any, *args: Any, **kwargs: Any) -> Any:
-        name = Path(fname).name if isinstance(fname, (str, Path)) else f"frame-of-{id(self)}"
-        figures.setdefault(name, self)
-        return original(self, fname, *args, **kwargs)
+        if isinstance(fname, (str, Path)):
+            figures.setdefault(Path(fname).name, self)
+            if isinstance(kwargs.get("dpi"), (int, float)):
+                figures.dpi.setdefault(Path(fname).name, float(kwargs["dpi"]))
+            return original(self, fname, *args, **kwargs)
+        figures.setdefault(f"frame-of-{id(self)}", self)
+        out = original(self, fname, *args, **kwargs)
+        name = outfile.get(id(self), f"frame-of-{id(self)}")
+        frames = figures.animations.setdefault(name, [])
+        # The writer just drew the frame at its dpi: the layout is read at that dpi, not redrawn.
+        dpi = kwargs.get("dpi") if isinstance(kwargs.get("dpi"), (int, float)) else None
+        frames.append(problems(f"{name} frame {len(frames)}", self, draw=False, dpi=dpi))
+        return out
+
+    def setup_writer(self: Any, fig: Figure, path: Any, *args: Any, **kwargs: Any) -> Any:
+        outfile[id(fig)] = Path(path).name
+        return setup(self, fig, path, *args, **kwargs)
 
     monkeypatch.setattr(Figure, "savefig", savefig)
+    monkeypatch.setattr(AbstractMovieWriter, "setup", setup_writer)
     yield figures
+
+
+class Recorded(dict[str, Figure]):
+    """The figures saved to files, by file name, and the animations' frame checks.
+
+    Attributes:
+        animations: Animation file name -> the problems of each of its frames, in order.
+        dpi: File name -> the resolution it was written at (when given): the clipping check
+            draws the figure at it.
+    """
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.animations: dict[str, list[list[str]]] = {}
+        self.dpi: dict[str, float] = {}
 
 
 def is_colorbar(ax: Any) -> bool:
@@ -155,6 +209,233 @@ def _legend_texts(ax: Any) -> set[str]:
     return texts
 
 
+def _rgb(colour: Any) -> tuple[float, ...]:
+    """A colour as rounded RGB (alpha ignored: a faded copy is the same kind)."""
+    rgba = np.asarray(colour, dtype=float).reshape(-1, 4)[0] if np.ndim(colour) == 2 else colour
+    return tuple(round(float(v), 3) for v in to_rgba(rgba)[:3])
+
+
+def _drawn_style(style: Any) -> str:
+    """A line style as a reader tells it apart: ``""`` none, ``"-"`` solid, ``"--"`` broken
+    (dashes and dots alike: matplotlib keeps them differently for lines, patches and
+    collections)."""
+    if isinstance(style, list):  # a collection: one (offset, dashes) per member
+        style = style[0] if style else None
+    if isinstance(style, tuple):  # (offset, dashes)
+        return "-" if style[1] is None or not len(style[1]) else "--"
+    if style in (None, "None", "none", "", " "):
+        return ""
+    return "-" if style in ("-", "solid") else "--"
+
+
+def _patch_style(patch: Patch) -> str:
+    """A patch's edge style as drawn (a legend swatch keeps the dashes, not the style name)."""
+    return _drawn_style(getattr(patch, "_unscaled_dash_pattern", patch.get_linestyle()))
+
+
+def kind(art: Any) -> tuple[Any, ...] | None:
+    """What a reader tells ``art`` apart by: its family, colour, line style and marker.
+
+    ``None`` for an artist that draws nothing (invisible, no points, fully transparent).
+    Families: ``line`` (lines, line collections, contour lines and the edges of unfilled
+    patches: a reader sees a line), ``area`` (filled patches and polygon collections such as
+    ``fill_between``), ``points`` (scatter).
+    """
+    if not art.get_visible() or art.get_alpha() == 0.0:
+        return None
+    if isinstance(art, Line2D):
+        if not _line_points(art):
+            return None
+        marker = art.get_marker()
+        marker = "" if marker in (None, "None", "none", "", " ") else str(marker)
+        ls = _drawn_style(art.get_linestyle())
+        if not ls and not marker:
+            return None
+        return ("line", _rgb(art.get_color()), ls, marker)
+    if isinstance(art, Patch):
+        face = to_rgba(art.get_facecolor())
+        if art.get_fill() and face[3] > 0:
+            return ("area", _rgb(face))
+        edge = to_rgba(art.get_edgecolor())
+        if edge[3] == 0 or art.get_linewidth() == 0:
+            return None
+        return ("line", _rgb(edge), _patch_style(art), "")
+    if isinstance(art, Collection):
+        if not (len(art.get_paths()) or len(art.get_offsets())):
+            return None
+        if isinstance(art, LineCollection):
+            edges = art.get_edgecolor()
+            styles = art.get_linestyle()
+            ls = _drawn_style(styles)
+            return ("line", _rgb(edges) if len(edges) else None, ls, "")
+        faces = art.get_facecolor()
+        if isinstance(art, PathCollection):
+            colour = faces if len(faces) else art.get_edgecolor()
+            return ("points", _rgb(colour) if len(colour) else None)
+        if len(faces) and np.max(np.asarray(faces)[:, 3]) > 0:
+            return ("area", _rgb(faces))
+        edges = art.get_edgecolor()
+        return ("line", _rgb(edges) if len(edges) else None, _drawn_style(art.get_linestyle()), "")
+    return None
+
+
+def _legends(fig: Any) -> list[Legend]:
+    """Every legend of the figure: its panels' and its own."""
+    return [leg for leg in (*(a.get_legend() for a in fig.axes), *fig.legends) if leg is not None]
+
+
+def kinds(ax: Any) -> dict[tuple[Any, ...], list[Any]]:
+    """The kinds of artists ``ax`` draws that a legend must explain, each with its artists.
+
+    Left out, each for a reason: images (a picture, not a series), colour-mapped artists with
+    a colour bar (the bar explains them; one without a bar is reported by the colour-bar rule)
+    and text (it explains itself).
+    """
+    mapped = {id(a) for a in colour_mapped(ax)}
+    out: dict[tuple[Any, ...], list[Any]] = {}
+    for art in [*ax.lines, *ax.patches, *ax.collections]:
+        if id(art) in mapped:
+            continue
+        k = kind(art)
+        if k is not None:
+            out.setdefault(k, []).append(art)
+    return out
+
+
+def _explained(fig: Any) -> tuple[set[tuple[Any, ...]], set[str]]:
+    """The kinds and the labels the figure's legends explain.
+
+    A legend handle explains its own kind; a filled swatch with a drawn edge (a band and its
+    boundary) also explains that edge as a line.
+    """
+    explained: set[tuple[Any, ...]] = set()
+    texts: set[str] = set()
+    for legend in _legends(fig):
+        texts |= {t.get_text() for t in legend.get_texts()}
+        for handle in legend.legend_handles:
+            k = kind(handle) if handle is not None else None
+            if k is not None:
+                explained.add(k)
+            if isinstance(handle, Patch) and k is not None and k[0] == "area":
+                edge = to_rgba(handle.get_edgecolor())
+                if edge[3] > 0 and handle.get_linewidth() > 0:
+                    explained.add(("line", _rgb(edge), _patch_style(handle), ""))
+    for ax in fig.axes:
+        for art in [*ax.lines, *ax.patches, *ax.collections]:
+            label = art.get_label()
+            if label and not label.startswith("_") and label in texts:
+                k = kind(art)
+                if k is not None:
+                    explained.add(k)
+    return explained, texts
+
+
+def _describe(k: tuple[Any, ...]) -> str:
+    family, colour, *style = k
+    hexa = "none" if colour is None else "#" + "".join(f"{round(255 * c):02x}" for c in colour)
+    rest = " ".join(repr(x) for x in style if x)
+    return f"{family} {hexa}" + (f" {rest}" if rest else "")
+
+
+def _unexplained(ax: Any, explained: set[tuple[Any, ...]]) -> list[str]:
+    """The kinds ``ax`` draws that no legend explains (none when it draws one kind).
+
+    A kind is explained by a legend handle of the same kind, or by two: one of its colour (the
+    series) and one of its family, line style and marker (the role, such as a grey "start
+    point" marker standing for every path's coloured start).
+    """
+    found = kinds(ax)
+    if len(found) < 2:
+        return []
+    colours = {k[1] for k in explained}
+    roles = {(k[0], *k[2:]) for k in explained}
+    return [
+        _describe(k)
+        for k in found
+        if k not in explained and not (k[1] in colours and (k[0], *k[2:]) in roles)
+    ]
+
+
+def _canvas(fig: Any) -> FigureCanvasAgg:
+    """The figure's Agg canvas (a bare ``Figure()`` gets one)."""
+    return fig.canvas if isinstance(fig.canvas, FigureCanvasAgg) else FigureCanvasAgg(fig)
+
+
+def _texts(fig: Any) -> list[tuple[str, Text]]:
+    """The titles and axis labels of the figure, each with how a message names it."""
+    out: list[tuple[str, Text]] = []
+    for what in ("_suptitle", "_supxlabel", "_supylabel"):
+        text = getattr(fig, what, None)
+        if text is not None:
+            out.append((what.lstrip("_"), text))
+    for i, ax in enumerate(fig.axes):
+        where = f"axes {i} ({ax.get_title()!r})"
+        titles = [ax.title, getattr(ax, "_left_title", None), getattr(ax, "_right_title", None)]
+        out += [(f"{where} title", t) for t in titles if t is not None]
+        if ax.axison:
+            out += [(f"{where} x label", ax.xaxis.label), (f"{where} y label", ax.yaxis.label)]
+    return [(w, t) for w, t in out if t.get_visible() and t.get_text().strip()]
+
+
+def clipped(fig: Any, *, draw: bool = True, dpi: float | None = None) -> list[str]:
+    """What the canvas cuts off, and which legend covers a title (empty when nothing).
+
+    Draws the figure (``fig.canvas.draw()``) and compares the renderer's window extents of the
+    suptitle, the figure-level axis labels, every axes' titles, x and y labels (a colour bar's
+    label among them) and every legend with the figure's canvas, :data:`SLACK` pixels allowed.
+    3-D axis labels are left out: their extents follow the view, not the layout. ``draw=False``
+    reads the layout of the last drawing (an animation frame just grabbed: the writer drew it,
+    at ``dpi``: axis labels are placed in pixels).
+    """
+    canvas = _canvas(fig)
+    if dpi is not None and dpi != fig.dpi:  # as written: text and layout at the file's dpi
+        shown = fig.dpi
+        fig.set_dpi(dpi)
+        try:
+            return clipped(fig, draw=draw)
+        finally:
+            fig.set_dpi(shown)
+    if draw:
+        canvas.draw()
+    renderer = canvas.get_renderer()
+    box = fig.bbox
+    found: list[str] = []
+    titles = []
+    for what, text in _texts(fig):
+        if hasattr(text.axes, "get_zlim") and "label" in what:
+            continue
+        ext = text.get_window_extent(renderer)
+        if "title" in what:
+            titles.append((what, text, ext))
+        if _sticks_out(ext, box):
+            found.append(f"{what} {text.get_text()!r} cut off by the canvas")
+    for k, legend in enumerate(_legends(fig)):
+        ext = legend.get_window_extent(renderer)
+        where = f"legend {k}" + (f" of axes {fig.axes.index(legend.axes)}" if legend.axes in
+                                 fig.axes else " of the figure")  # fmt: skip
+        if _sticks_out(ext, box):
+            found.append(f"{where} cut off by the canvas")
+        for what, text, t_ext in titles:
+            if _overlap(ext, t_ext):
+                found.append(f"{where} covers the {what} {text.get_text()!r}")
+    return found
+
+
+def _sticks_out(ext: Any, box: Any) -> bool:
+    return bool(
+        ext.x0 < box.x0 - SLACK
+        or ext.y0 < box.y0 - SLACK
+        or ext.x1 > box.x1 + SLACK
+        or ext.y1 > box.y1 + SLACK
+    )
+
+
+def _overlap(a: Any, b: Any) -> bool:
+    w = min(a.x1, b.x1) - max(a.x0, b.x0)
+    h = min(a.y1, b.y1) - max(a.y0, b.y0)
+    return w > SLACK and h > SLACK
+
+
 def _outside(ax: Any) -> list[str]:
     """Labels (or kinds) of artists drawn far outside the axes limits."""
     found = []
@@ -216,12 +497,14 @@ def _bar_range(bar: Any, arts: list[ScalarMappable]) -> list[str]:
     return found
 
 
-def problems(name: str, fig: Figure) -> list[str]:
+def problems(name: str, fig: Figure, *, draw: bool = True, dpi: float | None = None) -> list[str]:
     """Everything that makes ``fig`` fail to explain itself (empty when it is fine).
 
     Args:
         name: How the messages name the figure (its file name).
         fig: The figure, before or after it is written.
+        draw: Whether to draw it for the clipping check (``False``: it was just drawn).
+        dpi: The resolution to draw it at (the file's; default: the figure's own).
 
     Returns:
         One message per problem, naming the figure and the axes.
@@ -229,6 +512,7 @@ def problems(name: str, fig: Figure) -> list[str]:
     found: list[str] = []
     bars = [ax._colorbar for ax in fig.axes if is_colorbar(ax)]
     panels = [ax for ax in fig.axes if not is_colorbar(ax)]
+    explained, _ = _explained(fig)
     on_bar: dict[int, list[ScalarMappable]] = {}
     for i, ax in enumerate(panels):
         where = f"{name} axes {i} ({ax.get_title()!r})"
@@ -248,6 +532,9 @@ def problems(name: str, fig: Figure) -> list[str]:
             missing = sorted(set(labelled) - _legend_texts(ax))
             if missing:
                 found.append(f"{where}: no legend entry for {missing}")
+        unexplained = _unexplained(ax, explained)
+        if unexplained:
+            found.append(f"{where}: kinds of artists no legend explains: {unexplained}")
         for label in _outside(ax):
             found.append(f"{where}: {label!r} drawn outside the axes limits")
         for art in colour_mapped(ax):
@@ -261,11 +548,45 @@ def problems(name: str, fig: Figure) -> list[str]:
         if not UNIT.search(label):
             found.append(f"{name} colour bar {k}: label {label!r} has no unit in brackets")
         found += [f"{name} colour bar {k}: {p}" for p in _bar_range(bar, on_bar.get(id(bar), []))]
+    found += [f"{name} {p}" for p in clipped(fig, draw=draw, dpi=dpi)]
+    return found
+
+
+def frame_problems(figures: Recorded) -> list[str]:
+    """The problems of the first, a middle and the last frame of every recorded animation."""
+    found: list[str] = []
+    for frames in figures.animations.values():
+        picks = sorted({0, len(frames) // 2, len(frames) - 1}) if frames else []
+        found += [p for i in picks for p in frames[i]]
     return found
 
 
 def check_all(figures: dict[str, Figure], expected: set[str]) -> None:
-    """Assert every ``expected`` figure was rendered and has no problem."""
+    """Assert every ``expected`` figure was rendered, and that no recorded figure (all of them,
+    not only the expected) nor a checked animation frame has a problem."""
     assert expected <= set(figures), f"not rendered: {sorted(expected - set(figures))}"
-    found = [p for name in sorted(expected) for p in problems(name, figures[name])]
+    dpi = figures.dpi if isinstance(figures, Recorded) else {}
+    found = [p for name in sorted(figures) if not name.startswith("frame-of-")
+             for p in problems(name, figures[name], dpi=dpi.get(name))]  # fmt: skip
+    if isinstance(figures, Recorded):
+        found += frame_problems(figures)
     assert not found, "\n".join(found)
+
+
+def check_every(figures: Recorded, folder: Path, *, videos: set[str] = frozenset()) -> set[str]:
+    """Check every figure and animation recorded, and that each picture in ``folder`` is one.
+
+    Every ``.png``, ``.gif`` and ``.mp4`` under ``folder`` must be a recorded figure (checked
+    here), an animation whose first, middle and last frames were checked, or one of ``videos``
+    (pictures not drawn by matplotlib, such as MuJoCo's frames, that the caller checks itself).
+
+    Returns:
+        The names of the pictures found in ``folder``.
+    """
+    pictures = {p.name for p in Path(folder).rglob("*") if p.suffix.lower() in PICTURES}
+    unchecked = pictures - set(figures) - set(figures.animations) - set(videos)
+    assert not unchecked, f"written but not checked: {sorted(unchecked)}"
+    for name, frames in figures.animations.items():
+        assert frames, f"{name}: no frame checked"
+    check_all(figures, {n for n in pictures if n in figures})
+    return pictures

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import textwrap
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
@@ -98,7 +99,8 @@ def plot_margins(result: ScenarioResult, path: Path) -> Path:
     lowest = min(lines, key=lambda k: lines[k]) if lines else None
     below = f" (below the {lowest} line = outside)" if lowest is not None else ""
     ax.set_ylabel(f"{label} [{shown}]")
-    ax.set_title(f"{result.name} in MuJoCo: {label}{below}")
+    # Wrapped to the axes' width: a long title must not run past the canvas or under the legend.
+    ax.set_title(textwrap.fill(f"{result.name} in MuJoCo: {label}{below}", 80))
     ax.grid(alpha=0.3)
     if ax2 is None:
         ax.set_xlabel("time [s]")

@@ -109,6 +109,7 @@ def _draw_scene(ax: Any, scene: ArmScene) -> None:
         color="#8c564b",
         alpha=0.35,
         linewidth=0,
+        shade=False,  # one colour: the legend swatch matches the sphere
     )
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")

@@ -77,17 +77,18 @@ def plot_fig5(
     ax.plot(trace.reference[marks, 0], trace.reference[marks, 1], "o", mfc="none", color="k",
             ms=6, label="reference points R_p(s_p)")  # fmt: skip
     ax.plot(trace.R[marks, 0], trace.R[marks, 1], "*", color="C1", ms=8, label="cobot positions")
-    for k in marks:
+    for j, k in enumerate(marks):
         ax.plot(
             [trace.R[k, 0], trace.reference[k, 0]], [trace.R[k, 1], trace.reference[k, 1]],
-            color="0.75", lw=0.6,
+            color="0.75", lw=0.6, label="position to its reference point" if j == 0 else None,
         )  # fmt: skip
-    ax.plot(0.0, 0.0, "k+", ms=8)
+    ax.plot(0.0, 0.0, "k+", ms=8, label="circle centre")
     ax.set_aspect("equal")
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.set_title("Following the unit circle from (1.2, 0), heading +y (cf. Fig. 5)")
-    ax.legend(loc="lower left", fontsize=8)
+    # Inside the circle, below its centre: the legend covers no part of the path.
+    ax.legend(loc="upper center", bbox_to_anchor=(0.45, 0.46), fontsize=8)
     return save_figure(fig, out)
 
 
@@ -98,8 +99,9 @@ def plot_errors(traces: Mapping[str, CobotTrace], out: str | Path) -> Path:
         e = np.maximum(tr.error_norm, 1e-12)
         ax.semilogy(tr.s, e, lw=1.1, color=f"C{i % 10}", label=name,
                     ls="--" if name.startswith("C_EE") else "-")  # fmt: skip
-    ax.axhline(2e-2, color="0.5", lw=0.6, ls=":")
-    ax.axhline(1e-3, color="0.5", lw=0.6, ls=":")
+    bounds = "checked bounds: 2e-2 m by s = 2 m, 1e-3 m by s = 5 m"
+    ax.axhline(2e-2, color="0.5", lw=0.6, ls=":", label=bounds)
+    ax.axhline(1e-3, color="0.5", lw=0.6, ls=":")  # the same kind: one legend entry
     ax.set_xlabel("arc length s [m]")
     ax.set_ylabel("|ΔR| [m]")
     ax.set_title("Path error against arc length: identical at every human speed")
@@ -128,7 +130,7 @@ def plot_walls(runs: WallTraces, polygon: ConvexPolygon, buffer: float, out: str
     for i, tr in enumerate((runs.actuated, runs.caster, runs.cobot)):
         ax.plot(tr.p[:, 0], tr.p[:, 1], lw=1.3, color=f"C{i}", label=tr.name,
                 ls=("-", "--", "-.")[i])  # fmt: skip
-    ax.plot(runs.actuated.p[0, 0], runs.actuated.p[0, 1], "ko", ms=4)
+    ax.plot(runs.actuated.p[0, 0], runs.actuated.p[0, 1], "ko", ms=4, label="start point")
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.set_title("Virtual wall: the same polygon for an actuated device and a cobot")

@@ -49,8 +49,8 @@ class StopRun(Protocol):
 
 def _stops(ax: Any, polygon: ConvexPolygon, labels: bool = True) -> None:
     c = np.vstack([polygon.corners, polygon.corners[:1]])
-    ax.fill(c[:, 0], c[:, 1], color="#e8f1fa", zorder=0)
-    ax.plot(c[:, 0], c[:, 1], "k-", lw=1.4)
+    ax.fill(c[:, 0], c[:, 1], color="#e8f1fa", zorder=0, label="Q* (inside the stops)")
+    ax.plot(c[:, 0], c[:, 1], "k-", lw=1.4, label="joint stops")
     if labels:
         for k in range(polygon.n):
             mid = 0.5 * (polygon.corners[k] + polygon.corners[(k + 1) % polygon.n])
@@ -106,7 +106,7 @@ def plot_fig8(
     if compare is not None:
         qc = compare.column("q")
         c.plot(qc[:, 0], qc[:, 1], color="C2", lw=1.0, ls="--", label="exact + post limiter")
-    c.plot(0, 0, "ko", ms=4)
+    c.plot(0, 0, "ko", ms=4, label="q = 0")
     c.set_title("(c) trajectory in (q1, q2) over Q*", fontsize=9)
     c.legend(fontsize=8)
     d = ax[1, 1]
@@ -139,7 +139,7 @@ def plot_vertex(
             ax.plot(q[:, 0], q[:, 1], lw=1.0, color=f"C{i}")
             md = np.asarray(row["min_delta_t"])
             low.plot(np.arange(len(md)) * 1e-3, md, lw=0.8, color=f"C{i}", label=f"vertex {i}")
-        low.axhline(0.0, color="k", lw=0.8)
+        low.axhline(0.0, color="k", lw=0.8, label="on a stop (δ = 0)")
         # Linear where the stops act (|δ| < 0.05 rad), logarithmic above: the start, far from
         # the stops, stays in view without flattening the part near 0.
         top = max(0.05, 1.5 * max(float(np.max(r["min_delta_t"])) for r in rows))
@@ -151,6 +151,8 @@ def plot_vertex(
         worst = min(r["min_delta"] for r in rows)
         sw = max(r["switches"] for r in rows)
         ax.set_title(f"{name}: min δ {worst:.2g} rad, ≤ {sw:.0f} stop switches", fontsize=9)
+    # One legend for the paths' panels (their colours are the vertices of the panels below).
+    axes[0, 0].legend(fontsize=7, loc="lower left")
     return save_figure(fig, path, dpi=110)
 
 
@@ -172,8 +174,11 @@ def plot_region(path: str | Path, *, step: float = 0.04) -> Path:
     fig.colorbar(cs, ax=ax, label="det B [1] (Type 1 when 0)")
     if np.nanmin(detb) < 0.0 < np.nanmax(detb):
         ax.contour(Q1, Q2, detb, levels=[0.0], colors="r", linewidths=1.5)
+        ax.plot([], [], color="r", lw=1.5, label="det B = 0 (Type 1 singular)")
     ax.contour(Q1, Q2, grid.reached.astype(float), levels=[0.5], colors="m", linewidths=1.0)
+    ax.plot([], [], color="m", lw=1.0, label="edge of the home leaf (Type 2 fold)")
     _stops(ax, poly)
+    ax.legend(fontsize=7, loc="lower left")
     ax.set_title(
         "Q* (stops d1–d4), det B, edge of the home leaf (magenta: Type 2 fold)", fontsize=9
     )

@@ -111,29 +111,50 @@ _CLEARANCE_LINEAR = 0.1
 
 
 def _obstacles(ax: Any, run: ArmRun, axes: tuple[int, int]) -> None:
+    """The obstacle bodies (grey, one legend entry) and each sphere of influence (its colour)."""
     for i, ob in enumerate(run.obstacles):
         c = ob.center[list(axes)]
-        ax.add_patch(Circle(tuple(c), ob.radius, color="0.3", zorder=1))
+        body = "obstacle body" if i == 0 else "_nolegend_"
+        ax.add_patch(Circle(tuple(c), ob.radius, color="0.3", zorder=1, label=body))
         if ob.influence is not None:
             ax.add_patch(
-                Circle(tuple(c), ob.influence, fill=False, ls="--", color=f"C{i + 3}", zorder=1)
-            )
+                Circle(
+                    tuple(c), ob.influence, fill=False, ls="--", color=f"C{i + 3}", zorder=1,
+                    label=f"obstacle {i}: sphere of influence",
+                )
+            )  # fmt: skip
 
 
-def _arm(ax: Any, run: ArmRun, k: int, axes: tuple[int, int], alpha: float) -> None:
+def _arm(
+    ax: Any, run: ArmRun, k: int, axes: tuple[int, int], alpha: float, *, label: bool = True
+) -> None:
+    """The arm at sample ``k`` and the critical points of its active rows (red).
+
+    ``label``: name the arm in the legend; the first critical point of a panel is named.
+    """
     pts = np.asarray(run.chain.joint_positions(run.q[k]))[:, list(axes)]
-    ax.plot(pts[:, 0], pts[:, 1], "-o", color="C0", lw=1.5, ms=2.5, alpha=alpha, zorder=2)
+    ax.plot(
+        pts[:, 0], pts[:, 1], "-o", color="C0", lw=1.5, ms=2.5, alpha=alpha, zorder=2,
+        label="arm (light to dark: time)" if label else "_nolegend_",
+    )  # fmt: skip
     res = run.results[k]
     for o in res.active:
         c = res.critical_points[o][list(axes)]
-        ax.plot(c[0], c[1], "o", color="r", ms=4, zorder=3)
+        named = not any(ln.get_label() == _CRITICAL for ln in ax.lines)  # once per panel
+        ax.plot(
+            c[0], c[1], "o", color="r", ms=4, zorder=3, label=_CRITICAL if named else "_nolegend_"
+        )
+
+
+#: The legend entry of the critical points.
+_CRITICAL = "critical point (active row)"
 
 
 def _snapshot_panel(ax: Any, run: ArmRun, axes: tuple[int, int], n_snap: int = 9) -> None:
     _obstacles(ax, run, axes)
     ks = np.linspace(0, len(run.t) - 1, n_snap).astype(int)
     for j, k in enumerate(ks):
-        _arm(ax, run, int(k), axes, 0.25 + 0.75 * j / max(1, n_snap - 1))
+        _arm(ax, run, int(k), axes, 0.25 + 0.75 * j / max(1, n_snap - 1), label=j == n_snap - 1)
     ax.plot(run.y_d[:, axes[0]], run.y_d[:, axes[1]], "k:", lw=0.8, label="EE reference")
     if run.y.shape[1] > max(axes):
         ax.plot(run.y[:, axes[0]], run.y[:, axes[1]], color="C1", lw=1.0, label="EE path")
@@ -188,7 +209,7 @@ def plot_clearance(runs: Sequence[ArmRun], path: str | Path) -> Path:
         d = r.distances - r.rho
         for o in range(d.shape[1]):
             top.plot(r.t, d[:, o], color=f"C{o + 3}", lw=1.0, label=f"obstacle {o}")
-        top.axhline(0.0, color="k", lw=0.8)
+        top.axhline(0.0, color="k", lw=0.8, label="edge of the sphere of influence (d = ρ)")
         # Linear near contact (|d − ρ| < 0.1 m, where the fence acts), logarithmic above, so the
         # approach from afar stays in view. Never clip a penetration: the lower limit follows
         # the deepest point, the upper one the farthest.
@@ -218,8 +239,9 @@ def plot_active_sets(runs: Sequence[ArmRun], path: str | Path) -> Path:
         a = r.active
         for o in range(a.shape[1]):
             ax.fill_between(
-                r.t, o + 0.1, o + 0.9, where=a[:, o], step="post", color=f"C{o + 3}", alpha=0.7
-            )
+                r.t, o + 0.1, o + 0.9, where=a[:, o], step="post", color=f"C{o + 3}", alpha=0.7,
+                label=f"obstacle {o}: row enforced",
+            )  # fmt: skip
         ax.step(r.t, a.sum(axis=1), where="post", color="k", lw=0.8, label="rows")
         ax.axhline(r.results[0].redundancy, color="r", ls=":", lw=0.8, label="redundancy")
         ax.set_ylim(-0.1, max(a.shape[1], r.results[0].redundancy) + 0.2)
@@ -236,7 +258,8 @@ def animate_arm(run: ArmRun, path: str | Path, *, frames: int = 40) -> Path:
     Returns:
         The path written.
     """
-    fig, ax = plt.subplots(figsize=(4.0, 4.0))
+    fig, ax = plt.subplots(figsize=(6.4, 4.0))
+    fig.subplots_adjust(left=0.1, right=0.6, bottom=0.12, top=0.86)  # the legend at the right
     ks = np.linspace(0, len(run.t) - 1, frames).astype(int)
     writer = PillowWriter(fps=8)
     out = Path(path)
@@ -249,11 +272,17 @@ def animate_arm(run: ArmRun, path: str | Path, *, frames: int = 40) -> Path:
             ax.clear()
             _obstacles(ax, run, (0, 1))
             _arm(ax, run, int(k), (0, 1), 1.0)
-            ax.plot(run.y_d[:, 0], run.y_d[:, 1], "k:", lw=0.8)
+            ax.plot(run.y_d[:, 0], run.y_d[:, 1], "k:", lw=0.8, label="EE reference")
+            if not any(ln.get_label() == _CRITICAL for ln in ax.lines):  # a steady legend
+                ax.plot([], [], "o", color="r", ms=4, label=_CRITICAL)
             ax.set_xlim(lo[0], hi[0])
             ax.set_ylim(lo[1], hi[1])
             ax.set_aspect("equal")
+            ax.set_xlabel("x [m]", fontsize=7)
+            ax.set_ylabel("y [m]", fontsize=7)
+            ax.tick_params(labelsize=6)
             ax.set_title(f"{run.name}\nt = {run.t[k]:.2f} s", fontsize=7)
+            ax.legend(fontsize=6, loc="upper left", bbox_to_anchor=(1.03, 1.0))
             writer.grab_frame()
     plt.close(fig)
     return out

@@ -440,8 +440,9 @@ def plot_quiver(
     fig.suptitle(f"Shaped velocity field for the constant command {shown} [{_unit_of(xlabel)}/s]")
     bar_label = f"shaped speed [{_unit_of(xlabel)}/s]"
     if clipped:
+        # Short lines: the label runs along the bar and must fit the figure's height.
         bar_label += (
-            f"\n(range clipped at {robust:.3g}: the {CLIP_PERCENTILE:g}th percentile, at most "
+            f"\n(clipped at {robust:.3g}: the {CLIP_PERCENTILE:g}th percentile,\nat most "
             f"twice the command's speed;\nfaster arrows, up to {top:.3g}, in the top colour)"
         )
     bar = add_colorbar(fig, arrows, list(axes.ravel()[:k]), bar_label)
@@ -498,11 +499,13 @@ def animate_trajectories(
     first = next(iter(trs.values()))
     n = len(first.t)
     idx = np.linspace(0, n - 1, n_frames).astype(int)
-    dots = {}
     trails = {}
     for i, name in enumerate(trs):
-        (trails[name],) = ax.plot([], [], **(_path_style(name, i) | {"alpha": 0.7}))
-        (dots[name],) = ax.plot([], [], "o", color=_color(name, i), ms=5, label=name)
+        # One artist per run: its trail, with a dot on its newest point (the legend shows both).
+        (trails[name],) = ax.plot(
+            [], [], marker="o", ms=5, markevery=[-1], label=name,
+            **(_path_style(name, i) | {"alpha": 0.7}),
+        )  # fmt: skip
     # Outside the axes: the legend never covers a corner of the workspace.
     fig.legend(loc="outside right upper", fontsize=FONT - 1)
     stamp = ax.set_title("")
@@ -512,9 +515,8 @@ def animate_trajectories(
         for name, tr in trs.items():
             lo = max(0, j - n // 8)
             trails[name].set_data(tr.p[lo : j + 1, 0], tr.p[lo : j + 1, 1])
-            dots[name].set_data([tr.p[j, 0]], [tr.p[j, 1]])
         stamp.set_text(f"t = {first.t[j]:.2f} s")
-        return [*trails.values(), *dots.values(), stamp]
+        return [*trails.values(), stamp]
 
     anim = FuncAnimation(fig, update, frames=n_frames, blit=False)
     try:

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import math
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -51,13 +52,15 @@ def plot_times(result: StudyResult, path: str | Path) -> Path:
         xs = x + (i - 0.5) * width
         ax.bar(xs, vals.mean(axis=1), width, color=_COLORS[cond], alpha=0.8, label=_LABELS[cond])
         for k in range(vals.shape[1]):
-            ax.plot(xs, vals[:, k], "k.", ms=3)
+            ax.plot(xs, vals[:, k], "k.", ms=3, label="one run" if i == k == 0 else None)
     ax.set_xticks(x, [str(s + 1) for s in range(n)])
     ax.set_xlabel("simulated subject [index]")
     ax.set_ylabel("task time [s] (mean of runs; dots: runs)")
     faster = result.summary()["subjects_faster_assisted"]
+    # Two lines: the title fits the narrow figure of a few subjects too.
     ax.set_title(
-        f"Pick-and-place time, unassisted vs laser assisted ({faster}/{n} faster assisted)"
+        f"Pick-and-place time, unassisted vs laser assisted\n({faster}/{n} subjects faster "
+        "assisted)"
     )
     ax.legend(loc="upper right", fontsize=8)
     ax.grid(axis="y", alpha=0.3)
@@ -109,9 +112,9 @@ def plot_paths(
         ax.set_zlabel("z [m]", fontsize=8)
         if s == 0:
             ax.legend(fontsize=6, loc="upper left")
-    fig.suptitle(
-        "End-effector (wrist-centre) paths, pick-and-place (cf. thesis Fig. 74)", fontsize=10
-    )
+    # Wrapped to the figure's width (one column for a single subject).
+    heading = "End-effector (wrist-centre) paths, pick-and-place (cf. thesis Fig. 74)"
+    fig.suptitle(textwrap.fill(heading, int(12 * 3.8 * cols)), fontsize=10)
     return save_figure(fig, out, dpi=100)
 
 

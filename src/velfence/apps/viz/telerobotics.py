@@ -473,6 +473,66 @@ def _draw_task_points(ax: Any, snapshot: Mapping[str, Any]) -> list[Any]:
     return artists
 
 
+#: Figure width [inch] with the legend beside the 3-D scene, and the scene's share of it.
+LEGEND_FIGSIZE = (8.6, 5.6)
+_SCENE_SHARE = 0.74
+
+
+def _legend(
+    fig: Any, scene: Sequence[Mapping[str, Any]], snapshots: Sequence[Mapping[str, Any]]
+) -> Any:
+    """One legend beside the scene naming every kind of thing the frames draw.
+
+    Built from the scene and all the snapshots (not one frame), so it stays the same through an
+    animation: the primitives by type with their names, the pedestal and frame axes, the arm,
+    the laser, the fixture line and the task points when any snapshot has them.
+    """
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    def line(label: str, colour: Any, **kw: Any) -> tuple[Any, str]:
+        return Line2D([], [], color=colour, **kw), label
+
+    prims = [*scene, *(o for s in snapshots for o in (s.get("objects") or ()))]
+    entries: list[tuple[Any, str]] = []
+    for kind in ("plane", "box", "disk", "cylinder"):
+        names = sorted({str(p.get("name") or kind) for p in prims if p.get("type") == kind})
+        if names:
+            entries.append((Patch(facecolor=_FACE[kind], edgecolor=_EDGE[kind]), ", ".join(names)))
+    entries += [
+        line("pedestal (illustration)", "0.75", lw=6),
+        *(
+            line(f"{a} axis (base, tool frames)", c, lw=2)
+            for a, c in zip("xyz", _AXES, strict=True)
+        ),
+        line("arm links", _LINK, lw=5),
+        line("joints", "#223344", marker="o", ls="none", ms=4),
+    ]
+    if any(s.get("gripper") for s in snapshots):
+        entries.append(line("gripper", "#707070", lw=4))
+    lasers: list[Mapping[str, Any]] = [s["laser"] for s in snapshots if s.get("laser")]
+    if any(la.get("point") is not None for la in lasers):
+        entries += [
+            line("laser beam", _LASER, lw=1.6),
+            line("laser spot", _LASER, marker="o", ls="none", ms=5),
+        ]
+    if any(la.get("point") is None and la.get("origin") is not None for la in lasers):
+        entries.append(line(f"laser, no reading ({NO_READING_RAY:g} m ray)", _LASER, ls="--"))
+    if any(s.get("fixture") for s in snapshots):
+        entries.append(line("virtual fixture line", _FIXTURE, lw=2.5, ls=(0, (6, 3))))
+    if any(s.get("destination") is not None for s in snapshots):
+        entries.append(line("destination point", "#ff7f00", marker="X", ls="none", ms=8))
+    if any(len(s.get("plane_points") or []) for s in snapshots):
+        entries.append(line("plane points", "#7b3294", marker="^", ls="none", ms=6))
+    fig.set_size_inches(*LEGEND_FIGSIZE)
+    fig.subplots_adjust(left=0.0, right=_SCENE_SHARE, bottom=0.0, top=1.0)
+    handles, labels = zip(*entries, strict=True)
+    return fig.legend(
+        handles, labels, loc="center left", bbox_to_anchor=(_SCENE_SHARE, 0.5), fontsize=7,
+        frameon=False,
+    )  # fmt: skip
+
+
 def _overlay(snapshot: Mapping[str, Any], speedup: float | None = None) -> str:
     t = snapshot.get("t")
     clutch = snapshot.get("clutch")
@@ -546,6 +606,7 @@ def plot_snapshot(
     try:
         draw_scene(ax, static)
         draw_snapshot(ax, _frame_objects(snapshot, dynamic) if dynamic else snapshot)
+        _legend(fig, scene_list, [snapshot])
         text = _overlay(snapshot) if title is None else title
         fig.text(0.02, 0.98, text, fontsize=9, va="top", family="monospace")
         out = Path(path)
@@ -633,7 +694,8 @@ def animate_session(
     Snapshots are subsampled evenly in time by :func:`frame_indices`; a session longer than
     ``max_frames / fps`` seconds plays faster than real time (the overlay shows the factor).
     The static scene is drawn once; each frame redraws the arm, beam, fixture and any moved
-    objects. The default 150 frames at 72 dpi (460 x 403 px) render in about 8 s here.
+    objects; a legend beside the scene names every kind of thing drawn. The default 150 frames
+    at 72 dpi (619 x 403 px) render in about 8 s here.
 
     Args:
         snapshots: Session snapshots in time order (each needs ``t``, ``joints``, ``tool``).
@@ -644,7 +706,7 @@ def animate_session(
         limits: View box [m], see :func:`new_axes`.
         elev: Camera elevation [deg].
         azim: Camera azimuth [deg].
-        dpi: Resolution [dots per inch] of the 6.4 x 5.6 inch figure.
+        dpi: Resolution [dots per inch] of the 8.6 x 5.6 inch figure.
         timings: If given, filled with ``frames`` (count), ``render_s`` (wall time [s]) and
             ``speedup`` (simulated seconds per playback second).
 
@@ -674,6 +736,7 @@ def animate_session(
     fig, ax = new_axes(limits=limits, elev=elev, azim=azim)
     try:
         draw_scene(ax, static)
+        _legend(fig, scene_list, snapshots)
         stamp = fig.text(0.02, 0.98, "", fontsize=9, va="top", family="monospace")
         with writer.saving(fig, str(out), dpi):
             on_frame = progress.frames(out.name)

@@ -182,8 +182,9 @@ def plot_calibration(path: Path, fit: VoltageModel, residual: FloatArray) -> Pat
     ax.set_ylabel("distance [cm]")
     ax.set_title("DT60 calibration (Khokar 2009, §3.3.1)")
     ax.legend(loc="upper left")
-    axr.axhline(0.0, color="0.6", lw=0.8)
-    axr.plot(V, residual, "o-", ms=3)
+    axr.axhline(0.0, color="0.6", lw=0.8, label="no error")
+    axr.plot(V, residual, "o-", ms=3, label="eq. (1) − Table 1, at its voltages")
+    axr.legend(fontsize=7, loc="best")
     axr.set_xlabel("voltage [V]")
     axr.set_ylabel("eq. (1) − ref [cm]")
     return save_figure(fig, path, dpi=110)
@@ -232,7 +233,7 @@ def plot_step(path: Path, series: Sequence[StepSeries], *, t_step: float) -> Pat
     fig, ax = plt.subplots(figsize=(7, 4))
     for s in series:
         ax.step(s.t, s.distance_cm, s.style, where="post", ms=3, label=s.label)
-    ax.axvline(t_step, color="k", lw=0.8, ls=":")
+    ax.axvline(t_step, color="k", lw=0.8, ls=":", label=f"the step (t = {t_step:g} s)")
     ax.axvspan(t_step + 0.5, t_step + 0.55, color="C2", alpha=0.3, label="thesis: 0.5-0.55 s")
     ax.set_xlabel("time [s]")
     ax.set_ylabel("reading [cm]")
@@ -374,7 +375,7 @@ def plot_accuracy(acc: Sequence[Execution], path: Path, *, table_max_mm: float, 
         table_max_mm, color="k", ls="--", lw=0.8, label=f"Table 3 max {table_max_mm:g} mm"
     )
     axes[0].set_ylabel("|FK(q) - due via point| [mm]")
-    axes[1].set_ylabel("distance from the segment start-end [mm] (overshoot at the stop)")
+    axes[1].set_ylabel("distance from the segment start-end [mm]\n(overshoot at the stop)")
     for ax in axes:
         ax.set_xlabel("t [s]")
         ax.legend(fontsize=7)
