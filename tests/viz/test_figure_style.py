@@ -1,8 +1,9 @@
 """Figures that explain themselves, checked on the matplotlib objects (not on pixels).
 
 Every figure the demo writes (built-in scenario and a user's own config in metres), the wrist
-reproduction's two figures, the obstacles reproduction's clearance figure (short runs) and the
-study's figures are rendered while ``Figure.savefig`` is recorded; then, for each figure:
+reproduction's two figures and the obstacles reproduction's clearance figure (short runs) are
+rendered while ``Figure.savefig`` is recorded (the study's and the CoSPM reproduction's figures:
+``test_figure_checks.py``); then, for each figure:
 
 * no axes is empty (it holds lines, collections, patches or images);
 * every data axes has an x and a y label (and a z label in 3-D) with a unit in brackets;
@@ -165,24 +166,3 @@ def test_obstacle_clearance_figure(tmp_path: Path, recorded: dict[str, Figure]) 
     fig = recorded["clearance.png"]
     assert len(fig.axes) == 8  # 4 runs x (clearance, EE error): the 2 unused panels removed
     assert fig.get_size_inches()[0] * 90 <= 1300  # readable at 100 %: at most 3 columns
-
-
-@pytest.mark.slow  # about 25 s: the simulated study itself
-def test_study_figures(tmp_path: Path, recorded: dict[str, Figure]) -> None:
-    from velfence.apps.teleop.study import run_study
-    from velfence.apps.viz.study import write_study
-
-    write_study(run_study(2, 1, 0), tmp_path)
-    assert check_every(recorded, tmp_path) == {"study_paths.png", "study_times.png"}
-    for ax in recorded["study_paths.png"].axes:
-        assert len(ax.get_xticks()) <= 5  # no overlapping tick labels on the small 3-D panels
-
-
-@pytest.mark.slow  # about 10 s: the whole CoSPM reproduction
-def test_cospm_reproduction_figures(tmp_path: Path, recorded: dict[str, Figure]) -> None:
-    from velfence.apps.reproduce.cospm import run
-
-    report = run(tmp_path)
-    names = {Path(a).name for a in report.artifacts if a.endswith(".png")}
-    assert names
-    assert names <= check_every(recorded, tmp_path)
