@@ -31,10 +31,12 @@ typecheck: $(STAMP)
 docs: $(STAMP)
 	$(BIN)/sphinx-build -W --keep-going -q -b html docs out/docs
 
-# Tests run on every core (pytest-xdist), one test file per worker at a time (--dist loadfile: a
-# file's module- and session-scoped fixtures are built once per worker). JOBS=1 runs in-process.
+# Tests run on every core (pytest-xdist). --dist loadgroup: each test file is one group (a
+# file's module- and session-scoped fixtures are built once per worker), except the files listed
+# in tests/conftest.py's SPREAD, whose independent slow tests spread over the workers one by
+# one; the files with slow tests start first. JOBS=1 runs in-process.
 JOBS ?= auto
-PYTEST := $(BIN)/python -m pytest $(if $(filter 1,$(JOBS)),,-n $(JOBS) --dist loadfile)
+PYTEST := $(BIN)/python -m pytest $(if $(filter 1,$(JOBS)),,-n $(JOBS) --dist loadgroup)
 
 pytest: $(STAMP)
 	$(PYTEST)

@@ -63,7 +63,31 @@ SLOW_NODES = (
 )
 
 
+#: Files whose tests share no module- or session-scoped fixture and take long one by one: under
+#: ``--dist loadgroup`` (the Makefile) their tests spread over the workers one at a time; every
+#: other file is one group (one worker builds its module fixtures once, as ``loadfile`` did).
+SPREAD = (
+    "tests/viz/test_figure_checks.py",
+    "tests/test_progress.py",
+    "tests/test_examples.py",
+    "tests/test_cli.py",
+    "tests/test_readme.py",
+    "tests/integrations/test_gymnasium.py",
+    "tests/core/test_filter_cycle_c.py",
+)
+
+
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     for item in items:
         if item.nodeid.startswith(SLOW_NODES):
             item.add_marker(pytest.mark.slow)
+    slow_files: set[str] = set()
+    for item in items:
+        path = item.nodeid.split("::")[0]
+        if item.get_closest_marker("slow") is not None:
+            slow_files.add(path)
+        if not path.startswith(SPREAD) and item.get_closest_marker("xdist_group") is None:
+            item.add_marker(pytest.mark.xdist_group(path))
+    # The files with slow tests first (a stable sort): the longest work starts while every
+    # worker is free, not at the end beside an idle one.
+    items.sort(key=lambda it: it.nodeid.split("::")[0] not in slow_files)
