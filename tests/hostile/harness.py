@@ -49,7 +49,7 @@ SKIP_MODULES = ("velfence.apps.cli",)
 #: Modules inside a sub-package whose own ``__all__`` users import from directly (shown in the
 #: documentation or the examples), attacked like the packages (docs/reliability-inputs.md,
 #: "What is enumerated"; every other module-level ``__all__`` serves its package only).
-EXTRA_MODULES = ("velfence.sim.arm", "velfence.apps.scenarios.lag")
+EXTRA_MODULES = ("velfence.apps.demo.arm_box", "velfence.apps.scenarios.lag")
 
 
 # --- the registry's vocabulary ----------------------------------------------------------------

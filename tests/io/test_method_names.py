@@ -18,10 +18,10 @@ import pytest
 
 from optional import requires
 from velfence.apps.demo import build_shapers
+from velfence.apps.demo.config import ALL_METHODS, METHOD_OF, load_config
 from velfence.errors import InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon
 from velfence.geometry.polytope import ConvexPolytope
-from velfence.io.config import ALL_METHODS, METHOD_OF, load_config
 from velfence.io.shaper_config import SHAPER_METHODS, load_yaml, parse_shaper
 from velfence.shaping.polygon import PolygonShaper
 from velfence.shaping.polytope import PolytopeShaper

@@ -115,7 +115,7 @@ def test_a_figure_level_label_stands_for_panels_without_their_own() -> None:
 
 def test_demo_with_the_example_config(tmp_path: Path, recorded: dict[str, Figure]) -> None:
     from velfence.apps.demo import run_demo
-    from velfence.io.config import load_config
+    from velfence.apps.demo.config import load_config
 
     cfg = load_config(ROOT / "examples" / "demo-config.yaml")
     cfg = cfg.model_copy(update={"gif": False, "duration": 5.0})

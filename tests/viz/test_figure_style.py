@@ -33,7 +33,7 @@ from figure_checks import (  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
 from velfence.apps.demo import run_demo  # noqa: E402
-from velfence.io.config import DemoConfig  # noqa: E402
+from velfence.apps.demo.config import DemoConfig  # noqa: E402
 
 UNIT = re.compile(r"\[[^\[\]]+\]")
 

@@ -20,7 +20,9 @@ providers), :mod:`~velfence.filter.ladder` (priority ladder and fallbacks),
 :mod:`~velfence.filter.result` (:class:`FilterResult`), :mod:`~velfence.filter.solve` (the
 projection under the metric, its backends, cap and warm start), :mod:`~velfence.filter.stack`
 (one cycle's stacked rows and their keys), :mod:`~velfence.filter.parts` (the validated parts,
-checked at construction), :mod:`~velfence.filter.filter` (:class:`SafetyFilter`).
+checked at construction), :mod:`~velfence.filter.filter` (:class:`SafetyFilter`),
+:mod:`~velfence.filter.twist` (:class:`TwistMode`: the filter in twist mode as a shaper on
+``(q, v)``).
 """
 
 from velfence.filter.attach import (
@@ -64,6 +66,7 @@ from velfence.filter.rows import (
     SelfCollisionRows,
     WorkspaceRows,
 )
+from velfence.filter.twist import TwistMode
 
 __all__ = [
     "LEVEL_JERK",
@@ -98,6 +101,7 @@ __all__ = [
     "SelfCollisionRows",
     "Sphere",
     "SphereObstacle",
+    "TwistMode",
     "WorkspaceLimit",
     "WorkspaceRows",
 ]

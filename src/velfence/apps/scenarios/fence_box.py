@@ -3,7 +3,7 @@ r"""The Panda-like arm's TCP in a box, in MuJoCo: operator pushes, an external p
 Scene (``docs/physics.md``): :func:`velfence.robots.panda` with capsule links of radius 0.05 m,
 the TCP at the flange; the box :math:`[0.35, 0.65] \times [-0.25, 0.25] \times [0.30, 0.60]` m
 (the TCP starts at (0.47, 0, 0.52) m); a sphere of radius 0.04 m at (0.55, -0.12, 0.48) m, a MuJoCo
-geom the links can touch. The operator (:class:`~velfence.apps.scenarios.common.TcpJog`, speed
+geom the links can touch. The operator (:class:`~velfence.sim.scenarios.TcpJog`, speed
 ``speed``) jogs into the corner (x_max, y_max, z_min), along the face z_min pressing it, holds
 near the face x_min while a 25 N push along −x acts on the flange body for 0.4 s, jogs through
 the sphere to a target beyond x_max, and ends at a waypoint inside. Joint 1 (base rotation) is
@@ -28,10 +28,11 @@ import numpy as np
 
 from velfence._typing import FloatArray
 from velfence.apps.reproduce.base import Check, Report, check_at_least, check_at_most
-from velfence.apps.scenarios.common import PhysicsRun, ScenarioResult, TcpJog
+from velfence.apps.scenarios.common import PhysicsRun, ScenarioResult
 from velfence.geometry.polytope import ConvexPolytope
 from velfence.sim.metrics import box_penetration, face_sliding_ratio, joint_limit_violation
 from velfence.sim.runner import simulate
+from velfence.sim.scenarios import TcpJog
 
 __all__ = ["BOX_LOWER", "BOX_UPPER", "CELL_JOINT1", "METHODS", "run"]
 
@@ -117,8 +118,8 @@ def build_controllers(
     """
     from velfence.filter import SafetyFilter
     from velfence.filter.limits import JointLimits, SphereObstacle, WorkspaceLimit
+    from velfence.filter.twist import TwistMode
     from velfence.shaping.lookahead import LagCompensation
-    from velfence.sim.arm import TwistMode
     from velfence.sim.arm_baselines import JointClamp, ResolvedRate
 
     vmax = np.asarray(getattr(robot, "velocity_limits", np.full(robot.dof, np.inf)), dtype=float)

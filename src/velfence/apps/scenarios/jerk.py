@@ -103,7 +103,7 @@ class _AtRest:
     stateful = True
 
     def __init__(self, safety_filter: Any) -> None:
-        from velfence.sim.arm import TwistMode
+        from velfence.filter.twist import TwistMode
 
         self.filter = safety_filter
         self._twist = TwistMode(safety_filter)
@@ -144,7 +144,6 @@ def run(
     Raises:
         InvalidParameter: a bad speed or duration, or an unknown method.
     """
-    from velfence.apps.scenarios.common import TcpJog
     from velfence.apps.scenarios.fence_box import (
         BANDWIDTH,
         BOX_LOWER,
@@ -168,6 +167,7 @@ def run(
     from velfence.sim.metrics import joint_limit_violation
     from velfence.sim.physics import BodyPush, MujocoPlant
     from velfence.sim.runner import simulate
+    from velfence.sim.scenarios import TcpJog
 
     sp = check_positive("speed", speed, unit="m/s")
     unknown = [m for m in methods if m not in METHODS]

@@ -93,10 +93,10 @@ def run(
     )
     from velfence.filter import SafetyFilter
     from velfence.filter.limits import JointLimits, SphereObstacle
+    from velfence.filter.twist import TwistMode
     from velfence.redundancy import cosine_line
     from velfence.redundancy.configuration_control import ConfigurationController
     from velfence.robots import seven_dof
-    from velfence.sim.arm import TwistMode
     from velfence.sim.physics import MujocoPlant
 
     robot = seven_dof(radius=LINK_RADIUS)

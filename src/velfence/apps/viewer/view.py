@@ -33,11 +33,11 @@ SCENES: tuple[str, ...] = ("teleop", "arm-box", "fence-box")
 
 def _fence_box_session() -> _ArmSession:
     from velfence.apps.scenarios import fence_box as fb
-    from velfence.apps.scenarios.common import TcpJog
     from velfence.filter.limits import SphereObstacle
     from velfence.geometry.polytope import ConvexPolytope
     from velfence.robots import panda
     from velfence.sim.physics import MujocoPlant
+    from velfence.sim.scenarios import TcpJog
 
     robot = panda(radius=0.05)
     box = ConvexPolytope.box(np.array(fb.BOX_LOWER), np.array(fb.BOX_UPPER))
