@@ -1,5 +1,6 @@
 """Specs of the module-level names users import directly: ``velfence.apps.demo.arm_box`` (the
-arm-in-a-box demo of docs/arm_box.md), ``velfence.filter.TwistMode`` (docs/physics.md) and ``velfence.apps.scenarios.lag`` (examples/physics_lag.py)."""
+arm-in-a-box demo of docs/arm_box.md), ``velfence.filter.TwistMode`` (docs/physics.md) and
+``velfence.apps.scenarios.lag`` (examples/physics_lag.py)."""
 
 from __future__ import annotations
 

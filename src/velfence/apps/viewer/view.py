@@ -1,4 +1,4 @@
-"""The named scenes of the 3-D web view (``velfence view --scene NAME``).
+"""The named scenes of the 3-D web view (``velfence view --scenario NAME``).
 
 :func:`scene_session` builds one of :data:`SCENES`; :func:`serve_scene` serves it with
 :func:`velfence.apps.viewer.web.serve_web`. This module sits at the top of the layers (beside

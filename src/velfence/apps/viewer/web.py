@@ -1,7 +1,7 @@
 r"""One 3-D web view for every scene, drawn by viser (a three.js viewer driven from Python).
 
-:func:`serve_web` (CLI: ``velfence view --scene teleop|arm-box|fence-box``) shows a session in the
-browser and lets a person drive it with the keys of the teleop page
+:func:`serve_web` (CLI: ``velfence view --scenario teleop|arm-box|fence-box``) shows a session in
+the browser and lets a person drive it with the keys of the teleop page
 (:mod:`velfence.apps.viewer.server`): the thesis's mode keys ``A S F D G P T``, ``C`` (clutch),
 ``H`` (hand), the arrows and PgUp/PgDn to jog, ``U O I K J L`` to turn, ``[`` ``]`` for the jog
 speed, Space to stop. Scenes (:data:`velfence.apps.viewer.view.SCENES`, built by
