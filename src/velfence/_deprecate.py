@@ -45,8 +45,9 @@ __all__ = [
 #: The release that removes the old names.
 REMOVED_IN = "0.3"
 
-#: ``.method`` values before 0.2 -> the vocabulary's kebab-case name (docs/architecture.md):
-#: the arm baselines, the safety filter's twist mode and configuration control.
+#: ``.method`` values and run names before 0.2 -> the vocabulary's kebab-case name
+#: (docs/architecture.md): the arm baselines, the safety filter's twist mode, configuration
+#: control, and the variants the MuJoCo scenarios compare.
 FORMER_METHODS: dict[str, str] = {
     "no limit": "no-limit",
     "per-joint clamp": "per-joint-clamp",
@@ -54,6 +55,10 @@ FORMER_METHODS: dict[str, str] = {
     "damper QP": "velocity-damper-qp",
     "velfence": "safety-filter",
     "configuration control": "configuration-control",
+    "no avoidance": "no-avoidance",
+    "velfence + look-ahead": "safety-filter-look-ahead",
+    "velfence + jerk rows": "safety-filter-jerk-rows",
+    "velfence, no jerk rows": "safety-filter-no-jerk-rows",
 }
 
 

@@ -300,8 +300,14 @@ SPECS.update(
                 },
             ),
             {
-                "explain": F(lambda: call(_pose(_LR_STEP), _pose(_LR_HOME)), types=_LR_DICTS),
-                "shield": F(lambda: call(_pose(_LR_STEP), _pose(_LR_HOME)), types=_LR_DICTS),
+                "explain": F(
+                    lambda: call(observation=_pose(_LR_HOME), action=_pose(_LR_STEP)),
+                    types=_LR_DICTS,
+                ),
+                "shield": F(
+                    lambda: call(observation=_pose(_LR_HOME), action=_pose(_LR_STEP)),
+                    types=_LR_DICTS,
+                ),
                 "reset": lambda: call(),
                 "to_radians": F(lambda: call(_pose(_LR_HOME)), types={"values": "object"}),
                 "from_radians": lambda: call(np.radians(_LR_HOME)),

@@ -85,7 +85,9 @@ def test_bad_arguments() -> None:
     from velfence.errors import InvalidParameter
 
     with pytest.raises(InvalidParameter, match="methods"):
-        run(duration=0.01, methods=("velfence",))
+        run(duration=0.01, methods=("safety-filter",))  # a plain filter is no variant here
+    with pytest.raises(InvalidParameter, match="methods"):
+        run(duration=0.01, methods=())
     with pytest.raises(InvalidParameter, match="duration"):
         run(duration=0.0)
     with pytest.raises(InvalidParameter, match="speed"):

@@ -179,7 +179,7 @@ def _fake_result(contacts: bool) -> Any:
     t = np.linspace(0.0, 2.0, 50)
     margin = 0.05 - 0.04 * np.sin(t)
     runs = {}
-    for name in ("no limit", "per-joint clamp", "velfence"):
+    for name in ("no-limit", "per-joint-clamp", "safety-filter"):
         rec = SimpleNamespace(contacts=(t > 1.0).astype(int) if contacts else np.zeros(50))
         runs[name] = SimpleNamespace(
             trajectory=SimpleNamespace(t=t), record=rec, extra={"margin": margin}

@@ -121,7 +121,7 @@ def build_shapers(polygon: ConvexPolygon, cfg: DemoConfig) -> dict[str, Shaper]:
 
     Args:
         polygon: The permitted workspace.
-        cfg: The demo configuration (:func:`velfence.io.load_config`).
+        cfg: The demo configuration (:func:`velfence.apps.demo.config.load_config`).
 
     Returns:
         Method name -> shaper, in the config's order.
@@ -133,7 +133,8 @@ def build_shapers(polygon: ConvexPolygon, cfg: DemoConfig) -> dict[str, Shaper]:
         raise InvalidParameter(f"polygon: expected a ConvexPolygon, got {type(polygon).__name__}")
     if not isinstance(cfg, DemoConfig):
         raise InvalidParameter(
-            f"cfg: expected a DemoConfig (from velfence.io.load_config), got {type(cfg).__name__}"
+            f"cfg: expected a DemoConfig (from velfence.apps.demo.load_config), got "
+            f"{type(cfg).__name__}"
         )
     s = cfg.shaper
     common: dict[str, Any] = {
@@ -249,7 +250,7 @@ def run_demo(
     if config is not None and not isinstance(config, DemoConfig):
         raise InvalidParameter(
             f"config: expected a DemoConfig or None, got {type(config).__name__}; build one "
-            "with velfence.io.load_config"
+            "with velfence.apps.demo.load_config"
         )
     if console is not None and not isinstance(console, Console):
         raise InvalidParameter(

@@ -6,12 +6,15 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
+from velfence._deprecate import method_name
 from velfence._typing import FloatArray
+from velfence._validate import describe
 from velfence.apps.reproduce.base import Report
+from velfence.errors import InvalidParameter
 from velfence.sim.physics import PhysicsRecord
 from velfence.sim.runner import Trajectory
 
-__all__ = ["SCENARIOS", "PhysicsRun", "ScenarioResult"]
+__all__ = ["SCENARIOS", "PhysicsRun", "ScenarioResult", "scenario_methods"]
 
 #: The scenarios of ``velfence sim --scenario NAME``.
 SCENARIOS: tuple[str, ...] = ("fence-box", "wrist-push", "redundant-obstacle")
@@ -60,3 +63,31 @@ class ScenarioResult:
     units: Mapping[str, str]
     report: Report
     scene: Mapping[str, Any]
+
+
+def scenario_methods(methods: object, known: tuple[str, ...]) -> tuple[str, ...]:
+    """Names from ``known``, at least one; a run name before 0.2 warns and is translated.
+
+    Args:
+        methods: A list or tuple of run names (``"safety-filter"``, ...; the former
+            ``"velfence"``, ``"no limit"``, ... warn until 0.3).
+        known: The scenario's run names.
+
+    Returns:
+        The names, in the given order.
+
+    Raises:
+        InvalidParameter: not a list of known names, or an empty one.
+    """
+    if isinstance(methods, (str, bytes)) or not isinstance(methods, (list, tuple)) or not methods:
+        raise InvalidParameter(
+            f"methods: expected a non-empty list of names from {list(known)}, got "
+            f"{describe(methods)}"
+        )
+    out = [method_name(m, what="scenario method name", stacklevel=5) for m in methods]
+    unknown = [m for m in out if not isinstance(m, str) or m not in known]
+    if unknown:
+        raise InvalidParameter(
+            f"methods: expected names from {list(known)}, got {describe(unknown)}"
+        )
+    return tuple(str(m) for m in out)

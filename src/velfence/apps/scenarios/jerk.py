@@ -6,11 +6,11 @@ wrist that shoves the TCP out of the box, which the filter's recovery rows then 
 the Panda's published speed, acceleration and jerk limits (:meth:`MujocoRobot.limits
 <velfence.robots.MujocoRobot.limits>`, Franka's table "Limits for Panda"), three ways:
 
-* ``"velfence + jerk rows"``: the :class:`~velfence.filter.SafetyFilter` in twist mode with the
+* ``"safety-filter-jerk-rows"``: the :class:`~velfence.filter.SafetyFilter` in twist mode with the
   joint limits, speeds, accelerations **and jerks** (the robot at rest before the first cycle:
   ``reset(velocity=0)``);
-* ``"velfence, no jerk rows"``: the same filter without ``max_jerk``;
-* ``"per-joint clamp"``: resolved rate clamped per joint to the speed and position limits.
+* ``"safety-filter-no-jerk-rows"``: the same filter without ``max_jerk``;
+* ``"per-joint-clamp"``: resolved rate clamped per joint to the speed and position limits.
 
 What is measured is the jerk of the **commanded** joint velocity (what a robot controller such as
 Franka's checks against its limit), from the commands alone: the second difference of the
@@ -32,12 +32,17 @@ import numpy as np
 
 from velfence._typing import FloatArray
 from velfence._validate import check_output_path, check_positive
-from velfence.errors import InvalidParameter
+from velfence.apps.scenarios.common import scenario_methods
+from velfence.apps.viz.labels import method_label
 
 __all__ = ["METHODS", "JerkRow", "JerkRun", "jerk_table", "plot_jerk", "run"]
 
 #: The compared controllers, in table order.
-METHODS: tuple[str, ...] = ("velfence + jerk rows", "velfence, no jerk rows", "per-joint clamp")
+METHODS: tuple[str, ...] = (
+    "safety-filter-jerk-rows",
+    "safety-filter-no-jerk-rows",
+    "per-joint-clamp",
+)
 
 
 @dataclass(frozen=True, eq=False)
@@ -170,9 +175,7 @@ def run(
     from velfence.sim.scenarios import TcpJog
 
     sp = check_positive("speed", speed, unit="m/s")
-    unknown = [m for m in methods if m not in METHODS]
-    if unknown or not methods:
-        raise InvalidParameter(f"methods: expected some of {list(METHODS)}, got {list(methods)}")
+    methods = scenario_methods(methods, METHODS)
     robot = panda(radius=0.05)
     box = ConvexPolytope.box(np.array(BOX_LOWER), np.array(BOX_UPPER))
     q0 = np.array(Q0)
@@ -210,9 +213,9 @@ def run(
     arm: Any = robot  # (the clamp takes any arm with the kinematics it reads)
 
     make: dict[str, Callable[[], Any]] = {
-        "velfence + jerk rows": lambda: velfence(True),
-        "velfence, no jerk rows": lambda: velfence(False),
-        "per-joint clamp": lambda: JointClamp(arm, limits=limits(False), dt=DT),
+        "safety-filter-jerk-rows": lambda: velfence(True),
+        "safety-filter-no-jerk-rows": lambda: velfence(False),
+        "per-joint-clamp": lambda: JointClamp(arm, limits=limits(False), dt=DT),
     }
     jmax = np.asarray(published.max_jerk, dtype=float)
     out: dict[str, JerkRun] = {}
@@ -304,7 +307,7 @@ def plot_jerk(runs: dict[str, JerkRun], path: Path | str) -> Path:
                        label="flagged cycle (jerk rows gave way)")  # fmt: skip
         n_over = int(np.count_nonzero(r.ratio.max(axis=1) > 1.0 + 1e-9))
         ax.set_title(
-            f"{name}: max |jerk|/limit {r.ratio.max():.3g}, {n_over} cycles over, "
+            f"{method_label(name)}: max |jerk|/limit {r.ratio.max():.3g}, {n_over} cycles over, "
             f"{int(np.count_nonzero(r.flagged))} flagged", fontsize=10,
         )  # fmt: skip
         ax.set_yscale("log")

@@ -17,6 +17,10 @@ METHOD_LABELS: dict[str, str] = {
     "velocity-damper-qp": "damper QP",
     "safety-filter": "velfence",
     "configuration-control": "configuration control",
+    "no-avoidance": "no avoidance",
+    "safety-filter-look-ahead": "velfence + look-ahead",
+    "safety-filter-jerk-rows": "velfence + jerk rows",
+    "safety-filter-no-jerk-rows": "velfence, no jerk rows",
 }
 
 
