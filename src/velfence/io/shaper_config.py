@@ -47,11 +47,11 @@ from typing import Annotated, Any, Literal
 from velfence._extras import missing
 
 try:
-    from pydantic import Field, Strict, ValidationError, model_validator
+    from pydantic import Field, Strict, ValidationError, field_validator, model_validator
 except ModuleNotFoundError as exc:  # an optional dependency: name the extra
     raise missing(exc, what=__name__) from exc
 
-from velfence._deprecate import warn_renamed
+from velfence._deprecate import method_name, warn_renamed
 from velfence._docs import document_inits
 from velfence.errors import InvalidParameter, VelfenceError
 from velfence.io.config import (
@@ -182,6 +182,12 @@ class _SafetyFilter(StrictModel):
     joint_buffer: Buffer = 0.1
     spring_gain: NonNegative = 1.0
     method: Literal["safety-filter"] = "safety-filter"
+
+    @field_validator("method", mode="before")
+    @classmethod
+    def _former_method(cls, value: Any) -> Any:
+        # "velfence" was the twist mode's .method before 0.2 (warns until 0.3)
+        return method_name(value, what="shaper value of method", stacklevel=2)
 
     @model_validator(mode="after")
     def _one_speed(self) -> _SafetyFilter:
