@@ -18,7 +18,7 @@ command sequence over :math:`\Delta t^2` (the zeros of the rest before the start
 joint, as a fraction of the joint's limit. A cycle whose jerk rows gave way
 (``FilterResult.jerk_override``: position, workspace or obstacle rows, or the acceleration limit,
 won) or that ended on the deadline fallback is *flagged*; every other cycle of the jerk-row run
-holds the limit (``tests/robot_sim/test_jerk_scenario.py``).
+holds the limit (``tests/apps/scenarios/test_jerk_scenario.py``).
 """
 
 from __future__ import annotations

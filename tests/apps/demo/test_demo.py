@@ -244,7 +244,7 @@ def test_build_shapers_in_config_order() -> None:
 
 # ------------------------------------------------------------- the shipped example config file
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[3]
 EXAMPLE = ROOT / "examples" / "demo-config.yaml"
 DOC = ROOT / "docs" / "config.md"
 

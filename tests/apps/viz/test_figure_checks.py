@@ -25,7 +25,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 from figure_checks import check_all, problems, record_figures  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 
 
 @pytest.fixture

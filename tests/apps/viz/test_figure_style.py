@@ -54,7 +54,7 @@ def recorded(monkeypatch: pytest.MonkeyPatch) -> Iterator[dict[str, Figure]]:
         yield figures
 
 
-# One figure checker (tests/viz/figure_checks.py): these tests use its rules.
+# One figure checker (tests/apps/viz/figure_checks.py): these tests use its rules.
 _is_colorbar = is_colorbar
 _has_data = has_data
 _colour_mapped = colour_mapped
