@@ -189,7 +189,9 @@ def write_video(
             if progress is not None:
                 progress((k + f) / len(names))
             report_progress(
-                k + f, len(names), f"{result.name} video, panel {name}: frame {round(f * n)}/{n}"
+                k + f,
+                len(names),
+                f"{result.name} video, panel {method_label(name)}: frame {round(f * n)}/{n}",
             )
 
         panels[name] = render_frames(
