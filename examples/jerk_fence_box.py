@@ -14,8 +14,8 @@ from __future__ import annotations
 
 import argparse
 
+from velfence.apps.labels import method_label
 from velfence.apps.scenarios.jerk import jerk_table, plot_jerk, run
-from velfence.apps.viz.labels import method_label
 
 
 def main() -> None:

@@ -51,7 +51,7 @@ def test_the_library_keeps_its_own_names_without_warning():
 
 def test_arm_controllers_report_vocabulary_methods():
     from velfence.apps.demo.arm_box import ARM_METHODS, arm_box_scene, build_arm_controllers
-    from velfence.apps.viz.labels import method_label
+    from velfence.apps.labels import method_label
 
     pytest.importorskip("qpsolvers")
     ctrl = build_arm_controllers(arm_box_scene())

@@ -507,7 +507,7 @@ ARM_METRIC_COLUMNS: tuple[tuple[str, str], ...] = (
 
 
 def _arm_markdown(metrics: dict[str, dict[str, dict[str, float]]]) -> str:
-    from velfence.apps.viz.labels import method_label
+    from velfence.apps.labels import method_label
 
     head = "| speed [m/s] | method | " + " | ".join(t for _, t in ARM_METRIC_COLUMNS) + " |"
     rule = "|" + "---|" * (len(ARM_METRIC_COLUMNS) + 2)
@@ -680,7 +680,7 @@ def _write_arm_plots(scene: Any, runs: dict[str, Any], out: Path, *, gif: bool) 
 
 
 def _arm_table(metrics: dict[str, dict[str, dict[str, float]]]) -> Table:
-    from velfence.apps.viz.labels import method_label
+    from velfence.apps.labels import method_label
 
     table = Table(title="velfence demo — arm in a box (7-DoF, 1 kHz, Cartesian jog)")
     table.add_column("speed\n[m/s]", justify="right")

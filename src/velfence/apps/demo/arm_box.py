@@ -72,7 +72,7 @@ __all__ = [
 
 #: The compared controllers, in table order: each is the ``.method`` its controller reports
 #: (the names of ``docs/architecture.md``, "Vocabulary"; legends and tables show
-#: :func:`velfence.apps.viz.labels.method_label`). The names before 0.2 (``"no limit"``,
+#: :func:`velfence.apps.labels.method_label`). The names before 0.2 (``"no limit"``,
 #: ``"per-joint clamp"``, ``"scalar scale"``, ``"damper QP"``, ``"velfence"``) are accepted as
 #: input with a warning until 0.3.
 ARM_METHODS: tuple[str, ...] = (

@@ -27,9 +27,9 @@ from typing import Any
 import numpy as np
 
 from velfence._typing import FloatArray
+from velfence.apps.labels import method_label
 from velfence.apps.reproduce.base import Check, Report, check_at_least, check_at_most
 from velfence.apps.scenarios.common import PhysicsRun, ScenarioResult, scenario_methods
-from velfence.apps.viz.labels import method_label
 from velfence.geometry.polytope import ConvexPolytope
 from velfence.sim.metrics import box_penetration, face_sliding_ratio, joint_limit_violation
 from velfence.sim.runner import simulate

@@ -32,8 +32,8 @@ import numpy as np
 
 from velfence._typing import FloatArray
 from velfence._validate import check_output_path, check_positive
+from velfence.apps.labels import method_label
 from velfence.apps.scenarios.common import scenario_methods
-from velfence.apps.viz.labels import method_label
 
 __all__ = ["METHODS", "JerkRow", "JerkRun", "jerk_table", "plot_jerk", "run"]
 

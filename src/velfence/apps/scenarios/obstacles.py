@@ -20,9 +20,9 @@ from typing import Any
 
 import numpy as np
 
+from velfence.apps.labels import method_label
 from velfence.apps.reproduce.base import Check, Report, check_at_least, check_at_most
 from velfence.apps.scenarios.common import PhysicsRun, ScenarioResult, scenario_methods
-from velfence.apps.viz.labels import method_label
 from velfence.sim.runner import Trajectory
 
 __all__ = ["METHODS", "run"]

@@ -10,10 +10,10 @@ from typing import Any
 
 import numpy as np
 
+from velfence.apps.labels import method_label
 from velfence.apps.progress import update as report_progress
 from velfence.apps.reproduce.base import jsonable
 from velfence.apps.scenarios.common import ScenarioResult
-from velfence.apps.viz.labels import method_label
 
 __all__ = ["COLORS", "plot_margins", "write_metrics", "write_outputs", "write_video"]
 

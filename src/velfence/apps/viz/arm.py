@@ -24,7 +24,7 @@ from matplotlib.colors import Normalize
 from velfence._typing import FloatArray
 from velfence._validate import check_output_path, check_positive_int
 from velfence.apps import progress
-from velfence.apps.viz.labels import method_label
+from velfence.apps.labels import method_label
 from velfence.apps.viz.plots import MAX_FPS, MAX_FRAMES, save_figure
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.mechanisms.chain import DHChain
