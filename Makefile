@@ -61,13 +61,13 @@ bench-docs: $(STAMP)
 	$(BIN)/velfence bench --out docs/benchmarks.md
 
 # Randomised closed-loop containment campaign, 10^6 steps per shaper (minutes, not part of
-# `make test`; its 10^4-step smoke version is tests/test_soak.py).
+# `make test`; its 10^4-step smoke version is tests/apps/soak/test_soak.py).
 soak: $(STAMP)
 	$(BIN)/python -m velfence.apps.soak --steps 1000000 --out docs/reliability.md
 
 # The evidence campaigns of the n-D shaper and the safety filter: 10^6 vertex/edge states of 3-D
 # to 7-D polytopes and 10^6 closed-loop UR5e/Panda steps at 1 kHz, 500 Hz and 100 Hz (tens of
-# minutes; smoke versions in tests/test_soak_filter.py). Writes its section of reliability.md.
+# minutes; smoke versions in tests/apps/soak_filter/test_soak_filter.py). Writes its section of reliability.md.
 soak-filter: $(STAMP)
 	$(BIN)/python -m velfence.apps.soak_filter --vertex-states 1000000 --filter-states 1000000 \
 		--steps 1000000 --out docs/reliability.md

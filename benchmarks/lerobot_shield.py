@@ -54,7 +54,7 @@ def states(sh: LeRobotShield, n: int, seed: int = 0) -> tuple[list[dict[str, flo
             goal = [*(rng.uniform(-90, 90, 5) + np.array([0, 30, -20, 30, 0])), 50.0]
         a = {f"{j}.pos": float(v) for j, v in zip(JOINTS, goal, strict=True)}
         o = {f"{j}.pos": float(v) for j, v in zip(JOINTS, q, strict=True)}
-        r = sh.explain(a, o)
+        r = sh.explain(observation=o, action=a)
         assert r.filter_result is not None
         active += r.filter_result.zone != "free"
         acts.append(a)
@@ -82,12 +82,12 @@ def main() -> None:
     shield = sh.shield
     clock = time.perf_counter
     for i in range(WARMUP):
-        shield(acts[i % m], obs[i % m])
+        shield(observation=obs[i % m], action=acts[i % m])
     t = np.empty(args.calls)
     for i in range(args.calls):
         a, o = acts[i % m], obs[i % m]
         t0 = clock()
-        shield(a, o)
+        shield(observation=o, action=a)
         t[i] = clock() - t0
     n_per = max(1, args.calls // 10)
     tp = np.empty(n_per)
@@ -96,7 +96,7 @@ def main() -> None:
         a, o = acts[i % m], obs[i % m]
         time.sleep(period)
         t0 = clock()
-        shield(a, o)
+        shield(observation=o, action=a)
         tp[i] = clock() - t0
     print(f"states with active rows: {info[0]['active']:.0%} of {m}")
     print("| loop | calls | median [µs] | p99 [µs] | max [µs] |")

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 
+from velfence.apps.labels import method_label
 from velfence.apps.scenarios.jerk import jerk_table, plot_jerk, run
 
 
@@ -29,7 +30,7 @@ def main() -> None:
     )
     for r in jerk_table(runs):
         print(
-            f"{r.method:22} | {r.max_ratio:16.3f} | {r.max_ratio_unflagged:13.3f} | "
+            f"{method_label(r.method):22} | {r.max_ratio:16.3f} | {r.max_ratio_unflagged:13.3f} | "
             f"{r.flagged:7d} | {r.over:11d} | {r.cycles:6d} | {1e3 * r.penetration:16.2f} | "
             f"{1e3 * r.joint_violation:22.2f} | {r.contacts:15d}"
         )

@@ -44,20 +44,20 @@ except ImportError:  # another Hypothesis layout: nothing to pin
 #: C and C++ programs built with the compiler (unit tests under sanitizers, the examples, the
 #: CMake package); the longest figure, stream and convergence runs. `make test` runs them all.
 SLOW_NODES = (
-    "tests/test_benchmarking.py::",
-    "tests/test_cli.py::test_bench_",
+    "tests/apps/bench/test_benchmarking.py::",
+    "tests/apps/cli/test_cli.py::test_bench_",
     "tests/core/test_c_api.py::",
     "tests/core/test_cc_c_api.py::",
     "tests/core/test_nd_c_api.py::",
     "tests/core/test_rr_c_api.py::",
     "tests/core/test_filter_cycle_c.py::",
     "tests/core/test_cmake.py::",
-    "tests/viz/test_figure_style.py::test_demo_figures_explain_themselves",
+    "tests/apps/viz/test_figure_style.py::test_demo_figures_explain_themselves",
     "tests/cobot/test_follower.py::test_perpendicular_start_converges",
     "tests/bridge/test_bridge_node.py::test_1khz_stream",
-    "tests/teleop/test_study.py::test_animate_run",
-    "tests/test_progress.py::test_sim_reports_progress",
-    "tests/teleop/test_viewer_hardening.py::test_idle_connections",
+    "tests/apps/teleop/test_study.py::test_animate_run",
+    "tests/apps/progress/test_progress.py::test_sim_reports_progress",
+    "tests/apps/viewer/test_viewer_hardening.py::test_idle_connections",
     "tests/test_optional_imports.py::",
     "tests/test_readme.py::test_block_runs_and_prints_what_the_page_shows[tutorials/",
 )
@@ -67,10 +67,10 @@ SLOW_NODES = (
 #: ``--dist loadgroup`` (the Makefile) their tests spread over the workers one at a time; every
 #: other file is one group (one worker builds its module fixtures once, as ``loadfile`` did).
 SPREAD = (
-    "tests/viz/test_figure_checks.py",
-    "tests/test_progress.py",
+    "tests/apps/viz/test_figure_checks.py",
+    "tests/apps/progress/test_progress.py",
     "tests/test_examples.py",
-    "tests/test_cli.py",
+    "tests/apps/cli/test_cli.py",
     "tests/test_readme.py",
     "tests/integrations/test_gymnasium.py",
     "tests/core/test_filter_cycle_c.py",

@@ -17,12 +17,12 @@ import pytest
 
 import velfence as vf
 from velfence._deprecate import renamed_args
+from velfence.apps.demo.arm_box import arm_box_scene
 from velfence.filter import JointLimits, ObstacleRows, SafetyFilter, SphereObstacle, WorkspaceLimit
 from velfence.geometry.polytope import ConvexPolytope
 from velfence.mechanisms import PAPER_STOPS, Q_AUX, DHChain, PlanarArm
 from velfence.redundancy import ConfigurationController
 from velfence.shaping import ShapingResultProtocol, StopLimiter, ThreeZoneBraking
-from velfence.sim.arm import arm_box_scene
 
 WARNS = r"is now '.*'; the old name goes in 0\.3"
 
@@ -253,9 +253,9 @@ POSITIONAL = r"positionally is deprecated; .*goes in 0\.3"
 
 
 def _positional_cases() -> list[tuple[str, Callable[[], Any], Callable[[], Any]]]:
+    from velfence.apps.demo.config import check_run_length
     from velfence.apps.teleop.scene import Box
     from velfence.geometry import points_segments_distances, sphere_capsule_distance
-    from velfence.io import check_run_length
     from velfence.robots import dh_mjcf, mdh_mjcf
 
     rows = [[0.0, 0.0, 0.5, 0.0], [0.3, 0.0, 0.0, 0.0]]

@@ -309,7 +309,7 @@ def test_policy_shield(
     import importlib.util
 
     spec = importlib.util.spec_from_file_location(
-        "figure_checks", Path(__file__).parent / "viz" / "figure_checks.py"
+        "figure_checks", Path(__file__).parent / "apps" / "viz" / "figure_checks.py"
     )
     assert spec is not None
     assert spec.loader is not None
@@ -343,7 +343,7 @@ def test_tool_and_self_collision(
     import importlib.util
 
     spec = importlib.util.spec_from_file_location(
-        "figure_checks", Path(__file__).parent / "viz" / "figure_checks.py"
+        "figure_checks", Path(__file__).parent / "apps" / "viz" / "figure_checks.py"
     )
     assert spec is not None
     assert spec.loader is not None

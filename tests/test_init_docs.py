@@ -51,7 +51,7 @@ def test_the_walk_finds_the_library_classes() -> None:
         "velfence.filter.filter.SafetyFilter",
         "velfence.filter.limits.SphereObstacle",
         "velfence.geometry.polytope.ConvexPolytope",
-        "velfence.io.config.DemoConfig",
+        "velfence.filter.twist.TwistMode",
     ):
         assert want in names
     assert len(CLASSES) > 100

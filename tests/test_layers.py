@@ -199,3 +199,19 @@ def test_the_architecture_page_shows_every_layer_of_the_contracts():
     diagram, tables = _doc_layers(doc)
     assert diagram == want
     assert tables == want
+
+
+def test_the_spread_files_exist() -> None:
+    """tests/conftest.py's SPREAD names test files that exist (a moved file would silently go
+    back to one group)."""
+    import ast
+
+    tree = ast.parse((ROOT / "tests" / "conftest.py").read_text(encoding="utf-8"))
+    spread = next(
+        ast.literal_eval(node.value)
+        for node in tree.body
+        if isinstance(node, ast.Assign) and getattr(node.targets[0], "id", "") == "SPREAD"
+    )
+    assert spread
+    missing = [p for p in spread if not (ROOT / p).is_file()]
+    assert not missing, missing

@@ -247,7 +247,8 @@ def test_every_page_with_python_has_checked_examples() -> None:
 
 def _load_yaml_block(code: str, path: Path) -> object:
     """Load a configuration file through the velfence loader its top-level keys call for."""
-    from velfence.io import load_config, load_yaml, parse_shaper
+    from velfence.apps.demo.config import load_config
+    from velfence.io import load_yaml, parse_shaper
 
     path.write_text(code, encoding="utf-8")
     doc = load_yaml(path)

@@ -10,6 +10,8 @@ Release 0.2 gave every idea of velfence one name (the table in docs/architecture
   ``ShapingResultProtocol``), for the module's ``__getattr__``;
 * :func:`positional_deprecated` — a tuning parameter made keyword-only: a positional call in
   the old order still works and warns;
+* :func:`method_name` — a controller's ``.method`` string given as input (``methods=``, the
+  CLI's ``--methods``) in its spelling before 0.2 (:data:`FORMER_METHODS`);
 * :func:`warn_renamed` — anything else (an old YAML key or value, an old attribute).
 
 Every message contains "goes in 0.3".
@@ -30,7 +32,9 @@ if TYPE_CHECKING:  # warn_renamed through velfence._lazy and must stay cheap
     F = TypeVar("F", bound=Callable[..., Any])
 
 __all__ = [
+    "FORMER_METHODS",
     "REMOVED_IN",
+    "method_name",
     "module_getattr",
     "positional_deprecated",
     "renamed_args",
@@ -40,6 +44,22 @@ __all__ = [
 
 #: The release that removes the old names.
 REMOVED_IN = "0.3"
+
+#: ``.method`` values and run names before 0.2 -> the vocabulary's kebab-case name
+#: (docs/architecture.md): the arm baselines, the safety filter's twist mode, configuration
+#: control, and the variants the MuJoCo scenarios compare.
+FORMER_METHODS: dict[str, str] = {
+    "no limit": "no-limit",
+    "per-joint clamp": "per-joint-clamp",
+    "scalar scale": "scalar-scale",
+    "damper QP": "velocity-damper-qp",
+    "velfence": "safety-filter",
+    "configuration control": "configuration-control",
+    "no avoidance": "no-avoidance",
+    "velfence + look-ahead": "safety-filter-look-ahead",
+    "velfence + jerk rows": "safety-filter-jerk-rows",
+    "velfence, no jerk rows": "safety-filter-no-jerk-rows",
+}
 
 
 def warn_renamed(what: str, old: str, new: str, *, stacklevel: int = 3) -> None:
@@ -56,6 +76,25 @@ def warn_renamed(what: str, old: str, new: str, *, stacklevel: int = 3) -> None:
         DeprecationWarning,
         stacklevel=stacklevel,
     )
+
+
+def method_name(name: object, *, what: str = "method name", stacklevel: int = 4) -> object:
+    """``name``, or its vocabulary name with a warning when it is a ``.method`` before 0.2.
+
+    Anything that is not a former name passes through unchanged (the caller validates it).
+
+    Args:
+        name: A method name as given by a user.
+        what: What it is, for the message ("arm-box method name").
+        stacklevel: Passed to :func:`warnings.warn` (4: the caller of the caller's caller).
+
+    Returns:
+        The name to use.
+    """
+    if isinstance(name, str) and name in FORMER_METHODS:
+        warn_renamed(what, name, FORMER_METHODS[name], stacklevel=stacklevel)
+        return FORMER_METHODS[name]
+    return name
 
 
 def renamed_args(**renames: str) -> Callable[[F], F]:

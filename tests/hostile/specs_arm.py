@@ -1,5 +1,6 @@
-"""Specs of the module-level names users import directly: ``velfence.sim.arm`` (the arm scene
-of docs/physics.md) and ``velfence.apps.scenarios.lag`` (examples/physics_lag.py)."""
+"""Specs of the module-level names users import directly: ``velfence.apps.demo.arm_box`` (the
+arm-in-a-box demo of docs/arm_box.md), ``velfence.filter.TwistMode`` (docs/physics.md) and
+``velfence.apps.scenarios.lag`` (examples/physics_lag.py)."""
 
 from __future__ import annotations
 
@@ -23,19 +24,19 @@ def _lag_row() -> object:
 
 
 def _scene() -> object:
-    from velfence.sim.arm import arm_box_scene
+    from velfence.apps.demo.arm_box import arm_box_scene
 
     return arm_box_scene()
 
 
 def _script() -> object:
-    from velfence.sim.arm import arm_script
+    from velfence.apps.demo.arm_box import arm_script
 
     return arm_script(_scene(), 0.1)
 
 
 def _twist_mode() -> object:
-    from velfence.sim.arm import TwistMode
+    from velfence.filter import TwistMode
 
     return TwistMode(safety_filter())
 
@@ -43,18 +44,16 @@ def _twist_mode() -> object:
 _SIM = "a closed-loop simulation of five controllers over the whole script (seconds)"
 
 SPECS: dict[str, F | C] = {
-    "sim.arm.ArmPhase": C(record="output record of arm_script()"),
-    "sim.arm.ArmRun": C(record="output record of run_arm()"),
-    "sim.arm.ArmScene": C(record="scene record built by arm_box_scene()"),
-    "sim.arm.ArmScript": C(record="output record of arm_script()"),
-    "sim.arm.TcpJog": C(
-        F(
-            lambda: call(_scene().robot, _script()),  # type: ignore[attr-defined]
-            types={"robot": "object", "script": "object"},
-        ),
-        {"target": F(lambda: call(0.5), types={"t": "scalar"})},
+    "demo.arm_box.ArmPhase": C(record="output record of arm_script()"),
+    "demo.arm_box.ArmRun": C(record="output record of run_arm()"),
+    "demo.arm_box.ArmScene": C(record="scene record built by arm_box_scene()"),
+    "demo.arm_box.ArmScript": C(record="output record of arm_script()"),
+    "demo.arm_box.arm_jog": F(
+        lambda: call(_scene().robot, _script()),  # type: ignore[attr-defined]
+        types={"robot": "object", "script": "object"},
     ),
-    "sim.arm.TwistMode": C(
+    "demo.arm_box.arm_methods": F(lambda: call(["no-limit"]), types={"methods": "object"}),
+    "filter.TwistMode": C(
         F(lambda: call(safety_filter()), types={"safety_filter": "object", "point": "choice"}),
         {
             "explain": lambda: call(_Q7, _TWIST),
@@ -64,13 +63,13 @@ SPECS: dict[str, F | C] = {
         },
         instance=_twist_mode,
     ),
-    "sim.arm.arm_box_scene": F(lambda: call()),
-    "sim.arm.arm_metrics": F(lambda: call(_scene(), {}), heavy="needs the runs of run_arm"),
-    "sim.arm.arm_script": F(lambda: call(_scene(), 0.1), types={"scene": "object"}),
-    "sim.arm.build_arm_controllers": F(
+    "demo.arm_box.arm_box_scene": F(lambda: call()),
+    "demo.arm_box.arm_metrics": F(lambda: call(_scene(), {}), heavy="needs the runs of run_arm"),
+    "demo.arm_box.arm_script": F(lambda: call(_scene(), 0.1), types={"scene": "object"}),
+    "demo.arm_box.build_arm_controllers": F(
         lambda: call(_scene()), types={"scene": "object", "methods": "object"}
     ),
-    "sim.arm.run_arm": F(lambda: call(_scene(), 0.1), heavy=_SIM),
+    "demo.arm_box.run_arm": F(lambda: call(_scene(), 0.1), heavy=_SIM),
     "scenarios.lag.LagRow": C(record="output record of lag_table()"),
     "scenarios.lag.lag_table": F(lambda: call(), heavy="a sweep of closed-loop runs"),
     "scenarios.lag.plot_lag": F(

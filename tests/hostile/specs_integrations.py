@@ -317,8 +317,18 @@ SPECS.update(
                 },
             ),
             {
-                "explain": F(lambda: call(_pose(_LR_STEP), _pose(_LR_HOME)), types=_LR_DICTS),
-                "shield": F(lambda: call(_pose(_LR_STEP), _pose(_LR_HOME)), types=_LR_DICTS),
+                "explain": F(
+                    lambda: call(observation=_pose(_LR_HOME), action=_pose(_LR_STEP)),
+                    types=_LR_DICTS,
+                    # both needed: None only marks "given positionally" (the order of 0.2)
+                    required=frozenset({"observation", "action"}),
+                ),
+                "shield": F(
+                    lambda: call(observation=_pose(_LR_HOME), action=_pose(_LR_STEP)),
+                    types=_LR_DICTS,
+                    # both needed: None only marks "given positionally" (the order of 0.2)
+                    required=frozenset({"observation", "action"}),
+                ),
                 "reset": lambda: call(),
                 "to_radians": F(lambda: call(_pose(_LR_HOME)), types={"values": "object"}),
                 "from_radians": lambda: call(np.radians(_LR_HOME)),

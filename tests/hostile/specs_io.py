@@ -21,7 +21,7 @@ def _joint_limits_file() -> Path:
 
 
 SPECS: dict[str, F | C] = {
-    "io.DemoConfig": C(
+    "demo.DemoConfig": C(
         F(
             lambda: call(dt=0.001, seed=0),
             # The fields are Annotated[...] pydantic types, which the inference reads as objects.
@@ -46,11 +46,11 @@ SPECS: dict[str, F | C] = {
         ),
         methods={"axis_labels": lambda: call()},
     ),
-    "io.load_config": F(lambda: call(None), types={"path": "path"}),
+    "demo.load_config": F(lambda: call(None), types={"path": "path"}),
     "io.load_joint_limits": F(
         lambda: call(_joint_limits_file(), ["a"]), types={"path": "path", "joint_names": "object"}
     ),
-    "io.check_run_length": F(lambda: call(1.0, dt=0.001), types={"duration_name": "text"}),
+    "demo.check_run_length": F(lambda: call(1.0, dt=0.001), types={"duration_name": "text"}),
 }
 
 

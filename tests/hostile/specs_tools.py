@@ -39,7 +39,7 @@ def _vertex_result() -> soak_filter.VertexResult:
 
 
 def _cfg():  # type: ignore[no-untyped-def]
-    from velfence.io import load_config
+    from velfence.apps.demo.config import load_config
 
     return load_config(None)
 

@@ -182,7 +182,7 @@ def test_range_m100_100_is_lerobots(arm: SoArm) -> None:
     np.testing.assert_allclose(sh.joint_limits[:, 1], np.minimum(arm.joint_limits[:, 1], half))
     # A target beyond +100 is held inside the calibrated range.
     obs = pose([0.0, 0.0, 0.0, 99.0, 0.0])
-    out = sh.shield(pose([0.0, 0.0, 0.0, 140.0, 0.0]), obs).action
+    out = sh.shield(observation=obs, action=pose([0.0, 0.0, 0.0, 140.0, 0.0])).action
     assert out["wrist_flex.pos"] <= 100.0 + 1e-9
 
 
@@ -203,10 +203,32 @@ def test_gripper_0_100_maps_onto_the_models_range(arm: SoArm) -> None:
     # 90 deg/s over 1/30 s of a 110° range: 3 / 110 * 100 = 2.7273 units per call.
     step = 90.0 * DT * 100.0 / math.degrees(g_hi - g_lo)
     assert step == pytest.approx(300 / 110, rel=1e-4)
-    out = sh.shield(pose(HOME, 80.0), pose(HOME, 50.0)).action
+    out = sh.shield(observation=pose(HOME, 50.0), action=pose(HOME, 80.0)).action
     assert out["gripper.pos"] == pytest.approx(50.0 + step, abs=1e-12)
-    out = sh.shield(pose(HOME, 51.0), pose(HOME, 50.0)).action
+    out = sh.shield(observation=pose(HOME, 50.0), action=pose(HOME, 51.0)).action
     assert out["gripper.pos"] == 51.0
+
+
+# ------------------------------------------------------------------- the order of the arguments
+@pytest.mark.parametrize("call", ["shield", "explain"])
+def test_the_state_comes_first_and_the_old_order_is_read_safely(arm: SoArm, call: str) -> None:
+    obs = {**pose(HOME), "observation.images.front": "an image"}  # LeRobot adds cameras
+    act = pose([20.0, -20.0, 20.0, 60.0, -20.0])
+    want = getattr(make(arm), call)(observation=obs, action=act).action
+    assert want != act  # the speed limit binds: a swap would show
+    # keywords in either order, and positional in the new order: the same call
+    assert getattr(make(arm), call)(action=act, observation=obs).action == want
+    assert getattr(make(arm), call)(obs, act).action == want
+    # the order before 0.2 (action first), told by the observation's extra keys: warns
+    with pytest.warns(DeprecationWarning, match=rf"{call}\(observation, action\).*goes in 0\.3"):
+        assert getattr(make(arm), call)(act, obs).action == want
+    # two dictionaries of only the six joints: the order cannot be told, so it is refused
+    with pytest.raises(InvalidParameter, match="by keyword"):
+        getattr(make(arm), call)(pose(HOME), act)
+    bad = [((obs,), {}), ((obs, act, act), {}), ((obs,), {"action": act}), ((), {"action": act})]
+    for args, kwargs in bad:
+        with pytest.raises(InvalidParameter, match="observation"):
+            getattr(make(arm), call)(*args, **kwargs)
 
 
 # ---------------------------------------------------------------------------------- the cycle
@@ -217,7 +239,7 @@ def test_a_free_target_passes_unchanged(arm: SoArm) -> None:
         & (arm.gripper_position(sh.to_radians(pose(HOME))) < np.array(BOX[1]) - 0.05)
     )
     target = pose([1.0, -21.0, 22.0, 59.0, 2.0], 52.0)
-    r = sh.explain(target, pose(HOME))
+    r = sh.explain(observation=pose(HOME), action=target)
     assert r.filter_result is not None
     assert r.filter_result.zone == "free"
     for k, v in target.items():
@@ -229,7 +251,7 @@ def test_a_free_target_passes_unchanged(arm: SoArm) -> None:
 
 def test_clamp_limits_the_step_to_max_speed(arm: SoArm) -> None:
     sh = make(arm)
-    out = sh.shield(pose([20.0, -20.0, 20.0, 60.0, -20.0]), pose(HOME)).action
+    out = sh.shield(observation=pose(HOME), action=pose([20.0, -20.0, 20.0, 60.0, -20.0])).action
     step = 90.0 * DT / LEROBOT_DEG  # 3° of the joint in LeRobot degrees
     assert out["shoulder_pan.pos"] == pytest.approx(step, abs=1e-9)
     assert out["wrist_roll.pos"] == pytest.approx(-step, abs=1e-9)
@@ -242,17 +264,17 @@ def test_reject_holds_the_last_safe_target_and_pass_passes(arm: SoArm) -> None:
         max_speed={k: v for k, v in SPEEDS.items() if k != "wrist_roll"},
     )
     obs = pose(HOME)
-    first = sh.shield(pose([1.0, *HOME[1:]]), obs)  # a small step: accepted
+    first = sh.shield(observation=obs, action=pose([1.0, *HOME[1:]]))  # a small step: accepted
     assert first.rejected == ()
     assert first.action["shoulder_pan.pos"] == pytest.approx(1.0, abs=1e-9)
     jump = pose([40.0, -20.0, 20.0, 60.0, 30.0], 90.0)
-    r = sh.shield(jump, obs)
+    r = sh.shield(observation=obs, action=jump)
     assert r.rejected == ("shoulder_pan", "gripper")
     assert r.action["shoulder_pan.pos"] == pytest.approx(1.0, abs=1e-9)  # the last safe one
     assert r.action["gripper.pos"] == 50.0
     assert r.action["wrist_roll.pos"] == pytest.approx(30.0, abs=1e-9)  # pass: no rate limit
     sh.reset()
-    r = sh.shield(jump, obs)  # after reset the hold is the measured position
+    r = sh.shield(observation=obs, action=jump)  # after reset the hold is the measured position
     assert r.action["shoulder_pan.pos"] == pytest.approx(0.0, abs=1e-9)
 
 
@@ -262,7 +284,7 @@ def test_a_joint_limit_is_never_crossed(arm: SoArm) -> None:
     upper = math.degrees(arm.joint_limits[4, 1]) / LEROBOT_DEG
     q = list(HOME)
     for _ in range(60):
-        out = sh.shield(pose([*q[:4], 179.0]), pose(q)).action
+        out = sh.shield(observation=pose(q), action=pose([*q[:4], 179.0])).action
         q = [out[f"{j}.pos"] for j in ARM_JOINTS]
         assert q[4] <= upper + 1e-9
     assert q[4] == pytest.approx(upper, abs=0.5)
@@ -276,7 +298,7 @@ def _loop(sh: LeRobotShield, mj: Any, seed: int, steps: int, down: bool) -> list
     for k in range(steps):
         if k % 15 == 0:
             goal = rng.uniform(-90, 90, 5) + (np.array([0, 60, 60, 60, 0]) if down else 0)
-        act = sh.shield(pose(list(goal)), pose(q)).action
+        act = sh.shield(observation=pose(q), action=pose(list(goal))).action
         q = [act[f"{j}.pos"] for j in ARM_JOINTS]
         out.append(mj.fk(np.append(sh.to_radians(act), 0.0), "tcp"))
     return out
@@ -310,7 +332,7 @@ def test_closed_loop_keeps_the_links_off_an_obstacle(arm: SoArm) -> None:
     for k in range(300):
         if k % 15 == 0:
             goal = rng.uniform(-60, 60, 5) + np.array([0, 20, -40, 0, 0])
-        act = sh.shield(pose(list(goal)), pose(q)).action
+        act = sh.shield(observation=pose(q), action=pose(list(goal))).action
         q = [act[f"{j}.pos"] for j in ARM_JOINTS]
         seg = arm.chain.link_segments(sh.to_radians(act))
         for i, (a, b) in enumerate(seg):
@@ -347,19 +369,21 @@ def test_bad_input_raises_a_clear_error(arm: SoArm) -> None:
     sh = make(arm)
     obs = pose(HOME)
     with pytest.raises(InvalidInput, match=r"observation\['elbow_flex.pos'\].*finite"):
-        sh.shield(pose(HOME), {**obs, "elbow_flex.pos": math.nan})
+        sh.shield(observation={**obs, "elbow_flex.pos": math.nan}, action=pose(HOME))
     with pytest.raises(InvalidInput, match=r"unknown joint.*'elbow.pos'"):
-        sh.shield({**pose(HOME), "elbow.pos": 1.0}, obs)
+        sh.shield(observation=obs, action={**pose(HOME), "elbow.pos": 1.0})
     with pytest.raises(InvalidInput, match=r"missing.*'wrist_roll.pos'"):
-        sh.shield({k: v for k, v in pose(HOME).items() if k != "wrist_roll.pos"}, obs)
+        sh.shield(
+            observation=obs, action={k: v for k, v in pose(HOME).items() if k != "wrist_roll.pos"}
+        )
     with pytest.raises(InvalidInput, match=r"gripper.pos.*0 … 100.*got 120"):
-        sh.shield(pose(HOME, 120.0), obs)
+        sh.shield(observation=obs, action=pose(HOME, 120.0))
 
 
 def test_gripper_clamp_mode_clamps_and_says_so(arm: SoArm) -> None:
     sh = make(arm, gripper="clamp", rate_limit={"gripper": "pass"},
               max_speed={k: v for k, v in SPEEDS.items() if k != "gripper"})  # fmt: skip
-    r = sh.shield(pose(HOME, -5.0), pose(HOME, 3.0))
+    r = sh.shield(observation=pose(HOME, 3.0), action=pose(HOME, -5.0))
     assert r.gripper_clamped
     assert r.action["gripper.pos"] == 0.0
 
@@ -367,20 +391,20 @@ def test_gripper_clamp_mode_clamps_and_says_so(arm: SoArm) -> None:
 def test_on_invalid_stop_holds_the_measured_positions(arm: SoArm) -> None:
     sh = make(arm, on_invalid="stop")
     obs = pose([5.0, -20.0, 20.0, 60.0, 0.0], 40.0)
-    r = sh.shield({**pose(HOME), "shoulder_lift.pos": math.inf}, obs)
+    r = sh.shield(observation=obs, action={**pose(HOME), "shoulder_lift.pos": math.inf})
     assert r.held
     assert "shoulder_lift" in r.reason
     assert r.action == obs
     # A measurement that is NaN: held at the last target sent, never NaN.
-    sent = sh.shield(pose(HOME), pose(HOME)).action
-    r = sh.shield(pose(HOME), {**obs, "elbow_flex.pos": math.nan})
+    sent = sh.shield(observation=pose(HOME), action=pose(HOME)).action
+    r = sh.shield(observation={**obs, "elbow_flex.pos": math.nan}, action=pose(HOME))
     assert r.held
     assert r.action["elbow_flex.pos"] == sent["elbow_flex.pos"]
     assert all(math.isfinite(v) for v in r.action.values())
     # No measurement and nothing sent before: no hold action exists.
     sh.reset()
     with pytest.raises(InvalidInput, match="no hold action"):
-        sh.shield(pose(HOME), {**obs, "elbow_flex.pos": math.nan})
+        sh.shield(observation={**obs, "elbow_flex.pos": math.nan}, action=pose(HOME))
 
 
 def test_the_module_imports_neither_lerobot_nor_torch_nor_mujoco() -> None:

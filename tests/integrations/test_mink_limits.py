@@ -20,12 +20,16 @@ pytest.importorskip("mujoco")
 pytest.importorskip("daqp")
 
 from velfence.errors import InvalidInput, InvalidParameter  # noqa: E402
-from velfence.filter import JointLimits, SafetyFilter, WorkspaceLimit  # noqa: E402
+from velfence.filter import (  # noqa: E402
+    JointLimits,
+    SafetyFilter,
+    TwistMode,
+    WorkspaceLimit,
+)
 from velfence.geometry.polytope import ConvexPolytope  # noqa: E402
 from velfence.integrations import PolytopeLimit  # noqa: E402
 from velfence.robots import panda  # noqa: E402
 from velfence.shaping.profiles import LinearBuffer, ThreeZoneBraking  # noqa: E402
-from velfence.sim.arm import TwistMode  # noqa: E402
 
 ROBOT = panda()
 MODEL = ROBOT.model

@@ -6,10 +6,10 @@ from pathlib import Path
 
 import pytest
 
+from velfence.apps.demo.config import load_config
 from velfence.bridge import parse_bridge_config
 from velfence.errors import InvalidParameter
 from velfence.io.bags import ReplaySettings
-from velfence.io.config import load_config
 from velfence.io.shaper_config import parse_shaper
 from velfence.io.yaml_reader import did_you_mean
 from velfence.io.zones import load_ur_safety_planes

@@ -10,6 +10,7 @@ documented alias. The renamed YAML key ``max_velocity`` warns and gives the same
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import Any
 
@@ -18,10 +19,10 @@ import pytest
 
 from optional import requires
 from velfence.apps.demo import build_shapers
+from velfence.apps.demo.config import ALL_METHODS, METHOD_OF, load_config
 from velfence.errors import InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon
 from velfence.geometry.polytope import ConvexPolytope
-from velfence.io.config import ALL_METHODS, METHOD_OF, load_config
 from velfence.io.shaper_config import SHAPER_METHODS, load_yaml, parse_shaper
 from velfence.shaping.polygon import PolygonShaper
 from velfence.shaping.polytope import PolytopeShaper
@@ -144,6 +145,34 @@ def test_safety_filter_method_round_trips_and_max_velocity_warns(tmp_path: Path,
         parse_shaper({**base, "max_speed": 1.5, "max_velocity": 1.5})
     with pytest.raises(InvalidParameter, match="max_speed: missing"):
         parse_shaper(base)
+
+
+@requires("mujoco")
+def test_safety_filter_section_accepts_the_former_method_with_a_warning() -> None:
+    base = {"kind": "safety_filter", "robot": "panda", "dt": 0.002, "max_speed": 1.5}
+    with pytest.warns(DeprecationWarning, match=r"'velfence' is now 'safety-filter'.*goes in 0\.3"):
+        old = parse_shaper({**base, "method": "velfence"})
+    assert old.shaper.method == "safety-filter"
+
+
+def test_arm_controllers_report_names_their_inputs_accept() -> None:
+    """Every arm controller and scenario run reports a kebab-case vocabulary name, which the
+    ``methods=`` inputs take back (the same controller class), and the YAML's safety-filter
+    section takes the twist mode's."""
+    pytest.importorskip("qpsolvers")
+    from velfence.apps.demo.arm_box import ARM_METHODS, arm_box_scene, build_arm_controllers
+    from velfence.filter import TwistMode
+
+    scene = arm_box_scene()
+    built = build_arm_controllers(scene)
+    for name, ctrl in built.items():
+        assert ctrl.method == name
+        assert re.fullmatch(r"[a-z]+(-[a-z]+)*", ctrl.method), ctrl.method  # kebab-case
+        again = build_arm_controllers(scene, methods=[ctrl.method])[ctrl.method]
+        assert type(again) is type(ctrl)
+    assert isinstance(built["safety-filter"], TwistMode)
+    assert "safety-filter" in SHAPER_METHODS["safety_filter"]
+    assert list(built) == list(ARM_METHODS)
 
 
 def test_demo_methods_accept_every_shapers_method() -> None:

@@ -89,7 +89,7 @@ def _line_error(exc: pytest.ExceptionInfo[InvalidParameter], path: Path, line: i
 
 
 def test_a_config_file_error_names_the_file_and_the_line(tmp_path: Path) -> None:
-    from velfence.io import load_config
+    from velfence.apps.demo.config import load_config
 
     p = tmp_path / "demo.yaml"
     p.write_text("dt: 0.001\nduration: 1.0\ndt: 0.002\n", encoding="utf-8")

@@ -9,12 +9,11 @@ import pytest
 
 from optional import requires
 from velfence.errors import InvalidGeometry, InvalidInput, InvalidParameter
-from velfence.filter import SafetyFilter
+from velfence.filter import SafetyFilter, TwistMode
 from velfence.filter.limits import JointLimits, SphereObstacle, WorkspaceLimit
 from velfence.geometry.polytope import ConvexPolytope
 from velfence.shaping.lookahead import LagCompensation
 from velfence.sim import simulate
-from velfence.sim.arm import TwistMode
 
 pytestmark = requires("mujoco")
 

@@ -11,6 +11,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from velfence.apps.demo.script import default_script
 from velfence.errors import InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon
 from velfence.mechanisms.wrist import Wrist, WristGeometry
@@ -19,7 +20,6 @@ from velfence.sim.scenarios import (
     Waypoint,
     WaypointOperator,
     constant,
-    default_script,
     operator_from,
 )
 

@@ -9,6 +9,7 @@ import pytest
 
 import velfence as vf
 from bad_inputs import BAD_VECTORS as COMMON_BAD_VECTORS
+from velfence.apps.demo.script import default_script
 from velfence.errors import InvalidInput, InvalidParameter, VelfenceError
 from velfence.sim import Disturbance, NoLimit, Trajectory, metrics, push, scenarios, simulate
 
@@ -204,11 +205,11 @@ def test_operator_position_and_constant_velocity(kind: str):
 @pytest.mark.parametrize("buffer", ["0.1", 1j, math.nan, 1e308, -1.0])
 def test_default_script_buffer(buffer: object):
     with pytest.raises(InvalidParameter, match=r"^buffer"):
-        scenarios.default_script(SQUARE, buffer=buffer)  # type: ignore[arg-type]
+        default_script(SQUARE, buffer=buffer)  # type: ignore[arg-type]
 
 
 def test_default_script_and_operator_from_refuse_other_types():
     with pytest.raises(VelfenceError):
-        scenarios.default_script("square", buffer=0.1)  # type: ignore[arg-type]
+        default_script("square", buffer=0.1)  # type: ignore[arg-type]
     with pytest.raises(InvalidParameter, match=r"^script: "):
         scenarios.operator_from({"waypoints": ()})  # type: ignore[arg-type]

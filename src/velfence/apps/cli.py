@@ -518,7 +518,7 @@ def teleop(
 ) -> None:
     """Drive the simulated PUMA 560 (laser-assisted traded control) from a local web page.
 
-    The 3-D view is viser's (``velfence view --scene teleop``) when the ``web`` extra is
+    The 3-D view is viser's (``velfence view --scenario teleop``) when the ``web`` extra is
     installed; ``--canvas`` (or no viser) serves the dependency-free canvas page instead.
     """
     if not canvas and importlib.util.find_spec("viser") is not None:
@@ -539,9 +539,13 @@ def teleop(
 
 @app.command()
 def view(
-    scene: Annotated[
-        str, typer.Option(help="Scene: teleop, arm-box or fence-box (MuJoCo, extra physics).")
+    scenario: Annotated[
+        str, typer.Option(help="Scenario: teleop, arm-box or fence-box (MuJoCo, extra physics).")
     ] = "teleop",
+    scene: Annotated[
+        str | None,
+        typer.Option(hidden=True, help="Former name of --scenario (warns; goes in 0.3)."),
+    ] = None,
     port: Annotated[
         int, typer.Option(min=0, max=65535, help="TCP port on 127.0.0.1 (0 picks a free one).")
     ] = 8765,
@@ -552,11 +556,18 @@ def view(
         bool, typer.Option("--no-browser", help="Print the URL only; do not open a browser.")
     ] = False,
 ) -> None:
-    """Show a scene as a 3-D web view (viser, extra web) and drive it with the teleop keys."""
+    """Show a scenario as a 3-D web view (viser, extra web) and drive it with the teleop keys."""
     from velfence.apps.viewer.view import serve_scene
 
+    if scene is not None:  # the option's name before 0.2: the same values as demo/sim --scenario
+        typer.echo(
+            "warning: velfence view --scene is now --scenario; the old option goes in 0.3",
+            err=True,
+        )
+        scenario = scene
+
     _serve_page(
-        f"velfence view ({scene})", lambda: serve_scene(scene, port=port, start=start), port,
+        f"velfence view ({scenario})", lambda: serve_scene(scenario, port=port, start=start), port,
         no_browser,
     )  # fmt: skip
 

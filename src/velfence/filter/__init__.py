@@ -21,7 +21,9 @@ providers), :mod:`~velfence.filter.ladder` (priority ladder and fallbacks),
 :mod:`~velfence.filter.result` (:class:`FilterResult`), :mod:`~velfence.filter.solve` (the
 projection under the metric, its backends, cap and warm start), :mod:`~velfence.filter.stack`
 (one cycle's stacked rows and their keys), :mod:`~velfence.filter.parts` (the validated parts,
-checked at construction), :mod:`~velfence.filter.filter` (:class:`SafetyFilter`).
+checked at construction), :mod:`~velfence.filter.filter` (:class:`SafetyFilter`),
+:mod:`~velfence.filter.twist` (:class:`TwistMode`: the filter in twist mode as a shaper on
+``(q, v)``).
 """
 
 from velfence.filter.attach import (
@@ -73,6 +75,7 @@ from velfence.filter.separation import (
     max_approach_speed,
     separation_distance,
 )
+from velfence.filter.twist import TwistMode
 
 __all__ = [
     "LEVEL_JERK",
@@ -111,6 +114,7 @@ __all__ = [
     "SeparationRows",
     "Sphere",
     "SphereObstacle",
+    "TwistMode",
     "WorkspaceLimit",
     "WorkspaceRows",
     "max_approach_speed",

@@ -24,6 +24,7 @@ from __future__ import annotations
 import importlib.metadata
 import math
 import operator
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -757,12 +758,78 @@ class LeRobotShield:
             filter_result=fr,
         )
 
-    def shield(self, action: Mapping[str, Any], observation: Mapping[str, Any]) -> ShieldResult:
+    def _arguments(
+        self, call: str, args: tuple[Any, ...], observation: Any, action: Any
+    ) -> tuple[Any, Any]:
+        """``(observation, action)`` of a call, in the order of 0.2 (state first, command second).
+
+        Before 0.2 the action came first. Both are dictionaries, so a positional call is read by
+        content: the action holds exactly the keys of :attr:`keys`, an observation may hold more
+        (camera images, ...). Positional arguments in the old order (an action first, an
+        observation with more keys second) warn and are swapped; two positional dictionaries of
+        exactly the six keys cannot be told apart and are refused (a swap would move the arm from
+        the target instead of from the measured position); keywords are always unambiguous.
+        """
+        named = [k for k, v in (("observation", observation), ("action", action)) if v is not None]
+        if len(args) > 2 or (args and named):
+            raise InvalidParameter(
+                f"LeRobotShield.{call}() takes (observation, action): two positional arguments or "
+                f"observation=..., action=... by keyword, got {len(args)} positional and {named} "
+                "by keyword"
+            )
+        if not args:
+            if observation is None or action is None:
+                raise InvalidParameter(
+                    f"LeRobotShield.{call}() needs observation=... and action=..., got "
+                    f"observation={describe(observation)}, action={describe(action)}"
+                )
+            return observation, action
+        if len(args) != 2:
+            raise InvalidParameter(
+                f"LeRobotShield.{call}() takes (observation, action), got 1 positional argument"
+            )
+        first, second = args
+        six = set(self._keys)
+        if not (isinstance(first, Mapping) and isinstance(second, Mapping)):
+            return first, second  # _read names what is wrong with each
+        first_more = not set(first) <= six
+        second_more = not set(second) <= six
+        if second_more and not first_more:  # the action first: the order before 0.2
+            warnings.warn(
+                f"LeRobotShield.{call}(action, observation) is now {call}(observation, action) "
+                "(the state first, as everywhere in velfence); pass observation=..., action=... "
+                "by keyword; the old order goes in 0.3",
+                DeprecationWarning,
+                stacklevel=3,
+            )
+            return second, first
+        if not first_more and not second_more:
+            raise InvalidParameter(
+                f"LeRobotShield.{call}(): the order changed in 0.2 from (action, observation) to "
+                "(observation, action), and two dictionaries of the same joint keys cannot be "
+                "told apart; pass them by keyword: "
+                f"{call}(observation=robot.get_observation(), action=action)"
+            )
+        return first, second
+
+    def shield(
+        self,
+        *args: Mapping[str, Any],
+        observation: Mapping[str, Any] | None = None,
+        action: Mapping[str, Any] | None = None,
+    ) -> ShieldResult:
         """The safe action for ``action`` at the measured ``observation``.
 
+        Call it ``shield(observation=obs, action=act)``: the state first, the command second,
+        as every velfence call (before 0.2 it was ``shield(action, observation)``; a positional
+        call in that order still works until 0.3 with a warning when the observation holds more
+        than the six joints, and a positional call with two dictionaries of only the six joint
+        keys is refused, since the order cannot be told from them).
+
         Args:
-            action: LeRobot's action ``{"<joint>.pos": target}`` of the six joints (exactly).
+            *args: ``(observation, action)`` positionally (see above).
             observation: LeRobot's observation (at least ``"<joint>.pos"`` of the six joints).
+            action: LeRobot's action ``{"<joint>.pos": target}`` of the six joints (exactly).
 
         Returns:
             A :class:`ShieldResult` (``.action`` is the dictionary to send).
@@ -772,20 +839,34 @@ class LeRobotShield:
                 is not a finite number, a gripper target outside 0 … 100 with
                 ``gripper="refuse"``; with ``"stop"`` only when no hold action exists (a joint
                 without a finite measurement on the first call).
+            InvalidParameter: arguments that are not one observation and one action, or two
+                positional dictionaries whose order cannot be told.
         """
-        return self._cycle(action, observation, False)
+        obs, act = self._arguments("shield", args, observation, action)
+        return self._cycle(act, obs, False)
 
-    def explain(self, action: Mapping[str, Any], observation: Mapping[str, Any]) -> ShieldResult:
+    def explain(
+        self,
+        *args: Mapping[str, Any],
+        observation: Mapping[str, Any] | None = None,
+        action: Mapping[str, Any] | None = None,
+    ) -> ShieldResult:
         """:meth:`shield` with the SafetyFilter's report (``filter_result``: zone, active rows).
 
         Args:
-            action: As in :meth:`shield`.
+            *args: ``(observation, action)`` positionally (as in :meth:`shield`).
             observation: As in :meth:`shield`.
+            action: As in :meth:`shield`.
 
         Returns:
             A :class:`ShieldResult` whose ``filter_result`` is set (unless held).
+
+        Raises:
+            InvalidInput: as :meth:`shield`.
+            InvalidParameter: as :meth:`shield`.
         """
-        return self._cycle(action, observation, True)
+        obs, act = self._arguments("explain", args, observation, action)
+        return self._cycle(act, obs, True)
 
 
 document_inits(globals())

@@ -1,6 +1,7 @@
 """Input/output: validated configuration files, configured shapers, vendor zones and bag replay.
 
-``docs/config.md`` has the configuration files, ``docs/zones.md`` the vendor zones (UR safety
+``docs/config.md`` has the configuration files (the demo's own, ``DemoConfig``, is an
+application's: :mod:`velfence.apps.demo.config`), ``docs/zones.md`` the vendor zones (UR safety
 planes, boxes, Nav2 polygons), ``docs/replay.md`` the rosbag2 replay. The names load on first use;
 one whose module needs an extra that is not installed raises
 :class:`~velfence.errors.MissingExtra` naming it (``docs/install.md`` has the table).
@@ -23,9 +24,6 @@ _EXPORTS: dict[str, str] = {
     "load_replay_config": "velfence.io.bags",
     "replay": "velfence.io.bags",
     "DEFAULT_MAX_STEPS": "velfence.io.defaults",
-    "DemoConfig": "velfence.io.config",
-    "check_run_length": "velfence.io.config",
-    "load_config": "velfence.io.config",
     "load_joint_limits": "velfence.io.joint_limits",
     "ConfiguredShaper": "velfence.io.shaper_config",
     "load_yaml": "velfence.io.shaper_config",
@@ -41,18 +39,21 @@ _EXPORTS: dict[str, str] = {
     "ur_safety_planes": "velfence.io.zones",
 }
 
-__getattr__, __dir__ = _lazy.attach("velfence.io", _EXPORTS, globals())
+#: The demo's configuration is an application's since 0.2 (velfence.apps.demo.config); the old
+#: names warn until 0.3.
+_FORMER: dict[str, str] = {
+    "DemoConfig": "velfence.apps.demo",
+    "check_run_length": "velfence.apps.demo",
+    "load_config": "velfence.apps.demo",
+}
+
+__getattr__, __dir__ = _lazy.attach("velfence.io", _EXPORTS, globals(), former=_FORMER)
 
 TYPE_CHECKING = False
 if TYPE_CHECKING:  # the same names, eagerly, for type checkers and IDEs
     from velfence.io.bag_examples import make_example_bag
     from velfence.io.bags import ReplaySettings, ReplaySummary, load_replay_config, replay
-    from velfence.io.config import (
-        DEFAULT_MAX_STEPS,
-        DemoConfig,
-        check_run_length,
-        load_config,
-    )
+    from velfence.io.defaults import DEFAULT_MAX_STEPS
     from velfence.io.joint_limits import load_joint_limits
     from velfence.io.shaper_config import ConfiguredShaper, load_yaml, parse_shaper
     from velfence.io.zones import (
@@ -70,15 +71,12 @@ if TYPE_CHECKING:  # the same names, eagerly, for type checkers and IDEs
 __all__ = [
     "DEFAULT_MAX_STEPS",
     "ConfiguredShaper",
-    "DemoConfig",
     "NavZone",
     "PlaneZones",
     "ReplaySettings",
     "ReplaySummary",
     "SafetyPlane",
     "box_workspace",
-    "check_run_length",
-    "load_config",
     "load_joint_limits",
     "load_nav2_polygons",
     "load_replay_config",

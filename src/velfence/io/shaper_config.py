@@ -3,7 +3,7 @@
 One section builds one of four shapers; every field has a type, a unit and a range, unknown keys
 are refused, and a bad value raises :class:`~velfence.errors.InvalidParameter` naming the field
 (``shaper.corners: ...``), before anything runs. The file is read by the same narrow YAML reader as
-:func:`velfence.io.config.load_config` (:func:`load_yaml`). Format (``docs/config.md``)::
+:func:`velfence.apps.demo.config.load_config` (:func:`load_yaml`). Format (``docs/config.md``)::
 
     shaper:
       kind: polygon              # 2-D fence: state (x, y) [m], command (vx, vy) [m/s]
@@ -47,11 +47,11 @@ from typing import Annotated, Any, Literal
 from velfence._extras import missing
 
 try:
-    from pydantic import Field, Strict, ValidationError, model_validator
+    from pydantic import Field, Strict, ValidationError, field_validator, model_validator
 except ModuleNotFoundError as exc:  # an optional dependency: name the extra
     raise missing(exc, what=__name__) from exc
 
-from velfence._deprecate import warn_renamed
+from velfence._deprecate import method_name, warn_renamed
 from velfence._docs import document_inits
 from velfence.errors import InvalidParameter, VelfenceError
 from velfence.io.config import (
@@ -183,6 +183,12 @@ class _SafetyFilter(StrictModel):
     spring_gain: NonNegative = 1.0
     method: Literal["safety-filter"] = "safety-filter"
 
+    @field_validator("method", mode="before")
+    @classmethod
+    def _former_method(cls, value: Any) -> Any:
+        # "velfence" was the twist mode's .method before 0.2 (warns until 0.3)
+        return method_name(value, what="shaper value of method", stacklevel=2)
+
     @model_validator(mode="after")
     def _one_speed(self) -> _SafetyFilter:
         if self.max_velocity is not None:
@@ -232,7 +238,7 @@ class ConfiguredShaper:
 
 
 def load_yaml(path: str | Path) -> dict[str, Any]:
-    """A YAML file as a mapping, read by :func:`~velfence.io.config.load_config`'s narrow reader.
+    """A YAML file as a mapping, read by :func:`~velfence.io.yaml_reader.read_yaml`'s narrow reader.
 
     Anchors, aliases, merge keys, duplicate keys, date/binary/set tags, ``.nan``/``.inf`` are
     refused with their line; the file is at most ``MAX_FILE_BYTES`` of UTF-8.
@@ -351,8 +357,8 @@ def _safety_filter(spec: _SafetyFilter) -> ConfiguredShaper:
     from velfence import robots
     from velfence.filter import SafetyFilter
     from velfence.filter.limits import JointLimits, WorkspaceLimit
+    from velfence.filter.twist import TwistMode
     from velfence.geometry.polytope import ConvexPolytope
-    from velfence.sim.arm import TwistMode
 
     robot = getattr(robots, spec.robot)()
     n = int(robot.dof)

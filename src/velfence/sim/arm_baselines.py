@@ -1,4 +1,8 @@
-r"""Baselines for the arm-in-a-box scenario: how a 7-DoF arm is usually kept safe.
+r"""Baselines for a serial arm under a Cartesian command: how an arm is usually kept safe.
+
+Comparators for the safety filter (:class:`~velfence.filter.TwistMode`) on any
+:class:`~velfence.mechanisms.DHChain`: the arm-in-a-box demo (``docs/arm_box.md``) and the
+MuJoCo scenarios run them, and a user can run them beside the filter in the same loop.
 
 Every controller maps a Cartesian TCP velocity command :math:`v` (shape (3,), [m/s]) at the
 joint position :math:`q` (shape (n,), [rad]) to a joint velocity :math:`\dot q` (shape (n,),
@@ -310,7 +314,7 @@ class ResolvedRate(_ArmController):
         damping: DLS damping :math:`\lambda` [m²], > 0.
     """
 
-    method = "no limit"
+    method = "no-limit"
 
     def _step(self, q: FloatArray, v: FloatArray) -> ArmStep:
         qd = self._dls(np.asarray(self.robot.ee_jacobian(q), dtype=float), v)
@@ -327,7 +331,7 @@ class JointClamp(_ArmController):
         damping: DLS damping [m²], > 0.
     """
 
-    method = "per-joint clamp"
+    method = "per-joint-clamp"
 
     def _step(self, q: FloatArray, v: FloatArray) -> ArmStep:
         qd = self._dls(np.asarray(self.robot.ee_jacobian(q), dtype=float), v)
@@ -360,7 +364,7 @@ class ScalarScale(_ArmController):
         singular_stop: :math:`\kappa_{hi}`, condition number of a full stop, > ``singular_slow``.
     """
 
-    method = "scalar scale"
+    method = "scalar-scale"
 
     def __init__(
         self,
@@ -448,7 +452,7 @@ class DamperQP(_ArmController):
         InvalidParameter: bad parameters, or qpsolvers / daqp not installed.
     """
 
-    method = "damper QP"
+    method = "velocity-damper-qp"
 
     def __init__(self, robot: DHChain, *, tolerance: float = 1e-6, **kwargs: Any) -> None:
         super().__init__(robot, **kwargs)

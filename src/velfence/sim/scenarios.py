@@ -1,31 +1,38 @@
-"""Scripted operators and the built-in demo scenario.
+r"""Scripted operators: what a simulated user commands, ``command(t, p) -> v``.
 
-An operator is a callable ``command(t, p) -> v`` (workspace units per second). The waypoint operator
-heads for the current target at up to the waypoint's speed, slowing linearly inside
-``speed / gain`` of it; targets placed beyond the boundary make it push into edges and corners,
-which is what the demo needs.
+An operator is a callable ``command(t, p) -> v`` (workspace units per second; for an arm, ``p``
+is the joint position and ``v`` a point's Cartesian velocity). The waypoint operator
+(:class:`WaypointOperator`, on a :class:`Script`) heads for the current target at up to the
+waypoint's speed, slowing linearly inside ``speed / gain`` of it; targets placed beyond the
+boundary make it push into edges and corners. :class:`TcpJog` is the same law in 3-D on any
+forward kinematics: :math:`v = \min(s, g\,\|e\|)\,e/\|e\|`, :math:`e = x^\star(t) - x(q)`.
+:func:`constant` commands one velocity.
+
+The demo's built-in scripts are the applications' (:mod:`velfence.apps.demo.script`,
+:mod:`velfence.apps.demo.arm_box`); ``default_script`` here still works until 0.3 with a warning.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
+from velfence import _lazy
 from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence._validate import check_positive, finite_scalar, real_array, show
 from velfence.errors import InvalidParameter
-from velfence.geometry.polygon import ConvexPolygon, as_polygon
 
 __all__ = [
     "Script",
+    "TcpJog",
     "Waypoint",
     "WaypointOperator",
     "constant",
-    "default_script",
     "operator_from",
 ]
 
@@ -170,72 +177,87 @@ class WaypointOperator:
         return np.asarray(e * (speed / dist), dtype=float)
 
 
-def default_script(polygon: ConvexPolygon, *, buffer: float) -> Script:
-    """The built-in demo script, derived from the polygon's features.
+class TcpJog:
+    r"""A scripted Cartesian jog ``(t, q) -> v``: towards the target of the phase in force.
 
-    Phases, each long enough to travel its distance at its speed and then dwell: start outside the
-    longest edge and come in; press into that edge and sweep along it; push into the most acute
-    corner; push into the most obtuse corner; a fast move into the far side; hold near the long
-    edge while an external push drives the mechanism outward, then let go.
+    :math:`v = \min(s, g\,\|e\|)\,e/\|e\|` with :math:`e = x^\star(t) - x(q)`: the jog speed
+    ``s`` far from the target, a proportional approach (gain ``g``) near it. Phase ``k`` is in
+    force while ``t < t_end[k]`` (after the last end, the last target holds); a target may lie
+    outside the permitted region, which makes the jog press against its boundary.
 
     Args:
-        polygon: The workspace (:class:`~velfence.geometry.polygon.ConvexPolygon`).
-        buffer: The shaper's buffer width, workspace units, > 0 (sets the start and hold points).
+        fk: Forward kinematics of the jogged point, ``q -> x`` [m], shape (3,) (a
+            :meth:`DHChain.end_effector <velfence.mechanisms.DHChain.end_effector>`, a robot
+            model's ``fk``).
+        phases: ``(t_end [s], target (3,) [m])`` pairs, at least one, ``t_end`` finite and
+            increasing.
+        speed: Jog speed ``s`` [m/s], > 0.
+        gain: Approach gain ``g`` near a target [1/s], > 0.
 
     Raises:
-        InvalidParameter: ``polygon`` not a polygon or ``buffer`` not finite and > 0.
+        InvalidParameter: ``fk`` not callable, phases empty or not ``(t_end, target)`` pairs in
+            time order, or a speed or gain out of range.
     """
-    polygon = as_polygon(polygon)
-    buffer = check_positive("buffer", buffer, unit="workspace units")
-    c = polygon.corners
-    n = polygon.n
-    cen = polygon.centroid
-    size = float(np.max(np.linalg.norm(c - cen, axis=1)))
-    lengths = np.linalg.norm(np.roll(c, -1, axis=0) - c, axis=1)
-    e = int(np.argmax(lengths))
-    a, b = c[e], c[(e + 1) % n]
-    normal = polygon.normals[e]
-    start = 0.5 * (a + b) - 0.6 * buffer * normal
-    ang = polygon.interior_angles
-    acute = int(np.argmin(ang))
-    obtuse = int(np.argmax(np.where(np.arange(n) == acute, -1.0, ang)))
-    far = int(np.argmin(polygon.normals @ polygon.normals[obtuse - 1]))  # faces corner's edge
 
-    def beyond_corner(i: int) -> FloatArray:
-        d = c[i] - cen
-        return np.asarray(c[i] + 0.4 * size * d / np.linalg.norm(d), dtype=float)
+    def __init__(
+        self,
+        fk: Callable[[FloatArray], ArrayLike],
+        phases: Sequence[tuple[float, ArrayLike]],
+        *,
+        speed: float,
+        gain: float = 8.0,
+    ) -> None:
+        if not callable(fk) or isinstance(fk, type):
+            raise InvalidParameter(f"fk: expected a function q -> x (3,), got {show(fk)}")
+        given: object = phases
+        if isinstance(given, (str, bytes)) or not isinstance(given, Sequence) or not given:
+            raise InvalidParameter(
+                f"phases: expected a non-empty list of (t_end, target), got {show(phases)}"
+            )
+        checked: list[tuple[float, FloatArray]] = []
+        for k, phase in enumerate(phases):
+            if not isinstance(phase, (tuple, list)) or len(phase) != 2:
+                raise InvalidParameter(f"phases[{k}]: expected (t_end, target), got {show(phase)}")
+            t_end = finite_scalar(f"phases[{k}] t_end", phase[0], unit="s", error=InvalidParameter)
+            if checked and not t_end > checked[-1][0]:
+                raise InvalidParameter(
+                    f"phases[{k}] t_end: expected after {checked[-1][0]:g} s (time order), got "
+                    f"{t_end:g} s"
+                )
+            target = real_array(
+                f"phases[{k}] target", phase[1], (3,), error=InvalidParameter, what="a point [m]"
+            )
+            target.setflags(write=False)
+            checked.append((t_end, target))
+        self.fk = fk
+        self.phases: tuple[tuple[float, FloatArray], ...] = tuple(checked)
+        self.speed = check_positive("speed", speed, unit="m/s")
+        self.gain = check_positive("gain", gain, unit="1/s")
 
-    plan: list[tuple[str, FloatArray, float, float]] = [  # label, target, speed, dwell [s]
-        ("start outside, come in", cen.copy(), 0.6, 0.2),
-        ("press into the long edge", a + 0.3 * (b - a) - 0.4 * size * normal, 0.8, 0.4),
-        ("sweep along it, pressing", a + 0.85 * (b - a) - 0.4 * size * normal, 0.7, 0.3),
-        (f"push into acute corner {acute}", beyond_corner(acute), 0.6, 0.8),
-        (f"push into obtuse corner {obtuse}", beyond_corner(obtuse), 0.6, 0.8),
-        (
-            "fast move into the far side",
-            0.5 * (c[far] + c[(far + 1) % n]) - 0.4 * size * polygon.normals[far],
-            2.0,
-            0.4,
-        ),
-        ("hold near the long edge", 0.5 * (a + b) + 0.5 * buffer * normal, 0.6, 0.3),
-    ]
-    t = 0.0
-    pos = np.asarray(start, dtype=float)
-    wps = []
-    for _label, target, speed, dwell in plan:
-        wps.append(Waypoint(t=t, target=(float(target[0]), float(target[1])), speed=speed))
-        reach = polygon.closest_point(target)
-        t += float(np.linalg.norm(reach - pos)) / speed + dwell
-        pos = reach
-    push_v = -0.5 * normal
-    pushes = ((t, t + 0.8, (float(push_v[0]), float(push_v[1]))),)
-    return Script(
-        start=(float(start[0]), float(start[1])),
-        waypoints=tuple(wps),
-        pushes=pushes,
-        duration=t + 2.0,
-        labels=tuple(p[0] for p in plan),
-    )
+    def target(self, t: float) -> FloatArray:
+        """The target in force at time ``t`` [s], shape (3,), [m].
+
+        Raises:
+            InvalidInput: ``t`` not a finite number.
+        """
+        t = finite_scalar("t", t, unit="s", what="time")
+        for t_end, x in self.phases:
+            if t < t_end:
+                return x
+        return self.phases[-1][1]
+
+    def __call__(self, t: float, q: FloatArray) -> FloatArray:
+        """TCP velocity command [m/s], shape (3,), at time ``t`` [s] and joint position ``q``.
+
+        Raises:
+            InvalidInput: ``t`` not finite, or the kinematics giving no finite point (3,).
+        """
+        x = real_array("fk(q)", self.fk(q), (3,), what="the jogged point [m]")
+        e = self.target(t) - x
+        dist = float(np.linalg.norm(e))
+        if dist == 0.0:
+            return np.zeros(3)
+        return np.asarray(e * (min(self.speed, self.gain * dist) / dist), dtype=float)
 
 
 def constant(
@@ -265,5 +287,10 @@ def operator_from(script: Script) -> Callable[[float, FloatArray], FloatArray]:
         raise InvalidParameter(f"script: expected a Script, got {type(script).__name__}")
     return WaypointOperator(script.waypoints)
 
+
+#: The demo's built-in script moved to velfence.apps.demo.script in 0.2 (it is an application's).
+__getattr__, _ = _lazy.attach(
+    __name__, {}, globals(), former={"default_script": "velfence.apps.demo.script"}
+)
 
 document_inits(globals())

@@ -2,18 +2,19 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-import numpy as np
-
+from velfence._deprecate import method_name
 from velfence._typing import FloatArray
+from velfence._validate import describe
 from velfence.apps.reproduce.base import Report
+from velfence.errors import InvalidParameter
 from velfence.sim.physics import PhysicsRecord
 from velfence.sim.runner import Trajectory
 
-__all__ = ["SCENARIOS", "PhysicsRun", "ScenarioResult", "TcpJog"]
+__all__ = ["SCENARIOS", "PhysicsRun", "ScenarioResult", "scenario_methods"]
 
 #: The scenarios of ``velfence sim --scenario NAME``.
 SCENARIOS: tuple[str, ...] = ("fence-box", "wrist-push", "redundant-obstacle")
@@ -24,7 +25,7 @@ class PhysicsRun:
     """One controller's run in MuJoCo.
 
     Attributes:
-        method: The controller's name (``"velfence"``, ``"no limit"``, ...).
+        method: The controller's name (``"safety-filter"``, ``"no-limit"``, ...).
         trajectory: The runner's record (``p`` = state joints, ``v_out`` = references).
         record: What the physics did (qpos for rendering, contacts, efforts).
         model: The plant's ``mujoco.MjModel`` (obstacle geoms included), for rendering.
@@ -64,43 +65,29 @@ class ScenarioResult:
     scene: Mapping[str, Any]
 
 
-class TcpJog:
-    r"""A scripted Cartesian jog: towards the target of the phase in force.
-
-    :math:`v = \min(s, g\,\|e\|)\,e/\|e\|`, :math:`e = x^\star(t) - x(q)` (the arm-box
-    operator's law on any forward kinematics).
+def scenario_methods(methods: object, known: tuple[str, ...]) -> tuple[str, ...]:
+    """Names from ``known``, at least one; a run name before 0.2 warns and is translated.
 
     Args:
-        fk: ``q -> x`` [m], shape (3,).
-        phases: ``(t_end [s], target (3,) [m])`` in time order; the last target holds after.
-        speed: Jog speed [m/s].
-        gain: Approach gain near a target [1/s].
+        methods: A list or tuple of run names (``"safety-filter"``, ...; the former
+            ``"velfence"``, ``"no limit"``, ... warn until 0.3).
+        known: The scenario's run names.
+
+    Returns:
+        The names, in the given order.
+
+    Raises:
+        InvalidParameter: not a list of known names, or an empty one.
     """
-
-    def __init__(
-        self,
-        fk: Callable[[FloatArray], FloatArray],
-        phases: list[tuple[float, FloatArray]],
-        *,
-        speed: float,
-        gain: float = 8.0,
-    ) -> None:
-        self.fk = fk
-        self.phases = phases
-        self.speed = speed
-        self.gain = gain
-
-    def target(self, t: float) -> FloatArray:
-        """The target in force at ``t`` [s], shape (3,), [m]."""
-        for t_end, x in self.phases:
-            if t < t_end:
-                return x
-        return self.phases[-1][1]
-
-    def __call__(self, t: float, q: FloatArray) -> FloatArray:
-        """TCP velocity command [m/s], shape (3,)."""
-        e = self.target(t) - np.asarray(self.fk(q), dtype=float)
-        dist = float(np.linalg.norm(e))
-        if dist == 0.0:
-            return np.zeros(3)
-        return np.asarray(e * (min(self.speed, self.gain * dist) / dist), dtype=float)
+    if isinstance(methods, (str, bytes)) or not isinstance(methods, (list, tuple)) or not methods:
+        raise InvalidParameter(
+            f"methods: expected a non-empty list of names from {list(known)}, got "
+            f"{describe(methods)}"
+        )
+    out = [method_name(m, what="scenario method name", stacklevel=5) for m in methods]
+    unknown = [m for m in out if not isinstance(m, str) or m not in known]
+    if unknown:
+        raise InvalidParameter(
+            f"methods: expected names from {list(known)}, got {describe(unknown)}"
+        )
+    return tuple(str(m) for m in out)

@@ -3,16 +3,16 @@ r"""The Panda-like arm's TCP in a box, in MuJoCo: operator pushes, an external p
 Scene (``docs/physics.md``): :func:`velfence.robots.panda` with capsule links of radius 0.05 m,
 the TCP at the flange; the box :math:`[0.35, 0.65] \times [-0.25, 0.25] \times [0.30, 0.60]` m
 (the TCP starts at (0.47, 0, 0.52) m); a sphere of radius 0.04 m at (0.55, -0.12, 0.48) m, a MuJoCo
-geom the links can touch. The operator (:class:`~velfence.apps.scenarios.common.TcpJog`, speed
+geom the links can touch. The operator (:class:`~velfence.sim.scenarios.TcpJog`, speed
 ``speed``) jogs into the corner (x_max, y_max, z_min), along the face z_min pressing it, holds
 near the face x_min while a 25 N push along −x acts on the flange body for 0.4 s, jogs through
 the sphere to a target beyond x_max, and ends at a waypoint inside. Joint 1 (base rotation) is
 limited to the cell's range :data:`CELL_JOINT1` (the corner targets need more), so the per-joint
 clamp has something to clamp.
 
-Controllers: ``"no limit"`` (damped resolved rate), ``"per-joint clamp"`` (resolved rate, joint
-velocity and position limits), ``"velfence"`` (:class:`~velfence.filter.SafetyFilter`
-in twist mode: box, joint limits, sphere) and ``"velfence + look-ahead"``
+Controllers: ``"no-limit"`` (damped resolved rate), ``"per-joint-clamp"`` (resolved rate, joint
+velocity and position limits), ``"safety-filter"`` (:class:`~velfence.filter.SafetyFilter`
+in twist mode: box, joint limits, sphere) and ``"safety-filter-look-ahead"``
 (:class:`~velfence.shaping.lookahead.LagCompensation` around it). The plant is the
 computed-torque servo of :class:`~velfence.sim.physics.MujocoPlant` (bandwidth 25 rad/s, the
 Panda's effort limits, 2 kHz physics, 500 Hz control).
@@ -27,16 +27,23 @@ from typing import Any
 import numpy as np
 
 from velfence._typing import FloatArray
+from velfence.apps.labels import method_label
 from velfence.apps.reproduce.base import Check, Report, check_at_least, check_at_most
-from velfence.apps.scenarios.common import PhysicsRun, ScenarioResult, TcpJog
+from velfence.apps.scenarios.common import PhysicsRun, ScenarioResult, scenario_methods
 from velfence.geometry.polytope import ConvexPolytope
 from velfence.sim.metrics import box_penetration, face_sliding_ratio, joint_limit_violation
 from velfence.sim.runner import simulate
+from velfence.sim.scenarios import TcpJog
 
 __all__ = ["BOX_LOWER", "BOX_UPPER", "CELL_JOINT1", "METHODS", "run"]
 
 #: The compared controllers, in table order.
-METHODS: tuple[str, ...] = ("no limit", "per-joint clamp", "velfence", "velfence + look-ahead")
+METHODS: tuple[str, ...] = (
+    "no-limit",
+    "per-joint-clamp",
+    "safety-filter",
+    "safety-filter-look-ahead",
+)
 BOX_LOWER = (0.35, -0.25, 0.30)
 BOX_UPPER = (0.65, 0.25, 0.60)
 SPHERE_CENTER = (0.55, -0.12, 0.48)
@@ -117,8 +124,8 @@ def build_controllers(
     """
     from velfence.filter import SafetyFilter
     from velfence.filter.limits import JointLimits, SphereObstacle, WorkspaceLimit
+    from velfence.filter.twist import TwistMode
     from velfence.shaping.lookahead import LagCompensation
-    from velfence.sim.arm import TwistMode
     from velfence.sim.arm_baselines import JointClamp, ResolvedRate
 
     vmax = np.asarray(getattr(robot, "velocity_limits", np.full(robot.dof, np.inf)), dtype=float)
@@ -143,10 +150,10 @@ def build_controllers(
         return LagCompensation(TwistMode(f), time_constant=1.0 / BANDWIDTH, dt=DT, guard=f)
 
     make: dict[str, Callable[[], Any]] = {
-        "no limit": lambda: ResolvedRate(robot, limits=limits, dt=DT),
-        "per-joint clamp": lambda: JointClamp(robot, limits=limits, dt=DT),
-        "velfence": vf,
-        "velfence + look-ahead": ahead,
+        "no-limit": lambda: ResolvedRate(robot, limits=limits, dt=DT),
+        "per-joint-clamp": lambda: JointClamp(robot, limits=limits, dt=DT),
+        "safety-filter": vf,
+        "safety-filter-look-ahead": ahead,
     }
     return {m: make[m]() for m in methods}
 
@@ -183,6 +190,7 @@ def run(
     sphere = SphereObstacle(np.array(SPHERE_CENTER), radius=SPHERE_RADIUS, name="sphere")
     lim = np.array(robot.joint_limits)
     lim[0] = CELL_JOINT1
+    methods = scenario_methods(methods, METHODS)
     ctrl = build_controllers(robot, box, lim, methods)
     runs: dict[str, PhysicsRun] = {}
     for name in methods:
@@ -276,24 +284,26 @@ def _metrics(
 def _report(metrics: dict[str, dict[str, float]], speed: float) -> Report:
     src = "scenario: Panda-like TCP in a box, MuJoCo"
     checks: list[Check] = []
-    for m in ("velfence", "velfence + look-ahead"):
+    for m in ("safety-filter", "safety-filter-look-ahead"):
         if m not in metrics:
             continue
         v = metrics[m]
-        tol = 0.005 if m == "velfence" else 0.001
+        tol = 0.005 if m == "safety-filter" else 0.001
         checks += [
             check_at_most(
-                f"{m}: operator penetration [m]",
+                f"{method_label(m)}: operator penetration [m]",
                 src,
                 tol,
                 v["operator_penetration"],
                 "servo lag eats the buffer; the look-ahead removes it",
             ),
             (
-                check_at_most(f"{m}: obstacle contacts [periods]", src, 0.0, v["contact_steps"])
-                if m != "velfence"
+                check_at_most(
+                    f"{method_label(m)}: obstacle contacts [periods]", src, 0.0, v["contact_steps"]
+                )
+                if m != "safety-filter"
                 else check_at_most(
-                    f"{m}: deepest obstacle contact [m]",
+                    f"{method_label(m)}: deepest obstacle contact [m]",
                     src,
                     5e-4,
                     v["contact_depth"],
@@ -301,36 +311,42 @@ def _report(metrics: dict[str, dict[str, float]], speed: float) -> Report:
                 )
             ),
             check_at_most(
-                f"{m}: joint limit violation, operator phases [rad]",
+                f"{method_label(m)}: joint limit violation, operator phases [rad]",
                 src,
-                6e-3 if m == "velfence" else 1e-6,
+                6e-3 if m == "safety-filter" else 1e-6,
                 v["operator_joint_violation"],
                 "servo lag carries the plain filter past a joint limit it commands to stop at; "
                 "the look-ahead stops it in time",
             ),
-            check_at_least(f"{m}: sliding ratio along z_min", src, 0.9, v["sliding_ratio"]),
-            check_at_most(f"{m}: recovery after the push [s]", src, 1.0, v["recovery_time"]),
+            check_at_least(
+                f"{method_label(m)}: sliding ratio along z_min", src, 0.9, v["sliding_ratio"]
+            ),
             check_at_most(
-                f"{m}: TCP outside during the push [m]",
+                f"{method_label(m)}: recovery after the push [s]", src, 1.0, v["recovery_time"]
+            ),
+            check_at_most(
+                f"{method_label(m)}: TCP outside during the push [m]",
                 src,
                 0.06,
                 v["push_penetration"],
                 "a 25 N push on the wrist overpowers the velocity servo (about 50 mm with the "
                 "Gaz et al. masses); the filter brings it back",
             ),
-            check_at_most(f"{m}: final waypoint error [m]", src, 0.01, v["final_error"]),
+            check_at_most(
+                f"{method_label(m)}: final waypoint error [m]", src, 0.01, v["final_error"]
+            ),
         ]
-    if "velfence + look-ahead" in metrics:
+    if "safety-filter-look-ahead" in metrics:
         checks.append(
             check_at_most(
                 "velfence + look-ahead: joint limit violation, whole run [rad]",
                 src,
                 1e-6,
-                metrics["velfence + look-ahead"]["joint_limit_violation"],
+                metrics["safety-filter-look-ahead"]["joint_limit_violation"],
             )
         )
-    if "no limit" in metrics:
-        v = metrics["no limit"]
+    if "no-limit" in metrics:
+        v = metrics["no-limit"]
         checks += [
             check_at_least(
                 "no limit leaves the box [m] (stated failure)", src, 0.05, v["operator_penetration"]
@@ -347,8 +363,8 @@ def _report(metrics: dict[str, dict[str, float]], speed: float) -> Report:
                 v["operator_joint_violation"],
             )
         )
-    if "per-joint clamp" in metrics:
-        v = metrics["per-joint clamp"]
+    if "per-joint-clamp" in metrics:
+        v = metrics["per-joint-clamp"]
         checks += [
             check_at_least(
                 "per-joint clamp leaves the box [m] (stated failure)",

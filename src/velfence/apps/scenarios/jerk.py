@@ -6,11 +6,11 @@ wrist that shoves the TCP out of the box, which the filter's recovery rows then 
 the Panda's published speed, acceleration and jerk limits (:meth:`MujocoRobot.limits
 <velfence.robots.MujocoRobot.limits>`, Franka's table "Limits for Panda"), three ways:
 
-* ``"velfence + jerk rows"``: the :class:`~velfence.filter.SafetyFilter` in twist mode with the
+* ``"safety-filter-jerk-rows"``: the :class:`~velfence.filter.SafetyFilter` in twist mode with the
   joint limits, speeds, accelerations **and jerks** (the robot at rest before the first cycle:
   ``reset(velocity=0)``);
-* ``"velfence, no jerk rows"``: the same filter without ``max_jerk``;
-* ``"per-joint clamp"``: resolved rate clamped per joint to the speed and position limits.
+* ``"safety-filter-no-jerk-rows"``: the same filter without ``max_jerk``;
+* ``"per-joint-clamp"``: resolved rate clamped per joint to the speed and position limits.
 
 What is measured is the jerk of the **commanded** joint velocity (what a robot controller such as
 Franka's checks against its limit), from the commands alone: the second difference of the
@@ -18,7 +18,7 @@ command sequence over :math:`\Delta t^2` (the zeros of the rest before the start
 joint, as a fraction of the joint's limit. A cycle whose jerk rows gave way
 (``FilterResult.jerk_override``: position, workspace or obstacle rows, or the acceleration limit,
 won) or that ended on the deadline fallback is *flagged*; every other cycle of the jerk-row run
-holds the limit (``tests/robot_sim/test_jerk_scenario.py``).
+holds the limit (``tests/apps/scenarios/test_jerk_scenario.py``).
 """
 
 from __future__ import annotations
@@ -31,19 +31,19 @@ from typing import Any
 import numpy as np
 
 from velfence._typing import FloatArray
-from velfence._validate import (
-    check_choice,
-    check_flag,
-    check_output_path,
-    check_positive,
-    describe,
-)
+from velfence._validate import check_flag, check_output_path, check_positive, describe
+from velfence.apps.labels import method_label
+from velfence.apps.scenarios.common import scenario_methods
 from velfence.errors import InvalidParameter
 
 __all__ = ["METHODS", "JerkRow", "JerkRun", "jerk_table", "plot_jerk", "run"]
 
 #: The compared controllers, in table order.
-METHODS: tuple[str, ...] = ("velfence + jerk rows", "velfence, no jerk rows", "per-joint clamp")
+METHODS: tuple[str, ...] = (
+    "safety-filter-jerk-rows",
+    "safety-filter-no-jerk-rows",
+    "per-joint-clamp",
+)
 
 
 @dataclass(frozen=True, eq=False)
@@ -109,7 +109,7 @@ class _AtRest:
     stateful = True
 
     def __init__(self, safety_filter: Any) -> None:
-        from velfence.sim.arm import TwistMode
+        from velfence.filter.twist import TwistMode
 
         self.filter = safety_filter
         self._twist = TwistMode(safety_filter)
@@ -154,16 +154,10 @@ def run(
     sp = check_positive("speed", speed, unit="m/s")
     if duration is not None:
         check_positive("duration", duration, unit="s")
-    if isinstance(methods, (str, bytes)) or not isinstance(methods, Sequence) or not methods:
-        raise InvalidParameter(
-            f"methods: expected a non-empty sequence of names from {list(METHODS)}, got "
-            f"{describe(methods)}"
-        )
-    methods = [check_choice("methods", m, METHODS) for m in methods]
+    methods = scenario_methods(methods, METHODS)
     push = check_flag("push", push)
     if on_step is not None and not callable(on_step):
         raise InvalidParameter(f"on_step: expected a function or None, got {describe(on_step)}")
-    from velfence.apps.scenarios.common import TcpJog
     from velfence.apps.scenarios.fence_box import (
         BANDWIDTH,
         BOX_LOWER,
@@ -187,6 +181,7 @@ def run(
     from velfence.sim.metrics import joint_limit_violation
     from velfence.sim.physics import BodyPush, MujocoPlant
     from velfence.sim.runner import simulate
+    from velfence.sim.scenarios import TcpJog
 
     robot = panda(radius=0.05)
     box = ConvexPolytope.box(np.array(BOX_LOWER), np.array(BOX_UPPER))
@@ -225,9 +220,9 @@ def run(
     arm: Any = robot  # (the clamp takes any arm with the kinematics it reads)
 
     make: dict[str, Callable[[], Any]] = {
-        "velfence + jerk rows": lambda: velfence(True),
-        "velfence, no jerk rows": lambda: velfence(False),
-        "per-joint clamp": lambda: JointClamp(arm, limits=limits(False), dt=DT),
+        "safety-filter-jerk-rows": lambda: velfence(True),
+        "safety-filter-no-jerk-rows": lambda: velfence(False),
+        "per-joint-clamp": lambda: JointClamp(arm, limits=limits(False), dt=DT),
     }
     jmax = np.asarray(published.max_jerk, dtype=float)
     out: dict[str, JerkRun] = {}
@@ -343,7 +338,7 @@ def plot_jerk(runs: dict[str, JerkRun], path: Path | str) -> Path:
                        label="flagged cycle (jerk rows gave way)")  # fmt: skip
         n_over = int(np.count_nonzero(r.ratio.max(axis=1) > 1.0 + 1e-9))
         ax.set_title(
-            f"{name}: max |jerk|/limit {r.ratio.max():.3g}, {n_over} cycles over, "
+            f"{method_label(name)}: max |jerk|/limit {r.ratio.max():.3g}, {n_over} cycles over, "
             f"{int(np.count_nonzero(r.flagged))} flagged", fontsize=10,
         )  # fmt: skip
         ax.set_yscale("log")

@@ -54,10 +54,10 @@ class LagRow:
 def _depth(bandwidth: float, speed: float, buffer: float, lookahead: bool) -> float:
     from velfence.filter import SafetyFilter
     from velfence.filter.limits import JointLimits, WorkspaceLimit
+    from velfence.filter.twist import TwistMode
     from velfence.geometry.polytope import ConvexPolytope
     from velfence.robots import panda
     from velfence.shaping.lookahead import LagCompensation
-    from velfence.sim.arm import TwistMode
     from velfence.sim.physics import MujocoPlant
     from velfence.sim.runner import simulate
 

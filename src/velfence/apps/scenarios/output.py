@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 
+from velfence.apps.labels import method_label
 from velfence.apps.progress import update as report_progress
 from velfence.apps.reproduce.base import jsonable
 from velfence.apps.scenarios.common import ScenarioResult
@@ -19,14 +20,14 @@ __all__ = ["COLORS", "plot_margins", "write_metrics", "write_outputs", "write_vi
 
 #: Line colour of each compared controller (the arm-box demo's, plus the physics variants).
 COLORS = {
-    "no limit": "#9e9e9e",
-    "no avoidance": "#9e9e9e",
-    "per-joint clamp": "#ff7f0e",
+    "no-limit": "#9e9e9e",
+    "no-avoidance": "#9e9e9e",
+    "per-joint-clamp": "#ff7f0e",
     "patent": "#1f77b4",
-    "configuration control": "#1f77b4",
-    "velfence": "#2ca02c",
+    "configuration-control": "#1f77b4",
+    "safety-filter": "#2ca02c",
     "exact": "#2ca02c",
-    "velfence + look-ahead": "#17becf",
+    "safety-filter-look-ahead": "#17becf",
 }
 
 
@@ -83,7 +84,7 @@ def plot_margins(result: ScenarioResult, path: Path) -> Path:
     for i, (name, run) in enumerate(result.runs.items()):
         t = run.trajectory.t
         style = _line_style(name, i)
-        ax.plot(t, scale * run.extra["margin"], label=name, **style)
+        ax.plot(t, scale * run.extra["margin"], label=method_label(name), **style)
         if ax2 is not None:
             ax2.step(t, run.record.contacts, where="post", **(style | {"lw": 1.2}))
     for j, (what, value) in enumerate(lines.items()):
@@ -184,13 +185,15 @@ def write_video(
         overlays = [*overlays_common]
         if run.point.shape[1] == 3:
             overlays.append(TrailOverlay(run.point[idx], rgba=(0.1, 0.7, 0.2, 1.0)))
-        captions = [f"{name}   t = {t[i]:.2f} s" for i in idx]
+        captions = [f"{method_label(name)}   t = {t[i]:.2f} s" for i in idx]
 
         def sub(f: float, k: int = k, name: str = name, n: int = len(idx)) -> None:
             if progress is not None:
                 progress((k + f) / len(names))
             report_progress(
-                k + f, len(names), f"{result.name} video, panel {name}: frame {round(f * n)}/{n}"
+                k + f,
+                len(names),
+                f"{result.name} video, panel {method_label(name)}: frame {round(f * n)}/{n}",
             )
 
         panels[name] = render_frames(

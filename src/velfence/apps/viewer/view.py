@@ -1,4 +1,4 @@
-"""The named scenes of the 3-D web view (``velfence view --scene NAME``).
+"""The named scenes of the 3-D web view (``velfence view --scenario NAME``).
 
 :func:`scene_session` builds one of :data:`SCENES`; :func:`serve_scene` serves it with
 :func:`velfence.apps.viewer.web.serve_web`. This module sits at the top of the layers (beside
@@ -33,11 +33,11 @@ SCENES: tuple[str, ...] = ("teleop", "arm-box", "fence-box")
 
 def _fence_box_session() -> _ArmSession:
     from velfence.apps.scenarios import fence_box as fb
-    from velfence.apps.scenarios.common import TcpJog
     from velfence.filter.limits import SphereObstacle
     from velfence.geometry.polytope import ConvexPolytope
     from velfence.robots import panda
     from velfence.sim.physics import MujocoPlant
+    from velfence.sim.scenarios import TcpJog
 
     robot = panda(radius=0.05)
     box = ConvexPolytope.box(np.array(fb.BOX_LOWER), np.array(fb.BOX_UPPER))
@@ -45,7 +45,7 @@ def _fence_box_session() -> _ArmSession:
     lim[0] = fb.CELL_JOINT1
     # The look-ahead variant: servo lag lets the plain filter graze the wall by 0.17 mm
     # (docs/physics.md); with the look-ahead the scenario stays inside.
-    method = "velfence + look-ahead"
+    method = "safety-filter-look-ahead"
     shaper = fb.build_controllers(robot, box, lim, (method,))[method]
     sphere = SphereObstacle(np.array(fb.SPHERE_CENTER), radius=fb.SPHERE_RADIUS, name="sphere")
     physics = MujocoPlant(
@@ -82,7 +82,7 @@ def scene_session(scene: str) -> SessionLike:
     * ``"teleop"`` — :class:`velfence.apps.teleop.session.Session` (the PUMA 560, laser, fixture);
     * ``"arm-box"`` — the 7-DoF arm of ``docs/arm_box.md`` under the SafetyFilter (5 ms);
     * ``"fence-box"`` — the Panda-like arm of :mod:`velfence.apps.scenarios.fence_box` in MuJoCo
-      (2 ms; the ``physics`` extra), shaped by its ``"velfence + look-ahead"`` controller.
+      (2 ms; the ``physics`` extra), shaped by its ``"safety-filter-look-ahead"`` controller.
 
     Args:
         scene: One of :data:`SCENES`.

@@ -1,7 +1,7 @@
 r"""One 3-D web view for every scene, drawn by viser (a three.js viewer driven from Python).
 
-:func:`serve_web` (CLI: ``velfence view --scene teleop|arm-box|fence-box``) shows a session in the
-browser and lets a person drive it with the keys of the teleop page
+:func:`serve_web` (CLI: ``velfence view --scenario teleop|arm-box|fence-box``) shows a session in
+the browser and lets a person drive it with the keys of the teleop page
 (:mod:`velfence.apps.viewer.server`): the thesis's mode keys ``A S F D G P T``, ``C`` (clutch),
 ``H`` (hand), the arrows and PgUp/PgDn to jog, ``U O I K J L`` to turn, ``[`` ``]`` for the jog
 speed, Space to stop. Scenes (:data:`velfence.apps.viewer.view.SCENES`, built by
@@ -10,9 +10,9 @@ speed, Space to stop. Scenes (:data:`velfence.apps.viewer.view.SCENES`, built by
 * ``"teleop"`` — the PUMA 560 of :class:`velfence.apps.teleop.session.Session` (laser-assisted
   traded
   control) with its table, shelf and cup, the laser beam and the fixture line;
-* ``"arm-box"`` — the 7-DoF arm of ``docs/arm_box.md`` (:func:`velfence.sim.arm.arm_box_scene`),
-  its TCP kept in the box and its links off the sphere by the
-  :class:`~velfence.filter.SafetyFilter` (kinematic plant, 5 ms period);
+* ``"arm-box"`` — the 7-DoF arm of ``docs/arm_box.md``
+  (:func:`velfence.apps.demo.arm_box.arm_box_scene`), its TCP kept in the box and its links off
+  the sphere by the :class:`~velfence.filter.SafetyFilter` (kinematic plant, 5 ms period);
 * ``"fence-box"`` — the Panda-like arm of :mod:`velfence.apps.scenarios.fence_box` in MuJoCo
   (computed-torque servo, 2 ms period; needs the ``physics`` extra).
 
@@ -222,11 +222,16 @@ class _ArmSession:
 
 
 def _arm_box_session() -> _ArmSession:
-    from velfence.sim.arm import TcpJog, arm_box_scene, arm_script, build_arm_controllers
+    from velfence.apps.demo.arm_box import (
+        arm_box_scene,
+        arm_jog,
+        arm_script,
+        build_arm_controllers,
+    )
 
     scene = arm_box_scene(dt=_ARM_BOX_DT)
-    shaper = build_arm_controllers(scene, methods=("velfence",))["velfence"]
-    jog = TcpJog(scene.robot, arm_script(scene, 0.25))
+    shaper = build_arm_controllers(scene, methods=("safety-filter",))["safety-filter"]
+    jog = arm_jog(scene.robot, arm_script(scene, 0.25))
 
     def plant(q: FloatArray, qdot: FloatArray, t: float) -> FloatArray:
         return q + qdot * scene.dt

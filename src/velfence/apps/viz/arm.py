@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from itertools import product
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol, runtime_checkable
 
 from velfence._extras import missing
 
@@ -21,28 +21,58 @@ from matplotlib.animation import FuncAnimation, PillowWriter
 from matplotlib.collections import LineCollection
 from matplotlib.colors import Normalize
 
+from velfence._typing import FloatArray
 from velfence._validate import check_output_path, check_positive_int
 from velfence.apps import progress
+from velfence.apps.labels import method_label
 from velfence.apps.viz.plots import MAX_FPS, MAX_FRAMES, save_figure
 from velfence.errors import InvalidInput, InvalidParameter
-from velfence.sim.arm import ArmRun, ArmScene
+from velfence.mechanisms.chain import DHChain
+from velfence.sim.runner import Trajectory
 
 __all__ = [
     "ARM_COLORS",
+    "ArmRun",
+    "ArmScene",
     "animate_arm",
     "plot_arm_activity",
     "plot_arm_joints",
     "plot_arm_paths",
 ]
 
-#: Line colour of each compared controller.
+#: Line colour of each compared controller (by ``.method``).
 ARM_COLORS = {
-    "no limit": "#9e9e9e",
-    "per-joint clamp": "#ff7f0e",
-    "scalar scale": "#9467bd",
-    "damper QP": "#d62728",
-    "velfence": "#2ca02c",
+    "no-limit": "#9e9e9e",
+    "per-joint-clamp": "#ff7f0e",
+    "scalar-scale": "#9467bd",
+    "velocity-damper-qp": "#d62728",
+    "safety-filter": "#2ca02c",
 }
+
+
+@runtime_checkable
+class ArmScene(Protocol):
+    """What the figures read of the arm-in-a-box scene (``velfence.apps.demo.arm_box.ArmScene``)."""
+
+    robot: DHChain
+    box_lower: FloatArray
+    box_upper: FloatArray
+    sphere_center: FloatArray
+    sphere_radius: float
+    lower: FloatArray
+    upper: FloatArray
+
+
+@runtime_checkable
+class ArmRun(Protocol):
+    """What the figures read of one run (:class:`velfence.apps.demo.arm_box.ArmRun`)."""
+
+    trajectory: Trajectory
+    tcp: FloatArray
+    segments: FloatArray
+    active: tuple[tuple[str, ...], ...]
+    dropped: tuple[tuple[str, ...], ...]
+    speed: float
 
 
 def _runs(runs: Any) -> dict[str, ArmRun]:
@@ -52,7 +82,9 @@ def _runs(runs: Any) -> dict[str, ArmRun]:
         )
     bad = sorted({type(r).__name__ for r in runs.values() if not isinstance(r, ArmRun)})
     if bad:
-        raise InvalidInput(f"runs: expected ArmRun values (velfence.sim.arm.run_arm), got {bad}")
+        raise InvalidInput(
+            f"runs: expected ArmRun values (velfence.apps.demo.arm_box.run_arm), got {bad}"
+        )
     return {str(k): v for k, v in runs.items()}
 
 
@@ -158,7 +190,7 @@ def plot_arm_paths(scene: ArmScene, runs: Mapping[str, ArmRun], path: str | Path
         mappable = lc
         ax.scatter(*run.tcp[0], color="k", s=12, label="start")
         ax.plot([], [], color=plt.get_cmap("viridis")(0.6), lw=1.6, label="TCP path")
-        ax.set_title(f"{name} (v = {run.speed:g} m/s)", fontsize=9)
+        ax.set_title(f"{method_label(name)} (v = {run.speed:g} m/s)", fontsize=9)
         ax.view_init(elev=22, azim=-60)
         # The box and every TCP path framed (a path that leaves the box stays in view).
         lo = np.minimum(np.minimum(sc.box_lower, run.tcp.min(axis=0)), (0.4, -0.35, 0.3))
@@ -196,7 +228,8 @@ def plot_arm_joints(scene: ArmScene, runs: Mapping[str, ArmRun], path: str | Pat
     axes = list(axs[:, 0])
     for j, ax in enumerate(axes):
         for i, (name, run) in enumerate(rs.items()):
-            ax.plot(run.trajectory.t, run.trajectory.p[:, j], label=name, **_line_style(name, i))
+            style = _line_style(name, i)
+            ax.plot(run.trajectory.t, run.trajectory.p[:, j], label=method_label(name), **style)
         lo_q = min(float(r.trajectory.p[:, j].min()) for r in rs.values())
         hi_q = max(float(r.trajectory.p[:, j].max()) for r in rs.values())
         for lim in (sc.lower[j], sc.upper[j]):
@@ -266,7 +299,10 @@ def plot_arm_activity(runs: Mapping[str, ArmRun], path: str | Path) -> Path:
         ax.set_yticks(range(len(rows)), rows, fontsize=7)
         ax.set_ylim(-0.7, max(0.7, len(rows) - 0.3))
         ax.set_xlim(float(t[0]), float(t[-1]))
-        ax.set_title(f"{name}: active rows" if rows else f"{name}: no row ever active", fontsize=9)
+        label = method_label(name)
+        ax.set_title(
+            f"{label}: active rows" if rows else f"{label}: no row ever active", fontsize=9
+        )
         ax.grid(alpha=0.3, axis="x")
     axes[-1, 0].set_xlabel("time [s]")
     return save_figure(fig, path)
@@ -319,7 +355,8 @@ def animate_arm(
         trail.set_3d_properties(run.tcp[: j + 1, 2])
         rows = sorted(run.active[j], key=lambda a: "acceleration" in a)  # limits first
         act = ", ".join(rows[:2]) + (f" (+{len(rows) - 2})" if len(rows) > 2 else "") or "none"
-        stamp.set_text(f"{run.trajectory.name}, t = {run.trajectory.t[j]:.2f} s\nactive: {act}")
+        who = method_label(run.trajectory.name)
+        stamp.set_text(f"{who}, t = {run.trajectory.t[j]:.2f} s\nactive: {act}")
         return [links, trail, stamp]
 
     anim = FuncAnimation(fig, update, frames=n_frames, blit=False)

@@ -1,6 +1,6 @@
 """One figure style for every plot of velfence: sizes, fonts, axis labels, colour bars, legends.
 
-The rules (checked by ``tests/viz/test_figure_style.py`` on the matplotlib objects):
+The rules (checked by ``tests/apps/viz/test_figure_style.py`` on the matplotlib objects):
 
 * every axes that shows data has an x and a y label naming a quantity and its unit in brackets,
   ``"pitch [rad]"``; the quantity and the unit come from the caller (the scenario or config),

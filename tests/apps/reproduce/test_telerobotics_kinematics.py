@@ -28,7 +28,7 @@ A3 = 0.0203  # [m], |a3| of the PUMA 560 (Khokar 2009 Table 2, eq. 7)
 
 @pytest.fixture(scope="module")
 def result(telerobotics_run: Any) -> tuple[list[Check], list[Path]]:
-    """kinematics_checks(out) as the shared reproduction ran it (tests/reproduce/conftest.py)."""
+    """kinematics_checks(out) as the shared reproduction ran it (its conftest.py)."""
     return telerobotics_run.parts["kinematics_checks"]
 
 

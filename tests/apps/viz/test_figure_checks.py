@@ -30,7 +30,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 from figure_checks import Recorded, check_every, problems, record_figures  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 
 
 @pytest.fixture
@@ -228,7 +228,7 @@ def _cli(*args: str) -> Any:
 
 def test_demo_with_the_example_config(tmp_path: Path, recorded: Recorded) -> None:
     from velfence.apps.demo import run_demo
-    from velfence.io.config import load_config
+    from velfence.apps.demo.config import load_config
 
     cfg = load_config(ROOT / "examples" / "demo-config.yaml")
     # No GIF here (it made this test take minutes): the built-in scenario's demo.gif is
@@ -302,7 +302,7 @@ def _fake_result(contacts: bool) -> Any:
     t = np.linspace(0.0, 2.0, 50)
     margin = 0.05 - 0.04 * np.sin(t)
     runs = {}
-    for name in ("no limit", "per-joint clamp", "velfence"):
+    for name in ("no-limit", "per-joint-clamp", "safety-filter"):
         rec = SimpleNamespace(contacts=(t > 1.0).astype(int) if contacts else np.zeros(50))
         runs[name] = SimpleNamespace(
             trajectory=SimpleNamespace(t=t), record=rec, extra={"margin": margin}

@@ -23,7 +23,7 @@ GENUINE_FAILURES = {
 
 @pytest.fixture(scope="module")
 def report(telerobotics_run):
-    # One shared run (tests/reproduce/conftest.py) with a small study (2 subjects x 1 run keeps
+    # One shared run (tests/apps/reproduce/conftest.py) with a small study (2 subjects x 1 run keeps
     # the test short; `velfence reproduce telerobotics` runs 10 x 3).
     return telerobotics_run.report
 

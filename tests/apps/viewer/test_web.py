@@ -271,7 +271,7 @@ def test_cli_view(monkeypatch: pytest.MonkeyPatch) -> None:
     import velfence.apps.viewer.view
     from velfence.apps import cli
 
-    bad = CliRunner().invoke(cli.app, ["view", "--scene", "box", "--no-browser"])
+    bad = CliRunner().invoke(cli.app, ["view", "--scenario", "box", "--no-browser"])
     assert bad.exit_code != 0
     assert "scene must be one of" in bad.output
 
@@ -293,11 +293,18 @@ def test_cli_view(monkeypatch: pytest.MonkeyPatch) -> None:
 
     monkeypatch.setattr(velfence.apps.viewer.view, "serve_scene", fake)
     ok = CliRunner().invoke(
-        cli.app, ["view", "--scene", "fence-box", "--port", "0", "--start", "--no-browser"]
+        cli.app, ["view", "--scenario", "fence-box", "--port", "0", "--start", "--no-browser"]
     )
     assert ok.exit_code == 0, ok.output
     assert calls == {"scene": "fence-box", "port": 0, "start": True}
     assert Server.stopped
+    # The option's former name: the same values, a warning on stderr.
+    calls.clear()
+    old = CliRunner().invoke(cli.app, ["view", "--scene", "arm-box", "--port", "0", "--no-browser"])
+    assert old.exit_code == 0, old.output
+    assert calls == {"scene": "arm-box", "port": 0, "start": False}
+    assert "--scene is now --scenario" in old.stderr
+    assert "goes in 0.3" in old.stderr
     assert "http://127.0.0.1:9/" in ok.output
 
 

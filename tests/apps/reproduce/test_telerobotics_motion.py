@@ -20,7 +20,7 @@ GENUINE_FAILURES = {"§7.4 SR: manipulability stays away from 0 (min w)"}
 
 @pytest.fixture(scope="module")
 def result(telerobotics_run):
-    # motion_checks(out) as the shared reproduction ran it (tests/reproduce/conftest.py)
+    # motion_checks(out) as the shared reproduction ran it (tests/apps/reproduce/conftest.py)
     assert telerobotics_run.calls["motion_checks"] == ((telerobotics_run.out,), {})
     checks, artifacts = telerobotics_run.parts["motion_checks"]
     return telerobotics_run.out, checks, artifacts, {c.name: c for c in checks}

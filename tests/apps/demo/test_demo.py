@@ -16,9 +16,9 @@ for _extra in ("rich", "matplotlib", "pydantic", "yaml"):
     pytest.importorskip(_extra, reason="the demo needs the [app] extra")
 
 from velfence.apps.demo import DemoResult, build_shapers, run_demo  # noqa: E402
+from velfence.apps.demo.config import DemoConfig, ShaperSettings, load_config  # noqa: E402
 from velfence.errors import InvalidParameter  # noqa: E402
 from velfence.geometry.polygon import ConvexPolygon  # noqa: E402
-from velfence.io.config import DemoConfig, ShaperSettings, load_config  # noqa: E402
 from velfence.mechanisms.wrist import Wrist, WristGeometry  # noqa: E402
 from velfence.shaping.polygon import PolygonShaper  # noqa: E402
 from velfence.sim.baselines import AxisLimits, HardStop, NoLimit  # noqa: E402
@@ -244,7 +244,7 @@ def test_build_shapers_in_config_order() -> None:
 
 # ------------------------------------------------------------- the shipped example config file
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[3]
 EXAMPLE = ROOT / "examples" / "demo-config.yaml"
 DOC = ROOT / "docs" / "config.md"
 
@@ -279,7 +279,8 @@ def test_example_config_runs_a_short_demo(tmp_path: Path) -> None:
 
 
 def test_config_doc_lists_every_field_and_limit() -> None:
-    import velfence.io.config as cfgmod
+    import velfence.apps.demo.config as cfgmod
+    import velfence.io.config as iocfg
 
     text = DOC.read_text(encoding="utf-8")
     for name in DemoConfig.model_fields:
@@ -288,10 +289,10 @@ def test_config_doc_lists_every_field_and_limit() -> None:
         assert f"`shaper.{name}`" in text, name
     for value in ("1 MiB", "16", "1000", "100", "1e6", "1e-6", "100,000", "--max-steps"):
         assert value in text, value
-    assert cfgmod.MAX_FILE_BYTES == 1024 * 1024
-    assert (cfgmod.MAX_DEPTH, cfgmod.MAX_CORNERS, cfgmod.MAX_WAYPOINTS) == (16, 1000, 1000)
-    assert (cfgmod.MAX_PUSHES, cfgmod.MAX_VALUE, cfgmod.MIN_BUFFER) == (100, 1e6, 1e-6)
-    assert (cfgmod.MIN_DT, cfgmod.DEFAULT_MAX_STEPS) == (1e-6, 100_000)
+    assert iocfg.MAX_FILE_BYTES == 1024 * 1024
+    assert (iocfg.MAX_DEPTH, iocfg.MAX_CORNERS, cfgmod.MAX_WAYPOINTS) == (16, 1000, 1000)
+    assert (cfgmod.MAX_PUSHES, iocfg.MAX_VALUE, iocfg.MIN_BUFFER) == (100, 1e6, 1e-6)
+    assert (iocfg.MIN_DT, iocfg.DEFAULT_MAX_STEPS) == (1e-6, 100_000)
     assert "examples/demo-config.yaml" in text
     readme = (ROOT / "README.md").read_text(encoding="utf-8")
     assert "docs/config.md" in readme

@@ -33,7 +33,7 @@ MUST_PASS = {
 
 @pytest.fixture(scope="module")
 def result(telerobotics_run):
-    # laser_checks(out) (seed 0) as the shared reproduction ran it (tests/reproduce/conftest.py)
+    # laser_checks(out) (seed 0) as the shared reproduction ran it (conftest.py beside this file)
     assert telerobotics_run.calls["laser_checks"] == ((telerobotics_run.out,), {})
     checks, paths = telerobotics_run.parts["laser_checks"]
     return telerobotics_run.out, checks, paths

@@ -11,6 +11,7 @@ pytest.importorskip("matplotlib")
 
 from PIL import Image
 
+from velfence.apps.demo.arm_box import ArmRun, arm_box_scene
 from velfence.apps.viz.arm import (
     animate_arm,
     plot_arm_activity,
@@ -18,7 +19,6 @@ from velfence.apps.viz.arm import (
     plot_arm_paths,
 )
 from velfence.errors import InvalidInput
-from velfence.sim.arm import ArmRun, arm_box_scene
 from velfence.sim.runner import Trajectory
 
 SCENE = arm_box_scene()
@@ -38,7 +38,7 @@ def fake_run(name: str, shift: float) -> ArmRun:
     return ArmRun(tr, tcp, segs, active, dropped, 0.25)
 
 
-RUNS = {"no limit": fake_run("no limit", 0.05), "velfence": fake_run("velfence", 0.0)}
+RUNS = {"no-limit": fake_run("no-limit", 0.05), "safety-filter": fake_run("safety-filter", 0.0)}
 
 
 @pytest.mark.parametrize(
@@ -58,7 +58,7 @@ def test_figures_are_written(draw, tmp_path: Path) -> None:  # type: ignore[no-u
 
 
 def test_gif_is_at_least_600_px_wide(tmp_path: Path) -> None:
-    out = animate_arm(SCENE, RUNS["velfence"], tmp_path / "arm.gif", frames=5, fps=5)
+    out = animate_arm(SCENE, RUNS["safety-filter"], tmp_path / "arm.gif", frames=5, fps=5)
     with Image.open(out) as im:
         assert im.size[0] >= 600
         assert im.n_frames == 5

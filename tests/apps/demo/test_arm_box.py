@@ -20,18 +20,18 @@ for _extra in ("rich", "matplotlib", "qpsolvers"):
     pytest.importorskip(_extra, reason="the arm demo needs the [app] and [qp] extras")
 
 from velfence.apps.demo import DemoResult, run_arm_demo  # noqa: E402
-from velfence.errors import InvalidParameter  # noqa: E402
-from velfence.sim.arm import (  # noqa: E402
+from velfence.apps.demo.arm_box import (  # noqa: E402
     ARM_METHODS,
     ARM_SPEEDS,
-    TcpJog,
     arm_box_scene,
+    arm_jog,
     arm_script,
     build_arm_controllers,
 )
+from velfence.errors import InvalidParameter  # noqa: E402
 
 SCENE = arm_box_scene()
-BASELINES = [m for m in ARM_METHODS if m != "velfence"]
+BASELINES = [m for m in ARM_METHODS if m != "safety-filter"]
 
 
 @pytest.fixture(scope="session")
@@ -80,8 +80,8 @@ def joint_excursion(result: DemoResult, method: str, speed: float) -> float:
 @pytest.mark.parametrize("speed", ARM_SPEEDS)
 def test_velfence_keeps_the_tcp_in_the_box(demo: tuple[Path, DemoResult], speed: float) -> None:
     _, result = demo
-    assert box_excursion(_tcp(result, "velfence", speed)) <= 1e-9
-    assert result.metrics[_key("velfence", speed)]["box_penetration"] <= 1e-9
+    assert box_excursion(_tcp(result, "safety-filter", speed)) <= 1e-9
+    assert result.metrics[_key("safety-filter", speed)]["box_penetration"] <= 1e-9
 
 
 @pytest.mark.slow
@@ -90,17 +90,17 @@ def test_velfence_keeps_the_links_off_the_sphere(
     demo: tuple[Path, DemoResult], speed: float
 ) -> None:
     _, result = demo
-    assert sphere_overlap(result, "velfence", speed) <= 1e-9
-    assert result.metrics[_key("velfence", speed)]["sphere_penetration"] <= 1e-9
+    assert sphere_overlap(result, "safety-filter", speed) <= 1e-9
+    assert result.metrics[_key("safety-filter", speed)]["sphere_penetration"] <= 1e-9
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("speed", ARM_SPEEDS)
 def test_velfence_never_exceeds_a_joint_limit(demo: tuple[Path, DemoResult], speed: float) -> None:
     _, result = demo
-    assert joint_excursion(result, "velfence", speed) == 0.0
+    assert joint_excursion(result, "safety-filter", speed) == 0.0
     # ... and the path does reach joint 0's lower limit (the scenario tests it)
-    q = result.trajectories[_key("velfence", speed)].p
+    q = result.trajectories[_key("safety-filter", speed)].p
     assert q[:, 0].min() < SCENE.lower[0] + 0.01
 
 
@@ -110,8 +110,8 @@ def test_velfence_slides_along_the_face(demo: tuple[Path, DemoResult], speed: fl
     _, result = demo
     # Independent route: TCP displacement along the commanded tangential direction on the x_max
     # face, summed over the rows within 4 cm of it with a command pressing +x.
-    tr = result.trajectories[_key("velfence", speed)]
-    tcp = _tcp(result, "velfence", speed)
+    tr = result.trajectories[_key("safety-filter", speed)]
+    tcp = _tcp(result, "safety-filter", speed)
     face = next(p for p in arm_script(SCENE, speed).phases if p.face == "x_max")
     achieved = commanded = 0.0
     for k in range(len(tr.t) - 1):
@@ -126,7 +126,7 @@ def test_velfence_slides_along_the_face(demo: tuple[Path, DemoResult], speed: fl
             achieved += vt @ (tcp[k + 1] - tcp[k]) / np.linalg.norm(vt)
     assert commanded > 0.05  # the phase really pressed the face while sliding
     assert achieved / commanded >= 0.9
-    assert result.metrics[_key("velfence", speed)]["sliding_ratio"] == pytest.approx(
+    assert result.metrics[_key("safety-filter", speed)]["sliding_ratio"] == pytest.approx(
         achieved / commanded, abs=1e-6
     )
 
@@ -137,10 +137,10 @@ def test_a_baseline_visibly_fails(demo: tuple[Path, DemoResult]) -> None:
     the sphere and passes joint 0's limit; velfence does none of these at the same speeds."""
     _, result = demo
     for speed in ARM_SPEEDS:
-        clamp = box_excursion(_tcp(result, "per-joint clamp", speed))
-        assert clamp > 1e-3 > box_excursion(_tcp(result, "velfence", speed))
-        assert sphere_overlap(result, "no limit", speed) > 1e-3
-        assert joint_excursion(result, "no limit", speed) > 1e-3
+        clamp = box_excursion(_tcp(result, "per-joint-clamp", speed))
+        assert clamp > 1e-3 > box_excursion(_tcp(result, "safety-filter", speed))
+        assert sphere_overlap(result, "no-limit", speed) > 1e-3
+        assert joint_excursion(result, "no-limit", speed) > 1e-3
         failing = [
             m
             for m in BASELINES
@@ -148,7 +148,7 @@ def test_a_baseline_visibly_fails(demo: tuple[Path, DemoResult]) -> None:
             or sphere_overlap(result, m, speed, every=20) > 1e-3
             or joint_excursion(result, m, speed) > 1e-3
         ]
-        assert "per-joint clamp" in failing
+        assert "per-joint-clamp" in failing
 
 
 @pytest.mark.slow
@@ -164,7 +164,7 @@ def test_time_lost_is_measured_against_the_unconstrained_run(
             t = result.trajectories[_key(m, speed)].t
             ok = (np.linalg.norm(tcp - script.final, axis=1) <= 0.005) & (t >= script.phases[-1].t0)
             reach = float(t[np.argmax(ok)]) if ok.any() else math.inf
-            if m == "no limit":
+            if m == "no-limit":
                 ref = reach
             assert ref is not None
             lost = result.metrics[_key(m, speed)]["time_lost"]
@@ -202,8 +202,8 @@ def test_artifacts(demo: tuple[Path, DemoResult]) -> None:
     # velfence's acceleration stays within the joints' limit (20 rad/s²), the baselines' not
     for speed in ARM_SPEEDS:
         acc = {m: result.metrics[_key(m, speed)]["max_joint_acceleration"] for m in ARM_METHODS}
-        assert acc["velfence"] <= float(SCENE.max_acceleration.max()) * (1 + 1e-9)
-        assert acc["per-joint clamp"] > acc["velfence"]
+        assert acc["safety-filter"] <= float(SCENE.max_acceleration.max()) * (1 + 1e-9)
+        assert acc["per-joint-clamp"] > acc["safety-filter"]
 
 
 # ---------------------------------------------------------------------------- scenario pieces
@@ -226,13 +226,13 @@ def test_the_script_scales_with_the_speed() -> None:
 
 def test_the_jog_heads_for_the_target_at_the_jog_speed() -> None:
     script = arm_script(SCENE, 0.25)
-    jog = TcpJog(SCENE.robot, script)
+    jog = arm_jog(SCENE.robot, script)
     v = jog(0.0, SCENE.q0)
     e = script.phases[0].target - SCENE.robot.fk(SCENE.q0)
     np.testing.assert_allclose(v, 0.25 * e / np.linalg.norm(e), atol=1e-15)
     # near the target the command is proportional (gain 8 /s)
     q = SCENE.q0
-    near = TcpJog(SCENE.robot, script)
+    near = arm_jog(SCENE.robot, script)
     p = SCENE.robot.fk(q)
     assert np.linalg.norm(near(script.phases[-1].t0, q)) <= 0.25 + 1e-12
     assert np.linalg.norm(near(1e9, q)) == pytest.approx(
@@ -243,7 +243,7 @@ def test_the_jog_heads_for_the_target_at_the_jog_speed() -> None:
 def test_build_rejects_unknown_methods() -> None:
     with pytest.raises(InvalidParameter, match="methods"):
         build_arm_controllers(SCENE, methods=["teleport"])
-    ctrl = build_arm_controllers(SCENE, methods=["velfence"])["velfence"]
+    ctrl = build_arm_controllers(SCENE, methods=["safety-filter"])["safety-filter"]
     # velfence's twist mode is the filter's explain_twist (both from rest: the filter remembers
     # its last output for the acceleration rows)
     assert getattr(ctrl, "stateful", False)

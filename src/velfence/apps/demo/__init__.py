@@ -6,8 +6,10 @@ push, computes the metrics of :mod:`velfence.sim.metrics`, and writes a workspac
 profiles, a velocity-field quiver per method, a GIF and ``metrics.json``.
 
 ``velfence demo --scenario arm-box`` calls :func:`run_arm_demo`: the 7-DoF arm in a box of
-:mod:`velfence.sim.arm`, five controllers at several jog speeds, a Markdown and JSON metrics
-table, 3-D paths, joints against limits, constraint activity and a GIF of the velfence run.
+:mod:`velfence.apps.demo.arm_box`, five controllers at several jog speeds, a Markdown and JSON
+metrics table, 3-D paths, joints against limits, constraint activity and a GIF of the velfence
+run. The demo's configuration is :mod:`velfence.apps.demo.config`, its built-in wrist script
+:mod:`velfence.apps.demo.script`.
 """
 
 from __future__ import annotations
@@ -32,10 +34,12 @@ except ModuleNotFoundError as exc:  # an optional dependency: name the extra
     raise missing(exc, what=__name__) from exc
 
 from velfence.apps import progress
+from velfence.apps.demo.config import DemoConfig, check_run_length, load_config
+from velfence.apps.demo.script import default_script
 from velfence.apps.reproduce.base import jsonable
 from velfence.errors import InvalidParameter, VelfenceError
 from velfence.geometry.polygon import ConvexPolygon
-from velfence.io.config import DEFAULT_MAX_STEPS, DemoConfig, check_run_length, load_config
+from velfence.io.defaults import DEFAULT_MAX_STEPS
 from velfence.mechanisms.wrist import Wrist, WristGeometry
 from velfence.shaping.base import Shaper
 from velfence.shaping.polygon import PolygonShaper
@@ -50,13 +54,16 @@ from velfence.sim.metrics import (
     time_outside,
 )
 from velfence.sim.runner import Trajectory, simulate_many
-from velfence.sim.scenarios import Script, Waypoint, WaypointOperator, default_script
+from velfence.sim.scenarios import Script, Waypoint, WaypointOperator
 
 __all__ = [
     "ARM_METRIC_COLUMNS",
     "SCENARIOS",
+    "DemoConfig",
     "DemoResult",
     "build_shapers",
+    "check_run_length",
+    "load_config",
     "run_arm_demo",
     "run_demo",
 ]
@@ -114,7 +121,7 @@ def build_shapers(polygon: ConvexPolygon, cfg: DemoConfig) -> dict[str, Shaper]:
 
     Args:
         polygon: The permitted workspace.
-        cfg: The demo configuration (:func:`velfence.io.load_config`).
+        cfg: The demo configuration (:func:`velfence.apps.demo.config.load_config`).
 
     Returns:
         Method name -> shaper, in the config's order.
@@ -126,7 +133,8 @@ def build_shapers(polygon: ConvexPolygon, cfg: DemoConfig) -> dict[str, Shaper]:
         raise InvalidParameter(f"polygon: expected a ConvexPolygon, got {type(polygon).__name__}")
     if not isinstance(cfg, DemoConfig):
         raise InvalidParameter(
-            f"cfg: expected a DemoConfig (from velfence.io.load_config), got {type(cfg).__name__}"
+            f"cfg: expected a DemoConfig (from velfence.apps.demo.load_config), got "
+            f"{type(cfg).__name__}"
         )
     s = cfg.shaper
     common: dict[str, Any] = {
@@ -223,7 +231,7 @@ def run_demo(
         console: Where the progress bar goes (a quiet console if None).
         config: An already-built config (overrides ``config_path``).
         max_steps: Largest accepted number of steps per method (``duration / dt``); default
-            :data:`~velfence.io.config.DEFAULT_MAX_STEPS`, at most 10⁸.
+            :data:`~velfence.io.defaults.DEFAULT_MAX_STEPS`, at most 10⁸.
 
     Returns:
         The metrics per method, the summary table and the artifact paths.
@@ -242,7 +250,7 @@ def run_demo(
     if config is not None and not isinstance(config, DemoConfig):
         raise InvalidParameter(
             f"config: expected a DemoConfig or None, got {type(config).__name__}; build one "
-            "with velfence.io.load_config"
+            "with velfence.apps.demo.load_config"
         )
     if console is not None and not isinstance(console, Console):
         raise InvalidParameter(
@@ -499,13 +507,15 @@ ARM_METRIC_COLUMNS: tuple[tuple[str, str], ...] = (
 
 
 def _arm_markdown(metrics: dict[str, dict[str, dict[str, float]]]) -> str:
+    from velfence.apps.labels import method_label
+
     head = "| speed [m/s] | method | " + " | ".join(t for _, t in ARM_METRIC_COLUMNS) + " |"
     rule = "|" + "---|" * (len(ARM_METRIC_COLUMNS) + 2)
     lines = [head, rule]
     for speed, per in metrics.items():
         for name, m in per.items():
             cells = " | ".join(_fmt(m.get(k, math.nan)) for k, _ in ARM_METRIC_COLUMNS)
-            lines.append(f"| {speed} | {name} | {cells} |")
+            lines.append(f"| {speed} | {method_label(name)} | {cells} |")
     return "\n".join(lines) + "\n"
 
 
@@ -518,7 +528,7 @@ def run_arm_demo(
     figure_speed: float | None = None,
     gif: bool = True,
 ) -> DemoResult:
-    """Run the arm-in-a-box scenario (:mod:`velfence.sim.arm`) and write its artifacts.
+    """Run the arm-in-a-box scenario (:mod:`velfence.apps.demo.arm_box`) and write its artifacts.
 
     Files: ``metrics.md`` and ``metrics.json`` (every speed and method), ``arm_paths.png``
     (3-D TCP paths per method), ``arm_joints.png`` (joints against limits),
@@ -528,8 +538,8 @@ def run_arm_demo(
     Args:
         out_dir: Folder for the artifacts (created).
         console: Where the progress bars go (a quiet console if None).
-        speeds: Jog speeds [m/s] (default :data:`~velfence.sim.arm.ARM_SPEEDS`).
-        methods: Controllers (default :data:`~velfence.sim.arm.ARM_METHODS`).
+        speeds: Jog speeds [m/s] (default :data:`~velfence.apps.demo.arm_box.ARM_SPEEDS`).
+        methods: Controllers (default :data:`~velfence.apps.demo.arm_box.ARM_METHODS`).
         figure_speed: The speed whose runs are plotted (default: the middle of ``speeds``).
         gif: Whether to write the GIF.
 
@@ -541,11 +551,12 @@ def run_arm_demo(
         InvalidParameter: an unknown method, a non-positive speed, or a ``figure_speed`` not
             among ``speeds``.
     """
-    from velfence._validate import check_flag, check_positive, describe, real_array
-    from velfence.sim.arm import (
+    from velfence._validate import check_flag, check_positive, real_array
+    from velfence.apps.demo.arm_box import (
         ARM_METHODS,
         ARM_SPEEDS,
         arm_box_scene,
+        arm_methods,
         arm_metrics,
         build_arm_controllers,
         run_arm,
@@ -569,15 +580,7 @@ def run_arm_demo(
                 f"speeds: expected one or more jog speeds > 0 [m/s], got {raw.tolist()}"
             )
         sp = tuple(float(v) for v in raw)
-    if methods is None:
-        ms = tuple(ARM_METHODS)
-    else:
-        ok = isinstance(methods, (tuple, list)) and all(isinstance(m, str) for m in methods)
-        if not ok or not methods or any(m not in ARM_METHODS for m in methods):
-            raise InvalidParameter(
-                f"methods: expected names from {list(ARM_METHODS)}, got {describe(methods)}"
-            )
-        ms = tuple(methods)
+    ms = tuple(ARM_METHODS) if methods is None else arm_methods(methods)
     gif = check_flag("gif", gif)
     scene = arm_box_scene()
     if figure_speed is None:
@@ -626,7 +629,7 @@ def _write_arm_metrics(
     out: Path,
 ) -> tuple[Path, Path]:
     """Write the arm demo's metrics.md and metrics.json; return both paths."""
-    from velfence.sim.arm import arm_script
+    from velfence.apps.demo.arm_box import arm_script
 
     md = out / "metrics.md"
     md.write_text(
@@ -670,13 +673,15 @@ def _write_arm_plots(scene: Any, runs: dict[str, Any], out: Path, *, gif: bool) 
         paths.append(plot_arm_joints(scene, runs, out / "arm_joints.png"))
         report(2, 3, "arm_activity.png")
         paths.append(plot_arm_activity(runs, out / "arm_activity.png"))
-    if gif and "velfence" in runs:
+    if gif and "safety-filter" in runs:
         with progress.stage("arm_velfence.gif"):
-            paths.append(animate_arm(scene, runs["velfence"], out / "arm_velfence.gif"))
+            paths.append(animate_arm(scene, runs["safety-filter"], out / "arm_velfence.gif"))
     return paths
 
 
 def _arm_table(metrics: dict[str, dict[str, dict[str, float]]]) -> Table:
+    from velfence.apps.labels import method_label
+
     table = Table(title="velfence demo — arm in a box (7-DoF, 1 kHz, Cartesian jog)")
     table.add_column("speed\n[m/s]", justify="right")
     table.add_column("method")
@@ -684,5 +689,6 @@ def _arm_table(metrics: dict[str, dict[str, dict[str, float]]]) -> Table:
         table.add_column(escape(title), justify="right")
     for speed, per in metrics.items():
         for name, m in per.items():
-            table.add_row(speed, name, *(_fmt(m.get(k, math.nan)) for k, _ in ARM_METRIC_COLUMNS))
+            cells = (_fmt(m.get(k, math.nan)) for k, _ in ARM_METRIC_COLUMNS)
+            table.add_row(speed, method_label(name), *cells)
     return table

@@ -6,7 +6,7 @@ import json
 
 
 def test_study_checks_on_a_tiny_study(telerobotics_run):
-    # study_checks as the shared reproduction ran it (tests/reproduce/conftest.py): 2 subjects
+    # study_checks as the shared reproduction ran it (tests/apps/reproduce/conftest.py): 2 subjects
     # x 1 run, seed 0
     assert telerobotics_run.calls["study_checks"] == (
         (telerobotics_run.out,),

@@ -39,7 +39,7 @@ from figure_checks import (  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
 from velfence.apps.demo import run_demo  # noqa: E402
-from velfence.io.config import DemoConfig  # noqa: E402
+from velfence.apps.demo.config import DemoConfig  # noqa: E402
 
 UNIT = re.compile(r"\[[^\[\]]+\]")
 
@@ -60,7 +60,7 @@ def recorded(monkeypatch: pytest.MonkeyPatch) -> Iterator[Recorded]:
         yield figures
 
 
-# One figure checker (tests/viz/figure_checks.py): these tests use its rules.
+# One figure checker (tests/apps/viz/figure_checks.py): these tests use its rules.
 _is_colorbar = is_colorbar
 _has_data = has_data
 _colour_mapped = colour_mapped

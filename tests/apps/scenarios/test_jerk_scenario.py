@@ -25,7 +25,7 @@ def short() -> dict[str, Any]:
     from velfence.apps.scenarios.jerk import run
 
     # 0.12 s: the operator's jog starts with a step to 0.25 m/s (the first cycles' jerk)
-    return run(duration=0.12, methods=("velfence + jerk rows", "velfence, no jerk rows"))
+    return run(duration=0.12, methods=("safety-filter-jerk-rows", "safety-filter-no-jerk-rows"))
 
 
 def _jerk(command: np.ndarray, dt: float) -> np.ndarray:
@@ -38,7 +38,7 @@ def test_unflagged_cycles_hold_the_published_jerk_limits(short: dict[str, Any]) 
     from velfence.robots import panda
 
     limit = np.asarray(panda().model.numeric("jerk_limits").data)  # MuJoCo's reading
-    r = short["velfence + jerk rows"]
+    r = short["safety-filter-jerk-rows"]
     assert r.command.shape == (r.t.shape[0], 7)
     assert np.all(np.isfinite(r.command))
     jerk = _jerk(r.command, DT)
@@ -49,7 +49,7 @@ def test_unflagged_cycles_hold_the_published_jerk_limits(short: dict[str, Any]) 
     assert (np.abs(jerk) / limit).max() > 0.99
     assert r.margin.min() > 0.0  # (and the TCP stayed in the box)
     # without jerk rows the same start breaks the limit (the measurement can fail)
-    raw = short["velfence, no jerk rows"]
+    raw = short["safety-filter-no-jerk-rows"]
     assert not raw.flagged.any()
     assert (np.abs(_jerk(raw.command, DT)) / limit).max() > 1.5
 
@@ -60,12 +60,12 @@ def test_table_and_figure(
     from velfence.apps.scenarios.jerk import jerk_table, plot_jerk
 
     rows = {row.method: row for row in jerk_table(short)}
-    jr, raw = rows["velfence + jerk rows"], rows["velfence, no jerk rows"]
+    jr, raw = rows["safety-filter-jerk-rows"], rows["safety-filter-no-jerk-rows"]
     assert jr.over == 0
     assert jr.max_ratio_unflagged <= 1 + 1e-9
     assert raw.over > 0
-    assert raw.max_ratio == pytest.approx(float(short["velfence, no jerk rows"].ratio.max()))
-    assert jr.cycles == raw.cycles == short["velfence + jerk rows"].t.shape[0]
+    assert raw.max_ratio == pytest.approx(float(short["safety-filter-no-jerk-rows"].ratio.max()))
+    assert jr.cycles == raw.cycles == short["safety-filter-jerk-rows"].t.shape[0]
     assert jr.penetration == 0.0
     spec = importlib.util.spec_from_file_location(
         "figure_checks", Path(__file__).parents[1] / "viz" / "figure_checks.py"
@@ -85,7 +85,9 @@ def test_bad_arguments() -> None:
     from velfence.errors import InvalidParameter
 
     with pytest.raises(InvalidParameter, match="methods"):
-        run(duration=0.01, methods=("velfence",))
+        run(duration=0.01, methods=("safety-filter",))  # a plain filter is no variant here
+    with pytest.raises(InvalidParameter, match="methods"):
+        run(duration=0.01, methods=())
     with pytest.raises(InvalidParameter, match="duration"):
         run(duration=0.0)
     with pytest.raises(InvalidParameter, match="speed"):

@@ -241,7 +241,7 @@ def test_telerobotics_marks_its_own_two_misses_as_documented() -> None:
 
     for module in (_telerobotics_laser, _telerobotics_motion):
         assert "expected_miss=" in inspect.getsource(module)
-    doc = (Path(__file__).parents[1] / "docs" / "reproductions.md").read_text()
+    doc = (Path(__file__).parents[3] / "docs" / "reproductions.md").read_text()
     assert "expected_miss" in doc
 
 

@@ -45,14 +45,14 @@ def test_arm_box_through_the_cli(tmp_path: Path, monkeypatch: pytest.MonkeyPatch
     full = velfence.apps.demo.run_arm_demo
 
     def short(**kwargs: Any) -> Any:  # one fast speed, two controllers, no GIF
-        return full(speeds=(0.5,), methods=("no limit", "velfence"), gif=False, **kwargs)
+        return full(speeds=(0.5,), methods=("no-limit", "safety-filter"), gif=False, **kwargs)
 
     monkeypatch.setattr(velfence.apps.demo, "run_arm_demo", short)
     out = tmp_path / "arm"
     result = CliRunner().invoke(app, ["demo", "--scenario", "arm-box", "--out", str(out)], env=ENV)
     assert result.exit_code == 0, result.output
     meta = json.loads((out / "metrics.json").read_text())
-    assert list(meta["metrics"]["0.5"]) == ["no limit", "velfence"]
+    assert list(meta["metrics"]["0.5"]) == ["no-limit", "safety-filter"]
     text = _flat(result.stdout)
     assert "arm in a box" in text
     assert "wrote 5 files" in text

@@ -1,4 +1,4 @@
-"""velfence.io.config: defaults, overrides, and bad files naming the offending field."""
+"""velfence.apps.demo.config: defaults, overrides, and bad files naming the offending field."""
 
 from __future__ import annotations
 
@@ -14,14 +14,15 @@ from hypothesis import strategies as st
 
 pytest.importorskip("pydantic", reason="velfence.io needs the [app] extra")
 pytest.importorskip("yaml", reason="velfence.io needs the [app] extra")
-import velfence.io.config as cfgmod
-from velfence.errors import InvalidParameter, VelfenceError
-from velfence.io.config import (
+import velfence.apps.demo.config as cfgmod
+import velfence.io.config as iocfg
+from velfence.apps.demo.config import (
     ALL_METHODS,
     DemoConfig,
     check_run_length,
     load_config,
 )
+from velfence.errors import InvalidParameter, VelfenceError
 
 
 def _write(tmp_path: Path, text: str, name: str = "scenario.yaml") -> Path:
@@ -291,7 +292,7 @@ def test_utf8_with_bom_and_non_ascii_comments_are_read(tmp_path: Path) -> None:
 
 
 def test_file_size_is_capped(tmp_path: Path) -> None:
-    path = _write_bytes(tmp_path, b"#" * (cfgmod.MAX_FILE_BYTES + 1))
+    path = _write_bytes(tmp_path, b"#" * (iocfg.MAX_FILE_BYTES + 1))
     _refused(path, "1,048,577 bytes", "at most 1,048,576")
 
 

@@ -1,0 +1,36 @@
+"""How a method is shown: one mapping from a controller's ``.method`` to its human label.
+
+A ``.method`` is a kebab-case name of the vocabulary (``docs/architecture.md``); figures' legends
+and the demo's tables show the label instead (``"per-joint-clamp"`` is drawn as
+"per-joint clamp"). A name without an entry is shown as it is.
+"""
+
+from __future__ import annotations
+
+__all__ = ["METHOD_LABELS", "method_label"]
+
+#: ``.method`` -> the label legends and tables show.
+METHOD_LABELS: dict[str, str] = {
+    "no-limit": "no limit",
+    "per-joint-clamp": "per-joint clamp",
+    "scalar-scale": "scalar scale",
+    "velocity-damper-qp": "damper QP",
+    "safety-filter": "velfence",
+    "configuration-control": "configuration control",
+    "no-avoidance": "no avoidance",
+    "safety-filter-look-ahead": "velfence + look-ahead",
+    "safety-filter-jerk-rows": "velfence + jerk rows",
+    "safety-filter-no-jerk-rows": "velfence, no jerk rows",
+}
+
+
+def method_label(method: str) -> str:
+    """The label of ``method`` for a legend or a table (the name itself when it has none).
+
+    Args:
+        method: A controller's ``.method`` (or a run's name).
+
+    Returns:
+        The label.
+    """
+    return METHOD_LABELS.get(method, method)
