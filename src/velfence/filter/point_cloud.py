@@ -223,32 +223,44 @@ class PointCloudRows:
             "points", points, (None, 3), error=InvalidInput, what="points [m]",
             allow_nonfinite=True, copy=False,
         )  # fmt: skip
-        ok = np.isfinite(pts).all(axis=1)
-        self.dropped_nonfinite = int(pts.shape[0] - np.count_nonzero(ok))
-        if self.dropped_nonfinite:
+        self.dropped_nonfinite = 0
+        if not bool(np.isfinite(pts).all()):  # the row-wise test only when some value is not
+            ok = np.isfinite(pts).all(axis=1)
+            self.dropped_nonfinite = int(pts.shape[0] - np.count_nonzero(ok))
             pts = pts[ok]
-        idx = np.floor(pts * (1.0 / self.voxel))
-        inside = ((idx >= -_HALF) & (idx < _HALF)).all(axis=1)
-        self.dropped_out_of_range = int(pts.shape[0] - np.count_nonzero(inside))
-        if self.dropped_out_of_range:
+        idx = np.multiply(pts, 1.0 / self.voxel)
+        np.floor(idx, out=idx)
+        self.dropped_out_of_range = 0
+        if idx.shape[0] and not (idx.min() >= -_HALF and idx.max() < _HALF):
+            inside = ((idx >= -_HALF) & (idx < _HALF)).all(axis=1)
+            self.dropped_out_of_range = int(idx.shape[0] - np.count_nonzero(inside))
             idx = idx[inside]
-        ii = idx.astype(np.int64) + _HALF
-        new = (ii[:, 0] << (2 * _BITS)) | (ii[:, 1] << _BITS) | ii[:, 2]
+        ii = idx.astype(np.int64)
+        ii += _HALF
+        new = np.sort((ii[:, 0] << (2 * _BITS)) | (ii[:, 1] << _BITS) | ii[:, 2])
+        if new.shape[0]:
+            new = new[np.concatenate([[True], new[1:] != new[:-1]])]
         self._stamp = st if self._stamp is None else max(self._stamp, st)
-        keys = np.concatenate([self._keys, new])
-        seen = np.concatenate([self._seen, np.full(new.shape[0], st)])
-        order = np.argsort(keys, kind="stable")
-        ks = keys[order]
-        if ks.shape[0]:
-            first = np.flatnonzero(np.concatenate([[True], ks[1:] != ks[:-1]]))
-            seen = np.maximum.reduceat(seen[order], first)
-            ks = ks[first]
-        else:
-            seen = seen[order]
-        live = seen >= self._stamp - self.decay
-        self._keys = ks[live]
-        self._seen = seen[live]
-        self._centres = self._centre_of(self._keys)
+        # merge into the grid (sorted keys): the voxels already there are seen again, the
+        # others are inserted in order
+        keys = self._keys
+        seen = self._seen
+        pos = np.searchsorted(keys, new)
+        found = np.zeros(new.shape[0], dtype=bool)
+        inner = pos < keys.shape[0]
+        found[inner] = keys[pos[inner]] == new[inner]
+        seen[pos[found]] = np.maximum(seen[pos[found]], st)
+        fresh = ~found
+        if fresh.any():
+            keys = np.insert(keys, pos[fresh], new[fresh])
+            seen = np.insert(seen, pos[fresh], st)
+        if seen.shape[0] and seen.min() < self._stamp - self.decay:
+            live = seen >= self._stamp - self.decay
+            keys = keys[live]
+            seen = seen[live]
+        self._keys = keys
+        self._seen = seen
+        self._centres = self._centre_of(keys)
 
     def _centre_of(self, keys: Any) -> FloatArray:
         ijk = np.stack([(keys >> (2 * _BITS)) & _MASK, (keys >> _BITS) & _MASK, keys & _MASK], 1)
@@ -285,27 +297,38 @@ class PointCloudRows:
         pts = segs.reshape(-1, 3)
         lo = pts.min(axis=0) - far
         hi = pts.max(axis=0) + far
-        cand = np.flatnonzero(((c >= lo) & (c <= hi)).all(axis=1))
+        box = (c[:, 0] >= lo[0]) & (c[:, 0] <= hi[0])
+        box &= c[:, 1] >= lo[1]
+        box &= c[:, 1] <= hi[1]
+        box &= c[:, 2] >= lo[2]
+        box &= c[:, 2] <= hi[2]
+        cand = np.flatnonzero(box)
         if cand.shape[0] == 0:
             return np.zeros((0, 3))
-        clear = _clearances(segs, c[cand], np.full(cand.shape[0], srad), radii)[0]
+        cc = c[cand]
+        # per link: the voxels within its bounding ball (plus reach), then their clearances
+        mid = 0.5 * (segs[:, 0] + segs[:, 1])
+        half = 0.5 * np.sqrt(((segs[:, 1] - segs[:, 0]) ** 2).sum(axis=1))
+        lim = half + radii + np.maximum(reach + srad, self.self_margin)
+        rel = cc[:, None, :] - mid[None, :, :]
+        inball = (rel * rel).sum(axis=2) <= (lim * lim)[None, :]
+        near = np.flatnonzero(inball.any(axis=1))
+        cand = cand[near]
+        cc = cc[near]
+        clear = _clearances(segs, cc, np.full(cc.shape[0], srad), radii)[0]
         own = (clear + srad < self.self_margin).any(axis=1)
-        if own.any():
-            gone = cand[own]  # sorted, as cand
-            self._drop(gone)
-            cand = cand[~own]
-            cand = cand - np.searchsorted(gone, cand)  # their places in the smaller grid
-            clear = clear[~own]
-            c = self._centres
-        chosen = np.zeros(clear.shape[0], dtype=bool)
+        chosen = np.zeros(cc.shape[0], dtype=bool)
         k = self.nearest
         for link in range(nl):
             col = clear[:, link]
-            near = np.flatnonzero(col < reach[link])
-            if near.shape[0] > k:
-                near = near[np.argpartition(col[near], k - 1)[:k]]
-            chosen[near] = True
-        return c[cand[chosen]]
+            pick = np.flatnonzero((col < reach[link]) & ~own)
+            if pick.shape[0] > k:
+                pick = pick[np.argpartition(col[pick], k - 1)[:k]]
+            chosen[pick] = True
+        out = cc[chosen]
+        if own.any():
+            self._drop(cand[own])
+        return out
 
     def rows(self, ctx: RowContext) -> RowBlock | None:
         """The self filter, then the rows of the links' nearest voxels (class docstring)."""
