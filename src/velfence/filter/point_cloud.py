@@ -51,6 +51,7 @@ from velfence.filter.rows import (
     _clearances,
     link_speed_bounds,
 )
+from velfence.geometry.primitives import points_segments_distances
 
 __all__ = ["MAX_CLOUD_POINTS", "PointCloudRows"]
 
@@ -315,8 +316,10 @@ class PointCloudRows:
         near = np.flatnonzero(inball.any(axis=1))
         cand = cand[near]
         cc = cc[near]
-        clear = _clearances(segs, cc, np.full(cc.shape[0], srad), radii)[0]
-        own = (clear + srad < self.self_margin).any(axis=1)
+        # the surface distance of each voxel centre to each capsule (geometry's batch search)
+        surf = points_segments_distances(cc, segs[:, 0], segs[:, 1], radii=radii)[1]
+        own = (surf < self.self_margin).any(axis=1)
+        clear = surf - srad  # the voxel sphere's clearance
         chosen = np.zeros(cc.shape[0], dtype=bool)
         k = self.nearest
         for link in range(nl):
