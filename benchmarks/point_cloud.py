@@ -83,8 +83,8 @@ def _row(label: str, extra: str, wall: np.ndarray, cpu: np.ndarray) -> str:
     w = np.percentile(wall, [50, 99])
     c = np.percentile(cpu, [50, 99])
     return (
-        f"| {label} | {extra} | {w[0]:.2f} | {w[1]:.2f} | {wall.max():.2f} | "
-        f"{c[0]:.2f} | {c[1]:.2f} |"
+        f"| {label} | {extra} | {w[0]:.3f} | {w[1]:.3f} | {wall.max():.3f} | "
+        f"{c[0]:.3f} | {c[1]:.3f} |"
     )
 
 

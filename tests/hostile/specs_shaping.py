@@ -138,10 +138,9 @@ def _cloud_next_distances_call() -> object:
     return call(ctx.frame, block)  # type: ignore[attr-defined]
 
 
-#: PointCloudRows.update: a sensor's NaN/inf points are dropped and counted, an empty cloud only
-#: ages the grid (docs/reliability-inputs.md, "Documented exemptions").
+#: PointCloudRows.update: a sensor's NaN/inf points are dropped and counted
+#: (docs/reliability-inputs.md, "Documented exemptions").
 _CLOUD_NAN = "documented: non-finite points are dropped and counted (dropped_nonfinite)"
-_CLOUD_EMPTY = "documented: an empty cloud adds nothing and ages the grid"
 
 
 _RC = "a RowContext (or frame and RowBlock) the SafetyFilter builds each cycle, trusted"
