@@ -368,3 +368,35 @@ def test_errors_are_velfence_errors() -> None:
     rows = _rows()
     with pytest.raises(VelfenceError):
         rows.update(object(), stamp=0.0)
+
+
+def test_sensor_transform_maps_the_points_into_the_base_frame() -> None:
+    rng = np.random.default_rng(8)
+    local = rng.uniform(-0.3, 0.3, size=(500, 3))
+    c, s_ = math.cos(0.7), math.sin(0.7)
+    pose = np.array(
+        [[c, -s_, 0.0, 0.4], [s_, c, 0.0, -0.1], [0.0, 0.0, 1.0, 0.9], [0.0, 0.0, 0.0, 1.0]]
+    )
+    base = np.array([pose[:3, :3] @ p + pose[:3, 3] for p in local])  # point by point
+    a = _rows()
+    a.update(local, stamp=0.0, transform=pose)
+    b = _rows()
+    b.update(base, stamp=0.0)
+    assert np.array_equal(a.centres, b.centres)
+    with pytest.raises(InvalidInput, match="transform"):
+        a.update(local, stamp=0.1, transform=np.eye(3))
+    with pytest.raises(InvalidInput, match="transform"):
+        a.update(local, stamp=0.1, transform=np.diag([2.0, 1.0, 1.0, 1.0]))
+
+
+def test_explain_names_the_voxel_rows() -> None:
+    rows = _rows(buffer=0.1)
+    tcp = frame_of(ARM, Q0).point("tcp")
+    rows.update(_sphere_points(tcp + np.array([0.1, 0.0, 0.0]), 0.03, 300), stamp=0.0)
+    filt = SafetyFilter(ARM, limits=LIMITS, providers=[rows], dt=0.004)
+    u = np.linalg.pinv(frame_of(ARM, Q0).jacobian("tcp")) @ np.array([0.3, 0.0, 0.0])
+    res = filt.explain(Q0, u)
+    assert np.all(np.isfinite(res.output))
+    names = [n for n in res.constraint_names if n.startswith("voxel (")]
+    assert names
+    assert all(" on link " in n for n in names)

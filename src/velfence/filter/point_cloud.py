@@ -40,6 +40,7 @@ from velfence._validate import (
     finite_scalar,
     readonly,
     real_array,
+    rigid_transform,
 )
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.filter.kinematics import KinematicsFrame
@@ -188,7 +189,7 @@ class PointCloudRows:
         """The centres of the grid's voxels [m], shape (V, 3), read-only."""
         return readonly(self._centres.copy())
 
-    def update(self, points: Any, *, stamp: float) -> None:
+    def update(self, points: Any, *, stamp: float, transform: Any = None) -> None:
         """Add a cloud measured at ``stamp``: its voxels, seen at ``stamp``, then the decay.
 
         NaN and infinite points are dropped and counted (:attr:`dropped_nonfinite`), not an
@@ -199,16 +200,20 @@ class PointCloudRows:
 
         Args:
             points: The points [m], shape (N, 3), real numbers, in the robot's base frame (the
-                frame of the robot's ``link_segments``).
+                frame of the robot's ``link_segments``) or, with ``transform``, the sensor's.
             stamp: When the cloud was measured [s] (the caller's clock, the same for every
                 update), finite.
+            transform: The sensor's pose in the robot's base frame, a 4 x 4 rigid transform:
+                the points are given in the sensor's frame and mapped ``R p + t`` first;
+                ``None`` (default): the points are already in the base frame.
 
         Raises:
             InvalidInput: not an (N, 3) array of real numbers, a finite value beyond the
                 library's magnitude limit, more than ``max_points`` points (refused before any
-                copy), or a bad stamp.
+                copy), a bad stamp, or a ``transform`` that is not a rigid 4 x 4 transform.
         """
         st = finite_scalar("stamp", stamp, unit="s", error=InvalidInput)
+        pose = None if transform is None else rigid_transform("transform", transform)
         shape = getattr(points, "shape", None)
         count = None
         if isinstance(shape, tuple) and len(shape) == 2:
@@ -229,6 +234,10 @@ class PointCloudRows:
             ok = np.isfinite(pts).all(axis=1)
             self.dropped_nonfinite = int(pts.shape[0] - np.count_nonzero(ok))
             pts = pts[ok]
+        if pose is not None:
+            pts = pts @ pose[:3, :3].T + pose[:3, 3]
+            if not bool(np.isfinite(pts).all()):  # a far point and a large offset
+                raise InvalidInput("points: a point leaves the finite range once transformed")
         idx = np.multiply(pts, 1.0 / self.voxel)
         np.floor(idx, out=idx)
         self.dropped_out_of_range = 0
