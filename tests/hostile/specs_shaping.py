@@ -112,6 +112,37 @@ def _separation_rows() -> object:
     )
 
 
+def _cloud() -> object:
+    """A few points around the 7-joint arm at ``_Q7`` [m]."""
+    return np.array([[0.5, 0.1, 0.9], [0.45, 0.0, 1.1], [-0.3, 0.2, 0.4], [0.6, -0.2, 0.2]])
+
+
+def _point_cloud_rows() -> object:
+    from velfence.filter import PointCloudRows
+
+    rows = PointCloudRows(
+        voxel=0.05,
+        link_radius=np.full(7, 0.04),
+        max_speed=np.full(7, 1.5),
+        buffer=0.5,
+        spring_gain=5.0,
+        decay=1.0,
+    )
+    rows.update(_cloud(), stamp=0.0)
+    return rows
+
+
+def _cloud_next_distances_call() -> object:
+    ctx = _row_context()
+    block = _point_cloud_rows().rows(ctx)  # type: ignore[attr-defined]
+    return call(ctx.frame, block)  # type: ignore[attr-defined]
+
+
+#: PointCloudRows.update: a sensor's NaN/inf points are dropped and counted
+#: (docs/reliability-inputs.md, "Documented exemptions").
+_CLOUD_NAN = "documented: non-finite points are dropped and counted (dropped_nonfinite)"
+
+
 _RC = "a RowContext (or frame and RowBlock) the SafetyFilter builds each cycle, trusted"
 
 
@@ -391,6 +422,39 @@ SPECS: dict[str, F | C] = {
             ),
         },
         instance=_separation_rows,
+    ),
+    "filter.PointCloudRows": C(
+        F(
+            lambda: call(
+                voxel=0.05,
+                link_radius=np.full(7, 0.04),
+                max_speed=np.full(7, 1.5),
+                buffer=0.5,
+                spring_gain=5.0,
+                decay=1.0,
+            ),
+            types={"link_radius": "vector", "max_speed": "vector"},
+        ),
+        {
+            "update": F(
+                lambda: call(_cloud(), stamp=1.0),
+                types={"points": "rows"},
+                accepts={
+                    "points": {
+                        "nan_in_valid": _CLOUD_NAN,
+                        "inf_in_valid": _CLOUD_NAN,
+                        "neg_inf_in_valid": _CLOUD_NAN,
+                    }
+                },
+            ),
+            "rows": F(lambda: call(_row_context()), skip={"ctx": _RC}),
+            "select": F(lambda: call(_row_context()), skip={"ctx": _RC}),
+            "next_distances": F(
+                _cloud_next_distances_call,  # type: ignore[arg-type]
+                skip={"frame": _RC, "block": _RC},
+            ),
+        },
+        instance=_point_cloud_rows,
     ),
     "filter.separation_distance": F(
         lambda: call(1.0, parameters=_separation_parameters(), human_speed=1.2),

@@ -7,7 +7,8 @@ every :class:`~velfence.filter.rows.RowProvider` built from one
 :class:`~velfence.filter.kinematics.KinematicsFrame` of ``q``: joint position (braking profile)
 and velocity, acceleration, workspace polytopes on named points, sphere obstacles against capsule
 links, speed and separation monitoring against tracked people (:mod:`~velfence.filter.separation`,
-advisory), and the user's own. When the rows have no common point the ladder
+advisory), obstacles from point clouds (:mod:`~velfence.filter.point_cloud`), and the user's
+own. When the rows have no common point the ladder
 (:mod:`velfence.filter.ladder`) drops the acceleration rows, then relaxes only violated rows'
 recovery bounds (obstacles, workspace, joints) toward "no further out", else stops: zero meets
 every row of the safety levels once relaxed, so no workspace or obstacle row is ever dropped.
@@ -48,6 +49,7 @@ from velfence.filter.limits import (
     SphereObstacle,
     WorkspaceLimit,
 )
+from velfence.filter.point_cloud import MAX_CLOUD_POINTS, PointCloudRows
 from velfence.filter.result import FilterBatch, FilterResult
 from velfence.filter.rows import (
     LEVEL_JERK,
@@ -84,6 +86,7 @@ __all__ = [
     "LEVEL_OBSTACLE",
     "LEVEL_RATE",
     "LEVEL_WORKSPACE",
+    "MAX_CLOUD_POINTS",
     "WALKING_SPEED",
     "AttachmentObstacleRows",
     "AttachmentTable",
@@ -103,6 +106,7 @@ __all__ = [
     "KinematicsFrame",
     "ObstacleRows",
     "PersonCapsule",
+    "PointCloudRows",
     "Profile",
     "RowBlock",
     "RowContext",
