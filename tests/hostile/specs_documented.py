@@ -55,7 +55,7 @@ SPECS: dict[str, F] = {
         lambda: call(speed=0.25, duration=0.05, methods=("per-joint clamp",)),
         types={"methods": "object"},
         heavy="a closed-loop MuJoCo simulation per method (seconds); "
-        "tests/robot_sim/test_jerk_scenario.py runs it",
+        "tests/apps/scenarios/test_jerk_scenario.py runs it",
     ),
     "scenarios.jerk.jerk_table": F(lambda: call(_runs()), types={"runs": "object"}),
     "scenarios.jerk.plot_jerk": F(
@@ -70,6 +70,6 @@ SPECS: dict[str, F] = {
         lambda: call(_session(), port=0, realtime=False, start=False, jog_timeout=0.5),
         types={"session": "object", "port": "seed"},
         heavy="starts a viser server and an HTTP server that a call leaves running; "
-        "tests/viz/test_web.py serves and stops it",
+        "tests/apps/viewer/test_web.py serves and stops it",
     ),
 }

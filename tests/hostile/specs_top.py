@@ -11,6 +11,6 @@ SPECS: dict[str, F | C] = {
         lambda: call("arm-box", port=0, realtime=False, start=False, jog_timeout=0.5),
         types={"scene": "choice", "port": "seed"},
         heavy="starts a viser server and an HTTP server that a call leaves running; "
-        "tests/viz/test_web.py serves and stops it",
+        "tests/apps/viewer/test_web.py serves and stops it",
     ),
 }

@@ -55,7 +55,7 @@ SPECS.update(
             F(lambda: call(_box3(), rgba=(0.1, 0.2, 0.3, 1.0), width=0.01)),
             {
                 "draw": F(
-                    lambda: call(None, 0), heavy="needs a live mjvScene; tests/viz/test_video.py"
+                    lambda: call(None, 0), heavy="needs a live mjvScene; tests/apps/viz/test_video.py"
                 )
             },
         ),
@@ -63,7 +63,7 @@ SPECS.update(
             F(lambda: call([0.1, 0.2, 0.3], radius=0.1, rgba=(1.0, 0.0, 0.0, 0.5))),
             {
                 "draw": F(
-                    lambda: call(None, 0), heavy="needs a live mjvScene; tests/viz/test_video.py"
+                    lambda: call(None, 0), heavy="needs a live mjvScene; tests/apps/viz/test_video.py"
                 )
             },
         ),
@@ -71,7 +71,7 @@ SPECS.update(
             F(lambda: call([[0.0, 0.0, 0.0], [0.1, 0.0, 0.0]], width=0.01)),
             {
                 "draw": F(
-                    lambda: call(None, 0), heavy="needs a live mjvScene; tests/viz/test_video.py"
+                    lambda: call(None, 0), heavy="needs a live mjvScene; tests/apps/viz/test_video.py"
                 )
             },
         ),

@@ -40,7 +40,7 @@ __all__ = [
 ]
 
 #: The exit codes of every ``velfence`` command: ``(code, commands, meaning)``, one row per case
-#: (the table of docs/cli.md, row for row; tests/test_cli.py compares them).
+#: (the table of docs/cli.md, row for row; tests/apps/cli/test_cli.py compares them).
 EXIT_CODE_TABLE: tuple[tuple[int, str, str], ...] = (
     (0, "all", "everything the command claims holds"),
     (

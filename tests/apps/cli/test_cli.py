@@ -648,7 +648,7 @@ def test_piped_tables_are_never_cut(monkeypatch: pytest.MonkeyPatch, tmp_path: P
 
 
 def _docs_exit_table() -> list[tuple[int, str]]:
-    text = (Path(__file__).resolve().parents[1] / "docs" / "cli.md").read_text(encoding="utf-8")
+    text = (Path(__file__).resolve().parents[3] / "docs" / "cli.md").read_text(encoding="utf-8")
     body = text.split("| code | meaning | commands |", 1)[1].split("\n\n", 1)[0]
     rows = []
     for line in body.strip().splitlines()[1:]:

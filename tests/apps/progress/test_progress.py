@@ -326,7 +326,7 @@ def test_help_documents_the_exit_codes() -> None:
 
 # ------------------------------------------------------------------- replay, soak, soak_filter
 
-BAG = Path(__file__).parents[1] / "examples" / "bags" / "mobile_base"
+BAG = Path(__file__).resolve().parents[3] / "examples" / "bags" / "mobile_base"
 
 
 def test_replay_one_bag_reports_progress_and_ends_with_a_summary(tmp_path: Path) -> None:
