@@ -87,6 +87,7 @@ SPECS: dict[str, F | C] = {
         },
     ),
     "progress.current": F(lambda: call()),
+    "labels.method_label": F(lambda: call("per-joint-clamp"), types={"method": "text"}),
     "progress.frames": F(lambda: call("demo.gif"), types={"name": "text"}),
     "progress.stage": F(lambda: call("a"), types={"name": "text"}),
     "progress.summary": F(

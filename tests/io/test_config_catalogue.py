@@ -35,7 +35,7 @@ REPO = Path(__file__).resolve().parents[2]
 
 
 def _demo(p: Path) -> Any:
-    from velfence.io import load_config
+    from velfence.apps.demo.config import load_config
 
     return load_config(p)
 
@@ -175,7 +175,7 @@ LAUGHS = 'a: &a ["lol", "lol", "lol", "lol", "lol", "lol", "lol", "lol", "lol"]\
 DEEP = "name: " + "[" * 40 + "]" * 40 + "\n"
 
 CASES: list[Case] = [
-    # ---- the demo scenario (velfence.io.load_config) ----
+    # ---- the demo scenario (velfence.apps.demo.config.load_config) ----
     ok("demo-valid", "demo", DEMO, lambda c: c.dt == 0.002 and c.methods == ["exact"]),
     ok("demo-empty-file", "demo", "", lambda c: c.dt == 1e-3 and c.polygon is None),
     ok("demo-comments-only", "demo", "# nothing set\n", lambda c: c.duration is None),

@@ -7,6 +7,8 @@ and the demo's tables show the label instead (``"per-joint-clamp"`` is drawn as
 
 from __future__ import annotations
 
+from velfence._validate import check_text
+
 __all__ = ["METHOD_LABELS", "method_label"]
 
 #: ``.method`` -> the label legends and tables show.
@@ -32,5 +34,9 @@ def method_label(method: str) -> str:
 
     Returns:
         The label.
+
+    Raises:
+        InvalidParameter: ``method`` is not a string of at most 200 characters.
     """
-    return METHOD_LABELS.get(method, method)
+    name = check_text("method", method, max_length=200)
+    return METHOD_LABELS.get(name, name)

@@ -259,7 +259,7 @@ def test_arm_box_figures_on_hand_made_runs(tmp_path: Path, recorded: Recorded) -
     plot_arm_paths(SCENE, RUNS, tmp_path / "arm_paths.png")
     plot_arm_joints(SCENE, RUNS, tmp_path / "arm_joints.png")
     plot_arm_activity(RUNS, tmp_path / "arm_activity.png")
-    animate_arm(SCENE, RUNS["velfence"], tmp_path / "arm_velfence.gif", frames=5, fps=5)
+    animate_arm(SCENE, RUNS["safety-filter"], tmp_path / "arm_velfence.gif", frames=5, fps=5)
     check_every(recorded, tmp_path)
     assert len(recorded.animations["arm_velfence.gif"]) == 5
     legend = recorded["arm_paths.png"].legends[0]
