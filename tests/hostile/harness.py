@@ -46,7 +46,7 @@ HEAVY_KINDS = ("str_int", "nan", "true", "dict_xy", "int_minus_1", "float_1e308"
 #: Extra address space one call may take [bytes] (beyond what the process already has): a call
 #: that tries to allocate more gets MemoryError (reported as an escape) instead of swapping.
 MEMORY_HEADROOM = 2 * 1024**3
-#: Skipped modules: the command-line front end (tested by tests/apps/cli/test_cli.py and tests/hostile/test_cli_hostile.py).
+#: Skipped modules: the command-line front end (tests/apps/cli/test_cli.py, test_cli_hostile.py).
 SKIP_MODULES = ("velfence.apps.cli",)
 #: Modules inside a sub-package whose own ``__all__`` users import from directly (shown in the
 #: documentation or the examples), attacked like the packages (docs/reliability-inputs.md,

@@ -53,27 +53,15 @@ SPECS.update(
     {
         "viz.PolytopeOverlay": C(
             F(lambda: call(_box3(), rgba=(0.1, 0.2, 0.3, 1.0), width=0.01)),
-            {
-                "draw": F(
-                    lambda: call(None, 0), heavy="needs a live mjvScene; tests/apps/viz/test_video.py"
-                )
-            },
+            {"draw": F(lambda: call(None, 0), heavy="needs a live mjvScene; test_video.py")},
         ),
         "viz.SphereOverlay": C(
             F(lambda: call([0.1, 0.2, 0.3], radius=0.1, rgba=(1.0, 0.0, 0.0, 0.5))),
-            {
-                "draw": F(
-                    lambda: call(None, 0), heavy="needs a live mjvScene; tests/apps/viz/test_video.py"
-                )
-            },
+            {"draw": F(lambda: call(None, 0), heavy="needs a live mjvScene; test_video.py")},
         ),
         "viz.TrailOverlay": C(
             F(lambda: call([[0.0, 0.0, 0.0], [0.1, 0.0, 0.0]], width=0.01)),
-            {
-                "draw": F(
-                    lambda: call(None, 0), heavy="needs a live mjvScene; tests/apps/viz/test_video.py"
-                )
-            },
+            {"draw": F(lambda: call(None, 0), heavy="needs a live mjvScene; test_video.py")},
         ),
         "viz.render_frames": F(
             lambda: call(_panda_model(), [[0.0] * 7], width=32, height=32), heavy=_RENDER
