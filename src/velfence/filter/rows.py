@@ -214,6 +214,24 @@ def _bound1(prm: Profile, d: float, speed: float, idt: float) -> float:
     return bnd[0]
 
 
+def _point_jacobians(frame: KinematicsFrame, links: Any, ts: Any, n: int) -> FloatArray:
+    """The Jacobians (k, 3, n) of the points at parameters ``ts`` of the capsule ``links``.
+
+    The frame's batch ``point_jacobians`` when it has one, else one ``point_jacobian`` each;
+    checked for shape and finiteness.
+    """
+    links = np.asarray(links)
+    batch = getattr(frame, "point_jacobians", None)
+    if batch is not None:
+        Js = batch(links, ts)
+    else:
+        Js = [
+            frame.point_jacobian(k, tk)
+            for k, tk in zip(links.tolist(), np.asarray(ts).tolist(), strict=True)
+        ]
+    return checked("kinematics(q).point_jacobian(link, t)", Js, (links.shape[0], 3, n))
+
+
 def _idt(dt: float | None) -> float:
     return 0.0 if dt is None else 1.0 / dt
 
@@ -585,15 +603,7 @@ class ObstacleRows:
         u = ctx.command
         idt = _idt(ctx.dt)
         ts = t[obs_i, link]
-        batch = getattr(ctx.frame, "point_jacobians", None)
-        if batch is not None:
-            Js = batch(link, ts)
-        else:
-            Js = [
-                ctx.frame.point_jacobian(k, tk)
-                for k, tk in zip(link.tolist(), ts.tolist(), strict=True)
-            ]
-        Jc = checked("kinematics(q).point_jacobian(link, t)", Js, (obs_i.shape[0], 3, n))
+        Jc = _point_jacobians(ctx.frame, link, ts, n)
         speed = np.sqrt(((Jc @ u) ** 2).sum(axis=1)).tolist()
         d_sel = clear[obs_i, link].tolist()
         r_sel = dist[obs_i, link]
@@ -743,15 +753,7 @@ class SelfCollisionRows:
         n = ctx.q.shape[0]
         links = np.array([self.pairs[p][k] for p in near for k in (0, 1)], dtype=np.int64)
         ts = np.array([geo[p][k] for p in near for k in (0, 1)])
-        batch = getattr(ctx.frame, "point_jacobians", None)
-        if batch is not None:
-            Js = batch(links, ts)
-        else:
-            Js = [
-                ctx.frame.point_jacobian(k, tk)
-                for k, tk in zip(links.tolist(), ts.tolist(), strict=True)
-            ]
-        Jc = checked("kinematics(q).point_jacobian(link, t)", Js, (links.shape[0], 3, n))
+        Jc = _point_jacobians(ctx.frame, links, ts, n)
         Jrel = Jc[0::2] - Jc[1::2]
         nrm = np.array([geo[p][3] for p in near])
         G = np.einsum("ki,kij->kj", nrm, Jrel)

@@ -48,6 +48,7 @@ from velfence.filter.rows import (
     RowBlock,
     RowContext,
     _pair_geometry,
+    _point_jacobians,
     link_speed_bounds,
     raise_inconsistent,
 )
@@ -516,15 +517,7 @@ class SeparationRows:
             )
         lk_k = lk_a[keep]
         ts = s[keep]
-        batch = getattr(ctx.frame, "point_jacobians", None)
-        if batch is not None:
-            Js = batch(lk_k, ts)
-        else:
-            Js = [
-                ctx.frame.point_jacobian(k, tk)
-                for k, tk in zip(lk_k.tolist(), ts.tolist(), strict=True)
-            ]
-        J = checked("kinematics(q).point_jacobian(link, t)", Js, (keep.shape[0], 3, n))
+        J = _point_jacobians(ctx.frame, lk_k, ts, n)
         G = np.einsum("ki,kij->kj", nrm[keep], J)
         # The fastest approach the joint speed rows allow, Σ_j |G_j| v_j: a row whose v_max is
         # not below it can never bind.
