@@ -241,6 +241,7 @@ def _tampered_run(exe: Path, target: str) -> str:
     return bad.stderr
 
 
+@pytest.mark.slow  # the module's two builds of the seven targets (about a minute each)
 def test_former_findings_run_clean_and_a_spoiled_result_aborts(
     targets: Path, tampered: Path, tmp_path: Path
 ) -> None:
@@ -260,6 +261,7 @@ def test_former_findings_run_clean_and_a_spoiled_result_aborts(
     assert "polygon n=" in bad  # the decoded input
 
 
+@pytest.mark.slow  # the module's two builds of the seven targets (about a minute each)
 def test_nd_and_cc_findings_run_clean_and_a_spoiled_result_aborts(
     targets: Path, tampered: Path
 ) -> None:
@@ -284,6 +286,7 @@ def test_nd_and_cc_findings_run_clean_and_a_spoiled_result_aborts(
         assert decoded in bad  # the decoded input
 
 
+@pytest.mark.slow  # the module's two builds of the seven targets (about a minute each)
 def test_rr_findings_run_clean_and_a_spoiled_result_aborts(targets: Path, tampered: Path) -> None:
     """The resolved-rate findings (core/fuzz/crashes/rr-*: a capped joint rate one ulp above
     max_speed, VF_OK (then VF_RR_OK) with det J = inf, a cap factor that underflows to 0 where the
@@ -299,6 +302,7 @@ def test_rr_findings_run_clean_and_a_spoiled_result_aborts(targets: Path, tamper
     assert "arm (a, cos alpha, sin alpha, d, offset):" in bad  # the decoded input
 
 
+@pytest.mark.slow  # the module's two builds of the seven targets (about a minute each)
 def test_filter_seeds_run_clean_and_a_spoiled_result_aborts(targets: Path, tampered: Path) -> None:
     """The safety filter's row helpers: fuzz_filter runs clean on its seeds (and on any former
     finding, core/fuzz/crashes/filter-*); built with --control-tamper (the first bound of every
@@ -312,6 +316,7 @@ def test_filter_seeds_run_clean_and_a_spoiled_result_aborts(targets: Path, tampe
     assert "dh (a, cos alpha, sin alpha, d, offset):" in bad  # the decoded input
 
 
+@pytest.mark.slow  # the module's two builds of the seven targets (about a minute each)
 def test_filter_cycle_findings_run_clean_and_a_spoiled_result_aborts(
     targets: Path, tampered: Path
 ) -> None:
