@@ -63,9 +63,8 @@ SLOW_NODES = (
 )
 
 
-#: Files whose tests share no module- or session-scoped fixture and take long one by one: under
-#: ``--dist loadgroup`` (the Makefile) their tests spread over the workers one at a time; every
-#: other file is one group (one worker builds its module fixtures once, as ``loadfile`` did).
+#: Files whose tests share no module- or session-scoped fixture and take long one by one: their
+#: tests spread over the workers one at a time (:func:`scope_of`).
 SPREAD = (
     "tests/apps/viz/test_figure_checks.py",
     "tests/apps/progress/test_progress.py",
@@ -76,6 +75,67 @@ SPREAD = (
     "tests/core/test_filter_cycle_c.py",
 )
 
+#: Tests (node-id prefixes) that inspect one shared run (tests/shared_runs.py, or the shared
+#: telerobotics run of tests/apps/reproduce/conftest.py): each group goes to one worker, which
+#: makes the run once. Checked against the files by tests/test_layers.py.
+GROUPS = {
+    "telerobotics": (
+        "tests/apps/reproduce/test_reproduce_telerobotics.py",
+        "tests/apps/reproduce/test_telerobotics_kinematics.py",
+        "tests/apps/reproduce/test_telerobotics_laser.py",
+        "tests/apps/reproduce/test_telerobotics_motion.py",
+        "tests/apps/reproduce/test_telerobotics_study.py",
+    ),
+    "cospm": (
+        "tests/apps/reproduce/test_reproduce_cospm.py",
+        "tests/apps/progress/test_progress.py::test_reproduce_",
+    ),
+    "wrist-push": (
+        "tests/apps/scenarios/test_wrist_physics.py",
+        "tests/apps/progress/test_progress.py::test_sim_reports_progress",
+        "tests/apps/viz/test_figure_checks.py::test_sim_scenarios[wrist-push]",
+    ),
+    "fence-box": (
+        "tests/apps/scenarios/test_physics_scenarios.py::test_fence_box_",
+        "tests/apps/viz/test_figure_checks.py::test_sim_scenarios[fence-box]",
+    ),
+    "redundant-obstacle": (
+        "tests/apps/scenarios/test_physics_scenarios.py::test_redundant_obstacle_",
+        "tests/apps/scenarios/test_physics_scenarios.py::test_outputs_metrics_figure_and_video",
+        "tests/apps/viz/test_figure_checks.py::test_sim_scenarios[redundant-obstacle]",
+    ),
+}
+
+
+def scope_of(nodeid: str) -> str:
+    """The unit of work a test belongs to under ``-n`` (the Makefile's ``--dist loadgroup``):
+    its shared run's group (:data:`GROUPS`), itself (a :data:`SPREAD` file), else its file (a
+    file's module- and session-scoped fixtures are built once, on one worker)."""
+    for name, prefixes in GROUPS.items():
+        if nodeid.startswith(prefixes):
+            return f"shared-{name}"
+    path = nodeid.split("::")[0]
+    return nodeid if path.startswith(SPREAD) else path
+
+
+def pytest_xdist_make_scheduler(config: pytest.Config, log: object) -> object | None:
+    """``--dist loadgroup`` scheduled by :func:`scope_of`.
+
+    pytest-xdist's own ``loadgroup`` groups by ``xdist_group`` marks by renaming each test's
+    node id, which pytest 9 no longer allows (the rename is silently lost: every test went to
+    any worker, and each worker rebuilt every module fixture). Its ``loadscope`` scheduler with
+    the grouping above does the same job through xdist's public scheduler hook.
+    """
+    if config.getoption("dist", None) != "loadgroup":
+        return None
+    from xdist.scheduler import LoadScopeScheduling
+
+    class Grouped(LoadScopeScheduling):  # type: ignore[misc]
+        def _split_scope(self, nodeid: str) -> str:
+            return scope_of(nodeid)
+
+    return Grouped(config, log)
+
 
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     for item in items:
@@ -83,11 +143,8 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
             item.add_marker(pytest.mark.slow)
     slow_files: set[str] = set()
     for item in items:
-        path = item.nodeid.split("::")[0]
         if item.get_closest_marker("slow") is not None:
-            slow_files.add(path)
-        if not path.startswith(SPREAD) and item.get_closest_marker("xdist_group") is None:
-            item.add_marker(pytest.mark.xdist_group(path))
+            slow_files.add(item.nodeid.split("::")[0])
     # The files with slow tests first (a stable sort): the longest work starts while every
     # worker is free, not at the end beside an idle one.
     items.sort(key=lambda it: it.nodeid.split("::")[0] not in slow_files)

@@ -215,3 +215,31 @@ def test_the_spread_files_exist() -> None:
     assert spread
     missing = [p for p in spread if not (ROOT / p).is_file()]
     assert not missing, missing
+
+
+def test_the_shared_run_groups_name_existing_tests() -> None:
+    """Each prefix of tests/conftest.py's GROUPS names an existing file and, where it names a
+    test, a test defined in that file (a renamed test would silently leave its group)."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("root_conftest", ROOT / "tests" / "conftest.py")
+    assert spec is not None
+    assert spec.loader is not None
+    conftest = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(conftest)
+
+    for prefixes in conftest.GROUPS.values():
+        for prefix in prefixes:
+            path, _, test = prefix.partition("::")
+            assert (ROOT / path).is_file(), prefix
+            name = test.split("[")[0]
+            assert not name or f"def {name}" in (ROOT / path).read_text(encoding="utf-8"), prefix
+    assert conftest.scope_of("tests/apps/progress/test_progress.py::test_x") == (
+        "tests/apps/progress/test_progress.py::test_x"
+    )  # a SPREAD file: each test on its own
+    assert conftest.scope_of("tests/geometry/test_polygon.py::test_y[1]") == (
+        "tests/geometry/test_polygon.py"
+    )
+    assert conftest.scope_of("tests/apps/reproduce/test_telerobotics_laser.py::test_z") == (
+        "shared-telerobotics"
+    )

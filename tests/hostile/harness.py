@@ -6,6 +6,7 @@ from __future__ import annotations
 import ast
 import copy
 import dataclasses
+import functools
 import importlib
 import inspect
 import math
@@ -77,8 +78,21 @@ def documented_imports() -> dict[str, set[str]]:
     velfence.x.y`` gives ``{"velfence.x.y": {"*"}}`` (the module's whole ``__all__``). A block
     that does not parse is an error of the documentation (tests/test_readme.py runs it).
     """
+    key = documented_sources  # a test may put a planted page in its place: its own entry
+    if key not in _IMPORTS_MEMO:
+        _IMPORTS_MEMO[key] = _documented_imports(documented_sources())
+    return {k: set(v) for k, v in _IMPORTS_MEMO[key].items()}
+
+
+#: Parsed once per worker: every hostile file asks, and parsing every docs page takes seconds.
+_IMPORTS_MEMO: dict[Any, dict[str, set[str]]] = {}
+_CALLABLES_MEMO: dict[Any, dict[str, Any]] = {}
+_MODULES_MEMO: list[str] = []
+
+
+def _documented_imports(sources: list[tuple[str, str]]) -> dict[str, set[str]]:
     out: dict[str, set[str]] = {}
-    for where, code in documented_sources():
+    for where, code in sources:
         try:
             tree = ast.parse(code, filename=where)
         except SyntaxError as exc:
@@ -179,6 +193,12 @@ def _optional(exc: ModuleNotFoundError) -> bool:
 
 def public_modules() -> list[str]:
     """``velfence`` and every public sub-module or sub-package that declares ``__all__``."""
+    if not _MODULES_MEMO:
+        _MODULES_MEMO.extend(_public_modules())
+    return list(_MODULES_MEMO)
+
+
+def _public_modules() -> list[str]:
     names = ["velfence"]
     infos = [("velfence", info) for info in pkgutil.iter_modules(velfence.__path__)]
     infos += [("velfence.apps", info) for info in pkgutil.iter_modules(velfence.apps.__path__)]
@@ -212,9 +232,14 @@ def available(key: str) -> bool:
     return all(_full(".".join(parts[: i + 1])) not in UNAVAILABLE for i in range(len(parts)))
 
 
+@functools.cache
+def _apps() -> frozenset[str]:
+    return frozenset(info.name for info in pkgutil.iter_modules(velfence.apps.__path__))
+
+
 def _full(short: str) -> str:
     """The module path of a canonical name's module (the applications under velfence.apps)."""
-    apps = {info.name for info in pkgutil.iter_modules(velfence.apps.__path__)}
+    apps = _apps()
     return f"velfence.apps.{short}" if short.split(".")[0] in apps else f"velfence.{short}"
 
 
@@ -230,6 +255,13 @@ def public_callables() -> dict[str, Any]:
     A name exported from several modules gets the name of the deepest module (the sub-package,
     not the top-level re-export). Constants, data and exception classes are skipped by type.
     """
+    key = documented_sources
+    if key not in _CALLABLES_MEMO:
+        _CALLABLES_MEMO[key] = _public_callables()
+    return dict(_CALLABLES_MEMO[key])
+
+
+def _public_callables() -> dict[str, Any]:
     found: dict[int, tuple[str, Any]] = {}
     for modname in public_modules():
         mod = importlib.import_module(modname)

@@ -7,10 +7,13 @@ import io
 import json
 import re
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import pytest
+
+from shared_runs import FIGURE_CHECKS, recording, reproduction, shared_scenario
 
 pytest.importorskip("typer", reason="the command line needs the [app] extra")
 from rich.console import Console
@@ -177,6 +180,8 @@ def test_demo_quiet(tmp_path: Path) -> None:
 
 @pytest.mark.slow  # about 15 s: every arm controller at one speed, and the GIF
 def test_demo_arm_box_reports_every_stage(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """One short arm-box demo through the command line: its stages, its summary, its files and
+    every figure and GIF frame it draws (the figure checker), in one run."""
     import velfence.apps.demo
 
     full = velfence.apps.demo.run_arm_demo
@@ -185,7 +190,8 @@ def test_demo_arm_box_reports_every_stage(tmp_path: Path, monkeypatch: pytest.Mo
         return full(speeds=(0.5,), **kwargs)
 
     monkeypatch.setattr(velfence.apps.demo, "run_arm_demo", one_speed)
-    result = _invoke("demo", "--scenario", "arm-box", "--out", str(tmp_path))
+    with recording() as figures:
+        result = _invoke("demo", "--scenario", "arm-box", "--out", str(tmp_path))
     assert result.exit_code == 0, result.output
     assert _stages(result.stderr) == [
         "simulating",
@@ -194,10 +200,37 @@ def test_demo_arm_box_reports_every_stage(tmp_path: Path, monkeypatch: pytest.Mo
         "metrics.md, metrics.json",
     ]
     assert tmp_path / "arm_velfence.gif" in _named_files_exist(result.stdout)
+    text = " ".join(result.stdout.split())
+    assert "arm in a box" in text
+    assert "wrote 6 files" in text
+    meta = json.loads((tmp_path / "metrics.json").read_text())
+    assert list(meta["metrics"]) == ["0.5"]
+    written = FIGURE_CHECKS.check_every(figures, tmp_path)
+    assert {"arm_paths.png", "arm_joints.png", "arm_activity.png", "arm_velfence.gif"} <= written
 
 
-@pytest.mark.slow  # about 9-13 s (the fast exit-code tests with a fake report: test_cli.py)
-def test_reproduce_reports_progress_and_exits_0_on_documented_misses(tmp_path: Path) -> None:
+@pytest.fixture
+def cospm_once(
+    tmp_path_factory: pytest.TempPathFactory, monkeypatch: pytest.MonkeyPatch
+) -> Callable[[Path], Any]:
+    """``cospm.run`` answered by the worker's one cospm run (tests/shared_runs.py), which the
+    reproduction's own tests and figure checks share."""
+    from velfence.apps.reproduce import cospm
+
+    shared = reproduction("cospm", tmp_path_factory.getbasetemp()).report
+
+    def run(out_dir: Path) -> Any:
+        del out_dir  # the shared run's files are in its own folder; its report names them
+        return shared
+
+    monkeypatch.setattr(cospm, "run", run)
+    return run
+
+
+@pytest.mark.slow  # the cospm reproduction (shared with its own tests; test_cli.py: fake reports)
+def test_reproduce_reports_progress_and_exits_0_on_documented_misses(
+    tmp_path: Path, cospm_once: Callable[[Path], Any]
+) -> None:
     """cospm: two source defects, documented; the rest pass: exit 0, counted in the summary."""
     result = _invoke("reproduce", "cospm", "--json", "--out", str(tmp_path))
     assert result.exit_code == 0, result.output
@@ -211,14 +244,14 @@ def test_reproduce_reports_progress_and_exits_0_on_documented_misses(tmp_path: P
     _named_files_exist(result.stderr)
 
 
-@pytest.mark.slow  # about 9-13 s
+@pytest.mark.slow  # the cospm reproduction (shared, as above)
 def test_reproduce_exits_1_on_an_undocumented_failure(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, cospm_once: Callable[[Path], Any]
 ) -> None:
     """The same reproduction with one passing check made to fail: exit 1."""
     from velfence.apps.reproduce import cospm
 
-    original = cospm.run
+    original = cospm_once
 
     def broken(out_dir: Path) -> Any:
         report = original(out_dir)
@@ -296,8 +329,11 @@ def test_bench_strict_exit_code(
     assert f"wrote 1 file: {out}" in result.stdout
 
 
-def test_sim_reports_progress_and_names_its_files(tmp_path: Path) -> None:
+def test_sim_reports_progress_and_names_its_files(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     pytest.importorskip("mujoco", reason="velfence sim needs the [physics] extra")
+    shared_scenario(monkeypatch, "wrist-push")  # one run with the physics and figure tests
     result = _invoke("sim", "--scenario", "wrist-push", "--no-video", "--out", str(tmp_path))
     assert result.exit_code == 0, result.output
     assert _stages(result.stderr) == ["simulating", "figures"]

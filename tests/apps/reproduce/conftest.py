@@ -2,9 +2,12 @@
 
 ``velfence reproduce telerobotics`` is four parts (kinematics, laser, motion, study). The assembled
 run is made once, through :func:`velfence.apps.reproduce.telerobotics.run` itself, and each part's
-own
-return value is recorded on the way, so the per-part test files inspect the very checks and
+own return value is recorded on the way, so the per-part test files inspect the very checks and
 figures of that run instead of running the part a second time.
+
+Every reproduction's figures are recorded while it runs (``tests/shared_runs.py``) and checked by
+the figure checker in the reproduction's own test file: one run gives both the verdicts and the
+pictures (the figure tests used to run each reproduction again).
 """
 
 from __future__ import annotations
@@ -15,6 +18,7 @@ from typing import Any, NamedTuple
 
 import pytest
 
+from shared_runs import recording
 from velfence.apps.reproduce import telerobotics
 from velfence.apps.reproduce.base import Check, Report
 
@@ -24,12 +28,13 @@ SUBJECTS, RUNS = 2, 1
 
 
 class TeleroboticsRun(NamedTuple):
-    """One assembled run: its folder, its report, and each part's (checks, figures)."""
+    """One assembled run: its folder, its report, each part's (checks, figures), the figures."""
 
     out: Path
     report: Report
     parts: dict[str, tuple[list[Check], list[Path]]]
     calls: dict[str, tuple[tuple[Any, ...], dict[str, Any]]]
+    figures: Any
 
 
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
@@ -54,9 +59,9 @@ def telerobotics_run(tmp_path_factory: pytest.TempPathFactory) -> TeleroboticsRu
 
         return call
 
-    with pytest.MonkeyPatch.context() as mp:
+    with pytest.MonkeyPatch.context() as mp, recording() as figures:
         for name in PARTS:
             mp.setattr(telerobotics, name, recorded(name, getattr(telerobotics, name)))
         report = telerobotics.run(out, subjects=SUBJECTS, runs=RUNS)
     assert set(parts) == set(PARTS)
-    return TeleroboticsRun(out, report, parts, calls)
+    return TeleroboticsRun(out, report, parts, calls, figures)

@@ -6,7 +6,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from velfence.apps.reproduce.cobot import GAINS, fig5_cobot, fig5_ee, run
+from shared_runs import check_figures, reproduction
+from velfence.apps.reproduce.cobot import GAINS, fig5_cobot, fig5_ee
 from velfence.sim.cobot import constant_speed
 
 #: Slow, left out of `make check` (`make test` runs them): the whole reproduction (a minute).
@@ -14,8 +15,17 @@ pytestmark = pytest.mark.slow
 
 
 @pytest.fixture(scope="module")
-def report(tmp_path_factory):
-    return run(tmp_path_factory.mktemp("cobot"))
+def recorded(tmp_path_factory):
+    return reproduction("cobot", tmp_path_factory.getbasetemp())
+
+
+@pytest.fixture(scope="module")
+def report(recorded):
+    return recorded.report
+
+
+def test_every_figure_passes_the_figure_checker(recorded):
+    assert check_figures(recorded)
 
 
 def test_every_check_passes(report):

@@ -4,7 +4,8 @@ import math
 import numpy as np
 import pytest
 
-from velfence.apps.reproduce.cospm import limiter, run, run_paper
+from shared_runs import check_figures, reproduction
+from velfence.apps.reproduce.cospm import limiter, run_paper
 
 #: Slow, left out of `make check` (`make test` runs them): the reproduction, the paper's runs.
 pytestmark = pytest.mark.slow
@@ -16,8 +17,17 @@ SOURCE_DEFECTS = {
 
 
 @pytest.fixture(scope="module")
-def report(tmp_path_factory):
-    return run(tmp_path_factory.mktemp("cospm"))
+def recorded(tmp_path_factory):
+    return reproduction("cospm", tmp_path_factory.getbasetemp())
+
+
+@pytest.fixture(scope="module")
+def report(recorded):
+    return recorded.report
+
+
+def test_every_figure_passes_the_figure_checker(recorded):
+    assert check_figures(recorded)
 
 
 def test_every_check_passes_except_the_documented_discrepancies(report):

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from velfence.apps.reproduce.obstacles import run
+from shared_runs import check_figures, reproduction
 
 pytest.importorskip("qpsolvers")
 pytest.importorskip("daqp")
@@ -16,8 +16,17 @@ pytestmark = pytest.mark.slow
 
 
 @pytest.fixture(scope="module")
-def report(tmp_path_factory):
-    return run(tmp_path_factory.mktemp("obstacles"))
+def recorded(tmp_path_factory):
+    return reproduction("obstacles", tmp_path_factory.getbasetemp())
+
+
+@pytest.fixture(scope="module")
+def report(recorded):
+    return recorded.report
+
+
+def test_every_figure_passes_the_figure_checker(recorded):
+    assert check_figures(recorded)
 
 
 def test_every_check_passes(report):

@@ -5,6 +5,8 @@ from pathlib import Path
 
 import pytest
 
+from shared_runs import FIGURE_CHECKS
+
 # Thesis numbers the thesis itself contradicts (each note gives both numbers).
 SOURCE_DEFECTS = {
     "FK with the printed a3 = +0.0203 m vs Tables 4/5 means [mm]",
@@ -57,6 +59,11 @@ def test_the_issue_s_named_checks_are_there(report):
     by = {c.name: c for c in report.checks}
     assert by["§7.4 trajectory 1, J⁻¹: det J reaches 0 [s]"].expected == 0.63
     assert by["§7.4 trajectory 2, J⁻¹: det J reaches 0 [s]"].expected == 2.1
+
+
+def test_every_figure_passes_the_figure_checker(telerobotics_run):
+    written = FIGURE_CHECKS.check_every(telerobotics_run.figures, telerobotics_run.out)
+    assert {"study_paths.png", "study_times.png"} <= written
 
 
 def test_json_and_plots(report):

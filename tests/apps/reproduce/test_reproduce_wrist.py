@@ -9,8 +9,9 @@ from typing import Any
 
 import pytest
 
+from shared_runs import Recorded, check_figures, reproduction
 from velfence.apps.reproduce.base import Report
-from velfence.apps.reproduce.wrist import BUFFER, GAIN, run
+from velfence.apps.reproduce.wrist import BUFFER, GAIN
 
 #: Slow, left out of `make check` (`make test` runs them): the whole reproduction.
 pytestmark = pytest.mark.slow
@@ -25,13 +26,22 @@ PNG = b"\x89PNG\r\n\x1a\n"
 
 
 @pytest.fixture(scope="module")
-def out(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    return tmp_path_factory.mktemp("reproduce") / "wrist"
+def recorded(tmp_path_factory: pytest.TempPathFactory) -> Recorded:
+    return reproduction("wrist", tmp_path_factory.getbasetemp())
 
 
 @pytest.fixture(scope="module")
-def report(out: Path) -> Report:
-    return run(out)
+def out(recorded: Recorded) -> Path:
+    return recorded.out
+
+
+@pytest.fixture(scope="module")
+def report(recorded: Recorded) -> Report:
+    return recorded.report  # type: ignore[no-any-return]
+
+
+def test_every_figure_passes_the_figure_checker(recorded: Recorded) -> None:
+    assert check_figures(recorded) == {"velocity_patterns.png", "quiver.png"}
 
 
 def _by_name(report: Report) -> dict[str, Any]:

@@ -12,22 +12,19 @@ import numpy as np
 import pytest
 
 from optional import requires
+from shared_runs import scenario
 
 pytestmark = [requires("mujoco"), pytest.mark.slow]
 
 
 @pytest.fixture(scope="session")
 def fence_box():
-    from velfence.apps.scenarios import fence_box
-
-    return fence_box.run()
+    return scenario("fence-box")  # shared with the figure checks (one run per session)
 
 
 @pytest.fixture(scope="session")
 def obstacle():
-    from velfence.apps.scenarios import obstacles
-
-    return obstacles.run()
+    return scenario("redundant-obstacle")
 
 
 def test_fence_box_named_checks_pass(fence_box) -> None:

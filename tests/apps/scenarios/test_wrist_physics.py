@@ -14,6 +14,7 @@ import math
 import numpy as np
 import pytest
 
+import shared_runs
 from optional import requires
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.mechanisms import Wrist, WristGeometry
@@ -167,9 +168,7 @@ def test_robot_and_bad_inputs() -> None:
 
 @pytest.fixture(scope="module")
 def scenario():
-    from velfence.apps.scenarios import wrist
-
-    return wrist.run()
+    return shared_runs.scenario("wrist-push")  # shared with the figure and progress tests
 
 
 @pytest.mark.slow

@@ -110,25 +110,3 @@ def test_tiny_study_summary_and_files(tmp_path):
         run_study(0)
     with pytest.raises(InvalidParameter, match="seed"):
         assisted_run(seed=-1)
-
-
-@pytest.mark.slow
-@requires("typer", "rich", "matplotlib")
-def test_cli_study_json(tmp_path):
-    from typer.testing import CliRunner
-
-    from velfence.apps.cli import app
-
-    res = CliRunner().invoke(
-        app,
-        ["study", "--subjects", "1", "--runs", "1", "--seed", "2", "--out", str(tmp_path),
-         "--json", "--no-animation"],
-    )  # fmt: skip
-    assert res.exit_code == 0, res.output
-    obj = json.loads(res.stdout)
-    assert obj["summary"]["subjects"] == 1
-    assert {p.split("/")[-1] for p in obj["artifacts"]} == {
-        "study.json",
-        "study_times.png",
-        "study_paths.png",
-    }

@@ -3,19 +3,21 @@ fails on a planted bad figure (one per rule).
 
 Each command's test checks every figure it saved and every frame check of every animation it
 wrote (first, middle, last), and that each ``.png``/``.gif``/``.mp4`` in its output folder is
-one of those (``check_every``); MuJoCo's video frames are not matplotlib figures and are
-checked here on the decoded file. Covered: ``velfence demo --config
-examples/demo-config.yaml`` (short), the arm-box demo's figures and GIF (hand-made runs here;
-the real demo at one speed is slow), ``velfence replay --plot`` on both example bags (mobile
-base, arm jog), ``velfence sim`` margin figures (on a hand-made result here; the three real
-scenarios, each with its video at the smallest size, are slow), every reproduction through
-``velfence reproduce`` (wrist fast, the others slow) and ``velfence study`` at one subject
-(slow). ``velfence bench`` writes no figure. The built-in demo with its GIF, the wrist's and the
-study's figures are also checked in ``test_figure_style.py`` with the same checker.
+one of those (``check_every``); MuJoCo's video frames are not matplotlib figures and are checked
+here on the decoded file. Covered: ``velfence demo --config examples/demo-config.yaml`` (short),
+the arm-box demo's figures and GIF (hand-made runs here; the real demo at one speed through the
+command line: test_progress.py), ``velfence replay --plot`` on both example bags (mobile base,
+arm jog), ``velfence sim`` margin figures (on a hand-made result here; the three real scenarios,
+each with its video at the smallest size, are slow) and ``velfence study`` at one subject
+(slow). Every reproduction's figures are checked in its own test file (tests/apps/reproduce: the
+run that the reproduction's checks inspect, recorded once, ``tests/shared_runs.py``). ``velfence
+bench`` writes no figure. The built-in demo with its GIF, the wrist's and the study's figures
+are also checked in ``test_figure_style.py`` with the same checker.
 """
 
 from __future__ import annotations
 
+import json
 from collections.abc import Iterator
 from pathlib import Path
 from types import SimpleNamespace
@@ -29,6 +31,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 from figure_checks import Recorded, check_every, problems, record_figures  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
+
+from shared_runs import shared_scenario  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[3]
 
@@ -331,25 +335,7 @@ def test_sim_margin_figure(tmp_path: Path, recorded: Recorded, contacts: bool) -
     assert b.get_zorder() > a.get_zorder()
 
 
-@pytest.mark.slow  # the whole reproduction with its checks (its figures: test_figure_style.py)
-def test_wrist_reproduction(tmp_path: Path, recorded: Recorded) -> None:
-    result = _cli("reproduce", "wrist", "--out", str(tmp_path), "--quiet")
-    assert result.exit_code == 0, result.output
-    assert check_every(recorded, tmp_path) == {"velocity_patterns.png", "quiver.png"}
-
-
 # --- heavy: the real runs ---------------------------------------------------------------------
-
-
-@pytest.mark.slow  # five controllers at one speed + the GIF (310 s on a busy shared machine)
-def test_arm_box_demo(tmp_path: Path, recorded: Recorded) -> None:
-    from velfence.apps.demo import run_arm_demo
-
-    # The CLI runs three speeds (minutes); one speed draws the same figures and the same GIF
-    # (the fastest: the fewest steps).
-    run_arm_demo(out_dir=tmp_path, speeds=(0.5,), gif=True)
-    written = check_every(recorded, tmp_path)
-    assert {"arm_paths.png", "arm_joints.png", "arm_activity.png", "arm_velfence.gif"} <= written
 
 
 def _video_frames(path: Path) -> list[np.ndarray]:
@@ -375,6 +361,9 @@ def test_sim_scenarios(tmp_path: Path, recorded: Recorded, scenario: str) -> Non
     pytest.importorskip("mujoco")
     monkeypatch = pytest.MonkeyPatch()
     monkeypatch.setenv("MUJOCO_GL", "egl")
+    # The simulation is the one the scenario's own tests inspect (tests/shared_runs.py); the
+    # command draws its figures and video from it here.
+    shared_scenario(monkeypatch, scenario)
     out = tmp_path / scenario
     result = _cli(
         "sim", "--scenario", scenario, "--out", str(out), "--quiet",
@@ -398,23 +387,22 @@ def test_sim_scenarios(tmp_path: Path, recorded: Recorded, scenario: str) -> Non
         assert moved >= 10, f"{name}: nothing moves ({moved} pixels changed)"
 
 
-@pytest.mark.slow  # the reproductions at their own (small) sizes: about a minute together
-@pytest.mark.parametrize("source", ["obstacles", "cobot", "cospm", "telerobotics"])
-def test_reproductions(tmp_path: Path, recorded: Recorded, source: str) -> None:
-    if source == "telerobotics":  # the CLI runs the thesis's 10 x 3 study (minutes): 1 x 1 here
-        from velfence.apps.reproduce.telerobotics import run
-
-        run(tmp_path, subjects=1, runs=1)
-    else:
-        result = _cli("reproduce", source, "--out", str(tmp_path), "--quiet")
-        assert result.exit_code == 0, result.output  # docs/reproductions.md: exit 0 for each
-    assert check_every(recorded, tmp_path), f"{source}: no figure written"
-
-
 @pytest.mark.slow  # one subject, one run per mode and the assisted run's GIF (minutes here)
 def test_study(tmp_path: Path, recorded: Recorded) -> None:
-    result = _cli("study", "--subjects", "1", "--runs", "1", "--out", str(tmp_path), "--quiet")
+    # One run for the figures and the --json contract (tests/apps/teleop/test_study.py: the parts).
+    result = _cli(
+        "study", "--subjects", "1", "--runs", "1", "--seed", "2", "--out", str(tmp_path),
+        "--quiet", "--json",
+    )  # fmt: skip
     assert result.exit_code == 0, result.output
+    obj = json.loads(result.stdout)
+    assert obj["summary"]["subjects"] == 1
+    assert {p.split("/")[-1] for p in obj["artifacts"]} == {
+        "study.json",
+        "study_times.png",
+        "study_paths.png",
+        "assisted_run.gif",
+    }
     written = check_every(recorded, tmp_path)
     assert {"study_paths.png", "study_times.png", "assisted_run.gif"} <= written
     for ax in recorded["study_paths.png"].axes:
