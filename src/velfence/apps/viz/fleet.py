@@ -23,6 +23,7 @@ except ModuleNotFoundError as exc:  # an optional dependency: name the extra
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.ticker import MaxNLocator
 
 from velfence._validate import check_output_path, describe
 from velfence.apps.viz.plots import save_figure
@@ -130,4 +131,5 @@ def plot_fleet(fleet: FleetLike, path: str | Path) -> Path:
     axes[2].legend(loc="best", fontsize=8)
     if len(x):
         axes[2].set_xlim(0.5, len(x) + 0.5)
+    axes[2].xaxis.set_major_locator(MaxNLocator(integer=True))
     return save_figure(fig, out)
