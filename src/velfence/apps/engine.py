@@ -30,9 +30,12 @@ from __future__ import annotations
 
 import logging
 import os
+import signal
+import threading
 import time
 import uuid
 from collections.abc import Callable, Iterable, Iterator, Sequence
+from contextlib import contextmanager
 from typing import TYPE_CHECKING, Any, Literal, TypeVar
 
 from velfence._extras import require
@@ -268,18 +271,22 @@ class Engine:
     def _start_local(self, distributed: Any) -> None:
         n = self.workers or default_workers()
         try:
-            self._cluster = distributed.LocalCluster(
-                n_workers=n,
-                threads_per_worker=1,
-                processes=True,
-                host="127.0.0.1",
-                scheduler_port=0,
-                # Port 0: the scheduler's HTTP server (health, metrics) on a free port of
-                # 127.0.0.1, never a clash at 8787; no dashboard.
-                dashboard_address=":0",
-                scheduler_kwargs={"dashboard": False},
-                silence_logs=logging.ERROR,
-            )
+            # The worker processes are started with SIGINT ignored (inherited through exec), so a
+            # Ctrl-C at the terminal reaches this process alone, which stops the cluster in
+            # order, instead of every worker printing its own KeyboardInterrupt traceback.
+            with _sigint_ignored():
+                self._cluster = distributed.LocalCluster(
+                    n_workers=n,
+                    threads_per_worker=1,
+                    processes=True,
+                    host="127.0.0.1",
+                    scheduler_port=0,
+                    # Port 0: the scheduler's HTTP server (health, metrics) on a free port of
+                    # 127.0.0.1, never a clash at 8787; no dashboard.
+                    dashboard_address=":0",
+                    scheduler_kwargs={"dashboard": False},
+                    silence_logs=logging.ERROR,
+                )
             self._client = distributed.Client(self._cluster, timeout=self.timeout)
         except Exception as exc:
             self.close()
@@ -454,6 +461,19 @@ class Engine:
                     client.cancel(left)
                 except Exception:  # the cluster is already going away
                     logging.getLogger(__name__).debug("cancel failed", exc_info=True)
+
+
+@contextmanager
+def _sigint_ignored() -> Iterator[None]:
+    """SIGINT ignored for the block (in the main thread; elsewhere nothing changes)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 def _first(pair: tuple[int, Any]) -> int:

@@ -271,3 +271,50 @@ def test_a_killed_worker_loses_nothing(real_cluster: RealCluster, tmp_path: Path
                 victims[0].wait(timeout=30)
         assert engine.n_workers() == 1
     assert results == {k: k * k for k in range(12)}
+
+
+_INTERRUPTED = """
+import sys
+sys.path.insert(0, {here!r})
+from engine_tasks import hold_once
+from velfence.apps.engine import Engine
+
+if __name__ == "__main__":
+    try:
+        with Engine(workers=2, timeout=60) as engine:
+            engine.run(hold_once, [(k, {folder!r}) for k in range(12)])
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        sys.exit(130)
+"""
+
+
+@needs_dask
+@pytest.mark.slow
+def test_ctrl_c_stops_the_embedded_cluster_without_a_traceback(tmp_path: Path) -> None:
+    script = tmp_path / "interrupted.py"
+    script.write_text(_INTERRUPTED.format(here=str(HERE), folder=str(tmp_path)))
+    proc = subprocess.Popen(
+        [sys.executable, str(script)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,  # its own process group, as a terminal's foreground job
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
+    try:
+        deadline = time.monotonic() + 120
+        while not (tmp_path / "held").exists() and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert (tmp_path / "held").exists(), "shard 5 never started"
+        os.killpg(proc.pid, signal.SIGINT)  # Ctrl-C: the whole foreground process group
+        _, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    assert proc.returncode == 130, err
+    assert err == "interrupted\n"  # no worker printed a KeyboardInterrupt traceback
+    worker = int((tmp_path / "held").read_text())
+    with pytest.raises(ProcessLookupError):
+        os.kill(worker, 0)  # the worker holding shard 5 was stopped with the cluster
