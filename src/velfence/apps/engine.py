@@ -66,7 +66,7 @@ ResultT = TypeVar("ResultT")
 EngineMode = Literal["serial", "local", "cluster"]
 
 #: Seconds an engine waits for a scheduler (and its first worker) before giving up.
-DEFAULT_TIMEOUT = 10.0
+DEFAULT_TIMEOUT = 5.0
 #: Times a shard whose function raised is run again (a lost worker's shards are rescheduled by
 #: the scheduler regardless).
 DEFAULT_RETRIES = 2
