@@ -103,6 +103,7 @@ UNITS = {
     "min_cloud_clearance": "m",
     "slowest_near": "m/s",
     "approach_inside": "m/s",
+    "periods_inside": "periods",
     "waypoints_before": "count",
     "waypoints_after": "count",
     "resume_delay": "s",
@@ -810,6 +811,7 @@ def _metrics(run: PhysicsRun, robot: Any, path: PersonPath) -> dict[str, float]:
         "approach_inside": float(np.nanmax(series["inside"]))
         if np.isfinite(series["inside"]).any()
         else 0.0,
+        "periods_inside": float(np.count_nonzero(np.isfinite(series["inside"]))),
         "waypoints_before": float(before),
         "waypoints_after": float(len(after)),
         "resume_delay": float(after[0] - m["gone"]) if len(after) else math.inf,
@@ -848,7 +850,7 @@ def _report(metrics: dict[str, dict[str, float]]) -> Report:
                 src,
                 1e-3,
                 v["approach_inside"],
-                "no link approaches a body part closer than S(0)",
+                "no link approaches a body part closer than S(0) (0 when none is that close)",
             ),
             check_at_least(
                 f"{method_label(m)}: waypoints reached after the person left",
@@ -889,7 +891,7 @@ def plot_separation(result: ScenarioResult, path: Any) -> Any:
     from velfence.apps.scenarios.output import COLORS
 
     fig, (ax1, ax2, ax3) = plt.subplots(
-        3, 1, figsize=(11, 8.5), sharex=True, gridspec_kw={"height_ratios": [3, 2, 1.4]},
+        3, 1, figsize=(13, 8.5), sharex=True, gridspec_kw={"height_ratios": [3, 2, 1.4]},
         layout="constrained",
     )  # fmt: skip
     events = result.scene.get("events", {})
@@ -908,9 +910,7 @@ def plot_separation(result: ScenarioResult, path: Any) -> Any:
             ax.axvline(when, color="0.5", lw=0.7, ls="--", label=script if first else None)
     ax1.set_ylim(-0.1, 1.2)
     ax1.set_ylabel("distance [m]")
-    ax1.set_title(
-        "person-cell in MuJoCo: least arm–person separation and its S (pairs within 1.5 m)"
-    )
+    ax1.set_title("person-cell: least arm–person separation and its S (pairs within 1.5 m)")
     ax2.set_ylabel("TCP speed [m/s]")
     people = result.runs.get("safety-filter-people")
     kinds = ("separation", "point cloud", "workspace", "joint")
