@@ -2,13 +2,14 @@ r"""A person walks into the fence-box cell while the arm works: speed and separa
 
 The arm, box, servo and controller loop are the fence-box scenario's
 (:mod:`~velfence.apps.scenarios.fence_box`: :func:`velfence.robots.panda` with capsule links of
-radius 0.05 m, the TCP box, the computed-torque servo at 25 rad/s, 500 Hz control, 2 kHz physics,
-:class:`~velfence.filter.SafetyFilter` in twist mode). The operator is a task: the TCP visits four
-waypoints in the box in a loop at ``TASK_SPEED``, moving on to the next one when within 5 mm.
+radius 0.05 m, the TCP box, the computed-torque servo at 25 rad/s, 2 kHz physics,
+:class:`~velfence.filter.SafetyFilter` in twist mode), at 250 Hz control (:data:`DT`). The
+operator is a task: the TCP visits four waypoints in the box in a loop at ``TASK_SPEED``, moving
+on to the next one when within 5 mm.
 
 The person (``docs/physics.md``) is two capsules, mocap bodies of the MuJoCo model: the body
 (radius 0.2 m, axis 0.25–1.45 m above the floor) and the right arm (radius 0.05 m, 0.76 m from
-the shoulder). The person walks from 2.0 m away toward the cell at up to 1.6 m/s (ISO 13855's
+the shoulder). The person walks from 2.2 m away toward the cell at up to 1.6 m/s (ISO 13855's
 walking speed, accelerating and braking at 1.5 m/s²), stops in front of it, reaches toward the
 arm's working area at up to 0.5 m/s, holds, withdraws the arm and walks away.
 
@@ -908,7 +909,7 @@ def plot_separation(result: ScenarioResult, path: Any) -> Any:
         for ax in (ax1, ax2, ax3):
             first = ax is ax1 and k == 0
             ax.axvline(when, color="0.5", lw=0.7, ls="--", label=script if first else None)
-    ax1.set_ylim(-0.1, 1.2)
+    ax1.set_ylim(bottom=-0.05)
     ax1.set_ylabel("distance [m]")
     ax1.set_title("person-cell: least arm–person separation and its S (pairs within 1.5 m)")
     ax2.set_ylabel("TCP speed [m/s]")
