@@ -184,3 +184,19 @@ def test_short_run_keeps_separation_and_resumes() -> None:
     assert v_on["slowest_near"] < 0.5 * person.TASK_SPEED
     assert v_on["waypoints_after"] >= 1
     assert on.extra["reached"][-1] >= off.extra["reached"][-1]
+
+
+def test_script_sensor_and_run_check_their_parameters() -> None:
+    from velfence.apps.scenarios.person import DepthSensor, PersonPath, run
+    from velfence.errors import InvalidParameter
+
+    for bad in ({"walk_speed": -1.0}, {"hold": float("nan")}, {"start": (0.95, -0.05)}):
+        with pytest.raises(InvalidParameter):
+            PersonPath(**bad)
+    for bad in ({"fov": 200.0}, {"width": 0}, {"target": (1.7, 1.3, 0.0)}, {"noise": -0.1}):
+        with pytest.raises(InvalidParameter):
+            DepthSensor(**bad)
+    with pytest.raises(InvalidParameter):
+        run(task_start=7)
+    with pytest.raises(InvalidParameter):
+        run(methods=["no-such-run"])

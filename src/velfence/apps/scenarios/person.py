@@ -164,9 +164,23 @@ class PersonPath:
     _c: dict[str, Any] = field(default_factory=dict, init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
-        c = self._c
-        a, b = np.array(self.start, dtype=float), np.array(self.stand, dtype=float)
+        from velfence._validate import check_positive, real_array
+        from velfence.errors import InvalidParameter
+
+        put = object.__setattr__
+        for name in ("walk_speed", "reach_speed", "accel", "hold"):
+            put(self, name, check_positive(name, getattr(self, name)))
+        put(self, "start_time", check_positive("start_time", self.start_time, allow_zero=True))
+        a = real_array("start", self.start, (2,), error=InvalidParameter, max_abs=100.0)
+        b = real_array("stand", self.stand, (2,), error=InvalidParameter, max_abs=100.0)
+        reach = real_array("reach", self.reach, (3,), error=InvalidParameter, max_abs=100.0)
         length = float(np.linalg.norm(b - a))
+        if length < 1e-3:
+            raise InvalidParameter(f"start, stand: expected 1 mm apart or more, got {length} m")
+        put(self, "start", (float(a[0]), float(a[1])))
+        put(self, "stand", (float(b[0]), float(b[1])))
+        put(self, "reach", (float(reach[0]), float(reach[1]), float(reach[2])))
+        c = self._c
         heading = (b - a) / length
         side = np.array([heading[1], -heading[0], 0.0])  # the walker's right
         shoulder0 = np.array([b[0], b[1], SHOULDER]) + 0.22 * side
@@ -338,6 +352,31 @@ class DepthSensor:
     fov: float = 55.0
     max_range: float = 5.0
     noise: float = 0.0
+
+    def __post_init__(self) -> None:
+        from velfence._validate import check_positive, check_positive_int, real_array
+        from velfence.errors import InvalidParameter
+
+        put = object.__setattr__
+        o = real_array("origin", self.origin, (3,), error=InvalidParameter, max_abs=100.0)
+        c = real_array("target", self.target, (3,), error=InvalidParameter, max_abs=100.0)
+        if (
+            float(np.linalg.norm(c - o)) < 1e-6
+            or float(np.linalg.norm(np.cross(c - o, _UP))) < 1e-6
+        ):
+            raise InvalidParameter(
+                "target: expected a point away from origin, not straight up/down"
+            )
+        put(self, "origin", (float(o[0]), float(o[1]), float(o[2])))
+        put(self, "target", (float(c[0]), float(c[1]), float(c[2])))
+        put(self, "width", check_positive_int("width", self.width, maximum=4096))
+        put(self, "height", check_positive_int("height", self.height, maximum=4096))
+        fov = check_positive("fov", self.fov, unit="deg")
+        if fov >= 170.0:
+            raise InvalidParameter(f"fov: expected a field of view below 170 deg, got {fov}")
+        put(self, "fov", fov)
+        put(self, "max_range", check_positive("max_range", self.max_range, unit="m"))
+        put(self, "noise", check_positive("noise", self.noise, allow_zero=True, unit="m"))
 
     def directions(self) -> FloatArray:
         """Unit ray directions in the world frame, shape (width·height, 3)."""
