@@ -180,10 +180,13 @@ def test_short_run_keeps_separation_and_resumes() -> None:
     assert abs(worst - v_on["min_separation_margin"]) < 5e-3
     # Without the people rows the arm goes through the person's S, further than the bound.
     assert v_off["min_separation_margin"] < -v_on["lag_bound"]
-    # The arm slowed while the person was there and resumed its task after.
-    assert v_on["slowest_near"] < 0.5 * person.TASK_SPEED
+    # The arm stopped beside the held-out hand (the waypoint behind it came late) and resumed
+    # its task after the person left.
+    assert v_on["slowest_near"] <= 0.01
+    blocked = 3  # the fourth waypoint reached: the one the hand is held out at
+    assert on.extra["reached"][blocked] - off.extra["reached"][blocked] > 0.5
     assert v_on["waypoints_after"] >= 1
-    assert on.extra["reached"][-1] >= off.extra["reached"][-1]
+    assert on.extra["reached"][-1] > path.times["gone"]
 
 
 def test_script_sensor_and_run_check_their_parameters() -> None:

@@ -93,9 +93,9 @@ START = (2.60, -1.45)
 REACH = (0.70, 0.20, 0.62)
 #: The margin figure's largest margin shown [m] (larger ones are drawn at it).
 SHOWN_MARGIN = 0.3
-#: A short version for the tests: the person starts 1.3 m away at once and holds 1 s, and the
+#: A short version for the tests: the person starts 1.3 m away at once and holds 2 s, and the
 #: task starts at its third waypoint (so the arm meets the hand on its way to the second).
-SHORT: dict[str, Any] = {"start_time": 0.0, "start": (1.94, -0.89), "hold": 1.0}
+SHORT: dict[str, Any] = {"start_time": 0.0, "start": (1.94, -0.89), "hold": 2.0}
 SHORT_TASK_START = 2
 UNITS = {
     "min_separation_margin": "m",
