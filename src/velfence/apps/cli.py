@@ -319,6 +319,7 @@ SIM_SCENARIOS: dict[str, tuple[str, tuple[str, ...]]] = {
     "fence-box": ("velfence.apps.scenarios.fence_box", ("panda",)),
     "wrist-push": ("velfence.apps.scenarios.wrist", ("wrist",)),
     "redundant-obstacle": ("velfence.apps.scenarios.obstacles", ("seven_dof",)),
+    "person-cell": ("velfence.apps.scenarios.person", ("panda",)),
 }
 
 

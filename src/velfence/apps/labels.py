@@ -23,6 +23,8 @@ METHOD_LABELS: dict[str, str] = {
     "safety-filter-look-ahead": "velfence + look-ahead",
     "safety-filter-jerk-rows": "velfence + jerk rows",
     "safety-filter-no-jerk-rows": "velfence, no jerk rows",
+    "safety-filter-no-people": "velfence, no people rows",
+    "safety-filter-people": "velfence + separation + point cloud",
 }
 
 

@@ -356,7 +356,9 @@ def _video_frames(path: Path) -> list[np.ndarray]:
 
 
 @pytest.mark.slow  # about a minute each: a MuJoCo scenario with its video at 64 x 48 px
-@pytest.mark.parametrize("scenario", ["fence-box", "wrist-push", "redundant-obstacle"])
+@pytest.mark.parametrize(
+    "scenario", ["fence-box", "wrist-push", "redundant-obstacle", "person-cell"]
+)
 def test_sim_scenarios(tmp_path: Path, recorded: Recorded, scenario: str) -> None:
     pytest.importorskip("mujoco")
     monkeypatch = pytest.MonkeyPatch()

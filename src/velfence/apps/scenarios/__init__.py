@@ -13,6 +13,9 @@ filter's output) and reports named checks in the format of the reproductions
   linear actuators, pushed outside its polygon: the patent's spring against the exact recovery.
 * :mod:`~velfence.apps.scenarios.obstacles` — the redundant-arm obstacle scenario of US 5,150,026 on
   a 7-DoF model with a physical obstacle.
+* :mod:`~velfence.apps.scenarios.person` — a person walks into the fence-box cell while the arm
+  works: speed and separation rows from a tracker, point-cloud rows from a simulated depth
+  sensor.
 """
 
 from __future__ import annotations

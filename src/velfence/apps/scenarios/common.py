@@ -17,7 +17,7 @@ from velfence.sim.runner import Trajectory
 __all__ = ["SCENARIOS", "PhysicsRun", "ScenarioResult", "scenario_methods"]
 
 #: The scenarios of ``velfence sim --scenario NAME``.
-SCENARIOS: tuple[str, ...] = ("fence-box", "wrist-push", "redundant-obstacle")
+SCENARIOS: tuple[str, ...] = ("fence-box", "wrist-push", "redundant-obstacle", "person-cell")
 
 
 @dataclass(frozen=True, eq=False)
@@ -54,7 +54,10 @@ class ScenarioResult:
         scene: What the figures and videos draw: ``"polytope"`` (a ConvexPolytope),
             ``"spheres"`` (list of (centre, radius)), ``"polygon"`` (a ConvexPolygon) as present;
             ``"camera"``: keyword arguments of :func:`velfence.apps.viz.video.render_frames`
-            (``lookat``, ``distance``, ``azimuth``, ``elevation``) for the video.
+            (``lookat``, ``distance``, ``azimuth``, ``elevation``) for the video; ``"figures"``:
+            file name -> ``(result, path) -> path``, the scenario's own figures;
+            ``"person"``: ``times -> (axes (N, K, 2, 3), radii (K,))``, moving capsules the
+            video draws (a person's body parts).
     """
 
     name: str

@@ -149,6 +149,7 @@ def write_video(
         The written files.
     """
     from velfence.apps.viz.video import (
+        CapsulesOverlay,
         PolytopeOverlay,
         SphereOverlay,
         TrailOverlay,
@@ -185,6 +186,9 @@ def write_video(
         overlays = [*overlays_common]
         if run.point.shape[1] == 3:
             overlays.append(TrailOverlay(run.point[idx], rgba=(0.1, 0.7, 0.2, 1.0)))
+        if "person" in result.scene:
+            segments, radii = result.scene["person"](t[idx])
+            overlays.append(CapsulesOverlay(segments, radii=radii))
         captions = [f"{method_label(name)}   t = {t[i]:.2f} s" for i in idx]
 
         def sub(f: float, k: int = k, name: str = name, n: int = len(idx)) -> None:
@@ -206,6 +210,8 @@ def write_video(
             progress=sub,
             **camera,
         )
+    if "person" in result.scene:
+        key.append(((0.95, 0.6, 0.2), "orange capsules: the person"))
     if any(r.point.shape[1] == 3 for r in result.runs.values()):
         key.append(((0.1, 0.7, 0.2), f"green line: {result.scene.get('point', 'TCP')} path"))
     frames = _with_key(side_by_side(panels, columns=columns), key)
@@ -265,13 +271,20 @@ def write_outputs(
     columns: int | None = None,
     progress: Callable[[float], None] | None = None,
 ) -> list[Path]:
-    """metrics.json, the margin figure and (``video``) the side-by-side MP4 and GIF.
+    """metrics.json, the margin figure, the scenario's own figures and the video.
+
+    The scenario's own figures are those of ``scene["figures"]``; with ``video``, the
+    side-by-side MP4 and GIF.
 
     Returns:
         The written files, metrics.json last.
     """
     folder.mkdir(parents=True, exist_ok=True)
     files = [plot_margins(result, folder / f"{result.name}_margins.png")]
+    own = dict(result.scene.get("figures", {}))
+    for k, (name, draw) in enumerate(own.items()):
+        report_progress(k, len(own), f"figure {name}")
+        files.append(Path(draw(result, folder / name)))
     if video:
         files += write_video(
             result,

@@ -37,6 +37,7 @@ from velfence.geometry.polytope import ConvexPolytope
 
 __all__ = [
     "VIDEO_FORMATS",
+    "CapsulesOverlay",
     "PolytopeOverlay",
     "SphereOverlay",
     "TrailOverlay",
@@ -214,6 +215,45 @@ class TrailOverlay:
         last = min(k, len(self.points) - 1)
         for k in range(last):
             _segment(scene, mujoco, self.points[k], self.points[k + 1], self.width, self.rgba)
+
+
+class CapsulesOverlay:
+    """Moving capsules, one set per frame: a tracked person's body parts, say.
+
+    Args:
+        segments: The capsules' axes at every frame [m], shape (N, K, 2, 3).
+        radii: Their radii [m], shape (K,), > 0.
+        rgba: Colour, 4 values in [0, 1].
+
+    Raises:
+        InvalidInput: segments of the wrong shape or not finite.
+        InvalidParameter: bad radii or colour.
+    """
+
+    def __init__(
+        self, segments: ArrayLike, *, radii: ArrayLike, rgba: ArrayLike = (0.95, 0.6, 0.2, 1.0)
+    ) -> None:
+        self.segments = real_array("segments", segments, (None, None, 2, 3))
+        r = real_array("radii", radii, (self.segments.shape[1],), error=InvalidParameter)
+        if np.any(r <= 0.0):
+            raise InvalidParameter(f"radii: expected radii > 0 [m], got {r.tolist()}")
+        self.radii = r
+        self.rgba = _rgba(rgba)
+
+    def draw(self, scene: Any, frame: int) -> None:
+        """Add the capsules of ``frame`` (the last set beyond the end) to a MuJoCo scene.
+
+        Args:
+            scene: The renderer's scene after ``update_scene``.
+            frame: Index of the frame being drawn.
+        """
+        mujoco, k = _drawing(scene, frame)
+        if len(self.segments) == 0:
+            return
+        for (a, b), r in zip(
+            self.segments[min(k, len(self.segments) - 1)], self.radii, strict=True
+        ):
+            _segment(scene, mujoco, a, b, float(r), self.rgba)
 
 
 def _caption(frame: Frames, text: str) -> Frames:
