@@ -87,6 +87,7 @@ def verify(
     resume: bool = False,
     mapper: Mapper = serial_map,
     on_progress: OnProgress | None = None,
+    report: bool = True,
 ) -> Outcome:
     """Run a campaign: shards, shrinking, report (module docstring).
 
@@ -98,6 +99,7 @@ def verify(
             :func:`~velfence.apps.verify.runner.serial_map`, or the engine's ``map``).
         on_progress: Called after each shard with cases done, cases in total and a line with
             the steps/s and the worst margin so far.
+        report: Shrink the failing cases and write the report (False: the shards only).
 
     Returns:
         The :class:`Outcome`.
@@ -139,6 +141,8 @@ def verify(
     outcome.steps_per_second = steps / seconds if seconds > 0 and steps else 0.0
     summary = summarise(campaign, out)
     outcome.summary = summary
+    if not report:
+        return outcome
     if not outcome.interrupted:
         outcome.counterexamples = _counterexamples(campaign, summary, out)
     figures = plot_histograms(summary, out)

@@ -126,7 +126,8 @@ class CaseResult:
         intervention_mean: Mean relative intervention ``|achieved - commanded| / |commanded|``.
         intervention_max: Its largest value.
         exceptions: Cycles that raised (counted as non-finite).
-        trace: With ``record``: per-step arrays (``containment``, ``joint_limits``, ``tcp``).
+        trace: With ``record``: per-step arrays after each step (``containment``,
+            ``joint_limits``, ``tcp`` [m], ``q`` [rad]) and ``dt`` [s].
     """
 
     family: str
@@ -432,6 +433,7 @@ def run(
     tr_c: list[float] = []
     tr_j: list[float] = []
     tr_p: list[FloatArray] = []
+    tr_q: list[FloatArray] = []
     steps = 0
     for k in range(sc.steps):
         qm = q + noise_rng.normal(0.0, sc.noise, n) if sc.noise > 0.0 else q
@@ -509,6 +511,7 @@ def run(
             tr_c.append(cm1)
             tr_j.append(jm1)
             tr_p.append(p1)
+            tr_q.append(q1)
         q, p, cm0, jm0 = q1, p1, cm1, jm1
         steps = k + 1
         if stop_at_failure and worst.first:
@@ -519,6 +522,7 @@ def run(
             "containment": np.array(tr_c),
             "joint_limits": np.array(tr_j),
             "tcp": np.array(tr_p).reshape(-1, 3),
+            "q": np.array(tr_q).reshape(-1, n),
             "dt": dt,
         }
     violated = [name for name in PROPERTIES if name in worst.first]
@@ -536,18 +540,20 @@ def run(
     )
 
 
-def _fails(sc: Scenario, props: list[str]) -> CaseResult | None:
-    r = run(sc, stop_at_failure=True)
-    return r if any(p in r.violated for p in props) else None
+def _first(r: CaseResult, props: list[str]) -> int | None:
+    """The first step violating one of ``props``, or None."""
+    steps = [r.first[p] for p in props if p in r.first]
+    return min(steps) if steps else None
 
 
 def shrink(sc: Scenario, *, max_runs: int = 200) -> Scenario:
     """A smaller scenario that still violates a property the given one violates.
 
-    Tried in order, each kept only if the run still fails: cut the steps after the first
-    violation; drop the spheres one by one; drop the pushes (else halve them); no sensor noise
-    (else halve it); no latency; no servo lag (else halve it); the start rounded to 2 then 1
-    decimals; the steps cut again. At most ``max_runs`` runs.
+    Tried in order, each kept only if the run (of the original length, cut after its first
+    violation) still fails: drop the spheres one by one; drop the pushes (else halve them); no
+    sensor noise (else halve it); no latency; no servo lag (else halve it); the start rounded to
+    2 then 1 decimals. The result ends at the step of its first violation. At most ``max_runs``
+    runs.
 
     Raises:
         InvalidParameter: the scenario does not fail.
@@ -558,57 +564,45 @@ def shrink(sc: Scenario, *, max_runs: int = 200) -> Scenario:
     props = base.violated
     runs = 0
 
-    def attempt(candidate: Scenario) -> CaseResult | None:
+    def attempt(candidate: Scenario) -> Scenario | None:
+        """The candidate cut after its first violation, or None if it no longer fails."""
         nonlocal runs
         if runs >= max_runs:
             return None
         runs += 1
-        return _fails(candidate, props)
+        first = _first(run(candidate, stop_at_failure=True), props)
+        return None if first is None else candidate.model_copy(update={"steps": first + 1})
 
-    def cut(s: Scenario, r: CaseResult) -> Scenario:
-        first = min(r.first[p] for p in props if p in r.first)
-        return s.model_copy(update={"steps": first + 1})
+    first = _first(base, props)
+    cur = sc.model_copy(update={"steps": (first or 0) + 1})
+    full = sc.steps
 
-    cur = cut(sc, base)
+    def trial(**update: Any) -> bool:
+        nonlocal cur
+        got = attempt(cur.model_copy(update={**update, "steps": full}))
+        if got is not None:
+            cur = got
+        return got is not None
+
     i = 0
     while i < len(cur.spheres):
-        cand = cur.model_copy(update={"spheres": cur.spheres[:i] + cur.spheres[i + 1 :]})
-        if attempt(cand) is not None:
-            cur = cand
-        else:
+        if not trial(spheres=cur.spheres[:i] + cur.spheres[i + 1 :]):
             i += 1
-    if cur.pushes:
-        cand = cur.model_copy(update={"pushes": []})
-        if attempt(cand) is not None:
-            cur = cand
-        else:
-            for _ in range(6):
-                half = [
-                    ps.model_copy(update={"velocity": [v / 2 for v in ps.velocity]})
-                    for ps in cur.pushes
-                ]
-                cand = cur.model_copy(update={"pushes": half})
-                if attempt(cand) is None:
-                    break
-                cur = cand
+    if cur.pushes and not trial(pushes=[]):
+        for _ in range(6):
+            half = [
+                ps.model_copy(update={"velocity": [v / 2 for v in ps.velocity]})
+                for ps in cur.pushes
+            ]
+            if not trial(pushes=half):
+                break
     for name, zero in (("noise", 0.0), ("latency", 0), ("lag", 0.0)):
-        if getattr(cur, name):
-            cand = cur.model_copy(update={name: zero})
-            if attempt(cand) is not None:
-                cur = cand
-            elif name != "latency":
-                for _ in range(6):
-                    cand = cur.model_copy(update={name: getattr(cur, name) / 2})
-                    if attempt(cand) is None:
-                        break
-                    cur = cand
+        if getattr(cur, name) and not trial(**{name: zero}) and name != "latency":
+            for _ in range(6):
+                if not trial(**{name: getattr(cur, name) / 2}):
+                    break
     for digits in (2, 1):
-        cand = cur.model_copy(update={"q0": [round(v, digits) for v in cur.q0]})
-        if attempt(cand) is not None:
-            cur = cand
-    last = _fails(cur, props)
-    if last is not None:
-        cur = cut(cur, last)
+        trial(q0=[round(v, digits) for v in cur.q0])
     return cur
 
 
