@@ -198,11 +198,14 @@ def _counterexamples(campaign: Campaign, summary: Summary, out: Path) -> list[Co
 def replay(path: str | Path) -> CaseResult:
     """Run a scenario file again (a counterexample): deterministic, bit for bit.
 
+    Args:
+        path: The scenario (YAML, as written by ``velfence verify``).
+
+    Returns:
+        The run's :class:`CaseResult` (``violated`` empty: it holds now).
+
     Raises:
         InvalidParameter: a missing or invalid scenario file.
     """
     sc = load_scenario(path)
     return run(sc, family=Path(path).stem)
-
-
-__all__ += ["Counterexample", "Summary", "plan", "sample", "shrink", "summarise", "write_scenario"]

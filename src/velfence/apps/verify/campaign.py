@@ -184,7 +184,18 @@ class Properties(StrictModel):
 
 
 class Campaign(StrictModel):
-    """A ``velfence verify`` campaign (``docs/config.md``)."""
+    """A ``velfence verify`` campaign (``docs/config.md``).
+
+    Args:
+        robot: One of :data:`ROBOTS`.
+        rate: Control rate [Hz].
+        seed: The campaign's seed (every case's seed derives from it).
+        shard_size: Cases per shard.
+        filter: The safety filter's settings.
+        families: The families of randomised cases (distinct names).
+        properties: The properties checked at every step.
+        shrink: Most failing cases shrunk to counterexamples.
+    """
 
     robot: str
     rate: Annotated[float, Strict(), Field(ge=1.0, le=1e5)] = 1000.0
@@ -254,6 +265,12 @@ def parse_campaign(data: Any, *, where: str = "campaign") -> Campaign:
 def load_campaign(path: str | Path) -> Campaign:
     """Read and validate a campaign file (``docs/config.md``).
 
+    Args:
+        path: The YAML file.
+
+    Returns:
+        The validated :class:`Campaign`.
+
     Raises:
         InvalidParameter: the file is missing or no plain YAML, or the campaign is invalid
             (the message names the file and the field).
@@ -262,6 +279,13 @@ def load_campaign(path: str | Path) -> Campaign:
 
 
 def campaign_hash(campaign: Campaign) -> str:
-    """SHA-256 of the normalised campaign (sorted JSON): equal campaigns, equal hashes."""
+    """SHA-256 of the normalised campaign (sorted JSON): equal campaigns, equal hashes.
+
+    Args:
+        campaign: The campaign.
+
+    Returns:
+        64 hexadecimal digits.
+    """
     text = json.dumps(campaign.normalised(), sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(text.encode()).hexdigest()

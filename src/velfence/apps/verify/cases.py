@@ -75,7 +75,38 @@ class PushSpec(StrictModel):
 
 
 class Scenario(StrictModel):
-    """Everything one case's run depends on, as plain data (a reproducer's YAML)."""
+    """Everything one case's run depends on, as plain data (a reproducer's YAML).
+
+    Args:
+        robot: The DH chain (``seven_dof``, ``ur5e``, ``puma560``).
+        rate: Control rate [Hz].
+        filter_dt: The period given to the filter [s], or None (unset).
+        joint_buffer: The filter's joint buffer [rad].
+        obstacle_buffer: The filter's obstacle buffer [m].
+        spring_gain: The filter's recovery gain [1/s].
+        link_radius: Capsule radius of the links [m].
+        max_iterations: The solve's iteration cap (None: the default).
+        max_speed: Joint speed limits [rad/s].
+        max_acceleration: Joint acceleration limits [rad/s²] or None.
+        max_jerk: Joint jerk limits [rad/s³] or None.
+        mode: ``twist`` (TCP velocity commands) or ``joint``.
+        operator: ``wander``, ``push``, ``wild`` or ``scripted``.
+        command_seed: Seed of the operator's draws.
+        targets: The scripted jog's phases ``[t_end, x, y, z]`` [s, m].
+        jog_speed: The scripted jog's speed [m/s].
+        q0: Start [rad].
+        lower: Lower joint limits [rad].
+        upper: Upper joint limits [rad].
+        box: The workspace box, or None.
+        spheres: Sphere obstacles ``[x, y, z, radius]`` [m].
+        lag: Servo time constant [s] (0: none).
+        latency: Steps between the filter's output and the servo.
+        noise: Standard deviation of the joint sensor noise [rad].
+        noise_seed: Seed of the noise.
+        pushes: External joint-velocity pushes.
+        steps: Steps to run.
+        properties: The properties checked.
+    """
 
     robot: Literal["seven_dof", "ur5e", "puma560"]
     rate: Annotated[float, Strict(), Field(ge=1.0, le=1e5)]
@@ -185,6 +216,14 @@ def _unit(rng: np.random.Generator, k: int) -> FloatArray:
 
 def sample(campaign: Campaign, family: int, index: int) -> Scenario:
     """The scenario of case ``index`` of family ``family`` (module docstring).
+
+    Args:
+        campaign: The campaign.
+        family: The family's index.
+        index: The case's index in the family.
+
+    Returns:
+        The :class:`Scenario` (the same for the same seed, family and index).
 
     Raises:
         InvalidParameter: ``family`` or ``index`` out of range.
@@ -408,17 +447,20 @@ def run(
     prog = props.progress if twist else None
     window = 0 if prog is None else max(1, round(prog.window * sc.rate))
 
-    def clear_of(qq: FloatArray) -> float:
+    def at(qq: FloatArray) -> tuple[FloatArray, float]:
+        """The TCP [m] and the links' clearance to the spheres [m] (one kinematics pass)."""
+        frame = robot.kinematics(qq)
+        tcp = np.asarray(frame.point("tcp"), dtype=np.float64)
         if C.shape[0] == 0:
-            return math.inf
-        return clearance(np.asarray(robot.link_segments(qq)), lrad, C, R)
+            return tcp, math.inf
+        return tcp, clearance(np.asarray(frame.segments()), lrad, C, R)
 
     def ws_of(pp: FloatArray) -> float:
         return float(np.min(N @ pp - o)) if N.shape[0] else math.inf
 
     q = np.array(sc.q0)
-    p = np.asarray(robot.fk(q), dtype=np.float64)
-    cm0 = min(ws_of(p), clear_of(q))
+    p, c0 = at(q)
+    cm0 = min(ws_of(p), c0)
     jm0 = float(np.min(np.minimum(q - lo, hi - q)))
     applied = np.zeros(n)
     prev: FloatArray | None = None
@@ -474,8 +516,8 @@ def run(
             xd = x
         applied = applied + alpha * (xd - applied)
         q1 = q + dt * applied
-        p1 = np.asarray(robot.fk(q1), dtype=np.float64)
-        cm1 = min(ws_of(p1), clear_of(q1))
+        p1, c1 = at(q1)
+        cm1 = min(ws_of(p1), c1)
         jm1 = float(np.min(np.minimum(q1 - lo, hi - q1)))
         tc = worst.tol.get("containment", 0.0)
         worst.add("containment", cm1 if cm0 >= -tc else min(0.0, cm1 - cm0), k)
@@ -504,8 +546,8 @@ def run(
                 w = v if w is None else w + v
         if w is not None:
             q1 = q1 + dt * w
-            p1 = np.asarray(robot.fk(q1), dtype=np.float64)
-            cm1 = min(ws_of(p1), clear_of(q1))
+            p1, c1 = at(q1)
+            cm1 = min(ws_of(p1), c1)
             jm1 = float(np.min(np.minimum(q1 - lo, hi - q1)))
         if record:
             tr_c.append(cm1)
@@ -554,6 +596,13 @@ def shrink(sc: Scenario, *, max_runs: int = 200) -> Scenario:
     sensor noise (else halve it); no latency; no servo lag (else halve it); the start rounded to
     2 then 1 decimals. The result ends at the step of its first violation. At most ``max_runs``
     runs.
+
+    Args:
+        sc: A failing scenario.
+        max_runs: Most runs spent shrinking.
+
+    Returns:
+        The shrunk scenario.
 
     Raises:
         InvalidParameter: the scenario does not fail.
@@ -607,7 +656,16 @@ def shrink(sc: Scenario, *, max_runs: int = 200) -> Scenario:
 
 
 def write_scenario(sc: Scenario, path: str | Path, *, comment: str = "") -> Path:
-    """Write a scenario as YAML (``velfence verify --replay PATH`` runs it again)."""
+    """Write a scenario as YAML (``velfence verify --replay PATH`` runs it again).
+
+    Args:
+        sc: The scenario.
+        path: The file (written atomically).
+        comment: Lines written as a YAML comment on top.
+
+    Returns:
+        ``path``.
+    """
     import yaml
 
     p = Path(path)
@@ -621,6 +679,12 @@ def write_scenario(sc: Scenario, path: str | Path, *, comment: str = "") -> Path
 
 def load_scenario(path: str | Path) -> Scenario:
     """Read a scenario written by :func:`write_scenario` (validated).
+
+    Args:
+        path: The YAML file.
+
+    Returns:
+        The :class:`Scenario`.
 
     Raises:
         InvalidParameter: a missing or malformed file, an invalid scenario (naming the field).

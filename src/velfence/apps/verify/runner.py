@@ -67,7 +67,14 @@ class Shard:
 
 
 def plan(campaign: Campaign) -> list[Shard]:
-    """Every shard of the campaign, family by family."""
+    """Every shard of the campaign, family by family.
+
+    Args:
+        campaign: The campaign.
+
+    Returns:
+        The shards in order.
+    """
     out = []
     size = campaign.shard_size
     for f, fam in enumerate(campaign.families):
@@ -105,7 +112,15 @@ def run_shard(item: tuple[dict[str, Any], int, int, int, int]) -> dict[str, Any]
 
 
 def serial_map(fn: Callable[[Any], Any], items: list[Any]) -> Iterator[tuple[int, Any]]:
-    """The serial mapper: every item in this process, in order."""
+    """The serial mapper: every item in this process, in order.
+
+    Args:
+        fn: The function.
+        items: Its arguments.
+
+    Yields:
+        ``(index, fn(items[index]))``.
+    """
     for i, it in enumerate(items):
         yield i, fn(it)
 
@@ -182,6 +197,13 @@ def run_shards(
 ) -> int:
     """Run every shard not in ``done`` through ``mapper`` and write its file.
 
+    Args:
+        campaign: The campaign.
+        out: Its output folder.
+        done: Names of the shards to skip.
+        mapper: Runs the shards (``mapper(fn, items)`` yields ``(index, result)``).
+        on_shard: Called with each shard's record after its file is written.
+
     Returns:
         The number of shards run.
     """
@@ -235,7 +257,15 @@ class Summary:
 
 
 def summarise(campaign: Campaign, out: Path) -> Summary:
-    """Gather the shard files of ``out`` (shards of this campaign only), in plan order."""
+    """Gather the shard files of ``out`` (shards of this campaign only), in plan order.
+
+    Args:
+        campaign: The campaign.
+        out: Its output folder.
+
+    Returns:
+        The :class:`Summary`.
+    """
     h = campaign_hash(campaign)
     shards = plan(campaign)
     s = Summary(0, len(shards))
