@@ -97,3 +97,29 @@ def test_bad_campaigns_are_refused_naming_file_and_field(
 def test_a_missing_file_is_named(tmp_path: Path) -> None:
     with pytest.raises(InvalidParameter, match=r"nothere\.yaml"):
         load_campaign(tmp_path / "nothere.yaml")
+
+
+def test_the_jerk_and_progress_properties_can_hold_and_fail() -> None:
+    """A jerk bound far above what a 1 kHz filter without jerk rows does holds, one of 1 rad/s³
+    fails; the scripted jog along a box without spheres or joints at limits makes progress, and
+    asking for more progress than the commanded speed fails."""
+    from velfence.apps.verify.cases import run
+
+    def campaign(jerk: float, fraction: float) -> object:
+        return parse_campaign({
+            "robot": "seven_dof", "rate": 100.0,
+            "properties": {"jerk": {"max": jerk}, "progress": {"min_fraction": fraction,
+                                                               "window": 0.05}},
+            "families": [{"name": "jog", "cases": 1, "steps": 60, "operator": "scripted",
+                          "at_limit": 0.0, "start_margin": [1.0, 2.0],
+                          "obstacles": {"count": [0, 0]}}],
+        })  # fmt: skip
+
+    easy = run(sample(campaign(1e12, 0.0), 0, 0))
+    assert "jerk" in easy.worst
+    assert "progress" in easy.worst
+    assert easy.violated == []
+    hard = run(sample(campaign(1.0, 1.0), 0, 0))
+    assert "jerk" in hard.violated
+    assert "progress" in hard.violated
+    assert hard.worst["jerk"][0] < 0.0

@@ -162,7 +162,7 @@ class Tolerance(StrictModel):
 class Jerk(StrictModel):
     """Bound on the filter output's jerk ``|x_k - 2 x_{k-1} + x_{k-2}| / dt²`` [rad/s³]."""
 
-    max: Positive
+    max: Annotated[float, Strict(), Field(allow_inf_nan=False, gt=0.0, le=1e12)]
 
 
 class ProgressCheck(StrictModel):
