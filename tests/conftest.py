@@ -74,6 +74,7 @@ SPREAD = (
     "tests/test_readme.py",
     "tests/integrations/test_gymnasium.py",
     "tests/core/test_filter_cycle_c.py",
+    "tests/apps/engine/test_engine.py",
 )
 
 

@@ -48,6 +48,8 @@ EXTRA_OF: dict[str, str] = {
     "foxglove": "ros",
     "viser": "web",
     "gymnasium": "gym",
+    "dask": "cluster",
+    "distributed": "cluster",
 }
 
 

@@ -759,20 +759,6 @@ def study(
 NOTHING_TO_REPLAY = 4
 
 
-def _replay_names(bags: list[Path]) -> list[str]:
-    """One output name per bag: its own name (file stem), with its folder's when two clash."""
-    names = [b.stem if b.is_file() else b.name for b in bags]
-    if len(set(names)) == len(names):
-        return names
-    names = [
-        f"{b.parent.name}_{n}" if names.count(n) > 1 else n
-        for b, n in zip(bags, names, strict=True)
-    ]
-    if len(set(names)) == len(names):
-        return names
-    return [f"{k + 1:02d}_{n}" for k, n in enumerate(names)]
-
-
 @app.command()
 def verify(
     campaign: Annotated[
@@ -790,7 +776,11 @@ def verify(
     ] = False,
     workers: Annotated[
         int | None,
-        typer.Option(min=0, help="Engine workers (0: serial in this process; default: serial)."),
+        typer.Option(
+            min=0,
+            help="Run the shards on the engine's embedded Dask cluster with N worker processes "
+            "(0: the serial engine; default: serial in this process).",
+        ),
     ] = None,
     cluster: Annotated[
         str | None,
@@ -847,7 +837,7 @@ def verify(
     try:
         with contextlib.ExitStack() as stack:
             mapper = None
-            if workers not in (None, 0) or cluster is not None:
+            if workers is not None or cluster is not None:
                 mapper = stack.enter_context(_engine_map(workers, cluster))
             stack.enter_context(
                 _tracker(f"velfence verify {campaign.name}", [("cases", 1.0)], quiet)
@@ -886,10 +876,11 @@ def verify(
 
 @contextlib.contextmanager
 def _engine_map(workers: int | None, cluster: str | None) -> Any:
-    """The engine's ``map`` as a verify mapper (velfence.apps.engine)."""
-    from velfence.apps.verify.runner import serial_map
+    """The engine's ``map`` as a verify mapper (velfence.apps.engine), the engine started."""
+    from velfence.apps.engine import Engine
 
-    yield serial_map
+    with Engine(cluster=cluster, workers=workers) as engine:
+        yield engine.map
 
 
 @app.command()
@@ -904,31 +895,84 @@ def replay(
     ],
     config: Annotated[Path, typer.Option(help="YAML with shaper: and replay: (docs/replay.md).")],
     out: Annotated[
-        Path,
+        Path | None,
         typer.Option(
             help="The bag directory to write (must not exist); with several bags, the folder "
-            "that gets one output bag per input."
+            "that gets one output bag per input. Optional with --summary (then the shaped bags "
+            "are kept only when it is given).",
+            show_default=False,
         ),
-    ],
+    ] = None,
     plot: Annotated[
         Path | None,
-        typer.Option(help="Also write this figure (.png); with several bags, a folder of them."),
+        typer.Option(
+            help="Also write this figure (.png); with several bags, a folder of them; with "
+            "--summary, the fleet's figure (.png)."
+        ),
     ] = None,
     storage: Annotated[
         str | None, typer.Option(help="mcap or sqlite3 (default: the input's storage).")
+    ] = None,
+    summary: Annotated[
+        bool,
+        typer.Option(
+            "--summary",
+            help="Fleet replay: every bag given or found under the folders given, one table "
+            "per bag and per robot (docs/replay.md); unreadable bags are listed and skipped.",
+        ),
+    ] = False,
+    cluster: Annotated[
+        str | None,
+        typer.Option(
+            help="With --summary: the Dask scheduler to run on (tcp://host:8786; default: "
+            "DASK_SCHEDULER_ADDRESS, else an embedded cluster; docs/distributed.md).",
+            show_default=False,
+        ),
+    ] = None,
+    workers: Annotated[
+        int | None,
+        typer.Option(
+            help="With --summary: worker processes of the embedded cluster (default: the "
+            "cores); 0 replays the bags one after the other in this process.",
+            show_default=False,
+        ),
+    ] = None,
+    table: Annotated[
+        Path | None,
+        typer.Option(help="With --summary: also write the table to this .md or .csv file."),
+    ] = None,
+    tol: Annotated[
+        float | None,
+        typer.Option(
+            help="With --summary: a change larger than this [command unit] counts as the filter "
+            "acting (default 1e-9).",
+            show_default=False,
+        ),
     ] = None,
     quiet: QuietOption = False,
 ) -> None:
     """Shape bags' recorded commands with a configured shaper; write new bags (+ figures).
 
+    With --summary, replay a whole fleet (folders of bags, on an embedded Dask cluster, a
+    cluster at --cluster, or --workers 0 in this process) and print one table.
+
     Exit codes: 0 every bag replayed; 2 bad input (config, a malformed bag, an existing --out);
     4 a bag holds nothing to replay (no messages, no command or state topic, no command paired
-    with a state). With several bags, the largest code of any bag.
+    with a state). With several bags, the largest code of any bag; 130 on Ctrl-C.
     """
     from velfence.apps import progress
     from velfence.errors import NothingToReplay
     from velfence.io.bags import replay as run_replay
 
+    if summary:
+        _replay_fleet(bags, config, out, plot, cluster, workers, table, tol, quiet)
+        return
+    extra = [n for n, v in (("--cluster", cluster), ("--workers", workers), ("--table", table),
+                            ("--tol", tol)) if v is not None]  # fmt: skip
+    if extra:
+        raise _fail(f"{', '.join(extra)}: only with --summary (a fleet replay)")
+    if out is None:
+        raise _fail("--out: the bag directory to write is required (or give --summary)")
     if len(bags) == 1:
         plan = [("shaping", 10.0)] + ([("figure", 2.0)] if plot is not None else [])
         try:
@@ -1021,7 +1065,9 @@ def _replay_many(
         load_replay_config(config)
     except VelfenceError as exc:
         raise _fail(str(exc)) from None
-    names = _replay_names(bags)
+    from velfence.apps.fleet import output_names
+
+    names = output_names(bags)
     plan = [
         (f"{k + 1}/{len(bags)} {n}", _bag_weight(b))
         for k, (b, n) in enumerate(zip(bags, names, strict=True))
@@ -1079,6 +1125,91 @@ def _replay_many(
     _summary(console, out, files, verdict)
     if code:
         raise typer.Exit(code=code)
+
+
+def _replay_fleet(
+    bags: list[Path],
+    config: Path,
+    out: Path | None,
+    plot: Path | None,
+    cluster: str | None,
+    workers: int | None,
+    table: Path | None,
+    tol: float | None,
+    quiet: bool,
+) -> None:
+    """``velfence replay DIR_OR_BAGS --summary``: the fleet's table, the largest exit code."""
+    from rich.table import Table
+
+    from velfence.apps import progress
+    from velfence.apps.engine import Engine
+    from velfence.apps.fleet import COLUMNS, find_bags, fleet_replay
+
+    for path, what, suffixes in ((plot, "--plot", (".png", ".svg", ".pdf")),
+                                 (table, "--table", (".md", ".csv"))):  # fmt: skip
+        if path is not None and path.suffix.lower() not in suffixes:
+            raise _fail(f"{what}: expected a {' or '.join(suffixes)} file, got {path}")
+    interrupted = False
+    engine: Engine | None = None
+    try:
+        found = find_bags(bags)
+        if not found:
+            raise _fail(f"bags: no bag (metadata.yaml, .mcap, .db3) under {[str(b) for b in bags]}")
+        engine = Engine(cluster=cluster, workers=workers)
+        title = f"velfence replay --summary: {len(found)} bags"
+        plan = [("engine", 2.0), ("bags", 10.0)] + ([("figure", 1.0)] if plot else [])
+        with _tracker(title, plan, quiet):
+            with progress.stage("engine"):
+                engine.start()
+            with progress.stage("bags") as report:
+                fleet = fleet_replay(
+                    found, config, engine=engine, tol=tol, out=out, progress=report
+                )
+            if plot is not None:
+                from velfence.apps.viz.fleet import plot_fleet
+
+                with progress.stage("figure"):
+                    plot_fleet(fleet, plot)
+    except KeyboardInterrupt:
+        interrupted = True
+    except typer.Exit:
+        raise
+    except VelfenceError as exc:
+        raise _fail(str(exc)) from None
+    finally:
+        if engine is not None:
+            try:
+                engine.close()
+            except KeyboardInterrupt:  # a second Ctrl-C while the cluster stops
+                interrupted = True
+    if interrupted:
+        Console(stderr=True).print("velfence replay: interrupted; no summary (exit 130)")
+        raise typer.Exit(code=EXIT_INTERRUPTED_CODE)
+    grid = Table(title=f"velfence replay --summary with {config.name}: {fleet.headline}")
+    for col in COLUMNS:
+        grid.add_column(col, justify="right" if col in ("cycles", "acted") else "left")
+    for row in fleet.rows():
+        grid.add_row(*(escape(row[c]) for c in COLUMNS))
+    console = _stdout_console(highlight=False)
+    console.print(grid)
+    files: list[Path] = []
+    if table is not None:
+        text = fleet.csv() if table.suffix.lower() == ".csv" else fleet.markdown()
+        try:
+            table.write_text(text, encoding="utf-8")
+        except OSError as exc:
+            raise _fail(f"--table: cannot write {table}: {exc.strerror or exc}") from None
+        files.append(table)
+    if plot is not None:
+        files.append(plot)
+    mode = "serial" if engine is None else engine.mode
+    address = "" if engine is None else engine.address
+    where = {"serial": "in this process", "local": "on an embedded Dask cluster",
+             "cluster": f"on {address}"}[mode]  # fmt: skip
+    verdict = f"summary: {fleet.headline} ({where}) — exit {fleet.code}"
+    _summary(console, out, files, verdict)
+    if fleet.code:
+        raise typer.Exit(code=fleet.code)
 
 
 def _short(x: object) -> str:

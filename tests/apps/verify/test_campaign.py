@@ -99,6 +99,7 @@ def test_a_missing_file_is_named(tmp_path: Path) -> None:
         load_campaign(tmp_path / "nothere.yaml")
 
 
+@pytest.mark.slow  # two closed loops in twist mode (the filter's Python route): about 3 s
 def test_the_jerk_and_progress_properties_can_hold_and_fail() -> None:
     """A jerk bound far above what a 1 kHz filter without jerk rows does holds, one of 1 rad/s³
     fails; the scripted jog along a box without spheres or joints at limits makes progress, and

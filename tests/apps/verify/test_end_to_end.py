@@ -157,3 +157,20 @@ def test_the_command_line_exit_codes(bad_run: Any, tmp_path: Path) -> None:
     good.write_text("robot: seven_dof\nrate: 20\nfamilies: [{name: a, cases: 1, steps: 5}]\n")
     result = runner.invoke(app, ["verify", str(good), "--out", str(tmp_path / "g"), "-q"])
     assert result.exit_code == 0, result.output
+
+
+def test_an_embedded_cluster_gives_the_same_results(tmp_path: Path) -> None:
+    """Two worker processes of the engine's LocalCluster (127.0.0.1) write the same shards as a
+    serial run, through the command line's --workers."""
+    pytest.importorskip("distributed", reason="needs velfence[cluster] (dask)")
+    verify(SMALL, tmp_path / "serial", report=False)
+    spec = tmp_path / "small.yaml"
+    import yaml
+
+    spec.write_text(yaml.safe_dump(SMALL))
+    out = tmp_path / "cluster"
+    result = CliRunner().invoke(
+        app, ["verify", str(spec), "--out", str(out), "--workers", "2", "-q"]
+    )
+    assert result.exit_code == 0, result.output
+    assert _cases(out) == _cases(tmp_path / "serial")

@@ -20,7 +20,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "viz"))
 
 from velfence.apps.verify import verify
 from velfence.apps.verify.campaign import parse_campaign
-from velfence.apps.verify.runner import plan, serial_map
+from velfence.apps.verify.runner import plan
 from velfence.errors import InvalidParameter
 
 #: A one-line campaign at 20 Hz (few steps, fast), three shards of two cases.
@@ -79,7 +79,7 @@ def test_resume_runs_only_the_missing_shards(tmp_path: Path) -> None:
     calls: list[Any] = []
 
     def counting(fn: Callable[[Any], Any], items: list[Any]) -> Iterator[tuple[int, Any]]:
-        for i, r in serial_map(fn, items):
+        for i, r in enumerate(map(fn, items)):
             calls.append(items[i][2])  # the shard number
             yield i, r
 
@@ -93,3 +93,13 @@ def test_resume_runs_only_the_missing_shards(tmp_path: Path) -> None:
         verify(other, out, resume=True, report=False)
     with pytest.raises(InvalidParameter, match="pass --resume"):
         verify(SMALL, out, report=False)
+
+
+def test_the_serial_engine_gives_the_same_results(tmp_path: Path) -> None:
+    """The one-line campaign through the engine's serial mode equals the default run."""
+    from velfence.apps.engine import Engine
+
+    verify(SMALL, tmp_path / "default", report=False)
+    with Engine(workers=0) as engine:
+        verify(SMALL, tmp_path / "engine", report=False, mapper=engine.map)
+    assert _cases(tmp_path / "engine") == _cases(tmp_path / "default")

@@ -39,7 +39,6 @@ from velfence.apps.verify.runner import (
     plan,
     prepare,
     run_shards,
-    serial_map,
     summarise,
 )
 
@@ -85,7 +84,7 @@ def verify(
     out: Path,
     *,
     resume: bool = False,
-    mapper: Mapper = serial_map,
+    mapper: Mapper | None = None,
     on_progress: OnProgress | None = None,
     report: bool = True,
 ) -> Outcome:
@@ -95,8 +94,9 @@ def verify(
         campaign: A :class:`Campaign` or its mapping.
         out: The output folder.
         resume: Skip the shards already in ``out`` (refused if ``out`` holds another campaign).
-        mapper: Runs the shards: ``mapper(fn, items)`` yields ``(index, result)`` (the serial
-            :func:`~velfence.apps.verify.runner.serial_map`, or the engine's ``map``).
+        mapper: Runs the shards: ``mapper(fn, items)`` yields ``(index, result)``, e.g. the
+            ``map`` of a started :class:`velfence.apps.engine.Engine`; None: the serial engine
+            (``Engine(workers=0)``, in this process).
         on_progress: Called after each shard with cases done, cases in total and a line with
             the steps/s and the worst margin so far.
         report: Shrink the failing cases and write the report (False: the shards only).
@@ -134,7 +134,17 @@ def verify(
     if on_progress is not None:
         on_progress(cases_done, total, f"cases {cases_done:,}/{total:,}")
     try:
-        outcome.shards_run = run_shards(campaign, out, done=done, mapper=mapper, on_shard=on_shard)
+        if mapper is None:
+            from velfence.apps.engine import Engine
+
+            with Engine(workers=0) as serial:
+                outcome.shards_run = run_shards(
+                    campaign, out, done=done, mapper=serial.map, on_shard=on_shard
+                )
+        else:
+            outcome.shards_run = run_shards(
+                campaign, out, done=done, mapper=mapper, on_shard=on_shard
+            )
     except KeyboardInterrupt:
         outcome.interrupted = True
     seconds = time.perf_counter() - t0

@@ -16,7 +16,7 @@ import json
 import math
 import os
 import time
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -31,7 +31,6 @@ __all__ = [
     "prepare",
     "run_shard",
     "run_shards",
-    "serial_map",
     "summarise",
 ]
 
@@ -111,20 +110,6 @@ def run_shard(item: tuple[dict[str, Any], int, int, int, int]) -> dict[str, Any]
     }
 
 
-def serial_map(fn: Callable[[Any], Any], items: list[Any]) -> Iterator[tuple[int, Any]]:
-    """The serial mapper: every item in this process, in order.
-
-    Args:
-        fn: The function.
-        items: Its arguments.
-
-    Yields:
-        ``(index, fn(items[index]))``.
-    """
-    for i, it in enumerate(items):
-        yield i, fn(it)
-
-
 def _write_json(path: Path, data: Any) -> None:
     """Write JSON atomically (a temporary file renamed over ``path``)."""
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
@@ -192,7 +177,7 @@ def run_shards(
     out: Path,
     *,
     done: set[str],
-    mapper: Mapper = serial_map,
+    mapper: Mapper,
     on_shard: OnShard | None = None,
 ) -> int:
     """Run every shard not in ``done`` through ``mapper`` and write its file.
