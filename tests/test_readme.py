@@ -15,7 +15,8 @@
 * ``yaml`` blocks are velfence configuration files and are loaded through velfence's own loaders
   (the demo's :func:`~velfence.io.load_config`, the bridge's
   :func:`~velfence.bridge.load_bridge_config`, the replay's ``shaper:`` + ``replay:`` file,
-  :func:`~velfence.io.parse_shaper`, the UR safety planes and the Nav2 collision-monitor file).
+  :func:`~velfence.io.parse_shaper`, the UR safety planes, the Nav2 collision-monitor file, and
+  ``velfence verify``'s campaigns and scenarios).
 * ``c`` and ``cpp`` blocks are reading material (fragments of a controller, not complete
   programs; the complete C and C++ examples are ``core/examples/`` and are compiled by
   ``tests/core``): every ``vf_*`` / ``VF_*`` name they use must be declared in
@@ -271,6 +272,14 @@ def _load_yaml_block(code: str, path: Path) -> object:
         return _config(path)
     if keys == {"shaper"}:
         return parse_shaper(doc["shaper"])
+    if "families" in keys:
+        from velfence.apps.verify import load_campaign
+
+        return load_campaign(path)
+    if "command_seed" in keys:
+        from velfence.apps.verify import load_scenario
+
+        return load_scenario(path)
     return load_config(path)
 
 

@@ -31,6 +31,7 @@ from velfence.io.defaults import DEFAULT_MAX_STEPS
 __all__ = [
     "EXIT_CODES",
     "EXIT_CODE_TABLE",
+    "EXIT_VIOLATED",
     "REPRODUCTIONS",
     "SIM_SCENARIOS",
     "app",
@@ -65,6 +66,12 @@ EXIT_CODE_TABLE: tuple[tuple[int, str, str], ...] = (
     ),
     (4, "bridge", "an unexpected internal error of the node (a bug; the traceback is logged)"),
     (
+        5,
+        "verify",
+        "a property was violated: counterexamples written (with --replay: the scenario still "
+        "fails)",
+    ),
+    (
         130,
         "all",
         "interrupted (Ctrl-C); teleop and view serve until Ctrl-C, which stops them cleanly (0), "
@@ -88,6 +95,9 @@ app = typer.Typer(
 #: Exit code of ``velfence bridge`` after Ctrl-C during start-up (velfence.bridge's
 #: ``EXIT_INTERRUPTED``; not imported from there: that loads the DDS binding).
 EXIT_INTERRUPTED_CODE = 130
+#: Exit code of ``velfence verify`` when a property was violated (counterexamples written), and
+#: of ``velfence verify --replay`` when the scenario still fails.
+EXIT_VIOLATED = 5
 
 #: name -> "module:function" returning a velfence.apps.reproduce.Report given an output folder.
 REPRODUCTIONS: dict[str, str] = {
@@ -748,6 +758,130 @@ def study(
 
 #: ``velfence replay``'s exit code when a bag holds nothing to replay (docs/cli.md).
 NOTHING_TO_REPLAY = 4
+
+
+@app.command()
+def verify(
+    campaign: Annotated[
+        Path | None,
+        typer.Argument(help="Campaign YAML (docs/config.md, docs/verify.md).", show_default=False),
+    ] = None,
+    out: Annotated[
+        Path | None,
+        typer.Option(
+            help="Output folder: shards, report, counterexamples (default out/verify/CAMPAIGN)."
+        ),
+    ] = None,
+    resume: Annotated[
+        bool, typer.Option("--resume", help="Skip the shards already in --out (same campaign).")
+    ] = False,
+    workers: Annotated[
+        int | None,
+        typer.Option(
+            min=0,
+            help="Run the shards on the engine's embedded Dask cluster with N worker processes "
+            "(0: the serial engine; default: serial in this process).",
+        ),
+    ] = None,
+    cluster: Annotated[
+        str | None,
+        typer.Option(help="Address of a running Dask scheduler to run the shards on."),
+    ] = None,
+    replay_file: Annotated[
+        Path | None,
+        typer.Option("--replay", help="Run a counterexample scenario (YAML) again instead."),
+    ] = None,
+    quiet: QuietOption = False,
+) -> None:
+    """Run an evidence campaign (randomised closed loops, margins per step); write its report.
+
+    Shards run serially or through the engine (--workers, --cluster); failing cases are shrunk to
+    YAML scenarios that --replay runs again. Exit codes: 0 every property held; 5 a property was
+    violated (counterexamples written; with --replay: the scenario still fails); 2 bad input;
+    130 interrupted (the report then says incomplete).
+    """
+    from velfence.apps import progress
+
+    if replay_file is not None:
+        if campaign is not None:
+            raise _fail("give a campaign file or --replay SCENARIO, not both")
+        from velfence.apps.verify import replay as run_again
+
+        try:
+            r = run_again(replay_file)
+        except VelfenceError as exc:
+            raise _fail(str(exc)) from None
+        console = _stdout_console(highlight=False)
+        for prop, (m, step) in r.worst.items():
+            console.print(f"{prop}: worst margin {m:.6g} at step {step}", highlight=False)
+        if r.violated:
+            verdict = (
+                f"summary: {replay_file} still fails ({', '.join(r.violated)}, first at step "
+                f"{min(r.first.values())} of {r.steps}) — exit {EXIT_VIOLATED}"
+            )
+        else:
+            verdict = f"summary: {replay_file} holds every property in {r.steps} steps — exit 0"
+        _summary(console, None, [], verdict)
+        if r.violated:
+            raise typer.Exit(code=EXIT_VIOLATED)
+        return
+    if campaign is None:
+        raise _fail("give a campaign file (velfence verify CAMPAIGN.yaml) or --replay SCENARIO")
+    from velfence.apps.verify import load_campaign
+    from velfence.apps.verify import verify as run_campaign
+
+    try:
+        spec = load_campaign(campaign)
+    except VelfenceError as exc:
+        raise _fail(str(exc)) from None
+    folder = Path("out/verify") / campaign.stem if out is None else out
+    try:
+        with contextlib.ExitStack() as stack:
+            mapper = None
+            if workers is not None or cluster is not None:
+                mapper = stack.enter_context(_engine_map(workers, cluster))
+            stack.enter_context(
+                _tracker(f"velfence verify {campaign.name}", [("cases", 1.0)], quiet)
+            )
+            report = stack.enter_context(progress.stage("cases"))
+            kwargs: dict[str, Any] = {} if mapper is None else {"mapper": mapper}
+            outcome = run_campaign(spec, folder, resume=resume, on_progress=report, **kwargs)
+    except VelfenceError as exc:
+        raise _fail(str(exc)) from None
+    console = _stdout_console(highlight=False)
+    s = outcome.summary
+    for prop, (m, fam, index, step) in s.worst.items():
+        console.print(f"{prop}: worst margin {m:.6g} ({fam} #{index}, step {step})")
+    if outcome.interrupted:
+        verdict = (
+            f"summary: stopped early, {s.shards_done}/{s.shards_total} shards; report marked "
+            f"INCOMPLETE — exit {EXIT_INTERRUPTED_CODE}"
+        )
+        code = EXIT_INTERRUPTED_CODE
+    elif s.holds:
+        verdict = (
+            f"summary: {sum(s.cases.values()):,} cases, {sum(s.steps.values()):,} steps, every "
+            "property held — exit 0"
+        )
+        code = 0
+    else:
+        verdict = (
+            f"summary: {len(s.failing)} of {sum(s.cases.values()):,} cases violated a property; "
+            f"{len(outcome.counterexamples)} counterexample(s) written — exit {EXIT_VIOLATED}"
+        )
+        code = EXIT_VIOLATED
+    _summary(console, folder, outcome.files, verdict)
+    if code:
+        raise typer.Exit(code=code)
+
+
+@contextlib.contextmanager
+def _engine_map(workers: int | None, cluster: str | None) -> Any:
+    """The engine's ``map`` as a verify mapper (velfence.apps.engine), the engine started."""
+    from velfence.apps.engine import Engine
+
+    with Engine(cluster=cluster, workers=workers) as engine:
+        yield engine.map
 
 
 @app.command()

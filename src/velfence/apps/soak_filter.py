@@ -61,9 +61,11 @@ __all__ = [
     "CartesianPoint",
     "LoopResult",
     "VertexResult",
+    "clearance",
     "render_markdown",
     "run_loop_campaign",
     "run_vertex_campaign",
+    "soak_command",
 ]
 
 Rng = np.random.Generator
@@ -789,7 +791,7 @@ def _episode(
             a = seg[L, 0] + rng.uniform(0.0, 1.0) * (seg[L, 1] - seg[L, 0])
             R = float(rng.uniform(0.02, 0.1))
             c = a + (R + float(lrad[L]) + float(rng.uniform(0.02, 0.25))) * _unit(rng)
-            if _clearance(seg, lrad, c[None, :], np.array([R])) > 0.01:
+            if clearance(seg, lrad, c[None, :], np.array([R])) > 0.01:
                 centres.append(c)
                 radii.append(R)
                 break
@@ -813,8 +815,18 @@ def _episode(
     )
 
 
-def _clearance(seg: FloatArray, lrad: FloatArray, C: FloatArray, R: FloatArray) -> float:
-    """Smallest clearance between the capsule links and the spheres [m] (inf: no sphere)."""
+def clearance(seg: FloatArray, lrad: FloatArray, C: FloatArray, R: FloatArray) -> float:
+    """Smallest clearance between the capsule links and the spheres [m] (inf: no sphere).
+
+    Args:
+        seg: The links' segments, shape (L, 2, 3) [m] (``robot.link_segments(q)``).
+        lrad: The links' capsule radii, shape (L,) [m].
+        C: Sphere centres, shape (k, 3) [m].
+        R: Sphere radii, shape (k,) [m].
+
+    Returns:
+        The smallest surface distance over every link and sphere [m]; negative: a penetration.
+    """
     if C.shape[0] == 0:
         return math.inf
     A = seg[:, 0]
@@ -826,6 +838,52 @@ def _clearance(seg: FloatArray, lrad: FloatArray, C: FloatArray, R: FloatArray) 
     diff = rel - t[:, :, None] * E[None, :, :]
     dist = np.sqrt(np.einsum("psk,psk->ps", diff, diff)) - lrad[None, :] - R[:, None]
     return float(dist.min())
+
+
+def soak_command(
+    rng: Rng,
+    *,
+    twist: bool,
+    N: FloatArray,
+    o: FloatArray,
+    p: FloatArray,
+    vmax: FloatArray,
+    rate: float,
+    push_probability: float = 0.4,
+) -> tuple[FloatArray, int]:
+    """The closed-loop soak's operator: a new command and the steps it is held (20-200 ms).
+
+    In twist mode a push (with probability ``push_probability`` when there are facets) drives
+    at the nearest workspace facet with up to half its length of random tangential part, at
+    0.05-1 m/s; otherwise a random direction at 0-1 m/s. In joint mode a random joint velocity
+    of 10-100 % of ``vmax`` (the push draw is made but unused, as in the soak).
+
+    Args:
+        rng: Random generator (its draws are the soak's, in the soak's order).
+        twist: Twist mode (a TCP velocity [m/s], shape (3,)) or joint mode ([rad/s], (dof,)).
+        N: Workspace facets' inward normals, shape (m, 3) (``N p >= o`` inside).
+        o: Their offsets [m], shape (m,).
+        p: The TCP [m], shape (3,).
+        vmax: Joint speed limits [rad/s], shape (dof,).
+        rate: Control rate [Hz] (the hold in steps).
+        push_probability: Share of commands that push at the nearest facet, in [0, 1].
+
+    Returns:
+        ``(command, hold)``: the command and the number of steps it is held (>= 1).
+    """
+    hold = max(1, round(float(rng.uniform(0.02, 0.2)) * rate))
+    push = N.shape[0] > 0 and rng.random() < push_probability
+    cmd: FloatArray
+    if twist:
+        if push:
+            i = int(np.argmin(N @ p - o))
+            cmd = -N[i] + 0.5 * rng.uniform(0.0, 1.0) * _unit(rng)
+            cmd *= float(rng.uniform(0.05, 1.0)) / np.linalg.norm(cmd)
+        else:
+            cmd = _unit(rng) * float(rng.uniform(0.0, 1.0))
+    else:
+        cmd = rng.uniform(-1.0, 1.0, vmax.shape[0]) * vmax * float(rng.uniform(0.1, 1))
+    return cmd, hold
 
 
 def run_loop_campaign(
@@ -897,7 +955,7 @@ def run_loop_campaign(
         q = ep.q
         p = np.asarray(model.fk(q), dtype=np.float64)
         d_ws = float(np.min(ep.N @ p - ep.o, initial=math.inf))
-        clear = _clearance(np.asarray(model.link_segments(q)), lrad, ep.centres, ep.radii)
+        clear = clearance(np.asarray(model.link_segments(q)), lrad, ep.centres, ep.radii)
         began_inside = d_ws >= -ROUND_OFF * (1.0 + float(np.max(np.abs(p))))
         cmd = np.zeros(3)
         change = 0
@@ -905,17 +963,8 @@ def run_loop_campaign(
         for _k in range(per):
             change -= 1
             if change <= 0:  # a new command, held for 20-200 ms
-                change = max(1, round(float(rng.uniform(0.02, 0.2)) * rate))
-                push = ep.N.shape[0] > 0 and rng.random() < 0.4
-                if ep.twist:
-                    if push:
-                        i = int(np.argmin(ep.N @ p - ep.o))
-                        cmd = -ep.N[i] + 0.5 * rng.uniform(0.0, 1.0) * _unit(rng)
-                        cmd *= float(rng.uniform(0.05, 1.0)) / np.linalg.norm(cmd)
-                    else:
-                        cmd = _unit(rng) * float(rng.uniform(0.0, 1.0))
-                else:
-                    cmd = rng.uniform(-1.0, 1.0, q.shape[0]) * vmax * float(rng.uniform(0.1, 1))
+                cmd, change = soak_command(rng, twist=ep.twist, N=ep.N, o=ep.o, p=p, vmax=vmax,
+                                           rate=rate)  # fmt: skip
             try:
                 res = ep.flt.explain_twist(q, cmd) if ep.twist else ep.flt.explain(q, cmd)
                 x = np.asarray(res.output, dtype=np.float64)
@@ -955,7 +1004,7 @@ def run_loop_campaign(
             if cross.any():
                 jc += 1
                 j_max = max(j_max, float(over[cross].max()))
-            c1 = _clearance(np.asarray(model.link_segments(q1)), lrad, ep.centres, ep.radii)
+            c1 = clearance(np.asarray(model.link_segments(q1)), lrad, ep.centres, ep.radii)
             if clear >= -tol and c1 < -tol:
                 sp += 1
                 s_max = max(s_max, -c1)
