@@ -49,7 +49,8 @@ pytest: $(STAMP)
 test: lint typecheck docs pytest
 
 # The quick loop: lint, types and every test not marked `slow` (the whole reproductions, the soak
-# smoke runs, the hostile-input catalogue, the sanitizer builds). `make test` runs everything;
+# smoke runs, the hostile-input catalogue, the sanitizer builds, and the tests measured slow one
+# by one in tests/slow_tests.txt). `make test` runs everything;
 # the measured durations are in CONTRIBUTING.md.
 pytest-fast: $(STAMP)
 	$(PYTEST) -m "not slow"

@@ -7,6 +7,7 @@ Every property test is reproducible: examples are derandomized and no example da
 from __future__ import annotations
 
 import os
+from pathlib import Path
 
 # Offscreen rendering with no display: MuJoCo reads MUJOCO_GL when it is first imported, so it is
 # set here, before any test module imports it (EGL, software rendering on a machine without GPU).
@@ -138,9 +139,18 @@ def pytest_xdist_make_scheduler(config: pytest.Config, log: object) -> object | 
     return Grouped(config, log)
 
 
+def _measured_slow() -> frozenset[str]:
+    """The node ids of tests/slow_tests.txt: slow one by one, measured (see that file)."""
+    text = (Path(__file__).parent / "slow_tests.txt").read_text(encoding="utf-8")
+    return frozenset(ln for ln in text.splitlines() if ln and not ln.startswith("#"))
+
+
+MEASURED_SLOW = _measured_slow()
+
+
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     for item in items:
-        if item.nodeid.startswith(SLOW_NODES):
+        if item.nodeid.startswith(SLOW_NODES) or item.nodeid in MEASURED_SLOW:
             item.add_marker(pytest.mark.slow)
     slow_files: set[str] = set()
     for item in items:

@@ -217,6 +217,19 @@ def test_the_spread_files_exist() -> None:
     assert not missing, missing
 
 
+def test_the_measured_slow_tests_exist() -> None:
+    """Every line of tests/slow_tests.txt names a test function of an existing file (a renamed
+    test would silently come back into `make check`)."""
+    lines = (ROOT / "tests" / "slow_tests.txt").read_text(encoding="utf-8").splitlines()
+    ids = [ln for ln in lines if ln and not ln.startswith("#")]
+    assert ids
+    for node in ids:
+        path, *names = node.split("::")
+        assert (ROOT / path).is_file(), node
+        name = names[-1].split("[")[0]
+        assert f"def {name}(" in (ROOT / path).read_text(encoding="utf-8"), node
+
+
 def test_the_shared_run_groups_name_existing_tests() -> None:
     """Each prefix of tests/conftest.py's GROUPS names an existing file and, where it names a
     test, a test defined in that file (a renamed test would silently leave its group)."""
