@@ -524,10 +524,11 @@ SPECS: dict[str, F | C] = {
             lambda: call(joint_scale=0.5, max_speed=np.full(7, 1.0), point_speeds={"tcp": 0.25}),
             types={"joint_scale": "nonneg", "max_speed": "vector", "point_speeds": "object"},
             accepts={
-                "max_speed": {
-                    "inf": "documented: inf is no cap",
-                    "inf_in_valid": "documented: inf is no cap on that joint",
-                }
+                "max_speed": {"inf_in_valid": "documented: inf is no cap on that joint"},
+                "point_speeds": {
+                    "dict_empty": "documented: an empty mapping means no Cartesian cap",
+                    "dict_xy": "documented: any point names; ModeRows checks them on its robot",
+                },
             },
             nonfinite={"out.max_speed": "documented: inf is no cap on that joint"},
         )
@@ -562,7 +563,12 @@ SPECS: dict[str, F | C] = {
                 "dwell": "nonneg",
                 "history": "count",
             },
-            accepts={"zones": {"empty_list": _NONE, "empty_tuple": _NONE}},
+            # joint_scale 0.5 in the valid call's limits needs max_speed (None: refused)
+            required=frozenset({"max_speed"}),
+            accepts={
+                "zones": {"empty_list": _NONE, "empty_tuple": _NONE},
+                "modes": {"dict_empty": "documented: a missing mode has no caps"},
+            },
         ),
         {
             "update": F(
