@@ -447,3 +447,28 @@ def test_rows_of_a_planar_robot() -> None:
     assert blk is not None
     assert blk.G.shape == (8, 2)
     np.testing.assert_allclose(blk.b, -0.1 * math.cos(math.pi / 8))
+
+
+def test_a_zone_watches_only_its_points() -> None:
+    tcp, elbow = ARM.fk(Q0), ARM.fk(Q0, "elbow")
+    around_tcp = ConvexPolytope.box(tcp - 0.1, tcp + 0.1)
+    around_elbow = ConvexPolytope.box(elbow - 0.1, elbow + 0.1)
+    assert not around_tcp.contains(elbow)
+    rows = ModeRows(
+        ARM, points=["tcp", "elbow"],
+        zones=[ModeZone(around_tcp, name="tool only", points=("elbow",))],
+    )  # fmt: skip
+    assert rows.update(Q0, time=0.0) is SafetyMode.NORMAL  # the TCP is in, but not watched
+    rows = ModeRows(ARM, zones=[ModeZone(around_elbow, name="elbow", points=("elbow",))])
+    assert rows.update(Q0, time=0.0) is SafetyMode.REDUCED
+    assert (rows.history[0].zone, rows.history[0].point) == ("elbow", "elbow")
+
+
+def test_history_keeps_the_last_events_and_counts_all() -> None:
+    rows = ModeRows(PointRobot(), zones=[ModeZone(BOX)], exit_distance=0.0, history=3)
+    for k, x in enumerate([0.5, -0.5] * 4):
+        rows.update(_at(x), time=float(k))
+    assert rows.switches == 8
+    assert [e.time for e in rows.history] == [5.0, 6.0, 7.0]
+    assert rows.history[-1].previous is SafetyMode.REDUCED
+    assert rows.history[-1].mode is SafetyMode.NORMAL
