@@ -143,6 +143,64 @@ def _cloud_next_distances_call() -> object:
 _CLOUD_NAN = "documented: non-finite points are dropped and counted (dropped_nonfinite)"
 
 
+def _mode_limits() -> object:
+    from velfence.filter import ModeLimits
+
+    return ModeLimits(joint_scale=0.5, point_speeds={"tcp": 0.25})
+
+
+def _mode_zone() -> object:
+    from velfence.filter import ModeZone
+
+    return ModeZone(_zone_box(), name="cell")  # type: ignore[arg-type]
+
+
+def _slowdown_zone() -> object:
+    from velfence.filter import SlowdownZone
+
+    return SlowdownZone(_zone_box(), far_speed=1.0, near_speed=0.2, distance=0.5)  # type: ignore[arg-type]
+
+
+def _approach_zone() -> object:
+    from velfence.filter import ApproachZone
+
+    return ApproachZone(_zone_box(), time_to_collision=0.5)  # type: ignore[arg-type]
+
+
+def _zone_box() -> object:
+    from velfence.geometry.polytope import ConvexPolytope
+
+    return ConvexPolytope.box([0.0, -0.5, 0.0], [0.5, 0.5, 1.5])
+
+
+def _mode_rows() -> object:
+    from velfence.filter import ModeLimits, ModeRows, ModeZone
+
+    return ModeRows(
+        _arm(),
+        modes={"reduced": ModeLimits(joint_scale=0.5, point_speeds={"tcp": 0.25})},
+        zones=[ModeZone(_zone_box(), name="cell")],  # type: ignore[arg-type]
+        max_speed=np.full(7, 1.5),
+    )
+
+
+def _slowdown_rows() -> object:
+    from velfence.filter import SlowdownRows, SlowdownZone
+
+    zone = SlowdownZone(_zone_box(), far_speed=1.0, near_speed=0.2, distance=0.5)  # type: ignore[arg-type]
+    return SlowdownRows(_arm(), [zone])
+
+
+def _approach_rows() -> object:
+    from velfence.filter import ApproachRows, ApproachZone
+
+    return ApproachRows(_arm(), [ApproachZone(_zone_box(), time_to_collision=0.5)])  # type: ignore[arg-type]
+
+
+#: A mode's value is a string among "normal", "reduced", "stop" (or the SafetyMode member).
+_MODE = "choice"
+
+
 _RC = "a RowContext (or frame and RowBlock) the SafetyFilter builds each cycle, trusted"
 
 
@@ -456,6 +514,127 @@ SPECS: dict[str, F | C] = {
         },
         instance=_point_cloud_rows,
     ),
+    "filter.SafetyMode": C(
+        record="an enum: its members are constants; SafetyMode(value) refuses any other value "
+        "with InvalidParameter (tests/filter/test_modes.py)"
+    ),
+    "filter.ModeEvent": C(record="output record ModeRows builds for each mode switch"),
+    "filter.ModeLimits": C(
+        F(
+            lambda: call(joint_scale=0.5, max_speed=np.full(7, 1.0), point_speeds={"tcp": 0.25}),
+            types={"joint_scale": "nonneg", "max_speed": "vector", "point_speeds": "object"},
+            accepts={
+                "max_speed": {"inf_in_valid": "documented: inf is no cap on that joint"},
+                "point_speeds": {
+                    "dict_empty": "documented: an empty mapping means no Cartesian cap",
+                    "dict_xy": "documented: any point names; ModeRows checks them on its robot",
+                },
+            },
+            nonfinite={"out.max_speed": "documented: inf is no cap on that joint"},
+        )
+    ),
+    "filter.ModeZone": C(
+        F(
+            lambda: call(_zone_box(), mode="stop", name="cell", points=("tcp", "elbow")),
+            types={"polytope": "object", "mode": _MODE, "name": "text", "points": "object"},
+        )
+    ),
+    "filter.ModeRows": C(
+        F(
+            lambda: call(
+                _arm(),
+                modes={"reduced": _mode_limits()},
+                zones=[_mode_zone()],
+                points=("tcp", "elbow"),
+                max_speed=np.full(7, 1.5),
+                enter_depth=0.01,
+                exit_distance=0.02,
+                dwell=0.1,
+                history=100,
+            ),
+            types={
+                "robot": "object",
+                "modes": "object",
+                "zones": "object",
+                "points": "object",
+                "max_speed": "vector",
+                "enter_depth": "nonneg",
+                "exit_distance": "nonneg",
+                "dwell": "nonneg",
+                "history": "count",
+            },
+            # joint_scale 0.5 in the valid call's limits needs max_speed (None: refused)
+            required=frozenset({"max_speed"}),
+            accepts={
+                "zones": {"empty_list": _NONE, "empty_tuple": _NONE},
+                "modes": {"dict_empty": "documented: a missing mode has no caps"},
+            },
+        ),
+        {
+            "update": F(
+                lambda: call(_Q7, time=1.0), types={"position": "vector", "time": "scalar"}
+            ),
+            "request": F(
+                lambda: call("reduced", source="light curtain"),
+                types={"mode": _MODE, "source": "text"},
+            ),
+            "rows": F(lambda: call(_row_context()), skip={"ctx": _RC}),
+        },
+        instance=_mode_rows,
+    ),
+    "filter.SlowdownZone": C(
+        F(
+            lambda: call(
+                _zone_box(), far_speed=1.0, near_speed=0.2, distance=0.5, point="tcp", name="s"
+            ),
+            types={
+                "polytope": "object",
+                "far_speed": "nonneg",
+                "near_speed": "nonneg",
+                "distance": "positive",
+                "point": "text",
+                "name": "text",
+            },
+        ),
+        {
+            "speed_cap": F(
+                lambda: call(0.1),
+                types={"distance": "scalar"},
+                nonfinite={"out": "documented: inf (no cap) beyond the band"},
+            )
+        },
+        instance=lambda: _slowdown_rows().zones[0],  # type: ignore[attr-defined]
+    ),
+    "filter.SlowdownRows": C(
+        F(
+            lambda: call(_arm(), [_slowdown_zone()]),
+            types={"robot": "object", "zones": "object"},
+            accepts={"zones": {"empty_list": _NONE, "empty_tuple": _NONE}},
+        ),
+        {"rows": F(lambda: call(_row_context()), skip={"ctx": _RC})},
+        instance=_slowdown_rows,
+    ),
+    "filter.ApproachZone": C(
+        F(
+            lambda: call(_zone_box(), time_to_collision=0.5, point="tcp", name="table"),
+            types={
+                "polytope": "object",
+                "time_to_collision": "positive",
+                "point": "text",
+                "name": "text",
+            },
+        )
+    ),
+    "filter.ApproachRows": C(
+        F(
+            lambda: call(_arm(), [_approach_zone()]),
+            types={"robot": "object", "zones": "object"},
+            accepts={"zones": {"empty_list": _NONE, "empty_tuple": _NONE}},
+        ),
+        {"rows": F(lambda: call(_row_context()), skip={"ctx": _RC})},
+        instance=_approach_rows,
+    ),
+    "filter.speed_cap_directions": F(lambda: call(3), types={"dim": "count"}),
     "filter.separation_distance": F(
         lambda: call(1.0, parameters=_separation_parameters(), human_speed=1.2),
         types={"robot_speed": "scalar", "parameters": "object", "human_speed": "nonneg"},

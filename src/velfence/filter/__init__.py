@@ -7,7 +7,8 @@ every :class:`~velfence.filter.rows.RowProvider` built from one
 :class:`~velfence.filter.kinematics.KinematicsFrame` of ``q``: joint position (braking profile)
 and velocity, acceleration, workspace polytopes on named points, sphere obstacles against capsule
 links, speed and separation monitoring against tracked people (:mod:`~velfence.filter.separation`,
-advisory), obstacles from point clouds (:mod:`~velfence.filter.point_cloud`), and the user's
+advisory), obstacles from point clouds (:mod:`~velfence.filter.point_cloud`), safety modes with
+mode, slowdown and time-to-collision zones (:mod:`~velfence.filter.modes`), and the user's
 own. When the rows have no common point the ladder
 (:mod:`velfence.filter.ladder`) drops the acceleration rows, then relaxes only violated rows'
 recovery bounds (obstacles, workspace, joints) toward "no further out", else stops: zero meets
@@ -49,6 +50,18 @@ from velfence.filter.limits import (
     SphereObstacle,
     WorkspaceLimit,
 )
+from velfence.filter.modes import (
+    ApproachRows,
+    ApproachZone,
+    ModeEvent,
+    ModeLimits,
+    ModeRows,
+    ModeZone,
+    SafetyMode,
+    SlowdownRows,
+    SlowdownZone,
+    speed_cap_directions,
+)
 from velfence.filter.point_cloud import MAX_CLOUD_POINTS, PointCloudRows
 from velfence.filter.result import FilterBatch, FilterResult
 from velfence.filter.rows import (
@@ -88,6 +101,8 @@ __all__ = [
     "LEVEL_WORKSPACE",
     "MAX_CLOUD_POINTS",
     "WALKING_SPEED",
+    "ApproachRows",
+    "ApproachZone",
     "AttachmentObstacleRows",
     "AttachmentTable",
     "AttachmentWorkspaceRows",
@@ -104,6 +119,10 @@ __all__ = [
     "JointVelocityLimit",
     "Kinematics",
     "KinematicsFrame",
+    "ModeEvent",
+    "ModeLimits",
+    "ModeRows",
+    "ModeZone",
     "ObstacleRows",
     "PersonCapsule",
     "PointCloudRows",
@@ -112,10 +131,13 @@ __all__ = [
     "RowContext",
     "RowProvider",
     "SafetyFilter",
+    "SafetyMode",
     "SelfCollision",
     "SelfCollisionRows",
     "SeparationParameters",
     "SeparationRows",
+    "SlowdownRows",
+    "SlowdownZone",
     "Sphere",
     "SphereObstacle",
     "TwistMode",
@@ -123,4 +145,5 @@ __all__ = [
     "WorkspaceRows",
     "max_approach_speed",
     "separation_distance",
+    "speed_cap_directions",
 ]
