@@ -83,7 +83,7 @@ _MAX_STEP = 2**31 - 1
 _MAX_FIELDS = 1024
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, kw_only=True)
 class SensorPoints:
     """The points of one sensor message, in the message's own frame.
 
@@ -404,7 +404,13 @@ def decode_point_cloud2(message: Any, *, max_points: int = MAX_CLOUD_POINTS) -> 
         is_bigendian=big,
         max_points=max_points,
     )
-    return SensorPoints(readonly(pts), frame, stamp, dropped, int(height) * int(width))
+    return SensorPoints(
+        points=readonly(pts),
+        frame_id=frame,
+        stamp=stamp,
+        dropped=dropped,
+        readings=int(height) * int(width),
+    )
 
 
 def decode_laser_scan(message: Any, *, max_points: int = MAX_CLOUD_POINTS) -> SensorPoints:
@@ -458,7 +464,9 @@ def decode_laser_scan(message: Any, *, max_points: int = MAX_CLOUD_POINTS) -> Se
         max_points=max_points,
     )
     count = len(ranges)
-    return SensorPoints(readonly(pts), frame, stamp, dropped, int(count))
+    return SensorPoints(
+        points=readonly(pts), frame_id=frame, stamp=stamp, dropped=dropped, readings=int(count)
+    )
 
 
 document_inits(globals())
