@@ -160,7 +160,7 @@ SPECS.update(
                 point_step=12,
                 row_step=24,
                 is_bigendian=False,
-            ),  # fmt: skip
+            ),
             types={
                 "data": "object",
                 "fields": "object",
@@ -175,7 +175,7 @@ SPECS.update(
         "io.scan_points": F(
             lambda: call(
                 [1.0, 2.0, 3.0], angle_min=0.0, angle_increment=0.1, range_min=0.1, range_max=5.0
-            ),  # fmt: skip
+            ),
             types={"ranges": "vector", "max_points": "count"},
         ),
         "io.decode_point_cloud2": F(
