@@ -146,8 +146,6 @@ def _scan_cdr() -> bytes:
     return b"\x00\x01\x00\x00" + body
 
 
-_DROPPED = "documented: NaN, infinite or out-of-range readings are dropped and counted"
-
 SPECS.update(
     {
         "io.SensorPoints": C(record="a record the decoders build"),
@@ -177,6 +175,18 @@ SPECS.update(
                 [1.0, 2.0, 3.0], angle_min=0.0, angle_increment=0.1, range_min=0.1, range_max=5.0
             ),
             types={"ranges": "vector", "max_points": "count"},
+            accepts={
+                "ranges": {
+                    **{
+                        k: "documented: NaN and inf readings (no return) are dropped and counted"
+                        for k in ("nan_in_valid", "inf_in_valid", "neg_inf_in_valid")
+                    },
+                    **{
+                        k: "documented: a scan of no readings gives no points"
+                        for k in ("empty_list", "empty_tuple", "empty_array")
+                    },
+                }
+            },
         ),
         "io.decode_point_cloud2": F(
             lambda: call(_cloud_cdr()), types={"message": "object", "max_points": "count"}

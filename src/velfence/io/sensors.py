@@ -45,6 +45,7 @@ from velfence._validate import (
     describe,
     finite_scalar,
     readonly,
+    real_array,
 )
 from velfence.errors import InvalidInput
 from velfence.filter.point_cloud import MAX_CLOUD_POINTS
@@ -294,25 +295,20 @@ def scan_points(
     lo = finite_scalar("range_min", range_min, unit="m", error=InvalidInput)
     hi = finite_scalar("range_max", range_max, unit="m", error=InvalidInput)
     cap = check_positive_int("max_points", max_points, maximum=10**9, error=InvalidInput)
-    count = len(ranges) if isinstance(ranges, (list, tuple)) else None
     shape = getattr(ranges, "shape", None)
-    if isinstance(shape, tuple) and len(shape) == 1:
-        count = int(shape[0])
-    if count is not None and count > cap:
-        raise InvalidInput(f"ranges: expected at most max_points={cap:,} readings, got {count:,}")
-    try:
-        r = np.asarray(ranges)
-    except Exception:
-        raise InvalidInput(
-            f"ranges: expected an array of ranges [m], got {describe(ranges)}"
-        ) from None
-    if r.ndim != 1 or r.dtype.kind not in "fiu":
-        raise InvalidInput(f"ranges: expected a 1-D array of ranges [m], got {describe(ranges)}")
+    if isinstance(ranges, np.ndarray) and len(shape or ()) == 1 and ranges.shape[0] > cap:
+        raise InvalidInput(  # refused before any copy
+            f"ranges: expected at most max_points={cap:,} readings, got {ranges.shape[0]:,}"
+        )
+    # NaN and inf are readings ("no return"), dropped below; other values are checked
+    r = real_array(
+        "ranges", ranges, (None,), error=InvalidInput, what="ranges [m]", allow_nonfinite=True,
+        copy=False,
+    )  # fmt: skip
     if r.shape[0] > cap:
         raise InvalidInput(
             f"ranges: expected at most max_points={cap:,} readings, got {r.shape[0]:,}"
         )
-    r = r.astype(np.float64, copy=False)
     ok = np.isfinite(r) & (r >= lo) & (r <= hi)
     idx = np.flatnonzero(ok)
     rr = r[idx]

@@ -27,6 +27,8 @@ from velfence.geometry.so3 import rotation_from_quaternion
 
 __all__ = ["TransformStore"]
 
+#: The most frames a store may be asked to hold.
+MAX_FRAMES = 1_000_000
 #: Longest accepted frame name (as a topic name).
 MAX_FRAME_LENGTH = 255
 
@@ -45,14 +47,14 @@ class TransformStore:
 
     Args:
         max_frames: How many frames it holds at most (a flood of new frame names is refused
-            beyond it), ``>= 1``.
+            beyond it), ``1 <= max_frames <= 10⁶``.
 
     Raises:
         InvalidParameter: ``max_frames`` is not a positive integer.
     """
 
     def __init__(self, *, max_frames: int = 10_000) -> None:
-        self._max = check_positive_int("max_frames", max_frames)
+        self._max = check_positive_int("max_frames", max_frames, maximum=MAX_FRAMES)
         self._parent: dict[str, tuple[str, FloatArray, FloatArray]] = {}
 
     def __len__(self) -> int:
@@ -81,6 +83,10 @@ class TransformStore:
             raise InvalidInput(f"child: a frame cannot be its own parent, got {c!r}")
         q = real_array("rotation_xyzw", rotation_xyzw, (4,), error=InvalidInput)
         tr = real_array("translation", translation, (3,), error=InvalidInput)
+        if not float(np.linalg.norm(q)) > 1e-9:
+            raise InvalidInput(
+                f"rotation_xyzw: expected a quaternion of length > 1e-9, got {q.tolist()}"
+            )
         rot = rotation_from_quaternion([q[3], q[0], q[1], q[2]])
         if c not in self._parent and len(self._parent) >= self._max:
             raise InvalidInput(f"child: more than {self._max} frames; {c!r} not stored")
