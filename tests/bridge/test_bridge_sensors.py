@@ -8,7 +8,9 @@ ball's points given in the base frame by hand does.
 
 from __future__ import annotations
 
+import functools
 import math
+from typing import Any
 
 import numpy as np
 import pytest
@@ -114,3 +116,81 @@ def test_a_cloud_on_dds_shapes_the_command(bridge, tmp_path) -> None:
     late = outs[-5:]  # the cloud arrived long before these
     for y in late:
         np.testing.assert_allclose(J @ y, J @ want, atol=2e-3)
+
+
+@functools.cache
+def _typestore() -> Any:
+    from rosbags.typesys import Stores, get_typestore
+
+    return get_typestore(Stores.ROS2_JAZZY)
+
+
+def _cloud_cdr(frame: str, stamp: float, pts: np.ndarray, *, truncate: int = 0) -> bytes:
+    """A PointCloud2 (x, y, z FLOAT32) encoded by rosbags' typestore."""
+    ts = _typestore()
+    T = ts.types
+    ns = round(stamp * 1e9)
+    msg = T["sensor_msgs/msg/PointCloud2"](
+        header=T["std_msgs/msg/Header"](
+            stamp=T["builtin_interfaces/msg/Time"](sec=ns // 10**9, nanosec=ns % 10**9),
+            frame_id=frame,
+        ),
+        height=1,
+        width=len(pts),
+        fields=[
+            T["sensor_msgs/msg/PointField"](name=n, offset=o, datatype=7, count=1)
+            for n, o in (("x", 0), ("y", 4), ("z", 8))
+        ],
+        is_bigendian=False,
+        point_step=12,
+        row_step=12 * len(pts),
+        data=np.frombuffer(np.asarray(pts, dtype="<f4").tobytes(), dtype=np.uint8),
+        is_dense=True,
+    )
+    raw = bytes(ts.serialize_cdr(msg, "sensor_msgs/msg/PointCloud2"))
+    return raw[: len(raw) - truncate]
+
+
+@pytest.mark.slow  # the Panda's model loads in about 3 s
+def test_stale_unknown_frame_and_malformed_clouds_are_dropped_and_counted(bridge_log) -> None:
+    """The node's handling of one sensor message, without DDS: counted by reason, warned once."""
+    import time
+
+    from velfence.bridge import BridgeNode
+
+    pytest.importorskip("mujoco")
+    doc = {
+        "bridge": {
+            "domain_id": DOMAIN,
+            "command_in": {"type": "float64_multi_array"},
+            "state": {"type": "joint_state"},
+            "sensors": [{**CLOUD, "base_frame": "base_link"}],
+        },
+        "shaper": {**PANDA, "mode": "joint"},
+    }
+    node = BridgeNode(parse_bridge_config(doc))
+    x, rows = node._sensors[0], node._clouds[0]
+    pts = np.array([[0.5, 0.0, 0.5], [np.nan, 0.0, 0.0]])
+    node._tf.set("base_link", "camera", [0, 0, 0, 1], [0.0, 0.0, 0.25])
+    _typestore()  # built before the first stamp
+    fresh = time.time  # each message stamped as it is made (max_age 1 s, decay 0.5 s)
+    node._use_cloud(x, rows, _cloud_cdr("camera", fresh(), pts))  # used, moved up by 0.25 m
+    node._use_cloud(x, rows, _cloud_cdr("", fresh(), pts))  # no frame: the base frame
+    for _ in range(3):
+        node._use_cloud(x, rows, _cloud_cdr("camera", fresh() - 5.0, pts))  # stale
+        node._use_cloud(x, rows, _cloud_cdr("nowhere", fresh(), pts))  # no transform
+        node._use_cloud(x, rows, _cloud_cdr("camera", fresh(), pts, truncate=5))  # malformed
+    c = node.counters
+    assert c["clouds_used"] == 2
+    assert c["cloud_readings_dropped"] == 2
+    assert c["dropped_clouds"] == 9
+    for reason in ("stale", "frame_unknown", "malformed"):
+        assert c[f"dropped:cloud_{reason}"] == 3
+        warned = [r for r in bridge_log.records if f"dropped:cloud_{reason}" in r.getMessage()]
+        assert len(warned) == 1  # throttled: one line per reason within 10 s
+    want = {
+        (0.51, 0.01, 0.75),
+        (0.51, 0.01, 0.51),
+    }  # voxel centres of (0.5, 0, 0.75), (0.5, 0, 0.5)
+    got = {tuple(np.round(c, 2)) for c in rows.centres}
+    assert got == want
