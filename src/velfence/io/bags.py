@@ -254,7 +254,9 @@ class ReplaySummary:
         clouds_used: Sensor messages (``replay.sensors``) fed to the filter.
         clouds_dropped: Sensor messages dropped, by reason: ``"stale"`` (stamp older than
             ``max_age`` at the bag's receive time), ``"frame_unknown"`` (no transform from its
-            frame to ``base_frame`` in the bag's ``/tf`` so far), ``"malformed"``.
+            frame to ``base_frame`` in the bag's ``/tf`` so far), ``"malformed"``, ``"invalid"``
+            (a point beyond the finite range once transformed); and ``"bad_transform"`` counts
+            the bag's transforms that could not be stored (a zero quaternion, NaN).
         cloud_readings_dropped: Readings of the used messages dropped (NaN, inf, out of
             range).
     """
