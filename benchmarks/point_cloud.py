@@ -11,7 +11,12 @@ removes); every frame draws new points with 2 mm of noise (seeded), as a depth c
 
 * **cloud to rows**: ``update(points, stamp)`` then ``rows(ctx)`` at 1k, 24k (a 160 x 150 depth
   image) and 100k points per frame;
-* **filter cycle**: ``update`` then ``SafetyFilter.filter(q, u)`` with the provider, 24k points.
+* **filter cycle**: ``update`` then ``SafetyFilter.filter(q, u)`` with the provider, 24k points;
+* **from the message**: the same clouds as ``sensor_msgs/PointCloud2`` CDR bytes (what DDS and
+  rosbag2 carry; x, y, z FLOAT32 and an intensity, point_step 16, in a camera frame turned and
+  moved against the base), ``decode_point_cloud2`` alone, then decode + ``update(points,
+  stamp, transform=camera pose)`` + ``rows``: back to back, and in a periodic loop at 30 Hz (a
+  depth camera's rate; each call starts on its tick, the time of the call is measured).
 
 Each call is timed on its own with ``time.perf_counter_ns()`` and ``time.thread_time_ns()``, the
 garbage collector off; the tables give the median, the 99th percentile and the maximum [ms].
@@ -21,6 +26,7 @@ from __future__ import annotations
 
 import argparse
 import gc
+import struct
 import time
 from collections.abc import Callable
 
@@ -28,6 +34,7 @@ import numpy as np
 
 from velfence.filter import JointLimits, PointCloudRows, RowContext, SafetyFilter
 from velfence.filter.kinematics import frame_of
+from velfence.io.sensors import decode_point_cloud2
 from velfence.mechanisms.chain import DHChain
 
 DT = 0.004
@@ -61,14 +68,46 @@ def _frames(rng: np.random.Generator, count: int, frames: int) -> list[np.ndarra
     return out
 
 
-def _time(call: Callable[[int], object], calls: int) -> tuple[np.ndarray, np.ndarray]:
+#: The camera's pose in the base frame: turned 90° about z, 1 m behind and 0.5 m above.
+CAMERA = np.array(
+    [[0.0, -1.0, 0.0, -1.0], [1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.5], [0.0, 0.0, 0.0, 1.0]]
+)
+
+
+def _cdr_cloud(points: np.ndarray, stamp: float) -> bytes:
+    """A PointCloud2 in little-endian CDR (header, x y z intensity FLOAT32, point_step 16)."""
+    sec = int(stamp)
+    body = struct.pack("<iI", sec, int((stamp - sec) * 1e9)) + struct.pack("<I", 7) + b"camera\0"
+    body += b"\0" * (-len(body) % 4)
+    body += struct.pack("<II", 1, points.shape[0]) + struct.pack("<I", 4)
+    for i, name in enumerate((b"x", b"y", b"z", b"intensity")):
+        body += struct.pack("<I", len(name) + 1) + name + b"\0"
+        body += b"\0" * (-len(body) % 4) + struct.pack("<I", 4 * i) + b"\x07"
+        body += b"\0" * (-len(body) % 4) + struct.pack("<I", 1)
+    n = points.shape[0]
+    body += b"\0" + b"\0" * (-(len(body) + 1) % 4) + struct.pack("<II", 16, 16 * n)
+    data = np.zeros((n, 4), dtype="<f4")
+    data[:, :3] = points
+    body += struct.pack("<I", 16 * n) + data.tobytes() + b"\x01"
+    return b"\x00\x01\x00\x00" + body
+
+
+def _time(
+    call: Callable[[int], object], calls: int, period: float | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     for k in range(5):  # warm-up
         call(k)
     wall = np.empty(calls)
     cpu = np.empty(calls)
     gc.disable()
+    tick = time.perf_counter()
     try:
         for k in range(calls):
+            if period is not None:  # a periodic loop: each call starts on its tick
+                tick += period
+                pause = tick - time.perf_counter()
+                if pause > 0:
+                    time.sleep(pause)
             c0 = time.thread_time_ns()
             t0 = time.perf_counter_ns()
             call(k + 5)
@@ -145,6 +184,33 @@ def main() -> None:
     wall, cpu = _time(fcycle, calls)
     block = rows.rows(ctx)
     print(_row("PointCloudRows", f"{0 if block is None else block.size}", wall, cpu))
+    periodic = max(calls // 4, 30)
+    print(
+        f"\nFrom the message: PointCloud2 CDR bytes in a camera frame, {calls} calls per row "
+        f"back to back, {periodic} at 30 Hz, [ms]\n"
+    )
+    print("| points | what | median | p99 | max | CPU median | CPU p99 |")
+    print("|---|---|---|---|---|---|---|")
+    inv = np.linalg.inv(CAMERA)
+    for size in SIZES:
+        raws = [
+            _cdr_cloud(c @ inv[:3, :3].T + inv[:3, 3], 1000.0 + k * 0.033)
+            for k, c in enumerate(clouds[size])
+        ]
+        check = decode_point_cloud2(raws[0]).points @ CAMERA[:3, :3].T + CAMERA[:3, 3]
+        assert np.allclose(check, clouds[size][0], atol=1e-5)  # float32 coordinates
+        wall, cpu = _time(lambda k, raws=raws: decode_point_cloud2(raws[k % 16]), calls)
+        print(_row(f"{size:,}", "decode", wall, cpu))
+        for label, period in (("decode + update + rows", None), ("same, at 30 Hz", 1 / 30)):
+            rows = _provider()
+
+            def mcycle(k: int, rows: PointCloudRows = rows, raws: list[bytes] = raws) -> None:
+                sp = decode_point_cloud2(raws[k % 16])
+                rows.update(sp.points, stamp=k * DT, transform=CAMERA)
+                rows.rows(ctx)
+
+            wall, cpu = _time(mcycle, periodic if period else calls, period)
+            print(_row(f"{size:,}", label, wall, cpu))
 
 
 if __name__ == "__main__":

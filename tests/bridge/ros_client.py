@@ -188,6 +188,38 @@ def tf_message(transforms: list[dict[str, Any]]) -> Any:
     return RawSample.of(msgs.TFMessage, data)
 
 
+def cloud_message(cloud: dict[str, Any]) -> Any:
+    """A sensor_msgs/PointCloud2 (x, y, z FLOAT32 and a padding float: point_step 16) stamped
+    now, encoded by rosbags' typestore and written as those bytes."""
+    store = typestore()
+    tm = store.types
+    pts = [[float(x) for x in p] for p in cloud["points"]]
+    data = b"".join(struct.pack("<4f", *p, 0.0) for p in pts)
+    ns = time.time_ns()
+    fields = [
+        tm["sensor_msgs/msg/PointField"](name=n, offset=o, datatype=7, count=1)
+        for n, o in (("x", 0), ("y", 4), ("z", 8))
+    ]
+    import numpy as np
+
+    msg = tm["sensor_msgs/msg/PointCloud2"](
+        header=tm["std_msgs/msg/Header"](
+            stamp=tm["builtin_interfaces/msg/Time"](sec=ns // 10**9, nanosec=ns % 10**9),
+            frame_id=cloud["frame"],
+        ),
+        height=1,
+        width=len(pts),
+        fields=fields,
+        is_bigendian=False,
+        point_step=16,
+        row_step=16 * len(pts),
+        data=np.frombuffer(data, dtype=np.uint8),
+        is_dense=True,
+    )
+    raw = bytes(store.serialize_cdr(msg, "sensor_msgs/msg/PointCloud2"))
+    return RawSample.of(msgs.PointCloud2, raw)
+
+
 def typestore() -> Any:
     global _STORE  # built once: a typestore takes a while
     if _STORE is None:
@@ -251,6 +283,12 @@ def stream(spec: dict[str, Any], dp: DomainParticipant) -> dict[str, Any]:
     if "tf" in spec:
         tf_w = DataWriter(dp, Topic(dp, t["tf"], msgs.TFMessage), qos=qos(msgs.TFMessage))
         wait_for(lambda: len(tf_w.get_matched_subscriptions()) > 0, "the tf reader")
+    cloud_w = None
+    if "cloud" in spec:  # a PointCloud2 written with every state, stamped at the write
+        cloud_w = DataWriter(
+            dp, Topic(dp, t["cloud"], msgs.PointCloud2), qos=qos(msgs.PointCloud2, depth=5)
+        )
+        wait_for(lambda: len(cloud_w.get_matched_subscriptions()) > 0, "the cloud reader")
     wait_for(lambda: len(cmd_w.get_matched_subscriptions()) > 0, "the command reader")
     wait_for(lambda: len(state_w.get_matched_subscriptions()) > 0, "the state reader")
     wait_for(lambda: len(out_r.get_matched_publications()) > 0, "the output writer")
@@ -287,10 +325,12 @@ def stream(spec: dict[str, Any], dp: DomainParticipant) -> dict[str, Any]:
 
     tf_msg = None if tf_w is None else tf_message(spec["tf"])
 
-    def write_state() -> None:  # the current state (and the transforms on /tf)
+    def write_state() -> None:  # the current state (and the transforms on /tf, the cloud)
         state_w.write(state)
         if tf_w is not None:
             tf_w.write(tf_msg)
+        if cloud_w is not None:
+            cloud_w.write(cloud_message(spec["cloud"]))
 
     write_state()
     next_state = time.monotonic() + state_period

@@ -115,3 +115,99 @@ SPECS.update(
         "io.load_replay_config": F(lambda: call(dict(_REPLAY)), types={"config": "object"}),
     }
 )
+
+# --- range sensors (velfence.io.sensors) and the transform store (velfence.io.transforms)
+_XYZ = [("x", 0, 7, 1), ("y", 4, 7, 1), ("z", 8, 7, 1)]
+
+
+def _cloud_cdr() -> bytes:
+    """A two-point PointCloud2 (x, y, z FLOAT32) in little-endian CDR, written by hand."""
+    import struct
+
+    body = struct.pack("<iI", 1, 0) + struct.pack("<I", 4) + b"cam\0"  # header
+    body += struct.pack("<II", 1, 2) + struct.pack("<I", 3)  # height, width, 3 fields
+    for name, offset, _, _ in _XYZ:
+        body += struct.pack("<I", 2) + name.encode() + b"\0"
+        body += b"\0" * (-len(body) % 4) + struct.pack("<I", offset) + bytes([7])
+        body += b"\0" * (-len(body) % 4) + struct.pack("<I", 1)
+    body += bytes([0]) + b"\0" * 3 + struct.pack("<II", 12, 24)  # is_bigendian, steps
+    body += struct.pack("<I", 24) + struct.pack("<6f", 1, 2, 3, 4, 5, 6) + bytes([1])
+    return b"\x00\x01\x00\x00" + body
+
+
+def _scan_cdr() -> bytes:
+    """A three-reading LaserScan in little-endian CDR, written by hand."""
+    import struct
+
+    body = struct.pack("<iI", 1, 0) + struct.pack("<I", 6) + b"laser\0"
+    body += b"\0" * (-len(body) % 4)
+    body += struct.pack("<7f", 0.0, 0.2, 0.1, 0.0, 0.1, 0.1, 5.0)
+    body += struct.pack("<I", 3) + struct.pack("<3f", 1.0, 2.0, 3.0) + struct.pack("<I", 0)
+    return b"\x00\x01\x00\x00" + body
+
+
+SPECS.update(
+    {
+        "io.SensorPoints": C(record="a record the decoders build"),
+        "io.cloud_points": F(
+            lambda: call(
+                bytes(24),
+                list(_XYZ),
+                height=1,
+                width=2,
+                point_step=12,
+                row_step=24,
+                is_bigendian=False,
+            ),
+            types={
+                "data": "object",
+                "fields": "object",
+                "height": "count",
+                "width": "count",
+                "point_step": "count",
+                "row_step": "count",
+                "is_bigendian": "flag",
+                "max_points": "count",
+            },
+        ),
+        "io.scan_points": F(
+            lambda: call(
+                [1.0, 2.0, 3.0], angle_min=0.0, angle_increment=0.1, range_min=0.1, range_max=5.0
+            ),
+            types={"ranges": "vector", "max_points": "count"},
+            accepts={
+                "ranges": {
+                    **{
+                        k: "documented: NaN and inf readings (no return) are dropped and counted"
+                        for k in ("nan_in_valid", "inf_in_valid", "neg_inf_in_valid")
+                    },
+                    **{
+                        k: "documented: a scan of no readings gives no points"
+                        for k in ("empty_list", "empty_tuple", "empty_array")
+                    },
+                }
+            },
+        ),
+        "io.decode_point_cloud2": F(
+            lambda: call(_cloud_cdr()), types={"message": "object", "max_points": "count"}
+        ),
+        "io.decode_laser_scan": F(
+            lambda: call(_scan_cdr()), types={"message": "object", "max_points": "count"}
+        ),
+        "io.TransformStore": C(
+            F(lambda: call(max_frames=10), types={"max_frames": "count"}),
+            methods={
+                "set": F(
+                    lambda: call("base", "camera", [0.0, 0.0, 0.0, 1.0], [0.1, 0.2, 0.3]),
+                    types={"parent": "text", "child": "text"},
+                ),
+                "rotation": F(
+                    lambda: call("base", "base"), types={"target": "text", "source": "text"}
+                ),
+                "transform": F(
+                    lambda: call("base", "base"), types={"target": "text", "source": "text"}
+                ),
+            },
+        ),
+    }
+)

@@ -516,7 +516,7 @@ SPECS: dict[str, F | C] = {
     ),
     "filter.SafetyMode": C(
         record="an enum: its members are constants; SafetyMode(value) refuses any other value "
-        "with InvalidParameter (tests/filter/test_modes.py)"
+        "with InvalidParameter (tests/filter/test_mode_zones.py)"
     ),
     "filter.ModeEvent": C(record="output record ModeRows builds for each mode switch"),
     "filter.ModeLimits": C(

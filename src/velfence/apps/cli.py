@@ -1017,6 +1017,12 @@ def _print_replay(console: Console, s: Any) -> None:
         f"written as zero: {s.zeroed} ({s.zeroed_no_state} before any state, {s.zeroed_stale} "
         f"with a stale state, {s.zeroed_invalid} non-finite)"
     )
+    if s.clouds_used or s.clouds_dropped:
+        dropped = ", ".join(f"{n} {k.replace('_', ' ')}" for k, n in s.clouds_dropped.items())
+        console.print(
+            f"sensor messages: {s.clouds_used} used, {sum(s.clouds_dropped.values())} dropped"
+            + (f" ({dropped})" if dropped else "")
+        )
     console.print(
         f"  wrote {escape(str(s.out))} ({s.storage}, {s.messages} messages, "
         f"shaped on {escape(s.output_topic)})"

@@ -35,7 +35,7 @@ except ModuleNotFoundError as exc:  # an optional dependency: name the extra
 from velfence._docs import document_inits
 from velfence.errors import InvalidParameter
 from velfence.io.config import StrictModel, describe_validation_error
-from velfence.io.shaper_config import ConfiguredShaper, load_yaml, parse_shaper
+from velfence.io.shaper_config import ConfiguredShaper, SensorTopic, load_yaml, parse_shaper
 
 __all__ = [
     "COMMAND_TYPES",
@@ -136,6 +136,16 @@ class StateIn(_Topic):
     ) = None
 
 
+class SensorIn(SensorTopic, _Topic):
+    """A range sensor's topic (``bridge.sensors``): a PointCloud2 or LaserScan feeding the filter.
+
+    The fields of :class:`~velfence.io.shaper_config.SensorTopic`, and the topic's ``qos``
+    (default ``sensor_data``, what camera and lidar drivers publish with).
+    """
+
+    qos: QosSettings = QosSettings(profile="sensor_data")
+
+
 class DiagnosticsOut(_Topic):
     """The diagnostics topic (``diagnostic_msgs/DiagnosticArray``), rate-limited."""
 
@@ -182,6 +192,9 @@ class BridgeSettings(StrictModel):
     command_out: CommandOut = CommandOut()
     state: StateIn = StateIn()
     diagnostics: DiagnosticsOut = DiagnosticsOut()
+    #: Range sensors (point clouds, laser scans) whose points a safety filter keeps the arm
+    #: out of: one PointCloudRows each (docs/point_clouds.md, "From ROS messages").
+    sensors: Annotated[list[SensorIn], Field(default_factory=list, max_length=16)]
     command_frame: Literal["world", "body"] | None = None
     incoming_command_timeout: Seconds = 0.1
     state_timeout: Seconds = 0.5
@@ -231,7 +244,7 @@ class BridgeConfig:
             shaper's, e.g. ``fr3_joint1``), else the shaper's own; None for a point state.
         domain_id: The DDS domain the bridge joins.
         dds_topics: The DDS topic names (``rt/...``) of ``command_in``, ``command_out``,
-            ``state`` and ``diagnostics``.
+            ``state`` and ``diagnostics``, and ``sensor<i>`` of each of ``sensors``.
         source: Where the configuration came from (file name, or ``"config"``).
     """
 
@@ -409,13 +422,23 @@ def parse_bridge_config(document: Any, *, source: str = "config") -> BridgeConfi
     except ValidationError as err:
         text = describe_validation_error(err, BridgeSettings)
         raise InvalidParameter(f"{where}bridge.{text}") from None
-    cs = parse_shaper(document["shaper"], where=f"{source}: shaper")
+    if settings.sensors and document["shaper"] is not None:
+        kind = document["shaper"].get("kind") if isinstance(document["shaper"], dict) else None
+        if kind != "safety_filter":
+            raise InvalidParameter(
+                f"{where}bridge.sensors: range sensors feed a safety filter's obstacle rows; "
+                f"the shaper is {str(kind)[:40]!r} (use kind: safety_filter, or no sensors)"
+            )
+    cs = parse_shaper(document["shaper"], where=f"{source}: shaper", sensors=settings.sensors)
     out, names = _check_fit(settings, cs, where)
     domain = settings.domain_id if settings.domain_id is not None else _domain_from_env()
     topics = {
         key: dds_topic(settings, getattr(settings, key).topic)
         for key in ("command_in", "command_out", "state", "diagnostics")
     }
+    topics.update(
+        {f"sensor{i}": dds_topic(settings, x.topic) for i, x in enumerate(settings.sensors)}
+    )
     return BridgeConfig(settings, cs, out, names, domain, topics, source)
 
 

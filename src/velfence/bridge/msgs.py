@@ -46,10 +46,13 @@ __all__ = [
     "JointTrajectory",
     "JointTrajectoryPoint",
     "KeyValue",
+    "LaserScan",
     "MultiArrayDimension",
     "MultiArrayLayout",
     "Odometry",
     "Point",
+    "PointCloud2",
+    "PointField",
     "Pose",
     "PoseStamped",
     "PoseWithCovariance",
@@ -249,6 +252,47 @@ class JointState(IdlStruct, typename="sensor_msgs.msg.dds_.JointState_"):
 
 
 @dataclass
+class PointField(IdlStruct, typename="sensor_msgs.msg.dds_.PointField_"):
+    """sensor_msgs/msg/PointField: a field of a cloud's points (datatype 7 FLOAT32, 8 FLOAT64)."""
+
+    name: str = ""
+    offset: t.uint32 = 0
+    datatype: t.uint8 = 0
+    count: t.uint32 = 0
+
+
+@dataclass
+class PointCloud2(IdlStruct, typename="sensor_msgs.msg.dds_.PointCloud2_"):
+    """sensor_msgs/msg/PointCloud2: ``height`` rows of ``width`` points of ``point_step`` bytes."""
+
+    header: Header = field(default_factory=Header)
+    height: t.uint32 = 0
+    width: t.uint32 = 0
+    fields: sequence[PointField] = field(default_factory=list)
+    is_bigendian: bool = False
+    point_step: t.uint32 = 0
+    row_step: t.uint32 = 0
+    data: sequence[t.uint8] = field(default_factory=list)
+    is_dense: bool = False
+
+
+@dataclass
+class LaserScan(IdlStruct, typename="sensor_msgs.msg.dds_.LaserScan_"):
+    """sensor_msgs/msg/LaserScan: angles [rad], times [s], ranges [m]."""
+
+    header: Header = field(default_factory=Header)
+    angle_min: t.float32 = 0.0
+    angle_max: t.float32 = 0.0
+    angle_increment: t.float32 = 0.0
+    time_increment: t.float32 = 0.0
+    scan_time: t.float32 = 0.0
+    range_min: t.float32 = 0.0
+    range_max: t.float32 = 0.0
+    ranges: sequence[t.float32] = field(default_factory=list)
+    intensities: sequence[t.float32] = field(default_factory=list)
+
+
+@dataclass
 class JointJog(IdlStruct, typename="control_msgs.msg.dds_.JointJog_"):
     """control_msgs/msg/JointJog (MoveIt Servo's joint command): ``velocities`` [rad/s]."""
 
@@ -329,6 +373,9 @@ ALL_TYPES: tuple[type[IdlStruct], ...] = (
     TransformStamped,
     TFMessage,
     JointState,
+    PointField,
+    PointCloud2,
+    LaserScan,
     JointJog,
     JointTrajectoryPoint,
     JointTrajectory,

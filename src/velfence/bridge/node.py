@@ -12,6 +12,10 @@ Fail-safes:
 * a malformed message (wrong length, unknown, duplicate or missing joint names, non-finite
   numbers, an undecodable sample, a frame no transform reaches) is dropped alone and counted,
   never applied; the valid samples taken with it are answered;
+* a range sensor's message (``sensors``: PointCloud2, LaserScan) that is malformed, stale
+  (older than its ``max_age``) or in a frame no transform reaches is dropped and counted
+  (``dropped:cloud_<reason>``, a warning at most every 10 s per reason); its points never
+  reach the filter;
 * nothing non-finite is ever written: every outgoing vector is checked before the write;
 * on stop (SIGINT/SIGTERM in ``velfence bridge``) a last zero command is sent if any command
   was forwarded.
@@ -45,6 +49,7 @@ from velfence.bridge.transforms import TransformStore
 from velfence.bridge.typehash import user_data
 from velfence.errors import InvalidParameter, VelfenceError
 from velfence.geometry.frames import body_to_world, world_to_body
+from velfence.io.sensors import decode_laser_scan, decode_point_cloud2
 
 __all__ = [
     "EXIT_CONFIG",
@@ -321,6 +326,10 @@ class BridgeNode:
                 "states_received",
                 "transforms_received",
                 "dropped_transforms",
+                "clouds_received",
+                "clouds_used",
+                "dropped_clouds",
+                "cloud_readings_dropped",
                 "dropped_commands",
                 "dropped_states",
                 "dropped_outputs",
@@ -363,6 +372,11 @@ class BridgeNode:
         )
         self._tf = TransformStore()
         self._tf_readers: dict[str, Any] = {}
+        # Range sensors (docs/point_clouds.md): one reader and one PointCloudRows each.
+        self._sensors = list(s.sensors)
+        self._clouds = list(cs.clouds)
+        self._sensor_readers: list[Any] = []
+        self._cloud_warned: dict[str, float] = {}
         self._cmd_rotation: tuple[Any, np.ndarray] | None = None  # (message, R into the frame)
         self._reader_types: dict[str, type[Any]] = {
             "command": _TYPES[self._in_type],
@@ -515,7 +529,12 @@ class BridgeNode:
         self._ws.attach(ReadCondition(self._cmd_reader, mask))
         self._ws.attach(ReadCondition(self._state_reader, mask))
         self._ws.attach(self._guard)
-        if self._frame_id is not None:  # command frames through /tf and /tf_static
+        for i, x in enumerate(self._sensors):
+            typ = msgs.PointCloud2 if x.type == "point_cloud2" else msgs.LaserScan
+            rd = reader(f"sensor{i}", typ, x.qos, "cloud")
+            self._sensor_readers.append(rd)
+            self._ws.attach(ReadCondition(rd, mask))
+        if self._frame_id is not None or self._sensors:  # frames through /tf and /tf_static
             for key, topic, qos in (
                 ("tf", s.tf.topic, s.tf.qos),
                 ("tf_static", s.tf.static_topic, s.tf.static_qos),
@@ -548,7 +567,12 @@ class BridgeNode:
         for rd in self._graph.conditions():
             self._ws.attach(ReadCondition(rd, mask))
         self._graph.announce(
-            [self._cmd_reader, self._state_reader, *self._tf_readers.values()],
+            [
+                self._cmd_reader,
+                self._state_reader,
+                *self._tf_readers.values(),
+                *self._sensor_readers,
+            ],
             [self._out_writer, self._diag_writer],
         )
         self._ready.set()
@@ -572,6 +596,7 @@ class BridgeNode:
         dp, self._participant = self._participant, None
         self._guard = None
         self._tf_readers = {}
+        self._sensor_readers = []
         for attr in ("_cmd_reader", "_state_reader", "_out_writer", "_diag_writer", "_ws"):
             self.__dict__.pop(attr, None)
         if dp is not None:
@@ -596,8 +621,10 @@ class BridgeNode:
 
     def _loss_event(self, what: str, kind: str, status: Any) -> None:
         # Called on a Cyclone DDS thread: only count (the change since the last report).
+        key = f"{what}_{kind}"
         with self._lock:
-            self._counters[f"{what}_{kind}"] += max(0, int(status.total_count_change))
+            if key in self._counters:
+                self._counters[key] += max(0, int(status.total_count_change))
 
     # ---------------------------------------------------------------- the loop
     def _loop(self, end: float | None) -> None:
@@ -628,6 +655,7 @@ class BridgeNode:
             self._guard.set(False)
             urgent = self._drain_events()
             self._take_transforms()
+            self._take_clouds()
             self._take_states()
             if self._active:  # --- ROS 2 graph hook: an inactive managed node answers nothing
                 self._take_commands()
@@ -827,6 +855,81 @@ class BridgeNode:
             return None
         return self._state
 
+    # ---------------------------------------------------------------- range sensors
+    def _take_clouds(self) -> None:
+        """Every waiting sensor message into its PointCloudRows, or dropped and counted."""
+        for x, rd, rows in zip(self._sensors, self._sensor_readers, self._clouds, strict=True):
+            try:
+                raw = _take_serialized(rd, _TAKE)
+            except Exception:  # the reader failed (a deleted entity): nothing to take
+                self._drop_cloud("take_failed")
+                continue
+            for data, info in raw:
+                if not info.valid_data:
+                    continue
+                with self._lock:
+                    self._counters["clouds_received"] += 1
+                self._use_cloud(x, rows, data)
+
+    def _use_cloud(self, x: Any, rows: Any, data: bytes) -> None:
+        decode = decode_point_cloud2 if x.type == "point_cloud2" else decode_laser_scan
+        try:
+            sp = decode(data, max_points=x.max_points)
+        except VelfenceError:
+            self._drop_cloud("malformed")
+            return
+        now = time.time()
+        if now - sp.stamp > x.max_age:
+            self._drop_cloud("stale")
+            return
+        frame = sp.frame_id.removeprefix("/") or x.base_frame
+        pose = None
+        if frame != x.base_frame:
+            try:
+                pose = self._tf.transform(x.base_frame, frame)
+            except VelfenceError:
+                pose = None
+            if pose is None:
+                self._drop_cloud("frame_unknown")
+                return
+        try:
+            rows.update(sp.points, stamp=sp.stamp, transform=pose)
+        except VelfenceError:
+            self._drop_cloud("invalid")
+            return
+        with self._lock:
+            self._counters["clouds_used"] += 1
+            self._counters["cloud_readings_dropped"] += sp.dropped
+
+    def _drop_cloud(self, reason: str) -> None:
+        """A dropped sensor message: counted; a warning at most every 10 s per reason."""
+        key = f"cloud_{reason}"
+        with self._lock:
+            self._counters["dropped_clouds"] += 1
+            self._drops[key] = self._drops.get(key, 0) + 1
+            count = self._drops[key]
+        now = time.monotonic()
+        last = self._cloud_warned.get(key)
+        if last is None or now - last >= 10.0:
+            self._cloud_warned[key] = now
+            self._log.warning(
+                "dropped a sensor message: %s (%d so far; its points are not used; counted as "
+                "dropped:%s in the diagnostics)",
+                reason.replace("_", " "),
+                count,
+                key,
+            )
+
+    def _age_clouds(self) -> None:
+        """Age every grid to the present, so a silent sensor's voxels decay."""
+        if not self._clouds:
+            return
+        now = time.time()
+        empty = np.zeros((0, 3))
+        for rows in self._clouds:
+            if rows.stamp is not None:
+                rows.update(empty, stamp=now)
+
     # ---------------------------------------------------------------- commands
     def _take_transforms(self) -> None:
         for rd in self._tf_readers.values():
@@ -922,6 +1025,7 @@ class BridgeNode:
             with self._lock:
                 self._counters["commands_held"] += 1
             return
+        self._age_clouds()
         if self._body:
             res = self._cs.shaper.explain(p, body_to_world(v, self._state_yaw))
             out = world_to_body(np.asarray(res.output, dtype=float), self._state_yaw)

@@ -81,6 +81,9 @@ def _flatten(prefix: str, data: Any, out: dict[str, Any]) -> None:
     if isinstance(data, dict):
         for k, v in data.items():
             _flatten(f"{prefix}.{k}" if prefix else str(k), v, out)
+    elif isinstance(data, list) and all(isinstance(v, dict) for v in data):
+        for i, v in enumerate(data):  # sensors: sensors.0.topic, ...; none: no parameter
+            _flatten(f"{prefix}.{i}", v, out)
     elif data is not None:
         out[prefix] = data
 

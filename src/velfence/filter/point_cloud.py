@@ -235,7 +235,16 @@ class PointCloudRows:
             self.dropped_nonfinite = int(pts.shape[0] - np.count_nonzero(ok))
             pts = pts[ok]
         if pose is not None:
-            pts = pts @ pose[:3, :3].T + pose[:3, 3]
+            # R p + t column by column: an (N, 3) @ (3, 3) product goes through BLAS, measured
+            # 4-5 times slower at 10⁵ points on a loaded 2-core machine (benchmarks/point_cloud.py)
+            moved = np.empty(pts.shape)
+            for i in range(3):
+                col = moved[:, i]
+                np.multiply(pts[:, 0], pose[i, 0], out=col)
+                col += pts[:, 1] * pose[i, 1]
+                col += pts[:, 2] * pose[i, 2]
+                col += pose[i, 3]
+            pts = moved
             if not bool(np.isfinite(pts).all()):  # a far point and a large offset
                 raise InvalidInput("points: a point leaves the finite range once transformed")
         idx = np.multiply(pts, 1.0 / self.voxel)

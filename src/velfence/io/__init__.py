@@ -25,6 +25,12 @@ _EXPORTS: dict[str, str] = {
     "replay": "velfence.io.bags",
     "DEFAULT_MAX_STEPS": "velfence.io.defaults",
     "load_joint_limits": "velfence.io.joint_limits",
+    "SensorPoints": "velfence.io.sensors",
+    "cloud_points": "velfence.io.sensors",
+    "decode_laser_scan": "velfence.io.sensors",
+    "decode_point_cloud2": "velfence.io.sensors",
+    "scan_points": "velfence.io.sensors",
+    "TransformStore": "velfence.io.transforms",
     "ConfiguredShaper": "velfence.io.shaper_config",
     "load_yaml": "velfence.io.shaper_config",
     "parse_shaper": "velfence.io.shaper_config",
@@ -55,7 +61,15 @@ if TYPE_CHECKING:  # the same names, eagerly, for type checkers and IDEs
     from velfence.io.bags import ReplaySettings, ReplaySummary, load_replay_config, replay
     from velfence.io.defaults import DEFAULT_MAX_STEPS
     from velfence.io.joint_limits import load_joint_limits
+    from velfence.io.sensors import (
+        SensorPoints,
+        cloud_points,
+        decode_laser_scan,
+        decode_point_cloud2,
+        scan_points,
+    )
     from velfence.io.shaper_config import ConfiguredShaper, load_yaml, parse_shaper
+    from velfence.io.transforms import TransformStore
     from velfence.io.zones import (
         NavZone,
         PlaneZones,
@@ -76,7 +90,12 @@ __all__ = [
     "ReplaySettings",
     "ReplaySummary",
     "SafetyPlane",
+    "SensorPoints",
+    "TransformStore",
     "box_workspace",
+    "cloud_points",
+    "decode_laser_scan",
+    "decode_point_cloud2",
     "load_joint_limits",
     "load_nav2_polygons",
     "load_replay_config",
@@ -87,5 +106,6 @@ __all__ = [
     "nav2_polygons",
     "parse_shaper",
     "replay",
+    "scan_points",
     "ur_safety_planes",
 ]

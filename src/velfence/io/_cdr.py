@@ -78,6 +78,29 @@ class CdrReader:
         self.pos = pos + 4
         return int(v)
 
+    def u8(self) -> int:
+        """A uint8, byte or bool."""
+        self.need(1)
+        v = self.buf[self.pos]
+        self.pos += 1
+        return int(v)
+
+    def stamp(self) -> tuple[int, int]:
+        """A ``builtin_interfaces/Time``: (``sec`` as int32, ``nanosec``)."""
+        sec = self.u32()
+        return (sec - (1 << 32) if sec >= 1 << 31 else sec), self.u32()
+
+    def floats32(self, count: int) -> FloatArray:
+        """``count`` float32 here, as float64 in native order."""
+        if count:
+            self.align(4)
+        self.need(4 * count)
+        arr = np.frombuffer(
+            self.buf, dtype="<f4" if self.little else ">f4", count=count, offset=self.pos
+        ).astype(np.float64)
+        self.pos += 4 * count
+        return arr
+
     def skip_u32s(self, k: int) -> None:
         """Skip ``k`` uint32 values."""
         self.pos += -self.pos & 3

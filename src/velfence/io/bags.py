@@ -26,6 +26,8 @@ The configuration is one YAML file with a ``shaper:`` section
       joint_names: null                # bag names of the shaper's joints (JointState, JointJog)
       max_state_age: 0.5               # [s]; default: any age
       command_frame: world             # or body: a planar cmd_vel in the base frame (yaw applied)
+      sensors:                         # safety_filter only: range sensors -> obstacle rows
+        - {topic: /camera/points, type: point_cloud2, base_frame: base_link, max_age: 0.2}
 
 ``rosbags`` (extra ``ros``) is imported inside the functions only.
 """
@@ -36,7 +38,7 @@ import os
 import re
 import shutil
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any, Literal
 
@@ -56,7 +58,15 @@ from velfence.errors import InvalidParameter, NothingToReplay, VelfenceError
 from velfence.geometry.frames import body_to_world, world_to_body
 from velfence.io._cdr import CdrError, CdrReader, patch_doubles
 from velfence.io.config import Positive, StrictModel, describe_validation_error
-from velfence.io.shaper_config import MAX_JOINTS, ConfiguredShaper, load_yaml, parse_shaper
+from velfence.io.sensors import SENSOR_TYPES, decode_laser_scan, decode_point_cloud2
+from velfence.io.shaper_config import (
+    MAX_JOINTS,
+    ConfiguredShaper,
+    SensorTopic,
+    load_yaml,
+    parse_shaper,
+)
+from velfence.io.transforms import TransformStore
 from velfence.io.yaml_reader import read_yaml
 
 if TYPE_CHECKING:
@@ -85,6 +95,9 @@ FLOAT_ARRAY = "std_msgs/msg/Float64MultiArray"
 JOINT_STATE = "sensor_msgs/msg/JointState"
 POSE_STAMPED = "geometry_msgs/msg/PoseStamped"
 ODOMETRY = "nav_msgs/msg/Odometry"
+TF_MESSAGE = "tf2_msgs/msg/TFMessage"
+#: The transform topics a replay with sensors reads (their TFMessage, in time order).
+TF_TOPICS = ("/tf", "/tf_static")
 
 _TWIST_TYPES = (TWIST, TWIST_STAMPED)
 _JOINT_TYPES = (JOINT_JOG, FLOAT_ARRAY)
@@ -103,6 +116,17 @@ float64 duration
 _TOPIC = re.compile(r"/[A-Za-z0-9_/~]{1,255}")
 Topic = Annotated[str, Strict()]
 JointName = Annotated[str, Strict(), Field(min_length=1, max_length=256)]
+
+
+class ReplaySensor(SensorTopic):
+    """A range sensor's topic in a bag (``replay.sensors``; the fields of ``SensorTopic``)."""
+
+    @field_validator("topic")
+    @classmethod
+    def _topic_name(cls, value: str) -> str:
+        if not _TOPIC.fullmatch(value):
+            raise ValueError(f"expected a ROS topic name (/name), got {show(value, 60)}")
+        return value
 
 
 class ReplaySettings(StrictModel):
@@ -126,6 +150,9 @@ class ReplaySettings(StrictModel):
             pose's heading (yaw) into the pose's frame for shaping and back for writing (polygon
             shapers only; :func:`velfence.geometry.body_to_world`). The old value ``"state"``
             means ``"world"`` and warns until 0.3.
+        sensors: Range sensors (``sensor_msgs/msg/PointCloud2``, ``LaserScan``) whose points
+            the safety filter keeps the arm out of (a ``safety_filter`` shaper only), through
+            the bag's ``/tf`` and ``/tf_static`` (``docs/replay.md``, "Point clouds").
     """
 
     command_topic: Topic
@@ -136,6 +163,7 @@ class ReplaySettings(StrictModel):
     )
     max_state_age: Positive | None = None
     command_frame: Literal["world", "body"] = "world"
+    sensors: Annotated[list[ReplaySensor], Field(default_factory=list, max_length=16)]
 
     def __init__(self, **data: Any) -> None:
         """Build the section directly (the fields are documented in ``docs/replay.md``).
@@ -171,6 +199,12 @@ class ReplaySettings(StrictModel):
         topics = [self.command_topic, self.state_topic, self.output]
         if len(set(topics)) != 3:
             raise ValueError(f"command, state and output topics must differ, got {topics}")
+        sensed = [x.topic for x in self.sensors]
+        if len(set(sensed)) != len(sensed) or set(sensed) & {*topics, *TF_TOPICS}:
+            raise ValueError(
+                f"sensors: each sensor topic must be distinct and not a command, state, output "
+                f"or transform topic, got {sensed}"
+            )
         if self.joint_names is not None and len(set(self.joint_names)) != len(self.joint_names):
             raise ValueError(f"joint_names must be distinct, got {self.joint_names}")
         return self
@@ -217,6 +251,14 @@ class ReplaySummary:
         has_state: Whether a usable state was held, shape (N,).
         fence: A polygon shaper's corners (CCW) [m], shape (m, 2); else None.
         buffer: A polygon shaper's buffer [m]; else None.
+        clouds_used: Sensor messages (``replay.sensors``) fed to the filter.
+        clouds_dropped: Sensor messages dropped, by reason: ``"stale"`` (stamp older than
+            ``max_age`` at the bag's receive time), ``"frame_unknown"`` (no transform from its
+            frame to ``base_frame`` in the bag's ``/tf`` so far), ``"malformed"``, ``"invalid"``
+            (a point beyond the finite range once transformed); and ``"bad_transform"`` counts
+            the bag's transforms that could not be stored (a zero quaternion, NaN).
+        cloud_readings_dropped: Readings of the used messages dropped (NaN, inf, out of
+            range).
     """
 
     bag: Path
@@ -247,6 +289,9 @@ class ReplaySummary:
     has_state: NDArray[np.bool_]
     fence: NDArray[np.float64] | None
     buffer: float | None
+    clouds_used: int = 0
+    clouds_dropped: Mapping[str, int] = field(default_factory=dict)
+    cloud_readings_dropped: int = 0
 
     @property
     def zeroed(self) -> int:
@@ -322,7 +367,8 @@ def _config(config: Any) -> tuple[ConfiguredShaper, ReplaySettings]:
     extra = sorted(str(k) for k in doc if k not in ("shaper", "replay"))
     if extra:
         raise InvalidParameter(f"config {name}: unknown section(s) {extra}")
-    return parse_shaper(doc["shaper"]), _settings(doc["replay"], "replay")
+    settings = _settings(doc["replay"], "replay")
+    return parse_shaper(doc["shaper"], sensors=settings.sensors), settings
 
 
 def load_replay_config(
@@ -763,6 +809,7 @@ class _Result:
     zeroed: dict[str, int]
     states: int
     messages: int
+    clouds: tuple[int, dict[str, int], int] = (0, {}, 0)
 
 
 #: Messages held before the shaped commands of a window are computed (one batch call) and the
@@ -803,6 +850,8 @@ class _Job:
     wanted: str
     listed: int | None
     path: Path
+    sensor_ids: Mapping[int, int] = field(default_factory=dict)
+    tf_ids: frozenset[int] = frozenset()
 
     @classmethod
     def plan(cls, reader: Any, source: _Source, cs: ConfiguredShaper, s: ReplaySettings) -> _Job:
@@ -839,6 +888,26 @@ class _Job:
                 )
             types[topic] = found.pop()
         codec, read_state = _codecs(cs, s, types[s.command_topic], types[s.state_topic])
+        sensor_ids: dict[int, int] = {}
+        for i, x in enumerate(s.sensors):
+            want = SENSOR_TYPES[x.type]
+            if x.topic not in by_topic:
+                raise InvalidParameter(
+                    f"replay.sensors[{i}].topic {x.topic}: not in bag {source.path} ({want} "
+                    f"expected); {_holdings(reader)}"
+                )
+            found = {c.msgtype for c in by_topic[x.topic]}
+            if found != {want}:
+                raise InvalidParameter(
+                    f"replay.sensors[{i}].topic {x.topic}: bag {source.path} has it as "
+                    f"{sorted(found)}, expected {want} (type: {x.type})"
+                )
+            sensor_ids.update(dict.fromkeys((c.id for c in by_topic[x.topic]), i))
+        tf_ids = frozenset(
+            c.id
+            for c in reader.connections
+            if s.sensors and c.topic in TF_TOPICS and c.msgtype == TF_MESSAGE
+        )
         return cls(
             cs=cs,
             settings=s,
@@ -851,12 +920,15 @@ class _Job:
             wanted=wanted,
             listed=listed,
             path=source.path,
+            sensor_ids=sensor_ids,
+            tf_ids=tf_ids,
         )
 
     def run(self, reader: Any, target: Path, writer: Any, report: _Progress) -> _Result:
         """Read every message once, in time order; shape and write window by window."""
         total = int(getattr(reader, "message_count", 0) or 0)
         cmd_ids, state_ids = self.cmd_ids, self.state_ids
+        sensor_ids, tf_ids = self.sensor_ids, self.tf_ids
         read_cmd, read_state = self.codec.read, self.read_state
         max_age = None if self.settings.max_state_age is None else self.settings.max_state_age
         acc = _Accumulator(self, max_age)
@@ -899,6 +971,11 @@ class _Job:
                             v, token = read_cmd(raw)
                             k = acc.add(t, v, token)
                             group.append(k)
+                        elif cid in sensor_ids:
+                            acc.cloud(sensor_ids[cid], t, raw)
+                        elif cid in tf_ids:
+                            topic = conn.topic
+                            acc.transforms(reader.deserialize(raw, conn.msgtype))
                         window.append((out[cid], t, raw, k))
                         nbytes += len(raw)
                         per_conn[cid] += 1
@@ -978,6 +1055,15 @@ class _Accumulator:
         self.held: list[tuple[int, NDArray[np.float64]] | None] = []
         self.done = 0  # commands shaped and written
         self.parts: list[tuple[NDArray[Any], ...]] = []
+        # range sensors: the bag's transforms so far, and the clouds (in the base frame's
+        # terms) waiting to be fed to their PointCloudRows before the command they precede
+        self.sensors = job.settings.sensors
+        self.clouds = job.cs.clouds
+        self.tf = TransformStore()
+        self.events: list[tuple[int, int, Any, float, Any]] = []
+        self.clouds_used = 0
+        self.clouds_dropped: dict[str, int] = {}
+        self.readings_dropped = 0
 
     def add(self, t: int, v: NDArray[np.float64], token: Any) -> int:
         self.t.append(t)
@@ -986,6 +1072,66 @@ class _Accumulator:
         self.held.append(None)
         self.count += 1
         return self.count - 1
+
+    def transforms(self, msg: Any) -> None:
+        """A ``/tf`` or ``/tf_static`` message: its transforms into the store (bad ones skipped)."""
+        for ts in msg.transforms:
+            tr = ts.transform
+            r, x = tr.rotation, tr.translation
+            try:
+                self.tf.set(
+                    ts.header.frame_id, ts.child_frame_id, (r.x, r.y, r.z, r.w), (x.x, x.y, x.z)
+                )
+            except VelfenceError:
+                self._drop_cloud("bad_transform")
+
+    def _drop_cloud(self, reason: str) -> None:
+        self.clouds_dropped[reason] = self.clouds_dropped.get(reason, 0) + 1
+
+    def cloud(self, i: int, t: int, raw: bytes) -> None:
+        """A sensor message received at ``t`` [ns]: kept for the next command, or dropped."""
+        x = self.sensors[i]
+        decode = decode_point_cloud2 if x.type == "point_cloud2" else decode_laser_scan
+        try:
+            sp = decode(raw, max_points=x.max_points)
+        except VelfenceError:
+            self._drop_cloud("malformed")
+            return
+        if t * 1e-9 - sp.stamp > x.max_age:
+            self._drop_cloud("stale")
+            return
+        frame = sp.frame_id.removeprefix("/") or x.base_frame
+        pose = None
+        if frame != x.base_frame:
+            try:
+                pose = self.tf.transform(x.base_frame, frame)
+            except VelfenceError:
+                pose = None
+            if pose is None:
+                self._drop_cloud("frame_unknown")
+                return
+        self.clouds_used += 1
+        self.readings_dropped += sp.dropped
+        self.events.append((self.count, i, sp.points, sp.stamp, pose))
+
+    def _feed(self, upto: int, now: float) -> None:
+        """The clouds received before command ``upto``, then every grid aged to ``now`` [s]."""
+        ev = self.events
+        e = 0
+        while e < len(ev) and ev[e][0] <= upto:
+            _, i, pts, stamp, pose = ev[e]
+            try:
+                self.clouds[i].update(pts, stamp=stamp, transform=pose)
+            except VelfenceError:  # a point beyond the finite range once transformed
+                self.clouds_used -= 1
+                self._drop_cloud("invalid")
+            e += 1
+        if e:
+            del ev[:e]
+        empty = np.zeros((0, 3))
+        for rows in self.clouds:
+            if rows.stamp is not None and now > rows.stamp:
+                rows.update(empty, stamp=now)
 
     def hold(self, group: list[int], held: tuple[int, NDArray[np.float64]] | None) -> None:
         """The commands of one timestamp get the latest state at or before it."""
@@ -1053,7 +1199,11 @@ class _Accumulator:
                     out[i] = (Y[j], None)
                 done = True
         if not done:
-            for i in rows.tolist():
+            for i in range(m) if self.clouds else rows.tolist():
+                if self.clouds:  # the clouds before this command, the grids aged to it
+                    self._feed(lo + i, float(times[i]) * 1e-9)
+                    if not ok[i]:
+                        continue
                 q, v = P[i, :n], V[i]
                 try:
                     if self.heading:  # body frame -> the pose's frame: turn by the heading
@@ -1094,6 +1244,7 @@ class _Accumulator:
             zeroed=self.zeroed,
             states=self.states,
             messages=self.messages,
+            clouds=(self.clouds_used, dict(self.clouds_dropped), self.readings_dropped),
         )
 
 
@@ -1125,6 +1276,7 @@ def _summary(
     diff = np.abs(r.commanded - r.shaped)
     changed = int(np.count_nonzero(np.any(diff > CHANGE_TOL, axis=1))) if N else 0
     fence = buffer = None
+    acc_clouds = r.clouds
     if cs.kind == "polygon":
         fence = np.array(cs.shaper.polygon.corners, dtype=float)
         buffer = float(cs.shaper.buffer)
@@ -1157,6 +1309,9 @@ def _summary(
         has_state=r.has_state,
         fence=fence,
         buffer=buffer,
+        clouds_used=acc_clouds[0],
+        clouds_dropped=acc_clouds[1],
+        cloud_readings_dropped=acc_clouds[2],
     )
 
 

@@ -39,7 +39,7 @@ reports (:data:`SHAPER_METHODS`), or ``patent``, the documented alias of ``edge-
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any, Literal
@@ -73,6 +73,7 @@ __all__ = [
     "SHAPER_KINDS",
     "SHAPER_METHODS",
     "ConfiguredShaper",
+    "SensorTopic",
     "load_yaml",
     "parse_shaper",
 ]
@@ -204,6 +205,45 @@ class _SafetyFilter(StrictModel):
         return self
 
 
+class SensorTopic(StrictModel):
+    """A range sensor feeding a safety filter (an entry of ``bridge.sensors``/``replay.sensors``).
+
+    Each entry gets its own :class:`~velfence.filter.PointCloudRows` in the filter
+    (``docs/point_clouds.md``, "From ROS messages").
+
+    Attributes:
+        topic: The sensor's topic.
+        type: ``point_cloud2`` (``sensor_msgs/msg/PointCloud2``) or ``laser_scan``
+            (``sensor_msgs/msg/LaserScan``).
+        base_frame: The robot's base frame (the frame of its links): each message's
+            ``header.frame_id`` is transformed into it through ``/tf`` and ``/tf_static``; an
+            empty ``frame_id`` means this frame. A message in a frame no transform reaches is
+            dropped and counted.
+        max_age: A message whose stamp is older than this [s] when it arrives is dropped and
+            counted (stale).
+        voxel: The voxel edge [m].
+        decay: A voxel not seen for this long [s] is forgotten.
+        buffer: The obstacle rows' buffer [m].
+        spring_gain: The obstacle rows' recovery gain [1/s].
+        nearest: Voxels per link that get rows.
+        self_margin: Voxels this close [m] to a link's surface are the robot (default the
+            voxel's half diagonal).
+        max_points: The largest message accepted (points or readings).
+    """
+
+    topic: Annotated[str, Strict(), Field(min_length=1, max_length=255)]
+    type: Literal["point_cloud2", "laser_scan"]
+    base_frame: Annotated[str, Strict(), Field(min_length=1, max_length=255)] = "base_link"
+    max_age: Annotated[float, Strict(), Field(allow_inf_nan=False, gt=0, le=3600.0)] = 0.5
+    voxel: Annotated[float, Strict(), Field(allow_inf_nan=False, ge=1e-4, le=10.0)] = 0.02
+    decay: Annotated[float, Strict(), Field(allow_inf_nan=False, gt=0, le=3600.0)] = 0.5
+    buffer: Annotated[float, Strict(), Field(allow_inf_nan=False, ge=MIN_BUFFER, le=10.0)] = 0.05
+    spring_gain: Positive = 1.0
+    nearest: Annotated[int, Strict(), Field(ge=1, le=10_000)] = 8
+    self_margin: Annotated[float, Strict(), Field(allow_inf_nan=False, ge=0, le=10.0)] | None = None
+    max_points: Annotated[int, Strict(), Field(ge=1, le=10_000_000)] = 10_000_000
+
+
 _MODELS: dict[str, type[StrictModel]] = {
     "polygon": _Polygon,
     "polytope": _Polytope,
@@ -226,6 +266,8 @@ class ConfiguredShaper:
             (an n-D point's velocity), ``"joint"`` (joint velocities [rad/s]) or ``"twist"``
             (the TCP's linear velocity [m/s], output joint velocities).
         joint_names: The joints, in the order of the state, for joint-space shapers; else None.
+        clouds: A safety filter's point-cloud row providers, one per sensor given to
+            :func:`parse_shaper` (``sensors=``), in that order; else empty.
     """
 
     kind: str
@@ -235,6 +277,7 @@ class ConfiguredShaper:
     output_dim: int
     command_space: str
     joint_names: tuple[str, ...] | None
+    clouds: tuple[Any, ...] = ()
 
 
 def load_yaml(path: str | Path) -> dict[str, Any]:
@@ -267,12 +310,20 @@ def load_yaml(path: str | Path) -> dict[str, Any]:
     return loaded
 
 
-def parse_shaper(section: Mapping[str, Any], *, where: str = "shaper") -> ConfiguredShaper:
+def parse_shaper(
+    section: Mapping[str, Any],
+    *,
+    where: str = "shaper",
+    sensors: Sequence[SensorTopic] = (),
+) -> ConfiguredShaper:
     """Validate a ``shaper:`` section and build its shaper (module docs for the format).
 
     Args:
         section: The section's mapping (e.g. ``load_yaml(path)["shaper"]``).
         where: How the section is named in messages (``"shaper"``, ``"bridge.yaml: shaper"``).
+        sensors: Range sensors (validated :class:`SensorTopic` entries) whose points the
+            filter keeps the arm out of: one :class:`~velfence.filter.PointCloudRows` each,
+            in :attr:`ConfiguredShaper.clouds`; only a ``safety_filter`` shaper takes them.
 
     Returns:
         The shaper and what it reads and writes.
@@ -280,7 +331,7 @@ def parse_shaper(section: Mapping[str, Any], *, where: str = "shaper") -> Config
     Raises:
         InvalidParameter: a missing or unknown ``kind``, an unknown key, a field of the wrong type
             or range (named ``<where>.<field>``), geometry that does not close (named), a robot
-            whose extra is not installed.
+            whose extra is not installed, sensors given to another kind of shaper.
     """
     if not isinstance(where, str) or not where or len(where) > 200 or "\n" in where:
         got = f"{len(where)} characters" if isinstance(where, str) else type(where).__name__
@@ -309,7 +360,18 @@ def parse_shaper(section: Mapping[str, Any], *, where: str = "shaper") -> Config
         if text.startswith(top):
             raise InvalidParameter(f"section {where}: {text.removeprefix(top)}") from None
         raise InvalidParameter(f"section {where}.{text}") from None
+    if not isinstance(sensors, (list, tuple)) or not all(
+        isinstance(x, SensorTopic) for x in sensors
+    ):
+        raise InvalidParameter("sensors: expected a list of SensorTopic entries")
+    if sensors and not isinstance(spec, _SafetyFilter):
+        raise InvalidParameter(
+            f"section {where}.kind: range sensors feed a safety filter's obstacle rows; "
+            f"kind {kind!r} has none (use kind: safety_filter, or give no sensors)"
+        )
     try:
+        if isinstance(spec, _SafetyFilter):
+            return _safety_filter(spec, tuple(sensors))
         return _build(spec)
     except VelfenceError as exc:  # e.g. InvalidGeometry of corners that do not close
         raise InvalidParameter(f"section {where}: {exc}") from None
@@ -351,11 +413,11 @@ def _build(spec: Any) -> ConfiguredShaper:
     return _safety_filter(spec)
 
 
-def _safety_filter(spec: _SafetyFilter) -> ConfiguredShaper:
+def _safety_filter(spec: _SafetyFilter, sensors: tuple[SensorTopic, ...] = ()) -> ConfiguredShaper:
     import numpy as np
 
     from velfence import robots
-    from velfence.filter import SafetyFilter
+    from velfence.filter import PointCloudRows, SafetyFilter
     from velfence.filter.limits import JointLimits, WorkspaceLimit
     from velfence.filter.twist import TwistMode
     from velfence.geometry.polytope import ConvexPolytope
@@ -380,6 +442,20 @@ def _safety_filter(spec: _SafetyFilter) -> ConfiguredShaper:
                 buffer=w.buffer,
             ),
         )
+    clouds = tuple(
+        PointCloudRows(
+            voxel=x.voxel,
+            link_radius=robot.link_radius,
+            max_speed=vmax,
+            buffer=x.buffer,
+            spring_gain=x.spring_gain,
+            decay=x.decay,
+            self_margin=x.self_margin,
+            nearest=x.nearest,
+            max_points=x.max_points,
+        )
+        for x in sensors
+    )
     f = SafetyFilter(
         robot,
         limits=JointLimits(lim[:, 0], lim[:, 1], max_speed=vmax, names=names),
@@ -387,10 +463,11 @@ def _safety_filter(spec: _SafetyFilter) -> ConfiguredShaper:
         dt=spec.dt,
         joint_buffer=spec.joint_buffer,
         spring_gain=spec.spring_gain,
+        providers=clouds,
     )
     if spec.mode == "joint":
-        return ConfiguredShaper("safety_filter", f, n, n, n, "joint", names)
-    return ConfiguredShaper("safety_filter", TwistMode(f), n, 3, n, "twist", names)
+        return ConfiguredShaper("safety_filter", f, n, n, n, "joint", names, clouds)
+    return ConfiguredShaper("safety_filter", TwistMode(f), n, 3, n, "twist", names, clouds)
 
 
 document_inits(globals())
