@@ -1178,11 +1178,17 @@ def plot_separation(result: ScenarioResult, path: Any) -> Any:
             REDUCED_LIMITS.point_speeds["tcp"], color="darkgoldenrod", lw=1.0, ls="-.",
             label="Reduced TCP cap",
         )  # fmt: skip
-    kinds = ("separation", "point cloud", "workspace", "joint")
+    kinds = ("separation", "point cloud", "workspace", "joint", "mode")
     if people is not None:
         t = people.trajectory.t
         for j, kind in enumerate(kinds):
-            on = np.array([any(kind in a for a in act) for act in people.extra["active"]])
+            # The mode rows' names start "mode ..." and may name a joint: they count as "mode".
+            on = np.array(
+                [
+                    any(kind in a and (kind == "mode") == a.startswith("mode ") for a in act)
+                    for act in people.extra["active"]
+                ]
+            )
             ax3.fill_between(
                 t, j - 0.4, j + 0.4, where=on, step="post", color=f"C{j}", label=f"{kind} rows"
             )
