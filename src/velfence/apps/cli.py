@@ -418,7 +418,11 @@ def sim(
         for key, unit in result.units.items():
             table.add_row(
                 escape(f"{key} [{unit}]"),
-                *(_short(result.metrics[m][key]) for m in result.metrics),
+                # A run may lack a metric (person-cell's mode metrics: only the people run).
+                *(
+                    _short(result.metrics[m][key]) if key in result.metrics[m] else "-"
+                    for m in result.metrics
+                ),
             )
         console.print(table)
         for c in report.checks:

@@ -24,7 +24,7 @@ METHOD_LABELS: dict[str, str] = {
     "safety-filter-jerk-rows": "velfence + jerk rows",
     "safety-filter-no-jerk-rows": "velfence, no jerk rows",
     "safety-filter-no-people": "velfence, no people rows",
-    "safety-filter-people": "velfence + separation + point cloud",
+    "safety-filter-people": "velfence + separation + point cloud + modes",
 }
 
 

@@ -183,10 +183,46 @@ def test_short_run_keeps_separation_and_resumes() -> None:
     # The arm stopped beside the held-out hand (the waypoint behind it came late) and resumed
     # its task after the person left.
     assert v_on["slowest_near"] <= 0.01
-    blocked = 3  # the fourth waypoint reached: the one the hand is held out at
+    blocked = 1  # the second waypoint reached: the one the hand is held out at
     assert on.extra["reached"][blocked] - off.extra["reached"][blocked] > 0.5
     assert v_on["waypoints_after"] >= 1
     assert on.extra["reached"][-1] > path.times["gone"]
+    # The modes: Normal -> Reduced when the body's footprint enters the zone (recomputed here
+    # from the script), Stop while the hand is near the TCP, back through Reduced to Normal.
+    events = on.extra["mode_events"]
+    assert [(e.previous.value, e.mode.value) for e in events] == [
+        ("normal", "reduced"),
+        ("reduced", "stop"),
+        ("stop", "reduced"),
+        ("reduced", "normal"),
+    ]
+    x0, y0, x1, y1 = person.REDUCED_ZONE
+    grid = np.arange(len(t)) * person.DT
+    feet = np.array([path.pose(s)[0] for s in grid])
+    gap = np.hypot(
+        np.maximum(np.maximum(x0 - feet[:, 0], feet[:, 0] - x1), 0.0),
+        np.maximum(np.maximum(y0 - feet[:, 1], feet[:, 1] - y1), 0.0),
+    )
+    entered = grid[np.flatnonzero(gap <= person.BODY_RADIUS)[0]]
+    assert events[0].time == pytest.approx(entered, abs=1e-9)
+    # Stop while the hand is held out, released after it is withdrawn (then the dwell).
+    assert path.times["arrived"] < events[1].time < path.times["reached"]
+    assert path.times["withdraw"] < events[2].time < path.times["withdrawn"]
+    assert events[3].time >= events[2].time + person.MODE_DWELL
+    mode = on.extra["mode_per_period"]
+    speed = on.extra["tcp_speed"]
+    settled = lambda a, b: (t >= a + person.MODE_GRACE) & (t < b)  # noqa: E731
+    reduced = settled(events[0].time, events[1].time) | settled(events[2].time, events[3].time)
+    assert np.all(mode[reduced] == "reduced")
+    assert speed[reduced].max() <= 0.1  # the Reduced TCP cap (0.094 measured)
+    assert speed[reduced].max() > 0.08  # and the arm does move in Reduced
+    stop = settled(events[1].time, events[2].time)
+    q = on.trajectory.p
+    assert np.abs(np.diff(q[stop], axis=0)).max() / person.DT < 0.01  # every joint at rest
+    assert v_on["mode_switches"] == 4
+    assert v_on["waypoints_after_normal"] >= 1
+    assert mode[-1] == "normal"
+    assert v_on["time_stop"] == pytest.approx(np.count_nonzero(mode == "stop") * person.DT)
 
 
 def test_script_sensor_and_run_check_their_parameters() -> None:
@@ -203,3 +239,5 @@ def test_script_sensor_and_run_check_their_parameters() -> None:
         run(task_start=7)
     with pytest.raises(InvalidParameter):
         run(methods=["no-such-run"])
+    with pytest.raises(InvalidParameter):
+        run(modes="yes")

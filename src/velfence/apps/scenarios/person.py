@@ -23,9 +23,16 @@ The robot knows the person in two ways, both fed from the simulation every perio
   a fixed pose, :data:`SENSOR_RATE` frames per second) into
   :class:`~velfence.filter.PointCloudRows`, whose self filter removes the arm's own returns.
 
+The people run also switches the safety mode as a cobot's safety system does
+(:class:`~velfence.filter.modes.ModeRows`): *Reduced* (:data:`REDUCED_LIMITS`: TCP at most
+0.1 m/s, joints at half speed) while the tracked body's footprint is in :data:`REDUCED_ZONE`
+(the floor around the box, as a safety laser scanner watches it), *Stop* while the tracked hand
+is within :data:`STOP_DISTANCE` of the TCP, each a request of the tracker with its own
+hysteresis band, and :data:`MODE_DWELL` in a mode before a laxer one.
+
 Runs: ``"safety-filter-no-people"`` (the fence-box filter: box and joint limits only) and
-``"safety-filter-people"`` (the same with the separation and point-cloud rows). Further row
-providers (a mode switch, say) join the people rows through ``run(providers=...)``, one line.
+``"safety-filter-people"`` (the same with the separation, point-cloud and mode rows). Further
+row providers join the people rows through ``run(providers=...)``, one line.
 """
 
 from __future__ import annotations
@@ -42,12 +49,17 @@ from velfence.apps.labels import method_label
 from velfence.apps.reproduce.base import Check, Report, check_at_least, check_at_most
 from velfence.apps.scenarios.common import PhysicsRun, ScenarioResult, scenario_methods
 from velfence.apps.scenarios.fence_box import BANDWIDTH, BOX_LOWER, BOX_UPPER, PHYSICS_DT, Q0
+from velfence.filter.modes import ModeLimits, ModeRows, SafetyMode
 from velfence.filter.separation import PersonCapsule, SeparationParameters
 
 __all__ = [
     "METHODS",
+    "MODE_DWELL",
     "PARAMETERS",
+    "REDUCED_LIMITS",
+    "REDUCED_ZONE",
     "SENSOR_RATE",
+    "STOP_DISTANCE",
     "TASK_SPEED",
     "DepthSensor",
     "PersonPath",
@@ -94,9 +106,22 @@ REACH = (0.70, 0.20, 0.62)
 #: The margin figure's largest margin shown [m] (larger ones are drawn at it).
 SHOWN_MARGIN = 0.3
 #: A short version for the tests: the person starts 1.3 m away at once and holds 2 s, and the
-#: task starts at its third waypoint (so the arm meets the hand on its way to the second).
+#: task starts at its second waypoint (so the arm, slowed by Reduced, nears the held-out hand
+#: there and Stop holds it).
 SHORT: dict[str, Any] = {"start_time": 0.0, "start": (1.94, -0.89), "hold": 2.0}
-SHORT_TASK_START = 2
+SHORT_TASK_START = 1
+#: The Reduced mode's limits: the TCP at most 0.1 m/s, every joint at half its speed limit.
+REDUCED_LIMITS = ModeLimits(joint_scale=0.5, point_speeds={"tcp": 0.1})
+#: The Reduced zone on the floor, (x_min, y_min, x_max, y_max) [m]: the box's footprint grown by
+#: 0.5 m. The person is in it when the body's footprint (its radius around the foot) overlaps it.
+REDUCED_ZONE = (BOX_LOWER[0] - 0.5, BOX_LOWER[1] - 0.5, BOX_UPPER[0] + 0.5, BOX_UPPER[1] + 0.5)
+#: Stop while the hand's surface is this close to the TCP [m].
+STOP_DISTANCE = 0.35
+#: The hysteresis bands [m]: a request is released only this far beyond its trigger.
+ZONE_EXIT = 0.1
+STOP_EXIT = 0.05
+#: Least time in a mode before a laxer one [s].
+MODE_DWELL = 0.5
 UNITS = {
     "min_separation_margin": "m",
     "lag_bound": "m",
@@ -108,6 +133,15 @@ UNITS = {
     "waypoints_before": "count",
     "waypoints_after": "count",
     "resume_delay": "s",
+    "time_normal": "s",
+    "time_reduced": "s",
+    "time_stop": "s",
+    "mode_switches": "count",
+    "reduced_delay": "s",
+    "fastest_reduced": "m/s",
+    "fastest_stop": "m/s",
+    "normal_at_end": "s",
+    "waypoints_after_normal": "count",
 }
 
 
@@ -427,12 +461,25 @@ class DepthSensor:
         return pts, geomid[hit]
 
 
+def in_reduced_zone(foot: Any) -> float:
+    """How far the body's footprint is outside :data:`REDUCED_ZONE` [m] (<= 0: in it).
+
+    The distance from the foot's (x, y) to the zone's rectangle minus the body's radius.
+    """
+    x0, y0, x1, y1 = REDUCED_ZONE
+    dx = max(x0 - float(foot[0]), 0.0, float(foot[0]) - x1)
+    dy = max(y0 - float(foot[1]), 0.0, float(foot[1]) - y1)
+    return math.hypot(dx, dy) - BODY_RADIUS
+
+
 class _Cell:
     """The plant for :func:`velfence.sim.simulate`: the MuJoCo arm, the person and the sensors.
 
     Every period it moves the person (mocap), advances the arm's plant, and at the period's end
     feeds the tracker's capsules to ``separation`` and, at the sensor's rate, a depth frame to
-    ``cloud``; it logs what the metrics need.
+    ``cloud``; with ``modes`` it requests Reduced while the tracked body is in the Reduced zone
+    and Stop while the tracked hand is near the TCP (``tcp``: the TCP of a joint position),
+    then calls ``modes.update`` once; it logs what the metrics need.
     """
 
     def __init__(
@@ -446,9 +493,14 @@ class _Cell:
         latency: float,
         tracker_noise: float,
         seed: int,
+        modes: ModeRows | None = None,
+        tcp: Callable[[FloatArray], Any] | None = None,
     ) -> None:
         self.plant, self.path, self.sensor = plant, path, sensor
         self.separation, self.cloud = separation, cloud
+        self.modes, self.tcp = modes, tcp
+        self.mode_log: list[tuple[float, SafetyMode]] = []
+        self._asked = {"person in zone": False, "hand near TCP": False}
         self.latency, self.tracker_noise = latency, tracker_noise
         self.model = plant.model
         self._rng = np.random.default_rng(seed)
@@ -465,7 +517,37 @@ class _Cell:
     def time_constant(self) -> float:
         return float(self.plant.time_constant)
 
-    def _sense(self, t: float) -> None:
+    def _switch_mode(
+        self, t: float, q: FloatArray, body: PersonCapsule, arm: PersonCapsule
+    ) -> None:
+        """One ``update`` (the period's clock), then the tracker's requests with their bands.
+
+        A stricter request applies at once, stamped with this period's time; a release lets
+        the mode relax at the next ``update`` that the dwell allows.
+        """
+        modes = self.modes
+        if modes is None:
+            return
+        modes.update(q, time=t)
+        foot = np.asarray(body.a) - _UP * 0.25
+        out = in_reduced_zone(foot)
+        hand = np.asarray(arm.b)
+        gap = math.inf
+        if self.tcp is not None:
+            gap = float(np.linalg.norm(hand - np.asarray(self.tcp(q)))) - ARM_RADIUS
+        for source, mode, dist, trigger, band in (
+            ("person in zone", SafetyMode.REDUCED, out, 0.0, ZONE_EXIT),
+            ("hand near TCP", SafetyMode.STOP, gap, STOP_DISTANCE, STOP_EXIT),
+        ):
+            if not self._asked[source] and dist <= trigger:
+                self._asked[source] = True
+                modes.request(mode, source=source)
+            elif self._asked[source] and dist > trigger + band:
+                self._asked[source] = False
+                modes.request(SafetyMode.NORMAL, source=source)
+        self.mode_log.append((t, modes.mode))
+
+    def _sense(self, t: float, q: FloatArray) -> None:
         import mujoco
 
         mdl, d = self.model, self.plant.data
@@ -487,6 +569,7 @@ class _Cell:
             )
         if self.separation is not None:
             self.separation.update([body, arm], stamp=t)
+        self._switch_mode(t, q, body, arm)
         if t + 1e-9 >= self._next_frame:
             pts, gid = self.sensor.scan(mdl, d, self._rng)
             person = np.isin(gid, list(self._person_geoms))
@@ -499,14 +582,15 @@ class _Cell:
     def reset(self, q0: FloatArray, dt: float) -> FloatArray:
         q = np.asarray(self.plant.reset(q0, dt), dtype=float)
         self.frames, self.frame_sizes, self._next_frame = [], [], 0.0
+        self.mode_log = []
         self._dt = dt
-        self._sense(0.0)
+        self._sense(0.0, q)
         return q
 
     def advance(self, v: FloatArray, t: float) -> FloatArray:
         place_person(self.model, self.plant.data, self.path, t)
         q = np.asarray(self.plant.advance(v, t), dtype=float)
-        self._sense(t + self._dt)
+        self._sense(t + self._dt, q)
         return q
 
 
@@ -535,16 +619,19 @@ def build_controller(
     *,
     people: bool,
     providers: Sequence[Any] = (),
-) -> tuple[Any, Any | None, Any | None]:
-    """The twist-mode filter of one run, and its separation and point-cloud rows (internal API).
+    modes: bool = True,
+) -> tuple[Any, Any | None, Any | None, ModeRows | None]:
+    """The twist-mode filter of one run and its separation, point-cloud and mode rows (internal).
 
     Args:
         robot: The arm.
-        people: Whether the filter gets the separation and point-cloud rows.
-        providers: Further row providers, after the people's (e.g. a mode switch's).
+        people: Whether the filter gets the separation and point-cloud rows (and the mode rows).
+        providers: Further row providers, after the people's.
+        modes: Whether the people run gets the mode rows (:data:`REDUCED_LIMITS`, no zones of
+            their own: the tracker's requests switch them, :data:`MODE_DWELL`).
 
     Returns:
-        ``(shaper, separation rows or None, point-cloud rows or None)``.
+        ``(shaper, separation rows or None, point-cloud rows or None, mode rows or None)``.
     """
     from velfence.filter import PointCloudRows, SafetyFilter, SeparationRows
     from velfence.filter.limits import JointLimits, WorkspaceLimit
@@ -556,6 +643,7 @@ def build_controller(
     limits = JointLimits(lim[:, 0], lim[:, 1], max_speed=np.asarray(robot.velocity_limits))
     rows: list[Any] = []
     sep = cloud = None
+    mode_rows = None
     if people:
         sep = SeparationRows(PARAMETERS, link_radius=robot.link_radius, max_speed=limits.max_speed)
         cloud = PointCloudRows(
@@ -569,6 +657,14 @@ def build_controller(
             self_margin=0.5 * math.sqrt(3.0) * VOXEL + TASK_SPEED / SENSOR_RATE + 0.01,
         )
         rows += [sep, cloud]
+        if modes:
+            mode_rows = ModeRows(
+                robot,
+                modes={SafetyMode.REDUCED: REDUCED_LIMITS},
+                max_speed=limits.max_speed,
+                dwell=MODE_DWELL,
+            )
+            rows.append(mode_rows)
     rows += list(providers)
     f = SafetyFilter(
         robot,
@@ -577,7 +673,7 @@ def build_controller(
         providers=rows,
         dt=DT,
     )
-    return TwistMode(f), sep, cloud
+    return TwistMode(f), sep, cloud, mode_rows
 
 
 def run(
@@ -589,6 +685,7 @@ def run(
     latency: float = 0.0,
     tracker_noise: float = 0.0,
     providers: Sequence[Any] = (),
+    modes: bool = True,
     task_start: int = 0,
     on_step: Callable[[str, float], None] | None = None,
 ) -> ScenarioResult:
@@ -602,13 +699,15 @@ def run(
         latency: The tracker's latency [s], >= 0: the rows get the person as it was then.
         tracker_noise: Standard deviation of the tracker's position noise [m], >= 0.
         providers: Further row providers of the people run's filter (after the people's).
+        modes: Whether the people run switches the safety mode (Normal, Reduced, Stop; module
+            docstring), default ``True``.
         task_start: The index of the task's first waypoint (0–3).
         on_step: Progress ``(method, fraction)``.
 
     Returns:
         The runs, metrics and named checks.
     """
-    from velfence._validate import check_positive, check_positive_int
+    from velfence._validate import check_flag, check_positive, check_positive_int
     from velfence.robots import panda
     from velfence.sim.physics import MujocoPlant
     from velfence.sim.runner import simulate
@@ -618,6 +717,7 @@ def run(
     sensor = DepthSensor() if sensor is None else sensor
     latency = check_positive("latency", latency, allow_zero=True, unit="s")
     tracker_noise = check_positive("tracker_noise", tracker_noise, allow_zero=True, unit="m")
+    modes = check_flag("modes", modes)
     end = path.times["gone"] + 2.0 if duration is None else duration
     end = check_positive("duration", end, unit="s")
     first = check_positive_int("task_start", task_start, minimum=0, maximum=len(WAYPOINTS) - 1)
@@ -627,8 +727,8 @@ def run(
     runs: dict[str, PhysicsRun] = {}
     for name in methods:
         people = name == "safety-filter-people"
-        shaper, sep, cloud = build_controller(
-            robot, people=people, providers=providers if people else ()
+        shaper, sep, cloud, mode_rows = build_controller(
+            robot, people=people, providers=providers if people else (), modes=bool(modes)
         )
         plant = MujocoPlant(
             xml,
@@ -645,6 +745,8 @@ def run(
             latency=latency,
             tracker_noise=tracker_noise,
             seed=0,
+            modes=mode_rows,
+            tcp=robot.fk,
         )
         task = _Task(robot.fk, TASK_SPEED, first)
         active: list[tuple[str, ...]] = []
@@ -672,9 +774,13 @@ def run(
             "frame_sizes": cell.frame_sizes,
             "removed_self": 0 if cloud is None else cloud.removed_self,
         }
+        if mode_rows is not None:
+            extra["mode"] = [m.value for _t, m in cell.mode_log]
+            extra["mode_events"] = list(mode_rows.history)
+            extra["mode_switches"] = mode_rows.switches
         runs[name] = PhysicsRun(name, tr, plant.record, plant.model, tcp, extra)
     metrics = {n: _metrics(r, robot, path) for n, r in runs.items()}
-    report = _report(metrics)
+    report = _report(metrics, latency=latency)
     scene = {
         "polytope": _box(),
         "point": "TCP",
@@ -842,7 +948,7 @@ def _metrics(run: PhysicsRun, robot: Any, path: PersonPath) -> dict[str, float]:
     after = reached[reached > m["gone"]]
     lag = 1.0 / BANDWIDTH
     bound = lag * float(np.nanmax(series["approach"]))
-    return {
+    out = {
         "min_separation_margin": float(np.nanmin(series["margin"])),
         "lag_bound": bound,
         "min_separation": float(np.nanmin(series["separation"])),
@@ -856,12 +962,119 @@ def _metrics(run: PhysicsRun, robot: Any, path: PersonPath) -> dict[str, float]:
         "waypoints_after": float(len(after)),
         "resume_delay": float(after[0] - m["gone"]) if len(after) else math.inf,
     }
+    if "mode" in run.extra:
+        out.update(_mode_metrics(run, path, series["speed"]))
+    return out
 
 
-def _report(metrics: dict[str, dict[str, float]]) -> Report:
+#: How long after a switch the servo may still be faster than the new mode's caps [s]: four
+#: time constants of the servo's lag (the excess speed has fallen to e⁻⁴, under 2 %).
+MODE_GRACE = 4.0 / BANDWIDTH
+
+
+def mode_series(run: PhysicsRun) -> list[str]:
+    """The mode of every recorded period of a run with the mode rows (its value, ``"normal"``)."""
+    t = run.trajectory.t
+    log = run.extra["mode"]
+    stamps = np.arange(len(log)) * DT
+    k = np.clip(np.searchsorted(stamps, np.asarray(t) + 1e-9) - 1, 0, len(log) - 1)
+    return [log[int(j)] for j in k]
+
+
+def _mode_metrics(run: PhysicsRun, path: PersonPath, speed: FloatArray) -> dict[str, float]:
+    """Time in each mode, the switches, and the speeds each mode held (from the recorded path)."""
+    t = np.asarray(run.trajectory.t)
+    mode = np.array(mode_series(run))
+    run.extra["mode_per_period"] = mode
+    events = run.extra["mode_events"]
+    # Since the last switch into the period's mode: the servo's grace applies after it.
+    since = np.full(len(t), -math.inf)
+    for e in events:
+        since[t >= e.time - 1e-9] = e.time
+    settled = t - since >= MODE_GRACE
+    tcp = run.extra["tcp_speed"]
+    red = (mode == SafetyMode.REDUCED.value) & settled
+    stop = (mode == SafetyMode.STOP.value) & settled
+    entered = [float(x) for x in t if in_reduced_zone(path.pose(float(x))[0]) <= 0.0]
+    first = events[0] if events else None
+    ok_first = first is not None and (first.previous, first.mode) == (
+        SafetyMode.NORMAL,
+        SafetyMode.REDUCED,
+    )
+    delay = first.time - entered[0] if ok_first and entered and first is not None else math.inf
+    last = events[-1] if events else None
+    normal_end = (
+        float(t[-1] - last.time) if last is not None and last.mode is SafetyMode.NORMAL else 0.0
+    )
+    reached = np.array(run.extra["reached"])
+    after = reached[reached > last.time] if last is not None and normal_end > 0.0 else []
+    return {
+        "time_normal": float(np.count_nonzero(mode == "normal")) * DT,
+        "time_reduced": float(np.count_nonzero(mode == "reduced")) * DT,
+        "time_stop": float(np.count_nonzero(mode == "stop")) * DT,
+        "mode_switches": float(run.extra["mode_switches"]),
+        "reduced_delay": float(delay),
+        "fastest_reduced": float(tcp[red].max()) if red.any() else 0.0,
+        "fastest_stop": float(speed[stop].max()) if stop.any() else math.inf,
+        "normal_at_end": normal_end,
+        "waypoints_after_normal": float(len(after)),
+    }
+
+
+#: At most this many mode switches in a run: one visit of the person enters and leaves the
+#: Reduced zone once (Normal→Reduced, Reduced→Normal) and brings the hand near the TCP at most
+#: once (→Stop, Stop→Reduced); more would be chatter.
+MAX_SWITCHES = 4
+#: The arm at rest while Stop holds: its fastest link point [m/s] (finite differences of the
+#: recorded path; the servo holds a zero command to well under this).
+STOP_SPEED = 0.005
+
+
+def _report(metrics: dict[str, dict[str, float]], *, latency: float = 0.0) -> Report:
     src = "scenario: a person walks into the fence-box cell, MuJoCo"
     checks: list[Check] = []
     m = "safety-filter-people"
+    if m in metrics and "mode_switches" in metrics[m]:
+        v = metrics[m]
+        cap = REDUCED_LIMITS.point_speeds["tcp"]
+        checks += [
+            check_at_most(
+                f"{method_label(m)}: Normal→Reduced after the person enters the zone [s]",
+                src,
+                DT + latency,
+                v["reduced_delay"],
+                "the first switch is Normal→Reduced, within a control period of the entry "
+                "(plus the tracker's latency)",
+            ),
+            check_at_most(
+                f"{method_label(m)}: mode switches",
+                src,
+                float(MAX_SWITCHES),
+                v["mode_switches"],
+                "no chatter: one visit enters and leaves each trigger once",
+            ),
+            check_at_most(
+                f"{method_label(m)}: fastest TCP while Reduced [m/s]",
+                src,
+                cap,
+                v["fastest_reduced"],
+                f"the Reduced cap, from {MODE_GRACE:g} s after the switch (the servo lag)",
+            ),
+            check_at_most(
+                f"{method_label(m)}: fastest link point while Stop holds [m/s]",
+                src,
+                STOP_SPEED,
+                v["fastest_stop"],
+                f"at rest, from {MODE_GRACE:g} s after the switch (the servo lag)",
+            ),
+            check_at_least(
+                f"{method_label(m)}: waypoints reached in Normal after the person left",
+                src,
+                1.0,
+                v["waypoints_after_normal"],
+                "back to Normal at the end, and the task resumes",
+            ),
+        ]
     if m in metrics:
         v = metrics[m]
         checks += [
@@ -914,7 +1127,7 @@ def _report(metrics: dict[str, dict[str, float]]) -> Report:
 
 
 def plot_separation(result: ScenarioResult, path: Any) -> Any:
-    """Separation against S over time, the arm's speed, and which rows were active.
+    """Separation against S over time, the arm's speed with the safety mode, the active rows.
 
     Args:
         result: The scenario's result.
@@ -953,11 +1166,29 @@ def plot_separation(result: ScenarioResult, path: Any) -> Any:
     ax1.set_title("person-cell: least arm–person separation and its S (pairs within 1.5 m)")
     ax2.set_ylabel("TCP speed [m/s]")
     people = result.runs.get("safety-filter-people")
-    kinds = ("separation", "point cloud", "workspace", "joint")
+    if people is not None and "mode_per_period" in people.extra:
+        mode = np.asarray(people.extra["mode_per_period"])
+        for value, color in (("reduced", "gold"), ("stop", "red")):
+            ax2.fill_between(
+                people.trajectory.t, 0.0, 1.0, where=mode == value, step="post", color=color,
+                alpha=0.18, transform=ax2.get_xaxis_transform(),
+                label=f"mode {value} ({method_label('safety-filter-people')})",
+            )  # fmt: skip
+        ax2.axhline(
+            REDUCED_LIMITS.point_speeds["tcp"], color="darkgoldenrod", lw=1.0, ls="-.",
+            label="Reduced TCP cap",
+        )  # fmt: skip
+    kinds = ("separation", "point cloud", "workspace", "joint", "mode")
     if people is not None:
         t = people.trajectory.t
         for j, kind in enumerate(kinds):
-            on = np.array([any(kind in a for a in act) for act in people.extra["active"]])
+            # The mode rows' names start "mode ..." and may name a joint: they count as "mode".
+            on = np.array(
+                [
+                    any(kind in a and (kind == "mode") == a.startswith("mode ") for a in act)
+                    for act in people.extra["active"]
+                ]
+            )
             ax3.fill_between(
                 t, j - 0.4, j + 0.4, where=on, step="post", color=f"C{j}", label=f"{kind} rows"
             )
