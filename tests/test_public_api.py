@@ -9,6 +9,7 @@ checked by ``tests/hostile/test_hostile.py::test_constructor_keyword_only_rule``
 
 from __future__ import annotations
 
+import enum
 import importlib
 import inspect
 import pkgutil
@@ -121,6 +122,8 @@ def doc_problems(key: str, obj: Any) -> list[str]:
         return [f"{key}: no docstring"]
     if inspect.isclass(obj):
         if issubclass(obj, BaseException) or getattr(obj, "_is_protocol", False):
+            return []
+        if issubclass(obj, enum.Enum):  # looked up by value (``SafetyMode("stop")``): no Args
             return []
         init = obj.__dict__.get("__init__")
         doc += "\n" + inspect.cleandoc(getattr(init, "__doc__", None) or "")

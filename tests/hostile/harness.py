@@ -246,6 +246,8 @@ def _full(short: str) -> str:
 def _skipped_by_type(obj: Any) -> bool:
     if inspect.isclass(obj):
         return issubclass(obj, BaseException)
+    if typing.get_origin(obj) is not None:  # a type alias (``EngineMode = Literal[...]``): data
+        return True
     return not callable(obj)
 
 
@@ -765,6 +767,7 @@ SPEC_MODULES = (
     "specs_io_zones",
     "specs_arm",
     "specs_documented",
+    "specs_apps",
 )
 
 

@@ -127,7 +127,16 @@ def progress_text(done: int, total: int, elapsed: float) -> str:
 
     Returns:
         E.g. ``"120/1000 shards, 41.3/s, ETA 0:00:21"`` (``ETA -`` before the first shard).
+
+    Raises:
+        InvalidParameter: counts that are not whole numbers >= 0 (``done`` at most ``total``),
+            or an ``elapsed`` that is not a finite number >= 0.
     """
+    total = check_positive_int("total", total, minimum=0, maximum=MAX_ITEMS)
+    done = check_positive_int("done", done, minimum=0, maximum=MAX_ITEMS)
+    if done > total:
+        raise InvalidParameter(f"done, total: expected done <= total, got {done} > {total}")
+    elapsed = check_positive("elapsed", elapsed, allow_zero=True, unit="s")
     rate = done / elapsed if elapsed > 0 and done else 0.0
     eta = _clock((total - done) / rate) if rate > 0 else "-"
     return f"{done}/{total} shards, {rate:.3g}/s, ETA {eta}"

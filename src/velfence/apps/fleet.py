@@ -67,7 +67,7 @@ UNREADABLE_CODE = 2
 MAX_BAGS = 1_000_000
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class BagReport:
     """One bag of a fleet replay.
 
@@ -125,7 +125,7 @@ class BagReport:
         return self.acted / self.cycles if self.cycles else 0.0
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class RobotReport:
     """The bags of one robot, added up.
 
@@ -161,7 +161,7 @@ class RobotReport:
         return self.acted / self.cycles if self.cycles else 0.0
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class FleetSummary:
     """A fleet replay: one :class:`BagReport` per bag, in the bags' order.
 
@@ -301,6 +301,21 @@ COLUMNS: tuple[str, ...] = (
 )
 
 
+def _path(name: str, value: Any) -> Path:
+    """A path argument (``str`` or ``os.PathLike``, not empty) as a :class:`~pathlib.Path`."""
+    if isinstance(value, (str, os.PathLike)):
+        text = os.fspath(value)
+        if isinstance(text, str) and text:
+            return Path(check_text(name, text, max_length=4096))
+    raise InvalidParameter(f"{name}: expected a path (str or pathlib.Path), got {describe(value)}")
+
+
+def _config_arg(config: Any) -> None:
+    """Refuse a ``config`` that is neither a path nor a mapping (its content is checked later)."""
+    if not isinstance(config, Mapping):
+        _path("config", config)
+
+
 def _most_first(counts: Mapping[str, int]) -> tuple[tuple[str, int], ...]:
     return tuple(sorted(counts.items(), key=lambda kv: (-kv[1], kv[0])))
 
@@ -360,6 +375,10 @@ def bounds_of(
         signed margins, shape (N, len(names)), positive inside; ``unit`` is ``"m"`` or
         ``"rad"``.
     """
+    from velfence.io.shaper_config import ConfiguredShaper
+
+    if not isinstance(cs, ConfiguredShaper):
+        raise InvalidParameter(f"cs: expected a ConfiguredShaper, got {describe(cs)}")
     shaper = cs.shaper
     if cs.kind == "polygon":
         polygon = shaper.polygon
@@ -409,6 +428,13 @@ def summarize_replay(
     Returns:
         The report.
     """
+    from velfence.io.bags import ReplaySummary
+
+    if not isinstance(s, ReplaySummary):
+        raise InvalidParameter(f"s: expected a ReplaySummary (bags.replay), got {describe(s)}")
+    tol = check_positive("tol", tol, allow_zero=True)
+    bag = check_text("bag", bag, max_length=4096)
+    group = check_text("group", group, max_length=4096)
     diff = np.abs(s.commanded - s.shaped)
     acted_rows = np.any(diff > tol, axis=1) if diff.size else np.zeros(0, dtype=bool)
     per_component = (diff > tol).sum(axis=0) if diff.size else np.zeros(len(s.components))
@@ -487,21 +513,43 @@ def summarize_bag(
 
     Returns:
         The bag's report.
+
+    Raises:
+        InvalidParameter: arguments of the wrong type, or a bad configuration (one error for
+            every bag, checked before the bag is read).
     """
     from velfence.io.bags import CHANGE_TOL, replay
 
-    tol = CHANGE_TOL if tol is None else tol
+    tol = CHANGE_TOL if tol is None else check_positive("tol", tol, allow_zero=True)
+    _path("bag", bag)
     name = str(bag)
+    _config_arg(config)
+    shaper = _shaper_of(config)  # a bad configuration is the caller's error, not the bag's
+    group = check_text("group", group, max_length=4096)
+    if out is not None:
+        out = _path("out", out)
     robot = f"{group} ?" if group else "?"
     tmp = None if out is not None else tempfile.mkdtemp(prefix="velfence-fleet-")
     try:
         target = Path(out) if out is not None else Path(tmp or ".") / "shaped"
         s = replay(bag, config, target)
-        return summarize_replay(s, _shaper_of(config), tol=tol, bag=name, group=group)
+        return summarize_replay(s, shaper, tol=tol, bag=name, group=group)
     except NothingToReplay as exc:
-        return BagReport(name, robot, "nothing to replay", _one_line(exc), NOTHING_TO_REPLAY_CODE)
+        return BagReport(
+            bag=name,
+            robot=robot,
+            status="nothing to replay",
+            reason=_one_line(exc),
+            code=NOTHING_TO_REPLAY_CODE,
+        )
     except VelfenceError as exc:
-        return BagReport(name, robot, "unreadable", _one_line(exc), UNREADABLE_CODE)
+        return BagReport(
+            bag=name,
+            robot=robot,
+            status="unreadable",
+            reason=_one_line(exc),
+            code=UNREADABLE_CODE,
+        )
     finally:
         if tmp is not None:
             shutil.rmtree(tmp, ignore_errors=True)
@@ -514,6 +562,8 @@ def _shaper_of(config: str | Path | Mapping[str, Any]) -> ConfiguredShaper:
     if isinstance(config, Mapping):
         return load_replay_config(config)[0]
     path = Path(os.fspath(config))
+    if not path.is_file():
+        return load_replay_config(path)[0]  # refused with the loader's message
     st = path.stat()
     return _cached_shaper(str(path.resolve()), st.st_mtime_ns, st.st_size)
 
@@ -555,11 +605,15 @@ def find_bags(paths: Iterable[str | Path]) -> list[tuple[Path, str]]:
     """
     if isinstance(paths, (str, os.PathLike)):
         paths = [paths]
+    if not isinstance(paths, (list, tuple)):
+        raise InvalidParameter(f"paths: expected a list of paths, got {describe(paths)}")
     found: list[tuple[Path, str]] = []
     for given in paths:
-        root = Path(check_text("bag", os.fspath(given), max_length=4096))
+        if not isinstance(given, (str, os.PathLike)) or not os.fspath(given):
+            raise InvalidParameter(f"paths: expected bag or folder paths, got {describe(given)}")
+        root = Path(check_text("paths", os.fspath(given), max_length=4096))
         if not root.exists():
-            raise InvalidParameter(f"bag: {root} does not exist")
+            raise InvalidParameter(f"paths: {root} does not exist")
         if root.is_file() or _is_bag_dir(root):
             found.append((root, ""))
             continue
@@ -616,6 +670,10 @@ def fleet_replay(
     from velfence.io.bags import CHANGE_TOL, load_replay_config
 
     tol = CHANGE_TOL if tol is None else check_positive("tol", tol, allow_zero=True)
+    if engine is not None and not isinstance(engine, Engine):
+        raise InvalidParameter(f"engine: expected an Engine or None, got {describe(engine)}")
+    folder = None if out is None else _path("out", out)
+    _config_arg(config)
     load_replay_config(config)  # a bad config is one error, not one per bag
     if isinstance(bags, (str, os.PathLike)) or not isinstance(bags, Sequence):
         raise InvalidParameter(f"bags: expected a list of bags, got {describe(bags)}")
@@ -623,7 +681,6 @@ def fleet_replay(
     if len(pairs) > MAX_BAGS:
         raise InvalidParameter(f"bags: expected at most {MAX_BAGS:,}, got {len(pairs):,}")
     names = output_names([Path(os.fspath(b)) for b, _ in pairs])
-    folder = None if out is None else Path(out)
     if folder is not None:
         folder.mkdir(parents=True, exist_ok=True)
     items = [
@@ -654,6 +711,8 @@ def output_names(bags: Sequence[Path]) -> list[str]:
     Returns:
         Distinct names, in the bags' order (numbered when folder names do not separate them).
     """
+    if not isinstance(bags, (list, tuple)) or not all(isinstance(b, Path) for b in bags):
+        raise InvalidParameter(f"bags: expected a list of pathlib.Path, got {describe(bags)}")
     names = [b.stem if b.is_file() else b.name for b in bags]
     if len(set(names)) == len(names):
         return names
@@ -769,7 +828,7 @@ def make_demo_fleet(
     from velfence._validate import check_positive_int, check_seed
     from velfence.io.bags import message_typestore
 
-    root = Path(check_text("folder", os.fspath(folder), max_length=4096))
+    root = _path("folder", folder)
     n = check_positive_int("bags", bags, maximum=100_000)
     m = check_positive_int("robots", robots, maximum=1000)
     broken = check_positive_int("corrupt", corrupt, minimum=0, maximum=1000)

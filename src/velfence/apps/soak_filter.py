@@ -48,8 +48,10 @@ from numpy.typing import ArrayLike, NDArray
 
 from velfence._typing import FloatArray
 from velfence._validate import (
+    check_flag,
     check_positive,
     check_positive_int,
+    check_range,
     check_seed,
     check_text,
     describe,
@@ -826,8 +828,21 @@ def clearance(seg: FloatArray, lrad: FloatArray, C: FloatArray, R: FloatArray) -
 
     Returns:
         The smallest surface distance over every link and sphere [m]; negative: a penetration.
+
+    Raises:
+        InvalidInput: arrays of the wrong shape, or non-finite or negative entries.
     """
-    if C.shape[0] == 0:
+    seg = real_array("seg", seg, (None, 2, 3), what="link segments [m]", copy=False)
+    lrad = real_array("lrad", lrad, (None,), what="capsule radii [m]", copy=False)
+    C = real_array("C", C, (None, 3), what="sphere centres [m]", copy=False)
+    R = real_array("R", R, (None,), what="sphere radii [m]", copy=False)
+    if lrad.shape[0] != seg.shape[0]:
+        raise InvalidInput(f"seg, lrad: {seg.shape[0]} link segments but {lrad.shape[0]} radii")
+    if R.shape[0] != C.shape[0]:
+        raise InvalidInput(f"C, R: {C.shape[0]} sphere centres but {R.shape[0]} radii")
+    if np.any(lrad < 0.0) or np.any(R < 0.0):
+        raise InvalidInput("lrad, R: expected radii >= 0 [m]")
+    if C.shape[0] == 0 or seg.shape[0] == 0:
         return math.inf
     A = seg[:, 0]
     E = seg[:, 1] - A
@@ -870,7 +885,22 @@ def soak_command(
 
     Returns:
         ``(command, hold)``: the command and the number of steps it is held (>= 1).
+
+    Raises:
+        InvalidInput: facets, TCP or speed limits of the wrong shape or not finite.
+        InvalidParameter: a non-positive ``rate`` or a ``push_probability`` outside [0, 1].
     """
+    twist = check_flag("twist", twist)
+    N = real_array("N", N, (None, 3), what="facet normals", copy=False)
+    o = real_array("o", o, (None,), what="facet offsets [m]", copy=False)
+    if o.shape[0] != N.shape[0]:
+        raise InvalidInput(f"N, o: {N.shape[0]} facet normals but {o.shape[0]} offsets")
+    p = real_array("p", p, (3,), what="the TCP [m]", copy=False)
+    vmax = real_array("vmax", vmax, (None,), what="joint speed limits [rad/s]", copy=False)
+    if vmax.shape[0] == 0:
+        raise InvalidInput("vmax: expected at least one joint speed limit [rad/s], got none")
+    rate = check_positive("rate", rate, unit="Hz")
+    push_probability = check_range("push_probability", push_probability, low=0.0, high=1.0)
     hold = max(1, round(float(rng.uniform(0.02, 0.2)) * rate))
     push = N.shape[0] > 0 and rng.random() < push_probability
     cmd: FloatArray

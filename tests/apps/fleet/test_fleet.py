@@ -132,7 +132,7 @@ def test_the_table_says_partial_and_lists_the_reasons(small_fleet: Path) -> None
     csv_text = fleet.csv()
     assert csv_text.splitlines()[0].split(",")[:3] == ["bag", "robot", "cycles"]
     assert len(csv_text.splitlines()) == 1 + 8 + 2  # header, bags, robots
-    complete = FleetSummary("c", CHANGE_TOL, tuple(b for b in fleet.bags if b.ok))
+    complete = FleetSummary(config="c", tol=CHANGE_TOL, bags=tuple(b for b in fleet.bags if b.ok))
     assert complete.complete
     assert complete.headline == "6 of 6 bags read"
 

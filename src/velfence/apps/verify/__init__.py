@@ -11,12 +11,14 @@ evidence report (:mod:`~velfence.apps.verify.report`). ``docs/verify.md`` walks 
 
 from __future__ import annotations
 
+import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from velfence._validate import check_flag, describe
 from velfence.apps.verify.campaign import PROPERTIES, Campaign, load_campaign, parse_campaign
 from velfence.apps.verify.cases import (
     CaseResult,
@@ -41,6 +43,7 @@ from velfence.apps.verify.runner import (
     run_shards,
     summarise,
 )
+from velfence.errors import InvalidParameter
 
 __all__ = [
     "Campaign",
@@ -58,7 +61,7 @@ __all__ = [
 OnProgress = Callable[[float, float, str], None]
 
 
-@dataclass
+@dataclass(kw_only=True)
 class Outcome:
     """What :func:`verify` did.
 
@@ -107,8 +110,20 @@ def verify(
     Raises:
         InvalidParameter: an invalid campaign, an unusable ``out`` or a refused resume.
     """
-    campaign = parse_campaign(campaign)
+    campaign = parse_campaign(campaign, where="campaign")
+    if not isinstance(out, (str, os.PathLike)) or not os.fspath(out):
+        raise InvalidParameter(
+            f"out: expected a folder path (str or pathlib.Path), got {describe(out)}"
+        )
     out = Path(out)
+    resume = check_flag("resume", resume)
+    if mapper is not None and not callable(mapper):
+        raise InvalidParameter(f"mapper: expected a callable or None, got {describe(mapper)}")
+    if on_progress is not None and not callable(on_progress):
+        raise InvalidParameter(
+            f"on_progress: expected a callable or None, got {describe(on_progress)}"
+        )
+    report = check_flag("report", report)
     done = prepare(campaign, out, resume=resume)
     shards = plan(campaign)
     total = sum(s.stop - s.start for s in shards)

@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Annotated, Any, Literal
 
 from velfence._extras import missing
+from velfence._validate import check_text
 
 try:
     from pydantic import Field, Strict, ValidationError, model_validator
@@ -237,7 +238,7 @@ class Campaign(StrictModel):
         return self.model_dump(mode="json")
 
 
-def parse_campaign(data: Any, *, where: str = "campaign") -> Campaign:
+def parse_campaign(data: Any, *, where: str = "data") -> Campaign:
     """Validate a campaign mapping.
 
     Args:
@@ -252,6 +253,7 @@ def parse_campaign(data: Any, *, where: str = "campaign") -> Campaign:
             range, ``[low, high]`` with low > high, an unknown robot; the message names
             ``where`` and the field.
     """
+    where = check_text("where", where, max_length=4096)
     if isinstance(data, Campaign):
         return data
     if not isinstance(data, dict):

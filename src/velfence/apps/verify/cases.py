@@ -142,7 +142,7 @@ class Scenario(StrictModel):
     properties: Properties
 
 
-@dataclass
+@dataclass(kw_only=True)
 class CaseResult:
     """What one case measured.
 
