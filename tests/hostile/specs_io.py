@@ -63,6 +63,12 @@ def _shaper_file() -> Path:
     return p
 
 
+#: An empty sequence of range sensors is the documented default: no sensors (docs/replay.md).
+_NO_SENSORS = {
+    k: "documented: no range sensors (the default)"
+    for k in ("empty_list", "empty_tuple", "empty_array", "empty_rows")
+}
+
 _POLYGON = {"kind": "polygon", "corners": [[0.0, 0.0], [4.0, 0.0], [4.0, 3.0]], "buffer": 0.5}
 
 SPECS.update(
@@ -71,6 +77,7 @@ SPECS.update(
         "io.parse_shaper": F(
             lambda: call(dict(_POLYGON), where="shaper"),
             types={"section": "object", "where": "text"},
+            accepts={"sensors": {k: _NO_SENSORS[k] for k in ("empty_list", "empty_tuple")}},
         ),
         "io.ConfiguredShaper": C(record="a record parse_shaper builds"),
     }
@@ -109,6 +116,7 @@ SPECS.update(
                     "max_state_age": "positive",
                     "command_frame": "choice",
                 },
+                accepts={"sensors": _NO_SENSORS},
             )
         ),
         "io.ReplaySummary": C(record="a record replay builds"),
