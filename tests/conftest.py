@@ -88,6 +88,10 @@ GROUPS = {
         "tests/apps/reproduce/test_telerobotics_motion.py",
         "tests/apps/reproduce/test_telerobotics_study.py",
     ),
+    "bench-quick": (
+        "tests/apps/bench/test_benchmarking.py",
+        "tests/apps/cli/test_cli.py::test_bench_quick_writes_markdown",
+    ),
     "cospm": (
         "tests/apps/reproduce/test_reproduce_cospm.py",
         "tests/apps/progress/test_progress.py::test_reproduce_",

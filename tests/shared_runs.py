@@ -103,3 +103,36 @@ def shared_scenario(monkeypatch: pytest.MonkeyPatch, name: str) -> Any:
 
     monkeypatch.setattr(module, "run", run)
     return result
+
+
+_BENCH: list[tuple[Any, list[tuple[str, float]]]] = []
+
+
+def bench_quick() -> tuple[Any, list[tuple[str, float]]]:
+    """``run_benchmarks(quick=True)`` once per worker: the report and every progress call."""
+    if not _BENCH:
+        from velfence.apps import bench
+
+        calls: list[tuple[str, float]] = []
+        report = bench.run_benchmarks(quick=True, progress=lambda m, f: calls.append((m, f)))
+        _BENCH.append((report, calls))
+    return _BENCH[0]
+
+
+def shared_bench(monkeypatch: pytest.MonkeyPatch) -> Any:
+    """Make ``velfence bench --quick`` time nothing: ``run_benchmarks`` replays the worker's one
+    quick run (:func:`bench_quick`) with its progress calls (the command still writes every
+    file)."""
+    from velfence.apps import bench
+
+    report, calls = bench_quick()
+
+    def run(*, quick: bool = False, progress: Callable[[str, float], None] | None = None) -> Any:
+        assert quick, "only the quick run is shared"
+        for what, fraction in calls:
+            if progress is not None:
+                progress(what, fraction)
+        return report
+
+    monkeypatch.setattr(bench, "run_benchmarks", run)
+    return report

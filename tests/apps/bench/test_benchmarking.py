@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from shared_runs import bench_quick
 from velfence.apps import bench as bm
 from velfence.apps.bench import run
 from velfence.apps.bench.cases import controllers, peers, redundancy, shaping
@@ -28,8 +29,8 @@ from velfence.apps.bench.timing import Latency, latency_of, time_calls
 
 @pytest.fixture(scope="module")
 def report() -> bm.BenchReport:
-    calls: list[tuple[str, float]] = []
-    rep = bm.run_benchmarks(quick=True, progress=lambda msg, frac: calls.append((msg, frac)))
+    # The worker's one quick run, shared with `velfence bench --quick` (tests/shared_runs.py).
+    rep, calls = bench_quick()
     fracs = [f for _, f in calls]
     assert fracs == sorted(fracs)
     assert all(0.0 <= f <= 1.0 for f in fracs)

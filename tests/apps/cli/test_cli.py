@@ -16,6 +16,8 @@ from typing import Any
 
 import pytest
 
+from shared_runs import shared_bench
+
 pytest.importorskip("typer", reason="the command line needs the [app] extra")
 pytest.importorskip("rich", reason="the command line needs the [app] extra")
 from typer.testing import CliRunner
@@ -288,8 +290,12 @@ def test_demo_with_short_config(runner: CliRunner, tmp_path: Path) -> None:
 # ------------------------------------------------------------------------------------------- bench
 
 
-def test_bench_quick_writes_markdown(runner: CliRunner, tmp_path: Path) -> None:
+def test_bench_quick_writes_markdown(
+    runner: CliRunner, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     from velfence.apps.bench import GENERATED_MARKER
+
+    shared_bench(monkeypatch)  # the quick run test_benchmarking.py inspects (one per session)
 
     out = tmp_path / "bench.md"
     js = tmp_path / "raw" / "bench.json"
