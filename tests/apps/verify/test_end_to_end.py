@@ -22,33 +22,12 @@ import sys
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "viz"))
 from figure_checks import check_every, record_figures
 from typer.testing import CliRunner
+from verify_campaigns import BAD, SMALL
 
 from velfence.apps.cli import EXIT_VIOLATED, app
 from velfence.apps.verify import load_scenario, replay, verify
 
 pytestmark = pytest.mark.slow
-
-#: A one-line campaign at 20 Hz (few steps, fast), three shards of two cases.
-SMALL = {
-    "robot": "seven_dof",
-    "rate": 20.0,
-    "shard_size": 2,
-    "families": [{"name": "box", "cases": 5, "steps": 12, "mode": "joint"}],
-}
-#: The known-bad configuration: the filter without its control period at 20 Hz, joint commands
-#: of up to 2 rad/s (one period moves a joint 0.1 rad, more than the workspace buffer of 3 cm
-#: at the tool), as the soak's "20 Hz, no dt" case of docs/reliability.md.
-BAD = {
-    "robot": "seven_dof",
-    "rate": 20.0,
-    "filter": {"dt": None, "max_speed": 2.0},
-    "shard_size": 4,
-    "shrink": 1,
-    "families": [
-        {"name": "push", "cases": 4, "steps": 40, "operator": "push", "mode": "joint",
-         "obstacles": {"count": [0, 2]}, "lag": [0.0, 0.05], "noise": [0.0, 1e-4]}
-    ],
-}  # fmt: skip
 
 
 def _cases(out: Path) -> list[dict[str, Any]]:
