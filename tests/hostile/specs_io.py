@@ -4,8 +4,12 @@ from __future__ import annotations
 
 import tempfile
 from pathlib import Path
+from typing import Any
 
 from harness import C, F, call
+from kinds import KINDS
+
+from velfence.io.transforms import TransformStore
 
 
 def _joint_limits_file() -> Path:
@@ -154,6 +158,12 @@ def _scan_cdr() -> bytes:
     return b"\x00\x01\x00\x00" + body
 
 
+def _sensor() -> Any:
+    from velfence.io.shaper_config import SensorTopic
+
+    return SensorTopic(topic="/cloud", type="point_cloud2", base_frame="base", max_age=1.0)
+
+
 SPECS.update(
     {
         "io.SensorPoints": C(record="a record the decoders build"),
@@ -201,6 +211,14 @@ SPECS.update(
         ),
         "io.decode_laser_scan": F(
             lambda: call(_scan_cdr()), types={"message": "object", "max_points": "count"}
+        ),
+        "io.SensorMessage": C(record="a record accept_sensor_message builds"),
+        "io.accept_sensor_message": F(
+            lambda: call(_cloud_cdr(), _sensor(), now=0.0, transforms=TransformStore()),
+            types={"raw": "object", "sensor": "object", "transforms": "object"},
+            # Documented: a message that does not decode is a "malformed" drop the bridge and
+            # the replay count, never an error (docs/point_clouds.md); the answer says so.
+            accepts={"raw": {k.name: "documented: dropped as malformed" for k in KINDS}},
         ),
         "io.TransformStore": C(
             F(lambda: call(max_frames=10), types={"max_frames": "count"}),

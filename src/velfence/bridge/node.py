@@ -49,7 +49,7 @@ from velfence.bridge.transforms import TransformStore
 from velfence.bridge.typehash import user_data
 from velfence.errors import InvalidParameter, VelfenceError
 from velfence.geometry.frames import body_to_world, world_to_body
-from velfence.io.sensors import decode_laser_scan, decode_point_cloud2
+from velfence.io.sensors import accept_sensor_message
 
 __all__ = [
     "EXIT_CONFIG",
@@ -872,28 +872,13 @@ class BridgeNode:
                 self._use_cloud(x, rows, data)
 
     def _use_cloud(self, x: Any, rows: Any, data: bytes) -> None:
-        decode = decode_point_cloud2 if x.type == "point_cloud2" else decode_laser_scan
-        try:
-            sp = decode(data, max_points=x.max_points)
-        except VelfenceError:
-            self._drop_cloud("malformed")
+        msg = accept_sensor_message(data, x, now=time.time(), transforms=self._tf)
+        sp = msg.points
+        if sp is None:
+            self._drop_cloud(msg.reason)
             return
-        now = time.time()
-        if now - sp.stamp > x.max_age:
-            self._drop_cloud("stale")
-            return
-        frame = sp.frame_id.removeprefix("/") or x.base_frame
-        pose = None
-        if frame != x.base_frame:
-            try:
-                pose = self._tf.transform(x.base_frame, frame)
-            except VelfenceError:
-                pose = None
-            if pose is None:
-                self._drop_cloud("frame_unknown")
-                return
         try:
-            rows.update(sp.points, stamp=sp.stamp, transform=pose)
+            rows.update(sp.points, stamp=sp.stamp, transform=msg.pose)
         except VelfenceError:
             self._drop_cloud("invalid")
             return

@@ -25,7 +25,9 @@ _EXPORTS: dict[str, str] = {
     "replay": "velfence.io.bags",
     "DEFAULT_MAX_STEPS": "velfence.io.defaults",
     "load_joint_limits": "velfence.io.joint_limits",
+    "SensorMessage": "velfence.io.sensors",
     "SensorPoints": "velfence.io.sensors",
+    "accept_sensor_message": "velfence.io.sensors",
     "cloud_points": "velfence.io.sensors",
     "decode_laser_scan": "velfence.io.sensors",
     "decode_point_cloud2": "velfence.io.sensors",
@@ -62,7 +64,9 @@ if TYPE_CHECKING:  # the same names, eagerly, for type checkers and IDEs
     from velfence.io.defaults import DEFAULT_MAX_STEPS
     from velfence.io.joint_limits import load_joint_limits
     from velfence.io.sensors import (
+        SensorMessage,
         SensorPoints,
+        accept_sensor_message,
         cloud_points,
         decode_laser_scan,
         decode_point_cloud2,
@@ -90,8 +94,10 @@ __all__ = [
     "ReplaySettings",
     "ReplaySummary",
     "SafetyPlane",
+    "SensorMessage",
     "SensorPoints",
     "TransformStore",
+    "accept_sensor_message",
     "box_workspace",
     "cloud_points",
     "decode_laser_scan",

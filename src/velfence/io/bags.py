@@ -58,7 +58,7 @@ from velfence.errors import InvalidParameter, NothingToReplay, VelfenceError
 from velfence.geometry.frames import body_to_world, world_to_body
 from velfence.io._cdr import CdrError, CdrReader, patch_doubles
 from velfence.io.config import Positive, StrictModel, describe_validation_error
-from velfence.io.sensors import SENSOR_TYPES, decode_laser_scan, decode_point_cloud2
+from velfence.io.sensors import SENSOR_TYPES, accept_sensor_message
 from velfence.io.shaper_config import (
     MAX_JOINTS,
     ConfiguredShaper,
@@ -1090,29 +1090,14 @@ class _Accumulator:
 
     def cloud(self, i: int, t: int, raw: bytes) -> None:
         """A sensor message received at ``t`` [ns]: kept for the next command, or dropped."""
-        x = self.sensors[i]
-        decode = decode_point_cloud2 if x.type == "point_cloud2" else decode_laser_scan
-        try:
-            sp = decode(raw, max_points=x.max_points)
-        except VelfenceError:
-            self._drop_cloud("malformed")
+        msg = accept_sensor_message(raw, self.sensors[i], now=t * 1e-9, transforms=self.tf)
+        sp = msg.points
+        if sp is None:
+            self._drop_cloud(msg.reason)
             return
-        if t * 1e-9 - sp.stamp > x.max_age:
-            self._drop_cloud("stale")
-            return
-        frame = sp.frame_id.removeprefix("/") or x.base_frame
-        pose = None
-        if frame != x.base_frame:
-            try:
-                pose = self.tf.transform(x.base_frame, frame)
-            except VelfenceError:
-                pose = None
-            if pose is None:
-                self._drop_cloud("frame_unknown")
-                return
         self.clouds_used += 1
         self.readings_dropped += sp.dropped
-        self.events.append((self.count, i, sp.points, sp.stamp, pose))
+        self.events.append((self.count, i, sp.points, sp.stamp, msg.pose))
 
     def _feed(self, upto: int, now: float) -> None:
         """The clouds received before command ``upto``, then every grid aged to ``now`` [s]."""

@@ -47,14 +47,17 @@ from velfence._validate import (
     readonly,
     real_array,
 )
-from velfence.errors import InvalidInput
+from velfence.errors import InvalidInput, InvalidParameter, VelfenceError
 from velfence.filter.point_cloud import MAX_CLOUD_POINTS
 from velfence.io._cdr import CdrError, CdrReader
+from velfence.io.transforms import TransformStore
 
 __all__ = [
     "POINT_FIELD_TYPES",
     "SENSOR_TYPES",
+    "SensorMessage",
     "SensorPoints",
+    "accept_sensor_message",
     "cloud_points",
     "decode_laser_scan",
     "decode_point_cloud2",
@@ -463,6 +466,75 @@ def decode_laser_scan(message: Any, *, max_points: int = MAX_CLOUD_POINTS) -> Se
     return SensorPoints(
         points=readonly(pts), frame_id=frame, stamp=stamp, dropped=dropped, readings=int(count)
     )
+
+
+@dataclass(frozen=True, eq=False, kw_only=True)
+class SensorMessage:
+    """What :func:`accept_sensor_message` made of one sensor message.
+
+    Attributes:
+        points: The decoded points (in the message's frame), or ``None`` when dropped.
+        pose: The 4 x 4 transform from the message's frame into the sensor's base frame, or
+            ``None`` (the points are already in it, or the message was dropped).
+        reason: ``""`` when accepted, else why it was dropped: ``"malformed"``, ``"stale"`` or
+            ``"frame_unknown"`` (the counters of the bridge and the replay).
+    """
+
+    points: SensorPoints | None
+    pose: FloatArray | None
+    reason: str
+
+
+def accept_sensor_message(
+    raw: Any, sensor: Any, *, now: float, transforms: TransformStore
+) -> SensorMessage:
+    """One sensor message decoded and placed in its sensor's base frame, or why it is dropped.
+
+    ``sensor`` is a ``bridge.sensors``/``replay.sensors`` entry. The one rule of the bridge and
+    the replay: a message that does not decode (or has more than ``sensor.max_points`` points)
+    is ``"malformed"``; one whose stamp is older than ``sensor.max_age`` at ``now`` is
+    ``"stale"``; one whose ``frame_id`` no transform of ``transforms`` reaches from
+    ``sensor.base_frame`` is ``"frame_unknown"`` (an empty ``frame_id`` is the base frame).
+
+    Args:
+        raw: The message's CDR bytes (or a parsed message).
+        sensor: A :class:`~velfence.io.shaper_config.SensorTopic`.
+        now: The time to judge staleness by [s] (the system clock, or the bag's receive time).
+        transforms: The transforms received so far.
+
+    Returns:
+        The points and their pose, or ``points=None`` with the reason. A message that does
+        not decode is a ``"malformed"`` drop, not an error (the bridge and the replay count it).
+
+    Raises:
+        InvalidParameter: ``sensor``, ``now`` or ``transforms`` is not what is described.
+    """
+    from velfence.io.shaper_config import SensorTopic
+
+    if not isinstance(sensor, SensorTopic):
+        raise InvalidParameter(f"sensor: expected a SensorTopic, got {type(sensor).__name__}")
+    if not isinstance(transforms, TransformStore):
+        raise InvalidParameter(
+            f"transforms: expected a TransformStore, got {type(transforms).__name__}"
+        )
+    now = finite_scalar("now", now, unit="s")
+    decode = decode_point_cloud2 if sensor.type == "point_cloud2" else decode_laser_scan
+    try:
+        sp = decode(raw, max_points=sensor.max_points)
+    except VelfenceError:
+        return SensorMessage(points=None, pose=None, reason="malformed")
+    if now - sp.stamp > sensor.max_age:
+        return SensorMessage(points=None, pose=None, reason="stale")
+    frame = sp.frame_id.removeprefix("/") or sensor.base_frame
+    pose = None
+    if frame != sensor.base_frame:
+        try:
+            pose = transforms.transform(sensor.base_frame, frame)
+        except VelfenceError:
+            pose = None
+        if pose is None:
+            return SensorMessage(points=None, pose=None, reason="frame_unknown")
+    return SensorMessage(points=sp, pose=pose, reason="")
 
 
 document_inits(globals())
