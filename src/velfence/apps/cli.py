@@ -405,9 +405,13 @@ def sim(
     except OSError as exc:
         raise _fail(f"cannot write to {folder}: {exc.strerror or exc}") from None
     report = result.report
+    # A scenario's notice (person-cell: advisory, not certified) goes with its results.
+    notice = getattr(importlib.import_module(module), "NOTICE", None)
     if json_out:
         doc = report.to_dict()
         doc["artifacts"] = [str(f) for f in files]
+        if notice is not None:
+            doc["notice"] = notice
         sys.stdout.write(json.dumps(doc, indent=2) + "\n")
     else:
         console = _stdout_console()
@@ -428,6 +432,8 @@ def sim(
         for c in report.checks:
             mark = "[green]pass[/]" if c.passed else "[red]FAIL[/]"
             console.print(f"{mark}  {escape(c.name)}: {_short(c.measured)} ({c.expected})")
+        if notice is not None:
+            console.print(f"[yellow]note:[/] {escape(notice)}")
     failed = sum(1 for c in report.checks if not c.passed)
     _summary(
         Console(stderr=True) if json_out else Console(),

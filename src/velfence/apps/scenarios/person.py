@@ -79,6 +79,13 @@ PARAMETERS = SeparationParameters(
     human_uncertainty=0.05,
     robot_uncertainty=0.01,
 )
+#: Printed by ``velfence sim --scenario person-cell`` with its results.
+NOTICE = (
+    "Speed and separation monitoring and the safety modes here are advisory, not a certified "
+    "safety function: a cell with people needs the robot's own safety-rated stop "
+    "(docs/separation.md)."
+)
+
 #: The TCP's task speed [m/s].
 TASK_SPEED = 0.3
 #: The task's waypoints in the box [m], visited in a loop.
