@@ -31,6 +31,7 @@ from __future__ import annotations
 import logging
 import os
 import signal
+import sys
 import threading
 import time
 import uuid
@@ -337,6 +338,7 @@ class Engine:
                 part.close()
             except Exception:  # a cluster already gone (Ctrl-C, a lost scheduler): nothing to do
                 logging.getLogger(__name__).debug("closing %r failed", part, exc_info=True)
+        _LOOP_LOG.setLevel(logging.NOTSET)
 
     # ---------------------------------------------------------------------------- work
 
@@ -464,12 +466,21 @@ class Engine:
                     progress(done, len(work), progress_text(done, len(work), _since(start)))
                 yield i, result
         finally:  # an error, Ctrl-C or a consumer that stops early: cancel what is left
+            if isinstance(sys.exc_info()[1], KeyboardInterrupt):
+                # Dask's own wait, interrupted, schedules a cancel on its event loop that may
+                # fail as the cluster goes away; tornado logs that with a traceback. The user
+                # pressed Ctrl-C: quiet until the engine is closed (close() restores it).
+                _LOOP_LOG.setLevel(logging.CRITICAL + 1)
             left = [f for f in futures if not f.done()]
             if left:
                 try:
                     client.cancel(left)
                 except Exception:  # the cluster is already going away
                     logging.getLogger(__name__).debug("cancel failed", exc_info=True)
+
+
+#: The event loop's error log (tornado, under Dask's client), quieted after a Ctrl-C.
+_LOOP_LOG = logging.getLogger("tornado.application")
 
 
 @contextmanager
