@@ -109,12 +109,27 @@ _BENCH: list[tuple[Any, list[tuple[str, float]]]] = []
 
 
 def bench_quick() -> tuple[Any, list[tuple[str, float]]]:
-    """``run_benchmarks(quick=True)`` once per worker: the report and every progress call."""
-    if not _BENCH:
-        from velfence.apps import bench
+    """The quick benchmark once per worker: the report and every progress call.
 
+    The quick configuration (``BenchSettings.make(quick=True)``: the same families, polygons,
+    cases and peers, the same code path as ``velfence bench --quick``) with fewer timed calls
+    and smaller batches: the tests read the report's structure, never its timings, and the
+    full quick run's extra calls only cost minutes of the suite.
+    """
+    if not _BENCH:
+        import dataclasses
+
+        from velfence.apps import bench
+        from velfence.apps.bench import run
+
+        settings = dataclasses.replace(
+            bench.BenchSettings.make(quick=True),
+            calls=20, warmup=1, states_per_zone=4, batch_n=1_000, batch_repeats=1,
+            python_n=64, stop_candidates=2_000, nd_batch_n=(1_000,), nd_python_n=32,
+            filter_calls=20, filter_states=2,
+        )  # fmt: skip
         calls: list[tuple[str, float]] = []
-        report = bench.run_benchmarks(quick=True, progress=lambda m, f: calls.append((m, f)))
+        report = run.run_settings(settings, progress=lambda m, f: calls.append((m, f)))
         _BENCH.append((report, calls))
     return _BENCH[0]
 

@@ -67,9 +67,14 @@ def _probe(tmp: Path) -> str | None:
 
 
 def _build(
-    out: Path, targets: str = "exact patent nd cc rr filter filter_cycle", *options: str
+    out: Path,
+    targets: str = "exact patent nd cc rr filter filter_cycle",
+    *options: str,
+    objects: Path | None = None,
 ) -> None:
     env = {**ENV, "CC": str(CLANG), "TARGETS": targets}
+    if objects is not None:  # the core's instrumented objects, shared by the module's builds
+        env["OBJ_DIR"] = str(objects)
     cmd = ["bash", str(FUZZ / "build.sh"), str(out), *options]
     done = subprocess.run(cmd, capture_output=True, text=True, timeout=300, env=env, check=False)
     assert done.returncode == 0, done.stdout + done.stderr
@@ -84,18 +89,25 @@ def libfuzzer(tmp_path_factory: pytest.TempPathFactory) -> None:
 
 
 @pytest.fixture(scope="module")
-def targets(libfuzzer: None, tmp_path_factory: pytest.TempPathFactory) -> Path:
+def objects(libfuzzer: None, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A folder for the core's instrumented objects, compiled once for the module's builds (the
+    build options change only the targets' own sources)."""
+    return tmp_path_factory.mktemp("libfuzzer-objects")
+
+
+@pytest.fixture(scope="module")
+def targets(objects: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The seven targets' default build, once for the module."""
     out = tmp_path_factory.mktemp("libfuzzer") / "build"
-    _build(out)
+    _build(out, objects=objects)
     return out
 
 
 @pytest.fixture(scope="module")
-def tampered(libfuzzer: None, tmp_path_factory: pytest.TempPathFactory) -> Path:
+def tampered(objects: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The seven targets built with ``--control-tamper`` (every OK result spoiled), once."""
     out = tmp_path_factory.mktemp("libfuzzer") / "tamper"
-    _build(out, "exact patent nd cc rr filter filter_cycle", "--control-tamper")
+    _build(out, "exact patent nd cc rr filter filter_cycle", "--control-tamper", objects=objects)
     return out
 
 

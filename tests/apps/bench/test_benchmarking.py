@@ -1,8 +1,8 @@
 """The benchmark suite through its real code path: structure only, never timings.
 
 Timing targets are reported by the benchmarks (docs/benchmarks.md), never asserted in tests: a
-loaded machine must not fail the suite. The quick configuration runs once (as ``velfence bench
---quick`` does); a tiny one (a few calls per row) runs every case family again, directly and
+loaded machine must not fail the suite. The quick configuration runs once with fewer timed calls
+(tests/shared_runs.py: the same families and cases as ``velfence bench --quick``); a tiny one (a few calls per row) runs every case family again, directly and
 through :func:`velfence.apps.bench.run.run_settings`, and its rows and Markdown are checked.
 """
 
@@ -206,18 +206,19 @@ class _Recorder:
 
 @pytest.fixture(scope="module")
 def tiny() -> tuple[bm.BenchReport, list[tuple[str, float]]]:
-    calls: list[tuple[str, float]] = []
-    rep = run.run_settings(TINY, progress=lambda msg, frac: calls.append((msg, frac)))
-    return rep, calls
+    """The shared run (tests/shared_runs.py), through :func:`run.run_settings` with settings
+    of its own (the quick configuration with few calls): its rows and Markdown checked against
+    those settings."""
+    return bench_quick()
 
 
 def test_tiny_run_reports_every_step_once_in_order(
     tiny: tuple[bm.BenchReport, list[tuple[str, float]]],
 ) -> None:
-    _, calls = tiny
+    rep, calls = tiny
     assert calls[-1] == ("done", 1.0)
     steps = calls[:-1]
-    total = run._step_count(TINY, numba_ok=HAVE_NUMBA, qp_ok=HAVE_QP)
+    total = run._step_count(rep.settings, numba_ok=HAVE_NUMBA, qp_ok=HAVE_QP)
     assert len(steps) == total  # the fraction is exact: one call before each step
     assert [f for _, f in steps] == [i / total for i in range(total)]
     assert len({m for m, _ in steps}) == total
@@ -227,18 +228,18 @@ def test_tiny_run_has_rows_of_every_family(
     tiny: tuple[bm.BenchReport, list[tuple[str, float]]],
 ) -> None:
     rep, _ = tiny
-    assert rep.settings is TINY
-    assert {(r.edges, r.method) for r in rep.latency} == {(e, m) for e in (4, 8) for m in METHODS}
-    assert len(rep.worst) == 4
+    edges = rep.settings.latency_edges
+    assert {(r.edges, r.method) for r in rep.latency} == {(e, m) for e in edges for m in METHODS}
+    assert len(rep.worst) == len(edges) * len(METHODS)
     assert {b.backend for b in rep.batch} == ({"numba", "python"} if HAVE_NUMBA else {"python"})
     assert {r.method for r in rep.stops} == {"nearest", "exact"}
     arms = {r.arm for r in rep.control}
     assert arms == set(redundancy.ARMS)
-    assert {r.obstacles for r in rep.control} == set(redundancy.obstacle_counts(TINY))
+    assert {r.obstacles for r in rep.control} == set(redundancy.obstacle_counts(rep.settings))
     families = {r.family for r in rep.steps}
     assert families == {"cobot (Gillespie 1999)", "resolved rate (Khokar 2009)"}
     if HAVE_QP:
-        assert {q.edges for q in rep.qp} == {4, 8}
+        assert {q.edges for q in rep.qp} == set(edges)
         assert {r.method for r in rep.control} == {"configuration-control", "velocity-damper-qp"}
     else:
         assert rep.qp == ()
@@ -283,13 +284,13 @@ def test_per_call_rows_are_latency_records(
     assert rows
     for r in rows:
         assert isinstance(r, Latency)
-        assert r.calls >= TINY.calls
+        assert r.calls >= rep.settings.calls
         assert 0.0 < r.median_us <= r.p99_us <= r.max_us
     for r in rep.latency:
-        assert r.calls == TINY.calls
-        assert 0 < r.states <= TINY.states_per_zone
+        assert r.calls == rep.settings.calls
+        assert 0 < r.states <= rep.settings.states_per_zone
     for r in rep.stops:
-        assert r.calls == TINY.calls
+        assert r.calls == rep.settings.calls
         assert 0 < r.states <= 64
     for c in rep.control:
         assert c.calls == 50  # at least 50 cycles per row, whatever the settings
