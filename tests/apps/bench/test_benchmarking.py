@@ -2,8 +2,9 @@
 
 Timing targets are reported by the benchmarks (docs/benchmarks.md), never asserted in tests: a
 loaded machine must not fail the suite. The quick configuration runs once with fewer timed calls
-(tests/shared_runs.py: the same families and cases as ``velfence bench --quick``); a tiny one (a few calls per row) runs every case family again, directly and
-through :func:`velfence.apps.bench.run.run_settings`, and its rows and Markdown are checked.
+(tests/shared_runs.py: the same families and cases as ``velfence bench --quick``, through
+:func:`velfence.apps.bench.run.run_settings`) and its rows and Markdown are checked; a tiny one
+(a few calls per row) runs each case family again on its own.
 """
 
 from __future__ import annotations
