@@ -236,11 +236,19 @@ class _ArmController:
         hi = np.minimum(self.max_speed, g * (self.upper - q))
         return lo, np.maximum(hi, lo)
 
-    def _sphere_rows(self, q: FloatArray) -> tuple[FloatArray, FloatArray, list[str]]:
+    def _frame(self, q: FloatArray) -> Any:
+        """The pose's kinematics, computed once per step (segments, points, Jacobians)."""
+        return self.robot.kinematics(q)
+
+    def _ee_jacobian(self, frame: Any) -> FloatArray:
+        """The TCP's Jacobian [m/rad], shape (3, n) (``robot.ee_jacobian`` from the frame)."""
+        return np.array(frame.point_jacobian(self.dof - 1, 1.0)[:3], dtype=float)
+
+    def _sphere_rows(self, frame: Any) -> tuple[FloatArray, FloatArray, list[str]]:
         """Damper rows ``a·qd >= -b`` of every link within the influence clearance."""
         if not self.obstacles:
             return np.zeros((0, self.dof)), np.zeros(0), []
-        segs = np.asarray(self.robot.link_segments(q), dtype=float)
+        segs = np.asarray(frame.segments(), dtype=float)
         _, clear = points_segments_distances(
             self._centers, segs[:, 0], segs[:, 1], radii=self._link_radius
         )
@@ -255,16 +263,16 @@ class _ArmController:
                     sphere_radius=float(self._radii[i]),
                     capsule_radius=float(self._link_radius[link]),
                 )
-                Jc = np.asarray(self.robot.point_jacobian(q, int(link), float(t)), dtype=float)
+                Jc = np.asarray(frame.point_jacobian(int(link), float(t)), dtype=float)
                 rows.append(n @ Jc)  # d_dot = n·(x_dot), n from the centre to the axis
                 bounds.append(self.obstacle_gain * (d - self.safety) / span)
                 names.append(f"obstacle {i} on link {int(link)}")
         return np.array(rows).reshape(-1, self.dof), np.array(bounds), names
 
-    def _workspace_rows(self, q: FloatArray, J: FloatArray) -> tuple[FloatArray, FloatArray]:
+    def _workspace_rows(self, frame: Any, J: FloatArray) -> tuple[FloatArray, FloatArray]:
         if self.workspace is None:
             return np.zeros((0, self.dof)), np.zeros(0)
-        p = np.asarray(self.robot.end_effector(q), dtype=float)
+        p = np.array(frame.segments()[-1, 1, :3], dtype=float)  # the TCP (robot.end_effector)
         d = np.asarray(self.workspace.signed_distances(p), dtype=float)
         N = np.asarray(self.workspace.normals, dtype=float)
         return N @ J, self.workspace_gain * d / self.dt
@@ -317,7 +325,7 @@ class ResolvedRate(_ArmController):
     method = "no-limit"
 
     def _step(self, q: FloatArray, v: FloatArray) -> ArmStep:
-        qd = self._dls(np.asarray(self.robot.ee_jacobian(q), dtype=float), v)
+        qd = self._dls(self._ee_jacobian(self._frame(q)), v)
         return ArmStep(qd, v, q, "free", (), ("dls",), self.method)
 
 
@@ -334,7 +342,7 @@ class JointClamp(_ArmController):
     method = "per-joint-clamp"
 
     def _step(self, q: FloatArray, v: FloatArray) -> ArmStep:
-        qd = self._dls(np.asarray(self.robot.ee_jacobian(q), dtype=float), v)
+        qd = self._dls(self._ee_jacobian(self._frame(q)), v)
         lo = np.maximum(-self.max_speed, (self.lower - q) / self.dt)
         hi = np.maximum(np.minimum(self.max_speed, (self.upper - q) / self.dt), lo)
         out = np.clip(qd, lo, hi)
@@ -383,12 +391,14 @@ class ScalarScale(_ArmController):
                 f"{self.singular_slow} and {self.singular_stop}"
             )
 
-    def _condition(self, q: FloatArray) -> float:
-        sv = np.linalg.svd(np.asarray(self.robot.ee_jacobian(q), dtype=float), compute_uv=False)
+    @staticmethod
+    def _condition(J: FloatArray) -> float:
+        sv = np.linalg.svd(J, compute_uv=False)
         return float(sv[0] / sv[-1]) if sv[-1] > 0.0 else math.inf
 
     def _step(self, q: FloatArray, v: FloatArray) -> ArmStep:
-        J = np.asarray(self.robot.ee_jacobian(q), dtype=float)
+        frame = self._frame(q)
+        J = self._ee_jacobian(frame)
         qd = self._dls(J, v)
         s, why = 1.0, ""
         lo, hi = self._joint_bounds(q)
@@ -398,14 +408,14 @@ class ScalarScale(_ArmController):
                     s = max(0.0, bound / x)
                     at_v = abs(bound - self.max_speed[i]) <= 1e-12
                     why = f"joint {i} {'velocity' if at_v else 'position'} ({side})"
-        rows, bounds, names = self._sphere_rows(q)
+        rows, bounds, names = self._sphere_rows(frame)
         for a, b, name in zip(rows, bounds, names, strict=True):
             rate = float(a @ qd)
             if rate < 0.0 and b / -rate < s:
                 s, why = max(0.0, b / -rate), name
-        kappa = self._condition(q)
+        kappa = self._condition(J)
         if kappa > self.singular_slow:
-            ahead = self._condition(q + self.dt * qd)
+            ahead = self._condition(self._ee_jacobian(self._frame(q + self.dt * qd)))
             if ahead > kappa:
                 f = (self.singular_stop - kappa) / (self.singular_stop - self.singular_slow)
                 f = min(1.0, max(0.0, f))
@@ -460,13 +470,14 @@ class DamperQP(_ArmController):
         self._qp = _qpsolvers()
 
     def _step(self, q: FloatArray, v: FloatArray) -> ArmStep:
-        J = np.asarray(self.robot.ee_jacobian(q), dtype=float)
+        frame = self._frame(q)
+        J = self._ee_jacobian(frame)
         n = self.dof
         P = J.T @ J + self.damping * np.eye(n)
         c = -(J.T @ v)
         lo, hi = self._joint_bounds(q)
-        S, sb, snames = self._sphere_rows(q)
-        W, wb = self._workspace_rows(q, J)
+        S, sb, snames = self._sphere_rows(frame)
+        W, wb = self._workspace_rows(frame, J)
         wnames = (
             [] if self.workspace is None else [f"TCP face {f}" for f in self.workspace.facet_names]
         )

@@ -1,8 +1,8 @@
 """The arm-in-a-box scenario: the named checks on the full demo run, and the scenario's pieces.
 
-The full scenario (three speeds, five controllers, every artifact) runs once per session; each
-check recomputes what it asserts from the recorded joint trajectories with independent
-arithmetic (the box's bounds, point-to-segment distances by sampling, the joint limits), rather
+The full scenario (three speeds, five controllers, every artifact but the GIF) runs once per
+session; each check recomputes what it asserts from the recorded joint trajectories with
+independent arithmetic (the box's bounds, point-to-segment distances by sampling, the joint limits), rather
 than trusting the metrics table.
 """
 
@@ -37,7 +37,9 @@ BASELINES = [m for m in ARM_METHODS if m != "safety-filter"]
 @pytest.fixture(scope="session")
 def demo(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, DemoResult]:
     out = tmp_path_factory.mktemp("arm-box")
-    return out, run_arm_demo(out_dir=out)
+    # Without the GIF: tests/apps/progress (the demo through the CLI, every figure and GIF frame
+    # checked) and tests/apps/viz/test_arm_viz.py check it.
+    return out, run_arm_demo(out_dir=out, gif=False)
 
 
 def _key(method: str, speed: float) -> str:
@@ -181,13 +183,12 @@ def test_artifacts(demo: tuple[Path, DemoResult]) -> None:
         "arm_paths.png",
         "arm_joints.png",
         "arm_activity.png",
-        "arm_velfence.gif",
         "metrics.md",
         "metrics.json",
     }
-    with Image.open(out / "arm_velfence.gif") as gif:
-        assert gif.size[0] >= 600
-        assert getattr(gif, "n_frames", 1) > 10
+    for name in ("arm_paths.png", "arm_joints.png", "arm_activity.png"):
+        with Image.open(out / name) as png:
+            assert png.size[0] >= 600
 
     def reject(token: str) -> float:
         raise AssertionError(f"metrics.json is not strict JSON: bare {token}")
