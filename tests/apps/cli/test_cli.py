@@ -6,7 +6,6 @@ import importlib
 import json
 import math
 import os
-import re
 import subprocess
 import sys
 import tomllib
@@ -233,18 +232,6 @@ def test_reproduce_ends_with_a_summary_line(
 
 
 @pytest.mark.slow  # about 14 s: one simulated subject
-def test_study_table_has_units(runner: CliRunner, tmp_path: Path) -> None:
-    result = _invoke(
-        runner, "study", "--subjects", "1", "--runs", "1", "--no-animation", "--out", str(tmp_path)
-    )
-    assert result.exit_code == 0, result.output
-    rows = [ln for ln in result.stdout.splitlines() if ln.startswith("│")]
-    assert len(rows) == 7
-    for row in rows:
-        first = row.split("│")[1].strip()
-        assert re.search(r"\[[^\]]+\]$", first), row
-
-
 # -------------------------------------------------------------------------------------------- demo
 
 

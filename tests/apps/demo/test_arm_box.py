@@ -2,8 +2,8 @@
 
 The full scenario (three speeds, five controllers, every artifact but the GIF) runs once per
 session; each check recomputes what it asserts from the recorded joint trajectories with
-independent arithmetic (the box's bounds, point-to-segment distances by sampling, the joint limits), rather
-than trusting the metrics table.
+independent arithmetic (the box's bounds, point-to-segment distances by sampling, the joint
+limits), rather than trusting the metrics table.
 """
 
 from __future__ import annotations

@@ -342,12 +342,19 @@ def test_sim_reports_progress_and_names_its_files(
 
 @pytest.mark.slow  # about 14 s: one simulated subject, one run per mode
 def test_study_reports_progress(tmp_path: Path) -> None:
+    """One small study through the command line: its stages, its files, and its table's rows
+    each naming their unit."""
     result = _invoke(
         "study", "--subjects", "1", "--runs", "1", "--no-animation", "--out", str(tmp_path)
     )
     assert result.exit_code == 0, result.output
     assert _stages(result.stderr) == ["pick-and-place runs", "study files"]
     _named_files_exist(result.stdout)
+    rows = [ln for ln in result.stdout.splitlines() if ln.startswith("│")]
+    assert len(rows) == 7
+    for row in rows:
+        first = row.split("│")[1].strip()
+        assert re.search(r"\[[^\]]+\]$", first), row
 
 
 def test_help_documents_the_exit_codes() -> None:
