@@ -184,16 +184,6 @@ def test_summary_table(short: tuple[DemoConfig, Path, DemoResult]) -> None:
 
 
 @pytest.mark.slow
-def test_gif_is_written(tmp_path: Path) -> None:
-    cfg = load_config(None, methods=["exact"], gif=True, duration=0.3)
-    result = run_demo(config=cfg, out_dir=tmp_path)
-    gif = tmp_path / "demo.gif"
-    assert gif in result.artifacts
-    assert gif.read_bytes()[:6] in (b"GIF89a", b"GIF87a")
-    assert result.artifacts[-1].name == "metrics.json"
-
-
-@pytest.mark.slow
 def test_custom_script_from_config(tmp_path: Path) -> None:
     cfg_path = tmp_path / "scenario.yaml"
     cfg_path.write_text(

@@ -156,6 +156,7 @@ def test_demo_reports_every_stage_through_the_gif(tmp_path: Path) -> None:
     assert _stages(result.stderr) == ["simulating", "metrics", "plots", "demo.gif", "metrics.json"]
     named = _named_files_exist(result.stdout)
     assert out / "demo.gif" in named
+    assert (out / "demo.gif").read_bytes()[:6] in (b"GIF89a", b"GIF87a")
     assert out / "metrics.json" in named
     assert "demo wrist: done (exit 0)" in result.stdout
 
