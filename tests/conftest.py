@@ -90,6 +90,7 @@ GROUPS = {
     ),
     "bench-quick": (
         "tests/apps/bench/test_benchmarking.py",
+        "tests/apps/bench/test_bench_nd.py",
         "tests/apps/cli/test_cli.py::test_bench_quick_writes_markdown",
     ),
     "cospm": (

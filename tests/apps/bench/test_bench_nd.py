@@ -2,7 +2,9 @@
 
 Never a timing: the rows are produced, the answers agree with independent QP solvers, the
 benchmark geometry is what it claims to be (checked against closed forms), and the targets are
-computed from the rows as documented.
+computed from the rows as documented. The rows checked are those of the shared quick benchmark
+run (tests/shared_runs.py, the same run tests/apps/bench/test_benchmarking.py reads); its
+progress messages stand for each family's steps.
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ import xml.etree.ElementTree as ET
 import numpy as np
 import pytest
 
+from shared_runs import bench_quick
 from velfence.apps import bench as bm
 from velfence.apps.bench import run
 from velfence.apps.bench.cases import filter as fc
@@ -104,22 +107,30 @@ def test_zone_pools_hold_states_of_their_zone() -> None:
 # ------------------------------------------------------------------ the n-D rows
 
 
+def _shared() -> tuple[bm.BenchReport, list[str]]:
+    """The shared run's report and its progress messages."""
+    rep, calls = bench_quick()
+    return rep, [m for m, _ in calls]
+
+
 @pytest.fixture(scope="module")
 def nd() -> tuple[
     dict[str, dict[str, list[tuple[np.ndarray, np.ndarray]]]], list[PolytopeLatencyRow]
 ]:
-    pools = pc.zone_pools(TINY, [])
-    return pools, pc.latency(TINY, pools, _Recorder())
+    """The shared run's n-D latency rows and their zone pools (drawn again: seeded, the same)."""
+    rep, _ = _shared()
+    return pc.zone_pools(rep.settings, []), list(rep.polytope)
 
 
 @pytest.mark.slow
 def test_polytope_latency_rows(nd: tuple[pc.NDPools, list[PolytopeLatencyRow]]) -> None:
     pools, rows = nd
+    settings = bench_quick()[0].settings
     assert {r.case for r in rows} == set(pc.CASES)
     n_states = sum(1 for by_zone in pools.values() for pool in by_zone.values() if pool)
     assert len(rows) == n_states
     for r in rows:
-        assert r.calls == TINY.calls
+        assert r.calls == settings.calls
         assert 0.0 < r.median_us <= r.p99_us <= r.max_us
         assert 0.0 <= r.rows <= r.facets
     (corner,) = [r for r in rows if r.zone == pc.BOX_CORNER]
@@ -135,10 +146,12 @@ def test_polytope_latency_rows(nd: tuple[pc.NDPools, list[PolytopeLatencyRow]]) 
 def test_polytope_qp_rows_agree_with_the_law(
     nd: tuple[pc.NDPools, list[PolytopeLatencyRow]],
 ) -> None:
-    pools, rows = nd
-    step = _Recorder()
-    qp = pc.qp(TINY, pools, rows, step)
-    assert step.messages == [f"QP baseline: PolytopeShaper, {c}" for c in pc.CASES]
+    _, rows = nd
+    rep, messages = _shared()
+    qp = rep.polytope_qp
+    assert [m for m in messages if m.startswith("QP baseline: PolytopeShaper")] == [
+        f"QP baseline: PolytopeShaper, {c}" for c in pc.CASES
+    ]
     assert qp
     assert "free" not in {q.zone for q in qp}  # no rows there
     by_key = {(r.case, r.zone): r for r in rows}
@@ -154,19 +167,21 @@ def test_polytope_qp_rows_agree_with_the_law(
 
 @pytest.mark.slow
 def test_polytope_batch_rows() -> None:
-    step = _Recorder()
-    rows = pc.batch(TINY, HAVE_NUMBA, step)
-    sizes = TINY.nd_batch_n if HAVE_NUMBA else ()
+    rep, messages = _shared()
+    settings = rep.settings
+    rows = rep.polytope_batch
+    sizes = settings.nd_batch_n if HAVE_NUMBA else ()
     expect = [(c, b, n) for c in pc.CASES for n in sizes for b in ("numba", "numba, 1 thread")]
-    expect = sorted(expect + [(c, "python", TINY.nd_python_n) for c in pc.CASES])
+    expect = sorted(expect + [(c, "python", settings.nd_python_n) for c in pc.CASES])
     assert sorted((r.case, r.backend, r.n) for r in rows) == expect
-    assert len(step.messages) == len(pc.CASES) * (len(sizes) + 1)
+    batch = [m for m in messages if m.startswith("batch: PolytopeShaper")]
+    assert len(batch) == len(pc.CASES) * (len(sizes) + 1)
     for r in rows:
         assert r.rows_per_s == pytest.approx(r.n / r.median_s)
         assert r.ns_per_row == pytest.approx(1e9 * r.median_s / r.n)
         assert r.best_rows_per_s >= r.rows_per_s
         if r.backend.startswith("numba"):
-            assert r.repeats >= TINY.batch_repeats
+            assert r.repeats >= settings.batch_repeats
     if HAVE_NUMBA:
         import numba
 
@@ -249,10 +264,13 @@ def test_scenario_engages_every_kind_of_row() -> None:
 
 @pytest.fixture(scope="module")
 def filter_rows() -> tuple[list[FilterRow], list[str], list[str]]:
-    step = _Recorder()
-    notes: list[str] = []
-    rows = fc.cycles(TINY, step, HAVE_QP, notes)
-    return rows, step.messages, notes
+    """The shared run's safety-filter rows, its filter steps' messages and its notes."""
+    rep, messages = _shared()
+    return (
+        list(rep.filter),
+        [m for m in messages if m.startswith("safety filter:")],
+        list(rep.notes),
+    )
 
 
 @pytest.mark.slow
@@ -270,9 +288,10 @@ def test_filter_rows(filter_rows: tuple[list[FilterRow], list[str], list[str]]) 
         assert any("mink" in n and "skipped" in n for n in notes)
     assert {r.route for r in rows} == routes
     base = {(r.mode, r.zone): r for r in rows if r.route == fc.ROUTE_VF}
+    settings = bench_quick()[0].settings
     for r in rows:
-        assert r.calls == TINY.calls
-        assert 0 < r.states <= TINY.filter_states
+        assert r.calls == settings.filter_calls
+        assert 0 < r.states <= settings.filter_states
         assert 0.0 < r.median_us <= r.p99_us <= r.max_us
         mode = "joint" if r.mode.startswith("joint, dt") else r.mode
         ref = base[mode, r.zone]
