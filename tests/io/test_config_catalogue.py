@@ -201,6 +201,11 @@ CASES: list[Case] = [
     bad("demo-unknown-key", "demo", "metods: [exact]\n", "metods:", "did you mean 'methods'"),
     bad("demo-unknown-nested-key", "demo", "shaper: {bufer: 0.1}\n", "shaper.bufer:",
         "did you mean 'buffer'"),
+    # a key written one section too high: the Python API's buffer= at the top of the file
+    bad("demo-key-above-its-section", "demo", "buffer: 0.1\n", "buffer:",
+        "did you mean 'shaper.buffer'"),
+    bad("demo-mistyped-key-above-its-section", "demo", "bufer: 0.1\n", "bufer:",
+        "did you mean 'shaper.buffer'"),
     bad("demo-list-not-mapping", "demo", "- dt: 0.1\n", "mapping of fields", "list"),
     bad("demo-scalar-not-mapping", "demo", "0.1\n", "mapping of fields", "float"),
     bad("demo-shaper-a-list", "demo", "shaper: [0.1]\n", "shaper:"),
@@ -307,6 +312,10 @@ CASES: list[Case] = [
     ok("bridge-valid", "bridge", BRIDGE, lambda b: b.settings.command_in.topic == "/cmd_vel_nav"),
     bad("bridge-unknown-key", "bridge", _sub(BRIDGE, "  command_in:", "  comand_in:"),
         "comand_in", "did you mean 'command_in'"),
+    # the state's joint names written in the bridge section itself (not the close node_name)
+    bad("bridge-key-above-its-section", "bridge", _sub(BRIDGE, "  command_in:",
+        "  joint_names: [a, b]\n  command_in:"), "bridge.joint_names",
+        "did you mean 'state.joint_names'"),
     bad("bridge-watchdog-nan", "bridge", _sub(BRIDGE, "watchdog_period: 0.05",
         "watchdog_period: .nan"), "watchdog_period", "finite"),
     bad("bridge-timeout-negative", "bridge", _sub(BRIDGE, "state_timeout: 0.5",

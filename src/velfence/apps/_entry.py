@@ -5,6 +5,8 @@
 beyond the standard library until it has imported the CLI, so a core-only install gets
 ``pip install 'velfence[app]'`` instead of a ``ModuleNotFoundError`` traceback. Only the
 extras' own modules are translated; a missing module inside velfence is a bug and is re-raised.
+Ctrl-C while the CLI's modules load (a second or more on a loaded machine, before any command has
+installed its own handling) ends with one line and exit code 130, as it does in a command.
 """
 
 from __future__ import annotations
@@ -29,10 +31,16 @@ def missing_extra(exc: ModuleNotFoundError) -> str | None:
 
 
 def main() -> None:
-    """Entry point of the ``velfence`` script (exit code 2 when an extra is missing)."""
-    try:
-        from velfence.apps.cli import main as cli_main
+    """Entry point of the ``velfence`` script (exit code 2 when an extra is missing).
 
+    Exit code 130, with one line and no traceback, on Ctrl-C while the CLI is still loading.
+    """
+    try:
+        try:
+            from velfence.apps.cli import main as cli_main
+        except KeyboardInterrupt:
+            sys.stderr.write("velfence: interrupted while starting (exit 130)\n")
+            raise SystemExit(130) from None
         cli_main()
     except ModuleNotFoundError as exc:
         extra = missing_extra(exc)

@@ -691,7 +691,11 @@ def study(
         bool, typer.Option("--json", help="Print one JSON object (summary + artifacts).")
     ] = False,
     animation: Annotated[
-        bool, typer.Option(help="Render one laser-assisted run as an animation.")
+        bool,
+        typer.Option(
+            help="Render one laser-assisted run as an animation (assisted_run.gif) and one "
+            "picture of its autonomous approach (assisted_snapshot.png)."
+        ),
     ] = True,
     quiet: QuietOption = False,
 ) -> None:
@@ -701,14 +705,14 @@ def study(
     """
     from velfence.apps import progress
     from velfence.apps.teleop.study import assisted_run, run_study
-    from velfence.apps.viz.study import animate_run, write_study
+    from velfence.apps.viz.study import animate_run, snapshot_run, write_study
 
     if out.exists() and not out.is_dir():  # refused before minutes of runs, not after
         raise _fail(f"--out {out} exists and is not a folder")
     n_runs = subjects * runs * 2
     plan = [("pick-and-place runs", 5.0 * n_runs), ("study files", 3.0)]
     if animation:
-        plan += [("assisted run", 6.0), ("assisted_run.gif", 10.0)]
+        plan += [("assisted run", 6.0), ("assisted_run.gif", 10.0), ("assisted_snapshot.png", 1.0)]
     try:  # run_study checks the counts and the seed before any run: a bad one exits 2 at once
         with _tracker("velfence study", plan, quiet):
             with progress.stage("pick-and-place runs") as report_runs:
@@ -725,6 +729,8 @@ def study(
                     run = assisted_run(seed=seed)
                 with progress.stage("assisted_run.gif"):
                     artifacts.append(str(animate_run(run, out / "assisted_run.gif")))
+                with progress.stage("assisted_snapshot.png"):
+                    artifacts.append(str(snapshot_run(run, out / "assisted_snapshot.png")))
     except VelfenceError as exc:
         raise _fail(str(exc)) from None
     except OSError as exc:

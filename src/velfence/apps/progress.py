@@ -12,9 +12,11 @@ Output goes to stderr. On a terminal it is one live, transient rich line::
     velfence sim fence-box  rendering: fence-box.mp4 frame 120/400 ━━━━━━━━  63% 0:02:58 ETA 0:01:44
 
 When stderr is not a terminal (CI logs, pipes) nothing is drawn; instead one line is printed per
-finished stage, so a log shows the command is alive::
+finished stage, and at most one every ``heartbeat_period`` while a stage reports its progress, so
+a log shows the command is alive and about how long it still runs (the same estimate as the
+live line's, from the plan's weights; none until a second and 1 % of the plan have passed)::
 
-    velfence sim fence-box: [1/3] simulating done in 171.2 s (elapsed 171.9 s)
+    velfence sim fence-box: [1/3] simulating done in 171.2 s (elapsed 171.9 s, ETA 0:01:05)
 
 ``quiet=True`` (the commands' ``--quiet``) prints neither. The library layers never import this
 module; where a long library loop has to report, it accepts an optional callback
@@ -100,15 +102,23 @@ def _clock(seconds: float) -> str:
     return f"{s // 3600}:{s % 3600 // 60:02d}:{s % 60:02d}"
 
 
+def _eta(fraction: float, elapsed: float) -> str | None:
+    """``"ETA h:mm:ss"`` from the weighted fraction done and the elapsed time [s].
+
+    None while there is too little history for an estimate (under 1 % done or under a second)
+    and once everything is done.
+    """
+    if fraction < 0.01 or fraction >= 1.0 or elapsed < 1.0:
+        return None
+    return f"ETA {_clock(elapsed * (1.0 - fraction) / fraction)}"
+
+
 class _Remaining(ProgressColumn):
     """``ETA h:mm:ss`` from the elapsed time and the weighted fraction done."""
 
     def render(self, task: Task) -> Text:
-        f = task.percentage / 100.0
-        elapsed = task.elapsed or 0.0
-        if f < 0.01 or elapsed < 1.0:
-            return Text("ETA -:--:--", style="progress.remaining")
-        return Text(f"ETA {_clock(elapsed * (1.0 - f) / f)}", style="progress.remaining")
+        eta = _eta(task.percentage / 100.0, task.elapsed or 0.0)
+        return Text(eta or "ETA -:--:--", style="progress.remaining")
 
 
 class Tracker:
@@ -245,10 +255,16 @@ class Tracker:
                 self._last_line = time.perf_counter()
                 self.console.print(
                     f"{escape(self.title)}: {pos}{escape(name)} done in {seconds:.1f} s "
-                    f"(elapsed {self.elapsed:.1f} s)",
+                    f"({self._times(self._done / self._total)})",
                     highlight=False,
                     soft_wrap=True,
                 )
+
+    def _times(self, fraction: float) -> str:
+        """``elapsed 12.3 s`` and, once it can be estimated, ``, ETA 0:01:40`` (off a terminal)."""
+        elapsed = self.elapsed
+        eta = _eta(fraction, elapsed)
+        return f"elapsed {elapsed:.1f} s" + (f", {eta}" if eta else "")
 
     def update(self, done: float, total: float, what: str = "") -> None:
         """Report ``done`` of ``total`` units of the running stage (the :data:`OnProgress`).
@@ -275,9 +291,11 @@ class Tracker:
             self._last_line = now
             part = f"{done:g}/{total:g}" if total else f"{done:g}"
             detail = f" {what}" if what else ""
+            frac = min(1.0, done / total) if total else 0.0
+            fraction = (self._done + frac * self._weights.get(name, 0.0)) / self._total
             self.console.print(
                 f"{escape(self.title)}: {escape(name)}: {part}{escape(detail)} "
-                f"(elapsed {self.elapsed:.1f} s)",
+                f"({self._times(fraction)})",
                 highlight=False,
                 soft_wrap=True,
             )

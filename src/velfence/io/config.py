@@ -123,7 +123,8 @@ def describe_validation_error(err: ValidationError, model: type[BaseModel] | Non
     Internal API of :mod:`velfence.io` and :mod:`velfence.bridge` (their config messages). An
     unknown key ("Extra inputs are not permitted") gets "did you mean 'buffer'?" when one of the
     fields allowed at that place is close to it
-    (:func:`velfence.io.yaml_reader.did_you_mean`).
+    (:func:`velfence.io.yaml_reader.did_you_mean`), or else "did you mean 'shaper.buffer'?" when
+    a field of a section one level down is (a key written above its section).
 
     Args:
         err: What pydantic raised on a model of this package.
@@ -144,7 +145,7 @@ def describe_validation_error(err: ValidationError, model: type[BaseModel] | Non
             if isinstance(got, str) and _numeric_text(got):
                 msg += "; write numbers without quotes"
         elif e["type"] == "extra_forbidden" and model is not None and e["loc"]:
-            msg += did_you_mean(str(e["loc"][-1]), _fields_at(model, e["loc"][:-1]))
+            msg += _suggestion(str(e["loc"][-1]), model, e["loc"][:-1])
         lines.append(f"{loc}: {msg}")
     return "; ".join(lines)
 
@@ -160,6 +161,15 @@ def _models_in(annotation: Any) -> list[type[BaseModel]]:
 
 def _fields_at(model: type[BaseModel], path: tuple[int | str, ...]) -> list[str]:
     """The field names (and aliases) allowed at ``path`` inside ``model``."""
+    names: list[str] = []
+    for cls in _models_at(model, path):
+        for name, info in cls.model_fields.items():
+            names.append(info.alias or name)
+    return names
+
+
+def _models_at(model: type[BaseModel], path: tuple[int | str, ...]) -> list[type[BaseModel]]:
+    """The models that may be at ``path`` inside ``model`` (``[]``: a plain value there)."""
     models = [model]
     for step in path:
         nxt = [
@@ -170,14 +180,32 @@ def _fields_at(model: type[BaseModel], path: tuple[int | str, ...]) -> list[str]
         ]
         if nxt:
             models = nxt
+        elif isinstance(step, str) and any(step in cls.model_fields for cls in models):
+            return []  # a field that holds a plain value, not a section
         else:  # a list index or a union member's tag: narrow to the tagged model if named
             named = [m for m in models if m.__name__ == step]
             models = named or models
-    names: list[str] = []
-    for cls in models:
-        for name, info in cls.model_fields.items():
-            names.append(info.alias or name)
-    return names
+    return models
+
+
+def _suggestion(word: str, model: type[BaseModel], path: tuple[int | str, ...]) -> str:
+    """The "did you mean" for an unknown key ``word`` at ``path`` inside ``model``, or ``""``.
+
+    A field of that name in a section one level down comes first (the Python API's ``buffer=``
+    written at the top of a demo file, which has it under ``shaper:``: "did you mean
+    'shaper.buffer'?"); then the closest field at that place; then the closest one level down.
+    """
+    import difflib
+
+    below: dict[str, list[str]] = {}
+    for section in _fields_at(model, path):
+        for name in _fields_at(model, (*path, section)):
+            below.setdefault(name, []).append(f"{section}.{name}")
+    close = [word] if word in below else difflib.get_close_matches(word, sorted(below), n=1)
+    lower = "; did you mean " + " or ".join(repr(d) for d in below[close[0]]) + "?" if close else ""
+    if word in below:
+        return lower
+    return did_you_mean(word, _fields_at(model, path)) or lower
 
 
 def _numeric_text(text: str) -> bool:

@@ -504,10 +504,11 @@ def test_reproduce_help_says_where_files_go(runner: CliRunner) -> None:
 SRC = str(Path(velfence.__file__).resolve().parents[1])
 
 
-def _run_entry(blocked: str | None, *args: str, cwd: Path | None = None) -> Any:
+def _run_entry(blocked: str | None, *args: str, cwd: Path | None = None, prelude: str = "") -> Any:
     """Run the console-script entry in a fresh interpreter with module ``blocked`` missing."""
     code = (
         "import sys\n"
+        + prelude
         + (f"sys.modules[{blocked!r}] = None\n" if blocked else "")
         + f"sys.argv = ['velfence', *{list(args)!r}]\n"
         + "from velfence.apps._entry import main\n"
@@ -523,6 +524,23 @@ def _run_entry(blocked: str | None, *args: str, cwd: Path | None = None) -> Any:
         timeout=120,
         check=False,
     )
+
+
+def test_ctrl_c_while_the_cli_loads_is_one_line_and_exit_130(tmp_path: Path) -> None:
+    # Ctrl-C lands while typer is being imported (the first second of any command): a finder
+    # that raises KeyboardInterrupt there stands in for the signal.
+    prelude = (
+        "class _CtrlC:\n"
+        "    def find_spec(self, name, path=None, target=None):\n"
+        "        if name == 'typer':\n"
+        "            raise KeyboardInterrupt\n"
+        "sys.meta_path.insert(0, _CtrlC())\n"
+    )
+    proc = _run_entry(None, "bridge", "--config", "b.yaml", cwd=tmp_path, prelude=prelude)
+    assert proc.returncode == 130, proc.stderr
+    assert proc.stdout == ""
+    assert "Traceback" not in proc.stderr
+    assert proc.stderr.splitlines() == ["velfence: interrupted while starting (exit 130)"]
 
 
 def test_script_entry_is_the_guarded_one() -> None:

@@ -83,6 +83,34 @@ def test_off_a_terminal_a_long_stage_prints_a_heartbeat() -> None:
     assert t.heartbeat_period == 30.0
 
 
+def test_off_a_terminal_the_lines_carry_the_remaining_time(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # A CI log says how long a command still runs, as the live line does: the weighted
+    # fraction of the plan done, extrapolated (ETA = elapsed * (1 - f) / f).
+    now = [100.0]
+    monkeypatch.setattr(progress, "time", type("Clock", (), {"perf_counter": lambda: now[0]}))
+    buf = io.StringIO()
+    console = Console(file=buf, force_terminal=False, width=200)
+    plan = [("runs", 3.0), ("plots", 1.0)]
+    tracker = progress.Tracker(plan, title="velfence x", console=console, heartbeat_period=1.0)
+    with tracker:
+        with progress.stage("runs") as report:
+            now[0] += 0.5
+            report(1, 10, "run 1")  # under a second of history: no estimate yet
+            now[0] += 59.5
+            report(5, 10, "run 5")  # 60 s for 1.5 of 4 weight units: 100 s left
+            now[0] += 60.0  # the stage ends at 120 s, 3 of 4 units: 40 s left
+        with progress.stage("plots"):
+            now[0] += 30.0  # the last stage: nothing left to estimate
+    lines = buf.getvalue().splitlines()
+    assert lines == [
+        "velfence x: runs: 5/10 run 5 (elapsed 60.0 s, ETA 0:01:40)",
+        "velfence x: [1/2] runs done in 120.0 s (elapsed 120.0 s, ETA 0:00:40)",
+        "velfence x: [2/2] plots done in 30.0 s (elapsed 150.0 s)",
+    ]
+
+
 def test_quiet_prints_nothing() -> None:
     buf = io.StringIO()
     console = Console(file=buf, force_terminal=True, width=200)

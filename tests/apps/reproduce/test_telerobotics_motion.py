@@ -116,3 +116,34 @@ def test_singularity_time_is_the_first_sign_change():
     assert np.all(np.sign(run.jinv.det[:k]) == np.sign(run.jinv.det[0]))
     # via-to-via SR increments never carry the arm through det J = 0 on trajectory 1
     assert math.isinf(singularity_time(run.open_loop_sr))
+
+
+def test_motion_checks_report_their_parts_to_the_running_command(monkeypatch, tmp_path):
+    # The motion stage runs minutes on a loaded machine: its parts show in a CI log. Stopped at
+    # its first simulation, the stage has already said what it is running.
+    import io
+
+    from rich.console import Console
+
+    from velfence.apps import progress
+    from velfence.apps.reproduce import _telerobotics_motion as motion
+
+    class Stop(Exception):
+        pass
+
+    def stop(*args, **kwargs):
+        raise Stop
+
+    monkeypatch.setattr(motion, "singularity_run", stop)
+    buf = io.StringIO()
+    console = Console(file=buf, force_terminal=False, width=200)
+    tracker = progress.Tracker(
+        [("motion", 60.0)], title="velfence reproduce telerobotics", console=console,
+        heartbeat_period=1e-9,
+    )  # fmt: skip
+    with pytest.raises(Stop), tracker, progress.stage("motion"):
+        motion.motion_checks(tmp_path)
+    first = buf.getvalue().splitlines()[0]
+    assert first.startswith(
+        "velfence reproduce telerobotics: motion: 0/5 singularity runs, J⁻¹ and SR (elapsed "
+    )

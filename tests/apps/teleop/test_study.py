@@ -12,7 +12,7 @@ from optional import requires
 from velfence.apps.teleop.operator import OperatorProfile
 from velfence.apps.teleop.study import assisted_run, run_study
 from velfence.apps.teleop.task import run_task
-from velfence.apps.viz.study import animate_run, write_study
+from velfence.apps.viz.study import animate_run, snapshot_run, write_study
 from velfence.errors import InvalidParameter
 
 RATE = 50.0  # coarse control rate: these tests check the plumbing, the study uses 100 Hz
@@ -78,6 +78,28 @@ def test_animate_run_writes_a_gif_or_falls_back_to_json(runs, tmp_path, monkeypa
     data = json.loads(fallback.read_text())
     assert len(data["snapshots"]) == len(run.snapshots)
     assert data["scene"] == json.loads(json.dumps(list(run.scene)))
+
+
+@pytest.mark.slow  # the module's two runs (as test_animate_run)
+def test_snapshot_run_shows_the_middle_of_the_autonomous_approach(runs, tmp_path, monkeypatch):
+    import velfence.apps.viz.telerobotics as viz
+
+    run = runs["assisted"]
+    modes = [s["mode"] for s in run.snapshots]
+    first = modes.index("autonomous")
+    last = first
+    while last + 1 < len(modes) and modes[last + 1] == "autonomous":
+        last += 1
+    png = snapshot_run(run, tmp_path / "a" / "snap.png")
+    assert png == tmp_path / "a" / "snap.png"
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    drawn = []
+    monkeypatch.setattr(viz, "plot_snapshot", lambda snap, scene, path: drawn.append(snap) or path)
+    snapshot_run(run, tmp_path / "b.png")
+    assert drawn == [run.snapshots[(first + last) // 2]]
+    assert drawn[0]["mode"] == "autonomous"
+    snapshot_run(run, tmp_path / "c.png", mode="no such mode")  # never entered: the middle
+    assert drawn[1] is run.snapshots[len(run.snapshots) // 2]
 
 
 def test_run_task_validation():

@@ -406,8 +406,11 @@ def test_study(tmp_path: Path, recorded: Recorded) -> None:
         "study_times.png",
         "study_paths.png",
         "assisted_run.gif",
+        "assisted_snapshot.png",
     }
     written = check_every(recorded, tmp_path)
-    assert {"study_paths.png", "study_times.png", "assisted_run.gif"} <= written
+    assert {"study_paths.png", "study_times.png", "assisted_run.gif", "assisted_snapshot.png"} <= (
+        written
+    )
     for ax in recorded["study_paths.png"].axes:
         assert len(ax.get_xticks()) <= 5  # no overlapping tick labels on the small 3-D panels

@@ -39,6 +39,7 @@ from pathlib import Path
 import numpy as np
 
 from velfence._typing import FloatArray
+from velfence.apps import progress
 from velfence.apps.reproduce.base import Check, check_at_least, check_at_most, check_close
 from velfence.apps.teleop import thesis_data as data
 from velfence.apps.teleop.resolved_rate import (
@@ -229,6 +230,8 @@ def motion_checks(out: Path) -> tuple[list[Check], list[Path]]:
     """
     robot = Puma560()
     checks: list[Check] = []
+    # Five parts, reported to the running command (a CI log shows the stage is alive).
+    progress.update(0, 5, "singularity runs, J⁻¹ and SR")
     r1, r2 = singularity_run(1, robot), singularity_run(2, robot)
     fitted = (
         f"a time at the speed fitted from it: V_r = {SPEED:g} m/s is what we derived "
@@ -417,6 +420,7 @@ def motion_checks(out: Path) -> tuple[list[Check], list[Path]]:
     )
 
     # 12. Straight-line accuracy (§7.1, Table 3) with servo lag: a one-sided bound.
+    progress.update(1, 5, "straight-line accuracy runs")
     acc = _accuracy_runs(robot)
     track = np.array([float(ex.tracking_error.max()) for ex in acc]) * 1e3
     dev = np.array([float(ex.path_deviation.max()) for ex in acc]) * 1e3
@@ -446,6 +450,7 @@ def motion_checks(out: Path) -> tuple[list[Check], list[Path]]:
     )
 
     # 13. Self-correction against a servo that settles short of its command.
+    progress.update(2, 5, "self-correction runs")
     q_start = data.TRAJECTORY_INITIAL_Q_RAD[0]
     T0 = robot.fk(q_start)
     traj = straight_line(
@@ -489,6 +494,7 @@ def motion_checks(out: Path) -> tuple[list[Check], list[Path]]:
     # 14. Pure rotation ('T'+'A'), executed: the fingertip stays in place. Frame 6 is the
     # spherical-wrist centre, which a pure rotation never moves (joints 4-6 only), so the check
     # is made at the fingertip, where all six joints must move together.
+    progress.update(3, 5, "pure rotation")
     hand = Puma560(tool=(0.0, 0.0, GRIPPER_LENGTH))
     q_rot = data.TRAJECTORY_INITIAL_Q_RAD[0]
     T_a = hand.fk(q_rot)
@@ -519,6 +525,7 @@ def motion_checks(out: Path) -> tuple[list[Check], list[Path]]:
         )
     )
 
+    progress.update(4, 5, "figures")
     artifacts = _figures(r1, r2, acc, out)
     return checks, artifacts
 

@@ -2,11 +2,13 @@ r"""Figures and files of the simulated user study (Khokar 2009 §7.2, Figs. 74 a
 
 :func:`plot_times` and :func:`plot_paths` draw a :class:`~velfence.apps.teleop.study.StudyResult`;
 :func:`write_study` writes them with the records as JSON; :func:`animate_run` renders a recorded
-run (e.g. :func:`~velfence.apps.teleop.study.assisted_run`).
+run (e.g. :func:`~velfence.apps.teleop.study.assisted_run`) and :func:`snapshot_run` one picture of
+it (docs/img/telerobotics_snapshot.png is ``velfence study``'s ``assisted_snapshot.png``).
 """
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 import textwrap
@@ -17,7 +19,7 @@ import numpy as np
 from velfence.apps.teleop.study import StudyResult
 from velfence.apps.teleop.task import CONDITIONS, TaskRun
 
-__all__ = ["animate_run", "plot_paths", "plot_times", "write_study"]
+__all__ = ["animate_run", "plot_paths", "plot_times", "snapshot_run", "write_study"]
 
 
 _COLORS = {"unassisted": "#d62728", "assisted": "#1f77b4"}
@@ -164,3 +166,39 @@ def animate_run(run: TaskRun, path: str | Path, *, fps: int = 15, max_frames: in
         list(run.snapshots), list(run.scene), out, fps=fps, max_frames=max_frames
     )
     return Path(written)
+
+
+def snapshot_run(run: TaskRun, path: str | Path, *, mode: str = "autonomous") -> Path:
+    """One picture of a recorded run: the middle of its first stretch in ``mode``.
+
+    With the default, an assisted run is shown during its autonomous approach: the arm moving
+    along the line the laser defined to the target, beam and fixture line drawn
+    (:func:`~velfence.apps.viz.telerobotics.plot_snapshot`). A run that never enters ``mode``
+    is shown at its middle.
+
+    Args:
+        run: A run with snapshots, e.g. :func:`~velfence.apps.teleop.study.assisted_run`.
+        path: Output image (``.png``); its folder is created.
+        mode: The traded-control mode to show (a snapshot's ``mode``).
+
+    Returns:
+        The path written.
+
+    Raises:
+        InvalidInput: a run without snapshots.
+    """
+    from velfence.apps.viz.telerobotics import plot_snapshot
+    from velfence.errors import InvalidInput
+
+    snaps = list(run.snapshots)
+    if not snaps:
+        raise InvalidInput("run: expected a run with snapshots (snapshot_rate > 0), got none")
+    idx = [k for k, snap in enumerate(snaps) if snap.get("mode") == mode]
+    if idx:
+        end = next((a for a, b in itertools.pairwise(idx) if b != a + 1), idx[-1])
+        pick = (idx[0] + end) // 2
+    else:
+        pick = len(snaps) // 2
+    out = Path(path)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    return plot_snapshot(snaps[pick], list(run.scene), out)
