@@ -332,10 +332,11 @@ class SafetyFilter(InvalidPolicy):
             else compiled_rows(core, self, profs)
         )
         self._metric: Metric = parts.metric(weights, n)
-        # The whole joint-mode cycle in C (velfence_filter.h) when the core is in use, the robot
-        # gives its chain as data and no custom provider runs: filter(), shape() and
-        # shape_batch() call it and explain() builds its report from it; twist mode and every
-        # other case keep the Python route (backend="python": the oracle it is tested equal to).
+        # The whole cycle in C (velfence_filter.h) when the core is in use, the robot gives its
+        # chain as data and no custom provider runs: filter(), shape() and shape_batch() call it
+        # and explain() builds its report from it; twist mode passes its metric's factor L
+        # (vf_filter_cycle_metric). Every other case (a full weight matrix in joint mode too)
+        # keeps the Python route (backend="python": the oracle it is tested equal to).
         self._ccycle: Any = None
         if core is not None and not providers:
             from velfence.filter.ccycle import c_cycle_or_none
@@ -410,12 +411,13 @@ class SafetyFilter(InvalidPolicy):
 
     @property
     def cycle_in_c(self) -> bool:
-        """True when each joint-mode cycle runs whole in the compiled core.
+        """True when each cycle, joint mode and twist mode, runs whole in the compiled core.
 
-        That is ``vf_filter_cycle`` of ``velfence_filter.h``: ``backend="c"`` (or ``"auto"`` with
-        the core installed), a robot with chain data (``DHChain``, ``Puma560``, a chain
-        ``MujocoRobot``) and no row provider of the user's. False on the other routes (the
-        compiled rows, or Python).
+        That is ``vf_filter_cycle`` of ``velfence_filter.h`` (twist mode:
+        ``vf_filter_cycle_metric`` with the factor of ``JᵀJ + λ²I``): ``backend="c"`` (or
+        ``"auto"`` with the core installed), a robot with chain data (``DHChain``, ``Puma560``, a
+        chain ``MujocoRobot``), no row provider of the user's and no full weight matrix. False
+        on the other routes (the compiled rows, or Python).
         """
         return self._ccycle is not None
 
