@@ -74,7 +74,7 @@ from velfence.filter.rows import (
     RowProvider,
     WorkspaceRows,
 )
-from velfence.filter.solve import Metric, Projector, damped_factor, finite
+from velfence.filter.solve import Metric, Projector, damped_factor, factor_solve, finite
 from velfence.filter.stack import RowStack, collect
 from velfence.shaping.backend import pick_backend
 from velfence.shaping.base import InvalidPolicy, OnInvalid, Zone
@@ -918,11 +918,10 @@ class SafetyFilter(InvalidPolicy):
             Ja = ang() if ang is not None else robot.angular_jacobian(qa)
             J = np.vstack((J, checked("angular_jacobian(q)", Ja, (3, n))))
         with np.errstate(all="ignore"):
-            H = J.T @ J + (self.damping**2) * np.eye(n)
+            H = J.T @ J
+            H.flat[:: n + 1] += self.damping**2  # + λ² I
             L = damped_factor(H)
-            u: FloatArray = np.asarray(
-                np.linalg.solve(L.T, np.linalg.solve(L, J.T @ va)), dtype=np.float64
-            )
+            u = factor_solve(L, J.T @ va)
         if self._bad(u):
             self._invalid("input too large: the twist's joint velocity overflowed")
             return self._stopped(qa, va)

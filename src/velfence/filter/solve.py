@@ -27,6 +27,7 @@ __all__ = [
     "damped_factor",
     "factor_back",
     "factor_rows",
+    "factor_solve",
     "factor_times",
     "finite",
     "python_solve",
@@ -130,6 +131,21 @@ def factor_rows(L: FloatArray, G: FloatArray) -> FloatArray:
             s -= row[k] * Z[:, k]
         Z[:, i] = s / row[i]
     return Z
+
+
+def factor_solve(L: FloatArray, r: FloatArray) -> FloatArray:
+    """``(L Lᵀ)⁻¹ r``: forward substitution ``L z = r``, then :func:`factor_back` of ``z``."""
+    Lr = L.tolist()
+    rl = r.tolist()
+    n = len(rl)
+    z = [0.0] * n
+    for i in range(n):
+        s = rl[i]
+        row = Lr[i]
+        for k in range(i):
+            s -= row[k] * z[k]
+        z[i] = s / row[i]
+    return factor_back(L, np.array(z, dtype=np.float64))
 
 
 def factor_back(L: FloatArray, y: FloatArray) -> FloatArray:
