@@ -79,11 +79,10 @@ def damped_factor(H: FloatArray) -> FloatArray:
     n = H.shape[0]
     for jitter in (0.0, 1e-12, 1e-9):
         try:
-            if jitter == 0.0:  # (H itself: no shift to add)
-                L: FloatArray = np.linalg.cholesky(H)
-                return L
-            shift = jitter * (float(np.trace(H)) / n + 1e-300)
-            L = np.linalg.cholesky(H + shift * np.eye(n))
+            A: Any = H  # (the first try factors H itself: no shift to add)
+            if jitter:
+                A = H + jitter * (float(np.trace(H)) / n + 1e-300) * np.eye(n)
+            L: FloatArray = np.linalg.cholesky(A)
             return L
         except np.linalg.LinAlgError:
             continue
