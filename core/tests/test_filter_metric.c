@@ -19,7 +19,8 @@
  *     |g|_1 (|x|_inf + |u|_inf)); a second call gives the same bits;
  *   - refused with VF_ERR_ARGUMENT, a zero output and the stop stage: a NaN or infinite entry on
  *     or below the diagonal, a zero or negative diagonal entry; the entries above the diagonal
- *     are not read (NaN there changes nothing).
+ *     are not read (NaN there changes nothing); a valid factor whose image of the rows G L^-T
+ *     overflows: VF_ERR_OVERFLOW, a zero output.
  * Exactly-sized heap buffers (AddressSanitizer). Prints "ok <count>".
  */
 #include "velfence_filter.h"
@@ -383,6 +384,17 @@ int main(void)
         }
         rc = vf_filter_cycle_metric(&f, q, u, prev, NULL, L, NULL, x, &info, sc2, isc2);
         CHECK(rc == VF_OK, "the repaired factor runs: %d", rc);
+        /* a valid factor whose image of the rows overflows: VF_ERR_OVERFLOW, output zero */
+        for (i = 0; i < NJ; i++) {
+            for (j = 0; j <= i; j++) {
+                Ld[i * NJ + j] = i == j ? 1e-200 : 1e200;
+            }
+        }
+        rc = vf_filter_cycle_metric(&f, q, u, prev, NULL, Ld, NULL, x, &info, sc2, isc2);
+        CHECK(rc == VF_ERR_OVERFLOW && info.stages == VF_FILTER_STAGE_STOP, "overflow: %d", rc);
+        for (j = 0; j < NJ; j++) {
+            CHECK(x[j] == 0.0, "overflow: output zero");
+        }
     }
     free(H);
     free(L);
