@@ -1,7 +1,8 @@
 """The safety filter's whole cycle in C (``velfence_filter.h``): the targets of docs/benchmarks.md.
 
-Usage: ``PYTHONPATH=src python benchmarks/filter_cycle_c.py [--cycles N] [--dense-cycles N]``
-prints a Markdown table with the load average before and after.
+Usage: ``PYTHONPATH=src python benchmarks/filter_cycle_c.py [--cycles N] [--dense-cycles N]
+[--twist-cycles N] [--twist-only]`` prints a Markdown table with the load average before and
+after (``--twist-only``: the twist-mode rows alone).
 
 Workloads (every output checked against every row by the C example itself; it exits non-zero
 otherwise):
@@ -19,6 +20,14 @@ otherwise):
   same kind of scene on ``DHChain.seven_dof`` through ``SafetyFilter.filter`` from Python (every
   output checked against its cycle's rows there too): median, p99 and max. "Binding" counts
   the rows the command violates (``G u < b``).
+
+* **twist mode** on the same ``DHChain.seven_dof`` scene (box, 20 spheres, ``dt`` 1 ms,
+  acceleration rows): a closed loop commanding the TCP toward random points in the box (3-D
+  twist, 1/s gain, a new point every 0.5 s, ``q += x dt``), back to back, timing
+  ``explain_twist`` and ``filter_twist`` on the C cycle (``vf_filter_cycle_metric``; Python
+  computes the Jacobian, ``JᵀJ + λ²I``, its factor and ``u``), on the route twist mode took
+  before (rows, ladder and model check in Python with the compiled bound and projection kernels:
+  the same filter with its C cycle switched off) and on ``backend="python"`` (the oracle).
 
 Cycle times are of ``vf_filter_cycle`` (C) or of the ``cycle`` call (Python) alone. The C
 example is compiled with ``-O3 -ffp-contract=off`` (the flags of the library's CMake Release build).
@@ -127,10 +136,11 @@ def _python_cycle() -> object:
     )  # fmt: skip
 
 
-def _safety_filter(dense: bool = False) -> Any:
+def _safety_filter(dense: bool = False, backend: str = "c") -> Any:
     """``SafetyFilter`` on ``DHChain.seven_dof`` with a TCP box and 20 spheres, ``dt`` 1 ms.
 
-    ``dense``: 90 spheres 1-10 cm from the links and a 0.3 m obstacle buffer (>= 400 rows).
+    ``dense``: 90 spheres 1-10 cm from the links and a 0.3 m obstacle buffer (>= 400 rows);
+    ``backend``: the filter's (``"python"``: the oracle, no C cycle).
     """
     from velfence.filter import JointLimits, SafetyFilter, SphereObstacle, WorkspaceLimit
     from velfence.geometry.polytope import ConvexPolytope
@@ -162,8 +172,9 @@ def _safety_filter(dense: bool = False) -> Any:
         arm, limits=JointLimits(lim[:, 0], lim[:, 1], max_speed=np.full(7, 1.5),
                                 max_acceleration=np.full(7, 15.0)),
         workspace=box, obstacles=spheres, dt=1e-3, obstacle_buffer=0.3 if dense else 0.05,
+        backend=backend,
     )  # fmt: skip
-    assert sf.cycle_in_c, "the compiled core (velfence_core._filter) is not installed"
+    assert sf.cycle_in_c or backend == "python", "the compiled core is not installed"
     return sf
 
 
@@ -263,6 +274,68 @@ def _dense_python_loop(sf: Any, cycles: int) -> tuple[np.ndarray, float, float, 
     return np.sort(times) * 1e6, rows / cycles, binding / cycles, bad
 
 
+def _twist_loop(sf: Any, cycles: int, explain: bool) -> np.ndarray:
+    """The twist-mode closed loop (module docstring); sorted cycle times [us]."""
+    rng = np.random.default_rng(5)
+    q = Q7.copy()
+    sf.reset()
+    times = np.empty(cycles)
+    target = np.zeros(3)
+    step = sf.explain_twist if explain else sf.filter_twist
+    clock = time.perf_counter
+    for c in range(cycles):
+        if c % 500 == 0:
+            target = rng.uniform([-0.6, -0.6, 0.2], [0.6, 0.6, 1.2])
+        v = 1.0 * (target - sf.robot.fk(q, "tcp"))
+        t0 = clock()
+        out = step(q, v)
+        times[c] = clock() - t0
+        x = out.output if explain else out
+        q = q + x * 0.001
+    return np.sort(times) * 1e6
+
+
+def _twist_rows(cycles: int) -> list[tuple[str, dict[str, str]]]:
+    """Twist mode: C cycle, the former route (C cycle off), ``backend="python"``."""
+    rows = []
+    sf = _safety_filter()
+    former = _safety_filter()
+    former._ccycle = None  # the route twist mode took before it ran in C (kernels compiled)
+    oracle = _safety_filter(backend="python")
+    for f, label, n in (
+        (sf, "C cycle (vf_filter_cycle_metric)", cycles),
+        (former, "former route: rows and ladder in Python, compiled kernels", cycles // 5),
+        (oracle, 'backend="python" (the oracle)', cycles // 10),
+    ):
+        for explain in (True, False):
+            t = _twist_loop(f, n, explain)
+            what = "explain_twist" if explain else "filter_twist"
+            rows.append(
+                (
+                    f"7 joints + box + 20 spheres, twist mode, {what}, {label}, back to back",
+                    {"cycles": str(n), "median_us": f"{np.median(t):.3f}",
+                     "p99_us": f"{t[int(0.99 * n)]:.3f}", "max_us": f"{t[-1]:.3f}",
+                     "fallbacks": str(f.deadline_misses), "rows_mean": "-"},
+                )
+            )  # fmt: skip
+    return rows
+
+
+def _print(rows: list[tuple[str, dict[str, str]]], load0: Any) -> None:
+    load1 = os.getloadavg()
+    print(f"load average before: {load0[0]:.2f} {load0[1]:.2f} {load0[2]:.2f}")
+    print()
+    print("| workload | cycles | median [µs] | p99 [µs] | max [µs] | fallbacks | rows | binding |")
+    print("| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
+    for label, r in rows:
+        print(
+            f"| {label} | {r['cycles']} | {r['median_us']} | {r['p99_us']} | {r['max_us']} | "
+            f"{r['fallbacks']} | {r.get('rows_mean', '-')} | {r.get('binding_mean', '-')} |"
+        )
+    print()
+    print(f"load average after: {load1[0]:.2f} {load1[1]:.2f} {load1[2]:.2f}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--cycles", type=int, default=20000, help="back-to-back cycles")
@@ -271,8 +344,13 @@ def main() -> None:
     ap.add_argument(
         "--dense-python-cycles", type=int, default=20000, help=">= 400-row cycles (Python)"
     )
+    ap.add_argument("--twist-cycles", type=int, default=10000, help="twist-mode cycles (C)")
+    ap.add_argument("--twist-only", action="store_true", help="only the twist-mode rows")
     a = ap.parse_args()
     load0 = os.getloadavg()
+    if a.twist_only:
+        _print(_twist_rows(a.twist_cycles), load0)
+        return
     exe = _build()
     rows = []
     out = _run(exe, "--cycles", str(a.periodic_cycles))
@@ -337,18 +415,8 @@ def main() -> None:
     )
     rows.append(("same, time_budget 100 µs (fallbacks counted, every output checked)", out))
     rows.append(("same, time_budget 100 µs, thread CPU time", _cpu(out)))
-    load1 = os.getloadavg()
-    print(f"load average before: {load0[0]:.2f} {load0[1]:.2f} {load0[2]:.2f}")
-    print()
-    print("| workload | cycles | median [µs] | p99 [µs] | max [µs] | fallbacks | rows | binding |")
-    print("| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
-    for label, r in rows:
-        print(
-            f"| {label} | {r['cycles']} | {r['median_us']} | {r['p99_us']} | {r['max_us']} | "
-            f"{r['fallbacks']} | {r.get('rows_mean', '-')} | {r.get('binding_mean', '-')} |"
-        )
-    print()
-    print(f"load average after: {load1[0]:.2f} {load1[1]:.2f} {load1[2]:.2f}")
+    rows += _twist_rows(a.twist_cycles)
+    _print(rows, load0)
 
 
 if __name__ == "__main__":

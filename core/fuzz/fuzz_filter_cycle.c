@@ -1,7 +1,8 @@
 /*
  * fuzz_filter_cycle.c -- libFuzzer target of the safety filter's whole cycle
  * (core/include/velfence_filter.h: vf_filter_check, vf_filter_doubles / _ints, vf_filter_cycle with
- * the ladder, the model check and the deadline fallback). Build: core/fuzz/build.sh. Input layout
+ * the ladder, the model check and the deadline fallback; vf_filter_cycle_metric with a full
+ * metric's factor). Build: core/fuzz/build.sh. Input layout
  * (the byte cursor and double decoder of fuzz_common.h):
  *
  *   flags byte: bit 0 raw-ish state (q, u, previous any decoded doubles), bit 1 previous NULL,
@@ -23,10 +24,18 @@
  *     n_warm byte % 5 keys (level byte % 4, a byte % 8, b byte % 8)
  *   tamper (bit 6): field byte % 12 of the description replaced by a decoded double
  *   per joint q_j, u_j, previous_j: int16 / 4096 (structured) or decoded doubles (raw-ish)
+ *   a full metric (vf_filter_cycle_metric, the twist mode's H = L L^T) when the input's LAST
+ *     byte is FACTOR_MARK (0xFA; that byte is not read as data; no earlier input ends with it):
+ *     after the state, per entry of L on and below the diagonal, row by row, a byte: diagonal
+ *     (1 + byte) / 32, below (byte - 128) / 64; the entries above the diagonal NaN (not read);
+ *     then a byte: when % 4 == 0, the entry byte % (n (n + 1) / 2) (on or below the diagonal,
+ *     row by row) replaced by a decoded double (a tampered factor)
  *
  * Asserted (abort() after printing, on a violation):
  *   vf_filter_check's code equals the cycle's for a bad description (and the output is zero);
- *   a non-finite or > 1e150 state gives VF_ERR_NONFINITE and a zero output;
+ *   a non-finite or > 1e150 state gives VF_ERR_NONFINITE and a zero output; else a factor with
+ *   a non-finite entry on or below the diagonal or a diagonal entry <= 0 gives VF_ERR_ARGUMENT
+ *   and a zero output;
  *   otherwise a status in {VF_OK, VF_ITERATION_CAP, VF_ERR_OVERFLOW} (no time budget: never
  *   VF_DEADLINE); a negative status has a zero output; else the output is finite, 0 <= m <=
  *   vf_filter_rows_max, rung in 1..6, every row of levels 0-2 meets min(b, 0) and every row its
@@ -48,6 +57,7 @@
 #define MAXF 6
 #define MAXK 5
 #define TWO_PI 6.283185307179586
+#define FACTOR_MARK 0xFA /* the last byte that asks for a full metric's factor */
 
 static void rot_trans(fz_reader *r, double *T)
 {
@@ -77,11 +87,18 @@ static void unit(fz_reader *r, double *v)
     v[2] = sin(ph);
 }
 
+/* The full metric's factor of the input being run (NULL: none), for report(). */
+static const double *report_factor = NULL;
+
 static void report(const char *what, const vf_filter *f, const double *q, const double *u,
                    const double *prev, const double *x, const vf_filter_info *info, int rc)
 {
+    int32_t a;
     fprintf(stderr, "contract violated: %s (rc %d, n %d, nw %d, k %d, dt %g)\n", what, rc,
             (int)f->n, (int)f->nw, (int)f->k, f->dt);
+    for (a = 0; report_factor != NULL && a < f->n; a++) {
+        fz_print_vec("factor row", report_factor + (size_t)a * f->n, a + 1);
+    }
     fz_print_vec("q", q, f->n);
     fz_print_vec("u", u, f->n);
     if (prev != NULL) {
@@ -96,14 +113,17 @@ static void report(const char *what, const vf_filter *f, const double *q, const 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
-    fz_reader rd = {data, size};
+    const int full = size > 0 && data[size - 1] == FACTOR_MARK;
+    fz_reader rd = {data, full ? size - 1 : size};
     fz_reader *r = &rd;
     vf_filter_joint joints[MAXN];
     vf_filter_point points[MAXP];
     vf_filter_polytope ws[MAXW];
     double lower[MAXN], upper[MAXN], vmax[MAXN], amax[MAXN], jprm[6 * MAXN], lrad[MAXN];
     double wts[MAXN], N[MAXW][3 * MAXF], off[MAXW][MAXF], C[3 * MAXK], rad[MAXK];
-    double q[MAXN], u[MAXN], prev[MAXN], x[MAXN], x2[MAXN];
+    double q[MAXN], u[MAXN], prev[MAXN], x[MAXN], x2[MAXN], Lf[MAXN * MAXN];
+    const double *factor = NULL;
+    int bad_factor = 0;
     int32_t jkind[MAXN], warm[3 * 4];
     vf_filter f;
     vf_filter_opts opts;
@@ -217,11 +237,38 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         }
     }
     pp = flags & 2 ? NULL : prev;
+    if (full) {
+        int32_t a, b, e = 0, tamper;
+        for (a = 0; a < n; a++) {
+            for (b = 0; b < n; b++) {
+                Lf[a * n + b] = b > a ? NAN : b == a ? (1 + fz_byte(r)) / 32.0
+                                                      : (fz_byte(r) - 128) / 64.0;
+            }
+        }
+        if (fz_byte(r) % 4 == 0) {
+            tamper = fz_byte(r) % (n * (n + 1) / 2);
+            for (a = 0; a < n; a++) {
+                for (b = 0; b <= a; b++, e++) {
+                    if (e == tamper) {
+                        Lf[a * n + b] = fz_double(r);
+                    }
+                }
+            }
+        }
+        for (a = 0; a < n; a++) {
+            for (b = 0; b <= a; b++) {
+                bad_factor |= !isfinite(Lf[a * n + b]) || (a == b && !(Lf[a * n + b] > 0.0));
+            }
+        }
+        factor = Lf;
+    }
+    report_factor = factor;
     chk = vf_filter_check(&f);
     if (chk != VF_OK) {
         double s0[1];
         int32_t i0[1];
-        rc = vf_filter_cycle(&f, q, u, pp, flags & 128 ? NULL : &opts, x, &info, s0, i0);
+        rc = vf_filter_cycle_metric(&f, q, u, pp, NULL, factor, flags & 128 ? NULL : &opts, x,
+                                    &info, s0, i0);
         if (rc != chk) {
             report("a bad description's cycle code differs from vf_filter_check's", &f, q, u, pp,
                    x, &info, rc);
@@ -238,7 +285,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     }
     scratch = fz_alloc((int32_t)vf_filter_doubles(&f));
     iscratch = (int32_t *)malloc(vf_filter_ints(&f) * sizeof(int32_t));
-    rc = vf_filter_cycle(&f, q, u, pp, flags & 128 ? NULL : &opts, x, &info, scratch, iscratch);
+    rc = vf_filter_cycle_metric(&f, q, u, pp, NULL, factor, flags & 128 ? NULL : &opts, x, &info,
+                                scratch, iscratch);
 #ifdef VF_FUZZ_CONTROL_TAMPER
     if (rc == VF_OK) {
         x[0] = NAN;
@@ -256,9 +304,12 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             report("VF_ERR_NONFINITE exactly for a non-finite or too large state", &f, q, u, pp,
                    x, &info, rc);
         }
+        if (!bad_state && bad_factor != (rc == VF_ERR_ARGUMENT)) {
+            report("VF_ERR_ARGUMENT exactly for a bad factor", &f, q, u, pp, x, &info, rc);
+        }
     }
     if (rc < 0) {
-        if (rc != VF_ERR_NONFINITE && rc != VF_ERR_OVERFLOW) {
+        if (rc != VF_ERR_NONFINITE && rc != VF_ERR_OVERFLOW && rc != VF_ERR_ARGUMENT) {
             report("unexpected error code", &f, q, u, pp, x, &info, rc);
         }
         for (j = 0; j < n; j++) {
@@ -319,8 +370,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                 report("the fallback is not a scaled command", &f, q, u, pp, x, &info, rc);
             }
         }
-        rc2 = vf_filter_cycle(&f, q, u, pp, flags & 128 ? NULL : &opts, x2, &info2, scratch,
-                              iscratch);
+        rc2 = vf_filter_cycle_metric(&f, q, u, pp, NULL, factor, flags & 128 ? NULL : &opts, x2,
+                                     &info2, scratch, iscratch);
         for (j = 0; j < n; j++) {
             if (rc2 != rc || !fz_same_bits(x[j], x2[j])) {
                 report("a second call differs", &f, q, u, pp, x, &info, rc);

@@ -322,7 +322,8 @@ def filter_cycle_seeds() -> dict[str, bytes]:
     """fuzz_filter_cycle's seeds: a flags byte, then fixed pseudo-random bytes.
 
     The layout reads every value from bytes, so any bytes are a valid scene: joints, limits,
-    points, polytopes, spheres, options and the state.
+    points, polytopes, spheres, options and the state (and a full metric's factor after it when
+    the last byte is 0xFA).
     """
 
     def tail(seed: int, count: int = 600) -> bytes:
@@ -336,6 +337,10 @@ def filter_cycle_seeds() -> dict[str, bytes]:
         "tampered-field": bytes([64]) + tail(4),
         "raw-state": bytes([1]) + tail(5),
         "no-opts": bytes([128 | 4]) + tail(6),
+        # the last byte 0xFA: a full metric's factor, read after the state
+        "full-factor": bytes([0]) + tail(7) + bytes([0xFA]),
+        "full-factor-weights": bytes([16 | 2]) + tail(8) + bytes([0xFA]),
+        "full-factor-raw-state": bytes([1]) + tail(9) + bytes([0xFA]),
     }
 
 

@@ -1,9 +1,11 @@
 /*
- * velfence_filter.h -- the safety filter's whole cycle in plain C99 (SafetyFilter, joint mode).
+ * velfence_filter.h -- the safety filter's whole cycle in plain C99 (SafetyFilter: joint and
+ * twist mode).
  *
  * One call, vf_filter_cycle, takes the joint position q and the commanded joint velocity u of a
- * serial chain and returns the nearest joint velocity x (in the metric W = diag(weights)) that
- * meets every safety row G x >= b at once:
+ * serial chain and returns the nearest joint velocity x (in the metric W = diag(weights), or a
+ * full metric H = L L^T given by its factor L: vf_filter_cycle_metric) that meets every safety
+ * row G x >= b at once:
  *
  *   1. kinematics of the chain given as data (below) at q;
  *   2. the built-in rows, in this order (the row keys (level, a, b) in brackets):
@@ -28,7 +30,8 @@
  *      a row is *violated* when its signed distance is < 0; its bound is then a recovery bound;
  *   3. the feasibility test (G u >= b as evaluated: then x = u exactly), the projection
  *      (vf_nd_project_kernel_opt with the caller's iteration cap, deadline and warm rows; in the
- *      metric y = sqrt(w) x, then a repair along rows missed beyond the acceptance tolerance; an
+ *      metric's coordinates y = sqrt(w) x or y = L^T x, then a repair along rows missed beyond
+ *      the acceptance tolerance; an
  *      answer beyond the joint speed limits -- rows of every rung -- counts as a stalled solve),
  *      the discrete-time model check and the priority ladder, exactly as velfence.filter (the
  *      Python oracle):
@@ -82,8 +85,15 @@
  * (after joint `link`'s motion), n the tool frame, at `offset` in that frame.
  *
  * Obstacle rows need every joint revolute (VF_ERR_ARGUMENT otherwise): the capsule Jacobian of
- * vf_nd_capsule_rows is the revolute one. Joint mode with diagonal weights only (no twist mode,
- * no full metric matrix: use the Python route for those).
+ * vf_nd_capsule_rows is the revolute one.
+ *
+ * Twist mode and full metrics. SafetyFilter's twist mode (minimise 1/2 |J x - v|^2 +
+ * 1/2 lambda^2 |x|^2 under the same rows) is the projection of u = H^-1 J^T v in the metric
+ * H = J^T J + lambda^2 I. It runs here through vf_filter_cycle_metric with the metric's
+ * Cholesky factor L (H = L L^T, lower triangular, n x n row-major) and that u: the solve runs in
+ * y = L^T x on the rows G L^-T (a forward substitution per row, once per cycle), x = L^-T y (a
+ * back substitution), then the repair above; everything else (rows, ladder, model check,
+ * fallback, report) is the joint-mode cycle's. The factor replaces f->weights for that call.
  *
  * Real-time use: reentrant, allocation-free, no global state. The caller owns every buffer: the
  * scratch holds vf_filter_doubles(f) doubles and vf_filter_ints(f) int32_t (query once). The
@@ -273,6 +283,15 @@ int vf_filter_cycle_jerk(const vf_filter *f, const double *q, const double *u,
                          const double *previous, const double *previous2,
                          const vf_filter_opts *opts, double *out, vf_filter_info *info,
                          double *scratch, int32_t *iscratch);
+
+/* vf_filter_cycle_jerk in the full metric H = L L^T: factor (n x n, row-major) is L, lower
+ * triangular (the entries above the diagonal are not read), or NULL (f->weights' metric, as
+ * vf_filter_cycle_jerk). A factor with a non-finite entry or a diagonal entry <= 0 is refused
+ * with VF_ERR_ARGUMENT (output zero); rows whose image G L^-T overflows with VF_ERR_OVERFLOW. */
+int vf_filter_cycle_metric(const vf_filter *f, const double *q, const double *u,
+                           const double *previous, const double *previous2, const double *factor,
+                           const vf_filter_opts *opts, double *out, vf_filter_info *info,
+                           double *scratch, int32_t *iscratch);
 
 /* ------------------------------------------------------------------ many states at once
  *

@@ -11,10 +11,12 @@
  *       None; jmax (n,) or None (the jerk limits); self_pairs: 2 * npairs ints (link i, link j
  *       of each self-collision pair, i < j) or None. Everything is copied and checked once
  *       (vf_filter_check): ValueError when invalid.
- *     cycle(q, u, previous=None, out=None, previous2=None) -> out: one cycle on float64 arrays
- *       (n,) (out: a caller array (n,) written in place, else a new one; previous2: the output
- *       before previous, for the jerk rows: vf_filter_cycle_jerk). ValueError on a negative status (the
- *       output is then zero); the info of the cycle stays readable (info(), rows(), active()).
+ *     cycle(q, u, previous=None, out=None, previous2=None, factor=None) -> out: one cycle on
+ *       float64 arrays (n,) (out: a caller array (n,) written in place, else a new one;
+ *       previous2: the output before previous, for the jerk rows; factor: a C-contiguous float64
+ *       (n, n) lower-triangular L of a full metric H = L L^T, the twist mode's:
+ *       vf_filter_cycle_metric). ValueError on a negative status (the output is then zero); the
+ *       info of the cycle stays readable (info(), rows(), active()).
  *     cycle_batch(q, u, previous=None, out=None, threads=0) -> (out, status, stages, n_active):
  *       vf_filter_cycle_batch on float64 C-contiguous arrays (count, n) (previous too, or None);
  *       out a caller array (count, n) or None; status, stages, n_active new int32 arrays
@@ -443,16 +445,29 @@ static const double *vec_arg(PyObject *o, int32_t n, const char *name)
 static PyObject *FilterCycle_cycle(FilterCycle *self, PyObject *const *args, Py_ssize_t nargs)
 {
     const int32_t n = self->f.n;
-    const double *q, *u, *prev = NULL, *prev2 = NULL;
+    const double *q, *u, *prev = NULL, *prev2 = NULL, *factor = NULL;
     PyObject *out;
     int rc;
     if (self->mem == NULL) {
         PyErr_SetString(PyExc_RuntimeError, "FilterCycle not initialised");
         return NULL;
     }
-    if (nargs < 2 || nargs > 5) {
-        PyErr_SetString(PyExc_TypeError, "cycle(q, u, previous=None, out=None, previous2=None)");
+    if (nargs < 2 || nargs > 6) {
+        PyErr_SetString(PyExc_TypeError,
+                        "cycle(q, u, previous=None, out=None, previous2=None, factor=None)");
         return NULL;
+    }
+    if (nargs > 5 && args[5] != Py_None) {
+        PyArrayObject *a = (PyArrayObject *)args[5];
+        if (!PyArray_Check(args[5]) || PyArray_TYPE(a) != NPY_DOUBLE || PyArray_NDIM(a) != 2
+            || PyArray_DIM(a, 0) != n || PyArray_DIM(a, 1) != n || !PyArray_ISCARRAY_RO(a)
+            || !PyArray_ISNOTSWAPPED(a)) {
+            PyErr_Format(PyExc_TypeError,
+                         "factor: expected a contiguous float64 array of shape (%d, %d)", (int)n,
+                         (int)n);
+            return NULL;
+        }
+        factor = (const double *)PyArray_DATA(a);
     }
     if ((q = vec_arg(args[0], n, "q")) == NULL || (u = vec_arg(args[1], n, "u")) == NULL) {
         return NULL;
@@ -483,7 +498,7 @@ static PyObject *FilterCycle_cycle(FilterCycle *self, PyObject *const *args, Py_
     }
     self->opts.warm = self->warm;
     self->opts.n_warm = self->use_warm ? self->n_warm : 0;
-    rc = vf_filter_cycle_jerk(&self->f, q, u, prev, prev2, &self->opts,
+    rc = vf_filter_cycle_metric(&self->f, q, u, prev, prev2, factor, &self->opts,
                               (double *)PyArray_DATA((PyArrayObject *)out), &self->info,
                               self->scratch, self->iscratch);
     self->have_info = 1;
@@ -801,8 +816,8 @@ static PyMethodDef FilterCycle_methods[] = {
     {"set_attachments", (PyCFunction)FilterCycle_set_attachments, METH_O,
      "set_attachments(flat): the attached shapes, 8 floats each (link, a, b, radius)."},
     {"cycle", (PyCFunction)(void (*)(void))FilterCycle_cycle, METH_FASTCALL,
-     "cycle(q, u, previous=None, out=None, previous2=None) -> out: one cycle of the safety "
-     "filter."},
+     "cycle(q, u, previous=None, out=None, previous2=None, factor=None) -> out: one cycle of "
+     "the safety filter."},
     {"cycle_batch", (PyCFunction)(void (*)(void))FilterCycle_cycle_batch,
      METH_VARARGS | METH_KEYWORDS,
      "cycle_batch(q, u, previous=None, out=None, threads=0) -> (out, status, stages, n_active)"},

@@ -522,7 +522,7 @@ static void make_layout(const vf_filter *f, layout *L)
     TAKE(axes1, 3 * n);
     TAKE(q1, n);
     TAKE(G, M * n);
-    TAKE(Gs, f->weights != NULL ? M * n : 0);
+    TAKE(Gs, M * n); /* the rows in the metric's coordinates (weights or a full factor) */
     TAKE(b, M);
     TAKE(dist, M);
     TAKE(slack, M);
@@ -611,6 +611,7 @@ typedef struct ctx {
     int32_t maxit;
     int32_t n_warm;  /* warm rows mapped, for the first solve */
     const double *answer; /* the answering rung's bounds (before the model check's raises) */
+    const double *factor; /* the full metric's factor L (n x n row-major, lower), or NULL */
     int first;
     int has_check;   /* dt > 0 and some workspace / obstacle row */
     vf_filter_info *info;
@@ -903,6 +904,52 @@ static double inf_norm(const double *v, int32_t n)
     return s;
 }
 
+/* After a solve in the metric's coordinates: round-off of the back-substitution, repaired
+ * along the most violated row (gap beyond the acceptance tolerance tau = 1e-12 (|b| + |g|_1 (|x|
+ * + |u|)) only: a nearly zero row missed within tau would be "repaired" by gap / |g| -- a huge
+ * step; found by fuzz_filter_cycle); then every row must meet tau, else the solve stalled
+ * (VF_STALLED; VF_OK otherwise). velfence.filter.solve.Projector.project's repair. */
+static int repair(ctx *c, const double *bnd, double *x)
+{
+    const int32_t n = c->n, m = c->m;
+    const double *G = D(c, G);
+    int32_t i, k;
+    int round;
+    for (round = 0; round <= 4; round++) {
+        double worst = 0.0, gg, xi = inf_norm(x, n) + c->unorm;
+        int32_t wi = -1;
+        for (i = 0; i < m; i++) {
+            const double *g = G + (size_t)i * n;
+            double gap, g1 = 0.0;
+            if (bnd[i] == -INFINITY) {
+                continue;
+            }
+            gap = bnd[i] - vf_dot(g, x, n);
+            if (!(gap > 0.0)) {
+                continue;
+            }
+            for (k = 0; k < n; k++) {
+                g1 += fabs(g[k]);
+            }
+            if (gap > 1e-12 * (fabs(bnd[i]) + g1 * xi) && (wi < 0 || gap > worst)) {
+                worst = gap;
+                wi = i;
+            }
+        }
+        if (wi < 0) {
+            break;
+        }
+        if (round == 4) {
+            return VF_STALLED; /* not repaired */
+        }
+        gg = vf_dot(G + (size_t)wi * n, G + (size_t)wi * n, n);
+        for (k = 0; k < n; k++) {
+            x[k] += (worst * (1.0 + 1e-12) + 1e-300) * G[(size_t)wi * n + k] / gg;
+        }
+    }
+    return VF_OK;
+}
+
 /* Projection of c->u onto the rows with bound bnd (-inf: left out) into x: VF_OK, VF_INFEASIBLE,
  * VF_STALLED, VF_ITERATION_CAP or VF_DEADLINE. */
 static int project(ctx *c, const double *bnd, double *x)
@@ -933,58 +980,42 @@ static int project(ctx *c, const double *bnd, double *x)
     so.warm = c->first ? IV(c, warm) : NULL;
     so.n_warm = c->first ? c->n_warm : 0;
     c->first = 0;
-    if (f->weights == NULL) {
+    if (f->weights == NULL && c->factor == NULL) {
         st = vf_nd_project_kernel_opt(u, G, bnd, m, n, x, D(c, lam), IV(c, act), D(c, wsf), &q,
                                       &it, &so);
     } else {
         double *us = D(c, us), *ys = D(c, ys);
-        for (k = 0; k < n; k++) {
-            us[k] = u[k] * sqrt(f->weights[k]);
+        const double *Lf = c->factor;
+        if (Lf == NULL) { /* diagonal metric W = diag(w): y = sqrt(w) x */
+            for (k = 0; k < n; k++) {
+                us[k] = u[k] * sqrt(f->weights[k]);
+            }
+        } else { /* full metric H = L L^T: y = L^T x */
+            for (k = 0; k < n; k++) {
+                double s = 0.0;
+                for (i = k; i < n; i++) {
+                    s += Lf[(size_t)i * n + k] * u[i];
+                }
+                us[k] = s;
+            }
         }
         st = vf_nd_project_kernel_opt(us, D(c, Gs), bnd, m, n, ys, D(c, lam), IV(c, act),
                                       D(c, wsf), &q, &it, &so);
-        for (k = 0; k < n; k++) {
-            x[k] = ys[k] / sqrt(f->weights[k]);
+        if (Lf == NULL) {
+            for (k = 0; k < n; k++) {
+                x[k] = ys[k] / sqrt(f->weights[k]);
+            }
+        } else { /* x = L^-T y: back substitution */
+            for (k = n - 1; k >= 0; k--) {
+                double s = ys[k];
+                for (i = k + 1; i < n; i++) {
+                    s -= Lf[(size_t)i * n + k] * x[i];
+                }
+                x[k] = s / Lf[(size_t)k * n + k];
+            }
         }
         if (st == VF_OK) {
-            /* round-off of the back-substitution: repair along the most violated row (gap
-             * beyond the acceptance tolerance tau = 1e-12 (|b| + |g|_1 (|x| + |u|)) only: a nearly
-             * zero row missed within tau would be "repaired" by gap / |g| -- a huge step; found
-             * by fuzz_filter_cycle); then every row must meet tau, else the solve stalled */
-            int round;
-            for (round = 0; round <= 4; round++) {
-                double worst = 0.0, gg, xi = inf_norm(x, n) + c->unorm;
-                int32_t wi = -1;
-                for (i = 0; i < m; i++) {
-                    const double *g = G + (size_t)i * n;
-                    double gap, g1 = 0.0;
-                    if (bnd[i] == -INFINITY) {
-                        continue;
-                    }
-                    gap = bnd[i] - vf_dot(g, x, n);
-                    if (!(gap > 0.0)) {
-                        continue;
-                    }
-                    for (k = 0; k < n; k++) {
-                        g1 += fabs(g[k]);
-                    }
-                    if (gap > 1e-12 * (fabs(bnd[i]) + g1 * xi) && (wi < 0 || gap > worst)) {
-                        worst = gap;
-                        wi = i;
-                    }
-                }
-                if (wi < 0) {
-                    break;
-                }
-                if (round == 4) {
-                    st = VF_STALLED; /* not repaired */
-                    break;
-                }
-                gg = vf_dot(G + (size_t)wi * n, G + (size_t)wi * n, n);
-                for (k = 0; k < n; k++) {
-                    x[k] += (worst * (1.0 + 1e-12) + 1e-300) * G[(size_t)wi * n + k] / gg;
-                }
-            }
+            st = repair(c, bnd, x);
         }
     }
 #ifdef VF_FILTER_DEBUG
@@ -1355,6 +1386,33 @@ int vf_filter_cycle_jerk(const vf_filter *f, const double *q, const double *u,
                          const vf_filter_opts *opts, double *out, vf_filter_info *info,
                          double *scratch, int32_t *iscratch)
 {
+    return vf_filter_cycle_metric(f, q, u, previous, previous2, NULL, opts, out, info, scratch,
+                                  iscratch);
+}
+
+/* Whether the lower triangle of the n x n row-major factor L is finite with a positive
+ * diagonal (the entries above the diagonal are not read). */
+static int factor_ok(const double *L, int32_t n)
+{
+    int32_t i, k;
+    for (i = 0; i < n; i++) {
+        for (k = 0; k <= i; k++) {
+            if (!isfinite(L[(size_t)i * n + k])) {
+                return 0;
+            }
+        }
+        if (!(L[(size_t)i * n + i] > 0.0)) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
+int vf_filter_cycle_metric(const vf_filter *f, const double *q, const double *u,
+                           const double *previous, const double *previous2, const double *factor,
+                           const vf_filter_opts *opts, double *out, vf_filter_info *info,
+                           double *scratch, int32_t *iscratch)
+{
     ctx cx;
     ctx *c = &cx;
     int32_t n, k, r, lv;
@@ -1376,6 +1434,9 @@ int vf_filter_cycle_jerk(const vf_filter *f, const double *q, const double *u,
         || (previous2 != NULL && !state_ok(previous2, n))) {
         return fail(VF_ERR_NONFINITE, f, out, info);
     }
+    if (factor != NULL && !factor_ok(factor, n)) {
+        return fail(VF_ERR_ARGUMENT, f, out, info);
+    }
     zero_info(info);
     memset(c, 0, sizeof *c);
     c->f = f;
@@ -1388,6 +1449,7 @@ int vf_filter_cycle_jerk(const vf_filter *f, const double *q, const double *u,
     c->info = info;
     c->deadline = INFINITY;
     c->first = 1;
+    c->factor = factor;
     if (opts != NULL) {
         if (isnan(opts->time_budget) || opts->time_budget < 0.0 || isnan(opts->deadline)
             || opts->n_warm < 0 || (opts->n_warm > 0 && opts->warm == NULL)) {
@@ -1434,7 +1496,25 @@ int vf_filter_cycle_jerk(const vf_filter *f, const double *q, const double *u,
             c->has_check = 1;
         }
     }
-    if (f->weights != NULL) {
+    if (factor != NULL) {
+        /* the rows in y = L^T x: G x = (G L^-T) y, row g -> L^-1 g (forward substitution) */
+        double *Gs = D(c, Gs);
+        for (r = 0; r < c->m; r++) {
+            const double *g = D(c, G) + (size_t)r * n;
+            double *z = Gs + (size_t)r * n;
+            int32_t i;
+            for (i = 0; i < n; i++) {
+                double s = g[i];
+                for (k = 0; k < i; k++) {
+                    s -= factor[(size_t)i * n + k] * z[k];
+                }
+                z[i] = s / factor[(size_t)i * n + i];
+            }
+            if (!vf_finite_all(z, (size_t)n)) {
+                return fail(VF_ERR_OVERFLOW, f, out, info);
+            }
+        }
+    } else if (f->weights != NULL) {
         double *Gs = D(c, Gs);
         for (r = 0; r < c->m; r++) {
             for (k = 0; k < n; k++) {

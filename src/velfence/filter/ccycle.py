@@ -4,10 +4,10 @@
 fixed transform, an axis, a type and an offset, plus a tool transform; ``velfence_filter.h``),
 :func:`mdh_chain_data` a modified (Craig) one, and :func:`filter_cycle` builds the C object of a
 :class:`~velfence.filter.SafetyFilter` whose robot gives its chain as data (``chain_data()``;
-joint mode, identity or diagonal weights); :func:`compose` and :func:`translation` are the
-transforms of that layout. Internal API (the binding's description, for the C cycle's tests and
-benchmarks): users get the C cycle through ``SafetyFilter(backend="c")``
-(:attr:`~velfence.filter.SafetyFilter.cycle_in_c`).
+identity or diagonal weights; twist mode passes its metric's factor to each cycle);
+:func:`compose` and :func:`translation` are the transforms of that layout. Internal API (the
+binding's description, for the C cycle's tests and benchmarks): users get the C cycle through
+``SafetyFilter(backend="c")`` (:attr:`~velfence.filter.SafetyFilter.cycle_in_c`).
 """
 
 from __future__ import annotations

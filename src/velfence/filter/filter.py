@@ -74,7 +74,7 @@ from velfence.filter.rows import (
     RowProvider,
     WorkspaceRows,
 )
-from velfence.filter.solve import Metric, Projector, damped_factor, finite
+from velfence.filter.solve import Metric, Projector, damped_factor, factor_solve, finite
 from velfence.filter.stack import RowStack, collect
 from velfence.shaping.backend import pick_backend
 from velfence.shaping.base import InvalidPolicy, OnInvalid, Zone
@@ -332,10 +332,11 @@ class SafetyFilter(InvalidPolicy):
             else compiled_rows(core, self, profs)
         )
         self._metric: Metric = parts.metric(weights, n)
-        # The whole joint-mode cycle in C (velfence_filter.h) when the core is in use, the robot
-        # gives its chain as data and no custom provider runs: filter(), shape() and
-        # shape_batch() call it and explain() builds its report from it; twist mode and every
-        # other case keep the Python route (backend="python": the oracle it is tested equal to).
+        # The whole cycle in C (velfence_filter.h) when the core is in use, the robot gives its
+        # chain as data and no custom provider runs: filter(), shape() and shape_batch() call it
+        # and explain() builds its report from it; twist mode passes its metric's factor L
+        # (vf_filter_cycle_metric). Every other case (a full weight matrix in joint mode too)
+        # keeps the Python route (backend="python": the oracle it is tested equal to).
         self._ccycle: Any = None
         if core is not None and not providers:
             from velfence.filter.ccycle import c_cycle_or_none
@@ -410,12 +411,13 @@ class SafetyFilter(InvalidPolicy):
 
     @property
     def cycle_in_c(self) -> bool:
-        """True when each joint-mode cycle runs whole in the compiled core.
+        """True when each cycle, joint mode and twist mode, runs whole in the compiled core.
 
-        That is ``vf_filter_cycle`` of ``velfence_filter.h``: ``backend="c"`` (or ``"auto"`` with
-        the core installed), a robot with chain data (``DHChain``, ``Puma560``, a chain
-        ``MujocoRobot``) and no row provider of the user's. False on the other routes (the
-        compiled rows, or Python).
+        That is ``vf_filter_cycle`` of ``velfence_filter.h`` (twist mode:
+        ``vf_filter_cycle_metric`` with the factor of ``JᵀJ + λ²I``): ``backend="c"`` (or
+        ``"auto"`` with the core installed), a robot with chain data (``DHChain``, ``Puma560``, a
+        chain ``MujocoRobot``), no row provider of the user's and no full weight matrix. False
+        on the other routes (the compiled rows, or Python).
         """
         return self._ccycle is not None
 
@@ -732,9 +734,18 @@ class SafetyFilter(InvalidPolicy):
 
     # ------------------------------------------------------------------ the C cycle
     def _filter_c(
-        self, qa: FloatArray, ua: FloatArray, previous: Any, remember: bool
+        self,
+        qa: FloatArray,
+        ua: FloatArray,
+        previous: Any,
+        remember: bool,
+        factor: FloatArray | None = None,
     ) -> FloatArray:
-        """:meth:`filter` by the C cycle (validated ``qa``, ``ua``; the same rows and ladder)."""
+        """:meth:`filter` by the C cycle (validated ``qa``, ``ua``; the same rows and ladder).
+
+        ``factor``: the full metric's lower-triangular ``L`` (twist mode's ``H = L Lᵀ``), C
+        contiguous, or ``None`` (the joint-mode weights).
+        """
         prev: FloatArray | None = None
         prev2: FloatArray | None = None
         if previous is not None:
@@ -749,8 +760,9 @@ class SafetyFilter(InvalidPolicy):
         misses = cyc.deadline_misses
         try:
             x: FloatArray = cyc.cycle(
-                qa, ua, prev if self._remember else None, None, prev2 if self._has_jerk else None
-            )
+                qa, ua, prev if self._remember else None, None,
+                prev2 if self._has_jerk else None, factor,
+            )  # fmt: skip
         except ValueError:
             self._invalid("input too large: the filtered velocity overflowed")
             return np.zeros(self.dof)
@@ -768,13 +780,25 @@ class SafetyFilter(InvalidPolicy):
                 self.jerk_overrides += 1
         self._previous = readonly(x.copy())
 
-    def _explain_c(self, qa: FloatArray, ua: FloatArray, previous: Any) -> FilterResult:
-        """:meth:`explain` by the C cycle: its output, and the report built from its info."""
-        x = self._filter_c(qa, ua, previous, True)
+    def _explain_c(
+        self,
+        qa: FloatArray,
+        ua: FloatArray,
+        previous: Any,
+        cmd: FloatArray | None = None,
+        factor: FloatArray | None = None,
+    ) -> FilterResult:
+        """:meth:`explain` by the C cycle: its output, and the report built from its info.
+
+        Twist mode: ``ua`` the twist's joint velocity ``H⁻¹ Jᵀ v``, ``cmd`` the twist, ``factor``
+        the metric's ``L`` (as :meth:`_filter_c`).
+        """
+        cmd = ua if cmd is None else cmd
+        x = self._filter_c(qa, ua, previous, True, factor)
         cyc = self._ccycle
         info = cyc.info()
         if info["status"] < 0:  # refused (on_invalid="stop"): the stop result
-            return self._stopped(qa, ua)
+            return self._stopped(qa, cmd)
         G, b, level, ka, kb, dist, slack, _ = cyc.rows()
         keys = list(zip(level.tolist(), ka.tolist(), kb.tolist(), strict=True))
         names = self._c_names(keys)
@@ -785,7 +809,7 @@ class SafetyFilter(InvalidPolicy):
         bits = info["stages"]
         relaxed_keys = set(cyc.relaxed())
         return FilterResult(
-            output=x, command=ua, position=qa, zone=zone, active=act,
+            output=x, command=cmd, position=qa, zone=zone, active=act,
             active_names=tuple(names[i] for i in act), slack=readonly(slack),
             constraint_names=tuple(names), stages=tuple(s for bit, s in _C_STAGES if bits & bit),
             dropped=tuple(
@@ -852,6 +876,22 @@ class SafetyFilter(InvalidPolicy):
             InvalidInput: wrong shapes or an unknown point; non-finite values with
                 ``on_invalid="raise"``.
         """
+        t = self._twist(position, command, point)
+        if isinstance(t, FilterResult):
+            return t
+        qa, va, u, L, frame = t
+        if self._ccycle is not None:
+            return self._explain_c(qa, u, previous, va, L)
+        return self._run(qa, u, va, L, previous, True, frame)
+
+    def _twist(
+        self, position: ArrayLike, command: ArrayLike, point: str
+    ) -> FilterResult | tuple[FloatArray, FloatArray, FloatArray, FloatArray, Any]:
+        """A twist's validated state, joint velocity and metric: ``(q, v, u, L, frame)``.
+
+        ``u = H⁻¹ Jᵀ v`` and ``H = L Lᵀ = JᵀJ + λ²I`` (``L`` C-contiguous, lower triangular);
+        the stop result for a non-finite input or ``u`` with ``on_invalid="stop"``.
+        """
         qa = self._state("position", position, self.dof, "rad")
         va = real_array("command", command, (None,), allow_nonfinite=True, max_abs=None)
         has_ang = hasattr(self.robot, "angular_jacobian")
@@ -878,15 +918,14 @@ class SafetyFilter(InvalidPolicy):
             Ja = ang() if ang is not None else robot.angular_jacobian(qa)
             J = np.vstack((J, checked("angular_jacobian(q)", Ja, (3, n))))
         with np.errstate(all="ignore"):
-            H = J.T @ J + (self.damping**2) * np.eye(n)
+            H = J.T @ J
+            H.flat[:: n + 1] += self.damping**2  # + λ² I
             L = damped_factor(H)
-            u: FloatArray = np.asarray(
-                np.linalg.solve(L.T, np.linalg.solve(L, J.T @ va)), dtype=np.float64
-            )
+            u = factor_solve(L, J.T @ va)
         if self._bad(u):
             self._invalid("input too large: the twist's joint velocity overflowed")
             return self._stopped(qa, va)
-        return self._run(qa, u, va, L, previous, True, frame)
+        return qa, va, u, np.ascontiguousarray(L, dtype=np.float64), frame
 
     @renamed_args(q="position", twist="command")
     def filter_twist(
@@ -898,7 +937,13 @@ class SafetyFilter(InvalidPolicy):
         previous: ArrayLike | None = None,
     ) -> FloatArray:
         """The filtered joint velocity for a twist [rad/s], shape (dof,) (:meth:`explain_twist`)."""
-        return self.explain_twist(position, command, point=point, previous=previous).output
+        if self._ccycle is None:
+            return self.explain_twist(position, command, point=point, previous=previous).output
+        t = self._twist(position, command, point)
+        if isinstance(t, FilterResult):
+            return t.output
+        qa, _, u, L, _ = t
+        return self._filter_c(qa, u, previous, True, L)
 
     @renamed_args(q="position", qd_cmd="command")
     def shape(self, position: ArrayLike, command: ArrayLike) -> FloatArray:

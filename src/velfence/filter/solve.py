@@ -4,7 +4,9 @@ The objective ``½ (x - u)ᵀ W (x - u)`` (or the twist's ``H = JᵀJ + λ²I``)
 the Euclidean projection of ``y = Lᵀ u`` onto ``{y : G L⁻ᵀ y >= b}``
 (:mod:`velfence.geometry.projection`): :class:`Projector` maps the rows, calls the compiled core
 (``velfence_core._nd.project``) or the Python kernel (``project_kernel_opts``: iteration cap and
-warm start), and maps back, repairing the round-off of the back-substitution.
+warm start), and maps back, repairing the round-off of the back-substitution. A full factor
+maps by :func:`factor_rows`, :func:`factor_times` and :func:`factor_back`, the C cycle's
+arithmetic (``vf_filter_cycle_metric``), so both routes agree bit for bit on the same rows.
 """
 
 from __future__ import annotations
@@ -18,7 +20,18 @@ from velfence._docs import document_inits
 from velfence._typing import FloatArray
 from velfence.errors import InvalidParameter
 
-__all__ = ["Metric", "Projector", "cholesky", "damped_factor", "finite", "python_solve"]
+__all__ = [
+    "Metric",
+    "Projector",
+    "cholesky",
+    "damped_factor",
+    "factor_back",
+    "factor_rows",
+    "factor_solve",
+    "factor_times",
+    "finite",
+    "python_solve",
+]
 
 #: The metric's factor L (W = L Lᵀ): None (identity), a vector (diagonal) or a lower-triangular
 #: matrix.
@@ -66,8 +79,10 @@ def damped_factor(H: FloatArray) -> FloatArray:
     n = H.shape[0]
     for jitter in (0.0, 1e-12, 1e-9):
         try:
-            shift = jitter * (float(np.trace(H)) / n + 1e-300)
-            L: FloatArray = np.linalg.cholesky(H + shift * np.eye(n))
+            A: Any = H  # (the first try factors H itself: no shift to add)
+            if jitter:
+                A = H + jitter * (float(np.trace(H)) / n + 1e-300) * np.eye(n)
+            L: FloatArray = np.linalg.cholesky(A)
             return L
         except np.linalg.LinAlgError:
             continue
@@ -84,6 +99,69 @@ def cholesky(name: str, W: FloatArray) -> FloatArray:
             f"{name}: expected a symmetric positive definite matrix, got eigenvalues "
             f"{np.linalg.eigvalsh(0.5 * (W + W.T)).tolist()}"
         ) from None
+
+
+# The full metric's change of variables y = Lᵀ x (L lower triangular), in the C cycle's
+# arithmetic (velfence_filter.c, vf_filter_cycle_metric): plain substitutions, each sum in index
+# order, so both routes map the same rows and command to the same bits (a general solve of L, LU
+# with pivoting, rounds differently, and the solve in y amplifies that by the metric's condition).
+
+
+def factor_times(L: FloatArray, u: FloatArray) -> FloatArray:
+    """``Lᵀ u`` for a lower-triangular ``L`` (n, n): ``y_k = Σ_{i >= k} L_ik u_i`` in order."""
+    Lr = L.tolist()
+    ul = u.tolist()
+    n = len(ul)
+    out = [0.0] * n
+    for k in range(n):
+        s = 0.0
+        for i in range(k, n):
+            s += Lr[i][k] * ul[i]
+        out[k] = s
+    return np.array(out, dtype=np.float64)
+
+
+def factor_rows(L: FloatArray, G: FloatArray) -> FloatArray:
+    """``G L⁻ᵀ`` (m, n): each row ``g`` becomes ``L⁻¹ g`` by forward substitution."""
+    Lr = L.tolist()
+    n = len(Lr)
+    Z = np.empty_like(G, dtype=np.float64)
+    for i in range(n):
+        s = G[:, i].astype(np.float64, copy=True)
+        row = Lr[i]
+        for k in range(i):
+            s -= row[k] * Z[:, k]
+        Z[:, i] = s / row[i]
+    return Z
+
+
+def factor_solve(L: FloatArray, r: FloatArray) -> FloatArray:
+    """``(L Lᵀ)⁻¹ r``: forward substitution ``L z = r``, then :func:`factor_back` of ``z``."""
+    Lr = L.tolist()
+    rl = r.tolist()
+    n = len(rl)
+    z = [0.0] * n
+    for i in range(n):
+        s = rl[i]
+        row = Lr[i]
+        for k in range(i):
+            s -= row[k] * z[k]
+        z[i] = s / row[i]
+    return factor_back(L, np.array(z, dtype=np.float64))
+
+
+def factor_back(L: FloatArray, y: FloatArray) -> FloatArray:
+    """``x = L⁻ᵀ y`` by back substitution."""
+    Lr = L.tolist()
+    yl = y.tolist()
+    n = len(yl)
+    x = [0.0] * n
+    for k in range(n - 1, -1, -1):
+        s = yl[k]
+        for i in range(k + 1, n):
+            s -= Lr[i][k] * x[i]
+        x[k] = s / Lr[k][k]
+    return np.array(x, dtype=np.float64)
 
 
 class Projector:
@@ -150,9 +228,8 @@ class Projector:
             st, y = self.solve(u * L, G / L[None, :], b, warm)
             x: FloatArray = y / L
         else:  # y = Lᵀ x: G x = G L⁻ᵀ y
-            GL = np.asarray(np.linalg.solve(L, G.T).T, dtype=np.float64)
-            st, y = self.solve(L.T @ u, GL, b, warm)
-            x = np.asarray(np.linalg.solve(L.T, y), dtype=np.float64)
+            st, y = self.solve(factor_times(L, u), factor_rows(L, G), b, warm)
+            x = factor_back(L, y)
         if st == 0:
             # Round-off of the back-substitution: repair along the most violated row, beyond the
             # projection's acceptance tolerance tau = 1e-12 (|b| + |g|_1 (|x| + |u|)) only (a
