@@ -17,15 +17,14 @@ except ModuleNotFoundError as exc:  # an optional dependency: name the extra
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
-from matplotlib.animation import FuncAnimation, PillowWriter
 from matplotlib.collections import LineCollection
 from matplotlib.colors import Normalize
 
 from velfence._typing import FloatArray
 from velfence._validate import check_output_path, check_positive_int
-from velfence.apps import progress
 from velfence.apps.labels import method_label
 from velfence.apps.viz.plots import MAX_FPS, MAX_FRAMES, save_figure
+from velfence.apps.viz.style import _save_frames
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.mechanisms.chain import DHChain
 from velfence.sim.runner import Trajectory
@@ -359,11 +358,8 @@ def animate_arm(
         stamp.set_text(f"{who}, t = {run.trajectory.t[j]:.2f} s\nactive: {act}")
         return [links, trail, stamp]
 
-    anim = FuncAnimation(fig, update, frames=n_frames, blit=False)
     try:
-        anim.save(
-            out, writer=PillowWriter(fps=rate), dpi=96, progress_callback=progress.frames(out.name)
-        )
+        _save_frames(fig, update, n_frames, out, fps=rate, dpi=96)
     except (OSError, ValueError) as exc:
         raise InvalidParameter(f"path: cannot write {str(out)!r}: {exc}") from None
     finally:

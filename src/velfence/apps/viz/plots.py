@@ -16,7 +16,6 @@ except ModuleNotFoundError as exc:  # an optional dependency: name the extra
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
-from matplotlib.animation import FuncAnimation, PillowWriter
 from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
 
@@ -28,8 +27,15 @@ from velfence._validate import (
     describe,
     real_array,
 )
-from velfence.apps import progress
-from velfence.apps.viz.style import DPI, FONT, GIF_DPI, add_colorbar, drop_unused, styled
+from velfence.apps.viz.style import (
+    DPI,
+    FONT,
+    GIF_DPI,
+    _save_frames,
+    add_colorbar,
+    drop_unused,
+    styled,
+)
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon, Rectangle
 from velfence.shaping.base import Shaper
@@ -518,14 +524,8 @@ def animate_trajectories(
         stamp.set_text(f"t = {first.t[j]:.2f} s")
         return [*trails.values(), stamp]
 
-    anim = FuncAnimation(fig, update, frames=n_frames, blit=False)
     try:
-        anim.save(
-            out,
-            writer=PillowWriter(fps=rate),
-            dpi=GIF_DPI,
-            progress_callback=progress.frames(out.name),
-        )
+        _save_frames(fig, update, n_frames, out, fps=rate, dpi=GIF_DPI)
     except (OSError, ValueError) as exc:  # unwritable file, unknown suffix
         raise InvalidParameter(f"path: cannot write {str(out)!r}: {exc}") from None
     finally:

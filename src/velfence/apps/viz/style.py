@@ -170,3 +170,32 @@ def styled(func: Callable[_P, _R]) -> Callable[_P, _R]:
             return func(*args, **kwargs)
 
     return inner
+
+
+def _save_frames(
+    fig: Any, update: Callable[[int], object], n_frames: int, out: Any, *, fps: int, dpi: float
+) -> None:
+    """Write ``n_frames`` frames of ``fig`` to the GIF ``out``: ``update(f)``, then one draw.
+
+    The layout is computed once, by the first frame's draw, and then held (the figure's layout engine
+    is set to ``"none"``): a constrained layout re-run on every frame cost more than the frame's
+    drawing, and the frames differ only in their data and text, not in their axes. Each frame is
+    drawn once (``FuncAnimation.save`` drew each frame twice: its own draw, then the writer's).
+    Progress: ``rendering NAME frame i/n`` (:func:`velfence.apps.progress.frames`).
+
+    Raises:
+        OSError, ValueError: the file cannot be written (the caller names the path).
+    """
+    from matplotlib.animation import PillowWriter
+
+    from velfence.apps import progress
+
+    on_frame = progress.frames(out.name)
+    writer = PillowWriter(fps=fps)
+    with writer.saving(fig, str(out), dpi=dpi):
+        for f in range(n_frames):
+            on_frame(f, n_frames)
+            update(f)
+            writer.grab_frame()
+            if f == 0 and fig.get_layout_engine() is not None:
+                fig.set_layout_engine("none")  # keep the layout the first frame's draw made
