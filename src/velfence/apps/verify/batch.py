@@ -271,10 +271,10 @@ def _lockstep(scs: list[Scenario], family: str, idx: list[int], clock: _Clock) -
     clock("setup")  # (the grouping before)
     B = len(scs)
     sc0 = scs[0]
-    robots = [chain(sc.robot, sc.link_radius) for sc in scs]
-    flts = [build_filter(sc, r) for sc, r in zip(scs, robots, strict=True)]
-    kin = _Kinematics(robots[0])
-    n = int(robots[0].dof)
+    robot = chain(sc0.robot, sc0.link_radius)  # one model for all (a chain is immutable)
+    flts = [build_filter(sc, robot) for sc in scs]
+    kin = _Kinematics(robot)
+    n = int(robot.dof)
     dt = 1.0 / sc0.rate
     twist = sc0.mode == "twist"
     props = sc0.properties
@@ -288,15 +288,13 @@ def _lockstep(scs: list[Scenario], family: str, idx: list[int], clock: _Clock) -
     vmax = [np.array(sc.max_speed) for sc in scs]
     LO = np.array([sc.lower for sc in scs])
     HI = np.array([sc.upper for sc in scs])
-    lrad = np.asarray(robots[0].link_radius, dtype=np.float64)
+    lrad = np.asarray(robot.link_radius, dtype=np.float64)
     has_box = sc0.box is not None
     Ns: list[FloatArray] = []
     os_: list[FloatArray] = []
-    for sc in scs:
-        if sc.box is not None:
-            from velfence.geometry.polytope import ConvexPolytope
-
-            P0 = ConvexPolytope.box(np.array(sc.box.lower), np.array(sc.box.upper))
+    for sc, f in zip(scs, flts, strict=True):
+        if sc.box is not None:  # the filter's own box (ConvexPolytope.box of the scenario's)
+            P0 = f.workspace[0].polytope
             Ns.append(np.asarray(P0.normals, dtype=np.float64))
             os_.append(np.asarray(P0.offsets, dtype=np.float64))
         else:
@@ -320,9 +318,8 @@ def _lockstep(scs: list[Scenario], family: str, idx: list[int], clock: _Clock) -
 
         for i, sc in enumerate(scs):
             if sc.operator == "scripted" and sc.targets:
-                r = robots[i]
                 jogs[i] = TcpJog(
-                    r.fk,
+                    robot.fk,
                     [(t[0], np.array(t[1:])) for t in sc.targets],
                     speed=sc.jog_speed,
                 )
@@ -406,7 +403,7 @@ def _lockstep(scs: list[Scenario], family: str, idx: list[int], clock: _Clock) -
         for i in due:
             pm = P[i]
             if noisy[i] and twist and has_box:  # the push draw aims from the measured TCP
-                pm = np.asarray(robots[i].fk(QM[i]), dtype=np.float64)
+                pm = np.asarray(robot.fk(QM[i]), dtype=np.float64)
             if wild[i]:
                 cmd, hold = soak_command(rngs[i], twist=twist, N=Ns[i], o=os_[i], p=pm,
                                          vmax=vmax[i], rate=1.0, push_probability=0.5)  # fmt: skip
