@@ -124,7 +124,10 @@ class _Kinematics:
         self.tcp = int(data.point_index["tcp"])
 
     def __call__(self, Q: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """``(tcp (B, 3), segments (B, n, 2, 3))`` of the joint positions ``Q`` (B, n)."""
+        """``(tcp (B, 3), joint points (B, n + 1, 3))`` of the joint positions ``Q`` (B, n).
+
+        Link ``l`` is the segment from point ``l`` to point ``l + 1`` (the chain's segments).
+        """
         B, n = Q.shape
         # DHChain._kinematics_lists, element by element (the same operations in the same
         # order), on the frames' columns x, y, z and origin o as (B, 3) arrays.
@@ -151,17 +154,18 @@ class _Kinematics:
         tx, ty, tz = self.tool
         P[:, n] = Org + tx * X + ty * Y + tz * Z
         tcp = Org if self.tcp < 0 else P[:, self.tcp].copy()
-        return tcp, np.stack([P[:, :-1], P[:, 1:]], axis=2)
+        return tcp, P
 
 
-def _clearance(seg: FloatArray, lrad: FloatArray, C: FloatArray, R: FloatArray,
+def _clearance(P: FloatArray, lrad: FloatArray, C: FloatArray, R: FloatArray,
                real: Any) -> FloatArray:  # fmt: skip
     """:func:`velfence.apps.soak_filter.clearance` of each case (inf for a case without one).
 
-    ``seg`` (B, L, 2, 3), ``C`` (B, K, 3), ``R`` (B, K); ``real`` (B, K) the spheres that exist.
+    ``P`` (B, L + 1, 3) the joint points (link ``l`` from point ``l`` to ``l + 1``), ``C``
+    (B, K, 3), ``R`` (B, K); ``real`` (B, K) the spheres that exist.
     """
-    A = seg[:, :, 0]
-    E = seg[:, :, 1] - A
+    A = P[:, :-1]
+    E = P[:, 1:] - A
     ee = np.einsum("bij,bij->bi", E, E)
     rel = C[:, :, None, :] - A[:, None, :, :]
     t = np.clip(
@@ -171,7 +175,7 @@ def _clearance(seg: FloatArray, lrad: FloatArray, C: FloatArray, R: FloatArray,
     diff = rel - t[:, :, :, None] * E[:, None, :, :]
     dist = np.sqrt(np.einsum("bpsk,bpsk->bps", diff, diff)) - lrad[None, None, :] - R[:, :, None]
     dist = np.where(real[:, :, None], dist, np.inf)
-    return np.asarray(dist.min(axis=(1, 2)) if dist.shape[1] else np.full(seg.shape[0], np.inf))
+    return np.asarray(dist.min(axis=(1, 2)) if dist.shape[1] else np.full(P.shape[0], np.inf))
 
 
 def _c_route(flts: list[Any], twist: bool) -> Any:
@@ -348,9 +352,9 @@ def _lockstep(scs: list[Scenario], family: str, idx: list[int], clock: _Clock) -
     def at(Qq: FloatArray, sel: Any = slice(None)) -> tuple[FloatArray, FloatArray, FloatArray]:
         """TCP, containment margin and joint margin of the rows ``sel`` at ``Qq``."""
         clock("plant")
-        p, seg = kin(Qq)
+        p, pts = kin(Qq)
         clock("kinematics")
-        c = _clearance(seg, lrad, CB[sel], RB[sel], real[sel]) if K else np.full(len(p), np.inf)
+        c = _clearance(pts, lrad, CB[sel], RB[sel], real[sel]) if K else np.full(len(p), np.inf)
         clock("clearance")
         cm = np.minimum(_ws(p, sel), c)
         jm = np.min(np.minimum(Qq - LO[sel], HI[sel] - Qq), axis=1)
