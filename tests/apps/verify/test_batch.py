@@ -158,3 +158,21 @@ def test_timings_and_bad_arguments() -> None:
     with pytest.raises(InvalidParameter, match="timings"):
         run_batch(scs, timings=[])  # type: ignore[arg-type]
     assert run_batch([]) == []
+
+
+def test_the_kinematics_is_the_chains_bit_for_bit(monkeypatch: pytest.MonkeyPatch) -> None:
+    from velfence.mechanisms.chain import DHChain
+
+    rng = np.random.default_rng(8)
+    for robot in (DHChain.seven_dof(link_radius=0.05, tool=(0.0, 0.0, 0.05)),
+                  DHChain.ur5e(link_radius=0.05), DHChain.puma560()):  # fmt: skip
+        Q = rng.uniform(-7.0, 7.0, (50, robot.dof))
+        for libm in (True, False):  # NumPy's sin and cos, and math's
+            monkeypatch.setattr(batch, "_trig_is_libm", lambda libm=libm: libm)
+            tcp, pts = batch._Kinematics(robot)(Q)
+            for q, p, P in zip(Q, tcp, pts, strict=True):
+                frame = robot.kinematics(q)
+                assert np.array_equal(p, frame.point("tcp"))
+                seg = frame.segments()
+                assert np.array_equal(P[:-1], seg[:, 0])
+                assert np.array_equal(P[1:], seg[:, 1])

@@ -14,7 +14,8 @@ called only when its command expires) and the scripted jog.
 
 The arithmetic is :func:`run`'s, element by element: the forward kinematics is the chain's one
 kinematics pass (``DHChain``'s plain-float composition, column-wise over the batch, with the
-C library's ``sin`` and ``cos`` as :mod:`math` calls), the clearance :func:`clearance`'s
+C library's ``sin`` and ``cos``: NumPy's where they give :mod:`math`'s values, checked once,
+else :mod:`math`'s), the clearance :func:`clearance`'s
 ``einsum`` contractions with a batch axis in front, the norms and dot products NumPy's ``vecdot``
 (the same BLAS dot as ``np.linalg.norm`` and ``@`` of one vector), the sensor noise drawn in
 blocks (a generator's block of draws is its draws one after the other). A case's result is
@@ -29,6 +30,7 @@ stop at the first failure of shrinking, which stay :func:`run`'s.
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 import time
@@ -114,6 +116,24 @@ def run_batch(
     return [r for r in out if r is not None]
 
 
+@functools.cache
+def _trig_is_libm() -> bool:
+    """Whether NumPy's float64 ``cos`` and ``sin`` give :mod:`math`'s (the C library's) values.
+
+    The chain's kinematics calls :func:`math.cos` and :func:`math.sin`; NumPy's are the same
+    functions on most builds, but some use their own vectorised ones (SVML on AVX-512), which
+    differ in the last bit now and then. Checked once on 4,096 angles; when any differs the
+    batch calls :mod:`math` for every angle (about ten times slower, still exact).
+    """
+    th = np.random.default_rng(0).uniform(-7.0, 7.0, 4096)
+    th[:4] = (0.0, math.pi / 2, -math.pi, 1e3)
+    values = th.tolist()
+    return bool(
+        np.array_equal(np.cos(th), [math.cos(v) for v in values])
+        and np.array_equal(np.sin(th), [math.sin(v) for v in values])
+    )
+
+
 class _Kinematics:
     """The chain's one kinematics pass over a batch: the TCP and the link segments."""
 
@@ -132,9 +152,12 @@ class _Kinematics:
         # DHChain._kinematics_lists, element by element (the same operations in the same
         # order), on the frames' columns x, y, z and origin o as (B, 3) arrays.
         off = np.array([r[4] for r in self.rows])
-        th = (Q + off).ravel().tolist()  # qs[i] + off, row-major: case by case
-        cos = np.fromiter(map(math.cos, th), np.float64, B * n).reshape(B, n)
-        sin = np.fromiter(map(math.sin, th), np.float64, B * n).reshape(B, n)
+        th = Q + off  # qs[i] + off
+        if _trig_is_libm():
+            cos, sin = np.cos(th), np.sin(th)
+        else:
+            cos = np.fromiter(map(math.cos, th.ravel().tolist()), np.float64, B * n).reshape(B, n)
+            sin = np.fromiter(map(math.sin, th.ravel().tolist()), np.float64, B * n).reshape(B, n)
         X = np.zeros((B, 3))
         X[:, 0] = 1.0
         Y = np.zeros((B, 3))
@@ -429,9 +452,12 @@ def _lockstep(scs: list[Scenario], family: str, idx: list[int], clock: _Clock) -
                                FP2 if has_jerk.any() else None, remember & has_fp,
                                has_jerk & has_fp2)  # fmt: skip
             good = late >= 0
-            missed = MISSES + np.isin(late, (PROJECT_ITERATION_CAP, PROJECT_DEADLINE))
-            EXC += ~good  # refused by C: SafetyFilter.filter raises InvalidInput (on_invalid)
-            X[~good] = np.nan
+            missed = MISSES + (
+                np.equal(late, PROJECT_ITERATION_CAP) | np.equal(late, PROJECT_DEADLINE)
+            )
+            if not good.all():  # refused by C: SafetyFilter.filter raises InvalidInput
+                EXC += ~good
+                X[~good] = np.nan
             upd = good & remember
             if upd.any():
                 j2 = upd & has_jerk
