@@ -40,6 +40,7 @@ from typing import Any
 import numpy as np
 
 from velfence._typing import FloatArray
+from velfence._validate import check_positive_int, check_text, describe
 from velfence.apps.soak_filter import soak_command
 from velfence.apps.verify.campaign import PROPERTIES
 from velfence.apps.verify.cases import CaseResult, Scenario, build_filter, chain, run
@@ -85,16 +86,35 @@ def run_batch(
         One :class:`~velfence.apps.verify.cases.CaseResult` per scenario, in order.
 
     Raises:
-        InvalidParameter: not a sequence of scenarios, or ``indices`` of another length.
+        InvalidParameter: not a list or tuple of scenarios, a family name that is no string,
+            ``indices`` not ints >= 0 or of another length, ``timings`` not a dict.
     """
+    if not isinstance(scenarios, (list, tuple)):
+        raise InvalidParameter(
+            f"scenarios: expected a list or tuple of Scenario, got {describe(scenarios)}"
+        )
     scs = list(scenarios)
-    if not all(isinstance(sc, Scenario) for sc in scs):
-        raise InvalidParameter("scenarios: expected a sequence of Scenario")
-    idx = list(range(len(scs))) if indices is None else [int(i) for i in indices]
+    bad = [j for j, sc in enumerate(scs) if not isinstance(sc, Scenario)]
+    if bad:
+        raise InvalidParameter(
+            f"scenarios: expected a list or tuple of Scenario, item {bad[0]} is "
+            f"{describe(scs[bad[0]])}"
+        )
+    family = check_text("family", family, max_length=80)
+    if indices is None:
+        idx = list(range(len(scs)))
+    elif isinstance(indices, (list, tuple)):
+        idx = [check_positive_int(f"indices[{j}]", v, example=0, minimum=0)
+               for j, v in enumerate(indices)]  # fmt: skip
+    else:
+        raise InvalidParameter(f"indices: expected a list of ints or None, got {describe(indices)}")
     if len(idx) != len(scs):
-        raise InvalidParameter(f"indices: expected {len(scs)} indices, got {len(idx)}")
+        raise InvalidParameter(
+            f"scenarios, indices: expected one index per scenario, got {len(scs)} scenarios "
+            f"and {len(idx)} indices"
+        )
     if timings is not None and not isinstance(timings, dict):
-        raise InvalidParameter(f"timings: expected a dict or None, got {type(timings).__name__}")
+        raise InvalidParameter(f"timings: expected a dict or None, got {describe(timings)}")
     clock = _Clock(timings)
     out: list[CaseResult | None] = [None] * len(scs)
     groups: dict[str, list[int]] = {}
