@@ -250,6 +250,8 @@ def _cycle_many(
     Each row gets its previous outputs where ``use`` / ``use2`` say (the rows grouped by that
     pattern, one call per group: in lock-step there is one group).
     """
+    if not use.any() and not use2.any():  # no previous outputs (a stateless filter)
+        return many(cycles, Q, U, None, None, X)[1]
     status = np.zeros(len(cycles), dtype=np.int64)
     patterns = use.astype(np.int64) + 2 * use2.astype(np.int64)
     for pat in np.unique(patterns).tolist():
@@ -472,9 +474,11 @@ def _lockstep(scs: list[Scenario], family: str, idx: list[int], clock: _Clock) -
                                FP2 if has_jerk.any() else None, remember & has_fp,
                                has_jerk & has_fp2)  # fmt: skip
             good = late >= 0
-            missed = MISSES + (
-                np.equal(late, PROJECT_ITERATION_CAP) | np.equal(late, PROJECT_DEADLINE)
-            )
+            missed = MISSES
+            if late.max() >= min(PROJECT_ITERATION_CAP, PROJECT_DEADLINE):
+                missed = MISSES + (
+                    np.equal(late, PROJECT_ITERATION_CAP) | np.equal(late, PROJECT_DEADLINE)
+                )
             if not good.all():  # refused by C: SafetyFilter.filter raises InvalidInput
                 EXC += ~good
                 X[~good] = np.nan
