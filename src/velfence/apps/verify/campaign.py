@@ -151,7 +151,7 @@ class Family(_Ranges):
     latency: CountRange = Field(default_factory=lambda: [0, 0])
     noise: LengthRange = Field(default_factory=lambda: [0.0, 0.0])
     pushes: Pushes = Field(default_factory=Pushes)
-    plant: Literal["kinematic"] = "kinematic"
+    plant: Literal["kinematic", "mujoco"] = "kinematic"
 
 
 class Tolerance(StrictModel):
