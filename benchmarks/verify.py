@@ -7,16 +7,31 @@ serially in this process, then, with ``--workers N`` (N > 0) and the engine inst
 engine on N workers. The breakdown times the filter's cycle alone (``SafetyFilter.filter``) on the
 states of one case beside the whole closed-loop step (operator, cycle, plant, margins).
 
-Run: ``python benchmarks/verify.py [--cases 8] [--steps 2000] [--workers 2]``; prints one line per
-measurement (docs/verify.md gives the numbers with the load they were measured under).
+With ``--cluster-compare`` it runs the same campaign twice more, on the engine's embedded
+``LocalCluster`` of ``--workers`` processes and on a local cluster started as separate processes
+(``dask scheduler`` and ``--workers`` ``dask worker --no-nanny`` processes on 127.0.0.1, as a user
+would start them), and prints both rates, their ratio (the target: the cluster at 80 % of the
+embedded rate or more) and the engine's overhead: per shard, the wall time the workers spent
+beyond the shards' own run time (``(wall x workers - sum of the shards' seconds) / shards``),
+and the round trip of an empty shard (``engine.map(abs, ...)``: submit, schedule, run nothing,
+gather).
+
+Run: ``python benchmarks/verify.py [--cases 8] [--steps 2000] [--workers 2] [--cluster-compare]``;
+prints one line per measurement (docs/verify.md gives the numbers with the load they were
+measured under).
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+import socket
+import subprocess
+import sys
 import tempfile
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -67,12 +82,116 @@ def breakdown(spec: dict[str, Any]) -> tuple[float, float]:
     return step_us, cycle_us
 
 
+@contextmanager
+def local_cluster(workers: int, log: Path) -> Iterator[str]:
+    """A scheduler and ``workers`` workers, separate processes on 127.0.0.1; yields its address."""
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        port = sock.getsockname()[1]
+    address = f"tcp://127.0.0.1:{port}"
+    dask = str(Path(sys.executable).with_name("dask"))
+    with log.open("w") as out:
+        procs = [
+            subprocess.Popen(
+                [dask, "scheduler", "--host", "127.0.0.1", "--port", str(port), "--no-dashboard"],
+                stdout=out,
+                stderr=subprocess.STDOUT,
+            )
+        ]
+        try:
+            for k in range(workers):
+                argv = [dask, "worker", address, "--no-nanny", "--nthreads", "1", "--host",
+                        "127.0.0.1", "--no-dashboard", "--name", f"w{k}"]  # fmt: skip
+                procs.append(subprocess.Popen(argv, stdout=out, stderr=subprocess.STDOUT))
+            from distributed import Client
+
+            with Client(address, timeout=60) as client:
+                client.wait_for_workers(workers, timeout=120)
+            yield address
+        finally:
+            for proc in reversed(procs):
+                proc.terminate()
+            for proc in procs:
+                try:
+                    proc.wait(timeout=20)
+                except subprocess.TimeoutExpired:
+                    proc.kill()
+                    proc.wait()
+
+
+def on_engine(spec: dict[str, Any], out: Path, engine: Any) -> tuple[int, float, float, int]:
+    """Run the campaign through a started engine: (steps, wall [s], shards' own seconds, shards)."""
+    from velfence.apps.verify import verify
+
+    t0 = time.perf_counter()
+    o = verify(spec, out, report=False, mapper=engine.map)
+    wall = time.perf_counter() - t0
+    return sum(o.summary.steps.values()), wall, o.summary.seconds, o.summary.shards_done
+
+
+def round_trip(engine: Any, n: int = 200) -> float:
+    """Seconds per empty shard: ``engine.run(abs, range(n))`` (a builtin: no code to ship)."""
+    engine.run(abs, range(20))  # warm
+    t0 = time.perf_counter()
+    engine.run(abs, range(n))
+    return (time.perf_counter() - t0) / n
+
+
+def cluster_compare(spec: dict[str, Any], workers: int, tmp: Path) -> None:
+    """Embedded LocalCluster against a cluster of separate processes, the same campaign."""
+    from velfence.apps.engine import Engine
+
+    rows = []
+    t0 = time.perf_counter()
+    with Engine(workers=workers, timeout=60) as engine:
+        start = time.perf_counter() - t0
+        rows.append(("embedded", start, *on_engine(spec, tmp / "embedded", engine),
+                     round_trip(engine)))  # fmt: skip
+    t0 = time.perf_counter()
+    with (
+        local_cluster(workers, tmp / "dask.log") as address,
+        Engine(cluster=address, timeout=60) as engine,
+    ):
+        start = time.perf_counter() - t0
+        rows.append(("cluster", start, *on_engine(spec, tmp / "cluster", engine),
+                     round_trip(engine)))  # fmt: skip
+    rates = {}
+    for name, start, steps, wall, busy, shards, trip in rows:
+        rates[name] = steps / wall
+        overhead = (wall * workers - busy) / shards
+        print(
+            f"{name}, {workers} workers: {steps:,} steps in {wall:.2f} s = {steps / wall:,.0f} "
+            f"steps/s (start-up {start:.1f} s, not counted); shards' own time {busy:.2f} s; "
+            f"engine overhead {overhead * 1e3:.1f} ms per shard ({shards} shards); empty shard "
+            f"round trip {trip * 1e3:.2f} ms"
+        )
+    same = (tmp / "embedded" / "shards").exists() and all(
+        _cases(tmp / "embedded" / "shards" / f.name) == _cases(f)
+        for f in sorted((tmp / "cluster" / "shards").glob("*.json"))
+    )
+    print(
+        f"cluster / embedded: {rates['cluster'] / rates['embedded']:.0%} (target >= 80 %); "
+        f"shard results equal: {same}"
+    )
+
+
+def _cases(path: Path) -> Any:
+    import json
+
+    return json.loads(path.read_text())["cases"]
+
+
 def main() -> None:
     """Run the measurements and print them."""
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--cases", type=int, default=8)
     ap.add_argument("--steps", type=int, default=2000)
     ap.add_argument("--workers", type=int, default=2, help="engine workers (0: serial only)")
+    ap.add_argument(
+        "--cluster-compare",
+        action="store_true",
+        help="also run on the embedded engine and on a local cluster of separate processes",
+    )
     args = ap.parse_args()
     from velfence.apps.verify import verify
 
@@ -91,7 +210,9 @@ def main() -> None:
         wall = time.perf_counter() - t0
         steps = sum(o.summary.steps.values())
         print(f"serial: {steps:,} steps in {wall:.1f} s = {steps / wall:,.0f} steps/s")
-        if args.workers > 0:
+        if args.workers > 0 and args.cluster_compare:
+            cluster_compare(spec, args.workers, Path(tmp))
+        elif args.workers > 0:
             try:
                 from velfence.apps.engine import Engine  # type: ignore[import-not-found,unused-ignore]
             except ImportError:

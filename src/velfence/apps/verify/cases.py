@@ -327,7 +327,7 @@ def sample(campaign: Campaign, family: int, index: int) -> Scenario:
         pushes=pushes,  # type: ignore[arg-type]
         steps=fam.steps,
         properties=campaign.properties.model_dump(),  # type: ignore[arg-type]
-        plant=fam.plant,
+        plant=fam.plant,  # type: ignore[arg-type]
     )
 
 

@@ -41,7 +41,10 @@ could not be told from the push's.
 Properties are measured on MuJoCo's state after each period: the joints from ``data.qpos``, the
 TCP from the ``tcp`` site's ``site_xpos``, the clearances from the capsule and sphere geoms'
 poses and sizes (``geom_xpos``, ``geom_xmat``, ``geom_size``), the box margin from the box geom.
-The operator and the filter read the joints as the kinematic plant's do (plus the same noise).
+The operator and the filter read the joints as the kinematic plant's do (plus the same noise). The
+arm starts at rest, and a filter with acceleration or jerk bounds is told so
+(``SafetyFilter.reset(velocity=0)``): otherwise its first output is a velocity step from rest,
+which no torque makes (the kinematic plant, which makes any step, leaves the filter as it is).
 
 ``mujoco`` is imported when a MuJoCo case runs, never at import; without it a case says
 ``pip install 'velfence[physics]'``.
@@ -58,12 +61,10 @@ import numpy as np
 from velfence._extras import require
 from velfence._typing import FloatArray
 from velfence.apps.soak_filter import clearance, soak_command
-from velfence.errors import VelfenceError
+from velfence.errors import InvalidGeometry, VelfenceError
 
-__all__ = ["MAX_PHYSICS_DT", "PLANTS", "MujocoArm", "run_mujoco"]
+__all__ = ["MAX_PHYSICS_DT", "MujocoArm", "run_mujoco"]
 
-#: The plants a family may name (``docs/config.md``).
-PLANTS: tuple[str, ...] = ("kinematic", "mujoco")
 #: MuJoCo's time step is the largest divisor of the control period not above this [s].
 MAX_PHYSICS_DT = 5e-4
 
@@ -92,30 +93,34 @@ class MujocoArm:
         self._mj = mj
         arm = {"seven_dof": robots.seven_dof, "ur5e": robots.ur5e, "puma560": robots.puma560}
         model = arm[sc.robot](tool=np.array(tool), radius=sc.link_radius)
-        spec = mj.MjSpec.from_string(model.xml)
+        # The extra geoms are written into the MJCF text with every digit (``repr``), so that
+        # MuJoCo holds the scenario's numbers exactly (MjSpec.to_xml would round them).
+        xml = model.xml
         if sc.link_radius > 0.0 and float(np.linalg.norm(tool)) > 0.0:
-            g = spec.body("flange").add_geom()
-            g.name = "velfence_tool"
-            g.type = mj.mjtGeom.mjGEOM_CAPSULE
-            g.fromto = [0.0, 0.0, 0.0, *(float(v) for v in tool)]
-            g.size = [sc.link_radius, 0.0, 0.0]
-            g.contype, g.conaffinity, g.mass = _ARM_CONTYPE, 0, 0.0
+            xml = _insert(
+                xml,
+                '<site name="tcp"',
+                f'<geom name="velfence_tool" type="capsule" size="{sc.link_radius!r}" '
+                f'fromto="0 0 0 {_xyz(tool)}" contype="{_ARM_CONTYPE}" conaffinity="0" '
+                'mass="0"/>',
+            )
         if sc.box is not None:
             lo, hi = np.array(sc.box.lower), np.array(sc.box.upper)
-            g = spec.worldbody.add_geom()
-            g.name = "velfence_box"
-            g.type = mj.mjtGeom.mjGEOM_BOX
-            g.pos = ((lo + hi) / 2).tolist()
-            g.size = np.maximum((hi - lo) / 2, 1e-9).tolist()
-            g.contype, g.conaffinity, g.mass = 0, 0, 0.0
-            g.rgba = [0.2, 0.5, 0.9, 0.15]
+            xml = _insert(
+                xml,
+                "<worldbody>",
+                f'<geom name="velfence_box" type="box" pos="{_xyz((lo + hi) / 2)}" '
+                f'size="{_xyz(np.maximum((hi - lo) / 2, 1e-9))}" contype="0" conaffinity="0" '
+                'mass="0" rgba="0.2 0.5 0.9 0.15"/>',
+                after=True,
+            )
         self.dt = 1.0 / sc.rate
         sub = max(1, math.ceil(self.dt / MAX_PHYSICS_DT - 1e-9))
         self.physics_dt = self.dt / sub
         bandwidth = 1.0 / max(sc.lag, self.physics_dt)
         obstacles = [SphereObstacle(np.array(s[:3]), radius=s[3]) for s in sc.spheres]
         self.plant = MujocoPlant(
-            spec.to_xml(),
+            xml,
             servo="computed-torque",
             bandwidth=bandwidth,
             physics_dt=self.physics_dt,
@@ -186,6 +191,21 @@ class MujocoArm:
         The largest count at one physics step of the period (MuJoCo's collision detection).
         """
         return np.asarray(self.plant.record.contacts[1:], dtype=np.int64)
+
+
+def _xyz(v: Any) -> str:
+    """Three numbers for an MJCF attribute, every digit kept."""
+    return " ".join(repr(float(x)) for x in v)
+
+
+def _insert(xml: str, anchor: str, element: str, *, after: bool = False) -> str:
+    """``element`` on its own line before (or after) the line holding ``anchor`` (once)."""
+    lines = xml.splitlines()
+    at = [i for i, line in enumerate(lines) if anchor in line]
+    if len(at) != 1:  # the shipped MJCF has one of each; anything else is a bug here
+        raise InvalidGeometry(f"MJCF of the arm: expected one {anchor!r}, found {len(at)}")
+    lines.insert(at[0] + (1 if after else 0), element)
+    return "\n".join(lines)
 
 
 def run_mujoco(
