@@ -14,7 +14,8 @@ would start them), and prints both rates, their ratio (the target: the cluster a
 embedded rate or more) and the engine's overhead: per shard, the wall time the workers spent
 beyond the shards' own run time (``(wall x workers - sum of the shards' seconds) / shards``),
 and the round trip of an empty shard (``engine.map(abs, ...)``: submit, schedule, run nothing,
-gather).
+gather). Both engines are warmed up first by a small campaign (every worker imports velfence and
+builds a filter once), which is not timed.
 
 Run: ``python benchmarks/verify.py [--cases 8] [--steps 2000] [--workers 2] [--cluster-compare]``;
 prints one line per measurement (docs/verify.md gives the numbers with the load they were
@@ -120,8 +121,16 @@ def local_cluster(workers: int, log: Path) -> Iterator[str]:
 
 
 def on_engine(spec: dict[str, Any], out: Path, engine: Any) -> tuple[int, float, float, int]:
-    """Run the campaign through a started engine: (steps, wall [s], shards' own seconds, shards)."""
+    """Run the campaign through a started engine: (steps, wall [s], shards' own seconds, shards).
+
+    A small campaign runs first (two 10-step shards per worker, not timed), so that every worker
+    has imported velfence and built a filter once: the rates compare the engines at work, not
+    their workers' first imports (the start-up is printed on its own).
+    """
     from velfence.apps.verify import verify
+
+    warm = campaign(2 * engine.n_workers(), 10)
+    verify(warm, out.with_name(out.name + "-warm-up"), report=False, mapper=engine.map)
 
     t0 = time.perf_counter()
     o = verify(spec, out, report=False, mapper=engine.map)

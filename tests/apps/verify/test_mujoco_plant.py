@@ -143,6 +143,9 @@ def test_the_known_bad_campaign_fails_on_mujoco_and_shrinks(tmp_path: Path) -> N
     r1, r2 = replay(cx.path), replay(cx.path)
     assert r1.violated
     assert r1.worst == r2.worst  # MuJoCo runs it again bit for bit
+    scope = (tmp_path / "bad" / "report.md").read_text()
+    assert "The MuJoCo plant (`plant: mujoco`) simulates" in scope
+    assert "The kinematic plant" not in scope  # no family of this campaign is kinematic
 
 
 def test_without_mujoco_a_mujoco_case_names_the_extra(monkeypatch: pytest.MonkeyPatch) -> None:
