@@ -106,6 +106,8 @@ class Scenario(StrictModel):
         pushes: External joint-velocity pushes.
         steps: Steps to run.
         properties: The properties checked.
+        plant: ``kinematic`` (:func:`run`'s integrator) or ``mujoco``
+            (:mod:`velfence.apps.verify.plants`).
     """
 
     robot: Literal["seven_dof", "ur5e", "puma560"]
@@ -140,6 +142,7 @@ class Scenario(StrictModel):
     pushes: list[PushSpec] = Field(default_factory=list)
     steps: Annotated[int, Strict(), Field(ge=1, le=10**7)]
     properties: Properties
+    plant: Literal["kinematic", "mujoco"] = "kinematic"
 
 
 @dataclass(kw_only=True)
@@ -324,6 +327,7 @@ def sample(campaign: Campaign, family: int, index: int) -> Scenario:
         pushes=pushes,  # type: ignore[arg-type]
         steps=fam.steps,
         properties=campaign.properties.model_dump(),  # type: ignore[arg-type]
+        plant=fam.plant,  # type: ignore[arg-type]
     )
 
 
@@ -398,7 +402,9 @@ def run(
     [rad]; *finite* -1 for a non-finite output or an exception; *deadline* -1 for a deadline
     fallback; *jerk* the bound minus the output's jerk [rad/s³]; *progress* the mean TCP speed
     along the held command's part tangent to the nearest face, minus ``min_fraction`` of that
-    part's size [m/s], once ``window`` seconds of a held twist command have passed.
+    part's size [m/s], once ``window`` seconds of a held twist command have passed. A scenario
+    with ``plant: mujoco`` runs on MuJoCo instead (:func:`velfence.apps.verify.plants.run_mujoco`,
+    the ``physics`` extra).
 
     Args:
         sc: The scenario.
@@ -412,6 +418,15 @@ def run(
     """
     robot = chain(sc.robot, sc.link_radius)
     flt = build_filter(sc, robot)
+    if sc.plant == "mujoco":  # the MuJoCo plant (velfence.apps.verify.plants)
+        from velfence.apps.verify.plants import run_mujoco
+
+        worst = _Worst(sc.properties)
+        out = run_mujoco(sc, robot=robot, flt=flt, worst=worst, tool=TOOL, record=record,
+                         stop_at_failure=stop_at_failure)  # fmt: skip
+        violated = [name for name in PROPERTIES if name in worst.first]
+        return CaseResult(family=family, index=index, worst=worst.worst, violated=violated,
+                          first=worst.first, **out)  # fmt: skip
     n = int(robot.dof)
     dt = 1.0 / sc.rate
     twist = sc.mode == "twist"
