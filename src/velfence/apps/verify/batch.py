@@ -41,9 +41,22 @@ import numpy as np
 
 from velfence._typing import FloatArray
 from velfence._validate import check_positive_int, check_text, describe
-from velfence.apps.soak_filter import soak_command
 from velfence.apps.verify.campaign import PROPERTIES
-from velfence.apps.verify.cases import CaseResult, Scenario, build_filter, chain, run
+from velfence.apps.verify.cases import (
+    CaseResult,
+    Scenario,
+    box_margin,
+    build_filter,
+    chain,
+    draw_command,
+    face_tangent,
+    jerk_margin,
+    joint_margin,
+    progress_margin,
+    run,
+    step_margin,
+    tolerances,
+)
 from velfence.errors import InvalidParameter
 from velfence.filter.ccycle import c_cycle_or_none
 from velfence.geometry.projection import PROJECT_DEADLINE, PROJECT_ITERATION_CAP
@@ -273,11 +286,7 @@ class _Worst:
     """:class:`velfence.apps.verify.cases` ``_Worst`` over a batch."""
 
     def __init__(self, props: Any, B: int) -> None:
-        self.tol: dict[str, float] = {}
-        for name in PROPERTIES:
-            spec = getattr(props, name)
-            if spec is not None:
-                self.tol[name] = float(getattr(spec, "tolerance", 0.0))
+        self.tol = tolerances(props)
         self.m = {name: np.zeros(B) for name in self.tol}
         self.step = {name: np.full(B, -1) for name in self.tol}
         self.first = {name: np.full(B, -1) for name in self.tol}
@@ -401,16 +410,9 @@ def _lockstep(scs: list[Scenario], family: str, idx: list[int], clock: _Clock) -
         clock("kinematics")
         c = _clearance(pts, lrad, CB[sel], RB[sel], real[sel]) if K else np.full(len(p), np.inf)
         clock("clearance")
-        cm = np.minimum(_ws(p, sel), c)
-        jm = np.min(np.minimum(Qq - LO[sel], HI[sel] - Qq), axis=1)
+        cm = np.minimum(box_margin(NB[sel], OB[sel], p), c)
+        jm = joint_margin(Qq, LO[sel], HI[sel])
         return p, cm, jm
-
-    def _ws(p: FloatArray, sel: Any) -> FloatArray:
-        if not has_box:
-            return np.full(p.shape[0], np.inf)
-        N, o = NB[sel], OB[sel]
-        d = N[..., 0] * p[:, None, 0] + N[..., 1] * p[:, None, 1] + N[..., 2] * p[:, None, 2]
-        return np.asarray(np.min(d - o, axis=1))
 
     Q = np.array([sc.q0 for sc in scs])
     clock("setup")
@@ -432,8 +434,7 @@ def _lockstep(scs: list[Scenario], family: str, idx: list[int], clock: _Clock) -
     NZ = np.zeros((B, _NOISE_BLOCK, n))
     X = np.zeros((B, n))
     steps = sc0.steps
-    push_p = [1.0 if sc.operator == "push" else 0.0 for sc in scs]
-    wild = [sc.operator == "wild" for sc in scs]
+    operators = [sc.operator for sc in scs]
     clock("setup")
     for k in range(steps):
         if noisy_rows:
@@ -453,13 +454,8 @@ def _lockstep(scs: list[Scenario], family: str, idx: list[int], clock: _Clock) -
             pm = P[i]
             if noisy[i] and twist and has_box:  # the push draw aims from the measured TCP
                 pm = np.asarray(robot.fk(QM[i]), dtype=np.float64)
-            if wild[i]:
-                cmd, hold = soak_command(rngs[i], twist=twist, N=Ns[i], o=os_[i], p=pm,
-                                         vmax=vmax[i], rate=1.0, push_probability=0.5)  # fmt: skip
-            else:
-                cmd, hold = soak_command(rngs[i], twist=twist, N=Ns[i], o=os_[i], p=pm,
-                                         vmax=vmax[i], rate=sc0.rate,
-                                         push_probability=push_p[i])  # fmt: skip
+            cmd, hold = draw_command(operators[i], rngs[i], twist=twist, N=Ns[i], o=os_[i],
+                                     p=pm, vmax=vmax[i], rate=sc0.rate)  # fmt: skip
             CMD[i] = cmd
             CN[i] = float(np.linalg.norm(cmd))
             HOLD[i] = hold
@@ -507,8 +503,7 @@ def _lockstep(scs: list[Scenario], family: str, idx: list[int], clock: _Clock) -
         worst.add("deadline", np.where(missed > MISSES, -1.0, 0.0), k)
         MISSES = missed
         if jerk_max is not None and PREV is not None and PREV2 is not None:
-            jk = np.max(np.abs(X - 2.0 * PREV + PREV2), axis=1) / (dt * dt)
-            worst.add("jerk", jerk_max - jk, k)
+            worst.add("jerk", jerk_margin(jerk_max, X, PREV, PREV2, dt), k)
         PREV2, PREV = PREV, X
         if Lmax:
             ring[k % (Lmax + 1)] = X
@@ -520,9 +515,8 @@ def _lockstep(scs: list[Scenario], family: str, idx: list[int], clock: _Clock) -
         APPLIED = APPLIED + ALPHA[:, None] * (XD - APPLIED)
         Q1 = Q + dt * APPLIED
         P1, CM1, JM1 = at(Q1)
-        with np.errstate(invalid="ignore"):
-            worst.add("containment", np.where(-tc <= CM0, CM1, np.minimum(0.0, CM1 - CM0)), k)
-            worst.add("joint_limits", np.where(-tj <= JM0, JM1, np.minimum(0.0, JM1 - JM0)), k)
+        worst.add("containment", step_margin(CM1, CM0, tc), k)
+        worst.add("joint_limits", step_margin(JM1, JM0, tj), k)
         VT = (P1 - P) / dt
         D = (VT if twist else APPLIED) - CMD
         big = CN > 1e-9
@@ -531,15 +525,7 @@ def _lockstep(scs: list[Scenario], family: str, idx: list[int], clock: _Clock) -
         INTER_SUM += REL
         INTER_MAX = np.maximum(INTER_MAX, REL)
         if prog is not None and has_box:
-            dd = (
-                NB[..., 0] * P[:, None, 0] + NB[..., 1] * P[:, None, 1] + NB[..., 2] * P[:, None, 2]
-            )
-            dd = dd - OB
-            ii = np.argmin(dd, axis=1)
-            Ni = NB[rows, ii]
-            into = np.vecdot(Ni, CMD)
-            near = np.min(dd, axis=1) < buffer
-            CT = np.where(near[:, None], CMD - np.minimum(0.0, into)[:, None] * Ni, CMD)
+            CT = face_tangent(NB, OB, P, CMD, buffer)
             tn = np.sqrt(np.vecdot(CT, CT))
             go = big & (tn > 1e-3)
             if go.any():
@@ -549,7 +535,7 @@ def _lockstep(scs: list[Scenario], family: str, idx: list[int], clock: _Clock) -
                 chk = go & (window <= SEG_LEN)
                 if chk.any():
                     with np.errstate(divide="ignore", invalid="ignore"):
-                        m = (SEG_ALONG - prog.min_fraction * SEG_TAN) / SEG_LEN
+                        m = progress_margin(SEG_ALONG, SEG_TAN, SEG_LEN, prog.min_fraction)
                     worst.add("progress", m, k, chk)
         if push_rows:
             hit: list[int] = []

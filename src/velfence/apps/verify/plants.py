@@ -1,9 +1,11 @@
 r"""The MuJoCo plant of a campaign's closed loop (``plant: mujoco``; the ``physics`` extra).
 
 A family's ``plant`` decides what the filter's output drives. ``kinematic`` (the default) is the
-integrator of :func:`velfence.apps.verify.cases.run`; ``mujoco`` is this module: the same case
-(the same scenario file, the same operator draws, the same properties) on the robot simulated
-by MuJoCo, its properties measured on MuJoCo's state.
+integrator :class:`velfence.apps.verify.cases.KinematicPlant`; ``mujoco`` is this module's
+:class:`MujocoArm`: the same case (the same scenario file, the same operator draws, the same
+properties) on the robot simulated by MuJoCo, its properties measured on MuJoCo's state. Both
+are driven by the one closed loop of :func:`velfence.apps.verify.cases.run` (the operator, the
+filter, noise, latency, pushes and the margins' rules are that loop's, whatever the plant).
 
 The model:
 
@@ -53,17 +55,16 @@ which no torque makes (the kinematic plant, which makes any step, leaves the fil
 from __future__ import annotations
 
 import math
-from collections import deque
 from typing import Any
 
 import numpy as np
 
 from velfence._extras import require
 from velfence._typing import FloatArray
-from velfence.apps.soak_filter import clearance, soak_command
-from velfence.errors import InvalidGeometry, VelfenceError
+from velfence.apps.soak_filter import clearance
+from velfence.errors import InvalidGeometry
 
-__all__ = ["MAX_PHYSICS_DT", "MujocoArm", "run_mujoco"]
+__all__ = ["MAX_PHYSICS_DT", "MujocoArm"]
 
 #: MuJoCo's time step is the largest divisor of the control period not above this [s].
 MAX_PHYSICS_DT = 5e-4
@@ -177,9 +178,28 @@ class MujocoArm:
             )
         return p, box, gap
 
-    def advance(self, reference: FloatArray, t: float) -> None:
-        """Hold the servo's velocity reference [rad/s] over one control period from ``t`` [s]."""
+    def state(self) -> tuple[FloatArray, FloatArray, float]:
+        """The joints [rad], the TCP [m] and the containment margin [m] on MuJoCo's state now.
+
+        The containment margin is the smaller of the TCP's margin inside the box geom and the
+        links' clearance to the sphere geoms (:meth:`measure`).
+        """
+        q = self.q()
+        p, box, gap = self.measure()
+        return q, p, min(box, gap)
+
+    def advance(self, reference: FloatArray, t: float) -> FloatArray:
+        """Hold the servo's velocity reference [rad/s] over one control period from ``t`` [s].
+
+        Returns:
+            The joints' mean velocity over the period [rad/s] (their motion over ``dt``).
+
+        Raises:
+            VelfenceError: the physics diverged (a non-finite state).
+        """
+        q = self.q()
         self.plant.advance(reference, t)
+        return np.asarray((self.q() - q) / self.dt, dtype=np.float64)
 
     def displace(self, dq: FloatArray) -> None:
         """Move the joints by ``dq`` [rad] (a push's motion in one period), velocities kept."""
@@ -191,6 +211,10 @@ class MujocoArm:
         The largest count at one physics step of the period (MuJoCo's collision detection).
         """
         return np.asarray(self.plant.record.contacts[1:], dtype=np.int64)
+
+    def extra_trace(self, steps: int) -> dict[str, Any]:
+        """``contacts``: :meth:`contacts` of the first ``steps`` periods (a case's trace)."""
+        return {"contacts": self.contacts()[:steps]}
 
 
 def _xyz(v: Any) -> str:
@@ -206,190 +230,3 @@ def _insert(xml: str, anchor: str, element: str, *, after: bool = False) -> str:
         raise InvalidGeometry(f"MJCF of the arm: expected one {anchor!r}, found {len(at)}")
     lines.insert(at[0] + (1 if after else 0), element)
     return "\n".join(lines)
-
-
-def run_mujoco(
-    sc: Any,
-    *,
-    robot: Any,
-    flt: Any,
-    worst: Any,
-    tool: tuple[float, float, float],
-    record: bool = False,
-    stop_at_failure: bool = False,
-) -> dict[str, Any]:
-    """Run one case on the MuJoCo plant (``velfence.apps.verify.cases.run`` dispatches here).
-
-    The loop is the kinematic plant's, step for step (the same operator draws, noise, latency,
-    filter, margins and their rules, ``docs/verify.md``), with the plant and the measurements of
-    this module's docstring.
-
-    Args:
-        sc: The scenario (``plant: mujoco``).
-        robot: Its ``DHChain`` (the operator's and the noisy reading's kinematics).
-        flt: Its safety filter.
-        worst: The running worst margins (``add(name, margin, step)``, ``tol``, ``first``).
-        tool: The tool point in the flange frame [m].
-        record: Keep per-step traces (``containment``, ``joint_limits``, ``tcp``, ``q``,
-            ``contacts`` and ``dt``).
-        stop_at_failure: Stop at the first violation.
-
-    Returns:
-        ``steps``, ``intervention_mean``, ``intervention_max``, ``exceptions`` and ``trace``
-        (the fields of a ``CaseResult`` besides its margins).
-
-    Raises:
-        MissingExtra: MuJoCo is not installed (``pip install 'velfence[physics]'``).
-    """
-    arm = MujocoArm(sc, tool=tool)
-    n = int(robot.dof)
-    if flt.stateful:  # the arm starts at rest: the first output is a step from zero velocity
-        flt.reset(velocity=np.zeros(n))
-    dt = arm.dt
-    twist = sc.mode == "twist"
-    props = sc.properties
-    rng = np.random.default_rng(sc.command_seed)
-    noise_rng = np.random.default_rng(sc.noise_seed)
-    vmax = np.array(sc.max_speed)
-    lo, hi = np.array(sc.lower), np.array(sc.upper)
-    if sc.box is not None:
-        from velfence.geometry.polytope import ConvexPolytope
-
-        P = ConvexPolytope.box(np.array(sc.box.lower), np.array(sc.box.upper))
-        N, o = np.asarray(P.normals, dtype=np.float64), np.asarray(P.offsets, dtype=np.float64)
-    else:
-        N, o = np.zeros((0, 3)), np.zeros(0)
-    jog = None
-    if sc.operator == "scripted" and sc.targets:
-        from velfence.sim.scenarios import TcpJog
-
-        jog = TcpJog(
-            lambda qq: robot.fk(qq),
-            [(t[0], np.array(t[1:])) for t in sc.targets],
-            speed=sc.jog_speed,
-        )
-    pushes = [(ps.start, ps.end, np.array(ps.velocity)) for ps in sc.pushes]
-    pending: deque[FloatArray] = deque(np.zeros(n) for _ in range(sc.latency))
-    jerk_max = None if props.jerk is None else props.jerk.max
-    prog = props.progress if twist else None
-    window = 0 if prog is None else max(1, round(prog.window * sc.rate))
-
-    def ws_of(pp: FloatArray) -> float:
-        return float(np.min(N @ pp - o)) if N.shape[0] else math.inf
-
-    def state() -> tuple[FloatArray, FloatArray, float, float]:
-        qq = arm.q()
-        pp, box, gap = arm.measure()
-        return qq, pp, min(box, gap), float(np.min(np.minimum(qq - lo, hi - qq)))
-
-    q, p, cm0, jm0 = state()
-    prev: FloatArray | None = None
-    prev2: FloatArray | None = None
-    cmd = np.zeros(3 if twist else n)
-    hold = 0
-    seg_len = 0
-    seg_along = seg_tan = 0.0
-    misses = 0
-    exceptions = 0
-    inter_sum = inter_max = 0.0
-    tr: dict[str, list[Any]] = {"containment": [], "joint_limits": [], "tcp": [], "q": []}
-    steps = 0
-    for k in range(sc.steps):
-        qm = q + noise_rng.normal(0.0, sc.noise, n) if sc.noise > 0.0 else q
-        pm = p if sc.noise == 0.0 else np.asarray(robot.fk(qm), dtype=np.float64)
-        if jog is not None:
-            cmd = np.asarray(jog(k * dt, qm), dtype=np.float64)
-        elif hold <= 0:
-            if sc.operator == "wild":
-                cmd, hold = soak_command(rng, twist=twist, N=N, o=o, p=pm, vmax=vmax, rate=1.0,
-                                         push_probability=0.5)  # fmt: skip
-            else:
-                cmd, hold = soak_command(
-                    rng, twist=twist, N=N, o=o, p=pm, vmax=vmax, rate=sc.rate,
-                    push_probability=1.0 if sc.operator == "push" else 0.0,
-                )  # fmt: skip
-            seg_len, seg_along, seg_tan = 0, 0.0, 0.0
-        hold -= 1
-        try:
-            x = np.asarray(flt.filter_twist(qm, cmd) if twist else flt.filter(qm, cmd))
-            ok = bool(np.all(np.isfinite(x)))
-        except Exception:  # counted as a violation of "finite"; the campaign goes on
-            exceptions += 1
-            x, ok = np.zeros(n), False
-        if not ok:
-            x = np.zeros(n)
-        worst.add("finite", 0.0 if ok else -1.0, k)
-        missed = int(flt.deadline_misses)
-        worst.add("deadline", -1.0 if missed > misses else 0.0, k)
-        misses = missed
-        if jerk_max is not None and prev is not None and prev2 is not None:
-            jk = float(np.max(np.abs(x - 2.0 * prev + prev2))) / (dt * dt)
-            worst.add("jerk", jerk_max - jk, k)
-        prev2, prev = prev, x
-        if sc.latency:
-            pending.append(x)
-            xd = pending.popleft()
-        else:
-            xd = x
-        try:
-            arm.advance(xd, k * dt)
-        except VelfenceError:  # the physics diverged: a non-finite state, the case ends here
-            exceptions += 1
-            worst.add("finite", -1.0, k)
-            steps = k + 1
-            break
-        q1, p1, cm1, jm1 = state()
-        tc = worst.tol.get("containment", 0.0)
-        worst.add("containment", cm1 if cm0 >= -tc else min(0.0, cm1 - cm0), k)
-        tj = worst.tol.get("joint_limits", 0.0)
-        worst.add("joint_limits", jm1 if jm0 >= -tj else min(0.0, jm1 - jm0), k)
-        vt = (p1 - p) / dt
-        achieved = vt if twist else (q1 - q) / dt
-        cn = float(np.linalg.norm(cmd))
-        rel = float(np.linalg.norm(achieved - cmd)) / cn if cn > 1e-9 else 0.0
-        inter_sum += rel
-        inter_max = max(inter_max, rel)
-        if prog is not None and N.shape[0] and cn > 1e-9:
-            i = int(np.argmin(N @ p - o))
-            into = float(N[i] @ cmd)
-            ct = cmd - min(0.0, into) * N[i] if ws_of(p) < sc.box.buffer else cmd
-            tn = float(np.linalg.norm(ct))
-            if tn > 1e-3:
-                seg_len += 1
-                seg_along += float(vt @ ct) / tn
-                seg_tan += tn
-                if seg_len >= window:
-                    worst.add("progress", (seg_along - prog.min_fraction * seg_tan) / seg_len, k)
-        w = None
-        for a, b, v in pushes:
-            if a <= k < b:
-                w = v if w is None else w + v
-        if w is not None:
-            arm.displace(dt * w)
-            q1, p1, cm1, jm1 = state()
-        if record:
-            tr["containment"].append(cm1)
-            tr["joint_limits"].append(jm1)
-            tr["tcp"].append(p1)
-            tr["q"].append(q1)
-        q, p, cm0, jm0 = q1, p1, cm1, jm1
-        steps = k + 1
-        if stop_at_failure and worst.first:
-            break
-    trace: dict[str, Any] = {}
-    if record:
-        trace = {
-            "containment": np.array(tr["containment"]),
-            "joint_limits": np.array(tr["joint_limits"]),
-            "tcp": np.array(tr["tcp"]).reshape(-1, 3),
-            "q": np.array(tr["q"]).reshape(-1, n),
-            "contacts": arm.contacts()[: len(tr["q"])],
-            "dt": dt,
-        }
-    return {
-        "steps": steps,
-        "intervention_mean": inter_sum / max(steps, 1),
-        "intervention_max": inter_max,
-        "exceptions": exceptions,
-        "trace": trace,
-    }
