@@ -445,6 +445,34 @@ static const double *vec_arg(PyObject *o, int32_t n, const char *name)
     return (const double *)PyArray_DATA(a);
 }
 
+/* One cycle of the object's filter into x, and what cycle() and cycle_many() both keep of it:
+ * the info, the deadline misses and the warm keys. Returns vf_filter_cycle_jerk's status. No
+ * Python API: cycle_many calls it with the GIL released. */
+static int filter_cycle_run(FilterCycle *self, const double *q, const double *u,
+                            const double *prev, const double *prev2, double *x)
+{
+    int rc;
+    self->opts.warm = self->warm;
+    self->opts.n_warm = self->use_warm ? self->n_warm : 0;
+    rc = vf_filter_cycle_jerk(&self->f, q, u, prev, prev2, &self->opts, x, &self->info,
+                              self->scratch, self->iscratch);
+    self->have_info = 1;
+    if (rc == VF_ITERATION_CAP || rc == VF_DEADLINE) {
+        self->misses += 1;
+    }
+    if (self->use_warm) {
+        int32_t a;
+        for (a = 0; a < self->info.n_active; a++) {
+            int32_t r = self->info.active[a];
+            self->warm[3 * a] = self->info.level[r];
+            self->warm[3 * a + 1] = self->info.key_a[r];
+            self->warm[3 * a + 2] = self->info.key_b[r];
+        }
+        self->n_warm = self->info.n_active;
+    }
+    return rc;
+}
+
 static PyObject *FilterCycle_cycle(FilterCycle *self, PyObject *const *args, Py_ssize_t nargs)
 {
     const int32_t n = self->f.n;
@@ -486,25 +514,7 @@ static PyObject *FilterCycle_cycle(FilterCycle *self, PyObject *const *args, Py_
             return NULL;
         }
     }
-    self->opts.warm = self->warm;
-    self->opts.n_warm = self->use_warm ? self->n_warm : 0;
-    rc = vf_filter_cycle_jerk(&self->f, q, u, prev, prev2, &self->opts,
-                              (double *)PyArray_DATA((PyArrayObject *)out), &self->info,
-                              self->scratch, self->iscratch);
-    self->have_info = 1;
-    if (rc == VF_ITERATION_CAP || rc == VF_DEADLINE) {
-        self->misses += 1;
-    }
-    if (self->use_warm) {
-        int32_t a;
-        for (a = 0; a < self->info.n_active; a++) {
-            int32_t r = self->info.active[a];
-            self->warm[3 * a] = self->info.level[r];
-            self->warm[3 * a + 1] = self->info.key_a[r];
-            self->warm[3 * a + 2] = self->info.key_b[r];
-        }
-        self->n_warm = self->info.n_active;
-    }
+    rc = filter_cycle_run(self, q, u, prev, prev2, (double *)PyArray_DATA((PyArrayObject *)out));
     if (rc < 0) {
         Py_DECREF(out);
         PyErr_Format(PyExc_ValueError, "vf_filter_cycle: status %d (%s)", rc,
@@ -987,27 +997,8 @@ static PyObject *cycle_many(PyObject *mod, PyObject *args, PyObject *kwds)
         for (r = 0; r < count; r++) {
             FilterCycle *self = (FilterCycle *)items[r];
             const size_t o = (size_t)r * (size_t)n;
-            int rc;
-            self->opts.warm = self->warm;
-            self->opts.n_warm = self->use_warm ? self->n_warm : 0;
-            rc = vf_filter_cycle_jerk(&self->f, q + o, u + o, p == NULL ? NULL : p + o,
-                                      p2 == NULL ? NULL : p2 + o, &self->opts, x + o,
-                                      &self->info, self->scratch, self->iscratch);
-            self->have_info = 1;
-            if (rc == VF_ITERATION_CAP || rc == VF_DEADLINE) {
-                self->misses += 1;
-            }
-            if (self->use_warm) {
-                int32_t a;
-                for (a = 0; a < self->info.n_active; a++) {
-                    int32_t k = self->info.active[a];
-                    self->warm[3 * a] = self->info.level[k];
-                    self->warm[3 * a + 1] = self->info.key_a[k];
-                    self->warm[3 * a + 2] = self->info.key_b[k];
-                }
-                self->n_warm = self->info.n_active;
-            }
-            s[r] = rc;
+            s[r] = filter_cycle_run(self, q + o, u + o, p == NULL ? NULL : p + o,
+                                    p2 == NULL ? NULL : p2 + o, x + o);
             g[r] = self->info.stages;
         }
         Py_END_ALLOW_THREADS

@@ -5,9 +5,11 @@ filter's settings, the start, the joint limits, the workspace box, the spheres, 
 its seed, servo lag, latency, sensor noise and its seed, the pushes, the steps). :func:`sample`
 draws the scenario of case ``i`` of family ``f`` from the seed ``SeedSequence(seed,
 spawn_key=(f, i))`` (the ``i``-th child of the ``f``-th child of the campaign's
-``SeedSequence``); :func:`run` runs it in closed loop on a kinematic plant and measures each
-property's margin at every step (``docs/verify.md``); :func:`shrink` makes a failing scenario
-smaller while it still fails; a scenario is written to and read from YAML
+``SeedSequence``); :func:`run` runs it in closed loop on a kinematic plant
+(:class:`KinematicPlant`) or on MuJoCo (:class:`velfence.apps.verify.plants.MujocoArm`) and
+measures each property's margin at every step (``docs/verify.md``; one function per margin,
+shared with the fast route :mod:`velfence.apps.verify.batch`); :func:`shrink` makes a failing
+scenario smaller while it still fails; a scenario is written to and read from YAML
 (:func:`write_scenario`, :func:`load_scenario`) and runs again bit for bit.
 
 The operators are the closed-loop soak's (:func:`velfence.apps.soak_filter.soak_command`:
