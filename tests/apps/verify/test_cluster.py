@@ -29,13 +29,13 @@ from velfence.apps.verify.runner import plan, summarise
 
 pytestmark = pytest.mark.slow
 
-#: Eight shards of two cases that take a while each (about a second on an idle core), so that a
-#: worker is still holding one when the first result arrives.
+#: Eight shards of two cases that take a while each (half a second or more of CPU through the fast
+#: route), so that a worker is still holding one when the first result arrives.
 LONGER = {
     "robot": "seven_dof",
     "rate": 20.0,
     "shard_size": 2,
-    "families": [{"name": "long", "cases": 16, "steps": 600, "mode": "joint"}],
+    "families": [{"name": "long", "cases": 16, "steps": 1200, "mode": "joint"}],
 }
 
 
