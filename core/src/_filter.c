@@ -33,6 +33,11 @@
  *       cycle's VF_FILTER_STAGE_* bits (info()["stages"] without the dict).
  *     set_attachments(flat): replace the attached shapes (8 floats each: link, a (3), b (3),
  *       radius; the constructor's attachments= too) and resize the scratch (not per cycle).
+ *   cycle_many(cycles, q, u, previous=None, previous2=None, out=None) -> (out, status, stages):
+ *     row r is cycles[r].cycle(q[r], u[r], previous[r], None, previous2[r]) (one FilterCycle per
+ *     row, each with its own description; the state cycle() updates is updated) on float64
+ *     C-contiguous (count, n) arrays; a row C refuses has status < 0 and output zero (no
+ *     exception); status and stages new int32 arrays (count,). The GIL is released.
  *   segment_pairs(a0, a1, b0, b1) -> (s, t, dist, nrm): vf_segment_pair on float64 (N, 3) arrays
  *     (the closest points of N segment pairs; tests and benchmarks).
  *   STAGE_* / LEVEL_* / DEADLINE_* constants as in the header.
@@ -442,6 +447,35 @@ static const double *vec_arg(PyObject *o, int32_t n, const char *name)
     return (const double *)PyArray_DATA(a);
 }
 
+/* One cycle of the object's filter into x, and what cycle() and cycle_many() both keep of it:
+ * the info, the deadline misses and the warm keys. Returns vf_filter_cycle_jerk's status. No
+ * Python API: cycle_many calls it with the GIL released. */
+static int filter_cycle_run(FilterCycle *self, const double *q, const double *u,
+                            const double *prev, const double *prev2, const double *factor,
+                            double *x)
+{
+    int rc;
+    self->opts.warm = self->warm;
+    self->opts.n_warm = self->use_warm ? self->n_warm : 0;
+    rc = vf_filter_cycle_metric(&self->f, q, u, prev, prev2, factor, &self->opts, x, &self->info,
+                                self->scratch, self->iscratch);
+    self->have_info = 1;
+    if (rc == VF_ITERATION_CAP || rc == VF_DEADLINE) {
+        self->misses += 1;
+    }
+    if (self->use_warm) {
+        int32_t a;
+        for (a = 0; a < self->info.n_active; a++) {
+            int32_t r = self->info.active[a];
+            self->warm[3 * a] = self->info.level[r];
+            self->warm[3 * a + 1] = self->info.key_a[r];
+            self->warm[3 * a + 2] = self->info.key_b[r];
+        }
+        self->n_warm = self->info.n_active;
+    }
+    return rc;
+}
+
 static PyObject *FilterCycle_cycle(FilterCycle *self, PyObject *const *args, Py_ssize_t nargs)
 {
     const int32_t n = self->f.n;
@@ -496,25 +530,8 @@ static PyObject *FilterCycle_cycle(FilterCycle *self, PyObject *const *args, Py_
             return NULL;
         }
     }
-    self->opts.warm = self->warm;
-    self->opts.n_warm = self->use_warm ? self->n_warm : 0;
-    rc = vf_filter_cycle_metric(&self->f, q, u, prev, prev2, factor, &self->opts,
-                              (double *)PyArray_DATA((PyArrayObject *)out), &self->info,
-                              self->scratch, self->iscratch);
-    self->have_info = 1;
-    if (rc == VF_ITERATION_CAP || rc == VF_DEADLINE) {
-        self->misses += 1;
-    }
-    if (self->use_warm) {
-        int32_t a;
-        for (a = 0; a < self->info.n_active; a++) {
-            int32_t r = self->info.active[a];
-            self->warm[3 * a] = self->info.level[r];
-            self->warm[3 * a + 1] = self->info.key_a[r];
-            self->warm[3 * a + 2] = self->info.key_b[r];
-        }
-        self->n_warm = self->info.n_active;
-    }
+    rc = filter_cycle_run(self, q, u, prev, prev2, factor,
+                          (double *)PyArray_DATA((PyArrayObject *)out));
     if (rc < 0) {
         Py_DECREF(out);
         PyErr_Format(PyExc_ValueError, "vf_filter_cycle: status %d (%s)", rc,
@@ -913,7 +930,110 @@ fail:
     return NULL;
 }
 
+
+/* cycle_many(cycles, q, u, previous=None, previous2=None, out=None) -> (out, status, stages):
+ * row r is cycles[r].cycle(q[r], u[r], previous[r], None, previous2[r]) -- the same
+ * vf_filter_cycle_jerk on that object's description, options, warm keys and scratch, with its
+ * info, stages and deadline misses updated as cycle() does -- for `count` objects (a list or
+ * tuple of FilterCycle, one per row, of one joint count n) on float64 C-contiguous (count, n)
+ * arrays; previous / previous2 None: none for every row. A row C refuses has status < 0 and a
+ * zero output (no exception). The GIL is released for the loop: the objects must not be used
+ * by another thread meanwhile. (Many arms with different limits, zones and obstacles, one call
+ * per control step: the verify campaigns' lock-step.) */
+static PyObject *cycle_many(PyObject *mod, PyObject *args, PyObject *kwds)
+{
+    PyObject *co, *qo, *uo, *po = Py_None, *p2o = Py_None, *oo = Py_None;
+    PyObject *seq = NULL, *out = NULL, *st = NULL, *sg = NULL;
+    PyObject **items;
+    Py_ssize_t count = -1, r;
+    int32_t n;
+    npy_intp dim;
+    static char *kwlist[] = {"cycles", "q", "u", "previous", "previous2", "out", NULL};
+    (void)mod;
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "OOO|OOO", kwlist, &co, &qo, &uo, &po, &p2o,
+                                     &oo)) {
+        return NULL;
+    }
+    if (!PyList_Check(co) && !PyTuple_Check(co)) {
+        PyErr_SetString(PyExc_TypeError, "cycles: expected a list or tuple of FilterCycle");
+        return NULL;
+    }
+    seq = PySequence_Fast(co, "cycles: expected a list or tuple of FilterCycle");
+    if (seq == NULL) {
+        return NULL;
+    }
+    items = PySequence_Fast_ITEMS(seq);
+    if (PySequence_Fast_GET_SIZE(seq) == 0) {
+        PyErr_SetString(PyExc_ValueError, "cycles: expected at least one FilterCycle");
+        goto fail;
+    }
+    for (r = 0; r < PySequence_Fast_GET_SIZE(seq); r++) {
+        if (!PyObject_TypeCheck(items[r], &FilterCycleType)
+            || ((FilterCycle *)items[r])->mem == NULL) {
+            PyErr_Format(PyExc_TypeError, "cycles[%zd]: expected an initialised FilterCycle", r);
+            goto fail;
+        }
+    }
+    n = ((FilterCycle *)items[0])->f.n;
+    for (r = 1; r < PySequence_Fast_GET_SIZE(seq); r++) {
+        if (((FilterCycle *)items[r])->f.n != n) {
+            PyErr_Format(PyExc_ValueError, "cycles[%zd]: %d joints, cycles[0] has %d", r,
+                         (int)((FilterCycle *)items[r])->f.n, (int)n);
+            goto fail;
+        }
+    }
+    count = PySequence_Fast_GET_SIZE(seq);
+    if (batch_arg(qo, &count, n, "q", 0) < 0 || batch_arg(uo, &count, n, "u", 0) < 0
+        || (po != Py_None && batch_arg(po, &count, n, "previous", 0) < 0)
+        || (p2o != Py_None && batch_arg(p2o, &count, n, "previous2", 0) < 0)
+        || (oo != Py_None && batch_arg(oo, &count, n, "out", 1) < 0)) {
+        goto fail;
+    }
+    dim = (npy_intp)count;
+    if (oo != Py_None) {
+        out = oo;
+        Py_INCREF(out);
+    } else {
+        npy_intp dims[2] = {dim, n};
+        out = PyArray_SimpleNew(2, dims, NPY_DOUBLE);
+    }
+    st = PyArray_SimpleNew(1, &dim, NPY_INT32);
+    sg = PyArray_SimpleNew(1, &dim, NPY_INT32);
+    if (out == NULL || st == NULL || sg == NULL) {
+        goto fail;
+    }
+    {
+        const double *q = PyArray_DATA((PyArrayObject *)qo);
+        const double *u = PyArray_DATA((PyArrayObject *)uo);
+        const double *p = po == Py_None ? NULL : PyArray_DATA((PyArrayObject *)po);
+        const double *p2 = p2o == Py_None ? NULL : PyArray_DATA((PyArrayObject *)p2o);
+        double *x = PyArray_DATA((PyArrayObject *)out);
+        int32_t *s = PyArray_DATA((PyArrayObject *)st);
+        int32_t *g = PyArray_DATA((PyArrayObject *)sg);
+        Py_BEGIN_ALLOW_THREADS
+        for (r = 0; r < count; r++) {
+            FilterCycle *self = (FilterCycle *)items[r];
+            const size_t o = (size_t)r * (size_t)n;
+            s[r] = filter_cycle_run(self, q + o, u + o, p == NULL ? NULL : p + o,
+                                    p2 == NULL ? NULL : p2 + o, NULL, x + o);
+            g[r] = self->info.stages;
+        }
+        Py_END_ALLOW_THREADS
+    }
+    Py_DECREF(seq);
+    return Py_BuildValue("(NNN)", out, st, sg);
+fail:
+    Py_XDECREF(seq);
+    Py_XDECREF(out);
+    Py_XDECREF(st);
+    Py_XDECREF(sg);
+    return NULL;
+}
+
 static PyMethodDef module_methods[] = {
+    {"cycle_many", (PyCFunction)(void (*)(void))cycle_many, METH_VARARGS | METH_KEYWORDS,
+     "cycle_many(cycles, q, u, previous=None, previous2=None, out=None) -> (out, status, "
+     "stages): each row's FilterCycle.cycle in one call (the GIL released)."},
     {"segment_pairs", segment_pairs, METH_VARARGS,
      "segment_pairs(a0, a1, b0, b1) -> (s, t, dist, nrm): vf_segment_pair on (N, 3) arrays."},
     {NULL, NULL, 0, NULL},

@@ -52,7 +52,11 @@ SKIP_MODULES = ("velfence.apps.cli",)
 #: Modules inside a sub-package whose own ``__all__`` users import from directly (shown in the
 #: documentation or the examples), attacked like the packages (docs/reliability-inputs.md,
 #: "What is enumerated"; every other module-level ``__all__`` serves its package only).
-EXTRA_MODULES = ("velfence.apps.demo.arm_box", "velfence.apps.scenarios.lag")
+EXTRA_MODULES = (
+    "velfence.apps.demo.arm_box",
+    "velfence.apps.scenarios.lag",
+    "velfence.apps.verify.batch",
+)
 #: The repository root (the documentation and the examples are scanned for imports).
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 _FENCE = re.compile(r"^```([A-Za-z0-9_{}-]*)[ \t]*\n(.*?)^```[ \t]*$", re.M | re.S)

@@ -187,6 +187,11 @@ SPECS: dict[str, F | C] = {
         lambda: call(np.random.default_rng(0), twist=True, **_facets()),
         skip={"rng": "a numpy Generator (its draws are the soak's)"},
     ),
+    "verify.batch.run_batch": F(
+        lambda: call([_scenario()], family="box", indices=[0]),
+        types={"scenarios": "object", "family": "text", "indices": "object"},
+        skip={"timings": "an output: any dict, the CPU seconds per part are added to it"},
+    ),
     "verify.Campaign": C(
         record="a validated configuration built by parse_campaign() / load_campaign()",
         instance=_campaign,

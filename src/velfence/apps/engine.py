@@ -454,7 +454,11 @@ class Engine:
         index = {f.key: i for i, f in enumerate(futures)}
         done = 0
         try:
-            for future in distributed.as_completed(futures):  # type: ignore[no-untyped-call]
+            # On this client's event loop: as_completed defaults to the process's default
+            # client, which is the last one started (a user's own Client, say), and waiting
+            # on another loop than the futures' raises "bound to a different event loop".
+            done_in_order = distributed.as_completed(futures, loop=client.loop)  # type: ignore[no-untyped-call]
+            for future in done_in_order:
                 i = index[future.key]
                 try:
                     result = future.result()

@@ -20,6 +20,7 @@ imported inside the functions that need it, so ``import velfence`` stays light.
 from __future__ import annotations
 
 import contextlib
+import functools
 import math
 from collections import OrderedDict
 from collections.abc import Sequence
@@ -104,7 +105,17 @@ def _chebyshev(N: FloatArray, off: FloatArray) -> tuple[FloatArray, float]:
 
 
 def _is_bounded(N: FloatArray) -> bool:
-    """Whether ``{y : N y >= 0} = {0}``: rank n and ``Nᵀ λ = 0`` for some ``λ >= 1`` (Stiemke)."""
+    """Whether ``{y : N y >= 0} = {0}``: rank n and ``Nᵀ λ = 0`` for some ``λ >= 1`` (Stiemke).
+
+    A function of the normals alone, memoised on their bytes (every box has the same ones).
+    """
+    return _bounded_memo(N.shape, np.ascontiguousarray(N, dtype=np.float64).tobytes())
+
+
+@functools.lru_cache(maxsize=256)
+def _bounded_memo(shape: tuple[int, ...], data: bytes) -> bool:
+    """:func:`_is_bounded` of the normals ``data`` (float64 bytes) of ``shape``."""
+    N = np.frombuffer(data, dtype=np.float64).reshape(shape)
     m, n = N.shape
     if m <= n or np.linalg.matrix_rank(N) < n:
         return False

@@ -1,7 +1,8 @@
 """The distributed engine: serial, embedded LocalCluster and a real cluster give the same results.
 
-The real cluster is started by the fixture as separate processes (``dask scheduler`` and two
-``dask worker --no-nanny`` on 127.0.0.1, free ports) and torn down after the tests. Killing the
+The real cluster is started by the ``real_cluster`` fixture (tests/apps/conftest.py) as separate
+processes (``dask scheduler`` and two ``dask worker --no-nanny`` on 127.0.0.1, free ports) and
+torn down after the test. Killing the
 worker that holds a shard must lose nothing: the scheduler gives the shard to the other worker.
 """
 
@@ -10,11 +11,9 @@ from __future__ import annotations
 import importlib.util
 import os
 import signal
-import socket
 import subprocess
 import sys
 import time
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -34,6 +33,7 @@ needs_dask = pytest.mark.skipif(not HAVE_DASK, reason="needs velfence[cluster] (
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
+from dask_cluster import RealCluster, free_port  # noqa: E402
 from engine_tasks import hold_once, square_sum  # noqa: E402
 
 ITEMS = [(k, (7 * k) % 5) for k in range(23)]
@@ -134,7 +134,7 @@ def test_without_dask_a_dask_engine_names_the_extra(monkeypatch: pytest.MonkeyPa
 
 @needs_dask
 def test_an_address_that_does_not_answer_is_a_clear_error_fast() -> None:
-    port = _free_port()  # nothing listens there
+    port = free_port()  # nothing listens there
     start = time.monotonic()
     with pytest.raises(ClusterUnavailable, match=f"127.0.0.1:{port}.*within 2 s"):
         Engine(cluster=f"tcp://127.0.0.1:{port}", timeout=2.0).start()
@@ -142,76 +142,6 @@ def test_an_address_that_does_not_answer_is_a_clear_error_fast() -> None:
 
 
 # --------------------------------------------------------------------------- clusters (slow)
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        port: int = s.getsockname()[1]
-        return port
-
-
-class RealCluster:
-    """``dask scheduler`` and ``dask worker`` processes on 127.0.0.1."""
-
-    def __init__(self, workers: int, tmp: Path) -> None:
-        self.port = _free_port()
-        self.address = f"tcp://127.0.0.1:{self.port}"
-        self.log = tmp / "dask.log"
-        self._log = self.log.open("w")
-        dask = str(Path(sys.executable).with_name("dask"))
-        self.scheduler = self._spawn(
-            [dask, "scheduler", "--host", "127.0.0.1", "--port", str(self.port), "--no-dashboard"]
-        )
-        self.workers = [
-            self._spawn(
-                [
-                    dask,
-                    "worker",
-                    self.address,
-                    "--no-nanny",
-                    "--nthreads",
-                    "1",
-                    "--host",
-                    "127.0.0.1",
-                    "--no-dashboard",
-                    "--name",
-                    f"w{k}",
-                ]
-            )
-            for k in range(workers)
-        ]
-        from distributed import Client
-
-        with Client(self.address, timeout=30) as client:
-            client.wait_for_workers(workers, timeout=60)
-
-    def _spawn(self, argv: list[str]) -> subprocess.Popen[bytes]:
-        env = {**os.environ, "PYTHONPATH": str(HERE)}
-        return subprocess.Popen(argv, stdout=self._log, stderr=subprocess.STDOUT, env=env)
-
-    def close(self) -> None:
-        for proc in self.workers:  # test processes: no state worth a graceful close
-            if proc.poll() is None:
-                proc.kill()
-        if self.scheduler.poll() is None:
-            self.scheduler.terminate()
-        for proc in [*self.workers, self.scheduler]:
-            try:
-                proc.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                proc.kill()
-                proc.wait()
-        self._log.close()
-
-
-@pytest.fixture
-def real_cluster(tmp_path: Path) -> Iterator[RealCluster]:
-    cluster = RealCluster(2, tmp_path)
-    try:
-        yield cluster
-    finally:
-        cluster.close()
 
 
 @needs_dask

@@ -79,7 +79,9 @@ def test_a_case_depends_on_its_seed_family_and_index_only(tmp_path: Path) -> Non
         ("robot: seven_dof\nfamilies: []\n", "families"),
         (ONE_LINE.replace("steps: 20", "steps: 20, obstacles: {count: [3, 1]}"),
          "count: expected [low, high]"),
-        (ONE_LINE.replace("{name: box,", "{name: box, plant: mujoco,"), "families.0.plant"),
+        (ONE_LINE.replace("{name: box,", "{name: box, plant: mujocco,"),
+         "families.0.plant: unknown plant 'mujocco'"),
+        (ONE_LINE.replace("{name: box,", "{name: box, plant: mujocco,"), "did you mean 'mujoco'?"),
         (ONE_LINE + "families: [{name: a}, {name: a}]\n", "duplicate key"),
     ],
 )  # fmt: skip

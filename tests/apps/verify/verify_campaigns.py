@@ -21,3 +21,16 @@ BAD = {
          "obstacles": {"count": [0, 2]}, "lag": [0.0, 0.05], "noise": [0.0, 1e-4]}
     ],
 }  # fmt: skip
+#: A healthy campaign on the MuJoCo plant: 1 kHz, the filter given its period and an
+#: acceleration bound the arm's torques can follow, the arm starting at rest; the margins carry
+#: the servo's tracking error, so the tolerances are physical (0.1 mm, 0.1 mrad).
+MUJOCO_GOOD = {
+    "robot": "seven_dof",
+    "rate": 1000.0,
+    "shard_size": 3,
+    "filter": {"max_speed": 1.0, "max_acceleration": 5.0},
+    "properties": {"containment": {"tolerance": 1e-4}, "joint_limits": {"tolerance": 1e-4}},
+    "families": [{"name": "physics", "cases": 5, "steps": 200, "mode": "joint", "plant": "mujoco"}],
+}
+#: The known-bad campaign on the MuJoCo plant.
+MUJOCO_BAD = {**BAD, "families": [{**BAD["families"][0], "plant": "mujoco"}]}

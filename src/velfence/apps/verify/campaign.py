@@ -18,7 +18,7 @@ from velfence._extras import missing
 from velfence._validate import check_text
 
 try:
-    from pydantic import Field, Strict, ValidationError, model_validator
+    from pydantic import Field, Strict, ValidationError, field_validator, model_validator
 except ModuleNotFoundError as exc:  # an optional dependency: name the extra
     raise missing(exc, what=__name__) from exc
 
@@ -33,6 +33,7 @@ from velfence.io.shaper_config import load_yaml
 
 __all__ = [
     "OPERATORS",
+    "PLANTS",
     "PROPERTIES",
     "ROBOTS",
     "Campaign",
@@ -45,6 +46,9 @@ __all__ = [
 #: The robots a campaign may name: the Denavit-Hartenberg chains of ``velfence.mechanisms``
 #: (``DHChain.seven_dof``, ``.ur5e``, ``.puma560``), whose filter cycle runs whole in C.
 ROBOTS: tuple[str, ...] = ("seven_dof", "ur5e", "puma560")
+#: The plants a family's cases run on: ``kinematic`` (``q <- q + dt a``) or ``mujoco`` (the
+#: robot simulated by MuJoCo, :mod:`velfence.apps.verify.plants`; the ``physics`` extra).
+PLANTS: tuple[str, ...] = ("kinematic", "mujoco")
 #: The operators of a family (``docs/verify.md``).
 OPERATORS: tuple[str, ...] = ("wander", "push", "wild", "scripted")
 #: The properties a campaign checks, in report order.
@@ -151,7 +155,19 @@ class Family(_Ranges):
     latency: CountRange = Field(default_factory=lambda: [0, 0])
     noise: LengthRange = Field(default_factory=lambda: [0.0, 0.0])
     pushes: Pushes = Field(default_factory=Pushes)
-    plant: Literal["kinematic"] = "kinematic"
+    plant: str = "kinematic"
+
+    @field_validator("plant")
+    @classmethod
+    def _check_plant(cls, plant: str) -> str:
+        if plant not in PLANTS:
+            from velfence.io.yaml_reader import did_you_mean
+
+            raise ValueError(
+                f"unknown plant {plant!r}; expected one of {list(PLANTS)}"
+                + did_you_mean(plant, PLANTS)
+            )
+        return plant
 
 
 class Tolerance(StrictModel):

@@ -5,9 +5,11 @@ filter's settings, the start, the joint limits, the workspace box, the spheres, 
 its seed, servo lag, latency, sensor noise and its seed, the pushes, the steps). :func:`sample`
 draws the scenario of case ``i`` of family ``f`` from the seed ``SeedSequence(seed,
 spawn_key=(f, i))`` (the ``i``-th child of the ``f``-th child of the campaign's
-``SeedSequence``); :func:`run` runs it in closed loop on a kinematic plant and measures each
-property's margin at every step (``docs/verify.md``); :func:`shrink` makes a failing scenario
-smaller while it still fails; a scenario is written to and read from YAML
+``SeedSequence``); :func:`run` runs it in closed loop on a kinematic plant
+(:class:`KinematicPlant`) or on MuJoCo (:class:`velfence.apps.verify.plants.MujocoArm`) and
+measures each property's margin at every step (``docs/verify.md``; one function per margin,
+shared with the fast route :mod:`velfence.apps.verify.batch`); :func:`shrink` makes a failing
+scenario smaller while it still fails; a scenario is written to and read from YAML
 (:func:`write_scenario`, :func:`load_scenario`) and runs again bit for bit.
 
 The operators are the closed-loop soak's (:func:`velfence.apps.soak_filter.soak_command`:
@@ -22,7 +24,7 @@ import math
 from collections import deque
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, Literal, Protocol
 
 import numpy as np
 
@@ -36,7 +38,7 @@ except ModuleNotFoundError as exc:  # an optional dependency: name the extra
 from velfence._typing import FloatArray
 from velfence.apps.soak_filter import clearance, soak_command
 from velfence.apps.verify.campaign import PROPERTIES, Campaign, Properties
-from velfence.errors import InvalidParameter
+from velfence.errors import InvalidParameter, VelfenceError
 from velfence.io.config import Number, StrictModel, describe_validation_error
 
 __all__ = [
@@ -106,6 +108,8 @@ class Scenario(StrictModel):
         pushes: External joint-velocity pushes.
         steps: Steps to run.
         properties: The properties checked.
+        plant: ``kinematic`` (:func:`run`'s integrator) or ``mujoco``
+            (:mod:`velfence.apps.verify.plants`).
     """
 
     robot: Literal["seven_dof", "ur5e", "puma560"]
@@ -140,6 +144,7 @@ class Scenario(StrictModel):
     pushes: list[PushSpec] = Field(default_factory=list)
     steps: Annotated[int, Strict(), Field(ge=1, le=10**7)]
     properties: Properties
+    plant: Literal["kinematic", "mujoco"] = "kinematic"
 
 
 @dataclass(kw_only=True)
@@ -324,6 +329,7 @@ def sample(campaign: Campaign, family: int, index: int) -> Scenario:
         pushes=pushes,  # type: ignore[arg-type]
         steps=fam.steps,
         properties=campaign.properties.model_dump(),  # type: ignore[arg-type]
+        plant=fam.plant,  # type: ignore[arg-type]
     )
 
 
@@ -357,15 +363,107 @@ def build_filter(sc: Scenario, robot: Any) -> Any:
     )
 
 
+def tolerances(props: Properties) -> dict[str, float]:
+    """Each checked property's tolerance (0 for those without one), in :data:`PROPERTIES` order."""
+    out: dict[str, float] = {}
+    for name in PROPERTIES:
+        spec = getattr(props, name)
+        if spec is not None:
+            out[name] = float(getattr(spec, "tolerance", 0.0))
+    return out
+
+
+def draw_command(
+    operator: str,
+    rng: np.random.Generator,
+    *,
+    twist: bool,
+    N: FloatArray,
+    o: FloatArray,
+    p: FloatArray,
+    vmax: FloatArray,
+    rate: float,
+) -> tuple[FloatArray, int]:
+    """The operator's next command and the steps it is held (``wander``, ``push``, ``wild``).
+
+    The closed-loop soak's operator (:func:`velfence.apps.soak_filter.soak_command`): ``wander``
+    its random commands, ``push`` its pushes at the nearest facet of the box ``N``, ``o`` from
+    the TCP ``p``, ``wild`` either, drawn anew every step.
+    """
+    if operator == "wild":
+        return soak_command(rng, twist=twist, N=N, o=o, p=p, vmax=vmax, rate=1.0,
+                            push_probability=0.5)  # fmt: skip
+    return soak_command(rng, twist=twist, N=N, o=o, p=p, vmax=vmax, rate=rate,
+                        push_probability=1.0 if operator == "push" else 0.0)  # fmt: skip
+
+
+def face_distances(N: FloatArray, o: FloatArray, p: FloatArray) -> FloatArray:
+    """``N p - o`` of the box's facets (positive inside), shape ``(..., m)``.
+
+    ``N`` (..., m, 3), ``o`` (..., m), ``p`` (..., 3): one point or a batch. A sum over x, y, z
+    (for the box's axis normals exact, as a BLAS product is).
+    """
+    d = N[..., 0] * p[..., None, 0] + N[..., 1] * p[..., None, 1] + N[..., 2] * p[..., None, 2]
+    return np.asarray(d - o)
+
+
+def box_margin(N: FloatArray, o: FloatArray, p: FloatArray) -> Any:
+    """The TCP's distance inside the box [m] (``inf`` without one): one point or a batch."""
+    if N.shape[-2] == 0:
+        return np.full(p.shape[:-1], np.inf)[()]
+    return np.min(face_distances(N, o, p), axis=-1)
+
+
+def joint_margin(q: FloatArray, lo: FloatArray, hi: FloatArray) -> Any:
+    """The joints' distance inside their limits [rad]: one state or a batch."""
+    return np.min(np.minimum(q - lo, hi - q), axis=-1)
+
+
+def step_margin(m1: Any, m0: Any, tol: float) -> Any:
+    """A step's containment or joint-limit margin from the margins before ``m0`` and after ``m1``.
+
+    ``m1`` for a step that began inside (``m0 >= -tol``); for one that began outside, how much
+    deeper it went: ``min(0, m1 - m0)``. Floats or arrays.
+    """
+    with np.errstate(invalid="ignore"):  # inf - inf where there is nothing to measure
+        return np.where(m0 >= -tol, m1, np.minimum(0.0, m1 - m0))[()]
+
+
+def jerk_margin(bound: float, x: FloatArray, prev: FloatArray, prev2: FloatArray,
+                dt: float) -> Any:  # fmt: skip
+    """The jerk bound minus the largest joint jerk of the outputs ``prev2, prev, x`` [rad/s³]."""
+    return bound - np.max(np.abs(x - 2.0 * prev + prev2), axis=-1) / (dt * dt)
+
+
+def face_tangent(N: FloatArray, o: FloatArray, p: FloatArray, cmd: FloatArray,
+                 buffer: Any) -> FloatArray:  # fmt: skip
+    """The command's part tangent to the box's nearest face (the progress property).
+
+    Within ``buffer`` of the box's boundary, the command's push into its nearest face removed;
+    elsewhere the command. One point or a batch (``N`` (..., m, 3), ``p`` and ``cmd`` (..., 3)).
+    """
+    d = face_distances(N, o, p)
+    i = np.argmin(d, axis=-1)
+    Ni = np.take_along_axis(N, i[..., None, None], axis=-2)[..., 0, :]
+    into = np.vecdot(Ni, cmd)
+    near = np.min(d, axis=-1) < buffer
+    return np.asarray(np.where(near[..., None], cmd - np.minimum(0.0, into)[..., None] * Ni, cmd))
+
+
+def progress_margin(along: Any, tangent: Any, length: Any, min_fraction: float) -> Any:
+    """The progress margin of a held command: mean speed along it minus its required share [m/s].
+
+    ``along`` the TCP's speeds along the command's tangent part summed over ``length`` steps,
+    ``tangent`` that part's sizes summed likewise.
+    """
+    return (along - min_fraction * tangent) / length
+
+
 class _Worst:
     """Running worst margin of each property (and its first violation)."""
 
     def __init__(self, props: Properties) -> None:
-        self.tol: dict[str, float] = {}
-        for name in PROPERTIES:
-            spec = getattr(props, name)
-            if spec is not None:
-                self.tol[name] = float(getattr(spec, "tolerance", 0.0))
+        self.tol = tolerances(props)
         self.worst: dict[str, tuple[float, int]] = {}
         self.first: dict[str, int] = {}
 
@@ -379,6 +477,71 @@ class _Worst:
             self.first[name] = step
 
 
+class Plant(Protocol):
+    """What :func:`run`'s closed loop drives: the kinematic plant or MuJoCo's."""
+
+    def state(self) -> tuple[FloatArray, FloatArray, float]:
+        """The joints [rad], the TCP [m] and the containment margin [m] now."""
+        ...
+
+    def advance(self, reference: FloatArray, t: float) -> FloatArray:
+        """Follow the velocity reference over the period from ``t``; the joints' velocity."""
+        ...
+
+    def displace(self, dq: FloatArray) -> None:
+        """Move the joints by ``dq`` [rad] (a push's motion in one period)."""
+        ...
+
+    def extra_trace(self, steps: int) -> dict[str, Any]:
+        """Per-step traces of the plant's own beyond the loop's (``record``)."""
+        ...
+
+
+class KinematicPlant:
+    """The kinematic plant: ``q <- q + dt a``, ``a`` a first-order lag of time constant ``lag``.
+
+    Args:
+        sc: The scenario.
+        robot: Its ``DHChain``.
+        N: The box's facet normals, shape (m, 3) (m = 0: no box).
+        o: Their offsets, shape (m,).
+    """
+
+    def __init__(self, sc: Scenario, robot: Any, N: FloatArray, o: FloatArray) -> None:
+        self.robot = robot
+        self.dt = 1.0 / sc.rate
+        self.alpha = 1.0 - math.exp(-self.dt / sc.lag) if sc.lag > 0.0 else 1.0
+        self.N, self.o = N, o
+        self.C = np.array([s[:3] for s in sc.spheres], dtype=np.float64).reshape(-1, 3)
+        self.R = np.array([s[3] for s in sc.spheres], dtype=np.float64)
+        self.lrad = np.asarray(robot.link_radius, dtype=np.float64)
+        self.q = np.array(sc.q0)
+        self.applied = np.zeros(int(robot.dof))
+
+    def state(self) -> tuple[FloatArray, FloatArray, float]:
+        """The joints, the TCP and the containment margin (one kinematics pass)."""
+        frame = self.robot.kinematics(self.q)
+        tcp = np.asarray(frame.point("tcp"), dtype=np.float64)
+        gap = math.inf
+        if self.C.shape[0]:
+            gap = clearance(np.asarray(frame.segments()), self.lrad, self.C, self.R)
+        return self.q, tcp, min(float(box_margin(self.N, self.o, tcp)), gap)
+
+    def advance(self, reference: FloatArray, t: float) -> FloatArray:
+        """One period of the lagged servo; its velocity [rad/s]."""
+        self.applied = self.applied + self.alpha * (reference - self.applied)
+        self.q = self.q + self.dt * self.applied
+        return self.applied
+
+    def displace(self, dq: FloatArray) -> None:
+        """Move the joints by ``dq`` [rad]."""
+        self.q = self.q + dq
+
+    def extra_trace(self, steps: int) -> dict[str, Any]:
+        """None."""
+        return {}
+
+
 def run(
     sc: Scenario,
     *,
@@ -389,16 +552,18 @@ def run(
 ) -> CaseResult:
     """Run a scenario in closed loop and measure every property's margin at every step.
 
-    The plant is kinematic: ``q ← q + dt (a + w)`` with ``a`` the servo's velocity (a
-    first-order lag of time constant ``lag`` behind the filter's output delayed by ``latency``
-    steps) and ``w`` the pushes. The filter sees ``q`` plus Gaussian noise of standard deviation
-    ``noise``. Margins (``docs/verify.md``): *containment* the smallest of the TCP's distance
-    inside the box and the links' clearance to the spheres at ``q + dt a`` [m] (for a step that
-    began outside: how much deeper it went, 0 if not); *joint_limits* likewise for the joints
-    [rad]; *finite* -1 for a non-finite output or an exception; *deadline* -1 for a deadline
-    fallback; *jerk* the bound minus the output's jerk [rad/s³]; *progress* the mean TCP speed
-    along the held command's part tangent to the nearest face, minus ``min_fraction`` of that
-    part's size [m/s], once ``window`` seconds of a held twist command have passed.
+    The plant is kinematic (:class:`KinematicPlant`): ``q ← q + dt (a + w)`` with ``a`` the
+    servo's velocity (a first-order lag of time constant ``lag`` behind the filter's output
+    delayed by ``latency`` steps) and ``w`` the pushes; a scenario with ``plant: mujoco`` runs
+    the same loop on MuJoCo (:class:`velfence.apps.verify.plants.MujocoArm`, the ``physics``
+    extra). The filter sees ``q`` plus Gaussian noise of standard deviation ``noise``. Margins
+    (``docs/verify.md``): *containment* the smallest of the TCP's distance inside the box and
+    the links' clearance to the spheres after the step [m] (for a step that began outside: how
+    much deeper it went, 0 if not); *joint_limits* likewise for the joints [rad]; *finite* -1
+    for a non-finite output or an exception; *deadline* -1 for a deadline fallback; *jerk* the
+    bound minus the output's jerk [rad/s³]; *progress* the mean TCP speed along the held
+    command's part tangent to the nearest face, minus ``min_fraction`` of that part's size
+    [m/s], once ``window`` seconds of a held twist command have passed.
 
     Args:
         sc: The scenario.
@@ -409,6 +574,9 @@ def run(
 
     Returns:
         The :class:`CaseResult`.
+
+    Raises:
+        MissingExtra: a MuJoCo scenario without MuJoCo (``pip install 'velfence[physics]'``).
     """
     robot = chain(sc.robot, sc.link_radius)
     flt = build_filter(sc, robot)
@@ -417,10 +585,6 @@ def run(
     twist = sc.mode == "twist"
     props = sc.properties
     worst = _Worst(props)
-    rng = np.random.default_rng(sc.command_seed)
-    noise_rng = np.random.default_rng(sc.noise_seed)
-    vmax = np.array(sc.max_speed)
-    lo, hi = np.array(sc.lower), np.array(sc.upper)
     if sc.box is not None:
         from velfence.geometry.polytope import ConvexPolytope
 
@@ -428,9 +592,19 @@ def run(
         N, o = np.asarray(P.normals, dtype=np.float64), np.asarray(P.offsets, dtype=np.float64)
     else:
         N, o = np.zeros((0, 3)), np.zeros(0)
-    C = np.array([s[:3] for s in sc.spheres], dtype=np.float64).reshape(-1, 3)
-    R = np.array([s[3] for s in sc.spheres], dtype=np.float64)
-    lrad = np.asarray(robot.link_radius, dtype=np.float64)
+    plant: Plant
+    if sc.plant == "mujoco":  # the MuJoCo plant (velfence.apps.verify.plants)
+        from velfence.apps.verify.plants import MujocoArm
+
+        plant = MujocoArm(sc, tool=TOOL)
+        if flt.stateful:  # the arm starts at rest: the first output is a step from zero velocity
+            flt.reset(velocity=np.zeros(n))
+    else:
+        plant = KinematicPlant(sc, robot, N, o)
+    rng = np.random.default_rng(sc.command_seed)
+    noise_rng = np.random.default_rng(sc.noise_seed)
+    vmax = np.array(sc.max_speed)
+    lo, hi = np.array(sc.lower), np.array(sc.upper)
     jog = None
     if sc.operator == "scripted" and sc.targets:
         from velfence.sim.scenarios import TcpJog
@@ -441,28 +615,15 @@ def run(
             speed=sc.jog_speed,
         )
     pushes = [(ps.start, ps.end, np.array(ps.velocity)) for ps in sc.pushes]
-    alpha = 1.0 - math.exp(-dt / sc.lag) if sc.lag > 0.0 else 1.0
     pending: deque[FloatArray] = deque(np.zeros(n) for _ in range(sc.latency))
     jerk_max = None if props.jerk is None else props.jerk.max
     prog = props.progress if twist else None
     window = 0 if prog is None else max(1, round(prog.window * sc.rate))
+    tc = worst.tol.get("containment", 0.0)
+    tj = worst.tol.get("joint_limits", 0.0)
 
-    def at(qq: FloatArray) -> tuple[FloatArray, float]:
-        """The TCP [m] and the links' clearance to the spheres [m] (one kinematics pass)."""
-        frame = robot.kinematics(qq)
-        tcp = np.asarray(frame.point("tcp"), dtype=np.float64)
-        if C.shape[0] == 0:
-            return tcp, math.inf
-        return tcp, clearance(np.asarray(frame.segments()), lrad, C, R)
-
-    def ws_of(pp: FloatArray) -> float:
-        return float(np.min(N @ pp - o)) if N.shape[0] else math.inf
-
-    q = np.array(sc.q0)
-    p, c0 = at(q)
-    cm0 = min(ws_of(p), c0)
-    jm0 = float(np.min(np.minimum(q - lo, hi - q)))
-    applied = np.zeros(n)
+    q, p, cm0 = plant.state()
+    jm0 = float(joint_margin(q, lo, hi))
     prev: FloatArray | None = None
     prev2: FloatArray | None = None
     cmd = np.zeros(3 if twist else n)
@@ -483,14 +644,8 @@ def run(
         if jog is not None:
             cmd = np.asarray(jog(k * dt, qm), dtype=np.float64)
         elif hold <= 0:
-            if sc.operator == "wild":
-                cmd, hold = soak_command(rng, twist=twist, N=N, o=o, p=pm, vmax=vmax, rate=1.0,
-                                         push_probability=0.5)  # fmt: skip
-            else:
-                cmd, hold = soak_command(
-                    rng, twist=twist, N=N, o=o, p=pm, vmax=vmax, rate=sc.rate,
-                    push_probability=1.0 if sc.operator == "push" else 0.0,
-                )  # fmt: skip
+            cmd, hold = draw_command(sc.operator, rng, twist=twist, N=N, o=o, p=pm, vmax=vmax,
+                                     rate=sc.rate)  # fmt: skip
             seg_len, seg_along, seg_tan = 0, 0.0, 0.0
         hold -= 1
         try:
@@ -506,49 +661,48 @@ def run(
         worst.add("deadline", -1.0 if missed > misses else 0.0, k)
         misses = missed
         if jerk_max is not None and prev is not None and prev2 is not None:
-            jk = float(np.max(np.abs(x - 2.0 * prev + prev2))) / (dt * dt)
-            worst.add("jerk", jerk_max - jk, k)
+            worst.add("jerk", float(jerk_margin(jerk_max, x, prev, prev2, dt)), k)
         prev2, prev = prev, x
         if sc.latency:
             pending.append(x)
             xd = pending.popleft()
         else:
             xd = x
-        applied = applied + alpha * (xd - applied)
-        q1 = q + dt * applied
-        p1, c1 = at(q1)
-        cm1 = min(ws_of(p1), c1)
-        jm1 = float(np.min(np.minimum(q1 - lo, hi - q1)))
-        tc = worst.tol.get("containment", 0.0)
-        worst.add("containment", cm1 if cm0 >= -tc else min(0.0, cm1 - cm0), k)
-        tj = worst.tol.get("joint_limits", 0.0)
-        worst.add("joint_limits", jm1 if jm0 >= -tj else min(0.0, jm1 - jm0), k)
+        try:
+            qdot = plant.advance(xd, k * dt)
+        except VelfenceError:  # the physics diverged: a non-finite state, the case ends here
+            exceptions += 1
+            worst.add("finite", -1.0, k)
+            steps = k + 1
+            break
+        q1, p1, cm1 = plant.state()
+        jm1 = float(joint_margin(q1, lo, hi))
+        worst.add("containment", float(step_margin(cm1, cm0, tc)), k)
+        worst.add("joint_limits", float(step_margin(jm1, jm0, tj)), k)
         vt = (p1 - p) / dt
-        achieved = vt if twist else applied
+        achieved = vt if twist else qdot
         cn = float(np.linalg.norm(cmd))
         rel = float(np.linalg.norm(achieved - cmd)) / cn if cn > 1e-9 else 0.0
         inter_sum += rel
         inter_max = max(inter_max, rel)
         if prog is not None and N.shape[0] and cn > 1e-9:
-            i = int(np.argmin(N @ p - o))
-            into = float(N[i] @ cmd)
-            ct = cmd - min(0.0, into) * N[i] if ws_of(p) < sc.box.buffer else cmd  # type: ignore[union-attr]
+            ct = face_tangent(N, o, p, cmd, sc.box.buffer)  # type: ignore[union-attr]
             tn = float(np.linalg.norm(ct))
             if tn > 1e-3:
                 seg_len += 1
                 seg_along += float(vt @ ct) / tn
                 seg_tan += tn
                 if seg_len >= window:
-                    worst.add("progress", (seg_along - prog.min_fraction * seg_tan) / seg_len, k)
+                    margin = progress_margin(seg_along, seg_tan, seg_len, prog.min_fraction)
+                    worst.add("progress", margin, k)
         w = None
         for a, b, v in pushes:
             if a <= k < b:
                 w = v if w is None else w + v
         if w is not None:
-            q1 = q1 + dt * w
-            p1, c1 = at(q1)
-            cm1 = min(ws_of(p1), c1)
-            jm1 = float(np.min(np.minimum(q1 - lo, hi - q1)))
+            plant.displace(dt * w)
+            q1, p1, cm1 = plant.state()
+            jm1 = float(joint_margin(q1, lo, hi))
         if record:
             tr_c.append(cm1)
             tr_j.append(jm1)
@@ -565,6 +719,7 @@ def run(
             "joint_limits": np.array(tr_j),
             "tcp": np.array(tr_p).reshape(-1, 3),
             "q": np.array(tr_q).reshape(-1, n),
+            **plant.extra_trace(len(tr_q)),
             "dt": dt,
         }
     violated = [name for name in PROPERTIES if name in worst.first]

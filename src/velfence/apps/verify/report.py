@@ -44,17 +44,35 @@ MEANING: dict[str, str] = {
 }
 
 COVERS = """**What this evidence covers.** The closed loop of the safety filter on the named robot's
-kinematic model, with the settings above, over the randomised cases of the families listed:
+{model}, with the settings above, over the randomised cases of the families listed:
 their starts, limits, boxes, spheres, operators, servo lag, latency, sensor noise and pushes,
 for the steps given. Each property was measured at every step of every case; the worst margins
 are the smallest seen.
 
-**What it does not cover.** It is sampling, not proof: a case not drawn is not covered. The plant
-is kinematic (`q ← q + dt·a`): no dynamics, no torque limits, no contact, no real sensor or
-actuator. The robot model is the published kinematic table, not a calibrated robot. Anything
+**What it does not cover.** It is sampling, not proof: a case not drawn is not covered. {plants}
+The robot model is the published kinematic table{masses}, not a calibrated robot. Anything
 outside the configured ranges (other geometry, speeds, rates) is not covered. This report is
 evidence for an engineer's own safety case; it is **not a certification** of any system, and it
 does not replace a risk assessment or the standards that apply to a robot cell."""
+#: What each plant leaves out, for the scope.
+PLANT_SCOPE = {
+    "kinematic": "The kinematic plant (`q ← q + dt·a`) has no dynamics, no torque limits, no "
+    "contact, no real sensor or actuator.",
+    "mujoco": "The MuJoCo plant (`plant: mujoco`) simulates the arm's rigid-body dynamics, its "
+    "effort limits and its contacts with the spheres under a computed-torque velocity servo: a "
+    "model of the arm and its servo, not the robot's own controller; no real sensor or actuator.",
+}
+
+
+def _covers(campaign: Campaign) -> str:
+    """The scope statement for the plants the campaign's families use."""
+    plants = [p for p in PLANT_SCOPE if any(f.plant == p for f in campaign.families)]
+    mujoco = "mujoco" in plants
+    return COVERS.format(
+        model="kinematic model" if not mujoco else "kinematic model or MuJoCo model",
+        plants=" ".join(PLANT_SCOPE[p] for p in plants),
+        masses=" (and, on MuJoCo, its published or placeholder masses)" if mujoco else "",
+    )
 
 
 @dataclass(frozen=True)
@@ -246,7 +264,7 @@ def write_report(
             f"{f} #{i} ({'/'.join(v)})" for f, i, v in summary.failing[:50]
         ) + (" …" if len(summary.failing) > 50 else ""))  # fmt: skip
         md.append("")
-    md += ["## Scope", "", COVERS, "", "## Campaign", "", "```yaml"]
+    md += ["## Scope", "", _covers(campaign), "", "## Campaign", "", "```yaml"]
     import yaml
 
     md.append(yaml.safe_dump(campaign.normalised(), sort_keys=False).rstrip())
