@@ -177,11 +177,12 @@ def _save_frames(
 ) -> None:
     """Write ``n_frames`` frames of ``fig`` to the GIF ``out``: ``update(f)``, then one draw.
 
-    The layout is computed once, by the first frame's draw, and then held (the figure's layout engine
-    is set to ``"none"``): a constrained layout re-run on every frame cost more than the frame's
-    drawing, and the frames differ only in their data and text, not in their axes. Each frame is
-    drawn once (``FuncAnimation.save`` drew each frame twice: its own draw, then the writer's).
-    Progress: ``rendering NAME frame i/n`` (:func:`velfence.apps.progress.frames`).
+    The layout is computed once, by the first frame's draw, and then held (the figure's layout
+    engine is set to ``"none"``): a constrained layout re-run on every frame cost more than
+    the frame's drawing, and the frames differ only in their data and text, not in their axes.
+    Each frame is drawn once (``FuncAnimation.save`` drew each frame twice: its own draw, then
+    the writer's). Progress: ``rendering NAME frame i/n``
+    (:func:`velfence.apps.progress.frames`).
 
     Raises:
         OSError, ValueError: the file cannot be written (the caller names the path).
