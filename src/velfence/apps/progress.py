@@ -78,6 +78,15 @@ def _count(name: str, x: Any) -> float:
     return check_positive(name, x, allow_zero=True)
 
 
+def _count_text(done: float, total: float, frac: float) -> str:
+    """A heartbeat's count: ``3/20`` in whole units, else the stage's percentage (``58 %``)."""
+    if not total:
+        return f"{done:g}" if float(done).is_integer() else ""
+    if float(done).is_integer() and float(total).is_integer():
+        return f"{done:g}/{total:g}"
+    return f"{100.0 * frac:.0f} %"
+
+
 def _items(name: str, x: Any) -> list[Any]:
     """A list or tuple of at most :data:`MAX_ITEMS` items, as a list."""
     if not isinstance(x, (list, tuple)):
@@ -289,13 +298,15 @@ class Tracker:
             if quiet or now - self._last_line < self.heartbeat_period:
                 return
             self._last_line = now
-            part = f"{done:g}/{total:g}" if total else f"{done:g}"
-            detail = f" {what}" if what else ""
             frac = min(1.0, done / total) if total else 0.0
+            count = _count_text(done, total, frac)
+            if count and count in what:  # "run 15/60" already says it
+                count = ""
+            sep = ", " if count.endswith("%") else " "  # "58 %, axis-limits 88 %"
+            part = sep.join(p for p in (count, what) if p)
             fraction = (self._done + frac * self._weights.get(name, 0.0)) / self._total
             self.console.print(
-                f"{escape(self.title)}: {escape(name)}: {part}{escape(detail)} "
-                f"({self._times(fraction)})",
+                f"{escape(self.title)}: {escape(name)}: {escape(part)} ({self._times(fraction)})",
                 highlight=False,
                 soft_wrap=True,
             )

@@ -83,6 +83,25 @@ def test_off_a_terminal_a_long_stage_prints_a_heartbeat() -> None:
     assert t.heartbeat_period == 30.0
 
 
+def test_a_heartbeat_shows_whole_counts_once_and_fractions_as_a_percentage() -> None:
+    # "simulating: 2.88348/5 axis-limits 88 %" and "runs: 15/60 run 15/60" were hard to read.
+    buf = io.StringIO()
+    console = Console(file=buf, force_terminal=False, width=200)
+    tracker = progress.Tracker(
+        [("simulating", 1.0)], title="velfence x", console=console, heartbeat_period=1e-9
+    )
+    with tracker, progress.stage("simulating") as report:
+        report(2.88348, 5, "axis-limits 88 %")
+        report(15, 60, "run 15/60")
+        report(3, 20, "subject 2 run 1")
+    lines = [ln.split(" (elapsed")[0] for ln in buf.getvalue().splitlines()[:3]]
+    assert lines == [
+        "velfence x: simulating: 58 %, axis-limits 88 %",
+        "velfence x: simulating: run 15/60",
+        "velfence x: simulating: 3/20 subject 2 run 1",
+    ]
+
+
 def test_off_a_terminal_the_lines_carry_the_remaining_time(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:

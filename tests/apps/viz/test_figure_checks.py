@@ -326,6 +326,10 @@ def test_sim_margin_figure(tmp_path: Path, recorded: Recorded, contacts: bool) -
     check_every(recorded, tmp_path)
     fig = recorded["fake_margins.png"]
     assert len(fig.axes) == (2 if contacts else 1)  # no empty contacts panel
+    if contacts:  # a count has whole-number ticks
+        ticks = fig.axes[1].get_yticks()
+        assert len(ticks) >= 2
+        assert np.all(ticks == np.round(ticks)), ticks
     ax = fig.axes[0]
     entries = {t.get_text() for t in fig.legends[0].get_texts()}
     assert "obstacle surface (0 mm)" in entries  # the line the title names is in the legend

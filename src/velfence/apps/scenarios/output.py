@@ -110,7 +110,10 @@ def plot_margins(result: ScenarioResult, path: Path) -> Path:
             ha="right", va="bottom", fontsize=9, color="0.3",
         )  # fmt: skip
     else:
+        from matplotlib.ticker import MaxNLocator
+
         ax2.set_ylabel("contacts with\nobstacles [count]")
+        ax2.yaxis.set_major_locator(MaxNLocator(integer=True))  # a count: no 0.25 ticks
         ax2.set_xlabel("time [s]")
         ax2.grid(alpha=0.3)
     # Outside the axes: the legend never covers a line.
