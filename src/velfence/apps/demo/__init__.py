@@ -71,22 +71,24 @@ __all__ = [
 #: The scenarios of ``velfence demo --scenario``; the first is the default.
 SCENARIOS: tuple[str, ...] = ("wrist", "arm-box")
 
-#: The stages of :func:`run_demo` with their weights: their seconds as measured on one 2-core
-#: machine (total 29 s); only their ratios matter for the remaining-time estimate.
+#: The stages of :func:`run_demo` with their weights: their seconds as measured on the 2-core
+#: development machine, idle (total 39 s, 2026-12-07); only their ratios matter for the
+#: remaining-time estimate.
 WRIST_STAGES: tuple[tuple[str, float], ...] = (
-    ("simulating", 7.6),
-    ("metrics", 2.7),
-    ("plots", 2.8),
-    ("demo.gif", 15.5),
+    ("simulating", 24.6),
+    ("metrics", 3.6),
+    ("plots", 2.0),
+    ("demo.gif", 8.6),
     ("metrics.json", 0.1),
 )
 
-#: The stages of :func:`run_arm_demo` with their weights (about their seconds on a laptop).
+#: The stages of :func:`run_arm_demo` with their weights, measured as :data:`WRIST_STAGES`
+#: (total 99 s).
 ARM_STAGES: tuple[tuple[str, float], ...] = (
-    ("simulating", 40.0),
-    ("plots", 15.0),
-    ("arm_velfence.gif", 50.0),
-    ("metrics.md, metrics.json", 0.5),
+    ("simulating", 89.3),
+    ("plots", 2.1),
+    ("arm_velfence.gif", 7.0),
+    ("metrics.md, metrics.json", 0.1),
 )
 
 
