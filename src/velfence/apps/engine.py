@@ -100,6 +100,10 @@ class ShardFailed(VelfenceError, RuntimeError):
         self.reason = reason
 
 
+#: Dask's nanny setting left out of the embedded cluster's workers (see ``Engine._start_local``).
+_TRIM_THRESHOLD = "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_"
+
+
 def default_workers() -> int:
     """The cores this process may run on (the embedded cluster's default number of workers).
 
@@ -279,12 +283,19 @@ class Engine:
             self._connect(distributed, address)
 
     def _start_local(self, distributed: Any) -> None:
+        import dask
+
         n = self.workers or default_workers()
         try:
             # The worker processes are started with SIGINT ignored (inherited through exec), so a
             # Ctrl-C at the terminal reaches this process alone, which stops the cluster in
             # order, instead of every worker printing its own KeyboardInterrupt traceback.
-            with _sigint_ignored():
+            # Without the nanny's MALLOC_TRIM_THRESHOLD_ (Dask's default, to hand memory back to
+            # the OS): setting it turns off glibc's adaptive mmap threshold, so every NumPy array
+            # above 128 KiB is a fresh mmap and its page faults. A campaign's lock-step arrays
+            # are that size: two processes side by side ran a step 10-30 % slower with it
+            # (paired runs, docs/verify.md).
+            with _sigint_ignored(), dask.config.set({_TRIM_THRESHOLD: None}):
                 self._cluster = distributed.LocalCluster(
                     n_workers=n,
                     threads_per_worker=1,
