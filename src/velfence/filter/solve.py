@@ -136,18 +136,12 @@ def factor_rows(L: FloatArray, G: FloatArray) -> FloatArray:
 
 
 def factor_solve(L: FloatArray, r: FloatArray) -> FloatArray:
-    """``(L Lᵀ)⁻¹ r``: forward substitution ``L z = r``, then :func:`factor_back` of ``z``."""
-    Lr = L.tolist()
-    rl = r.tolist()
-    n = len(rl)
-    z = [0.0] * n
-    for i in range(n):
-        s = rl[i]
-        row = Lr[i]
-        for k in range(i):
-            s -= row[k] * z[k]
-        z[i] = s / row[i]
-    return factor_back(L, np.array(z, dtype=np.float64))
+    """``(L Lᵀ)⁻¹ r``: forward substitution ``L z = r``, then :func:`factor_back` of ``z``.
+
+    The forward substitution is :func:`factor_rows` of the one row ``r`` (the same arithmetic).
+    """
+    z = factor_rows(L, np.asarray(r, dtype=np.float64)[None, :])[0]
+    return factor_back(L, z)
 
 
 def factor_back(L: FloatArray, y: FloatArray) -> FloatArray:
