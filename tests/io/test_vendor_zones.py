@@ -1,8 +1,9 @@
 """velfence.io.zones: UR-style safety planes, box workspaces and Nav2 polygons as sets.
 
-The example files are written here (a UR cell with a table, a back wall, a window guard and a
-ceiling; a Nav2 collision-monitor configuration in the spirit of Nav2's documented example), and
-every imported set is checked against the raw inequalities of its file on sampled points.
+The example files (``tests/zone_files.py``: a UR cell with a table, a back wall, a window guard
+and a ceiling; a Nav2 collision-monitor configuration in the spirit of Nav2's documented example)
+are written to temporary folders, and every imported set is checked against the raw inequalities
+of its file on sampled points.
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ from velfence.io.zones import (
     nav2_polygons,
     ur_safety_planes,
 )
+from zone_files import NAV2, UR_CELL
 
 try:
     import pydantic  # noqa: F401
@@ -34,75 +36,6 @@ try:
 except ImportError:  # pragma: no cover - the app extra is missing
     HAVE_YAML = False
 needs_yaml = pytest.mark.skipif(not HAVE_YAML, reason="reading files needs the [app] extra")
-
-# A UR5e cell [m, base frame]: table top at z = 0, back wall 0.35 m behind the base, a window
-# guard whose face is 0.9 m in front (0.05 m of displacement granted), a ceiling at 1.2 m; an
-# operator-side plane active in reduced mode only and a trigger plane (no limit).
-UR_CELL = """\
-safety_planes:
-  - name: table
-    normal: [0.0, 0.0, 1.0]
-    offset: 0.0
-    restrict: both
-  - name: back wall
-    normal: [0.0, 1.0, 0.0]
-    offset: -0.35
-  - name: window guard
-    normal: [-1.0, 0.0, 0.0]
-    point: [0.9, 0.0, 0.5]
-    displacement: 0.05
-    restrict: tool
-  - name: ceiling
-    normal: [0.0, 0.0, -1.0]
-    offset: -1.2
-    restrict: both
-  - name: operator side
-    normal: [1.0, 0.0, 0.0]
-    offset: -0.6
-    mode: reduced
-  - name: conveyor trigger
-    normal: [0.0, -1.0, 0.0]
-    offset: -0.7
-    mode: trigger_reduced
-bounds:
-  lower: [-1.0, -1.0, -0.5]
-  upper: [1.0, 1.0, 1.5]
-"""
-
-# In the spirit of Nav2's collision-monitor example: a stop box in front of the robot (Iron+
-# string form), a larger slowdown box (Humble flat-list form), a round limit zone.
-NAV2 = """\
-collision_monitor:
-  ros__parameters:
-    base_frame_id: "base_footprint"
-    odom_frame_id: "odom"
-    cmd_vel_in_topic: "cmd_vel_smoothed"
-    cmd_vel_out_topic: "cmd_vel"
-    polygons: ["FrontStop", "FrontSlow", "RoundLimit"]
-    FrontStop:
-      type: "polygon"
-      points: "[[0.35, 0.25], [0.35, -0.25], [0.05, -0.25], [0.05, 0.25]]"
-      action_type: "stop"
-      min_points: 3
-      visualize: True
-    FrontSlow:
-      type: "polygon"
-      points: [0.6, 0.4, 0.6, -0.4, 0.05, -0.4, 0.05, 0.4]
-      action_type: "slowdown"
-      slowdown_ratio: 0.4
-      min_points: 3
-    RoundLimit:
-      type: "circle"
-      radius: 0.8
-      action_type: "limit"
-      linear_limit: 0.3
-      angular_limit: 0.5
-      enabled: False
-    observation_sources: ["scan"]
-    scan:
-      type: "scan"
-      topic: "scan"
-"""
 
 
 def _write(tmp_path: Path, text: str, name: str = "zones.yaml") -> Path:

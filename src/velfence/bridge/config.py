@@ -36,6 +36,7 @@ from velfence._docs import document_inits
 from velfence.errors import InvalidParameter
 from velfence.io.config import StrictModel, describe_validation_error
 from velfence.io.shaper_config import ConfiguredShaper, SensorTopic, load_yaml, parse_shaper
+from velfence.io.yaml_reader import file_path
 
 __all__ = [
     "COMMAND_TYPES",
@@ -376,12 +377,17 @@ def _check_fit(
     return out, names
 
 
-def parse_bridge_config(document: Any, *, source: str = "config") -> BridgeConfig:
+def parse_bridge_config(
+    document: Any, *, source: str = "config", base_dir: str | Path | None = None
+) -> BridgeConfig:
     """Validate a bridge document (the mapping of a bridge YAML file).
 
     Args:
         document: A mapping with a ``bridge:`` and a ``shaper:`` section.
         source: How the document is named in messages (the file name).
+        base_dir: The folder a relative ``shaper.zone`` file path is read from (the config
+            file's folder; :func:`load_bridge_config` passes it); ``None`` (default): the
+            current directory.
 
     Returns:
         The validated configuration, with the shaper built.
@@ -429,7 +435,12 @@ def parse_bridge_config(document: Any, *, source: str = "config") -> BridgeConfi
                 f"{where}bridge.sensors: range sensors feed a safety filter's obstacle rows; "
                 f"the shaper is {str(kind)[:40]!r} (use kind: safety_filter, or no sensors)"
             )
-    cs = parse_shaper(document["shaper"], where=f"{source}: shaper", sensors=settings.sensors)
+    cs = parse_shaper(
+        document["shaper"],
+        where=f"{source}: shaper",
+        sensors=settings.sensors,
+        base_dir=base_dir,
+    )
     out, names = _check_fit(settings, cs, where)
     domain = settings.domain_id if settings.domain_id is not None else _domain_from_env()
     topics = {
@@ -456,7 +467,7 @@ def load_bridge_config(path: str | Path) -> BridgeConfig:
             (the message names the file and the field).
     """
     doc = load_yaml(path)
-    return parse_bridge_config(doc, source=f"config file {path}")
+    return parse_bridge_config(doc, source=f"config file {path}", base_dir=file_path(path).parent)
 
 
 document_inits(globals())

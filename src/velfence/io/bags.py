@@ -346,6 +346,7 @@ def _probe(path: Path, test: Callable[[Path], bool]) -> bool:
 
 
 def _config(config: Any) -> tuple[ConfiguredShaper, ReplaySettings]:
+    base: Path | None = None  # relative zone files: from the config file's folder
     if isinstance(config, Mapping):
         try:
             doc, name = dict(config), "config"
@@ -353,7 +354,7 @@ def _config(config: Any) -> tuple[ConfiguredShaper, ReplaySettings]:
             raise InvalidParameter("config: expected a plain mapping of sections") from None
     elif isinstance(config, (str, os.PathLike)) and not isinstance(config, bytes):
         path = _fs_path("config", config)
-        doc, name = load_yaml(path), f"{path}:"
+        doc, name, base = load_yaml(path), f"{path}:", path.parent
     else:
         raise InvalidParameter(
             "config: expected a YAML file path or a mapping with 'shaper' and 'replay', got "
@@ -368,7 +369,7 @@ def _config(config: Any) -> tuple[ConfiguredShaper, ReplaySettings]:
     if extra:
         raise InvalidParameter(f"config {name}: unknown section(s) {extra}")
     settings = _settings(doc["replay"], "replay")
-    return parse_shaper(doc["shaper"], sensors=settings.sensors), settings
+    return parse_shaper(doc["shaper"], sensors=settings.sensors, base_dir=base), settings
 
 
 def load_replay_config(

@@ -39,6 +39,7 @@ reports (:data:`SHAPER_METHODS`), or ``patent``, the documented alias of ``edge-
 
 from __future__ import annotations
 
+import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -53,6 +54,7 @@ except ModuleNotFoundError as exc:  # an optional dependency: name the extra
 
 from velfence._deprecate import method_name, warn_renamed
 from velfence._docs import document_inits
+from velfence._validate import MAX_PATH_LENGTH, show
 from velfence.errors import InvalidParameter, VelfenceError
 from velfence.io.config import (
     MAX_CORNERS,
@@ -64,7 +66,7 @@ from velfence.io.config import (
     StrictModel,
     describe_validation_error,
 )
-from velfence.io.yaml_reader import file_path, read_yaml
+from velfence.io.yaml_reader import did_you_mean, file_path, read_yaml
 
 __all__ = [
     "COMMAND_SPACES",
@@ -72,6 +74,7 @@ __all__ = [
     "ROBOTS",
     "SHAPER_KINDS",
     "SHAPER_METHODS",
+    "ZONE_FILES",
     "ConfiguredShaper",
     "SensorTopic",
     "load_yaml",
@@ -97,18 +100,84 @@ ROBOTS: tuple[str, ...] = ("panda", "ur5e", "puma560", "seven_dof")
 #: Most joints (or dimensions) a section may have.
 MAX_JOINTS = 64
 
+#: The vendor zone files a ``zone:`` entry may name (``docs/zones.md``): a Nav2 collision-monitor
+#: parameter file (one polygon of it) and a Universal Robots style safety-plane file.
+ZONE_FILES: tuple[str, ...] = ("nav2", "ur_safety_planes")
+
 Buffer = Annotated[float, Strict(), Field(ge=MIN_BUFFER, le=1e6, description="buffer width")]
 Vector = Annotated[list[Number], Field(min_length=1, max_length=MAX_JOINTS)]
 Speeds = Positive | Annotated[list[Positive], Field(min_length=1, max_length=MAX_JOINTS)]
 
 
+ZonePath = Annotated[str, Strict(), Field(min_length=1, max_length=MAX_PATH_LENGTH)]
+ZoneName = Annotated[str, Strict(), Field(min_length=1, max_length=200)]
+
+
+class _Zone(StrictModel):
+    """``zone:``: a set read from a vendor zone file (a path relative to the config file)."""
+
+    nav2: ZonePath | None = None
+    ur_safety_planes: ZonePath | None = None
+    polygon: ZoneName | None = None
+    node: ZoneName | None = None
+    circle_sides: Annotated[int, Strict(), Field(ge=3, le=360)] | None = None
+    point: Literal["tcp", "elbow"] | None = None
+    safety_mode: Literal["normal", "reduced"] | None = None
+
+    @field_validator("nav2", "ur_safety_planes")
+    @classmethod
+    def _no_nul(cls, value: str | None) -> str | None:
+        if value is not None and "\x00" in value:
+            raise ValueError("expected a file path without NUL characters")
+        return value
+
+    @model_validator(mode="after")
+    def _one_file(self) -> _Zone:
+        if (self.nav2 is None) == (self.ur_safety_planes is None):
+            raise ValueError(
+                "give one zone file: nav2 (a Nav2 collision-monitor parameter file, with polygon: "
+                "its name) or ur_safety_planes (a safety-plane file)"
+            )
+        own = ("polygon", "node", "circle_sides") if self.nav2 else ("point", "safety_mode")
+        other = [
+            k
+            for k in ("polygon", "node", "circle_sides", "point", "safety_mode")
+            if k not in own and getattr(self, k) is not None
+        ]
+        if other:
+            fmt = "nav2" if self.nav2 else "ur_safety_planes"
+            raise ValueError(
+                f"{', '.join(other)}: not a field of a {fmt} zone (its fields: "
+                f"{', '.join((fmt, *own))})"
+            )
+        return self
+
+
 class _Polygon(StrictModel):
     kind: Literal["polygon"]
-    corners: Annotated[list[tuple[Number, Number]], Field(min_length=3, max_length=MAX_CORNERS)]
+    corners: (
+        Annotated[list[tuple[Number, Number]], Field(min_length=3, max_length=MAX_CORNERS)] | None
+    ) = None
+    zone: _Zone | None = None
     buffer: Buffer
     spring_gain: NonNegative = 1.0
     method: Literal["exact", "edge-scaling", "patent"] = "exact"
     max_recovery_speed: Positive | None = None
+
+    @model_validator(mode="after")
+    def _one_form(self) -> _Polygon:
+        if (self.corners is None) == (self.zone is None):
+            raise ValueError(
+                "give corners, or zone (a polygon of a Nav2 file): one of them"
+                if self.corners is None
+                else "give either corners or zone (a Nav2 polygon), not both"
+            )
+        if self.zone is not None and self.zone.nav2 is None:
+            raise ValueError(
+                "zone: a polygon shaper's fence is 2-D; a ur_safety_planes file gives 3-D sets "
+                "(use kind: polytope, or a safety_filter's workspace)"
+            )
+        return self
 
 
 class _Polytope(StrictModel):
@@ -122,6 +191,7 @@ class _Polytope(StrictModel):
         ]
         | None
     ) = None
+    zone: _Zone | None = None
     buffer: Buffer
     spring_gain: NonNegative = 1.0
     method: Literal["exact"] = "exact"
@@ -129,8 +199,10 @@ class _Polytope(StrictModel):
     @model_validator(mode="after")
     def _one_form(self) -> _Polytope:
         box = self.lower is not None or self.upper is not None
-        if box == (self.halfspaces is not None):
-            raise ValueError("give either lower and upper (a box) or halfspaces, not both")
+        if box + (self.halfspaces is not None) + (self.zone is not None) != 1:
+            raise ValueError(
+                "give one of lower and upper (a box), halfspaces or zone (a vendor zone file)"
+            )
         if box and (self.lower is None or self.upper is None):
             raise ValueError("a box needs both lower and upper")
         if box and len(self.lower or ()) != len(self.upper or ()):
@@ -166,10 +238,29 @@ class _JointLimits(StrictModel):
 
 
 class _Workspace(StrictModel):
-    lower: Annotated[list[Number], Field(min_length=3, max_length=3)]
-    upper: Annotated[list[Number], Field(min_length=3, max_length=3)]
+    lower: Annotated[list[Number], Field(min_length=3, max_length=3)] | None = None
+    upper: Annotated[list[Number], Field(min_length=3, max_length=3)] | None = None
+    zone: _Zone | None = None
     buffer: Buffer
     point: str = "tcp"
+
+    @model_validator(mode="after")
+    def _one_form(self) -> _Workspace:
+        box = self.lower is not None or self.upper is not None
+        if box == (self.zone is not None):
+            raise ValueError(
+                "give either lower and upper (a box) or zone (a safety-plane file), not both"
+                if box
+                else "give lower and upper (a box), or zone (a safety-plane file)"
+            )
+        if box and (self.lower is None or self.upper is None):
+            raise ValueError("a box needs both lower and upper")
+        if self.zone is not None and self.zone.nav2 is not None:
+            raise ValueError(
+                "zone: a Nav2 polygon is 2-D; an arm's workspace is 3-D (use ur_safety_planes, "
+                "or lower and upper)"
+            )
+        return self
 
 
 class _SafetyFilter(StrictModel):
@@ -315,6 +406,7 @@ def parse_shaper(
     *,
     where: str = "shaper",
     sensors: Sequence[SensorTopic] = (),
+    base_dir: str | Path | None = None,
 ) -> ConfiguredShaper:
     """Validate a ``shaper:`` section and build its shaper (module docs for the format).
 
@@ -324,6 +416,9 @@ def parse_shaper(
         sensors: Range sensors (validated :class:`SensorTopic` entries) whose points the
             filter keeps the arm out of: one :class:`~velfence.filter.PointCloudRows` each,
             in :attr:`ConfiguredShaper.clouds`; only a ``safety_filter`` shaper takes them.
+        base_dir: The folder a relative ``zone:`` file path is read from: the config file's
+            folder (the bridge and replay loaders pass it); ``None`` (default): the current
+            directory.
 
     Returns:
         The shaper and what it reads and writes.
@@ -331,11 +426,13 @@ def parse_shaper(
     Raises:
         InvalidParameter: a missing or unknown ``kind``, an unknown key, a field of the wrong type
             or range (named ``<where>.<field>``), geometry that does not close (named), a robot
-            whose extra is not installed, sensors given to another kind of shaper.
+            whose extra is not installed, sensors given to another kind of shaper, a ``zone:``
+            file that is missing or malformed or lacks the named polygon (named with the file).
     """
     if not isinstance(where, str) or not where or len(where) > 200 or "\n" in where:
         got = f"{len(where)} characters" if isinstance(where, str) else type(where).__name__
         raise InvalidParameter(f"where: expected a short one-line name, got {got}")
+    base = _base_dir(base_dir)
     if not isinstance(section, Mapping):
         raise InvalidParameter(
             f"section {where}: expected a mapping with a 'kind' ({', '.join(SHAPER_KINDS)}), "
@@ -370,14 +467,117 @@ def parse_shaper(
             f"kind {kind!r} has none (use kind: safety_filter, or give no sensors)"
         )
     try:
+        zone = _spec_zone(spec, base)
+    except VelfenceError as exc:  # the message starts with the key: zone.nav2: ...
+        raise InvalidParameter(f"section {where}.{exc}") from None
+    try:
         if isinstance(spec, _SafetyFilter):
-            return _safety_filter(spec, tuple(sensors))
-        return _build(spec)
+            return _safety_filter(spec, tuple(sensors), zone)
+        return _build(spec, zone)
     except VelfenceError as exc:  # e.g. InvalidGeometry of corners that do not close
         raise InvalidParameter(f"section {where}: {exc}") from None
 
 
-def _build(spec: Any) -> ConfiguredShaper:
+def _base_dir(base_dir: Any) -> Path | None:
+    if base_dir is None:
+        return None
+    if isinstance(base_dir, (str, os.PathLike)) and not isinstance(base_dir, bytes):
+        try:
+            text = os.fspath(base_dir)
+        except Exception:  # a hostile __fspath__ is refused, not propagated
+            text = None
+        if isinstance(text, str) and text and "\x00" not in text and len(text) <= MAX_PATH_LENGTH:
+            return Path(text)
+    raise InvalidParameter(
+        "base_dir: expected a folder (a non-empty str or pathlib.Path without NUL, at most "
+        f"{MAX_PATH_LENGTH} characters) or None, got {show(base_dir, 60)}"
+    )
+
+
+def _zone_path(name: str, base: Path | None) -> Path:
+    path = Path(name)
+    return path if base is None or path.is_absolute() else base / path
+
+
+def _spec_zone(spec: Any, base: Path | None) -> Any:
+    """The set a section's ``zone:`` names (a polygon or a polytope), or None without one."""
+    if isinstance(spec, (_Polygon, _Polytope)) and spec.zone is not None:
+        return _zone_set(spec.zone, base, "zone", "tcp")
+    if isinstance(spec, _SafetyFilter) and spec.workspace is not None:
+        w = spec.workspace
+        if w.zone is not None:
+            point: str | None = w.zone.point
+            if point is None and w.zone.ur_safety_planes is not None:
+                if w.point not in ("tcp", "elbow"):
+                    raise InvalidParameter(
+                        f"workspace.zone.point: missing; a safety-plane file limits the tcp or the "
+                        f"elbow and workspace.point is {w.point!r}: choose the set with point: tcp "
+                        "or point: elbow"
+                    )
+                point = w.point
+            return _zone_set(w.zone, base, "workspace.zone", point or "tcp")
+    return None
+
+
+def _zone_set(zone: _Zone, base: Path | None, key: str, point: str) -> Any:
+    """A ``zone:`` entry's set (messages start with the key: ``zone.nav2: ...``).
+
+    The named Nav2 polygon (a ConvexPolygon), or the safety planes' polytope of ``point``
+    (``tcp`` or ``elbow``).
+    """
+    from velfence.io import zones
+
+    if zone.nav2 is not None:
+        try:
+            p, root, names = zones.nav2_file_polygons(_zone_path(zone.nav2, base), node=zone.node)
+        except VelfenceError as exc:
+            raise InvalidParameter(f"{key}.nav2: {exc}") from None
+        listed = ", ".join(names[:10]) + (", ..." if len(names) > 10 else "")
+        name = zone.polygon
+        if name is None:
+            if len(names) != 1:
+                raise InvalidParameter(
+                    f"{key}.polygon: missing; parameter file {p} lists {len(names)} polygons "
+                    f"({listed}): name one"
+                )
+            name = names[0]
+        elif name not in names:
+            raise InvalidParameter(
+                f"{key}.polygon: {name!r} is not a polygon of parameter file {p} (its polygons: "
+                f"{listed})" + did_you_mean(name, names)
+            )
+        entry = root.get(name)
+        if (
+            zone.circle_sides is None
+            and isinstance(entry, Mapping)
+            and entry.get("type") == "circle"
+        ):
+            raise InvalidParameter(
+                f"{key}.circle_sides: missing; polygon {name!r} of parameter file {p} is a circle "
+                "and velfence fences are polygons: give circle_sides: k for the inscribed regular "
+                "k-gon (inside the circle, at most r (1 - cos(π/k)) from it)"
+            )
+        try:
+            return zones.nav2_zone(p, root, name, circle_sides=zone.circle_sides).polygon
+        except VelfenceError as exc:
+            raise InvalidParameter(f"{key}.nav2: {exc}") from None
+    assert zone.ur_safety_planes is not None  # one of the two (the model's check)
+    path = _zone_path(zone.ur_safety_planes, base)
+    try:
+        planes = zones.load_ur_safety_planes(path, safety_mode=zone.safety_mode or "normal")
+    except VelfenceError as exc:
+        raise InvalidParameter(f"{key}.ur_safety_planes: {exc}") from None
+    which = zone.point or point
+    poly = planes.tcp if which == "tcp" else planes.elbow
+    if poly is None:
+        raise InvalidParameter(
+            f"{key}.point: no active plane of safety planes file {path} limits the {which} in "
+            f"{planes.safety_mode} mode (active planes: {', '.join(planes.active) or 'none'})"
+        )
+    return poly
+
+
+def _build(spec: Any, zone: Any = None) -> ConfiguredShaper:
     import numpy as np
 
     from velfence.geometry.polygon import ConvexPolygon
@@ -387,7 +587,7 @@ def _build(spec: Any) -> ConfiguredShaper:
 
     if isinstance(spec, _Polygon):
         polygon_shaper = PolygonShaper(
-            ConvexPolygon(np.array(spec.corners, dtype=float)),
+            zone if zone is not None else ConvexPolygon(np.array(spec.corners, dtype=float)),
             buffer=spec.buffer,
             spring_gain=spec.spring_gain,
             method=spec.method,
@@ -395,7 +595,9 @@ def _build(spec: Any) -> ConfiguredShaper:
         )
         return ConfiguredShaper("polygon", polygon_shaper, 2, 2, 2, "plane", None)
     if isinstance(spec, _Polytope):
-        if spec.halfspaces is not None:
+        if zone is not None:
+            poly = zone if isinstance(zone, ConvexPolytope) else ConvexPolytope.from_polygon(zone)
+        elif spec.halfspaces is not None:
             rows = np.array(spec.halfspaces, dtype=float)
             poly = ConvexPolytope(rows[:, :-1], rows[:, -1])
         else:
@@ -410,10 +612,12 @@ def _build(spec: Any) -> ConfiguredShaper:
         shaper = PolytopeShaper(poly, buffer=spec.buffer, spring_gain=spec.spring_gain)
         n = len(names)
         return ConfiguredShaper("joint_limits", shaper, n, n, n, "joint", names)
-    return _safety_filter(spec)
+    return _safety_filter(spec, (), zone)
 
 
-def _safety_filter(spec: _SafetyFilter, sensors: tuple[SensorTopic, ...] = ()) -> ConfiguredShaper:
+def _safety_filter(
+    spec: _SafetyFilter, sensors: tuple[SensorTopic, ...] = (), zone: Any = None
+) -> ConfiguredShaper:
     import numpy as np
 
     from velfence import robots
@@ -437,7 +641,9 @@ def _safety_filter(spec: _SafetyFilter, sensors: tuple[SensorTopic, ...] = ()) -
         w = spec.workspace
         workspace = (
             WorkspaceLimit(
-                ConvexPolytope.box(np.array(w.lower), np.array(w.upper)),
+                zone
+                if zone is not None
+                else ConvexPolytope.box(np.array(w.lower), np.array(w.upper)),
                 point=w.point,
                 buffer=w.buffer,
             ),

@@ -725,6 +725,74 @@ def load_nav2_polygons(
         raise type(exc)(f"parameter file {p}: {exc}") from None
 
 
+def nav2_file_polygons(
+    path: Path, *, node: str | None
+) -> tuple[Path, Mapping[Any, Any], list[str]]:
+    """The parameters holding ``polygons`` in a Nav2 parameter file, and the listed names.
+
+    Internal API of :mod:`velfence.io` (a ``zone: {nav2: ...}`` config entry picks one polygon by
+    name; :func:`nav2_zone` builds it, so the file's other polygons, circles included, are not
+    built).
+
+    Args:
+        path: The parameter file.
+        node: The node whose parameters to read (see :func:`nav2_polygons`), or ``None``.
+
+    Returns:
+        The file's path, the mapping holding ``polygons``, and the names it lists.
+
+    Raises:
+        InvalidParameter: as :func:`load_nav2_polygons` for the file and the ``polygons`` list
+            (the message names the file).
+    """
+    p, data = _read_yaml(path)
+    try:
+        if node is not None and (not isinstance(node, str) or not node):
+            raise InvalidParameter(f"node: expected a node name (a string), got {_type(node)}")
+        root = _monitor_params(_mapping("params", data), node)
+        names = root.get("polygons")
+        if isinstance(names, str) or not isinstance(names, Sequence) or not names:
+            raise InvalidParameter(
+                f"polygons: expected a non-empty list of polygon names, got {_type(names)}"
+            )
+        if len(names) > MAX_POLYGONS:
+            raise InvalidParameter(
+                f"polygons: expected at most {MAX_POLYGONS} names, got {len(names)}"
+            )
+        listed = [_text(f"polygons[{i}]", name) for i, name in enumerate(names)]
+    except InvalidParameter as exc:
+        raise InvalidParameter(f"parameter file {p}: {exc}") from None
+    return p, root, listed
+
+
+def nav2_zone(p: Path, root: Mapping[Any, Any], name: str, *, circle_sides: int | None) -> NavZone:
+    """One listed polygon of a Nav2 parameter file (internal API; see :func:`nav2_file_polygons`).
+
+    Args:
+        p: The file's path (for messages).
+        root: The mapping holding ``polygons`` (from :func:`nav2_file_polygons`).
+        name: A name the file lists.
+        circle_sides: Sides of the polygon inscribed in a circle (see :func:`nav2_polygons`).
+
+    Returns:
+        The polygon.
+
+    Raises:
+        InvalidParameter: the listed polygon has no entry, or a malformed field (named).
+        InvalidGeometry: a non-convex or degenerate polygon, or a circle without
+            ``circle_sides`` (named).
+    """
+    try:
+        if name not in root:
+            raise InvalidParameter(
+                f"polygons: {name!r} is listed but has no entry (expected '{name}: "
+                "{type: polygon, points: ..., action_type: ...}')"
+            )
+        return _nav_zone(name, root[name], circle_sides)
+    except (InvalidParameter, InvalidGeometry) as exc:
+        raise type(exc)(f"parameter file {p}: {exc}") from None
+
+
 def nav2_points(polygon: ConvexPolygon) -> str:
     """A polygon's corners as a Nav2 ``points`` string (the Iron and later form).
 
