@@ -7,7 +7,8 @@
   block, the block's standard output must equal that text exactly, up to trailing whitespace on
   each line and blank lines at the end; otherwise the block
   must still exit cleanly. A ``yaml`` block of the same page whose first line is a comment naming
-  a file (``# bridge.yaml: ...``) is written to that folder first, so a block can load it.
+  a file (``# bridge.yaml: ...``) is written to that folder first, so a block can load it (and so
+  can a ``yaml`` block naming it as a zone file, ``zone: {ur_safety_planes: cell.yaml}``).
   A ``python`` block may carry ``<!-- no-run: reason -->`` on the line right before it;
   :data:`NO_RUN_REASONS` lists every such block with its reason, and a block marked so that is not
   listed (or listed and not marked) fails :func:`test_no_run_blocks_are_the_listed_ones`.
@@ -271,7 +272,7 @@ def _load_yaml_block(code: str, path: Path) -> object:
 
         return _config(path)
     if keys == {"shaper"}:
-        return parse_shaper(doc["shaper"])
+        return parse_shaper(doc["shaper"], base_dir=path.parent)
     if "families" in keys:
         from velfence.apps.verify import load_campaign
 
@@ -288,6 +289,8 @@ YAML = [b for b in ALL if b.language == "yaml"]
 
 @pytest.mark.parametrize("block", YAML, ids=[f"{b.page}:{b.line}" for b in YAML])
 def test_yaml_block_is_a_valid_velfence_config(block: Block, tmp_path: Path) -> None:
+    for name, text in named_files(block.page).items():  # the zone files a config may name
+        (tmp_path / name).write_text(text, encoding="utf-8")
     loaded = _load_yaml_block(block.code, tmp_path / "block.yaml")
     assert loaded is not None
 

@@ -59,7 +59,7 @@ SPECS: dict[str, F | C] = {
     "bridge.load_bridge_config": F(lambda: call(_file()), types={"path": "path"}),
     "bridge.parse_bridge_config": F(
         lambda: call(_doc(), source="bridge.yaml"),
-        types={"document": "object", "source": "text"},
+        types={"document": "object", "source": "text", "base_dir": "path"},
     ),
     "bridge.serve": F(
         lambda: call(_file(), duration=0.1),

@@ -80,7 +80,7 @@ SPECS.update(
         "io.load_yaml": F(lambda: call(_shaper_file()), types={"path": "path"}),
         "io.parse_shaper": F(
             lambda: call(dict(_POLYGON), where="shaper"),
-            types={"section": "object", "where": "text"},
+            types={"section": "object", "where": "text", "base_dir": "path"},
             accepts={"sensors": {k: _NO_SENSORS[k] for k in ("empty_list", "empty_tuple")}},
         ),
         "io.ConfiguredShaper": C(record="a record parse_shaper builds"),

@@ -43,7 +43,7 @@ def _demo(p: Path) -> Any:
 def _shaper(p: Path) -> Any:
     from velfence.io import load_yaml, parse_shaper
 
-    return parse_shaper(load_yaml(p)["shaper"])
+    return parse_shaper(load_yaml(p)["shaper"], base_dir=p.parent)
 
 
 def _bridge(p: Path) -> Any:
@@ -122,6 +122,12 @@ def _joint(name: str, lo: str, hi: str, v: str = "1.0") -> str:
 
 
 LIMITS = "joint_limits:\n" + _joint("j1", "-1.0", "1.0") + _joint("j2", "-2.0", "2.0", "0.5")
+#: The zone files a config names (``zone:``), written beside it under ``zones/``.
+ZONE_FILES = (("zones/nav2.yaml", NAV2), ("zones/cell.yaml", UR))
+NAV2_ZONE = (
+    "shaper:\n  kind: polygon\n  zone: {nav2: zones/nav2.yaml, polygon: Stop}\n  buffer: 0.05\n"
+)
+UR_ZONE = "shaper:\n  kind: polytope\n  zone: {ur_safety_planes: zones/cell.yaml}\n  buffer: 0.05\n"
 
 
 def _sub(text: str, old: str, new: str) -> str:
@@ -144,6 +150,7 @@ class Case:
         words: Refused: every one of them in the message (field, expectation, suggestion).
         error: Refused: the exception class.
         warns: Accepted with a DeprecationWarning whose message holds this text.
+        files: Other files written beside it, ``(name, text)`` (the zone files a config names).
     """
 
     id: str
@@ -153,10 +160,18 @@ class Case:
     words: tuple[str, ...] = ()
     error: type[VelfenceError] = InvalidParameter
     warns: str | None = None
+    files: tuple[tuple[str, str], ...] = ()
 
 
-def ok(id: str, kind: str, text: str | bytes, check: Callable[[Any], bool]) -> Case:
-    return Case(id, kind, text, check=check)
+def ok(
+    id: str,
+    kind: str,
+    text: str | bytes,
+    check: Callable[[Any], bool],
+    *,
+    files: tuple[tuple[str, str], ...] = (),
+) -> Case:
+    return Case(id, kind, text, check=check, files=files)
 
 
 def bad(
@@ -165,8 +180,9 @@ def bad(
     text: str | bytes,
     *words: str,
     error: type[VelfenceError] = InvalidParameter,
+    files: tuple[tuple[str, str], ...] = (),
 ) -> Case:
-    return Case(id, kind, text, words=words, error=error)
+    return Case(id, kind, text, words=words, error=error, files=files)
 
 
 LAUGHS = 'a: &a ["lol", "lol", "lol", "lol", "lol", "lol", "lol", "lol", "lol"]\n' + "".join(
@@ -345,6 +361,68 @@ CASES: list[Case] = [
         "did you mean 'command_topic'"),
     bad("replay-section-missing", "replay", POLYGON, "replay"),
     bad("replay-shaper-missing", "replay", REPLAY[REPLAY.index("replay:"):], "shaper"),
+    # ---- zone: vendor zone files named by a shaper section (bridge and replay too) ----
+    ok("zone-nav2-valid", "shaper", NAV2_ZONE, lambda s: s.kind == "polygon"
+       and s.shaper.polygon.n == 4, files=ZONE_FILES),
+    ok("zone-ur-valid", "shaper", UR_ZONE, lambda s: s.kind == "polytope"
+       and s.shaper.polytope.dim == 3, files=ZONE_FILES),
+    ok("zone-ur-tcp-reduced", "shaper", _sub(UR_ZONE, "cell.yaml}",
+       "cell.yaml, point: tcp, safety_mode: reduced}"), lambda s: s.shaper.polytope.dim == 3,
+       files=ZONE_FILES),
+    ok("zone-nav2-as-polytope", "shaper", _sub(NAV2_ZONE, "kind: polygon", "kind: polytope"),
+       lambda s: s.shaper.polytope.dim == 2, files=ZONE_FILES),
+    ok("zone-nav2-only-polygon-named-by-default", "shaper", _sub(NAV2_ZONE, ", polygon: Stop",
+       ""), lambda s: s.shaper.polygon.n == 4, files=ZONE_FILES),
+    bad("zone-file-missing", "shaper", NAV2_ZONE, "shaper.zone.nav2:", "nav2.yaml",
+        "No such file"),
+    bad("zone-polygon-unknown", "shaper", _sub(NAV2_ZONE, "polygon: Stop", "polygon: Stopp"),
+        "shaper.zone.polygon:", "'Stopp'", "nav2.yaml", "did you mean 'Stop'?", files=ZONE_FILES),
+    bad("zone-key-mistyped", "shaper", _sub(NAV2_ZONE, "polygon: Stop", "polgon: Stop"),
+        "shaper.zone.polgon:", "did you mean 'polygon'?", files=ZONE_FILES),
+    bad("zone-file-key-mistyped", "shaper", _sub(NAV2_ZONE, "{nav2:", "{nav:"),
+        "shaper.zone.nav:", "did you mean 'nav2'?", files=ZONE_FILES),
+    bad("zone-key-above-its-section", "shaper", NAV2_ZONE + "  polygon: Stop\n",
+        "shaper.polygon:", "did you mean 'zone.polygon'?", files=ZONE_FILES),
+    bad("zone-file-malformed", "shaper", NAV2_ZONE, "shaper.zone.nav2:", "nav2.yaml",
+        "polygon 'Stop'.points", files=(("zones/nav2.yaml", _sub(NAV2, ", 0.0, 0.2]", ", 0.0]")),)),
+    bad("zone-file-not-yaml", "shaper", UR_ZONE, "shaper.zone.ur_safety_planes:", "cell.yaml",
+        "line 2", files=(("zones/cell.yaml", "safety_planes:\n\t- x\n"),)),
+    bad("zone-file-of-the-other-format", "shaper", _sub(UR_ZONE, "ur_safety_planes:", "nav2:"),
+        "shaper.zone.nav2:", "cell.yaml", "polygons", files=ZONE_FILES),
+    bad("zone-two-files", "shaper", _sub(NAV2_ZONE, "polygon: Stop",
+        "polygon: Stop, ur_safety_planes: zones/cell.yaml"), "shaper.zone:", "give one zone file",
+        files=ZONE_FILES),
+    bad("zone-no-file", "shaper", _sub(NAV2_ZONE, "nav2: zones/nav2.yaml, ", ""), "shaper.zone:",
+        "give one zone file", files=ZONE_FILES),
+    bad("zone-and-corners", "shaper", NAV2_ZONE + "  corners: [[0, 0], [1, 0], [0, 1]]\n",
+        "shaper:", "corners or zone", "not both", files=ZONE_FILES),
+    bad("zone-path-a-number", "shaper", _sub(UR_ZONE, "zones/cell.yaml", "3"),
+        "shaper.zone.ur_safety_planes:", "valid string"),
+    bad("zone-path-empty", "shaper", _sub(UR_ZONE, "zones/cell.yaml", "''"),
+        "shaper.zone.ur_safety_planes:", "at least 1 character"),
+    bad("zone-point-unknown", "shaper", _sub(UR_ZONE, "cell.yaml}", "cell.yaml, point: tool}"),
+        "shaper.zone.point:", "'tcp'", files=ZONE_FILES),
+    bad("zone-safety-mode-unknown", "shaper", _sub(UR_ZONE, "cell.yaml}",
+        "cell.yaml, safety_mode: reduce}"), "shaper.zone.safety_mode:", "'reduced'",
+        files=ZONE_FILES),
+    bad("zone-field-of-the-other-format", "shaper", _sub(UR_ZONE, "cell.yaml}",
+        "cell.yaml, polygon: Stop}"), "shaper.zone:", "polygon: not a field of a ur_safety_planes",
+        files=ZONE_FILES),
+    bad("zone-circle-sides-nan", "shaper", _sub(NAV2_ZONE, "polygon: Stop",
+        "polygon: Stop, circle_sides: .nan"), "shaper.zone.circle_sides:", files=ZONE_FILES),
+    bad("zone-planes-in-a-polygon-shaper", "shaper", _sub(UR_ZONE, "kind: polytope",
+        "kind: polygon"), "shaper:", "2-D", "kind: polytope", files=ZONE_FILES),
+    bad("zone-elbow-unlimited", "shaper", _sub(UR_ZONE, "cell.yaml}", "cell.yaml, point: elbow}"),
+        "shaper.zone.point:", "limits the elbow", files=ZONE_FILES),
+    ok("bridge-zone-nav2", "bridge", _sub(BRIDGE, BRIDGE[BRIDGE.index("shaper:"):], NAV2_ZONE),
+       lambda b: b.shaper.shaper.polygon.n == 4, files=ZONE_FILES),
+    bad("bridge-zone-polygon-unknown", "bridge", _sub(BRIDGE, BRIDGE[BRIDGE.index("shaper:"):],
+        _sub(NAV2_ZONE, "polygon: Stop", "polygon: stop")), "config.yaml: shaper.zone.polygon:",
+        "did you mean 'Stop'?", files=ZONE_FILES),
+    ok("replay-zone-ur", "replay", UR_ZONE + REPLAY[REPLAY.index("replay:"):],
+       lambda r: r[0].state_dim == 3, files=ZONE_FILES),
+    bad("replay-zone-file-missing", "replay", UR_ZONE + REPLAY[REPLAY.index("replay:"):],
+        "shaper.zone.ur_safety_planes:", "cell.yaml", "No such file"),
     # ---- Universal Robots safety planes ----
     ok("ur-valid", "ur", UR, lambda z: len(z.planes) == 2),
     bad("ur-normal-zero", "ur", _sub(UR, "normal: [0.0, 0.0, 1.0]", "normal: [0.0, 0.0, 0.0]"),
@@ -393,9 +471,12 @@ CASES: list[Case] = [
 ]  # fmt: skip
 
 
-def _write(tmp_path: Path, text: str | bytes) -> Path:
+def _write(tmp_path: Path, text: str | bytes, files: tuple[tuple[str, str], ...] = ()) -> Path:
     p = tmp_path / "config.yaml"
     p.write_bytes(text if isinstance(text, bytes) else text.encode("utf-8"))
+    for name, content in files:
+        (tmp_path / name).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / name).write_text(content, encoding="utf-8")
     return p
 
 
@@ -414,7 +495,7 @@ def test_the_catalogue_covers_every_kind_with_enough_cases() -> None:
 
 @pytest.mark.parametrize("case", CASES, ids=[c.id for c in CASES])
 def test_config_case(case: Case, tmp_path: Path) -> None:
-    path = _write(tmp_path, case.text)
+    path = _write(tmp_path, case.text, case.files)
     load = LOADERS[case.kind]
     if case.check is not None:
         with warnings.catch_warnings(record=True) as caught:

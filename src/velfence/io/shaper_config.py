@@ -35,6 +35,24 @@ are refused, and a bad value raises :class:`~velfence.errors.InvalidParameter` n
 
 ``method`` is optional in every section and, when given, is the ``.method`` the built shaper
 reports (:data:`SHAPER_METHODS`), or ``patent``, the documented alias of ``edge-scaling``.
+
+A fence may come from a vendor's zone file (:data:`ZONE_FILES`, read by :mod:`velfence.io.zones`):
+``zone:`` in place of a polygon's ``corners``, of a polytope's box or half-spaces, or of a safety
+filter workspace's box. A relative path is read from ``base_dir`` (the config file's folder)::
+
+    shaper:
+      kind: polygon              # one polygon of a Nav2 collision-monitor parameter file
+      zone: {nav2: collision_monitor.yaml, polygon: FrontStop}   # node, circle_sides: optional
+      buffer: 0.1
+
+    shaper:
+      kind: safety_filter
+      robot: ur5e
+      max_speed: 1.0
+      dt: 0.002
+      workspace:                 # UR style safety planes: the set of the workspace's point
+        zone: {ur_safety_planes: cell.yaml}   # point: tcp | elbow, safety_mode: normal | reduced
+        buffer: 0.05
 """
 
 from __future__ import annotations
@@ -201,7 +219,8 @@ class _Polytope(StrictModel):
         box = self.lower is not None or self.upper is not None
         if box + (self.halfspaces is not None) + (self.zone is not None) != 1:
             raise ValueError(
-                "give one of lower and upper (a box), halfspaces or zone (a vendor zone file)"
+                "give either lower and upper (a box), halfspaces or zone (a vendor zone file): "
+                "one of them"
             )
         if box and (self.lower is None or self.upper is None):
             raise ValueError("a box needs both lower and upper")
