@@ -24,7 +24,8 @@ BRIDGE_YAML = str(REPO / "examples" / "bridge.yaml")
 
 #: (id, argv, exit code, words every one of which the output must hold). ``{file}`` is an
 #: existing file, ``{dir}`` an existing folder, ``{missing}`` a path that does not exist, ``{ro}``
-#: a path under a file (its folder cannot be created).
+#: a path under a file (its folder cannot be created), ``{zone_bridge}`` / ``{zone_replay}`` a
+#: bridge / replay file naming a zone file beside it (missing; without the named polygon).
 CASES: list[tuple[str, list[str], int, tuple[str, ...]]] = [
     # the command and its options
     ("unknown-option", ["--nope"], 2, ("No such option", "--nope")),
@@ -99,6 +100,9 @@ CASES: list[tuple[str, list[str], int, tuple[str, ...]]] = [
      ("--duration", "valid number")),
     ("bridge-foxglove-port-negative", ["bridge", "--config", BRIDGE_YAML,
      "--foxglove-port", "-3"], 2, ("--foxglove-port",)),
+    # a zone file the config names (docs/config.md, "Zones from vendor files")
+    ("bridge-zone-file-missing", ["bridge", "--config", "{zone_bridge}"], 2,
+     ("shaper.zone.ur_safety_planes", "no_cell.yaml", "cannot read")),
     # study
     ("study-subjects-zero", ["study", "--subjects", "0"], 2, ("--subjects", "1")),
     ("study-subjects-nan", ["study", "--subjects", "nan"], 2, ("--subjects", "valid integer")),
@@ -116,6 +120,8 @@ CASES: list[tuple[str, list[str], int, tuple[str, ...]]] = [
      2, ("cannot read",)),
     ("replay-config-not-yaml", ["replay", "{file}", "--config", "{file}", "--out", "{new}"], 2,
      ("mapping",)),
+    ("replay-zone-polygon-unknown", ["replay", "{dir}", "--config", "{zone_replay}", "--out",
+     "{new}"], 2, ("shaper.zone.polygon", "'FrontStp'", "did you mean 'FrontStop'?")),
     ("replay-storage-unknown", ["replay", "{missing}", "--config", "{missing}", "--out", "{new}",
      "--storage", "zip"], 2, ("storage", "mcap")),
     ("replay-same-bag-twice", ["replay", "{dir}", "{dir}", "--config", "{file}", "--out",
@@ -128,7 +134,28 @@ CASES: list[tuple[str, list[str], int, tuple[str, ...]]] = [
 def _argv(argv: list[str], tmp: Path) -> list[str]:
     (tmp / "afile").write_text("just text\n", encoding="utf-8")
     (tmp / "adir").mkdir(exist_ok=True)
+    zones = tmp / "zones"  # configs naming a zone file beside them
+    zones.mkdir(exist_ok=True)
+    (zones / "nav2.yaml").write_text(
+        "collision_monitor:\n  ros__parameters:\n    polygons: [FrontStop]\n    FrontStop:\n"
+        "      type: polygon\n      points: [0.3, 0.2, 0.3, -0.2, 0.0, -0.2, 0.0, 0.2]\n"
+        "      action_type: stop\n",
+        encoding="utf-8",
+    )
+    (zones / "bridge.yaml").write_text(
+        "bridge:\n  command_in: {type: float64_multi_array}\n"
+        "  state: {type: joint_state, joint_names: [x, y, z]}\n"
+        "shaper:\n  kind: polytope\n  zone: {ur_safety_planes: no_cell.yaml}\n  buffer: 0.1\n",
+        encoding="utf-8",
+    )
+    (zones / "replay.yaml").write_text(
+        "shaper:\n  kind: polygon\n  zone: {nav2: nav2.yaml, polygon: FrontStp}\n  buffer: 0.1\n"
+        "replay:\n  command_topic: /cmd_vel\n  state_topic: /odom\n",
+        encoding="utf-8",
+    )
     paths = {
+        "{zone_bridge}": str(zones / "bridge.yaml"),
+        "{zone_replay}": str(zones / "replay.yaml"),
         "{file}": str(tmp / "afile"),
         "{dir}": str(tmp / "adir"),
         "{missing}": str(tmp / "missing.yaml"),
@@ -160,4 +187,6 @@ def test_hostile_argv(
     for w in words:
         assert w in flat, (w, flat)
     # refused before any work: nothing written but the scratch files
-    assert {p.name for p in tmp_path.iterdir()} <= {"afile", "adir"}, list(tmp_path.iterdir())
+    assert {p.name for p in tmp_path.iterdir()} <= {"afile", "adir", "zones"}, list(
+        tmp_path.iterdir()
+    )
