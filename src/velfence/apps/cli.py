@@ -135,11 +135,17 @@ QuietOption = Annotated[
 ]
 
 
-def _tracker(title: str, plan: Any, quiet: bool) -> Any:
+def _tracker(title: str, plan: Any, quiet: bool, *, heartbeat_period: float = 30.0) -> Any:
     """The command's progress display on stderr (velfence.apps.progress)."""
     from velfence.apps.progress import Tracker
 
-    return Tracker(plan, title=title, console=Console(stderr=True, soft_wrap=True), quiet=quiet)
+    return Tracker(
+        plan,
+        title=title,
+        console=Console(stderr=True, soft_wrap=True),
+        quiet=quiet,
+        heartbeat_period=heartbeat_period,
+    )
 
 
 def _summary(console: Console, folder: Path | None, files: Any, verdict: str) -> None:
@@ -475,8 +481,12 @@ def bench(
     for option, path in (("--out", out), ("--json", json_path)):
         if path is not None and path.is_dir():  # refused before minutes of timing, not after
             raise _fail(f"{option} {path} is a folder; expected a file path")
-    plan = (("benchmarks", 20.0 if quick else 300.0),)
-    with _tracker("velfence bench", plan, quiet), progress.stage("benchmarks") as report_bench:
+    # Seconds on the development machine (quick: 26-43 s with numba's kernels cached, 86-140 s
+    # when they compile); within the stage each step counts its expected cost
+    # (velfence.apps.bench.plan), and off a terminal a line every 10 s carries the estimate.
+    plan = (("benchmarks", 60.0 if quick else 300.0),)
+    tracker = _tracker("velfence bench", plan, quiet, heartbeat_period=10.0)
+    with tracker, progress.stage("benchmarks") as report_bench:
         report = bench_app.run_benchmarks(
             quick=quick, progress=lambda what, f: report_bench(f, 1.0, what)
         )
