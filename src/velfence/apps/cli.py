@@ -156,6 +156,11 @@ def _summary(console: Console, folder: Path | None, files: Any, verdict: str) ->
         console.print(escape(line), soft_wrap=True, highlight=False)
 
 
+#: Where ``velfence study`` writes by default; ``velfence reproduce telerobotics`` reuses the
+#: runs found there when they are the same study.
+DEFAULT_STUDY_DIR = Path("out/study")
+
+
 def reproduction_dir(name: str, out: Path | None) -> Path:
     """Where ``velfence reproduce NAME [--out DIR]`` writes: DIR itself, else out/reproduce/NAME.
 
@@ -239,6 +244,14 @@ def reproduce(
             "(default: out/reproduce/NAME)."
         ),
     ] = None,
+    study: Annotated[
+        Path | None,
+        typer.Option(
+            help="telerobotics only: reuse the runs of `velfence study --out DIR` when they are "
+            "the same study (same settings, seed, velfence version and code; else it runs). "
+            f"Default: {DEFAULT_STUDY_DIR} when it holds a study's runs."
+        ),
+    ] = None,
     quiet: QuietOption = False,
 ) -> None:
     """Run a source's experiment and check our numbers against the source's.
@@ -252,6 +265,17 @@ def reproduce(
     folder = reproduction_dir(name, out)
     if folder.exists() and not folder.is_dir():
         raise _fail(f"--out {folder} exists and is not a folder")
+    options: dict[str, Any] = {}
+    if name == "telerobotics":
+        from velfence.apps.teleop.study import STUDY_RUNS
+
+        if study is not None and not study.is_dir():
+            raise _fail(f"--study {study}: expected the folder of a `velfence study --out` run")
+        if study is None and (DEFAULT_STUDY_DIR / STUDY_RUNS).is_file():
+            study = DEFAULT_STUDY_DIR
+        options["study"] = study
+    elif study is not None:
+        raise _fail("--study applies to `velfence reproduce telerobotics` only")
     module, func = REPRODUCTIONS[name].split(":")
     loaded = importlib.import_module(module)
     run = getattr(loaded, func)
@@ -264,7 +288,7 @@ def reproduce(
         _tracker(f"velfence reproduce {name}", stages or (("checks", 1.0),), quiet),
         progress.stage("checks") if stages is None else contextlib.nullcontext(),
     ):
-        report = run(folder)
+        report = run(folder, **options)
     line, code = reproduction_summary(report)
     if json_out:
         sys.stdout.write(report.to_json() + "\n")
@@ -694,9 +718,13 @@ def study(
     subjects: Annotated[int, typer.Option(min=1, help="Simulated subjects (thesis: 10).")] = 10,
     runs: Annotated[int, typer.Option(min=1, help="Runs per mode per subject (thesis: 3).")] = 3,
     seed: Annotated[int, typer.Option(min=0, help="Study seed (reproducible).")] = 0,
-    out: Annotated[Path, typer.Option(help="Folder for study.json, plots and animation.")] = Path(
-        "out/study"
-    ),
+    out: Annotated[
+        Path,
+        typer.Option(
+            help="Folder for study.json, plots, animation and the runs (study_runs.npz, which "
+            "`velfence reproduce telerobotics --study DIR` reuses)."
+        ),
+    ] = DEFAULT_STUDY_DIR,
     json_out: Annotated[
         bool, typer.Option("--json", help="Print one JSON object (summary + artifacts).")
     ] = False,
@@ -714,7 +742,7 @@ def study(
     Exit code 0 when every file is written; 2 on bad input.
     """
     from velfence.apps import progress
-    from velfence.apps.teleop.study import assisted_run, run_study
+    from velfence.apps.teleop.study import assisted_run, run_study, save_runs
     from velfence.apps.viz.study import animate_run, snapshot_run, write_study
 
     if out.exists() and not out.is_dir():  # refused before minutes of runs, not after
@@ -734,6 +762,7 @@ def study(
                 )
             with progress.stage("study files"):
                 artifacts = [str(p) for p in write_study(result, out)]
+                artifacts.append(str(save_runs(result, out)))
             if animation:
                 with progress.stage("assisted run"):
                     run = assisted_run(seed=seed)

@@ -42,7 +42,11 @@ STAGES: tuple[tuple[str, float], ...] = (
 
 
 def run(
-    out_dir: str | Path = "out/reproduce/telerobotics", *, subjects: int = 10, runs: int = 3
+    out_dir: str | Path = "out/reproduce/telerobotics",
+    *,
+    subjects: int = 10,
+    runs: int = 3,
+    study: str | Path | None = None,
 ) -> Report:
     """Run every part and write the figures.
 
@@ -50,6 +54,9 @@ def run(
         out_dir: Folder for the figures and ``study.json``.
         subjects: Simulated subjects of the study (the thesis had 10; about 12 s each).
         runs: Runs per mode per subject (the thesis: 3).
+        study: A ``velfence study --out`` folder: its runs are reused when they are the same
+            study (same settings, seed, velfence version and code; docs/telerobotics.md), else
+            the study runs. None: the study runs.
 
     Returns:
         The report (its JSON via ``to_json()``, format in :mod:`velfence.apps.reproduce.base`).
@@ -67,7 +74,7 @@ def run(
             c, a = part(out)
         checks.extend(c)
         artifacts.extend(a)
-    c, a = study_checks(out, subjects=subjects, runs=runs)  # its own stage: "study"
+    c, a = study_checks(out, subjects=subjects, runs=runs, study=study)  # its own stage
     checks.extend(c)
     artifacts.extend(a)
     return Report("telerobotics", tuple(checks), tuple(str(p) for p in artifacts))
