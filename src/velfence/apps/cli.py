@@ -282,6 +282,8 @@ def reproduce(
     err = Console(stderr=True)
     # A reproduction with stages reports them itself; any other runs as one stage.
     stages = getattr(loaded, "STAGES", None)
+    if name == "telerobotics":  # reused study runs: a study stage of seconds, not minutes
+        stages = loaded.stages(options["study"])
     from velfence.apps import progress
 
     with (

@@ -410,6 +410,7 @@ def test_study_reports_progress_and_the_reproduction_reuses_its_runs(tmp_path: P
     """One small study through the command line: its stages, its files, and its table's rows
     each naming their unit. The telerobotics reproduction's study part, given its folder,
     reuses its runs (saying so) and writes the same study.json as the fresh run did."""
+    from velfence.apps.reproduce import telerobotics
     from velfence.apps.reproduce._telerobotics_study import study_checks
 
     out = tmp_path / "study"
@@ -423,6 +424,10 @@ def test_study_reports_progress_and_the_reproduction_reuses_its_runs(tmp_path: P
         first = row.split("│")[1].strip()
         assert re.search(r"\[[^\]]+\]$", first), row
 
+    # the command's plan counts the study stage as seconds when it will reuse the runs
+    assert telerobotics.stages(out, subjects=1, runs=1)[-1] == ("study", telerobotics.REUSED_STUDY)
+    assert telerobotics.stages(out) == telerobotics.STAGES  # 10 x 3: another study
+    assert telerobotics.stages(None, subjects=1, runs=1) == telerobotics.STAGES
     buf = io.StringIO()
     console = Console(file=buf, force_terminal=False, width=300)
     tracker = progress.Tracker([("study", 1.0)], title="velfence x", console=console)

@@ -154,11 +154,13 @@ def _same(a, b) -> None:
 
 
 def test_saved_runs_are_reused_only_for_the_same_study(tmp_path):
-    from velfence.apps.teleop.study import STUDY_RUNS, load_runs, save_runs, study_key
+    from velfence.apps.teleop.study import STUDY_RUNS, load_runs, runs_key, save_runs, study_key
 
     first = run_study(1, 1, 0, **SHORT)
     path = save_runs(first, tmp_path)
     assert path == tmp_path / STUDY_RUNS
+    assert runs_key(tmp_path) == study_key(1, 1, 0, **SHORT)
+    assert runs_key(tmp_path / "none") is None
     reused, why = load_runs(tmp_path, study_key(1, 1, 0, **SHORT))
     assert reused is not None, why
     assert why.startswith("the same study's 2 runs from ")
@@ -182,6 +184,7 @@ def test_saved_runs_are_reused_only_for_the_same_study(tmp_path):
     path.write_bytes(b"not a zip")
     result, why = load_runs(tmp_path, study_key(1, 1, 0, **SHORT))
     assert result is None
+    assert runs_key(tmp_path) is None
     assert why.startswith(f"{path} is unreadable (")
 
 

@@ -28,17 +28,41 @@ from velfence.apps.reproduce._telerobotics_laser import laser_checks
 from velfence.apps.reproduce._telerobotics_motion import motion_checks
 from velfence.apps.reproduce._telerobotics_study import study_checks
 from velfence.apps.reproduce.base import Check, Report
+from velfence.apps.teleop.study import runs_key, study_key
 
-__all__ = ["STAGES", "run"]
+__all__ = ["REUSED_STUDY", "STAGES", "run", "stages"]
 
-#: The parts of :func:`run` as progress stages, with their weights (about their seconds with the
-#: thesis's 10 subjects x 3 runs; the study dominates).
+#: The parts of :func:`run` as progress stages, with their weights: their seconds with the
+#: thesis's 10 subjects x 3 runs, measured on the 2-core development machine (2026-12-08, load
+#: about 9: other jobs running): the study's 60 runs dominate.
 STAGES: tuple[tuple[str, float], ...] = (
-    ("kinematics", 5.0),
-    ("laser", 30.0),
-    ("motion", 60.0),
+    ("kinematics", 3.0),
+    ("laser", 4.0),
+    ("motion", 52.0),
     ("study", 600.0),
 )
+
+#: The study stage's seconds when it reuses saved runs (loading them, writing its files).
+REUSED_STUDY = 5.0
+
+
+def stages(
+    study: str | Path | None = None, *, subjects: int = 10, runs: int = 3
+) -> tuple[tuple[str, float], ...]:
+    """The progress stages of :func:`run` with these arguments.
+
+    Args:
+        study: As for :func:`run`: when it holds this study's runs, the study stage only loads
+            them and writes its files (:data:`REUSED_STUDY` seconds).
+        subjects: As for :func:`run`.
+        runs: As for :func:`run`.
+
+    Returns:
+        :data:`STAGES`, the study's weight lowered when its runs will be reused.
+    """
+    if study is not None and runs_key(study) == study_key(subjects, runs):
+        return (*STAGES[:-1], ("study", REUSED_STUDY))
+    return STAGES
 
 
 def run(

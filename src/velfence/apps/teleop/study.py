@@ -57,6 +57,7 @@ __all__ = [
     "assisted_run",
     "load_runs",
     "run_study",
+    "runs_key",
     "save_runs",
     "study_key",
 ]
@@ -352,6 +353,26 @@ def save_runs(result: StudyResult, folder: str | Path) -> Path:
     path = out / STUDY_RUNS
     np.savez_compressed(path, **arrays)
     return path
+
+
+def runs_key(folder: str | Path) -> str | None:
+    """The :func:`study_key` of the runs saved in ``folder``, read alone (fast).
+
+    Args:
+        folder: A study's output folder.
+
+    Returns:
+        The key, or None when there is no readable ``study_runs.npz``.
+
+    Raises:
+        InvalidParameter: ``folder`` is not a path.
+    """
+    path = _folder("folder", folder) / STUDY_RUNS
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            return str(data["key"])
+    except (OSError, ValueError, KeyError, zipfile.BadZipFile):
+        return None
 
 
 def load_runs(folder: str | Path, key: str) -> tuple[StudyResult | None, str]:
