@@ -59,6 +59,7 @@ from velfence.apps.teleop.trajectory import (
     execute,
     straight_line,
 )
+from velfence.errors import InvalidParameter
 from velfence.mechanisms.puma560 import Puma560
 
 __all__ = [
@@ -134,7 +135,14 @@ def singularity_run(
 
     Returns:
         The :class:`SingularityRun`.
+
+    Raises:
+        InvalidParameter: ``on_run`` is neither callable nor None.
     """
+    if on_run is not None and not callable(on_run):
+        raise InvalidParameter(
+            f"on_run: expected a function (description) or None, got {type(on_run).__name__}"
+        )
     arm = Puma560() if robot is None else robot
     q0, dist = (
         (data.SINGULARITY_TRAJ1_Q0_RAD, data.SINGULARITY_TRAJ1_TARGET_M)
