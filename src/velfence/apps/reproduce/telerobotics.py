@@ -33,13 +33,14 @@ from velfence.apps.teleop.study import runs_key, study_key
 __all__ = ["REUSED_STUDY", "STAGES", "run", "stages"]
 
 #: The parts of :func:`run` as progress stages, with their weights: their seconds with the
-#: thesis's 10 subjects x 3 runs, measured on the 2-core development machine (2026-12-08, load
-#: about 9: other jobs running): the study's 60 runs dominate.
+#: thesis's 10 subjects x 3 runs, measured on the 2-core development machine with other jobs
+#: running (2026-12-08, load about 9): kinematics 3.0 s, laser 3.5 s, motion 52 s, the study's
+#: 60 runs 1612 s (27 s a run). At load about 6 the first three took 4.3, 4.9 and 40 s.
 STAGES: tuple[tuple[str, float], ...] = (
     ("kinematics", 3.0),
-    ("laser", 4.0),
+    ("laser", 3.5),
     ("motion", 52.0),
-    ("study", 600.0),
+    ("study", 1612.0),
 )
 
 #: The study stage's seconds when it reuses saved runs (loading them, writing its files).
