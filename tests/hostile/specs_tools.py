@@ -84,6 +84,7 @@ SPECS: dict[str, F | C] = {
         methods={
             "stage": F(lambda: call("a"), types={"name": "text"}),
             "update": F(lambda: call(1.0, 2.0, "x"), types={"what": "text"}),
+            "note": F(lambda: call("x"), types={"text": "text"}),
         },
     ),
     "progress.current": F(lambda: call()),
@@ -96,6 +97,7 @@ SPECS: dict[str, F | C] = {
         skip={"files": "an empty list is valid (a command that wrote nothing)"},
     ),
     "progress.update": F(lambda: call(1.0, 2.0, "x"), types={"what": "text"}),
+    "progress.note": F(lambda: call("x"), types={"text": "text"}),
     "demo.build_shapers": F(lambda: call(square(), _cfg())),
     "demo.run_demo": F(
         lambda: call(out_dir="/nonexistent-velfence-hostile/demo"),

@@ -135,11 +135,17 @@ QuietOption = Annotated[
 ]
 
 
-def _tracker(title: str, plan: Any, quiet: bool) -> Any:
+def _tracker(title: str, plan: Any, quiet: bool, *, heartbeat_period: float = 30.0) -> Any:
     """The command's progress display on stderr (velfence.apps.progress)."""
     from velfence.apps.progress import Tracker
 
-    return Tracker(plan, title=title, console=Console(stderr=True, soft_wrap=True), quiet=quiet)
+    return Tracker(
+        plan,
+        title=title,
+        console=Console(stderr=True, soft_wrap=True),
+        quiet=quiet,
+        heartbeat_period=heartbeat_period,
+    )
 
 
 def _summary(console: Console, folder: Path | None, files: Any, verdict: str) -> None:
@@ -148,6 +154,11 @@ def _summary(console: Console, folder: Path | None, files: Any, verdict: str) ->
 
     for line in summary(folder, list(files), verdict):
         console.print(escape(line), soft_wrap=True, highlight=False)
+
+
+#: Where ``velfence study`` writes by default; ``velfence reproduce telerobotics`` reuses the
+#: runs found there when they are the same study.
+DEFAULT_STUDY_DIR = Path("out/study")
 
 
 def reproduction_dir(name: str, out: Path | None) -> Path:
@@ -233,6 +244,14 @@ def reproduce(
             "(default: out/reproduce/NAME)."
         ),
     ] = None,
+    study: Annotated[
+        Path | None,
+        typer.Option(
+            help="telerobotics only: reuse the runs of `velfence study --out DIR` when they are "
+            "the same study (same settings, seed, velfence version and code; else it runs). "
+            f"Default: {DEFAULT_STUDY_DIR} when it holds a study's runs."
+        ),
+    ] = None,
     quiet: QuietOption = False,
 ) -> None:
     """Run a source's experiment and check our numbers against the source's.
@@ -246,19 +265,32 @@ def reproduce(
     folder = reproduction_dir(name, out)
     if folder.exists() and not folder.is_dir():
         raise _fail(f"--out {folder} exists and is not a folder")
+    options: dict[str, Any] = {}
+    if name == "telerobotics":
+        from velfence.apps.teleop.study import STUDY_RUNS
+
+        if study is not None and not study.is_dir():
+            raise _fail(f"--study {study}: expected the folder of a `velfence study --out` run")
+        if study is None and (DEFAULT_STUDY_DIR / STUDY_RUNS).is_file():
+            study = DEFAULT_STUDY_DIR
+        options["study"] = study
+    elif study is not None:
+        raise _fail("--study applies to `velfence reproduce telerobotics` only")
     module, func = REPRODUCTIONS[name].split(":")
     loaded = importlib.import_module(module)
     run = getattr(loaded, func)
     err = Console(stderr=True)
     # A reproduction with stages reports them itself; any other runs as one stage.
     stages = getattr(loaded, "STAGES", None)
+    if name == "telerobotics":  # reused study runs: a study stage of seconds, not minutes
+        stages = loaded.stages(options["study"])
     from velfence.apps import progress
 
     with (
         _tracker(f"velfence reproduce {name}", stages or (("checks", 1.0),), quiet),
         progress.stage("checks") if stages is None else contextlib.nullcontext(),
     ):
-        report = run(folder)
+        report = run(folder, **options)
     line, code = reproduction_summary(report)
     if json_out:
         sys.stdout.write(report.to_json() + "\n")
@@ -475,8 +507,12 @@ def bench(
     for option, path in (("--out", out), ("--json", json_path)):
         if path is not None and path.is_dir():  # refused before minutes of timing, not after
             raise _fail(f"{option} {path} is a folder; expected a file path")
-    plan = (("benchmarks", 20.0 if quick else 300.0),)
-    with _tracker("velfence bench", plan, quiet), progress.stage("benchmarks") as report_bench:
+    # Seconds on the development machine (quick: 26-43 s with numba's kernels cached, 86-140 s
+    # when they compile); within the stage each step counts its expected cost
+    # (velfence.apps.bench.plan), and off a terminal a line every 10 s carries the estimate.
+    plan = (("benchmarks", 60.0 if quick else 300.0),)
+    tracker = _tracker("velfence bench", plan, quiet, heartbeat_period=10.0)
+    with tracker, progress.stage("benchmarks") as report_bench:
         report = bench_app.run_benchmarks(
             quick=quick, progress=lambda what, f: report_bench(f, 1.0, what)
         )
@@ -684,9 +720,13 @@ def study(
     subjects: Annotated[int, typer.Option(min=1, help="Simulated subjects (thesis: 10).")] = 10,
     runs: Annotated[int, typer.Option(min=1, help="Runs per mode per subject (thesis: 3).")] = 3,
     seed: Annotated[int, typer.Option(min=0, help="Study seed (reproducible).")] = 0,
-    out: Annotated[Path, typer.Option(help="Folder for study.json, plots and animation.")] = Path(
-        "out/study"
-    ),
+    out: Annotated[
+        Path,
+        typer.Option(
+            help="Folder for study.json, plots, animation and the runs (study_runs.npz, which "
+            "`velfence reproduce telerobotics --study DIR` reuses)."
+        ),
+    ] = DEFAULT_STUDY_DIR,
     json_out: Annotated[
         bool, typer.Option("--json", help="Print one JSON object (summary + artifacts).")
     ] = False,
@@ -704,7 +744,7 @@ def study(
     Exit code 0 when every file is written; 2 on bad input.
     """
     from velfence.apps import progress
-    from velfence.apps.teleop.study import assisted_run, run_study
+    from velfence.apps.teleop.study import assisted_run, run_study, save_runs
     from velfence.apps.viz.study import animate_run, snapshot_run, write_study
 
     if out.exists() and not out.is_dir():  # refused before minutes of runs, not after
@@ -724,6 +764,7 @@ def study(
                 )
             with progress.stage("study files"):
                 artifacts = [str(p) for p in write_study(result, out)]
+                artifacts.append(str(save_runs(result, out)))
             if animation:
                 with progress.stage("assisted run"):
                     run = assisted_run(seed=seed)

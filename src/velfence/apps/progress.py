@@ -60,7 +60,7 @@ from velfence._validate import (
 )
 from velfence.errors import InvalidParameter
 
-__all__ = ["Tracker", "current", "frames", "stage", "summary", "update"]
+__all__ = ["Tracker", "current", "frames", "note", "stage", "summary", "update"]
 
 #: The type of ``on_progress(done, total, what)``: ``done`` of ``total`` units of the running
 #: step, ``what`` a short description of it (e.g. ``"fence-box.mp4 frame 120/400"``).
@@ -275,6 +275,24 @@ class Tracker:
         eta = _eta(fraction, elapsed)
         return f"elapsed {elapsed:.1f} s" + (f", {eta}" if eta else "")
 
+    def note(self, text: str) -> None:
+        """Print one line now, on a terminal above the live line (``TITLE: text``).
+
+        For what the user should know while the command runs (e.g. that a part reuses earlier
+        results); nothing with ``quiet``.
+
+        Args:
+            text: The line.
+
+        Raises:
+            InvalidParameter: ``text`` is not a string.
+        """
+        text = check_text("text", text)
+        if not self.quiet:
+            self.console.print(
+                f"{escape(self.title)}: {escape(text)}", highlight=False, soft_wrap=True
+            )
+
     def update(self, done: float, total: float, what: str = "") -> None:
         """Report ``done`` of ``total`` units of the running stage (the :data:`OnProgress`).
 
@@ -373,6 +391,22 @@ def update(done: float, total: float, what: str = "") -> None:
         _count("done", done)
         _count("total", total)
         check_text("what", what)
+
+
+def note(text: str) -> None:
+    """Print one line through the active tracker (:meth:`Tracker.note`); a no-op without one.
+
+    Args:
+        text: The line.
+
+    Raises:
+        InvalidParameter: ``text`` is not a string.
+    """
+    tracker = _ACTIVE.get()
+    if tracker is not None:
+        tracker.note(text)
+    else:
+        check_text("text", text)
 
 
 def frames(name: str) -> Callable[[int, int], None]:

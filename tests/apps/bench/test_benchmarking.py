@@ -22,8 +22,9 @@ import pytest
 
 from shared_runs import bench_quick
 from velfence.apps import bench as bm
-from velfence.apps.bench import run
+from velfence.apps.bench import plan, run
 from velfence.apps.bench.cases import controllers, peers, redundancy, shaping
+from velfence.apps.bench.cases import filter as filter_cases
 from velfence.apps.bench.cases.shaping import METHODS
 from velfence.apps.bench.timing import Latency, latency_of, time_calls
 
@@ -219,10 +220,27 @@ def test_tiny_run_reports_every_step_once_in_order(
     rep, calls = tiny
     assert calls[-1] == ("done", 1.0)
     steps = calls[:-1]
-    total = run._step_count(rep.settings, numba_ok=HAVE_NUMBA, qp_ok=HAVE_QP)
-    assert len(steps) == total  # the fraction is exact: one call before each step
-    assert [f for _, f in steps] == [i / total for i in range(total)]
-    assert len({m for m, _ in steps}) == total
+    steps_plan = plan.step_plan(
+        rep.settings, numba_ok=HAVE_NUMBA, qp_ok=HAVE_QP, mink_ok=filter_cases.mink_ok()
+    )
+    assert len(steps) == len(steps_plan)  # one call before each step of the plan
+    for (message, _), cost in zip(steps, steps_plan, strict=True):
+        assert message.startswith(cost.prefix), (message, cost.prefix)
+    assert len({m for m, _ in steps}) == len(steps)
+    # The fraction is the share of the expected seconds done, numba's cache taken as cold
+    # until the first compile step has ended, then as it was found.
+    first = next((k for k, c in enumerate(steps_plan) if c.compile), len(steps_plan))
+
+    def shares(cold: bool) -> list[float]:
+        cost = [c.seconds + cold * c.compile for c in steps_plan]
+        return [sum(cost[:k]) / sum(cost) for k in range(len(cost))]
+
+    fracs = [f for _, f in steps]
+    assert fracs[: first + 1] == pytest.approx(shares(True)[: first + 1], abs=1e-12)
+    assert any(
+        fracs[first + 1 :] == pytest.approx(shares(cold)[first + 1 :], abs=1e-12)
+        for cold in (True, False)
+    )
 
 
 def test_tiny_run_has_rows_of_every_family(
@@ -522,3 +540,54 @@ def test_run_settings_refuses_other_objects_by_name() -> None:
         run.run_settings({"calls": 5})  # type: ignore[arg-type]
     with pytest.raises(InvalidParameter, match="progress: expected a callable"):
         run.run_settings(TINY, progress="bar")  # type: ignore[arg-type]
+
+
+STEPS_MEASURED = Path(__file__).with_name("quick_run_steps.json")
+
+
+def _etas(steps: list[list[Any]]) -> list[tuple[float, float, float]]:
+    """``(elapsed, estimated remaining, real remaining)`` [s] at the start of each step of a
+    recorded ``--quick`` run, the estimate the progress lines print (elapsed * (1 - f) / f)."""
+    s = bm.BenchSettings.make(quick=True)
+    steps_plan = plan.step_plan(s, numba_ok=True, qp_ok=True, mink_ok=True)
+    assert [m.startswith(c.prefix) for (m, _), c in zip(steps, steps_plan, strict=True)] == [
+        True
+    ] * len(steps)
+    total = sum(float(d) for _, d in steps)
+    now = [0.0]
+    seen: list[tuple[float, float]] = []
+    step = plan.Steps(lambda m, f: seen.append((now[0], f)), steps_plan, clock=lambda: now[0])
+    for message, seconds in steps:
+        step(message)
+        now[0] += float(seconds)
+    return [(t, t * (1.0 - f) / f, total - t) for t, f in seen if f > 0.0]
+
+
+@pytest.mark.parametrize("cache", ["cold", "warm"])
+def test_quick_bench_remaining_time_follows_the_work(cache: str) -> None:
+    """The estimate printed once a fifth of the run has passed is within a factor 1.5 of the
+    time the run really still took, with numba compiling its kernels (half the run) and with
+    them cached; counting the steps equally was off by 2-5x."""
+    steps = json.loads(STEPS_MEASURED.read_text())[cache]
+    total = sum(float(d) for _, d in steps)
+    late = [(t, eta, real) for t, eta, real in _etas(steps) if t >= 0.2 * total and real > 0]
+    t, eta, real = late[0]
+    assert real / 1.5 <= eta <= 1.5 * real, (t, eta, real)
+    for t, eta, real in late:  # and no later line is off by more than 2x
+        assert real / 2.0 <= eta <= 2.0 * real, (t, eta, real)
+
+
+def test_quick_bench_learns_whether_numba_compiles() -> None:
+    """The first compile step tells a cold cache (its seconds) from a warm one."""
+    s = bm.BenchSettings.make(quick=True)
+    steps_plan = plan.step_plan(s, numba_ok=True, qp_ok=True, mink_ok=True)
+    for cache, cold in (("cold", True), ("warm", False)):
+        now = [0.0]
+        step = plan.Steps(None, steps_plan, clock=lambda t=now: t[0])
+        for message, seconds in json.loads(STEPS_MEASURED.read_text())[cache]:
+            step(message)
+            now[0] += float(seconds)
+        assert step.cold is cold
+    assert plan.expected_seconds(steps_plan, cold=True) > 2 * plan.expected_seconds(
+        steps_plan, cold=False
+    )

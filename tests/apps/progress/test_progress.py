@@ -21,6 +21,7 @@ from typer.testing import CliRunner
 
 from velfence.apps import cli, progress
 from velfence.apps.cli import app
+from velfence.errors import InvalidParameter
 
 ENV = {"COLUMNS": "200", "NO_COLOR": "1"}
 STAGE_LINE = re.compile(r"^(velfence [^:]+): \[(\d+)/(\d+)\] (.+) done in [0-9.]+ s \(elapsed")
@@ -128,6 +129,22 @@ def test_off_a_terminal_the_lines_carry_the_remaining_time(
         "velfence x: [1/2] runs done in 120.0 s (elapsed 120.0 s, ETA 0:00:40)",
         "velfence x: [2/2] plots done in 30.0 s (elapsed 150.0 s)",
     ]
+
+
+def test_a_note_is_one_line_now_and_nothing_when_quiet() -> None:
+    buf = io.StringIO()
+    console = Console(file=buf, force_terminal=False, width=200)
+    with progress.Tracker([("a", 1.0)], title="velfence x", console=console):
+        progress.note("study: reusing 60 runs")
+        assert buf.getvalue() == "velfence x: study: reusing 60 runs\n"
+    buf = io.StringIO()
+    console = Console(file=buf, force_terminal=False, width=200)
+    with progress.Tracker([("a", 1.0)], title="velfence x", console=console, quiet=True):
+        progress.note("study: reusing 60 runs")
+    assert buf.getvalue() == ""
+    progress.note("no tracker: nothing")  # a library-style call stays silent
+    with pytest.raises(InvalidParameter, match="text"):
+        progress.note(7)  # type: ignore[arg-type]
 
 
 def test_quiet_prints_nothing() -> None:
@@ -389,20 +406,50 @@ def test_sim_reports_progress_and_names_its_files(
 
 
 @pytest.mark.slow  # about 14 s: one simulated subject, one run per mode
-def test_study_reports_progress(tmp_path: Path) -> None:
+def test_study_reports_progress_and_the_reproduction_reuses_its_runs(tmp_path: Path) -> None:
     """One small study through the command line: its stages, its files, and its table's rows
-    each naming their unit."""
-    result = _invoke(
-        "study", "--subjects", "1", "--runs", "1", "--no-animation", "--out", str(tmp_path)
-    )
+    each naming their unit. The telerobotics reproduction's study part, given its folder,
+    reuses its runs (saying so) and writes the same study.json as the fresh run did."""
+    from velfence.apps.reproduce import telerobotics
+    from velfence.apps.reproduce._telerobotics_study import study_checks
+
+    out = tmp_path / "study"
+    result = _invoke("study", "--subjects", "1", "--runs", "1", "--no-animation", "--out", str(out))
     assert result.exit_code == 0, result.output
     assert _stages(result.stderr) == ["pick-and-place runs", "study files"]
-    _named_files_exist(result.stdout)
+    assert out / "study_runs.npz" in _named_files_exist(result.stdout)
     rows = [ln for ln in result.stdout.splitlines() if ln.startswith("│")]
     assert len(rows) == 7
     for row in rows:
         first = row.split("│")[1].strip()
         assert re.search(r"\[[^\]]+\]$", first), row
+
+    # the command's plan counts the study stage as seconds when it will reuse the runs
+    assert telerobotics.stages(out, subjects=1, runs=1)[-1] == ("study", telerobotics.REUSED_STUDY)
+    assert telerobotics.stages(out) == telerobotics.STAGES  # 10 x 3: another study
+    assert telerobotics.stages(None, subjects=1, runs=1) == telerobotics.STAGES
+    buf = io.StringIO()
+    console = Console(file=buf, force_terminal=False, width=300)
+    tracker = progress.Tracker([("study", 1.0)], title="velfence x", console=console)
+    with tracker:
+        checks, paths = study_checks(tmp_path / "repro", subjects=1, runs=1, study=out)
+    lines = buf.getvalue().splitlines()
+    reusing = f"velfence x: study: reusing the same study's 2 runs from {out}/study_runs.npz"
+    assert re.fullmatch(re.escape(reusing) + r" \(key [0-9a-f]{12}\)", lines[0]), lines[0]
+    assert STAGE_LINE.match(lines[1])
+    assert [p.name for p in paths] == ["study.json", "study_times.png", "study_paths.png"]
+    # the same numbers as the command's fresh run: its study.json, byte for byte
+    assert paths[0].read_bytes() == (out / "study.json").read_bytes()
+    assert len(checks) == 7
+
+
+def test_reproduce_study_option_is_checked() -> None:
+    result = _invoke("reproduce", "cospm", "--study", "out/study")
+    assert result.exit_code == 2
+    assert "--study applies to `velfence reproduce telerobotics` only" in result.stderr
+    result = _invoke("reproduce", "telerobotics", "--study", "/nonexistent/study")
+    assert result.exit_code == 2
+    assert "--study /nonexistent/study: expected the folder of a `velfence study" in result.stderr
 
 
 def test_help_documents_the_exit_codes() -> None:

@@ -145,5 +145,47 @@ def test_motion_checks_report_their_parts_to_the_running_command(monkeypatch, tm
         motion.motion_checks(tmp_path)
     first = buf.getvalue().splitlines()[0]
     assert first.startswith(
-        "velfence reproduce telerobotics: motion: 0/5 singularity runs, J⁻¹ and SR (elapsed "
+        "velfence reproduce telerobotics: motion: 0/17 singularity runs (elapsed "
     )
+
+
+def test_the_singularity_runs_report_each_execution(monkeypatch, tmp_path):
+    # The singularity runs (the motion stage's longest piece, a minute at load) reported only
+    # when they started: a CI log was silent through them. Each execution now reports; stopped
+    # at its third, the log has a line for each of the first two.
+    import io
+
+    from rich.console import Console
+
+    from velfence.apps import progress
+    from velfence.apps.reproduce import _telerobotics_motion as motion
+
+    class Stop(Exception):
+        pass
+
+    real = motion.execute
+    seen: list[int] = []
+
+    def execute(*args, **kwargs):
+        if len(seen) == 2:
+            raise Stop
+        seen.append(1)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(motion, "execute", execute)
+    buf = io.StringIO()
+    console = Console(file=buf, force_terminal=False, width=200)
+    tracker = progress.Tracker(
+        [("motion", 60.0)], title="velfence reproduce telerobotics", console=console,
+        heartbeat_period=1e-9,
+    )  # fmt: skip
+    with pytest.raises(Stop), tracker, progress.stage("motion"):
+        motion.motion_checks(tmp_path)
+    lines = [ln.split(" (elapsed")[0] for ln in buf.getvalue().splitlines()]
+    head = "velfence reproduce telerobotics: motion: "
+    assert lines[:3] == [
+        head + "0/17 singularity runs",
+        head + "1/17 singularity runs: trajectory 1, jinv",
+        head + "2/17 singularity runs: trajectory 1, sr",
+    ]
+    assert sum(n for _, n in motion.MOTION_PIECES) == 17

@@ -10,7 +10,7 @@ def test_study_checks_on_a_tiny_study(telerobotics_run):
     # x 1 run, seed 0
     assert telerobotics_run.calls["study_checks"] == (
         (telerobotics_run.out,),
-        {"subjects": 2, "runs": 1},
+        {"subjects": 2, "runs": 1, "study": None},
     )
     checks, paths = telerobotics_run.parts["study_checks"]
     names = [c.name for c in checks]

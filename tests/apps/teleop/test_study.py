@@ -132,3 +132,73 @@ def test_tiny_study_summary_and_files(tmp_path):
         run_study(0)
     with pytest.raises(InvalidParameter, match="seed"):
         assisted_run(seed=-1)
+
+
+# ------------------------------------------------------------------ reusing a study's runs
+# Two runs per study, cut at 2 s each: half a second, and every field of a study.
+SHORT = {"time_limit": 2.0}
+
+
+def _same(a, b) -> None:
+    """Every field of two studies equal, bit for bit (the traces as arrays)."""
+    assert a.records == b.records
+    assert a.profiles == b.profiles
+    assert (a.runs, a.seed, a.rate, a.tick, a.time_limit) == (
+        b.runs, b.seed, b.rate, b.tick, b.time_limit,
+    )  # fmt: skip
+    assert list(a.traces) == list(b.traces)
+    for k in a.traces:
+        assert a.traces[k].dtype == b.traces[k].dtype
+        assert np.array_equal(a.traces[k], b.traces[k]), k
+    assert json.dumps(a.to_dict()) == json.dumps(b.to_dict())
+
+
+def test_saved_runs_are_reused_only_for_the_same_study(tmp_path):
+    from velfence.apps.teleop.study import STUDY_RUNS, load_runs, runs_key, save_runs, study_key
+
+    first = run_study(1, 1, 0, **SHORT)
+    path = save_runs(first, tmp_path)
+    assert path == tmp_path / STUDY_RUNS
+    assert runs_key(tmp_path) == study_key(1, 1, 0, **SHORT)
+    assert runs_key(tmp_path / "none") is None
+    reused, why = load_runs(tmp_path, study_key(1, 1, 0, **SHORT))
+    assert reused is not None, why
+    assert why.startswith("the same study's 2 runs from ")
+    _same(reused, run_study(1, 1, 0, **SHORT))  # a fresh run of the same study
+    # Anything that changes the runs is another study: not reused.
+    for other in (
+        study_key(1, 1, 1, **SHORT),
+        study_key(2, 1, 0, **SHORT),
+        study_key(1, 2, 0, **SHORT),
+        study_key(1, 1, 0, time_limit=3.0),
+        study_key(1, 1, 0, rate=50.0, **SHORT),
+        study_key(1, 1, 0),
+    ):
+        result, why = load_runs(tmp_path, other)
+        assert result is None
+        assert why == f"{path} holds a different study (settings, seed, velfence version or code)"
+    assert load_runs(tmp_path / "none", study_key(1, 1, 0, **SHORT)) == (
+        None,
+        f"no {STUDY_RUNS} in {tmp_path / 'none'}",
+    )
+    path.write_bytes(b"not a zip")
+    result, why = load_runs(tmp_path, study_key(1, 1, 0, **SHORT))
+    assert result is None
+    assert runs_key(tmp_path) is None
+    assert why.startswith(f"{path} is unreadable (")
+
+
+def test_study_key_and_runs_files_refuse_bad_input(tmp_path):
+    from velfence.apps.teleop.study import load_runs, save_runs, study_key
+
+    key = study_key()
+    assert len(key) == 64
+    assert key == study_key(10, 3, 0, rate=100.0, tick=0.02, time_limit=400.0)
+    with pytest.raises(InvalidParameter, match="seed"):
+        study_key(seed=-1)
+    with pytest.raises(InvalidParameter, match="result"):
+        save_runs("study", tmp_path)
+    with pytest.raises(InvalidParameter, match="folder"):
+        load_runs(b"out/study", key)
+    with pytest.raises(InvalidParameter, match="key"):
+        load_runs(tmp_path, 7)

@@ -27,7 +27,8 @@ Modules: :mod:`~velfence.apps.bench.timing` (the measuring primitive),
 (the table rows), :mod:`~velfence.apps.bench.cases` (one module per family of cases),
 :mod:`~velfence.apps.bench.report` (the report and its Markdown), :mod:`~velfence.apps.bench.run`
 (the
-run), :mod:`~velfence.apps.bench.settings` and :mod:`~velfence.apps.bench.machine`.
+run), :mod:`~velfence.apps.bench.plan` (each step's expected seconds, which the progress
+follows), :mod:`~velfence.apps.bench.settings` and :mod:`~velfence.apps.bench.machine`.
 """
 
 from __future__ import annotations

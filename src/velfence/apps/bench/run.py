@@ -4,13 +4,14 @@ from __future__ import annotations
 
 import importlib.util
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 
 from velfence._validate import check_flag
 from velfence.apps.bench.cases import controllers, peers, redundancy, shaping
 from velfence.apps.bench.cases import filter as filter_cases
 from velfence.apps.bench.cases import polytope as polytope_cases
 from velfence.apps.bench.machine import machine_info
+from velfence.apps.bench.plan import Progress, Steps, step_plan
 from velfence.apps.bench.report import BenchReport
 from velfence.apps.bench.rows import (
     BatchRow,
@@ -36,23 +37,6 @@ from velfence.errors import InvalidParameter
 
 __all__ = ["Progress", "nd_targets", "run_benchmarks", "run_settings", "targets"]
 
-#: ``progress(message, fraction_done)``, fraction in [0, 1].
-Progress = Callable[[str, float], None]
-
-
-class _Steps:
-    """Progress bookkeeping: ``progress(message, fraction done)``."""
-
-    def __init__(self, progress: Progress | None, total: int) -> None:
-        self.progress = progress
-        self.total = max(1, total)
-        self.done = 0
-
-    def __call__(self, message: str) -> None:
-        if self.progress is not None:
-            self.progress(message, min(1.0, self.done / self.total))
-        self.done += 1
-
 
 def _check_progress(progress: object) -> None:
     if progress is not None and not callable(progress):
@@ -60,28 +44,6 @@ def _check_progress(progress: object) -> None:
             f"progress: expected a callable progress(message, fraction) or None, got "
             f"{type(progress).__name__}"
         )
-
-
-def _step_count(
-    s: BenchSettings, *, numba_ok: bool, qp_ok: bool, mink_ok: bool | None = None
-) -> int:
-    """Steps of one run: the progress hook is called once before each."""
-    n_latency = len(s.latency_edges)
-    if mink_ok is None:
-        mink_ok = filter_cases.mink_ok()
-    n_cases = len(polytope_cases.CASES)
-    return (
-        1  # states and timer overhead
-        + len(shaping.METHODS) * n_latency  # latency per (polygon, method)
-        + n_latency * qp_ok  # QP baseline per polygon
-        + len(s.batch_edges) * len(shaping.METHODS) * (2 if numba_ok else 1)  # batch
-        + 2  # joint-stop limiter, two methods
-        + len(redundancy.ARMS) * len(redundancy.obstacle_counts(s))  # control cycles
-        + 2  # cobot, resolved rate
-        + n_cases * (1 + qp_ok)  # n-D latency, n-D QP baseline
-        + n_cases * ((len(s.nd_batch_n) if numba_ok else 0) + 1)  # n-D batch
-        + filter_cases.step_count(qp_ok=qp_ok, with_mink=mink_ok)  # safety filter
-    )
 
 
 def targets(
@@ -231,7 +193,9 @@ def run_benchmarks(*, quick: bool = False, progress: Progress | None = None) -> 
         quick: Small sizes and few repeats (a few seconds, for smoke tests); the numbers are
             then only indicative.
         progress: Called as ``progress(message, fraction_done)`` before each step, with
-            ``fraction_done`` in [0, 1], and once with ``("done", 1.0)`` at the end.
+            ``fraction_done`` in [0, 1] the share of the run's expected seconds done (each step
+            weighted by its expected cost, :mod:`velfence.apps.bench.plan`), and once with
+            ``("done", 1.0)`` at the end.
 
     Returns:
         The :class:`~velfence.apps.bench.report.BenchReport`.
@@ -271,7 +235,7 @@ def run_settings(s: BenchSettings, *, progress: Progress | None = None) -> Bench
     if not qp_ok:
         notes.append("qpsolvers or daqp is not installed: the QP baseline is skipped.")
     mink_ok = filter_cases.mink_ok()
-    step = _Steps(progress, _step_count(s, numba_ok=numba_ok, qp_ok=qp_ok, mink_ok=mink_ok))
+    step = Steps(progress, step_plan(s, numba_ok=numba_ok, qp_ok=qp_ok, mink_ok=mink_ok))
 
     step("states and timer overhead")
     pools = shaping.zone_pools(s, notes)

@@ -34,7 +34,7 @@ import numpy as np
 
 from velfence.apps import progress
 from velfence.apps.reproduce.base import Check
-from velfence.apps.teleop.study import StudyResult, run_study
+from velfence.apps.teleop.study import StudyResult, load_runs, run_study, study_key
 from velfence.apps.teleop.task import CONDITIONS
 
 __all__ = ["study_checks"]
@@ -63,7 +63,12 @@ def _ordering(
 
 
 def study_checks(
-    out: Path, *, subjects: int = 10, runs: int = 3, seed: int = 0
+    out: Path,
+    *,
+    subjects: int = 10,
+    runs: int = 3,
+    seed: int = 0,
+    study: str | Path | None = None,
 ) -> tuple[list[Check], list[Path]]:
     """Run the simulated study and check it against §7.2 (module docstring).
 
@@ -73,18 +78,31 @@ def study_checks(
         subjects: Simulated subjects (thesis 10).
         runs: Runs per mode per subject (thesis 3).
         seed: Study seed.
+        study: A ``velfence study`` output folder whose runs are reused when they are this
+            study (:func:`~velfence.apps.teleop.study.load_runs`: same key); the running
+            command says whether they were. None: run the study.
 
     Returns:
         ``(checks, artifacts)``.
     """
     from velfence.apps.viz.study import write_study
 
+    reused = None
+    if study is not None:
+        reused, why = load_runs(study, study_key(subjects, runs, seed))
+        progress.note(
+            ("study: reusing " if reused is not None else "study: running it, not reusing: ") + why
+        )
     with progress.stage("study") as report:
-        result = run_study(
-            subjects,
-            runs,
-            seed,
-            progress=lambda done, n: report(done, n, f"pick-and-place run {done}/{n}"),
+        result = (
+            reused
+            if reused is not None
+            else run_study(
+                subjects,
+                runs,
+                seed,
+                progress=lambda done, n: report(done, n, f"pick-and-place run {done}/{n}"),
+            )
         )
         report(1, 1, "study.json, study_times.png, study_paths.png")
         paths = write_study(result, out)

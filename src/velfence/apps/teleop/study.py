@@ -15,27 +15,52 @@ Seeds: subject ``s``'s profile comes from ``default_rng([seed, s])``, run ``r`` 
 ``c`` from ``SeedSequence([seed, s, c, r])``, so a study is reproducible and adding subjects does
 not change the earlier ones. Runs of one subject share the profile (no learning between runs —
 the thesis trained subjects to a uniform comfort level first).
+
+**Reusing a study's runs.** ``velfence study`` and ``velfence reproduce telerobotics`` run the
+same 60-run study (minutes of CPU). :func:`save_runs` writes a study's runs to
+``study_runs.npz`` in its output folder with a key, :func:`study_key`: a hash of everything that
+determines them (subjects, runs per mode, seed, rate, tick, time limit, the velfence and NumPy
+versions and the velfence source code itself). :func:`load_runs` gives them back only when the
+key of the study asked for is the same; the loaded runs equal a fresh run's bit for bit.
 """
 
 from __future__ import annotations
 
+import hashlib
+import importlib.metadata
+import json
 import math
+import os
+import zipfile
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from velfence._typing import FloatArray
-from velfence._validate import check_positive, check_positive_int, step_count
+from velfence._validate import check_positive, check_positive_int, describe, step_count
 from velfence.apps.teleop.operator import OperatorProfile
 from velfence.apps.teleop.task import CONDITIONS, MAX_TICKS, TaskRecord, TaskRun, run_task
-from velfence.errors import InvalidParameter
+from velfence.errors import InvalidParameter, VelfenceError
 
 #: Most runs per condition of one study (``n_subjects * runs``).
 MAX_RUNS = 10_000
 
-__all__ = ["StudyResult", "assisted_run", "run_study"]
+#: The file of a study's runs in its output folder (:func:`save_runs`).
+STUDY_RUNS = "study_runs.npz"
+
+__all__ = [
+    "STUDY_RUNS",
+    "StudyResult",
+    "assisted_run",
+    "load_runs",
+    "run_study",
+    "runs_key",
+    "save_runs",
+    "study_key",
+]
 
 
 @dataclass(frozen=True)
@@ -48,6 +73,9 @@ class StudyResult:
         traces: ``(subject, condition, run) -> trace`` (wrist and fingertip path, decimated).
         runs: Runs per condition per subject.
         seed: The study seed.
+        rate: Session control rate [Hz].
+        tick: Operator period [s].
+        time_limit: Per-run limit [s].
     """
 
     records: tuple[TaskRecord, ...]
@@ -55,6 +83,9 @@ class StudyResult:
     traces: dict[tuple[int, str, int], FloatArray]
     runs: int
     seed: int
+    rate: float = 100.0
+    tick: float = 0.02
+    time_limit: float = 400.0
 
     @property
     def n_subjects(self) -> int:
@@ -196,8 +227,198 @@ def run_study(
                 if progress is not None:
                     progress(len(records), total)
     return StudyResult(
-        records=tuple(records), profiles=profiles, traces=traces, runs=int(runs), seed=int(seed)
+        records=tuple(records),
+        profiles=profiles,
+        traces=traces,
+        runs=int(runs),
+        seed=int(seed),
+        rate=float(rate),
+        tick=float(tick),
+        time_limit=float(time_limit),
     )
+
+
+def _source_digest() -> str:
+    """SHA-256 of velfence's Python sources (the code a study runs), paths included."""
+    root = Path(__file__).resolve().parents[2]  # .../velfence
+    h = hashlib.sha256()
+    for f in sorted(root.rglob("*.py")):
+        h.update(f.relative_to(root).as_posix().encode())
+        h.update(b"\0")
+        h.update(f.read_bytes())
+    return h.hexdigest()
+
+
+def _version(dist: str) -> str:
+    try:
+        return importlib.metadata.version(dist)
+    except importlib.metadata.PackageNotFoundError:
+        return "not installed"
+
+
+def study_key(
+    n_subjects: int = 10,
+    runs: int = 3,
+    seed: int = 0,
+    *,
+    rate: float = 100.0,
+    tick: float = 0.02,
+    time_limit: float = 400.0,
+) -> str:
+    """The key of a study: a hash of everything that determines its runs.
+
+    The arguments of :func:`run_study`, the velfence, velfence-core and NumPy versions and a
+    hash of velfence's source files (so a changed line of code is a different study even at the
+    same version number).
+
+    Args:
+        n_subjects: Simulated subjects.
+        runs: Runs per condition per subject.
+        seed: Study seed.
+        rate: Session control rate [Hz].
+        tick: Operator period [s].
+        time_limit: Per-run limit [s].
+
+    Returns:
+        A 64-character hexadecimal SHA-256.
+
+    Raises:
+        InvalidParameter: a count, seed or period out of range (as :func:`run_study`).
+    """
+    what = {
+        "n_subjects": check_positive_int("n_subjects", n_subjects, maximum=MAX_RUNS, example=10),
+        "runs": check_positive_int("runs", runs, maximum=MAX_RUNS, example=3),
+        "seed": check_positive_int("seed", seed, minimum=0, example=0),
+        "rate": float(check_positive("rate", rate, unit="Hz")),
+        "tick": float(check_positive("tick", tick, unit="s")),
+        "time_limit": float(check_positive("time_limit", time_limit, unit="s")),
+        "velfence": _version("velfence"),
+        "velfence-core": _version("velfence-core"),
+        "numpy": np.__version__,
+        "source": _source_digest(),
+    }
+    return hashlib.sha256(json.dumps(what, sort_keys=True).encode()).hexdigest()
+
+
+def _key_of(result: StudyResult) -> str:
+    return study_key(
+        result.n_subjects,
+        result.runs,
+        result.seed,
+        rate=result.rate,
+        tick=result.tick,
+        time_limit=result.time_limit,
+    )
+
+
+def _folder(name: str, x: Any) -> Path:
+    if isinstance(x, (bytes, bytearray)) or not isinstance(x, (str, os.PathLike)):
+        raise InvalidParameter(f"{name}: expected a folder path (str or Path), got {describe(x)}")
+    text = os.fspath(x)
+    if not isinstance(text, str) or not text or "\0" in text or len(text) > 4096:
+        raise InvalidParameter(f"{name}: expected a non-empty folder path, got {describe(x)}")
+    return Path(text)
+
+
+def save_runs(result: StudyResult, folder: str | Path) -> Path:
+    """Write a study's runs, with their :func:`study_key`, to ``folder/study_runs.npz``.
+
+    Args:
+        result: The study.
+        folder: Its output folder (created if missing).
+
+    Returns:
+        The file written.
+
+    Raises:
+        InvalidParameter: ``result`` is not a :class:`StudyResult` or ``folder`` not a path.
+    """
+    if not isinstance(result, StudyResult):
+        raise InvalidParameter(f"result: expected a StudyResult, got {describe(result)}")
+    out = _folder("folder", folder)
+    out.mkdir(parents=True, exist_ok=True)
+    keys = list(result.traces)
+    meta = {
+        "runs": result.runs,
+        "seed": result.seed,
+        "rate": result.rate,
+        "tick": result.tick,
+        "time_limit": result.time_limit,
+        "records": [r.to_dict() for r in result.records],
+        "profiles": [p.to_dict() for p in result.profiles],
+        "traces": [list(k) for k in keys],
+    }
+    arrays: dict[str, Any] = {"key": np.array(_key_of(result)), "meta": np.array(json.dumps(meta))}
+    arrays.update({f"trace_{i}": np.asarray(result.traces[k]) for i, k in enumerate(keys)})
+    path = out / STUDY_RUNS
+    np.savez_compressed(path, **arrays)
+    return path
+
+
+def runs_key(folder: str | Path) -> str | None:
+    """The :func:`study_key` of the runs saved in ``folder``, read alone (fast).
+
+    Args:
+        folder: A study's output folder.
+
+    Returns:
+        The key, or None when there is no readable ``study_runs.npz``.
+
+    Raises:
+        InvalidParameter: ``folder`` is not a path.
+    """
+    path = _folder("folder", folder) / STUDY_RUNS
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            return str(data["key"])
+    except (OSError, ValueError, KeyError, zipfile.BadZipFile):
+        return None
+
+
+def load_runs(folder: str | Path, key: str) -> tuple[StudyResult | None, str]:
+    """The runs :func:`save_runs` wrote to ``folder``, if they are the study of ``key``.
+
+    Args:
+        folder: A study's output folder (``velfence study --out``).
+        key: The :func:`study_key` of the study wanted.
+
+    Returns:
+        ``(result, why)``: the study (None when there is no file, it is unreadable or its key
+        differs) and one line saying which.
+
+    Raises:
+        InvalidParameter: ``folder`` is not a path or ``key`` not a string.
+    """
+    path = _folder("folder", folder) / STUDY_RUNS
+    if not isinstance(key, str):
+        raise InvalidParameter(f"key: expected the str of study_key(), got {describe(key)}")
+    if not path.is_file():
+        return None, f"no {STUDY_RUNS} in {path.parent}"
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            if str(data["key"]) != key:
+                return None, (
+                    f"{path} holds a different study (settings, seed, velfence version or code)"
+                )
+            meta = json.loads(str(data["meta"]))
+            traces = {
+                (int(s), str(c), int(r)): np.array(data[f"trace_{i}"])
+                for i, (s, c, r) in enumerate(meta["traces"])
+            }
+        result = StudyResult(
+            records=tuple(TaskRecord(**d) for d in meta["records"]),
+            profiles=tuple(OperatorProfile(**d) for d in meta["profiles"]),
+            traces=traces,
+            runs=int(meta["runs"]),
+            seed=int(meta["seed"]),
+            rate=float(meta["rate"]),
+            tick=float(meta["tick"]),
+            time_limit=float(meta["time_limit"]),
+        )
+    except (OSError, ValueError, KeyError, TypeError, zipfile.BadZipFile, VelfenceError) as exc:
+        return None, f"{path} is unreadable ({type(exc).__name__}: {exc})"
+    n = len(result.records)
+    return result, f"the same study's {n} runs from {path} (key {key[:12]})"
 
 
 def assisted_run(

@@ -387,12 +387,15 @@ def batch(s: BenchSettings, numba_ok: bool, step: Step) -> list[PolytopeBatchRow
         P, V = _batch_states(poly, big, rng)
         label = (case, poly.dim, poly.n_facets)
         if numba_ok:
+            # The first size's step includes the compilation (the progress plan counts it there).
+            step(f"batch: PolytopeShaper, {case}, numba, N={s.nd_batch_n[0]}")
             fast = nd_shaper(poly, s, accelerate=True)
             t0 = time.perf_counter()
             fast.shape_batch(P[:16], V[:16])  # compiles (or loads the cache) once per process
             compile_s = time.perf_counter() - t0
-            for n in s.nd_batch_n:
-                step(f"batch: PolytopeShaper, {case}, numba, N={n}")
+            for j, n in enumerate(s.nd_batch_n):
+                if j:
+                    step(f"batch: PolytopeShaper, {case}, numba, N={n}")
                 Pn, Vn = P[:n], V[:n]
                 reps = max(s.batch_repeats, min(101, 100_000 // n))
                 for backend, threads in (("numba", 0), ("numba, 1 thread", 1)):
