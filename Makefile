@@ -18,6 +18,10 @@ $(STAMP): pyproject.toml core/pyproject.toml core/CMakeLists.txt core/src/*.c co
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e '.[all,dev]'
 	$(BIN)/python -m pip install --quiet ./core
+	# numba's kernels (the Python route's batch loops) compiled once, into numba's on-disk cache
+	# beside the sources: otherwise the first process of every `make test`, `make demo` or
+	# benchmark to call them compiles them again (about a minute of CPU).
+	$(BIN)/python -c "import velfence.shaping.backend as b; print('numba kernels ready:', len(b.precompile()))"
 	touch $(STAMP)
 
 demo: $(STAMP)
