@@ -190,6 +190,10 @@ def any_start() -> Iterator[None]:
     A campaign draws its filters' first states anywhere, beyond a limit too, on purpose, and
     measures what follows: the warning a user's loop gets for such a start is not news here.
     Internal API of the campaigns (``verify`` runs its cases under it too).
+
+    Returns:
+        A context manager (``with any_start(): ...``) that is also a function decorator
+        (``@any_start()``); the warning filters are restored on leaving it.
     """
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", StartedInViolation)
