@@ -126,6 +126,7 @@ def states(draw: st.DrawFn) -> tuple[np.ndarray, np.ndarray]:
 
 
 @requires("qpsolvers", "daqp")
+@ANY_START
 @given(states())
 def test_joint_mode_equals_an_independent_qp(state: tuple[np.ndarray, np.ndarray]) -> None:
     q, u = state
@@ -140,6 +141,7 @@ def test_joint_mode_equals_an_independent_qp(state: tuple[np.ndarray, np.ndarray
 
 
 @requires("qpsolvers", "daqp")
+@ANY_START
 @given(states())
 def test_three_zone_joints_and_weights_equal_an_independent_qp(
     state: tuple[np.ndarray, np.ndarray],
@@ -154,6 +156,7 @@ def test_three_zone_joints_and_weights_equal_an_independent_qp(
 
 
 @requires("qpsolvers", "daqp")
+@ANY_START
 @given(states())
 def test_obstacle_rows_equal_an_independent_qp(state: tuple[np.ndarray, np.ndarray]) -> None:
     q, u = state

@@ -100,8 +100,8 @@ _NAMED = 5  # violated constraints named in the StartedInViolation message
 #: filter's own closed loop holds its constraints to 1e-9 (docs/safety_filter.md §6), so a
 #: shallower start is where a run of it stopped (the report still lists it).
 _START_TOLERANCE = 1e-9
-_PACKAGE_DIR = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))  # velfence/
-_APPS_DIR = os.path.join(_PACKAGE_DIR, "apps") + os.sep  # an application is a caller too
+_PACKAGE_DIR = os.path.dirname(os.path.dirname(os.path.abspath(__file__))) + os.sep  # velfence/
+_APPS_DIR = os.path.join(_PACKAGE_DIR, "apps", "")  # an application is a caller too
 _COMMAND_CAP = 1e3  # commands are shortened beyond this multiple of the fastest joint limit
 
 
@@ -126,7 +126,7 @@ def _warn_started(violations: Sequence[tuple[str, float | None]], spring_gain: f
     while (
         frame is not None
         and frame.f_code.co_filename.startswith(_PACKAGE_DIR)
-        and not (frame.f_code.co_filename.startswith(_APPS_DIR))
+        and not frame.f_code.co_filename.startswith(_APPS_DIR)
     ):
         frame = frame.f_back  # type: ignore[assignment]
         level += 1
@@ -838,7 +838,10 @@ class SafetyFilter(InvalidPolicy):
         self._started = True
         cyc = self._ccycle
         if cyc.stages & _STAGE_RECOVERY:
-            _, _, level, ka, kb, dist, _, _ = cyc.rows()
+            try:
+                _, _, level, ka, kb, dist, _, _ = cyc.rows()
+            except RuntimeError:  # pragma: no cover - "no successful cycle yet"
+                return
             keys = list(zip(level.tolist(), ka.tolist(), kb.tolist(), strict=True))
             names = self._c_names(keys)
             viol = np.flatnonzero(dist < 0.0).tolist()
