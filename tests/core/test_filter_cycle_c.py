@@ -226,6 +226,7 @@ def test_safety_filter_runs_the_c_cycle_and_equals_explain() -> None:
     assert sf.cycle_in_c
     twin, _ = _filter_and_cycle()  # the Python route
     rng = np.random.default_rng(9)
+    seen_inside = 0
     for _ in range(150):
         q = rng.uniform(-2.5, 2.5, 7)
         u = rng.normal(size=7) * 2.0
@@ -237,7 +238,15 @@ def test_safety_filter_runs_the_c_cycle_and_equals_explain() -> None:
         assert (r.stages, r.dropped, r.relaxed, r.deadline, r.rate_override) == (
             ref.stages, ref.dropped, ref.relaxed, ref.deadline, ref.rate_override,
         )  # fmt: skip
+        # the violated constraints and their depths (the kinematics' round-off apart)
+        assert [nm for nm, _ in r.violations] == [nm for nm, _ in ref.violations]
+        np.testing.assert_allclose(
+            [d for _, d in r.violations], [d for _, d in ref.violations], rtol=1e-9, atol=1e-12
+        )
+        assert ("recovery" in r.stages) == bool(r.violations)
+        seen_inside += bool(r.violations)
         np.testing.assert_array_equal(sf.filter(q, u, previous=p), r.output)  # type: ignore[attr-defined]
+    assert seen_inside > 10  # the states beyond a joint limit, outside the box, in the sphere
     Q = rng.uniform(-2.0, 2.0, (20, 7))
     V = rng.normal(size=(20, 7))
     batch = sf.shape_batch(Q, V)  # type: ignore[attr-defined]

@@ -34,6 +34,9 @@ from velfence.mechanisms.chain import DHChain
 _filter = pytest.importorskip("velfence_core._filter")
 from velfence.filter.ccycle import filter_cycle  # noqa: E402
 
+#: The scenes start anywhere, inside a limit or beyond it: the start warning is not the point.
+pytestmark = pytest.mark.filterwarnings("ignore::velfence.errors.StartedInViolation")
+
 _STAGE_BITS = {
     "projection": _filter.STAGE_PROJECTION,
     "recovery": _filter.STAGE_RECOVERY,
@@ -243,6 +246,12 @@ def _check(scene: dict[str, Any]) -> None:
         bits |= _STAGE_BITS[s]
     if not borderline:
         assert info["stages"] == bits, (ref.stages, info)
+        # the violated rows and their depths: the C cycle's distances below zero
+        viol = np.flatnonzero(dist < 0.0).tolist()
+        assert [nm for nm, _ in ref.violations] == [names[i] for i in viol]
+        np.testing.assert_allclose(
+            [d for _, d in ref.violations], -dist[viol], rtol=1e-9, atol=1e-12
+        )
         assert {_name(k, scene["facets"]) for k in fc.relaxed()} == set(ref.relaxed)
     assert info["deadline"] == {None: 0, "iterations": 1, "time": 2}[ref.deadline]
     # the active rows, up to round-off at the 1e-9 threshold

@@ -16,7 +16,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from optional import requires
-from velfence.errors import InvalidInput, InvalidParameter
+from velfence.errors import InvalidInput, InvalidParameter, StartedInViolation
 from velfence.filter import (
     FilterResult,
     JointLimits,
@@ -38,6 +38,8 @@ BOX = ConvexPolytope.box(P0 - 0.15, P0 + 0.15)
 VMAX = np.full(7, 1.5)
 AMAX = np.array([10.0, 10.0, 12.0, 12.0, 15.0, 15.0, 20.0])
 DAQP_PRIMAL_TOL = 1e-14
+#: Hypothesis' states start anywhere, inside a limit or beyond it: the warning is not the point.
+ANY_START = pytest.mark.filterwarnings("ignore::velfence.errors.StartedInViolation")
 
 
 def limits(acc: bool = False) -> JointLimits:
@@ -124,6 +126,7 @@ def states(draw: st.DrawFn) -> tuple[np.ndarray, np.ndarray]:
 
 
 @requires("qpsolvers", "daqp")
+@ANY_START
 @given(states())
 def test_joint_mode_equals_an_independent_qp(state: tuple[np.ndarray, np.ndarray]) -> None:
     q, u = state
@@ -138,6 +141,7 @@ def test_joint_mode_equals_an_independent_qp(state: tuple[np.ndarray, np.ndarray
 
 
 @requires("qpsolvers", "daqp")
+@ANY_START
 @given(states())
 def test_three_zone_joints_and_weights_equal_an_independent_qp(
     state: tuple[np.ndarray, np.ndarray],
@@ -152,6 +156,7 @@ def test_three_zone_joints_and_weights_equal_an_independent_qp(
 
 
 @requires("qpsolvers", "daqp")
+@ANY_START
 @given(states())
 def test_obstacle_rows_equal_an_independent_qp(state: tuple[np.ndarray, np.ndarray]) -> None:
     q, u = state
@@ -164,6 +169,7 @@ def test_obstacle_rows_equal_an_independent_qp(state: tuple[np.ndarray, np.ndarr
 
 
 @requires("qpsolvers", "daqp")
+@ANY_START
 @given(states(), st.sampled_from([3, 6]))
 def test_twist_mode_equals_damped_least_squares_under_the_rows(
     state: tuple[np.ndarray, np.ndarray], size: int
@@ -193,6 +199,7 @@ def test_unconstrained_twist_is_the_damped_least_squares_solution() -> None:
 
 
 # ------------------------------------------------------------------------ bounds at the output
+@ANY_START
 @given(states())
 def test_reported_rows_hold_at_the_output(state: tuple[np.ndarray, np.ndarray]) -> None:
     q, u = state
@@ -292,10 +299,15 @@ def test_recovery_from_outside_the_box() -> None:
     q[1] += 0.3  # the TCP swings out of the box
     d0 = BOX.signed_distances(ARM.fk(q)).min()
     assert d0 < 0
-    r = f.explain(q, np.zeros(7))
+    with pytest.warns(StartedInViolation, match=r"1 constraint already violated: TCP face "):
+        r = f.explain(q, np.zeros(7))
     assert r.zone.startswith("outside")
     assert "recovery" in r.stages
     assert any("TCP face" in s for s in r.active_names)
+    # the violated face and its depth, as the polytope measures them
+    out = np.flatnonzero(BOX.signed_distances(ARM.fk(q)) < 0)
+    assert [nm for nm, _ in r.violations] == [f"TCP face {BOX.facet_names[i]}" for i in out]
+    np.testing.assert_allclose([d for _, d in r.violations], [-d0], rtol=1e-12)
     qs = _run(f, q, [np.zeros(7)] * 1500, dt, twist=False)
     d = np.array([BOX.signed_distances(ARM.fk(x)).min() for x in qs])
     assert np.all(np.diff(d[d < 0]) > 0)  # the violation shrinks every step while outside
@@ -306,10 +318,14 @@ def test_recovery_past_a_joint_limit() -> None:
     f = SafetyFilter(ARM, limits=limits(), dt=0.002)
     q = Q0.copy()
     q[2] = LIM[2, 1] + 0.05
-    r = f.explain(q, np.full(7, 0.3))
+    with pytest.warns(StartedInViolation, match=r"joint 2 position \(upper\) \(0\.05 rad deep\)"):
+        r = f.explain(q, np.full(7, 0.3))
     assert r.output[2] < 0  # back toward the range, against the command
     assert "joint 2 position (upper)" in r.active_names
     assert r.zone.startswith("outside")
+    assert len(r.violations) == 1
+    assert r.violations[0][0] == "joint 2 position (upper)"
+    assert r.violations[0][1] == pytest.approx(0.05, rel=1e-12)
 
 
 # ------------------------------------------------------------------------ priorities
@@ -318,7 +334,8 @@ def test_workspace_conflicting_with_joint_limits_gives_way() -> None:
     q = Q0.copy()
     q[1] += 0.3  # outside the box; recovery needs ~0.05 m/s, the joints allow ~1e-4 m/s
     f = SafetyFilter(ARM, limits=slow, workspace=WorkspaceLimit(BOX, buffer=0.05))
-    r = f.explain(q, np.zeros(7))
+    with pytest.warns(StartedInViolation):
+        r = f.explain(q, np.zeros(7))
     assert r.dropped == ("workspace",)
     assert np.all(np.abs(r.output) <= 1e-4 * (1 + 1e-12))
     # relaxed to "no further out": the TCP does not move further out of any violated face
@@ -339,6 +356,8 @@ def test_absurd_commands_are_shortened_not_answered_with_zero() -> None:
     f = SafetyFilter(ARM, limits=limits(), workspace=WorkspaceLimit(BOX, buffer=0.05))
     J = ARM.jacobian(q)
     d = BOX.signed_distances(ARM.fk(q))
+    with pytest.warns(StartedInViolation):  # the first cycle only
+        f.explain(q, np.zeros(7))
     for mag in (1e6, 1e20, 1e140):
         r = f.explain(q, np.full(7, mag))
         assert "command-scaled" in r.stages
@@ -456,7 +475,9 @@ def test_planar_arm_in_the_plane() -> None:
     )
     q = np.array([0.5, 0.5, 0.5])
     assert isinstance(arm, Kinematics)
-    x = f.filter_twist(q, [0.3, -0.2])
+    depth = -square.signed_distances(arm.fk(q)).min()  # the TCP starts above the square
+    with pytest.warns(StartedInViolation, match=f"TCP face y_max \\({depth:.4g} m deep\\)"):
+        x = f.filter_twist(q, [0.3, -0.2])
     assert x.shape == (3,)
     assert np.all(np.isfinite(x))
 
@@ -472,6 +493,7 @@ def test_shape_batch_equals_loop() -> None:
 
 
 @requires("qpsolvers", "daqp")
+@ANY_START
 @given(states())
 def test_a_full_weight_matrix_equals_an_independent_qp(
     state: tuple[np.ndarray, np.ndarray],

@@ -179,6 +179,7 @@ SPECS: dict[str, F | C] = {
         lambda: call(_replayed(), _shaper(), tol=1e-6),
         types={"s": "object", "cs": "object", "bag": "text", "group": "text"},
     ),
+    "soak_filter.any_start": F(lambda: call()),
     "soak_filter.clearance": F(
         lambda: call(_SEG, np.array([0.05, 0.05]), np.array([[0.5, 0.0, 0.5]]), np.array([0.1])),
         nonfinite={"out": "documented: inf when there is no sphere (no link can touch one)"},

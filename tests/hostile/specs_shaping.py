@@ -85,6 +85,12 @@ def safety_filter() -> object:
     )
 
 
+def _sphere_obstacle() -> object:
+    from velfence.filter import SphereObstacle
+
+    return SphereObstacle([0.0, 0.3, 0.6], radius=0.05)
+
+
 def _separation_parameters() -> object:
     from velfence.filter import SeparationParameters
 
@@ -635,6 +641,11 @@ SPECS: dict[str, F | C] = {
         instance=_approach_rows,
     ),
     "filter.speed_cap_directions": F(lambda: call(3), types={"dim": "count"}),
+    "filter.LinkClearances": C(record="output record of link_clearances()"),
+    "filter.link_clearances": F(
+        lambda: call(_arm(), [_sphere_obstacle()], np.array([_Q7, _Q7])),
+        types={"robot": "object", "obstacles": "object", "positions": "vector"},
+    ),
     "filter.separation_distance": F(
         lambda: call(1.0, parameters=_separation_parameters(), human_speed=1.2),
         types={"robot_speed": "scalar", "parameters": "object", "human_speed": "nonneg"},

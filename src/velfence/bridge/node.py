@@ -34,6 +34,7 @@ import math
 import signal
 import threading
 import time
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -47,7 +48,7 @@ from velfence.bridge import msgs
 from velfence.bridge.config import BridgeConfig, QosSettings, dds_topic
 from velfence.bridge.transforms import TransformStore
 from velfence.bridge.typehash import user_data
-from velfence.errors import InvalidParameter, VelfenceError
+from velfence.errors import InvalidParameter, StartedInViolation, VelfenceError
 from velfence.geometry.frames import body_to_world, world_to_body
 from velfence.io.sensors import accept_sensor_message
 
@@ -470,7 +471,10 @@ class BridgeNode:
         """One throw-away call of the shaper (then reset: a stateful shaper forgets it)."""
         cs = self._cs
         # A state the shaper refuses (VelfenceError) is fine: its code paths were still loaded.
-        with contextlib.suppress(VelfenceError):
+        # The zero state is no robot's: a safety filter's start warning there would be false (a
+        # joint range may exclude 0), and the reset below re-arms it for the first real state.
+        with contextlib.suppress(VelfenceError), warnings.catch_warnings():
+            warnings.simplefilter("ignore", StartedInViolation)
             cs.shaper.explain(np.zeros(cs.state_dim), np.zeros(cs.command_dim))
         reset = getattr(cs.shaper, "reset", None)
         if callable(reset):

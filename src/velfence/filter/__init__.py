@@ -25,7 +25,8 @@ projection under the metric, its backends, cap and warm start), :mod:`~velfence.
 (one cycle's stacked rows and their keys), :mod:`~velfence.filter.parts` (the validated parts,
 checked at construction), :mod:`~velfence.filter.filter` (:class:`SafetyFilter`),
 :mod:`~velfence.filter.twist` (:class:`TwistMode`: the filter in twist mode as a shaper on
-``(q, v)``).
+``(q, v)``), :mod:`~velfence.filter.clearance` (:func:`link_clearances`: every link-obstacle
+clearance at a position or along a run, for plots and checks).
 """
 
 from velfence.filter.attach import (
@@ -33,6 +34,7 @@ from velfence.filter.attach import (
     AttachmentTable,
     AttachmentWorkspaceRows,
 )
+from velfence.filter.clearance import LinkClearances, link_clearances
 from velfence.filter.filter import SafetyFilter
 from velfence.filter.kinematics import (
     CachedFrame,
@@ -119,6 +121,7 @@ __all__ = [
     "JointVelocityLimit",
     "Kinematics",
     "KinematicsFrame",
+    "LinkClearances",
     "ModeEvent",
     "ModeLimits",
     "ModeRows",
@@ -143,6 +146,7 @@ __all__ = [
     "TwistMode",
     "WorkspaceLimit",
     "WorkspaceRows",
+    "link_clearances",
     "max_approach_speed",
     "separation_distance",
     "speed_cap_directions",

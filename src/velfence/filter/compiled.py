@@ -41,7 +41,7 @@ _SIDE = ("lower", "upper")
 class _CompiledStack(RowStack):
     """A :class:`RowStack` filled from the compiled rows (tags instead of blocks)."""
 
-    __slots__ = ("_kin", "_names", "_tags")
+    __slots__ = ("_d", "_kin", "_names", "_tags")
 
     def __init__(self, rows: CompiledRows, G: Any, b: Any, level: Any, ta: Any, tb: Any, d: Any):
         self.blocks = []
@@ -50,6 +50,7 @@ class _CompiledStack(RowStack):
         self.b = b
         self.level = lv = level
         self.violated = d < 0.0
+        self._d = d
         self._tags = (ta, tb)
         self.checked = np.flatnonzero((lv == LEVEL_WORKSPACE) | (lv == LEVEL_OBSTACLE))
         self.d0 = d[self.checked]
@@ -61,6 +62,16 @@ class _CompiledStack(RowStack):
         return np.select(
             [lv == LEVEL_JOINT, lv == LEVEL_RATE, lv == LEVEL_WORKSPACE], [joint, 2, 3], 4
         )
+
+    def violations(
+        self, names: Sequence[str], *, providers: int | None = None
+    ) -> tuple[tuple[str, float | None], ...]:
+        """``(name, depth)`` of every violated row (the compiled rows give every distance).
+
+        Every row is the filter's own, so ``providers`` selects nothing out.
+        """
+        d = self._d
+        return tuple((names[r], -float(d[r])) for r in np.flatnonzero(d < 0.0).tolist())
 
     def names(self) -> list[str]:
         """Every row's name (the Python providers' names), made now."""

@@ -22,6 +22,8 @@ point the priority ladder (:mod:`velfence.filter.ladder`) decides what gives way
 from __future__ import annotations
 
 import math
+import os
+import sys
 import time
 import warnings
 from collections.abc import Callable, Sequence
@@ -43,7 +45,7 @@ from velfence._validate import (
     readonly,
     real_array,
 )
-from velfence.errors import InvalidInput, InvalidParameter
+from velfence.errors import InvalidInput, InvalidParameter, StartedInViolation
 from velfence.filter import parts
 from velfence.filter.attach import AttachmentObstacleRows, AttachmentWorkspaceRows
 from velfence.filter.compiled import compiled_rows
@@ -92,7 +94,52 @@ _C_DROPPED = (
     (LEVEL_WORKSPACE, "workspace"), (LEVEL_JOINT, "joint limits"),
 )  # fmt: skip
 _STAGE_DROPPED_JERK = 2048  # VF_FILTER_STAGE_DROPPED_JERK
+_STAGE_RECOVERY = 2  # VF_FILTER_STAGE_RECOVERY: some row is violated
+_NAMED = 5  # violated constraints named in the StartedInViolation message
+#: A start violating nothing deeper than this [m or rad] gives no StartedInViolation: the
+#: filter's own closed loop holds its constraints to 1e-9 (docs/safety_filter.md §6), so a
+#: shallower start is where a run of it stopped (the report still lists it).
+_START_TOLERANCE = 1e-9
+_PACKAGE_DIR = os.path.dirname(os.path.dirname(os.path.abspath(__file__))) + os.sep  # velfence/
+_APPS_DIR = os.path.join(_PACKAGE_DIR, "apps", "")  # an application is a caller too
 _COMMAND_CAP = 1e3  # commands are shortened beyond this multiple of the fastest joint limit
+
+
+def _warn_started(violations: Sequence[tuple[str, float | None]], spring_gain: float) -> None:
+    """Warn :class:`StartedInViolation` naming each violated constraint and its depth.
+
+    Only when one is deeper than :data:`_START_TOLERANCE`: a start within round-off of a face
+    (a robot stopped on it, then ``reset()``) is where the filter's own loop leaves it.
+    """
+    if not any(d is None or d > _START_TOLERANCE for _, d in violations):
+        return
+    parts_: list[str] = []
+    for name, depth in violations[:_NAMED]:
+        unit = "rad" if " position (" in name and name.startswith("joint ") else "m"
+        how = "depth unknown" if depth is None else f"{depth:.4g} {unit} deep"
+        parts_.append(f"{name} ({how})")
+    more = len(violations) - _NAMED
+    listed = "; ".join(parts_) + (f"; and {more} more" if more > 0 else "")
+    k = len(violations)
+    level = 2  # the caller of this function; then the first frame outside velfence
+    frame = sys._getframe(1)
+    while (
+        frame is not None
+        and frame.f_code.co_filename.startswith(_PACKAGE_DIR)
+        and not frame.f_code.co_filename.startswith(_APPS_DIR)
+    ):
+        frame = frame.f_back  # type: ignore[assignment]
+        level += 1
+    warnings.warn(
+        f"SafetyFilter: the first cycle starts with {k} constraint{'s' * (k != 1)} already "
+        f"violated: {listed}. The filter is in recovery: its output moves the robot back out "
+        f"(an obstacle at spring_gain x depth, spring_gain {spring_gain:g}/s), even for a zero "
+        "command. If the robot is not really there, check the obstacles, link radii and units. "
+        "FilterResult.violations names them every cycle; this warning comes once per start "
+        "(construction or reset()).",
+        StartedInViolation,
+        stacklevel=level,
+    )
 
 
 class SafetyFilter(InvalidPolicy):
@@ -173,6 +220,7 @@ class SafetyFilter(InvalidPolicy):
         "_remember",
         "_self_pairs",
         "_speed_scale",
+        "_started",
         "_warm",
         "_workspace",
         "backend",
@@ -255,6 +303,7 @@ class SafetyFilter(InvalidPolicy):
             None if time_budget is None else check_positive("time_budget", time_budget, unit="s")
         )
         self.deadline_misses = 0
+        self._started = False  # a cycle ran since construction or reset() (StartedInViolation)
         #: Cycles (of ``filter``, ``explain`` and their twist forms) whose jerk rows gave way.
         self.jerk_overrides = 0
         self._clock: Callable[[], float] = time.perf_counter
@@ -470,6 +519,7 @@ class SafetyFilter(InvalidPolicy):
         self._previous = v if self._remember else None
         self._previous2 = v if self._has_jerk else None
         self._warm = set()
+        self._started = False
         if self._ccycle is not None:
             from velfence.filter.ccycle import c_options
 
@@ -574,6 +624,12 @@ class SafetyFilter(InvalidPolicy):
                     self.jerk_overrides += out.jerk_override
                 self._previous = readonly(x.copy())
             self._remember_active(cyc, x)
+            if not self._started:
+                self._started = True
+                if cyc.violated.any():
+                    _warn_started(
+                        cyc.violations(cyc.names(), providers=self._n_builtin), self.spring_gain
+                    )
         return cyc, x, u, out, scaled, deadline
 
     def _build_rows(
@@ -645,6 +701,7 @@ class SafetyFilter(InvalidPolicy):
         names = cyc.names()
         return FilterResult(
             output=x, command=cmd, position=q, zone=zone, active=act,
+            violations=cyc.violations(names) if n_out else (),
             active_names=tuple(names[i] for i in act), slack=readonly(slack),
             constraint_names=tuple(names), stages=tuple(pre + out.stages),
             dropped=tuple(out.dropped), rate_override=out.rate_override,
@@ -721,6 +778,8 @@ class SafetyFilter(InvalidPolicy):
                     self.deadline_misses += 1
                 if self._remember:
                     self._remember_c(x, self._previous)
+                if not self._started:
+                    self._first_c()
                 return x
         qa = self._state("position", position, self.dof, "rad")
         ua = self._state("command", command, self.dof, "rad/s")
@@ -770,7 +829,23 @@ class SafetyFilter(InvalidPolicy):
             self.deadline_misses += 1
         if remember and self._remember:
             self._remember_c(x, prev)
+        if remember and not self._started:
+            self._first_c()
         return x
+
+    def _first_c(self) -> None:
+        """The first C cycle since construction or :meth:`reset`: warn if it started inside."""
+        self._started = True
+        cyc = self._ccycle
+        if cyc.stages & _STAGE_RECOVERY:
+            try:
+                _, _, level, ka, kb, dist, _, _ = cyc.rows()
+            except RuntimeError:  # pragma: no cover - "no successful cycle yet"
+                return
+            keys = list(zip(level.tolist(), ka.tolist(), kb.tolist(), strict=True))
+            names = self._c_names(keys)
+            viol = np.flatnonzero(dist < 0.0).tolist()
+            _warn_started(tuple((names[r], -float(dist[r])) for r in viol), self.spring_gain)
 
     def _remember_c(self, x: FloatArray, prev: FloatArray | None) -> None:
         """The C cycle's output as the last output (``prev`` the one before), jerk overrides."""
@@ -819,6 +894,7 @@ class SafetyFilter(InvalidPolicy):
             jerk_override=bool(info["dropped"][LEVEL_JERK]),
             relaxed=tuple(names[r] for r, k in enumerate(keys) if k in relaxed_keys),
             deadline={0: None, 1: "iterations", 2: "time"}[info["deadline"]],
+            violations=tuple((names[r], -float(dist[r])) for r in np.flatnonzero(viol).tolist()),
         )  # fmt: skip
 
     def _c_names(self, keys: list[tuple[int, int, int]]) -> list[str]:

@@ -950,7 +950,7 @@ class ApproachRows:
                 for z, d in zip(zones, dist, strict=True)
             ]
 
-        return RowBlock(G, b, viol, np.arange(k, dtype=np.int64), names)
+        return RowBlock(G, b, viol, np.arange(k, dtype=np.int64), names, distance=np.array(dist))
 
 
 document_inits(globals())

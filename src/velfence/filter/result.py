@@ -27,9 +27,10 @@ class FilterResult:
         position: The joint position [rad], shape (n,).
         zone: :data:`~velfence.shaping.base.Zone` from ``zone_code(violated, active)``:
             ``"free"``, ``"buffer"``/``"corner"`` (one/several active rows, none violated),
-            ``"outside"``/``"outside-corner"`` (some constraint violated), ``"invalid"``.
+            ``"outside"``/``"outside-corner"`` (some constraint violated: see
+            :attr:`violations`), ``"invalid"``.
         active: Indices (into :attr:`constraint_names`) of the rows that bind at the output
-            (slack <= 1e-9 relative) or whose constraint is violated.
+            (slack <= 1e-9 relative) or whose constraint is violated (:attr:`violations`).
         active_names: Their names (``"joint 4 position (upper)"``, ``"joint 2 velocity
             (lower)"``, ``"TCP face x_max"``, ``"obstacle 2 on link 5"``).
         slack: ``G x - b`` of every row, shape (m,) (``inf`` for an unbounded row; a dropped or
@@ -54,6 +55,18 @@ class FilterResult:
         method: ``"safety-filter"``.
         jerk_override: Whether the jerk rows were dropped (safety, or the acceleration
             limit, over smoothness); counted in ``SafetyFilter.jerk_overrides``.
+        violations: The constraints already violated at ``position`` (the state this cycle
+            starts from), in row order: ``(name, depth)`` pairs, ``depth`` > 0 how far the
+            state is beyond the constraint — [m] for a workspace facet, an obstacle-link or
+            link-link pair, an attachment, a separation margin; [rad] for a joint position
+            limit; ``None`` for a row of the user's that gives no ``distance``. Empty when the
+            state violates nothing. Non-empty exactly when the zone is ``"outside"`` or
+            ``"outside-corner"`` and ``"recovery"`` is among the stages: the output then moves
+            the state back out at least at the violated rows' recovery bounds (their
+            profile's forced return: ``spring_gain`` times the depth for the obstacles and the
+            default joint buffers), whatever the command (a zero command too). The first cycle
+            after construction or ``reset()`` that starts more than 1e-9 beyond one of the
+            filter's own constraints also warns (:class:`~velfence.errors.StartedInViolation`).
     """
 
     output: FloatArray
@@ -72,6 +85,7 @@ class FilterResult:
     deadline: Deadline | None = None
     method: str = "safety-filter"
     jerk_override: bool = False
+    violations: tuple[tuple[str, float | None], ...] = ()
 
 
 #: The stage names of :attr:`FilterResult.stages` and their bits in :attr:`FilterBatch.stages`

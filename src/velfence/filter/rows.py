@@ -14,9 +14,10 @@ by level) and, every cycle, returns a :class:`RowBlock` from the cycle's :class:
   pair): with the provider's index, the key of the warm start from the previous cycle;
 * ``names``: made only when asked (``FilterResult`` asks; ``SafetyFilter.filter`` never does), a
   callable, because formatting a string per row costs more than building the row;
-* ``distance`` (k,) or ``None``: the current geometric distance of each row, for rows the
-  discrete-time model check follows (workspace and obstacles): such a provider also implements
-  ``next_distances(frame, block)``, the same distances at another pose.
+* ``distance`` (k,) or ``None``: the current signed distance of each row (a violated row's
+  depth in ``FilterResult.violations``); the discrete-time model check follows the rows of a
+  provider that also implements ``next_distances(frame, block)``, the same distances at another
+  pose (workspace and obstacles).
 
 A user's own provider needs only ``level``, ``label`` and ``rows`` (:class:`RowProvider`); see
 ``docs/safety_filter.md`` and ``examples/custom_row_provider.py``.
@@ -111,8 +112,11 @@ class RowBlock:
         violated: Whether each row's constraint is violated now, shape (k,), bool.
         keys: A stable integer per row within the provider, shape (k,).
         names: Row names, or a callable making them (called only when names are asked for).
-        distance: Current geometric distance of each row [m], shape (k,), for rows the
-            discrete-time model check follows; ``None``: no model check.
+        distance: Current signed distance of each row to its constraint ([m]; [rad] for a
+            joint position), shape (k,), negative when violated: a violated row's depth in
+            :attr:`FilterResult.violations <velfence.filter.result.FilterResult.violations>`,
+            and, from a provider with ``next_distances``, what the discrete-time model check
+            follows; ``None``: none (no model check, no depth).
         data: The provider's own data for ``next_distances`` (opaque to the filter).
     """
 
@@ -300,11 +304,15 @@ class JointPositionLimit:
         keep = self._finite & (bpos != -math.inf)
         if keep.all():
             return RowBlock(
-                self._G, b, dpos < 0.0, self._keys, _joint_namer(self._keys, "position")
-            )
+                self._G, b, dpos < 0.0, self._keys, _joint_namer(self._keys, "position"),
+                distance=dpos,
+            )  # fmt: skip
         idx = np.flatnonzero(keep)
         keys = self._keys[idx]
-        return RowBlock(self._G[idx], b[idx], dpos[idx] < 0.0, keys, _joint_namer(keys, "position"))
+        return RowBlock(
+            self._G[idx], b[idx], dpos[idx] < 0.0, keys, _joint_namer(keys, "position"),
+            distance=dpos[idx],
+        )  # fmt: skip
 
 
 def _joint_namer(keys: Any, what: str) -> Callable[[], list[str]]:
@@ -632,12 +640,15 @@ class ObstacleRows:
             distance=d0, data=(oi, lk),
         )  # fmt: skip
 
+    def clearances(self, frame: KinematicsFrame) -> FloatArray:
+        """Every (obstacle, link) pair's clearance [m] at the pose of ``frame``, shape (k, L)."""
+        segs = self.segments(frame)
+        return _clearances(segs, self._centres, self._srad, self._radii(segs.shape[0]))[0]
+
     def next_distances(self, frame: KinematicsFrame, block: RowBlock) -> FloatArray:
         """The block's pairs' clearances [m] at the pose of ``frame``, shape (k,)."""
-        segs = self.segments(frame)
         oi, lk = block.data
-        clear = _clearances(segs, self._centres, self._srad, self._radii(segs.shape[0]))[0]
-        out: FloatArray = clear[oi, lk]
+        out: FloatArray = self.clearances(frame)[oi, lk]
         return out
 
 

@@ -82,6 +82,28 @@ class RowStack:
             out.extend(made)
         return out
 
+    def violations(
+        self, names: Sequence[str], *, providers: int | None = None
+    ) -> tuple[tuple[str, float | None], ...]:
+        """``(name, depth)`` of every violated row in row order (``FilterResult.violations``).
+
+        ``depth`` is the negated ``distance`` of the row's block, ``None`` for a block without
+        distances (a user's provider may give none). ``providers``: only the rows of the first
+        so many providers (the filter's own); ``None``: every row.
+        """
+        out: list[tuple[str, float | None]] = []
+        first = 0
+        for pi, _, blk in self.blocks:
+            k = blk.size
+            if providers is not None and pi >= providers:
+                first += k
+                continue
+            for r in np.flatnonzero(np.asarray(blk.violated, dtype=bool)).tolist():
+                d = None if blk.distance is None else -float(blk.distance[r])
+                out.append((names[first + r], d))
+            first += k
+        return tuple(out)
+
     def keys(self, rows: Sequence[int]) -> set[tuple[int, int]]:
         """``(provider index, key)`` of the given row indices."""
         out: set[tuple[int, int]] = set()

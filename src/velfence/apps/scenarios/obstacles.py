@@ -59,15 +59,14 @@ class _Named:
         return self.inner.shape_batch(Q, V)
 
 
-def _clearance(robot: Any, q: np.ndarray, center: np.ndarray) -> float:
-    """Smallest distance from ``center`` to the surface of any capsule link [m]."""
-    from velfence.geometry.primitives import points_segments_distances
+def _clearance(robot: Any, q: np.ndarray, center: np.ndarray) -> Any:
+    """Smallest distance from ``center`` to the surface of any capsule link [m].
 
-    segs = np.asarray(robot.link_segments(q), dtype=float)
-    _, clear = points_segments_distances(
-        center[None, :], segs[:, 0], segs[:, 1], radii=np.asarray(robot.link_radius, dtype=float)
-    )
-    return float(np.min(clear))
+    A float for one position ``q`` (dof,), shape (T,) for a run (T, dof).
+    """
+    from velfence.filter import SphereObstacle, link_clearances
+
+    return link_clearances(robot, [SphereObstacle(center, radius=0.0)], q).minimum
 
 
 def run(
@@ -148,7 +147,7 @@ def run(
             on_step(name, 1.0)
     metrics: dict[str, dict[str, float]] = {}
     for name, r in runs.items():
-        clear = np.array([_clearance(robot, q, center) for q in r.trajectory.p])
+        clear = np.asarray(_clearance(robot, r.trajectory.p, center), dtype=float)
         r.extra["margin"] = clear
         err = np.linalg.norm(r.extra["y_d"] - r.point, axis=1)
         metrics[name] = {

@@ -41,6 +41,7 @@ import numpy as np
 
 from velfence._typing import FloatArray
 from velfence._validate import check_positive_int, check_text, describe
+from velfence.apps.soak_filter import any_start
 from velfence.apps.verify.campaign import PROPERTIES
 from velfence.apps.verify.cases import (
     CaseResult,
@@ -324,6 +325,7 @@ class _Clock:
             self.t = t
 
 
+@any_start()
 def _lockstep(scs: list[Scenario], family: str, idx: list[int], clock: _Clock) -> list[CaseResult]:
     """:func:`run` of scenarios of one shape, step by step together (module docstring)."""
     clock("setup")  # (the grouping before)

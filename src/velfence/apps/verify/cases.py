@@ -36,7 +36,7 @@ except ModuleNotFoundError as exc:  # an optional dependency: name the extra
     raise missing(exc, what=__name__) from exc
 
 from velfence._typing import FloatArray
-from velfence.apps.soak_filter import clearance, soak_command
+from velfence.apps.soak_filter import any_start, clearance, soak_command
 from velfence.apps.verify.campaign import PROPERTIES, Campaign, Properties
 from velfence.errors import InvalidParameter, VelfenceError
 from velfence.io.config import Number, StrictModel, describe_validation_error
@@ -542,6 +542,7 @@ class KinematicPlant:
         return {}
 
 
+@any_start()
 def run(
     sc: Scenario,
     *,
