@@ -21,7 +21,7 @@ $(STAMP): pyproject.toml core/pyproject.toml core/CMakeLists.txt core/src/*.c co
 	# numba's kernels (the Python route's batch loops) compiled once, into numba's on-disk cache
 	# beside the sources: otherwise the first process of every `make test`, `make demo` or
 	# benchmark to call them compiles them again (about a minute of CPU).
-	$(BIN)/python -c "import velfence.shaping.backend as b; print('numba kernels ready:', len(b.precompile()))"
+	$(BIN)/python -c "import velfence.shaping.accelerate as a; print('numba kernels ready:', len(a.precompile()))"
 	touch $(STAMP)
 
 demo: $(STAMP)

@@ -1,4 +1,4 @@
-"""``velfence.shaping.backend.precompile``: the numba kernels compiled before the first call.
+"""``velfence.shaping.accelerate.precompile``: the numba kernels compiled before the first call.
 
 The check that matters for a user: after ``precompile()``, a shaper configured differently
 (another polygon, a profile, ``dt``, a recovery speed, a batch of another length) calls a kernel
@@ -18,7 +18,7 @@ import pytest
 from velfence.geometry.polygon import ConvexPolygon
 from velfence.geometry.polytope import ConvexPolytope
 from velfence.shaping import LinearBuffer, PolygonShaper, PolytopeShaper, ThreeZoneBraking
-from velfence.shaping.backend import precompile
+from velfence.shaping.accelerate import precompile
 
 numba = pytest.importorskip("numba", reason="precompile compiles numba kernels (the fast extra)")
 
