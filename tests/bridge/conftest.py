@@ -7,6 +7,7 @@ test gets its own ROS namespace, so endpoints of one test never meet another's.
 
 from __future__ import annotations
 
+import contextlib
 import importlib.util
 import itertools
 import json
@@ -111,8 +112,9 @@ def run_client(
     """Run ros_client.py in its own process with ``spec``; its JSON result.
 
     With ``bridge`` (a stream scenario), the client sends nothing until this process has seen the
-    bridge's command and state readers match the client's writers: the client's own matches only
-    say that *it* found the bridge, and a volatile reader matching late loses what came before.
+    bridge's endpoints match every one of the client's (:func:`_release_when_matched`): the
+    client's own matches only say that *it* found the bridge, and the bridge's output writer
+    sends its first answers to no one while it has not matched the client's reader.
     """
     n = next(_NAMESPACES)
     path = tmp_path / f"client-{n}.json"
@@ -145,20 +147,50 @@ def run_client(
 def _release_when_matched(
     proc: subprocess.Popen[str], bridge: RunningBridge, sync: Path, *, deadline: float
 ) -> None:
-    """Write the client's go-ahead once both sides of the command and state topics matched."""
+    """Write the client's go-ahead once the bridge's side has matched every client endpoint.
+
+    The client names its writers and its output reader (GUIDs) in ``<sync>.ready`` after its
+    own endpoints matched. Delivery needs the writer's side: a writer sends a volatile sample
+    only to the readers it has matched when it writes it, so the bridge's output writer must
+    have matched the client's reader before the first answer; the bridge's readers must have
+    matched the client's writers too (the client checked its writers' side itself).
+    """
     node: Any = bridge.node
     ready = Path(str(sync) + ".ready")
+    readers = [node._cmd_reader, node._state_reader, *node._tf_readers.values()]
+    readers += node._sensor_readers
+    writers = [node._out_writer]
 
     def matched() -> bool:
-        return ready.exists() and all(
-            len(r.get_matched_publications()) > 0 for r in (node._cmd_reader, node._state_reader)
-        )
+        if not ready.exists():
+            return False
+        client = json.loads(ready.read_text(encoding="utf-8"))
+        by_readers, by_writers = _matched(readers), _matched(writers)
+        return set(client["writers"]) <= by_readers and set(client["readers"]) <= by_writers
 
     while not matched():
         if proc.poll() is not None or time.monotonic() > deadline:
             return  # the client's own error (or its timeout) reports it
         time.sleep(0.005)
     Path(str(sync) + ".go").touch()
+
+
+def _matched(endpoints: list[Any]) -> set[str]:
+    """The GUIDs of the peers' endpoints that ``endpoints`` (readers or writers) have matched."""
+    keys = set()
+    for e in endpoints:
+        reader = hasattr(e, "get_matched_publications")
+        handles = e.get_matched_publications() if reader else e.get_matched_subscriptions()
+        for h in handles:
+            with contextlib.suppress(Exception):  # a peer that left since it was listed
+                data = (
+                    e.get_matched_publication_data(h)
+                    if reader
+                    else e.get_matched_subscription_data(h)
+                )
+                if data is not None:
+                    keys.add(str(data.key))
+    return keys
 
 
 @pytest.fixture

@@ -292,12 +292,18 @@ def stream(spec: dict[str, Any], dp: DomainParticipant) -> dict[str, Any]:
     wait_for(lambda: len(cmd_w.get_matched_subscriptions()) > 0, "the command reader")
     wait_for(lambda: len(state_w.get_matched_subscriptions()) > 0, "the state reader")
     wait_for(lambda: len(out_r.get_matched_publications()) > 0, "the output writer")
-    # The matches above are this side's. The bridge's readers discover these writers on their
-    # own schedule, and a volatile reader that matches late never sees what was written before:
-    # with a "sync" file the test process confirms the bridge's side before anything is sent.
+    # The matches above are this side's: this peer's writers have matched the bridge's readers
+    # (what a sample sent from here needs), but the bridge's output writer finds this peer's
+    # reader on its own schedule, and a writer sends a volatile sample only to the readers it
+    # has matched when it writes it. With a "sync" file, this peer names its endpoints (GUIDs)
+    # in "<sync>.ready" and sends nothing until the test process, which runs the bridge, has
+    # seen the bridge's side match every one of them ("<sync>.go").
     sync = spec.get("sync")
     if sync is not None:
-        Path(sync + ".ready").touch()
+        writers = [w for w in (state_w, cmd_w, tf_w, cloud_w) if w is not None]
+        ends = {"writers": [str(w.guid) for w in writers], "readers": [str(out_r.guid)]}
+        Path(sync + ".tmp").write_text(json.dumps(ends), encoding="utf-8")
+        Path(sync + ".tmp").replace(sync + ".ready")  # the test never reads half a file
         wait_for(lambda: Path(sync + ".go").exists(), "the test's go-ahead (bridge side matched)")
     state = make_state(st)
     commands = spec["commands"]

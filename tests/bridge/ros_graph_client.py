@@ -14,6 +14,8 @@ number) followed by the CDR body; a reply is kept only if it carries this client
 
 The spec's ``calls`` are run in order: ``[service suffix, srv type, request fields]``; the
 result is one JSON object with the decoded replies, the discovery info and the /rosout lines.
+With ``events_before_calls: n`` the calls wait until n parameter events came (a first event
+proves the bridge's writer has matched this reader, so none written later is lost).
 A spec's ``script`` is a timeline instead: service calls, the manager's side of a Nav2 bond
 (bondcpp's protocol on ``<ns>/bond``), a command stream with a fresh odometry, and pauses; every
 step, bond status, output and parameter event is recorded with its time.
@@ -460,6 +462,9 @@ def run(spec: dict[str, Any], ctx: Context, ready: Any) -> dict[str, Any]:
 
     if spec.get("ready"):
         ready()
+    if spec.get("events_before_calls"):  # e.g. the start event: then the writer has matched us
+        first = int(spec["events_before_calls"])
+        wait_for(lambda: take_events() or len(events) >= first, "the first parameter events")
     clients: dict[str, Client] = {}
     for suffix, srv, fields in spec.get("calls", []):
         if suffix not in clients:

@@ -24,6 +24,7 @@ import pytest
 from ros_graph_defs import typestore
 
 from conftest import _SESSION, DOMAIN, LOOPBACK, SRC
+from velfence.bridge import graph
 from velfence.bridge import ros_interfaces as ri
 from velfence.bridge.msgs import ros_name
 from velfence.bridge.typehash import rihs01
@@ -294,10 +295,19 @@ def _param(name: str, x: float) -> dict[str, Any]:
     return {"__type__": "rcl_interfaces/msg/Parameter", "name": name, "value": value}
 
 
-def test_parameter_events_at_start_and_on_every_set(bridge: Any, graph_peer: GraphPeer) -> None:
+def test_parameter_events_at_start_and_on_every_set(
+    bridge: Any, graph_peer: GraphPeer, monkeypatch: pytest.MonkeyPatch
+) -> None:
     """The peer subscribes to /parameter_events before the bridge starts: the start event lists
     every parameter as new; each accepted set_parameters entry is one changed event, a
-    set_parameters_atomically one event for all; a refused set announces nothing."""
+    set_parameters_atomically one event for all; a refused set announces nothing.
+
+    The bridge holds its start event until its writer has matched a first subscriber, for at
+    most START_EVENT_WAIT (2 s); discovery on a loaded machine can take longer, so here the
+    bound is lifted and the event waits for the match alone. The peer makes its calls only
+    once the start event came: the writer has matched its reader, so no change event can be
+    written before (to no one)."""
+    monkeypatch.setattr(graph, "START_EVENT_WAIT", 600.0)
     ns = f"/{_SESSION}/pe{next(_SPACES)}"
     node = f"{ns}/velfence_bridge"
     calls = [
@@ -306,7 +316,8 @@ def test_parameter_events_at_start_and_on_every_set(bridge: Any, graph_peer: Gra
         ["set_parameters_atomically", _SRV + "SetParametersAtomically", {"parameters": [
             _param("state_timeout", 1.5), _param("watchdog_period", 0.2)]}],
     ]  # fmt: skip
-    graph_peer.send({"node": node, "ready": True, "parameter_events": 3, "calls": calls})
+    spec = {"node": node, "ready": True, "events_before_calls": 1, "parameter_events": 3}
+    graph_peer.send({**spec, "calls": calls})
     assert graph_peer.answer().get("ready") is True  # its reader exists: now start the bridge
     b = bridge({**SECTION, "namespace": ns}, SHAPER)
     out = graph_peer.answer()["result"]
