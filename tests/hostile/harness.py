@@ -42,6 +42,9 @@ WARMUP_TIMEOUT_S = 60.0
 #: After this many arguments that hung, a callable is not attacked further (heavy callables:
 #: after the first).
 MAX_HANGS = 2
+#: CPU seconds beyond which a valid call's factory is replaced by deep copies of one of its calls
+#: (where copying is at least twice as cheap; :func:`_fresh_calls`).
+SLOW_FACTORY_S = 2e-3
 #: The kinds tried on callables too heavy to run (their valid call is never made).
 HEAVY_KINDS = ("str_int", "nan", "true", "dict_xy", "int_minus_1", "float_1e308")
 #: Extra address space one call may take [bytes] (beyond what the process already has): a call
@@ -629,13 +632,16 @@ def attack_uncapped(t: Target) -> tuple[list[Failure], int]:
     module = sys.modules.get(getattr(probe[1], "__module__", "") or "")
     namespace = vars(module) if module is not None else None
     try:
+        started = time.process_time()
         valid = spec.valid()
+        cost = time.process_time() - started
     except Exception as exc:  # a registry entry out of date with the library is a failure
         return [Failure(t.key, "(valid)", "factory", "valid-failed", _short(exc))], 0
+    fresh_call = _fresh_calls(spec.valid, valid, cost)
     walk_default = not t.constructor
     known: frozenset[str] = frozenset(spec.nonfinite)
     if spec.heavy is None:
-        fresh = spec.valid()
+        fresh = fresh_call()
         outcome = guarded(lambda: t.get()(*fresh.args, **fresh.kwargs), WARMUP_TIMEOUT_S)
         calls += 1
         walk = walk_default or dataclasses.is_dataclass(outcome[1])
@@ -698,7 +704,7 @@ def attack_uncapped(t: Target) -> tuple[list[Failure], int]:
                 index: int = index,
                 name: str = name,
             ) -> Any:
-                c = spec.valid()
+                c = fresh_call()
                 args = list(c.args)
                 if positional:
                     args[index] = value
@@ -725,6 +731,25 @@ def attack_uncapped(t: Target) -> tuple[list[Failure], int]:
                 )
                 break
     return fails, calls
+
+
+def _fresh_calls(factory: Callable[[], Call], proto: Call, cost: float) -> Callable[[], Call]:
+    """A maker of fresh valid calls: ``factory`` itself or, where the factory is slow (it builds
+    a model, runs a simulation: more than :data:`SLOW_FACTORY_S` of CPU time) and its call can be
+    deep-copied in less than half that, a deep copy of ``proto`` (one of its calls, never itself
+    passed to the callable). Either way each call gets objects of its own: a call that mutates
+    its arguments cannot reach the next one."""
+    if cost < SLOW_FACTORY_S:
+        return factory
+    try:
+        started = time.process_time()
+        copy.deepcopy(proto)
+        copied = time.process_time() - started
+    except Exception:  # a generator, a live connection, a compiled handle: build anew each time
+        return factory
+    if 2.0 * copied > cost:
+        return factory
+    return lambda: copy.deepcopy(proto)
 
 
 def _method_getter(make: Callable[[], Any], method: str) -> Callable[[], Any]:
@@ -868,12 +893,54 @@ def _attack_key(key: str) -> tuple[str, list[Failure], int]:
 _WORKER_TARGETS: list[Target] = []
 
 
+def prepare_worker() -> None:
+    """Import every public module and build the targets once, in the fork server
+    (``hostile_worker``, preloaded by :func:`attack_many`): each worker forked from it starts
+    with them (they took seconds of CPU per worker when each built its own)."""
+    global _WORKER_TARGETS
+    if not _WORKER_TARGETS:
+        _WORKER_TARGETS = targets()[0]
+
+
+#: Targets one worker attacks before it is replaced by a fresh fork (None: never). A fresh
+#: worker redoes the lazy imports and first-call set-ups its predecessor had done: replacing
+#: every 50 targets cost about 12 s of CPU per catalogue run (126 s against 138 s, 2 workers,
+#: one run each on a loaded machine).
+#: A callable that left a busy thread behind would show as false hangs (the guard counts the
+#: whole process's CPU time), not as a hidden defect.
+MAX_TASKS: int | None = None
+
+
 def jobs() -> int:
     """Worker processes: ``HOSTILE_JOBS`` or the usable cores (at most 4)."""
     env = os.environ.get("HOSTILE_JOBS")
     if env:
         return max(1, int(env))
     return max(1, min(4, len(os.sched_getaffinity(0))))
+
+
+def _start_fork_server(ctx: Any) -> None:
+    """Start the fork server with this folder importable and :mod:`hostile_worker` preloaded.
+
+    The fork server does not take the test process's ``sys.path`` before it preloads (Python
+    3.11 passes it and ignores it), and a preload that fails to import is skipped silently: it
+    gets this folder through ``PYTHONPATH`` in its environment, set while it starts. A fork server
+    already running (started earlier in this process) is used as it is: its workers then build
+    the targets themselves.
+    """
+    from multiprocessing import forkserver
+
+    here = str(pathlib.Path(__file__).resolve().parent)
+    old = os.environ.get("PYTHONPATH")
+    os.environ["PYTHONPATH"] = here if not old else os.pathsep.join([here, old])
+    try:
+        ctx.set_forkserver_preload(["harness", "hostile_worker"])
+        forkserver.ensure_running()
+    finally:
+        if old is None:
+            del os.environ["PYTHONPATH"]
+        else:
+            os.environ["PYTHONPATH"] = old
 
 
 def attack_many(keys: list[str], n_jobs: int | None = None) -> dict[str, tuple[list[Failure], int]]:
@@ -896,8 +963,94 @@ def attack_many(keys: list[str], n_jobs: int | None = None) -> dict[str, tuple[l
             out[k] = (fails, calls)
         return out
     ctx = multiprocessing.get_context("forkserver")
-    ctx.set_forkserver_preload(["harness"])
-    with ctx.Pool(n, maxtasksperchild=50) as pool:
+    _start_fork_server(ctx)
+    with ctx.Pool(n, maxtasksperchild=MAX_TASKS) as pool:
         for key, fails, calls in pool.imap_unordered(_attack_key, keys, chunksize=1):
             out[key] = (fails, calls)
     return out
+
+
+# --- the signature and equivalence rules (test_hostile.py, test_equivalence.py) ----------------
+
+
+def constructor_rule(cls: type) -> list[str]:
+    """Breaches of the constructor rule: every parameter with a default is keyword-only, and no
+    positional parameter is annotated ``float``, ``int``, ``bool`` or ``str``."""
+    bad = []
+    for p in inspect.signature(cls).parameters.values():
+        if p.kind in (p.VAR_POSITIONAL, p.VAR_KEYWORD):
+            continue
+        if p.default is not p.empty and p.kind is not p.KEYWORD_ONLY:
+            bad.append(f"{p.name} has a default but is not keyword-only")
+        ann = (
+            p.annotation if isinstance(p.annotation, str) else getattr(p.annotation, "__name__", "")
+        )
+        base = ann.replace(" | None", "").strip() if isinstance(ann, str) else ""
+        if p.kind is not p.KEYWORD_ONLY and base in ("float", "int", "bool", "str"):
+            bad.append(f"{p.name}: {base} is positional (scalar tuning values are keyword-only)")
+    return bad
+
+
+#: Names of tuning parameters (gains, radii, limits, tolerances, ...): beyond a callable's first
+#: (data) argument they must be keyword-only, so that a call reads ``f(x, radius=0.1)`` and an
+#: argument added later cannot shift them.
+TUNING = re.compile(
+    r"(radius|radii|extents|^max_|^min_|gain|limits$|^tol$|_tol$|buffer|margin|influence|"
+    r"stiffness|damping|weight|spring|threshold|window|timeout|^k[pd]?$|^eps$)"
+)
+
+#: Positional parameters whose names look like tuning but which are data (with the reason).
+POSITIONAL_DATA = {
+    "mechanisms.CoSPM.bearing_shift": {"eps": "the shift along the invariance axis itself"},
+}
+
+
+def tuning_positional(key: str, obj: Any) -> list[str]:
+    """``"key: name"`` of each tuning parameter (:data:`TUNING`) that ``obj`` takes by position
+    beyond its first (data) argument."""
+    sig = _signature(obj)
+    if sig is None:
+        return []
+    positional = [
+        p
+        for p in sig.parameters.values()
+        if p.name not in ("self", "cls") and p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD)
+    ]
+    allowed = POSITIONAL_DATA.get(key, {})
+    return [
+        f"{key}: {p.name}"
+        for p in positional[1:]
+        if TUNING.search(p.name) and p.name not in allowed
+    ]
+
+
+#: Rows of the batch-equivalence check.
+ROWS = 48
+
+
+def batch_disagreements(make: Callable[[], Any], valid: Call) -> list[str]:
+    """Rows where ``shape_batch`` (or ``explain(...).output``) of a shaper disagrees with its
+    ``shape``, on :data:`ROWS` random rows around the valid batch call's first row (each row on
+    a fresh instance from ``make``, so stateful shapers start alike)."""
+    P0, V0 = (np.asarray(a, dtype=float) for a in valid.args[:2])
+    rng = np.random.default_rng(3)
+    size = float(np.abs(P0).max()) + 0.1
+    P = P0[0] + 0.8 * size * rng.standard_normal((ROWS, P0.shape[1]))
+    V = (float(np.abs(V0).max()) + 0.1) * rng.standard_normal((ROWS, V0.shape[1]))
+    V[0] = 0.0  # no command
+    P[1] = P0[0]  # the valid row itself
+    batch = make().shape_batch(P, V, *valid.args[2:], **valid.kwargs)
+    out = np.asarray(batch[0] if isinstance(batch, tuple) else getattr(batch, "output", batch))
+    assert out.shape[0] == ROWS
+    has_explain = hasattr(make(), "explain")
+    bad = []
+    for i in range(ROWS):
+        one = np.asarray(make().shape(P[i], V[i]))
+        tol = 1e-9 * (1.0 + float(np.abs(V[i]).max()))
+        if not np.all(np.abs(one - out[i]) <= tol):
+            bad.append(f"row {i}: shape {one.tolist()} != shape_batch {out[i].tolist()}")
+        if has_explain:
+            ex = np.asarray(make().explain(P[i], V[i]).output)
+            if not np.all(np.abs(ex - one) <= tol):
+                bad.append(f"row {i}: explain().output {ex.tolist()} != shape {one.tolist()}")
+    return bad

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from harness import C, as_f, public_callables, registry
+from harness import C, as_f, batch_disagreements, public_callables, registry
 
 from velfence.geometry import (
     ConvexPolygon,
@@ -21,8 +21,6 @@ from velfence.geometry import (
     points_segments_distances,
     sphere_capsule_distance,
 )
-
-ROWS = 48
 
 
 def _batch_targets() -> list[tuple[str, C]]:
@@ -49,29 +47,7 @@ def _maker(key: str, spec: C) -> Callable[[], Any]:
 @pytest.mark.filterwarnings("ignore::velfence.errors.StartedInViolation")  # random states
 @pytest.mark.parametrize(("key", "spec"), _batch_targets(), ids=[k for k, _ in _batch_targets()])
 def test_batch_and_explain_agree_with_shape(key: str, spec: C) -> None:
-    make = _maker(key, spec)
-    c = as_f(spec.methods["shape_batch"]).valid()
-    P0, V0 = (np.asarray(a, dtype=float) for a in c.args[:2])
-    rng = np.random.default_rng(3)
-    size = float(np.abs(P0).max()) + 0.1
-    P = P0[0] + 0.8 * size * rng.standard_normal((ROWS, P0.shape[1]))
-    V = (float(np.abs(V0).max()) + 0.1) * rng.standard_normal((ROWS, V0.shape[1]))
-    V[0] = 0.0  # no command
-    P[1] = P0[0]  # the valid row itself
-    batch = make().shape_batch(P, V, *c.args[2:], **c.kwargs)
-    out = np.asarray(batch[0] if isinstance(batch, tuple) else getattr(batch, "output", batch))
-    assert out.shape[0] == ROWS
-    has_explain = hasattr(make(), "explain")
-    bad = []
-    for i in range(ROWS):
-        one = np.asarray(make().shape(P[i], V[i]))
-        tol = 1e-9 * (1.0 + float(np.abs(V[i]).max()))
-        if not np.all(np.abs(one - out[i]) <= tol):
-            bad.append(f"row {i}: shape {one.tolist()} != shape_batch {out[i].tolist()}")
-        if has_explain:
-            ex = np.asarray(make().explain(P[i], V[i]).output)
-            if not np.all(np.abs(ex - one) <= tol):
-                bad.append(f"row {i}: explain().output {ex.tolist()} != shape {one.tolist()}")
+    bad = batch_disagreements(_maker(key, spec), as_f(spec.methods["shape_batch"]).valid())
     assert not bad, f"{key}: " + "; ".join(bad[:5])
 
 

@@ -9,7 +9,6 @@ from __future__ import annotations
 import dataclasses
 import inspect
 import json
-import re
 from typing import Any
 
 import harness
@@ -20,12 +19,14 @@ from harness import (
     attack,
     attack_many,
     available,
+    constructor_rule,
     documented_callables,
     documented_imports,
     public_callables,
     public_methods,
     registry,
     targets,
+    tuning_positional,
 )
 from inventory import KNOWN as KNOWN_FILE
 from inventory import failure_id
@@ -155,34 +156,8 @@ def _classes() -> list[tuple[str, type]]:
 @pytest.mark.parametrize("cls", [c for _, c in _classes()], ids=[k for k, _ in _classes()])
 def test_constructor_keyword_only_rule(cls: type) -> None:
     """Defaults are keyword-only; positional parameters are never scalar tuning values."""
-    sig = inspect.signature(cls)
-    bad = []
-    for p in sig.parameters.values():
-        if p.kind in (p.VAR_POSITIONAL, p.VAR_KEYWORD):
-            continue
-        if p.default is not p.empty and p.kind is not p.KEYWORD_ONLY:
-            bad.append(f"{p.name} has a default but is not keyword-only")
-        ann = (
-            p.annotation if isinstance(p.annotation, str) else getattr(p.annotation, "__name__", "")
-        )
-        base = ann.replace(" | None", "").strip() if isinstance(ann, str) else ""
-        if p.kind is not p.KEYWORD_ONLY and base in ("float", "int", "bool", "str"):
-            bad.append(f"{p.name}: {base} is positional (scalar tuning values are keyword-only)")
-    assert not bad, f"{cls.__name__}{sig}: " + "; ".join(bad)
-
-
-#: Names of tuning parameters (gains, radii, limits, tolerances, ...): beyond a callable's first
-#: (data) argument they must be keyword-only, so that a call reads ``f(x, radius=0.1)`` and an
-#: argument added later cannot shift them.
-TUNING = re.compile(
-    r"(radius|radii|extents|^max_|^min_|gain|limits$|^tol$|_tol$|buffer|margin|influence|"
-    r"stiffness|damping|weight|spring|threshold|window|timeout|^k[pd]?$|^eps$)"
-)
-
-#: Positional parameters whose names look like tuning but which are data (with the reason).
-POSITIONAL_DATA = {
-    "mechanisms.CoSPM.bearing_shift": {"eps": "the shift along the invariance axis itself"},
-}
+    bad = constructor_rule(cls)
+    assert not bad, f"{cls.__name__}{inspect.signature(cls)}: " + "; ".join(bad)
 
 
 def _signed_callables() -> list[tuple[str, Any]]:
@@ -202,24 +177,7 @@ def _signed_callables() -> list[tuple[str, Any]]:
 
 def test_tuning_parameters_are_keyword_only_everywhere() -> None:
     """Beyond the first (data) argument, no public callable takes a tuning value by position."""
-    bad = []
-    for key, obj in _signed_callables():
-        try:
-            sig = inspect.signature(obj)
-        except (TypeError, ValueError):
-            continue
-        positional = [
-            p
-            for p in sig.parameters.values()
-            if p.name not in ("self", "cls")
-            and p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD)
-        ]
-        allowed = POSITIONAL_DATA.get(key, {})
-        bad += [
-            f"{key}: {p.name}"
-            for p in positional[1:]
-            if TUNING.search(p.name) and p.name not in allowed
-        ]
+    bad = [line for key, obj in _signed_callables() for line in tuning_positional(key, obj)]
     assert not bad, "tuning parameters taken by position:\n  " + "\n  ".join(bad)
 
 

@@ -158,6 +158,30 @@ class TestBufferLimit:
             CasterWall(box, buffer=0.6)
         PolygonShaper(box, buffer=0.5)  # the limit itself is admissible
 
+    @settings(max_examples=60)
+    @given(convex_polygons())
+    def test_the_cheap_bound_is_below_the_inradius(self, poly: ConvexPolygon) -> None:
+        """``inradius_bound`` (area / perimeter, which spares the shapers the search) is at most
+        the inradius, itself checked against the Chebyshev centre as SciPy's linear program
+        (maximise r with every edge distance >= r); buffers up to the inradius are admitted,
+        beyond it refused, whichever side of the bound they fall."""
+        from scipy.optimize import linprog
+
+        n = len(poly.offsets)
+        lp = linprog(
+            [0.0, 0.0, -1.0],
+            A_ub=np.c_[-poly.normals, np.ones(n)],
+            b_ub=-poly.offsets,
+            bounds=[(None, None)] * 3,
+        )
+        assert lp.status == 0
+        assert poly.inradius == pytest.approx(-lp.fun, rel=1e-9, abs=1e-12)
+        assert 0.0 < poly.inradius_bound <= poly.inradius * (1.0 + 1e-12)
+        for buffer in (poly.inradius_bound, min(1.01 * poly.inradius_bound, poly.inradius)):
+            assert PolygonShaper(poly, buffer=buffer).buffer == buffer
+        with pytest.raises(InvalidParameter, match="inradius"):
+            PolygonShaper(poly, buffer=1.01 * poly.inradius)
+
     def test_inradius_of_known_shapes(self) -> None:
         tri = ConvexPolygon([[0, 0], [4, 0], [0, 3]])  # 3-4-5 triangle: r = 1, centre (1, 1)
         assert tri.inradius == pytest.approx(1.0, rel=1e-12)

@@ -217,7 +217,9 @@ class ConvexPolygon:
             n,
         )
         object.__setattr__(self, "_fast", fast)
-        object.__setattr__(self, "_cache", {})
+        # area / perimeter <= inradius (see above): kept, so that a caller asking whether a band
+        # fits (the shapers' buffer) needs the search only when the band is wider than that
+        object.__setattr__(self, "_cache", {"inradius_bound": area / perimeter})
 
     # ------------------------------------------------------------------ basic queries
     @property
@@ -231,6 +233,18 @@ class ConvexPolygon:
         faster than indexing arrays in the scalar hot path.
         """
         return self._fast
+
+    @property
+    def inradius_bound(self) -> float:
+        """A lower bound on :attr:`inradius` that needs no search, workspace units.
+
+        Area / perimeter: for a convex polygon the inradius is at least that (for the square
+        [-1, 1]², 0.5 of its 1.0). A band of this width or narrower always fits: the shapers
+        check their buffer against it first and run the search of :attr:`inradius` only for a
+        wider one.
+        """
+        bound: float = self._cache["inradius_bound"]
+        return bound
 
     @property
     def inradius(self) -> float:

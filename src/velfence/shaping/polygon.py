@@ -224,15 +224,18 @@ class PolygonShaper(ShaperBase):
         self.profile = profile
         if profile is None:
             self.buffer = check_positive("buffer", buffer, unit="workspace units")
-            limit = self.polygon.inradius
-            if self.buffer > limit * (1.0 + 1e-9):
-                raise InvalidParameter(
-                    f"buffer={self.buffer:g} is wider than the polygon admits: its inradius "
-                    f"(largest inscribed circle) is {limit:.6g}, so no point would be clear of "
-                    "every edge's buffer (every speed cut everywhere) and, outside, recovery "
-                    f"could not be combined with the other edges' bounds; use buffer <= "
-                    f"{limit:.6g}"
-                )
+            # a buffer within the polygon's cheap bound fits: the inradius search (about 5 ms)
+            # runs only for a wider one
+            if self.buffer > self.polygon.inradius_bound:
+                limit = self.polygon.inradius
+                if self.buffer > limit * (1.0 + 1e-9):
+                    raise InvalidParameter(
+                        f"buffer={self.buffer:g} is wider than the polygon admits: its inradius "
+                        f"(largest inscribed circle) is {limit:.6g}, so no point would be clear of "
+                        "every edge's buffer (every speed cut everywhere) and, outside, recovery "
+                        f"could not be combined with the other edges' bounds; use buffer <= "
+                        f"{limit:.6g}"
+                    )
         else:
             self.buffer = math.inf
         self.spring_gain = check_positive(
