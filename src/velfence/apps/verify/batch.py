@@ -175,6 +175,29 @@ class _Kinematics:
         self.rows = [tuple(float(v) for v in r) for r in np.asarray(data.dh).tolist()]
         self.tool = tuple(float(v) for v in np.asarray(data.tool).tolist())
         self.tcp = int(data.point_index["tcp"])
+        self.off = np.array([[r[4]] for r in self.rows])  # (n, 1)
+        self._constants: dict[int, tuple[FloatArray, FloatArray, FloatArray, FloatArray]] = {}
+
+    def constants(self, B: int) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+        """The DH constants as arrays of a batch's shape: ``cos α``, ``sin α``, ``[a, d]``, tool.
+
+        Made once per batch size (no scalar or broadcasting call in the pass).
+        """
+        got = self._constants.get(B)
+        if got is None:
+            n = len(self.rows)
+            rows = np.array(self.rows)
+            CA = np.empty((n, 2, 3, B))
+            CA[...] = rows[:, 1, None, None, None]
+            SA = np.empty((n, 2, 3, B))
+            SA[...] = rows[:, 2, None, None, None]
+            AD = np.empty((n, 2, 3, B))
+            AD[:, 0] = rows[:, 0, None, None]
+            AD[:, 1] = rows[:, 3, None, None]
+            TOOL = np.empty((3, 3, B))
+            TOOL[...] = np.array(self.tool)[:, None, None]
+            got = self._constants[B] = (CA, SA, AD, TOOL)
+        return got
 
     def __call__(self, Q: FloatArray) -> tuple[FloatArray, FloatArray]:
         """``(tcp (B, 3), joint points (B, n + 1, 3))`` of the joint positions ``Q`` (B, n).
@@ -182,56 +205,115 @@ class _Kinematics:
         Link ``l`` is the segment from point ``l`` to point ``l + 1`` (the chain's segments).
         """
         B, n = Q.shape
+        CA, SA, AD, TOOL = self.constants(B)
         # DHChain._kinematics_lists, element by element (the same operations in the same
-        # order), on the frames' columns x, y, z and origin o as (B, 3) arrays.
-        off = np.array([r[4] for r in self.rows])
-        th = Q + off  # qs[i] + off
+        # order), on the frames' columns x, y, z and origin o laid out as (3, B) arrays, every
+        # operand of one shape (NumPy's calls that broadcast cost several times more): one
+        # call per pair of columns, [x, y] and [u, z]. A term whose DH constant is exactly 0
+        # is left out: it adds a zero to the origin, which is never -0 (it starts at +0 and
+        # only sums), so the points are the same bit for bit.
+        th = np.add(Q.T, self.off, out=np.empty((n, B)))  # qs[i] + off, contiguous
         if _trig_is_libm():
             cos, sin = np.cos(th), np.sin(th)
         else:
-            cos = np.fromiter(map(math.cos, th.ravel().tolist()), np.float64, B * n).reshape(B, n)
-            sin = np.fromiter(map(math.sin, th.ravel().tolist()), np.float64, B * n).reshape(B, n)
-        X = np.zeros((B, 3))
-        X[:, 0] = 1.0
-        Y = np.zeros((B, 3))
-        Y[:, 1] = 1.0
-        Z = np.zeros((B, 3))
-        Z[:, 2] = 1.0
-        Org = np.zeros((B, 3))
-        P = np.zeros((B, n + 1, 3))
-        for i, (a, ca, sa, d, _) in enumerate(self.rows):
-            ct = cos[:, i : i + 1]
-            st = sin[:, i : i + 1]
-            U = ct * Y - st * X
-            X = ct * X + st * Y
-            Org = Org + (a * X + d * Z)  # (z of the previous frame)
-            Y, Z = ca * U + sa * Z, ca * Z - sa * U
-            P[:, i + 1] = Org
-        tx, ty, tz = self.tool
-        P[:, n] = Org + tx * X + ty * Y + tz * Z
-        tcp = Org if self.tcp < 0 else P[:, self.tcp].copy()
+            cos = np.fromiter(map(math.cos, th.ravel().tolist()), np.float64, B * n).reshape(n, B)
+            sin = np.fromiter(map(math.sin, th.ravel().tolist()), np.float64, B * n).reshape(n, B)
+        CT = np.empty((n, 2, 3, B))
+        CT[...] = cos[:, None, None, :]
+        ST = np.empty((n, 2, 3, B))
+        ST[...] = sin[:, None, None, :]
+        XY = np.zeros((2, 3, B))  # [x, y]
+        XY[0, 0] = 1.0
+        XY[1, 1] = 1.0
+        UZ = np.zeros((2, 3, B))  # [u, z]
+        UZ[1, 2] = 1.0
+        T1 = np.empty((2, 3, B))
+        T2 = np.empty((2, 3, B))
+        inc = np.empty((2, 3, B))
+        PT = np.zeros((n + 1, 3, B))  # the origins; the last: the tool point
+        mul, add, sub = np.multiply, np.add, np.subtract
+        for i, (a, _, _, d, _) in enumerate(self.rows):
+            mul(XY, CT[i], out=T1)  # [c x, c y]
+            mul(XY, ST[i], out=T2)  # [s x, s y]
+            sub(T1[1], T2[0], out=UZ[0])  # u = c y - s x
+            add(T1[0], T2[1], out=XY[0])  # x' = c x + s y
+            o, o1 = PT[i], PT[i + 1]  # o' = o + (a x' + d z)
+            if a != 0.0 and d != 0.0:
+                mul(XY[0], AD[i, 0], out=inc[0])
+                mul(UZ[1], AD[i, 1], out=inc[1])
+                add(o, add(inc[0], inc[1], out=inc[0]), out=o1)
+            elif a != 0.0:
+                add(o, mul(XY[0], AD[i, 0], out=inc[0]), out=o1)
+            elif d != 0.0:
+                add(o, mul(UZ[1], AD[i, 1], out=inc[1]), out=o1)
+            else:
+                o1[...] = o
+            mul(UZ, CA[i], out=T1)  # [ca u, ca z]
+            mul(UZ, SA[i], out=T2)  # [sa u, sa z]
+            add(T1[0], T2[1], out=XY[1])  # y' = ca u + sa z
+            sub(T1[1], T2[0], out=UZ[1])  # z' = ca z - sa u
+        flange = PT[n].T.copy() if self.tcp < 0 else None
+        tool = PT[n]  # o + tx x + ty y + tz z
+        for k, col in enumerate((XY[0], XY[1], UZ[1])):
+            if self.tool[k] != 0.0:
+                add(tool, mul(col, TOOL[k], out=inc[0]), out=tool)
+        P = np.ascontiguousarray(PT.transpose(2, 0, 1))
+        tcp = flange if flange is not None else P[:, self.tcp].copy()
         return tcp, P
 
 
-def _clearance(P: FloatArray, lrad: FloatArray, C: FloatArray, R: FloatArray,
-               real: Any) -> FloatArray:  # fmt: skip
+class _Clearance:
     """:func:`velfence.apps.soak_filter.clearance` of each case (inf for a case without one).
 
-    ``P`` (B, L + 1, 3) the joint points (link ``l`` from point ``l`` to ``l + 1``), ``C``
-    (B, K, 3), ``R`` (B, K); ``real`` (B, K) the spheres that exist.
+    The spheres of the batch's cases: ``C`` (B, K, 3), ``R`` (B, K); ``real`` (B, K) the
+    spheres that exist; ``lrad`` (L,) the links' radii. The arithmetic is the function's
+    element by element, its ``einsum`` contractions with a batch axis (each over the last axis,
+    contiguous, as there), laid out sphere first, (K, B, L): the per-case constants (the
+    centres repeated per link, the radii) are made once, and no call broadcasts along the
+    coordinates' short axis (NumPy's slow case), the one exception the ``t E`` product, whose
+    ``t`` is repeated along it first.
     """
-    A = P[:, :-1]
-    E = P[:, 1:] - A
-    ee = np.einsum("bij,bij->bi", E, E)
-    rel = C[:, :, None, :] - A[:, None, :, :]
-    t = np.clip(
-        np.einsum("bpsk,bsk->bps", rel, E) / np.where(ee > 0.0, ee, 1.0)[:, None, :], 0.0, 1.0
-    )
-    t = np.where(ee[:, None, :] > 0.0, t, 0.0)
-    diff = rel - t[:, :, :, None] * E[:, None, :, :]
-    dist = np.sqrt(np.einsum("bpsk,bpsk->bps", diff, diff)) - lrad[None, None, :] - R[:, :, None]
-    dist = np.where(real[:, :, None], dist, np.inf)
-    return np.asarray(dist.min(axis=(1, 2)) if dist.shape[1] else np.full(P.shape[0], np.inf))
+
+    def __init__(self, lrad: FloatArray, C: FloatArray, R: FloatArray, real: Any) -> None:
+        B, K = R.shape
+        L = lrad.shape[0]
+        self.CT = np.empty((K, B, L, 3))
+        self.CT[...] = C.transpose(1, 0, 2)[:, :, None, :]
+        self.LR = np.empty((K, B, L))
+        self.LR[...] = lrad
+        self.RR = np.empty((K, B, L))
+        self.RR[...] = R.T[:, :, None]
+        self.gone = None
+        if not np.all(real):
+            self.gone = np.empty((K, B, L), dtype=bool)
+            self.gone[...] = ~real.T[:, :, None]
+
+    def __call__(self, P: FloatArray) -> FloatArray:
+        """The smallest clearance of each case (B,), ``P`` (B, L + 1, 3) the joint points.
+
+        Link ``l`` runs from point ``l`` to point ``l + 1``.
+        """
+        A = np.ascontiguousarray(P[:, :-1])
+        E = P[:, 1:] - A
+        ee = np.einsum("bij,bij->bi", E, E)
+        pos = ee > 0.0
+        rel = np.subtract(self.CT, A, out=np.empty_like(self.CT))
+        t = np.einsum("pbsk,bsk->pbs", rel, E)
+        np.divide(t, np.where(pos, ee, 1.0), out=t)
+        np.clip(t, 0.0, 1.0, out=t)
+        if not pos.all():
+            np.copyto(t, 0.0, where=~pos)
+        K, B, L = t.shape
+        tE = np.repeat(t, 3, axis=-1).reshape(K, B, L, 3)
+        np.multiply(tE, E, out=tE)
+        np.subtract(rel, tE, out=rel)  # diff
+        dist = np.einsum("pbsk,pbsk->pbs", rel, rel)
+        np.sqrt(dist, out=dist)
+        np.subtract(dist, self.LR, out=dist)
+        np.subtract(dist, self.RR, out=dist)
+        if self.gone is not None:
+            np.copyto(dist, np.inf, where=self.gone)
+        return np.asarray(dist.min(axis=(0, 2)))
 
 
 def _c_route(flts: list[Any], twist: bool) -> Any:
@@ -403,12 +485,19 @@ def _lockstep(scs: list[Scenario], family: str, idx: list[int], clock: _Clock) -
     tc = worst.tol.get("containment", 0.0)
     tj = worst.tol.get("joint_limits", 0.0)
 
+    clear = _Clearance(lrad, CB, RB, real)
+
     def at(Qq: FloatArray, sel: Any = slice(None)) -> tuple[FloatArray, FloatArray, FloatArray]:
         """TCP, containment margin and joint margin of the rows ``sel`` at ``Qq``."""
         clock("plant")
         p, pts = kin(Qq)
         clock("kinematics")
-        c = _clearance(pts, lrad, CB[sel], RB[sel], real[sel]) if K else np.full(len(p), np.inf)
+        if not K:
+            c = np.full(len(p), np.inf)
+        elif isinstance(sel, slice):
+            c = clear(pts)
+        else:  # the pushed rows
+            c = _Clearance(lrad, CB[sel], RB[sel], real[sel])(pts)
         clock("clearance")
         cm = np.minimum(box_margin(NB[sel], OB[sel], p), c)
         jm = joint_margin(Qq, LO[sel], HI[sel])
