@@ -45,13 +45,11 @@ from velfence.apps.verify.campaign import PROPERTIES
 from velfence.apps.verify.cases import (
     CaseResult,
     Scenario,
-    box_margin,
     build_filter,
     chain,
     draw_command,
     face_tangent,
     jerk_margin,
-    joint_margin,
     progress_margin,
     run,
     step_margin,
@@ -316,6 +314,46 @@ class _Clearance:
         return np.asarray(dist.min(axis=(0, 2)))
 
 
+class _BoxMargin:
+    """:func:`~velfence.apps.verify.cases.box_margin` of each case's TCP (inf without a box).
+
+    The facets ``N`` (B, m, 3), ``o`` (B, m) laid out facet first, (3, m, B) and (m, B): the
+    same sums, with operands of one shape.
+    """
+
+    def __init__(self, N: FloatArray, o: FloatArray) -> None:
+        self.NT = np.ascontiguousarray(N.transpose(2, 1, 0))
+        self.OT = np.ascontiguousarray(o.T)
+
+    def __call__(self, p: FloatArray) -> FloatArray:
+        """The margins (B,) of the TCPs ``p`` (B, 3)."""
+        _, m, B = self.NT.shape
+        if m == 0:
+            return np.full(B, np.inf)
+        NP = np.empty_like(self.NT)
+        NP[...] = p.T[:, None, :]
+        np.multiply(self.NT, NP, out=NP)  # N[..., j] p[..., j]
+        d = np.add(NP[0], NP[1], out=NP[0])
+        np.add(d, NP[2], out=d)
+        np.subtract(d, self.OT, out=d)
+        return np.asarray(d.min(axis=0))
+
+
+class _JointMargin:
+    """:func:`~velfence.apps.verify.cases.joint_margin` of each case, joint first (n, B)."""
+
+    def __init__(self, lo: FloatArray, hi: FloatArray) -> None:
+        self.LO = np.ascontiguousarray(lo.T)
+        self.HI = np.ascontiguousarray(hi.T)
+
+    def __call__(self, Q: FloatArray) -> FloatArray:
+        """The margins (B,) of the joints ``Q`` (B, n)."""
+        QT = Q.T.copy()
+        a = np.subtract(QT, self.LO)
+        np.minimum(a, np.subtract(self.HI, QT, out=QT), out=a)
+        return np.asarray(a.min(axis=0))
+
+
 def _c_route(flts: list[Any], twist: bool) -> Any:
     """``cycle_many`` of the compiled core, or None (each case's ``SafetyFilter`` in turn).
 
@@ -467,7 +505,9 @@ def _lockstep(scs: list[Scenario], family: str, idx: list[int], clock: _Clock) -
     draw_rows = np.array([jogs[i] is None for i in range(B)])
     pushes = [[(ps.start, ps.end, np.array(ps.velocity)) for ps in sc.pushes] for sc in scs]
     push_rows = [i for i in range(B) if pushes[i]]
-    ALPHA = np.array([1.0 - math.exp(-dt / sc.lag) if sc.lag > 0.0 else 1.0 for sc in scs])
+    ALPHA = np.empty((B, n))  # (B, n) and DT too: no call broadcasts in the loop
+    ALPHA[...] = np.array([[1.0 - math.exp(-dt / sc.lag) if sc.lag > 0.0 else 1.0] for sc in scs])
+    DT = np.full((B, n), dt)
     LAT = np.array([sc.latency for sc in scs])
     Lmax = int(LAT.max())
     ring = np.zeros((Lmax + 1, B, n))
@@ -486,6 +526,8 @@ def _lockstep(scs: list[Scenario], family: str, idx: list[int], clock: _Clock) -
     tj = worst.tol.get("joint_limits", 0.0)
 
     clear = _Clearance(lrad, CB, RB, real)
+    inside = _BoxMargin(NB, OB)
+    limits = _JointMargin(LO, HI)
 
     def at(Qq: FloatArray, sel: Any = slice(None)) -> tuple[FloatArray, FloatArray, FloatArray]:
         """TCP, containment margin and joint margin of the rows ``sel`` at ``Qq``."""
@@ -499,8 +541,12 @@ def _lockstep(scs: list[Scenario], family: str, idx: list[int], clock: _Clock) -
         else:  # the pushed rows
             c = _Clearance(lrad, CB[sel], RB[sel], real[sel])(pts)
         clock("clearance")
-        cm = np.minimum(box_margin(NB[sel], OB[sel], p), c)
-        jm = joint_margin(Qq, LO[sel], HI[sel])
+        if isinstance(sel, slice):
+            cm = np.minimum(inside(p), c)
+            jm = limits(Qq)
+        else:
+            cm = np.minimum(_BoxMargin(NB[sel], OB[sel])(p), c)
+            jm = _JointMargin(LO[sel], HI[sel])(Qq)
         return p, cm, jm
 
     Q = np.array([sc.q0 for sc in scs])
@@ -585,11 +631,17 @@ def _lockstep(scs: list[Scenario], family: str, idx: list[int], clock: _Clock) -
                     X[i] = np.nan
                 missed[i] = f.deadline_misses
         clock("filter")
-        OK = np.all(np.isfinite(X), axis=1)
-        if not OK.all():
+        # "finite" and "deadline": a margin of 0 everywhere changes nothing after the first
+        # step (every case has a worst margin <= 0 then, and 0 violates nothing)
+        if not np.isfinite(X).all():
+            OK = np.all(np.isfinite(X), axis=1)
             X[~OK] = 0.0
-        worst.add("finite", np.where(OK, 0.0, -1.0), k)
-        worst.add("deadline", np.where(missed > MISSES, -1.0, 0.0), k)
+            worst.add("finite", np.where(OK, 0.0, -1.0), k)
+        elif k == 0:
+            worst.add("finite", np.zeros(B), k)
+        late_now = missed > MISSES
+        if k == 0 or late_now.any():
+            worst.add("deadline", np.where(late_now, -1.0, 0.0), k)
         MISSES = missed
         if jerk_max is not None and PREV is not None and PREV2 is not None:
             worst.add("jerk", jerk_margin(jerk_max, X, PREV, PREV2, dt), k)
@@ -601,8 +653,8 @@ def _lockstep(scs: list[Scenario], family: str, idx: list[int], clock: _Clock) -
         else:
             XD = X
         clock("margins")
-        APPLIED = APPLIED + ALPHA[:, None] * (XD - APPLIED)
-        Q1 = Q + dt * APPLIED
+        APPLIED = APPLIED + ALPHA * (XD - APPLIED)
+        Q1 = Q + DT * APPLIED
         P1, CM1, JM1 = at(Q1)
         worst.add("containment", step_margin(CM1, CM0, tc), k)
         worst.add("joint_limits", step_margin(JM1, JM0, tj), k)

@@ -432,8 +432,11 @@ def step_margin(m1: Any, m0: Any, tol: float) -> Any:
     ``m1`` for a step that began inside (``m0 >= -tol``); for one that began outside, how much
     deeper it went: ``min(0, m1 - m0)``. Floats or arrays.
     """
+    began_inside = np.asarray(m0) >= -tol
+    if began_inside.all():  # (the usual step: m1 as it is)
+        return np.array(m1, dtype=np.float64)[()]
     with np.errstate(invalid="ignore"):  # inf - inf where there is nothing to measure
-        return np.where(m0 >= -tol, m1, np.minimum(0.0, m1 - m0))[()]
+        return np.where(began_inside, m1, np.minimum(0.0, m1 - m0))[()]
 
 
 def jerk_margin(bound: float, x: FloatArray, prev: FloatArray, prev2: FloatArray,
