@@ -265,11 +265,11 @@ class _Clearance:
 
     The spheres of the batch's cases: ``C`` (B, K, 3), ``R`` (B, K); ``real`` (B, K) the
     spheres that exist; ``lrad`` (L,) the links' radii. The arithmetic is the function's
-    element by element, its ``einsum`` contractions with a batch axis (each over the last axis,
-    contiguous, as there), laid out sphere first, (K, B, L): the per-case constants (the
-    centres repeated per link, the radii) are made once, and no call broadcasts along the
-    coordinates' short axis (NumPy's slow case), the one exception the ``t E`` product, whose
-    ``t`` is repeated along it first.
+    element by element (one step left out, exactly: see ``__call__``), its ``einsum``
+    contractions with a batch axis (each over the last axis, contiguous, as there), laid out
+    sphere first, (K, B, L): the per-case constants (the centres repeated per link, the radii)
+    are made once, and no call broadcasts along the coordinates' short axis (NumPy's slow
+    case): the ``t E`` product repeats ``t`` along it first.
     """
 
     def __init__(self, lrad: FloatArray, C: FloatArray, R: FloatArray, real: Any) -> None:
@@ -299,8 +299,8 @@ class _Clearance:
         t = np.einsum("pbsk,bsk->pbs", rel, E)
         np.divide(t, np.where(pos, ee, 1.0), out=t)
         np.clip(t, 0.0, 1.0, out=t)
-        if not pos.all():
-            np.copyto(t, 0.0, where=~pos)
+        # (the function's t = where(ee > 0, t, 0) is left out: for a link of length 0, E = 0,
+        # so t E is a zero whatever t, and rel - t E is rel: the same distances bit for bit)
         K, B, L = t.shape
         tE = np.repeat(t, 3, axis=-1).reshape(K, B, L, 3)
         np.multiply(tE, E, out=tE)
@@ -311,7 +311,7 @@ class _Clearance:
         np.subtract(dist, self.RR, out=dist)
         if self.gone is not None:
             np.copyto(dist, np.inf, where=self.gone)
-        return np.asarray(dist.min(axis=(0, 2)))
+        return np.asarray(dist.min(axis=0).min(axis=1))
 
 
 class _BoxMargin:
@@ -420,9 +420,11 @@ class _Worst:
         if mask is not None:
             new &= mask
             bad &= mask
-        m[new] = margin[new]
-        s[new] = k
-        f[bad] = k
+        if new.any():  # (most steps: no case's worst margin moves)
+            m[new] = margin[new]
+            s[new] = k
+        if bad.any():
+            f[bad] = k
 
 
 class _Clock:
@@ -592,9 +594,11 @@ def _lockstep(scs: list[Scenario], family: str, idx: list[int], clock: _Clock) -
             cmd, hold = draw_command(operators[i], rngs[i], twist=twist, N=Ns[i], o=os_[i],
                                      p=pm, vmax=vmax[i], rate=sc0.rate)  # fmt: skip
             CMD[i] = cmd
-            CN[i] = float(np.linalg.norm(cmd))
             HOLD[i] = hold
-            SEG_LEN[i], SEG_ALONG[i], SEG_TAN[i] = 0, 0.0, 0.0
+        if due:  # the new commands' norms (np.linalg.norm's dot), their segments begun
+            CD = CMD[due]
+            CN[due] = np.sqrt(np.vecdot(CD, CD))
+            SEG_LEN[due], SEG_ALONG[due], SEG_TAN[due] = 0, 0.0, 0.0
         HOLD -= 1
         clock("operator")
         X = np.empty((B, n))
@@ -658,11 +662,10 @@ def _lockstep(scs: list[Scenario], family: str, idx: list[int], clock: _Clock) -
         P1, CM1, JM1 = at(Q1)
         worst.add("containment", step_margin(CM1, CM0, tc), k)
         worst.add("joint_limits", step_margin(JM1, JM0, tj), k)
-        VT = (P1 - P) / dt
-        D = (VT if twist else APPLIED) - CMD
+        VT = (P1 - P) / dt if twist else APPLIED  # (the TCP's velocity: twist mode only)
+        D = VT - CMD
         big = CN > 1e-9
-        with np.errstate(divide="ignore", invalid="ignore"):
-            REL = np.where(big, np.sqrt(np.vecdot(D, D)) / CN, 0.0)
+        REL = np.where(big, np.sqrt(np.vecdot(D, D)) / np.where(big, CN, 1.0), 0.0)
         INTER_SUM += REL
         INTER_MAX = np.maximum(INTER_MAX, REL)
         if prog is not None and has_box:
