@@ -16,12 +16,19 @@ The arithmetic is :func:`run`'s, element by element: the forward kinematics is t
 kinematics pass (``DHChain``'s plain-float composition, column-wise over the batch, with the
 C library's ``sin`` and ``cos``: NumPy's where they give :mod:`math`'s values, checked once,
 else :mod:`math`'s), the clearance :func:`clearance`'s
-``einsum`` contractions with a batch axis in front, the norms and dot products NumPy's ``vecdot``
+``einsum`` contractions with a batch axis, the norms and dot products NumPy's ``vecdot``
 (the same BLAS dot as ``np.linalg.norm`` and ``@`` of one vector), the sensor noise drawn in
 blocks (a generator's block of draws is its draws one after the other). A case's result is
 therefore :func:`run`'s bit for bit, whatever the other cases of its batch
 (``tests/apps/verify/test_batch.py`` checks it on random campaigns with pushes, lag, latency,
 noise, both modes and every operator).
+
+The arrays of a step are laid out so that every NumPy call takes operands of one shape, the
+batch along the last axis where it can (the kinematics' frame columns (3, B), the box's and the
+joints' margins facet and joint first, the clearance sphere first): a call that broadcasts,
+or takes a Python float, costs a few times the fixed cost of one that does not, at these sizes.
+The per-case constants (the DH constants as arrays, the spheres repeated per link, the box's
+facets, the joint limits, the servo's gains) are laid out once per batch.
 
 Only the kinematic plant runs here: a scenario of another plant (a ``plant`` field other than
 ``"kinematic"``) is handed to :func:`run` unchanged, as are the traces (``record``) and the
