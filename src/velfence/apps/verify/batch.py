@@ -284,6 +284,7 @@ class _Clearance:
         L = lrad.shape[0]
         self.CT = np.empty((K, B, L, 3))
         self.CT[...] = C.transpose(1, 0, 2)[:, :, None, :]
+        self.rel = np.empty_like(self.CT)  # (one buffer for every step: the same memory)
         self.LR = np.empty((K, B, L))
         self.LR[...] = lrad
         self.RR = np.empty((K, B, L))
@@ -302,7 +303,7 @@ class _Clearance:
         E = P[:, 1:] - A
         ee = np.einsum("bij,bij->bi", E, E)
         pos = ee > 0.0
-        rel = np.subtract(self.CT, A, out=np.empty_like(self.CT))
+        rel = np.subtract(self.CT, A, out=self.rel)
         t = np.einsum("pbsk,bsk->pbs", rel, E)
         np.divide(t, np.where(pos, ee, 1.0), out=t)
         np.clip(t, 0.0, 1.0, out=t)
