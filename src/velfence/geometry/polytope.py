@@ -185,6 +185,9 @@ class ConvexPolytope:
     source_rows: tuple[int, ...] = field(init=False)
     bounded: bool = field(init=False)
     _cache: dict[str, Any] = field(init=False, repr=False)
+    if TYPE_CHECKING:  # not fields (see chebyshev_radius): set by the constructors
+        _ball_now: tuple[FloatArray, float] | None
+        _ball_program: tuple[FloatArray, FloatArray, list[int], float] | None
 
     @renamed_args(names="facet_names")
     def __init__(
@@ -240,7 +243,8 @@ class ConvexPolytope:
         source = tuple(index.get(int(rep[i]), -1) for i in range(m))
         self._store(N[kept], off[kept], tuple(labels[r] for r in kept),
                     tuple(i for i in range(m) if i not in index), source, bounded)  # fmt: skip
-        self._cache["ball"] = (readonly(centre_u * unit), radius_u * unit)
+        object.__setattr__(self, "_ball_now", (readonly(centre_u * unit), radius_u * unit))
+        object.__setattr__(self, "_ball_program", None)
 
     def _store(
         self,
@@ -251,7 +255,7 @@ class ConvexPolytope:
         source: tuple[int, ...],
         bounded: bool,
     ) -> None:
-        """Set the fields of the kept facets ``N``, ``off`` (the Chebyshev ball: ``_cache``)."""
+        """Set the fields of the kept facets ``N``, ``off`` (the Chebyshev ball: the caller)."""
         object.__setattr__(self, "normals", readonly(np.ascontiguousarray(N)))
         object.__setattr__(self, "offsets", readonly(np.ascontiguousarray(off)))
         object.__setattr__(self, "facet_names", labels)
@@ -326,7 +330,8 @@ class ConvexPolytope:
         rows = tuple(range(2 * n))
         P = cls.__new__(cls)
         P._store(N, off, tuple(labels), (), rows, True)
-        P._cache["ball program"] = (N, off_u, list(rows), unit)
+        object.__setattr__(P, "_ball_now", None)
+        object.__setattr__(P, "_ball_program", (N, off_u, list(rows), unit))
         return P
 
     @classmethod
@@ -433,12 +438,13 @@ class ConvexPolytope:
 
     def _ball(self) -> tuple[FloatArray, float]:
         """``(centre, radius)`` of the Chebyshev ball, its program run on first use (a box)."""
-        ball: tuple[FloatArray, float] | None = self._cache.get("ball")
+        ball = self._ball_now
         if ball is None:
-            N, off_u, kept, unit = self._cache["ball program"]
+            assert self._ball_program is not None  # (set by box, the one lazy constructor)
+            N, off_u, kept, unit = self._ball_program
             centre_u, radius_u, _, _ = _programs(N, off_u, kept, "keep")
             ball = (readonly(centre_u * unit), radius_u * unit)
-            self._cache["ball"] = ball
+            object.__setattr__(self, "_ball_now", ball)
         return ball
 
     @property
