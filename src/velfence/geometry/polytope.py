@@ -104,6 +104,18 @@ def _chebyshev(N: FloatArray, off: FloatArray) -> tuple[FloatArray, float]:
     return np.asarray(res.x[:n], dtype=float), r
 
 
+def _check_thin(radius_u: float, unit: float) -> None:
+    """Refuse a Chebyshev radius ``radius_u`` (in units of ``unit``) of ``THIN`` or less."""
+    if radius_u <= THIN:
+        shown = radius_u * unit if radius_u > 0 else 0.0
+        got = "no common point" if radius_u < 0 else f"Chebyshev radius {shown:.3g}"
+        raise InvalidGeometry(
+            "normals, offsets: empty or lower-dimensional: expected a full-dimensional set "
+            f"(an inscribed ball of radius > {THIN * unit:.3g}), got {got}; check "
+            "the signs of the offsets (n_i·x >= offset_i inside)"
+        )
+
+
 def _is_bounded(N: FloatArray) -> bool:
     """Whether ``{y : N y >= 0} = {0}``: rank n and ``Nᵀ λ = 0`` for some ``λ >= 1`` (Stiemke).
 
@@ -157,8 +169,6 @@ class ConvexPolytope:
         removed: Input row indices that are not facets (merged duplicates and redundant rows).
         source_rows: For every input row, the index of the facet it became (a merged duplicate:
             the facet it was merged into), or ``-1`` for a removed redundant row.
-        chebyshev_center: Centre of a largest inscribed ball, shape (n,), read-only (for a set
-            holding arbitrarily large balls: the centre of a ball of radius ``1 + scale``).
         bounded: Whether the set is bounded (its recession cone ``{y : N y >= 0}`` is ``{0}``).
 
     Raises:
@@ -173,11 +183,11 @@ class ConvexPolytope:
     facet_names: tuple[str, ...] = field(init=False)
     removed: tuple[int, ...] = field(init=False)
     source_rows: tuple[int, ...] = field(init=False)
-    chebyshev_center: FloatArray = field(init=False)
     bounded: bool = field(init=False)
     _cache: dict[str, Any] = field(init=False, repr=False)
-    if TYPE_CHECKING:
-        _radius: float
+    if TYPE_CHECKING:  # not fields (see chebyshev_radius): set by the constructors
+        _ball_now: tuple[FloatArray, float] | None
+        _ball_program: tuple[FloatArray, FloatArray, list[int], float] | None
 
     @renamed_args(names="facet_names")
     def __init__(
@@ -227,25 +237,30 @@ class ConvexPolytope:
         unit = 1.0 + float(np.max(np.abs(off)))
         off_u = off / unit
         centre_u, radius_u, kept_u, bounded = _programs(N, off_u, kept, mode)
-        if radius_u <= THIN:
-            shown = radius_u * unit if radius_u > 0 else 0.0
-            got = "no common point" if radius_u < 0 else f"Chebyshev radius {shown:.3g}"
-            raise InvalidGeometry(
-                "normals, offsets: empty or lower-dimensional: expected a full-dimensional set "
-                f"(an inscribed ball of radius > {THIN * unit:.3g}), got {got}; check "
-                "the signs of the offsets (n_i·x >= offset_i inside)"
-            )
-        centre, radius = centre_u * unit, radius_u * unit
+        _check_thin(radius_u, unit)
         kept = list(kept_u)
         index = {r: k for k, r in enumerate(kept)}
         source = tuple(index.get(int(rep[i]), -1) for i in range(m))
-        object.__setattr__(self, "normals", readonly(np.ascontiguousarray(N[kept])))
-        object.__setattr__(self, "offsets", readonly(np.ascontiguousarray(off[kept])))
-        object.__setattr__(self, "facet_names", tuple(labels[r] for r in kept))
-        object.__setattr__(self, "removed", tuple(i for i in range(m) if i not in index))
+        self._store(N[kept], off[kept], tuple(labels[r] for r in kept),
+                    tuple(i for i in range(m) if i not in index), source, bounded)  # fmt: skip
+        object.__setattr__(self, "_ball_now", (readonly(centre_u * unit), radius_u * unit))
+        object.__setattr__(self, "_ball_program", None)
+
+    def _store(
+        self,
+        N: FloatArray,
+        off: FloatArray,
+        labels: tuple[str, ...],
+        removed: tuple[int, ...],
+        source: tuple[int, ...],
+        bounded: bool,
+    ) -> None:
+        """Set the fields of the kept facets ``N``, ``off`` (the Chebyshev ball: the caller)."""
+        object.__setattr__(self, "normals", readonly(np.ascontiguousarray(N)))
+        object.__setattr__(self, "offsets", readonly(np.ascontiguousarray(off)))
+        object.__setattr__(self, "facet_names", labels)
+        object.__setattr__(self, "removed", removed)
         object.__setattr__(self, "source_rows", source)
-        object.__setattr__(self, "chebyshev_center", readonly(centre))
-        object.__setattr__(self, "_radius", radius)  # not a field: see chebyshev_radius
         object.__setattr__(self, "bounded", bounded)
         object.__setattr__(self, "_cache", {})
 
@@ -298,10 +313,26 @@ class ConvexPolytope:
         off[1::2] = -hi
         default = [f"{a}_{side}" for a in _axis_names(n) for side in ("min", "max")]
         labels = _names("facet_names", facet_names, 2 * n, default)
+        # The constructor's rows, duplicates and redundancy decided: unit normals (+ 0.0: no
+        # negative zeros, as the constructor writes them), none merged, none redundant, a
+        # bounded set whose inradius is its smallest half-width. The Chebyshev ball's linear
+        # program (the only one the constructor would run) is left for the first reader of
+        # chebyshev_center or chebyshev_radius: the same program on the same rows, so the
+        # same ball bit for bit.
+        N = N + 0.0
+        off = off + 0.0
+        unit = 1.0 + float(np.max(np.abs(off)))
+        off_u = off / unit
         try:
-            return cls(N, off, facet_names=labels, redundant="keep")
+            _check_thin(-float(np.max(off_u[0::2] + off_u[1::2])) / 2.0, unit)
         except InvalidGeometry as exc:  # a box too thin for the tolerance
             raise InvalidGeometry(f"lower, upper: the box is unusable: {exc}") from None
+        rows = tuple(range(2 * n))
+        P = cls.__new__(cls)
+        P._store(N, off, tuple(labels), (), rows, True)
+        object.__setattr__(P, "_ball_now", None)
+        object.__setattr__(P, "_ball_program", (N, off_u, list(rows), unit))
+        return P
 
     @classmethod
     def from_polygon(cls, polygon: ConvexPolygon) -> ConvexPolytope:
@@ -395,7 +426,26 @@ class ConvexPolytope:
         non-finite value this class reports, on purpose, so it is a property rather than a
         record field.
         """
-        return self._radius
+        return self._ball()[1]
+
+    @property
+    def chebyshev_center(self) -> FloatArray:
+        """Centre of a largest inscribed ball, shape (n,), read-only.
+
+        For a set holding arbitrarily large balls: the centre of a ball of radius ``1 + scale``.
+        """
+        return self._ball()[0]
+
+    def _ball(self) -> tuple[FloatArray, float]:
+        """``(centre, radius)`` of the Chebyshev ball, its program run on first use (a box)."""
+        ball = self._ball_now
+        if ball is None:
+            assert self._ball_program is not None  # (set by box, the one lazy constructor)
+            N, off_u, kept, unit = self._ball_program
+            centre_u, radius_u, _, _ = _programs(N, off_u, kept, "keep")
+            ball = (readonly(centre_u * unit), radius_u * unit)
+            object.__setattr__(self, "_ball_now", ball)
+        return ball
 
     @property
     def dim(self) -> int:

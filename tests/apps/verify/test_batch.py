@@ -184,3 +184,31 @@ def test_the_kinematics_is_the_chains_bit_for_bit(monkeypatch: pytest.MonkeyPatc
                 seg = frame.segments()
                 assert np.array_equal(P[:-1], seg[:, 0])
                 assert np.array_equal(P[1:], seg[:, 1])
+
+
+def test_the_clearance_is_the_soaks_bit_for_bit() -> None:
+    from velfence.apps.soak_filter import clearance
+    from velfence.mechanisms.chain import DHChain
+
+    rng = np.random.default_rng(9)
+    for robot in (DHChain.seven_dof(link_radius=0.05, tool=(0.0, 0.0, 0.05)),
+                  DHChain.ur5e(link_radius=0.04), DHChain.puma560()):  # fmt: skip
+        Q = rng.uniform(-3.0, 3.0, (40, robot.dof))
+        _, P = batch._Kinematics(robot)(Q)
+        B, K = len(Q), 4
+        # spheres about the links: some touching or inside them, some cases without one
+        C = P[np.arange(B)[:, None], rng.integers(0, P.shape[1], (B, K))]
+        C = C + rng.normal(0.0, 0.1, (B, K, 3))
+        R = rng.uniform(0.0, 0.1, (B, K))
+        real = rng.random((B, K)) < 0.7
+        real[0] = False
+        lrad = np.asarray(robot.link_radius, dtype=np.float64)
+        got = batch._Clearance(lrad, C, R, real)(P)
+        some = 0
+        for b in range(B):
+            seg = np.stack([P[b, :-1], P[b, 1:]], axis=1)
+            want = clearance(seg, lrad, C[b][real[b]], R[b][real[b]])
+            assert got[b] == want or (np.isinf(want) and np.isinf(got[b])), (b, got[b], want)
+            some += want < 0.0
+        assert np.isinf(got[0])
+        assert some  # penetrations too, not only clear cases

@@ -16,12 +16,19 @@ The arithmetic is :func:`run`'s, element by element: the forward kinematics is t
 kinematics pass (``DHChain``'s plain-float composition, column-wise over the batch, with the
 C library's ``sin`` and ``cos``: NumPy's where they give :mod:`math`'s values, checked once,
 else :mod:`math`'s), the clearance :func:`clearance`'s
-``einsum`` contractions with a batch axis in front, the norms and dot products NumPy's ``vecdot``
+``einsum`` contractions with a batch axis, the norms and dot products NumPy's ``vecdot``
 (the same BLAS dot as ``np.linalg.norm`` and ``@`` of one vector), the sensor noise drawn in
 blocks (a generator's block of draws is its draws one after the other). A case's result is
 therefore :func:`run`'s bit for bit, whatever the other cases of its batch
 (``tests/apps/verify/test_batch.py`` checks it on random campaigns with pushes, lag, latency,
 noise, both modes and every operator).
+
+The arrays of a step are laid out so that every NumPy call takes operands of one shape, the
+batch along the last axis where it can (the kinematics' frame columns (3, B), the box's and the
+joints' margins facet and joint first, the clearance sphere first): a call that broadcasts,
+or takes a Python float, costs a few times the fixed cost of one that does not, at these sizes.
+The per-case constants (the DH constants as arrays, the spheres repeated per link, the box's
+facets, the joint limits, the servo's gains) are laid out once per batch.
 
 Only the kinematic plant runs here: a scenario of another plant (a ``plant`` field other than
 ``"kinematic"``) is handed to :func:`run` unchanged, as are the traces (``record``) and the
@@ -46,13 +53,11 @@ from velfence.apps.verify.campaign import PROPERTIES
 from velfence.apps.verify.cases import (
     CaseResult,
     Scenario,
-    box_margin,
     build_filter,
     chain,
     draw_command,
     face_tangent,
     jerk_margin,
-    joint_margin,
     progress_margin,
     run,
     step_margin,
@@ -176,6 +181,29 @@ class _Kinematics:
         self.rows = [tuple(float(v) for v in r) for r in np.asarray(data.dh).tolist()]
         self.tool = tuple(float(v) for v in np.asarray(data.tool).tolist())
         self.tcp = int(data.point_index["tcp"])
+        self.off = np.array([[r[4]] for r in self.rows])  # (n, 1)
+        self._constants: dict[int, tuple[FloatArray, FloatArray, FloatArray, FloatArray]] = {}
+
+    def constants(self, B: int) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+        """The DH constants as arrays of a batch's shape: ``cos α``, ``sin α``, ``[a, d]``, tool.
+
+        Made once per batch size (no scalar or broadcasting call in the pass).
+        """
+        got = self._constants.get(B)
+        if got is None:
+            n = len(self.rows)
+            rows = np.array(self.rows)
+            CA = np.empty((n, 2, 3, B))
+            CA[...] = rows[:, 1, None, None, None]
+            SA = np.empty((n, 2, 3, B))
+            SA[...] = rows[:, 2, None, None, None]
+            AD = np.empty((n, 2, 3, B))
+            AD[:, 0] = rows[:, 0, None, None]
+            AD[:, 1] = rows[:, 3, None, None]
+            TOOL = np.empty((3, 3, B))
+            TOOL[...] = np.array(self.tool)[:, None, None]
+            got = self._constants[B] = (CA, SA, AD, TOOL)
+        return got
 
     def __call__(self, Q: FloatArray) -> tuple[FloatArray, FloatArray]:
         """``(tcp (B, 3), joint points (B, n + 1, 3))`` of the joint positions ``Q`` (B, n).
@@ -183,56 +211,156 @@ class _Kinematics:
         Link ``l`` is the segment from point ``l`` to point ``l + 1`` (the chain's segments).
         """
         B, n = Q.shape
+        CA, SA, AD, TOOL = self.constants(B)
         # DHChain._kinematics_lists, element by element (the same operations in the same
-        # order), on the frames' columns x, y, z and origin o as (B, 3) arrays.
-        off = np.array([r[4] for r in self.rows])
-        th = Q + off  # qs[i] + off
+        # order), on the frames' columns x, y, z and origin o laid out as (3, B) arrays, every
+        # operand of one shape (NumPy's calls that broadcast cost several times more): one
+        # call per pair of columns, [x, y] and [u, z]. A term whose DH constant is exactly 0
+        # is left out: it adds a zero to the origin, which is never -0 (it starts at +0 and
+        # only sums), so the points are the same bit for bit.
+        th = np.add(Q.T, self.off, out=np.empty((n, B)))  # qs[i] + off, contiguous
         if _trig_is_libm():
             cos, sin = np.cos(th), np.sin(th)
         else:
-            cos = np.fromiter(map(math.cos, th.ravel().tolist()), np.float64, B * n).reshape(B, n)
-            sin = np.fromiter(map(math.sin, th.ravel().tolist()), np.float64, B * n).reshape(B, n)
-        X = np.zeros((B, 3))
-        X[:, 0] = 1.0
-        Y = np.zeros((B, 3))
-        Y[:, 1] = 1.0
-        Z = np.zeros((B, 3))
-        Z[:, 2] = 1.0
-        Org = np.zeros((B, 3))
-        P = np.zeros((B, n + 1, 3))
-        for i, (a, ca, sa, d, _) in enumerate(self.rows):
-            ct = cos[:, i : i + 1]
-            st = sin[:, i : i + 1]
-            U = ct * Y - st * X
-            X = ct * X + st * Y
-            Org = Org + (a * X + d * Z)  # (z of the previous frame)
-            Y, Z = ca * U + sa * Z, ca * Z - sa * U
-            P[:, i + 1] = Org
-        tx, ty, tz = self.tool
-        P[:, n] = Org + tx * X + ty * Y + tz * Z
-        tcp = Org if self.tcp < 0 else P[:, self.tcp].copy()
+            cos = np.fromiter(map(math.cos, th.ravel().tolist()), np.float64, B * n).reshape(n, B)
+            sin = np.fromiter(map(math.sin, th.ravel().tolist()), np.float64, B * n).reshape(n, B)
+        CT = np.empty((n, 2, 3, B))
+        CT[...] = cos[:, None, None, :]
+        ST = np.empty((n, 2, 3, B))
+        ST[...] = sin[:, None, None, :]
+        XY = np.zeros((2, 3, B))  # [x, y]
+        XY[0, 0] = 1.0
+        XY[1, 1] = 1.0
+        UZ = np.zeros((2, 3, B))  # [u, z]
+        UZ[1, 2] = 1.0
+        T1 = np.empty((2, 3, B))
+        T2 = np.empty((2, 3, B))
+        inc = np.empty((2, 3, B))
+        PT = np.zeros((n + 1, 3, B))  # the origins; the last: the tool point
+        mul, add, sub = np.multiply, np.add, np.subtract
+        for i, (a, _, _, d, _) in enumerate(self.rows):
+            mul(XY, CT[i], out=T1)  # [c x, c y]
+            mul(XY, ST[i], out=T2)  # [s x, s y]
+            sub(T1[1], T2[0], out=UZ[0])  # u = c y - s x
+            add(T1[0], T2[1], out=XY[0])  # x' = c x + s y
+            o, o1 = PT[i], PT[i + 1]  # o' = o + (a x' + d z)
+            if a != 0.0 and d != 0.0:
+                mul(XY[0], AD[i, 0], out=inc[0])
+                mul(UZ[1], AD[i, 1], out=inc[1])
+                add(o, add(inc[0], inc[1], out=inc[0]), out=o1)
+            elif a != 0.0:
+                add(o, mul(XY[0], AD[i, 0], out=inc[0]), out=o1)
+            elif d != 0.0:
+                add(o, mul(UZ[1], AD[i, 1], out=inc[1]), out=o1)
+            else:
+                o1[...] = o
+            mul(UZ, CA[i], out=T1)  # [ca u, ca z]
+            mul(UZ, SA[i], out=T2)  # [sa u, sa z]
+            add(T1[0], T2[1], out=XY[1])  # y' = ca u + sa z
+            sub(T1[1], T2[0], out=UZ[1])  # z' = ca z - sa u
+        flange = PT[n].T.copy() if self.tcp < 0 else None
+        tool = PT[n]  # o + tx x + ty y + tz z
+        for k, col in enumerate((XY[0], XY[1], UZ[1])):
+            if self.tool[k] != 0.0:
+                add(tool, mul(col, TOOL[k], out=inc[0]), out=tool)
+        P = np.ascontiguousarray(PT.transpose(2, 0, 1))
+        tcp = flange if flange is not None else P[:, self.tcp].copy()
         return tcp, P
 
 
-def _clearance(P: FloatArray, lrad: FloatArray, C: FloatArray, R: FloatArray,
-               real: Any) -> FloatArray:  # fmt: skip
+class _Clearance:
     """:func:`velfence.apps.soak_filter.clearance` of each case (inf for a case without one).
 
-    ``P`` (B, L + 1, 3) the joint points (link ``l`` from point ``l`` to ``l + 1``), ``C``
-    (B, K, 3), ``R`` (B, K); ``real`` (B, K) the spheres that exist.
+    The spheres of the batch's cases: ``C`` (B, K, 3), ``R`` (B, K); ``real`` (B, K) the
+    spheres that exist; ``lrad`` (L,) the links' radii. The arithmetic is the function's
+    element by element (one step left out, exactly: see ``__call__``), its ``einsum``
+    contractions with a batch axis (each over the last axis, contiguous, as there), laid out
+    sphere first, (K, B, L): the per-case constants (the centres repeated per link, the radii)
+    are made once, and no call broadcasts along the coordinates' short axis (NumPy's slow
+    case): the ``t E`` product repeats ``t`` along it first.
     """
-    A = P[:, :-1]
-    E = P[:, 1:] - A
-    ee = np.einsum("bij,bij->bi", E, E)
-    rel = C[:, :, None, :] - A[:, None, :, :]
-    t = np.clip(
-        np.einsum("bpsk,bsk->bps", rel, E) / np.where(ee > 0.0, ee, 1.0)[:, None, :], 0.0, 1.0
-    )
-    t = np.where(ee[:, None, :] > 0.0, t, 0.0)
-    diff = rel - t[:, :, :, None] * E[:, None, :, :]
-    dist = np.sqrt(np.einsum("bpsk,bpsk->bps", diff, diff)) - lrad[None, None, :] - R[:, :, None]
-    dist = np.where(real[:, :, None], dist, np.inf)
-    return np.asarray(dist.min(axis=(1, 2)) if dist.shape[1] else np.full(P.shape[0], np.inf))
+
+    def __init__(self, lrad: FloatArray, C: FloatArray, R: FloatArray, real: Any) -> None:
+        B, K = R.shape
+        L = lrad.shape[0]
+        self.CT = np.empty((K, B, L, 3))
+        self.CT[...] = C.transpose(1, 0, 2)[:, :, None, :]
+        self.rel = np.empty_like(self.CT)  # (one buffer for every step: the same memory)
+        self.LR = np.empty((K, B, L))
+        self.LR[...] = lrad
+        self.RR = np.empty((K, B, L))
+        self.RR[...] = R.T[:, :, None]
+        self.gone = None
+        if not np.all(real):
+            self.gone = np.empty((K, B, L), dtype=bool)
+            self.gone[...] = ~real.T[:, :, None]
+
+    def __call__(self, P: FloatArray) -> FloatArray:
+        """The smallest clearance of each case (B,), ``P`` (B, L + 1, 3) the joint points.
+
+        Link ``l`` runs from point ``l`` to point ``l + 1``.
+        """
+        A = np.ascontiguousarray(P[:, :-1])
+        E = P[:, 1:] - A
+        ee = np.einsum("bij,bij->bi", E, E)
+        pos = ee > 0.0
+        rel = np.subtract(self.CT, A, out=self.rel)
+        t = np.einsum("pbsk,bsk->pbs", rel, E)
+        np.divide(t, np.where(pos, ee, 1.0), out=t)
+        np.clip(t, 0.0, 1.0, out=t)
+        # (the function's t = where(ee > 0, t, 0) is left out: for a link of length 0, E = 0,
+        # so t E is a zero whatever t, and rel - t E is rel: the same distances bit for bit)
+        K, B, L = t.shape
+        tE = np.repeat(t, 3, axis=-1).reshape(K, B, L, 3)
+        np.multiply(tE, E, out=tE)
+        np.subtract(rel, tE, out=rel)  # diff
+        dist = np.einsum("pbsk,pbsk->pbs", rel, rel)
+        np.sqrt(dist, out=dist)
+        np.subtract(dist, self.LR, out=dist)
+        np.subtract(dist, self.RR, out=dist)
+        if self.gone is not None:
+            np.copyto(dist, np.inf, where=self.gone)
+        return np.asarray(dist.min(axis=0).min(axis=1))
+
+
+class _BoxMargin:
+    """:func:`~velfence.apps.verify.cases.box_margin` of each case's TCP (inf without a box).
+
+    The facets ``N`` (B, m, 3), ``o`` (B, m) laid out facet first, (3, m, B) and (m, B): the
+    same sums, with operands of one shape.
+    """
+
+    def __init__(self, N: FloatArray, o: FloatArray) -> None:
+        self.NT = np.ascontiguousarray(N.transpose(2, 1, 0))
+        self.OT = np.ascontiguousarray(o.T)
+
+    def __call__(self, p: FloatArray) -> FloatArray:
+        """The margins (B,) of the TCPs ``p`` (B, 3)."""
+        _, m, B = self.NT.shape
+        if m == 0:
+            return np.full(B, np.inf)
+        NP = np.empty_like(self.NT)
+        NP[...] = p.T[:, None, :]
+        np.multiply(self.NT, NP, out=NP)  # N[..., j] p[..., j]
+        d = np.add(NP[0], NP[1], out=NP[0])
+        np.add(d, NP[2], out=d)
+        np.subtract(d, self.OT, out=d)
+        return np.asarray(d.min(axis=0))
+
+
+class _JointMargin:
+    """:func:`~velfence.apps.verify.cases.joint_margin` of each case, joint first (n, B)."""
+
+    def __init__(self, lo: FloatArray, hi: FloatArray) -> None:
+        self.LO = np.ascontiguousarray(lo.T)
+        self.HI = np.ascontiguousarray(hi.T)
+
+    def __call__(self, Q: FloatArray) -> FloatArray:
+        """The margins (B,) of the joints ``Q`` (B, n)."""
+        QT = Q.T.copy()
+        a = np.subtract(QT, self.LO)
+        np.minimum(a, np.subtract(self.HI, QT, out=QT), out=a)
+        return np.asarray(a.min(axis=0))
 
 
 def _c_route(flts: list[Any], twist: bool) -> Any:
@@ -301,9 +429,11 @@ class _Worst:
         if mask is not None:
             new &= mask
             bad &= mask
-        m[new] = margin[new]
-        s[new] = k
-        f[bad] = k
+        if new.any():  # (most steps: no case's worst margin moves)
+            m[new] = margin[new]
+            s[new] = k
+        if bad.any():
+            f[bad] = k
 
 
 class _Clock:
@@ -387,7 +517,9 @@ def _lockstep(scs: list[Scenario], family: str, idx: list[int], clock: _Clock) -
     draw_rows = np.array([jogs[i] is None for i in range(B)])
     pushes = [[(ps.start, ps.end, np.array(ps.velocity)) for ps in sc.pushes] for sc in scs]
     push_rows = [i for i in range(B) if pushes[i]]
-    ALPHA = np.array([1.0 - math.exp(-dt / sc.lag) if sc.lag > 0.0 else 1.0 for sc in scs])
+    ALPHA = np.empty((B, n))  # (B, n) and DT too: no call broadcasts in the loop
+    ALPHA[...] = np.array([[1.0 - math.exp(-dt / sc.lag) if sc.lag > 0.0 else 1.0] for sc in scs])
+    DT = np.full((B, n), dt)
     LAT = np.array([sc.latency for sc in scs])
     Lmax = int(LAT.max())
     ring = np.zeros((Lmax + 1, B, n))
@@ -405,15 +537,28 @@ def _lockstep(scs: list[Scenario], family: str, idx: list[int], clock: _Clock) -
     tc = worst.tol.get("containment", 0.0)
     tj = worst.tol.get("joint_limits", 0.0)
 
+    clear = _Clearance(lrad, CB, RB, real)
+    inside = _BoxMargin(NB, OB)
+    limits = _JointMargin(LO, HI)
+
     def at(Qq: FloatArray, sel: Any = slice(None)) -> tuple[FloatArray, FloatArray, FloatArray]:
         """TCP, containment margin and joint margin of the rows ``sel`` at ``Qq``."""
         clock("plant")
         p, pts = kin(Qq)
         clock("kinematics")
-        c = _clearance(pts, lrad, CB[sel], RB[sel], real[sel]) if K else np.full(len(p), np.inf)
+        if not K:
+            c = np.full(len(p), np.inf)
+        elif isinstance(sel, slice):
+            c = clear(pts)
+        else:  # the pushed rows
+            c = _Clearance(lrad, CB[sel], RB[sel], real[sel])(pts)
         clock("clearance")
-        cm = np.minimum(box_margin(NB[sel], OB[sel], p), c)
-        jm = joint_margin(Qq, LO[sel], HI[sel])
+        if isinstance(sel, slice):
+            cm = np.minimum(inside(p), c)
+            jm = limits(Qq)
+        else:
+            cm = np.minimum(_BoxMargin(NB[sel], OB[sel])(p), c)
+            jm = _JointMargin(LO[sel], HI[sel])(Qq)
         return p, cm, jm
 
     Q = np.array([sc.q0 for sc in scs])
@@ -459,9 +604,11 @@ def _lockstep(scs: list[Scenario], family: str, idx: list[int], clock: _Clock) -
             cmd, hold = draw_command(operators[i], rngs[i], twist=twist, N=Ns[i], o=os_[i],
                                      p=pm, vmax=vmax[i], rate=sc0.rate)  # fmt: skip
             CMD[i] = cmd
-            CN[i] = float(np.linalg.norm(cmd))
             HOLD[i] = hold
-            SEG_LEN[i], SEG_ALONG[i], SEG_TAN[i] = 0, 0.0, 0.0
+        if due:  # the new commands' norms (np.linalg.norm's dot), their segments begun
+            CD = CMD[due]
+            CN[due] = np.sqrt(np.vecdot(CD, CD))
+            SEG_LEN[due], SEG_ALONG[due], SEG_TAN[due] = 0, 0.0, 0.0
         HOLD -= 1
         clock("operator")
         X = np.empty((B, n))
@@ -498,11 +645,17 @@ def _lockstep(scs: list[Scenario], family: str, idx: list[int], clock: _Clock) -
                     X[i] = np.nan
                 missed[i] = f.deadline_misses
         clock("filter")
-        OK = np.all(np.isfinite(X), axis=1)
-        if not OK.all():
+        # "finite" and "deadline": a margin of 0 everywhere changes nothing after the first
+        # step (every case has a worst margin <= 0 then, and 0 violates nothing)
+        if not np.isfinite(X).all():
+            OK = np.all(np.isfinite(X), axis=1)
             X[~OK] = 0.0
-        worst.add("finite", np.where(OK, 0.0, -1.0), k)
-        worst.add("deadline", np.where(missed > MISSES, -1.0, 0.0), k)
+            worst.add("finite", np.where(OK, 0.0, -1.0), k)
+        elif k == 0:
+            worst.add("finite", np.zeros(B), k)
+        late_now = missed > MISSES
+        if k == 0 or late_now.any():
+            worst.add("deadline", np.where(late_now, -1.0, 0.0), k)
         MISSES = missed
         if jerk_max is not None and PREV is not None and PREV2 is not None:
             worst.add("jerk", jerk_margin(jerk_max, X, PREV, PREV2, dt), k)
@@ -514,16 +667,15 @@ def _lockstep(scs: list[Scenario], family: str, idx: list[int], clock: _Clock) -
         else:
             XD = X
         clock("margins")
-        APPLIED = APPLIED + ALPHA[:, None] * (XD - APPLIED)
-        Q1 = Q + dt * APPLIED
+        APPLIED = APPLIED + ALPHA * (XD - APPLIED)
+        Q1 = Q + DT * APPLIED
         P1, CM1, JM1 = at(Q1)
         worst.add("containment", step_margin(CM1, CM0, tc), k)
         worst.add("joint_limits", step_margin(JM1, JM0, tj), k)
-        VT = (P1 - P) / dt
-        D = (VT if twist else APPLIED) - CMD
+        VT = (P1 - P) / dt if twist else APPLIED  # (the TCP's velocity: twist mode only)
+        D = VT - CMD
         big = CN > 1e-9
-        with np.errstate(divide="ignore", invalid="ignore"):
-            REL = np.where(big, np.sqrt(np.vecdot(D, D)) / CN, 0.0)
+        REL = np.where(big, np.sqrt(np.vecdot(D, D)) / np.where(big, CN, 1.0), 0.0)
         INTER_SUM += REL
         INTER_MAX = np.maximum(INTER_MAX, REL)
         if prog is not None and has_box:

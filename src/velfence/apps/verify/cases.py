@@ -20,6 +20,7 @@ drawn anew every step) and the scripted Cartesian jog of :class:`velfence.sim.sc
 
 from __future__ import annotations
 
+import functools
 import math
 from collections import deque
 from dataclasses import dataclass, field
@@ -201,8 +202,14 @@ def case_seed(seed: int, family: int, index: int) -> np.random.SeedSequence:
     return np.random.SeedSequence(seed, spawn_key=(family, index))
 
 
+@functools.lru_cache(maxsize=16)
 def chain(robot: str, link_radius: float) -> Any:
-    """The robot's ``DHChain`` with capsule links and the 5 cm tool."""
+    """The robot's ``DHChain`` with capsule links and the 5 cm tool.
+
+    One per ``(robot, link_radius)`` in a process: a ``DHChain`` is immutable and its
+    kinematics keeps no state, so every case and filter of a campaign shares it (building one
+    and validating its tables costs more than sampling a case's start).
+    """
     from velfence.mechanisms.chain import DHChain
 
     build = {"seven_dof": DHChain.seven_dof, "ur5e": DHChain.ur5e, "puma560": DHChain.puma560}
@@ -425,8 +432,11 @@ def step_margin(m1: Any, m0: Any, tol: float) -> Any:
     ``m1`` for a step that began inside (``m0 >= -tol``); for one that began outside, how much
     deeper it went: ``min(0, m1 - m0)``. Floats or arrays.
     """
+    began_inside = np.asarray(m0) >= -tol
+    if began_inside.all():  # (the usual step: m1 as it is)
+        return np.array(m1, dtype=np.float64)[()]
     with np.errstate(invalid="ignore"):  # inf - inf where there is nothing to measure
-        return np.where(m0 >= -tol, m1, np.minimum(0.0, m1 - m0))[()]
+        return np.where(began_inside, m1, np.minimum(0.0, m1 - m0))[()]
 
 
 def jerk_margin(bound: float, x: FloatArray, prev: FloatArray, prev2: FloatArray,
