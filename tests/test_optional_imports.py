@@ -1,10 +1,12 @@
 """Every module of velfence imports with the base install, or says which extra it needs.
 
 A subprocess blocks every optional dependency (``sys.modules[name] = None`` for the modules of
-the extras in ``pyproject.toml``) and imports each module of the package, one at a time from a
-clean slate: it must import, or raise an ``ImportError`` whose message names the extra as
-``velfence[...]``; a bare "No module named ..." fails the test. The result must match the table
-"module → extra" of docs/install.md, row for row.
+the extras in ``pyproject.toml``) and imports each module of the package, each from a clean
+slate in a process of its own (forked from the one that imported its parent package, see
+:data:`_PROBE`; :func:`test_the_probe_imports_each_module_from_a_clean_slate` shows a module
+that imports only after a sibling is reported): it must import, or raise an ``ImportError``
+whose message names the extra as ``velfence[...]``; a bare "No module named ..." fails the
+test. The result must match the table "module → extra" of docs/install.md, row for row.
 """
 
 from __future__ import annotations
@@ -63,40 +65,135 @@ def _modules() -> list[str]:
     return names
 
 
+#: The probe imports each module from a clean slate (no velfence module loaded) in a process of
+#: its own, forked from the process that imported the module's parent package from a clean
+#: slate: importing ``a.b.c`` imports ``a`` and then ``a.b`` first, so that process is where a
+#: clean-slate import of ``a.b.c`` stands when ``a.b.c``'s own code starts. A module whose
+#: parent failed to import is imported from its grandparent's process (it re-runs the parent's
+#: failing import). Each package's ``__init__`` runs once instead of once per module below it.
+#: The modules outside velfence that the package loads (NumPy, SciPy) are imported first, as one
+#: interpreter importing the modules in turn keeps them loaded.
 _PROBE = """
-import importlib, json, sys, warnings
-blocked, modules = json.loads(sys.argv[1])
+import importlib, json, os, sys, warnings
+blocked, modules, package = json.loads(sys.argv[1])
 warnings.simplefilter("ignore")
 for name in blocked:
     sys.modules[name] = None
-results = {}
-for module in modules:
-    for loaded in [m for m in sys.modules if m == "velfence" or m.startswith("velfence.")]:
-        del sys.modules[loaded]
+
+def ours(name):
+    return name == package or name.startswith(package + ".")
+
+def forked(work):
+    read, write = os.pipe()
+    pid = os.fork()
+    if pid == 0:
+        os.close(read)
+        with os.fdopen(write, "w") as out:
+            json.dump(work(), out)
+        os._exit(0)
+    os.close(write)
+    with os.fdopen(read) as inp:
+        text = inp.read()
+    _, status = os.waitpid(pid, 0)
+    assert status == 0 and text, (work, status)
+    return json.loads(text)
+
+def everything():
+    for module in modules:
+        try:
+            importlib.import_module(module)
+        except ImportError:
+            pass
+    return sorted(m for m, v in sys.modules.items() if v is not None and not ours(m))
+
+for name in forked(everything):
+    try:
+        importlib.import_module(name)
+    except ImportError:
+        pass
+assert not [m for m in sys.modules if ours(m)]
+
+def below(package):
+    return [m for m in modules if m.startswith(package + ".")]
+
+def children(package, among):
+    depth = package.count(".") + 1 if package else 0
+    return [m for m in among if m.count(".") == depth]
+
+def attempt(module):
     try:
         importlib.import_module(module)
-        results[module] = None
     except ImportError as exc:
-        results[module] = [type(exc).__name__, str(exc)]
-print(json.dumps(results))
+        return {module: [type(exc).__name__, str(exc)]}
+    return {module: None}
+
+def visit(package):
+    results = {}
+    for module in children(package, below(package) if package else modules):
+        def one(module=module):
+            found = attempt(module)
+            return {**found, **visit(module)} if found[module] is None else found
+        results.update(forked(one))
+        if results[module] is not None:  # its modules each from here (they fail on it again)
+            for sub in below(module):
+                results.update(forked(lambda sub=sub: attempt(sub)))
+    return results
+
+print(json.dumps(visit("")))
 """
+
+
+def run_probe(
+    blocked: list[str], modules: list[str], package: str, path: Path
+) -> subprocess.CompletedProcess[str]:
+    """:data:`_PROBE` on ``modules`` of ``package`` (found on ``path``), ``blocked`` missing."""
+    return subprocess.run(
+        [sys.executable, "-c", _PROBE, json.dumps([blocked, modules, package])],
+        capture_output=True,
+        text=True,
+        env={**os.environ, "PYTHONPATH": str(path)},
+        timeout=300,
+        check=False,
+    )
 
 
 @pytest.fixture(scope="module")
 def results() -> dict[str, list[str] | None]:
     blocked = sorted(set(_optional_modules()) | set(EXTRA_OF))
-    env = {**os.environ, "PYTHONPATH": str(PACKAGE.parent)}
-    proc = subprocess.run(
-        [sys.executable, "-c", _PROBE, json.dumps([blocked, _modules()])],
-        capture_output=True,
-        text=True,
-        env=env,
-        timeout=300,
-        check=False,
-    )
+    proc = run_probe(blocked, _modules(), "velfence", PACKAGE.parent)
     assert proc.returncode == 0, proc.stderr
     out: dict[str, list[str] | None] = json.loads(proc.stdout.strip().splitlines()[-1])
     return out
+
+
+def test_the_probe_imports_each_module_from_a_clean_slate(tmp_path: Path) -> None:
+    files = {
+        "__init__.py": "",
+        "b.py": "X = 1\n",
+        "c.py": "import leaky\nY = leaky.b.X  # works only when leaky.b was imported before\n",
+        "d.py": "import yaml\n",
+        "bad/__init__.py": "import yaml\n",
+        "bad/e.py": "",
+    }
+    for name, text in files.items():
+        (tmp_path / "leaky" / name).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / "leaky" / name).write_text(text, encoding="utf-8")
+    found = run_probe(
+        ["yaml"], ["leaky", "leaky.b", "leaky.bad", "leaky.bad.e", "leaky.d"], "leaky", tmp_path
+    )
+    assert found.returncode == 0, found.stderr
+    halted = ["ModuleNotFoundError", "import of yaml halted; None in sys.modules"]
+    assert json.loads(found.stdout) == {
+        "leaky": None,
+        "leaky.b": None,
+        "leaky.bad": halted,
+        "leaky.bad.e": halted,
+        "leaky.d": halted,
+    }
+    # leaky.c imports after leaky.b in one interpreter, but not from a clean slate.
+    leak = run_probe([], ["leaky", "leaky.b", "leaky.c"], "leaky", tmp_path)
+    assert leak.returncode != 0
+    assert "AttributeError: module 'leaky' has no attribute 'b'" in leak.stderr
 
 
 def test_the_table_knows_every_optional_dependency_of_pyproject() -> None:

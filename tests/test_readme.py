@@ -1,14 +1,20 @@
 """Every code block of README.md and of every page under docs/ (tutorials included) is checked.
 
-* ``python`` blocks run, each in a fresh interpreter in its own temporary folder (``src/`` on
+* ``python`` blocks run, each in its own process in its own temporary folder (``src/`` on
   the path, ``MPLBACKEND=Agg``, ``MUJOCO_GL=egl``; the folder links to the checkout's
   ``examples``, ``benchmarks``, ``core`` and ``tests``, so paths read as from the repository
-  root). When the fenced block right after one (blank lines only in between) is a ``text``
-  block, the block's standard output must equal that text exactly, up to trailing whitespace on
-  each line and blank lines at the end; otherwise the block
-  must still exit cleanly. A ``yaml`` block of the same page whose first line is a comment naming
-  a file (``# bridge.yaml: ...``) is written to that folder first, so a block can load it (and so
-  can a ``yaml`` block naming it as a zone file, ``zone: {ur_safety_planes: cell.yaml}``).
+  root). The process is forked from a server that imported NumPy, SciPy, matplotlib, MuJoCo
+  and velfence's subpackages once (``tests/fork_server.py``), set up as ``python block.py``
+  would start (:func:`test_a_forked_block_starts_as_a_fresh_interpreter_would`); nothing a
+  block changes reaches the next one (:func:`test_blocks_do_not_leak_into_the_next`). A block
+  whose output could depend on what is already imported, or that times anything
+  (:func:`needs_fresh`), runs in a fresh interpreter. When the fenced block right after one
+  (blank lines only in between) is a ``text`` block, the block's standard output must equal
+  that text exactly, up to trailing whitespace on each line and blank lines at the end;
+  otherwise the block must still exit cleanly. A ``yaml`` block of the same page whose first
+  line is a comment naming a file (``# bridge.yaml: ...``) is written to that folder first, so
+  a block can load it (and so can a ``yaml`` block naming it as a zone file,
+  ``zone: {ur_safety_planes: cell.yaml}``).
   A ``python`` block may carry ``<!-- no-run: reason -->`` on the line right before it;
   :data:`NO_RUN_REASONS` lists every such block with its reason, and a block marked so that is not
   listed (or listed and not marked) fails :func:`test_no_run_blocks_are_the_listed_ones`.
@@ -33,6 +39,8 @@
 
 from __future__ import annotations
 
+import atexit
+import json
 import os
 import re
 import shlex
@@ -42,6 +50,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
+
+from fork_server import ForkServer
 
 ROOT = Path(__file__).resolve().parents[1]
 PAGES = (ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md")))
@@ -124,10 +134,70 @@ def named_files(page: str) -> dict[str, str]:
     return files
 
 
+#: What the fork server imports once: what most blocks import (each child still runs its block's
+#: own imports; these find the modules loaded).
+PRELOAD = [
+    "numpy",
+    "scipy.linalg",
+    "scipy.optimize",
+    "scipy.spatial",
+    "matplotlib.pyplot",
+    "pydantic",
+    "yaml",
+    "mujoco",
+    "velfence",
+    "velfence.geometry",
+    "velfence.shaping",
+    "velfence.filter",
+    "velfence.mechanisms",
+    "velfence.robots",
+    "velfence.sim",
+    "velfence.io",
+    "velfence.cobot",
+    "velfence.redundancy",
+    "velfence.integrations",
+    "velfence.bridge",
+]
+#: A block that looks at what is imported, or times anything, runs in a fresh interpreter.
+FRESH = re.compile(
+    r"sys\.modules|importtime|import_module|__import__|perf_counter|process_time|monotonic|"
+    r"time\.time|timeit|resource\.|tracemalloc|gc\.get_objects|warnings\.filters"
+)
+
+
+def needs_fresh(code: str) -> bool:
+    """Whether ``code`` could print something else when the preloaded modules are imported."""
+    return FRESH.search(code) is not None
+
+
+def block_env() -> dict[str, str]:
+    """The environment a block runs in."""
+    env = dict(os.environ, MPLBACKEND="Agg", PYTHONHASHSEED="0", PYTHONIOENCODING="utf-8")
+    env.setdefault("MUJOCO_GL", "egl")
+    src = str(ROOT / "src")
+    env["PYTHONPATH"] = src + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
+    return env
+
+
+_SERVERS: dict[str, ForkServer] = {}
+
+
+def fork_server() -> ForkServer:
+    """The fork server of this worker, started on first use (stopped at exit); one per
+    environment, but for the test's name pytest keeps in it (each child gets the request's)."""
+    env = block_env()
+    key = repr(sorted((k, v) for k, v in env.items() if k != "PYTEST_CURRENT_TEST"))
+    if key not in _SERVERS:
+        _SERVERS[key] = ForkServer(PRELOAD, env)
+        atexit.register(_SERVERS[key].close)
+    return _SERVERS[key]
+
+
 def run_block(
-    code: str, folder: Path, files: dict[str, str] | None = None
+    code: str, folder: Path, files: dict[str, str] | None = None, *, fresh: bool | None = None
 ) -> subprocess.CompletedProcess[str]:
-    """Run ``code`` as a script in a fresh interpreter, in ``folder`` holding ``files``."""
+    """Run ``code`` as a script in ``folder`` holding ``files``: in a child of the fork server,
+    or in a fresh interpreter (``fresh``, by default :func:`needs_fresh`)."""
     for name in CHECKOUT:
         if not (folder / name).exists():
             (folder / name).symlink_to(ROOT / name, target_is_directory=True)
@@ -135,10 +205,9 @@ def run_block(
         (folder / name).write_text(text, encoding="utf-8")
     script = folder / "_block.py"
     script.write_text(code, encoding="utf-8")
-    env = dict(os.environ, MPLBACKEND="Agg", PYTHONHASHSEED="0", PYTHONIOENCODING="utf-8")
-    env.setdefault("MUJOCO_GL", "egl")
-    src = str(ROOT / "src")
-    env["PYTHONPATH"] = src + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
+    env = block_env()
+    if not (needs_fresh(code) if fresh is None else fresh):
+        return fork_server().run(script, cwd=folder, env=env, timeout=TIMEOUT_S)
     return subprocess.run(
         [sys.executable, str(script)],
         cwd=folder,
@@ -449,3 +518,134 @@ def test_comparison_is_exact_up_to_trailing_whitespace(tmp_path: Path) -> None:
     proc = run_block("print(open('f.yaml').read())", tmp_path, {"f.yaml": "x: 1"})
     assert normalise(proc.stdout) == "x: 1"
     assert normalise(proc.stdout) != normalise("y")
+
+
+# ------------------------------------------------------------------ the fork server's children
+
+#: Prints the state a script starts with: the same from a fresh interpreter and a forked child.
+PROBE = """
+import json, locale, os, signal, sys, threading, warnings
+print(json.dumps({
+    "name": __name__, "file": __file__, "argv": sys.argv, "path": sys.path, "cwd": os.getcwd(),
+    "env": dict(os.environ), "flags": list(sys.flags), "hash": hash("velfence"),
+    "threads": threading.active_count(), "warnings": [str(f) for f in warnings.filters],
+    "stdout": [sys.stdout.encoding, sys.stdout.errors, sys.stdout.line_buffering],
+    "stderr": [sys.stderr.encoding, sys.stderr.errors, sys.stderr.line_buffering],
+    "stdin": sys.stdin.read(), "signals": [str(signal.getsignal(s)) for s in
+        (signal.SIGINT, signal.SIGTERM, signal.SIGPIPE, signal.SIGCHLD)],
+    "locale": locale.getlocale(), "recursion": sys.getrecursionlimit(),
+    "umask": os.umask(0o22), "main": sorted(k for k in globals() if not k.startswith("__")),
+}, sort_keys=True))
+"""
+
+#: Changes every kind of state a block could leave behind for the next one.
+PLANT = """
+import builtins, os, sys
+import numpy as np
+import velfence.geometry
+builtins.LEAKED = "builtins"
+np.LEAKED = "numpy"
+velfence.geometry.LEAKED = "velfence.geometry"
+np.set_printoptions(precision=2)
+sys.modules["leaked_module"] = sys
+sys.path.append("/leaked")
+os.environ["LEAKED"] = "environ"
+os.chdir("/")
+LEAKED_GLOBAL = "globals"
+print("planted")
+"""
+
+#: What the next block sees of it: nothing.
+CHECK = """
+import builtins, os, sys
+import numpy as np
+import velfence.geometry
+print(sorted(name for name, seen in {
+    "builtins": hasattr(builtins, "LEAKED"),
+    "numpy": hasattr(np, "LEAKED"),
+    "velfence.geometry": hasattr(velfence.geometry, "LEAKED"),
+    "printoptions": np.get_printoptions()["precision"] != 8,
+    "sys.modules": "leaked_module" in sys.modules,
+    "sys.path": "/leaked" in sys.path,
+    "environ": "LEAKED" in os.environ,
+    "cwd": os.getcwd() == "/",
+    "globals": "LEAKED_GLOBAL" in globals(),
+}.items() if seen))
+"""
+
+
+def test_a_forked_block_starts_as_a_fresh_interpreter_would(tmp_path: Path) -> None:
+    # A fresh interpreter that imported the preloaded modules (leaving no global behind)...
+    preloaded = "".join(f"__import__('importlib').import_module({m!r})\n" for m in PRELOAD)
+    runs = {
+        "fresh": run_block(PROBE, tmp_path, fresh=True),
+        "fresh, preloaded": run_block(preloaded + PROBE, tmp_path, fresh=True),
+        "forked": run_block(PROBE, tmp_path, fresh=False),
+    }
+    for name, run in runs.items():
+        assert run.returncode == 0, (name, run.stderr)
+    fresh, preloaded_state, forked = (json.loads(run.stdout) for run in runs.values())
+    # ... starts as the forked child does: paths, cwd, environment, flags, streams, signals.
+    assert forked == preloaded_state
+    assert forked["cwd"] == str(tmp_path)
+    assert forked["path"][:2] == [str(tmp_path.resolve()), str(ROOT / "src")]
+    # Without them the only differences are the warning filters NumPy and SciPy add on import
+    # (which categories repeat on stderr; a block looking at them runs fresh) and the OpenGL
+    # platform MuJoCo's import sets for its renderer from MUJOCO_GL.
+    # (set already when this process imported MuJoCo).
+    assert {k for k in fresh if fresh[k] != forked[k]} <= {"warnings", "env"}
+    assert set(fresh["warnings"]) < set(forked["warnings"])
+    assert {k: v for k, v in forked["env"].items() if fresh["env"].get(k) != v}.items() <= {
+        ("PYOPENGL_PLATFORM", "egl")
+    }
+    assert set(fresh["env"]) <= set(forked["env"])
+    assert needs_fresh("import warnings\nprint(warnings.filters)")
+
+
+def test_blocks_do_not_leak_into_the_next(tmp_path: Path) -> None:
+    first, second = tmp_path / "first", tmp_path / "second"
+    first.mkdir()
+    second.mkdir()
+    planted = run_block(PLANT, first, fresh=False)
+    assert (planted.returncode, planted.stdout) == (0, "planted\n"), planted.stderr
+    after = run_block(CHECK, second, fresh=False)
+    assert (after.returncode, after.stdout) == (0, "[]\n"), after.stderr
+    # The check sees every leak when there is one: both blocks in one process.
+    both = run_block(PLANT + CHECK, first, fresh=False)
+    assert both.stdout.splitlines()[-1] == str(
+        sorted(
+            [
+                "builtins",
+                "numpy",
+                "velfence.geometry",
+                "printoptions",
+                "sys.modules",
+                "sys.path",
+                "environ",
+                "cwd",
+                "globals",
+            ]
+        )
+    )
+
+
+def test_a_forked_block_exits_as_a_script_does(tmp_path: Path) -> None:
+    cases = {
+        "raise SystemExit(3)": (3, ""),
+        "import sys; sys.exit('bye')": (1, "bye"),
+        "raise ValueError('boom')": (1, "ValueError: boom"),
+        "import os, signal; os.kill(os.getpid(), signal.SIGTERM)": (-15, ""),
+        "import atexit; atexit.register(print, 'at exit'); print('body', end=' ')": (0, ""),
+    }
+    for code, (returncode, err) in cases.items():
+        fresh, forked = (run_block(code, tmp_path, fresh=f) for f in (True, False))
+        assert (forked.returncode, forked.stdout) == (fresh.returncode, fresh.stdout), code
+        assert forked.returncode == returncode, (code, forked.stderr)
+        assert err in forked.stderr.strip().splitlines()[-1:] or not err, (code, forked.stderr)
+    assert run_block(next(reversed(cases)), tmp_path, fresh=False).stdout == "body at exit\n"
+
+
+def test_a_block_that_looks_at_its_imports_runs_fresh() -> None:
+    assert needs_fresh("import sys\nprint('numpy' in sys.modules)")
+    assert needs_fresh("import time\nt = time.perf_counter()")
+    assert not needs_fresh("import numpy as np\nprint(np.arange(3))")
