@@ -66,10 +66,10 @@ from velfence._typing import FloatArray
 from velfence._validate import check_positive, readonly, real_array
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.geometry.primitives import points_segments_distances, sphere_capsule_distance
+from velfence.mechanisms.chain import ChainFrame, DHChain
 
 if TYPE_CHECKING:
     from velfence.geometry.polytope import ConvexPolytope
-    from velfence.mechanisms.chain import DHChain
 
 __all__ = [
     "ArmStep",
@@ -182,6 +182,9 @@ class _ArmController:
                     f"{type(robot).__name__} without {attr}"
                 )
         self.robot = robot
+        # A library chain's frame is built from the q that explain has already validated (no
+        # second check of the same vector); any other robot goes through its kinematics(q).
+        self._own_frames = getattr(type(robot), "kinematics", None) is DHChain.kinematics
         n = int(robot.dof)
         self.dof = n
         lo = real_array("limits.lower", limits.lower, (n,), error=InvalidParameter)
@@ -208,6 +211,7 @@ class _ArmController:
         self._link_radius = np.asarray(robot.link_radius, dtype=float)
         self.dt = check_positive("dt", dt, unit="s")
         self.damping = check_positive("damping", damping, unit="m²")
+        self._damped_eye = readonly(self.damping * np.eye(3))  # λI of the 3 x 3 DLS system
         self.position_gain = check_positive("position_gain", position_gain)
         self.workspace_gain = check_positive("workspace_gain", workspace_gain)
         self.obstacle_gain = check_positive("obstacle_gain", obstacle_gain, unit="m/s")
@@ -226,7 +230,7 @@ class _ArmController:
         return qa, va
 
     def _dls(self, J: FloatArray, v: FloatArray) -> FloatArray:
-        A = J @ J.T + self.damping * np.eye(J.shape[0])
+        A = J @ J.T + self._damped_eye
         return np.asarray(J.T @ np.linalg.solve(A, v), dtype=float)
 
     def _joint_bounds(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -238,6 +242,8 @@ class _ArmController:
 
     def _frame(self, q: FloatArray) -> Any:
         """The pose's kinematics, computed once per step (segments, points, Jacobians)."""
+        if self._own_frames:
+            return ChainFrame(self.robot, q)
         return self.robot.kinematics(q)
 
     def _ee_jacobian(self, frame: Any) -> FloatArray:
@@ -293,7 +299,7 @@ class _ArmController:
         """
         qa, va = self._inputs(q, twist)
         res = self._step(qa, va)
-        if not np.all(np.isfinite(res.output)):
+        if not all(map(math.isfinite, res.output.tolist())):
             raise InvalidInput(
                 f"{self.method}: the joint velocity is not finite at q={qa.tolist()}"
             )
@@ -402,14 +408,18 @@ class ScalarScale(_ArmController):
         qd = self._dls(J, v)
         s, why = 1.0, ""
         lo, hi = self._joint_bounds(q)
+        # The scan in Python floats (the same IEEE operations as on NumPy scalars, without
+        # their per-operation overhead).
+        his, los, qds = hi.tolist(), lo.tolist(), qd.tolist()
+        vmax = self.max_speed.tolist()
         for i in range(self.dof):
-            for bound, x, side in ((hi[i], qd[i], "upper"), (-lo[i], -qd[i], "lower")):
+            for bound, x, side in ((his[i], qds[i], "upper"), (-los[i], -qds[i], "lower")):
                 if x > 0.0 and bound / x < s:
                     s = max(0.0, bound / x)
-                    at_v = abs(bound - self.max_speed[i]) <= 1e-12
+                    at_v = abs(bound - vmax[i]) <= 1e-12
                     why = f"joint {i} {'velocity' if at_v else 'position'} ({side})"
         rows, bounds, names = self._sphere_rows(frame)
-        for a, b, name in zip(rows, bounds, names, strict=True):
+        for a, b, name in zip(rows, bounds.tolist(), names, strict=True):
             rate = float(a @ qd)
             if rate < 0.0 and b / -rate < s:
                 s, why = max(0.0, b / -rate), name
