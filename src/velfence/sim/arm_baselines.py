@@ -478,19 +478,22 @@ class DamperQP(_ArmController):
         super().__init__(robot, **kwargs)
         self.tolerance = check_positive("tolerance", tolerance)
         self._qp = _qpsolvers()
+        self._damped_eye_n = readonly(self.damping * np.eye(self.dof))  # λI of the QP's Hessian
+        self._faces: tuple[Any, list[str]] = (None, [])  # (workspace, its rows' names)
 
     def _step(self, q: FloatArray, v: FloatArray) -> ArmStep:
         frame = self._frame(q)
         J = self._ee_jacobian(frame)
         n = self.dof
-        P = J.T @ J + self.damping * np.eye(n)
+        P = J.T @ J + self._damped_eye_n
         c = -(J.T @ v)
         lo, hi = self._joint_bounds(q)
         S, sb, snames = self._sphere_rows(frame)
         W, wb = self._workspace_rows(frame, J)
-        wnames = (
-            [] if self.workspace is None else [f"TCP face {f}" for f in self.workspace.facet_names]
-        )
+        if self._faces[0] is not self.workspace:  # named once per workspace, not per step
+            ws = self.workspace
+            self._faces = (ws, [] if ws is None else [f"TCP face {f}" for f in ws.facet_names])
+        wnames = self._faces[1]
         G = np.vstack([S, W])  # rows a·qd >= -b, i.e. -a·qd <= b
         b = np.concatenate([sb, wb])
         x = self._qp.solve_qp(
@@ -506,10 +509,12 @@ class DamperQP(_ArmController):
             for name, a, bound in zip(snames + wnames, G, b, strict=True)
             if float(a @ qd) <= -bound + tol
         ]
+        # The joint scan in Python floats (the same IEEE operations as on NumPy scalars).
+        qds, his, los, vmax = qd.tolist(), hi.tolist(), lo.tolist(), self.max_speed.tolist()
         for i in range(n):
-            if qd[i] >= hi[i] - tol or qd[i] <= lo[i] + tol:
-                at_v = min(abs(qd[i]) - self.max_speed[i], 0.0) >= -tol
-                side = "upper" if qd[i] >= hi[i] - tol else "lower"
+            if qds[i] >= his[i] - tol or qds[i] <= los[i] + tol:
+                at_v = min(abs(qds[i]) - vmax[i], 0.0) >= -tol
+                side = "upper" if qds[i] >= his[i] - tol else "lower"
                 names.append(f"joint {i} {'velocity' if at_v else 'position'} ({side})")
         return ArmStep(qd, v, q, _zone(names), tuple(names), ("qp",), self.method)
 
