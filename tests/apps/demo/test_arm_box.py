@@ -27,6 +27,7 @@ from velfence.apps.demo.arm_box import (  # noqa: E402
     arm_jog,
     arm_script,
     build_arm_controllers,
+    run_arm,
 )
 from velfence.errors import InvalidParameter  # noqa: E402
 
@@ -249,6 +250,19 @@ def test_the_jog_heads_for_the_target_at_the_jog_speed() -> None:
     assert np.linalg.norm(near(1e9, q)) == pytest.approx(
         min(0.25, 8.0 * np.linalg.norm(script.final - p))
     )
+
+
+def test_a_run_records_the_pose_of_every_row() -> None:
+    """The TCP and link segments of a run are those of its recorded joint rows, bit for bit
+    (they are recorded from the loop's poses, not recomputed afterwards)."""
+    run = run_arm(SCENE, 0.5, methods=("no-limit",))["no-limit"]
+    q = run.trajectory.p
+    rows = range(0, len(q), 97)
+    assert len(run.tcp) == len(run.segments) == len(q)
+    for k in [*rows, len(q) - 1]:
+        np.testing.assert_array_equal(run.tcp[k], SCENE.robot.fk(q[k]))
+        np.testing.assert_array_equal(run.segments[k], SCENE.robot.link_segments(q[k]))
+    assert not np.array_equal(run.tcp[0], run.tcp[-1])  # the arm did move
 
 
 def test_build_rejects_unknown_methods() -> None:
