@@ -25,7 +25,7 @@ import numbers
 import os
 from collections.abc import Mapping, Set
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any, TypeGuard, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -47,6 +47,7 @@ __all__ = [
     "finite_array",
     "finite_rows",
     "finite_scalar",
+    "is_finite_vector",
     "readonly",
     "real_array",
     "real_floats",
@@ -159,6 +160,16 @@ def _fast_accept(
         vals = x.tolist() if x.ndim == 1 else x.ravel().tolist()
         return all(map(float(max_abs).__ge__, map(abs, vals)))
     return bool(np.abs(x).max() <= max_abs)
+
+
+def is_finite_vector(x: Any, n: int) -> TypeGuard[NDArray[np.float64]]:
+    """Whether ``x`` is already a finite float64 vector of shape (n,), entries <= MAX_MAGNITUDE.
+
+    What :func:`real_array` with shape ``(n,)`` accepts as it is: for callers that take a
+    cheap route for such a vector (a copy) and the full checks, with their messages,
+    otherwise. False never means "refuse".
+    """
+    return _fast_accept(x, (n,), False, MAX_MAGNITUDE)
 
 
 def real_floats(

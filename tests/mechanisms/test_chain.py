@@ -368,3 +368,31 @@ def test_point_jacobian_refuses_a_duration_as_link():
     arm = PlanarArm([1.0, 1.0])
     with pytest.raises(InvalidInput, match=r"link: expected an int in \[0, 1\], got timedelta64"):
         arm.point_jacobian([0.0, 0.0], np.timedelta64(1, "s"), 0.5)
+
+
+def test_the_last_pose_is_kept_for_the_same_q_only() -> None:
+    """A control loop asks for one pose several times per cycle; the chain keeps the last one.
+
+    A q one ulp away, or the same array changed in place, is computed afresh: every answer equals
+    a fresh chain's, bit for bit, and what a caller gets is its own to modify.
+    """
+    chain = DHChain.seven_dof(link_radius=0.05)
+    rng = np.random.default_rng(7)
+    q1 = rng.uniform(-1.0, 1.0, 7)
+    q_ulp = np.nextafter(q1, 2.0)
+    moved = q1.copy()
+    for q in (q1, q1, q_ulp, q1, moved):
+        fresh = DHChain.seven_dof(link_radius=0.05)
+        np.testing.assert_array_equal(chain.joint_positions(q), fresh.joint_positions(q))
+        np.testing.assert_array_equal(chain.end_effector(q), fresh.end_effector(q))
+        np.testing.assert_array_equal(chain.link_segments(q), fresh.link_segments(q))
+        np.testing.assert_array_equal(chain.jacobian(q), fresh.jacobian(q))
+        moved[0] += 0.1  # in place: the next round asks for another pose in the same array
+    # the test can fail: one ulp on the joints moves the points
+    assert not np.array_equal(chain.joint_positions(q1), chain.joint_positions(q_ulp))
+    # and the frames' independent route (4 x 4 products) agrees
+    np.testing.assert_allclose(chain.joint_positions(q1)[:-1], chain.frames(q1)[:-1, :3, 3])
+    # answers are copies: changing one does not change the kept pose
+    for got in (chain.joint_positions(q1), chain.link_segments(q1), chain.end_effector(q1)):
+        got[...] = 0.0
+    np.testing.assert_array_equal(chain.end_effector(q1), DHChain.seven_dof().end_effector(q1))

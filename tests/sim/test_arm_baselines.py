@@ -10,8 +10,9 @@ import pytest
 from hypothesis import assume, given
 from hypothesis import strategies as st
 
+from velfence.errors import InvalidInput
 from velfence.geometry.polytope import ConvexPolytope
-from velfence.geometry.primitives import sphere_capsule_distance
+from velfence.geometry.primitives import points_segments_distances, sphere_capsule_distance
 from velfence.mechanisms.chain import DHChain
 from velfence.sim.arm_baselines import DamperQP, JointClamp, ResolvedRate, ScalarScale
 from velfence.sim.metrics import (
@@ -184,6 +185,24 @@ def test_sphere_penetration_against_the_pairwise_distance() -> None:
             )
             worst = max(worst, -d)
     assert sphere_penetration(segs, np.full(4, 0.02), c, 0.04) == pytest.approx(worst, abs=1e-12)
+
+
+def test_sphere_penetration_of_many_rows_is_the_worst_row() -> None:
+    """Rows are taken in blocks: the answer is the row-by-row maximum exactly, across blocks."""
+    rng = np.random.default_rng(3)
+    links = 5000  # blocks of 13 rows
+    segs = rng.uniform(-1.0, 1.0, (30, links, 2, 3))
+    radii = rng.uniform(0.0, 0.03, links)
+    c = np.array([0.1, -0.2, 0.3])
+    per_row = [
+        float(-(points_segments_distances(c[None], s[:, 0], s[:, 1], radii=radii)[1].min() - 0.1))
+        for s in segs
+    ]
+    assert max(per_row) > 0.0
+    assert sphere_penetration(segs, radii, c, 0.1) == max(per_row)
+    assert sphere_penetration(segs, 0.02, c, 0.1) > 0.0
+    with pytest.raises(InvalidInput, match="link_radius"):
+        sphere_penetration(segs, np.zeros(3), c, 0.1)
 
 
 def test_joint_limit_violation() -> None:

@@ -39,6 +39,7 @@ from velfence._validate import (
     check_text,
     finite_rows,
     finite_scalar,
+    is_finite_vector,
     readonly,
     real_array,
     show,
@@ -331,6 +332,10 @@ class _ChainBase:
     _radius: FloatArray
     _joint_names: tuple[str, ...]
     _extra_points: dict[str, int]
+    # The last pose's geometry, ``(q as bytes, (points, axes, flange))`` (read-only arrays), or
+    # None: a control loop asks for the same pose several times per cycle (the operator's
+    # forward kinematics, the controller's frame, the recorder), and gets one computation.
+    _last_pose: tuple[bytes, tuple[FloatArray, FloatArray, FloatArray]] | None = None
 
     # Subclasses provide the joint points P_0 … P_n (n + 1, 3) and joint axes z_0 … z_{n-1}.
     def _points_and_axes(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -342,9 +347,25 @@ class _ChainBase:
         For a joint vector ``q`` (n,) [rad] that the caller has already validated (finite,
         float64, shape (n,); nothing is checked here): the joint points :math:`P_0 … P_n` [m]
         (n + 1, 3), the joint axes :math:`z_0 … z_{n-1}` (n, 3) and the origin of the last frame
-        [m] (3,). The ``*_cached`` methods answer :meth:`fk`, :meth:`jacobian`,
+        [m] (3,), all read-only. The ``*_cached`` methods answer :meth:`fk`, :meth:`jacobian`,
         :meth:`link_segments`, :meth:`point_jacobian` and :meth:`joint_positions` from it.
+
+        The last pose is kept: the same ``q`` (bit for bit) again returns the same arrays
+        without recomputing them (one tuple swapped whole, so threads sharing a chain see
+        either the old or the new pose, never a mix).
         """
+        key = q.tobytes()
+        last = self._last_pose
+        if last is not None and last[0] == key:
+            return last[1]
+        kin = self._kinematics_pose(q)
+        for a in kin:
+            a.setflags(write=False)
+        self._last_pose = (key, kin)
+        return kin
+
+    def _kinematics_pose(self, q: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """:meth:`_kinematics_cache` computed afresh (new arrays)."""
         points, axes = self._points_and_axes(q)
         return points, axes, self._flange(q, points)
 
@@ -429,6 +450,9 @@ class _ChainBase:
 
     def _q(self, q: ArrayLike, name: str = "q") -> FloatArray:
         """One finite joint vector of shape (n,); ``name`` is the caller's public argument."""
+        if is_finite_vector(q, self._n):  # the control loop's case: one check, one copy
+            fast: FloatArray = q.copy()
+            return fast
         qa, single = finite_rows(name, q, self._n, "[rad]")
         if not single:
             raise InvalidInput(
@@ -462,8 +486,7 @@ class _ChainBase:
             Points :math:`P_0 … P_n` [m], shape (n + 1, 3): ``P_j`` lies on joint ``j``'s axis
             (``P_0`` at the base), ``P_n`` is the tool point; planar chains have ``z = 0``.
         """
-        points: FloatArray = self._kinematics_cache(self._q(q))[0]
-        return points
+        return np.array(self._kinematics_cache(self._q(q))[0])
 
     def link_segments(self, q: ArrayLike) -> FloatArray:
         """Start and end point of every link.
@@ -1075,7 +1098,7 @@ class DHChain(_ChainBase):
         points, axes, _ = self._kinematics_cache(q)
         return points, axes
 
-    def _kinematics_cache(self, q: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+    def _kinematics_pose(self, q: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
         pts, axes, flange = self._kinematics_lists(q.tolist())
         return np.array(pts), np.array(axes), np.array(flange)
 

@@ -66,10 +66,10 @@ from velfence._typing import FloatArray
 from velfence._validate import check_positive, readonly, real_array
 from velfence.errors import InvalidInput, InvalidParameter
 from velfence.geometry.primitives import points_segments_distances, sphere_capsule_distance
+from velfence.mechanisms.chain import ChainFrame, DHChain
 
 if TYPE_CHECKING:
     from velfence.geometry.polytope import ConvexPolytope
-    from velfence.mechanisms.chain import DHChain
 
 __all__ = [
     "ArmStep",
@@ -182,6 +182,9 @@ class _ArmController:
                     f"{type(robot).__name__} without {attr}"
                 )
         self.robot = robot
+        # A library chain's frame is built from the q that explain has already validated (no
+        # second check of the same vector); any other robot goes through its kinematics(q).
+        self._own_frames = getattr(type(robot), "kinematics", None) is DHChain.kinematics
         n = int(robot.dof)
         self.dof = n
         lo = real_array("limits.lower", limits.lower, (n,), error=InvalidParameter)
@@ -208,6 +211,7 @@ class _ArmController:
         self._link_radius = np.asarray(robot.link_radius, dtype=float)
         self.dt = check_positive("dt", dt, unit="s")
         self.damping = check_positive("damping", damping, unit="m²")
+        self._damped_eye = readonly(self.damping * np.eye(3))  # λI of the 3 x 3 DLS system
         self.position_gain = check_positive("position_gain", position_gain)
         self.workspace_gain = check_positive("workspace_gain", workspace_gain)
         self.obstacle_gain = check_positive("obstacle_gain", obstacle_gain, unit="m/s")
@@ -226,7 +230,7 @@ class _ArmController:
         return qa, va
 
     def _dls(self, J: FloatArray, v: FloatArray) -> FloatArray:
-        A = J @ J.T + self.damping * np.eye(J.shape[0])
+        A = J @ J.T + self._damped_eye
         return np.asarray(J.T @ np.linalg.solve(A, v), dtype=float)
 
     def _joint_bounds(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -238,6 +242,8 @@ class _ArmController:
 
     def _frame(self, q: FloatArray) -> Any:
         """The pose's kinematics, computed once per step (segments, points, Jacobians)."""
+        if self._own_frames:
+            return ChainFrame(self.robot, q)
         return self.robot.kinematics(q)
 
     def _ee_jacobian(self, frame: Any) -> FloatArray:
@@ -293,7 +299,7 @@ class _ArmController:
         """
         qa, va = self._inputs(q, twist)
         res = self._step(qa, va)
-        if not np.all(np.isfinite(res.output)):
+        if not all(map(math.isfinite, res.output.tolist())):
             raise InvalidInput(
                 f"{self.method}: the joint velocity is not finite at q={qa.tolist()}"
             )
@@ -402,14 +408,18 @@ class ScalarScale(_ArmController):
         qd = self._dls(J, v)
         s, why = 1.0, ""
         lo, hi = self._joint_bounds(q)
+        # The scan in Python floats (the same IEEE operations as on NumPy scalars, without
+        # their per-operation overhead).
+        his, los, qds = hi.tolist(), lo.tolist(), qd.tolist()
+        vmax = self.max_speed.tolist()
         for i in range(self.dof):
-            for bound, x, side in ((hi[i], qd[i], "upper"), (-lo[i], -qd[i], "lower")):
+            for bound, x, side in ((his[i], qds[i], "upper"), (-los[i], -qds[i], "lower")):
                 if x > 0.0 and bound / x < s:
                     s = max(0.0, bound / x)
-                    at_v = abs(bound - self.max_speed[i]) <= 1e-12
+                    at_v = abs(bound - vmax[i]) <= 1e-12
                     why = f"joint {i} {'velocity' if at_v else 'position'} ({side})"
         rows, bounds, names = self._sphere_rows(frame)
-        for a, b, name in zip(rows, bounds, names, strict=True):
+        for a, b, name in zip(rows, bounds.tolist(), names, strict=True):
             rate = float(a @ qd)
             if rate < 0.0 and b / -rate < s:
                 s, why = max(0.0, b / -rate), name
@@ -468,19 +478,22 @@ class DamperQP(_ArmController):
         super().__init__(robot, **kwargs)
         self.tolerance = check_positive("tolerance", tolerance)
         self._qp = _qpsolvers()
+        self._damped_eye_n = readonly(self.damping * np.eye(self.dof))  # λI of the QP's Hessian
+        self._faces: tuple[Any, list[str]] = (None, [])  # (workspace, its rows' names)
 
     def _step(self, q: FloatArray, v: FloatArray) -> ArmStep:
         frame = self._frame(q)
         J = self._ee_jacobian(frame)
         n = self.dof
-        P = J.T @ J + self.damping * np.eye(n)
+        P = J.T @ J + self._damped_eye_n
         c = -(J.T @ v)
         lo, hi = self._joint_bounds(q)
         S, sb, snames = self._sphere_rows(frame)
         W, wb = self._workspace_rows(frame, J)
-        wnames = (
-            [] if self.workspace is None else [f"TCP face {f}" for f in self.workspace.facet_names]
-        )
+        if self._faces[0] is not self.workspace:  # named once per workspace, not per step
+            ws = self.workspace
+            self._faces = (ws, [] if ws is None else [f"TCP face {f}" for f in ws.facet_names])
+        wnames = self._faces[1]
         G = np.vstack([S, W])  # rows a·qd >= -b, i.e. -a·qd <= b
         b = np.concatenate([sb, wb])
         x = self._qp.solve_qp(
@@ -496,10 +509,12 @@ class DamperQP(_ArmController):
             for name, a, bound in zip(snames + wnames, G, b, strict=True)
             if float(a @ qd) <= -bound + tol
         ]
+        # The joint scan in Python floats (the same IEEE operations as on NumPy scalars).
+        qds, his, los, vmax = qd.tolist(), hi.tolist(), lo.tolist(), self.max_speed.tolist()
         for i in range(n):
-            if qd[i] >= hi[i] - tol or qd[i] <= lo[i] + tol:
-                at_v = min(abs(qd[i]) - self.max_speed[i], 0.0) >= -tol
-                side = "upper" if qd[i] >= hi[i] - tol else "lower"
+            if qds[i] >= his[i] - tol or qds[i] <= los[i] + tol:
+                at_v = min(abs(qds[i]) - vmax[i], 0.0) >= -tol
+                side = "upper" if qds[i] >= his[i] - tol else "lower"
                 names.append(f"joint {i} {'velocity' if at_v else 'position'} ({side})")
         return ArmStep(qd, v, q, _zone(names), tuple(names), ("qp",), self.method)
 

@@ -19,7 +19,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from velfence._typing import FloatArray
 from velfence._validate import check_positive, check_positive_int, real_array
-from velfence.errors import InvalidParameter
+from velfence.errors import InvalidInput, InvalidParameter
 from velfence.geometry.polygon import ConvexPolygon, as_polygon, decompose
 from velfence.shaping.base import Shaper
 from velfence.sim.runner import Trajectory
@@ -452,10 +452,29 @@ def sphere_penetration(
     S = real_array("segments", segments, (None, None, 2, 3), what="link segments [m]")
     c = real_array("center", center, (3,), what="a sphere centre [m]")
     r = check_positive("radius", radius, allow_zero=True, unit="m")
+    n_rows, n_links = S.shape[:2]
+    R = real_array("link_radius", link_radius, what="capsule radii [m]")
+    if R.shape not in ((), (n_links,)):
+        raise InvalidInput(
+            f"link_radius: expected a scalar or shape ({n_links},) (one per link), got shape "
+            f"{R.shape}"
+        )
+    if n_rows * n_links == 0:
+        return 0.0
+    # Every row's links as one list of segments (the same per-pair arithmetic as row by row),
+    # in blocks of rows that keep the temporaries small.
     worst = 0.0
-    for seg in S:
-        _, clear = points_segments_distances(c[None, :], seg[:, 0], seg[:, 1], radii=link_radius)
-        worst = max(worst, float(-(clear.min() - r)))
+    block = max(1, 65536 // n_links)
+    for k in range(0, n_rows, block):
+        seg = S[k : k + block]
+        m = seg.shape[0]
+        _, clear = points_segments_distances(
+            c[None, :],
+            seg[:, :, 0].reshape(m * n_links, 3),
+            seg[:, :, 1].reshape(m * n_links, 3),
+            radii=R if R.ndim == 0 else np.tile(R, m),
+        )
+        worst = max(worst, float(np.max(-(clear.reshape(m, n_links).min(axis=1) - r))))
     return worst
 
 

@@ -254,7 +254,7 @@ class TcpJog:
         """
         x = real_array("fk(q)", self.fk(q), (3,), what="the jogged point [m]")
         e = self.target(t) - x
-        dist = float(np.linalg.norm(e))
+        dist = math.sqrt(e.dot(e))  # np.linalg.norm's arithmetic for a vector
         if dist == 0.0:
             return np.zeros(3)
         return np.asarray(e * (min(self.speed, self.gain * dist) / dist), dtype=float)

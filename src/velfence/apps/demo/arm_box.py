@@ -435,9 +435,29 @@ def run_arm(
             dropped.append(tuple(getattr(res, "dropped", ())))
 
         progress = None if on_step is None else (lambda f, name=name: on_step(name, f))
+        jog = arm_jog(scene.robot, script)
+        tcp_rows: list[FloatArray] = []
+        seg_rows: list[FloatArray] = []
+
+        def command(
+            t: float,
+            q: FloatArray,
+            jog: TcpJog = jog,
+            tcp_rows: list[FloatArray] = tcp_rows,
+            seg_rows: list[FloatArray] = seg_rows,
+        ) -> FloatArray:
+            # The loop calls the operator once per row with that row's true position: the TCP
+            # and the link segments of the record come from the pose the jog has just computed
+            # (the chain keeps its last pose), not from a second pass over the rows.
+            v = jog(t, q)
+            frame = scene.robot.kinematics(q)
+            tcp_rows.append(frame.point("tcp"))
+            seg_rows.append(frame.segments())
+            return v
+
         traj = simulate(
             ctrl[name],
-            arm_jog(scene.robot, script),
+            command,
             scene.q0,
             duration=script.duration,
             dt=scene.dt,
@@ -445,8 +465,8 @@ def run_arm(
             on_progress=progress,
             on_result=record,
         )
-        tcp = np.array([scene.robot.end_effector(q) for q in traj.p])
-        segs = np.array([scene.robot.link_segments(q) for q in traj.p])
+        tcp = np.array(tcp_rows)
+        segs = np.array(seg_rows)
         out[name] = ArmRun(
             traj, readonly(tcp), readonly(segs), tuple(active), tuple(dropped), speed
         )
