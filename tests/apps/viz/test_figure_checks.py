@@ -411,6 +411,7 @@ def test_study(tmp_path: Path, recorded: Recorded) -> None:
         "study_paths.png",
         "assisted_run.gif",
         "assisted_snapshot.png",
+        "study_runs.npz",  # the runs, for `reproduce telerobotics --study` to reuse
     }
     written = check_every(recorded, tmp_path)
     assert {"study_paths.png", "study_times.png", "assisted_run.gif", "assisted_snapshot.png"} <= (
