@@ -508,6 +508,18 @@ _POINTS_TEXT = re.compile(rf"\s*\[\s*(?:{_PAIR}\s*(?:,\s*{_PAIR}\s*)*)?\]\s*")
 _PAIR_RE = re.compile(_PAIR)
 
 
+def _polygon_names(root: Mapping[Any, Any]) -> Sequence[Any]:
+    """The ``polygons`` list of a collision monitor's parameters, checked (not yet each name)."""
+    names = root.get("polygons")
+    if isinstance(names, str) or not isinstance(names, Sequence) or not names:
+        raise InvalidParameter(
+            f"polygons: expected a non-empty list of polygon names, got {_type(names)}"
+        )
+    if len(names) > MAX_POLYGONS:
+        raise InvalidParameter(f"polygons: expected at most {MAX_POLYGONS} names, got {len(names)}")
+    return names
+
+
 def _nav2_corners(where: str, value: Any) -> FloatArray:
     """Corners (k, 2) of a Nav2 ``points`` value: string, flat list or list of pairs."""
     if isinstance(value, str):
@@ -679,13 +691,7 @@ def nav2_polygons(
     if node is not None and (not isinstance(node, str) or not node):
         raise InvalidParameter(f"node: expected a node name (a string), got {_type(node)}")
     root = _monitor_params(_mapping("params", params), node)
-    names = root.get("polygons")
-    if isinstance(names, str) or not isinstance(names, Sequence) or not names:
-        raise InvalidParameter(
-            f"polygons: expected a non-empty list of polygon names, got {_type(names)}"
-        )
-    if len(names) > MAX_POLYGONS:
-        raise InvalidParameter(f"polygons: expected at most {MAX_POLYGONS} names, got {len(names)}")
+    names = _polygon_names(root)
     zones = []
     for i, name in enumerate(names):
         label = _text(f"polygons[{i}]", name)
@@ -750,15 +756,7 @@ def nav2_file_polygons(
         if node is not None and (not isinstance(node, str) or not node):
             raise InvalidParameter(f"node: expected a node name (a string), got {_type(node)}")
         root = _monitor_params(_mapping("params", data), node)
-        names = root.get("polygons")
-        if isinstance(names, str) or not isinstance(names, Sequence) or not names:
-            raise InvalidParameter(
-                f"polygons: expected a non-empty list of polygon names, got {_type(names)}"
-            )
-        if len(names) > MAX_POLYGONS:
-            raise InvalidParameter(
-                f"polygons: expected at most {MAX_POLYGONS} names, got {len(names)}"
-            )
+        names = _polygon_names(root)
         listed = [_text(f"polygons[{i}]", name) for i, name in enumerate(names)]
     except InvalidParameter as exc:
         raise InvalidParameter(f"parameter file {p}: {exc}") from None
